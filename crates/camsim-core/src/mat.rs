@@ -1,0 +1,1 @@
+//! ISETCam MATLAB v5 spectral files (placeholder, see the mat module).

@@ -1,0 +1,1 @@
+//! Built-in spectral tables (filled in by the tables module files).

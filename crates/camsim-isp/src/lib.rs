@@ -1,0 +1,1 @@
+//! camsim stage 4: demosaic and sRGB preview

@@ -1,0 +1,1 @@
+//! camsim stage 1 (2D): test charts -> spectral radiance
