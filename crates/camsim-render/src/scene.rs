@@ -1,0 +1,206 @@
+//! The scene description the renderer consumes: what the pbrt-v4 parser, the built-in scenes and
+//! the TOML overlay produce. Plain data, world space, metres, absolute spectral units.
+//!
+//! Conventions (pbrt-v4's): camera space is left-handed, +z looks into the scene, +y is up, +x is
+//! to the right in the image; raster (0, 0) is the top-left pixel. `Camera::camera_to_world` is
+//! pbrt's camera transform (the inverse of the CTM at `WorldBegin`).
+
+use camsim_core::{Spectrum, WavelengthGrid};
+use std::collections::HashMap;
+
+/// Affine transform as a 4x4 matrix, row-major, acting on column vectors (`p' = m * p`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    pub m: [[f64; 4]; 4],
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform::identity()
+    }
+}
+
+impl Transform {
+    pub fn identity() -> Self {
+        let mut m = [[0.0; 4]; 4];
+        for (i, row) in m.iter_mut().enumerate() {
+            row[i] = 1.0;
+        }
+        Transform { m }
+    }
+    pub fn translate(d: [f64; 3]) -> Self {
+        let mut t = Transform::identity();
+        t.m[0][3] = d[0];
+        t.m[1][3] = d[1];
+        t.m[2][3] = d[2];
+        t
+    }
+    pub fn scale(s: [f64; 3]) -> Self {
+        let mut t = Transform::identity();
+        t.m[0][0] = s[0];
+        t.m[1][1] = s[1];
+        t.m[2][2] = s[2];
+        t
+    }
+    /// Rotation by `angle_deg` about `axis` (Rodrigues' formula, pbrt-v4 `Rotate`).
+    pub fn rotate(angle_deg: f64, axis: [f64; 3]) -> Self {
+        let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        let (x, y, z) = (axis[0] / len, axis[1] / len, axis[2] / len);
+        let (s, c) = angle_deg.to_radians().sin_cos();
+        let mut t = Transform::identity();
+        t.m[0] = [x * x + (1.0 - x * x) * c, x * y * (1.0 - c) - z * s, x * z * (1.0 - c) + y * s, 0.0];
+        t.m[1] = [x * y * (1.0 - c) + z * s, y * y + (1.0 - y * y) * c, y * z * (1.0 - c) - x * s, 0.0];
+        t.m[2] = [x * z * (1.0 - c) - y * s, y * z * (1.0 - c) + x * s, z * z + (1.0 - z * z) * c, 0.0];
+        t
+    }
+    /// `self * other` (apply `other` first).
+    pub fn then_apply_to(&self, other: &Transform) -> Transform {
+        let mut m = [[0.0; 4]; 4];
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = (0..4).map(|k| self.m[i][k] * other.m[k][j]).sum();
+            }
+        }
+        Transform { m }
+    }
+    pub fn apply_point(&self, p: [f64; 3]) -> [f64; 3] {
+        let m = &self.m;
+        let x = m[0][0] * p[0] + m[0][1] * p[1] + m[0][2] * p[2] + m[0][3];
+        let y = m[1][0] * p[0] + m[1][1] * p[1] + m[1][2] * p[2] + m[1][3];
+        let z = m[2][0] * p[0] + m[2][1] * p[1] + m[2][2] * p[2] + m[2][3];
+        let w = m[3][0] * p[0] + m[3][1] * p[1] + m[3][2] * p[2] + m[3][3];
+        if w == 1.0 {
+            [x, y, z]
+        } else {
+            [x / w, y / w, z / w]
+        }
+    }
+    pub fn apply_vector(&self, v: [f64; 3]) -> [f64; 3] {
+        let m = &self.m;
+        [
+            m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
+            m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
+            m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
+        ]
+    }
+}
+
+/// A reflectance (fraction, 0..1) that may vary over the surface.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Texture {
+    /// The same spectrum everywhere.
+    Constant(Spectrum),
+    /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
+    /// uplifted to a smooth spectrum per lookup (`crate::uplift`).
+    Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64 },
+}
+
+/// Surface scattering. The set is closed (dispatch by `match`); the next BSDF (conductor,
+/// dielectric, coated diffuse) is a new variant here and a new arm in the renderer.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Material {
+    /// Lambertian reflection with a spectral reflectance (pbrt-v4 `diffuse`).
+    Diffuse { reflectance: Texture },
+}
+
+/// A diffuse area emitter attached to a shape: spectral radiance in W/(sr m^2 nm), after every
+/// scale and normalization the source format applies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AreaLight {
+    pub radiance: Spectrum,
+    pub two_sided: bool,
+}
+
+/// Geometry in world space, metres.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Geometry {
+    Triangles { positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>> },
+    Sphere { center: [f64; 3], radius: f64 },
+}
+
+/// One object: geometry, its material (index into `SceneDescription::materials`), and an
+/// optional emitter. `name` lets overlays find it ("left_wall", "short_block", "light", ...).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    pub name: Option<String>,
+    pub geometry: Geometry,
+    pub material: usize,
+    pub area_light: Option<AreaLight>,
+    /// Flip the geometric normal (pbrt `ReverseOrientation`): decides the emitting side of a
+    /// one-sided area light.
+    pub reverse_orientation: bool,
+}
+
+/// Lights that are not shapes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Light {
+    /// Uniform radiance from every direction, W/(sr m^2 nm) (pbrt-v4 `infinite` without a map).
+    Infinite { radiance: Spectrum },
+}
+
+/// A pinhole perspective camera (pbrt-v4 `perspective` with lensradius 0).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    pub camera_to_world: Transform,
+    /// Field of view across the shorter image axis, degrees (pbrt-v4 `fov`).
+    pub fov_deg: f64,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl Camera {
+    /// Horizontal field of view in degrees (what the optics stage needs).
+    pub fn horizontal_fov_deg(&self) -> f64 {
+        let half_short = (self.fov_deg.to_radians() / 2.0).tan();
+        let aspect = self.width as f64 / self.height as f64;
+        let half_h = if aspect >= 1.0 { half_short * aspect } else { half_short };
+        2.0 * half_h.atan().to_degrees()
+    }
+}
+
+/// How to render.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    /// Output wavelength grid; radiance is reported on it.
+    pub grid: WavelengthGrid,
+    pub samples_per_pixel: u32,
+    /// Maximum number of bounces (pbrt-v4 `maxdepth`, default 5).
+    pub max_depth: u32,
+    /// Wavelengths traced together per path (hero-wavelength style; pbrt-v4 uses 4).
+    pub wavelengths_per_path: usize,
+    pub seed: u64,
+    /// Stop after this many seconds even if `samples_per_pixel` is not reached.
+    pub time_budget_s: Option<f64>,
+    /// Direct lighting only (tests).
+    pub direct_only: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            grid: WavelengthGrid::default(),
+            samples_per_pixel: 64,
+            max_depth: 5,
+            wavelengths_per_path: 4,
+            seed: 0,
+            time_budget_s: None,
+            direct_only: false,
+        }
+    }
+}
+
+/// Everything the renderer needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneDescription {
+    pub camera: Camera,
+    pub shapes: Vec<Shape>,
+    pub materials: Vec<Material>,
+    /// Named materials (pbrt `MakeNamedMaterial`, built-in wall names) -> index in `materials`.
+    pub named_materials: HashMap<String, usize>,
+    pub lights: Vec<Light>,
+    pub settings: RenderSettings,
+    /// Focus distance the scene was set up for, m (built-in scenes; used by optics for defocus).
+    pub focus_distance_m: Option<f64>,
+    /// Things the reader ignored or approximated (unsupported parameters), for the user.
+    pub notes: Vec<String>,
+}
