@@ -1,1 +1,22 @@
-//! camsim analysis: ISO 12233 SFR, chart and ROI statistics, QE fit, EMVA 1288
+//! camsim analysis: the measurements the paper uses to validate a camera simulation, as a library
+//! working on in-memory data (file reading and the `camsim analyze` commands are wired elsewhere).
+//!
+//! - [`sfr`]: ISO 12233 edge SFR (e-SFR) as in the standard and Burns' `sfrmat`.
+//! - [`chart`]: ColorChecker patch regions (ISETCam `chartRectangles`), patch statistics, line profiles.
+//! - [`roi`]: mean and standard deviation per CFA channel in rectangles; two-image comparison.
+//! - [`qefit`]: photon-counting RGB prediction from a QE and the least-squares QE correction matrix M.
+//! - [`emva`]: EMVA 1288 release 4.0 photon-transfer characterization.
+//!
+//! Every result type is `serde::Serialize` so the CLI can write it as JSON or CSV.
+
+pub mod chart;
+pub mod emva;
+pub mod error;
+pub mod image;
+pub mod nnls;
+pub mod qefit;
+pub mod roi;
+pub mod sfr;
+
+pub use error::{AnalysisError, Result};
+pub use image::{cfa_channel_plane, Plane, Rect};

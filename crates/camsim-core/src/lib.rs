@@ -7,6 +7,7 @@
 //! physical constants and unit conversions, the built-in spectral tables, spectrum files (CSV and
 //! ISETCam MATLAB v5) and keyed random streams that make output independent of thread count.
 
+pub mod colorimetry;
 pub mod error;
 pub mod grid;
 pub mod image;

@@ -1,1 +1,558 @@
-//! Spectra as CSV (placeholder).
+//! Spectra as CSV: one row per wavelength, the first column the wavelength in nm, one column per
+//! spectrum, a header row naming the columns, and any number of `#` comment lines, e.g.
+//!
+//! ```text
+//! # Sony IMX363 colour-filter QE (source ...)
+//! wavelength_nm,r,g,b
+//! 400,0.1,0.2,0.3
+//! ```
+//!
+//! Also [`load_spectra`], which reads CSV or ISETCam MATLAB v5 files by extension.
+
+use crate::error::{CoreError, Result};
+use crate::grid::WavelengthGrid;
+use crate::spectrum::Spectrum;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Largest spectra file read into memory, bytes (a spectra table is kilobytes; this rejects a
+/// wrong file quickly).
+pub const MAX_SPECTRA_FILE_BYTES: u64 = 256 << 20;
+
+/// Several spectra sampled at the same wavelengths (a CSV file's columns, an ISETCam `data` matrix).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectraTable {
+    /// Sample wavelengths, nm, strictly increasing.
+    pub wavelengths_nm: Vec<f64>,
+    /// One name per column (the CSV header, or ISETCam `filterNames`, or `data_1..n`).
+    pub names: Vec<String>,
+    /// `columns[j][i]` is spectrum `j` at `wavelengths_nm[i]` (unit as the file says).
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl SpectraTable {
+    /// Build a table, checking it (see [`SpectraTable::validate`]); `what` names it in errors.
+    pub fn new(
+        wavelengths_nm: Vec<f64>,
+        names: Vec<String>,
+        columns: Vec<Vec<f64>>,
+        what: &str,
+    ) -> Result<Self> {
+        let t = SpectraTable {
+            wavelengths_nm,
+            names,
+            columns,
+        };
+        t.validate(what)?;
+        Ok(t)
+    }
+
+    /// Check: at least one wavelength and one column, one name per column, unique non-empty names
+    /// without commas or line breaks, every column as long as the wavelengths, finite values,
+    /// positive strictly increasing wavelengths.
+    pub fn validate(&self, what: &str) -> Result<()> {
+        if self.wavelengths_nm.is_empty() {
+            return Err(CoreError::invalid(what, "no wavelengths"));
+        }
+        if self.columns.is_empty() {
+            return Err(CoreError::invalid(
+                what,
+                "no spectra (only a wavelength column)",
+            ));
+        }
+        if self.names.len() != self.columns.len() {
+            return Err(CoreError::invalid(
+                what,
+                format!(
+                    "{} names for {} columns",
+                    self.names.len(),
+                    self.columns.len()
+                ),
+            ));
+        }
+        for (j, n) in self.names.iter().enumerate() {
+            if n.trim().is_empty() {
+                return Err(CoreError::invalid(
+                    what,
+                    format!("column {} has an empty name", j + 2),
+                ));
+            }
+            if n.contains([',', '\n', '\r']) || n.starts_with('#') {
+                return Err(CoreError::invalid(
+                    what,
+                    format!("column name '{n}' contains ',', a line break or starts with '#'"),
+                ));
+            }
+            if self.names[..j].contains(n) {
+                return Err(CoreError::invalid(
+                    what,
+                    format!("column name '{n}' appears twice"),
+                ));
+            }
+        }
+        for (i, w) in self.wavelengths_nm.iter().enumerate() {
+            if !w.is_finite() || *w <= 0.0 {
+                return Err(CoreError::invalid(
+                    what,
+                    format!("wavelength {} is {w}, not a positive number", i + 1),
+                ));
+            }
+            if i > 0 && *w <= self.wavelengths_nm[i - 1] {
+                return Err(CoreError::invalid(
+                    what,
+                    format!(
+                        "wavelengths must increase, but {w} nm follows {} nm",
+                        self.wavelengths_nm[i - 1]
+                    ),
+                ));
+            }
+        }
+        for (j, c) in self.columns.iter().enumerate() {
+            if c.len() != self.wavelengths_nm.len() {
+                return Err(CoreError::invalid(
+                    what,
+                    format!(
+                        "column '{}' has {} values for {} wavelengths",
+                        self.names[j],
+                        c.len(),
+                        self.wavelengths_nm.len()
+                    ),
+                ));
+            }
+            if let Some(i) = c.iter().position(|v| !v.is_finite()) {
+                return Err(CoreError::invalid(
+                    what,
+                    format!(
+                        "column '{}' at {} nm is {}, not a finite number",
+                        self.names[j], self.wavelengths_nm[i], c[i]
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of spectra (columns).
+    pub fn len(&self) -> usize {
+        self.columns.len()
+    }
+
+    /// True when the table holds no spectra.
+    pub fn is_empty(&self) -> bool {
+        self.columns.is_empty()
+    }
+
+    /// Index of the column named `name`: exact match first, then case-insensitive.
+    pub fn index_of(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name).or_else(|| {
+            self.names
+                .iter()
+                .position(|n| n.eq_ignore_ascii_case(name.trim()))
+        })
+    }
+
+    /// The column named `name` (exact, else case-insensitive) as a [`Spectrum`]; the error lists
+    /// the names there are.
+    pub fn spectrum(&self, name: &str) -> Result<Spectrum> {
+        match self.index_of(name) {
+            Some(j) => self.spectrum_at(j),
+            None => Err(CoreError::invalid(
+                format!("spectrum '{name}'"),
+                format!("no such column; the table has: {}", self.names.join(", ")),
+            )),
+        }
+    }
+
+    /// Column `index` (0-based) as a [`Spectrum`].
+    pub fn spectrum_at(&self, index: usize) -> Result<Spectrum> {
+        let values = self.columns.get(index).ok_or_else(|| {
+            CoreError::invalid(
+                "spectra table",
+                format!(
+                    "column {index} requested but the table has {} columns",
+                    self.len()
+                ),
+            )
+        })?;
+        let what = self
+            .names
+            .get(index)
+            .map(String::as_str)
+            .unwrap_or("spectrum");
+        Spectrum::new(self.wavelengths_nm.clone(), values.clone(), what)
+    }
+
+    /// Every column as a [`Spectrum`], in order.
+    pub fn spectra(&self) -> Result<Vec<Spectrum>> {
+        (0..self.len()).map(|j| self.spectrum_at(j)).collect()
+    }
+
+    /// The uniform grid of the wavelengths (error if they are not uniformly spaced).
+    pub fn grid(&self) -> Result<WavelengthGrid> {
+        WavelengthGrid::from_wavelengths(&self.wavelengths_nm)
+    }
+
+    /// Every column linearly resampled onto `grid` (zero outside the sampled range).
+    pub fn resampled(&self, grid: &WavelengthGrid) -> Result<SpectraTable> {
+        let columns = self.spectra()?.iter().map(|s| s.sample(grid)).collect();
+        Ok(SpectraTable {
+            wavelengths_nm: grid.wavelengths_nm(),
+            names: self.names.clone(),
+            columns,
+        })
+    }
+}
+
+fn line_err(path: &Path, line: usize, message: impl Into<String>) -> CoreError {
+    CoreError::Line {
+        path: path.to_path_buf(),
+        line,
+        message: message.into(),
+    }
+}
+
+/// Read a file into a string, refusing files over [`MAX_SPECTRA_FILE_BYTES`].
+pub(crate) fn read_limited(path: &Path) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).map_err(|e| CoreError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })?;
+    if !meta.is_file() {
+        return Err(CoreError::file(path, "not a regular file"));
+    }
+    if meta.len() > MAX_SPECTRA_FILE_BYTES {
+        return Err(CoreError::file(
+            path,
+            format!(
+                "{} bytes is too large for a spectra file (limit {} MiB)",
+                meta.len(),
+                MAX_SPECTRA_FILE_BYTES >> 20
+            ),
+        ));
+    }
+    std::fs::read(path).map_err(|e| CoreError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })
+}
+
+/// Parse one CSV number; `nan`, `inf` and the like are errors.
+fn parse_number(field: &str, path: &Path, line: usize, column: usize) -> Result<f64> {
+    let f = field.trim();
+    match f.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(v) => Err(line_err(
+            path,
+            line,
+            format!("column {column}: {v} is not a finite number"),
+        )),
+        Err(_) => Err(line_err(
+            path,
+            line,
+            format!("column {column}: '{f}' is not a number"),
+        )),
+    }
+}
+
+/// Parse CSV spectra from `text`; `path` names the source in errors (a file, or e.g.
+/// `"<built-in imx363>"`). A header row is required unless the first row is all numbers, in which
+/// case the columns are named `data_1..n`.
+pub fn parse_spectra_csv(text: &str, path: &Path) -> Result<SpectraTable> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut names: Option<Vec<String>> = None;
+    let mut ncols = 0usize;
+    let mut wavelengths_nm = Vec::new();
+    let mut columns: Vec<Vec<f64>> = Vec::new();
+    let mut last_line = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        last_line = line_no;
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if names.is_none() {
+            if fields.len() < 2 {
+                return Err(line_err(path, line_no, "need a wavelength column and at least one spectrum column, separated by commas"));
+            }
+            let numeric = fields.iter().all(|f| f.parse::<f64>().is_ok());
+            ncols = fields.len();
+            columns = vec![Vec::new(); ncols - 1];
+            if numeric {
+                names = Some((1..ncols).map(|j| format!("data_{j}")).collect());
+                // fall through: this row is data
+            } else {
+                let n: Vec<String> = fields[1..].iter().map(|s| s.to_string()).collect();
+                for (j, name) in n.iter().enumerate() {
+                    if name.is_empty() {
+                        return Err(line_err(
+                            path,
+                            line_no,
+                            format!("header column {} has no name", j + 2),
+                        ));
+                    }
+                    if n[..j].contains(name) {
+                        return Err(line_err(
+                            path,
+                            line_no,
+                            format!("header names column '{name}' twice"),
+                        ));
+                    }
+                }
+                names = Some(n);
+                continue;
+            }
+        }
+        if fields.len() != ncols {
+            return Err(line_err(
+                path,
+                line_no,
+                format!(
+                    "{} fields, but the header has {ncols} columns (ragged row)",
+                    fields.len()
+                ),
+            ));
+        }
+        let w = parse_number(fields[0], path, line_no, 1)?;
+        if w <= 0.0 {
+            return Err(line_err(
+                path,
+                line_no,
+                format!("wavelength {w} nm is not positive"),
+            ));
+        }
+        if let Some(prev) = wavelengths_nm.last() {
+            if w <= *prev {
+                return Err(line_err(
+                    path,
+                    line_no,
+                    format!("wavelength {w} nm does not increase (previous row {prev} nm)"),
+                ));
+            }
+        }
+        wavelengths_nm.push(w);
+        for (j, f) in fields[1..].iter().enumerate() {
+            columns[j].push(parse_number(f, path, line_no, j + 2)?);
+        }
+    }
+    let names = names.ok_or_else(|| {
+        CoreError::file(
+            path,
+            "no header and no data rows (only comments or blank lines)",
+        )
+    })?;
+    if wavelengths_nm.is_empty() {
+        return Err(line_err(
+            path,
+            last_line.max(1),
+            "a header but no data rows",
+        ));
+    }
+    let table = SpectraTable {
+        wavelengths_nm,
+        names,
+        columns,
+    };
+    table.validate(&path.display().to_string())?;
+    Ok(table)
+}
+
+/// Read a spectra CSV file (see the module docs). Errors name the file and line.
+pub fn read_spectra_csv(path: impl AsRef<Path>) -> Result<SpectraTable> {
+    let path = path.as_ref();
+    let bytes = read_limited(path)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        // Report the line of the first bad byte.
+        let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = good.iter().filter(|b| **b == b'\n').count() + 1;
+        line_err(path, line, "not UTF-8 text")
+    })?;
+    parse_spectra_csv(&text, path)
+}
+
+/// Format a table as CSV text: optional `# ` comment lines, the header `wavelength_nm,<names>`, then
+/// one row per wavelength. Numbers are written in Rust's shortest round-trip form, so reading the
+/// text back gives the same f64 values.
+pub fn format_spectra_csv(table: &SpectraTable, comments: &[&str]) -> Result<String> {
+    table.validate("spectra table to write")?;
+    let mut s = String::new();
+    for c in comments {
+        for l in c.lines() {
+            s.push_str("# ");
+            s.push_str(l);
+            s.push('\n');
+        }
+    }
+    s.push_str("wavelength_nm");
+    for n in &table.names {
+        s.push(',');
+        s.push_str(n.trim());
+    }
+    s.push('\n');
+    for (i, w) in table.wavelengths_nm.iter().enumerate() {
+        s.push_str(&format!("{w}"));
+        for c in &table.columns {
+            s.push_str(&format!(",{}", c[i]));
+        }
+        s.push('\n');
+    }
+    Ok(s)
+}
+
+/// Write `bytes` to `path` atomically: a temporary file in the same folder, flushed, then renamed
+/// over `path`, so a reader never sees a partial file. The temporary file is removed on error.
+pub(crate) fn write_atomic_local(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |e: std::io::Error| CoreError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    };
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| CoreError::file(path, "not a file name"))?
+        .to_string_lossy()
+        .into_owned();
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let tmp = dir.join(format!(".{file_name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(e));
+    }
+    Ok(())
+}
+
+/// Write a table as CSV (see [`format_spectra_csv`]), atomically (temporary file, then rename).
+pub fn write_spectra_csv(path: impl AsRef<Path>, table: &SpectraTable) -> Result<()> {
+    write_spectra_csv_with_comments(path, table, &[])
+}
+
+/// [`write_spectra_csv`] with `# ` comment lines at the top (source, units).
+pub fn write_spectra_csv_with_comments(
+    path: impl AsRef<Path>,
+    table: &SpectraTable,
+    comments: &[&str],
+) -> Result<()> {
+    let path = path.as_ref();
+    let text =
+        format_spectra_csv(table, comments).map_err(|e| CoreError::file(path, e.to_string()))?;
+    write_atomic_local(path, text.as_bytes())
+}
+
+/// Read spectra from a file, choosing the format by extension: `.csv` (or `.txt`) as CSV,
+/// `.mat` as an ISETCam MATLAB v5 spectral file ([`crate::mat::read_isetcam_spectra`]).
+pub fn load_spectra(path: impl AsRef<Path>) -> Result<SpectraTable> {
+    let path = path.as_ref();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "csv" | "txt" => read_spectra_csv(path),
+        "mat" => crate::mat::read_isetcam_spectra(path),
+        _ => Err(CoreError::file(
+            path,
+            format!("unknown spectra file type '{ext}': use .csv (wavelength_nm, columns) or .mat (ISETCam MATLAB v5)"),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p() -> PathBuf {
+        PathBuf::from("t.csv")
+    }
+
+    #[test]
+    fn parses_comments_header_and_rows() {
+        let t = parse_spectra_csv(
+            "# c\n\nwavelength_nm, a ,b\r\n400,1,2\n# mid\n410,3,4\n",
+            &p(),
+        )
+        .unwrap();
+        assert_eq!(t.names, vec!["a", "b"]);
+        assert_eq!(t.wavelengths_nm, vec![400.0, 410.0]);
+        assert_eq!(t.columns, vec![vec![1.0, 3.0], vec![2.0, 4.0]]);
+        assert_eq!(t.spectrum("B").unwrap().values, vec![2.0, 4.0]);
+        let e = t.spectrum("c").unwrap_err().to_string();
+        assert!(e.contains("a, b"), "{e}");
+    }
+
+    #[test]
+    fn headerless_files_get_generated_names() {
+        let t = parse_spectra_csv("400,1\n410,2\n", &p()).unwrap();
+        assert_eq!(t.names, vec!["data_1"]);
+    }
+
+    #[test]
+    fn errors_name_file_and_line() {
+        let cases = [
+            ("w,a\n400,1\n400,2\n", 3, "increase"),
+            ("w,a\n400,1\n410,nan\n", 3, "finite"),
+            ("w,a\n400,1\n410,1,2\n", 3, "ragged"),
+            ("w,a\n400,1\n410,x\n", 3, "'x'"),
+            ("w,a,a\n400,1,1\n", 1, "twice"),
+            ("w,a\n-1,1\n", 2, "positive"),
+            ("w\n400\n", 1, "at least one"),
+            ("# only\nw,a\n", 2, "no data"),
+        ];
+        for (text, line, what) in cases {
+            let e = parse_spectra_csv(text, &p()).unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("t.csv, line {line}:")),
+                "{text:?}: {e}"
+            );
+            assert!(e.contains(what), "{text:?}: {e}");
+        }
+        assert!(parse_spectra_csv("# x\n", &p())
+            .unwrap_err()
+            .to_string()
+            .contains("t.csv"));
+    }
+
+    #[test]
+    fn validate_rejects_bad_tables() {
+        let ok = SpectraTable::new(
+            vec![400.0, 410.0],
+            vec!["a".into()],
+            vec![vec![1.0, 2.0]],
+            "t",
+        );
+        assert!(ok.is_ok());
+        assert!(
+            SpectraTable::new(vec![400.0, 410.0], vec!["a".into()], vec![vec![1.0]], "t").is_err()
+        );
+        assert!(SpectraTable::new(
+            vec![400.0, 410.0],
+            vec!["a,b".into()],
+            vec![vec![1.0, 2.0]],
+            "t"
+        )
+        .is_err());
+        assert!(SpectraTable::new(
+            vec![410.0, 400.0],
+            vec!["a".into()],
+            vec![vec![1.0, 2.0]],
+            "t"
+        )
+        .is_err());
+        assert!(SpectraTable::new(vec![400.0], vec![], vec![], "t").is_err());
+    }
+
+    #[test]
+    fn load_spectra_rejects_unknown_extensions() {
+        let e = load_spectra("x.xlsx").unwrap_err().to_string();
+        assert!(e.contains("x.xlsx") && e.contains(".csv"), "{e}");
+    }
+}

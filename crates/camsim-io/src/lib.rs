@@ -1,1 +1,18 @@
-//! camsim io: spectral OpenEXR, DNG read/write, PNG/TIFF, plots, atomic file writes
+//! camsim-io: the file formats of camsim.
+//!
+//! - [`atomic`]: every output file is written to a temporary name in its folder and renamed
+//!   when complete (no partial files).
+//! - [`exr`]: spectral OpenEXR (Fichet et al. 2021 layout, as pbrt-v4 writes it) and
+//!   single-channel EXR.
+//! - [`dng`]: raw CFA DNG: write (uncompressed 16-bit) and read (camsim's and real cameras':
+//!   uncompressed or lossless JPEG, strips or tiles, linearization, black/white levels, active area).
+//! - [`ljpeg`]: the lossless JPEG (ITU-T T.81 process 14) decoder DNG needs.
+//! - [`raster`]: 16-bit PNG/TIFF mosaics and 8-bit RGB PNG.
+//! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
+
+pub mod atomic;
+pub mod error;
+pub mod exr;
+pub mod ljpeg;
+
+pub use error::{IoError, Result};

@@ -1,1 +1,30 @@
-//! camsim stage 2: radiance -> sensor irradiance (f-number, cos4, OTF/PSF, wavefront, defocus, shading)
+//! camsim stage 2: radiance -> sensor irradiance (f-number, cos4, OTF/PSF, wavefront, defocus, shading).
+//!
+//! The model is ISETCam's (`oiCompute` with a `wvf` wavefront, Lyu et al. "Optics modeling"):
+//! irradiance from radiance with the camera equation, cos^4 or fitted lens shading, then a blur per
+//! wavelength by the PSF of a pupil with a Zernike wavefront aberration, optionally depth-dependent
+//! defocus from thin-lens geometry.
+//!
+//! - [`Optics`] (from an [`OpticsConfig`] or a preset) does the whole stage: [`Optics::compute`].
+//! - [`Wavefront`] computes PSFs and MTFs; [`lens`] holds the closed forms (diffraction MTF, thin
+//!   lens, defocus); [`zernike`] the OSA polynomials; [`shading`] the flat-field fit.
+
+pub mod config;
+pub mod conv;
+pub mod error;
+pub mod lens;
+pub mod optics;
+pub mod presets;
+pub mod psf;
+pub mod shading;
+pub mod wavefront;
+pub mod zernike;
+
+pub use config::OpticsConfig;
+pub use error::{OpticsError, Result};
+pub use lens::diffraction_mtf;
+pub use optics::{DepthLayers, Optics, ShadingModel};
+pub use psf::{MtfCurve, Psf};
+pub use shading::{fit_flat_field, ShadingFit};
+pub use wavefront::Wavefront;
+pub use zernike::osa_to_nm;

@@ -1,6 +1,31 @@
 //! camsim stage 1 (3D): a spectral Monte Carlo path tracer and a pbrt-v4 scene reader, producing
 //! spectral radiance (W/(sr m^2 nm)) and depth (m) for the optics stage.
+//!
+//! Renderer layout (pbrt-v4's split of concepts, one module each): [`math`] (f32 vectors,
+//! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH),
+//! [`sampling`] (warps and pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`]
+//! (materials' scattering), [`lights`] (area and infinite lights), [`camera`] (pinhole camera),
+//! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
+//! The scene contract shared with the pbrt-v4 reader is [`scene`].
 
 pub mod scene;
 
+pub mod bsdf;
+pub mod bvh;
+pub mod camera;
+pub mod geometry;
+mod integrator;
+mod lights;
+pub mod math;
+pub mod render;
+pub mod sampling;
+pub mod spectral;
+
+pub mod pbrt;
+pub mod builtin;
+pub mod overlay;
+pub mod uplift;
+
+pub use camera::{camera_from_focal_length, look_at_camera_to_world, pbrt_look_at};
+pub use render::{render, RenderError, RenderOutput, RenderStats};
 pub use scene::*;

@@ -1,1 +1,400 @@
-//! camsim stage 1 (2D): test charts -> spectral radiance
+//! camsim stage 1 (2D): test charts -> spectral radiance, like ISETCam's `sceneCreate`.
+//!
+//! A scene is a flat chart at `distance_m` from the lens that spans a horizontal field of view of
+//! `fov_deg`. Its spectral radiance, in W/(sr m^2 nm), is the illuminant (relative SPD) times the
+//! surface reflectance, scaled so that the mean luminance over all pixels equals the requested
+//! value (ISETCam `sceneAdjustLuminance`):
+//!
+//! `L_v = 683 lm/W * sum_lambda y_bar(lambda) L(lambda) d_lambda`, averaged over pixels.
+//!
+//! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker), `slanted_edge` (ISO 12233) and
+//! `file` (a spectral radiance image loaded by the caller, see [`from_image`]).
+
+pub mod config;
+pub mod geometry;
+
+pub use config::{FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene};
+pub use geometry::{Edge, MacbethLayout, Rect};
+
+use camsim_core::colorimetry::Cmfs;
+use camsim_core::error::{CoreError, Result};
+use camsim_core::spectrum::Extrapolation;
+use camsim_core::{tables, Quantity, SpectralImage, Spectrum, WavelengthGrid};
+use rayon::prelude::*;
+use std::path::Path;
+
+/// Build the spectral radiance image of a chart scene on `grid` (every kind but `file`, whose
+/// image the caller loads and passes to [`from_image`]).
+///
+/// The result has `quantity = Radiance` (W/(sr m^2 nm)), `sample_spacing_m = 2 d tan(fov/2) / cols`
+/// (ISETCam `sceneGet(scene, 'sample spacing')`), and `geometry.fov_deg` / `distance_m` set.
+pub fn create(cfg: &SceneConfig, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    grid.validate()?;
+    match cfg {
+        SceneConfig::Uniform(c) => create_uniform(c, grid),
+        SceneConfig::Macbeth(c) => create_macbeth(c, grid),
+        SceneConfig::SlantedEdge(c) => create_slanted_edge(c, grid),
+        SceneConfig::File(c) => Err(CoreError::invalid(
+            format!("scene kind 'file' ({})", c.path.display()),
+            "a radiance file is loaded by the caller (camsim-io) and passed to camsim_scene::from_image",
+        )),
+    }
+}
+
+/// The 24 patch rectangles of a ColorChecker scene in chart order (pixels of the scene image).
+pub fn macbeth_patch_rects(cfg: &MacbethScene) -> Vec<Rect> {
+    cfg.layout().patch_rects()
+}
+
+/// The illuminant of a scene config (relative SPD), or `None` for `file` scenes.
+pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
+    match cfg {
+        SceneConfig::Uniform(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
+        SceneConfig::Macbeth(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
+        SceneConfig::SlantedEdge(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
+        SceneConfig::File(_) => None,
+    }
+}
+
+/// An illuminant by built-in name ([`camsim_core::tables::illuminant`]: D65, A, C, F2, F11, E,
+/// blackbody-<K>) or from a spectrum file (`.csv` or ISETCam `.mat`). `key` names the config key
+/// in errors. Relative units.
+pub fn load_illuminant(name: &str, key: &str) -> Result<Spectrum> {
+    if config::looks_like_file(name) {
+        let s = load_spectrum_file(Path::new(name), key)?;
+        s.require_non_negative(&format!("{key} = '{name}'"))?;
+        return Ok(s);
+    }
+    tables::illuminant(name).map_err(|e| CoreError::invalid(key, e.to_string()))
+}
+
+/// Read one spectrum from a spectrum file: CSV or ISETCam MATLAB v5 `.mat` (by extension,
+/// [`camsim_core::spectrum_csv::load_spectra`]). `spec` is a path, optionally followed by
+/// `#<column name>` to pick a column; without it the file's first spectrum is used. `key` names
+/// the config key in errors.
+pub fn load_spectrum_file(spec: &Path, key: &str) -> Result<Spectrum> {
+    let text = spec.to_string_lossy();
+    let (path, column) = match text.rsplit_once('#') {
+        Some((p, c)) if !c.contains('/') && !c.contains('\\') => (Path::new(p), Some(c)),
+        _ => (spec, None),
+    };
+    let table = camsim_core::spectrum_csv::load_spectra(path).map_err(|e| CoreError::invalid(key, e.to_string()))?;
+    let s = match column {
+        Some(c) => table.spectrum(c),
+        None => table.spectrum_at(0),
+    };
+    s.map_err(|e| CoreError::invalid(key, format!("{}: {e}", path.display())))
+}
+
+/// A reflectance spec on `grid` (fractions). `key` names the config key in errors.
+pub fn reflectance_on(r: &Reflectance, grid: &WavelengthGrid, key: &str) -> Result<Vec<f64>> {
+    match r {
+        Reflectance::Grey(v) => {
+            check_fraction(*v, key)?;
+            Ok(vec![*v; grid.len()])
+        }
+        Reflectance::Named(s) => {
+            let lower = s.trim().to_ascii_lowercase();
+            let spectrum = if let Some(patch) = lower.strip_prefix("macbeth:") {
+                tables::macbeth_patch(patch).map_err(|e| CoreError::invalid(key, e.to_string()))?
+            } else if config::looks_like_file(s) {
+                // A measured reflectance may stop short of the grid: hold its end values.
+                load_spectrum_file(Path::new(s), key)?.with_extrapolation(Extrapolation::Hold)
+            } else {
+                return Err(CoreError::invalid(
+                    key,
+                    format!("'{s}' is neither a number, 'macbeth:<patch>' nor a spectrum file (.csv, .mat)"),
+                ));
+            };
+            let v = spectrum.sample(grid);
+            if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= 0.0)) {
+                return Err(CoreError::invalid(
+                    key,
+                    format!("'{s}': reflectance {x} at {} nm is not a non-negative number", grid.wavelength_nm(i)),
+                ));
+            }
+            Ok(v)
+        }
+    }
+}
+
+/// Mean luminance of a radiance image, cd/m^2: the pixel mean of `683 sum y_bar L d_lambda`
+/// (CIE 015:2018; ISETCam `sceneGet(scene, 'mean luminance')`).
+pub fn mean_luminance_cd_m2(img: &SpectralImage) -> f64 {
+    let cmfs = Cmfs::on(&img.grid);
+    let k = camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
+    let weights: Vec<f64> = cmfs.y.iter().map(|y| k * y).collect();
+    img.mean_weighted_integral(&weights)
+}
+
+/// Scale a radiance image so its mean luminance is `cd_m2` (ISETCam `sceneAdjustLuminance`).
+/// Returns the factor applied. Errors when the image has no luminance to scale (and a non-zero
+/// target) or the target is negative / not finite.
+pub fn scale_to_luminance(img: &mut SpectralImage, cd_m2: f64) -> Result<f64> {
+    check_luminance(cd_m2, "scene.mean_luminance_cd_m2")?;
+    let current = mean_luminance_cd_m2(img);
+    let factor = if cd_m2 == 0.0 {
+        0.0
+    } else if current > 0.0 && current.is_finite() {
+        cd_m2 / current
+    } else {
+        return Err(CoreError::invalid(
+            "scene.mean_luminance_cd_m2",
+            format!("the image has mean luminance {current} cd/m^2 (no light between {} and {} nm), so it cannot be scaled to {cd_m2} cd/m^2", img.grid.start_nm, img.grid.end_nm()),
+        ));
+    };
+    let f = factor as f32;
+    img.data.par_chunks_mut(1 << 16).for_each(|c| c.iter_mut().for_each(|v| *v *= f));
+    Ok(factor)
+}
+
+/// Prepare a spectral radiance image read from a file (`kind = "file"`): check its values,
+/// resample it onto the config's wavelength grid (linear in wavelength, zero outside the file's
+/// range), set the field of view / distance and rescale to the requested mean luminance.
+pub fn from_image(cfg: &FileScene, mut img: SpectralImage) -> Result<SpectralImage> {
+    let what = cfg.path.display().to_string();
+    if img.quantity != Quantity::Radiance {
+        return Err(CoreError::invalid(
+            what,
+            format!("holds {} ({}), not spectral radiance", img.quantity.name(), img.quantity.unit()),
+        ));
+    }
+    img.validate_values(&what)?;
+    if let Some(g) = cfg.wavelengths {
+        g.validate()?;
+        if !g.same_as(&img.grid) {
+            img = resample_bands(&img, &g)?;
+        }
+    }
+    let distance_m = match cfg.distance_m {
+        Some(d) => {
+            check_distance(d, "scene.distance_m")?;
+            d
+        }
+        None if img.geometry.distance_m > 0.0 => img.geometry.distance_m,
+        None => 1.2,
+    };
+    img.geometry.distance_m = distance_m;
+    match cfg.fov_deg {
+        Some(fov) => {
+            check_fov(fov, "scene.fov_deg")?;
+            img.geometry.fov_deg = fov;
+            img.sample_spacing_m = sample_spacing_m(fov, distance_m, img.cols);
+        }
+        None => {
+            // Keep the file's sample spacing; derive the field of view it implies.
+            img.geometry.fov_deg = 2.0 * (0.5 * img.width_m() / distance_m).atan().to_degrees();
+        }
+    }
+    if let Some(l) = cfg.mean_luminance_cd_m2 {
+        scale_to_luminance(&mut img, l)?;
+    }
+    Ok(img)
+}
+
+/// Resample a spectral image onto another wavelength grid by linear interpolation between bands
+/// (zero outside the image's range, ISETCam `interp1(..., 'linear', 0)`).
+pub fn resample_bands(img: &SpectralImage, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    let mut out = SpectralImage::zeros(img.rows, img.cols, *grid, img.sample_spacing_m, img.quantity)?;
+    out.geometry = img.geometry;
+    out.depth_m = img.depth_m.clone();
+    let src = img.grid;
+    let n = img.pixels();
+    out.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
+        let w = grid.wavelength_nm(b);
+        let x = (w - src.start_nm) / src.step_nm;
+        let last = src.len() - 1;
+        if x < -1e-9 || x > last as f64 + 1e-9 {
+            return; // outside: zero
+        }
+        let i0 = (x.floor().max(0.0) as usize).min(last);
+        let t = (x - i0 as f64).clamp(0.0, 1.0) as f32;
+        let a = img.band(i0);
+        if t < 1e-7 || i0 == last {
+            plane.copy_from_slice(a);
+        } else {
+            let bb = img.band(i0 + 1);
+            for ((o, va), vb) in plane.iter_mut().zip(a).zip(bb) {
+                *o = va * (1.0 - t) + vb * t;
+            }
+        }
+    });
+    Ok(out)
+}
+
+/// Object-plane sample spacing, m: the scene width `2 d tan(fov / 2)` over `cols` (ISETCam
+/// `sceneGet(scene, 'width') / cols`).
+pub fn sample_spacing_m(fov_deg: f64, distance_m: f64, cols: usize) -> f64 {
+    2.0 * distance_m * (0.5 * fov_deg).to_radians().tan() / cols as f64
+}
+
+fn check_fov(fov: f64, key: &str) -> Result<()> {
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(CoreError::invalid(key, format!("{fov} degrees is not in (0, 180)")));
+    }
+    Ok(())
+}
+
+fn check_distance(d: f64, key: &str) -> Result<()> {
+    if !(d > 0.0 && d.is_finite()) {
+        return Err(CoreError::invalid(key, format!("{d} m is not a positive distance")));
+    }
+    Ok(())
+}
+
+fn check_luminance(l: f64, key: &str) -> Result<()> {
+    if !(l >= 0.0 && l.is_finite()) {
+        return Err(CoreError::invalid(key, format!("{l} cd/m^2 is not a non-negative luminance")));
+    }
+    Ok(())
+}
+
+fn check_fraction(v: f64, key: &str) -> Result<()> {
+    if !(0.0..=1.0).contains(&v) {
+        return Err(CoreError::invalid(key, format!("reflectance {v} is not a fraction in [0, 1]")));
+    }
+    Ok(())
+}
+
+fn check_size(rows: usize, cols: usize, min: usize) -> Result<()> {
+    if rows < min {
+        return Err(CoreError::invalid("scene.rows", format!("{rows} rows; need at least {min}")));
+    }
+    if cols < min {
+        return Err(CoreError::invalid("scene.cols", format!("{cols} columns; need at least {min}")));
+    }
+    Ok(())
+}
+
+/// What every chart scene shares: the illuminant on the grid and the viewing geometry.
+struct Common {
+    illuminant: Vec<f64>,
+    fov_deg: f64,
+    distance_m: f64,
+    mean_luminance_cd_m2: f64,
+}
+
+fn common(illuminant: &str, fov_deg: f64, distance_m: f64, lum: f64, grid: &WavelengthGrid) -> Result<Common> {
+    check_fov(fov_deg, "scene.fov_deg")?;
+    check_distance(distance_m, "scene.distance_m")?;
+    check_luminance(lum, "scene.mean_luminance_cd_m2")?;
+    let illum = load_illuminant(illuminant, "scene.illuminant")?.sample(grid);
+    if illum.iter().all(|v| *v == 0.0) {
+        return Err(CoreError::invalid(
+            "scene.illuminant",
+            format!("'{illuminant}' has no power between {} and {} nm", grid.start_nm, grid.end_nm()),
+        ));
+    }
+    Ok(Common { illuminant: illum, fov_deg, distance_m, mean_luminance_cd_m2: lum })
+}
+
+impl Common {
+    /// Radiance per unit reflectance per band: `k * illuminant`, with `k` chosen so that a scene whose
+    /// pixel-mean reflectance per band is `mean_reflectance` has the requested mean luminance.
+    fn scaled_illuminant(&self, mean_reflectance: &[f64], grid: &WavelengthGrid) -> Result<Vec<f64>> {
+        let cmfs = Cmfs::on(grid);
+        let mean_radiance: Vec<f64> = self.illuminant.iter().zip(mean_reflectance).map(|(e, r)| e * r).collect();
+        let unit = cmfs.luminance_cd_m2(&mean_radiance);
+        let k = if self.mean_luminance_cd_m2 == 0.0 {
+            0.0
+        } else if unit > 0.0 {
+            self.mean_luminance_cd_m2 / unit
+        } else {
+            return Err(CoreError::invalid(
+                "scene.mean_luminance_cd_m2",
+                format!(
+                    "the scene reflects no visible light under its illuminant, so it cannot have {} cd/m^2",
+                    self.mean_luminance_cd_m2
+                ),
+            ));
+        };
+        Ok(self.illuminant.iter().map(|e| k * e).collect())
+    }
+
+    fn image(&self, rows: usize, cols: usize, grid: &WavelengthGrid) -> Result<SpectralImage> {
+        let mut img = SpectralImage::zeros(rows, cols, *grid, sample_spacing_m(self.fov_deg, self.distance_m, cols), Quantity::Radiance)?;
+        img.geometry.fov_deg = self.fov_deg;
+        img.geometry.distance_m = self.distance_m;
+        Ok(img)
+    }
+}
+
+fn create_uniform(c: &UniformScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    check_size(c.rows, c.cols, 1)?;
+    let refl = reflectance_on(&c.reflectance, grid, "scene.reflectance")?;
+    let k_illum = com.scaled_illuminant(&refl, grid)?;
+    let mut img = com.image(c.rows, c.cols, grid)?;
+    let n = img.pixels();
+    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| plane.fill((k_illum[b] * refl[b]) as f32));
+    Ok(img)
+}
+
+fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    if c.patch_size_px == 0 {
+        return Err(CoreError::invalid("scene.patch_size_px", "must be at least 1 pixel"));
+    }
+    check_fraction(c.border_reflectance, "scene.border_reflectance")?;
+    let layout = c.layout();
+    let (rows, cols) = (layout.rows(), layout.cols());
+    // Reflectance of patch i on the grid; index 24 = the border.
+    let mut refl: Vec<Vec<f64>> = tables::macbeth_reflectances().iter().map(|s| s.sample(grid)).collect();
+    refl.push(vec![c.border_reflectance; grid.len()]);
+    // Pixel-mean reflectance per band, from the areas: 24 patches of p^2 pixels, the rest border.
+    let patch_area = (c.patch_size_px * c.patch_size_px) as f64;
+    let total = (rows * cols) as f64;
+    let border_area = total - 24.0 * patch_area;
+    let mean_refl: Vec<f64> = (0..grid.len())
+        .map(|b| (patch_area * refl[..24].iter().map(|r| r[b]).sum::<f64>() + border_area * refl[24][b]) / total)
+        .collect();
+    let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
+    let mut img = com.image(rows, cols, grid)?;
+    let n = img.pixels();
+    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
+        let values: Vec<f32> = refl.iter().map(|r| (k_illum[b] * r[b]) as f32).collect();
+        for (row, line) in plane.chunks_exact_mut(cols).enumerate() {
+            for (col, v) in line.iter_mut().enumerate() {
+                *v = values[layout.patch_at(row, col).unwrap_or(24)];
+            }
+        }
+    });
+    Ok(img)
+}
+
+fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    check_size(c.rows, c.cols, 2)?;
+    if !(c.angle_deg.abs() < 45.0) {
+        return Err(CoreError::invalid("scene.angle_deg", format!("{} degrees is not in (-45, 45)", c.angle_deg)));
+    }
+    check_fraction(c.bright_reflectance, "scene.bright_reflectance")?;
+    check_fraction(c.dark_reflectance, "scene.dark_reflectance")?;
+    let edge = slanted_edge_geometry(c);
+    camsim_core::mem::check_alloc((c.rows * c.cols * 4) as u64, "the slanted-edge coverage map")?;
+    let mut coverage = vec![0.0f32; c.rows * c.cols];
+    coverage.par_chunks_mut(c.cols).enumerate().for_each(|(row, line)| {
+        for (col, v) in line.iter_mut().enumerate() {
+            *v = edge.coverage(row, col) as f32;
+        }
+    });
+    let mean_cov = coverage.iter().map(|v| *v as f64).sum::<f64>() / coverage.len() as f64;
+    let (dark, bright) = (c.dark_reflectance, c.bright_reflectance);
+    let mean_refl = vec![dark + (bright - dark) * mean_cov; grid.len()];
+    let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
+    let mut img = com.image(c.rows, c.cols, grid)?;
+    let n = img.pixels();
+    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
+        let (lo, hi) = ((k_illum[b] * dark) as f32, (k_illum[b] * bright) as f32);
+        for (v, a) in plane.iter_mut().zip(&coverage) {
+            *v = lo + (hi - lo) * a;
+        }
+    });
+    Ok(img)
+}
+
+/// The edge of a slanted-edge scene in pixel coordinates: through the image centre
+/// (cols/2, rows/2), tilted `angle_deg` from the vertical, bright side on the right.
+pub fn slanted_edge_geometry(c: &SlantedEdgeScene) -> Edge {
+    Edge { x0: 0.5 * c.cols as f64, y0: 0.5 * c.rows as f64, angle_deg: c.angle_deg }
+}

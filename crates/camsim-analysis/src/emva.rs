@@ -1,0 +1,1 @@
+//! emva (in progress)

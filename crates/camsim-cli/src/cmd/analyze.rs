@@ -1,0 +1,416 @@
+//! `camsim analyze`: measurements on camsim outputs and real camera raw files.
+
+use crate::common::{self, say};
+use anyhow::{bail, Context, Result};
+use camsim_analysis::chart::{self, ChartCorners};
+use camsim_analysis::sfr::{self, SfrOptions, SfrResult};
+use camsim_analysis::{Plane, Rect};
+use camsim_core::{CfaChannel, CfaPattern};
+use camsim_io::plot::{LinePlot, ScatterPlot, Series};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Subcommand)]
+pub enum Command {
+    Sfr(SfrArgs),
+    Chart(ChartArgs),
+    Roi(RoiArgs),
+    Emva(EmvaArgs),
+}
+
+/// Where a raw file's CFA and levels come from when the file does not say (PNG/TIFF mosaics).
+#[derive(clap::Args, Clone)]
+pub struct RawInput {
+    /// CFA pattern of a PNG/TIFF mosaic (DNG files carry their own).
+    #[arg(long, value_parser = parse_cfa)]
+    pub cfa: Option<CfaPattern>,
+    /// Black level of a PNG/TIFF mosaic, DN.
+    #[arg(long, default_value_t = 0.0)]
+    pub black_dn: f64,
+    /// ADC bits of a PNG/TIFF mosaic.
+    #[arg(long, default_value_t = 16)]
+    pub bits: u32,
+}
+
+fn parse_cfa(s: &str) -> std::result::Result<CfaPattern, String> {
+    CfaPattern::parse(s).map_err(|e| e.to_string())
+}
+
+/// `row,col,rows,cols` in pixels.
+pub fn parse_rect(s: &str) -> std::result::Result<Rect, String> {
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|t| t.trim().parse::<usize>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}': use ROW,COL,ROWS,COLS (whole pixels)"))?;
+    match v.as_slice() {
+        [r, c, h, w] if *h > 0 && *w > 0 => Ok(Rect::new(*r, *c, *h, *w)),
+        _ => Err(format!("'{s}': use ROW,COL,ROWS,COLS with ROWS, COLS > 0")),
+    }
+}
+
+fn parse_points(s: &str) -> std::result::Result<Vec<f64>, String> {
+    s.split(',').map(|t| t.trim().parse::<f64>().map_err(|_| format!("'{s}': not a list of numbers"))).collect()
+}
+
+fn write_text(path: &Path, text: &str) -> Result<()> {
+    Ok(camsim_io::atomic::write_bytes_atomic(path, text.as_bytes())?)
+}
+
+// ---------------------------------------------------------------------------------------------
+/// ISO 12233 slanted-edge SFR (e-SFR, as Burns' sfrmat): per colour channel on raw CFA data
+/// (each channel on its own sub-grid), on the luminance of the bilinear-demosaicked image, or on
+/// a camsim irradiance EXR. Writes sfr.csv (cycles/pixel and cycles/mm), sfr.json (MTF50, MTF
+/// at Nyquist per curve) and sfr.png; --compare overlays curves from another sfr.csv (simulated vs
+/// measured, as the paper's Figure 2).
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  camsim analyze sfr out/edge/raw.dng --out out/edge/sfr\n  camsim analyze sfr measured.dng --roi 1200,1800,200,160 --compare out/edge/sfr/sfr.csv --out out/cmp\n  camsim analyze sfr out/edge/irradiance.exr --out out/edge/sfr-optics")]
+pub struct SfrArgs {
+    /// Raw DNG, 16-bit PNG/TIFF mosaic (with --cfa), or spectral irradiance EXR.
+    pub image: PathBuf,
+    /// Region of interest ROW,COL,ROWS,COLS (default: found around the edge).
+    #[arg(long, value_parser = parse_rect)]
+    pub roi: Option<Rect>,
+    /// Fit the edge with a 2nd-order polynomial (lens distortion) instead of a line.
+    #[arg(long)]
+    pub quadratic: bool,
+    /// Pixel pitch, um (for cycles/mm; DNGs from camsim record it).
+    #[arg(long)]
+    pub pitch_um: Option<f64>,
+    /// Overlay the curves of another sfr.csv.
+    #[arg(long)]
+    pub compare: Vec<PathBuf>,
+    #[command(flatten)]
+    pub raw: RawInput,
+    /// Print the results as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, default_value = "out/sfr")]
+    pub out: PathBuf,
+}
+
+fn sfr_curves(a: &SfrArgs) -> Result<Vec<(String, SfrResult)>> {
+    let ext = a.image.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let mut opts = SfrOptions { poly_order: if a.quadratic { 2 } else { 1 }, ..SfrOptions::default() };
+    if ext == "exr" {
+        // Irradiance: a photopic-weighted sum of the bands, at the image's own sampling.
+        let img = camsim_io::exr::read_spectral_exr(&a.image)?;
+        let cmfs = camsim_core::colorimetry::Cmfs::on(&img.grid);
+        let mut y = vec![0f32; img.pixels()];
+        for b in 0..img.bands() {
+            let w = cmfs.y[b] as f32;
+            for (o, v) in y.iter_mut().zip(img.band(b)) {
+                *o += w * v;
+            }
+        }
+        opts.pixel_pitch_mm = Some(a.pitch_um.map(|p| p * 1e-3).unwrap_or(img.sample_spacing_m * 1e3));
+        let plane = Plane::new(img.rows, img.cols, y)?;
+        return Ok(vec![("luminance".into(), sfr::sfr(&plane, a.roi, &opts)?)]);
+    }
+    let raw = camsim_pipeline::load_raw(&a.image, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
+    let pitch_mm = a.pitch_um.map(|p| p * 1e-3).or((raw.pixel_pitch_m > 0.0).then_some(raw.pixel_pitch_m * 1e3));
+    opts.pixel_pitch_mm = pitch_mm;
+    // The ROI is found once on the whole mosaic (all channels share it).
+    let roi = match a.roi {
+        Some(r) => r,
+        None => sfr::find_edge_roi(&camsim_analysis::image::raw_plane(&raw)?)?,
+    };
+    let mut out = Vec::new();
+    for ch in [CfaChannel::R, CfaChannel::G, CfaChannel::B] {
+        out.push((format!("{}", ch.letter()), sfr::sfr_raw_channel(&raw, ch, Some(roi), &opts)?));
+    }
+    let rgb = camsim_isp::demosaic_bilinear(&raw);
+    let planes = [0, 1, 2].map(|c| Plane::new(rgb.rows, rgb.cols, rgb.plane(c).to_vec()));
+    let [r, g, b] = planes;
+    let planes = [r?, g?, b?];
+    // Luminance weights of ISO 12233 (Rec. 601 luma) for the demosaicked image.
+    out.push(("luminance".into(), sfr::sfr_luminance(&planes, [0.299, 0.587, 0.114], Some(roi), &opts)?));
+    Ok(out)
+}
+
+fn read_sfr_csv(path: &Path) -> Result<Vec<(String, Vec<(f64, f64)>)>> {
+    let text = common::read_text(path)?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", path.display()))?.split(',').collect();
+    let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
+    for (i, line) in lines.enumerate() {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|t| t.trim().parse::<f64>())
+            .collect::<std::result::Result<_, _>>()
+            .with_context(|| format!("{}, line {}: not numbers", path.display(), i + 2))?;
+        if v.len() != header.len() {
+            bail!("{}, line {}: {} values for {} columns", path.display(), i + 2, v.len(), header.len());
+        }
+        for (k, x) in v.iter().enumerate().skip(1) {
+            if x.is_finite() {
+                cols[k].push((v[0], *x));
+            }
+        }
+    }
+    if header.first() != Some(&"freq_cyc_per_px") {
+        bail!("{}: not an sfr.csv (first column must be freq_cyc_per_px)", path.display());
+    }
+    Ok(header.iter().zip(cols).skip(1).filter(|(h, _)| h.starts_with("mtf_")).map(|(h, c)| (h.to_string(), c)).collect())
+}
+
+pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
+    let curves = sfr_curves(&a)?;
+    let out = common::out_dir(&a.out)?;
+    // CSV on a common frequency axis (cycles per sensor pixel), one column per curve.
+    let f_axis: Vec<f64> = (0..=100).map(|i| i as f64 * 0.01).collect();
+    let mut csv = String::from("freq_cyc_per_px");
+    for (name, _) in &curves {
+        write!(csv, ",mtf_{name}")?;
+    }
+    csv.push('\n');
+    for f in &f_axis {
+        write!(csv, "{f:.3}")?;
+        for (_, c) in &curves {
+            let v = if *f <= *c.freq_cyc_per_sensor_px.last().unwrap_or(&0.0) { sfr::interp(&c.freq_cyc_per_sensor_px, &c.mtf, *f) } else { f64::NAN };
+            write!(csv, ",{v:.5}")?;
+        }
+        csv.push('\n');
+    }
+    write_text(&out.join("sfr.csv"), &csv)?;
+    let summary: Vec<serde_json::Value> = curves
+        .iter()
+        .map(|(name, c)| {
+            serde_json::json!({
+                "curve": name, "mtf50_cyc_per_px": c.mtf50_cyc_per_px, "mtf50_cyc_per_mm": c.mtf50_cyc_per_mm,
+                "mtf_at_nyquist": c.mtf_at_nyquist, "edge_angle_deg": c.edge_angle_deg, "rows_used": c.rows_used, "roi": c.roi,
+            })
+        })
+        .collect();
+    let json = serde_json::json!({ "image": a.image.display().to_string(), "curves": summary });
+    camsim_io::atomic::write_json_atomic(&out.join("sfr.json"), &json)?;
+    let mut series: Vec<Series> = curves
+        .iter()
+        .map(|(name, c)| Series::line(name.clone(), c.freq_cyc_per_sensor_px.iter().zip(&c.mtf).filter(|(f, _)| **f <= 1.0).map(|(f, m)| (*f, *m)).collect()))
+        .collect();
+    for path in &a.compare {
+        for (name, pts) in read_sfr_csv(path)? {
+            series.push(Series::dashed(format!("{} ({})", name.trim_start_matches("mtf_"), path.display()), pts));
+        }
+    }
+    LinePlot {
+        title: format!("ISO 12233 SFR: {}", a.image.display()),
+        x_label: "spatial frequency (cycles/pixel)".into(),
+        y_label: "SFR".into(),
+        series,
+        x_range: Some((0.0, 1.0)),
+        y_range: Some((0.0, 1.1)),
+    }
+    .write_png(&out.join("sfr.png"), 900, 600)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    for (name, c) in &curves {
+        say(format!(
+            "{name:>10}: MTF50 {:.4} cycles/pixel{}, MTF at Nyquist {:.3}, edge {:.2} deg",
+            c.mtf50_cyc_per_px,
+            c.mtf50_cyc_per_mm.map(|v| format!(" ({v:.1} cycles/mm)")).unwrap_or_default(),
+            c.mtf_at_nyquist,
+            c.edge_angle_deg
+        ));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+/// ColorChecker statistics: the 24 patch regions from the chart's four outer corners (the
+/// central --fraction of each patch, as ISETCam's chartRectangles), per-channel mean and standard
+/// deviation on the raw CFA data and on the demosaicked image, and a line profile through the
+/// gray series (the paper's Figure 5). Writes patches.csv, profile.csv, profile.png, chart.json.
+#[derive(clap::Args)]
+#[command(after_help = "Example (corners x,y in pixels: dark skin, bluish green, black, white):\n  camsim analyze chart raw.dng --corners 100,80,700,80,700,480,100,480 --out out/chart")]
+pub struct ChartArgs {
+    pub image: PathBuf,
+    /// Outer corners of the 4x6 patch grid: x,y of top-left (dark skin), top-right (bluish green),
+    /// bottom-right (black), bottom-left (white), in pixels.
+    #[arg(long, value_parser = parse_points)]
+    pub corners: Vec<f64>,
+    /// Central fraction of each patch used for the statistics.
+    #[arg(long, default_value_t = 0.5)]
+    pub fraction: f64,
+    #[command(flatten)]
+    pub raw: RawInput,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, default_value = "out/chart")]
+    pub out: PathBuf,
+}
+
+pub fn chart_cmd(a: ChartArgs) -> Result<()> {
+    let c = &a.corners;
+    if c.len() != 8 {
+        bail!("--corners needs 8 numbers (x,y of four corners), got {}", c.len());
+    }
+    let corners = ChartCorners { top_left: [c[0], c[1]], top_right: [c[2], c[3]], bottom_right: [c[4], c[5]], bottom_left: [c[6], c[7]] };
+    let raw = camsim_pipeline::load_raw(&a.image, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
+    let out = common::out_dir(&a.out)?;
+    let patches = chart::chart_patch_stats_raw(&raw, &corners, a.fraction)?;
+    let mut csv = String::from("patch,name,mean_r_dn,mean_g_dn,mean_b_dn,std_r_dn,std_g_dn,std_b_dn,n_r,n_g,n_b\n");
+    for p in &patches {
+        writeln!(
+            csv,
+            "{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{}",
+            p.index, p.name, p.mean[0], p.mean[1], p.mean[2], p.std[0], p.std[1], p.std[2], p.n[0], p.n[1], p.n[2]
+        )?;
+    }
+    write_text(&out.join("patches.csv"), &csv)?;
+    // Gray series: the line through the centres of the bottom row.
+    let rgb = camsim_isp::demosaic_bilinear(&raw);
+    let [r, g, b] = [0, 1, 2].map(|k| Plane::new(rgb.rows, rgb.cols, rgb.plane(k).to_vec()));
+    let planes = [r?, g?, b?];
+    let (p0, p1) = corners.row_line(3);
+    let n = ((p1[0] - p0[0]).hypot(p1[1] - p0[1]).ceil() as usize).max(2);
+    let prof = chart::line_profile(&planes, p0, p1, n)?;
+    let mut pcsv = String::from("distance_px,x,y,r_dn,g_dn,b_dn\n");
+    for p in &prof {
+        writeln!(pcsv, "{:.2},{:.2},{:.2},{:.3},{:.3},{:.3}", p.distance_px, p.position[0], p.position[1], p.rgb[0], p.rgb[1], p.rgb[2])?;
+    }
+    write_text(&out.join("profile.csv"), &pcsv)?;
+    let ch = |k: usize, name: &str, col: [u8; 3]| {
+        let mut s = Series::line(name.to_string(), prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect());
+        s.color = Some(col);
+        s
+    };
+    LinePlot {
+        title: "Digital values along the gray series".into(),
+        x_label: "distance along the line (pixels)".into(),
+        y_label: "digital value above black (DN)".into(),
+        series: vec![ch(0, "R", [220, 40, 40]), ch(1, "G", [30, 160, 60]), ch(2, "B", [40, 80, 220])],
+        x_range: None,
+        y_range: None,
+    }
+    .write_png(&out.join("profile.png"), 900, 500)?;
+    let json = serde_json::json!({ "image": a.image.display().to_string(), "corners": corners, "fraction": a.fraction, "patches": patches });
+    camsim_io::atomic::write_json_atomic(&out.join("chart.json"), &json)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    say(format!("24 patches -> {}", out.join("patches.csv").display()));
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+/// Mean and standard deviation per CFA channel in rectangles of two raw images side by side
+/// (simulated and measured), with scatter plots of the means and of the standard deviations (the
+/// paper's Figure 6) and the noise the sensor model predicts at each mean level.
+#[derive(clap::Args)]
+#[command(after_help = "Example:\n  camsim analyze roi sim.dng measured.dng --region 1500,2000,40,40 --region 800,900,40,40 --sensor pixel4a --out out/roi")]
+pub struct RoiArgs {
+    /// First image (simulated).
+    pub a: PathBuf,
+    /// Second image (measured); omit to analyze one image.
+    pub b: Option<PathBuf>,
+    /// Rectangle ROW,COL,ROWS,COLS (repeat; the same in both images, or give --region-b).
+    #[arg(long = "region", value_parser = parse_rect, required = true)]
+    pub regions: Vec<Rect>,
+    /// Rectangles in the second image, when they differ (same count as --region).
+    #[arg(long = "region-b", value_parser = parse_rect)]
+    pub regions_b: Vec<Rect>,
+    /// Sensor model for the predicted noise (preset or TOML).
+    #[arg(long)]
+    pub sensor: Option<String>,
+    #[command(flatten)]
+    pub raw: RawInput,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, default_value = "out/roi")]
+    pub out: PathBuf,
+}
+
+pub fn roi_cmd(a: RoiArgs) -> Result<()> {
+    let out = common::out_dir(&a.out)?;
+    let ra = camsim_pipeline::load_raw(&a.a, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
+    let rb = a.b.as_ref().map(|p| camsim_pipeline::load_raw(p, a.raw.cfa, a.raw.black_dn, a.raw.bits)).transpose()?;
+    if !a.regions_b.is_empty() && a.regions_b.len() != a.regions.len() {
+        bail!("--region-b: give as many as --region ({}), got {}", a.regions.len(), a.regions_b.len());
+    }
+    let pairs: Vec<(Rect, Rect)> =
+        a.regions.iter().enumerate().map(|(i, r)| (*r, a.regions_b.get(i).copied().unwrap_or(*r))).collect();
+    let sensor = a.sensor.as_deref().map(camsim_pipeline::load_sensor).transpose()?;
+    let predict = |mean_dn: f64, exposure_s: f64| sensor.as_ref().map(|s| s.predicted_noise_dn(mean_dn, exposure_s).total);
+    let stats_a = camsim_analysis::roi::roi_stats_raw(&ra, &a.regions)?;
+    let stats_b = match &rb {
+        Some(rb) => Some(camsim_analysis::roi::roi_stats_raw(rb, &pairs.iter().map(|p| p.1).collect::<Vec<_>>())?),
+        None => None,
+    };
+    let mut csv = String::from("region,channel,mean_a_dn,std_a_dn,predicted_std_a_dn,mean_b_dn,std_b_dn\n");
+    let (mut means, mut stds) = (Vec::new(), Vec::new());
+    for (i, sa) in stats_a.iter().enumerate() {
+        for c in 0..3 {
+            let pa = predict(sa.mean_dn[c], ra.exposure_s);
+            let (mb, sb) = stats_b.as_ref().map(|s| (s[i].mean_dn[c], s[i].std_dn[c])).unwrap_or((f64::NAN, f64::NAN));
+            writeln!(
+                csv,
+                "{i},{},{:.3},{:.3},{},{:.3},{:.3}",
+                CfaChannel::from_index(c).unwrap().letter(),
+                sa.mean_dn[c],
+                sa.std_dn[c],
+                pa.map(|v| format!("{v:.3}")).unwrap_or_default(),
+                mb,
+                sb
+            )?;
+            if stats_b.is_some() {
+                means.push((mb, sa.mean_dn[c]));
+                stds.push((sb, sa.std_dn[c]));
+            }
+        }
+    }
+    write_text(&out.join("roi.csv"), &csv)?;
+    if stats_b.is_some() {
+        let label_b = a.b.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+        for (file, title, pts) in [("means.png", "Mean digital values", &means), ("stds.png", "Standard deviations", &stds)] {
+            ScatterPlot {
+                title: title.into(),
+                x_label: format!("{label_b} (DN)"),
+                y_label: format!("{} (DN)", a.a.display()),
+                series: vec![Series::line("regions x channels".into(), pts.clone())],
+                identity_line: true,
+            }
+            .write_png(&out.join(file), 700, 700)?;
+        }
+    }
+    let json = serde_json::json!({ "a": stats_a, "b": stats_b });
+    camsim_io::atomic::write_json_atomic(&out.join("roi.json"), &json)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    say(format!("{} region(s) -> {}", a.regions.len(), out.join("roi.csv").display()));
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+/// EMVA 1288 (release 4.0) photon-transfer characterization of a series of flat-field and dark
+/// frame pairs at increasing exposure: system gain K (DN/e-), temporal dark noise, DSNU, PRNU,
+/// saturation capacity, dark current, QE (when the photon count is known), SNR curve and dynamic
+/// range, with the photon-transfer and SNR plots. The series is a CSV
+/// `exposure_s,photons_per_pixel,bright_a,bright_b,dark_a,dark_b` of DNG file names (relative to
+/// the CSV), as `camsim sensor --emva-series` writes it; for a real camera, write it yourself.
+#[derive(clap::Args)]
+#[command(after_help = "Example:\n  camsim sensor --emva-series --sensor imx363 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva/report")]
+pub struct EmvaArgs {
+    pub series: PathBuf,
+    #[command(flatten)]
+    pub raw: RawInput,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, default_value = "out/emva")]
+    pub out: PathBuf,
+}
+
+pub fn emva_cmd(a: EmvaArgs) -> Result<()> {
+    crate::cmd::emva::run(a)
+}
+
+pub fn run(c: Command) -> Result<()> {
+    match c {
+        Command::Sfr(a) => sfr_cmd(a),
+        Command::Chart(a) => chart_cmd(a),
+        Command::Roi(a) => roi_cmd(a),
+        Command::Emva(a) => emva_cmd(a),
+    }
+}

@@ -1,0 +1,160 @@
+//! `camsim fit`: fit model parameters to measurements.
+
+use crate::common::{self, say};
+use anyhow::{bail, Context, Result};
+use camsim_analysis::qefit::{self, MatrixForm};
+use camsim_core::{tables, WavelengthGrid};
+use camsim_io::plot::{ScatterPlot, Series};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+#[derive(clap::Subcommand)]
+pub enum Command {
+    Qe(QeArgs),
+}
+
+/// Fit the 3x3 matrix M that corrects a sensor's published QE, [r', g', b'] = [r, g, b] M (the
+/// paper's eq. 1), to measured mean RGB values of ColorChecker patches under several lights.
+///
+/// The prediction is physical: the radiance of each patch (light x N. Ohta 1997 reflectance, or
+/// --reflectances) is scaled to --luminance-cd-m2, turned into irradiance through a lens of
+/// --f-number (E = pi L / (1 + 4 N^2)), integrated with the sensor's QE over the pixel area for
+/// --exposure-ms, and converted to DN with the sensor's conversion gain. The fit is least
+/// squares: unconstrained, diagonal-only, or the paper's lower-triangular non-negative form.
+/// Writes fit.json, residuals.csv, scatter_before.png, scatter_after.png and the corrected
+/// sensor as a TOML preset.
+#[derive(clap::Args)]
+#[command(after_help = "The measured CSV has a header `light,patch,r,g,b` (patch 1-24, mean DN above black), e.g.\n  D65,1,123.4,210.2,98.7\nExample:\n  camsim fit qe --measured means.csv --lights A,F2,D65 --sensor imx363 --out out/qe")]
+pub struct QeArgs {
+    /// Measured means: CSV `light,patch,r,g,b`.
+    #[arg(long)]
+    pub measured: PathBuf,
+    /// The lights, by built-in name or spectrum file, in the names the CSV uses (comma separated).
+    #[arg(long, value_delimiter = ',', default_values_t = ["A".to_string(), "F2".to_string(), "D65".to_string()])]
+    pub lights: Vec<String>,
+    /// The sensor whose QE is corrected (preset or TOML).
+    #[arg(long, default_value = "imx363")]
+    pub sensor: String,
+    /// Matrix form: paper (lower-triangular, non-negative), unconstrained, diagonal.
+    #[arg(long, default_value = "paper")]
+    pub form: String,
+    /// Mean luminance of each light on the white patch, cd/m^2 (the measurement's).
+    #[arg(long, default_value_t = 100.0)]
+    pub luminance_cd_m2: f64,
+    /// Lens f-number of the measurement.
+    #[arg(long, default_value_t = 1.73)]
+    pub f_number: f64,
+    /// Exposure time of the measurement, ms.
+    #[arg(long, default_value_t = 10.0)]
+    pub exposure_ms: f64,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, default_value = "out/fit-qe")]
+    pub out: PathBuf,
+}
+
+fn parse_form(s: &str) -> Result<MatrixForm> {
+    Ok(match s {
+        "paper" | "lower" => MatrixForm::PaperLowerNonNegative,
+        "unconstrained" | "full" => MatrixForm::Unconstrained,
+        "diagonal" => MatrixForm::Diagonal,
+        _ => bail!("--form '{s}': use paper, unconstrained or diagonal"),
+    })
+}
+
+pub fn qe_cmd(a: QeArgs) -> Result<()> {
+    let form = parse_form(&a.form)?;
+    let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
+    let grid = WavelengthGrid::default();
+    let refl = tables::macbeth_reflectances();
+    // Measured rows.
+    let text = common::read_text(&a.measured)?;
+    let mut measured = Vec::new();
+    let mut radiances = Vec::new();
+    let cmfs = camsim_core::colorimetry::Cmfs::on(&grid);
+    let mut lights = std::collections::HashMap::new();
+    for name in &a.lights {
+        let s = camsim_scene::load_illuminant(name, "--lights")?;
+        // Scale so the white patch (19) reaches the luminance.
+        let white: Vec<f64> = refl[18].product_on(&s, &grid);
+        let k = a.luminance_cd_m2 / cmfs.luminance_cd_m2(&white);
+        lights.insert(name.clone(), s.scaled(k));
+    }
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let at = || format!("{}, line {}", a.measured.display(), i + 1);
+        if f.len() != 5 {
+            bail!("{}: expected light,patch,r,g,b", at());
+        }
+        let light = lights.get(f[0]).with_context(|| format!("{}: light '{}' is not in --lights", at(), f[0]))?;
+        let patch: usize = f[1].parse().ok().filter(|p| (1..=24).contains(p)).with_context(|| format!("{}: patch must be 1..24", at()))?;
+        let rgb: Vec<f64> = f[2..].iter().map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>().with_context(at)?;
+        measured.push([rgb[0], rgb[1], rgb[2]]);
+        radiances.push(refl[patch - 1].product_on(light, &grid));
+    }
+    if measured.len() < 3 {
+        bail!("{}: need at least 3 measurements, found {}", a.measured.display(), measured.len());
+    }
+    // Etendue x time: pi / (1 + 4 N^2) x photodetector area x exposure (ISETCam oiCalculateIrradiance).
+    let scale = std::f64::consts::PI / (1.0 + 4.0 * a.f_number * a.f_number) * sensor.photodetector_area_m2() * a.exposure_ms * 1e-3;
+    let k = sensor.k_dn_per_e();
+    let predicted: Vec<[f64; 3]> =
+        qefit::predict_rgb(&sensor.channel_qe(&grid), &grid, &radiances, scale)?.into_iter().map(|e| e.map(|v| v * k)).collect();
+    let fit = qefit::fit_qe_matrix(&measured, &predicted, form)?;
+    let out = common::out_dir(&a.out)?;
+    let after = qefit::apply_matrix(&predicted, &fit.m);
+    let mut csv = String::from("row,meas_r,meas_g,meas_b,pred_r,pred_g,pred_b,fit_r,fit_g,fit_b\n");
+    for (i, ((m, p), q)) in measured.iter().zip(&predicted).zip(&after).enumerate() {
+        writeln!(csv, "{i},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3}", m[0], m[1], m[2], p[0], p[1], p[2], q[0], q[1], q[2])?;
+    }
+    camsim_io::atomic::write_bytes_atomic(&out.join("residuals.csv"), csv.as_bytes())?;
+    for (file, title, pts) in [("scatter_before.png", "Published QE", &predicted), ("scatter_after.png", "Corrected QE (fitted M)", &after)] {
+        let series = (0..3)
+            .map(|c| {
+                let mut s = Series::line(["R", "G", "B"][c].into(), measured.iter().zip(pts.iter()).map(|(m, p)| (m[c], p[c])).collect());
+                s.color = Some([[220, 40, 40], [30, 160, 60], [40, 80, 220]][c]);
+                s
+            })
+            .collect();
+        ScatterPlot { title: title.into(), x_label: "measured (DN)".into(), y_label: "predicted (DN)".into(), series, identity_line: true }
+            .write_png(&out.join(file), 700, 700)?;
+    }
+    // The corrected sensor: compose with any correction it already has.
+    let mut cfg = sensor.config().clone();
+    let m = match cfg.qe_correction {
+        Some(old) => mat_mul(&old, &fit.m),
+        None => fit.m,
+    };
+    cfg.qe_correction = Some(m);
+    cfg.name = format!("{} (QE corrected)", cfg.name);
+    camsim_io::atomic::write_bytes_atomic(&out.join("sensor_corrected.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
+    camsim_io::atomic::write_json_atomic(&out.join("fit.json"), &fit)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&fit)?);
+    }
+    say(format!(
+        "M = [{:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}], RMS {:.2} -> {:.2} DN; corrected sensor: {}",
+        fit.m[0][0], fit.m[0][1], fit.m[0][2], fit.m[1][0], fit.m[1][1], fit.m[1][2], fit.m[2][0], fit.m[2][1], fit.m[2][2],
+        fit.rms_before, fit.rms_after, out.join("sensor_corrected.toml").display()
+    ));
+    Ok(())
+}
+
+fn mat_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut m = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            m[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    m
+}
+
+pub fn run(c: Command) -> Result<()> {
+    match c {
+        Command::Qe(a) => qe_cmd(a),
+    }
+}

@@ -1,0 +1,14 @@
+//! One module per subcommand.
+pub mod analyze;
+pub mod fit;
+pub mod emva;
+pub mod fit_shading;
+pub mod isp;
+pub mod optics;
+pub mod presets;
+pub mod psf;
+pub mod render;
+pub mod scene;
+pub mod sensor;
+pub mod simulate;
+pub mod validate;

@@ -1,0 +1,529 @@
+//! Spectral OpenEXR in the layout of Fichet, Pacanowski & Wilkie 2021, "An OpenEXR Layout for
+//! Spectral Images" (JCGT 10(3)), as pbrt-v4's `SpectralFilm` writes it: one channel per
+//! wavelength named `S0.<wavelength>nm` with a comma as decimal point (`S0.550,000000nm`; the
+//! comma because OpenEXR uses '.' to separate layers), header attributes
+//! `spectralLayoutVersion` = "1.0" and `emissiveUnits`.
+//!
+//! `emissiveUnits` follows pbrt-v4 (film.cpp, `SpectralFilm::GetImage`) and the paper: the
+//! per-nanometre is implied by the wavelength axis, so radiance is "W.m^-2.sr^-1" and irradiance
+//! "W.m^-2". camsim adds its own attributes (all optional on reading):
+//!
+//! | attribute | type | meaning |
+//! |---|---|---|
+//! | `camsimQuantity` | string | `radiance`, `irradiance` or `relative` |
+//! | `camsimUnits` | string | the unit of the values written out, e.g. `W.sr^-1.m^-2.nm^-1` |
+//! | `camsimStage` | string | the pipeline stage that wrote the file (`scene`, `optics`, `render`) |
+//! | `camsimSampleSpacingM` | double | distance between neighbouring samples in the image's plane, m |
+//! | `camsimFovDeg` | double | horizontal field of view, degrees |
+//! | `camsimDistanceM` | double | scene distance, m |
+//! | `camsimFocalLengthM` | double | focal length of the optics that formed the image, m |
+//! | `camsimFNumber` | double | f-number of those optics |
+//! | `camsimStartNm`, `camsimStepNm` | double | the exact wavelength grid (channel names carry 6 decimals) |
+//!
+//! An optional depth map travels as channel `Z` (m, OpenEXR's conventional depth channel name).
+
+use crate::error::{IoError, Result};
+use camsim_core::image::ImageGeometry;
+use camsim_core::{mem, Quantity, SpectralImage, WavelengthGrid};
+use exr::prelude::*;
+use std::path::Path;
+
+/// `spectralLayoutVersion` written and understood.
+pub const SPECTRAL_LAYOUT_VERSION: &str = "1.0";
+/// Sample spacing assumed when a file does not carry `camsimSampleSpacingM` (pbrt-v4 files):
+/// 1 um. [`SpectralExrInfo::sample_spacing_known`] is false then, so callers can substitute the
+/// real value (from the camera's film size).
+pub const DEFAULT_SAMPLE_SPACING_M: f64 = 1e-6;
+
+/// What a spectral EXR's header said, beyond the image itself.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SpectralExrInfo {
+    /// `camsimStage`, if present.
+    pub stage: Option<String>,
+    /// `emissiveUnits`, if present.
+    pub emissive_units: Option<String>,
+    /// `spectralLayoutVersion`, if present.
+    pub spectral_layout_version: Option<String>,
+    /// True when the file carried `camsimSampleSpacingM`; otherwise the image holds
+    /// [`DEFAULT_SAMPLE_SPACING_M`].
+    pub sample_spacing_known: bool,
+    /// True when the file carried `camsimQuantity`; otherwise the quantity was inferred from
+    /// `emissiveUnits` (radiance when in doubt).
+    pub quantity_known: bool,
+    /// Names of channels that were not spectral and were ignored (e.g. pbrt-v4's R, G, B).
+    pub ignored_channels: Vec<String>,
+}
+
+/// The channel name of wavelength `wavelength_nm`: `S0.550,000000nm`.
+pub fn spectral_channel_name(wavelength_nm: f64) -> String {
+    format!("S0.{:.6}nm", wavelength_nm).replace('.', ",").replacen("S0,", "S0.", 1)
+}
+
+/// The wavelength in nm of an emissive spectral channel (`S0.<value><unit>`, unit nm, um or pm;
+/// decimal comma or point), or `None` when the channel is not an emissive (S0) channel.
+/// `Some(Err(..))` when it is one but its wavelength cannot be read.
+pub fn parse_spectral_channel(name: &str) -> Option<std::result::Result<f64, String>> {
+    let rest = if let Some(r) = name.strip_prefix("S0.") {
+        r
+    } else {
+        // A layer prefix ("spectral.S0.550,0nm").
+        let i = name.find(".S0.")?;
+        &name[i + 4..]
+    };
+    let (number, scale) = if let Some(n) = rest.strip_suffix("nm") {
+        (n, 1.0)
+    } else if let Some(n) = rest.strip_suffix("um") {
+        (n, 1e3)
+    } else if let Some(n) = rest.strip_suffix("pm") {
+        (n, 1e-3)
+    } else {
+        return Some(Err(format!("channel '{name}': wavelength unit is not nm, um or pm")));
+    };
+    match number.replace(',', ".").parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Some(Ok(v * scale)),
+        _ => Some(Err(format!("channel '{name}': '{number}' is not a positive wavelength"))),
+    }
+}
+
+/// `emissiveUnits` for a quantity (pbrt-v4 / Fichet et al. convention, per nm implied).
+fn emissive_units(q: Quantity) -> Option<&'static str> {
+    match q {
+        Quantity::Radiance => Some("W.m^-2.sr^-1"),
+        Quantity::Irradiance => Some("W.m^-2"),
+        Quantity::Relative => None,
+    }
+}
+
+fn text(path: &Path, s: &str) -> Result<Text> {
+    Text::new_or_none(s).ok_or_else(|| IoError::invalid(path, format!("'{s}' cannot be stored as an EXR text attribute")))
+}
+
+fn exr_err(path: &Path, e: exr::error::Error) -> IoError {
+    match e {
+        exr::error::Error::Io(io) => IoError::io(path, io),
+        other => IoError::format(path, format!("not a readable OpenEXR file: {other}")),
+    }
+}
+
+fn write_layer(path: &Path, rows: usize, cols: usize, channels: Vec<AnyChannel<FlatSamples>>, attrs: LayerAttributes) -> Result<()> {
+    let encoding = Encoding::SMALL_LOSSLESS; // ZIP16, lossless: every f32 comes back bit-exact
+    let layer = Layer::new((cols, rows), attrs, encoding, AnyChannels::sort(channels.into_iter().collect()));
+    let image = Image::from_layer(layer);
+    crate::atomic::with_temp_path(path, |tmp| image.write().to_file(tmp).map_err(|e| exr_err(path, e)))
+}
+
+/// Write a spectral image as a spectral OpenEXR (see the module doc for the layout), with the
+/// pipeline stage that produced it. Writes the depth map as channel `Z` when present.
+/// The file is written atomically.
+pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Result<()> {
+    let n = img.pixels();
+    if n == 0 || img.bands() == 0 || img.data.len() != n * img.bands() {
+        return Err(IoError::invalid(
+            path,
+            format!("spectral image has {} values for {} x {} x {} bands", img.data.len(), img.rows, img.cols, img.bands()),
+        ));
+    }
+    // The exr crate wants owned channel planes: one more copy of the image.
+    mem::check_alloc(img.data.len() as u64 * 4, "the EXR channel copy").map_err(|e| IoError::core(path, e))?;
+    let mut channels = Vec::with_capacity(img.bands() + 1);
+    for b in 0..img.bands() {
+        let name = spectral_channel_name(img.grid.wavelength_nm(b));
+        channels.push(AnyChannel::new(text(path, &name)?, FlatSamples::F32(img.band(b).to_vec())));
+    }
+    if let Some(d) = &img.depth_m {
+        if d.len() != n {
+            return Err(IoError::invalid(path, format!("depth map has {} values for {} pixels", d.len(), n)));
+        }
+        channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
+    }
+    let mut attrs = LayerAttributes::default();
+    let o = &mut attrs.other;
+    o.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from(SPECTRAL_LAYOUT_VERSION)));
+    if let Some(u) = emissive_units(img.quantity) {
+        o.insert(Text::from("emissiveUnits"), AttributeValue::Text(Text::from(u)));
+    }
+    o.insert(Text::from("camsimQuantity"), AttributeValue::Text(Text::from(img.quantity.name())));
+    o.insert(Text::from("camsimUnits"), AttributeValue::Text(Text::from(img.quantity.unit())));
+    o.insert(Text::from("camsimStage"), AttributeValue::Text(text(path, stage)?));
+    let g = &img.geometry;
+    for (k, v) in [
+        ("camsimSampleSpacingM", img.sample_spacing_m),
+        ("camsimFovDeg", g.fov_deg),
+        ("camsimDistanceM", g.distance_m),
+        ("camsimFocalLengthM", g.focal_length_m),
+        ("camsimFNumber", g.f_number),
+        ("camsimStartNm", img.grid.start_nm),
+        ("camsimStepNm", img.grid.step_nm),
+    ] {
+        o.insert(Text::from(k), AttributeValue::F64(v));
+    }
+    write_layer(path, img.rows, img.cols, channels, attrs)
+}
+
+fn attr_f64(a: &LayerAttributes, key: &str) -> Option<f64> {
+    match a.other.get(&Text::from(key))? {
+        AttributeValue::F64(v) => Some(*v),
+        AttributeValue::F32(v) => Some(*v as f64),
+        AttributeValue::I32(v) => Some(*v as f64),
+        _ => None,
+    }
+}
+
+fn attr_text(a: &LayerAttributes, key: &str) -> Option<String> {
+    match a.other.get(&Text::from(key))? {
+        AttributeValue::Text(t) => Some(t.to_string()),
+        _ => None,
+    }
+}
+
+type AnyImage = Image<Layers<AnyChannels<FlatSamples>>>;
+
+/// Read every layer and channel of an EXR, refusing files whose pixels would not fit in memory
+/// (checked from the header before the pixels are read) and turning any failure into an error.
+fn read_any(path: &Path) -> Result<AnyImage> {
+    let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false).map_err(|e| exr_err(path, e))?;
+    let mut bytes: u64 = 0;
+    for h in meta.headers.iter() {
+        if h.deep {
+            return Err(IoError::format(path, "deep OpenEXR data is not supported"));
+        }
+        let area = (h.layer_size.width() as u64).saturating_mul(h.layer_size.height() as u64);
+        bytes = bytes.saturating_add(area.saturating_mul(h.channels.list.len() as u64).saturating_mul(8));
+    }
+    mem::check_alloc(bytes, &format!("the pixels of {}", path.display())).map_err(|e| IoError::core(path, e))?;
+    let p = path.to_path_buf();
+    let result = std::panic::catch_unwind(move || {
+        read().no_deep_data().largest_resolution_level().all_channels().all_layers().all_attributes().from_file(&p)
+    });
+    match result {
+        Ok(r) => r.map_err(|e| exr_err(path, e)),
+        Err(_) => Err(IoError::format(path, "malformed OpenEXR file (the decoder gave up)")),
+    }
+}
+
+fn samples_into_f32(s: FlatSamples) -> Vec<f32> {
+    match s {
+        FlatSamples::F32(v) => v,
+        FlatSamples::F16(v) => v.into_iter().map(|x| x.to_f32()).collect(),
+        FlatSamples::U32(v) => v.into_iter().map(|x| x as f32).collect(),
+    }
+}
+
+/// Read a spectral OpenEXR written by camsim or pbrt-v4 (or any writer of the Fichet et al.
+/// layout). See [`read_spectral_exr_with_info`].
+pub fn read_spectral_exr(path: &Path) -> Result<SpectralImage> {
+    read_spectral_exr_with_info(path).map(|(img, _)| img)
+}
+
+/// Read a spectral OpenEXR and report what its header said. Uses the first layer with emissive
+/// `S0.*` channels (reflective `T.*` channels are read as a relative image when there are no
+/// emissive ones); other channels are ignored, except `Z` (depth, m). The wavelengths must form
+/// a uniform grid; f16 and u32 channels are converted to f32; NaN, infinite or negative values
+/// are refused with the pixel and wavelength named. Missing camsim attributes get defaults:
+/// quantity from `emissiveUnits` (radiance when unknown), sample spacing
+/// [`DEFAULT_SAMPLE_SPACING_M`], geometry zero.
+pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, SpectralExrInfo)> {
+    let image = read_any(path)?;
+    let mut info = SpectralExrInfo::default();
+    let mut layers: Vec<_> = image.layer_data.into_iter().collect();
+    let has = |l: &Layer<AnyChannels<FlatSamples>>, prefix: &str| {
+        l.channel_data.list.iter().any(|c| {
+            let n = c.name.to_string();
+            n.starts_with(prefix) || n.contains(&format!(".{prefix}"))
+        })
+    };
+    let (index, reflective) = match layers.iter().position(|l| has(l, "S0.")) {
+        Some(i) => (i, false),
+        None => match layers.iter().position(|l| has(l, "T.")) {
+            Some(i) => (i, true),
+            None => {
+                return Err(IoError::format(
+                    path,
+                    "no spectral channels: expected channels named like 'S0.550,000000nm' (Fichet et al. 2021 / pbrt-v4 layout)",
+                ))
+            }
+        },
+    };
+    let layer = layers.swap_remove(index);
+    let rows = layer.size.height();
+    let cols = layer.size.width();
+    let n = rows * cols;
+    let attrs = layer.attributes;
+    let mut planes: Vec<(f64, String, Vec<f32>)> = Vec::new();
+    let mut depth: Option<Vec<f32>> = None;
+    for ch in layer.channel_data.list.into_iter() {
+        let name = ch.name.to_string();
+        let parsed = if reflective {
+            let t = name.strip_prefix("T.").map(|r| format!("S0.{r}")).or_else(|| name.find(".T.").map(|i| format!("S0.{}", &name[i + 3..])));
+            t.and_then(|s| parse_spectral_channel(&s))
+        } else {
+            parse_spectral_channel(&name)
+        };
+        match parsed {
+            Some(Ok(w)) => {
+                let v = samples_into_f32(ch.sample_data);
+                if v.len() != n {
+                    return Err(IoError::format(path, format!("channel '{name}' has {} samples for {rows} x {cols} pixels", v.len())));
+                }
+                planes.push((w, name, v));
+            }
+            Some(Err(m)) => return Err(IoError::format(path, m)),
+            None if name == "Z" => {
+                let v = samples_into_f32(ch.sample_data);
+                if v.len() == n {
+                    depth = Some(v);
+                }
+            }
+            None => info.ignored_channels.push(name),
+        }
+    }
+    planes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for w in planes.windows(2) {
+        if (w[1].0 - w[0].0).abs() < 1e-9 {
+            return Err(IoError::format(path, format!("channels '{}' and '{}' have the same wavelength", w[0].1, w[1].1)));
+        }
+    }
+    let wavelengths: Vec<f64> = planes.iter().map(|p| p.0).collect();
+    let mut grid = WavelengthGrid::from_wavelengths(&wavelengths).map_err(|e| IoError::core(path, e))?;
+    // camsim writes the exact grid too (channel names round to 1e-6 nm).
+    if let (Some(s), Some(st)) = (attr_f64(&attrs, "camsimStartNm"), attr_f64(&attrs, "camsimStepNm")) {
+        let exact = WavelengthGrid { start_nm: s, step_nm: st, count: grid.count };
+        if (exact.start_nm - grid.start_nm).abs() < 1e-5 && (exact.step_nm - grid.step_nm).abs() < 1e-5 {
+            grid = exact;
+        }
+    }
+    mem::check_alloc((n * planes.len()) as u64 * 4, "the spectral image").map_err(|e| IoError::core(path, e))?;
+    let mut data = Vec::with_capacity(n * planes.len());
+    for (_, _, v) in planes.into_iter() {
+        data.extend_from_slice(&v); // each plane is dropped after its copy: peak stays near 1x
+    }
+
+    info.stage = attr_text(&attrs, "camsimStage");
+    info.emissive_units = attr_text(&attrs, "emissiveUnits");
+    info.spectral_layout_version = attr_text(&attrs, "spectralLayoutVersion");
+    let quantity = match attr_text(&attrs, "camsimQuantity") {
+        Some(q) => {
+            info.quantity_known = true;
+            Quantity::from_name(&q)
+                .ok_or_else(|| IoError::format(path, format!("camsimQuantity '{q}' is not radiance, irradiance or relative")))?
+        }
+        None if reflective => Quantity::Relative,
+        None => match info.emissive_units.as_deref() {
+            Some(u) if !u.contains("sr") && u.starts_with("W.m^-2") => Quantity::Irradiance,
+            _ => Quantity::Radiance,
+        },
+    };
+    let spacing = match attr_f64(&attrs, "camsimSampleSpacingM") {
+        Some(s) if s > 0.0 && s.is_finite() => {
+            info.sample_spacing_known = true;
+            s
+        }
+        Some(s) => return Err(IoError::format(path, format!("camsimSampleSpacingM {s} is not a positive number"))),
+        None => DEFAULT_SAMPLE_SPACING_M,
+    };
+    let mut img = SpectralImage::from_data(rows, cols, grid, spacing, quantity, data).map_err(|e| IoError::core(path, e))?;
+    img.geometry = ImageGeometry {
+        fov_deg: attr_f64(&attrs, "camsimFovDeg").unwrap_or(0.0),
+        distance_m: attr_f64(&attrs, "camsimDistanceM").unwrap_or(0.0),
+        focal_length_m: attr_f64(&attrs, "camsimFocalLengthM").unwrap_or(0.0),
+        f_number: attr_f64(&attrs, "camsimFNumber").unwrap_or(0.0),
+    };
+    img.depth_m = depth;
+    img.validate_values("spectral EXR").map_err(|e| IoError::core(path, e))?;
+    Ok((img, info))
+}
+
+/// Write one f32 plane (`rows * cols`, row-major) as a single-channel EXR named `channel`
+/// (e.g. "Y", "Z", "R"), atomically.
+pub fn write_gray_exr(path: &Path, rows: usize, cols: usize, channel: &str, data: &[f32]) -> Result<()> {
+    if rows == 0 || cols == 0 || data.len() != rows * cols {
+        return Err(IoError::invalid(path, format!("{} values for {rows} x {cols} pixels", data.len())));
+    }
+    let ch = AnyChannel::new(text(path, channel)?, FlatSamples::F32(data.to_vec()));
+    write_layer(path, rows, cols, vec![ch], LayerAttributes::default())
+}
+
+/// Read one channel of an EXR as f32, returning `(rows, cols, data)`. With `channel = None` the
+/// file must have exactly one channel.
+pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize, Vec<f32>)> {
+    let image = read_any(path)?;
+    let mut found = Vec::new();
+    for layer in image.layer_data.into_iter() {
+        let (rows, cols) = (layer.size.height(), layer.size.width());
+        for ch in layer.channel_data.list.into_iter() {
+            let name = ch.name.to_string();
+            if channel.map_or(true, |c| c == name) {
+                found.push((name, rows, cols, ch.sample_data));
+            }
+        }
+    }
+    match (found.len(), channel) {
+        (1, _) => {
+            let (_, rows, cols, s) = found.pop().unwrap();
+            Ok((rows, cols, samples_into_f32(s)))
+        }
+        (0, Some(c)) => Err(IoError::format(path, format!("no channel named '{c}'"))),
+        (0, None) => Err(IoError::format(path, "the file has no channels")),
+        (_, Some(c)) => Err(IoError::format(path, format!("more than one channel named '{c}' (in several layers)"))),
+        (_, None) => Err(IoError::format(
+            path,
+            format!(
+                "has {} channels ({}); name the one to read",
+                found.len(),
+                found.iter().map(|f| f.0.as_str()).collect::<Vec<_>>().join(", ")
+            ),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample_image(rows: usize, cols: usize, grid: WavelengthGrid) -> SpectralImage {
+        let mut img = SpectralImage::zeros(rows, cols, grid, 1.4e-6, Quantity::Irradiance).unwrap();
+        // Values spanning many binades, including subnormal-free tiny and large ones, so a
+        // lossy or f16 path would show.
+        let mut s = 12345u64;
+        for v in img.data.iter_mut() {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let m = (s >> 40) as f32 / (1u64 << 24) as f32;
+            let e = ((s >> 20) % 40) as i32 - 20;
+            *v = m * 2f32.powi(e);
+        }
+        img.geometry = ImageGeometry { fov_deg: 20.0, distance_m: 1.5, focal_length_m: 4.38e-3, f_number: 1.73 };
+        img.depth_m = Some((0..rows * cols).map(|i| 1.0 + i as f32 * 0.25).collect());
+        img
+    }
+
+    #[test]
+    fn channel_names_use_a_decimal_comma() {
+        assert_eq!(spectral_channel_name(550.0), "S0.550,000000nm");
+        assert_eq!(spectral_channel_name(412.5), "S0.412,500000nm");
+        assert_eq!(parse_spectral_channel("S0.550,000000nm"), Some(Ok(550.0)));
+        assert_eq!(parse_spectral_channel("S0.418,750nm"), Some(Ok(418.75))); // pbrt-v4's %.3f
+        assert_eq!(parse_spectral_channel("S0.0,55um"), Some(Ok(550.0)));
+        assert_eq!(parse_spectral_channel("R"), None);
+        assert_eq!(parse_spectral_channel("S1.550,0nm"), None); // polarised: not S0
+        assert!(matches!(parse_spectral_channel("S0.abcnm"), Some(Err(_))));
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact_with_metadata_and_depth() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("irr.exr");
+        let img = sample_image(7, 5, WavelengthGrid::new(400.0, 700.0, 10.0).unwrap());
+        write_spectral_exr(&path, &img, "optics").unwrap();
+        let (back, info) = read_spectral_exr_with_info(&path).unwrap();
+        assert_eq!((back.rows, back.cols), (7, 5));
+        assert!(back.grid.same_as(&img.grid));
+        assert_eq!(back.grid, img.grid);
+        assert_eq!(back.quantity, Quantity::Irradiance);
+        assert_eq!(back.sample_spacing_m, 1.4e-6);
+        assert_eq!(back.geometry, img.geometry);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.data), bits(&img.data));
+        assert_eq!(bits(back.depth_m.as_ref().unwrap()), bits(img.depth_m.as_ref().unwrap()));
+        assert_eq!(info.stage.as_deref(), Some("optics"));
+        assert_eq!(info.emissive_units.as_deref(), Some("W.m^-2"));
+        assert_eq!(info.spectral_layout_version.as_deref(), Some("1.0"));
+        assert!(info.sample_spacing_known && info.quantity_known);
+        // Sorted by wavelength even where the names would sort differently (1000 < 950 as text).
+        let g = WavelengthGrid::new(900.0, 1050.0, 50.0).unwrap();
+        let mut img2 = sample_image(2, 3, g);
+        img2.quantity = Quantity::Radiance;
+        img2.depth_m = None;
+        write_spectral_exr(&path, &img2, "scene").unwrap();
+        let back2 = read_spectral_exr(&path).unwrap();
+        assert_eq!(bits(&back2.data), bits(&img2.data));
+        assert_eq!(back2.depth_m, None);
+    }
+
+    /// A file as pbrt-v4's SpectralFilm writes it: R, G, B plus `S0.%.3fnm` bucket centres,
+    /// half floats, `emissiveUnits` "W.m^-2.sr^-1", no camsim attributes.
+    fn write_pbrt_like(path: &Path, names: &[&str], value: impl Fn(usize, usize) -> f32) {
+        let (rows, cols) = (3, 4);
+        let mut chans = Vec::new();
+        for (k, n) in ["R", "G", "B"].iter().chain(names.iter()).enumerate() {
+            let v: Vec<f16> = (0..rows * cols).map(|i| f16::from_f32(value(k, i))).collect();
+            chans.push(AnyChannel::new(*n, FlatSamples::F16(v)));
+        }
+        let mut attrs = LayerAttributes::default();
+        attrs.other.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from("1.0")));
+        attrs.other.insert(Text::from("emissiveUnits"), AttributeValue::Text(Text::from("W.m^-2.sr^-1")));
+        let layer = Layer::new((cols, rows), attrs, Encoding::FAST_LOSSLESS, AnyChannels::sort(chans.into_iter().collect()));
+        Image::from_layer(layer).write().to_file(path).unwrap();
+    }
+
+    #[test]
+    fn reads_pbrt_v4_spectral_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pbrt.exr");
+        // pbrt-v4 default: 16 buckets over 360-830 nm; here 4 buckets of 100 nm: centres 410..710.
+        let names = ["S0.410,000nm", "S0.510,000nm", "S0.610,000nm", "S0.710,000nm"];
+        write_pbrt_like(&path, &names, |k, i| 0.5 * k as f32 + 0.125 * i as f32);
+        let (img, info) = read_spectral_exr_with_info(&path).unwrap();
+        assert_eq!(img.bands(), 4);
+        assert!(img.grid.same_as(&WavelengthGrid::new(410.0, 710.0, 100.0).unwrap()));
+        assert_eq!(img.quantity, Quantity::Radiance);
+        assert!(!info.sample_spacing_known && !info.quantity_known);
+        assert_eq!(img.sample_spacing_m, DEFAULT_SAMPLE_SPACING_M);
+        assert_eq!(info.ignored_channels.len(), 3);
+        // Band b is channel k = b + 3; values are exact in f16 (multiples of 1/8 below 16).
+        for b in 0..4 {
+            for i in 0..12 {
+                assert_eq!(img.band(b)[i], 0.5 * (b + 3) as f32 + 0.125 * i as f32);
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_missing_channels_bad_values_and_truncation() {
+        let dir = tempfile::tempdir().unwrap();
+        // A missing band makes the grid non-uniform.
+        let p = dir.path().join("gap.exr");
+        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm", "S0.430,000nm"], |_, _| 1.0);
+        let e = read_spectral_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("gap.exr") && e.contains("uniformly"), "{e}");
+        // No spectral channels at all.
+        let p = dir.path().join("rgb.exr");
+        write_pbrt_like(&p, &[], |_, _| 1.0);
+        let e = read_spectral_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("rgb.exr") && e.contains("no spectral channels"), "{e}");
+        // Negative and NaN values are named.
+        let p = dir.path().join("neg.exr");
+        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, i| if k == 4 && i == 5 { -1.0 } else { 1.0 });
+        let e = read_spectral_exr(&p).unwrap_err().to_string();
+        assert!(e.contains("neg.exr") && e.contains("410 nm") && e.contains("-1"), "{e}");
+        let p = dir.path().join("nan.exr");
+        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, _| if k == 3 { f32::NAN } else { 1.0 });
+        assert!(read_spectral_exr(&p).unwrap_err().to_string().contains("NaN"));
+        // Truncated and garbage files are errors, not panics.
+        let good = dir.path().join("good.exr");
+        write_spectral_exr(&good, &sample_image(6, 5, WavelengthGrid::default()), "scene").unwrap();
+        let bytes = std::fs::read(&good).unwrap();
+        let cut = dir.path().join("cut.exr");
+        for n in [0, 4, 20, 100, bytes.len() / 3, bytes.len() / 2, bytes.len() - 10, bytes.len() - 1] {
+            std::fs::write(&cut, &bytes[..n]).unwrap();
+            let r = read_spectral_exr(&cut);
+            assert!(r.is_err(), "truncated at {n} of {} was accepted", bytes.len());
+            assert!(r.unwrap_err().to_string().contains("cut.exr"));
+        }
+        std::fs::write(&cut, b"this is not an EXR file at all").unwrap();
+        assert!(read_spectral_exr(&cut).is_err());
+        assert!(read_spectral_exr(&dir.path().join("absent.exr")).unwrap_err().to_string().contains("absent.exr"));
+    }
+
+    #[test]
+    fn gray_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("depth.exr");
+        let data: Vec<f32> = (0..12).map(|i| i as f32 * 0.3 - 1.0).collect();
+        write_gray_exr(&p, 3, 4, "Z", &data).unwrap();
+        assert_eq!(read_gray_exr(&p, None).unwrap(), (3, 4, data.clone()));
+        assert_eq!(read_gray_exr(&p, Some("Z")).unwrap().2, data);
+        assert!(read_gray_exr(&p, Some("Y")).unwrap_err().to_string().contains("'Y'"));
+        assert!(write_gray_exr(&p, 3, 5, "Z", &data).is_err());
+    }
+}

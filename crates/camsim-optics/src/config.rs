@@ -1,0 +1,337 @@
+//! The optics configuration (TOML), as the CLI and presets write it.
+
+use crate::error::{OpticsError, Result};
+use crate::shading::ShadingChannel;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Optics stage configuration. Example (the `pixel4a` preset):
+/// ```toml
+/// f_number = 1.73
+/// focal_length_mm = 4.38
+/// shading = "cos4"
+/// [wavefront]
+/// measurement_pupil_mm = 8.0
+/// zernike_um = [{ j = 4, c = 1.225 }]
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpticsConfig {
+    /// f-number N = focal length / entrance pupil diameter (dimensionless, > 0).
+    pub f_number: f64,
+    /// Focal length, mm (> 0).
+    pub focal_length_mm: f64,
+    /// Lens transmittance, fraction in [0, 1]: a number, or a spectrum
+    /// `{ wavelengths_nm = [...], values = [...] }` (linear interpolation, end values held). Default 1.
+    #[serde(default)]
+    pub transmittance: Transmittance,
+    /// Wavefront aberration (Zernike terms). Default: none (diffraction-limited).
+    #[serde(default)]
+    pub wavefront: WavefrontConfig,
+    /// Distance the lens is focused at, m (> focal length; `inf` allowed). Unset: focused on the
+    /// scene plane (2D scenes) -- no focus error. Set: a 2D scene at `distance_m` gets the
+    /// thin-lens defocus of that distance; a scene with a depth map gets depth-layered defocus.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focus_distance_m: Option<f64>,
+    /// Depth layering tolerance on the defocus coefficient c4 over the lens pupil, um (> 0,
+    /// default 0.02): depths whose c4 round to the same multiple of this share one PSF.
+    #[serde(default = "default_defocus_tolerance_um")]
+    pub defocus_tolerance_um: f64,
+    /// Most depth layers (default 64); beyond it the layer width grows to fit.
+    #[serde(default = "default_max_depth_layers")]
+    pub max_depth_layers: usize,
+    /// Lens shading: `"cos4"` (default), `"none"`, `{ relative_illumination = { ... } }` or
+    /// `{ file = "shading.toml", channel = "mean" }`.
+    #[serde(default)]
+    pub shading: ShadingConfig,
+    /// PSF sampling options.
+    #[serde(default)]
+    pub psf: PsfOptions,
+    /// Border handling: `"psf"` (default: the irradiance image grows by the PSF half-width on
+    /// every side, so light blurred past the scene edge is kept), `"isetcam"` (grows by 1/8 of the
+    /// size on every side, as ISETCam `oiCompute` pads), `"none"` (same size as the scene; light
+    /// blurred past the edge is lost).
+    #[serde(default)]
+    pub padding: Padding,
+}
+
+fn default_defocus_tolerance_um() -> f64 {
+    0.02
+}
+fn default_max_depth_layers() -> usize {
+    64
+}
+fn default_reference_wavelength_nm() -> f64 {
+    550.0
+}
+
+/// Lens transmittance: one number for all wavelengths, or a spectrum.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Transmittance {
+    /// The same fraction at every wavelength.
+    Scalar(f64),
+    /// A sampled spectrum (fraction).
+    Spectrum(TransmittanceSpectrum),
+}
+
+impl Default for Transmittance {
+    fn default() -> Self {
+        Transmittance::Scalar(1.0)
+    }
+}
+
+/// A transmittance spectrum.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransmittanceSpectrum {
+    /// Wavelengths, nm, increasing.
+    pub wavelengths_nm: Vec<f64>,
+    /// Transmittance at each wavelength, fraction in [0, 1].
+    pub values: Vec<f64>,
+}
+
+/// Wavefront aberration configuration (ISETCam wvf parameters).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WavefrontConfig {
+    /// Zernike coefficients, um of optical path, OSA/ANSI single index j, unit-RMS normalized:
+    /// either a list of `{ j = 4, c = 1.225 }` terms or a plain list indexed by j (`[0, 0, 0, 0, 1.225]`).
+    #[serde(default)]
+    pub zernike_um: ZernikeTerms,
+    /// Diameter of the pupil over which the coefficients are defined, mm (default: the lens pupil,
+    /// focal length / f-number). Must be >= the lens pupil.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement_pupil_mm: Option<f64>,
+    /// Wavelength at which the coefficients were measured, nm (default 550).
+    #[serde(default = "default_reference_wavelength_nm")]
+    pub reference_wavelength_nm: f64,
+    /// Optional chromatic defocus: c4 (um, over the measurement pupil) against wavelength; added to
+    /// j = 4 relative to its value at the reference wavelength.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chromatic_defocus: Option<ChromaticDefocus>,
+}
+
+impl Default for WavefrontConfig {
+    fn default() -> Self {
+        WavefrontConfig {
+            zernike_um: ZernikeTerms::default(),
+            measurement_pupil_mm: None,
+            reference_wavelength_nm: 550.0,
+            chromatic_defocus: None,
+        }
+    }
+}
+
+/// Zernike coefficients in one of two forms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ZernikeTerms {
+    /// Coefficients indexed by OSA j (um).
+    Indexed(Vec<f64>),
+    /// Sparse terms.
+    Terms(Vec<ZernikeTerm>),
+}
+
+impl Default for ZernikeTerms {
+    fn default() -> Self {
+        ZernikeTerms::Indexed(Vec::new())
+    }
+}
+
+/// One Zernike term.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZernikeTerm {
+    /// OSA/ANSI single index (0 piston, 4 defocus, 12 spherical, ...).
+    pub j: usize,
+    /// Coefficient, um.
+    pub c: f64,
+}
+
+impl ZernikeTerms {
+    /// Dense coefficients indexed by j; error on a repeated j.
+    pub fn to_dense(&self) -> Result<Vec<f64>> {
+        match self {
+            ZernikeTerms::Indexed(v) => Ok(v.clone()),
+            ZernikeTerms::Terms(t) => {
+                let n = t.iter().map(|z| z.j + 1).max().unwrap_or(0);
+                if n > 231 {
+                    return Err(OpticsError::config("wavefront.zernike_um", format!("j = {} is beyond 230 (radial order 20)", n - 1)));
+                }
+                let mut v = vec![0.0; n];
+                let mut seen = vec![false; n];
+                for z in t {
+                    if seen[z.j] {
+                        return Err(OpticsError::config("wavefront.zernike_um", format!("j = {} is given twice", z.j)));
+                    }
+                    seen[z.j] = true;
+                    v[z.j] = z.c;
+                }
+                Ok(v)
+            }
+        }
+    }
+}
+
+/// A chromatic defocus curve.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChromaticDefocus {
+    /// Wavelengths, nm, increasing.
+    pub wavelengths_nm: Vec<f64>,
+    /// Defocus c4 at each wavelength, um over the measurement pupil.
+    pub c4_um: Vec<f64>,
+}
+
+/// Lens shading model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ShadingConfig {
+    /// `"cos4"` or `"none"`.
+    Named(ShadingName),
+    /// A relative-illumination table.
+    Table(ShadingTable),
+    /// A fitted shading file.
+    File(ShadingFile),
+}
+
+impl Default for ShadingConfig {
+    fn default() -> Self {
+        ShadingConfig::Named(ShadingName::Cos4)
+    }
+}
+
+/// Named shading models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShadingName {
+    /// cos^4 of the field angle seen from the exit pupil (ISETCam `opticsCos4`).
+    Cos4,
+    /// No shading.
+    None,
+}
+
+/// `shading = { relative_illumination = { field_height_mm = [...], ri = [...] } }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShadingTable {
+    /// The table.
+    pub relative_illumination: RelativeIllumination,
+}
+
+/// Relative illumination against field height, as lens design programs export it. Give exactly
+/// one of `field_height_mm` (sensor plane) or `field_height_normalized` (0 at the centre, 1 at
+/// the image's corner). Linear interpolation; the last value is held beyond the table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RelativeIllumination {
+    /// Field heights in the sensor plane, mm, increasing from 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_height_mm: Option<Vec<f64>>,
+    /// Field heights normalized to the half-diagonal of the image, increasing from 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_height_normalized: Option<Vec<f64>>,
+    /// Relative illumination at each height (fraction, 1 on axis typically).
+    pub ri: Vec<f64>,
+}
+
+/// `shading = { file = "shading.toml" }`: a fit written by `camsim fit-shading`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShadingFile {
+    /// Path of the shading TOML (relative paths: to the config file's folder).
+    pub file: PathBuf,
+    /// Which channel's fit to apply to the spectral irradiance: `"mean"` (default: mean of the
+    /// R, G, B polynomials), `"r"`, `"g"` or `"b"`. The irradiance is spectral, so per-channel
+    /// shading cannot be applied exactly before the colour filters.
+    #[serde(default)]
+    pub channel: ShadingChannel,
+}
+
+/// PSF sampling options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PsfOptions {
+    /// Minimum oversampling of the PSF relative to the image spacing (odd; default 1 = automatic:
+    /// 1 when the image samples lambda N / 2 or finer, else enough that the PSF does not alias;
+    /// the oversampled PSF is integrated over each image sample cell).
+    #[serde(default = "one")]
+    pub oversampling: usize,
+    /// Fraction of the PSF energy allowed outside the kernel (default 0.005; sets the kernel
+    /// size with the geometric blur).
+    #[serde(default = "default_tail_energy")]
+    pub tail_energy: f64,
+    /// Largest kernel side, samples (default 1025); larger blurs are truncated to it and renormalized.
+    #[serde(default = "default_max_kernel")]
+    pub max_kernel_size: usize,
+    /// Minimum pupil samples across the lens pupil diameter (default 64).
+    #[serde(default = "default_min_pupil")]
+    pub min_pupil_samples: usize,
+}
+
+fn one() -> usize {
+    1
+}
+fn default_tail_energy() -> f64 {
+    0.005
+}
+fn default_max_kernel() -> usize {
+    1025
+}
+fn default_min_pupil() -> usize {
+    64
+}
+
+impl Default for PsfOptions {
+    fn default() -> Self {
+        PsfOptions { oversampling: 1, tail_energy: 0.005, max_kernel_size: 1025, min_pupil_samples: 64 }
+    }
+}
+
+/// Border handling of the blurred image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Padding {
+    /// Grow by the PSF half-width (default).
+    #[default]
+    Psf,
+    /// Grow by 1/8 of the rows / columns on each side (ISETCam oiCompute).
+    Isetcam,
+    /// Keep the scene's size.
+    None,
+}
+
+impl OpticsConfig {
+    /// Parse TOML text; `what` (file or preset name) names it in errors.
+    pub fn from_toml_str(text: &str, what: &str) -> Result<Self> {
+        toml::from_str(text).map_err(|e| OpticsError::Parse { what: what.to_string(), message: e.to_string() })
+    }
+
+    /// Read a TOML file; a relative shading file path is resolved against the file's folder.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| OpticsError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        let mut c = Self::from_toml_str(&text, &path.display().to_string())?;
+        if let ShadingConfig::File(f) = &mut c.shading {
+            if f.file.is_relative() {
+                if let Some(dir) = path.parent() {
+                    f.file = dir.join(&f.file);
+                }
+            }
+        }
+        Ok(c)
+    }
+
+    /// TOML text of this config.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    /// A built-in preset's config (see [`crate::presets::names`]).
+    pub fn preset(name: &str) -> Result<Self> {
+        let text = crate::presets::toml_text(name).ok_or_else(|| {
+            OpticsError::config("preset", format!("unknown optics preset '{name}'; known: {}", crate::presets::names().join(", ")))
+        })?;
+        Self::from_toml_str(text, &format!("optics preset {name}"))
+    }
+}

@@ -1,0 +1,287 @@
+//! Lens shading (relative illumination): cos^4 falloff, a relative-illumination table, and a
+//! low-order 2D polynomial fitted to a flat-field raw capture.
+
+use crate::error::{OpticsError, Result};
+use camsim_core::{CfaChannel, RawImage};
+use serde::{Deserialize, Serialize};
+
+/// Exponents (i, j) of the monomials x^i y^j with i + j <= order, in a fixed order
+/// (by total degree, then decreasing i).
+pub fn monomials(order: usize) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for d in 0..=order {
+        for i in (0..=d).rev() {
+            v.push((i, d - i));
+        }
+    }
+    v
+}
+
+/// A fitted flat-field shading: for each CFA colour (R, G, B) a polynomial
+/// `sum_k c_k x^i_k y^j_k` in normalized image coordinates x = (col + 0.5) / cols * 2 - 1,
+/// y = (row + 0.5) / rows * 2 - 1 (both in [-1, 1], centre 0), normalized so its maximum over the
+/// image is 1 (relative illumination).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShadingFit {
+    /// Polynomial order (total degree).
+    pub order: usize,
+    /// Rows of the flat field that was fitted (for reference).
+    pub rows: usize,
+    /// Columns of the flat field that was fitted.
+    pub cols: usize,
+    /// Coefficients for red, in the order of [`monomials`].
+    pub red: Vec<f64>,
+    /// Coefficients for green (both green sites).
+    pub green: Vec<f64>,
+    /// Coefficients for blue.
+    pub blue: Vec<f64>,
+    /// RMS of (data - fit) / fit over all pixels, percent (includes the capture's noise).
+    pub rms_residual_percent: f64,
+}
+
+/// Which fitted channel the spectral optics applies (see [`ShadingModel`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ShadingChannel {
+    /// The mean of the R, G and B polynomials (default).
+    #[default]
+    Mean,
+    /// Red.
+    R,
+    /// Green.
+    G,
+    /// Blue.
+    B,
+}
+
+/// For a fixed y, the coefficients of the polynomial in x: cx[i] = sum_j c_ij y^j (so a row of
+/// an image costs O(order) per pixel, no allocation per pixel).
+pub fn row_coefficients(coef: &[f64], order: usize, y: f64) -> Vec<f64> {
+    let mut cx = vec![0.0; order + 1];
+    for (c, (i, j)) in coef.iter().zip(monomials(order)) {
+        cx[i] += c * y.powi(j as i32);
+    }
+    cx
+}
+
+/// Evaluate sum cx[i] x^i (Horner).
+#[inline]
+pub fn horner(cx: &[f64], x: f64) -> f64 {
+    cx.iter().rev().fold(0.0, |acc, c| acc * x + c)
+}
+
+fn poly_eval(coef: &[f64], order: usize, x: f64, y: f64) -> f64 {
+    horner(&row_coefficients(coef, order, y), x)
+}
+
+impl ShadingFit {
+    /// Coefficients of a channel.
+    pub fn coefficients(&self, ch: CfaChannel) -> &[f64] {
+        match ch {
+            CfaChannel::R => &self.red,
+            CfaChannel::G => &self.green,
+            CfaChannel::B => &self.blue,
+        }
+    }
+
+    /// Relative illumination of channel `ch` at normalized coordinates (x, y) in [-1, 1].
+    pub fn eval(&self, ch: CfaChannel, x: f64, y: f64) -> f64 {
+        poly_eval(self.coefficients(ch), self.order, x, y)
+    }
+
+    /// The value the spectral optics applies: one channel, or the mean of the three.
+    pub fn eval_for(&self, which: ShadingChannel, x: f64, y: f64) -> f64 {
+        match which {
+            ShadingChannel::Mean => {
+                (self.eval(CfaChannel::R, x, y) + self.eval(CfaChannel::G, x, y) + self.eval(CfaChannel::B, x, y)) / 3.0
+            }
+            ShadingChannel::R => self.eval(CfaChannel::R, x, y),
+            ShadingChannel::G => self.eval(CfaChannel::G, x, y),
+            ShadingChannel::B => self.eval(CfaChannel::B, x, y),
+        }
+    }
+
+    /// TOML text of the fit (the shading file `camsim fit-shading` writes).
+    pub fn to_toml(&self) -> String {
+        let mut s = String::from(
+            "# camsim lens shading fit: relative illumination per CFA colour as a 2D polynomial\n\
+             # sum c_k x^i y^j (i + j <= order) in normalized coordinates x, y in [-1, 1] (image centre 0),\n\
+             # normalized to 1 at its maximum. Coefficient order: by total degree, then decreasing power of x.\n",
+        );
+        s.push_str(&toml::to_string(self).unwrap_or_default());
+        s
+    }
+
+    /// Read a shading file; `what` names it in errors.
+    pub fn from_toml(text: &str, what: &str) -> Result<Self> {
+        let fit: ShadingFit = toml::from_str(text).map_err(|e| OpticsError::Parse { what: what.to_string(), message: e.to_string() })?;
+        let n = monomials(fit.order).len();
+        for (name, c) in [("red", &fit.red), ("green", &fit.green), ("blue", &fit.blue)] {
+            if c.len() != n {
+                return Err(OpticsError::Parse {
+                    what: what.to_string(),
+                    message: format!("`{name}` has {} coefficients; order {} needs {n}", c.len(), fit.order),
+                });
+            }
+            if c.iter().any(|v| !v.is_finite()) {
+                return Err(OpticsError::Parse { what: what.to_string(), message: format!("`{name}` has a non-finite coefficient") });
+            }
+        }
+        Ok(fit)
+    }
+}
+
+/// Solve the symmetric positive definite system `a x = b` (n x n, row-major) by Gaussian
+/// elimination with partial pivoting; None if singular.
+fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
+    for col in 0..n {
+        let p = (col..n).max_by(|i, j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;
+        if a[p * n + col].abs() < 1e-300 {
+            return None;
+        }
+        if p != col {
+            for k in 0..n {
+                a.swap(p * n + k, col * n + k);
+            }
+            b.swap(p, col);
+        }
+        for r in col + 1..n {
+            let f = a[r * n + col] / a[col * n + col];
+            if f != 0.0 {
+                for k in col..n {
+                    a[r * n + k] -= f * a[col * n + k];
+                }
+                b[r] -= f * b[col];
+            }
+        }
+    }
+    let mut x = vec![0.0; n];
+    for r in (0..n).rev() {
+        let mut s = b[r];
+        for k in r + 1..n {
+            s -= a[r * n + k] * x[k];
+        }
+        x[r] = s / a[r * n + r];
+    }
+    Some(x)
+}
+
+/// Fit a lens-shading polynomial of total degree `order` (0..=8) to a raw flat field (a uniform
+/// field, e.g. an integrating sphere). For each CFA colour: subtract the black level, drop
+/// saturated samples, average the colour's samples over blocks of the image (about 64 x 48 blocks;
+/// a low-order polynomial changes by < 1e-4 over a block), fit the block means at the blocks'
+/// mean normalized coordinates by linear least squares (normal equations), then scale the
+/// polynomial to 1 at its maximum over the image. The residual is the RMS over all unsaturated
+/// pixels of (value - fit) / fit, in percent (it includes the capture's noise).
+pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
+    if order > 8 {
+        return Err(OpticsError::config("order", format!("{order}: the shading polynomial order must be 0..=8")));
+    }
+    if raw.dn.len() != raw.rows * raw.cols || raw.rows < 4 || raw.cols < 4 {
+        return Err(OpticsError::Input(format!("flat field {} x {} is too small or inconsistent", raw.rows, raw.cols)));
+    }
+    let terms = monomials(order);
+    let nt = terms.len();
+    let (rows, cols) = (raw.rows, raw.cols);
+    let nbc = 64.min(cols / 2).max(1);
+    let nbr = 48.min(rows / 2).max(1);
+    let xn = |c: usize| (c as f64 + 0.5) / cols as f64 * 2.0 - 1.0;
+    let yn = |r: usize| (r as f64 + 0.5) / rows as f64 * 2.0 - 1.0;
+    let sat = raw.white_level_dn;
+    let mut fits: Vec<Vec<f64>> = Vec::new();
+    for ch in [CfaChannel::R, CfaChannel::G, CfaChannel::B] {
+        // Block sums: value, x, y, count.
+        let mut acc = vec![[0.0f64; 4]; nbr * nbc];
+        for r in 0..rows {
+            let br = r * nbr / rows;
+            for c in 0..cols {
+                if raw.cfa.channel_at(r, c) != ch {
+                    continue;
+                }
+                let v = raw.dn[r * cols + c] as f64;
+                if v >= sat {
+                    continue;
+                }
+                let b = &mut acc[br * nbc + c * nbc / cols];
+                b[0] += v - raw.black_level_dn;
+                b[1] += xn(c);
+                b[2] += yn(r);
+                b[3] += 1.0;
+            }
+        }
+        let mut ata = vec![0.0; nt * nt];
+        let mut atb = vec![0.0; nt];
+        let mut phi = vec![0.0; nt];
+        let mut used = 0usize;
+        for b in &acc {
+            if b[3] < 1.0 {
+                continue;
+            }
+            used += 1;
+            let (v, x, y) = (b[0] / b[3], b[1] / b[3], b[2] / b[3]);
+            for (k, (i, j)) in terms.iter().enumerate() {
+                phi[k] = x.powi(*i as i32) * y.powi(*j as i32);
+            }
+            // Weight by the sample count (equal weight per pixel).
+            for p in 0..nt {
+                atb[p] += b[3] * phi[p] * v;
+                for q in 0..nt {
+                    ata[p * nt + q] += b[3] * phi[p] * phi[q];
+                }
+            }
+        }
+        if used < nt {
+            return Err(OpticsError::Input(format!(
+                "flat field: only {used} usable blocks of channel {} for {nt} polynomial terms (too small or saturated)",
+                ch.letter()
+            )));
+        }
+        let mut coef = solve(ata, atb, nt)
+            .ok_or_else(|| OpticsError::Input(format!("flat field: the shading fit for channel {} is singular", ch.letter())))?;
+        // Normalize to 1 at the maximum over the image (evaluated on a 129 x 129 grid plus corners).
+        let mut mx = f64::NEG_INFINITY;
+        for i in 0..=128 {
+            for j in 0..=128 {
+                let x = -1.0 + 2.0 * i as f64 / 128.0;
+                let y = -1.0 + 2.0 * j as f64 / 128.0;
+                mx = mx.max(poly_eval(&coef, order, x, y));
+            }
+        }
+        if !(mx > 0.0) {
+            return Err(OpticsError::Input(format!("flat field: channel {} has no signal above the black level", ch.letter())));
+        }
+        coef.iter_mut().for_each(|c| *c /= mx);
+        // Keep the absolute scale for the residual.
+        fits.push(coef.iter().map(|c| c * mx).collect());
+        fits.push(coef);
+    }
+    // Residual over all pixels, relative to the (absolute) fit.
+    let (mut ss, mut n) = (0.0f64, 0usize);
+    for r in 0..rows {
+        let y = yn(r);
+        let rc: Vec<Vec<f64>> = (0..3).map(|ch| row_coefficients(&fits[2 * ch], order, y)).collect();
+        for c in 0..cols {
+            let v = raw.dn[r * cols + c] as f64;
+            if v >= sat {
+                continue;
+            }
+            let ch = raw.cfa.channel_at(r, c).index();
+            let fit = horner(&rc[ch], xn(c));
+            if fit > 0.0 {
+                let e = (v - raw.black_level_dn - fit) / fit;
+                ss += e * e;
+                n += 1;
+            }
+        }
+    }
+    Ok(ShadingFit {
+        order,
+        rows,
+        cols,
+        red: fits[1].clone(),
+        green: fits[3].clone(),
+        blue: fits[5].clone(),
+        rms_residual_percent: if n > 0 { (ss / n as f64).sqrt() * 100.0 } else { 0.0 },
+    })
+}

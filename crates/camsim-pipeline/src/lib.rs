@@ -1,0 +1,405 @@
+//! camsim-pipeline: one config that wires the stages (scene or 3D render -> optics -> sensor ->
+//! isp) and the end-to-end run that writes the standard files. Wiring only: each stage's
+//! physics lives in its own crate.
+
+pub mod render;
+
+use anyhow::{bail, Context, Result};
+use camsim_core::{SpectralImage, WavelengthGrid};
+use camsim_optics::{Optics, OpticsConfig};
+use camsim_scene::SceneConfig;
+use camsim_io::dng::DngMetadata;
+use camsim_isp::ColorPipeline;
+use camsim_sensor::{Capture, Exposure, Sensor, SensorConfig};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The whole-pipeline config (`camsim simulate CONFIG.toml`). Exactly one of `[scene]` (a 2D
+/// chart) and `[render]` (a 3D scene) is given.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulateConfig {
+    /// Seed of the temporal sensor noise and of the renderer (integer).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Wavelength grid `{ start_nm, step_nm, count }`; default 400-700 nm every 10 nm.
+    #[serde(default)]
+    pub wavelengths: WavelengthGrid,
+    /// A 2D scene (see camsim-scene: kind = "uniform" | "macbeth" | "slanted_edge" | "file").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<SceneConfig>,
+    /// A 3D scene rendered by the path tracer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<RenderSection>,
+    /// The lens.
+    #[serde(default)]
+    pub optics: OpticsSection,
+    /// The sensor.
+    #[serde(default)]
+    pub sensor: SensorSection,
+    /// Exposure and frames.
+    #[serde(default)]
+    pub capture: CaptureSection,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// `[render]`: a 3D scene.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSection {
+    /// A built-in scene: "cornell-box", "cornell-box-mcc", "slanted-edge".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub builtin: Option<String>,
+    /// Or a pbrt-v4 scene file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pbrt: Option<PathBuf>,
+    /// Optional overlay TOML (moves objects, sets reflectances and the light), relative to the config.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub overlay: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_per_pixel: Option<u32>,
+    /// Image width and height in pixels (default: the scene's own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<[usize; 2]>,
+}
+
+/// `[optics]`: a preset name, a TOML file, or an inline config.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpticsSection {
+    /// Built-in lens: "pixel4a" (default) or "diffraction-limited".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// Or a lens TOML file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// Or the lens itself, inline (the same keys as a lens file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<OpticsConfig>,
+}
+
+impl Default for OpticsSection {
+    fn default() -> Self {
+        OpticsSection { preset: Some("pixel4a".into()), file: None, config: None }
+    }
+}
+
+/// `[sensor]`: a preset name, a TOML file, or an inline config, with an optional window size.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSection {
+    /// Built-in sensor: "pixel4a" (default), "imx363", "ideal".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// Or a sensor TOML file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// Or the sensor itself, inline.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<SensorConfig>,
+    /// Use a window of this many rows (pixels) centred on the optical axis (default: full sensor).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rows: Option<usize>,
+    /// Window columns, pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cols: Option<usize>,
+}
+
+impl Default for SensorSection {
+    fn default() -> Self {
+        SensorSection { preset: Some("pixel4a".into()), file: None, config: None, rows: None, cols: None }
+    }
+}
+
+/// `[capture]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaptureSection {
+    /// Exposure time, ms. Absent: auto-exposure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_ms: Option<f64>,
+    /// Auto-exposure target: the 99th percentile of the signal reaches this fraction of the
+    /// voltage swing (0, 1]. Default 0.9.
+    #[serde(default = "default_target")]
+    pub auto_target_fraction: f64,
+    /// Frames of the same exposure (>= 1).
+    #[serde(default = "default_frames")]
+    pub frames: usize,
+}
+
+fn default_target() -> f64 {
+    0.9
+}
+fn default_frames() -> usize {
+    1
+}
+
+impl Default for CaptureSection {
+    fn default() -> Self {
+        CaptureSection { exposure_ms: None, auto_target_fraction: 0.9, frames: 1 }
+    }
+}
+
+/// The built-in default run (`camsim simulate` with no config).
+pub const DEFAULT_CONFIG: &str = include_str!("../../../examples/macbeth-d65.toml");
+
+impl SimulateConfig {
+    pub fn builtin_default() -> SimulateConfig {
+        toml::from_str(DEFAULT_CONFIG).expect("the built-in default config parses (tested)")
+    }
+
+    /// Read a TOML config, or a run.json written by an earlier run.
+    pub fn load(path: &Path) -> Result<SimulateConfig> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let mut cfg: SimulateConfig = if path.extension().is_some_and(|e| e == "json") {
+            let v: serde_json::Value =
+                serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", path.display()))?;
+            let c = v.get("config").cloned().unwrap_or(v);
+            serde_json::from_value(c).with_context(|| format!("{}: not a camsim run.json", path.display()))?
+        } else {
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e))?
+        };
+        // Paths inside the config are relative to the config file.
+        let base = path.parent().unwrap_or(Path::new("."));
+        cfg.resolve_paths(base);
+        Ok(cfg)
+    }
+
+    fn resolve_paths(&mut self, base: &Path) {
+        let fix = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        if let Some(r) = &mut self.render {
+            r.pbrt.as_mut().map(fix);
+            r.overlay.as_mut().map(fix);
+        }
+        self.optics.file.as_mut().map(fix);
+        self.sensor.file.as_mut().map(fix);
+        if let Some(SceneConfig::File(f)) = &mut self.scene {
+            fix(&mut f.path);
+        }
+    }
+
+    pub fn optics(&self) -> Result<Optics> {
+        let o = &self.optics;
+        Ok(match (&o.preset, &o.file, &o.config) {
+            (_, _, Some(c)) => Optics::from_config(c)?,
+            (_, Some(f), None) => Optics::from_config(&OpticsConfig::from_file(f)?)?,
+            (Some(p), None, None) => Optics::preset(p)?,
+            (None, None, None) => Optics::preset("pixel4a")?,
+        })
+    }
+
+    pub fn sensor(&self) -> Result<Sensor> {
+        let s = &self.sensor;
+        let sensor = match (&s.preset, &s.file, &s.config) {
+            (_, _, Some(c)) => Sensor::from_config_named(c.clone(), "[sensor.config]")?,
+            (_, Some(f), None) => Sensor::from_file(f)?,
+            (Some(p), None, None) => Sensor::preset(p)?,
+            (None, None, None) => Sensor::preset("pixel4a")?,
+        };
+        Ok(match (s.rows, s.cols) {
+            (None, None) => sensor,
+            (r, c) => sensor.with_size(r.unwrap_or(sensor.rows()), c.unwrap_or(sensor.cols()))?,
+        })
+    }
+
+    pub fn capture(&self) -> Result<Capture> {
+        let c = &self.capture;
+        if c.frames == 0 {
+            bail!("capture.frames must be at least 1");
+        }
+        let exposure = match c.exposure_ms {
+            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => bail!("capture.exposure_ms = {ms}: must be >= 0"),
+            Some(ms) => Exposure::Seconds(ms * 1e-3),
+            None => {
+                if !(c.auto_target_fraction > 0.0 && c.auto_target_fraction <= 1.0) {
+                    bail!("capture.auto_target_fraction = {}: must be in (0, 1]", c.auto_target_fraction);
+                }
+                Exposure::Auto { target_fraction: c.auto_target_fraction }
+            }
+        };
+        Ok(Capture { exposure, frames: c.frames, seed: self.seed })
+    }
+}
+
+/// Stage 1: the scene radiance (2D chart or 3D render).
+/// `progress(stage, done, total)` is called as long steps advance.
+pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress) -> Result<SpectralImage> {
+    cfg.wavelengths.validate()?;
+    match (&cfg.scene, &cfg.render) {
+        (Some(_), Some(_)) => bail!("give either [scene] (2D) or [render] (3D), not both"),
+        (None, None) => bail!("the config has neither [scene] nor [render]"),
+        (Some(SceneConfig::File(f)), None) => {
+            let img = camsim_io::exr::read_spectral_exr(&f.path)?;
+            Ok(camsim_scene::from_image(img, f)?)
+        }
+        (Some(s), None) => Ok(camsim_scene::create(s, &cfg.wavelengths)?),
+        (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress),
+    }
+}
+
+/// Progress callback: (stage name, steps done, steps in all).
+pub type Progress = dyn Fn(&str, u64, u64) + Sync;
+
+/// What a run produced, besides its files.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    pub exposure_s: f64,
+    pub mean_dn_rgb: [f64; 3],
+    pub frames: usize,
+    pub total_s: f64,
+}
+
+/// Run the whole pipeline and write its files in `out`: radiance.exr, irradiance.exr, raw.dng
+/// (raw_0001.dng ... for more frames), raw.png, preview.png, run.json.
+pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Path, progress: &Progress) -> Result<RunSummary> {
+    let t0 = Instant::now();
+    let optics = cfg.optics()?;
+    let sensor = cfg.sensor()?;
+    let capture = cfg.capture()?;
+    let mut times = serde_json::Map::new();
+
+    let t = Instant::now();
+    progress("scene", 0, 1);
+    let radiance = scene_radiance(cfg, &sensor, &optics, progress)?;
+    times.insert("scene_s".into(), t.elapsed().as_secs_f64().into());
+    camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &radiance, "scene")?;
+
+    let t = Instant::now();
+    progress("optics", 0, 1);
+    let irradiance = optics.compute(&radiance)?;
+    times.insert("optics_s".into(), t.elapsed().as_secs_f64().into());
+    camsim_io::exr::write_spectral_exr(&out.join("irradiance.exr"), &irradiance, "optics")?;
+
+    let t = Instant::now();
+    progress("sensor", 0, 1);
+    let frame = sensor.compute(&irradiance, &capture)?;
+    times.insert("sensor_s".into(), t.elapsed().as_secs_f64().into());
+
+    let t = Instant::now();
+    let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
+    let meta = dng_metadata(&sensor, &color, Some(cfg))?;
+    for (i, raw) in frame.raw.iter().enumerate() {
+        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
+        camsim_io::dng::write_dng(&out.join(&name), raw, &meta)?;
+    }
+    let raw0 = &frame.raw[0];
+    camsim_io::raster::write_png16_gray(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn)?;
+    let rgb = camsim_isp::demosaic_bilinear(raw0);
+    let srgb = color.render_srgb8(&rgb, None);
+    camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rgb.rows, rgb.cols, &srgb)?;
+    times.insert("isp_and_files_s".into(), t.elapsed().as_secs_f64().into());
+    times.insert("total_s".into(), t0.elapsed().as_secs_f64().into());
+
+    let mean_dn: Vec<f64> = (0..3)
+        .map(|c| {
+            let ch = camsim_core::CfaChannel::from_index(c).unwrap();
+            let (mut s, mut n) = (0.0, 0usize);
+            for r in 0..raw0.rows {
+                for k in 0..raw0.cols {
+                    if raw0.channel_at(r, k) == ch {
+                        s += raw0.at(r, k) as f64;
+                        n += 1;
+                    }
+                }
+            }
+            s / n.max(1) as f64
+        })
+        .collect();
+    let run = serde_json::json!({
+        "camsim_version": env!("CARGO_PKG_VERSION"),
+        "command": std::env::args().collect::<Vec<_>>().join(" "),
+        "config_file": config_path.map(|p| p.display().to_string()),
+        "config": cfg,
+        "optics": optics.config(),
+        "sensor": sensor.config(),
+        "results": {
+            "exposure_s": frame.exposure_s,
+            "mean_electrons_rgb": frame.mean_electrons,
+            "mean_dn_rgb": mean_dn,
+            "scene_mean_luminance_cd_m2": camsim_core::colorimetry::luminance_cd_m2_image(&radiance),
+            "radiance_size": [radiance.rows, radiance.cols, radiance.bands()],
+            "irradiance_size": [irradiance.rows, irradiance.cols, irradiance.bands()],
+            "irradiance_sample_spacing_um": irradiance.sample_spacing_m * 1e6,
+            "frames": frame.raw.len(),
+        },
+        "times": times,
+    });
+    camsim_io::atomic::write_json_atomic(&out.join("run.json"), &run)?;
+    Ok(RunSummary {
+        exposure_s: frame.exposure_s,
+        mean_dn_rgb: [mean_dn[0], mean_dn[1], mean_dn[2]],
+        frames: frame.raw.len(),
+        total_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// The colour pipeline for a sensor under the scene's illuminant (D65 when unknown).
+pub fn color_pipeline(sensor: &Sensor, grid: &WavelengthGrid, scene: Option<&SceneConfig>) -> Result<ColorPipeline> {
+    let illum = match scene.and_then(camsim_scene::scene_illuminant) {
+        Some(r) => r?,
+        None => camsim_core::tables::illuminant("D65")?,
+    };
+    Ok(ColorPipeline::fit(&sensor.channel_qe(grid), grid, &illum)?)
+}
+
+/// DNG metadata: camera name, the colour matrix and neutral fitted by the ISP, and the run's
+/// config as the image description.
+pub fn dng_metadata(sensor: &Sensor, color: &ColorPipeline, cfg: Option<&SimulateConfig>) -> Result<DngMetadata> {
+    Ok(DngMetadata {
+        camera_model: format!("camsim {}", sensor.name()),
+        color_matrix1: Some(color.xyz_to_camera()),
+        as_shot_neutral: Some(color.as_shot_neutral()),
+        description: cfg.map(serde_json::to_string).transpose()?,
+        ..DngMetadata::default()
+    })
+}
+
+/// A sensor from a preset name or a TOML file path.
+pub fn load_sensor(spec: &str) -> Result<Sensor> {
+    let p = Path::new(spec);
+    if spec.ends_with(".toml") || p.exists() {
+        Ok(Sensor::from_file(p)?)
+    } else {
+        Ok(Sensor::preset(spec)?)
+    }
+}
+
+/// A lens from a preset name or a TOML file path.
+pub fn load_lens(spec: &str) -> Result<OpticsConfig> {
+    let p = Path::new(spec);
+    if spec.ends_with(".toml") || p.exists() {
+        Ok(OpticsConfig::from_file(p)?)
+    } else {
+        Ok(OpticsConfig::preset(spec)?)
+    }
+}
+
+/// A raw mosaic from a DNG, or from a 16-bit PNG/TIFF mosaic with the CFA pattern given
+/// (`cfa`), black level `black_dn` and ADC `bits` (PNG/TIFF carry none of these).
+pub fn load_raw(path: &Path, cfa: Option<camsim_core::CfaPattern>, black_dn: f64, bits: u32) -> Result<camsim_core::RawImage> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext == "dng" {
+        return Ok(camsim_io::dng::read_dng(path)?.0);
+    }
+    if !matches!(ext.as_str(), "png" | "tif" | "tiff") {
+        bail!("{}: not a raw file camsim reads (DNG, or a 16-bit PNG/TIFF mosaic with --cfa)", path.display());
+    }
+    let cfa = cfa.with_context(|| format!("{}: a PNG/TIFF mosaic needs its CFA pattern (--cfa RGGB|GRBG|GBRG|BGGR)", path.display()))?;
+    if !(1..=16).contains(&bits) {
+        bail!("--bits {bits}: must be 1..16");
+    }
+    let (rows, cols, dn) = camsim_io::raster::read_mosaic_16(path)?;
+    let mut raw = camsim_core::RawImage::new(rows, cols, cfa, bits)?;
+    raw.dn = dn;
+    raw.black_level_dn = black_dn;
+    Ok(raw)
+}

@@ -1,0 +1,205 @@
+//! Rays, bounding boxes and the two primitive kinds (triangles, spheres) with their ray tests.
+
+use crate::math::V3;
+
+/// A ray `o + t d` with a unit direction `d`, so `t` is a distance in metres.
+#[derive(Debug, Clone, Copy)]
+pub struct Ray {
+    pub o: V3,
+    pub d: V3,
+}
+
+/// A ray with the reciprocal direction precomputed for box tests.
+#[derive(Debug, Clone, Copy)]
+pub struct RayInv {
+    pub o: V3,
+    pub d: V3,
+    pub inv_d: V3,
+}
+
+impl RayInv {
+    /// Precompute `1 / d` (infinite components are fine: the slab test tolerates them).
+    #[inline(always)]
+    pub fn new(r: &Ray) -> RayInv {
+        RayInv { o: r.o, d: r.d, inv_d: V3::new(1.0 / r.d.x, 1.0 / r.d.y, 1.0 / r.d.z) }
+    }
+}
+
+/// An axis-aligned bounding box (f32).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    pub min: V3,
+    pub max: V3,
+}
+
+impl Aabb {
+    /// The empty box (min = +inf, max = -inf).
+    pub const EMPTY: Aabb = Aabb { min: V3::splat(f32::INFINITY), max: V3::splat(f32::NEG_INFINITY) };
+
+    /// Grow to include a point.
+    #[inline(always)]
+    pub fn grow_point(&mut self, p: V3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+    /// Grow to include a box.
+    #[inline(always)]
+    pub fn grow(&mut self, b: &Aabb) {
+        self.min = self.min.min(b.min);
+        self.max = self.max.max(b.max);
+    }
+    /// Half the surface area (the SAH only needs ratios); 0 for the empty box.
+    #[inline(always)]
+    pub fn half_area(&self) -> f32 {
+        let d = self.max - self.min;
+        if d.x < 0.0 || d.y < 0.0 || d.z < 0.0 {
+            0.0
+        } else {
+            d.x * d.y + d.y * d.z + d.z * d.x
+        }
+    }
+    /// Centre point.
+    #[inline(always)]
+    pub fn center(&self) -> V3 {
+        (self.min + self.max) * 0.5
+    }
+}
+
+/// Slab test (Kay & Kajiya 1986): entry distance of the ray into the box if it enters within
+/// `(0, t_max)`, else `f32::INFINITY`.
+#[inline(always)]
+pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
+    let tx0 = (min[0] - r.o.x) * r.inv_d.x;
+    let tx1 = (max[0] - r.o.x) * r.inv_d.x;
+    let ty0 = (min[1] - r.o.y) * r.inv_d.y;
+    let ty1 = (max[1] - r.o.y) * r.inv_d.y;
+    let tz0 = (min[2] - r.o.z) * r.inv_d.z;
+    let tz1 = (max[2] - r.o.z) * r.inv_d.z;
+    // f32::min/max ignore a NaN operand (0 * inf on a slab plane), which keeps the test conservative.
+    let t_near = tx0.min(tx1).max(ty0.min(ty1)).max(tz0.min(tz1)).max(0.0);
+    let t_far = tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)).min(t_max);
+    // Robust traversal slack (Ize 2013): widen t_far by 2 ulp-ish so grazing boxes are not lost.
+    if t_near <= t_far * 1.000_000_24 {
+        t_near
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// A primitive as stored in BVH order: its intersection data and the index of its
+/// [`PrimInfo`](crate::integrator) record.
+#[derive(Debug, Clone, Copy)]
+pub enum Prim {
+    /// Triangle `p0, p0 + e1, p0 + e2`.
+    Tri { p0: V3, e1: V3, e2: V3 },
+    /// Sphere.
+    Sphere { center: V3, radius: f32 },
+}
+
+impl Prim {
+    /// World-space bounds.
+    pub fn bounds(&self) -> Aabb {
+        match *self {
+            Prim::Tri { p0, e1, e2 } => {
+                let mut b = Aabb::EMPTY;
+                b.grow_point(p0);
+                b.grow_point(p0 + e1);
+                b.grow_point(p0 + e2);
+                b
+            }
+            Prim::Sphere { center, radius } => Aabb { min: center - V3::splat(radius), max: center + V3::splat(radius) },
+        }
+    }
+
+    /// Nearest intersection in `(0, t_max)`: `(t, u, v)` with barycentrics `u, v` for triangles
+    /// (point = (1-u-v) p0 + u p1 + v p2) and zeros for spheres.
+    #[inline(always)]
+    pub fn intersect(&self, r: &RayInv, t_max: f32) -> Option<(f32, f32, f32)> {
+        match *self {
+            Prim::Tri { p0, e1, e2 } => intersect_triangle(r.o, r.d, p0, e1, e2, t_max),
+            Prim::Sphere { center, radius } => intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0)),
+        }
+    }
+}
+
+/// Moller & Trumbore (1997), "Fast, minimum storage ray-triangle intersection".
+#[inline(always)]
+pub fn intersect_triangle(o: V3, d: V3, p0: V3, e1: V3, e2: V3, t_max: f32) -> Option<(f32, f32, f32)> {
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let tvec = o - p0;
+    let u = tvec.dot(pvec) * inv_det;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let qvec = tvec.cross(e1);
+    let v = d.dot(qvec) * inv_det;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(qvec) * inv_det;
+    if t > 0.0 && t < t_max {
+        Some((t, u, v))
+    } else {
+        None
+    }
+}
+
+/// Ray-sphere intersection with the numerically robust discriminant
+/// `r^2 - |oc - (oc.d) d|^2` (Haines et al., "Precision Improvements for Ray/Sphere
+/// Intersection", Ray Tracing Gems 2019, ch. 7). `d` must be a unit vector.
+#[inline(always)]
+pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Option<f32> {
+    let oc = o - center;
+    let b = oc.dot(d);
+    let perp = oc - d * b;
+    let disc = radius * radius - perp.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let c = oc.length_squared() - radius * radius;
+    let sq = disc.sqrt();
+    // q = -(b + sign(b) sqrt(disc)); roots c/q and q.
+    let q = if b > 0.0 { -b - sq } else { -b + sq };
+    let (mut t0, mut t1) = if q != 0.0 { (c / q, q) } else { (0.0, 0.0) };
+    if t0 > t1 {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    if t0 > 0.0 && t0 < t_max {
+        Some(t0)
+    } else if t1 > 0.0 && t1 < t_max {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triangle_hit_and_miss() {
+        let (p0, e1, e2) = (V3::new(0.0, 0.0, 1.0), V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0));
+        let o = V3::new(0.25, 0.25, 0.0);
+        let d = V3::new(0.0, 0.0, 1.0);
+        let (t, u, v) = intersect_triangle(o, d, p0, e1, e2, f32::INFINITY).unwrap();
+        assert!((t - 1.0).abs() < 1e-6 && (u - 0.25).abs() < 1e-6 && (v - 0.25).abs() < 1e-6);
+        assert!(intersect_triangle(V3::new(0.8, 0.8, 0.0), d, p0, e1, e2, f32::INFINITY).is_none());
+        assert!(intersect_triangle(o, d, p0, e1, e2, 0.5).is_none());
+    }
+
+    #[test]
+    fn sphere_from_outside_and_inside() {
+        let c = V3::new(0.0, 0.0, 5.0);
+        let t = intersect_sphere(V3::splat(0.0), V3::new(0.0, 0.0, 1.0), c, 1.0, f32::INFINITY).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        let t = intersect_sphere(c, V3::new(0.0, 1.0, 0.0), c, 1.0, f32::INFINITY).unwrap();
+        assert!((t - 1.0).abs() < 1e-6);
+        assert!(intersect_sphere(V3::splat(0.0), V3::new(0.0, 1.0, 0.0), c, 1.0, f32::INFINITY).is_none());
+    }
+}

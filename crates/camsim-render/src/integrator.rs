@@ -1,0 +1,531 @@
+//! The scene compiled for tracing (BVH, materials, lights as lookup tables) and the spectral
+//! path integrator: next-event estimation combined with BSDF sampling by multiple importance
+//! sampling (power heuristic), Russian roulette, a maximum depth (pbrt-v4 `PathIntegrator::Li`).
+
+use crate::bsdf::Bsdf;
+use crate::bvh::Bvh;
+use crate::geometry::{Prim, Ray, RayInv};
+use crate::lights::{LightKind, LightSample, Lights};
+use crate::math::{Frame, V3};
+use crate::render::RenderError;
+use crate::sampling::{self, power_heuristic};
+use crate::scene::{Geometry, Light, Material, SceneDescription, Texture};
+use crate::spectral::{SpectrumTable, WavelengthSampler};
+use rand::Rng as _;
+
+/// Marks a primitive without an emitter.
+pub(crate) const NO_LIGHT: u32 = u32::MAX;
+
+/// Per-primitive data needed after a hit, in BVH order.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PrimInfo {
+    /// Index of the shape in `SceneDescription::shapes`.
+    pub shape: u32,
+    /// Triangle index within its mesh (0 for spheres).
+    pub tri: u32,
+    /// Compiled material index.
+    pub material: u32,
+    /// Light index, or [`NO_LIGHT`].
+    pub light: u32,
+}
+
+/// Shading data of a triangle mesh that has uv or normals.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct MeshShading {
+    pub indices: Vec<[u32; 3]>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub normals: Option<Vec<V3>>,
+}
+
+/// A reflectance texture, compiled.
+#[derive(Debug, Clone)]
+pub(crate) enum Tex {
+    /// Index into `Tracer::tables`.
+    Table(u32),
+    /// Index into `Tracer::images`.
+    Image(u32),
+}
+
+/// A compiled material; new BSDFs add a variant here and an arm in [`Tracer::bsdf_at`].
+#[derive(Debug, Clone)]
+pub(crate) enum Mat {
+    Diffuse(Tex),
+}
+
+/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
+#[derive(Debug, Clone)]
+pub(crate) struct ImageTex {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
+    pub uscale: f32,
+    pub vscale: f32,
+    pub udelta: f32,
+    pub vdelta: f32,
+}
+
+impl ImageTex {
+    /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
+    /// t flipped so image row 0 is at t = 1, texel centres at half-integers, repeat wrap).
+    #[inline]
+    pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
+        let s = uv[0] * self.uscale + self.udelta;
+        let t = 1.0 - (uv[1] * self.vscale + self.vdelta);
+        let x = s * self.width as f32 - 0.5;
+        let y = t * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let wrap = |i: f32, n: usize| -> usize {
+            let n = n as i64;
+            let i = if i.is_finite() { i as i64 } else { 0 };
+            (((i % n) + n) % n) as usize
+        };
+        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
+        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
+        let px = |xx: usize, yy: usize| self.rgb[yy * self.width + xx];
+        let (a, b, c, d) = (px(xa, ya), px(xb, ya), px(xa, yb), px(xb, yb));
+        let mut out = [0f32; 3];
+        for k in 0..3 {
+            out[k] = (1.0 - fx) * (1.0 - fy) * a[k] + fx * (1.0 - fy) * b[k] + (1.0 - fx) * fy * c[k] + fx * fy * d[k];
+        }
+        out
+    }
+}
+
+/// Counters of rays cast, per tile (summed into [`crate::RenderStats`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct RayCounts {
+    pub camera: u64,
+    pub bounce: u64,
+    pub shadow: u64,
+}
+
+/// The scene prepared for tracing.
+pub(crate) struct Tracer {
+    pub bvh: Bvh,
+    pub info: Vec<PrimInfo>,
+    pub meshes: Vec<Option<MeshShading>>,
+    pub materials: Vec<Mat>,
+    pub tables: Vec<SpectrumTable>,
+    pub images: Vec<ImageTex>,
+    pub lights: Lights,
+    pub max_depth: u32,
+    /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
+    pub offset_scale: f32,
+}
+
+/// Surface data at a hit.
+struct SurfaceHit {
+    p: V3,
+    /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
+    ng: V3,
+    /// Shading normal (unit; equals `ng` without vertex normals).
+    ns: V3,
+    uv: [f32; 2],
+}
+
+impl Tracer {
+    /// Compile `scene` for the sampler `ws`.
+    pub(crate) fn new(scene: &SceneDescription, ws: &WavelengthSampler) -> Result<Tracer, RenderError> {
+        let mut tables: Vec<SpectrumTable> = Vec::new();
+        let mut images: Vec<ImageTex> = Vec::new();
+        let mut materials = Vec::with_capacity(scene.materials.len());
+        for (mi, m) in scene.materials.iter().enumerate() {
+            let mat = match m {
+                Material::Diffuse { reflectance } => Mat::Diffuse(compile_texture(reflectance, mi, ws, &mut tables, &mut images)?),
+            };
+            materials.push(mat);
+        }
+
+        // Count primitives first so the memory guard can refuse huge scenes before allocating.
+        let mut n_prims = 0u64;
+        for s in &scene.shapes {
+            n_prims += match &s.geometry {
+                Geometry::Triangles { indices, .. } => indices.len() as u64,
+                Geometry::Sphere { .. } => 1,
+            };
+        }
+        // Prim (44 B) + info (16 B) + bounds/centroid/index during the build (40 B) + 2 nodes (64 B).
+        camsim_core::mem::check_alloc(n_prims * 164, &format!("a BVH over {n_prims} primitives"))?;
+        if n_prims > u32::MAX as u64 / 2 {
+            return Err(RenderError::Settings(format!("{n_prims} primitives is more than the renderer supports")));
+        }
+
+        let mut prims: Vec<Prim> = Vec::with_capacity(n_prims as usize);
+        let mut info: Vec<PrimInfo> = Vec::with_capacity(n_prims as usize);
+        let mut meshes: Vec<Option<MeshShading>> = Vec::with_capacity(scene.shapes.len());
+        let mut lights = Lights::default();
+        let mut scene_bounds = crate::geometry::Aabb::EMPTY;
+
+        for (si, s) in scene.shapes.iter().enumerate() {
+            let shape_err = |message: String| RenderError::Shape { index: si, name: s.name.clone().unwrap_or_default(), message };
+            if s.material >= materials.len() {
+                return Err(shape_err(format!(
+                    "material index {} but the scene has {} materials",
+                    s.material,
+                    materials.len()
+                )));
+            }
+            let le_table = match &s.area_light {
+                Some(al) => {
+                    if let Err(e) = al.radiance.require_non_negative("area light radiance") {
+                        return Err(shape_err(e.to_string()));
+                    }
+                    tables.push(SpectrumTable::new(&al.radiance, 1.0, ws));
+                    Some(((tables.len() - 1) as u32, al.two_sided))
+                }
+                None => None,
+            };
+            match &s.geometry {
+                Geometry::Triangles { positions, indices, uvs, normals } => {
+                    if let Some(i) = positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+                        return Err(shape_err(format!("vertex {i} has a non-finite coordinate")));
+                    }
+                    if let Some(uv) = uvs {
+                        if uv.len() != positions.len() {
+                            return Err(shape_err(format!("{} uvs for {} vertices", uv.len(), positions.len())));
+                        }
+                    }
+                    if let Some(n) = normals {
+                        if n.len() != positions.len() {
+                            return Err(shape_err(format!("{} normals for {} vertices", n.len(), positions.len())));
+                        }
+                    }
+                    let pos: Vec<V3> = positions.iter().map(|p| V3::from_f64(*p)).collect();
+                    let nrm: Option<Vec<V3>> =
+                        normals.as_ref().map(|n| n.iter().map(|v| V3::from_f64(*v).normalize()).map(|v| if v.is_finite() { v } else { V3::splat(0.0) }).collect());
+                    for (ti, tri) in indices.iter().enumerate() {
+                        if let Some(bad) = tri.iter().find(|i| **i as usize >= positions.len()) {
+                            return Err(shape_err(format!("triangle {ti} uses vertex {bad} but there are {} vertices", positions.len())));
+                        }
+                        let (p0, p1, p2) = (pos[tri[0] as usize], pos[tri[1] as usize], pos[tri[2] as usize]);
+                        let (e1, e2) = (p1 - p0, p2 - p0);
+                        scene_bounds.grow_point(p0);
+                        scene_bounds.grow_point(p1);
+                        scene_bounds.grow_point(p2);
+                        let mut light = NO_LIGHT;
+                        if let Some((table, two_sided)) = le_table {
+                            let c = e1.cross(e2);
+                            let area = 0.5 * c.length();
+                            if area > 0.0 && area.is_finite() {
+                                // Emitting side (pbrt-v4 Triangle): the face normal, turned toward
+                                // the vertex normals if given, else flipped by ReverseOrientation.
+                                let mut n = c.normalize();
+                                if let Some(nv) = &nrm {
+                                    let avg = nv[tri[0] as usize] + nv[tri[1] as usize] + nv[tri[2] as usize];
+                                    n = n.face_forward(avg);
+                                } else if s.reverse_orientation {
+                                    n = -n;
+                                }
+                                light = lights.push(LightKind::Tri { p0, e1, e2, n, area }, table, two_sided);
+                            }
+                        }
+                        prims.push(Prim::Tri { p0, e1, e2 });
+                        info.push(PrimInfo { shape: si as u32, tri: ti as u32, material: s.material as u32, light });
+                    }
+                    if uvs.is_some() || normals.is_some() {
+                        meshes.push(Some(MeshShading {
+                            indices: indices.clone(),
+                            uvs: uvs.clone(),
+                            normals: nrm,
+                        }));
+                    } else {
+                        meshes.push(None);
+                    }
+                }
+                Geometry::Sphere { center, radius } => {
+                    if !(center.iter().all(|v| v.is_finite()) && *radius > 0.0 && radius.is_finite()) {
+                        return Err(shape_err(format!("sphere at {center:?} with radius {radius} m is invalid")));
+                    }
+                    let c = V3::from_f64(*center);
+                    let r = *radius as f32;
+                    scene_bounds.grow_point(c - V3::splat(r));
+                    scene_bounds.grow_point(c + V3::splat(r));
+                    let mut light = NO_LIGHT;
+                    if let Some((table, two_sided)) = le_table {
+                        light = lights.push(LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }, table, two_sided);
+                    }
+                    prims.push(Prim::Sphere { center: c, radius: r });
+                    info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
+                    meshes.push(None);
+                }
+            }
+        }
+        for (li, l) in scene.lights.iter().enumerate() {
+            match l {
+                Light::Infinite { radiance } => {
+                    if let Err(e) = radiance.require_non_negative("infinite light radiance") {
+                        return Err(RenderError::Light { index: li, message: e.to_string() });
+                    }
+                    tables.push(SpectrumTable::new(radiance, 1.0, ws));
+                    lights.push(LightKind::Infinite, (tables.len() - 1) as u32, true);
+                }
+            }
+        }
+        if prims.is_empty() && lights.is_empty() {
+            return Err(RenderError::EmptyScene);
+        }
+        if lights.is_empty() {
+            return Err(RenderError::NoLights);
+        }
+        // Scene radius for the infinite light's power (pbrt-v4 UniformInfiniteLight::Phi).
+        let scene_radius = if prims.is_empty() { 1.0 } else { ((scene_bounds.max - scene_bounds.min) * 0.5).length().max(1e-3) };
+        lights.finish(&tables, scene_radius);
+
+        let bvh = Bvh::build(prims);
+        let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
+        Ok(Tracer { bvh, info, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5 })
+    }
+
+    /// Closest hit along `r`, if any.
+    #[inline(always)]
+    pub(crate) fn intersect(&self, r: &Ray) -> Option<crate::bvh::Hit> {
+        self.bvh.intersect(&RayInv::new(r), f32::INFINITY)
+    }
+
+    fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
+        let slot = h.slot as usize;
+        match self.bvh.prims[slot] {
+            Prim::Tri { p0, e1, e2 } => {
+                let p = p0 + e1 * h.u + e2 * h.v;
+                let ng = e1.cross(e2).normalize();
+                let pi = &self.info[slot];
+                let (mut ns, mut uv) = (ng, [h.u, h.v]);
+                if let Some(m) = &self.meshes[pi.shape as usize] {
+                    let tri = m.indices[pi.tri as usize];
+                    let w = 1.0 - h.u - h.v;
+                    if let Some(n) = &m.normals {
+                        let v = n[tri[0] as usize] * w + n[tri[1] as usize] * h.u + n[tri[2] as usize] * h.v;
+                        if v.length_squared() > 0.0 {
+                            ns = v.normalize();
+                        }
+                    }
+                    if let Some(t) = &m.uvs {
+                        let (a, b, c) = (t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]);
+                        uv = [w * a[0] + h.u * b[0] + h.v * c[0], w * a[1] + h.u * b[1] + h.v * c[1]];
+                    } else {
+                        // pbrt-v4 default triangle uvs (0,0), (1,0), (1,1).
+                        uv = [h.u + h.v, h.v];
+                    }
+                } else {
+                    uv = [uv[0] + uv[1], uv[1]];
+                }
+                SurfaceHit { p, ng, ns, uv }
+            }
+            Prim::Sphere { center, radius } => {
+                let p0 = r.o + r.d * h.t;
+                let n = (p0 - center).normalize();
+                let p = center + n * radius;
+                // pbrt-v4 sphere uv: u = phi / (2 pi), v = theta / pi (z up).
+                let phi = n.y.atan2(n.x);
+                let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
+                let uv = [phi / (2.0 * std::f32::consts::PI), n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
+                SurfaceHit { p, ng: n, ns: n, uv }
+            }
+        }
+    }
+
+    /// The BSDF of material `m` at a hit, at the path's wavelengths.
+    #[inline]
+    fn bsdf_at<const N: usize>(&self, m: u32, uv: [f32; 2], lambdas: &[f32; N]) -> Bsdf<N> {
+        match &self.materials[m as usize] {
+            Mat::Diffuse(tex) => Bsdf::Diffuse { reflectance: self.eval_texture(tex, uv, lambdas) },
+        }
+    }
+
+    #[inline]
+    fn eval_texture<const N: usize>(&self, tex: &Tex, uv: [f32; 2], lambdas: &[f32; N]) -> [f32; N] {
+        let mut out = [0f32; N];
+        match tex {
+            Tex::Table(t) => {
+                let t = &self.tables[*t as usize];
+                for i in 0..N {
+                    out[i] = t.eval(lambdas[i]);
+                }
+            }
+            Tex::Image(im) => {
+                // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
+                let rgb = self.images[*im as usize].lookup(uv);
+                let poly = crate::uplift::rgb_to_coefficients(rgb);
+                for i in 0..N {
+                    out[i] = poly.eval(lambdas[i] as f64) as f32;
+                }
+            }
+        }
+        out
+    }
+
+    #[inline(always)]
+    fn offset(&self, p: V3, n: V3) -> V3 {
+        p + n * (self.offset_scale * (1.0 + p.max_abs()))
+    }
+
+    /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
+    /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have).
+    pub(crate) fn li<const N: usize>(
+        &self,
+        mut ray: Ray,
+        lambdas: &[f32; N],
+        rng: &mut camsim_core::rng::Rng,
+        counts: &mut RayCounts,
+    ) -> [f32; N] {
+        let mut l = [0f32; N];
+        let mut beta = [1f32; N];
+        let mut depth = 0u32;
+        let mut prev_p = ray.o;
+        let mut prev_bsdf_pdf = 0f32;
+        counts.camera += 1;
+        loop {
+            let hit = self.intersect(&ray);
+            let Some(h) = hit else {
+                // Escaped: infinite lights.
+                for &li in &self.lights.infinite {
+                    let light = &self.lights.list[li as usize];
+                    let table = &self.tables[light.table as usize];
+                    let w = if depth == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, light.pmf * sampling::UNIFORM_SPHERE_PDF) };
+                    for i in 0..N {
+                        l[i] += beta[i] * w * table.eval(lambdas[i]);
+                    }
+                }
+                break;
+            };
+            let sh = self.surface(&ray, &h);
+            let pi = self.info[h.slot as usize];
+            let wo = -ray.d;
+            // Emission seen by this path vertex.
+            if pi.light != NO_LIGHT {
+                let light = &self.lights.list[pi.light as usize];
+                if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
+                    let w = if depth == 0 {
+                        1.0
+                    } else {
+                        power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
+                    };
+                    let table = &self.tables[light.table as usize];
+                    for i in 0..N {
+                        l[i] += beta[i] * w * table.eval(lambdas[i]);
+                    }
+                }
+            }
+            if depth >= self.max_depth {
+                break;
+            }
+            depth += 1;
+
+            let bsdf: Bsdf<N> = self.bsdf_at(pi.material, sh.uv, lambdas);
+            // Two-sided shading: normals turned toward the outgoing direction.
+            let ng = sh.ng.face_forward(wo);
+            let ns = sh.ns.face_forward(ng);
+            let frame = Frame::from_normal(ns);
+            let p_out = self.offset(sh.p, ng);
+
+            // Next-event estimation.
+            if !self.lights.is_empty() {
+                let u_sel: f32 = rng.gen();
+                let u0: f32 = rng.gen();
+                let u1: f32 = rng.gen();
+                if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
+                    let LightSample { wi, dist, le, pdf } = ls;
+                    if wi.dot(ng) > 0.0 {
+                        let wi_local = frame.to_local(wi);
+                        let (f, bsdf_pdf) = bsdf.eval(&frame.to_local(wo), &wi_local);
+                        if bsdf_pdf > 0.0 {
+                            counts.shadow += 1;
+                            let t_max = if dist.is_finite() { dist * (1.0 - 1e-4) - self.offset_scale * (1.0 + sh.p.max_abs()) } else { f32::INFINITY };
+                            let shadow = Ray { o: p_out, d: wi };
+                            if t_max > 0.0 && !self.bvh.occluded(&RayInv::new(&shadow), t_max) {
+                                let w = power_heuristic(pdf, bsdf_pdf) * wi_local.z.abs() / pdf;
+                                for i in 0..N {
+                                    l[i] += beta[i] * f[i] * le[i] * w;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+
+            // BSDF sampling for the next vertex.
+            let u0: f32 = rng.gen();
+            let u1: f32 = rng.gen();
+            let Some(bs) = bsdf.sample(&frame.to_local(wo), u0, u1) else { break };
+            let wi = frame.to_world(bs.wi_local);
+            if wi.dot(ng) <= 0.0 {
+                break;
+            }
+            let mut max_beta = 0f32;
+            for i in 0..N {
+                beta[i] *= bs.weight[i];
+                max_beta = max_beta.max(beta[i]);
+            }
+            if max_beta <= 0.0 {
+                break;
+            }
+            prev_bsdf_pdf = bs.pdf;
+            prev_p = sh.p;
+            // Russian roulette (pbrt-v4): after two bounces, continue with probability max(beta).
+            if max_beta < 1.0 && depth > 1 {
+                let q = (1.0 - max_beta).max(0.0);
+                let u: f32 = rng.gen();
+                if u < q {
+                    break;
+                }
+                let k = 1.0 / (1.0 - q);
+                for b in beta.iter_mut() {
+                    *b *= k;
+                }
+            }
+            counts.bounce += 1;
+            ray = Ray { o: p_out, d: wi };
+        }
+        l
+    }
+
+    /// Distance along the camera's forward axis to the first surface, or infinity.
+    pub(crate) fn depth_along(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> f32 {
+        counts.camera += 1;
+        match self.intersect(r) {
+            Some(h) => h.t * r.d.dot(forward),
+            None => f32::INFINITY,
+        }
+    }
+}
+
+fn compile_texture(
+    t: &Texture,
+    material_index: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<ImageTex>,
+) -> Result<Tex, RenderError> {
+    match t {
+        Texture::Constant(s) => {
+            if let Err(e) = s.require_non_negative("diffuse reflectance") {
+                return Err(RenderError::Material { index: material_index, message: e.to_string() });
+            }
+            tables.push(SpectrumTable::new(s, 1.0, ws));
+            Ok(Tex::Table((tables.len() - 1) as u32))
+        }
+        Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta } => {
+            if *width == 0 || *height == 0 || rgb.len() != width * height {
+                return Err(RenderError::Material {
+                    index: material_index,
+                    message: format!("image texture of {width} x {height} pixels has {} values", rgb.len()),
+                });
+            }
+            if rgb.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(RenderError::Material { index: material_index, message: "image texture has a non-finite value".into() });
+            }
+            images.push(ImageTex {
+                width: *width,
+                height: *height,
+                rgb: rgb.clone(),
+                uscale: *uscale as f32,
+                vscale: *vscale as f32,
+                udelta: *udelta as f32,
+                vdelta: *vdelta as f32,
+            });
+            Ok(Tex::Image((images.len() - 1) as u32))
+        }
+    }
+}

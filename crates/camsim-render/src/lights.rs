@@ -1,0 +1,232 @@
+//! Light sources: diffuse area lights on triangles and spheres (one- or two-sided) and a uniform
+//! infinite light. Lights are chosen with probability proportional to their power (pbrt-v4
+//! `PowerLightSampler`); points on triangles are sampled uniformly by area, spheres seen from
+//! outside uniformly within the cone they subtend, from inside uniformly by area.
+
+use crate::math::V3;
+use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
+use crate::spectral::SpectrumTable;
+use std::f32::consts::PI;
+
+/// The shape of a light.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum LightKind {
+    /// Triangle `p0, p0 + e1, p0 + e2`; `n` is the unit normal of the emitting side; `area` in m^2.
+    Tri { p0: V3, e1: V3, e2: V3, n: V3, area: f32 },
+    /// Sphere; one-sided spheres emit outward, or inward when `inward` (ReverseOrientation).
+    Sphere { center: V3, radius: f32, inward: bool },
+    /// Uniform radiance from every direction.
+    Infinite,
+}
+
+/// One light: shape, radiance table (W/(sr m^2 nm)), sidedness and selection probability.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LightEntry {
+    pub kind: LightKind,
+    pub table: u32,
+    pub two_sided: bool,
+    pub pmf: f32,
+}
+
+/// All lights and the power distribution used to pick one.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Lights {
+    pub list: Vec<LightEntry>,
+    cdf: Vec<f64>,
+    /// Indices of infinite lights (evaluated when a ray escapes).
+    pub infinite: Vec<u32>,
+}
+
+/// A sampled light direction from a reference point.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LightSample<const N: usize> {
+    /// Unit direction from the reference point to the light.
+    pub wi: V3,
+    /// Distance to the sampled point, m (infinite for the infinite light).
+    pub dist: f32,
+    /// Emitted radiance toward the reference point.
+    pub le: [f32; N],
+    /// Density per steradian, including the light selection probability.
+    pub pdf: f32,
+}
+
+impl Lights {
+    /// Add a light; returns its index.
+    pub(crate) fn push(&mut self, kind: LightKind, table: u32, two_sided: bool) -> u32 {
+        if matches!(kind, LightKind::Infinite) {
+            self.infinite.push(self.list.len() as u32);
+        }
+        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0 });
+        (self.list.len() - 1) as u32
+    }
+
+    /// No lights at all.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Compute selection probabilities proportional to emitted power
+    /// (pbrt-v4 `DiffuseAreaLight::Phi` = pi (2 if two-sided) A L; `UniformInfiniteLight::Phi`
+    /// = 4 pi pi r^2 L with r the scene's bounding radius), with L the mean radiance over the
+    /// sampled wavelength range. Falls back to uniform selection when every power is zero.
+    pub(crate) fn finish(&mut self, tables: &[SpectrumTable], scene_radius_m: f32) {
+        let powers: Vec<f64> = self
+            .list
+            .iter()
+            .map(|l| {
+                let lmean = tables[l.table as usize].mean();
+                let sides = if l.two_sided { 2.0 } else { 1.0 };
+                let p = std::f64::consts::PI;
+                match l.kind {
+                    LightKind::Tri { area, .. } => p * sides * area as f64 * lmean,
+                    LightKind::Sphere { radius, .. } => p * sides * 4.0 * p * (radius as f64).powi(2) * lmean,
+                    LightKind::Infinite => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean,
+                }
+            })
+            .collect();
+        let total: f64 = powers.iter().sum();
+        let n = self.list.len();
+        let probs: Vec<f64> =
+            if total > 0.0 && total.is_finite() { powers.iter().map(|p| p / total).collect() } else { vec![1.0 / n as f64; n] };
+        self.cdf.clear();
+        let mut acc = 0.0;
+        for (l, p) in self.list.iter_mut().zip(&probs) {
+            l.pmf = *p as f32;
+            acc += p;
+            self.cdf.push(acc);
+        }
+    }
+
+    /// Pick a light from a uniform number.
+    #[inline]
+    fn pick(&self, u: f32) -> usize {
+        let u = u as f64 * self.cdf.last().copied().unwrap_or(1.0);
+        let i = self.cdf.partition_point(|c| *c <= u);
+        let mut i = i.min(self.list.len() - 1);
+        // Never return a light with zero probability (u landed on a flat step).
+        while self.list[i].pmf == 0.0 && i > 0 {
+            i -= 1;
+        }
+        i
+    }
+
+    /// True when `light` emits from point `p` (geometric normal `ng`, as the shape defines it)
+    /// toward direction `w` (pbrt-v4 `DiffuseAreaLight::L`: one-sided lights emit on the side
+    /// of their normal).
+    #[inline]
+    pub(crate) fn emits_toward(&self, light: &LightEntry, p: V3, ng: V3, w: V3) -> bool {
+        if light.two_sided {
+            return true;
+        }
+        match light.kind {
+            LightKind::Tri { n, .. } => n.dot(w) > 0.0,
+            LightKind::Sphere { center, inward, .. } => {
+                let out = (p - center).dot(w) > 0.0;
+                let _ = ng;
+                out != inward
+            }
+            LightKind::Infinite => false,
+        }
+    }
+
+    /// Density per steradian (times the selection probability) with which [`Lights::sample`]
+    /// from `p_ref` would have produced point `q` (normal `ng`) on `light`.
+    #[inline]
+    pub(crate) fn pdf_hit(&self, light: &LightEntry, p_ref: V3, q: V3, ng: V3) -> f32 {
+        let d = q - p_ref;
+        let dist2 = d.length_squared();
+        match light.kind {
+            LightKind::Tri { area, .. } => {
+                let cos = (ng.dot(d)).abs() / dist2.sqrt();
+                if cos <= 0.0 {
+                    return 0.0;
+                }
+                light.pmf * dist2 / (cos * area)
+            }
+            LightKind::Sphere { center, radius, .. } => match sphere_cone(p_ref, center, radius) {
+                Some((cos_max, sin2_max)) => light.pmf * cone_pdf(cos_max, sin2_max),
+                None => {
+                    let cos = (ng.dot(d)).abs() / dist2.sqrt();
+                    if cos <= 0.0 {
+                        return 0.0;
+                    }
+                    light.pmf * dist2 / (cos * 4.0 * PI * radius * radius)
+                }
+            },
+            LightKind::Infinite => light.pmf * UNIFORM_SPHERE_PDF,
+        }
+    }
+
+    /// Sample a light and a direction toward it from `p`.
+    #[inline]
+    pub(crate) fn sample<const N: usize>(
+        &self,
+        tables: &[SpectrumTable],
+        p: V3,
+        u_sel: f32,
+        u0: f32,
+        u1: f32,
+        lambdas: &[f32; N],
+    ) -> Option<LightSample<N>> {
+        let light = &self.list[self.pick(u_sel)];
+        let (wi, dist, pdf_sa) = match light.kind {
+            LightKind::Tri { p0, e1, e2, n, area } => {
+                let (b1, b2) = uniform_triangle(u0, u1);
+                let q = p0 + e1 * b1 + e2 * b2;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = n.dot(-wi);
+                if !light.two_sided && cos_l <= 0.0 {
+                    return None;
+                }
+                let cos_l = cos_l.abs();
+                if cos_l <= 0.0 || dist <= 0.0 {
+                    return None;
+                }
+                (wi, dist, dist2 / (cos_l * area))
+            }
+            LightKind::Sphere { center, radius, inward } => {
+                let (q, n, pdf) = match sphere_cone(p, center, radius) {
+                    Some((cos_max, sin2_max)) => {
+                        let (q, n) = sample_sphere_cone(p, center, radius, cos_max, sin2_max, u0, u1);
+                        (q, n, cone_pdf(cos_max, sin2_max))
+                    }
+                    None => {
+                        let n = uniform_sphere(u0, u1);
+                        let q = center + n * radius;
+                        let d = q - p;
+                        let dist2 = d.length_squared();
+                        let cos = (n.dot(d)).abs() / dist2.sqrt();
+                        if cos <= 0.0 {
+                            return None;
+                        }
+                        (q, n, dist2 / (cos * 4.0 * PI * radius * radius))
+                    }
+                };
+                let d = q - p;
+                let dist = d.length();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                if !light.two_sided && ((n.dot(-wi) > 0.0) == inward) {
+                    return None;
+                }
+                (wi, dist, pdf)
+            }
+            LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, sampling::UNIFORM_SPHERE_PDF),
+        };
+        let pdf = pdf_sa * light.pmf;
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        let t = &tables[light.table as usize];
+        let mut le = [0f32; N];
+        for i in 0..N {
+            le[i] = t.eval(lambdas[i]);
+        }
+        Some(LightSample { wi, dist, le, pdf })
+    }
+}

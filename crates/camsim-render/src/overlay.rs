@@ -1,0 +1,672 @@
+//! Scene control as ISET3d does it: a TOML overlay applied to a [`SceneDescription`] (from a
+//! pbrt-v4 file or a built-in scene) that moves, removes or replaces objects, sets surface
+//! reflectances and the light's spectrum and level, and changes the camera and render settings.
+//!
+//! ```toml
+//! [camera]                       # all optional
+//! position_m = [0.278, 0.274, -0.6]
+//! look_at_m = [0.278, 0.274, 0.5]
+//! up = [0.0, 1.0, 0.0]
+//! fov_deg = 40.0                 # across the shorter image axis (pbrt-v4 "fov")
+//! resolution = [640, 480]
+//! focus_distance_m = 1.1
+//!
+//! [render]                       # all optional
+//! samples_per_pixel = 256
+//! max_depth = 8
+//! seed = 7
+//! wavelengths_per_path = 4
+//! time_budget_s = 60.0
+//! grid = { start_nm = 400.0, end_nm = 700.0, step_nm = 10.0 }
+//!
+//! [[material]]                   # set (or create) a material's reflectance
+//! name = "red"                   # a named material; `*` matches any run of characters
+//! reflectance = { file = "../shared/data/isetcornellbox/cboxWalls.csv", column = "red" }
+//!
+//! [[object]]                     # one entry per change, applied in order
+//! name = "short_block"           # shape name; `*` wildcards ("mcc_*" moves the whole chart)
+//! scale = 1.0                    # number or [sx, sy, sz], about the pivot
+//! rotate = { angle_deg = 15.0, axis = [0.0, 1.0, 0.0] }   # about the pivot
+//! translate_m = [0.05, 0.0, 0.0]
+//! pivot_m = [0.19, 0.0, 0.17]    # default: centre of the matched objects' bounding box
+//! material = "white"             # assign a named material
+//! # remove = true                # delete the objects
+//! # replace = { file = "teapot.ply", material = "white", align = "bottom" }
+//!
+//! [light]                        # area lights (and, without `name`, infinite lights)
+//! name = "light"                 # optional filter
+//! spectrum = { file = "../shared/data/isetcornellbox/cboxIlluminant.csv", column = "spd" }
+//! luminance_cd_m2 = 1200.0       # or radiance_scale = 2.0
+//! ```
+//!
+//! Spectra (`reflectance`, `spectrum`) are one of: a number (a constant); a table name --
+//! `macbeth:N` or `macbeth:NAME` (Ohta 1997 ColorChecker reflectances), `cornell:white|red|green`
+//! (Cornell data page), a CIE illuminant name `D65`, `A`, `C`, `F2`, `F11`, `E`, or
+//! `blackbody-K` (for lights); `{ blackbody_k = 3000.0 }`; or `{ file = "...", column = "name" }`
+//! for a CSV or ISETCam MATLAB v5 `.mat` file read by [`camsim_core::spectrum_csv::load_spectra`]
+//! (`column` is a column name or a 1-based index; it may be left out when the file has one
+//! spectrum). Relative file paths resolve against `base_dir` (the CLI passes the overlay file's
+//! folder).
+//!
+//! Order of application: `[camera]`, `[render]`, `[[material]]`, `[[object]]`, `[light]`.
+//! Object transforms apply scale, then rotation, then translation, about the pivot. Camera:
+//! setting `position_m`/`look_at_m` keeps the scene's image handedness (a right-handed view stays
+//! right-handed). Light: a new `spectrum` keeps the light's previous luminance unless
+//! `luminance_cd_m2` is given; `radiance_scale` multiplies last.
+
+use crate::builtin::{cornell_reflectance, spectrum_at_luminance};
+use crate::pbrt::spectra::photometric;
+use crate::pbrt::xform::{self, det3, shape_bounds};
+use crate::scene::{Geometry, Light, Material, SceneDescription, Shape, Texture, Transform};
+use camsim_core::spectrum::Extrapolation;
+use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
+use camsim_core::{tables, Spectrum, WavelengthGrid};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// An overlay error: the overlay's name and what is wrong (with the TOML position or the key).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{source_name}: {message}")]
+pub struct OverlayError {
+    pub source_name: String,
+    pub message: String,
+}
+
+/// The overlay file.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Overlay {
+    /// Camera changes.
+    pub camera: Option<CameraOverlay>,
+    /// Render settings.
+    pub render: Option<RenderOverlay>,
+    /// Material reflectances, in order.
+    #[serde(default)]
+    pub material: Vec<MaterialOverlay>,
+    /// Object changes, in order.
+    #[serde(default)]
+    pub object: Vec<ObjectOverlay>,
+    /// Light spectrum and level.
+    pub light: Option<LightOverlay>,
+}
+
+/// `[camera]`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct CameraOverlay {
+    /// Eye position, m (needs `look_at_m`).
+    pub position_m: Option<[f64; 3]>,
+    /// Point looked at, m.
+    pub look_at_m: Option<[f64; 3]>,
+    /// Up direction (dimensionless); default +y.
+    pub up: Option<[f64; 3]>,
+    /// Field of view across the shorter image axis, degrees.
+    pub fov_deg: Option<f64>,
+    /// Image size [width, height], pixels.
+    pub resolution: Option<[usize; 2]>,
+    /// Focus distance for the optics stage, m.
+    pub focus_distance_m: Option<f64>,
+}
+
+/// `[render]`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RenderOverlay {
+    /// Samples per pixel.
+    pub samples_per_pixel: Option<u32>,
+    /// Maximum path depth (bounces).
+    pub max_depth: Option<u32>,
+    /// Random seed.
+    pub seed: Option<u64>,
+    /// Wavelengths traced per path.
+    pub wavelengths_per_path: Option<usize>,
+    /// Stop after this many seconds, s.
+    pub time_budget_s: Option<f64>,
+    /// Output wavelength grid, nm.
+    pub grid: Option<GridOverlay>,
+}
+
+/// A wavelength grid, nm.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridOverlay {
+    /// First wavelength, nm.
+    pub start_nm: f64,
+    /// Last wavelength, nm.
+    pub end_nm: f64,
+    /// Spacing, nm.
+    pub step_nm: f64,
+}
+
+/// A spectrum given in an overlay (see the module docs).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum SpectrumSpec {
+    /// The same value at every wavelength.
+    Constant(f64),
+    /// A table name (`macbeth:13`, `cornell:red`, `D65`, `blackbody-3000`).
+    Name(String),
+    /// A blackbody of this temperature, K.
+    Blackbody(BlackbodySpec),
+    /// A column of a CSV or ISETCam `.mat` file.
+    File(FileSpec),
+}
+
+/// `{ blackbody_k = T }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlackbodySpec {
+    /// Temperature, K.
+    pub blackbody_k: f64,
+}
+
+/// `{ file = "...", column = ... }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FileSpec {
+    /// CSV or ISETCam `.mat` file, relative to `base_dir`.
+    pub file: String,
+    /// Column name or 1-based index; optional for one-spectrum files.
+    pub column: Option<ColumnSpec>,
+}
+
+/// A column by name or 1-based index.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum ColumnSpec {
+    Index(usize),
+    Name(String),
+}
+
+/// `[[material]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialOverlay {
+    /// Named material (wildcards `*`); a plain name that does not exist is created.
+    pub name: String,
+    /// Diffuse reflectance (fraction).
+    pub reflectance: SpectrumSpec,
+}
+
+/// `[[object]]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectOverlay {
+    /// Shape name (wildcards `*`).
+    pub name: String,
+    /// Delete the objects.
+    #[serde(default)]
+    pub remove: bool,
+    /// Replace the objects with a file's shapes.
+    pub replace: Option<ReplaceSpec>,
+    /// Scale about the pivot: a number or [sx, sy, sz].
+    pub scale: Option<ScaleSpec>,
+    /// Rotation about the pivot.
+    pub rotate: Option<RotateSpec>,
+    /// Translation, m.
+    pub translate_m: Option<[f64; 3]>,
+    /// Pivot, m; default: centre of the matched objects' bounding box.
+    pub pivot_m: Option<[f64; 3]>,
+    /// Assign this named material.
+    pub material: Option<String>,
+}
+
+/// Uniform or per-axis scale.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum ScaleSpec {
+    Uniform(f64),
+    Axes([f64; 3]),
+}
+
+/// A rotation.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotateSpec {
+    /// Angle, degrees (right-hand rule about `axis`).
+    pub angle_deg: f64,
+    /// Axis (dimensionless).
+    pub axis: [f64; 3],
+}
+
+/// What replaces an object.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReplaceSpec {
+    /// A pbrt-v4 scene (its world's shapes, materials and area lights) or a PLY mesh (m).
+    pub file: String,
+    /// Named material for the new shapes (default: the PLY gets the replaced object's material;
+    /// a pbrt file keeps its own).
+    pub material: Option<String>,
+    /// `bottom` (default: bounding-box bottom centres coincide), `center`, or `none`.
+    pub align: Option<String>,
+}
+
+/// `[light]`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct LightOverlay {
+    /// Area-light shape name filter (wildcards); without it every emitter changes.
+    pub name: Option<String>,
+    /// Relative spectral shape of the emission.
+    pub spectrum: Option<SpectrumSpec>,
+    /// Luminance, cd/m^2 (683 lm/W * integral y_bar L dl).
+    pub luminance_cd_m2: Option<f64>,
+    /// Multiply the radiance by this (dimensionless).
+    pub radiance_scale: Option<f64>,
+}
+
+/// `*`-wildcard match.
+pub fn glob_match(pattern: &str, name: &str) -> bool {
+    let parts: Vec<&str> = pattern.split('*').collect();
+    if parts.len() == 1 {
+        return pattern == name;
+    }
+    let mut rest = name;
+    for (i, p) in parts.iter().enumerate() {
+        if i == 0 {
+            match rest.strip_prefix(p) {
+                Some(r) => rest = r,
+                None => return false,
+            }
+        } else if i == parts.len() - 1 {
+            return rest.ends_with(p);
+        } else {
+            match rest.find(p) {
+                Some(k) => rest = &rest[k + p.len()..],
+                None => return false,
+            }
+        }
+    }
+    true
+}
+
+/// Resolve a spectrum spec; `what` names it in errors.
+pub fn resolve_spectrum(spec: &SpectrumSpec, base_dir: &Path, what: &str) -> Result<Spectrum, String> {
+    match spec {
+        SpectrumSpec::Constant(v) => {
+            if !v.is_finite() || *v < 0.0 {
+                return Err(format!("{what}: {v} must be a non-negative number"));
+            }
+            Ok(Spectrum::from_pairs(&[(300.0, *v), (1100.0, *v)]).with_extrapolation(Extrapolation::Hold))
+        }
+        SpectrumSpec::Blackbody(b) => {
+            tables::illuminant(&format!("blackbody-{}", b.blackbody_k)).map_err(|e| format!("{what}: {e}"))
+        }
+        SpectrumSpec::Name(n) => {
+            if let Some(p) = n.strip_prefix("macbeth:") {
+                tables::macbeth_patch(p).map_err(|e| format!("{what}: {e}"))
+            } else if let Some(p) = n.strip_prefix("cornell:") {
+                cornell_reflectance(p).map_err(|e| format!("{what}: {e}"))
+            } else {
+                tables::illuminant(n).map_err(|e| {
+                    format!("{what}: \"{n}\" is not a table name (macbeth:N, cornell:white|red|green, or an illuminant: {e})")
+                })
+            }
+        }
+        SpectrumSpec::File(f) => {
+            let path = resolve_path(base_dir, &f.file);
+            let table = camsim_core::spectrum_csv::load_spectra(&path).map_err(|e| format!("{what}: {e}"))?;
+            let s = match &f.column {
+                None => {
+                    if table.len() != 1 {
+                        return Err(format!(
+                            "{what}: {} has {} spectra ({}); say which with column = \"name\" or a 1-based index",
+                            path.display(),
+                            table.len(),
+                            table.names.join(", ")
+                        ));
+                    }
+                    table.spectrum_at(0)
+                }
+                Some(ColumnSpec::Name(n)) => table.spectrum(n),
+                Some(ColumnSpec::Index(i)) => {
+                    if *i == 0 || *i > table.len() {
+                        return Err(format!("{what}: column {i} is not in 1..{}", table.len()));
+                    }
+                    table.spectrum_at(i - 1)
+                }
+            }
+            .map_err(|e| format!("{what}: {e}"))?;
+            s.require_non_negative(what).map_err(|e| e.to_string())?;
+            Ok(s.with_extrapolation(Extrapolation::Hold))
+        }
+    }
+}
+
+fn resolve_path(base: &Path, f: &str) -> PathBuf {
+    let p = Path::new(f);
+    if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }
+}
+
+/// Parse and apply an overlay. `source_name` names it in errors; relative paths resolve against
+/// `base_dir`.
+pub fn apply(scene: &mut SceneDescription, overlay_toml: &str, source_name: &str, base_dir: &Path) -> Result<(), OverlayError> {
+    let ov: Overlay = toml::from_str(overlay_toml)
+        .map_err(|e| OverlayError { source_name: source_name.to_string(), message: e.to_string().trim_end().to_string() })?;
+    apply_overlay(scene, &ov, base_dir).map_err(|message| OverlayError { source_name: source_name.to_string(), message })
+}
+
+/// Apply an already-parsed overlay; errors name the key.
+pub fn apply_overlay(scene: &mut SceneDescription, ov: &Overlay, base_dir: &Path) -> Result<(), String> {
+    if let Some(c) = &ov.camera {
+        apply_camera(scene, c)?;
+    }
+    if let Some(r) = &ov.render {
+        let s = &mut scene.settings;
+        if let Some(v) = r.samples_per_pixel {
+            if v == 0 {
+                return Err("render.samples_per_pixel must be at least 1".into());
+            }
+            s.samples_per_pixel = v;
+        }
+        if let Some(v) = r.max_depth {
+            s.max_depth = v;
+        }
+        if let Some(v) = r.seed {
+            s.seed = v;
+        }
+        if let Some(v) = r.wavelengths_per_path {
+            if v == 0 || v > 64 {
+                return Err(format!("render.wavelengths_per_path {v} must be 1-64"));
+            }
+            s.wavelengths_per_path = v;
+        }
+        if let Some(v) = r.time_budget_s {
+            if !(v > 0.0) {
+                return Err(format!("render.time_budget_s {v} must be positive"));
+            }
+            s.time_budget_s = Some(v);
+        }
+        if let Some(g) = r.grid {
+            s.grid = WavelengthGrid::new(g.start_nm, g.end_nm, g.step_nm).map_err(|e| format!("render.grid: {e}"))?;
+        }
+    }
+    for (i, m) in ov.material.iter().enumerate() {
+        let what = format!("material[{i}] \"{}\" reflectance", m.name);
+        let s = resolve_spectrum(&m.reflectance, base_dir, &what)?;
+        if s.values.iter().any(|v| *v > 1.0 + 1e-9) {
+            scene.notes.push(format!("{what}: values above 1 (max {:.3}); a reflectance above 1 adds energy", s.max_value()));
+        }
+        let mut names: Vec<(String, usize)> =
+            scene.named_materials.iter().filter(|(k, _)| glob_match(&m.name, k)).map(|(k, v)| (k.clone(), *v)).collect();
+        names.sort();
+        if names.is_empty() {
+            if m.name.contains('*') {
+                return Err(format!("material[{i}]: no material matches \"{}\"", m.name));
+            }
+            scene.materials.push(Material::Diffuse { reflectance: Texture::Constant(s) });
+            scene.named_materials.insert(m.name.clone(), scene.materials.len() - 1);
+            continue;
+        }
+        for (_, idx) in names {
+            scene.materials[idx] = Material::Diffuse { reflectance: Texture::Constant(s.clone()) };
+        }
+    }
+    for (i, o) in ov.object.iter().enumerate() {
+        apply_object(scene, o, i, base_dir)?;
+    }
+    if let Some(l) = &ov.light {
+        apply_light(scene, l, base_dir)?;
+    }
+    Ok(())
+}
+
+fn apply_camera(scene: &mut SceneDescription, c: &CameraOverlay) -> Result<(), String> {
+    let cam = &mut scene.camera;
+    match (c.position_m, c.look_at_m) {
+        (Some(p), Some(l)) => {
+            let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+            let right_handed = det3(&cam.camera_to_world) < 0.0;
+            cam.camera_to_world = crate::camera::look_at_camera_to_world(p, l, up, right_handed)
+                .ok_or_else(|| "camera: position_m, look_at_m and up are degenerate (up parallel to the view?)".to_string())?;
+        }
+        (None, None) => {
+            if c.up.is_some() {
+                return Err("camera.up needs position_m and look_at_m".into());
+            }
+        }
+        _ => return Err("camera: give both position_m and look_at_m".into()),
+    }
+    if let Some(f) = c.fov_deg {
+        if !(f > 0.0 && f < 180.0) {
+            return Err(format!("camera.fov_deg {f} must be in (0, 180)"));
+        }
+        cam.fov_deg = f;
+    }
+    if let Some([w, h]) = c.resolution {
+        if w == 0 || h == 0 || w > 1 << 16 || h > 1 << 16 {
+            return Err(format!("camera.resolution {w} x {h} is out of range"));
+        }
+        cam.width = w;
+        cam.height = h;
+    }
+    if let Some(d) = c.focus_distance_m {
+        if !(d > 0.0) {
+            return Err(format!("camera.focus_distance_m {d} must be positive"));
+        }
+        scene.focus_distance_m = Some(d);
+    }
+    Ok(())
+}
+
+fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for s in shapes {
+        let (a, b) = shape_bounds(&s.geometry);
+        for k in 0..3 {
+            lo[k] = lo[k].min(a[k]);
+            hi[k] = hi[k].max(b[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_dir: &Path) -> Result<(), String> {
+    let key = format!("object[{i}] \"{}\"", o.name);
+    let matched: Vec<usize> =
+        (0..scene.shapes.len()).filter(|&k| scene.shapes[k].name.as_deref().is_some_and(|n| glob_match(&o.name, n))).collect();
+    if matched.is_empty() {
+        let mut names: Vec<&str> = scene.shapes.iter().filter_map(|s| s.name.as_deref()).collect();
+        names.dedup();
+        return Err(format!("{key}: no object of that name (objects: {})", names.join(", ")));
+    }
+    let refs: Vec<&Shape> = matched.iter().map(|&k| &scene.shapes[k]).collect();
+    let (lo, hi) = union_bounds(&refs);
+    if o.remove {
+        if o.replace.is_some() || o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() || o.material.is_some() {
+            return Err(format!("{key}: remove = true cannot be combined with other changes"));
+        }
+        let mut k = 0;
+        scene.shapes.retain(|_| {
+            let keep = !matched.contains(&k);
+            k += 1;
+            keep
+        });
+        return Ok(());
+    }
+    let mut targets = matched.clone();
+    if let Some(r) = &o.replace {
+        let path = resolve_path(base_dir, &r.file);
+        let first = &scene.shapes[matched[0]];
+        let name = first.name.clone();
+        let old_material = first.material;
+        let material_override = match &r.material {
+            Some(m) => Some(*scene.named_materials.get(m).ok_or_else(|| format!("{key}: replace.material \"{m}\" is not a named material"))?),
+            None => None,
+        };
+        let mut new_shapes: Vec<Shape> = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply")) {
+            let m = crate::pbrt::ply::read_ply(&path).map_err(|e| format!("{key}: {e}"))?;
+            vec![Shape {
+                name: name.clone(),
+                geometry: Geometry::Triangles { positions: m.positions, indices: m.triangles, uvs: m.uvs, normals: m.normals },
+                material: material_override.unwrap_or(old_material),
+                area_light: None,
+                reverse_orientation: false,
+            }]
+        } else {
+            let sub = crate::pbrt::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
+            let offset = scene.materials.len();
+            scene.materials.extend(sub.materials);
+            for (n, idx) in sub.named_materials {
+                scene.named_materials.entry(n).or_insert(idx + offset);
+            }
+            if !sub.lights.is_empty() {
+                scene.notes.push(format!("{key}: the infinite lights of {} were not inserted", path.display()));
+            }
+            sub.shapes
+                .into_iter()
+                .map(|mut s| {
+                    s.material = material_override.unwrap_or(s.material + offset);
+                    s.name = name.clone();
+                    s
+                })
+                .collect()
+        };
+        if new_shapes.is_empty() {
+            return Err(format!("{key}: {} has no shapes", path.display()));
+        }
+        let align = r.align.as_deref().unwrap_or("bottom");
+        let (nlo, nhi) = union_bounds(&new_shapes.iter().collect::<Vec<_>>());
+        let shift = match align {
+            "bottom" => [(lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0, lo[1] - nlo[1], (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0],
+            "center" => [(lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0, (lo[1] + hi[1] - nlo[1] - nhi[1]) / 2.0, (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0],
+            "none" => [0.0; 3],
+            other => return Err(format!("{key}: replace.align \"{other}\" must be bottom, center or none")),
+        };
+        let t = Transform::translate(shift);
+        for s in new_shapes.iter_mut() {
+            xform::transform_shape(s, &t).map_err(|e| format!("{key}: {e}"))?;
+        }
+        // Remove the old shapes, insert the new ones at the first one's place.
+        let at = matched[0];
+        let n_new = new_shapes.len();
+        let mut k = 0;
+        scene.shapes.retain(|_| {
+            let keep = !matched.contains(&k);
+            k += 1;
+            keep
+        });
+        let at = at.min(scene.shapes.len());
+        scene.shapes.splice(at..at, new_shapes);
+        targets = (at..at + n_new).collect();
+    }
+    if let Some(m) = &o.material {
+        let idx = *scene.named_materials.get(m).ok_or_else(|| format!("{key}: material \"{m}\" is not a named material"))?;
+        for &k in &targets {
+            scene.shapes[k].material = idx;
+        }
+    }
+    if o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() {
+        let refs: Vec<&Shape> = targets.iter().map(|&k| &scene.shapes[k]).collect();
+        let (lo, hi) = union_bounds(&refs);
+        let pivot = o.pivot_m.unwrap_or([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0]);
+        let mut t = Transform::translate([-pivot[0], -pivot[1], -pivot[2]]);
+        if let Some(s) = &o.scale {
+            let s = match s {
+                ScaleSpec::Uniform(v) => [*v; 3],
+                ScaleSpec::Axes(a) => *a,
+            };
+            if s.iter().any(|v| !v.is_finite() || *v == 0.0) {
+                return Err(format!("{key}: scale {s:?} must be finite and non-zero"));
+            }
+            t = Transform::scale(s).then_apply_to(&t);
+        }
+        if let Some(r) = &o.rotate {
+            if r.axis.iter().all(|v| *v == 0.0) || !r.angle_deg.is_finite() {
+                return Err(format!("{key}: rotate needs a finite angle and a non-zero axis"));
+            }
+            t = Transform::rotate(r.angle_deg, r.axis).then_apply_to(&t);
+        }
+        t = Transform::translate(pivot).then_apply_to(&t);
+        if let Some(d) = o.translate_m {
+            t = Transform::translate(d).then_apply_to(&t);
+        }
+        for &k in &targets {
+            xform::transform_shape(&mut scene.shapes[k], &t).map_err(|e| format!("{key}: {e}"))?;
+        }
+    }
+    Ok(())
+}
+
+fn apply_light(scene: &mut SceneDescription, l: &LightOverlay, base_dir: &Path) -> Result<(), String> {
+    let new_shape = match &l.spectrum {
+        Some(s) => Some(resolve_spectrum(s, base_dir, "light.spectrum")?),
+        None => None,
+    };
+    if let Some(s) = &new_shape {
+        if !(photometric(s) > 0.0) {
+            return Err("light.spectrum has no luminance (zero over 360-830 nm)".into());
+        }
+    }
+    if let Some(v) = l.luminance_cd_m2 {
+        if !(v >= 0.0 && v.is_finite()) {
+            return Err(format!("light.luminance_cd_m2 {v} must be a non-negative number"));
+        }
+    }
+    if let Some(v) = l.radiance_scale {
+        if !(v >= 0.0 && v.is_finite()) {
+            return Err(format!("light.radiance_scale {v} must be a non-negative number"));
+        }
+    }
+    let change = |old: &Spectrum| -> Result<Spectrum, String> {
+        let old_lum = LUMINOUS_EFFICACY_LM_PER_W * photometric(old);
+        let relative = new_shape.clone().unwrap_or_else(|| old.clone());
+        let mut out = match (l.luminance_cd_m2, &new_shape) {
+            (Some(v), _) => spectrum_at_luminance(&relative, v).map_err(|e| e.to_string())?,
+            (None, Some(_)) => spectrum_at_luminance(&relative, old_lum).map_err(|e| e.to_string())?,
+            (None, None) => old.clone(),
+        };
+        if let Some(k) = l.radiance_scale {
+            out = out.scaled(k);
+        }
+        Ok(out)
+    };
+    let mut n = 0;
+    for s in scene.shapes.iter_mut() {
+        let matches = match &l.name {
+            None => true,
+            Some(p) => s.name.as_deref().is_some_and(|n| glob_match(p, n)),
+        };
+        if let (true, Some(a)) = (matches, s.area_light.as_mut()) {
+            a.radiance = change(&a.radiance)?;
+            n += 1;
+        }
+    }
+    if l.name.is_none() {
+        for li in scene.lights.iter_mut() {
+            match li {
+                Light::Infinite { radiance } => {
+                    *radiance = change(radiance)?;
+                    n += 1;
+                }
+                #[allow(unreachable_patterns)]
+                _ => {}
+            }
+        }
+    }
+    if n == 0 {
+        return Err(format!("light: no emitter matches{}", l.name.as_ref().map(|n| format!(" \"{n}\"")).unwrap_or_default()));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::glob_match;
+
+    #[test]
+    fn globs() {
+        assert!(glob_match("mcc_*", "mcc_patch_01"));
+        assert!(glob_match("*wall", "left_wall"));
+        assert!(glob_match("a*c*e", "abcde"));
+        assert!(!glob_match("mcc_*", "light"));
+        assert!(glob_match("light", "light"));
+        assert!(!glob_match("light", "lights"));
+    }
+}

@@ -1,0 +1,147 @@
+//! pbrt-v4 scene reader: the subset of the pbrt-v4 file format
+//! (<https://pbrt.org/fileformat-v4>) that a Cornell box and similar scenes use, read with
+//! pbrt-v4's semantics, producing a [`SceneDescription`].
+//!
+//! # Supported
+//! - Tokens: quoted strings (escapes `\n \t \r \b \f \\ \' \"`), numbers, `[ ]`, `#` comments.
+//!   A comment `#ObjectName NAME[:...]` (ISET3d's export convention) names the shapes that follow
+//!   in the same attribute block, so overlays can find them.
+//! - Parameter types: `integer`, `float`, `point2`, `vector2`, `point3`/`point`, `vector3`/`vector`,
+//!   `normal3`/`normal`, `bool` (bare or quoted), `string`, `texture`, `rgb`/`color`, `spectrum`
+//!   (inline wavelength-value pairs, a named spectrum, or a two-column file), `blackbody` (one
+//!   temperature in K; normalised to peak 1 as pbrt-v4's `BlackbodySpectrum`). As in pbrt-v4 a
+//!   parameter the directive does not use, or one of the wrong type, is an error.
+//! - Options block: `LookAt`, `Camera "perspective"` (`fov`, `lensradius`, `focaldistance`),
+//!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
+//!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`), `Integrator` (`path`,
+//!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`,
+//!   `Option` (ignored, noted).
+//! - Transforms: `Identity`, `Translate`, `Scale`, `Rotate`, `LookAt`, `Transform`,
+//!   `ConcatTransform` (16 numbers, column-major as pbrt-v4 reads them), `CoordinateSystem`,
+//!   `CoordSysTransform` (`"camera"` is defined by `Camera`), `ReverseOrientation`,
+//!   `AttributeBegin`/`AttributeEnd` (graphics state: CTM, material, area light, orientation,
+//!   name), `TransformBegin`/`TransformEnd` (deprecated in v4; CTM only), `ActiveTransform`
+//!   (only the start transform is used: no motion blur).
+//! - World: `WorldBegin`, `Shape` (`trianglemesh`: `P`, `indices`, `uv`, `N`; `bilinearmesh`:
+//!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
+//!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin),
+//!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (`diffuse` with `reflectance` as rgb,
+//!   spectrum, blackbody or a texture; forward references to named materials resolve at the end),
+//!   `Texture "name" "spectrum" "imagemap"` (PNG via the `image` crate, EXR via the `exr` crate;
+//!   `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`), `scale`,
+//!   `invert`, `uscale`, `vscale`, `udelta`, `vdelta`) and `"constant"` (`value`), float textures
+//!   (accepted, unused), `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`),
+//!   `LightSource "infinite"` (`L`, `scale`, `illuminance`), `ObjectBegin`/`ObjectEnd`/
+//!   `ObjectInstance`, `Include` and `Import` (relative to the including file, then to the main
+//!   file's folder; cycles are errors).
+//!
+//! # pbrt-v4 semantics kept, and camsim's units
+//! - Lights: pbrt-v4 divides a light's `scale` by `SpectrumToPhotometric(L)` (the y-bar integral
+//!   of the spectrum over 360-830 nm at 1 nm; for an `rgb` L only the colour space's illuminant
+//!   counts), so `scale` = 1 means a luminance of "1 nit" in pbrt's convention. `power` (area
+//!   lights) multiplies by `power / (pi * area * sides)` and `illuminance` (infinite light) by
+//!   `E / pi`. camsim reads pbrt's normalised radiance `L_pbrt(lambda)` as photometric:
+//!   `L(lambda) = L_pbrt(lambda) / 683` W/(sr m^2 nm), so that a pbrt `scale` of 1 is exactly a
+//!   luminance of 1 cd/m^2 (683 lm/W * integral y_bar L dl), `power` is a luminous flux in lumens
+//!   and `illuminance` is in lux. Difference: pbrt-v4's own output is in its relative units
+//!   (the same numbers times 683); camsim's is absolute.
+//! - `power` is applied per emitting shape as pbrt-v4 does, and in pbrt-v4 every triangle of a
+//!   mesh is its own shape: a mesh light with `power` P emits P per triangle. camsim reproduces
+//!   this by splitting such a mesh into one emitting shape per triangle (and notes it).
+//! - RGB: `rgb` reflectances are uplifted with Jakob & Hanika (2019) sigmoid polynomials
+//!   ([`crate::uplift`]; pbrt-v4's method, fitted by camsim, not pbrt's tables); components
+//!   above 1 are an error as in pbrt-v4. `rgb` emission is `2 m * uplift(rgb / 2m) * D65` with
+//!   `m` the largest component (pbrt-v4 `RGBIlluminantSpectrum`).
+//! - Named illuminants (`stdillum-*`) are scaled so their y-bar integral is `CIE_Y_integral`
+//!   (106.856895), as pbrt-v4 does.
+//! - Orientation: triangles are stored in world space with their winding; without shading normals
+//!   `reverse_orientation` = `ReverseOrientation` XOR (CTM swaps handedness), which flips the
+//!   geometric normal as pbrt-v4 does. With `N`, pbrt-v4 faces the geometric normal toward the
+//!   (possibly reversed) shading normal: camsim orders each triangle's winding that way and sets
+//!   `reverse_orientation` false.
+//!
+//! # Ignored, with a note in `SceneDescription::notes`
+//! `Film` `filename`, `iso`, `exposuretime`, `whitebalance`, `sensor`, `savefp16`,
+//! `maxcomponentvalue`, `diagonal`, `cropwindow`, `pixelbounds`, `nbuckets`, `lambdamin`,
+//! `lambdamax`, `coordinatesystem`, `writefp16`; `Camera` `lensradius` > 0 (camsim's camera is a
+//! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
+//! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` type and
+//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MediumInterface`;
+//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); `normalmap`; shape
+//! `faceIndices`, `S`, `emission`-free `alpha` of 1; `TransformTimes`.
+//!
+//! # Unsupported, with an error naming file:line:column
+//! Cameras other than `perspective` and `screenwindow`; materials other than `diffuse` (named in
+//! the message) and `displacement`; textures other than `imagemap` and `constant`, non-`uv`
+//! mappings; shapes other than the four above, sphere `zmin`/`zmax`/`phimax`, alpha cut-outs;
+//! lights other than `infinite` (uniform) and diffuse area lights, image lights (`filename`,
+//! `portal`); participating media (`MakeNamedMedium`); `Attribute`; colour spaces other than
+//! sRGB; area lights inside object instances; `WorldEnd` (pbrt-v3); unknown directives.
+
+mod lexer;
+mod params;
+mod parser;
+pub mod ply;
+pub mod spectra;
+pub mod xform;
+
+pub use lexer::{tokenize, Token, TokenKind};
+
+use crate::scene::SceneDescription;
+use std::path::{Path, PathBuf};
+
+/// A reader error: the file, 1-based line and column (0 when the error concerns the whole file),
+/// and what is wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}:{line}:{column}: {message}", file.display())]
+pub struct PbrtError {
+    pub file: PathBuf,
+    pub line: usize,
+    pub column: usize,
+    pub message: String,
+}
+
+impl PbrtError {
+    /// Error at a position.
+    pub fn at(file: &Path, line: usize, column: usize, message: impl Into<String>) -> Self {
+        PbrtError { file: file.to_path_buf(), line, column, message: message.into() }
+    }
+}
+
+/// A position in a scene file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loc {
+    pub file: PathBuf,
+    pub line: usize,
+    pub column: usize,
+}
+
+impl Loc {
+    /// An error at this position.
+    pub fn err(&self, message: impl Into<String>) -> PbrtError {
+        PbrtError { file: self.file.clone(), line: self.line, column: self.column, message: message.into() }
+    }
+    /// "file:line:col" for notes.
+    pub fn describe(&self) -> String {
+        format!("{}:{}:{}", self.file.display(), self.line, self.column)
+    }
+}
+
+/// Read a pbrt-v4 scene file (and the files it includes).
+pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|e| PbrtError::at(path, 0, 0, format!("cannot read: {e}")))?;
+    parse_str(&text, path)
+}
+
+/// Read pbrt-v4 scene text; `virtual_path` names it in errors and anchors relative file names
+/// (`Include`, PLY, textures, spectrum files) at its folder.
+pub fn parse_str(text: &str, virtual_path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError> {
+    parser::parse(text, virtual_path.as_ref())
+}
+
+/// Like [`parse_str`], but only the world block's shapes, materials and lights matter (used by
+/// overlays that insert a pbrt file's objects into another scene).
+pub(crate) fn parse_objects(path: &Path) -> Result<SceneDescription, PbrtError> {
+    parse_file(path)
+}

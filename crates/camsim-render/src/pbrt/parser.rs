@@ -1,0 +1,1096 @@
+//! The directive interpreter: graphics state, transforms, shapes, materials, textures, lights.
+//! See the module docs of [`crate::pbrt`] for what is supported.
+
+use super::lexer::{tokenize, Token, TokenKind};
+use super::params::{parse_params, ParamList};
+use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
+use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
+use super::{ply, Loc, PbrtError};
+use crate::scene::{
+    AreaLight, Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture, Transform,
+};
+use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
+use camsim_core::Spectrum;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Deepest Include/Import nesting accepted.
+const MAX_INCLUDE_DEPTH: usize = 64;
+
+#[derive(Debug, Clone)]
+enum MatRef {
+    Index(usize),
+    Named(String, Loc),
+}
+
+#[derive(Debug, Clone)]
+struct AreaLightSpec {
+    spectrum: ParsedSpectrum,
+    scale: f64,
+    two_sided: bool,
+    power: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct GraphicsState {
+    ctm: Transform,
+    /// False after `ActiveTransform EndTime`: transforms then only affect the end time, which
+    /// camsim does not use.
+    start_active: bool,
+    reverse_orientation: bool,
+    material: MatRef,
+    area_light: Option<AreaLightSpec>,
+    name: Option<String>,
+}
+
+#[derive(Debug, Clone)]
+struct PendingShape {
+    shape: Shape,
+    mat: MatRef,
+    /// Area light still to be turned into radiance (needs the world-space area for `power`).
+    light: Option<AreaLightSpec>,
+}
+
+enum Block {
+    Attribute,
+    Transform,
+}
+
+struct Parser {
+    main_dir: PathBuf,
+    include_stack: Vec<PathBuf>,
+    in_world: bool,
+    gs: GraphicsState,
+    stack: Vec<(GraphicsState, Block, Loc)>,
+    named_coords: HashMap<String, Transform>,
+    materials: Vec<Material>,
+    named_materials: HashMap<String, usize>,
+    textures: HashMap<String, Texture>,
+    float_textures: HashMap<String, ()>,
+    shapes: Vec<PendingShape>,
+    lights: Vec<Light>,
+    objects: HashMap<String, Vec<PendingShape>>,
+    current_object: Option<(String, Vec<PendingShape>, Loc)>,
+    camera_from_world: Transform,
+    fov_deg: f64,
+    width: usize,
+    height: usize,
+    settings: RenderSettings,
+    focus_distance_m: Option<f64>,
+    notes: Vec<String>,
+}
+
+/// Parse a whole scene.
+pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
+    let main_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let default_material = Material::Diffuse { reflectance: Texture::Constant(Spectrum::from_pairs(&[(360.0, 0.5), (830.0, 0.5)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)) };
+    let mut p = Parser {
+        main_dir,
+        include_stack: vec![canonical(path)],
+        in_world: false,
+        gs: GraphicsState {
+            ctm: Transform::identity(),
+            start_active: true,
+            reverse_orientation: false,
+            material: MatRef::Index(0),
+            area_light: None,
+            name: None,
+        },
+        stack: Vec::new(),
+        named_coords: HashMap::new(),
+        materials: vec![default_material],
+        named_materials: HashMap::new(),
+        textures: HashMap::new(),
+        float_textures: HashMap::new(),
+        shapes: Vec::new(),
+        lights: Vec::new(),
+        objects: HashMap::new(),
+        current_object: None,
+        camera_from_world: Transform::identity(),
+        fov_deg: 90.0,
+        width: 1280,
+        height: 720,
+        settings: RenderSettings { samples_per_pixel: 16, max_depth: 5, ..RenderSettings::default() },
+        focus_distance_m: None,
+        notes: Vec::new(),
+    };
+    p.parse_text(text, path)?;
+    let eof = Loc { file: path.to_path_buf(), line: text.lines().count().max(1), column: 1 };
+    if !p.stack.is_empty() {
+        p.notes.push(format!("{}: {} AttributeBegin/TransformBegin without an end (pbrt-v4 warns too)", eof.describe(), p.stack.len()));
+    }
+    if let Some((name, _, loc)) = &p.current_object {
+        return Err(loc.err(format!("ObjectBegin \"{name}\" has no ObjectEnd")));
+    }
+    if !p.in_world {
+        p.notes.push(format!("{}: no WorldBegin: the scene has no objects", path.display()));
+    }
+    p.finish()
+}
+
+fn canonical(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+fn num(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Result<f64, PbrtError> {
+    match tokens.get(*pos) {
+        Some(t) => match &t.kind {
+            TokenKind::Word(w) => match w.parse::<f64>() {
+                Ok(v) if v.is_finite() => {
+                    *pos += 1;
+                    Ok(v)
+                }
+                _ => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a number, found \"{w}\""))),
+            },
+            _ => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a number, found {}", t.describe()))),
+        },
+        None => Err(PbrtError::at(file, 0, 0, format!("{directive}: expected a number, found the end of the file"))),
+    }
+}
+
+fn nums(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str, n: usize) -> Result<Vec<f64>, PbrtError> {
+    (0..n).map(|_| num(tokens, pos, file, directive)).collect()
+}
+
+/// 16 numbers, optionally in brackets.
+fn matrix16(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str, loc: &Loc) -> Result<Transform, PbrtError> {
+    let bracket = matches!(tokens.get(*pos).map(|t| &t.kind), Some(TokenKind::Open));
+    if bracket {
+        *pos += 1;
+    }
+    let v = nums(tokens, pos, file, directive, 16)?;
+    if bracket {
+        match tokens.get(*pos) {
+            Some(t) if t.kind == TokenKind::Close => *pos += 1,
+            _ => return Err(loc.err(format!("{directive}: expected ']' after 16 numbers"))),
+        }
+    }
+    // pbrt-v4: Transpose(SquareMatrix(tr)) -- the 16 numbers are the matrix in column-major order.
+    let mut m = [[0.0; 4]; 4];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, x) in row.iter_mut().enumerate() {
+            *x = v[j * 4 + i];
+        }
+    }
+    Ok(Transform { m })
+}
+
+fn string_arg(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Result<String, PbrtError> {
+    match tokens.get(*pos) {
+        Some(Token { kind: TokenKind::Str(s), .. }) => {
+            *pos += 1;
+            Ok(s.clone())
+        }
+        Some(t) => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a quoted string, found {}", t.describe()))),
+        None => Err(PbrtError::at(file, 0, 0, format!("{directive}: expected a quoted string, found the end of the file"))),
+    }
+}
+
+impl Parser {
+    fn resolve(&self, including_file: &Path, name: &str) -> PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        let dir = including_file.parent().unwrap_or(Path::new(""));
+        let a = dir.join(p);
+        if a.exists() {
+            return a;
+        }
+        let b = self.main_dir.join(p);
+        if b.exists() {
+            b
+        } else {
+            a
+        }
+    }
+
+    fn note(&mut self, loc: &Loc, msg: impl AsRef<str>) {
+        self.notes.push(format!("{}: {}", loc.describe(), msg.as_ref()));
+    }
+
+    fn ignore_params(&mut self, params: &ParamList, names: &[&str], what: &str) {
+        for n in names {
+            if let Some(loc) = params.ignore(n) {
+                self.note(&loc, format!("{what}: parameter \"{n}\" ignored"));
+            }
+        }
+    }
+
+    fn apply_transform(&mut self, t: Transform) {
+        if self.gs.start_active {
+            self.gs.ctm = self.gs.ctm.then_apply_to(&t);
+        }
+    }
+
+    fn require_world(&self, loc: &Loc, d: &str, world: bool) -> Result<(), PbrtError> {
+        if world && !self.in_world {
+            return Err(loc.err(format!("{d} is only allowed after WorldBegin")));
+        }
+        if !world && self.in_world {
+            return Err(loc.err(format!("{d} is only allowed before WorldBegin (in the options block)")));
+        }
+        Ok(())
+    }
+
+    fn parse_text(&mut self, text: &str, file: &Path) -> Result<(), PbrtError> {
+        let tokens = tokenize(text, file)?;
+        let mut pos = 0;
+        while pos < tokens.len() {
+            let tok = &tokens[pos];
+            let loc = Loc { file: file.to_path_buf(), line: tok.line, column: tok.column };
+            let d = match &tok.kind {
+                TokenKind::Word(w) => w.clone(),
+                TokenKind::ObjectName(n) => {
+                    self.gs.name = Some(n.clone());
+                    pos += 1;
+                    continue;
+                }
+                _ => return Err(loc.err(format!("expected a directive, found {}", tok.describe()))),
+            };
+            pos += 1;
+            let f = file;
+            match d.as_str() {
+                "Identity" => self.gs.ctm = if self.gs.start_active { Transform::identity() } else { self.gs.ctm },
+                "Translate" => {
+                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
+                }
+                "Scale" => {
+                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    self.apply_transform(Transform::scale([v[0], v[1], v[2]]));
+                }
+                "Rotate" => {
+                    let v = nums(&tokens, &mut pos, f, &d, 4)?;
+                    if v[1] == 0.0 && v[2] == 0.0 && v[3] == 0.0 {
+                        return Err(loc.err("Rotate: the axis is the zero vector"));
+                    }
+                    self.apply_transform(Transform::rotate(v[0], [v[1], v[2], v[3]]));
+                }
+                "LookAt" => {
+                    let v = nums(&tokens, &mut pos, f, &d, 9)?;
+                    let t = xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
+                        .map_err(|e| loc.err(e))?;
+                    self.apply_transform(t);
+                }
+                "Transform" => {
+                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    if self.gs.start_active {
+                        self.gs.ctm = t;
+                    }
+                }
+                "ConcatTransform" => {
+                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    self.apply_transform(t);
+                }
+                "CoordinateSystem" => {
+                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    self.named_coords.insert(n, self.gs.ctm);
+                }
+                "CoordSysTransform" => {
+                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    match self.named_coords.get(&n) {
+                        Some(t) => self.gs.ctm = *t,
+                        None => self.note(&loc, format!("CoordSysTransform: no coordinate system \"{n}\" (ignored, as pbrt-v4 warns)")),
+                    }
+                }
+                "ActiveTransform" => {
+                    let w = match tokens.get(pos) {
+                        Some(Token { kind: TokenKind::Word(w), .. }) => w.clone(),
+                        _ => return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All")),
+                    };
+                    pos += 1;
+                    match w.as_str() {
+                        "StartTime" | "All" => self.gs.start_active = true,
+                        "EndTime" => {
+                            self.gs.start_active = false;
+                            self.note(&loc, "ActiveTransform EndTime: end-time transforms are ignored (no motion blur)");
+                        }
+                        _ => return Err(loc.err(format!("ActiveTransform: unknown \"{w}\""))),
+                    }
+                }
+                "TransformTimes" => {
+                    nums(&tokens, &mut pos, f, &d, 2)?;
+                    self.note(&loc, "TransformTimes ignored (no motion blur)");
+                }
+                "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
+                "AttributeBegin" | "TransformBegin" => {
+                    if d == "TransformBegin" {
+                        self.note(&loc, "TransformBegin is deprecated in pbrt-v4 (treated as a CTM push)");
+                    }
+                    if self.stack.len() > 10_000 {
+                        return Err(loc.err("attribute blocks nested more than 10000 deep"));
+                    }
+                    let b = if d == "AttributeBegin" { Block::Attribute } else { Block::Transform };
+                    self.stack.push((self.gs.clone(), b, loc.clone()));
+                }
+                "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
+                    None => self.note(&loc, format!("unmatched {d} ignored (pbrt-v4 reports and ignores it)")),
+                    Some((saved, block, _)) => match block {
+                        Block::Attribute => {
+                            if d != "AttributeEnd" {
+                                return Err(loc.err("TransformEnd closes an AttributeBegin"));
+                            }
+                            self.gs = saved;
+                        }
+                        Block::Transform => {
+                            if d != "TransformEnd" {
+                                return Err(loc.err("AttributeEnd closes a TransformBegin"));
+                            }
+                            self.gs.ctm = saved.ctm;
+                            self.gs.start_active = saved.start_active;
+                        }
+                    },
+                },
+                "Camera" => {
+                    self.require_world(&loc, &d, false)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.camera(&ty, &params, &loc)?;
+                }
+                "Film" => {
+                    self.require_world(&loc, &d, false)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.film(&ty, &params, &loc)?;
+                }
+                "Sampler" => {
+                    self.require_world(&loc, &d, false)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.sampler(&ty, &params, &loc)?;
+                }
+                "Integrator" => {
+                    self.require_world(&loc, &d, false)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.integrator(&ty, &params, &loc)?;
+                }
+                "PixelFilter" => {
+                    self.require_world(&loc, &d, false)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    params.params.iter().for_each(|p| p.used.set(true));
+                    self.note(&loc, format!("PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"));
+                }
+                "Accelerator" => {
+                    self.require_world(&loc, &d, false)?;
+                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    params.params.iter().for_each(|p| p.used.set(true));
+                    self.note(&loc, "Accelerator ignored (camsim builds its own BVH)");
+                }
+                "ColorSpace" => {
+                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    if n != "srgb" {
+                        return Err(loc.err(format!("ColorSpace \"{n}\": only \"srgb\" is supported")));
+                    }
+                }
+                "Option" => {
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    params.params.iter().for_each(|p| p.used.set(true));
+                    self.note(&loc, "Option ignored");
+                }
+                "WorldBegin" => {
+                    self.require_world(&loc, &d, false)?;
+                    self.in_world = true;
+                    self.camera_world_check();
+                    self.gs.ctm = Transform::identity();
+                    self.named_coords.insert("world".into(), Transform::identity());
+                }
+                "WorldEnd" => {
+                    return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
+                }
+                "Include" | "Import" => {
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let path = self.resolve(file, &name);
+                    let canon = canonical(&path);
+                    if self.include_stack.contains(&canon) {
+                        return Err(loc.err(format!("{d} \"{name}\": include cycle ({} is already being read)", path.display())));
+                    }
+                    if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
+                        return Err(loc.err(format!("{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}")));
+                    }
+                    let text = std::fs::read_to_string(&path)
+                        .map_err(|e| loc.err(format!("{d} \"{name}\": cannot read {}: {e}", path.display())))?;
+                    self.include_stack.push(canon);
+                    if d == "Import" {
+                        if !self.in_world {
+                            return Err(loc.err("Import is only allowed after WorldBegin"));
+                        }
+                        // Import: the imported file cannot change the includer's graphics state.
+                        let saved = (self.gs.clone(), self.stack.len());
+                        self.parse_text(&text, &path)?;
+                        self.stack.truncate(saved.1);
+                        self.gs = saved.0;
+                    } else {
+                        self.parse_text(&text, &path)?;
+                    }
+                    self.include_stack.pop();
+                }
+                "Material" => {
+                    self.require_world(&loc, &d, true)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let m = self.material(&ty, &params, &loc, file)?;
+                    self.materials.push(m);
+                    self.gs.material = MatRef::Index(self.materials.len() - 1);
+                }
+                "MakeNamedMaterial" => {
+                    self.require_world(&loc, &d, true)?;
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = params.string("type")?.ok_or_else(|| loc.err(format!("MakeNamedMaterial \"{name}\": no \"string type\" parameter")))?;
+                    if self.named_materials.contains_key(&name) {
+                        return Err(loc.err(format!("MakeNamedMaterial: named material \"{name}\" redefined")));
+                    }
+                    let m = self.material(&ty, &params, &loc, file)?;
+                    self.materials.push(m);
+                    self.named_materials.insert(name, self.materials.len() - 1);
+                }
+                "NamedMaterial" => {
+                    self.require_world(&loc, &d, true)?;
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    self.gs.material = MatRef::Named(name, loc.clone());
+                }
+                "Texture" => {
+                    self.require_world(&loc, &d, true)?;
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let class = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.texture(&name, &ty, &class, &params, &loc, file)?;
+                }
+                "AreaLightSource" => {
+                    self.require_world(&loc, &d, true)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    if ty != "diffuse" {
+                        return Err(loc.err(format!("AreaLightSource \"{ty}\" is not supported (only \"diffuse\")")));
+                    }
+                    if params.get("filename", &["string"])?.is_some() {
+                        return Err(loc.err("AreaLightSource \"diffuse\": image emission (\"filename\") is not supported"));
+                    }
+                    let spectrum = self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                    let spectrum = match spectrum {
+                        Some(s) => s,
+                        None => default_illuminant(),
+                    };
+                    let scale = params.float("scale", 1.0)?;
+                    let two_sided = params.bool("twosided", false)?;
+                    let power = params.float_opt("power")?.filter(|p| *p > 0.0);
+                    params.check_unused("AreaLightSource \"diffuse\"")?;
+                    self.gs.area_light = Some(AreaLightSpec { spectrum, scale, two_sided, power });
+                }
+                "LightSource" => {
+                    self.require_world(&loc, &d, true)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.light_source(&ty, &params, &loc, file)?;
+                }
+                "Shape" => {
+                    self.require_world(&loc, &d, true)?;
+                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
+                    let params = parse_params(&tokens, &mut pos, f)?;
+                    self.shape(&ty, &params, &loc, file)?;
+                }
+                "ObjectBegin" => {
+                    self.require_world(&loc, &d, true)?;
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    if self.current_object.is_some() {
+                        return Err(loc.err("ObjectBegin inside another ObjectBegin"));
+                    }
+                    if self.objects.contains_key(&name) {
+                        return Err(loc.err(format!("ObjectBegin: object \"{name}\" redefined")));
+                    }
+                    self.stack.push((self.gs.clone(), Block::Attribute, loc.clone()));
+                    self.current_object = Some((name, Vec::new(), loc.clone()));
+                }
+                "ObjectEnd" => {
+                    let Some((name, shapes, _)) = self.current_object.take() else {
+                        return Err(loc.err("ObjectEnd without ObjectBegin"));
+                    };
+                    self.objects.insert(name, shapes);
+                    if let Some((saved, _, _)) = self.stack.pop() {
+                        self.gs = saved;
+                    }
+                }
+                "ObjectInstance" => {
+                    self.require_world(&loc, &d, true)?;
+                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    if self.current_object.is_some() {
+                        return Err(loc.err("ObjectInstance inside an object definition"));
+                    }
+                    let shapes = self.objects.get(&name).ok_or_else(|| loc.err(format!("ObjectInstance: no object named \"{name}\"")))?.clone();
+                    let total: usize = self.shapes.len() + shapes.len();
+                    camsim_core::mem::check_alloc(total as u64 * 256, "object instances").map_err(|e| loc.err(e.to_string()))?;
+                    for mut s in shapes {
+                        xform::transform_shape(&mut s.shape, &self.gs.ctm).map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
+                        if s.shape.name.is_none() {
+                            s.shape.name = Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
+                        }
+                        self.shapes.push(s);
+                    }
+                }
+                "MakeNamedMedium" => {
+                    return Err(loc.err("MakeNamedMedium: participating media are not supported"));
+                }
+                "MediumInterface" => {
+                    // One or two names.
+                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
+                    if let Some(Token { kind: TokenKind::Str(_), .. }) = tokens.get(pos) {
+                        // A second name, unless it is the next parameter list (never for this directive).
+                        pos += 1;
+                    }
+                    self.note(&loc, "MediumInterface ignored (no participating media)");
+                }
+                "Attribute" => {
+                    return Err(loc.err("Attribute (default parameters for a category) is not supported"));
+                }
+                other => return Err(loc.err(format!("unknown directive \"{other}\""))),
+            }
+        }
+        Ok(())
+    }
+
+    fn camera_world_check(&mut self) {}
+
+    fn spectrum_param(&self, params: &ParamList, name: &str, usage: SpectrumUse, file: &Path) -> Result<Option<ParsedSpectrum>, PbrtError> {
+        match params.get(name, &["rgb", "spectrum", "blackbody"])? {
+            None => Ok(None),
+            Some(p) => {
+                let resolve = |n: &str| self.resolve(file, n);
+                Ok(Some(param_spectrum(p, usage, &resolve)?))
+            }
+        }
+    }
+
+    fn camera(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        if ty != "perspective" {
+            return Err(loc.err(format!("Camera \"{ty}\" is not supported (only \"perspective\")")));
+        }
+        let fov = params.float("fov", 90.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(loc.err(format!("Camera: fov {fov} must be between 0 and 180 degrees")));
+        }
+        let lens_radius = params.float("lensradius", 0.0)?;
+        let focal = params.float_opt("focaldistance")?;
+        if params.get("screenwindow", &["float"])?.is_some() {
+            return Err(loc.err("Camera: \"screenwindow\" is not supported"));
+        }
+        self.ignore_params(params, &["frameaspectratio", "shutteropen", "shutterclose"], "Camera");
+        params.check_unused("Camera \"perspective\"")?;
+        if lens_radius > 0.0 {
+            self.note(loc, format!(
+                "Camera: lensradius {lens_radius} ignored: camsim renders a pinhole camera; depth of field is applied by the optics stage{}",
+                focal.map(|f| format!(" (focus distance {f} m)")).unwrap_or_default()
+            ));
+        }
+        if let Some(fd) = focal {
+            if fd > 0.0 {
+                self.focus_distance_m = Some(fd);
+            }
+        }
+        self.fov_deg = fov;
+        self.camera_from_world = self.gs.ctm;
+        let world_from_camera = inverse(&self.gs.ctm).ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
+        self.named_coords.insert("camera".into(), world_from_camera);
+        Ok(())
+    }
+
+    fn film(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        if !matches!(ty, "rgb" | "spectral" | "gbuffer") {
+            return Err(loc.err(format!("Film \"{ty}\" is not supported (rgb, spectral, gbuffer)")));
+        }
+        let w = params.int("xresolution", 1280)?;
+        let h = params.int("yresolution", 720)?;
+        for (v, n) in [(w, "xresolution"), (h, "yresolution")] {
+            if !(1..=1_000_000).contains(&v) {
+                return Err(loc.err(format!("Film: {n} {v} must be between 1 and 1000000")));
+            }
+        }
+        self.width = w as usize;
+        self.height = h as usize;
+        if let Some(l) = params.ignore("filename") {
+            self.note(&l, "Film: filename ignored (camsim writes spectral radiance where the command line says)");
+        }
+        self.ignore_params(
+            params,
+            &[
+                "iso", "exposuretime", "whitebalance", "sensor", "savefp16", "writefp16", "maxcomponentvalue", "diagonal",
+                "cropwindow", "pixelbounds", "nbuckets", "lambdamin", "lambdamax", "coordinatesystem",
+            ],
+            "Film (camsim outputs spectral radiance; sensor, crop and bucket settings do not apply)",
+        );
+        params.check_unused(&format!("Film \"{ty}\""))?;
+        if ty != "spectral" {
+            self.note(loc, format!("Film \"{ty}\": camsim renders spectral radiance on its wavelength grid"));
+        }
+        Ok(())
+    }
+
+    fn sampler(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        let known = ["halton", "independent", "pmj02bn", "paddedsobol", "sobol", "zsobol", "stratified"];
+        if !known.contains(&ty) {
+            return Err(loc.err(format!("Sampler \"{ty}\" is unknown")));
+        }
+        let spp = if ty == "stratified" {
+            let x = params.int("xsamples", 4)?;
+            let y = params.int("ysamples", 4)?;
+            params.bool("jitter", true)?;
+            x.saturating_mul(y)
+        } else {
+            params.int("pixelsamples", 16)?
+        };
+        if !(1..=(1 << 24)).contains(&spp) {
+            return Err(loc.err(format!("Sampler: {spp} samples per pixel is out of range")));
+        }
+        if let Some(seed) = params.int("seed", -1).ok().filter(|s| *s >= 0) {
+            self.settings.seed = seed as u64;
+        }
+        self.ignore_params(params, &["randomization"], "Sampler");
+        params.check_unused(&format!("Sampler \"{ty}\""))?;
+        self.settings.samples_per_pixel = spp as u32;
+        self.note(loc, format!("Sampler \"{ty}\": camsim uses its own keyed random sampler; {spp} samples per pixel"));
+        Ok(())
+    }
+
+    fn integrator(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        match ty {
+            "path" | "volpath" | "bdpt" | "simplepath" => {}
+            _ => return Err(loc.err(format!("Integrator \"{ty}\" is not supported (path, volpath, bdpt map to camsim's path tracer)"))),
+        }
+        let d = params.int("maxdepth", 5)?;
+        if !(0..=100_000).contains(&d) {
+            return Err(loc.err(format!("Integrator: maxdepth {d} is out of range")));
+        }
+        self.settings.max_depth = d as u32;
+        self.ignore_params(params, &["regularize", "lightsampler", "samplelights", "samplebsdf", "visualizestrategies", "visualizeweights"], "Integrator");
+        params.check_unused(&format!("Integrator \"{ty}\""))?;
+        if ty != "path" {
+            self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
+        }
+        Ok(())
+    }
+
+    fn reflectance_texture(&self, params: &ParamList, file: &Path, default: f64) -> Result<Texture, PbrtError> {
+        if let Some(p) = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])? {
+            if p.ty == "texture" {
+                let names = p.strings()?;
+                let [name] = names.as_slice() else {
+                    return Err(p.loc.err("\"texture reflectance\" needs one texture name"));
+                };
+                return self.textures.get(name).cloned().ok_or_else(|| {
+                    if self.float_textures.contains_key(name) {
+                        p.loc.err(format!("texture \"{name}\" is a float texture; reflectance needs a spectrum texture"))
+                    } else {
+                        p.loc.err(format!("no spectrum texture named \"{name}\" (textures must be defined before use)"))
+                    }
+                });
+            }
+            let resolve = |n: &str| self.resolve(file, n);
+            let s = param_spectrum(p, SpectrumUse::Albedo, &resolve)?;
+            return Ok(Texture::Constant(s.spectrum));
+        }
+        Ok(Texture::Constant(
+            Spectrum::from_pairs(&[(360.0, default), (830.0, default)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
+        ))
+    }
+
+    fn material(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<Material, PbrtError> {
+        if ty != "diffuse" {
+            return Err(loc.err(format!(
+                "material type \"{ty}\" is not supported (camsim supports \"diffuse\"; the next BSDFs are conductor, dielectric, coateddiffuse)"
+            )));
+        }
+        let reflectance = self.reflectance_texture(params, file, 0.5)?;
+        if params.get("displacement", &["float", "texture"])?.is_some() {
+            return Err(loc.err("material \"diffuse\": \"displacement\" is not supported"));
+        }
+        if let Some(l) = params.ignore("normalmap") {
+            self.note(&l, "material: normalmap ignored");
+        }
+        params.get("type", &["string"])?;
+        params.check_unused("material \"diffuse\"")?;
+        Ok(Material::Diffuse { reflectance })
+    }
+
+    fn texture(&mut self, name: &str, ty: &str, class: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+        match ty {
+            "spectrum" | "color" => {}
+            "float" => {
+                match class {
+                    "constant" => {
+                        params.float("value", 1.0)?;
+                    }
+                    "imagemap" => params.params.iter().for_each(|p| p.used.set(true)),
+                    _ => return Err(loc.err(format!("float texture class \"{class}\" is not supported"))),
+                }
+                params.check_unused("float texture")?;
+                self.note(loc, format!("float texture \"{name}\" defined; camsim's materials use no float textures"));
+                self.float_textures.insert(name.to_string(), ());
+                return Ok(());
+            }
+            _ => return Err(loc.err(format!("Texture \"{name}\": type \"{ty}\" must be \"spectrum\" or \"float\""))),
+        }
+        let tex = match class {
+            "constant" => {
+                let v = match params.get("value", &["rgb", "spectrum", "blackbody"])? {
+                    Some(p) => {
+                        let resolve = |n: &str| self.resolve(file, n);
+                        param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum
+                    }
+                    None => Spectrum::from_pairs(&[(360.0, 1.0), (830.0, 1.0)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
+                };
+                Texture::Constant(v)
+            }
+            "imagemap" => {
+                let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("Texture \"{name}\": imagemap needs \"string filename\"")))?;
+                let path = self.resolve(file, &fname);
+                let lower = fname.to_ascii_lowercase();
+                let default_enc = if lower.ends_with(".png") { "sRGB" } else { "linear" };
+                let enc = params.string("encoding")?.unwrap_or_else(|| default_enc.to_string());
+                let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)")))?;
+                let scale = params.float("scale", 1.0)?;
+                let invert = params.bool("invert", false)?;
+                let mapping = params.string("mapping")?.unwrap_or_else(|| "uv".into());
+                if mapping != "uv" {
+                    return Err(loc.err(format!("Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)")));
+                }
+                let uscale = params.float("uscale", 1.0)?;
+                let vscale = params.float("vscale", 1.0)?;
+                let udelta = params.float("udelta", 0.0)?;
+                let vdelta = params.float("vdelta", 0.0)?;
+                if let Some(w) = params.string("wrap")? {
+                    if w != "repeat" {
+                        self.note(loc, format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"));
+                    }
+                }
+                self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
+                params.check_unused("Texture \"imagemap\"")?;
+                let (width, height, mut rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
+                // pbrt-v4 SpectrumImageTexture for albedo: clamp(scale * rgb [inverted], 0, 1).
+                for px in rgb.iter_mut() {
+                    for c in px.iter_mut() {
+                        let mut v = *c * scale as f32;
+                        if invert {
+                            v = 1.0 - v;
+                        }
+                        *c = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+                    }
+                }
+                Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta }
+            }
+            _ => return Err(loc.err(format!("Texture \"{name}\": class \"{class}\" is not supported (imagemap, constant)"))),
+        };
+        if class == "constant" {
+            params.check_unused("Texture \"constant\"")?;
+        }
+        self.textures.insert(name.to_string(), tex);
+        Ok(())
+    }
+
+    fn light_source(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+        if ty != "infinite" {
+            return Err(loc.err(format!("LightSource \"{ty}\" is not supported (only \"infinite\"; use area lights)")));
+        }
+        if params.get("filename", &["string"])?.is_some() {
+            return Err(loc.err("LightSource \"infinite\": environment maps (\"filename\") are not supported"));
+        }
+        if params.get("portal", &["point3"])?.is_some() {
+            return Err(loc.err("LightSource \"infinite\": portals are not supported"));
+        }
+        let s = self.spectrum_param(params, "L", SpectrumUse::Illuminant, file)?.unwrap_or_else(default_illuminant);
+        let mut scale = params.float("scale", 1.0)?;
+        // pbrt-v4: scale /= SpectrumToPhotometric(L); illuminance E_v: scale *= E_v / pi.
+        scale /= s.photometric;
+        if let Some(e) = params.float_opt("illuminance")?.filter(|e| *e > 0.0) {
+            scale *= e / std::f64::consts::PI;
+        }
+        params.check_unused("LightSource \"infinite\"")?;
+        let radiance = s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W);
+        self.lights.push(Light::Infinite { radiance });
+        Ok(())
+    }
+
+    fn shape(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+        let ctm = self.gs.ctm;
+        let inv = inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
+        let swaps = det3(&ctm) < 0.0;
+        if let Some(p) = params.get("alpha", &["float", "texture"])? {
+            let ok = p.ty == "float" && p.nums()?.first() == Some(&1.0);
+            if !ok {
+                return Err(p.loc.err("Shape: alpha cut-outs are not supported"));
+            }
+        }
+        self.ignore_params(params, &["faceIndices", "S", "emissionfilename"], "Shape");
+        let geometry = match ty {
+            "trianglemesh" | "bilinearmesh" => {
+                let per = if ty == "trianglemesh" { 3 } else { 4 };
+                let p = params.tuples("P", &["point3"], 3)?.ok_or_else(|| loc.err(format!("Shape \"{ty}\": no \"point3 P\"")))?;
+                let idx = match params.ints("indices")? {
+                    Some((v, l)) => {
+                        if v.is_empty() || v.len() % per != 0 {
+                            return Err(l.err(format!("Shape \"{ty}\": {} indices is not a multiple of {per}", v.len())));
+                        }
+                        if let Some(bad) = v.iter().find(|&&i| i < 0 || i as usize >= p.len()) {
+                            return Err(l.err(format!("Shape \"{ty}\": index {bad} is out of range (0..{})", p.len())));
+                        }
+                        v
+                    }
+                    None => {
+                        if p.len() == per {
+                            (0..per as i64).collect()
+                        } else {
+                            return Err(loc.err(format!("Shape \"{ty}\": \"integer indices\" is required unless P has exactly {per} vertices")));
+                        }
+                    }
+                };
+                let uv = params.tuples("uv", &["point2"], 2)?;
+                let n = params.tuples("N", &["normal3"], 3)?;
+                if let Some(uv) = &uv {
+                    if uv.len() != p.len() {
+                        return Err(loc.err(format!("Shape \"{ty}\": {} uv for {} vertices", uv.len(), p.len())));
+                    }
+                }
+                if let Some(n) = &n {
+                    if n.len() != p.len() {
+                        return Err(loc.err(format!("Shape \"{ty}\": {} normals for {} vertices", n.len(), p.len())));
+                    }
+                }
+                let tris: Vec<[u32; 3]> = if per == 3 {
+                    idx.chunks(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect()
+                } else {
+                    // pbrt-v4 bilinear patch vertices p00 p10 p01 p11; perimeter p00 p10 p11 p01.
+                    self.note(loc, "bilinearmesh: each patch is rendered as two triangles (exact for planar patches)");
+                    idx.chunks(4)
+                        .flat_map(|c| [[c[0] as u32, c[1] as u32, c[3] as u32], [c[0] as u32, c[3] as u32, c[2] as u32]])
+                        .collect()
+                };
+                mesh_geometry(
+                    p.iter().map(|v| [v[0], v[1], v[2]]).collect(),
+                    tris,
+                    uv.map(|u| u.iter().map(|v| [v[0] as f32, v[1] as f32]).collect()),
+                    n.map(|u| u.iter().map(|v| [v[0], v[1], v[2]]).collect()),
+                )
+            }
+            "plymesh" => {
+                let fname = params.string("filename")?.ok_or_else(|| loc.err("Shape \"plymesh\": no \"string filename\""))?;
+                if params.get("displacement", &["texture", "float"])?.is_some() {
+                    return Err(loc.err("Shape \"plymesh\": displacement is not supported"));
+                }
+                self.ignore_params(params, &["edgelength"], "plymesh");
+                let path = self.resolve(file, &fname);
+                let m = ply::read_ply(&path).map_err(|e| loc.err(format!("Shape \"plymesh\": {e}")))?;
+                if m.quads > 0 {
+                    self.note(loc, format!("plymesh {fname}: {} quads rendered as two triangles each", m.quads));
+                }
+                mesh_geometry(m.positions, m.triangles, m.uvs, m.normals)
+            }
+            "sphere" => {
+                let r = params.float("radius", 1.0)?;
+                if !(r > 0.0) {
+                    return Err(loc.err(format!("Shape \"sphere\": radius {r} must be positive")));
+                }
+                for (n, def) in [("zmin", -r), ("zmax", r), ("phimax", 360.0)] {
+                    if let Some(v) = params.float_opt(n)? {
+                        if (v - def).abs() > 1e-9 * def.abs().max(1.0) && !(n == "zmin" && v <= -r) && !(n == "zmax" && v >= r) {
+                            return Err(loc.err(format!("Shape \"sphere\": partial spheres (\"{n}\") are not supported")));
+                        }
+                    }
+                }
+                Geometry::Sphere { center: [0.0; 3], radius: r }
+            }
+            other => return Err(loc.err(format!("Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere)"))),
+        };
+        params.check_unused(&format!("Shape \"{ty}\""))?;
+        // To world space.
+        let (geometry, reverse_orientation) = match geometry {
+            Geometry::Sphere { center, radius } => {
+                let (c, r) = xform::sphere_under(&ctm, center, radius).map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                (Geometry::Sphere { center: c, radius: r }, self.gs.reverse_orientation ^ swaps)
+            }
+            Geometry::Triangles { positions, mut indices, uvs, normals } => {
+                let positions: Vec<[f64; 3]> = positions.iter().map(|p| ctm.apply_point(*p)).collect();
+                match normals {
+                    Some(ns) => {
+                        let sign = if self.gs.reverse_orientation { -1.0 } else { 1.0 };
+                        let ns: Vec<[f64; 3]> = ns.iter().map(|n| {
+                            let w = apply_normal(&inv, *n);
+                            [sign * w[0], sign * w[1], sign * w[2]]
+                        }).collect();
+                        // Face each triangle's winding toward its shading normals (pbrt-v4 Triangle).
+                        for t in indices.iter_mut() {
+                            let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                            let g = cross(sub(b, a), sub(c, a));
+                            let s = [0, 1, 2].iter().fold([0.0; 3], |acc, &k| {
+                                let n = ns[t[k] as usize];
+                                [acc[0] + n[0], acc[1] + n[1], acc[2] + n[2]]
+                            });
+                            if dot(g, s) < 0.0 {
+                                t.swap(1, 2);
+                            }
+                        }
+                        (Geometry::Triangles { positions, indices, uvs, normals: Some(ns) }, false)
+                    }
+                    None => (Geometry::Triangles { positions, indices, uvs, normals: None }, self.gs.reverse_orientation ^ swaps),
+                }
+            }
+            #[allow(unreachable_patterns)]
+            g => (g, false),
+        };
+        let shape = Shape { name: self.gs.name.clone(), geometry, material: 0, area_light: None, reverse_orientation };
+        let pending = PendingShape { shape, mat: self.gs.material.clone(), light: self.gs.area_light.clone() };
+        if let Some((oname, list, _)) = &mut self.current_object {
+            if pending.light.is_some() {
+                return Err(loc.err(format!("area lights inside object instances are not supported (object \"{oname}\")")));
+            }
+            let mut pending = pending;
+            if pending.shape.name.is_none() {
+                pending.shape.name = Some(oname.clone());
+            }
+            list.push(pending);
+        } else {
+            self.shapes.push(pending);
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<SceneDescription, PbrtError> {
+        let mut shapes = Vec::with_capacity(self.shapes.len());
+        let mut notes = self.notes;
+        for ps in self.shapes {
+            let material = match &ps.mat {
+                MatRef::Index(i) => *i,
+                MatRef::Named(n, loc) => *self
+                    .named_materials
+                    .get(n)
+                    .ok_or_else(|| loc.err(format!("NamedMaterial \"{n}\": no material of that name was defined")))?,
+            };
+            let mut shape = ps.shape;
+            shape.material = material;
+            match ps.light {
+                None => shapes.push(shape),
+                Some(l) => {
+                    // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
+                    // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
+                    let base = l.scale / l.spectrum.photometric;
+                    let sides = if l.two_sided { 2.0 } else { 1.0 };
+                    let to_light = |scale: f64| AreaLight {
+                        radiance: l.spectrum.spectrum.clone().scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+                        two_sided: l.two_sided,
+                    };
+                    match (l.power, &shape.geometry) {
+                        (Some(power), Geometry::Triangles { positions, indices, uvs, normals }) if indices.len() > 1 => {
+                            notes.push(format!(
+                                "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
+                                indices.len()
+                            ));
+                            for t in indices {
+                                let g = Geometry::Triangles {
+                                    positions: t.iter().map(|&i| positions[i as usize]).collect(),
+                                    indices: vec![[0, 1, 2]],
+                                    uvs: uvs.as_ref().map(|u| t.iter().map(|&i| u[i as usize]).collect()),
+                                    normals: normals.as_ref().map(|n| t.iter().map(|&i| n[i as usize]).collect()),
+                                };
+                                let area = xform::shape_area(&g);
+                                let scale = if area > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 };
+                                shapes.push(Shape { name: shape.name.clone(), geometry: g, material, area_light: Some(to_light(scale)), reverse_orientation: shape.reverse_orientation });
+                            }
+                        }
+                        (power, g) => {
+                            let mut scale = base;
+                            if let Some(power) = power {
+                                let area = xform::shape_area(g);
+                                scale = if area > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 };
+                            }
+                            shape.area_light = Some(to_light(scale));
+                            shapes.push(shape);
+                        }
+                    }
+                }
+            }
+        }
+        let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
+        Ok(SceneDescription {
+            camera: Camera { camera_to_world, fov_deg: self.fov_deg, width: self.width, height: self.height },
+            shapes,
+            materials: self.materials,
+            named_materials: self.named_materials,
+            lights: self.lights,
+            settings: self.settings,
+            focus_distance_m: self.focus_distance_m,
+            notes,
+        })
+    }
+}
+
+/// pbrt-v4's default area/infinite light spectrum: the colour space's illuminant (D65).
+fn default_illuminant() -> ParsedSpectrum {
+    let s = super::spectra::srgb_illuminant().clone();
+    let p = super::spectra::photometric(&s);
+    ParsedSpectrum { spectrum: s, photometric: p }
+}
+
+fn mesh_geometry(positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>>) -> Geometry {
+    Geometry::Triangles { positions, indices, uvs, normals }
+}
+
+/// Image texel encodings (pbrt-v4 `ColorEncoding`).
+#[derive(Debug, Clone, Copy)]
+enum Encoding {
+    Linear,
+    Srgb,
+    Gamma(f32),
+}
+
+fn parse_encoding(s: &str) -> Option<Encoding> {
+    match s {
+        "linear" => Some(Encoding::Linear),
+        "sRGB" | "srgb" => Some(Encoding::Srgb),
+        _ => {
+            let g = s.strip_prefix("gamma ")?.trim().parse::<f32>().ok()?;
+            (g > 0.0).then_some(Encoding::Gamma(g))
+        }
+    }
+}
+
+/// Load an RGB image as linear values: EXR through the `exr` crate (linear, encoding ignored as
+/// in pbrt-v4), anything else through the `image` crate with `encoding` applied.
+fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+    let lower = path.to_string_lossy().to_ascii_lowercase();
+    if lower.ends_with(".exr") {
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |res, _| {
+                let (w, h) = (res.width(), res.height());
+                (w, vec![[0.0f32; 3]; if (w as u64) * (h as u64) <= (1 << 28) { w * h } else { 0 }])
+            },
+            |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                if let Some(p) = px.get_mut(pos.y() * *w + pos.x()) {
+                    *p = [r, g, b];
+                }
+            },
+        )
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+        let size = img.layer_data.size;
+        let (w, h) = (size.width(), size.height());
+        let px = img.layer_data.channel_data.pixels.1;
+        if px.len() != w * h {
+            return Err(format!("{}: image of {w} x {h} pixels is too large", path.display()));
+        }
+        return Ok((w, h, px));
+    }
+    let img = image::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    camsim_core::mem::check_alloc((w * h * 12) as u64, "texture image").map_err(|e| e.to_string())?;
+    let rgb = img.to_rgb32f();
+    let dec = |v: f32| -> f32 {
+        match encoding {
+            Encoding::Linear => v,
+            Encoding::Srgb => camsim_core::colorimetry::srgb_decode(v as f64) as f32,
+            Encoding::Gamma(g) => v.max(0.0).powf(g),
+        }
+    };
+    Ok((w, h, rgb.pixels().map(|p| [dec(p.0[0]), dec(p.0[1]), dec(p.0[2])]).collect()))
+}

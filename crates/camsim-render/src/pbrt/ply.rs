@@ -1,0 +1,323 @@
+//! PLY mesh reader (Turk 1994 format as pbrt-v4's `plymesh` uses it): `ascii`,
+//! `binary_little_endian` and `binary_big_endian`; vertex `x y z`, optional `nx ny nz` and
+//! texture coordinates (`u v`, `s t`, `texture_u texture_v`, `texture_s texture_t`); faces as a
+//! `vertex_indices` (or `vertex_index`) list of 3 or 4 entries (quads become two triangles).
+//! Other elements and properties are skipped. Malformed files give an error, never a panic, and
+//! counts in the header are checked against the file size before anything is allocated.
+
+/// A mesh read from a PLY file (object space).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlyMesh {
+    pub positions: Vec<[f64; 3]>,
+    pub normals: Option<Vec<[f64; 3]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Number of quads that were split into two triangles.
+    pub quads: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Scalar> {
+        Some(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Prop {
+    Scalar(String, Scalar),
+    List(String, Scalar, Scalar),
+}
+
+#[derive(Debug, Clone)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Prop>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Le,
+    Be,
+}
+
+/// Source of values: ASCII tokens or binary bytes.
+struct Reader<'a> {
+    fmt: Format,
+    bytes: &'a [u8],
+    pos: usize,
+    tokens: Option<std::str::SplitAsciiWhitespace<'a>>,
+}
+
+impl Reader<'_> {
+    fn read(&mut self, t: Scalar) -> Result<f64, String> {
+        if self.fmt == Format::Ascii {
+            let tok = self.tokens.as_mut().and_then(|t| t.next()).ok_or("unexpected end of data")?;
+            return tok.parse::<f64>().map_err(|_| format!("\"{tok}\" is not a number"));
+        }
+        let n = t.size();
+        let end = self.pos.checked_add(n).ok_or("file too short")?;
+        let b = self.bytes.get(self.pos..end).ok_or("unexpected end of binary data")?;
+        self.pos = end;
+        let mut a = [0u8; 8];
+        a[..n].copy_from_slice(b);
+        if self.fmt == Format::Be {
+            a[..n].reverse();
+        }
+        Ok(match t {
+            Scalar::I8 => a[0] as i8 as f64,
+            Scalar::U8 => a[0] as f64,
+            Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F32 => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F64 => f64::from_le_bytes(a),
+        })
+    }
+}
+
+/// Read a PLY file.
+pub fn read_ply(path: &std::path::Path) -> Result<PlyMesh, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    parse_ply(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Parse PLY bytes.
+pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+    // Header: lines up to "end_header\n".
+    let marker = b"end_header";
+    let hdr_end = bytes.windows(marker.len()).position(|w| w == marker).ok_or("no end_header in PLY header")?;
+    let mut body = hdr_end + marker.len();
+    // Skip the rest of the end_header line.
+    while body < bytes.len() && bytes[body] != b'\n' {
+        body += 1;
+    }
+    body = (body + 1).min(bytes.len());
+    let header = std::str::from_utf8(&bytes[..hdr_end]).map_err(|_| "PLY header is not text")?;
+    let mut lines = header.lines();
+    if lines.next().map(|l| l.trim()) != Some("ply") {
+        return Err("not a PLY file (first line is not \"ply\")".into());
+    }
+    let mut fmt = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let lno = i + 2;
+        match w.first().copied() {
+            None | Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                fmt = Some(match w.get(1).copied() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::Le,
+                    Some("binary_big_endian") => Format::Be,
+                    other => return Err(format!("header line {lno}: unknown format {other:?}")),
+                })
+            }
+            Some("element") => {
+                let (Some(name), Some(count)) = (w.get(1), w.get(2)) else {
+                    return Err(format!("header line {lno}: element needs a name and a count"));
+                };
+                let count: usize = count.parse().map_err(|_| format!("header line {lno}: bad element count \"{count}\""))?;
+                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+            }
+            Some("property") => {
+                let el = elements.last_mut().ok_or(format!("header line {lno}: property before any element"))?;
+                if w.get(1) == Some(&"list") {
+                    let (Some(ct), Some(it), Some(name)) = (w.get(2), w.get(3), w.get(4)) else {
+                        return Err(format!("header line {lno}: list property needs count type, item type, name"));
+                    };
+                    let ct = Scalar::parse(ct).ok_or(format!("header line {lno}: unknown type {ct}"))?;
+                    let it = Scalar::parse(it).ok_or(format!("header line {lno}: unknown type {it}"))?;
+                    el.props.push(Prop::List(name.to_string(), ct, it));
+                } else {
+                    let (Some(t), Some(name)) = (w.get(1), w.get(2)) else {
+                        return Err(format!("header line {lno}: property needs a type and a name"));
+                    };
+                    let t = Scalar::parse(t).ok_or(format!("header line {lno}: unknown type {t}"))?;
+                    el.props.push(Prop::Scalar(name.to_string(), t));
+                }
+            }
+            Some(other) => return Err(format!("header line {lno}: unknown keyword \"{other}\"")),
+        }
+    }
+    let fmt = fmt.ok_or("PLY header has no format line")?;
+    let data = &bytes[body..];
+    // Each element needs at least one byte (binary) or two characters (ASCII) per value: refuse
+    // counts the file cannot hold before allocating.
+    let mut min_bytes: u128 = 0;
+    for e in &elements {
+        let per: usize = e
+            .props
+            .iter()
+            .map(|p| match p {
+                Prop::Scalar(_, t) => if fmt == Format::Ascii { 2 } else { t.size() },
+                Prop::List(_, c, _) => if fmt == Format::Ascii { 2 } else { c.size() },
+            })
+            .sum();
+        min_bytes += e.count as u128 * per as u128;
+    }
+    if min_bytes > data.len() as u128 + 1 {
+        return Err(format!("header declares more data than the file holds ({} bytes needed, {} present)", min_bytes, data.len()));
+    }
+    let mut r = Reader {
+        fmt,
+        bytes: data,
+        pos: 0,
+        tokens: if fmt == Format::Ascii {
+            Some(std::str::from_utf8(data).map_err(|_| "ASCII PLY body is not text")?.split_ascii_whitespace())
+        } else {
+            None
+        },
+    };
+    let mut mesh = PlyMesh::default();
+    for e in &elements {
+        if e.name == "vertex" {
+            let idx = |n: &str| e.props.iter().position(|p| matches!(p, Prop::Scalar(m, _) if m == n));
+            let (Some(ix), Some(iy), Some(iz)) = (idx("x"), idx("y"), idx("z")) else {
+                return Err("vertex element lacks x, y or z".into());
+            };
+            let normal = match (idx("nx"), idx("ny"), idx("nz")) {
+                (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+                _ => None,
+            };
+            let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
+                .iter()
+                .find_map(|(a, b)| Some([idx(a)?, idx(b)?]));
+            camsim_core::mem::check_alloc(e.count as u64 * 64, "PLY vertices").map_err(|x| x.to_string())?;
+            mesh.positions.reserve(e.count);
+            let mut ns = Vec::new();
+            let mut uvs = Vec::new();
+            let mut vals = vec![0.0; e.props.len()];
+            for _ in 0..e.count {
+                for (k, p) in e.props.iter().enumerate() {
+                    match p {
+                        Prop::Scalar(_, t) => vals[k] = r.read(*t)?,
+                        Prop::List(_, c, it) => {
+                            let n = r.read(*c)?;
+                            for _ in 0..(n.max(0.0) as usize).min(1 << 20) {
+                                r.read(*it)?;
+                            }
+                        }
+                    }
+                }
+                mesh.positions.push([vals[ix], vals[iy], vals[iz]]);
+                if let Some([a, b, c]) = normal {
+                    ns.push([vals[a], vals[b], vals[c]]);
+                }
+                if let Some([a, b]) = uv {
+                    uvs.push([vals[a] as f32, vals[b] as f32]);
+                }
+            }
+            if normal.is_some() {
+                mesh.normals = Some(ns);
+            }
+            if uv.is_some() {
+                mesh.uvs = Some(uvs);
+            }
+        } else if e.name == "face" {
+            let li = e
+                .props
+                .iter()
+                .position(|p| matches!(p, Prop::List(m, _, _) if m == "vertex_indices" || m == "vertex_index"))
+                .ok_or("face element lacks a vertex_indices list")?;
+            camsim_core::mem::check_alloc(e.count as u64 * 24, "PLY faces").map_err(|x| x.to_string())?;
+            mesh.triangles.reserve(e.count);
+            let mut idx = Vec::with_capacity(4);
+            for f in 0..e.count {
+                for (k, p) in e.props.iter().enumerate() {
+                    match p {
+                        Prop::Scalar(_, t) => {
+                            r.read(*t)?;
+                        }
+                        Prop::List(_, c, it) => {
+                            let n = r.read(*c)?;
+                            if !(0.0..=(1u32 << 20) as f64).contains(&n) {
+                                return Err(format!("face {f}: list length {n} is out of range"));
+                            }
+                            if k == li {
+                                idx.clear();
+                                for _ in 0..n as usize {
+                                    let v = r.read(*it)?;
+                                    if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
+                                        return Err(format!("face {f}: vertex index {v} is not a valid index"));
+                                    }
+                                    idx.push(v as u32);
+                                }
+                            } else {
+                                for _ in 0..n as usize {
+                                    r.read(*it)?;
+                                }
+                            }
+                        }
+                    }
+                }
+                match idx.len() {
+                    3 => mesh.triangles.push([idx[0], idx[1], idx[2]]),
+                    4 => {
+                        mesh.triangles.push([idx[0], idx[1], idx[2]]);
+                        mesh.triangles.push([idx[0], idx[2], idx[3]]);
+                        mesh.quads += 1;
+                    }
+                    n => return Err(format!("face {f} has {n} vertices; only triangles and quads are supported")),
+                }
+            }
+        } else {
+            // Skip any other element.
+            for _ in 0..e.count {
+                for p in &e.props {
+                    match p {
+                        Prop::Scalar(_, t) => {
+                            r.read(*t)?;
+                        }
+                        Prop::List(_, c, it) => {
+                            let n = r.read(*c)?;
+                            if !(0.0..=(1u32 << 20) as f64).contains(&n) {
+                                return Err(format!("element {}: list length {n} is out of range", e.name));
+                            }
+                            for _ in 0..n as usize {
+                                r.read(*it)?;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let nv = mesh.positions.len();
+    if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= nv)) {
+        return Err(format!("face {:?} refers to a vertex beyond the {nv} vertices", t));
+    }
+    Ok(mesh)
+}

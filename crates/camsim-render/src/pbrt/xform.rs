@@ -1,0 +1,205 @@
+//! Transform helpers the scene readers share: inverse, determinant, pbrt-v4's `LookAt`, and
+//! moving a [`Shape`] by a transform (positions, normals, sphere centre/radius, handedness).
+
+use crate::scene::{Geometry, Shape, Transform};
+
+/// Determinant of the upper-left 3x3 (negative when the transform swaps handedness).
+pub fn det3(t: &Transform) -> f64 {
+    let m = &t.m;
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+/// Inverse of a 4x4 matrix (Gauss-Jordan with partial pivoting); None if singular.
+pub fn inverse(t: &Transform) -> Option<Transform> {
+    let mut a = t.m;
+    let mut inv = Transform::identity().m;
+    for col in 0..4 {
+        let piv = (col..4).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if !(a[piv][col].abs() > 1e-300) {
+            return None;
+        }
+        a.swap(col, piv);
+        inv.swap(col, piv);
+        let d = a[col][col];
+        for k in 0..4 {
+            a[col][k] /= d;
+            inv[col][k] /= d;
+        }
+        for row in 0..4 {
+            if row != col {
+                let f = a[row][col];
+                if f != 0.0 {
+                    for k in 0..4 {
+                        a[row][k] -= f * a[col][k];
+                        inv[row][k] -= f * inv[col][k];
+                    }
+                }
+            }
+        }
+    }
+    inv.iter().flatten().all(|v| v.is_finite()).then_some(Transform { m: inv })
+}
+
+/// Transform a normal: (M^-1)^T n, normalised. `inv` is the inverse of the point transform.
+pub fn apply_normal(inv: &Transform, n: [f64; 3]) -> [f64; 3] {
+    let m = &inv.m;
+    let v = [
+        m[0][0] * n[0] + m[1][0] * n[1] + m[2][0] * n[2],
+        m[0][1] * n[0] + m[1][1] * n[1] + m[2][1] * n[2],
+        m[0][2] * n[0] + m[1][2] * n[1] + m[2][2] * n[2],
+    ];
+    normalize(v)
+}
+
+pub fn normalize(v: [f64; 3]) -> [f64; 3] {
+    let l = dot(v, v).sqrt();
+    if l > 0.0 {
+        [v[0] / l, v[1] / l, v[2] / l]
+    } else {
+        v
+    }
+}
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// pbrt-v4 `LookAt(pos, look, up)`: the camera-from-world transform (camera looks down +z,
+/// +y up, +x = up x dir). Error text if `up` is parallel to the viewing direction.
+pub fn look_at(pos: [f64; 3], look: [f64; 3], up: [f64; 3]) -> Result<Transform, String> {
+    let dir = normalize(sub(look, pos));
+    if dot(dir, dir) == 0.0 || !dir.iter().all(|v| v.is_finite()) {
+        return Err("LookAt: the eye and the look-at point coincide".into());
+    }
+    let upn = normalize(up);
+    if cross(upn, dir).iter().map(|v| v * v).sum::<f64>().sqrt() < 1e-9 {
+        return Err("LookAt: the up vector and the viewing direction are parallel".into());
+    }
+    let right = normalize(cross(upn, dir));
+    let new_up = cross(dir, right);
+    let mut world_from_camera = Transform::identity();
+    for r in 0..3 {
+        world_from_camera.m[r][0] = right[r];
+        world_from_camera.m[r][1] = new_up[r];
+        world_from_camera.m[r][2] = dir[r];
+        world_from_camera.m[r][3] = pos[r];
+    }
+    inverse(&world_from_camera).ok_or_else(|| "LookAt: degenerate transform".to_string())
+}
+
+/// Centre and uniform scale factor of a transform applied to a sphere; error text for
+/// non-uniform scale or shear (a sphere must stay a sphere).
+pub fn sphere_under(t: &Transform, center: [f64; 3], radius: f64) -> Result<([f64; 3], f64), String> {
+    let cols: Vec<[f64; 3]> = (0..3).map(|c| [t.m[0][c], t.m[1][c], t.m[2][c]]).collect();
+    let lens: Vec<f64> = cols.iter().map(|c| dot(*c, *c).sqrt()).collect();
+    let s = lens[0];
+    let tol = 1e-6 * s.max(1e-300);
+    let ortho = dot(cols[0], cols[1]).abs() <= tol * s
+        && dot(cols[0], cols[2]).abs() <= tol * s
+        && dot(cols[1], cols[2]).abs() <= tol * s;
+    if !(s > 0.0) || (lens[1] - s).abs() > tol || (lens[2] - s).abs() > tol || !ortho {
+        return Err(format!(
+            "a sphere under a non-uniform scale or shear is not a sphere (axis scales {:.6}, {:.6}, {:.6})",
+            lens[0], lens[1], lens[2]
+        ));
+    }
+    if t.m[3] != [0.0, 0.0, 0.0, 1.0] {
+        return Err("a sphere under a projective transform is not supported".into());
+    }
+    Ok((t.apply_point(center), radius * s))
+}
+
+/// Move `shape` by `t` (world -> world): positions, normals (inverse transpose), sphere centre
+/// and radius; a handedness-swapping `t` flips the shape's orientation (pbrt-v4
+/// `transformSwapsHandedness`). Error text for a non-uniform scale of a sphere or a singular `t`.
+pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
+    let inv = inverse(t).ok_or_else(|| "singular transform".to_string())?;
+    let swaps = det3(t) < 0.0;
+    match &mut shape.geometry {
+        Geometry::Triangles { positions, indices, normals, .. } => {
+            positions.iter_mut().for_each(|p| *p = t.apply_point(*p));
+            if let Some(ns) = normals {
+                ns.iter_mut().for_each(|n| *n = apply_normal(&inv, *n));
+                // With shading normals the geometric normal follows them (pbrt-v4 Triangle):
+                // a mirror flips the winding, so swap it back to keep the emitting side.
+                if swaps {
+                    indices.iter_mut().for_each(|tri| tri.swap(1, 2));
+                }
+            } else if swaps {
+                shape.reverse_orientation = !shape.reverse_orientation;
+            }
+        }
+        Geometry::Sphere { center, radius } => {
+            let (c, r) = sphere_under(t, *center, *radius)?;
+            *center = c;
+            *radius = r;
+            if swaps {
+                shape.reverse_orientation = !shape.reverse_orientation;
+            }
+        }
+        #[allow(unreachable_patterns)]
+        _ => return Err("this geometry cannot be transformed by the scene reader".into()),
+    }
+    Ok(())
+}
+
+/// Surface area of a shape, m^2.
+pub fn shape_area(g: &Geometry) -> f64 {
+    match g {
+        Geometry::Triangles { positions, indices, .. } => indices
+            .iter()
+            .map(|t| {
+                let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                0.5 * dot(cross(sub(b, a), sub(c, a)), cross(sub(b, a), sub(c, a))).sqrt()
+            })
+            .sum(),
+        Geometry::Sphere { radius, .. } => 4.0 * std::f64::consts::PI * radius * radius,
+        #[allow(unreachable_patterns)]
+        _ => 0.0,
+    }
+}
+
+/// Axis-aligned bounds (min, max) of a shape, m.
+pub fn shape_bounds(g: &Geometry) -> ([f64; 3], [f64; 3]) {
+    match g {
+        Geometry::Triangles { positions, .. } => {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for p in positions {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+            (lo, hi)
+        }
+        Geometry::Sphere { center, radius } => {
+            ([center[0] - radius, center[1] - radius, center[2] - radius], [center[0] + radius, center[1] + radius, center[2] + radius])
+        }
+        #[allow(unreachable_patterns)]
+        _ => ([0.0; 3], [0.0; 3]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inverse_and_look_at() {
+        let t = Transform::translate([1.0, 2.0, 3.0]).then_apply_to(&Transform::rotate(30.0, [1.0, 1.0, 0.0]));
+        let i = inverse(&t).unwrap();
+        let p = i.apply_point(t.apply_point([0.3, -0.7, 2.0]));
+        assert!((p[0] - 0.3).abs() < 1e-12 && (p[1] + 0.7).abs() < 1e-12 && (p[2] - 2.0).abs() < 1e-12);
+        let cam = look_at([0.0, 0.0, -5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]).unwrap();
+        let c = cam.apply_point([0.0, 0.0, 0.0]);
+        assert!((c[2] - 5.0).abs() < 1e-12 && c[0].abs() < 1e-12);
+        assert!(look_at([0.0; 3], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]).is_err());
+    }
+}

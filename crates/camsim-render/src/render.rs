@@ -1,0 +1,278 @@
+//! The film and the render loop: passes of samples over 16 x 16 tiles in parallel (rayon),
+//! deterministic for any thread count, with a sample-count or time-budget stop.
+//!
+//! Determinism: the random stream of tile `k` in pass `p` is
+//! `camsim_core::rng::keyed(seed, stage::RENDER, p, k)`, each tile is rendered sequentially by
+//! one thread, and passes are added to the film in pass order, so the radiance is bit-identical
+//! for any number of threads. Passes hold [`SAMPLES_PER_PASS`] samples per pixel (fewer in the
+//! last one); a time budget is checked between passes, so a render that stopped after `k` passes
+//! equals a render with `samples_per_pixel = k * SAMPLES_PER_PASS` of the same seed.
+
+use crate::camera::CameraRig;
+use crate::integrator::{RayCounts, Tracer};
+use crate::scene::SceneDescription;
+use crate::spectral::{cie_ybar_approx, WavelengthSampler};
+use camsim_core::image::ImageGeometry;
+use camsim_core::rng::{keyed, stage};
+use camsim_core::{CoreError, Quantity, SpectralImage};
+use rand::Rng as _;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Tile edge in pixels.
+pub const TILE: usize = 16;
+/// Samples per pixel in one pass (the granularity of the time budget).
+pub const SAMPLES_PER_PASS: u32 = 8;
+
+/// Why a scene cannot be rendered. Messages name the offending shape, material, light or setting.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// No shapes and no lights.
+    #[error("the scene is empty: it has no shapes and no lights")]
+    EmptyScene,
+    /// Nothing emits light.
+    #[error("the scene has no light sources (no shape with an area light and no infinite light), so it would render black")]
+    NoLights,
+    /// The camera cannot form an image.
+    #[error("camera: {0}")]
+    Camera(String),
+    /// A render setting is out of range.
+    #[error("render settings: {0}")]
+    Settings(String),
+    /// A shape is malformed.
+    #[error("shape {index} ('{name}'): {message}")]
+    Shape { index: usize, name: String, message: String },
+    /// A material is malformed.
+    #[error("material {index}: {message}")]
+    Material { index: usize, message: String },
+    /// A light is malformed.
+    #[error("light {index}: {message}")]
+    Light { index: usize, message: String },
+    /// Memory guard or image construction.
+    #[error(transparent)]
+    Core(#[from] CoreError),
+}
+
+/// Ray and throughput counters of one render.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RenderStats {
+    /// Primary rays (one per sample, plus one depth ray per pixel).
+    pub camera_rays: u64,
+    /// Closest-hit rays after a bounce.
+    pub bounce_rays: u64,
+    /// Shadow (visibility) rays of next-event estimation.
+    pub shadow_rays: u64,
+    /// Wall-clock time of the render, s (scene compile and BVH build included).
+    pub seconds: f64,
+    /// Camera samples (paths) per second.
+    pub samples_per_second: f64,
+    /// All rays (camera + bounce + shadow) per second.
+    pub rays_per_second: f64,
+}
+
+/// What a render produces.
+#[derive(Debug, Clone)]
+pub struct RenderOutput {
+    /// Spectral radiance, W/(sr m^2 nm), on `settings.grid`: each band holds the average of the
+    /// radiance over that band's wavelength interval (`step_nm` wide). `geometry.fov_deg` is the
+    /// horizontal field of view, `geometry.distance_m` the scene's focus distance (0 if none),
+    /// `depth_m` is `Some(depth)`, and `sample_spacing_m` is the pixel pitch projected to the
+    /// focus distance (or to 1 m when the scene has none): `2 d tan(hfov/2) / width`.
+    pub radiance: SpectralImage,
+    /// Distance along the camera's +z (optical) axis from the pinhole to the first surface
+    /// through each pixel centre, m, row-major; `f32::INFINITY` where the ray escapes.
+    pub depth_m: Vec<f32>,
+    /// Per pixel: variance of the mean luminance estimate, (cd/m^2)^2, i.e. the sample variance
+    /// of the per-sample luminance `683 sum L(lambda) ybar(lambda) dlambda` divided by the number
+    /// of samples (y-bar from the Wyman et al. 2013 fit); 0 with fewer than 2 samples.
+    pub variance: Vec<f32>,
+    /// Samples taken per pixel (the same for every pixel).
+    pub samples_per_pixel: Vec<u32>,
+    /// Ray counts and speed.
+    pub stats: RenderStats,
+}
+
+/// A raw pointer that tiles share to write their own disjoint pixels.
+#[derive(Clone, Copy)]
+struct SharedMut<T>(*mut T);
+// SAFETY: every tile writes only the pixels it owns (disjoint index sets), and all writes of a
+// pass finish (rayon joins) before anything reads the buffers.
+unsafe impl<T> Send for SharedMut<T> {}
+unsafe impl<T> Sync for SharedMut<T> {}
+
+impl<T> SharedMut<T> {
+    /// The pointer (a method, so closures capture the whole `Sync` wrapper).
+    #[inline(always)]
+    fn ptr(&self) -> *mut T {
+        self.0
+    }
+}
+
+/// Render `scene`. `progress(done, total)` is called after every finished tile with the
+/// number of tile-passes done and planned.
+pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<RenderOutput, RenderError> {
+    let start = Instant::now();
+    let st = &scene.settings;
+    st.grid.validate().map_err(|e| RenderError::Settings(e.to_string()))?;
+    if st.samples_per_pixel == 0 {
+        return Err(RenderError::Settings("samples_per_pixel must be at least 1".into()));
+    }
+    if let Some(b) = st.time_budget_s {
+        if !(b > 0.0) {
+            return Err(RenderError::Settings(format!("time_budget_s = {b} s is not a positive number")));
+        }
+    }
+    let rig = CameraRig::new(&scene.camera).map_err(RenderError::Camera)?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let bands = st.grid.len();
+    let pixels = width * height;
+    // Output image + depth + variance accumulators (2 x f64) + sample counts.
+    camsim_core::mem::check_alloc(
+        pixels as u64 * (bands as u64 * 4 + 4 + 16 + 4 + 4),
+        &format!("a {width} x {height} render with {bands} bands"),
+    )?;
+    let ws = WavelengthSampler::new(&st.grid);
+    let tracer = Tracer::new(scene, &ws)?;
+    match st.wavelengths_per_path {
+        1 => run::<1>(scene, &tracer, &rig, &ws, progress, start),
+        2 => run::<2>(scene, &tracer, &rig, &ws, progress, start),
+        3 => run::<3>(scene, &tracer, &rig, &ws, progress, start),
+        4 => run::<4>(scene, &tracer, &rig, &ws, progress, start),
+        8 => run::<8>(scene, &tracer, &rig, &ws, progress, start),
+        16 => run::<16>(scene, &tracer, &rig, &ws, progress, start),
+        n => Err(RenderError::Settings(format!("wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"))),
+    }
+}
+
+fn run<const N: usize>(
+    scene: &SceneDescription,
+    tracer: &Tracer,
+    rig: &CameraRig,
+    ws: &WavelengthSampler,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    start: Instant,
+) -> Result<RenderOutput, RenderError> {
+    let st = &scene.settings;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let pixels = width * height;
+    let bands = st.grid.len();
+    let hfov_deg = scene.camera.horizontal_fov_deg();
+    let distance_m = scene.focus_distance_m.filter(|d| *d > 0.0 && d.is_finite());
+    let spacing_m = distance_m.unwrap_or(1.0) * 2.0 * (hfov_deg.to_radians() / 2.0).tan() / width as f64;
+    let mut radiance = SpectralImage::zeros(height, width, st.grid, spacing_m, Quantity::Radiance)?;
+    radiance.geometry = ImageGeometry { fov_deg: hfov_deg, distance_m: distance_m.unwrap_or(0.0), ..Default::default() };
+    let mut depth = vec![f32::INFINITY; pixels];
+    let mut lum = vec![[0f64; 2]; pixels];
+
+    let tiles_x = width.div_ceil(TILE);
+    let tiles_y = height.div_ceil(TILE);
+    let n_tiles = tiles_x * tiles_y;
+    let spp = st.samples_per_pixel;
+    let n_passes = spp.div_ceil(SAMPLES_PER_PASS);
+    let total_work = n_tiles as u64 * n_passes as u64;
+    let done = AtomicU64::new(0);
+    let splat = ws.splat_weight(N);
+    // Luminance weight per band: 683 ybar(lambda_b) (hi - lo)/N per wavelength sample.
+    let lum_w: Vec<f64> = (0..bands)
+        .map(|b| {
+            camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W
+                * cie_ybar_approx(st.grid.wavelength_nm(b))
+                * (ws.hi_nm - ws.lo_nm) as f64
+                / N as f64
+        })
+        .collect();
+
+    let img_ptr = SharedMut(radiance.data.as_mut_ptr());
+    let depth_ptr = SharedMut(depth.as_mut_ptr());
+    let lum_ptr = SharedMut(lum.as_mut_ptr());
+    let mut counts_total = RayCounts::default();
+    let mut samples_done = 0u32;
+
+    for pass in 0..n_passes {
+        let s0 = pass * SAMPLES_PER_PASS;
+        let k = (spp - s0).min(SAMPLES_PER_PASS);
+        let counts: Vec<RayCounts> = (0..n_tiles)
+            .into_par_iter()
+            .map(|tile| {
+                let (tx, ty) = (tile % tiles_x, tile / tiles_x);
+                let (x0, y0) = (tx * TILE, ty * TILE);
+                let (x1, y1) = ((x0 + TILE).min(width), (y0 + TILE).min(height));
+                let mut rng = keyed(st.seed, stage::RENDER, pass as u64, tile as u64);
+                let mut c = RayCounts::default();
+                let mut acc = vec![0f64; bands];
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let pix = y * width + x;
+                        if pass == 0 {
+                            let r = rig.ray(x as f32 + 0.5, y as f32 + 0.5);
+                            let d = tracer.depth_along(&r, rig.forward, &mut c);
+                            // SAFETY: pixel `pix` belongs to this tile only.
+                            unsafe { *depth_ptr.ptr().add(pix) = d };
+                        }
+                        acc.iter_mut().for_each(|a| *a = 0.0);
+                        let (mut ls, mut ls2) = (0f64, 0f64);
+                        for _ in 0..k {
+                            let u_l: f32 = rng.gen();
+                            let (jx, jy): (f32, f32) = (rng.gen(), rng.gen());
+                            let (lambdas, band) = ws.sample::<N>(u_l);
+                            let ray = rig.ray(x as f32 + jx, y as f32 + jy);
+                            let l = tracer.li::<N>(ray, &lambdas, &mut rng, &mut c);
+                            let mut y_lum = 0f64;
+                            for i in 0..N {
+                                let v = if l[i].is_finite() { l[i] } else { 0.0 };
+                                acc[band[i] as usize] += (v * splat) as f64;
+                                y_lum += v as f64 * lum_w[band[i] as usize];
+                            }
+                            ls += y_lum;
+                            ls2 += y_lum * y_lum;
+                        }
+                        // SAFETY: pixel `pix` (in every band plane) belongs to this tile only.
+                        unsafe {
+                            for (b, a) in acc.iter().enumerate() {
+                                *img_ptr.ptr().add(b * pixels + pix) += *a as f32;
+                            }
+                            let e = &mut *lum_ptr.ptr().add(pix);
+                            e[0] += ls;
+                            e[1] += ls2;
+                        }
+                    }
+                }
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(d, total_work);
+                c
+            })
+            .collect();
+        for c in counts {
+            counts_total.camera += c.camera;
+            counts_total.bounce += c.bounce;
+            counts_total.shadow += c.shadow;
+        }
+        samples_done += k;
+        if let Some(budget) = st.time_budget_s {
+            if start.elapsed().as_secs_f64() >= budget {
+                break;
+            }
+        }
+    }
+
+    let n = samples_done as f64;
+    let inv = 1.0 / samples_done as f32;
+    radiance.data.par_iter_mut().for_each(|v| *v *= inv);
+    let variance: Vec<f32> = lum
+        .iter()
+        .map(|[s, s2]| if samples_done >= 2 { (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n) as f32 } else { 0.0 })
+        .collect();
+    radiance.depth_m = Some(depth.clone());
+    let seconds = start.elapsed().as_secs_f64();
+    let rays = counts_total.camera + counts_total.bounce + counts_total.shadow;
+    let stats = RenderStats {
+        camera_rays: counts_total.camera,
+        bounce_rays: counts_total.bounce,
+        shadow_rays: counts_total.shadow,
+        seconds,
+        samples_per_second: pixels as f64 * n / seconds,
+        rays_per_second: rays as f64 / seconds,
+    };
+    Ok(RenderOutput { radiance, depth_m: depth, variance, samples_per_pixel: vec![samples_done; pixels], stats })
+}

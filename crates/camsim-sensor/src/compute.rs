@@ -1,0 +1,508 @@
+//! The sensor computation in ISETCam's order (`sensorCompute`, `sensorComputeNoise`):
+//! irradiance -> pixel grid (area integration, fill factor) -> electrons (QE, lambda/(h c)) ->
+//! dark current -> shot noise -> PRNU/DSNU -> read noise -> analog gain/offset -> clip -> quantize.
+
+use crate::error::{Result, SensorError};
+use crate::sensor::Sensor;
+use camsim_core::rng::{keyed, stage};
+use camsim_core::{mem, Quantity, RawImage, SpectralImage};
+use rand::Rng as _;
+use rand_distr::{Distribution, Poisson, StandardNormal};
+use rayon::prelude::*;
+
+/// Shot noise is drawn from the exact Poisson distribution (rand_distr::Poisson) below this mean
+/// and from a normal distribution with the same mean and variance (mu, mu) at or above it. The
+/// normal draw is exact in mean and variance (all the EMVA 1288 analysis uses); its third moment
+/// is 0 where Poisson's skewness is 1/sqrt(mu) <= 0.1. It makes a 12-MP frame several times faster.
+pub const POISSON_EXACT_BELOW_E: f64 = 100.0;
+
+/// How the exposure time is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Exposure {
+    /// A given exposure time, s (>= 0).
+    Seconds(f64),
+    /// Auto-exposure: the time at which the 99th percentile of the noise-free pixel signal reaches
+    /// `target_fraction` of the voltage swing after gain and offset (ISETCam `autoExposure`,
+    /// percentile instead of the maximum).
+    Auto {
+        /// Fraction of the voltage swing, in (0, 1].
+        target_fraction: f64,
+    },
+}
+
+impl Default for Exposure {
+    fn default() -> Self {
+        Exposure::Auto { target_fraction: 0.9 }
+    }
+}
+
+/// One capture: exposure, number of frames and the seed of the temporal noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Capture {
+    /// Exposure time or auto-exposure.
+    pub exposure: Exposure,
+    /// Frames of the same exposure (>= 1); each has new temporal noise, the same fixed pattern.
+    pub frames: usize,
+    /// Seed of the temporal noise (shot, read). The fixed pattern uses the sensor's own seed.
+    pub seed: u64,
+}
+
+impl Default for Capture {
+    fn default() -> Self {
+        Capture { exposure: Exposure::default(), frames: 1, seed: 0 }
+    }
+}
+
+impl Capture {
+    /// One frame of `exposure_s` seconds with seed 0.
+    pub fn seconds(exposure_s: f64) -> Capture {
+        Capture { exposure: Exposure::Seconds(exposure_s), frames: 1, seed: 0 }
+    }
+    /// One auto-exposed frame (99th percentile at 90 % of the swing) with seed 0.
+    pub fn auto() -> Capture {
+        Capture::default()
+    }
+    /// The same capture with `frames` frames.
+    pub fn with_frames(mut self, frames: usize) -> Capture {
+        self.frames = frames;
+        self
+    }
+    /// The same capture with temporal-noise seed `seed`.
+    pub fn with_seed(mut self, seed: u64) -> Capture {
+        self.seed = seed;
+        self
+    }
+}
+
+/// The result of a capture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// One raw mosaic per frame (black level = analog offset in DN, white level 2^bits - 1).
+    pub raw: Vec<RawImage>,
+    /// Exposure time used, s.
+    pub exposure_s: f64,
+    /// Noise-free mean electrons (photo + dark) over the pixels of each channel r, g, b (0 where a
+    /// channel has no pixel).
+    pub mean_electrons: [f64; 3],
+    /// With the quantization switch off: per frame, the unrounded ADC value (volts x dn_per_v after
+    /// gain, offset and clipping), row-major. `None` otherwise.
+    pub analog_dn: Option<Vec<Vec<f32>>>,
+}
+
+/// 1D area-integration weights from an input sampling (cells of `spacing` centred on the axis) to
+/// output photodetectors (width `pd_width` centred in pixels of `pitch`, centred on the axis).
+struct Axis {
+    /// Per output index: first input index, and range into `w`.
+    start: Vec<usize>,
+    range: Vec<(usize, usize)>,
+    w: Vec<f32>,
+    /// Some((offset, first, last)) when output c (first <= c < last) maps to input c + offset with
+    /// weight 1, and to nothing outside.
+    identity: Option<(isize, usize, usize)>,
+}
+
+impl Axis {
+    fn new(n_out: usize, pitch_m: f64, pd_width_m: f64, n_in: usize, spacing_m: f64) -> Axis {
+        let mut start = Vec::with_capacity(n_out);
+        let mut range = Vec::with_capacity(n_out);
+        let mut w = Vec::new();
+        let half_in = n_in as f64 / 2.0;
+        let half_out = n_out as f64 / 2.0;
+        for c in 0..n_out {
+            let centre_m = (c as f64 + 0.5 - half_out) * pitch_m;
+            // In input-index units: cell j covers [j, j + 1].
+            let lo = (centre_m - pd_width_m / 2.0) / spacing_m + half_in;
+            let hi = (centre_m + pd_width_m / 2.0) / spacing_m + half_in;
+            let width = hi - lo;
+            let j0 = lo.floor().max(0.0) as usize;
+            let j1 = (hi.ceil().min(n_in as f64)).max(0.0) as usize;
+            let first_w = w.len();
+            let mut first_j = usize::MAX;
+            for j in j0..j1.max(j0) {
+                let ov = (hi.min(j as f64 + 1.0) - lo.max(j as f64)) / width;
+                if ov > 1e-7 {
+                    if first_j == usize::MAX {
+                        first_j = j;
+                    }
+                    // Keep contiguity: fill any skipped slivers with 0.
+                    while first_j + (w.len() - first_w) < j {
+                        w.push(0.0);
+                    }
+                    w.push(ov as f32);
+                }
+            }
+            start.push(if first_j == usize::MAX { 0 } else { first_j });
+            range.push((first_w, w.len()));
+        }
+        // Identity detection (same pitch and spacing, integer offset): the fast path.
+        let mut first: Option<usize> = None;
+        let mut last = 0;
+        let mut offset: Option<isize> = None;
+        let mut ok = true;
+        for c in 0..n_out {
+            let (a, b) = range[c];
+            if b == a {
+                continue;
+            }
+            if b - a != 1 || (w[a] - 1.0).abs() > 1e-5 {
+                ok = false;
+                break;
+            }
+            let o = start[c] as isize - c as isize;
+            if *offset.get_or_insert(o) != o {
+                ok = false;
+                break;
+            }
+            if first.is_none() {
+                first = Some(c);
+            } else if last != c {
+                ok = false;
+                break;
+            }
+            last = c + 1;
+        }
+        let identity = if ok {
+            // Snap the weights to exactly 1 (they differ from it by round-off only).
+            w.iter_mut().for_each(|v| *v = 1.0);
+            Some((offset.unwrap_or(0), first.unwrap_or(0), last))
+        } else {
+            None
+        };
+        Axis { start, range, w, identity }
+    }
+
+    #[inline]
+    fn entries(&self, c: usize) -> (usize, &[f32]) {
+        let (a, b) = self.range[c];
+        (self.start[c], &self.w[a..b])
+    }
+}
+
+impl Sensor {
+    /// Compute raw frames from a sensor-plane spectral irradiance image (ISETCam `sensorCompute`).
+    ///
+    /// `irradiance` holds W/(m^2 nm) with `sample_spacing_m` at the sensor plane, centred on the
+    /// optical axis like the sensor. Each pixel integrates the irradiance (piecewise constant over
+    /// each sample's cell) over its photodetector, a centred square of area pitch^2 x fill factor;
+    /// light outside the image is 0. Temporal noise is keyed on (capture seed, frame, row), the
+    /// fixed pattern on (fixed_pattern_seed, row), so the output is bit-identical for any number
+    /// of threads. NaN irradiance values give 0 DN (the image is not scanned for them).
+    pub fn compute(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<Frame> {
+        if irradiance.quantity != Quantity::Irradiance {
+            return Err(SensorError::input(
+                "sensor input",
+                format!("needs a sensor-plane irradiance image (W/(m^2 nm)), got {}", irradiance.quantity.name()),
+            ));
+        }
+        if !(irradiance.sample_spacing_m.is_finite() && irradiance.sample_spacing_m > 0.0) {
+            return Err(SensorError::input(
+                "sensor input",
+                format!("sample spacing {} m is not a positive number", irradiance.sample_spacing_m),
+            ));
+        }
+        if irradiance.data.len() != irradiance.rows * irradiance.cols * irradiance.bands() {
+            return Err(SensorError::input("sensor input", "image data length does not match rows x cols x bands"));
+        }
+        check_capture(capture)?;
+        let rate = self.electron_rate_image(irradiance)?;
+        self.capture_from_rate(&rate, self.rows(), self.cols(), capture, 0)
+    }
+
+    /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major.
+    /// Streams each band plane once per output row band, accumulating in f32 (rayon over rows).
+    pub fn electron_rate_image(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
+        let (rows, cols) = (self.rows(), self.cols());
+        mem::check_alloc((rows * cols * 4) as u64, "the sensor electron image")?;
+        let pd_width_m = self.pixel_pitch_m * self.fill_factor.sqrt();
+        let ax = Axis::new(cols, self.pixel_pitch_m, pd_width_m, irr.cols, irr.sample_spacing_m);
+        let ay = Axis::new(rows, self.pixel_pitch_m, pd_width_m, irr.rows, irr.sample_spacing_m);
+        let fac: Vec<[f32; 3]> =
+            self.band_factors(&irr.grid).iter().map(|f| [f[0] as f32, f[1] as f32, f[2] as f32]).collect();
+        let bands = irr.bands();
+        let in_cols = irr.cols;
+        let cfa = self.cfa;
+        let mut rate = vec![0.0f32; rows * cols];
+        // Range of input columns any output column touches (for the general path's row buffer).
+        let (jmin, jmax) = (0..cols).fold((usize::MAX, 0usize), |(a, b), c| {
+            let (s, w) = ax.entries(c);
+            if w.is_empty() {
+                (a, b)
+            } else {
+                (a.min(s), b.max(s + w.len()))
+            }
+        });
+        if jmin >= jmax {
+            return Ok(rate); // no pixel sees the image
+        }
+        rate.par_chunks_mut(cols).enumerate().for_each_init(
+            || vec![0.0f32; in_cols],
+            |tmp, (r, out)| {
+                let (i0, wy) = ay.entries(r);
+                if wy.is_empty() {
+                    return;
+                }
+                let ch0 = cfa.channel_at(r, 0).index();
+                let ch1 = cfa.channel_at(r, 1).index();
+                let single_row = ay.identity.is_some();
+                for (b, f) in fac.iter().enumerate().take(bands) {
+                    let (f0, f1) = (f[ch0], f[ch1]);
+                    if f0 == 0.0 && f1 == 0.0 {
+                        continue;
+                    }
+                    let plane = irr.band(b);
+                    match (ax.identity, single_row) {
+                        (Some((off, c0, c1)), true) => {
+                            if c1 <= c0 {
+                                continue;
+                            }
+                            let src0 = i0 * in_cols;
+                            let s = &plane[(src0 as isize + c0 as isize + off) as usize..][..c1 - c0];
+                            let d = &mut out[c0..c1];
+                            let (fa, fb) = if c0 % 2 == 0 { (f0, f1) } else { (f1, f0) };
+                            let mut dc = d.chunks_exact_mut(2);
+                            let mut sc = s.chunks_exact(2);
+                            for (dd, ss) in (&mut dc).zip(&mut sc) {
+                                dd[0] += fa * ss[0];
+                                dd[1] += fb * ss[1];
+                            }
+                            if let (Some(dd), Some(ss)) = (dc.into_remainder().first_mut(), sc.remainder().first()) {
+                                *dd += fa * ss;
+                            }
+                        }
+                        _ => {
+                            // Integrate along y into the row buffer, then along x.
+                            let t = &mut tmp[jmin..jmax];
+                            t.iter_mut().for_each(|v| *v = 0.0);
+                            for (k, wyk) in wy.iter().enumerate() {
+                                if *wyk == 0.0 {
+                                    continue;
+                                }
+                                let row = &plane[(i0 + k) * in_cols..(i0 + k + 1) * in_cols][jmin..jmax];
+                                for (tv, sv) in t.iter_mut().zip(row) {
+                                    *tv += wyk * sv;
+                                }
+                            }
+                            for (c, o) in out.iter_mut().enumerate() {
+                                let (s, wx) = ax.entries(c);
+                                if wx.is_empty() {
+                                    continue;
+                                }
+                                let src = &t[s - jmin..s - jmin + wx.len()];
+                                let v: f32 = wx.iter().zip(src).map(|(a, b)| a * b).sum();
+                                *o += if c % 2 == 0 { f0 } else { f1 } * v;
+                            }
+                        }
+                    }
+                }
+            },
+        );
+        Ok(rate)
+    }
+
+    /// Exposure time for a capture, given the noise-free electron-rate image.
+    fn resolve_exposure(&self, rate: &[f32], exposure: Exposure) -> Result<f64> {
+        match exposure {
+            Exposure::Seconds(t) => Ok(t),
+            Exposure::Auto { target_fraction } => {
+                // 99th percentile of a deterministic strided sample (<= 1 M pixels).
+                let stride = (rate.len() / 1_000_000).max(1);
+                let mut sample: Vec<f32> = rate.iter().step_by(stride).copied().collect();
+                if sample.is_empty() {
+                    return Err(SensorError::input("auto exposure", "the sensor has no pixels"));
+                }
+                let k = ((sample.len() - 1) as f64 * 0.99).round() as usize;
+                let (_, p99, _) = sample.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+                let p99 = *p99 as f64;
+                let dark_rate_e = if self.noise.dark { self.dark_voltage_v_per_s / self.conversion_gain_v_per_e } else { 0.0 };
+                // (v + offset) / gain = target x swing, v = cg x (rate + dark rate) x t.
+                let v_needed = target_fraction * self.voltage_swing_v * self.analog_gain - self.analog_offset_v;
+                let v_rate = self.conversion_gain_v_per_e * (p99 + dark_rate_e);
+                if !(v_rate > 0.0 && v_rate.is_finite()) {
+                    return Err(SensorError::input(
+                        "auto exposure",
+                        "the irradiance reaching the sensor is zero (or not finite), so no exposure time reaches the target",
+                    ));
+                }
+                if v_needed <= 0.0 {
+                    return Err(SensorError::input(
+                        "auto exposure",
+                        format!(
+                            "the analog offset alone exceeds {target_fraction} of the voltage swing; give the exposure time instead"
+                        ),
+                    ));
+                }
+                Ok(v_needed / v_rate)
+            }
+        }
+    }
+
+    /// Frames from an electron-rate image (`rows` x `cols`, row-major, e-/s). Temporal noise of
+    /// frame k is keyed on frame index `frame_base + k`.
+    pub(crate) fn capture_from_rate(
+        &self,
+        rate: &[f32],
+        rows: usize,
+        cols: usize,
+        capture: &Capture,
+        frame_base: u64,
+    ) -> Result<Frame> {
+        check_capture(capture)?;
+        let exposure_s = self.resolve_exposure(rate, capture.exposure)?;
+        if !(exposure_s.is_finite() && exposure_s >= 0.0) {
+            return Err(SensorError::input("exposure", format!("{exposure_s} s is not a finite time >= 0")));
+        }
+        let n = rows * cols;
+        let frames = capture.frames;
+        mem::check_alloc((n * 2 * frames) as u64, &format!("{frames} raw frames of {rows} x {cols}"))?;
+        let keep_analog = !self.noise.quantization;
+        if keep_analog {
+            mem::check_alloc((n * 4 * frames) as u64, &format!("{frames} analog frames of {rows} x {cols}"))?;
+        }
+        let mut raws = Vec::with_capacity(frames);
+        let mut analogs = Vec::new();
+        for k in 0..frames {
+            let mut raw = RawImage::new(rows, cols, self.cfa, self.bits)?;
+            raw.black_level_dn = self.black_level_dn();
+            raw.white_level_dn = self.max_dn() as f64;
+            raw.exposure_s = exposure_s;
+            raw.pixel_pitch_m = self.pixel_pitch_m;
+            let mut analog = if keep_analog { vec![0.0f32; n] } else { Vec::new() };
+            let frame_key = frame_base + k as u64;
+            if keep_analog {
+                raw.dn.par_chunks_mut(cols).zip(analog.par_chunks_mut(cols)).enumerate().for_each(|(r, (d, a))| {
+                    self.noise_row(r, &rate[r * cols..(r + 1) * cols], exposure_s, capture.seed, frame_key, d, Some(a))
+                });
+            } else {
+                raw.dn.par_chunks_mut(cols).enumerate().for_each(|(r, d)| {
+                    self.noise_row(r, &rate[r * cols..(r + 1) * cols], exposure_s, capture.seed, frame_key, d, None)
+                });
+            }
+            raws.push(raw);
+            if keep_analog {
+                analogs.push(analog);
+            }
+        }
+        // Noise-free mean electrons per channel; per-row sums then a sequential total, so the
+        // figure does not depend on the thread count either.
+        let dark_e = self.dark_electrons(exposure_s);
+        let row_sums: Vec<[f64; 3]> = rate
+            .par_chunks(cols)
+            .enumerate()
+            .map(|(r, row)| {
+                let mut s = [0.0f64; 3];
+                for (c, v) in row.iter().enumerate() {
+                    s[self.cfa.channel_at(r, c).index()] += *v as f64;
+                }
+                s
+            })
+            .collect();
+        let mut sums = [0.0f64; 3];
+        for s in &row_sums {
+            for c in 0..3 {
+                sums[c] += s[c];
+            }
+        }
+        let mut counts = [0usize; 3];
+        for r in 0..rows.min(2) {
+            for c in 0..cols.min(2) {
+                let per_r = (rows - r).div_ceil(2);
+                let per_c = (cols - c).div_ceil(2);
+                counts[self.cfa.channel_at(r, c).index()] += per_r * per_c;
+            }
+        }
+        let mut mean_electrons = [0.0; 3];
+        for c in 0..3 {
+            if counts[c] > 0 {
+                mean_electrons[c] = sums[c] / counts[c] as f64 * exposure_s + dark_e;
+            }
+        }
+        Ok(Frame { raw: raws, exposure_s, mean_electrons, analog_dn: if keep_analog { Some(analogs) } else { None } })
+    }
+
+    /// One row of one frame: electrons -> noise -> volts -> DN (ISETCam sensorComputeNoise order).
+    #[allow(clippy::too_many_arguments)]
+    fn noise_row(
+        &self,
+        r: usize,
+        rate: &[f32],
+        exposure_s: f64,
+        seed: u64,
+        frame_key: u64,
+        out: &mut [u16],
+        mut analog: Option<&mut [f32]>,
+    ) {
+        let nz = self.noise;
+        let cg = self.conversion_gain_v_per_e;
+        let dark_e = self.dark_electrons(exposure_s);
+        let read_v = if nz.read { self.read_noise_v } else { 0.0 };
+        let read_var = read_v * read_v;
+        let prnu = if nz.prnu { self.prnu_fraction } else { 0.0 };
+        let dsnu = if nz.dsnu { self.dsnu_v } else { 0.0 };
+        let fpn = nz.prnu || nz.dsnu;
+        let offset = self.analog_offset_v;
+        let inv_gain = 1.0 / self.analog_gain;
+        let swing = self.voltage_swing_v;
+        let dn_per_v = self.dn_per_v();
+        let max_dn = self.max_dn() as f64;
+        // Fixed pattern: the sensor's own stream per row (two normals per pixel, PRNU then DSNU),
+        // the same for every frame and call. Temporal: the capture's stream per frame and row.
+        let mut fp = keyed(self.config().fixed_pattern_seed, stage::SENSOR_FIXED_PATTERN, 0, r as u64);
+        let mut tr = keyed(seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
+        for (c, o) in out.iter_mut().enumerate() {
+            let mu_e = rate[c] as f64 * exposure_s + dark_e;
+            let (gain_map, offset_map_v) = if fpn {
+                let z1: f64 = fp.sample(StandardNormal);
+                let z2: f64 = fp.sample(StandardNormal);
+                // ISETCam binNoiseFPN: v = (1 + PRNU) v + DSNU.
+                (1.0 + prnu * z1, dsnu * z2)
+            } else {
+                (1.0, 0.0)
+            };
+            let v = if nz.shot && mu_e >= POISSON_EXACT_BELOW_E {
+                // Shot (normal, same mean and variance as Poisson) and read noise are independent
+                // normals after the PRNU gain: one normal draw with the summed variance.
+                let sd_shot_v = cg * gain_map * mu_e.sqrt();
+                let z: f64 = tr.sample(StandardNormal);
+                cg * gain_map * mu_e + offset_map_v + (sd_shot_v * sd_shot_v + read_var).sqrt() * z
+            } else {
+                let e = if nz.shot && mu_e > 0.0 {
+                    match Poisson::new(mu_e) {
+                        Ok(p) => p.sample(&mut tr),
+                        Err(_) => mu_e,
+                    }
+                } else {
+                    mu_e
+                };
+                let mut v = e * cg * gain_map + offset_map_v;
+                if nz.read {
+                    let z: f64 = tr.sample(StandardNormal);
+                    v += read_v * z;
+                }
+                v
+            };
+            // ISETCam: analog gain and offset, (v + offset) / gain; clip to [0, swing].
+            let v_out = ((v + offset) * inv_gain).clamp(0.0, swing);
+            let x = v_out * dn_per_v;
+            // Quantization: DN = round(v / (swing / 2^bits)), clipped to 2^bits - 1.
+            *o = x.round().min(max_dn) as u16;
+            if let Some(a) = analog.as_deref_mut() {
+                a[c] = x as f32;
+            }
+        }
+    }
+}
+
+fn check_capture(capture: &Capture) -> Result<()> {
+    if capture.frames == 0 {
+        return Err(SensorError::input("frames", "must be at least 1"));
+    }
+    match capture.exposure {
+        Exposure::Seconds(t) if !(t.is_finite() && t >= 0.0) => {
+            Err(SensorError::input("exposure_s", format!("{t} s is not a finite time >= 0")))
+        }
+        Exposure::Auto { target_fraction } if !(target_fraction > 0.0 && target_fraction <= 1.0) => Err(
+            SensorError::input("auto exposure target_fraction", format!("must be in (0, 1], got {target_fraction}")),
+        ),
+        _ => Ok(()),
+    }
+}

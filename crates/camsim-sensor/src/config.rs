@@ -1,0 +1,291 @@
+//! The sensor description as engineers write it (TOML; um, uV, mV, %, s), and its validation.
+//!
+//! Units in the file are the ones data sheets use; [`crate::Sensor`] converts them to SI.
+
+use crate::error::{Result, SensorError};
+use camsim_core::CfaPattern;
+use serde::{Deserialize, Serialize};
+
+/// Which noise sources are on. All default to on; a noise-free sensor is how tests check the mean
+/// signal. (ISETCam's `noise flag`, split per source.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSwitches {
+    /// Photon shot noise (Poisson statistics of the collected electrons, dark electrons included).
+    #[serde(default = "yes")]
+    pub shot: bool,
+    /// Temporal read noise (`read_noise_mv`, Gaussian, new every frame).
+    #[serde(default = "yes")]
+    pub read: bool,
+    /// Dark signal non-uniformity (`dsnu_mv`): a fixed per-pixel voltage offset map.
+    #[serde(default = "yes")]
+    pub dsnu: bool,
+    /// Photo-response non-uniformity (`prnu_percent`): a fixed per-pixel gain map.
+    #[serde(default = "yes")]
+    pub prnu: bool,
+    /// Dark current (`dark_voltage_mv_per_s`): its mean signal and, with `shot`, its shot noise.
+    #[serde(default = "yes")]
+    pub dark: bool,
+    /// ADC quantization noise. The raw frames are integers either way (the ADC rounds); with this
+    /// off, [`crate::Frame::analog_dn`] also keeps the unrounded values, and the noise model
+    /// ([`crate::Sensor::predicted_noise_dn`]) leaves out the 1/12 DN^2 term.
+    #[serde(default = "yes")]
+    pub quantization: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for NoiseSwitches {
+    fn default() -> Self {
+        NoiseSwitches { shot: true, read: true, dsnu: true, prnu: true, dark: true, quantization: true }
+    }
+}
+
+impl NoiseSwitches {
+    /// Every noise source off (quantization stays: the ADC always rounds).
+    pub fn none() -> Self {
+        NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: false, quantization: true }
+    }
+}
+
+/// Spectral quantum efficiency, sampled at `wavelengths_nm` (linear interpolation between samples,
+/// 0 outside). Channel QE = colour filter x IR-cut filter x pixel QE (ISETCam `sensorGet(...,'spectral qe')`),
+/// then the optional `qe_correction` of [`SensorConfig`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QeConfig {
+    /// Sample wavelengths, nm, strictly increasing.
+    pub wavelengths_nm: Vec<f64>,
+    /// Red colour-filter transmittance (fraction, 0..1), one value per wavelength.
+    pub r: Vec<f64>,
+    /// Green colour-filter transmittance (fraction), one value per wavelength.
+    pub g: Vec<f64>,
+    /// Blue colour-filter transmittance (fraction), one value per wavelength.
+    pub b: Vec<f64>,
+    /// IR-cut filter transmittance (fraction), one value per wavelength; absent = 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ir_cut: Option<Vec<f64>>,
+    /// Photodetector QE (fraction), one value per wavelength; absent = 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_qe: Option<Vec<f64>>,
+}
+
+/// A sensor as written in a TOML file (presets are such files, built in). Unknown keys are errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorConfig {
+    /// Sensor name (free text; written to DNG UniqueCameraModel and run.json).
+    pub name: String,
+    /// Where the figures come from (free text).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// Pixel rows (image height), pixels.
+    pub rows: usize,
+    /// Pixel columns (image width), pixels.
+    pub cols: usize,
+    /// Pixel pitch (square pixels), um.
+    pub pixel_pitch_um: f64,
+    /// Photosensitive fraction of the pixel area, in (0, 1]. The photodetector is a centred square
+    /// of side pitch x sqrt(fill_factor) (ISETCam `pixelCenterFillPD`).
+    pub fill_factor: f64,
+    /// Bayer pattern, top-left first: "RGGB", "GRBG", "GBRG" or "BGGR".
+    pub cfa: String,
+    /// Conversion gain, uV per electron (Table 1 of the paper: 7.65e-5 V/e- = 76.5 uV/e-).
+    pub conversion_gain_uv_per_e: f64,
+    /// Optional cross-check of the well capacity, electrons: if given it must agree with
+    /// voltage_swing_v / conversion gain within 1 %. (The model uses the swing.)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub well_capacity_e: Option<f64>,
+    /// Voltage swing (the largest pixel voltage the ADC converts), V.
+    pub voltage_swing_v: f64,
+    /// Analog gain (dimensionless, > 0): v_out = (v + offset) / gain (ISETCam sensorCompute).
+    #[serde(default = "one")]
+    pub analog_gain: f64,
+    /// Analog offset, mV, added before the gain (ISETCam `analog offset`).
+    #[serde(default)]
+    pub analog_offset_mv: f64,
+    /// ADC bits, 1..=16. Quantization step = voltage_swing_v / 2^bits.
+    pub bits: u32,
+    /// DSNU: standard deviation of the fixed per-pixel dark offset, mV.
+    #[serde(default)]
+    pub dsnu_mv: f64,
+    /// PRNU: standard deviation of the fixed per-pixel gain, percent.
+    #[serde(default)]
+    pub prnu_percent: f64,
+    /// Dark current expressed as pixel voltage per second, mV/s.
+    #[serde(default)]
+    pub dark_voltage_mv_per_s: f64,
+    /// Read noise: standard deviation of the temporal voltage noise per frame, mV.
+    #[serde(default)]
+    pub read_noise_mv: f64,
+    /// Seed of the fixed-pattern maps (DSNU, PRNU): the same seed gives the same sensor instance.
+    /// 0 ..= 2^63 - 1 (a TOML integer).
+    #[serde(default)]
+    pub fixed_pattern_seed: u64,
+    /// Optional 3x3 QE correction M (dimensionless): [r', g', b'] = [r, g, b] M, where r, g, b
+    /// are the channel QE curves as columns, so rows of M index the input channel:
+    /// r' = M00 r + M10 g + M20 b, g' = M01 r + M11 g + M21 b, b' = M02 r + M12 g + M22 b
+    /// (the paper's eq. 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qe_correction: Option<[[f64; 3]; 3]>,
+    /// Noise switches (all on when the table is absent).
+    #[serde(default)]
+    pub noise: NoiseSwitches,
+    /// Spectral QE.
+    pub qe: QeConfig,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Largest pixel count a sensor may have (a guard against typos; 2^31 pixels).
+const MAX_PIXELS: u64 = 1 << 31;
+
+impl SensorConfig {
+    /// Parse TOML text; `source_name` (file name or preset) goes into every error message.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
+        toml::from_str::<SensorConfig>(text)
+            .map_err(|e| SensorError::Parse { source_name: source_name.to_string(), message: e.to_string() })
+    }
+
+    /// The config as TOML text (parses back to an equal config).
+    pub fn to_toml(&self) -> String {
+        // Serialising a struct of plain numbers, strings and arrays cannot fail.
+        toml::to_string(self).unwrap_or_else(|e| format!("# could not serialise sensor config: {e}\n"))
+    }
+
+    /// Check every value; the error names `source_name` and the key.
+    pub fn validate(&self, source_name: &str) -> Result<()> {
+        let bad = |key: &str, message: String| SensorError::Config {
+            source_name: source_name.to_string(),
+            key: key.to_string(),
+            message,
+        };
+        let positive = |key: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, format!("must be a positive number, got {v}")))
+            }
+        };
+        let non_negative = |key: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, format!("must be a finite number >= 0, got {v}")))
+            }
+        };
+        if self.rows == 0 {
+            return Err(bad("rows", "must be at least 1".into()));
+        }
+        if self.cols == 0 {
+            return Err(bad("cols", "must be at least 1".into()));
+        }
+        if (self.rows as u64).saturating_mul(self.cols as u64) > MAX_PIXELS {
+            return Err(bad("rows", format!("{} x {} pixels is more than 2^31", self.rows, self.cols)));
+        }
+        positive("pixel_pitch_um", self.pixel_pitch_um)?;
+        if !(self.fill_factor.is_finite() && self.fill_factor > 0.0 && self.fill_factor <= 1.0) {
+            return Err(bad("fill_factor", format!("must be in (0, 1], got {}", self.fill_factor)));
+        }
+        CfaPattern::parse(&self.cfa).map_err(|_| bad("cfa", format!("'{}' is not one of RGGB, GRBG, GBRG, BGGR", self.cfa)))?;
+        positive("conversion_gain_uv_per_e", self.conversion_gain_uv_per_e)?;
+        positive("voltage_swing_v", self.voltage_swing_v)?;
+        if let Some(w) = self.well_capacity_e {
+            positive("well_capacity_e", w)?;
+            let derived = self.voltage_swing_v / (self.conversion_gain_uv_per_e * 1e-6);
+            if (w / derived - 1.0).abs() > 0.01 {
+                return Err(bad(
+                    "well_capacity_e",
+                    format!(
+                        "{w} e- disagrees with voltage_swing_v / conversion gain = {derived:.1} e- by more than 1 %"
+                    ),
+                ));
+            }
+        }
+        positive("analog_gain", self.analog_gain)?;
+        if !self.analog_offset_mv.is_finite() {
+            return Err(bad("analog_offset_mv", format!("must be a finite number, got {}", self.analog_offset_mv)));
+        }
+        if !(1..=16).contains(&self.bits) {
+            return Err(bad("bits", format!("must be in 1..=16, got {}", self.bits)));
+        }
+        non_negative("dsnu_mv", self.dsnu_mv)?;
+        non_negative("prnu_percent", self.prnu_percent)?;
+        non_negative("dark_voltage_mv_per_s", self.dark_voltage_mv_per_s)?;
+        non_negative("read_noise_mv", self.read_noise_mv)?;
+        if let Some(m) = &self.qe_correction {
+            for (i, row) in m.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    if !v.is_finite() {
+                        return Err(bad("qe_correction", format!("element [{i}][{j}] is {v}, not a finite number")));
+                    }
+                }
+            }
+        }
+        // QE tables.
+        let q = &self.qe;
+        let n = q.wavelengths_nm.len();
+        if n == 0 {
+            return Err(bad("qe.wavelengths_nm", "is empty".into()));
+        }
+        for (i, w) in q.wavelengths_nm.iter().enumerate() {
+            if !(w.is_finite() && *w > 0.0) {
+                return Err(bad("qe.wavelengths_nm", format!("value {i} is {w}, not a positive number")));
+            }
+        }
+        if let Some(i) = q.wavelengths_nm.windows(2).position(|p| p[1] <= p[0]) {
+            return Err(bad(
+                "qe.wavelengths_nm",
+                format!(
+                    "must be strictly increasing, but {} nm follows {} nm",
+                    q.wavelengths_nm[i + 1],
+                    q.wavelengths_nm[i]
+                ),
+            ));
+        }
+        let curves: [(&str, Option<&Vec<f64>>); 5] = [
+            ("qe.r", Some(&q.r)),
+            ("qe.g", Some(&q.g)),
+            ("qe.b", Some(&q.b)),
+            ("qe.ir_cut", q.ir_cut.as_ref()),
+            ("qe.pixel_qe", q.pixel_qe.as_ref()),
+        ];
+        for (key, c) in curves {
+            let Some(c) = c else { continue };
+            if c.len() != n {
+                return Err(bad(key, format!("has {} values for {n} wavelengths", c.len())));
+            }
+            for (v, w) in c.iter().zip(&q.wavelengths_nm) {
+                if !(v.is_finite() && *v >= 0.0) {
+                    return Err(bad(key, format!("value at {w} nm is {v}, not a finite number >= 0")));
+                }
+            }
+        }
+        // Corrected QE must stay non-negative.
+        if let Some(m) = &self.qe_correction {
+            for k in 0..n {
+                let ir = q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
+                let px = q.pixel_qe.as_ref().map_or(1.0, |v| v[k]);
+                let rgb = [q.r[k] * ir * px, q.g[k] * ir * px, q.b[k] * ir * px];
+                for c in 0..3 {
+                    let v: f64 = (0..3).map(|i| rgb[i] * m[i][c]).sum();
+                    if v < 0.0 {
+                        return Err(bad(
+                            "qe_correction",
+                            format!(
+                                "gives a negative QE {v:.4} for channel {} at {} nm",
+                                ["r", "g", "b"][c],
+                                q.wavelengths_nm[k]
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,369 @@
+//! A validated sensor in SI units, its spectral QE and the analytic mean-signal and noise model.
+
+use crate::config::{NoiseSwitches, SensorConfig};
+use crate::error::{Result, SensorError};
+use crate::presets;
+use camsim_core::units::{PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S};
+use camsim_core::{CfaPattern, Spectrum, WavelengthGrid};
+use std::path::Path;
+
+/// A sensor ready to compute: the config it came from plus every parameter in SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    config: SensorConfig,
+    pub(crate) cfa: CfaPattern,
+    pub(crate) pixel_pitch_m: f64,
+    pub(crate) fill_factor: f64,
+    pub(crate) conversion_gain_v_per_e: f64,
+    pub(crate) voltage_swing_v: f64,
+    pub(crate) analog_gain: f64,
+    pub(crate) analog_offset_v: f64,
+    pub(crate) bits: u32,
+    pub(crate) dsnu_v: f64,
+    pub(crate) prnu_fraction: f64,
+    pub(crate) dark_voltage_v_per_s: f64,
+    pub(crate) read_noise_v: f64,
+    pub(crate) noise: NoiseSwitches,
+    /// Effective channel QE (filter x IR x pixel, then the correction), r, g, b.
+    qe: [Spectrum; 3],
+}
+
+/// Standard deviations of each noise source in DN for one pixel at a given mean signal, and
+/// their quadrature sum (EMVA 1288 rel. 4.0 linear model, ISETCam noise sources).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseBreakdown {
+    /// Photon shot noise, K sqrt(mu_photo_e), DN (temporal).
+    pub shot: f64,
+    /// Read noise, read_v x dn_per_v / gain, DN (temporal).
+    pub read: f64,
+    /// DSNU, dsnu_v x dn_per_v / gain, DN (spatial, fixed).
+    pub dsnu: f64,
+    /// PRNU, prnu x mean signal, DN (spatial, fixed).
+    pub prnu: f64,
+    /// Dark-current shot noise, K sqrt(mu_dark_e), DN (temporal).
+    pub dark: f64,
+    /// Quantization noise, 1/sqrt(12) DN (0 with quantization off).
+    pub quantization: f64,
+    /// sqrt of the sum of the squares, DN: the spread over pixels of one frame of a uniform field.
+    pub total: f64,
+}
+
+impl NoiseBreakdown {
+    /// Temporal part only (shot, dark shot, read, quantization): the spread of one pixel over frames, DN.
+    pub fn temporal(&self) -> f64 {
+        (self.shot.powi(2) + self.dark.powi(2) + self.read.powi(2) + self.quantization.powi(2)).sqrt()
+    }
+}
+
+impl Sensor {
+    /// Validate a config and convert it to SI units.
+    pub fn from_config(config: SensorConfig) -> Result<Sensor> {
+        Sensor::from_config_named(config, "sensor config")
+    }
+
+    /// As [`Sensor::from_config`], naming `source_name` (file or preset) in errors.
+    pub fn from_config_named(config: SensorConfig, source_name: &str) -> Result<Sensor> {
+        config.validate(source_name)?;
+        let q = &config.qe;
+        let n = q.wavelengths_nm.len();
+        let ir = |k: usize| q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
+        let px = |k: usize| q.pixel_qe.as_ref().map_or(1.0, |v| v[k]);
+        // ISETCam: spectral QE = colour filter x IR filter x photodetector QE.
+        let raw: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                let t = ir(k) * px(k);
+                [q.r[k] * t, q.g[k] * t, q.b[k] * t]
+            })
+            .collect();
+        // The paper's eq. 1: [r', g', b'] = [r, g, b] M (rows of M index the input channel).
+        let corrected: Vec<[f64; 3]> = match &config.qe_correction {
+            None => raw,
+            Some(m) => raw
+                .iter()
+                .map(|v| {
+                    let mut o = [0.0; 3];
+                    for (c, oc) in o.iter_mut().enumerate() {
+                        *oc = (0..3).map(|i| v[i] * m[i][c]).sum();
+                    }
+                    o
+                })
+                .collect(),
+        };
+        let mk = |c: usize| -> Result<Spectrum> {
+            Spectrum::new(q.wavelengths_nm.clone(), corrected.iter().map(|v| v[c]).collect(), "qe")
+                .map_err(SensorError::from)
+        };
+        let qe = [mk(0)?, mk(1)?, mk(2)?];
+        let cfa = CfaPattern::parse(&config.cfa)?;
+        Ok(Sensor {
+            cfa,
+            pixel_pitch_m: config.pixel_pitch_um * 1e-6,
+            fill_factor: config.fill_factor,
+            conversion_gain_v_per_e: config.conversion_gain_uv_per_e * 1e-6,
+            voltage_swing_v: config.voltage_swing_v,
+            analog_gain: config.analog_gain,
+            analog_offset_v: config.analog_offset_mv * 1e-3,
+            bits: config.bits,
+            dsnu_v: config.dsnu_mv * 1e-3,
+            prnu_fraction: config.prnu_percent * 1e-2,
+            dark_voltage_v_per_s: config.dark_voltage_mv_per_s * 1e-3,
+            read_noise_v: config.read_noise_mv * 1e-3,
+            noise: config.noise,
+            qe,
+            config,
+        })
+    }
+
+    /// Parse and validate TOML text; `source_name` names it in errors.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Sensor> {
+        let config = SensorConfig::from_toml_str(text, source_name)?;
+        Sensor::from_config_named(config, source_name)
+    }
+
+    /// Read a sensor TOML file.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Sensor> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| camsim_core::CoreError::Io { path: path.to_path_buf(), source: e })?;
+        Sensor::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// A built-in preset (`imx363`, `pixel4a`, `ideal`).
+    pub fn preset(name: &str) -> Result<Sensor> {
+        let text = presets::toml(name)?;
+        Sensor::from_toml_str(text, &format!("preset {name}"))
+    }
+
+    /// The config this sensor was built from.
+    pub fn config(&self) -> &SensorConfig {
+        &self.config
+    }
+
+    /// The config as TOML text (parses back to the same sensor).
+    pub fn to_toml(&self) -> String {
+        self.config.to_toml()
+    }
+
+    /// The same sensor with another size (the fixed pattern of the top-left window is unchanged:
+    /// it is keyed on row and column).
+    pub fn with_size(&self, rows: usize, cols: usize) -> Result<Sensor> {
+        let mut c = self.config.clone();
+        c.rows = rows;
+        c.cols = cols;
+        Sensor::from_config_named(c, &self.config.name)
+    }
+
+    /// The same sensor with other noise switches.
+    pub fn with_noise(&self, noise: NoiseSwitches) -> Sensor {
+        let mut s = self.clone();
+        s.noise = noise;
+        s.config.noise = noise;
+        s
+    }
+
+    /// Name from the config.
+    pub fn name(&self) -> &str {
+        &self.config.name
+    }
+    /// Pixel rows.
+    pub fn rows(&self) -> usize {
+        self.config.rows
+    }
+    /// Pixel columns.
+    pub fn cols(&self) -> usize {
+        self.config.cols
+    }
+    /// Bayer pattern.
+    pub fn cfa(&self) -> CfaPattern {
+        self.cfa
+    }
+    /// Pixel pitch, m.
+    pub fn pixel_pitch_m(&self) -> f64 {
+        self.pixel_pitch_m
+    }
+    /// Fill factor (fraction of the pixel area that is photosensitive).
+    pub fn fill_factor(&self) -> f64 {
+        self.fill_factor
+    }
+    /// Photosensitive area of one pixel, m^2 (pitch^2 x fill factor).
+    pub fn photodetector_area_m2(&self) -> f64 {
+        self.pixel_pitch_m * self.pixel_pitch_m * self.fill_factor
+    }
+    /// ADC bits.
+    pub fn bits(&self) -> u32 {
+        self.bits
+    }
+    /// Conversion gain, V per electron.
+    pub fn conversion_gain_v_per_e(&self) -> f64 {
+        self.conversion_gain_v_per_e
+    }
+    /// Voltage swing, V.
+    pub fn voltage_swing_v(&self) -> f64 {
+        self.voltage_swing_v
+    }
+    /// Analog gain.
+    pub fn analog_gain(&self) -> f64 {
+        self.analog_gain
+    }
+    /// Analog offset, V.
+    pub fn analog_offset_v(&self) -> f64 {
+        self.analog_offset_v
+    }
+    /// Read noise sigma, V (at the pixel, before the analog gain).
+    pub fn read_noise_v(&self) -> f64 {
+        self.read_noise_v
+    }
+    /// DSNU sigma, V (at the pixel, before the analog gain).
+    pub fn dsnu_v(&self) -> f64 {
+        self.dsnu_v
+    }
+    /// PRNU sigma as a fraction of the signal.
+    pub fn prnu_fraction(&self) -> f64 {
+        self.prnu_fraction
+    }
+    /// Dark voltage rate, V/s.
+    pub fn dark_voltage_v_per_s(&self) -> f64 {
+        self.dark_voltage_v_per_s
+    }
+    /// Noise switches.
+    pub fn noise(&self) -> NoiseSwitches {
+        self.noise
+    }
+
+    /// Well capacity, electrons = voltage swing / conversion gain (ISETCam `pixelGet(...,'well capacity')`).
+    pub fn well_capacity_e(&self) -> f64 {
+        self.voltage_swing_v / self.conversion_gain_v_per_e
+    }
+
+    /// ADC scale, DN per volt at the ADC input = 2^bits / swing (quantization step swing / 2^bits).
+    pub fn dn_per_v(&self) -> f64 {
+        (1u64 << self.bits) as f64 / self.voltage_swing_v
+    }
+
+    /// Largest DN, 2^bits - 1.
+    pub fn max_dn(&self) -> u32 {
+        ((1u64 << self.bits) - 1) as u32
+    }
+
+    /// System gain K, DN per electron = conversion gain / analog gain x dn_per_v (EMVA 1288 K).
+    pub fn k_dn_per_e(&self) -> f64 {
+        self.conversion_gain_v_per_e / self.analog_gain * self.dn_per_v()
+    }
+
+    /// DN of zero light (noise-free, unrounded): offset / gain x dn_per_v.
+    pub fn black_level_dn(&self) -> f64 {
+        self.analog_offset_v / self.analog_gain * self.dn_per_v()
+    }
+
+    /// Mean dark-current electrons in `exposure_s` (0 when the dark switch is off).
+    pub fn dark_electrons(&self, exposure_s: f64) -> f64 {
+        if self.noise.dark {
+            self.dark_voltage_v_per_s * exposure_s / self.conversion_gain_v_per_e
+        } else {
+            0.0
+        }
+    }
+
+    /// Effective QE of channel `c` (0 r, 1 g, 2 b) as a spectrum on the config's wavelengths.
+    pub fn qe_spectrum(&self, c: usize) -> &Spectrum {
+        &self.qe[c]
+    }
+
+    /// Effective channel QE (colour filter x IR-cut x pixel QE, corrected) resampled linearly to `grid`
+    /// (0 outside the config's wavelengths), r, g, b.
+    pub fn channel_qe(&self, grid: &WavelengthGrid) -> [Vec<f64>; 3] {
+        [self.qe[0].sample(grid), self.qe[1].sample(grid), self.qe[2].sample(grid)]
+    }
+
+    /// Electrons per second per pixel of each channel per unit spectral irradiance in each band:
+    /// QE_c(lambda) x lambda / (h c) x d lambda x photodetector area (ISETCam sensorCompute:
+    /// signal current density from irradiance, `Energy2Quanta`). Unit: e- s^-1 / (W m^-2 nm^-1).
+    pub(crate) fn band_factors(&self, grid: &WavelengthGrid) -> Vec<[f64; 3]> {
+        let qe = self.channel_qe(grid);
+        let area = self.photodetector_area_m2();
+        (0..grid.len())
+            .map(|b| {
+                let lambda_m = grid.wavelength_nm(b) * 1e-9;
+                let photons_per_j = lambda_m / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S);
+                let k = photons_per_j * grid.step_nm * area;
+                [qe[0][b] * k, qe[1][b] * k, qe[2][b] * k]
+            })
+            .collect()
+    }
+
+    /// Mean photo-electrons per pixel of each channel (r, g, b) for a uniform irradiance
+    /// `irradiance_w_per_m2_nm` sampled on `grid`, in `exposure_s` (dark electrons not included):
+    /// sum_lambda E QE_c lambda/(h c) d lambda x pitch^2 x fill factor x t.
+    pub fn mean_electrons_uniform(
+        &self,
+        irradiance_w_per_m2_nm: &[f64],
+        grid: &WavelengthGrid,
+        exposure_s: f64,
+    ) -> Result<[f64; 3]> {
+        check_spectrum(irradiance_w_per_m2_nm, grid, "uniform irradiance")?;
+        let f = self.band_factors(grid);
+        let mut e = [0.0; 3];
+        for (b, fb) in f.iter().enumerate() {
+            for c in 0..3 {
+                e[c] += fb[c] * irradiance_w_per_m2_nm[b] * exposure_s;
+            }
+        }
+        Ok(e)
+    }
+
+    /// Mean photons reaching the whole pixel area (pitch^2) of a uniform irradiance in `exposure_s`,
+    /// wavelength-integrated: sum E lambda/(h c) d lambda x pitch^2 x t (EMVA 1288 mu_p).
+    pub fn photons_per_pixel(&self, irradiance_w_per_m2_nm: &[f64], grid: &WavelengthGrid, exposure_s: f64) -> Result<f64> {
+        check_spectrum(irradiance_w_per_m2_nm, grid, "uniform irradiance")?;
+        let area = self.pixel_pitch_m * self.pixel_pitch_m;
+        Ok((0..grid.len())
+            .map(|b| {
+                let lambda_m = grid.wavelength_nm(b) * 1e-9;
+                irradiance_w_per_m2_nm[b] * grid.step_nm * lambda_m / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S)
+            })
+            .sum::<f64>()
+            * area
+            * exposure_s)
+    }
+
+    /// Predicted noise of a pixel whose mean signal is `mean_signal_dn_above_black` DN above the
+    /// black level (dark signal included) after `exposure_s`, per source and total, in DN.
+    /// EMVA 1288 rel. 4.0 eq. 9 with ISETCam's sources:
+    /// var_DN = K^2 mu_e + (read_v dn_per_v / g)^2 + (dsnu_v dn_per_v / g)^2 + (prnu mean)^2 + 1/12,
+    /// mu_e = photo + dark electrons, K = [`Sensor::k_dn_per_e`]. Switched-off sources give 0.
+    /// Ignores clipping (valid well below the swing and above 0).
+    pub fn predicted_noise_dn(&self, mean_signal_dn_above_black: f64, exposure_s: f64) -> NoiseBreakdown {
+        let k = self.k_dn_per_e();
+        let g = self.analog_gain;
+        let dpv = self.dn_per_v();
+        let mean = mean_signal_dn_above_black.max(0.0);
+        let dark_e = self.dark_electrons(exposure_s.max(0.0));
+        let total_e = mean / k;
+        let photo_e = (total_e - dark_e).max(0.0);
+        let n = &self.noise;
+        let shot = if n.shot { k * photo_e.sqrt() } else { 0.0 };
+        let dark = if n.shot { k * dark_e.min(total_e).sqrt() } else { 0.0 };
+        let read = if n.read { self.read_noise_v * dpv / g } else { 0.0 };
+        let dsnu = if n.dsnu { self.dsnu_v * dpv / g } else { 0.0 };
+        let prnu = if n.prnu { self.prnu_fraction * mean } else { 0.0 };
+        let quantization = if n.quantization { (1.0f64 / 12.0).sqrt() } else { 0.0 };
+        let total = (shot * shot + dark * dark + read * read + dsnu * dsnu + prnu * prnu + quantization * quantization).sqrt();
+        NoiseBreakdown { shot, read, dsnu, prnu, dark, quantization, total }
+    }
+}
+
+pub(crate) fn check_spectrum(values: &[f64], grid: &WavelengthGrid, what: &str) -> Result<()> {
+    if values.len() != grid.len() {
+        return Err(SensorError::input(
+            what,
+            format!("{} values for a {}-band wavelength grid", values.len(), grid.len()),
+        ));
+    }
+    if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
+        return Err(SensorError::input(
+            what,
+            format!("value {v} at {} nm is not a finite number >= 0", grid.wavelength_nm(i)),
+        ));
+    }
+    Ok(())
+}
