@@ -203,7 +203,7 @@ pub struct ProfilePoint {
 }
 
 fn line_points(p0: [f64; 2], p1: [f64; 2], samples: usize) -> Result<Vec<[f64; 2]>> {
-    if samples < 2 || samples > 1_000_000 {
+    if !(2..=1_000_000).contains(&samples) {
         return Err(AnalysisError::invalid("line profile", format!("{samples} samples is not in 2..=1000000")));
     }
     if p0.iter().chain(p1.iter()).any(|v| !v.is_finite()) {

@@ -54,7 +54,9 @@ pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -
         let file = File::create(tmp).map_err(|e| IoError::io(path, e))?;
         let mut w = BufWriter::with_capacity(1 << 20, file);
         f(&mut w).map_err(|e| e.with_path(path))?;
-        let file = w.into_inner().map_err(|e| IoError::io(path, e.into_error()))?;
+        let file = w
+            .into_inner()
+            .map_err(|e| IoError::io(path, e.into_error()))?;
         drop(file);
         Ok(())
     })
@@ -78,8 +80,10 @@ mod tests {
     use super::*;
 
     fn entries(dir: &Path) -> Vec<String> {
-        let mut v: Vec<String> =
-            fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        let mut v: Vec<String> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
         v.sort();
         v
     }
@@ -93,7 +97,11 @@ mod tests {
             Err(IoError::invalid("x", "simulated failure half way"))
         });
         assert!(r.is_err());
-        assert!(entries(dir.path()).is_empty(), "left behind: {:?}", entries(dir.path()));
+        assert!(
+            entries(dir.path()).is_empty(),
+            "left behind: {:?}",
+            entries(dir.path())
+        );
     }
 
     #[test]

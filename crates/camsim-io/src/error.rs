@@ -47,19 +47,31 @@ pub enum IoError {
 impl IoError {
     /// A [`IoError::Format`] for `path`.
     pub fn format(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
-        IoError::Format { path: path.as_ref().to_path_buf(), message: message.into() }
+        IoError::Format {
+            path: path.as_ref().to_path_buf(),
+            message: message.into(),
+        }
     }
     /// A [`IoError::Invalid`] for `path`.
     pub fn invalid(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
-        IoError::Invalid { path: path.as_ref().to_path_buf(), message: message.into() }
+        IoError::Invalid {
+            path: path.as_ref().to_path_buf(),
+            message: message.into(),
+        }
     }
     /// A [`IoError::Io`] for `path`.
     pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
-        IoError::Io { path: path.as_ref().to_path_buf(), source }
+        IoError::Io {
+            path: path.as_ref().to_path_buf(),
+            source,
+        }
     }
     /// A [`IoError::Core`] for `path`.
     pub fn core(path: impl AsRef<Path>, source: camsim_core::CoreError) -> Self {
-        IoError::Core { path: path.as_ref().to_path_buf(), source }
+        IoError::Core {
+            path: path.as_ref().to_path_buf(),
+            source,
+        }
     }
     /// Attach `path` to a path-less [`IoError::Stream`]; other variants are returned unchanged.
     pub fn with_path(self, path: &Path) -> Self {

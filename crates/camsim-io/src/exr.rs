@@ -56,7 +56,9 @@ pub struct SpectralExrInfo {
 
 /// The channel name of wavelength `wavelength_nm`: `S0.550,000000nm`.
 pub fn spectral_channel_name(wavelength_nm: f64) -> String {
-    format!("S0.{:.6}nm", wavelength_nm).replace('.', ",").replacen("S0,", "S0.", 1)
+    format!("S0.{:.6}nm", wavelength_nm)
+        .replace('.', ",")
+        .replacen("S0,", "S0.", 1)
 }
 
 /// The wavelength in nm of an emissive spectral channel (`S0.<value><unit>`, unit nm, um or pm;
@@ -77,11 +79,15 @@ pub fn parse_spectral_channel(name: &str) -> Option<std::result::Result<f64, Str
     } else if let Some(n) = rest.strip_suffix("pm") {
         (n, 1e-3)
     } else {
-        return Some(Err(format!("channel '{name}': wavelength unit is not nm, um or pm")));
+        return Some(Err(format!(
+            "channel '{name}': wavelength unit is not nm, um or pm"
+        )));
     };
     match number.replace(',', ".").parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Some(Ok(v * scale)),
-        _ => Some(Err(format!("channel '{name}': '{number}' is not a positive wavelength"))),
+        _ => Some(Err(format!(
+            "channel '{name}': '{number}' is not a positive wavelength"
+        ))),
     }
 }
 
@@ -95,7 +101,12 @@ fn emissive_units(q: Quantity) -> Option<&'static str> {
 }
 
 fn text(path: &Path, s: &str) -> Result<Text> {
-    Text::new_or_none(s).ok_or_else(|| IoError::invalid(path, format!("'{s}' cannot be stored as an EXR text attribute")))
+    Text::new_or_none(s).ok_or_else(|| {
+        IoError::invalid(
+            path,
+            format!("'{s}' cannot be stored as an EXR text attribute"),
+        )
+    })
 }
 
 fn exr_err(path: &Path, e: exr::error::Error) -> IoError {
@@ -105,11 +116,24 @@ fn exr_err(path: &Path, e: exr::error::Error) -> IoError {
     }
 }
 
-fn write_layer(path: &Path, rows: usize, cols: usize, channels: Vec<AnyChannel<FlatSamples>>, attrs: LayerAttributes) -> Result<()> {
+fn write_layer(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    attrs: LayerAttributes,
+) -> Result<()> {
     let encoding = Encoding::SMALL_LOSSLESS; // ZIP16, lossless: every f32 comes back bit-exact
-    let layer = Layer::new((cols, rows), attrs, encoding, AnyChannels::sort(channels.into_iter().collect()));
+    let layer = Layer::new(
+        (cols, rows),
+        attrs,
+        encoding,
+        AnyChannels::sort(channels.into_iter().collect()),
+    );
     let image = Image::from_layer(layer);
-    crate::atomic::with_temp_path(path, |tmp| image.write().to_file(tmp).map_err(|e| exr_err(path, e)))
+    crate::atomic::with_temp_path(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| exr_err(path, e))
+    })
 }
 
 /// Write a spectral image as a spectral OpenEXR (see the module doc for the layout), with the
@@ -120,31 +144,59 @@ pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Resu
     if n == 0 || img.bands() == 0 || img.data.len() != n * img.bands() {
         return Err(IoError::invalid(
             path,
-            format!("spectral image has {} values for {} x {} x {} bands", img.data.len(), img.rows, img.cols, img.bands()),
+            format!(
+                "spectral image has {} values for {} x {} x {} bands",
+                img.data.len(),
+                img.rows,
+                img.cols,
+                img.bands()
+            ),
         ));
     }
     // The exr crate wants owned channel planes: one more copy of the image.
-    mem::check_alloc(img.data.len() as u64 * 4, "the EXR channel copy").map_err(|e| IoError::core(path, e))?;
+    mem::check_alloc(img.data.len() as u64 * 4, "the EXR channel copy")
+        .map_err(|e| IoError::core(path, e))?;
     let mut channels = Vec::with_capacity(img.bands() + 1);
     for b in 0..img.bands() {
         let name = spectral_channel_name(img.grid.wavelength_nm(b));
-        channels.push(AnyChannel::new(text(path, &name)?, FlatSamples::F32(img.band(b).to_vec())));
+        channels.push(AnyChannel::new(
+            text(path, &name)?,
+            FlatSamples::F32(img.band(b).to_vec()),
+        ));
     }
     if let Some(d) = &img.depth_m {
         if d.len() != n {
-            return Err(IoError::invalid(path, format!("depth map has {} values for {} pixels", d.len(), n)));
+            return Err(IoError::invalid(
+                path,
+                format!("depth map has {} values for {} pixels", d.len(), n),
+            ));
         }
         channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
     }
     let mut attrs = LayerAttributes::default();
     let o = &mut attrs.other;
-    o.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from(SPECTRAL_LAYOUT_VERSION)));
+    o.insert(
+        Text::from("spectralLayoutVersion"),
+        AttributeValue::Text(Text::from(SPECTRAL_LAYOUT_VERSION)),
+    );
     if let Some(u) = emissive_units(img.quantity) {
-        o.insert(Text::from("emissiveUnits"), AttributeValue::Text(Text::from(u)));
+        o.insert(
+            Text::from("emissiveUnits"),
+            AttributeValue::Text(Text::from(u)),
+        );
     }
-    o.insert(Text::from("camsimQuantity"), AttributeValue::Text(Text::from(img.quantity.name())));
-    o.insert(Text::from("camsimUnits"), AttributeValue::Text(Text::from(img.quantity.unit())));
-    o.insert(Text::from("camsimStage"), AttributeValue::Text(text(path, stage)?));
+    o.insert(
+        Text::from("camsimQuantity"),
+        AttributeValue::Text(Text::from(img.quantity.name())),
+    );
+    o.insert(
+        Text::from("camsimUnits"),
+        AttributeValue::Text(Text::from(img.quantity.unit())),
+    );
+    o.insert(
+        Text::from("camsimStage"),
+        AttributeValue::Text(text(path, stage)?),
+    );
     let g = &img.geometry;
     for (k, v) in [
         ("camsimSampleSpacingM", img.sample_spacing_m),
@@ -182,23 +234,37 @@ type AnyImage = Image<Layers<AnyChannels<FlatSamples>>>;
 /// (checked from the header before the pixels are read) and turning any failure into an error.
 fn read_any(path: &Path) -> Result<AnyImage> {
     let file = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
-    let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false).map_err(|e| exr_err(path, e))?;
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(file), false)
+        .map_err(|e| exr_err(path, e))?;
     let mut bytes: u64 = 0;
     for h in meta.headers.iter() {
         if h.deep {
             return Err(IoError::format(path, "deep OpenEXR data is not supported"));
         }
         let area = (h.layer_size.width() as u64).saturating_mul(h.layer_size.height() as u64);
-        bytes = bytes.saturating_add(area.saturating_mul(h.channels.list.len() as u64).saturating_mul(8));
+        bytes = bytes.saturating_add(
+            area.saturating_mul(h.channels.list.len() as u64)
+                .saturating_mul(8),
+        );
     }
-    mem::check_alloc(bytes, &format!("the pixels of {}", path.display())).map_err(|e| IoError::core(path, e))?;
+    mem::check_alloc(bytes, &format!("the pixels of {}", path.display()))
+        .map_err(|e| IoError::core(path, e))?;
     let p = path.to_path_buf();
     let result = std::panic::catch_unwind(move || {
-        read().no_deep_data().largest_resolution_level().all_channels().all_layers().all_attributes().from_file(&p)
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(&p)
     });
     match result {
         Ok(r) => r.map_err(|e| exr_err(path, e)),
-        Err(_) => Err(IoError::format(path, "malformed OpenEXR file (the decoder gave up)")),
+        Err(_) => Err(IoError::format(
+            path,
+            "malformed OpenEXR file (the decoder gave up)",
+        )),
     }
 }
 
@@ -255,7 +321,10 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     for ch in layer.channel_data.list.into_iter() {
         let name = ch.name.to_string();
         let parsed = if reflective {
-            let t = name.strip_prefix("T.").map(|r| format!("S0.{r}")).or_else(|| name.find(".T.").map(|i| format!("S0.{}", &name[i + 3..])));
+            let t = name
+                .strip_prefix("T.")
+                .map(|r| format!("S0.{r}"))
+                .or_else(|| name.find(".T.").map(|i| format!("S0.{}", &name[i + 3..])));
             t.and_then(|s| parse_spectral_channel(&s))
         } else {
             parse_spectral_channel(&name)
@@ -264,7 +333,13 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
             Some(Ok(w)) => {
                 let v = samples_into_f32(ch.sample_data);
                 if v.len() != n {
-                    return Err(IoError::format(path, format!("channel '{name}' has {} samples for {rows} x {cols} pixels", v.len())));
+                    return Err(IoError::format(
+                        path,
+                        format!(
+                            "channel '{name}' has {} samples for {rows} x {cols} pixels",
+                            v.len()
+                        ),
+                    ));
                 }
                 planes.push((w, name, v));
             }
@@ -281,19 +356,36 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     planes.sort_by(|a, b| a.0.total_cmp(&b.0));
     for w in planes.windows(2) {
         if (w[1].0 - w[0].0).abs() < 1e-9 {
-            return Err(IoError::format(path, format!("channels '{}' and '{}' have the same wavelength", w[0].1, w[1].1)));
+            return Err(IoError::format(
+                path,
+                format!(
+                    "channels '{}' and '{}' have the same wavelength",
+                    w[0].1, w[1].1
+                ),
+            ));
         }
     }
     let wavelengths: Vec<f64> = planes.iter().map(|p| p.0).collect();
-    let mut grid = WavelengthGrid::from_wavelengths(&wavelengths).map_err(|e| IoError::core(path, e))?;
+    let mut grid =
+        WavelengthGrid::from_wavelengths(&wavelengths).map_err(|e| IoError::core(path, e))?;
     // camsim writes the exact grid too (channel names round to 1e-6 nm).
-    if let (Some(s), Some(st)) = (attr_f64(&attrs, "camsimStartNm"), attr_f64(&attrs, "camsimStepNm")) {
-        let exact = WavelengthGrid { start_nm: s, step_nm: st, count: grid.count };
-        if (exact.start_nm - grid.start_nm).abs() < 1e-5 && (exact.step_nm - grid.step_nm).abs() < 1e-5 {
+    if let (Some(s), Some(st)) = (
+        attr_f64(&attrs, "camsimStartNm"),
+        attr_f64(&attrs, "camsimStepNm"),
+    ) {
+        let exact = WavelengthGrid {
+            start_nm: s,
+            step_nm: st,
+            count: grid.count,
+        };
+        if (exact.start_nm - grid.start_nm).abs() < 1e-5
+            && (exact.step_nm - grid.step_nm).abs() < 1e-5
+        {
             grid = exact;
         }
     }
-    mem::check_alloc((n * planes.len()) as u64 * 4, "the spectral image").map_err(|e| IoError::core(path, e))?;
+    mem::check_alloc((n * planes.len()) as u64 * 4, "the spectral image")
+        .map_err(|e| IoError::core(path, e))?;
     let mut data = Vec::with_capacity(n * planes.len());
     for (_, _, v) in planes.into_iter() {
         data.extend_from_slice(&v); // each plane is dropped after its copy: peak stays near 1x
@@ -305,8 +397,12 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     let quantity = match attr_text(&attrs, "camsimQuantity") {
         Some(q) => {
             info.quantity_known = true;
-            Quantity::from_name(&q)
-                .ok_or_else(|| IoError::format(path, format!("camsimQuantity '{q}' is not radiance, irradiance or relative")))?
+            Quantity::from_name(&q).ok_or_else(|| {
+                IoError::format(
+                    path,
+                    format!("camsimQuantity '{q}' is not radiance, irradiance or relative"),
+                )
+            })?
         }
         None if reflective => Quantity::Relative,
         None => match info.emissive_units.as_deref() {
@@ -319,10 +415,16 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
             info.sample_spacing_known = true;
             s
         }
-        Some(s) => return Err(IoError::format(path, format!("camsimSampleSpacingM {s} is not a positive number"))),
+        Some(s) => {
+            return Err(IoError::format(
+                path,
+                format!("camsimSampleSpacingM {s} is not a positive number"),
+            ))
+        }
         None => DEFAULT_SAMPLE_SPACING_M,
     };
-    let mut img = SpectralImage::from_data(rows, cols, grid, spacing, quantity, data).map_err(|e| IoError::core(path, e))?;
+    let mut img = SpectralImage::from_data(rows, cols, grid, spacing, quantity, data)
+        .map_err(|e| IoError::core(path, e))?;
     img.geometry = ImageGeometry {
         fov_deg: attr_f64(&attrs, "camsimFovDeg").unwrap_or(0.0),
         distance_m: attr_f64(&attrs, "camsimDistanceM").unwrap_or(0.0),
@@ -330,15 +432,25 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
         f_number: attr_f64(&attrs, "camsimFNumber").unwrap_or(0.0),
     };
     img.depth_m = depth;
-    img.validate_values("spectral EXR").map_err(|e| IoError::core(path, e))?;
+    img.validate_values("spectral EXR")
+        .map_err(|e| IoError::core(path, e))?;
     Ok((img, info))
 }
 
 /// Write one f32 plane (`rows * cols`, row-major) as a single-channel EXR named `channel`
 /// (e.g. "Y", "Z", "R"), atomically.
-pub fn write_gray_exr(path: &Path, rows: usize, cols: usize, channel: &str, data: &[f32]) -> Result<()> {
+pub fn write_gray_exr(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    channel: &str,
+    data: &[f32],
+) -> Result<()> {
     if rows == 0 || cols == 0 || data.len() != rows * cols {
-        return Err(IoError::invalid(path, format!("{} values for {rows} x {cols} pixels", data.len())));
+        return Err(IoError::invalid(
+            path,
+            format!("{} values for {rows} x {cols} pixels", data.len()),
+        ));
     }
     let ch = AnyChannel::new(text(path, channel)?, FlatSamples::F32(data.to_vec()));
     write_layer(path, rows, cols, vec![ch], LayerAttributes::default())
@@ -353,7 +465,7 @@ pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize
         let (rows, cols) = (layer.size.height(), layer.size.width());
         for ch in layer.channel_data.list.into_iter() {
             let name = ch.name.to_string();
-            if channel.map_or(true, |c| c == name) {
+            if channel.is_none() || channel == Some(name.as_str()) {
                 found.push((name, rows, cols, ch.sample_data));
             }
         }
@@ -365,13 +477,20 @@ pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize
         }
         (0, Some(c)) => Err(IoError::format(path, format!("no channel named '{c}'"))),
         (0, None) => Err(IoError::format(path, "the file has no channels")),
-        (_, Some(c)) => Err(IoError::format(path, format!("more than one channel named '{c}' (in several layers)"))),
+        (_, Some(c)) => Err(IoError::format(
+            path,
+            format!("more than one channel named '{c}' (in several layers)"),
+        )),
         (_, None) => Err(IoError::format(
             path,
             format!(
                 "has {} channels ({}); name the one to read",
                 found.len(),
-                found.iter().map(|f| f.0.as_str()).collect::<Vec<_>>().join(", ")
+                found
+                    .iter()
+                    .map(|f| f.0.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         )),
     }
@@ -387,12 +506,19 @@ mod tests {
         // lossy or f16 path would show.
         let mut s = 12345u64;
         for v in img.data.iter_mut() {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let m = (s >> 40) as f32 / (1u64 << 24) as f32;
             let e = ((s >> 20) % 40) as i32 - 20;
             *v = m * 2f32.powi(e);
         }
-        img.geometry = ImageGeometry { fov_deg: 20.0, distance_m: 1.5, focal_length_m: 4.38e-3, f_number: 1.73 };
+        img.geometry = ImageGeometry {
+            fov_deg: 20.0,
+            distance_m: 1.5,
+            focal_length_m: 4.38e-3,
+            f_number: 1.73,
+        };
         img.depth_m = Some((0..rows * cols).map(|i| 1.0 + i as f32 * 0.25).collect());
         img
     }
@@ -424,7 +550,10 @@ mod tests {
         assert_eq!(back.geometry, img.geometry);
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&back.data), bits(&img.data));
-        assert_eq!(bits(back.depth_m.as_ref().unwrap()), bits(img.depth_m.as_ref().unwrap()));
+        assert_eq!(
+            bits(back.depth_m.as_ref().unwrap()),
+            bits(img.depth_m.as_ref().unwrap())
+        );
         assert_eq!(info.stage.as_deref(), Some("optics"));
         assert_eq!(info.emissive_units.as_deref(), Some("W.m^-2"));
         assert_eq!(info.spectral_layout_version.as_deref(), Some("1.0"));
@@ -446,13 +575,26 @@ mod tests {
         let (rows, cols) = (3, 4);
         let mut chans = Vec::new();
         for (k, n) in ["R", "G", "B"].iter().chain(names.iter()).enumerate() {
-            let v: Vec<f16> = (0..rows * cols).map(|i| f16::from_f32(value(k, i))).collect();
+            let v: Vec<f16> = (0..rows * cols)
+                .map(|i| f16::from_f32(value(k, i)))
+                .collect();
             chans.push(AnyChannel::new(*n, FlatSamples::F16(v)));
         }
         let mut attrs = LayerAttributes::default();
-        attrs.other.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from("1.0")));
-        attrs.other.insert(Text::from("emissiveUnits"), AttributeValue::Text(Text::from("W.m^-2.sr^-1")));
-        let layer = Layer::new((cols, rows), attrs, Encoding::FAST_LOSSLESS, AnyChannels::sort(chans.into_iter().collect()));
+        attrs.other.insert(
+            Text::from("spectralLayoutVersion"),
+            AttributeValue::Text(Text::from("1.0")),
+        );
+        attrs.other.insert(
+            Text::from("emissiveUnits"),
+            AttributeValue::Text(Text::from("W.m^-2.sr^-1")),
+        );
+        let layer = Layer::new(
+            (cols, rows),
+            attrs,
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(chans.into_iter().collect()),
+        );
         Image::from_layer(layer).write().to_file(path).unwrap();
     }
 
@@ -461,11 +603,18 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("pbrt.exr");
         // pbrt-v4 default: 16 buckets over 360-830 nm; here 4 buckets of 100 nm: centres 410..710.
-        let names = ["S0.410,000nm", "S0.510,000nm", "S0.610,000nm", "S0.710,000nm"];
+        let names = [
+            "S0.410,000nm",
+            "S0.510,000nm",
+            "S0.610,000nm",
+            "S0.710,000nm",
+        ];
         write_pbrt_like(&path, &names, |k, i| 0.5 * k as f32 + 0.125 * i as f32);
         let (img, info) = read_spectral_exr_with_info(&path).unwrap();
         assert_eq!(img.bands(), 4);
-        assert!(img.grid.same_as(&WavelengthGrid::new(410.0, 710.0, 100.0).unwrap()));
+        assert!(img
+            .grid
+            .same_as(&WavelengthGrid::new(410.0, 710.0, 100.0).unwrap()));
         assert_eq!(img.quantity, Quantity::Radiance);
         assert!(!info.sample_spacing_known && !info.quantity_known);
         assert_eq!(img.sample_spacing_m, DEFAULT_SAMPLE_SPACING_M);
@@ -483,36 +632,82 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // A missing band makes the grid non-uniform.
         let p = dir.path().join("gap.exr");
-        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm", "S0.430,000nm"], |_, _| 1.0);
+        write_pbrt_like(
+            &p,
+            &["S0.400,000nm", "S0.410,000nm", "S0.430,000nm"],
+            |_, _| 1.0,
+        );
         let e = read_spectral_exr(&p).unwrap_err().to_string();
         assert!(e.contains("gap.exr") && e.contains("uniformly"), "{e}");
         // No spectral channels at all.
         let p = dir.path().join("rgb.exr");
         write_pbrt_like(&p, &[], |_, _| 1.0);
         let e = read_spectral_exr(&p).unwrap_err().to_string();
-        assert!(e.contains("rgb.exr") && e.contains("no spectral channels"), "{e}");
+        assert!(
+            e.contains("rgb.exr") && e.contains("no spectral channels"),
+            "{e}"
+        );
         // Negative and NaN values are named.
         let p = dir.path().join("neg.exr");
-        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, i| if k == 4 && i == 5 { -1.0 } else { 1.0 });
+        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, i| {
+            if k == 4 && i == 5 {
+                -1.0
+            } else {
+                1.0
+            }
+        });
         let e = read_spectral_exr(&p).unwrap_err().to_string();
-        assert!(e.contains("neg.exr") && e.contains("410 nm") && e.contains("-1"), "{e}");
+        assert!(
+            e.contains("neg.exr") && e.contains("410 nm") && e.contains("-1"),
+            "{e}"
+        );
         let p = dir.path().join("nan.exr");
-        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, _| if k == 3 { f32::NAN } else { 1.0 });
-        assert!(read_spectral_exr(&p).unwrap_err().to_string().contains("NaN"));
+        write_pbrt_like(&p, &["S0.400,000nm", "S0.410,000nm"], |k, _| {
+            if k == 3 {
+                f32::NAN
+            } else {
+                1.0
+            }
+        });
+        assert!(read_spectral_exr(&p)
+            .unwrap_err()
+            .to_string()
+            .contains("NaN"));
         // Truncated and garbage files are errors, not panics.
         let good = dir.path().join("good.exr");
-        write_spectral_exr(&good, &sample_image(6, 5, WavelengthGrid::default()), "scene").unwrap();
+        write_spectral_exr(
+            &good,
+            &sample_image(6, 5, WavelengthGrid::default()),
+            "scene",
+        )
+        .unwrap();
         let bytes = std::fs::read(&good).unwrap();
         let cut = dir.path().join("cut.exr");
-        for n in [0, 4, 20, 100, bytes.len() / 3, bytes.len() / 2, bytes.len() - 10, bytes.len() - 1] {
+        for n in [
+            0,
+            4,
+            20,
+            100,
+            bytes.len() / 3,
+            bytes.len() / 2,
+            bytes.len() - 10,
+            bytes.len() - 1,
+        ] {
             std::fs::write(&cut, &bytes[..n]).unwrap();
             let r = read_spectral_exr(&cut);
-            assert!(r.is_err(), "truncated at {n} of {} was accepted", bytes.len());
+            assert!(
+                r.is_err(),
+                "truncated at {n} of {} was accepted",
+                bytes.len()
+            );
             assert!(r.unwrap_err().to_string().contains("cut.exr"));
         }
         std::fs::write(&cut, b"this is not an EXR file at all").unwrap();
         assert!(read_spectral_exr(&cut).is_err());
-        assert!(read_spectral_exr(&dir.path().join("absent.exr")).unwrap_err().to_string().contains("absent.exr"));
+        assert!(read_spectral_exr(&dir.path().join("absent.exr"))
+            .unwrap_err()
+            .to_string()
+            .contains("absent.exr"));
     }
 
     #[test]
@@ -523,7 +718,10 @@ mod tests {
         write_gray_exr(&p, 3, 4, "Z", &data).unwrap();
         assert_eq!(read_gray_exr(&p, None).unwrap(), (3, 4, data.clone()));
         assert_eq!(read_gray_exr(&p, Some("Z")).unwrap().2, data);
-        assert!(read_gray_exr(&p, Some("Y")).unwrap_err().to_string().contains("'Y'"));
+        assert!(read_gray_exr(&p, Some("Y"))
+            .unwrap_err()
+            .to_string()
+            .contains("'Y'"));
         assert!(write_gray_exr(&p, 3, 5, "Z", &data).is_err());
     }
 }

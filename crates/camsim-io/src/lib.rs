@@ -11,8 +11,12 @@
 //! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
 
 pub mod atomic;
+pub mod dng;
 pub mod error;
 pub mod exr;
 pub mod ljpeg;
+pub mod plot;
+pub mod raster;
+pub mod tiff;
 
 pub use error::{IoError, Result};

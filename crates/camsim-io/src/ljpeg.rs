@@ -54,7 +54,9 @@ impl Huffman {
                 if code >= (1 << len) {
                     return err("Huffman table has more codes than its lengths allow");
                 }
-                let sym = *symbols.get(k).ok_or_else(|| LjpegError("Huffman table is short of symbols".into()))?;
+                let sym = *symbols
+                    .get(k)
+                    .ok_or_else(|| LjpegError("Huffman table is short of symbols".into()))?;
                 let shift = 16 - len;
                 let start = (code << shift) as usize;
                 let end = ((code + 1) << shift) as usize;
@@ -85,7 +87,14 @@ struct BitReader<'a> {
 
 impl<'a> BitReader<'a> {
     fn new(data: &'a [u8], pos: usize) -> Self {
-        BitReader { data, pos, acc: 0, bits: 0, hit_marker: false, overrun_bits: 0 }
+        BitReader {
+            data,
+            pos,
+            acc: 0,
+            bits: 0,
+            hit_marker: false,
+            overrun_bits: 0,
+        }
     }
 
     #[inline]
@@ -163,12 +172,17 @@ impl<'a> BitReader<'a> {
                 let m = self.data[p + 1];
                 if (0xD0..=0xD7).contains(&m) {
                     if m != 0xD0 + expected {
-                        return err(format!("restart marker RST{} where RST{expected} was expected", m - 0xD0));
+                        return err(format!(
+                            "restart marker RST{} where RST{expected} was expected",
+                            m - 0xD0
+                        ));
                     }
                     self.pos = p + 2;
                     return Ok(());
                 }
-                return err(format!("marker 0xFF{m:02X} where a restart marker was expected"));
+                return err(format!(
+                    "marker 0xFF{m:02X} where a restart marker was expected"
+                ));
             }
             p += 1;
         }
@@ -235,7 +249,9 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
         while pos < data.len() && data[pos] == 0xFF {
             pos += 1;
         }
-        let marker = *data.get(pos).ok_or_else(|| LjpegError("stream ends inside a marker".into()))?;
+        let marker = *data
+            .get(pos)
+            .ok_or_else(|| LjpegError("stream ends inside a marker".into()))?;
         pos += 1;
         match marker {
             0xD8 | 0x01 | 0xD0..=0xD7 => continue, // standalone markers
@@ -244,7 +260,9 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
         }
         let len = be16(data, pos)?;
         if len < 2 || pos + len > data.len() {
-            return err(format!("marker 0xFF{marker:02X} segment length {len} runs past the end"));
+            return err(format!(
+                "marker 0xFF{marker:02X} segment length {len} runs past the end"
+            ));
         }
         let seg = &data[pos + 2..pos + len];
         match marker {
@@ -260,7 +278,9 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                     return err(format!("sample precision {precision} is outside 2..16"));
                 }
                 if width == 0 || height == 0 || nf == 0 || nf > 4 {
-                    return err(format!("frame {width} x {height} with {nf} components is not decodable"));
+                    return err(format!(
+                        "frame {width} x {height} with {nf} components is not decodable"
+                    ));
                 }
                 if seg.len() < 6 + 3 * nf {
                     return err("SOF3 segment too short for its components");
@@ -270,19 +290,36 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                     let id = seg[6 + 3 * c];
                     let hv = seg[7 + 3 * c];
                     if hv != 0x11 {
-                        return err(format!("component {id} has sampling factors {}x{}; only 1x1 is supported", hv >> 4, hv & 15));
+                        return err(format!(
+                            "component {id} has sampling factors {}x{}; only 1x1 is supported",
+                            hv >> 4,
+                            hv & 15
+                        ));
                     }
                     comp_ids.push(id);
                 }
                 width
                     .checked_mul(height)
                     .and_then(|p| p.checked_mul(nf))
-                    .filter(|t| *t <= max_samples)
-                    .ok_or_else(|| LjpegError(format!("frame {width} x {height} x {nf} is larger than the tile it belongs to")))?;
-                frame = Some(Frame { precision, height, width, comp_ids });
+                    // Each sample costs at least one bit of entropy-coded data.
+                    .filter(|t| *t <= max_samples && *t <= 8 * data.len() + 64)
+                    .ok_or_else(|| {
+                        LjpegError(format!(
+                            "frame {width} x {height} x {nf} is larger than the tile it belongs to"
+                        ))
+                    })?;
+                frame = Some(Frame {
+                    precision,
+                    height,
+                    width,
+                    comp_ids,
+                });
             }
             0xC0..=0xC2 | 0xC5..=0xC7 | 0xC9..=0xCB | 0xCD..=0xCF => {
-                return err(format!("frame type SOF{} is not lossless Huffman JPEG (SOF3)", marker - 0xC0));
+                return err(format!(
+                    "frame type SOF{} is not lossless Huffman JPEG (SOF3)",
+                    marker - 0xC0
+                ));
             }
             0xC4 => {
                 let mut p = 0;
@@ -290,14 +327,18 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                     let tc_th = seg[p];
                     let th = (tc_th & 15) as usize;
                     if tc_th >> 4 != 0 || th > 3 {
-                        return err(format!("DHT table class/id {tc_th:#04x} is not a DC table 0..3"));
+                        return err(format!(
+                            "DHT table class/id {tc_th:#04x} is not a DC table 0..3"
+                        ));
                     }
-                    let counts: [u8; 16] = seg
-                        .get(p + 1..p + 17)
-                        .and_then(|s| s.try_into().ok())
-                        .ok_or_else(|| LjpegError("DHT segment too short".into()))?;
+                    let counts: [u8; 16] =
+                        seg.get(p + 1..p + 17)
+                            .and_then(|s| s.try_into().ok())
+                            .ok_or_else(|| LjpegError("DHT segment too short".into()))?;
                     let n: usize = counts.iter().map(|c| *c as usize).sum();
-                    let syms = seg.get(p + 17..p + 17 + n).ok_or_else(|| LjpegError("DHT segment too short for its symbols".into()))?;
+                    let syms = seg.get(p + 17..p + 17 + n).ok_or_else(|| {
+                        LjpegError("DHT segment too short for its symbols".into())
+                    })?;
                     tables[th] = Some(Huffman::new(&counts, syms)?);
                     p += 17 + n;
                 }
@@ -309,8 +350,13 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                 restart_interval = u16::from_be_bytes([seg[0], seg[1]]) as usize;
             }
             0xDA => {
-                let f = frame.as_ref().ok_or_else(|| LjpegError("SOS before SOF3".into()))?;
-                let ns = *seg.first().ok_or_else(|| LjpegError("SOS segment empty".into()))? as usize;
+                let f = frame
+                    .as_ref()
+                    .ok_or_else(|| LjpegError("SOS before SOF3".into()))?;
+                let ns = *seg
+                    .first()
+                    .ok_or_else(|| LjpegError("SOS segment empty".into()))?
+                    as usize;
                 if ns != f.comp_ids.len() {
                     return err(format!("scan has {ns} of the frame's {} components; only single interleaved scans are supported", f.comp_ids.len()));
                 }
@@ -325,7 +371,9 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                     }
                     let td = (seg[2 + 2 * i] >> 4) as usize;
                     if td > 3 || tables[td].is_none() {
-                        return err(format!("scan component {cs} uses Huffman table {td}, which is not defined"));
+                        return err(format!(
+                            "scan component {cs} uses Huffman table {td}, which is not defined"
+                        ));
                     }
                     comp_tables.push(td);
                 }
@@ -335,10 +383,22 @@ pub fn decode(data: &[u8], max_samples: usize) -> Result<LjpegImage, LjpegError>
                     return err(format!("predictor {predictor} is not 1..7"));
                 }
                 if pt >= f.precision {
-                    return err(format!("point transform {pt} is not below the precision {}", f.precision));
+                    return err(format!(
+                        "point transform {pt} is not below the precision {}",
+                        f.precision
+                    ));
                 }
                 let start = pos + len;
-                let samples = decode_scan(data, start, f, &tables, &comp_tables, predictor, pt, restart_interval)?;
+                let samples = decode_scan(
+                    data,
+                    start,
+                    f,
+                    &tables,
+                    &comp_tables,
+                    predictor,
+                    pt,
+                    restart_interval,
+                )?;
                 return Ok(LjpegImage {
                     width: f.width,
                     height: f.height,
@@ -369,7 +429,10 @@ fn decode_scan(
     let row_len = w * nc;
     let mut out = vec![0u16; row_len * h];
     let mut br = BitReader::new(data, start);
-    let hufs: Vec<&Huffman> = comp_tables.iter().map(|t| tables[*t].as_ref().unwrap()).collect();
+    let hufs: Vec<&Huffman> = comp_tables
+        .iter()
+        .map(|t| tables[*t].as_ref().unwrap())
+        .collect();
     let initial = 1i32 << (f.precision - pt - 1); // T.81 H.1.2.1: 2^(P - Pt - 1)
     let mask = 0xFFFFi32; // differences and predictions are modulo 2^16 (T.81 H.1.2.1)
     let mut mcus_left = restart_interval;
@@ -380,7 +443,11 @@ fn decode_scan(
     for row in 0..h {
         let (prev_rows, cur_rows) = out.split_at_mut(row * row_len);
         let cur = &mut cur_rows[..row_len];
-        let above = if row > 0 { Some(&prev_rows[(row - 1) * row_len..]) } else { None };
+        let above = if row > 0 {
+            Some(&prev_rows[(row - 1) * row_len..])
+        } else {
+            None
+        };
         for col in 0..w {
             if restart_interval > 0 {
                 if mcus_left == 0 {
@@ -393,8 +460,8 @@ fn decode_scan(
                 mcus_left -= 1;
             }
             let first_row = reset_row == Some(row);
-            for c in 0..nc {
-                let diff = decode_diff(&mut br, hufs[c])?;
+            for (c, huf) in hufs.iter().enumerate() {
+                let diff = decode_diff(&mut br, huf)?;
                 let i = col * nc + c;
                 let pred = if first_row {
                     if col == reset_col {
@@ -423,7 +490,9 @@ fn decode_scan(
             }
         }
         if br.overrun() {
-            return err(format!("entropy-coded data ends early (in row {row} of {h})"));
+            return err(format!(
+                "entropy-coded data ends early (in row {row} of {h})"
+            ));
         }
     }
     if pt > 0 {
@@ -441,7 +510,15 @@ pub(crate) mod tests {
     /// A test encoder for lossless JPEG (mirror of the decoder, written from T.81 Annex H):
     /// any predictor 1-7, `nc` interleaved components, optional restart interval, one Huffman
     /// table with deliberately mixed code lengths.
-    pub fn encode(width: usize, height: usize, nc: usize, precision: u8, predictor: u8, restart: usize, samples: &[u16]) -> Vec<u8> {
+    pub fn encode(
+        width: usize,
+        height: usize,
+        nc: usize,
+        precision: u8,
+        predictor: u8,
+        restart: usize,
+        samples: &[u16],
+    ) -> Vec<u8> {
         assert_eq!(samples.len(), width * height * nc);
         // Code lengths for the 17 categories: Kraft sum < 1 (no all-ones code).
         let counts: [u8; 16] = [0, 1, 2, 3, 4, 7, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
@@ -523,7 +600,8 @@ pub(crate) mod tests {
         let mut rst = 0u8;
         for row in 0..height {
             for col in 0..width {
-                if restart > 0 && count > 0 && count % restart == 0 {
+                if restart > 0 && count == restart {
+                    count = 0;
                     w.flush();
                     w.out.extend_from_slice(&[0xFF, 0xD0 + rst]);
                     rst = (rst + 1) & 7;
@@ -561,11 +639,19 @@ pub(crate) mod tests {
                     if d > 32768 {
                         d -= 65536;
                     }
-                    let ssss = if d == 0 { 0 } else { 32 - (d.unsigned_abs()).leading_zeros() };
+                    let ssss = if d == 0 {
+                        0
+                    } else {
+                        32 - (d.unsigned_abs()).leading_zeros()
+                    };
                     let (code, len) = codes[ssss as usize];
                     w.put(code, len);
                     if ssss > 0 && ssss < 16 {
-                        let bits = if d < 0 { (d - 1) as u32 & ((1 << ssss) - 1) } else { d as u32 };
+                        let bits = if d < 0 {
+                            (d - 1) as u32 & ((1 << ssss) - 1)
+                        } else {
+                            d as u32
+                        };
                         w.put(bits, ssss);
                     }
                 }
@@ -582,7 +668,9 @@ pub(crate) mod tests {
         let mut s = seed;
         (0..width * height * nc)
             .map(|i| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let noise = (s >> 33) as u32 % 64;
                 let ramp = ((i / nc) % width) as u32 * 37 + (i / (width * nc)) as u32 * 11;
                 ((ramp + noise + (i % nc) as u32 * 1000) % (1 << bits)) as u16
@@ -614,7 +702,17 @@ pub(crate) mod tests {
     #[test]
     fn round_trip_16_bit_extremes() {
         // Jumps of 65535 need category 16 (difference 32768 after the modulo) and 15.
-        let img: Vec<u16> = (0..64).map(|i| if i % 3 == 0 { 65535 } else if i % 3 == 1 { 0 } else { 32768 }).collect();
+        let img: Vec<u16> = (0..64)
+            .map(|i| {
+                if i % 3 == 0 {
+                    65535
+                } else if i % 3 == 1 {
+                    0
+                } else {
+                    32768
+                }
+            })
+            .collect();
         let enc = encode(8, 8, 1, 16, 1, 0, &img);
         assert_eq!(decode(&enc, 1 << 20).unwrap().samples, img);
     }
@@ -639,7 +737,9 @@ pub(crate) mod tests {
         // Bits: 0 10 1 10 0 0 -> 0101 1000, padded with ones -> 0x58? no padding needed past 8 bits:
         // 0,1,0,1,1,0,0,0 = 0x58.
         let mut s = vec![0xFF, 0xD8, 0xFF, 0xC3, 0, 11, 8, 0, 2, 0, 2, 1, 1, 0x11, 0];
-        s.extend_from_slice(&[0xFF, 0xC4, 0, 22, 0x00, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 2]);
+        s.extend_from_slice(&[
+            0xFF, 0xC4, 0, 22, 0x00, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 2,
+        ]);
         s.extend_from_slice(&[0xFF, 0xDA, 0, 8, 1, 1, 0x00, 1, 0, 0]);
         s.extend_from_slice(&[0x58, 0xFF, 0xD9]);
         let d = decode(&s, 100).unwrap();

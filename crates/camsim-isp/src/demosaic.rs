@@ -82,16 +82,19 @@ pub fn demosaic_bilinear(raw: &RawImage) -> RgbImage {
 
 /// One output row. Interior pixels take the fast path (all eight neighbours exist); border
 /// pixels average whichever neighbours of the wanted colour lie inside the image.
+#[allow(clippy::needless_range_loop)]
 fn demosaic_row(dn: &[u16], rows: usize, cols: usize, cfa: CfaPattern, black: f32, y: usize, out: &mut [&mut [f32]; 3]) {
     let v = |yy: usize, xx: usize| dn[yy * cols + xx] as f32 - black;
     let interior_row = y > 0 && y + 1 < rows;
+    // Channel of the pixel, of its row neighbours and of its column neighbours, by column parity.
+    let own_of = [cfa.channel_at(y, 0).index(), cfa.channel_at(y, 1).index()];
+    let horiz_of = [own_of[1], own_of[0]];
+    let vert_of = [cfa.channel_at(y + 1, 0).index(), cfa.channel_at(y + 1, 1).index()];
     for x in 0..cols {
         if interior_row && x > 0 && x + 1 < cols {
             let c = v(y, x);
             let (up, down, left, right) = (v(y - 1, x), v(y + 1, x), v(y, x - 1), v(y, x + 1));
-            let own = cfa.channel_at(y, x).index();
-            let horiz_ch = cfa.channel_at(y, x + 1).index();
-            let vert_ch = cfa.channel_at(y + 1, x).index();
+            let (own, horiz_ch, vert_ch) = (own_of[x & 1], horiz_of[x & 1], vert_of[x & 1]);
             let mut px = [0.0f32; 3];
             px[own] = c;
             if horiz_ch == vert_ch {

@@ -37,6 +37,8 @@ pub struct KernelSpectrum(pub Vec<Complex32>);
 pub struct Scratch {
     row: Vec<f32>,
     row_spec: Vec<Complex32>,
+    /// Row-major spectra of a tile's rows (F x (F/2+1)), for cache-blocked transposes.
+    rows: Vec<Complex32>,
     cols: Vec<Complex32>,
     r_scratch: Vec<Complex32>,
     c_scratch: Vec<Complex32>,
@@ -54,6 +56,40 @@ pub struct OutputWindow {
     pub off_r: isize,
     /// Column offset.
     pub off_c: isize,
+}
+
+const BLOCK: usize = 16;
+
+/// dst[c * ld + r] = src[r * ncols + c] for r < nrows, c < ncols (cache-blocked).
+fn transpose_blocked(src: &[Complex32], nrows: usize, ncols: usize, dst: &mut [Complex32], ld: usize) {
+    for rb in (0..nrows).step_by(BLOCK) {
+        let re = (rb + BLOCK).min(nrows);
+        for cb in (0..ncols).step_by(BLOCK) {
+            let ce = (cb + BLOCK).min(ncols);
+            for r in rb..re {
+                let srow = &src[r * ncols..];
+                for c in cb..ce {
+                    dst[c * ld + r] = srow[c];
+                }
+            }
+        }
+    }
+}
+
+/// dst[r * ncols + c] = src[c * ld + r] for r < nrows, c < ncols (cache-blocked).
+fn transpose_cols_to_rows(src: &[Complex32], ld: usize, ncols: usize, nrows: usize, dst: &mut [Complex32]) {
+    for cb in (0..ncols).step_by(BLOCK) {
+        let ce = (cb + BLOCK).min(ncols);
+        for rb in (0..nrows).step_by(BLOCK) {
+            let re = (rb + BLOCK).min(nrows);
+            for c in cb..ce {
+                let scol = &src[c * ld..];
+                for r in rb..re {
+                    dst[r * ncols + c] = scol[r];
+                }
+            }
+        }
+    }
 }
 
 fn is_fast(n: usize) -> bool {
@@ -106,6 +142,7 @@ impl TileConvolver {
         Scratch {
             row: vec![0.0; self.f],
             row_spec: vec![z; nc],
+            rows: vec![z; nc * self.f],
             cols: vec![z; nc * self.f],
             r_scratch: vec![z; self.r2c.get_scratch_len().max(self.c2r.get_scratch_len())],
             c_scratch: vec![z; self.col_fwd.get_inplace_scratch_len().max(self.col_inv.get_inplace_scratch_len())],
@@ -116,16 +153,19 @@ impl TileConvolver {
     fn forward(&self, rows_in: usize, s: &mut Scratch, mut fill: impl FnMut(usize, &mut [f32])) {
         let f = self.f;
         let nc = f / 2 + 1;
-        s.cols.iter_mut().for_each(|c| *c = Complex32::new(0.0, 0.0));
         for r in 0..rows_in {
             s.row.iter_mut().for_each(|v| *v = 0.0);
             fill(r, &mut s.row);
-            self.r2c.process_with_scratch(&mut s.row, &mut s.row_spec, &mut s.r_scratch).expect("r2c buffer sizes");
-            for (c, v) in s.row_spec.iter().enumerate() {
-                s.cols[c * f + r] = *v;
-            }
+            self.r2c
+                .process_with_scratch(&mut s.row, &mut s.rows[r * nc..(r + 1) * nc], &mut s.r_scratch)
+                .expect("r2c buffer sizes");
         }
-        let _ = nc;
+        // rows (rows_in x nc, row-major) -> cols (nc x f, column-major), zero below rows_in.
+        transpose_blocked(&s.rows[..rows_in * nc], rows_in, nc, &mut s.cols, f);
+        let z = Complex32::new(0.0, 0.0);
+        for c in 0..nc {
+            s.cols[c * f + rows_in..(c + 1) * f].iter_mut().for_each(|v| *v = z);
+        }
         self.col_fwd.process_with_scratch(&mut s.cols, &mut s.c_scratch);
     }
 
@@ -158,20 +198,26 @@ impl TileConvolver {
         let f = self.f;
         let nc = f / 2 + 1;
         let h = (self.k / 2) as isize;
+        let t0 = std::time::Instant::now();
         self.forward(tr, s, |r, row| load(r, &mut row[..tc]));
+        let t1 = t0.elapsed();
         for (c, k) in s.cols.iter_mut().zip(&spec.0) {
             *c *= *k;
         }
+        let t2 = t0.elapsed();
         self.col_inv.process_with_scratch(&mut s.cols, &mut s.c_scratch);
+        let t3 = t0.elapsed();
+        if std::env::var("PROF").is_ok() { eprintln!("fwd {:?} mul {:?} inv {:?}", t1, t2 - t1, t3 - t2); }
         let out_cols_n = tc + self.k - 1;
-        for r in 0..tr + self.k - 1 {
+        let out_rows_n = tr + self.k - 1;
+        // cols (nc x f) -> rows (f x nc), only the rows that carry output.
+        transpose_cols_to_rows(&s.cols, f, nc, out_rows_n, &mut s.rows);
+        for r in 0..out_rows_n {
             let orow = r0 as isize + r as isize - h + win.off_r;
             if orow < 0 || orow >= win.rows as isize {
                 continue;
             }
-            for c in 0..nc {
-                s.row_spec[c] = s.cols[c * f + r];
-            }
+            s.row_spec.copy_from_slice(&s.rows[r * nc..(r + 1) * nc]);
             // The row-DC and Nyquist columns are real for a real image; drop round-off.
             s.row_spec[0].im = 0.0;
             s.row_spec[nc - 1].im = 0.0;

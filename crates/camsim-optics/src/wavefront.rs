@@ -377,6 +377,7 @@ impl Wavefront {
         let mut rows = vec![Complex64::new(0.0, 0.0); nrows * n];
         let sub = 8usize;
         let inv_lambda_um = 1e3 / wavelength_nm; // W in um -> waves
+        let (mut sum_cov, mut sum_cov2) = (0.0f64, 0.0f64);
         for (ri, i) in (lo..=hi).enumerate() {
             let y = (i as f64 - half as f64) * dp;
             let row = &mut rows[ri * n..(ri + 1) * n];
@@ -403,6 +404,8 @@ impl Wavefront {
                     c as f64 / (sub * sub) as f64
                 };
                 if cov > 0.0 {
+                    sum_cov += cov;
+                    sum_cov2 += cov * cov;
                     let (xn, yn) = ((x / a).clamp(-1.0, 1.0), (y / a).clamp(-1.0, 1.0));
                     let w_um = self.wavefront_um(xn, yn, wavelength_nm);
                     // Pupil function A exp(-i 2 pi W / lambda) (ISETCam wvfComputePupilFunction).
@@ -421,6 +424,11 @@ impl Wavefront {
             None => (n, (0..n).map(|p| (p + n - half) % n).collect()),
         };
         let kys = kxs.clone();
+        // Rim cells carry amplitude = covered fraction c. Then the discrete autocorrelation of the
+        // pupil matches the continuous one at every nonzero lag, but its zero lag is sum c^2 instead
+        // of the area sum c. Restore the zero lag by a constant (white) pedestal of
+        // (sum c - sum c^2) per PSF sample (the DFT of a constant is a delta at zero frequency).
+        let pedestal = sum_cov - sum_cov2;
         let mut out = vec![0.0f64; m * m];
         let mut col = vec![Complex64::new(0.0, 0.0); n];
         for (ox, &kx) in kxs.iter().enumerate() {
@@ -430,7 +438,7 @@ impl Wavefront {
             }
             fft.process_with_scratch(&mut col, &mut scratch);
             for (oy, &ky) in kys.iter().enumerate() {
-                out[oy * m + ox] = col[ky].norm_sqr();
+                out[oy * m + ox] = col[ky].norm_sqr() + pedestal;
             }
         }
         let s: f64 = out.iter().sum();

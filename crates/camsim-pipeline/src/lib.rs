@@ -232,14 +232,14 @@ impl SimulateConfig {
 
 /// Stage 1: the scene radiance (2D chart or 3D render).
 /// `progress(stage, done, total)` is called as long steps advance.
-pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress) -> Result<SpectralImage> {
+pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress<'_>) -> Result<SpectralImage> {
     cfg.wavelengths.validate()?;
     match (&cfg.scene, &cfg.render) {
         (Some(_), Some(_)) => bail!("give either [scene] (2D) or [render] (3D), not both"),
         (None, None) => bail!("the config has neither [scene] nor [render]"),
         (Some(SceneConfig::File(f)), None) => {
             let img = camsim_io::exr::read_spectral_exr(&f.path)?;
-            Ok(camsim_scene::from_image(img, f)?)
+            Ok(camsim_scene::from_image(f, img)?)
         }
         (Some(s), None) => Ok(camsim_scene::create(s, &cfg.wavelengths)?),
         (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress),
@@ -247,7 +247,7 @@ pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, pr
 }
 
 /// Progress callback: (stage name, steps done, steps in all).
-pub type Progress = dyn Fn(&str, u64, u64) + Sync;
+pub type Progress<'a> = dyn Fn(&str, u64, u64) + Sync + 'a;
 
 /// What a run produced, besides its files.
 #[derive(Debug, Clone, Serialize)]
@@ -260,7 +260,7 @@ pub struct RunSummary {
 
 /// Run the whole pipeline and write its files in `out`: radiance.exr, irradiance.exr, raw.dng
 /// (raw_0001.dng ... for more frames), raw.png, preview.png, run.json.
-pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Path, progress: &Progress) -> Result<RunSummary> {
+pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Path, progress: &Progress<'_>) -> Result<RunSummary> {
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
@@ -325,7 +325,7 @@ pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Pa
             "exposure_s": frame.exposure_s,
             "mean_electrons_rgb": frame.mean_electrons,
             "mean_dn_rgb": mean_dn,
-            "scene_mean_luminance_cd_m2": camsim_core::colorimetry::luminance_cd_m2_image(&radiance),
+            "scene_mean_luminance_cd_m2": mean_luminance_cd_m2(&radiance),
             "radiance_size": [radiance.rows, radiance.cols, radiance.bands()],
             "irradiance_size": [irradiance.rows, irradiance.cols, irradiance.bands()],
             "irradiance_sample_spacing_um": irradiance.sample_spacing_m * 1e6,
@@ -402,4 +402,12 @@ pub fn load_raw(path: &Path, cfa: Option<camsim_core::CfaPattern>, black_dn: f64
     raw.dn = dn;
     raw.black_level_dn = black_dn;
     Ok(raw)
+}
+
+/// Mean luminance of a radiance image, cd/m^2: 683 lm/W x sum over bands of ybar L d(lambda)
+/// (CIE 1931 photopic luminous efficiency).
+pub fn mean_luminance_cd_m2(radiance: &SpectralImage) -> f64 {
+    let cmfs = camsim_core::colorimetry::Cmfs::on(&radiance.grid);
+    let w: Vec<f64> = cmfs.y.iter().map(|y| y * camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W).collect();
+    radiance.mean_weighted_integral(&w)
 }

@@ -43,7 +43,7 @@ pub fn load_scene(
 }
 
 /// Render, reporting progress as ("render", tiles done, tiles in all).
-pub fn render_scene(scene: &SceneDescription, progress: &Progress) -> Result<RenderOutput> {
+pub fn render_scene(scene: &SceneDescription, progress: &Progress<'_>) -> Result<RenderOutput> {
     Ok(camsim_render::render(scene, &|done, total| progress("render", done, total))?)
 }
 
@@ -70,7 +70,7 @@ pub fn render_section(
     cfg: &SimulateConfig,
     sensor: &Sensor,
     optics: &Optics,
-    progress: &Progress,
+    progress: &Progress<'_>,
 ) -> Result<SpectralImage> {
     let (w, h) = match r.resolution {
         Some([w, h]) => (w, h),

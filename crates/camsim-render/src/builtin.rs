@@ -24,8 +24,11 @@
 //!   700 nm (linear in between, 0 below 400 nm, 18.4 held above 700 nm), scaled to an absolute
 //!   luminance [`DEFAULT_LIGHT_LUMINANCE_CD_M2`] (= 683 lm/W * integral y_bar L dl over
 //!   360-830 nm): L(lambda) = S(lambda) * L_v / (683 * integral y_bar S dl) W/(sr m^2 nm).
-//!   1000 cd/m^2 is a lamp behind a diffuser; it puts the box's mean luminance in the tens of
-//!   cd/m^2, the paper's range (21.5 cd/m^2). Overlays or [`BuiltinOptions`] change it.
+//!   1000 cd/m^2 (a lamp behind a diffuser) for `cornell-box` and `slanted-edge`: the classic
+//!   view's mean luminance is then 10.8 cd/m^2 (measured: 64 x 64 pixels, 64 samples). For
+//!   `cornell-box-mcc` the default is [`MCC_LIGHT_LUMINANCE_CD_M2`] = 2860 cd/m^2, which puts that
+//!   view's mean luminance at the paper's 21.5 cd/m^2 (Fig. 5 caption; measured 7.52 cd/m^2 per
+//!   1000 cd/m^2 of light at 128 x 96 pixels, 64 samples). Overlays or [`BuiltinOptions`] change it.
 //! - ColorChecker: the 24 Macbeth reflectances of N. Ohta (1997) from
 //!   [`camsim_core::tables::macbeth_reflectances`]; the black border and gaps have reflectance 0,
 //!   as the paper set them.
@@ -54,10 +57,15 @@
 //! Default resolution for the pixel4a scenes: 1008 x 756 (the sensor's 4032 x 3024 / 4); any
 //! resolution keeps the sensor's 65.64 degree horizontal fov.
 
+// `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::camera::look_at_camera_to_world;
 use crate::pbrt::spectra::photometric;
 use crate::pbrt::xform::{cross, dot, inverse, sub};
-use crate::scene::{AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture};
+use crate::scene::{
+    AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
+};
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{tables, Spectrum, WavelengthGrid};
@@ -68,6 +76,10 @@ pub const NAMES: [&str; 3] = ["cornell-box", "cornell-box-mcc", "slanted-edge"];
 
 /// Luminance of the built-in light, cd/m^2 (see the module docs).
 pub const DEFAULT_LIGHT_LUMINANCE_CD_M2: f64 = 1000.0;
+
+/// Luminance of the `cornell-box-mcc` light, cd/m^2: gives the paper's mean image luminance of
+/// 21.5 cd/m^2 (see the module docs).
+pub const MCC_LIGHT_LUMINANCE_CD_M2: f64 = 2860.0;
 
 /// Pixel 4a rear camera: focal length, m (the paper's camera).
 pub const PIXEL4A_FOCAL_LENGTH_M: f64 = 4.38e-3;
@@ -110,7 +122,10 @@ pub struct BuiltinError {
 }
 
 fn berr(what: impl Into<String>, message: impl Into<String>) -> BuiltinError {
-    BuiltinError { what: what.into(), message: message.into() }
+    BuiltinError {
+        what: what.into(),
+        message: message.into(),
+    }
 }
 
 /// Where the ColorChecker stands against the back wall.
@@ -135,12 +150,24 @@ impl std::str::FromStr for MccPosition {
             "center" | "centre" => Ok(MccPosition::Center),
             "right" => Ok(MccPosition::Right),
             other => {
-                let v: Vec<f64> = other.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
-                    berr(format!("ColorChecker position '{s}'"), "use left, center, right or X,Y (metres)")
-                })?;
+                let v: Vec<f64> = other
+                    .split(',')
+                    .map(|t| t.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| {
+                        berr(
+                            format!("ColorChecker position '{s}'"),
+                            "use left, center, right or X,Y (metres)",
+                        )
+                    })?;
                 match v.as_slice() {
-                    [x, y] if x.is_finite() && y.is_finite() => Ok(MccPosition::At { x_m: *x, y_m: *y }),
-                    _ => Err(berr(format!("ColorChecker position '{s}'"), "use left, center, right or X,Y (metres)")),
+                    [x, y] if x.is_finite() && y.is_finite() => {
+                        Ok(MccPosition::At { x_m: *x, y_m: *y })
+                    }
+                    _ => Err(berr(
+                        format!("ColorChecker position '{s}'"),
+                        "use left, center, right or X,Y (metres)",
+                    )),
                 }
             }
         }
@@ -176,7 +203,8 @@ pub struct BuiltinOptions {
     /// Relative spectral shape of the light (scaled to `light_luminance_cd_m2`); None: the
     /// Cornell data page's light.
     pub light_spectrum: Option<Spectrum>,
-    /// Luminance of the light, cd/m^2; None: [`DEFAULT_LIGHT_LUMINANCE_CD_M2`].
+    /// Luminance of the light, cd/m^2; None: [`DEFAULT_LIGHT_LUMINANCE_CD_M2`]
+    /// ([`MCC_LIGHT_LUMINANCE_CD_M2`] for `cornell-box-mcc`).
     pub light_luminance_cd_m2: Option<f64>,
     /// Wall reflectance replacements.
     pub wall_spectra: WallSpectra,
@@ -228,7 +256,8 @@ const CORNELL_REFLECTANCE: [[f64; 4]; 76] = [
 ];
 
 /// The Cornell data page's light: relative spectral radiance at 400, 500, 600, 700 nm.
-pub const CORNELL_LIGHT_POINTS: [(f64, f64); 4] = [(400.0, 0.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4)];
+pub const CORNELL_LIGHT_POINTS: [(f64, f64); 4] =
+    [(400.0, 0.0), (500.0, 8.0), (600.0, 15.6), (700.0, 18.4)];
 
 /// A Cornell box reflectance by name: `white`, `green` or `red` (400-700 nm every 4 nm, held
 /// outside).
@@ -237,7 +266,12 @@ pub fn cornell_reflectance(name: &str) -> Result<Spectrum, BuiltinError> {
         "white" => 1,
         "green" => 2,
         "red" => 3,
-        _ => return Err(berr(format!("Cornell box surface '{name}'"), "use white, green or red")),
+        _ => {
+            return Err(berr(
+                format!("Cornell box surface '{name}'"),
+                "use white, green or red",
+            ))
+        }
     };
     let pairs: Vec<(f64, f64)> = CORNELL_REFLECTANCE.iter().map(|r| (r[0], r[col])).collect();
     Ok(Spectrum::from_pairs(&pairs).with_extrapolation(Extrapolation::Hold))
@@ -255,12 +289,20 @@ pub fn cornell_light_relative() -> Spectrum {
 pub fn spectrum_at_luminance(relative: &Spectrum, cd_m2: f64) -> Result<Spectrum, BuiltinError> {
     let p = photometric(relative);
     if !(p > 0.0) {
-        return Err(berr("light spectrum", "has no luminance (zero over 360-830 nm)"));
+        return Err(berr(
+            "light spectrum",
+            "has no luminance (zero over 360-830 nm)",
+        ));
     }
     if !(cd_m2 >= 0.0 && cd_m2.is_finite()) {
-        return Err(berr("light luminance", format!("{cd_m2} cd/m^2 must be a non-negative number")));
+        return Err(berr(
+            "light luminance",
+            format!("{cd_m2} cd/m^2 must be a non-negative number"),
+        ));
     }
-    Ok(relative.clone().scaled(cd_m2 / (LUMINOUS_EFFICACY_LM_PER_W * p)))
+    Ok(relative
+        .clone()
+        .scaled(cd_m2 / (LUMINOUS_EFFICACY_LM_PER_W * p)))
 }
 
 /// Luminance (cd/m^2) of a spectral radiance in W/(sr m^2 nm).
@@ -279,15 +321,28 @@ struct Builder {
 
 impl Builder {
     fn material(&mut self, name: &str, reflectance: Spectrum) -> usize {
-        self.materials.push(Material::Diffuse { reflectance: Texture::Constant(reflectance) });
+        self.materials.push(Material::Diffuse {
+            reflectance: Texture::Constant(reflectance),
+        });
         let i = self.materials.len() - 1;
         self.named.insert(name.to_string(), i);
         i
     }
     /// A planar-ish quad (p0 p1 p2 p3 around its perimeter, metres) as two triangles, wound so
     /// its normal points toward `toward`.
-    fn quad(&mut self, name: &str, p: [[f64; 3]; 4], toward: [f64; 3], material: usize, light: Option<AreaLight>) {
-        let c = [0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]), 0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]), 0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2])];
+    fn quad(
+        &mut self,
+        name: &str,
+        p: [[f64; 3]; 4],
+        toward: [f64; 3],
+        material: usize,
+        light: Option<AreaLight>,
+    ) {
+        let c = [
+            0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]),
+            0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]),
+            0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2]),
+        ];
         let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         let mut indices = vec![[0, 1, 2], [0, 2, 3]];
         if dot(n, sub(toward, c)) < 0.0 {
@@ -295,7 +350,12 @@ impl Builder {
         }
         self.shapes.push(Shape {
             name: Some(name.to_string()),
-            geometry: Geometry::Triangles { positions: p.to_vec(), indices, uvs: None, normals: None },
+            geometry: Geometry::Triangles {
+                positions: p.to_vec(),
+                indices,
+                uvs: None,
+                normals: None,
+            },
             material,
             area_light: light,
             reverse_orientation: false,
@@ -303,9 +363,21 @@ impl Builder {
     }
     /// Append a quad's triangles to an existing named shape (multi-part walls).
     fn extend_last(&mut self, p: [[f64; 3]; 4], toward: [f64; 3]) {
-        let Some(Shape { geometry: Geometry::Triangles { positions, indices, .. }, .. }) = self.shapes.last_mut() else { return };
+        let Some(Shape {
+            geometry: Geometry::Triangles {
+                positions, indices, ..
+            },
+            ..
+        }) = self.shapes.last_mut()
+        else {
+            return;
+        };
         let b = positions.len() as u32;
-        let c = [0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]), 0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]), 0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2])];
+        let c = [
+            0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]),
+            0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]),
+            0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2]),
+        ];
         let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
         positions.extend_from_slice(&p);
         if dot(n, sub(toward, c)) < 0.0 {
@@ -328,45 +400,172 @@ const LIGHT_MM: (f64, f64, f64, f64) = (213.0, 343.0, 227.0, 332.0);
 const CEILING_Y_MM: f64 = 548.8;
 
 /// The box shell (walls, floor, ceiling with the light's hole, light) and optionally the blocks.
-fn build_box(b: &mut Builder, opts: &BuiltinOptions, with_blocks: bool) -> Result<(), BuiltinError> {
-    let white = opts.wall_spectra.white.clone().map(Ok).unwrap_or_else(|| cornell_reflectance("white"))?;
-    let red = opts.wall_spectra.red.clone().map(Ok).unwrap_or_else(|| cornell_reflectance("red"))?;
-    let green = opts.wall_spectra.green.clone().map(Ok).unwrap_or_else(|| cornell_reflectance("green"))?;
+fn build_box(
+    b: &mut Builder,
+    opts: &BuiltinOptions,
+    with_blocks: bool,
+    default_luminance_cd_m2: f64,
+) -> Result<(), BuiltinError> {
+    let white = opts
+        .wall_spectra
+        .white
+        .clone()
+        .map(Ok)
+        .unwrap_or_else(|| cornell_reflectance("white"))?;
+    let red = opts
+        .wall_spectra
+        .red
+        .clone()
+        .map(Ok)
+        .unwrap_or_else(|| cornell_reflectance("red"))?;
+    let green = opts
+        .wall_spectra
+        .green
+        .clone()
+        .map(Ok)
+        .unwrap_or_else(|| cornell_reflectance("green"))?;
     for (n, s) in [("white", &white), ("red", &red), ("green", &green)] {
-        s.require_non_negative(n).map_err(|e| berr(format!("{n} reflectance"), e.to_string()))?;
+        s.require_non_negative(n)
+            .map_err(|e| berr(format!("{n} reflectance"), e.to_string()))?;
     }
     let w = b.material("white", white);
     let r = b.material("red", red);
     let g = b.material("green", green);
     let c = ROOM_CENTER;
     // Cornell data page vertices (mm).
-    b.quad("floor", [mm([552.8, 0.0, 0.0]), mm([0.0, 0.0, 0.0]), mm([0.0, 0.0, 559.2]), mm([549.6, 0.0, 559.2])], c, w, None);
-    b.quad("back_wall", [mm([549.6, 0.0, 559.2]), mm([0.0, 0.0, 559.2]), mm([0.0, 548.8, 559.2]), mm([556.0, 548.8, 559.2])], c, w, None);
-    b.quad("right_wall", [mm([0.0, 0.0, 559.2]), mm([0.0, 0.0, 0.0]), mm([0.0, 548.8, 0.0]), mm([0.0, 548.8, 559.2])], c, g, None);
-    b.quad("left_wall", [mm([552.8, 0.0, 0.0]), mm([549.6, 0.0, 559.2]), mm([556.0, 548.8, 559.2]), mm([556.0, 548.8, 0.0])], c, r, None);
+    b.quad(
+        "floor",
+        [
+            mm([552.8, 0.0, 0.0]),
+            mm([0.0, 0.0, 0.0]),
+            mm([0.0, 0.0, 559.2]),
+            mm([549.6, 0.0, 559.2]),
+        ],
+        c,
+        w,
+        None,
+    );
+    b.quad(
+        "back_wall",
+        [
+            mm([549.6, 0.0, 559.2]),
+            mm([0.0, 0.0, 559.2]),
+            mm([0.0, 548.8, 559.2]),
+            mm([556.0, 548.8, 559.2]),
+        ],
+        c,
+        w,
+        None,
+    );
+    b.quad(
+        "right_wall",
+        [
+            mm([0.0, 0.0, 559.2]),
+            mm([0.0, 0.0, 0.0]),
+            mm([0.0, 548.8, 0.0]),
+            mm([0.0, 548.8, 559.2]),
+        ],
+        c,
+        g,
+        None,
+    );
+    b.quad(
+        "left_wall",
+        [
+            mm([552.8, 0.0, 0.0]),
+            mm([549.6, 0.0, 559.2]),
+            mm([556.0, 548.8, 559.2]),
+            mm([556.0, 548.8, 0.0]),
+        ],
+        c,
+        r,
+        None,
+    );
     // Ceiling (data page: 556 x 559.2 mm at y = 548.8) around the light's rectangle.
     let (x0, x1, z0, z1) = LIGHT_MM;
     let y = CEILING_Y_MM;
-    b.quad("ceiling", [mm([556.0, y, 0.0]), mm([556.0, y, z0]), mm([0.0, y, z0]), mm([0.0, y, 0.0])], c, w, None);
-    b.extend_last([mm([556.0, y, z1]), mm([556.0, y, 559.2]), mm([0.0, y, 559.2]), mm([0.0, y, z1])], c);
-    b.extend_last([mm([556.0, y, z0]), mm([556.0, y, z1]), mm([x1, y, z1]), mm([x1, y, z0])], c);
-    b.extend_last([mm([x0, y, z0]), mm([x0, y, z1]), mm([0.0, y, z1]), mm([0.0, y, z0])], c);
+    b.quad(
+        "ceiling",
+        [
+            mm([556.0, y, 0.0]),
+            mm([556.0, y, z0]),
+            mm([0.0, y, z0]),
+            mm([0.0, y, 0.0]),
+        ],
+        c,
+        w,
+        None,
+    );
+    b.extend_last(
+        [
+            mm([556.0, y, z1]),
+            mm([556.0, y, 559.2]),
+            mm([0.0, y, 559.2]),
+            mm([0.0, y, z1]),
+        ],
+        c,
+    );
+    b.extend_last(
+        [
+            mm([556.0, y, z0]),
+            mm([556.0, y, z1]),
+            mm([x1, y, z1]),
+            mm([x1, y, z0]),
+        ],
+        c,
+    );
+    b.extend_last(
+        [
+            mm([x0, y, z0]),
+            mm([x0, y, z1]),
+            mm([0.0, y, z1]),
+            mm([0.0, y, z0]),
+        ],
+        c,
+    );
     // The light: one-sided, emitting downward.
-    let relative = opts.light_spectrum.clone().unwrap_or_else(cornell_light_relative);
-    relative.require_non_negative("light spectrum").map_err(|e| berr("light spectrum", e.to_string()))?;
-    let radiance = spectrum_at_luminance(&relative, opts.light_luminance_cd_m2.unwrap_or(DEFAULT_LIGHT_LUMINANCE_CD_M2))?;
+    let relative = opts
+        .light_spectrum
+        .clone()
+        .unwrap_or_else(cornell_light_relative);
+    relative
+        .require_non_negative("light spectrum")
+        .map_err(|e| berr("light spectrum", e.to_string()))?;
+    let radiance = spectrum_at_luminance(
+        &relative,
+        opts.light_luminance_cd_m2
+            .unwrap_or(default_luminance_cd_m2),
+    )?;
     b.quad(
         "light",
-        [mm([x1, y, z0]), mm([x1, y, z1]), mm([x0, y, z1]), mm([x0, y, z0])],
+        [
+            mm([x1, y, z0]),
+            mm([x1, y, z1]),
+            mm([x0, y, z1]),
+            mm([x0, y, z0]),
+        ],
         [0.278, 0.0, 0.2795],
         w,
-        Some(AreaLight { radiance, two_sided: false }),
+        Some(AreaLight {
+            radiance,
+            two_sided: false,
+        }),
     );
     if with_blocks {
         // Short block (data page), faces outward from its centre.
-        let top = [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]];
+        let top = [
+            [130.0, 165.0, 65.0],
+            [82.0, 165.0, 225.0],
+            [240.0, 165.0, 272.0],
+            [290.0, 165.0, 114.0],
+        ];
         block(b, "short_block", top, 165.0, w);
-        let top = [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]];
+        let top = [
+            [423.0, 330.0, 247.0],
+            [265.0, 330.0, 296.0],
+            [314.0, 330.0, 456.0],
+            [472.0, 330.0, 406.0],
+        ];
         block(b, "tall_block", top, 330.0, w);
     }
     Ok(())
@@ -375,12 +574,22 @@ fn build_box(b: &mut Builder, opts: &BuiltinOptions, with_blocks: bool) -> Resul
 /// A block from its top face's four corners (mm) and height: top + four sides, one shape.
 fn block(b: &mut Builder, name: &str, top: [[f64; 3]; 4], height_mm: f64, material: usize) {
     let ctr = {
-        let s = top.iter().fold([0.0; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
+        let s = top
+            .iter()
+            .fold([0.0; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
         mm([s[0] / 4.0, height_mm / 2.0, s[2] / 4.0])
     };
     let away = |p: [[f64; 3]; 4]| {
-        let fc = [0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]), 0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]), 0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2])];
-        [2.0 * fc[0] - ctr[0], 2.0 * fc[1] - ctr[1], 2.0 * fc[2] - ctr[2]]
+        let fc = [
+            0.25 * (p[0][0] + p[1][0] + p[2][0] + p[3][0]),
+            0.25 * (p[0][1] + p[1][1] + p[2][1] + p[3][1]),
+            0.25 * (p[0][2] + p[1][2] + p[2][2] + p[3][2]),
+        ];
+        [
+            2.0 * fc[0] - ctr[0],
+            2.0 * fc[1] - ctr[1],
+            2.0 * fc[2] - ctr[2],
+        ]
     };
     let t: Vec<[f64; 3]> = top.iter().map(|p| mm(*p)).collect();
     let q = [t[0], t[1], t[2], t[3]];
@@ -396,16 +605,36 @@ fn block(b: &mut Builder, name: &str, top: [[f64; 3]; 4], height_mm: f64, materi
 /// Camera at `from` looking +z, right-handed view, fov from the pixel4a sensor: 65.64 degrees
 /// horizontally whatever the resolution's aspect.
 fn pixel4a_camera(from: [f64; 3], width: usize, height: usize) -> Result<Camera, BuiltinError> {
-    let c2w = look_at_camera_to_world(from, [from[0], from[1], from[2] + 1.0], [0.0, 1.0, 0.0], true)
-        .ok_or_else(|| berr("camera", "degenerate look-at"))?;
+    let c2w = look_at_camera_to_world(
+        from,
+        [from[0], from[1], from[2] + 1.0],
+        [0.0, 1.0, 0.0],
+        true,
+    )
+    .ok_or_else(|| berr("camera", "degenerate look-at"))?;
     let tan_h = PIXEL4A_SENSOR_WIDTH_M / (2.0 * PIXEL4A_FOCAL_LENGTH_M); // pinhole: tan(fov/2) = (w/2)/f
-    let tan_short = if width >= height { tan_h * height as f64 / width as f64 } else { tan_h };
-    Ok(Camera { camera_to_world: c2w, fov_deg: 2.0 * tan_short.atan().to_degrees(), width, height })
+    let tan_short = if width >= height {
+        tan_h * height as f64 / width as f64
+    } else {
+        tan_h
+    };
+    Ok(Camera {
+        camera_to_world: c2w,
+        fov_deg: 2.0 * tan_short.atan().to_degrees(),
+        width,
+        height,
+    })
 }
 
 fn check_resolution(r: (usize, usize)) -> Result<(usize, usize), BuiltinError> {
     if r.0 == 0 || r.1 == 0 || r.0 > 1 << 16 || r.1 > 1 << 16 {
-        return Err(berr("resolution", format!("{} x {} pixels is out of range (1..65536 per side)", r.0, r.1)));
+        return Err(berr(
+            "resolution",
+            format!(
+                "{} x {} pixels is out of range (1..65536 per side)",
+                r.0, r.1
+            ),
+        ));
     }
     Ok(r)
 }
@@ -415,23 +644,38 @@ pub const MCC_CAMERA_POSITION_M: [f64; 3] = [0.278, 0.2744, -0.60];
 
 /// Build a built-in scene by name ([`names`]).
 pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, BuiltinError> {
-    opts.grid.validate().map_err(|e| berr("wavelength grid", e.to_string()))?;
+    opts.grid
+        .validate()
+        .map_err(|e| berr("wavelength grid", e.to_string()))?;
     if opts.samples_per_pixel == 0 {
         return Err(berr("samples_per_pixel", "must be at least 1"));
     }
-    let mut b = Builder { shapes: Vec::new(), materials: Vec::new(), named: HashMap::new() };
+    let mut b = Builder {
+        shapes: Vec::new(),
+        materials: Vec::new(),
+        named: HashMap::new(),
+    };
     let (camera, focus) = match name {
         "cornell-box" => {
-            build_box(&mut b, opts, true)?;
+            build_box(&mut b, opts, true, DEFAULT_LIGHT_LUMINANCE_CD_M2)?;
             let (w, h) = check_resolution(opts.resolution.unwrap_or((512, 512)))?;
             // Data page camera: 35 mm lens, 25 x 25 mm film -> fov 2 atan(12.5 / 35) on the short side.
             let from = [0.278, 0.273, -0.8];
-            let c2w = look_at_camera_to_world(from, [0.278, 0.273, 0.0], [0.0, 1.0, 0.0], true).ok_or_else(|| berr("camera", "degenerate"))?;
+            let c2w = look_at_camera_to_world(from, [0.278, 0.273, 0.0], [0.0, 1.0, 0.0], true)
+                .ok_or_else(|| berr("camera", "degenerate"))?;
             let fov_deg = 2.0 * (12.5f64 / 35.0).atan().to_degrees();
-            (Camera { camera_to_world: c2w, fov_deg, width: w, height: h }, 0.8 + 0.5592)
+            (
+                Camera {
+                    camera_to_world: c2w,
+                    fov_deg,
+                    width: w,
+                    height: h,
+                },
+                0.8 + 0.5592,
+            )
         }
         "cornell-box-mcc" => {
-            build_box(&mut b, opts, true)?;
+            build_box(&mut b, opts, true, MCC_LIGHT_LUMINANCE_CD_M2)?;
             let layout = mcc_layout(&opts.mcc_position)?;
             add_mcc(&mut b, &layout);
             let (w, h) = check_resolution(opts.resolution.unwrap_or((1008, 756)))?;
@@ -441,15 +685,23 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
         "slanted-edge" => {
             let d = opts.target_distance_m;
             if !(d > 0.05 && d < 100.0) {
-                return Err(berr("target_distance_m", format!("{d} m must be between 0.05 and 100")));
+                return Err(berr(
+                    "target_distance_m",
+                    format!("{d} m must be between 0.05 and 100"),
+                ));
             }
-            build_box(&mut b, opts, false)?;
+            build_box(&mut b, opts, false, DEFAULT_LIGHT_LUMINANCE_CD_M2)?;
             add_edge_target(&mut b);
             let (w, h) = check_resolution(opts.resolution.unwrap_or((1008, 756)))?;
             let cam = pixel4a_camera([0.278, 0.30, EDGE_TARGET_Z_M - d], w, h)?;
             (cam, d)
         }
-        _ => return Err(berr(format!("built-in scene '{name}'"), format!("unknown; built-in scenes: {}", NAMES.join(", ")))),
+        _ => {
+            return Err(berr(
+                format!("built-in scene '{name}'"),
+                format!("unknown; built-in scenes: {}", NAMES.join(", ")),
+            ))
+        }
     };
     Ok(SceneDescription {
         camera,
@@ -457,7 +709,13 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
         materials: b.materials,
         named_materials: b.named,
         lights: Vec::new(),
-        settings: RenderSettings { grid: opts.grid, samples_per_pixel: opts.samples_per_pixel, seed: opts.seed, max_depth: 8, ..RenderSettings::default() },
+        settings: RenderSettings {
+            grid: opts.grid,
+            samples_per_pixel: opts.samples_per_pixel,
+            seed: opts.seed,
+            max_depth: 8,
+            ..RenderSettings::default()
+        },
         focus_distance_m: Some(focus),
         notes: Vec::new(),
     })
@@ -491,7 +749,11 @@ pub fn mcc_layout(pos: &MccPosition) -> Result<MccLayout, BuiltinError> {
         MccPosition::Right => (margin + width / 2.0, MCC_CENTER_Y_M),
         MccPosition::At { x_m, y_m } => (x_m, y_m),
     };
-    if !(cx - width / 2.0 >= 0.0 && cx + width / 2.0 <= 0.5496 && cy - height / 2.0 >= 0.0 && cy + height / 2.0 <= 0.5488) {
+    if !(cx - width / 2.0 >= 0.0
+        && cx + width / 2.0 <= 0.5496
+        && cy - height / 2.0 >= 0.0
+        && cy + height / 2.0 <= 0.5488)
+    {
         return Err(berr(
             "ColorChecker position",
             format!("a {:.3} x {:.3} m chart centred at ({cx}, {cy}) m does not fit on the back wall (x 0-0.5496, y 0-0.5488 m)", width, height),
@@ -502,13 +764,22 @@ pub fn mcc_layout(pos: &MccPosition) -> Result<MccLayout, BuiltinError> {
     let mut centers = [[0.0; 3]; 24];
     for r in 0..4 {
         for c in 0..6 {
-            centers[r * 6 + c] = [cx + (2.5 - c as f64) * pitch, cy + (1.5 - r as f64) * pitch, z];
+            centers[r * 6 + c] = [
+                cx + (2.5 - c as f64) * pitch,
+                cy + (1.5 - r as f64) * pitch,
+                z,
+            ];
         }
     }
     let (hw, hh) = (width / 2.0, height / 2.0);
     Ok(MccLayout {
         center: [cx, cy, z],
-        corners: [[cx + hw, cy + hh, z], [cx - hw, cy + hh, z], [cx - hw, cy - hh, z], [cx + hw, cy - hh, z]],
+        corners: [
+            [cx + hw, cy + hh, z],
+            [cx - hw, cy + hh, z],
+            [cx - hw, cy - hh, z],
+            [cx + hw, cy - hh, z],
+        ],
         patch_centers: centers,
         patch_m: MCC_PATCH_M,
         size_m: (width, height),
@@ -523,22 +794,56 @@ fn add_mcc(b: &mut Builder, l: &MccLayout) {
         let h = MCC_PATCH_M / 2.0;
         b.quad(
             &format!("mcc_patch_{:02}", i + 1),
-            [[c[0] + h, c[1] + h, c[2]], [c[0] - h, c[1] + h, c[2]], [c[0] - h, c[1] - h, c[2]], [c[0] + h, c[1] - h, c[2]]],
+            [
+                [c[0] + h, c[1] + h, c[2]],
+                [c[0] - h, c[1] + h, c[2]],
+                [c[0] - h, c[1] - h, c[2]],
+                [c[0] + h, c[1] - h, c[2]],
+            ],
             toward,
             m,
             None,
         );
     }
     // Black border and gaps: one board 1 mm behind the patches, reflectance 0 (as the paper).
-    let m = b.material("mcc_black", Spectrum::from_pairs(&[(300.0, 0.0), (1100.0, 0.0)]).with_extrapolation(Extrapolation::Hold));
+    let m = b.material(
+        "mcc_black",
+        Spectrum::from_pairs(&[(300.0, 0.0), (1100.0, 0.0)])
+            .with_extrapolation(Extrapolation::Hold),
+    );
     let z = l.center[2] + 0.001;
     let c = l.corners;
-    b.quad("mcc_frame", [[c[0][0], c[0][1], z], [c[1][0], c[1][1], z], [c[2][0], c[2][1], z], [c[3][0], c[3][1], z]], toward, m, None);
+    b.quad(
+        "mcc_frame",
+        [
+            [c[0][0], c[0][1], z],
+            [c[1][0], c[1][1], z],
+            [c[2][0], c[2][1], z],
+            [c[3][0], c[3][1], z],
+        ],
+        toward,
+        m,
+        None,
+    );
 }
 
 fn add_edge_target(b: &mut Builder) {
-    let dark = b.material("target_black", Spectrum::from_pairs(&[(300.0, EDGE_DARK_REFLECTANCE), (1100.0, EDGE_DARK_REFLECTANCE)]).with_extrapolation(Extrapolation::Hold));
-    let light = b.material("target_white", Spectrum::from_pairs(&[(300.0, EDGE_LIGHT_REFLECTANCE), (1100.0, EDGE_LIGHT_REFLECTANCE)]).with_extrapolation(Extrapolation::Hold));
+    let dark = b.material(
+        "target_black",
+        Spectrum::from_pairs(&[
+            (300.0, EDGE_DARK_REFLECTANCE),
+            (1100.0, EDGE_DARK_REFLECTANCE),
+        ])
+        .with_extrapolation(Extrapolation::Hold),
+    );
+    let light = b.material(
+        "target_white",
+        Spectrum::from_pairs(&[
+            (300.0, EDGE_LIGHT_REFLECTANCE),
+            (1100.0, EDGE_LIGHT_REFLECTANCE),
+        ])
+        .with_extrapolation(Extrapolation::Hold),
+    );
     let (cx, cy, z) = (0.278, 0.30, EDGE_TARGET_Z_M);
     let h = EDGE_TARGET_SIZE_M / 2.0;
     let t = EDGE_ANGLE_DEG.to_radians().tan();
@@ -546,8 +851,20 @@ fn add_edge_target(b: &mut Builder) {
     let p = |u: f64, v: f64| [cx - u, cy + v, z];
     let toward = [cx, cy, z - 1.0];
     // Edge from (-h t, -h) to (h t, h): tilted clockwise from vertical by EDGE_ANGLE_DEG.
-    b.quad("target_black", [p(-h, -h), p(-h * t, -h), p(h * t, h), p(-h, h)], toward, dark, None);
-    b.quad("target_white", [p(-h * t, -h), p(h, -h), p(h, h), p(h * t, h)], toward, light, None);
+    b.quad(
+        "target_black",
+        [p(-h, -h), p(-h * t, -h), p(h * t, h), p(-h, h)],
+        toward,
+        dark,
+        None,
+    );
+    b.quad(
+        "target_white",
+        [p(-h * t, -h), p(h, -h), p(h, h), p(h * t, h)],
+        toward,
+        light,
+        None,
+    );
 }
 
 /// Continuous raster position (x right, y down; pixel (i, j) covers [i, i+1) x [j, j+1)) of the
@@ -561,7 +878,11 @@ pub fn project_to_raster(camera: &Camera, p: [f64; 3]) -> Option<[f64; 2]> {
     }
     let tan_half = (camera.fov_deg.to_radians() / 2.0).tan();
     let aspect = camera.width as f64 / camera.height as f64;
-    let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
+    let (sx, sy) = if aspect > 1.0 {
+        (aspect, 1.0)
+    } else {
+        (1.0, 1.0 / aspect)
+    };
     let x = (pc[0] / (pc[2] * tan_half * sx) + 1.0) / 2.0 * camera.width as f64;
     let y = (1.0 - pc[1] / (pc[2] * tan_half * sy)) / 2.0 * camera.height as f64;
     Some([x, y])
@@ -574,7 +895,8 @@ pub fn mcc_corners_px(opts: &BuiltinOptions) -> Result<[[f64; 2]; 4], BuiltinErr
     let l = mcc_layout(&opts.mcc_position)?;
     let mut out = [[0.0; 2]; 4];
     for (o, c) in out.iter_mut().zip(l.corners) {
-        *o = project_to_raster(&s.camera, c).ok_or_else(|| berr("ColorChecker", "behind the camera"))?;
+        *o = project_to_raster(&s.camera, c)
+            .ok_or_else(|| berr("ColorChecker", "behind the camera"))?;
     }
     Ok(out)
 }
@@ -584,9 +906,29 @@ pub fn mcc_corners_px(opts: &BuiltinOptions) -> Result<[[f64; 2]; 4], BuiltinErr
 pub fn mcc_patch_centers_px(opts: &BuiltinOptions) -> Result<(Vec<[f64; 2]>, f64), BuiltinError> {
     let s = scene("cornell-box-mcc", opts)?;
     let l = mcc_layout(&opts.mcc_position)?;
-    let pts: Option<Vec<[f64; 2]>> = l.patch_centers.iter().map(|c| project_to_raster(&s.camera, *c)).collect();
+    let pts: Option<Vec<[f64; 2]>> = l
+        .patch_centers
+        .iter()
+        .map(|c| project_to_raster(&s.camera, *c))
+        .collect();
     let pts = pts.ok_or_else(|| berr("ColorChecker", "behind the camera"))?;
-    let a = project_to_raster(&s.camera, [l.patch_centers[0][0] + MCC_PATCH_M / 2.0, l.patch_centers[0][1], l.patch_centers[0][2]]).unwrap_or([0.0; 2]);
-    let bpx = project_to_raster(&s.camera, [l.patch_centers[0][0] - MCC_PATCH_M / 2.0, l.patch_centers[0][1], l.patch_centers[0][2]]).unwrap_or([0.0; 2]);
+    let a = project_to_raster(
+        &s.camera,
+        [
+            l.patch_centers[0][0] + MCC_PATCH_M / 2.0,
+            l.patch_centers[0][1],
+            l.patch_centers[0][2],
+        ],
+    )
+    .unwrap_or([0.0; 2]);
+    let bpx = project_to_raster(
+        &s.camera,
+        [
+            l.patch_centers[0][0] - MCC_PATCH_M / 2.0,
+            l.patch_centers[0][1],
+            l.patch_centers[0][2],
+        ],
+    )
+    .unwrap_or([0.0; 2]);
     Ok((pts, (bpx[0] - a[0]).abs()))
 }

@@ -70,12 +70,6 @@ enum Sub {
     Split { bounds: Aabb, left: Box<Sub>, right: Box<Sub> },
 }
 
-#[derive(Clone, Copy)]
-struct Bin {
-    b: Aabb,
-    n: u32,
-}
-
 impl Bvh {
     /// Build over `prims` (their ids are their positions in the input).
     pub fn build(prims: Vec<Prim>) -> Bvh {
@@ -88,7 +82,8 @@ impl Bvh {
         let centroids: Vec<V3> = bounds.par_iter().map(|b| b.center()).collect();
         let mut idx: Vec<u32> = (0..n as u32).collect();
         let ctx = BuildCtx { bounds: &bounds, centroids: &centroids };
-        let sub = build_par(&ctx, &mut idx, 0, 0);
+        let (b, cb) = range_bounds(&ctx, &idx);
+        let sub = build_par(&ctx, &mut idx, 0, 0, b, cb);
         let mut nodes = Vec::with_capacity(2 * n);
         flatten(sub, &mut nodes);
         nodes.shrink_to_fit();
@@ -112,7 +107,8 @@ impl Bvh {
             return None;
         }
         let mut best: Option<(f32, f32, u32)> = None;
-        let mut stack = [(0u32, 0f32); STACK];
+        // Uninitialised: zeroing 1 KiB per ray costs as much as a traversal step.
+        let mut stack: [std::mem::MaybeUninit<(u32, f32)>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
         let mut node = 0usize;
         loop {
@@ -132,7 +128,7 @@ impl Bvh {
                 if tl < f32::INFINITY {
                     if tr < f32::INFINITY {
                         let (near, far, tf) = if tl <= tr { (l, rr, tr) } else { (rr, l, tl) };
-                        stack[sp] = (far as u32, tf);
+                        stack[sp] = std::mem::MaybeUninit::new((far as u32, tf));
                         sp += 1;
                         node = near;
                     } else {
@@ -150,7 +146,8 @@ impl Bvh {
                     return best.map(|(u, v, i)| Hit { t: t_max, u, v, slot: i });
                 }
                 sp -= 1;
-                let (n, t) = stack[sp];
+                // SAFETY: entries below `sp` were written before being popped.
+                let (n, t) = unsafe { stack[sp].assume_init() };
                 if t < t_max {
                     node = n as usize;
                     break;
@@ -166,7 +163,7 @@ impl Bvh {
         if nodes.is_empty() || ray_box(r, &nodes[0].min, &nodes[0].max, t_max) == f32::INFINITY {
             return false;
         }
-        let mut stack = [0u32; STACK];
+        let mut stack: [std::mem::MaybeUninit<u32>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
         let mut node = 0usize;
         loop {
@@ -184,7 +181,7 @@ impl Bvh {
                 let hr = ray_box(r, &nodes[rr].min, &nodes[rr].max, t_max) < f32::INFINITY;
                 if hl {
                     if hr {
-                        stack[sp] = rr as u32;
+                        stack[sp] = std::mem::MaybeUninit::new(rr as u32);
                         sp += 1;
                     }
                     node = l;
@@ -198,7 +195,8 @@ impl Bvh {
                 return false;
             }
             sp -= 1;
-            node = stack[sp] as usize;
+            // SAFETY: entries below `sp` were written before being popped.
+            node = unsafe { stack[sp].assume_init() } as usize;
         }
     }
 
@@ -231,9 +229,17 @@ fn range_bounds(ctx: &BuildCtx, idx: &[u32]) -> (Aabb, Aabb) {
     (b, cb)
 }
 
+/// A split: size of the left part and the (bounds, centroid bounds) of both parts.
+type Split = (usize, (Aabb, Aabb), (Aabb, Aabb));
+
+/// Split at `mid` after ordering (or not) by the caller; bounds by a pass over both halves.
+fn split_at(ctx: &BuildCtx, idx: &[u32], mid: usize) -> Split {
+    (mid, range_bounds(ctx, &idx[..mid]), range_bounds(ctx, &idx[mid..]))
+}
+
 /// Decide how to split `idx` (bounds `b`, centroid bounds `cb`); partition it and return the
-/// size of the left part, or `None` for a leaf.
-fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> Option<usize> {
+/// split, or `None` for a leaf. Bins along the axis of largest centroid extent (Wald 2007).
+fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> Option<Split> {
     let n = idx.len();
     if n <= 1 {
         return None;
@@ -248,59 +254,55 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
     };
     if ext[axis] <= 0.0 || !ext[axis].is_finite() {
         // All centroids coincide: a leaf, unless too big, then split by count.
-        return if n <= MAX_LEAF { None } else { Some(n / 2) };
+        return if n <= MAX_LEAF { None } else { Some(split_at(ctx, idx, n / 2)) };
     }
     if depth >= FORCE_MEDIAN_DEPTH {
         let mid = n / 2;
         idx.select_nth_unstable_by(mid, |a, c| {
             ctx.centroids[*a as usize][axis].total_cmp(&ctx.centroids[*c as usize][axis])
         });
-        return Some(mid);
+        return Some(split_at(ctx, idx, mid));
     }
-    // Bin along all three axes in one pass.
-    let mut bins = [[Bin { b: Aabb::EMPTY, n: 0 }; BINS]; 3];
-    let mut scale = [0f32; 3];
-    for a in 0..3 {
-        scale[a] = if ext[a] > 0.0 { BINS as f32 * (1.0 - 1e-6) / ext[a] } else { 0.0 };
+    #[derive(Clone, Copy)]
+    struct Bin {
+        b: Aabb,
+        cb: Aabb,
+        n: u32,
     }
+    let mut bins = [Bin { b: Aabb::EMPTY, cb: Aabb::EMPTY, n: 0 }; BINS];
+    let lo = cb.min[axis];
+    let scale = BINS as f32 * (1.0 - 1e-6) / ext[axis];
+    let bin_of = |c: f32| -> usize { (((c - lo) * scale) as usize).min(BINS - 1) };
     for &i in idx.iter() {
         let c = ctx.centroids[i as usize];
-        let bb = &ctx.bounds[i as usize];
-        for a in 0..3 {
-            let k = (((c[a] - cb.min[a]) * scale[a]) as usize).min(BINS - 1);
-            let bin = &mut bins[a][k];
-            bin.b.grow(bb);
-            bin.n += 1;
-        }
+        let bin = &mut bins[bin_of(c[axis])];
+        bin.b.grow(&ctx.bounds[i as usize]);
+        bin.cb.grow_point(c);
+        bin.n += 1;
     }
-    // Sweep: cost of splitting after bin k on axis a.
-    let mut best = (f32::INFINITY, 0usize, 0usize);
-    for (a, bins_a) in bins.iter().enumerate() {
-        if ext[a] <= 0.0 {
+    // Sweep from the right, then from the left: SAH cost of splitting after bin k.
+    let mut right_area = [0f32; BINS];
+    let mut right_n = [0u32; BINS];
+    let mut acc = Aabb::EMPTY;
+    let mut cnt = 0u32;
+    for k in (1..BINS).rev() {
+        acc.grow(&bins[k].b);
+        cnt += bins[k].n;
+        right_area[k] = acc.half_area();
+        right_n[k] = cnt;
+    }
+    let mut best = (f32::INFINITY, 0usize);
+    let mut acc = Aabb::EMPTY;
+    let mut cnt = 0u32;
+    for k in 0..BINS - 1 {
+        acc.grow(&bins[k].b);
+        cnt += bins[k].n;
+        if cnt == 0 || right_n[k + 1] == 0 {
             continue;
         }
-        let mut right_area = [0f32; BINS];
-        let mut right_n = [0u32; BINS];
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0u32;
-        for k in (1..BINS).rev() {
-            acc.grow(&bins_a[k].b);
-            cnt += bins_a[k].n;
-            right_area[k] = acc.half_area();
-            right_n[k] = cnt;
-        }
-        let mut acc = Aabb::EMPTY;
-        let mut cnt = 0u32;
-        for k in 0..BINS - 1 {
-            acc.grow(&bins_a[k].b);
-            cnt += bins_a[k].n;
-            if cnt == 0 || right_n[k + 1] == 0 {
-                continue;
-            }
-            let cost = acc.half_area() * cnt as f32 + right_area[k + 1] * right_n[k + 1] as f32;
-            if cost < best.0 {
-                best = (cost, a, k);
-            }
+        let cost = acc.half_area() * cnt as f32 + right_area[k + 1] * right_n[k + 1] as f32;
+        if cost < best.0 {
+            best = (cost, k);
         }
     }
     let parent_area = b.half_area().max(f32::MIN_POSITIVE);
@@ -309,16 +311,14 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
         return None;
     }
     if !best.0.is_finite() {
-        return if n <= MAX_LEAF { None } else { Some(n / 2) };
+        return if n <= MAX_LEAF { None } else { Some(split_at(ctx, idx, n / 2)) };
     }
-    let (_, a, k) = best;
-    let (lo, sc) = (cb.min[a], scale[a]);
+    let k = best.1;
     // In-place partition: bin index <= k goes left.
     let mut i = 0usize;
     let mut j = n;
     while i < j {
-        let c = ctx.centroids[idx[i] as usize][a];
-        if ((((c - lo) * sc) as usize).min(BINS - 1)) <= k {
+        if bin_of(ctx.centroids[idx[i] as usize][axis]) <= k {
             i += 1;
         } else {
             j -= 1;
@@ -326,42 +326,48 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
         }
     }
     if i == 0 || i == n {
-        Some(n / 2)
-    } else {
-        Some(i)
+        return Some(split_at(ctx, idx, n / 2));
     }
+    let (mut l, mut r) = ((Aabb::EMPTY, Aabb::EMPTY), (Aabb::EMPTY, Aabb::EMPTY));
+    for (kk, bin) in bins.iter().enumerate() {
+        let side = if kk <= k { &mut l } else { &mut r };
+        side.0.grow(&bin.b);
+        side.1.grow(&bin.cb);
+    }
+    Some((i, l, r))
 }
 
 /// Serial build of a subtree into `out` with node indices relative to `out`'s start.
-/// `offset` is the position of `idx[0]` in the global primitive order.
-fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, out: &mut Vec<Node>) {
-    let (b, cb) = range_bounds(ctx, idx);
+/// `offset` is the position of `idx[0]` in the global primitive order; `b`, `cb` the bounds
+/// and centroid bounds of `idx`.
+fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb, out: &mut Vec<Node>) {
     match split(ctx, idx, &b, &cb, depth) {
         None => out.push(Node::new(&b, offset as u32, idx.len() as u32)),
-        Some(mid) => {
+        Some((mid, (lb, lcb), (rb, rcb))) => {
             let me = out.len();
             out.push(Node::new(&b, 0, 0));
             let (l, r) = idx.split_at_mut(mid);
-            build_serial(ctx, l, offset, depth + 1, out);
+            build_serial(ctx, l, offset, depth + 1, lb, lcb, out);
             out[me].index = out.len() as u32;
-            build_serial(ctx, r, offset + mid, depth + 1, out);
+            build_serial(ctx, r, offset + mid, depth + 1, rb, rcb, out);
         }
     }
 }
 
-fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize) -> Sub {
+fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb) -> Sub {
     if idx.len() < PARALLEL_THRESHOLD {
         let mut v = Vec::with_capacity(idx.len() * 2 / MAX_LEAF.max(1) + 1);
-        build_serial(ctx, idx, offset, depth, &mut v);
+        build_serial(ctx, idx, offset, depth, b, cb, &mut v);
         return Sub::Flat(v);
     }
-    let (b, cb) = range_bounds(ctx, idx);
     match split(ctx, idx, &b, &cb, depth) {
         None => Sub::Flat(vec![Node::new(&b, offset as u32, idx.len() as u32)]),
-        Some(mid) => {
+        Some((mid, (lb, lcb), (rb, rcb))) => {
             let (l, r) = idx.split_at_mut(mid);
-            let (left, right) =
-                rayon::join(|| build_par(ctx, l, offset, depth + 1), || build_par(ctx, r, offset + mid, depth + 1));
+            let (left, right) = rayon::join(
+                || build_par(ctx, l, offset, depth + 1, lb, lcb),
+                || build_par(ctx, r, offset + mid, depth + 1, rb, rcb),
+            );
             Sub::Split { bounds: b, left: Box::new(left), right: Box::new(right) }
         }
     }

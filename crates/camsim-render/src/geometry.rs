@@ -1,6 +1,6 @@
 //! Rays, bounding boxes and the two primitive kinds (triangles, spheres) with their ray tests.
 
-use crate::math::V3;
+use crate::math::{fmax, fmin, V3};
 
 /// A ray `o + t d` with a unit direction `d`, so `t` is a distance in metres.
 #[derive(Debug, Clone, Copy)]
@@ -18,10 +18,19 @@ pub struct RayInv {
 }
 
 impl RayInv {
-    /// Precompute `1 / d` (infinite components are fine: the slab test tolerates them).
+    /// Precompute `1 / d`. Zero components are replaced by +-1e-30 so the reciprocal is finite
+    /// and the slab test never forms `0 * inf` (NaN).
     #[inline(always)]
     pub fn new(r: &Ray) -> RayInv {
-        RayInv { o: r.o, d: r.d, inv_d: V3::new(1.0 / r.d.x, 1.0 / r.d.y, 1.0 / r.d.z) }
+        #[inline(always)]
+        fn safe(x: f32) -> f32 {
+            if x.abs() < 1e-30 {
+                1e-30f32.copysign(x)
+            } else {
+                x
+            }
+        }
+        RayInv { o: r.o, d: r.d, inv_d: V3::new(1.0 / safe(r.d.x), 1.0 / safe(r.d.y), 1.0 / safe(r.d.z)) }
     }
 }
 
@@ -75,9 +84,9 @@ pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
     let ty1 = (max[1] - r.o.y) * r.inv_d.y;
     let tz0 = (min[2] - r.o.z) * r.inv_d.z;
     let tz1 = (max[2] - r.o.z) * r.inv_d.z;
-    // f32::min/max ignore a NaN operand (0 * inf on a slab plane), which keeps the test conservative.
-    let t_near = tx0.min(tx1).max(ty0.min(ty1)).max(tz0.min(tz1)).max(0.0);
-    let t_far = tx0.max(tx1).min(ty0.max(ty1)).min(tz0.max(tz1)).min(t_max);
+    // inv_d is finite (RayInv::new), so no NaN arises and one-instruction min/max suffice.
+    let t_near = fmax(fmax(fmin(tx0, tx1), fmin(ty0, ty1)), fmax(fmin(tz0, tz1), 0.0));
+    let t_far = fmin(fmin(fmax(tx0, tx1), fmax(ty0, ty1)), fmin(fmax(tz0, tz1), t_max));
     // Robust traversal slack (Ize 2013): widen t_far by 2 ulp-ish so grazing boxes are not lost.
     if t_near <= t_far * 1.000_000_24 {
         t_near

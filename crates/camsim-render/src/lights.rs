@@ -230,3 +230,55 @@ impl Lights {
         Some(LightSample { wi, dist, le, pdf })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectral::WavelengthSampler;
+    use camsim_core::{Spectrum, WavelengthGrid};
+    use rand::Rng;
+
+    /// The density `sample` reports must equal what `pdf_hit` (used for MIS when a BSDF ray hits
+    /// the light) computes for the same point, for every light kind; and one-sided lights never
+    /// return samples from their back side.
+    #[test]
+    fn sample_pdf_matches_pdf_hit() {
+        let ws = WavelengthSampler::new(&WavelengthGrid::default());
+        let tables = vec![SpectrumTable::new(&Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(), 1.0, &ws)];
+        let mut lights = Lights::default();
+        let (p0, e1, e2) = (V3::new(-0.5, 1.0, -0.5), V3::new(1.0, 0.0, 0.2), V3::new(0.1, 0.0, 1.0));
+        let n = e1.cross(e2).normalize();
+        lights.push(LightKind::Tri { p0, e1, e2, n, area: 0.5 * e1.cross(e2).length() }, 0, false);
+        lights.push(LightKind::Sphere { center: V3::new(2.0, 0.5, 0.0), radius: 0.4, inward: false }, 0, true);
+        lights.push(LightKind::Sphere { center: V3::new(0.0, 0.0, 0.0), radius: 5.0, inward: true }, 0, false);
+        lights.push(LightKind::Infinite, 0, true);
+        lights.finish(&tables, 5.0);
+        let total: f32 = lights.list.iter().map(|l| l.pmf).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+        let mut rng = camsim_core::rng::seeded(4);
+        let p = V3::new(0.1, -0.3, 0.2);
+        let mut seen = [0usize; 4];
+        for _ in 0..20_000 {
+            let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
+            let k = lights.pick(us);
+            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &[500.0; 4]) else { continue };
+            seen[k] += 1;
+            let light = &lights.list[k];
+            assert_eq!(s.le, [2.0; 4]);
+            if let LightKind::Infinite = light.kind {
+                assert!((s.pdf - light.pmf / (4.0 * PI)).abs() < 1e-6);
+                continue;
+            }
+            let q = p + s.wi * s.dist;
+            let ng = match light.kind {
+                LightKind::Tri { n, .. } => n,
+                LightKind::Sphere { center, .. } => (q - center).normalize(),
+                LightKind::Infinite => unreachable!(),
+            };
+            assert!(lights.emits_toward(light, q, ng, -s.wi), "sample from the back of a one-sided light");
+            let ph = lights.pdf_hit(light, p, q, ng);
+            assert!((ph / s.pdf - 1.0).abs() < 2e-3, "light {k}: sample pdf {} vs pdf_hit {ph}", s.pdf);
+        }
+        assert!(seen.iter().all(|c| *c > 100), "{seen:?}");
+    }
+}

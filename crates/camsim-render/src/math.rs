@@ -2,6 +2,26 @@
 
 use std::ops::{Add, AddAssign, Div, Index, Mul, Neg, Sub};
 
+/// Minimum by one comparison (a single `minss`; with a NaN operand it returns `b`).
+#[inline(always)]
+pub fn fmin(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// Maximum by one comparison (a single `maxss`; with a NaN operand it returns `b`).
+#[inline(always)]
+pub fn fmax(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
 /// A 3-vector of f32 (points, directions, normals).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct V3 {
@@ -54,12 +74,12 @@ impl V3 {
     /// Component-wise minimum.
     #[inline(always)]
     pub fn min(self, o: V3) -> V3 {
-        V3::new(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
+        V3::new(fmin(self.x, o.x), fmin(self.y, o.y), fmin(self.z, o.z))
     }
     /// Component-wise maximum.
     #[inline(always)]
     pub fn max(self, o: V3) -> V3 {
-        V3::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+        V3::new(fmax(self.x, o.x), fmax(self.y, o.y), fmax(self.z, o.z))
     }
     /// Component-wise product.
     #[inline(always)]

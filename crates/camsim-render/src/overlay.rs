@@ -54,6 +54,9 @@
 //! right-handed). Light: a new `spectrum` keeps the light's previous luminance unless
 //! `luminance_cd_m2` is given; `radiance_scale` multiplies last.
 
+// `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::builtin::{cornell_reflectance, spectrum_at_luminance};
 use crate::pbrt::spectra::photometric;
 use crate::pbrt::xform::{self, det3, shape_bounds};
@@ -282,17 +285,21 @@ pub fn glob_match(pattern: &str, name: &str) -> bool {
 }
 
 /// Resolve a spectrum spec; `what` names it in errors.
-pub fn resolve_spectrum(spec: &SpectrumSpec, base_dir: &Path, what: &str) -> Result<Spectrum, String> {
+pub fn resolve_spectrum(
+    spec: &SpectrumSpec,
+    base_dir: &Path,
+    what: &str,
+) -> Result<Spectrum, String> {
     match spec {
         SpectrumSpec::Constant(v) => {
             if !v.is_finite() || *v < 0.0 {
                 return Err(format!("{what}: {v} must be a non-negative number"));
             }
-            Ok(Spectrum::from_pairs(&[(300.0, *v), (1100.0, *v)]).with_extrapolation(Extrapolation::Hold))
+            Ok(Spectrum::from_pairs(&[(300.0, *v), (1100.0, *v)])
+                .with_extrapolation(Extrapolation::Hold))
         }
-        SpectrumSpec::Blackbody(b) => {
-            tables::illuminant(&format!("blackbody-{}", b.blackbody_k)).map_err(|e| format!("{what}: {e}"))
-        }
+        SpectrumSpec::Blackbody(b) => tables::illuminant(&format!("blackbody-{}", b.blackbody_k))
+            .map_err(|e| format!("{what}: {e}")),
         SpectrumSpec::Name(n) => {
             if let Some(p) = n.strip_prefix("macbeth:") {
                 tables::macbeth_patch(p).map_err(|e| format!("{what}: {e}"))
@@ -306,7 +313,8 @@ pub fn resolve_spectrum(spec: &SpectrumSpec, base_dir: &Path, what: &str) -> Res
         }
         SpectrumSpec::File(f) => {
             let path = resolve_path(base_dir, &f.file);
-            let table = camsim_core::spectrum_csv::load_spectra(&path).map_err(|e| format!("{what}: {e}"))?;
+            let table = camsim_core::spectrum_csv::load_spectra(&path)
+                .map_err(|e| format!("{what}: {e}"))?;
             let s = match &f.column {
                 None => {
                     if table.len() != 1 {
@@ -345,14 +353,28 @@ fn resolve_path(base: &Path, f: &str) -> PathBuf {
 
 /// Parse and apply an overlay. `source_name` names it in errors; relative paths resolve against
 /// `base_dir`.
-pub fn apply(scene: &mut SceneDescription, overlay_toml: &str, source_name: &str, base_dir: &Path) -> Result<(), OverlayError> {
-    let ov: Overlay = toml::from_str(overlay_toml)
-        .map_err(|e| OverlayError { source_name: source_name.to_string(), message: e.to_string().trim_end().to_string() })?;
-    apply_overlay(scene, &ov, base_dir).map_err(|message| OverlayError { source_name: source_name.to_string(), message })
+pub fn apply(
+    scene: &mut SceneDescription,
+    overlay_toml: &str,
+    source_name: &str,
+    base_dir: &Path,
+) -> Result<(), OverlayError> {
+    let ov: Overlay = toml::from_str(overlay_toml).map_err(|e| OverlayError {
+        source_name: source_name.to_string(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    apply_overlay(scene, &ov, base_dir).map_err(|message| OverlayError {
+        source_name: source_name.to_string(),
+        message,
+    })
 }
 
 /// Apply an already-parsed overlay; errors name the key.
-pub fn apply_overlay(scene: &mut SceneDescription, ov: &Overlay, base_dir: &Path) -> Result<(), String> {
+pub fn apply_overlay(
+    scene: &mut SceneDescription,
+    ov: &Overlay,
+    base_dir: &Path,
+) -> Result<(), String> {
     if let Some(c) = &ov.camera {
         apply_camera(scene, c)?;
     }
@@ -383,28 +405,42 @@ pub fn apply_overlay(scene: &mut SceneDescription, ov: &Overlay, base_dir: &Path
             s.time_budget_s = Some(v);
         }
         if let Some(g) = r.grid {
-            s.grid = WavelengthGrid::new(g.start_nm, g.end_nm, g.step_nm).map_err(|e| format!("render.grid: {e}"))?;
+            s.grid = WavelengthGrid::new(g.start_nm, g.end_nm, g.step_nm)
+                .map_err(|e| format!("render.grid: {e}"))?;
         }
     }
     for (i, m) in ov.material.iter().enumerate() {
         let what = format!("material[{i}] \"{}\" reflectance", m.name);
         let s = resolve_spectrum(&m.reflectance, base_dir, &what)?;
         if s.values.iter().any(|v| *v > 1.0 + 1e-9) {
-            scene.notes.push(format!("{what}: values above 1 (max {:.3}); a reflectance above 1 adds energy", s.max_value()));
+            scene.notes.push(format!(
+                "{what}: values above 1 (max {:.3}); a reflectance above 1 adds energy",
+                s.max_value()
+            ));
         }
-        let mut names: Vec<(String, usize)> =
-            scene.named_materials.iter().filter(|(k, _)| glob_match(&m.name, k)).map(|(k, v)| (k.clone(), *v)).collect();
+        let mut names: Vec<(String, usize)> = scene
+            .named_materials
+            .iter()
+            .filter(|(k, _)| glob_match(&m.name, k))
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
         names.sort();
         if names.is_empty() {
             if m.name.contains('*') {
                 return Err(format!("material[{i}]: no material matches \"{}\"", m.name));
             }
-            scene.materials.push(Material::Diffuse { reflectance: Texture::Constant(s) });
-            scene.named_materials.insert(m.name.clone(), scene.materials.len() - 1);
+            scene.materials.push(Material::Diffuse {
+                reflectance: Texture::Constant(s),
+            });
+            scene
+                .named_materials
+                .insert(m.name.clone(), scene.materials.len() - 1);
             continue;
         }
         for (_, idx) in names {
-            scene.materials[idx] = Material::Diffuse { reflectance: Texture::Constant(s.clone()) };
+            scene.materials[idx] = Material::Diffuse {
+                reflectance: Texture::Constant(s.clone()),
+            };
         }
     }
     for (i, o) in ov.object.iter().enumerate() {
@@ -423,7 +459,10 @@ fn apply_camera(scene: &mut SceneDescription, c: &CameraOverlay) -> Result<(), S
             let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
             let right_handed = det3(&cam.camera_to_world) < 0.0;
             cam.camera_to_world = crate::camera::look_at_camera_to_world(p, l, up, right_handed)
-                .ok_or_else(|| "camera: position_m, look_at_m and up are degenerate (up parallel to the view?)".to_string())?;
+                .ok_or_else(|| {
+                    "camera: position_m, look_at_m and up are degenerate (up parallel to the view?)"
+                        .to_string()
+                })?;
         }
         (None, None) => {
             if c.up.is_some() {
@@ -467,20 +506,45 @@ fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_dir: &Path) -> Result<(), String> {
+fn apply_object(
+    scene: &mut SceneDescription,
+    o: &ObjectOverlay,
+    i: usize,
+    base_dir: &Path,
+) -> Result<(), String> {
     let key = format!("object[{i}] \"{}\"", o.name);
-    let matched: Vec<usize> =
-        (0..scene.shapes.len()).filter(|&k| scene.shapes[k].name.as_deref().is_some_and(|n| glob_match(&o.name, n))).collect();
+    let matched: Vec<usize> = (0..scene.shapes.len())
+        .filter(|&k| {
+            scene.shapes[k]
+                .name
+                .as_deref()
+                .is_some_and(|n| glob_match(&o.name, n))
+        })
+        .collect();
     if matched.is_empty() {
-        let mut names: Vec<&str> = scene.shapes.iter().filter_map(|s| s.name.as_deref()).collect();
+        let mut names: Vec<&str> = scene
+            .shapes
+            .iter()
+            .filter_map(|s| s.name.as_deref())
+            .collect();
         names.dedup();
-        return Err(format!("{key}: no object of that name (objects: {})", names.join(", ")));
+        return Err(format!(
+            "{key}: no object of that name (objects: {})",
+            names.join(", ")
+        ));
     }
     let refs: Vec<&Shape> = matched.iter().map(|&k| &scene.shapes[k]).collect();
     let (lo, hi) = union_bounds(&refs);
     if o.remove {
-        if o.replace.is_some() || o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() || o.material.is_some() {
-            return Err(format!("{key}: remove = true cannot be combined with other changes"));
+        if o.replace.is_some()
+            || o.scale.is_some()
+            || o.rotate.is_some()
+            || o.translate_m.is_some()
+            || o.material.is_some()
+        {
+            return Err(format!(
+                "{key}: remove = true cannot be combined with other changes"
+            ));
         }
         let mut k = 0;
         scene.shapes.retain(|_| {
@@ -497,14 +561,24 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
         let name = first.name.clone();
         let old_material = first.material;
         let material_override = match &r.material {
-            Some(m) => Some(*scene.named_materials.get(m).ok_or_else(|| format!("{key}: replace.material \"{m}\" is not a named material"))?),
+            Some(m) => Some(*scene.named_materials.get(m).ok_or_else(|| {
+                format!("{key}: replace.material \"{m}\" is not a named material")
+            })?),
             None => None,
         };
-        let mut new_shapes: Vec<Shape> = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply")) {
+        let mut new_shapes: Vec<Shape> = if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
+        {
             let m = crate::pbrt::ply::read_ply(&path).map_err(|e| format!("{key}: {e}"))?;
             vec![Shape {
                 name: name.clone(),
-                geometry: Geometry::Triangles { positions: m.positions, indices: m.triangles, uvs: m.uvs, normals: m.normals },
+                geometry: Geometry::Triangles {
+                    positions: m.positions,
+                    indices: m.triangles,
+                    uvs: m.uvs,
+                    normals: m.normals,
+                },
                 material: material_override.unwrap_or(old_material),
                 area_light: None,
                 reverse_orientation: false,
@@ -517,7 +591,10 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
                 scene.named_materials.entry(n).or_insert(idx + offset);
             }
             if !sub.lights.is_empty() {
-                scene.notes.push(format!("{key}: the infinite lights of {} were not inserted", path.display()));
+                scene.notes.push(format!(
+                    "{key}: the infinite lights of {} were not inserted",
+                    path.display()
+                ));
             }
             sub.shapes
                 .into_iter()
@@ -534,10 +611,22 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
         let align = r.align.as_deref().unwrap_or("bottom");
         let (nlo, nhi) = union_bounds(&new_shapes.iter().collect::<Vec<_>>());
         let shift = match align {
-            "bottom" => [(lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0, lo[1] - nlo[1], (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0],
-            "center" => [(lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0, (lo[1] + hi[1] - nlo[1] - nhi[1]) / 2.0, (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0],
+            "bottom" => [
+                (lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0,
+                lo[1] - nlo[1],
+                (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0,
+            ],
+            "center" => [
+                (lo[0] + hi[0] - nlo[0] - nhi[0]) / 2.0,
+                (lo[1] + hi[1] - nlo[1] - nhi[1]) / 2.0,
+                (lo[2] + hi[2] - nlo[2] - nhi[2]) / 2.0,
+            ],
             "none" => [0.0; 3],
-            other => return Err(format!("{key}: replace.align \"{other}\" must be bottom, center or none")),
+            other => {
+                return Err(format!(
+                    "{key}: replace.align \"{other}\" must be bottom, center or none"
+                ))
+            }
         };
         let t = Transform::translate(shift);
         for s in new_shapes.iter_mut() {
@@ -557,7 +646,10 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
         targets = (at..at + n_new).collect();
     }
     if let Some(m) = &o.material {
-        let idx = *scene.named_materials.get(m).ok_or_else(|| format!("{key}: material \"{m}\" is not a named material"))?;
+        let idx = *scene
+            .named_materials
+            .get(m)
+            .ok_or_else(|| format!("{key}: material \"{m}\" is not a named material"))?;
         for &k in &targets {
             scene.shapes[k].material = idx;
         }
@@ -565,7 +657,11 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
     if o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() {
         let refs: Vec<&Shape> = targets.iter().map(|&k| &scene.shapes[k]).collect();
         let (lo, hi) = union_bounds(&refs);
-        let pivot = o.pivot_m.unwrap_or([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0]);
+        let pivot = o.pivot_m.unwrap_or([
+            (lo[0] + hi[0]) / 2.0,
+            (lo[1] + hi[1]) / 2.0,
+            (lo[2] + hi[2]) / 2.0,
+        ]);
         let mut t = Transform::translate([-pivot[0], -pivot[1], -pivot[2]]);
         if let Some(s) = &o.scale {
             let s = match s {
@@ -579,7 +675,9 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
         }
         if let Some(r) = &o.rotate {
             if r.axis.iter().all(|v| *v == 0.0) || !r.angle_deg.is_finite() {
-                return Err(format!("{key}: rotate needs a finite angle and a non-zero axis"));
+                return Err(format!(
+                    "{key}: rotate needs a finite angle and a non-zero axis"
+                ));
             }
             t = Transform::rotate(r.angle_deg, r.axis).then_apply_to(&t);
         }
@@ -594,7 +692,11 @@ fn apply_object(scene: &mut SceneDescription, o: &ObjectOverlay, i: usize, base_
     Ok(())
 }
 
-fn apply_light(scene: &mut SceneDescription, l: &LightOverlay, base_dir: &Path) -> Result<(), String> {
+fn apply_light(
+    scene: &mut SceneDescription,
+    l: &LightOverlay,
+    base_dir: &Path,
+) -> Result<(), String> {
     let new_shape = match &l.spectrum {
         Some(s) => Some(resolve_spectrum(s, base_dir, "light.spectrum")?),
         None => None,
@@ -606,12 +708,16 @@ fn apply_light(scene: &mut SceneDescription, l: &LightOverlay, base_dir: &Path) 
     }
     if let Some(v) = l.luminance_cd_m2 {
         if !(v >= 0.0 && v.is_finite()) {
-            return Err(format!("light.luminance_cd_m2 {v} must be a non-negative number"));
+            return Err(format!(
+                "light.luminance_cd_m2 {v} must be a non-negative number"
+            ));
         }
     }
     if let Some(v) = l.radiance_scale {
         if !(v >= 0.0 && v.is_finite()) {
-            return Err(format!("light.radiance_scale {v} must be a non-negative number"));
+            return Err(format!(
+                "light.radiance_scale {v} must be a non-negative number"
+            ));
         }
     }
     let change = |old: &Spectrum| -> Result<Spectrum, String> {
@@ -619,7 +725,9 @@ fn apply_light(scene: &mut SceneDescription, l: &LightOverlay, base_dir: &Path) 
         let relative = new_shape.clone().unwrap_or_else(|| old.clone());
         let mut out = match (l.luminance_cd_m2, &new_shape) {
             (Some(v), _) => spectrum_at_luminance(&relative, v).map_err(|e| e.to_string())?,
-            (None, Some(_)) => spectrum_at_luminance(&relative, old_lum).map_err(|e| e.to_string())?,
+            (None, Some(_)) => {
+                spectrum_at_luminance(&relative, old_lum).map_err(|e| e.to_string())?
+            }
             (None, None) => old.clone(),
         };
         if let Some(k) = l.radiance_scale {
@@ -651,7 +759,13 @@ fn apply_light(scene: &mut SceneDescription, l: &LightOverlay, base_dir: &Path) 
         }
     }
     if n == 0 {
-        return Err(format!("light: no emitter matches{}", l.name.as_ref().map(|n| format!(" \"{n}\"")).unwrap_or_default()));
+        return Err(format!(
+            "light: no emitter matches{}",
+            l.name
+                .as_ref()
+                .map(|n| format!(" \"{n}\""))
+                .unwrap_or_default()
+        ));
     }
     Ok(())
 }

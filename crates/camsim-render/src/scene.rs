@@ -127,7 +127,11 @@ pub struct Shape {
     pub material: usize,
     pub area_light: Option<AreaLight>,
     /// Flip the geometric normal (pbrt `ReverseOrientation`): decides the emitting side of a
-    /// one-sided area light.
+    /// one-sided area light. Geometry here is already in world space, so this must be pbrt's
+    /// `ReverseOrientation XOR transformSwapsHandedness`. The renderer's geometric normal is,
+    /// for triangles, `(p1 - p0) x (p2 - p0)` normalized, turned toward the vertex normals when
+    /// the mesh has them (then this flag is ignored, as in pbrt-v4) and negated by this flag
+    /// otherwise; for spheres the outward normal, negated by this flag.
     pub reverse_orientation: bool,
 }
 

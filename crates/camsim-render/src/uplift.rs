@@ -89,7 +89,10 @@ fn fit_data() -> &'static FitData {
         let d65 = tables::illuminant("D65").expect("D65 is a built-in table");
         let n = ((LAMBDA_MAX_NM - LAMBDA_MIN_NM) / 5.0).round() as usize + 1;
         let wavelengths_nm: Vec<f64> = (0..n).map(|i| LAMBDA_MIN_NM + 5.0 * i as f64).collect();
-        let t = wavelengths_nm.iter().map(|l| (l - LAMBDA_MIN_NM) / (LAMBDA_MAX_NM - LAMBDA_MIN_NM)).collect();
+        let t = wavelengths_nm
+            .iter()
+            .map(|l| (l - LAMBDA_MIN_NM) / (LAMBDA_MAX_NM - LAMBDA_MIN_NM))
+            .collect();
         let mut w = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let mut y_sum = 0.0;
         for (i, &l) in wavelengths_nm.iter().enumerate() {
@@ -103,7 +106,12 @@ fn fit_data() -> &'static FitData {
             c.iter_mut().for_each(|v| *v /= y_sum);
         }
         let white_xyz = [w[0].iter().sum(), w[1].iter().sum(), w[2].iter().sum()];
-        FitData { wavelengths_nm, t, w, white_xyz }
+        FitData {
+            wavelengths_nm,
+            t,
+            w,
+            white_xyz,
+        }
     })
 }
 
@@ -136,7 +144,11 @@ fn spectrum_xyz(c: &[f64; 3], d: &FitData) -> [f64; 3] {
 
 fn residual(c: &[f64; 3], target_lab: &[f64; 3], d: &FitData) -> [f64; 3] {
     let lab = xyz_to_lab(spectrum_xyz(c, d), d.white_xyz);
-    [lab[0] - target_lab[0], lab[1] - target_lab[1], lab[2] - target_lab[2]]
+    [
+        lab[0] - target_lab[0],
+        lab[1] - target_lab[1],
+        lab[2] - target_lab[2],
+    ]
 }
 
 fn norm(r: &[f64; 3]) -> f64 {
@@ -194,11 +206,17 @@ fn gauss_newton(rgb: [f64; 3], mut c: [f64; 3], iterations: usize) -> ([f64; 3],
                 jac[i][k] = (rp[i] - rm[i]) / (2.0 * h);
             }
         }
-        let Some(step) = solve3(jac, [-r[0], -r[1], -r[2]]) else { break };
+        let Some(step) = solve3(jac, [-r[0], -r[1], -r[2]]) else {
+            break;
+        };
         let mut scale = 1.0;
         let mut improved = false;
         for _ in 0..12 {
-            let cn = [c[0] + scale * step[0], c[1] + scale * step[1], c[2] + scale * step[2]];
+            let cn = [
+                c[0] + scale * step[0],
+                c[1] + scale * step[1],
+                c[2] + scale * step[2],
+            ];
             let rnew = residual(&cn, &target_lab, d);
             let nn = norm(&rnew);
             if nn.is_finite() && nn < rn {
@@ -226,7 +244,13 @@ fn gauss_newton(rgb: [f64; 3], mut c: [f64; 3], iterations: usize) -> ([f64; 3],
 }
 
 fn clamp_rgb(rgb: [f32; 3]) -> [f64; 3] {
-    let f = |v: f32| if v.is_nan() { 0.0 } else { (v as f64).clamp(0.0, 1.0) };
+    let f = |v: f32| {
+        if v.is_nan() {
+            0.0
+        } else {
+            (v as f64).clamp(0.0, 1.0)
+        }
+    };
     [f(rgb[0]), f(rgb[1]), f(rgb[2])]
 }
 
@@ -251,8 +275,9 @@ fn table() -> &'static Table {
 fn build_table() -> Table {
     let n = TABLE_RES;
     let z: Vec<f64> = (0..n).map(z_scale).collect();
-    let columns: Vec<(usize, usize, usize)> =
-        (0..3).flat_map(|l| (0..n).flat_map(move |j| (0..n).map(move |i| (l, j, i)))).collect();
+    let columns: Vec<(usize, usize, usize)> = (0..3)
+        .flat_map(|l| (0..n).flat_map(move |j| (0..n).map(move |i| (l, j, i))))
+        .collect();
     let results: Vec<Vec<[f32; 3]>> = columns
         .par_iter()
         .map(|&(l, j, i)| {
@@ -273,7 +298,11 @@ fn build_table() -> Table {
                 c = gauss_newton(rgb_at(k), c, 30).0;
                 out[k] = [c[0] as f32, c[1] as f32, c[2] as f32];
             }
-            c = [out[start][0] as f64, out[start][1] as f64, out[start][2] as f64];
+            c = [
+                out[start][0] as f64,
+                out[start][1] as f64,
+                out[start][2] as f64,
+            ];
             for k in (0..start).rev() {
                 c = gauss_newton(rgb_at(k), c, 30).0;
                 out[k] = [c[0] as f32, c[1] as f32, c[2] as f32];
@@ -317,7 +346,10 @@ pub fn rgb_to_coefficients(rgb: [f32; 3]) -> SigmoidPolynomial {
     let yv = rgb[(l + 2) % 3] / zv * (n - 1) as f64;
     let xi = (xv.floor() as usize).min(n - 2);
     let yi = (yv.floor() as usize).min(n - 2);
-    let zi = t.z.partition_point(|v| *v <= zv).saturating_sub(1).min(n - 2);
+    let zi =
+        t.z.partition_point(|v| *v <= zv)
+            .saturating_sub(1)
+            .min(n - 2);
     let fx = xv - xi as f64;
     let fy = yv - yi as f64;
     let fz = ((zv - t.z[zi]) / (t.z[zi + 1] - t.z[zi])).clamp(0.0, 1.0);
@@ -361,7 +393,12 @@ pub fn fit_coefficients(rgb: [f32; 3]) -> (SigmoidPolynomial, f64) {
 /// The uplifted reflectance of linear-sRGB `rgb` sampled on `grid` (a full fit; values in [0, 1]).
 pub fn rgb_to_reflectance_spectrum(rgb: [f32; 3], grid: &WavelengthGrid) -> Spectrum {
     let (p, _) = fit_coefficients(rgb);
-    Spectrum::on_grid(grid, (0..grid.len()).map(|i| p.eval(grid.wavelength_nm(i))).collect())
+    Spectrum::on_grid(
+        grid,
+        (0..grid.len())
+            .map(|i| p.eval(grid.wavelength_nm(i)))
+            .collect(),
+    )
 }
 
 /// The uplifted reflectance of `rgb` as a spectrum on the fitting range (360-830 nm every 5 nm),
@@ -369,7 +406,12 @@ pub fn rgb_to_reflectance_spectrum(rgb: [f32; 3], grid: &WavelengthGrid) -> Spec
 pub fn rgb_to_reflectance_full(rgb: [f32; 3]) -> Spectrum {
     let (p, _) = fit_coefficients(rgb);
     let d = fit_data();
-    Spectrum::from_pairs(&d.wavelengths_nm.iter().map(|&l| (l, p.eval(l))).collect::<Vec<_>>())
+    Spectrum::from_pairs(
+        &d.wavelengths_nm
+            .iter()
+            .map(|&l| (l, p.eval(l)))
+            .collect::<Vec<_>>(),
+    )
 }
 
 /// Linear sRGB of a reflectance spectrum under D65 (white = 1), the forward model of the fit.
@@ -401,13 +443,51 @@ mod tests {
     #[test]
     fn fitted_colours_reproduce_their_rgb_and_stay_in_0_1() {
         let g = WavelengthGrid::new(360.0, 830.0, 5.0).unwrap();
-        for rgb in [[0.8f32, 0.1, 0.1], [0.1, 0.6, 0.2], [0.2, 0.3, 0.7], [0.9, 0.8, 0.2], [0.05, 0.05, 0.06]] {
+        for rgb in [
+            [0.8f32, 0.1, 0.1],
+            [0.1, 0.6, 0.2],
+            [0.2, 0.3, 0.7],
+            [0.9, 0.8, 0.2],
+            [0.05, 0.05, 0.06],
+        ] {
             let s = rgb_to_reflectance_spectrum(rgb, &g);
             assert!(s.values.iter().all(|v| (0.0..=1.0).contains(v)));
             let back = reflectance_to_rgb(&s);
             for c in 0..3 {
-                assert!((back[c] - rgb[c] as f64).abs() < 5e-3, "{rgb:?} -> {back:?}");
+                assert!(
+                    (back[c] - rgb[c] as f64).abs() < 5e-3,
+                    "{rgb:?} -> {back:?}"
+                );
             }
         }
+    }
+
+    #[test]
+    fn table_lookup_reproduces_rgb_and_conserves_energy() {
+        let t0 = std::time::Instant::now();
+        warm_up();
+        let build_s = t0.elapsed().as_secs_f64();
+        let mut worst = 0.0f64;
+        let levels = [0.02f32, 0.1, 0.3, 0.55, 0.8, 0.97];
+        for &r in &levels {
+            for &g in &levels {
+                for &b in &levels {
+                    let p = rgb_to_coefficients([r, g, b]);
+                    let s = Spectrum::from_pairs(
+                        &(0..95)
+                            .map(|i| 360.0 + 5.0 * i as f64)
+                            .map(|l| (l, p.eval(l)))
+                            .collect::<Vec<_>>(),
+                    );
+                    assert!(s.values.iter().all(|v| (0.0..=1.0).contains(v)));
+                    let back = reflectance_to_rgb(&s);
+                    for (c, t) in back.iter().zip([r, g, b]) {
+                        worst = worst.max((c - t as f64).abs());
+                    }
+                }
+            }
+        }
+        eprintln!("uplift table: built in {build_s:.2} s, worst RGB round-trip error {worst:.4}");
+        assert!(worst < 0.02, "{worst}");
     }
 }

@@ -10,6 +10,10 @@
 //! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker), `slanted_edge` (ISO 12233) and
 //! `file` (a spectral radiance image loaded by the caller, see [`from_image`]).
 
+#![warn(missing_docs)]
+// `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod config;
 pub mod geometry;
 

@@ -6,12 +6,12 @@ use crate::error::{Result, SensorError};
 use crate::sensor::Sensor;
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{mem, Quantity, RawImage, SpectralImage};
-use rand::Rng as _;
-use rand_distr::{Distribution, Poisson, StandardNormal};
+use crate::normal::Ziggurat;
+use crate::poisson;
 use rayon::prelude::*;
 
-/// Shot noise is drawn from the exact Poisson distribution (rand_distr::Poisson) below this mean
-/// and from a normal distribution with the same mean and variance (mu, mu) at or above it. The
+/// Shot noise is drawn from the exact Poisson distribution (inversion below a mean of 10,
+/// Hörmann's PTRS above) below this mean and from a normal distribution with the same mean and variance (mu, mu) at or above it. The
 /// normal draw is exact in mean and variance (all the EMVA 1288 analysis uses); its third moment
 /// is 0 where Poisson's skewness is 1/sqrt(mu) <= 0.1. It makes a 12-MP frame several times faster.
 pub const POISSON_EXACT_BELOW_E: f64 = 100.0;
@@ -186,31 +186,18 @@ impl Sensor {
     /// each sample's cell) over its photodetector, a centred square of area pitch^2 x fill factor;
     /// light outside the image is 0. Temporal noise is keyed on (capture seed, frame, row), the
     /// fixed pattern on (fixed_pattern_seed, row), so the output is bit-identical for any number
-    /// of threads. NaN irradiance values give 0 DN (the image is not scanned for them).
+    /// of threads. NaN or negative irradiance counts as no light (the image is not scanned for them).
     pub fn compute(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<Frame> {
-        if irradiance.quantity != Quantity::Irradiance {
-            return Err(SensorError::input(
-                "sensor input",
-                format!("needs a sensor-plane irradiance image (W/(m^2 nm)), got {}", irradiance.quantity.name()),
-            ));
-        }
-        if !(irradiance.sample_spacing_m.is_finite() && irradiance.sample_spacing_m > 0.0) {
-            return Err(SensorError::input(
-                "sensor input",
-                format!("sample spacing {} m is not a positive number", irradiance.sample_spacing_m),
-            ));
-        }
-        if irradiance.data.len() != irradiance.rows * irradiance.cols * irradiance.bands() {
-            return Err(SensorError::input("sensor input", "image data length does not match rows x cols x bands"));
-        }
         check_capture(capture)?;
         let rate = self.electron_rate_image(irradiance)?;
         self.capture_from_rate(&rate, self.rows(), self.cols(), capture, 0)
     }
 
-    /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major.
-    /// Streams each band plane once per output row band, accumulating in f32 (rayon over rows).
+    /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major:
+    /// steps 1-2 of [`Sensor::compute`]. Reads each band plane once, in blocks of rows (rayon over
+    /// row blocks), accumulating in f32; no per-pixel allocation.
     pub fn electron_rate_image(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
+        check_irradiance(irr)?;
         let (rows, cols) = (self.rows(), self.cols());
         mem::check_alloc((rows * cols * 4) as u64, "the sensor electron image")?;
         let pd_width_m = self.pixel_pitch_m * self.fill_factor.sqrt();
@@ -218,7 +205,6 @@ impl Sensor {
         let ay = Axis::new(rows, self.pixel_pitch_m, pd_width_m, irr.rows, irr.sample_spacing_m);
         let fac: Vec<[f32; 3]> =
             self.band_factors(&irr.grid).iter().map(|f| [f[0] as f32, f[1] as f32, f[2] as f32]).collect();
-        let bands = irr.bands();
         let in_cols = irr.cols;
         let cfa = self.cfa;
         let mut rate = vec![0.0f32; rows * cols];
@@ -234,64 +220,94 @@ impl Sensor {
         if jmin >= jmax {
             return Ok(rate); // no pixel sees the image
         }
-        rate.par_chunks_mut(cols).enumerate().for_each_init(
-            || vec![0.0f32; in_cols],
-            |tmp, (r, out)| {
-                let (i0, wy) = ay.entries(r);
-                if wy.is_empty() {
-                    return;
-                }
-                let ch0 = cfa.channel_at(r, 0).index();
-                let ch1 = cfa.channel_at(r, 1).index();
-                let single_row = ay.identity.is_some();
-                for (b, f) in fac.iter().enumerate().take(bands) {
-                    let (f0, f1) = (f[ch0], f[ch1]);
-                    if f0 == 0.0 && f1 == 0.0 {
-                        continue;
+        let range = jmax - jmin;
+        let fast = match (ax.identity, ay.identity) {
+            (Some(x), Some(y)) => Some((x, y)),
+            _ => None,
+        };
+        // Blocks of rows per task, bands outermost within a block: each task reads a few
+        // neighbouring rows of one band plane at a time (prefetch- and cache-friendly). The block
+        // structure is fixed by row index, so the result does not depend on the thread count.
+        const BLOCK_ROWS: usize = 8;
+        rate.par_chunks_mut(cols * BLOCK_ROWS).enumerate().for_each_init(
+            Vec::<f32>::new,
+            |tmp, (blk, out)| {
+                let nrows = out.len() / cols;
+                if let Some(((ox, c0, c1), (oy, _, _))) = fast {
+                    // Same pitch and spacing, integer offsets: pixel (r, c) sees sample
+                    // (r + oy, c + ox) alone. One multiply-add per sample and band.
+                    if c1 <= c0 {
+                        return;
                     }
-                    let plane = irr.band(b);
-                    match (ax.identity, single_row) {
-                        (Some((off, c0, c1)), true) => {
-                            if c1 <= c0 {
+                    for (b, f) in fac.iter().enumerate() {
+                        let plane = irr.band(b);
+                        for (k, orow) in out.chunks_mut(cols).enumerate() {
+                            let r = blk * BLOCK_ROWS + k;
+                            if ay.entries(r).1.is_empty() {
                                 continue;
                             }
-                            let src0 = i0 * in_cols;
-                            let s = &plane[(src0 as isize + c0 as isize + off) as usize..][..c1 - c0];
-                            let d = &mut out[c0..c1];
+                            let (f0, f1) = (f[cfa.channel_at(r, 0).index()], f[cfa.channel_at(r, 1).index()]);
+                            if f0 == 0.0 && f1 == 0.0 {
+                                continue;
+                            }
+                            let i = (r as isize + oy) as usize;
+                            let src = &plane[((i * in_cols + c0) as isize + ox) as usize..][..c1 - c0];
+                            let d = &mut orow[c0..c1];
                             let (fa, fb) = if c0 % 2 == 0 { (f0, f1) } else { (f1, f0) };
-                            let mut dc = d.chunks_exact_mut(2);
-                            let mut sc = s.chunks_exact(2);
+                            // Alternating channel factors in blocks of 16 (vectorises).
+                            let mut pat = [fa; 16];
+                            for k in (1..16).step_by(2) {
+                                pat[k] = fb;
+                            }
+                            let mut dc = d.chunks_exact_mut(16);
+                            let mut sc = src.chunks_exact(16);
                             for (dd, ss) in (&mut dc).zip(&mut sc) {
-                                dd[0] += fa * ss[0];
-                                dd[1] += fb * ss[1];
+                                for k in 0..16 {
+                                    dd[k] += pat[k] * ss[k];
+                                }
                             }
-                            if let (Some(dd), Some(ss)) = (dc.into_remainder().first_mut(), sc.remainder().first()) {
-                                *dd += fa * ss;
+                            for (k, (dd, ss)) in dc.into_remainder().iter_mut().zip(sc.remainder()).enumerate() {
+                                *dd += pat[k] * ss;
                             }
                         }
-                        _ => {
-                            // Integrate along y into the row buffer, then along x.
-                            let t = &mut tmp[jmin..jmax];
-                            t.iter_mut().for_each(|v| *v = 0.0);
-                            for (k, wyk) in wy.iter().enumerate() {
-                                if *wyk == 0.0 {
-                                    continue;
-                                }
-                                let row = &plane[(i0 + k) * in_cols..(i0 + k + 1) * in_cols][jmin..jmax];
-                                for (tv, sv) in t.iter_mut().zip(row) {
-                                    *tv += wyk * sv;
-                                }
+                    }
+                    return;
+                }
+                // General case. The area integration is linear and the channel of an output pixel
+                // depends only on its column parity, so first sum the bands, weighted by the
+                // even- and odd-column channel factors and the y weights, into two input-resolution
+                // rows per output row (vectorised), then integrate along x once per pixel.
+                tmp.clear();
+                tmp.resize(nrows * 2 * range, 0.0);
+                for (b, f) in fac.iter().enumerate() {
+                    let plane = irr.band(b);
+                    for k in 0..nrows {
+                        let r = blk * BLOCK_ROWS + k;
+                        let (i0, wy) = ay.entries(r);
+                        let (f0, f1) = (f[cfa.channel_at(r, 0).index()], f[cfa.channel_at(r, 1).index()]);
+                        if wy.is_empty() || (f0 == 0.0 && f1 == 0.0) {
+                            continue;
+                        }
+                        let (s0, s1) = tmp[k * 2 * range..(k + 1) * 2 * range].split_at_mut(range);
+                        for (kk, w) in wy.iter().enumerate() {
+                            if *w == 0.0 {
+                                continue;
                             }
-                            for (c, o) in out.iter_mut().enumerate() {
-                                let (s, wx) = ax.entries(c);
-                                if wx.is_empty() {
-                                    continue;
-                                }
-                                let src = &t[s - jmin..s - jmin + wx.len()];
-                                let v: f32 = wx.iter().zip(src).map(|(a, b)| a * b).sum();
-                                *o += if c % 2 == 0 { f0 } else { f1 } * v;
+                            let row = &plane[(i0 + kk) * in_cols + jmin..][..range];
+                            let (a0, a1) = (w * f0, w * f1);
+                            for ((x0, x1), e) in s0.iter_mut().zip(s1.iter_mut()).zip(row) {
+                                *x0 += a0 * e;
+                                *x1 += a1 * e;
                             }
                         }
+                    }
+                }
+                for (k, orow) in out.chunks_mut(cols).enumerate() {
+                    let (s0, s1) = tmp[k * 2 * range..(k + 1) * 2 * range].split_at(range);
+                    for (c, o) in orow.iter_mut().enumerate() {
+                        let (st, wx) = ax.entries(c);
+                        let src = if c % 2 == 0 { s0 } else { s1 };
+                        *o = wx.iter().zip(&src[st.saturating_sub(jmin)..]).map(|(a, b)| a * b).sum();
                     }
                 }
             },
@@ -390,9 +406,13 @@ impl Sensor {
             .enumerate()
             .map(|(r, row)| {
                 let mut s = [0.0f64; 3];
-                for (c, v) in row.iter().enumerate() {
-                    s[self.cfa.channel_at(r, c).index()] += *v as f64;
+                let (mut even, mut odd) = (0.0f64, 0.0f64);
+                for pair in row.chunks(2) {
+                    even += pair[0] as f64;
+                    odd += pair.get(1).map_or(0.0, |v| *v as f64);
                 }
+                s[self.cfa.channel_at(r, 0).index()] += even;
+                s[self.cfa.channel_at(r, 1).index()] += odd;
                 s
             })
             .collect();
@@ -448,11 +468,13 @@ impl Sensor {
         // the same for every frame and call. Temporal: the capture's stream per frame and row.
         let mut fp = keyed(self.config().fixed_pattern_seed, stage::SENSOR_FIXED_PATTERN, 0, r as u64);
         let mut tr = keyed(seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
+        let zig = Ziggurat::get();
         for (c, o) in out.iter_mut().enumerate() {
-            let mu_e = rate[c] as f64 * exposure_s + dark_e;
+            // max(0) maps NaN (and negative input) to no light.
+            let mu_e = (rate[c] as f64 * exposure_s + dark_e).max(0.0);
             let (gain_map, offset_map_v) = if fpn {
-                let z1: f64 = fp.sample(StandardNormal);
-                let z2: f64 = fp.sample(StandardNormal);
+                let z1 = zig.sample(&mut fp);
+                let z2 = zig.sample(&mut fp);
                 // ISETCam binNoiseFPN: v = (1 + PRNU) v + DSNU.
                 (1.0 + prnu * z1, dsnu * z2)
             } else {
@@ -462,20 +484,13 @@ impl Sensor {
                 // Shot (normal, same mean and variance as Poisson) and read noise are independent
                 // normals after the PRNU gain: one normal draw with the summed variance.
                 let sd_shot_v = cg * gain_map * mu_e.sqrt();
-                let z: f64 = tr.sample(StandardNormal);
+                let z = zig.sample(&mut tr);
                 cg * gain_map * mu_e + offset_map_v + (sd_shot_v * sd_shot_v + read_var).sqrt() * z
             } else {
-                let e = if nz.shot && mu_e > 0.0 {
-                    match Poisson::new(mu_e) {
-                        Ok(p) => p.sample(&mut tr),
-                        Err(_) => mu_e,
-                    }
-                } else {
-                    mu_e
-                };
+                let e = if nz.shot { poisson::sample(&mut tr, mu_e) } else { mu_e };
                 let mut v = e * cg * gain_map + offset_map_v;
                 if nz.read {
-                    let z: f64 = tr.sample(StandardNormal);
+                    let z = zig.sample(&mut tr);
                     v += read_v * z;
                 }
                 v
@@ -484,12 +499,36 @@ impl Sensor {
             let v_out = ((v + offset) * inv_gain).clamp(0.0, swing);
             let x = v_out * dn_per_v;
             // Quantization: DN = round(v / (swing / 2^bits)), clipped to 2^bits - 1.
-            *o = x.round().min(max_dn) as u16;
+            // x >= 0, so x + 0.5 truncated is round-half-away-from-zero (f64::round is a libm
+            // call on baseline x86-64).
+            *o = (x + 0.5).min(max_dn) as u16;
             if let Some(a) = analog.as_deref_mut() {
                 a[c] = x as f32;
             }
         }
     }
+}
+
+fn check_irradiance(irradiance: &SpectralImage) -> Result<()> {
+    if irradiance.quantity != Quantity::Irradiance {
+        return Err(SensorError::input(
+            "sensor input",
+            format!("needs a sensor-plane irradiance image (W/(m^2 nm)), got {}", irradiance.quantity.name()),
+        ));
+    }
+    if !(irradiance.sample_spacing_m.is_finite() && irradiance.sample_spacing_m > 0.0) {
+        return Err(SensorError::input(
+            "sensor input",
+            format!("sample spacing {} m is not a positive number", irradiance.sample_spacing_m),
+        ));
+    }
+    if irradiance.rows == 0 || irradiance.cols == 0 || irradiance.bands() == 0 {
+        return Err(SensorError::input("sensor input", "the irradiance image is empty"));
+    }
+    if irradiance.data.len() != irradiance.rows * irradiance.cols * irradiance.bands() {
+        return Err(SensorError::input("sensor input", "image data length does not match rows x cols x bands"));
+    }
+    Ok(())
 }
 
 fn check_capture(capture: &Capture) -> Result<()> {

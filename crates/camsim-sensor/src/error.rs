@@ -7,16 +7,38 @@ use camsim_core::CoreError;
 pub enum SensorError {
     /// A config value is impossible; names the source (file or preset) and the key.
     #[error("{source_name}: {key}: {message}")]
-    Config { source_name: String, key: String, message: String },
+    Config {
+        /// File name or preset the config came from.
+        source_name: String,
+        /// The config key, e.g. `pixel_pitch_um` or `qe.r`.
+        key: String,
+        /// What is wrong, with the value.
+        message: String,
+    },
     /// The TOML text could not be parsed (syntax, unknown key, wrong type); toml's message gives line and key.
     #[error("{source_name}: {message}")]
-    Parse { source_name: String, message: String },
+    Parse {
+        /// File name or preset the text came from.
+        source_name: String,
+        /// toml's message (line, column, key).
+        message: String,
+    },
     /// No preset of that name.
     #[error("unknown sensor preset '{name}'; the presets are: {known}")]
-    UnknownPreset { name: String, known: String },
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+        /// The preset names, comma-separated.
+        known: String,
+    },
     /// Bad input to a compute call (image, exposure, frames); names what was wrong.
     #[error("{what}: {message}")]
-    Input { what: String, message: String },
+    Input {
+        /// What was wrong (`exposure_s`, `frames`, `sensor input`...).
+        what: String,
+        /// Why.
+        message: String,
+    },
     /// An error from the spectral core (files, memory).
     #[error(transparent)]
     Core(#[from] CoreError),

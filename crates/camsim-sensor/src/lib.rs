@@ -16,10 +16,14 @@
 //! [`Sensor::predicted_noise_dn`] gives the matching EMVA 1288 noise model and
 //! [`Sensor::emva_series`] the frame stacks an EMVA 1288 analysis needs.
 
+#![warn(missing_docs)]
+
 pub mod compute;
 pub mod config;
 pub mod emva;
 pub mod error;
+mod normal;
+mod poisson;
 pub mod presets;
 pub mod sensor;
 

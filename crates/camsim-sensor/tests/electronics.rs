@@ -2,6 +2,7 @@
 //! the formulas of ISETCam's sensorCompute: v_out = clip((v + offset) / gain, 0, swing),
 //! DN = min(round(v_out / (swing / 2^bits)), 2^bits - 1).
 
+#![allow(clippy::needless_range_loop)]
 mod common;
 use camsim_core::WavelengthGrid;
 use camsim_sensor::{Capture, Exposure, Sensor};
@@ -145,11 +146,20 @@ fn auto_exposure_reaches_the_target() {
     assert!(err.contains("auto exposure"), "{err}");
 }
 
+/// Three frames of a horizontal sawtooth (0 to ~5000 e- over every 64 columns: both the exact-Poisson
+/// and the normal shot-noise regimes) computed on `threads` threads.
 fn noisy_frames(s: &Sensor, seed: u64, threads: usize) -> Vec<Vec<u16>> {
     let grid = WavelengthGrid::default();
-    let img = uniform_image(s.rows(), s.cols(), grid, s.pixel_pitch_m(), &flat(&grid));
+    let mut img = uniform_image(s.rows(), s.cols(), grid, s.pixel_pitch_m(), &flat(&grid));
+    let cols = s.cols();
+    for plane in img.bands_mut() {
+        for (i, v) in plane.iter_mut().enumerate() {
+            *v *= ((i % cols) % 64) as f32 / 64.0;
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    let f = pool.install(|| s.compute(&img, &Capture::seconds(2e-3).with_frames(3).with_seed(seed)).unwrap());
+    let t = 5000.0 / s.mean_electrons_uniform(&flat(&grid), &grid, 1.0).unwrap()[1];
+    let f = pool.install(|| s.compute(&img, &Capture::seconds(t).with_frames(3).with_seed(seed)).unwrap());
     f.raw.into_iter().map(|r| r.dn).collect()
 }
 
@@ -228,4 +238,54 @@ fn bad_capture_input_is_an_error() {
     assert!(err.contains("5 values"), "{err}");
     let err = s.emva_series(&grid, &flat(&grid), &[1e-3], 2, 800, 8, 0).unwrap_err().to_string();
     assert!(err.contains("window"), "{err}");
+}
+
+/// NaN or negative irradiance (a broken upstream stage) counts as no light: no panic, no hang.
+#[test]
+fn nan_irradiance_is_no_light() {
+    let s = config("imx363", |c| {
+        c.rows = 8;
+        c.cols = 8;
+        c.noise.read = false;
+        c.noise.dsnu = false;
+    });
+    let grid = WavelengthGrid::default();
+    let mut img = uniform_image(8, 8, grid, s.pixel_pitch_m(), &flat(&grid));
+    for plane in img.bands_mut() {
+        plane[0] = f32::NAN;
+        plane[1] = -1.0;
+    }
+    let f = s.compute(&img, &Capture::seconds(1e-3)).unwrap();
+    assert_eq!(f.raw[0].dn[0], 0);
+    assert_eq!(f.raw[0].dn[1], 0);
+    assert!(f.raw[0].dn[9] > 0);
+}
+
+/// The noise model's terms are the formulas of EMVA 1288 / ISETCam with the analog gain applied
+/// after the pixel: read and DSNU scale with dn_per_v / gain, shot with K = cg / gain x dn_per_v;
+/// a switched-off source contributes 0.
+#[test]
+fn predicted_noise_terms_follow_the_formulas() {
+    let s = config("imx363", |c| {
+        c.analog_gain = 2.0;
+        c.dark_voltage_mv_per_s = 10.0;
+        c.noise.quantization = false;
+    });
+    let dpv = 4096.0 / 0.4591;
+    let k = 7.65e-5 / 2.0 * dpv;
+    let t = 0.5;
+    let dark_e = 0.005 / 7.65e-5;
+    let mean_dn = k * (1000.0 + dark_e);
+    let p = s.predicted_noise_dn(mean_dn, t);
+    assert!((p.shot - k * 1000f64.sqrt()).abs() < 1e-9);
+    assert!((p.dark - k * dark_e.sqrt()).abs() < 1e-9);
+    assert!((p.read - 5e-3 * dpv / 2.0).abs() < 1e-9);
+    assert!((p.dsnu - 0.64e-3 * dpv / 2.0).abs() < 1e-9);
+    assert!((p.prnu - 0.007 * mean_dn).abs() < 1e-9);
+    assert_eq!(p.quantization, 0.0);
+    let total = (p.shot.powi(2) + p.dark.powi(2) + p.read.powi(2) + p.dsnu.powi(2) + p.prnu.powi(2)).sqrt();
+    assert!((p.total - total).abs() < 1e-9);
+    let quiet = s.with_noise(camsim_sensor::NoiseSwitches::none()).predicted_noise_dn(mean_dn, t);
+    assert_eq!((quiet.shot, quiet.read, quiet.dsnu, quiet.prnu, quiet.dark), (0.0, 0.0, 0.0, 0.0, 0.0));
+    assert!((quiet.total - (1.0f64 / 12.0).sqrt()).abs() < 1e-12);
 }

@@ -186,11 +186,11 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     camsim_io::atomic::write_json_atomic(&out.join("sfr.json"), &json)?;
     let mut series: Vec<Series> = curves
         .iter()
-        .map(|(name, c)| Series::line(name.clone(), c.freq_cyc_per_sensor_px.iter().zip(&c.mtf).filter(|(f, _)| **f <= 1.0).map(|(f, m)| (*f, *m)).collect()))
+        .map(|(name, c)| Series::new(name.clone(), c.freq_cyc_per_sensor_px.iter().zip(&c.mtf).filter(|(f, _)| **f <= 1.0).map(|(f, m)| (*f, *m)).collect()))
         .collect();
     for path in &a.compare {
         for (name, pts) in read_sfr_csv(path)? {
-            series.push(Series::dashed(format!("{} ({})", name.trim_start_matches("mtf_"), path.display()), pts));
+            series.push(dashed(format!("{} ({})", name.trim_start_matches("mtf_"), path.display()), pts));
         }
     }
     LinePlot {
@@ -207,8 +207,8 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     }
     for (name, c) in &curves {
         say(format!(
-            "{name:>10}: MTF50 {:.4} cycles/pixel{}, MTF at Nyquist {:.3}, edge {:.2} deg",
-            c.mtf50_cyc_per_px,
+            "{name:>10}: MTF50 {} cycles/pixel{}, MTF at Nyquist {:.3}, edge {:.2} deg",
+            c.mtf50_cyc_per_px.map(|v| format!("{v:.4}")).unwrap_or_else(|| "(not reached)".into()),
             c.mtf50_cyc_per_mm.map(|v| format!(" ({v:.1} cycles/mm)")).unwrap_or_default(),
             c.mtf_at_nyquist,
             c.edge_angle_deg
@@ -272,7 +272,7 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     }
     write_text(&out.join("profile.csv"), &pcsv)?;
     let ch = |k: usize, name: &str, col: [u8; 3]| {
-        let mut s = Series::line(name.to_string(), prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect());
+        let mut s = Series::new(name.to_string(), prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect());
         s.color = Some(col);
         s
     };
@@ -368,8 +368,9 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
                 title: title.into(),
                 x_label: format!("{label_b} (DN)"),
                 y_label: format!("{} (DN)", a.a.display()),
-                series: vec![Series::line("regions x channels".into(), pts.clone())],
+                series: vec![Series::new("regions x channels", pts.clone())],
                 identity_line: true,
+                range: None,
             }
             .write_png(&out.join(file), 700, 700)?;
         }
@@ -413,4 +414,9 @@ pub fn run(c: Command) -> Result<()> {
         Command::Roi(a) => roi_cmd(a),
         Command::Emva(a) => emva_cmd(a),
     }
+}
+
+/// A dashed series (model curves beside measured ones).
+fn dashed(name: String, points: Vec<(f64, f64)>) -> Series {
+    Series { dashed: true, ..Series::new(name, points) }
 }

@@ -114,12 +114,12 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     for (file, title, pts) in [("scatter_before.png", "Published QE", &predicted), ("scatter_after.png", "Corrected QE (fitted M)", &after)] {
         let series = (0..3)
             .map(|c| {
-                let mut s = Series::line(["R", "G", "B"][c].into(), measured.iter().zip(pts.iter()).map(|(m, p)| (m[c], p[c])).collect());
+                let mut s = Series::new(["R", "G", "B"][c], measured.iter().zip(pts.iter()).map(|(m, p)| (m[c], p[c])).collect());
                 s.color = Some([[220, 40, 40], [30, 160, 60], [40, 80, 220]][c]);
                 s
             })
             .collect();
-        ScatterPlot { title: title.into(), x_label: "measured (DN)".into(), y_label: "predicted (DN)".into(), series, identity_line: true }
+        ScatterPlot { title: title.into(), x_label: "measured (DN)".into(), y_label: "predicted (DN)".into(), series, identity_line: true, range: None }
             .write_png(&out.join(file), 700, 700)?;
     }
     // The corrected sensor: compose with any correction it already has.

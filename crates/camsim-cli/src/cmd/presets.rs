@@ -22,7 +22,10 @@ pub fn run(a: Args) -> Result<()> {
             println!("simulate default config:               camsim simulate --print-config");
         }
         (Some("sensor"), Some(n)) => print!("{}", camsim_sensor::presets::toml(n)?),
-        (Some("optics" | "lens"), Some(n)) => print!("{}", camsim_optics::presets::toml(n)?),
+        (Some("optics" | "lens"), Some(n)) => match camsim_optics::presets::toml_text(n) {
+            Some(t) => print!("{t}"),
+            None => bail!("no lens preset '{n}': use one of {}", camsim_optics::presets::names().join(", ")),
+        },
         (Some("sensor"), None) => println!("{}", camsim_sensor::presets::names().join("\n")),
         (Some("optics" | "lens"), None) => println!("{}", camsim_optics::presets::names().join("\n")),
         (Some("scene"), _) => println!("{}", camsim_render::builtin::names().join("\n")),

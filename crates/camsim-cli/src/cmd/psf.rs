@@ -78,11 +78,11 @@ pub fn run(a: Args) -> Result<()> {
             let pos_um = (i as f64 - (p.size / 2) as f64) * p.spacing_m * 1e6;
             writeln!(lsf_csv, "{},{pos_um:.4},{x:.6e},{y:.6e}", p.wavelength_nm)?;
         }
-        series.push(Series::line(
+        series.push(Series::new(
             format!("{:.0} nm", p.wavelength_nm),
             m.freq_cyc_per_mm.iter().zip(&m.mtf_x).map(|(f, v)| (*f, *v)).collect(),
         ));
-        series.push(Series::dashed(
+        series.push(dashed(
             format!("{:.0} nm diffraction limit", p.wavelength_nm),
             m.freq_cyc_per_mm.iter().map(|f| (*f, camsim_optics::diffraction_mtf(*f, p.wavelength_nm, n))).collect(),
         ));
@@ -100,4 +100,9 @@ pub fn run(a: Args) -> Result<()> {
     plot.write_png(&out.join("mtf.png"), 900, 600)?;
     say(format!("wrote psf.exr ({size} x {size} at {} um), mtf.csv, mtf.png, lsf.csv in {}", a.spacing_um, out.display()));
     Ok(())
+}
+
+/// A dashed series (model curves beside measured ones).
+fn dashed(name: String, points: Vec<(f64, f64)>) -> Series {
+    Series { dashed: true, ..Series::new(name, points) }
 }

@@ -2,7 +2,7 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim_core::{Spectrum, WavelengthGrid};
+use camsim_core::WavelengthGrid;
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ColorPipeline;
 use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
@@ -60,7 +60,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let out = common::out_dir(&a.out)?;
     let mut sensor = camsim_pipeline::load_sensor(&a.sensor)?;
-    if a.rows.is_some() || a.cols.is_some() {
+    if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
         sensor = sensor.with_size(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
     }
     if a.no_noise {
@@ -107,19 +107,17 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     let grid = WavelengthGrid::default();
     // A narrow-band green flat field (EMVA 1288 asks for monochromatic light; 540 nm, 20 nm wide).
     let irr: Vec<f64> = grid.wavelengths_nm().iter().map(|w| if (w - 540.0).abs() <= 10.0 { 1e-3 } else { 0.0 }).collect();
-    let spectrum = Spectrum::on_grid(&grid, irr.clone());
     let rows = a.rows.unwrap_or(64).min(sensor.rows());
     let cols = a.cols.unwrap_or(64).min(sensor.cols());
-    let small = sensor.with_size(rows, cols)?;
     // Exposures from 0 to about 1.3 x the time that fills the well in green.
-    let e_per_s = small.mean_electrons_uniform(&irr, &grid, 1.0)?[1].max(1e-12);
-    let t_sat = small.well_capacity_e() / e_per_s;
+    let e_per_s = sensor.mean_electrons_uniform(&irr, &grid, 1.0)?[1].max(1e-12);
+    let t_sat = sensor.well_capacity_e() / e_per_s;
     let n = a.levels.max(3);
     let exposures: Vec<f64> = (0..n).map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64).collect();
     let pb = common::progress(n as u64, "emva");
-    let levels = small.emva_series(&grid, &spectrum, &exposures, 2, a.seed)?;
+    let levels = sensor.emva_series(&grid, &irr, &exposures, 2, rows, cols, a.seed)?;
     let mut csv = String::from("exposure_s,photons_per_pixel,bright_a,bright_b,dark_a,dark_b\n");
-    let meta = DngMetadata { camera_model: format!("camsim {}", small.name()), ..DngMetadata::default() };
+    let meta = DngMetadata { camera_model: format!("camsim {}", sensor.name()), ..DngMetadata::default() };
     for (i, l) in levels.iter().enumerate() {
         let mut names = Vec::new();
         for (kind, frames) in [("bright", &l.bright), ("dark", &l.dark)] {

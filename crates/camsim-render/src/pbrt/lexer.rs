@@ -81,17 +81,29 @@ pub fn tokenize(text: &str, path: &Path) -> Result<Vec<Token>, PbrtError> {
                 if let Some(rest) = comment[1..].trim_start().strip_prefix("ObjectName") {
                     let name = rest.split(':').next().unwrap_or("").trim();
                     if !name.is_empty() {
-                        out.push(Token { kind: TokenKind::ObjectName(name.to_string()), line: tl, column: tc });
+                        out.push(Token {
+                            kind: TokenKind::ObjectName(name.to_string()),
+                            line: tl,
+                            column: tc,
+                        });
                     }
                 }
             }
             '[' => {
                 bump!();
-                out.push(Token { kind: TokenKind::Open, line: tl, column: tc });
+                out.push(Token {
+                    kind: TokenKind::Open,
+                    line: tl,
+                    column: tc,
+                });
             }
             ']' => {
                 bump!();
-                out.push(Token { kind: TokenKind::Close, line: tl, column: tc });
+                out.push(Token {
+                    kind: TokenKind::Close,
+                    line: tl,
+                    column: tc,
+                });
             }
             '"' => {
                 bump!();
@@ -101,7 +113,12 @@ pub fn tokenize(text: &str, path: &Path) -> Result<Vec<Token>, PbrtError> {
                         None => return Err(PbrtError::at(path, tl, tc, "unterminated string")),
                         Some('"') => break,
                         Some('\n') => {
-                            return Err(PbrtError::at(path, tl, tc, "newline inside a quoted string"));
+                            return Err(PbrtError::at(
+                                path,
+                                tl,
+                                tc,
+                                "newline inside a quoted string",
+                            ));
                         }
                         Some('\\') => {
                             let e = bump!();
@@ -122,13 +139,19 @@ pub fn tokenize(text: &str, path: &Path) -> Result<Vec<Token>, PbrtError> {
                                         format!("unknown escape sequence \\{other}"),
                                     ))
                                 }
-                                None => return Err(PbrtError::at(path, tl, tc, "unterminated string")),
+                                None => {
+                                    return Err(PbrtError::at(path, tl, tc, "unterminated string"))
+                                }
                             });
                         }
                         Some(ch) => s.push(ch),
                     }
                 }
-                out.push(Token { kind: TokenKind::Str(s), line: tl, column: tc });
+                out.push(Token {
+                    kind: TokenKind::Str(s),
+                    line: tl,
+                    column: tc,
+                });
             }
             _ => {
                 let mut w = String::new();
@@ -139,7 +162,11 @@ pub fn tokenize(text: &str, path: &Path) -> Result<Vec<Token>, PbrtError> {
                     w.push(c);
                     bump!();
                 }
-                out.push(Token { kind: TokenKind::Word(w), line: tl, column: tc });
+                out.push(Token {
+                    kind: TokenKind::Word(w),
+                    line: tl,
+                    column: tc,
+                });
             }
         }
     }
@@ -152,7 +179,11 @@ mod tests {
 
     #[test]
     fn positions_strings_and_comments() {
-        let t = tokenize("Shape \"sphere\" # c\n  \"float radius\" [ 2.5 ]\n", Path::new("x")).unwrap();
+        let t = tokenize(
+            "Shape \"sphere\" # c\n  \"float radius\" [ 2.5 ]\n",
+            Path::new("x"),
+        )
+        .unwrap();
         assert_eq!(t.len(), 6);
         assert_eq!(t[0].kind, TokenKind::Word("Shape".into()));
         assert_eq!((t[2].line, t[2].column), (2, 3));

@@ -104,7 +104,12 @@ pub struct PbrtError {
 impl PbrtError {
     /// Error at a position.
     pub fn at(file: &Path, line: usize, column: usize, message: impl Into<String>) -> Self {
-        PbrtError { file: file.to_path_buf(), line, column, message: message.into() }
+        PbrtError {
+            file: file.to_path_buf(),
+            line,
+            column,
+            message: message.into(),
+        }
     }
 }
 
@@ -119,7 +124,12 @@ pub struct Loc {
 impl Loc {
     /// An error at this position.
     pub fn err(&self, message: impl Into<String>) -> PbrtError {
-        PbrtError { file: self.file.clone(), line: self.line, column: self.column, message: message.into() }
+        PbrtError {
+            file: self.file.clone(),
+            line: self.line,
+            column: self.column,
+            message: message.into(),
+        }
     }
     /// "file:line:col" for notes.
     pub fn describe(&self) -> String {
@@ -130,18 +140,16 @@ impl Loc {
 /// Read a pbrt-v4 scene file (and the files it includes).
 pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|e| PbrtError::at(path, 0, 0, format!("cannot read: {e}")))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| PbrtError::at(path, 0, 0, format!("cannot read: {e}")))?;
     parse_str(&text, path)
 }
 
 /// Read pbrt-v4 scene text; `virtual_path` names it in errors and anchors relative file names
 /// (`Include`, PLY, textures, spectrum files) at its folder.
-pub fn parse_str(text: &str, virtual_path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError> {
+pub fn parse_str(
+    text: &str,
+    virtual_path: impl AsRef<Path>,
+) -> Result<SceneDescription, PbrtError> {
     parser::parse(text, virtual_path.as_ref())
-}
-
-/// Like [`parse_str`], but only the world block's shapes, materials and lights matter (used by
-/// overlays that insert a pbrt file's objects into another scene).
-pub(crate) fn parse_objects(path: &Path) -> Result<SceneDescription, PbrtError> {
-    parse_file(path)
 }

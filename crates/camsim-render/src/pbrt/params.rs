@@ -28,8 +28,19 @@ pub struct Param {
 
 /// Types pbrt-v4 knows.
 const TYPES: &[&str] = &[
-    "integer", "float", "point2", "vector2", "point3", "vector3", "normal3", "bool", "string", "texture", "rgb",
-    "spectrum", "blackbody",
+    "integer",
+    "float",
+    "point2",
+    "vector2",
+    "point3",
+    "vector3",
+    "normal3",
+    "bool",
+    "string",
+    "texture",
+    "rgb",
+    "spectrum",
+    "blackbody",
 ];
 
 /// A directive's parameter list.
@@ -44,7 +55,10 @@ impl Param {
             .iter()
             .map(|v| match v {
                 Value::Num(x) => Ok(*x),
-                _ => Err(self.loc.err(format!("parameter \"{}\" ({}) needs numbers", self.name, self.ty))),
+                _ => Err(self.loc.err(format!(
+                    "parameter \"{}\" ({}) needs numbers",
+                    self.name, self.ty
+                ))),
             })
             .collect()
     }
@@ -53,7 +67,10 @@ impl Param {
             .iter()
             .map(|v| match v {
                 Value::Str(s) => Ok(s.clone()),
-                _ => Err(self.loc.err(format!("parameter \"{}\" ({}) needs quoted strings", self.name, self.ty))),
+                _ => Err(self.loc.err(format!(
+                    "parameter \"{}\" ({}) needs quoted strings",
+                    self.name, self.ty
+                ))),
             })
             .collect()
     }
@@ -61,19 +78,32 @@ impl Param {
 
 /// Parse a parameter list starting at `tokens[*pos]`: stops at the first token that is not a
 /// quoted string (the next directive).
-pub fn parse_params(tokens: &[Token], pos: &mut usize, file: &std::path::Path) -> Result<ParamList, PbrtError> {
+pub fn parse_params(
+    tokens: &[Token],
+    pos: &mut usize,
+    file: &std::path::Path,
+) -> Result<ParamList, PbrtError> {
     let mut list = ParamList::default();
     while let Some(tok) = tokens.get(*pos) {
         if let TokenKind::ObjectName(_) = tok.kind {
             // A naming comment between parameters names nothing: skip it.
-            if matches!(tokens.get(*pos + 1).map(|t| &t.kind), Some(TokenKind::Str(_))) {
+            if matches!(
+                tokens.get(*pos + 1).map(|t| &t.kind),
+                Some(TokenKind::Str(_))
+            ) {
                 *pos += 1;
                 continue;
             }
             break;
         }
-        let TokenKind::Str(decl) = &tok.kind else { break };
-        let loc = Loc { file: file.to_path_buf(), line: tok.line, column: tok.column };
+        let TokenKind::Str(decl) = &tok.kind else {
+            break;
+        };
+        let loc = Loc {
+            file: file.to_path_buf(),
+            line: tok.line,
+            column: tok.column,
+        };
         let mut parts = decl.split_whitespace();
         let (Some(ty), Some(name), None) = (parts.next(), parts.next(), parts.next()) else {
             return Err(loc.err(format!(
@@ -95,7 +125,11 @@ pub fn parse_params(tokens: &[Token], pos: &mut usize, file: &std::path::Path) -
         *pos += 1;
         let mut values = Vec::new();
         let parse_value = |t: &Token| -> Result<Value, PbrtError> {
-            let vloc = Loc { file: file.to_path_buf(), line: t.line, column: t.column };
+            let vloc = Loc {
+                file: file.to_path_buf(),
+                line: t.line,
+                column: t.column,
+            };
             match &t.kind {
                 TokenKind::Str(s) => {
                     if ty == "bool" {
@@ -116,7 +150,10 @@ pub fn parse_params(tokens: &[Token], pos: &mut usize, file: &std::path::Path) -
                         _ => Err(vloc.err(format!("\"{w}\" is not a number"))),
                     },
                 },
-                _ => Err(vloc.err(format!("unexpected \"{}\" in a parameter value", t.describe()))),
+                _ => Err(vloc.err(format!(
+                    "unexpected \"{}\" in a parameter value",
+                    t.describe()
+                ))),
             }
         };
         match tokens.get(*pos) {
@@ -125,12 +162,19 @@ pub fn parse_params(tokens: &[Token], pos: &mut usize, file: &std::path::Path) -
                 *pos += 1;
                 loop {
                     match tokens.get(*pos) {
-                        None => return Err(loc.err(format!("parameter \"{name}\": missing ']' before end of file"))),
+                        None => {
+                            return Err(loc.err(format!(
+                                "parameter \"{name}\": missing ']' before end of file"
+                            )))
+                        }
                         Some(t) if t.kind == TokenKind::Close => {
                             *pos += 1;
                             break;
                         }
-                        Some(Token { kind: TokenKind::ObjectName(_), .. }) => *pos += 1,
+                        Some(Token {
+                            kind: TokenKind::ObjectName(_),
+                            ..
+                        }) => *pos += 1,
                         Some(t) => {
                             values.push(parse_value(t)?);
                             *pos += 1;
@@ -148,22 +192,34 @@ pub fn parse_params(tokens: &[Token], pos: &mut usize, file: &std::path::Path) -
             "bool" => values.iter().all(|v| matches!(v, Value::Bool(_))),
             "string" | "texture" => values.iter().all(|v| matches!(v, Value::Str(_))),
             "spectrum" => {
-                values.iter().all(|v| matches!(v, Value::Num(_))) || values.iter().all(|v| matches!(v, Value::Str(_)))
+                values.iter().all(|v| matches!(v, Value::Num(_)))
+                    || values.iter().all(|v| matches!(v, Value::Str(_)))
             }
             _ => values.iter().all(|v| matches!(v, Value::Num(_))),
         };
         if !ok {
-            return Err(loc.err(format!("parameter \"{name}\": values do not match its type \"{ty}\"")));
+            return Err(loc.err(format!(
+                "parameter \"{name}\": values do not match its type \"{ty}\""
+            )));
         }
         if ty == "integer" {
-            if let Some(Value::Num(x)) = values.iter().find(|v| matches!(v, Value::Num(x) if x.fract() != 0.0)) {
+            if let Some(Value::Num(x)) = values
+                .iter()
+                .find(|v| matches!(v, Value::Num(x) if x.fract() != 0.0))
+            {
                 return Err(loc.err(format!("parameter \"{name}\": {x} is not an integer")));
             }
         }
         if list.params.iter().any(|p: &Param| p.name == name) {
             return Err(loc.err(format!("parameter \"{name}\" given twice")));
         }
-        list.params.push(Param { ty, name: name.to_string(), values, loc, used: Cell::new(false) });
+        list.params.push(Param {
+            ty,
+            name: name.to_string(),
+            values,
+            loc,
+            used: Cell::new(false),
+        });
     }
     Ok(list)
 }
@@ -178,7 +234,11 @@ impl ParamList {
                     return Err(p.loc.err(format!(
                         "parameter \"{name}\" has type \"{}\"; expected {}",
                         p.ty,
-                        types.iter().map(|t| format!("\"{t}\"")).collect::<Vec<_>>().join(" or ")
+                        types
+                            .iter()
+                            .map(|t| format!("\"{t}\""))
+                            .collect::<Vec<_>>()
+                            .join(" or ")
                     )));
                 }
                 p.used.set(true);
@@ -193,7 +253,10 @@ impl ParamList {
             Some(p) => {
                 let v = p.nums()?;
                 if v.len() != 1 {
-                    return Err(p.loc.err(format!("parameter \"{name}\" needs exactly one value, got {}", v.len())));
+                    return Err(p.loc.err(format!(
+                        "parameter \"{name}\" needs exactly one value, got {}",
+                        v.len()
+                    )));
                 }
                 Ok(Some(v[0]))
             }
@@ -207,7 +270,10 @@ impl ParamList {
         self.one_num(name, "float")
     }
     pub fn int(&self, name: &str, default: i64) -> Result<i64, PbrtError> {
-        Ok(self.one_num(name, "integer")?.map(|v| v as i64).unwrap_or(default))
+        Ok(self
+            .one_num(name, "integer")?
+            .map(|v| v as i64)
+            .unwrap_or(default))
     }
     pub fn bool(&self, name: &str, default: bool) -> Result<bool, PbrtError> {
         match self.get(name, &["bool"])? {
@@ -224,14 +290,21 @@ impl ParamList {
             Some(p) => {
                 let s = p.strings()?;
                 if s.len() != 1 {
-                    return Err(p.loc.err(format!("parameter \"{name}\" needs exactly one string")));
+                    return Err(p
+                        .loc
+                        .err(format!("parameter \"{name}\" needs exactly one string")));
                 }
                 Ok(Some(s[0].clone()))
             }
         }
     }
     /// Numbers of type `ty`, grouped by `n` (e.g. point3 -> 3), or None if absent.
-    pub fn tuples(&self, name: &str, ty: &[&str], n: usize) -> Result<Option<Vec<Vec<f64>>>, PbrtError> {
+    pub fn tuples(
+        &self,
+        name: &str,
+        ty: &[&str],
+        n: usize,
+    ) -> Result<Option<Vec<Vec<f64>>>, PbrtError> {
         match self.get(name, ty)? {
             None => Ok(None),
             Some(p) => {
@@ -249,7 +322,10 @@ impl ParamList {
     pub fn ints(&self, name: &str) -> Result<Option<(Vec<i64>, Loc)>, PbrtError> {
         match self.get(name, &["integer"])? {
             None => Ok(None),
-            Some(p) => Ok(Some((p.nums()?.into_iter().map(|x| x as i64).collect(), p.loc.clone()))),
+            Some(p) => Ok(Some((
+                p.nums()?.into_iter().map(|x| x as i64).collect(),
+                p.loc.clone(),
+            ))),
         }
     }
 
@@ -264,7 +340,10 @@ impl ParamList {
     /// Error for the first parameter no one asked for (pbrt-v4: "unused parameter").
     pub fn check_unused(&self, what: &str) -> Result<(), PbrtError> {
         if let Some(p) = self.params.iter().find(|p| !p.used.get()) {
-            return Err(p.loc.err(format!("{what}: unknown or unsupported parameter \"{} {}\"", p.ty, p.name)));
+            return Err(p.loc.err(format!(
+                "{what}: unknown or unsupported parameter \"{} {}\"",
+                p.ty, p.name
+            )));
         }
         Ok(())
     }

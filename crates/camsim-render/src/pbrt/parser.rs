@@ -1,13 +1,17 @@
 //! The directive interpreter: graphics state, transforms, shapes, materials, textures, lights.
 //! See the module docs of [`crate::pbrt`] for what is supported.
 
+// `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::lexer::{tokenize, Token, TokenKind};
 use super::params::{parse_params, ParamList};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::scene::{
-    AreaLight, Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture, Transform,
+    AreaLight, Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture,
+    Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::Spectrum;
@@ -83,7 +87,12 @@ struct Parser {
 /// Parse a whole scene.
 pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
     let main_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let default_material = Material::Diffuse { reflectance: Texture::Constant(Spectrum::from_pairs(&[(360.0, 0.5), (830.0, 0.5)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)) };
+    let default_material = Material::Diffuse {
+        reflectance: Texture::Constant(
+            Spectrum::from_pairs(&[(360.0, 0.5), (830.0, 0.5)])
+                .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
+        ),
+    };
     let mut p = Parser {
         main_dir,
         include_stack: vec![canonical(path)],
@@ -110,20 +119,35 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         fov_deg: 90.0,
         width: 1280,
         height: 720,
-        settings: RenderSettings { samples_per_pixel: 16, max_depth: 5, ..RenderSettings::default() },
+        settings: RenderSettings {
+            samples_per_pixel: 16,
+            max_depth: 5,
+            ..RenderSettings::default()
+        },
         focus_distance_m: None,
         notes: Vec::new(),
     };
     p.parse_text(text, path)?;
-    let eof = Loc { file: path.to_path_buf(), line: text.lines().count().max(1), column: 1 };
+    let eof = Loc {
+        file: path.to_path_buf(),
+        line: text.lines().count().max(1),
+        column: 1,
+    };
     if !p.stack.is_empty() {
-        p.notes.push(format!("{}: {} AttributeBegin/TransformBegin without an end (pbrt-v4 warns too)", eof.describe(), p.stack.len()));
+        p.notes.push(format!(
+            "{}: {} AttributeBegin/TransformBegin without an end (pbrt-v4 warns too)",
+            eof.describe(),
+            p.stack.len()
+        ));
     }
     if let Some((name, _, loc)) = &p.current_object {
         return Err(loc.err(format!("ObjectBegin \"{name}\" has no ObjectEnd")));
     }
     if !p.in_world {
-        p.notes.push(format!("{}: no WorldBegin: the scene has no objects", path.display()));
+        p.notes.push(format!(
+            "{}: no WorldBegin: the scene has no objects",
+            path.display()
+        ));
     }
     p.finish()
 }
@@ -140,20 +164,47 @@ fn num(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Resul
                     *pos += 1;
                     Ok(v)
                 }
-                _ => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a number, found \"{w}\""))),
+                _ => Err(PbrtError::at(
+                    file,
+                    t.line,
+                    t.column,
+                    format!("{directive}: expected a number, found \"{w}\""),
+                )),
             },
-            _ => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a number, found {}", t.describe()))),
+            _ => Err(PbrtError::at(
+                file,
+                t.line,
+                t.column,
+                format!("{directive}: expected a number, found {}", t.describe()),
+            )),
         },
-        None => Err(PbrtError::at(file, 0, 0, format!("{directive}: expected a number, found the end of the file"))),
+        None => Err(PbrtError::at(
+            file,
+            0,
+            0,
+            format!("{directive}: expected a number, found the end of the file"),
+        )),
     }
 }
 
-fn nums(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str, n: usize) -> Result<Vec<f64>, PbrtError> {
+fn nums(
+    tokens: &[Token],
+    pos: &mut usize,
+    file: &Path,
+    directive: &str,
+    n: usize,
+) -> Result<Vec<f64>, PbrtError> {
     (0..n).map(|_| num(tokens, pos, file, directive)).collect()
 }
 
 /// 16 numbers, optionally in brackets.
-fn matrix16(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str, loc: &Loc) -> Result<Transform, PbrtError> {
+fn matrix16(
+    tokens: &[Token],
+    pos: &mut usize,
+    file: &Path,
+    directive: &str,
+    loc: &Loc,
+) -> Result<Transform, PbrtError> {
     let bracket = matches!(tokens.get(*pos).map(|t| &t.kind), Some(TokenKind::Open));
     if bracket {
         *pos += 1;
@@ -175,14 +226,35 @@ fn matrix16(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str, loc
     Ok(Transform { m })
 }
 
-fn string_arg(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Result<String, PbrtError> {
+fn string_arg(
+    tokens: &[Token],
+    pos: &mut usize,
+    file: &Path,
+    directive: &str,
+) -> Result<String, PbrtError> {
     match tokens.get(*pos) {
-        Some(Token { kind: TokenKind::Str(s), .. }) => {
+        Some(Token {
+            kind: TokenKind::Str(s),
+            ..
+        }) => {
             *pos += 1;
             Ok(s.clone())
         }
-        Some(t) => Err(PbrtError::at(file, t.line, t.column, format!("{directive}: expected a quoted string, found {}", t.describe()))),
-        None => Err(PbrtError::at(file, 0, 0, format!("{directive}: expected a quoted string, found the end of the file"))),
+        Some(t) => Err(PbrtError::at(
+            file,
+            t.line,
+            t.column,
+            format!(
+                "{directive}: expected a quoted string, found {}",
+                t.describe()
+            ),
+        )),
+        None => Err(PbrtError::at(
+            file,
+            0,
+            0,
+            format!("{directive}: expected a quoted string, found the end of the file"),
+        )),
     }
 }
 
@@ -206,7 +278,8 @@ impl Parser {
     }
 
     fn note(&mut self, loc: &Loc, msg: impl AsRef<str>) {
-        self.notes.push(format!("{}: {}", loc.describe(), msg.as_ref()));
+        self.notes
+            .push(format!("{}: {}", loc.describe(), msg.as_ref()));
     }
 
     fn ignore_params(&mut self, params: &ParamList, names: &[&str], what: &str) {
@@ -228,7 +301,9 @@ impl Parser {
             return Err(loc.err(format!("{d} is only allowed after WorldBegin")));
         }
         if !world && self.in_world {
-            return Err(loc.err(format!("{d} is only allowed before WorldBegin (in the options block)")));
+            return Err(loc.err(format!(
+                "{d} is only allowed before WorldBegin (in the options block)"
+            )));
         }
         Ok(())
     }
@@ -238,7 +313,11 @@ impl Parser {
         let mut pos = 0;
         while pos < tokens.len() {
             let tok = &tokens[pos];
-            let loc = Loc { file: file.to_path_buf(), line: tok.line, column: tok.column };
+            let loc = Loc {
+                file: file.to_path_buf(),
+                line: tok.line,
+                column: tok.column,
+            };
             let d = match &tok.kind {
                 TokenKind::Word(w) => w.clone(),
                 TokenKind::ObjectName(n) => {
@@ -251,7 +330,13 @@ impl Parser {
             pos += 1;
             let f = file;
             match d.as_str() {
-                "Identity" => self.gs.ctm = if self.gs.start_active { Transform::identity() } else { self.gs.ctm },
+                "Identity" => {
+                    self.gs.ctm = if self.gs.start_active {
+                        Transform::identity()
+                    } else {
+                        self.gs.ctm
+                    }
+                }
                 "Translate" => {
                     let v = nums(&tokens, &mut pos, f, &d, 3)?;
                     self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
@@ -269,8 +354,9 @@ impl Parser {
                 }
                 "LookAt" => {
                     let v = nums(&tokens, &mut pos, f, &d, 9)?;
-                    let t = xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
-                        .map_err(|e| loc.err(e))?;
+                    let t =
+                        xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
+                            .map_err(|e| loc.err(e))?;
                     self.apply_transform(t);
                 }
                 "Transform" => {
@@ -296,8 +382,15 @@ impl Parser {
                 }
                 "ActiveTransform" => {
                     let w = match tokens.get(pos) {
-                        Some(Token { kind: TokenKind::Word(w), .. }) => w.clone(),
-                        _ => return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All")),
+                        Some(Token {
+                            kind: TokenKind::Word(w),
+                            ..
+                        }) => w.clone(),
+                        _ => {
+                            return Err(
+                                loc.err("ActiveTransform: expected StartTime, EndTime or All")
+                            )
+                        }
                     };
                     pos += 1;
                     match w.as_str() {
@@ -316,16 +409,26 @@ impl Parser {
                 "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
                 "AttributeBegin" | "TransformBegin" => {
                     if d == "TransformBegin" {
-                        self.note(&loc, "TransformBegin is deprecated in pbrt-v4 (treated as a CTM push)");
+                        self.note(
+                            &loc,
+                            "TransformBegin is deprecated in pbrt-v4 (treated as a CTM push)",
+                        );
                     }
                     if self.stack.len() > 10_000 {
                         return Err(loc.err("attribute blocks nested more than 10000 deep"));
                     }
-                    let b = if d == "AttributeBegin" { Block::Attribute } else { Block::Transform };
+                    let b = if d == "AttributeBegin" {
+                        Block::Attribute
+                    } else {
+                        Block::Transform
+                    };
                     self.stack.push((self.gs.clone(), b, loc.clone()));
                 }
                 "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
-                    None => self.note(&loc, format!("unmatched {d} ignored (pbrt-v4 reports and ignores it)")),
+                    None => self.note(
+                        &loc,
+                        format!("unmatched {d} ignored (pbrt-v4 reports and ignores it)"),
+                    ),
                     Some((saved, block, _)) => match block {
                         Block::Attribute => {
                             if d != "AttributeEnd" {
@@ -383,7 +486,9 @@ impl Parser {
                 "ColorSpace" => {
                     let n = string_arg(&tokens, &mut pos, f, &d)?;
                     if n != "srgb" {
-                        return Err(loc.err(format!("ColorSpace \"{n}\": only \"srgb\" is supported")));
+                        return Err(
+                            loc.err(format!("ColorSpace \"{n}\": only \"srgb\" is supported"))
+                        );
                     }
                 }
                 "Option" => {
@@ -396,7 +501,8 @@ impl Parser {
                     self.in_world = true;
                     self.camera_world_check();
                     self.gs.ctm = Transform::identity();
-                    self.named_coords.insert("world".into(), Transform::identity());
+                    self.named_coords
+                        .insert("world".into(), Transform::identity());
                 }
                 "WorldEnd" => {
                     return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
@@ -406,13 +512,22 @@ impl Parser {
                     let path = self.resolve(file, &name);
                     let canon = canonical(&path);
                     if self.include_stack.contains(&canon) {
-                        return Err(loc.err(format!("{d} \"{name}\": include cycle ({} is already being read)", path.display())));
+                        return Err(loc.err(format!(
+                            "{d} \"{name}\": include cycle ({} is already being read)",
+                            path.display()
+                        )));
                     }
                     if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
-                        return Err(loc.err(format!("{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}")));
+                        return Err(loc.err(format!(
+                            "{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}"
+                        )));
                     }
-                    let text = std::fs::read_to_string(&path)
-                        .map_err(|e| loc.err(format!("{d} \"{name}\": cannot read {}: {e}", path.display())))?;
+                    let text = std::fs::read_to_string(&path).map_err(|e| {
+                        loc.err(format!(
+                            "{d} \"{name}\": cannot read {}: {e}",
+                            path.display()
+                        ))
+                    })?;
                     self.include_stack.push(canon);
                     if d == "Import" {
                         if !self.in_world {
@@ -440,9 +555,15 @@ impl Parser {
                     self.require_world(&loc, &d, true)?;
                     let name = string_arg(&tokens, &mut pos, f, &d)?;
                     let params = parse_params(&tokens, &mut pos, f)?;
-                    let ty = params.string("type")?.ok_or_else(|| loc.err(format!("MakeNamedMaterial \"{name}\": no \"string type\" parameter")))?;
+                    let ty = params.string("type")?.ok_or_else(|| {
+                        loc.err(format!(
+                            "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
+                        ))
+                    })?;
                     if self.named_materials.contains_key(&name) {
-                        return Err(loc.err(format!("MakeNamedMaterial: named material \"{name}\" redefined")));
+                        return Err(loc.err(format!(
+                            "MakeNamedMaterial: named material \"{name}\" redefined"
+                        )));
                     }
                     let m = self.material(&ty, &params, &loc, file)?;
                     self.materials.push(m);
@@ -466,12 +587,15 @@ impl Parser {
                     let ty = string_arg(&tokens, &mut pos, f, &d)?;
                     let params = parse_params(&tokens, &mut pos, f)?;
                     if ty != "diffuse" {
-                        return Err(loc.err(format!("AreaLightSource \"{ty}\" is not supported (only \"diffuse\")")));
+                        return Err(loc.err(format!(
+                            "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
+                        )));
                     }
                     if params.get("filename", &["string"])?.is_some() {
                         return Err(loc.err("AreaLightSource \"diffuse\": image emission (\"filename\") is not supported"));
                     }
-                    let spectrum = self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                    let spectrum =
+                        self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
                     let spectrum = match spectrum {
                         Some(s) => s,
                         None => default_illuminant(),
@@ -480,7 +604,12 @@ impl Parser {
                     let two_sided = params.bool("twosided", false)?;
                     let power = params.float_opt("power")?.filter(|p| *p > 0.0);
                     params.check_unused("AreaLightSource \"diffuse\"")?;
-                    self.gs.area_light = Some(AreaLightSpec { spectrum, scale, two_sided, power });
+                    self.gs.area_light = Some(AreaLightSpec {
+                        spectrum,
+                        scale,
+                        two_sided,
+                        power,
+                    });
                 }
                 "LightSource" => {
                     self.require_world(&loc, &d, true)?;
@@ -503,7 +632,8 @@ impl Parser {
                     if self.objects.contains_key(&name) {
                         return Err(loc.err(format!("ObjectBegin: object \"{name}\" redefined")));
                     }
-                    self.stack.push((self.gs.clone(), Block::Attribute, loc.clone()));
+                    self.stack
+                        .push((self.gs.clone(), Block::Attribute, loc.clone()));
                     self.current_object = Some((name, Vec::new(), loc.clone()));
                 }
                 "ObjectEnd" => {
@@ -521,13 +651,22 @@ impl Parser {
                     if self.current_object.is_some() {
                         return Err(loc.err("ObjectInstance inside an object definition"));
                     }
-                    let shapes = self.objects.get(&name).ok_or_else(|| loc.err(format!("ObjectInstance: no object named \"{name}\"")))?.clone();
+                    let shapes = self
+                        .objects
+                        .get(&name)
+                        .ok_or_else(|| {
+                            loc.err(format!("ObjectInstance: no object named \"{name}\""))
+                        })?
+                        .clone();
                     let total: usize = self.shapes.len() + shapes.len();
-                    camsim_core::mem::check_alloc(total as u64 * 256, "object instances").map_err(|e| loc.err(e.to_string()))?;
+                    camsim_core::mem::check_alloc(total as u64 * 256, "object instances")
+                        .map_err(|e| loc.err(e.to_string()))?;
                     for mut s in shapes {
-                        xform::transform_shape(&mut s.shape, &self.gs.ctm).map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
+                        xform::transform_shape(&mut s.shape, &self.gs.ctm)
+                            .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
                         if s.shape.name.is_none() {
-                            s.shape.name = Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
+                            s.shape.name =
+                                Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
                         }
                         self.shapes.push(s);
                     }
@@ -538,14 +677,20 @@ impl Parser {
                 "MediumInterface" => {
                     // One or two names.
                     let _ = string_arg(&tokens, &mut pos, f, &d)?;
-                    if let Some(Token { kind: TokenKind::Str(_), .. }) = tokens.get(pos) {
+                    if let Some(Token {
+                        kind: TokenKind::Str(_),
+                        ..
+                    }) = tokens.get(pos)
+                    {
                         // A second name, unless it is the next parameter list (never for this directive).
                         pos += 1;
                     }
                     self.note(&loc, "MediumInterface ignored (no participating media)");
                 }
                 "Attribute" => {
-                    return Err(loc.err("Attribute (default parameters for a category) is not supported"));
+                    return Err(
+                        loc.err("Attribute (default parameters for a category) is not supported")
+                    );
                 }
                 other => return Err(loc.err(format!("unknown directive \"{other}\""))),
             }
@@ -555,7 +700,13 @@ impl Parser {
 
     fn camera_world_check(&mut self) {}
 
-    fn spectrum_param(&self, params: &ParamList, name: &str, usage: SpectrumUse, file: &Path) -> Result<Option<ParsedSpectrum>, PbrtError> {
+    fn spectrum_param(
+        &self,
+        params: &ParamList,
+        name: &str,
+        usage: SpectrumUse,
+        file: &Path,
+    ) -> Result<Option<ParsedSpectrum>, PbrtError> {
         match params.get(name, &["rgb", "spectrum", "blackbody"])? {
             None => Ok(None),
             Some(p) => {
@@ -567,18 +718,26 @@ impl Parser {
 
     fn camera(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
         if ty != "perspective" {
-            return Err(loc.err(format!("Camera \"{ty}\" is not supported (only \"perspective\")")));
+            return Err(loc.err(format!(
+                "Camera \"{ty}\" is not supported (only \"perspective\")"
+            )));
         }
         let fov = params.float("fov", 90.0)?;
         if !(fov > 0.0 && fov < 180.0) {
-            return Err(loc.err(format!("Camera: fov {fov} must be between 0 and 180 degrees")));
+            return Err(loc.err(format!(
+                "Camera: fov {fov} must be between 0 and 180 degrees"
+            )));
         }
         let lens_radius = params.float("lensradius", 0.0)?;
         let focal = params.float_opt("focaldistance")?;
         if params.get("screenwindow", &["float"])?.is_some() {
             return Err(loc.err("Camera: \"screenwindow\" is not supported"));
         }
-        self.ignore_params(params, &["frameaspectratio", "shutteropen", "shutterclose"], "Camera");
+        self.ignore_params(
+            params,
+            &["frameaspectratio", "shutteropen", "shutterclose"],
+            "Camera",
+        );
         params.check_unused("Camera \"perspective\"")?;
         if lens_radius > 0.0 {
             self.note(loc, format!(
@@ -593,14 +752,17 @@ impl Parser {
         }
         self.fov_deg = fov;
         self.camera_from_world = self.gs.ctm;
-        let world_from_camera = inverse(&self.gs.ctm).ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
+        let world_from_camera = inverse(&self.gs.ctm)
+            .ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
         self.named_coords.insert("camera".into(), world_from_camera);
         Ok(())
     }
 
     fn film(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
         if !matches!(ty, "rgb" | "spectral" | "gbuffer") {
-            return Err(loc.err(format!("Film \"{ty}\" is not supported (rgb, spectral, gbuffer)")));
+            return Err(loc.err(format!(
+                "Film \"{ty}\" is not supported (rgb, spectral, gbuffer)"
+            )));
         }
         let w = params.int("xresolution", 1280)?;
         let h = params.int("yresolution", 720)?;
@@ -624,13 +786,24 @@ impl Parser {
         );
         params.check_unused(&format!("Film \"{ty}\""))?;
         if ty != "spectral" {
-            self.note(loc, format!("Film \"{ty}\": camsim renders spectral radiance on its wavelength grid"));
+            self.note(
+                loc,
+                format!("Film \"{ty}\": camsim renders spectral radiance on its wavelength grid"),
+            );
         }
         Ok(())
     }
 
     fn sampler(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
-        let known = ["halton", "independent", "pmj02bn", "paddedsobol", "sobol", "zsobol", "stratified"];
+        let known = [
+            "halton",
+            "independent",
+            "pmj02bn",
+            "paddedsobol",
+            "sobol",
+            "zsobol",
+            "stratified",
+        ];
         if !known.contains(&ty) {
             return Err(loc.err(format!("Sampler \"{ty}\" is unknown")));
         }
@@ -665,7 +838,18 @@ impl Parser {
             return Err(loc.err(format!("Integrator: maxdepth {d} is out of range")));
         }
         self.settings.max_depth = d as u32;
-        self.ignore_params(params, &["regularize", "lightsampler", "samplelights", "samplebsdf", "visualizestrategies", "visualizeweights"], "Integrator");
+        self.ignore_params(
+            params,
+            &[
+                "regularize",
+                "lightsampler",
+                "samplelights",
+                "samplebsdf",
+                "visualizestrategies",
+                "visualizeweights",
+            ],
+            "Integrator",
+        );
         params.check_unused(&format!("Integrator \"{ty}\""))?;
         if ty != "path" {
             self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
@@ -673,7 +857,12 @@ impl Parser {
         Ok(())
     }
 
-    fn reflectance_texture(&self, params: &ParamList, file: &Path, default: f64) -> Result<Texture, PbrtError> {
+    fn reflectance_texture(
+        &self,
+        params: &ParamList,
+        file: &Path,
+        default: f64,
+    ) -> Result<Texture, PbrtError> {
         if let Some(p) = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])? {
             if p.ty == "texture" {
                 let names = p.strings()?;
@@ -693,11 +882,18 @@ impl Parser {
             return Ok(Texture::Constant(s.spectrum));
         }
         Ok(Texture::Constant(
-            Spectrum::from_pairs(&[(360.0, default), (830.0, default)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
+            Spectrum::from_pairs(&[(360.0, default), (830.0, default)])
+                .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
         ))
     }
 
-    fn material(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<Material, PbrtError> {
+    fn material(
+        &mut self,
+        ty: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<Material, PbrtError> {
         if ty != "diffuse" {
             return Err(loc.err(format!(
                 "material type \"{ty}\" is not supported (camsim supports \"diffuse\"; the next BSDFs are conductor, dielectric, coateddiffuse)"
@@ -715,7 +911,15 @@ impl Parser {
         Ok(Material::Diffuse { reflectance })
     }
 
-    fn texture(&mut self, name: &str, ty: &str, class: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+    fn texture(
+        &mut self,
+        name: &str,
+        ty: &str,
+        class: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<(), PbrtError> {
         match ty {
             "spectrum" | "color" => {}
             "float" => {
@@ -724,14 +928,22 @@ impl Parser {
                         params.float("value", 1.0)?;
                     }
                     "imagemap" => params.params.iter().for_each(|p| p.used.set(true)),
-                    _ => return Err(loc.err(format!("float texture class \"{class}\" is not supported"))),
+                    _ => {
+                        return Err(
+                            loc.err(format!("float texture class \"{class}\" is not supported"))
+                        )
+                    }
                 }
                 params.check_unused("float texture")?;
                 self.note(loc, format!("float texture \"{name}\" defined; camsim's materials use no float textures"));
                 self.float_textures.insert(name.to_string(), ());
                 return Ok(());
             }
-            _ => return Err(loc.err(format!("Texture \"{name}\": type \"{ty}\" must be \"spectrum\" or \"float\""))),
+            _ => {
+                return Err(loc.err(format!(
+                    "Texture \"{name}\": type \"{ty}\" must be \"spectrum\" or \"float\""
+                )))
+            }
         }
         let tex = match class {
             "constant" => {
@@ -740,22 +952,39 @@ impl Parser {
                         let resolve = |n: &str| self.resolve(file, n);
                         param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum
                     }
-                    None => Spectrum::from_pairs(&[(360.0, 1.0), (830.0, 1.0)]).with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
+                    None => Spectrum::from_pairs(&[(360.0, 1.0), (830.0, 1.0)])
+                        .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
                 };
                 Texture::Constant(v)
             }
             "imagemap" => {
-                let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("Texture \"{name}\": imagemap needs \"string filename\"")))?;
+                let fname = params.string("filename")?.ok_or_else(|| {
+                    loc.err(format!(
+                        "Texture \"{name}\": imagemap needs \"string filename\""
+                    ))
+                })?;
                 let path = self.resolve(file, &fname);
                 let lower = fname.to_ascii_lowercase();
-                let default_enc = if lower.ends_with(".png") { "sRGB" } else { "linear" };
-                let enc = params.string("encoding")?.unwrap_or_else(|| default_enc.to_string());
-                let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)")))?;
+                let default_enc = if lower.ends_with(".png") {
+                    "sRGB"
+                } else {
+                    "linear"
+                };
+                let enc = params
+                    .string("encoding")?
+                    .unwrap_or_else(|| default_enc.to_string());
+                let encoding = parse_encoding(&enc).ok_or_else(|| {
+                    loc.err(format!(
+                        "Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)"
+                    ))
+                })?;
                 let scale = params.float("scale", 1.0)?;
                 let invert = params.bool("invert", false)?;
                 let mapping = params.string("mapping")?.unwrap_or_else(|| "uv".into());
                 if mapping != "uv" {
-                    return Err(loc.err(format!("Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)")));
+                    return Err(loc.err(format!(
+                        "Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)"
+                    )));
                 }
                 let uscale = params.float("uscale", 1.0)?;
                 let vscale = params.float("vscale", 1.0)?;
@@ -763,12 +992,16 @@ impl Parser {
                 let vdelta = params.float("vdelta", 0.0)?;
                 if let Some(w) = params.string("wrap")? {
                     if w != "repeat" {
-                        self.note(loc, format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"));
+                        self.note(
+                            loc,
+                            format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"),
+                        );
                     }
                 }
                 self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
                 params.check_unused("Texture \"imagemap\"")?;
-                let (width, height, mut rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
+                let (width, height, mut rgb) = load_image(&path, encoding)
+                    .map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
                 // pbrt-v4 SpectrumImageTexture for albedo: clamp(scale * rgb [inverted], 0, 1).
                 for px in rgb.iter_mut() {
                     for c in px.iter_mut() {
@@ -776,12 +1009,28 @@ impl Parser {
                         if invert {
                             v = 1.0 - v;
                         }
-                        *c = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+                        *c = if v.is_finite() {
+                            v.clamp(0.0, 1.0)
+                        } else {
+                            0.0
+                        };
                     }
                 }
-                Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta }
+                Texture::Image {
+                    width,
+                    height,
+                    rgb,
+                    uscale,
+                    vscale,
+                    udelta,
+                    vdelta,
+                }
             }
-            _ => return Err(loc.err(format!("Texture \"{name}\": class \"{class}\" is not supported (imagemap, constant)"))),
+            _ => {
+                return Err(loc.err(format!(
+                    "Texture \"{name}\": class \"{class}\" is not supported (imagemap, constant)"
+                )))
+            }
         };
         if class == "constant" {
             params.check_unused("Texture \"constant\"")?;
@@ -790,17 +1039,29 @@ impl Parser {
         Ok(())
     }
 
-    fn light_source(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+    fn light_source(
+        &mut self,
+        ty: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<(), PbrtError> {
         if ty != "infinite" {
-            return Err(loc.err(format!("LightSource \"{ty}\" is not supported (only \"infinite\"; use area lights)")));
+            return Err(loc.err(format!(
+                "LightSource \"{ty}\" is not supported (only \"infinite\"; use area lights)"
+            )));
         }
         if params.get("filename", &["string"])?.is_some() {
-            return Err(loc.err("LightSource \"infinite\": environment maps (\"filename\") are not supported"));
+            return Err(loc.err(
+                "LightSource \"infinite\": environment maps (\"filename\") are not supported",
+            ));
         }
         if params.get("portal", &["point3"])?.is_some() {
             return Err(loc.err("LightSource \"infinite\": portals are not supported"));
         }
-        let s = self.spectrum_param(params, "L", SpectrumUse::Illuminant, file)?.unwrap_or_else(default_illuminant);
+        let s = self
+            .spectrum_param(params, "L", SpectrumUse::Illuminant, file)?
+            .unwrap_or_else(default_illuminant);
         let mut scale = params.float("scale", 1.0)?;
         // pbrt-v4: scale /= SpectrumToPhotometric(L); illuminance E_v: scale *= E_v / pi.
         scale /= s.photometric;
@@ -813,9 +1074,16 @@ impl Parser {
         Ok(())
     }
 
-    fn shape(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<(), PbrtError> {
+    fn shape(
+        &mut self,
+        ty: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<(), PbrtError> {
         let ctm = self.gs.ctm;
-        let inv = inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
+        let inv =
+            inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
         let swaps = det3(&ctm) < 0.0;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
             let ok = p.ty == "float" && p.nums()?.first() == Some(&1.0);
@@ -827,14 +1095,22 @@ impl Parser {
         let geometry = match ty {
             "trianglemesh" | "bilinearmesh" => {
                 let per = if ty == "trianglemesh" { 3 } else { 4 };
-                let p = params.tuples("P", &["point3"], 3)?.ok_or_else(|| loc.err(format!("Shape \"{ty}\": no \"point3 P\"")))?;
+                let p = params
+                    .tuples("P", &["point3"], 3)?
+                    .ok_or_else(|| loc.err(format!("Shape \"{ty}\": no \"point3 P\"")))?;
                 let idx = match params.ints("indices")? {
                     Some((v, l)) => {
                         if v.is_empty() || v.len() % per != 0 {
-                            return Err(l.err(format!("Shape \"{ty}\": {} indices is not a multiple of {per}", v.len())));
+                            return Err(l.err(format!(
+                                "Shape \"{ty}\": {} indices is not a multiple of {per}",
+                                v.len()
+                            )));
                         }
                         if let Some(bad) = v.iter().find(|&&i| i < 0 || i as usize >= p.len()) {
-                            return Err(l.err(format!("Shape \"{ty}\": index {bad} is out of range (0..{})", p.len())));
+                            return Err(l.err(format!(
+                                "Shape \"{ty}\": index {bad} is out of range (0..{})",
+                                p.len()
+                            )));
                         }
                         v
                     }
@@ -850,21 +1126,36 @@ impl Parser {
                 let n = params.tuples("N", &["normal3"], 3)?;
                 if let Some(uv) = &uv {
                     if uv.len() != p.len() {
-                        return Err(loc.err(format!("Shape \"{ty}\": {} uv for {} vertices", uv.len(), p.len())));
+                        return Err(loc.err(format!(
+                            "Shape \"{ty}\": {} uv for {} vertices",
+                            uv.len(),
+                            p.len()
+                        )));
                     }
                 }
                 if let Some(n) = &n {
                     if n.len() != p.len() {
-                        return Err(loc.err(format!("Shape \"{ty}\": {} normals for {} vertices", n.len(), p.len())));
+                        return Err(loc.err(format!(
+                            "Shape \"{ty}\": {} normals for {} vertices",
+                            n.len(),
+                            p.len()
+                        )));
                     }
                 }
                 let tris: Vec<[u32; 3]> = if per == 3 {
-                    idx.chunks(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect()
+                    idx.chunks(3)
+                        .map(|c| [c[0] as u32, c[1] as u32, c[2] as u32])
+                        .collect()
                 } else {
                     // pbrt-v4 bilinear patch vertices p00 p10 p01 p11; perimeter p00 p10 p11 p01.
                     self.note(loc, "bilinearmesh: each patch is rendered as two triangles (exact for planar patches)");
                     idx.chunks(4)
-                        .flat_map(|c| [[c[0] as u32, c[1] as u32, c[3] as u32], [c[0] as u32, c[3] as u32, c[2] as u32]])
+                        .flat_map(|c| {
+                            [
+                                [c[0] as u32, c[1] as u32, c[3] as u32],
+                                [c[0] as u32, c[3] as u32, c[2] as u32],
+                            ]
+                        })
                         .collect()
                 };
                 mesh_geometry(
@@ -875,15 +1166,24 @@ impl Parser {
                 )
             }
             "plymesh" => {
-                let fname = params.string("filename")?.ok_or_else(|| loc.err("Shape \"plymesh\": no \"string filename\""))?;
+                let fname = params
+                    .string("filename")?
+                    .ok_or_else(|| loc.err("Shape \"plymesh\": no \"string filename\""))?;
                 if params.get("displacement", &["texture", "float"])?.is_some() {
                     return Err(loc.err("Shape \"plymesh\": displacement is not supported"));
                 }
                 self.ignore_params(params, &["edgelength"], "plymesh");
                 let path = self.resolve(file, &fname);
-                let m = ply::read_ply(&path).map_err(|e| loc.err(format!("Shape \"plymesh\": {e}")))?;
+                let m =
+                    ply::read_ply(&path).map_err(|e| loc.err(format!("Shape \"plymesh\": {e}")))?;
                 if m.quads > 0 {
-                    self.note(loc, format!("plymesh {fname}: {} quads rendered as two triangles each", m.quads));
+                    self.note(
+                        loc,
+                        format!(
+                            "plymesh {fname}: {} quads rendered as two triangles each",
+                            m.quads
+                        ),
+                    );
                 }
                 mesh_geometry(m.positions, m.triangles, m.uvs, m.normals)
             }
@@ -894,34 +1194,68 @@ impl Parser {
                 }
                 for (n, def) in [("zmin", -r), ("zmax", r), ("phimax", 360.0)] {
                     if let Some(v) = params.float_opt(n)? {
-                        if (v - def).abs() > 1e-9 * def.abs().max(1.0) && !(n == "zmin" && v <= -r) && !(n == "zmax" && v >= r) {
-                            return Err(loc.err(format!("Shape \"sphere\": partial spheres (\"{n}\") are not supported")));
+                        if (v - def).abs() > 1e-9 * def.abs().max(1.0)
+                            && !(n == "zmin" && v <= -r)
+                            && !(n == "zmax" && v >= r)
+                        {
+                            return Err(loc.err(format!(
+                                "Shape \"sphere\": partial spheres (\"{n}\") are not supported"
+                            )));
                         }
                     }
                 }
-                Geometry::Sphere { center: [0.0; 3], radius: r }
+                Geometry::Sphere {
+                    center: [0.0; 3],
+                    radius: r,
+                }
             }
-            other => return Err(loc.err(format!("Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere)"))),
+            other => return Err(loc.err(format!(
+                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere)"
+            ))),
         };
         params.check_unused(&format!("Shape \"{ty}\""))?;
         // To world space.
         let (geometry, reverse_orientation) = match geometry {
             Geometry::Sphere { center, radius } => {
-                let (c, r) = xform::sphere_under(&ctm, center, radius).map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
-                (Geometry::Sphere { center: c, radius: r }, self.gs.reverse_orientation ^ swaps)
+                let (c, r) = xform::sphere_under(&ctm, center, radius)
+                    .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                (
+                    Geometry::Sphere {
+                        center: c,
+                        radius: r,
+                    },
+                    self.gs.reverse_orientation ^ swaps,
+                )
             }
-            Geometry::Triangles { positions, mut indices, uvs, normals } => {
-                let positions: Vec<[f64; 3]> = positions.iter().map(|p| ctm.apply_point(*p)).collect();
+            Geometry::Triangles {
+                positions,
+                mut indices,
+                uvs,
+                normals,
+            } => {
+                let positions: Vec<[f64; 3]> =
+                    positions.iter().map(|p| ctm.apply_point(*p)).collect();
                 match normals {
                     Some(ns) => {
-                        let sign = if self.gs.reverse_orientation { -1.0 } else { 1.0 };
-                        let ns: Vec<[f64; 3]> = ns.iter().map(|n| {
-                            let w = apply_normal(&inv, *n);
-                            [sign * w[0], sign * w[1], sign * w[2]]
-                        }).collect();
+                        let sign = if self.gs.reverse_orientation {
+                            -1.0
+                        } else {
+                            1.0
+                        };
+                        let ns: Vec<[f64; 3]> = ns
+                            .iter()
+                            .map(|n| {
+                                let w = apply_normal(&inv, *n);
+                                [sign * w[0], sign * w[1], sign * w[2]]
+                            })
+                            .collect();
                         // Face each triangle's winding toward its shading normals (pbrt-v4 Triangle).
                         for t in indices.iter_mut() {
-                            let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                            let (a, b, c) = (
+                                positions[t[0] as usize],
+                                positions[t[1] as usize],
+                                positions[t[2] as usize],
+                            );
                             let g = cross(sub(b, a), sub(c, a));
                             let s = [0, 1, 2].iter().fold([0.0; 3], |acc, &k| {
                                 let n = ns[t[k] as usize];
@@ -931,19 +1265,47 @@ impl Parser {
                                 t.swap(1, 2);
                             }
                         }
-                        (Geometry::Triangles { positions, indices, uvs, normals: Some(ns) }, false)
+                        (
+                            Geometry::Triangles {
+                                positions,
+                                indices,
+                                uvs,
+                                normals: Some(ns),
+                            },
+                            false,
+                        )
                     }
-                    None => (Geometry::Triangles { positions, indices, uvs, normals: None }, self.gs.reverse_orientation ^ swaps),
+                    None => (
+                        Geometry::Triangles {
+                            positions,
+                            indices,
+                            uvs,
+                            normals: None,
+                        },
+                        self.gs.reverse_orientation ^ swaps,
+                    ),
                 }
             }
             #[allow(unreachable_patterns)]
             g => (g, false),
         };
-        let shape = Shape { name: self.gs.name.clone(), geometry, material: 0, area_light: None, reverse_orientation };
-        let pending = PendingShape { shape, mat: self.gs.material.clone(), light: self.gs.area_light.clone() };
+        let shape = Shape {
+            name: self.gs.name.clone(),
+            geometry,
+            material: 0,
+            area_light: None,
+            reverse_orientation,
+        };
+        let pending = PendingShape {
+            shape,
+            mat: self.gs.material.clone(),
+            light: self.gs.area_light.clone(),
+        };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
-                return Err(loc.err(format!("area lights inside object instances are not supported (object \"{oname}\")")));
+                return Err(loc.err(format!(
+                    "area lights inside object instances are not supported (object \"{oname}\")"
+                )));
             }
             let mut pending = pending;
             if pending.shape.name.is_none() {
@@ -962,10 +1324,11 @@ impl Parser {
         for ps in self.shapes {
             let material = match &ps.mat {
                 MatRef::Index(i) => *i,
-                MatRef::Named(n, loc) => *self
-                    .named_materials
-                    .get(n)
-                    .ok_or_else(|| loc.err(format!("NamedMaterial \"{n}\": no material of that name was defined")))?,
+                MatRef::Named(n, loc) => *self.named_materials.get(n).ok_or_else(|| {
+                    loc.err(format!(
+                        "NamedMaterial \"{n}\": no material of that name was defined"
+                    ))
+                })?,
             };
             let mut shape = ps.shape;
             shape.material = material;
@@ -977,11 +1340,23 @@ impl Parser {
                     let base = l.scale / l.spectrum.photometric;
                     let sides = if l.two_sided { 2.0 } else { 1.0 };
                     let to_light = |scale: f64| AreaLight {
-                        radiance: l.spectrum.spectrum.clone().scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+                        radiance: l
+                            .spectrum
+                            .spectrum
+                            .clone()
+                            .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                         two_sided: l.two_sided,
                     };
                     match (l.power, &shape.geometry) {
-                        (Some(power), Geometry::Triangles { positions, indices, uvs, normals }) if indices.len() > 1 => {
+                        (
+                            Some(power),
+                            Geometry::Triangles {
+                                positions,
+                                indices,
+                                uvs,
+                                normals,
+                            },
+                        ) if indices.len() > 1 => {
                             notes.push(format!(
                                 "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
                                 indices.len()
@@ -990,19 +1365,37 @@ impl Parser {
                                 let g = Geometry::Triangles {
                                     positions: t.iter().map(|&i| positions[i as usize]).collect(),
                                     indices: vec![[0, 1, 2]],
-                                    uvs: uvs.as_ref().map(|u| t.iter().map(|&i| u[i as usize]).collect()),
-                                    normals: normals.as_ref().map(|n| t.iter().map(|&i| n[i as usize]).collect()),
+                                    uvs: uvs
+                                        .as_ref()
+                                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
+                                    normals: normals
+                                        .as_ref()
+                                        .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
                                 };
                                 let area = xform::shape_area(&g);
-                                let scale = if area > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 };
-                                shapes.push(Shape { name: shape.name.clone(), geometry: g, material, area_light: Some(to_light(scale)), reverse_orientation: shape.reverse_orientation });
+                                let scale = if area > 0.0 {
+                                    base * power / (std::f64::consts::PI * area * sides)
+                                } else {
+                                    0.0
+                                };
+                                shapes.push(Shape {
+                                    name: shape.name.clone(),
+                                    geometry: g,
+                                    material,
+                                    area_light: Some(to_light(scale)),
+                                    reverse_orientation: shape.reverse_orientation,
+                                });
                             }
                         }
                         (power, g) => {
                             let mut scale = base;
                             if let Some(power) = power {
                                 let area = xform::shape_area(g);
-                                scale = if area > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 };
+                                scale = if area > 0.0 {
+                                    base * power / (std::f64::consts::PI * area * sides)
+                                } else {
+                                    0.0
+                                };
                             }
                             shape.area_light = Some(to_light(scale));
                             shapes.push(shape);
@@ -1013,7 +1406,12 @@ impl Parser {
         }
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
         Ok(SceneDescription {
-            camera: Camera { camera_to_world, fov_deg: self.fov_deg, width: self.width, height: self.height },
+            camera: Camera {
+                camera_to_world,
+                fov_deg: self.fov_deg,
+                width: self.width,
+                height: self.height,
+            },
             shapes,
             materials: self.materials,
             named_materials: self.named_materials,
@@ -1029,11 +1427,24 @@ impl Parser {
 fn default_illuminant() -> ParsedSpectrum {
     let s = super::spectra::srgb_illuminant().clone();
     let p = super::spectra::photometric(&s);
-    ParsedSpectrum { spectrum: s, photometric: p }
+    ParsedSpectrum {
+        spectrum: s,
+        photometric: p,
+    }
 }
 
-fn mesh_geometry(positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>>) -> Geometry {
-    Geometry::Triangles { positions, indices, uvs, normals }
+fn mesh_geometry(
+    positions: Vec<[f64; 3]>,
+    indices: Vec<[u32; 3]>,
+    uvs: Option<Vec<[f32; 2]>>,
+    normals: Option<Vec<[f64; 3]>>,
+) -> Geometry {
+    Geometry::Triangles {
+        positions,
+        indices,
+        uvs,
+        normals,
+    }
 }
 
 /// Image texel encodings (pbrt-v4 `ColorEncoding`).
@@ -1064,7 +1475,17 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
             path,
             |res, _| {
                 let (w, h) = (res.width(), res.height());
-                (w, vec![[0.0f32; 3]; if (w as u64) * (h as u64) <= (1 << 28) { w * h } else { 0 }])
+                (
+                    w,
+                    vec![
+                        [0.0f32; 3];
+                        if (w as u64) * (h as u64) <= (1 << 28) {
+                            w * h
+                        } else {
+                            0
+                        }
+                    ],
+                )
             },
             |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
                 if let Some(p) = px.get_mut(pos.y() * *w + pos.x()) {
@@ -1077,13 +1498,17 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
         let (w, h) = (size.width(), size.height());
         let px = img.layer_data.channel_data.pixels.1;
         if px.len() != w * h {
-            return Err(format!("{}: image of {w} x {h} pixels is too large", path.display()));
+            return Err(format!(
+                "{}: image of {w} x {h} pixels is too large",
+                path.display()
+            ));
         }
         return Ok((w, h, px));
     }
     let img = image::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let (w, h) = (img.width() as usize, img.height() as usize);
-    camsim_core::mem::check_alloc((w * h * 12) as u64, "texture image").map_err(|e| e.to_string())?;
+    camsim_core::mem::check_alloc((w * h * 12) as u64, "texture image")
+        .map_err(|e| e.to_string())?;
     let rgb = img.to_rgb32f();
     let dec = |v: f32| -> f32 {
         match encoding {
@@ -1092,5 +1517,11 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
             Encoding::Gamma(g) => v.max(0.0).powf(g),
         }
     };
-    Ok((w, h, rgb.pixels().map(|p| [dec(p.0[0]), dec(p.0[1]), dec(p.0[2])]).collect()))
+    Ok((
+        w,
+        h,
+        rgb.pixels()
+            .map(|p| [dec(p.0[0]), dec(p.0[1]), dec(p.0[2])])
+            .collect(),
+    ))
 }

@@ -83,12 +83,21 @@ struct Reader<'a> {
 impl Reader<'_> {
     fn read(&mut self, t: Scalar) -> Result<f64, String> {
         if self.fmt == Format::Ascii {
-            let tok = self.tokens.as_mut().and_then(|t| t.next()).ok_or("unexpected end of data")?;
-            return tok.parse::<f64>().map_err(|_| format!("\"{tok}\" is not a number"));
+            let tok = self
+                .tokens
+                .as_mut()
+                .and_then(|t| t.next())
+                .ok_or("unexpected end of data")?;
+            return tok
+                .parse::<f64>()
+                .map_err(|_| format!("\"{tok}\" is not a number"));
         }
         let n = t.size();
         let end = self.pos.checked_add(n).ok_or("file too short")?;
-        let b = self.bytes.get(self.pos..end).ok_or("unexpected end of binary data")?;
+        let b = self
+            .bytes
+            .get(self.pos..end)
+            .ok_or("unexpected end of binary data")?;
         self.pos = end;
         let mut a = [0u8; 8];
         a[..n].copy_from_slice(b);
@@ -118,7 +127,10 @@ pub fn read_ply(path: &std::path::Path) -> Result<PlyMesh, String> {
 pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     // Header: lines up to "end_header\n".
     let marker = b"end_header";
-    let hdr_end = bytes.windows(marker.len()).position(|w| w == marker).ok_or("no end_header in PLY header")?;
+    let hdr_end = bytes
+        .windows(marker.len())
+        .position(|w| w == marker)
+        .ok_or("no end_header in PLY header")?;
     let mut body = hdr_end + marker.len();
     // Skip the rest of the end_header line.
     while body < bytes.len() && bytes[body] != b'\n' {
@@ -147,25 +159,42 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
             }
             Some("element") => {
                 let (Some(name), Some(count)) = (w.get(1), w.get(2)) else {
-                    return Err(format!("header line {lno}: element needs a name and a count"));
+                    return Err(format!(
+                        "header line {lno}: element needs a name and a count"
+                    ));
                 };
-                let count: usize = count.parse().map_err(|_| format!("header line {lno}: bad element count \"{count}\""))?;
-                elements.push(Element { name: name.to_string(), count, props: Vec::new() });
+                let count: usize = count
+                    .parse()
+                    .map_err(|_| format!("header line {lno}: bad element count \"{count}\""))?;
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: Vec::new(),
+                });
             }
             Some("property") => {
-                let el = elements.last_mut().ok_or(format!("header line {lno}: property before any element"))?;
+                let el = elements
+                    .last_mut()
+                    .ok_or(format!("header line {lno}: property before any element"))?;
                 if w.get(1) == Some(&"list") {
                     let (Some(ct), Some(it), Some(name)) = (w.get(2), w.get(3), w.get(4)) else {
-                        return Err(format!("header line {lno}: list property needs count type, item type, name"));
+                        return Err(format!(
+                            "header line {lno}: list property needs count type, item type, name"
+                        ));
                     };
-                    let ct = Scalar::parse(ct).ok_or(format!("header line {lno}: unknown type {ct}"))?;
-                    let it = Scalar::parse(it).ok_or(format!("header line {lno}: unknown type {it}"))?;
+                    let ct =
+                        Scalar::parse(ct).ok_or(format!("header line {lno}: unknown type {ct}"))?;
+                    let it =
+                        Scalar::parse(it).ok_or(format!("header line {lno}: unknown type {it}"))?;
                     el.props.push(Prop::List(name.to_string(), ct, it));
                 } else {
                     let (Some(t), Some(name)) = (w.get(1), w.get(2)) else {
-                        return Err(format!("header line {lno}: property needs a type and a name"));
+                        return Err(format!(
+                            "header line {lno}: property needs a type and a name"
+                        ));
                     };
-                    let t = Scalar::parse(t).ok_or(format!("header line {lno}: unknown type {t}"))?;
+                    let t =
+                        Scalar::parse(t).ok_or(format!("header line {lno}: unknown type {t}"))?;
                     el.props.push(Prop::Scalar(name.to_string(), t));
                 }
             }
@@ -182,21 +211,41 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
             .props
             .iter()
             .map(|p| match p {
-                Prop::Scalar(_, t) => if fmt == Format::Ascii { 2 } else { t.size() },
-                Prop::List(_, c, _) => if fmt == Format::Ascii { 2 } else { c.size() },
+                Prop::Scalar(_, t) => {
+                    if fmt == Format::Ascii {
+                        2
+                    } else {
+                        t.size()
+                    }
+                }
+                Prop::List(_, c, _) => {
+                    if fmt == Format::Ascii {
+                        2
+                    } else {
+                        c.size()
+                    }
+                }
             })
             .sum();
         min_bytes += e.count as u128 * per as u128;
     }
     if min_bytes > data.len() as u128 + 1 {
-        return Err(format!("header declares more data than the file holds ({} bytes needed, {} present)", min_bytes, data.len()));
+        return Err(format!(
+            "header declares more data than the file holds ({} bytes needed, {} present)",
+            min_bytes,
+            data.len()
+        ));
     }
     let mut r = Reader {
         fmt,
         bytes: data,
         pos: 0,
         tokens: if fmt == Format::Ascii {
-            Some(std::str::from_utf8(data).map_err(|_| "ASCII PLY body is not text")?.split_ascii_whitespace())
+            Some(
+                std::str::from_utf8(data)
+                    .map_err(|_| "ASCII PLY body is not text")?
+                    .split_ascii_whitespace(),
+            )
         } else {
             None
         },
@@ -204,7 +253,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     let mut mesh = PlyMesh::default();
     for e in &elements {
         if e.name == "vertex" {
-            let idx = |n: &str| e.props.iter().position(|p| matches!(p, Prop::Scalar(m, _) if m == n));
+            let idx = |n: &str| {
+                e.props
+                    .iter()
+                    .position(|p| matches!(p, Prop::Scalar(m, _) if m == n))
+            };
             let (Some(ix), Some(iy), Some(iz)) = (idx("x"), idx("y"), idx("z")) else {
                 return Err("vertex element lacks x, y or z".into());
             };
@@ -212,10 +265,16 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                 (Some(a), Some(b), Some(c)) => Some([a, b, c]),
                 _ => None,
             };
-            let uv = [("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")]
-                .iter()
-                .find_map(|(a, b)| Some([idx(a)?, idx(b)?]));
-            camsim_core::mem::check_alloc(e.count as u64 * 64, "PLY vertices").map_err(|x| x.to_string())?;
+            let uv = [
+                ("u", "v"),
+                ("s", "t"),
+                ("texture_u", "texture_v"),
+                ("texture_s", "texture_t"),
+            ]
+            .iter()
+            .find_map(|(a, b)| Some([idx(a)?, idx(b)?]));
+            camsim_core::mem::check_alloc(e.count as u64 * 64, "PLY vertices")
+                .map_err(|x| x.to_string())?;
             mesh.positions.reserve(e.count);
             let mut ns = Vec::new();
             let mut uvs = Vec::new();
@@ -252,7 +311,8 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                 .iter()
                 .position(|p| matches!(p, Prop::List(m, _, _) if m == "vertex_indices" || m == "vertex_index"))
                 .ok_or("face element lacks a vertex_indices list")?;
-            camsim_core::mem::check_alloc(e.count as u64 * 24, "PLY faces").map_err(|x| x.to_string())?;
+            camsim_core::mem::check_alloc(e.count as u64 * 24, "PLY faces")
+                .map_err(|x| x.to_string())?;
             mesh.triangles.reserve(e.count);
             let mut idx = Vec::with_capacity(4);
             for f in 0..e.count {
@@ -271,7 +331,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                                 for _ in 0..n as usize {
                                     let v = r.read(*it)?;
                                     if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
-                                        return Err(format!("face {f}: vertex index {v} is not a valid index"));
+                                        return Err(format!(
+                                            "face {f}: vertex index {v} is not a valid index"
+                                        ));
                                     }
                                     idx.push(v as u32);
                                 }
@@ -290,7 +352,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                         mesh.triangles.push([idx[0], idx[2], idx[3]]);
                         mesh.quads += 1;
                     }
-                    n => return Err(format!("face {f} has {n} vertices; only triangles and quads are supported")),
+                    n => {
+                        return Err(format!(
+                            "face {f} has {n} vertices; only triangles and quads are supported"
+                        ))
+                    }
                 }
             }
         } else {
@@ -304,7 +370,10 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                         Prop::List(_, c, it) => {
                             let n = r.read(*c)?;
                             if !(0.0..=(1u32 << 20) as f64).contains(&n) {
-                                return Err(format!("element {}: list length {n} is out of range", e.name));
+                                return Err(format!(
+                                    "element {}: list length {n} is out of range",
+                                    e.name
+                                ));
                             }
                             for _ in 0..n as usize {
                                 r.read(*it)?;
@@ -316,8 +385,15 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
         }
     }
     let nv = mesh.positions.len();
-    if let Some(t) = mesh.triangles.iter().find(|t| t.iter().any(|&i| i as usize >= nv)) {
-        return Err(format!("face {:?} refers to a vertex beyond the {nv} vertices", t));
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= nv))
+    {
+        return Err(format!(
+            "face {:?} refers to a vertex beyond the {nv} vertices",
+            t
+        ));
     }
     Ok(mesh)
 }

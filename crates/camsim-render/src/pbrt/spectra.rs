@@ -36,7 +36,14 @@ pub struct ParsedSpectrum {
 pub const CIE_Y_INTEGRAL: f64 = 106.856895;
 
 /// Named spectra camsim carries (pbrt-v4 names).
-pub const NAMED_SPECTRA: &[&str] = &["stdillum-D65", "stdillum-A", "stdillum-F2", "stdillum-F11", "stdillum-C", "stdillum-E"];
+pub const NAMED_SPECTRA: &[&str] = &[
+    "stdillum-D65",
+    "stdillum-A",
+    "stdillum-F2",
+    "stdillum-F11",
+    "stdillum-C",
+    "stdillum-E",
+];
 
 fn y_bar_1nm() -> &'static Vec<f64> {
     static Y: OnceLock<Vec<f64>> = OnceLock::new();
@@ -48,7 +55,11 @@ fn y_bar_1nm() -> &'static Vec<f64> {
 
 /// pbrt-v4 `SpectrumToPhotometric` for a plain spectrum: `sum_{360..830} y_bar s` at 1 nm.
 pub fn photometric(s: &Spectrum) -> f64 {
-    y_bar_1nm().iter().enumerate().map(|(i, y)| y * s.eval(360.0 + i as f64)).sum()
+    y_bar_1nm()
+        .iter()
+        .enumerate()
+        .map(|(i, y)| y * s.eval(360.0 + i as f64))
+        .sum()
 }
 
 /// Scale a named illuminant so its photometric integral is `CIE_Y_INTEGRAL` (pbrt-v4 normalises
@@ -80,9 +91,27 @@ pub fn named_spectrum(name: &str) -> Option<Result<Spectrum, String>> {
         "stdillum-E" => "E",
         _ => {
             let pbrt_prefixes = [
-                "stdillum-", "illum-", "glass-", "metal-", "canon_", "nikon_", "sony_", "hasselblad_", "fujifilm_",
-                "dji_", "gopro_", "apple_", "google_", "samsung_", "nokia_", "olympus_", "pentax_", "panasonic_",
-                "phaseone_", "red_", "arri_",
+                "stdillum-",
+                "illum-",
+                "glass-",
+                "metal-",
+                "canon_",
+                "nikon_",
+                "sony_",
+                "hasselblad_",
+                "fujifilm_",
+                "dji_",
+                "gopro_",
+                "apple_",
+                "google_",
+                "samsung_",
+                "nokia_",
+                "olympus_",
+                "pentax_",
+                "panasonic_",
+                "phaseone_",
+                "red_",
+                "arri_",
             ];
             if pbrt_prefixes.iter().any(|p| name.starts_with(p)) {
                 return Some(Err(format!(
@@ -93,23 +122,32 @@ pub fn named_spectrum(name: &str) -> Option<Result<Spectrum, String>> {
             return None;
         }
     };
-    Some(tables::illuminant(table).map(normalize_named).map_err(|e| e.to_string()))
+    Some(
+        tables::illuminant(table)
+            .map(normalize_named)
+            .map_err(|e| e.to_string()),
+    )
 }
 
 /// pbrt-v4 `BlackbodySpectrum(T)`: Planck's law normalised to 1 at its peak (Wien's law
 /// lambda_max = 2.8977721e-3 m K / T), sampled every 1 nm over 300-1100 nm.
 pub fn blackbody(temperature_k: f64) -> Result<Spectrum, String> {
     if !(temperature_k.is_finite() && temperature_k > 0.0) {
-        return Err(format!("blackbody temperature {temperature_k} K must be a positive number"));
+        return Err(format!(
+            "blackbody temperature {temperature_k} K must be a positive number"
+        ));
     }
     let lambda_max_nm = 2.897_772_1e-3 / temperature_k * 1e9; // Wien's displacement law
     let peak = camsim_core::units::planck_radiance_w_per_sr_m2_nm(lambda_max_nm, temperature_k);
     if !(peak > 0.0 && peak.is_finite()) {
-        return Err(format!("blackbody temperature {temperature_k} K is out of range"));
+        return Err(format!(
+            "blackbody temperature {temperature_k} K is out of range"
+        ));
     }
     let pairs: Vec<(f64, f64)> = (300..=1100)
         .map(|l| {
-            let v = camsim_core::units::planck_radiance_w_per_sr_m2_nm(l as f64, temperature_k) / peak;
+            let v =
+                camsim_core::units::planck_radiance_w_per_sr_m2_nm(l as f64, temperature_k) / peak;
             (l as f64, if v.is_finite() { v } else { 0.0 })
         })
         .collect();
@@ -124,7 +162,10 @@ pub fn read_spectrum_file(path: &Path) -> Result<Spectrum, String> {
     let mut vals = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("");
-        let toks: Vec<&str> = line.split(|c: char| c.is_whitespace() || c == ',').filter(|s| !s.is_empty()).collect();
+        let toks: Vec<&str> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .collect();
         if toks.is_empty() {
             continue;
         }
@@ -132,7 +173,14 @@ pub fn read_spectrum_file(path: &Path) -> Result<Spectrum, String> {
         match nums {
             Ok(n) => vals.extend(n),
             Err(_) if vals.is_empty() => continue, // a header line
-            Err(_) => return Err(format!("{}, line {}: not a number in \"{}\"", path.display(), i + 1, line.trim())),
+            Err(_) => {
+                return Err(format!(
+                    "{}, line {}: not a number in \"{}\"",
+                    path.display(),
+                    i + 1,
+                    line.trim()
+                ))
+            }
         }
     }
     if vals.is_empty() || vals.len() % 2 != 0 {
@@ -149,7 +197,10 @@ pub fn read_spectrum_file(path: &Path) -> Result<Spectrum, String> {
 /// The RGB uplift pbrt-v4 applies for each use.
 pub fn rgb_spectrum(rgb: [f64; 3], usage: SpectrumUse) -> Result<ParsedSpectrum, String> {
     if rgb.iter().any(|v| *v < 0.0 || !v.is_finite()) {
-        return Err(format!("RGB value ({}, {}, {}) has a negative component", rgb[0], rgb[1], rgb[2]));
+        return Err(format!(
+            "RGB value ({}, {}, {}) has a negative component",
+            rgb[0], rgb[1], rgb[2]
+        ));
     }
     let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32];
     match usage {
@@ -162,7 +213,10 @@ pub fn rgb_spectrum(rgb: [f64; 3], usage: SpectrumUse) -> Result<ParsedSpectrum,
             }
             let s = uplift::rgb_to_reflectance_full(f(rgb)).with_extrapolation(Extrapolation::Hold);
             let p = photometric(&s);
-            Ok(ParsedSpectrum { spectrum: s, photometric: p })
+            Ok(ParsedSpectrum {
+                spectrum: s,
+                photometric: p,
+            })
         }
         SpectrumUse::Unbounded | SpectrumUse::Illuminant => {
             // pbrt-v4 RGBUnboundedSpectrum / RGBIlluminantSpectrum: scale = 2 max(rgb),
@@ -170,18 +224,29 @@ pub fn rgb_spectrum(rgb: [f64; 3], usage: SpectrumUse) -> Result<ParsedSpectrum,
             let m = rgb[0].max(rgb[1]).max(rgb[2]);
             let scale = 2.0 * m;
             let base = if scale > 0.0 {
-                uplift::rgb_to_reflectance_full(f([rgb[0] / scale, rgb[1] / scale, rgb[2] / scale])).scaled(scale)
+                uplift::rgb_to_reflectance_full(f([rgb[0] / scale, rgb[1] / scale, rgb[2] / scale]))
+                    .scaled(scale)
             } else {
                 uplift::rgb_to_reflectance_full([0.0; 3])
             };
             if usage == SpectrumUse::Unbounded {
                 let p = photometric(&base);
-                return Ok(ParsedSpectrum { spectrum: base.with_extrapolation(Extrapolation::Hold), photometric: p });
+                return Ok(ParsedSpectrum {
+                    spectrum: base.with_extrapolation(Extrapolation::Hold),
+                    photometric: p,
+                });
             }
             let ill = srgb_illuminant();
-            let pairs: Vec<(f64, f64)> =
-                ill.wavelengths_nm.iter().zip(&ill.values).map(|(&l, &e)| (l, e * base.eval(l))).collect();
-            Ok(ParsedSpectrum { spectrum: Spectrum::from_pairs(&pairs), photometric: photometric(ill) })
+            let pairs: Vec<(f64, f64)> = ill
+                .wavelengths_nm
+                .iter()
+                .zip(&ill.values)
+                .map(|(&l, &e)| (l, e * base.eval(l)))
+                .collect();
+            Ok(ParsedSpectrum {
+                spectrum: Spectrum::from_pairs(&pairs),
+                photometric: photometric(ill),
+            })
         }
     }
 }
@@ -196,10 +261,16 @@ pub fn param_spectrum(
     let err = |m: String| p.loc.err(format!("parameter \"{}\": {m}", p.name));
     let plain = |s: Spectrum| -> Result<ParsedSpectrum, PbrtError> {
         if usage == SpectrumUse::Albedo && s.values.iter().any(|v| *v < 0.0) {
-            return Err(p.loc.err(format!("parameter \"{}\": a reflectance spectrum has a negative value", p.name)));
+            return Err(p.loc.err(format!(
+                "parameter \"{}\": a reflectance spectrum has a negative value",
+                p.name
+            )));
         }
         let ph = photometric(&s);
-        Ok(ParsedSpectrum { spectrum: s, photometric: ph })
+        Ok(ParsedSpectrum {
+            spectrum: s,
+            photometric: ph,
+        })
     };
     match p.ty.as_str() {
         "rgb" => {
@@ -224,7 +295,9 @@ pub fn param_spectrum(
                 if p.values.len() != 1 {
                     return Err(err("give one named spectrum or file name".into()));
                 }
-                let Value::Str(name) = &p.values[0] else { unreachable!() };
+                let Value::Str(name) = &p.values[0] else {
+                    unreachable!()
+                };
                 if let Some(named) = named_spectrum(name) {
                     return plain(named.map_err(err)?);
                 }
@@ -240,7 +313,10 @@ pub fn param_spectrum(
             }
             let v = p.nums()?;
             if v.is_empty() || v.len() % 2 != 0 {
-                return Err(err(format!("inline spectrum needs wavelength-value pairs, got {} numbers", v.len())));
+                return Err(err(format!(
+                    "inline spectrum needs wavelength-value pairs, got {} numbers",
+                    v.len()
+                )));
             }
             let (w, vals): (Vec<f64>, Vec<f64>) = v.chunks(2).map(|c| (c[0], c[1])).unzip();
             if let Some(i) = (1..w.len()).find(|&i| w[i] <= w[i - 1]) {
@@ -253,6 +329,8 @@ pub fn param_spectrum(
             }
             plain(Spectrum::new(w, vals, &p.name).map_err(|e| err(e.to_string()))?)
         }
-        other => Err(err(format!("type \"{other}\" is not a spectrum type (rgb, spectrum, blackbody)"))),
+        other => Err(err(format!(
+            "type \"{other}\" is not a spectrum type (rgb, spectrum, blackbody)"
+        ))),
     }
 }

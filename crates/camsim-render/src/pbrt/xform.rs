@@ -1,12 +1,16 @@
 //! Transform helpers the scene readers share: inverse, determinant, pbrt-v4's `LookAt`, and
 //! moving a [`Shape`] by a transform (positions, normals, sphere centre/radius, handedness).
 
+// `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::scene::{Geometry, Shape, Transform};
 
 /// Determinant of the upper-left 3x3 (negative when the transform swaps handedness).
 pub fn det3(t: &Transform) -> f64 {
     let m = &t.m;
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
@@ -38,7 +42,10 @@ pub fn inverse(t: &Transform) -> Option<Transform> {
             }
         }
     }
-    inv.iter().flatten().all(|v| v.is_finite()).then_some(Transform { m: inv })
+    inv.iter()
+        .flatten()
+        .all(|v| v.is_finite())
+        .then_some(Transform { m: inv })
 }
 
 /// Transform a normal: (M^-1)^T n, normalised. `inv` is the inverse of the point transform.
@@ -64,7 +71,11 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
@@ -95,7 +106,11 @@ pub fn look_at(pos: [f64; 3], look: [f64; 3], up: [f64; 3]) -> Result<Transform,
 
 /// Centre and uniform scale factor of a transform applied to a sphere; error text for
 /// non-uniform scale or shear (a sphere must stay a sphere).
-pub fn sphere_under(t: &Transform, center: [f64; 3], radius: f64) -> Result<([f64; 3], f64), String> {
+pub fn sphere_under(
+    t: &Transform,
+    center: [f64; 3],
+    radius: f64,
+) -> Result<([f64; 3], f64), String> {
     let cols: Vec<[f64; 3]> = (0..3).map(|c| [t.m[0][c], t.m[1][c], t.m[2][c]]).collect();
     let lens: Vec<f64> = cols.iter().map(|c| dot(*c, *c).sqrt()).collect();
     let s = lens[0];
@@ -122,7 +137,12 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
     let inv = inverse(t).ok_or_else(|| "singular transform".to_string())?;
     let swaps = det3(t) < 0.0;
     match &mut shape.geometry {
-        Geometry::Triangles { positions, indices, normals, .. } => {
+        Geometry::Triangles {
+            positions,
+            indices,
+            normals,
+            ..
+        } => {
             positions.iter_mut().for_each(|p| *p = t.apply_point(*p));
             if let Some(ns) = normals {
                 ns.iter_mut().for_each(|n| *n = apply_normal(&inv, *n));
@@ -152,10 +172,16 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
 /// Surface area of a shape, m^2.
 pub fn shape_area(g: &Geometry) -> f64 {
     match g {
-        Geometry::Triangles { positions, indices, .. } => indices
+        Geometry::Triangles {
+            positions, indices, ..
+        } => indices
             .iter()
             .map(|t| {
-                let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                let (a, b, c) = (
+                    positions[t[0] as usize],
+                    positions[t[1] as usize],
+                    positions[t[2] as usize],
+                );
                 0.5 * dot(cross(sub(b, a), sub(c, a)), cross(sub(b, a), sub(c, a))).sqrt()
             })
             .sum(),
@@ -179,9 +205,10 @@ pub fn shape_bounds(g: &Geometry) -> ([f64; 3], [f64; 3]) {
             }
             (lo, hi)
         }
-        Geometry::Sphere { center, radius } => {
-            ([center[0] - radius, center[1] - radius, center[2] - radius], [center[0] + radius, center[1] + radius, center[2] + radius])
-        }
+        Geometry::Sphere { center, radius } => (
+            [center[0] - radius, center[1] - radius, center[2] - radius],
+            [center[0] + radius, center[1] + radius, center[2] + radius],
+        ),
         #[allow(unreachable_patterns)]
         _ => ([0.0; 3], [0.0; 3]),
     }
@@ -193,10 +220,13 @@ mod tests {
 
     #[test]
     fn inverse_and_look_at() {
-        let t = Transform::translate([1.0, 2.0, 3.0]).then_apply_to(&Transform::rotate(30.0, [1.0, 1.0, 0.0]));
+        let t = Transform::translate([1.0, 2.0, 3.0])
+            .then_apply_to(&Transform::rotate(30.0, [1.0, 1.0, 0.0]));
         let i = inverse(&t).unwrap();
         let p = i.apply_point(t.apply_point([0.3, -0.7, 2.0]));
-        assert!((p[0] - 0.3).abs() < 1e-12 && (p[1] + 0.7).abs() < 1e-12 && (p[2] - 2.0).abs() < 1e-12);
+        assert!(
+            (p[0] - 0.3).abs() < 1e-12 && (p[1] + 0.7).abs() < 1e-12 && (p[2] - 2.0).abs() < 1e-12
+        );
         let cam = look_at([0.0, 0.0, -5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]).unwrap();
         let c = cam.apply_point([0.0, 0.0, 0.0]);
         assert!((c[2] - 5.0).abs() < 1e-12 && c[0].abs() < 1e-12);

@@ -1,0 +1,346 @@
+//! The optics stage on images: irradiance formula, shading, energy conservation, the edge MTF
+//! (frequency domain), depth-layered defocus.
+
+use camsim_core::image::ImageGeometry;
+use camsim_core::{Quantity, SpectralImage, WavelengthGrid};
+use camsim_optics::config::{Padding, ShadingConfig, ShadingName};
+use camsim_optics::{diffraction_mtf, Optics, OpticsConfig};
+use std::f64::consts::PI;
+
+fn config(n: f64, f_mm: f64) -> OpticsConfig {
+    let mut c = OpticsConfig::preset("diffraction-limited").unwrap();
+    c.f_number = n;
+    c.focal_length_mm = f_mm;
+    c.shading = ShadingConfig::Named(ShadingName::None);
+    c
+}
+
+fn image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, distance_m: f64, f: impl Fn(usize, usize, usize) -> f32) -> SpectralImage {
+    let mut data = vec![0.0f32; rows * cols * grid.len()];
+    for b in 0..grid.len() {
+        for r in 0..rows {
+            for c in 0..cols {
+                data[(b * rows + r) * cols + c] = f(b, r, c);
+            }
+        }
+    }
+    let mut img = SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry { fov_deg: 0.0, distance_m, focal_length_m: 0.0, f_number: 0.0 };
+    img
+}
+
+/// Uniform field: E = pi T L / (1 + 4 N^2 (1 + m)^2) (ISETCam oiCalculateIrradiance), m = v/d from
+/// the thin lens; the blur leaves a uniform field unchanged away from the borders; the sensor-plane
+/// spacing is the scene spacing times v/d.
+#[test]
+fn uniform_field_irradiance_follows_the_camera_equation() {
+    let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+    for &(n, f_mm, d, t) in &[(2.8, 50.0, 1.0, 0.9), (1.73, 4.38, 0.5, 1.0), (4.0, 10.0, 0.05, 0.8)] {
+        let mut c = config(n, f_mm);
+        c.transmittance = camsim_optics::config::Transmittance::Scalar(t);
+        let o = Optics::from_config(&c).unwrap();
+        let f: f64 = f_mm * 1e-3;
+        let v = 1.0 / (1.0 / f - 1.0 / d);
+        let m = v / d;
+        // Scene spacing such that the sensor spacing is 4 um; 128 x 128 samples, so the Airy tail
+        // beyond the borders (energy outside r ~ 2 lambda N / (pi^2 r)) is < 0.1 % at the centre.
+        let scene_dx = 4e-6 / m;
+        let img = image(128, 128, grid, scene_dx, d, |b, _, _| 0.01 * (b + 1) as f32);
+        let out = o.compute(&img).unwrap();
+        assert!((out.sample_spacing_m / 4e-6 - 1.0).abs() < 1e-9);
+        assert_eq!(out.geometry.f_number, n);
+        let want_k = PI * t / (1.0 + 4.0 * n * n * (1.0 + m) * (1.0 + m));
+        for b in 0..3 {
+            let got = out.at(out.rows / 2, out.cols / 2, b) as f64;
+            let want = want_k * 0.01 * (b + 1) as f64;
+            assert!((got / want - 1.0).abs() < 2e-3, "N {n}, d {d}, band {b}: {got} vs {want}");
+        }
+    }
+}
+
+/// cos^4 falloff: a uniform field at infinity with a wide field of view; relative illumination at a
+/// pixel off axis is cos^4(atan(r / f)) (the blur is negligible for a smooth field).
+#[test]
+fn cos4_falloff() {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let mut c = config(2.0, 4.0);
+    c.shading = ShadingConfig::Named(ShadingName::Cos4);
+    c.padding = Padding::None;
+    let o = Optics::from_config(&c).unwrap();
+    let cols = 400;
+    let mut img = image(40, cols, grid, 1e-6, 0.0, |_, _, _| 1.0);
+    img.geometry.fov_deg = 60.0;
+    let out = o.compute(&img).unwrap();
+    let dx = out.sample_spacing_m;
+    assert!((dx - 2.0 * 4e-3 * (30f64).to_radians().tan() / cols as f64).abs() < 1e-15);
+    let centre = out.at(20, cols / 2, 0) as f64;
+    for col in [250usize, 300, 350] {
+        let x = (col as f64 + 0.5 - cols as f64 / 2.0) * dx;
+        let cos2 = 1.0 / (1.0 + (x / 4e-3).powi(2));
+        let x0 = 0.5 * dx;
+        let cos2_0 = 1.0 / (1.0 + (x0 / 4e-3).powi(2));
+        let want = (cos2 * cos2) / (cos2_0 * cos2_0);
+        let got = out.at(20, col, 0) as f64 / centre;
+        assert!((got - want).abs() < 2e-3, "col {col}: {got} vs cos^4 {want}");
+    }
+}
+
+/// A relative-illumination table (normalized field height) is applied as given.
+#[test]
+fn relative_illumination_table() {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let text = "f_number = 2.0\nfocal_length_mm = 4.0\npadding = \"none\"\n\
+                shading = { relative_illumination = { field_height_normalized = [0.0, 1.0], ri = [1.0, 0.5] } }\n";
+    let o = Optics::from_config(&OpticsConfig::from_toml_str(text, "t").unwrap()).unwrap();
+    let (rows, cols) = (60, 80);
+    let mut img = image(rows, cols, grid, 1e-6, 0.0, |_, _, _| 1.0);
+    // 60 degrees over 80 samples: 58 um samples, so the blur is negligible.
+    img.geometry.fov_deg = 60.0;
+    let out = o.compute(&img).unwrap();
+    let centre = out.at(30, 40, 0) as f64;
+    // Pixel (30, 70): field height 30.5 samples of a half-diagonal of 50 samples.
+    let ri = |r: f64, c: f64| 1.0 - 0.5 * ((c + 0.5 - 40.0).powi(2) + (r + 0.5 - 30.0).powi(2)).sqrt() / 50.0;
+    let want = ri(30.0, 70.0) / ri(30.0, 40.0);
+    let got = out.at(30, 70, 0) as f64 / centre;
+    assert!((got - want).abs() < 3e-3, "{got} vs {want}");
+}
+
+/// The blur conserves energy: with "psf" padding all the light is kept, so the irradiance integral
+/// equals the unblurred one (camera equation x radiance integral), band by band, for a random
+/// scene and an aberrated wavefront.
+#[test]
+fn blur_conserves_energy() {
+    let grid = WavelengthGrid::new(400.0, 700.0, 150.0).unwrap();
+    let text = "f_number = 1.73\nfocal_length_mm = 4.38\nshading = \"none\"\n[wavefront]\n\
+                measurement_pupil_mm = 8.0\nzernike_um = [{ j = 4, c = 1.225 }, { j = 7, c = 0.3 }, { j = 12, c = 0.2 }]\n";
+    let o = Optics::from_config(&OpticsConfig::from_toml_str(text, "t").unwrap()).unwrap();
+    let (rows, cols) = (90, 70);
+    let img = image(rows, cols, grid, 1e-6, 0.0, |b, r, c| (((r * 131 + c * 71 + b * 17) % 97) as f32) / 97.0);
+    let mut img = img;
+    img.geometry.fov_deg = 2.0 * (cols as f64 * 0.7e-6 / 2.0 / 4.38e-3).atan().to_degrees();
+    let out = o.compute(&img).unwrap();
+    assert!(out.rows > rows && out.cols > cols);
+    let k = PI / (1.0 + 4.0 * 1.73 * 1.73);
+    for b in 0..3 {
+        let sin: f64 = img.band(b).iter().map(|v| *v as f64).sum::<f64>() * k;
+        let sout: f64 = out.band(b).iter().map(|v| *v as f64).sum();
+        assert!((sout / sin - 1.0).abs() < 1e-4, "band {b}: {sout} vs {sin}");
+    }
+}
+
+/// Issue 2: the band image of an edge blurs as the analytic diffraction MTF says. Vertical step
+/// edge, diffraction-limited lens; the derivative of a blurred row is the line-spread function
+/// (the derivative of a sampled step is a discrete delta), its DFT the MTF at k / (W dx). The image
+/// spacing is < lambda N / 2, so the discrete kernel's transfer function is the OTF itself; the
+/// error comes from the truncated PSF tail (tail_energy = 0.002).
+#[test]
+fn edge_blurs_as_the_diffraction_mtf() {
+    let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+    let n = 2.8;
+    let mut c = config(n, 4.0);
+    c.psf.tail_energy = 0.002;
+    let o = Optics::from_config(&c).unwrap();
+    let dx = 0.45 * 450e-9 * n;
+    // Rows >= the kernel, so the centre row integrates the whole PSF along y (the row is the LSF
+    // convolved with the step).
+    let (rows, cols) = (701, 1500);
+    let mut img = image(rows, cols, grid, dx, 0.0, |_, _, c| if c >= cols / 2 { 1.0 } else { 0.0 });
+    img.geometry.fov_deg = 2.0 * (cols as f64 * dx / 2.0 / 4e-3).atan().to_degrees();
+    let out = o.compute(&img).unwrap();
+    assert!((out.sample_spacing_m / dx - 1.0).abs() < 1e-9);
+    let pad = (out.cols - cols) / 2;
+    let edge = pad + cols / 2;
+    let w = 1024usize;
+    let mut worst: f64 = 0.0;
+    for b in 0..3 {
+        let wl = grid.wavelength_nm(b);
+        let r = out.rows / 2;
+        let row: Vec<f64> = (0..out.cols).map(|c| out.at(r, c, b) as f64).collect();
+        let lsf: Vec<f64> = (edge - w / 2..edge + w / 2).map(|c| row[c] - row[c - 1]).collect();
+        let total: f64 = lsf.iter().sum();
+        for kf in 1..w / 2 {
+            let (mut re, mut im) = (0.0, 0.0);
+            for (i, v) in lsf.iter().enumerate() {
+                let ph = -2.0 * PI * (kf * i) as f64 / w as f64;
+                re += v * ph.cos();
+                im += v * ph.sin();
+            }
+            let got = (re * re + im * im).sqrt() / total;
+            let f_cyc_mm = kf as f64 / (w as f64 * dx) * 1e-3;
+            let want = diffraction_mtf(f_cyc_mm, wl, n);
+            worst = worst.max((got - want).abs());
+            assert!((got - want).abs() < 0.01, "{wl} nm, {f_cyc_mm:.0} cyc/mm: {got:.4} vs {want:.4}");
+        }
+    }
+    eprintln!("edge MTF vs diffraction MTF: max |error| = {worst:.5}");
+}
+
+fn rise_10_90(row: &[f64], lo: f64, hi: f64, dx: f64) -> f64 {
+    let at = |level: f64| {
+        let t = lo + level * (hi - lo);
+        let i = row.iter().position(|v| *v >= t).unwrap();
+        (i - 1) as f64 + (t - row[i - 1]) / (row[i] - row[i - 1])
+    };
+    (at(0.9) - at(0.1)) * dx
+}
+
+/// Depth-dependent defocus: a slanted edge at 50 cm (depth map), a diffraction-limited lens with
+/// the Pixel 4a's f-number and focal length. Focus at 50 cm: the edge is sharp (10-90 % rise below
+/// a micrometre, lambda N = 0.95 um). Focus at 30 cm: blurred by the thin-lens
+/// circle of confusion c = (f/N)(v_s - v_o)/v_o = 15.0 um; a uniform disk of diameter c has a 10-90 %
+/// edge rise of 0.61 c (the disk's edge-spread function, computed here by quadrature).
+#[test]
+fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let (f, n) = (4.38e-3f64, 1.73f64);
+    let d = 0.5;
+    let (rows, cols) = (160, 160);
+    let mut rises = Vec::new();
+    for focus in [0.5, 0.3] {
+        let mut c = OpticsConfig::preset("diffraction-limited").unwrap();
+        c.shading = ShadingConfig::Named(ShadingName::None);
+        c.focus_distance_m = Some(focus);
+        let o = Optics::from_config(&c).unwrap();
+        let v_s = 1.0 / (1.0 / f - 1.0 / focus);
+        // 0.25 um < lambda N / 2: the PSF is sampled, not cell-integrated, and the slanted edge's
+        // staircase is small against the rise.
+        let sensor_dx = 0.25e-6;
+        let scene_dx = sensor_dx * d / v_s;
+        let slope = (5f64).to_radians().tan();
+        let mut img = image(rows, cols, grid, scene_dx, d, |_, r, c| {
+            if (c as f64 - 80.0) > slope * (r as f64 - 80.0) {
+                1.0
+            } else {
+                0.2
+            }
+        });
+        img.depth_m = Some(vec![d as f32; rows * cols]);
+        let out = o.compute(&img).unwrap();
+        let pad = (out.rows - rows) / 2;
+        let r = pad + 80;
+        let row: Vec<f64> = (pad + 20..pad + 140).map(|c| out.at(r, c, 0) as f64).collect();
+        let k = PI / (1.0 + 4.0 * n * n * (1.0 + lens_m(f, d)).powi(2));
+        rises.push(rise_10_90(&row, 0.2 * k, 1.0 * k, out.sample_spacing_m) * (5f64).to_radians().cos());
+    }
+    // Disk ESF: fraction of a unit disk left of x: F(x) = (x sqrt(1-x^2) + asin x)/pi + 1/2.
+    let esf = |x: f64| (x * (1.0 - x * x).sqrt() + x.asin()) / PI + 0.5;
+    let inv = |p: f64| {
+        let (mut lo, mut hi) = (-1.0, 1.0);
+        for _ in 0..60 {
+            let m = 0.5 * (lo + hi);
+            if esf(m) < p {
+                lo = m
+            } else {
+                hi = m
+            }
+        }
+        lo
+    };
+    let vs = 1.0 / (1.0 / f - 1.0 / 0.3);
+    let vo = 1.0 / (1.0 / f - 1.0 / d);
+    let coc = f / n * (vs - vo) / vo;
+    let disk_rise = (inv(0.9) - inv(0.1)) * coc / 2.0;
+    eprintln!("edge 10-90% rise: in focus {:.2} um, focus 30 cm {:.2} um (disk of c = {:.2} um: {:.2} um)", rises[0] * 1e6, rises[1] * 1e6, coc * 1e6, disk_rise * 1e6);
+    // In focus: the diffraction-limited edge-spread function from the analytic MTF,
+    // ESF(x) = 1/2 + (1/pi) int_0^fc MTF(f) sin(2 pi f x) / f df (Simpson quadrature).
+    let lam_n = 550e-9 * n * (1.0 + lens_m(f, d));
+    let dl_esf = |x: f64| {
+        let fc = 1.0 / lam_n;
+        let m = 2000;
+        let h = fc / m as f64;
+        let g = |fr: f64| {
+            let mtf = camsim_optics::lens::diffraction_mtf_normalized(fr / fc);
+            if fr == 0.0 {
+                2.0 * PI * x
+            } else {
+                mtf * (2.0 * PI * fr * x).sin() / fr
+            }
+        };
+        let mut sum = g(0.0) + g(fc);
+        for k in 1..m {
+            sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+        }
+        0.5 + sum * h / 3.0 / PI
+    };
+    let solve = |p: f64| {
+        let (mut lo, mut hi) = (-5.0 * lam_n, 5.0 * lam_n);
+        for _ in 0..50 {
+            let m = 0.5 * (lo + hi);
+            if dl_esf(m) < p {
+                lo = m
+            } else {
+                hi = m
+            }
+        }
+        lo
+    };
+    let dl_rise = solve(0.9) - solve(0.1);
+    eprintln!("diffraction-limited ESF 10-90% rise: {:.2} um", dl_rise * 1e6);
+    assert!((rises[0] / dl_rise - 1.0).abs() < 0.15, "in-focus rise {} vs diffraction-limited {}", rises[0], dl_rise);
+    assert!((rises[1] / disk_rise - 1.0).abs() < 0.15, "defocused rise {} vs disk {}", rises[1], disk_rise);
+}
+
+fn lens_m(f: f64, d: f64) -> f64 {
+    camsim_optics::lens::magnification(f, d)
+}
+
+/// A point in the focal plane gets the in-focus PSF: a scene whose left half lies at the focus
+/// distance and right half at 0.3 m; a point in the left half (far from the depth boundary) blurs
+/// exactly as with the shift-invariant in-focus optics.
+#[test]
+fn point_in_the_focal_plane_gets_the_in_focus_psf() {
+    let grid = WavelengthGrid::new(500.0, 600.0, 100.0).unwrap();
+    let (rows, cols) = (64, 200);
+    let d = 1.0;
+    let mk = |depth: bool| {
+        let mut img = image(rows, cols, grid, 2e-6, d, |_, r, c| if r == 32 && c == 40 { 1.0 } else { 0.0 });
+        if depth {
+            img.depth_m = Some((0..rows * cols).map(|i| if i % cols < 100 { d as f32 } else { 0.3 }).collect());
+        }
+        img
+    };
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.shading = ShadingConfig::Named(ShadingName::None);
+    c.focus_distance_m = Some(d);
+    let layered = Optics::from_config(&c).unwrap();
+    let layers = layered.depth_layers(mk(true).depth_m.as_ref().unwrap(), cols, d).unwrap();
+    assert_eq!(layers.c4_um.len(), 2);
+    assert!(layers.c4_um.contains(&0.0));
+    let a = layered.compute(&mk(true)).unwrap();
+    c.focus_distance_m = None;
+    let flat = Optics::from_config(&c).unwrap().compute(&mk(false)).unwrap();
+    // Kernel sizes differ (the defocused layer needs a bigger one): compare around the point.
+    let (pa, pf) = ((a.rows - rows) / 2, (flat.rows - rows) / 2);
+    let mut peak = 0.0f64;
+    let mut maxdiff = 0.0f64;
+    for b in 0..2 {
+        for dr in -10i64..=10 {
+            for dc in -10i64..=10 {
+                let va = a.at((pa as i64 + 32 + dr) as usize, (pa as i64 + 40 + dc) as usize, b) as f64;
+                let vf = flat.at((pf as i64 + 32 + dr) as usize, (pf as i64 + 40 + dc) as usize, b) as f64;
+                peak = peak.max(vf);
+                maxdiff = maxdiff.max((va - vf).abs());
+            }
+        }
+    }
+    assert!(maxdiff < 1e-3 * peak, "max diff {maxdiff} vs peak {peak}");
+    // And the far layer is really defocused: a point there spreads more.
+    assert!(layers.c4_um.iter().any(|c| *c < -0.3));
+}
+
+/// Layering respects the tolerance: each pixel's thin-lens c4 is within half a step of its layer's.
+#[test]
+fn depth_layers_respect_the_tolerance() {
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.defocus_tolerance_um = 0.02;
+    let o = Optics::from_config(&c).unwrap();
+    let depth: Vec<f32> = (0..1000).map(|i| 0.2 + i as f32 * 0.003).collect();
+    let l = o.depth_layers(&depth, 1000, 0.5).unwrap();
+    assert!((l.step_um - 0.02).abs() < 1e-12);
+    for (i, d) in depth.iter().enumerate() {
+        let c4 = o.defocus_c4_um(0.5, *d as f64);
+        assert!((c4 - l.c4_um[l.index[i] as usize]).abs() <= 0.01 + 1e-12);
+    }
+    assert!(o.depth_layers(&[1.0, f32::NAN], 2, 0.5).is_err());
+    assert!(o.depth_layers(&[1.0, 0.0], 2, 0.5).is_err());
+}
