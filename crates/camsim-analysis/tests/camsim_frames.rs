@@ -1,7 +1,7 @@
 //! The analysis on frames from camsim's own sensor model (camsim-sensor, the ISETCam model), so
 //! the measurement chain is checked against the parameters the frames were made with.
 //!
-//! # 1. EMVA 1288 on `Sensor::emva_series`
+//! # 1. EMVA 1288 on `Sensor::emva_series` (the first two tests)
 //!
 //! Two sensors: the `imx363` preset (paper, Table 1; 12 bit) and a 10-bit sensor written here
 //! (low read noise, other conversion gain, analog gain 0.8, GRBG, fill factor 0.8, dark current).
@@ -44,12 +44,33 @@
 //!   the imx363 (DSNU 5.7 DN, read noise 44.6 DN) that is 0.0078 x (32.6 + 15.5) DN^2, 1.15 % of
 //!   DSNU^2, 0.58 % of the DSNU; for the 10-bit sensor 0.40 %;
 //! - PRNU^2 = s_bright^2 - s_dark^2 at 50 % saturation: 0.52 % (imx363), 0.62 % (10-bit) of PRNU;
-//! - the plateau and the QE are divided by K and carry its error;
-//! so 3 % is five or more standard errors for every quantity and channel.
+//! - the plateau and the QE are divided by K and carry its error.
+//!
+//! So 3 % is five or more standard errors for every quantity and channel.
+//!
+//! # 2. QE correction fit on camsim "measurements" (the last test)
+//!
+//! The paper fits M in `[r', g', b'] = [r, g, b] M` so that the published IMX363 QE predicts the
+//! Pixel 4a's measured ColorChecker values. Here the "measurements" are noisy raw frames of the
+//! `pixel4a` preset (its QE is the published QE times the paper's M) and the predictions are the
+//! noise-free `imx363` preset at the same irradiance and exposure, so the fit in the paper's form
+//! must give back the paper's M up to the measurement noise: 24 Ohta patches under CIE A, F2 and
+//! D65, each a uniform 64 x 64 irradiance image (1024 R, 2048 G, 1024 B pixels), one frame with
+//! every noise source on. The expected error of each entry is computed from the noise model
+//! (`predicted_noise_dn` / sqrt(pixels), propagated through the least-squares normal equations):
+//! the largest is ~5e-4, so the 0.01 tolerance is twenty standard errors; each entry is also
+//! checked to lie within five of its own standard errors of the paper's value.
+
+// Channel loops index several arrays at once (r, g, b).
+#![allow(clippy::needless_range_loop)]
 
 use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
-use camsim_core::{CfaChannel, WavelengthGrid};
-use camsim_sensor::{EmvaLevel, Sensor, SensorConfig};
+use camsim_analysis::qefit::{fit_qe_matrix, MatrixForm, PAPER_M};
+use camsim_analysis::roi::roi_stats_raw;
+use camsim_analysis::Rect;
+use camsim_core::{tables, CfaChannel, Quantity, SpectralImage, WavelengthGrid};
+use camsim_sensor::{Capture, EmvaLevel, NoiseSwitches, Sensor, SensorConfig};
+use nalgebra::{DMatrix, DVector};
 
 const ROWS: usize = 256;
 const COLS: usize = 512;
@@ -251,4 +272,102 @@ fn emva_recovers_a_ten_bit_low_noise_sensor() {
     // A clipping time of 100 ms gives 8.7 e- of dark signal at the longest exposure, enough for
     // the dark-current slope (its s.e. is ~0.1 %).
     check(&ten_bit_sensor(), "10-bit", 100e-3, 4);
+}
+
+/// A uniform irradiance image (W/(m^2 nm)) covering the sensor exactly (sample spacing = pitch).
+fn uniform_image(s: &Sensor, grid: &WavelengthGrid, irr: &[f64]) -> SpectralImage {
+    let n = s.rows() * s.cols();
+    let data: Vec<f32> = irr.iter().flat_map(|v| (0..n).map(move |_| *v as f32)).collect();
+    SpectralImage::from_data(s.rows(), s.cols(), *grid, s.pixel_pitch_m(), Quantity::Irradiance, data).unwrap()
+}
+
+#[test]
+fn qe_fit_of_pixel4a_frames_against_the_imx363_preset_gives_the_paper_m() {
+    let grid = WavelengthGrid::default();
+    let side = 64;
+    // The measuring camera: the pixel4a preset with every noise source on and a black level (the
+    // same 40 mV as above; without it the dark patches' noise would clip at 0 DN and bias their means).
+    let p4a = Sensor::preset("pixel4a").unwrap().with_size(side, side).unwrap();
+    let p4a = with_black_level(&p4a, 40e-3 * p4a.dn_per_v());
+    // The model: the published QE (imx363 preset), noise-free and unrounded.
+    let imx = Sensor::preset("imx363")
+        .unwrap()
+        .with_size(side, side)
+        .unwrap()
+        .with_noise(NoiseSwitches { quantization: false, ..NoiseSwitches::none() });
+    let t_s = 10e-3;
+    let patches = tables::macbeth_reflectances();
+    let full = Rect::new(0, 0, side, side);
+    let (mut measured, mut predicted, mut sigma) = (vec![], vec![], vec![]);
+    for (li, light) in ["A", "F2", "D65"].iter().enumerate() {
+        let spd = tables::illuminant(light).unwrap().sample(&grid);
+        // Scale each light so the white patch's largest pixel4a channel sits at 70 % of the clip.
+        let white = patches[18].sample(&grid);
+        let unit: Vec<f64> = spd.iter().zip(&white).map(|(e, r)| e * r).collect();
+        let e_white = p4a.mean_electrons_uniform(&unit, &grid, t_s).unwrap();
+        let scale = 0.7 * clip_e(&p4a) / e_white.iter().cloned().fold(0.0, f64::max);
+        for (pi, patch) in patches.iter().enumerate() {
+            let refl = patch.sample(&grid);
+            let irr: Vec<f64> = spd.iter().zip(&refl).map(|(e, r)| scale * e * r).collect();
+            let img = uniform_image(&p4a, &grid, &irr);
+            // Its own temporal seed per capture (the same seed would repeat the same normals).
+            let seed = (li * 24 + pi) as u64 + 1;
+            let frame = p4a.compute(&img, &Capture::seconds(t_s).with_seed(seed)).unwrap();
+            let stats = &roi_stats_raw(&frame.raw[0], &[full]).unwrap()[0];
+            measured.push(stats.mean_dn);
+            // Standard error of each mean: the model's per-pixel noise (temporal and fixed pattern)
+            // over the channel's pixels.
+            sigma.push([0, 1, 2].map(|c| p4a.predicted_noise_dn(stats.mean_dn[c], t_s).total / (stats.n[c] as f64).sqrt()));
+            // Prediction: the noise-free model's unrounded output, per channel.
+            let pf = imx.compute(&img, &Capture::seconds(t_s)).unwrap();
+            let analog = &pf.analog_dn.as_ref().unwrap()[0];
+            let mut sum = [0.0f64; 3];
+            let mut count = [0usize; 3];
+            for r in 0..side {
+                for c in 0..side {
+                    let ch = imx.cfa().channel_at(r, c).index();
+                    sum[ch] += analog[r * side + c] as f64;
+                    count[ch] += 1;
+                }
+            }
+            let p = [0, 1, 2].map(|c| sum[c] / count[c] as f64 - imx.black_level_dn());
+            // Independent check of the prediction: mean electrons x K.
+            for c in 0..3 {
+                let k_e = pf.mean_electrons[c] * imx.k_dn_per_e();
+                assert!((p[c] - k_e).abs() <= 1e-5 * k_e + 1e-3, "prediction {} vs {k_e}", p[c]);
+            }
+            predicted.push(p);
+        }
+    }
+    let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative).unwrap();
+    // Expected error of each free entry: weighted least squares covariance with the (unweighted)
+    // estimator, (A^T A)^-1 A^T diag(sigma^2) A (A^T A)^-1, per output column j.
+    let mask = MatrixForm::PaperLowerNonNegative.mask();
+    let mut se = [[0.0f64; 3]; 3];
+    for j in 0..3 {
+        let inputs: Vec<usize> = (0..3).filter(|i| mask[*i][j]).collect();
+        let a = DMatrix::from_fn(predicted.len(), inputs.len(), |r, k| predicted[r][inputs[k]]);
+        let w = DVector::from_fn(predicted.len(), |r, _| sigma[r][j] * sigma[r][j]);
+        let ata_inv = (a.transpose() * &a).try_inverse().unwrap();
+        let cov = &ata_inv * (a.transpose() * DMatrix::from_diagonal(&w) * &a) * &ata_inv;
+        for (k, i) in inputs.iter().enumerate() {
+            se[*i][j] = cov[(k, k)].sqrt();
+        }
+    }
+    println!("fitted M {:?}\npaper  M {PAPER_M:?}\nexpected s.e. {se:?}\nrelative RMS before {:.4}, after {:.5}", fit.m, fit.relative_rms_before, fit.relative_rms_after);
+    for i in 0..3 {
+        for j in 0..3 {
+            assert!(5.0 * se[i][j] < 0.01, "M[{i}][{j}]: expected error {} is not well below 0.01", se[i][j]);
+            let err = (fit.m[i][j] - PAPER_M[i][j]).abs();
+            assert!(err < 0.01, "M[{i}][{j}] = {} vs the paper's {} (expected error {})", fit.m[i][j], PAPER_M[i][j], se[i][j]);
+            assert!(err <= 5.0 * se[i][j], "M[{i}][{j}] = {} is {:.1} standard errors from the paper's {}", fit.m[i][j], err / se[i][j], PAPER_M[i][j]);
+            if !mask[i][j] {
+                assert_eq!(fit.m[i][j], 0.0);
+            }
+        }
+    }
+    // The correction explains the data down to the noise: residual RMS of the order of sigma.
+    let rms_sigma = (sigma.iter().flatten().map(|s| s * s).sum::<f64>() / (3 * sigma.len()) as f64).sqrt();
+    assert!(fit.rms_after < 2.0 * rms_sigma, "RMS after {} vs noise {rms_sigma}", fit.rms_after);
+    assert!(fit.rms_before > 20.0 * fit.rms_after);
 }

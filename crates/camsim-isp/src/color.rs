@@ -228,13 +228,6 @@ impl ColorPipeline {
         self.fit_rms_xyz
     }
 
-    /// Adapted (D65) luminance Y of one camera pixel, white = 1 at exposure scale 1.
-    #[inline]
-    fn adapted_y(&self, rgb: [f32; 3]) -> f64 {
-        let row = mat3_mul(&self.adaptation, &self.camera_to_xyz)[1];
-        row[0] * rgb[0] as f64 + row[1] * rgb[1] as f64 + row[2] * rgb[2] as f64
-    }
-
     /// Exposure scale that puts the 99th percentile of the adapted luminance Y at
     /// [`AUTO_EXPOSURE_P99_Y`]. Uses at most about a million evenly strided pixels. Returns 1 when
     /// the image has no positive luminance.
@@ -264,10 +257,25 @@ impl ColorPipeline {
 
     /// Render an 8-bit sRGB preview, interleaved R, G, B, row-major (`rows * cols * 3` bytes):
     /// camera -> XYZ (fitted matrix, white balance included) -> Bradford to D65 -> linear sRGB
-    /// (IEC 61966-2-1) -> clip to [0, 1] -> sRGB transfer function. `exposure_scale` multiplies the
+    /// (IEC 61966-2-1) -> clip to [0, 1] -> sRGB transfer function. The planes of `img` must hold
+    /// `rows * cols` values each. `exposure_scale` multiplies the
     /// camera values first (camera values of 1 in the largest channel of a perfect white render it
     /// at Y = 1); `None` chooses it automatically ([`ColorPipeline::auto_exposure_scale`]).
     pub fn render_srgb8(&self, img: &RgbImage, exposure_scale: Option<f64>) -> Vec<u8> {
+        self.render_srgb8_clipped(img, exposure_scale, None)
+    }
+
+    /// [`ColorPipeline::render_srgb8`] with highlight clipping: where a channel reached the
+    /// sensor's saturation level `saturation_dn` (black-subtracted DN), white balance would
+    /// lift the other channels past it and paint clipped highlights in a false colour (a
+    /// saturated lamp turns magenta). Each camera channel c is therefore clipped at
+    /// `saturation_dn * as_shot_neutral[c]`, the level at which it equals the saturated channel
+    /// after white balance, so clipped highlights render neutral (dcraw's default highlight mode).
+    pub fn render_srgb8_clipped(&self, img: &RgbImage, exposure_scale: Option<f64>, saturation_dn: Option<f64>) -> Vec<u8> {
+        let clip = match saturation_dn {
+            Some(s) if s > 0.0 => self.as_shot_neutral.map(|n| s * n),
+            _ => [f64::INFINITY; 3],
+        };
         let k = exposure_scale.unwrap_or_else(|| self.auto_exposure_scale(img));
         let m = self.camera_to_srgb.map(|row| row.map(|v| v * k));
         let cols = img.cols.max(1);
@@ -277,7 +285,7 @@ impl ColorPipeline {
             let base = y * cols;
             for (x, px) in line.chunks_exact_mut(3).enumerate() {
                 let i = base + x;
-                let (r, g, b) = (img.r[i] as f64, img.g[i] as f64, img.b[i] as f64);
+                let (r, g, b) = ((img.r[i] as f64).min(clip[0]), (img.g[i] as f64).min(clip[1]), (img.b[i] as f64).min(clip[2]));
                 for (c, o) in px.iter_mut().enumerate() {
                     *o = encoder.encode(m[c][0] * r + m[c][1] * g + m[c][2] * b);
                 }
@@ -288,7 +296,8 @@ impl ColorPipeline {
 
     /// Adapted luminance (D65, white = 1 at exposure scale 1) of one camera pixel.
     pub fn luminance_of(&self, rgb: [f32; 3]) -> f64 {
-        self.adapted_y(rgb)
+        let row = mat3_mul(&self.adaptation, &self.camera_to_xyz)[1];
+        row[0] * rgb[0] as f64 + row[1] * rgb[1] as f64 + row[2] * rgb[2] as f64
     }
 }
 

@@ -9,6 +9,7 @@
 //! that is linear in (row, col) exactly. At the image border only the neighbours inside the image
 //! are averaged ("averaging the available neighbours"), which keeps constant images constant.
 
+use camsim_core::error::{CoreError, Result};
 use camsim_core::{CfaPattern, RawImage};
 use rayon::prelude::*;
 
@@ -57,8 +58,22 @@ impl RgbImage {
     }
 }
 
+/// [`demosaic_bilinear`] for input that may be malformed: errors (instead of panicking) when
+/// `raw.dn` does not hold `rows * cols` values, and refuses an output that would not fit in memory.
+pub fn try_demosaic_bilinear(raw: &RawImage) -> Result<RgbImage> {
+    if raw.dn.len() != raw.rows * raw.cols {
+        return Err(CoreError::invalid(
+            "raw image",
+            format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols),
+        ));
+    }
+    camsim_core::mem::check_alloc((raw.rows * raw.cols * 12) as u64, "the demosaicked RGB image")?;
+    Ok(demosaic_bilinear(raw))
+}
+
 /// Bilinear demosaic of `raw` (any of the four Bayer patterns), black level subtracted.
-/// Rows are processed in parallel with rayon; no per-pixel allocation.
+/// Rows are processed in parallel with rayon; no per-pixel allocation. `raw.dn` must hold
+/// `rows * cols` values (the [`RawImage`] invariant; [`try_demosaic_bilinear`] checks it).
 pub fn demosaic_bilinear(raw: &RawImage) -> RgbImage {
     let (rows, cols) = (raw.rows, raw.cols);
     let mut out = RgbImage::zeros(rows, cols);
@@ -234,5 +249,13 @@ mod tests {
         }
         assert_eq!(rgb.at(4, 4)[0], 0.0);
         assert!(rgb.g.iter().chain(&rgb.b).all(|v| *v == 0.0));
+    }
+
+    #[test]
+    fn malformed_raw_is_an_error() {
+        let mut raw = RawImage::new(4, 4, CfaPattern::Rggb, 12).unwrap();
+        assert!(try_demosaic_bilinear(&raw).is_ok());
+        raw.dn.pop();
+        assert!(try_demosaic_bilinear(&raw).unwrap_err().to_string().contains("15 values"));
     }
 }

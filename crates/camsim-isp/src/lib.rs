@@ -13,4 +13,4 @@ pub mod demosaic;
 pub mod preview;
 
 pub use color::{bradford_adaptation, camera_response, ColorPipeline, Mat3};
-pub use demosaic::{demosaic_bilinear, RgbImage};
+pub use demosaic::{demosaic_bilinear, try_demosaic_bilinear, RgbImage};

@@ -185,6 +185,7 @@ fn white_renders_neutral_under_d65_and_a() {
             let one = RgbImage { rows: 1, cols: 1, r: vec![c[0]], g: vec![c[1]], b: vec![c[2]] };
             let flat = p.render_srgb8(&one, Some(k));
             let flat = [flat[0], flat[1], flat[2]];
+            println!("{sensor} under {name}: ColorChecker white {rgb:?}, flat 90 % {flat:?}");
             assert!(spread(flat) <= 1, "{sensor} under {name}: flat 90 % renders {flat:?}");
             // Perfect white -> exactly neutral through the whole chain (to the 4-digit sRGB matrix).
             let white = apply(&p.camera_to_srgb(), p.as_shot_neutral());
@@ -236,4 +237,27 @@ fn fit_rejects_bad_input() {
     // Three identical channels cannot separate colours.
     let grey = [vec![0.5; 31], vec![0.5; 31], vec![0.5; 31]];
     assert!(ColorPipeline::fit(&grey, &g, &d65).is_err());
+}
+
+/// A pixel saturated in every raw channel must render neutral (R = G = B), not in the false
+/// colour that white-balance gains would give it, once highlight clipping knows the saturation
+/// level; without it the same pixel is visibly coloured.
+#[test]
+fn saturated_highlights_render_neutral_with_clipping() {
+    use camsim_core::{tables, WavelengthGrid};
+    use camsim_isp::{ColorPipeline, RgbImage};
+    let grid = WavelengthGrid::default();
+    // A sensor with unequal channel sensitivities (so the white-balance gains differ).
+    let qe: [Vec<f64>; 3] = [
+        grid.wavelengths_nm().iter().map(|w| if *w > 580.0 { 0.5 } else { 0.02 }).collect(),
+        grid.wavelengths_nm().iter().map(|w| if (*w > 490.0) && (*w < 600.0) { 0.8 } else { 0.05 }).collect(),
+        grid.wavelengths_nm().iter().map(|w| if *w < 510.0 { 0.4 } else { 0.02 }).collect(),
+    ];
+    let cp = ColorPipeline::fit(&qe, &grid, &tables::illuminant("A").unwrap()).unwrap();
+    let sat = 4000.0f32;
+    let img = RgbImage { rows: 1, cols: 1, r: vec![sat], g: vec![sat], b: vec![sat] };
+    let clipped = cp.render_srgb8_clipped(&img, Some(1.0 / sat as f64), Some(sat as f64));
+    assert!(clipped[0] == clipped[1] && clipped[1] == clipped[2], "clipped highlight {clipped:?} is not neutral");
+    let raw = cp.render_srgb8(&img, Some(1.0 / sat as f64));
+    assert!(raw[0] != raw[1] || raw[1] != raw[2], "test setup: without clipping the pixel should be coloured, got {raw:?}");
 }

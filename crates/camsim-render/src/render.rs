@@ -119,7 +119,7 @@ pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) ->
         return Err(RenderError::Settings("samples_per_pixel must be at least 1".into()));
     }
     if let Some(b) = st.time_budget_s {
-        if !(b > 0.0) {
+        if b.is_nan() || b <= 0.0 {
             return Err(RenderError::Settings(format!("time_budget_s = {b} s is not a positive number")));
         }
     }

@@ -7,7 +7,7 @@ use rand::Rng;
 
 fn random_soup(n_tris: usize, n_spheres: usize, seed: u64) -> Vec<Prim> {
     let mut rng = camsim_core::rng::seeded(seed);
-    let mut v = |rng: &mut camsim_core::rng::Rng, s: f32| V3::new(rng.gen_range(-s..s), rng.gen_range(-s..s), rng.gen_range(-s..s));
+    let v = |rng: &mut camsim_core::rng::Rng, s: f32| V3::new(rng.gen_range(-s..s), rng.gen_range(-s..s), rng.gen_range(-s..s));
     let mut prims = Vec::new();
     for i in 0..n_tris {
         // Mostly small triangles, some long slivers and some large ones (stress the SAH).

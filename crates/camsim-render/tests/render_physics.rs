@@ -398,3 +398,28 @@ fn time_budget_stops_between_passes_and_reports_samples() {
     assert_eq!(out.radiance.data, out2.radiance.data);
     assert!(out.stats.camera_rays > 0 && out.stats.rays_per_second > 0.0);
 }
+
+#[test]
+fn image_texture_is_looked_up_by_uv() {
+    // A flat quad under a uniform sky L reflects rho(uv) L. The 8 x 1 texture is grey 0.2 in its
+    // left half and 0.8 in its right half (greys uplift to constant spectra); bilinear filtering
+    // gives the pure values for s in [1/16, 7/16] and [9/16, 15/16].
+    let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
+    let l_sky = 1.5;
+    let rgb: Vec<[f32; 3]> = (0..8).map(|i| if i < 4 { [0.2; 3] } else { [0.8; 3] }).collect();
+    let tex = Texture::Image { width: 8, height: 1, rgb, uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 };
+    let quad = Geometry::Triangles {
+        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+        normals: None,
+    };
+    for (x, rho) in [(-0.5, 0.2), (0.5, 0.8)] {
+        let cam = camera([x, 0.0, 2.0], [x, 0.0, 0.0], [0.0, 1.0, 0.0], 5.0, 8, 8);
+        let shapes = vec![Shape { name: None, geometry: quad.clone(), material: 0, area_light: None, reverse_orientation: false }];
+        let sc = scene(cam, shapes, vec![Material::Diffuse { reflectance: tex.clone() }], vec![Light::Infinite { radiance: flat(l_sky) }], settings(grid, 256, 3));
+        let out = render(&sc, &|_, _| {}).unwrap();
+        let (m, se) = all_band_stats(&out.radiance);
+        check(&format!("image texture at x = {x}"), m, se, rho * l_sky, 0.01);
+    }
+}

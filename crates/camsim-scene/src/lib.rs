@@ -355,11 +355,23 @@ fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralIma
     let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
     let mut img = com.image(rows, cols, grid)?;
     let n = img.pixels();
+    // Each row is a border row or a sequence of border and patch runs: fill runs, not pixels.
+    let pitch = c.patch_size_px + c.border_px;
     img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
         let values: Vec<f32> = refl.iter().map(|r| (k_illum[b] * r[b]) as f32).collect();
         for (row, line) in plane.chunks_exact_mut(cols).enumerate() {
-            for (col, v) in line.iter_mut().enumerate() {
-                *v = values[layout.patch_at(row, col).unwrap_or(24)];
+            // Patch row of this image row, if it crosses patches (any column inside a patch).
+            let patch_row = layout.patch_at(row, c.border_px).map(|i| i / MacbethLayout::PATCH_COLS);
+            match patch_row {
+                None => line.fill(values[24]),
+                Some(pr) => {
+                    line[..c.border_px].fill(values[24]);
+                    for pc in 0..MacbethLayout::PATCH_COLS {
+                        let x0 = c.border_px + pc * pitch;
+                        line[x0..x0 + c.patch_size_px].fill(values[pr * MacbethLayout::PATCH_COLS + pc]);
+                        line[x0 + c.patch_size_px..x0 + pitch].fill(values[24]);
+                    }
+                }
             }
         }
     });
@@ -378,11 +390,25 @@ fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<Sp
     camsim_core::mem::check_alloc((c.rows * c.cols * 4) as u64, "the slanted-edge coverage map")?;
     let mut coverage = vec![0.0f32; c.rows * c.cols];
     coverage.par_chunks_mut(c.cols).enumerate().for_each(|(row, line)| {
-        for (col, v) in line.iter_mut().enumerate() {
+        // The edge crosses this row strip between columns xa and xb: pixels wholly left of it are
+        // dark (0), wholly right bright (1); only the few in between need the exact area.
+        let (x_top, x_bottom) = (edge.x_at(row as f64), edge.x_at(row as f64 + 1.0));
+        let (xa, xb) = (x_top.min(x_bottom), x_top.max(x_bottom));
+        let first = (xa.floor() - 1.0).clamp(0.0, c.cols as f64) as usize;
+        let last = (xb.ceil() + 1.0).clamp(0.0, c.cols as f64) as usize;
+        line[..first].fill(0.0);
+        for (col, v) in line.iter_mut().enumerate().take(last).skip(first) {
             *v = edge.coverage(row, col) as f32;
         }
+        line[last..].fill(1.0);
     });
     let mean_cov = coverage.iter().map(|v| *v as f64).sum::<f64>() / coverage.len() as f64;
+    // Coverage grows along each row (bright side on the right, |angle| < 45 deg): per row, the
+    // columns before `first` are fully dark and those from `full` on fully bright.
+    let spans: Vec<(usize, usize)> = coverage
+        .chunks_exact(c.cols)
+        .map(|line| (line.partition_point(|a| *a <= 0.0), line.partition_point(|a| *a < 1.0)))
+        .collect();
     let (dark, bright) = (c.dark_reflectance, c.bright_reflectance);
     let mean_refl = vec![dark + (bright - dark) * mean_cov; grid.len()];
     let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
@@ -390,8 +416,12 @@ fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<Sp
     let n = img.pixels();
     img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
         let (lo, hi) = ((k_illum[b] * dark) as f32, (k_illum[b] * bright) as f32);
-        for (v, a) in plane.iter_mut().zip(&coverage) {
-            *v = lo + (hi - lo) * a;
+        for ((line, cov), (first, full)) in plane.chunks_exact_mut(c.cols).zip(coverage.chunks_exact(c.cols)).zip(&spans) {
+            line[..*first].fill(lo);
+            for (v, a) in line[*first..*full].iter_mut().zip(&cov[*first..*full]) {
+                *v = lo + (hi - lo) * a;
+            }
+            line[*full..].fill(hi);
         }
     });
     Ok(img)

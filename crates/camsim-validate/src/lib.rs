@@ -26,6 +26,7 @@ pub mod scene_fig;
 mod util;
 
 pub use compare::{compare, CompareConfig, CompareResults, RegionConfig};
+pub use util::FigurePng;
 
 use camsim_core::WavelengthGrid;
 use serde::Serialize;
@@ -132,7 +133,8 @@ pub struct QualityParams {
     pub box_spp: u32,
     /// Time budget per Cornell box render, s (the render stops early between passes).
     pub box_time_budget_s: Option<f64>,
-    /// Wavelength grid of every spectral computation.
+    /// Wavelength grid of the spectral computations (the slanted edge uses the same range every
+    /// 20 nm).
     pub grid: WavelengthGrid,
 }
 
@@ -158,8 +160,8 @@ impl QualityParams {
                 edge_spp: 8,
                 qe_patch_px: 64,
                 box_render: (1008, 756),
-                box_spp: 256,
-                box_time_budget_s: Some(150.0),
+                box_spp: 128,
+                box_time_budget_s: Some(120.0),
                 grid: WavelengthGrid::default(),
             },
         }

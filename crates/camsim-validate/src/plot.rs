@@ -1,5 +1,5 @@
 //! The report's figures as data (series of points with a style), drawn to PNG by
-//! plotters (embedded DejaVu Sans font).
+//! `camsim_io::plot` (line and scatter plots, embedded DejaVu Sans font).
 
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,6 +26,9 @@ pub struct Series {
     /// RGB colour.
     pub color: [u8; 3],
 }
+
+/// Label of the y = x reference series added by [`Figure::with_identity_line`].
+pub const IDENTITY_LABEL: &str = "y = x";
 
 /// Colours of the R, G, B channels and of luminance.
 pub const CHANNEL_COLORS: [[u8; 3]; 4] = [[210, 40, 40], [30, 150, 50], [40, 70, 210], [60, 60, 60]];
@@ -98,7 +101,7 @@ impl Figure {
             return self;
         }
         let lo = lo.min(0.0);
-        self.with(Series::new("y = x", vec![lo, hi], vec![lo, hi], Style::Dashed, [120, 120, 120]))
+        self.with(Series::new(IDENTITY_LABEL, vec![lo, hi], vec![lo, hi], Style::Dashed, [120, 120, 120]))
     }
 
     /// Draw to PNG bytes.
@@ -107,115 +110,41 @@ impl Figure {
     }
 }
 
-/// Drawing with plotters (bitmap backend, embedded DejaVu Sans font, no system fonts).
+/// Drawing with `camsim_io::plot`: figures whose series are all markers become a
+/// [`camsim_io::plot::ScatterPlot`] (with its y = x line when the figure asked for one), the
+/// others a [`camsim_io::plot::LinePlot`] (dashed series dashed).
 mod backend {
     use super::*;
-    use plotters::prelude::*;
-    use plotters::style::FontStyle;
-    use std::sync::Once;
+    use camsim_io::plot as p;
 
-    static FONT: Once = Once::new();
-
-    fn err(e: impl std::fmt::Display) -> crate::ValidateError {
-        crate::ValidateError::invalid("plot", e.to_string())
-    }
-
-    fn range(fig: &Figure, xs: bool) -> (f64, f64) {
-        let given = if xs { fig.x_range } else { fig.y_range };
-        if let Some(r) = given {
-            return r;
-        }
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for s in &fig.series {
-            for v in if xs { &s.x } else { &s.y } {
-                if v.is_finite() {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
-                }
-            }
-        }
-        if !(lo.is_finite() && hi.is_finite()) {
-            return (0.0, 1.0);
-        }
-        if hi - lo < 1e-12 {
-            return (lo - 0.5, hi + 0.5);
-        }
-        let pad = 0.04 * (hi - lo);
-        (lo - pad, hi + pad)
+    fn pts(s: &Series) -> Vec<(f64, f64)> {
+        s.x.iter().zip(&s.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (*x, *y)).collect()
     }
 
     pub fn draw(fig: &Figure) -> crate::Result<Vec<u8>> {
-        FONT.call_once(|| {
-            let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
-        });
+        let identity = fig.series.iter().any(|s| s.label == IDENTITY_LABEL);
+        let data: Vec<&Series> = fig.series.iter().filter(|s| s.label != IDENTITY_LABEL).collect();
+        let scatter = !data.is_empty() && data.iter().all(|s| s.style == Style::Points);
+        let series: Vec<p::Series> = data
+            .iter()
+            .map(|s| p::Series { name: s.label.clone(), points: pts(s), dashed: s.style == Style::Dashed, color: Some(s.color) })
+            .collect();
         let (w, h) = fig.size;
-        let mut buf = vec![255u8; (w * h * 3) as usize];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            root.fill(&WHITE).map_err(err)?;
-            let (x0, x1) = range(fig, true);
-            let (y0, y1) = range(fig, false);
-            let mut chart = ChartBuilder::on(&root)
-                .caption(&fig.title, ("sans-serif", 17))
-                .margin(12)
-                .x_label_area_size(42)
-                .y_label_area_size(62)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc(fig.x_label.as_str())
-                .y_desc(fig.y_label.as_str())
-                .label_style(("sans-serif", 13))
-                .light_line_style(RGBColor(235, 235, 235))
-                .draw()
-                .map_err(err)?;
-            for s in &fig.series {
-                let color = RGBColor(s.color[0], s.color[1], s.color[2]);
-                let pts: Vec<(f64, f64)> = s
-                    .x
-                    .iter()
-                    .zip(&s.y)
-                    .filter(|(x, y)| x.is_finite() && y.is_finite())
-                    .map(|(x, y)| (*x, y.clamp(y0 - (y1 - y0), y1 + (y1 - y0))))
-                    .collect();
-                let label = s.label.clone();
-                match s.style {
-                    Style::Line => {
-                        chart
-                            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                            .map_err(err)?
-                            .label(label)
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-                    }
-                    Style::Dashed => {
-                        chart
-                            .draw_series(DashedLineSeries::new(pts, 7, 5, color.stroke_width(2)))
-                            .map_err(err)?
-                            .label(label)
-                            .legend(move |(x, y)| {
-                                plotters::element::DashedPathElement::new(vec![(x, y), (x + 20, y)], 5, 3, color.stroke_width(2))
-                            });
-                    }
-                    Style::Points => {
-                        chart
-                            .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))
-                            .map_err(err)?
-                            .label(label)
-                            .legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
-                    }
-                }
-            }
-            chart
-                .configure_series_labels()
-                .label_font(("sans-serif", 12))
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(180, 180, 180))
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(err)?;
-            root.present().map_err(err)?;
-        }
-        crate::util::encode_png_rgb8(w as usize, h as usize, &buf)
+        let rgb = if scatter {
+            let mut sp = p::ScatterPlot::new(&fig.title, &fig.x_label, &fig.y_label, series);
+            sp.identity_line = identity;
+            sp.render_rgb(w, h)?
+        } else {
+            let lp = p::LinePlot {
+                title: fig.title.clone(),
+                x_label: fig.x_label.clone(),
+                y_label: fig.y_label.clone(),
+                series,
+                x_range: fig.x_range,
+                y_range: fig.y_range,
+            };
+            lp.render_rgb(w, h)?
+        };
+        crate::util::encode_png_rgb8(w as usize, h as usize, &rgb)
     }
 }

@@ -33,8 +33,14 @@ use camsim_isp::RgbImage;
 use camsim_optics::Optics;
 use camsim_render::builtin::{self, BuiltinOptions, MccPosition};
 use camsim_render::{Geometry, SceneDescription};
-use camsim_sensor::{Capture, NoiseSwitches, Sensor};
+use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
 use serde::Serialize;
+
+/// Patches (0-based chart order) whose R/G is compared between positions: neutral 8 ... black.
+pub const GRAY_RG_PATCHES: std::ops::Range<usize> = 19..24;
+/// Auto-exposure of the Cornell box: the 99th percentile of the noise-free signal at this
+/// fraction of the voltage swing (the light itself still saturates; the chart stays linear).
+pub const AUTO_EXPOSURE_FRACTION: f64 = 0.5;
 
 /// Render-to-sensor pixel mapping (both centred on the optical axis).
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -70,7 +76,8 @@ pub struct PositionResult {
     pub chart_corners_px: [[f64; 2]; 4],
     /// Mean demosaicked RGB (DN above black) of the six gray patches, white to black.
     pub gray_patch_rgb: Vec<[f64; 3]>,
-    /// R/G of the gray series: sum of R over sum of G of the six gray patches.
+    /// R/G of the gray series: sum of R over sum of G of the gray patches [`GRAY_RG_PATCHES`]
+    /// (neutral 8 to black; the white patch is left out because render noise spikes clip there).
     pub gray_rg_ratio: f64,
     /// Line profile through the gray series: distance from the chart's left edge, pixels.
     pub profile_distance_px: Vec<f64>,
@@ -235,7 +242,7 @@ fn capture_position(
         let irr = optics.compute(&radiance)?;
         let cap = match exposure {
             Some(t) => Capture::seconds(t),
-            None => Capture::auto(),
+            None => Capture { exposure: Exposure::Auto { target_fraction: AUTO_EXPOSURE_FRACTION }, ..Capture::default() },
         }
         .with_seed(opts.seed.wrapping_add(200));
         let frame = sensor.compute(&irr, &cap)?;
@@ -250,7 +257,8 @@ fn capture_position(
     let planes = planes_of(&rgb)?;
     let stats = chart_patch_stats_rgb(&planes, &corners, 0.5)?;
     let gray: Vec<[f64; 3]> = stats[18..24].iter().map(|s| s.mean).collect();
-    let rg = gray.iter().map(|g| g[0]).sum::<f64>() / gray.iter().map(|g| g[1]).sum::<f64>();
+    let rg_set = &stats[GRAY_RG_PATCHES];
+    let rg = rg_set.iter().map(|g| g.mean[0]).sum::<f64>() / rg_set.iter().map(|g| g.mean[1]).sum::<f64>();
     let (p0, p1) = corners.row_line(3);
     let len = ((p1[0] - p0[0]).powi(2) + (p1[1] - p0[1]).powi(2)).sqrt();
     let samples = (len.round() as usize).clamp(2, 800);

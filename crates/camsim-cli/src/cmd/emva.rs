@@ -1,7 +1,315 @@
-//! `camsim analyze emva`: EMVA 1288 characterization from a series CSV (wired when the analysis
-//! API is complete).
-use anyhow::Result;
+//! `camsim analyze emva`: EMVA 1288 (release 4.0) characterization of a frame series listed in a
+//! CSV, per colour channel (camsim_analysis::emva::emva_raw). Wiring only: reading, plotting and
+//! printing; the measurement is in camsim-analysis.
 
-pub fn run(_a: super::analyze::EmvaArgs) -> Result<()> {
-    anyhow::bail!("not wired yet")
+use crate::common::{self, say};
+use anyhow::{bail, Context, Result};
+use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
+use camsim_core::{CfaChannel, RawImage};
+use camsim_io::plot::{LinePlot, Series};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One level of the series as the CSV lists it.
+struct LevelFiles {
+    /// CSV line (1-based), for error messages.
+    line: usize,
+    exposure_s: f64,
+    photons_per_pixel: Option<f64>,
+    bright: Vec<PathBuf>,
+    dark: Vec<PathBuf>,
+}
+
+/// Read the series CSV: a header naming the columns (`exposure_s,photons_per_pixel,` then frame
+/// columns whose names start with `bright` or `dark`, e.g. `bright_a,bright_b,dark_a,dark_b` as
+/// `camsim sensor --emva-series` writes), one level per line. Frame paths are relative to the
+/// CSV's folder; an empty photons cell (or `nan`) means the photon count is not known; empty frame
+/// cells are skipped. Lines starting with '#' and blank lines are ignored.
+fn read_series(csv: &Path) -> Result<Vec<LevelFiles>> {
+    let text = common::read_text(csv)?;
+    let base = csv.parent().unwrap_or(Path::new("."));
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let (hline, header) = lines.next().with_context(|| format!("{}: no header line", csv.display()))?;
+    let cols: Vec<String> = header.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
+    if cols.len() < 3 || cols[0] != "exposure_s" || cols[1] != "photons_per_pixel" {
+        bail!(
+            "{}, line {}: the header must start with exposure_s,photons_per_pixel and name the frame columns (bright_a,bright_b,dark_a,dark_b), got '{}'",
+            csv.display(),
+            hline + 1,
+            header.trim()
+        );
+    }
+    let kinds: Vec<Option<bool>> = cols
+        .iter()
+        .map(|c| if c.starts_with("bright") { Some(true) } else if c.starts_with("dark") { Some(false) } else { None })
+        .collect();
+    if let Some((i, c)) = cols.iter().enumerate().skip(2).find(|(i, _)| kinds[*i].is_none()) {
+        bail!("{}, line {}: column {} '{c}' is neither a bright nor a dark frame column", csv.display(), hline + 1, i + 1);
+    }
+    let mut levels = Vec::new();
+    for (i, line) in lines {
+        let n = i + 1;
+        let cells: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
+        if cells.len() != cols.len() {
+            bail!("{}, line {n}: {} values for {} columns", csv.display(), cells.len(), cols.len());
+        }
+        let exposure_s: f64 =
+            cells[0].parse().with_context(|| format!("{}, line {n}: exposure_s '{}' is not a number", csv.display(), cells[0]))?;
+        if !(exposure_s >= 0.0 && exposure_s.is_finite()) {
+            bail!("{}, line {n}: exposure_s {exposure_s} is not a time >= 0", csv.display());
+        }
+        let photons_per_pixel = match cells[1] {
+            "" | "-" => None,
+            s => {
+                let v: f64 = s.parse().with_context(|| format!("{}, line {n}: photons_per_pixel '{s}' is not a number", csv.display()))?;
+                if v.is_nan() {
+                    None
+                } else if v >= 0.0 && v.is_finite() {
+                    Some(v)
+                } else {
+                    bail!("{}, line {n}: photons_per_pixel {v} is not a number >= 0", csv.display());
+                }
+            }
+        };
+        let (mut bright, mut dark) = (Vec::new(), Vec::new());
+        for (k, cell) in cells.iter().enumerate().skip(2) {
+            if cell.is_empty() {
+                continue;
+            }
+            let p = base.join(cell);
+            if kinds[k] == Some(true) {
+                bright.push(p);
+            } else {
+                dark.push(p);
+            }
+        }
+        if bright.len() < 2 {
+            bail!("{}, line {n}: {} bright frame(s); each level needs at least 2", csv.display(), bright.len());
+        }
+        if dark.len() == 1 {
+            bail!("{}, line {n}: 1 dark frame; give none or at least 2", csv.display());
+        }
+        levels.push(LevelFiles { line: n, exposure_s, photons_per_pixel, bright, dark });
+    }
+    if levels.len() < 3 {
+        bail!("{}: {} level(s); the photon transfer method needs at least 3", csv.display(), levels.len());
+    }
+    // The analysis does not need the photon count, but it is all or nothing.
+    let known = levels.iter().filter(|l| l.photons_per_pixel.is_some()).count();
+    if known != 0 && known != levels.len() {
+        bail!("{}: photons_per_pixel is given on {known} of {} lines; give it on every line or on none", csv.display(), levels.len());
+    }
+    Ok(levels)
+}
+
+/// Load every frame of the series, checking they share size and CFA pattern.
+fn load_frames(a: &super::analyze::EmvaArgs, csv: &Path, files: &[LevelFiles]) -> Result<Vec<(Vec<RawImage>, Vec<RawImage>)>> {
+    let total: usize = files.iter().map(|l| l.bright.len() + l.dark.len()).sum();
+    let pb = common::progress(total as u64, "reading");
+    let mut first: Option<(usize, usize, camsim_core::CfaPattern, PathBuf)> = None;
+    let mut out = Vec::with_capacity(files.len());
+    for l in files {
+        let mut load = |paths: &[PathBuf]| -> Result<Vec<RawImage>> {
+            paths
+                .iter()
+                .map(|p| {
+                    let raw = camsim_pipeline::load_raw(p, a.raw.cfa, a.raw.black_dn, a.raw.bits)
+                        .with_context(|| format!("{}, line {}: cannot load {}", csv.display(), l.line, p.display()))?;
+                    match &first {
+                        None => first = Some((raw.rows, raw.cols, raw.cfa, p.clone())),
+                        Some((r, c, cfa, p0)) => {
+                            if raw.rows != *r || raw.cols != *c || raw.cfa != *cfa {
+                                bail!(
+                                    "{}, line {}: {} is {} x {} {} but {} is {r} x {c} {}",
+                                    csv.display(),
+                                    l.line,
+                                    p.display(),
+                                    raw.rows,
+                                    raw.cols,
+                                    raw.cfa.name(),
+                                    p0.display(),
+                                    cfa.name()
+                                );
+                            }
+                        }
+                    }
+                    pb.inc(1);
+                    Ok(raw)
+                })
+                .collect()
+        };
+        let bright = load(&l.bright)?;
+        let dark = load(&l.dark)?;
+        out.push((bright, dark));
+    }
+    pb.finish_and_clear();
+    Ok(out)
+}
+
+fn channel_color(ch: CfaChannel) -> [u8; 3] {
+    match ch {
+        CfaChannel::R => [220, 40, 40],
+        CfaChannel::G => [30, 160, 60],
+        CfaChannel::B => [40, 80, 220],
+    }
+}
+
+/// Photon transfer plot: temporal variance above dark vs mean signal above dark (DN), measured
+/// points and the fitted line K x + offset over the fit range, per channel.
+fn ptc_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
+    let mut series = Vec::new();
+    for c in results {
+        let r = &c.result;
+        let mut s = Series::new(
+            format!("{} measured", c.channel.letter()),
+            // Past saturation the variance collapses below the dark variance: leave those out.
+            r.points.iter().filter(|p| p.signal_var_dn2 >= 0.0).map(|p| (p.signal_dn, p.signal_var_dn2)).collect(),
+        );
+        s.color = Some(channel_color(c.channel));
+        series.push(s);
+        let xmax = r.points.iter().filter(|p| p.in_fit).map(|p| p.signal_dn).fold(0.0, f64::max);
+        let mut fit = Series::new(
+            format!("{} fit K = {:.4} DN/e-", c.channel.letter(), r.system_gain_dn_per_e),
+            vec![(0.0, r.ptc_offset_dn2), (xmax, r.ptc_offset_dn2 + r.system_gain_dn_per_e * xmax)],
+        );
+        fit.color = Some(channel_color(c.channel));
+        fit.dashed = true;
+        series.push(fit);
+    }
+    LinePlot {
+        title: "EMVA 1288 photon transfer".into(),
+        x_label: "mean signal above dark (DN)".into(),
+        y_label: "temporal variance above dark (DN^2)".into(),
+        series,
+        x_range: None,
+        y_range: None,
+    }
+    .write_png(path, 900, 600)?;
+    Ok(())
+}
+
+/// SNR plot on log10 axes (the plot API draws linear axes): measured SNR and the model's total
+/// SNR curve against photons per pixel (electrons when the photon count is unknown).
+fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
+    let photons = results.iter().all(|c| c.result.points.iter().all(|p| p.photons_per_pixel.is_some()));
+    let lg = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+    let mut series = Vec::new();
+    for c in results {
+        let r = &c.result;
+        // Up to the saturation point (beyond it the clipped frames have no temporal noise).
+        let measured: Vec<(f64, f64)> = r
+            .points
+            .iter()
+            .filter(|p| p.signal_dn <= r.saturation_signal_dn)
+            .map(|p| {
+                let x = if photons { p.photons_per_pixel.unwrap_or(f64::NAN) } else { p.signal_dn / r.system_gain_dn_per_e };
+                (lg(x), lg(p.snr))
+            })
+            .collect();
+        let mut s = Series::new(format!("{} measured", c.channel.letter()), measured);
+        s.color = Some(channel_color(c.channel));
+        series.push(s);
+        let model: Vec<(f64, f64)> = r
+            .snr_curve
+            .iter()
+            .map(|p| (lg(if photons { p.photons.unwrap_or(f64::NAN) } else { p.electrons }), lg(p.snr_total)))
+            .collect();
+        let mut m = Series::new(format!("{} model (total)", c.channel.letter()), model);
+        m.color = Some(channel_color(c.channel));
+        m.dashed = true;
+        series.push(m);
+    }
+    LinePlot {
+        title: "EMVA 1288 signal-to-noise ratio".into(),
+        x_label: if photons { "log10 photons per pixel".into() } else { "log10 electrons per pixel".into() },
+        y_label: "log10 SNR".into(),
+        series,
+        x_range: None,
+        y_range: None,
+    }
+    .write_png(path, 900, 600)?;
+    Ok(())
+}
+
+fn opt(v: Option<f64>, prec: usize) -> String {
+    v.map(|x| format!("{x:.prec$}")).unwrap_or_else(|| "-".into())
+}
+
+/// The summary table, one row per channel.
+fn summary(results: &[ChannelEmva]) -> Result<String> {
+    let mut t = String::new();
+    writeln!(
+        t,
+        "{:<3} {:>10} {:>11} {:>9} {:>8} {:>10} {:>10} {:>7} {:>8}",
+        "ch", "K (DN/e-)", "read (e-)", "DSNU (e-)", "PRNU (%)", "sat. (e-)", "clip (e-)", "QE", "DR (dB)"
+    )?;
+    for c in results {
+        let r = &c.result;
+        writeln!(
+            t,
+            "{:<3} {:>10.5} {:>11.3} {:>9.3} {:>8.3} {:>10.0} {:>10.0} {:>7} {:>8.1}",
+            c.channel.letter(),
+            r.system_gain_dn_per_e,
+            r.temporal_dark_noise_e,
+            r.dsnu_e,
+            r.prnu_percent,
+            r.saturation_capacity_e,
+            r.saturation_plateau_e,
+            opt(r.quantum_efficiency, 4),
+            r.dynamic_range_db
+        )?;
+    }
+    t.push_str("sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K\n");
+    Ok(t)
+}
+
+pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
+    let files = read_series(&a.series)?;
+    let frames = load_frames(&a, &a.series, &files)?;
+    let levels: Vec<EmvaRawInput> = files
+        .iter()
+        .zip(&frames)
+        .map(|(l, (b, d))| EmvaRawInput {
+            exposure_s: l.exposure_s,
+            photons_per_pixel: l.photons_per_pixel,
+            bright: b.iter().collect(),
+            dark: d.iter().collect(),
+        })
+        .collect();
+    let opts = EmvaOptions::default();
+    let results = emva_raw(&levels, &opts).with_context(|| format!("EMVA 1288 analysis of {}", a.series.display()))?;
+    let out = common::out_dir(&a.out)?;
+    let raw0 = &frames[0].0[0];
+    let json = serde_json::json!({
+        "series": a.series.display().to_string(),
+        "levels": files.len(),
+        "frame_size": [raw0.rows, raw0.cols],
+        "cfa": raw0.cfa.name(),
+        "options": opts,
+        "channels": results,
+    });
+    camsim_io::atomic::write_json_atomic(&out.join("emva.json"), &json)?;
+    ptc_plot(&results, &out.join("ptc.png"))?;
+    snr_plot(&results, &out.join("snr.png"))?;
+    if a.json {
+        // A closed pipe (`| head`) is not an error of the analysis.
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), "{}", serde_json::to_string_pretty(&json)?);
+    }
+    say(summary(&results)?);
+    for c in &results {
+        let r = &c.result;
+        // Past saturation the temporal variance collapses (clipped pixels do not fluctuate); if it
+        // has not at the brightest level, the series never clipped in this channel.
+        let peak = r.points.iter().map(|p| p.var_dn2).fold(0.0, f64::max);
+        let brightest = r.points.iter().max_by(|a, b| a.signal_dn.total_cmp(&b.signal_dn));
+        if brightest.is_some_and(|p| p.var_dn2 > 0.5 * peak) {
+            say(format!(
+                "warning: channel {}: the temporal variance still grows at the brightest level, so the series does not reach saturation; its saturation, dynamic range and PRNU level are not meaningful (extend the exposures or use light this channel sees)",
+                c.channel.letter()
+            ));
+        }
+    }
+    say(format!("{} levels -> {}", files.len(), out.join("emva.json").display()));
+    Ok(())
 }
