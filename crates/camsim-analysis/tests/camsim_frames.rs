@@ -125,33 +125,7 @@ fn clip_e(s: &Sensor) -> f64 {
 
 /// Three lines (460, 540, 620 nm) weighted so that every channel collects `rate_e_per_s`.
 fn balanced_irradiance(s: &Sensor, grid: &WavelengthGrid, rate_e_per_s: f64) -> Vec<f64> {
-    let bands = [460.0, 540.0, 620.0].map(|w| grid.band_of(w).unwrap());
-    // a[c][k]: electrons/s of channel c per W/(m^2 nm) in line k.
-    let mut a = [[0.0; 3]; 3];
-    for (k, b) in bands.iter().enumerate() {
-        let mut e = vec![0.0; grid.len()];
-        e[*b] = 1.0;
-        let r = s.mean_electrons_uniform(&e, grid, 1.0).unwrap();
-        for c in 0..3 {
-            a[c][k] = r[c];
-        }
-    }
-    // Solve a x = rate (Cramer's rule).
-    let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(&a);
-    let mut irr = vec![0.0; grid.len()];
-    for (k, b) in bands.iter().enumerate() {
-        let mut m = a;
-        for row in m.iter_mut() {
-            row[k] = rate_e_per_s;
-        }
-        let x = det(&m) / d;
-        assert!(x > 0.0, "balanced light needs a negative line at {} nm", grid.wavelength_nm(*b));
-        irr[*b] = x;
-    }
+    let irr = s.balanced_emva_irradiance(grid, rate_e_per_s).unwrap();
     let check = s.mean_electrons_uniform(&irr, grid, 1.0).unwrap();
     assert!(check.iter().all(|r| rel(*r, rate_e_per_s) < 1e-9), "{check:?}");
     irr

@@ -81,3 +81,54 @@ impl Sensor {
         Ok(out)
     }
 }
+
+impl Sensor {
+    /// A uniform irradiance (W/(m^2 nm) on `grid`) made of three narrow lines at 460, 540 and
+    /// 620 nm, weighted so that the R, G and B channels all collect `rate_e_per_s` electrons per
+    /// second. An EMVA 1288 series lit with it saturates every channel at the same exposure
+    /// (EMVA 1288 4.0 measures a colour sensor per channel; one light for all three is a
+    /// convenience that keeps one exposure ladder). Solves the 3x3 system by Cramer's rule.
+    pub fn balanced_emva_irradiance(&self, grid: &WavelengthGrid, rate_e_per_s: f64) -> Result<Vec<f64>> {
+        let bands = [460.0, 540.0, 620.0].map(|w| grid.band_of(w));
+        let bands = match bands {
+            [Some(a), Some(b), Some(c)] => [a, b, c],
+            _ => {
+                return Err(SensorError::input(
+                    "EMVA light",
+                    "the wavelength grid needs bands at 460, 540 and 620 nm for the balanced light",
+                ))
+            }
+        };
+        // a[c][k]: electrons/s of channel c per W/(m^2 nm) in line k.
+        let mut a = [[0.0; 3]; 3];
+        for (k, b) in bands.iter().enumerate() {
+            let mut e = vec![0.0; grid.len()];
+            e[*b] = 1.0;
+            let r = self.mean_electrons_uniform(&e, grid, 1.0)?;
+            for (c, row) in a.iter_mut().enumerate() {
+                row[k] = r[c];
+            }
+        }
+        let det = |m: &[[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let d = det(&a);
+        let mut irr = vec![0.0; grid.len()];
+        for (k, b) in bands.iter().enumerate() {
+            let mut m = a;
+            for row in m.iter_mut() {
+                row[k] = rate_e_per_s;
+            }
+            let x = det(&m) / d;
+            if !(x > 0.0 && x.is_finite()) {
+                return Err(SensorError::input(
+                    "EMVA light",
+                    format!("no non-negative mix of 460/540/620 nm lines balances this sensor's channels (line {k} weight {x})"),
+                ));
+            }
+            irr[*b] = x;
+        }
+        Ok(irr)
+    }
+}

@@ -52,6 +52,13 @@ pub struct Args {
     /// EMVA series: exposure levels from dark to past saturation.
     #[arg(long, default_value_t = 24)]
     pub levels: usize,
+    /// EMVA series: frames per level (bright and dark each; more frames, smaller errors).
+    #[arg(long, default_value_t = 8)]
+    pub frames_per_level: usize,
+    /// EMVA series: analog offset, mV. EMVA 1288 needs dark frames that do not clip at 0; by
+    /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
+    #[arg(long)]
+    pub analog_offset_mv: Option<f64>,
     /// Output folder.
     #[arg(long, default_value = "out/sensor")]
     pub out: PathBuf,
@@ -105,18 +112,40 @@ pub fn run(a: Args) -> Result<()> {
 
 fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     let grid = WavelengthGrid::default();
-    // A narrow-band green flat field (EMVA 1288 asks for monochromatic light; 540 nm, 20 nm wide).
-    let irr: Vec<f64> = grid.wavelengths_nm().iter().map(|w| if (w - 540.0).abs() <= 10.0 { 1e-3 } else { 0.0 }).collect();
-    let rows = a.rows.unwrap_or(64).min(sensor.rows());
-    let cols = a.cols.unwrap_or(64).min(sensor.cols());
-    // Exposures from 0 to about 1.3 x the time that fills the well in green.
-    let e_per_s = sensor.mean_electrons_uniform(&irr, &grid, 1.0)?[1].max(1e-12);
-    let t_sat = sensor.well_capacity_e() / e_per_s;
+    // EMVA 1288 needs dark frames above 0 DN: give the sensor a black level if it has none.
+    let mut cfg = sensor.config().clone();
+    let read_mv = sensor.read_noise_v() * 1e3;
+    let offset_mv = match a.analog_offset_mv {
+        Some(mv) => mv,
+        None if sensor.analog_offset_v() * 1e3 < 5.0 * read_mv => {
+            let mv = (8.0 * read_mv).max(1.0);
+            say(format!("EMVA 1288 needs unclipped dark frames: analog offset set to {mv:.1} mV (--analog-offset-mv to choose)"));
+            mv
+        }
+        None => sensor.analog_offset_v() * 1e3,
+    };
+    cfg.analog_offset_mv = offset_mv;
+    let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
+    let rows = a.rows.unwrap_or(128).min(sensor.rows());
+    let cols = a.cols.unwrap_or(128).min(sensor.cols());
+    // Three lines balanced so every channel collects 1e5 e-/s; exposures from 0 to 1.3 x the
+    // time at which the signal reaches the clipping level.
+    let rate_e_per_s = 1e5;
+    let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
+    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v()) / sensor.conversion_gain_v_per_e();
+    let t_sat = clip_e / rate_e_per_s;
     let n = a.levels.max(3);
     let exposures: Vec<f64> = (0..n).map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64).collect();
     let pb = common::progress(n as u64, "emva");
-    let levels = sensor.emva_series(&grid, &irr, &exposures, 2, rows, cols, a.seed)?;
-    let mut csv = String::from("exposure_s,photons_per_pixel,bright_a,bright_b,dark_a,dark_b\n");
+    let levels = sensor.emva_series(&grid, &irr, &exposures, a.frames_per_level.max(2), rows, cols, a.seed)?;
+    let f = a.frames_per_level.max(2);
+    let mut csv = String::from("exposure_s,photons_per_pixel");
+    for kind in ["bright", "dark"] {
+        for k in 0..f {
+            write!(csv, ",{kind}_{k}")?;
+        }
+    }
+    csv.push('\n');
     let meta = DngMetadata { camera_model: format!("camsim {}", sensor.name()), ..DngMetadata::default() };
     for (i, l) in levels.iter().enumerate() {
         let mut names = Vec::new();
