@@ -223,6 +223,25 @@ impl Wavefront {
         w
     }
 
+    /// True when every nonzero term is rotationally symmetric (m = 0): W depends on rho only.
+    pub fn is_rotationally_symmetric(&self) -> bool {
+        self.zernike_um.iter().zip(&self.zern).all(|(c, z)| *c == 0.0 || z.m == 0)
+    }
+
+    /// W (um) of a rotationally symmetric wavefront at lens-pupil radius `rho_l` (no trigonometry;
+    /// equals [`Self::wavefront_um`] when [`Self::is_rotationally_symmetric`]).
+    fn wavefront_radial_um(&self, rho_l: f64, chrom: f64) -> f64 {
+        let rho = rho_l * self.lens_pupil_diameter_m() / self.measurement_pupil_m;
+        let mut w = 0.0;
+        for (c, z) in self.zernike_um.iter().zip(&self.zern) {
+            if *c != 0.0 {
+                w += c * z.eval(rho, 0.0);
+            }
+        }
+        let sq3 = 3f64.sqrt();
+        w + chrom * sq3 * (2.0 * rho * rho - 1.0) + self.extra_defocus_um * sq3 * (2.0 * rho_l * rho_l - 1.0)
+    }
+
     /// Geometric blur radius, m: the largest transverse ray aberration over the pupil,
     /// |eps| = (z / a) |grad_rho W| (Welford, Aberrations of Optical Systems, eq. 7.3; z image
     /// distance, a pupil radius, rho normalized pupil coordinate). Tilt counts (it moves the PSF).
@@ -346,7 +365,8 @@ impl Wavefront {
         let q = dx * d / (lambda_m * z);
         let blur = self.geometric_blur_radius_m(wavelength_nm);
         let want = [
-            n_out.map(|n| (n as f64 * 1.5).ceil()).unwrap_or(0.0),
+            // 30 % margin: the periodized PSF's wrapped tail stays at the window's rim.
+            n_out.map(|n| (n as f64 * 1.3).ceil()).unwrap_or(0.0),
             self.min_pupil_samples as f64 / q,
             // The field must hold the geometric blur with room for the diffraction tail; this also
             // samples the pupil phase finely enough (the phase steps by < pi per pupil sample).
@@ -378,6 +398,8 @@ impl Wavefront {
         let sub = 8usize;
         let inv_lambda_um = 1e3 / wavelength_nm; // W in um -> waves
         let (mut sum_cov, mut sum_cov2) = (0.0f64, 0.0f64);
+        let symmetric = self.is_rotationally_symmetric();
+        let chrom = self.chromatic_c4_um(wavelength_nm);
         for (ri, i) in (lo..=hi).enumerate() {
             let y = (i as f64 - half as f64) * dp;
             let row = &mut rows[ri * n..(ri + 1) * n];
@@ -406,8 +428,12 @@ impl Wavefront {
                 if cov > 0.0 {
                     sum_cov += cov;
                     sum_cov2 += cov * cov;
-                    let (xn, yn) = ((x / a).clamp(-1.0, 1.0), (y / a).clamp(-1.0, 1.0));
-                    let w_um = self.wavefront_um(xn, yn, wavelength_nm);
+                    let w_um = if symmetric {
+                        self.wavefront_radial_um((r / a).min(1.0), chrom)
+                    } else {
+                        let (xn, yn) = ((x / a).clamp(-1.0, 1.0), (y / a).clamp(-1.0, 1.0));
+                        self.wavefront_um(xn, yn, wavelength_nm)
+                    };
                     // Pupil function A exp(-i 2 pi W / lambda) (ISETCam wvfComputePupilFunction).
                     let ph = -2.0 * PI * w_um * inv_lambda_um;
                     row[j] = Complex64::new(cov * ph.cos(), cov * ph.sin());

@@ -16,6 +16,8 @@
 //! [`compare`] does the region-by-region comparison for a user's own camera (measured DNGs
 //! against simulated ones, [`CompareConfig`]).
 
+#![warn(missing_docs)]
+
 pub mod base64;
 pub mod compare;
 pub mod optics_fig;
@@ -160,8 +162,8 @@ impl QualityParams {
                 edge_spp: 8,
                 qe_patch_px: 64,
                 box_render: (1008, 756),
-                box_spp: 128,
-                box_time_budget_s: Some(120.0),
+                box_spp: 256,
+                box_time_budget_s: Some(180.0),
                 grid: WavelengthGrid::default(),
             },
         }
