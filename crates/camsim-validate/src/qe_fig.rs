@@ -92,7 +92,7 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
         for (li, (light, _)) in LIGHTS.iter().enumerate() {
             let spd = grid_samples(&tables::illuminant(light)?, &grid);
             let y = luminance_cd_m2(&spd, &grid);
-            if !(y > 0.0) {
+            if y.is_nan() || y <= 0.0 {
                 return Err(ValidateError::invalid(format!("illuminant {light}"), "has no luminance on the grid"));
             }
             // Radiance of a perfect white diffuser of luminance WHITE_LUMINANCE_CD_M2.
@@ -108,7 +108,7 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
             exposures.push((light.to_string(), t));
             // The tiled irradiance frame, sampled at the pixel pitch (identity mapping).
             let mut img = SpectralImage::zeros(rows, cols, grid, sensor.pixel_pitch_m(), Quantity::Irradiance)?;
-            for b in 0..grid.len() {
+            for (b, _) in grid.wavelengths_nm().iter().enumerate() {
                 let plane = img.band_mut(b);
                 for r in 0..rows {
                     for c in 0..cols {
@@ -137,12 +137,7 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
     let predicted: Vec<[f64; 3]> = patches.iter().map(|p| p.predicted_dn).collect();
     let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative)?;
     let fit_u = fit_qe_matrix(&measured, &predicted, MatrixForm::Unconstrained)?;
-    let mut max_diff: f64 = 0.0;
-    for i in 0..3 {
-        for j in 0..3 {
-            max_diff = max_diff.max((fit.m[i][j] - PAPER_M[i][j]).abs());
-        }
-    }
+    let max_diff = fit.m.iter().flatten().zip(PAPER_M.iter().flatten()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let checks = vec![
         Check {
             name: "fitted M (paper's form) equals the paper's M within 0.05 per entry".into(),

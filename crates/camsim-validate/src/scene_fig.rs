@@ -597,8 +597,9 @@ impl Rgb8 {
     }
 }
 
+/// Downsampling factor of the embedded previews (at most 672 pixels wide, so the report stays small).
 fn preview_factor(cols: usize) -> usize {
-    cols.div_ceil(1008).max(1)
+    cols.div_ceil(672).max(1)
 }
 
 fn light_of(spectra: &BoxSpectra) -> camsim_core::Spectrum {
@@ -613,7 +614,9 @@ fn srgb_preview(p: &QualityParams, spectra: &BoxSpectra, rgb: &RgbImage, exposur
     let k = preview_factor(rgb.cols);
     let small = downsample(rgb, k);
     let scale = exposure_scale.unwrap_or_else(|| pipe.auto_exposure_scale(&small));
-    let data = pipe.render_srgb8(&small, Some(scale));
+    // Clipped highlights (the lamp) render neutral, not in the false colour white balance gives them.
+    let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
+    let data = pipe.render_srgb8_clipped(&small, Some(scale), Some(saturation_dn));
     Ok((Rgb8 { w: small.cols, h: small.rows, data }, k, scale))
 }
 
