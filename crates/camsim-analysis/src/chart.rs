@@ -17,13 +17,8 @@ pub const PATCH_ROWS: usize = 4;
 /// Patch columns of the chart.
 pub const PATCH_COLS: usize = 6;
 
-/// Patch names in the standard order (McCamy, Marcus & Davidson 1976).
-pub const PATCH_NAMES: [&str; 24] = [
-    "dark skin", "light skin", "blue sky", "foliage", "blue flower", "bluish green",
-    "orange", "purplish blue", "moderate red", "purple", "yellow green", "orange yellow",
-    "blue", "green", "red", "yellow", "magenta", "cyan",
-    "white 9.5", "neutral 8", "neutral 6.5", "neutral 5", "neutral 3.5", "black 2",
-];
+/// Patch names in the standard order (McCamy, Marcus & Davidson 1976): camsim-core's table.
+pub use camsim_core::tables::MACBETH_PATCH_NAMES as PATCH_NAMES;
 
 /// The outer corners of the 4 x 6 patch grid in image coordinates `[x, y]` (columns, rows; pixel
 /// (r, c) covers [c, c + 1) x [r, r + 1)), with the chart upright: dark skin at the top left,
@@ -326,7 +321,7 @@ mod tests {
                     assert!(s.n[c] > 0);
                 }
             }
-            assert_eq!(stats[18].name, "white 9.5");
+            assert_eq!(stats[18].name, "white");
         }
         // Line through the gray series: at the patch centres the profile equals the patch values,
         // between patches it falls to the black border.
