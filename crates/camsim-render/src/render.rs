@@ -11,7 +11,7 @@
 use crate::camera::CameraRig;
 use crate::integrator::{RayCounts, Tracer};
 use crate::scene::SceneDescription;
-use crate::spectral::{cie_ybar_approx, WavelengthSampler};
+use crate::spectral::WavelengthSampler;
 use camsim_core::image::ImageGeometry;
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{CoreError, Quantity, SpectralImage};
@@ -173,14 +173,10 @@ fn run<const N: usize>(
     let total_work = n_tiles as u64 * n_passes as u64;
     let done = AtomicU64::new(0);
     let splat = ws.splat_weight(N);
-    // Luminance weight per band: 683 ybar(lambda_b) (hi - lo)/N per wavelength sample.
+    // Luminance weight per band: 683 ybar(lambda_b) (hi - lo)/N per wavelength sample (CIE 1931 ybar).
+    let ybar = camsim_core::colorimetry::Cmfs::on(&st.grid).y;
     let lum_w: Vec<f64> = (0..bands)
-        .map(|b| {
-            camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W
-                * cie_ybar_approx(st.grid.wavelength_nm(b))
-                * (ws.hi_nm - ws.lo_nm) as f64
-                / N as f64
-        })
+        .map(|b| camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * ybar[b] * (ws.hi_nm - ws.lo_nm) as f64 / N as f64)
         .collect();
 
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());

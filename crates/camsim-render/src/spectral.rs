@@ -118,18 +118,6 @@ impl SpectrumTable {
     }
 }
 
-/// CIE 1931 photopic luminous efficiency y-bar(lambda), multi-lobe piecewise-Gaussian fit of
-/// Wyman, Sloan & Shirley 2013, "Simple Analytic Approximations to the CIE XYZ Color Matching
-/// Functions", JCGT 2(2), eq. 2 (error well below 1 % of the peak). Used only for the variance
-/// estimate of the luminance, not for the radiance output.
-pub fn cie_ybar_approx(wavelength_nm: f64) -> f64 {
-    fn g(x: f64, mu: f64, s1: f64, s2: f64) -> f64 {
-        let t = (x - mu) / if x < mu { s1 } else { s2 };
-        (-0.5 * t * t).exp()
-    }
-    0.821 * g(wavelength_nm, 568.8, 46.9, 40.5) + 0.286 * g(wavelength_nm, 530.9, 16.3, 31.1)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -172,11 +160,5 @@ mod tests {
         assert_eq!(t.eval(480.0), 0.0);
         assert_eq!(t.eval(530.0), 0.0);
         assert!((t.eval(497.0) - 1.0).abs() < 1e-6);
-    }
-
-    #[test]
-    fn ybar_peaks_near_555() {
-        assert!((cie_ybar_approx(555.0) - 1.0).abs() < 0.02);
-        assert!(cie_ybar_approx(400.0) < 0.01);
     }
 }
