@@ -467,6 +467,10 @@ impl Optics {
         let oversampling = self.config.psf.oversampling;
         let plane = rows * cols;
         out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
+            // Touch the band's pages with a write first: the allocator hands out lazily mapped zero
+            // pages, and the tiles' read-modify-write (`+=`) would fault each page twice (zero-page
+            // read, then copy-on-write).
+            out_band.fill(0.0);
             let wl = grid.wavelength_nm(b);
             let src = &radiance.data[b * plane..(b + 1) * plane];
             let sc = scale[b];
