@@ -153,15 +153,7 @@ fn poly_slope(c: &[f64], t: f64) -> f64 {
     }
 }
 
-/// sin(pi x) / (pi x).
-fn sinc(x: f64) -> f64 {
-    if x.abs() < 1e-12 {
-        1.0
-    } else {
-        let a = std::f64::consts::PI * x;
-        a.sin() / a
-    }
-}
+use camsim_core::math::sinc;
 
 /// Is the edge in `a` (rows x cols, row-major) closer to horizontal than vertical? Compares the
 /// left-right with the top-bottom contrast of the border strips (sfrmat `rotatev2`).

@@ -12,6 +12,7 @@ pub mod error;
 pub mod grid;
 pub mod image;
 pub mod mat;
+pub mod math;
 pub mod mem;
 pub mod raw;
 pub mod rng;

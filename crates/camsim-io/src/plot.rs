@@ -231,10 +231,7 @@ impl LinePlot {
 
     /// Write the plot as a PNG of `width` x `height` pixels, atomically.
     pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        let rgb = self
-            .render_rgb(width, height)
-            .map_err(|e| retarget(e, path))?;
-        crate::raster::write_png8_rgb(path, height as usize, width as usize, &rgb)
+        write_rendered(path, width, height, self.render_rgb(width, height))
     }
 }
 
@@ -311,10 +308,7 @@ impl ScatterPlot {
 
     /// Write the plot as a PNG of `width` x `height` pixels, atomically.
     pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        let rgb = self
-            .render_rgb(width, height)
-            .map_err(|e| retarget(e, path))?;
-        crate::raster::write_png8_rgb(path, height as usize, width as usize, &rgb)
+        write_rendered(path, width, height, self.render_rgb(width, height))
     }
 }
 
@@ -530,4 +524,10 @@ mod tests {
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
         assert!(LinePlot::default().render_rgb(10, 10).is_err());
     }
+}
+
+/// Write a rendered plot (interleaved RGB of `width` x `height`) as a PNG, naming `path` in errors.
+fn write_rendered(path: &Path, width: u32, height: u32, rgb: Result<Vec<u8>>) -> Result<()> {
+    let rgb = rgb.map_err(|e| retarget(e, path))?;
+    crate::raster::write_png8_rgb(path, height as usize, width as usize, &rgb)
 }

@@ -132,14 +132,7 @@ pub struct OpticsResults {
     pub figures: Vec<FigurePng>,
 }
 
-fn sinc(x: f64) -> f64 {
-    if x.abs() < 1e-12 {
-        1.0
-    } else {
-        let a = std::f64::consts::PI * x;
-        a.sin() / a
-    }
-}
+use camsim_core::math::sinc;
 
 /// The model MTF for spectral weights `w` (per band of `grid`) at frequencies `f_cyc_per_px`.
 struct Model {

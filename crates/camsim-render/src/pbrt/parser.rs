@@ -445,29 +445,16 @@ impl Parser {
                         }
                     },
                 },
-                "Camera" => {
+                "Camera" | "Film" | "Sampler" | "Integrator" => {
                     self.require_world(&loc, &d, false)?;
                     let ty = string_arg(&tokens, &mut pos, f, &d)?;
                     let params = parse_params(&tokens, &mut pos, f)?;
-                    self.camera(&ty, &params, &loc)?;
-                }
-                "Film" => {
-                    self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
-                    self.film(&ty, &params, &loc)?;
-                }
-                "Sampler" => {
-                    self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
-                    self.sampler(&ty, &params, &loc)?;
-                }
-                "Integrator" => {
-                    self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
-                    self.integrator(&ty, &params, &loc)?;
+                    match d.as_str() {
+                        "Camera" => self.camera(&ty, &params, &loc)?,
+                        "Film" => self.film(&ty, &params, &loc)?,
+                        "Sampler" => self.sampler(&ty, &params, &loc)?,
+                        _ => self.integrator(&ty, &params, &loc)?,
+                    }
                 }
                 "PixelFilter" => {
                     self.require_world(&loc, &d, false)?;
