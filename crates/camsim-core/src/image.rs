@@ -97,7 +97,7 @@ impl SpectralImage {
             quantity,
             geometry: ImageGeometry::default(),
             depth_m: None,
-            data: vec![0.0; n],
+            data: mem::zeroed_f32(n),
         })
     }
 

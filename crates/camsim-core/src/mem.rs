@@ -28,3 +28,44 @@ pub fn check_alloc(bytes: u64, what: &str) -> Result<()> {
     }
     Ok(())
 }
+
+/// Below this size a buffer is left to the allocator as it is (huge pages would not pay).
+const HUGE_PAGE_MIN_BYTES: usize = 8 << 20;
+
+/// A zero-filled `Vec<f32>` of `n` samples for a full-size image plane or cube.
+///
+/// Large zeroed allocations come from the kernel as untouched pages, each faulted in (and
+/// zeroed) on first write: 4 KiB at a time, ~390 000 faults for a 1.6 GB spectral image, which
+/// cost the optics stage ~0.8 s of system time. On Linux the buffer is advised as a candidate for
+/// transparent huge pages (`madvise(MADV_HUGEPAGE)`, see the kernel's
+/// Documentation/admin-guide/mm/transhuge.rst), so it faults in 2 MiB at a time wherever the
+/// kernel's THP mode is `always` or `madvise`. The advice changes nothing but speed; where it is
+/// refused the buffer is the same.
+pub fn zeroed_f32(n: usize) -> Vec<f32> {
+    let mut v = vec![0.0f32; n];
+    advise_huge_pages(&mut v);
+    v
+}
+
+#[cfg(target_os = "linux")]
+fn advise_huge_pages(v: &mut [f32]) {
+    const HUGE: usize = 2 << 20;
+    let bytes = std::mem::size_of_val(v);
+    if bytes < HUGE_PAGE_MIN_BYTES {
+        return;
+    }
+    // The 2 MiB-aligned part of the buffer.
+    let start = v.as_mut_ptr() as usize;
+    let lo = start.next_multiple_of(HUGE);
+    let hi = (start + bytes) / HUGE * HUGE;
+    if hi > lo {
+        // SAFETY: [lo, hi) lies inside `v`'s allocation, which we borrow mutably; MADV_HUGEPAGE
+        // only changes how the kernel backs the pages, never their contents.
+        unsafe {
+            libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn advise_huge_pages(_v: &mut [f32]) {}

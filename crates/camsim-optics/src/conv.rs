@@ -37,8 +37,7 @@ pub struct KernelSpectrum(pub Vec<Complex32>);
 pub struct Scratch {
     row: Vec<f32>,
     row_spec: Vec<Complex32>,
-    /// Row-major spectra of a tile's rows (F x (F/2+1)), for cache-blocked transposes.
-    rows: Vec<Complex32>,
+    /// The tile's spectrum, column-major ((F/2+1) columns of F).
     cols: Vec<Complex32>,
     r_scratch: Vec<Complex32>,
     c_scratch: Vec<Complex32>,
@@ -56,40 +55,6 @@ pub struct OutputWindow {
     pub off_r: isize,
     /// Column offset.
     pub off_c: isize,
-}
-
-const BLOCK: usize = 8;
-
-/// dst[c * ld + r] = src[r * ncols + c] for r < nrows, c < ncols (cache-blocked).
-fn transpose_blocked(src: &[Complex32], nrows: usize, ncols: usize, dst: &mut [Complex32], ld: usize) {
-    for rb in (0..nrows).step_by(BLOCK) {
-        let re = (rb + BLOCK).min(nrows);
-        for cb in (0..ncols).step_by(BLOCK) {
-            let ce = (cb + BLOCK).min(ncols);
-            for r in rb..re {
-                let srow = &src[r * ncols..];
-                for c in cb..ce {
-                    dst[c * ld + r] = srow[c];
-                }
-            }
-        }
-    }
-}
-
-/// dst[r * ncols + c] = src[c * ld + r] for r < nrows, c < ncols (cache-blocked).
-fn transpose_cols_to_rows(src: &[Complex32], ld: usize, ncols: usize, nrows: usize, dst: &mut [Complex32]) {
-    for cb in (0..ncols).step_by(BLOCK) {
-        let ce = (cb + BLOCK).min(ncols);
-        for rb in (0..nrows).step_by(BLOCK) {
-            let re = (rb + BLOCK).min(nrows);
-            for c in cb..ce {
-                let scol = &src[c * ld..];
-                for r in rb..re {
-                    dst[r * ncols + c] = scol[r];
-                }
-            }
-        }
-    }
 }
 
 fn is_fast(n: usize) -> bool {
@@ -156,31 +121,31 @@ impl TileConvolver {
         Scratch {
             row: vec![0.0; self.f],
             row_spec: vec![z; nc],
-            rows: vec![z; nc * self.f],
             cols: vec![z; nc * self.f],
             r_scratch: vec![z; self.r2c.get_scratch_len().max(self.c2r.get_scratch_len())],
             c_scratch: vec![z; self.col_fwd.get_inplace_scratch_len().max(self.col_inv.get_inplace_scratch_len())],
         }
     }
 
-    /// 2D forward transform of the rows already written by `fill(r, row)` for r < `rows_in`.
-    fn forward(&self, rows_in: usize, s: &mut Scratch, mut fill: impl FnMut(usize, &mut [f32])) {
+    /// Row transforms of the rows written by `fill(r, row)` for r < `rows_in`, scattered into the
+    /// column-major `s.cols` (zero below `rows_in`); the column transforms are left to the caller.
+    /// Scattering row by row needs no separate transpose pass: a 64-byte line holds 8 complex
+    /// samples, so the (F/2+1) destination lines stay in L1 for 8 consecutive rows.
+    fn rows_forward(&self, rows_in: usize, s: &mut Scratch, mut fill: impl FnMut(usize, &mut [f32])) {
         let f = self.f;
         let nc = f / 2 + 1;
         for r in 0..rows_in {
             s.row.iter_mut().for_each(|v| *v = 0.0);
             fill(r, &mut s.row);
-            self.r2c
-                .process_with_scratch(&mut s.row, &mut s.rows[r * nc..(r + 1) * nc], &mut s.r_scratch)
-                .expect("r2c buffer sizes");
+            self.r2c.process_with_scratch(&mut s.row, &mut s.row_spec, &mut s.r_scratch).expect("r2c buffer sizes");
+            for (c, v) in s.row_spec.iter().enumerate() {
+                s.cols[c * f + r] = *v;
+            }
         }
-        // rows (rows_in x nc, row-major) -> cols (nc x f, column-major), zero below rows_in.
-        transpose_blocked(&s.rows[..rows_in * nc], rows_in, nc, &mut s.cols, f);
         let z = Complex32::new(0.0, 0.0);
         for c in 0..nc {
             s.cols[c * f + rows_in..(c + 1) * f].iter_mut().for_each(|v| *v = z);
         }
-        self.col_fwd.process_with_scratch(&mut s.cols, &mut s.c_scratch);
     }
 
     /// Spectrum of a `k x k` kernel (row-major), including the 1/F^2 of the unnormalized inverse.
@@ -188,7 +153,8 @@ impl TileConvolver {
         assert_eq!(kernel.len(), self.k * self.k);
         let mut s = self.scratch();
         let k = self.k;
-        self.forward(k, &mut s, |r, row| row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k]));
+        self.rows_forward(k, &mut s, |r, row| row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k]));
+        self.col_fwd.process_with_scratch(&mut s.cols, &mut s.c_scratch);
         let scale = 1.0 / (self.f * self.f) as f32;
         s.cols.iter_mut().for_each(|c| *c *= scale);
         KernelSpectrum(s.cols)
@@ -212,21 +178,27 @@ impl TileConvolver {
         let f = self.f;
         let nc = f / 2 + 1;
         let h = (self.k / 2) as isize;
-        self.forward(tr, s, |r, row| load(r, &mut row[..tc]));
-        for (c, k) in s.cols.iter_mut().zip(&spec.0) {
-            *c *= *k;
+        self.rows_forward(tr, s, |r, row| load(r, &mut row[..tc]));
+        // Column by column while the column is in L1: forward FFT, product with the kernel's
+        // spectrum (convolution theorem), inverse FFT.
+        for (col, kcol) in s.cols.chunks_exact_mut(f).zip(spec.0.chunks_exact(f)) {
+            self.col_fwd.process_with_scratch(col, &mut s.c_scratch);
+            for (c, k) in col.iter_mut().zip(kcol) {
+                *c *= *k;
+            }
+            self.col_inv.process_with_scratch(col, &mut s.c_scratch);
         }
-        self.col_inv.process_with_scratch(&mut s.cols, &mut s.c_scratch);
         let out_cols_n = tc + self.k - 1;
         let out_rows_n = tr + self.k - 1;
-        // cols (nc x f) -> rows (f x nc), only the rows that carry output.
-        transpose_cols_to_rows(&s.cols, f, nc, out_rows_n, &mut s.rows);
         for r in 0..out_rows_n {
             let orow = r0 as isize + r as isize - h + win.off_r;
             if orow < 0 || orow >= win.rows as isize {
                 continue;
             }
-            s.row_spec.copy_from_slice(&s.rows[r * nc..(r + 1) * nc]);
+            // Gather row r of the column-major spectrum (the lines stay in L1 across rows).
+            for (c, v) in s.row_spec.iter_mut().enumerate() {
+                *v = s.cols[c * f + r];
+            }
             // The row-DC and Nyquist columns are real for a real image; drop round-off.
             s.row_spec[0].im = 0.0;
             s.row_spec[nc - 1].im = 0.0;

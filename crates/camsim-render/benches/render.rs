@@ -143,7 +143,7 @@ fn bench_bvh(c: &mut Criterion) {
     let prims = big_mesh(1_000_000);
     let t = Instant::now();
     let bvh = Bvh::build(prims.clone());
-    eprintln!("BVH build of {} triangles: {:.3} s, {} nodes, depth {}", prims.len(), t.elapsed().as_secs_f64(), bvh.nodes.len(), bvh.depth());
+    eprintln!("BVH build of {} triangles: {:.3} s, {} nodes, depth {}", prims.len(), t.elapsed().as_secs_f64(), bvh.node_count(), bvh.depth());
     drop(bvh);
     let mut g = c.benchmark_group("bvh");
     g.sample_size(10);

@@ -1,13 +1,22 @@
 //! Bounding volume hierarchy: binned surface-area-heuristic build (Wald 2007, "On fast
-//! Construction of SAH-based Bounding Volume Hierarchies"; SAH: MacDonald & Booth 1990),
-//! flattened depth-first into 32-byte nodes with f32 boxes, iterative closest-hit traversal that
-//! visits the nearer child first, and an any-hit traversal for shadow rays.
+//! Construction of SAH-based Bounding Volume Hierarchies"; SAH: MacDonald & Booth 1990) of a
+//! binary tree, collapsed into a 4-wide tree (Wald, Benthin & Boulos 2008, "Getting rid of
+//! packets: efficient SIMD single-ray traversal using multi-branching BVHs"; Dammertz et al.
+//! 2008, "Shallow Bounding Volume Hierarchies for Fast SIMD Ray Tracing of Incoherent Rays"):
+//! every node holds its four children's boxes side by side, so one ray meets all four in one
+//! 4-lane slab test, and every leaf of at most four triangles is stored as one 4-lane packet,
+//! tested in one 4-lane Moller-Trumbore test. The lane arithmetic is written on `[f32; 4]`
+//! arrays, which the compiler turns into SSE/NEON instructions on every target; the
+//! arithmetic per lane is the scalar test's, operation for operation, so hits and distances
+//! are bit-identical to [`Prim::intersect`]. Closest-hit traversal visits children nearest
+//! first; the any-hit traversal (shadow rays) stops at the first hit.
 //!
-//! Memory is linear in the number of primitives: at most `2 n - 1` nodes of 32 bytes plus the
-//! reordered primitives. The top of the tree is built in parallel with `rayon::join`; the result
-//! does not depend on the number of threads (every split decision is a function of the input only).
+//! Memory is linear in the number of primitives: about `n / 3` nodes of 128 bytes, one
+//! 192-byte packet per leaf (at most `n`), and the reordered primitives. The top of the binary
+//! tree is built in parallel with `rayon::join`; the result does not depend on the number of
+//! threads (every split decision is a function of the input only).
 
-use crate::geometry::{ray_box, Aabb, Prim, RayInv};
+use crate::geometry::{Aabb, Prim, RayInv};
 use crate::math::V3;
 
 /// Number of SAH bins per axis.
@@ -21,31 +30,147 @@ const PARALLEL_THRESHOLD: usize = 16 * 1024;
 /// Beyond this depth the builder splits at the median, so the tree depth stays below
 /// `FORCE_MEDIAN_DEPTH + log2(n)` and fits the traversal stack.
 const FORCE_MEDIAN_DEPTH: usize = 64;
-/// Traversal stack size.
-const STACK: usize = 128;
+/// Traversal stack size: a 4-wide node pushes at most 3 entries and the tree is at most
+/// `FORCE_MEDIAN_DEPTH + log2(n)` binary levels deep.
+const STACK: usize = 3 * 128;
+/// Largest number of primitives a BVH can index (child references keep 30 bits of index).
+pub const MAX_PRIMS: usize = 1 << 30;
 
-/// A flattened BVH node (32 bytes). Interior: `count == 0`, left child is the next node, right
-/// child is `index`. Leaf: `count > 0` primitives starting at `index` in [`Bvh::prims`].
+/// Child references: an empty lane; a leaf (bit 31), which is a triangle packet (bit 30) or a
+/// range of primitives tested one by one; else an interior node's index.
+const EMPTY: u32 = u32::MAX;
+const LEAF: u32 = 1 << 31;
+const PACKET: u32 = 1 << 30;
+const INDEX: u32 = PACKET - 1;
+
+/// A node of the binary build tree (32 bytes). Interior: `count == 0`, left child is the next
+/// node, right child is `index`. Leaf: `count > 0` primitives starting at `index`.
 #[derive(Debug, Clone, Copy)]
 #[repr(C)]
-pub struct Node {
-    pub min: [f32; 3],
-    pub index: u32,
-    pub max: [f32; 3],
-    pub count: u32,
+struct BinNode {
+    min: [f32; 3],
+    index: u32,
+    max: [f32; 3],
+    count: u32,
 }
 
-impl Node {
-    fn new(b: &Aabb, index: u32, count: u32) -> Node {
-        Node { min: [b.min.x, b.min.y, b.min.z], index, max: [b.max.x, b.max.y, b.max.z], count }
+impl BinNode {
+    fn new(b: &Aabb, index: u32, count: u32) -> BinNode {
+        BinNode { min: [b.min.x, b.min.y, b.min.z], index, max: [b.max.x, b.max.y, b.max.z], count }
     }
+    fn half_area(&self) -> f32 {
+        let d = [self.max[0] - self.min[0], self.max[1] - self.min[1], self.max[2] - self.min[2]];
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
+
+/// A 4-wide node: `b[side][axis][lane]` is the min (side 0) or max (side 1) plane of child
+/// `lane`'s box along `axis`. Empty lanes have every plane at +inf, which no ray enters.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    b: [[[f32; 4]; 3]; 2],
+    child: [u32; 4],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 { b: [[[f32::INFINITY; 4]; 3]; 2], child: [EMPTY; 4] };
+
+    /// Entry distances of the ray into the four child boxes within `(0, t_max)`, `f32::INFINITY`
+    /// for a miss: the slab test of [`crate::geometry::ray_box`], four lanes at once, with the
+    /// entry plane per axis chosen once per ray from the direction's sign.
+    #[inline(always)]
+    fn hit(&self, r: &RayInv, t_max: f32) -> [f32; 4] {
+        let (o, inv) = ([r.o.x, r.o.y, r.o.z], [r.inv_d.x, r.inv_d.y, r.inv_d.z]);
+        let mut t_near = [0f32; 4];
+        let mut t_far = [t_max; 4];
+        for axis in 0..3 {
+            let near = &self.b[r.neg[axis]][axis];
+            let far = &self.b[1 - r.neg[axis]][axis];
+            for i in 0..4 {
+                let tn = (near[i] - o[axis]) * inv[axis];
+                let tf = (far[i] - o[axis]) * inv[axis];
+                t_near[i] = if tn > t_near[i] { tn } else { t_near[i] };
+                t_far[i] = if tf < t_far[i] { tf } else { t_far[i] };
+            }
+        }
+        let mut out = [0f32; 4];
+        for i in 0..4 {
+            // Robust traversal slack (Ize 2013), as in the scalar test.
+            out[i] = if t_near[i] <= t_far[i] * 1.000_000_2 { t_near[i] } else { f32::INFINITY };
+        }
+        out
+    }
+}
+
+/// Up to four triangles in structure-of-arrays form (`[axis][lane]`); unused lanes have zero
+/// edges, so their determinant is 0 and they never report a hit. `start` is the slot of lane 0
+/// in [`Bvh::prims`].
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub struct Tri4 {
+    p0: [[f32; 4]; 3],
+    e1: [[f32; 4]; 3],
+    e2: [[f32; 4]; 3],
+    start: u32,
+}
+
+impl Tri4 {
+    /// The Moller & Trumbore (1997) test of [`crate::geometry::intersect_triangle`] in four
+    /// lanes: per lane `(t, u, v)` with `t = f32::INFINITY` where the lane misses.
+    #[inline(always)]
+    fn hit(&self, r: &RayInv, t_max: f32) -> ([f32; 4], [f32; 4], [f32; 4]) {
+        let (o, d) = (r.o, r.d);
+        let (p0, e1, e2) = (&self.p0, &self.e1, &self.e2);
+        let (mut tt, mut uu, mut vv) = ([0f32; 4], [0f32; 4], [0f32; 4]);
+        for i in 0..4 {
+            // pvec = d x e2; det = e1 . pvec
+            let px = d.y * e2[2][i] - d.z * e2[1][i];
+            let py = d.z * e2[0][i] - d.x * e2[2][i];
+            let pz = d.x * e2[1][i] - d.y * e2[0][i];
+            let det = e1[0][i] * px + e1[1][i] * py + e1[2][i] * pz;
+            let inv_det = 1.0 / det;
+            // tvec = o - p0; u = tvec . pvec / det
+            let (tx, ty, tz) = (o.x - p0[0][i], o.y - p0[1][i], o.z - p0[2][i]);
+            let u = (tx * px + ty * py + tz * pz) * inv_det;
+            // qvec = tvec x e1; v = d . qvec / det; t = e2 . qvec / det
+            let qx = ty * e1[2][i] - tz * e1[1][i];
+            let qy = tz * e1[0][i] - tx * e1[2][i];
+            let qz = tx * e1[1][i] - ty * e1[0][i];
+            let v = (d.x * qx + d.y * qy + d.z * qz) * inv_det;
+            let t = (e2[0][i] * qx + e2[1][i] * qy + e2[2][i] * qz) * inv_det;
+            let ok = (det != 0.0)
+                & (det.abs() < f32::INFINITY)
+                & (u >= 0.0)
+                & (u <= 1.0)
+                & (v >= 0.0)
+                & (u + v <= 1.0)
+                & (t > 0.0)
+                & (t < t_max);
+            tt[i] = if ok { t } else { f32::INFINITY };
+            uu[i] = u;
+            vv[i] = v;
+        }
+        (tt, uu, vv)
+    }
+}
+
+/// A leaf whose primitives are tested one by one (spheres, or more than four primitives).
+#[derive(Debug, Clone, Copy)]
+struct Leaf {
+    start: u32,
+    count: u32,
 }
 
 /// A BVH over primitives; `prims` are reordered so every leaf's primitives are contiguous and
 /// `ids[i]` is the caller's index of `prims[i]`.
 #[derive(Debug, Clone)]
 pub struct Bvh {
-    pub nodes: Vec<Node>,
+    nodes: Vec<Node4>,
+    packets: Vec<Tri4>,
+    leaves: Vec<Leaf>,
+    root: u32,
+    bounds: Aabb,
     pub prims: Vec<Prim>,
     pub ids: Vec<u32>,
 }
@@ -66,17 +191,19 @@ struct BuildCtx<'a> {
 }
 
 enum Sub {
-    Flat(Vec<Node>),
+    Flat(Vec<BinNode>),
     Split { bounds: Aabb, left: Box<Sub>, right: Box<Sub> },
 }
 
 impl Bvh {
-    /// Build over `prims` (their ids are their positions in the input).
+    /// Build over `prims` (their ids are their positions in the input). At most [`MAX_PRIMS`]
+    /// primitives (callers check; a scene that large does not fit in memory anyway).
     pub fn build(prims: Vec<Prim>) -> Bvh {
         use rayon::prelude::*;
         let n = prims.len();
+        assert!(n <= MAX_PRIMS, "a BVH holds at most {MAX_PRIMS} primitives");
         if n == 0 {
-            return Bvh { nodes: Vec::new(), prims, ids: Vec::new() };
+            return Bvh { nodes: Vec::new(), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: Aabb::EMPTY, prims, ids: Vec::new() };
         }
         let bounds: Vec<Aabb> = prims.par_iter().map(|p| p.bounds()).collect();
         let centroids: Vec<V3> = bounds.par_iter().map(|b| b.center()).collect();
@@ -84,72 +211,154 @@ impl Bvh {
         let ctx = BuildCtx { bounds: &bounds, centroids: &centroids };
         let (b, cb) = range_bounds(&ctx, &idx);
         let sub = build_par(&ctx, &mut idx, 0, 0, b, cb);
-        let mut nodes = Vec::with_capacity(2 * n);
-        flatten(sub, &mut nodes);
-        nodes.shrink_to_fit();
+        drop(bounds);
+        drop(centroids);
+        let mut bin = Vec::with_capacity(2 * n / MAX_LEAF + 2);
+        flatten(sub, &mut bin);
         let ordered: Vec<Prim> = idx.iter().map(|&i| prims[i as usize]).collect();
-        Bvh { nodes, prims: ordered, ids: idx }
+        drop(prims);
+        let mut bvh = Bvh { nodes: Vec::with_capacity(bin.len() / 3 + 1), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: b, prims: ordered, ids: idx };
+        bvh.root = bvh.collapse(&bin, 0);
+        bvh.nodes.shrink_to_fit();
+        bvh.packets.shrink_to_fit();
+        bvh.leaves.shrink_to_fit();
+        bvh
+    }
+
+    /// Turn binary node `i` into a child reference of the wide tree: a leaf becomes a packet
+    /// (at most four triangles) or a range; an interior node takes up to four descendants,
+    /// opening the interior one of largest surface area first (the SAH's choice).
+    fn collapse(&mut self, bin: &[BinNode], i: usize) -> u32 {
+        let nd = &bin[i];
+        if nd.count > 0 {
+            let (start, count) = (nd.index as usize, nd.count as usize);
+            let tris = &self.prims[start..start + count];
+            if count <= 4 && tris.iter().all(|p| matches!(p, Prim::Tri { .. })) {
+                let mut pk = Tri4 { p0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], start: start as u32 };
+                for (lane, p) in tris.iter().enumerate() {
+                    if let Prim::Tri { p0, e1, e2 } = *p {
+                        for a in 0..3 {
+                            pk.p0[a][lane] = p0[a];
+                            pk.e1[a][lane] = e1[a];
+                            pk.e2[a][lane] = e2[a];
+                        }
+                    }
+                }
+                self.packets.push(pk);
+                return LEAF | PACKET | (self.packets.len() - 1) as u32;
+            }
+            self.leaves.push(Leaf { start: start as u32, count: count as u32 });
+            return LEAF | (self.leaves.len() - 1) as u32;
+        }
+        let mut kids = [i + 1, nd.index as usize, 0, 0];
+        let mut n = 2;
+        while n < 4 {
+            let open = (0..n).filter(|&k| bin[kids[k]].count == 0).max_by(|&a, &b| bin[kids[a]].half_area().total_cmp(&bin[kids[b]].half_area()));
+            let Some(k) = open else { break };
+            let c = kids[k];
+            kids[k] = c + 1;
+            kids[n] = bin[c].index as usize;
+            n += 1;
+        }
+        let me = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        for (lane, &c) in kids[..n].iter().enumerate() {
+            let r = self.collapse(bin, c);
+            let node = &mut self.nodes[me];
+            for a in 0..3 {
+                node.b[0][a][lane] = bin[c].min[a];
+                node.b[1][a][lane] = bin[c].max[a];
+            }
+            node.child[lane] = r;
+        }
+        me as u32
     }
 
     /// Bounds of the whole scene (empty box for an empty BVH).
     pub fn bounds(&self) -> Aabb {
-        match self.nodes.first() {
-            Some(n) => Aabb { min: V3::new(n.min[0], n.min[1], n.min[2]), max: V3::new(n.max[0], n.max[1], n.max[2]) },
-            None => Aabb::EMPTY,
-        }
+        self.bounds
+    }
+
+    /// Number of 4-wide nodes (diagnostics).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
     }
 
     /// Closest intersection with `t` in `(0, t_max)`.
     #[inline]
     pub fn intersect(&self, r: &RayInv, mut t_max: f32) -> Option<Hit> {
-        let nodes = &self.nodes[..];
-        if nodes.is_empty() || ray_box(r, &nodes[0].min, &nodes[0].max, t_max) == f32::INFINITY {
-            return None;
-        }
-        let mut best: Option<(f32, f32, u32)> = None;
-        // Uninitialised: zeroing 1 KiB per ray costs as much as a traversal step.
+        let (mut best, mut bu, mut bv) = (u32::MAX, 0f32, 0f32);
+        // Uninitialised: zeroing the stack per ray costs as much as a traversal step.
         let mut stack: [std::mem::MaybeUninit<(u32, f32)>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
-        let mut node = 0usize;
+        let mut cur = self.root;
+        if cur == EMPTY {
+            return None;
+        }
         loop {
-            let nd = &nodes[node];
-            if nd.count > 0 {
-                let start = nd.index as usize;
-                for i in start..start + nd.count as usize {
-                    if let Some((t, u, v)) = self.prims[i].intersect(r, t_max) {
-                        t_max = t;
-                        best = Some((u, v, i as u32));
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let t = node.hit(r, t_max);
+                // Compact the lanes that were entered, then visit them nearest first.
+                let (mut ts, mut cs, mut k) = ([0f32; 4], [0u32; 4], 0usize);
+                for lane in 0..4 {
+                    if t[lane] < f32::INFINITY {
+                        ts[k] = t[lane];
+                        cs[k] = node.child[lane];
+                        k += 1;
                     }
                 }
-            } else {
-                let (l, rr) = (node + 1, nd.index as usize);
-                let tl = ray_box(r, &nodes[l].min, &nodes[l].max, t_max);
-                let tr = ray_box(r, &nodes[rr].min, &nodes[rr].max, t_max);
-                if tl < f32::INFINITY {
-                    if tr < f32::INFINITY {
-                        let (near, far, tf) = if tl <= tr { (l, rr, tr) } else { (rr, l, tl) };
-                        stack[sp] = std::mem::MaybeUninit::new((far as u32, tf));
-                        sp += 1;
-                        node = near;
-                    } else {
-                        node = l;
+                if k > 0 {
+                    // Insertion sort, farthest first, so the pushes leave the nearest on top.
+                    for a in 1..k {
+                        let mut j = a;
+                        while j > 0 && ts[j - 1] < ts[j] {
+                            ts.swap(j - 1, j);
+                            cs.swap(j - 1, j);
+                            j -= 1;
+                        }
                     }
+                    for j in 0..k - 1 {
+                        stack[sp] = std::mem::MaybeUninit::new((cs[j], ts[j]));
+                        sp += 1;
+                    }
+                    cur = cs[k - 1];
                     continue;
-                } else if tr < f32::INFINITY {
-                    node = rr;
-                    continue;
+                }
+            } else if cur & PACKET != 0 {
+                let pk = &self.packets[(cur & INDEX) as usize];
+                let (tt, uu, vv) = pk.hit(r, t_max);
+                let mut lane = 4;
+                for l in 0..4 {
+                    if tt[l] < t_max {
+                        t_max = tt[l];
+                        lane = l;
+                    }
+                }
+                if lane < 4 {
+                    best = pk.start + lane as u32;
+                    bu = uu[lane];
+                    bv = vv[lane];
+                }
+            } else {
+                let leaf = self.leaves[(cur & INDEX) as usize];
+                for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
+                    if let Some((t, u, v)) = self.prims[i].intersect(r, t_max) {
+                        t_max = t;
+                        (best, bu, bv) = (i as u32, u, v);
+                    }
                 }
             }
             // Pop the next subtree that can still hold a closer hit.
             loop {
                 if sp == 0 {
-                    return best.map(|(u, v, i)| Hit { t: t_max, u, v, slot: i });
+                    return (best != u32::MAX).then_some(Hit { t: t_max, u: bu, v: bv, slot: best });
                 }
                 sp -= 1;
                 // SAFETY: entries below `sp` were written before being popped.
-                let (n, t) = unsafe { stack[sp].assume_init() };
+                let (c, t) = unsafe { stack[sp].assume_init() };
                 if t < t_max {
-                    node = n as usize;
+                    cur = c;
                     break;
                 }
             }
@@ -159,36 +368,33 @@ impl Bvh {
     /// True when anything blocks the ray within `(0, t_max)` (shadow rays; stops at the first hit).
     #[inline]
     pub fn occluded(&self, r: &RayInv, t_max: f32) -> bool {
-        let nodes = &self.nodes[..];
-        if nodes.is_empty() || ray_box(r, &nodes[0].min, &nodes[0].max, t_max) == f32::INFINITY {
-            return false;
-        }
         let mut stack: [std::mem::MaybeUninit<u32>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
-        let mut node = 0usize;
+        let mut cur = self.root;
+        if cur == EMPTY {
+            return false;
+        }
         loop {
-            let nd = &nodes[node];
-            if nd.count > 0 {
-                let start = nd.index as usize;
-                for i in start..start + nd.count as usize {
+            if cur & LEAF == 0 {
+                let node = &self.nodes[cur as usize];
+                let t = node.hit(r, t_max);
+                for lane in 0..4 {
+                    if t[lane] < f32::INFINITY {
+                        stack[sp] = std::mem::MaybeUninit::new(node.child[lane]);
+                        sp += 1;
+                    }
+                }
+            } else if cur & PACKET != 0 {
+                let (tt, _, _) = self.packets[(cur & INDEX) as usize].hit(r, t_max);
+                if tt.iter().any(|&t| t < f32::INFINITY) {
+                    return true;
+                }
+            } else {
+                let leaf = self.leaves[(cur & INDEX) as usize];
+                for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
                     if self.prims[i].intersect(r, t_max).is_some() {
                         return true;
                     }
-                }
-            } else {
-                let (l, rr) = (node + 1, nd.index as usize);
-                let hl = ray_box(r, &nodes[l].min, &nodes[l].max, t_max) < f32::INFINITY;
-                let hr = ray_box(r, &nodes[rr].min, &nodes[rr].max, t_max) < f32::INFINITY;
-                if hl {
-                    if hr {
-                        stack[sp] = std::mem::MaybeUninit::new(rr as u32);
-                        sp += 1;
-                    }
-                    node = l;
-                    continue;
-                } else if hr {
-                    node = rr;
-                    continue;
                 }
             }
             if sp == 0 {
@@ -196,25 +402,22 @@ impl Bvh {
             }
             sp -= 1;
             // SAFETY: entries below `sp` were written before being popped.
-            node = unsafe { stack[sp].assume_init() } as usize;
+            cur = unsafe { stack[sp].assume_init() };
         }
     }
 
-    /// Depth of the tree (tests, diagnostics).
+    /// Depth of the 4-wide tree, leaves counted (tests, diagnostics).
     pub fn depth(&self) -> usize {
-        fn rec(nodes: &[Node], i: usize) -> usize {
-            let n = &nodes[i];
-            if n.count > 0 {
+        fn rec(b: &Bvh, c: u32) -> usize {
+            if c == EMPTY {
+                0
+            } else if c & LEAF != 0 {
                 1
             } else {
-                1 + rec(nodes, i + 1).max(rec(nodes, n.index as usize))
+                1 + b.nodes[c as usize].child.iter().map(|&k| rec(b, k)).max().unwrap_or(0)
             }
         }
-        if self.nodes.is_empty() {
-            0
-        } else {
-            rec(&self.nodes, 0)
-        }
+        rec(self, self.root)
     }
 }
 
@@ -340,12 +543,12 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
 /// Serial build of a subtree into `out` with node indices relative to `out`'s start.
 /// `offset` is the position of `idx[0]` in the global primitive order; `b`, `cb` the bounds
 /// and centroid bounds of `idx`.
-fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb, out: &mut Vec<Node>) {
+fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb, out: &mut Vec<BinNode>) {
     match split(ctx, idx, &b, &cb, depth) {
-        None => out.push(Node::new(&b, offset as u32, idx.len() as u32)),
+        None => out.push(BinNode::new(&b, offset as u32, idx.len() as u32)),
         Some((mid, (lb, lcb), (rb, rcb))) => {
             let me = out.len();
-            out.push(Node::new(&b, 0, 0));
+            out.push(BinNode::new(&b, 0, 0));
             let (l, r) = idx.split_at_mut(mid);
             build_serial(ctx, l, offset, depth + 1, lb, lcb, out);
             out[me].index = out.len() as u32;
@@ -361,7 +564,7 @@ fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aa
         return Sub::Flat(v);
     }
     match split(ctx, idx, &b, &cb, depth) {
-        None => Sub::Flat(vec![Node::new(&b, offset as u32, idx.len() as u32)]),
+        None => Sub::Flat(vec![BinNode::new(&b, offset as u32, idx.len() as u32)]),
         Some((mid, (lb, lcb), (rb, rcb))) => {
             let (l, r) = idx.split_at_mut(mid);
             let (left, right) = rayon::join(
@@ -373,7 +576,7 @@ fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aa
     }
 }
 
-fn flatten(sub: Sub, out: &mut Vec<Node>) {
+fn flatten(sub: Sub, out: &mut Vec<BinNode>) {
     match sub {
         Sub::Flat(v) => {
             let base = out.len() as u32;
@@ -386,10 +589,56 @@ fn flatten(sub: Sub, out: &mut Vec<Node>) {
         }
         Sub::Split { bounds, left, right } => {
             let me = out.len();
-            out.push(Node::new(&bounds, 0, 0));
+            out.push(BinNode::new(&bounds, 0, 0));
             flatten(*left, out);
             out[me].index = out.len() as u32;
             flatten(*right, out);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{ray_box, Ray};
+    use rand::Rng;
+
+    /// The 4-lane slab test equals the scalar one lane by lane, misses and empty lanes included.
+    #[test]
+    fn wide_slab_test_equals_the_scalar_test() {
+        let mut rng = camsim_core::rng::seeded(7);
+        let mut checked = 0;
+        for k in 0..20_000 {
+            let mut node = Node4::EMPTY;
+            let lanes = 1 + k % 4;
+            let mut boxes = vec![];
+            for lane in 0..lanes {
+                let c: [f32; 3] = [rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0)];
+                let h: [f32; 3] = [rng.gen_range(0.0..1.0), rng.gen_range(0.0..1.0), if k % 7 == 0 { 0.0 } else { rng.gen_range(0.0..1.0) }];
+                let (min, max) = ([c[0] - h[0], c[1] - h[1], c[2] - h[2]], [c[0] + h[0], c[1] + h[1], c[2] + h[2]]);
+                for a in 0..3 {
+                    node.b[0][a][lane] = min[a];
+                    node.b[1][a][lane] = max[a];
+                }
+                boxes.push((min, max));
+            }
+            let o = V3::new(rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0));
+            // Aimed near a box (most rays hit it), with some axis-parallel directions.
+            let (lo, hi) = boxes[k % lanes];
+            let aim = V3::new(rng.gen_range(lo[0] - 0.3..hi[0] + 0.3), rng.gen_range(lo[1] - 0.3..hi[1] + 0.3), rng.gen_range(lo[2] - 0.3..hi[2] + 0.3));
+            let mut d = aim - o;
+            if k % 5 == 0 {
+                d.y = 0.0;
+            }
+            let r = RayInv::new(&Ray { o, d: d.normalize() });
+            let t_max = if k % 3 == 0 { rng.gen_range(0.5..6.0) } else { f32::INFINITY };
+            let wide = node.hit(&r, t_max);
+            for lane in 0..4 {
+                let want = if lane < lanes { ray_box(&r, &boxes[lane].0, &boxes[lane].1, t_max) } else { f32::INFINITY };
+                assert_eq!(wide[lane].to_bits(), want.to_bits(), "case {k} lane {lane}");
+                checked += (want < f32::INFINITY) as usize;
+            }
+        }
+        assert!(checked > 4000, "only {checked} hits");
     }
 }

@@ -15,6 +15,8 @@ pub struct RayInv {
     pub o: V3,
     pub d: V3,
     pub inv_d: V3,
+    /// Per axis, 1 when the direction is negative (the box's max plane is entered first), else 0.
+    pub neg: [usize; 3],
 }
 
 impl RayInv {
@@ -30,7 +32,9 @@ impl RayInv {
                 x
             }
         }
-        RayInv { o: r.o, d: r.d, inv_d: V3::new(1.0 / safe(r.d.x), 1.0 / safe(r.d.y), 1.0 / safe(r.d.z)) }
+        let inv_d = V3::new(1.0 / safe(r.d.x), 1.0 / safe(r.d.y), 1.0 / safe(r.d.z));
+        let neg = [(inv_d.x < 0.0) as usize, (inv_d.y < 0.0) as usize, (inv_d.z < 0.0) as usize];
+        RayInv { o: r.o, d: r.d, inv_d, neg }
     }
 }
 

@@ -145,9 +145,10 @@ impl Tracer {
                 Geometry::Sphere { .. } => 1,
             };
         }
-        // Prim (44 B) + info (16 B) + bounds/centroid/index during the build (40 B) + 2 nodes (64 B).
-        camsim_core::mem::check_alloc(n_prims * 164, &format!("a BVH over {n_prims} primitives"))?;
-        if n_prims > u32::MAX as u64 / 2 {
+        // Prim (44 B) + info (16 B) + bounds/centroid/index during the build (40 B) + binary nodes
+        // (16 B) + wide nodes (43 B) + one packet per leaf (<= 192 B / 2: leaves hold ~2 prims).
+        camsim_core::mem::check_alloc(n_prims * 256, &format!("a BVH over {n_prims} primitives"))?;
+        if n_prims > crate::bvh::MAX_PRIMS as u64 {
             return Err(RenderError::Settings(format!("{n_prims} primitives is more than the renderer supports")));
         }
 

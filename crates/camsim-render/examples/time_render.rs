@@ -1,0 +1,42 @@
+//! Quick timing of the renderer benchmark scene (issue 4): the built-in `cornell-box` at
+//! 512 x 512, 16 spp, 4 wavelengths per path, maximum depth 8, rendered in memory three times.
+//! Prints rays/s of wall time and rays per CPU-second (user + system), the second being the
+//! per-core figure that is robust to other load on the machine.
+//!
+//! Run: `cargo run --release -p camsim-render --example time_render [SPP]`
+use camsim_render::builtin::{scene, BuiltinOptions};
+use camsim_render::render;
+
+fn main() {
+    let spp: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(16);
+    let opts = BuiltinOptions { resolution: Some((512, 512)), samples_per_pixel: spp, ..BuiltinOptions::default() };
+    let mut sc = scene("cornell-box", &opts).expect("built-in scene");
+    sc.settings.max_depth = 8;
+    sc.settings.wavelengths_per_path = 4;
+    for _ in 0..3 {
+        let (u0, s0) = cpu_s();
+        let out = render(&sc, &|_, _| {}).expect("render");
+        let (u1, s1) = cpu_s();
+        let st = out.stats;
+        let rays = (st.camera_rays + st.bounce_rays + st.shadow_rays) as f64;
+        println!(
+            "{:.2} s wall, {:.2} M rays/s on {} threads, {:.2} M rays per CPU-second (camera {}, bounce {}, shadow {})",
+            st.seconds,
+            st.rays_per_second / 1e6,
+            rayon::current_num_threads(),
+            rays / (u1 - u0 + s1 - s0) / 1e6,
+            st.camera_rays,
+            st.bounce_rays,
+            st.shadow_rays
+        );
+    }
+}
+
+/// Process CPU time (user, system) in seconds from /proc/self/stat (clock ticks of 1/100 s).
+fn cpu_s() -> (f64, f64) {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let rest = s.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0) / 100.0;
+    (t(11), t(12))
+}
