@@ -3,17 +3,19 @@
 //! Prints rays/s of wall time and rays per CPU-second (user + system), the second being the
 //! per-core figure that is robust to other load on the machine.
 //!
-//! Run: `cargo run --release -p camsim-render --example time_render [SPP]`
+//! Run: `cargo run --release -p camsim-render --example time_render [SPP] [SIZE] [RUNS]`
+//! (defaults 16, 512, 3; a small SIZE and one run suit `valgrind --tool=callgrind`).
 use camsim_render::builtin::{scene, BuiltinOptions};
 use camsim_render::render;
 
 fn main() {
-    let spp: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(16);
-    let opts = BuiltinOptions { resolution: Some((512, 512)), samples_per_pixel: spp, ..BuiltinOptions::default() };
+    let arg = |i: usize, default: u32| std::env::args().nth(i).and_then(|s| s.parse().ok()).unwrap_or(default);
+    let (spp, size, runs) = (arg(1, 16), arg(2, 512) as usize, arg(3, 3));
+    let opts = BuiltinOptions { resolution: Some((size, size)), samples_per_pixel: spp, ..BuiltinOptions::default() };
     let mut sc = scene("cornell-box", &opts).expect("built-in scene");
     sc.settings.max_depth = 8;
     sc.settings.wavelengths_per_path = 4;
-    for _ in 0..3 {
+    for _ in 0..runs {
         let (u0, s0) = cpu_s();
         let out = render(&sc, &|_, _| {}).expect("render");
         let (u1, s1) = cpu_s();
