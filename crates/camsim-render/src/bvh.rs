@@ -18,6 +18,7 @@
 
 use crate::geometry::{Aabb, Prim, RayInv};
 use crate::math::V3;
+use wide::{f32x4, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
 
 /// Number of SAH bins per axis.
 const BINS: usize = 16;
@@ -78,28 +79,43 @@ impl Node4 {
 
     /// Entry distances of the ray into the four child boxes within `(0, t_max)`, `f32::INFINITY`
     /// for a miss: the slab test of [`crate::geometry::ray_box`], four lanes at once, with the
-    /// entry plane per axis chosen once per ray from the direction's sign.
+    /// entry plane per axis chosen once per ray from the direction's sign. `fast_max(a, b)` is
+    /// `a > b ? a : b` and `fast_min(a, b)` is `a < b ? a : b`, the scalar test's selections.
     #[inline(always)]
-    fn hit(&self, r: &RayInv, t_max: f32) -> [f32; 4] {
-        let (o, inv) = ([r.o.x, r.o.y, r.o.z], [r.inv_d.x, r.inv_d.y, r.inv_d.z]);
-        let mut t_near = [0f32; 4];
-        let mut t_far = [t_max; 4];
+    fn hit(&self, r: &Ray4, t_max: f32) -> f32x4 {
+        let mut t_near = f32x4::ZERO;
+        let mut t_far = f32x4::splat(t_max);
         for axis in 0..3 {
-            let near = &self.b[r.neg[axis]][axis];
-            let far = &self.b[1 - r.neg[axis]][axis];
-            for i in 0..4 {
-                let tn = (near[i] - o[axis]) * inv[axis];
-                let tf = (far[i] - o[axis]) * inv[axis];
-                t_near[i] = if tn > t_near[i] { tn } else { t_near[i] };
-                t_far[i] = if tf < t_far[i] { tf } else { t_far[i] };
-            }
+            let near = f32x4::new(self.b[r.neg[axis]][axis]);
+            let far = f32x4::new(self.b[1 - r.neg[axis]][axis]);
+            let tn = (near - r.o[axis]) * r.inv_d[axis];
+            let tf = (far - r.o[axis]) * r.inv_d[axis];
+            t_near = tn.fast_max(t_near);
+            t_far = tf.fast_min(t_far);
         }
-        let mut out = [0f32; 4];
-        for i in 0..4 {
-            // Robust traversal slack (Ize 2013), as in the scalar test.
-            out[i] = if t_near[i] <= t_far[i] * 1.000_000_2 { t_near[i] } else { f32::INFINITY };
+        // Robust traversal slack (Ize 2013), as in the scalar test.
+        t_near.cmp_le(t_far * f32x4::splat(1.000_000_2)).blend(t_near, f32x4::splat(f32::INFINITY))
+    }
+}
+
+/// A ray with every component broadcast to four lanes, made once per traversal.
+struct Ray4 {
+    o: [f32x4; 3],
+    d: [f32x4; 3],
+    inv_d: [f32x4; 3],
+    neg: [usize; 3],
+}
+
+impl Ray4 {
+    #[inline(always)]
+    fn new(r: &RayInv) -> Ray4 {
+        let s = f32x4::splat;
+        Ray4 {
+            o: [s(r.o.x), s(r.o.y), s(r.o.z)],
+            d: [s(r.d.x), s(r.d.y), s(r.d.z)],
+            inv_d: [s(r.inv_d.x), s(r.inv_d.y), s(r.inv_d.z)],
+            neg: r.neg,
         }
-        out
     }
 }
 
@@ -117,41 +133,38 @@ pub struct Tri4 {
 
 impl Tri4 {
     /// The Moller & Trumbore (1997) test of [`crate::geometry::intersect_triangle`] in four
-    /// lanes: per lane `(t, u, v)` with `t = f32::INFINITY` where the lane misses.
+    /// lanes, operation for operation: per lane `(t, u, v)` with `t = f32::INFINITY` where the
+    /// lane misses.
     #[inline(always)]
-    fn hit(&self, r: &RayInv, t_max: f32) -> ([f32; 4], [f32; 4], [f32; 4]) {
-        let (o, d) = (r.o, r.d);
-        let (p0, e1, e2) = (&self.p0, &self.e1, &self.e2);
-        let (mut tt, mut uu, mut vv) = ([0f32; 4], [0f32; 4], [0f32; 4]);
-        for i in 0..4 {
-            // pvec = d x e2; det = e1 . pvec
-            let px = d.y * e2[2][i] - d.z * e2[1][i];
-            let py = d.z * e2[0][i] - d.x * e2[2][i];
-            let pz = d.x * e2[1][i] - d.y * e2[0][i];
-            let det = e1[0][i] * px + e1[1][i] * py + e1[2][i] * pz;
-            let inv_det = 1.0 / det;
-            // tvec = o - p0; u = tvec . pvec / det
-            let (tx, ty, tz) = (o.x - p0[0][i], o.y - p0[1][i], o.z - p0[2][i]);
-            let u = (tx * px + ty * py + tz * pz) * inv_det;
-            // qvec = tvec x e1; v = d . qvec / det; t = e2 . qvec / det
-            let qx = ty * e1[2][i] - tz * e1[1][i];
-            let qy = tz * e1[0][i] - tx * e1[2][i];
-            let qz = tx * e1[1][i] - ty * e1[0][i];
-            let v = (d.x * qx + d.y * qy + d.z * qz) * inv_det;
-            let t = (e2[0][i] * qx + e2[1][i] * qy + e2[2][i] * qz) * inv_det;
-            let ok = (det != 0.0)
-                & (det.abs() < f32::INFINITY)
-                & (u >= 0.0)
-                & (u <= 1.0)
-                & (v >= 0.0)
-                & (u + v <= 1.0)
-                & (t > 0.0)
-                & (t < t_max);
-            tt[i] = if ok { t } else { f32::INFINITY };
-            uu[i] = u;
-            vv[i] = v;
-        }
-        (tt, uu, vv)
+    fn hit(&self, r: &Ray4, t_max: f32) -> (f32x4, f32x4, f32x4) {
+        let ld = |a: &[[f32; 4]; 3]| [f32x4::new(a[0]), f32x4::new(a[1]), f32x4::new(a[2])];
+        let (p0, e1, e2) = (ld(&self.p0), ld(&self.e1), ld(&self.e2));
+        let (o, d) = (&r.o, &r.d);
+        // pvec = d x e2; det = e1 . pvec
+        let px = d[1] * e2[2] - d[2] * e2[1];
+        let py = d[2] * e2[0] - d[0] * e2[2];
+        let pz = d[0] * e2[1] - d[1] * e2[0];
+        let det = e1[0] * px + e1[1] * py + e1[2] * pz;
+        let inv_det = f32x4::ONE / det;
+        // tvec = o - p0; u = tvec . pvec / det
+        let (tx, ty, tz) = (o[0] - p0[0], o[1] - p0[1], o[2] - p0[2]);
+        let u = (tx * px + ty * py + tz * pz) * inv_det;
+        // qvec = tvec x e1; v = d . qvec / det; t = e2 . qvec / det
+        let qx = ty * e1[2] - tz * e1[1];
+        let qy = tz * e1[0] - tx * e1[2];
+        let qz = tx * e1[1] - ty * e1[0];
+        let v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv_det;
+        let t = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv_det;
+        let (zero, one, inf) = (f32x4::ZERO, f32x4::ONE, f32x4::splat(f32::INFINITY));
+        let ok = det.cmp_ne(zero)
+            & det.abs().cmp_lt(inf)
+            & u.cmp_ge(zero)
+            & u.cmp_le(one)
+            & v.cmp_ge(zero)
+            & (u + v).cmp_le(one)
+            & t.cmp_gt(zero)
+            & t.cmp_lt(f32x4::splat(t_max));
+        (ok.blend(t, inf), u, v)
     }
 }
 
@@ -288,6 +301,7 @@ impl Bvh {
     #[inline]
     pub fn intersect(&self, r: &RayInv, mut t_max: f32) -> Option<Hit> {
         let (mut best, mut bu, mut bv) = (u32::MAX, 0f32, 0f32);
+        let r4 = Ray4::new(r);
         // Uninitialised: zeroing the stack per ray costs as much as a traversal step.
         let mut stack: [std::mem::MaybeUninit<(u32, f32)>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
@@ -298,15 +312,17 @@ impl Bvh {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let t = node.hit(r, t_max);
+                let t4 = node.hit(&r4, t_max);
+                let mut mask = t4.cmp_lt(f32x4::splat(f32::INFINITY)).move_mask();
+                let t = t4.to_array();
                 // Compact the lanes that were entered, then visit them nearest first.
                 let (mut ts, mut cs, mut k) = ([0f32; 4], [0u32; 4], 0usize);
-                for lane in 0..4 {
-                    if t[lane] < f32::INFINITY {
-                        ts[k] = t[lane];
-                        cs[k] = node.child[lane];
-                        k += 1;
-                    }
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    ts[k] = t[lane];
+                    cs[k] = node.child[lane];
+                    k += 1;
                 }
                 if k > 0 {
                     // Insertion sort, farthest first, so the pushes leave the nearest on top.
@@ -327,18 +343,21 @@ impl Bvh {
                 }
             } else if cur & PACKET != 0 {
                 let pk = &self.packets[(cur & INDEX) as usize];
-                let (tt, uu, vv) = pk.hit(r, t_max);
-                let mut lane = 4;
-                for l in 0..4 {
-                    if tt[l] < t_max {
-                        t_max = tt[l];
-                        lane = l;
+                let (tt4, uu, vv) = pk.hit(&r4, t_max);
+                if tt4.cmp_lt(f32x4::splat(f32::INFINITY)).any() {
+                    let tt = tt4.to_array();
+                    let mut lane = 4;
+                    for l in 0..4 {
+                        if tt[l] < t_max {
+                            t_max = tt[l];
+                            lane = l;
+                        }
                     }
-                }
-                if lane < 4 {
-                    best = pk.start + lane as u32;
-                    bu = uu[lane];
-                    bv = vv[lane];
+                    if lane < 4 {
+                        best = pk.start + lane as u32;
+                        bu = uu.to_array()[lane];
+                        bv = vv.to_array()[lane];
+                    }
                 }
             } else {
                 let leaf = self.leaves[(cur & INDEX) as usize];
@@ -368,6 +387,7 @@ impl Bvh {
     /// True when anything blocks the ray within `(0, t_max)` (shadow rays; stops at the first hit).
     #[inline]
     pub fn occluded(&self, r: &RayInv, t_max: f32) -> bool {
+        let r4 = Ray4::new(r);
         let mut stack: [std::mem::MaybeUninit<u32>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
         let mut cur = self.root;
@@ -377,16 +397,16 @@ impl Bvh {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let t = node.hit(r, t_max);
-                for lane in 0..4 {
-                    if t[lane] < f32::INFINITY {
-                        stack[sp] = std::mem::MaybeUninit::new(node.child[lane]);
-                        sp += 1;
-                    }
+                let mut mask = node.hit(&r4, t_max).cmp_lt(f32x4::splat(f32::INFINITY)).move_mask();
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    stack[sp] = std::mem::MaybeUninit::new(node.child[lane]);
+                    sp += 1;
                 }
             } else if cur & PACKET != 0 {
-                let (tt, _, _) = self.packets[(cur & INDEX) as usize].hit(r, t_max);
-                if tt.iter().any(|&t| t < f32::INFINITY) {
+                let (tt, _, _) = self.packets[(cur & INDEX) as usize].hit(&r4, t_max);
+                if tt.cmp_lt(f32x4::splat(f32::INFINITY)).any() {
                     return true;
                 }
             } else {
@@ -632,7 +652,7 @@ mod tests {
             }
             let r = RayInv::new(&Ray { o, d: d.normalize() });
             let t_max = if k % 3 == 0 { rng.gen_range(0.5..6.0) } else { f32::INFINITY };
-            let wide = node.hit(&r, t_max);
+            let wide = node.hit(&Ray4::new(&r), t_max).to_array();
             for lane in 0..4 {
                 let want = if lane < lanes { ray_box(&r, &boxes[lane].0, &boxes[lane].1, t_max) } else { f32::INFINITY };
                 assert_eq!(wide[lane].to_bits(), want.to_bits(), "case {k} lane {lane}");

@@ -10,7 +10,7 @@ use crate::math::{Frame, V3};
 use crate::render::RenderError;
 use crate::sampling::{self, power_heuristic};
 use crate::scene::{Geometry, Light, Material, SceneDescription, Texture};
-use crate::spectral::{SpectrumTable, WavelengthSampler};
+use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use rand::Rng as _;
 
 /// Marks a primitive without an emitter.
@@ -104,6 +104,8 @@ pub(crate) struct RayCounts {
 pub(crate) struct Tracer {
     pub bvh: Bvh,
     pub info: Vec<PrimInfo>,
+    /// Unit geometric normal of each triangle, in BVH order (zero for spheres).
+    pub tri_normals: Vec<V3>,
     pub meshes: Vec<Option<MeshShading>>,
     pub materials: Vec<Mat>,
     pub tables: Vec<SpectrumTable>,
@@ -145,7 +147,7 @@ impl Tracer {
                 Geometry::Sphere { .. } => 1,
             };
         }
-        // Prim (44 B) + info (16 B) + bounds/centroid/index during the build (40 B) + binary nodes
+        // Prim (44 B) + info (16 B) + normal (12 B) + bounds/centroid/index during the build (40 B) + binary nodes
         // (16 B) + wide nodes (43 B) + one packet per leaf (<= 192 B / 2: leaves hold ~2 prims).
         camsim_core::mem::check_alloc(n_prims * 256, &format!("a BVH over {n_prims} primitives"))?;
         if n_prims > crate::bvh::MAX_PRIMS as u64 {
@@ -275,8 +277,16 @@ impl Tracer {
 
         let bvh = Bvh::build(prims);
         let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let tri_normals: Vec<V3> = bvh
+            .prims
+            .iter()
+            .map(|p| match *p {
+                Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
+                Prim::Sphere { .. } => V3::splat(0.0),
+            })
+            .collect();
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
-        Ok(Tracer { bvh, info, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5 })
+        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5 })
     }
 
     /// Closest hit along `r`, if any.
@@ -290,7 +300,7 @@ impl Tracer {
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
-                let ng = e1.cross(e2).normalize();
+                let ng = self.tri_normals[slot];
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
                 if let Some(m) = &self.meshes[pi.shape as usize] {
@@ -329,28 +339,23 @@ impl Tracer {
 
     /// The BSDF of material `m` at a hit, at the path's wavelengths.
     #[inline]
-    fn bsdf_at<const N: usize>(&self, m: u32, uv: [f32; 2], lambdas: &[f32; N]) -> Bsdf<N> {
+    fn bsdf_at<const N: usize>(&self, m: u32, uv: [f32; 2], lambdas: &Lambdas<N>) -> Bsdf<N> {
         match &self.materials[m as usize] {
             Mat::Diffuse(tex) => Bsdf::Diffuse { reflectance: self.eval_texture(tex, uv, lambdas) },
         }
     }
 
     #[inline]
-    fn eval_texture<const N: usize>(&self, tex: &Tex, uv: [f32; 2], lambdas: &[f32; N]) -> [f32; N] {
+    fn eval_texture<const N: usize>(&self, tex: &Tex, uv: [f32; 2], lambdas: &Lambdas<N>) -> [f32; N] {
         let mut out = [0f32; N];
         match tex {
-            Tex::Table(t) => {
-                let t = &self.tables[*t as usize];
-                for i in 0..N {
-                    out[i] = t.eval(lambdas[i]);
-                }
-            }
+            Tex::Table(t) => out = self.tables[*t as usize].eval_path(lambdas),
             Tex::Image(im) => {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
                 let rgb = self.images[*im as usize].lookup(uv);
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 for i in 0..N {
-                    out[i] = poly.eval(lambdas[i] as f64) as f32;
+                    out[i] = poly.eval(lambdas.nm[i] as f64) as f32;
                 }
             }
         }
@@ -367,7 +372,7 @@ impl Tracer {
     pub(crate) fn li<const N: usize>(
         &self,
         mut ray: Ray,
-        lambdas: &[f32; N],
+        lambdas: &Lambdas<N>,
         rng: &mut camsim_core::rng::Rng,
         counts: &mut RayCounts,
     ) -> [f32; N] {
@@ -383,10 +388,10 @@ impl Tracer {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
                     let light = &self.lights.list[li as usize];
-                    let table = &self.tables[light.table as usize];
+                    let le = self.tables[light.table as usize].eval_path(lambdas);
                     let w = if depth == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, light.pmf * sampling::UNIFORM_SPHERE_PDF) };
                     for i in 0..N {
-                        l[i] += beta[i] * w * table.eval(lambdas[i]);
+                        l[i] += beta[i] * w * le[i];
                     }
                 }
                 break;
@@ -403,9 +408,9 @@ impl Tracer {
                     } else {
                         power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
                     };
-                    let table = &self.tables[light.table as usize];
+                    let le = self.tables[light.table as usize].eval_path(lambdas);
                     for i in 0..N {
-                        l[i] += beta[i] * w * table.eval(lambdas[i]);
+                        l[i] += beta[i] * w * le[i];
                     }
                 }
             }

@@ -5,7 +5,7 @@
 
 use crate::math::V3;
 use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
-use crate::spectral::SpectrumTable;
+use crate::spectral::{Lambdas, SpectrumTable};
 use std::f32::consts::PI;
 
 /// The shape of a light.
@@ -166,7 +166,7 @@ impl Lights {
         u_sel: f32,
         u0: f32,
         u1: f32,
-        lambdas: &[f32; N],
+        lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
         let light = &self.list[self.pick(u_sel)];
         let (wi, dist, pdf_sa) = match light.kind {
@@ -222,11 +222,7 @@ impl Lights {
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        let t = &tables[light.table as usize];
-        let mut le = [0f32; N];
-        for i in 0..N {
-            le[i] = t.eval(lambdas[i]);
-        }
+        let le = tables[light.table as usize].eval_path(lambdas);
         Some(LightSample { wi, dist, le, pdf })
     }
 }
@@ -261,7 +257,7 @@ mod tests {
         for _ in 0..50_000 {
             let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
             let k = lights.pick(us);
-            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &[500.0; 4]) else { continue };
+            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &ws.locate([500.0; 4])) else { continue };
             seen[k] += 1;
             let light = &lights.list[k];
             assert_eq!(s.le, [2.0; 4]);

@@ -218,7 +218,7 @@ fn run<const N: usize>(
                             let (jx, jy): (f32, f32) = (rng.gen(), rng.gen());
                             let (lambdas, band) = ws.sample::<N>(u_l);
                             let ray = rig.ray(x as f32 + jx, y as f32 + jy);
-                            let l = tracer.li::<N>(ray, &lambdas, &mut rng, &mut c);
+                            let l = tracer.li::<N>(ray, &ws.locate(lambdas), &mut rng, &mut c);
                             let mut y_lum = 0f64;
                             for i in 0..N {
                                 let v = if l[i].is_finite() { l[i] } else { 0.0 };

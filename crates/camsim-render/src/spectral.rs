@@ -19,18 +19,26 @@ pub struct WavelengthSampler {
     pub hi_nm: f32,
     pub step_nm: f32,
     pub bands: usize,
+    /// 1 / table spacing (1/nm) and entry count of this sampler's spectrum tables.
+    table_inv_dx: f32,
+    table_len: usize,
 }
 
 impl WavelengthSampler {
     /// For the given output grid.
     pub fn new(grid: &WavelengthGrid) -> WavelengthSampler {
         let step = grid.step_nm;
-        WavelengthSampler {
+        let mut ws = WavelengthSampler {
             lo_nm: (grid.start_nm - step / 2.0) as f32,
             hi_nm: (grid.end_nm() + step / 2.0) as f32,
             step_nm: step as f32,
             bands: grid.len(),
-        }
+            table_inv_dx: 0.0,
+            table_len: 0,
+        };
+        let (dx, n) = ws.table_layout();
+        (ws.table_inv_dx, ws.table_len) = ((1.0 / dx) as f32, n);
+        ws
     }
 
     /// The `N` wavelengths of one path from one uniform number `u`, and the band of each.
@@ -48,6 +56,29 @@ impl WavelengthSampler {
             b[i] = (((l[i] - self.lo_nm) / self.step_nm) as u32).min(self.bands as u32 - 1);
         }
         (l, b)
+    }
+
+    /// Table spacing (nm) and entry count shared by every [`SpectrumTable`] of this sampler.
+    fn table_layout(&self) -> (f64, usize) {
+        let dx = (0.25f64).min(self.step_nm as f64 / 8.0);
+        let span = (self.hi_nm - self.lo_nm) as f64;
+        let n = ((span / dx).ceil() as usize + 2).min(1 << 16);
+        (span / (n - 2) as f64, n)
+    }
+
+    /// A path's wavelengths with their position in this sampler's spectrum tables, computed
+    /// once per path (as [`SpectrumTable::eval`] would for each lookup).
+    #[inline(always)]
+    pub fn locate<const N: usize>(&self, nm: [f32; N]) -> Lambdas<N> {
+        let (inv_dx, n) = (self.table_inv_dx, self.table_len);
+        let mut idx = [0u32; N];
+        let mut frac = [0f32; N];
+        for i in 0..N {
+            let (k, t) = table_position(nm[i], self.lo_nm, inv_dx, n);
+            idx[i] = k as u32;
+            frac[i] = t;
+        }
+        Lambdas { nm, idx, frac, table_len: n as u32 }
     }
 
     /// Weight that turns `L(lambda_i)` into its share of its band's average: `(hi - lo)/(n step)`.
@@ -73,10 +104,8 @@ pub struct SpectrumTable {
 impl SpectrumTable {
     /// Tabulate `s` (times `scale`) over the sampler's range; negative values clamp to 0.
     pub fn new(s: &Spectrum, scale: f64, ws: &WavelengthSampler) -> SpectrumTable {
-        let dx = (0.25f64).min(ws.step_nm as f64 / 8.0);
-        let span = (ws.hi_nm - ws.lo_nm) as f64;
-        let n = ((span / dx).ceil() as usize + 2).min(1 << 16);
-        let dx = span / (n - 2) as f64;
+        let (dx, n) = ws.table_layout();
+        debug_assert_eq!(((1.0 / dx) as f32, n), (ws.table_inv_dx, ws.table_len));
         // Half a band of grace at the ends of the data: a spectrum sampled from the first to the
         // last band centre (e.g. 400-700 nm on the default grid) holds its end values over the
         // outer halves of the edge bands instead of dropping to zero there.
@@ -99,12 +128,23 @@ impl SpectrumTable {
     /// Value at `wavelength_nm` (inside the sampler's range).
     #[inline(always)]
     pub fn eval(&self, wavelength_nm: f32) -> f32 {
-        let x = ((wavelength_nm - self.lo_nm) * self.inv_dx).max(0.0);
-        let i = (x as usize).min(self.values.len() - 2);
-        let t = x - i as f32;
-        // SAFETY of indexing: i + 1 <= len - 1 by the clamp above.
+        let (i, t) = table_position(wavelength_nm, self.lo_nm, self.inv_dx, self.values.len());
         let (a, b) = (self.values[i], self.values[i + 1]);
         a + (b - a) * t
+    }
+
+    /// Values at a path's wavelengths (located by the sampler this table was made for); equal to
+    /// [`Self::eval`] at each wavelength.
+    #[inline(always)]
+    pub fn eval_path<const N: usize>(&self, l: &Lambdas<N>) -> [f32; N] {
+        debug_assert_eq!(l.table_len as usize, self.values.len(), "wavelengths located for another sampler");
+        let mut out = [0f32; N];
+        for k in 0..N {
+            let i = l.idx[k] as usize;
+            let (a, b) = (self.values[i], self.values[i + 1]);
+            out[k] = a + (b - a) * l.frac[k];
+        }
+        out
     }
 
     /// Mean value over the table (for light power estimates).
@@ -116,6 +156,26 @@ impl SpectrumTable {
     pub fn max(&self) -> f32 {
         self.values.iter().cloned().fold(0.0, f32::max)
     }
+}
+
+/// Table entry `i` (with `i + 1` inside a table of `len` entries) and interpolation weight for
+/// a wavelength.
+#[inline(always)]
+fn table_position(wavelength_nm: f32, lo_nm: f32, inv_dx: f32, len: usize) -> (usize, f32) {
+    let x = ((wavelength_nm - lo_nm) * inv_dx).max(0.0);
+    let i = (x as usize).min(len - 2);
+    (i, x - i as f32)
+}
+
+/// A path's `N` wavelengths and where they fall in the spectrum tables: all tables of one
+/// [`WavelengthSampler`] share a layout, so the position is found once per path.
+#[derive(Debug, Clone, Copy)]
+pub struct Lambdas<const N: usize> {
+    /// Wavelengths, nm.
+    pub nm: [f32; N],
+    idx: [u32; N],
+    frac: [f32; N],
+    table_len: u32,
 }
 
 #[cfg(test)]
@@ -160,5 +220,19 @@ mod tests {
         assert_eq!(t.eval(480.0), 0.0);
         assert_eq!(t.eval(530.0), 0.0);
         assert!((t.eval(497.0) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn path_lookup_equals_single_lookups() {
+        let ws = WavelengthSampler::new(&WavelengthGrid::default());
+        let s = Spectrum::new(vec![400.0, 480.0, 520.0, 700.0], vec![0.2, 0.9, 0.1, 0.6], "t").unwrap();
+        let t = SpectrumTable::new(&s, 1.5, &ws);
+        for k in 0..200 {
+            let (nm, _) = ws.sample::<4>(k as f32 / 200.0);
+            let got = t.eval_path(&ws.locate(nm));
+            for i in 0..4 {
+                assert_eq!(got[i].to_bits(), t.eval(nm[i]).to_bits());
+            }
+        }
     }
 }
