@@ -39,6 +39,8 @@ pub struct Scratch {
     row_spec: Vec<Complex32>,
     /// The tile's spectrum, column-major ((F/2+1) columns of F).
     cols: Vec<Complex32>,
+    /// Sum of the products of several inputs' spectra with their kernels ([`TileConvolver::tile_sum`]).
+    acc: Vec<Complex32>,
     r_scratch: Vec<Complex32>,
     c_scratch: Vec<Complex32>,
 }
@@ -122,6 +124,7 @@ impl TileConvolver {
             row: vec![0.0; self.f],
             row_spec: vec![z; nc],
             cols: vec![z; nc * self.f],
+            acc: Vec::new(),
             r_scratch: vec![z; self.r2c.get_scratch_len().max(self.c2r.get_scratch_len())],
             c_scratch: vec![z; self.col_fwd.get_inplace_scratch_len().max(self.col_inv.get_inplace_scratch_len())],
         }
@@ -175,18 +178,61 @@ impl TileConvolver {
         s: &mut Scratch,
         mut load: impl FnMut(usize, &mut [f32]),
     ) {
+        self.tile_sum(r0, c0, tr, tc, &[spec], out, win, s, |_, r, dst| load(r, dst));
+    }
+
+    /// Sum of convolutions over one tile: `sum_i specs[i] * input_i`, where `load(i, r, dst)`
+    /// fills `dst[..tc]` with row `r0 + r` of input `i` (for example the tile masked to depth
+    /// layer i), added to `out`. The products are summed in the frequency domain (the transform is
+    /// linear), so the tile is transformed back once however many inputs it has.
+    #[allow(clippy::too_many_arguments)]
+    pub fn tile_sum(
+        &self,
+        r0: usize,
+        c0: usize,
+        tr: usize,
+        tc: usize,
+        specs: &[&KernelSpectrum],
+        out: &mut [f32],
+        win: OutputWindow,
+        s: &mut Scratch,
+        mut load: impl FnMut(usize, usize, &mut [f32]),
+    ) {
         let f = self.f;
         let nc = f / 2 + 1;
         let h = (self.k / 2) as isize;
-        self.rows_forward(tr, s, |r, row| load(r, &mut row[..tc]));
-        // Column by column while the column is in L1: forward FFT, product with the kernel's
-        // spectrum (convolution theorem), inverse FFT.
-        for (col, kcol) in s.cols.chunks_exact_mut(f).zip(spec.0.chunks_exact(f)) {
-            self.col_fwd.process_with_scratch(col, &mut s.c_scratch);
-            for (c, k) in col.iter_mut().zip(kcol) {
-                *c *= *k;
+        if specs.is_empty() {
+            return;
+        }
+        let last = specs.len() - 1;
+        if last > 0 && s.acc.len() != nc * f {
+            s.acc = vec![Complex32::new(0.0, 0.0); nc * f];
+        }
+        for (i, spec) in specs.iter().enumerate() {
+            self.rows_forward(tr, s, |r, row| load(i, r, &mut row[..tc]));
+            // Column by column while the column is in L1: forward FFT, product with the kernel's
+            // spectrum (convolution theorem) added to the earlier inputs' products (kept in
+            // `acc`), and after the last input the inverse FFT.
+            let cols = s.cols.chunks_exact_mut(f).zip(spec.0.chunks_exact(f));
+            for (j, (col, kcol)) in cols.enumerate() {
+                self.col_fwd.process_with_scratch(col, &mut s.c_scratch);
+                if last == 0 {
+                    col.iter_mut().zip(kcol).for_each(|(c, k)| *c *= *k);
+                } else {
+                    let acc = &mut s.acc[j * f..(j + 1) * f];
+                    if i == 0 {
+                        acc.iter_mut().zip(col.iter()).zip(kcol).for_each(|((a, c), k)| *a = *c * *k);
+                    } else {
+                        acc.iter_mut().zip(col.iter()).zip(kcol).for_each(|((a, c), k)| *a += *c * *k);
+                    }
+                    if i == last {
+                        col.copy_from_slice(acc);
+                    }
+                }
+                if i == last {
+                    self.col_inv.process_with_scratch(col, &mut s.c_scratch);
+                }
             }
-            self.col_inv.process_with_scratch(col, &mut s.c_scratch);
         }
         let out_cols_n = tc + self.k - 1;
         let out_rows_n = tr + self.k - 1;
@@ -259,6 +305,51 @@ mod tests {
                         let ic = ocol as isize - kc as isize;
                         if ir >= 0 && ic >= 0 && (ir as usize) < rows && (ic as usize) < cols {
                             want += img[ir as usize * cols + ic as usize] as f64 * ker[kr * k + kc] as f64;
+                        }
+                    }
+                }
+                let got = out[orow * win.cols + ocol] as f64;
+                assert!((got - want).abs() < 1e-4 * want.abs().max(1.0), "({orow},{ocol}) {got} vs {want}");
+            }
+        }
+    }
+
+    /// A sum of two convolutions done in the frequency domain equals the two direct convolutions
+    /// added (linearity of the transform; the per-input masks are a checkerboard of two "layers").
+    #[test]
+    fn frequency_domain_sum_matches_direct_convolutions() {
+        let (rows, cols, k) = (29usize, 41usize, 7usize);
+        let img: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 97) as f32 / 97.0).collect();
+        let layer = |r: usize, c: usize| ((r / 5 + c / 6) % 2) as usize;
+        let kers: Vec<Vec<f32>> = (0..2).map(|j| (0..k * k).map(|i| ((i * (13 + 6 * j)) % 11) as f32 + 0.5).collect()).collect();
+        let conv = TileConvolver::with_tile(k, 32);
+        let specs: Vec<KernelSpectrum> = kers.iter().map(|kk| conv.kernel_spectrum(kk)).collect();
+        let spec_refs: Vec<&KernelSpectrum> = specs.iter().collect();
+        let h = k / 2;
+        let win = OutputWindow { rows: rows + 2 * h, cols: cols + 2 * h, off_r: h as isize, off_c: h as isize };
+        let mut out = vec![0.0f32; win.rows * win.cols];
+        let mut s = conv.scratch();
+        let t = conv.t;
+        for r0 in (0..rows).step_by(t) {
+            for c0 in (0..cols).step_by(t) {
+                let (tr, tc) = (t.min(rows - r0), t.min(cols - c0));
+                conv.tile_sum(r0, c0, tr, tc, &spec_refs, &mut out, win, &mut s, |i, r, dst| {
+                    for (j, d) in dst.iter_mut().enumerate() {
+                        let (rr, cc) = (r0 + r, c0 + j);
+                        *d = if layer(rr, cc) == i { img[rr * cols + cc] } else { 0.0 };
+                    }
+                });
+            }
+        }
+        for orow in 0..win.rows {
+            for ocol in 0..win.cols {
+                let mut want = 0.0f64;
+                for kr in 0..k {
+                    for kc in 0..k {
+                        let (ir, ic) = (orow as isize - kr as isize, ocol as isize - kc as isize);
+                        if ir >= 0 && ic >= 0 && (ir as usize) < rows && (ic as usize) < cols {
+                            let (ir, ic) = (ir as usize, ic as usize);
+                            want += img[ir * cols + ic] as f64 * kers[layer(ir, ic)][kr * k + kc] as f64;
                         }
                     }
                 }

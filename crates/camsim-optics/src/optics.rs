@@ -1,7 +1,7 @@
 //! The optics stage: scene radiance -> sensor irradiance.
 
 use crate::config::*;
-use crate::conv::{OutputWindow, TileConvolver};
+use crate::conv::{KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
@@ -364,9 +364,12 @@ impl Optics {
     /// 2. E = pi T(lambda) / (1 + 4 N^2 (1 + |m|)^2) L, m = v_obj / d (ISETCam `oiCalculateIrradiance`),
     ///    times the shading (cos^4, table or fit; evaluated at the scene samples' sensor positions).
     /// 3. Blur per band with the wavefront PSF (see [`Wavefront::psf`]), by tiled FFT convolution
-    ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared.
+    ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared. The
+    ///    kernel side is chosen per band at the same `psf.tail_energy` (the diffraction tail grows
+    ///    with wavelength); the output padding follows the largest.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
-    ///    is the sum over layers of PSF_layer * (E x mask_layer). Each PSF has unit volume, so the
+    ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
+    ///    domain. Each PSF has unit volume, so the
     ///    composite conserves energy; at occlusion boundaries a blurred background spreads over the
     ///    foreground edge (layers are not occluded by nearer layers: the usual layered-defocus
     ///    approximation).
@@ -496,25 +499,26 @@ impl Optics {
                 for tc in 0..ntc {
                     let (r0, c0) = (tr * t, tc * t);
                     let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
-                    for &layer in &plan.tile_layers[tr * ntc + tc] {
-                        conv.tile(r0, c0, nr, nc, &specs[layer as usize], out_band, win, &mut s, |r, dst| {
-                            let i0 = (r0 + r) * cols + c0;
-                            let row = &src[i0..i0 + nc];
-                            match (&shade, &layered) {
-                                (None, None) => dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc),
-                                (Some(sh), None) => {
-                                    dst.iter_mut().zip(row).zip(&sh[i0..i0 + nc]).for_each(|((d, v), w)| *d = v * sc * w)
-                                }
-                                (sh, Some(l)) => {
-                                    let idx = &l.index[i0..i0 + nc];
-                                    for j in 0..nc {
-                                        let w = sh.as_ref().map(|s| s[i0 + j]).unwrap_or(1.0);
-                                        dst[j] = if idx[j] == layer { row[j] * sc * w } else { 0.0 };
-                                    }
+                    // The depth layers present in this tile: one convolution per layer, summed
+                    // in the frequency domain (TileConvolver::tile_sum).
+                    let tile_layers = &plan.tile_layers[tr * ntc + tc];
+                    let tile_specs: Vec<&KernelSpectrum> = tile_layers.iter().map(|&l| &specs[l as usize]).collect();
+                    conv.tile_sum(r0, c0, nr, nc, &tile_specs, out_band, win, &mut s, |i, r, dst| {
+                        let i0 = (r0 + r) * cols + c0;
+                        let row = &src[i0..i0 + nc];
+                        match (&shade, &layered) {
+                            (None, None) => dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc),
+                            (Some(sh), None) => dst.iter_mut().zip(row).zip(&sh[i0..i0 + nc]).for_each(|((d, v), w)| *d = v * sc * w),
+                            (sh, Some(l)) => {
+                                let layer = tile_layers[i];
+                                let idx = &l.index[i0..i0 + nc];
+                                for j in 0..nc {
+                                    let w = sh.as_ref().map(|s| s[i0 + j]).unwrap_or(1.0);
+                                    dst[j] = if idx[j] == layer { row[j] * sc * w } else { 0.0 };
                                 }
                             }
-                        });
-                    }
+                        }
+                    });
                 }
             }
             Ok(())
