@@ -29,6 +29,26 @@ pub fn check_alloc(bytes: u64, what: &str) -> Result<()> {
     Ok(())
 }
 
+/// CPU time this process has used so far, `(user_s, system_s)`, from /proc/self/stat on Linux
+/// (`(0, 0)` elsewhere). Benchmarks report it beside wall time: on a shared machine CPU time per
+/// thread estimates the wall time of an unloaded run.
+pub fn process_cpu_s() -> (f64, f64) {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: sysconf only reads a configuration value.
+        let ticks = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+        let ticks = if ticks > 0 { ticks as f64 } else { 100.0 };
+        let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+        // Fields after the command name (which may hold spaces) closed by ')': utime is the 12th,
+        // stime the 13th (proc(5)).
+        let f: Vec<f64> = stat.rsplit(')').next().unwrap_or("").split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
+        if f.len() > 12 {
+            return (f[11] / ticks, f[12] / ticks);
+        }
+    }
+    (0.0, 0.0)
+}
+
 /// Below this size a buffer is left to the allocator as it is (huge pages would not pay).
 const HUGE_PAGE_MIN_BYTES: usize = 8 << 20;
 

@@ -21,10 +21,10 @@ fn main() {
     }
     let o = Optics::from_config(&c).unwrap();
     for _ in 0..3 {
-        let (u0, s0) = cpu_s();
+        let (u0, s0) = camsim_core::mem::process_cpu_s();
         let t = Instant::now();
         let out = o.compute(&img).unwrap();
-        let (u1, s1) = cpu_s();
+        let (u1, s1) = camsim_core::mem::process_cpu_s();
         println!(
             "{} x {} x {} in {:.2} s wall, CPU user {:.2} s + sys {:.2} s (threads {})",
             out.rows,
@@ -36,13 +36,4 @@ fn main() {
             rayon::current_num_threads()
         );
     }
-}
-
-/// Process CPU time (user, system) in seconds from /proc/self/stat (clock ticks of 1/100 s).
-fn cpu_s() -> (f64, f64) {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let rest = s.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0) / 100.0;
-    (t(11), t(12))
 }

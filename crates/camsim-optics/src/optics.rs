@@ -364,9 +364,8 @@ impl Optics {
     /// 2. E = pi T(lambda) / (1 + 4 N^2 (1 + |m|)^2) L, m = v_obj / d (ISETCam `oiCalculateIrradiance`),
     ///    times the shading (cos^4, table or fit; evaluated at the scene samples' sensor positions).
     /// 3. Blur per band with the wavefront PSF (see [`Wavefront::psf`]), by tiled FFT convolution
-    ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared. The
-    ///    kernel side is chosen per band at the same `psf.tail_energy` (the diffraction tail grows
-    ///    with wavelength); the output padding follows the largest.
+    ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared; one kernel
+    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
     ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
     ///    domain. Each PSF has unit volume, so the
@@ -429,15 +428,17 @@ impl Optics {
                 vec![base.clone().with_extra_defocus_um(extra)]
             }
         };
-        // Kernel side per band: the largest over the layers at that wavelength. The diffraction
-        // tail that `psf.tail_energy` bounds grows with lambda, so blue bands take smaller kernels
-        // (and larger tiles per FFT) than red ones at the same tolerance.
+        // One kernel side for every band: the largest over bands and layers. (A side per band at
+        // the same `psf.tail_energy` would be ~6 % faster, since the diffraction tail grows with
+        // wavelength, but trims the blue and green tails to the tolerance: in the Cornell box the
+        // saturated lamp's flare then shifts dim regions' R/G by 3-5 %.)
         let tail = self.config.psf.tail_energy;
-        let k_band: Vec<usize> = (0..bands)
-            .into_par_iter()
-            .map(|b| wavefronts.iter().map(|w| w.kernel_size(grid.wavelength_nm(b), spacing, tail)).max().unwrap_or(1).min(self.max_kernel()))
-            .collect();
-        let k = k_band.iter().copied().max().unwrap_or(1);
+        let k = wavefronts
+            .par_iter()
+            .map(|w| (0..bands).map(|b| w.kernel_size(grid.wavelength_nm(b), spacing, tail)).max().unwrap_or(1))
+            .max()
+            .unwrap_or(1)
+            .min(self.max_kernel());
         let h = k / 2;
         let (pad_r, pad_c) = match self.config.padding {
             Padding::Psf => (h, h),
@@ -448,34 +449,26 @@ impl Optics {
         let mut out = SpectralImage::zeros(out_rows, out_cols, grid, spacing, Quantity::Irradiance)?;
         let shade = self.shading_map(rows, cols, spacing, v_s);
 
-        // One FFT plan (tile size) per distinct kernel side, with the layers present in each tile.
-        let mut sizes = k_band.clone();
-        sizes.sort_unstable();
-        sizes.dedup();
-        let plans: Vec<(usize, TilePlan)> = sizes
-            .par_iter()
-            .map(|&kk| {
-                let conv = TileConvolver::new(kk);
-                let t = conv.t;
-                let (ntr, ntc) = (rows.div_ceil(t), cols.div_ceil(t));
-                let tile_layers: Vec<Vec<u16>> = match &layered {
-                    None => vec![vec![0]; ntr * ntc],
-                    Some(l) => (0..ntr * ntc)
-                        .map(|ti| {
-                            let (tr, tc) = (ti / ntc, ti % ntc);
-                            let mut seen = vec![false; l.c4_um.len()];
-                            for r in tr * t..((tr + 1) * t).min(rows) {
-                                for c in tc * t..((tc + 1) * t).min(cols) {
-                                    seen[l.index[r * cols + c] as usize] = true;
-                                }
-                            }
-                            seen.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i as u16).collect()
-                        })
-                        .collect(),
-                };
-                (kk, TilePlan { conv, ntr, ntc, tile_layers })
-            })
-            .collect();
+        let conv = TileConvolver::new(k);
+        let t = conv.t;
+        let (ntr, ntc) = (rows.div_ceil(t), cols.div_ceil(t));
+        // Layers present in each tile.
+        let tile_layers: Vec<Vec<u16>> = match &layered {
+            None => vec![vec![0]; ntr * ntc],
+            Some(l) => (0..ntr * ntc)
+                .into_par_iter()
+                .map(|ti| {
+                    let (tr, tc) = (ti / ntc, ti % ntc);
+                    let mut seen = vec![false; l.c4_um.len()];
+                    for r in tr * t..((tr + 1) * t).min(rows) {
+                        for c in tc * t..((tc + 1) * t).min(cols) {
+                            seen[l.index[r * cols + c] as usize] = true;
+                        }
+                    }
+                    seen.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i as u16).collect()
+                })
+                .collect(),
+        };
         let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
         let oversampling = self.config.psf.oversampling;
         let plane = rows * cols;
@@ -487,11 +480,9 @@ impl Optics {
             let wl = grid.wavelength_nm(b);
             let src = &radiance.data[b * plane..(b + 1) * plane];
             let sc = scale[b];
-            let plan = &plans.iter().find(|(kk, _)| *kk == k_band[b]).expect("a plan for every kernel size").1;
-            let (conv, ntr, ntc, t) = (&plan.conv, plan.ntr, plan.ntc, plan.conv.t);
             let mut specs = Vec::with_capacity(wavefronts.len());
             for w in &wavefronts {
-                let psf = w.psf_with(wl, spacing, k_band[b], oversampling)?;
+                let psf = w.psf_with(wl, spacing, k, oversampling)?;
                 specs.push(conv.kernel_spectrum(&psf.to_f32()));
             }
             let mut s = conv.scratch();
@@ -501,7 +492,7 @@ impl Optics {
                     let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
                     // The depth layers present in this tile: one convolution per layer, summed
                     // in the frequency domain (TileConvolver::tile_sum).
-                    let tile_layers = &plan.tile_layers[tr * ntc + tc];
+                    let tile_layers = &tile_layers[tr * ntc + tc];
                     let tile_specs: Vec<&KernelSpectrum> = tile_layers.iter().map(|&l| &specs[l as usize]).collect();
                     conv.tile_sum(r0, c0, nr, nc, &tile_specs, out_band, win, &mut s, |i, r, dst| {
                         let i0 = (r0 + r) * cols + c0;
@@ -543,13 +534,5 @@ impl Optics {
         };
         Ok(out)
     }
-}
-
-/// FFT plans for one kernel side and the depth layers present in each of its tiles.
-struct TilePlan {
-    conv: TileConvolver,
-    ntr: usize,
-    ntc: usize,
-    tile_layers: Vec<Vec<u16>>,
 }
 

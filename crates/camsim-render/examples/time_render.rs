@@ -16,9 +16,9 @@ fn main() {
     sc.settings.max_depth = 8;
     sc.settings.wavelengths_per_path = 4;
     for _ in 0..runs {
-        let (u0, s0) = cpu_s();
+        let (u0, s0) = camsim_core::mem::process_cpu_s();
         let out = render(&sc, &|_, _| {}).expect("render");
-        let (u1, s1) = cpu_s();
+        let (u1, s1) = camsim_core::mem::process_cpu_s();
         let st = out.stats;
         let rays = (st.camera_rays + st.bounce_rays + st.shadow_rays) as f64;
         println!(
@@ -32,13 +32,4 @@ fn main() {
             st.shadow_rays
         );
     }
-}
-
-/// Process CPU time (user, system) in seconds from /proc/self/stat (clock ticks of 1/100 s).
-fn cpu_s() -> (f64, f64) {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let rest = s.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let t = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0) / 100.0;
-    (t(11), t(12))
 }

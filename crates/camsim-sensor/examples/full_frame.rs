@@ -30,17 +30,10 @@ pub fn test_irradiance(sensor: &Sensor, grid: WavelengthGrid) -> SpectralImage {
     img
 }
 
-/// CPU time (user + system) of this process so far, s (Linux /proc/self/stat; 0 elsewhere). On a
-/// shared machine the CPU time / threads estimates the wall time the run would take unloaded.
+/// CPU time (user + system) of this process so far, s.
 fn cpu_s() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let after = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<f64> = after.split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
-    if f.len() > 13 {
-        (f[11] + f[12]) / 100.0
-    } else {
-        0.0
-    }
+    let (user, system) = camsim_core::mem::process_cpu_s();
+    user + system
 }
 
 fn main() {
