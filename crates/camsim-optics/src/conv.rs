@@ -320,7 +320,7 @@ mod tests {
     fn frequency_domain_sum_matches_direct_convolutions() {
         let (rows, cols, k) = (29usize, 41usize, 7usize);
         let img: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 97) as f32 / 97.0).collect();
-        let layer = |r: usize, c: usize| ((r / 5 + c / 6) % 2) as usize;
+        let layer = |r: usize, c: usize| (r / 5 + c / 6) % 2;
         let kers: Vec<Vec<f32>> = (0..2).map(|j| (0..k * k).map(|i| ((i * (13 + 6 * j)) % 11) as f32 + 0.5).collect()).collect();
         let conv = TileConvolver::with_tile(k, 32);
         let specs: Vec<KernelSpectrum> = kers.iter().map(|kk| conv.kernel_spectrum(kk)).collect();

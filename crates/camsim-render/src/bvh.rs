@@ -347,9 +347,9 @@ impl Bvh {
                 if tt4.cmp_lt(f32x4::splat(f32::INFINITY)).any() {
                     let tt = tt4.to_array();
                     let mut lane = 4;
-                    for l in 0..4 {
-                        if tt[l] < t_max {
-                            t_max = tt[l];
+                    for (l, &t) in tt.iter().enumerate() {
+                        if t < t_max {
+                            t_max = t;
                             lane = l;
                         }
                     }

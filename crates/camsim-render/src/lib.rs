@@ -2,9 +2,10 @@
 //! spectral radiance (W/(sr m^2 nm)) and depth (m) for the optics stage.
 //!
 //! Renderer layout (pbrt-v4's split of concepts, one module each): [`math`] (f32 vectors,
-//! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH),
-//! [`sampling`] (warps and pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`]
-//! (materials' scattering), [`lights`] (area and infinite lights), [`camera`] (pinhole camera),
+//! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
+//! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
+//! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
+//! scattering), [`lights`] (area and infinite lights), [`camera`] (pinhole camera),
 //! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`].
 

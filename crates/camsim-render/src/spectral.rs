@@ -138,13 +138,11 @@ impl SpectrumTable {
     #[inline(always)]
     pub fn eval_path<const N: usize>(&self, l: &Lambdas<N>) -> [f32; N] {
         debug_assert_eq!(l.table_len as usize, self.values.len(), "wavelengths located for another sampler");
-        let mut out = [0f32; N];
-        for k in 0..N {
+        std::array::from_fn(|k| {
             let i = l.idx[k] as usize;
             let (a, b) = (self.values[i], self.values[i + 1]);
-            out[k] = a + (b - a) * l.frac[k];
-        }
-        out
+            a + (b - a) * l.frac[k]
+        })
     }
 
     /// Mean value over the table (for light power estimates).
