@@ -368,10 +368,9 @@ impl Optics {
     ///    side for all bands, set by `psf.tail_energy` at the longest wavelength.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
     ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
-    ///    domain. Each PSF has unit volume, so the
-    ///    composite conserves energy; at occlusion boundaries a blurred background spreads over the
-    ///    foreground edge (layers are not occluded by nearer layers: the usual layered-defocus
-    ///    approximation).
+    ///    domain. Each PSF has unit volume, so the composite conserves energy; at occlusion
+    ///    boundaries a blurred background spreads over the foreground edge (layers are not
+    ///    occluded by nearer layers: the usual layered-defocus approximation).
     /// 4. Borders (`padding`): zero radiance outside the scene; the output grows by the PSF
     ///    half-width ("psf"), by 1/8 of the size ("isetcam") or keeps the scene size ("none").
     ///    `depth_m` is carried through (padding replicates the edge depth).
@@ -535,4 +534,3 @@ impl Optics {
         Ok(out)
     }
 }
-
