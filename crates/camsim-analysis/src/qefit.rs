@@ -22,12 +22,12 @@ pub enum MatrixForm {
     Diagonal,
     /// The paper's form, non-negative (NNLS):
     /// `M = [[a, 0, 0], [b, c, 0], [0, d, e]]`, i.e. r' = a r + b g, g' = c g + d b, b' = e b
-    /// (entries M[0][0], M[1][0], M[1][1], M[2][1], M[2][2], as the paper prints M).
+    /// (entries `M[0][0]`, `M[1][0]`, `M[1][1]`, `M[2][1]`, `M[2][2]`, as the paper prints M).
     PaperLowerNonNegative,
 }
 
 impl MatrixForm {
-    /// Which entries M[i][j] are free.
+    /// Which entries `M[i][j]` are free.
     pub fn mask(self) -> [[bool; 3]; 3] {
         match self {
             MatrixForm::Unconstrained => [[true; 3]; 3],

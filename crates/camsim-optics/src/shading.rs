@@ -40,7 +40,7 @@ pub struct ShadingFit {
     pub rms_residual_percent: f64,
 }
 
-/// Which fitted channel the spectral optics applies (see [`ShadingModel`]).
+/// Which fitted channel the spectral optics applies (see `ShadingModel`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum ShadingChannel {
@@ -55,7 +55,7 @@ pub enum ShadingChannel {
     B,
 }
 
-/// For a fixed y, the coefficients of the polynomial in x: cx[i] = sum_j c_ij y^j (so a row of
+/// For a fixed y, the coefficients of the polynomial in x: `cx[i] = sum_j c_ij y^j` (so a row of
 /// an image costs O(order) per pixel, no allocation per pixel).
 pub fn row_coefficients(coef: &[f64], order: usize, y: f64) -> Vec<f64> {
     let mut cx = vec![0.0; order + 1];
@@ -65,7 +65,7 @@ pub fn row_coefficients(coef: &[f64], order: usize, y: f64) -> Vec<f64> {
     cx
 }
 
-/// Evaluate sum cx[i] x^i (Horner).
+/// Evaluate `sum cx[i] x^i` (Horner).
 #[inline]
 pub fn horner(cx: &[f64], x: f64) -> f64 {
     cx.iter().rev().fold(0.0, |acc, c| acc * x + c)

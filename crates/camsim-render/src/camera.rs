@@ -137,7 +137,7 @@ fn invert_rigid(t: &Transform) -> Option<Transform> {
 /// shorter pixel axis, using the sensor dimension along that axis), at `from` looking at `to` with
 /// `up`, rendering `width` x `height` pixels. The view is right-handed (not mirrored; see
 /// [`look_at_camera_to_world`]). Degenerate input (zero focal length, `up` parallel to the view)
-/// yields a camera that [`crate::render`] rejects with a [`crate::RenderError::Camera`].
+/// yields a camera that [`crate::render()`] rejects with a [`crate::RenderError::Camera`].
 ///
 /// Example: the Pixel 4a preset (f = 4.38 mm, 4032 x 3024 pixels of 1.4 um, i.e. 5.645 x 4.234
 /// mm) gives a vertical fov of 51.59 degrees and a horizontal fov of 65.59 degrees.

@@ -100,7 +100,7 @@ pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
 }
 
 /// A primitive as stored in BVH order: its intersection data and the index of its
-/// [`PrimInfo`](crate::integrator) record.
+/// `PrimInfo` record (in the integrator).
 #[derive(Debug, Clone, Copy)]
 pub enum Prim {
     /// Triangle `p0, p0 + e1, p0 + e2`.

@@ -5,7 +5,7 @@
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
-//! scattering), [`lights`] (area and infinite lights), [`camera`] (pinhole camera),
+//! scattering), `lights` (area and infinite lights), [`camera`] (pinhole camera),
 //! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`].
 

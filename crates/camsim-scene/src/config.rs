@@ -78,7 +78,7 @@ pub struct UniformScene {
     /// Distance from the lens to the scene plane, m (ISETCam's default 1.2 m).
     #[serde(default = "default_distance_m")]
     pub distance_m: f64,
-    /// Illuminant: a built-in name (D65, A, C, F2, F11, E, blackbody-<K>) or a spectrum file
+    /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`) or a spectrum file
     /// (.csv or ISETCam .mat; relative units).
     #[serde(default = "default_illuminant")]
     pub illuminant: String,

@@ -61,7 +61,7 @@ pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
 }
 
 /// An illuminant by built-in name ([`camsim_core::tables::illuminant`]: D65, A, C, F2, F11, E,
-/// blackbody-<K>) or from a spectrum file (`.csv` or ISETCam `.mat`). `key` names the config key
+/// `blackbody-<K>`) or from a spectrum file (`.csv` or ISETCam `.mat`). `key` names the config key
 /// in errors. Relative units.
 pub fn load_illuminant(name: &str, key: &str) -> Result<Spectrum> {
     if config::looks_like_file(name) {

@@ -6,7 +6,7 @@
 //!
 //! 1. the sensor-plane irradiance is integrated over each pixel's photodetector (pitch^2 x fill factor);
 //! 2. electrons = sum_lambda E QE_c lambda/(h c) d lambda x area x t for the pixel's CFA channel
-//!    (QE = colour filter x IR-cut x pixel QE, then the optional correction [r',g',b'] = [r,g,b] M);
+//!    (QE = colour filter x IR-cut x pixel QE, then the optional correction `[r',g',b'] = [r,g,b] M`);
 //! 3. dark current, photon shot noise (Poisson), PRNU gain and DSNU offset maps (fixed per sensor),
 //!    read noise (per frame);
 //! 4. analog gain and offset `v = (v + offset) / gain`, clipping to the voltage swing, and

@@ -13,7 +13,7 @@
 //!    (Figure 5) and 5. noise in three regions against the noise model (Figure 6) ([`scene_fig`]);
 //! 6. provenance: parameters, version, run times, the command.
 //!
-//! [`compare`] does the region-by-region comparison for a user's own camera (measured DNGs
+//! [`compare()`] does the region-by-region comparison for a user's own camera (measured DNGs
 //! against simulated ones, [`CompareConfig`]).
 
 #![warn(missing_docs)]

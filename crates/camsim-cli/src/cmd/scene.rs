@@ -9,11 +9,11 @@ use std::path::PathBuf;
 /// Make a 2D scene's spectral radiance (W/(sr m^2 nm)) and write it as a spectral OpenEXR.
 ///
 /// CONFIG is a scene TOML (the `[scene]` table of a simulate config, on its own: kind = "uniform" |
-/// "macbeth" | "slanted_edge" | "file"), or a whole simulate config whose [scene] is used.
+/// "macbeth" | "slanted_edge" | "file"), or a whole simulate config whose `[scene]` is used.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr")]
 pub struct Args {
-    /// Scene TOML (or a simulate config with a [scene] table).
+    /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
     /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge).
     #[arg(long, default_value = "macbeth")]
