@@ -152,11 +152,11 @@ fn sigint_removes_every_temporary_and_keeps_the_earlier_run() {
     let out = dir.path().join("run");
     let o = camsim(&["simulate", s(&cfg), "--out", s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    // A run long enough to be interrupted: a 480 x 640 window, 40 frames.
+    // A run long enough to be interrupted: a 480 x 640 window, 80 frames.
     let slow = small(13, 100.0).replace("rows = 64\ncols = 96", "rows = 480\ncols = 640").replace("fov_deg = 2.0", "fov_deg = 10.0");
     let slow = write(&dir.path().join("slow.toml"), &slow);
     let mut child = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["simulate", s(&slow), "--out", s(&out), "--frames", "40", "--quiet"])
+        .args(["simulate", s(&slow), "--out", s(&out), "--frames", "80", "--quiet"])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
