@@ -2,6 +2,7 @@
 //! extension.
 
 use anyhow::{Context, Result};
+use camsim_io::atomic::OutputDir;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -44,7 +45,36 @@ pub fn say(msg: impl AsRef<str>) {
     }
 }
 
-/// Create the output folder (and parents).
+/// Stage an output folder: outputs go into a fresh sibling `DIR.tmp-<pid>` that
+/// [`camsim_io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
+/// type). Refuses a DIR that is not a folder camsim may replace (exit 2). When DIR holds an
+/// earlier run, says on stderr (even with --quiet) what the commit will replace.
+///
+/// Use in a command: `let out = common::stage_out_dir(&a.out)?;` write every file to
+/// `out.join(name)`, then `common::commit(out)?` last.
+pub fn stage_out_dir(dir: &Path) -> Result<OutputDir> {
+    let out = OutputDir::create(dir)?;
+    if let Some(old) = out.replaces() {
+        const SHOWN: usize = 8;
+        let mut list = old.iter().take(SHOWN).cloned().collect::<Vec<_>>().join(", ");
+        if old.len() > SHOWN {
+            list.push_str(&format!(" and {} more", old.len() - SHOWN));
+        }
+        eprintln!(
+            "camsim: {} holds an earlier run ({list}); it will be replaced as a whole when this run completes",
+            dir.display()
+        );
+    }
+    Ok(out)
+}
+
+/// Commit a staged output folder (swap it in for its target).
+pub fn commit(out: OutputDir) -> Result<()> {
+    Ok(out.commit()?)
+}
+
+/// Create the output folder (and parents). Prefer [`stage_out_dir`]: a folder made with this
+/// one can be left half-written by a failed or interrupted run.
 pub fn out_dir(dir: &Path) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create output folder {}", dir.display()))?;
     Ok(dir.to_path_buf())

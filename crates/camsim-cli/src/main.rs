@@ -2,7 +2,9 @@
 //! only wiring between the stage crates and files.
 //!
 //! Exit codes: 0 success, 2 bad input (every library error: unreadable or malformed file,
-//! unknown key, impossible value, too big for memory), 1 an internal bug (a panic).
+//! unknown key, impossible value, too big for memory), 1 an internal bug (a panic), 130
+//! interrupted (SIGINT, SIGTERM or SIGHUP: temporary files and staging folders are removed, and
+//! every output folder keeps its previous complete run).
 
 mod cmd;
 mod common;
@@ -21,7 +23,14 @@ Examples:
   camsim render --builtin cornell-box-mcc --out out/box
   camsim validate cornell-box --out out/report    the paper's validation, with report.html
 
-Exit codes: 0 ok, 2 bad input (the message names the file, key or value), 1 internal error.";
+Output folders (--out) always hold one complete run: a command writes into a fresh sibling
+folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
+run in DIR as a whole (it says so on stderr). A failed or interrupted run leaves DIR as it was.
+camsim only replaces regular files and folders it wrote itself: a FIFO, device, symbolic link or
+a folder with other content is refused (exit 2).
+
+Exit codes: 0 ok, 2 bad input (the message names the file, key or value), 1 internal error,
+130 interrupted (Ctrl-C or SIGTERM; temporaries are removed).";
 
 #[derive(Parser)]
 #[command(name = "camsim", version, about = "Simulate a digital camera end to end: spectral scene -> optics -> sensor -> raw DNG", long_about = None, after_help = AFTER_HELP)]
@@ -29,7 +38,9 @@ struct Cli {
     /// Worker threads (default: all cores). Output does not depend on this.
     #[arg(long, global = true)]
     threads: Option<usize>,
-    /// Hide progress bars.
+    /// Hide progress bars and informational notes (run summaries, renderer notes about
+    /// unsupported pbrt features, chosen defaults). Warnings about replacing an earlier output
+    /// folder and errors are still printed on stderr.
     #[arg(long, short, global = true)]
     quiet: bool,
     #[command(subcommand)]
@@ -47,8 +58,11 @@ enum Commands {
     Sensor(cmd::sensor::Args),
     Isp(cmd::isp::Args),
     Presets(cmd::presets::Args),
+    /// Measure raw images (camsim's or a real camera's DNG): slanted-edge SFR/MTF, ColorChecker
+    /// chart values, region statistics, EMVA 1288 photon transfer.
     #[command(subcommand)]
     Analyze(cmd::analyze::Command),
+    /// Fit model parameters to measurements: the sensor QE correction matrix from chart values.
     #[command(subcommand)]
     Fit(cmd::fit::Command),
     Validate(cmd::validate::Args),
@@ -65,6 +79,11 @@ fn main() {
         let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
     }
     common::set_quiet(cli.quiet);
+    // Ctrl-C, SIGTERM, SIGHUP: remove every registered temporary file and staging folder (the
+    // output folders keep their previous complete run), then exit 130.
+    if let Err(e) = ctrlc::set_handler(|| camsim_io::atomic::remove_temporaries_and_exit(130)) {
+        eprintln!("camsim: warning: cannot install the interrupt handler: {e}");
+    }
     // A panic is a bug in camsim: report it as such (exit 1), never as bad input.
     std::panic::set_hook(Box::new(|info| {
         eprintln!("camsim: internal error (please report): {info}");
@@ -83,6 +102,13 @@ fn main() {
         Commands::Fit(c) => cmd::fit::run(c),
         Commands::Validate(a) => cmd::validate::run(a),
     });
+    if camsim_io::atomic::interrupted() {
+        // The interrupt handler is removing the temporaries and will exit with 130; an error the
+        // main thread saw meanwhile is only a consequence of that.
+        loop {
+            std::thread::park();
+        }
+    }
     match result {
         Ok(Ok(())) => {}
         Ok(Err(e)) => {

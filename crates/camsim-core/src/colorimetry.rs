@@ -255,8 +255,31 @@ mod tests {
     #[test]
     fn try_xyz_checks_lengths() {
         let g = WavelengthGrid::default();
-        assert!(try_xyz(&[1.0; 30], &g).is_err());
-        assert!(try_xyz(&[1.0; 31], &g).is_ok());
+        let e = try_xyz(&[1.0; 30], &g).unwrap_err().to_string();
+        assert!(e.contains("30 values") && e.contains("31 bands"), "{e}");
+        // On a grid the CMF table is sampled on, try_xyz is the plain sum x_bar S step.
+        let g5 = WavelengthGrid::new(360.0, 830.0, 5.0).unwrap();
+        let ones = vec![1.0; g5.len()];
+        let y = try_xyz(&ones, &g5).unwrap()[1];
+        let direct: f64 = Cmfs::on(&g5).y.iter().sum::<f64>() * 5.0;
+        assert!((y - direct).abs() < 1e-9 * direct, "{y} vs {direct}");
+    }
+
+    #[test]
+    fn equal_energy_white_is_at_one_third_and_integrates_v_lambda() {
+        // CIE 015:2018: the CIE 1931 CMFs are normalised so that the equal-energy illuminant E
+        // has equal X, Y, Z, i.e. x = y = 1/3. On the 5 nm table the three integrals differ by
+        // about 3e-4 of their value (sampling of the 1 nm definition), so x and y are 1/3 to
+        // within 2e-4.
+        let g = WavelengthGrid::new(360.0, 830.0, 5.0).unwrap();
+        let xyz_e = try_xyz(&vec![1.0; g.len()], &g).unwrap();
+        let [x, y] = chromaticity_xy(xyz_e);
+        assert!((x - 1.0 / 3.0).abs() < 2e-4 && (y - 1.0 / 3.0).abs() < 2e-4, "x {x} y {y}");
+        // Y of E (1 W/nm everywhere) is the integral of V(lambda) = 106.857 nm (CIE 015:2018 table
+        // sums: 21.3714 x 5 nm); luminance of a flat 1 W/(sr m^2 nm) radiance is 683 x that.
+        assert!((xyz_e[1] - 106.857).abs() < 0.01, "Y = {}", xyz_e[1]);
+        let lum = luminance_cd_m2(&vec![1.0; g.len()], &g);
+        assert!((lum / (683.0 * 106.857) - 1.0).abs() < 1e-4, "{lum}");
     }
 
     #[test]

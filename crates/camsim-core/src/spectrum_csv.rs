@@ -493,6 +493,27 @@ mod tests {
     fn headerless_files_get_generated_names() {
         let t = parse_spectra_csv("400,1\n410,2\n", &p()).unwrap();
         assert_eq!(t.names, vec!["data_1"]);
+        assert_eq!(t.wavelengths_nm, vec![400.0, 410.0]);
+        assert_eq!(t.columns, vec![vec![1.0, 2.0]]);
+    }
+
+    #[test]
+    fn parse_returns_exactly_the_numbers_written() {
+        // Written as text by hand (not by our formatter): every value must come back bit for bit,
+        // as Rust's float parser guarantees the nearest double to each decimal.
+        let text = "wavelength_nm,q,t\n380.5,0.1,1e-300\n400,123456.789,-0.0\n412.25,0.30000000000000004,2.5E3\n";
+        let t = parse_spectra_csv(text, &p()).unwrap();
+        assert_eq!(t.wavelengths_nm, vec![380.5, 400.0, 412.25]);
+        assert_eq!(t.columns[0], vec![0.1, 123456.789, 0.30000000000000004]);
+        assert_eq!(t.columns[1][0].to_bits(), 1e-300f64.to_bits());
+        assert_eq!(t.columns[1][2], 2500.0);
+        // And our own writer round-trips every bit, awkward values included.
+        let w: Vec<f64> = (0..7).map(|i| 400.0 + i as f64 * 10.0 / 3.0).collect();
+        let c: Vec<f64> = (0..7).map(|i| (i as f64 * 0.7).sin() / 3.0).collect();
+        let table = SpectraTable::new(w.clone(), vec!["s".into()], vec![c.clone()], "t").unwrap();
+        let back = parse_spectra_csv(&format_spectra_csv(&table, &["a comment"]).unwrap(), &p()).unwrap();
+        assert_eq!(back.wavelengths_nm, w);
+        assert_eq!(back.columns[0], c);
     }
 
     #[test]

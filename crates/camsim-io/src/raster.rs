@@ -33,6 +33,26 @@ pub fn write_png16_gray(path: &Path, rows: usize, cols: usize, data: &[u16]) -> 
     })
 }
 
+/// The 16-bit value a `bits`-bit ADC value `dn` is written as in a scaled mosaic PNG:
+/// `round(dn x 65535 / (2^bits - 1))`, so 0 stays 0 and the ADC's largest code becomes 65535
+/// (full scale in every viewer). For `bits` <= 16 the map is one-to-one and
+/// `dn = round(v x (2^bits - 1) / 65535)` inverts it exactly.
+pub fn scale_dn_to_16(dn: u16, bits: u32) -> u16 {
+    let max = ((1u64 << bits.clamp(1, 16)) - 1) as f64;
+    ((dn as f64).min(max) * 65535.0 / max).round() as u16
+}
+
+/// Write a `bits`-bit raw mosaic (e.g. 12-bit ADC values) as a 16-bit grayscale PNG scaled to
+/// the full 16-bit range with [`scale_dn_to_16`], so it is visible in ordinary viewers (the
+/// unscaled values in a 16-bit PNG look black). The DNG keeps the exact data.
+pub fn write_png16_mosaic_scaled(path: &Path, rows: usize, cols: usize, dn: &[u16], bits: u32) -> Result<()> {
+    if !(1..=16).contains(&bits) {
+        return Err(IoError::invalid(path, format!("{bits}-bit data: must be 1..16 bits")));
+    }
+    let scaled: Vec<u16> = dn.iter().map(|&v| scale_dn_to_16(v, bits)).collect();
+    write_png16_gray(path, rows, cols, &scaled)
+}
+
 /// Write an 8-bit sRGB PNG (`rows * cols * 3` values, row-major, RGB interleaved).
 pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Result<()> {
     check_size(path, rows, cols, rgb.len(), 3)?;
@@ -112,6 +132,27 @@ mod tests {
         write_png16_gray(&p, 7, 9, &data).unwrap();
         assert_eq!(read_mosaic_16(&p).unwrap(), (7, 9, data));
         assert!(write_png16_gray(&p, 7, 8, &[0; 63]).is_err());
+    }
+
+    #[test]
+    fn scaled_mosaic_spans_the_16_bit_range_and_inverts_exactly() {
+        // 12 bits: 0 -> 0, 4095 -> 65535, 2048 -> round(2048 x 65535 / 4095) = 32776.
+        assert_eq!(scale_dn_to_16(0, 12), 0);
+        assert_eq!(scale_dn_to_16(4095, 12), 65535);
+        assert_eq!(scale_dn_to_16(2048, 12), 32776);
+        assert_eq!(scale_dn_to_16(1, 1), 65535);
+        for bits in [8u32, 10, 12, 14, 16] {
+            let max = (1u32 << bits) - 1;
+            for dn in (0..=max).step_by(7).chain([max]) {
+                let v = scale_dn_to_16(dn as u16, bits) as f64;
+                assert_eq!((v * max as f64 / 65535.0).round() as u32, dn, "{bits} bits, dn {dn}");
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("raw.png");
+        write_png16_mosaic_scaled(&p, 1, 3, &[0, 4095, 1000], 12).unwrap();
+        assert_eq!(read_mosaic_16(&p).unwrap().2, vec![0, 65535, 16004]);
+        assert!(write_png16_mosaic_scaled(&p, 1, 1, &[0], 0).is_err());
     }
 
     #[test]

@@ -8,6 +8,7 @@ use anyhow::{bail, Context, Result};
 use camsim_core::{SpectralImage, WavelengthGrid};
 use camsim_optics::{Optics, OpticsConfig};
 use camsim_scene::SceneConfig;
+use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ColorPipeline;
 use camsim_sensor::{Capture, Exposure, Sensor, SensorConfig};
@@ -162,7 +163,12 @@ impl SimulateConfig {
             let c = v.get("config").cloned().unwrap_or(v);
             serde_json::from_value(c).with_context(|| format!("{}: not a camsim run.json", path.display()))?
         } else {
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e))?
+            toml::from_str(&text).map_err(|e| {
+                // The [scene] table is tagged by `kind`, which hides the key's position from
+                // toml's first message: find the offending key's own line and column.
+                let msg = camsim_scene::config::locate_scene_error(&text, Some("scene")).unwrap_or_else(|| e.to_string());
+                anyhow::anyhow!("{}: {}", path.display(), msg.trim_end())
+            })?
         };
         // Paths inside the config are relative to the config file.
         let base = path.parent().unwrap_or(Path::new("."));
@@ -182,6 +188,9 @@ impl SimulateConfig {
         }
         self.optics.file.as_mut().map(fix);
         self.sensor.file.as_mut().map(fix);
+        if let Some(c) = &mut self.sensor.config {
+            c.qe.file.as_mut().map(fix);
+        }
         if let Some(SceneConfig::File(f)) = &mut self.scene {
             fix(&mut f.path);
         }
@@ -207,7 +216,7 @@ impl SimulateConfig {
         };
         Ok(match (s.rows, s.cols) {
             (None, None) => sensor,
-            (r, c) => sensor.with_size(r.unwrap_or(sensor.rows()), c.unwrap_or(sensor.cols()))?,
+            (r, c) => sensor.window(r.unwrap_or(sensor.rows()), c.unwrap_or(sensor.cols()))?,
         })
     }
 
@@ -258,9 +267,12 @@ pub struct RunSummary {
     pub total_s: f64,
 }
 
-/// Run the whole pipeline and write its files in `out`: radiance.exr, irradiance.exr, raw.dng
-/// (raw_0001.dng ... for more frames), raw.png, preview.png, run.json.
-pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Path, progress: &Progress<'_>) -> Result<RunSummary> {
+/// Run the whole pipeline and write its files into the staging folder of `out`: radiance.exr,
+/// irradiance.exr, raw.dng (raw_0001.dng ... for more frames), raw.png (the mosaic scaled to the
+/// 16-bit range), preview.png, and run.json last. The caller commits `out`
+/// ([`camsim_io::atomic::OutputDir::commit`]) when this returns Ok, so the output folder always
+/// holds one complete run; on an error it drops `out` and the previous run stays as it was.
+pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &OutputDir, progress: &Progress<'_>) -> Result<RunSummary> {
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
@@ -292,7 +304,7 @@ pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Pa
         camsim_io::dng::write_dng(&out.join(&name), raw, &meta)?;
     }
     let raw0 = &frame.raw[0];
-    camsim_io::raster::write_png16_gray(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn)?;
+    camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn, raw0.bits)?;
     let rgb = camsim_isp::demosaic_bilinear(raw0);
     let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
     camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rgb.rows, rgb.cols, &srgb)?;
@@ -331,6 +343,10 @@ pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Pa
             "irradiance_sample_spacing_um": irradiance.sample_spacing_m * 1e6,
             "frames": frame.raw.len(),
         },
+        "files": {
+            "raw.dng": "the exact ADC values (DN), black and white level in its tags",
+            "raw.png": raw_png_note(raw0.bits),
+        },
         "times": times,
     });
     camsim_io::atomic::write_json_atomic(&out.join("run.json"), &run)?;
@@ -339,6 +355,15 @@ pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &Pa
         mean_dn_rgb: [mean_dn[0], mean_dn[1], mean_dn[2]],
         frames: frame.raw.len(),
         total_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// What raw.png holds, for run.json: the mosaic scaled from `bits` bits to the 16-bit range.
+pub fn raw_png_note(bits: u32) -> serde_json::Value {
+    serde_json::json!({
+        "scale": format!("16-bit value = round(DN x 65535 / {}), DN the {bits}-bit ADC value", (1u64 << bits) - 1),
+        "adc_bits": bits,
+        "invert": format!("DN = round(value x {} / 65535)", (1u64 << bits) - 1),
     })
 }
 

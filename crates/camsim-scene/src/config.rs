@@ -264,8 +264,14 @@ impl MacbethScene {
 
 impl SceneConfig {
     /// Parse a TOML scene description; `what` (a file name) prefixes error messages.
+    ///
+    /// Errors point at the offending key's own line and column (an unknown key, a value of the
+    /// wrong type), not at the top of the table: see [`locate_scene_error`].
     pub fn from_toml(text: &str, what: &str) -> Result<SceneConfig> {
-        toml::from_str(text).map_err(|e| CoreError::invalid(what, e.to_string().trim_end().to_string()))
+        toml::from_str(text).map_err(|e| {
+            let msg = locate_scene_error(text, None).unwrap_or_else(|| e.to_string());
+            CoreError::invalid(what, msg.trim_end().to_string())
+        })
     }
 
     /// The config as TOML (for sidecars; round-trips through [`SceneConfig::from_toml`]).
@@ -326,4 +332,169 @@ impl SceneConfig {
 /// file extension.
 pub(crate) fn looks_like_file(s: &str) -> bool {
     camsim_core::tables::illuminant(s).is_err() && (s.contains('/') || s.contains('\\') || Path::new(s).extension().is_some())
+}
+
+/// Find where a scene table in TOML `text` is wrong, with the offending key's line and column.
+///
+/// `SceneConfig` is tagged by `kind`, and serde reads a tagged table into a buffer first, which
+/// loses the positions: toml then reports an unknown key or a value of the wrong type at the
+/// table's header (line 1 for a scene file). This reads the table a second time straight into
+/// the struct of its `kind` (skipping the `kind` key), so toml can point at the key itself.
+/// `table` is the scene table's key in `text` (`Some("scene")` in a simulate config, `None` for a
+/// scene file). Returns toml's message ("TOML parse error at line L, column C ..."), or None when
+/// that table has no such error (or no valid `kind`: the first pass's message is then right).
+pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
+    let doc: toml::Table = toml::from_str(text).ok()?;
+    let t = match table {
+        None => &doc,
+        Some(k) => doc.get(k)?.as_table()?,
+    };
+    let kind = t.get("kind")?.as_str()?;
+    fn run<T: serde::de::DeserializeOwned>(text: &str, table: Option<&str>) -> Option<String> {
+        let r = match table {
+            None => toml::from_str::<diag::KindStripped<T>>(text).map(|_| ()),
+            Some(k) => toml::from_str::<diag::InTable<T>>(text).map(|w| {
+                debug_assert!(w.key == k);
+            }),
+        };
+        r.err().map(|e| e.to_string())
+    }
+    match (kind, table) {
+        ("uniform", t) => run::<UniformScene>(text, t),
+        ("macbeth", t) => run::<MacbethScene>(text, t),
+        ("slanted_edge", t) => run::<SlantedEdgeScene>(text, t),
+        ("file", t) => run::<FileScene>(text, t),
+        _ => None,
+    }
+}
+
+/// Deserializers for [`locate_scene_error`]: read a table into `T` with its `kind` key skipped,
+/// straight from toml's map (so errors keep the key's position).
+mod diag {
+    use serde::de::{self, DeserializeSeed, Deserializer, IgnoredAny, IntoDeserializer, MapAccess, Visitor};
+    use serde::Deserialize;
+    use std::marker::PhantomData;
+
+    /// `T` read from a table whose `kind` key is skipped.
+    pub struct KindStripped<T>(#[allow(dead_code)] pub T);
+
+    impl<'de, T: Deserialize<'de>> Deserialize<'de> for KindStripped<T> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V<T>(PhantomData<T>);
+            impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+                type Value = T;
+                fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                    f.write_str("a scene table")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+                    T::deserialize(de::value::MapAccessDeserializer::new(SkipKind(map)))
+                }
+            }
+            d.deserialize_map(V(PhantomData)).map(KindStripped)
+        }
+    }
+
+    /// The scene table under one key of the document (`[scene]`); other keys are ignored.
+    pub struct InTable<T> {
+        pub key: String,
+        #[allow(dead_code)]
+        pub value: T,
+    }
+
+    impl<'de, T: Deserialize<'de>> Deserialize<'de> for InTable<T> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V<T>(PhantomData<T>);
+            impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+                type Value = InTable<T>;
+                fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                    f.write_str("a config with a scene table")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<InTable<T>, A::Error> {
+                    let mut found = None;
+                    while let Some(k) = map.next_key::<String>()? {
+                        if k == "scene" && found.is_none() {
+                            let v: KindStripped<T> = map.next_value()?;
+                            found = Some(InTable { key: k, value: v.0 });
+                        } else {
+                            map.next_value::<IgnoredAny>()?;
+                        }
+                    }
+                    found.ok_or_else(|| de::Error::missing_field("scene"))
+                }
+            }
+            d.deserialize_map(V(PhantomData))
+        }
+    }
+
+    struct SkipKind<A>(A);
+
+    impl<'de, A: MapAccess<'de>> MapAccess<'de> for SkipKind<A> {
+        type Error = A::Error;
+        fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, seed: K) -> Result<Option<K::Value>, A::Error> {
+            let mut seed = seed;
+            loop {
+                match self.0.next_key_seed(KeySeed(seed))? {
+                    None => return Ok(None),
+                    Some(Ok(v)) => return Ok(Some(v)),
+                    Some(Err(back)) => {
+                        self.0.next_value::<IgnoredAny>()?;
+                        seed = back;
+                    }
+                }
+            }
+        }
+        fn next_value_seed<S: DeserializeSeed<'de>>(&mut self, seed: S) -> Result<S::Value, A::Error> {
+            self.0.next_value_seed(seed)
+        }
+    }
+
+    /// A key seed that hands its inner seed back for the key `kind`.
+    struct KeySeed<K>(K);
+
+    impl<'de, K: DeserializeSeed<'de>> DeserializeSeed<'de> for KeySeed<K> {
+        type Value = Result<K::Value, K>;
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+            let key = String::deserialize(d)?;
+            if key == "kind" {
+                return Ok(Err(self.0));
+            }
+            self.0.deserialize(IntoDeserializer::<D::Error>::into_deserializer(key)).map(Ok)
+        }
+    }
+}
+
+#[cfg(test)]
+mod error_position_tests {
+    use super::*;
+
+    /// The line and column toml reports, parsed from its message.
+    fn line_col(msg: &str) -> (usize, usize) {
+        let i = msg.find("line ").unwrap_or_else(|| panic!("no line in: {msg}"));
+        let rest = &msg[i + 5..];
+        let line: usize = rest.split(',').next().unwrap().trim().parse().unwrap();
+        let j = rest.find("column ").unwrap();
+        let col: usize = rest[j + 7..].split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap();
+        (line, col)
+    }
+
+    #[test]
+    fn wrong_type_and_unknown_key_point_at_the_key_itself() {
+        // Line 4, column 17 is where "big" starts.
+        let text = "kind = \"macbeth\"\nfov_deg = 2.0\nborder_px = 2\npatch_size_px = \"big\"\n";
+        let e = SceneConfig::from_toml(text, "chart.toml").unwrap_err().to_string();
+        assert!(e.starts_with("chart.toml"), "{e}");
+        assert_eq!(line_col(&e), (4, 17), "{e}");
+        // An unknown key on line 3, column 1.
+        let text = "fov_deg = 2.0\nkind = \"uniform\"\nreflectanse = 0.5\n";
+        let e = SceneConfig::from_toml(text, "u.toml").unwrap_err().to_string();
+        assert!(e.contains("reflectanse"), "{e}");
+        assert_eq!(line_col(&e), (3, 1), "{e}");
+        // Inside a simulate config's [scene] table (kind after the bad key).
+        let text = "seed = 3\n[sensor]\nrows = 4\n[scene]\npatch_size_px = -1\nkind = \"macbeth\"\n";
+        let msg = locate_scene_error(text, Some("scene")).unwrap();
+        assert_eq!(line_col(&msg), (5, 17), "{msg}");
+        // No error in the scene table: nothing to report.
+        assert_eq!(locate_scene_error("[scene]\nkind = \"macbeth\"\n", Some("scene")), None);
+        assert!(SceneConfig::from_toml("kind = \"macbeth\"\npatch_size_px = 8\n", "ok").is_ok());
+    }
 }

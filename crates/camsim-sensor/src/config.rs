@@ -5,6 +5,7 @@
 use crate::error::{Result, SensorError};
 use camsim_core::CfaPattern;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 
 /// Which noise sources are on. All default to on; a noise-free sensor is how tests check the mean
 /// signal. (ISETCam's `noise flag`, split per source.)
@@ -52,17 +53,35 @@ impl NoiseSwitches {
 
 /// Spectral quantum efficiency, sampled at `wavelengths_nm` (linear interpolation between samples,
 /// 0 outside). Channel QE = colour filter x IR-cut filter x pixel QE (ISETCam `sensorGet(...,'spectral qe')`),
-/// then the optional `qe_correction` of [`SensorConfig`].
+/// then the QE correction M (`correction` here, or `qe_correction` of [`SensorConfig`]).
+///
+/// The curves are given inline, or read from a spectra `file` (relative to the sensor TOML):
+/// a CSV (`wavelength_nm,r,g,b[,ir_cut][,pixel_qe]`) or an ISETCam sensor `.mat` (`wavelength`,
+/// `data`, `filterNames`). Columns are found by name: `r`/`red`, `g`/`green`, `b`/`blue`,
+/// `ir_cut`/`ir_filter`/`ir`, `pixel_qe`; failing an exact name, ISETCam's convention that a
+/// filter name starts with its colour letter (`rDefault`, `gDefault`, ...).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QeConfig {
+    /// A spectra file (.csv, .txt or ISETCam .mat) holding the curves, instead of the inline
+    /// arrays. Read when the sensor is built; the config then holds the curves inline and the
+    /// file's path in `loaded_from`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// Where the curves were read from (written by camsim; ignored on input).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loaded_from: Option<String>,
     /// Sample wavelengths, nm, strictly increasing.
+    #[serde(default)]
     pub wavelengths_nm: Vec<f64>,
     /// Red colour-filter transmittance (fraction, 0..1), one value per wavelength.
+    #[serde(default)]
     pub r: Vec<f64>,
     /// Green colour-filter transmittance (fraction), one value per wavelength.
+    #[serde(default)]
     pub g: Vec<f64>,
     /// Blue colour-filter transmittance (fraction), one value per wavelength.
+    #[serde(default)]
     pub b: Vec<f64>,
     /// IR-cut filter transmittance (fraction), one value per wavelength; absent = 1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -70,6 +89,90 @@ pub struct QeConfig {
     /// Photodetector QE (fraction), one value per wavelength; absent = 1.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pixel_qe: Option<Vec<f64>>,
+    /// The 3x3 QE correction M fitted for these curves (same form as `qe_correction` of
+    /// [`SensorConfig`]). It lives in this table so that replacing the curves (a new `[qe]`
+    /// table, e.g. `file = "my-qe.csv"`) drops it: a sensor made from the pixel4a template
+    /// with other QE gets no correction unless it sets one. When the sensor is built it is
+    /// moved to `qe_correction` (giving both is an error).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correction: Option<[[f64; 3]; 3]>,
+}
+
+/// Column names accepted for each curve of a QE file (case-insensitive).
+const QE_COLUMNS: [(&str, &[&str]); 5] = [
+    ("r", &["r", "red"]),
+    ("g", &["g", "green"]),
+    ("b", &["b", "blue"]),
+    ("ir_cut", &["ir_cut", "ir_filter", "ir", "ircut", "irfilter"]),
+    ("pixel_qe", &["pixel_qe", "pixel", "pd_qe"]),
+];
+
+impl QeConfig {
+    /// Read `file` (relative paths against `base_dir`) into the inline curves. No-op without a
+    /// file. Errors name the file, the missing column or the conflicting inline key.
+    pub fn load_file(&mut self, base_dir: &Path, source_name: &str) -> Result<()> {
+        let Some(file) = self.file.take() else { return Ok(()) };
+        let path = if file.is_relative() { base_dir.join(&file) } else { file.clone() };
+        let bad = |key: &str, message: String| SensorError::Config {
+            source_name: source_name.to_string(),
+            key: key.to_string(),
+            message,
+        };
+        if !self.wavelengths_nm.is_empty() || !self.r.is_empty() || !self.g.is_empty() || !self.b.is_empty() {
+            return Err(bad("qe.file", "give either file or the inline curves (wavelengths_nm, r, g, b), not both".into()));
+        }
+        let table = camsim_core::spectrum_csv::load_spectra(&path)?;
+        let lower: Vec<String> = table.names.iter().map(|n| n.trim().to_ascii_lowercase()).collect();
+        let mut used = vec![false; lower.len()];
+        let mut found: [Option<Vec<f64>>; 5] = Default::default();
+        for (k, (key, aliases)) in QE_COLUMNS.iter().enumerate() {
+            let exact = lower.iter().position(|n| aliases.contains(&n.as_str()));
+            // ISETCam: the first letter of a filter name is its colour (sensorColorOrder).
+            let by_letter = || {
+                if k >= 3 {
+                    return None;
+                }
+                let hits: Vec<usize> = (0..lower.len())
+                    .filter(|&i| !used[i] && lower[i].starts_with(*key) && !QE_COLUMNS.iter().any(|(_, a)| a.contains(&lower[i].as_str())))
+                    .collect();
+                (hits.len() == 1).then(|| hits[0])
+            };
+            if let Some(i) = exact.or_else(by_letter) {
+                used[i] = true;
+                found[k] = Some(table.columns[i].clone());
+            }
+        }
+        let names = table.names.join(", ");
+        let file_key = format!("qe.file {}", path.display());
+        if let Some(i) = used.iter().position(|u| !u) {
+            return Err(bad(
+                &file_key,
+                format!("column '{}' is not a QE curve (expected r, g, b and optionally ir_cut, pixel_qe; the file has {names})", table.names[i]),
+            ));
+        }
+        let [r, g, b, ir, px] = found;
+        let need = |c: Option<Vec<f64>>, key: &str| {
+            c.ok_or_else(|| bad(&file_key, format!("no '{key}' column (the file has {names})")))
+        };
+        self.r = need(r, "r")?;
+        self.g = need(g, "g")?;
+        self.b = need(b, "b")?;
+        if ir.is_some() {
+            if self.ir_cut.is_some() {
+                return Err(bad("qe.ir_cut", format!("given inline and as a column of {}", path.display())));
+            }
+            self.ir_cut = ir;
+        }
+        if px.is_some() {
+            if self.pixel_qe.is_some() {
+                return Err(bad("qe.pixel_qe", format!("given inline and as a column of {}", path.display())));
+            }
+            self.pixel_qe = px;
+        }
+        self.wavelengths_nm = table.wavelengths_nm;
+        self.loaded_from = Some(path.display().to_string());
+        Ok(())
+    }
 }
 
 /// A sensor as written in a TOML file (presets are such files, built in). Unknown keys are errors.
@@ -155,6 +258,23 @@ impl SensorConfig {
     pub fn to_toml(&self) -> String {
         // Serialising a struct of plain numbers, strings and arrays cannot fail.
         toml::to_string(self).unwrap_or_else(|e| format!("# could not serialise sensor config: {e}\n"))
+    }
+
+    /// Make the config self-contained: read `[qe] file` (relative to `base_dir`) into the
+    /// inline curves, and move `[qe] correction` to `qe_correction` (both given: an error).
+    pub fn resolve(&mut self, base_dir: &Path, source_name: &str) -> Result<()> {
+        self.qe.load_file(base_dir, source_name)?;
+        if let Some(m) = self.qe.correction.take() {
+            if self.qe_correction.is_some() {
+                return Err(SensorError::Config {
+                    source_name: source_name.to_string(),
+                    key: "qe_correction".into(),
+                    message: "given both at the top level and as [qe] correction; keep one".into(),
+                });
+            }
+            self.qe_correction = Some(m);
+        }
+        Ok(())
     }
 
     /// Check every value; the error names `source_name` and the key.

@@ -62,7 +62,10 @@ impl Sensor {
     }
 
     /// As [`Sensor::from_config`], naming `source_name` (file or preset) in errors.
-    pub fn from_config_named(config: SensorConfig, source_name: &str) -> Result<Sensor> {
+    /// A `[qe] file` still in the config is read relative to the current folder (see
+    /// [`Sensor::from_file`] for files relative to the sensor TOML).
+    pub fn from_config_named(mut config: SensorConfig, source_name: &str) -> Result<Sensor> {
+        config.resolve(Path::new(""), source_name)?;
         config.validate(source_name)?;
         let q = &config.qe;
         let n = q.wavelengths_nm.len();
@@ -120,12 +123,19 @@ impl Sensor {
         Sensor::from_config_named(config, source_name)
     }
 
+    /// Parse TOML text whose relative paths (`[qe] file`) are relative to `base_dir`.
+    pub fn from_toml_str_in(text: &str, source_name: &str, base_dir: &Path) -> Result<Sensor> {
+        let mut config = SensorConfig::from_toml_str(text, source_name)?;
+        config.resolve(base_dir, source_name)?;
+        Sensor::from_config_named(config, source_name)
+    }
+
     /// Read a sensor TOML file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Sensor> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
             .map_err(|e| camsim_core::CoreError::Io { path: path.to_path_buf(), source: e })?;
-        Sensor::from_toml_str(&text, &path.display().to_string())
+        Sensor::from_toml_str_in(&text, &path.display().to_string(), path.parent().unwrap_or(Path::new("")))
     }
 
     /// A built-in preset (`imx363`, `pixel4a`, `ideal`).
@@ -151,6 +161,26 @@ impl Sensor {
         c.rows = rows;
         c.cols = cols;
         Sensor::from_config_named(c, &self.config.name)
+    }
+
+    /// A window of `rows` x `cols` pixels of this sensor (e.g. `[sensor] rows/cols` of a simulate
+    /// config, `camsim sensor --rows/--cols`). Unlike [`Sensor::with_size`] it refuses a window
+    /// larger than the sensor: a 5000 x 6000 window of a 3024 x 4032 sensor does not exist.
+    pub fn window(&self, rows: usize, cols: usize) -> Result<Sensor> {
+        for (key, want, have) in [("rows", rows, self.rows()), ("cols", cols, self.cols())] {
+            if want == 0 || want > have {
+                return Err(SensorError::Config {
+                    source_name: format!("window of sensor {}", self.config.name),
+                    key: key.to_string(),
+                    message: format!(
+                        "{rows} x {cols} pixels does not fit the sensor, which is {} x {} pixels (rows x cols); {key} must be 1..={have}",
+                        self.rows(),
+                        self.cols()
+                    ),
+                });
+            }
+        }
+        self.with_size(rows, cols)
     }
 
     /// The same sensor with other noise switches.

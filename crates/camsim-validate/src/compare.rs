@@ -1,16 +1,20 @@
 //! Region-by-region comparison of a user's measured raw images with simulated ones (the paper's
 //! Figure 6 method for any camera).
 //!
-//! Config (TOML; relative paths are relative to the config file's folder):
+//! Config (TOML; relative paths are relative to the config file's folder; unknown keys are
+//! errors). Every key:
 //! ```toml
-//! simulated = "out/sim"                 # a raw DNG, or a `camsim simulate` folder (its raw.dng)
-//! measured = ["IMG_0001.dng", "IMG_0002.dng"]   # one or more DNGs of the same scene
-//! sensor = "pixel4a"                    # preset name or a sensor TOML file (noise prediction)
+//! simulated = "out/sim"                 # required: a raw DNG, or a `camsim simulate` folder (its raw.dng)
+//! measured = ["IMG_0001.dng", "IMG_0002.dng"]   # required: one DNG (a string) or a list of DNGs of the same scene
+//! sensor = "pixel4a"                    # optional: preset name or sensor TOML file; absent = no noise prediction
+//! exposure_s = 0.01                     # optional: exposure for the noise prediction (dark current), s;
+//!                                       #           default: the simulated frame's exposure
 //!
+//! # one or more regions (required); each has all three keys:
 //! [[region]]
-//! name = "gray patch"
-//! measured = [1510, 2010, 40, 40]       # row, col, rows, cols in the measured image
-//! simulated = [1500, 2000, 40, 40]      # the corresponding region in the simulated image
+//! name = "gray patch"                   # shown in the report
+//! measured = [1510, 2010, 40, 40]       # row, col, rows, cols (pixels, top-left corner) in the measured image
+//! simulated = [1500, 2000, 40, 40]      # the corresponding region in the simulated image (rows, cols >= 1)
 //! ```
 //! For every region and CFA channel: mean and standard deviation (DN above black) in both
 //! images, and the standard deviation the sensor model predicts at each mean

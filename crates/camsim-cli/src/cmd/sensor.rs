@@ -13,8 +13,12 @@ use std::path::{Path, PathBuf};
 /// Turn irradiance into raw digital values with the ISETCam sensor model: pixel area
 /// integration, QE x colour filter x IR cut, photon shot noise, dark current, DSNU and PRNU
 /// (a fixed pattern that belongs to the sensor), read noise, analog gain and offset, clipping at
-/// the voltage swing and quantization. Writes raw.dng (raw_0001.dng ... for more frames) and
-/// raw.png.
+/// the voltage swing and quantization. Writes raw.dng (the exact ADC values; raw_0001.dng ...
+/// for more frames) and raw.png (the mosaic scaled to the full 16-bit range for viewing:
+/// value = round(DN x 65535 / (2^bits - 1))). --rows/--cols larger than the sensor are refused.
+///
+/// The output folder always holds one complete run (written beside it, swapped in at the end; an
+/// earlier run is replaced as a whole, a failed or interrupted one leaves it untouched).
 ///
 /// With --emva-series it instead simulates an EMVA 1288 photon-transfer series (flat fields at
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
@@ -28,10 +32,10 @@ pub struct Args {
     /// Sensor: a preset (pixel4a, imx363, ideal) or a sensor TOML file.
     #[arg(long, default_value = "pixel4a")]
     pub sensor: String,
-    /// Window rows centred on the optical axis (default: the full sensor).
+    /// Window rows centred on the optical axis (default: the full sensor; at most the sensor's rows).
     #[arg(long)]
     pub rows: Option<usize>,
-    /// Window columns.
+    /// Window columns (at most the sensor's columns).
     #[arg(long)]
     pub cols: Option<usize>,
     /// Exposure time, ms (default: auto-exposure to 90 % of the swing at the 99th percentile).
@@ -59,16 +63,16 @@ pub struct Args {
     /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
     #[arg(long)]
     pub analog_offset_mv: Option<f64>,
-    /// Output folder.
+    /// Output folder (created; an earlier camsim run in it is replaced as a whole when this
+    /// run completes; any other existing content is refused).
     #[arg(long, default_value = "out/sensor")]
     pub out: PathBuf,
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let out = common::out_dir(&a.out)?;
     let mut sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
-        sensor = sensor.with_size(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
+        sensor = sensor.window(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
     }
     if a.no_noise {
         sensor = sensor.with_noise(NoiseSwitches::none());
@@ -76,8 +80,10 @@ pub fn run(a: Args) -> Result<()> {
     if a.frames == 0 {
         anyhow::bail!("--frames must be at least 1");
     }
+    let out = common::stage_out_dir(&a.out)?;
     if a.emva_series {
-        return emva_series(&sensor, &a, &out);
+        emva_series(&sensor, &a, out.path())?;
+        return common::commit(out);
     }
     let input = a.input.as_ref().expect("clap requires --in without --emva-series");
     let irr = camsim_io::exr::read_spectral_exr(input)?;
@@ -97,7 +103,8 @@ pub fn run(a: Args) -> Result<()> {
         camsim_io::dng::write_dng(&out.join(name), raw, &meta)?;
     }
     let r0 = &frame.raw[0];
-    camsim_io::raster::write_png16_gray(&out.join("raw.png"), r0.rows, r0.cols, &r0.dn)?;
+    camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), r0.rows, r0.cols, &r0.dn, r0.bits)?;
+    common::commit(out)?;
     say(format!(
         "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
         frame.raw.len(),
@@ -105,7 +112,7 @@ pub fn run(a: Args) -> Result<()> {
         frame.mean_electrons[0],
         frame.mean_electrons[1],
         frame.mean_electrons[2],
-        out.display()
+        a.out.display()
     ));
     Ok(())
 }
@@ -161,6 +168,6 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     }
     pb.finish_and_clear();
     camsim_io::atomic::write_bytes_atomic(&out.join("series.csv"), csv.as_bytes())?;
-    say(format!("wrote an EMVA 1288 series of {n} levels ({rows} x {cols}) in {}; next: camsim analyze emva {}", out.display(), out.join("series.csv").display()));
+    say(format!("wrote an EMVA 1288 series of {n} levels ({rows} x {cols}) in {}; next: camsim analyze emva {}", a.out.display(), a.out.join("series.csv").display()));
     Ok(())
 }

@@ -13,15 +13,21 @@ use std::path::PathBuf;
 /// the files under examples/.
 ///
 /// Writes in --out: radiance.exr (scene, W/(sr m^2 nm)), irradiance.exr (sensor plane,
-/// W/(m^2 nm)), raw.dng (and raw_0001.dng ... with --frames N), raw.png (16-bit mosaic),
-/// preview.png (sRGB) and run.json (every parameter; `camsim simulate out/run.json` repeats the
-/// run).
+/// W/(m^2 nm)), raw.dng (the exact ADC values; raw_0001.dng ... with --frames N), raw.png (the
+/// mosaic scaled to the full 16-bit range for viewing: value = round(DN x 65535 / (2^bits - 1)),
+/// recorded in run.json), preview.png (sRGB) and run.json (every parameter; `camsim simulate
+/// out/run.json` repeats the run).
+///
+/// The folder always holds one complete run: the files are written into DIR.tmp-<pid> beside it
+/// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
+/// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
     pub config: Option<PathBuf>,
-    /// Output folder.
+    /// Output folder (created; an earlier camsim run in it is replaced as a whole when this
+    /// run completes; any other existing content is refused).
     #[arg(long, default_value = "out/simulate")]
     pub out: PathBuf,
     /// Number of raw frames of the same exposure (new temporal noise, same fixed pattern).
@@ -56,14 +62,16 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", toml::to_string_pretty(&cfg)?);
         return Ok(());
     }
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir(&a.out)?;
     let pb = common::progress(1, "simulate");
-    let s = camsim_pipeline::run_simulation(&cfg, a.config.as_deref(), &out, &|stage, done, total| {
+    let s = camsim_pipeline::run_simulation(&cfg, a.config.as_deref(), &staged, &|stage, done, total| {
         pb.set_message(stage.to_string());
         pb.set_length(total.max(1));
         pb.set_position(done);
     })?;
     pb.finish_and_clear();
+    common::commit(staged)?;
+    let out = &a.out;
     say(format!(
         "exposure {:.3} ms, mean DN r/g/b = {:.1} / {:.1} / {:.1}; {} frame(s) in {:.2} s -> {}",
         s.exposure_s * 1e3,

@@ -13,8 +13,33 @@ use std::path::PathBuf;
 ///
 /// `camsim validate compare CONFIG.toml` compares your measured DNGs with simulated ones region by
 /// region, as the paper did with its Pixel 4a images.
+macro_rules! validate_examples {
+    () => {
+        "Examples:\n  camsim validate cornell-box --out out/report                 (quick: under a minute)\n  camsim validate cornell-box --quality paper --out out/paper   (full resolution, ~15 min)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim validate compare my-camera.toml --out out/my-camera"
+    };
+}
+
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim validate cornell-box --out out/report                 (quick: under a minute)\n  camsim validate cornell-box --quality paper --out out/paper   (full resolution, ~15 min)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim validate compare my-camera.toml --out out/my-camera")]
+#[command(
+    after_help = concat!("(`camsim validate --help` also documents the compare config.)\n\n", validate_examples!()),
+    after_long_help = concat!(
+        "The compare config (TOML; relative paths are relative to the config file; unknown keys are errors):\n",
+        "  simulated = \"out/sim\"          required: a simulated raw DNG, or a `camsim simulate` output folder (its raw.dng)\n",
+        "  measured = [\"IMG_1.dng\"]       required: one measured DNG (a string) or a list of DNGs of the same scene\n",
+        "  sensor = \"pixel4a\"             optional: sensor preset or sensor TOML file for the noise prediction\n",
+        "                                 (absent: no prediction)\n",
+        "  exposure_s = 0.01              optional: exposure time for the noise prediction (dark current), s;\n",
+        "                                 default: the simulated frame's exposure\n",
+        "  [[region]]                     one table per region (at least one), each with all three keys:\n",
+        "  name = \"gray patch\"            shown in the report\n",
+        "  measured = [1510, 2010, 40, 40]   row, col, rows, cols (pixels; row, col the top-left corner) in the measured image\n",
+        "  simulated = [1500, 2000, 40, 40]  the corresponding region in the simulated image (rows, cols >= 1)\n",
+        "For every region and CFA channel the report gives mean and standard deviation (DN above black) in\n",
+        "both images and the model's predicted standard deviation; several measured frames are averaged.\n",
+        "Writes report.html, results.json, compare_means.png and compare_std.png.\n\n",
+        validate_examples!()
+    )
+)]
 pub struct Args {
     /// cornell-box, or compare (with CONFIG).
     pub what: String,
@@ -30,6 +55,7 @@ pub struct Args {
     /// Seed of the render and the sensor noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Output folder (report.html, results.json, figures).
     #[arg(long, default_value = "out/validate")]
     pub out: PathBuf,
 }
