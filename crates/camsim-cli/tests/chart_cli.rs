@@ -61,7 +61,7 @@ preset = "pixel4a"
 rows = 220
 cols = 320
 [capture]
-auto_target_fraction = 0.8
+exposure_ms = 6.0 # the white patch well below saturation
 "#;
 
 #[test]
@@ -236,7 +236,7 @@ fn malformed_chart_and_roi_arguments_exit_2_with_a_message() {
         (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "0", "--out", o], "fraction"),
         (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "1.5", "--out", o], "fraction"),
         (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "x", "--out", o], "fraction"),
-        (vec!["chart", d, "--corners", "--out", o], "corners"),
+        (vec!["chart", d, "--corners"], "corners"),
         (vec!["chart", nocfg.to_str().unwrap(), "--out", o], "run.json"),
         (vec!["chart", "/nonexistent/raw.dng", "--corners", "10,8,130,8,130,88,10,88", "--out", o], "/nonexistent/raw.dng"),
         (vec!["roi", d, "--out", o], "--region"),
@@ -262,20 +262,31 @@ fn malformed_chart_and_roi_arguments_exit_2_with_a_message() {
 }
 
 #[test]
-fn chart_and_roi_help_describe_every_option() {
+fn chart_and_roi_help_describe_every_option_and_examples_are_single_lines() {
     for sub in ["chart", "roi"] {
         let o = camsim(&["analyze", sub, "--help"]);
         assert!(o.status.success());
         let text = String::from_utf8_lossy(&o.stdout).into_owned();
-        // Every option line ("  --name ...") carries a description after its value name.
-        let options: Vec<&str> = text.lines().filter(|l| l.trim_start().starts_with("--") || l.trim_start().starts_with("-q")).collect();
-        assert!(options.len() >= 6, "{sub}: {text}");
-        for opt in ["--json", "--out", "--cfa", "--black-dn", "--bits"] {
-            let line = text.lines().position(|l| l.trim_start().starts_with(opt)).unwrap_or_else(|| panic!("{sub} --help lacks {opt}"));
-            let l = text.lines().nth(line).unwrap();
-            let described = l.split("  ").filter(|s| !s.trim().is_empty()).count() >= 2 || text.lines().nth(line + 1).is_some_and(|n| n.starts_with("          ") && !n.trim().starts_with('-'));
-            assert!(described, "{sub}: option {opt} has no description: {l}");
+        let (_, rest) = text.split_once("Options:").unwrap_or_else(|| panic!("{sub}: {text}"));
+        let (options, examples) = rest.split_once("Examples:").unwrap_or_else(|| panic!("{sub}: no Examples: {text}"));
+        // Every option line ("  -q, --quiet  Hide ..." / "  --out <OUT>  Output ...") has a description.
+        let mut seen = Vec::new();
+        for line in options.lines() {
+            let t = line.trim_start();
+            if t.starts_with('-') {
+                let desc = t.split_once("  ").map(|(_, d)| d.trim()).unwrap_or("");
+                assert!(!desc.is_empty(), "{sub}: option without a description: {line}");
+                seen.push(t.split_whitespace().find(|w| w.starts_with("--")).unwrap_or("").to_string());
+            }
         }
-        assert!(text.contains("Examples:"), "{sub}: {text}");
+        for opt in ["--json", "--out", "--cfa", "--black-dn", "--bits"] {
+            assert!(seen.iter().any(|s| s == opt), "{sub} --help lacks {opt}: {seen:?}");
+        }
+        // Example lines are whole commands (a wrapped line would not start with "camsim").
+        let lines: Vec<&str> = examples.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert!(lines.len() >= 2, "{sub}: {examples}");
+        for l in lines {
+            assert!(l.starts_with(&format!("  camsim analyze {sub} ")), "{sub}: example line is not a whole command: {l:?}");
+        }
     }
 }

@@ -312,7 +312,8 @@ fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -
 /// come from the run.json beside it; for other files give --corners. Writes patches.csv,
 /// profile.csv, profile.png and chart.json in --out.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim analyze chart out/simulate/raw.dng --out out/chart\n  camsim analyze chart ../shared/data/dng/canon-550d-colorchecker-passport.dng --corners 671,587,1293,572,1304,962,655,974 --out out/chart-canon")]
+// (Example lines stay under 100 characters: clap wraps help text at the terminal width.)
+#[command(after_help = "Examples:\n  camsim analyze chart out/simulate/raw.dng --out out/chart\n  camsim analyze chart out/simulate/raw.dng --corners 23,42,617,42,617,438,23,438 --out out/chart2")]
 pub struct ChartArgs {
     /// Raw DNG (CFA, or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub image: PathBuf,
@@ -408,7 +409,7 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
 /// pixels (both greens pooled); a LinearRaw DNG on its RGB planes. Writes roi.csv and roi.json
 /// (and means.png, stds.png for two images) in --out.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim analyze roi out/simulate/raw.dng --region 200,300,40,40 --sensor pixel4a --out out/roi\n  camsim analyze roi ../shared/data/dng/canon-550d-colorchecker-passport.dng --region 900,680,40,40 --region 885,1200,40,40 --out out/roi-canon")]
+#[command(after_help = "Examples:\n  camsim analyze roi out/simulate/raw.dng --region 200,300,40,40 --sensor pixel4a --out out/roi\n  camsim analyze roi out/simulate/raw.dng --region 60,40,20,20 --region 400,580,20,20 --out out/roi2")]
 pub struct RoiArgs {
     /// First image (simulated): raw DNG (CFA or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub a: PathBuf,
