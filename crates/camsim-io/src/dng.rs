@@ -201,12 +201,56 @@ fn exposure_rational(t: f64) -> (u32, u32) {
 
 /// Write `raw` as an uncompressed 16-bit CFA DNG, atomically.
 pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> {
+    let image = Samples {
+        rows: raw.rows,
+        cols: raw.cols,
+        dn: &raw.dn,
+        cfa: Some(raw.cfa),
+        black_level_dn: &[raw.black_level_dn],
+        white_level_dn: &[raw.white_level_dn],
+        exposure_s: raw.exposure_s,
+        pixel_pitch_m: raw.pixel_pitch_m,
+    };
+    write_samples(path, &image, meta)
+}
+
+/// Write a demosaiced RGB image as an uncompressed 16-bit LinearRaw DNG
+/// (PhotometricInterpretation 34892, 3 samples per pixel, per-sample black and white levels),
+/// atomically.
+pub fn write_linear_raw_dng(path: &Path, img: &LinearRawImage, meta: &DngMetadata) -> Result<()> {
+    let image = Samples {
+        rows: img.rows,
+        cols: img.cols,
+        dn: &img.dn,
+        cfa: None,
+        black_level_dn: &img.black_level_dn,
+        white_level_dn: &img.white_level_dn,
+        exposure_s: img.exposure_s,
+        pixel_pitch_m: img.pixel_pitch_m,
+    };
+    write_samples(path, &image, meta)
+}
+
+/// What the writer needs of a CFA (`cfa` set, 1 sample per pixel) or LinearRaw (3) image.
+struct Samples<'a> {
+    rows: usize,
+    cols: usize,
+    dn: &'a [u16],
+    cfa: Option<CfaPattern>,
+    black_level_dn: &'a [f64],
+    white_level_dn: &'a [f64],
+    exposure_s: f64,
+    pixel_pitch_m: f64,
+}
+
+fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
     let (rows, cols) = (raw.rows, raw.cols);
-    if rows == 0 || cols == 0 || raw.dn.len() != rows * cols {
+    let spp = if raw.cfa.is_some() { 1 } else { 3 };
+    if rows == 0 || cols == 0 || raw.dn.len() != rows * cols * spp {
         return Err(IoError::invalid(
             path,
             format!(
-                "raw image has {} values for {rows} x {cols} pixels",
+                "raw image has {} values for {rows} x {cols} pixels of {spp} samples",
                 raw.dn.len()
             ),
         ));
@@ -217,47 +261,54 @@ pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> 
             format!("{rows} x {cols} is too large for a DNG"),
         ));
     }
-    let strip_rows = (256 * 1024 / (cols * 2)).clamp(1, rows);
+    let row_samples = cols * spp;
+    let strip_rows = (256 * 1024 / (row_samples * 2)).clamp(1, rows);
     let n_strips = rows.div_ceil(strip_rows);
     let strip_lens: Vec<u64> = (0..n_strips)
-        .map(|s| ((rows - s * strip_rows).min(strip_rows) * cols * 2) as u64)
+        .map(|s| ((rows - s * strip_rows).min(strip_rows) * row_samples * 2) as u64)
         .collect();
     let cm = meta
         .color_matrix1
         .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    let black = raw.black_level_dn;
     let mut tags: Vec<(u16, Value)> = vec![
         (tag::NEW_SUBFILE_TYPE, Value::Long(vec![0])),
         (tag::IMAGE_WIDTH, Value::Long(vec![cols as u32])),
         (tag::IMAGE_LENGTH, Value::Long(vec![rows as u32])),
-        (tag::BITS_PER_SAMPLE, Value::Short(vec![16])),
+        (tag::BITS_PER_SAMPLE, Value::Short(vec![16; spp])),
         (tag::COMPRESSION, Value::Short(vec![1])),
-        (tag::PHOTOMETRIC, Value::Short(vec![PHOTOMETRIC_CFA])),
+        (
+            tag::PHOTOMETRIC,
+            Value::Short(vec![if raw.cfa.is_some() { PHOTOMETRIC_CFA } else { PHOTOMETRIC_LINEAR_RAW }]),
+        ),
         (tag::MAKE, Value::Ascii(meta.make.clone())),
         (tag::MODEL, Value::Ascii(meta.camera_model.clone())),
         (tag::ORIENTATION, Value::Short(vec![meta.orientation])),
-        (tag::SAMPLES_PER_PIXEL, Value::Short(vec![1])),
+        (tag::SAMPLES_PER_PIXEL, Value::Short(vec![spp as u16])),
         (tag::ROWS_PER_STRIP, Value::Long(vec![strip_rows as u32])),
         (tag::PLANAR_CONFIGURATION, Value::Short(vec![1])),
         (
             tag::SOFTWARE,
             Value::Ascii(format!("camsim {}", env!("CARGO_PKG_VERSION"))),
         ),
-        (tag::CFA_REPEAT_PATTERN_DIM, Value::Short(vec![2, 2])),
-        (tag::CFA_PATTERN, Value::Byte(raw.cfa.dng_codes().to_vec())),
         (tag::DNG_VERSION, Value::Byte(vec![1, 4, 0, 0])),
         (tag::DNG_BACKWARD_VERSION, Value::Byte(vec![1, 1, 0, 0])),
         (
             tag::UNIQUE_CAMERA_MODEL,
             Value::Ascii(meta.camera_model.clone()),
         ),
-        (tag::CFA_PLANE_COLOR, Value::Byte(vec![0, 1, 2])),
-        (tag::CFA_LAYOUT, Value::Short(vec![1])),
         (tag::BLACK_LEVEL_REPEAT_DIM, Value::Short(vec![1, 1])),
-        (tag::BLACK_LEVEL, Value::Rational(vec![rational(black)])),
+        (
+            tag::BLACK_LEVEL,
+            Value::Rational(raw.black_level_dn.iter().map(|b| rational(*b)).collect()),
+        ),
         (
             tag::WHITE_LEVEL,
-            Value::Long(vec![raw.white_level_dn.round().clamp(1.0, 65535.0) as u32]),
+            Value::Long(
+                raw.white_level_dn
+                    .iter()
+                    .map(|w| w.round().clamp(1.0, 65535.0) as u32)
+                    .collect(),
+            ),
         ),
         (
             tag::COLOR_MATRIX_1,
@@ -268,6 +319,12 @@ pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> 
             Value::Short(vec![meta.calibration_illuminant]),
         ),
     ];
+    if let Some(cfa) = raw.cfa {
+        tags.push((tag::CFA_REPEAT_PATTERN_DIM, Value::Short(vec![2, 2])));
+        tags.push((tag::CFA_PATTERN, Value::Byte(cfa.dng_codes().to_vec())));
+        tags.push((tag::CFA_PLANE_COLOR, Value::Byte(vec![0, 1, 2])));
+        tags.push((tag::CFA_LAYOUT, Value::Short(vec![1])));
+    }
     if let Some(d) = &meta.description {
         tags.push((tag::IMAGE_DESCRIPTION, Value::Ascii(d.clone())));
     }
@@ -315,10 +372,10 @@ pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> 
     let head = crate::tiff::layout(&spec, true).map_err(|m| IoError::invalid(path, m))?;
     crate::atomic::write_atomic(path, |w: &mut dyn Write| {
         w.write_all(&head)?;
-        let mut buf = Vec::with_capacity(cols * 2);
+        let mut buf = Vec::with_capacity(row_samples * 2);
         for r in 0..rows {
             buf.clear();
-            for v in &raw.dn[r * cols..(r + 1) * cols] {
+            for v in &raw.dn[r * row_samples..(r + 1) * row_samples] {
                 buf.extend_from_slice(&v.to_le_bytes());
             }
             w.write_all(&buf)?; // strips are even-length: no padding needed
@@ -384,21 +441,81 @@ impl<'a, 'p> Reader<'a, 'p> {
     }
 }
 
+/// A demosaiced linear raw image (DNG PhotometricInterpretation 34892 "LinearRaw", as phones
+/// write after their own demosaicking): RGB samples per pixel, linear in light, not
+/// black-subtracted. Cropped to the ActiveArea and linearized like the CFA image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearRawImage {
+    /// Rows, pixels.
+    pub rows: usize,
+    /// Columns, pixels.
+    pub cols: usize,
+    /// Interleaved R, G, B samples, row-major: `rows * cols * 3` values, DN.
+    pub dn: Vec<u16>,
+    /// Black level per sample (R, G, B), DN: the mean of the BlackLevel pattern plus the mean
+    /// BlackLevelDeltaH/V.
+    pub black_level_dn: [f64; 3],
+    /// White level per sample (R, G, B), DN.
+    pub white_level_dn: [f64; 3],
+    /// Exposure time, s (0 when unknown).
+    pub exposure_s: f64,
+    /// Pixel pitch, m (0 when unknown).
+    pub pixel_pitch_m: f64,
+}
+
+impl LinearRawImage {
+    /// Value of sample `channel` (0 R, 1 G, 2 B) at pixel (row, col), DN.
+    pub fn at(&self, row: usize, col: usize, channel: usize) -> u16 {
+        self.dn[(row * self.cols + col) * 3 + channel]
+    }
+}
+
+/// The raw image of a DNG: a CFA mosaic or a demosaiced LinearRaw image.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DngImage {
+    /// PhotometricInterpretation 32803: one sample per pixel behind a Bayer CFA.
+    Cfa(RawImage),
+    /// PhotometricInterpretation 34892: three samples (R, G, B) per pixel.
+    LinearRaw(LinearRawImage),
+}
+
 /// Read a DNG's raw CFA image and its metadata. The image is cropped to the ActiveArea and
 /// linearized (LinearizationTable) but not black-subtracted; `black_level_dn` is the mean of
-/// the per-position black levels (see [`DngInfo::black_level_cfa_dn`]).
+/// the per-position black levels (see [`DngInfo::black_level_cfa_dn`]). A LinearRaw DNG is an
+/// error here; [`read_dng_image`] reads both kinds.
 pub fn read_dng(path: &Path) -> Result<(RawImage, DngInfo)> {
-    let len = std::fs::metadata(path)
-        .map_err(|e| IoError::io(path, e))?
-        .len();
-    mem::check_alloc(len, &format!("reading {}", path.display()))
-        .map_err(|e| IoError::core(path, e))?;
-    let data = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
+    let data = read_file(path)?;
     read_dng_bytes(&data, path)
 }
 
 /// [`read_dng`] on bytes in memory; `path` only names the file in errors.
 pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
+    match read_dng_image_bytes(data, path)? {
+        (DngImage::Cfa(raw), info) => Ok((raw, info)),
+        (DngImage::LinearRaw(_), _) => Err(IoError::format(
+            path,
+            "holds a demosaiced LinearRaw image, not CFA raw data (only `camsim analyze chart` and `analyze roi` read LinearRaw DNGs)",
+        )),
+    }
+}
+
+/// Read a DNG's raw image, CFA or LinearRaw (3 samples per pixel, chunky), with its metadata.
+pub fn read_dng_image(path: &Path) -> Result<(DngImage, DngInfo)> {
+    let data = read_file(path)?;
+    read_dng_image_bytes(&data, path)
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| IoError::io(path, e))?
+        .len();
+    mem::check_alloc(len, &format!("reading {}", path.display()))
+        .map_err(|e| IoError::core(path, e))?;
+    std::fs::read(path).map_err(|e| IoError::io(path, e))
+}
+
+/// [`read_dng_image`] on bytes in memory; `path` only names the file in errors.
+pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngInfo)> {
     let t = Tiff::parse(data).map_err(|m| IoError::format(path, m))?;
     let r = Reader { t, path };
     let ifd0 = &r.t.ifds[0];
@@ -409,32 +526,37 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
             .map(|v| [v[0] as u8, v[1] as u8, v[2] as u8, v[3] as u8]),
         ..Default::default()
     };
-    // Choose the raw IFD: full-resolution (NewSubfileType 0) CFA, the largest if several.
-    let mut best: Option<(usize, u64)> = None;
-    let mut linear_raw = false;
+    // Choose the raw IFD: full-resolution (NewSubfileType 0) CFA, the largest if several; a
+    // LinearRaw IFD only when there is no CFA one.
+    let mut best_cfa: Option<(usize, u64)> = None;
+    let mut best_linear: Option<(usize, u64)> = None;
     for (i, ifd) in r.t.ifds.iter().enumerate() {
         if r.t.exif.contains(&i) {
             continue;
         }
         let photometric = r.uint(ifd, tag::PHOTOMETRIC)?.unwrap_or(0);
         let subfile = r.uint(ifd, tag::NEW_SUBFILE_TYPE)?.unwrap_or(0);
-        if photometric == PHOTOMETRIC_LINEAR_RAW as u64 && subfile == 0 {
-            linear_raw = true;
-        }
-        if photometric == PHOTOMETRIC_CFA as u64 && subfile == 0 {
+        let slot = match photometric {
+            p if p == PHOTOMETRIC_CFA as u64 => &mut best_cfa,
+            p if p == PHOTOMETRIC_LINEAR_RAW as u64 => &mut best_linear,
+            _ => continue,
+        };
+        if subfile == 0 {
             let area = r.uint(ifd, tag::IMAGE_WIDTH)?.unwrap_or(0)
                 * r.uint(ifd, tag::IMAGE_LENGTH)?.unwrap_or(0);
-            if !matches!(best, Some(b) if area <= b.1) {
-                best = Some((i, area));
+            if !matches!(*slot, Some(b) if area <= b.1) {
+                *slot = Some((i, area));
             }
         }
     }
-    let Some((raw_index, _)) = best else {
-        return r.fail(if linear_raw {
-            "holds a demosaiced LinearRaw image, not CFA raw data (not supported)"
-        } else {
-            "no raw CFA image (no IFD with PhotometricInterpretation 32803 and NewSubfileType 0)"
-        });
+    let (raw_index, linear) = match (best_cfa, best_linear) {
+        (Some((i, _)), _) => (i, false),
+        (None, Some((i, _))) => (i, true),
+        (None, None) => {
+            return r.fail(
+                "no raw image (no IFD with PhotometricInterpretation 32803 (CFA) or 34892 (LinearRaw) and NewSubfileType 0)",
+            )
+        }
     };
     let raw = &r.t.ifds[raw_index];
 
@@ -445,21 +567,28 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
             "raw image size {width} x {height} is not plausible"
         ));
     }
+    let spp = r.uint(raw, tag::SAMPLES_PER_PIXEL)?.unwrap_or(1);
+    let expected_spp = if linear { 3 } else { 1 };
+    if spp != expected_spp {
+        return r.fail(if linear {
+            format!("LinearRaw image has {spp} samples per pixel; only 3 (RGB) is supported")
+        } else {
+            format!("raw CFA image has {spp} samples per pixel; expected 1")
+        });
+    }
+    let spp = spp as usize;
+    if linear && r.uint(raw, tag::PLANAR_CONFIGURATION)?.unwrap_or(1) != 1 {
+        return r.fail("LinearRaw image is stored planar (PlanarConfiguration 2); only chunky (1) is supported");
+    }
     // Every sample takes at least one bit, compressed or not: a size the file cannot hold is corrupt.
-    if (width * height) as u64 > 8 * data.len() as u64 {
+    if (width * height * spp) as u64 > 8 * data.len() as u64 {
         return r.fail(format!(
             "raw image size {width} x {height} is more than a {}-byte file can hold",
             data.len()
         ));
     }
-    mem::check_alloc((width * height * 2) as u64, "the raw image")
+    mem::check_alloc((width * height * spp * 2) as u64, "the raw image")
         .map_err(|e| IoError::core(path, e))?;
-    let spp = r.uint(raw, tag::SAMPLES_PER_PIXEL)?.unwrap_or(1);
-    if spp != 1 {
-        return r.fail(format!(
-            "raw CFA image has {spp} samples per pixel; expected 1"
-        ));
-    }
     let bps = r.uint(raw, tag::BITS_PER_SAMPLE)?.unwrap_or(1);
     if !(1..=16).contains(&bps) {
         return r.fail(format!("BitsPerSample {bps} is not 1..16"));
@@ -469,36 +598,10 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
     info.bits_per_sample = bps as u16;
 
     // CFA pattern (2x2 Bayer only), with CFAPlaneColor mapping codes to R, G, B.
-    let dim = r
-        .uints(raw, tag::CFA_REPEAT_PATTERN_DIM)?
-        .unwrap_or_else(|| vec![2, 2]);
-    if dim.len() < 2 || dim[0] != 2 || dim[1] != 2 {
-        return r.fail(format!(
-            "CFARepeatPatternDim {dim:?}: only 2x2 Bayer patterns are supported"
-        ));
-    }
-    let Some(codes) = r.uints(raw, tag::CFA_PATTERN)? else {
-        return r.fail("no CFAPattern tag");
-    };
-    if codes.len() < 4 {
-        return r.fail(format!("CFAPattern has {} values; expected 4", codes.len()));
-    }
-    let plane = r
-        .uints(raw, tag::CFA_PLANE_COLOR)?
-        .unwrap_or_else(|| vec![0, 1, 2]);
-    let mapped: Vec<u8> = codes[..4]
-        .iter()
-        .map(|c| plane.get(*c as usize).copied().unwrap_or(99) as u8)
-        .collect();
-    let Some(cfa) = CfaPattern::from_dng_codes(&mapped) else {
-        return r.fail(format!(
-            "CFAPattern {:?} is not an RGGB/GRBG/GBRG/BGGR Bayer pattern",
-            &codes[..4]
-        ));
-    };
+    let cfa = if linear { None } else { Some(cfa_pattern(&r, raw)?) };
 
-    // Pixels.
-    let mut img = decode_pixels(&r, raw, width, height, bps as u32, compression)?;
+    // Pixels (interleaved samples).
+    let mut img = decode_pixels(&r, raw, width, height, spp, bps as u32, compression)?;
 
     // Linearization (DNG spec, chapter 5 "Mapping Raw Values to Linear Reference Values").
     if let Some(table) = r.uints(raw, tag::LINEARIZATION_TABLE)? {
@@ -533,14 +636,15 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
     let dn: Vec<u16> = if area == [0, 0, height, width] {
         img
     } else {
-        let mut v = Vec::with_capacity(rows * cols);
+        let mut v = Vec::with_capacity(rows * cols * spp);
         for row in area[0]..area[2] {
-            v.extend_from_slice(&img[row * width + area[1]..row * width + area[3]]);
+            v.extend_from_slice(&img[(row * width + area[1]) * spp..(row * width + area[3]) * spp]);
         }
         v
     };
 
-    // Black level per CFA position (relative to the active area's top-left).
+    // Black level per CFA position (relative to the active area's top-left) and per sample:
+    // BlackLevel holds BlackLevelRepeatRows x BlackLevelRepeatCols x SamplesPerPixel values.
     let bdim = r
         .uints(raw, tag::BLACK_LEVEL_REPEAT_DIM)?
         .unwrap_or_else(|| vec![1, 1]);
@@ -554,20 +658,20 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
     let blacks = r
         .floats(raw, tag::BLACK_LEVEL)?
         .unwrap_or_else(|| vec![0.0]);
-    let black_at = |i: usize, j: usize| -> f64 {
+    let black_at = |i: usize, j: usize, s: usize| -> f64 {
         // Mean over the black-level pattern cells that fall on CFA position (i, j).
-        let mut s = 0.0;
+        let mut sum = 0.0;
         let mut n = 0usize;
         for a in 0..br.max(2) {
             for b in 0..bc.max(2) {
                 if a % 2 == i && b % 2 == j {
-                    let k = (a % br) * bc + (b % bc);
-                    s += blacks.get(k).or(blacks.first()).copied().unwrap_or(0.0);
+                    let k = ((a % br) * bc + (b % bc)) * spp + s;
+                    sum += blacks.get(k).or(blacks.first()).copied().unwrap_or(0.0);
                     n += 1;
                 }
             }
         }
-        s / n.max(1) as f64
+        sum / n.max(1) as f64
     };
     let mean_of = |v: Option<Vec<f64>>| {
         v.filter(|v| !v.is_empty())
@@ -575,21 +679,30 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
     };
     let delta = mean_of(r.floats(raw, tag::BLACK_LEVEL_DELTA_H)?)
         + mean_of(r.floats(raw, tag::BLACK_LEVEL_DELTA_V)?);
+    let black_of_sample = |s: usize| {
+        (black_at(0, 0, s) + black_at(0, 1, s) + black_at(1, 0, s) + black_at(1, 1, s)) / 4.0
+            + delta
+    };
     info.black_level_cfa_dn = [
-        black_at(0, 0) + delta,
-        black_at(0, 1) + delta,
-        black_at(1, 0) + delta,
-        black_at(1, 1) + delta,
+        black_at(0, 0, 0) + delta,
+        black_at(0, 1, 0) + delta,
+        black_at(1, 0, 0) + delta,
+        black_at(1, 1, 0) + delta,
     ];
     let black = info.black_level_cfa_dn.iter().sum::<f64>() / 4.0;
     let default_white = ((1u64 << bps) - 1) as f64;
-    let white = r
+    let whites = r
         .floats(raw, tag::WHITE_LEVEL)?
-        .and_then(|v| v.first().copied())
-        .unwrap_or(default_white);
-    if !(white > 0.0 && white.is_finite()) {
-        return r.fail(format!("WhiteLevel {white} is not a positive number"));
+        .filter(|v| !v.is_empty())
+        .unwrap_or_else(|| vec![default_white]);
+    let white_of_sample = |s: usize| whites.get(s).copied().unwrap_or(whites[0]);
+    for s in 0..spp {
+        let w = white_of_sample(s);
+        if !(w > 0.0 && w.is_finite()) {
+            return r.fail(format!("WhiteLevel {w} is not a positive number"));
+        }
     }
+    let white = whites[0];
     info.white_level_dn = white;
 
     // Descriptive tags.
@@ -655,19 +768,61 @@ pub fn read_dng_bytes(data: &[u8], path: &Path) -> Result<(RawImage, DngInfo)> {
         }
     };
 
-    let bits = (white + 1.0).log2().ceil().clamp(1.0, 16.0) as u32;
-    let image = RawImage {
-        rows,
-        cols,
-        cfa,
-        dn,
-        black_level_dn: black,
-        white_level_dn: white,
-        bits,
-        exposure_s: info.exposure_s.unwrap_or(0.0),
-        pixel_pitch_m: pitch,
+    let image = match cfa {
+        Some(cfa) => DngImage::Cfa(RawImage {
+            rows,
+            cols,
+            cfa,
+            dn,
+            black_level_dn: black,
+            white_level_dn: white,
+            bits: (white + 1.0).log2().ceil().clamp(1.0, 16.0) as u32,
+            exposure_s: info.exposure_s.unwrap_or(0.0),
+            pixel_pitch_m: pitch,
+        }),
+        None => DngImage::LinearRaw(LinearRawImage {
+            rows,
+            cols,
+            dn,
+            black_level_dn: [0, 1, 2].map(black_of_sample),
+            white_level_dn: [0, 1, 2].map(white_of_sample),
+            exposure_s: info.exposure_s.unwrap_or(0.0),
+            pixel_pitch_m: pitch,
+        }),
     };
     Ok((image, info))
+}
+
+/// The 2x2 Bayer pattern of a CFA IFD, with CFAPlaneColor mapping codes to R, G, B.
+fn cfa_pattern(r: &Reader, raw: &Ifd) -> Result<CfaPattern> {
+    let dim = r
+        .uints(raw, tag::CFA_REPEAT_PATTERN_DIM)?
+        .unwrap_or_else(|| vec![2, 2]);
+    if dim.len() < 2 || dim[0] != 2 || dim[1] != 2 {
+        return r.fail(format!(
+            "CFARepeatPatternDim {dim:?}: only 2x2 Bayer patterns are supported"
+        ));
+    }
+    let Some(codes) = r.uints(raw, tag::CFA_PATTERN)? else {
+        return r.fail("no CFAPattern tag");
+    };
+    if codes.len() < 4 {
+        return r.fail(format!("CFAPattern has {} values; expected 4", codes.len()));
+    }
+    let plane = r
+        .uints(raw, tag::CFA_PLANE_COLOR)?
+        .unwrap_or_else(|| vec![0, 1, 2]);
+    let mapped: Vec<u8> = codes[..4]
+        .iter()
+        .map(|c| plane.get(*c as usize).copied().unwrap_or(99) as u8)
+        .collect();
+    match CfaPattern::from_dng_codes(&mapped) {
+        Some(cfa) => Ok(cfa),
+        None => r.fail(format!(
+            "CFAPattern {:?} is not an RGGB/GRBG/GBRG/BGGR Bayer pattern",
+            &codes[..4]
+        )),
+    }
 }
 
 /// One strip or tile: where its data is and where it goes.
@@ -754,11 +909,13 @@ fn decode_pixels(
     raw: &Ifd,
     width: usize,
     height: usize,
+    spp: usize,
     bps: u32,
     compression: u64,
 ) -> Result<Vec<u16>> {
     let data = r.t.data;
-    let mut img = vec![0u16; width * height];
+    // Interleaved samples: a pixel row holds width x spp samples (chunky, PlanarConfiguration 1).
+    let mut img = vec![0u16; width * height * spp];
     let mut seg_buf: Vec<u16> = Vec::new();
     for (si, s) in segments(r, raw, width, height)?.into_iter().enumerate() {
         if s.offset >= data.len() {
@@ -770,17 +927,18 @@ fn decode_pixels(
         }
         let avail = data.len() - s.offset;
         let bytes = &data[s.offset..s.offset + s.len.min(avail)];
-        let valid_w = (width - s.x0).min(s.w);
+        let valid_w = (width - s.x0).min(s.w) * spp;
         let valid_h = (height - s.y0).min(s.h);
+        let sw = s.w * spp;
         seg_buf.clear();
-        seg_buf.resize(s.w * s.h, 0);
+        seg_buf.resize(sw * s.h, 0);
         match compression {
-            1 => unpack(bytes, &mut seg_buf, s.w, valid_h, bps, r.t.little_endian)
+            1 => unpack(bytes, &mut seg_buf, sw, valid_h, bps, r.t.little_endian)
                 .map_err(|m| IoError::format(r.path, format!("segment {si}: {m}")))?,
             7 => {
-                let j = crate::ljpeg::decode(bytes, s.w * s.h)
+                let j = crate::ljpeg::decode(bytes, sw * s.h)
                     .map_err(|e| IoError::format(r.path, format!("segment {si}: {e}")))?;
-                let need = s.w * valid_h;
+                let need = sw * valid_h;
                 if j.samples.len() < need {
                     return r.fail(format!(
                         "segment {si}: lossless JPEG holds {} samples ({} x {} x {}); the {} x {} segment needs {need}",
@@ -809,8 +967,8 @@ fn decode_pixels(
             }
         }
         for y in 0..valid_h {
-            let dst = (s.y0 + y) * width + s.x0;
-            img[dst..dst + valid_w].copy_from_slice(&seg_buf[y * s.w..y * s.w + valid_w]);
+            let dst = ((s.y0 + y) * width + s.x0) * spp;
+            img[dst..dst + valid_w].copy_from_slice(&seg_buf[y * sw..y * sw + valid_w]);
         }
     }
     Ok(img)
@@ -1241,6 +1399,83 @@ mod tests {
         }
     }
 
+    #[test]
+    fn reads_a_hand_built_linear_raw_dng_with_active_area_and_per_sample_levels() {
+        // 5 x 4 stored pixels of 3 big-endian 16-bit samples, ActiveArea rows 1..4, cols 1..4:
+        // sample s of pixel (r, c) = 1000 s + 10 r + c, so every value names its place.
+        let (w, h) = (4usize, 5usize);
+        let mut bytes = Vec::new();
+        for r in 0..h {
+            for c in 0..w {
+                for s in 0..3 {
+                    bytes.extend_from_slice(&((1000 * s + 10 * r + c) as u16).to_be_bytes());
+                }
+            }
+        }
+        let spec = IfdSpec {
+            tags: vec![
+                (tag::NEW_SUBFILE_TYPE, Value::Long(vec![0])),
+                (tag::IMAGE_WIDTH, Value::Long(vec![w as u32])),
+                (tag::IMAGE_LENGTH, Value::Long(vec![h as u32])),
+                (tag::BITS_PER_SAMPLE, Value::Short(vec![16, 16, 16])),
+                (tag::COMPRESSION, Value::Short(vec![1])),
+                (tag::PHOTOMETRIC, Value::Short(vec![PHOTOMETRIC_LINEAR_RAW])),
+                (tag::SAMPLES_PER_PIXEL, Value::Short(vec![3])),
+                (tag::ROWS_PER_STRIP, Value::Long(vec![2])),
+                (tag::PLANAR_CONFIGURATION, Value::Short(vec![1])),
+                (tag::DNG_VERSION, Value::Byte(vec![1, 4, 0, 0])),
+                (tag::BLACK_LEVEL_REPEAT_DIM, Value::Short(vec![1, 1])),
+                (tag::BLACK_LEVEL, Value::Long(vec![5, 6, 7])),
+                (tag::WHITE_LEVEL, Value::Long(vec![4000, 4001, 4002])),
+                (tag::ACTIVE_AREA, Value::Long(vec![1, 1, 4, 4])),
+            ],
+            segment_offsets_tag: tag::STRIP_OFFSETS,
+            segment_counts_tag: tag::STRIP_BYTE_COUNTS,
+            segment_lens: vec![48, 48, 24],
+            sub_ifds: vec![],
+            exif_tags: vec![],
+        };
+        let segs = vec![bytes[..48].to_vec(), bytes[48..96].to_vec(), bytes[96..].to_vec()];
+        let t = assemble_tiff(&spec, &segs, false).unwrap();
+        let (img, info) = read_dng_image_bytes(&t, Path::new("lin.dng")).unwrap();
+        let DngImage::LinearRaw(img) = img else { panic!("expected a LinearRaw image") };
+        assert_eq!((img.rows, img.cols), (3, 3));
+        assert_eq!(info.active_area, [1, 1, 4, 4]);
+        for r in 0..3 {
+            for c in 0..3 {
+                for s in 0..3 {
+                    assert_eq!(img.at(r, c, s) as usize, 1000 * s + 10 * (r + 1) + c + 1);
+                }
+            }
+        }
+        assert_eq!(img.black_level_dn, [5.0, 6.0, 7.0]);
+        assert_eq!(img.white_level_dn, [4000.0, 4001.0, 4002.0]);
+        // The CFA reader refuses it and says why.
+        let e = read_dng_bytes(&t, Path::new("lin.dng")).unwrap_err().to_string();
+        assert!(e.contains("LinearRaw"), "{e}");
+    }
+
+    #[test]
+    fn linear_raw_write_read_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("lin.dng");
+        let mut next = lcg(9);
+        let (rows, cols) = (7, 11);
+        let img = LinearRawImage {
+            rows,
+            cols,
+            dn: (0..rows * cols * 3).map(|_| (next() % 65536) as u16).collect(),
+            black_level_dn: [64.0, 65.0, 66.5],
+            white_level_dn: [65535.0, 60000.0, 50000.0],
+            exposure_s: 0.01,
+            pixel_pitch_m: 0.0, // (a pitch comes back through a rational: not bit-exact)
+        };
+        write_linear_raw_dng(&path, &img, &DngMetadata::default()).unwrap();
+        let (back, info) = read_dng_image(&path).unwrap();
+        assert_eq!(back, DngImage::LinearRaw(img.clone()), "{info:?}");
+        assert!(write_linear_raw_dng(&path, &LinearRawImage { rows: 8, ..img }, &DngMetadata::default()).is_err());
+    }
+
     fn small_valid_dng() -> Vec<u8> {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("v.dng");
@@ -1283,7 +1518,7 @@ mod tests {
         let e = read_dng_bytes(&t, Path::new("rgb.tif"))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("no raw CFA image"), "{e}");
+        assert!(e.contains("no raw image"), "{e}");
         let e = read_dng(Path::new("/nonexistent/x.dng"))
             .unwrap_err()
             .to_string();

@@ -429,6 +429,50 @@ pub fn load_raw(path: &Path, cfa: Option<camsim_core::CfaPattern>, black_dn: f64
     Ok(raw)
 }
 
+/// Where the patch grid of a `macbeth` scene lands on the sensor: its outer corners `[x, y]` in
+/// sensor pixels (pixel (r, c) covers [c, c + 1) x [r, r + 1)), in the order top-left (dark
+/// skin), top-right (bluish green), bottom-right (black), bottom-left (white). The grid is taken
+/// through the middle of the chart's outer border, so it spans 6 x 4 equal patch pitches and its
+/// cells are centred on the patches. `Ok(None)` when the config's scene is not a Macbeth chart.
+///
+/// The mapping is the pipeline's own: scene samples of 2 d tan(fov / 2) / cols_scene
+/// (`camsim_scene::sample_spacing_m`), scaled onto the sensor plane by v / d with v the thin-lens
+/// image distance of the focus distance (as `Optics::compute`: no inversion, centred on the
+/// axis), and a `rows x cols` sensor window of `pixel_pitch_m` centred on the axis (as
+/// `Sensor::compute`).
+pub fn macbeth_chart_corners_px(
+    cfg: &SimulateConfig,
+    optics: &OpticsConfig,
+    pixel_pitch_m: f64,
+    rows: usize,
+    cols: usize,
+) -> Result<Option<[[f64; 2]; 4]>> {
+    let Some(SceneConfig::Macbeth(m)) = &cfg.scene else { return Ok(None) };
+    if !(pixel_pitch_m > 0.0 && pixel_pitch_m.is_finite()) {
+        bail!("pixel pitch {pixel_pitch_m} m is not a positive number");
+    }
+    let layout = camsim_scene::MacbethLayout { patch_px: m.patch_size_px, border_px: m.border_px };
+    let (scene_rows, scene_cols) = (layout.rows() as f64, layout.cols() as f64);
+    let f_m = optics.focal_length_mm * 1e-3;
+    let d_m = m.distance_m;
+    let Some(v_m) = camsim_optics::lens::image_distance_m(f_m, optics.focus_distance_m.unwrap_or(d_m)) else {
+        bail!("focus distance inside the focal length ({f_m} m): no real image");
+    };
+    let spacing_img_m = camsim_scene::sample_spacing_m(m.fov_deg, d_m, layout.cols()) * v_m / d_m;
+    let k = spacing_img_m / pixel_pitch_m; // sensor pixels per scene sample
+    if !(k > 0.0 && k.is_finite()) {
+        bail!("scene.fov_deg / distance_m give no finite image scale");
+    }
+    let to_sensor = |x: f64, y: f64| [cols as f64 / 2.0 + (x - scene_cols / 2.0) * k, rows as f64 / 2.0 + (y - scene_rows / 2.0) * k];
+    let h = m.border_px as f64 / 2.0;
+    Ok(Some([
+        to_sensor(h, h),
+        to_sensor(scene_cols - h, h),
+        to_sensor(scene_cols - h, scene_rows - h),
+        to_sensor(h, scene_rows - h),
+    ]))
+}
+
 /// Mean luminance of a radiance image, cd/m^2: 683 lm/W x sum over bands of ybar L d(lambda)
 /// (CIE 1931 photopic luminous efficiency).
 pub fn mean_luminance_cd_m2(radiance: &SpectralImage) -> f64 {

@@ -218,38 +218,149 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
 }
 
 // ---------------------------------------------------------------------------------------------
+/// An image for chart and region statistics: a raw CFA mosaic (each channel on its own pixels),
+/// or demosaiced RGB planes above black (a LinearRaw DNG, as phones write).
+enum StatsImage {
+    Raw(camsim_core::RawImage),
+    Rgb { planes: Box<[Plane; 3]>, exposure_s: f64 },
+}
+
+impl StatsImage {
+    fn size(&self) -> (usize, usize) {
+        match self {
+            StatsImage::Raw(r) => (r.rows, r.cols),
+            StatsImage::Rgb { planes, .. } => (planes[0].rows, planes[0].cols),
+        }
+    }
+    fn exposure_s(&self) -> f64 {
+        match self {
+            StatsImage::Raw(r) => r.exposure_s,
+            StatsImage::Rgb { exposure_s, .. } => *exposure_s,
+        }
+    }
+    fn pixel_pitch_m(&self, pitch_linear_m: f64) -> f64 {
+        match self {
+            StatsImage::Raw(r) => r.pixel_pitch_m,
+            StatsImage::Rgb { .. } => pitch_linear_m,
+        }
+    }
+    fn kind(&self) -> &'static str {
+        match self {
+            StatsImage::Raw(_) => "raw CFA (each channel on its own pixels)",
+            StatsImage::Rgb { .. } => "LinearRaw RGB",
+        }
+    }
+}
+
+/// A DNG (CFA or LinearRaw) or a PNG/TIFF mosaic; the second value is a LinearRaw DNG's pixel pitch.
+fn load_stats_image(path: &Path, raw: &RawInput) -> Result<(StatsImage, f64)> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext != "dng" {
+        return Ok((StatsImage::Raw(camsim_pipeline::load_raw(path, raw.cfa, raw.black_dn, raw.bits)?), 0.0));
+    }
+    Ok(match camsim_io::dng::read_dng_image(path)?.0 {
+        camsim_io::dng::DngImage::Cfa(r) => (StatsImage::Raw(r), 0.0),
+        camsim_io::dng::DngImage::LinearRaw(l) => {
+            let plane = |k: usize| {
+                let data = (0..l.rows * l.cols).map(|i| (l.dn[i * 3 + k] as f64 - l.black_level_dn[k]) as f32).collect();
+                Plane::new(l.rows, l.cols, data)
+            };
+            let planes = Box::new([plane(0)?, plane(1)?, plane(2)?]);
+            (StatsImage::Rgb { planes, exposure_s: l.exposure_s }, l.pixel_pitch_m)
+        }
+    })
+}
+
+/// `X,Y,X,Y,X,Y,X,Y`: the chart's four corners in pixels.
+fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
+    let v = parse_points(s)?;
+    if v.len() != 8 || v.iter().any(|x| !x.is_finite()) {
+        return Err(format!("'{s}': give 8 finite numbers X,Y of the top-left, top-right, bottom-right and bottom-left corners, got {}", v.len()));
+    }
+    Ok(ChartCorners { top_left: [v[0], v[1]], top_right: [v[2], v[3]], bottom_right: [v[4], v[5]], bottom_left: [v[6], v[7]] })
+}
+
+/// The chart's corners for a camsim DNG: from the run.json beside it (the scene's chart size,
+/// field of view and distance, the lens and the sensor window), as camsim-pipeline images it.
+fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
+    let run = image.with_file_name("run.json");
+    if !run.is_file() {
+        bail!(
+            "{}: no --corners given and no run.json beside it (camsim simulate writes one); give the chart's corners with --corners X,Y,X,Y,X,Y,X,Y",
+            image.display()
+        );
+    }
+    let text = common::read_text(&run)?;
+    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", run.display()))?;
+    let cfg: camsim_pipeline::SimulateConfig = serde_json::from_value(v.get("config").cloned().unwrap_or_default())
+        .with_context(|| format!("{}: key 'config' is not a camsim config", run.display()))?;
+    let optics: camsim_optics::OpticsConfig = serde_json::from_value(v.get("optics").cloned().unwrap_or_default())
+        .with_context(|| format!("{}: key 'optics' is not a lens config", run.display()))?;
+    // The sensor's own pitch (the DNG's FocalPlaneXResolution is a rounded rational).
+    let pitch_m = v.pointer("/sensor/pixel_pitch_um").and_then(|p| p.as_f64()).map(|p| p * 1e-6).unwrap_or(pitch_m);
+    let c = camsim_pipeline::macbeth_chart_corners_px(&cfg, &optics, pitch_m, rows, cols)
+        .with_context(|| format!("{}: cannot place the chart", run.display()))?
+        .with_context(|| format!("{}: the scene is not a macbeth chart; give the chart's corners with --corners", run.display()))?;
+    Ok(ChartCorners { top_left: c[0], top_right: c[1], bottom_right: c[2], bottom_left: c[3] })
+}
+
 /// ColorChecker statistics: the 24 patch regions from the chart's four outer corners (the
-/// central --fraction of each patch, as ISETCam's chartRectangles), per-channel mean and standard
-/// deviation on the raw CFA data and on the demosaicked image, and a line profile through the
-/// gray series (the paper's Figure 5). Writes patches.csv, profile.csv, profile.png, chart.json.
+/// central --fraction of each patch, as ISETCam's chartRectangles), per-channel mean and sample
+/// standard deviation (DN above black) on the raw CFA data (each channel on its own pixels, both
+/// greens pooled) or on a LinearRaw DNG's RGB, and a line profile through the gray series on the
+/// demosaicked image (the paper's Figure 5). For a DNG written by `camsim simulate` the corners
+/// come from the run.json beside it; for other files give --corners. Writes patches.csv,
+/// profile.csv, profile.png and chart.json in --out.
 #[derive(clap::Args)]
-#[command(after_help = "Example (corners x,y in pixels: dark skin, bluish green, black, white):\n  camsim analyze chart raw.dng --corners 100,80,700,80,700,480,100,480 --out out/chart")]
+// (Example lines stay under 100 characters: clap wraps help text at the terminal width.)
+#[command(after_help = "Examples:\n  camsim analyze chart out/simulate/raw.dng --out out/chart\n  camsim analyze chart out/simulate/raw.dng --corners 23,42,617,42,617,438,23,438 --out out/chart2")]
 pub struct ChartArgs {
+    /// Raw DNG (CFA, or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub image: PathBuf,
-    /// Outer corners of the 4x6 patch grid: x,y of top-left (dark skin), top-right (bluish green),
-    /// bottom-right (black), bottom-left (white), in pixels.
-    #[arg(long, value_parser = parse_points)]
-    pub corners: Vec<f64>,
-    /// Central fraction of each patch used for the statistics.
+    /// The patch grid's four outer corners, X,Y pixels (X = column, Y = row from the top), in the
+    /// order top-left (dark skin), top-right (bluish green), bottom-right (black), bottom-left
+    /// (white): 8 numbers. The patch pitch is 1/6 of the width and 1/4 of the height; the outer
+    /// corners of the corner patches are close enough. Default: from the run.json beside a
+    /// camsim DNG.
+    #[arg(long, value_parser = parse_corners, allow_hyphen_values = true, value_name = "X,Y,X,Y,X,Y,X,Y")]
+    pub corners: Option<ChartCorners>,
+    /// Side of each measured square as a fraction of the patch pitch, in (0, 1].
     #[arg(long, default_value_t = 0.5)]
     pub fraction: f64,
     #[command(flatten)]
     pub raw: RawInput,
+    /// Also print chart.json (corners, fraction and the 24 patches) on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Output folder (created if missing).
     #[arg(long, default_value = "out/chart")]
     pub out: PathBuf,
 }
 
 pub fn chart_cmd(a: ChartArgs) -> Result<()> {
-    let c = &a.corners;
-    if c.len() != 8 {
-        bail!("--corners needs 8 numbers (x,y of four corners), got {}", c.len());
-    }
-    let corners = ChartCorners { top_left: [c[0], c[1]], top_right: [c[2], c[3]], bottom_right: [c[4], c[5]], bottom_left: [c[6], c[7]] };
-    let raw = camsim_pipeline::load_raw(&a.image, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
-    let out = common::out_dir(&a.out)?;
-    let patches = chart::chart_patch_stats_raw(&raw, &corners, a.fraction)?;
+    let (img, pitch_linear_m) = load_stats_image(&a.image, &a.raw)?;
+    let (rows, cols) = img.size();
+    let corners = match a.corners {
+        Some(c) => c,
+        None => corners_from_run_json(&a.image, rows, cols, img.pixel_pitch_m(pitch_linear_m))?,
+    };
+    let ctx = || format!("{}: chart with corners {corners:?}", a.image.display());
+    // Everything is measured before a file is written (no partial output on bad input).
+    let (patches, planes) = match &img {
+        StatsImage::Raw(raw) => {
+            let patches = chart::chart_patch_stats_raw(raw, &corners, a.fraction).with_context(ctx)?;
+            // Bilinear demosaic, black subtracted (camsim-isp).
+            let rgb = camsim_isp::demosaic_bilinear(raw);
+            let [r, g, b] = [0, 1, 2].map(|k| Plane::new(rgb.rows, rgb.cols, rgb.plane(k).to_vec()));
+            (patches, [r?, g?, b?])
+        }
+        StatsImage::Rgb { planes, .. } => (chart::chart_patch_stats_rgb(planes, &corners, a.fraction).with_context(ctx)?, (**planes).clone()),
+    };
+    // Gray series: the line through the centres of the bottom row.
+    let (p0, p1) = corners.row_line(3);
+    let n = ((p1[0] - p0[0]).hypot(p1[1] - p0[1]).ceil() as usize).max(2);
+    let prof = chart::line_profile(&planes, p0, p1, n).with_context(ctx)?;
+
     let mut csv = String::from("patch,name,mean_r_dn,mean_g_dn,mean_b_dn,std_r_dn,std_g_dn,std_b_dn,n_r,n_g,n_b\n");
     for p in &patches {
         writeln!(
@@ -258,18 +369,15 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
             p.index, p.name, p.mean[0], p.mean[1], p.mean[2], p.std[0], p.std[1], p.std[2], p.n[0], p.n[1], p.n[2]
         )?;
     }
-    write_text(&out.join("patches.csv"), &csv)?;
-    // Gray series: the line through the centres of the bottom row.
-    let rgb = camsim_isp::demosaic_bilinear(&raw);
-    let [r, g, b] = [0, 1, 2].map(|k| Plane::new(rgb.rows, rgb.cols, rgb.plane(k).to_vec()));
-    let planes = [r?, g?, b?];
-    let (p0, p1) = corners.row_line(3);
-    let n = ((p1[0] - p0[0]).hypot(p1[1] - p0[1]).ceil() as usize).max(2);
-    let prof = chart::line_profile(&planes, p0, p1, n)?;
     let mut pcsv = String::from("distance_px,x,y,r_dn,g_dn,b_dn\n");
     for p in &prof {
         writeln!(pcsv, "{:.2},{:.2},{:.2},{:.3},{:.3},{:.3}", p.distance_px, p.position[0], p.position[1], p.rgb[0], p.rgb[1], p.rgb[2])?;
     }
+    let json = serde_json::json!({
+        "image": a.image.display().to_string(), "data": img.kind(), "corners": corners, "fraction": a.fraction, "patches": patches,
+    });
+    let out = common::out_dir(&a.out)?;
+    write_text(&out.join("patches.csv"), &csv)?;
     write_text(&out.join("profile.csv"), &pcsv)?;
     let ch = |k: usize, name: &str, col: [u8; 3]| {
         let mut s = Series::new(name.to_string(), prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect());
@@ -285,69 +393,83 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
         y_range: None,
     }
     .write_png(&out.join("profile.png"), 900, 500)?;
-    let json = serde_json::json!({ "image": a.image.display().to_string(), "corners": corners, "fraction": a.fraction, "patches": patches });
     camsim_io::atomic::write_json_atomic(&out.join("chart.json"), &json)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
     }
-    say(format!("24 patches -> {}", out.join("patches.csv").display()));
+    say(format!("24 patches ({}) -> {}", img.kind(), out.join("patches.csv").display()));
     Ok(())
 }
 
 // ---------------------------------------------------------------------------------------------
-/// Mean and standard deviation per CFA channel in rectangles of two raw images side by side
-/// (simulated and measured), with scatter plots of the means and of the standard deviations (the
-/// paper's Figure 6) and the noise the sensor model predicts at each mean level.
+/// Mean and sample standard deviation per colour channel (DN above black) in rectangles of one
+/// image, or of two side by side (simulated and measured), with scatter plots of the means and of
+/// the standard deviations (the paper's Figure 6) and, with --sensor, the temporal noise the
+/// sensor model predicts at each mean level. Raw CFA data are measured on each channel's own
+/// pixels (both greens pooled); a LinearRaw DNG on its RGB planes. Writes roi.csv and roi.json
+/// (and means.png, stds.png for two images) in --out.
 #[derive(clap::Args)]
-#[command(after_help = "Example:\n  camsim analyze roi sim.dng measured.dng --region 1500,2000,40,40 --region 800,900,40,40 --sensor pixel4a --out out/roi")]
+#[command(after_help = "Examples:\n  camsim analyze roi out/simulate/raw.dng --region 200,300,40,40 --sensor pixel4a --out out/roi\n  camsim analyze roi out/simulate/raw.dng --region 60,40,20,20 --region 400,580,20,20 --out out/roi2")]
 pub struct RoiArgs {
-    /// First image (simulated).
+    /// First image (simulated): raw DNG (CFA or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub a: PathBuf,
-    /// Second image (measured); omit to analyze one image.
+    /// Second image (measured), same kinds; omit to analyze one image.
     pub b: Option<PathBuf>,
-    /// Rectangle ROW,COL,ROWS,COLS (repeat; the same in both images, or give --region-b).
-    #[arg(long = "region", value_parser = parse_rect, required = true)]
+    /// Rectangle ROW,COL,ROWS,COLS in pixels (repeat for more; the same in both images unless
+    /// --region-b is given).
+    #[arg(long = "region", value_parser = parse_rect, required = true, value_name = "ROW,COL,ROWS,COLS")]
     pub regions: Vec<Rect>,
-    /// Rectangles in the second image, when they differ (same count as --region).
-    #[arg(long = "region-b", value_parser = parse_rect)]
+    /// Rectangles ROW,COL,ROWS,COLS in the second image, when they differ (as many as --region).
+    #[arg(long = "region-b", value_parser = parse_rect, value_name = "ROW,COL,ROWS,COLS")]
     pub regions_b: Vec<Rect>,
-    /// Sensor model for the predicted noise (preset or TOML).
+    /// Sensor model for the predicted temporal noise of the first image (a preset such as
+    /// pixel4a, or a sensor TOML file); uses the first image's exposure time.
     #[arg(long)]
     pub sensor: Option<String>,
     #[command(flatten)]
     pub raw: RawInput,
+    /// Also print roi.json (per region and channel: rect, mean_dn, std_dn, n) on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Output folder (created if missing).
     #[arg(long, default_value = "out/roi")]
     pub out: PathBuf,
 }
 
+fn region_stats(img: &StatsImage, rects: &[Rect]) -> Result<Vec<camsim_analysis::roi::RegionStats>> {
+    Ok(match img {
+        StatsImage::Raw(r) => camsim_analysis::roi::roi_stats_raw(r, rects)?,
+        StatsImage::Rgb { planes, .. } => camsim_analysis::roi::roi_stats_rgb(planes, rects)?,
+    })
+}
+
 pub fn roi_cmd(a: RoiArgs) -> Result<()> {
-    let out = common::out_dir(&a.out)?;
-    let ra = camsim_pipeline::load_raw(&a.a, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
-    let rb = a.b.as_ref().map(|p| camsim_pipeline::load_raw(p, a.raw.cfa, a.raw.black_dn, a.raw.bits)).transpose()?;
+    if a.b.is_none() && !a.regions_b.is_empty() {
+        bail!("--region-b needs a second image");
+    }
     if !a.regions_b.is_empty() && a.regions_b.len() != a.regions.len() {
         bail!("--region-b: give as many as --region ({}), got {}", a.regions.len(), a.regions_b.len());
     }
-    let pairs: Vec<(Rect, Rect)> =
-        a.regions.iter().enumerate().map(|(i, r)| (*r, a.regions_b.get(i).copied().unwrap_or(*r))).collect();
+    let ra = load_stats_image(&a.a, &a.raw)?.0;
+    let rb = a.b.as_ref().map(|p| load_stats_image(p, &a.raw).map(|x| x.0)).transpose()?;
+    let rects_b: Vec<Rect> = a.regions.iter().enumerate().map(|(i, r)| a.regions_b.get(i).copied().unwrap_or(*r)).collect();
     let sensor = a.sensor.as_deref().map(camsim_pipeline::load_sensor).transpose()?;
     let predict = |mean_dn: f64, exposure_s: f64| sensor.as_ref().map(|s| s.predicted_noise_dn(mean_dn, exposure_s).total);
-    let stats_a = camsim_analysis::roi::roi_stats_raw(&ra, &a.regions)?;
-    let stats_b = match &rb {
-        Some(rb) => Some(camsim_analysis::roi::roi_stats_raw(rb, &pairs.iter().map(|p| p.1).collect::<Vec<_>>())?),
-        None => None,
+    let stats_a = region_stats(&ra, &a.regions).with_context(|| a.a.display().to_string())?;
+    let stats_b = match (&rb, &a.b) {
+        (Some(rb), Some(pb)) => Some(region_stats(rb, &rects_b).with_context(|| pb.display().to_string())?),
+        _ => None,
     };
     let mut csv = String::from("region,channel,mean_a_dn,std_a_dn,predicted_std_a_dn,mean_b_dn,std_b_dn\n");
     let (mut means, mut stds) = (Vec::new(), Vec::new());
     for (i, sa) in stats_a.iter().enumerate() {
         for c in 0..3 {
-            let pa = predict(sa.mean_dn[c], ra.exposure_s);
+            let pa = predict(sa.mean_dn[c], ra.exposure_s());
             let (mb, sb) = stats_b.as_ref().map(|s| (s[i].mean_dn[c], s[i].std_dn[c])).unwrap_or((f64::NAN, f64::NAN));
             writeln!(
                 csv,
                 "{i},{},{:.3},{:.3},{},{:.3},{:.3}",
-                CfaChannel::from_index(c).unwrap().letter(),
+                ["R", "G", "B"][c],
                 sa.mean_dn[c],
                 sa.std_dn[c],
                 pa.map(|v| format!("{v:.3}")).unwrap_or_default(),
@@ -360,6 +482,8 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
             }
         }
     }
+    let json = serde_json::json!({ "a": stats_a, "b": stats_b, "data_a": ra.kind(), "data_b": rb.as_ref().map(|r| r.kind()) });
+    let out = common::out_dir(&a.out)?;
     write_text(&out.join("roi.csv"), &csv)?;
     if stats_b.is_some() {
         let label_b = a.b.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
@@ -375,7 +499,6 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
             .write_png(&out.join(file), 700, 700)?;
         }
     }
-    let json = serde_json::json!({ "a": stats_a, "b": stats_b });
     camsim_io::atomic::write_json_atomic(&out.join("roi.json"), &json)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
