@@ -333,8 +333,20 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
     assert!(a.radiance.data.iter().zip(&b.radiance.data).all(|(x, y)| x.to_bits() == y.to_bits()));
     assert!(a.variance.iter().zip(&b.variance).all(|(x, y)| x.to_bits() == y.to_bits()));
     assert_eq!(a.depth_m, b.depth_m);
-    assert!(a.radiance.data.iter().any(|v| *v > 0.0));
-    assert_eq!(a.samples_per_pixel[0], 12);
+    // The comparison means something: inside the closed box every pixel sees a wall within the
+    // cube's diagonal (depth along the axis <= 2 sqrt(3) m), and every pixel got light (each
+    // wall sees the emitter).
+    let (w, h) = (40, 24);
+    assert!(a.depth_m.iter().all(|d| *d > 0.0 && *d <= 2.0 * 3f32.sqrt()), "a pixel escaped the closed box");
+    let nb = a.radiance.bands();
+    for p in 0..w * h {
+        let sum: f32 = (0..nb).map(|b| a.radiance.band(b)[p]).sum();
+        assert!(sum > 0.0 && sum.is_finite(), "pixel {p}: radiance summed over bands {sum}");
+    }
+    assert_eq!(a.samples_per_pixel, vec![12; w * h]);
+    // One camera ray per sample plus one depth ray per pixel.
+    assert_eq!(a.stats.camera_rays, (w * h * (12 + 1)) as u64);
+    assert_eq!(a.stats, RenderStats { seconds: a.stats.seconds, samples_per_second: a.stats.samples_per_second, rays_per_second: a.stats.rays_per_second, ..b.stats });
     // A different seed gives a different image.
     let mut sc2 = sc.clone();
     sc2.settings.seed = 8;
@@ -396,7 +408,15 @@ fn time_budget_stops_between_passes_and_reports_samples() {
     sc2.settings.samples_per_pixel = render::SAMPLES_PER_PASS;
     let out2 = render(&sc2, &|_, _| {}).unwrap();
     assert_eq!(out.radiance.data, out2.radiance.data);
-    assert!(out.stats.camera_rays > 0 && out.stats.rays_per_second > 0.0);
+    // Statistics of the samples actually taken: 8 x 8 pixels, one camera ray per sample plus one
+    // depth ray per pixel; throughputs are counts over the reported time.
+    let pixels = 64u64;
+    let spp = render::SAMPLES_PER_PASS as u64;
+    assert_eq!(out.stats.camera_rays, pixels * (spp + 1));
+    assert_eq!((out.stats.camera_rays, out.stats.bounce_rays, out.stats.shadow_rays), (out2.stats.camera_rays, out2.stats.bounce_rays, out2.stats.shadow_rays));
+    let rays = (out.stats.camera_rays + out.stats.bounce_rays + out.stats.shadow_rays) as f64;
+    assert!((out.stats.rays_per_second * out.stats.seconds / rays - 1.0).abs() < 1e-9);
+    assert!((out.stats.samples_per_second * out.stats.seconds / (pixels * spp) as f64 - 1.0).abs() < 1e-9);
 }
 
 #[test]
