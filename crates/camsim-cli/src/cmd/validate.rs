@@ -14,7 +14,7 @@ use std::path::PathBuf;
 /// `camsim validate compare CONFIG.toml` compares your measured DNGs with simulated ones region by
 /// region, as the paper did with its Pixel 4a images.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim validate cornell-box --out out/report                 (quick: about a minute on 2 cores)\n  camsim validate cornell-box --quality paper --out out/paper   (full resolution: a few minutes on 2 cores)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim simulate examples/uniform.toml --out out/uniform      (4 raw frames of a uniform field)\n  camsim validate compare examples/compare-frames.toml --out out/compare")]
+#[command(after_help = "Examples:\n  camsim validate cornell-box --out out/report                 (quick: about a minute on 2 cores)\n  camsim validate cornell-box --quality paper --out out/paper   (a few minutes on 2 cores)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim simulate examples/uniform.toml --out out/uniform      (4 raw frames of a uniform field)\n  camsim validate compare examples/compare-frames.toml --out out/compare")]
 pub struct Args {
     /// cornell-box, or compare (with CONFIG).
     pub what: String,
