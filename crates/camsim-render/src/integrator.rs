@@ -367,6 +367,29 @@ impl Tracer {
         p + n * (self.offset_scale * (1.0 + p.max_abs()))
     }
 
+    /// Visibility of a sampled light point from the (already offset) shading point `p_from`
+    /// (pbrt-v4 `SpawnRayTo(pFrom, nFrom, time, pTo, nTo)`: both ends offset). The ray runs from
+    /// `p_from` toward `p_light` moved off the light's surface along its normal `n_light`, turned
+    /// toward `p_from`, and stops `ShadowEpsilon` (1e-4) of the way short of it: so it can
+    /// neither reach the light's own surface nor miss an occluder in between. `wi` and `dist` (the
+    /// direction and distance from the un-offset point) are used for lights at infinity only.
+    #[inline(always)]
+    fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
+        const SHADOW_EPSILON: f32 = 1e-4;
+        if !dist.is_finite() {
+            return !self.bvh.occluded(&RayInv::new(&Ray { o: p_from, d: wi }), f32::INFINITY);
+        }
+        let n_to = n_light.face_forward(p_from - p_light);
+        let p_to = self.offset(p_light, n_to);
+        let d = p_to - p_from;
+        let len = d.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return false;
+        }
+        let shadow = Ray { o: p_from, d: d / len };
+        !self.bvh.occluded(&RayInv::new(&shadow), len * (1.0 - SHADOW_EPSILON))
+    }
+
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
     /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have).
     pub(crate) fn li<const N: usize>(
@@ -432,15 +455,13 @@ impl Tracer {
                 let u0: f32 = rng.gen();
                 let u1: f32 = rng.gen();
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
-                    let LightSample { wi, dist, le, pdf } = ls;
+                    let LightSample { wi, dist, p_light, n_light, le, pdf } = ls;
                     if wi.dot(ng) > 0.0 {
                         let wi_local = frame.to_local(wi);
                         let (f, bsdf_pdf) = bsdf.eval(&frame.to_local(wo), &wi_local);
                         if bsdf_pdf > 0.0 {
                             counts.shadow += 1;
-                            let t_max = if dist.is_finite() { dist * (1.0 - 1e-4) - self.offset_scale * (1.0 + sh.p.max_abs()) } else { f32::INFINITY };
-                            let shadow = Ray { o: p_out, d: wi };
-                            if t_max > 0.0 && !self.bvh.occluded(&RayInv::new(&shadow), t_max) {
+                            if self.unoccluded(p_out, wi, dist, p_light, n_light) {
                                 let w = power_heuristic(pdf, bsdf_pdf) * wi_local.z.abs() / pdf;
                                 for i in 0..N {
                                     l[i] += beta[i] * f[i] * le[i] * w;

@@ -44,6 +44,11 @@ pub(crate) struct LightSample<const N: usize> {
     pub wi: V3,
     /// Distance to the sampled point, m (infinite for the infinite light).
     pub dist: f32,
+    /// The sampled point on the light, m (unused for the infinite light).
+    pub p_light: V3,
+    /// Unit surface normal of the light at `p_light`, as the shape defines it (zero for the
+    /// infinite light); the shadow ray's end is offset along it (pbrt-v4 `SpawnRayTo`).
+    pub n_light: V3,
     /// Emitted radiance toward the reference point.
     pub le: [f32; N],
     /// Density per steradian, including the light selection probability.
@@ -169,7 +174,7 @@ impl Lights {
         lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
         let light = &self.list[self.pick(u_sel)];
-        let (wi, dist, pdf_sa) = match light.kind {
+        let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
             LightKind::Tri { p0, e1, e2, n, area } => {
                 let (b1, b2) = uniform_triangle(u0, u1);
                 let q = p0 + e1 * b1 + e2 * b2;
@@ -185,7 +190,7 @@ impl Lights {
                 if cos_l <= 0.0 || dist <= 0.0 {
                     return None;
                 }
-                (wi, dist, dist2 / (cos_l * area))
+                (wi, dist, q, n, dist2 / (cos_l * area))
             }
             LightKind::Sphere { center, radius, inward } => {
                 let (q, n, pdf) = match sphere_cone(p, center, radius) {
@@ -214,16 +219,16 @@ impl Lights {
                 if !light.two_sided && ((n.dot(-wi) > 0.0) == inward) {
                     return None;
                 }
-                (wi, dist, pdf)
+                (wi, dist, q, n, pdf)
             }
-            LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, sampling::UNIFORM_SPHERE_PDF),
+            LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
         };
         let pdf = pdf_sa * light.pmf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
         let le = tables[light.table as usize].eval_path(lambdas);
-        Some(LightSample { wi, dist, le, pdf })
+        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf })
     }
 }
 

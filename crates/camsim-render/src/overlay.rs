@@ -46,7 +46,8 @@
 //! for a CSV or ISETCam MATLAB v5 `.mat` file read by [`camsim_core::spectrum_csv::load_spectra`]
 //! (`column` is a column name or a 1-based index; it may be left out when the file has one
 //! spectrum). Relative file paths resolve against `base_dir` (the CLI passes the overlay file's
-//! folder).
+//! folder). A spectrum read from a file is zero outside the file's wavelengths (pbrt-v4
+//! `PiecewiseLinearSpectrum`); numbers are constant at every wavelength.
 //!
 //! Order of application: `[camera]`, `[render]`, `[[material]]`, `[[object]]`, `[light]`.
 //! Object transforms apply scale, then rotation, then translation, about the pivot. Camera:
@@ -337,7 +338,8 @@ pub fn resolve_spectrum(
             }
             .map_err(|e| format!("{what}: {e}"))?;
             s.require_non_negative(what).map_err(|e| e.to_string())?;
-            Ok(s.with_extrapolation(Extrapolation::Hold))
+            // Zero outside the file's data, as pbrt-v4 and every other measured spectrum here.
+            Ok(s)
         }
     }
 }

@@ -2,6 +2,7 @@
 //! into, and spectra tabulated finely so a lookup at a continuous wavelength is one multiply,
 //! one floor and one lerp.
 
+use camsim_core::spectrum::Extrapolation;
 use camsim_core::{Spectrum, WavelengthGrid};
 
 /// The continuous wavelength range the grid represents and how paths sample it.
@@ -90,15 +91,22 @@ impl WavelengthSampler {
 /// A spectrum tabulated on a fine uniform grid covering the sampled range, with linear
 /// interpolation between table entries. Spectra given as linear interpolation between samples
 /// are reproduced to within the interpolation of their own breakpoints onto the table
-/// (resolution <= 0.25 nm or step/8). Outside its data a spectrum is zero (as
-/// `camsim_core::Spectrum::eval`), except within half a grid step of its first and last
-/// wavelength, where the end value is held (so data that stops at the outermost band centres
-/// still fills those bands).
+/// (resolution <= 0.25 nm or step/8). Outside its data a spectrum is zero, as pbrt-v4's
+/// `PiecewiseLinearSpectrum` and `camsim_core::Spectrum::eval` (with its default
+/// `Extrapolation::Zero`; a spectrum marked `Extrapolation::Hold` holds its end values): data
+/// on 400-700 nm fills only the inner halves of the 400 nm and 700 nm bands of the default grid.
+/// The table entry nearest each end of the data is placed so the table's linear interpolation
+/// drops to zero within one table step (<= 0.25 nm) of the last sample.
 #[derive(Debug, Clone)]
 pub struct SpectrumTable {
     lo_nm: f32,
     inv_dx: f32,
+    /// The spectrum at each table wavelength, with its end values held beyond its data so that
+    /// interpolation inside the data never mixes in a zero from outside.
     values: Vec<f32>,
+    /// The range with data, nm (infinite for `Extrapolation::Hold`): zero outside.
+    data_lo_nm: f32,
+    data_hi_nm: f32,
 }
 
 impl SpectrumTable {
@@ -106,28 +114,32 @@ impl SpectrumTable {
     pub fn new(s: &Spectrum, scale: f64, ws: &WavelengthSampler) -> SpectrumTable {
         let (dx, n) = ws.table_layout();
         debug_assert_eq!(((1.0 / dx) as f32, n), (ws.table_inv_dx, ws.table_len));
-        // Half a band of grace at the ends of the data: a spectrum sampled from the first to the
-        // last band centre (e.g. 400-700 nm on the default grid) holds its end values over the
-        // outer halves of the edge bands instead of dropping to zero there.
-        let half = ws.step_nm as f64 / 2.0;
         let (w0, w1) = (s.wavelengths_nm[0], s.wavelengths_nm[s.wavelengths_nm.len() - 1]);
-        let at = |w: f64| {
-            let w = if w < w0 && w >= w0 - half - 1e-9 {
-                w0
-            } else if w > w1 && w <= w1 + half + 1e-9 {
-                w1
-            } else {
-                w
-            };
-            s.eval(w)
+        let values = (0..n).map(|i| (s.eval((ws.lo_nm as f64 + i as f64 * dx).clamp(w0, w1)) * scale).max(0.0) as f32).collect();
+        let (data_lo_nm, data_hi_nm) = match s.extrapolation {
+            Extrapolation::Zero => (w0 as f32, w1 as f32),
+            Extrapolation::Hold => (f32::NEG_INFINITY, f32::INFINITY),
         };
-        let values = (0..n).map(|i| (at(ws.lo_nm as f64 + i as f64 * dx) * scale).max(0.0) as f32).collect();
-        SpectrumTable { lo_nm: ws.lo_nm, inv_dx: (1.0 / dx) as f32, values }
+        SpectrumTable { lo_nm: ws.lo_nm, inv_dx: (1.0 / dx) as f32, values, data_lo_nm, data_hi_nm }
+    }
+
+    /// True where the spectrum has data (or holds its end values).
+    #[inline(always)]
+    fn covers(&self, wavelength_nm: f32) -> bool {
+        wavelength_nm >= self.data_lo_nm && wavelength_nm <= self.data_hi_nm
+    }
+
+    /// The table's wavelength of entry `i`, nm.
+    fn wavelength_of(&self, i: usize) -> f32 {
+        self.lo_nm + i as f32 / self.inv_dx
     }
 
     /// Value at `wavelength_nm` (inside the sampler's range).
     #[inline(always)]
     pub fn eval(&self, wavelength_nm: f32) -> f32 {
+        if !self.covers(wavelength_nm) {
+            return 0.0;
+        }
         let (i, t) = table_position(wavelength_nm, self.lo_nm, self.inv_dx, self.values.len());
         let (a, b) = (self.values[i], self.values[i + 1]);
         a + (b - a) * t
@@ -139,20 +151,28 @@ impl SpectrumTable {
     pub fn eval_path<const N: usize>(&self, l: &Lambdas<N>) -> [f32; N] {
         debug_assert_eq!(l.table_len as usize, self.values.len(), "wavelengths located for another sampler");
         std::array::from_fn(|k| {
+            if !self.covers(l.nm[k]) {
+                return 0.0;
+            }
             let i = l.idx[k] as usize;
             let (a, b) = (self.values[i], self.values[i + 1]);
             a + (b - a) * l.frac[k]
         })
     }
 
+    /// The table's values with zero outside the data.
+    fn effective(&self) -> impl Iterator<Item = f32> + '_ {
+        self.values.iter().enumerate().map(|(i, v)| if self.covers(self.wavelength_of(i)) { *v } else { 0.0 })
+    }
+
     /// Mean value over the table (for light power estimates).
     pub fn mean(&self) -> f64 {
-        self.values.iter().map(|v| *v as f64).sum::<f64>() / self.values.len() as f64
+        self.effective().map(|v| v as f64).sum::<f64>() / self.values.len() as f64
     }
 
     /// Largest value.
     pub fn max(&self) -> f32 {
-        self.values.iter().cloned().fold(0.0, f32::max)
+        self.effective().fold(0.0, f32::max)
     }
 }
 
@@ -206,18 +226,54 @@ mod tests {
         }
     }
 
+    /// Band average of a table over `[lo, hi]` nm (midpoint rule, 0.001 nm steps).
+    fn band_average(t: &SpectrumTable, lo: f64, hi: f64) -> f64 {
+        let n = ((hi - lo) / 0.001).round() as usize;
+        (0..n).map(|i| t.eval((lo + (i as f64 + 0.5) * (hi - lo) / n as f64) as f32) as f64).sum::<f64>() / n as f64
+    }
+
+    /// pbrt-v4 `PiecewiseLinearSpectrum`: zero outside the data. A constant 400-700 nm spectrum
+    /// fills half of the 400 nm (395-405) and 700 nm (695-705) bands, so their averages are half
+    /// the value, to within the table's resolution (0.25 nm of a 10 nm band: the error bound
+    /// 1e-3 is well below the 100 % of the old half-band hold).
     #[test]
-    fn table_holds_ends_for_half_a_band_only() {
+    fn spectrum_is_zero_beyond_its_data() {
         let g = WavelengthGrid::default();
         let ws = WavelengthSampler::new(&g);
-        let s = Spectrum::new(vec![400.0, 700.0], vec![0.5, 0.7], "t").unwrap();
+        let s = Spectrum::new(vec![400.0, 700.0], vec![0.5, 0.5], "t").unwrap();
         let t = SpectrumTable::new(&s, 1.0, &ws);
-        assert!((t.eval(396.0) - 0.5).abs() < 1e-6 && (t.eval(704.0) - 0.7).abs() < 1e-6);
+        assert_eq!(t.eval(399.9), 0.0);
+        assert_eq!(t.eval(700.1), 0.0);
+        assert_eq!(t.eval(400.0), 0.5);
+        assert_eq!(t.eval(700.0), 0.5);
+        for (lo, want) in [(395.0, 0.25), (405.0, 0.5), (685.0, 0.5), (695.0, 0.25)] {
+            let got = band_average(&t, lo, lo + 10.0);
+            assert!((got - want).abs() < 1e-3 * want, "band {lo}-{} nm: {got} vs {want}", lo + 10.0);
+        }
+        // A sloped spectrum keeps its exact values up to its last sample (no ramp to zero
+        // between the last table entry inside and the first outside).
+        let s = Spectrum::new(vec![401.3, 698.6], vec![0.2, 0.8], "t").unwrap();
+        let t = SpectrumTable::new(&s, 1.0, &ws);
+        for w in [401.3f32, 401.4, 698.5, 698.6] {
+            // (clamped: the f32 ends may fall a hair outside the f64 data). Tolerance: the slope
+            // (0.002 / nm) times the table step (0.25 nm); a ramp to zero would be off by ~0.1.
+            let want = s.eval((w as f64).clamp(401.3, 698.6));
+            assert!((t.eval(w) as f64 - want).abs() < 5e-4, "{w}: {} vs {want}", t.eval(w));
+        }
+        assert_eq!(t.eval(401.2), 0.0);
+        assert_eq!(t.eval(698.7), 0.0);
+        // Light power estimates see the same zero: the mean is the data's share of the range.
+        let flat = Spectrum::new(vec![400.0, 700.0], vec![1.0, 1.0], "t").unwrap();
+        let m = SpectrumTable::new(&flat, 1.0, &ws).mean();
+        assert!((m - 300.0 / 310.0).abs() < 2e-3, "{m}");
+        // A spectrum marked Extrapolation::Hold holds its end values.
+        let held = SpectrumTable::new(&flat.clone().with_extrapolation(Extrapolation::Hold), 1.0, &ws);
+        assert_eq!((held.eval(396.0), held.eval(704.0)), (1.0, 1.0));
         let narrow = Spectrum::new(vec![500.0, 510.0], vec![1.0, 1.0], "t").unwrap();
         let t = SpectrumTable::new(&narrow, 1.0, &ws);
-        assert_eq!(t.eval(480.0), 0.0);
+        assert_eq!(t.eval(497.0), 0.0);
         assert_eq!(t.eval(530.0), 0.0);
-        assert!((t.eval(497.0) - 1.0).abs() < 1e-6);
+        assert_eq!(t.eval(505.0), 1.0);
     }
 
     #[test]

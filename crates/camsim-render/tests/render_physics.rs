@@ -333,8 +333,20 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
     assert!(a.radiance.data.iter().zip(&b.radiance.data).all(|(x, y)| x.to_bits() == y.to_bits()));
     assert!(a.variance.iter().zip(&b.variance).all(|(x, y)| x.to_bits() == y.to_bits()));
     assert_eq!(a.depth_m, b.depth_m);
-    assert!(a.radiance.data.iter().any(|v| *v > 0.0));
-    assert_eq!(a.samples_per_pixel[0], 12);
+    // The comparison means something: inside the closed box every pixel sees a wall within the
+    // cube's diagonal (depth along the axis <= 2 sqrt(3) m), and every pixel got light (each
+    // wall sees the emitter).
+    let (w, h) = (40, 24);
+    assert!(a.depth_m.iter().all(|d| *d > 0.0 && *d <= 2.0 * 3f32.sqrt()), "a pixel escaped the closed box");
+    let nb = a.radiance.bands();
+    for p in 0..w * h {
+        let sum: f32 = (0..nb).map(|b| a.radiance.band(b)[p]).sum();
+        assert!(sum > 0.0 && sum.is_finite(), "pixel {p}: radiance summed over bands {sum}");
+    }
+    assert_eq!(a.samples_per_pixel, vec![12; w * h]);
+    // One camera ray per sample plus one depth ray per pixel.
+    assert_eq!(a.stats.camera_rays, (w * h * (12 + 1)) as u64);
+    assert_eq!(a.stats, RenderStats { seconds: a.stats.seconds, samples_per_second: a.stats.samples_per_second, rays_per_second: a.stats.rays_per_second, ..b.stats });
     // A different seed gives a different image.
     let mut sc2 = sc.clone();
     sc2.settings.seed = 8;
@@ -396,7 +408,15 @@ fn time_budget_stops_between_passes_and_reports_samples() {
     sc2.settings.samples_per_pixel = render::SAMPLES_PER_PASS;
     let out2 = render(&sc2, &|_, _| {}).unwrap();
     assert_eq!(out.radiance.data, out2.radiance.data);
-    assert!(out.stats.camera_rays > 0 && out.stats.rays_per_second > 0.0);
+    // Statistics of the samples actually taken: 8 x 8 pixels, one camera ray per sample plus one
+    // depth ray per pixel; throughputs are counts over the reported time.
+    let pixels = 64u64;
+    let spp = render::SAMPLES_PER_PASS as u64;
+    assert_eq!(out.stats.camera_rays, pixels * (spp + 1));
+    assert_eq!((out.stats.camera_rays, out.stats.bounce_rays, out.stats.shadow_rays), (out2.stats.camera_rays, out2.stats.bounce_rays, out2.stats.shadow_rays));
+    let rays = (out.stats.camera_rays + out.stats.bounce_rays + out.stats.shadow_rays) as f64;
+    assert!((out.stats.rays_per_second * out.stats.seconds / rays - 1.0).abs() < 1e-9);
+    assert!((out.stats.samples_per_second * out.stats.seconds / (pixels * spp) as f64 - 1.0).abs() < 1e-9);
 }
 
 #[test]
@@ -421,5 +441,140 @@ fn image_texture_is_looked_up_by_uv() {
         let out = render(&sc, &|_, _| {}).unwrap();
         let (m, se) = all_band_stats(&out.radiance);
         check(&format!("image texture at x = {x}"), m, se, rho * l_sky, 0.01);
+    }
+}
+
+/// A large diffuse plane `z = z0` (facing +z) centred under `(cx, cy)`.
+fn floor_plane(cx: f64, cy: f64, z0: f64, half: f64) -> Geometry {
+    Geometry::Triangles {
+        positions: vec![[cx - half, cy - half, z0], [cx + half, cy - half, z0], [cx + half, cy + half, z0], [cx - half, cy + half, z0]],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        uvs: None,
+        normals: None,
+    }
+}
+
+/// Direct irradiance from a uniform Lambertian sphere light of radius R and radiance L at a point
+/// a distance d >= R from its centre, on a surface whose normal points at the centre:
+/// E = pi L (R/d)^2 (the sphere subtends a cone of half-angle asin(R/d); the cosine-weighted
+/// solid angle of that cone is pi sin^2; e.g. Howell's catalogue, configuration B-43).
+/// The receiver is the plane z = z0 under the sphere's centre, seen at 10 degrees elevation so
+/// the view passes under the sphere (the gap's view angle is atan(sqrt(2 (d - R)/R)) > 17 degrees
+/// for d >= 1.05 R). Box-sized coordinates (the ceiling of the Cornell box is at 0.55 m), where
+/// the spawn offsets are the renderer's real ones.
+#[test]
+fn irradiance_from_a_sphere_light_close_up() {
+    let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+    let (rho, le, r) = (0.8, 4.0, 0.06);
+    let (cx, cy, z0) = (0.278, 0.28, 0.5488);
+    for d_over_r in [1.05, 1.2, 2.0, 5.0] {
+        let d = d_over_r * r;
+        let shapes = vec![
+            Shape { name: Some("receiver".into()), geometry: floor_plane(cx, cy, z0, 5.0), material: 0, area_light: None, reverse_orientation: false },
+            Shape {
+                name: Some("sphere light".into()),
+                geometry: Geometry::Sphere { center: [cx, cy, z0 + d], radius: r },
+                material: 1,
+                area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+                reverse_orientation: false,
+            },
+        ];
+        let el = 10f64.to_radians();
+        let from = [cx - 0.5 * el.cos(), cy, z0 + 0.5 * el.sin()];
+        let cam = camera(from, [cx, cy, z0], [0.0, 0.0, 1.0], 0.02, 8, 8);
+        let mut st = settings(grid, 1024, 1);
+        st.direct_only = true;
+        let sc = scene(cam, shapes, vec![diffuse(flat(rho)), diffuse(flat(0.0))], vec![], st);
+        let out = render(&sc, &|_, _| {}).unwrap();
+        // L_out = rho / pi * E = rho L (R/d)^2.
+        let want = rho * le / (d_over_r * d_over_r);
+        let (m, se) = all_band_stats(&out.radiance);
+        check(&format!("sphere light, receiver at {d_over_r} radii"), m, se, want, 0.01);
+    }
+}
+
+/// Irradiance at `p` (surface normal `n`) from a uniform Lambertian polygon of radiance `l`:
+/// E = (L/2) |sum_i gamma_i n . (R_i x R_{i+1}) / |R_i x R_{i+1}||, with R_i the vectors from `p`
+/// to the vertices and gamma_i the angle between R_i and R_{i+1} (Lambert 1760; the contour
+/// integral of the point-to-polygon form factor, e.g. Howell's catalogue or Baum et al. 1989).
+fn polygon_irradiance(p: [f64; 3], n: [f64; 3], verts: &[[f64; 3]], l: f64) -> f64 {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let mut s = 0.0;
+    for i in 0..verts.len() {
+        let (a, b) = (sub(verts[i], p), sub(verts[(i + 1) % verts.len()], p));
+        let c = cross(a, b);
+        let cl = dot(c, c).sqrt();
+        let gamma = (dot(a, b) / (dot(a, a).sqrt() * dot(b, b).sqrt())).clamp(-1.0, 1.0).acos();
+        s += gamma * dot(n, c) / cl;
+    }
+    0.5 * l * s.abs()
+}
+
+#[test]
+fn polygon_irradiance_helper_matches_the_corner_form_factor() {
+    // Guard for the helper: under the corner of an a x b rectangle at height h, E = pi L F.
+    let (a, b, h, l) = (1.0, 2.0, 1.0, 3.0);
+    let e = polygon_irradiance([0.0; 3], [0.0, 0.0, 1.0], &[[0.0, 0.0, h], [a, 0.0, h], [a, b, h], [0.0, b, h]], l);
+    let want = std::f64::consts::PI * l * form_factor_corner(a, b, h);
+    assert!((e / want - 1.0).abs() < 1e-12, "{e} vs {want}");
+}
+
+/// Direct light on a large floor from a square light 0.25 m wide, 0.55 m up (the Cornell box's
+/// light height), from right under it out to 10 light widths, where the light is seen at
+/// 12 degrees above the horizon: the polygon form factor in closed form.
+#[test]
+fn irradiance_from_a_quad_light_out_to_grazing_angles() {
+    let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+    let (rho, le, a, h) = (0.7, 5.0, 0.25, 0.55);
+    let light_verts = [[-a / 2.0, -a / 2.0, h], [a / 2.0, -a / 2.0, h], [a / 2.0, a / 2.0, h], [-a / 2.0, a / 2.0, h]];
+    let light = Geometry::Triangles { positions: light_verts.to_vec(), indices: vec![[0, 1, 2], [0, 2, 3]], uvs: None, normals: None };
+    let shapes = vec![
+        Shape { name: Some("floor".into()), geometry: floor_plane(0.0, 0.0, 0.0, 20.0), material: 0, area_light: None, reverse_orientation: false },
+        // (p1-p0)x(p2-p0) = +z; ReverseOrientation turns the emitting side down.
+        Shape {
+            name: Some("light".into()),
+            geometry: light,
+            material: 1,
+            area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+            reverse_orientation: true,
+        },
+    ];
+    for x in [0.0, 0.5, 1.0, 1.5, 2.0, 2.5] {
+        // The camera looks from beyond the point, below the light's plane, so it never sees the light.
+        let cam = camera([x + 0.8, 0.3, 0.5], [x, 0.0, 0.0], [0.0, 0.0, 1.0], 0.05, 8, 8);
+        let mut st = settings(grid, 512, 1);
+        st.direct_only = true;
+        let sc = scene(cam, shapes.clone(), vec![diffuse(flat(rho)), diffuse(flat(0.0))], vec![], st);
+        let out = render(&sc, &|_, _| {}).unwrap();
+        let want = rho / std::f64::consts::PI * polygon_irradiance([x, 0.0, 0.0], [0.0, 0.0, 1.0], &light_verts, le);
+        let (m, se) = all_band_stats(&out.radiance);
+        check(&format!("quad light, floor point {x} m out"), m, se, want, 0.01);
+    }
+}
+
+/// A spectrum given on 400-700 nm is zero outside that range (pbrt-v4
+/// `PiecewiseLinearSpectrum`): on the 31-band grid the 400 nm band (395-405 nm) and the 700 nm
+/// band (695-705 nm) hold data over half their width, so an emitter of constant radiance L there
+/// reads L/2 in those bands and L in the bands between.
+#[test]
+fn spectrum_ends_at_its_last_sample() {
+    let grid = WavelengthGrid::default();
+    let le = 2.0;
+    let shapes = vec![Shape {
+        name: None,
+        geometry: Geometry::Sphere { center: [0.0, 0.0, 5.0], radius: 1.0 },
+        material: 0,
+        area_light: Some(AreaLight { radiance: spec(&[400.0, 700.0], &[le, le]), two_sided: false }),
+        reverse_orientation: false,
+    }];
+    let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 32, 32);
+    let sc = scene(cam, shapes, vec![diffuse(flat(0.0))], vec![], settings(grid, 1024, 0));
+    let out = render(&sc, &|_, _| {}).unwrap();
+    let last = grid.len() - 1;
+    for (b, want) in [(0, le / 2.0), (1, le), (15, le), (last - 1, le), (last, le / 2.0)] {
+        let (m, se) = band_stats(&out.radiance, b);
+        check(&format!("band {} nm of a 400-700 nm spectrum", grid.wavelength_nm(b)), m, se, want, 0.03);
     }
 }

@@ -83,7 +83,9 @@ pub struct PositionResult {
     pub profile_distance_px: Vec<f64>,
     /// Profile R, G, B (demosaicked DN above black).
     pub profile_rgb: Vec<[f64; 3]>,
-    /// Render statistics: seconds, samples per pixel reached.
+    /// Samples per pixel the render took (all `box_spp` unless an opt-in time budget stopped it).
+    pub render_samples_per_pixel: u32,
+    /// Render time, s.
     pub render_seconds: f64,
     /// Rays per second of the render.
     pub render_rays_per_second: f64,
@@ -272,6 +274,7 @@ fn capture_position(
         gray_rg_ratio: rg,
         profile_distance_px: prof.iter().map(|q| q.distance_px).collect(),
         profile_rgb: prof.iter().map(|q| q.rgb).collect(),
+        render_samples_per_pixel: out.samples_per_pixel.iter().copied().max().unwrap_or(0),
         render_seconds: out.stats.seconds,
         render_rays_per_second: out.stats.rays_per_second,
     };

@@ -14,9 +14,12 @@ use std::path::PathBuf;
 /// (cornell-box, cornell-box-mcc, slanted-edge). An overlay TOML moves or replaces objects and
 /// sets reflectances and the light's spectrum, as ISET3d does. Writes radiance.exr (spectral
 /// OpenEXR with the depth as channel Z), depth.exr (m), variance.exr, preview.png (sRGB) and
-/// render.json (settings and ray statistics) in --out.
+/// render.json (settings, the samples per pixel actually taken, and ray statistics) in --out.
+///
+/// Command-line options win over the scene file and the overlay: an explicit --resolution, --spp
+/// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --out out/box\n  camsim render --builtin cornell-box-mcc --mcc-position left --spp 64 --out out/left\n  camsim render examples/pbrt/cornell-box.pbrt --overlay examples/overlays/isetcornellbox-spectra.toml --out out/pbrt\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --out out/edge")]
+#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)")]
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,
@@ -29,10 +32,13 @@ pub struct Args {
     /// Samples per pixel (default: the file's Sampler or the built-in's).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Stop after this many seconds (whole passes of 8 samples).
+    /// Opt-in wall-clock limit, s: stop after the first whole pass of 8 samples per pixel that
+    /// ends past it (the result then depends on the machine's speed; render.json reports the
+    /// samples taken). Default: no limit, all --spp samples.
     #[arg(long)]
     pub time_budget_s: Option<f64>,
-    /// Image size WIDTHxHEIGHT.
+    /// Image size WIDTHxHEIGHT (default: the pbrt file's Film, the overlay's [camera]
+    /// resolution, or the built-in's). Given here, it wins over both.
     #[arg(long, value_parser = parse_resolution)]
     pub resolution: Option<(usize, usize)>,
     /// Maximum path depth (bounces).
@@ -91,8 +97,13 @@ pub fn run(a: Args) -> Result<()> {
     for n in &scene.notes {
         say(format!("note: {n}"));
     }
+    // Explicit command-line settings win over the file's and the overlay's.
     if let Some(spp) = a.spp {
         scene.settings.samples_per_pixel = spp;
+    }
+    if let Some((w, h)) = a.resolution {
+        scene.camera.width = w;
+        scene.camera.height = h;
     }
     if let Some(d) = a.max_depth {
         scene.settings.max_depth = d;
@@ -102,6 +113,7 @@ pub fn run(a: Args) -> Result<()> {
     }
     let r = render_with_progress(&scene)?;
     let (rows, cols) = (r.radiance.rows, r.radiance.cols);
+    let samples_taken = r.samples_per_pixel.iter().copied().max().unwrap_or(0);
     camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &r.radiance, "render")?;
     camsim_io::exr::write_gray_exr(&out.join("depth.exr"), rows, cols, "Z", &r.depth_m)?;
     camsim_io::exr::write_gray_exr(&out.join("variance.exr"), rows, cols, "Y", &r.variance)?;
@@ -112,7 +124,10 @@ pub fn run(a: Args) -> Result<()> {
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "scene": a.scene.as_ref().map(|p| p.display().to_string()).or(a.builtin.clone()),
         "resolution": [cols, rows],
-        "samples_per_pixel": scene.settings.samples_per_pixel,
+        // The samples actually taken (fewer than asked when a time budget stopped the render).
+        "samples_per_pixel": samples_taken,
+        "samples_per_pixel_requested": scene.settings.samples_per_pixel,
+        "time_budget_s": scene.settings.time_budget_s,
         "max_depth": scene.settings.max_depth,
         "wavelengths_per_path": scene.settings.wavelengths_per_path,
         "seed": scene.settings.seed,
@@ -126,8 +141,12 @@ pub fn run(a: Args) -> Result<()> {
     });
     camsim_io::atomic::write_json_atomic(&out.join("render.json"), &info).context("render.json")?;
     say(format!(
-        "rendered {cols}x{rows}, {} spp in {:.1} s ({:.2} Mrays/s) -> {}",
-        scene.settings.samples_per_pixel,
+        "rendered {cols}x{rows}, {samples_taken} spp{} in {:.1} s ({:.2} Mrays/s) -> {}",
+        if samples_taken < scene.settings.samples_per_pixel {
+            format!(" (of {} asked; the time budget stopped it)", scene.settings.samples_per_pixel)
+        } else {
+            String::new()
+        },
         r.stats.seconds,
         r.stats.rays_per_second / 1e6,
         out.display()
