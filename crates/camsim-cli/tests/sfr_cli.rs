@@ -165,12 +165,16 @@ fn the_slanted_edge_example_simulates_and_its_sfr_finds_the_5_degree_edge() {
     }
 }
 
-/// The option lines of a `-h` text that have no help after the flag.
+/// The option lines of a `-h` text with no help text, neither after the flag on the same line
+/// nor (clap's layout for long texts) on the next line.
 fn undocumented_options(help: &str) -> Vec<String> {
-    help.lines()
-        .filter(|l| l.trim_start().starts_with('-'))
-        .filter(|l| !l.trim().contains("  "))
-        .map(|l| l.trim().to_string())
+    // The "Options:" section: up to the next blank line.
+    let lines: Vec<&str> = help.lines().skip_while(|l| !l.starts_with("Options:")).skip(1).take_while(|l| !l.trim().is_empty()).collect();
+    let is_flag = |l: &str| l.trim_start().starts_with('-');
+    (0..lines.len())
+        .filter(|i| is_flag(lines[*i]))
+        .filter(|i| !lines[*i].trim().contains("  ") && lines.get(i + 1).is_none_or(|n| is_flag(n)))
+        .map(|i| lines[i].trim().to_string())
         .collect()
 }
 
