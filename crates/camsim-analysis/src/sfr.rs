@@ -15,8 +15,10 @@
 //! 6. the magnitude of its DFT, normalised to 1 at zero frequency, divided by the frequency
 //!    response of the difference (`sinc(f / oversample)`, the discrete-derivative correction).
 //!
-//! Frequencies are cycles per pixel of the analysed grid measured along the edge normal; for a
-//! CFA channel sub-grid they are also given per sensor pixel (half), and per mm given the pitch.
+//! Units: every result is given in cycles per *sensor pixel* (`_cyc_per_sensor_px`, the unit to
+//! report and compare) and, given the pitch, cycles/mm on the sensor. For a CFA channel measured
+//! on its own sub-grid (samples 2 sensor pixels apart) the per-sample values
+//! (`_cyc_per_sample`, twice as large) are kept only as the analysed grid's own axis.
 
 use crate::error::{AnalysisError, Result};
 use crate::image::{cfa_channel_offset, cfa_channel_plane, luminance, sub_grid_rect, Plane, Rect};
@@ -56,10 +58,10 @@ pub enum EdgeOrientation {
 /// The measured SFR and what it was measured on.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SfrResult {
-    /// Frequencies, cycles per pixel of the analysed grid (0 to oversample / 2).
-    pub freq_cyc_per_px: Vec<f64>,
-    /// The same frequencies in cycles per sensor pixel (equal to `freq_cyc_per_px` for a full
-    /// plane, half of it for a CFA channel sub-grid).
+    /// Frequencies, cycles per sample of the analysed grid (0 to oversample / 2): equal to
+    /// `freq_cyc_per_sensor_px` for a full plane, twice it for a CFA channel sub-grid.
+    pub freq_cyc_per_sample: Vec<f64>,
+    /// The same frequencies in cycles per sensor pixel (the unit to report).
     pub freq_cyc_per_sensor_px: Vec<f64>,
     /// The same frequencies in cycles/mm, when the pixel pitch is known.
     pub freq_cyc_per_mm: Option<Vec<f64>>,
@@ -78,14 +80,19 @@ pub struct SfrResult {
     pub rows_used: usize,
     /// ESF bins that received no pixel and were filled by interpolation.
     pub empty_bins: usize,
-    /// Frequency where the SFR first falls to 0.5, cycles per pixel (None if it never does).
-    pub mtf50_cyc_per_px: Option<f64>,
+    /// Frequency where the SFR first falls to 0.5, cycles per sample of the analysed grid (None
+    /// if it never does).
+    pub mtf50_cyc_per_sample: Option<f64>,
     /// MTF50 in cycles per sensor pixel.
     pub mtf50_cyc_per_sensor_px: Option<f64>,
     /// MTF50 in cycles/mm, when the pitch is known.
     pub mtf50_cyc_per_mm: Option<f64>,
-    /// SFR at the Nyquist frequency of the analysed grid (0.5 cycles/pixel).
+    /// SFR at the Nyquist frequency of the analysed grid (0.5 cycles per sample, that is
+    /// `nyquist_cyc_per_sensor_px`).
     pub mtf_at_nyquist: f64,
+    /// The analysed grid's Nyquist frequency in cycles per sensor pixel (0.5 for a full plane,
+    /// 0.25 for a CFA channel sub-grid).
+    pub nyquist_cyc_per_sensor_px: f64,
     /// Distance between ESF/LSF samples along the edge normal, pixels of the analysed grid.
     pub esf_spacing_px: f64,
     /// Edge-spread function (mean value per bin, in the input's unit, original sign).
@@ -399,7 +406,7 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     Ok(SfrResult {
         freq_cyc_per_sensor_px: freq.iter().map(|f| f / pitch_sensor_px).collect(),
         freq_cyc_per_mm: pitch_mm.map(|p| freq.iter().map(|f| f / p).collect()),
-        freq_cyc_per_px: freq,
+        freq_cyc_per_sample: freq,
         mtf,
         edge_angle_deg,
         orientation,
@@ -407,10 +414,11 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
         edge_fit_row0: row0,
         rows_used: nlin1,
         empty_bins,
-        mtf50_cyc_per_px: mtf50,
+        mtf50_cyc_per_sample: mtf50,
         mtf50_cyc_per_sensor_px: mtf50.map(|f| f / pitch_sensor_px),
         mtf50_cyc_per_mm: mtf50.and_then(|f| pitch_mm.map(|p| f / p)),
         mtf_at_nyquist,
+        nyquist_cyc_per_sensor_px: 0.5 / pitch_sensor_px,
         esf_spacing_px: spacing,
         esf: esf.iter().map(|v| v * polarity).collect(),
         lsf,
@@ -447,8 +455,8 @@ pub fn interp(x: &[f64], y: &[f64], x0: f64) -> f64 {
 /// demosaicking). `roi` is in sensor pixels (None: found automatically on the sub-grid). For
 /// green the first green of the 2x2 block is used (see [`sfr_raw_sub_grid`] for the other).
 /// `opts.pixel_pitch_mm` is the sensor pitch; if `None`, the frame's `pixel_pitch_m` is used
-/// when set. Frequencies: `freq_cyc_per_px` per sub-grid sample, `freq_cyc_per_sensor_px` per
-/// sensor pixel; `mtf_at_nyquist` is at the sub-grid's Nyquist (0.25 cycles per sensor pixel).
+/// when set. Frequencies: `freq_cyc_per_sensor_px` per sensor pixel (`freq_cyc_per_sample` per
+/// sub-grid sample, twice as large); `mtf_at_nyquist` is at the sub-grid's Nyquist (0.25 cycles per sensor pixel).
 pub fn sfr_raw_channel(raw: &RawImage, ch: CfaChannel, roi: Option<Rect>, opts: &SfrOptions) -> Result<SfrResult> {
     sfr_raw_sub_grid(raw, ch, None, roi, opts)
 }
@@ -484,11 +492,18 @@ pub fn sfr_luminance(planes: &[Plane; 3], weights: [f64; 3], roi: Option<Rect>, 
     sfr(&y, roi, opts)
 }
 
-/// Find a region of interest around the dominant straight edge of `plane`: per row (or column,
-/// for a near-horizontal edge) the position of the largest smoothed derivative, the longest run
-/// of rows where that position moves continuously (by at most 3 pixels per row), and a window
-/// around it wide enough to hold the edge transition and flat regions on both sides (at least 12
-/// pixels each side). Both orientations are searched and the longer edge wins.
+/// Find a region of interest around the best slanted edge of `plane`.
+///
+/// Per row (or column, for near-horizontal edges) the local maxima of the smoothed derivative are
+/// linked from row to row into straight-edge tracks (a track continues while its position moves
+/// by at most 3 pixels per row). A track is a *slanted edge* when its fitted slope gives at least
+/// one phase cycle over its length (`rows |slope| >= 1`, what [`sfr`] needs) and it leans by
+/// 0.5 to 45 degrees; the frame of a scene smaller than the image (a perfectly vertical or
+/// horizontal border) is not. Among the slanted edges at least half as long as the longest, the
+/// one with the largest contrast (median step across the edge) wins; if no edge is slanted, the
+/// longest one is returned (and [`sfr`] then explains why it cannot be measured). The window is
+/// wide enough for the transition and flat regions on both sides (at least 12 pixels or 3
+/// transition widths each side), but stops short of any other strong edge beside it.
 pub fn find_edge_roi(plane: &Plane) -> Result<Rect> {
     if plane.rows < 8 || plane.cols < 8 || plane.data.len() != plane.rows * plane.cols {
         return Err(AnalysisError::invalid("edge search", format!("a {} x {} plane is too small", plane.rows, plane.cols)));
@@ -496,25 +511,49 @@ pub fn find_edge_roi(plane: &Plane) -> Result<Rect> {
     if plane.data.iter().any(|v| !v.is_finite()) {
         return Err(AnalysisError::invalid("edge search", "the plane holds values that are not finite"));
     }
-    // Search both orientations; keep the longer straight edge.
-    let v = find_vertical_edge_roi(plane);
-    let h = find_vertical_edge_roi(&plane.transpose()).map(|(r, len)| (Rect::new(r.col, r.row, r.cols, r.rows), len));
-    match (v, h) {
-        (Ok(a), Ok(b)) => Ok(if b.1 > a.1 { b.0 } else { a.0 }),
-        (Ok(a), Err(_)) => Ok(a.0),
-        (Err(_), Ok(b)) => Ok(b.0),
-        (Err(e), Err(_)) => Err(e),
+    // Both orientations; the horizontal candidates' rectangles are transposed back.
+    // (A plane flat in one direction has no candidates in it.)
+    let mut cands = edge_candidates(plane);
+    let transposed = edge_candidates(&plane.transpose());
+    cands.extend(transposed.into_iter().map(|c| EdgeCandidate { rect: Rect::new(c.rect.col, c.rect.row, c.rect.cols, c.rect.rows), ..c }));
+    let longest_slanted = cands.iter().filter(|c| c.slanted).map(|c| c.len).max().unwrap_or(0);
+    let best = if longest_slanted > 0 {
+        cands
+            .iter()
+            .filter(|c| c.slanted && 2 * c.len >= longest_slanted)
+            .max_by(|a, b| a.contrast.total_cmp(&b.contrast).then(a.len.cmp(&b.len)))
+    } else {
+        cands.iter().max_by(|a, b| a.len.cmp(&b.len).then(a.contrast.total_cmp(&b.contrast)))
+    };
+    match best {
+        Some(c) => Ok(c.rect),
+        None => Err(AnalysisError::invalid("edge search", "no straight edge of 8 pixels or longer found (is the image flat?)")),
     }
 }
 
-/// ROI around the longest near-vertical edge of `p`, and that edge's length in rows.
-fn find_vertical_edge_roi(p: &Plane) -> Result<(Rect, usize)> {
+/// A straight edge found by [`edge_candidates`].
+#[derive(Debug, Clone, Copy)]
+struct EdgeCandidate {
+    /// The ROI around it.
+    rect: Rect,
+    /// Its length in rows.
+    len: usize,
+    /// Median peak of the smoothed derivative along it (the step across the edge, input units).
+    contrast: f64,
+    /// Whether it is slanted enough for the e-SFR (at least one phase cycle, 0.5 to 45 degrees).
+    slanted: bool,
+}
+
+/// One row's derivative peak on a track: row, column, peak value, transition width.
+type TrackPoint = (usize, usize, f64, usize);
+
+/// The near-vertical straight edges of `p` (at least 8 rows long), with an ROI around each.
+fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
     let (rows, cols) = (p.rows, p.cols);
-    // Derivative [1, 0, -1] of the 3-row average, per row.
-    let mut peak_pos = vec![0usize; rows];
-    let mut peak_val = vec![0.0f64; rows];
-    let mut widths = vec![0usize; rows];
+    // Derivative [1, 0, -1] of the 3-row average, per row; local maxima are the edge points.
     let mut d = vec![0.0f64; cols];
+    let mut peaks: Vec<Vec<(usize, f64, usize)>> = Vec::with_capacity(rows);
+    let mut row_max = vec![0.0f64; rows];
     for r in 0..rows {
         let rs = r.saturating_sub(1)..(r + 2).min(rows);
         let nr = rs.len() as f64;
@@ -522,67 +561,118 @@ fn find_vertical_edge_roi(p: &Plane) -> Result<(Rect, usize)> {
         for c in 1..cols - 1 {
             d[c] = (avg(c + 1) - avg(c - 1)).abs();
         }
-        let (mut best, mut bc) = (0.0, 1);
-        for (c, v) in d.iter().enumerate().take(cols - 1).skip(1) {
-            if *v > best {
-                best = *v;
-                bc = c;
+        row_max[r] = d.iter().cloned().fold(0.0, f64::max);
+        // Local maxima: the largest value within 2 columns (one peak per edge).
+        let mut pk = Vec::new();
+        for c in 1..cols - 1 {
+            let lo = c.saturating_sub(2).max(1);
+            let hi = (c + 3).min(cols - 1);
+            let v = d[c];
+            if v > 0.0 && (lo..hi).all(|k| d[k] < v || (d[k] == v && k >= c)) {
+                // Width of the transition: contiguous samples above 10 % of the peak.
+                let (mut a, mut b) = (c, c);
+                while a > 1 && d[a - 1] > 0.1 * v {
+                    a -= 1;
+                }
+                while b + 2 < cols && d[b + 1] > 0.1 * v {
+                    b += 1;
+                }
+                pk.push((c, v, b - a + 1));
             }
         }
-        peak_pos[r] = bc;
-        peak_val[r] = best;
-        // Width of the transition: contiguous samples above 10 % of the peak.
-        let (mut lo, mut hi) = (bc, bc);
-        while lo > 1 && d[lo - 1] > 0.1 * best {
-            lo -= 1;
-        }
-        while hi + 2 < cols && d[hi + 1] > 0.1 * best {
-            hi += 1;
-        }
-        widths[r] = hi - lo + 1;
+        peaks.push(pk);
     }
-    let mut sorted = peak_val.clone();
+    let mut sorted = row_max.clone();
     sorted.sort_by(f64::total_cmp);
     let p90 = sorted[(rows * 9) / 10];
     if !(p90 > 0.0) {
-        return Err(AnalysisError::invalid("edge search", "no edge found (the plane is flat)"));
+        return Vec::new();
     }
-    let is_edge = |r: usize| peak_val[r] > 0.5 * p90;
-    // Longest run of edge rows with a continuously moving peak.
-    let (mut best_start, mut best_len) = (0, 0);
-    let mut start = 0;
-    let mut len = 0;
-    for r in 0..rows {
-        let cont = len > 0 && is_edge(r) && (peak_pos[r] as i64 - peak_pos[r - 1] as i64).abs() <= 3;
-        if cont {
-            len += 1;
-        } else if is_edge(r) {
-            start = r;
-            len = 1;
-        } else {
-            len = 0;
+    // Strong peaks only (a quarter of the typical row maximum), the 8 strongest per row.
+    for pk in &mut peaks {
+        pk.retain(|(_, v, _)| *v > 0.25 * p90);
+        pk.sort_by(|a, b| b.1.total_cmp(&a.1));
+        pk.truncate(8);
+    }
+    // Link peaks of consecutive rows into tracks, strongest peaks first.
+    let mut open: Vec<Vec<TrackPoint>> = Vec::new();
+    let mut done: Vec<Vec<TrackPoint>> = Vec::new();
+    for (r, pk) in peaks.iter().enumerate() {
+        let mut next: Vec<Vec<TrackPoint>> = Vec::new();
+        let mut taken = vec![false; open.len()];
+        for &(c, v, w) in pk {
+            let near = (0..open.len())
+                .filter(|i| !taken[*i])
+                .map(|i| (i, (open[i].last().map_or(0, |q| q.1) as i64 - c as i64).abs()))
+                .filter(|(_, dc)| *dc <= 3)
+                .min_by_key(|(_, dc)| *dc);
+            match near {
+                Some((i, _)) => {
+                    taken[i] = true;
+                    let mut t = std::mem::take(&mut open[i]);
+                    t.push((r, c, v, w));
+                    next.push(t);
+                }
+                None => next.push(vec![(r, c, v, w)]),
+            }
         }
-        if len > best_len {
-            best_len = len;
-            best_start = start;
+        for (i, t) in open.into_iter().enumerate() {
+            if !taken[i] {
+                done.push(t);
+            }
         }
+        open = next;
     }
-    if best_len < 8 {
-        return Err(AnalysisError::invalid("edge search", format!("no straight edge longer than 8 pixels found (longest {best_len})")));
+    done.extend(open);
+    done.retain(|t| t.len() >= 8);
+    // Trim two rows at each end (the 3-row average blurs an edge's ends).
+    let tracks: Vec<&[TrackPoint]> = done.iter().map(|t| &t[2.min(t.len() / 4)..t.len() - 2.min(t.len() / 4)]).collect();
+    let stats: Vec<(f64, f64)> = tracks
+        .iter()
+        .map(|t| {
+            // Least-squares line c = c0 + s r through the peaks; the median peak value.
+            let n = t.len() as f64;
+            let (mr, mc) = (t.iter().map(|q| q.0 as f64).sum::<f64>() / n, t.iter().map(|q| q.1 as f64).sum::<f64>() / n);
+            let sxy: f64 = t.iter().map(|q| (q.0 as f64 - mr) * (q.1 as f64 - mc)).sum();
+            let sxx: f64 = t.iter().map(|q| (q.0 as f64 - mr).powi(2)).sum();
+            let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+            let mut vs: Vec<f64> = t.iter().map(|q| q.2).collect();
+            vs.sort_by(f64::total_cmp);
+            (slope, vs[vs.len() / 2])
+        })
+        .collect();
+    let mut out = Vec::with_capacity(tracks.len());
+    for (k, t) in tracks.iter().enumerate() {
+        let (slope, contrast) = stats[k];
+        let (r0, r1) = (t[0].0, t[t.len() - 1].0 + 1);
+        let cmin = t.iter().map(|q| q.1).min().unwrap_or(0);
+        let cmax = t.iter().map(|q| q.1).max().unwrap_or(cols - 1);
+        let mut ws: Vec<usize> = t.iter().map(|q| q.3).collect();
+        ws.sort_unstable();
+        let w = ws[ws.len() / 2];
+        let margin = (3 * w).max(12);
+        let mut c0 = cmin.saturating_sub(margin);
+        let mut c1 = (cmax + margin + 1).min(cols);
+        // Stop short of other strong edges in the same rows (half of this one's contrast or more).
+        for (j, o) in tracks.iter().enumerate() {
+            if j == k || stats[j].1 < 0.5 * contrast {
+                continue;
+            }
+            let cs: Vec<usize> = o.iter().filter(|q| q.0 >= r0 && q.0 < r1).map(|q| q.1).collect();
+            let (Some(omin), Some(omax)) = (cs.iter().min().copied(), cs.iter().max().copied()) else { continue };
+            let ow = o[o.len() / 2].3;
+            if omin > cmax {
+                c1 = c1.min(omin.saturating_sub(ow).max(cmax + 2));
+            } else if omax < cmin {
+                c0 = c0.max((omax + ow + 1).min(cmin.saturating_sub(1)));
+            }
+        }
+        let len = t.len();
+        let angle_deg = slope.atan().to_degrees().abs();
+        let slanted = len as f64 * slope.abs() >= 1.0 && (0.5..=45.0).contains(&angle_deg);
+        out.push(EdgeCandidate { rect: Rect::new(r0, c0, r1 - r0, c1 - c0), len, contrast, slanted });
     }
-    // Trim two rows at each end (the 3-row average blurs the edge's ends).
-    let r0 = best_start + 2.min(best_len / 4);
-    let r1 = best_start + best_len - 2.min(best_len / 4);
-    let run = r0..r1;
-    let cmin = run.clone().map(|r| peak_pos[r]).min().unwrap_or(0);
-    let cmax = run.clone().map(|r| peak_pos[r]).max().unwrap_or(cols - 1);
-    let mut ws: Vec<usize> = run.clone().map(|r| widths[r]).collect();
-    ws.sort_unstable();
-    let w = ws[ws.len() / 2];
-    let margin = (3 * w).max(12);
-    let c0 = cmin.saturating_sub(margin);
-    let c1 = (cmax + margin + 1).min(cols);
-    Ok((Rect::new(r0, c0, r1 - r0, c1 - c0), best_len))
+    out
 }
 
 #[cfg(test)]

@@ -51,15 +51,11 @@
 //! # 2. QE correction fit on camsim "measurements" (the last test)
 //!
 //! The paper fits M in `[r', g', b'] = [r, g, b] M` so that the published IMX363 QE predicts the
-//! Pixel 4a's measured ColorChecker values. Here the "measurements" are noisy raw frames of the
-//! `pixel4a` preset (its QE is the published QE times the paper's M) and the predictions are the
-//! noise-free `imx363` preset at the same irradiance and exposure, so the fit in the paper's form
-//! must give back the paper's M up to the measurement noise: 24 Ohta patches under CIE A, F2 and
-//! D65, each a uniform 64 x 64 irradiance image (1024 R, 2048 G, 1024 B pixels), one frame with
-//! every noise source on. The expected error of each entry is computed from the noise model
-//! (`predicted_noise_dn` / sqrt(pixels), propagated through the least-squares normal equations):
-//! the largest is ~5e-4, so the 0.01 tolerance is twenty standard errors; each entry is also
-//! checked to lie within five of its own standard errors of the paper's value.
+//! Pixel 4a's measured ColorChecker values. Here the "measurements" are noisy raw frames of a
+//! pixel4a sensor whose QE is the paper's corrected QE read from ISET/isetcornellbox
+//! `p4aCorrected.csv` (independent of the preset's published QE x M), and the predictions are the
+//! noise-free `imx363` preset at the same irradiance and exposure. See the test's comment for what
+//! the fit must recover and why.
 
 // Channel loops index several arrays at once (r, g, b).
 #![allow(clippy::needless_range_loop)]
@@ -255,13 +251,99 @@ fn uniform_image(s: &Sensor, grid: &WavelengthGrid, irr: &[f64]) -> SpectralImag
     SpectralImage::from_data(s.rows(), s.cols(), *grid, s.pixel_pitch_m(), Quantity::Irradiance, data).unwrap()
 }
 
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
+
+/// The paper's corrected Pixel 4a QE (ISET/isetcornellbox `p4aCorrected`, IR filter included),
+/// as a sensor QE table at its own wavelengths (390-710 nm, 10 nm).
+fn p4a_corrected_qe() -> camsim_sensor::QeConfig {
+    let path = format!("{DATA}/isetcornellbox/p4aCorrected.csv");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let mut lines = text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty());
+    assert_eq!(lines.next().unwrap().trim(), "wavelength_nm,r,g,b", "{path}: header");
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
+    let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+    camsim_sensor::QeConfig { wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None }
+}
+
+/// M (row vector convention, `target = source M`) by least squares over the wavelength samples,
+/// per output channel, with nalgebra's SVD (not the solver under test), and the relative RMS
+/// residual of each channel.
+fn qe_level_m(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]) -> ([[f64; 3]; 3], [f64; 3]) {
+    let n = source[0].len();
+    let a = DMatrix::from_fn(n, 3, |r, i| source[i][r]);
+    let svd = a.clone().svd(true, true);
+    let mut m = [[0.0; 3]; 3];
+    let mut rel_rms = [0.0; 3];
+    for j in 0..3 {
+        let b = DVector::from_column_slice(&target[j]);
+        let x = svd.solve(&b, 1e-12).unwrap();
+        for i in 0..3 {
+            m[i][j] = x[i];
+        }
+        rel_rms[j] = (&a * &x - &b).norm() / b.norm();
+    }
+    (m, rel_rms)
+}
+
+/// Relative RMS difference per channel between `source M` and `target` over the wavelengths.
+fn qe_mismatch(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|j| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for k in 0..target[j].len() {
+            let p: f64 = (0..3).map(|i| source[i][k] * m[i][j]).sum();
+            num += (p - target[j][k]).powi(2);
+            den += target[j][k].powi(2);
+        }
+        (num / den).sqrt()
+    })
+}
+
+/// Expected standard error of each free entry of M: the weighted least-squares covariance of the
+/// (unweighted) estimator, (A^T A)^-1 A^T diag(sigma^2) A (A^T A)^-1, per output column j.
+fn fit_std_errors(predicted: &[[f64; 3]], sigma: &[[f64; 3]], form: MatrixForm) -> [[f64; 3]; 3] {
+    let mask = form.mask();
+    let mut se = [[0.0f64; 3]; 3];
+    for j in 0..3 {
+        let inputs: Vec<usize> = (0..3).filter(|i| mask[*i][j]).collect();
+        let a = DMatrix::from_fn(predicted.len(), inputs.len(), |r, k| predicted[r][inputs[k]]);
+        let w = DVector::from_fn(predicted.len(), |r, _| sigma[r][j] * sigma[r][j]);
+        let ata_inv = (a.transpose() * &a).try_inverse().unwrap();
+        let cov = &ata_inv * (a.transpose() * DMatrix::from_diagonal(&w) * &a) * &ata_inv;
+        for (k, i) in inputs.iter().enumerate() {
+            se[*i][j] = cov[(k, k)].sqrt();
+        }
+    }
+    se
+}
+
+/// The QE correction fitted to chart captures made with an *independent* QE: the "measuring"
+/// camera is the pixel4a sensor (Table 1 of the paper, every noise source on) with the paper's
+/// corrected QE read from ISET/isetcornellbox `p4aCorrected.csv` (not the preset's published QE x
+/// the paper's M); the prediction is the noise-free `imx363` preset (published QE). 24 Ohta
+/// patches under CIE A, F2 and D65, each a uniform 64 x 64 irradiance.
+///
+/// References and tolerances:
+/// - `p4aCorrected` turns out to be an exact linear transform of this published QE (the QE-level
+///   least-squares residual is ~1e-6, the CSV's 6-digit rounding), so the unconstrained fit of
+///   the chart means must equal that QE-level M (computed here from the curves alone, by SVD)
+///   within five of its standard errors, which come from the noise model (`predicted_noise_dn` /
+///   sqrt(pixels), propagated through the normal equations).
+/// - That M is not the paper's: the published curves here come from a later ISETCam file
+///   (shared/data README), so published x paper M differs from `p4aCorrected` by a relative RMS of
+///   eps_j = 15-22 % per channel, and it holds a red-to-green term (M[0][1] = 0.08) that the
+///   paper's lower-triangular form lacks. The paper-form fit is therefore only "close": a curve
+///   error eps_j moves column j of M by about eps_j |M_j| (0.08, 0.17, 0.15), the tolerance used
+///   per column; and the fitted M must reproduce `p4aCorrected` at least as well as the paper's M.
 #[test]
-fn qe_fit_of_pixel4a_frames_against_the_imx363_preset_gives_the_paper_m() {
+fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
     let grid = WavelengthGrid::default();
     let side = 64;
-    // The measuring camera: the pixel4a preset with every noise source on and a black level (the
-    // same 40 mV as above; without it the dark patches' noise would clip at 0 DN and bias their means).
-    let p4a = Sensor::preset("pixel4a").unwrap().with_size(side, side).unwrap();
+    let mut cfg = Sensor::preset("pixel4a").unwrap().config().clone();
+    cfg.name = "pixel4a with p4aCorrected QE".into();
+    cfg.qe = p4a_corrected_qe();
+    cfg.qe_correction = None;
+    let p4a = Sensor::from_config(cfg).unwrap().with_size(side, side).unwrap();
+    // A black level (40 mV, as above): without it the dark patches' noise would clip at 0 DN.
     let p4a = with_black_level(&p4a, 40e-3 * p4a.dn_per_v());
     // The model: the published QE (imx363 preset), noise-free and unrounded.
     let imx = Sensor::preset("imx363")
@@ -269,13 +351,21 @@ fn qe_fit_of_pixel4a_frames_against_the_imx363_preset_gives_the_paper_m() {
         .with_size(side, side)
         .unwrap()
         .with_noise(NoiseSwitches { quantization: false, ..NoiseSwitches::none() });
+
+    // QE level: p4aCorrected against the published QE, on the analysis grid (400-700 nm).
+    let (published, corrected) = (imx.channel_qe(&grid), p4a.channel_qe(&grid));
+    let (m_qe, qe_rel_rms) = qe_level_m(&published, &corrected);
+    let eps_paper = qe_mismatch(&published, &corrected, &PAPER_M);
+    println!("QE-level M {m_qe:?}, relative residual {qe_rel_rms:?}\npublished x paper M vs p4aCorrected: relative RMS {eps_paper:?}");
+    assert!(qe_rel_rms.iter().all(|r| *r < 1e-4), "p4aCorrected is not a linear transform of the published QE: {qe_rel_rms:?}");
+
     let t_s = 10e-3;
     let patches = tables::macbeth_reflectances();
     let full = Rect::new(0, 0, side, side);
     let (mut measured, mut predicted, mut sigma) = (vec![], vec![], vec![]);
     for (li, light) in ["A", "F2", "D65"].iter().enumerate() {
         let spd = tables::illuminant(light).unwrap().sample(&grid);
-        // Scale each light so the white patch's largest pixel4a channel sits at 70 % of the clip.
+        // Scale each light so the white patch's largest channel sits at 70 % of the clip.
         let white = patches[18].sample(&grid);
         let unit: Vec<f64> = spd.iter().zip(&white).map(|(e, r)| e * r).collect();
         let e_white = p4a.mean_electrons_uniform(&unit, &grid, t_s).unwrap();
@@ -289,8 +379,6 @@ fn qe_fit_of_pixel4a_frames_against_the_imx363_preset_gives_the_paper_m() {
             let frame = p4a.compute(&img, &Capture::seconds(t_s).with_seed(seed)).unwrap();
             let stats = &roi_stats_raw(&frame.raw[0], &[full]).unwrap()[0];
             measured.push(stats.mean_dn);
-            // Standard error of each mean: the model's per-pixel noise (temporal and fixed pattern)
-            // over the channel's pixels.
             sigma.push([0, 1, 2].map(|c| p4a.predicted_noise_dn(stats.mean_dn[c], t_s).total / (stats.n[c] as f64).sqrt()));
             // Prediction: the noise-free model's unrounded output, per channel.
             let pf = imx.compute(&img, &Capture::seconds(t_s)).unwrap();
@@ -313,35 +401,40 @@ fn qe_fit_of_pixel4a_frames_against_the_imx363_preset_gives_the_paper_m() {
             predicted.push(p);
         }
     }
-    let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative).unwrap();
-    // Expected error of each free entry: weighted least squares covariance with the (unweighted)
-    // estimator, (A^T A)^-1 A^T diag(sigma^2) A (A^T A)^-1, per output column j.
-    let mask = MatrixForm::PaperLowerNonNegative.mask();
-    let mut se = [[0.0f64; 3]; 3];
-    for j in 0..3 {
-        let inputs: Vec<usize> = (0..3).filter(|i| mask[*i][j]).collect();
-        let a = DMatrix::from_fn(predicted.len(), inputs.len(), |r, k| predicted[r][inputs[k]]);
-        let w = DVector::from_fn(predicted.len(), |r, _| sigma[r][j] * sigma[r][j]);
-        let ata_inv = (a.transpose() * &a).try_inverse().unwrap();
-        let cov = &ata_inv * (a.transpose() * DMatrix::from_diagonal(&w) * &a) * &ata_inv;
-        for (k, i) in inputs.iter().enumerate() {
-            se[*i][j] = cov[(k, k)].sqrt();
-        }
-    }
-    println!("fitted M {:?}\npaper  M {PAPER_M:?}\nexpected s.e. {se:?}\nrelative RMS before {:.4}, after {:.5}", fit.m, fit.relative_rms_before, fit.relative_rms_after);
+
+    // 1. Unconstrained: the chart recovers the QE-level M within the noise.
+    let full_fit = fit_qe_matrix(&measured, &predicted, MatrixForm::Unconstrained).unwrap();
+    let se = fit_std_errors(&predicted, &sigma, MatrixForm::Unconstrained);
+    println!("unconstrained chart fit {:?}\nexpected s.e. {se:?}", full_fit.m);
     for i in 0..3 {
         for j in 0..3 {
-            assert!(5.0 * se[i][j] < 0.01, "M[{i}][{j}]: expected error {} is not well below 0.01", se[i][j]);
-            let err = (fit.m[i][j] - PAPER_M[i][j]).abs();
-            assert!(err < 0.01, "M[{i}][{j}] = {} vs the paper's {} (expected error {})", fit.m[i][j], PAPER_M[i][j], se[i][j]);
-            assert!(err <= 5.0 * se[i][j], "M[{i}][{j}] = {} is {:.1} standard errors from the paper's {}", fit.m[i][j], err / se[i][j], PAPER_M[i][j]);
-            if !mask[i][j] {
+            let err = (full_fit.m[i][j] - m_qe[i][j]).abs();
+            assert!(err <= 5.0 * se[i][j] + 1e-4, "M[{i}][{j}] = {} vs the QE-level {} ({:.1} s.e.)", full_fit.m[i][j], m_qe[i][j], err / se[i][j]);
+        }
+    }
+    let rms_sigma = (sigma.iter().flatten().map(|s| s * s).sum::<f64>() / (3 * sigma.len()) as f64).sqrt();
+    assert!(full_fit.rms_after < 2.0 * rms_sigma, "RMS after {} vs noise {rms_sigma}", full_fit.rms_after);
+
+    // 2. The paper's form: close to the paper's M within what the data's mismatch allows.
+    let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative).unwrap();
+    let eps_fit = qe_mismatch(&published, &corrected, &fit.m);
+    let mut worst: f64 = 0.0;
+    for j in 0..3 {
+        let norm = (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt();
+        let tol = eps_paper[j] * norm;
+        for i in 0..3 {
+            let d = (fit.m[i][j] - PAPER_M[i][j]).abs();
+            worst = worst.max(d);
+            assert!(d <= tol, "M[{i}][{j}] = {:.4} vs the paper's {} (tolerance {tol:.3})", fit.m[i][j], PAPER_M[i][j]);
+            if !MatrixForm::PaperLowerNonNegative.mask()[i][j] {
                 assert_eq!(fit.m[i][j], 0.0);
             }
         }
+        assert!(eps_fit[j] <= eps_paper[j], "channel {j}: fitted M reproduces p4aCorrected to {} vs the paper's M {}", eps_fit[j], eps_paper[j]);
     }
-    // The correction explains the data down to the noise: residual RMS of the order of sigma.
-    let rms_sigma = (sigma.iter().flatten().map(|s| s * s).sum::<f64>() / (3 * sigma.len()) as f64).sqrt();
-    assert!(fit.rms_after < 2.0 * rms_sigma, "RMS after {} vs noise {rms_sigma}", fit.rms_after);
-    assert!(fit.rms_before > 20.0 * fit.rms_after);
+    println!(
+        "paper-form chart fit {:?}\nlargest |M - M_paper| {worst:.4}; RMS {:.1} -> {:.2} DN (noise {rms_sigma:.2}); QE mismatch {eps_fit:?} vs the paper's M {eps_paper:?}",
+        fit.m, fit.rms_before, fit.rms_after
+    );
+    assert!(fit.rms_after < 0.2 * fit.rms_before);
 }

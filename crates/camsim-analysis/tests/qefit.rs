@@ -6,12 +6,13 @@
 //! 2. The paper: measurements computed with the paper's corrected Pixel 4a QE (isetcornellbox
 //!    p4aCorrected) and predictions from the published IMX363 QE (filter x IR cut), 24 Ohta
 //!    ColorChecker patches under CIE D65, A and F11 (a light box's daylight, incandescent and
-//!    TL84-like lamps): the fitted non-negative lower form is close to the paper's printed M.
-//!    The published QE in shared/data comes from a later ISETCam file than the paper used
-//!    (published x paper M differs from p4aCorrected by 15-100 % at some wavelengths), so the
-//!    agreement is to about 0.16 per entry (measured: a 0.564, b 0, c 0.686, d 0.203, e 0.718 vs
-//!    the paper's 0.532, 0.06, 0.70, 0.36, 0.84). Independent check: p4aCorrected is an exact
-//!    linear transform of this published QE, so the unconstrained fit leaves no residual.
+//!    TL84-like lamps). p4aCorrected is an exact linear transform of this published QE (to its
+//!    6-digit rounding), so the unconstrained fit must give the M fitted to the curves
+//!    themselves (by SVD, over wavelength) within 1e-3. The published QE in shared/data comes
+//!    from a later ISETCam file than the paper used: published x paper M differs from
+//!    p4aCorrected by a relative RMS eps_j of 15-22 % per channel, so the paper-form fit can only
+//!    be close to the paper's M: within eps_j |M_j| in column j (a curve error eps moves the
+//!    column by about that), and it must describe p4aCorrected at least as well as the paper's M.
 
 use camsim_analysis::qefit::{apply_matrix, fit_qe_matrix, predict_rgb, MatrixForm, PAPER_M};
 use camsim_core::rng::{keyed, stage};
@@ -103,29 +104,82 @@ fn known_matrices_are_recovered_for_every_form() {
     }
 }
 
+/// M (`target = source M`) by least squares over the wavelength samples, per output channel,
+/// with nalgebra's SVD (not the solver under test); and the relative RMS residual per channel.
+fn qe_level_m(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]) -> ([[f64; 3]; 3], [f64; 3]) {
+    let n = source[0].len();
+    let a = nalgebra::DMatrix::from_fn(n, 3, |r, i| source[i][r]);
+    let svd = a.clone().svd(true, true);
+    let mut m = [[0.0; 3]; 3];
+    let mut rel = [0.0; 3];
+    for j in 0..3 {
+        let b = nalgebra::DVector::from_column_slice(&target[j]);
+        let x = svd.solve(&b, 1e-12).unwrap();
+        for i in 0..3 {
+            m[i][j] = x[i];
+        }
+        rel[j] = (&a * &x - &b).norm() / b.norm();
+    }
+    (m, rel)
+}
+
+/// Relative RMS difference per channel between `source M` and `target` over the wavelengths.
+fn qe_mismatch(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|j| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for k in 0..target[j].len() {
+            let p: f64 = (0..3).map(|i| source[i][k] * m[i][j]).sum();
+            num += (p - target[j][k]).powi(2);
+            den += target[j][k].powi(2);
+        }
+        (num / den).sqrt()
+    })
+}
+
 #[test]
 fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
     let grid = WavelengthGrid::default();
     let rad = radiances();
-    let measured = predict_rgb(&corrected_qe(), &grid, &rad, 1.0).unwrap();
-    let pred = predict_rgb(&published_qe(), &grid, &rad, 1.0).unwrap();
+    let (published, corrected) = (published_qe(), corrected_qe());
+    // p4aCorrected is a linear transform of this published QE to the CSV's 6-digit rounding.
+    let (m_qe, rel_qe) = qe_level_m(&published, &corrected);
+    assert!(rel_qe.iter().all(|r| *r < 1e-4), "{rel_qe:?}");
+    // The paper's M against these curves: 15-22 % relative RMS (a later ISETCam QE file).
+    let eps_paper = qe_mismatch(&published, &corrected, &PAPER_M);
+    println!("QE-level M {m_qe:?} (residual {rel_qe:?}); published x paper M vs p4aCorrected {eps_paper:?}");
+    let measured = predict_rgb(&corrected, &grid, &rad, 1.0).unwrap();
+    let pred = predict_rgb(&published, &grid, &rad, 1.0).unwrap();
     for form in [MatrixForm::Unconstrained, MatrixForm::Diagonal, MatrixForm::PaperLowerNonNegative] {
         let fit = fit_qe_matrix(&measured, &pred, form).unwrap();
         println!(
-            "{form:?}: M = [{:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}], relative RMS {:.4} -> {:.4}",
+            "{form:?}: M = [{:.4} {:.4} {:.4}; {:.4} {:.4} {:.4}; {:.4} {:.4} {:.4}], relative RMS {:.4} -> {:.6}",
             fit.m[0][0], fit.m[0][1], fit.m[0][2], fit.m[1][0], fit.m[1][1], fit.m[1][2], fit.m[2][0], fit.m[2][1], fit.m[2][2],
             fit.relative_rms_before, fit.relative_rms_after
         );
         match form {
             MatrixForm::PaperLowerNonNegative => {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        assert!((fit.m[i][j] - PAPER_M[i][j]).abs() < 0.2, "M[{i}][{j}] = {:.3}, paper {}", fit.m[i][j], PAPER_M[i][j]);
+                // A relative curve error eps_j moves column j of M by about eps_j |M_j|.
+                for j in 0..3 {
+                    let tol = eps_paper[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt();
+                    for i in 0..3 {
+                        let d = (fit.m[i][j] - PAPER_M[i][j]).abs();
+                        assert!(d <= tol, "M[{i}][{j}] = {:.4}, paper {} (tolerance {tol:.3})", fit.m[i][j], PAPER_M[i][j]);
                     }
                 }
+                // And the fitted M describes p4aCorrected at least as well as the paper's M.
+                let eps_fit = qe_mismatch(&published, &corrected, &fit.m);
+                assert!((0..3).all(|j| eps_fit[j] <= eps_paper[j]), "{eps_fit:?} vs {eps_paper:?}");
                 assert!(fit.relative_rms_after < 0.1 * fit.relative_rms_before);
             }
-            MatrixForm::Unconstrained => assert!(fit.relative_rms_after < 1e-3),
+            MatrixForm::Unconstrained => {
+                // The exact transform: the chart fit is the QE-level M (noise-free sums of 72 patches).
+                assert!(fit.relative_rms_after < 1e-4, "{}", fit.relative_rms_after);
+                for i in 0..3 {
+                    for j in 0..3 {
+                        assert!((fit.m[i][j] - m_qe[i][j]).abs() < 1e-3, "M[{i}][{j}] = {} vs QE-level {}", fit.m[i][j], m_qe[i][j]);
+                    }
+                }
+            }
             MatrixForm::Diagonal => assert!(fit.relative_rms_after < 0.2 * fit.relative_rms_before),
         }
     }

@@ -17,7 +17,7 @@ use common::*;
 /// Largest |measured - expected| for f <= f_max, and the relative MTF50 error.
 fn compare(res: &camsim_analysis::sfr::SfrResult, expected: impl Fn(f64) -> f64, f_max: f64) -> (f64, f64) {
     let mut worst: f64 = 0.0;
-    for (f, m) in res.freq_cyc_per_px.iter().zip(&res.mtf) {
+    for (f, m) in res.freq_cyc_per_sample.iter().zip(&res.mtf) {
         if *f <= f_max + 1e-12 {
             worst = worst.max((m - expected(*f)).abs());
         }
@@ -33,7 +33,7 @@ fn compare(res: &camsim_analysis::sfr::SfrResult, expected: impl Fn(f64) -> f64,
         }
     }
     let f50 = 0.5 * (a + b);
-    let got = res.mtf50_cyc_per_px.expect("MTF50 exists");
+    let got = res.mtf50_cyc_per_sample.expect("MTF50 exists");
     (worst, (got - f50).abs() / f50)
 }
 
@@ -104,8 +104,8 @@ fn cycles_per_mm_scale_with_the_pitch_and_second_order_fit_handles_a_curved_edge
     assert!(e2 < e1, "the 2nd-order fit should beat the straight line on a curved edge");
     assert!((r2.edge_fit[2] - k).abs() < 2e-4, "curvature {}", r2.edge_fit[2]);
     let mm = r2.freq_cyc_per_mm.as_ref().unwrap();
-    assert!((mm[10] - r2.freq_cyc_per_px[10] / 0.0014).abs() < 1e-9);
-    assert!((r2.mtf50_cyc_per_mm.unwrap() - r2.mtf50_cyc_per_px.unwrap() / 0.0014).abs() < 1e-6);
+    assert!((mm[10] - r2.freq_cyc_per_sample[10] / 0.0014).abs() < 1e-9);
+    assert!((r2.mtf50_cyc_per_mm.unwrap() - r2.mtf50_cyc_per_sample.unwrap() / 0.0014).abs() < 1e-6);
 }
 
 #[test]
@@ -170,11 +170,42 @@ fn cfa_mosaic_channels_on_their_own_sub_grids() {
             assert!(e < 0.02 && e50 < 0.02, "{:?}: {e} {e50}", ch);
             let mm = res.freq_cyc_per_mm.as_ref().unwrap();
             assert!((mm[8] - res.freq_cyc_per_sensor_px[8] / 1.4e-3).abs() < 1e-6);
-            assert!((res.freq_cyc_per_sensor_px[8] * 2.0 - res.freq_cyc_per_px[8]).abs() < 1e-12);
+            assert!((res.freq_cyc_per_sensor_px[8] * 2.0 - res.freq_cyc_per_sample[8]).abs() < 1e-12);
         }
         // Automatic ROI on the sub-grid gives the same answer within tolerance.
         let auto = sfr_raw_channel(&raw, CfaChannel::R, None, &SfrOptions::default()).unwrap();
         let (e, _) = compare(&auto, expected, 0.5);
         assert!(e < 0.02, "auto ROI: {e}");
+    }
+}
+
+#[test]
+fn automatic_roi_prefers_the_slanted_edge_over_the_frame_of_a_smaller_scene() {
+    // A scene smaller than the image (as a camera window wider than the scene's field of view):
+    // black around it, so the frame's borders are sharp, perfectly vertical and horizontal edges,
+    // as long as the 5-degree slanted edge inside and (bright side against black) of a larger step
+    // (0.9 vs 0.85). Only the slanted edge can be measured (the borders give no phase cycle).
+    let (rows, cols, sigma) = (200usize, 240usize, 0.9);
+    let edge = slanted_edge(160, 180, 5.0, sigma, 0.05, 0.9, true);
+    let mut frame = Plane::from_fn(rows, cols, |_, _| 0.0).unwrap();
+    for r in 0..160 {
+        for c in 0..180 {
+            frame.data[(r + 20) * cols + c + 30] = edge.at(r, c);
+        }
+    }
+    for (name, img, transposed) in [("vertical edge", frame.clone(), false), ("horizontal edge", frame.transpose(), true)] {
+        let roi = find_edge_roi(&img).unwrap();
+        let roi_v = if transposed { Rect::new(roi.col, roi.row, roi.cols, roi.rows) } else { roi };
+        println!("{name}: found ROI {roi}");
+        // The slanted edge crosses column 30 + 90.3 at the middle row and moves by 160 tan(5 deg)
+        // = 14 columns over its length; the frame's right border is at column 210.
+        assert!(roi_v.col > 30 && roi_v.col_end() < 210, "{name}: ROI {roi} takes in the frame");
+        assert!(roi_v.col <= 120 - 7 - 12 && roi_v.col_end() >= 120 + 7 + 12, "{name}: ROI {roi} misses the edge");
+        assert!(roi_v.row >= 20 && roi_v.row_end() <= 180 && roi_v.rows >= 100, "{name}: ROI {roi}");
+        let res = sfr(&img, Some(roi), &SfrOptions::default()).unwrap();
+        assert!((res.edge_angle_deg.abs() - 5.0).abs() < 0.1, "{name}: angle {}", res.edge_angle_deg);
+        let th = 5f64.to_radians();
+        let (e, e50) = compare(&res, |f| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs(), 0.5);
+        assert!(e < 0.02 && e50 < 0.02, "{name}: {e} {e50}");
     }
 }

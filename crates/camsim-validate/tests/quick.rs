@@ -1,16 +1,20 @@
 //! The quick Cornell box validation, end to end, with assertions on the report's numbers: each
 //! compares the simulation with an independent model (optics MTF, the paper's M, the noise
-//! model) or a physical ordering the paper reports (R/G falls from the red to the green wall).
+//! model, the paper's corrected QE) or a physical ordering the paper reports (R/G falls from the red to the green wall).
 
 use camsim_validate::{cornell_box, Quality, ValidateOptions};
 
 #[test]
 fn quick_cornell_box_reproduces_the_papers_findings() {
     let dir = tempfile::tempdir().unwrap();
+    // The measured isetcornellbox data (the paper's corrected QE p4aCorrected, the box's lamp and
+    // walls): the QE fit is then checked against data independent of camsim's presets.
+    let data = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox"));
+    assert!(data.join("p4aCorrected.csv").is_file(), "{}: the reference data are missing", data.display());
     let opts = ValidateOptions {
         quality: Quality::Quick,
         out_dir: dir.path().to_path_buf(),
-        data_dir: None,
+        data_dir: Some(data),
         seed: 1,
         command_line: "camsim validate cornell-box --quality quick".into(),
     };
@@ -45,12 +49,19 @@ fn quick_cornell_box_reproduces_the_papers_findings() {
     assert!((tl.c4_paper_defocused_um - 0.350).abs() < 0.005, "{}", tl.c4_paper_defocused_um);
     assert!((tl.c4_geometry_um - 0.32).abs() < 0.03, "{}", tl.c4_geometry_um);
 
-    // Figure 3: the fitted M recovers the paper's M (the pixel4a sensor is the published QE x M).
-    eprintln!("fitted M = {:?}", r.qe.fit_paper_form.m);
-    for i in 0..3 {
-        for j in 0..3 {
+    // Figure 3: the pixel4a captures are made with the paper's corrected QE (p4aCorrected), not
+    // the published QE x M. That QE is the published one x a matrix that is not quite the paper's
+    // (a later ISETCam QE file; published x paper M misses it by eps_j = 15-22 % relative RMS), so
+    // the fitted M must equal the paper's within eps_j |column j of M| (a curve error eps moves a
+    // column of M by about eps times its length).
+    assert!(r.qe.measured_qe_source.contains("p4aCorrected"), "{}", r.qe.measured_qe_source);
+    eprintln!("fitted M = {:?}, QE mismatch of the paper's M {:?}", r.qe.fit_paper_form.m, r.qe.paper_m_qe_mismatch);
+    for j in 0..3 {
+        assert!((0.1..0.3).contains(&r.qe.paper_m_qe_mismatch[j]), "channel {j}: mismatch {}", r.qe.paper_m_qe_mismatch[j]);
+        let tol = r.qe.paper_m_qe_mismatch[j] * (0..3).map(|i| r.qe.paper_m[i][j].powi(2)).sum::<f64>().sqrt();
+        for i in 0..3 {
             let d = (r.qe.fit_paper_form.m[i][j] - r.qe.paper_m[i][j]).abs();
-            assert!(d <= 0.05, "M[{i}][{j}] = {} vs paper {}", r.qe.fit_paper_form.m[i][j], r.qe.paper_m[i][j]);
+            assert!(d <= tol, "M[{i}][{j}] = {} vs paper {} (tolerance {tol:.3})", r.qe.fit_paper_form.m[i][j], r.qe.paper_m[i][j]);
         }
     }
     assert!(r.qe.fit_paper_form.rms_after < r.qe.fit_paper_form.rms_before);

@@ -59,37 +59,55 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
 
 // ---------------------------------------------------------------------------------------------
 /// ISO 12233 slanted-edge SFR (e-SFR, as Burns' sfrmat): per colour channel on raw CFA data
-/// (each channel on its own sub-grid), on the luminance of the bilinear-demosaicked image, or on
-/// a camsim irradiance EXR. Writes sfr.csv (cycles/pixel and cycles/mm), sfr.json (MTF50, MTF
-/// at Nyquist per curve) and sfr.png; --compare overlays curves from another sfr.csv (simulated vs
-/// measured, as the paper's Figure 2).
+/// (each channel on its own sub-grid, no demosaicking), on the luminance of the bilinear-demosaicked
+/// image, or on a camsim irradiance EXR.
+///
+/// One frequency unit everywhere (console, sfr.json, sfr.csv, sfr.png): cycles per sensor pixel,
+/// and cycles/mm on the sensor when the pixel pitch is known (camsim DNGs record it; else
+/// --pitch-um). The SFR of a CFA channel reaches 0.25 cycles per sensor pixel at its own
+/// Nyquist (its samples are 2 sensor pixels apart). Writes, in --out: sfr.csv (columns
+/// freq_cyc_per_sensor_px, freq_cyc_per_mm when the pitch is known, then mtf_R, mtf_G, mtf_B,
+/// mtf_luminance), sfr.json (per curve: MTF50 in both units, the SFR at the curve's Nyquist, the
+/// edge angle, the ROI in sensor pixels) and sfr.png; --compare overlays curves from other sfr.csv
+/// files (simulated vs measured, as the paper's Figure 2).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim analyze sfr out/edge/raw.dng --out out/edge/sfr\n  camsim analyze sfr measured.dng --roi 1200,1800,200,160 --compare out/edge/sfr/sfr.csv --out out/cmp\n  camsim analyze sfr out/edge/irradiance.exr --out out/edge/sfr-optics")]
+#[command(after_help = "Examples:\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim analyze sfr out/edge/raw.dng --out out/edge/sfr\n  camsim analyze sfr out/edge/raw.dng --roi 40,90,176,80 --quadratic --compare out/edge/sfr/sfr.csv --out out/edge/sfr-roi\n  camsim analyze sfr out/edge/raw.dng --pitch-um 1.4 --json --out out/edge/sfr-json")]
 pub struct SfrArgs {
     /// Raw DNG, 16-bit PNG/TIFF mosaic (with --cfa), or spectral irradiance EXR.
     pub image: PathBuf,
-    /// Region of interest ROW,COL,ROWS,COLS (default: found around the edge).
+    /// Region of interest ROW,COL,ROWS,COLS in sensor pixels (default: found around the slanted
+    /// edge of largest contrast; a scene's vertical or horizontal frame is passed over).
     #[arg(long, value_parser = parse_rect)]
     pub roi: Option<Rect>,
     /// Fit the edge with a 2nd-order polynomial (lens distortion) instead of a line.
     #[arg(long)]
     pub quadratic: bool,
-    /// Pixel pitch, um (for cycles/mm; DNGs from camsim record it).
-    #[arg(long)]
+    /// Sensor pixel pitch, um, for cycles/mm (DNGs from camsim record it; for an EXR it also
+    /// defines the "sensor pixel" of the frequency axis, default the EXR's sample spacing).
+    #[arg(long, value_parser = parse_pitch_um)]
     pub pitch_um: Option<f64>,
-    /// Overlay the curves of another sfr.csv.
+    /// Overlay the curves of another sfr.csv (repeat for several).
     #[arg(long)]
     pub compare: Vec<PathBuf>,
     #[command(flatten)]
     pub raw: RawInput,
-    /// Print the results as JSON on stdout.
+    /// Also print sfr.json on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Output folder for sfr.csv, sfr.json and sfr.png (created if missing).
     #[arg(long, default_value = "out/sfr")]
     pub out: PathBuf,
 }
 
-fn sfr_curves(a: &SfrArgs) -> Result<Vec<(String, SfrResult)>> {
+fn parse_pitch_um(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}': give the pixel pitch in um, a number > 0 (e.g. 1.4)")),
+    }
+}
+
+/// The SFR curves of the image, and the sensor pixel pitch in mm when known.
+fn sfr_curves(a: &SfrArgs) -> Result<(Vec<(String, SfrResult)>, Option<f64>)> {
     let ext = a.image.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let mut opts = SfrOptions { poly_order: if a.quadratic { 2 } else { 1 }, ..SfrOptions::default() };
     if ext == "exr" {
@@ -103,37 +121,58 @@ fn sfr_curves(a: &SfrArgs) -> Result<Vec<(String, SfrResult)>> {
                 *o += w * v;
             }
         }
-        opts.pixel_pitch_mm = Some(a.pitch_um.map(|p| p * 1e-3).unwrap_or(img.sample_spacing_m * 1e3));
+        let spacing_mm = img.sample_spacing_m * 1e3;
+        if !(spacing_mm > 0.0 && spacing_mm.is_finite()) {
+            bail!("{}: the EXR records no sample spacing", a.image.display());
+        }
+        // Cycles/mm from the EXR's own sample spacing; "sensor pixel" = --pitch-um (or a sample).
+        opts.pixel_pitch_mm = Some(spacing_mm);
+        let pitch_mm = a.pitch_um.map(|p| p * 1e-3).unwrap_or(spacing_mm);
         let plane = Plane::new(img.rows, img.cols, y)?;
-        return Ok(vec![("luminance".into(), sfr::sfr(&plane, a.roi, &opts)?)]);
+        let mut r = sfr::sfr(&plane, a.roi, &opts)?;
+        let to_sensor_px = pitch_mm / spacing_mm; // cycles per sample -> cycles per sensor pixel
+        r.freq_cyc_per_sensor_px = r.freq_cyc_per_sample.iter().map(|f| f * to_sensor_px).collect();
+        r.mtf50_cyc_per_sensor_px = r.mtf50_cyc_per_sample.map(|f| f * to_sensor_px);
+        r.nyquist_cyc_per_sensor_px = 0.5 * to_sensor_px;
+        r.sample_pitch_sensor_px = 1.0 / to_sensor_px;
+        return Ok((vec![("luminance".into(), r)], Some(pitch_mm)));
     }
     let raw = camsim_pipeline::load_raw(&a.image, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
-    let pitch_mm = a.pitch_um.map(|p| p * 1e-3).or((raw.pixel_pitch_m > 0.0).then_some(raw.pixel_pitch_m * 1e3));
+    let pitch_mm = a.pitch_um.map(|p| p * 1e-3).or((raw.pixel_pitch_m > 0.0 && raw.pixel_pitch_m.is_finite()).then_some(raw.pixel_pitch_m * 1e3));
     opts.pixel_pitch_mm = pitch_mm;
     // The ROI is found once on the whole mosaic (all channels share it).
     let roi = match a.roi {
         Some(r) => r,
-        None => sfr::find_edge_roi(&camsim_analysis::image::raw_plane(&raw)?)?,
+        None => sfr::find_edge_roi(&camsim_analysis::image::raw_plane(&raw)?).with_context(|| format!("{}: finding the slanted edge (give --roi)", a.image.display()))?,
     };
     let mut out = Vec::new();
     for ch in [CfaChannel::R, CfaChannel::G, CfaChannel::B] {
-        out.push((format!("{}", ch.letter()), sfr::sfr_raw_channel(&raw, ch, Some(roi), &opts)?));
+        let r = sfr::sfr_raw_channel(&raw, ch, Some(roi), &opts).with_context(|| format!("{}: SFR of channel {} in ROI {roi}", a.image.display(), ch.letter()))?;
+        out.push((format!("{}", ch.letter()), r));
     }
     let rgb = camsim_isp::demosaic_bilinear(&raw);
     let planes = [0, 1, 2].map(|c| Plane::new(rgb.rows, rgb.cols, rgb.plane(c).to_vec()));
     let [r, g, b] = planes;
     let planes = [r?, g?, b?];
     // Luminance weights of ISO 12233 (Rec. 601 luma) for the demosaicked image.
-    out.push(("luminance".into(), sfr::sfr_luminance(&planes, [0.299, 0.587, 0.114], Some(roi), &opts)?));
-    Ok(out)
+    let lum = sfr::sfr_luminance(&planes, [0.299, 0.587, 0.114], Some(roi), &opts).with_context(|| format!("{}: SFR of the luminance in ROI {roi}", a.image.display()))?;
+    out.push(("luminance".into(), lum));
+    Ok((out, pitch_mm))
 }
 
+/// The curves of an sfr.csv: (column name, [(cycles per sensor pixel, SFR)]).
 fn read_sfr_csv(path: &Path) -> Result<Vec<(String, Vec<(f64, f64)>)>> {
     let text = common::read_text(path)?;
     let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", path.display()))?.split(',').collect();
+    let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", path.display()))?.split(',').map(str::trim).collect();
+    if header.first() != Some(&"freq_cyc_per_sensor_px") {
+        bail!("{}: not an sfr.csv (its first column must be freq_cyc_per_sensor_px)", path.display());
+    }
     let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
     for (i, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
         let v: Vec<f64> = line
             .split(',')
             .map(|t| t.trim().parse::<f64>())
@@ -143,29 +182,63 @@ fn read_sfr_csv(path: &Path) -> Result<Vec<(String, Vec<(f64, f64)>)>> {
             bail!("{}, line {}: {} values for {} columns", path.display(), i + 2, v.len(), header.len());
         }
         for (k, x) in v.iter().enumerate().skip(1) {
-            if x.is_finite() {
+            if x.is_finite() && v[0].is_finite() {
                 cols[k].push((v[0], *x));
             }
         }
     }
-    if header.first() != Some(&"freq_cyc_per_px") {
-        bail!("{}: not an sfr.csv (first column must be freq_cyc_per_px)", path.display());
-    }
     Ok(header.iter().zip(cols).skip(1).filter(|(h, _)| h.starts_with("mtf_")).map(|(h, c)| (h.to_string(), c)).collect())
 }
 
+/// The sfr.json document: per curve, MTF50 in cycles per sensor pixel and cycles/mm.
+fn sfr_json(a: &SfrArgs, curves: &[(String, SfrResult)], pitch_mm: Option<f64>, roi: Option<Rect>) -> serde_json::Value {
+    let summary: Vec<serde_json::Value> = curves
+        .iter()
+        .map(|(name, c)| {
+            serde_json::json!({
+                "curve": name,
+                "mtf50_cyc_per_sensor_px": c.mtf50_cyc_per_sensor_px,
+                "mtf50_cyc_per_mm": c.mtf50_cyc_per_sensor_px.and_then(|f| pitch_mm.map(|p| f / p)),
+                "nyquist_cyc_per_sensor_px": c.nyquist_cyc_per_sensor_px,
+                "mtf_at_nyquist": c.mtf_at_nyquist,
+                "edge_angle_deg": c.edge_angle_deg,
+                "rows_used": c.rows_used,
+                "sample_pitch_sensor_px": c.sample_pitch_sensor_px,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "image": a.image.display().to_string(),
+        "frequency_unit": "cycles per sensor pixel (and cycles/mm on the sensor)",
+        "pixel_pitch_um": pitch_mm.map(|p| p * 1e3),
+        "roi_sensor_px": roi,
+        "curves": summary,
+    })
+}
+
 pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
-    let curves = sfr_curves(&a)?;
+    for p in &a.compare {
+        read_sfr_csv(p)?; // check before measuring
+    }
+    let (curves, pitch_mm) = sfr_curves(&a)?;
+    // The ROI in sensor pixels: the luminance curve's (the last; full-resolution plane).
+    let roi = curves.last().map(|c| c.1.roi);
     let out = common::out_dir(&a.out)?;
     // CSV on a common frequency axis (cycles per sensor pixel), one column per curve.
     let f_axis: Vec<f64> = (0..=100).map(|i| i as f64 * 0.01).collect();
-    let mut csv = String::from("freq_cyc_per_px");
+    let mut csv = String::from("freq_cyc_per_sensor_px");
+    if pitch_mm.is_some() {
+        csv.push_str(",freq_cyc_per_mm");
+    }
     for (name, _) in &curves {
         write!(csv, ",mtf_{name}")?;
     }
     csv.push('\n');
     for f in &f_axis {
         write!(csv, "{f:.3}")?;
+        if let Some(p) = pitch_mm {
+            write!(csv, ",{:.4}", f / p)?;
+        }
         for (_, c) in &curves {
             let v = if *f <= *c.freq_cyc_per_sensor_px.last().unwrap_or(&0.0) { sfr::interp(&c.freq_cyc_per_sensor_px, &c.mtf, *f) } else { f64::NAN };
             write!(csv, ",{v:.5}")?;
@@ -173,16 +246,7 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
         csv.push('\n');
     }
     write_text(&out.join("sfr.csv"), &csv)?;
-    let summary: Vec<serde_json::Value> = curves
-        .iter()
-        .map(|(name, c)| {
-            serde_json::json!({
-                "curve": name, "mtf50_cyc_per_px": c.mtf50_cyc_per_px, "mtf50_cyc_per_mm": c.mtf50_cyc_per_mm,
-                "mtf_at_nyquist": c.mtf_at_nyquist, "edge_angle_deg": c.edge_angle_deg, "rows_used": c.rows_used, "roi": c.roi,
-            })
-        })
-        .collect();
-    let json = serde_json::json!({ "image": a.image.display().to_string(), "curves": summary });
+    let json = sfr_json(&a, &curves, pitch_mm, roi);
     camsim_io::atomic::write_json_atomic(&out.join("sfr.json"), &json)?;
     let mut series: Vec<Series> = curves
         .iter()
@@ -195,7 +259,7 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     }
     LinePlot {
         title: format!("ISO 12233 SFR: {}", a.image.display()),
-        x_label: "spatial frequency (cycles/pixel)".into(),
+        x_label: "spatial frequency (cycles per sensor pixel)".into(),
         y_label: "SFR".into(),
         series,
         x_range: Some((0.0, 1.0)),
@@ -207,10 +271,11 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     }
     for (name, c) in &curves {
         say(format!(
-            "{name:>10}: MTF50 {} cycles/pixel{}, MTF at Nyquist {:.3}, edge {:.2} deg",
-            c.mtf50_cyc_per_px.map(|v| format!("{v:.4}")).unwrap_or_else(|| "(not reached)".into()),
-            c.mtf50_cyc_per_mm.map(|v| format!(" ({v:.1} cycles/mm)")).unwrap_or_default(),
+            "{name:>10}: MTF50 {} cycles/sensor-pixel{}, SFR {:.3} at its Nyquist ({} cycles/sensor-pixel), edge {:.2} deg",
+            c.mtf50_cyc_per_sensor_px.map(|v| format!("{v:.4}")).unwrap_or_else(|| "(not reached)".into()),
+            c.mtf50_cyc_per_sensor_px.and_then(|f| pitch_mm.map(|p| format!(" = {:.1} cycles/mm", f / p))).unwrap_or_default(),
             c.mtf_at_nyquist,
+            c.nyquist_cyc_per_sensor_px,
             c.edge_angle_deg
         ));
     }
@@ -509,19 +574,29 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
 
 // ---------------------------------------------------------------------------------------------
 /// EMVA 1288 (release 4.0) photon-transfer characterization of a series of flat-field and dark
-/// frame pairs at increasing exposure: system gain K (DN/e-), temporal dark noise, DSNU, PRNU,
-/// saturation capacity, dark current, QE (when the photon count is known), SNR curve and dynamic
-/// range, with the photon-transfer and SNR plots. The series is a CSV
-/// `exposure_s,photons_per_pixel,bright_a,bright_b,dark_a,dark_b` of DNG file names (relative to
-/// the CSV), as `camsim sensor --emva-series` writes it; for a real camera, write it yourself.
+/// frame pairs at increasing exposure, per colour channel: system gain K (DN/e-), temporal dark
+/// noise, DSNU, PRNU, saturation capacity, dark current, QE (when the photon count is known), SNR
+/// curve and dynamic range. Writes, in --out: emva.json (every figure, per channel and per level),
+/// ptc.png (photon transfer) and snr.png.
+///
+/// The series is a CSV with one level per line: a header `exposure_s,photons_per_pixel,` then the
+/// frame columns, `bright_0,...,bright_<N-1>,dark_0,...,dark_<N-1>` for N frames per level (any
+/// column whose name starts with `bright` or `dark` is a frame), e.g. with --frames-per-level 2:
+/// `exposure_s,photons_per_pixel,bright_0,bright_1,dark_0,dark_1`. This is what
+/// `camsim sensor --emva-series` writes (series.csv); for a real camera, write it yourself. Frame
+/// cells are DNG (or PNG/TIFF mosaic, with --cfa) file names relative to the CSV; an empty
+/// photons_per_pixel cell means the photon count is unknown (no QE then).
 #[derive(clap::Args)]
-#[command(after_help = "Example:\n  camsim sensor --emva-series --sensor imx363 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva/report")]
+#[command(after_help = "Examples:\n  camsim sensor --emva-series --sensor imx363 --rows 64 --cols 64 --levels 12 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva/report")]
 pub struct EmvaArgs {
+    /// The series CSV (header `exposure_s,photons_per_pixel,bright_0,...,dark_0,...`).
     pub series: PathBuf,
     #[command(flatten)]
     pub raw: RawInput,
+    /// Also print emva.json on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Output folder for emva.json, ptc.png and snr.png (created if missing).
     #[arg(long, default_value = "out/emva")]
     pub out: PathBuf,
 }

@@ -21,7 +21,7 @@ struct LevelFiles {
 }
 
 /// Read the series CSV: a header naming the columns (`exposure_s,photons_per_pixel,` then frame
-/// columns whose names start with `bright` or `dark`, e.g. `bright_a,bright_b,dark_a,dark_b` as
+/// columns whose names start with `bright` or `dark`, e.g. `bright_0,bright_1,dark_0,dark_1` as
 /// `camsim sensor --emva-series` writes), one level per line. Frame paths are relative to the
 /// CSV's folder; an empty photons cell (or `nan`) means the photon count is not known; empty frame
 /// cells are skipped. Lines starting with '#' and blank lines are ignored.
@@ -33,7 +33,7 @@ fn read_series(csv: &Path) -> Result<Vec<LevelFiles>> {
     let cols: Vec<String> = header.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
     if cols.len() < 3 || cols[0] != "exposure_s" || cols[1] != "photons_per_pixel" {
         bail!(
-            "{}, line {}: the header must start with exposure_s,photons_per_pixel and name the frame columns (bright_a,bright_b,dark_a,dark_b), got '{}'",
+            "{}, line {}: the header must start with exposure_s,photons_per_pixel and name the frame columns (bright_0,bright_1,...,dark_0,dark_1,...), got '{}'",
             csv.display(),
             hline + 1,
             header.trim()

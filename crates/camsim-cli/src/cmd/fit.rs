@@ -24,33 +24,52 @@ pub enum Command {
 /// Writes fit.json, residuals.csv, scatter_before.png, scatter_after.png and the corrected
 /// sensor as a TOML preset.
 #[derive(clap::Args)]
-#[command(after_help = "The measured CSV has a header `light,patch,r,g,b` (patch 1-24, mean DN above black), e.g.\n  D65,1,123.4,210.2,98.7\nExample:\n  camsim fit qe --measured means.csv --lights A,F2,D65 --sensor imx363 --out out/qe")]
+#[command(after_help = "The measured CSV has a header `light,patch,r,g,b` (patch 1-24 in the ColorChecker's order, mean DN \
+above black of each channel over the patch), one line per light and patch, e.g.\n  D65,1,123.4,210.2,98.7\n\
+examples/qe-means-pixel4a.csv holds such values for the pixel4a preset (noise-free, the defaults below).\n\
+Examples:\n  camsim fit qe --measured examples/qe-means-pixel4a.csv --sensor imx363 --out out/fit-qe\n  \
+camsim fit qe --measured examples/qe-means-pixel4a.csv --lights A,F2,D65 --form unconstrained --json --out out/fit-qe-full")]
 pub struct QeArgs {
-    /// Measured means: CSV `light,patch,r,g,b`.
+    /// Measured means: CSV `light,patch,r,g,b` (DN above black).
     #[arg(long)]
     pub measured: PathBuf,
-    /// The lights, by built-in name or spectrum file, in the names the CSV uses (comma separated).
+    /// The lights, by built-in name (A, D65, F2, F11, ...) or spectrum file, named as in the CSV's
+    /// light column (comma separated).
     #[arg(long, value_delimiter = ',', default_values_t = ["A".to_string(), "F2".to_string(), "D65".to_string()])]
     pub lights: Vec<String>,
-    /// The sensor whose QE is corrected (preset or TOML).
+    /// The sensor whose QE is corrected (preset or TOML); its QE, pixel area and gain predict the
+    /// patch means.
     #[arg(long, default_value = "imx363")]
     pub sensor: String,
-    /// Matrix form: paper (lower-triangular, non-negative), unconstrained, diagonal.
-    #[arg(long, default_value = "paper")]
+    /// Matrix form: paper (lower-triangular, non-negative, as the paper's M), unconstrained (all 9
+    /// entries), diagonal (a gain per channel).
+    #[arg(long, default_value = "paper", value_parser = ["paper", "lower", "unconstrained", "full", "diagonal"])]
     pub form: String,
-    /// Mean luminance of each light on the white patch, cd/m^2 (the measurement's).
-    #[arg(long, default_value_t = 100.0)]
+    /// Luminance of a perfect white under each light in the measurement, cd/m^2 (the white patch
+    /// 19 is scaled to this).
+    #[arg(long, default_value_t = 100.0, value_parser = positive)]
     pub luminance_cd_m2: f64,
-    /// Lens f-number of the measurement.
-    #[arg(long, default_value_t = 1.73)]
+    /// Lens f-number of the measurement (sensor irradiance = pi L / (1 + 4 N^2)).
+    #[arg(long, default_value_t = 1.73, value_parser = positive)]
     pub f_number: f64,
     /// Exposure time of the measurement, ms.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = positive)]
     pub exposure_ms: f64,
+    /// Also print fit.json on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Output folder for fit.json, residuals.csv, scatter_before.png, scatter_after.png and
+    /// sensor_corrected.toml (created if missing).
     #[arg(long, default_value = "out/fit-qe")]
     pub out: PathBuf,
+}
+
+/// A finite number > 0.
+fn positive(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a number > 0")),
+    }
 }
 
 fn parse_form(s: &str) -> Result<MatrixForm> {
@@ -80,8 +99,15 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
         let k = a.luminance_cd_m2 / cmfs.luminance_cd_m2(&white);
         lights.insert(name.clone(), s.scaled(k));
     }
-    for (i, line) in text.lines().enumerate().skip(1) {
-        if line.trim().is_empty() || line.starts_with('#') {
+    // '#' comment lines and blank lines are skipped; the first other line is the header.
+    let hline = text.lines().position(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#')).unwrap_or(0);
+    let header = text.lines().nth(hline).unwrap_or("");
+    let names: Vec<String> = header.split(',').map(|t| t.trim().to_ascii_lowercase()).collect();
+    if names != ["light", "patch", "r", "g", "b"] {
+        bail!("{}, line {}: the header must be light,patch,r,g,b, got '{}'", a.measured.display(), hline + 1, header.trim());
+    }
+    for (i, line) in text.lines().enumerate().skip(hline + 1) {
+        if line.trim().is_empty() || line.trim_start().starts_with('#') {
             continue;
         }
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
@@ -91,7 +117,10 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
         }
         let light = lights.get(f[0]).with_context(|| format!("{}: light '{}' is not in --lights", at(), f[0]))?;
         let patch: usize = f[1].parse().ok().filter(|p| (1..=24).contains(p)).with_context(|| format!("{}: patch must be 1..24", at()))?;
-        let rgb: Vec<f64> = f[2..].iter().map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>().with_context(at)?;
+        let rgb: Vec<f64> = f[2..].iter().map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>().with_context(|| format!("{}: r, g, b must be numbers", at()))?;
+        if rgb.iter().any(|v| !v.is_finite()) {
+            bail!("{}: r, g, b must be finite numbers", at());
+        }
         measured.push([rgb[0], rgb[1], rgb[2]]);
         radiances.push(refl[patch - 1].product_on(light, &grid));
     }
