@@ -105,9 +105,12 @@ fn relative_illumination_table() {
     assert!((got - want).abs() < 3e-3, "{got} vs {want}");
 }
 
-/// The blur conserves energy: with "psf" padding all the light is kept, so the irradiance integral
-/// equals the unblurred one (camera equation x radiance integral), band by band, for a random
-/// scene and an aberrated wavefront.
+/// The blur conserves energy: the kernel plus the far tail carry the whole PSF, so the irradiance
+/// integral over the "psf"-padded frame equals the unblurred one (camera equation x radiance
+/// integral) less the far-tail light that lands beyond the frame, band by band, for a random
+/// scene and an aberrated wavefront. That loss is positive and below the energy outside the
+/// kernel (`psf.tail_energy` = 0.005 sets the kernel so that the Airy energy outside it is below
+/// it); no light is created (f32 sums: 1e-5).
 #[test]
 fn blur_conserves_energy() {
     let grid = WavelengthGrid::new(400.0, 700.0, 150.0).unwrap();
@@ -124,7 +127,8 @@ fn blur_conserves_energy() {
     for b in 0..3 {
         let sin: f64 = img.band(b).iter().map(|v| *v as f64).sum::<f64>() * k;
         let sout: f64 = out.band(b).iter().map(|v| *v as f64).sum();
-        assert!((sout / sin - 1.0).abs() < 1e-4, "band {b}: {sout} vs {sin}");
+        let lost = 1.0 - sout / sin;
+        assert!(lost > 1e-5 && lost < 0.005, "band {b}: {sout} vs {sin}: lost {lost}");
     }
 }
 

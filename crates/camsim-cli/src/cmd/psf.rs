@@ -66,7 +66,10 @@ pub fn run(a: Args) -> Result<()> {
     let mut mtf_csv = String::from("wavelength_nm,freq_cyc_per_mm,mtf_x,mtf_y,diffraction_limit\n");
     let mut lsf_csv = String::from("wavelength_nm,position_um,lsf_x,lsf_y\n");
     let mut series = Vec::new();
-    let n = optics.config().f_number;
+    // The diffraction-limited reference uses the working f-number (image distance / pupil
+    // diameter) of the wavefront the PSFs come from, which exceeds the nominal one when the lens
+    // is focused closer than infinity.
+    let n = wf.working_f_number();
     for p in &psfs {
         let m = p.mtf();
         for ((f, mx), my) in m.freq_cyc_per_mm.iter().zip(&m.mtf_x).zip(&m.mtf_y) {
@@ -90,7 +93,13 @@ pub fn run(a: Args) -> Result<()> {
     camsim_io::atomic::write_bytes_atomic(&out.join("mtf.csv"), mtf_csv.as_bytes())?;
     camsim_io::atomic::write_bytes_atomic(&out.join("lsf.csv"), lsf_csv.as_bytes())?;
     let plot = LinePlot {
-        title: format!("MTF of '{}' (f/{}, defocus c4 = {:.3} um at the lens pupil)", a.lens, n, wf.defocus_at_lens_pupil_um()),
+        title: format!(
+            "MTF of '{}' (f/{}, working f/{:.3}, defocus c4 = {:.3} um at the lens pupil)",
+            a.lens,
+            optics.config().f_number,
+            n,
+            wf.defocus_at_lens_pupil_um()
+        ),
         x_label: "spatial frequency (cycles/mm, sensor plane)".into(),
         y_label: "MTF".into(),
         series,
