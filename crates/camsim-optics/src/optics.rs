@@ -6,7 +6,6 @@ use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
-use crate::tail::FarTail;
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, Spectrum};
@@ -366,10 +365,8 @@ impl Optics {
     ///    times the shading (cos^4, table or fit; evaluated at the scene samples' sensor positions).
     /// 3. Blur per band with the wavefront PSF (see [`Wavefront::psf`]), by tiled FFT convolution
     ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared; one kernel
-    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. The kernel holds
-    ///    the PSF's energy inside its window; the energy outside (the far tail) is spread with the
-    ///    PSF's asymptotic 1/r^3 shape on a coarse grid ([`crate::tail`]), so it stays where it
-    ///    belongs instead of being folded into the core. Negative FFT round-off is clamped to 0.
+    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. Negative FFT
+    ///    round-off is clamped to 0.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
     ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
     ///    domain. Each PSF has unit volume, so the composite conserves energy; at occlusion
@@ -475,8 +472,7 @@ impl Optics {
         let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
         let oversampling = self.config.psf.oversampling;
         let plane = rows * cols;
-        // Per band, the far-tail fraction of each layer's PSF (energy outside the kernel).
-        let eps: Vec<Vec<f32>> = out.data.par_chunks_mut(out_rows * out_cols).enumerate().map(|(b, out_band)| -> Result<Vec<f32>> {
+        out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
             // Touch the band's pages with a write first: the allocator hands out lazily mapped zero
             // pages, and the tiles' read-modify-write (`+=`) would fault each page twice (zero-page
             // read, then copy-on-write).
@@ -485,13 +481,9 @@ impl Optics {
             let src = &radiance.data[b * plane..(b + 1) * plane];
             let sc = scale[b];
             let mut specs = Vec::with_capacity(wavefronts.len());
-            let mut eps_b = Vec::with_capacity(wavefronts.len());
             for w in &wavefronts {
-                // The kernel holds the energy inside its window; the rest goes to the far tail.
-                let (psf, inside) = w.psf_with_inside(wl, spacing, k, oversampling)?;
-                let kernel: Vec<f32> = psf.data.iter().map(|v| (v * inside) as f32).collect();
-                specs.push(conv.kernel_spectrum(&kernel));
-                eps_b.push((1.0 - inside) as f32);
+                let psf = w.psf_with(wl, spacing, k, oversampling)?;
+                specs.push(conv.kernel_spectrum(&psf.to_f32()));
             }
             let mut s = conv.scratch();
             for tr in 0..ntr {
@@ -520,37 +512,11 @@ impl Optics {
                     });
                 }
             }
-            Ok(eps_b)
-        })
-        .collect::<Result<Vec<_>>>()?;
-
-        // The far tail at low resolution (crate::tail), then clamp the FFT round-off (a few 1e-7
-        // of the maximum, of either sign) at 0: irradiance is non-negative.
-        let plane_out = out_rows * out_cols;
-        let max_eps = eps.iter().flatten().fold(0.0f32, |m, v| m.max(*v));
-        if max_eps > 1e-7 {
-            let tail = FarTail::new(h, rows, cols, out_rows, out_cols, pad_r, pad_c);
-            out.data.par_chunks_mut(2 * plane_out).enumerate().for_each(|(p, pair)| {
-                let mut outs: Vec<&mut [f32]> = pair.chunks_mut(plane_out).collect();
-                tail.add(&mut outs, |kb, r, dst| {
-                    let b = 2 * p + kb;
-                    let i0 = r * cols;
-                    let row = &radiance.data[b * plane + i0..b * plane + i0 + cols];
-                    let sc = scale[b];
-                    for (j, d) in dst.iter_mut().enumerate() {
-                        let w = shade.as_ref().map(|s| s[i0 + j]).unwrap_or(1.0);
-                        let e = match &layered {
-                            Some(l) => eps[b][l.index[i0 + j] as usize],
-                            None => eps[b][0],
-                        };
-                        *d = row[j] * sc * w * e;
-                    }
-                });
-                pair.iter_mut().for_each(|v| *v = v.max(0.0));
-            });
-        } else {
-            out.data.par_iter_mut().for_each(|v| *v = v.max(0.0));
-        }
+            // FFT round-off leaves samples of either sign around 1e-7 of the maximum; irradiance is
+            // non-negative, so clamp at 0 (the in-memory image and every file written from it).
+            out_band.iter_mut().for_each(|v| *v = v.max(0.0));
+            Ok(())
+        })?;
 
         if let Some(depth) = &radiance.depth_m {
             let mut dm = vec![0.0f32; out_rows * out_cols];

@@ -300,14 +300,6 @@ impl Wavefront {
 
     /// [`Self::psf`] with a minimum oversampling factor.
     pub fn psf_with(&self, wavelength_nm: f64, spacing_m: f64, size: usize, min_oversampling: usize) -> Result<Psf> {
-        self.psf_with_inside(wavelength_nm, spacing_m, size, min_oversampling).map(|(p, _)| p)
-    }
-
-    /// [`Self::psf_with`] and the fraction of the PSF's energy that falls inside the `size` x
-    /// `size` window (the rest is the far tail; see [`crate::optics::Optics::compute`]). The
-    /// fraction is the window's sum over the total energy of the pupil, N^2 sum |P|^2 by
-    /// Parseval's theorem (the pedestal included).
-    pub fn psf_with_inside(&self, wavelength_nm: f64, spacing_m: f64, size: usize, min_oversampling: usize) -> Result<(Psf, f64)> {
         if !(wavelength_nm > 0.0 && wavelength_nm.is_finite()) {
             return Err(OpticsError::Input(format!("PSF wavelength {wavelength_nm} nm is not a positive number")));
         }
@@ -318,7 +310,7 @@ impl Wavefront {
             return Err(OpticsError::Input(format!("PSF size {size} must be odd")));
         }
         let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);
-        let (fine, inside) = self.psf_grid(wavelength_nm, spacing_m / k as f64, Some(size * k))?;
+        let fine = self.psf_grid(wavelength_nm, spacing_m / k as f64, Some(size * k))?;
         let mut data = vec![0.0; size * size];
         let nf = size * k;
         for r in 0..nf {
@@ -328,7 +320,7 @@ impl Wavefront {
         }
         let s: f64 = data.iter().sum();
         data.iter_mut().for_each(|v| *v /= s);
-        Ok((Psf { wavelength_nm, spacing_m, size, data }, inside))
+        Ok(Psf { wavelength_nm, spacing_m, size, data })
     }
 
     /// The complete (periodized) PSF on an N x N grid at `spacing_m`, centre at (N/2, N/2), where
@@ -342,7 +334,7 @@ impl Wavefront {
                 0.5 * lam_n
             )));
         }
-        let (data, _) = self.psf_grid(wavelength_nm, spacing_m, None)?;
+        let data = self.psf_grid(wavelength_nm, spacing_m, None)?;
         let size = (data.len() as f64).sqrt().round() as usize;
         Ok(Psf { wavelength_nm, spacing_m, size, data })
     }
@@ -363,9 +355,8 @@ impl Wavefront {
     }
 
     /// Core PSF computation at spacing `dx` (<= lambda N / 2). Returns `n_out x n_out` samples
-    /// centred on the middle one, or the full N x N grid (centre N/2) for `None`; unit sum. Also
-    /// the fraction of the total energy that the returned window holds.
-    fn psf_grid(&self, wavelength_nm: f64, dx: f64, n_out: Option<usize>) -> Result<(Vec<f64>, f64)> {
+    /// centred on the middle one, or the full N x N grid (centre N/2) for `None`; unit sum.
+    fn psf_grid(&self, wavelength_nm: f64, dx: f64, n_out: Option<usize>) -> Result<Vec<f64>> {
         let lambda_m = wavelength_nm * 1e-9;
         let z = self.image_distance_m;
         let d = self.lens_pupil_diameter_m();
@@ -480,11 +471,7 @@ impl Wavefront {
         if !(s > 0.0) {
             return Err(OpticsError::Input(format!("PSF at {wavelength_nm} nm has no energy (pupil too small for the sampling)")));
         }
-        // Total energy of the N x N field: sum |DFT|^2 = N^2 sum |p|^2 = N^2 sum c^2 (Parseval),
-        // plus the pedestal on all N^2 samples: N^2 sum c.
-        let total = (n * n) as f64 * sum_cov;
-        let inside = (s / total).min(1.0);
         out.iter_mut().for_each(|v| *v /= s);
-        Ok((out, inside))
+        Ok(out)
     }
 }

@@ -11,6 +11,8 @@ use std::path::PathBuf;
 /// Write a lens's point-spread functions per wavelength (psf.exr, one channel per wavelength,
 /// unit volume), MTF curves in cycles/mm (mtf.csv and mtf.png) and line-spread functions
 /// (lsf.csv). The PSF is computed as the optics stage uses it (wavefront model, Zernike terms).
+/// mtf.csv's `diffraction_limit` column is the aberration-free MTF at the working f-number
+/// (image distance / pupil diameter) of the same focus.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  camsim psf --lens pixel4a --out out/psf\n  camsim psf --lens diffraction-limited --spacing-um 0.25 --out out/psf-dl\n  camsim psf --lens pixel4a --focus-m 0.3 --object-m 0.5 --out out/psf-defocus")]
 pub struct Args {
