@@ -112,9 +112,27 @@ fn main() {
     match result {
         Ok(Ok(())) => {}
         Ok(Err(e)) => {
-            eprintln!("camsim: {e:#}");
+            eprintln!("camsim: {}", error_message(&e));
             std::process::exit(2);
         }
         Err(_) => std::process::exit(1),
     }
+}
+
+/// The error and its causes joined by ": ", skipping a cause whose text the message already ends
+/// with: the library errors print their source inside their own message (`path: cause`), so
+/// anyhow's `{:#}` would print every such cause twice.
+fn error_message(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if msg.ends_with(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    msg
 }

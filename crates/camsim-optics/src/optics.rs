@@ -365,7 +365,8 @@ impl Optics {
     ///    times the shading (cos^4, table or fit; evaluated at the scene samples' sensor positions).
     /// 3. Blur per band with the wavefront PSF (see [`Wavefront::psf`]), by tiled FFT convolution
     ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared; one kernel
-    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength.
+    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. Negative FFT
+    ///    round-off is clamped to 0.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
     ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
     ///    domain. Each PSF has unit volume, so the composite conserves energy; at occlusion
@@ -511,6 +512,9 @@ impl Optics {
                     });
                 }
             }
+            // FFT round-off leaves samples of either sign around 1e-7 of the maximum; irradiance is
+            // non-negative, so clamp at 0 (the in-memory image and every file written from it).
+            out_band.iter_mut().for_each(|v| *v = v.max(0.0));
             Ok(())
         })?;
 

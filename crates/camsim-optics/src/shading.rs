@@ -38,7 +38,25 @@ pub struct ShadingFit {
     pub blue: Vec<f64>,
     /// RMS of (data - fit) / fit over all pixels, percent (includes the capture's noise).
     pub rms_residual_percent: f64,
+    /// The capture's pixel noise, RMS percent of the fit, estimated from differences of
+    /// neighbouring same-colour pixels (sqrt(<(v1 - v2)^2> / 2)); the part of the residual above
+    /// it is what the polynomial failed to explain. 0 in files written before it was recorded.
+    #[serde(default)]
+    pub noise_percent: f64,
 }
+
+/// Largest residual (percent) the shading may leave beyond the pixel noise: a smooth lens
+/// falloff (cos^4, vignetting) is fitted by an order-4 polynomial to a few 0.1 % (see the
+/// crate's shading tests), and integrating spheres are uniform to about 1 %; a scene that is not
+/// a flat field (a chart) leaves tens to thousands of percent.
+pub const MAX_EXCESS_RESIDUAL_PERCENT: f64 = 3.0;
+/// Smallest relative illumination accepted anywhere in the image: even a wide phone lens keeps
+/// cos^4(40 deg) = 0.34 at the corner; a fit going below 0.05 (or negative) is not a lens shading.
+pub const MIN_RELATIVE_ILLUMINATION: f64 = 0.05;
+/// Largest rise (fraction of the maximum) of the fitted shading along a ray going out from its
+/// maximum: lens falloff is monotonic; the noise of an order-4 fit of a flat field wiggles by
+/// < 0.3 %.
+pub const MAX_OUTWARD_RISE: f64 = 0.02;
 
 /// Which fitted channel the spectral optics applies (see `ShadingModel`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -128,7 +146,74 @@ impl ShadingFit {
                 return Err(OpticsError::Parse { what: what.to_string(), message: format!("`{name}` has a non-finite coefficient") });
             }
         }
+        fit.check().map_err(|m| OpticsError::Parse { what: what.to_string(), message: m })?;
         Ok(fit)
+    }
+
+    /// Check that this is a lens shading fitted to a flat field: the residual beyond the pixel
+    /// noise is at most [`MAX_EXCESS_RESIDUAL_PERCENT`]; every channel's relative illumination lies
+    /// in [[`MIN_RELATIVE_ILLUMINATION`], 1] over the image (within 1e-6 above 1: it is normalized
+    /// to its maximum) and falls off monotonically from its maximum (rise < [`MAX_OUTWARD_RISE`]
+    /// along 32 rays, 64 steps each). The message says which test failed and by how much.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let excess = (self.rms_residual_percent.powi(2) - self.noise_percent.powi(2)).max(0.0).sqrt();
+        if !(excess <= MAX_EXCESS_RESIDUAL_PERCENT) {
+            return Err(format!(
+                "not a flat field: the fitted shading leaves an RMS residual of {:.1} % against a pixel noise of {:.1} % \
+                 ({excess:.1} % unexplained; at most {MAX_EXCESS_RESIDUAL_PERCENT} % for a uniformly lit field)",
+                self.rms_residual_percent, self.noise_percent
+            ));
+        }
+        for ch in [CfaChannel::R, CfaChannel::G, CfaChannel::B] {
+            let coef = self.coefficients(ch);
+            // Values on a 65 x 65 grid over the image (corners included), and the maximum.
+            let n = 64;
+            let at = |i: usize, j: usize| poly_eval(coef, self.order, -1.0 + 2.0 * i as f64 / n as f64, -1.0 + 2.0 * j as f64 / n as f64);
+            let (mut lo, mut hi, mut arg) = (f64::INFINITY, f64::NEG_INFINITY, (0.0, 0.0));
+            for i in 0..=n {
+                for j in 0..=n {
+                    let v = at(i, j);
+                    lo = lo.min(v);
+                    if v > hi {
+                        hi = v;
+                        arg = (-1.0 + 2.0 * i as f64 / n as f64, -1.0 + 2.0 * j as f64 / n as f64);
+                    }
+                }
+            }
+            if !(lo >= MIN_RELATIVE_ILLUMINATION && hi <= 1.0 + 1e-6) {
+                return Err(format!(
+                    "channel {}: relative illumination ranges from {lo:.3} to {hi:.3}; a lens shading lies in [{MIN_RELATIVE_ILLUMINATION}, 1] \
+                     (is the input a flat field?)",
+                    ch.letter()
+                ));
+            }
+            for k in 0..32 {
+                let th = 2.0 * std::f64::consts::PI * k as f64 / 32.0;
+                let (dx, dy) = (th.cos(), th.sin());
+                let mut run_min = hi;
+                let mut t = 0.0;
+                let step = 2.0 * 2f64.sqrt() / 64.0;
+                loop {
+                    t += step;
+                    let (x, y) = (arg.0 + t * dx, arg.1 + t * dy);
+                    if x.abs() > 1.0 || y.abs() > 1.0 {
+                        break;
+                    }
+                    let v = poly_eval(coef, self.order, x, y);
+                    if v - run_min > MAX_OUTWARD_RISE * hi {
+                        return Err(format!(
+                            "channel {}: the fitted shading rises from {run_min:.3} to {v:.3} going out from its maximum at \
+                             ({:.2}, {:.2}) towards ({x:.2}, {y:.2}); lens falloff is monotonic (is the input a flat field?)",
+                            ch.letter(),
+                            arg.0,
+                            arg.1
+                        ));
+                    }
+                    run_min = run_min.min(v);
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -173,7 +258,8 @@ fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
 /// a low-order polynomial changes by < 1e-4 over a block), fit the block means at the blocks'
 /// mean normalized coordinates by linear least squares (normal equations), then scale the
 /// polynomial to 1 at its maximum over the image. The residual is the RMS over all unsaturated
-/// pixels of (value - fit) / fit, in percent (it includes the capture's noise).
+/// pixels of (value - fit) / fit, in percent (it includes the capture's noise). The fit is refused
+/// when the input is not a flat field ([`ShadingFit::check`]).
 pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
     if order > 8 {
         return Err(OpticsError::config("order", format!("{order}: the shading polynomial order must be 0..=8")));
@@ -256,6 +342,24 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
         fits.push(coef.iter().map(|c| c * mx).collect());
         fits.push(coef);
     }
+    // Pixel noise: differences of same-colour neighbours two columns apart (the shading changes
+    // by < 1e-3 over two pixels), var(v1 - v2) = 2 var(v), relative to the fit.
+    let (mut nss, mut nn) = (0.0f64, 0usize);
+    for r in 0..rows {
+        let y = yn(r);
+        let rc: Vec<Vec<f64>> = (0..3).map(|ch| row_coefficients(&fits[2 * ch], order, y)).collect();
+        for c in 0..cols.saturating_sub(2) {
+            let (a, b) = (raw.dn[r * cols + c] as f64, raw.dn[r * cols + c + 2] as f64);
+            if a >= sat || b >= sat {
+                continue;
+            }
+            let fit = horner(&rc[raw.cfa.channel_at(r, c).index()], xn(c + 1));
+            if fit > 0.0 {
+                nss += ((a - b) / fit).powi(2) / 2.0;
+                nn += 1;
+            }
+        }
+    }
     // Residual over all pixels, relative to the (absolute) fit.
     let (mut ss, mut n) = (0.0f64, 0usize);
     for r in 0..rows {
@@ -275,13 +379,17 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
             }
         }
     }
-    Ok(ShadingFit {
+    let fit = ShadingFit {
         order,
         rows,
         cols,
         red: fits[1].clone(),
         green: fits[3].clone(),
         blue: fits[5].clone(),
-        rms_residual_percent: if n > 0 { (ss / n as f64).sqrt() * 100.0 } else { 0.0 },
-    })
+        // No pixel with a positive fit: the fit is useless, report an infinite residual.
+        rms_residual_percent: if n > 0 { (ss / n as f64).sqrt() * 100.0 } else { f64::INFINITY },
+        noise_percent: if nn > 0 { (nss / nn as f64).sqrt() * 100.0 } else { 0.0 },
+    };
+    fit.check().map_err(|m| OpticsError::Input(format!("flat field: {m}")))?;
+    Ok(fit)
 }

@@ -344,3 +344,62 @@ fn depth_layers_respect_the_tolerance() {
     assert!(o.depth_layers(&[1.0, f32::NAN], 2, 0.5).is_err());
     assert!(o.depth_layers(&[1.0, 0.0], 2, 0.5).is_err());
 }
+
+/// Issue 13 (and issue 1): ColorChecker-like chart (4 x 6 patches of 20 samples at the Pixel 4a's
+/// 1.4 um pitch, reflectance 3 % to 90 %, a blue patch dark at 650 nm), pixel4a optics. Reference:
+/// the same chart blurred with the untrimmed PSF (tail_energy -> 1e-6, kernel as large as the
+/// whole image, so no light within the image is misplaced). With the default kernel
+/// (tail_energy 0.005), every patch's interior mean (3 samples from its edges) should agree with
+/// the reference within 0.2 %; the trimmed, renormalized kernel misses by up to 0.41 % (ignored
+/// until fixed). Every output sample is non-negative (FFT round-off is clamped).
+#[test]
+#[ignore = "issue 13 still open: worst patch error 0.41 % (the 120-sample patch next to white); see the helper report"]
+fn chart_patch_means_match_the_untrimmed_psf() {
+    let grid = WavelengthGrid::new(450.0, 650.0, 200.0).unwrap();
+    let (pr, pc, ps, border) = (4usize, 6usize, 20usize, 4usize);
+    let (rows, cols) = (pr * ps + 2 * border, pc * ps + 2 * border);
+    let refl = [0.31, 0.90, 0.59, 0.36, 0.19, 0.031, 0.45, 0.12, 0.70, 0.05, 0.25, 0.62, 0.09, 0.80, 0.40, 0.15, 0.55, 0.08, 0.66, 0.28, 0.033, 0.90, 0.21, 0.48];
+    let value = |b: usize, r: usize, c: usize| -> f32 {
+        if r < border || c < border || r >= rows - border || c >= cols - border {
+            return 0.9;
+        }
+        let k = (r - border) / ps * pc + (c - border) / ps;
+        if k == 9 {
+            // The blue patch: bright at 450 nm, dark at 650 nm.
+            return if b == 0 { 0.35 } else { 0.04 };
+        }
+        refl[k] as f32
+    };
+    let f_mm = 4.38;
+    let mut img = image(rows, cols, grid, 1e-6, 0.0, value);
+    img.geometry.fov_deg = 2.0 * (cols as f64 * 1.4e-6 / 2.0 / (f_mm * 1e-3)).atan().to_degrees();
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.shading = ShadingConfig::Named(ShadingName::None);
+    let trimmed = Optics::from_config(&c).unwrap().compute(&img).unwrap();
+    assert!(trimmed.data.iter().all(|v| *v >= 0.0), "negative irradiance");
+    c.psf.tail_energy = 1e-6;
+    c.psf.max_kernel_size = 2 * rows.max(cols) + 1;
+    let full = Optics::from_config(&c).unwrap().compute(&img).unwrap();
+    let mean = |o: &camsim_core::SpectralImage, b: usize, k: usize| {
+        let (pad_r, pad_c) = ((o.rows - rows) / 2, (o.cols - cols) / 2);
+        let (r0, c0) = (pad_r + border + (k / pc) * ps + 3, pad_c + border + (k % pc) * ps + 3);
+        let mut s = 0.0f64;
+        for r in r0..r0 + ps - 6 {
+            for cc in c0..c0 + ps - 6 {
+                s += o.at(r, cc, b) as f64;
+            }
+        }
+        s / ((ps - 6) * (ps - 6)) as f64
+    };
+    let mut worst: f64 = 0.0;
+    for b in 0..2 {
+        for k in 0..pr * pc {
+            let (got, want) = (mean(&trimmed, b, k), mean(&full, b, k));
+            let e = got / want - 1.0;
+            eprintln!("band {b}, patch {k} ({:.3}): {got:e} vs untrimmed {want:e} ({:+.3} %)", value(b, border + (k / pc) * ps, border + (k % pc) * ps), e * 100.0);
+            worst = worst.max(e.abs());
+        }
+    }
+    eprintln!("chart patch means vs untrimmed PSF: worst {:.3} %", worst * 100.0);
+    assert!(worst < 2e-3, "worst patch mean error {:.3} %", worst * 100.0);
+}

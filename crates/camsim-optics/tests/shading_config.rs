@@ -58,6 +58,67 @@ fn shading_fit_recovers_a_known_polynomial() {
     assert!(fit_flat_field(&raw, 9).is_err());
 }
 
+/// Issue 7: a raw capture of a ColorChecker-like chart (4 x 6 patches of reflectance 3 % to 90 %
+/// under a cos^4-like falloff) is not a flat field: the fit is refused, saying why (the
+/// residual beyond the noise). The same falloff without the chart passes, and its fit is close to
+/// the truth (shading fits and passes).
+#[test]
+fn fit_refuses_a_chart_and_accepts_a_flat_field() {
+    let (rows, cols) = (240, 360);
+    let refl = [0.03, 0.09, 0.19, 0.36, 0.59, 0.90];
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+    let noise = Normal::new(0.0, 0.01).unwrap();
+    let mk = |chart: bool, rng: &mut rand_pcg::Pcg64Mcg| {
+        let mut raw = RawImage::new(rows, cols, CfaPattern::Rggb, 12).unwrap();
+        raw.black_level_dn = 64.0;
+        for r in 0..rows {
+            for c in 0..cols {
+                let x = (c as f64 + 0.5) / cols as f64 * 2.0 - 1.0;
+                let y = (r as f64 + 0.5) / rows as f64 * 2.0 - 1.0;
+                let shade = 1.0 - 0.3 * (x * x + y * y);
+                let p = if chart { refl[(r * 4 / rows * 6 + c * 6 / cols) % 6] } else { 0.9 };
+                raw.dn[r * cols + c] = (64.0 + 3500.0 * p * shade * (1.0 + noise.sample(rng))).round() as u16;
+            }
+        }
+        raw
+    };
+    let flat = fit_flat_field(&mk(false, &mut rng), 4).unwrap();
+    assert!((flat.noise_percent - 1.0).abs() < 0.1, "noise estimate {}", flat.noise_percent);
+    assert!((flat.eval(CfaChannel::G, 1.0, 1.0) - 0.4).abs() < 0.01, "corner {}", flat.eval(CfaChannel::G, 1.0, 1.0));
+    let e = fit_flat_field(&mk(true, &mut rng), 4).unwrap_err().to_string();
+    assert!(e.contains("not a flat field") && e.contains("residual"), "{e}");
+}
+
+/// Issue 7: a shading file whose relative illumination is negative, or that rises towards the
+/// corner, is refused when a lens loads it (naming the file and the reason).
+#[test]
+fn shading_file_with_insane_values_is_refused_on_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = camsim_optics::shading::monomials(2).len();
+    let cfg = "f_number = 2.0\nfocal_length_mm = 4.0\nshading = { file = \"shading.toml\" }\n";
+    std::fs::write(dir.path().join("optics.toml"), cfg).unwrap();
+    let load = |coef: Vec<f64>, res: f64| {
+        let fit = ShadingFit { order: 2, rows: 10, cols: 10, red: coef.clone(), green: coef.clone(), blue: coef, rms_residual_percent: res, noise_percent: 0.5 };
+        std::fs::write(dir.path().join("shading.toml"), fit.to_toml()).unwrap();
+        Optics::from_config(&OpticsConfig::from_file(&dir.path().join("optics.toml")).unwrap()).map(|_| ())
+    };
+    let mut c = vec![0.0; n];
+    c[0] = 1.0;
+    c[3] = -0.3; // 1 - 0.3 x^2: fine
+    load(c.clone(), 0.6).unwrap();
+    // The ColorChecker fit of the issue: residual 1368 %.
+    let e = load(c.clone(), 1368.0).unwrap_err().to_string();
+    assert!(e.contains("shading.toml") && e.contains("not a flat field"), "{e}");
+    c[3] = -1.53; // goes to -0.53 at the edges
+    let e = load(c.clone(), 0.6).unwrap_err().to_string();
+    assert!(e.contains("shading.toml") && e.contains("-0.53"), "{e}");
+    // Rising towards the edge: 0.5 + 0.5 x^2 (maximum 1 at the edge, 0.5 at the centre).
+    c[0] = 0.5;
+    c[3] = 0.5;
+    let e = load(c, 0.6).unwrap_err().to_string();
+    assert!(e.contains("rises"), "{e}");
+}
+
 /// A fitted shading file is applied by the optics stage (mean of the channels, by default).
 #[test]
 fn fitted_shading_file_is_applied() {
@@ -66,7 +127,7 @@ fn fitted_shading_file_is_applied() {
     let mut c = vec![0.0; n];
     c[0] = 1.0; // 1
     c[3] = -0.2; // x^2
-    let fit = ShadingFit { order: 2, rows: 10, cols: 10, red: c.clone(), green: c.clone(), blue: c, rms_residual_percent: 0.5 };
+    let fit = ShadingFit { order: 2, rows: 10, cols: 10, red: c.clone(), green: c.clone(), blue: c, rms_residual_percent: 0.5, noise_percent: 0.5 };
     std::fs::write(dir.path().join("shading.toml"), fit.to_toml()).unwrap();
     let cfg = "f_number = 2.0\nfocal_length_mm = 4.0\npadding = \"none\"\nshading = { file = \"shading.toml\" }\n";
     std::fs::write(dir.path().join("optics.toml"), cfg).unwrap();

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 /// aberrations; depth-dependent defocus when the radiance carries a depth map and the lens has a
 /// focus distance).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim optics --in out/radiance.exr --lens pixel4a --out out/irradiance.exr\n  camsim optics --in out/box/radiance.exr --lens my-lens.toml --focus-m 0.3 --out out/box/irradiance.exr")]
+#[command(after_help = "Examples:\n  camsim scene --out out/radiance.exr\n  camsim optics --in out/radiance.exr --lens pixel4a --out out/irradiance.exr\n  camsim optics --in out/radiance.exr --lens diffraction-limited --focus-m 0.3 --out out/irradiance-defocus.exr\n\nNegative samples of FFT round-off size in the input (at most 1e-5 x its maximum) are clamped to 0\nwith a warning; larger negatives are refused. The output irradiance is non-negative.")]
 pub struct Args {
     /// Spectral radiance EXR (from `camsim scene`, `camsim render` or pbrt-v4).
     #[arg(long = "in")]
@@ -28,7 +28,15 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let radiance = camsim_io::exr::read_spectral_exr(&a.input)?;
+    let (radiance, info) = camsim_io::exr::read_spectral_exr_with_info(&a.input)?;
+    if info.clamped_negatives > 0 {
+        eprintln!(
+            "camsim: warning: {}: clamped {} round-off negative samples to 0 (most negative {:e})",
+            a.input.display(),
+            info.clamped_negatives,
+            info.most_negative_clamped
+        );
+    }
     let mut cfg = camsim_pipeline::load_lens(&a.lens)?;
     if a.focus_m.is_some() {
         cfg.focus_distance_m = a.focus_m;

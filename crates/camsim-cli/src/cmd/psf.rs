@@ -11,6 +11,8 @@ use std::path::PathBuf;
 /// Write a lens's point-spread functions per wavelength (psf.exr, one channel per wavelength,
 /// unit volume), MTF curves in cycles/mm (mtf.csv and mtf.png) and line-spread functions
 /// (lsf.csv). The PSF is computed as the optics stage uses it (wavefront model, Zernike terms).
+/// mtf.csv's `diffraction_limit` column is the aberration-free MTF at the working f-number
+/// (image distance / pupil diameter) of the same focus.
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  camsim psf --lens pixel4a --out out/psf\n  camsim psf --lens diffraction-limited --spacing-um 0.25 --out out/psf-dl\n  camsim psf --lens pixel4a --focus-m 0.3 --object-m 0.5 --out out/psf-defocus")]
 pub struct Args {
@@ -66,7 +68,10 @@ pub fn run(a: Args) -> Result<()> {
     let mut mtf_csv = String::from("wavelength_nm,freq_cyc_per_mm,mtf_x,mtf_y,diffraction_limit\n");
     let mut lsf_csv = String::from("wavelength_nm,position_um,lsf_x,lsf_y\n");
     let mut series = Vec::new();
-    let n = optics.config().f_number;
+    // The diffraction-limited reference uses the working f-number (image distance / pupil
+    // diameter) of the wavefront the PSFs come from, which exceeds the nominal one when the lens
+    // is focused closer than infinity.
+    let n = wf.working_f_number();
     for p in &psfs {
         let m = p.mtf();
         for ((f, mx), my) in m.freq_cyc_per_mm.iter().zip(&m.mtf_x).zip(&m.mtf_y) {
@@ -90,7 +95,13 @@ pub fn run(a: Args) -> Result<()> {
     camsim_io::atomic::write_bytes_atomic(&out.join("mtf.csv"), mtf_csv.as_bytes())?;
     camsim_io::atomic::write_bytes_atomic(&out.join("lsf.csv"), lsf_csv.as_bytes())?;
     let plot = LinePlot {
-        title: format!("MTF of '{}' (f/{}, defocus c4 = {:.3} um at the lens pupil)", a.lens, n, wf.defocus_at_lens_pupil_um()),
+        title: format!(
+            "MTF of '{}' (f/{}, working f/{:.3}, defocus c4 = {:.3} um at the lens pupil)",
+            a.lens,
+            optics.config().f_number,
+            n,
+            wf.defocus_at_lens_pupil_um()
+        ),
         x_label: "spatial frequency (cycles/mm, sensor plane)".into(),
         y_label: "MTF".into(),
         series,
