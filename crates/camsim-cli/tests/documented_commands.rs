@@ -11,7 +11,7 @@
 //!   `Example (...):`. A trailing comment is separated from the command by three or more spaces.
 //!
 //! All commands run with `sh -c` (so `>`, `&&` work as documented) from a scratch copy of the
-//! repository root: `examples/` is linked, `../shared` points at the reference data, and outputs
+//! repository root: `examples/` is copied, `../shared` points at the reference data, and outputs
 //! land in the scratch `out/`. Examples may depend on each other's outputs (`camsim scene --out
 //! out/radiance.exr` then `camsim optics --in out/radiance.exr`), so commands are run in passes
 //! until no more succeed: every command must succeed in some pass. A command that fails in an
@@ -226,12 +226,26 @@ fn scratch_root() -> (tempfile::TempDir, PathBuf) {
     let root = tmp.path().join("repo");
     std::fs::create_dir(&root).unwrap();
     let repo = repo_root();
-    std::os::unix::fs::symlink(repo.join("examples"), root.join("examples")).unwrap();
+    // A copy, not a link: configs name paths relative to their own folder (`../out`), and the
+    // kernel resolves `..` through a link to the link's target.
+    copy_dir(&repo.join("examples"), &root.join("examples"));
     let shared = repo.join("../shared");
     if shared.exists() {
         std::os::unix::fs::symlink(shared.canonicalize().unwrap(), tmp.path().join("shared")).unwrap();
     }
     (tmp, root)
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let target = to.join(e.file_name());
+        if e.path().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
 }
 
 #[test]
