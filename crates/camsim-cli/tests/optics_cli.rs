@@ -44,7 +44,7 @@ fn camsim_io_read(path: &Path) -> (Vec<f32>, usize) {
 }
 
 /// A real negative in an input EXR is refused with exit 2, the file and channel named, and the
-/// message printed once (before the fix the core error appeared twice: `path: msg: msg`).
+/// message printed once (before the fix an error with a source appeared twice: `path: msg: msg`).
 #[test]
 fn real_negative_is_refused_once() {
     let dir = tempfile::tempdir().unwrap();
@@ -59,8 +59,15 @@ fn real_negative_is_refused_once() {
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("bad.exr") && e.contains("S0.") && e.contains("-1"), "{e}");
-    assert_eq!(e.matches("negative").count(), 1, "message repeated: {e}");
+    assert_eq!(e.matches("bad.exr").count(), 1, "message repeated: {e}");
     assert!(!dir.path().join("i.exr").exists());
+    // A NaN goes through the core's value check (an error with a source): printed once.
+    img.data[5] = f32::NAN;
+    camsim_io::exr::write_spectral_exr(&bad, &img, "scene").unwrap();
+    let o = camsim(&["optics", "--in", p(&bad), "--out", p(&dir.path().join("i.exr"))]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert_eq!(e.matches("is not a finite").count(), 1, "message repeated: {e}");
 }
 
 /// Issue 13: the `diffraction_limit` column of mtf.csv is the diffraction MTF at the working
