@@ -197,8 +197,8 @@ mod tests {
                 let present: Vec<usize> = (0..rows)
                     .flat_map(|y| (0..cols).map(move |x| cfa.channel_at(y, x).index()))
                     .collect();
-                for ch in 0..3 {
-                    let expect = if present.contains(&ch) { levels[ch] as f32 } else { 0.0 };
+                for (ch, &level) in levels.iter().enumerate() {
+                    let expect = if present.contains(&ch) { level as f32 } else { 0.0 };
                     for i in 0..rows * cols {
                         assert_eq!(rgb.plane(ch)[i], expect, "{cfa:?} {rows}x{cols} pixel {i} channel {ch}");
                     }
