@@ -548,6 +548,8 @@ struct EdgeCandidate {
 type TrackPoint = (usize, usize, f64, usize);
 
 /// The near-vertical straight edges of `p` (at least 8 rows long), with an ROI around each.
+// Row and column loops index several arrays at once.
+#[allow(clippy::needless_range_loop)]
 fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
     let (rows, cols) = (p.rows, p.cols);
     // Derivative [1, 0, -1] of the 3-row average, per row; local maxima are the edge points.

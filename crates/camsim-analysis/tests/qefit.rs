@@ -14,6 +14,9 @@
 //!    be close to the paper's M: within eps_j |M_j| in column j (a curve error eps moves the
 //!    column by about that), and it must describe p4aCorrected at least as well as the paper's M.
 
+// Channel loops index several arrays at once (r, g, b).
+#![allow(clippy::needless_range_loop)]
+
 use camsim_analysis::qefit::{apply_matrix, fit_qe_matrix, predict_rgb, MatrixForm, PAPER_M};
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{tables, WavelengthGrid};

@@ -106,8 +106,11 @@ fn parse_pitch_um(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
+/// Named SFR curves.
+type Curves = Vec<(String, SfrResult)>;
+
 /// The SFR curves of the image, and the sensor pixel pitch in mm when known.
-fn sfr_curves(a: &SfrArgs) -> Result<(Vec<(String, SfrResult)>, Option<f64>)> {
+fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
     let ext = a.image.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let mut opts = SfrOptions { poly_order: if a.quadratic { 2 } else { 1 }, ..SfrOptions::default() };
     if ext == "exr" {
