@@ -204,7 +204,17 @@ fn measuring_sensor(opts: &ValidateOptions) -> Result<(Sensor, String)> {
     let col = |name: &str, k: usize| t.columns[t.index_of(name).unwrap_or(k)].clone();
     let mut cfg = preset.config().clone();
     cfg.name = "pixel4a (p4aCorrected QE)".into();
-    cfg.qe = camsim_sensor::QeConfig { wavelengths_nm: t.wavelengths_nm.clone(), r: col("r", 0), g: col("g", 1), b: col("b", 2), ir_cut: None, pixel_qe: None };
+    cfg.qe = camsim_sensor::QeConfig {
+        file: None,
+        loaded_from: Some(path.display().to_string()),
+        correction: None,
+        wavelengths_nm: t.wavelengths_nm.clone(),
+        r: col("r", 0),
+        g: col("g", 1),
+        b: col("b", 2),
+        ir_cut: None,
+        pixel_qe: None,
+    };
     cfg.qe_correction = None;
     let s = Sensor::from_config(cfg).map_err(|e| ValidateError::file(&path, e.to_string()))?;
     Ok((s, format!("{} (ISET/isetcornellbox, the paper's corrected QE)", path.display())))
