@@ -262,7 +262,7 @@ fn p4a_corrected_qe() -> camsim_sensor::QeConfig {
     assert_eq!(lines.next().unwrap().trim(), "wavelength_nm,r,g,b", "{path}: header");
     let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
     let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    camsim_sensor::QeConfig { wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None }
+    camsim_sensor::QeConfig { file: None, loaded_from: None, correction: None, wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None }
 }
 
 /// M (row vector convention, `target = source M`) by least squares over the wavelength samples,

@@ -68,6 +68,25 @@ pub fn stage_out_dir(dir: &Path) -> Result<OutputDir> {
     Ok(out)
 }
 
+/// [`stage_out_dir`] for a command that reads `inputs`: refuses an output folder that holds one
+/// of them (committing would replace the folder as a whole, inputs included).
+pub fn stage_out_dir_reading(dir: &Path, inputs: &[&Path]) -> Result<OutputDir> {
+    if let Ok(target) = dir.canonicalize() {
+        for input in inputs {
+            if let Ok(i) = input.canonicalize() {
+                if i.starts_with(&target) {
+                    anyhow::bail!(
+                        "--out {} holds the input {}: the output folder is replaced as a whole when the run completes; choose another --out",
+                        dir.display(),
+                        input.display()
+                    );
+                }
+            }
+        }
+    }
+    stage_out_dir(dir)
+}
+
 /// Commit a staged output folder (swap it in for its target).
 pub fn commit(out: OutputDir) -> Result<()> {
     Ok(out.commit()?)

@@ -63,15 +63,11 @@ pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, foc
     scene.camera.height = height;
 }
 
-/// `simulate` with a `[render]` section: render the scene with the camera's field of view set to
-/// the sensor window seen through the lens, so the radiance covers exactly the sensor.
-pub fn render_section(
-    r: &RenderSection,
-    cfg: &SimulateConfig,
-    sensor: &Sensor,
-    optics: &Optics,
-    progress: &Progress<'_>,
-) -> Result<SpectralImage> {
+/// The scene of a `[render]` section, set up as `simulate` renders it: its resolution (default:
+/// the sensor window's size), samples and seed, and the camera's field of view set to the sensor
+/// window seen through the lens, so the radiance covers exactly the sensor. `camsim render
+/// --config` uses this too, so `render -> optics -> sensor` reproduces `simulate`.
+pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics) -> Result<SceneDescription> {
     let (w, h) = match r.resolution {
         Some([w, h]) => (w, h),
         None => (sensor.cols(), sensor.rows()),
@@ -85,5 +81,17 @@ pub fn render_section(
         scene.settings.samples_per_pixel = spp;
     }
     match_camera_to_sensor(&mut scene, sensor, optics.config().focal_length_mm * 1e-3, w, h);
+    Ok(scene)
+}
+
+/// `simulate` with a `[render]` section: render [`render_section_scene`].
+pub fn render_section(
+    r: &RenderSection,
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    progress: &Progress<'_>,
+) -> Result<SpectralImage> {
+    let scene = render_section_scene(r, cfg, sensor, optics)?;
     Ok(render_scene(&scene, progress)?.radiance)
 }

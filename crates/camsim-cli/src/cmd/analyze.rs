@@ -226,7 +226,8 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     let (curves, pitch_mm) = sfr_curves(&a)?;
     // The ROI in sensor pixels: the luminance curve's (the last; full-resolution plane).
     let roi = curves.last().map(|c| c.1.roi);
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.image.as_path()])?;
+    let out = staged.path().to_path_buf();
     // CSV on a common frequency axis (cycles per sensor pixel), one column per curve.
     let f_axis: Vec<f64> = (0..=100).map(|i| i as f64 * 0.01).collect();
     let mut csv = String::from("freq_cyc_per_sensor_px");
@@ -282,6 +283,7 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
             c.edge_angle_deg
         ));
     }
+    common::commit(staged)?;
     Ok(())
 }
 
@@ -444,7 +446,8 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     let json = serde_json::json!({
         "image": a.image.display().to_string(), "data": img.kind(), "corners": corners, "fraction": a.fraction, "patches": patches,
     });
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.image.as_path()])?;
+    let out = staged.path().to_path_buf();
     write_text(&out.join("patches.csv"), &csv)?;
     write_text(&out.join("profile.csv"), &pcsv)?;
     let ch = |k: usize, name: &str, col: [u8; 3]| {
@@ -465,7 +468,8 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
     }
-    say(format!("24 patches ({}) -> {}", img.kind(), out.join("patches.csv").display()));
+    say(format!("24 patches ({}) -> {}", img.kind(), a.out.join("patches.csv").display()));
+    common::commit(staged)?;
     Ok(())
 }
 
@@ -551,7 +555,9 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
         }
     }
     let json = serde_json::json!({ "a": stats_a, "b": stats_b, "data_a": ra.kind(), "data_b": rb.as_ref().map(|r| r.kind()) });
-    let out = common::out_dir(&a.out)?;
+    let inputs: Vec<&std::path::Path> = std::iter::once(a.a.as_path()).chain(a.b.as_deref()).collect();
+    let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
+    let out = staged.path().to_path_buf();
     write_text(&out.join("roi.csv"), &csv)?;
     if stats_b.is_some() {
         let label_b = a.b.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
@@ -571,7 +577,8 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
     }
-    say(format!("{} region(s) -> {}", a.regions.len(), out.join("roi.csv").display()));
+    say(format!("{} region(s) -> {}", a.regions.len(), a.out.join("roi.csv").display()));
+    common::commit(staged)?;
     Ok(())
 }
 
@@ -600,7 +607,7 @@ pub struct EmvaArgs {
     #[arg(long)]
     pub json: bool,
     /// Output folder for emva.json, ptc.png and snr.png (created if missing).
-    #[arg(long, default_value = "out/emva")]
+    #[arg(long, default_value = "out/emva-report")]
     pub out: PathBuf,
 }
 

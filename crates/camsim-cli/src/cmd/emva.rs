@@ -278,7 +278,8 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
         .collect();
     let opts = EmvaOptions::default();
     let results = emva_raw(&levels, &opts).with_context(|| format!("EMVA 1288 analysis of {}", a.series.display()))?;
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.series.as_path()])?;
+    let out = staged.path().to_path_buf();
     let raw0 = &frames[0].0[0];
     let json = serde_json::json!({
         "series": a.series.display().to_string(),
@@ -310,6 +311,7 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
             ));
         }
     }
-    say(format!("{} levels -> {}", files.len(), out.join("emva.json").display()));
+    say(format!("{} levels -> {}", files.len(), a.out.join("emva.json").display()));
+    common::commit(staged)?;
     Ok(())
 }

@@ -133,7 +133,8 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     let predicted: Vec<[f64; 3]> =
         qefit::predict_rgb(&sensor.channel_qe(&grid), &grid, &radiances, scale)?.into_iter().map(|e| e.map(|v| v * k)).collect();
     let fit = qefit::fit_qe_matrix(&measured, &predicted, form)?;
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
+    let out = staged.path().to_path_buf();
     let after = qefit::apply_matrix(&predicted, &fit.m);
     let mut csv = String::from("row,meas_r,meas_g,meas_b,pred_r,pred_g,pred_b,fit_r,fit_g,fit_b\n");
     for (i, ((m, p), q)) in measured.iter().zip(&predicted).zip(&after).enumerate() {
@@ -169,6 +170,7 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
         fit.m[0][0], fit.m[0][1], fit.m[0][2], fit.m[1][0], fit.m[1][1], fit.m[1][2], fit.m[2][0], fit.m[2][1], fit.m[2][2],
         fit.rms_before, fit.rms_after, out.join("sensor_corrected.toml").display()
     ));
+    common::commit(staged)?;
     Ok(())
 }
 

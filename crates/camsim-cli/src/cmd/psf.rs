@@ -37,7 +37,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let out = common::out_dir(&a.out)?;
+    let staged = common::stage_out_dir(&a.out)?;
+    let out = staged.path().to_path_buf();
     let optics = Optics::from_config(&camsim_pipeline::load_lens(&a.lens)?)?;
     let [w0, w1, dw] = [a.wavelengths_nm[0], a.wavelengths_nm[1], a.wavelengths_nm[2]];
     let grid = WavelengthGrid::new(w0, w1, dw)?;
@@ -109,7 +110,8 @@ pub fn run(a: Args) -> Result<()> {
         y_range: Some((0.0, 1.02)),
     };
     plot.write_png(&out.join("mtf.png"), 900, 600)?;
-    say(format!("wrote psf.exr ({size} x {size} at {} um), mtf.csv, mtf.png, lsf.csv in {}", a.spacing_um, out.display()));
+    say(format!("wrote psf.exr ({size} x {size} at {} um), mtf.csv, mtf.png, lsf.csv in {}", a.spacing_um, a.out.display()));
+    common::commit(staged)?;
     Ok(())
 }
 

@@ -19,13 +19,18 @@ use std::path::PathBuf;
 /// Command-line options win over the scene file and the overlay: an explicit --resolution, --spp
 /// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)")]
+#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)")]
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,
     /// A built-in scene instead of a file: cornell-box, cornell-box-mcc, slanted-edge.
     #[arg(long, conflicts_with = "scene")]
     pub builtin: Option<String>,
+    /// A simulate config with a `[render]` table: render its scene exactly as `camsim simulate`
+    /// does (its resolution, samples, seed, wavelengths, and the field of view of the sensor
+    /// window through the lens), so `render -> optics -> sensor` reproduces `simulate`.
+    #[arg(long, conflicts_with_all = ["scene", "builtin", "overlay", "mcc_position", "distance_m"])]
+    pub config: Option<PathBuf>,
     /// Overlay TOML (scene control: move objects, set spectra).
     #[arg(long)]
     pub overlay: Option<PathBuf>,
@@ -50,9 +55,9 @@ pub struct Args {
     /// Target distance of the slanted-edge scene, m.
     #[arg(long, default_value_t = 0.5)]
     pub distance_m: f64,
-    /// Render seed.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Render seed (default 1, or the --config file's `seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Output folder.
     #[arg(long, default_value = "out/render")]
     pub out: PathBuf,
@@ -80,20 +85,32 @@ fn render_with_progress(scene: &SceneDescription) -> Result<RenderOutput> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let out = common::out_dir(&a.out)?;
+    let inputs: Vec<&std::path::Path> = a.scene.iter().chain(a.overlay.iter()).chain(a.config.iter()).map(|p| p.as_path()).collect();
+    let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
+    let out = staged.path().to_path_buf();
     let mcc: MccPosition = a.mcc_position.parse()?;
     let mut opts = BuiltinOptions {
         resolution: a.resolution,
         mcc_position: mcc,
         target_distance_m: a.distance_m,
         grid: WavelengthGrid::default(),
-        seed: a.seed,
+        seed: a.seed.unwrap_or(1),
         ..BuiltinOptions::default()
     };
     if let Some(spp) = a.spp {
         opts.samples_per_pixel = spp;
     }
-    let mut scene = load_scene(a.builtin.as_deref(), a.scene.as_deref(), a.overlay.as_deref(), &opts)?;
+    let mut scene = match &a.config {
+        Some(path) => {
+            let mut cfg = camsim_pipeline::SimulateConfig::load(path)?;
+            if let Some(seed) = a.seed {
+                cfg.seed = seed;
+            }
+            let section = cfg.render.clone().ok_or_else(|| anyhow::anyhow!("{}: has no [render] table to render", path.display()))?;
+            camsim_pipeline::render::render_section_scene(&section, &cfg, &cfg.sensor()?, &cfg.optics()?)?
+        }
+        None => load_scene(a.builtin.as_deref(), a.scene.as_deref(), a.overlay.as_deref(), &opts)?,
+    };
     for n in &scene.notes {
         say(format!("note: {n}"));
     }
@@ -122,7 +139,7 @@ pub fn run(a: Args) -> Result<()> {
     let info = serde_json::json!({
         "camsim_version": env!("CARGO_PKG_VERSION"),
         "command": std::env::args().collect::<Vec<_>>().join(" "),
-        "scene": a.scene.as_ref().map(|p| p.display().to_string()).or(a.builtin.clone()),
+        "scene": a.scene.as_ref().or(a.config.as_ref()).map(|p| p.display().to_string()).or(a.builtin.clone()),
         "resolution": [cols, rows],
         // The samples actually taken (fewer than asked when a time budget stopped the render).
         "samples_per_pixel": samples_taken,
@@ -149,7 +166,8 @@ pub fn run(a: Args) -> Result<()> {
         },
         r.stats.seconds,
         r.stats.rays_per_second / 1e6,
-        out.display()
+        a.out.display()
     ));
+    common::commit(staged)?;
     Ok(())
 }

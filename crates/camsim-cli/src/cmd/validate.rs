@@ -67,7 +67,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let out = common::out_dir(&a.out)?;
+    let inputs: Vec<&std::path::Path> = a.config.iter().map(|p| p.as_path()).collect();
+    let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
+    let out = staged.path().to_path_buf();
     match a.what.as_str() {
         "cornell-box" => {
             let quality = match a.quality.as_str() {
@@ -91,15 +93,16 @@ pub fn run(a: Args) -> Result<()> {
                 pb.set_position(done);
             })?;
             pb.finish_and_clear();
-            say(format!("report: {}", out.join("report.html").display()));
+            say(format!("report: {}", a.out.join("report.html").display()));
         }
         "compare" => {
             let cfg_path = a.config.as_ref().ok_or_else(|| anyhow::anyhow!("camsim validate compare needs a CONFIG.toml"))?;
             let cfg = camsim_validate::CompareConfig::from_file(cfg_path)?;
             camsim_validate::compare(&cfg, &out)?;
-            say(format!("report: {}", out.join("report.html").display()));
+            say(format!("report: {}", a.out.join("report.html").display()));
         }
         w => anyhow::bail!("unknown validation '{w}': use cornell-box or compare"),
     }
+    common::commit(staged)?;
     Ok(())
 }
