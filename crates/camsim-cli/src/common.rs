@@ -99,6 +99,38 @@ pub fn out_dir(dir: &Path) -> Result<PathBuf> {
     Ok(dir.to_path_buf())
 }
 
+/// clap value parser: a finite number > 0 (NaN, infinities and zero refused).
+pub fn positive_f64(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a finite number > 0")),
+    }
+}
+
+/// clap value parser: a finite number >= 0.
+pub fn non_negative_f64(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v >= 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a finite number >= 0")),
+    }
+}
+
+/// clap value parser: a finite number (NaN and infinities refused).
+pub fn finite_f64(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a finite number")),
+    }
+}
+
+/// Create the folder a single output file goes into (the file itself is written atomically).
+pub fn parent_dir(file: &Path) -> Result<()> {
+    if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        out_dir(dir)?;
+    }
+    Ok(())
+}
+
 /// Read a text file, naming it in the error.
 pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))

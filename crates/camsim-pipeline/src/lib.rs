@@ -170,6 +170,11 @@ impl SimulateConfig {
                 anyhow::anyhow!("{}: {}", path.display(), msg.trim_end())
             })?
         };
+        match (&cfg.scene, &cfg.render) {
+            (Some(_), Some(_)) => bail!("{}: give either [scene] (2D) or [render] (3D), not both", path.display()),
+            (None, None) => bail!("{}: the config has neither a [scene] nor a [render] table", path.display()),
+            _ => {}
+        }
         // Paths inside the config are relative to the config file.
         let base = path.parent().unwrap_or(Path::new("."));
         cfg.resolve_paths(base);

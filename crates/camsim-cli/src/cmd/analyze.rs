@@ -25,7 +25,7 @@ pub struct RawInput {
     #[arg(long, value_parser = parse_cfa)]
     pub cfa: Option<CfaPattern>,
     /// Black level of a PNG/TIFF mosaic, DN.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = crate::common::non_negative_f64)]
     pub black_dn: f64,
     /// ADC bits of a PNG/TIFF mosaic.
     #[arg(long, default_value_t = 16)]

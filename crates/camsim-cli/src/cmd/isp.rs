@@ -34,6 +34,7 @@ pub fn run(a: Args) -> Result<()> {
     let color = ColorPipeline::fit(&sensor.channel_qe(&grid), &grid, &illum)?;
     let rgb = camsim_isp::demosaic_bilinear(&raw);
     let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw.white_level_dn - raw.black_level_dn));
+    crate::common::parent_dir(&a.out)?;
     camsim_io::raster::write_png8_rgb(&a.out, rgb.rows, rgb.cols, &srgb)?;
     say(format!("wrote {} ({} x {})", a.out.display(), rgb.cols, rgb.rows));
     Ok(())

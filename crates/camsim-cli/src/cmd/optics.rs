@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long, default_value = "pixel4a")]
     pub lens: String,
     /// Override the focus distance, m (depth-dependent defocus needs a depth map in the input).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::positive_f64)]
     pub focus_m: Option<f64>,
     /// Output spectral EXR.
     #[arg(long, default_value = "out/irradiance.exr")]

@@ -26,10 +26,10 @@ pub struct Args {
     #[arg(long, num_args = 3, default_values_t = [450.0, 650.0, 100.0])]
     pub wavelengths_nm: Vec<f64>,
     /// Focus distance, m (with --object-m: adds the thin-lens defocus between the two).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::positive_f64)]
     pub focus_m: Option<f64>,
     /// Object distance, m.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::positive_f64)]
     pub object_m: Option<f64>,
     /// Output folder.
     #[arg(long, default_value = "out/psf")]

@@ -40,7 +40,7 @@ pub struct Args {
     /// Opt-in wall-clock limit, s: stop after the first whole pass of 8 samples per pixel that
     /// ends past it (the result then depends on the machine's speed; render.json reports the
     /// samples taken). Default: no limit, all --spp samples.
-    #[arg(long)]
+    #[arg(long, value_parser = common::positive_f64)]
     pub time_budget_s: Option<f64>,
     /// Image size WIDTHxHEIGHT (default: the pbrt file's Film, the overlay's [camera]
     /// resolution, or the built-in's). Given here, it wins over both.
@@ -53,7 +53,7 @@ pub struct Args {
     #[arg(long, default_value = "center")]
     pub mcc_position: String,
     /// Target distance of the slanted-edge scene, m.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = common::positive_f64)]
     pub distance_m: f64,
     /// Render seed (default 1, or the --config file's `seed`).
     #[arg(long)]

@@ -16,7 +16,7 @@ pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
     /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge).
-    #[arg(long, default_value = "macbeth")]
+    #[arg(long, default_value = "macbeth", conflicts_with = "config")]
     pub kind: String,
     /// Output spectral EXR.
     #[arg(long, default_value = "out/radiance.exr")]

@@ -61,7 +61,7 @@ pub struct Args {
     pub frames_per_level: usize,
     /// EMVA series: analog offset, mV. EMVA 1288 needs dark frames that do not clip at 0; by
     /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::finite_f64)]
     pub analog_offset_mv: Option<f64>,
     /// Output folder (created; an earlier camsim run in it is replaced as a whole when this
     /// run completes; any other existing content is refused).

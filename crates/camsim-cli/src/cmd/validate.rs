@@ -56,7 +56,7 @@ pub struct Args {
     /// of 8 samples per pixel that ends past it, so the report then depends on the machine
     /// (results.json records the samples taken). Default: none; every render takes all its
     /// samples and the report is the same for a seed on any machine.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::common::positive_f64)]
     pub render_time_budget_s: Option<f64>,
     /// Seed of the render and the sensor noise.
     #[arg(long, default_value_t = 1)]
