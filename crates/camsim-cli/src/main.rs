@@ -18,9 +18,9 @@ Each stage runs alone between files (spectral OpenEXR, DNG) or all at once with 
 
 Examples:
   camsim simulate --out out/default               ColorChecker, D65, 100 cd/m^2, pixel4a camera
-  camsim simulate examples/slanted-edge.toml --out out/edge --frames 4
+  camsim simulate examples/slanted-edge.toml --out out/edge4 --frames 4
   camsim presets                                  list built-in sensors, optics and scenes
-  camsim render --builtin cornell-box-mcc --out out/box
+  camsim render --builtin cornell-box-mcc --out out/render-box-mcc
   camsim validate cornell-box --out out/report    the paper's validation, with report.html
 
 Output folders (--out) always hold one complete run: a command writes into a fresh sibling

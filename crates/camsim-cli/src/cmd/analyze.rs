@@ -71,7 +71,7 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
 /// edge angle, the ROI in sensor pixels) and sfr.png; --compare overlays curves from other sfr.csv
 /// files (simulated vs measured, as the paper's Figure 2).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim analyze sfr out/edge/raw.dng --out out/edge/sfr\n  camsim analyze sfr out/edge/raw.dng --roi 40,90,176,80 --quadratic --compare out/edge/sfr/sfr.csv --out out/edge/sfr-roi\n  camsim analyze sfr out/edge/raw.dng --pitch-um 1.4 --json --out out/edge/sfr-json")]
+#[command(after_help = "Examples:\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim analyze sfr out/edge/raw.dng --out out/edge-sfr\n  camsim analyze sfr out/edge/raw.dng --roi 40,90,176,80 --quadratic --compare out/edge-sfr/sfr.csv --out out/edge-sfr-roi\n  camsim analyze sfr out/edge/raw.dng --pitch-um 1.4 --json --out out/edge-sfr-json")]
 pub struct SfrArgs {
     /// Raw DNG, 16-bit PNG/TIFF mosaic (with --cfa), or spectral irradiance EXR.
     pub image: PathBuf,
@@ -597,7 +597,7 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
 /// cells are DNG (or PNG/TIFF mosaic, with --cfa) file names relative to the CSV; an empty
 /// photons_per_pixel cell means the photon count is unknown (no QE then).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --emva-series --sensor imx363 --rows 64 --cols 64 --levels 12 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva/report")]
+#[command(after_help = "Examples:\n  camsim sensor --emva-series --sensor imx363 --rows 64 --cols 64 --levels 12 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva-report")]
 pub struct EmvaArgs {
     /// The series CSV (header `exposure_s,photons_per_pixel,bright_0,...,dark_0,...`).
     pub series: PathBuf,

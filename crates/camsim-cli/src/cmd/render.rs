@@ -19,7 +19,7 @@ use std::path::PathBuf;
 /// Command-line options win over the scene file and the overlay: an explicit --resolution, --spp
 /// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)")]
+#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)")]
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,

@@ -80,7 +80,8 @@ pub fn run(a: Args) -> Result<()> {
     if a.frames == 0 {
         anyhow::bail!("--frames must be at least 1");
     }
-    let out = common::stage_out_dir(&a.out)?;
+    let inputs: Vec<&std::path::Path> = a.input.iter().map(|p| p.as_path()).collect();
+    let out = common::stage_out_dir_reading(&a.out, &inputs)?;
     if a.emva_series {
         emva_series(&sensor, &a, out.path())?;
         return common::commit(out);
