@@ -345,16 +345,46 @@ fn depth_layers_respect_the_tolerance() {
     assert!(o.depth_layers(&[1.0, 0.0], 2, 0.5).is_err());
 }
 
+/// ISETCam's blur (opticsOTF / oiCalculateOTF), written out independently of the crate's FFT
+/// code: per band, the 2-D DFT (complex, rustfft) of the padded irradiance plane times the OTF at
+/// the same frequencies (the DFT of the PSF periodized on the padded plane, whose DFT is checked
+/// against the analytic cell-integrated OTF in tests/wavefront.rs), inverse DFT.
+fn isetcam_otf_blur(plane: &[f64], rows: usize, cols: usize, psf_origin: &[f64]) -> Vec<f64> {
+    use rustfft::num_complex::Complex64;
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let fft2 = |data: &mut Vec<Complex64>, inverse: bool, planner: &mut rustfft::FftPlanner<f64>| {
+        let (fr, fc) = if inverse { (planner.plan_fft_inverse(cols), planner.plan_fft_inverse(rows)) } else { (planner.plan_fft_forward(cols), planner.plan_fft_forward(rows)) };
+        for row in data.chunks_exact_mut(cols) {
+            fr.process(row);
+        }
+        let mut col = vec![Complex64::new(0.0, 0.0); rows];
+        for c in 0..cols {
+            (0..rows).for_each(|r| col[r] = data[r * cols + c]);
+            fc.process(&mut col);
+            (0..rows).for_each(|r| data[r * cols + c] = col[r]);
+        }
+    };
+    let mut img: Vec<Complex64> = plane.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    let mut otf: Vec<Complex64> = psf_origin.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    fft2(&mut img, false, &mut planner);
+    fft2(&mut otf, false, &mut planner);
+    img.iter_mut().zip(&otf).for_each(|(a, b)| *a *= *b);
+    fft2(&mut img, true, &mut planner);
+    img.iter().map(|v| v.re / (rows * cols) as f64).collect()
+}
+
 /// Issue 13 (and issue 1): ColorChecker-like chart (4 x 6 patches of 20 samples at the Pixel 4a's
-/// 1.4 um pitch, reflectance 3 % to 90 %, a blue patch dark at 650 nm), pixel4a optics. Reference:
-/// the same chart blurred with the untrimmed PSF (tail_energy -> 1e-6, kernel as large as the
-/// whole image, so no light within the image is misplaced). With the default kernel
-/// (tail_energy 0.005), every patch's interior mean (3 samples from its edges) should agree with
-/// the reference within 0.2 %; the trimmed, renormalized kernel misses by up to 0.41 % (ignored
-/// until fixed). Every output sample is non-negative (FFT round-off is clamped).
+/// 1.4 um pitch, reflectance 3 % to 90 %, a blue patch dark at 650 nm), pixel4a optics.
+/// Reference: ISETCam's whole-image OTF blur ([`isetcam_otf_blur`]) of the chart on a zero-padded
+/// plane large enough that no light wraps around (so it is the linear convolution with the
+/// untrimmed PSF of the sampled pupil); it conserves energy exactly (OTF(0) = 1; checked to 1e-9).
+/// The default optics must give every patch's interior mean (3 samples from its edges) within
+/// 0.2 % of it in both bands (the issue's target). Before the fix the default was the kernel path
+/// (tail_energy 0.005, kernel renormalized), 0.48 % off here (dark corner patch next to the white
+/// border); it is still used for large images and is held to the 1 % of the issue's report.
+/// Every output sample is non-negative.
 #[test]
-#[ignore = "issue 13 still open: worst patch error 0.41 % (the 120-sample patch next to white); see the helper report"]
-fn chart_patch_means_match_the_untrimmed_psf() {
+fn chart_patch_means_match_the_isetcam_otf_blur() {
     let grid = WavelengthGrid::new(450.0, 650.0, 200.0).unwrap();
     let (pr, pc, ps, border) = (4usize, 6usize, 20usize, 4usize);
     let (rows, cols) = (pr * ps + 2 * border, pc * ps + 2 * border);
@@ -375,31 +405,83 @@ fn chart_patch_means_match_the_untrimmed_psf() {
     img.geometry.fov_deg = 2.0 * (cols as f64 * 1.4e-6 / 2.0 / (f_mm * 1e-3)).atan().to_degrees();
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.shading = ShadingConfig::Named(ShadingName::None);
-    let trimmed = Optics::from_config(&c).unwrap().compute(&img).unwrap();
-    assert!(trimmed.data.iter().all(|v| *v >= 0.0), "negative irradiance");
-    c.psf.tail_energy = 1e-6;
-    c.psf.max_kernel_size = 2 * rows.max(cols) + 1;
-    let full = Optics::from_config(&c).unwrap().compute(&img).unwrap();
-    let mean = |o: &camsim_core::SpectralImage, b: usize, k: usize| {
-        let (pad_r, pad_c) = ((o.rows - rows) / 2, (o.cols - cols) / 2);
+    let optics = Optics::from_config(&c).unwrap();
+    let default = optics.compute(&img).unwrap();
+    c.psf.method = camsim_optics::config::BlurMethod::Kernel;
+    let kernel = Optics::from_config(&c).unwrap().compute(&img).unwrap();
+    for o in [&default, &kernel] {
+        assert!(o.data.iter().all(|v| *v >= 0.0), "negative irradiance");
+    }
+    // The reference's FFT plane: the default output plus zeros of twice its size on each side
+    // (period 5x the output; the code uses 2x), so the light that leaves the chart does not wrap
+    // back onto it (ISETCam itself pads by 1/8 only; that wrap alone moves the dark corner patch
+    // by 0.7 % here, which is printed below).
+    // ISETCam's blur of the chart on an FFT plane of the output grown by `extra` zeros per side.
+    // Returns the plane's bands and its side lengths.
+    let otf_blur = |extra: usize| {
+        let (fr, fc) = (default.rows + 2 * extra, default.cols + 2 * extra);
+        let (pr0, pc0) = ((fr - rows) / 2, (fc - cols) / 2);
+        let bands: Vec<Vec<f64>> = (0..grid.len())
+            .map(|b| {
+                let wl = grid.wavelength_nm(b);
+                // Scene at infinity: magnification 0 in the camera equation.
+                let e = camsim_optics::lens::irradiance_factor(c.f_number, 0.0, optics.transmittance(wl));
+                let mut plane = vec![0.0f64; fr * fc];
+                for r in 0..rows {
+                    for cc in 0..cols {
+                        plane[(r + pr0) * fc + cc + pc0] = value(b, r, cc) as f64 * e;
+                    }
+                }
+                let psf = optics.wavefront().psf_periodic(wl, default.sample_spacing_m, fr, fc, c.psf.oversampling).unwrap();
+                let out = isetcam_otf_blur(&plane, fr, fc, &psf);
+                let (si, so) = (plane.iter().sum::<f64>(), out.iter().sum::<f64>());
+                assert!((so / si - 1.0).abs() < 1e-9, "reference blur does not conserve energy: {so} vs {si}");
+                out
+            })
+            .collect();
+        (bands, fr, fc)
+    };
+    // The reference: zeros of twice the output's size on each side (period 5x the output; the code
+    // uses 2x), so the light that leaves the chart does not wrap back onto it. ISETCam's own
+    // padding is small (1/8 per side; here the output's PSF margin), and that wrap alone moves the
+    // dark corner patch by 0.7 % (printed as "ISETCam as is").
+    let extra = 2 * default.rows.max(default.cols);
+    let (reference, out_rows, out_cols) = otf_blur(extra);
+    let (wrapped, _, wrapped_cols) = otf_blur(0);
+    let (pad_r, pad_c) = ((out_rows - rows) / 2, (out_cols - cols) / 2);
+    let (dpr, dpc) = ((default.rows - rows) / 2, (default.cols - cols) / 2);
+    let (kpr, kpc) = ((kernel.rows - rows) / 2, (kernel.cols - cols) / 2);
+    let mean = |get: &dyn Fn(usize, usize) -> f64, k: usize| {
         let (r0, c0) = (pad_r + border + (k / pc) * ps + 3, pad_c + border + (k % pc) * ps + 3);
         let mut s = 0.0f64;
         for r in r0..r0 + ps - 6 {
             for cc in c0..c0 + ps - 6 {
-                s += o.at(r, cc, b) as f64;
+                s += get(r, cc);
             }
         }
         s / ((ps - 6) * (ps - 6)) as f64
     };
-    let mut worst: f64 = 0.0;
+    let (mut worst_default, mut worst_kernel, mut worst_wrapped): (f64, f64, f64) = (0.0, 0.0, 0.0);
     for b in 0..2 {
         for k in 0..pr * pc {
-            let (got, want) = (mean(&trimmed, b, k), mean(&full, b, k));
-            let e = got / want - 1.0;
-            eprintln!("band {b}, patch {k} ({:.3}): {got:e} vs untrimmed {want:e} ({:+.3} %)", value(b, border + (k / pc) * ps, border + (k % pc) * ps), e * 100.0);
-            worst = worst.max(e.abs());
+            let want = mean(&|r, cc| reference[b][r * out_cols + cc], k);
+            let got = mean(&|r, cc| default.at(r + dpr - pad_r, cc + dpc - pad_c, b) as f64, k);
+            let got_k = mean(&|r, cc| kernel.at(r + kpr - pad_r, cc + kpc - pad_c, b) as f64, k);
+            let got_w = mean(&|r, cc| wrapped[b][(r + dpr - pad_r) * wrapped_cols + cc + dpc - pad_c], k);
+            let (e, ek, ew) = (got / want - 1.0, got_k / want - 1.0, got_w / want - 1.0);
+            let v = value(b, border + (k / pc) * ps, border + (k % pc) * ps);
+            eprintln!("band {b}, patch {k:2} ({v:.3}): default {:+.4} %, kernel {:+.4} %, ISETCam as is {:+.4} %", e * 100.0, ek * 100.0, ew * 100.0);
+            worst_default = worst_default.max(e.abs());
+            worst_kernel = worst_kernel.max(ek.abs());
+            worst_wrapped = worst_wrapped.max(ew.abs());
         }
     }
-    eprintln!("chart patch means vs untrimmed PSF: worst {:.3} %", worst * 100.0);
-    assert!(worst < 2e-3, "worst patch mean error {:.3} %", worst * 100.0);
+    eprintln!(
+        "chart patch means vs wrap-free OTF blur: default worst {:.4} %, kernel path {:.4} %, ISETCam as is {:.4} %",
+        worst_default * 100.0,
+        worst_kernel * 100.0,
+        worst_wrapped * 100.0
+    );
+    assert!(worst_default < 2e-3, "worst patch mean error {:.3} %", worst_default * 100.0);
+    assert!(worst_kernel < 1e-2, "kernel path: worst patch mean error {:.3} %", worst_kernel * 100.0);
 }
