@@ -474,6 +474,16 @@ impl Optics {
                 if layered.is_some() {
                     return Err(OpticsError::config("psf.method", "\"otf\" blurs with one PSF; a depth map with focus_distance_m needs \"auto\" or \"kernel\""));
                 }
+                if fft_side * k_os > crate::wavefront::MAX_PSF_FFT {
+                    return Err(OpticsError::config(
+                        "psf.method",
+                        format!(
+                            "\"otf\" needs a {n} x {n} PSF grid for this {out_rows} x {out_cols} output (at most {}); use \"auto\" or \"kernel\"",
+                            crate::wavefront::MAX_PSF_FFT,
+                            n = fft_side * k_os
+                        ),
+                    ));
+                }
                 true
             }
             BlurMethod::Kernel => false,

@@ -28,7 +28,7 @@ pub fn fast_fft_len(n: usize) -> usize {
 }
 
 /// Largest PSF FFT side we accept (a 8192^2 complex f64 array is 1 GiB).
-const MAX_PSF_FFT: usize = 8192;
+pub const MAX_PSF_FFT: usize = 8192;
 
 /// A lens described by its pupil and a Zernike wavefront aberration.
 ///
@@ -359,6 +359,13 @@ impl Wavefront {
         }
         let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);
         let m = rows.max(cols);
+        if m * k > MAX_PSF_FFT {
+            return Err(OpticsError::Input(format!(
+                "the periodic PSF for a {rows} x {cols} plane at {wavelength_nm} nm needs a {n} x {n} grid ({k}x oversampled; at most \
+                 {MAX_PSF_FFT}): the whole-image OTF (psf.method = \"otf\") is for small images; use \"auto\" or \"kernel\"",
+                n = m * k
+            )));
+        }
         let fine = self.psf_grid(wavelength_nm, spacing_m / k as f64, None, Some(m * k))?;
         let nf = (fine.len() as f64).sqrt().round() as usize;
         let half = (nf / 2) as i64;

@@ -552,3 +552,25 @@ fn chart_patch_means_match_the_isetcam_otf_blur() {
     assert!(worst_default < 2e-3, "worst patch mean error {:.3} %", worst_default * 100.0);
     assert!(worst_kernel < 1e-2, "kernel path: worst patch mean error {:.3} %", worst_kernel * 100.0);
 }
+
+/// `psf.method = "otf"` refuses what it cannot do, with a message naming the key or the method:
+/// a depth map (one PSF per depth layer) and an image too large for the periodic PSF grid.
+#[test]
+fn otf_method_refuses_depth_maps_and_huge_images() {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.psf.method = BlurMethod::Otf;
+    c.focus_distance_m = Some(0.5);
+    let o = Optics::from_config(&c).unwrap();
+    let mut img = image(16, 16, grid, 1e-6, 0.5, |_, _, _| 1.0);
+    img.depth_m = Some(vec![0.5; 16 * 16]);
+    let e = o.compute(&img).unwrap_err().to_string();
+    assert!(e.contains("psf.method"), "{e}");
+    // 3000 samples at 1.4 um need 5x oversampling at 550 nm: a 30000-sample grid.
+    c.focus_distance_m = None;
+    let o = Optics::from_config(&c).unwrap();
+    let mut img = image(8, 3000, grid, 1.4e-6, 0.0, |_, _, _| 1.0);
+    img.geometry.fov_deg = 2.0 * (3000.0 * 1.4e-6 / 2.0 / 4.38e-3f64).atan().to_degrees();
+    let e = o.compute(&img).unwrap_err().to_string();
+    assert!(e.contains("psf.method"), "{e}");
+}
