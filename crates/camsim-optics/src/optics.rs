@@ -366,7 +366,11 @@ impl Optics {
     ///    a scene at infinity 2 v tan(fov/2) / cols.
     /// 2. E = pi T(lambda) / (1 + 4 N^2 (1 + |m|)^2) L, m = v_obj / d (ISETCam `oiCalculateIrradiance`),
     ///    times the shading (cos^4, table or fit; evaluated at the scene samples' sensor positions).
-    /// 3. Blur per band with the wavefront PSF (see [`Wavefront::psf`]), by tiled FFT convolution
+    /// 3. Blur per band with the wavefront PSF. `psf.method = "auto"` (default), no depth layers and
+    ///    a small image: the whole-image OTF (ISETCam `opticsOTF`: the image's spectrum times the
+    ///    DFT of the untrimmed, periodized PSF, [`Wavefront::psf_periodic`], on an FFT plane twice
+    ///    the output so nothing wraps); light beyond the output margin leaves the image. Otherwise
+    ///    (see [`Wavefront::psf`]) by tiled FFT convolution
     ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared; one kernel
     ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. Negative FFT
     ///    round-off is clamped to 0.
