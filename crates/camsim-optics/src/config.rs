@@ -268,6 +268,25 @@ pub struct PsfOptions {
     /// Minimum pupil samples across the lens pupil diameter (default 64).
     #[serde(default = "default_min_pupil")]
     pub min_pupil_samples: usize,
+    /// How the blur is applied: `"auto"` (default: the whole-image OTF for images without depth
+    /// layers whose oversampled PSF grid is small enough, else kernels), `"otf"` (always the
+    /// whole-image OTF, ISETCam `opticsOTF`; not with depth layers) or `"kernel"` (always tiled
+    /// kernels trimmed at `tail_energy`).
+    #[serde(default)]
+    pub method: BlurMethod,
+}
+
+/// How [`crate::Optics::compute`] applies the PSF.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum BlurMethod {
+    /// Whole-image OTF when affordable, else kernels.
+    #[default]
+    Auto,
+    /// Whole-image OTF (the padded image's spectrum times the OTF at its frequencies).
+    Otf,
+    /// Tiled FFT convolution with kernels trimmed at `psf.tail_energy`.
+    Kernel,
 }
 
 fn one() -> usize {
@@ -285,7 +304,7 @@ fn default_min_pupil() -> usize {
 
 impl Default for PsfOptions {
     fn default() -> Self {
-        PsfOptions { oversampling: 1, tail_energy: 0.005, max_kernel_size: 1025, min_pupil_samples: 64 }
+        PsfOptions { oversampling: 1, tail_energy: 0.005, max_kernel_size: 1025, min_pupil_samples: 64, method: BlurMethod::Auto }
     }
 }
 

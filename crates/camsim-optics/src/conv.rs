@@ -12,7 +12,7 @@
 //! once per [`TileConvolver`] and shared by every band and thread.
 
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
-use rustfft::num_complex::Complex32;
+use rustfft::num_complex::{Complex32, Complex64};
 use rustfft::{Fft, FftPlanner};
 use std::sync::Arc;
 
@@ -261,6 +261,78 @@ impl TileConvolver {
                 *d += *v;
             }
         }
+    }
+}
+
+/// Whole-plane 2-D real FFT of a `rows` x `cols` plane (f64): real-to-complex along rows, complex
+/// along the `cols/2 + 1` columns. Used for ISETCam's whole-image OTF blur (`opticsOTF`): the
+/// product of two spectra is the circular convolution of the planes (period rows x cols).
+pub struct Fft2 {
+    rows: usize,
+    cols: usize,
+    r2c: Arc<dyn RealToComplex<f64>>,
+    c2r: Arc<dyn ComplexToReal<f64>>,
+    col_fwd: Arc<dyn Fft<f64>>,
+    col_inv: Arc<dyn Fft<f64>>,
+}
+
+impl Fft2 {
+    /// Plans for `rows` x `cols` planes.
+    pub fn new(rows: usize, cols: usize) -> Self {
+        let mut rp = RealFftPlanner::<f64>::new();
+        let mut cp = FftPlanner::<f64>::new();
+        Fft2 { rows, cols, r2c: rp.plan_fft_forward(cols), c2r: rp.plan_fft_inverse(cols), col_fwd: cp.plan_fft_forward(rows), col_inv: cp.plan_fft_inverse(rows) }
+    }
+
+    /// Spectrum of a row-major plane, column-major: `cols/2 + 1` columns of `rows` values.
+    pub fn forward(&self, plane: &[f64]) -> Vec<Complex64> {
+        let (rows, cols) = (self.rows, self.cols);
+        assert_eq!(plane.len(), rows * cols);
+        let nc = cols / 2 + 1;
+        let mut spec = vec![Complex64::new(0.0, 0.0); nc * rows];
+        let mut row = vec![0.0; cols];
+        let mut rs = vec![Complex64::new(0.0, 0.0); nc];
+        let mut scratch = vec![Complex64::new(0.0, 0.0); self.r2c.get_scratch_len()];
+        for r in 0..rows {
+            row.copy_from_slice(&plane[r * cols..(r + 1) * cols]);
+            self.r2c.process_with_scratch(&mut row, &mut rs, &mut scratch).expect("r2c buffer sizes");
+            for (c, v) in rs.iter().enumerate() {
+                spec[c * rows + r] = *v;
+            }
+        }
+        let mut cs = vec![Complex64::new(0.0, 0.0); self.col_fwd.get_inplace_scratch_len()];
+        for col in spec.chunks_exact_mut(rows) {
+            self.col_fwd.process_with_scratch(col, &mut cs);
+        }
+        spec
+    }
+
+    /// Inverse of [`Self::forward`] (normalized), consuming the spectrum.
+    pub fn inverse(&self, mut spec: Vec<Complex64>) -> Vec<f64> {
+        let (rows, cols) = (self.rows, self.cols);
+        let nc = cols / 2 + 1;
+        let mut cs = vec![Complex64::new(0.0, 0.0); self.col_inv.get_inplace_scratch_len()];
+        for col in spec.chunks_exact_mut(rows) {
+            self.col_inv.process_with_scratch(col, &mut cs);
+        }
+        let mut out = vec![0.0; rows * cols];
+        let mut rs = vec![Complex64::new(0.0, 0.0); nc];
+        let mut scratch = vec![Complex64::new(0.0, 0.0); self.c2r.get_scratch_len()];
+        let norm = 1.0 / (rows * cols) as f64;
+        for r in 0..rows {
+            for (c, v) in rs.iter_mut().enumerate() {
+                *v = spec[c * rows + r];
+            }
+            // DC and (even length) Nyquist columns are real for a real plane; drop round-off.
+            rs[0].im = 0.0;
+            if cols % 2 == 0 {
+                rs[nc - 1].im = 0.0;
+            }
+            let dst = &mut out[r * cols..(r + 1) * cols];
+            self.c2r.process_with_scratch(&mut rs, dst, &mut scratch).expect("c2r buffer sizes");
+            dst.iter_mut().for_each(|v| *v *= norm);
+        }
+        out
     }
 }
 

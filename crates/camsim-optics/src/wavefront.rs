@@ -28,7 +28,7 @@ pub fn fast_fft_len(n: usize) -> usize {
 }
 
 /// Largest PSF FFT side we accept (a 8192^2 complex f64 array is 1 GiB).
-const MAX_PSF_FFT: usize = 8192;
+pub const MAX_PSF_FFT: usize = 8192;
 
 /// A lens described by its pupil and a Zernike wavefront aberration.
 ///
@@ -310,7 +310,7 @@ impl Wavefront {
             return Err(OpticsError::Input(format!("PSF size {size} must be odd")));
         }
         let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);
-        let fine = self.psf_grid(wavelength_nm, spacing_m / k as f64, Some(size * k))?;
+        let fine = self.psf_grid(wavelength_nm, spacing_m / k as f64, Some(size * k), None)?;
         let mut data = vec![0.0; size * size];
         let nf = size * k;
         for r in 0..nf {
@@ -334,9 +334,57 @@ impl Wavefront {
                 0.5 * lam_n
             )));
         }
-        let data = self.psf_grid(wavelength_nm, spacing_m, None)?;
+        let data = self.psf_grid(wavelength_nm, spacing_m, None, None)?;
         let size = (data.len() as f64).sqrt().round() as usize;
         Ok(Psf { wavelength_nm, spacing_m, size, data })
+    }
+
+    /// The PSF periodized with period `rows` x `cols` samples at `spacing_m`, integrated over the
+    /// sample cells like [`Self::psf_with`], with its centre at sample (0, 0) (row-major,
+    /// `rows * cols`, unit sum). Its 2-D DFT is the OTF at the frequencies of a `rows` x `cols` image
+    /// (k / (rows spacing), l / (cols spacing)): multiplying an image's spectrum by it is ISETCam's
+    /// whole-image OTF blur (`opticsOTF`), a circular convolution with the untrimmed PSF. Computed on
+    /// a square fine grid whose side is a multiple of k max(rows, cols) (k the oversampling), so
+    /// the fold is exact along the longer side; along the shorter side only the tail beyond
+    /// max(rows, cols) / 2 samples, already folded once, lands at a different (periodic) position.
+    pub fn psf_periodic(&self, wavelength_nm: f64, spacing_m: f64, rows: usize, cols: usize, min_oversampling: usize) -> Result<Vec<f64>> {
+        if !(wavelength_nm > 0.0 && wavelength_nm.is_finite()) {
+            return Err(OpticsError::Input(format!("PSF wavelength {wavelength_nm} nm is not a positive number")));
+        }
+        if !(spacing_m > 0.0 && spacing_m.is_finite()) {
+            return Err(OpticsError::Input(format!("PSF sample spacing {spacing_m} m is not a positive number")));
+        }
+        if rows == 0 || cols == 0 {
+            return Err(OpticsError::Input("periodic PSF needs at least one row and column".into()));
+        }
+        let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);
+        let m = rows.max(cols);
+        if m * k > MAX_PSF_FFT {
+            return Err(OpticsError::Input(format!(
+                "the periodic PSF for a {rows} x {cols} plane at {wavelength_nm} nm needs a {n} x {n} grid ({k}x oversampled; at most \
+                 {MAX_PSF_FFT}): the whole-image OTF (psf.method = \"otf\") is for small images; use \"auto\" or \"kernel\"",
+                n = m * k
+            )));
+        }
+        let fine = self.psf_grid(wavelength_nm, spacing_m / k as f64, None, Some(m * k))?;
+        let nf = (fine.len() as f64).sqrt().round() as usize;
+        let half = (nf / 2) as i64;
+        let kh = (k / 2) as i64;
+        // Fine sample i lies at offset i - N/2 from the axis; cell c (odd k) holds the offsets
+        // c k - k/2 ..= c k + k/2.
+        let cell = |i: usize| (i as i64 - half + kh).div_euclid(k as i64);
+        let rix: Vec<usize> = (0..nf).map(|i| cell(i).rem_euclid(rows as i64) as usize).collect();
+        let cix: Vec<usize> = (0..nf).map(|i| cell(i).rem_euclid(cols as i64) as usize).collect();
+        let mut data = vec![0.0; rows * cols];
+        for (r, ri) in rix.iter().enumerate() {
+            let dst = &mut data[ri * cols..(ri + 1) * cols];
+            for (v, ci) in fine[r * nf..(r + 1) * nf].iter().zip(&cix) {
+                dst[*ci] += v;
+            }
+        }
+        let s: f64 = data.iter().sum();
+        data.iter_mut().for_each(|v| *v /= s);
+        Ok(data)
     }
 
     /// Radial MTF curves (x and y) at `wavelength_nm` from 0 to the diffraction cutoff 1/(lambda N),
@@ -356,7 +404,9 @@ impl Wavefront {
 
     /// Core PSF computation at spacing `dx` (<= lambda N / 2). Returns `n_out x n_out` samples
     /// centred on the middle one, or the full N x N grid (centre N/2) for `None`; unit sum.
-    fn psf_grid(&self, wavelength_nm: f64, dx: f64, n_out: Option<usize>) -> Result<Vec<f64>> {
+    /// With `period = Some(p)` the FFT side N is a multiple of p (so the periodized PSF, folded
+    /// modulo p, is the PSF periodized with period p samples exactly).
+    fn psf_grid(&self, wavelength_nm: f64, dx: f64, n_out: Option<usize>, period: Option<usize>) -> Result<Vec<f64>> {
         let lambda_m = wavelength_nm * 1e-9;
         let z = self.image_distance_m;
         let d = self.lens_pupil_diameter_m();
@@ -374,7 +424,10 @@ impl Wavefront {
             32.0,
         ];
         let need = want.iter().cloned().fold(0.0, f64::max).ceil() as usize;
-        let n = fast_fft_len(need);
+        let n = match period {
+            Some(p) => need.div_ceil(p).max(1) * p,
+            None => fast_fft_len(need),
+        };
         if n > MAX_PSF_FFT {
             return Err(OpticsError::Input(format!(
                 "the PSF at {wavelength_nm} nm and spacing {:.3} um needs a {n} x {n} FFT (more than {MAX_PSF_FFT}); \

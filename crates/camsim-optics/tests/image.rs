@@ -3,7 +3,7 @@
 
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, WavelengthGrid};
-use camsim_optics::config::{Padding, ShadingConfig, ShadingName};
+use camsim_optics::config::{BlurMethod, Padding, ShadingConfig, ShadingName};
 use camsim_optics::{diffraction_mtf, Optics, OpticsConfig};
 use std::f64::consts::PI;
 
@@ -36,14 +36,20 @@ fn image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, distanc
 fn uniform_field_irradiance_follows_the_camera_equation() {
     let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
     for &(n, f_mm, d, t) in &[(2.8, 50.0, 1.0, 0.9), (1.73, 4.38, 0.5, 1.0), (4.0, 10.0, 0.05, 0.8)] {
+      for method in [BlurMethod::Otf, BlurMethod::Kernel] {
         let mut c = config(n, f_mm);
         c.transmittance = camsim_optics::config::Transmittance::Scalar(t);
+        c.psf.method = method;
         let o = Optics::from_config(&c).unwrap();
         let f: f64 = f_mm * 1e-3;
         let v = 1.0 / (1.0 / f - 1.0 / d);
         let m = v / d;
-        // Scene spacing such that the sensor spacing is 4 um; 128 x 128 samples, so the Airy tail
-        // beyond the borders (energy outside r ~ 2 lambda N / (pi^2 r)) is < 0.1 % at the centre.
+        // Scene spacing such that the sensor spacing is 4 um; 128 x 128 samples. The centre misses
+        // the light its PSF sends beyond the field: at most the Airy energy outside the inscribed
+        // circle r = 64 samples, 2 lambda N_w / (pi^2 r) (Born & Wolf sec. 8.5.2 asymptote; N_w the
+        // working f-number N (1 + m)), up to 0.22 % here; at least the energy outside the
+        // circumscribed circle. With trimmed kernels (renormalized, radius < 64 samples here) the
+        // centre gets all of its light back: exact to f32 round-off.
         let scene_dx = 4e-6 / m;
         let img = image(128, 128, grid, scene_dx, d, |b, _, _| 0.01 * (b + 1) as f32);
         let out = o.compute(&img).unwrap();
@@ -53,8 +59,19 @@ fn uniform_field_irradiance_follows_the_camera_equation() {
         for b in 0..3 {
             let got = out.at(out.rows / 2, out.cols / 2, b) as f64;
             let want = want_k * 0.01 * (b + 1) as f64;
-            assert!((got / want - 1.0).abs() < 2e-3, "N {n}, d {d}, band {b}: {got} vs {want}");
+            let lam_nw = grid.wavelength_nm(b) * 1e-9 * n * (1.0 + m);
+            let e_out = |r_m: f64| 2.0 * lam_nw / (PI * PI * r_m);
+            let (lo, hi) = (e_out(64.0 * 4e-6 * 2f64.sqrt()), e_out(64.0 * 4e-6));
+            // 2e-4: the asymptote's error at r ~ 100 lambda N (the next term is O((lambda N / r)^2))
+            // and f32 irradiance.
+            let missing = 1.0 - got / want;
+            if method == BlurMethod::Kernel {
+                assert!(missing.abs() < 1e-5, "kernels, N {n}, d {d}, band {b}: {got} vs {want}");
+            } else {
+                assert!(missing > lo - 2e-4 && missing < hi + 2e-4, "N {n}, d {d}, band {b}: {got} vs {want} ({:.4} % missing, Airy tail {:.4}..{:.4} %)", missing * 100.0, lo * 100.0, hi * 100.0);
+            }
         }
+      }
     }
 }
 
@@ -105,9 +122,12 @@ fn relative_illumination_table() {
     assert!((got - want).abs() < 3e-3, "{got} vs {want}");
 }
 
-/// The blur conserves energy: with "psf" padding all the light is kept, so the irradiance integral
-/// equals the unblurred one (camera equation x radiance integral), band by band, for a random
-/// scene and an aberrated wavefront.
+/// The blur conserves energy: the irradiance integral equals the unblurred one (camera equation x
+/// radiance integral), band by band, for a random scene and an aberrated wavefront. With kernels
+/// ("psf" padding, unit-volume kernel) all the light is kept (to f32 round-off). With the default
+/// (whole-image OTF, untrimmed PSF) the light beyond the "psf" margin leaves the output: at most
+/// `psf.tail_energy` (the margin is the kernel half-width, chosen so that no more of the PSF's
+/// energy lies outside it), and none is created.
 #[test]
 fn blur_conserves_energy() {
     let grid = WavelengthGrid::new(400.0, 700.0, 150.0).unwrap();
@@ -118,13 +138,20 @@ fn blur_conserves_energy() {
     let img = image(rows, cols, grid, 1e-6, 0.0, |b, r, c| (((r * 131 + c * 71 + b * 17) % 97) as f32) / 97.0);
     let mut img = img;
     img.geometry.fov_deg = 2.0 * (cols as f64 * 0.7e-6 / 2.0 / 4.38e-3).atan().to_degrees();
+    let k = PI / (1.0 + 4.0 * 1.73 * 1.73);
+    let mut c = OpticsConfig::from_toml_str(text, "t").unwrap();
+    let tail = c.psf.tail_energy;
     let out = o.compute(&img).unwrap();
     assert!(out.rows > rows && out.cols > cols);
-    let k = PI / (1.0 + 4.0 * 1.73 * 1.73);
+    c.psf.method = BlurMethod::Kernel;
+    let out_k = Optics::from_config(&c).unwrap().compute(&img).unwrap();
     for b in 0..3 {
         let sin: f64 = img.band(b).iter().map(|v| *v as f64).sum::<f64>() * k;
         let sout: f64 = out.band(b).iter().map(|v| *v as f64).sum();
-        assert!((sout / sin - 1.0).abs() < 1e-4, "band {b}: {sout} vs {sin}");
+        let sout_k: f64 = out_k.band(b).iter().map(|v| *v as f64).sum();
+        assert!((sout_k / sin - 1.0).abs() < 1e-4, "kernels, band {b}: {sout_k} vs {sin}");
+        let lost = 1.0 - sout / sin;
+        assert!(lost > -1e-6 && lost < tail, "whole-image OTF, band {b}: {sout} vs {sin} ({:.4} % lost)", lost * 100.0);
     }
 }
 
@@ -241,43 +268,83 @@ fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
     let coc = f / n * (vs - vo) / vo;
     let disk_rise = (inv(0.9) - inv(0.1)) * coc / 2.0;
     eprintln!("edge 10-90% rise: in focus {:.2} um, focus 30 cm {:.2} um (disk of c = {:.2} um: {:.2} um)", rises[0] * 1e6, rises[1] * 1e6, coc * 1e6, disk_rise * 1e6);
-    // In focus: the diffraction-limited edge-spread function from the analytic MTF,
-    // ESF(x) = 1/2 + (1/pi) int_0^fc MTF(f) sin(2 pi f x) / f df (Simpson quadrature).
-    let lam_n = 550e-9 * n * (1.0 + lens_m(f, d));
-    let dl_esf = |x: f64| {
-        let fc = 1.0 / lam_n;
+    // The edge-spread function from an analytic OTF (real: the PSFs are symmetric),
+    // ESF(x) = 1/2 + (1/pi) int_0^fc OTF(f) sin(2 pi f x) / f df (Simpson quadrature), fc = 1/(lambda N_w).
+    // In focus: the diffraction-limited OTF (Goodman eq. 6-32); focus at 30 cm: Hopkins' defocus
+    // OTF for W020 = 2 sqrt(3) c4, c4 the thin-lens focus error over the pupil.
+    let esf_rise = |lam_nw: f64, otf: &dyn Fn(f64) -> f64, span: f64| {
+        let fc = 1.0 / lam_nw;
         let m = 2000;
         let h = fc / m as f64;
-        let g = |fr: f64| {
-            let mtf = camsim_optics::lens::diffraction_mtf_normalized(fr / fc);
-            if fr == 0.0 {
-                2.0 * PI * x
-            } else {
-                mtf * (2.0 * PI * fr * x).sin() / fr
+        let table: Vec<f64> = (0..=m).map(|k| otf(k as f64 / m as f64)).collect();
+        let esf = |x: f64| {
+            let g = |k: usize| {
+                let fr = k as f64 * h;
+                if k == 0 {
+                    2.0 * PI * x
+                } else {
+                    table[k] * (2.0 * PI * fr * x).sin() / fr
+                }
+            };
+            let mut sum = g(0) + g(m);
+            for k in 1..m {
+                sum += g(k) * if k % 2 == 1 { 4.0 } else { 2.0 };
             }
+            0.5 + sum * h / 3.0 / PI
         };
-        let mut sum = g(0.0) + g(fc);
-        for k in 1..m {
-            sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        0.5 + sum * h / 3.0 / PI
+        // Level crossings on a fine scan (the defocused ESF ripples), linear between scan points.
+        let xs: Vec<f64> = (0..=1000).map(|i| -span + 2.0 * span * i as f64 / 1000.0).collect();
+        let e: Vec<f64> = xs.iter().map(|x| esf(*x)).collect();
+        let cross = |p: f64| {
+            let i = e.iter().position(|v| *v >= p).unwrap();
+            xs[i - 1] + (p - e[i - 1]) / (e[i] - e[i - 1]) * (xs[i] - xs[i - 1])
+        };
+        cross(0.9) - cross(0.1)
     };
-    let solve = |p: f64| {
-        let (mut lo, mut hi) = (-5.0 * lam_n, 5.0 * lam_n);
-        for _ in 0..50 {
-            let m = 0.5 * (lo + hi);
-            if dl_esf(m) < p {
-                lo = m
-            } else {
-                hi = m
-            }
+    let lam_n_in = 550e-9 * n * (1.0 + lens_m(f, d));
+    let dl_rise = esf_rise(lam_n_in, &camsim_optics::lens::diffraction_mtf_normalized, 5.0 * lam_n_in);
+    let lam_n_out = 550e-9 * n * vs / f;
+    let c4_um = camsim_optics::lens::defocus_c4_um(f, n, 0.3, d);
+    let w020_waves = 2.0 * 3f64.sqrt() * c4_um / 0.55;
+    let defocus_rise = esf_rise(lam_n_out, &|s| hopkins_otf(s, w020_waves), coc);
+    eprintln!("analytic ESF 10-90% rise: diffraction-limited {:.3} um, Hopkins defocus ({w020_waves:.2} waves) {:.3} um", dl_rise * 1e6, defocus_rise * 1e6);
+    // Tolerances: the rises are read off 0.25 um samples by linear interpolation between the two
+    // samples around each level, an error of up to ~1/8 of a sample at each crossing for an ESF
+    // curving over ~lambda N (2 x 0.03 um on the 1.3 um in-focus rise: 5 %), and the 5 degree
+    // staircase edge moves by one sample every 11.4 rows, which the ~8-row PSF averages into
+    // < 0.03 um of extra rise. The sampled pupil's OTF is within 0.01 of the analytic ones
+    // (tests/wavefront.rs), which moves the ESF by up to ~3 % of the step, i.e. the crossings by
+    // up to ~4 % of the rise. In focus: 8 %; the 10 um defocused rise: 5 %.
+    assert!((rises[0] / dl_rise - 1.0).abs() < 0.08, "in-focus rise {} vs diffraction-limited {}", rises[0], dl_rise);
+    assert!((rises[1] / defocus_rise - 1.0).abs() < 0.05, "defocused rise {} vs Hopkins {}", rises[1], defocus_rise);
+    // Geometric optics (the disk of the thin-lens circle of confusion) holds to the diffraction
+    // spread lambda N_w against the rise.
+    assert!((rises[1] / disk_rise - 1.0).abs() < lam_n_out / disk_rise, "defocused rise {} vs disk {}", rises[1], disk_rise);
+}
+
+/// Hopkins (1955) defocus OTF (signed; real for a symmetric pupil) by quadrature:
+/// OTF(s) = 4/(pi b) int_0^sqrt(1-s^2) sin(b (sqrt(1-y^2) - s)) dy, b = 8 pi W020 s / lambda.
+fn hopkins_otf(s: f64, w020_over_lambda: f64) -> f64 {
+    if s >= 1.0 {
+        return 0.0;
+    }
+    let b = 8.0 * PI * w020_over_lambda * s;
+    let ymax = (1.0 - s * s).sqrt();
+    let n = 2000;
+    let h = ymax / n as f64;
+    let g = |y: f64| {
+        let t = (1.0 - y * y).max(0.0).sqrt() - s;
+        if b.abs() < 1e-12 {
+            t
+        } else {
+            (b * t).sin() / b
         }
-        lo
     };
-    let dl_rise = solve(0.9) - solve(0.1);
-    eprintln!("diffraction-limited ESF 10-90% rise: {:.2} um", dl_rise * 1e6);
-    assert!((rises[0] / dl_rise - 1.0).abs() < 0.15, "in-focus rise {} vs diffraction-limited {}", rises[0], dl_rise);
-    assert!((rises[1] / disk_rise - 1.0).abs() < 0.15, "defocused rise {} vs disk {}", rises[1], disk_rise);
+    let mut sum = g(0.0) + g(ymax);
+    for k in 1..n {
+        sum += g(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    4.0 / PI * sum * h / 3.0
 }
 
 fn lens_m(f: f64, d: f64) -> f64 {
@@ -345,16 +412,46 @@ fn depth_layers_respect_the_tolerance() {
     assert!(o.depth_layers(&[1.0, 0.0], 2, 0.5).is_err());
 }
 
+/// ISETCam's blur (opticsOTF / oiCalculateOTF), written out independently of the crate's FFT
+/// code: per band, the 2-D DFT (complex, rustfft) of the padded irradiance plane times the OTF at
+/// the same frequencies (the DFT of the PSF periodized on the padded plane, whose DFT is checked
+/// against the analytic cell-integrated OTF in tests/wavefront.rs), inverse DFT.
+fn isetcam_otf_blur(plane: &[f64], rows: usize, cols: usize, psf_origin: &[f64]) -> Vec<f64> {
+    use rustfft::num_complex::Complex64;
+    let mut planner = rustfft::FftPlanner::<f64>::new();
+    let fft2 = |data: &mut Vec<Complex64>, inverse: bool, planner: &mut rustfft::FftPlanner<f64>| {
+        let (fr, fc) = if inverse { (planner.plan_fft_inverse(cols), planner.plan_fft_inverse(rows)) } else { (planner.plan_fft_forward(cols), planner.plan_fft_forward(rows)) };
+        for row in data.chunks_exact_mut(cols) {
+            fr.process(row);
+        }
+        let mut col = vec![Complex64::new(0.0, 0.0); rows];
+        for c in 0..cols {
+            (0..rows).for_each(|r| col[r] = data[r * cols + c]);
+            fc.process(&mut col);
+            (0..rows).for_each(|r| data[r * cols + c] = col[r]);
+        }
+    };
+    let mut img: Vec<Complex64> = plane.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    let mut otf: Vec<Complex64> = psf_origin.iter().map(|v| Complex64::new(*v, 0.0)).collect();
+    fft2(&mut img, false, &mut planner);
+    fft2(&mut otf, false, &mut planner);
+    img.iter_mut().zip(&otf).for_each(|(a, b)| *a *= *b);
+    fft2(&mut img, true, &mut planner);
+    img.iter().map(|v| v.re / (rows * cols) as f64).collect()
+}
+
 /// Issue 13 (and issue 1): ColorChecker-like chart (4 x 6 patches of 20 samples at the Pixel 4a's
-/// 1.4 um pitch, reflectance 3 % to 90 %, a blue patch dark at 650 nm), pixel4a optics. Reference:
-/// the same chart blurred with the untrimmed PSF (tail_energy -> 1e-6, kernel as large as the
-/// whole image, so no light within the image is misplaced). With the default kernel
-/// (tail_energy 0.005), every patch's interior mean (3 samples from its edges) should agree with
-/// the reference within 0.2 %; the trimmed, renormalized kernel misses by up to 0.41 % (ignored
-/// until fixed). Every output sample is non-negative (FFT round-off is clamped).
+/// 1.4 um pitch, reflectance 3 % to 90 %, a blue patch dark at 650 nm), pixel4a optics.
+/// Reference: ISETCam's whole-image OTF blur ([`isetcam_otf_blur`]) of the chart on a zero-padded
+/// plane large enough that no light wraps around (so it is the linear convolution with the
+/// untrimmed PSF of the sampled pupil); it conserves energy exactly (OTF(0) = 1; checked to 1e-9).
+/// The default optics must give every patch's interior mean (3 samples from its edges) within
+/// 0.2 % of it in both bands (the issue's target). Before the fix the default was the kernel path
+/// (tail_energy 0.005, kernel renormalized), 0.48 % off here (dark corner patch next to the white
+/// border); it is still used for large images and is held to the 1 % of the issue's report.
+/// Every output sample is non-negative.
 #[test]
-#[ignore = "issue 13 still open: worst patch error 0.41 % (the 120-sample patch next to white); see the helper report"]
-fn chart_patch_means_match_the_untrimmed_psf() {
+fn chart_patch_means_match_the_isetcam_otf_blur() {
     let grid = WavelengthGrid::new(450.0, 650.0, 200.0).unwrap();
     let (pr, pc, ps, border) = (4usize, 6usize, 20usize, 4usize);
     let (rows, cols) = (pr * ps + 2 * border, pc * ps + 2 * border);
@@ -375,31 +472,105 @@ fn chart_patch_means_match_the_untrimmed_psf() {
     img.geometry.fov_deg = 2.0 * (cols as f64 * 1.4e-6 / 2.0 / (f_mm * 1e-3)).atan().to_degrees();
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.shading = ShadingConfig::Named(ShadingName::None);
-    let trimmed = Optics::from_config(&c).unwrap().compute(&img).unwrap();
-    assert!(trimmed.data.iter().all(|v| *v >= 0.0), "negative irradiance");
-    c.psf.tail_energy = 1e-6;
-    c.psf.max_kernel_size = 2 * rows.max(cols) + 1;
-    let full = Optics::from_config(&c).unwrap().compute(&img).unwrap();
-    let mean = |o: &camsim_core::SpectralImage, b: usize, k: usize| {
-        let (pad_r, pad_c) = ((o.rows - rows) / 2, (o.cols - cols) / 2);
+    let optics = Optics::from_config(&c).unwrap();
+    let default = optics.compute(&img).unwrap();
+    c.psf.method = BlurMethod::Kernel;
+    let kernel = Optics::from_config(&c).unwrap().compute(&img).unwrap();
+    for o in [&default, &kernel] {
+        assert!(o.data.iter().all(|v| *v >= 0.0), "negative irradiance");
+    }
+    // The reference's FFT plane: the default output plus zeros of twice its size on each side
+    // (period 5x the output; the code uses 2x), so the light that leaves the chart does not wrap
+    // back onto it (ISETCam itself pads by 1/8 only; that wrap alone moves the dark corner patch
+    // by 0.7 % here, which is printed below).
+    // ISETCam's blur of the chart on an FFT plane of the output grown by `extra` zeros per side.
+    // Returns the plane's bands and its side lengths.
+    let otf_blur = |extra: usize| {
+        let (fr, fc) = (default.rows + 2 * extra, default.cols + 2 * extra);
+        let (pr0, pc0) = ((fr - rows) / 2, (fc - cols) / 2);
+        let bands: Vec<Vec<f64>> = (0..grid.len())
+            .map(|b| {
+                let wl = grid.wavelength_nm(b);
+                // Scene at infinity: magnification 0 in the camera equation.
+                let e = camsim_optics::lens::irradiance_factor(c.f_number, 0.0, optics.transmittance(wl));
+                let mut plane = vec![0.0f64; fr * fc];
+                for r in 0..rows {
+                    for cc in 0..cols {
+                        plane[(r + pr0) * fc + cc + pc0] = value(b, r, cc) as f64 * e;
+                    }
+                }
+                let psf = optics.wavefront().psf_periodic(wl, default.sample_spacing_m, fr, fc, c.psf.oversampling).unwrap();
+                let out = isetcam_otf_blur(&plane, fr, fc, &psf);
+                let (si, so) = (plane.iter().sum::<f64>(), out.iter().sum::<f64>());
+                assert!((so / si - 1.0).abs() < 1e-9, "reference blur does not conserve energy: {so} vs {si}");
+                out
+            })
+            .collect();
+        (bands, fr, fc)
+    };
+    // The reference: zeros of twice the output's size on each side (period 5x the output; the code
+    // uses 2x), so the light that leaves the chart does not wrap back onto it. ISETCam's own
+    // padding is small (1/8 per side; here the output's PSF margin), and that wrap alone moves the
+    // dark corner patch by 0.7 % (printed as "ISETCam as is").
+    let extra = 2 * default.rows.max(default.cols);
+    let (reference, out_rows, out_cols) = otf_blur(extra);
+    let (wrapped, _, wrapped_cols) = otf_blur(0);
+    let (pad_r, pad_c) = ((out_rows - rows) / 2, (out_cols - cols) / 2);
+    let (dpr, dpc) = ((default.rows - rows) / 2, (default.cols - cols) / 2);
+    let (kpr, kpc) = ((kernel.rows - rows) / 2, (kernel.cols - cols) / 2);
+    let mean = |get: &dyn Fn(usize, usize) -> f64, k: usize| {
         let (r0, c0) = (pad_r + border + (k / pc) * ps + 3, pad_c + border + (k % pc) * ps + 3);
         let mut s = 0.0f64;
         for r in r0..r0 + ps - 6 {
             for cc in c0..c0 + ps - 6 {
-                s += o.at(r, cc, b) as f64;
+                s += get(r, cc);
             }
         }
         s / ((ps - 6) * (ps - 6)) as f64
     };
-    let mut worst: f64 = 0.0;
+    let (mut worst_default, mut worst_kernel, mut worst_wrapped): (f64, f64, f64) = (0.0, 0.0, 0.0);
     for b in 0..2 {
         for k in 0..pr * pc {
-            let (got, want) = (mean(&trimmed, b, k), mean(&full, b, k));
-            let e = got / want - 1.0;
-            eprintln!("band {b}, patch {k} ({:.3}): {got:e} vs untrimmed {want:e} ({:+.3} %)", value(b, border + (k / pc) * ps, border + (k % pc) * ps), e * 100.0);
-            worst = worst.max(e.abs());
+            let want = mean(&|r, cc| reference[b][r * out_cols + cc], k);
+            let got = mean(&|r, cc| default.at(r + dpr - pad_r, cc + dpc - pad_c, b) as f64, k);
+            let got_k = mean(&|r, cc| kernel.at(r + kpr - pad_r, cc + kpc - pad_c, b) as f64, k);
+            let got_w = mean(&|r, cc| wrapped[b][(r + dpr - pad_r) * wrapped_cols + cc + dpc - pad_c], k);
+            let (e, ek, ew) = (got / want - 1.0, got_k / want - 1.0, got_w / want - 1.0);
+            let v = value(b, border + (k / pc) * ps, border + (k % pc) * ps);
+            eprintln!("band {b}, patch {k:2} ({v:.3}): default {:+.4} %, kernel {:+.4} %, ISETCam as is {:+.4} %", e * 100.0, ek * 100.0, ew * 100.0);
+            worst_default = worst_default.max(e.abs());
+            worst_kernel = worst_kernel.max(ek.abs());
+            worst_wrapped = worst_wrapped.max(ew.abs());
         }
     }
-    eprintln!("chart patch means vs untrimmed PSF: worst {:.3} %", worst * 100.0);
-    assert!(worst < 2e-3, "worst patch mean error {:.3} %", worst * 100.0);
+    eprintln!(
+        "chart patch means vs wrap-free OTF blur: default worst {:.4} %, kernel path {:.4} %, ISETCam as is {:.4} %",
+        worst_default * 100.0,
+        worst_kernel * 100.0,
+        worst_wrapped * 100.0
+    );
+    assert!(worst_default < 2e-3, "worst patch mean error {:.3} %", worst_default * 100.0);
+    assert!(worst_kernel < 1e-2, "kernel path: worst patch mean error {:.3} %", worst_kernel * 100.0);
+}
+
+/// `psf.method = "otf"` refuses what it cannot do, with a message naming the key or the method:
+/// a depth map (one PSF per depth layer) and an image too large for the periodic PSF grid.
+#[test]
+fn otf_method_refuses_depth_maps_and_huge_images() {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.psf.method = BlurMethod::Otf;
+    c.focus_distance_m = Some(0.5);
+    let o = Optics::from_config(&c).unwrap();
+    let mut img = image(16, 16, grid, 1e-6, 0.5, |_, _, _| 1.0);
+    img.depth_m = Some(vec![0.5; 16 * 16]);
+    let e = o.compute(&img).unwrap_err().to_string();
+    assert!(e.contains("psf.method"), "{e}");
+    // 3000 samples at 1.4 um need 5x oversampling at 550 nm: a 30000-sample grid.
+    c.focus_distance_m = None;
+    let o = Optics::from_config(&c).unwrap();
+    let mut img = image(8, 3000, grid, 1.4e-6, 0.0, |_, _, _| 1.0);
+    img.geometry.fov_deg = 2.0 * (3000.0 * 1.4e-6 / 2.0 / 4.38e-3f64).atan().to_degrees();
+    let e = o.compute(&img).unwrap_err().to_string();
+    assert!(e.contains("psf.method"), "{e}");
 }

@@ -120,7 +120,12 @@ fn pixel4a_preset_reproduces_the_paper_defocus() {
     let ours = o.defocus_c4_um(0.3, 0.5);
     assert!((ours - isetcam_c4).abs() < 1e-9, "{ours} vs {isetcam_c4}");
     assert!((ours - 0.3084).abs() < 5e-4, "{ours}");
-    assert!((ours / (3.5 * scale) - 1.0).abs() < 0.15, "thin lens {ours} um vs paper 3.5 um scaled {}", 3.5 * scale);
+    // The paper's 3.5 um was fitted to measured MTFs, so it need not equal the thin-lens value: the
+    // thin lens gives 12 % less (the fit absorbs what the model leaves out). The only uncertainty
+    // of the comparison is the paper's rounding to two digits (3.45 .. 3.55 um), so the ratio must
+    // lie in 0.3084 um / ((3.55 .. 3.45 um) x scale) = 0.867 .. 0.893 (1e-3 for the 5e-4 um on ours).
+    let ratio = ours / (3.5 * scale);
+    assert!(ratio > 0.3084 / (3.55 * scale) - 1e-3 && ratio < 0.3084 / (3.45 * scale) + 1e-3, "thin lens {ours} um vs paper 3.5 um scaled {} (ratio {ratio})", 3.5 * scale);
     // The focus error adds to the preset's residual defocus.
     let wf = o.wavefront_for(Some(0.3), 0.5).unwrap();
     assert!((wf.defocus_at_lens_pupil_um() - (in_focus + ours)).abs() < 1e-9);
@@ -175,4 +180,63 @@ fn kernels_have_unit_volume() {
         let c = psf.at(10, 10);
         assert!(psf.data.iter().all(|v| *v <= c + 1e-15), "peak not at the centre for dx {dx}");
     }
+}
+
+/// The periodized, cell-integrated PSF ([`Wavefront::psf_periodic`]) is what the whole-image OTF
+/// blur multiplies by: its 2-D DFT at the image frequencies f = j / (M dx) must be the analytic
+/// diffraction OTF (Goodman eq. 6-32) box-filtered over the sample cell and aliased. The fine PSF
+/// at dx/k (k odd) is band-limited below its Nyquist, so binning k x k fine samples gives
+/// OTF_cell(f) = sum_a D(f + a/dx) MTF(f + a/dx), a over the k fine aliases, with D the k-sample
+/// box's transfer function sin(pi f dx) / (k sin(pi f dx / k)) (exact for the sampled grid).
+/// Checked for k = 1 (dx < lambda N / 2) and k = 5 (the Pixel 4a's 1.4 um at 450 nm), along x and
+/// y, on a non-square period; energy: the samples sum to 1 and none is negative. Tolerance 5e-3:
+/// the pupil is sampled with >= 64 samples across, its rim cells weighted by their covered area;
+/// the overlap of two such discrete disks differs from the continuous one by the rim cells' shape,
+/// O(1 / (pi n_p)) of the overlap (measured 1.0e-3; the MTF test above allows 0.01).
+#[test]
+fn periodic_psf_dft_is_the_cell_integrated_diffraction_otf() {
+    let mut worst: f64 = 0.0;
+    for &(wl, n, dx, rows, cols) in &[(550.0, 2.8, 0.6e-6, 90usize, 128usize), (450.0, 1.73, 1.4e-6, 128, 100)] {
+        let wf = Wavefront::diffraction_limited(4.38e-3, n).unwrap();
+        let k = wf.oversampling(wl, dx, 1);
+        let p = wf.psf_periodic(wl, dx, rows, cols, 1).unwrap();
+        assert_eq!(p.len(), rows * cols);
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        assert!(p.iter().all(|v| *v >= 0.0));
+        let box_tf = |f: f64| {
+            let x = PI * f * dx;
+            if x.abs() < 1e-12 {
+                1.0
+            } else {
+                x.sin() / (k as f64 * (x / k as f64).sin())
+            }
+        };
+        let want = |f: f64| {
+            let kh = (k / 2) as i64;
+            (-kh - 1..=kh + 1)
+                .map(|a| f + a as f64 / dx)
+                .filter(|g| g.abs() * dx < k as f64 / 2.0)
+                .map(|g| box_tf(g) * diffraction_mtf(g.abs() * 1e-3, wl, n))
+                .sum::<f64>()
+        };
+        // DFT along x at row frequency 0 (sum over rows), and along y.
+        for (len, along_x) in [(cols, true), (rows, false)] {
+            let line: Vec<f64> = (0..len)
+                .map(|i| if along_x { (0..rows).map(|r| p[r * cols + i]).sum() } else { p[i * cols..(i + 1) * cols].iter().sum() })
+                .collect();
+            for j in 0..=len / 2 {
+                let (mut re, mut im) = (0.0, 0.0);
+                for (i, v) in line.iter().enumerate() {
+                    let ph = -2.0 * PI * (j * i % len) as f64 / len as f64;
+                    re += v * ph.cos();
+                    im += v * ph.sin();
+                }
+                let f = j as f64 / (len as f64 * dx);
+                let e = (re - want(f)).abs().max(im.abs());
+                worst = worst.max(e);
+                assert!(e < 5e-3, "{wl} nm, k {k}, {} f = {:.0} cyc/mm: {re:.5} vs {:.5}", if along_x { "x" } else { "y" }, f * 1e-3, want(f));
+            }
+        }
+    }
+    eprintln!("periodic PSF DFT vs cell-integrated analytic OTF: max |error| = {worst:.2e}");
 }
