@@ -8,73 +8,25 @@
 //! the value reaches the command's own checks, not only clap's.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-const BIN: &str = env!("CARGO_BIN_EXE_camsim");
+mod common;
+use common::{command_tree, help, run_limited, subcommands, BIN};
 
 /// Run camsim with a time limit; returns (exit code, stderr). `None` = killed at the limit.
 fn camsim(args: &[String], limit: Duration) -> (Option<i32>, String) {
-    let start = Instant::now();
-    let mut child = Command::new(BIN)
-        .args(args)
-        .arg("--quiet")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut pipe = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = std::io::Read::read_to_string(&mut pipe, &mut s);
-        s
-    });
-    let code = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s.code();
-        }
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    (code, reader.join().unwrap())
+    let mut cmd = Command::new(BIN);
+    cmd.args(args).arg("--quiet");
+    let o = run_limited(cmd, limit);
+    (o.code, o.stderr)
 }
 
 fn run_ok(args: &[&str]) -> Output {
     let o = Command::new(BIN).args(args).arg("--quiet").output().unwrap();
     assert!(o.status.success(), "fixture `camsim {}` failed: {}", args.join(" "), String::from_utf8_lossy(&o.stderr));
     o
-}
-
-fn help(path: &[String]) -> String {
-    let o = Command::new(BIN).args(path).arg("--help").env("COLUMNS", "400").output().unwrap();
-    String::from_utf8(o.stdout).unwrap()
-}
-
-fn subcommands(text: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut inside = false;
-    for line in text.lines() {
-        if line.trim_end() == "Commands:" {
-            inside = true;
-        } else if inside {
-            if line.trim().is_empty() || !line.starts_with("  ") {
-                break;
-            }
-            if !line.starts_with("   ") {
-                let name = line.split_whitespace().next().unwrap_or("");
-                if name != "help" {
-                    out.push(name.to_string());
-                }
-            }
-        }
-    }
-    out
 }
 
 /// Options of a help text that take a value: `--name <VALUE>`.
@@ -94,21 +46,10 @@ fn value_options(text: &str) -> Vec<String> {
     out
 }
 
+/// The leaf subcommands (those that do the work), from the help walk.
 fn leaves() -> Vec<Vec<String>> {
-    let mut out = Vec::new();
-    let mut stack = vec![Vec::<String>::new()];
-    while let Some(path) = stack.pop() {
-        let subs = subcommands(&help(&path));
-        if subs.is_empty() {
-            out.push(path);
-        } else {
-            for s in subs {
-                let mut p = path.clone();
-                p.push(s);
-                stack.push(p);
-            }
-        }
-    }
+    let mut out: Vec<Vec<String>> =
+        command_tree().into_iter().filter(|(_, text)| subcommands(text).is_empty()).map(|(p, _)| p).collect();
     out.sort();
     out
 }

@@ -20,45 +20,14 @@
 //! no temporary file may remain under `out/`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
-const BIN: &str = env!("CARGO_BIN_EXE_camsim");
+mod common;
+use common::{command_tree, run_limited, subcommands, Outcome, BIN};
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
-}
-
-/// The help text of `camsim ARGS --help`, unwrapped (a wide terminal: clap reads COLUMNS).
-fn help(args: &[&str]) -> String {
-    let o = Command::new(BIN).args(args).arg("--help").env("COLUMNS", "400").output().unwrap();
-    assert!(o.status.success(), "camsim {} --help failed", args.join(" "));
-    String::from_utf8(o.stdout).unwrap()
-}
-
-/// The subcommand names of a help text's `Commands:` section (without `help`).
-fn subcommands(help_text: &str) -> Vec<String> {
-    let mut names = Vec::new();
-    let mut inside = false;
-    for line in help_text.lines() {
-        if line.trim_end() == "Commands:" {
-            inside = true;
-            continue;
-        }
-        if inside {
-            if line.trim().is_empty() || !line.starts_with("  ") {
-                break;
-            }
-            if line.starts_with("   ") {
-                continue; // a wrapped description
-            }
-            let name = line.split_whitespace().next().unwrap_or("");
-            if !name.is_empty() && name != "help" {
-                names.push(name.to_string());
-            }
-        }
-    }
-    names
 }
 
 /// Lines of `Example...:` blocks that are camsim commands, comments cut off.
@@ -89,23 +58,6 @@ fn strip_comment(cmd: &str) -> String {
         Some(i) => cmd[..i].trim().to_string(),
         None => cmd.trim().to_string(),
     }
-}
-
-/// Every subcommand path (`["analyze", "sfr"]` ...), depth first, with its help text.
-pub fn command_tree() -> Vec<(Vec<String>, String)> {
-    let mut out = Vec::new();
-    let mut stack: Vec<Vec<String>> = vec![vec![]];
-    while let Some(path) = stack.pop() {
-        let args: Vec<&str> = path.iter().map(|s| s.as_str()).collect();
-        let text = help(&args);
-        for sub in subcommands(&text).into_iter().rev() {
-            let mut p = path.clone();
-            p.push(sub);
-            stack.push(p);
-        }
-        out.push((path, text));
-    }
-    out
 }
 
 /// Commands of README.md's ```sh blocks, as camsim invocations.
@@ -178,46 +130,13 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
     found
 }
 
-struct Outcome {
-    code: Option<i32>,
-    stderr: String,
-    seconds: f64,
-}
-
 /// Run one documented command line with `sh -c` in `root`, with camsim first on PATH.
 fn run_line(root: &Path, line: &str, limit: Duration) -> Outcome {
     let bin_dir = Path::new(BIN).parent().unwrap();
     let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
-    let start = Instant::now();
-    let mut child = Command::new("sh")
-        .arg("-c")
-        .arg(line)
-        .current_dir(root)
-        .env("PATH", path)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr_pipe = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = std::io::Read::read_to_string(&mut stderr_pipe, &mut s);
-        s
-    });
-    let code = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status.code();
-        }
-        if start.elapsed() > limit {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let stderr = reader.join().unwrap();
-    Outcome { code, stderr, seconds: start.elapsed().as_secs_f64() }
+    let mut cmd = Command::new("sh");
+    cmd.arg("-c").arg(line).current_dir(root).env("PATH", path);
+    run_limited(cmd, limit)
 }
 
 /// A scratch repository root: `examples/` linked, `../shared` pointing at the reference data.
