@@ -34,7 +34,8 @@ fn value_options(text: &str) -> Vec<String> {
     let mut out = Vec::new();
     for line in text.lines() {
         let t = line.trim_start();
-        let t = if t.starts_with('-') && t.as_bytes().get(1) != Some(&b'-') { t.splitn(2, ", ").nth(1).unwrap_or("") } else { t };
+        // `-q, --quiet`: the long form follows the short one.
+        let t = if t.starts_with('-') && t.as_bytes().get(1) != Some(&b'-') { t.split_once(", ").map_or("", |(_, long)| long) } else { t };
         if let Some(rest) = t.strip_prefix("--") {
             let mut words = rest.split_whitespace();
             let name = words.next().unwrap_or("");
