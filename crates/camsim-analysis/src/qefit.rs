@@ -94,6 +94,21 @@ pub fn transform_qe(qe: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> Result<[Vec<f64>; 
     Ok(out)
 }
 
+/// Relative RMS difference per channel between the transformed curves `source M` and `target`
+/// over the wavelength samples: `sqrt(sum (source M - target)^2 / sum target^2)` (0 for an
+/// all-zero target channel). How far a correction matrix is from turning one QE into another.
+pub fn qe_relative_rms_difference(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> Result<[f64; 3]> {
+    let transformed = transform_qe(source, m)?;
+    if target.iter().any(|c| c.len() != transformed[0].len()) {
+        return Err(AnalysisError::invalid("qe", "source and target curves have different numbers of samples"));
+    }
+    Ok([0, 1, 2].map(|j| {
+        let num: f64 = transformed[j].iter().zip(&target[j]).map(|(p, t)| (p - t).powi(2)).sum();
+        let den: f64 = target[j].iter().map(|t| t * t).sum();
+        if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+    }))
+}
+
 /// Predicted channel responses of patches by photon counting (ISETCam sensorCompute, noise-free):
 /// `rgb_c = scale * sum_lambda L(lambda) * lambda / (h c) * QE_c(lambda) * step_nm`.
 ///
@@ -188,6 +203,22 @@ pub fn fit_qe_matrix(measured: &[[f64; 3]], predicted: &[[f64; 3]], form: Matrix
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn qe_difference_is_the_relative_rms_of_the_residual() {
+        let src = [vec![1.0, 2.0, 3.0], vec![0.5, 0.5, 0.5], vec![0.0, 1.0, 0.0]];
+        // target = 2 x source: M = 2 I matches exactly; M = I leaves |x - 2x| / |2x| = 1/2.
+        let target = src.clone().map(|c| c.iter().map(|v| 2.0 * v).collect::<Vec<_>>());
+        let two = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]];
+        let one = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        assert_eq!(qe_relative_rms_difference(&src, &target, &two).unwrap(), [0.0; 3]);
+        for e in qe_relative_rms_difference(&src, &target, &one).unwrap() {
+            assert!((e - 0.5).abs() < 1e-15, "{e}");
+        }
+        // Mismatched lengths are an error, not a panic.
+        let short = [vec![1.0], vec![1.0], vec![1.0]];
+        assert!(qe_relative_rms_difference(&src, &short, &one).is_err());
+    }
 
     #[test]
     fn predict_rgb_counts_photons() {

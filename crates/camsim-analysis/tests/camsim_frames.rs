@@ -61,7 +61,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
-use camsim_analysis::qefit::{fit_qe_matrix, MatrixForm, PAPER_M};
+mod common;
+use camsim_analysis::qefit::{self, fit_qe_matrix, MatrixForm, PAPER_M};
 use camsim_analysis::roi::roi_stats_raw;
 use camsim_analysis::Rect;
 use camsim_core::{tables, CfaChannel, Quantity, SpectralImage, WavelengthGrid};
@@ -265,38 +266,7 @@ fn p4a_corrected_qe() -> camsim_sensor::QeConfig {
     camsim_sensor::QeConfig { file: None, loaded_from: None, correction: None, wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None }
 }
 
-/// M (row vector convention, `target = source M`) by least squares over the wavelength samples,
-/// per output channel, with nalgebra's SVD (not the solver under test), and the relative RMS
-/// residual of each channel.
-fn qe_level_m(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]) -> ([[f64; 3]; 3], [f64; 3]) {
-    let n = source[0].len();
-    let a = DMatrix::from_fn(n, 3, |r, i| source[i][r]);
-    let svd = a.clone().svd(true, true);
-    let mut m = [[0.0; 3]; 3];
-    let mut rel_rms = [0.0; 3];
-    for j in 0..3 {
-        let b = DVector::from_column_slice(&target[j]);
-        let x = svd.solve(&b, 1e-12).unwrap();
-        for i in 0..3 {
-            m[i][j] = x[i];
-        }
-        rel_rms[j] = (&a * &x - &b).norm() / b.norm();
-    }
-    (m, rel_rms)
-}
 
-/// Relative RMS difference per channel between `source M` and `target` over the wavelengths.
-fn qe_mismatch(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|j| {
-        let (mut num, mut den) = (0.0, 0.0);
-        for k in 0..target[j].len() {
-            let p: f64 = (0..3).map(|i| source[i][k] * m[i][j]).sum();
-            num += (p - target[j][k]).powi(2);
-            den += target[j][k].powi(2);
-        }
-        (num / den).sqrt()
-    })
-}
 
 /// Expected standard error of each free entry of M: the weighted least-squares covariance of the
 /// (unweighted) estimator, (A^T A)^-1 A^T diag(sigma^2) A (A^T A)^-1, per output column j.
@@ -354,8 +324,8 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
 
     // QE level: p4aCorrected against the published QE, on the analysis grid (400-700 nm).
     let (published, corrected) = (imx.channel_qe(&grid), p4a.channel_qe(&grid));
-    let (m_qe, qe_rel_rms) = qe_level_m(&published, &corrected);
-    let eps_paper = qe_mismatch(&published, &corrected, &PAPER_M);
+    let (m_qe, qe_rel_rms) = common::qe_level_m(&published, &corrected);
+    let eps_paper = qefit::qe_relative_rms_difference(&published, &corrected, &PAPER_M).unwrap();
     println!("QE-level M {m_qe:?}, relative residual {qe_rel_rms:?}\npublished x paper M vs p4aCorrected: relative RMS {eps_paper:?}");
     assert!(qe_rel_rms.iter().all(|r| *r < 1e-4), "p4aCorrected is not a linear transform of the published QE: {qe_rel_rms:?}");
 
@@ -417,7 +387,7 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
 
     // 2. The paper's form: close to the paper's M within what the data's mismatch allows.
     let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative).unwrap();
-    let eps_fit = qe_mismatch(&published, &corrected, &fit.m);
+    let eps_fit = qefit::qe_relative_rms_difference(&published, &corrected, &fit.m).unwrap();
     let mut worst: f64 = 0.0;
     for j in 0..3 {
         let norm = (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt();

@@ -17,7 +17,8 @@
 // Channel loops index several arrays at once (r, g, b).
 #![allow(clippy::needless_range_loop)]
 
-use camsim_analysis::qefit::{apply_matrix, fit_qe_matrix, predict_rgb, MatrixForm, PAPER_M};
+mod common;
+use camsim_analysis::qefit::{self, apply_matrix, fit_qe_matrix, predict_rgb, MatrixForm, PAPER_M};
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{tables, WavelengthGrid};
 use rand_distr::{Distribution, Normal};
@@ -107,37 +108,7 @@ fn known_matrices_are_recovered_for_every_form() {
     }
 }
 
-/// M (`target = source M`) by least squares over the wavelength samples, per output channel,
-/// with nalgebra's SVD (not the solver under test); and the relative RMS residual per channel.
-fn qe_level_m(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]) -> ([[f64; 3]; 3], [f64; 3]) {
-    let n = source[0].len();
-    let a = nalgebra::DMatrix::from_fn(n, 3, |r, i| source[i][r]);
-    let svd = a.clone().svd(true, true);
-    let mut m = [[0.0; 3]; 3];
-    let mut rel = [0.0; 3];
-    for j in 0..3 {
-        let b = nalgebra::DVector::from_column_slice(&target[j]);
-        let x = svd.solve(&b, 1e-12).unwrap();
-        for i in 0..3 {
-            m[i][j] = x[i];
-        }
-        rel[j] = (&a * &x - &b).norm() / b.norm();
-    }
-    (m, rel)
-}
 
-/// Relative RMS difference per channel between `source M` and `target` over the wavelengths.
-fn qe_mismatch(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|j| {
-        let (mut num, mut den) = (0.0, 0.0);
-        for k in 0..target[j].len() {
-            let p: f64 = (0..3).map(|i| source[i][k] * m[i][j]).sum();
-            num += (p - target[j][k]).powi(2);
-            den += target[j][k].powi(2);
-        }
-        (num / den).sqrt()
-    })
-}
 
 #[test]
 fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
@@ -145,10 +116,10 @@ fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
     let rad = radiances();
     let (published, corrected) = (published_qe(), corrected_qe());
     // p4aCorrected is a linear transform of this published QE to the CSV's 6-digit rounding.
-    let (m_qe, rel_qe) = qe_level_m(&published, &corrected);
+    let (m_qe, rel_qe) = common::qe_level_m(&published, &corrected);
     assert!(rel_qe.iter().all(|r| *r < 1e-4), "{rel_qe:?}");
     // The paper's M against these curves: 15-22 % relative RMS (a later ISETCam QE file).
-    let eps_paper = qe_mismatch(&published, &corrected, &PAPER_M);
+    let eps_paper = qefit::qe_relative_rms_difference(&published, &corrected, &PAPER_M).unwrap();
     println!("QE-level M {m_qe:?} (residual {rel_qe:?}); published x paper M vs p4aCorrected {eps_paper:?}");
     let measured = predict_rgb(&corrected, &grid, &rad, 1.0).unwrap();
     let pred = predict_rgb(&published, &grid, &rad, 1.0).unwrap();
@@ -170,7 +141,7 @@ fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
                     }
                 }
                 // And the fitted M describes p4aCorrected at least as well as the paper's M.
-                let eps_fit = qe_mismatch(&published, &corrected, &fit.m);
+                let eps_fit = qefit::qe_relative_rms_difference(&published, &corrected, &fit.m).unwrap();
                 assert!((0..3).all(|j| eps_fit[j] <= eps_paper[j]), "{eps_fit:?} vs {eps_paper:?}");
                 assert!(fit.relative_rms_after < 0.1 * fit.relative_rms_before);
             }

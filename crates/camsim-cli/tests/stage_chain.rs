@@ -45,18 +45,35 @@ cols = 96
 exposure_ms = 5.0
 "#;
 
+/// Run `simulate` on `config` into `sim/`, then the stage commands (`{D}` = the scratch folder,
+/// the config is `{D}/run.toml`), and check the stages' `raw/raw.dng` equals simulate's bit for
+/// bit. Returns the scratch folder for further checks.
+fn simulate_and_chain(config: &str, stages: &[&[&str]]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_string_lossy().into_owned();
+    std::fs::write(dir.path().join("run.toml"), config).unwrap();
+    camsim(&["simulate", &format!("{d}/run.toml"), "--out", &format!("{d}/sim")]);
+    for stage in stages {
+        let args: Vec<String> = stage.iter().map(|a| a.replace("{D}", &d)).collect();
+        camsim(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    }
+    assert_same_raw(&dir.path().join("sim/raw.dng"), &dir.path().join("raw/raw.dng"));
+    dir
+}
+
 #[test]
 fn scene_optics_sensor_isp_equals_simulate() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = |s: &str| dir.path().join(s).to_string_lossy().into_owned();
-    std::fs::write(dir.path().join("chart.toml"), CHART).unwrap();
-    camsim(&["simulate", &d("chart.toml"), "--out", &d("sim")]);
-    camsim(&["scene", &d("chart.toml"), "--out", &d("radiance.exr")]);
-    camsim(&["optics", "--in", &d("radiance.exr"), "--lens", "pixel4a", "--out", &d("irradiance.exr")]);
-    camsim(&["sensor", "--in", &d("irradiance.exr"), "--sensor", "pixel4a", "--rows", "64", "--cols", "96", "--exposure-ms", "5", "--seed", "7", "--out", &d("raw")]);
-    assert_same_raw(&dir.path().join("sim/raw.dng"), &dir.path().join("raw/raw.dng"));
-    camsim(&["isp", "--in", &d("raw/raw.dng"), "--sensor", "pixel4a", "--illuminant", "D65", "--out", &d("preview.png")]);
-    let (a, b) = (camsim_io::raster::read_png8_rgb(&dir.path().join("sim/preview.png")).unwrap(), camsim_io::raster::read_png8_rgb(&dir.path().join("preview.png")).unwrap());
+    let dir = simulate_and_chain(
+        CHART,
+        &[
+            &["scene", "{D}/run.toml", "--out", "{D}/radiance.exr"],
+            &["optics", "--in", "{D}/radiance.exr", "--lens", "pixel4a", "--out", "{D}/irradiance.exr"],
+            &["sensor", "--in", "{D}/irradiance.exr", "--sensor", "pixel4a", "--rows", "64", "--cols", "96", "--exposure-ms", "5", "--seed", "7", "--out", "{D}/raw"],
+            &["isp", "--in", "{D}/raw/raw.dng", "--sensor", "pixel4a", "--illuminant", "D65", "--out", "{D}/preview.png"],
+        ],
+    );
+    let read = |name: &str| camsim_io::raster::read_png8_rgb(&dir.path().join(name)).unwrap();
+    let (a, b) = (read("sim/preview.png"), read("preview.png"));
     assert_eq!((a.0, a.1), (b.0, b.1));
     assert!(a.2 == b.2, "the isp stage's preview differs from simulate's");
 }
@@ -79,13 +96,14 @@ exposure_ms = 20.0
 
 #[test]
 fn render_optics_sensor_equals_simulate() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = |s: &str| dir.path().join(s).to_string_lossy().into_owned();
-    std::fs::write(dir.path().join("box.toml"), BOX).unwrap();
-    camsim(&["simulate", &d("box.toml"), "--out", &d("sim")]);
-    // The renderer's camera follows the simulate config (field of view of the sensor window).
-    camsim(&["render", "--config", &d("box.toml"), "--out", &d("render")]);
-    camsim(&["optics", "--in", &d("render/radiance.exr"), "--lens", "pixel4a", "--out", &d("irradiance.exr")]);
-    camsim(&["sensor", "--in", &d("irradiance.exr"), "--sensor", "pixel4a", "--rows", "64", "--cols", "96", "--exposure-ms", "20", "--seed", "3", "--out", &d("raw")]);
-    assert_same_raw(&dir.path().join("sim/raw.dng"), &dir.path().join("raw/raw.dng"));
+    // `render --config`: the renderer's camera follows the simulate config (the field of view of
+    // the sensor window through the lens).
+    simulate_and_chain(
+        BOX,
+        &[
+            &["render", "--config", "{D}/run.toml", "--out", "{D}/render"],
+            &["optics", "--in", "{D}/render/radiance.exr", "--lens", "pixel4a", "--out", "{D}/irradiance.exr"],
+            &["sensor", "--in", "{D}/irradiance.exr", "--sensor", "pixel4a", "--rows", "64", "--cols", "96", "--exposure-ms", "20", "--seed", "3", "--out", "{D}/raw"],
+        ],
+    );
 }

@@ -151,7 +151,7 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
     let max_diff = fit.m.iter().flatten().zip(PAPER_M.iter().flatten()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     // Tolerance from the data: how far published QE x the paper's M is from the measuring QE.
     let (published_qe, measuring_qe) = (published.channel_qe(&grid), measured_sensor.channel_qe(&grid));
-    let mismatch = qe_mismatch(&published_qe, &measuring_qe, &PAPER_M);
+    let mismatch = camsim_analysis::qefit::qe_relative_rms_difference(&published_qe, &measuring_qe, &PAPER_M)?;
     let tol = [0, 1, 2].map(|j| (mismatch[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt()).max(0.01));
     let within = (0..3).all(|j| (0..3).all(|i| (fit.m[i][j] - PAPER_M[i][j]).abs() <= tol[j]));
     let checks = vec![
@@ -218,19 +218,6 @@ fn measuring_sensor(opts: &ValidateOptions) -> Result<(Sensor, String)> {
     cfg.qe_correction = None;
     let s = Sensor::from_config(cfg).map_err(|e| ValidateError::file(&path, e.to_string()))?;
     Ok((s, format!("{} (ISET/isetcornellbox, the paper's corrected QE)", path.display())))
-}
-
-/// Relative RMS difference per channel, over the grid, between `source M` and `target`.
-fn qe_mismatch(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|j| {
-        let (mut num, mut den) = (0.0, 0.0);
-        for k in 0..target[j].len() {
-            let p: f64 = (0..3).map(|i| source[i][k] * m[i][j]).sum();
-            num += (p - target[j][k]).powi(2);
-            den += target[j][k].powi(2);
-        }
-        if den > 0.0 { (num / den).sqrt() } else { 0.0 }
-    })
 }
 
 fn figures(opts: &ValidateOptions, r: &QeResults, published: &Sensor, grid: &WavelengthGrid) -> Result<Vec<FigurePng>> {

@@ -1,4 +1,4 @@
-//! Shared test helpers: an accurate erf, analytic slanted-edge rendering, and a simple
+//! Shared test helpers: an independent least-squares QE matrix (nalgebra SVD), an accurate erf, analytic slanted-edge rendering, and a simple
 //! Poisson + Gaussian frame generator keyed by camsim_core::rng::keyed.
 #![allow(dead_code)]
 
@@ -78,4 +78,23 @@ pub fn sinc(x: f64) -> f64 {
 /// MTF of a Gaussian blur: exp(-2 pi^2 sigma^2 f^2).
 pub fn gauss_mtf(sigma_px: f64, f: f64) -> f64 {
     (-2.0 * std::f64::consts::PI.powi(2) * sigma_px * sigma_px * f * f).exp()
+}
+
+/// M (`target = source M`) by least squares over the wavelength samples, per output channel,
+/// with nalgebra's SVD (not the solver under test); and the relative RMS residual per channel.
+pub fn qe_level_m(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]) -> ([[f64; 3]; 3], [f64; 3]) {
+    let n = source[0].len();
+    let a = nalgebra::DMatrix::from_fn(n, 3, |r, i| source[i][r]);
+    let svd = a.clone().svd(true, true);
+    let mut m = [[0.0; 3]; 3];
+    let mut rel = [0.0; 3];
+    for j in 0..3 {
+        let b = nalgebra::DVector::from_column_slice(&target[j]);
+        let x = svd.solve(&b, 1e-12).unwrap();
+        for i in 0..3 {
+            m[i][j] = x[i];
+        }
+        rel[j] = (&a * &x - &b).norm() / b.norm();
+    }
+    (m, rel)
 }
