@@ -170,15 +170,20 @@ impl SimulateConfig {
                 anyhow::anyhow!("{}: {}", path.display(), msg.trim_end())
             })?
         };
-        match (&cfg.scene, &cfg.render) {
-            (Some(_), Some(_)) => bail!("{}: give either [scene] (2D) or [render] (3D), not both", path.display()),
-            (None, None) => bail!("{}: the config has neither a [scene] nor a [render] table", path.display()),
-            _ => {}
-        }
+        cfg.check_scene_source().with_context(|| path.display().to_string())?;
         // Paths inside the config are relative to the config file.
         let base = path.parent().unwrap_or(Path::new("."));
         cfg.resolve_paths(base);
         Ok(cfg)
+    }
+
+    /// Exactly one of `[scene]` (2D) and `[render]` (3D) must be given.
+    pub fn check_scene_source(&self) -> Result<()> {
+        match (&self.scene, &self.render) {
+            (Some(_), Some(_)) => bail!("give either [scene] (2D) or [render] (3D), not both"),
+            (None, None) => bail!("the config has neither a [scene] nor a [render] table"),
+            _ => Ok(()),
+        }
     }
 
     fn resolve_paths(&mut self, base: &Path) {
@@ -248,9 +253,9 @@ impl SimulateConfig {
 /// `progress(stage, done, total)` is called as long steps advance.
 pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress<'_>) -> Result<SpectralImage> {
     cfg.wavelengths.validate()?;
+    cfg.check_scene_source()?;
     match (&cfg.scene, &cfg.render) {
-        (Some(_), Some(_)) => bail!("give either [scene] (2D) or [render] (3D), not both"),
-        (None, None) => bail!("the config has neither [scene] nor [render]"),
+        (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
         (Some(SceneConfig::File(f)), None) => {
             let img = camsim_io::exr::read_spectral_exr(&f.path)?;
             Ok(camsim_scene::from_image(f, img)?)

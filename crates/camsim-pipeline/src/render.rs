@@ -22,9 +22,6 @@ pub fn load_scene(
         (Some(name), None) => builtin::scene(name, opts)?,
         (None, Some(path)) => {
             let mut s = camsim_render::pbrt::parse_file(path).map_err(|e| anyhow::anyhow!("{e}"))?;
-            if s.shapes.is_empty() && s.lights.is_empty() {
-                bail!("{}: the scene is empty: it has no shapes and no lights", path.display());
-            }
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -38,9 +35,6 @@ pub fn load_scene(
     };
     if let Some(o) = overlay {
         let text = std::fs::read_to_string(o).with_context(|| format!("cannot read {}", o.display()))?;
-        if text.trim().is_empty() {
-            bail!("{}: the overlay is empty: it would change nothing", o.display());
-        }
         let base = o.parent().unwrap_or(Path::new("."));
         camsim_render::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
             .map_err(|e| anyhow::anyhow!("{e}"))?;

@@ -361,6 +361,9 @@ pub fn apply(
     source_name: &str,
     base_dir: &Path,
 ) -> Result<(), OverlayError> {
+    if overlay_toml.trim().is_empty() {
+        return Err(OverlayError { source_name: source_name.to_string(), message: "the overlay is empty: it would change nothing".to_string() });
+    }
     let ov: Overlay = toml::from_str(overlay_toml).map_err(|e| OverlayError {
         source_name: source_name.to_string(),
         message: e.to_string().trim_end().to_string(),

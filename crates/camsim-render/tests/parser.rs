@@ -654,3 +654,12 @@ fn parse_in(dir: &Path, world: &str) -> SceneDescription {
     std::fs::write(&p, format!("{WORLD_HEAD}{world}")).unwrap();
     pbrt::parse_file(&p).unwrap()
 }
+
+#[test]
+fn an_empty_scene_file_is_an_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nothing.pbrt");
+    std::fs::write(&path, "# only a comment\nWorldBegin\n").unwrap();
+    let e = pbrt::parse_file(&path).unwrap_err().to_string();
+    assert!(e.contains("nothing.pbrt") && e.contains("empty"), "{e}");
+}

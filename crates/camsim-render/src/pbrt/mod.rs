@@ -142,7 +142,12 @@ pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError>
     let path = path.as_ref();
     let text = std::fs::read_to_string(path)
         .map_err(|e| PbrtError::at(path, 0, 0, format!("cannot read: {e}")))?;
-    parse_str(&text, path)
+    let scene = parse_str(&text, path)?;
+    // The renderer refuses an empty scene too, but only here is the file known to name it.
+    if scene.shapes.is_empty() && scene.lights.is_empty() {
+        return Err(PbrtError::at(path, 0, 0, "the scene is empty: it has no shapes and no lights".to_string()));
+    }
+    Ok(scene)
 }
 
 /// Read pbrt-v4 scene text; `virtual_path` names it in errors and anchors relative file names
