@@ -131,6 +131,21 @@ pub fn parent_dir(file: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Read a spectral EXR, warning on stderr when round-off-sized negative samples (another tool's
+/// FFT output) were clamped to 0 (`camsim_io::exr::NEGATIVE_ROUNDOFF_FRACTION`).
+pub fn read_spectral_exr(path: &Path) -> Result<camsim_core::SpectralImage> {
+    let (img, info) = camsim_io::exr::read_spectral_exr_with_info(path)?;
+    if info.clamped_negatives > 0 {
+        eprintln!(
+            "camsim: warning: {}: clamped {} round-off negative samples to 0 (most negative {:e})",
+            path.display(),
+            info.clamped_negatives,
+            info.most_negative_clamped
+        );
+    }
+    Ok(img)
+}
+
 /// Read a text file, naming it in the error.
 pub fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))

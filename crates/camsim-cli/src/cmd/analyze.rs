@@ -115,7 +115,7 @@ fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
     let mut opts = SfrOptions { poly_order: if a.quadratic { 2 } else { 1 }, ..SfrOptions::default() };
     if ext == "exr" {
         // Irradiance: a photopic-weighted sum of the bands, at the image's own sampling.
-        let img = camsim_io::exr::read_spectral_exr(&a.image)?;
+        let img = common::read_spectral_exr(&a.image)?;
         let cmfs = camsim_core::colorimetry::Cmfs::on(&img.grid);
         let mut y = vec![0f32; img.pixels()];
         for b in 0..img.bands() {

@@ -28,15 +28,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (radiance, info) = camsim_io::exr::read_spectral_exr_with_info(&a.input)?;
-    if info.clamped_negatives > 0 {
-        eprintln!(
-            "camsim: warning: {}: clamped {} round-off negative samples to 0 (most negative {:e})",
-            a.input.display(),
-            info.clamped_negatives,
-            info.most_negative_clamped
-        );
-    }
+    let radiance = common::read_spectral_exr(&a.input)?;
     let mut cfg = camsim_pipeline::load_lens(&a.lens)?;
     if a.focus_m.is_some() {
         cfg.focus_distance_m = a.focus_m;

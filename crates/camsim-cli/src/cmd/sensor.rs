@@ -87,7 +87,7 @@ pub fn run(a: Args) -> Result<()> {
         return common::commit(out);
     }
     let input = a.input.as_ref().expect("clap requires --in without --emva-series");
-    let irr = camsim_io::exr::read_spectral_exr(input)?;
+    let irr = common::read_spectral_exr(input)?;
     let exposure = match a.exposure_ms {
         Some(ms) if !(ms >= 0.0 && ms.is_finite()) => anyhow::bail!("--exposure-ms {ms}: must be >= 0"),
         Some(ms) => Exposure::Seconds(ms * 1e-3),
