@@ -109,7 +109,7 @@ fn fixture() -> &'static Fixture {
         std::fs::write(root.join("small.toml"), SMALL).unwrap();
         std::fs::write(root.join("flat.toml"), FLAT).unwrap();
         std::fs::write(root.join("edge.toml"), EDGE).unwrap();
-        run_ok(&["simulate", &p("small.toml"), "--out", &p("sim")]);
+        run_ok(&["simulate", &p("small.toml"), "--out", &p("sim"), "--save", "all"]);
         run_ok(&["simulate", &p("flat.toml"), "--out", &p("flat")]);
         run_ok(&["simulate", &p("edge.toml"), "--out", &p("edge")]);
         run_ok(&["sensor", "--emva-series", "--sensor", "imx363", "--rows", "32", "--cols", "32", "--levels", "6", "--frames-per-level", "2", "--out", &p("emva")]);

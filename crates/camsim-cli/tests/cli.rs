@@ -45,7 +45,7 @@ fn simulate_writes_every_output_and_same_seed_gives_identical_dng_for_1_and_2_th
     std::fs::write(&cfg, SMALL).unwrap();
     let (a, b, c) = (dir.path().join("a"), dir.path().join("b"), dir.path().join("c"));
     let run = |out: &Path, threads: &str, seed: &str| {
-        let o = camsim(&["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--threads", threads, "--seed", seed, "--frames", "2"]);
+        let o = camsim(&["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--threads", threads, "--seed", seed, "--frames", "2", "--save", "all"]);
         assert!(o.status.success(), "simulate failed: {}", stderr(&o));
     };
     run(&a, "1", "9");

@@ -150,13 +150,13 @@ fn sigint_removes_every_temporary_and_keeps_the_earlier_run() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(&dir.path().join("small.toml"), &small(11, 100.0));
     let out = dir.path().join("run");
-    let o = camsim(&["simulate", s(&cfg), "--out", s(&out)]);
+    let o = camsim(&["simulate", s(&cfg), "--out", s(&out), "--save", "all"]);
     assert!(o.status.success(), "{}", stderr(&o));
     // A run long enough to be interrupted: a 480 x 640 window, 80 frames.
     let slow = small(13, 100.0).replace("rows = 64\ncols = 96", "rows = 480\ncols = 640").replace("fov_deg = 2.0", "fov_deg = 10.0");
     let slow = write(&dir.path().join("slow.toml"), &slow);
     let mut child = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["simulate", s(&slow), "--out", s(&out), "--frames", "80", "--quiet"])
+        .args(["simulate", s(&slow), "--out", s(&out), "--frames", "80", "--quiet", "--save", "all"])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -302,7 +302,7 @@ fn raw_png_spans_the_16_bit_range_and_the_dng_keeps_the_exact_values() {
     // Bright enough that the white patch clips at the 12-bit maximum 4095.
     let cfg = write(&dir.path().join("small.toml"), &small(1, 100.0).replace("exposure_ms = 5.0", "exposure_ms = 40.0"));
     let out = dir.path().join("out");
-    let o = camsim(&["simulate", s(&cfg), "--out", s(&out)]);
+    let o = camsim(&["simulate", s(&cfg), "--out", s(&out), "--save", "all"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let (raw, _) = camsim_io::dng::read_dng(&out.join("raw.dng")).unwrap();
     assert_eq!(raw.bits, 12);

@@ -5,6 +5,8 @@ use camsim_optics::{Optics, OpticsConfig};
 use std::time::Instant;
 fn main() {
     let depth = std::env::args().any(|a| a == "depth");
+    // `notail`: kernels only (psf.far_tail = false), to see what the far tail costs.
+    let notail = std::env::args().any(|a| a == "notail");
     let (rows, cols) = (3024usize, 4032usize);
     let grid = WavelengthGrid::default();
     let d = 0.5;
@@ -15,6 +17,7 @@ fn main() {
     img.geometry = ImageGeometry { fov_deg: 0.0, distance_m: d, focal_length_m: 0.0, f_number: 0.0 };
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.focus_distance_m = Some(0.3);
+    c.psf.far_tail = !notail;
     if depth {
         img.depth_m = Some((0..rows * cols).map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32).collect());
         c.focus_distance_m = Some(0.5);

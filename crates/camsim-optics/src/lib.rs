@@ -17,6 +17,7 @@ pub mod optics;
 pub mod presets;
 pub mod psf;
 pub mod shading;
+pub mod tail;
 pub mod wavefront;
 pub mod zernike;
 

@@ -5,6 +5,7 @@ use crate::conv::{Fft2, KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
+use crate::tail::{self, FarTail};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
@@ -372,7 +373,10 @@ impl Optics {
     ///    the output so nothing wraps); light beyond the output margin leaves the image. Otherwise
     ///    (see [`Wavefront::psf`]) by tiled FFT convolution
     ///    (overlap-add, zero padded, no wrap-around), rayon over bands, FFT plans shared; one kernel
-    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. Negative FFT
+    ///    side for all bands, set by `psf.tail_energy` at the longest wavelength. With
+    ///    `psf.far_tail` (default) the kernel carries 1 - e of the energy and the diffraction tail
+    ///    beyond its window (energy e) is added on a coarse grid ([`crate::tail`]), so large
+    ///    images get their patches' far light as the whole-image OTF gives it. Negative FFT
     ///    round-off is clamped to 0.
     ///    With a depth map and `focus_distance_m`: depth layers ([`Self::depth_layers`]); the result
     ///    is the sum over layers of PSF_layer * (E x mask_layer), summed per tile in the frequency
@@ -440,12 +444,12 @@ impl Optics {
         // wavelength, but trims the blue and green tails to the tolerance: in the Cornell box the
         // saturated lamp's flare then shifts dim regions' R/G by 3-5 %.)
         let tail = self.config.psf.tail_energy;
-        let k = wavefronts
+        let k_wanted = wavefronts
             .par_iter()
             .map(|w| (0..bands).map(|b| w.kernel_size(grid.wavelength_nm(b), spacing, tail)).max().unwrap_or(1))
             .max()
-            .unwrap_or(1)
-            .min(self.max_kernel());
+            .unwrap_or(1);
+        let k = k_wanted.min(self.max_kernel());
         let h = k / 2;
         let (pad_r, pad_c) = match self.config.padding {
             Padding::Psf => (h, h),
@@ -519,8 +523,23 @@ impl Optics {
                 }
                 Ok(())
             })?;
+        } else if self.config.psf.far_tail && k == k_wanted {
+            // Kernels plus the far tail (crate::tail): the kernel carries 1 - e of each band's
+            // energy, the coarse-grid tail the rest. (A kernel clamped by max_kernel_size does
+            // not reach past the geometric blur, where the tail's asymptote holds: no tail then.)
+            let far = FarTail::new(out_rows, out_cols, k / 2);
+            let n_w = base.working_f_number();
+            let amp: Vec<f64> = (0..bands).map(|b| tail::tail_amplitude(grid.wavelength_nm(b), n_w, spacing)).collect();
+            let near: Vec<f32> = scale.iter().zip(&amp).map(|(s, a)| (*s as f64 * (1.0 - far.energy(*a))) as f32).collect();
+            let plane = rows * cols;
+            let far_band = |b: usize, out_band: &mut [f32]| {
+                let src = &radiance.data[b * plane..(b + 1) * plane];
+                far.write_band(src, rows, cols, (pad_r, pad_c), scale[b], shade.as_deref(), amp[b], out_band)
+            };
+            let init: &(dyn Fn(usize, &mut [f32]) + Sync) = &far_band;
+            self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &near, spacing, k, (pad_r, pad_c), Some(init))?;
         } else {
-            self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &scale, spacing, k, (pad_r, pad_c))?;
+            self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &scale, spacing, k, (pad_r, pad_c), None)?;
         }
 
         if let Some(depth) = &radiance.depth_m {
@@ -543,7 +562,8 @@ impl Optics {
         Ok(out)
     }
 
-    /// Step 3 by tiled FFT convolution with `k` x `k` kernels (see [`Self::compute`]).
+    /// Step 3 by tiled FFT convolution with `k` x `k` kernels (see [`Self::compute`]), added onto
+    /// what `init(band, out_band)` writes into each band first (zeros without it).
     #[allow(clippy::too_many_arguments)]
     fn blur_tiled(
         &self,
@@ -556,6 +576,7 @@ impl Optics {
         spacing: f64,
         k: usize,
         (pad_r, pad_c): (usize, usize),
+        init: Option<&(dyn Fn(usize, &mut [f32]) + Sync)>,
     ) -> Result<()> {
         let (rows, cols) = (radiance.rows, radiance.cols);
         let (out_rows, out_cols) = (out.rows, out.cols);
@@ -584,10 +605,13 @@ impl Optics {
         let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
         let plane = rows * cols;
         out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
-            // Touch the band's pages with a write first: the allocator hands out lazily mapped zero
-            // pages, and the tiles' read-modify-write (`+=`) would fault each page twice (zero-page
-            // read, then copy-on-write).
-            out_band.fill(0.0);
+            // Touch the band's pages with a write first (zeros or `init`): the allocator hands out
+            // lazily mapped zero pages, and the tiles' read-modify-write (`+=`) would fault each
+            // page twice (zero-page read, then copy-on-write).
+            match init {
+                Some(f) => f(b, out_band),
+                None => out_band.fill(0.0),
+            }
             let wl = grid.wavelength_nm(b);
             let src = &radiance.data[b * plane..(b + 1) * plane];
             let sc = scale[b];

@@ -2,19 +2,23 @@
 //! isp) and the end-to-end run that writes the standard files. Wiring only: each stage's
 //! physics lives in its own crate.
 
+pub mod error;
+pub mod outputs;
 pub mod render;
+mod simulation;
 
-use anyhow::{bail, Context, Result};
+pub use error::{PipelineError, Result};
+pub use outputs::{Output, OutputSet};
+pub use simulation::{simulate, Rgb8Image, RunInfo, SimulateOptions, Simulation};
+
 use camsim_core::{SpectralImage, WavelengthGrid};
 use camsim_optics::{Optics, OpticsConfig};
 use camsim_scene::SceneConfig;
-use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ColorPipeline;
 use camsim_sensor::{Capture, Exposure, Sensor, SensorConfig};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// The whole-pipeline config (`camsim simulate CONFIG.toml`). Exactly one of `[scene]` (a 2D
 /// chart) and `[render]` (a 3D scene) is given.
@@ -156,32 +160,48 @@ impl SimulateConfig {
 
     /// Read a TOML config, or a run.json written by an earlier run.
     pub fn load(path: &Path) -> Result<SimulateConfig> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = std::fs::read_to_string(path).map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
         let mut cfg: SimulateConfig = if path.extension().is_some_and(|e| e == "json") {
-            let v: serde_json::Value =
-                serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", path.display()))?;
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| PipelineError::file(path, format!("not valid JSON: {e}")))?;
             let c = v.get("config").cloned().unwrap_or(v);
-            serde_json::from_value(c).with_context(|| format!("{}: not a camsim run.json", path.display()))?
+            serde_json::from_value(c).map_err(|e| PipelineError::file(path, format!("not a camsim run.json: {e}")))?
         } else {
-            toml::from_str(&text).map_err(|e| {
-                // The [scene] table is tagged by `kind`, which hides the key's position from
-                // toml's first message: find the offending key's own line and column.
-                let msg = camsim_scene::config::locate_scene_error(&text, Some("scene")).unwrap_or_else(|| e.to_string());
-                anyhow::anyhow!("{}: {}", path.display(), msg.trim_end())
-            })?
+            Self::from_toml_text(&text).map_err(|e| PipelineError::file(path, e))?
         };
-        cfg.check_scene_source().with_context(|| path.display().to_string())?;
+        cfg.check_scene_source().map_err(|e| PipelineError::file(path, e))?;
         // Paths inside the config are relative to the config file.
         let base = path.parent().unwrap_or(Path::new("."));
         cfg.resolve_paths(base);
         Ok(cfg)
     }
 
+    /// Parse a TOML config from text (paths in it stay as written: relative to the current
+    /// folder). The message of an error names the key, line and column.
+    pub fn from_toml_str(text: &str) -> Result<SimulateConfig> {
+        let cfg = Self::from_toml_text(text).map_err(PipelineError::Config)?;
+        cfg.check_scene_source()?;
+        Ok(cfg)
+    }
+
+    fn from_toml_text(text: &str) -> std::result::Result<SimulateConfig, String> {
+        toml::from_str(text).map_err(|e| {
+            // The [scene] table is tagged by `kind`, which hides the key's position from
+            // toml's first message: find the offending key's own line and column.
+            let msg = camsim_scene::config::locate_scene_error(text, Some("scene")).unwrap_or_else(|| e.to_string());
+            msg.trim_end().to_string()
+        })
+    }
+
+    /// The config as TOML text (every field, defaults filled in).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a SimulateConfig serializes to TOML")
+    }
+
     /// Exactly one of `[scene]` (2D) and `[render]` (3D) must be given.
     pub fn check_scene_source(&self) -> Result<()> {
         match (&self.scene, &self.render) {
-            (Some(_), Some(_)) => bail!("give either [scene] (2D) or [render] (3D), not both"),
-            (None, None) => bail!("the config has neither a [scene] nor a [render] table"),
+            (Some(_), Some(_)) => Err(PipelineError::config("give either [scene] (2D) or [render] (3D), not both")),
+            (None, None) => Err(PipelineError::config("the config has neither a [scene] nor a [render] table")),
             _ => Ok(()),
         }
     }
@@ -233,14 +253,14 @@ impl SimulateConfig {
     pub fn capture(&self) -> Result<Capture> {
         let c = &self.capture;
         if c.frames == 0 {
-            bail!("capture.frames must be at least 1");
+            return Err(PipelineError::config("capture.frames must be at least 1"));
         }
         let exposure = match c.exposure_ms {
-            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => bail!("capture.exposure_ms = {ms}: must be >= 0"),
+            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => return Err(PipelineError::config(format!("capture.exposure_ms = {ms}: must be >= 0"))),
             Some(ms) => Exposure::Seconds(ms * 1e-3),
             None => {
                 if !(c.auto_target_fraction > 0.0 && c.auto_target_fraction <= 1.0) {
-                    bail!("capture.auto_target_fraction = {}: must be in (0, 1]", c.auto_target_fraction);
+                    return Err(PipelineError::config(format!("capture.auto_target_fraction = {}: must be in (0, 1]", c.auto_target_fraction)));
                 }
                 Exposure::Auto { target_fraction: c.auto_target_fraction }
             }
@@ -258,115 +278,15 @@ pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, pr
         (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
         (Some(SceneConfig::File(f)), None) => {
             let img = camsim_io::exr::read_spectral_exr(&f.path)?;
-            Ok(camsim_scene::from_image(f, img)?)
+            camsim_scene::from_image(f, img).map_err(|e| PipelineError::Scene(e.to_string()))
         }
-        (Some(s), None) => Ok(camsim_scene::create(s, &cfg.wavelengths)?),
+        (Some(s), None) => camsim_scene::create(s, &cfg.wavelengths).map_err(|e| PipelineError::Scene(e.to_string())),
         (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress),
     }
 }
 
 /// Progress callback: (stage name, steps done, steps in all).
 pub type Progress<'a> = dyn Fn(&str, u64, u64) + Sync + 'a;
-
-/// What a run produced, besides its files.
-#[derive(Debug, Clone, Serialize)]
-pub struct RunSummary {
-    pub exposure_s: f64,
-    pub mean_dn_rgb: [f64; 3],
-    pub frames: usize,
-    pub total_s: f64,
-}
-
-/// Run the whole pipeline and write its files into the staging folder of `out`: radiance.exr,
-/// irradiance.exr, raw.dng (raw_0001.dng ... for more frames), raw.png (the mosaic scaled to the
-/// 16-bit range), preview.png, and run.json last. The caller commits `out`
-/// ([`camsim_io::atomic::OutputDir::commit`]) when this returns Ok, so the output folder always
-/// holds one complete run; on an error it drops `out` and the previous run stays as it was.
-pub fn run_simulation(cfg: &SimulateConfig, config_path: Option<&Path>, out: &OutputDir, progress: &Progress<'_>) -> Result<RunSummary> {
-    let t0 = Instant::now();
-    let optics = cfg.optics()?;
-    let sensor = cfg.sensor()?;
-    let capture = cfg.capture()?;
-    let mut times = serde_json::Map::new();
-
-    let t = Instant::now();
-    progress("scene", 0, 1);
-    let radiance = scene_radiance(cfg, &sensor, &optics, progress)?;
-    times.insert("scene_s".into(), t.elapsed().as_secs_f64().into());
-    camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &radiance, "scene")?;
-
-    let t = Instant::now();
-    progress("optics", 0, 1);
-    let irradiance = optics.compute(&radiance)?;
-    times.insert("optics_s".into(), t.elapsed().as_secs_f64().into());
-    camsim_io::exr::write_spectral_exr(&out.join("irradiance.exr"), &irradiance, "optics")?;
-
-    let t = Instant::now();
-    progress("sensor", 0, 1);
-    let frame = sensor.compute(&irradiance, &capture)?;
-    times.insert("sensor_s".into(), t.elapsed().as_secs_f64().into());
-
-    let t = Instant::now();
-    let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
-    let meta = dng_metadata(&sensor, &color, Some(cfg))?;
-    for (i, raw) in frame.raw.iter().enumerate() {
-        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
-        camsim_io::dng::write_dng(&out.join(&name), raw, &meta)?;
-    }
-    let raw0 = &frame.raw[0];
-    camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn, raw0.bits)?;
-    let rgb = camsim_isp::demosaic_bilinear(raw0);
-    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
-    camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rgb.rows, rgb.cols, &srgb)?;
-    times.insert("isp_and_files_s".into(), t.elapsed().as_secs_f64().into());
-    times.insert("total_s".into(), t0.elapsed().as_secs_f64().into());
-
-    let mean_dn: Vec<f64> = (0..3)
-        .map(|c| {
-            let ch = camsim_core::CfaChannel::from_index(c).unwrap();
-            let (mut s, mut n) = (0.0, 0usize);
-            for r in 0..raw0.rows {
-                for k in 0..raw0.cols {
-                    if raw0.channel_at(r, k) == ch {
-                        s += raw0.at(r, k) as f64;
-                        n += 1;
-                    }
-                }
-            }
-            s / n.max(1) as f64
-        })
-        .collect();
-    let run = serde_json::json!({
-        "camsim_version": env!("CARGO_PKG_VERSION"),
-        "command": std::env::args().collect::<Vec<_>>().join(" "),
-        "config_file": config_path.map(|p| p.display().to_string()),
-        "config": cfg,
-        "optics": optics.config(),
-        "sensor": sensor.config(),
-        "results": {
-            "exposure_s": frame.exposure_s,
-            "mean_electrons_rgb": frame.mean_electrons,
-            "mean_dn_rgb": mean_dn,
-            "scene_mean_luminance_cd_m2": mean_luminance_cd_m2(&radiance),
-            "radiance_size": [radiance.rows, radiance.cols, radiance.bands()],
-            "irradiance_size": [irradiance.rows, irradiance.cols, irradiance.bands()],
-            "irradiance_sample_spacing_um": irradiance.sample_spacing_m * 1e6,
-            "frames": frame.raw.len(),
-        },
-        "files": {
-            "raw.dng": "the exact ADC values (DN), black and white level in its tags",
-            "raw.png": raw_png_note(raw0.bits),
-        },
-        "times": times,
-    });
-    camsim_io::atomic::write_json_atomic(&out.join("run.json"), &run)?;
-    Ok(RunSummary {
-        exposure_s: frame.exposure_s,
-        mean_dn_rgb: [mean_dn[0], mean_dn[1], mean_dn[2]],
-        frames: frame.raw.len(),
-        total_s: t0.elapsed().as_secs_f64(),
-    })
-}
 
 /// What raw.png holds, for run.json: the mosaic scaled from `bits` bits to the 16-bit range.
 pub fn raw_png_note(bits: u32) -> serde_json::Value {
@@ -383,7 +303,7 @@ pub fn color_pipeline(sensor: &Sensor, grid: &WavelengthGrid, scene: Option<&Sce
         Some(r) => r?,
         None => camsim_core::tables::illuminant("D65")?,
     };
-    Ok(ColorPipeline::fit(&sensor.channel_qe(grid), grid, &illum)?)
+    ColorPipeline::fit(&sensor.channel_qe(grid), grid, &illum).map_err(|e| PipelineError::config(format!("colour pipeline: {e}")))
 }
 
 /// DNG metadata: camera name, the colour matrix and neutral fitted by the ISP, and the run's
@@ -426,11 +346,11 @@ pub fn load_raw(path: &Path, cfa: Option<camsim_core::CfaPattern>, black_dn: f64
         return Ok(camsim_io::dng::read_dng(path)?.0);
     }
     if !matches!(ext.as_str(), "png" | "tif" | "tiff") {
-        bail!("{}: not a raw file camsim reads (DNG, or a 16-bit PNG/TIFF mosaic with --cfa)", path.display());
+        return Err(PipelineError::file(path, "not a raw file camsim reads (DNG, or a 16-bit PNG/TIFF mosaic with --cfa)"));
     }
-    let cfa = cfa.with_context(|| format!("{}: a PNG/TIFF mosaic needs its CFA pattern (--cfa RGGB|GRBG|GBRG|BGGR)", path.display()))?;
+    let cfa = cfa.ok_or_else(|| PipelineError::file(path, "a PNG/TIFF mosaic needs its CFA pattern (--cfa RGGB|GRBG|GBRG|BGGR)"))?;
     if !(1..=16).contains(&bits) {
-        bail!("--bits {bits}: must be 1..16");
+        return Err(PipelineError::config(format!("--bits {bits}: must be 1..16")));
     }
     let (rows, cols, dn) = camsim_io::raster::read_mosaic_16(path)?;
     let mut raw = camsim_core::RawImage::new(rows, cols, cfa, bits)?;
@@ -459,19 +379,19 @@ pub fn macbeth_chart_corners_px(
 ) -> Result<Option<[[f64; 2]; 4]>> {
     let Some(SceneConfig::Macbeth(m)) = &cfg.scene else { return Ok(None) };
     if !(pixel_pitch_m > 0.0 && pixel_pitch_m.is_finite()) {
-        bail!("pixel pitch {pixel_pitch_m} m is not a positive number");
+        return Err(PipelineError::config(format!("pixel pitch {pixel_pitch_m} m is not a positive number")));
     }
     let layout = camsim_scene::MacbethLayout { patch_px: m.patch_size_px, border_px: m.border_px };
     let (scene_rows, scene_cols) = (layout.rows() as f64, layout.cols() as f64);
     let f_m = optics.focal_length_mm * 1e-3;
     let d_m = m.distance_m;
     let Some(v_m) = camsim_optics::lens::image_distance_m(f_m, optics.focus_distance_m.unwrap_or(d_m)) else {
-        bail!("focus distance inside the focal length ({f_m} m): no real image");
+        return Err(PipelineError::config(format!("focus distance inside the focal length ({f_m} m): no real image")));
     };
     let spacing_img_m = camsim_scene::sample_spacing_m(m.fov_deg, d_m, layout.cols()) * v_m / d_m;
     let k = spacing_img_m / pixel_pitch_m; // sensor pixels per scene sample
     if !(k > 0.0 && k.is_finite()) {
-        bail!("scene.fov_deg / distance_m give no finite image scale");
+        return Err(PipelineError::config("scene.fov_deg / distance_m give no finite image scale"));
     }
     let to_sensor = |x: f64, y: f64| [cols as f64 / 2.0 + (x - scene_cols / 2.0) * k, rows as f64 / 2.0 + (y - scene_rows / 2.0) * k];
     let h = m.border_px as f64 / 2.0;

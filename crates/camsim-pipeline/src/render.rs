@@ -1,8 +1,7 @@
 //! 3D scenes in the pipeline: load (built-in or pbrt-v4, plus overlay), match the camera to the
 //! sensor, render.
 
-use crate::{Progress, RenderSection, SimulateConfig};
-use anyhow::{bail, Context, Result};
+use crate::{PipelineError, Progress, RenderSection, Result, SimulateConfig};
 use camsim_core::SpectralImage;
 use camsim_optics::Optics;
 use camsim_render::builtin::{self, BuiltinOptions};
@@ -19,9 +18,9 @@ pub fn load_scene(
     opts: &BuiltinOptions,
 ) -> Result<SceneDescription> {
     let mut scene = match (builtin_name, pbrt) {
-        (Some(name), None) => builtin::scene(name, opts)?,
+        (Some(name), None) => builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?,
         (None, Some(path)) => {
-            let mut s = camsim_render::pbrt::parse_file(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let mut s = camsim_render::pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -30,14 +29,19 @@ pub fn load_scene(
             }
             s
         }
-        (Some(_), Some(_)) => bail!("give a pbrt file or a built-in scene, not both"),
-        (None, None) => bail!("give a pbrt-v4 scene file or a built-in scene (one of {})", builtin::names().join(", ")),
+        (Some(_), Some(_)) => return Err(PipelineError::config("give a pbrt file or a built-in scene, not both")),
+        (None, None) => {
+            return Err(PipelineError::config(format!(
+                "give a pbrt-v4 scene file or a built-in scene (one of {})",
+                builtin::names().join(", ")
+            )))
+        }
     };
     if let Some(o) = overlay {
-        let text = std::fs::read_to_string(o).with_context(|| format!("cannot read {}", o.display()))?;
+        let text = std::fs::read_to_string(o).map_err(|e| PipelineError::file(o, format!("cannot read: {e}")))?;
         let base = o.parent().unwrap_or(Path::new("."));
         camsim_render::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+            .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     Ok(scene)
 }
@@ -47,9 +51,28 @@ pub fn render_scene(scene: &SceneDescription, progress: &Progress<'_>) -> Result
     Ok(camsim_render::render(scene, &|done, total| progress("render", done, total))?)
 }
 
-/// Set the camera's field of view to what the sensor window sees through the lens (pinhole at
-/// the focal length), for an image of `width` x `height` pixels.
-pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, focal_length_m: f64, width: usize, height: usize) {
+/// The distance from the lens to the sensor, m, as the optics stage places it
+/// ([`camsim_optics::Optics::compute`]): the thin-lens image distance of the lens's
+/// `focus_distance_m`, else of the scene's own focus distance, else of infinity (the focal
+/// length). The one rule for every field of view matched to a sensor window.
+pub fn sensor_image_distance_m(optics: &camsim_optics::OpticsConfig, scene_focus_distance_m: Option<f64>) -> Result<f64> {
+    let f_m = optics.focal_length_mm * 1e-3;
+    let focus = optics.focus_distance_m.or(scene_focus_distance_m.filter(|d| *d > 0.0 && d.is_finite())).unwrap_or(f64::INFINITY);
+    camsim_optics::lens::image_distance_m(f_m, focus)
+        .ok_or_else(|| PipelineError::config(format!("focus distance {focus} m is inside the focal length ({f_m} m): no real image")))
+}
+
+/// The full angle, degrees, that `extent_m` of the sensor plane spans seen from the lens at
+/// `image_distance_m`: 2 atan(extent / (2 v)).
+pub fn field_of_view_deg(extent_m: f64, image_distance_m: f64) -> f64 {
+    2.0 * (extent_m / 2.0 / image_distance_m).atan().to_degrees()
+}
+
+/// Set the camera's field of view to what the sensor window sees through the lens (from the lens
+/// at [`sensor_image_distance_m`], so one render pixel lands on the sensor exactly as the optics
+/// stage scales it), for an image of `width` x `height` pixels.
+pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, optics: &camsim_optics::OpticsConfig, width: usize, height: usize) -> Result<()> {
+    let v_m = sensor_image_distance_m(optics, scene.focus_distance_m)?;
     let sensor_w_m = sensor.cols() as f64 * sensor.pixel_pitch_m();
     let sensor_h_m = sensor.rows() as f64 * sensor.pixel_pitch_m();
     // pbrt's fov spans the shorter image axis; the render's aspect ratio may differ from the sensor's.
@@ -58,9 +81,10 @@ pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, foc
     } else {
         sensor_w_m.min(sensor_h_m * width as f64 / height as f64)
     };
-    scene.camera.fov_deg = 2.0 * (short_m / 2.0 / focal_length_m).atan().to_degrees();
+    scene.camera.fov_deg = field_of_view_deg(short_m, v_m);
     scene.camera.width = width;
     scene.camera.height = height;
+    Ok(())
 }
 
 /// The scene of a `[render]` section, set up as `simulate` renders it: its resolution (default:
@@ -80,7 +104,7 @@ pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Se
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }
-    match_camera_to_sensor(&mut scene, sensor, optics.config().focal_length_mm * 1e-3, w, h);
+    match_camera_to_sensor(&mut scene, sensor, optics.config(), w, h)?;
     Ok(scene)
 }
 

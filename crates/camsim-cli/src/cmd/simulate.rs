@@ -1,8 +1,8 @@
 //! `camsim simulate`: the whole pipeline, scene -> optics -> sensor -> isp, in memory.
 
 use crate::common::{self, say};
-use camsim_pipeline::SimulateConfig;
 use anyhow::Result;
+use camsim::{ExrCompression, ExrOptions, ExrPrecision, Output, OutputSet, RunInfo, SimulateConfig, SimulateOptions};
 use std::path::PathBuf;
 
 /// Run the whole pipeline: scene (2D chart or 3D scene) -> optics -> sensor -> raw DNG and preview.
@@ -12,17 +12,24 @@ use std::path::PathBuf;
 /// sensor, auto-exposed. Every config key is documented in README.md ("Config reference") and in
 /// the files under examples/.
 ///
-/// Writes in --out: radiance.exr (scene, W/(sr m^2 nm)), irradiance.exr (sensor plane,
-/// W/(m^2 nm)), raw.dng (the exact ADC values; raw_0001.dng ... with --frames N), raw.png (the
-/// mosaic scaled to the full 16-bit range for viewing: value = round(DN x 65535 / (2^bits - 1)),
-/// recorded in run.json), preview.png (sRGB) and run.json (every parameter; `camsim simulate
-/// out/run.json` repeats the run).
+/// Writes in --out the outputs --save names (default: raw,preview), and run.json (every
+/// parameter; `camsim simulate out/run.json` repeats the run):
+///   raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)
+///   preview     preview.png: bilinear demosaic, colour-corrected to sRGB
+///   raw-png     raw.png: the mosaic scaled to the 16-bit range for viewing
+///               (value = round(DN x 65535 / (2^bits - 1)), recorded in run.json)
+///   radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (depth as channel Z)
+///   irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)
+///   depth       depth.exr: the depth map of a 3D scene, m
+///   noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN
+/// Spectral EXRs cost most of a large run's time: ask for them only when needed, and choose
+/// --exr-compression none (fastest) or zip (smallest) and --exr-precision f32 or f16.
 ///
 /// The folder always holds one complete run: the files are written into DIR.tmp-<pid> beside it
 /// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
+#[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
     pub config: Option<PathBuf>,
@@ -39,12 +46,57 @@ pub struct Args {
     /// Exposure time in ms (default: auto-exposure).
     #[arg(long)]
     pub exposure_ms: Option<f64>,
+    /// Outputs to write, comma-separated: raw, preview, raw-png, radiance, irradiance, depth,
+    /// noise-free; or all; or default (raw,preview). run.json is always written.
+    #[arg(long, default_value = "default", value_name = "LIST")]
+    pub save: String,
+    /// Sample precision of the spectral EXRs: f32 (exact) or f16 (half the size).
+    #[arg(long, value_enum, default_value_t = Precision::F32)]
+    pub exr_precision: Precision,
+    /// Compression of the spectral EXRs: none (default: fastest), rle, zip (smallest, slow), zips, piz.
+    #[arg(long, value_enum, default_value_t = Compression::None)]
+    pub exr_compression: Compression,
     /// Print the effective config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
 }
 
+/// `--exr-precision`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Precision {
+    F32,
+    F16,
+}
+
+/// `--exr-compression`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Compression {
+    None,
+    Rle,
+    Zip,
+    Zips,
+    Piz,
+}
+
+/// The EXR options the flags ask for.
+pub fn exr_options(p: Precision, c: Compression) -> ExrOptions {
+    ExrOptions {
+        precision: match p {
+            Precision::F32 => ExrPrecision::F32,
+            Precision::F16 => ExrPrecision::F16,
+        },
+        compression: match c {
+            Compression::None => ExrCompression::None,
+            Compression::Rle => ExrCompression::Rle,
+            Compression::Zip => ExrCompression::Zip,
+            Compression::Zips => ExrCompression::Zips,
+            Compression::Piz => ExrCompression::Piz,
+        },
+    }
+}
+
 pub fn run(a: Args) -> Result<()> {
+    let t0 = std::time::Instant::now();
     let mut cfg = match &a.config {
         None => SimulateConfig::builtin_default(),
         Some(p) => SimulateConfig::load(p)?,
@@ -62,25 +114,32 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", toml::to_string_pretty(&cfg)?);
         return Ok(());
     }
+    let outputs = OutputSet::parse(&a.save)?;
     let staged = common::stage_out_dir(&a.out)?;
     let pb = common::progress(1, "simulate");
-    let s = camsim_pipeline::run_simulation(&cfg, a.config.as_deref(), &staged, &|stage, done, total| {
+    let opts = SimulateOptions { noise_free: outputs.contains(Output::NoiseFree) };
+    let sim = camsim::simulate(&cfg, &opts, &|stage, done, total| {
         pb.set_message(stage.to_string());
         pb.set_length(total.max(1));
         pb.set_position(done);
     })?;
+    pb.set_message("writing files");
+    let info = RunInfo { command: Some(std::env::args().collect::<Vec<_>>().join(" ")), config_file: a.config.clone() };
+    sim.write_into(&staged, &outputs, exr_options(a.exr_precision, a.exr_compression), &info)?;
     pb.finish_and_clear();
     common::commit(staged)?;
     let out = &a.out;
     say(format!(
-        "exposure {:.3} ms, mean DN r/g/b = {:.1} / {:.1} / {:.1}; {} frame(s) in {:.2} s -> {}",
-        s.exposure_s * 1e3,
-        s.mean_dn_rgb[0],
-        s.mean_dn_rgb[1],
-        s.mean_dn_rgb[2],
-        s.frames,
-        s.total_s,
-        out.display()
+        "exposure {:.3} ms, mean DN r/g/b = {:.1} / {:.1} / {:.1}; {} frame(s) in {:.2} s ({:.2} s with files) -> {} ({})",
+        sim.exposure_s * 1e3,
+        sim.mean_dn_rgb[0],
+        sim.mean_dn_rgb[1],
+        sim.mean_dn_rgb[2],
+        sim.frames.len(),
+        sim.times_s.get("total_s").and_then(|v| v.as_f64()).unwrap_or(0.0),
+        t0.elapsed().as_secs_f64(),
+        out.display(),
+        outputs.names()
     ));
     Ok(())
 }

@@ -1,0 +1,114 @@
+//! Which files a run writes (`camsim simulate --save ...`, [`crate::Simulation::write`]).
+
+use crate::{PipelineError, Result};
+use std::collections::BTreeSet;
+
+/// One kind of output file of a run. run.json is always written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Output {
+    /// raw.dng (and raw_0001.dng ... for more frames): the exact ADC values.
+    Raw,
+    /// raw.png: the first frame's mosaic scaled to the 16-bit range, for viewing.
+    RawPng,
+    /// preview.png: bilinear demosaic, colour-corrected to sRGB.
+    Preview,
+    /// radiance.exr: the scene's spectral radiance, W/(sr m^2 nm) (with depth channel Z for 3D scenes).
+    Radiance,
+    /// irradiance.exr: the sensor-plane spectral irradiance, W/(m^2 nm).
+    Irradiance,
+    /// depth.exr: the scene's depth map, m (3D scenes; 2D charts have none, and it is skipped).
+    Depth,
+    /// noise_free.exr: the expected ADC value per pixel without any noise or quantization (DN).
+    NoiseFree,
+}
+
+impl Output {
+    /// Every output, in the order of [`Self::name`] in `--save`.
+    pub const ALL: [Output; 7] = [Output::Raw, Output::RawPng, Output::Preview, Output::Radiance, Output::Irradiance, Output::Depth, Output::NoiseFree];
+
+    /// The name used in `--save`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Output::Raw => "raw",
+            Output::RawPng => "raw-png",
+            Output::Preview => "preview",
+            Output::Radiance => "radiance",
+            Output::Irradiance => "irradiance",
+            Output::Depth => "depth",
+            Output::NoiseFree => "noise-free",
+        }
+    }
+}
+
+/// A set of outputs. Default: raw, preview (and run.json).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputSet(BTreeSet<Output>);
+
+impl Default for OutputSet {
+    fn default() -> Self {
+        OutputSet([Output::Raw, Output::Preview].into_iter().collect())
+    }
+}
+
+impl OutputSet {
+    /// Every output.
+    pub fn all() -> Self {
+        OutputSet(Output::ALL.into_iter().collect())
+    }
+
+    /// Parse `--save`: comma-separated names (`raw,preview,radiance,irradiance,depth,noise-free,
+    /// raw-png`), `all`, or `default`.
+    pub fn parse(text: &str) -> Result<OutputSet> {
+        let mut set = BTreeSet::new();
+        for item in text.split(',').map(str::trim) {
+            match item {
+                "all" => set.extend(Output::ALL),
+                "default" => set.extend(OutputSet::default().0),
+                _ => match Output::ALL.iter().find(|o| o.name() == item) {
+                    Some(o) => {
+                        set.insert(*o);
+                    }
+                    None => {
+                        let names: Vec<&str> = Output::ALL.iter().map(|o| o.name()).collect();
+                        return Err(PipelineError::config(format!(
+                            "--save: unknown output {item:?} (one or more of {}, or all, default)",
+                            names.join(", ")
+                        )));
+                    }
+                },
+            }
+        }
+        Ok(OutputSet(set))
+    }
+
+    pub fn contains(&self, o: Output) -> bool {
+        self.0.contains(&o)
+    }
+
+    pub fn insert(&mut self, o: Output) {
+        self.0.insert(o);
+    }
+
+    /// The names, comma-separated (as `--save` takes them).
+    pub fn names(&self) -> String {
+        self.0.iter().map(|o| o.name()).collect::<Vec<_>>().join(",")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_names_all_and_default_and_refuses_unknown_ones() {
+        assert_eq!(OutputSet::parse("default").unwrap(), OutputSet::default());
+        assert_eq!(OutputSet::parse("all").unwrap(), OutputSet::all());
+        let s = OutputSet::parse("raw, irradiance,noise-free").unwrap();
+        assert!(s.contains(Output::Raw) && s.contains(Output::Irradiance) && s.contains(Output::NoiseFree));
+        assert!(!s.contains(Output::Preview));
+        assert_eq!(s.names(), "raw,irradiance,noise-free");
+        let e = OutputSet::parse("raw,radience").unwrap_err().to_string();
+        assert!(e.contains("--save") && e.contains("radience") && e.contains("radiance"), "{e}");
+        assert!(OutputSet::parse("").is_err());
+    }
+}

@@ -1,0 +1,266 @@
+//! The whole pipeline in memory ([`simulate`] -> [`Simulation`]) and, as a separate step, its
+//! files ([`Simulation::write`]).
+
+use crate::outputs::{Output, OutputSet};
+use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_radiance, PipelineError, Progress, Result, SimulateConfig};
+use camsim_core::{CfaChannel, RawImage, SpectralImage};
+use camsim_io::atomic::OutputDir;
+use camsim_io::dng::DngMetadata;
+use camsim_io::exr::ExrOptions;
+use camsim_optics::OpticsConfig;
+use camsim_sensor::{Capture, NoiseSwitches, SensorConfig};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What [`simulate`] computes besides the default images.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SimulateOptions {
+    /// Also compute [`Simulation::noise_free_dn`] (a second, noise-free pass of the sensor).
+    pub noise_free: bool,
+}
+
+/// Where a run came from, for run.json (the library reads neither the command line nor the
+/// environment: the caller says).
+#[derive(Debug, Clone, Default)]
+pub struct RunInfo {
+    /// The command line that ran it, if any.
+    pub command: Option<String>,
+    /// The config file it was read from, if any.
+    pub config_file: Option<PathBuf>,
+}
+
+/// An sRGB 8-bit image, interleaved R, G, B, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rgb8Image {
+    pub rows: usize,
+    pub cols: usize,
+    /// `rows * cols * 3` values.
+    pub data: Vec<u8>,
+}
+
+/// One run of the pipeline, held in memory: every stage's image and the effective configs.
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    /// The effective config (every default filled in): running it again gives the same result.
+    pub config: SimulateConfig,
+    /// The lens used.
+    pub optics: OpticsConfig,
+    /// The sensor used (its window).
+    pub sensor: SensorConfig,
+    /// Scene spectral radiance, W/(sr m^2 nm); `depth_m` holds the depth map of 3D scenes.
+    pub radiance: SpectralImage,
+    /// Sensor-plane spectral irradiance, W/(m^2 nm).
+    pub irradiance: SpectralImage,
+    /// The raw frames (ADC values, DN; black and white level in each).
+    pub frames: Vec<RawImage>,
+    /// With [`SimulateOptions::noise_free`]: the ADC value each pixel would read without shot,
+    /// read, DSNU and PRNU noise and without quantization, the mean dark signal included (DN,
+    /// row-major, f32): the mean the raw frames scatter around.
+    pub noise_free_dn: Option<Vec<f32>>,
+    /// The preview: bilinear demosaic of the first frame, colour-corrected to sRGB.
+    pub preview: Rgb8Image,
+    /// Exposure time used, s.
+    pub exposure_s: f64,
+    /// Noise-free mean electrons per channel r, g, b.
+    pub mean_electrons_rgb: [f64; 3],
+    /// Mean DN of the first frame per channel r, g, b (black level included).
+    pub mean_dn_rgb: [f64; 3],
+    /// DNG metadata of the raw frames (camera, colour matrix, neutral, the config).
+    pub dng: DngMetadata,
+    /// Seconds per stage ("scene_s", "optics_s", "sensor_s", "isp_s", "total_s").
+    pub times_s: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
+/// Reads only the files the config names (scene files, pbrt scenes, lens or sensor files);
+/// writes nothing. `progress(stage, done, total)` is called as long steps advance.
+pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progress<'_>) -> Result<Simulation> {
+    let t0 = Instant::now();
+    let optics = cfg.optics()?;
+    let sensor = cfg.sensor()?;
+    let capture = cfg.capture()?;
+    let mut times = serde_json::Map::new();
+    let mut lap = |name: &str, t: Instant| {
+        times.insert(name.into(), t.elapsed().as_secs_f64().into());
+    };
+
+    let t = Instant::now();
+    progress("scene", 0, 1);
+    let radiance = scene_radiance(cfg, &sensor, &optics, progress)?;
+    lap("scene_s", t);
+
+    let t = Instant::now();
+    progress("optics", 0, 1);
+    let irradiance = optics.compute(&radiance)?;
+    lap("optics_s", t);
+
+    let t = Instant::now();
+    progress("sensor", 0, 1);
+    let frame = sensor.compute(&irradiance, &capture)?;
+    let noise_free_dn = if opts.noise_free {
+        let quiet = sensor.with_noise(NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: true, quantization: false });
+        let nf = quiet.compute(&irradiance, &Capture::seconds(frame.exposure_s))?;
+        let plane = nf.analog_dn.and_then(|mut v| v.drain(..).next());
+        Some(plane.ok_or_else(|| PipelineError::config("the noise-free sensor pass returned no analog values"))?)
+    } else {
+        None
+    };
+    lap("sensor_s", t);
+
+    let t = Instant::now();
+    progress("isp", 0, 1);
+    let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
+    let dng = dng_metadata(&sensor, &color, Some(cfg))?;
+    let raw0 = frame.raw.first().ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
+    let rgb = camsim_isp::demosaic_bilinear(raw0);
+    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
+    let preview = Rgb8Image { rows: rgb.rows, cols: rgb.cols, data: srgb };
+    let mean_dn_rgb = mean_dn_per_channel(raw0);
+    lap("isp_s", t);
+    lap("total_s", t0);
+
+    Ok(Simulation {
+        config: cfg.clone(),
+        optics: optics.config().clone(),
+        sensor: sensor.config().clone(),
+        radiance,
+        irradiance,
+        exposure_s: frame.exposure_s,
+        mean_electrons_rgb: frame.mean_electrons,
+        frames: frame.raw,
+        noise_free_dn,
+        preview,
+        mean_dn_rgb,
+        dng,
+        times_s: times,
+    })
+}
+
+/// Mean DN over the pixels of each channel r, g, b (0 where a channel has none).
+fn mean_dn_per_channel(raw: &RawImage) -> [f64; 3] {
+    let mut sum = [0.0f64; 3];
+    let mut n = [0usize; 3];
+    for r in 0..raw.rows {
+        for c in 0..raw.cols {
+            let i = match raw.channel_at(r, c) {
+                CfaChannel::R => 0,
+                CfaChannel::G => 1,
+                CfaChannel::B => 2,
+            };
+            sum[i] += raw.at(r, c) as f64;
+            n[i] += 1;
+        }
+    }
+    [0, 1, 2].map(|i| sum[i] / n[i].max(1) as f64)
+}
+
+impl Simulation {
+    /// The run's record (run.json): version, configs, results, the files written and the times.
+    /// `camsim simulate run.json` repeats the run from it.
+    pub fn metadata(&self, info: &RunInfo, outputs: &OutputSet) -> serde_json::Value {
+        let raw0 = &self.frames[0];
+        let mut files = serde_json::Map::new();
+        if outputs.contains(Output::Raw) {
+            files.insert("raw.dng".into(), "the exact ADC values (DN), black and white level in its tags".into());
+        }
+        if outputs.contains(Output::RawPng) {
+            files.insert("raw.png".into(), raw_png_note(raw0.bits));
+        }
+        if outputs.contains(Output::Depth) {
+            let note = match self.radiance.depth_m {
+                Some(_) => "the scene's depth map, m (channel Z)",
+                None => "not written: this scene (a 2D chart) has no depth map",
+            };
+            files.insert("depth.exr".into(), note.into());
+        }
+        if outputs.contains(Output::NoiseFree) {
+            files.insert("noise_free.exr".into(), "expected ADC value per pixel without noise or quantization, DN (channel Y)".into());
+        }
+        serde_json::json!({
+            "camsim_version": env!("CARGO_PKG_VERSION"),
+            "command": info.command,
+            "config_file": info.config_file.as_ref().map(|p| p.display().to_string()),
+            "config": self.config,
+            "optics": self.optics,
+            "sensor": self.sensor,
+            "outputs": outputs.names(),
+            "results": {
+                "exposure_s": self.exposure_s,
+                "mean_electrons_rgb": self.mean_electrons_rgb,
+                "mean_dn_rgb": self.mean_dn_rgb,
+                "scene_mean_luminance_cd_m2": mean_luminance_cd_m2(&self.radiance),
+                "radiance_size": [self.radiance.rows, self.radiance.cols, self.radiance.bands()],
+                "irradiance_size": [self.irradiance.rows, self.irradiance.cols, self.irradiance.bands()],
+                "irradiance_sample_spacing_um": self.irradiance.sample_spacing_m * 1e6,
+                "frames": self.frames.len(),
+            },
+            "files": files,
+            "times": self.times_s,
+        })
+    }
+
+    /// Write the chosen outputs and run.json into folder `dir`, atomically as a whole: the files
+    /// go into a staging folder beside it, which then replaces `dir` (an earlier camsim run there
+    /// is replaced; any other existing content is refused).
+    pub fn write(&self, dir: &Path, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
+        let out = OutputDir::create(dir)?;
+        self.write_into(&out, outputs, exr, info)?;
+        out.commit()?;
+        Ok(())
+    }
+
+    /// [`Self::write`] into a staging folder the caller commits.
+    pub fn write_into(&self, out: &OutputDir, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
+        if outputs.contains(Output::NoiseFree) && self.noise_free_dn.is_none() {
+            return Err(PipelineError::config("noise-free output asked for, but the run did not compute it (SimulateOptions::noise_free)"));
+        }
+        // The files are independent: write them side by side (each EXR also compresses its blocks
+        // on every thread).
+        let tasks: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = {
+            let mut t: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = Vec::new();
+            if outputs.contains(Output::Radiance) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), &self.radiance, "scene", exr)?)));
+            }
+            if outputs.contains(Output::Irradiance) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("irradiance.exr"), &self.irradiance, "optics", exr)?)));
+            }
+            // 2D charts have no depth map: depth.exr only for 3D scenes (run.json says which).
+            if let (true, Some(d)) = (outputs.contains(Output::Depth), self.radiance.depth_m.as_deref()) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), self.radiance.rows, self.radiance.cols, "Z", d)?)));
+            }
+            if outputs.contains(Output::NoiseFree) {
+                t.push(Box::new(move || {
+                    let raw0 = &self.frames[0];
+                    let nf = self.noise_free_dn.as_deref().unwrap_or_default();
+                    Ok(camsim_io::exr::write_gray_exr(&out.join("noise_free.exr"), raw0.rows, raw0.cols, "Y", nf)?)
+                }));
+            }
+            if outputs.contains(Output::Raw) {
+                for (i, raw) in self.frames.iter().enumerate() {
+                    t.push(Box::new(move || {
+                        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
+                        Ok(camsim_io::dng::write_dng(&out.join(&name), raw, &self.dng)?)
+                    }));
+                }
+            }
+            if outputs.contains(Output::RawPng) {
+                t.push(Box::new(move || {
+                    let raw0 = &self.frames[0];
+                    Ok(camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn, raw0.bits)?)
+                }));
+            }
+            if outputs.contains(Output::Preview) {
+                t.push(Box::new(move || {
+                    let p = &self.preview;
+                    Ok(camsim_io::raster::write_png8_rgb(&out.join("preview.png"), p.rows, p.cols, &p.data)?)
+                }));
+            }
+            t
+        };
+        use rayon::prelude::*;
+        tasks.par_iter().map(|task| task()).collect::<Result<Vec<()>>>()?;
+        // run.json last: its presence marks a complete run.
+        camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
+        Ok(())
+    }
+}
