@@ -1,0 +1,175 @@
+"""camsim: a digital camera simulated end to end, on numpy arrays.
+
+The scene's spectral radiance (2D charts or path-traced 3D scenes) -> the optics (sensor-plane
+spectral irradiance) -> the image sensor (raw ADC values, with its noise) -> an ISP preview, plus
+the analyses that compare a simulation with a real camera (SFR/MTF, chart and ROI statistics,
+QE fits). The computing is done by camsim's Rust library with the GIL released.
+
+    import camsim
+    sim = camsim.simulate(camsim.presets.simulate())       # the built-in default
+    sim.raw.shape, sim.cfa, sim.black_level                  # (frames, rows, cols) uint16
+    sim.irradiance.shape, sim.wavelengths_nm                 # (bands, rows, cols) float32
+
+Configs are plain dicts (as in camsim's TOML files; see README "Config reference"), TOML text, or
+a path to a TOML file or a run.json. Errors raise camsim.CamsimError with camsim's message.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _camsim
+from ._camsim import CamsimError, Simulation
+from . import presets
+
+__version__ = _camsim.__version__
+
+__all__ = [
+    "CamsimError",
+    "Simulation",
+    "simulate",
+    "scene",
+    "render",
+    "optics",
+    "sensor",
+    "demosaic",
+    "sfr",
+    "roi",
+    "chart",
+    "fit_qe",
+    "read_dng",
+    "load_config",
+    "presets",
+]
+
+Config = Union[Dict[str, Any], str, "os.PathLike[str]"]
+
+
+def load_config(config: Config) -> Dict[str, Any]:
+    """A simulate config as a dict, from a dict (checked and completed with every default), TOML
+    text, or the path of a TOML file or a run.json (its relative paths resolved)."""
+    if isinstance(config, dict):
+        # Through camsim's own parser: unknown keys and wrong types are refused with their name,
+        # defaults are filled in.
+        return json.loads(_camsim.config_from_json(json.dumps(config)))
+    if isinstance(config, os.PathLike) or (isinstance(config, str) and "\n" not in config and "=" not in config):
+        return json.loads(_camsim.config_from_file(os.fspath(config)))
+    if isinstance(config, str):
+        return json.loads(_camsim.config_from_toml(config))
+    raise TypeError(f"config must be a dict, TOML text or a path, not {type(config).__name__}")
+
+
+def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = None) -> Simulation:
+    """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance,
+    irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
+    uint16, with cfa, black_level, white_level), preview ((rows, cols, 3) uint8), depth,
+    noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
+    `camsim simulate` give the same raw values, bit for bit."""
+    cfg = load_config(config)
+    if seed is not None:
+        cfg["seed"] = int(seed)
+    return _camsim.simulate_json(json.dumps(cfg), noise_free)
+
+
+def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]:
+    if wavelengths_nm is None:
+        return 400.0, 10.0, 31
+    w = np.asarray(wavelengths_nm, dtype=float)
+    if w.ndim != 1 or len(w) == 0:
+        raise CamsimError("wavelengths_nm must be a non-empty 1-D sequence")
+    step = float(w[1] - w[0]) if len(w) > 1 else 10.0
+    return float(w[0]), step, len(w)
+
+
+def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[float]] = None) -> Dict[str, Any]:
+    """Stage 1, a 2D chart: a [scene] table as a dict (kind = "macbeth", "uniform",
+    "slanted_edge", "file") or a preset name (the same kinds with defaults). Returns a dict:
+    radiance (bands, rows, cols) float32 W/(sr m^2 nm), wavelengths_nm, spacing_m, fov_deg,
+    distance_m, depth_m (None), units."""
+    if isinstance(config, str):
+        config = {"kind": config}
+    start, step, count = _grid(wavelengths_nm)
+    return _camsim.scene(json.dumps(config), start, step, count)
+
+
+def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolution: Optional[Tuple[int, int]] = None,
+           samples_per_pixel: Optional[int] = None, seed: int = 1,
+           wavelengths_nm: Optional[Sequence[float]] = None) -> Dict[str, Any]:
+    """Stage 1, a 3D scene: path-trace a built-in scene ("cornell-box", "cornell-box-mcc",
+    "slanted-edge") or a pbrt-v4 file. resolution = (width, height). Returns a dict like scene()'s,
+    with depth_m (rows, cols) float32 m."""
+    start, step, count = _grid(wavelengths_nm)
+    return _camsim.render(builtin, None if pbrt is None else os.fspath(pbrt), resolution, samples_per_pixel, seed, start, step, count)
+
+
+def _spec(x: Union[str, Dict[str, Any]]) -> str:
+    return json.dumps(x) if isinstance(x, dict) else os.fspath(x)
+
+
+def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union[str, Dict[str, Any]] = "pixel4a",
+           spacing_m: float = 0.0, distance_m: float = 0.0, fov_deg: float = 0.0,
+           depth_m: Optional[np.ndarray] = None) -> Dict[str, Any]:
+    """Stage 2: spectral radiance (bands, rows, cols) -> sensor-plane irradiance. lens: a preset
+    name ("pixel4a", "diffraction-limited"), a lens TOML path, or a dict (camsim.presets.lens()).
+    The scene's scale: spacing_m (scene sample spacing at distance_m), or fov_deg for a scene at
+    infinity (distance_m = 0). Returns a dict: irradiance (bands, rows', cols') float32 W/(m^2 nm),
+    wavelengths_nm, spacing_m (in the sensor plane), ..."""
+    r = np.ascontiguousarray(radiance, dtype=np.float32)
+    d = None if depth_m is None else np.ascontiguousarray(depth_m, dtype=np.float32)
+    return _camsim.optics(r, [float(w) for w in wavelengths_nm], _spec(lens), float(spacing_m), float(distance_m), float(fov_deg), d)
+
+
+def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: float, *,
+           sensor: Union[str, Dict[str, Any]] = "pixel4a", exposure_s: Optional[float] = None, seed: int = 1,
+           frames: int = 1, rows: Optional[int] = None, cols: Optional[int] = None) -> Dict[str, Any]:
+    """Stage 3: sensor-plane irradiance (bands, rows, cols) at spacing_m -> raw frames. sensor: a
+    preset ("pixel4a", "imx363"), a sensor TOML path, or a dict (camsim.presets.sensor()).
+    exposure_s None: auto-exposure. rows/cols: a centred window of the sensor. Returns a dict: raw
+    (frames, rows, cols) uint16, cfa, black_level, white_level, bits, exposure_s, mean_electrons_rgb."""
+    e = np.ascontiguousarray(irradiance, dtype=np.float32)
+    return _camsim.sensor(e, [float(w) for w in wavelengths_nm], float(spacing_m), _spec(sensor), exposure_s, seed, frames, rows, cols)
+
+
+def demosaic(raw: np.ndarray, cfa: str = "RGGB", *, bits: int = 12, black_level: float = 0.0) -> np.ndarray:
+    """Bilinear demosaic of a raw mosaic (rows, cols) -> (rows, cols, 3) float32, black level
+    subtracted (DN)."""
+    return _camsim.demosaic(np.ascontiguousarray(raw, dtype=np.uint16), cfa, bits, black_level)
+
+
+def sfr(raw: np.ndarray, cfa: str = "RGGB", *, channel: str = "G", roi: Optional[Tuple[int, int, int, int]] = None,
+        pitch_um: Optional[float] = None, bits: int = 12, black_level: float = 0.0) -> Dict[str, Any]:
+    """ISO 12233 slanted-edge SFR of a raw capture's channel ("R", "G", "B") or of its
+    demosaicked luminance ("luminance"). roi = (row, col, rows, cols). Frequencies in cycles per
+    sensor pixel (and cycles/mm with pitch_um)."""
+    return json.loads(_camsim.sfr_json(np.ascontiguousarray(raw, dtype=np.uint16), cfa, channel, roi, pitch_um, bits, black_level))
+
+
+def roi(raw: np.ndarray, rects: Sequence[Tuple[int, int, int, int]], cfa: str = "RGGB", *, bits: int = 12,
+        black_level: float = 0.0) -> List[Dict[str, Any]]:
+    """Per-channel mean, standard deviation and counts of raw regions (row, col, rows, cols)."""
+    return json.loads(_camsim.roi_json(np.ascontiguousarray(raw, dtype=np.uint16), list(rects), cfa, bits, black_level))
+
+
+def chart(raw: np.ndarray, corners: Sequence[Tuple[float, float]], cfa: str = "RGGB", *, fraction: float = 0.5,
+          bits: int = 12, black_level: float = 0.0) -> List[Dict[str, Any]]:
+    """ColorChecker patch statistics of a raw capture; corners [x, y] in pixels: top-left (dark
+    skin), top-right, bottom-right, bottom-left; fraction: the central part of each patch used."""
+    c = [(float(x), float(y)) for x, y in corners]
+    return json.loads(_camsim.chart_json(np.ascontiguousarray(raw, dtype=np.uint16), c, cfa, fraction, bits, black_level))
+
+
+def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "full") -> Dict[str, Any]:
+    """The 3 x 3 QE correction matrix M (the paper's eq. 2) from measured and predicted channel
+    responses, (n, 3) each."""
+    m = [tuple(map(float, r)) for r in np.asarray(measured, dtype=float)]
+    p = [tuple(map(float, r)) for r in np.asarray(predicted, dtype=float)]
+    return json.loads(_camsim.fit_qe_json(m, p, form))
+
+
+def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
+    """Read a raw DNG: raw (rows, cols) uint16, cfa, black_level, white_level, bits."""
+    return _camsim.read_dng(os.fspath(path))

@@ -1,0 +1,540 @@
+//! The compiled part of the `camsim` Python package (`camsim._camsim`): the pipeline and each stage
+//! on numpy arrays. The Python layer (`python/camsim/__init__.py`) turns configs given as dicts,
+//! TOML text or paths into JSON for these functions, and results into dicts.
+//!
+//! Every function releases the GIL while it computes; every camsim error becomes a
+//! `camsim.CamsimError` carrying camsim's message (a panic becomes a Python exception too).
+
+use camsim::analysis::chart::{chart_patch_stats_raw, ChartCorners};
+use camsim::analysis::image::{Plane, Rect};
+use camsim::analysis::qefit::{fit_qe_matrix, MatrixForm};
+use camsim::analysis::roi::roi_stats_raw;
+use camsim::analysis::sfr::{sfr_luminance, sfr_raw_channel, SfrOptions};
+use camsim::core::image::ImageGeometry;
+use camsim::core::{CfaChannel, CfaPattern, Quantity, RawImage, SpectralImage, WavelengthGrid};
+use camsim::optics::{Optics, OpticsConfig};
+use camsim::sensor::{Capture, Exposure, Sensor, SensorConfig};
+use camsim::{ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions, Simulation};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+create_exception!(_camsim, CamsimError, PyException, "An error reported by camsim (bad input, a file it cannot read, ...).");
+
+fn err(e: impl std::fmt::Display) -> PyErr {
+    CamsimError::new_err(e.to_string())
+}
+
+/// A Python object from JSON text (through the `json` module: plain dicts, lists, numbers).
+fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (value.to_string(),))
+}
+
+fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyAny> {
+    PyArray1::from_slice(py, v).into_any()
+}
+
+fn array_f32<'py>(py: Python<'py>, v: &[f32], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_slice(py, v).reshape(shape)?.into_any())
+}
+
+fn array_u16<'py>(py: Python<'py>, v: &[u16], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+    Ok(PyArray1::from_slice(py, v).reshape(shape)?.into_any())
+}
+
+fn wavelengths(img: &SpectralImage) -> Vec<f64> {
+    (0..img.bands()).map(|b| img.grid.wavelength_nm(b)).collect()
+}
+
+/// A spectral image as a dict: `key` -> (bands, rows, cols) float32, `wavelengths_nm`,
+/// `spacing_m`, `fov_deg`, `distance_m`, `depth_m` ((rows, cols) or None), `units`.
+fn spectral_dict<'py>(py: Python<'py>, img: &SpectralImage, key: &str) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item(key, array_f32(py, &img.data, &[img.bands(), img.rows, img.cols])?)?;
+    d.set_item("wavelengths_nm", array1(py, &wavelengths(img)))?;
+    d.set_item("spacing_m", img.sample_spacing_m)?;
+    d.set_item("fov_deg", img.geometry.fov_deg)?;
+    d.set_item("distance_m", img.geometry.distance_m)?;
+    d.set_item("units", img.quantity.unit())?;
+    match &img.depth_m {
+        Some(z) => d.set_item("depth_m", array_f32(py, z, &[img.rows, img.cols])?)?,
+        None => d.set_item("depth_m", py.None())?,
+    }
+    Ok(d)
+}
+
+/// A (bands, rows, cols) float32 array and its wavelengths as a SpectralImage.
+fn spectral_from(
+    data: PyReadonlyArray3<'_, f32>,
+    wavelengths_nm: Vec<f64>,
+    spacing_m: f64,
+    quantity: Quantity,
+    geometry: ImageGeometry,
+) -> PyResult<SpectralImage> {
+    let shape = data.shape().to_vec();
+    if shape[0] != wavelengths_nm.len() {
+        return Err(err(format!("the array has {} bands (axis 0) but {} wavelengths were given", shape[0], wavelengths_nm.len())));
+    }
+    let grid = WavelengthGrid::from_wavelengths(&wavelengths_nm).map_err(err)?;
+    let values = data.as_array().iter().copied().collect::<Vec<f32>>();
+    let mut img = SpectralImage::from_data(shape[1], shape[2], grid, spacing_m, quantity, values).map_err(err)?;
+    img.validate_values(quantity.name()).map_err(err)?;
+    img.geometry = geometry;
+    Ok(img)
+}
+
+fn raw_from(raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<RawImage> {
+    let shape = raw.shape().to_vec();
+    let mut img = RawImage::new(shape[0], shape[1], CfaPattern::parse(cfa).map_err(err)?, bits).map_err(err)?;
+    img.dn = raw.as_array().iter().copied().collect();
+    img.black_level_dn = black_level;
+    Ok(img)
+}
+
+fn lens_from(lens: &str) -> PyResult<OpticsConfig> {
+    if lens.trim_start().starts_with('{') {
+        serde_json::from_str(lens).map_err(|e| err(format!("lens: {e}")))
+    } else {
+        camsim::pipeline::load_lens(lens).map_err(err)
+    }
+}
+
+fn sensor_from(sensor: &str) -> PyResult<Sensor> {
+    if sensor.trim_start().starts_with('{') {
+        let c: SensorConfig = serde_json::from_str(sensor).map_err(|e| err(format!("sensor: {e}")))?;
+        Sensor::from_config_named(c, "the sensor dict").map_err(err)
+    } else {
+        camsim::pipeline::load_sensor(sensor).map_err(err)
+    }
+}
+
+/// The result of `simulate`: every stage's image as numpy arrays, and the run's metadata.
+#[pyclass(module = "camsim._camsim", name = "Simulation", frozen)]
+struct PySimulation {
+    inner: Simulation,
+}
+
+#[pymethods]
+impl PySimulation {
+    /// Scene spectral radiance, (bands, rows, cols) float32, W/(sr m^2 nm).
+    #[getter]
+    fn radiance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let r = &self.inner.radiance;
+        array_f32(py, &r.data, &[r.bands(), r.rows, r.cols])
+    }
+    /// Band centres of radiance and irradiance, nm.
+    #[getter]
+    fn wavelengths_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        array1(py, &wavelengths(&self.inner.radiance))
+    }
+    /// Scene sample spacing, m (at the scene's distance; see metadata for the geometry).
+    #[getter]
+    fn radiance_spacing_m(&self) -> f64 {
+        self.inner.radiance.sample_spacing_m
+    }
+    /// Sensor-plane spectral irradiance, (bands, rows, cols) float32, W/(m^2 nm).
+    #[getter]
+    fn irradiance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let r = &self.inner.irradiance;
+        array_f32(py, &r.data, &[r.bands(), r.rows, r.cols])
+    }
+    /// Irradiance sample spacing in the sensor plane, m.
+    #[getter]
+    fn irradiance_spacing_m(&self) -> f64 {
+        self.inner.irradiance.sample_spacing_m
+    }
+    /// Depth map of a 3D scene, (rows, cols) float32 m, or None.
+    #[getter]
+    fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.radiance;
+        r.depth_m.as_ref().map(|z| array_f32(py, z, &[r.rows, r.cols])).transpose()
+    }
+    /// Raw frames, (frames, rows, cols) uint16 ADC values (DN).
+    #[getter]
+    fn raw<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let f = &self.inner.frames;
+        let all: Vec<u16> = f.iter().flat_map(|r| r.dn.iter().copied()).collect();
+        array_u16(py, &all, &[f.len(), f[0].rows, f[0].cols])
+    }
+    /// CFA pattern of the raw frames ("RGGB", ...).
+    #[getter]
+    fn cfa(&self) -> &'static str {
+        self.inner.frames[0].cfa.name()
+    }
+    /// Black level, DN.
+    #[getter]
+    fn black_level(&self) -> f64 {
+        self.inner.frames[0].black_level_dn
+    }
+    /// White level (saturation), DN.
+    #[getter]
+    fn white_level(&self) -> f64 {
+        self.inner.frames[0].white_level_dn
+    }
+    /// ADC bits.
+    #[getter]
+    fn bits(&self) -> u32 {
+        self.inner.frames[0].bits
+    }
+    /// Exposure time used, s.
+    #[getter]
+    fn exposure_s(&self) -> f64 {
+        self.inner.exposure_s
+    }
+    /// The expected ADC value per pixel without noise or quantization, (rows, cols) float32 DN;
+    /// None unless simulate(..., noise_free=True).
+    #[getter]
+    fn noise_free<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.frames[0];
+        self.inner.noise_free_dn.as_ref().map(|v| array_f32(py, v, &[r.rows, r.cols])).transpose()
+    }
+    /// sRGB preview, (rows, cols, 3) uint8.
+    #[getter]
+    fn preview<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let p = &self.inner.preview;
+        Ok(PyArray1::from_slice(py, &p.data).reshape([p.rows, p.cols, 3])?.into_any())
+    }
+    /// The run's record as a dict (what run.json holds: configs, results, times).
+    #[getter]
+    fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &self.inner.metadata(&RunInfo::default(), &OutputSet::default()))
+    }
+    /// The effective config as a dict (pass it back to simulate to repeat the run).
+    #[getter]
+    fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_to_py(py, &serde_json::to_value(&self.inner.config).map_err(err)?)
+    }
+    /// Write files into folder `dir` as `camsim simulate --save` does (atomically as a whole).
+    #[pyo3(signature = (dir, save = "default", exr_precision = "f32", exr_compression = "none"))]
+    fn write(&self, py: Python<'_>, dir: std::path::PathBuf, save: &str, exr_precision: &str, exr_compression: &str) -> PyResult<()> {
+        let outputs = OutputSet::parse(save).map_err(err)?;
+        let precision = match exr_precision {
+            "f32" => ExrPrecision::F32,
+            "f16" => ExrPrecision::F16,
+            o => return Err(err(format!("exr_precision {o:?}: f32 or f16"))),
+        };
+        let compression = match exr_compression {
+            "none" => ExrCompression::None,
+            "rle" => ExrCompression::Rle,
+            "zip" => ExrCompression::Zip,
+            "zips" => ExrCompression::Zips,
+            "piz" => ExrCompression::Piz,
+            o => return Err(err(format!("exr_compression {o:?}: none, rle, zip, zips or piz"))),
+        };
+        if outputs.contains(camsim::Output::NoiseFree) && self.inner.noise_free_dn.is_none() {
+            return Err(err("save noise-free needs simulate(..., noise_free=True)"));
+        }
+        py.detach(|| self.inner.write(&dir, &outputs, ExrOptions { precision, compression }, &RunInfo::default())).map_err(err)
+    }
+    fn __repr__(&self) -> String {
+        let r = &self.inner.frames[0];
+        format!(
+            "camsim.Simulation({} frame(s) {} x {} {}, exposure {:.4} s, radiance {} bands)",
+            self.inner.frames.len(),
+            r.rows,
+            r.cols,
+            r.cfa.name(),
+            self.inner.exposure_s,
+            self.inner.radiance.bands()
+        )
+    }
+}
+
+/// Run the whole pipeline on a config given as JSON (a SimulateConfig).
+#[pyfunction]
+#[pyo3(signature = (config_json, noise_free = false))]
+fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResult<PySimulation> {
+    let cfg: SimulateConfig = serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
+    cfg.check_scene_source().map_err(err)?;
+    let sim = py.detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {})).map_err(err)?;
+    Ok(PySimulation { inner: sim })
+}
+
+/// A SimulateConfig from TOML text, as JSON.
+#[pyfunction]
+fn config_from_toml(text: &str) -> PyResult<String> {
+    let cfg = SimulateConfig::from_toml_str(text).map_err(err)?;
+    serde_json::to_string(&cfg).map_err(err)
+}
+
+/// A SimulateConfig from JSON (checked, every default filled in), as JSON.
+#[pyfunction]
+fn config_from_json(text: &str) -> PyResult<String> {
+    let cfg: SimulateConfig = serde_json::from_str(text).map_err(|e| err(format!("config: {e}")))?;
+    cfg.check_scene_source().map_err(err)?;
+    serde_json::to_string(&cfg).map_err(err)
+}
+
+/// A SimulateConfig from a file (TOML, or a run.json), its relative paths resolved, as JSON.
+#[pyfunction]
+fn config_from_file(path: std::path::PathBuf) -> PyResult<String> {
+    let cfg = SimulateConfig::load(&path).map_err(err)?;
+    serde_json::to_string(&cfg).map_err(err)
+}
+
+/// Presets as JSON: kind "simulate" (the built-in default config), "sensor" or "lens".
+#[pyfunction]
+#[pyo3(signature = (kind, name = None))]
+fn preset_json(kind: &str, name: Option<&str>) -> PyResult<String> {
+    match (kind, name) {
+        ("simulate", _) => serde_json::to_string(&SimulateConfig::builtin_default()).map_err(err),
+        ("sensor", Some(n)) => serde_json::to_string(Sensor::preset(n).map_err(err)?.config()).map_err(err),
+        ("lens", Some(n)) => serde_json::to_string(&OpticsConfig::preset(n).map_err(err)?).map_err(err),
+        _ => Err(err(format!("unknown preset kind {kind:?} (simulate, sensor NAME, lens NAME)"))),
+    }
+}
+
+/// Stage 1, a 2D chart: scene config JSON (a `[scene]` table) and the wavelength grid
+/// (start_nm, step_nm, count) -> dict with `radiance`.
+#[pyfunction]
+#[pyo3(signature = (scene_json, start_nm = 400.0, step_nm = 10.0, count = 31))]
+fn scene<'py>(py: Python<'py>, scene_json: &str, start_nm: f64, step_nm: f64, count: usize) -> PyResult<Bound<'py, PyDict>> {
+    let cfg: camsim::scene::SceneConfig = serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
+    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
+    let img = py
+        .detach(|| -> Result<SpectralImage, String> {
+            match &cfg {
+                camsim::scene::SceneConfig::File(f) => {
+                    let img = camsim::io::exr::read_spectral_exr(&f.path).map_err(|e| e.to_string())?;
+                    camsim::scene::from_image(f, img).map_err(|e| e.to_string())
+                }
+                c => camsim::scene::create(c, &grid).map_err(|e| e.to_string()),
+            }
+        })
+        .map_err(err)?;
+    spectral_dict(py, &img, "radiance")
+}
+
+/// Stage 1, a 3D scene: a built-in scene or a pbrt-v4 file, path traced -> dict with `radiance`
+/// (and `depth_m`).
+#[pyfunction]
+#[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    builtin: Option<&str>,
+    pbrt: Option<std::path::PathBuf>,
+    resolution: Option<(usize, usize)>,
+    samples_per_pixel: Option<u32>,
+    seed: u64,
+    start_nm: f64,
+    step_nm: f64,
+    count: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
+    let mut opts = camsim::render::builtin::BuiltinOptions { grid, seed, resolution, ..Default::default() };
+    if let Some(spp) = samples_per_pixel {
+        opts.samples_per_pixel = spp;
+    }
+    let builtin = builtin.map(str::to_string);
+    let out = py
+        .detach(|| -> camsim::Result<camsim::render::RenderOutput> {
+            let mut scene = camsim::pipeline::render::load_scene(builtin.as_deref(), pbrt.as_deref(), None, &opts)?;
+            if let Some(spp) = samples_per_pixel {
+                scene.settings.samples_per_pixel = spp;
+            }
+            camsim::pipeline::render::render_scene(&scene, &|_, _, _| {})
+        })
+        .map_err(err)?;
+    spectral_dict(py, &out.radiance, "radiance")
+}
+
+/// Stage 2: radiance (bands, rows, cols) -> dict with `irradiance`.
+#[pyfunction]
+#[pyo3(signature = (radiance, wavelengths_nm, lens = "pixel4a", spacing_m = 0.0, distance_m = 0.0, fov_deg = 0.0, depth_m = None))]
+#[allow(clippy::too_many_arguments)]
+fn optics<'py>(
+    py: Python<'py>,
+    radiance: PyReadonlyArray3<'_, f32>,
+    wavelengths_nm: Vec<f64>,
+    lens: &str,
+    spacing_m: f64,
+    distance_m: f64,
+    fov_deg: f64,
+    depth_m: Option<PyReadonlyArray2<'_, f32>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let geometry = ImageGeometry { fov_deg, distance_m, focal_length_m: 0.0, f_number: 0.0 };
+    let spacing = if spacing_m > 0.0 { spacing_m } else { 1.0 };
+    let mut img = spectral_from(radiance, wavelengths_nm, spacing, Quantity::Radiance, geometry)?;
+    if let Some(z) = depth_m {
+        img.depth_m = Some(z.as_array().iter().copied().collect());
+    }
+    let optics = Optics::from_config(&lens_from(lens)?).map_err(err)?;
+    let out = py.detach(|| optics.compute(&img)).map_err(err)?;
+    spectral_dict(py, &out, "irradiance")
+}
+
+/// Stage 3: irradiance (bands, rows, cols) -> dict with `raw` (frames, rows, cols) uint16.
+#[pyfunction]
+#[pyo3(signature = (irradiance, wavelengths_nm, spacing_m, sensor = "pixel4a", exposure_s = None, seed = 1, frames = 1, rows = None, cols = None))]
+#[allow(clippy::too_many_arguments)]
+fn sensor<'py>(
+    py: Python<'py>,
+    irradiance: PyReadonlyArray3<'_, f32>,
+    wavelengths_nm: Vec<f64>,
+    spacing_m: f64,
+    sensor: &str,
+    exposure_s: Option<f64>,
+    seed: u64,
+    frames: usize,
+    rows: Option<usize>,
+    cols: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let img = spectral_from(irradiance, wavelengths_nm, spacing_m, Quantity::Irradiance, ImageGeometry::default())?;
+    let mut s = sensor_from(sensor)?;
+    if rows.is_some() || cols.is_some() {
+        s = s.window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols())).map_err(err)?;
+    }
+    if frames == 0 {
+        return Err(err("frames must be at least 1"));
+    }
+    let exposure = match exposure_s {
+        Some(t) if !(t >= 0.0 && t.is_finite()) => return Err(err(format!("exposure_s = {t}: must be >= 0"))),
+        Some(t) => Exposure::Seconds(t),
+        None => Capture::auto().exposure,
+    };
+    let cap = Capture { exposure, frames, seed };
+    let f = py.detach(|| s.compute(&img, &cap)).map_err(err)?;
+    let r0 = &f.raw[0];
+    let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
+    let d = PyDict::new(py);
+    d.set_item("raw", array_u16(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
+    d.set_item("cfa", r0.cfa.name())?;
+    d.set_item("black_level", r0.black_level_dn)?;
+    d.set_item("white_level", r0.white_level_dn)?;
+    d.set_item("bits", r0.bits)?;
+    d.set_item("exposure_s", f.exposure_s)?;
+    d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
+    Ok(d)
+}
+
+/// Bilinear demosaic of a raw mosaic (rows, cols) uint16 -> (rows, cols, 3) float32 DN (black
+/// level subtracted).
+#[pyfunction]
+#[pyo3(signature = (raw, cfa = "RGGB", bits = 12, black_level = 0.0))]
+fn demosaic<'py>(py: Python<'py>, raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<Bound<'py, PyAny>> {
+    let img = raw_from(raw, cfa, bits, black_level)?;
+    let rgb = py.detach(|| camsim::isp::try_demosaic_bilinear(&img)).map_err(err)?;
+    let mut out = Vec::with_capacity(rgb.rows * rgb.cols * 3);
+    for i in 0..rgb.rows * rgb.cols {
+        out.extend_from_slice(&[rgb.r[i], rgb.g[i], rgb.b[i]]);
+    }
+    array_f32(py, &out, &[rgb.rows, rgb.cols, 3])
+}
+
+fn rect(r: Option<(usize, usize, usize, usize)>) -> Option<Rect> {
+    r.map(|(row, col, rows, cols)| Rect::new(row, col, rows, cols))
+}
+
+/// ISO 12233 slanted-edge SFR of one raw channel ("R", "G", "B") or of the demosaicked
+/// luminance ("luminance"); roi = (row, col, rows, cols). Returns the result as JSON.
+#[pyfunction]
+#[pyo3(signature = (raw, cfa = "RGGB", channel = "G", roi = None, pitch_um = None, bits = 12, black_level = 0.0))]
+#[allow(clippy::too_many_arguments)]
+fn sfr_json(
+    py: Python<'_>,
+    raw: PyReadonlyArray2<'_, u16>,
+    cfa: &str,
+    channel: &str,
+    roi: Option<(usize, usize, usize, usize)>,
+    pitch_um: Option<f64>,
+    bits: u32,
+    black_level: f64,
+) -> PyResult<String> {
+    let img = raw_from(raw, cfa, bits, black_level)?;
+    let opts = SfrOptions { pixel_pitch_mm: pitch_um.map(|p| p * 1e-3), ..SfrOptions::default() };
+    let ch = match channel {
+        "R" | "r" => Some(CfaChannel::R),
+        "G" | "g" => Some(CfaChannel::G),
+        "B" | "b" => Some(CfaChannel::B),
+        "luminance" => None,
+        o => return Err(err(format!("channel {o:?}: R, G, B or luminance"))),
+    };
+    let res = py
+        .detach(|| -> Result<_, String> {
+            match ch {
+                Some(c) => sfr_raw_channel(&img, c, rect(roi), &opts).map_err(|e| e.to_string()),
+                None => {
+                    let rgb = camsim::isp::try_demosaic_bilinear(&img).map_err(|e| e.to_string())?;
+                    let planes = [
+                        Plane::new(rgb.rows, rgb.cols, rgb.r).map_err(|e| e.to_string())?,
+                        Plane::new(rgb.rows, rgb.cols, rgb.g).map_err(|e| e.to_string())?,
+                        Plane::new(rgb.rows, rgb.cols, rgb.b).map_err(|e| e.to_string())?,
+                    ];
+                    sfr_luminance(&planes, camsim::analysis::image::LUMINANCE_WEIGHTS_REC709, rect(roi), &opts).map_err(|e| e.to_string())
+                }
+            }
+        })
+        .map_err(err)?;
+    serde_json::to_string(&res).map_err(err)
+}
+
+/// Per-channel statistics of raw regions [(row, col, rows, cols), ...], as JSON.
+#[pyfunction]
+#[pyo3(signature = (raw, rects, cfa = "RGGB", bits = 12, black_level = 0.0))]
+fn roi_json(raw: PyReadonlyArray2<'_, u16>, rects: Vec<(usize, usize, usize, usize)>, cfa: &str, bits: u32, black_level: f64) -> PyResult<String> {
+    let img = raw_from(raw, cfa, bits, black_level)?;
+    let rects: Vec<Rect> = rects.into_iter().map(|(r, c, h, w)| Rect::new(r, c, h, w)).collect();
+    serde_json::to_string(&roi_stats_raw(&img, &rects).map_err(err)?).map_err(err)
+}
+
+/// ColorChecker patch statistics of a raw capture, chart corners [x, y] in the order top-left
+/// (dark skin), top-right, bottom-right, bottom-left; as JSON.
+#[pyfunction]
+#[pyo3(signature = (raw, corners, cfa = "RGGB", fraction = 0.5, bits = 12, black_level = 0.0))]
+fn chart_json(raw: PyReadonlyArray2<'_, u16>, corners: [[f64; 2]; 4], cfa: &str, fraction: f64, bits: u32, black_level: f64) -> PyResult<String> {
+    let img = raw_from(raw, cfa, bits, black_level)?;
+    let c = ChartCorners { top_left: corners[0], top_right: corners[1], bottom_right: corners[2], bottom_left: corners[3] };
+    serde_json::to_string(&chart_patch_stats_raw(&img, &c, fraction).map_err(err)?).map_err(err)
+}
+
+/// The 3 x 3 QE correction matrix M (the paper's eq. 2) from measured and predicted channel
+/// responses, (n, 3) each; form "full" or "diagonal"... as JSON.
+#[pyfunction]
+#[pyo3(signature = (measured, predicted, form = "full"))]
+fn fit_qe_json(measured: Vec<[f64; 3]>, predicted: Vec<[f64; 3]>, form: &str) -> PyResult<String> {
+    let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into())).map_err(|e| err(format!("form {form:?}: {e}")))?;
+    serde_json::to_string(&fit_qe_matrix(&measured, &predicted, form).map_err(err)?).map_err(err)
+}
+
+/// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
+#[pyfunction]
+fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let (r, _) = py.detach(|| camsim::io::dng::read_dng(&path)).map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("raw", array_u16(py, &r.dn, &[r.rows, r.cols])?)?;
+    d.set_item("cfa", r.cfa.name())?;
+    d.set_item("black_level", r.black_level_dn)?;
+    d.set_item("white_level", r.white_level_dn)?;
+    d.set_item("bits", r.bits)?;
+    Ok(d)
+}
+
+#[pymodule]
+fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("CamsimError", m.py().get_type::<CamsimError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<PySimulation>()?;
+    for f in [
+        wrap_pyfunction!(simulate_json, m)?,
+        wrap_pyfunction!(config_from_toml, m)?,
+        wrap_pyfunction!(config_from_file, m)?,
+        wrap_pyfunction!(config_from_json, m)?,
+        wrap_pyfunction!(preset_json, m)?,
+        wrap_pyfunction!(scene, m)?,
+        wrap_pyfunction!(render, m)?,
+        wrap_pyfunction!(optics, m)?,
+        wrap_pyfunction!(sensor, m)?,
+        wrap_pyfunction!(demosaic, m)?,
+        wrap_pyfunction!(sfr_json, m)?,
+        wrap_pyfunction!(roi_json, m)?,
+        wrap_pyfunction!(chart_json, m)?,
+        wrap_pyfunction!(fit_qe_json, m)?,
+        wrap_pyfunction!(read_dng, m)?,
+    ] {
+        m.add_function(f)?;
+    }
+    Ok(())
+}
