@@ -155,7 +155,7 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     // The corrected sensor: compose with any correction it already has.
     let mut cfg = sensor.config().clone();
     let m = match cfg.qe_correction {
-        Some(old) => mat_mul(&old, &fit.m),
+        Some(old) => camsim_isp::color::mat3_mul(&old, &fit.m),
         None => fit.m,
     };
     cfg.qe_correction = Some(m);
@@ -172,16 +172,6 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     ));
     common::commit(staged)?;
     Ok(())
-}
-
-fn mat_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    let mut m = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            m[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
 }
 
 pub fn run(c: Command) -> Result<()> {
