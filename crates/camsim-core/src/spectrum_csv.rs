@@ -254,41 +254,6 @@ fn parse_number(field: &str, path: &Path, line: usize, column: usize) -> Result<
     }
 }
 
-/// The records of CSV `text`, each with its 1-based line: fields trimmed, RFC 4180 quoting
-/// (`"a,b"` is one field, `""` inside quotes one quote), `#` comment lines (indented ones too) and
-/// blank lines skipped. A malformed record is an error naming `path` and its line.
-fn csv_records(text: &str, path: &Path) -> Result<Vec<(usize, csv::StringRecord)>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
-    let mut out = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(1, |p| p.line() as usize);
-            line_err(path, line, format!("not readable as CSV: {}", csv_error_message(&e)))
-        })?;
-        let line = record.position().map_or(1, |p| p.line() as usize);
-        let blank = record.len() == 1 && record[0].is_empty();
-        if blank || record.get(0).is_some_and(|f| f.starts_with('#')) {
-            continue;
-        }
-        out.push((line, record));
-    }
-    Ok(out)
-}
-
-/// What went wrong in a [`csv::Error`], without its position (the messages give the line).
-fn csv_error_message(e: &csv::Error) -> String {
-    match e.kind() {
-        csv::ErrorKind::Utf8 { err, .. } => format!("not UTF-8 text ({err})"),
-        csv::ErrorKind::Io(e) => e.to_string(),
-        _ => e.to_string(),
-    }
-}
-
 /// Parse CSV spectra from `text`; `path` names the source in errors (a file, or e.g.
 /// `"<built-in imx363>"`). A header row is required unless the first row is all numbers, in which
 /// case the columns are named `data_1..n`. Fields may be double-quoted (RFC 4180).
@@ -298,7 +263,9 @@ pub fn parse_spectra_csv(text: &str, path: &Path) -> Result<SpectraTable> {
     let mut ncols = 0usize;
     let mut wavelengths_nm = Vec::new();
     let mut columns: Vec<Vec<f64>> = Vec::new();
-    for (line_no, record) in csv_records(text, path)? {
+    let records = crate::csv_records::records(text.as_bytes(), true)
+        .map_err(|(line, e)| line_err(path, line, crate::csv_records::error_message(&e)))?;
+    for (line_no, record) in records {
         let fields: Vec<&str> = record.iter().collect();
         if names.is_none() {
             if fields.len() < 2 {
@@ -577,6 +544,7 @@ mod tests {
             ("w,a\n400,1\n410,nan\n", 3, "finite"),
             ("w,a\n400,1\n410,1,2\n", 3, "ragged"),
             ("w,a\n400,1\n410,x\n", 3, "'x'"),
+            ("w,a\n400,1\n\n\n410,x\n", 5, "'x'"),
             ("w,a,a\n400,1,1\n", 1, "twice"),
             ("w,a\n-1,1\n", 2, "positive"),
             ("w\n400\n", 1, "at least one"),
