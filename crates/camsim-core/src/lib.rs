@@ -8,6 +8,7 @@
 //! ISETCam MATLAB v5) and keyed random streams that make output independent of thread count.
 
 pub mod colorimetry;
+pub mod csv_records;
 pub mod error;
 pub mod grid;
 pub mod image;

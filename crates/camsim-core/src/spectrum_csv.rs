@@ -256,22 +256,17 @@ fn parse_number(field: &str, path: &Path, line: usize, column: usize) -> Result<
 
 /// Parse CSV spectra from `text`; `path` names the source in errors (a file, or e.g.
 /// `"<built-in imx363>"`). A header row is required unless the first row is all numbers, in which
-/// case the columns are named `data_1..n`.
+/// case the columns are named `data_1..n`. Fields may be double-quoted (RFC 4180).
 pub fn parse_spectra_csv(text: &str, path: &Path) -> Result<SpectraTable> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut names: Option<Vec<String>> = None;
     let mut ncols = 0usize;
     let mut wavelengths_nm = Vec::new();
     let mut columns: Vec<Vec<f64>> = Vec::new();
-    let mut last_line = 0usize;
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        last_line = line_no;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+    let records = crate::csv_records::records(text.as_bytes(), true)
+        .map_err(|(line, e)| line_err(path, line, crate::csv_records::error_message(&e)))?;
+    for (line_no, record) in records {
+        let fields: Vec<&str> = record.iter().collect();
         if names.is_none() {
             if fields.len() < 2 {
                 return Err(line_err(path, line_no, "need a wavelength column and at least one spectrum column, separated by commas"));
@@ -345,7 +340,7 @@ pub fn parse_spectra_csv(text: &str, path: &Path) -> Result<SpectraTable> {
     if wavelengths_nm.is_empty() {
         return Err(line_err(
             path,
-            last_line.max(1),
+            text.lines().count().max(1),
             "a header but no data rows",
         ));
     }
@@ -400,8 +395,10 @@ pub fn format_spectra_csv(table: &SpectraTable, comments: &[&str]) -> Result<Str
     Ok(s)
 }
 
-/// Write `bytes` to `path` atomically: a temporary file in the same folder, flushed, then renamed
-/// over `path`, so a reader never sees a partial file. The temporary file is removed on error.
+/// Write `bytes` to `path` atomically: a uniquely named temporary file in the same folder
+/// (`tempfile`, so concurrent writers never share one), flushed, then renamed over `path`, so a
+/// reader never sees a partial file. The temporary file is removed on error. (camsim-io's
+/// `atomic` module, which the CLI uses, depends on this crate, so it cannot be used here.)
 pub(crate) fn write_atomic_local(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |e: std::io::Error| CoreError::Io {
         path: path.to_path_buf(),
@@ -416,18 +413,21 @@ pub(crate) fn write_atomic_local(path: &Path, bytes: &[u8]) -> Result<()> {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let tmp = dir.join(format!(".{file_name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
+    let prefix = format!(".{file_name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // The permissions of a file created with `File::create` (0o666 less the umask), not
+    // tempfile's private 0o600: the result is an ordinary output file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
+    let mut tmp = builder.tempfile_in(&dir).map_err(io)?;
+    tmp.write_all(bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    // On error the temporary file is removed when `tmp` (or the error holding it) is dropped.
+    tmp.persist(path).map_err(|e| io(e.error))?;
     Ok(())
 }
 
@@ -490,6 +490,27 @@ mod tests {
     }
 
     #[test]
+    fn quoted_fields_comments_and_line_numbers() {
+        // Quoted header names and numbers (as spreadsheets write them), an indented comment, a
+        // comment line holding a quote and a comma, CRLF line ends.
+        let text = "# exported, \"QE\"\r\n\"wavelength_nm\",\"r (QE)\",\"g\"\"x\"\"\"\r\n  # indented\r\n\"400\",0.1,\" 0.2 \"\r\n410,0.3,0.4\r\n";
+        let t = parse_spectra_csv(text, &p()).unwrap();
+        assert_eq!(t.names, vec!["r (QE)", "g\"x\""]);
+        assert_eq!(t.wavelengths_nm, vec![400.0, 410.0]);
+        assert_eq!(t.columns, vec![vec![0.1, 0.3], vec![0.2, 0.4]]);
+        // Lines are counted in the file, comments and blank lines included.
+        let e = parse_spectra_csv("# a\n\n\"w\",\"a\"\n# b\n400,1\n410,\"x,y\"\n", &p()).unwrap_err().to_string();
+        assert!(e.starts_with("t.csv, line 6:") && e.contains("'x,y' is not a number"), "{e}");
+        // A quoted field may hold a comma, but a spectrum's name may not (the writer could not
+        // write it back): a clear error, never a wrong table.
+        let e = parse_spectra_csv("w,\"a,b\"\n400,1\n", &p()).unwrap_err().to_string();
+        assert!(e.contains("t.csv") && e.contains("'a,b'"), "{e}");
+        // An unterminated quote swallows the rest of the file: a ragged row, not a panic.
+        let e = parse_spectra_csv("w,a\n400,\"1\n410,2\n", &p()).unwrap_err().to_string();
+        assert!(e.starts_with("t.csv, line 2:"), "{e}");
+    }
+
+    #[test]
     fn headerless_files_get_generated_names() {
         let t = parse_spectra_csv("400,1\n410,2\n", &p()).unwrap();
         assert_eq!(t.names, vec!["data_1"]);
@@ -523,6 +544,7 @@ mod tests {
             ("w,a\n400,1\n410,nan\n", 3, "finite"),
             ("w,a\n400,1\n410,1,2\n", 3, "ragged"),
             ("w,a\n400,1\n410,x\n", 3, "'x'"),
+            ("w,a\n400,1\n\n\n410,x\n", 5, "'x'"),
             ("w,a,a\n400,1,1\n", 1, "twice"),
             ("w,a\n-1,1\n", 2, "positive"),
             ("w\n400\n", 1, "at least one"),

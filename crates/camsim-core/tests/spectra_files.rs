@@ -158,6 +158,47 @@ fn csv_round_trips_exactly() {
 }
 
 #[test]
+fn concurrent_writers_of_one_file_never_share_a_temporary() {
+    // Threads of one process writing the same file: each write is complete and atomic (the old
+    // temporary name `.<name>.tmp-<pid>` was shared by all threads of the process).
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("same.csv");
+    let tables: Vec<SpectraTable> = (0..8)
+        .map(|k| {
+            let w: Vec<f64> = (0..200).map(|i| 380.0 + i as f64).collect();
+            let c: Vec<f64> = (0..200).map(|i| (k * 1000 + i) as f64).collect();
+            SpectraTable::new(w, vec![format!("t{k}")], vec![c], "t").unwrap()
+        })
+        .collect();
+    std::thread::scope(|s| {
+        for t in &tables {
+            let out = &out;
+            s.spawn(move || {
+                for _ in 0..20 {
+                    write_spectra_csv(out, t).unwrap();
+                }
+            });
+        }
+    });
+    let back = read_spectra_csv(&out).unwrap();
+    assert!(tables.contains(&back));
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "temporary files left"
+    );
+    #[cfg(unix)]
+    {
+        // An ordinary output file (File::create's 0o666 less the umask), not a private temporary.
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        let plain = dir.path().join("plain.txt");
+        std::fs::File::create(&plain).unwrap();
+        assert_eq!(mode(&out), mode(&plain), "{:o}", mode(&out));
+    }
+}
+
+#[test]
 fn writing_an_invalid_table_fails_without_creating_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("bad.csv");

@@ -22,6 +22,16 @@ pub enum IoError {
         /// What is wrong, naming the tag, channel, attribute or value.
         message: String,
     },
+    /// A line of a text file (CSV) is malformed.
+    #[error("{}, line {line}: {message}", path.display())]
+    Line {
+        /// The file concerned.
+        path: PathBuf,
+        /// The line, 1-based.
+        line: usize,
+        /// What is wrong, naming the column or value.
+        message: String,
+    },
     /// Data handed to a writer is inconsistent (sizes that do not match, empty images).
     #[error("{}: {message}", path.display())]
     Invalid {
@@ -49,6 +59,14 @@ impl IoError {
     pub fn format(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
         IoError::Format {
             path: path.as_ref().to_path_buf(),
+            message: message.into(),
+        }
+    }
+    /// A [`IoError::Line`] for `path`, line `line` (1-based).
+    pub fn line(path: impl AsRef<Path>, line: usize, message: impl Into<String>) -> Self {
+        IoError::Line {
+            path: path.as_ref().to_path_buf(),
+            line,
             message: message.into(),
         }
     }

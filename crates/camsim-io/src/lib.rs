@@ -8,6 +8,8 @@
 //!   uncompressed or lossless JPEG, strips or tiles, linearization, black/white levels, active area).
 //! - [`ljpeg`]: the lossless JPEG (ITU-T T.81 process 14) decoder DNG needs.
 //! - [`raster`]: 16-bit PNG/TIFF mosaics and 8-bit RGB PNG.
+//! - [`measurements`]: CSV inputs of the analyses (EMVA 1288 series lists, `sfr.csv` curves,
+//!   chart patch means for the QE fit).
 //! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
 
 pub mod atomic;
@@ -15,6 +17,7 @@ pub mod dng;
 pub mod error;
 pub mod exr;
 pub mod ljpeg;
+pub mod measurements;
 pub mod plot;
 pub mod raster;
 pub mod tiff;

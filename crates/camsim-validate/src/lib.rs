@@ -18,7 +18,6 @@
 
 #![warn(missing_docs)]
 
-pub mod base64;
 pub mod compare;
 pub mod optics_fig;
 pub mod plot;

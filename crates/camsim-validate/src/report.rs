@@ -1,7 +1,7 @@
 //! A small self-contained HTML report: headings, paragraphs, tables and PNG figures embedded as
 //! base64 `data:` URIs (no external files, scripts or fonts).
 
-use crate::base64;
+use base64::Engine as _;
 
 /// Escape text for HTML element content and attribute values.
 pub fn esc(s: &str) -> String {
@@ -76,7 +76,7 @@ impl Html {
         self.body.push_str(&format!(
             "<figure><img alt=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>\n",
             esc(caption),
-            base64::encode(png),
+            base64::engine::general_purpose::STANDARD.encode(png),
             esc(caption)
         ));
     }
@@ -116,5 +116,16 @@ mod tests {
         h.table(&["a"], &[vec!["<b>".into()]]);
         let s = h.finish();
         assert!(s.contains("<td>&lt;b&gt;</td>") && s.contains("<title>T&lt;1&gt;</title>"));
+    }
+
+    #[test]
+    fn figures_are_standard_padded_base64() {
+        // RFC 4648 section 10 vectors, and the two highest symbols ('+', '/') of the standard
+        // alphabet (a data: URI needs it, not the URL-safe one).
+        for (bytes, b64) in [(&b"fooba"[..], "Zm9vYmE="), (b"foobar", "Zm9vYmFy"), (&[0xfb, 0xff], "+/8=")] {
+            let mut h = Html::new("t");
+            h.figure(bytes, "c");
+            assert!(h.finish().contains(&format!("src=\"data:image/png;base64,{b64}\"")), "{b64}");
+        }
     }
 }

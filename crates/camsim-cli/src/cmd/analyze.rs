@@ -6,6 +6,7 @@ use camsim_analysis::chart::{self, ChartCorners};
 use camsim_analysis::sfr::{self, SfrOptions, SfrResult};
 use camsim_analysis::{Plane, Rect};
 use camsim_core::{CfaChannel, CfaPattern};
+use camsim_io::measurements::read_sfr_csv;
 use camsim_io::plot::{LinePlot, ScatterPlot, Series};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -163,36 +164,6 @@ fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
     Ok((out, pitch_mm))
 }
 
-/// The curves of an sfr.csv: (column name, [(cycles per sensor pixel, SFR)]).
-fn read_sfr_csv(path: &Path) -> Result<Vec<(String, Vec<(f64, f64)>)>> {
-    let text = common::read_text(path)?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().with_context(|| format!("{}: empty", path.display()))?.split(',').map(str::trim).collect();
-    if header.first() != Some(&"freq_cyc_per_sensor_px") {
-        bail!("{}: not an sfr.csv (its first column must be freq_cyc_per_sensor_px)", path.display());
-    }
-    let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
-    for (i, line) in lines.enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let v: Vec<f64> = line
-            .split(',')
-            .map(|t| t.trim().parse::<f64>())
-            .collect::<std::result::Result<_, _>>()
-            .with_context(|| format!("{}, line {}: not numbers", path.display(), i + 2))?;
-        if v.len() != header.len() {
-            bail!("{}, line {}: {} values for {} columns", path.display(), i + 2, v.len(), header.len());
-        }
-        for (k, x) in v.iter().enumerate().skip(1) {
-            if x.is_finite() && v[0].is_finite() {
-                cols[k].push((v[0], *x));
-            }
-        }
-    }
-    Ok(header.iter().zip(cols).skip(1).filter(|(h, _)| h.starts_with("mtf_")).map(|(h, c)| (h.to_string(), c)).collect())
-}
-
 /// The sfr.json document: per curve, MTF50 in cycles per sensor pixel and cycles/mm.
 fn sfr_json(a: &SfrArgs, curves: &[(String, SfrResult)], pitch_mm: Option<f64>, roi: Option<Rect>) -> serde_json::Value {
     let summary: Vec<serde_json::Value> = curves
@@ -257,8 +228,8 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
         .map(|(name, c)| Series::new(name.clone(), c.freq_cyc_per_sensor_px.iter().zip(&c.mtf).filter(|(f, _)| **f <= 1.0).map(|(f, m)| (*f, *m)).collect()))
         .collect();
     for path in &a.compare {
-        for (name, pts) in read_sfr_csv(path)? {
-            series.push(dashed(format!("{} ({})", name.trim_start_matches("mtf_"), path.display()), pts));
+        for c in read_sfr_csv(path)? {
+            series.push(dashed(format!("{} ({})", c.name.trim_start_matches("mtf_"), path.display()), c.points));
         }
     }
     LinePlot {

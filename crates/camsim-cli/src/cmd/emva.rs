@@ -1,109 +1,19 @@
 //! `camsim analyze emva`: EMVA 1288 (release 4.0) characterization of a frame series listed in a
-//! CSV, per colour channel (camsim_analysis::emva::emva_raw). Wiring only: reading, plotting and
-//! printing; the measurement is in camsim-analysis.
+//! CSV, per colour channel (camsim_analysis::emva::emva_raw). Wiring only: loading the frames,
+//! plotting and printing; the series CSV is read by camsim_io::measurements::read_emva_series and
+//! the measurement is in camsim-analysis.
 
 use crate::common::{self, say};
 use anyhow::{bail, Context, Result};
 use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
 use camsim_core::{CfaChannel, RawImage};
+use camsim_io::measurements::{read_emva_series, EmvaLevelFiles};
 use camsim_io::plot::{LinePlot, Series};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// One level of the series as the CSV lists it.
-struct LevelFiles {
-    /// CSV line (1-based), for error messages.
-    line: usize,
-    exposure_s: f64,
-    photons_per_pixel: Option<f64>,
-    bright: Vec<PathBuf>,
-    dark: Vec<PathBuf>,
-}
-
-/// Read the series CSV: a header naming the columns (`exposure_s,photons_per_pixel,` then frame
-/// columns whose names start with `bright` or `dark`, e.g. `bright_0,bright_1,dark_0,dark_1` as
-/// `camsim sensor --emva-series` writes), one level per line. Frame paths are relative to the
-/// CSV's folder; an empty photons cell (or `nan`) means the photon count is not known; empty frame
-/// cells are skipped. Lines starting with '#' and blank lines are ignored.
-fn read_series(csv: &Path) -> Result<Vec<LevelFiles>> {
-    let text = common::read_text(csv)?;
-    let base = csv.parent().unwrap_or(Path::new("."));
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-    let (hline, header) = lines.next().with_context(|| format!("{}: no header line", csv.display()))?;
-    let cols: Vec<String> = header.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
-    if cols.len() < 3 || cols[0] != "exposure_s" || cols[1] != "photons_per_pixel" {
-        bail!(
-            "{}, line {}: the header must start with exposure_s,photons_per_pixel and name the frame columns (bright_0,bright_1,...,dark_0,dark_1,...), got '{}'",
-            csv.display(),
-            hline + 1,
-            header.trim()
-        );
-    }
-    let kinds: Vec<Option<bool>> = cols
-        .iter()
-        .map(|c| if c.starts_with("bright") { Some(true) } else if c.starts_with("dark") { Some(false) } else { None })
-        .collect();
-    if let Some((i, c)) = cols.iter().enumerate().skip(2).find(|(i, _)| kinds[*i].is_none()) {
-        bail!("{}, line {}: column {} '{c}' is neither a bright nor a dark frame column", csv.display(), hline + 1, i + 1);
-    }
-    let mut levels = Vec::new();
-    for (i, line) in lines {
-        let n = i + 1;
-        let cells: Vec<&str> = line.split(',').map(|s| s.trim()).collect();
-        if cells.len() != cols.len() {
-            bail!("{}, line {n}: {} values for {} columns", csv.display(), cells.len(), cols.len());
-        }
-        let exposure_s: f64 =
-            cells[0].parse().with_context(|| format!("{}, line {n}: exposure_s '{}' is not a number", csv.display(), cells[0]))?;
-        if !(exposure_s >= 0.0 && exposure_s.is_finite()) {
-            bail!("{}, line {n}: exposure_s {exposure_s} is not a time >= 0", csv.display());
-        }
-        let photons_per_pixel = match cells[1] {
-            "" | "-" => None,
-            s => {
-                let v: f64 = s.parse().with_context(|| format!("{}, line {n}: photons_per_pixel '{s}' is not a number", csv.display()))?;
-                if v.is_nan() {
-                    None
-                } else if v >= 0.0 && v.is_finite() {
-                    Some(v)
-                } else {
-                    bail!("{}, line {n}: photons_per_pixel {v} is not a number >= 0", csv.display());
-                }
-            }
-        };
-        let (mut bright, mut dark) = (Vec::new(), Vec::new());
-        for (k, cell) in cells.iter().enumerate().skip(2) {
-            if cell.is_empty() {
-                continue;
-            }
-            let p = base.join(cell);
-            if kinds[k] == Some(true) {
-                bright.push(p);
-            } else {
-                dark.push(p);
-            }
-        }
-        if bright.len() < 2 {
-            bail!("{}, line {n}: {} bright frame(s); each level needs at least 2", csv.display(), bright.len());
-        }
-        if dark.len() == 1 {
-            bail!("{}, line {n}: 1 dark frame; give none or at least 2", csv.display());
-        }
-        levels.push(LevelFiles { line: n, exposure_s, photons_per_pixel, bright, dark });
-    }
-    if levels.len() < 3 {
-        bail!("{}: {} level(s); the photon transfer method needs at least 3", csv.display(), levels.len());
-    }
-    // The analysis does not need the photon count, but it is all or nothing.
-    let known = levels.iter().filter(|l| l.photons_per_pixel.is_some()).count();
-    if known != 0 && known != levels.len() {
-        bail!("{}: photons_per_pixel is given on {known} of {} lines; give it on every line or on none", csv.display(), levels.len());
-    }
-    Ok(levels)
-}
-
 /// Load every frame of the series, checking they share size and CFA pattern.
-fn load_frames(a: &super::analyze::EmvaArgs, csv: &Path, files: &[LevelFiles]) -> Result<Vec<(Vec<RawImage>, Vec<RawImage>)>> {
+fn load_frames(a: &super::analyze::EmvaArgs, csv: &Path, files: &[EmvaLevelFiles]) -> Result<Vec<(Vec<RawImage>, Vec<RawImage>)>> {
     let total: usize = files.iter().map(|l| l.bright.len() + l.dark.len()).sum();
     let pb = common::progress(total as u64, "reading");
     let mut first: Option<(usize, usize, camsim_core::CfaPattern, PathBuf)> = None;
@@ -264,7 +174,7 @@ fn summary(results: &[ChannelEmva]) -> Result<String> {
 }
 
 pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
-    let files = read_series(&a.series)?;
+    let files = read_emva_series(&a.series)?;
     let frames = load_frames(&a, &a.series, &files)?;
     let levels: Vec<EmvaRawInput> = files
         .iter()

@@ -4,6 +4,7 @@ use crate::common::{self, say};
 use anyhow::{bail, Context, Result};
 use camsim_analysis::qefit::{self, MatrixForm};
 use camsim_core::{tables, WavelengthGrid};
+use camsim_io::measurements::read_qe_means;
 use camsim_io::plot::{ScatterPlot, Series};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -86,10 +87,8 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     let grid = WavelengthGrid::default();
     let refl = tables::macbeth_reflectances();
-    // Measured rows.
-    let text = common::read_text(&a.measured)?;
-    let mut measured = Vec::new();
-    let mut radiances = Vec::new();
+    // Measured rows (the file is checked before the lights are loaded).
+    let rows = read_qe_means(&a.measured)?;
     let cmfs = camsim_core::colorimetry::Cmfs::on(&grid);
     let mut lights = std::collections::HashMap::new();
     for name in &a.lights {
@@ -99,33 +98,14 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
         let k = a.luminance_cd_m2 / cmfs.luminance_cd_m2(&white);
         lights.insert(name.clone(), s.scaled(k));
     }
-    // '#' comment lines and blank lines are skipped; the first other line is the header.
-    let hline = text.lines().position(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#')).unwrap_or(0);
-    let header = text.lines().nth(hline).unwrap_or("");
-    let names: Vec<String> = header.split(',').map(|t| t.trim().to_ascii_lowercase()).collect();
-    if names != ["light", "patch", "r", "g", "b"] {
-        bail!("{}, line {}: the header must be light,patch,r,g,b, got '{}'", a.measured.display(), hline + 1, header.trim());
-    }
-    for (i, line) in text.lines().enumerate().skip(hline + 1) {
-        if line.trim().is_empty() || line.trim_start().starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        let at = || format!("{}, line {}", a.measured.display(), i + 1);
-        if f.len() != 5 {
-            bail!("{}: expected light,patch,r,g,b", at());
-        }
-        let light = lights.get(f[0]).with_context(|| format!("{}: light '{}' is not in --lights", at(), f[0]))?;
-        let patch: usize = f[1].parse().ok().filter(|p| (1..=24).contains(p)).with_context(|| format!("{}: patch must be 1..24", at()))?;
-        let rgb: Vec<f64> = f[2..].iter().map(|t| t.parse::<f64>()).collect::<std::result::Result<_, _>>().with_context(|| format!("{}: r, g, b must be numbers", at()))?;
-        if rgb.iter().any(|v| !v.is_finite()) {
-            bail!("{}: r, g, b must be finite numbers", at());
-        }
-        measured.push([rgb[0], rgb[1], rgb[2]]);
-        radiances.push(refl[patch - 1].product_on(light, &grid));
-    }
-    if measured.len() < 3 {
-        bail!("{}: need at least 3 measurements, found {}", a.measured.display(), measured.len());
+    let mut measured = Vec::new();
+    let mut radiances = Vec::new();
+    for row in &rows {
+        let light = lights
+            .get(&row.light)
+            .with_context(|| format!("{}, line {}: light '{}' is not in --lights", a.measured.display(), row.line, row.light))?;
+        measured.push(row.rgb);
+        radiances.push(refl[row.patch - 1].product_on(light, &grid));
     }
     // Etendue x time: pi / (1 + 4 N^2) x photodetector area x exposure (ISETCam oiCalculateIrradiance).
     let scale = std::f64::consts::PI / (1.0 + 4.0 * a.f_number * a.f_number) * sensor.photodetector_area_m2() * a.exposure_ms * 1e-3;
@@ -155,7 +135,7 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     // The corrected sensor: compose with any correction it already has.
     let mut cfg = sensor.config().clone();
     let m = match cfg.qe_correction {
-        Some(old) => mat_mul(&old, &fit.m),
+        Some(old) => camsim_isp::color::mat3_mul(&old, &fit.m),
         None => fit.m,
     };
     cfg.qe_correction = Some(m);
@@ -172,16 +152,6 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     ));
     common::commit(staged)?;
     Ok(())
-}
-
-fn mat_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    let mut m = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            m[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
 }
 
 pub fn run(c: Command) -> Result<()> {

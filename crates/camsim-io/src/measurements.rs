@@ -1,0 +1,357 @@
+//! CSV files of measurements that camsim's analyses take as input, read with the `csv` crate:
+//!
+//! - [`read_emva_series`]: the frame list of an EMVA 1288 series (`camsim sensor --emva-series`
+//!   writes one; `camsim analyze emva` reads it);
+//! - [`read_sfr_csv`]: the SFR curves of an `sfr.csv` (`camsim analyze sfr` writes one and
+//!   overlays others with `--compare`);
+//! - [`read_qe_means`]: measured ColorChecker patch means, the input of the QE correction fit
+//!   (`camsim fit qe --measured`).
+//!
+//! Fields may be double-quoted (RFC 4180: `"a,b"` is one field, `""` inside quotes is one quote)
+//! and are trimmed; blank lines are skipped. Every error names the file and, where there is one,
+//! the line (`<file>, line <n>: ...`).
+
+use crate::error::{IoError, Result};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The records of the CSV file at `path`, each with its 1-based line in the file (see
+/// [`camsim_core::csv_records::records`]): fields trimmed, blank lines skipped, and `#` comment
+/// lines (indented ones too) when `comments` is set.
+fn records(path: &Path, comments: bool) -> Result<Vec<(usize, csv::StringRecord)>> {
+    let bytes = std::fs::read(path).map_err(|e| IoError::io(path, e))?;
+    camsim_core::csv_records::records(&bytes, comments)
+        .map_err(|(line, e)| IoError::line(path, line, camsim_core::csv_records::error_message(&e)))
+}
+
+/// The fields of a record joined by commas (for messages quoting a line).
+fn joined(r: &csv::StringRecord) -> String {
+    r.iter().collect::<Vec<_>>().join(",")
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// One level of an EMVA 1288 series as its CSV lists it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmvaLevelFiles {
+    /// The CSV line (1-based), for messages about this level's frames.
+    pub line: usize,
+    /// Exposure time, s (>= 0).
+    pub exposure_s: f64,
+    /// Mean photons per pixel at this level, when known (given on every line or on none).
+    pub photons_per_pixel: Option<f64>,
+    /// Bright frames (at least 2), resolved against the CSV's folder.
+    pub bright: Vec<PathBuf>,
+    /// Dark frames (none, or at least 2), resolved against the CSV's folder.
+    pub dark: Vec<PathBuf>,
+}
+
+/// Read an EMVA 1288 series CSV: a header naming the columns (`exposure_s,photons_per_pixel,`
+/// then frame columns whose names start with `bright` or `dark`, e.g.
+/// `bright_0,bright_1,dark_0,dark_1` as `camsim sensor --emva-series` writes), one level per line.
+/// Frame paths are relative to the CSV's folder; an empty photons cell (or `-`, or `nan`) means
+/// the photon count is not known; empty frame cells are skipped. Lines starting with '#' and blank
+/// lines are ignored. At least 3 levels, each with at least 2 bright frames and none or at least 2
+/// dark frames.
+pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
+    let rows = records(csv, true)?;
+    let base = csv.parent().unwrap_or(Path::new("."));
+    let mut rows = rows.into_iter();
+    let (hline, header) = rows.next().ok_or_else(|| IoError::format(csv, "no header line"))?;
+    let cols: Vec<String> = header.iter().map(|s| s.to_ascii_lowercase()).collect();
+    if cols.len() < 3 || cols[0] != "exposure_s" || cols[1] != "photons_per_pixel" {
+        return Err(IoError::line(
+            csv,
+            hline,
+            format!(
+                "the header must start with exposure_s,photons_per_pixel and name the frame columns (bright_0,bright_1,...,dark_0,dark_1,...), got '{}'",
+                joined(&header)
+            ),
+        ));
+    }
+    let kinds: Vec<Option<bool>> = cols
+        .iter()
+        .map(|c| if c.starts_with("bright") { Some(true) } else if c.starts_with("dark") { Some(false) } else { None })
+        .collect();
+    if let Some((i, c)) = cols.iter().enumerate().skip(2).find(|(i, _)| kinds[*i].is_none()) {
+        return Err(IoError::line(csv, hline, format!("column {} '{c}' is neither a bright nor a dark frame column", i + 1)));
+    }
+    let mut levels = Vec::new();
+    for (n, cells) in rows {
+        let err = |m: String| IoError::line(csv, n, m);
+        if cells.len() != cols.len() {
+            return Err(err(format!("{} values for {} columns", cells.len(), cols.len())));
+        }
+        let exposure_s: f64 = cells[0].parse().map_err(|_| err(format!("exposure_s '{}' is not a number", &cells[0])))?;
+        if !(exposure_s >= 0.0 && exposure_s.is_finite()) {
+            return Err(err(format!("exposure_s {exposure_s} is not a time >= 0")));
+        }
+        let photons_per_pixel = match &cells[1] {
+            "" | "-" => None,
+            s => {
+                let v: f64 = s.parse().map_err(|_| err(format!("photons_per_pixel '{s}' is not a number")))?;
+                if v.is_nan() {
+                    None
+                } else if v >= 0.0 && v.is_finite() {
+                    Some(v)
+                } else {
+                    return Err(err(format!("photons_per_pixel {v} is not a number >= 0")));
+                }
+            }
+        };
+        let (mut bright, mut dark) = (Vec::new(), Vec::new());
+        for (k, cell) in cells.iter().enumerate().skip(2) {
+            if cell.is_empty() {
+                continue;
+            }
+            let p = base.join(cell);
+            if kinds[k] == Some(true) {
+                bright.push(p);
+            } else {
+                dark.push(p);
+            }
+        }
+        if bright.len() < 2 {
+            return Err(err(format!("{} bright frame(s); each level needs at least 2", bright.len())));
+        }
+        if dark.len() == 1 {
+            return Err(err("1 dark frame; give none or at least 2".into()));
+        }
+        levels.push(EmvaLevelFiles { line: n, exposure_s, photons_per_pixel, bright, dark });
+    }
+    if levels.len() < 3 {
+        return Err(IoError::format(csv, format!("{} level(s); the photon transfer method needs at least 3", levels.len())));
+    }
+    // The analysis does not need the photon count, but it is all or nothing.
+    let known = levels.iter().filter(|l| l.photons_per_pixel.is_some()).count();
+    if known != 0 && known != levels.len() {
+        return Err(IoError::format(
+            csv,
+            format!("photons_per_pixel is given on {known} of {} lines; give it on every line or on none", levels.len()),
+        ));
+    }
+    Ok(levels)
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// One SFR curve of an `sfr.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SfrCurve {
+    /// The column name (`mtf_R`, `mtf_G`, `mtf_B`, `mtf_luminance`, ...).
+    pub name: String,
+    /// (spatial frequency in cycles per sensor pixel, SFR) where both are finite.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Read the curves of an `sfr.csv` as `camsim analyze sfr` writes it: the first column
+/// `freq_cyc_per_sensor_px`, then any columns; the curves are the columns whose names start with
+/// `mtf_`. Every row is numbers (`nan` where a curve has no value; such points are left out).
+pub fn read_sfr_csv(path: &Path) -> Result<Vec<SfrCurve>> {
+    let mut rows = records(path, false)?.into_iter();
+    let (_, header) = rows.next().ok_or_else(|| IoError::format(path, "empty"))?;
+    if header.get(0) != Some("freq_cyc_per_sensor_px") {
+        return Err(IoError::format(path, "not an sfr.csv (its first column must be freq_cyc_per_sensor_px)"));
+    }
+    let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
+    for (line, record) in rows {
+        let v: Vec<f64> = record.deserialize(None).map_err(|_| IoError::line(path, line, "not numbers"))?;
+        if v.len() != header.len() {
+            return Err(IoError::line(path, line, format!("{} values for {} columns", v.len(), header.len())));
+        }
+        for (k, x) in v.iter().enumerate().skip(1) {
+            if x.is_finite() && v[0].is_finite() {
+                cols[k].push((v[0], *x));
+            }
+        }
+    }
+    Ok(header
+        .iter()
+        .zip(cols)
+        .skip(1)
+        .filter(|(h, _)| h.starts_with("mtf_"))
+        .map(|(h, points)| SfrCurve { name: h.to_string(), points })
+        .collect())
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// One measured ColorChecker patch: a line `light,patch,r,g,b` of the QE-fit input.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatchMeans {
+    /// The CSV line (1-based), for messages about this measurement.
+    pub line: usize,
+    /// The light's name as written (matched against the lights the fit is given).
+    pub light: String,
+    /// The ColorChecker patch, 1..=24 in the chart's order.
+    pub patch: usize,
+    /// Mean DN above black of the R, G and B channels over the patch (finite).
+    pub rgb: [f64; 3],
+}
+
+/// A line of the QE-fit input, as the `csv` crate deserializes it (no header: fields in order).
+#[derive(Deserialize)]
+struct PatchRow {
+    light: String,
+    patch: usize,
+    r: f64,
+    g: f64,
+    b: f64,
+}
+
+/// Read measured patch means for the QE correction fit: a header `light,patch,r,g,b` (any case),
+/// then one line per light and patch (patch 1-24 in the ColorChecker's order, mean DN above black
+/// of each channel over the patch), e.g. `D65,1,123.4,210.2,98.7`. Lines starting with '#' and
+/// blank lines are ignored; at least 3 measurements.
+pub fn read_qe_means(path: &Path) -> Result<Vec<PatchMeans>> {
+    let mut rows = records(path, true)?.into_iter();
+    let (hline, header) = rows
+        .next()
+        .ok_or_else(|| IoError::format(path, "no header line; the header must be light,patch,r,g,b"))?;
+    let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
+    if names != ["light", "patch", "r", "g", "b"] {
+        return Err(IoError::line(path, hline, format!("the header must be light,patch,r,g,b, got '{}'", joined(&header))));
+    }
+    let mut out = Vec::new();
+    for (line, record) in rows {
+        if record.len() != 5 {
+            return Err(IoError::line(path, line, "expected light,patch,r,g,b"));
+        }
+        let row: PatchRow = record.deserialize(None).map_err(|e| {
+            let field = match e.kind() {
+                csv::ErrorKind::Deserialize { err, .. } => err.field(),
+                _ => None,
+            };
+            IoError::line(path, line, if field == Some(1) { "patch must be 1..24" } else { "r, g, b must be numbers" })
+        })?;
+        if !(1..=24).contains(&row.patch) {
+            return Err(IoError::line(path, line, "patch must be 1..24"));
+        }
+        let rgb = [row.r, row.g, row.b];
+        if rgb.iter().any(|v| !v.is_finite()) {
+            return Err(IoError::line(path, line, "r, g, b must be finite numbers"));
+        }
+        out.push(PatchMeans { line, light: row.light, patch: row.patch, rgb });
+    }
+    if out.len() < 3 {
+        return Err(IoError::format(path, format!("need at least 3 measurements, found {}", out.len())));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn err(r: Result<impl std::fmt::Debug>) -> String {
+        r.unwrap_err().to_string()
+    }
+
+    #[test]
+    fn emva_series_with_quotes_comments_and_relative_paths() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "# series\n\"exposure_s\",\"photons_per_pixel\",bright_0,bright_1,dark_0,dark_1\n\n\
+                    0.001, 10 ,\"a 0.dng\",\"b,1.dng\",,\n  # indented comment\n\
+                    0.002,-,c.dng,d.dng,e.dng,f.dng\n0.003,nan,g.dng,h.dng,,\n";
+        let p = file(&dir, "series.csv", text);
+        let e = err(read_emva_series(&p));
+        assert!(e.starts_with(&format!("{}: photons_per_pixel is given on 1 of 3 lines", p.display())), "{e}");
+        let p = file(&dir, "series.csv", &text.replace(" 10 ", ""));
+        let l = read_emva_series(&p).unwrap();
+        assert_eq!(l.iter().map(|l| l.line).collect::<Vec<_>>(), [4, 6, 7]);
+        assert_eq!(l[0].bright, [dir.path().join("a 0.dng"), dir.path().join("b,1.dng")]);
+        assert!(l[0].dark.is_empty() && l[1].dark.len() == 2);
+        assert_eq!((l[1].exposure_s, l[1].photons_per_pixel), (0.002, None));
+    }
+
+    #[test]
+    fn emva_series_errors_name_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let h = "exposure_s,photons_per_pixel,bright_0,bright_1,dark_0,dark_1\n";
+        let ok = "0.001,,a,b,,\n0.002,,a,b,,\n";
+        let cases = [
+            ("", "no header line".to_string()),
+            ("# only a comment\n", "no header line".into()),
+            ("a,b\n1,2\n", "line 1: the header must start with exposure_s,photons_per_pixel".into()),
+            ("exposure_s,photons_per_pixel,flat_0\n", "line 1: column 3 'flat_0' is neither".into()),
+            (&format!("{h}{ok}0.003,,a\n"), "line 4: 3 values for 6 columns".into()),
+            (&format!("{h}{ok}x,,a,b,,\n"), "line 4: exposure_s 'x' is not a number".into()),
+            (&format!("{h}{ok}-1,,a,b,,\n"), "line 4: exposure_s -1 is not a time >= 0".into()),
+            (&format!("{h}{ok}1,-5,a,b,,\n"), "line 4: photons_per_pixel -5 is not a number >= 0".into()),
+            (&format!("{h}{ok}1,,a,,,\n"), "line 4: 1 bright frame(s)".into()),
+            (&format!("{h}{ok}1,,a,b,c,\n"), "line 4: 1 dark frame".into()),
+            (&format!("{h}{ok}1,,\"a,b,,\n"), "line 4: 3 values for 6 columns".into()),
+            (&format!("{h}{ok}"), "2 level(s)".into()),
+        ];
+        for (text, want) in cases {
+            let p = file(&dir, "s.csv", text);
+            let e = err(read_emva_series(&p));
+            let want = if want.starts_with("line") { format!("{}, {want}", p.display()) } else { format!("{}: {want}", p.display()) };
+            assert!(e.starts_with(&want), "{text:?}: {e}");
+        }
+        assert!(err(read_emva_series(&dir.path().join("missing.csv"))).contains("missing.csv"));
+        let p = dir.path().join("bin.csv");
+        std::fs::write(&p, [h.as_bytes(), ok.as_bytes(), b"1,,a\xff,b,,\n"].concat()).unwrap();
+        let e = err(read_emva_series(&p));
+        assert!(e.starts_with(&format!("{}, line 4: not UTF-8 text", p.display())), "{e}");
+    }
+
+    #[test]
+    fn sfr_csv_curves_with_quoted_header() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(
+            &dir,
+            "sfr.csv",
+            "\"freq_cyc_per_sensor_px\",freq_cyc_per_mm,\"mtf_R\",mtf_luminance\n0.00,0,1,1\n\n0.01,7.1,\"0.99\",NaN\n",
+        );
+        let c = read_sfr_csv(&p).unwrap();
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0], SfrCurve { name: "mtf_R".into(), points: vec![(0.0, 1.0), (0.01, 0.99)] });
+        assert_eq!(c[1], SfrCurve { name: "mtf_luminance".into(), points: vec![(0.0, 1.0)] });
+        for (text, want) in [
+            ("", ": empty"),
+            ("a,b\n1,2\n", ": not an sfr.csv"),
+            ("freq_cyc_per_sensor_px,mtf_R\n0,1\n\n0.1,x\n", ", line 4: not numbers"),
+            ("freq_cyc_per_sensor_px,mtf_R\n0,1,2\n", ", line 2: 3 values for 2 columns"),
+        ] {
+            let p = file(&dir, "bad.csv", text);
+            let e = err(read_sfr_csv(&p));
+            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn qe_means_with_quotes_and_comments() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(
+            &dir,
+            "m.csv",
+            "# chart means\nLight,Patch,R,G,B\n\"D65, 6504 K\",1,1.5,2,3\n  # skipped\n\"A\",\"24\",4,5,6e1\nF2,3,7,8,9\n",
+        );
+        let m = read_qe_means(&p).unwrap();
+        assert_eq!(m[0], PatchMeans { line: 3, light: "D65, 6504 K".into(), patch: 1, rgb: [1.5, 2.0, 3.0] });
+        assert_eq!((m[1].line, m[1].light.as_str(), m[1].patch, m[1].rgb), (5, "A", 24, [4.0, 5.0, 60.0]));
+        assert_eq!(m[2].line, 6);
+        let h = "light,patch,r,g,b\n";
+        for (text, want) in [
+            ("", ": no header line".to_string()),
+            ("D65,1,1,2,3\n", ", line 1: the header must be light,patch,r,g,b, got 'D65,1,1,2,3'".into()),
+            (&format!("{h}D65,1,1,2\n"), ", line 2: expected light,patch,r,g,b".into()),
+            (&format!("{h}D65,25,1,2,3\n"), ", line 2: patch must be 1..24".into()),
+            (&format!("{h}D65,x,1,2,3\n"), ", line 2: patch must be 1..24".into()),
+            (&format!("{h}D65,1,1,y,3\n"), ", line 2: r, g, b must be numbers".into()),
+            (&format!("{h}D65,1,1,nan,3\n"), ", line 2: r, g, b must be finite numbers".into()),
+            (&format!("{h}D65,1,1,2,3\n"), ": need at least 3 measurements, found 1".into()),
+        ] {
+            let p = file(&dir, "bad.csv", text);
+            let e = err(read_qe_means(&p));
+            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+        }
+    }
+}
