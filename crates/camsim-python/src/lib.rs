@@ -201,6 +201,16 @@ impl PySimulation {
     fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         json_to_py(py, &self.inner.metadata(&RunInfo::default(), &OutputSet::default()))
     }
+    /// For a Macbeth chart scene: the chart's outer corners on the sensor, [[x, y], ...] pixels
+    /// (top-left = dark skin, top-right, bottom-right, bottom-left), as `chart()` takes them;
+    /// None for other scenes.
+    #[getter]
+    fn chart_corners(&self) -> PyResult<Option<Vec<[f64; 2]>>> {
+        let s = &self.inner.sensor;
+        let r = &self.inner.frames[0];
+        let c = camsim::pipeline::macbeth_chart_corners_px(&self.inner.config, &self.inner.optics, s.pixel_pitch_um * 1e-6, r.rows, r.cols).map_err(err)?;
+        Ok(c.map(|c| c.to_vec()))
+    }
     /// The effective config as a dict (pass it back to simulate to repeat the run).
     #[getter]
     fn config<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -491,9 +501,9 @@ fn chart_json(raw: PyReadonlyArray2<'_, u16>, corners: [[f64; 2]; 4], cfa: &str,
 }
 
 /// The 3 x 3 QE correction matrix M (the paper's eq. 2) from measured and predicted channel
-/// responses, (n, 3) each; form "full" or "diagonal"... as JSON.
+/// responses, (n, 3) each; form "unconstrained", "diagonal" or "paper_lower_non_negative"; as JSON.
 #[pyfunction]
-#[pyo3(signature = (measured, predicted, form = "full"))]
+#[pyo3(signature = (measured, predicted, form = "unconstrained"))]
 fn fit_qe_json(measured: Vec<[f64; 3]>, predicted: Vec<[f64; 3]>, form: &str) -> PyResult<String> {
     let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into())).map_err(|e| err(format!("form {form:?}: {e}")))?;
     serde_json::to_string(&fit_qe_matrix(&measured, &predicted, form).map_err(err)?).map_err(err)

@@ -162,9 +162,11 @@ def chart(raw: np.ndarray, corners: Sequence[Tuple[float, float]], cfa: str = "R
     return json.loads(_camsim.chart_json(np.ascontiguousarray(raw, dtype=np.uint16), c, cfa, fraction, bits, black_level))
 
 
-def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "full") -> Dict[str, Any]:
+def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "unconstrained") -> Dict[str, Any]:
     """The 3 x 3 QE correction matrix M (the paper's eq. 2) from measured and predicted channel
-    responses, (n, 3) each."""
+    responses, (n, 3) each: measured ~ predicted @ M (m[i][j] takes input channel i into output
+    channel j). form: "unconstrained", "diagonal" or "paper_lower_non_negative". Returns a dict with
+    m, rms_before, rms_after, relative_rms_before/after, residuals_before/after."""
     m = [tuple(map(float, r)) for r in np.asarray(measured, dtype=float)]
     p = [tuple(map(float, r)) for r in np.asarray(predicted, dtype=float)]
     return json.loads(_camsim.fit_qe_json(m, p, form))

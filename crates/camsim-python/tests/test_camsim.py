@@ -1,0 +1,259 @@
+"""The Python package as users call it: the pipeline and every stage on numpy arrays, the error
+path, and bit-for-bit agreement with the command-line program."""
+
+import json
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import camsim
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+
+SMALL = """
+seed = 5
+[scene]
+kind = "macbeth"
+patch_size_px = 12
+border_px = 2
+[sensor]
+preset = "pixel4a"
+rows = 48
+cols = 64
+[capture]
+exposure_ms = 8.0
+frames = 2
+"""
+
+
+def camsim_binary():
+    """The CLI built by `cargo test`/`cargo build` (CAMSIM_BIN overrides)."""
+    path = os.environ.get("CAMSIM_BIN")
+    if path:
+        return path
+    for profile in ("debug", "release"):
+        p = REPO / "target" / profile / "camsim"
+        if p.is_file():
+            return str(p)
+    raise AssertionError("no camsim binary: run `cargo build` first or set CAMSIM_BIN")
+
+
+def test_simulate_returns_every_stage_as_numpy_arrays():
+    sim = camsim.simulate(SMALL, noise_free=True)
+    assert sim.raw.shape == (2, 48, 64) and sim.raw.dtype == np.uint16
+    assert sim.cfa == "RGGB" and sim.white_level == 4095.0 and sim.bits == 12
+    bands = len(sim.wavelengths_nm)
+    assert bands == 31 and sim.wavelengths_nm[0] == 400.0 and sim.wavelengths_nm[-1] == 700.0
+    assert sim.radiance.dtype == np.float32 and sim.radiance.shape[0] == bands
+    assert sim.irradiance.dtype == np.float32 and sim.irradiance.shape[0] == bands
+    assert sim.preview.shape == (48, 64, 3) and sim.preview.dtype == np.uint8
+    assert sim.depth is None  # a 2D chart
+    assert sim.noise_free.shape == (48, 64)
+    # Physical values: radiance and irradiance non-negative, the raw within the ADC's range.
+    assert sim.radiance.min() >= 0 and sim.irradiance.min() >= 0
+    assert sim.raw.max() <= sim.white_level
+    md = sim.metadata
+    assert md["results"]["frames"] == 2 and md["config"]["seed"] == 5
+    # Two frames differ in temporal noise, and the noise-free image lies between them on average.
+    assert (sim.raw[0] != sim.raw[1]).any()
+    lit = sim.noise_free > 100
+    assert abs(sim.raw[0][lit].mean() / sim.noise_free[lit].mean() - 1) < 0.01
+
+
+def test_configs_as_dict_toml_text_and_path_give_the_same_run(tmp_path):
+    as_toml = camsim.simulate(SMALL)
+    as_dict = camsim.simulate(camsim.load_config(SMALL))
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    as_path = camsim.simulate(p)
+    assert np.array_equal(as_toml.raw, as_dict.raw) and np.array_equal(as_toml.raw, as_path.raw)
+    # The seed changes the noise; the effective config is a dict that repeats the run.
+    other = camsim.simulate(SMALL, seed=6)
+    assert not np.array_equal(other.raw, as_toml.raw)
+    again = camsim.simulate(as_toml.config)
+    assert np.array_equal(again.raw, as_toml.raw)
+
+
+def test_results_equal_the_cli_bit_for_bit(tmp_path):
+    cfg = tmp_path / "small.toml"
+    cfg.write_text(SMALL)
+    out = tmp_path / "cli"
+    subprocess.run([camsim_binary(), "simulate", str(cfg), "--out", str(out), "--save", "raw,irradiance", "--quiet"], check=True)
+    sim = camsim.simulate(cfg)
+    for i, name in enumerate(["raw.dng", "raw_0001.dng"]):
+        d = camsim.read_dng(out / name)
+        assert d["cfa"] == sim.cfa and d["black_level"] == sim.black_level
+        assert np.array_equal(d["raw"], sim.raw[i]), name
+    run = json.loads((out / "run.json").read_text())
+    assert run["results"]["exposure_s"] == sim.exposure_s
+    # And what Python writes, the CLI's readers read: the same bytes for the same run.
+    mine = tmp_path / "py"
+    sim.write(mine, save="raw")
+    assert (mine / "raw.dng").read_bytes() == (out / "raw.dng").read_bytes()
+
+
+def test_each_stage_alone_round_trips_through_numpy():
+    s = camsim.scene({"kind": "macbeth", "patch_size_px": 12, "border_px": 2})
+    L = s["radiance"]
+    assert L.ndim == 3 and L.shape[0] == len(s["wavelengths_nm"]) and L.dtype == np.float32
+    # Optics on the numpy array: the camera equation on a uniform field, E = pi L / (1 + 4 N^2)
+    # at infinity (ISETCam oiCalculateIrradiance), away from the borders.
+    flat = np.full((31, 40, 40), 0.01, np.float32)
+    lens = camsim.presets.lens("diffraction-limited")
+    lens["shading"] = "none"
+    o = camsim.optics(flat, s["wavelengths_nm"], lens=lens, fov_deg=5.0)
+    E = o["irradiance"]
+    n = lens["f_number"]
+    centre = E[:, E.shape[1] // 2, E.shape[2] // 2]
+    np.testing.assert_allclose(centre, np.pi * 0.01 / (1 + 4 * n * n), rtol=3e-3)
+    # The whole chain from numpy arrays, then the analyses.
+    o = camsim.optics(L, s["wavelengths_nm"], spacing_m=s["spacing_m"], distance_m=s["distance_m"])
+    r = camsim.sensor(o["irradiance"], o["wavelengths_nm"], o["spacing_m"], rows=64, cols=96, exposure_s=0.01, seed=3, frames=2)
+    assert r["raw"].shape == (2, 64, 96) and r["cfa"] == "RGGB" and r["exposure_s"] == 0.01
+    rgb = camsim.demosaic(r["raw"][0], r["cfa"])
+    assert rgb.shape == (64, 96, 3) and rgb.dtype == np.float32
+    stats = camsim.roi(r["raw"][0], [(10, 10, 20, 20)], r["cfa"])
+    assert len(stats) == 1 and len(stats[0]["mean_dn"]) == 3
+    # A sensor preset as a dict, edited: twice the conversion gain at the same voltage swing (the
+    # ADC's range), twice the DN above black (below clipping), the same electrons.
+    sens = camsim.presets.sensor("pixel4a")
+    base = camsim.sensor(o["irradiance"], o["wavelengths_nm"], o["spacing_m"], sensor=sens, rows=32, cols=32, exposure_s=0.02)
+    sens["conversion_gain_uv_per_e"] *= 2
+    sens.pop("well_capacity_e", None)
+    twice = camsim.sensor(o["irradiance"], o["wavelengths_nm"], o["spacing_m"], sensor=sens, rows=32, cols=32, exposure_s=0.02)
+    # Electrons do not depend on the conversion gain; the DN above black double.
+    assert twice["mean_electrons_rgb"][1] == pytest.approx(base["mean_electrons_rgb"][1])
+    # Pixels well above the read noise (44 DN rms; the preset has no black offset, so the ADC clips
+    # dark pixels' noise at 0) and below clipping.
+    lit = (base["raw"][0] > base["black_level"] + 300) & (twice["raw"][0] < 0.9 * twice["white_level"])
+    assert lit.sum() > 200
+    gain = (twice["raw"][0][lit].astype(float) - twice["black_level"]).mean() / (base["raw"][0][lit].astype(float) - base["black_level"]).mean()
+    assert gain == pytest.approx(2.0, rel=0.05)
+
+
+def test_render_gives_radiance_and_depth():
+    r = camsim.render("cornell-box", resolution=(24, 16), samples_per_pixel=4, wavelengths_nm=np.arange(400, 701, 50))
+    assert r["radiance"].shape == (7, 16, 24) and r["depth_m"].shape == (16, 24)
+    # At this wide aspect the outer columns look past the box (no hit: infinite depth, no light).
+    z = r["depth_m"]
+    assert r["radiance"].min() >= 0 and (z > 0).all() and np.isfinite(z[:, 8:16]).all()
+    assert np.isinf(z).any() and (r["radiance"][:, np.isinf(z)] == 0).all()
+
+
+def test_sfr_of_a_simulated_slanted_edge():
+    cfg = camsim.load_config(REPO / "examples" / "slanted-edge.toml")
+    sim = camsim.simulate(cfg)
+    res = camsim.sfr(sim.raw[0], sim.cfa, channel="G", pitch_um=1.4, bits=sim.bits, black_level=sim.black_level)
+    # Cycles per sensor pixel and per mm agree through the pitch; the MTF starts at 1.
+    assert 0.05 < res["mtf50_cyc_per_sensor_px"] < 0.5
+    assert res["mtf50_cyc_per_mm"] == pytest.approx(res["mtf50_cyc_per_sensor_px"] / 1.4e-3)
+    assert res["mtf"][0] == pytest.approx(1.0)
+    lum = camsim.sfr(sim.raw[0], sim.cfa, channel="luminance", bits=sim.bits, black_level=sim.black_level)
+    # The G sub-grid and the demosaicked luminance see the same lens: MTF50 within 25 %.
+    assert lum["mtf50_cyc_per_sensor_px"] == pytest.approx(res["mtf50_cyc_per_sensor_px"], rel=0.25)
+
+
+def test_fit_qe_recovers_a_known_matrix():
+    rng = np.random.default_rng(1)
+    predicted = rng.uniform(0.1, 1.0, (24, 3))
+    M = np.array([[1.1, 0.05, 0.0], [0.02, 0.95, 0.03], [0.0, 0.1, 1.2]])
+    measured = predicted @ M
+    fit = camsim.fit_qe(measured, predicted)
+    np.testing.assert_allclose(np.array(fit["m"]), M, atol=1e-9)
+    assert fit["rms_after"] < 1e-9 < fit["rms_before"]
+    with pytest.raises(camsim.CamsimError, match="form"):
+        camsim.fit_qe(measured, predicted, form="full")
+
+
+def test_bad_input_raises_camsim_error_never_crashes(tmp_path):
+    with pytest.raises(camsim.CamsimError, match="bogus"):
+        camsim.simulate({"bogus": 1})
+    with pytest.raises(camsim.CamsimError, match="exposure_ms"):
+        camsim.simulate(SMALL.replace("exposure_ms = 8.0", 'exposure_ms = "x"'))
+    with pytest.raises(camsim.CamsimError, match="nothing.toml"):
+        camsim.simulate(tmp_path / "nothing.toml")
+    with pytest.raises(camsim.CamsimError, match="bands"):
+        camsim.optics(np.zeros((3, 4, 4), np.float32), [400, 500])
+    with pytest.raises(camsim.CamsimError):
+        camsim.optics(np.full((2, 4, 4), np.nan, np.float32), [400, 500], fov_deg=5)
+    with pytest.raises(camsim.CamsimError, match="unknown"):
+        camsim.presets.sensor("no-such-sensor")
+    with pytest.raises(camsim.CamsimError):
+        camsim.read_dng(tmp_path / "missing.dng")
+    sim = camsim.simulate(SMALL)
+    with pytest.raises(camsim.CamsimError, match="save"):
+        sim.write(tmp_path / "x", save="radience")
+    with pytest.raises(camsim.CamsimError, match="noise_free"):
+        sim.write(tmp_path / "x", save="noise-free")
+    assert not (tmp_path / "x").exists()
+
+
+def test_the_gil_is_released_during_compute():
+    import threading
+    import time
+
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    t = threading.Thread(target=tick)
+    t.start()
+    t0 = time.perf_counter()
+    camsim.render("cornell-box", resolution=(64, 64), samples_per_pixel=64)
+    t1 = time.perf_counter()
+    stop.set()
+    t.join()
+    during = [x for x in ticks if t0 < x < t1]
+    # With the GIL held the ticker could not run at all while the renderer worked.
+    assert (t1 - t0) > 0.05 and len(during) > 0.3 * (t1 - t0) / 0.002, (t1 - t0, len(during))
+
+
+def run_example(name, *args):
+    import sys
+
+    p = subprocess.run([sys.executable, str(REPO / "examples" / "python" / name), "--small", *args], check=True, capture_output=True, text=True)
+    return p.stdout
+
+
+def test_parameter_sweep_example_builds_a_dataset_that_follows_the_camera_equation(tmp_path):
+    out = tmp_path / "sweep.npz"
+    run_example("parameter_sweep.py", str(out))
+    d = np.load(out)
+    raw, n, t = d["raw"], d["f_numbers"], d["exposures_ms"]
+    assert raw.shape == (3, 3, 120, 160) and raw.dtype == np.uint16
+    # Mean signal ~ t / (1 + 4 N^2): within 5 % (the lens's shading and the blur do not change
+    # with f-number enough to matter on the whole-frame mean).
+    mean = d["mean_dn_noise_free"]
+    expected = t[None, :] / (1 + 4 * n[:, None] ** 2)
+    ratio = (mean / expected) / (mean[0, 0] / expected[0, 0])
+    assert np.allclose(ratio, 1.0, atol=0.05), ratio
+
+
+def test_sensor_comparison_example_runs_and_larger_pixels_win_on_snr(tmp_path):
+    out = tmp_path / "cmp.png"
+    text = run_example("sensor_comparison.py", str(out))
+    snr = [float(line.split("median SNR ")[1].split(",")[0]) for line in text.splitlines() if "median SNR" in line]
+    # Four times the light per pixel in the shot-noise limit: SNR about twice (more where read
+    # noise matters).
+    assert len(snr) == 2 and 1.6 < snr[1] / snr[0] < 5.0, text
+    try:
+        import matplotlib  # noqa: F401
+
+        assert out.is_file() and out.stat().st_size > 10_000
+    except ImportError:
+        pass
+
+
+def test_the_readme_python_example_runs():
+    text = (REPO / "README.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
+    assert blocks, "README has no python example"
+    for code in blocks:
+        exec(compile(code, "README.md", "exec"), {})
