@@ -3,7 +3,7 @@
 
 use crate::atomic::write_atomic;
 use crate::error::{IoError, Result};
-use image::codecs::png::PngEncoder;
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{DynamicImage, ExtendedColorType, ImageEncoder};
 use std::path::Path;
 
@@ -22,12 +22,19 @@ fn check_size(path: &Path, rows: usize, cols: usize, len: usize, per_pixel: usiz
     Ok(())
 }
 
+/// PNG encoder with fast deflate: full-sensor images (12 Mpixel) encode several times faster than
+/// at the default level, for files ~10-20 % larger (PNGs here are for viewing; DNG and EXR carry
+/// the data).
+fn png_encoder<W: std::io::Write>(w: W) -> PngEncoder<W> {
+    PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Adaptive)
+}
+
 /// Write a 16-bit grayscale PNG (`rows * cols` values, row-major), e.g. a raw mosaic in DN.
 pub fn write_png16_gray(path: &Path, rows: usize, cols: usize, data: &[u16]) -> Result<()> {
     check_size(path, rows, cols, data.len(), 1)?;
     let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_ne_bytes()).collect(); // the encoder wants native order
     write_atomic(path, |w| {
-        PngEncoder::new(w)
+        png_encoder(w)
             .write_image(&bytes, cols as u32, rows as u32, ExtendedColorType::L16)
             .map_err(|e| IoError::invalid(path, format!("PNG encoding failed: {e}")))
     })
@@ -57,7 +64,7 @@ pub fn write_png16_mosaic_scaled(path: &Path, rows: usize, cols: usize, dn: &[u1
 pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Result<()> {
     check_size(path, rows, cols, rgb.len(), 3)?;
     write_atomic(path, |w| {
-        PngEncoder::new(w)
+        png_encoder(w)
             .write_image(rgb, cols as u32, rows as u32, ExtendedColorType::Rgb8)
             .map_err(|e| IoError::invalid(path, format!("PNG encoding failed: {e}")))
     })

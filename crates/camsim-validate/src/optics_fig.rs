@@ -202,8 +202,10 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         };
         spectra.apply(&mut bo);
         let mut scene = builtin::scene("slanted-edge", &bo)?;
-        let v = lens::image_distance_m(focal_m, TARGET_DISTANCE_M).unwrap_or(focal_m);
-        scene.camera.fov_deg = 2.0 * (side_px as f64 * pitch_m / 2.0 / v).atan().to_degrees();
+        // The pipeline's one rule: the lens sits at the image distance of the scene's focus.
+        let v = camsim_pipeline::render::sensor_image_distance_m(&base, scene.focus_distance_m)
+            .map_err(|e| crate::ValidateError::invalid("optics", e.to_string()))?;
+        scene.camera.fov_deg = camsim_pipeline::render::field_of_view_deg(side_px as f64 * pitch_m, v);
         let out = camsim_render::render(&scene, prog)?;
         Ok(out.radiance)
     })?;
