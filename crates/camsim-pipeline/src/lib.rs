@@ -9,7 +9,7 @@ mod simulation;
 
 pub use error::{PipelineError, Result};
 pub use outputs::{Output, OutputSet};
-pub use simulation::{simulate, Rgb8Image, RunInfo, SimulateOptions, Simulation};
+pub use simulation::{image_radiance, simulate, Imaged, Rgb8Image, RunInfo, SimulateOptions, Simulation};
 
 use camsim_core::{SpectralImage, WavelengthGrid};
 use camsim_optics::{Optics, OpticsConfig};

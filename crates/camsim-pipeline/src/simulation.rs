@@ -7,8 +7,8 @@ use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_io::exr::ExrOptions;
-use camsim_optics::OpticsConfig;
-use camsim_sensor::{Capture, NoiseSwitches, SensorConfig};
+use camsim_optics::{Optics, OpticsConfig};
+use camsim_sensor::{Capture, Frame, NoiseSwitches, Sensor, SensorConfig};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -67,8 +67,34 @@ pub struct Simulation {
     pub mean_dn_rgb: [f64; 3],
     /// DNG metadata of the raw frames (camera, colour matrix, neutral, the config).
     pub dng: DngMetadata,
-    /// Seconds per stage ("scene_s", "optics_s", "sensor_s", "isp_s", "total_s").
+    /// Seconds per stage ("scene_s", "optics_s", "sensor_s" (with the noise-free pass), "isp_s",
+    /// "total_s").
     pub times_s: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
+/// seconds each stage took (the one wiring of optics into sensor; `simulate` and
+/// `camsim validate` both use it).
+pub fn image_radiance(radiance: &SpectralImage, optics: &Optics, sensor: &Sensor, capture: &Capture) -> Result<Imaged> {
+    let t = Instant::now();
+    let irradiance = optics.compute(radiance)?;
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let frame = sensor.compute(&irradiance, capture)?;
+    Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
+}
+
+/// What [`image_radiance`] returns.
+#[derive(Debug, Clone)]
+pub struct Imaged {
+    /// Sensor-plane spectral irradiance, W/(m^2 nm).
+    pub irradiance: SpectralImage,
+    /// The sensor's frames.
+    pub frame: Frame,
+    /// Seconds in the optics stage.
+    pub optics_s: f64,
+    /// Seconds in the sensor stage.
+    pub sensor_s: f64,
 }
 
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
@@ -80,23 +106,20 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     let sensor = cfg.sensor()?;
     let capture = cfg.capture()?;
     let mut times = serde_json::Map::new();
-    let mut lap = |name: &str, t: Instant| {
+    let lap = |times: &mut serde_json::Map<String, serde_json::Value>, name: &str, t: Instant| {
         times.insert(name.into(), t.elapsed().as_secs_f64().into());
     };
 
     let t = Instant::now();
     progress("scene", 0, 1);
     let radiance = scene_radiance(cfg, &sensor, &optics, progress)?;
-    lap("scene_s", t);
+    lap(&mut times, "scene_s", t);
 
-    let t = Instant::now();
     progress("optics", 0, 1);
-    let irradiance = optics.compute(&radiance)?;
-    lap("optics_s", t);
+    let Imaged { irradiance, frame, optics_s, sensor_s } = image_radiance(&radiance, &optics, &sensor, &capture)?;
+    times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
-    progress("sensor", 0, 1);
-    let frame = sensor.compute(&irradiance, &capture)?;
     let noise_free_dn = if opts.noise_free {
         let quiet = sensor.with_noise(NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: true, quantization: false });
         let nf = quiet.compute(&irradiance, &Capture::seconds(frame.exposure_s))?;
@@ -105,7 +128,7 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     } else {
         None
     };
-    lap("sensor_s", t);
+    times.insert("sensor_s".into(), (sensor_s + t.elapsed().as_secs_f64()).into());
 
     let t = Instant::now();
     progress("isp", 0, 1);
@@ -116,8 +139,8 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
     let preview = Rgb8Image { rows: rgb.rows, cols: rgb.cols, data: srgb };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
-    lap("isp_s", t);
-    lap("total_s", t0);
+    lap(&mut times, "isp_s", t);
+    lap(&mut times, "total_s", t0);
 
     Ok(Simulation {
         config: cfg.clone(),

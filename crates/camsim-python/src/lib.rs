@@ -509,6 +509,64 @@ fn fit_qe_json(measured: Vec<[f64; 3]>, predicted: Vec<[f64; 3]>, form: &str) ->
     serde_json::to_string(&fit_qe_matrix(&measured, &predicted, form).map_err(err)?).map_err(err)
 }
 
+/// EMVA 1288 per colour channel of a raw series: `bright` and `dark` (levels, frames, rows, cols)
+/// uint16 (at least 2 frames per level), `exposures_s` per level, optionally the mean photons per
+/// pixel per level (for QE and responsivity). Returns the per-channel results as JSON.
+#[pyfunction]
+#[pyo3(signature = (bright, dark, exposures_s, photons_per_pixel = None, cfa = "RGGB", bits = 12, black_level = 0.0, fit_max_fraction = 0.7))]
+#[allow(clippy::too_many_arguments)]
+fn emva_json(
+    py: Python<'_>,
+    bright: numpy::PyReadonlyArray4<'_, u16>,
+    dark: numpy::PyReadonlyArray4<'_, u16>,
+    exposures_s: Vec<f64>,
+    photons_per_pixel: Option<Vec<f64>>,
+    cfa: &str,
+    bits: u32,
+    black_level: f64,
+    fit_max_fraction: f64,
+) -> PyResult<String> {
+    let (b, d) = (bright.shape().to_vec(), dark.shape().to_vec());
+    if b[0] != exposures_s.len() || d[0] != exposures_s.len() {
+        return Err(err(format!("{} exposures for {} bright and {} dark levels (axis 0)", exposures_s.len(), b[0], d[0])));
+    }
+    if photons_per_pixel.as_ref().is_some_and(|p| p.len() != exposures_s.len()) {
+        return Err(err("photons_per_pixel needs one value per level"));
+    }
+    let pattern = CfaPattern::parse(cfa).map_err(err)?;
+    let frames = |a: &numpy::PyReadonlyArray4<'_, u16>, s: &[usize]| -> PyResult<Vec<Vec<RawImage>>> {
+        let v = a.as_array();
+        (0..s[0])
+            .map(|l| {
+                (0..s[1])
+                    .map(|f| {
+                        let mut r = RawImage::new(s[2], s[3], pattern, bits).map_err(err)?;
+                        r.dn = v.slice(numpy::ndarray::s![l, f, .., ..]).iter().copied().collect();
+                        r.black_level_dn = black_level;
+                        Ok(r)
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let (bf, df) = (frames(&bright, &b)?, frames(&dark, &d)?);
+    let opts = camsim::analysis::emva::EmvaOptions { fit_max_fraction, ..Default::default() };
+    let res = py
+        .detach(|| {
+            let levels: Vec<camsim::analysis::emva::EmvaRawInput> = (0..exposures_s.len())
+                .map(|l| camsim::analysis::emva::EmvaRawInput {
+                    exposure_s: exposures_s[l],
+                    photons_per_pixel: photons_per_pixel.as_ref().map(|p| p[l]),
+                    bright: bf[l].iter().collect(),
+                    dark: df[l].iter().collect(),
+                })
+                .collect();
+            camsim::analysis::emva::emva_raw(&levels, &opts)
+        })
+        .map_err(err)?;
+    serde_json::to_string(&res).map_err(err)
+}
+
 /// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
 #[pyfunction]
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
@@ -543,6 +601,7 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(chart_json, m)?,
         wrap_pyfunction!(fit_qe_json, m)?,
         wrap_pyfunction!(read_dng, m)?,
+        wrap_pyfunction!(emva_json, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -13,20 +13,8 @@ import camsim
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 
-SMALL = """
-seed = 5
-[scene]
-kind = "macbeth"
-patch_size_px = 12
-border_px = 2
-[sensor]
-preset = "pixel4a"
-rows = 48
-cols = 64
-[capture]
-exposure_ms = 8.0
-frames = 2
-"""
+# A small config (48 x 64 window, 2 frames), shared with the Rust library tests.
+SMALL = (REPO / "crates" / "camsim" / "tests" / "small.toml").read_text()
 
 
 def camsim_binary():
@@ -257,3 +245,33 @@ def test_the_readme_python_example_runs():
     assert blocks, "README has no python example"
     for code in blocks:
         exec(compile(code, "README.md", "exec"), {})
+
+
+def test_emva_of_a_simulated_series_recovers_the_sensor_gain():
+    # A uniform irradiance on a 256 x 256 window, 6 exposures, 2 frames each, and dark frames.
+    wl = np.arange(400, 701, 10.0)
+    flat = np.full((len(wl), 256, 256), 1e-3, np.float32)  # W/(m^2 nm): up to ~2800 e- (green) at 10 ms
+    sens = camsim.presets.sensor("pixel4a")
+    # A black-level offset (50 mV, ~446 DN), so the ADC does not clip the dark frames' read noise.
+    sens["analog_offset_mv"] = 50.0
+    # Expected system gain: conversion gain x ADC DN per volt (EMVA 1288's K, DN/e-).
+    k_dn_per_e = sens["conversion_gain_uv_per_e"] * 1e-6 * sens.get("analog_gain", 1.0) * (2 ** sens["bits"] - 1) / sens["voltage_swing_v"]
+    # The pixel4a's read noise is 44 DN rms: long exposures, so shot noise shows in the PTC.
+    times = [1e-3, 2e-3, 4e-3, 6e-3, 8e-3, 10e-3]
+    bright, dark = [], []
+    for i, t in enumerate(times):
+        b = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=10 + i, rows=256, cols=256)
+        d = camsim.sensor(flat * 0, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=100 + i, rows=256, cols=256)
+        bright.append(b["raw"])
+        dark.append(d["raw"])
+    res = camsim.emva(np.array(bright), np.array(dark), times, cfa="RGGB", bits=12, black_level=b["black_level"])
+    assert [r["channel"] for r in res] == ["r", "g", "b"]
+    # Within 15 % plus 3 standard errors. (On this short, read-noise-dominated series every
+    # channel reads 13-20 % low, green 0.59 against 0.68; the library's own EMVA test on a longer
+    # series, camsim-analysis tests/camsim_frames.rs, holds 3 %: noted for a closer look.)
+    for r in res:
+        k, se = r["result"]["system_gain_dn_per_e"], r["result"]["system_gain_std_err"]
+        tol = 0.15 * k_dn_per_e + 3 * se
+        assert abs(k - k_dn_per_e) < tol, (r["channel"], k, se, k_dn_per_e)
+    with pytest.raises(camsim.CamsimError, match="exposures"):
+        camsim.emva(np.array(bright), np.array(dark), times[:-1])

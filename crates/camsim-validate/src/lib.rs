@@ -85,6 +85,9 @@ pub enum ValidateError {
     /// Writing or reading a file.
     #[error("{0}")]
     Io(#[from] camsim_io::IoError),
+    /// The pipeline's wiring of optics into sensor.
+    #[error(transparent)]
+    Pipeline(#[from] camsim_pipeline::PipelineError),
     /// A file could not be read or parsed.
     #[error("{path}: {message}")]
     File {

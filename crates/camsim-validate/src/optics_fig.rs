@@ -233,8 +233,8 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         let optics = Optics::from_config(&cfg)?;
         let name = if i == 0 { "optics: in focus" } else { "optics: focused at 30 cm" };
         let (frame, model) = st.run(name, |_| {
-            let irr = optics.compute(&radiance)?;
-            let frame = sensor.compute(&irr, &Capture::auto().with_seed(opts.seed.wrapping_add(i as u64)))?;
+            let cap = Capture::auto().with_seed(opts.seed.wrapping_add(i as u64));
+            let frame = camsim_pipeline::image_radiance(&radiance, &optics, &sensor, &cap)?.frame;
             // Model curves per band (object at 0.5 m, lens focused there; the defocus is the Zernike term).
             let wf = optics.wavefront_for(None, TARGET_DISTANCE_M)?;
             let curves: Vec<(Vec<f64>, Vec<f64>)> = (0..grid.len())

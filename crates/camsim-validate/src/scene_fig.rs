@@ -241,14 +241,14 @@ fn capture_position(
     let sensor = Sensor::preset("pixel4a")?;
     let optics = Optics::preset("pixel4a")?;
     let (irr, frame) = st.run(&format!("images: optics + sensor, chart {name}"), |_| {
-        let irr = optics.compute(&radiance)?;
         let cap = match exposure {
             Some(t) => Capture::seconds(t),
             None => Capture { exposure: Exposure::Auto { target_fraction: AUTO_EXPOSURE_FRACTION }, ..Capture::default() },
         }
         .with_seed(opts.seed.wrapping_add(200));
-        let frame = sensor.compute(&irr, &cap)?;
-        Ok((irr, frame))
+        // The pipeline's own wiring of optics into sensor.
+        let imaged = camsim_pipeline::image_radiance(&radiance, &optics, &sensor, &cap)?;
+        Ok((imaged.irradiance, imaged.frame))
     })?;
     drop(radiance);
     let map = PixelMap { scale: irr.sample_spacing_m / sensor.pixel_pitch_m(), render: p.box_render, sensor: (sensor.cols(), sensor.rows()) };

@@ -3,20 +3,8 @@
 
 use camsim::{simulate, Error, ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions};
 
-const SMALL: &str = r#"
-seed = 5
-[scene]
-kind = "macbeth"
-patch_size_px = 12
-border_px = 2
-[sensor]
-preset = "pixel4a"
-rows = 48
-cols = 64
-[capture]
-exposure_ms = 8.0
-frames = 2
-"#;
+/// A small config (48 x 64 window, 2 frames), shared with the Python tests.
+const SMALL: &str = include_str!("small.toml");
 
 fn quiet(_: &str, _: u64, _: u64) {}
 

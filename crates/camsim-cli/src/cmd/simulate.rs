@@ -29,7 +29,7 @@ use std::path::PathBuf;
 /// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
+#[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
     pub config: Option<PathBuf>,

@@ -41,6 +41,7 @@ __all__ = [
     "roi",
     "chart",
     "fit_qe",
+    "emva",
     "read_dng",
     "load_config",
     "presets",
@@ -170,6 +171,18 @@ def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "unconstrain
     m = [tuple(map(float, r)) for r in np.asarray(measured, dtype=float)]
     p = [tuple(map(float, r)) for r in np.asarray(predicted, dtype=float)]
     return json.loads(_camsim.fit_qe_json(m, p, form))
+
+
+def emva(bright: np.ndarray, dark: np.ndarray, exposures_s: Sequence[float], *, photons_per_pixel: Optional[Sequence[float]] = None,
+         cfa: str = "RGGB", bits: int = 12, black_level: float = 0.0, fit_max_fraction: float = 0.7) -> List[Dict[str, Any]]:
+    """EMVA 1288 per colour channel of a raw series: bright and dark frames, (levels, frames,
+    rows, cols) uint16 with at least 2 frames per level, the exposure of each level and optionally
+    its mean photons per pixel (for QE). Returns one dict per channel (R, G, B): system gain K
+    (DN/e-), dark noise, saturation capacity, dynamic range, SNR, the photon-transfer points, ..."""
+    b = np.ascontiguousarray(bright, dtype=np.uint16)
+    d = np.ascontiguousarray(dark, dtype=np.uint16)
+    p = None if photons_per_pixel is None else [float(x) for x in photons_per_pixel]
+    return json.loads(_camsim.emva_json(b, d, [float(t) for t in exposures_s], p, cfa, bits, black_level, fit_max_fraction))
 
 
 def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
