@@ -7,19 +7,24 @@
 //! its own through the re-exported stage crates, and writing files as a separate, explicit step
 //! ([`Simulation::write`]).
 //!
-//! ```no_run
+//! ```
 //! use camsim::{simulate, OutputSet, RunInfo, SimulateConfig, SimulateOptions};
 //!
 //! // The built-in default: a Macbeth chart under D65 through the Pixel 4a lens and sensor.
 //! let mut config = SimulateConfig::builtin_default();
 //! config.seed = 7;
 //! config.capture.exposure_ms = Some(10.0);
+//! config.sensor.rows = Some(120); // a small window keeps this example fast
+//! config.sensor.cols = Some(160);
 //! let sim = simulate(&config, &SimulateOptions::default(), &|_stage, _done, _total| {})?;
 //! println!("mean DN r/g/b {:?}, {} frame(s)", sim.mean_dn_rgb, sim.frames.len());
 //! let raw = &sim.frames[0]; // ADC values, raw.dn[r * raw.cols + c]
-//! assert_eq!(raw.dn.len(), raw.rows * raw.cols);
+//! assert_eq!((raw.rows, raw.cols), (120, 160));
 //! // Files only when asked for: raw.dng, preview.png and run.json here.
-//! sim.write("out/lib-example".as_ref(), &OutputSet::default(), Default::default(), &RunInfo::default())?;
+//! let dir = std::env::temp_dir().join(format!("camsim-doc-example-{}", std::process::id()));
+//! sim.write(&dir, &OutputSet::default(), Default::default(), &RunInfo::default())?;
+//! assert!(dir.join("raw.dng").is_file() && dir.join("preview.png").is_file());
+//! # std::fs::remove_dir_all(&dir).ok();
 //! # Ok::<(), camsim::Error>(())
 //! ```
 //!
