@@ -58,12 +58,7 @@ pub struct FarTail {
 }
 
 fn odd_at_least(x: usize) -> usize {
-    let x = x.max(1);
-    if x % 2 == 0 {
-        x + 1
-    } else {
-        x
-    }
+    x.max(1) | 1
 }
 
 impl FarTail {
