@@ -12,24 +12,16 @@ use std::path::PathBuf;
 /// sensor, auto-exposed. Every config key is documented in README.md ("Config reference") and in
 /// the files under examples/.
 ///
-/// Writes in --out the outputs --save names (default: raw,preview), and run.json (every
-/// parameter; `camsim simulate out/run.json` repeats the run):
-///   raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)
-///   preview     preview.png: bilinear demosaic, colour-corrected to sRGB
-///   raw-png     raw.png: the mosaic scaled to the 16-bit range for viewing
-///               (value = round(DN x 65535 / (2^bits - 1)), recorded in run.json)
-///   radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (depth as channel Z)
-///   irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)
-///   depth       depth.exr: the depth map of a 3D scene, m
-///   noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN
-/// Spectral EXRs cost most of a large run's time: ask for them only when needed, and choose
-/// --exr-compression none (fastest) or zip (smallest) and --exr-precision f32 or f16.
+/// Writes in --out the outputs --save names (default: raw,preview; the list is below) and
+/// run.json (every parameter; `camsim simulate out/run.json` repeats the run). Spectral EXRs cost
+/// most of a large run's time: ask for them only when needed, and choose --exr-compression none
+/// (fastest) or zip (smallest) and --exr-precision f32 or f16.
 ///
 /// The folder always holds one complete run: the files are written into DIR.tmp-<pid> beside it
 /// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
+#[command(after_help = "Outputs (--save, comma-separated; or all, default):\n  raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)\n  preview     preview.png: bilinear demosaic, colour-corrected to sRGB\n  raw-png     raw.png: the mosaic scaled to 16 bits for viewing (value = round(DN x 65535 / max DN))\n  radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (3D scenes: depth as channel Z)\n  irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)\n  depth       depth.exr: the depth map of a 3D scene, m (2D charts have none)\n  noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN\n\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)")]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
     pub config: Option<PathBuf>,
