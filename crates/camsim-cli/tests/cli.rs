@@ -21,22 +21,7 @@ fn files_in(dir: &Path) -> Vec<String> {
 }
 
 /// A small, fast simulate config (a 64 x 96 sensor window).
-const SMALL: &str = r#"
-seed = 5
-[scene]
-kind = "macbeth"
-fov_deg = 2.0
-patch_size_px = 12
-border_px = 2
-[optics]
-preset = "pixel4a"
-[sensor]
-preset = "pixel4a"
-rows = 64
-cols = 96
-[capture]
-exposure_ms = 5.0
-"#;
+const SMALL: &str = include_str!("small-chart.toml");
 
 #[test]
 fn simulate_writes_every_output_and_same_seed_gives_identical_dng_for_1_and_2_threads() {
