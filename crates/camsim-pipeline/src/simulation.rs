@@ -2,10 +2,7 @@
 //! files ([`Simulation::write`]).
 
 use crate::outputs::{Output, OutputSet};
-use crate::{
-    color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_radiance,
-    PipelineError, Progress, Result, SimulateConfig,
-};
+use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_radiance, PipelineError, Progress, Result, SimulateConfig};
 use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
@@ -78,23 +75,13 @@ pub struct Simulation {
 /// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
 /// seconds each stage took (the one wiring of optics into sensor; `simulate` and
 /// `camsim validate` both use it).
-pub fn image_radiance(
-    radiance: &SpectralImage,
-    optics: &Optics,
-    sensor: &Sensor,
-    capture: &Capture,
-) -> Result<Imaged> {
+pub fn image_radiance(radiance: &SpectralImage, optics: &Optics, sensor: &Sensor, capture: &Capture) -> Result<Imaged> {
     let t = Instant::now();
     let irradiance = optics.compute(radiance)?;
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let frame = sensor.compute(&irradiance, capture)?;
-    Ok(Imaged {
-        irradiance,
-        frame,
-        optics_s,
-        sensor_s: t.elapsed().as_secs_f64(),
-    })
+    Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
 }
 
 /// What [`image_radiance`] returns.
@@ -113,11 +100,7 @@ pub struct Imaged {
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
 /// Reads only the files the config names (scene files, pbrt scenes, lens or sensor files);
 /// writes nothing. `progress(stage, done, total)` is called as long steps advance.
-pub fn simulate(
-    cfg: &SimulateConfig,
-    opts: &SimulateOptions,
-    progress: &Progress<'_>,
-) -> Result<Simulation> {
+pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progress<'_>) -> Result<Simulation> {
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
@@ -133,53 +116,28 @@ pub fn simulate(
     lap(&mut times, "scene_s", t);
 
     progress("optics", 0, 1);
-    let Imaged {
-        irradiance,
-        frame,
-        optics_s,
-        sensor_s,
-    } = image_radiance(&radiance, &optics, &sensor, &capture)?;
+    let Imaged { irradiance, frame, optics_s, sensor_s } = image_radiance(&radiance, &optics, &sensor, &capture)?;
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
     let noise_free_dn = if opts.noise_free {
-        let quiet = sensor.with_noise(NoiseSwitches {
-            shot: false,
-            read: false,
-            dsnu: false,
-            prnu: false,
-            dark: true,
-            quantization: false,
-        });
+        let quiet = sensor.with_noise(NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: true, quantization: false });
         let nf = quiet.compute(&irradiance, &Capture::seconds(frame.exposure_s))?;
         let plane = nf.analog_dn.and_then(|mut v| v.drain(..).next());
-        Some(plane.ok_or_else(|| {
-            PipelineError::config("the noise-free sensor pass returned no analog values")
-        })?)
+        Some(plane.ok_or_else(|| PipelineError::config("the noise-free sensor pass returned no analog values"))?)
     } else {
         None
     };
-    times.insert(
-        "sensor_s".into(),
-        (sensor_s + t.elapsed().as_secs_f64()).into(),
-    );
+    times.insert("sensor_s".into(), (sensor_s + t.elapsed().as_secs_f64()).into());
 
     let t = Instant::now();
     progress("isp", 0, 1);
     let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
     let dng = dng_metadata(&sensor, &color, Some(cfg))?;
-    let raw0 = frame
-        .raw
-        .first()
-        .ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
+    let raw0 = frame.raw.first().ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
     let rgb = camsim_isp::demosaic_bilinear(raw0);
-    let srgb =
-        color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
-    let preview = Rgb8Image {
-        rows: rgb.rows,
-        cols: rgb.cols,
-        data: srgb,
-    };
+    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
+    let preview = Rgb8Image { rows: rgb.rows, cols: rgb.cols, data: srgb };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -226,10 +184,7 @@ impl Simulation {
         let raw0 = &self.frames[0];
         let mut files = serde_json::Map::new();
         if outputs.contains(Output::Raw) {
-            files.insert(
-                "raw.dng".into(),
-                "the exact ADC values (DN), black and white level in its tags".into(),
-            );
+            files.insert("raw.dng".into(), "the exact ADC values (DN), black and white level in its tags".into());
         }
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
@@ -242,10 +197,7 @@ impl Simulation {
             files.insert("depth.exr".into(), note.into());
         }
         if outputs.contains(Output::NoiseFree) {
-            files.insert(
-                "noise_free.exr".into(),
-                "expected ADC value per pixel without noise or quantization, DN (channel Y)".into(),
-            );
+            files.insert("noise_free.exr".into(), "expected ADC value per pixel without noise or quantization, DN (channel Y)".into());
         }
         serde_json::json!({
             "camsim_version": env!("CARGO_PKG_VERSION"),
@@ -273,13 +225,7 @@ impl Simulation {
     /// Write the chosen outputs and run.json into folder `dir`, atomically as a whole: the files
     /// go into a staging folder beside it, which then replaces `dir` (an earlier camsim run there
     /// is replaced; any other existing content is refused).
-    pub fn write(
-        &self,
-        dir: &Path,
-        outputs: &OutputSet,
-        exr: ExrOptions,
-        info: &RunInfo,
-    ) -> Result<()> {
+    pub fn write(&self, dir: &Path, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
         let out = OutputDir::create(dir)?;
         self.write_into(&out, outputs, exr, info)?;
         out.commit()?;
@@ -287,13 +233,7 @@ impl Simulation {
     }
 
     /// [`Self::write`] into a staging folder the caller commits.
-    pub fn write_into(
-        &self,
-        out: &OutputDir,
-        outputs: &OutputSet,
-        exr: ExrOptions,
-        info: &RunInfo,
-    ) -> Result<()> {
+    pub fn write_into(&self, out: &OutputDir, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
         if outputs.contains(Output::NoiseFree) && self.noise_free_dn.is_none() {
             return Err(PipelineError::config("noise-free output asked for, but the run did not compute it (SimulateOptions::noise_free)"));
         }
@@ -302,61 +242,26 @@ impl Simulation {
         let tasks: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = {
             let mut t: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = Vec::new();
             if outputs.contains(Output::Radiance) {
-                t.push(Box::new(move || {
-                    Ok(camsim_io::exr::write_spectral_exr_with(
-                        &out.join("radiance.exr"),
-                        &self.radiance,
-                        "scene",
-                        exr,
-                    )?)
-                }));
+                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), &self.radiance, "scene", exr)?)));
             }
             if outputs.contains(Output::Irradiance) {
-                t.push(Box::new(move || {
-                    Ok(camsim_io::exr::write_spectral_exr_with(
-                        &out.join("irradiance.exr"),
-                        &self.irradiance,
-                        "optics",
-                        exr,
-                    )?)
-                }));
+                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("irradiance.exr"), &self.irradiance, "optics", exr)?)));
             }
             // 2D charts have no depth map: depth.exr only for 3D scenes (run.json says which).
-            if let (true, Some(d)) = (
-                outputs.contains(Output::Depth),
-                self.radiance.depth_m.as_deref(),
-            ) {
-                t.push(Box::new(move || {
-                    Ok(camsim_io::exr::write_gray_exr(
-                        &out.join("depth.exr"),
-                        self.radiance.rows,
-                        self.radiance.cols,
-                        "Z",
-                        d,
-                    )?)
-                }));
+            if let (true, Some(d)) = (outputs.contains(Output::Depth), self.radiance.depth_m.as_deref()) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), self.radiance.rows, self.radiance.cols, "Z", d)?)));
             }
             if outputs.contains(Output::NoiseFree) {
                 t.push(Box::new(move || {
                     let raw0 = &self.frames[0];
                     let nf = self.noise_free_dn.as_deref().unwrap_or_default();
-                    Ok(camsim_io::exr::write_gray_exr(
-                        &out.join("noise_free.exr"),
-                        raw0.rows,
-                        raw0.cols,
-                        "Y",
-                        nf,
-                    )?)
+                    Ok(camsim_io::exr::write_gray_exr(&out.join("noise_free.exr"), raw0.rows, raw0.cols, "Y", nf)?)
                 }));
             }
             if outputs.contains(Output::Raw) {
                 for (i, raw) in self.frames.iter().enumerate() {
                     t.push(Box::new(move || {
-                        let name = if i == 0 {
-                            "raw.dng".to_string()
-                        } else {
-                            format!("raw_{i:04}.dng")
-                        };
+                        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
                         Ok(camsim_io::dng::write_dng(&out.join(&name), raw, &self.dng)?)
                     }));
                 }
@@ -364,33 +269,19 @@ impl Simulation {
             if outputs.contains(Output::RawPng) {
                 t.push(Box::new(move || {
                     let raw0 = &self.frames[0];
-                    Ok(camsim_io::raster::write_png16_mosaic_scaled(
-                        &out.join("raw.png"),
-                        raw0.rows,
-                        raw0.cols,
-                        &raw0.dn,
-                        raw0.bits,
-                    )?)
+                    Ok(camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn, raw0.bits)?)
                 }));
             }
             if outputs.contains(Output::Preview) {
                 t.push(Box::new(move || {
                     let p = &self.preview;
-                    Ok(camsim_io::raster::write_png8_rgb(
-                        &out.join("preview.png"),
-                        p.rows,
-                        p.cols,
-                        &p.data,
-                    )?)
+                    Ok(camsim_io::raster::write_png8_rgb(&out.join("preview.png"), p.rows, p.cols, &p.data)?)
                 }));
             }
             t
         };
         use rayon::prelude::*;
-        tasks
-            .par_iter()
-            .map(|task| task())
-            .collect::<Result<Vec<()>>>()?;
+        tasks.par_iter().map(|task| task()).collect::<Result<Vec<()>>>()?;
         // run.json last: its presence marks a complete run.
         camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
         Ok(())

@@ -14,22 +14,14 @@ use camsim::core::image::ImageGeometry;
 use camsim::core::{CfaChannel, CfaPattern, Quantity, RawImage, SpectralImage, WavelengthGrid};
 use camsim::optics::{Optics, OpticsConfig};
 use camsim::sensor::{Capture, Exposure, Sensor, SensorConfig};
-use camsim::{
-    ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions,
-    Simulation,
-};
+use camsim::{ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions, Simulation};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-create_exception!(
-    _camsim,
-    CamsimError,
-    PyException,
-    "An error reported by camsim (bad input, a file it cannot read, ...)."
-);
+create_exception!(_camsim, CamsimError, PyException, "An error reported by camsim (bad input, a file it cannot read, ...).");
 
 fn err(e: impl std::fmt::Display) -> PyErr {
     CamsimError::new_err(e.to_string())
@@ -37,8 +29,7 @@ fn err(e: impl std::fmt::Display) -> PyErr {
 
 /// A Python object from JSON text (through the `json` module: plain dicts, lists, numbers).
 fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    py.import("json")?
-        .call_method1("loads", (value.to_string(),))
+    py.import("json")?.call_method1("loads", (value.to_string(),))
 }
 
 fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyAny> {
@@ -54,23 +45,14 @@ fn array_u16<'py>(py: Python<'py>, v: &[u16], shape: &[usize]) -> PyResult<Bound
 }
 
 fn wavelengths(img: &SpectralImage) -> Vec<f64> {
-    (0..img.bands())
-        .map(|b| img.grid.wavelength_nm(b))
-        .collect()
+    (0..img.bands()).map(|b| img.grid.wavelength_nm(b)).collect()
 }
 
 /// A spectral image as a dict: `key` -> (bands, rows, cols) float32, `wavelengths_nm`,
 /// `spacing_m`, `fov_deg`, `distance_m`, `depth_m` ((rows, cols) or None), `units`.
-fn spectral_dict<'py>(
-    py: Python<'py>,
-    img: &SpectralImage,
-    key: &str,
-) -> PyResult<Bound<'py, PyDict>> {
+fn spectral_dict<'py>(py: Python<'py>, img: &SpectralImage, key: &str) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item(
-        key,
-        array_f32(py, &img.data, &[img.bands(), img.rows, img.cols])?,
-    )?;
+    d.set_item(key, array_f32(py, &img.data, &[img.bands(), img.rows, img.cols])?)?;
     d.set_item("wavelengths_nm", array1(py, &wavelengths(img)))?;
     d.set_item("spacing_m", img.sample_spacing_m)?;
     d.set_item("fov_deg", img.geometry.fov_deg)?;
@@ -93,35 +75,19 @@ fn spectral_from(
 ) -> PyResult<SpectralImage> {
     let shape = data.shape().to_vec();
     if shape[0] != wavelengths_nm.len() {
-        return Err(err(format!(
-            "the array has {} bands (axis 0) but {} wavelengths were given",
-            shape[0],
-            wavelengths_nm.len()
-        )));
+        return Err(err(format!("the array has {} bands (axis 0) but {} wavelengths were given", shape[0], wavelengths_nm.len())));
     }
     let grid = WavelengthGrid::from_wavelengths(&wavelengths_nm).map_err(err)?;
     let values = data.as_array().iter().copied().collect::<Vec<f32>>();
-    let mut img = SpectralImage::from_data(shape[1], shape[2], grid, spacing_m, quantity, values)
-        .map_err(err)?;
+    let mut img = SpectralImage::from_data(shape[1], shape[2], grid, spacing_m, quantity, values).map_err(err)?;
     img.validate_values(quantity.name()).map_err(err)?;
     img.geometry = geometry;
     Ok(img)
 }
 
-fn raw_from(
-    raw: PyReadonlyArray2<'_, u16>,
-    cfa: &str,
-    bits: u32,
-    black_level: f64,
-) -> PyResult<RawImage> {
+fn raw_from(raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<RawImage> {
     let shape = raw.shape().to_vec();
-    let mut img = RawImage::new(
-        shape[0],
-        shape[1],
-        CfaPattern::parse(cfa).map_err(err)?,
-        bits,
-    )
-    .map_err(err)?;
+    let mut img = RawImage::new(shape[0], shape[1], CfaPattern::parse(cfa).map_err(err)?, bits).map_err(err)?;
     img.dn = raw.as_array().iter().copied().collect();
     img.black_level_dn = black_level;
     Ok(img)
@@ -137,8 +103,7 @@ fn lens_from(lens: &str) -> PyResult<OpticsConfig> {
 
 fn sensor_from(sensor: &str) -> PyResult<Sensor> {
     if sensor.trim_start().starts_with('{') {
-        let c: SensorConfig =
-            serde_json::from_str(sensor).map_err(|e| err(format!("sensor: {e}")))?;
+        let c: SensorConfig = serde_json::from_str(sensor).map_err(|e| err(format!("sensor: {e}")))?;
         Sensor::from_config_named(c, "the sensor dict").map_err(err)
     } else {
         camsim::pipeline::load_sensor(sensor).map_err(err)
@@ -184,10 +149,7 @@ impl PySimulation {
     #[getter]
     fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.radiance;
-        r.depth_m
-            .as_ref()
-            .map(|z| array_f32(py, z, &[r.rows, r.cols]))
-            .transpose()
+        r.depth_m.as_ref().map(|z| array_f32(py, z, &[r.rows, r.cols])).transpose()
     }
     /// Raw frames, (frames, rows, cols) uint16 ADC values (DN).
     #[getter]
@@ -226,29 +188,18 @@ impl PySimulation {
     #[getter]
     fn noise_free<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.frames[0];
-        self.inner
-            .noise_free_dn
-            .as_ref()
-            .map(|v| array_f32(py, v, &[r.rows, r.cols]))
-            .transpose()
+        self.inner.noise_free_dn.as_ref().map(|v| array_f32(py, v, &[r.rows, r.cols])).transpose()
     }
     /// sRGB preview, (rows, cols, 3) uint8.
     #[getter]
     fn preview<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let p = &self.inner.preview;
-        Ok(PyArray1::from_slice(py, &p.data)
-            .reshape([p.rows, p.cols, 3])?
-            .into_any())
+        Ok(PyArray1::from_slice(py, &p.data).reshape([p.rows, p.cols, 3])?.into_any())
     }
     /// The run's record as a dict (what run.json holds: configs, results, times).
     #[getter]
     fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(
-            py,
-            &self
-                .inner
-                .metadata(&RunInfo::default(), &OutputSet::default()),
-        )
+        json_to_py(py, &self.inner.metadata(&RunInfo::default(), &OutputSet::default()))
     }
     /// For a Macbeth chart scene: the chart's outer corners on the sensor, [[x, y], ...] pixels
     /// (top-left = dark skin, top-right, bottom-right, bottom-left), as `chart()` takes them;
@@ -257,14 +208,7 @@ impl PySimulation {
     fn chart_corners(&self) -> PyResult<Option<Vec<[f64; 2]>>> {
         let s = &self.inner.sensor;
         let r = &self.inner.frames[0];
-        let c = camsim::pipeline::macbeth_chart_corners_px(
-            &self.inner.config,
-            &self.inner.optics,
-            s.pixel_pitch_um * 1e-6,
-            r.rows,
-            r.cols,
-        )
-        .map_err(err)?;
+        let c = camsim::pipeline::macbeth_chart_corners_px(&self.inner.config, &self.inner.optics, s.pixel_pitch_um * 1e-6, r.rows, r.cols).map_err(err)?;
         Ok(c.map(|c| c.to_vec()))
     }
     /// The effective config as a dict (pass it back to simulate to repeat the run).
@@ -274,14 +218,7 @@ impl PySimulation {
     }
     /// Write files into folder `dir` as `camsim simulate --save` does (atomically as a whole).
     #[pyo3(signature = (dir, save = "default", exr_precision = "f32", exr_compression = "none"))]
-    fn write(
-        &self,
-        py: Python<'_>,
-        dir: std::path::PathBuf,
-        save: &str,
-        exr_precision: &str,
-        exr_compression: &str,
-    ) -> PyResult<()> {
+    fn write(&self, py: Python<'_>, dir: std::path::PathBuf, save: &str, exr_precision: &str, exr_compression: &str) -> PyResult<()> {
         let outputs = OutputSet::parse(save).map_err(err)?;
         let precision = match exr_precision {
             "f32" => ExrPrecision::F32,
@@ -294,27 +231,12 @@ impl PySimulation {
             "zip" => ExrCompression::Zip,
             "zips" => ExrCompression::Zips,
             "piz" => ExrCompression::Piz,
-            o => {
-                return Err(err(format!(
-                    "exr_compression {o:?}: none, rle, zip, zips or piz"
-                )))
-            }
+            o => return Err(err(format!("exr_compression {o:?}: none, rle, zip, zips or piz"))),
         };
         if outputs.contains(camsim::Output::NoiseFree) && self.inner.noise_free_dn.is_none() {
             return Err(err("save noise-free needs simulate(..., noise_free=True)"));
         }
-        py.detach(|| {
-            self.inner.write(
-                &dir,
-                &outputs,
-                ExrOptions {
-                    precision,
-                    compression,
-                },
-                &RunInfo::default(),
-            )
-        })
-        .map_err(err)
+        py.detach(|| self.inner.write(&dir, &outputs, ExrOptions { precision, compression }, &RunInfo::default())).map_err(err)
     }
     fn __repr__(&self) -> String {
         let r = &self.inner.frames[0];
@@ -334,12 +256,9 @@ impl PySimulation {
 #[pyfunction]
 #[pyo3(signature = (config_json, noise_free = false))]
 fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResult<PySimulation> {
-    let cfg: SimulateConfig =
-        serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
+    let cfg: SimulateConfig = serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
-    let sim = py
-        .detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {}))
-        .map_err(err)?;
+    let sim = py.detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {})).map_err(err)?;
     Ok(PySimulation { inner: sim })
 }
 
@@ -353,8 +272,7 @@ fn config_from_toml(text: &str) -> PyResult<String> {
 /// A SimulateConfig from JSON (checked, every default filled in), as JSON.
 #[pyfunction]
 fn config_from_json(text: &str) -> PyResult<String> {
-    let cfg: SimulateConfig =
-        serde_json::from_str(text).map_err(|e| err(format!("config: {e}")))?;
+    let cfg: SimulateConfig = serde_json::from_str(text).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
     serde_json::to_string(&cfg).map_err(err)
 }
@@ -372,15 +290,9 @@ fn config_from_file(path: std::path::PathBuf) -> PyResult<String> {
 fn preset_json(kind: &str, name: Option<&str>) -> PyResult<String> {
     match (kind, name) {
         ("simulate", _) => serde_json::to_string(&SimulateConfig::builtin_default()).map_err(err),
-        ("sensor", Some(n)) => {
-            serde_json::to_string(Sensor::preset(n).map_err(err)?.config()).map_err(err)
-        }
-        ("lens", Some(n)) => {
-            serde_json::to_string(&OpticsConfig::preset(n).map_err(err)?).map_err(err)
-        }
-        _ => Err(err(format!(
-            "unknown preset kind {kind:?} (simulate, sensor NAME, lens NAME)"
-        ))),
+        ("sensor", Some(n)) => serde_json::to_string(Sensor::preset(n).map_err(err)?.config()).map_err(err),
+        ("lens", Some(n)) => serde_json::to_string(&OpticsConfig::preset(n).map_err(err)?).map_err(err),
+        _ => Err(err(format!("unknown preset kind {kind:?} (simulate, sensor NAME, lens NAME)"))),
     }
 }
 
@@ -388,27 +300,14 @@ fn preset_json(kind: &str, name: Option<&str>) -> PyResult<String> {
 /// (start_nm, step_nm, count) -> dict with `radiance`.
 #[pyfunction]
 #[pyo3(signature = (scene_json, start_nm = 400.0, step_nm = 10.0, count = 31))]
-fn scene<'py>(
-    py: Python<'py>,
-    scene_json: &str,
-    start_nm: f64,
-    step_nm: f64,
-    count: usize,
-) -> PyResult<Bound<'py, PyDict>> {
-    let cfg: camsim::scene::SceneConfig =
-        serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
-    let grid = WavelengthGrid::from_wavelengths(
-        &(0..count)
-            .map(|i| start_nm + step_nm * i as f64)
-            .collect::<Vec<_>>(),
-    )
-    .map_err(err)?;
+fn scene<'py>(py: Python<'py>, scene_json: &str, start_nm: f64, step_nm: f64, count: usize) -> PyResult<Bound<'py, PyDict>> {
+    let cfg: camsim::scene::SceneConfig = serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
+    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
     let img = py
         .detach(|| -> Result<SpectralImage, String> {
             match &cfg {
                 camsim::scene::SceneConfig::File(f) => {
-                    let img =
-                        camsim::io::exr::read_spectral_exr(&f.path).map_err(|e| e.to_string())?;
+                    let img = camsim::io::exr::read_spectral_exr(&f.path).map_err(|e| e.to_string())?;
                     camsim::scene::from_image(f, img).map_err(|e| e.to_string())
                 }
                 c => camsim::scene::create(c, &grid).map_err(|e| e.to_string()),
@@ -434,30 +333,15 @@ fn render<'py>(
     step_nm: f64,
     count: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let grid = WavelengthGrid::from_wavelengths(
-        &(0..count)
-            .map(|i| start_nm + step_nm * i as f64)
-            .collect::<Vec<_>>(),
-    )
-    .map_err(err)?;
-    let mut opts = camsim::render::builtin::BuiltinOptions {
-        grid,
-        seed,
-        resolution,
-        ..Default::default()
-    };
+    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
+    let mut opts = camsim::render::builtin::BuiltinOptions { grid, seed, resolution, ..Default::default() };
     if let Some(spp) = samples_per_pixel {
         opts.samples_per_pixel = spp;
     }
     let builtin = builtin.map(str::to_string);
     let out = py
         .detach(|| -> camsim::Result<camsim::render::RenderOutput> {
-            let mut scene = camsim::pipeline::render::load_scene(
-                builtin.as_deref(),
-                pbrt.as_deref(),
-                None,
-                &opts,
-            )?;
+            let mut scene = camsim::pipeline::render::load_scene(builtin.as_deref(), pbrt.as_deref(), None, &opts)?;
             if let Some(spp) = samples_per_pixel {
                 scene.settings.samples_per_pixel = spp;
             }
@@ -481,20 +365,9 @@ fn optics<'py>(
     fov_deg: f64,
     depth_m: Option<PyReadonlyArray2<'_, f32>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let geometry = ImageGeometry {
-        fov_deg,
-        distance_m,
-        focal_length_m: 0.0,
-        f_number: 0.0,
-    };
+    let geometry = ImageGeometry { fov_deg, distance_m, focal_length_m: 0.0, f_number: 0.0 };
     let spacing = if spacing_m > 0.0 { spacing_m } else { 1.0 };
-    let mut img = spectral_from(
-        radiance,
-        wavelengths_nm,
-        spacing,
-        Quantity::Radiance,
-        geometry,
-    )?;
+    let mut img = spectral_from(radiance, wavelengths_nm, spacing, Quantity::Radiance, geometry)?;
     if let Some(z) = depth_m {
         img.depth_m = Some(z.as_array().iter().copied().collect());
     }
@@ -519,42 +392,25 @@ fn sensor<'py>(
     rows: Option<usize>,
     cols: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let img = spectral_from(
-        irradiance,
-        wavelengths_nm,
-        spacing_m,
-        Quantity::Irradiance,
-        ImageGeometry::default(),
-    )?;
+    let img = spectral_from(irradiance, wavelengths_nm, spacing_m, Quantity::Irradiance, ImageGeometry::default())?;
     let mut s = sensor_from(sensor)?;
     if rows.is_some() || cols.is_some() {
-        s = s
-            .window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols()))
-            .map_err(err)?;
+        s = s.window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols())).map_err(err)?;
     }
     if frames == 0 {
         return Err(err("frames must be at least 1"));
     }
     let exposure = match exposure_s {
-        Some(t) if !(t >= 0.0 && t.is_finite()) => {
-            return Err(err(format!("exposure_s = {t}: must be >= 0")))
-        }
+        Some(t) if !(t >= 0.0 && t.is_finite()) => return Err(err(format!("exposure_s = {t}: must be >= 0"))),
         Some(t) => Exposure::Seconds(t),
         None => Capture::auto().exposure,
     };
-    let cap = Capture {
-        exposure,
-        frames,
-        seed,
-    };
+    let cap = Capture { exposure, frames, seed };
     let f = py.detach(|| s.compute(&img, &cap)).map_err(err)?;
     let r0 = &f.raw[0];
     let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
     let d = PyDict::new(py);
-    d.set_item(
-        "raw",
-        array_u16(py, &all, &[f.raw.len(), r0.rows, r0.cols])?,
-    )?;
+    d.set_item("raw", array_u16(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
     d.set_item("cfa", r0.cfa.name())?;
     d.set_item("black_level", r0.black_level_dn)?;
     d.set_item("white_level", r0.white_level_dn)?;
@@ -568,17 +424,9 @@ fn sensor<'py>(
 /// level subtracted).
 #[pyfunction]
 #[pyo3(signature = (raw, cfa = "RGGB", bits = 12, black_level = 0.0))]
-fn demosaic<'py>(
-    py: Python<'py>,
-    raw: PyReadonlyArray2<'_, u16>,
-    cfa: &str,
-    bits: u32,
-    black_level: f64,
-) -> PyResult<Bound<'py, PyAny>> {
+fn demosaic<'py>(py: Python<'py>, raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<Bound<'py, PyAny>> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let rgb = py
-        .detach(|| camsim::isp::try_demosaic_bilinear(&img))
-        .map_err(err)?;
+    let rgb = py.detach(|| camsim::isp::try_demosaic_bilinear(&img)).map_err(err)?;
     let mut out = Vec::with_capacity(rgb.rows * rgb.cols * 3);
     for i in 0..rgb.rows * rgb.cols {
         out.extend_from_slice(&[rgb.r[i], rgb.g[i], rgb.b[i]]);
@@ -606,10 +454,7 @@ fn sfr_json(
     black_level: f64,
 ) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let opts = SfrOptions {
-        pixel_pitch_mm: pitch_um.map(|p| p * 1e-3),
-        ..SfrOptions::default()
-    };
+    let opts = SfrOptions { pixel_pitch_mm: pitch_um.map(|p| p * 1e-3), ..SfrOptions::default() };
     let ch = match channel {
         "R" | "r" => Some(CfaChannel::R),
         "G" | "g" => Some(CfaChannel::G),
@@ -622,20 +467,13 @@ fn sfr_json(
             match ch {
                 Some(c) => sfr_raw_channel(&img, c, rect(roi), &opts).map_err(|e| e.to_string()),
                 None => {
-                    let rgb =
-                        camsim::isp::try_demosaic_bilinear(&img).map_err(|e| e.to_string())?;
+                    let rgb = camsim::isp::try_demosaic_bilinear(&img).map_err(|e| e.to_string())?;
                     let planes = [
                         Plane::new(rgb.rows, rgb.cols, rgb.r).map_err(|e| e.to_string())?,
                         Plane::new(rgb.rows, rgb.cols, rgb.g).map_err(|e| e.to_string())?,
                         Plane::new(rgb.rows, rgb.cols, rgb.b).map_err(|e| e.to_string())?,
                     ];
-                    sfr_luminance(
-                        &planes,
-                        camsim::analysis::image::LUMINANCE_WEIGHTS_REC709,
-                        rect(roi),
-                        &opts,
-                    )
-                    .map_err(|e| e.to_string())
+                    sfr_luminance(&planes, camsim::analysis::image::LUMINANCE_WEIGHTS_REC709, rect(roi), &opts).map_err(|e| e.to_string())
                 }
             }
         })
@@ -646,18 +484,9 @@ fn sfr_json(
 /// Per-channel statistics of raw regions [(row, col, rows, cols), ...], as JSON.
 #[pyfunction]
 #[pyo3(signature = (raw, rects, cfa = "RGGB", bits = 12, black_level = 0.0))]
-fn roi_json(
-    raw: PyReadonlyArray2<'_, u16>,
-    rects: Vec<(usize, usize, usize, usize)>,
-    cfa: &str,
-    bits: u32,
-    black_level: f64,
-) -> PyResult<String> {
+fn roi_json(raw: PyReadonlyArray2<'_, u16>, rects: Vec<(usize, usize, usize, usize)>, cfa: &str, bits: u32, black_level: f64) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let rects: Vec<Rect> = rects
-        .into_iter()
-        .map(|(r, c, h, w)| Rect::new(r, c, h, w))
-        .collect();
+    let rects: Vec<Rect> = rects.into_iter().map(|(r, c, h, w)| Rect::new(r, c, h, w)).collect();
     serde_json::to_string(&roi_stats_raw(&img, &rects).map_err(err)?).map_err(err)
 }
 
@@ -665,21 +494,9 @@ fn roi_json(
 /// (dark skin), top-right, bottom-right, bottom-left; as JSON.
 #[pyfunction]
 #[pyo3(signature = (raw, corners, cfa = "RGGB", fraction = 0.5, bits = 12, black_level = 0.0))]
-fn chart_json(
-    raw: PyReadonlyArray2<'_, u16>,
-    corners: [[f64; 2]; 4],
-    cfa: &str,
-    fraction: f64,
-    bits: u32,
-    black_level: f64,
-) -> PyResult<String> {
+fn chart_json(raw: PyReadonlyArray2<'_, u16>, corners: [[f64; 2]; 4], cfa: &str, fraction: f64, bits: u32, black_level: f64) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let c = ChartCorners {
-        top_left: corners[0],
-        top_right: corners[1],
-        bottom_right: corners[2],
-        bottom_left: corners[3],
-    };
+    let c = ChartCorners { top_left: corners[0], top_right: corners[1], bottom_right: corners[2], bottom_left: corners[3] };
     serde_json::to_string(&chart_patch_stats_raw(&img, &c, fraction).map_err(err)?).map_err(err)
 }
 
@@ -688,8 +505,7 @@ fn chart_json(
 #[pyfunction]
 #[pyo3(signature = (measured, predicted, form = "unconstrained"))]
 fn fit_qe_json(measured: Vec<[f64; 3]>, predicted: Vec<[f64; 3]>, form: &str) -> PyResult<String> {
-    let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into()))
-        .map_err(|e| err(format!("form {form:?}: {e}")))?;
+    let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into())).map_err(|e| err(format!("form {form:?}: {e}")))?;
     serde_json::to_string(&fit_qe_matrix(&measured, &predicted, form).map_err(err)?).map_err(err)
 }
 
@@ -712,45 +528,29 @@ fn emva_json(
 ) -> PyResult<String> {
     let (b, d) = (bright.shape().to_vec(), dark.shape().to_vec());
     if b[0] != exposures_s.len() || d[0] != exposures_s.len() {
-        return Err(err(format!(
-            "{} exposures for {} bright and {} dark levels (axis 0)",
-            exposures_s.len(),
-            b[0],
-            d[0]
-        )));
+        return Err(err(format!("{} exposures for {} bright and {} dark levels (axis 0)", exposures_s.len(), b[0], d[0])));
     }
-    if photons_per_pixel
-        .as_ref()
-        .is_some_and(|p| p.len() != exposures_s.len())
-    {
+    if photons_per_pixel.as_ref().is_some_and(|p| p.len() != exposures_s.len()) {
         return Err(err("photons_per_pixel needs one value per level"));
     }
     let pattern = CfaPattern::parse(cfa).map_err(err)?;
-    let frames =
-        |a: &numpy::PyReadonlyArray4<'_, u16>, s: &[usize]| -> PyResult<Vec<Vec<RawImage>>> {
-            let v = a.as_array();
-            (0..s[0])
-                .map(|l| {
-                    (0..s[1])
-                        .map(|f| {
-                            let mut r = RawImage::new(s[2], s[3], pattern, bits).map_err(err)?;
-                            r.dn = v
-                                .slice(numpy::ndarray::s![l, f, .., ..])
-                                .iter()
-                                .copied()
-                                .collect();
-                            r.black_level_dn = black_level;
-                            Ok(r)
-                        })
-                        .collect()
-                })
-                .collect()
-        };
-    let (bf, df) = (frames(&bright, &b)?, frames(&dark, &d)?);
-    let opts = camsim::analysis::emva::EmvaOptions {
-        fit_max_fraction,
-        ..Default::default()
+    let frames = |a: &numpy::PyReadonlyArray4<'_, u16>, s: &[usize]| -> PyResult<Vec<Vec<RawImage>>> {
+        let v = a.as_array();
+        (0..s[0])
+            .map(|l| {
+                (0..s[1])
+                    .map(|f| {
+                        let mut r = RawImage::new(s[2], s[3], pattern, bits).map_err(err)?;
+                        r.dn = v.slice(numpy::ndarray::s![l, f, .., ..]).iter().copied().collect();
+                        r.black_level_dn = black_level;
+                        Ok(r)
+                    })
+                    .collect()
+            })
+            .collect()
     };
+    let (bf, df) = (frames(&bright, &b)?, frames(&dark, &d)?);
+    let opts = camsim::analysis::emva::EmvaOptions { fit_max_fraction, ..Default::default() };
     let res = py
         .detach(|| {
             let levels: Vec<camsim::analysis::emva::EmvaRawInput> = (0..exposures_s.len())
@@ -772,29 +572,16 @@ fn emva_json(
 /// snr.png there (the folder must exist).
 #[pyfunction]
 #[pyo3(signature = (csv, out = None, cfa = None, bits = 16, black_level = 0.0))]
-fn emva_series_json(
-    py: Python<'_>,
-    csv: std::path::PathBuf,
-    out: Option<std::path::PathBuf>,
-    cfa: Option<&str>,
-    bits: u32,
-    black_level: f64,
-) -> PyResult<String> {
+fn emva_series_json(py: Python<'_>, csv: std::path::PathBuf, out: Option<std::path::PathBuf>, cfa: Option<&str>, bits: u32, black_level: f64) -> PyResult<String> {
     use camsim::pipeline::emva::{analyze_series, MosaicFormat};
     let cfa = cfa.map(CfaPattern::parse).transpose().map_err(err)?;
-    let format = MosaicFormat {
-        cfa,
-        black_dn: black_level,
-        bits,
-    };
+    let format = MosaicFormat { cfa, black_dn: black_level, bits };
     let json = py
         .detach(|| -> Result<serde_json::Value, String> {
-            let series = analyze_series(&csv, format, &Default::default(), &|_, _, _| {})
-                .map_err(|e| e.to_string())?;
+            let series = analyze_series(&csv, format, &Default::default(), &|_, _, _| {}).map_err(|e| e.to_string())?;
             let json = series.to_json();
             if let Some(dir) = &out {
-                camsim::io::atomic::write_json_atomic(&dir.join("emva.json"), &json)
-                    .map_err(|e| e.to_string())?;
+                camsim::io::atomic::write_json_atomic(&dir.join("emva.json"), &json).map_err(|e| e.to_string())?;
                 series.write_plots(dir).map_err(|e| e.to_string())?;
             }
             Ok(json)
@@ -806,9 +593,7 @@ fn emva_series_json(
 /// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
 #[pyfunction]
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let (r, _) = py
-        .detach(|| camsim::io::dng::read_dng(&path))
-        .map_err(err)?;
+    let (r, _) = py.detach(|| camsim::io::dng::read_dng(&path)).map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("raw", array_u16(py, &r.dn, &[r.rows, r.cols])?)?;
     d.set_item("cfa", r.cfa.name())?;

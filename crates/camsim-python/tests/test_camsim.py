@@ -283,7 +283,7 @@ def test_emva_series_from_files_equals_the_array_analysis(tmp_path):
     sens = camsim.presets.sensor("pixel4a")
     sens["analog_offset_mv"] = 50.0
     times = [1e-3, 3e-3, 6e-3, 10e-3]
-    bright, dark, lines = [], [], ["exposure_s,bright1,bright2,dark1,dark2"]
+    bright, dark, lines = [], [], ["exposure_s,photons_per_pixel,bright_0,bright_1,dark_0,dark_1"]
     for i, t in enumerate(times):
         b = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=10 + i, rows=64, cols=64)
         d = camsim.sensor(flat * 0, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=100 + i, rows=64, cols=64)
@@ -295,7 +295,7 @@ def test_emva_series_from_files_equals_the_array_analysis(tmp_path):
                 name = f"{kind}{i}_{f}.png"
                 Image.fromarray(frames[f].astype(np.uint16)).save(tmp_path / name)
                 names.append(name)
-        lines.append(f"{t}," + ",".join(names))
+        lines.append(f"{t},," + ",".join(names))
     (tmp_path / "series.csv").write_text("\n".join(lines) + "\n")
     out = tmp_path / "report"
     out.mkdir()
@@ -308,6 +308,7 @@ def test_emva_series_from_files_equals_the_array_analysis(tmp_path):
     for name in ("emva.json", "ptc.png", "snr.png"):
         assert (out / name).stat().st_size > 0
     # A frame the CSV names but that does not exist: an error naming the CSV and its line.
-    (tmp_path / "bad.csv").write_text("exposure_s,bright1,bright2\n0.001,missing.png,b0_0.png\n")
-    with pytest.raises(camsim.CamsimError, match=r"bad\.csv.*line 2"):
+    lines[2] = lines[2].replace("b1_0.png", "missing.png")
+    (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(camsim.CamsimError, match=r"bad\.csv.*line 3.*missing\.png"):
         camsim.emva_series(tmp_path / "bad.csv", cfa="RGGB", bits=12)

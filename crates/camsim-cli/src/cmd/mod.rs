@@ -1,7 +1,7 @@
 //! One module per subcommand.
 pub mod analyze;
-pub mod emva;
 pub mod fit;
+pub mod emva;
 pub mod fit_shading;
 pub mod isp;
 pub mod optics;
