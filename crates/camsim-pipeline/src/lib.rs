@@ -207,7 +207,9 @@ impl SimulateConfig {
         }
     }
 
-    fn resolve_paths(&mut self, base: &Path) {
+    /// Make the relative paths in the config (scene, pbrt, overlay, lens, sensor and QE files)
+    /// relative to `base` (the folder of the file the config came from).
+    pub fn resolve_paths(&mut self, base: &Path) {
         let fix = |p: &mut PathBuf| {
             if p.is_relative() {
                 *p = base.join(&*p);
