@@ -14,6 +14,7 @@ pub mod scene;
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod envmap;
 pub mod geometry;
 mod integrator;
 mod lights;
@@ -21,8 +22,10 @@ pub mod math;
 pub mod render;
 pub mod sampling;
 pub mod spectral;
+mod texture;
 
 pub mod pbrt;
+pub mod shapes;
 pub mod builtin;
 pub mod overlay;
 pub mod uplift;
