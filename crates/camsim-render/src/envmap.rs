@@ -78,7 +78,9 @@ pub fn texel_weights(map: &EnvironmentMap) -> Vec<f64> {
             let mean = (c[0] as f64 + c[1] as f64 + c[2] as f64) / 3.0;
             match map.mapping {
                 EnvMapping::EqualAreaOctahedral => mean.max(0.0),
-                EnvMapping::LatLong => mean.max(0.0) * (PI * ((i / w) as f64 + 0.5) / h as f64).sin(),
+                EnvMapping::LatLong => {
+                    mean.max(0.0) * (PI * ((i / w) as f64 + 0.5) / h as f64).sin()
+                }
             }
         })
         .collect()
@@ -112,14 +114,30 @@ impl EnvLight {
     pub(crate) fn new(map: &EnvironmentMap) -> Result<EnvLight, String> {
         let (w, h) = (map.width, map.height);
         if w == 0 || h == 0 || map.rgb.len() != w * h {
-            return Err(format!("environment map of {w} x {h} texels has {} values", map.rgb.len()));
+            return Err(format!(
+                "environment map of {w} x {h} texels has {} values",
+                map.rgb.len()
+            ));
         }
         match map.mapping {
-            EnvMapping::EqualAreaOctahedral if w != h => return Err(format!("an equal-area environment map must be square, not {w} x {h}")),
-            EnvMapping::LatLong if w != 2 * h => return Err(format!("a lat-long environment map must be twice as wide as high, not {w} x {h}")),
+            EnvMapping::EqualAreaOctahedral if w != h => {
+                return Err(format!(
+                    "an equal-area environment map must be square, not {w} x {h}"
+                ))
+            }
+            EnvMapping::LatLong if w != 2 * h => {
+                return Err(format!(
+                    "a lat-long environment map must be twice as wide as high, not {w} x {h}"
+                ))
+            }
             _ => {}
         }
-        if map.rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+        if map
+            .rgb
+            .iter()
+            .flatten()
+            .any(|v| !(v.is_finite() && *v >= 0.0))
+        {
             return Err("environment map has a negative or non-finite texel".into());
         }
         let m = &map.light_to_world.m;
@@ -132,7 +150,8 @@ impl EnvLight {
             return Err("environment light transform is not finite".into());
         }
         // The transform's linear part is a rotation for pbrt scenes; invert it generally.
-        let inv = crate::pbrt::xform::inverse(&map.light_to_world).ok_or("environment light transform is singular")?;
+        let inv = crate::pbrt::xform::inverse(&map.light_to_world)
+            .ok_or("environment light transform is singular")?;
         let to_light = [
             V3::from_f64([inv.m[0][0], inv.m[0][1], inv.m[0][2]]),
             V3::from_f64([inv.m[1][0], inv.m[1][1], inv.m[1][2]]),
@@ -145,7 +164,11 @@ impl EnvLight {
             if mx > 0.0 {
                 let s = 2.0 * mx;
                 scale.push(s);
-                poly.push(crate::uplift::rgb_to_coefficients([c[0] / s, c[1] / s, c[2] / s]));
+                poly.push(crate::uplift::rgb_to_coefficients([
+                    c[0] / s,
+                    c[1] / s,
+                    c[2] / s,
+                ]));
             } else {
                 scale.push(0.0);
                 poly.push(SigmoidPolynomial::constant(0.0));
@@ -162,7 +185,11 @@ impl EnvLight {
             let row_sum = col_cdf[base + w];
             row_cdf[y + 1] = row_cdf[y] + row_sum;
             for x in 1..=w {
-                col_cdf[base + x] = if row_sum > 0.0 { col_cdf[base + x] / row_sum } else { x as f64 / w as f64 };
+                col_cdf[base + x] = if row_sum > 0.0 {
+                    col_cdf[base + x] / row_sum
+                } else {
+                    x as f64 / w as f64
+                };
             }
         }
         let total = row_cdf[h];
@@ -177,7 +204,20 @@ impl EnvLight {
             EnvMapping::EqualAreaOctahedral => total / (w * h) as f64,
             EnvMapping::LatLong => total / (w * h) as f64 * PI / 2.0,
         };
-        Ok(EnvLight { width: w, height: h, mapping: map.mapping, scale, poly, to_light, to_world, row_cdf, col_cdf, weight, mean_weight, mean_scale })
+        Ok(EnvLight {
+            width: w,
+            height: h,
+            mapping: map.mapping,
+            scale,
+            poly,
+            to_light,
+            to_world,
+            row_cdf,
+            col_cdf,
+            weight,
+            mean_weight,
+            mean_scale,
+        })
     }
 
     fn rotate(rows: &[V3; 3], v: V3) -> V3 {
@@ -230,9 +270,16 @@ impl EnvLight {
         // Row from the marginal, then column from the row's conditional (inversion).
         let pick = |cdf: &[f64], u: f64| -> (usize, f64) {
             let n = cdf.len() - 1;
-            let i = cdf.partition_point(|c| *c <= u).saturating_sub(1).min(n - 1);
+            let i = cdf
+                .partition_point(|c| *c <= u)
+                .saturating_sub(1)
+                .min(n - 1);
             let span = cdf[i + 1] - cdf[i];
-            let t = if span > 0.0 { ((u - cdf[i]) / span).clamp(0.0, 1.0) } else { 0.5 };
+            let t = if span > 0.0 {
+                ((u - cdf[i]) / span).clamp(0.0, 1.0)
+            } else {
+                0.5
+            };
             (i, t)
         };
         let (y, ty) = pick(&self.row_cdf, u1 as f64);
@@ -256,7 +303,12 @@ impl EnvLight {
 
     /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`.
     #[inline]
-    pub(crate) fn radiance<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
+    pub(crate) fn radiance<const N: usize>(
+        &self,
+        texel: usize,
+        illuminant: &SpectrumTable,
+        lambdas: &Lambdas<N>,
+    ) -> [f32; N] {
         let s = self.scale[texel];
         if s == 0.0 {
             return [0.0; N];
@@ -282,7 +334,10 @@ mod tests {
                 let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 assert!((len - 1.0).abs() < 1e-9);
                 let (u2, v2) = equal_area_sphere_to_square(d);
-                assert!((u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9, "({u}, {v}) -> ({u2}, {v2})");
+                assert!(
+                    (u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9,
+                    "({u}, {v}) -> ({u2}, {v2})"
+                );
                 z_hist[(((d[2] + 1.0) / 2.0 * 8.0) as usize).min(7)] += 1;
             }
         }

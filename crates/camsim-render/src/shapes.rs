@@ -30,12 +30,21 @@ fn check_phimax(phimax_deg: f64) -> Result<f64, String> {
 /// pbrt-v4 `disk`: the annulus `innerradius <= r <= radius`, `0 <= phi <= phimax` in the plane
 /// z = `height` (object space), normal +z. uv as pbrt-v4: `u = phi / phimax`,
 /// `v = (radius - r) / (radius - innerradius)`. Analytic area `phimax / 2 (R^2 - Ri^2)`.
-pub fn disk(height: f64, radius: f64, inner_radius: f64, phimax_deg: f64) -> Result<Geometry, String> {
+pub fn disk(
+    height: f64,
+    radius: f64,
+    inner_radius: f64,
+    phimax_deg: f64,
+) -> Result<Geometry, String> {
     if !(radius > 0.0 && radius.is_finite() && height.is_finite()) {
-        return Err(format!("disk radius {radius} must be positive (height {height})"));
+        return Err(format!(
+            "disk radius {radius} must be positive (height {height})"
+        ));
     }
     if !(inner_radius >= 0.0 && inner_radius < radius) {
-        return Err(format!("disk innerradius {inner_radius} must be in [0, radius {radius})"));
+        return Err(format!(
+            "disk innerradius {inner_radius} must be in [0, radius {radius})"
+        ));
     }
     let phimax = check_phimax(phimax_deg)?;
     let n = segments(phimax);
@@ -74,7 +83,12 @@ pub fn disk(height: f64, radius: f64, inner_radius: f64, phimax_deg: f64) -> Res
             indices.push([i0, o1, i1]);
         }
     }
-    Ok(Geometry::Triangles { positions, indices, uvs: Some(uvs), normals: None })
+    Ok(Geometry::Triangles {
+        positions,
+        indices,
+        uvs: Some(uvs),
+        normals: None,
+    })
 }
 
 /// pbrt-v4 `cylinder`: radius `radius` around the z axis, `zmin <= z <= zmax`,
@@ -109,7 +123,12 @@ pub fn cylinder(radius: f64, zmin: f64, zmax: f64, phimax_deg: f64) -> Result<Ge
         indices.push([b0, b1, t1]);
         indices.push([b0, t1, t0]);
     }
-    Ok(Geometry::Triangles { positions, indices, uvs: Some(uvs), normals: None })
+    Ok(Geometry::Triangles {
+        positions,
+        indices,
+        uvs: Some(uvs),
+        normals: None,
+    })
 }
 
 /// Loop's even-vertex weight beta(n) for valence n (Loop 1987; Warren's 3/(8n) for n > 3, as
@@ -143,14 +162,23 @@ fn key(a: u32, b: u32) -> (u32, u32) {
 fn topology(n_vertices: usize, indices: &[[u32; 3]]) -> Result<Topology, String> {
     let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (fi, t) in indices.iter().enumerate() {
-        if t.iter().any(|&i| i as usize >= n_vertices) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            return Err(format!("loopsubdiv: triangle {fi} {t:?} is degenerate or out of range"));
+        if t.iter().any(|&i| i as usize >= n_vertices)
+            || t[0] == t[1]
+            || t[1] == t[2]
+            || t[0] == t[2]
+        {
+            return Err(format!(
+                "loopsubdiv: triangle {fi} {t:?} is degenerate or out of range"
+            ));
         }
         for k in 0..3 {
             let e = edges.entry(key(t[k], t[(k + 1) % 3])).or_default();
             e.push(t[(k + 2) % 3]);
             if e.len() > 2 {
-                return Err(format!("loopsubdiv: edge {:?} is shared by more than two faces (non-manifold)", key(t[k], t[(k + 1) % 3])));
+                return Err(format!(
+                    "loopsubdiv: edge {:?} is shared by more than two faces (non-manifold)",
+                    key(t[k], t[(k + 1) % 3])
+                ));
             }
         }
     }
@@ -166,7 +194,11 @@ fn topology(n_vertices: usize, indices: &[[u32; 3]]) -> Result<Topology, String>
             boundary_neighbours[*b as usize].push(*a);
         }
     }
-    Ok(Topology { edges, neighbours, boundary_neighbours })
+    Ok(Topology {
+        edges,
+        neighbours,
+        boundary_neighbours,
+    })
 }
 
 fn add(a: [f64; 3], b: [f64; 3], k: f64) -> [f64; 3] {
@@ -179,7 +211,13 @@ fn scaled(a: [f64; 3], k: f64) -> [f64; 3] {
 
 /// `(1 - n w) p + w sum(neighbours)` (pbrt-v4 `weightOneRing`), or for boundary vertices
 /// `(1 - 2 w_b) p + w_b (b0 + b1)`; vertices where more than two boundary edges meet stay put.
-fn one_ring(p: &[[f64; 3]], topo: &Topology, v: usize, weight: impl Fn(usize) -> f64, boundary_weight: f64) -> [f64; 3] {
+fn one_ring(
+    p: &[[f64; 3]],
+    topo: &Topology,
+    v: usize,
+    weight: impl Fn(usize) -> f64,
+    boundary_weight: f64,
+) -> [f64; 3] {
     let b = &topo.boundary_neighbours[v];
     if b.is_empty() {
         let nb = &topo.neighbours[v];
@@ -191,7 +229,11 @@ fn one_ring(p: &[[f64; 3]], topo: &Topology, v: usize, weight: impl Fn(usize) ->
         out
     } else if b.len() == 2 {
         let out = scaled(p[v], 1.0 - 2.0 * boundary_weight);
-        add(add(out, p[b[0] as usize], boundary_weight), p[b[1] as usize], boundary_weight)
+        add(
+            add(out, p[b[0] as usize], boundary_weight),
+            p[b[1] as usize],
+            boundary_weight,
+        )
     } else {
         p[v]
     }
@@ -215,7 +257,8 @@ pub fn loop_subdivide(
         return Err(format!("loopsubdiv: {levels} levels is more than 12"));
     }
     let faces_out = (indices.len() as u64).saturating_mul(1u64 << (2 * levels));
-    camsim_core::mem::check_alloc(faces_out.saturating_mul(120), "loopsubdiv mesh").map_err(|e| e.to_string())?;
+    camsim_core::mem::check_alloc(faces_out.saturating_mul(120), "loopsubdiv mesh")
+        .map_err(|e| e.to_string())?;
     if positions.iter().flatten().any(|v| !v.is_finite()) {
         return Err("loopsubdiv: a vertex is not finite".into());
     }
@@ -223,7 +266,9 @@ pub fn loop_subdivide(
     let mut tris = indices.to_vec();
     for _ in 0..levels {
         let topo = topology(p.len(), &tris)?;
-        let mut next: Vec<[f64; 3]> = (0..p.len()).map(|v| one_ring(&p, &topo, v, loop_beta, 1.0 / 8.0)).collect();
+        let mut next: Vec<[f64; 3]> = (0..p.len())
+            .map(|v| one_ring(&p, &topo, v, loop_beta, 1.0 / 8.0))
+            .collect();
         // Odd vertices, one per edge, numbered in sorted edge order (deterministic).
         let mut keys: Vec<(u32, u32)> = topo.edges.keys().copied().collect();
         keys.sort_unstable();
@@ -232,7 +277,11 @@ pub fn loop_subdivide(
             let (a, b) = (p[k.0 as usize], p[k.1 as usize]);
             let opp = &topo.edges[&k];
             let q = if opp.len() == 2 {
-                let s = add(scaled(add(a, b, 1.0), 3.0 / 8.0), add(p[opp[0] as usize], p[opp[1] as usize], 1.0), 1.0 / 8.0);
+                let s = add(
+                    scaled(add(a, b, 1.0), 3.0 / 8.0),
+                    add(p[opp[0] as usize], p[opp[1] as usize], 1.0),
+                    1.0 / 8.0,
+                );
                 s
             } else {
                 scaled(add(a, b, 1.0), 0.5)
@@ -242,7 +291,11 @@ pub fn loop_subdivide(
         }
         let mut nt = Vec::with_capacity(tris.len() * 4);
         for t in &tris {
-            let m = [edge_vertex[&key(t[0], t[1])], edge_vertex[&key(t[1], t[2])], edge_vertex[&key(t[2], t[0])]];
+            let m = [
+                edge_vertex[&key(t[0], t[1])],
+                edge_vertex[&key(t[1], t[2])],
+                edge_vertex[&key(t[2], t[0])],
+            ];
             nt.push([t[0], m[0], m[2]]);
             nt.push([m[0], t[1], m[1]]);
             nt.push([m[2], m[1], t[2]]);
@@ -253,16 +306,22 @@ pub fn loop_subdivide(
     }
     if to_limit {
         let topo = topology(p.len(), &tris)?;
-        p = (0..p.len()).map(|v| one_ring(&p, &topo, v, loop_gamma, 1.0 / 5.0)).collect();
+        p = (0..p.len())
+            .map(|v| one_ring(&p, &topo, v, loop_gamma, 1.0 / 5.0))
+            .collect();
     }
     let mut normals = vec![[0.0; 3]; p.len()];
     for t in &tris {
         let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-        let n = crate::pbrt::xform::cross(crate::pbrt::xform::sub(b, a), crate::pbrt::xform::sub(c, a));
+        let n =
+            crate::pbrt::xform::cross(crate::pbrt::xform::sub(b, a), crate::pbrt::xform::sub(c, a));
         for &i in t {
             normals[i as usize] = add(normals[i as usize], n, 1.0);
         }
     }
-    let normals = normals.into_iter().map(crate::pbrt::xform::normalize).collect();
+    let normals = normals
+        .into_iter()
+        .map(crate::pbrt::xform::normalize)
+        .collect();
     Ok((p, tris, normals))
 }

@@ -38,7 +38,12 @@ pub(crate) struct Map {
 
 impl Map {
     fn new(m: &UvMapping) -> Map {
-        Map { su: m.uscale as f32, sv: m.vscale as f32, du: m.udelta as f32, dv: m.vdelta as f32 }
+        Map {
+            su: m.uscale as f32,
+            sv: m.vscale as f32,
+            du: m.udelta as f32,
+            dv: m.vdelta as f32,
+        }
     }
     #[inline(always)]
     pub fn st(&self, uv: [f32; 2]) -> (f32, f32) {
@@ -98,7 +103,12 @@ pub(crate) fn bilerp_weights(s: f32, t: f32) -> [f32; 4] {
 /// Texel indices and weights of a bilinear lookup at `(s, t)` in a `width` x `height` image
 /// with repeat wrap, row 0 at t = 1, texel centres at half-integers (as `ImageTex::lookup`).
 #[inline]
-pub(crate) fn bilinear_texels(width: usize, height: usize, s: f32, t: f32) -> ([usize; 4], [f32; 4]) {
+pub(crate) fn bilinear_texels(
+    width: usize,
+    height: usize,
+    s: f32,
+    t: f32,
+) -> ([usize; 4], [f32; 4]) {
     let t = 1.0 - t;
     let x = s * width as f32 - 0.5;
     let y = t * height as f32 - 0.5;
@@ -112,8 +122,18 @@ pub(crate) fn bilinear_texels(width: usize, height: usize, s: f32, t: f32) -> ([
     let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
     let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
     (
-        [ya * width + xa, ya * width + xb, yb * width + xa, yb * width + xb],
-        [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
+        [
+            ya * width + xa,
+            ya * width + xb,
+            yb * width + xa,
+            yb * width + xb,
+        ],
+        [
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        ],
     )
 }
 
@@ -145,14 +165,30 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         }
         FTex::Mix(c) => {
             let amt = eval_float(&c[2], ctx);
-            let a = if amt != 1.0 { eval_float(&c[0], ctx) } else { 0.0 };
-            let b = if amt != 0.0 { eval_float(&c[1], ctx) } else { 0.0 };
+            let a = if amt != 1.0 {
+                eval_float(&c[0], ctx)
+            } else {
+                0.0
+            };
+            let b = if amt != 0.0 {
+                eval_float(&c[1], ctx)
+            } else {
+                0.0
+            };
             (1.0 - amt) * a + amt * b
         }
         FTex::DirMix(c, dir) => {
             let amt = ctx.n.dot(*dir).abs();
-            let a = if amt != 0.0 { eval_float(&c[0], ctx) } else { 0.0 };
-            let b = if amt != 1.0 { eval_float(&c[1], ctx) } else { 0.0 };
+            let a = if amt != 0.0 {
+                eval_float(&c[0], ctx)
+            } else {
+                0.0
+            };
+            let b = if amt != 1.0 {
+                eval_float(&c[1], ctx)
+            } else {
+                0.0
+            };
             amt * a + (1.0 - amt) * b
         }
         FTex::Bilerp(v, map) => {
@@ -169,12 +205,17 @@ fn unit_dir(d: [f64; 3]) -> Result<V3, String> {
     if l > 0.0 && l.is_finite() {
         Ok(v / l)
     } else {
-        Err(format!("directionmix direction {d:?} is not a usable direction"))
+        Err(format!(
+            "directionmix direction {d:?} is not a usable direction"
+        ))
     }
 }
 
 fn check_map(m: &UvMapping) -> Result<Map, String> {
-    if [m.uscale, m.vscale, m.udelta, m.vdelta].iter().all(|v| v.is_finite()) {
+    if [m.uscale, m.vscale, m.udelta, m.vdelta]
+        .iter()
+        .all(|v| v.is_finite())
+    {
         Ok(Map::new(m))
     } else {
         Err(format!("texture mapping {m:?} has a non-finite value"))
@@ -182,8 +223,14 @@ fn check_map(m: &UvMapping) -> Result<Map, String> {
 }
 
 /// Compile a float texture.
-pub(crate) fn compile_float_texture(t: &FloatTexture, material_index: usize) -> Result<FTex, RenderError> {
-    compile_float(t).map_err(|message| RenderError::Material { index: material_index, message })
+pub(crate) fn compile_float_texture(
+    t: &FloatTexture,
+    material_index: usize,
+) -> Result<FTex, RenderError> {
+    compile_float(t).map_err(|message| RenderError::Material {
+        index: material_index,
+        message,
+    })
 }
 
 fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
@@ -194,26 +241,61 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             }
             FTex::Const(*v as f32)
         }
-        FloatTexture::Image { width, height, values, mapping } => {
+        FloatTexture::Image {
+            width,
+            height,
+            values,
+            mapping,
+        } => {
             if *width == 0 || *height == 0 || values.len() != width * height {
-                return Err(format!("float image texture of {width} x {height} pixels has {} values", values.len()));
+                return Err(format!(
+                    "float image texture of {width} x {height} pixels has {} values",
+                    values.len()
+                ));
             }
             if values.iter().any(|v| !v.is_finite()) {
                 return Err("float image texture has a non-finite value".into());
             }
-            FTex::Image(Arc::new(FloatImage { width: *width, height: *height, values: values.clone() }), check_map(mapping)?)
+            FTex::Image(
+                Arc::new(FloatImage {
+                    width: *width,
+                    height: *height,
+                    values: values.clone(),
+                }),
+                check_map(mapping)?,
+            )
         }
-        FloatTexture::Checkerboard { tex1, tex2, mapping } => {
-            FTex::Checker(Box::new([compile_float(tex1)?, compile_float(tex2)?]), check_map(mapping)?)
+        FloatTexture::Checkerboard {
+            tex1,
+            tex2,
+            mapping,
+        } => FTex::Checker(
+            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
+            check_map(mapping)?,
+        ),
+        FloatTexture::Scale { tex, scale } => {
+            FTex::Scale(Box::new([compile_float(tex)?, compile_float(scale)?]))
         }
-        FloatTexture::Scale { tex, scale } => FTex::Scale(Box::new([compile_float(tex)?, compile_float(scale)?])),
-        FloatTexture::Mix { tex1, tex2, amount } => {
-            FTex::Mix(Box::new([compile_float(tex1)?, compile_float(tex2)?, compile_float(amount)?]))
-        }
-        FloatTexture::DirectionMix { tex1, tex2, direction } => {
-            FTex::DirMix(Box::new([compile_float(tex1)?, compile_float(tex2)?]), unit_dir(*direction)?)
-        }
-        FloatTexture::Bilerp { v00, v01, v10, v11, mapping } => {
+        FloatTexture::Mix { tex1, tex2, amount } => FTex::Mix(Box::new([
+            compile_float(tex1)?,
+            compile_float(tex2)?,
+            compile_float(amount)?,
+        ])),
+        FloatTexture::DirectionMix {
+            tex1,
+            tex2,
+            direction,
+        } => FTex::DirMix(
+            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
+            unit_dir(*direction)?,
+        ),
+        FloatTexture::Bilerp {
+            v00,
+            v01,
+            v10,
+            v11,
+            mapping,
+        } => {
             let v = [*v00, *v10, *v01, *v11];
             if v.iter().any(|x| !x.is_finite()) {
                 return Err(format!("bilerp values {v:?} must be finite"));
@@ -232,17 +314,33 @@ pub(crate) fn compile_texture(
     tables: &mut Vec<SpectrumTable>,
     images: &mut Vec<crate::integrator::ImageTex>,
 ) -> Result<Tex, RenderError> {
-    let err = |message: String| RenderError::Material { index: material_index, message };
-    let table = |s: &camsim_core::Spectrum, tables: &mut Vec<SpectrumTable>| -> Result<u32, RenderError> {
-        s.require_non_negative("texture spectrum").map_err(|e| err(e.to_string()))?;
-        tables.push(SpectrumTable::new(s, 1.0, ws));
-        Ok((tables.len() - 1) as u32)
+    let err = |message: String| RenderError::Material {
+        index: material_index,
+        message,
     };
+    let table =
+        |s: &camsim_core::Spectrum, tables: &mut Vec<SpectrumTable>| -> Result<u32, RenderError> {
+            s.require_non_negative("texture spectrum")
+                .map_err(|e| err(e.to_string()))?;
+            tables.push(SpectrumTable::new(s, 1.0, ws));
+            Ok((tables.len() - 1) as u32)
+        };
     Ok(match t {
         Texture::Constant(s) => Tex::Table(table(s, tables)?),
-        Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta } => {
+        Texture::Image {
+            width,
+            height,
+            rgb,
+            uscale,
+            vscale,
+            udelta,
+            vdelta,
+        } => {
             if *width == 0 || *height == 0 || rgb.len() != width * height {
-                return Err(err(format!("image texture of {width} x {height} pixels has {} values", rgb.len())));
+                return Err(err(format!(
+                    "image texture of {width} x {height} pixels has {} values",
+                    rgb.len()
+                )));
             }
             if rgb.iter().flatten().any(|v| !v.is_finite()) {
                 return Err(err("image texture has a non-finite value".into()));
@@ -258,7 +356,11 @@ pub(crate) fn compile_texture(
             });
             Tex::Image((images.len() - 1) as u32)
         }
-        Texture::Checkerboard { tex1, tex2, mapping } => Tex::Checker(
+        Texture::Checkerboard {
+            tex1,
+            tex2,
+            mapping,
+        } => Tex::Checker(
             Box::new([
                 compile_texture(tex1, material_index, ws, tables, images)?,
                 compile_texture(tex2, material_index, ws, tables, images)?,
@@ -276,16 +378,34 @@ pub(crate) fn compile_texture(
             ]),
             Box::new(compile_float_texture(amount, material_index)?),
         ),
-        Texture::DirectionMix { tex1, tex2, direction } => Tex::DirMix(
+        Texture::DirectionMix {
+            tex1,
+            tex2,
+            direction,
+        } => Tex::DirMix(
             Box::new([
                 compile_texture(tex1, material_index, ws, tables, images)?,
                 compile_texture(tex2, material_index, ws, tables, images)?,
             ]),
             unit_dir(*direction).map_err(err)?,
         ),
-        Texture::Bilerp { v00, v01, v10, v11, mapping } => {
+        Texture::Bilerp {
+            v00,
+            v01,
+            v10,
+            v11,
+            mapping,
+        } => {
             let map = check_map(mapping).map_err(err)?;
-            Tex::Bilerp([table(v00, tables)?, table(v10, tables)?, table(v01, tables)?, table(v11, tables)?], map)
+            Tex::Bilerp(
+                [
+                    table(v00, tables)?,
+                    table(v10, tables)?,
+                    table(v01, tables)?,
+                    table(v11, tables)?,
+                ],
+                map,
+            )
         }
     })
 }
@@ -309,20 +429,47 @@ mod tests {
 
     #[test]
     fn float_graph_evaluates_like_pbrt() {
-        let ctx = TexCtx { uv: [0.25, 0.75], n: V3::new(0.0, 0.0, 1.0) };
+        let ctx = TexCtx {
+            uv: [0.25, 0.75],
+            n: V3::new(0.0, 0.0, 1.0),
+        };
         let c = |v: f64| Box::new(FloatTexture::Constant(v));
-        let mix = FloatTexture::Mix { tex1: c(2.0), tex2: c(4.0), amount: c(0.25) };
+        let mix = FloatTexture::Mix {
+            tex1: c(2.0),
+            tex2: c(4.0),
+            amount: c(0.25),
+        };
         assert!((eval_float(&compile_float(&mix).unwrap(), &ctx) - 2.5).abs() < 1e-6);
-        let sc = FloatTexture::Scale { tex: c(3.0), scale: c(0.5) };
+        let sc = FloatTexture::Scale {
+            tex: c(3.0),
+            scale: c(0.5),
+        };
         assert!((eval_float(&compile_float(&sc).unwrap(), &ctx) - 1.5).abs() < 1e-6);
         // |n . dir| = cos 60 deg = 0.5.
-        let dm = FloatTexture::DirectionMix { tex1: c(1.0), tex2: c(0.0), direction: [0.0, 3f64.sqrt() / 2.0, -0.5] };
+        let dm = FloatTexture::DirectionMix {
+            tex1: c(1.0),
+            tex2: c(0.0),
+            direction: [0.0, 3f64.sqrt() / 2.0, -0.5],
+        };
         assert!((eval_float(&compile_float(&dm).unwrap(), &ctx) - 0.5).abs() < 1e-6);
-        let bl = FloatTexture::Bilerp { v00: 0.0, v01: 1.0, v10: 10.0, v11: 100.0, mapping: UvMapping::default() };
+        let bl = FloatTexture::Bilerp {
+            v00: 0.0,
+            v01: 1.0,
+            v10: 10.0,
+            v11: 100.0,
+            mapping: UvMapping::default(),
+        };
         // (1-s)(1-t) 0 + s(1-t) 10 + (1-s) t 1 + s t 100 at s = 0.25, t = 0.75.
         let want = 0.25 * 0.25 * 10.0 + 0.75 * 0.75 * 1.0 + 0.25 * 0.75 * 100.0;
         assert!((eval_float(&compile_float(&bl).unwrap(), &ctx) - want).abs() < 1e-4);
-        let ck = FloatTexture::Checkerboard { tex1: c(1.0), tex2: c(2.0), mapping: UvMapping { uscale: 4.0, ..UvMapping::default() } };
+        let ck = FloatTexture::Checkerboard {
+            tex1: c(1.0),
+            tex2: c(2.0),
+            mapping: UvMapping {
+                uscale: 4.0,
+                ..UvMapping::default()
+            },
+        };
         // s = 1, t = 0.75: floor sum 1 -> tex2.
         assert_eq!(eval_float(&compile_float(&ck).unwrap(), &ctx), 2.0);
         assert!(compile_float(&FloatTexture::Constant(f64::NAN)).is_err());

@@ -91,15 +91,44 @@ use crate::scene::SceneDescription;
 use std::path::{Path, PathBuf};
 
 /// A reader error: the file, 1-based line and column (0 when the error concerns the whole file),
-/// and what is wrong.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}:{line}:{column}: {message}", file.display())]
+/// and what is wrong. The reader reports every problem of a scene at once: `self` is the first,
+/// `others` the rest in reading order (Display lists them all, one `file:line:col: message`
+/// per line).
+#[derive(Debug, Clone, PartialEq)]
 pub struct PbrtError {
     pub file: PathBuf,
     pub line: usize,
     pub column: usize,
     pub message: String,
+    /// Further problems found in the same pass (empty for a single problem).
+    pub others: Vec<PbrtError>,
 }
+
+impl std::fmt::Display for PbrtError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let one = |f: &mut std::fmt::Formatter<'_>, e: &PbrtError| {
+            write!(
+                f,
+                "{}:{}:{}: {}",
+                e.file.display(),
+                e.line,
+                e.column,
+                e.message
+            )
+        };
+        if self.others.is_empty() {
+            return one(f, self);
+        }
+        write!(f, "{} problems in the scene:", self.others.len() + 1)?;
+        for e in self.problems() {
+            write!(f, "\n  ")?;
+            one(f, e)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for PbrtError {}
 
 impl PbrtError {
     /// Error at a position.
@@ -109,7 +138,30 @@ impl PbrtError {
             line,
             column,
             message: message.into(),
+            others: Vec::new(),
         }
+    }
+
+    /// Every problem, the first one included, in reading order.
+    pub fn problems(&self) -> impl Iterator<Item = &PbrtError> {
+        std::iter::once(self).chain(self.others.iter())
+    }
+
+    /// One error reporting all of `errors` (which must not be empty).
+    pub(crate) fn combine(errors: Vec<PbrtError>) -> PbrtError {
+        let mut it = errors.into_iter().flat_map(|e| {
+            let others = e.others.clone();
+            std::iter::once(PbrtError {
+                others: Vec::new(),
+                ..e
+            })
+            .chain(others)
+        });
+        let mut first = it
+            .next()
+            .unwrap_or_else(|| PbrtError::at(Path::new(""), 0, 0, "unknown problem"));
+        first.others = it.collect();
+        first
     }
 }
 
@@ -124,12 +176,7 @@ pub struct Loc {
 impl Loc {
     /// An error at this position.
     pub fn err(&self, message: impl Into<String>) -> PbrtError {
-        PbrtError {
-            file: self.file.clone(),
-            line: self.line,
-            column: self.column,
-            message: message.into(),
-        }
+        PbrtError::at(&self.file, self.line, self.column, message)
     }
     /// "file:line:col" for notes.
     pub fn describe(&self) -> String {
@@ -145,7 +192,12 @@ pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError>
     let scene = parse_str(&text, path)?;
     // The renderer refuses an empty scene too, but only here is the file known to name it.
     if scene.shapes.is_empty() && scene.lights.is_empty() {
-        return Err(PbrtError::at(path, 0, 0, "the scene is empty: it has no shapes and no lights".to_string()));
+        return Err(PbrtError::at(
+            path,
+            0,
+            0,
+            "the scene is empty: it has no shapes and no lights".to_string(),
+        ));
     }
     Ok(scene)
 }
