@@ -64,7 +64,8 @@ pub fn sphere_to_latlong(d: [f64; 3]) -> (f64, f64) {
     if phi < 0.0 {
         phi += 2.0 * PI;
     }
-    (phi / (2.0 * PI), d[2].clamp(-1.0, 1.0).acos() / PI)
+    // atan2 rather than acos(z): accurate near the poles.
+    (phi / (2.0 * PI), d[0].hypot(d[1]).atan2(d[2]) / PI)
 }
 
 /// Sampling weight of each texel: the mean of its RGB channels (pbrt-v4 uses the channel
@@ -224,15 +225,15 @@ impl EnvLight {
         V3::new(rows[0].dot(v), rows[1].dot(v), rows[2].dot(v))
     }
 
-    /// Jacobian |d(u,v)/d omega|: density per steradian of a unit density on the square.
+    /// Jacobian |d(u,v)/d omega|: density per steradian of a unit density on the square, given
+    /// sin(theta) of the direction (used by the lat-long mapping only).
     #[inline]
-    fn square_to_solid_angle(&self, v: f64) -> f64 {
+    fn square_to_solid_angle(&self, sin_theta: f64) -> f64 {
         match self.mapping {
             EnvMapping::EqualAreaOctahedral => 1.0 / (4.0 * PI),
             EnvMapping::LatLong => {
-                let s = (PI * v).sin();
-                if s > 0.0 {
-                    1.0 / (2.0 * PI * PI * s)
+                if sin_theta > 0.0 {
+                    1.0 / (2.0 * PI * PI * sin_theta)
                 } else {
                     0.0
                 }
@@ -254,7 +255,10 @@ impl EnvLight {
         let y = ((v * self.height as f64) as usize).min(self.height - 1);
         let texel = y * self.width + x;
         let pdf_uv = self.weight[texel] / self.mean_weight;
-        (texel, (pdf_uv * self.square_to_solid_angle(v)) as f32)
+        (
+            texel,
+            (pdf_uv * self.square_to_solid_angle(d[0].hypot(d[1]))) as f32,
+        )
     }
 
     /// Density per steradian of sampling world direction `dir`.
@@ -288,17 +292,23 @@ impl EnvLight {
         if self.weight[texel] <= 0.0 {
             return None;
         }
-        // Keep the point strictly inside its texel so the lookup finds the same texel.
-        let tx = tx.clamp(1e-6, 1.0 - 1e-6);
-        let ty = ty.clamp(1e-6, 1.0 - 1e-6);
+        // Keep the point inside its texel (by 1e-4 of a texel) so that the f32 direction maps
+        // back to the same texel.
+        let tx = tx.clamp(1e-4, 1.0 - 1e-4);
+        let ty = ty.clamp(1e-4, 1.0 - 1e-4);
         let (u, v) = ((x as f64 + tx) / w as f64, (y as f64 + ty) / h as f64);
         let d = match self.mapping {
             EnvMapping::EqualAreaOctahedral => equal_area_square_to_sphere(u, v),
             EnvMapping::LatLong => latlong_to_sphere(u, v),
         };
         let wi = Self::rotate(&self.to_world, V3::from_f64(d)).normalize();
-        let pdf = self.weight[texel] / self.mean_weight * self.square_to_solid_angle(v);
-        (pdf > 0.0 && wi.is_finite()).then_some((wi, texel, pdf as f32))
+        if !wi.is_finite() {
+            return None;
+        }
+        // Density and texel from the direction itself, so they equal what `lookup` reports
+        // when a BSDF ray escapes along `wi` (consistent MIS weights).
+        let (texel, pdf) = self.lookup(wi);
+        (pdf > 0.0).then_some((wi, texel, pdf))
     }
 
     /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`.
@@ -348,5 +358,106 @@ mod tests {
         }
         let (u, v) = sphere_to_latlong(latlong_to_sphere(0.3, 0.6));
         assert!((u - 0.3).abs() < 1e-12 && (v - 0.6).abs() < 1e-12);
+    }
+
+    fn test_map(mapping: EnvMapping, w: usize, h: usize) -> EnvironmentMap {
+        let mut rgb = vec![[0.02f32, 0.03, 0.04]; w * h];
+        for y in h / 4..h / 4 + 2 {
+            for x in w / 3..w / 3 + 2 {
+                rgb[y * w + x] = [40.0, 30.0, 20.0];
+            }
+        }
+        EnvironmentMap {
+            width: w,
+            height: h,
+            rgb,
+            mapping,
+            illuminant: camsim_core::Spectrum::new(vec![300.0, 900.0], vec![1.0, 1.0], "flat")
+                .unwrap(),
+            light_to_world: crate::scene::Transform::rotate(25.0, [0.3, 1.0, 0.2]),
+        }
+    }
+
+    /// Importance sampling and uniform sphere sampling estimate the same integral (the map's
+    /// mean texel weight times 4 pi, and the irradiance on a tilted surface), the sampled
+    /// density equals `pdf_dir` of the sampled direction, and the density integrates to 1.
+    #[test]
+    fn importance_sampling_agrees_with_uniform_sampling() {
+        use rand::Rng;
+        for (mapping, w, h) in [
+            (EnvMapping::EqualAreaOctahedral, 32, 32),
+            (EnvMapping::LatLong, 64, 32),
+        ] {
+            let map = test_map(mapping, w, h);
+            let env = EnvLight::new(&map).unwrap();
+            let weight_of = |dir: V3| {
+                let (texel, _) = env.lookup(dir);
+                let c = map.rgb[texel];
+                (c[0] + c[1] + c[2]) as f64 / 3.0
+            };
+            let n_dir = V3::new(0.3, -0.5, 0.8).normalize();
+            let f = |dir: V3| weight_of(dir) * n_dir.dot(dir).max(0.0) as f64;
+            let mut rng = camsim_core::rng::seeded(9);
+            let n = 400_000;
+            let (mut imp, mut imp2, mut uni, mut uni2) = (0.0, 0.0, 0.0, 0.0);
+            for _ in 0..n {
+                let (u0, u1): (f32, f32) = (rng.gen(), rng.gen());
+                let (wi, _, pdf) = env.sample(u0, u1).expect("sample");
+                let p2 = env.pdf_dir(wi);
+                // f32 directions: the lat-long Jacobian 1 / sin(theta) is re-evaluated at the
+                // rounded direction.
+                assert!(
+                    (p2 / pdf - 1.0).abs() < 5e-3,
+                    "{mapping:?}: sample pdf {pdf} vs pdf_dir {p2}"
+                );
+                let v = f(wi) / pdf as f64;
+                imp += v;
+                imp2 += v * v;
+                let d = crate::sampling::uniform_sphere(rng.gen(), rng.gen());
+                let v = f(d) * 4.0 * PI;
+                uni += v;
+                uni2 += v * v;
+            }
+            let nf = n as f64;
+            let (mi, mu) = (imp / nf, uni / nf);
+            let (si, su) = (
+                ((imp2 / nf - mi * mi) / nf).sqrt(),
+                ((uni2 / nf - mu * mu) / nf).sqrt(),
+            );
+            assert!(
+                (mi - mu).abs() < 4.0 * (si * si + su * su).sqrt(),
+                "{mapping:?}: importance {mi} +- {si}, uniform {mu} +- {su}"
+            );
+            assert!(
+                si < 0.5 * su,
+                "{mapping:?}: importance sampling should reduce the error ({si} vs {su})"
+            );
+            // The density integrates to 1: midpoint rule over the image, 4 x 4 points per
+            // texel, through the mapping's area element (4 pi, or 2 pi^2 sin(theta) du dv).
+            let k = 4;
+            let mut pdf_int = 0.0;
+            for j in 0..h * k {
+                for i in 0..w * k {
+                    let (u, v) = (
+                        (i as f64 + 0.5) / (w * k) as f64,
+                        (j as f64 + 0.5) / (h * k) as f64,
+                    );
+                    let (d, area) = match mapping {
+                        EnvMapping::EqualAreaOctahedral => {
+                            (equal_area_square_to_sphere(u, v), 4.0 * PI)
+                        }
+                        EnvMapping::LatLong => {
+                            (latlong_to_sphere(u, v), 2.0 * PI * PI * (PI * v).sin())
+                        }
+                    };
+                    let dw = EnvLight::rotate(&env.to_world, V3::from_f64(d));
+                    pdf_int += env.pdf_dir(dw) as f64 * area / (w * h * k * k) as f64;
+                }
+            }
+            assert!(
+                (pdf_int - 1.0).abs() < 1e-3,
+                "{mapping:?}: density integrates to {pdf_int}"
+            );
+        }
     }
 }
