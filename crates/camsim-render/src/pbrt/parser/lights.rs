@@ -213,30 +213,31 @@ impl Parser {
 }
 
 /// Illuminance of an environment map (unit scale) on a surface facing +z (light space):
-/// `sum Y(rgb) max(cos theta, 0) d_omega` over texel centres, `Y` the Rec. 709 luminance.
+/// `sum Y(rgb) max(cos theta, 0) d_omega`, `Y` the Rec. 709 luminance, by the midpoint rule on
+/// at least 128 points across the image (small maps are sub-sampled: texel centres alone are
+/// 1.6 % off for a 16 x 16 map).
 pub(crate) fn map_upper_illuminance(
     width: usize,
     height: usize,
     rgb: &[[f32; 3]],
     mapping: EnvMapping,
 ) -> f64 {
+    let k = 128usize.div_ceil(width.min(height)).max(1);
+    let (wk, hk) = (width * k, height * k);
     let mut e = 0.0;
-    for y in 0..height {
-        for x in 0..width {
-            let c = rgb[y * width + x];
+    for yy in 0..hk {
+        for xx in 0..wk {
+            let c = rgb[(yy / k) * width + xx / k];
             let lum = 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
-            let (u, v) = (
-                (x as f64 + 0.5) / width as f64,
-                (y as f64 + 0.5) / height as f64,
-            );
+            let (u, v) = ((xx as f64 + 0.5) / wk as f64, (yy as f64 + 0.5) / hk as f64);
             let (d, d_omega) = match mapping {
                 EnvMapping::EqualAreaOctahedral => (
                     crate::envmap::equal_area_square_to_sphere(u, v),
-                    4.0 * PI / (width * height) as f64,
+                    4.0 * PI / (wk * hk) as f64,
                 ),
                 EnvMapping::LatLong => (
                     crate::envmap::latlong_to_sphere(u, v),
-                    2.0 * PI * PI * (PI * v).sin() / (width * height) as f64,
+                    2.0 * PI * PI * (PI * v).sin() / (wk * hk) as f64,
                 ),
             };
             if d[2] > 0.0 {
