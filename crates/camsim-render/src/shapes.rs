@@ -277,12 +277,11 @@ pub fn loop_subdivide(
             let (a, b) = (p[k.0 as usize], p[k.1 as usize]);
             let opp = &topo.edges[&k];
             let q = if opp.len() == 2 {
-                let s = add(
+                add(
                     scaled(add(a, b, 1.0), 3.0 / 8.0),
                     add(p[opp[0] as usize], p[opp[1] as usize], 1.0),
                     1.0 / 8.0,
-                );
-                s
+                )
             } else {
                 scaled(add(a, b, 1.0), 0.5)
             };

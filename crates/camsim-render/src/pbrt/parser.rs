@@ -414,43 +414,43 @@ impl Parser {
                     }
                 }
                 "Translate" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    let v = nums(tokens, &mut pos, f, &d, 3)?;
                     self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
                 }
                 "Scale" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    let v = nums(tokens, &mut pos, f, &d, 3)?;
                     self.apply_transform(Transform::scale([v[0], v[1], v[2]]));
                 }
                 "Rotate" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 4)?;
+                    let v = nums(tokens, &mut pos, f, &d, 4)?;
                     if v[1] == 0.0 && v[2] == 0.0 && v[3] == 0.0 {
                         return Err(loc.err("Rotate: the axis is the zero vector"));
                     }
                     self.apply_transform(Transform::rotate(v[0], [v[1], v[2], v[3]]));
                 }
                 "LookAt" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 9)?;
+                    let v = nums(tokens, &mut pos, f, &d, 9)?;
                     let t =
                         xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
                             .map_err(|e| loc.err(e))?;
                     self.apply_transform(t);
                 }
                 "Transform" => {
-                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
                     if self.gs.start_active {
                         self.gs.ctm = t;
                     }
                 }
                 "ConcatTransform" => {
-                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
                     self.apply_transform(t);
                 }
                 "CoordinateSystem" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     self.named_coords.insert(n, self.gs.ctm);
                 }
                 "CoordSysTransform" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     match self.named_coords.get(&n) {
                         Some(t) => self.gs.ctm = *t,
                         None => self.note(&loc, format!("CoordSysTransform: no coordinate system \"{n}\" (ignored, as pbrt-v4 warns)")),
@@ -479,7 +479,7 @@ impl Parser {
                     }
                 }
                 "TransformTimes" => {
-                    nums(&tokens, &mut pos, f, &d, 2)?;
+                    nums(tokens, &mut pos, f, &d, 2)?;
                     self.note(&loc, "TransformTimes ignored (no motion blur)");
                 }
                 "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
@@ -523,8 +523,8 @@ impl Parser {
                 },
                 "Camera" | "Film" | "Sampler" | "Integrator" => {
                     self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     match d.as_str() {
                         "Camera" => self.camera(&ty, &params, &loc)?,
                         "Film" => self.film(&ty, &params, &loc)?,
@@ -534,26 +534,26 @@ impl Parser {
                 }
                 "PixelFilter" => {
                     self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, format!("PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"));
                 }
                 "Accelerator" => {
                     self.require_world(&loc, &d, false)?;
-                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let _ = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, "Accelerator ignored (camsim builds its own BVH)");
                 }
                 "ColorSpace" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     if n != "srgb" {
                         self.note(&loc, format!("warning: ColorSpace \"{n}\" ignored: camsim reads RGB values as linear sRGB"));
                     }
                 }
                 "Option" => {
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, "Option ignored");
                 }
@@ -569,7 +569,7 @@ impl Parser {
                     return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
                 }
                 "Include" | "Import" => {
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     let path = self.resolve(file, &name);
                     let canon = canonical(&path);
                     if self.include_stack.contains(&canon) {
@@ -608,16 +608,16 @@ impl Parser {
                 }
                 "Material" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     let m = self.material(&ty, &params, &loc, file)?;
                     self.materials.push(m);
                     self.gs.material = MatRef::Index(self.materials.len() - 1);
                 }
                 "MakeNamedMaterial" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     let ty = params.string("type")?.ok_or_else(|| {
                         loc.err(format!(
                             "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
@@ -634,21 +634,21 @@ impl Parser {
                 }
                 "NamedMaterial" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     self.gs.material = MatRef::Named(name, loc.clone());
                 }
                 "Texture" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let class = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let class = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.texture(&name, &ty, &class, &params, &loc, file)?;
                 }
                 "AreaLightSource" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     if ty != "diffuse" {
                         return Err(loc.err(format!(
                             "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
@@ -676,19 +676,19 @@ impl Parser {
                 }
                 "LightSource" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.light_source(&ty, &params, &loc, file)?;
                 }
                 "Shape" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.shape(&ty, &params, &loc, file)?;
                 }
                 "ObjectBegin" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     if self.current_object.is_some() {
                         return Err(loc.err("ObjectBegin inside another ObjectBegin"));
                     }
@@ -710,7 +710,7 @@ impl Parser {
                 }
                 "ObjectInstance" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     if self.current_object.is_some() {
                         return Err(loc.err("ObjectInstance inside an object definition"));
                     }
@@ -739,7 +739,7 @@ impl Parser {
                 }
                 "MediumInterface" => {
                     // One or two names.
-                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
+                    let _ = string_arg(tokens, &mut pos, f, &d)?;
                     if let Some(Token {
                         kind: TokenKind::Str(_),
                         ..

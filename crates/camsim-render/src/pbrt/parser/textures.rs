@@ -11,6 +11,9 @@ use crate::scene::{FloatTexture, Texture, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
 
+/// An image texture's width, height, texels and mapping.
+type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping);
+
 /// A constant spectrum `v` at every wavelength.
 pub(crate) fn flat(v: f64) -> Spectrum {
     Spectrum::from_pairs(&[(360.0, v), (830.0, v)])
@@ -111,7 +114,7 @@ impl Parser {
         params: &ParamList,
         loc: &Loc,
         file: &Path,
-    ) -> Result<(usize, usize, Vec<[f32; 3]>, UvMapping), PbrtError> {
+    ) -> Result<ImageMap, PbrtError> {
         let fname = params.string("filename")?.ok_or_else(|| {
             loc.err(format!(
                 "Texture \"{name}\": imagemap needs \"string filename\""
