@@ -36,10 +36,17 @@ fn point_spot_distant_parameters_follow_pbrt_v4() {
     .unwrap();
     assert_eq!(s.lights.len(), 4);
     match &s.lights[0] {
-        Light::Point { position_m, intensity } => {
+        Light::Point {
+            position_m,
+            intensity,
+        } => {
             assert_eq!(*position_m, [1.0, 2.0, 4.0]);
             // power Phi_v: I_v = Phi_v / (4 pi) candela (pbrt-v4 PointLight::Create).
-            assert!(rel(luminous(intensity), 100.0 / (4.0 * PI)) < 1e-9, "{}", luminous(intensity));
+            assert!(
+                rel(luminous(intensity), 100.0 / (4.0 * PI)) < 1e-9,
+                "{}",
+                luminous(intensity)
+            );
         }
         l => panic!("{l:?}"),
     }
@@ -54,7 +61,9 @@ fn point_spot_distant_parameters_follow_pbrt_v4() {
             assert_eq!(*position_m, [0.0, 0.0, 0.0]);
             // Rotate 90 about x takes +z to -y.
             assert!(
-                direction[0].abs() < 1e-12 && (direction[1] + 1.0).abs() < 1e-12 && direction[2].abs() < 1e-12,
+                direction[0].abs() < 1e-12
+                    && (direction[1] + 1.0).abs() < 1e-12
+                    && direction[2].abs() < 1e-12,
                 "{direction:?}"
             );
             assert_eq!((*cone_angle_deg, *cone_delta_deg), (40.0, 10.0));
@@ -64,12 +73,19 @@ fn point_spot_distant_parameters_follow_pbrt_v4() {
             // luminous intensity is the power's times the colour's luminance Y(rgb) (Rec. 709).
             let y_rgb = 0.2126 * 1.0 + 0.7152 * 0.5 + 0.0722 * 0.25;
             let got = luminous(intensity);
-            assert!(rel(got, want * y_rgb) < 0.02, "spot I_v {got} vs {}", want * y_rgb);
+            assert!(
+                rel(got, want * y_rgb) < 0.02,
+                "spot I_v {got} vs {}",
+                want * y_rgb
+            );
         }
         l => panic!("{l:?}"),
     }
     match &s.lights[2] {
-        Light::Distant { direction, irradiance } => {
+        Light::Distant {
+            direction,
+            irradiance,
+        } => {
             assert_eq!(*direction, [0.0, 0.0, -1.0]);
             assert!(rel(luminous(irradiance), 2000.0) < 1e-9);
         }
@@ -81,7 +97,9 @@ fn point_spot_distant_parameters_follow_pbrt_v4() {
         l => panic!("{l:?}"),
     }
     // Bad parameters are errors at the directive.
-    let e = parse("WorldBegin\nLightSource \"spot\" \"float coneangle\" 10 \"float conedelta\" 20\n").unwrap_err();
+    let e =
+        parse("WorldBegin\nLightSource \"spot\" \"float coneangle\" 10 \"float conedelta\" 20\n")
+            .unwrap_err();
     assert_eq!((e.line, e.column), (2, 1), "{e}");
     let e = parse("WorldBegin\nLightSource \"point\" \"float radius\" 1\n").unwrap_err();
     assert!(e.message.contains("radius"), "{e}");
@@ -114,7 +132,10 @@ fn infinite_light_from_an_image_file() {
             1000.0 / PI
         );
     }
-    exr::prelude::write_rgb_file(dir.path().join("bad.exr"), 30, 20, |_, _| (1f32, 1f32, 1f32)).unwrap();
+    exr::prelude::write_rgb_file(dir.path().join("bad.exr"), 30, 20, |_, _| {
+        (1f32, 1f32, 1f32)
+    })
+    .unwrap();
     let e = pbrt::parse_str(
         "WorldBegin\nLightSource \"infinite\" \"string filename\" \"bad.exr\"\n",
         dir.path().join("s.pbrt"),
@@ -146,7 +167,11 @@ fn disk_and_cylinder_area_power_and_orientation() {
          Shape \"disk\"\n",
     )
     .unwrap();
-    assert_eq!(s.shapes.len(), 3, "a tessellated disk/cylinder stays one shape, even with power");
+    assert_eq!(
+        s.shapes.len(),
+        3,
+        "a tessellated disk/cylinder stays one shape, even with power"
+    );
     let area = |i: usize| pbrt::xform::shape_area(&s.shapes[i].geometry);
     let want_disk = 0.75 * PI * (4.0 - 0.25);
     let want_cyl = 4.0 * PI * 0.5 * 3.0; // (phimax r (zmax - zmin)) scaled by 2^2
@@ -155,14 +180,21 @@ fn disk_and_cylinder_area_power_and_orientation() {
         area(0),
         area(1)
     );
-    assert!(rel(area(0), want_disk) < 1e-9 && rel(area(1), want_cyl) < 1e-9 && rel(area(2), PI) < 1e-9);
+    assert!(
+        rel(area(0), want_disk) < 1e-9 && rel(area(1), want_cyl) < 1e-9 && rel(area(2), PI) < 1e-9
+    );
     // Emitted luminous flux pi A L_v (one-sided) / 2 pi A L_v (two-sided) equals "power".
-    let phi = |i: usize, sides: f64| sides * PI * area(i) * luminous(&s.shapes[i].area_light.as_ref().unwrap().radiance);
+    let phi = |i: usize, sides: f64| {
+        sides * PI * area(i) * luminous(&s.shapes[i].area_light.as_ref().unwrap().radiance)
+    };
     assert!(rel(phi(1, 1.0), 80.0) < 1e-9, "{}", phi(1, 1.0));
     assert!(rel(phi(2, 2.0), 30.0) < 1e-9, "{}", phi(2, 2.0));
     // Orientation: the disk faces +z; the cylinder faces away from its axis; both stay
     // within 0.01 % of the analytic radius (area-preserving polygon).
-    let Geometry::Triangles { positions, indices, .. } = &s.shapes[0].geometry else {
+    let Geometry::Triangles {
+        positions, indices, ..
+    } = &s.shapes[0].geometry
+    else {
         panic!()
     };
     for t in indices {
@@ -174,16 +206,24 @@ fn disk_and_cylinder_area_power_and_orientation() {
         assert!(rel(r, 2.0) < 1e-4 || rel(r, 0.5) < 1e-4 || r == 0.0, "{r}");
         assert!((p[2] - 0.3).abs() < 1e-12);
     }
-    let Geometry::Triangles { positions, indices, .. } = &s.shapes[1].geometry else {
+    let Geometry::Triangles {
+        positions, indices, ..
+    } = &s.shapes[1].geometry
+    else {
         panic!()
     };
     for t in indices {
         let n = tri_normal(positions, t);
         let c = positions[t[0] as usize];
-        assert!(n[0] * c[0] + n[1] * c[1] > 0.0 && n[2].abs() < 1e-9, "inward facet");
+        assert!(
+            n[0] * c[0] + n[1] * c[1] > 0.0 && n[2].abs() < 1e-9,
+            "inward facet"
+        );
         assert!(!s.shapes[1].reverse_orientation);
     }
-    assert!(parse("WorldBegin\nShape \"disk\" \"float radius\" 1 \"float innerradius\" 2\n").is_err());
+    assert!(
+        parse("WorldBegin\nShape \"disk\" \"float radius\" 1 \"float innerradius\" 2\n").is_err()
+    );
     assert!(parse("WorldBegin\nShape \"cylinder\" \"float zmin\" 1 \"float zmax\" 1\n").is_err());
 }
 
@@ -215,7 +255,12 @@ fn mesh_area(p: &[[f64; 3]], tris: &[[u32; 3]]) -> f64 {
 #[test]
 fn loop_subdivision_of_a_tetrahedron() {
     let s = 1.0 / 2f64.sqrt();
-    let p0 = vec![[1.0, 0.0, -s], [-1.0, 0.0, -s], [0.0, 1.0, s], [0.0, -1.0, s]];
+    let p0 = vec![
+        [1.0, 0.0, -s],
+        [-1.0, 0.0, -s],
+        [0.0, 1.0, s],
+        [0.0, -1.0, s],
+    ];
     let t0 = vec![[0u32, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]];
     let mut prev_area = mesh_area(&p0, &t0);
     let mut prev_gap = f64::INFINITY;
@@ -234,7 +279,11 @@ fn loop_subdivision_of_a_tetrahedron() {
             e.values().all(|c| *c == 2),
             "level {level}: an edge is not shared by exactly two faces"
         );
-        assert_eq!(p.len() as i64 - e.len() as i64 + t.len() as i64, 2, "Euler characteristic");
+        assert_eq!(
+            p.len() as i64 - e.len() as i64 + t.len() as i64,
+            2,
+            "Euler characteristic"
+        );
         let mut valence = vec![0; p.len()];
         for (a, b) in e.keys() {
             valence[*a as usize] += 1;
@@ -248,7 +297,10 @@ fn loop_subdivision_of_a_tetrahedron() {
         let mut directed = std::collections::HashSet::new();
         for tri in &t {
             for k in 0..3 {
-                assert!(directed.insert((tri[k], tri[(k + 1) % 3])), "level {level}: inconsistent winding");
+                assert!(
+                    directed.insert((tri[k], tri[(k + 1) % 3])),
+                    "level {level}: inconsistent winding"
+                );
             }
         }
         // Outward normals (the tetrahedron's centre is the origin).
@@ -259,15 +311,23 @@ fn loop_subdivision_of_a_tetrahedron() {
         let gap = p
             .iter()
             .zip(&pl)
-            .map(|(a, b)| pbrt::xform::dot(pbrt::xform::sub(*a, *b), pbrt::xform::sub(*a, *b)).sqrt())
+            .map(|(a, b)| {
+                pbrt::xform::dot(pbrt::xform::sub(*a, *b), pbrt::xform::sub(*a, *b)).sqrt()
+            })
             .fold(0.0, f64::max);
         eprintln!(
             "level {level}: {} faces, control area {area:.6}, limit-projected area {:.6}, max control-limit gap {gap:.2e}",
             t.len(),
             mesh_area(&pl, &tl)
         );
-        assert!(area < prev_area, "level {level}: area {area} did not decrease from {prev_area}");
-        assert!(gap < 0.5 * prev_gap, "level {level}: gap {gap} vs {prev_gap}");
+        assert!(
+            area < prev_area,
+            "level {level}: area {area} did not decrease from {prev_area}"
+        );
+        assert!(
+            gap < 0.5 * prev_gap,
+            "level {level}: gap {gap} vs {prev_gap}"
+        );
         // The limit-projected mesh is inscribed in the limit surface and the control mesh
         // encloses it: their areas bracket the limit area and close in.
         let limit_area = mesh_area(&pl, &tl);
@@ -282,7 +342,10 @@ fn loop_subdivision_of_a_tetrahedron() {
     // Through the reader: pbrt-v4 defaults (levels 3) and a non-manifold input is an error.
     let text = "WorldBegin\nShape \"loopsubdiv\" \"integer levels\" 2 \"point3 P\" [1 0 -0.7071 -1 0 -0.7071 0 1 0.7071 0 -1 0.7071] \"integer indices\" [0 1 2 0 3 1 0 2 3 1 3 2]\n";
     let sc = parse(text).unwrap();
-    let Geometry::Triangles { indices, normals, .. } = &sc.shapes[0].geometry else {
+    let Geometry::Triangles {
+        indices, normals, ..
+    } = &sc.shapes[0].geometry
+    else {
         panic!()
     };
     assert_eq!(indices.len(), 64);
@@ -310,14 +373,23 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     )
     .unwrap();
     let Material::Diffuse {
-        reflectance: Texture::Checkerboard { tex1, tex2, mapping },
+        reflectance:
+            Texture::Checkerboard {
+                tex1,
+                tex2,
+                mapping,
+            },
     } = &s.materials[s.shapes[0].material]
     else {
         panic!("{:?}", s.materials)
     };
     assert_eq!((mapping.uscale, mapping.vscale), (2.5, 1.5));
-    let Texture::Constant(k1) = &**tex1 else { panic!() };
-    let Texture::Constant(k2) = &**tex2 else { panic!() };
+    let Texture::Constant(k1) = &**tex1 else {
+        panic!()
+    };
+    let Texture::Constant(k2) = &**tex2 else {
+        panic!()
+    };
     assert!((k1.eval(550.0) - 0.2).abs() < 1e-6 && (k2.eval(550.0) - 0.8).abs() < 1e-6);
 
     let (rho1, rho2) = (0.2, 0.8);
@@ -336,7 +408,12 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     let quad = Shape {
         name: None,
         geometry: Geometry::Triangles {
-            positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+            positions: vec![
+                [-1.0, -1.0, 0.0],
+                [1.0, -1.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [-1.0, 1.0, 0.0],
+            ],
             indices: vec![[0, 1, 2], [0, 2, 3]],
             uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
             normals: None,
@@ -347,7 +424,8 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     };
     let (d, fov) = (2.0, 40.0f64);
     let cam = Camera {
-        camera_to_world: look_at_camera_to_world([0.0, 0.0, d], [0.0; 3], [0.0, 1.0, 0.0], true).unwrap(),
+        camera_to_world: look_at_camera_to_world([0.0, 0.0, d], [0.0; 3], [0.0, 1.0, 0.0], true)
+            .unwrap(),
         fov_deg: fov,
         width: 64,
         height: 64,
@@ -357,7 +435,9 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         shapes: vec![quad],
         materials: vec![Material::Diffuse { reflectance: tex }],
         named_materials: HashMap::new(),
-        lights: vec![Light::Infinite { radiance: flat(1.0) }],
+        lights: vec![Light::Infinite {
+            radiance: flat(1.0),
+        }],
         settings: RenderSettings {
             grid: WavelengthGrid::new(400.0, 700.0, 100.0).unwrap(),
             samples_per_pixel: 32,
@@ -382,14 +462,20 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     let w = d * (fov.to_radians() / 2.0).tan();
     let (u0, u1) = ((1.0 - w) / 2.0, (1.0 + w) / 2.0);
     let (sa, sb, ta, tb) = (2.5 * u0, 2.5 * u1, 1.5 * u0, 1.5 * u1);
-    let (es, et) = (even_measure(sb) - even_measure(sa), even_measure(tb) - even_measure(ta));
+    let (es, et) = (
+        even_measure(sb) - even_measure(sa),
+        even_measure(tb) - even_measure(ta),
+    );
     let (os, ot) = ((sb - sa) - es, (tb - ta) - et);
     let frac1 = (es * et + os * ot) / ((sb - sa) * (tb - ta));
     // Under a uniform sky of radiance 1, a Lambertian plane reads its reflectance.
     let got_frac1 = (mean - rho2) / (rho1 - rho2);
     eprintln!("checkerboard: tex1 fraction {got_frac1:.5}, analytic {frac1:.5}");
     assert!((got_frac1 - frac1).abs() < 0.005, "{got_frac1} vs {frac1}");
-    assert!((frac1 - 0.5).abs() > 0.02, "the test window must not give one half by symmetry");
+    assert!(
+        (frac1 - 0.5).abs() > 0.02,
+        "the test window must not give one half by symmetry"
+    );
 }
 
 #[test]
@@ -416,11 +502,21 @@ fn one_pass_report_lists_every_problem_across_includes() {
     let e = pbrt::parse_file(dir.path().join("main.pbrt")).unwrap_err();
     let all: Vec<(String, usize, usize)> = e
         .problems()
-        .map(|p| (p.file.file_name().unwrap().to_string_lossy().into_owned(), p.line, p.column))
+        .map(|p| {
+            (
+                p.file.file_name().unwrap().to_string_lossy().into_owned(),
+                p.line,
+                p.column,
+            )
+        })
         .collect();
     assert_eq!(
         all,
-        vec![("main.pbrt".into(), 5, 5), ("inc.pbrt".into(), 2, 1), ("inc.pbrt".into(), 4, 3)],
+        vec![
+            ("main.pbrt".into(), 5, 5),
+            ("inc.pbrt".into(), 2, 1),
+            ("inc.pbrt".into(), 4, 3)
+        ],
         "{e}"
     );
     let text = e.to_string();
@@ -431,7 +527,9 @@ fn one_pass_report_lists_every_problem_across_includes() {
         "{text}"
     );
     assert!(
-        text.contains("main.pbrt:5:5:") && text.contains("inc.pbrt:2:1:") && text.contains("inc.pbrt:4:3:"),
+        text.contains("main.pbrt:5:5:")
+            && text.contains("inc.pbrt:2:1:")
+            && text.contains("inc.pbrt:4:3:"),
         "{text}"
     );
 
@@ -442,6 +540,10 @@ fn one_pass_report_lists_every_problem_across_includes() {
     )
     .unwrap();
     for needle in ["Option", "ColorSpace", "PixelFilter", "Sampler \"fancy\""] {
-        assert!(s.notes.iter().any(|n| n.contains(needle)), "no note for {needle}: {:?}", s.notes);
+        assert!(
+            s.notes.iter().any(|n| n.contains(needle)),
+            "no note for {needle}: {:?}",
+            s.notes
+        );
     }
 }

@@ -33,7 +33,13 @@ fn camera(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, w: usize, h:
     }
 }
 
-fn scene(camera: Camera, shapes: Vec<Shape>, rho: f64, lights: Vec<Light>, settings: RenderSettings) -> SceneDescription {
+fn scene(
+    camera: Camera,
+    shapes: Vec<Shape>,
+    rho: f64,
+    lights: Vec<Light>,
+    settings: RenderSettings,
+) -> SceneDescription {
     SceneDescription {
         camera,
         shapes,
@@ -83,8 +89,10 @@ fn expected_down(h: f64, fov_deg: f64, n: usize, f: impl Fn(f64, f64) -> f64) ->
             let mut s = 0.0;
             for b in 0..k {
                 for a in 0..k {
-                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / n as f64 - 1.0) * t * h;
-                    let y = (2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / n as f64 - 1.0) * t * h;
+                    let x =
+                        (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / n as f64 - 1.0) * t * h;
+                    let y =
+                        (2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / n as f64 - 1.0) * t * h;
                     s += f(x, y);
                 }
             }
@@ -96,7 +104,10 @@ fn expected_down(h: f64, fov_deg: f64, n: usize, f: impl Fn(f64, f64) -> f64) ->
 
 fn report(what: &str, got: f64, want: f64) -> f64 {
     let err = (got - want) / want;
-    eprintln!("{what}: got {got:.6e}, want {want:.6e}, rel. error {:+.4} %", err * 100.0);
+    eprintln!(
+        "{what}: got {got:.6e}, want {want:.6e}, rel. error {:+.4} %",
+        err * 100.0
+    );
     err
 }
 
@@ -113,7 +124,11 @@ fn point_light_over_a_diffuse_plane() {
             position_m: [0.0, 0.0, h],
             intensity: flat(i_w_sr_nm),
         }];
-        let out = render(&scene(cam, vec![floor(100.0)], rho, lights, settings(64, 1)), &|_, _| {}).unwrap();
+        let out = render(
+            &scene(cam, vec![floor(100.0)], rho, lights, settings(64, 1)),
+            &|_, _| {},
+        )
+        .unwrap();
         pixel_means(&out.radiance)
     };
     for h in [1.0, 2.5] {
@@ -122,7 +137,11 @@ fn point_light_over_a_diffuse_plane() {
             let r2 = h * h + x * x + y * y;
             rho / PI * i_w_sr_nm * (h / r2.sqrt()) / r2
         });
-        let worst = got.iter().zip(&want).map(|(g, w)| ((g - w) / w).abs()).fold(0.0, f64::max);
+        let worst = got
+            .iter()
+            .zip(&want)
+            .map(|(g, w)| ((g - w) / w).abs())
+            .fold(0.0, f64::max);
         let (sg, sw) = (got.iter().sum::<f64>(), want.iter().sum::<f64>());
         report(
             &format!("point light h = {h} m, image mean"),
@@ -137,7 +156,11 @@ fn point_light_over_a_diffuse_plane() {
     let (a, b) = (centre(&render_at(1.0)), centre(&render_at(2.5)));
     // Same angular footprint at both heights, so the ratio is exactly (2.5 / 1)^3 / (2.5 / 1):
     // cos/r^2 at fixed angle scales as 1 / h^2.
-    let err = report("inverse square ratio L(1 m) / L(2.5 m)", a / b, 2.5f64.powi(2));
+    let err = report(
+        "inverse square ratio L(1 m) / L(2.5 m)",
+        a / b,
+        2.5f64.powi(2),
+    );
     assert!(err.abs() < 1e-3);
 }
 
@@ -156,7 +179,11 @@ fn spot_light_cone_and_falloff() {
         cone_angle_deg: cone,
         cone_delta_deg: delta,
     }];
-    let out = render(&scene(cam, vec![floor(100.0)], rho, lights, settings(64, 1)), &|_, _| {}).unwrap();
+    let out = render(
+        &scene(cam, vec![floor(100.0)], rho, lights, settings(64, 1)),
+        &|_, _| {},
+    )
+    .unwrap();
     let got = pixel_means(&out.radiance);
     let smooth = |c: f64| {
         let t = ((c - cos_end) / (cos_start - cos_end)).clamp(0.0, 1.0);
@@ -173,8 +200,14 @@ fn spot_light_cone_and_falloff() {
     for j in 0..n {
         for i in 0..n {
             // Nearest and farthest points of the pixel from the axis, in the tan-plane.
-            let (x0, x1) = ((2.0 * i as f64 / n as f64 - 1.0) * t, (2.0 * (i + 1) as f64 / n as f64 - 1.0) * t);
-            let (y0, y1) = ((2.0 * j as f64 / n as f64 - 1.0) * t, (2.0 * (j + 1) as f64 / n as f64 - 1.0) * t);
+            let (x0, x1) = (
+                (2.0 * i as f64 / n as f64 - 1.0) * t,
+                (2.0 * (i + 1) as f64 / n as f64 - 1.0) * t,
+            );
+            let (y0, y1) = (
+                (2.0 * j as f64 / n as f64 - 1.0) * t,
+                (2.0 * (j + 1) as f64 / n as f64 - 1.0) * t,
+            );
             let (nx, ny) = (0f64.clamp(x0, x1), 0f64.clamp(y0, y1));
             let (fx, fy) = (x0.abs().max(x1.abs()), y0.abs().max(y1.abs()));
             let cmax = 1.0 / (1.0 + nx * nx + ny * ny).sqrt();
@@ -200,7 +233,10 @@ fn spot_light_cone_and_falloff() {
             }
         }
     }
-    eprintln!("spot: {} pixels inside, {outside} outside, {} in the falloff", inside.2, between.2);
+    eprintln!(
+        "spot: {} pixels inside, {outside} outside, {} in the falloff",
+        inside.2, between.2
+    );
     assert!(inside.2 > 20 && outside > 100 && between.2 > 20);
     assert!(report("spot, inside the cone (sum)", inside.0, inside.1).abs() < 0.002);
     assert!(report("spot, falloff ring (sum)", between.0, between.1).abs() < 0.01);
@@ -212,18 +248,33 @@ fn spot_light_cone_and_falloff() {
 fn distant_light_on_a_plane() {
     let (rho, e) = (0.8, 5.0);
     let th = 60f64.to_radians();
-    let cam = camera([0.3, -0.2, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 30.0, 8, 8);
+    let cam = camera(
+        [0.3, -0.2, 2.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        30.0,
+        8,
+        8,
+    );
     // Light travels along -(sin, 0, cos): it comes from above at 60 degrees.
     let lights = vec![Light::Distant {
         direction: [-th.sin(), 0.0, -th.cos()],
         irradiance: flat(e),
     }];
-    let out = render(&scene(cam, vec![floor(50.0)], rho, lights, settings(8, 3)), &|_, _| {}).unwrap();
+    let out = render(
+        &scene(cam, vec![floor(50.0)], rho, lights, settings(8, 3)),
+        &|_, _| {},
+    )
+    .unwrap();
     let want = rho / PI * e * th.cos();
     for (k, v) in pixel_means(&out.radiance).iter().enumerate() {
         assert!(((v - want) / want).abs() < 1e-4, "pixel {k}: {v} vs {want}");
     }
-    report("distant light, pixel 0", pixel_means(&out.radiance)[0], want);
+    report(
+        "distant light, pixel 0",
+        pixel_means(&out.radiance)[0],
+        want,
+    );
 }
 
 /// A disk emitter of radiance L and radius R, facing down at height h above a point, gives
@@ -240,14 +291,32 @@ fn disk_emitter_on_axis_irradiance() {
     );
     let parsed = pbrt::parse_str(&text, "/tmp/virtual/disk.pbrt").unwrap();
     let disk = parsed.shapes[0].clone();
-    let Some(al) = disk.area_light.clone() else { panic!("no emitter") };
+    let Some(al) = disk.area_light.clone() else {
+        panic!("no emitter")
+    };
     // Area and emitted power of the tessellated disk against the analytic ones.
     let area = pbrt::xform::shape_area(&disk.geometry);
     assert!(report("disk area", area, PI * r * r).abs() < 1e-9);
-    let lum = camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&al.radiance);
-    assert!(report("disk emitted luminous flux pi A L_v", PI * area * lum, power_lm).abs() < 1e-6);
+    let lum =
+        camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&al.radiance);
+    assert!(
+        report(
+            "disk emitted luminous flux pi A L_v",
+            PI * area * lum,
+            power_lm
+        )
+        .abs()
+            < 1e-6
+    );
     // Spectral radiance to compare against: band averages of the blackbody shape.
-    let cam = camera([1.5, 0.0, 0.6], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.25, 8, 8);
+    let cam = camera(
+        [1.5, 0.0, 0.6],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        0.25,
+        8,
+        8,
+    );
     let sc = scene(cam, vec![floor(0.05), disk], rho, vec![], settings(1024, 1));
     let out = render(&sc, &|_, _| {}).unwrap();
     let grid = &sc.settings.grid;
@@ -307,16 +376,33 @@ fn environment_map_irradiance_matches_the_map_integral() {
         }
     }
     let rho = 0.5;
-    let cam = camera([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 20.0, 8, 8);
+    let cam = camera(
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        20.0,
+        8,
+        8,
+    );
     let out = render(
-        &scene(cam, vec![floor(0.2)], rho, vec![Light::Environment(map)], settings(512, 1)),
+        &scene(
+            cam,
+            vec![floor(0.2)],
+            rho,
+            vec![Light::Environment(map)],
+            settings(512, 1),
+        ),
         &|_, _| {},
     )
     .unwrap();
     let px = pixel_means(&out.radiance);
     let got = px.iter().sum::<f64>() / px.len() as f64;
     // The floor is small (0.2 m) and seen from 1 m: it blocks nothing above itself.
-    let err = report("environment map: floor radiance vs rho/pi * integral of the map", got, rho / PI * e);
+    let err = report(
+        "environment map: floor radiance vs rho/pi * integral of the map",
+        got,
+        rho / PI * e,
+    );
     assert!(err.abs() < 0.01);
 }
 
@@ -325,7 +411,10 @@ fn environment_map_irradiance_matches_the_map_integral() {
 #[test]
 fn white_furnace_with_a_constant_environment_map() {
     let (rho, l) = (0.7, 2.0);
-    for (mapping, w, h) in [(EnvMapping::EqualAreaOctahedral, 16, 16), (EnvMapping::LatLong, 32, 16)] {
+    for (mapping, w, h) in [
+        (EnvMapping::EqualAreaOctahedral, 16, 16),
+        (EnvMapping::LatLong, 32, 16),
+    ] {
         let map = EnvironmentMap {
             width: w,
             height: h,
@@ -334,7 +423,14 @@ fn white_furnace_with_a_constant_environment_map() {
             illuminant: flat(1.0),
             light_to_world: Transform::rotate(37.0, [1.0, 2.0, 0.5]),
         };
-        let cam = camera([0.0, 0.0, -3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 8.0, 8, 8);
+        let cam = camera(
+            [0.0, 0.0, -3.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            8.0,
+            8,
+            8,
+        );
         let shapes = vec![Shape {
             name: None,
             geometry: Geometry::Sphere {
@@ -346,7 +442,13 @@ fn white_furnace_with_a_constant_environment_map() {
             reverse_orientation: false,
         }];
         let out = render(
-            &scene(cam, shapes, rho, vec![Light::Environment(map)], settings(256, 8)),
+            &scene(
+                cam,
+                shapes,
+                rho,
+                vec![Light::Environment(map)],
+                settings(256, 8),
+            ),
             &|_, _| {},
         )
         .unwrap();
