@@ -5,9 +5,11 @@
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
-//! scattering), `lights` (area and infinite lights), [`camera`] (pinhole camera),
+//! scattering), `texture` (texture graphs), `lights` (area, infinite, point, spot and distant
+//! lights), [`envmap`] (environment maps), [`camera`] (pinhole camera),
 //! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
-//! The scene contract shared with the pbrt-v4 reader is [`scene`].
+//! The scene contract shared with the pbrt-v4 reader is [`scene`]; [`shapes`] turns disks,
+//! cylinders and Loop subdivision surfaces into triangles.
 
 pub mod scene;
 
