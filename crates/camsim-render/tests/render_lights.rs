@@ -458,3 +458,40 @@ fn white_furnace_with_a_constant_environment_map() {
         assert!(err.abs() < 0.01);
     }
 }
+
+/// Multiple bounces with a delta light: a point source of intensity I at the centre of a
+/// diffuse sphere (radius R, reflectance rho). Direct irradiance on the wall is I / R^2; the
+/// wall's uniform radiance L adds pi L, so L = rho / pi (I / R^2 + pi L), i.e.
+/// L = rho I / (pi R^2 (1 - rho)) (furnace argument, as in the area-light furnace tests).
+#[test]
+fn point_light_inside_a_diffuse_sphere_furnace() {
+    let (rho, i_w_sr_nm, r) = (0.6, 4.0, 2.0);
+    let cam = camera([0.0; 3], [0.3, 0.2, 1.0], [0.0, 1.0, 0.0], 90.0, 12, 12);
+    let sphere = Shape {
+        name: None,
+        geometry: Geometry::Sphere {
+            center: [0.0; 3],
+            radius: r,
+        },
+        material: 0,
+        area_light: None,
+        reverse_orientation: false,
+    };
+    let lights = vec![Light::Point {
+        position_m: [0.0; 3],
+        intensity: flat(i_w_sr_nm),
+    }];
+    let out = render(
+        &scene(cam, vec![sphere], rho, lights, settings(256, 200)),
+        &|_, _| {},
+    )
+    .unwrap();
+    let px = pixel_means(&out.radiance);
+    let n = px.len() as f64;
+    let got = px.iter().sum::<f64>() / n;
+    let se = (px.iter().map(|v| (v - got) * (v - got)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    let want = rho * i_w_sr_nm / (PI * r * r * (1.0 - rho));
+    let err = report("point light in a sphere furnace", got, want);
+    eprintln!("  standard error {:.3} %", se / want * 100.0);
+    assert!(se / want < 0.004 && err.abs() < 0.01 && (got - want).abs() < 4.5 * se + 1e-4 * want);
+}
