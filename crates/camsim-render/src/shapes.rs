@@ -324,3 +324,45 @@ pub fn loop_subdivide(
         .collect();
     Ok((p, tris, normals))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An open mesh (a square fan around a centre vertex): a planar one stays planar, its
+    /// boundary stays one loop of boundary edges (doubling per level), and lifting the interior
+    /// vertex never moves a boundary vertex (Loop's boundary masks use boundary neighbours
+    /// only, so the boundary is the B-spline of the boundary polygon).
+    #[test]
+    fn open_mesh_boundary_rules() {
+        let mut p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.0],
+        ];
+        let t = [[0u32, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        for level in 1..=3u32 {
+            let (flat, tris, _) = loop_subdivide(&p, &t, level, true).unwrap();
+            assert!(flat.iter().all(|v| v[2] == 0.0));
+            let topo = topology(flat.len(), &tris).unwrap();
+            let boundary = topo.edges.values().filter(|o| o.len() == 1).count();
+            assert_eq!(boundary, 4 << level, "level {level}");
+            p[4][2] = 0.7;
+            let (lifted, _, _) = loop_subdivide(&p, &t, level, true).unwrap();
+            p[4][2] = 0.0;
+            for (v, b) in topo.boundary_neighbours.iter().enumerate() {
+                if !b.is_empty() {
+                    assert_eq!(
+                        flat[v], lifted[v],
+                        "level {level}: boundary vertex {v} moved with the interior"
+                    );
+                } else {
+                    assert!(lifted[v][2] > 0.0);
+                }
+            }
+        }
+        assert!(loop_subdivide(&p, &[[0, 1, 1]], 1, false).is_err());
+    }
+}

@@ -221,6 +221,14 @@ fn disk_and_cylinder_area_power_and_orientation() {
         );
         assert!(!s.shapes[1].reverse_orientation);
     }
+    // Constant alpha 0 cuts a shape out entirely; alpha 1 is opaque.
+    let s = parse(
+        "WorldBegin\nShape \"disk\" \"float alpha\" 0\nShape \"cylinder\" \"float alpha\" 1\n",
+    )
+    .unwrap();
+    assert_eq!(s.shapes.len(), 1);
+    assert!(s.notes.iter().any(|n| n.contains("alpha 0")));
+    assert!(parse("WorldBegin\nShape \"disk\" \"float alpha\" 0.5\n").is_err());
     assert!(
         parse("WorldBegin\nShape \"disk\" \"float radius\" 1 \"float innerradius\" 2\n").is_err()
     );

@@ -988,10 +988,23 @@ impl Parser {
         let inv =
             inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
         let swaps = det3(&ctm) < 0.0;
+        // Constant alpha: 1 is opaque; 0 cuts the whole shape out (dropped, exactly what
+        // pbrt-v4's alpha test does for every hit); anything else needs per-hit alpha tests.
+        let mut cut_out = false;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let ok = p.ty == "float" && p.nums()?.first() == Some(&1.0);
-            if !ok {
-                return Err(p.loc.err("Shape: alpha cut-outs are not supported"));
+            let a = if p.ty == "float" {
+                p.nums()?.first().copied()
+            } else {
+                None
+            };
+            match a {
+                Some(a) if a == 1.0 => {}
+                Some(a) if a == 0.0 => cut_out = true,
+                _ => {
+                    return Err(p.loc.err(
+                        "Shape: alpha cut-outs are not supported (only constant alpha 0 or 1)",
+                    ))
+                }
             }
         }
         self.ignore_params(params, &["faceIndices", "S", "emissionfilename"], "Shape");
@@ -1229,6 +1242,13 @@ impl Parser {
             #[allow(unreachable_patterns)]
             g => (g, false),
         };
+        if cut_out {
+            self.note(
+                loc,
+                format!("Shape \"{ty}\" with alpha 0 is invisible: dropped"),
+            );
+            return Ok(());
+        }
         let shape = Shape {
             name: self.gs.name.clone(),
             geometry,
