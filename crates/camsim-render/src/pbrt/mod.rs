@@ -92,9 +92,8 @@
 //! the message) and `displacement`; texture classes other than those above (`fbm`, `wrinkled`,
 //! `windy`, `marble`, `dots`, `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than
 //! those above (`curve`, ...), sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape
-//! dropped, noted) or 1; `goniometric` and
-//! `projection` lights, area-light images (`filename`), infinite-light `portal`s and maps that
-//! are neither square nor 2:1; participating media (`MakeNamedMedium`); `Attribute`; area
+//! dropped, noted) or 1; `goniometric` and `projection` lights, area-light images (`filename`),
+//! infinite-light `portal`s and maps that are neither square nor 2:1; participating media (`MakeNamedMedium`); `Attribute`; area
 //! lights inside object instances; `WorldEnd` (pbrt-v3); unknown directives.
 //!
 //! # One-pass reporting
