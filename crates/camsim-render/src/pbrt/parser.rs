@@ -998,8 +998,8 @@ impl Parser {
                 None
             };
             match a {
-                Some(a) if a == 1.0 => {}
-                Some(a) if a == 0.0 => cut_out = true,
+                Some(1.0) => {}
+                Some(0.0) => cut_out = true,
                 _ => {
                     return Err(p.loc.err(
                         "Shape: alpha cut-outs are not supported (only constant alpha 0 or 1)",
