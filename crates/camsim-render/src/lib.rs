@@ -5,15 +5,18 @@
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
-//! scattering), `lights` (area and infinite lights), [`camera`] (pinhole camera),
+//! scattering), `texture` (texture graphs), `lights` (area, infinite, point, spot and distant
+//! lights), [`envmap`] (environment maps), [`camera`] (pinhole camera),
 //! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
-//! The scene contract shared with the pbrt-v4 reader is [`scene`].
+//! The scene contract shared with the pbrt-v4 reader is [`scene`]; [`shapes`] turns disks,
+//! cylinders and Loop subdivision surfaces into triangles.
 
 pub mod scene;
 
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod envmap;
 pub mod geometry;
 mod integrator;
 mod lights;
@@ -21,8 +24,10 @@ pub mod math;
 pub mod render;
 pub mod sampling;
 pub mod spectral;
+mod texture;
 
 pub mod pbrt;
+pub mod shapes;
 pub mod builtin;
 pub mod overlay;
 pub mod uplift;
