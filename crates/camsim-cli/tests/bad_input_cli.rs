@@ -99,6 +99,23 @@ rows = 96
 cols = 96
 "#;
 
+/// A dataset of 3 tiny ColorChecker captures with a grid and a random draw.
+const DATASET: &str = r#"
+[dataset]
+samples = 3
+shard_size = 2
+[base]
+wavelengths = { start_nm = 400.0, step_nm = 20.0, count = 16 }
+scene = { kind = "macbeth" }
+sensor = { preset = "pixel4a", rows = 16, cols = 24 }
+[[vary]]
+key = "optics.config.f_number"
+values = [2.0, 4.0]
+[[vary]]
+key = "capture.exposure_ms"
+log_uniform = [1.0, 4.0]
+"#;
+
 /// Small inputs every subcommand can start from, made once with camsim itself.
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
@@ -109,6 +126,7 @@ fn fixture() -> &'static Fixture {
         std::fs::write(root.join("small.toml"), SMALL).unwrap();
         std::fs::write(root.join("flat.toml"), FLAT).unwrap();
         std::fs::write(root.join("edge.toml"), EDGE).unwrap();
+        std::fs::write(root.join("dataset.toml"), DATASET).unwrap();
         run_ok(&["simulate", &p("small.toml"), "--out", &p("sim"), "--save", "all"]);
         run_ok(&["simulate", &p("flat.toml"), "--out", &p("flat")]);
         run_ok(&["simulate", &p("edge.toml"), "--out", &p("edge")]);
@@ -145,6 +163,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
         ["validate"] => vec!["validate", "cornell-box", "--out", "{O}"],
+        ["dataset"] => vec!["dataset", "{F}/dataset.toml", "--out", "{O}"],
         _ => return None,
     })
 }
@@ -237,6 +256,7 @@ fn malformed_files_exit_2_and_name_the_file() {
         (vec!["analyze", "emva", "{X}", "--out", "{O}"], "emva/series.csv", "csv"),
         (vec!["fit", "qe", "--measured", "{X}", "--out", "{O}"], "means.csv", "csv"),
         (vec!["validate", "compare", "{X}", "--out", "{O}"], "small.toml", "toml"),
+        (vec!["dataset", "{X}", "--out", "{O}"], "dataset.toml", "toml"),
     ];
     let mut failures = Vec::new();
     for (i, (args, valid, ext)) in slots.iter().enumerate() {

@@ -590,6 +590,61 @@ fn emva_series_json(py: Python<'_>, csv: std::path::PathBuf, out: Option<std::pa
     serde_json::to_string(&json).map_err(err)
 }
 
+/// A dataset spec from text (TOML, or JSON for a dict) with relative paths resolved against
+/// `base_dir`, checked completely.
+fn dataset_spec(spec: &str, source: &str, base_dir: &std::path::Path) -> PyResult<camsim::dataset::DatasetSpec> {
+    camsim::dataset::DatasetSpec::from_toml_str(spec, source, base_dir).map_err(err)
+}
+
+/// Check a dataset spec and return its plan as JSON: samples, shards, shard size, fingerprint and
+/// the first samples' parameters.
+#[pyfunction]
+fn dataset_plan_json(spec: &str, source: &str, base_dir: std::path::PathBuf) -> PyResult<String> {
+    let s = dataset_spec(spec, source, &base_dir)?;
+    let first: Vec<serde_json::Value> = (0..s.samples.min(5))
+        .map(|i| {
+            let x = s.sample(i).map_err(err)?;
+            let p: serde_json::Map<String, serde_json::Value> =
+                x.params.iter().map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default())).collect();
+            Ok(serde_json::json!({ "index": i, "seed": x.seed, "params": p }))
+        })
+        .collect::<PyResult<_>>()?;
+    let plan = serde_json::json!({
+        "samples": s.samples, "shards": s.shards(), "shard_size": s.shard_size,
+        "fingerprint": s.fingerprint, "outputs": s.output_names, "first_samples": first,
+    });
+    Ok(plan.to_string())
+}
+
+/// Run the shards of part `shard_index` of `shard_count` that are not complete, with `workers`
+/// samples at once (None: all cores); returns the run summary as JSON. The GIL is released.
+#[pyfunction]
+#[pyo3(signature = (spec, source, base_dir, out, shard_index = 0, shard_count = 1, workers = None, verify = true))]
+#[allow(clippy::too_many_arguments)]
+fn dataset_run_json(
+    py: Python<'_>,
+    spec: &str,
+    source: &str,
+    base_dir: std::path::PathBuf,
+    out: std::path::PathBuf,
+    shard_index: u64,
+    shard_count: u64,
+    workers: Option<usize>,
+    verify: bool,
+) -> PyResult<String> {
+    let s = dataset_spec(spec, source, &base_dir)?;
+    let select = camsim::dataset::ShardSelect::parse(&format!("{shard_index}/{shard_count}")).map_err(err)?;
+    let summary = py.detach(|| camsim::dataset::run(&s, &out, select, workers, verify, &|_, _, _| {})).map_err(err)?;
+    serde_json::to_string(&summary).map_err(err)
+}
+
+/// Write manifest.jsonl when every shard is complete; returns its path, or None.
+#[pyfunction]
+fn dataset_gather(py: Python<'_>, spec: &str, source: &str, base_dir: std::path::PathBuf, out: std::path::PathBuf) -> PyResult<Option<std::path::PathBuf>> {
+    let s = dataset_spec(spec, source, &base_dir)?;
+    py.detach(|| camsim::dataset::gather(&s, &out, true)).map_err(err)
+}
+
 /// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
 #[pyfunction]
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
@@ -626,6 +681,9 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(read_dng, m)?,
         wrap_pyfunction!(emva_json, m)?,
         wrap_pyfunction!(emva_series_json, m)?,
+        wrap_pyfunction!(dataset_plan_json, m)?,
+        wrap_pyfunction!(dataset_run_json, m)?,
+        wrap_pyfunction!(dataset_gather, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -38,12 +38,14 @@
 //! - [`isp`]: `isp::demosaic_bilinear(&raw)`, `isp::ColorPipeline` for colour.
 //! - [`analysis`]: SFR/MTF, chart and ROI statistics, EMVA 1288, QE fits on any stage's images.
 //! - [`io`]: spectral OpenEXR, DNG, PNG readers and writers.
+//! - [`dataset`]: many captures from a spec of variations, as WebDataset shards with a manifest.
 //!
 //! Errors are typed ([`Error`]: each stage's own error type); the library reads only the files a
 //! config names and never the environment or the command line.
 
 pub use camsim_analysis as analysis;
 pub use camsim_core as core;
+pub use camsim_dataset as dataset;
 pub use camsim_io as io;
 pub use camsim_isp as isp;
 pub use camsim_optics as optics;

@@ -25,6 +25,7 @@ import numpy as np
 from . import _camsim
 from ._camsim import CamsimError, Simulation
 from . import presets
+from . import dataset
 
 __version__ = _camsim.__version__
 
@@ -46,6 +47,7 @@ __all__ = [
     "read_dng",
     "load_config",
     "presets",
+    "dataset",
 ]
 
 Config = Union[Dict[str, Any], str, "os.PathLike[str]"]
