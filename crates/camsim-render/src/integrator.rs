@@ -2,14 +2,15 @@
 //! path integrator: next-event estimation combined with BSDF sampling by multiple importance
 //! sampling (power heuristic), Russian roulette, a maximum depth (pbrt-v4 `PathIntegrator::Li`).
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::fresnel::fresnel_hemispherical_average;
+use crate::bsdf::{Bsdf, TrowbridgeReitz};
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv};
 use crate::lights::{LightKind, LightSample, Lights};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
 use crate::sampling::{self, power_heuristic};
-use crate::scene::{Geometry, Light, Material, SceneDescription, Texture};
+use crate::scene::{ConductorOptics, Geometry, Light, Material, Roughness, SceneDescription, Texture};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use rand::Rng as _;
 
@@ -50,7 +51,27 @@ pub(crate) enum Tex {
 #[derive(Debug, Clone)]
 pub(crate) enum Mat {
     Diffuse(Tex),
+    /// Tables of eta and k (index into `Tracer::tables`), or a reflectance texture.
+    Conductor { optics: CondOptics, distrib: TrowbridgeReitz },
+    /// Index table (held beyond its data); `dispersive` when it varies with wavelength.
+    Dielectric { eta: u32, dispersive: bool, distrib: TrowbridgeReitz },
+    ThinDielectric { eta: u32, dispersive: bool },
+    DiffuseTransmission { r: Tex, t: Tex, scale: f32 },
+    CoatedDiffuse { r: Tex, eta: f32, distrib: TrowbridgeReitz, thickness: f32, f_int: f32 },
+    Mix { materials: [u32; 2], amount: f32 },
+    Interface,
 }
+
+/// A conductor's optical constants, compiled.
+#[derive(Debug, Clone)]
+pub(crate) enum CondOptics {
+    EtaK(u32, u32),
+    Reflectance(Tex),
+}
+
+/// Most `interface` surfaces one path passes through before it is ended (a guard against
+/// rays trapped by coincident surfaces; pbrt-v4 has none).
+const MAX_INTERFACE_SKIPS: u32 = 256;
 
 /// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
 #[derive(Debug, Clone)]
@@ -114,6 +135,11 @@ pub(crate) struct Tracer {
     pub max_depth: u32,
     /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
     pub offset_scale: f32,
+    /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
+    /// the inside of dielectrics.
+    pub shape_flip: Vec<bool>,
+    /// Some material is (or mixes in) `interface`: shadow rays must pass through those surfaces.
+    pub has_interface: bool,
 }
 
 /// Surface data at a hit.
@@ -133,11 +159,10 @@ impl Tracer {
         let mut images: Vec<ImageTex> = Vec::new();
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (mi, m) in scene.materials.iter().enumerate() {
-            let mat = match m {
-                Material::Diffuse { reflectance } => Mat::Diffuse(compile_texture(reflectance, mi, ws, &mut tables, &mut images)?),
-            };
+            let mat = compile_material(m, mi, scene.materials.len(), ws, &mut tables, &mut images)?;
             materials.push(mat);
         }
+        check_mix_cycles(&materials)?;
 
         // Count primitives first so the memory guard can refuse huge scenes before allocating.
         let mut n_prims = 0u64;
@@ -286,7 +311,9 @@ impl Tracer {
             })
             .collect();
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
-        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5 })
+        let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
+        let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
+        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5, shape_flip, has_interface })
     }
 
     /// Closest hit along `r`, if any.
@@ -337,11 +364,92 @@ impl Tracer {
         }
     }
 
-    /// The BSDF of material `m` at a hit, at the path's wavelengths.
+    /// Material `m` with every `mix` resolved for this hit (pbrt-v4 `MixMaterial::ChooseMaterial`:
+    /// `materials[1]` when a hash of the hit point, the direction and the two materials, as a
+    /// uniform number in [0, 1), is below `amount`).
     #[inline]
-    fn bsdf_at<const N: usize>(&self, m: u32, uv: [f32; 2], lambdas: &Lambdas<N>) -> Bsdf<N> {
+    fn resolve_material(&self, mut m: u32, p: V3, wo: V3) -> u32 {
+        // Cycles are refused at compile time; the bound only guards against a deep chain.
+        for _ in 0..64 {
+            match &self.materials[m as usize] {
+                Mat::Mix { materials, amount } => {
+                    m = if *amount <= 0.0 {
+                        materials[0]
+                    } else if *amount >= 1.0 || mix_hash(p, wo, materials[0], materials[1]) < *amount {
+                        materials[1]
+                    } else {
+                        materials[0]
+                    };
+                }
+                _ => return m,
+            }
+        }
+        m
+    }
+
+    /// The BSDF of (non-mix, non-interface) material `m` at a hit, at the path's wavelengths,
+    /// for a path arriving from outside (`outside`, the side the oriented geometric normal points
+    /// to) or inside. The flag is true when the material is dispersive and the path must keep
+    /// only its hero wavelength (pbrt-v4 `SampledWavelengths::TerminateSecondary`).
+    #[inline]
+    fn bsdf_at<const N: usize>(&self, m: u32, uv: [f32; 2], lambdas: &Lambdas<N>, outside: bool) -> (Bsdf<N>, bool) {
+        let side = |eta: f32| if outside { eta } else { 1.0 / eta };
         match &self.materials[m as usize] {
-            Mat::Diffuse(tex) => Bsdf::Diffuse { reflectance: self.eval_texture(tex, uv, lambdas) },
+            Mat::Diffuse(tex) => (Bsdf::Diffuse { reflectance: self.eval_texture(tex, uv, lambdas) }, false),
+            Mat::Conductor { optics, distrib } => {
+                let (eta, k) = match optics {
+                    CondOptics::EtaK(e, k) => (self.tables[*e as usize].eval_path(lambdas), self.tables[*k as usize].eval_path(lambdas)),
+                    CondOptics::Reflectance(tex) => {
+                        // pbrt-v4 ConductorMaterial: eta = 1, k = 2 sqrt(r) / sqrt(1 - r).
+                        let r = self.eval_texture(tex, uv, lambdas);
+                        let k = std::array::from_fn(|i| {
+                            let r = r[i].clamp(0.0, 0.9999);
+                            2.0 * r.sqrt() / (1.0 - r).sqrt()
+                        });
+                        ([1.0; N], k)
+                    }
+                };
+                (Bsdf::Conductor { eta, k, distrib: *distrib }, false)
+            }
+            Mat::Dielectric { eta, dispersive, distrib } => {
+                let e = self.tables[*eta as usize].eval_path(lambdas)[0];
+                (Bsdf::Dielectric { eta: side(e), distrib: *distrib }, *dispersive)
+            }
+            Mat::ThinDielectric { eta, dispersive } => {
+                (Bsdf::ThinDielectric { eta: self.tables[*eta as usize].eval_path(lambdas)[0] }, *dispersive)
+            }
+            Mat::DiffuseTransmission { r, t, scale } => {
+                let (mut r, mut t) = (self.eval_texture(r, uv, lambdas), self.eval_texture(t, uv, lambdas));
+                for i in 0..N {
+                    r[i] = (r[i] * scale).clamp(0.0, 1.0);
+                    t[i] = (t[i] * scale).clamp(0.0, 1.0);
+                }
+                (Bsdf::DiffuseTransmission { r, t }, false)
+            }
+            Mat::CoatedDiffuse { r, eta, distrib, thickness, f_int } => {
+                let mut rho = self.eval_texture(r, uv, lambdas);
+                for v in rho.iter_mut() {
+                    *v = v.clamp(0.0, 1.0);
+                }
+                (Bsdf::CoatedDiffuse { reflectance: rho, eta: *eta, distrib: *distrib, thickness: *thickness, f_int: *f_int }, false)
+            }
+            // Resolved before (mix) or handled by the tracer (interface): never reached.
+            Mat::Mix { .. } | Mat::Interface => (Bsdf::Diffuse { reflectance: [0.0; N] }, false),
+        }
+    }
+
+    /// The geometric normal oriented as pbrt-v4 orients it (toward the shading normal on meshes
+    /// with vertex normals, else flipped by `ReverseOrientation`): it points to the outside of a
+    /// dielectric.
+    #[inline]
+    fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
+        let has_normals = self.meshes[pi.shape as usize].as_ref().is_some_and(|m| m.normals.is_some());
+        if has_normals {
+            sh.ng.face_forward(sh.ns)
+        } else if self.shape_flip[pi.shape as usize] {
+            -sh.ng
+        } else {
+            sh.ng
         }
     }
 
@@ -377,7 +485,7 @@ impl Tracer {
     fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
-            return !self.bvh.occluded(&RayInv::new(&Ray { o: p_from, d: wi }), f32::INFINITY);
+            return !self.occluded(p_from, wi, f32::INFINITY);
         }
         let n_to = n_light.face_forward(p_from - p_light);
         let p_to = self.offset(p_light, n_to);
@@ -386,8 +494,35 @@ impl Tracer {
         if !(len > 0.0 && len.is_finite()) {
             return false;
         }
-        let shadow = Ray { o: p_from, d: d / len };
-        !self.bvh.occluded(&RayInv::new(&shadow), len * (1.0 - SHADOW_EPSILON))
+        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON))
+    }
+
+    /// Whether a surface that scatters lies on the segment `o + t d`, `0 < t < t_max`.
+    /// `interface` surfaces (also when a `mix` picks one) let shadow rays through, as they let
+    /// path rays through.
+    #[inline]
+    fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
+        if !self.has_interface {
+            return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
+        }
+        let (mut o, mut t_left) = (o, t_max);
+        for _ in 0..MAX_INTERFACE_SKIPS {
+            let r = Ray { o, d };
+            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
+            let sh = self.surface(&r, &h);
+            let pi = self.info[h.slot as usize];
+            let m = self.resolve_material(pi.material, sh.p, -d);
+            if !matches!(self.materials[m as usize], Mat::Interface) {
+                return true;
+            }
+            let next = self.offset(sh.p, sh.ng.face_forward(d));
+            t_left -= (next - o).dot(d);
+            if !(t_left > 0.0) {
+                return false;
+            }
+            o = next;
+        }
+        true
     }
 
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
@@ -404,6 +539,14 @@ impl Tracer {
         let mut depth = 0u32;
         let mut prev_p = ray.o;
         let mut prev_bsdf_pdf = 0f32;
+        // The last bounce was a delta lobe: emission found next gets MIS weight 1 (pbrt-v4
+        // `specularBounce`).
+        let mut prev_specular = false;
+        // Product of eta'^2 over transmissions (pbrt-v4 `etaScale`), undone for Russian roulette.
+        let mut eta_scale = 1f32;
+        // Secondary wavelengths terminated by a dispersive material.
+        let mut terminated = false;
+        let mut skips = 0u32;
         counts.camera += 1;
         loop {
             let hit = self.intersect(&ray);
@@ -412,7 +555,11 @@ impl Tracer {
                 for &li in &self.lights.infinite {
                     let light = &self.lights.list[li as usize];
                     let le = self.tables[light.table as usize].eval_path(lambdas);
-                    let w = if depth == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, light.pmf * sampling::UNIFORM_SPHERE_PDF) };
+                    let w = if depth == 0 || prev_specular {
+                        1.0
+                    } else {
+                        power_heuristic(prev_bsdf_pdf, light.pmf * sampling::UNIFORM_SPHERE_PDF)
+                    };
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }
@@ -426,7 +573,7 @@ impl Tracer {
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
                 if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
-                    let w = if depth == 0 {
+                    let w = if depth == 0 || prev_specular {
                         1.0
                     } else {
                         power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
@@ -437,31 +584,58 @@ impl Tracer {
                     }
                 }
             }
+            let m = self.resolve_material(pi.material, sh.p, wo);
+            if let Mat::Interface = self.materials[m as usize] {
+                // No surface: continue the ray on the far side without counting a bounce
+                // (pbrt-v4 `SurfaceInteraction::SkipIntersection`).
+                skips += 1;
+                if skips > MAX_INTERFACE_SKIPS {
+                    break;
+                }
+                let far = sh.ng.face_forward(ray.d);
+                ray = Ray { o: self.offset(sh.p, far), d: ray.d };
+                counts.bounce += 1;
+                continue;
+            }
             if depth >= self.max_depth {
                 break;
             }
             depth += 1;
 
-            let bsdf: Bsdf<N> = self.bsdf_at(pi.material, sh.uv, lambdas);
+            let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
+            let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, sh.uv, lambdas, outside);
+            if terminate && !terminated && N > 1 {
+                // Dispersion: only the hero wavelength (index 0, marginally uniform like each
+                // of them) follows this path from here on, weighted by N so the band estimate
+                // stays unbiased (pbrt-v4 `TerminateSecondary`).
+                terminated = true;
+                beta[0] *= N as f32;
+                for b in beta.iter_mut().skip(1) {
+                    *b = 0.0;
+                }
+            }
             // Two-sided shading: normals turned toward the outgoing direction.
             let ng = sh.ng.face_forward(wo);
             let ns = sh.ns.face_forward(ng);
             let frame = Frame::from_normal(ns);
+            let wo_local = frame.to_local(wo);
             let p_out = self.offset(sh.p, ng);
 
-            // Next-event estimation.
-            if !self.lights.is_empty() {
+            // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
+            if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel: f32 = rng.gen();
                 let u0: f32 = rng.gen();
                 let u1: f32 = rng.gen();
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
                     let LightSample { wi, dist, p_light, n_light, le, pdf } = ls;
-                    if wi.dot(ng) > 0.0 {
+                    let cos_g = wi.dot(ng);
+                    if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
                         let wi_local = frame.to_local(wi);
-                        let (f, bsdf_pdf) = bsdf.eval(&frame.to_local(wo), &wi_local);
+                        let (f, bsdf_pdf) = bsdf.eval(&wo_local, &wi_local);
                         if bsdf_pdf > 0.0 {
                             counts.shadow += 1;
-                            if self.unoccluded(p_out, wi, dist, p_light, n_light) {
+                            let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light) {
                                 let w = power_heuristic(pdf, bsdf_pdf) * wi_local.z.abs() / pdf;
                                 for i in 0..N {
                                     l[i] += beta[i] * f[i] * le[i] * w;
@@ -473,11 +647,14 @@ impl Tracer {
             }
 
             // BSDF sampling for the next vertex.
+            let uc: f32 = rng.gen();
             let u0: f32 = rng.gen();
             let u1: f32 = rng.gen();
-            let Some(bs) = bsdf.sample(&frame.to_local(wo), u0, u1) else { break };
+            let Some(bs) = bsdf.sample(&wo_local, uc, u0, u1) else { break };
             let wi = frame.to_world(bs.wi_local);
-            if wi.dot(ng) <= 0.0 {
+            // The geometric side must agree with the lobe (shading normals can disagree).
+            let cos_g = wi.dot(ng);
+            if (bs.transmission && cos_g >= 0.0) || (!bs.transmission && cos_g <= 0.0) {
                 break;
             }
             let mut max_beta = 0f32;
@@ -485,14 +662,20 @@ impl Tracer {
                 beta[i] *= bs.weight[i];
                 max_beta = max_beta.max(beta[i]);
             }
-            if max_beta <= 0.0 {
+            if !(max_beta > 0.0) {
                 break;
             }
             prev_bsdf_pdf = bs.pdf;
+            prev_specular = bs.specular;
             prev_p = sh.p;
-            // Russian roulette (pbrt-v4): after two bounces, continue with probability max(beta).
-            if max_beta < 1.0 && depth > 1 {
-                let q = (1.0 - max_beta).max(0.0);
+            if bs.transmission {
+                eta_scale *= bs.eta * bs.eta;
+            }
+            // Russian roulette (pbrt-v4): after two bounces, continue with probability
+            // max(beta) * etaScale.
+            let rr_beta = max_beta * eta_scale;
+            if rr_beta < 1.0 && depth > 1 {
+                let q = (1.0 - rr_beta).max(0.0);
                 let u: f32 = rng.gen();
                 if u < q {
                     break;
@@ -503,7 +686,8 @@ impl Tracer {
                 }
             }
             counts.bounce += 1;
-            ray = Ray { o: p_out, d: wi };
+            let o = if bs.transmission { self.offset(sh.p, -ng) } else { p_out };
+            ray = Ray { o, d: wi };
         }
         l
     }
@@ -518,6 +702,152 @@ impl Tracer {
     }
 }
 
+/// Deterministic uniform number in [0, 1) for a `mix` decision at a hit (pbrt-v4 hashes the
+/// point, the direction and the two materials; here a SplitMix64-style mix of their bits,
+/// Steele et al. 2014).
+#[inline]
+fn mix_hash(p: V3, wo: V3, a: u32, b: u32) -> f32 {
+    let mut h: u64 = 0x9E37_79B9_7F4A_7C15 ^ ((a as u64) << 32 | b as u64);
+    for v in [p.x, p.y, p.z, wo.x, wo.y, wo.z] {
+        h ^= v.to_bits() as u64;
+        h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// A roughness as the Trowbridge-Reitz distribution, refusing negative or non-finite values.
+fn distribution(r: &Roughness, material_index: usize) -> Result<TrowbridgeReitz, RenderError> {
+    let (ax, ay) = r.alphas();
+    if !(ax >= 0.0 && ay >= 0.0 && ax.is_finite() && ay.is_finite()) {
+        return Err(RenderError::Material { index: material_index, message: format!("roughness ({}, {}) must be finite and >= 0", r.u, r.v) });
+    }
+    Ok(TrowbridgeReitz { alpha_x: ax as f32, alpha_y: ay as f32 })
+}
+
+/// A spectrum used as an index of refraction (or extinction): tabulated holding its end values
+/// (an index is never zero beyond the data), and whether it varies with wavelength.
+fn index_table(s: &camsim_core::Spectrum, what: &str, material_index: usize, ws: &WavelengthSampler, tables: &mut Vec<SpectrumTable>, positive: bool) -> Result<(u32, bool), RenderError> {
+    let err = |message: String| RenderError::Material { index: material_index, message };
+    if s.values.iter().any(|v| !v.is_finite() || *v < 0.0 || (positive && *v <= 0.0)) {
+        return Err(err(format!("{what} must be {} (got {:?})", if positive { "> 0" } else { ">= 0" }, s.values)));
+    }
+    let held = s.clone().with_extrapolation(camsim_core::spectrum::Extrapolation::Hold);
+    let v0 = s.values[0];
+    let dispersive = s.values.iter().any(|v| (v - v0).abs() > 1e-9 * v0.abs().max(1.0));
+    tables.push(SpectrumTable::new(&held, 1.0, ws));
+    Ok(((tables.len() - 1) as u32, dispersive))
+}
+
+fn compile_material(
+    m: &Material,
+    mi: usize,
+    n_materials: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<ImageTex>,
+) -> Result<Mat, RenderError> {
+    let err = |message: String| RenderError::Material { index: mi, message };
+    Ok(match m {
+        Material::Diffuse { reflectance } => Mat::Diffuse(compile_texture(reflectance, mi, ws, tables, images)?),
+        Material::Conductor { optics, roughness } => {
+            let optics = match optics {
+                ConductorOptics::EtaK { eta, k } => {
+                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
+                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
+                    CondOptics::EtaK(e, k)
+                }
+                ConductorOptics::Reflectance(t) => CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?),
+            };
+            Mat::Conductor { optics, distrib: distribution(roughness, mi)? }
+        }
+        Material::Dielectric { eta, roughness } => {
+            let (eta, dispersive) = index_table(eta, "dielectric eta", mi, ws, tables, true)?;
+            Mat::Dielectric { eta, dispersive, distrib: distribution(roughness, mi)? }
+        }
+        Material::ThinDielectric { eta } => {
+            let (eta, dispersive) = index_table(eta, "thin dielectric eta", mi, ws, tables, true)?;
+            Mat::ThinDielectric { eta, dispersive }
+        }
+        Material::DiffuseTransmission { reflectance, transmittance, scale } => {
+            if !(scale.is_finite() && *scale >= 0.0) {
+                return Err(err(format!("diffuse transmission scale {scale} must be finite and >= 0")));
+            }
+            Mat::DiffuseTransmission {
+                r: compile_texture(reflectance, mi, ws, tables, images)?,
+                t: compile_texture(transmittance, mi, ws, tables, images)?,
+                scale: *scale as f32,
+            }
+        }
+        Material::CoatedDiffuse { reflectance, roughness, eta, thickness } => {
+            if !(eta.is_finite() && *eta > 0.0) {
+                return Err(err(format!("coated diffuse eta {eta} must be > 0")));
+            }
+            if !(thickness.is_finite() && *thickness >= 0.0) {
+                return Err(err(format!("coated diffuse thickness {thickness} must be >= 0")));
+            }
+            let eta = *eta as f32;
+            // Cosine-weighted Fresnel average seen from inside the coating:
+            // 1 - F_int = (1 - F_ext) / eta^2.
+            let f_int = 1.0 - (1.0 - fresnel_hemispherical_average(eta)) / (eta * eta);
+            Mat::CoatedDiffuse {
+                r: compile_texture(reflectance, mi, ws, tables, images)?,
+                eta,
+                distrib: distribution(roughness, mi)?,
+                thickness: *thickness as f32,
+                f_int,
+            }
+        }
+        Material::Mix { materials, amount } => {
+            if let Some(bad) = materials.iter().find(|&&i| i >= n_materials) {
+                return Err(err(format!("mix refers to material {bad} but the scene has {n_materials}")));
+            }
+            if !amount.is_finite() {
+                return Err(err(format!("mix amount {amount} is not finite")));
+            }
+            Mat::Mix { materials: [materials[0] as u32, materials[1] as u32], amount: *amount as f32 }
+        }
+        Material::Interface => Mat::Interface,
+    })
+}
+
+/// Refuse `mix` materials that (through other mixes) contain themselves.
+fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
+    // 0 = unvisited, 1 = on the stack, 2 = done (iterative depth-first search).
+    let mut state = vec![0u8; materials.len()];
+    for start in 0..materials.len() {
+        if state[start] != 0 {
+            continue;
+        }
+        let mut stack: Vec<(usize, usize)> = vec![(start, 0)];
+        state[start] = 1;
+        while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+            let children: &[u32] = match &materials[node] {
+                Mat::Mix { materials, .. } => materials,
+                _ => &[],
+            };
+            if *next < children.len() {
+                let c = children[*next] as usize;
+                *next += 1;
+                match state[c] {
+                    0 => {
+                        state[c] = 1;
+                        stack.push((c, 0));
+                    }
+                    1 => return Err(RenderError::Material { index: node, message: "mix materials form a cycle".into() }),
+                    _ => {}
+                }
+            } else {
+                state[node] = 2;
+                stack.pop();
+            }
+        }
+    }
+    Ok(())
+}
+
 fn compile_texture(
     t: &Texture,
     material_index: usize,
@@ -527,7 +857,7 @@ fn compile_texture(
 ) -> Result<Tex, RenderError> {
     match t {
         Texture::Constant(s) => {
-            if let Err(e) = s.require_non_negative("diffuse reflectance") {
+            if let Err(e) = s.require_non_negative("reflectance") {
                 return Err(RenderError::Material { index: material_index, message: e.to_string() });
             }
             tables.push(SpectrumTable::new(s, 1.0, ws));

@@ -79,6 +79,7 @@
 //! sRGB; area lights inside object instances; `WorldEnd` (pbrt-v3); unknown directives.
 
 mod lexer;
+pub mod optical_constants;
 mod params;
 mod parser;
 pub mod ply;
