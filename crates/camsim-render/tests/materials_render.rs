@@ -59,14 +59,15 @@ fn check(what: &str, got: f64, se: f64, want: f64, rel_tol: f64) {
     assert!((got - want).abs() < 4.5 * se + 1e-4 * want, "{what}: error {:.3e} is more than 4.5 standard errors ({se:.3e})", got - want);
 }
 
-/// A sphere of `material` (plus `extra` materials) filling the middle of the view under a
-/// uniform sky of radiance `sky`; returns the image and the pixels that see the sphere.
+/// A sphere of material 0 (the others are for `mix`) filling the whole view (it subtends
+/// 14.5 degrees, the image corners are 11.3 degrees off axis) under a uniform sky of radiance
+/// `sky`; returns the image and its pixels.
 fn sphere_under_sky(materials: Vec<Material>, sky: Spectrum, grid: WavelengthGrid, spp: u32, max_depth: u32) -> (camsim_core::SpectralImage, Vec<usize>) {
-    let cam = camera([0.0, 0.0, -4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 32.0, 16, 16);
+    let cam = camera([0.0, 0.0, -4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 16.0, 16, 16);
     let sc = scene(cam, vec![sphere([0.0; 3], 1.0, 0)], materials, vec![Light::Infinite { radiance: sky }], settings(grid, spp, max_depth));
     let out = render(&sc, &|_, _| {}).unwrap();
     let on: Vec<usize> = (0..out.depth_m.len()).filter(|&i| out.depth_m[i].is_finite()).collect();
-    assert!(on.len() > 60, "the sphere covers only {} pixels", on.len());
+    assert_eq!(on.len(), out.depth_m.len(), "the sphere must fill the view");
     (out.radiance, on)
 }
 
@@ -89,7 +90,9 @@ fn glass_sphere_under_uniform_sky_reads_the_sky_radiance() {
             // Rough: the single-scattering microfacet model loses some energy (Heitz et al.
             // 2016); never creates it.
             eprintln!("{name} glass sphere: {mean:.4} +- {se:.4} (sky {l})");
-            assert!(mean < l * (1.0 + 1e-3) + 4.5 * se && mean > 0.85 * l, "{name}: {mean} vs sky {l}");
+            // Measured: 0.74 L (the interface alone keeps 0.76-0.98 of the energy per crossing,
+            // see bsdf_physics), so the bound below is loose; the upper bound is the test.
+            assert!(mean < l * (1.0 + 1e-3) + 4.5 * se && mean > 0.6 * l, "{name}: {mean} vs sky {l}");
         }
     }
 }
@@ -101,13 +104,13 @@ fn dispersive_glass_keeps_the_sky_spectrum() {
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let sky = spec(&[350.0, 750.0], &[1.0, 3.0]);
     let eta = camsim_render::pbrt::optical_constants::named("glass-BK7").unwrap();
-    let (img, on) = sphere_under_sky(vec![Material::Dielectric { eta, roughness: Roughness::SMOOTH }], sky.clone(), grid, 256, 100);
+    let (img, on) = sphere_under_sky(vec![Material::Dielectric { eta, roughness: Roughness::SMOOTH }], sky.clone(), grid, 2048, 100);
     for b in 0..grid.len() {
         let lam = grid.wavelength_nm(b);
         // Band average of a linear spectrum: its value at the band centre.
         let want = sky.eval(lam);
         let (m, se) = stats(&img, &on, Some(b));
-        check(&format!("BK7 sphere, band {lam} nm"), m, se, want, 0.03);
+        check(&format!("BK7 sphere, band {lam} nm"), m, se, want, 0.015);
     }
 }
 
@@ -141,7 +144,7 @@ fn mix_reflects_the_amount_weighted_albedo() {
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let l = 2.0;
     let mats = vec![Material::Mix { materials: [1, 2], amount: 0.25 }, diffuse(0.2), diffuse(0.8)];
-    let (img, on) = sphere_under_sky(mats, flat(l), grid, 128, 10);
+    let (img, on) = sphere_under_sky(mats, flat(l), grid, 512, 10);
     let (m, se) = stats(&img, &on, None);
     check("mix of two diffuse albedos", m, se, 0.35 * l, 0.01);
 }
@@ -163,14 +166,14 @@ fn floor_with_and_without_sphere(m: Material) -> (camsim_core::SpectralImage, ca
         area_light: Some(AreaLight { radiance: flat(5.0), two_sided: false }),
         reverse_orientation: false,
     };
-    let cam = camera([0.0, 2.0, -4.0], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 40.0, 16, 16);
+    let cam = camera([0.0, 2.0, -4.0], [0.0, 0.4, 0.0], [0.0, 1.0, 0.0], 20.0, 24, 24);
     let base = vec![Shape { name: None, geometry: floor, material: 0, area_light: None, reverse_orientation: false }, lamp];
     let mut with = base.clone();
     with.push(sphere([0.0, 0.6, 0.0], 0.5, 1));
     let mats = vec![diffuse(0.5), m];
     let sky = vec![Light::Infinite { radiance: flat(0.3) }];
-    let a = render(&scene(cam.clone(), with, mats.clone(), sky.clone(), settings(grid, 512, 12)), &|_, _| {}).unwrap();
-    let b = render(&scene(cam, base, mats, sky, settings(grid, 512, 12)), &|_, _| {}).unwrap();
+    let a = render(&scene(cam.clone(), with, mats.clone(), sky.clone(), settings(grid, 1024, 12)), &|_, _| {}).unwrap();
+    let b = render(&scene(cam, base, mats, sky, settings(grid, 1024, 12)), &|_, _| {}).unwrap();
     let covered: Vec<usize> = (0..a.depth_m.len()).filter(|&i| (a.depth_m[i] - b.depth_m[i]).abs() > 1e-3).collect();
     assert!(covered.len() > 20, "the sphere covers only {} pixels", covered.len());
     (a.radiance, b.radiance, covered)
@@ -187,7 +190,7 @@ fn assert_invisible(name: &str, m: Material) {
     let (ref_mean, _) = stats(&b, &covered, None);
     eprintln!("{name}: mean difference {mean:.5} +- {se:.5} over {} pixels (mean radiance {ref_mean:.4})", covered.len());
     assert!(se < 0.01 * ref_mean, "{name}: too noisy to test ({se} vs {ref_mean})");
-    assert!(mean.abs() < 4.5 * se, "{name}: the sphere changes the image by {mean} (+- {se})");
+    assert!(mean.abs() <= 4.5 * se, "{name}: the sphere changes the image by {mean} (+- {se})");
     assert!(mean.abs() < 0.02 * ref_mean, "{name}: the sphere changes the image by {:.2} %", mean / ref_mean * 100.0);
 }
 
@@ -199,4 +202,14 @@ fn index_one_dielectric_sphere_is_invisible() {
 #[test]
 fn interface_sphere_is_invisible() {
     assert_invisible("interface sphere", Material::Interface);
+    // Stronger: the paths are the same (an interface consumes no random numbers and lets
+    // shadow rays through), so the images agree pixel by pixel up to float rounding.
+    let (a, b, covered) = floor_with_and_without_sphere(Material::Interface);
+    let nb = a.bands();
+    for &p in &covered {
+        for k in 0..nb {
+            let (x, y) = (a.band(k)[p], b.band(k)[p]);
+            assert!((x - y).abs() <= 1e-3 * y.abs().max(1e-3), "pixel {p} band {k}: {x} vs {y}");
+        }
+    }
 }
