@@ -150,10 +150,11 @@ impl Roughness {
     /// A perfectly smooth surface.
     pub const SMOOTH: Roughness = Roughness { u: 0.0, v: 0.0, remap: true };
 
-    /// The Trowbridge-Reitz `(alpha_x, alpha_y)`.
+    /// The Trowbridge-Reitz `(alpha_x, alpha_y)` (NaN for a negative roughness when remapped:
+    /// the renderer refuses non-finite or negative alphas).
     pub fn alphas(&self) -> (f64, f64) {
         if self.remap {
-            (self.u.max(0.0).sqrt(), self.v.max(0.0).sqrt())
+            (self.u.sqrt(), self.v.sqrt())
         } else {
             (self.u, self.v)
         }
