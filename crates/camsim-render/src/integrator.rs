@@ -517,7 +517,7 @@ impl Tracer {
             }
             let next = self.offset(sh.p, sh.ng.face_forward(d));
             t_left -= (next - o).dot(d);
-            if !(t_left > 0.0) {
+            if t_left.is_nan() || t_left <= 0.0 {
                 return false;
             }
             o = next;
@@ -662,7 +662,7 @@ impl Tracer {
                 beta[i] *= bs.weight[i];
                 max_beta = max_beta.max(beta[i]);
             }
-            if !(max_beta > 0.0) {
+            if max_beta.is_nan() || max_beta <= 0.0 {
                 break;
             }
             prev_bsdf_pdf = bs.pdf;

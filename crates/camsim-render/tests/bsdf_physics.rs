@@ -18,13 +18,20 @@ fn chi2_critical(k: f64, z: f64) -> f64 {
 }
 
 fn tr(ax: f32, ay: f32) -> TrowbridgeReitz {
-    TrowbridgeReitz { alpha_x: ax, alpha_y: ay }
+    TrowbridgeReitz {
+        alpha_x: ax,
+        alpha_y: ay,
+    }
 }
 
 /// Direction with polar cosine `cos_theta` and azimuth `phi`.
 fn dir(cos_theta: f64, phi: f64) -> V3 {
     let s = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    V3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, cos_theta as f32)
+    V3::new(
+        (s * phi.cos()) as f32,
+        (s * phi.sin()) as f32,
+        cos_theta as f32,
+    )
 }
 
 /// Chi-square test of `bsdf.sample(wo)` against `bsdf.pdf(wo, .)` on a (cos theta, phi) grid over
@@ -37,7 +44,13 @@ fn chi_square(bsdf: &Bsdf<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
 }
 
 /// [`chi_square`] with samples from `sampler` and the pdf of `density`.
-fn chi_square_with(sampler: &Bsdf<1>, density: &Bsdf<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
+fn chi_square_with(
+    sampler: &Bsdf<1>,
+    density: &Bsdf<1>,
+    wo: V3,
+    n: usize,
+    seed: u64,
+) -> (f64, f64) {
     let (nt, np) = (20usize, 40usize);
     let mut observed = vec![0f64; nt * np];
     let mut rng = camsim_core::rng::seeded(seed);
@@ -60,8 +73,14 @@ fn chi_square_with(sampler: &Bsdf<1>, density: &Bsdf<1>, wo: V3, n: usize, seed:
     let mut expected = vec![0f64; nt * np];
     for i in 0..nt {
         for j in 0..np {
-            let (c0, c1) = (-1.0 + 2.0 * i as f64 / nt as f64, -1.0 + 2.0 * (i + 1) as f64 / nt as f64);
-            let (p0, p1) = (2.0 * PI * j as f64 / np as f64, 2.0 * PI * (j + 1) as f64 / np as f64);
+            let (c0, c1) = (
+                -1.0 + 2.0 * i as f64 / nt as f64,
+                -1.0 + 2.0 * (i + 1) as f64 / nt as f64,
+            );
+            let (p0, p1) = (
+                2.0 * PI * j as f64 / np as f64,
+                2.0 * PI * (j + 1) as f64 / np as f64,
+            );
             let mut s = 0.0;
             for a in 0..q {
                 for b in 0..q {
@@ -87,7 +106,10 @@ fn chi_square_with(sampler: &Bsdf<1>, density: &Bsdf<1>, wo: V3, n: usize, seed:
         chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
         dof += 1;
     } else {
-        assert!(pool_o < 10.0 + 3.0 * pool_e, "{pool_o} samples where the pdf expects {pool_e}");
+        assert!(
+            pool_o < 10.0 + 3.0 * pool_e,
+            "{pool_o} samples where the pdf expects {pool_e}"
+        );
     }
     assert!(dof > 5, "too few cells ({dof}) for a meaningful test");
     (chi2, chi2_critical((dof - 1) as f64, 3.719))
@@ -97,16 +119,50 @@ fn chi_square_with(sampler: &Bsdf<1>, density: &Bsdf<1>, wo: V3, n: usize, seed:
 fn bsdfs() -> Vec<(String, Bsdf<1>)> {
     let mut v: Vec<(String, Bsdf<1>)> = vec![
         ("diffuse".into(), Bsdf::Diffuse { reflectance: [0.7] }),
-        ("diffuse transmission".into(), Bsdf::DiffuseTransmission { r: [0.3], t: [0.6] }),
+        (
+            "diffuse transmission".into(),
+            Bsdf::DiffuseTransmission { r: [0.3], t: [0.6] },
+        ),
     ];
     for (ax, ay) in [(0.1, 0.1), (0.3, 0.3), (0.7, 0.7), (0.1, 0.4)] {
-        v.push((format!("conductor alpha ({ax}, {ay})"), Bsdf::Conductor { eta: [0.2], k: [3.0], distrib: tr(ax, ay) }));
+        v.push((
+            format!("conductor alpha ({ax}, {ay})"),
+            Bsdf::Conductor {
+                eta: [0.2],
+                k: [3.0],
+                distrib: tr(ax, ay),
+            },
+        ));
     }
     for (eta, a) in [(1.5, 0.15), (1.5, 0.4), (1.0 / 1.5, 0.3), (1.33, 0.8)] {
-        v.push((format!("rough dielectric eta {eta:.3} alpha {a}"), Bsdf::Dielectric { eta, distrib: tr(a, a) }));
+        v.push((
+            format!("rough dielectric eta {eta:.3} alpha {a}"),
+            Bsdf::Dielectric {
+                eta,
+                distrib: tr(a, a),
+            },
+        ));
     }
-    v.push(("coated diffuse smooth".into(), Bsdf::CoatedDiffuse { reflectance: [0.6], eta: 1.5, distrib: tr(0.0, 0.0), thickness: 0.01, f_int: f_int(1.5) }));
-    v.push(("coated diffuse alpha 0.3".into(), Bsdf::CoatedDiffuse { reflectance: [0.6], eta: 1.5, distrib: tr(0.3, 0.3), thickness: 0.01, f_int: f_int(1.5) }));
+    v.push((
+        "coated diffuse smooth".into(),
+        Bsdf::CoatedDiffuse {
+            reflectance: [0.6],
+            eta: 1.5,
+            distrib: tr(0.0, 0.0),
+            thickness: 0.01,
+            f_int: f_int(1.5),
+        },
+    ));
+    v.push((
+        "coated diffuse alpha 0.3".into(),
+        Bsdf::CoatedDiffuse {
+            reflectance: [0.6],
+            eta: 1.5,
+            distrib: tr(0.3, 0.3),
+            thickness: 0.01,
+            f_int: f_int(1.5),
+        },
+    ));
     v
 }
 
@@ -125,7 +181,10 @@ fn every_bsdf_samples_its_pdf_chi_square() {
             seed += 1;
             let (chi2, crit) = chi_square(&b, wo, 200_000, seed);
             eprintln!("{name}, cos theta_o {ct}: chi2 {chi2:.1}, critical (p = 1e-4) {crit:.1}");
-            assert!(chi2 < crit, "{name}, cos theta_o {ct}: chi-square {chi2:.1} exceeds {crit:.1}");
+            assert!(
+                chi2 < crit,
+                "{name}, cos theta_o {ct}: chi-square {chi2:.1} exceeds {crit:.1}"
+            );
         }
     }
 }
@@ -135,11 +194,22 @@ fn every_bsdf_samples_its_pdf_chi_square() {
 #[test]
 fn chi_square_rejects_a_mismatched_pdf() {
     // Sample with alpha 0.3, evaluate the pdf of alpha 0.25 (normalised, but the wrong shape).
-    let sampled = Bsdf::<1>::Conductor { eta: [0.2], k: [3.0], distrib: tr(0.3, 0.3) };
-    let claimed = Bsdf::<1>::Conductor { eta: [0.2], k: [3.0], distrib: tr(0.25, 0.25) };
+    let sampled = Bsdf::<1>::Conductor {
+        eta: [0.2],
+        k: [3.0],
+        distrib: tr(0.3, 0.3),
+    };
+    let claimed = Bsdf::<1>::Conductor {
+        eta: [0.2],
+        k: [3.0],
+        distrib: tr(0.25, 0.25),
+    };
     let (chi2, crit) = chi_square_with(&sampled, &claimed, dir(0.8, 0.3), 200_000, 5);
     eprintln!("mismatched pdf: chi2 {chi2:.0} vs critical {crit:.0}");
-    assert!(chi2 > 5.0 * crit, "the chi-square test failed to notice a wrong pdf ({chi2} vs {crit})");
+    assert!(
+        chi2 > 5.0 * crit,
+        "the chi-square test failed to notice a wrong pdf ({chi2} vs {crit})"
+    );
 }
 
 #[test]
@@ -150,14 +220,24 @@ fn sample_weights_and_pdfs_agree_with_eval() {
             let wo = dir(ct, 2.1);
             let mut checked = 0;
             for _ in 0..2000 {
-                let Some(s) = b.sample(&wo, rng.gen(), rng.gen(), rng.gen()) else { continue };
+                let Some(s) = b.sample(&wo, rng.gen(), rng.gen(), rng.gen()) else {
+                    continue;
+                };
                 if s.specular {
                     continue;
                 }
                 let (f, pdf) = b.eval(&wo, &s.wi_local);
                 let want = f[0] * s.wi_local.z.abs() / pdf;
-                assert!((pdf - s.pdf).abs() <= 2e-3 * pdf.max(1e-3), "{name}: pdf {} from sample vs {pdf}", s.pdf);
-                assert!((s.weight[0] - want).abs() <= 2e-3 * want.max(1e-3), "{name}: weight {} vs f cos / pdf {want}", s.weight[0]);
+                assert!(
+                    (pdf - s.pdf).abs() <= 2e-3 * pdf.max(1e-3),
+                    "{name}: pdf {} from sample vs {pdf}",
+                    s.pdf
+                );
+                assert!(
+                    (s.weight[0] - want).abs() <= 2e-3 * want.max(1e-3),
+                    "{name}: weight {} vs f cos / pdf {want}",
+                    s.weight[0]
+                );
                 checked += 1;
             }
             assert!(checked > 100, "{name}: only {checked} non-specular samples");
@@ -168,7 +248,10 @@ fn sample_weights_and_pdfs_agree_with_eval() {
 #[test]
 fn reflection_is_reciprocal() {
     let mut rng = camsim_core::rng::seeded(3);
-    let reflecting: Vec<(String, Bsdf<1>)> = bsdfs().into_iter().filter(|(n, _)| !n.contains("eta 0.667")).collect();
+    let reflecting: Vec<(String, Bsdf<1>)> = bsdfs()
+        .into_iter()
+        .filter(|(n, _)| !n.contains("eta 0.667"))
+        .collect();
     for (name, b) in reflecting {
         let mut compared = 0;
         for _ in 0..3000 {
@@ -179,7 +262,12 @@ fn reflection_is_reciprocal() {
             if a[0] > 0.0 || c[0] > 0.0 {
                 compared += 1;
             }
-            assert!((a[0] - c[0]).abs() <= 1e-4 * a[0].max(c[0]).max(1e-3), "{name}: f(wo, wi) = {} but f(wi, wo) = {}", a[0], c[0]);
+            assert!(
+                (a[0] - c[0]).abs() <= 1e-4 * a[0].max(c[0]).max(1e-3),
+                "{name}: f(wo, wi) = {} but f(wi, wo) = {}",
+                a[0],
+                c[0]
+            );
         }
         assert!(compared > 100, "{name}: only {compared} non-zero pairs");
     }
@@ -206,17 +294,53 @@ fn albedo(b: &Bsdf<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
 fn no_bsdf_creates_energy() {
     let mut all = bsdfs();
     // Extremes: white bases, a thin coating, a lossless conductor, glass from both sides.
-    all.push(("coated white, thickness 0".into(), Bsdf::CoatedDiffuse { reflectance: [1.0], eta: 1.5, distrib: tr(0.0, 0.0), thickness: 0.0, f_int: f_int(1.5) }));
-    all.push(("coated white rough".into(), Bsdf::CoatedDiffuse { reflectance: [1.0], eta: 1.5, distrib: tr(0.5, 0.5), thickness: 0.0, f_int: f_int(1.5) }));
-    all.push(("diffuse transmission white".into(), Bsdf::DiffuseTransmission { r: [0.5], t: [0.5] }));
-    all.push(("smooth glass".into(), Bsdf::Dielectric { eta: 1.5, distrib: tr(0.0, 0.0) }));
-    all.push(("smooth glass, inside".into(), Bsdf::Dielectric { eta: 1.0 / 1.5, distrib: tr(0.0, 0.0) }));
+    all.push((
+        "coated white, thickness 0".into(),
+        Bsdf::CoatedDiffuse {
+            reflectance: [1.0],
+            eta: 1.5,
+            distrib: tr(0.0, 0.0),
+            thickness: 0.0,
+            f_int: f_int(1.5),
+        },
+    ));
+    all.push((
+        "coated white rough".into(),
+        Bsdf::CoatedDiffuse {
+            reflectance: [1.0],
+            eta: 1.5,
+            distrib: tr(0.5, 0.5),
+            thickness: 0.0,
+            f_int: f_int(1.5),
+        },
+    ));
+    all.push((
+        "diffuse transmission white".into(),
+        Bsdf::DiffuseTransmission { r: [0.5], t: [0.5] },
+    ));
+    all.push((
+        "smooth glass".into(),
+        Bsdf::Dielectric {
+            eta: 1.5,
+            distrib: tr(0.0, 0.0),
+        },
+    ));
+    all.push((
+        "smooth glass, inside".into(),
+        Bsdf::Dielectric {
+            eta: 1.0 / 1.5,
+            distrib: tr(0.0, 0.0),
+        },
+    ));
     all.push(("thin glass".into(), Bsdf::ThinDielectric { eta: 1.5 }));
     for (name, b) in all {
         for ct in [1.0, 0.7, 0.3, 0.05] {
             let (m, se) = albedo(&b, dir(ct, 0.4), 100_000, 17);
             eprintln!("{name}, cos theta_o {ct}: albedo {m:.4} +- {se:.4}");
-            assert!(m <= 1.0 + 4.0 * se + 1e-4, "{name} at cos {ct}: albedo {m} > 1");
+            assert!(
+                m <= 1.0 + 4.0 * se + 1e-4,
+                "{name} at cos {ct}: albedo {m} > 1"
+            );
         }
     }
 }
@@ -226,13 +350,22 @@ fn lossless_interfaces_conserve_energy_exactly() {
     // Smooth glass and a thin slab: R + T = 1 at every angle (pbrt-v4 eq. 9.5 with T = 1 - R),
     // from either side, including total internal reflection.
     for b in [
-        Bsdf::<1>::Dielectric { eta: 1.5, distrib: tr(0.0, 0.0) },
-        Bsdf::<1>::Dielectric { eta: 1.0 / 1.5, distrib: tr(0.0, 0.0) },
+        Bsdf::<1>::Dielectric {
+            eta: 1.5,
+            distrib: tr(0.0, 0.0),
+        },
+        Bsdf::<1>::Dielectric {
+            eta: 1.0 / 1.5,
+            distrib: tr(0.0, 0.0),
+        },
         Bsdf::<1>::ThinDielectric { eta: 1.7 },
     ] {
         for ct in [1.0, 0.6, 0.2, 0.02] {
             let (m, se) = albedo(&b, dir(ct, 0.1), 20_000, 4);
-            assert!((m - 1.0).abs() < 1e-5 && se < 1e-5, "{b:?} at cos {ct}: albedo {m} +- {se}");
+            assert!(
+                (m - 1.0).abs() < 1e-5 && se < 1e-5,
+                "{b:?} at cos {ct}: albedo {m} +- {se}"
+            );
         }
     }
 }
@@ -263,12 +396,20 @@ fn smooth_conductor_reflects_the_fresnel_closed_form() {
         // Normal incidence: ((n-1)^2 + k^2) / ((n+1)^2 + k^2).
         let r0 = ((eta - 1.0f64).powi(2) + k * k) / ((eta + 1.0f64).powi(2) + k * k);
         assert!((fr_complex(1.0, eta as f32, k as f32) as f64 - r0).abs() < 1e-5);
-        let b = Bsdf::<1>::Conductor { eta: [eta as f32], k: [k as f32], distrib: tr(0.0, 0.0) };
+        let b = Bsdf::<1>::Conductor {
+            eta: [eta as f32],
+            k: [k as f32],
+            distrib: tr(0.0, 0.0),
+        };
         for ct in [1.0, 0.8, 0.5, 0.2, 0.05] {
             let s = b.sample(&dir(ct, 1.0), 0.5, 0.3, 0.3).unwrap();
             assert!(s.specular && (s.wi_local.z as f64 - ct).abs() < 1e-6);
             let want = fresnel_conductor_closed_form(ct, eta, k);
-            assert!((s.weight[0] as f64 - want).abs() < 2e-5, "eta {eta} k {k} cos {ct}: {} vs {want}", s.weight[0]);
+            assert!(
+                (s.weight[0] as f64 - want).abs() < 2e-5,
+                "eta {eta} k {k} cos {ct}: {} vs {want}",
+                s.weight[0]
+            );
         }
     }
 }
@@ -324,7 +465,11 @@ fn perfect_conductor_furnace_and_single_scatter_loss() {
     }
     // Smooth: all energy returns, exactly.
     for ct in [1.0, 0.5, 0.05] {
-        let b = Bsdf::<1>::Conductor { eta: [0.0], k: [1e4], distrib: tr(0.0, 0.0) };
+        let b = Bsdf::<1>::Conductor {
+            eta: [0.0],
+            k: [1e4],
+            distrib: tr(0.0, 0.0),
+        };
         let (m, _) = albedo(&b, dir(ct, 0.2), 1000, 9);
         assert!((m - 1.0).abs() < 1e-4, "smooth mirror albedo {m}");
     }
@@ -335,20 +480,35 @@ fn perfect_conductor_furnace_and_single_scatter_loss() {
     let mut prev_loss = [0.0f64; 3];
     for a in [0.05f32, 0.2, 0.5, 1.0] {
         for (k, ct) in [0.9, 0.5, 0.2].into_iter().enumerate() {
-            let b = Bsdf::<1>::Conductor { eta: [0.0], k: [1e4], distrib: tr(a, a) };
+            let b = Bsdf::<1>::Conductor {
+                eta: [0.0],
+                k: [1e4],
+                distrib: tr(a, a),
+            };
             let (m, se) = albedo(&b, dir(ct, 0.2), 200_000, 9);
-            let want = if a >= 0.2 { ggx_albedo_quadrature(ct, a as f64) } else { f64::NAN };
+            let want = if a >= 0.2 {
+                ggx_albedo_quadrature(ct, a as f64)
+            } else {
+                f64::NAN
+            };
             eprintln!("perfect conductor alpha {a}, cos theta_o {ct}: albedo {m:.4} +- {se:.4}, quadrature {want:.4} (loss {:.4})", 1.0 - m);
             assert!(m <= 1.0 + 4.0 * se + 1e-4, "albedo {m} > 1");
             if want.is_finite() {
-                assert!((m - want).abs() < 4.5 * se + 2e-3 * want, "alpha {a}, cos {ct}: albedo {m} vs quadrature {want}");
+                assert!(
+                    (m - want).abs() < 4.5 * se + 2e-3 * want,
+                    "alpha {a}, cos {ct}: albedo {m} vs quadrature {want}"
+                );
             }
             let loss = 1.0 - m;
             if a == 0.05 && ct == 0.9 {
                 // Nearly smooth, near normal incidence: almost no loss (measured 0.3 %).
                 assert!(loss < 0.005, "alpha 0.05 loses {loss}");
             }
-            assert!(loss > prev_loss[k] - 4.0 * se, "loss {loss} at alpha {a} is below the loss at smaller roughness {}", prev_loss[k]);
+            assert!(
+                loss > prev_loss[k] - 4.0 * se,
+                "loss {loss} at alpha {a} is below the loss at smaller roughness {}",
+                prev_loss[k]
+            );
             prev_loss[k] = loss;
         }
     }
@@ -359,7 +519,11 @@ fn nearly_smooth_conductor_albedo_equals_the_smooth_one() {
     // alpha = 1e-3 is the smallest alpha treated as rough (pbrt-v4 `EffectivelySmooth` is
     // alpha < 1e-3): its directional albedo must equal the mirror's Fresnel reflectance.
     for (eta, k) in [(0.30f32, 3.20f32), (1.00, 1.85)] {
-        let rough = Bsdf::<1>::Conductor { eta: [eta], k: [k], distrib: tr(1e-3, 1e-3) };
+        let rough = Bsdf::<1>::Conductor {
+            eta: [eta],
+            k: [k],
+            distrib: tr(1e-3, 1e-3),
+        };
         assert!(!rough.is_delta());
         for ct in [0.95, 0.6, 0.25] {
             let (m, se) = albedo(&rough, dir(ct, 0.3), 50_000, 21);
@@ -379,12 +543,23 @@ fn coated_diffuse_albedo_is_the_layer_sum() {
     // Cross-check F_int with its definition from inside: the cosine-weighted Fresnel average for
     // light arriving from the denser side (total internal reflection beyond the critical angle).
     let n = 20_000;
-    let direct: f64 = (0..n).map(|i| {
-        let mu = (i as f64 + 0.5) / n as f64;
-        2.0 * mu * fr_dielectric(mu as f32, 1.0 / eta) as f64 / n as f64
-    }).sum();
-    assert!((direct - fi).abs() < 1e-3, "F_int {fi} vs direct average {direct}");
-    let b = Bsdf::<1>::CoatedDiffuse { reflectance: [rho], eta, distrib: tr(0.0, 0.0), thickness: 0.0, f_int: fi as f32 };
+    let direct: f64 = (0..n)
+        .map(|i| {
+            let mu = (i as f64 + 0.5) / n as f64;
+            2.0 * mu * fr_dielectric(mu as f32, 1.0 / eta) as f64 / n as f64
+        })
+        .sum();
+    assert!(
+        (direct - fi).abs() < 1e-3,
+        "F_int {fi} vs direct average {direct}"
+    );
+    let b = Bsdf::<1>::CoatedDiffuse {
+        reflectance: [rho],
+        eta,
+        distrib: tr(0.0, 0.0),
+        thickness: 0.0,
+        f_int: fi as f32,
+    };
     for ct in [0.9, 0.4, 0.1] {
         let f = fr_dielectric(ct as f32, eta) as f64;
         let want = f + (1.0 - f) * rho as f64 * (1.0 - fi) / (1.0 - rho as f64 * fi);
@@ -393,5 +568,3 @@ fn coated_diffuse_albedo_is_the_layer_sum() {
         assert!((m - want).abs() < 4.0 * se + 1e-3, "{m} vs {want}");
     }
 }
-
-

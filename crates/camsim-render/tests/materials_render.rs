@@ -16,23 +16,59 @@ fn flat(v: f64) -> Spectrum {
 }
 
 fn settings(grid: WavelengthGrid, spp: u32, max_depth: u32) -> RenderSettings {
-    RenderSettings { grid, samples_per_pixel: spp, max_depth, wavelengths_per_path: 4, seed: 7, time_budget_s: None, direct_only: false }
+    RenderSettings {
+        grid,
+        samples_per_pixel: spp,
+        max_depth,
+        wavelengths_per_path: 4,
+        seed: 7,
+        time_budget_s: None,
+        direct_only: false,
+    }
 }
 
 fn camera(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, w: usize, h: usize) -> Camera {
-    Camera { camera_to_world: look_at_camera_to_world(from, to, up, true).unwrap(), fov_deg, width: w, height: h }
+    Camera {
+        camera_to_world: look_at_camera_to_world(from, to, up, true).unwrap(),
+        fov_deg,
+        width: w,
+        height: h,
+    }
 }
 
-fn scene(camera: Camera, shapes: Vec<Shape>, materials: Vec<Material>, lights: Vec<Light>, settings: RenderSettings) -> SceneDescription {
-    SceneDescription { camera, shapes, materials, named_materials: HashMap::new(), lights, settings, focus_distance_m: None, notes: vec![] }
+fn scene(
+    camera: Camera,
+    shapes: Vec<Shape>,
+    materials: Vec<Material>,
+    lights: Vec<Light>,
+    settings: RenderSettings,
+) -> SceneDescription {
+    SceneDescription {
+        camera,
+        shapes,
+        materials,
+        named_materials: HashMap::new(),
+        lights,
+        settings,
+        focus_distance_m: None,
+        notes: vec![],
+    }
 }
 
 fn diffuse(v: f64) -> Material {
-    Material::Diffuse { reflectance: Texture::Constant(flat(v)) }
+    Material::Diffuse {
+        reflectance: Texture::Constant(flat(v)),
+    }
 }
 
 fn sphere(center: [f64; 3], radius: f64, material: usize) -> Shape {
-    Shape { name: None, geometry: Geometry::Sphere { center, radius }, material, area_light: None, reverse_orientation: false }
+    Shape {
+        name: None,
+        geometry: Geometry::Sphere { center, radius },
+        material,
+        area_light: None,
+        reverse_orientation: false,
+    }
 }
 
 /// Mean over the given pixels (all bands) with its standard error over pixels.
@@ -53,20 +89,59 @@ fn stats(img: &camsim_core::SpectralImage, pixels: &[usize], band: Option<usize>
 
 fn check(what: &str, got: f64, se: f64, want: f64, rel_tol: f64) {
     let err = (got - want) / want;
-    eprintln!("{what}: got {got:.6}, want {want:.6}, rel. error {:+.3} %, standard error {:.3} %", err * 100.0, se / want * 100.0);
-    assert!(se / want < rel_tol / 3.0, "{what}: standard error {:.3} % too large for a {:.1} % test", se / want * 100.0, rel_tol * 100.0);
-    assert!(err.abs() < rel_tol, "{what}: relative error {:.3} % exceeds {:.1} %", err * 100.0, rel_tol * 100.0);
-    assert!((got - want).abs() < 4.5 * se + 1e-4 * want, "{what}: error {:.3e} is more than 4.5 standard errors ({se:.3e})", got - want);
+    eprintln!(
+        "{what}: got {got:.6}, want {want:.6}, rel. error {:+.3} %, standard error {:.3} %",
+        err * 100.0,
+        se / want * 100.0
+    );
+    assert!(
+        se / want < rel_tol / 3.0,
+        "{what}: standard error {:.3} % too large for a {:.1} % test",
+        se / want * 100.0,
+        rel_tol * 100.0
+    );
+    assert!(
+        err.abs() < rel_tol,
+        "{what}: relative error {:.3} % exceeds {:.1} %",
+        err * 100.0,
+        rel_tol * 100.0
+    );
+    assert!(
+        (got - want).abs() < 4.5 * se + 1e-4 * want,
+        "{what}: error {:.3e} is more than 4.5 standard errors ({se:.3e})",
+        got - want
+    );
 }
 
 /// A sphere of material 0 (the others are for `mix`) filling the whole view (it subtends
 /// 14.5 degrees, the image corners are 11.3 degrees off axis) under a uniform sky of radiance
 /// `sky`; returns the image and its pixels.
-fn sphere_under_sky(materials: Vec<Material>, sky: Spectrum, grid: WavelengthGrid, spp: u32, max_depth: u32) -> (camsim_core::SpectralImage, Vec<usize>) {
-    let cam = camera([0.0, 0.0, -4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 16.0, 16, 16);
-    let sc = scene(cam, vec![sphere([0.0; 3], 1.0, 0)], materials, vec![Light::Infinite { radiance: sky }], settings(grid, spp, max_depth));
+fn sphere_under_sky(
+    materials: Vec<Material>,
+    sky: Spectrum,
+    grid: WavelengthGrid,
+    spp: u32,
+    max_depth: u32,
+) -> (camsim_core::SpectralImage, Vec<usize>) {
+    let cam = camera(
+        [0.0, 0.0, -4.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        16.0,
+        16,
+        16,
+    );
+    let sc = scene(
+        cam,
+        vec![sphere([0.0; 3], 1.0, 0)],
+        materials,
+        vec![Light::Infinite { radiance: sky }],
+        settings(grid, spp, max_depth),
+    );
     let out = render(&sc, &|_, _| {}).unwrap();
-    let on: Vec<usize> = (0..out.depth_m.len()).filter(|&i| out.depth_m[i].is_finite()).collect();
+    let on: Vec<usize> = (0..out.depth_m.len())
+        .filter(|&i| out.depth_m[i].is_finite())
+        .collect();
     assert_eq!(on.len(), out.depth_m.len(), "the sphere must fill the view");
     (out.radiance, on)
 }
@@ -78,21 +153,43 @@ fn glass_sphere_under_uniform_sky_reads_the_sky_radiance() {
     // leaves the sphere carries weight exactly 1, so only paths cut by max_depth lose energy.
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let l = 1.7;
-    for (name, rough) in [("smooth", Roughness::SMOOTH), ("rough (alpha 0.3)", Roughness { u: 0.09, v: 0.09, remap: true })] {
-        let m = Material::Dielectric { eta: flat(1.5), roughness: rough };
+    for (name, rough) in [
+        ("smooth", Roughness::SMOOTH),
+        (
+            "rough (alpha 0.3)",
+            Roughness {
+                u: 0.09,
+                v: 0.09,
+                remap: true,
+            },
+        ),
+    ] {
+        let m = Material::Dielectric {
+            eta: flat(1.5),
+            roughness: rough,
+        };
         let (img, on) = sphere_under_sky(vec![m], flat(l), grid, 64, 100);
         let (mean, se) = stats(&img, &on, None);
         if rough == Roughness::SMOOTH {
             // Smooth: every path that escapes has weight 1, so pixels differ only by the rare
             // path cut at max_depth.
-            check(&format!("{name} glass sphere"), mean, se.max(1e-5 * l), l, 0.005);
+            check(
+                &format!("{name} glass sphere"),
+                mean,
+                se.max(1e-5 * l),
+                l,
+                0.005,
+            );
         } else {
             // Rough: the single-scattering microfacet model loses some energy (Heitz et al.
             // 2016); never creates it.
             eprintln!("{name} glass sphere: {mean:.4} +- {se:.4} (sky {l})");
             // Measured: 0.74 L (the interface alone keeps 0.76-0.98 of the energy per crossing,
             // see bsdf_physics), so the bound below is loose; the upper bound is the test.
-            assert!(mean < l * (1.0 + 1e-3) + 4.5 * se && mean > 0.6 * l, "{name}: {mean} vs sky {l}");
+            assert!(
+                mean < l * (1.0 + 1e-3) + 4.5 * se && mean > 0.6 * l,
+                "{name}: {mean} vs sky {l}"
+            );
         }
     }
 }
@@ -104,7 +201,16 @@ fn dispersive_glass_keeps_the_sky_spectrum() {
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let sky = spec(&[350.0, 750.0], &[1.0, 3.0]);
     let eta = camsim_render::pbrt::optical_constants::named("glass-BK7").unwrap();
-    let (img, on) = sphere_under_sky(vec![Material::Dielectric { eta, roughness: Roughness::SMOOTH }], sky.clone(), grid, 2048, 100);
+    let (img, on) = sphere_under_sky(
+        vec![Material::Dielectric {
+            eta,
+            roughness: Roughness::SMOOTH,
+        }],
+        sky.clone(),
+        grid,
+        2048,
+        100,
+    );
     for b in 0..grid.len() {
         let lam = grid.wavelength_nm(b);
         // Band average of a linear spectrum: its value at the band centre.
@@ -119,20 +225,30 @@ fn white_diffuse_transmitter_and_perfect_mirror_under_uniform_sky() {
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let l = 0.8;
     // R + T = 1, Lambertian both ways: a closed lossless scatterer, radiance L everywhere.
-    let dt = Material::DiffuseTransmission { reflectance: Texture::Constant(flat(0.4)), transmittance: Texture::Constant(flat(0.6)), scale: 1.0 };
+    let dt = Material::DiffuseTransmission {
+        reflectance: Texture::Constant(flat(0.4)),
+        transmittance: Texture::Constant(flat(0.6)),
+        scale: 1.0,
+    };
     let (img, on) = sphere_under_sky(vec![dt], flat(l), grid, 128, 200);
     let (m, se) = stats(&img, &on, None);
     check("white diffuse transmitter sphere", m, se, l, 0.01);
     // Perfect conductor (Fresnel = 1): a mirror sphere reflects the sky, exactly.
     let mirror = Material::Conductor {
-        optics: ConductorOptics::EtaK { eta: flat(0.0), k: flat(1e4) },
+        optics: ConductorOptics::EtaK {
+            eta: flat(0.0),
+            k: flat(1e4),
+        },
         roughness: Roughness::SMOOTH,
     };
     let (img, on) = sphere_under_sky(vec![mirror], flat(l), grid, 4, 5);
     for &p in &on {
         for b in 0..img.bands() {
             let v = img.band(b)[p] as f64;
-            assert!((v - l).abs() < 2e-3 * l, "mirror pixel {p} band {b}: {v} vs {l}");
+            assert!(
+                (v - l).abs() < 2e-3 * l,
+                "mirror pixel {p} band {b}: {v} vs {l}"
+            );
         }
     }
 }
@@ -143,7 +259,14 @@ fn mix_reflects_the_amount_weighted_albedo() {
     // probability 0.25 and rho = 0.2 otherwise reads (0.25 * 0.8 + 0.75 * 0.2) L = 0.35 L.
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let l = 2.0;
-    let mats = vec![Material::Mix { materials: [1, 2], amount: 0.25 }, diffuse(0.2), diffuse(0.8)];
+    let mats = vec![
+        Material::Mix {
+            materials: [1, 2],
+            amount: 0.25,
+        },
+        diffuse(0.2),
+        diffuse(0.8),
+    ];
     let (img, on) = sphere_under_sky(mats, flat(l), grid, 512, 10);
     let (m, se) = stats(&img, &on, None);
     check("mix of two diffuse albedos", m, se, 0.35 * l, 0.01);
@@ -151,31 +274,86 @@ fn mix_reflects_the_amount_weighted_albedo() {
 
 /// A diffuse floor lit by a uniform sky and a small area light, seen through where a sphere of
 /// material 2 may float; returns (image with sphere, image without, pixels covered by it).
-fn floor_with_and_without_sphere(m: Material) -> (camsim_core::SpectralImage, camsim_core::SpectralImage, Vec<usize>) {
+fn floor_with_and_without_sphere(
+    m: Material,
+) -> (
+    camsim_core::SpectralImage,
+    camsim_core::SpectralImage,
+    Vec<usize>,
+) {
     let grid = WavelengthGrid::new(400.0, 700.0, 150.0).unwrap();
     let floor = Geometry::Triangles {
-        positions: vec![[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]],
+        positions: vec![
+            [-5.0, 0.0, -5.0],
+            [5.0, 0.0, -5.0],
+            [5.0, 0.0, 5.0],
+            [-5.0, 0.0, 5.0],
+        ],
         indices: vec![[0, 2, 1], [0, 3, 2]],
         uvs: None,
         normals: None,
     };
     let lamp = Shape {
         name: None,
-        geometry: Geometry::Sphere { center: [1.0, 3.0, 0.0], radius: 0.5 },
+        geometry: Geometry::Sphere {
+            center: [1.0, 3.0, 0.0],
+            radius: 0.5,
+        },
         material: 0,
-        area_light: Some(AreaLight { radiance: flat(5.0), two_sided: false }),
+        area_light: Some(AreaLight {
+            radiance: flat(5.0),
+            two_sided: false,
+        }),
         reverse_orientation: false,
     };
-    let cam = camera([0.0, 2.0, -4.0], [0.0, 0.4, 0.0], [0.0, 1.0, 0.0], 20.0, 24, 24);
-    let base = vec![Shape { name: None, geometry: floor, material: 0, area_light: None, reverse_orientation: false }, lamp];
+    let cam = camera(
+        [0.0, 2.0, -4.0],
+        [0.0, 0.4, 0.0],
+        [0.0, 1.0, 0.0],
+        20.0,
+        24,
+        24,
+    );
+    let base = vec![
+        Shape {
+            name: None,
+            geometry: floor,
+            material: 0,
+            area_light: None,
+            reverse_orientation: false,
+        },
+        lamp,
+    ];
     let mut with = base.clone();
     with.push(sphere([0.0, 0.6, 0.0], 0.5, 1));
     let mats = vec![diffuse(0.5), m];
-    let sky = vec![Light::Infinite { radiance: flat(0.3) }];
-    let a = render(&scene(cam.clone(), with, mats.clone(), sky.clone(), settings(grid, 1024, 12)), &|_, _| {}).unwrap();
-    let b = render(&scene(cam, base, mats, sky, settings(grid, 1024, 12)), &|_, _| {}).unwrap();
-    let covered: Vec<usize> = (0..a.depth_m.len()).filter(|&i| (a.depth_m[i] - b.depth_m[i]).abs() > 1e-3).collect();
-    assert!(covered.len() > 20, "the sphere covers only {} pixels", covered.len());
+    let sky = vec![Light::Infinite {
+        radiance: flat(0.3),
+    }];
+    let a = render(
+        &scene(
+            cam.clone(),
+            with,
+            mats.clone(),
+            sky.clone(),
+            settings(grid, 1024, 12),
+        ),
+        &|_, _| {},
+    )
+    .unwrap();
+    let b = render(
+        &scene(cam, base, mats, sky, settings(grid, 1024, 12)),
+        &|_, _| {},
+    )
+    .unwrap();
+    let covered: Vec<usize> = (0..a.depth_m.len())
+        .filter(|&i| (a.depth_m[i] - b.depth_m[i]).abs() > 1e-3)
+        .collect();
+    assert!(
+        covered.len() > 20,
+        "the sphere covers only {} pixels",
+        covered.len()
+    );
     (a.radiance, b.radiance, covered)
 }
 
@@ -183,20 +361,47 @@ fn assert_invisible(name: &str, m: Material) {
     let (a, b, covered) = floor_with_and_without_sphere(m);
     // Pixel-wise differences over the covered pixels: independent estimates with mean 0.
     let nb = a.bands();
-    let d: Vec<f64> = covered.iter().map(|&p| (0..nb).map(|k| (a.band(k)[p] - b.band(k)[p]) as f64).sum::<f64>() / nb as f64).collect();
+    let d: Vec<f64> = covered
+        .iter()
+        .map(|&p| {
+            (0..nb)
+                .map(|k| (a.band(k)[p] - b.band(k)[p]) as f64)
+                .sum::<f64>()
+                / nb as f64
+        })
+        .collect();
     let n = d.len() as f64;
     let mean = d.iter().sum::<f64>() / n;
     let se = (d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0) / n).sqrt();
     let (ref_mean, _) = stats(&b, &covered, None);
-    eprintln!("{name}: mean difference {mean:.5} +- {se:.5} over {} pixels (mean radiance {ref_mean:.4})", covered.len());
-    assert!(se < 0.01 * ref_mean, "{name}: too noisy to test ({se} vs {ref_mean})");
-    assert!(mean.abs() <= 4.5 * se, "{name}: the sphere changes the image by {mean} (+- {se})");
-    assert!(mean.abs() < 0.02 * ref_mean, "{name}: the sphere changes the image by {:.2} %", mean / ref_mean * 100.0);
+    eprintln!(
+        "{name}: mean difference {mean:.5} +- {se:.5} over {} pixels (mean radiance {ref_mean:.4})",
+        covered.len()
+    );
+    assert!(
+        se < 0.01 * ref_mean,
+        "{name}: too noisy to test ({se} vs {ref_mean})"
+    );
+    assert!(
+        mean.abs() <= 4.5 * se,
+        "{name}: the sphere changes the image by {mean} (+- {se})"
+    );
+    assert!(
+        mean.abs() < 0.02 * ref_mean,
+        "{name}: the sphere changes the image by {:.2} %",
+        mean / ref_mean * 100.0
+    );
 }
 
 #[test]
 fn index_one_dielectric_sphere_is_invisible() {
-    assert_invisible("eta = 1 dielectric sphere", Material::Dielectric { eta: flat(1.0), roughness: Roughness::SMOOTH });
+    assert_invisible(
+        "eta = 1 dielectric sphere",
+        Material::Dielectric {
+            eta: flat(1.0),
+            roughness: Roughness::SMOOTH,
+        },
+    );
 }
 
 #[test]
@@ -209,7 +414,10 @@ fn interface_sphere_is_invisible() {
     for &p in &covered {
         for k in 0..nb {
             let (x, y) = (a.band(k)[p], b.band(k)[p]);
-            assert!((x - y).abs() <= 1e-3 * y.abs().max(1e-3), "pixel {p} band {k}: {x} vs {y}");
+            assert!(
+                (x - y).abs() <= 1e-3 * y.abs().max(1e-3),
+                "pixel {p} band {k}: {x} vs {y}"
+            );
         }
     }
 }

@@ -34,24 +34,52 @@ Shape \"sphere\"\n"
     let s = parse(&text).unwrap();
     // Conductor defaults: copper (pbrt-v4 metal-Cu-eta / metal-Cu-k), smooth, remapped.
     match named(&s, "copper") {
-        Material::Conductor { optics: ConductorOptics::EtaK { eta, k }, roughness } => {
+        Material::Conductor {
+            optics: ConductorOptics::EtaK { eta, k },
+            roughness,
+        } => {
             // Johnson & Christy 1972 copper at 620 nm: n ~ 0.27, k ~ 3.2 (interpolated).
-            assert!((eta.eval(620.0) - 0.27).abs() < 0.05 && (k.eval(620.0) - 3.26).abs() < 0.1, "{} {}", eta.eval(620.0), k.eval(620.0));
-            assert_eq!(*roughness, Roughness { u: 0.0, v: 0.0, remap: true });
+            assert!(
+                (eta.eval(620.0) - 0.27).abs() < 0.05 && (k.eval(620.0) - 3.26).abs() < 0.1,
+                "{} {}",
+                eta.eval(620.0),
+                k.eval(620.0)
+            );
+            assert_eq!(
+                *roughness,
+                Roughness {
+                    u: 0.0,
+                    v: 0.0,
+                    remap: true
+                }
+            );
         }
         m => panic!("copper: {m:?}"),
     }
     match named(&s, "gold") {
-        Material::Conductor { optics: ConductorOptics::EtaK { eta, .. }, roughness } => {
-            assert!(eta.eval(700.0) < 0.2 && eta.eval(450.0) > 1.3, "gold's eta drops in the red");
+        Material::Conductor {
+            optics: ConductorOptics::EtaK { eta, .. },
+            roughness,
+        } => {
+            assert!(
+                eta.eval(700.0) < 0.2 && eta.eval(450.0) > 1.3,
+                "gold's eta drops in the red"
+            );
             assert_eq!((roughness.u, roughness.v), (0.04, 0.09));
             assert_eq!(roughness.alphas(), (0.2, 0.3));
         }
         m => panic!("gold: {m:?}"),
     }
     match named(&s, "tinted") {
-        Material::Conductor { optics: ConductorOptics::Reflectance(Texture::Constant(_)), roughness } => {
-            assert_eq!(roughness.alphas(), (0.01, 0.01), "remaproughness false keeps alpha = roughness");
+        Material::Conductor {
+            optics: ConductorOptics::Reflectance(Texture::Constant(_)),
+            roughness,
+        } => {
+            assert_eq!(
+                roughness.alphas(),
+                (0.01, 0.01),
+                "remaproughness false keeps alpha = roughness"
+            );
         }
         m => panic!("tinted: {m:?}"),
     }
@@ -64,38 +92,79 @@ Shape \"sphere\"\n"
     }
     match named(&s, "bk7") {
         Material::Dielectric { eta, roughness } => {
-            assert!((eta.eval(587.56) - 1.5168).abs() < 2e-4, "BK7 n_d {}", eta.eval(587.56));
+            assert!(
+                (eta.eval(587.56) - 1.5168).abs() < 2e-4,
+                "BK7 n_d {}",
+                eta.eval(587.56)
+            );
             assert!(eta.eval(450.0) > eta.eval(650.0), "normal dispersion");
             assert_eq!(roughness.u, 0.1);
         }
         m => panic!("bk7: {m:?}"),
     }
-    assert!(matches!(named(&s, "window"), Material::ThinDielectric { eta } if eta.eval(550.0) == 1.5));
+    assert!(
+        matches!(named(&s, "window"), Material::ThinDielectric { eta } if eta.eval(550.0) == 1.5)
+    );
     match named(&s, "leaf") {
-        Material::DiffuseTransmission { reflectance: Texture::Constant(r), transmittance: Texture::Constant(_), scale } => {
-            assert_eq!((r.eval(550.0), *scale), (0.25, 0.9), "pbrt-v4 default reflectance 0.25");
+        Material::DiffuseTransmission {
+            reflectance: Texture::Constant(r),
+            transmittance: Texture::Constant(_),
+            scale,
+        } => {
+            assert_eq!(
+                (r.eval(550.0), *scale),
+                (0.25, 0.9),
+                "pbrt-v4 default reflectance 0.25"
+            );
         }
         m => panic!("leaf: {m:?}"),
     }
     match named(&s, "paint") {
-        Material::CoatedDiffuse { roughness, eta, thickness, .. } => {
+        Material::CoatedDiffuse {
+            roughness,
+            eta,
+            thickness,
+            ..
+        } => {
             assert_eq!((roughness.u, *eta, *thickness), (0.05, 1.5, 0.02));
         }
         m => panic!("paint: {m:?}"),
     }
     match named(&s, "blend") {
         Material::Mix { materials, amount } => {
-            assert_eq!(*materials, [s.named_materials["copper"], s.named_materials["paint"]]);
+            assert_eq!(
+                *materials,
+                [s.named_materials["copper"], s.named_materials["paint"]]
+            );
             assert_eq!(*amount, 0.3);
         }
         m => panic!("blend: {m:?}"),
     }
     assert!(matches!(named(&s, "none"), Material::Interface));
     // bumpmap and displacement: accepted, ignored, noted.
-    assert!(matches!(s.materials[s.shapes[0].material], Material::Diffuse { .. }));
-    assert!(s.notes.iter().any(|n| n.contains("bumpmap") && n.contains("ignored")), "{:?}", s.notes);
-    assert!(s.notes.iter().any(|n| n.contains("displacement") && n.contains("ignored")), "{:?}", s.notes);
-    assert!(s.notes.iter().any(|n| n.contains("maxdepth")), "{:?}", s.notes);
+    assert!(matches!(
+        s.materials[s.shapes[0].material],
+        Material::Diffuse { .. }
+    ));
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.contains("bumpmap") && n.contains("ignored")),
+        "{:?}",
+        s.notes
+    );
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.contains("displacement") && n.contains("ignored")),
+        "{:?}",
+        s.notes
+    );
+    assert!(
+        s.notes.iter().any(|n| n.contains("maxdepth")),
+        "{:?}",
+        s.notes
+    );
 }
 
 #[test]
@@ -118,7 +187,10 @@ fn the_default_material_scene_renders_with_every_material() {
         );
         let s = parse(&text).unwrap_or_else(|e| panic!("{m}: {e}"));
         let out = camsim_render::render(&s, &|_, _| {}).unwrap_or_else(|e| panic!("{m}: {e}"));
-        assert!(out.radiance.data.iter().all(|v| v.is_finite() && *v >= 0.0), "{m}: bad radiance");
+        assert!(
+            out.radiance.data.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "{m}: bad radiance"
+        );
     }
 }
 
@@ -141,26 +213,66 @@ fn material_errors_name_file_line_and_column() {
         eprintln!("{e}");
         assert!(e.message.contains(needle), "{body:?}: {e}");
         assert_eq!((e.line, e.column), (*line, *col), "{body:?}: {e}");
-        assert!(e.to_string().starts_with(&format!("/tmp/virtual/materials.pbrt:{line}:{col}:")), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("/tmp/virtual/materials.pbrt:{line}:{col}:")),
+            "{e}"
+        );
     }
 }
 
 #[test]
 fn mix_cycles_and_bad_values_are_render_errors_not_panics() {
     use camsim_render::{render, RenderError};
-    let mut s = parse(&format!("{HEAD}LightSource \"infinite\"\nShape \"sphere\"\n")).unwrap();
+    let mut s = parse(&format!(
+        "{HEAD}LightSource \"infinite\"\nShape \"sphere\"\n"
+    ))
+    .unwrap();
     s.settings.samples_per_pixel = 1;
     s.camera.width = 4;
     s.camera.height = 4;
     let m = s.materials.len();
-    s.materials.push(Material::Mix { materials: [m + 1, 0], amount: 0.5 });
-    s.materials.push(Material::Mix { materials: [m, 0], amount: 0.5 });
+    s.materials.push(Material::Mix {
+        materials: [m + 1, 0],
+        amount: 0.5,
+    });
+    s.materials.push(Material::Mix {
+        materials: [m, 0],
+        amount: 0.5,
+    });
     s.shapes[0].material = m;
-    assert!(matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })), "mix cycle");
-    s.materials[m] = Material::Mix { materials: [99, 0], amount: 0.5 };
-    assert!(matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })), "mix index");
-    s.materials[m] = Material::Dielectric { eta: camsim_core::Spectrum::from_pairs(&[(400.0, 0.0), (700.0, 1.5)]), roughness: Roughness::SMOOTH };
-    assert!(matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })), "eta 0");
-    s.materials[m] = Material::Conductor { optics: ConductorOptics::Reflectance(Texture::Constant(camsim_core::Spectrum::from_pairs(&[(400.0, 1.0)]))), roughness: Roughness { u: f64::NAN, v: 0.0, remap: true } };
-    assert!(matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })), "NaN roughness");
+    assert!(
+        matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })),
+        "mix cycle"
+    );
+    s.materials[m] = Material::Mix {
+        materials: [99, 0],
+        amount: 0.5,
+    };
+    assert!(
+        matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })),
+        "mix index"
+    );
+    s.materials[m] = Material::Dielectric {
+        eta: camsim_core::Spectrum::from_pairs(&[(400.0, 0.0), (700.0, 1.5)]),
+        roughness: Roughness::SMOOTH,
+    };
+    assert!(
+        matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })),
+        "eta 0"
+    );
+    s.materials[m] = Material::Conductor {
+        optics: ConductorOptics::Reflectance(Texture::Constant(camsim_core::Spectrum::from_pairs(
+            &[(400.0, 1.0)],
+        ))),
+        roughness: Roughness {
+            u: f64::NAN,
+            v: 0.0,
+            remap: true,
+        },
+    };
+    assert!(
+        matches!(render(&s, &|_, _| {}), Err(RenderError::Material { .. })),
+        "NaN roughness"
+    );
 }

@@ -35,20 +35,35 @@ struct C {
 
 impl C {
     fn add(self, o: C) -> C {
-        C { re: self.re + o.re, im: self.im + o.im }
+        C {
+            re: self.re + o.re,
+            im: self.im + o.im,
+        }
     }
     fn sub(self, o: C) -> C {
-        C { re: self.re - o.re, im: self.im - o.im }
+        C {
+            re: self.re - o.re,
+            im: self.im - o.im,
+        }
     }
     fn mul(self, o: C) -> C {
-        C { re: self.re * o.re - self.im * o.im, im: self.re * o.im + self.im * o.re }
+        C {
+            re: self.re * o.re - self.im * o.im,
+            im: self.re * o.im + self.im * o.re,
+        }
     }
     fn scale(self, s: f64) -> C {
-        C { re: self.re * s, im: self.im * s }
+        C {
+            re: self.re * s,
+            im: self.im * s,
+        }
     }
     fn div(self, o: C) -> C {
         let d = o.re * o.re + o.im * o.im;
-        C { re: (self.re * o.re + self.im * o.im) / d, im: (self.im * o.re - self.re * o.im) / d }
+        C {
+            re: (self.re * o.re + self.im * o.im) / d,
+            im: (self.im * o.re - self.re * o.im) / d,
+        }
     }
     fn norm(self) -> f64 {
         self.re * self.re + self.im * self.im
@@ -64,7 +79,10 @@ impl C {
         if self.re >= 0.0 {
             C { re: t1, im: t2 }
         } else {
-            C { re: t2.abs(), im: t1.copysign(self.im) }
+            C {
+                re: t2.abs(),
+                im: t1.copysign(self.im),
+            }
         }
     }
 }
@@ -74,10 +92,17 @@ impl C {
 #[inline]
 pub fn fr_complex(cos_i: f32, eta: f32, k: f32) -> f32 {
     let cos_i = (cos_i as f64).clamp(0.0, 1.0);
-    let e = C { re: eta as f64, im: k as f64 };
+    let e = C {
+        re: eta as f64,
+        im: k as f64,
+    };
     let sin2_i = 1.0 - cos_i * cos_i;
     // sin^2 theta_t = sin^2 theta_i / eta^2 (Snell's law), cos theta_t = sqrt(1 - sin^2 theta_t).
-    let sin2_t = C { re: sin2_i, im: 0.0 }.div(e.mul(e));
+    let sin2_t = C {
+        re: sin2_i,
+        im: 0.0,
+    }
+    .div(e.mul(e));
     let cos_t = C { re: 1.0, im: 0.0 }.sub(sin2_t).sqrt();
     let ci = C { re: cos_i, im: 0.0 };
     let r_parl = e.scale(cos_i).sub(cos_t).div(e.scale(cos_i).add(cos_t));

@@ -69,7 +69,8 @@ impl TrowbridgeReitz {
             return 0.0;
         }
         let (cp, sp) = (cos_phi(wm), sin_phi(wm));
-        let e = t2 * (cp * cp / (self.alpha_x * self.alpha_x) + sp * sp / (self.alpha_y * self.alpha_y));
+        let e = t2
+            * (cp * cp / (self.alpha_x * self.alpha_x) + sp * sp / (self.alpha_y * self.alpha_y));
         1.0 / (PI * self.alpha_x * self.alpha_y * c4 * (1.0 + e) * (1.0 + e))
     }
 
@@ -118,7 +119,11 @@ impl TrowbridgeReitz {
         if wh.z < 0.0 {
             wh = -wh;
         }
-        let t1 = if wh.z < 0.99999 { V3::new(0.0, 0.0, 1.0).cross(wh).normalize() } else { V3::new(1.0, 0.0, 0.0) };
+        let t1 = if wh.z < 0.99999 {
+            V3::new(0.0, 0.0, 1.0).cross(wh).normalize()
+        } else {
+            V3::new(1.0, 0.0, 0.0)
+        };
         let t2 = wh.cross(t1);
         // Uniform disk sample (polar mapping).
         let r = u0.sqrt();

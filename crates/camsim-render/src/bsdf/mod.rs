@@ -30,7 +30,11 @@ pub enum Bsdf<const N: usize> {
     /// A metal: Fresnel reflectance of the complex index `eta + i k` (relative to the outside),
     /// on a Trowbridge-Reitz microfacet surface without multiple scattering between microfacets
     /// (pbrt-v4 `ConductorBxDF`, §9.6); a mirror (delta BSDF) when effectively smooth.
-    Conductor { eta: [f32; N], k: [f32; N], distrib: TrowbridgeReitz },
+    Conductor {
+        eta: [f32; N],
+        k: [f32; N],
+        distrib: TrowbridgeReitz,
+    },
     /// A dielectric interface with relative index `eta` (see the module docs for its side):
     /// Fresnel-weighted reflection and refraction, smooth (delta) or rough microfacet
     /// (pbrt-v4 `DielectricBxDF`, §9.5 and §9.7). One index for all wavelengths: a dispersive
@@ -54,7 +58,13 @@ pub enum Bsdf<const N: usize> {
     /// reflections inside the layer are summed as the geometric series `1 / (1 - rho F_int)`
     /// (Kelemen & Szirmay-Kalos 2001; Weidlich & Wilkie 2007) without their layer attenuation.
     /// Reflects on both sides (pbrt-v4's coated diffuse is two-sided).
-    CoatedDiffuse { reflectance: [f32; N], eta: f32, distrib: TrowbridgeReitz, thickness: f32, f_int: f32 },
+    CoatedDiffuse {
+        reflectance: [f32; N],
+        eta: f32,
+        distrib: TrowbridgeReitz,
+        thickness: f32,
+        f_int: f32,
+    },
 }
 
 /// A sampled incident direction.
@@ -82,11 +92,25 @@ fn same_hemisphere(a: &V3, b: &V3) -> bool {
 
 impl<const N: usize> BsdfSample<N> {
     #[inline(always)]
-    fn new(wi_local: V3, weight: [f32; N], pdf: f32, specular: bool, transmission: bool, eta: f32) -> Option<Self> {
-        if !(pdf > 0.0) || !weight.iter().all(|w| w.is_finite()) {
+    fn new(
+        wi_local: V3,
+        weight: [f32; N],
+        pdf: f32,
+        specular: bool,
+        transmission: bool,
+        eta: f32,
+    ) -> Option<Self> {
+        if pdf.is_nan() || pdf <= 0.0 || !weight.iter().all(|w| w.is_finite()) {
             return None;
         }
-        Some(BsdfSample { wi_local, weight, pdf, specular, transmission, eta })
+        Some(BsdfSample {
+            wi_local,
+            weight,
+            pdf,
+            specular,
+            transmission,
+            eta,
+        })
     }
 }
 
@@ -134,7 +158,8 @@ impl<const N: usize> Coated<'_, N> {
             return (0.0, 0.0);
         }
         let wm = wm.normalize();
-        let f = self.distrib.d(wm) * self.distrib.g(*wo, *wi) * fr_dielectric(wo.dot(wm), self.eta) / (4.0 * wo.z * wi.z);
+        let f = self.distrib.d(wm) * self.distrib.g(*wo, *wi) * fr_dielectric(wo.dot(wm), self.eta)
+            / (4.0 * wo.z * wi.z);
         let pdf = self.distrib.pdf(*wo, wm) / (4.0 * wo.dot(wm).abs());
         (f, pdf)
     }
@@ -163,14 +188,21 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::Conductor { distrib, .. } => distrib.effectively_smooth(),
             Bsdf::Dielectric { eta, distrib } => *eta == 1.0 || distrib.effectively_smooth(),
             Bsdf::ThinDielectric { .. } => true,
-            Bsdf::Diffuse { .. } | Bsdf::DiffuseTransmission { .. } | Bsdf::CoatedDiffuse { .. } => false,
+            Bsdf::Diffuse { .. }
+            | Bsdf::DiffuseTransmission { .. }
+            | Bsdf::CoatedDiffuse { .. } => false,
         }
     }
 
     /// True when the BSDF can send light to the other side of the surface.
     #[inline]
     pub fn has_transmission(&self) -> bool {
-        matches!(self, Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } | Bsdf::DiffuseTransmission { .. })
+        matches!(
+            self,
+            Bsdf::Dielectric { .. }
+                | Bsdf::ThinDielectric { .. }
+                | Bsdf::DiffuseTransmission { .. }
+        )
     }
 
     /// `(f(wo, wi), pdf(wi | wo))` for local directions (delta lobes excluded).
@@ -222,19 +254,38 @@ impl<const N: usize> Bsdf<N> {
                 }
                 let c = cosine_hemisphere_pdf(wi.z.abs());
                 if same_hemisphere(wo, wi) {
-                    (std::array::from_fn(|i| r[i] * FRAC_1_PI), c * pr / (pr + pt))
+                    (
+                        std::array::from_fn(|i| r[i] * FRAC_1_PI),
+                        c * pr / (pr + pt),
+                    )
                 } else {
-                    (std::array::from_fn(|i| t[i] * FRAC_1_PI), c * pt / (pr + pt))
+                    (
+                        std::array::from_fn(|i| t[i] * FRAC_1_PI),
+                        c * pt / (pr + pt),
+                    )
                 }
             }
-            Bsdf::CoatedDiffuse { reflectance, eta, distrib, thickness, f_int } => {
+            Bsdf::CoatedDiffuse {
+                reflectance,
+                eta,
+                distrib,
+                thickness,
+                f_int,
+            } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
                 }
                 // Two-sided: mirror both directions to the upper hemisphere.
                 let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
                 let (wo, wi) = (V3::new(wo.x, wo.y, wo.z * s), V3::new(wi.x, wi.y, wi.z * s));
-                Coated { rho: reflectance, eta: *eta, distrib: *distrib, thickness: *thickness, f_int: *f_int }.eval(&wo, &wi)
+                Coated {
+                    rho: reflectance,
+                    eta: *eta,
+                    distrib: *distrib,
+                    thickness: *thickness,
+                    f_int: *f_int,
+                }
+                .eval(&wo, &wi)
             }
         }
     }
@@ -259,7 +310,14 @@ impl<const N: usize> Bsdf<N> {
                     // Mirror: f = F(cos) / |cos| delta, weight = F (pbrt-v4 §9.6.2).
                     let wi = V3::new(-wo.x, -wo.y, wo.z);
                     let c = wi.z.abs();
-                    return BsdfSample::new(wi, std::array::from_fn(|i| fr_complex(c, eta[i], k[i])), 1.0, true, false, 1.0);
+                    return BsdfSample::new(
+                        wi,
+                        std::array::from_fn(|i| fr_complex(c, eta[i], k[i])),
+                        1.0,
+                        true,
+                        false,
+                        1.0,
+                    );
                 }
                 if wo.z == 0.0 {
                     return None;
@@ -275,8 +333,16 @@ impl<const N: usize> Bsdf<N> {
                 if cos_i == 0.0 || pdf <= 0.0 {
                     return None;
                 }
-                let common = distrib.d(wm) * distrib.g(*wo, wi) / (4.0 * cos_o * cos_i) * cos_i / pdf;
-                BsdfSample::new(wi, std::array::from_fn(|i| common * fr_complex(dot, eta[i], k[i])), pdf, false, false, 1.0)
+                let common =
+                    distrib.d(wm) * distrib.g(*wo, wi) / (4.0 * cos_o * cos_i) * cos_i / pdf;
+                BsdfSample::new(
+                    wi,
+                    std::array::from_fn(|i| common * fr_complex(dot, eta[i], k[i])),
+                    pdf,
+                    false,
+                    false,
+                    1.0,
+                )
             }
             Bsdf::Dielectric { eta, distrib } => {
                 let eta = *eta;
@@ -306,7 +372,14 @@ impl<const N: usize> Bsdf<N> {
                 }
                 // Both lobes have weight f cos / p = 1 (R + T = 1).
                 if uc < r / (r + t) {
-                    BsdfSample::new(V3::new(-wo.x, -wo.y, wo.z), [1.0; N], r / (r + t), true, false, 1.0)
+                    BsdfSample::new(
+                        V3::new(-wo.x, -wo.y, wo.z),
+                        [1.0; N],
+                        r / (r + t),
+                        true,
+                        false,
+                        1.0,
+                    )
                 } else {
                     BsdfSample::new(-*wo, [1.0; N], t / (r + t), true, true, 1.0)
                 }
@@ -324,18 +397,44 @@ impl<const N: usize> Bsdf<N> {
                 }
                 let c = cosine_hemisphere_pdf(wi.z.abs());
                 if reflect {
-                    BsdfSample::new(wi, std::array::from_fn(|i| r[i] * (pr + pt) / pr), c * pr / (pr + pt), false, false, 1.0)
+                    BsdfSample::new(
+                        wi,
+                        std::array::from_fn(|i| r[i] * (pr + pt) / pr),
+                        c * pr / (pr + pt),
+                        false,
+                        false,
+                        1.0,
+                    )
                 } else {
-                    BsdfSample::new(wi, std::array::from_fn(|i| t[i] * (pr + pt) / pt), c * pt / (pr + pt), false, true, 1.0)
+                    BsdfSample::new(
+                        wi,
+                        std::array::from_fn(|i| t[i] * (pr + pt) / pt),
+                        c * pt / (pr + pt),
+                        false,
+                        true,
+                        1.0,
+                    )
                 }
             }
-            Bsdf::CoatedDiffuse { reflectance, eta, distrib, thickness, f_int } => {
+            Bsdf::CoatedDiffuse {
+                reflectance,
+                eta,
+                distrib,
+                thickness,
+                f_int,
+            } => {
                 let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
                 let wo_up = V3::new(wo.x, wo.y, wo.z * s);
                 if wo_up.z == 0.0 {
                     return None;
                 }
-                let c = Coated { rho: reflectance, eta: *eta, distrib: *distrib, thickness: *thickness, f_int: *f_int };
+                let c = Coated {
+                    rho: reflectance,
+                    eta: *eta,
+                    distrib: *distrib,
+                    thickness: *thickness,
+                    f_int: *f_int,
+                };
                 let ps = c.p_spec(&wo_up);
                 let flip = |w: V3| V3::new(w.x, w.y, w.z * s);
                 if uc < ps {
@@ -351,14 +450,28 @@ impl<const N: usize> Bsdf<N> {
                         return None;
                     }
                     let (f, pdf) = c.eval(&wo_up, &wi);
-                    return BsdfSample::new(flip(wi), std::array::from_fn(|i| f[i] * wi.z / pdf), pdf, false, false, 1.0);
+                    return BsdfSample::new(
+                        flip(wi),
+                        std::array::from_fn(|i| f[i] * wi.z / pdf),
+                        pdf,
+                        false,
+                        false,
+                        1.0,
+                    );
                 }
                 let wi = cosine_hemisphere(u0, u1);
                 if wi.z <= 0.0 {
                     return None;
                 }
                 let (f, pdf) = c.eval(&wo_up, &wi);
-                BsdfSample::new(flip(wi), std::array::from_fn(|i| f[i] * wi.z / pdf), pdf, false, false, 1.0)
+                BsdfSample::new(
+                    flip(wi),
+                    std::array::from_fn(|i| f[i] * wi.z / pdf),
+                    pdf,
+                    false,
+                    false,
+                    1.0,
+                )
             }
         }
     }
@@ -426,7 +539,11 @@ fn rough_dielectric(eta: f32, distrib: &TrowbridgeReitz, wo: &V3, wi: &V3) -> Op
         // pbrt-v4 eq. 9.40 (BTDF) and 9.37 (Jacobian dwm/dwi), times 1/etap^2 for radiance.
         let denom = wi.dot(wm) + wo.dot(wm) / etap;
         let denom2 = denom * denom;
-        let f = distrib.d(wm) * t * distrib.g(*wo, *wi) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom2)).abs() / (etap * etap);
+        let f = distrib.d(wm)
+            * t
+            * distrib.g(*wo, *wi)
+            * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom2)).abs()
+            / (etap * etap);
         let dwm_dwi = wi.dot(wm).abs() / denom2;
         let pdf = distrib.pdf(*wo, wm) * dwm_dwi * t / (r + t);
         Some((f, pdf))
@@ -435,7 +552,14 @@ fn rough_dielectric(eta: f32, distrib: &TrowbridgeReitz, wo: &V3, wi: &V3) -> Op
 
 /// Sample the rough dielectric (pbrt-v4 `DielectricBxDF::Sample_f`, radiance mode).
 #[inline]
-fn rough_dielectric_sample<const N: usize>(eta: f32, distrib: &TrowbridgeReitz, wo: &V3, uc: f32, u0: f32, u1: f32) -> Option<BsdfSample<N>> {
+fn rough_dielectric_sample<const N: usize>(
+    eta: f32,
+    distrib: &TrowbridgeReitz,
+    wo: &V3,
+    uc: f32,
+    u0: f32,
+    u1: f32,
+) -> Option<BsdfSample<N>> {
     if wo.z == 0.0 {
         return None;
     }

@@ -103,7 +103,10 @@ const AL_RAKIC: Nk = &[
 ];
 
 /// Schott N-BK7 Sellmeier coefficients: n^2 - 1 = sum B_i l^2 / (l^2 - C_i), l in um, C in um^2.
-const BK7_SELLMEIER: ([f64; 3], [f64; 3]) = ([1.039_612_12, 0.231_792_344, 1.010_469_45], [0.006_000_698_67, 0.020_017_914_4, 103.560_653]);
+const BK7_SELLMEIER: ([f64; 3], [f64; 3]) = (
+    [1.039_612_12, 0.231_792_344, 1.010_469_45],
+    [0.006_000_698_67, 0.020_017_914_4, 103.560_653],
+);
 
 /// Refractive index from Sellmeier coefficients at `wavelength_nm`.
 pub fn sellmeier_index((b, c): ([f64; 3], [f64; 3]), wavelength_nm: f64) -> f64 {
@@ -125,7 +128,10 @@ pub const NAMES: &[&str] = &[
 ];
 
 fn column(rows: Nk, k: bool) -> Spectrum {
-    let pairs: Vec<(f64, f64)> = rows.iter().map(|&(um, n, kk)| (um * 1e3, if k { kk } else { n })).collect();
+    let pairs: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|&(um, n, kk)| (um * 1e3, if k { kk } else { n }))
+        .collect();
     Spectrum::from_pairs(&pairs)
 }
 
@@ -141,7 +147,14 @@ pub fn named(name: &str) -> Option<Spectrum> {
         "metal-Al-eta" => column(AL_RAKIC, false),
         "metal-Al-k" => column(AL_RAKIC, true),
         "glass-BK7" => {
-            let pairs: Vec<(f64, f64)> = (36..=83).map(|i| (i as f64 * 10.0, sellmeier_index(BK7_SELLMEIER, i as f64 * 10.0))).collect();
+            let pairs: Vec<(f64, f64)> = (36..=83)
+                .map(|i| {
+                    (
+                        i as f64 * 10.0,
+                        sellmeier_index(BK7_SELLMEIER, i as f64 * 10.0),
+                    )
+                })
+                .collect();
             Spectrum::from_pairs(&pairs)
         }
         _ => return None,

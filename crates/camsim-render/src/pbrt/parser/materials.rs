@@ -20,14 +20,25 @@ fn flat(v: f64) -> Spectrum {
 
 impl Parser {
     /// A float parameter that pbrt-v4 also accepts as a float texture; camsim takes numbers only.
-    fn float_param(&self, params: &ParamList, name: &str, default: f64, what: &str) -> Result<f64, PbrtError> {
+    fn float_param(
+        &self,
+        params: &ParamList,
+        name: &str,
+        default: f64,
+        what: &str,
+    ) -> Result<f64, PbrtError> {
         if let Some(p) = params.get(name, &["float", "texture"])? {
             if p.ty == "texture" {
-                return Err(p.loc.err(format!("{what}: \"{name}\" as a float texture is not supported (give a number)")));
+                return Err(p.loc.err(format!(
+                    "{what}: \"{name}\" as a float texture is not supported (give a number)"
+                )));
             }
             let v = p.nums()?;
             let [x] = v.as_slice() else {
-                return Err(p.loc.err(format!("{what}: \"{name}\" needs exactly one value, got {}", v.len())));
+                return Err(p.loc.err(format!(
+                    "{what}: \"{name}\" needs exactly one value, got {}",
+                    v.len()
+                )));
             };
             return Ok(*x);
         }
@@ -51,22 +62,34 @@ impl Parser {
 
     /// An index of refraction: `float eta` or a spectrum (`spectrum eta "glass-BK7"`, inline
     /// pairs, a file, or rgb); `default` if absent.
-    fn eta_param(&self, params: &ParamList, file: &Path, default: f64, what: &str) -> Result<Spectrum, PbrtError> {
+    fn eta_param(
+        &self,
+        params: &ParamList,
+        file: &Path,
+        default: f64,
+        what: &str,
+    ) -> Result<Spectrum, PbrtError> {
         match params.get("eta", &["float", "spectrum", "rgb", "texture"])? {
             None => Ok(flat(default)),
-            Some(p) if p.ty == "texture" => Err(p.loc.err(format!("{what}: \"eta\" as a texture is not supported"))),
+            Some(p) if p.ty == "texture" => Err(p
+                .loc
+                .err(format!("{what}: \"eta\" as a texture is not supported"))),
             Some(p) if p.ty == "float" => {
                 let v = p.nums()?;
                 match v.as_slice() {
                     [x] if *x > 0.0 => Ok(flat(*x)),
-                    _ => Err(p.loc.err(format!("{what}: \"eta\" needs one positive value"))),
+                    _ => Err(p
+                        .loc
+                        .err(format!("{what}: \"eta\" needs one positive value"))),
                 }
             }
             Some(p) => {
                 let resolve = |n: &str| self.resolve(file, n);
                 let s = param_spectrum(p, SpectrumUse::Unbounded, &resolve)?.spectrum;
                 if s.values.iter().any(|v| !(*v > 0.0)) {
-                    return Err(p.loc.err(format!("{what}: \"eta\" must be positive at every wavelength")));
+                    return Err(p.loc.err(format!(
+                        "{what}: \"eta\" must be positive at every wavelength"
+                    )));
                 }
                 Ok(s)
             }
@@ -74,22 +97,34 @@ impl Parser {
     }
 
     /// A spectrum parameter of a conductor (`eta` or `k`), or `default_name` (pbrt-v4's copper).
-    fn conductor_spectrum(&self, params: &ParamList, name: &str, file: &Path, default_name: &str) -> Result<Option<Spectrum>, PbrtError> {
+    fn conductor_spectrum(
+        &self,
+        params: &ParamList,
+        name: &str,
+        file: &Path,
+        default_name: &str,
+    ) -> Result<Option<Spectrum>, PbrtError> {
         match params.get(name, &["float", "spectrum", "rgb", "texture"])? {
             None => Ok(None),
-            Some(p) if p.ty == "texture" => Err(p.loc.err(format!("material \"conductor\": \"{name}\" as a texture is not supported"))),
+            Some(p) if p.ty == "texture" => Err(p.loc.err(format!(
+                "material \"conductor\": \"{name}\" as a texture is not supported"
+            ))),
             Some(p) if p.ty == "float" => {
                 let v = p.nums()?;
                 match v.as_slice() {
                     [x] if *x >= 0.0 => Ok(Some(flat(*x))),
-                    _ => Err(p.loc.err(format!("material \"conductor\": \"{name}\" needs one value >= 0"))),
+                    _ => Err(p.loc.err(format!(
+                        "material \"conductor\": \"{name}\" needs one value >= 0"
+                    ))),
                 }
             }
             Some(p) => {
                 let resolve = |n: &str| self.resolve(file, n);
                 let s = param_spectrum(p, SpectrumUse::Unbounded, &resolve)?.spectrum;
                 if s.values.iter().any(|v| !(*v >= 0.0)) {
-                    return Err(p.loc.err(format!("material \"conductor\": \"{name}\" must be >= 0 (default {default_name})")));
+                    return Err(p.loc.err(format!(
+                        "material \"conductor\": \"{name}\" must be >= 0 (default {default_name})"
+                    )));
                 }
                 Ok(Some(s))
             }
@@ -97,12 +132,20 @@ impl Parser {
     }
 
     /// A spectrum texture parameter (`reflectance`, `transmittance`) or a constant default.
-    fn spectrum_texture(&self, params: &ParamList, name: &str, file: &Path, default: f64) -> Result<Texture, PbrtError> {
+    fn spectrum_texture(
+        &self,
+        params: &ParamList,
+        name: &str,
+        file: &Path,
+        default: f64,
+    ) -> Result<Texture, PbrtError> {
         if let Some(p) = params.get(name, &["rgb", "spectrum", "blackbody", "texture"])? {
             if p.ty == "texture" {
                 let names = p.strings()?;
                 let [tname] = names.as_slice() else {
-                    return Err(p.loc.err(format!("\"texture {name}\" needs one texture name")));
+                    return Err(p
+                        .loc
+                        .err(format!("\"texture {name}\" needs one texture name")));
                 };
                 return self.textures.get(tname).cloned().ok_or_else(|| {
                     if self.float_textures.contains_key(tname) {
@@ -113,13 +156,21 @@ impl Parser {
                 });
             }
             let resolve = |n: &str| self.resolve(file, n);
-            return Ok(Texture::Constant(param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum));
+            return Ok(Texture::Constant(
+                param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum,
+            ));
         }
         Ok(Texture::Constant(flat(default)))
     }
 
     /// Build a material of type `ty` from its parameters.
-    pub(super) fn material(&mut self, ty: &str, params: &ParamList, loc: &Loc, file: &Path) -> Result<Material, PbrtError> {
+    pub(super) fn material(
+        &mut self,
+        ty: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<Material, PbrtError> {
         let what = format!("material \"{ty}\"");
         // Accepted everywhere and ignored: camsim has no bump, displacement or normal mapping.
         for n in ["displacement", "bumpmap", "normalmap"] {
@@ -129,19 +180,29 @@ impl Parser {
         }
         params.get("type", &["string"])?;
         let m = match ty {
-            "diffuse" => Material::Diffuse { reflectance: self.spectrum_texture(params, "reflectance", file, 0.5)? },
+            "diffuse" => Material::Diffuse {
+                reflectance: self.spectrum_texture(params, "reflectance", file, 0.5)?,
+            },
             "conductor" => {
                 let eta = self.conductor_spectrum(params, "eta", file, "metal-Cu-eta")?;
                 let k = self.conductor_spectrum(params, "k", file, "metal-Cu-k")?;
-                let refl = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?.map(|p| p.loc.clone());
+                let refl = params
+                    .get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?
+                    .map(|p| p.loc.clone());
                 let optics = match (refl, eta, k) {
                     (Some(l), e, k) if e.is_some() || k.is_some() => {
                         return Err(l.err("material \"conductor\": give either \"reflectance\" or \"eta\" and \"k\", not both"));
                     }
-                    (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(params, "reflectance", file, 0.0)?),
+                    (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(
+                        params,
+                        "reflectance",
+                        file,
+                        0.0,
+                    )?),
                     (None, e, k) => {
                         let named = |n: &str| {
-                            super::super::optical_constants::named(n).ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
+                            super::super::optical_constants::named(n)
+                                .ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
                         };
                         ConductorOptics::EtaK {
                             eta: match e {
@@ -155,10 +216,18 @@ impl Parser {
                         }
                     }
                 };
-                Material::Conductor { optics, roughness: self.roughness(params, &what, loc)? }
+                Material::Conductor {
+                    optics,
+                    roughness: self.roughness(params, &what, loc)?,
+                }
             }
-            "dielectric" => Material::Dielectric { eta: self.eta_param(params, file, 1.5, &what)?, roughness: self.roughness(params, &what, loc)? },
-            "thindielectric" => Material::ThinDielectric { eta: self.eta_param(params, file, 1.5, &what)? },
+            "dielectric" => Material::Dielectric {
+                eta: self.eta_param(params, file, 1.5, &what)?,
+                roughness: self.roughness(params, &what, loc)?,
+            },
+            "thindielectric" => Material::ThinDielectric {
+                eta: self.eta_param(params, file, 1.5, &what)?,
+            },
             "diffusetransmission" => Material::DiffuseTransmission {
                 reflectance: self.spectrum_texture(params, "reflectance", file, 0.25)?,
                 transmittance: self.spectrum_texture(params, "transmittance", file, 0.25)?,
@@ -170,10 +239,19 @@ impl Parser {
                 let thickness = self.float_param(params, "thickness", 0.01, &what)?;
                 let eta_s = self.eta_param(params, file, 1.5, &what)?;
                 let eta = eta_s.eval(550.0);
-                if eta_s.values.iter().any(|v| (v - eta_s.values[0]).abs() > 1e-9) {
-                    self.note(loc, format!("{what}: a wavelength-dependent eta is taken at 550 nm ({eta:.4})"));
+                if eta_s
+                    .values
+                    .iter()
+                    .any(|v| (v - eta_s.values[0]).abs() > 1e-9)
+                {
+                    self.note(
+                        loc,
+                        format!("{what}: a wavelength-dependent eta is taken at 550 nm ({eta:.4})"),
+                    );
                 }
-                let albedo_loc = params.get("albedo", &["rgb", "spectrum", "float", "texture"])?.map(|p| (p.loc.clone(), p.nums().ok()));
+                let albedo_loc = params
+                    .get("albedo", &["rgb", "spectrum", "float", "texture"])?
+                    .map(|p| (p.loc.clone(), p.nums().ok()));
                 if let Some((l, v)) = albedo_loc {
                     let zero = matches!(v.as_deref(), Some(vals) if vals.iter().all(|x| *x == 0.0));
                     if !zero {
@@ -182,19 +260,34 @@ impl Parser {
                 }
                 for n in ["g", "maxdepth", "nsamples"] {
                     if let Some(l) = params.ignore(n) {
-                        self.note(&l, format!("{what}: \"{n}\" ignored (closed-form layer model, no random walk)"));
+                        self.note(
+                            &l,
+                            format!(
+                                "{what}: \"{n}\" ignored (closed-form layer model, no random walk)"
+                            ),
+                        );
                     }
                 }
                 if !(thickness >= 0.0) {
                     return Err(loc.err(format!("{what}: thickness {thickness} must be >= 0")));
                 }
-                Material::CoatedDiffuse { reflectance, roughness, eta, thickness }
+                Material::CoatedDiffuse {
+                    reflectance,
+                    roughness,
+                    eta,
+                    thickness,
+                }
             }
             "mix" => {
-                let p = params.get("materials", &["string"])?.ok_or_else(|| loc.err("material \"mix\": needs \"string materials\" [ \"a\" \"b\" ]"))?;
+                let p = params.get("materials", &["string"])?.ok_or_else(|| {
+                    loc.err("material \"mix\": needs \"string materials\" [ \"a\" \"b\" ]")
+                })?;
                 let names = p.strings()?;
                 let [a, b] = names.as_slice() else {
-                    return Err(p.loc.err(format!("material \"mix\": \"materials\" needs two names, got {}", names.len())));
+                    return Err(p.loc.err(format!(
+                        "material \"mix\": \"materials\" needs two names, got {}",
+                        names.len()
+                    )));
                 };
                 let idx = |n: &String| {
                     self.named_materials.get(n).copied().ok_or_else(|| {
@@ -208,7 +301,9 @@ impl Parser {
             "interface" => Material::Interface,
             "" | "none" => Material::Interface,
             _ => {
-                return Err(loc.err(format!("material type \"{ty}\" is not supported (camsim supports {SUPPORTED})")));
+                return Err(loc.err(format!(
+                    "material type \"{ty}\" is not supported (camsim supports {SUPPORTED})"
+                )));
             }
         };
         params.check_unused(&what)?;
