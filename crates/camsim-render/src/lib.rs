@@ -5,7 +5,8 @@
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
-//! scattering), `lights` (area and infinite lights), [`camera`] (pinhole camera),
+//! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
+//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `lights` (area and infinite lights), [`camera`] (pinhole camera),
 //! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`].
 

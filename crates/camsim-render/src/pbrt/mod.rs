@@ -25,8 +25,18 @@
 //! - World: `WorldBegin`, `Shape` (`trianglemesh`: `P`, `indices`, `uv`, `N`; `bilinearmesh`:
 //!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
 //!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin),
-//!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (`diffuse` with `reflectance` as rgb,
-//!   spectrum, blackbody or a texture; forward references to named materials resolve at the end),
+//!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
+//!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
+//!   `parser/materials.rs`): `diffuse` (`reflectance` as rgb, spectrum, blackbody or a texture),
+//!   `conductor` (`eta`/`k` spectra, default copper, or `reflectance`; `roughness`,
+//!   `uroughness`, `vroughness`, `remaproughness`), `dielectric` (`eta` float or spectrum, e.g.
+//!   `"glass-BK7"`; roughness as conductor), `thindielectric` (`eta`), `diffusetransmission`
+//!   (`reflectance`, `transmittance`, `scale`), `coateddiffuse` (`reflectance`, roughness,
+//!   `thickness`, `eta`; camsim's closed-form layer model, `albedo` must be 0; `g`, `maxdepth`,
+//!   `nsamples` noted and ignored), `mix` (`materials` two named materials defined before,
+//!   `amount`), `interface` (also `""`/`"none"`). Float parameters take numbers, not float
+//!   textures. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
+//!   ([`optical_constants`]),
 //!   `Texture "name" "spectrum" "imagemap"` (PNG via the `image` crate, EXR via the `exr` crate;
 //!   `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`), `scale`,
 //!   `invert`, `uscale`, `vscale`, `udelta`, `vdelta`) and `"constant"` (`value`), float textures
@@ -67,12 +77,14 @@
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` type and
 //! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MediumInterface`;
-//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); `normalmap`; shape
+//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); material `normalmap`,
+//! `bumpmap`, `displacement` (no bump, displacement or normal mapping); shape
 //! `faceIndices`, `S`, `emission`-free `alpha` of 1; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective` and `screenwindow`; materials other than `diffuse` (named in
-//! the message) and `displacement`; textures other than `imagemap` and `constant`, non-`uv`
+//! Cameras other than `perspective` and `screenwindow`; materials other than the eight above
+//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), float textures
+//! as material parameters, `coateddiffuse` with a scattering layer (`albedo` > 0); textures other than `imagemap` and `constant`, non-`uv`
 //! mappings; shapes other than the four above, sphere `zmin`/`zmax`/`phimax`, alpha cut-outs;
 //! lights other than `infinite` (uniform) and diffuse area lights, image lights (`filename`,
 //! `portal`); participating media (`MakeNamedMedium`); `Attribute`; colour spaces other than
