@@ -254,6 +254,32 @@ fn white_diffuse_transmitter_and_perfect_mirror_under_uniform_sky() {
 }
 
 #[test]
+fn conductor_from_reflectance_reflects_it_at_normal_incidence() {
+    // pbrt-v4 maps a conductor's `reflectance` r to eta = 1, k = 2 sqrt(r) / sqrt(1 - r), whose
+    // normal-incidence Fresnel reflectance ((eta-1)^2 + k^2) / ((eta+1)^2 + k^2) is r exactly.
+    // The central 2 x 2 pixels of the mirror sphere filling the view (each pixel 1 degree) see
+    // the sky reflected at incidence angles below 5.7 degrees (sin = 4 sin 1.41 deg), where the
+    // Fresnel reflectance of this conductor departs from r by less than 0.1 %.
+    let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
+    let (l, r) = (1.5, 0.6);
+    let m = Material::Conductor {
+        optics: ConductorOptics::Reflectance(Texture::Constant(flat(r))),
+        roughness: Roughness::SMOOTH,
+    };
+    let (img, _) = sphere_under_sky(vec![m], flat(l), grid, 1, 5);
+    for p in [7 * 16 + 7, 7 * 16 + 8, 8 * 16 + 7, 8 * 16 + 8] {
+        for b in 0..img.bands() {
+            let v = img.band(b)[p] as f64;
+            assert!(
+                (v - r * l).abs() < 2e-3 * r * l,
+                "pixel {p} band {b}: {v} vs r L = {}",
+                r * l
+            );
+        }
+    }
+}
+
+#[test]
 fn mix_reflects_the_amount_weighted_albedo() {
     // Convex diffuse sphere under a uniform sky: L_out = rho L. A mix picking rho = 0.8 with
     // probability 0.25 and rho = 0.2 otherwise reads (0.25 * 0.8 + 0.75 * 0.2) L = 0.35 L.
