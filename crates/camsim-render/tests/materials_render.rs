@@ -537,3 +537,58 @@ fn dispersion_with_hero_wavelength_equals_one_wavelength_per_path() {
         "4-wavelength paths disagree with 1-wavelength paths: {s_ab} vs noise {s_noise}"
     );
 }
+
+#[test]
+fn materials_render_bit_identically_for_one_and_two_threads() {
+    // Mix decisions hash the hit, dispersion terminates by material: nothing depends on the
+    // thread that runs a tile.
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| dispersive_scene(4, 9))
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(
+        a.data
+            .iter()
+            .zip(&b.data)
+            .all(|(x, y)| x.to_bits() == y.to_bits()),
+        "renders differ between 1 and 2 threads"
+    );
+    let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
+    let mix = || {
+        let glass = Material::Dielectric {
+            eta: flat(1.5),
+            roughness: Roughness {
+                u: 0.1,
+                v: 0.1,
+                remap: true,
+            },
+        };
+        vec![
+            Material::Mix {
+                materials: [1, 2],
+                amount: 0.4,
+            },
+            glass,
+            diffuse(0.5),
+        ]
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| sphere_under_sky(mix(), flat(1.0), grid, 8, 10).0)
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(
+        a.data
+            .iter()
+            .zip(&b.data)
+            .all(|(x, y)| x.to_bits() == y.to_bits()),
+        "mix renders differ between 1 and 2 threads"
+    );
+}
