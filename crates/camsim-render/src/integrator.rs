@@ -2,7 +2,7 @@
 //! path integrator: next-event estimation combined with BSDF sampling by multiple importance
 //! sampling (power heuristic), Russian roulette, a maximum depth (pbrt-v4 `PathIntegrator::Li`).
 
-use crate::bsdf::fresnel::fresnel_hemispherical_average;
+use crate::bsdf::fresnel::coating_return_probability;
 use crate::bsdf::{Bsdf, TrowbridgeReitz};
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv};
@@ -57,7 +57,7 @@ pub(crate) enum Mat {
     Dielectric { eta: u32, dispersive: bool, distrib: TrowbridgeReitz },
     ThinDielectric { eta: u32, dispersive: bool },
     DiffuseTransmission { r: Tex, t: Tex, scale: f32 },
-    CoatedDiffuse { r: Tex, eta: f32, distrib: TrowbridgeReitz, thickness: f32, f_int: f32 },
+    CoatedDiffuse { r: Tex, eta: f32, distrib: TrowbridgeReitz, thickness: f32, r_return: f32 },
     Mix { materials: [u32; 2], amount: f32 },
     Interface,
 }
@@ -426,12 +426,12 @@ impl Tracer {
                 }
                 (Bsdf::DiffuseTransmission { r, t }, false)
             }
-            Mat::CoatedDiffuse { r, eta, distrib, thickness, f_int } => {
+            Mat::CoatedDiffuse { r, eta, distrib, thickness, r_return } => {
                 let mut rho = self.eval_texture(r, uv, lambdas);
                 for v in rho.iter_mut() {
                     *v = v.clamp(0.0, 1.0);
                 }
-                (Bsdf::CoatedDiffuse { reflectance: rho, eta: *eta, distrib: *distrib, thickness: *thickness, f_int: *f_int }, false)
+                (Bsdf::CoatedDiffuse { reflectance: rho, eta: *eta, distrib: *distrib, thickness: *thickness, r_return: *r_return }, false)
             }
             // Resolved before (mix) or handled by the tracer (interface): never reached.
             Mat::Mix { .. } | Mat::Interface => (Bsdf::Diffuse { reflectance: [0.0; N] }, false),
@@ -789,15 +789,13 @@ fn compile_material(
                 return Err(err(format!("coated diffuse thickness {thickness} must be >= 0")));
             }
             let eta = *eta as f32;
-            // Cosine-weighted Fresnel average seen from inside the coating:
-            // 1 - F_int = (1 - F_ext) / eta^2.
-            let f_int = 1.0 - (1.0 - fresnel_hemispherical_average(eta)) / (eta * eta);
+            let r_return = coating_return_probability(eta, *thickness as f32);
             Mat::CoatedDiffuse {
                 r: compile_texture(reflectance, mi, ws, tables, images)?,
                 eta,
                 distrib: distribution(roughness, mi)?,
                 thickness: *thickness as f32,
-                f_int,
+                r_return,
             }
         }
         Material::Mix { materials, amount } => {

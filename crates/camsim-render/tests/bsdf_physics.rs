@@ -4,7 +4,9 @@
 //! closed real-arithmetic form (Born & Wolf), the rough -> smooth limit, and the single-scatter
 //! energy loss of rough microfacet reflection (a bound that grows with roughness).
 
-use camsim_render::bsdf::fresnel::{fr_complex, fr_dielectric, fresnel_hemispherical_average};
+use camsim_render::bsdf::fresnel::{
+    coating_return_probability, fr_complex, fr_dielectric, fresnel_hemispherical_average,
+};
 use camsim_render::bsdf::{Bsdf, TrowbridgeReitz};
 use camsim_render::math::V3;
 use rand::Rng;
@@ -150,7 +152,7 @@ fn bsdfs() -> Vec<(String, Bsdf<1>)> {
             eta: 1.5,
             distrib: tr(0.0, 0.0),
             thickness: 0.01,
-            f_int: f_int(1.5),
+            r_return: coating_return_probability(1.5, 0.01),
         },
     ));
     v.push((
@@ -160,14 +162,10 @@ fn bsdfs() -> Vec<(String, Bsdf<1>)> {
             eta: 1.5,
             distrib: tr(0.3, 0.3),
             thickness: 0.01,
-            f_int: f_int(1.5),
+            r_return: coating_return_probability(1.5, 0.01),
         },
     ));
     v
-}
-
-fn f_int(eta: f32) -> f32 {
-    1.0 - (1.0 - fresnel_hemispherical_average(eta)) / (eta * eta)
 }
 
 const INCIDENT_COS: [f64; 3] = [0.95, 0.55, 0.2];
@@ -301,7 +299,7 @@ fn no_bsdf_creates_energy() {
             eta: 1.5,
             distrib: tr(0.0, 0.0),
             thickness: 0.0,
-            f_int: f_int(1.5),
+            r_return: coating_return_probability(1.5, 0.0),
         },
     ));
     all.push((
@@ -311,7 +309,7 @@ fn no_bsdf_creates_energy() {
             eta: 1.5,
             distrib: tr(0.5, 0.5),
             thickness: 0.0,
-            f_int: f_int(1.5),
+            r_return: coating_return_probability(1.5, 0.0),
         },
     ));
     all.push((
@@ -535,36 +533,66 @@ fn nearly_smooth_conductor_albedo_equals_the_smooth_one() {
 }
 
 #[test]
-fn coated_diffuse_albedo_is_the_layer_sum() {
-    // Smooth coating, no absorption: albedo = F(theta_o) + (1 - F(theta_o)) rho (1 - F_int) /
-    // (1 - rho F_int), the sum over all internal bounces (each escaping with 1 - F_int).
-    let (eta, rho) = (1.5f32, 0.6f32);
-    let fi = f_int(eta) as f64;
-    // Cross-check F_int with its definition from inside: the cosine-weighted Fresnel average for
-    // light arriving from the denser side (total internal reflection beyond the critical angle).
-    let n = 20_000;
-    let direct: f64 = (0..n)
-        .map(|i| {
-            let mu = (i as f64 + 0.5) / n as f64;
-            2.0 * mu * fr_dielectric(mu as f32, 1.0 / eta) as f64 / n as f64
-        })
-        .sum();
+fn coated_diffuse_albedo_matches_a_photon_random_walk() {
+    // Thickness 0: the return probability is the internal Fresnel average, which reciprocity
+    // ties to the external one: 1 - F_int = (1 - F_ext) / eta^2.
+    let eta = 1.5f32;
+    let f_int = coating_return_probability(eta, 0.0);
+    let from_ext = 1.0 - (1.0 - fresnel_hemispherical_average(eta)) / (eta * eta);
     assert!(
-        (direct - fi).abs() < 1e-3,
-        "F_int {fi} vs direct average {direct}"
+        (f_int - from_ext).abs() < 1e-4,
+        "F_int {f_int} vs {from_ext}"
     );
+    // Independent reference: photons through pbrt-v4's layered configuration (smooth dielectric
+    // over a Lambertian base, a non-scattering layer of optical depth tau): reflected at the top
+    // with F(cos_o), else refracted and attenuated by exp(-tau / cos_t) on the way down;
+    // absorbed by the base with 1 - rho, else sent up cosine-distributed, attenuated, escaping
+    // with 1 - F_in(mu) or reflected down again (attenuated once more).
+    let (rho, tau) = (0.6f32, 0.05f32);
     let b = Bsdf::<1>::CoatedDiffuse {
         reflectance: [rho],
         eta,
         distrib: tr(0.0, 0.0),
-        thickness: 0.0,
-        f_int: fi as f32,
+        thickness: tau,
+        r_return: coating_return_probability(eta, tau),
     };
-    for ct in [0.9, 0.4, 0.1] {
-        let f = fr_dielectric(ct as f32, eta) as f64;
-        let want = f + (1.0 - f) * rho as f64 * (1.0 - fi) / (1.0 - rho as f64 * fi);
-        let (m, se) = albedo(&b, dir(ct, 0.0), 200_000, 2);
-        eprintln!("coated diffuse cos {ct}: albedo {m:.4} +- {se:.4}, layer sum {want:.4}");
-        assert!((m - want).abs() < 4.0 * se + 1e-3, "{m} vs {want}");
+    let mut rng = camsim_core::rng::seeded(77);
+    for ct in [0.9f32, 0.4, 0.1] {
+        let n = 400_000;
+        let mut escaped = 0usize;
+        for _ in 0..n {
+            if rng.gen::<f32>() < fr_dielectric(ct, eta) {
+                escaped += 1;
+                continue;
+            }
+            let cos_t = (1.0 - (1.0 - ct * ct) / (eta * eta)).sqrt();
+            if rng.gen::<f32>() >= (-tau / cos_t).exp() {
+                continue;
+            }
+            loop {
+                if rng.gen::<f32>() >= rho {
+                    break;
+                }
+                let mu = rng.gen::<f32>().sqrt().max(1e-6);
+                if rng.gen::<f32>() >= (-tau / mu).exp() {
+                    break;
+                }
+                if rng.gen::<f32>() >= fr_dielectric(mu, 1.0 / eta) {
+                    escaped += 1;
+                    break;
+                }
+                if rng.gen::<f32>() >= (-tau / mu).exp() {
+                    break;
+                }
+            }
+        }
+        let walk = escaped as f64 / n as f64;
+        let walk_se = (walk * (1.0 - walk) / n as f64).sqrt();
+        let (m, se) = albedo(&b, dir(ct as f64, 0.0), 200_000, 2);
+        eprintln!("coated diffuse cos {ct}: albedo {m:.4} +- {se:.4}, photon walk {walk:.4} +- {walk_se:.4}");
+        assert!(
+            (m - walk).abs() < 4.5 * (se * se + walk_se * walk_se).sqrt(),
+            "{m} vs walk {walk}"
+        );
     }
 }

@@ -157,3 +157,23 @@ pub fn fresnel_hemispherical_average(eta: f32) -> f32 {
     }
     (2.0 * s * h / 3.0) as f32
 }
+
+/// Probability that light leaving the diffuse base of a coating (cosine-distributed) comes back
+/// to it: internal Fresnel reflection at the top (total beyond the critical angle) with the
+/// layer's attenuation over the way up and down,
+/// `R_ret = int_0^1 2 mu F(mu, 1 / eta) exp(-2 thickness / mu) dmu` (midpoint rule, 4096
+/// points). `thickness` is an optical depth (pbrt-v4 `LayeredBxDF` transmittance
+/// `exp(-thickness / |cos|)`). For thickness 0 this is the internal hemispherical Fresnel
+/// average `F_int = 1 - (1 - F_avg) / eta^2`.
+pub fn coating_return_probability(eta: f32, thickness: f32) -> f32 {
+    let n = 4096;
+    let s: f64 = (0..n)
+        .map(|i| {
+            let mu = (i as f64 + 0.5) / n as f64;
+            2.0 * mu
+                * fr_dielectric(mu as f32, 1.0 / eta) as f64
+                * (-2.0 * thickness as f64 / mu).exp()
+        })
+        .sum();
+    (s / n as f64) as f32
+}

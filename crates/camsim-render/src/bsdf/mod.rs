@@ -47,23 +47,27 @@ pub enum Bsdf<const N: usize> {
     /// other side (pbrt-v4 `DiffuseTransmissionBxDF`).
     DiffuseTransmission { r: [f32; N], t: [f32; N] },
     /// A dielectric coating (relative index `eta`, roughness `distrib`) over a Lambertian base of
-    /// albedo `reflectance`, as a closed-form energy-conserving approximation (not pbrt-v4's
-    /// stochastic `CoatedDiffuseBxDF`): specular (or microfacet) reflection by the coating plus a
-    /// diffuse lobe
-    /// `f_d = rho (1 - F(cos_o)) (1 - F(cos_i)) A(o) A(i) / (pi eta^2 (1 - rho F_int))`,
-    /// where `F` is the smooth-interface Fresnel reflectance, `F_int` the cosine-weighted Fresnel
-    /// average seen from inside (`fresnel_hemispherical_average`), and
-    /// `A(x) = exp(-thickness / cos theta_t(x))` the attenuation of one pass through the layer
-    /// along the refracted direction (pbrt-v4's layer transmittance for albedo 0). Inter-
-    /// reflections inside the layer are summed as the geometric series `1 / (1 - rho F_int)`
-    /// (Kelemen & Szirmay-Kalos 2001; Weidlich & Wilkie 2007) without their layer attenuation.
+    /// albedo `reflectance`, in closed form (not pbrt-v4's stochastic `CoatedDiffuseBxDF` random
+    /// walk): the coating's reflection (specular, or Trowbridge-Reitz microfacet when rough) plus
+    /// a diffuse lobe
+    /// `f_d = rho (1 - F(cos_o)) (1 - F(cos_i)) A(o) A(i) / (pi eta^2 (1 - rho R_ret))`,
+    /// where `F` is the smooth-interface Fresnel reflectance, `A(x) = exp(-thickness /
+    /// cos theta_t(x))` the attenuation of one pass through the layer along the refracted
+    /// direction (pbrt-v4's layer transmittance with albedo 0), and `R_ret`
+    /// (`fresnel::coating_return_probability`) the probability that light leaving the base
+    /// returns to it after internal reflection; `1 / (1 - rho R_ret)` sums the inter-reflections
+    /// (Kelemen & Szirmay-Kalos 2001; Weidlich & Wilkie 2007). For a smooth coating this is the
+    /// exact solution of pbrt-v4's configuration (smooth dielectric over a Lambertian base,
+    /// non-scattering layer), which pbrt estimates stochastically; for a rough coating the
+    /// diffuse part keeps the smooth-interface transmission (an approximation that conserves
+    /// energy but, like every single-scattering microfacet model, loses some at grazing angles).
     /// Reflects on both sides (pbrt-v4's coated diffuse is two-sided).
     CoatedDiffuse {
         reflectance: [f32; N],
         eta: f32,
         distrib: TrowbridgeReitz,
         thickness: f32,
-        f_int: f32,
+        r_return: f32,
     },
 }
 
@@ -121,7 +125,7 @@ struct Coated<'a, const N: usize> {
     eta: f32,
     distrib: TrowbridgeReitz,
     thickness: f32,
-    f_int: f32,
+    r_return: f32,
 }
 
 impl<const N: usize> Coated<'_, N> {
@@ -136,7 +140,7 @@ impl<const N: usize> Coated<'_, N> {
     #[inline]
     fn diffuse(&self, wo: &V3, wi: &V3) -> [f32; N] {
         let k = self.entry(wo.z) * self.entry(wi.z) * FRAC_1_PI / (self.eta * self.eta);
-        std::array::from_fn(|i| self.rho[i] * k / (1.0 - self.rho[i] * self.f_int))
+        std::array::from_fn(|i| self.rho[i] * k / (1.0 - self.rho[i] * self.r_return))
     }
     /// Probability of sampling the coating's reflection rather than the diffuse lobe.
     #[inline]
@@ -270,7 +274,7 @@ impl<const N: usize> Bsdf<N> {
                 eta,
                 distrib,
                 thickness,
-                f_int,
+                r_return,
             } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
@@ -283,7 +287,7 @@ impl<const N: usize> Bsdf<N> {
                     eta: *eta,
                     distrib: *distrib,
                     thickness: *thickness,
-                    f_int: *f_int,
+                    r_return: *r_return,
                 }
                 .eval(&wo, &wi)
             }
@@ -421,7 +425,7 @@ impl<const N: usize> Bsdf<N> {
                 eta,
                 distrib,
                 thickness,
-                f_int,
+                r_return,
             } => {
                 let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
                 let wo_up = V3::new(wo.x, wo.y, wo.z * s);
@@ -433,7 +437,7 @@ impl<const N: usize> Bsdf<N> {
                     eta: *eta,
                     distrib: *distrib,
                     thickness: *thickness,
-                    f_int: *f_int,
+                    r_return: *r_return,
                 };
                 let ps = c.p_spec(&wo_up);
                 let flip = |w: V3| V3::new(w.x, w.y, w.z * s);

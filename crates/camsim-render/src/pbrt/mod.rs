@@ -32,7 +32,8 @@
 //!   `uroughness`, `vroughness`, `remaproughness`), `dielectric` (`eta` float or spectrum, e.g.
 //!   `"glass-BK7"`; roughness as conductor), `thindielectric` (`eta`), `diffusetransmission`
 //!   (`reflectance`, `transmittance`, `scale`), `coateddiffuse` (`reflectance`, roughness,
-//!   `thickness`, `eta`; camsim's closed-form layer model, `albedo` must be 0; `g`, `maxdepth`,
+//!   `thickness`, `eta`; camsim's closed-form layer model, exact for a smooth coating, see
+//!   [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must be 0; `g`, `maxdepth`,
 //!   `nsamples` noted and ignored), `mix` (`materials` two named materials defined before,
 //!   `amount`), `interface` (also `""`/`"none"`). Float parameters take numbers, not float
 //!   textures. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
