@@ -276,3 +276,41 @@ fn mix_cycles_and_bad_values_are_render_errors_not_panics() {
         "NaN roughness"
     );
 }
+
+#[test]
+fn overlay_replacement_keeps_mix_references_inside_the_inserted_scene() {
+    use camsim_render::builtin::{self, BuiltinOptions};
+    let mut s = builtin::scene("cornell-box-mcc", &BuiltinOptions::default()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("obj.pbrt"),
+        "WorldBegin\nMakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n\
+         MakeNamedMaterial \"b\" \"string type\" \"conductor\"\n\
+         MakeNamedMaterial \"m\" \"string type\" \"mix\" \"string materials\" [\"a\" \"b\"]\n\
+         NamedMaterial \"m\"\nShape \"sphere\" \"float radius\" 0.1\n",
+    )
+    .unwrap();
+    camsim_render::overlay::apply(
+        &mut s,
+        "[[object]]\nname = \"tall_block\"\nreplace = { file = \"obj.pbrt\" }\n",
+        "t",
+        dir.path(),
+    )
+    .unwrap();
+    let sh = s
+        .shapes
+        .iter()
+        .find(|x| x.name.as_deref() == Some("tall_block"))
+        .unwrap();
+    let Material::Mix { materials, .. } = &s.materials[sh.material] else {
+        panic!("{:?}", s.materials[sh.material]);
+    };
+    assert!(matches!(
+        s.materials[materials[0]],
+        Material::Diffuse { .. }
+    ));
+    assert!(matches!(
+        s.materials[materials[1]],
+        Material::Conductor { .. }
+    ));
+}
