@@ -295,6 +295,14 @@ impl Parser {
                     })
                 };
                 let materials = [idx(a)?, idx(b)?];
+                // As pbrt-v4: a mix chooses between surfaces, not between a surface and none.
+                for (n, &i) in [a, b].into_iter().zip(&materials) {
+                    if matches!(self.materials[i], Material::Interface) {
+                        return Err(p.loc.err(format!(
+                            "material \"mix\": \"{n}\" is an \"interface\" material, which cannot be mixed"
+                        )));
+                    }
+                }
                 let amount = self.float_param(params, "amount", 0.5, &what)?;
                 Material::Mix { materials, amount }
             }
