@@ -7,7 +7,7 @@
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
 //! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `lights` (area and infinite lights), [`camera`] (pinhole camera),
-//! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
+//! `materials` (materials compiled for the tracer), `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`].
 
 pub mod scene;
@@ -18,6 +18,7 @@ pub mod camera;
 pub mod geometry;
 mod integrator;
 mod lights;
+mod materials;
 pub mod math;
 pub mod render;
 pub mod sampling;
