@@ -6,8 +6,10 @@
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
-//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `lights` (area and infinite lights), [`camera`] (pinhole camera),
-//! `materials` (materials compiled for the tracer), `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
+//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `lights` (area
+//! and infinite lights), [`camera`] (pinhole camera), `materials` (materials compiled for the
+//! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
+//! statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`].
 
 pub mod scene;
