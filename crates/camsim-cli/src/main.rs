@@ -22,6 +22,7 @@ Examples:
   camsim presets                                  list built-in sensors, optics and scenes
   camsim render --builtin cornell-box-mcc --out out/render-box-mcc
   camsim validate cornell-box --out out/report    the paper's validation, with report.html
+  camsim dataset --out out/dataset                48 captures as WebDataset shards + manifest
 
 Output folders (--out) always hold one complete run: a command writes into a fresh sibling
 folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
@@ -66,6 +67,7 @@ enum Commands {
     #[command(subcommand)]
     Fit(cmd::fit::Command),
     Validate(cmd::validate::Args),
+    Dataset(cmd::dataset::Args),
 }
 
 fn main() {
@@ -101,6 +103,7 @@ fn main() {
         Commands::Analyze(c) => cmd::analyze::run(c),
         Commands::Fit(c) => cmd::fit::run(c),
         Commands::Validate(a) => cmd::validate::run(a),
+        Commands::Dataset(a) => cmd::dataset::run(a),
     });
     if camsim_io::atomic::interrupted() {
         // The interrupt handler is removing the temporaries and will exit with 130; an error the

@@ -2,6 +2,7 @@
 //! isp) and the end-to-end run that writes the standard files. Wiring only: each stage's
 //! physics lives in its own crate.
 
+pub mod emva;
 pub mod error;
 pub mod outputs;
 pub mod render;
@@ -206,7 +207,9 @@ impl SimulateConfig {
         }
     }
 
-    fn resolve_paths(&mut self, base: &Path) {
+    /// Make the relative paths in the config (scene, pbrt, overlay, lens, sensor and QE files)
+    /// relative to `base` (the folder of the file the config came from).
+    pub fn resolve_paths(&mut self, base: &Path) {
         let fix = |p: &mut PathBuf| {
             if p.is_relative() {
                 *p = base.join(&*p);

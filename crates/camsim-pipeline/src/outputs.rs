@@ -51,6 +51,11 @@ impl Default for OutputSet {
 }
 
 impl OutputSet {
+    /// No output file (run.json only).
+    pub fn none() -> Self {
+        OutputSet(BTreeSet::new())
+    }
+
     /// Every output.
     pub fn all() -> Self {
         OutputSet(Output::ALL.into_iter().collect())

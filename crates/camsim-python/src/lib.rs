@@ -567,6 +567,29 @@ fn emva_json(
     serde_json::to_string(&res).map_err(err)
 }
 
+/// EMVA 1288 of a series on disk: the series CSV (as `camsim analyze emva` reads it) and its raw
+/// frames. Returns the `emva.json` record as JSON; with `out` also writes emva.json, ptc.png and
+/// snr.png there (the folder must exist).
+#[pyfunction]
+#[pyo3(signature = (csv, out = None, cfa = None, bits = 16, black_level = 0.0))]
+fn emva_series_json(py: Python<'_>, csv: std::path::PathBuf, out: Option<std::path::PathBuf>, cfa: Option<&str>, bits: u32, black_level: f64) -> PyResult<String> {
+    use camsim::pipeline::emva::{analyze_series, MosaicFormat};
+    let cfa = cfa.map(CfaPattern::parse).transpose().map_err(err)?;
+    let format = MosaicFormat { cfa, black_dn: black_level, bits };
+    let json = py
+        .detach(|| -> Result<serde_json::Value, String> {
+            let series = analyze_series(&csv, format, &Default::default(), &|_, _, _| {}).map_err(|e| e.to_string())?;
+            let json = series.to_json();
+            if let Some(dir) = &out {
+                camsim::io::atomic::write_json_atomic(&dir.join("emva.json"), &json).map_err(|e| e.to_string())?;
+                series.write_plots(dir).map_err(|e| e.to_string())?;
+            }
+            Ok(json)
+        })
+        .map_err(err)?;
+    serde_json::to_string(&json).map_err(err)
+}
+
 /// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
 #[pyfunction]
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
@@ -602,6 +625,7 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(fit_qe_json, m)?,
         wrap_pyfunction!(read_dng, m)?,
         wrap_pyfunction!(emva_json, m)?,
+        wrap_pyfunction!(emva_series_json, m)?,
     ] {
         m.add_function(f)?;
     }

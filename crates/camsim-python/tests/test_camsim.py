@@ -271,3 +271,44 @@ def test_emva_of_a_simulated_series_recovers_the_sensor_gain():
         assert abs(k - k_dn_per_e) < tol, (r["channel"], k, se, k_dn_per_e)
     with pytest.raises(camsim.CamsimError, match="exposures"):
         camsim.emva(np.array(bright), np.array(dark), times[:-1])
+
+
+def test_emva_series_from_files_equals_the_array_analysis(tmp_path):
+    # The same frames as 16-bit PNG mosaics listed in a series CSV, as `camsim analyze emva` reads
+    # them: the file route must give the array route's numbers exactly.
+    from PIL import Image
+
+    wl = np.arange(400, 701, 10.0)
+    flat = np.full((len(wl), 64, 64), 1e-3, np.float32)
+    sens = camsim.presets.sensor("pixel4a")
+    sens["analog_offset_mv"] = 50.0
+    times = [1e-3, 3e-3, 6e-3, 10e-3]
+    bright, dark, lines = [], [], ["exposure_s,photons_per_pixel,bright_0,bright_1,dark_0,dark_1"]
+    for i, t in enumerate(times):
+        b = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=10 + i, rows=64, cols=64)
+        d = camsim.sensor(flat * 0, wl, 1.4e-6, sensor=sens, exposure_s=t, frames=2, seed=100 + i, rows=64, cols=64)
+        bright.append(b["raw"])
+        dark.append(d["raw"])
+        names = []
+        for kind, frames in (("b", b["raw"]), ("d", d["raw"])):
+            for f in range(2):
+                name = f"{kind}{i}_{f}.png"
+                Image.fromarray(frames[f].astype(np.uint16)).save(tmp_path / name)
+                names.append(name)
+        lines.append(f"{t},," + ",".join(names))
+    (tmp_path / "series.csv").write_text("\n".join(lines) + "\n")
+    out = tmp_path / "report"
+    out.mkdir()
+    rec = camsim.emva_series(tmp_path / "series.csv", out=out, cfa="RGGB", bits=12, black_level=b["black_level"])
+    arr = camsim.emva(np.array(bright), np.array(dark), times, cfa="RGGB", bits=12, black_level=b["black_level"])
+    assert rec["levels"] == len(times) and rec["frame_size"] == [64, 64]
+    for f, a in zip(rec["channels"], arr):
+        assert f["result"]["system_gain_dn_per_e"] == a["result"]["system_gain_dn_per_e"]
+        assert f["result"]["temporal_dark_noise_e"] == a["result"]["temporal_dark_noise_e"]
+    for name in ("emva.json", "ptc.png", "snr.png"):
+        assert (out / name).stat().st_size > 0
+    # A frame the CSV names but that does not exist: an error naming the CSV and its line.
+    lines[2] = lines[2].replace("b1_0.png", "missing.png")
+    (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(camsim.CamsimError, match=r"bad\.csv.*line 3.*missing\.png"):
+        camsim.emva_series(tmp_path / "bad.csv", cfa="RGGB", bits=12)

@@ -905,30 +905,18 @@ pub fn mcc_corners_px(opts: &BuiltinOptions) -> Result<[[f64; 2]; 4], BuiltinErr
 /// patch side in pixels at the chart's distance.
 pub fn mcc_patch_centers_px(opts: &BuiltinOptions) -> Result<(Vec<[f64; 2]>, f64), BuiltinError> {
     let s = scene("cornell-box-mcc", opts)?;
-    let l = mcc_layout(&opts.mcc_position)?;
-    let pts: Option<Vec<[f64; 2]>> = l
-        .patch_centers
-        .iter()
-        .map(|c| project_to_raster(&s.camera, *c))
-        .collect();
+    mcc_patch_centers_on(&s.camera, &opts.mcc_position)
+}
+
+/// [`mcc_patch_centers_px`] seen through any `camera` (e.g. the built-in camera after the
+/// pipeline matched its field of view to a sensor): the 24 patch centres in raster coordinates
+/// and the patch side in pixels.
+pub fn mcc_patch_centers_on(camera: &Camera, position: &MccPosition) -> Result<(Vec<[f64; 2]>, f64), BuiltinError> {
+    let l = mcc_layout(position)?;
+    let pts: Option<Vec<[f64; 2]>> = l.patch_centers.iter().map(|c| project_to_raster(camera, *c)).collect();
     let pts = pts.ok_or_else(|| berr("ColorChecker", "behind the camera"))?;
-    let a = project_to_raster(
-        &s.camera,
-        [
-            l.patch_centers[0][0] + MCC_PATCH_M / 2.0,
-            l.patch_centers[0][1],
-            l.patch_centers[0][2],
-        ],
-    )
-    .unwrap_or([0.0; 2]);
-    let bpx = project_to_raster(
-        &s.camera,
-        [
-            l.patch_centers[0][0] - MCC_PATCH_M / 2.0,
-            l.patch_centers[0][1],
-            l.patch_centers[0][2],
-        ],
-    )
-    .unwrap_or([0.0; 2]);
+    let c0 = l.patch_centers[0];
+    let a = project_to_raster(camera, [c0[0] + MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
+    let bpx = project_to_raster(camera, [c0[0] - MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
     Ok((pts, (bpx[0] - a[0]).abs()))
 }

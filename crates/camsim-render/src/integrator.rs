@@ -8,9 +8,10 @@ use crate::geometry::{Prim, Ray, RayInv};
 use crate::lights::{LightKind, LightSample, Lights};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
-use crate::sampling::{self, power_heuristic};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
-use crate::scene::{Geometry, Light, SceneDescription, Texture};
+use crate::sampling::power_heuristic;
+use crate::scene::{Geometry, SceneDescription};
+use crate::texture::{eval_float, FTex, Tex, TexCtx};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use rand::Rng as _;
 
@@ -36,15 +37,6 @@ pub(crate) struct MeshShading {
     pub indices: Vec<[u32; 3]>,
     pub uvs: Option<Vec<[f32; 2]>>,
     pub normals: Option<Vec<V3>>,
-}
-
-/// A reflectance texture, compiled.
-#[derive(Debug, Clone)]
-pub(crate) enum Tex {
-    /// Index into `Tracer::tables`.
-    Table(u32),
-    /// Index into `Tracer::images`.
-    Image(u32),
 }
 
 /// Most `interface` surfaces one path passes through before it is ended (a guard against
@@ -258,15 +250,7 @@ impl Tracer {
             }
         }
         for (li, l) in scene.lights.iter().enumerate() {
-            match l {
-                Light::Infinite { radiance } => {
-                    if let Err(e) = radiance.require_non_negative("infinite light radiance") {
-                        return Err(RenderError::Light { index: li, message: e.to_string() });
-                    }
-                    tables.push(SpectrumTable::new(radiance, 1.0, ws));
-                    lights.push(LightKind::Infinite, (tables.len() - 1) as u32, true);
-                }
-            }
+            lights.add_scene_light(l, ws, &mut tables).map_err(|message| RenderError::Light { index: li, message })?;
         }
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
@@ -357,21 +341,62 @@ impl Tracer {
         }
     }
 
+    /// A spectrum texture at a hit, at the path's wavelengths (`crate::texture`).
     #[inline]
-    pub(crate) fn eval_texture<const N: usize>(&self, tex: &Tex, uv: [f32; 2], lambdas: &Lambdas<N>) -> [f32; N] {
-        let mut out = [0f32; N];
+    pub(crate) fn eval_texture<const N: usize>(&self, tex: &Tex, ctx: &TexCtx, lambdas: &Lambdas<N>) -> [f32; N] {
         match tex {
-            Tex::Table(t) => out = self.tables[*t as usize].eval_path(lambdas),
+            Tex::Table(t) => self.tables[*t as usize].eval_path(lambdas),
             Tex::Image(im) => {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
-                let rgb = self.images[*im as usize].lookup(uv);
+                let rgb = self.images[*im as usize].lookup(ctx.uv);
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
-                for i in 0..N {
-                    out[i] = poly.eval(lambdas.nm[i] as f64) as f32;
+                std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
+            }
+            Tex::Checker(c, map) => {
+                let (s, t) = map.st(ctx.uv);
+                let k = crate::texture::checker_weight(s, t) as usize;
+                self.eval_texture(&c[k], ctx, lambdas)
+            }
+            Tex::Scale(t, sc) => {
+                // pbrt-v4 SpectrumScaledTexture: a zero scale short-circuits.
+                let k = eval_float(sc, ctx);
+                if k == 0.0 {
+                    return [0.0; N];
                 }
+                self.eval_texture(t, ctx, lambdas).map(|v| v * k)
+            }
+            Tex::Mix(c, amount) => {
+                let amt = eval_float(amount, ctx);
+                let a = if amt != 1.0 { self.eval_texture(&c[0], ctx, lambdas) } else { [0.0; N] };
+                let b = if amt != 0.0 { self.eval_texture(&c[1], ctx, lambdas) } else { [0.0; N] };
+                std::array::from_fn(|i| (1.0 - amt) * a[i] + amt * b[i])
+            }
+            Tex::DirMix(c, dir) => {
+                let amt = ctx.n.dot(*dir).abs();
+                let a = if amt != 0.0 { self.eval_texture(&c[0], ctx, lambdas) } else { [0.0; N] };
+                let b = if amt != 1.0 { self.eval_texture(&c[1], ctx, lambdas) } else { [0.0; N] };
+                std::array::from_fn(|i| amt * a[i] + (1.0 - amt) * b[i])
+            }
+            Tex::Bilerp(t, map) => {
+                let (s, tt) = map.st(ctx.uv);
+                let w = crate::texture::bilerp_weights(s, tt);
+                let mut out = [0f32; N];
+                for k in 0..4 {
+                    let v = self.tables[t[k] as usize].eval_path(lambdas);
+                    for i in 0..N {
+                        out[i] += w[k] * v[i];
+                    }
+                }
+                out
             }
         }
-        out
+    }
+
+    /// A float texture at a hit (`crate::texture`).
+    #[inline]
+    #[allow(dead_code)] // consumed by materials with float parameters
+    pub(crate) fn eval_float_texture(&self, tex: &FTex, ctx: &TexCtx) -> f32 {
+        eval_float(tex, ctx)
     }
 
     #[inline(always)]
@@ -457,13 +482,8 @@ impl Tracer {
             let Some(h) = hit else {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
-                    let light = &self.lights.list[li as usize];
-                    let le = self.tables[light.table as usize].eval_path(lambdas);
-                    let w = if depth == 0 || prev_specular {
-                        1.0
-                    } else {
-                        power_heuristic(prev_bsdf_pdf, light.pmf * sampling::UNIFORM_SPHERE_PDF)
-                    };
+                    let (le, light_pdf) = self.lights.escaped(li, ray.d, &self.tables, lambdas);
+                    let w = if depth == 0 || prev_specular { 1.0 } else { power_heuristic(prev_bsdf_pdf, light_pdf) };
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }
@@ -507,7 +527,8 @@ impl Tracer {
             depth += 1;
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
-            let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, sh.uv, lambdas, outside);
+            let ctx = TexCtx { uv: sh.uv, n: sh.ng };
+            let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each
                 // of them) follows this path from here on, weighted by N so the band estimate
@@ -531,7 +552,7 @@ impl Tracer {
                 let u0: f32 = rng.gen();
                 let u1: f32 = rng.gen();
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
-                    let LightSample { wi, dist, p_light, n_light, le, pdf } = ls;
+                    let LightSample { wi, dist, p_light, n_light, le, pdf, delta } = ls;
                     let cos_g = wi.dot(ng);
                     if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
                         let wi_local = frame.to_local(wi);
@@ -540,7 +561,9 @@ impl Tracer {
                             counts.shadow += 1;
                             let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
                             if self.unoccluded(p_from, wi, dist, p_light, n_light) {
-                                let w = power_heuristic(pdf, bsdf_pdf) * wi_local.z.abs() / pdf;
+                                // Delta lights cannot be hit by BSDF samples: no MIS weight.
+                                let mis = if delta { 1.0 } else { power_heuristic(pdf, bsdf_pdf) };
+                                let w = mis * wi_local.z.abs() / pdf;
                                 for i in 0..N {
                                     l[i] += beta[i] * f[i] * le[i] * w;
                                 }
@@ -602,45 +625,6 @@ impl Tracer {
         match self.intersect(r) {
             Some(h) => h.t * r.d.dot(forward),
             None => f32::INFINITY,
-        }
-    }
-}
-
-pub(crate) fn compile_texture(
-    t: &Texture,
-    material_index: usize,
-    ws: &WavelengthSampler,
-    tables: &mut Vec<SpectrumTable>,
-    images: &mut Vec<ImageTex>,
-) -> Result<Tex, RenderError> {
-    match t {
-        Texture::Constant(s) => {
-            if let Err(e) = s.require_non_negative("reflectance") {
-                return Err(RenderError::Material { index: material_index, message: e.to_string() });
-            }
-            tables.push(SpectrumTable::new(s, 1.0, ws));
-            Ok(Tex::Table((tables.len() - 1) as u32))
-        }
-        Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta } => {
-            if *width == 0 || *height == 0 || rgb.len() != width * height {
-                return Err(RenderError::Material {
-                    index: material_index,
-                    message: format!("image texture of {width} x {height} pixels has {} values", rgb.len()),
-                });
-            }
-            if rgb.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(RenderError::Material { index: material_index, message: "image texture has a non-finite value".into() });
-            }
-            images.push(ImageTex {
-                width: *width,
-                height: *height,
-                rgb: rgb.clone(),
-                uscale: *uscale as f32,
-                vscale: *vscale as f32,
-                udelta: *udelta as f32,
-                vdelta: *vdelta as f32,
-            });
-            Ok(Tex::Image((images.len() - 1) as u32))
         }
     }
 }

@@ -6,17 +6,20 @@
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
-//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `lights` (area
-//! and infinite lights), [`camera`] (pinhole camera), `materials` (materials compiled for the
+//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
+//! (texture graphs), `lights` (area, infinite, point, spot and distant lights), [`envmap`]
+//! (environment maps), [`camera`] (pinhole camera), `materials` (materials compiled for the
 //! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
 //! statistics).
-//! The scene contract shared with the pbrt-v4 reader is [`scene`].
+//! The scene contract shared with the pbrt-v4 reader is [`scene`]; [`shapes`] turns disks,
+//! cylinders and Loop subdivision surfaces into triangles.
 
 pub mod scene;
 
 pub mod bsdf;
 pub mod bvh;
 pub mod camera;
+pub mod envmap;
 pub mod geometry;
 mod integrator;
 mod lights;
@@ -25,8 +28,10 @@ pub mod math;
 pub mod render;
 pub mod sampling;
 pub mod spectral;
+mod texture;
 
 pub mod pbrt;
+pub mod shapes;
 pub mod builtin;
 pub mod overlay;
 pub mod uplift;

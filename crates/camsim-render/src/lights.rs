@@ -1,11 +1,16 @@
-//! Light sources: diffuse area lights on triangles and spheres (one- or two-sided) and a uniform
-//! infinite light. Lights are chosen with probability proportional to their power (pbrt-v4
-//! `PowerLightSampler`); points on triangles are sampled uniformly by area, spheres seen from
-//! outside uniformly within the cone they subtend, from inside uniformly by area.
+//! Light sources: diffuse area lights on triangles and spheres (one- or two-sided), a uniform
+//! infinite light, image environment lights (`crate::envmap`), and the delta lights point, spot
+//! and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
+//! with probability proportional to their power (pbrt-v4 `PowerLightSampler`); points on
+//! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
+//! they subtend, from inside uniformly by area; environment maps by their piecewise-constant
+//! texel distribution.
 
 use crate::math::V3;
 use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
-use crate::spectral::{Lambdas, SpectrumTable};
+use crate::envmap::EnvLight;
+use crate::scene::Light;
+use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use std::f32::consts::PI;
 
 /// The shape of a light.
@@ -17,6 +22,26 @@ pub(crate) enum LightKind {
     Sphere { center: V3, radius: f32, inward: bool },
     /// Uniform radiance from every direction.
     Infinite,
+    /// Environment map: index into `Lights::envs`.
+    Env(u32),
+    /// Isotropic point source (table: intensity, W/(sr nm)).
+    Point { p: V3 },
+    /// Spot light (pbrt-v4 `SpotLight`): unit `axis` it points along, cosines of the full cone
+    /// angle (`cos_end`) and of the start of the falloff (`cos_start`).
+    Spot { p: V3, axis: V3, cos_end: f32, cos_start: f32 },
+    /// Distant light: `to_light` is the unit direction toward the light (table: irradiance
+    /// W/(m^2 nm) on a surface facing it).
+    Distant { to_light: V3 },
+}
+
+/// pbrt-v4 `SmoothStep(a, b, x)`: 0 below `a`, 1 above `b`, `3t^2 - 2t^3` between.
+#[inline(always)]
+pub(crate) fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    if a == b {
+        return if x < a { 0.0 } else { 1.0 };
+    }
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 /// One light: shape, radiance table (W/(sr m^2 nm)), sidedness and selection probability.
@@ -35,6 +60,8 @@ pub(crate) struct Lights {
     cdf: Vec<f64>,
     /// Indices of infinite lights (evaluated when a ray escapes).
     pub infinite: Vec<u32>,
+    /// Environment maps (`LightKind::Env`).
+    pub envs: Vec<EnvLight>,
 }
 
 /// A sampled light direction from a reference point.
@@ -49,16 +76,20 @@ pub(crate) struct LightSample<const N: usize> {
     /// Unit surface normal of the light at `p_light`, as the shape defines it (zero for the
     /// infinite light); the shadow ray's end is offset along it (pbrt-v4 `SpawnRayTo`).
     pub n_light: V3,
-    /// Emitted radiance toward the reference point.
+    /// Emitted radiance toward the reference point; for delta lights the incident irradiance
+    /// factor (`I / r^2`, or `E`), so that `f le cos / pdf` is the estimate for every light.
     pub le: [f32; N],
-    /// Density per steradian, including the light selection probability.
+    /// Density per steradian, including the light selection probability (for delta lights the
+    /// selection probability alone).
     pub pdf: f32,
+    /// The light is a delta light (no MIS: BSDF sampling cannot find it).
+    pub delta: bool,
 }
 
 impl Lights {
     /// Add a light; returns its index.
     pub(crate) fn push(&mut self, kind: LightKind, table: u32, two_sided: bool) -> u32 {
-        if matches!(kind, LightKind::Infinite) {
+        if matches!(kind, LightKind::Infinite | LightKind::Env(_)) {
             self.infinite.push(self.list.len() as u32);
         }
         self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0 });
@@ -86,6 +117,17 @@ impl Lights {
                     LightKind::Tri { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Sphere { radius, .. } => p * sides * 4.0 * p * (radius as f64).powi(2) * lmean,
                     LightKind::Infinite => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean,
+                    // pbrt-v4 ImageInfiniteLight::Phi: 4 pi pi r^2 times the mean radiance.
+                    LightKind::Env(e) => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean * self.envs[e as usize].mean_scale,
+                    // pbrt-v4 PointLight::Phi = 4 pi I.
+                    LightKind::Point { .. } => 4.0 * p * lmean,
+                    // pbrt-v4 SpotLight::Phi = I 2 pi ((1 - cos_start) + (cos_start - cos_end) / 2).
+                    LightKind::Spot { cos_end, cos_start, .. } => {
+                        let (ce, cs) = (cos_end as f64, cos_start as f64);
+                        lmean * 2.0 * p * ((1.0 - cs) + (cs - ce) / 2.0)
+                    }
+                    // pbrt-v4 DistantLight::Phi = pi r^2 E.
+                    LightKind::Distant { .. } => p * (scene_radius_m as f64).powi(2) * lmean,
                 }
             })
             .collect();
@@ -130,7 +172,7 @@ impl Lights {
                 let _ = ng;
                 out != inward
             }
-            LightKind::Infinite => false,
+            _ => false,
         }
     }
 
@@ -159,7 +201,87 @@ impl Lights {
                 }
             },
             LightKind::Infinite => light.pmf * UNIFORM_SPHERE_PDF,
+            LightKind::Env(e) => light.pmf * self.envs[e as usize].pdf_dir(d / dist2.sqrt()),
+            _ => 0.0,
         }
+    }
+
+    /// Radiance of infinite light `li` (uniform or map) seen along the escaping direction `dir`
+    /// (unit), and the density per steradian (times the selection probability) with which
+    /// [`Lights::sample`] would have chosen that direction.
+    #[inline]
+    pub(crate) fn escaped<const N: usize>(&self, li: u32, dir: V3, tables: &[SpectrumTable], lambdas: &Lambdas<N>) -> ([f32; N], f32) {
+        let light = &self.list[li as usize];
+        let table = &tables[light.table as usize];
+        match light.kind {
+            LightKind::Env(e) => {
+                let env = &self.envs[e as usize];
+                let (texel, pdf) = env.lookup(dir);
+                (env.radiance(texel, table, lambdas), light.pmf * pdf)
+            }
+            _ => (table.eval_path(lambdas), light.pmf * UNIFORM_SPHERE_PDF),
+        }
+    }
+
+    /// Add a non-shape scene light (validated; spectra tabulated into `tables`).
+    pub(crate) fn add_scene_light(&mut self, l: &Light, ws: &WavelengthSampler, tables: &mut Vec<SpectrumTable>) -> Result<(), String> {
+        let unit = |d: [f64; 3], what: &str| -> Result<V3, String> {
+            let v = V3::from_f64(d);
+            let len = v.length();
+            if len > 0.0 && len.is_finite() {
+                Ok(v / len)
+            } else {
+                Err(format!("{what} {d:?} is not a usable direction"))
+            }
+        };
+        let finite_point = |p: [f64; 3]| -> Result<V3, String> {
+            if p.iter().all(|v| v.is_finite()) {
+                Ok(V3::from_f64(p))
+            } else {
+                Err(format!("light position {p:?} m is not finite"))
+            }
+        };
+        let mut table = |s: &camsim_core::Spectrum, what: &str| -> Result<u32, String> {
+            s.require_non_negative(what).map_err(|e| e.to_string())?;
+            tables.push(SpectrumTable::new(s, 1.0, ws));
+            Ok((tables.len() - 1) as u32)
+        };
+        match l {
+            Light::Infinite { radiance } => {
+                let t = table(radiance, "infinite light radiance")?;
+                self.push(LightKind::Infinite, t, true);
+            }
+            Light::Point { position_m, intensity } => {
+                let p = finite_point(*position_m)?;
+                let t = table(intensity, "point light intensity")?;
+                self.push(LightKind::Point { p }, t, true);
+            }
+            Light::Spot { position_m, direction, intensity, cone_angle_deg, cone_delta_deg } => {
+                let p = finite_point(*position_m)?;
+                let axis = unit(*direction, "spot light direction")?;
+                if !(cone_angle_deg.is_finite() && cone_delta_deg.is_finite() && *cone_angle_deg > 0.0 && *cone_delta_deg >= 0.0) {
+                    return Err(format!("spot light cone angle {cone_angle_deg} deg / delta {cone_delta_deg} deg are invalid"));
+                }
+                // pbrt-v4 SpotLight: cosFalloffEnd = cos(coneangle), cosFalloffStart =
+                // cos(coneangle - conedelta).
+                let cos_end = cone_angle_deg.to_radians().cos() as f32;
+                let cos_start = (cone_angle_deg - cone_delta_deg).to_radians().cos() as f32;
+                let t = table(intensity, "spot light intensity")?;
+                self.push(LightKind::Spot { p, axis, cos_end, cos_start }, t, true);
+            }
+            Light::Distant { direction, irradiance } => {
+                let d = unit(*direction, "distant light direction")?;
+                let t = table(irradiance, "distant light irradiance")?;
+                self.push(LightKind::Distant { to_light: -d }, t, true);
+            }
+            Light::Environment(map) => {
+                let env = EnvLight::new(map)?;
+                let t = table(&map.illuminant, "environment map illuminant")?;
+                self.envs.push(env);
+                self.push(LightKind::Env((self.envs.len() - 1) as u32), t, true);
+            }
+        }
+        Ok(())
     }
 
     /// Sample a light and a direction toward it from `p`.
@@ -222,13 +344,46 @@ impl Lights {
                 (wi, dist, q, n, pdf)
             }
             LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
+            LightKind::Env(e) => {
+                let env = &self.envs[e as usize];
+                let (wi, texel, pdf) = env.sample(u0, u1)?;
+                let pdf = pdf * light.pmf;
+                if !(pdf > 0.0 && pdf.is_finite()) {
+                    return None;
+                }
+                let le = env.radiance(texel, &tables[light.table as usize], lambdas);
+                return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false });
+            }
+            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } => {
+                // pbrt-v4 PointLight/SpotLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && dist.is_finite()) {
+                    return None;
+                }
+                let wi = d / dist;
+                let mut k = 1.0 / dist2;
+                if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
+                    k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
+                }
+                if k <= 0.0 {
+                    return None;
+                }
+                let le = tables[light.table as usize].eval_path(lambdas).map(|v| v * k);
+                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true });
+            }
+            LightKind::Distant { to_light } => {
+                let le = tables[light.table as usize].eval_path(lambdas);
+                return Some(LightSample { wi: to_light, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true });
+            }
         };
         let pdf = pdf_sa * light.pmf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
         let le = tables[light.table as usize].eval_path(lambdas);
-        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf })
+        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false })
     }
 }
 
@@ -274,7 +429,7 @@ mod tests {
             let ng = match light.kind {
                 LightKind::Tri { n, .. } => n,
                 LightKind::Sphere { center, .. } => (q - center).normalize(),
-                LightKind::Infinite => unreachable!(),
+                _ => unreachable!(),
             };
             assert!(lights.emits_toward(light, q, ng, -s.wi), "sample from the back of a one-sided light");
             let ph = lights.pdf_hit(light, p, q, ng);

@@ -4,11 +4,12 @@
 
 use crate::bsdf::fresnel::coating_return_probability;
 use crate::bsdf::{Bsdf, TrowbridgeReitz};
-use crate::integrator::{compile_texture, ImageTex, Tex, Tracer};
+use crate::integrator::{ImageTex, Tracer};
 use crate::math::V3;
 use crate::render::RenderError;
 use crate::scene::{ConductorOptics, Material, Roughness};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
+use crate::texture::{compile_texture, Tex, TexCtx};
 
 /// A compiled material; new BSDFs add a variant here and an arm in [`Tracer::bsdf_at`].
 #[derive(Debug, Clone)]
@@ -89,7 +90,7 @@ impl Tracer {
     pub(crate) fn bsdf_at<const N: usize>(
         &self,
         m: u32,
-        uv: [f32; 2],
+        ctx: &TexCtx,
         lambdas: &Lambdas<N>,
         outside: bool,
     ) -> (Bsdf<N>, bool) {
@@ -97,7 +98,7 @@ impl Tracer {
         match &self.materials[m as usize] {
             Mat::Diffuse(tex) => (
                 Bsdf::Diffuse {
-                    reflectance: self.eval_texture(tex, uv, lambdas),
+                    reflectance: self.eval_texture(tex, ctx, lambdas),
                 },
                 false,
             ),
@@ -109,7 +110,7 @@ impl Tracer {
                     ),
                     CondOptics::Reflectance(tex) => {
                         // pbrt-v4 ConductorMaterial: eta = 1, k = 2 sqrt(r) / sqrt(1 - r).
-                        let r = self.eval_texture(tex, uv, lambdas);
+                        let r = self.eval_texture(tex, ctx, lambdas);
                         let k = std::array::from_fn(|i| {
                             let r = r[i].clamp(0.0, 0.9999);
                             2.0 * r.sqrt() / (1.0 - r).sqrt()
@@ -148,8 +149,8 @@ impl Tracer {
             ),
             Mat::DiffuseTransmission { r, t, scale } => {
                 let (mut r, mut t) = (
-                    self.eval_texture(r, uv, lambdas),
-                    self.eval_texture(t, uv, lambdas),
+                    self.eval_texture(r, ctx, lambdas),
+                    self.eval_texture(t, ctx, lambdas),
                 );
                 for i in 0..N {
                     r[i] = (r[i] * scale).clamp(0.0, 1.0);
@@ -164,7 +165,7 @@ impl Tracer {
                 thickness,
                 r_return,
             } => {
-                let mut rho = self.eval_texture(r, uv, lambdas);
+                let mut rho = self.eval_texture(r, ctx, lambdas);
                 for v in rho.iter_mut() {
                     *v = v.clamp(0.0, 1.0);
                 }

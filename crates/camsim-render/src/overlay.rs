@@ -763,12 +763,18 @@ fn apply_light(
     if l.name.is_none() {
         for li in scene.lights.iter_mut() {
             match li {
-                Light::Infinite { radiance } => {
+                Light::Infinite { radiance } | Light::Distant { irradiance: radiance, .. } => {
                     *radiance = change(radiance)?;
                     n += 1;
                 }
-                #[allow(unreachable_patterns)]
-                _ => {}
+                Light::Point { intensity, .. } | Light::Spot { intensity, .. } => {
+                    *intensity = change(intensity)?;
+                    n += 1;
+                }
+                Light::Environment(map) => {
+                    map.illuminant = change(&map.illuminant)?;
+                    n += 1;
+                }
             }
         }
     }

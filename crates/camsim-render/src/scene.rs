@@ -85,7 +85,23 @@ impl Transform {
     }
 }
 
-/// A reflectance (fraction, 0..1) that may vary over the surface.
+/// pbrt-v4 `UVMapping`: texture coordinates `(s, t) = (uscale u + udelta, vscale v + vdelta)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UvMapping {
+    pub uscale: f64,
+    pub vscale: f64,
+    pub udelta: f64,
+    pub vdelta: f64,
+}
+
+impl Default for UvMapping {
+    fn default() -> Self {
+        UvMapping { uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 }
+    }
+}
+
+/// A spectrum (reflectance fraction 0..1, or any other spectral quantity a material takes) that
+/// may vary over the surface. Compiled and evaluated by `crate::texture`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Texture {
     /// The same spectrum everywhere.
@@ -93,11 +109,40 @@ pub enum Texture {
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
     /// uplifted to a smooth spectrum per lookup (`crate::uplift`).
     Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64 },
+    /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
+    /// (point-sampled: camsim traces no ray differentials, so no filtering).
+    Checkerboard { tex1: Box<Texture>, tex2: Box<Texture>, mapping: UvMapping },
+    /// pbrt-v4 `scale`: `tex * scale`.
+    Scale { tex: Box<Texture>, scale: FloatTexture },
+    /// pbrt-v4 `mix`: `(1 - amount) tex1 + amount tex2`.
+    Mix { tex1: Box<Texture>, tex2: Box<Texture>, amount: FloatTexture },
+    /// pbrt-v4 `directionmix`: `w tex1 + (1 - w) tex2` with `w = |n . dir|` (`dir` unit, world).
+    DirectionMix { tex1: Box<Texture>, tex2: Box<Texture>, direction: [f64; 3] },
+    /// pbrt-v4 `bilerp`: bilinear in `(s, t)` between `v00` (0,0), `v10` (1,0), `v01` (0,1), `v11`.
+    Bilerp { v00: Spectrum, v01: Spectrum, v10: Spectrum, v11: Spectrum, mapping: UvMapping },
+}
+
+/// A dimensionless scalar that may vary over the surface (roughness, amounts, scales).
+/// Same node set as [`Texture`]; image values are the mean of the RGB channels (pbrt-v4
+/// `FloatImageTexture` reads a one-channel image; camsim averages the channels).
+#[derive(Debug, Clone, PartialEq)]
+pub enum FloatTexture {
+    Constant(f64),
+    /// Row 0 at t = 1, bilinear, repeat wrap (as [`Texture::Image`]).
+    Image { width: usize, height: usize, values: Vec<f32>, mapping: UvMapping },
+    Checkerboard { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, mapping: UvMapping },
+    Scale { tex: Box<FloatTexture>, scale: Box<FloatTexture> },
+    Mix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, amount: Box<FloatTexture> },
+    DirectionMix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, direction: [f64; 3] },
+    Bilerp { v00: f64, v01: f64, v10: f64, v11: f64, mapping: UvMapping },
 }
 
 /// Surface scattering, with pbrt-v4's material semantics (see [`crate::bsdf`] for the BSDFs).
 /// The set is closed (dispatch by `match`); a new BSDF is a new variant here and a new arm in
 /// the renderer.
+// A scene holds a handful of materials, read once at compile time: the size of the largest
+// variant (two inline textures) costs nothing worth an extra indirection in the public API.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Material {
     /// Lambertian reflection with a spectral reflectance (pbrt-v4 `diffuse`).
@@ -193,11 +238,47 @@ pub struct Shape {
     pub reverse_orientation: bool,
 }
 
-/// Lights that are not shapes.
+/// Lights that are not shapes. Point, spot and distant lights are delta lights: reached only by
+/// next-event estimation, never by a ray.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
     /// Uniform radiance from every direction, W/(sr m^2 nm) (pbrt-v4 `infinite` without a map).
     Infinite { radiance: Spectrum },
+    /// Isotropic point source: radiant intensity in W/(sr nm) (pbrt-v4 `point`).
+    Point { position_m: [f64; 3], intensity: Spectrum },
+    /// Spot light (pbrt-v4 `spot`): intensity `intensity * smoothstep(cos(cone_angle),
+    /// cos(cone_angle - cone_delta), cos theta)` around the unit axis `direction`, W/(sr nm).
+    Spot { position_m: [f64; 3], direction: [f64; 3], intensity: Spectrum, cone_angle_deg: f64, cone_delta_deg: f64 },
+    /// Light from one direction (pbrt-v4 `distant`): `direction` is the unit vector the light
+    /// travels along (from -> to); `irradiance` W/(m^2 nm) on a surface facing the light.
+    Distant { direction: [f64; 3], irradiance: Spectrum },
+    /// Image-based environment light (pbrt-v4 `infinite` with `filename`).
+    Environment(EnvironmentMap),
+}
+
+/// How an environment image covers the sphere of directions (light space: +z up).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnvMapping {
+    /// pbrt-v4's equal-area octahedral square (Clarberg 2008), square images.
+    EqualAreaOctahedral,
+    /// Latitude-longitude (equirectangular) image, width = 2 height: column u = phi / (2 pi),
+    /// phi = atan2(y, x); row v = theta / pi, theta = acos(z) (pbrt-v3 `InfiniteAreaLight`).
+    LatLong,
+}
+
+/// An environment map: linear RGB texels (row 0 at the top, nearest lookup as pbrt-v4's
+/// `ImageInfiniteLight`), uplifted per texel as an illuminant: `L(lambda) = 2 m S(rgb / 2m)
+/// (lambda) illuminant(lambda)` with `m` the largest component (pbrt-v4 `RGBIlluminantSpectrum`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvironmentMap {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
+    pub mapping: EnvMapping,
+    /// The colour space's illuminant with every scale applied: W/(sr m^2 nm) per unit RGB.
+    pub illuminant: Spectrum,
+    /// Light-to-world rotation (pbrt's CTM at the `LightSource`; translation ignored).
+    pub light_to_world: Transform,
 }
 
 /// A pinhole perspective camera (pbrt-v4 `perspective` with lensradius 0).

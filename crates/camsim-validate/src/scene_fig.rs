@@ -231,15 +231,18 @@ fn capture_position(
         ..BuiltinOptions::default()
     };
     spectra.apply(&mut bo);
+    let sensor = Sensor::preset("pixel4a")?;
+    let optics = Optics::preset("pixel4a")?;
     let mut scene = builtin::scene("cornell-box-mcc", &bo)?;
     scene.settings.time_budget_s = p.box_time_budget_s;
+    // The pipeline's one field-of-view rule (as `simulate` renders a 3D scene): the render covers
+    // exactly the sensor seen from the lens at its image distance.
+    camsim_pipeline::render::match_camera_to_sensor(&mut scene, &sensor, optics.config(), p.box_render.0, p.box_render.1)?;
     let out = st.run(&format!("images: render Cornell box, chart {name}"), |prog| Ok(camsim_render::render(&scene, prog)?))?;
     let radiance = out.radiance;
     let cmfs = Cmfs::on(&grid);
     let w: Vec<f64> = cmfs.y.iter().map(|y| y * LUMINOUS_EFFICACY_LM_PER_W).collect();
     let mean_luminance = radiance.mean_weighted_integral(&w);
-    let sensor = Sensor::preset("pixel4a")?;
-    let optics = Optics::preset("pixel4a")?;
     let (irr, frame) = st.run(&format!("images: optics + sensor, chart {name}"), |_| {
         let cap = match exposure {
             Some(t) => Capture::seconds(t),
@@ -254,7 +257,7 @@ fn capture_position(
     let map = PixelMap { scale: irr.sample_spacing_m / sensor.pixel_pitch_m(), render: p.box_render, sensor: (sensor.cols(), sensor.rows()) };
     let raw = frame.raw.into_iter().next().ok_or_else(|| ValidateError::invalid("sensor", "no frame"))?;
     let rgb = st.run(&format!("images: demosaic, chart {name}"), |_| Ok(camsim_isp::demosaic_bilinear(&raw)))?;
-    let (centers, _) = builtin::mcc_patch_centers_px(&bo)?;
+    let (centers, _) = builtin::mcc_patch_centers_on(&scene.camera, &bo.mcc_position)?;
     let corners = grid_corners(&centers, &map);
     let planes = planes_of(&rgb)?;
     let stats = chart_patch_stats_rgb(&planes, &corners, 0.5)?;

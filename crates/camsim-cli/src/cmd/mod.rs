@@ -1,5 +1,6 @@
 //! One module per subcommand.
 pub mod analyze;
+pub mod dataset;
 pub mod fit;
 pub mod emva;
 pub mod fit_shading;

@@ -42,6 +42,7 @@ __all__ = [
     "chart",
     "fit_qe",
     "emva",
+    "emva_series",
     "read_dng",
     "load_config",
     "presets",
@@ -183,6 +184,17 @@ def emva(bright: np.ndarray, dark: np.ndarray, exposures_s: Sequence[float], *, 
     d = np.ascontiguousarray(dark, dtype=np.uint16)
     p = None if photons_per_pixel is None else [float(x) for x in photons_per_pixel]
     return json.loads(_camsim.emva_json(b, d, [float(t) for t in exposures_s], p, cfa, bits, black_level, fit_max_fraction))
+
+
+def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str, "os.PathLike[str]"]] = None,
+                cfa: Optional[str] = None, bits: int = 16, black_level: float = 0.0) -> Dict[str, Any]:
+    """EMVA 1288 of a measurement series on disk, as ``camsim analyze emva`` runs it: the series
+    CSV (columns exposure_s, optional photons_per_pixel, then bright*/dark* frame files: DNG, or
+    PNG/TIFF mosaics described by cfa, bits and black_level). Returns the emva.json record (dict
+    with "channels", one per CFA colour). With ``out`` (an existing folder) also writes
+    emva.json, ptc.png (photon transfer) and snr.png there."""
+    o = None if out is None else os.fspath(out)
+    return json.loads(_camsim.emva_series_json(os.fspath(csv), o, cfa, bits, black_level))
 
 
 def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:

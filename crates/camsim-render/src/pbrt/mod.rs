@@ -14,8 +14,9 @@
 //! - Options block: `LookAt`, `Camera "perspective"` (`fov`, `lensradius`, `focaldistance`),
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
 //!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`), `Integrator` (`path`,
-//!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`,
-//!   `Option` (ignored, noted).
+//!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`
+//!   (other colour spaces, `Option`, `PixelFilter`, `Accelerator` and unknown `Sampler` types
+//!   are warnings in the notes).
 //! - Transforms: `Identity`, `Translate`, `Scale`, `Rotate`, `LookAt`, `Transform`,
 //!   `ConcatTransform` (16 numbers, column-major as pbrt-v4 reads them), `CoordinateSystem`,
 //!   `CoordSysTransform` (`"camera"` is defined by `Camera`), `ReverseOrientation`,
@@ -24,25 +25,38 @@
 //!   (only the start transform is used: no motion blur).
 //! - World: `WorldBegin`, `Shape` (`trianglemesh`: `P`, `indices`, `uv`, `N`; `bilinearmesh`:
 //!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
-//!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin),
+//!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin;
+//!   `disk`: `height`, `radius`, `innerradius`, `phimax`; `cylinder`: `radius`, `zmin`, `zmax`,
+//!   `phimax` -- both tessellated at load, area-preserving, see [`crate::shapes`];
+//!   `loopsubdiv`: `levels`, `P`, `indices` -- Loop-subdivided at load and moved to the limit
+//!   surface as pbrt-v4 does),
 //!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
 //!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
-//!   `parser/materials.rs`): `diffuse` (`reflectance` as rgb, spectrum, blackbody or a texture),
-//!   `conductor` (`eta`/`k` spectra, default copper, or `reflectance`; `roughness`,
-//!   `uroughness`, `vroughness`, `remaproughness`), `dielectric` (`eta` float or spectrum, e.g.
-//!   `"glass-BK7"`; roughness as conductor), `thindielectric` (`eta`), `diffusetransmission`
-//!   (`reflectance`, `transmittance`, `scale`), `coateddiffuse` (`reflectance`, roughness,
-//!   `thickness`, `eta`; camsim's closed-form layer model, exact for a smooth coating, see
-//!   [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must be 0; `g`, `maxdepth`,
-//!   `nsamples` noted and ignored), `mix` (`materials` two named materials defined before,
-//!   `amount`), `interface` (also `""`/`"none"`). Float parameters take numbers, not float
-//!   textures. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
+//!   `parser/materials.rs`): `diffuse` (`reflectance`), `conductor` (`eta`/`k` spectra, default
+//!   copper, or `reflectance`; `roughness`, `uroughness`, `vroughness`, `remaproughness`),
+//!   `dielectric` (`eta` float or spectrum, e.g. `"glass-BK7"`; roughness as conductor),
+//!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
+//!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
+//!   model, exact for a smooth coating, see [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must
+//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `mix` (`materials` two named
+//!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
+//!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
+//!   texture; float parameters (roughness, `scale`, `thickness`, `amount`) take a number or a
+//!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
 //!   ([`optical_constants`]),
-//!   `Texture "name" "spectrum" "imagemap"` (PNG via the `image` crate, EXR via the `exr` crate;
-//!   `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`), `scale`,
-//!   `invert`, `uscale`, `vscale`, `udelta`, `vdelta`) and `"constant"` (`value`), float textures
-//!   (accepted, unused), `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`),
-//!   `LightSource "infinite"` (`L`, `scale`, `illuminance`), `ObjectBegin`/`ObjectEnd`/
+//!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
+//!   crate; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
+//!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
+//!   channels), `constant` (`value`), `checkerboard` (2D: `tex1`, `tex2`, uv mapping),
+//!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
+//!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`); texture-valued parameters take a value or a
+//!   texture name (the renderer's `texture` module compiles and evaluates them),
+//!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`),
+//!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
+//!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
+//!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
+//!   `filename`: a square image is pbrt-v4's equal-area octahedral map, a 2:1 image a lat-long
+//!   map, see [`crate::envmap`]), `ObjectBegin`/`ObjectEnd`/
 //!   `ObjectInstance`, `Include` and `Import` (relative to the including file, then to the main
 //!   file's folder; cycles are errors).
 //!
@@ -50,15 +64,19 @@
 //! - Lights: pbrt-v4 divides a light's `scale` by `SpectrumToPhotometric(L)` (the y-bar integral
 //!   of the spectrum over 360-830 nm at 1 nm; for an `rgb` L only the colour space's illuminant
 //!   counts), so `scale` = 1 means a luminance of "1 nit" in pbrt's convention. `power` (area
-//!   lights) multiplies by `power / (pi * area * sides)` and `illuminance` (infinite light) by
-//!   `E / pi`. camsim reads pbrt's normalised radiance `L_pbrt(lambda)` as photometric:
+//!   lights) multiplies by `power / (pi * area * sides)`, for point lights by `power / (4 pi)`,
+//!   for spot lights by `power / (2 pi (1 - cos_start + (cos_start - cos_end) / 2))`;
+//!   `illuminance` multiplies a uniform infinite light by `E / pi`, a distant light by `E`, and an
+//!   image infinite light by `E / E_map` with `E_map` the map's illuminance on an upward surface
+//!   (whose `scale` is first divided by the colour space illuminant's photometric value). camsim reads pbrt's normalised radiance `L_pbrt(lambda)` as photometric:
 //!   `L(lambda) = L_pbrt(lambda) / 683` W/(sr m^2 nm), so that a pbrt `scale` of 1 is exactly a
 //!   luminance of 1 cd/m^2 (683 lm/W * integral y_bar L dl), `power` is a luminous flux in lumens
 //!   and `illuminance` is in lux. Difference: pbrt-v4's own output is in its relative units
 //!   (the same numbers times 683); camsim's is absolute.
 //! - `power` is applied per emitting shape as pbrt-v4 does, and in pbrt-v4 every triangle of a
 //!   mesh is its own shape: a mesh light with `power` P emits P per triangle. camsim reproduces
-//!   this by splitting such a mesh into one emitting shape per triangle (and notes it).
+//!   this by splitting such a mesh into one emitting shape per triangle (and notes it). A disk or
+//!   cylinder is one pbrt shape: its `power` is for the whole shape.
 //! - RGB: `rgb` reflectances are uplifted with Jakob & Hanika (2019) sigmoid polynomials
 //!   ([`crate::uplift`]; pbrt-v4's method, fitted by camsim, not pbrt's tables); components
 //!   above 1 are an error as in pbrt-v4. `rgb` emission is `2 m * uplift(rgb / 2m) * D65` with
@@ -84,12 +102,20 @@
 //!
 //! # Unsupported, with an error naming file:line:column
 //! Cameras other than `perspective` and `screenwindow`; materials other than the eight above
-//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), float textures
-//! as material parameters, `coateddiffuse` with a scattering layer (`albedo` > 0); textures other than `imagemap` and `constant`, non-`uv`
-//! mappings; shapes other than the four above, sphere `zmin`/`zmax`/`phimax`, alpha cut-outs;
-//! lights other than `infinite` (uniform) and diffuse area lights, image lights (`filename`,
-//! `portal`); participating media (`MakeNamedMedium`); `Attribute`; colour spaces other than
-//! sRGB; area lights inside object instances; `WorldEnd` (pbrt-v3); unknown directives.
+//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), varying float
+//! textures as material parameters, `coateddiffuse` with a scattering layer (`albedo` > 0);
+//! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
+//! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
+//! sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape dropped, noted) or 1;
+//! `goniometric` and `projection` lights, area-light images (`filename`), infinite-light
+//! `portal`s and maps that are neither square nor 2:1; participating media
+//! (`MakeNamedMedium`); `Attribute`; area lights inside object instances; `WorldEnd`
+//! (pbrt-v3); unknown directives.
+//!
+//! # One-pass reporting
+//! A directive with a problem is recorded and skipped (reading resumes at the next directive),
+//! so one [`PbrtError`] lists every problem of the scene, in every included file, each with its
+//! file:line:column ([`PbrtError::problems`]); reading stops after 100.
 
 mod lexer;
 pub mod optical_constants;
@@ -105,15 +131,44 @@ use crate::scene::SceneDescription;
 use std::path::{Path, PathBuf};
 
 /// A reader error: the file, 1-based line and column (0 when the error concerns the whole file),
-/// and what is wrong.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}:{line}:{column}: {message}", file.display())]
+/// and what is wrong. The reader reports every problem of a scene at once: `self` is the first,
+/// `others` the rest in reading order (Display lists them all, one `file:line:col: message`
+/// per line).
+#[derive(Debug, Clone, PartialEq)]
 pub struct PbrtError {
     pub file: PathBuf,
     pub line: usize,
     pub column: usize,
     pub message: String,
+    /// Further problems found in the same pass (empty for a single problem).
+    pub others: Vec<PbrtError>,
 }
+
+impl std::fmt::Display for PbrtError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let one = |f: &mut std::fmt::Formatter<'_>, e: &PbrtError| {
+            write!(
+                f,
+                "{}:{}:{}: {}",
+                e.file.display(),
+                e.line,
+                e.column,
+                e.message
+            )
+        };
+        if self.others.is_empty() {
+            return one(f, self);
+        }
+        write!(f, "{} problems in the scene:", self.others.len() + 1)?;
+        for e in self.problems() {
+            write!(f, "\n  ")?;
+            one(f, e)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for PbrtError {}
 
 impl PbrtError {
     /// Error at a position.
@@ -123,7 +178,30 @@ impl PbrtError {
             line,
             column,
             message: message.into(),
+            others: Vec::new(),
         }
+    }
+
+    /// Every problem, the first one included, in reading order.
+    pub fn problems(&self) -> impl Iterator<Item = &PbrtError> {
+        std::iter::once(self).chain(self.others.iter())
+    }
+
+    /// One error reporting all of `errors` (which must not be empty).
+    pub(crate) fn combine(errors: Vec<PbrtError>) -> PbrtError {
+        let mut it = errors.into_iter().flat_map(|e| {
+            let others = e.others.clone();
+            std::iter::once(PbrtError {
+                others: Vec::new(),
+                ..e
+            })
+            .chain(others)
+        });
+        let mut first = it
+            .next()
+            .unwrap_or_else(|| PbrtError::at(Path::new(""), 0, 0, "unknown problem"));
+        first.others = it.collect();
+        first
     }
 }
 
@@ -138,12 +216,7 @@ pub struct Loc {
 impl Loc {
     /// An error at this position.
     pub fn err(&self, message: impl Into<String>) -> PbrtError {
-        PbrtError {
-            file: self.file.clone(),
-            line: self.line,
-            column: self.column,
-            message: message.into(),
-        }
+        PbrtError::at(&self.file, self.line, self.column, message)
     }
     /// "file:line:col" for notes.
     pub fn describe(&self) -> String {
@@ -159,7 +232,12 @@ pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError>
     let scene = parse_str(&text, path)?;
     // The renderer refuses an empty scene too, but only here is the file known to name it.
     if scene.shapes.is_empty() && scene.lights.is_empty() {
-        return Err(PbrtError::at(path, 0, 0, "the scene is empty: it has no shapes and no lights".to_string()));
+        return Err(PbrtError::at(
+            path,
+            0,
+            0,
+            "the scene is empty: it has no shapes and no lights".to_string(),
+        ));
     }
     Ok(scene)
 }

@@ -10,15 +10,20 @@ use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::scene::{
-    AreaLight, Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture,
-    Transform,
+    AreaLight, Camera, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
+    Shape, Texture, Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::Spectrum;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+mod lights;
 mod materials;
+mod textures;
+
+/// Problems reported before reading stops.
+const MAX_ERRORS: usize = 100;
 
 /// Deepest Include/Import nesting accepted.
 const MAX_INCLUDE_DEPTH: usize = 64;
@@ -55,6 +60,9 @@ struct PendingShape {
     mat: MatRef,
     /// Area light still to be turned into radiance (needs the world-space area for `power`).
     light: Option<AreaLightSpec>,
+    /// One pbrt shape tessellated into triangles (disk, cylinder): `power` applies to the whole
+    /// mesh, not per triangle as for a pbrt triangle mesh.
+    single: bool,
 }
 
 enum Block {
@@ -72,7 +80,7 @@ struct Parser {
     materials: Vec<Material>,
     named_materials: HashMap<String, usize>,
     textures: HashMap<String, Texture>,
-    float_textures: HashMap<String, ()>,
+    float_textures: HashMap<String, FloatTexture>,
     shapes: Vec<PendingShape>,
     lights: Vec<Light>,
     objects: HashMap<String, Vec<PendingShape>>,
@@ -84,6 +92,25 @@ struct Parser {
     settings: RenderSettings,
     focus_distance_m: Option<f64>,
     notes: Vec<String>,
+    /// Problems found so far (reported together at the end).
+    errors: Vec<PbrtError>,
+    /// Token index of the directive being read (where to resume after a problem).
+    cur_pos: usize,
+    /// Too many problems: stop reading.
+    aborted: bool,
+}
+
+/// Index of the first token at or after `from` that can start a directive: a bare word
+/// beginning with an ASCII capital (pbrt directives; parameter values are numbers, strings,
+/// brackets and lower-case `true`/`false`), or a naming comment.
+fn next_directive(tokens: &[Token], from: usize) -> usize {
+    (from..tokens.len())
+        .find(|&i| match &tokens[i].kind {
+            TokenKind::Word(w) => w.starts_with(|c: char| c.is_ascii_uppercase()),
+            TokenKind::ObjectName(_) => true,
+            _ => false,
+        })
+        .unwrap_or(tokens.len())
 }
 
 /// Parse a whole scene.
@@ -128,8 +155,16 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         },
         focus_distance_m: None,
         notes: Vec::new(),
+        errors: Vec::new(),
+        cur_pos: 0,
+        aborted: false,
     };
-    p.parse_text(text, path)?;
+    // An `Err` here means reading stopped early (too many problems); they are all in `errors`.
+    let _ = p.parse_text(text, path);
+    if p.aborted {
+        p.notes
+            .push(format!("reading stopped after {MAX_ERRORS} problems"));
+    }
     let eof = Loc {
         file: path.to_path_buf(),
         line: text.lines().count().max(1),
@@ -143,7 +178,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         ));
     }
     if let Some((name, _, loc)) = &p.current_object {
-        return Err(loc.err(format!("ObjectBegin \"{name}\" has no ObjectEnd")));
+        let e = loc.err(format!("ObjectBegin \"{name}\" has no ObjectEnd"));
+        p.errors.push(e);
     }
     if !p.in_world {
         p.notes.push(format!(
@@ -310,10 +346,49 @@ impl Parser {
         Ok(())
     }
 
+    /// Record a problem and go on (one-pass reporting); `Err` once there are too many, or when
+    /// reading was already abandoned (the error then only unwinds the include stack).
+    fn record(&mut self, e: PbrtError) -> Result<(), PbrtError> {
+        if self.aborted {
+            return Err(e);
+        }
+        self.errors.push(e);
+        if self.errors.len() >= MAX_ERRORS {
+            self.aborted = true;
+            return Err(self.errors[0].clone());
+        }
+        Ok(())
+    }
+
+    /// Read one file's text. A directive that fails is recorded and skipped: reading resumes at
+    /// the next directive (the next bare word starting with a capital letter), so that every
+    /// problem in the scene, across included files, is reported in one pass.
     fn parse_text(&mut self, text: &str, file: &Path) -> Result<(), PbrtError> {
-        let tokens = tokenize(text, file)?;
-        let mut pos = 0;
+        let tokens = match tokenize(text, file) {
+            Ok(t) => t,
+            Err(e) => return self.record(e),
+        };
+        let mut start = 0;
+        loop {
+            match self.parse_tokens(&tokens, start, file) {
+                Ok(()) => return Ok(()),
+                Err(e) => {
+                    self.record(e)?;
+                    start = next_directive(&tokens, self.cur_pos + 1);
+                }
+            }
+        }
+    }
+
+    fn parse_tokens(
+        &mut self,
+        tokens: &[Token],
+        start: usize,
+        file: &Path,
+    ) -> Result<(), PbrtError> {
+        let mut pos = start;
         while pos < tokens.len() {
+            self.cur_pos = pos;
             let tok = &tokens[pos];
             let loc = Loc {
                 file: file.to_path_buf(),
@@ -340,43 +415,43 @@ impl Parser {
                     }
                 }
                 "Translate" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    let v = nums(tokens, &mut pos, f, &d, 3)?;
                     self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
                 }
                 "Scale" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 3)?;
+                    let v = nums(tokens, &mut pos, f, &d, 3)?;
                     self.apply_transform(Transform::scale([v[0], v[1], v[2]]));
                 }
                 "Rotate" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 4)?;
+                    let v = nums(tokens, &mut pos, f, &d, 4)?;
                     if v[1] == 0.0 && v[2] == 0.0 && v[3] == 0.0 {
                         return Err(loc.err("Rotate: the axis is the zero vector"));
                     }
                     self.apply_transform(Transform::rotate(v[0], [v[1], v[2], v[3]]));
                 }
                 "LookAt" => {
-                    let v = nums(&tokens, &mut pos, f, &d, 9)?;
+                    let v = nums(tokens, &mut pos, f, &d, 9)?;
                     let t =
                         xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
                             .map_err(|e| loc.err(e))?;
                     self.apply_transform(t);
                 }
                 "Transform" => {
-                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
                     if self.gs.start_active {
                         self.gs.ctm = t;
                     }
                 }
                 "ConcatTransform" => {
-                    let t = matrix16(&tokens, &mut pos, f, &d, &loc)?;
+                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
                     self.apply_transform(t);
                 }
                 "CoordinateSystem" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     self.named_coords.insert(n, self.gs.ctm);
                 }
                 "CoordSysTransform" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     match self.named_coords.get(&n) {
                         Some(t) => self.gs.ctm = *t,
                         None => self.note(&loc, format!("CoordSysTransform: no coordinate system \"{n}\" (ignored, as pbrt-v4 warns)")),
@@ -405,7 +480,7 @@ impl Parser {
                     }
                 }
                 "TransformTimes" => {
-                    nums(&tokens, &mut pos, f, &d, 2)?;
+                    nums(tokens, &mut pos, f, &d, 2)?;
                     self.note(&loc, "TransformTimes ignored (no motion blur)");
                 }
                 "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
@@ -449,8 +524,8 @@ impl Parser {
                 },
                 "Camera" | "Film" | "Sampler" | "Integrator" => {
                     self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     match d.as_str() {
                         "Camera" => self.camera(&ty, &params, &loc)?,
                         "Film" => self.film(&ty, &params, &loc)?,
@@ -460,28 +535,26 @@ impl Parser {
                 }
                 "PixelFilter" => {
                     self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, format!("PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"));
                 }
                 "Accelerator" => {
                     self.require_world(&loc, &d, false)?;
-                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let _ = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, "Accelerator ignored (camsim builds its own BVH)");
                 }
                 "ColorSpace" => {
-                    let n = string_arg(&tokens, &mut pos, f, &d)?;
+                    let n = string_arg(tokens, &mut pos, f, &d)?;
                     if n != "srgb" {
-                        return Err(
-                            loc.err(format!("ColorSpace \"{n}\": only \"srgb\" is supported"))
-                        );
+                        self.note(&loc, format!("warning: ColorSpace \"{n}\" ignored: camsim reads RGB values as linear sRGB"));
                     }
                 }
                 "Option" => {
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     params.params.iter().for_each(|p| p.used.set(true));
                     self.note(&loc, "Option ignored");
                 }
@@ -497,7 +570,7 @@ impl Parser {
                     return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
                 }
                 "Include" | "Import" => {
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     let path = self.resolve(file, &name);
                     let canon = canonical(&path);
                     if self.include_stack.contains(&canon) {
@@ -517,11 +590,12 @@ impl Parser {
                             path.display()
                         ))
                     })?;
+                    if d == "Import" && !self.in_world {
+                        return Err(loc.err("Import is only allowed after WorldBegin"));
+                    }
+                    let here = self.cur_pos;
                     self.include_stack.push(canon);
                     if d == "Import" {
-                        if !self.in_world {
-                            return Err(loc.err("Import is only allowed after WorldBegin"));
-                        }
                         // Import: the imported file cannot change the includer's graphics state.
                         let saved = (self.gs.clone(), self.stack.len());
                         self.parse_text(&text, &path)?;
@@ -531,19 +605,20 @@ impl Parser {
                         self.parse_text(&text, &path)?;
                     }
                     self.include_stack.pop();
+                    self.cur_pos = here;
                 }
                 "Material" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     let m = self.material(&ty, &params, &loc, file)?;
                     self.materials.push(m);
                     self.gs.material = MatRef::Index(self.materials.len() - 1);
                 }
                 "MakeNamedMaterial" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     let ty = params.string("type")?.ok_or_else(|| {
                         loc.err(format!(
                             "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
@@ -560,21 +635,21 @@ impl Parser {
                 }
                 "NamedMaterial" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     self.gs.material = MatRef::Named(name, loc.clone());
                 }
                 "Texture" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let class = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let class = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.texture(&name, &ty, &class, &params, &loc, file)?;
                 }
                 "AreaLightSource" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     if ty != "diffuse" {
                         return Err(loc.err(format!(
                             "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
@@ -602,19 +677,19 @@ impl Parser {
                 }
                 "LightSource" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.light_source(&ty, &params, &loc, file)?;
                 }
                 "Shape" => {
                     self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(&tokens, &mut pos, f, &d)?;
-                    let params = parse_params(&tokens, &mut pos, f)?;
+                    let ty = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
                     self.shape(&ty, &params, &loc, file)?;
                 }
                 "ObjectBegin" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     if self.current_object.is_some() {
                         return Err(loc.err("ObjectBegin inside another ObjectBegin"));
                     }
@@ -636,7 +711,7 @@ impl Parser {
                 }
                 "ObjectInstance" => {
                     self.require_world(&loc, &d, true)?;
-                    let name = string_arg(&tokens, &mut pos, f, &d)?;
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
                     if self.current_object.is_some() {
                         return Err(loc.err("ObjectInstance inside an object definition"));
                     }
@@ -665,7 +740,7 @@ impl Parser {
                 }
                 "MediumInterface" => {
                     // One or two names.
-                    let _ = string_arg(&tokens, &mut pos, f, &d)?;
+                    let _ = string_arg(tokens, &mut pos, f, &d)?;
                     if let Some(Token {
                         kind: TokenKind::Str(_),
                         ..
@@ -794,7 +869,10 @@ impl Parser {
             "stratified",
         ];
         if !known.contains(&ty) {
-            return Err(loc.err(format!("Sampler \"{ty}\" is unknown")));
+            self.note(
+                loc,
+                format!("warning: unknown Sampler \"{ty}\" (camsim uses its own sampler)"),
+            );
         }
         let spp = if ty == "stratified" {
             let x = params.int("xsamples", 4)?;
@@ -846,169 +924,6 @@ impl Parser {
         Ok(())
     }
 
-    fn texture(
-        &mut self,
-        name: &str,
-        ty: &str,
-        class: &str,
-        params: &ParamList,
-        loc: &Loc,
-        file: &Path,
-    ) -> Result<(), PbrtError> {
-        match ty {
-            "spectrum" | "color" => {}
-            "float" => {
-                match class {
-                    "constant" => {
-                        params.float("value", 1.0)?;
-                    }
-                    "imagemap" => params.params.iter().for_each(|p| p.used.set(true)),
-                    _ => {
-                        return Err(
-                            loc.err(format!("float texture class \"{class}\" is not supported"))
-                        )
-                    }
-                }
-                params.check_unused("float texture")?;
-                self.note(loc, format!("float texture \"{name}\" defined; camsim's materials use no float textures"));
-                self.float_textures.insert(name.to_string(), ());
-                return Ok(());
-            }
-            _ => {
-                return Err(loc.err(format!(
-                    "Texture \"{name}\": type \"{ty}\" must be \"spectrum\" or \"float\""
-                )))
-            }
-        }
-        let tex = match class {
-            "constant" => {
-                let v = match params.get("value", &["rgb", "spectrum", "blackbody"])? {
-                    Some(p) => {
-                        let resolve = |n: &str| self.resolve(file, n);
-                        param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum
-                    }
-                    None => Spectrum::from_pairs(&[(360.0, 1.0), (830.0, 1.0)])
-                        .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
-                };
-                Texture::Constant(v)
-            }
-            "imagemap" => {
-                let fname = params.string("filename")?.ok_or_else(|| {
-                    loc.err(format!(
-                        "Texture \"{name}\": imagemap needs \"string filename\""
-                    ))
-                })?;
-                let path = self.resolve(file, &fname);
-                let lower = fname.to_ascii_lowercase();
-                let default_enc = if lower.ends_with(".png") {
-                    "sRGB"
-                } else {
-                    "linear"
-                };
-                let enc = params
-                    .string("encoding")?
-                    .unwrap_or_else(|| default_enc.to_string());
-                let encoding = parse_encoding(&enc).ok_or_else(|| {
-                    loc.err(format!(
-                        "Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)"
-                    ))
-                })?;
-                let scale = params.float("scale", 1.0)?;
-                let invert = params.bool("invert", false)?;
-                let mapping = params.string("mapping")?.unwrap_or_else(|| "uv".into());
-                if mapping != "uv" {
-                    return Err(loc.err(format!(
-                        "Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)"
-                    )));
-                }
-                let uscale = params.float("uscale", 1.0)?;
-                let vscale = params.float("vscale", 1.0)?;
-                let udelta = params.float("udelta", 0.0)?;
-                let vdelta = params.float("vdelta", 0.0)?;
-                if let Some(w) = params.string("wrap")? {
-                    if w != "repeat" {
-                        self.note(
-                            loc,
-                            format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"),
-                        );
-                    }
-                }
-                self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
-                params.check_unused("Texture \"imagemap\"")?;
-                let (width, height, mut rgb) = load_image(&path, encoding)
-                    .map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
-                // pbrt-v4 SpectrumImageTexture for albedo: clamp(scale * rgb [inverted], 0, 1).
-                for px in rgb.iter_mut() {
-                    for c in px.iter_mut() {
-                        let mut v = *c * scale as f32;
-                        if invert {
-                            v = 1.0 - v;
-                        }
-                        *c = if v.is_finite() {
-                            v.clamp(0.0, 1.0)
-                        } else {
-                            0.0
-                        };
-                    }
-                }
-                Texture::Image {
-                    width,
-                    height,
-                    rgb,
-                    uscale,
-                    vscale,
-                    udelta,
-                    vdelta,
-                }
-            }
-            _ => {
-                return Err(loc.err(format!(
-                    "Texture \"{name}\": class \"{class}\" is not supported (imagemap, constant)"
-                )))
-            }
-        };
-        if class == "constant" {
-            params.check_unused("Texture \"constant\"")?;
-        }
-        self.textures.insert(name.to_string(), tex);
-        Ok(())
-    }
-
-    fn light_source(
-        &mut self,
-        ty: &str,
-        params: &ParamList,
-        loc: &Loc,
-        file: &Path,
-    ) -> Result<(), PbrtError> {
-        if ty != "infinite" {
-            return Err(loc.err(format!(
-                "LightSource \"{ty}\" is not supported (only \"infinite\"; use area lights)"
-            )));
-        }
-        if params.get("filename", &["string"])?.is_some() {
-            return Err(loc.err(
-                "LightSource \"infinite\": environment maps (\"filename\") are not supported",
-            ));
-        }
-        if params.get("portal", &["point3"])?.is_some() {
-            return Err(loc.err("LightSource \"infinite\": portals are not supported"));
-        }
-        let s = self
-            .spectrum_param(params, "L", SpectrumUse::Illuminant, file)?
-            .unwrap_or_else(default_illuminant);
-        let mut scale = params.float("scale", 1.0)?;
-        // pbrt-v4: scale /= SpectrumToPhotometric(L); illuminance E_v: scale *= E_v / pi.
-        scale /= s.photometric;
-        if let Some(e) = params.float_opt("illuminance")?.filter(|e| *e > 0.0) {
-            scale *= e / std::f64::consts::PI;
-        }
-        params.check_unused("LightSource \"infinite\"")?;
-        let radiance = s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W);
-        self.lights.push(Light::Infinite { radiance });
-        Ok(())
-    }
-
     fn shape(
         &mut self,
         ty: &str,
@@ -1020,10 +935,23 @@ impl Parser {
         let inv =
             inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
         let swaps = det3(&ctm) < 0.0;
+        // Constant alpha: 1 is opaque; 0 cuts the whole shape out (dropped, exactly what
+        // pbrt-v4's alpha test does for every hit); anything else needs per-hit alpha tests.
+        let mut cut_out = false;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let ok = p.ty == "float" && p.nums()?.first() == Some(&1.0);
-            if !ok {
-                return Err(p.loc.err("Shape: alpha cut-outs are not supported"));
+            let a = if p.ty == "float" {
+                p.nums()?.first().copied()
+            } else {
+                None
+            };
+            match a {
+                Some(1.0) => {}
+                Some(0.0) => cut_out = true,
+                _ => {
+                    return Err(p.loc.err(
+                        "Shape: alpha cut-outs are not supported (only constant alpha 0 or 1)",
+                    ))
+                }
             }
         }
         self.ignore_params(params, &["faceIndices", "S", "emissionfilename"], "Shape");
@@ -1144,8 +1072,45 @@ impl Parser {
                     radius: r,
                 }
             }
+            "disk" => crate::shapes::disk(
+                params.float("height", 0.0)?,
+                params.float("radius", 1.0)?,
+                params.float("innerradius", 0.0)?,
+                params.float("phimax", 360.0)?,
+            )
+            .map_err(|e| loc.err(format!("Shape \"disk\": {e}")))?,
+            "cylinder" => crate::shapes::cylinder(
+                params.float("radius", 1.0)?,
+                params.float("zmin", -1.0)?,
+                params.float("zmax", 1.0)?,
+                params.float("phimax", 360.0)?,
+            )
+            .map_err(|e| loc.err(format!("Shape \"cylinder\": {e}")))?,
+            "loopsubdiv" => {
+                let levels = params.int("levels", 3)?;
+                let p = params
+                    .tuples("P", &["point3"], 3)?
+                    .ok_or_else(|| loc.err("Shape \"loopsubdiv\": no \"point3 P\""))?;
+                let (idx, iloc) = params
+                    .ints("indices")?
+                    .ok_or_else(|| loc.err("Shape \"loopsubdiv\": no \"integer indices\""))?;
+                if idx.is_empty() || idx.len() % 3 != 0 {
+                    return Err(iloc.err(format!("Shape \"loopsubdiv\": {} indices is not a multiple of 3", idx.len())));
+                }
+                if let Some(bad) = idx.iter().find(|&&i| i < 0 || i as usize >= p.len()) {
+                    return Err(iloc.err(format!("Shape \"loopsubdiv\": index {bad} is out of range (0..{})", p.len())));
+                }
+                if !(0..=12).contains(&levels) {
+                    return Err(loc.err(format!("Shape \"loopsubdiv\": levels {levels} must be 0..12")));
+                }
+                let pos: Vec<[f64; 3]> = p.iter().map(|v| [v[0], v[1], v[2]]).collect();
+                let tris: Vec<[u32; 3]> = idx.chunks(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect();
+                let (positions, indices, normals) = crate::shapes::loop_subdivide(&pos, &tris, levels as u32, true)
+                    .map_err(|e| loc.err(format!("Shape \"loopsubdiv\": {e}")))?;
+                mesh_geometry(positions, indices, None, Some(normals))
+            }
             other => return Err(loc.err(format!(
-                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere)"
+                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere, disk, cylinder, loopsubdiv)"
             ))),
         };
         params.check_unused(&format!("Shape \"{ty}\""))?;
@@ -1224,6 +1189,13 @@ impl Parser {
             #[allow(unreachable_patterns)]
             g => (g, false),
         };
+        if cut_out {
+            self.note(
+                loc,
+                format!("Shape \"{ty}\" with alpha 0 is invisible: dropped"),
+            );
+            return Ok(());
+        }
         let shape = Shape {
             name: self.gs.name.clone(),
             geometry,
@@ -1235,6 +1207,7 @@ impl Parser {
             shape,
             mat: self.gs.material.clone(),
             light: self.gs.area_light.clone(),
+            single: matches!(ty, "disk" | "cylinder"),
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1256,14 +1229,23 @@ impl Parser {
     fn finish(self) -> Result<SceneDescription, PbrtError> {
         let mut shapes = Vec::with_capacity(self.shapes.len());
         let mut notes = self.notes;
+        let mut errors = self.errors;
         for ps in self.shapes {
             let material = match &ps.mat {
                 MatRef::Index(i) => *i,
-                MatRef::Named(n, loc) => *self.named_materials.get(n).ok_or_else(|| {
-                    loc.err(format!(
-                        "NamedMaterial \"{n}\": no material of that name was defined"
-                    ))
-                })?,
+                MatRef::Named(n, loc) => match self.named_materials.get(n) {
+                    Some(i) => *i,
+                    None => {
+                        let e = loc.err(format!(
+                            "NamedMaterial \"{n}\": no material of that name was defined"
+                        ));
+                        // One report per NamedMaterial directive, not per shape using it.
+                        if !errors.contains(&e) {
+                            errors.push(e);
+                        }
+                        continue;
+                    }
+                },
             };
             let mut shape = ps.shape;
             shape.material = material;
@@ -1291,7 +1273,7 @@ impl Parser {
                                 uvs,
                                 normals,
                             },
-                        ) if indices.len() > 1 => {
+                        ) if indices.len() > 1 && !ps.single => {
                             notes.push(format!(
                                 "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
                                 indices.len()
@@ -1338,6 +1320,9 @@ impl Parser {
                     }
                 }
             }
+        }
+        if !errors.is_empty() {
+            return Err(PbrtError::combine(errors));
         }
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
         Ok(SceneDescription {

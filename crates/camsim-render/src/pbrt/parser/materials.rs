@@ -4,22 +4,19 @@
 use super::super::params::ParamList;
 use super::super::spectra::{param_spectrum, SpectrumUse};
 use super::super::{Loc, PbrtError};
+use super::textures::flat;
 use super::Parser;
-use crate::scene::{ConductorOptics, Material, Roughness, Texture};
-use camsim_core::spectrum::Extrapolation;
+use crate::scene::{ConductorOptics, FloatTexture, Material, Roughness, Texture};
 use camsim_core::Spectrum;
 use std::path::Path;
 
 /// Materials camsim reads.
 pub(super) const SUPPORTED: &str = "diffuse, conductor, dielectric, thindielectric, diffusetransmission, coateddiffuse, mix, interface";
 
-/// A wavelength-independent spectrum (held at every wavelength).
-fn flat(v: f64) -> Spectrum {
-    Spectrum::from_pairs(&[(360.0, v), (830.0, v)]).with_extrapolation(Extrapolation::Hold)
-}
-
 impl Parser {
-    /// A float parameter that pbrt-v4 also accepts as a float texture; camsim takes numbers only.
+    /// A float parameter that pbrt-v4 also accepts as a float texture: a number or the name of a
+    /// `constant` float texture (read by the texture helper); other float textures are refused
+    /// (camsim's materials take these parameters per material, not per hit).
     fn float_param(
         &self,
         params: &ParamList,
@@ -27,22 +24,15 @@ impl Parser {
         default: f64,
         what: &str,
     ) -> Result<f64, PbrtError> {
-        if let Some(p) = params.get(name, &["float", "texture"])? {
-            if p.ty == "texture" {
-                return Err(p.loc.err(format!(
-                    "{what}: \"{name}\" as a float texture is not supported (give a number)"
-                )));
-            }
-            let v = p.nums()?;
-            let [x] = v.as_slice() else {
-                return Err(p.loc.err(format!(
-                    "{what}: \"{name}\" needs exactly one value, got {}",
-                    v.len()
-                )));
-            };
-            return Ok(*x);
+        let Some(p) = params.get(name, &["float", "texture"])? else {
+            return Ok(default);
+        };
+        match self.float_texture_param(params, name, default)? {
+            FloatTexture::Constant(v) => Ok(v),
+            _ => Err(p.loc.err(format!(
+                "{what}: \"{name}\" as a varying float texture is not supported (give a number or a constant texture)"
+            ))),
         }
-        Ok(default)
     }
 
     /// `roughness`, `uroughness`, `vroughness`, `remaproughness` (pbrt-v4: u and v default to
@@ -131,7 +121,8 @@ impl Parser {
         }
     }
 
-    /// A spectrum texture parameter (`reflectance`, `transmittance`) or a constant default.
+    /// A spectrum texture parameter (`reflectance`, `transmittance`: a value or any spectrum
+    /// texture, see `textures.rs`) or a constant default.
     fn spectrum_texture(
         &self,
         params: &ParamList,
@@ -139,28 +130,9 @@ impl Parser {
         file: &Path,
         default: f64,
     ) -> Result<Texture, PbrtError> {
-        if let Some(p) = params.get(name, &["rgb", "spectrum", "blackbody", "texture"])? {
-            if p.ty == "texture" {
-                let names = p.strings()?;
-                let [tname] = names.as_slice() else {
-                    return Err(p
-                        .loc
-                        .err(format!("\"texture {name}\" needs one texture name")));
-                };
-                return self.textures.get(tname).cloned().ok_or_else(|| {
-                    if self.float_textures.contains_key(tname) {
-                        p.loc.err(format!("texture \"{tname}\" is a float texture; {name} needs a spectrum texture"))
-                    } else {
-                        p.loc.err(format!("no spectrum texture named \"{tname}\" (textures must be defined before use)"))
-                    }
-                });
-            }
-            let resolve = |n: &str| self.resolve(file, n);
-            return Ok(Texture::Constant(
-                param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum,
-            ));
-        }
-        Ok(Texture::Constant(flat(default)))
+        Ok(self
+            .spectrum_texture_param(params, name, file)?
+            .unwrap_or_else(|| Texture::Constant(flat(default))))
     }
 
     /// Build a material of type `ty` from its parameters.

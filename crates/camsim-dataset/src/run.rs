@@ -1,0 +1,457 @@
+//! Running a dataset: shards of samples, each written atomically as a WebDataset tar file with a
+//! JSON record beside it; resuming; and the manifest of every sample.
+//!
+//! Layout of a dataset folder:
+//! - `spec.json`: the checked spec (its fingerprint ties the folder to one spec);
+//! - `shard-00000000-00000063.tar`: samples 0..=63, WebDataset style: for each sample the files
+//!   `00000012.json` (its record: index, seed, varied parameters, effective config, results),
+//!   `00000012.dng`, `00000012.preview.png`, `00000012.raw.npy`, `00000012.noise_free.exr`, ...;
+//! - `shard-00000000-00000063.json`: the shard's record (sha256 and size of the tar, every
+//!   sample's status, parameters, files and timings); written after the tar, so its presence with
+//!   a matching checksum marks the shard complete;
+//! - `manifest.jsonl`: one JSON line per sample (pandas: `pd.read_json(path, lines=True)`),
+//!   gathered when every shard is complete.
+
+use crate::spec::{DatasetSpec, Sample};
+use crate::{DatasetError, Result};
+use camsim_io::atomic::{write_atomic, write_json_atomic, OutputDir};
+use camsim_io::exr::ExrOptions;
+use camsim_pipeline::{simulate, RunInfo, SimulateOptions};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Which shards this process runs: shard s belongs to part `index` of `count` when
+/// s mod count == index (`--shard i/n`, a Slurm array task or a Kubernetes indexed Job).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ShardSelect {
+    pub index: u64,
+    pub count: u64,
+}
+
+impl Default for ShardSelect {
+    fn default() -> Self {
+        ShardSelect { index: 0, count: 1 }
+    }
+}
+
+impl ShardSelect {
+    /// Parse `i/n` with 0 <= i < n.
+    pub fn parse(text: &str) -> std::result::Result<ShardSelect, String> {
+        let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard {text:?}: write i/n, e.g. 0/4"))?;
+        let index: u64 = i.trim().parse().map_err(|_| format!("--shard {text:?}: {i:?} is not a whole number"))?;
+        let count: u64 = n.trim().parse().map_err(|_| format!("--shard {text:?}: {n:?} is not a whole number"))?;
+        if count == 0 || index >= count {
+            return Err(format!("--shard {text:?}: needs 0 <= i < n"));
+        }
+        Ok(ShardSelect { index, count })
+    }
+
+    /// Whether shard `s` is this part's.
+    pub fn owns(&self, s: u64) -> bool {
+        s % self.count == self.index
+    }
+}
+
+/// One sample's line in a shard record and in the manifest.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SampleRecord {
+    pub index: u64,
+    /// WebDataset key: the index, 8 digits.
+    pub key: String,
+    /// "ok" or "error".
+    pub status: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    pub seed: u64,
+    /// The varied keys and their values.
+    pub params: serde_json::Map<String, serde_json::Value>,
+    /// File names inside the shard's tar.
+    pub files: Vec<String>,
+    /// The shard's tar file name.
+    pub shard: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_s: Option<f64>,
+    /// Seconds per stage.
+    pub times_s: serde_json::Map<String, serde_json::Value>,
+}
+
+/// A shard's record (`shard-FIRST-LAST.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ShardRecord {
+    pub shard: u64,
+    pub first: u64,
+    /// One past the last index.
+    pub end: u64,
+    pub tar: String,
+    pub sha256: String,
+    pub bytes: u64,
+    /// The spec's fingerprint.
+    pub spec: String,
+    pub seconds: f64,
+    pub samples: Vec<SampleRecord>,
+}
+
+/// What [`run`] did.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunSummary {
+    pub shards_total: u64,
+    /// Shards this run wrote.
+    pub shards_written: u64,
+    /// Shards found complete and skipped.
+    pub shards_skipped: u64,
+    /// Samples this run simulated, and how many of them failed.
+    pub samples_run: u64,
+    pub samples_failed: u64,
+    pub seconds: f64,
+    /// Whether every shard of the dataset is now complete (and manifest.jsonl written).
+    pub complete: bool,
+}
+
+/// File stem of shard `s`.
+pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
+    let r = spec.shard_range(s);
+    format!("shard-{:08}-{:08}", r.start, r.end - 1)
+}
+
+/// Prepare `out` for `spec`: create it and write `spec.json`, or check that the `spec.json`
+/// already there is the same spec (a folder holds one dataset).
+pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|e| DatasetError::io(out, e))?;
+    let path = out.join("spec.json");
+    if path.is_file() {
+        let text = std::fs::read_to_string(&path).map_err(|e| DatasetError::io(&path, e))?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| DatasetError::file(&path, e.to_string()))?;
+        if v["fingerprint"].as_str() != Some(spec.fingerprint.as_str()) {
+            return Err(DatasetError::file(
+                &path,
+                "holds a dataset of another spec; write this one to a new folder (or delete the old one)",
+            ));
+        }
+        return Ok(());
+    }
+    let json = serde_json::json!({
+        "fingerprint": spec.fingerprint,
+        "source": spec.source,
+        "samples": spec.samples,
+        "shard_size": spec.shard_size,
+        "shards": spec.shards(),
+        "seed": spec.seed,
+        "outputs": spec.output_names,
+        "base": spec.base,
+        "vary": spec.vary.iter().map(|v| v.key.clone()).collect::<Vec<_>>(),
+        "camsim_version": env!("CARGO_PKG_VERSION"),
+    });
+    write_json_atomic(&path, &json)?;
+    Ok(())
+}
+
+/// Whether shard `s` is complete in `out`: its record names this spec, and its tar has the
+/// recorded size and SHA-256 (`verify` false checks the size only).
+pub fn shard_complete(spec: &DatasetSpec, out: &Path, s: u64, verify: bool) -> Option<ShardRecord> {
+    let stem = shard_stem(spec, s);
+    let text = std::fs::read_to_string(out.join(format!("{stem}.json"))).ok()?;
+    let rec: ShardRecord = serde_json::from_str(&text).ok()?;
+    if rec.spec != spec.fingerprint || rec.tar != format!("{stem}.tar") {
+        return None;
+    }
+    let tar = out.join(&rec.tar);
+    let meta = std::fs::metadata(&tar).ok()?;
+    if meta.len() != rec.bytes {
+        return None;
+    }
+    if verify && sha256_file(&tar).ok()? != rec.sha256 {
+        return None;
+    }
+    Some(rec)
+}
+
+fn sha256_file(path: &Path) -> std::io::Result<String> {
+    let mut f = std::fs::File::open(path)?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        h.update(&buf[..n]);
+    }
+    Ok(format!("{:x}", h.finalize()))
+}
+
+/// A writer that hashes what passes through it.
+struct Hashing<W: Write> {
+    inner: W,
+    hash: Sha256,
+    bytes: u64,
+}
+
+impl<W: Write> Write for Hashing<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.update(&buf[..n]);
+        self.bytes += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// One simulated sample's files, in memory, named as inside the tar.
+struct SampleFiles {
+    record: SampleRecord,
+    files: Vec<(String, Vec<u8>)>,
+}
+
+/// Simulate sample `i` and collect its files (staged in `scratch`, then read back).
+fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &str) -> SampleFiles {
+    let key = format!("{:08}", sample.index);
+    let params: serde_json::Map<String, serde_json::Value> =
+        sample.params.iter().map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(serde_json::Value::Null))).collect();
+    let mut record = SampleRecord {
+        index: sample.index,
+        key: key.clone(),
+        status: "ok".into(),
+        error: None,
+        seed: sample.seed,
+        params: params.clone(),
+        files: Vec::new(),
+        shard: shard_name.to_string(),
+        exposure_s: None,
+        times_s: serde_json::Map::new(),
+    };
+    let result = (|| -> std::result::Result<Vec<(String, Vec<u8>)>, String> {
+        let opts = SimulateOptions { noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree), ..Default::default() };
+        let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
+        record.exposure_s = Some(sim.exposure_s);
+        record.times_s = sim.times_s.clone();
+        let dir = OutputDir::create(scratch.join(&key)).map_err(|e| e.to_string())?;
+        sim.write_into(&dir, &spec.outputs, ExrOptions::default(), &RunInfo::default()).map_err(|e| e.to_string())?;
+        let mut files = Vec::new();
+        // The sample's record: deterministic (no timings, no command line): the same bytes for
+        // the same (spec, index) on any machine.
+        let mut meta = sim.metadata(&RunInfo::default(), &spec.outputs);
+        if let Some(m) = meta.as_object_mut() {
+            for k in ["times", "command", "config_file", "files"] {
+                m.remove(k);
+            }
+            m.insert("index".into(), sample.index.into());
+            m.insert("seed".into(), sample.seed.into());
+            m.insert("params".into(), serde_json::Value::Object(params.clone()));
+        }
+        files.push((format!("{key}.json"), serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?));
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .map_err(|e| e.to_string())?
+            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+            // run.json is replaced by the record above; dot files are the folder's own markers.
+            .filter(|n| n != "run.json" && !n.starts_with('.'))
+            .collect();
+        names.sort();
+        for n in names {
+            let bytes = std::fs::read(dir.join(&n)).map_err(|e| format!("{n}: {e}"))?;
+            // raw.dng -> KEY.dng (the WebDataset extension); the others keep their names.
+            let name = if n == "raw.dng" { format!("{key}.dng") } else { format!("{key}.{n}") };
+            files.push((name, bytes));
+        }
+        drop(dir); // not committed: the staging folder is removed
+        if spec.raw_npy {
+            let f = &sim.frames[0];
+            files.push((format!("{key}.raw.npy"), npy_u16(&f.dn, f.rows, f.cols)));
+        }
+        Ok(files)
+    })();
+    match result {
+        Ok(files) => {
+            record.files = files.iter().map(|(n, _)| n.clone()).collect();
+            SampleFiles { record, files }
+        }
+        Err(e) => {
+            record.status = "error".into();
+            record.error = Some(e);
+            SampleFiles { record, files: Vec::new() }
+        }
+    }
+}
+
+/// A 2D uint16 array in NumPy's .npy format, version 1.0 (header: magic, version, little-endian
+/// header length, a dict literal padded with spaces to a multiple of 64 bytes and a newline).
+fn npy_u16(data: &[u16], rows: usize, cols: usize) -> Vec<u8> {
+    let dict = format!("{{'descr': '<u2', 'fortran_order': False, 'shape': ({rows}, {cols}), }}");
+    let unpadded = 10 + dict.len() + 1;
+    let pad = unpadded.div_ceil(64) * 64 - unpadded;
+    let header = format!("{dict}{}\n", " ".repeat(pad));
+    let mut out = Vec::with_capacity(10 + header.len() + data.len() * 2);
+    out.extend_from_slice(b"\x93NUMPY\x01\x00");
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    for v in data {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+/// Run shard `s` of `spec` into `out` (samples in parallel on the current rayon pool), writing
+/// its tar and record atomically. `on_sample` is called as each sample finishes.
+pub fn run_shard(spec: &DatasetSpec, out: &Path, s: u64, on_sample: &(dyn Fn(&SampleRecord) + Sync)) -> Result<ShardRecord> {
+    if s >= spec.shards() {
+        return Err(DatasetError::spec(&spec.source, format!("shard {s} is out of range (the dataset has {})", spec.shards())));
+    }
+    prepare(spec, out)?;
+    let t0 = Instant::now();
+    let stem = shard_stem(spec, s);
+    let tar_name = format!("{stem}.tar");
+    let scratch = out.join(format!(".{stem}.scratch-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).map_err(|e| DatasetError::io(&scratch, e))?;
+    let range = spec.shard_range(s);
+    let samples: Vec<SampleFiles> = range
+        .clone()
+        .into_par_iter()
+        .map(|i| {
+            let sf = match spec.sample(i) {
+                Ok(sample) => run_sample(spec, &sample, &scratch, &tar_name),
+                Err(e) => SampleFiles {
+                    record: SampleRecord {
+                        index: i,
+                        key: format!("{i:08}"),
+                        status: "error".into(),
+                        error: Some(e.to_string()),
+                        seed: 0,
+                        params: Default::default(),
+                        files: Vec::new(),
+                        shard: tar_name.clone(),
+                        exposure_s: None,
+                        times_s: Default::default(),
+                    },
+                    files: Vec::new(),
+                },
+            };
+            on_sample(&sf.record);
+            sf
+        })
+        .collect();
+    let _ = std::fs::remove_dir_all(&scratch);
+
+    // The tar: entries in index order, fixed metadata (mode 0644, mtime 0, uid/gid 0), so its
+    // bytes depend on the samples alone.
+    let tar_path = out.join(&tar_name);
+    let mut digest = (String::new(), 0u64);
+    write_atomic(&tar_path, |w| {
+        let mut hw = Hashing { inner: w, hash: Sha256::new(), bytes: 0 };
+        {
+            let mut b = tar::Builder::new(&mut hw);
+            b.mode(tar::HeaderMode::Deterministic);
+            for sf in &samples {
+                for (name, bytes) in &sf.files {
+                    let mut h = tar::Header::new_gnu();
+                    h.set_size(bytes.len() as u64);
+                    h.set_mode(0o644);
+                    h.set_mtime(0);
+                    h.set_cksum();
+                    b.append_data(&mut h, name, bytes.as_slice())?;
+                }
+            }
+            b.finish()?;
+        }
+        digest = (format!("{:x}", hw.hash.clone().finalize()), hw.bytes);
+        Ok(())
+    })?;
+    let record = ShardRecord {
+        shard: s,
+        first: range.start,
+        end: range.end,
+        tar: tar_name,
+        sha256: digest.0,
+        bytes: digest.1,
+        spec: spec.fingerprint.clone(),
+        seconds: t0.elapsed().as_secs_f64(),
+        samples: samples.into_iter().map(|s| s.record).collect(),
+    };
+    // The record last: its presence (with the checksum) marks the shard complete.
+    write_json_atomic(&out.join(format!("{stem}.json")), &record)?;
+    Ok(record)
+}
+
+/// Progress of a [`run`]: samples done (of this run), samples this run will do, failures so far.
+pub type RunProgress<'a> = dyn Fn(u64, u64, u64) + Sync + 'a;
+
+/// Run every shard `select` owns that is not already complete, then gather the manifest if the
+/// whole dataset is complete. `workers` samples run at once (None: one per core).
+pub fn run(spec: &DatasetSpec, out: &Path, select: ShardSelect, workers: Option<usize>, verify: bool, progress: &RunProgress<'_>) -> Result<RunSummary> {
+    let t0 = Instant::now();
+    prepare(spec, out)?;
+    let owned: Vec<u64> = (0..spec.shards()).filter(|s| select.owns(*s)).collect();
+    let todo: Vec<u64> = owned.iter().copied().filter(|s| shard_complete(spec, out, *s, verify).is_none()).collect();
+    let total: u64 = todo.iter().map(|s| spec.shard_range(*s).count() as u64).sum();
+    let done = AtomicU64::new(0);
+    let failed = AtomicU64::new(0);
+    progress(0, total, 0);
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(w) = workers {
+        builder = builder.num_threads(w.max(1));
+    }
+    let pool = builder.build().map_err(|e| DatasetError::spec(&spec.source, format!("cannot start {workers:?} workers: {e}")))?;
+    for s in &todo {
+        remove_stale_temporaries(out, &shard_stem(spec, *s));
+        pool.install(|| {
+            run_shard(spec, out, *s, &|r| {
+                if r.status != "ok" {
+                    failed.fetch_add(1, Ordering::Relaxed);
+                }
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(d, total, failed.load(Ordering::Relaxed));
+            })
+        })?;
+    }
+    let complete = gather(spec, out, false)?.is_some();
+    Ok(RunSummary {
+        shards_total: spec.shards(),
+        shards_written: todo.len() as u64,
+        shards_skipped: (owned.len() - todo.len()) as u64,
+        samples_run: total,
+        samples_failed: failed.load(Ordering::Relaxed),
+        seconds: t0.elapsed().as_secs_f64(),
+        complete,
+    })
+}
+
+/// Leftovers of a killed run of this shard: its tar's temporary files and scratch folders.
+fn remove_stale_temporaries(out: &Path, stem: &str) {
+    let Ok(entries) = std::fs::read_dir(out) else { return };
+    for e in entries.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        if n.starts_with(&format!(".{stem}.tar.tmp-")) || n.starts_with(&format!(".{stem}.json.tmp-")) {
+            let _ = std::fs::remove_file(e.path());
+        } else if n.starts_with(&format!(".{stem}.scratch-")) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// If every shard is complete, write `manifest.jsonl` (one line per sample, index order) and
+/// return its path; else None. `verify` re-checks every tar's checksum.
+pub fn gather(spec: &DatasetSpec, out: &Path, verify: bool) -> Result<Option<PathBuf>> {
+    let mut records = Vec::new();
+    for s in 0..spec.shards() {
+        match shard_complete(spec, out, s, verify) {
+            Some(r) => records.push(r),
+            None => return Ok(None),
+        }
+    }
+    let path = out.join("manifest.jsonl");
+    write_atomic(&path, |w| {
+        for r in &records {
+            for s in &r.samples {
+                serde_json::to_writer(&mut *w, s).map_err(|e| camsim_io::IoError::invalid(Path::new("manifest.jsonl"), e.to_string()))?;
+                w.write_all(b"\n")?;
+            }
+        }
+        Ok(())
+    })?;
+    Ok(Some(path))
+}

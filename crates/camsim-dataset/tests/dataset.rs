@@ -1,0 +1,239 @@
+//! Datasets: determinism (same bytes for any worker count, shard split and order), the variation
+//! rules, resume after damage, failures recorded per sample, and specs refused before any work.
+
+use camsim_dataset::{run, run_shard, shard_complete, DatasetSpec, ShardSelect};
+use std::path::Path;
+
+/// A tiny spec: 32 x 48 ColorChecker captures, 7 samples in shards of 3 (the last one short).
+fn spec_text(extra: &str) -> String {
+    format!(
+        r#"
+[dataset]
+samples = 7
+shard_size = 3
+seed = 11
+outputs = ["raw", "raw-npy", "preview", "noise-free"]
+
+[base]
+wavelengths = {{ start_nm = 400.0, step_nm = 20.0, count = 16 }}
+scene = {{ kind = "macbeth", illuminant = "D65" }}
+sensor = {{ preset = "pixel4a", rows = 32, cols = 48 }}
+
+[[vary]]
+key = "scene.illuminant"
+values = ["D65", "A"]
+
+[[vary]]
+key = "optics.config.f_number"
+values = [1.73, 2.8, 4.0]
+
+[[vary]]
+key = "capture.exposure_ms"
+log_uniform = [1.0, 10.0]
+{extra}
+"#
+    )
+}
+
+fn spec(extra: &str) -> DatasetSpec {
+    DatasetSpec::from_toml_str(&spec_text(extra), "test spec", Path::new(".")).unwrap()
+}
+
+fn bytes(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn grids_cycle_in_mixed_radix_and_random_draws_depend_on_the_index_only() {
+    let s = spec("");
+    for i in 0..7u64 {
+        let a = s.sample(i).unwrap();
+        // First grid fastest: illuminant = i mod 2, f-number = (i / 2) mod 3.
+        assert_eq!(a.params[0].1.as_str().unwrap(), ["D65", "A"][(i % 2) as usize]);
+        assert_eq!(a.params[1].1.as_float().unwrap(), [1.73, 2.8, 4.0][((i / 2) % 3) as usize]);
+        let t = a.params[2].1.as_float().unwrap();
+        assert!((1.0..10.0).contains(&t), "{t}");
+        // The effective config carries the drawn values.
+        assert_eq!(a.config.capture.exposure_ms, Some(t));
+        assert_eq!(a.config.optics.config.as_ref().unwrap().f_number, a.params[1].1.as_float().unwrap());
+        assert_eq!(a.config.seed, a.seed);
+        // Drawn again, in another order: identical.
+        let again = s.sample(i).unwrap();
+        assert_eq!(again.params, a.params);
+        assert_eq!(again.seed, a.seed);
+    }
+    // A different master seed draws other values.
+    let other = DatasetSpec::from_toml_str(&spec_text("").replace("seed = 11", "seed = 12"), "t", Path::new(".")).unwrap();
+    assert_ne!(other.sample(0).unwrap().params[2], s.sample(0).unwrap().params[2]);
+}
+
+#[test]
+fn log_uniform_and_normal_draws_follow_their_distributions() {
+    let s = DatasetSpec::from_toml_str(
+        &spec_text(
+            r#"
+[[vary]]
+key = "scene.mean_luminance_cd_m2"
+normal = { mean = 100.0, std = 20.0, min = 80.0, max = 200.0 }
+"#,
+        )
+        .replace("samples = 7", "samples = 4000"),
+        "t",
+        Path::new("."),
+    )
+    .unwrap();
+    let n = 4000;
+    let (mut log_sum, mut norm) = (0.0, Vec::new());
+    for i in 0..n {
+        let p = s.sample(i).unwrap().params;
+        log_sum += p[2].1.as_float().unwrap().ln();
+        let x = p[3].1.as_float().unwrap();
+        assert!((80.0..=200.0).contains(&x));
+        norm.push(x);
+    }
+    // log of a log-uniform draw on [1, 10) is uniform on [0, ln 10): mean ln(10)/2, s.d. of the
+    // mean ln(10)/sqrt(12 n).
+    let m = log_sum / n as f64;
+    let se = 10f64.ln() / (12.0 * n as f64).sqrt();
+    assert!((m - 10f64.ln() / 2.0).abs() < 4.0 * se, "mean log {m}");
+    // A normal truncated to [mean - 1 sd, mean + 5 sd]: mean = mu + sd phi(-1) / (1 - Phi(-1))
+    // = 100 + 20 x 0.24197 / 0.84134 = 105.752 (Johnson, Kotz & Balakrishnan, truncated normal).
+    let mean = norm.iter().sum::<f64>() / n as f64;
+    assert!((mean - 105.752).abs() < 4.0 * 20.0 * 0.8 / (n as f64).sqrt(), "truncated normal mean {mean}");
+}
+
+#[test]
+fn same_bytes_for_any_worker_count_and_shard_split_and_resume_redoes_only_damaged_shards() {
+    let s = spec("");
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let ra = run(&s, a.path(), ShardSelect::default(), Some(1), true, &|_, _, _| {}).unwrap();
+    assert!(ra.complete && ra.shards_written == 3 && ra.samples_run == 7 && ra.samples_failed == 0, "{ra:?}");
+    // Two parts of two, the second first, with two workers.
+    for part in [1, 0] {
+        let r = run(&s, b.path(), ShardSelect { index: part, count: 2 }, Some(2), true, &|_, _, _| {}).unwrap();
+        assert_eq!(r.complete, part == 0);
+    }
+    for stem in ["shard-00000000-00000002", "shard-00000003-00000005", "shard-00000006-00000006"] {
+        assert_eq!(bytes(a.path(), &format!("{stem}.tar")), bytes(b.path(), &format!("{stem}.tar")), "{stem}");
+    }
+    // The manifest: one line per sample, in index order, each with its files.
+    let manifest = String::from_utf8(bytes(a.path(), "manifest.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = manifest.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 7);
+    for (i, l) in lines.iter().enumerate() {
+        assert_eq!(l["index"], i as u64);
+        let files: Vec<&str> = l["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        let key = format!("{i:08}");
+        for ext in ["json", "dng", "raw.npy", "preview.png", "noise_free.exr"] {
+            assert!(files.contains(&format!("{key}.{ext}").as_str()), "{files:?}");
+        }
+    }
+
+    // Damage the middle shard and leave a killed run's temporary beside it: a re-run redoes that
+    // shard alone, removes the temporary, and gets the same bytes back.
+    let mid = a.path().join("shard-00000003-00000005.tar");
+    let good = std::fs::read(&mid).unwrap();
+    std::fs::write(&mid, &good[..good.len() / 2]).unwrap();
+    let stale = a.path().join(".shard-00000003-00000005.tar.tmp-999999-0");
+    std::fs::write(&stale, b"partial").unwrap();
+    assert!(shard_complete(&s, a.path(), 1, true).is_none());
+    let r = run(&s, a.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
+    assert_eq!((r.shards_written, r.shards_skipped), (1, 2), "{r:?}");
+    assert_eq!(std::fs::read(&mid).unwrap(), good);
+    assert!(!stale.exists());
+    // Same size, one byte changed: caught by the checksum.
+    let mut flipped = good.clone();
+    flipped[600] ^= 1;
+    std::fs::write(&mid, &flipped).unwrap();
+    assert!(shard_complete(&s, a.path(), 1, false).is_some(), "size-only check passes");
+    assert!(shard_complete(&s, a.path(), 1, true).is_none(), "checksum catches it");
+}
+
+#[test]
+fn the_raw_npy_holds_the_dng_values() {
+    let s = spec("");
+    let d = tempfile::tempdir().unwrap();
+    run_shard(&s, d.path(), 2, &|_| {}).unwrap();
+    let mut ar = tar::Archive::new(std::fs::File::open(d.path().join("shard-00000006-00000006.tar")).unwrap());
+    let mut files = std::collections::BTreeMap::new();
+    for e in ar.entries().unwrap() {
+        let mut e = e.unwrap();
+        let name = e.path().unwrap().to_string_lossy().into_owned();
+        let mut v = Vec::new();
+        std::io::Read::read_to_end(&mut e, &mut v).unwrap();
+        files.insert(name, v);
+    }
+    let npy = &files["00000006.raw.npy"];
+    let header_len = u16::from_le_bytes([npy[8], npy[9]]) as usize;
+    let header = std::str::from_utf8(&npy[10..10 + header_len]).unwrap();
+    assert!(header.contains("'descr': '<u2'") && header.contains("'shape': (32, 48)"), "{header}");
+    assert_eq!((10 + header_len) % 64, 0);
+    let values: Vec<u16> = npy[10 + header_len..].chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+    let dng_path = d.path().join("x.dng");
+    std::fs::write(&dng_path, &files["00000006.dng"]).unwrap();
+    let (raw, _) = camsim_io::dng::read_dng(&dng_path).unwrap();
+    assert_eq!(values, raw.dn);
+    let record: serde_json::Value = serde_json::from_slice(&files["00000006.json"]).unwrap();
+    assert_eq!(record["index"], 6);
+    assert!(record.get("times").is_none(), "the per-sample record holds no timings");
+}
+
+#[test]
+fn a_sample_that_fails_is_recorded_and_the_others_complete() {
+    let d = tempfile::tempdir().unwrap();
+    // A scene file that exists (so the spec passes its check) but is not an EXR.
+    std::fs::write(d.path().join("broken.exr"), b"not an exr").unwrap();
+    let text = spec_text(
+        r#"
+[[vary]]
+key = "scene"
+values = [{ kind = "macbeth" }, { kind = "file", path = "broken.exr" }]
+"#,
+    );
+    let s = DatasetSpec::from_toml_str(&text, "t", d.path()).unwrap();
+    let out = d.path().join("ds");
+    let r = run(&s, &out, ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
+    assert!(r.complete);
+    let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = manifest.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    // The 4th variation is the slowest grid: samples 0-5 use macbeth... with 2 x 3 x 2 grid
+    // points, index i takes the file scene when (i / 6) mod 2 == 1: sample 6.
+    for l in &lines {
+        let i = l["index"].as_u64().unwrap();
+        if (i / 6) % 2 == 1 {
+            assert_eq!(l["status"], "error", "{l}");
+            assert!(l["error"].as_str().unwrap().contains("broken.exr"), "{l}");
+        } else {
+            assert_eq!(l["status"], "ok", "{l}");
+        }
+    }
+}
+
+#[test]
+fn bad_specs_are_refused_before_any_work_naming_the_key() {
+    let cases: Vec<(String, &str)> = vec![
+        (spec_text("[[vary]]\nkey = \"optics.config.f_numbr\"\nvalues = [2.0]\n"), "f_numbr"),
+        (spec_text("[[vary]]\nkey = \"capture.exposure_ms\"\nuniform = [5.0, 1.0]\n"), "min < max"),
+        (spec_text("[[vary]]\nkey = \"capture.exposure_ms\"\nlog_uniform = [0.0, 1.0]\n"), "min > 0"),
+        (spec_text("[[vary]]\nkey = \"sensor.preset\"\nchoice = [\"pixel4a\", \"nosuchsensor\"]\n"), "nosuchsensor"),
+        (spec_text("[[vary]]\nkey = \"scene\"\nvalues = [{ kind = \"file\", path = \"missing.exr\" }]\n"), "missing.exr"),
+        (spec_text("[[vary]]\nkey = \"capture.exposure_ms\"\nvalues = [1.0]\nuniform = [1.0, 2.0]\n"), "exactly one"),
+        (spec_text("").replace("samples = 7", "samples = 0"), "samples"),
+        (spec_text("").replace("[base]", "[base]\nseed = 3"), "seed"),
+        (spec_text("").replace("\"noise-free\"]", "\"noise-free\", \"hdr\"]"), "hdr"),
+        (spec_text("").replace("[dataset]", "[dataset]\nsample = 3"), "sample"),
+    ];
+    for (text, needle) in cases {
+        let e = DatasetSpec::from_toml_str(&text, "my-spec.toml", Path::new(".")).unwrap_err().to_string();
+        assert!(e.contains("my-spec.toml") && e.contains(needle), "expected {needle:?} in: {e}");
+    }
+    // A folder of another spec is refused.
+    let d = tempfile::tempdir().unwrap();
+    run_shard(&spec(""), d.path(), 2, &|_| {}).unwrap();
+    let other = DatasetSpec::from_toml_str(&spec_text("").replace("seed = 11", "seed = 5"), "t", Path::new(".")).unwrap();
+    let e = run(&other, d.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap_err().to_string();
+    assert!(e.contains("spec.json") && e.contains("another spec"), "{e}");
+    assert!(ShardSelect::parse("2/2").is_err() && ShardSelect::parse("x").is_err());
+    assert_eq!(ShardSelect::parse("1/3").unwrap(), ShardSelect { index: 1, count: 3 });
+}

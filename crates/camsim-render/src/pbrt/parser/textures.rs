@@ -1,0 +1,305 @@
+//! `Texture`: pbrt-v4 spectrum and float textures `constant`, `imagemap`, `checkerboard` (2D),
+//! `scale`, `mix`, `directionmix` and `bilerp`, with pbrt-v4's parameter names and defaults
+//! (pbrt-v4 `textures.cpp`, `*Texture::Create`), and the helpers materials use to read a
+//! spectrum- or float-texture parameter.
+
+use super::{load_image, parse_encoding, Parser};
+use crate::pbrt::params::ParamList;
+use crate::pbrt::spectra::{param_spectrum, SpectrumUse};
+use crate::pbrt::{Loc, PbrtError};
+use crate::scene::{FloatTexture, Texture, UvMapping};
+use camsim_core::Spectrum;
+use std::path::Path;
+
+/// An image texture's width, height, texels and mapping.
+type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping);
+
+/// A constant spectrum `v` at every wavelength.
+pub(crate) fn flat(v: f64) -> Spectrum {
+    Spectrum::from_pairs(&[(360.0, v), (830.0, v)])
+        .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)
+}
+
+impl Parser {
+    /// A spectrum-texture parameter: `rgb`/`spectrum`/`blackbody` value (reflectance use, so
+    /// RGB above 1 is an error as in pbrt-v4) or `texture` name; `None` if absent.
+    pub(crate) fn spectrum_texture_param(
+        &self,
+        params: &ParamList,
+        name: &str,
+        file: &Path,
+    ) -> Result<Option<Texture>, PbrtError> {
+        let Some(p) = params.get(name, &["rgb", "spectrum", "blackbody", "texture"])? else {
+            return Ok(None);
+        };
+        if p.ty == "texture" {
+            let names = p.strings()?;
+            let [tname] = names.as_slice() else {
+                return Err(p
+                    .loc
+                    .err(format!("\"texture {name}\" needs one texture name")));
+            };
+            return self.textures.get(tname).cloned().map(Some).ok_or_else(|| {
+                if self.float_textures.contains_key(tname) {
+                    p.loc.err(format!("texture \"{tname}\" is a float texture; \"{name}\" needs a spectrum texture"))
+                } else {
+                    p.loc.err(format!("no spectrum texture named \"{tname}\" (textures must be defined before use)"))
+                }
+            });
+        }
+        let resolve = |n: &str| self.resolve(file, n);
+        Ok(Some(Texture::Constant(
+            param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum,
+        )))
+    }
+
+    /// A float-texture parameter: `float` value or `texture` name, `default` if absent.
+    pub(crate) fn float_texture_param(
+        &self,
+        params: &ParamList,
+        name: &str,
+        default: f64,
+    ) -> Result<FloatTexture, PbrtError> {
+        let Some(p) = params.get(name, &["float", "texture"])? else {
+            return Ok(FloatTexture::Constant(default));
+        };
+        if p.ty == "texture" {
+            let names = p.strings()?;
+            let [tname] = names.as_slice() else {
+                return Err(p
+                    .loc
+                    .err(format!("\"texture {name}\" needs one texture name")));
+            };
+            return self.float_textures.get(tname).cloned().ok_or_else(|| {
+                if self.textures.contains_key(tname) {
+                    p.loc.err(format!("texture \"{tname}\" is a spectrum texture; \"{name}\" needs a float texture"))
+                } else {
+                    p.loc.err(format!("no float texture named \"{tname}\" (textures must be defined before use)"))
+                }
+            });
+        }
+        match p.nums()?.as_slice() {
+            [v] => Ok(FloatTexture::Constant(*v)),
+            v => Err(p
+                .loc
+                .err(format!("\"float {name}\" needs one value, got {}", v.len()))),
+        }
+    }
+
+    fn uv_mapping(
+        &self,
+        name: &str,
+        params: &ParamList,
+        loc: &Loc,
+    ) -> Result<UvMapping, PbrtError> {
+        let mapping = params.string("mapping")?.unwrap_or_else(|| "uv".into());
+        if mapping != "uv" {
+            return Err(loc.err(format!(
+                "Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)"
+            )));
+        }
+        Ok(UvMapping {
+            uscale: params.float("uscale", 1.0)?,
+            vscale: params.float("vscale", 1.0)?,
+            udelta: params.float("udelta", 0.0)?,
+            vdelta: params.float("vdelta", 0.0)?,
+        })
+    }
+
+    /// pbrt-v4 image texture parameters and texels: (width, height, linear rgb * scale,
+    /// inverted if asked, not clamped), mapping.
+    fn imagemap(
+        &mut self,
+        name: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<ImageMap, PbrtError> {
+        let fname = params.string("filename")?.ok_or_else(|| {
+            loc.err(format!(
+                "Texture \"{name}\": imagemap needs \"string filename\""
+            ))
+        })?;
+        let path = self.resolve(file, &fname);
+        let default_enc = if fname.to_ascii_lowercase().ends_with(".png") {
+            "sRGB"
+        } else {
+            "linear"
+        };
+        let enc = params
+            .string("encoding")?
+            .unwrap_or_else(|| default_enc.to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| {
+            loc.err(format!(
+                "Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)"
+            ))
+        })?;
+        let scale = params.float("scale", 1.0)? as f32;
+        let invert = params.bool("invert", false)?;
+        let mapping = self.uv_mapping(name, params, loc)?;
+        if let Some(w) = params.string("wrap")? {
+            if w != "repeat" {
+                self.note(
+                    loc,
+                    format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"),
+                );
+            }
+        }
+        self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
+        params.check_unused("Texture \"imagemap\"")?;
+        let (width, height, mut rgb) =
+            load_image(&path, encoding).map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
+        for c in rgb.iter_mut().flatten() {
+            let v = *c * scale;
+            *c = if invert { 1.0 - v } else { v };
+        }
+        Ok((width, height, rgb, mapping))
+    }
+
+    pub(super) fn texture(
+        &mut self,
+        name: &str,
+        ty: &str,
+        class: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<(), PbrtError> {
+        let float = match ty {
+            "spectrum" | "color" => false,
+            "float" => true,
+            _ => {
+                return Err(loc.err(format!(
+                    "Texture \"{name}\": type \"{ty}\" must be \"spectrum\" or \"float\""
+                )))
+            }
+        };
+        let what = format!("Texture \"{name}\" \"{ty}\" \"{class}\"");
+        if class == "checkerboard" {
+            let dim = params.int("dimension", 2)?;
+            if dim != 2 {
+                return Err(loc.err(format!("{what}: only \"dimension\" 2 is supported (3D checkerboards need a 3D mapping)")));
+            }
+        }
+        if class == "imagemap" {
+            let (width, height, rgb, mapping) = self.imagemap(name, params, loc, file)?;
+            if float {
+                let values = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+                self.float_textures.insert(
+                    name.to_string(),
+                    FloatTexture::Image {
+                        width,
+                        height,
+                        values,
+                        mapping,
+                    },
+                );
+            } else {
+                // pbrt-v4 SpectrumImageTexture for albedo: clamp to [0, 1].
+                let rgb = rgb
+                    .into_iter()
+                    .map(|c| {
+                        c.map(|v| {
+                            if v.is_finite() {
+                                v.clamp(0.0, 1.0)
+                            } else {
+                                0.0
+                            }
+                        })
+                    })
+                    .collect();
+                let UvMapping {
+                    uscale,
+                    vscale,
+                    udelta,
+                    vdelta,
+                } = mapping;
+                self.textures.insert(
+                    name.to_string(),
+                    Texture::Image {
+                        width,
+                        height,
+                        rgb,
+                        uscale,
+                        vscale,
+                        udelta,
+                        vdelta,
+                    },
+                );
+            }
+            return Ok(());
+        }
+        if float {
+            let f = |p: &Self, n: &str, d: f64| p.float_texture_param(params, n, d).map(Box::new);
+            let t = match class {
+                "constant" => FloatTexture::Constant(params.float("value", 1.0)?),
+                "checkerboard" => FloatTexture::Checkerboard { tex1: f(self, "tex1", 1.0)?, tex2: f(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+                "scale" => FloatTexture::Scale { tex: f(self, "tex", 1.0)?, scale: f(self, "scale", 1.0)? },
+                "mix" => FloatTexture::Mix { tex1: f(self, "tex1", 0.0)?, tex2: f(self, "tex2", 1.0)?, amount: f(self, "amount", 0.5)? },
+                "directionmix" => FloatTexture::DirectionMix { tex1: f(self, "tex1", 0.0)?, tex2: f(self, "tex2", 1.0)?, direction: self.mix_dir(params, loc, &what)? },
+                "bilerp" => FloatTexture::Bilerp {
+                    v00: params.float("v00", 0.0)?,
+                    v01: params.float("v01", 1.0)?,
+                    v10: params.float("v10", 0.0)?,
+                    v11: params.float("v11", 1.0)?,
+                    mapping: self.uv_mapping(name, params, loc)?,
+                },
+                _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported (constant, imagemap, checkerboard, scale, mix, directionmix, bilerp)"))),
+            };
+            params.check_unused(&what)?;
+            self.float_textures.insert(name.to_string(), t);
+            return Ok(());
+        }
+        let s = |p: &Self, n: &str, d: f64| -> Result<Box<Texture>, PbrtError> {
+            Ok(Box::new(
+                p.spectrum_texture_param(params, n, file)?
+                    .unwrap_or_else(|| Texture::Constant(flat(d))),
+            ))
+        };
+        let t = match class {
+            "constant" => *s(self, "value", 1.0)?,
+            "checkerboard" => Texture::Checkerboard { tex1: s(self, "tex1", 1.0)?, tex2: s(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+            "scale" => Texture::Scale { tex: s(self, "tex", 1.0)?, scale: self.float_texture_param(params, "scale", 1.0)? },
+            "mix" => Texture::Mix { tex1: s(self, "tex1", 0.0)?, tex2: s(self, "tex2", 1.0)?, amount: self.float_texture_param(params, "amount", 0.5)? },
+            "directionmix" => Texture::DirectionMix { tex1: s(self, "tex1", 0.0)?, tex2: s(self, "tex2", 1.0)?, direction: self.mix_dir(params, loc, &what)? },
+            "bilerp" => {
+                let v = |n: &str, d: f64| -> Result<Spectrum, PbrtError> {
+                    match params.get(n, &["rgb", "spectrum", "blackbody"])? {
+                        Some(p) => {
+                            let resolve = |f: &str| self.resolve(file, f);
+                            Ok(param_spectrum(p, SpectrumUse::Albedo, &resolve)?.spectrum)
+                        }
+                        None => Ok(flat(d)),
+                    }
+                };
+                Texture::Bilerp { v00: v("v00", 0.0)?, v01: v("v01", 1.0)?, v10: v("v10", 0.0)?, v11: v("v11", 1.0)?, mapping: self.uv_mapping(name, params, loc)? }
+            }
+            _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported (constant, imagemap, checkerboard, scale, mix, directionmix, bilerp)"))),
+        };
+        params.check_unused(&what)?;
+        self.textures.insert(name.to_string(), t);
+        Ok(())
+    }
+
+    /// pbrt-v4 DirectionMixTexture: `dir` (default (0, 1, 0)) in texture space, transformed by the
+    /// CTM and normalised.
+    fn mix_dir(&self, params: &ParamList, loc: &Loc, what: &str) -> Result<[f64; 3], PbrtError> {
+        let d = match params.get("dir", &["vector3"])? {
+            None => [0.0, 1.0, 0.0],
+            Some(p) => match p.nums()?.as_slice() {
+                [x, y, z] => [*x, *y, *z],
+                v => {
+                    return Err(p.loc.err(format!(
+                        "{what}: \"vector3 dir\" needs 3 numbers, got {}",
+                        v.len()
+                    )))
+                }
+            },
+        };
+        let w = self.gs.ctm.apply_vector(d);
+        if !(crate::pbrt::xform::dot(w, w) > 0.0) {
+            return Err(loc.err(format!("{what}: \"dir\" is the zero vector")));
+        }
+        Ok(crate::pbrt::xform::normalize(w))
+    }
+}

@@ -1,0 +1,477 @@
+//! Textures compiled for tracing, and their evaluation (pbrt-v4 "Textures": `constant`,
+//! `imagemap`, `checkerboard` (2D), `scale`, `mix`, `directionmix`, `bilerp`), for spectrum and
+//! float textures.
+//!
+//! API for materials: compile a scene [`Texture`] with [`compile_texture`] (spectrum; tables and
+//! images go into the tracer's shared lists) or a [`FloatTexture`] with
+//! [`compile_float_texture`], then evaluate at a hit with `Tracer::eval_texture(&tex, &ctx,
+//! lambdas)` (`[f32; N]` at the path's wavelengths) or [`eval_float`] (`f32`). The context
+//! [`TexCtx`] holds what pbrt-v4's `TextureEvalContext` holds that these textures read: the
+//! surface's `(u, v)` and normal.
+//!
+//! A compiled texture is a small tree (`Box`ed nodes); leaves are indices into the tracer's
+//! spectrum tables and RGB images. Evaluation allocates nothing.
+
+use crate::math::V3;
+use crate::render::RenderError;
+use crate::scene::{FloatTexture, Texture, UvMapping};
+use crate::spectral::{SpectrumTable, WavelengthSampler};
+use std::sync::Arc;
+
+/// Where a texture is evaluated (pbrt-v4 `TextureEvalContext`, the parts used here).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TexCtx {
+    /// Surface parameterisation (mesh uv, or pbrt's defaults).
+    pub uv: [f32; 2],
+    /// Unit surface normal (its sign does not matter to any texture here).
+    pub n: V3,
+}
+
+/// pbrt-v4 `UVMapping` in f32.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Map {
+    pub su: f32,
+    pub sv: f32,
+    pub du: f32,
+    pub dv: f32,
+}
+
+impl Map {
+    fn new(m: &UvMapping) -> Map {
+        Map {
+            su: m.uscale as f32,
+            sv: m.vscale as f32,
+            du: m.udelta as f32,
+            dv: m.vdelta as f32,
+        }
+    }
+    #[inline(always)]
+    pub fn st(&self, uv: [f32; 2]) -> (f32, f32) {
+        (self.su * uv[0] + self.du, self.sv * uv[1] + self.dv)
+    }
+}
+
+/// A compiled spectrum texture.
+#[derive(Debug, Clone)]
+pub(crate) enum Tex {
+    /// Index into `Tracer::tables`.
+    Table(u32),
+    /// Index into `Tracer::images`.
+    Image(u32),
+    Checker(Box<[Tex; 2]>, Map),
+    Scale(Box<Tex>, Box<FTex>),
+    Mix(Box<[Tex; 2]>, Box<FTex>),
+    DirMix(Box<[Tex; 2]>, V3),
+    /// Tables of v00, v10, v01, v11.
+    Bilerp([u32; 4], Map),
+}
+
+/// A one-channel image (float `imagemap`).
+#[derive(Debug, Clone)]
+pub(crate) struct FloatImage {
+    pub width: usize,
+    pub height: usize,
+    pub values: Vec<f32>,
+}
+
+/// A compiled float texture.
+#[derive(Debug, Clone)]
+pub(crate) enum FTex {
+    Const(f32),
+    Image(Arc<FloatImage>, Map),
+    Checker(Box<[FTex; 2]>, Map),
+    Scale(Box<[FTex; 2]>),
+    Mix(Box<[FTex; 3]>),
+    DirMix(Box<[FTex; 2]>, V3),
+    Bilerp([f32; 4], Map),
+}
+
+/// Weight of `tex2` in pbrt-v4's 2D checkerboard without filtering: 0 where
+/// `floor(s) + floor(t)` is even, 1 where odd (pbrt-v4 `Checkerboard()` with zero footprint).
+#[inline(always)]
+pub(crate) fn checker_weight(s: f32, t: f32) -> f32 {
+    let k = (s.floor() as i64).wrapping_add(t.floor() as i64);
+    (k & 1) as f32
+}
+
+/// Bilinear interpolation weights (pbrt-v4 `Bilerp`): v00, v10, v01, v11.
+#[inline(always)]
+pub(crate) fn bilerp_weights(s: f32, t: f32) -> [f32; 4] {
+    [(1.0 - s) * (1.0 - t), s * (1.0 - t), (1.0 - s) * t, s * t]
+}
+
+/// Texel indices and weights of a bilinear lookup at `(s, t)` in a `width` x `height` image
+/// with repeat wrap, row 0 at t = 1, texel centres at half-integers (as `ImageTex::lookup`).
+#[inline]
+pub(crate) fn bilinear_texels(
+    width: usize,
+    height: usize,
+    s: f32,
+    t: f32,
+) -> ([usize; 4], [f32; 4]) {
+    let t = 1.0 - t;
+    let x = s * width as f32 - 0.5;
+    let y = t * height as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let wrap = |i: f32, n: usize| -> usize {
+        let n = n as i64;
+        let i = if i.is_finite() { i as i64 } else { 0 };
+        (((i % n) + n) % n) as usize
+    };
+    let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
+    let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
+    (
+        [
+            ya * width + xa,
+            ya * width + xb,
+            yb * width + xa,
+            yb * width + xb,
+        ],
+        [
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        ],
+    )
+}
+
+/// Evaluate a float texture at `ctx`.
+pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
+    match t {
+        FTex::Const(v) => *v,
+        FTex::Image(im, map) => {
+            let (s, tt) = map.st(ctx.uv);
+            let (idx, w) = bilinear_texels(im.width, im.height, s, tt);
+            (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
+        }
+        FTex::Checker(c, map) => {
+            let (s, tt) = map.st(ctx.uv);
+            if checker_weight(s, tt) == 0.0 {
+                eval_float(&c[0], ctx)
+            } else {
+                eval_float(&c[1], ctx)
+            }
+        }
+        FTex::Scale(c) => {
+            // pbrt-v4 FloatScaledTexture: a zero scale short-circuits.
+            let sc = eval_float(&c[1], ctx);
+            if sc == 0.0 {
+                0.0
+            } else {
+                sc * eval_float(&c[0], ctx)
+            }
+        }
+        FTex::Mix(c) => {
+            let amt = eval_float(&c[2], ctx);
+            let a = if amt != 1.0 {
+                eval_float(&c[0], ctx)
+            } else {
+                0.0
+            };
+            let b = if amt != 0.0 {
+                eval_float(&c[1], ctx)
+            } else {
+                0.0
+            };
+            (1.0 - amt) * a + amt * b
+        }
+        FTex::DirMix(c, dir) => {
+            let amt = ctx.n.dot(*dir).abs();
+            let a = if amt != 0.0 {
+                eval_float(&c[0], ctx)
+            } else {
+                0.0
+            };
+            let b = if amt != 1.0 {
+                eval_float(&c[1], ctx)
+            } else {
+                0.0
+            };
+            amt * a + (1.0 - amt) * b
+        }
+        FTex::Bilerp(v, map) => {
+            let (s, tt) = map.st(ctx.uv);
+            let w = bilerp_weights(s, tt);
+            (0..4).map(|k| w[k] * v[k]).sum()
+        }
+    }
+}
+
+fn unit_dir(d: [f64; 3]) -> Result<V3, String> {
+    let v = V3::from_f64(d);
+    let l = v.length();
+    if l > 0.0 && l.is_finite() {
+        Ok(v / l)
+    } else {
+        Err(format!(
+            "directionmix direction {d:?} is not a usable direction"
+        ))
+    }
+}
+
+fn check_map(m: &UvMapping) -> Result<Map, String> {
+    if [m.uscale, m.vscale, m.udelta, m.vdelta]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        Ok(Map::new(m))
+    } else {
+        Err(format!("texture mapping {m:?} has a non-finite value"))
+    }
+}
+
+/// Compile a float texture.
+pub(crate) fn compile_float_texture(
+    t: &FloatTexture,
+    material_index: usize,
+) -> Result<FTex, RenderError> {
+    compile_float(t).map_err(|message| RenderError::Material {
+        index: material_index,
+        message,
+    })
+}
+
+fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
+    Ok(match t {
+        FloatTexture::Constant(v) => {
+            if !v.is_finite() {
+                return Err(format!("float texture value {v} is not finite"));
+            }
+            FTex::Const(*v as f32)
+        }
+        FloatTexture::Image {
+            width,
+            height,
+            values,
+            mapping,
+        } => {
+            if *width == 0 || *height == 0 || values.len() != width * height {
+                return Err(format!(
+                    "float image texture of {width} x {height} pixels has {} values",
+                    values.len()
+                ));
+            }
+            if values.iter().any(|v| !v.is_finite()) {
+                return Err("float image texture has a non-finite value".into());
+            }
+            FTex::Image(
+                Arc::new(FloatImage {
+                    width: *width,
+                    height: *height,
+                    values: values.clone(),
+                }),
+                check_map(mapping)?,
+            )
+        }
+        FloatTexture::Checkerboard {
+            tex1,
+            tex2,
+            mapping,
+        } => FTex::Checker(
+            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
+            check_map(mapping)?,
+        ),
+        FloatTexture::Scale { tex, scale } => {
+            FTex::Scale(Box::new([compile_float(tex)?, compile_float(scale)?]))
+        }
+        FloatTexture::Mix { tex1, tex2, amount } => FTex::Mix(Box::new([
+            compile_float(tex1)?,
+            compile_float(tex2)?,
+            compile_float(amount)?,
+        ])),
+        FloatTexture::DirectionMix {
+            tex1,
+            tex2,
+            direction,
+        } => FTex::DirMix(
+            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
+            unit_dir(*direction)?,
+        ),
+        FloatTexture::Bilerp {
+            v00,
+            v01,
+            v10,
+            v11,
+            mapping,
+        } => {
+            let v = [*v00, *v10, *v01, *v11];
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(format!("bilerp values {v:?} must be finite"));
+            }
+            FTex::Bilerp(v.map(|x| x as f32), check_map(mapping)?)
+        }
+    })
+}
+
+/// Compile a spectrum texture: constants become spectrum tables (appended to `tables`), RGB
+/// images are appended to `images`. Negative spectra are an error (`what` names the parameter).
+pub(crate) fn compile_texture(
+    t: &Texture,
+    material_index: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<crate::integrator::ImageTex>,
+) -> Result<Tex, RenderError> {
+    let err = |message: String| RenderError::Material {
+        index: material_index,
+        message,
+    };
+    let table =
+        |s: &camsim_core::Spectrum, tables: &mut Vec<SpectrumTable>| -> Result<u32, RenderError> {
+            s.require_non_negative("texture spectrum")
+                .map_err(|e| err(e.to_string()))?;
+            tables.push(SpectrumTable::new(s, 1.0, ws));
+            Ok((tables.len() - 1) as u32)
+        };
+    Ok(match t {
+        Texture::Constant(s) => Tex::Table(table(s, tables)?),
+        Texture::Image {
+            width,
+            height,
+            rgb,
+            uscale,
+            vscale,
+            udelta,
+            vdelta,
+        } => {
+            if *width == 0 || *height == 0 || rgb.len() != width * height {
+                return Err(err(format!(
+                    "image texture of {width} x {height} pixels has {} values",
+                    rgb.len()
+                )));
+            }
+            if rgb.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(err("image texture has a non-finite value".into()));
+            }
+            images.push(crate::integrator::ImageTex {
+                width: *width,
+                height: *height,
+                rgb: rgb.clone(),
+                uscale: *uscale as f32,
+                vscale: *vscale as f32,
+                udelta: *udelta as f32,
+                vdelta: *vdelta as f32,
+            });
+            Tex::Image((images.len() - 1) as u32)
+        }
+        Texture::Checkerboard {
+            tex1,
+            tex2,
+            mapping,
+        } => Tex::Checker(
+            Box::new([
+                compile_texture(tex1, material_index, ws, tables, images)?,
+                compile_texture(tex2, material_index, ws, tables, images)?,
+            ]),
+            check_map(mapping).map_err(err)?,
+        ),
+        Texture::Scale { tex, scale } => Tex::Scale(
+            Box::new(compile_texture(tex, material_index, ws, tables, images)?),
+            Box::new(compile_float_texture(scale, material_index)?),
+        ),
+        Texture::Mix { tex1, tex2, amount } => Tex::Mix(
+            Box::new([
+                compile_texture(tex1, material_index, ws, tables, images)?,
+                compile_texture(tex2, material_index, ws, tables, images)?,
+            ]),
+            Box::new(compile_float_texture(amount, material_index)?),
+        ),
+        Texture::DirectionMix {
+            tex1,
+            tex2,
+            direction,
+        } => Tex::DirMix(
+            Box::new([
+                compile_texture(tex1, material_index, ws, tables, images)?,
+                compile_texture(tex2, material_index, ws, tables, images)?,
+            ]),
+            unit_dir(*direction).map_err(err)?,
+        ),
+        Texture::Bilerp {
+            v00,
+            v01,
+            v10,
+            v11,
+            mapping,
+        } => {
+            let map = check_map(mapping).map_err(err)?;
+            Tex::Bilerp(
+                [
+                    table(v00, tables)?,
+                    table(v10, tables)?,
+                    table(v01, tables)?,
+                    table(v11, tables)?,
+                ],
+                map,
+            )
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checker_parity_and_bilerp_corners() {
+        assert_eq!(checker_weight(0.5, 0.5), 0.0);
+        assert_eq!(checker_weight(1.5, 0.5), 1.0);
+        assert_eq!(checker_weight(-0.5, 0.5), 1.0);
+        assert_eq!(checker_weight(-0.5, -0.5), 0.0);
+        assert_eq!(bilerp_weights(0.0, 0.0), [1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(bilerp_weights(1.0, 0.0), [0.0, 1.0, 0.0, 0.0]);
+        assert_eq!(bilerp_weights(0.0, 1.0), [0.0, 0.0, 1.0, 0.0]);
+        let w = bilerp_weights(0.3, 0.7);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn float_graph_evaluates_like_pbrt() {
+        let ctx = TexCtx {
+            uv: [0.25, 0.75],
+            n: V3::new(0.0, 0.0, 1.0),
+        };
+        let c = |v: f64| Box::new(FloatTexture::Constant(v));
+        let mix = FloatTexture::Mix {
+            tex1: c(2.0),
+            tex2: c(4.0),
+            amount: c(0.25),
+        };
+        assert!((eval_float(&compile_float(&mix).unwrap(), &ctx) - 2.5).abs() < 1e-6);
+        let sc = FloatTexture::Scale {
+            tex: c(3.0),
+            scale: c(0.5),
+        };
+        assert!((eval_float(&compile_float(&sc).unwrap(), &ctx) - 1.5).abs() < 1e-6);
+        // |n . dir| = cos 60 deg = 0.5.
+        let dm = FloatTexture::DirectionMix {
+            tex1: c(1.0),
+            tex2: c(0.0),
+            direction: [0.0, 3f64.sqrt() / 2.0, -0.5],
+        };
+        assert!((eval_float(&compile_float(&dm).unwrap(), &ctx) - 0.5).abs() < 1e-6);
+        let bl = FloatTexture::Bilerp {
+            v00: 0.0,
+            v01: 1.0,
+            v10: 10.0,
+            v11: 100.0,
+            mapping: UvMapping::default(),
+        };
+        // (1-s)(1-t) 0 + s(1-t) 10 + (1-s) t 1 + s t 100 at s = 0.25, t = 0.75.
+        let want = 0.25 * 0.25 * 10.0 + 0.75 * 0.75 * 1.0 + 0.25 * 0.75 * 100.0;
+        assert!((eval_float(&compile_float(&bl).unwrap(), &ctx) - want).abs() < 1e-4);
+        let ck = FloatTexture::Checkerboard {
+            tex1: c(1.0),
+            tex2: c(2.0),
+            mapping: UvMapping {
+                uscale: 4.0,
+                ..UvMapping::default()
+            },
+        };
+        // s = 1, t = 0.75: floor sum 1 -> tex2.
+        assert_eq!(eval_float(&compile_float(&ck).unwrap(), &ctx), 2.0);
+        assert!(compile_float(&FloatTexture::Constant(f64::NAN)).is_err());
+    }
+}
