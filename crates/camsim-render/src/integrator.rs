@@ -8,9 +8,10 @@ use crate::geometry::{Prim, Ray, RayInv};
 use crate::lights::{LightKind, LightSample, Lights};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
+use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::sampling::power_heuristic;
-use crate::scene::{Geometry, Material, SceneDescription};
-use crate::texture::{compile_texture, eval_float, FTex, Tex, TexCtx};
+use crate::scene::{Geometry, SceneDescription};
+use crate::texture::{eval_float, FTex, Tex, TexCtx};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use rand::Rng as _;
 
@@ -38,11 +39,9 @@ pub(crate) struct MeshShading {
     pub normals: Option<Vec<V3>>,
 }
 
-/// A compiled material; new BSDFs add a variant here and an arm in [`Tracer::bsdf_at`].
-#[derive(Debug, Clone)]
-pub(crate) enum Mat {
-    Diffuse(Tex),
-}
+/// Most `interface` surfaces one path passes through before it is ended (a guard against
+/// rays trapped by coincident surfaces; pbrt-v4 has none).
+const MAX_INTERFACE_SKIPS: u32 = 256;
 
 /// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
 #[derive(Debug, Clone)]
@@ -106,6 +105,11 @@ pub(crate) struct Tracer {
     pub max_depth: u32,
     /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
     pub offset_scale: f32,
+    /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
+    /// the inside of dielectrics.
+    pub shape_flip: Vec<bool>,
+    /// Some material is (or mixes in) `interface`: shadow rays must pass through those surfaces.
+    pub has_interface: bool,
 }
 
 /// Surface data at a hit.
@@ -125,11 +129,10 @@ impl Tracer {
         let mut images: Vec<ImageTex> = Vec::new();
         let mut materials = Vec::with_capacity(scene.materials.len());
         for (mi, m) in scene.materials.iter().enumerate() {
-            let mat = match m {
-                Material::Diffuse { reflectance } => Mat::Diffuse(compile_texture(reflectance, mi, ws, &mut tables, &mut images)?),
-            };
+            let mat = compile_material(m, mi, scene.materials.len(), ws, &mut tables, &mut images)?;
             materials.push(mat);
         }
+        check_mix_cycles(&materials)?;
 
         // Count primitives first so the memory guard can refuse huge scenes before allocating.
         let mut n_prims = 0u64;
@@ -270,7 +273,9 @@ impl Tracer {
             })
             .collect();
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
-        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5 })
+        let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
+        let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
+        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5, shape_flip, has_interface })
     }
 
     /// Closest hit along `r`, if any.
@@ -321,11 +326,18 @@ impl Tracer {
         }
     }
 
-    /// The BSDF of material `m` at a hit, at the path's wavelengths.
+    /// The geometric normal oriented as pbrt-v4 orients it (toward the shading normal on meshes
+    /// with vertex normals, else flipped by `ReverseOrientation`): it points to the outside of a
+    /// dielectric.
     #[inline]
-    fn bsdf_at<const N: usize>(&self, m: u32, ctx: &TexCtx, lambdas: &Lambdas<N>) -> Bsdf<N> {
-        match &self.materials[m as usize] {
-            Mat::Diffuse(tex) => Bsdf::Diffuse { reflectance: self.eval_texture(tex, ctx, lambdas) },
+    fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
+        let has_normals = self.meshes[pi.shape as usize].as_ref().is_some_and(|m| m.normals.is_some());
+        if has_normals {
+            sh.ng.face_forward(sh.ns)
+        } else if self.shape_flip[pi.shape as usize] {
+            -sh.ng
+        } else {
+            sh.ng
         }
     }
 
@@ -402,7 +414,7 @@ impl Tracer {
     fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
-            return !self.bvh.occluded(&RayInv::new(&Ray { o: p_from, d: wi }), f32::INFINITY);
+            return !self.occluded(p_from, wi, f32::INFINITY);
         }
         let n_to = n_light.face_forward(p_from - p_light);
         let p_to = self.offset(p_light, n_to);
@@ -411,8 +423,35 @@ impl Tracer {
         if !(len > 0.0 && len.is_finite()) {
             return false;
         }
-        let shadow = Ray { o: p_from, d: d / len };
-        !self.bvh.occluded(&RayInv::new(&shadow), len * (1.0 - SHADOW_EPSILON))
+        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON))
+    }
+
+    /// Whether a surface that scatters lies on the segment `o + t d`, `0 < t < t_max`.
+    /// `interface` surfaces (also when a `mix` picks one) let shadow rays through, as they let
+    /// path rays through.
+    #[inline]
+    fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
+        if !self.has_interface {
+            return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
+        }
+        let (mut o, mut t_left) = (o, t_max);
+        for _ in 0..MAX_INTERFACE_SKIPS {
+            let r = Ray { o, d };
+            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
+            let sh = self.surface(&r, &h);
+            let pi = self.info[h.slot as usize];
+            let m = self.resolve_material(pi.material, sh.p, -d);
+            if !matches!(self.materials[m as usize], Mat::Interface) {
+                return true;
+            }
+            let next = self.offset(sh.p, sh.ng.face_forward(d));
+            t_left -= (next - o).dot(d);
+            if t_left.is_nan() || t_left <= 0.0 {
+                return false;
+            }
+            o = next;
+        }
+        true
     }
 
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
@@ -429,6 +468,14 @@ impl Tracer {
         let mut depth = 0u32;
         let mut prev_p = ray.o;
         let mut prev_bsdf_pdf = 0f32;
+        // The last bounce was a delta lobe: emission found next gets MIS weight 1 (pbrt-v4
+        // `specularBounce`).
+        let mut prev_specular = false;
+        // Product of eta'^2 over transmissions (pbrt-v4 `etaScale`), undone for Russian roulette.
+        let mut eta_scale = 1f32;
+        // Secondary wavelengths terminated by a dispersive material.
+        let mut terminated = false;
+        let mut skips = 0u32;
         counts.camera += 1;
         loop {
             let hit = self.intersect(&ray);
@@ -436,7 +483,7 @@ impl Tracer {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
                     let (le, light_pdf) = self.lights.escaped(li, ray.d, &self.tables, lambdas);
-                    let w = if depth == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, light_pdf) };
+                    let w = if depth == 0 || prev_specular { 1.0 } else { power_heuristic(prev_bsdf_pdf, light_pdf) };
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }
@@ -450,7 +497,7 @@ impl Tracer {
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
                 if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
-                    let w = if depth == 0 {
+                    let w = if depth == 0 || prev_specular {
                         1.0
                     } else {
                         power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
@@ -461,31 +508,59 @@ impl Tracer {
                     }
                 }
             }
+            let m = self.resolve_material(pi.material, sh.p, wo);
+            if let Mat::Interface = self.materials[m as usize] {
+                // No surface: continue the ray on the far side without counting a bounce
+                // (pbrt-v4 `SurfaceInteraction::SkipIntersection`).
+                skips += 1;
+                if skips > MAX_INTERFACE_SKIPS {
+                    break;
+                }
+                let far = sh.ng.face_forward(ray.d);
+                ray = Ray { o: self.offset(sh.p, far), d: ray.d };
+                counts.bounce += 1;
+                continue;
+            }
             if depth >= self.max_depth {
                 break;
             }
             depth += 1;
 
-            let bsdf: Bsdf<N> = self.bsdf_at(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, lambdas);
+            let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
+            let ctx = TexCtx { uv: sh.uv, n: sh.ng };
+            let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
+            if terminate && !terminated && N > 1 {
+                // Dispersion: only the hero wavelength (index 0, marginally uniform like each
+                // of them) follows this path from here on, weighted by N so the band estimate
+                // stays unbiased (pbrt-v4 `TerminateSecondary`).
+                terminated = true;
+                beta[0] *= N as f32;
+                for b in beta.iter_mut().skip(1) {
+                    *b = 0.0;
+                }
+            }
             // Two-sided shading: normals turned toward the outgoing direction.
             let ng = sh.ng.face_forward(wo);
             let ns = sh.ns.face_forward(ng);
             let frame = Frame::from_normal(ns);
+            let wo_local = frame.to_local(wo);
             let p_out = self.offset(sh.p, ng);
 
-            // Next-event estimation.
-            if !self.lights.is_empty() {
+            // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
+            if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel: f32 = rng.gen();
                 let u0: f32 = rng.gen();
                 let u1: f32 = rng.gen();
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
                     let LightSample { wi, dist, p_light, n_light, le, pdf, delta } = ls;
-                    if wi.dot(ng) > 0.0 {
+                    let cos_g = wi.dot(ng);
+                    if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
                         let wi_local = frame.to_local(wi);
-                        let (f, bsdf_pdf) = bsdf.eval(&frame.to_local(wo), &wi_local);
+                        let (f, bsdf_pdf) = bsdf.eval(&wo_local, &wi_local);
                         if bsdf_pdf > 0.0 {
                             counts.shadow += 1;
-                            if self.unoccluded(p_out, wi, dist, p_light, n_light) {
+                            let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta { 1.0 } else { power_heuristic(pdf, bsdf_pdf) };
                                 let w = mis * wi_local.z.abs() / pdf;
@@ -499,11 +574,14 @@ impl Tracer {
             }
 
             // BSDF sampling for the next vertex.
+            let uc: f32 = rng.gen();
             let u0: f32 = rng.gen();
             let u1: f32 = rng.gen();
-            let Some(bs) = bsdf.sample(&frame.to_local(wo), u0, u1) else { break };
+            let Some(bs) = bsdf.sample(&wo_local, uc, u0, u1) else { break };
             let wi = frame.to_world(bs.wi_local);
-            if wi.dot(ng) <= 0.0 {
+            // The geometric side must agree with the lobe (shading normals can disagree).
+            let cos_g = wi.dot(ng);
+            if (bs.transmission && cos_g >= 0.0) || (!bs.transmission && cos_g <= 0.0) {
                 break;
             }
             let mut max_beta = 0f32;
@@ -511,14 +589,20 @@ impl Tracer {
                 beta[i] *= bs.weight[i];
                 max_beta = max_beta.max(beta[i]);
             }
-            if max_beta <= 0.0 {
+            if max_beta.is_nan() || max_beta <= 0.0 {
                 break;
             }
             prev_bsdf_pdf = bs.pdf;
+            prev_specular = bs.specular;
             prev_p = sh.p;
-            // Russian roulette (pbrt-v4): after two bounces, continue with probability max(beta).
-            if max_beta < 1.0 && depth > 1 {
-                let q = (1.0 - max_beta).max(0.0);
+            if bs.transmission {
+                eta_scale *= bs.eta * bs.eta;
+            }
+            // Russian roulette (pbrt-v4): after two bounces, continue with probability
+            // max(beta) * etaScale.
+            let rr_beta = max_beta * eta_scale;
+            if rr_beta < 1.0 && depth > 1 {
+                let q = (1.0 - rr_beta).max(0.0);
                 let u: f32 = rng.gen();
                 if u < q {
                     break;
@@ -529,7 +613,8 @@ impl Tracer {
                 }
             }
             counts.bounce += 1;
-            ray = Ray { o: p_out, d: wi };
+            let o = if bs.transmission { self.offset(sh.p, -ng) } else { p_out };
+            ray = Ray { o, d: wi };
         }
         l
     }

@@ -5,9 +5,12 @@
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
 //! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
-//! scattering), `texture` (texture graphs), `lights` (area, infinite, point, spot and distant
-//! lights), [`envmap`] (environment maps), [`camera`] (pinhole camera),
-//! `integrator` (the path tracer) and [`render()`] (tiles, passes, film, statistics).
+//! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
+//! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
+//! (texture graphs), `lights` (area, infinite, point, spot and distant lights), [`envmap`]
+//! (environment maps), [`camera`] (pinhole camera), `materials` (materials compiled for the
+//! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
+//! statistics).
 //! The scene contract shared with the pbrt-v4 reader is [`scene`]; [`shapes`] turns disks,
 //! cylinders and Loop subdivision surfaces into triangles.
 
@@ -20,6 +23,7 @@ pub mod envmap;
 pub mod geometry;
 mod integrator;
 mod lights;
+mod materials;
 pub mod math;
 pub mod render;
 pub mod sampling;

@@ -591,7 +591,16 @@ fn apply_object(
         } else {
             let sub = crate::pbrt::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
             let offset = scene.materials.len();
-            scene.materials.extend(sub.materials);
+            // Material indices inside the inserted scene (a `mix`'s) move with it.
+            scene
+                .materials
+                .extend(sub.materials.into_iter().map(|m| match m {
+                    Material::Mix { materials, amount } => Material::Mix {
+                        materials: materials.map(|i| i + offset),
+                        amount,
+                    },
+                    m => m,
+                }));
             for (n, idx) in sub.named_materials {
                 scene.named_materials.entry(n).or_insert(idx + offset);
             }

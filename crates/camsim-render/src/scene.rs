@@ -137,12 +137,73 @@ pub enum FloatTexture {
     Bilerp { v00: f64, v01: f64, v10: f64, v11: f64, mapping: UvMapping },
 }
 
-/// Surface scattering. The set is closed (dispatch by `match`); the next BSDF (conductor,
-/// dielectric, coated diffuse) is a new variant here and a new arm in the renderer.
+/// Surface scattering, with pbrt-v4's material semantics (see [`crate::bsdf`] for the BSDFs).
+/// The set is closed (dispatch by `match`); a new BSDF is a new variant here and a new arm in
+/// the renderer.
+// A scene holds a handful of materials, read once at compile time: the size of the largest
+// variant (two inline textures) costs nothing worth an extra indirection in the public API.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Material {
     /// Lambertian reflection with a spectral reflectance (pbrt-v4 `diffuse`).
     Diffuse { reflectance: Texture },
+    /// A metal (pbrt-v4 `conductor`).
+    Conductor { optics: ConductorOptics, roughness: Roughness },
+    /// A dielectric interface (pbrt-v4 `dielectric`): `eta` is the index of refraction inside
+    /// (the side the geometric normal points away from) relative to outside. A spectrum that
+    /// varies with wavelength is dispersive: the path keeps only its hero wavelength.
+    Dielectric { eta: Spectrum, roughness: Roughness },
+    /// A thin dielectric slab (pbrt-v4 `thindielectric`), index `eta`; as in pbrt-v4 a
+    /// wavelength-dependent `eta` keeps only the path's hero wavelength.
+    ThinDielectric { eta: Spectrum },
+    /// Lambertian reflection and transmission (pbrt-v4 `diffusetransmission`), both multiplied
+    /// by `scale`.
+    DiffuseTransmission { reflectance: Texture, transmittance: Texture, scale: f64 },
+    /// A dielectric coating over a diffuse base (pbrt-v4 `coateddiffuse`; camsim's closed-form
+    /// approximation, see [`crate::bsdf::Bsdf::CoatedDiffuse`]). `thickness` is pbrt-v4's layer
+    /// thickness, an optical depth (dimensionless: transmittance `exp(-thickness / |cos|)`).
+    CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64 },
+    /// Chooses `materials[1]` with probability `amount` and `materials[0]` otherwise, per hit
+    /// by a deterministic hash of the hit point and direction (pbrt-v4 `mix`). Indices into
+    /// `SceneDescription::materials`.
+    Mix { materials: [usize; 2], amount: f64 },
+    /// No surface: rays pass straight through (pbrt-v4 `interface`, a boundary of media).
+    Interface,
+}
+
+/// The optical constants of a conductor.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ConductorOptics {
+    /// Complex index of refraction `eta + i k` relative to the outside medium.
+    EtaK { eta: Spectrum, k: Spectrum },
+    /// Normal-incidence reflectance `r`, turned into `eta = 1`, `k = 2 sqrt(r) / sqrt(1 - r)`
+    /// as pbrt-v4's `ConductorMaterial` does (this reproduces `r` at normal incidence exactly).
+    Reflectance(Texture),
+}
+
+/// Microfacet roughness as pbrt-v4 materials take it: `u` along the surface's first tangent,
+/// `v` along the second; `remap` (pbrt's `remaproughness`, default true) turns a perceptual
+/// roughness into the Trowbridge-Reitz alpha by `alpha = sqrt(roughness)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Roughness {
+    pub u: f64,
+    pub v: f64,
+    pub remap: bool,
+}
+
+impl Roughness {
+    /// A perfectly smooth surface.
+    pub const SMOOTH: Roughness = Roughness { u: 0.0, v: 0.0, remap: true };
+
+    /// The Trowbridge-Reitz `(alpha_x, alpha_y)` (NaN for a negative roughness when remapped:
+    /// the renderer refuses non-finite or negative alphas).
+    pub fn alphas(&self) -> (f64, f64) {
+        if self.remap {
+            (self.u.sqrt(), self.v.sqrt())
+        } else {
+            (self.u, self.v)
+        }
+    }
 }
 
 /// A diffuse area emitter attached to a shape: spectral radiance in W/(sr m^2 nm), after every

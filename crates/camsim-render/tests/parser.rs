@@ -347,7 +347,7 @@ fn include_import_and_cycles() {
 fn errors_name_file_line_and_column() {
     let cases: &[(&str, usize, usize, &str)] = &[
         ("WorldBegin\n  Frobnicate 1 2\n", 2, 3, "unknown directive"),
-        ("WorldBegin\nMaterial \"conductor\"\n", 2, 1, "conductor"),
+        ("WorldBegin\nMaterial \"hair\"\n", 2, 1, "hair"),
         ("WorldBegin\nShape \"sphere\" \"float radius\" [ 1 2 ]\n", 2, 16, "exactly one"),
         ("WorldBegin\nShape \"sphere\" \"float radius\" abc\n", 2, 31, "not a number"),
         ("WorldBegin\nShape \"sphere\" \"string radius\" \"x\"\n", 2, 16, "radius"),

@@ -78,7 +78,7 @@ fn lambertian_sampling_passes_chi_square_against_its_pdf() {
     for (k, wo) in [V3::new(0.0, 0.0, 1.0), V3::new(0.6, 0.0, 0.8), V3::new(0.3, 0.4, -0.866)].iter().enumerate() {
         let wo = wo.normalize();
         let (chi2, crit) = chi_square_directions(
-            |u0, u1| bsdf.sample(&wo, u0, u1).map(|s| s.wi_local),
+            |u0, u1| bsdf.sample(&wo, 0.5, u0, u1).map(|s| s.wi_local),
             |wi| bsdf.pdf(&wo, &wi) as f64,
             400_000,
             10 + k as u64,
@@ -86,7 +86,7 @@ fn lambertian_sampling_passes_chi_square_against_its_pdf() {
         eprintln!("lambertian wo {wo:?}: chi2 {chi2:.1}, critical (p = 1e-4) {crit:.1}");
         assert!(chi2 < crit, "chi-square {chi2} exceeds {crit}");
         // Weight f cos / pdf is the reflectance, and eval's pdf equals the sampling pdf.
-        let s = bsdf.sample(&wo, 0.3, 0.7).unwrap();
+        let s = bsdf.sample(&wo, 0.5, 0.3, 0.7).unwrap();
         assert_eq!(s.weight, [0.5; 4]);
         let (f, pdf) = bsdf.eval(&wo, &s.wi_local);
         assert!((pdf - s.pdf).abs() < 1e-6 && (f[0] - 0.5 / std::f32::consts::PI).abs() < 1e-7);
@@ -99,7 +99,7 @@ fn chi_square_test_rejects_a_wrong_pdf() {
     let bsdf: Bsdf<1> = Bsdf::Diffuse { reflectance: [1.0] };
     let wo = V3::new(0.0, 0.0, 1.0);
     let (chi2, crit) = chi_square_directions(
-        |u0, u1| bsdf.sample(&wo, u0, u1).map(|s| s.wi_local),
+        |u0, u1| bsdf.sample(&wo, 0.5, u0, u1).map(|s| s.wi_local),
         |wi| if wi.z > 0.0 { 1.0 / (2.0 * PI) } else { 0.0 },
         100_000,
         3,

@@ -30,8 +30,20 @@
 //!   `phimax` -- both tessellated at load, area-preserving, see [`crate::shapes`];
 //!   `loopsubdiv`: `levels`, `P`, `indices` -- Loop-subdivided at load and moved to the limit
 //!   surface as pbrt-v4 does),
-//!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (`diffuse` with `reflectance` as rgb,
-//!   spectrum, blackbody or a texture; forward references to named materials resolve at the end),
+//!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
+//!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
+//!   `parser/materials.rs`): `diffuse` (`reflectance`), `conductor` (`eta`/`k` spectra, default
+//!   copper, or `reflectance`; `roughness`, `uroughness`, `vroughness`, `remaproughness`),
+//!   `dielectric` (`eta` float or spectrum, e.g. `"glass-BK7"`; roughness as conductor),
+//!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
+//!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
+//!   model, exact for a smooth coating, see [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must
+//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `mix` (`materials` two named
+//!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
+//!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
+//!   texture; float parameters (roughness, `scale`, `thickness`, `amount`) take a number or a
+//!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
+//!   ([`optical_constants`]),
 //!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
 //!   crate; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
 //!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
@@ -84,17 +96,21 @@
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` type and
 //! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MediumInterface`;
-//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); `normalmap`; shape
+//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); material `normalmap`,
+//! `bumpmap`, `displacement` (no bump, displacement or normal mapping); shape
 //! `faceIndices`, `S`, `emission`-free `alpha` of 1; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective` and `screenwindow`; materials other than `diffuse` (named in
-//! the message) and `displacement`; texture classes other than those above (`fbm`, `wrinkled`,
-//! `windy`, `marble`, `dots`, `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than
-//! those above (`curve`, ...), sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape
-//! dropped, noted) or 1; `goniometric` and `projection` lights, area-light images (`filename`),
-//! infinite-light `portal`s and maps that are neither square nor 2:1; participating media (`MakeNamedMedium`); `Attribute`; area
-//! lights inside object instances; `WorldEnd` (pbrt-v3); unknown directives.
+//! Cameras other than `perspective` and `screenwindow`; materials other than the eight above
+//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), varying float
+//! textures as material parameters, `coateddiffuse` with a scattering layer (`albedo` > 0);
+//! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
+//! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
+//! sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape dropped, noted) or 1;
+//! `goniometric` and `projection` lights, area-light images (`filename`), infinite-light
+//! `portal`s and maps that are neither square nor 2:1; participating media
+//! (`MakeNamedMedium`); `Attribute`; area lights inside object instances; `WorldEnd`
+//! (pbrt-v3); unknown directives.
 //!
 //! # One-pass reporting
 //! A directive with a problem is recorded and skipped (reading resumes at the next directive),
@@ -102,6 +118,7 @@
 //! file:line:column ([`PbrtError::problems`]); reading stops after 100.
 
 mod lexer;
+pub mod optical_constants;
 mod params;
 mod parser;
 pub mod ply;

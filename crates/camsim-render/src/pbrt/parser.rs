@@ -19,6 +19,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 mod lights;
+mod materials;
 mod textures;
 
 /// Problems reported before reading stops.
@@ -921,60 +922,6 @@ impl Parser {
             self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
         }
         Ok(())
-    }
-
-    fn reflectance_texture(
-        &self,
-        params: &ParamList,
-        file: &Path,
-        default: f64,
-    ) -> Result<Texture, PbrtError> {
-        if let Some(p) = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])? {
-            if p.ty == "texture" {
-                let names = p.strings()?;
-                let [name] = names.as_slice() else {
-                    return Err(p.loc.err("\"texture reflectance\" needs one texture name"));
-                };
-                return self.textures.get(name).cloned().ok_or_else(|| {
-                    if self.float_textures.contains_key(name) {
-                        p.loc.err(format!("texture \"{name}\" is a float texture; reflectance needs a spectrum texture"))
-                    } else {
-                        p.loc.err(format!("no spectrum texture named \"{name}\" (textures must be defined before use)"))
-                    }
-                });
-            }
-            let resolve = |n: &str| self.resolve(file, n);
-            let s = param_spectrum(p, SpectrumUse::Albedo, &resolve)?;
-            return Ok(Texture::Constant(s.spectrum));
-        }
-        Ok(Texture::Constant(
-            Spectrum::from_pairs(&[(360.0, default), (830.0, default)])
-                .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
-        ))
-    }
-
-    fn material(
-        &mut self,
-        ty: &str,
-        params: &ParamList,
-        loc: &Loc,
-        file: &Path,
-    ) -> Result<Material, PbrtError> {
-        if ty != "diffuse" {
-            return Err(loc.err(format!(
-                "material type \"{ty}\" is not supported (camsim supports \"diffuse\"; the next BSDFs are conductor, dielectric, coateddiffuse)"
-            )));
-        }
-        let reflectance = self.reflectance_texture(params, file, 0.5)?;
-        if params.get("displacement", &["float", "texture"])?.is_some() {
-            return Err(loc.err("material \"diffuse\": \"displacement\" is not supported"));
-        }
-        if let Some(l) = params.ignore("normalmap") {
-            self.note(&l, "material: normalmap ignored");
-        }
-        params.get("type", &["string"])?;
-        params.check_unused("material \"diffuse\"")?;
-        Ok(Material::Diffuse { reflectance })
     }
 
     fn shape(

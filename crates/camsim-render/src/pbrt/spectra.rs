@@ -89,6 +89,9 @@ pub fn named_spectrum(name: &str) -> Option<Result<Spectrum, String>> {
         "stdillum-F11" => "F11",
         "stdillum-C" => "C",
         "stdillum-E" => "E",
+        _ if super::optical_constants::NAMES.contains(&name) => {
+            return super::optical_constants::named(name).map(Ok);
+        }
         _ => {
             let pbrt_prefixes = [
                 "stdillum-",
@@ -115,8 +118,9 @@ pub fn named_spectrum(name: &str) -> Option<Result<Spectrum, String>> {
             ];
             if pbrt_prefixes.iter().any(|p| name.starts_with(p)) {
                 return Some(Err(format!(
-                    "named spectrum \"{name}\" is a pbrt-v4 built-in that camsim does not carry; camsim has {}",
-                    NAMED_SPECTRA.join(", ")
+                    "named spectrum \"{name}\" is a pbrt-v4 built-in that camsim does not carry; camsim has {}, {}",
+                    NAMED_SPECTRA.join(", "),
+                    super::optical_constants::NAMES.join(", ")
                 )));
             }
             return None;

@@ -1,0 +1,398 @@
+//! Materials compiled for the tracer: the per-hit choice of a `mix`, the BSDF of a material at a
+//! hit and the path's wavelengths, and the compile step from [`crate::scene::Material`]
+//! (validation, spectrum tables, the coating's return probability).
+
+use crate::bsdf::fresnel::coating_return_probability;
+use crate::bsdf::{Bsdf, TrowbridgeReitz};
+use crate::integrator::{ImageTex, Tracer};
+use crate::math::V3;
+use crate::render::RenderError;
+use crate::scene::{ConductorOptics, Material, Roughness};
+use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
+use crate::texture::{compile_texture, Tex, TexCtx};
+
+/// A compiled material; new BSDFs add a variant here and an arm in [`Tracer::bsdf_at`].
+#[derive(Debug, Clone)]
+pub(crate) enum Mat {
+    Diffuse(Tex),
+    /// Tables of eta and k (index into `Tracer::tables`), or a reflectance texture.
+    Conductor {
+        optics: CondOptics,
+        distrib: TrowbridgeReitz,
+    },
+    /// Index table (held beyond its data); `dispersive` when it varies with wavelength.
+    Dielectric {
+        eta: u32,
+        dispersive: bool,
+        distrib: TrowbridgeReitz,
+    },
+    ThinDielectric {
+        eta: u32,
+        dispersive: bool,
+    },
+    DiffuseTransmission {
+        r: Tex,
+        t: Tex,
+        scale: f32,
+    },
+    CoatedDiffuse {
+        r: Tex,
+        eta: f32,
+        distrib: TrowbridgeReitz,
+        thickness: f32,
+        r_return: f32,
+    },
+    Mix {
+        materials: [u32; 2],
+        amount: f32,
+    },
+    Interface,
+}
+
+/// A conductor's optical constants, compiled.
+#[derive(Debug, Clone)]
+pub(crate) enum CondOptics {
+    EtaK(u32, u32),
+    Reflectance(Tex),
+}
+
+impl Tracer {
+    /// Material `m` with every `mix` resolved for this hit (pbrt-v4 `MixMaterial::ChooseMaterial`:
+    /// `materials[1]` when a hash of the hit point, the direction and the two materials, as a
+    /// uniform number in [0, 1), is below `amount`).
+    #[inline]
+    pub(crate) fn resolve_material(&self, mut m: u32, p: V3, wo: V3) -> u32 {
+        // Cycles are refused at compile time; the bound only guards against a deep chain.
+        for _ in 0..64 {
+            match &self.materials[m as usize] {
+                Mat::Mix { materials, amount } => {
+                    m = if *amount <= 0.0 {
+                        materials[0]
+                    } else if *amount >= 1.0
+                        || mix_hash(p, wo, materials[0], materials[1]) < *amount
+                    {
+                        materials[1]
+                    } else {
+                        materials[0]
+                    };
+                }
+                _ => return m,
+            }
+        }
+        m
+    }
+
+    /// The BSDF of (non-mix, non-interface) material `m` at a hit, at the path's wavelengths,
+    /// for a path arriving from outside (`outside`, the side the oriented geometric normal points
+    /// to) or inside. The flag is true when the material is dispersive and the path must keep
+    /// only its hero wavelength (pbrt-v4 `SampledWavelengths::TerminateSecondary`).
+    #[inline]
+    pub(crate) fn bsdf_at<const N: usize>(
+        &self,
+        m: u32,
+        ctx: &TexCtx,
+        lambdas: &Lambdas<N>,
+        outside: bool,
+    ) -> (Bsdf<N>, bool) {
+        let side = |eta: f32| if outside { eta } else { 1.0 / eta };
+        match &self.materials[m as usize] {
+            Mat::Diffuse(tex) => (
+                Bsdf::Diffuse {
+                    reflectance: self.eval_texture(tex, ctx, lambdas),
+                },
+                false,
+            ),
+            Mat::Conductor { optics, distrib } => {
+                let (eta, k) = match optics {
+                    CondOptics::EtaK(e, k) => (
+                        self.tables[*e as usize].eval_path(lambdas),
+                        self.tables[*k as usize].eval_path(lambdas),
+                    ),
+                    CondOptics::Reflectance(tex) => {
+                        // pbrt-v4 ConductorMaterial: eta = 1, k = 2 sqrt(r) / sqrt(1 - r).
+                        let r = self.eval_texture(tex, ctx, lambdas);
+                        let k = std::array::from_fn(|i| {
+                            let r = r[i].clamp(0.0, 0.9999);
+                            2.0 * r.sqrt() / (1.0 - r).sqrt()
+                        });
+                        ([1.0; N], k)
+                    }
+                };
+                (
+                    Bsdf::Conductor {
+                        eta,
+                        k,
+                        distrib: *distrib,
+                    },
+                    false,
+                )
+            }
+            Mat::Dielectric {
+                eta,
+                dispersive,
+                distrib,
+            } => {
+                let e = self.tables[*eta as usize].eval_path(lambdas)[0];
+                (
+                    Bsdf::Dielectric {
+                        eta: side(e),
+                        distrib: *distrib,
+                    },
+                    *dispersive,
+                )
+            }
+            Mat::ThinDielectric { eta, dispersive } => (
+                Bsdf::ThinDielectric {
+                    eta: self.tables[*eta as usize].eval_path(lambdas)[0],
+                },
+                *dispersive,
+            ),
+            Mat::DiffuseTransmission { r, t, scale } => {
+                let (mut r, mut t) = (
+                    self.eval_texture(r, ctx, lambdas),
+                    self.eval_texture(t, ctx, lambdas),
+                );
+                for i in 0..N {
+                    r[i] = (r[i] * scale).clamp(0.0, 1.0);
+                    t[i] = (t[i] * scale).clamp(0.0, 1.0);
+                }
+                (Bsdf::DiffuseTransmission { r, t }, false)
+            }
+            Mat::CoatedDiffuse {
+                r,
+                eta,
+                distrib,
+                thickness,
+                r_return,
+            } => {
+                let mut rho = self.eval_texture(r, ctx, lambdas);
+                for v in rho.iter_mut() {
+                    *v = v.clamp(0.0, 1.0);
+                }
+                (
+                    Bsdf::CoatedDiffuse {
+                        reflectance: rho,
+                        eta: *eta,
+                        distrib: *distrib,
+                        thickness: *thickness,
+                        r_return: *r_return,
+                    },
+                    false,
+                )
+            }
+            // Resolved before (mix) or handled by the tracer (interface): never reached.
+            Mat::Mix { .. } | Mat::Interface => (
+                Bsdf::Diffuse {
+                    reflectance: [0.0; N],
+                },
+                false,
+            ),
+        }
+    }
+}
+
+/// Deterministic uniform number in [0, 1) for a `mix` decision at a hit (pbrt-v4 hashes the
+/// point, the direction and the two materials; here a SplitMix64-style mix of their bits,
+/// Steele et al. 2014).
+#[inline]
+pub(crate) fn mix_hash(p: V3, wo: V3, a: u32, b: u32) -> f32 {
+    let mut h: u64 = 0x9E37_79B9_7F4A_7C15 ^ ((a as u64) << 32 | b as u64);
+    for v in [p.x, p.y, p.z, wo.x, wo.y, wo.z] {
+        h ^= v.to_bits() as u64;
+        h = h.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h ^= h >> 31;
+    }
+    (h >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// A roughness as the Trowbridge-Reitz distribution, refusing negative or non-finite values.
+fn distribution(r: &Roughness, material_index: usize) -> Result<TrowbridgeReitz, RenderError> {
+    let (ax, ay) = r.alphas();
+    if !(ax >= 0.0 && ay >= 0.0 && ax.is_finite() && ay.is_finite()) {
+        return Err(RenderError::Material {
+            index: material_index,
+            message: format!("roughness ({}, {}) must be finite and >= 0", r.u, r.v),
+        });
+    }
+    Ok(TrowbridgeReitz {
+        alpha_x: ax as f32,
+        alpha_y: ay as f32,
+    })
+}
+
+/// A spectrum used as an index of refraction (or extinction): tabulated holding its end values
+/// (an index is never zero beyond the data), and whether it varies with wavelength.
+fn index_table(
+    s: &camsim_core::Spectrum,
+    what: &str,
+    material_index: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    positive: bool,
+) -> Result<(u32, bool), RenderError> {
+    let err = |message: String| RenderError::Material {
+        index: material_index,
+        message,
+    };
+    if s.values
+        .iter()
+        .any(|v| !v.is_finite() || *v < 0.0 || (positive && *v <= 0.0))
+    {
+        return Err(err(format!(
+            "{what} must be {} (got {:?})",
+            if positive { "> 0" } else { ">= 0" },
+            s.values
+        )));
+    }
+    let held = s
+        .clone()
+        .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold);
+    let v0 = s.values[0];
+    let dispersive = s
+        .values
+        .iter()
+        .any(|v| (v - v0).abs() > 1e-9 * v0.abs().max(1.0));
+    tables.push(SpectrumTable::new(&held, 1.0, ws));
+    Ok(((tables.len() - 1) as u32, dispersive))
+}
+
+pub(crate) fn compile_material(
+    m: &Material,
+    mi: usize,
+    n_materials: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<ImageTex>,
+) -> Result<Mat, RenderError> {
+    let err = |message: String| RenderError::Material { index: mi, message };
+    Ok(match m {
+        Material::Diffuse { reflectance } => {
+            Mat::Diffuse(compile_texture(reflectance, mi, ws, tables, images)?)
+        }
+        Material::Conductor { optics, roughness } => {
+            let optics = match optics {
+                ConductorOptics::EtaK { eta, k } => {
+                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
+                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
+                    CondOptics::EtaK(e, k)
+                }
+                ConductorOptics::Reflectance(t) => {
+                    CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?)
+                }
+            };
+            Mat::Conductor {
+                optics,
+                distrib: distribution(roughness, mi)?,
+            }
+        }
+        Material::Dielectric { eta, roughness } => {
+            let (eta, dispersive) = index_table(eta, "dielectric eta", mi, ws, tables, true)?;
+            Mat::Dielectric {
+                eta,
+                dispersive,
+                distrib: distribution(roughness, mi)?,
+            }
+        }
+        Material::ThinDielectric { eta } => {
+            let (eta, dispersive) = index_table(eta, "thin dielectric eta", mi, ws, tables, true)?;
+            Mat::ThinDielectric { eta, dispersive }
+        }
+        Material::DiffuseTransmission {
+            reflectance,
+            transmittance,
+            scale,
+        } => {
+            if !(scale.is_finite() && *scale >= 0.0) {
+                return Err(err(format!(
+                    "diffuse transmission scale {scale} must be finite and >= 0"
+                )));
+            }
+            Mat::DiffuseTransmission {
+                r: compile_texture(reflectance, mi, ws, tables, images)?,
+                t: compile_texture(transmittance, mi, ws, tables, images)?,
+                scale: *scale as f32,
+            }
+        }
+        Material::CoatedDiffuse {
+            reflectance,
+            roughness,
+            eta,
+            thickness,
+        } => {
+            if !(eta.is_finite() && *eta > 0.0) {
+                return Err(err(format!("coated diffuse eta {eta} must be > 0")));
+            }
+            if !(thickness.is_finite() && *thickness >= 0.0) {
+                return Err(err(format!(
+                    "coated diffuse thickness {thickness} must be >= 0"
+                )));
+            }
+            let eta = *eta as f32;
+            let r_return = coating_return_probability(eta, *thickness as f32);
+            Mat::CoatedDiffuse {
+                r: compile_texture(reflectance, mi, ws, tables, images)?,
+                eta,
+                distrib: distribution(roughness, mi)?,
+                thickness: *thickness as f32,
+                r_return,
+            }
+        }
+        Material::Mix { materials, amount } => {
+            if let Some(bad) = materials.iter().find(|&&i| i >= n_materials) {
+                return Err(err(format!(
+                    "mix refers to material {bad} but the scene has {n_materials}"
+                )));
+            }
+            if !amount.is_finite() {
+                return Err(err(format!("mix amount {amount} is not finite")));
+            }
+            Mat::Mix {
+                materials: [materials[0] as u32, materials[1] as u32],
+                amount: *amount as f32,
+            }
+        }
+        Material::Interface => Mat::Interface,
+    })
+}
+
+/// Refuse `mix` materials that (through other mixes) contain themselves.
+pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
+    // 0 = unvisited, 1 = on the stack, 2 = done (iterative depth-first search).
+    let mut state = vec![0u8; materials.len()];
+    for start in 0..materials.len() {
+        if state[start] != 0 {
+            continue;
+        }
+        let mut stack: Vec<(usize, usize)> = vec![(start, 0)];
+        state[start] = 1;
+        while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+            let children: &[u32] = match &materials[node] {
+                Mat::Mix { materials, .. } => materials,
+                _ => &[],
+            };
+            if *next < children.len() {
+                let c = children[*next] as usize;
+                *next += 1;
+                match state[c] {
+                    0 => {
+                        state[c] = 1;
+                        stack.push((c, 0));
+                    }
+                    1 => {
+                        return Err(RenderError::Material {
+                            index: node,
+                            message: "mix materials form a cycle".into(),
+                        })
+                    }
+                    _ => {}
+                }
+            } else {
+                state[node] = 2;
+                stack.pop();
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,292 @@
+//! `Material` and `MakeNamedMaterial`: pbrt-v4's materials with its parameter names and
+//! defaults (pbrt-v4 file format, "Materials"; `materials.cpp` `*Material::Create`).
+
+use super::super::params::ParamList;
+use super::super::spectra::{param_spectrum, SpectrumUse};
+use super::super::{Loc, PbrtError};
+use super::textures::flat;
+use super::Parser;
+use crate::scene::{ConductorOptics, FloatTexture, Material, Roughness, Texture};
+use camsim_core::Spectrum;
+use std::path::Path;
+
+/// Materials camsim reads.
+pub(super) const SUPPORTED: &str = "diffuse, conductor, dielectric, thindielectric, diffusetransmission, coateddiffuse, mix, interface";
+
+impl Parser {
+    /// A float parameter that pbrt-v4 also accepts as a float texture: a number or the name of a
+    /// `constant` float texture (read by the texture helper); other float textures are refused
+    /// (camsim's materials take these parameters per material, not per hit).
+    fn float_param(
+        &self,
+        params: &ParamList,
+        name: &str,
+        default: f64,
+        what: &str,
+    ) -> Result<f64, PbrtError> {
+        let Some(p) = params.get(name, &["float", "texture"])? else {
+            return Ok(default);
+        };
+        match self.float_texture_param(params, name, default)? {
+            FloatTexture::Constant(v) => Ok(v),
+            _ => Err(p.loc.err(format!(
+                "{what}: \"{name}\" as a varying float texture is not supported (give a number or a constant texture)"
+            ))),
+        }
+    }
+
+    /// `roughness`, `uroughness`, `vroughness`, `remaproughness` (pbrt-v4: u and v default to
+    /// `roughness`, which defaults to 0; remap defaults to true).
+    fn roughness(&self, params: &ParamList, what: &str, loc: &Loc) -> Result<Roughness, PbrtError> {
+        let r = self.float_param(params, "roughness", 0.0, what)?;
+        let u = self.float_param(params, "uroughness", r, what)?;
+        let v = self.float_param(params, "vroughness", r, what)?;
+        let remap = params.bool("remaproughness", true)?;
+        for x in [u, v] {
+            if !(x >= 0.0) {
+                return Err(loc.err(format!("{what}: roughness {x} must be >= 0")));
+            }
+        }
+        Ok(Roughness { u, v, remap })
+    }
+
+    /// An index of refraction: `float eta` or a spectrum (`spectrum eta "glass-BK7"`, inline
+    /// pairs, a file, or rgb); `default` if absent.
+    fn eta_param(
+        &self,
+        params: &ParamList,
+        file: &Path,
+        default: f64,
+        what: &str,
+    ) -> Result<Spectrum, PbrtError> {
+        match params.get("eta", &["float", "spectrum", "rgb", "texture"])? {
+            None => Ok(flat(default)),
+            Some(p) if p.ty == "texture" => Err(p
+                .loc
+                .err(format!("{what}: \"eta\" as a texture is not supported"))),
+            Some(p) if p.ty == "float" => {
+                let v = p.nums()?;
+                match v.as_slice() {
+                    [x] if *x > 0.0 => Ok(flat(*x)),
+                    _ => Err(p
+                        .loc
+                        .err(format!("{what}: \"eta\" needs one positive value"))),
+                }
+            }
+            Some(p) => {
+                let resolve = |n: &str| self.resolve(file, n);
+                let s = param_spectrum(p, SpectrumUse::Unbounded, &resolve)?.spectrum;
+                if s.values.iter().any(|v| !(*v > 0.0)) {
+                    return Err(p.loc.err(format!(
+                        "{what}: \"eta\" must be positive at every wavelength"
+                    )));
+                }
+                Ok(s)
+            }
+        }
+    }
+
+    /// A spectrum parameter of a conductor (`eta` or `k`), or `default_name` (pbrt-v4's copper).
+    fn conductor_spectrum(
+        &self,
+        params: &ParamList,
+        name: &str,
+        file: &Path,
+        default_name: &str,
+    ) -> Result<Option<Spectrum>, PbrtError> {
+        match params.get(name, &["float", "spectrum", "rgb", "texture"])? {
+            None => Ok(None),
+            Some(p) if p.ty == "texture" => Err(p.loc.err(format!(
+                "material \"conductor\": \"{name}\" as a texture is not supported"
+            ))),
+            Some(p) if p.ty == "float" => {
+                let v = p.nums()?;
+                match v.as_slice() {
+                    [x] if *x >= 0.0 => Ok(Some(flat(*x))),
+                    _ => Err(p.loc.err(format!(
+                        "material \"conductor\": \"{name}\" needs one value >= 0"
+                    ))),
+                }
+            }
+            Some(p) => {
+                let resolve = |n: &str| self.resolve(file, n);
+                let s = param_spectrum(p, SpectrumUse::Unbounded, &resolve)?.spectrum;
+                if s.values.iter().any(|v| !(*v >= 0.0)) {
+                    return Err(p.loc.err(format!(
+                        "material \"conductor\": \"{name}\" must be >= 0 (default {default_name})"
+                    )));
+                }
+                Ok(Some(s))
+            }
+        }
+    }
+
+    /// A spectrum texture parameter (`reflectance`, `transmittance`: a value or any spectrum
+    /// texture, see `textures.rs`) or a constant default.
+    fn spectrum_texture(
+        &self,
+        params: &ParamList,
+        name: &str,
+        file: &Path,
+        default: f64,
+    ) -> Result<Texture, PbrtError> {
+        Ok(self
+            .spectrum_texture_param(params, name, file)?
+            .unwrap_or_else(|| Texture::Constant(flat(default))))
+    }
+
+    /// Build a material of type `ty` from its parameters.
+    pub(super) fn material(
+        &mut self,
+        ty: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<Material, PbrtError> {
+        let what = format!("material \"{ty}\"");
+        // Accepted everywhere and ignored: camsim has no bump, displacement or normal mapping.
+        for n in ["displacement", "bumpmap", "normalmap"] {
+            if let Some(l) = params.ignore(n) {
+                self.note(&l, format!("{what}: \"{n}\" ignored (camsim has no bump, displacement or normal mapping)"));
+            }
+        }
+        params.get("type", &["string"])?;
+        let m = match ty {
+            "diffuse" => Material::Diffuse {
+                reflectance: self.spectrum_texture(params, "reflectance", file, 0.5)?,
+            },
+            "conductor" => {
+                let eta = self.conductor_spectrum(params, "eta", file, "metal-Cu-eta")?;
+                let k = self.conductor_spectrum(params, "k", file, "metal-Cu-k")?;
+                let refl = params
+                    .get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?
+                    .map(|p| p.loc.clone());
+                let optics = match (refl, eta, k) {
+                    (Some(l), e, k) if e.is_some() || k.is_some() => {
+                        return Err(l.err("material \"conductor\": give either \"reflectance\" or \"eta\" and \"k\", not both"));
+                    }
+                    (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(
+                        params,
+                        "reflectance",
+                        file,
+                        0.0,
+                    )?),
+                    (None, e, k) => {
+                        let named = |n: &str| {
+                            super::super::optical_constants::named(n)
+                                .ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
+                        };
+                        ConductorOptics::EtaK {
+                            eta: match e {
+                                Some(s) => s,
+                                None => named("metal-Cu-eta")?,
+                            },
+                            k: match k {
+                                Some(s) => s,
+                                None => named("metal-Cu-k")?,
+                            },
+                        }
+                    }
+                };
+                Material::Conductor {
+                    optics,
+                    roughness: self.roughness(params, &what, loc)?,
+                }
+            }
+            "dielectric" => Material::Dielectric {
+                eta: self.eta_param(params, file, 1.5, &what)?,
+                roughness: self.roughness(params, &what, loc)?,
+            },
+            "thindielectric" => Material::ThinDielectric {
+                eta: self.eta_param(params, file, 1.5, &what)?,
+            },
+            "diffusetransmission" => Material::DiffuseTransmission {
+                reflectance: self.spectrum_texture(params, "reflectance", file, 0.25)?,
+                transmittance: self.spectrum_texture(params, "transmittance", file, 0.25)?,
+                scale: self.float_param(params, "scale", 1.0, &what)?,
+            },
+            "coateddiffuse" => {
+                let reflectance = self.spectrum_texture(params, "reflectance", file, 0.5)?;
+                let roughness = self.roughness(params, &what, loc)?;
+                let thickness = self.float_param(params, "thickness", 0.01, &what)?;
+                let eta_s = self.eta_param(params, file, 1.5, &what)?;
+                let eta = eta_s.eval(550.0);
+                if eta_s
+                    .values
+                    .iter()
+                    .any(|v| (v - eta_s.values[0]).abs() > 1e-9)
+                {
+                    self.note(
+                        loc,
+                        format!("{what}: a wavelength-dependent eta is taken at 550 nm ({eta:.4})"),
+                    );
+                }
+                let albedo_loc = params
+                    .get("albedo", &["rgb", "spectrum", "float", "texture"])?
+                    .map(|p| (p.loc.clone(), p.nums().ok()));
+                if let Some((l, v)) = albedo_loc {
+                    let zero = matches!(v.as_deref(), Some(vals) if vals.iter().all(|x| *x == 0.0));
+                    if !zero {
+                        return Err(l.err(format!("{what}: a scattering layer (\"albedo\" > 0) is not supported by camsim's coated diffuse")));
+                    }
+                }
+                for n in ["g", "maxdepth", "nsamples"] {
+                    if let Some(l) = params.ignore(n) {
+                        self.note(
+                            &l,
+                            format!(
+                                "{what}: \"{n}\" ignored (closed-form layer model, no random walk)"
+                            ),
+                        );
+                    }
+                }
+                if !(thickness >= 0.0) {
+                    return Err(loc.err(format!("{what}: thickness {thickness} must be >= 0")));
+                }
+                Material::CoatedDiffuse {
+                    reflectance,
+                    roughness,
+                    eta,
+                    thickness,
+                }
+            }
+            "mix" => {
+                let p = params.get("materials", &["string"])?.ok_or_else(|| {
+                    loc.err("material \"mix\": needs \"string materials\" [ \"a\" \"b\" ]")
+                })?;
+                let names = p.strings()?;
+                let [a, b] = names.as_slice() else {
+                    return Err(p.loc.err(format!(
+                        "material \"mix\": \"materials\" needs two names, got {}",
+                        names.len()
+                    )));
+                };
+                let idx = |n: &String| {
+                    self.named_materials.get(n).copied().ok_or_else(|| {
+                        p.loc.err(format!("material \"mix\": no named material \"{n}\" (MakeNamedMaterial it before the mix)"))
+                    })
+                };
+                let materials = [idx(a)?, idx(b)?];
+                // As pbrt-v4: a mix chooses between surfaces, not between a surface and none.
+                for (n, &i) in [a, b].into_iter().zip(&materials) {
+                    if matches!(self.materials[i], Material::Interface) {
+                        return Err(p.loc.err(format!(
+                            "material \"mix\": \"{n}\" is an \"interface\" material, which cannot be mixed"
+                        )));
+                    }
+                }
+                let amount = self.float_param(params, "amount", 0.5, &what)?;
+                Material::Mix { materials, amount }
+            }
+            "interface" => Material::Interface,
+            "" | "none" => Material::Interface,
+            _ => {
+                return Err(loc.err(format!(
+                    "material type \"{ty}\" is not supported (camsim supports {SUPPORTED})"
+                )));
+            }
+        };
+        params.check_unused(&what)?;
+        Ok(m)
+    }
+}
