@@ -260,6 +260,14 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
             files.push((name, bytes));
         }
         drop(dir); // not committed: the staging folder is removed
+        if spec.xyz {
+            let path = scratch.join(format!("{key}.xyz.exr"));
+            let [x, y, z] = scene_xyz(&sim.radiance);
+            camsim_io::exr::write_channels_exr(&path, sim.radiance.rows, sim.radiance.cols, &[("X", &x), ("Y", &y), ("Z", &z)])
+                .map_err(|e| e.to_string())?;
+            files.push((format!("{key}.xyz.exr"), std::fs::read(&path).map_err(|e| e.to_string())?));
+            let _ = std::fs::remove_file(&path);
+        }
         if spec.raw_npy {
             let f = &sim.frames[0];
             files.push((format!("{key}.raw.npy"), npy_u16(&f.dn, f.rows, f.cols)));
@@ -277,6 +285,34 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
             SampleFiles { record, files: Vec::new() }
         }
     }
+}
+
+/// The scene's CIE 1931 XYZ per pixel, absolute: X = 683 lm/W sum_b x_bar(l_b) L_b dl (and Y, Z
+/// alike; CIE 015:2018 eq. 7.1), so Y is the luminance in cd/m^2 of the radiance in W/(sr m^2
+/// nm). Accumulated band by band over whole planes (no per-pixel buffers).
+fn scene_xyz(radiance: &camsim_core::SpectralImage) -> [Vec<f32>; 3] {
+    let cmfs = camsim_core::colorimetry::Cmfs::on(&radiance.grid);
+    let scale = camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * radiance.grid.step_nm;
+    let n = radiance.rows * radiance.cols;
+    let weights = [&cmfs.x, &cmfs.y, &cmfs.z];
+    let planes: Vec<Vec<f32>> = (0..3)
+        .into_par_iter()
+        .map(|c| {
+            let mut out = vec![0f32; n];
+            for b in 0..radiance.bands() {
+                let w = (weights[c][b] * scale) as f32;
+                if w != 0.0 {
+                    for (o, l) in out.iter_mut().zip(radiance.band(b)) {
+                        *o += w * l;
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut it = planes.into_iter();
+    let mut next = || it.next().unwrap_or_default();
+    [next(), next(), next()]
 }
 
 /// A 2D uint16 array in NumPy's .npy format, version 1.0 (header: magic, version, little-endian

@@ -61,8 +61,9 @@ pub struct DatasetSection {
     #[serde(default = "default_seed")]
     pub seed: u64,
     /// Files per sample besides its `.json` record: any of `raw` (DNG), `raw-npy` (first frame as
-    /// a uint16 .npy array), `preview` (sRGB PNG), `raw-png`, `noise-free` (EXR, DN), `radiance`,
-    /// `irradiance`, `depth` (EXR); default raw and preview.
+    /// a uint16 .npy array), `preview` (sRGB PNG), `raw-png`, `noise-free` (EXR, DN), `xyz` (the
+    /// scene's CIE XYZ ground truth, EXR, Y in cd/m^2), `radiance`, `irradiance`, `depth` (EXR);
+    /// default raw and preview.
     #[serde(default = "default_outputs")]
     pub outputs: Vec<String>,
 }
@@ -147,6 +148,8 @@ pub struct DatasetSpec {
     pub outputs: OutputSet,
     /// Also the first frame as a uint16 .npy array.
     pub raw_npy: bool,
+    /// Also the scene's CIE 1931 XYZ ground truth (EXR, Y in cd/m^2).
+    pub xyz: bool,
     /// The output names as the spec lists them.
     pub output_names: Vec<String>,
     /// The base config table (presets expanded inline where a variation reaches into them).
@@ -198,12 +201,12 @@ impl DatasetSpec {
             return Err(err("dataset.shard_size must be at least 1".into()));
         }
         let mut names = Vec::new();
-        let mut raw_npy = false;
+        let (mut raw_npy, mut xyz) = (false, false);
         for o in &d.outputs {
-            if o == "raw-npy" {
-                raw_npy = true;
-            } else {
-                names.push(o.as_str());
+            match o.as_str() {
+                "raw-npy" => raw_npy = true,
+                "xyz" => xyz = true,
+                _ => names.push(o.as_str()),
             }
         }
         let outputs = if names.is_empty() {
@@ -289,6 +292,7 @@ impl DatasetSpec {
             seed: d.seed,
             outputs,
             raw_npy,
+            xyz,
             output_names: d.outputs.clone(),
             base,
             vary,

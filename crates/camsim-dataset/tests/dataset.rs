@@ -237,3 +237,42 @@ fn bad_specs_are_refused_before_any_work_naming_the_key() {
     assert!(ShardSelect::parse("2/2").is_err() && ShardSelect::parse("x").is_err());
     assert_eq!(ShardSelect::parse("1/3").unwrap(), ShardSelect { index: 1, count: 3 });
 }
+
+#[test]
+fn the_xyz_ground_truth_has_the_scene_luminance_and_the_illuminant_white_point() {
+    // A uniform white field under D65 at 100 cd/m^2 on 380-780 nm: Y = 100 cd/m^2 everywhere and
+    // the chromaticity of CIE D65, (0.3127, 0.3290) (CIE 015:2018 table 1).
+    let text = r#"
+[dataset]
+samples = 1
+outputs = ["xyz"]
+[base]
+wavelengths = { start_nm = 380.0, step_nm = 5.0, count = 81 }
+scene = { kind = "uniform", illuminant = "D65", mean_luminance_cd_m2 = 100.0, reflectance = 1.0, rows = 16, cols = 16 }
+sensor = { preset = "pixel4a", rows = 16, cols = 16 }
+capture = { exposure_ms = 1.0 }
+"#;
+    let s = DatasetSpec::from_toml_str(text, "t", Path::new(".")).unwrap();
+    let d = tempfile::tempdir().unwrap();
+    let rec = run_shard(&s, d.path(), 0, &|_| {}).unwrap();
+    assert_eq!(rec.samples[0].status, "ok", "{:?}", rec.samples[0].error);
+    let mut ar = tar::Archive::new(std::fs::File::open(d.path().join(&rec.tar)).unwrap());
+    let mut exr = None;
+    for e in ar.entries().unwrap() {
+        let mut e = e.unwrap();
+        if e.path().unwrap().to_string_lossy() == "00000000.xyz.exr" {
+            let mut v = Vec::new();
+            std::io::Read::read_to_end(&mut e, &mut v).unwrap();
+            exr = Some(v);
+        }
+    }
+    let p = d.path().join("xyz.exr");
+    std::fs::write(&p, exr.expect("the tar holds KEY.xyz.exr")).unwrap();
+    let plane = |c: &str| camsim_io::exr::read_gray_exr(&p, Some(c)).unwrap().2;
+    let (x, y, z) = (plane("X"), plane("Y"), plane("Z"));
+    let mean = |v: &[f32]| v.iter().map(|a| *a as f64).sum::<f64>() / v.len() as f64;
+    let (mx, my, mz) = (mean(&x), mean(&y), mean(&z));
+    assert!((my - 100.0).abs() < 0.01, "Y {my}");
+    let (cx, cy) = (mx / (mx + my + mz), my / (mx + my + mz));
+    assert!((cx - 0.3127).abs() < 0.0005 && (cy - 0.3290).abs() < 0.0005, "xy {cx} {cy}");
+}

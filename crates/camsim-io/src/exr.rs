@@ -563,6 +563,19 @@ pub fn write_gray_exr(
     write_layer(path, rows, cols, vec![ch], LayerAttributes::default(), ExrCompression::None)
 }
 
+/// Write several f32 planes (each `rows * cols`, row-major) as one EXR with the given channel
+/// names (e.g. X, Y, Z), atomically.
+pub fn write_channels_exr(path: &Path, rows: usize, cols: usize, channels: &[(&str, &[f32])]) -> Result<()> {
+    let mut chans = Vec::with_capacity(channels.len());
+    for (name, data) in channels {
+        if rows == 0 || cols == 0 || data.len() != rows * cols {
+            return Err(IoError::invalid(path, format!("channel {name}: {} values for {rows} x {cols} pixels", data.len())));
+        }
+        chans.push(AnyChannel::new(text(path, name)?, FlatSamples::F32(data.to_vec())));
+    }
+    write_layer(path, rows, cols, chans, LayerAttributes::default(), ExrCompression::None)
+}
+
 /// Read one channel of an EXR as f32, returning `(rows, cols, data)`. With `channel = None` the
 /// file must have exactly one channel.
 pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize, Vec<f32>)> {
