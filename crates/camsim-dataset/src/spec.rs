@@ -427,19 +427,39 @@ fn number(x: f64, integer: bool) -> toml::Value {
     }
 }
 
-/// Set a dotted key in a TOML table, creating the tables on its way.
+/// Set a dotted key in a TOML table, creating missing tables on its way; a number indexes an
+/// existing array (`render.overlay_inline.object.0.translate_m.1`).
 fn set_key(t: &mut toml::Table, key: &str, value: toml::Value) -> std::result::Result<(), String> {
     let parts: Vec<&str> = key.split('.').collect();
-    let mut cur = t;
-    for (n, p) in parts[..parts.len() - 1].iter().enumerate() {
-        let entry = cur.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        cur = match entry {
-            toml::Value::Table(tt) => tt,
-            _ => return Err(format!("{} is a value, not a table: cannot set {key}", parts[..=n].join("."))),
+    let mut cur: &mut toml::Value = t.entry(parts[0].to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    if parts.len() == 1 {
+        *cur = value;
+        return Ok(());
+    }
+    for (n, p) in parts.iter().enumerate().skip(1) {
+        let here = parts[..n].join(".");
+        cur = match cur {
+            toml::Value::Table(tt) => {
+                if n + 1 == parts.len() {
+                    tt.insert(p.to_string(), value);
+                    return Ok(());
+                }
+                tt.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            }
+            toml::Value::Array(a) => {
+                let len = a.len();
+                let i: usize = p.parse().map_err(|_| format!("{here} is an array: index it with a number, not {p:?}"))?;
+                let slot = a.get_mut(i).ok_or_else(|| format!("{here} has {len} entries: no index {i}"))?;
+                if n + 1 == parts.len() {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            _ => return Err(format!("{here} is a value, not a table: cannot set {key}")),
         };
     }
-    cur.insert(parts[parts.len() - 1].to_string(), value);
-    Ok(())
+    unreachable!("the loop returns at the last part")
 }
 
 /// A variation into `optics.config.*` or `sensor.config.*` over a base that names only a preset:

@@ -66,6 +66,14 @@ pub struct RenderSection {
     /// Optional overlay TOML (moves objects, sets reflectances and the light), relative to the config.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub overlay: Option<PathBuf>,
+    /// Optional overlay written inline, the same tables as an overlay file (`[render.overlay_inline.light]`,
+    /// `[[render.overlay_inline.object]]`, ...), applied after `overlay`; datasets vary its keys.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub overlay_inline: Option<toml::Table>,
+    /// Folder the inline overlay's relative spectrum and mesh paths resolve against (the config
+    /// file's; set when the config is read from a file, else the current folder).
+    #[serde(skip)]
+    pub overlay_inline_base: Option<PathBuf>,
     /// Samples per pixel (default: the scene's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub samples_per_pixel: Option<u32>,
@@ -218,6 +226,7 @@ impl SimulateConfig {
         if let Some(r) = &mut self.render {
             r.pbrt.as_mut().map(fix);
             r.overlay.as_mut().map(fix);
+            r.overlay_inline_base = Some(base.to_path_buf());
         }
         self.optics.file.as_mut().map(fix);
         self.sensor.file.as_mut().map(fix);

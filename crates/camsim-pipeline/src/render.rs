@@ -101,6 +101,11 @@ pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Se
         opts.samples_per_pixel = spp;
     }
     let mut scene = load_scene(r.builtin.as_deref(), r.pbrt.as_deref(), r.overlay.as_deref(), &opts)?;
+    if let Some(t) = &r.overlay_inline {
+        let text = toml::to_string(t).map_err(|e| PipelineError::config(format!("render.overlay_inline: {e}")))?;
+        let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
+        camsim_render::overlay::apply(&mut scene, &text, "render.overlay_inline", base).map_err(|e| PipelineError::Scene(e.to_string()))?;
+    }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }
