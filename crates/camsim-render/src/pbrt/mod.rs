@@ -121,6 +121,7 @@ mod lexer;
 pub mod optical_constants;
 mod params;
 mod parser;
+pub mod pfm;
 pub mod ply;
 pub mod spectra;
 pub mod xform;
