@@ -495,7 +495,7 @@ fn one_pass_report_lists_every_problem_across_includes() {
          Camera \"perspective\" \"float fov\" 40\n\
          WorldBegin\n\
          LightSource \"infinite\"\n\
-         \x20   MakeNamedMedium \"fog\" \"string type\" \"homogeneous\"\n\
+         \x20   MediumInterface \"fog\" \"\"\n\
          Include \"inc.pbrt\"\n\
          Shape \"sphere\" \"float radius\" 1\n",
     )
@@ -531,7 +531,7 @@ fn one_pass_report_lists_every_problem_across_includes() {
     eprintln!("{text}");
     assert!(text.starts_with("3 problems"), "{text}");
     assert!(
-        text.contains("MakeNamedMedium") && text.contains("goniometric") && text.contains("curve"),
+        text.contains("MediumInterface") && text.contains("goniometric") && text.contains("curve"),
         "{text}"
     );
     assert!(

@@ -45,7 +45,7 @@
 //!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
 //!   ([`optical_constants`]),
 //!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
-//!   crate; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
+//!   crate, PFM by [`pfm`], linear; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
 //!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
 //!   channels), `constant` (`value`), `checkerboard` (2D: `tex1`, `tex2`, uv mapping),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
@@ -56,7 +56,10 @@
 //!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
 //!   `filename`: a square image is pbrt-v4's equal-area octahedral map, a 2:1 image a lat-long
-//!   map, see [`crate::envmap`]), `ObjectBegin`/`ObjectEnd`/
+//!   map, see [`crate::envmap`]; PNG, EXR or PFM as the Bitterli scenes ship them),
+//!   `Attribute "shape"|"light"|"material"|"medium"|"texture"` (defaults for later directives
+//!   of that category in the same attribute scope; a directive's own parameter wins, as pbrt-v4's
+//!   `ParameterDictionary` with graphics-state attributes), `ObjectBegin`/`ObjectEnd`/
 //!   `ObjectInstance`, `Include` and `Import` (relative to the including file, then to the main
 //!   file's folder; cycles are errors).
 //!
@@ -95,7 +98,9 @@
 //! `lambdamax`, `coordinatesystem`, `writefp16`; `Camera` `lensradius` > 0 (camsim's camera is a
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` type and
-//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MediumInterface`;
+//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MakeNamedMedium`
+//! (defined but never selected, a medium changes nothing); `MediumInterface` with empty names
+//! (vacuum);
 //! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); material `normalmap`,
 //! `bumpmap`, `displacement` (no bump, displacement or normal mapping); shape
 //! `faceIndices`, `S`, `emission`-free `alpha` of 1; `TransformTimes`.
@@ -108,8 +113,9 @@
 //! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
 //! sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape dropped, noted) or 1;
 //! `goniometric` and `projection` lights, area-light images (`filename`), infinite-light
-//! `portal`s and maps that are neither square nor 2:1; participating media
-//! (`MakeNamedMedium`); `Attribute`; area lights inside object instances; `WorldEnd`
+//! `portal`s and maps that are neither square nor 2:1; participating media (a
+//! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
+//! above; area lights inside object instances; `WorldEnd`
 //! (pbrt-v3); unknown directives.
 //!
 //! # One-pass reporting
@@ -121,6 +127,7 @@ mod lexer;
 pub mod optical_constants;
 mod params;
 mod parser;
+pub mod pfm;
 pub mod ply;
 pub mod spectra;
 pub mod xform;

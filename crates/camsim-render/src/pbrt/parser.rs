@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::lexer::{tokenize, Token, TokenKind};
-use super::params::{parse_params, ParamList};
+use super::params::{parse_params, Param, ParamList};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
@@ -52,6 +52,9 @@ struct GraphicsState {
     material: MatRef,
     area_light: Option<AreaLightSpec>,
     name: Option<String>,
+    /// `Attribute "category" ...` defaults (pbrt-v4 graphics-state shape/light/material/
+    /// medium/texture attributes): `(category, parameter)`, scoped like the rest of the state.
+    attributes: Vec<(&'static str, Param)>,
 }
 
 #[derive(Debug, Clone)]
@@ -133,6 +136,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
             material: MatRef::Index(0),
             area_light: None,
             name: None,
+            attributes: Vec::new(),
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
@@ -610,7 +614,8 @@ impl Parser {
                 "Material" => {
                     self.require_world(&loc, &d, true)?;
                     let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params =
+                        self.with_attributes("material", parse_params(tokens, &mut pos, f)?);
                     let m = self.material(&ty, &params, &loc, file)?;
                     self.materials.push(m);
                     self.gs.material = MatRef::Index(self.materials.len() - 1);
@@ -618,7 +623,8 @@ impl Parser {
                 "MakeNamedMaterial" => {
                     self.require_world(&loc, &d, true)?;
                     let name = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params =
+                        self.with_attributes("material", parse_params(tokens, &mut pos, f)?);
                     let ty = params.string("type")?.ok_or_else(|| {
                         loc.err(format!(
                             "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
@@ -643,13 +649,14 @@ impl Parser {
                     let name = string_arg(tokens, &mut pos, f, &d)?;
                     let ty = string_arg(tokens, &mut pos, f, &d)?;
                     let class = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params =
+                        self.with_attributes("texture", parse_params(tokens, &mut pos, f)?);
                     self.texture(&name, &ty, &class, &params, &loc, file)?;
                 }
                 "AreaLightSource" => {
                     self.require_world(&loc, &d, true)?;
                     let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params = self.with_attributes("light", parse_params(tokens, &mut pos, f)?);
                     if ty != "diffuse" {
                         return Err(loc.err(format!(
                             "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
@@ -678,13 +685,13 @@ impl Parser {
                 "LightSource" => {
                     self.require_world(&loc, &d, true)?;
                     let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params = self.with_attributes("light", parse_params(tokens, &mut pos, f)?);
                     self.light_source(&ty, &params, &loc, file)?;
                 }
                 "Shape" => {
                     self.require_world(&loc, &d, true)?;
                     let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
+                    let params = self.with_attributes("shape", parse_params(tokens, &mut pos, f)?);
                     self.shape(&ty, &params, &loc, file)?;
                 }
                 "ObjectBegin" => {
@@ -736,25 +743,54 @@ impl Parser {
                     }
                 }
                 "MakeNamedMedium" => {
-                    return Err(loc.err("MakeNamedMedium: participating media are not supported"));
+                    // A medium that no MediumInterface selects changes nothing (pbrt-v4 only
+                    // attaches media through MediumInterface), so defining one is harmless;
+                    // selecting one is an error below.
+                    let name = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = self.with_attributes("medium", parse_params(tokens, &mut pos, f)?);
+                    for p in &params.params {
+                        p.used.set(true);
+                    }
+                    self.note(&loc, format!("MakeNamedMedium \"{name}\" recorded but not rendered (no participating media); any MediumInterface that selects it is an error"));
                 }
                 "MediumInterface" => {
-                    // One or two names.
-                    let _ = string_arg(tokens, &mut pos, f, &d)?;
+                    // pbrt-v4: `MediumInterface "inside" ["outside"]` (one name sets both).
+                    let inside = string_arg(tokens, &mut pos, f, &d)?;
+                    let mut outside = inside.clone();
                     if let Some(Token {
-                        kind: TokenKind::Str(_),
+                        kind: TokenKind::Str(s),
                         ..
                     }) = tokens.get(pos)
                     {
-                        // A second name, unless it is the next parameter list (never for this directive).
+                        outside = s.clone();
                         pos += 1;
                     }
-                    self.note(&loc, "MediumInterface ignored (no participating media)");
+                    // The empty name is vacuum: harmless. A named medium would scatter and absorb.
+                    let selected = if inside.is_empty() { outside } else { inside };
+                    if !selected.is_empty() {
+                        return Err(loc.err(format!(
+                            "MediumInterface selects medium \"{selected}\": participating media are not supported"
+                        )));
+                    }
                 }
                 "Attribute" => {
-                    return Err(
-                        loc.err("Attribute (default parameters for a category) is not supported")
-                    );
+                    let cat = string_arg(tokens, &mut pos, f, &d)?;
+                    let params = parse_params(tokens, &mut pos, f)?;
+                    let Some(cat) = ["shape", "light", "material", "medium", "texture"]
+                        .into_iter()
+                        .find(|c| *c == cat)
+                    else {
+                        return Err(loc.err(format!(
+                            "Attribute: unknown category \"{cat}\" (shape, light, material, medium, texture)"
+                        )));
+                    };
+                    // A later Attribute for the same name replaces the earlier one.
+                    for p in params.params {
+                        self.gs
+                            .attributes
+                            .retain(|(c, q)| !(*c == cat && q.name == p.name));
+                        self.gs.attributes.push((cat, p));
+                    }
                 }
                 other => return Err(loc.err(format!("unknown directive \"{other}\""))),
             }
@@ -763,6 +799,20 @@ impl Parser {
     }
 
     fn camera_world_check(&mut self) {}
+
+    /// pbrt-v4 `ParameterDictionary(params, attributes)`: a directive's own parameters first,
+    /// then the `Attribute` defaults of its category that it does not give. Defaults are marked
+    /// used up front: as in pbrt-v4, an attribute a directive does not read is not an error.
+    fn with_attributes(&self, category: &str, mut params: ParamList) -> ParamList {
+        for (c, p) in &self.gs.attributes {
+            if *c == category && !params.params.iter().any(|q| q.name == p.name) {
+                let q = p.clone();
+                q.used.set(true);
+                params.params.push(q);
+            }
+        }
+        params
+    }
 
     fn spectrum_param(
         &self,
@@ -1390,6 +1440,11 @@ fn parse_encoding(s: &str) -> Option<Encoding> {
 /// in pbrt-v4), anything else through the `image` crate with `encoding` applied.
 fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
     let lower = path.to_string_lossy().to_ascii_lowercase();
+    if lower.ends_with(".pfm") {
+        // PFM holds linear floats; pbrt-v4 ignores "encoding" for float formats.
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        return super::pfm::read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()));
+    }
     if lower.ends_with(".exr") {
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
