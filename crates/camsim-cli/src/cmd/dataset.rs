@@ -24,7 +24,7 @@ const DEFAULT_SPEC: &str = include_str!("../../../../examples/datasets/colorchec
 /// the rest, so a killed run loses only the shards in flight. A sample that fails is recorded
 /// with its error in the manifest and does not stop the others.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-plan --plan")]
+#[command(after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)")]
 pub struct Args {
     /// Dataset spec (TOML). Default: the built-in example.
     pub spec: Option<PathBuf>,
