@@ -62,7 +62,8 @@ enum Commands {
     /// chart values, region statistics, EMVA 1288 photon transfer.
     #[command(subcommand)]
     Analyze(cmd::analyze::Command),
-    /// Fit model parameters to measurements: the sensor QE correction matrix from chart values.
+    /// Fit model parameters to measurements: the sensor QE correction matrix from chart values, the
+    /// lens defocus and pixel crosstalk from a measured MTF.
     #[command(subcommand)]
     Fit(cmd::fit::Command),
     Validate(cmd::validate::Args),
@@ -76,7 +77,9 @@ fn main() {
             std::process::exit(2);
         }
         // Ignore the error if a pool exists already (cannot happen in main).
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global();
     }
     common::set_quiet(cli.quiet);
     // Ctrl-C, SIGTERM, SIGHUP: remove every registered temporary file and staging folder (the

@@ -1,7 +1,8 @@
 //! One module per subcommand.
 pub mod analyze;
-pub mod fit;
 pub mod emva;
+pub mod fit;
+pub mod fit_mtf;
 pub mod fit_shading;
 pub mod isp;
 pub mod optics;
