@@ -161,6 +161,14 @@ fn fixture() -> &'static Fixture {
             }
         }
         std::fs::write(root.join("means.csv"), csv).unwrap();
+        // A measured MTF in the `fit mtf` format: a Gaussian blur of sigma 2 um, in percent.
+        let mut mtf = String::from("frequency_cy_per_mm,mtf_percent\n");
+        for i in 1..=20 {
+            let f = 12.5 * i as f64;
+            let g = (-2.0 * std::f64::consts::PI.powi(2) * (2e-3 * f).powi(2)).exp();
+            mtf.push_str(&format!("{f},{}\n", 100.0 * g));
+        }
+        std::fs::write(root.join("mtf.csv"), mtf).unwrap();
         Fixture { _dir: dir, root }
     })
 }
@@ -215,6 +223,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
+        ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],
         ["validate"] => vec!["validate", "cornell-box", "--out", "{O}"],
         _ => return None,
     })
@@ -462,6 +471,11 @@ fn malformed_files_exit_2_and_name_the_file() {
         (
             vec!["fit", "qe", "--measured", "{X}", "--out", "{O}"],
             "means.csv",
+            "csv",
+        ),
+        (
+            vec!["fit", "mtf", "--measured", "{X}", "--out", "{O}"],
+            "mtf.csv",
             "csv",
         ),
         (

@@ -26,10 +26,10 @@ Outputs:\n  \
 fit.json        fitted defocus (um over the lens pupil, waves, um over ISETCam's 8 mm pupil), crosstalk\n                  \
 sigma (um), RMS and largest residual, MTF50 of fit and measurement (cycles/mm)\n  \
 mtf.csv         measured and fitted MTF at the measured frequencies\n  \
---plot FILE     a PNG of the measured curve and the fit (default: mtf_fit.png in --out)\n\
+mtf_fit.png     the measured curve and the fit (or the file --plot names)\n\
 Examples:\n  \
-camsim fit mtf --measured shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --out out/fit-mtf\n  \
-camsim fit mtf --measured m.csv --fit defocus --crosstalk-um 0.5 --max-freq 250 --json"
+camsim fit mtf --measured ../shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --out out/fit-mtf\n  \
+camsim fit mtf --measured ../shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --fit defocus --json --out out/fit-defocus"
 )]
 pub struct Args {
     /// Measured MTF: CSV `frequency_cy_per_mm,mtf_percent` (or `...,mtf` as a fraction).
@@ -59,7 +59,7 @@ pub struct Args {
     /// Pixel pitch, um (Pixel 4a: 1.4); 0 leaves the pixel aperture out.
     #[arg(long, default_value_t = 1.4, value_parser = common::non_negative_f64)]
     pub pixel_pitch_um: f64,
-    /// PNG plot of measurement and fit (default: mtf_fit.png in --out).
+    /// PNG plot of measurement and fit, a `.png` file (default: mtf_fit.png in --out).
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Also print fit.json on stdout.
@@ -71,6 +71,14 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    if let Some(p) = &a.plot {
+        if !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            bail!(
+                "--plot '{}': the plot is a PNG file; give a name ending in .png",
+                p.display()
+            );
+        }
+    }
     let m = read_mtf_csv(&a.measured)?;
     let fit = FitParams {
         defocus: a.fit.iter().any(|s| s == "defocus"),
