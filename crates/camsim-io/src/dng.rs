@@ -278,11 +278,7 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
         (tag::COMPRESSION, Value::Short(vec![1])),
         (
             tag::PHOTOMETRIC,
-            Value::Short(vec![if raw.cfa.is_some() {
-                PHOTOMETRIC_CFA
-            } else {
-                PHOTOMETRIC_LINEAR_RAW
-            }]),
+            Value::Short(vec![if raw.cfa.is_some() { PHOTOMETRIC_CFA } else { PHOTOMETRIC_LINEAR_RAW }]),
         ),
         (tag::MAKE, Value::Ascii(meta.make.clone())),
         (tag::MODEL, Value::Ascii(meta.camera_model.clone())),
@@ -602,11 +598,7 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     info.bits_per_sample = bps as u16;
 
     // CFA pattern (2x2 Bayer only), with CFAPlaneColor mapping codes to R, G, B.
-    let cfa = if linear {
-        None
-    } else {
-        Some(cfa_pattern(&r, raw)?)
-    };
+    let cfa = if linear { None } else { Some(cfa_pattern(&r, raw)?) };
 
     // Pixels (interleaved samples).
     let mut img = decode_pixels(&r, raw, width, height, spp, bps as u32, compression)?;
@@ -1443,16 +1435,10 @@ mod tests {
             sub_ifds: vec![],
             exif_tags: vec![],
         };
-        let segs = vec![
-            bytes[..48].to_vec(),
-            bytes[48..96].to_vec(),
-            bytes[96..].to_vec(),
-        ];
+        let segs = vec![bytes[..48].to_vec(), bytes[48..96].to_vec(), bytes[96..].to_vec()];
         let t = assemble_tiff(&spec, &segs, false).unwrap();
         let (img, info) = read_dng_image_bytes(&t, Path::new("lin.dng")).unwrap();
-        let DngImage::LinearRaw(img) = img else {
-            panic!("expected a LinearRaw image")
-        };
+        let DngImage::LinearRaw(img) = img else { panic!("expected a LinearRaw image") };
         assert_eq!((img.rows, img.cols), (3, 3));
         assert_eq!(info.active_area, [1, 1, 4, 4]);
         for r in 0..3 {
@@ -1465,9 +1451,7 @@ mod tests {
         assert_eq!(img.black_level_dn, [5.0, 6.0, 7.0]);
         assert_eq!(img.white_level_dn, [4000.0, 4001.0, 4002.0]);
         // The CFA reader refuses it and says why.
-        let e = read_dng_bytes(&t, Path::new("lin.dng"))
-            .unwrap_err()
-            .to_string();
+        let e = read_dng_bytes(&t, Path::new("lin.dng")).unwrap_err().to_string();
         assert!(e.contains("LinearRaw"), "{e}");
     }
 
@@ -1480,9 +1464,7 @@ mod tests {
         let img = LinearRawImage {
             rows,
             cols,
-            dn: (0..rows * cols * 3)
-                .map(|_| (next() % 65536) as u16)
-                .collect(),
+            dn: (0..rows * cols * 3).map(|_| (next() % 65536) as u16).collect(),
             black_level_dn: [64.0, 65.0, 66.5],
             white_level_dn: [65535.0, 60000.0, 50000.0],
             exposure_s: 0.01,
@@ -1491,12 +1473,7 @@ mod tests {
         write_linear_raw_dng(&path, &img, &DngMetadata::default()).unwrap();
         let (back, info) = read_dng_image(&path).unwrap();
         assert_eq!(back, DngImage::LinearRaw(img.clone()), "{info:?}");
-        assert!(write_linear_raw_dng(
-            &path,
-            &LinearRawImage { rows: 8, ..img },
-            &DngMetadata::default()
-        )
-        .is_err());
+        assert!(write_linear_raw_dng(&path, &LinearRawImage { rows: 8, ..img }, &DngMetadata::default()).is_err());
     }
 
     fn small_valid_dng() -> Vec<u8> {

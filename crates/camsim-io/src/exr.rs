@@ -171,11 +171,7 @@ impl ExrCompression {
             ExrCompression::Zips => C::ZIP1,
             ExrCompression::Piz => C::PIZ,
         };
-        Encoding {
-            compression,
-            blocks: Blocks::ScanLines,
-            line_order: LineOrder::Increasing,
-        }
+        Encoding { compression, blocks: Blocks::ScanLines, line_order: LineOrder::Increasing }
     }
 }
 
@@ -215,12 +211,7 @@ pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Resu
 }
 
 /// [`write_spectral_exr`] with a choice of sample precision and compression.
-pub fn write_spectral_exr_with(
-    path: &Path,
-    img: &SpectralImage,
-    stage: &str,
-    options: ExrOptions,
-) -> Result<()> {
+pub fn write_spectral_exr_with(path: &Path, img: &SpectralImage, stage: &str, options: ExrOptions) -> Result<()> {
     let n = img.pixels();
     if n == 0 || img.bands() == 0 || img.data.len() != n * img.bands() {
         return Err(IoError::invalid(
@@ -245,19 +236,10 @@ pub fn write_spectral_exr_with(
         .into_par_iter()
         .map(|b| match options.precision {
             ExrPrecision::F32 => FlatSamples::F32(img.band(b).to_vec()),
-            ExrPrecision::F16 => FlatSamples::F16(
-                img.band(b)
-                    .iter()
-                    .map(|v| exr::prelude::f16::from_f32(*v))
-                    .collect(),
-            ),
+            ExrPrecision::F16 => FlatSamples::F16(img.band(b).iter().map(|v| exr::prelude::f16::from_f32(*v)).collect()),
         })
         .collect();
-    let mut channels: Vec<AnyChannel<FlatSamples>> = names
-        .into_iter()
-        .zip(planes)
-        .map(|(n, p)| AnyChannel::new(n, p))
-        .collect();
+    let mut channels: Vec<AnyChannel<FlatSamples>> = names.into_iter().zip(planes).map(|(n, p)| AnyChannel::new(n, p)).collect();
     if let Some(d) = &img.depth_m {
         if d.len() != n {
             return Err(IoError::invalid(
@@ -303,14 +285,7 @@ pub fn write_spectral_exr_with(
     ] {
         o.insert(Text::from(k), AttributeValue::F64(v));
     }
-    write_layer(
-        path,
-        img.rows,
-        img.cols,
-        channels,
-        attrs,
-        options.compression,
-    )
+    write_layer(path, img.rows, img.cols, channels, attrs, options.compression)
 }
 
 fn attr_f64(a: &LayerAttributes, key: &str) -> Option<f64> {
@@ -585,14 +560,7 @@ pub fn write_gray_exr(
         ));
     }
     let ch = AnyChannel::new(text(path, channel)?, FlatSamples::F32(data.to_vec()));
-    write_layer(
-        path,
-        rows,
-        cols,
-        vec![ch],
-        LayerAttributes::default(),
-        ExrCompression::None,
-    )
+    write_layer(path, rows, cols, vec![ch], LayerAttributes::default(), ExrCompression::None)
 }
 
 /// Read one channel of an EXR as f32, returning `(rows, cols, data)`. With `channel = None` the
@@ -867,10 +835,7 @@ mod tests {
         write_spectral_exr(&p, &img, "optics").unwrap();
         let (back, info) = read_spectral_exr_with_info(&p).unwrap();
         assert_eq!(info.clamped_negatives, 2);
-        assert_eq!(
-            info.most_negative_clamped,
-            -NEGATIVE_ROUNDOFF_FRACTION * max
-        );
+        assert_eq!(info.most_negative_clamped, -NEGATIVE_ROUNDOFF_FRACTION * max);
         assert_eq!(back.band(1)[3], 0.0);
         assert_eq!(back.band(2)[7], 0.0);
         assert!(back.data.iter().all(|v| *v >= 0.0));

@@ -15,19 +15,12 @@ pub struct Ray {
 impl Ray {
     /// A ray from `origin_mm` along `direction` (normalized here).
     pub fn new(origin_mm: [f64; 3], direction: [f64; 3]) -> Ray {
-        Ray {
-            origin_mm,
-            direction: normalize(direction),
-        }
+        Ray { origin_mm, direction: normalize(direction) }
     }
 
     /// The point at parameter `t` (mm along the ray).
     pub fn at(&self, t: f64) -> [f64; 3] {
-        [
-            self.origin_mm[0] + t * self.direction[0],
-            self.origin_mm[1] + t * self.direction[1],
-            self.origin_mm[2] + t * self.direction[2],
-        ]
+        [self.origin_mm[0] + t * self.direction[0], self.origin_mm[1] + t * self.direction[1], self.origin_mm[2] + t * self.direction[2]]
     }
 
     /// Where the ray meets the plane z = `z_mm` (`None` when parallel to it).
@@ -125,11 +118,7 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
             let sag = s.sag_mm(r)?;
             let g = p[2] - z0 - sag;
             let slope = s.sag_slope(r)?;
-            let dr_dt = if r > 0.0 {
-                (p[0] * d[0] + p[1] * d[1]) / r
-            } else {
-                0.0
-            };
+            let dr_dt = if r > 0.0 { (p[0] * d[0] + p[1] * d[1]) / r } else { 0.0 };
             let dg = d[2] - slope * dr_dt;
             if dg.abs() < 1e-300 {
                 return None;
@@ -148,11 +137,7 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
         return None;
     }
     let slope = s.sag_slope(r)?;
-    let n = if r > 0.0 {
-        normalize([-slope * p[0] / r, -slope * p[1] / r, 1.0])
-    } else {
-        [0.0, 0.0, 1.0]
-    };
+    let n = if r > 0.0 { normalize([-slope * p[0] / r, -slope * p[1] / r, 1.0]) } else { [0.0, 0.0, 1.0] };
     Some((t, n))
 }
 
@@ -180,14 +165,8 @@ impl Lens {
         let mut m = [[1.0, 0.0], [0.0, 1.0]];
         let mul = |a: [[f64; 2]; 2], b: [[f64; 2]; 2]| {
             [
-                [
-                    a[0][0] * b[0][0] + a[0][1] * b[1][0],
-                    a[0][0] * b[0][1] + a[0][1] * b[1][1],
-                ],
-                [
-                    a[1][0] * b[0][0] + a[1][1] * b[1][0],
-                    a[1][0] * b[0][1] + a[1][1] * b[1][1],
-                ],
+                [a[0][0] * b[0][0] + a[0][1] * b[1][0], a[0][0] * b[0][1] + a[0][1] * b[1][1]],
+                [a[1][0] * b[0][0] + a[1][1] * b[1][0], a[1][0] * b[0][1] + a[1][1] * b[1][1]],
             ]
         };
         let last = self.surfaces.len() - 1;
@@ -201,12 +180,7 @@ impl Lens {
             }
         }
         let (a, c, d) = (m[0][0], m[1][0], m[1][1]);
-        Paraxial {
-            abcd: m,
-            efl_mm: -1.0 / c,
-            bfd_mm: -a / c,
-            ffd_mm: d / c,
-        }
+        Paraxial { abcd: m, efl_mm: -1.0 / c, bfd_mm: -a / c, ffd_mm: d / c }
     }
 
     /// Trace `ray` (in object space, travelling toward +z) through every surface at
@@ -215,14 +189,7 @@ impl Lens {
         let z = self.vertex_z_mm();
         let mut r = *ray;
         for (i, s) in self.surfaces.iter().enumerate() {
-            r = self.through_surface(
-                i,
-                s,
-                z[i],
-                &r,
-                self.index_before(i, wavelength_nm),
-                s.medium.index(wavelength_nm),
-            )?;
+            r = self.through_surface(i, s, z[i], &r, self.index_before(i, wavelength_nm), s.medium.index(wavelength_nm))?;
         }
         Ok(r)
     }
@@ -234,37 +201,19 @@ impl Lens {
         let z = self.vertex_z_mm();
         let mut r = *ray;
         for (i, s) in self.surfaces.iter().enumerate().rev() {
-            r = self.through_surface(
-                i,
-                s,
-                z[i],
-                &r,
-                s.medium.index(wavelength_nm),
-                self.index_before(i, wavelength_nm),
-            )?;
+            r = self.through_surface(i, s, z[i], &r, s.medium.index(wavelength_nm), self.index_before(i, wavelength_nm))?;
         }
         Ok(r)
     }
 
-    fn through_surface(
-        &self,
-        i: usize,
-        s: &Surface,
-        z0: f64,
-        r: &Ray,
-        n_in: f64,
-        n_out: f64,
-    ) -> Result<Ray, Blocked> {
+    fn through_surface(&self, i: usize, s: &Surface, z0: f64, r: &Ray, n_in: f64, n_out: f64) -> Result<Ray, Blocked> {
         if s.is_stop {
             let p = r.at_z(z0).ok_or(Blocked::Aperture(i))?;
             let t = (z0 - r.origin_mm[2]) / r.direction[2];
             if t < -1e-9 || p[0].hypot(p[1]) > s.semi_aperture_mm {
                 return Err(Blocked::Aperture(i));
             }
-            return Ok(Ray {
-                origin_mm: p,
-                direction: r.direction,
-            });
+            return Ok(Ray { origin_mm: p, direction: r.direction });
         }
         let (t, n) = intersect(s, z0, r).ok_or(Blocked::Aperture(i))?;
         let p = r.at(t);
@@ -272,10 +221,7 @@ impl Lens {
             return Err(Blocked::Aperture(i));
         }
         let d = refract(r.direction, n, n_in, n_out).ok_or(Blocked::TotalInternalReflection(i))?;
-        Ok(Ray {
-            origin_mm: p,
-            direction: d,
-        })
+        Ok(Ray { origin_mm: p, direction: d })
     }
 
     /// Effective focal length and back focal distance by real ray tracing: a ray parallel to the
@@ -283,8 +229,7 @@ impl Lens {
     /// definition, exact as h -> 0), BFD = axial distance from the last vertex to where the ray
     /// crosses the axis.
     pub fn traced_focus(&self, h_mm: f64, wavelength_nm: f64) -> Result<(f64, f64), Blocked> {
-        let out =
-            self.trace_forward(&Ray::new([0.0, h_mm, -1.0], [0.0, 0.0, 1.0]), wavelength_nm)?;
+        let out = self.trace_forward(&Ray::new([0.0, h_mm, -1.0], [0.0, 0.0, 1.0]), wavelength_nm)?;
         let d = out.direction;
         let tan_u = d[1] / d[2];
         let efl = -h_mm / tan_u;

@@ -25,27 +25,13 @@ fn scene(depth: bool) -> SpectralImage {
     data.chunks_mut(cols).enumerate().for_each(|(i, row)| {
         let r = i % rows;
         for (c, v) in row.iter_mut().enumerate() {
-            *v = if ((r / 64) + (c / 64)) % 2 == 0 {
-                0.02
-            } else {
-                0.01
-            };
+            *v = if ((r / 64) + (c / 64)) % 2 == 0 { 0.02 } else { 0.01 };
         }
     });
-    let mut img =
-        SpectralImage::from_data(rows, cols, grid, scene_dx, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry {
-        fov_deg: 0.0,
-        distance_m: d,
-        focal_length_m: 0.0,
-        f_number: 0.0,
-    };
+    let mut img = SpectralImage::from_data(rows, cols, grid, scene_dx, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry { fov_deg: 0.0, distance_m: d, focal_length_m: 0.0, f_number: 0.0 };
     if depth {
-        img.depth_m = Some(
-            (0..rows * cols)
-                .map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32)
-                .collect(),
-        );
+        img.depth_m = Some((0..rows * cols).map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32).collect());
     }
     img
 }
@@ -59,14 +45,10 @@ fn optics(focus: f64) -> Optics {
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("optics_imx363_31bands");
-    g.sample_size(10)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(40));
+    g.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(40));
     let img = scene(false);
     let o = optics(0.3);
-    g.bench_function("shift_invariant_defocus", |b| {
-        b.iter(|| o.compute(&img).unwrap())
-    });
+    g.bench_function("shift_invariant_defocus", |b| b.iter(|| o.compute(&img).unwrap()));
     drop(img);
     let img = scene(true);
     let o = optics(0.5);

@@ -13,11 +13,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Load every frame of the series, checking they share size and CFA pattern.
-fn load_frames(
-    a: &super::analyze::EmvaArgs,
-    csv: &Path,
-    files: &[EmvaLevelFiles],
-) -> Result<Vec<(Vec<RawImage>, Vec<RawImage>)>> {
+fn load_frames(a: &super::analyze::EmvaArgs, csv: &Path, files: &[EmvaLevelFiles]) -> Result<Vec<(Vec<RawImage>, Vec<RawImage>)>> {
     let total: usize = files.iter().map(|l| l.bright.len() + l.dark.len()).sum();
     let pb = common::progress(total as u64, "reading");
     let mut first: Option<(usize, usize, camsim_core::CfaPattern, PathBuf)> = None;
@@ -28,14 +24,7 @@ fn load_frames(
                 .iter()
                 .map(|p| {
                     let raw = camsim_pipeline::load_raw(p, a.raw.cfa, a.raw.black_dn, a.raw.bits)
-                        .with_context(|| {
-                        format!(
-                            "{}, line {}: cannot load {}",
-                            csv.display(),
-                            l.line,
-                            p.display()
-                        )
-                    })?;
+                        .with_context(|| format!("{}, line {}: cannot load {}", csv.display(), l.line, p.display()))?;
                     match &first {
                         None => first = Some((raw.rows, raw.cols, raw.cfa, p.clone())),
                         Some((r, c, cfa, p0)) => {
@@ -84,30 +73,14 @@ fn ptc_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
         let mut s = Series::new(
             format!("{} measured", c.channel.letter()),
             // Past saturation the variance collapses below the dark variance: leave those out.
-            r.points
-                .iter()
-                .filter(|p| p.signal_var_dn2 >= 0.0)
-                .map(|p| (p.signal_dn, p.signal_var_dn2))
-                .collect(),
+            r.points.iter().filter(|p| p.signal_var_dn2 >= 0.0).map(|p| (p.signal_dn, p.signal_var_dn2)).collect(),
         );
         s.color = Some(channel_color(c.channel));
         series.push(s);
-        let xmax = r
-            .points
-            .iter()
-            .filter(|p| p.in_fit)
-            .map(|p| p.signal_dn)
-            .fold(0.0, f64::max);
+        let xmax = r.points.iter().filter(|p| p.in_fit).map(|p| p.signal_dn).fold(0.0, f64::max);
         let mut fit = Series::new(
-            format!(
-                "{} fit K = {:.4} DN/e-",
-                c.channel.letter(),
-                r.system_gain_dn_per_e
-            ),
-            vec![
-                (0.0, r.ptc_offset_dn2),
-                (xmax, r.ptc_offset_dn2 + r.system_gain_dn_per_e * xmax),
-            ],
+            format!("{} fit K = {:.4} DN/e-", c.channel.letter(), r.system_gain_dn_per_e),
+            vec![(0.0, r.ptc_offset_dn2), (xmax, r.ptc_offset_dn2 + r.system_gain_dn_per_e * xmax)],
         );
         fit.color = Some(channel_color(c.channel));
         fit.dashed = true;
@@ -128,12 +101,7 @@ fn ptc_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
 /// SNR plot on log10 axes (the plot API draws linear axes): measured SNR and the model's total
 /// SNR curve against photons per pixel (electrons when the photon count is unknown).
 fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
-    let photons = results.iter().all(|c| {
-        c.result
-            .points
-            .iter()
-            .all(|p| p.photons_per_pixel.is_some())
-    });
+    let photons = results.iter().all(|c| c.result.points.iter().all(|p| p.photons_per_pixel.is_some()));
     let lg = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
     let mut series = Vec::new();
     for c in results {
@@ -144,11 +112,7 @@ fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
             .iter()
             .filter(|p| p.signal_dn <= r.saturation_signal_dn)
             .map(|p| {
-                let x = if photons {
-                    p.photons_per_pixel.unwrap_or(f64::NAN)
-                } else {
-                    p.signal_dn / r.system_gain_dn_per_e
-                };
+                let x = if photons { p.photons_per_pixel.unwrap_or(f64::NAN) } else { p.signal_dn / r.system_gain_dn_per_e };
                 (lg(x), lg(p.snr))
             })
             .collect();
@@ -158,16 +122,7 @@ fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
         let model: Vec<(f64, f64)> = r
             .snr_curve
             .iter()
-            .map(|p| {
-                (
-                    lg(if photons {
-                        p.photons.unwrap_or(f64::NAN)
-                    } else {
-                        p.electrons
-                    }),
-                    lg(p.snr_total),
-                )
-            })
+            .map(|p| (lg(if photons { p.photons.unwrap_or(f64::NAN) } else { p.electrons }), lg(p.snr_total)))
             .collect();
         let mut m = Series::new(format!("{} model (total)", c.channel.letter()), model);
         m.color = Some(channel_color(c.channel));
@@ -176,11 +131,7 @@ fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
     }
     LinePlot {
         title: "EMVA 1288 signal-to-noise ratio".into(),
-        x_label: if photons {
-            "log10 photons per pixel".into()
-        } else {
-            "log10 electrons per pixel".into()
-        },
+        x_label: if photons { "log10 photons per pixel".into() } else { "log10 electrons per pixel".into() },
         y_label: "log10 SNR".into(),
         series,
         x_range: None,
@@ -191,8 +142,7 @@ fn snr_plot(results: &[ChannelEmva], path: &Path) -> Result<()> {
 }
 
 fn opt(v: Option<f64>, prec: usize) -> String {
-    v.map(|x| format!("{x:.prec$}"))
-        .unwrap_or_else(|| "-".into())
+    v.map(|x| format!("{x:.prec$}")).unwrap_or_else(|| "-".into())
 }
 
 /// The summary table, one row per channel.
@@ -201,15 +151,7 @@ fn summary(results: &[ChannelEmva]) -> Result<String> {
     writeln!(
         t,
         "{:<3} {:>10} {:>11} {:>9} {:>8} {:>10} {:>10} {:>7} {:>8}",
-        "ch",
-        "K (DN/e-)",
-        "read (e-)",
-        "DSNU (e-)",
-        "PRNU (%)",
-        "sat. (e-)",
-        "clip (e-)",
-        "QE",
-        "DR (dB)"
+        "ch", "K (DN/e-)", "read (e-)", "DSNU (e-)", "PRNU (%)", "sat. (e-)", "clip (e-)", "QE", "DR (dB)"
     )?;
     for c in results {
         let r = &c.result;
@@ -227,9 +169,7 @@ fn summary(results: &[ChannelEmva]) -> Result<String> {
             r.dynamic_range_db
         )?;
     }
-    t.push_str(
-        "sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K\n",
-    );
+    t.push_str("sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K\n");
     Ok(t)
 }
 
@@ -247,8 +187,7 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
         })
         .collect();
     let opts = EmvaOptions::default();
-    let results = emva_raw(&levels, &opts)
-        .with_context(|| format!("EMVA 1288 analysis of {}", a.series.display()))?;
+    let results = emva_raw(&levels, &opts).with_context(|| format!("EMVA 1288 analysis of {}", a.series.display()))?;
     let staged = common::stage_out_dir_reading(&a.out, &[a.series.as_path()])?;
     let out = staged.path().to_path_buf();
     let raw0 = &frames[0].0[0];
@@ -266,11 +205,7 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
     if a.json {
         // A closed pipe (`| head`) is not an error of the analysis.
         use std::io::Write as _;
-        let _ = writeln!(
-            std::io::stdout().lock(),
-            "{}",
-            serde_json::to_string_pretty(&json)?
-        );
+        let _ = writeln!(std::io::stdout().lock(), "{}", serde_json::to_string_pretty(&json)?);
     }
     say(summary(&results)?);
     for c in &results {
@@ -278,10 +213,7 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
         // Past saturation the temporal variance collapses (clipped pixels do not fluctuate); if it
         // has not at the brightest level, the series never clipped in this channel.
         let peak = r.points.iter().map(|p| p.var_dn2).fold(0.0, f64::max);
-        let brightest = r
-            .points
-            .iter()
-            .max_by(|a, b| a.signal_dn.total_cmp(&b.signal_dn));
+        let brightest = r.points.iter().max_by(|a, b| a.signal_dn.total_cmp(&b.signal_dn));
         if brightest.is_some_and(|p| p.var_dn2 > 0.5 * peak) {
             say(format!(
                 "warning: channel {}: the temporal variance still grows at the brightest level, so the series does not reach saturation; its saturation, dynamic range and PRNU level are not meaningful (extend the exposures or use light this channel sees)",
@@ -289,11 +221,7 @@ pub fn run(a: super::analyze::EmvaArgs) -> Result<()> {
             ));
         }
     }
-    say(format!(
-        "{} levels -> {}",
-        files.len(),
-        a.out.join("emva.json").display()
-    ));
+    say(format!("{} levels -> {}", files.len(), a.out.join("emva.json").display()));
     common::commit(staged)?;
     Ok(())
 }

@@ -10,9 +10,7 @@ use std::path::PathBuf;
 /// and a 3x3 sensor -> XYZ matrix fitted by least squares on the ColorChecker under the scene
 /// illuminant, XYZ -> linear sRGB -> sRGB gamma.
 #[derive(clap::Args)]
-#[command(
-    after_help = "Example:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png"
-)]
+#[command(after_help = "Example:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png")]
 pub struct Args {
     /// Raw DNG.
     #[arg(long = "in")]
@@ -35,15 +33,9 @@ pub fn run(a: Args) -> Result<()> {
     let illum = camsim_scene::load_illuminant(&a.illuminant, "--illuminant")?;
     let color = ColorPipeline::fit(&sensor.channel_qe(&grid), &grid, &illum)?;
     let rgb = camsim_isp::demosaic_bilinear(&raw);
-    let srgb =
-        color.render_srgb8_clipped(&rgb, None, Some(raw.white_level_dn - raw.black_level_dn));
+    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw.white_level_dn - raw.black_level_dn));
     crate::common::parent_dir(&a.out)?;
     camsim_io::raster::write_png8_rgb(&a.out, rgb.rows, rgb.cols, &srgb)?;
-    say(format!(
-        "wrote {} ({} x {})",
-        a.out.display(),
-        rgb.cols,
-        rgb.rows
-    ));
+    say(format!("wrote {} ({} x {})", a.out.display(), rgb.cols, rgb.rows));
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! One module per subcommand.
 pub mod analyze;
-pub mod emva;
 pub mod fit;
 pub mod fit_mtf;
+pub mod emva;
 pub mod fit_shading;
 pub mod isp;
 pub mod optics;

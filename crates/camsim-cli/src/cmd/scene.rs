@@ -11,9 +11,7 @@ use std::path::PathBuf;
 /// CONFIG is a scene TOML (the `[scene]` table of a simulate config, on its own: kind = "uniform" |
 /// "macbeth" | "slanted_edge" | "file"), or a whole simulate config whose `[scene]` is used.
 #[derive(clap::Args)]
-#[command(
-    after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr"
-)]
+#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr")]
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
@@ -29,27 +27,18 @@ pub fn run(a: Args) -> Result<()> {
     let (cfg, grid) = match &a.config {
         Some(p) => {
             let text = common::read_text(p)?;
-            let v: toml::Value =
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+            let v: toml::Value = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
             if v.get("scene").is_some() {
                 let c = camsim_pipeline::SimulateConfig::load(p)?;
-                let s = c
-                    .scene
-                    .ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
+                let s = c.scene.ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
                 (s, c.wavelengths)
             } else {
-                (
-                    SceneConfig::from_toml(&text, &p.display().to_string())?,
-                    WavelengthGrid::default(),
-                )
+                (SceneConfig::from_toml(&text, &p.display().to_string())?, WavelengthGrid::default())
             }
         }
         None => {
             let text = format!("kind = \"{}\"", a.kind);
-            (
-                SceneConfig::from_toml(&text, "--kind")?,
-                WavelengthGrid::default(),
-            )
+            (SceneConfig::from_toml(&text, "--kind")?, WavelengthGrid::default())
         }
     };
     let img = camsim_scene::create(&cfg, &grid)?;

@@ -9,6 +9,7 @@ use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+
 /// Turn irradiance into raw digital values with the ISETCam sensor model: pixel area
 /// integration, QE x colour filter x IR cut, photon shot noise, dark current, DSNU and PRNU
 /// (a fixed pattern that belongs to the sensor), read noise, analog gain and offset, clipping at
@@ -23,9 +24,7 @@ use std::path::{Path, PathBuf};
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
-#[command(
-    after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv"
-)]
+#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv")]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
@@ -73,10 +72,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let mut sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
-        sensor = sensor.window(
-            a.rows.unwrap_or(sensor.rows()),
-            a.cols.unwrap_or(sensor.cols()),
-        )?;
+        sensor = sensor.window(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
     }
     if a.no_noise {
         sensor = sensor.with_noise(NoiseSwitches::none());
@@ -90,47 +86,25 @@ pub fn run(a: Args) -> Result<()> {
         emva_series(&sensor, &a, out.path())?;
         return common::commit(out);
     }
-    let input = a
-        .input
-        .as_ref()
-        .expect("clap requires --in without --emva-series");
+    let input = a.input.as_ref().expect("clap requires --in without --emva-series");
     let irr = common::read_spectral_exr(input)?;
     let exposure = match a.exposure_ms {
-        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
-            anyhow::bail!("--exposure-ms {ms}: must be >= 0")
-        }
+        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => anyhow::bail!("--exposure-ms {ms}: must be >= 0"),
         Some(ms) => Exposure::Seconds(ms * 1e-3),
         None => Exposure::default(),
     };
     let pb = common::spinner("sensor");
-    let frame = sensor.compute(
-        &irr,
-        &Capture {
-            exposure,
-            frames: a.frames,
-            seed: a.seed,
-        },
-    )?;
+    let frame = sensor.compute(&irr, &Capture { exposure, frames: a.frames, seed: a.seed })?;
     pb.finish_and_clear();
     let illum = camsim_core::tables::illuminant("D65")?;
     let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
     let meta = camsim_pipeline::dng_metadata(&sensor, &color, None)?;
     for (i, raw) in frame.raw.iter().enumerate() {
-        let name = if i == 0 {
-            "raw.dng".to_string()
-        } else {
-            format!("raw_{i:04}.dng")
-        };
+        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
         camsim_io::dng::write_dng(&out.join(name), raw, &meta)?;
     }
     let r0 = &frame.raw[0];
-    camsim_io::raster::write_png16_mosaic_scaled(
-        &out.join("raw.png"),
-        r0.rows,
-        r0.cols,
-        &r0.dn,
-        r0.bits,
-    )?;
+    camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), r0.rows, r0.cols, &r0.dn, r0.bits)?;
     common::commit(out)?;
     say(format!(
         "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
@@ -166,23 +140,12 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     // time at which the signal reaches the clipping level.
     let rate_e_per_s = 1e5;
     let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
-    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
-        / sensor.conversion_gain_v_per_e();
+    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v()) / sensor.conversion_gain_v_per_e();
     let t_sat = clip_e / rate_e_per_s;
     let n = a.levels.max(3);
-    let exposures: Vec<f64> = (0..n)
-        .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
-        .collect();
+    let exposures: Vec<f64> = (0..n).map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64).collect();
     let pb = common::progress(n as u64, "emva");
-    let levels = sensor.emva_series(
-        &grid,
-        &irr,
-        &exposures,
-        a.frames_per_level.max(2),
-        rows,
-        cols,
-        a.seed,
-    )?;
+    let levels = sensor.emva_series(&grid, &irr, &exposures, a.frames_per_level.max(2), rows, cols, a.seed)?;
     let f = a.frames_per_level.max(2);
     let mut csv = String::from("exposure_s,photons_per_pixel");
     for kind in ["bright", "dark"] {
@@ -191,10 +154,7 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
         }
     }
     csv.push('\n');
-    let meta = DngMetadata {
-        camera_model: format!("camsim {}", sensor.name()),
-        ..DngMetadata::default()
-    };
+    let meta = DngMetadata { camera_model: format!("camsim {}", sensor.name()), ..DngMetadata::default() };
     for (i, l) in levels.iter().enumerate() {
         let mut names = Vec::new();
         for (kind, frames) in [("bright", &l.bright), ("dark", &l.dark)] {
@@ -204,13 +164,7 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
                 names.push(name);
             }
         }
-        writeln!(
-            csv,
-            "{},{},{}",
-            l.exposure_s,
-            l.photons_per_pixel,
-            names.join(",")
-        )?;
+        writeln!(csv, "{},{},{}", l.exposure_s, l.photons_per_pixel, names.join(","))?;
         pb.inc(1);
     }
     pb.finish_and_clear();
