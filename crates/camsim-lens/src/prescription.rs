@@ -256,7 +256,8 @@ impl Lens {
 
     /// Check the prescription (`what` names it in messages): at least one refracting surface and
     /// exactly one stop; finite numbers; positive semi-apertures; thicknesses >= 0; indices of 1
-    /// or more (0: air); each surface's sag defined over its semi-aperture; and consecutive surfaces do not
+    /// or more (0: air); each surface's sag defined over its semi-aperture; and consecutive
+    /// surfaces do not
     /// cross inside their common clear aperture (surface i + 1 lies behind surface i, up to
     /// [`CROSSING_TOLERANCE_MM`]).
     pub fn check(&self, what: &str) -> Result<()> {

@@ -101,7 +101,7 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
             (z0 - o[2]) / d[2]
         } else {
             let sq = disc.sqrt();
-            // The root where the sphere is on the vertex's hemisphere: z - (z0 + R) has the sign of -R.
+            // The root on the vertex's hemisphere: z - (z0 + R) has the sign of -R.
             let (t1, t2) = (-b - sq, -b + sq);
             let on_vertex_side = |t: f64| (o[2] + t * d[2] - (z0 + r)) * -r.signum() > 0.0;
             if on_vertex_side(t1) {

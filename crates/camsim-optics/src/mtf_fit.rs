@@ -8,8 +8,9 @@
 //! MTF(f) = MTF_lens(f; c4, lambda, N) x |sinc(f p)| x exp(-2 pi^2 sigma^2 f^2)
 //! ```
 //!
-//! - `MTF_lens`: the wavefront model camsim renders with ([`Wavefront::mtf`]): a diffraction-limited
-//!   pupil of f-number N with an OSA defocus term c4 over the *lens* pupil (um of optical path);
+//! - `MTF_lens`: the wavefront model camsim renders with ([`Wavefront::mtf`]): a
+//!   diffraction-limited pupil of f-number N with an OSA defocus term c4 over the *lens* pupil
+//!   (um of optical path);
 //! - `|sinc(f p)|`: the pixel aperture, a square photodetector of side p sqrt(fill factor)
 //!   (ISETCam's pixel MTF; Boreman, Modulation Transfer Function in Optical and Electro-Optical
 //!   Systems, sec. 2.2);
