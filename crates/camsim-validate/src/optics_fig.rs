@@ -154,6 +154,9 @@ pub struct MeasuredMtfComparison {
     pub presets: Vec<(String, Vec<f64>, Option<f64>, f64)>,
 }
 
+/// Colour of the real camera's curves in Figure 2a (orange, apart from the channels and luminance).
+const MEASURED_COLOR: [u8; 3] = [230, 120, 0];
+
 /// Name of the measured MTF file inside `--data`.
 pub const MEASURED_MTF_FILE: &str = "pixel4a-measured-mtf-in-focus.csv";
 
@@ -448,11 +451,11 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
             // The real camera, in cycles per pixel (f [cycles/mm] x pitch [mm]).
             let px = r.pixel_pitch_um * 1e-3;
             let fx: Vec<f64> = m.freq_cyc_per_mm.iter().map(|f| f * px).collect();
-            fig = fig.with(Series::new("measured Pixel 4a", fx.clone(), m.mtf.clone(), Style::Points, [0, 0, 0]));
+            fig = fig.with(Series::new("measured Pixel 4a", fx.clone(), m.mtf.clone(), Style::Points, MEASURED_COLOR));
             if let Some((name, at, _, _)) = m.presets.iter().find(|p| p.0 == "pixel4a-measured") {
-                fig = fig.with(Series::new(format!("{name} lens x pixel"), fx, at.clone(), Style::Dashed, [0, 0, 0]));
+                fig = fig.with(Series::new(format!("{name} lens x pixel"), fx, at.clone(), Style::Dashed, MEASURED_COLOR));
             }
-            extra = "; black points: the measured MTF of a real Pixel 4a (isetcornellbox), black dashed: the pixel4a-measured lens (fitted to it) x pixel aperture".into();
+            extra = "; orange points: the measured MTF of a real Pixel 4a (isetcornellbox), orange dashed: the pixel4a-measured lens (fitted to it) x pixel aperture".into();
         }
         let file = format!("fig2{}_mtf.png", ['a', 'b'][i]);
         let caption = format!(
