@@ -63,7 +63,8 @@ enum Commands {
     /// chart values, region statistics, EMVA 1288 photon transfer.
     #[command(subcommand)]
     Analyze(cmd::analyze::Command),
-    /// Fit model parameters to measurements: the sensor QE correction matrix from chart values.
+    /// Fit model parameters to measurements: the sensor QE correction matrix from chart values, the
+    /// lens defocus and pixel crosstalk from a measured MTF.
     #[command(subcommand)]
     Fit(cmd::fit::Command),
     Validate(cmd::validate::Args),

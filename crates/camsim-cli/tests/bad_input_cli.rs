@@ -140,6 +140,14 @@ fn fixture() -> &'static Fixture {
             }
         }
         std::fs::write(root.join("means.csv"), csv).unwrap();
+        // A measured MTF in the `fit mtf` format: a Gaussian blur of sigma 2 um, in percent.
+        let mut mtf = String::from("frequency_cy_per_mm,mtf_percent\n");
+        for i in 1..=20 {
+            let f = 12.5 * i as f64;
+            let g = (-2.0 * std::f64::consts::PI.powi(2) * (2e-3 * f).powi(2)).exp();
+            mtf.push_str(&format!("{f},{}\n", 100.0 * g));
+        }
+        std::fs::write(root.join("mtf.csv"), mtf).unwrap();
         Fixture { _dir: dir, root }
     })
 }
@@ -162,6 +170,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ["analyze", "roi"] => vec!["analyze", "roi", "{F}/sim/raw.dng", "--region", "8,8,16,16", "--out", "{O}"],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
+        ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],
         ["validate"] => vec!["validate", "cornell-box", "--out", "{O}"],
         ["dataset"] => vec!["dataset", "{F}/dataset.toml", "--out", "{O}"],
         _ => return None,
@@ -255,6 +264,7 @@ fn malformed_files_exit_2_and_name_the_file() {
         (vec!["analyze", "roi", "{X}", "--region", "8,8,16,16", "--out", "{O}"], "sim/raw.dng", "dng"),
         (vec!["analyze", "emva", "{X}", "--out", "{O}"], "emva/series.csv", "csv"),
         (vec!["fit", "qe", "--measured", "{X}", "--out", "{O}"], "means.csv", "csv"),
+        (vec!["fit", "mtf", "--measured", "{X}", "--out", "{O}"], "mtf.csv", "csv"),
         (vec!["validate", "compare", "{X}", "--out", "{O}"], "small.toml", "toml"),
         (vec!["dataset", "{X}", "--out", "{O}"], "dataset.toml", "toml"),
     ];

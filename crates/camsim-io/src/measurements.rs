@@ -4,6 +4,7 @@
 //!   writes one; `camsim analyze emva` reads it);
 //! - [`read_sfr_csv`]: the SFR curves of an `sfr.csv` (`camsim analyze sfr` writes one and
 //!   overlays others with `--compare`);
+//! - [`read_mtf_csv`]: a measured MTF curve in cycles/mm (`camsim fit mtf --measured`);
 //! - [`read_qe_means`]: measured ColorChecker patch means, the input of the QE correction fit
 //!   (`camsim fit qe --measured`).
 //!
@@ -239,6 +240,83 @@ pub fn read_qe_means(path: &Path) -> Result<Vec<PatchMeans>> {
     Ok(out)
 }
 
+/// A measured MTF curve (e.g. a slanted-edge SFR of a real camera), in sensor-plane units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredMtf {
+    /// Spatial frequency in the sensor plane, cycles/mm, increasing.
+    pub freq_cyc_per_mm: Vec<f64>,
+    /// Modulation, fraction (1 at zero frequency); converted from percent when the file gives it.
+    pub mtf: Vec<f64>,
+    /// The 1-based CSV line of each point, for messages about it.
+    pub lines: Vec<usize>,
+}
+
+/// A line of a measured MTF CSV, as the `csv` crate deserializes it (fields in order).
+#[derive(Deserialize)]
+struct MtfRow {
+    freq: f64,
+    mtf: f64,
+}
+
+/// Read a measured MTF: a header naming two columns, the frequency in cycles/mm
+/// (`frequency_cy_per_mm`, `freq_cyc_per_mm`, `cycles_per_mm`, ...: a name containing `freq` or
+/// `cy`) and the modulation (`mtf_percent` or any name with `percent`/`%`: percent; `mtf`,
+/// `sfr`, `modulation`: fraction), then one point per line with increasing frequency >= 0, e.g.
+/// `9.17,97.78` (the isetcornellbox `pixel4a-measured-mtf-in-focus.csv`). Lines starting with '#'
+/// and blank lines are ignored; at least 3 points; a modulation must lie in [-0.05, 1.5] as a
+/// fraction.
+pub fn read_mtf_csv(path: &Path) -> Result<MeasuredMtf> {
+    let mut rows = records(path, true)?.into_iter();
+    let (hline, header) = rows.next().ok_or_else(|| {
+        IoError::format(
+            path,
+            "no header line; the header must name the frequency (cycles/mm) and MTF columns, e.g. frequency_cy_per_mm,mtf_percent",
+        )
+    })?;
+    let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
+    let freq_ok = names.first().is_some_and(|n| n.contains("freq") || n.contains("cy"));
+    let mtf_ok = names.get(1).is_some_and(|n| ["mtf", "sfr", "modulation"].iter().any(|k| n.contains(k)));
+    if names.len() != 2 || !freq_ok || !mtf_ok {
+        return Err(IoError::line(
+            path,
+            hline,
+            format!(
+                "the header must be two columns, frequency in cycles/mm then MTF (e.g. frequency_cy_per_mm,mtf_percent), got '{}'",
+                joined(&header)
+            ),
+        ));
+    }
+    if names[0].contains("px") || names[0].contains("pixel") {
+        return Err(IoError::line(path, hline, format!("column '{}' is per pixel; give the frequency in cycles/mm", &names[0])));
+    }
+    let scale = if names[1].contains("percent") || names[1].contains('%') { 0.01 } else { 1.0 };
+    let mut out = MeasuredMtf { freq_cyc_per_mm: Vec::new(), mtf: Vec::new(), lines: Vec::new() };
+    for (line, record) in rows {
+        if record.len() != 2 {
+            return Err(IoError::line(path, line, format!("{} values; expected frequency,mtf", record.len())));
+        }
+        let row: MtfRow =
+            record.deserialize(None).map_err(|_| IoError::line(path, line, format!("'{}' is not two numbers", joined(&record))))?;
+        if !(row.freq.is_finite() && row.freq >= 0.0) {
+            return Err(IoError::line(path, line, format!("frequency {} is not a number >= 0", row.freq)));
+        }
+        if out.freq_cyc_per_mm.last().is_some_and(|f| row.freq <= *f) {
+            return Err(IoError::line(path, line, format!("frequency {} does not increase", row.freq)));
+        }
+        let m = row.mtf * scale;
+        if !(m.is_finite() && (-0.05..=1.5).contains(&m)) {
+            return Err(IoError::line(path, line, format!("MTF {} is not a modulation (fraction in [-0.05, 1.5])", row.mtf)));
+        }
+        out.freq_cyc_per_mm.push(row.freq);
+        out.mtf.push(m);
+        out.lines.push(line);
+    }
+    if out.mtf.len() < 3 {
+        return Err(IoError::format(path, format!("need at least 3 points, found {}", out.mtf.len())));
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -351,6 +429,35 @@ mod tests {
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_qe_means(&p));
+            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn measured_mtf_percent_and_fraction_with_errors_naming_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = file(&dir, "m.csv", "# slanted edge\nfrequency_cy_per_mm,mtf_percent\n9.5,97.5\n\n20,\"90\"\n40,50\n");
+        let m = read_mtf_csv(&p).unwrap();
+        assert_eq!(m.freq_cyc_per_mm, [9.5, 20.0, 40.0]);
+        assert_eq!(m.mtf, [0.975, 0.9, 0.5]);
+        assert_eq!(m.lines, [3, 5, 6]);
+        let p = file(&dir, "m.csv", "freq_cyc_per_mm,mtf\n0,1\n10,0.9\n20,0.5\n");
+        assert_eq!(read_mtf_csv(&p).unwrap().mtf, [1.0, 0.9, 0.5]);
+        let h = "frequency_cy_per_mm,mtf_percent\n";
+        for (text, want) in [
+            ("", ": no header line".to_string()),
+            ("a,b\n", ", line 1: the header must be two columns".into()),
+            ("freq_cyc_per_px,mtf\n", ", line 1: column 'freq_cyc_per_px' is per pixel".into()),
+            (&format!("{h}1,99\n2,x\n"), ", line 3: '2,x' is not two numbers".into()),
+            (&format!("{h}1,99\n2\n"), ", line 3: 1 values".into()),
+            (&format!("{h}1,99\n1,98\n"), ", line 3: frequency 1 does not increase".into()),
+            (&format!("{h}1,99\n-2,98\n"), ", line 3: frequency -2 is not".into()),
+            (&format!("{h}1,99\n2,nan\n"), ", line 3: MTF NaN is not a modulation".into()),
+            (&format!("{h}1,99\n2,9000\n"), ", line 3: MTF 9000 is not a modulation".into()),
+            (&format!("{h}1,99\n2,98\n"), ": need at least 3 points, found 2".into()),
+        ] {
+            let p = file(&dir, "bad.csv", text);
+            let e = err(read_mtf_csv(&p));
             assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
         }
     }

@@ -53,6 +53,17 @@ pub struct OpticsConfig {
     /// blurred past the edge is lost).
     #[serde(default)]
     pub padding: Padding,
+    /// Pixel crosstalk blur: standard deviation of a Gaussian in the sensor plane, um (>= 0,
+    /// default 0 = none). Carrier diffusion and optical crosstalk between photodiodes blur the
+    /// image like a shift-invariant Gaussian, MTF factor exp(-2 pi^2 sigma^2 f^2); the optics stage
+    /// applies it with the lens PSF (linear shift-invariant stages commute). `camsim fit mtf`
+    /// fits it with the defocus to a measured MTF (the `pixel4a-measured` preset).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub crosstalk_sigma_um: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn default_defocus_tolerance_um() -> f64 {

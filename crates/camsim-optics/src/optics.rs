@@ -112,6 +112,10 @@ impl Optics {
             .with_zernike(w.zernike_um.to_dense()?, meas_m)?
             .with_reference_wavelength(w.reference_wavelength_nm)?
             .with_min_pupil_samples(c.psf.min_pupil_samples);
+        if !(c.crosstalk_sigma_um >= 0.0 && c.crosstalk_sigma_um.is_finite()) {
+            return Err(OpticsError::config("crosstalk_sigma_um", format!("{} is not a number >= 0", c.crosstalk_sigma_um)));
+        }
+        wavefront = wavefront.with_crosstalk_sigma_m(c.crosstalk_sigma_um * 1e-6);
         if let Some(cd) = &w.chromatic_defocus {
             let s = Spectrum::new(cd.wavelengths_nm.clone(), cd.c4_um.clone(), "optics config key `wavefront.chromatic_defocus`")?;
             wavefront = wavefront.with_chromatic_defocus(s);
@@ -172,7 +176,7 @@ impl Optics {
         Ok(Optics { config: config.clone(), wavefront, transmittance, scalar_transmittance, shading })
     }
 
-    /// A built-in preset (`pixel4a`, `diffraction-limited`).
+    /// A built-in preset (`pixel4a`, `pixel4a-measured`, `diffraction-limited`).
     pub fn preset(name: &str) -> Result<Optics> {
         Optics::from_config(&OpticsConfig::preset(name)?)
     }

@@ -3,6 +3,7 @@
 /// (name, TOML text) of every preset.
 const PRESETS: &[(&str, &str)] = &[
     ("pixel4a", include_str!("../presets/pixel4a.toml")),
+    ("pixel4a-measured", include_str!("../presets/pixel4a-measured.toml")),
     ("diffraction-limited", include_str!("../presets/diffraction-limited.toml")),
 ];
 

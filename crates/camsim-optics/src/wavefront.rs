@@ -51,6 +51,7 @@ pub struct Wavefront {
     extra_defocus_um: f64,
     chromatic_defocus_um: Option<Spectrum>,
     min_pupil_samples: usize,
+    crosstalk_sigma_m: f64,
 }
 
 impl Wavefront {
@@ -73,6 +74,7 @@ impl Wavefront {
             extra_defocus_um: 0.0,
             chromatic_defocus_um: None,
             min_pupil_samples: 64,
+            crosstalk_sigma_m: 0.0,
         })
     }
 
@@ -140,6 +142,21 @@ impl Wavefront {
     pub fn with_min_pupil_samples(mut self, n: usize) -> Self {
         self.min_pupil_samples = n.max(16);
         self
+    }
+
+    /// Convolve every PSF with a Gaussian of standard deviation `sigma_m` in the sensor plane:
+    /// pixel crosstalk (carrier diffusion, optical crosstalk between photodiodes) as a
+    /// shift-invariant blur, MTF factor exp(-2 pi^2 sigma^2 f^2) (see [`crate::mtf_fit`]). The
+    /// stages are linear and shift-invariant, so applying the sensor's blur with the lens PSF gives
+    /// the same image as applying it in the sensor. Negative or non-finite values count as 0.
+    pub fn with_crosstalk_sigma_m(mut self, sigma_m: f64) -> Self {
+        self.crosstalk_sigma_m = if sigma_m.is_finite() && sigma_m > 0.0 { sigma_m } else { 0.0 };
+        self
+    }
+
+    /// Crosstalk Gaussian standard deviation, m (0: none).
+    pub fn crosstalk_sigma_m(&self) -> f64 {
+        self.crosstalk_sigma_m
     }
 
     /// Zernike coefficients, um, indexed by OSA j.
@@ -270,7 +287,12 @@ impl Wavefront {
     /// radius r tends to 2 lambda N / (pi^2 r) (Born & Wolf sec. 8.5.2, asymptote of 1 - J0^2 - J1^2).
     pub fn kernel_size(&self, wavelength_nm: f64, spacing_m: f64, tail_energy: f64) -> usize {
         let lam_n = wavelength_nm * 1e-9 * self.working_f_number();
-        let r = self.geometric_blur_radius_m(wavelength_nm) + 2.0 * lam_n / (PI * PI * tail_energy.max(1e-6)) + lam_n;
+        // A Gaussian crosstalk blur holds all but exp(-3.5^2 / 2) = 0.2 % of its energy within
+        // 3.5 sigma (2-D).
+        let r = self.geometric_blur_radius_m(wavelength_nm)
+            + 2.0 * lam_n / (PI * PI * tail_energy.max(1e-6))
+            + lam_n
+            + 3.5 * self.crosstalk_sigma_m;
         2 * (r / spacing_m).ceil() as usize + 1
     }
 
@@ -413,7 +435,7 @@ impl Wavefront {
         let a = d / 2.0;
         // Pupil diameter in pupil samples per FFT sample: n_p = q N (PSF spacing = lambda z / (N dp)).
         let q = dx * d / (lambda_m * z);
-        let blur = self.geometric_blur_radius_m(wavelength_nm);
+        let blur = self.geometric_blur_radius_m(wavelength_nm) + 2.0 * self.crosstalk_sigma_m;
         let want = [
             // The FFT's PSF is periodic: the tail beyond the field folds back into it, and the rim
             // pedestal spreads over the field. With the old 1.3x field the window held so much of
@@ -526,11 +548,55 @@ impl Wavefront {
                 out[oy * m + ox] = col[ky].norm_sqr() + pedestal;
             }
         }
+        if self.crosstalk_sigma_m > 0.0 {
+            // The full grid (n_out None) is one period of the periodic PSF: convolve circularly.
+            gaussian_blur(&mut out, m, self.crosstalk_sigma_m / dx, n_out.is_none());
+        }
         let s: f64 = out.iter().sum();
         if !(s > 0.0) {
             return Err(OpticsError::Input(format!("PSF at {wavelength_nm} nm has no energy (pupil too small for the sampling)")));
         }
         out.iter_mut().for_each(|v| *v /= s);
         Ok(out)
+    }
+}
+
+/// Separable convolution of the `m` x `m` row-major image `data` with a unit-sum Gaussian of
+/// standard deviation `sigma_px` samples (sampled at the sample centres and normalized; the PSF
+/// grid's spacing is at most lambda N / 2, well below a crosstalk sigma of a micrometre), cut at
+/// 5 sigma; `periodic` wraps around the edges, otherwise light past an edge is lost.
+fn gaussian_blur(data: &mut [f64], m: usize, sigma_px: f64, periodic: bool) {
+    let half = (5.0 * sigma_px).ceil().max(1.0) as i64;
+    let w: Vec<f64> = (-half..=half).map(|k| (-0.5 * (k as f64 / sigma_px).powi(2)).exp()).collect();
+    let ws: f64 = w.iter().sum();
+    let w: Vec<f64> = w.iter().map(|v| v / ws).collect();
+    let mut line = vec![0.0; m];
+    let conv = |get: &mut dyn FnMut(usize) -> f64, line: &mut [f64]| {
+        let src: Vec<f64> = (0..m).map(&mut *get).collect();
+        for (i, out) in line.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (k, wk) in w.iter().enumerate() {
+                let j = i as i64 + k as i64 - half;
+                let j = if periodic {
+                    j.rem_euclid(m as i64)
+                } else if j < 0 || j >= m as i64 {
+                    continue;
+                } else {
+                    j
+                };
+                acc += wk * src[j as usize];
+            }
+            *out = acc;
+        }
+    };
+    for r in 0..m {
+        conv(&mut |c| data[r * m + c], &mut line);
+        data[r * m..(r + 1) * m].copy_from_slice(&line);
+    }
+    for c in 0..m {
+        conv(&mut |r| data[r * m + c], &mut line);
+        for (r, v) in line.iter().enumerate() {
+            data[r * m + c] = *v;
+        }
     }
 }

@@ -146,7 +146,7 @@ fn fitted_shading_file_is_applied() {
 
 #[test]
 fn presets_parse_and_config_errors_name_the_key() {
-    assert_eq!(presets::names(), vec!["pixel4a", "diffraction-limited"]);
+    assert_eq!(presets::names(), vec!["pixel4a", "pixel4a-measured", "diffraction-limited"]);
     for name in presets::names() {
         let c = OpticsConfig::preset(name).unwrap();
         Optics::from_config(&c).unwrap();

@@ -86,7 +86,7 @@ pub struct RenderSection {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpticsSection {
-    /// Built-in lens: "pixel4a" (default) or "diffraction-limited".
+    /// Built-in lens: "pixel4a" (default), "pixel4a-measured" or "diffraction-limited".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preset: Option<String>,
     /// Or a lens TOML file (relative to the config file).

@@ -128,8 +128,73 @@ pub struct OpticsResults {
     pub thin_lens: ThinLens,
     /// Checks.
     pub checks: Vec<Check>,
+    /// The real camera's measured MTF against the lens presets (with `--data` holding it).
+    pub measured: Option<MeasuredMtfComparison>,
     /// Figures.
     pub figures: Vec<FigurePng>,
+}
+
+/// The measured in-focus MTF of a real Pixel 4a (ISET/isetcornellbox
+/// `pixel4a-measured-mtf-in-focus.csv`, the curve of the paper's Figure 2a) beside the system MTF
+/// of two lens presets at 550 nm: wavefront MTF x pixel aperture |sinc(f p)| (no render sampling:
+/// the measurement is a real camera's).
+#[derive(Debug, Clone, Serialize)]
+pub struct MeasuredMtfComparison {
+    /// The file.
+    pub file: String,
+    /// Measured frequencies, cycles/mm.
+    pub freq_cyc_per_mm: Vec<f64>,
+    /// Measured MTF (fraction).
+    pub mtf: Vec<f64>,
+    /// Measured MTF50, cycles/mm.
+    pub mtf50_cyc_per_mm: Option<f64>,
+    /// Per preset (`pixel4a`: the paper's lens; `pixel4a-measured`: fitted to this curve): name,
+    /// model MTF at the measured frequencies, model MTF50 (cycles/mm), RMS difference up to
+    /// 250 cycles/mm.
+    pub presets: Vec<(String, Vec<f64>, Option<f64>, f64)>,
+}
+
+/// Colour of the real camera's curves in Figure 2a (orange, apart from the channels and luminance).
+const MEASURED_COLOR: [u8; 3] = [230, 120, 0];
+
+/// Name of the measured MTF file inside `--data`.
+pub const MEASURED_MTF_FILE: &str = "pixel4a-measured-mtf-in-focus.csv";
+
+fn measured_comparison(opts: &ValidateOptions, pitch_m: f64) -> Result<Option<MeasuredMtfComparison>> {
+    let Some(dir) = opts.data_dir.as_deref() else { return Ok(None) };
+    let path = dir.join(MEASURED_MTF_FILE);
+    if !path.exists() {
+        return Ok(None);
+    }
+    let m = camsim_io::measurements::read_mtf_csv(&path).map_err(|e| crate::ValidateError::invalid("optics", e.to_string()))?;
+    let pitch_mm = pitch_m * 1e3;
+    let system = |name: &str, f_mm: &[f64]| -> Result<Vec<f64>> {
+        let wf = Optics::preset(name)?.wavefront_for(None, f64::INFINITY)?;
+        let c = wf.mtf(550.0)?;
+        let last = c.freq_cyc_per_mm.last().copied().unwrap_or(0.0);
+        Ok(f_mm.iter().map(|f| if *f > last { 0.0 } else { interp(&c.freq_cyc_per_mm, &c.mtf_x, *f) * sinc(f * pitch_mm).abs() }).collect())
+    };
+    let fine: Vec<f64> = (0..=400).map(|i| i as f64).collect();
+    let mut presets = Vec::new();
+    for name in ["pixel4a", "pixel4a-measured"] {
+        let at = system(name, &m.freq_cyc_per_mm)?;
+        let (mut sq, mut n) = (0.0, 0.0);
+        for ((f, a), b) in m.freq_cyc_per_mm.iter().zip(&at).zip(&m.mtf) {
+            if *f <= 250.0 {
+                sq += (a - b) * (a - b);
+                n += 1.0;
+            }
+        }
+        let m50 = crossing(&fine, &system(name, &fine)?, 0.5);
+        presets.push((name.to_string(), at, m50, if n > 0.0 { (sq / n).sqrt() } else { f64::NAN }));
+    }
+    Ok(Some(MeasuredMtfComparison {
+        file: path.display().to_string(),
+        mtf50_cyc_per_mm: crossing(&m.freq_cyc_per_mm, &m.mtf, 0.5),
+        freq_cyc_per_mm: m.freq_cyc_per_mm,
+        mtf: m.mtf,
+        presets,
+    }))
 }
 
 use camsim_core::math::sinc;
@@ -320,6 +385,7 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         settings,
         thin_lens,
         checks,
+        measured: measured_comparison(opts, pitch_m)?,
         figures: Vec::new(),
     };
     res.figures = figures(opts, &res)?;
@@ -380,9 +446,20 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
             fig = fig.with(Series::new(format!("{} SFR", c.channel), fx.clone(), keep(&c.sfr), Style::Line, CHANNEL_COLORS[ci]));
             fig = fig.with(Series::new(format!("{} model", c.channel), fx, keep(&c.model), Style::Dashed, CHANNEL_COLORS[ci]));
         }
+        let mut extra = String::new();
+        if let (0, Some(m)) = (i, &r.measured) {
+            // The real camera, in cycles per pixel (f [cycles/mm] x pitch [mm]).
+            let px = r.pixel_pitch_um * 1e-3;
+            let fx: Vec<f64> = m.freq_cyc_per_mm.iter().map(|f| f * px).collect();
+            fig = fig.with(Series::new("measured Pixel 4a", fx.clone(), m.mtf.clone(), Style::Points, MEASURED_COLOR));
+            if let Some((name, at, _, _)) = m.presets.iter().find(|p| p.0 == "pixel4a-measured") {
+                fig = fig.with(Series::new(format!("{name} lens x pixel"), fx, at.clone(), Style::Dashed, MEASURED_COLOR));
+            }
+            extra = "; orange points: the measured MTF of a real Pixel 4a (isetcornellbox), orange dashed: the pixel4a-measured lens (fitted to it) x pixel aperture".into();
+        }
         let file = format!("fig2{}_mtf.png", ['a', 'b'][i]);
         let caption = format!(
-            "Figure 2{}: slanted-edge SFR (solid) of the simulated raw channels and demosaicked luminance, {}; dashed: optics model (wavefront MTF x pixel aperture x render sampling).",
+            "Figure 2{}: slanted-edge SFR (solid) of the simulated raw channels and demosaicked luminance, {}; dashed: optics model (wavefront MTF x pixel aperture x render sampling){extra}.",
             ['a', 'b'][i],
             s.label
         );
@@ -435,5 +512,19 @@ impl OpticsResults {
             t.lens_pupil_mm, t.c4_paper_defocused_um, t.c4_geometry_um, t.geometry_c4_for_20cm_shift_over_8mm_um, t.c4_paper_in_focus_um
         ));
         h.p("The luminance SFR includes the bilinear demosaic's low-pass, which the model curve does not; its difference is reported, not checked.");
+        if let Some(m) = &self.measured {
+            let rows: Vec<Vec<String>> = m
+                .presets
+                .iter()
+                .map(|(name, _, m50, rms)| vec![name.clone(), fo(*m50, 1), fo(m.mtf50_cyc_per_mm, 1), f(*rms, 4)])
+                .collect();
+            h.p(&format!(
+                "The real camera: the measured in-focus MTF of a Pixel 4a ({}) against the lens presets' system MTF at 550 nm \
+                 (wavefront MTF x 1.4 um pixel aperture). The paper's lens (pixel4a) is sharper than the camera; pixel4a-measured \
+                 carries the defocus and pixel crosstalk fitted to this curve (camsim fit mtf).",
+                m.file
+            ));
+            h.table(&["lens preset", "model MTF50 (cyc/mm)", "measured MTF50 (cyc/mm)", "RMS(model - measured), 0-250 cyc/mm"], &rows);
+        }
     }
 }

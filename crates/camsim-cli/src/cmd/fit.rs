@@ -12,6 +12,7 @@ use std::path::PathBuf;
 #[derive(clap::Subcommand)]
 pub enum Command {
     Qe(QeArgs),
+    Mtf(super::fit_mtf::Args),
 }
 
 /// Fit the 3x3 matrix M that corrects a sensor's published QE, [r', g', b'] = [r, g, b] M (the
@@ -157,5 +158,6 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
 pub fn run(c: Command) -> Result<()> {
     match c {
         Command::Qe(a) => qe_cmd(a),
+        Command::Mtf(a) => super::fit_mtf::run(a),
     }
 }

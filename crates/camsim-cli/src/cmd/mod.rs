@@ -2,6 +2,7 @@
 pub mod analyze;
 pub mod dataset;
 pub mod fit;
+pub mod fit_mtf;
 pub mod emva;
 pub mod fit_shading;
 pub mod isp;

@@ -118,7 +118,7 @@ def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union
            spacing_m: float = 0.0, distance_m: float = 0.0, fov_deg: float = 0.0,
            depth_m: Optional[np.ndarray] = None) -> Dict[str, Any]:
     """Stage 2: spectral radiance (bands, rows, cols) -> sensor-plane irradiance. lens: a preset
-    name ("pixel4a", "diffraction-limited"), a lens TOML path, or a dict (camsim.presets.lens()).
+    name ("pixel4a", "pixel4a-measured", "diffraction-limited"), a lens TOML path, or a dict (camsim.presets.lens()).
     The scene's scale: spacing_m (scene sample spacing at distance_m), or fov_deg for a scene at
     infinity (distance_m = 0). Returns a dict: irradiance (bands, rows', cols') float32 W/(m^2 nm),
     wavelengths_nm, spacing_m (in the sensor plane), ..."""

@@ -17,5 +17,5 @@ def sensor(name: str = "pixel4a") -> Dict[str, Any]:
 
 
 def lens(name: str = "pixel4a") -> Dict[str, Any]:
-    """A lens preset ("pixel4a", "diffraction-limited") as a dict (every field of a lens TOML)."""
+    """A lens preset ("pixel4a", "pixel4a-measured", "diffraction-limited") as a dict (every field of a lens TOML)."""
     return json.loads(_camsim.preset_json("lens", name))

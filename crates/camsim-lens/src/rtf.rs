@@ -1,0 +1,310 @@
+//! Ray-transfer functions (RTF): a lens given as polynomials from rays on an input plane to rays
+//! on an output plane, with an elliptical pass/no-pass (vignetting) region per input height
+//! (Goossens, Lyu, Ko, Wan, Farrell, Wandell, "Ray-transfer functions for camera simulation of 3D
+//! scenes with hidden lens design", Optics Express 30, 2022; ISET/isetrtf JSON files).
+//!
+//! Conventions of the JSON (as the authors' `traceRTFFilmToScene` uses it): rays travel from the
+//! film side toward the scene; the input plane lies `planeoffsetinput` mm in front of the lens's
+//! sensor-side vertex. A ray is first rotated about the axis so that its input-plane point lies on
+//! the +y axis at distance r; the polynomials are in (r, dx, dy), the rotated direction's x and y
+//! components, and give the output point and direction (then rotated back). The ray passes when,
+//! continued from the input plane a distance `intersectPlaneDistance` along the axis, it lands
+//! inside the ellipse (centre, radii interpolated linearly in r between `positions`; outside the
+//! listed positions nothing passes).
+//!
+//! A point on the input plane at r = 0 leaves the shipped Pixel 4a RTF as a collimated beam (the
+//! output direction does not depend on the input direction), i.e. the input plane is the film plane
+//! of a lens focused at infinity; [`Rtf::relative_illumination`] integrates there.
+
+use crate::error::{LensError, Result};
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Deserialize)]
+struct JsonRtf {
+    #[serde(default)]
+    name: Option<String>,
+    thickness: f64,
+    planeoffsetinput: f64,
+    planeoffsetoutput: f64,
+    polynomials: Vec<JsonWave>,
+}
+
+#[derive(Deserialize)]
+struct JsonWave {
+    wavelength_nm: f64,
+    passnopass: JsonPass,
+    poly: Vec<JsonPoly>,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct JsonPass {
+    method: String,
+    positions: Vec<f64>,
+    radii_x: Vec<f64>,
+    radii_y: Vec<f64>,
+    centers_x: Vec<f64>,
+    centers_y: Vec<f64>,
+    intersect_plane_distance: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "lowercase")]
+struct JsonPoly {
+    outputname: String,
+    coeff: Vec<f64>,
+    termr: Vec<u32>,
+    termdx: Vec<u32>,
+    termdy: Vec<u32>,
+}
+
+/// One polynomial: sum of c r^a dx^b dy^e.
+#[derive(Debug, Clone, PartialEq)]
+struct Poly {
+    terms: Vec<(f64, i32, i32, i32)>,
+}
+
+impl Poly {
+    fn eval(&self, r: f64, dx: f64, dy: f64) -> f64 {
+        self.terms.iter().map(|(c, a, b, e)| c * r.powi(*a) * dx.powi(*b) * dy.powi(*e)).sum()
+    }
+}
+
+/// The elliptical pass region at one input height.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassEllipse {
+    /// Centre (x, y) on the pass plane, mm.
+    pub center_mm: [f64; 2],
+    /// Radii (x, y), mm.
+    pub radii_mm: [f64; 2],
+}
+
+/// A ray-transfer function at one wavelength.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rtf {
+    /// Name from the file.
+    pub name: String,
+    /// Wavelength of the fit, nm.
+    pub wavelength_nm: f64,
+    /// Lens thickness (vertex to vertex), mm.
+    pub thickness_mm: f64,
+    /// Input plane in front of the sensor-side vertex, mm.
+    pub plane_offset_input_mm: f64,
+    /// Output plane beyond the scene-side vertex, mm.
+    pub plane_offset_output_mm: f64,
+    /// Pass plane distance from the input plane, mm.
+    pub pass_plane_distance_mm: f64,
+    positions_mm: Vec<f64>,
+    ellipses: Vec<PassEllipse>,
+    /// outx, outy, outz, outdx, outdy, outdz.
+    polys: [Poly; 6],
+}
+
+const OUTPUTS: [&str; 6] = ["outx", "outy", "outz", "outdx", "outdy", "outdz"];
+
+impl Rtf {
+    /// Read an RTF JSON file (the first wavelength it holds).
+    pub fn from_file(path: &Path) -> Result<Rtf> {
+        let text = std::fs::read_to_string(path).map_err(|e| LensError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        Rtf::from_json(&text, &path.display().to_string())
+    }
+
+    /// Parse RTF JSON (`what` names the source in messages).
+    pub fn from_json(text: &str, what: &str) -> Result<Rtf> {
+        let bad = |m: String| LensError::Lens { what: what.to_string(), message: m };
+        let j: JsonRtf =
+            serde_json::from_str(text).map_err(|e| LensError::Parse { what: what.to_string(), line: e.line(), message: e.to_string() })?;
+        let w = j.polynomials.first().ok_or_else(|| bad("no polynomials".into()))?;
+        let p = &w.passnopass;
+        if p.method != "minimalellipse" {
+            return Err(bad(format!("passnopass.method '{}': only 'minimalellipse' is supported", p.method)));
+        }
+        let n = p.positions.len();
+        if n < 2 || [p.radii_x.len(), p.radii_y.len(), p.centers_x.len(), p.centers_y.len()].iter().any(|l| *l != n) {
+            return Err(bad(format!(
+                "passnopass: positions, radiiX, radiiY, centersX, centersY must have the same length >= 2 ({n} positions)"
+            )));
+        }
+        if p.positions.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+            || p.positions.iter().any(|v| !v.is_finite())
+        {
+            return Err(bad("passnopass.positions must be finite and increasing".into()));
+        }
+        let all = [&p.radii_x, &p.radii_y, &p.centers_x, &p.centers_y];
+        if all.iter().any(|v| v.iter().any(|x| !x.is_finite())) || p.radii_x.iter().chain(&p.radii_y).any(|r| *r <= 0.0) {
+            return Err(bad("passnopass: radii must be finite and > 0, centres finite".into()));
+        }
+        if !(p.intersect_plane_distance.is_finite() && p.intersect_plane_distance != 0.0) {
+            return Err(bad(format!("passnopass.intersectPlaneDistance {} must be finite and nonzero", p.intersect_plane_distance)));
+        }
+        let ellipses =
+            (0..n).map(|i| PassEllipse { center_mm: [p.centers_x[i], p.centers_y[i]], radii_mm: [p.radii_x[i], p.radii_y[i]] }).collect();
+        let mut polys: Vec<Poly> = Vec::new();
+        for name in OUTPUTS {
+            let q = w.poly.iter().find(|q| q.outputname == name).ok_or_else(|| bad(format!("no polynomial for {name}")))?;
+            let k = q.coeff.len();
+            if [q.termr.len(), q.termdx.len(), q.termdy.len()].iter().any(|l| *l != k) || q.coeff.iter().any(|c| !c.is_finite()) {
+                return Err(bad(format!("polynomial {name}: coeff, termr, termdx, termdy must be finite and of one length")));
+            }
+            if q.termr.iter().chain(&q.termdx).chain(&q.termdy).any(|e| *e > 16) {
+                return Err(bad(format!("polynomial {name}: exponents above 16")));
+            }
+            let terms = (0..k).map(|i| (q.coeff[i], q.termr[i] as i32, q.termdx[i] as i32, q.termdy[i] as i32)).collect();
+            polys.push(Poly { terms });
+        }
+        let polys: [Poly; 6] = polys.try_into().map_err(|_| bad("six polynomials expected".into()))?;
+        Ok(Rtf {
+            name: j.name.unwrap_or_default(),
+            wavelength_nm: w.wavelength_nm,
+            thickness_mm: j.thickness,
+            plane_offset_input_mm: j.planeoffsetinput,
+            plane_offset_output_mm: j.planeoffsetoutput,
+            pass_plane_distance_mm: p.intersect_plane_distance,
+            positions_mm: p.positions.clone(),
+            ellipses,
+            polys,
+        })
+    }
+
+    /// Largest input height with a pass region, mm.
+    pub fn max_height_mm(&self) -> f64 {
+        self.positions_mm.last().copied().unwrap_or(0.0)
+    }
+
+    /// The pass ellipse at input height `r_mm` (linear interpolation; `None` outside the table).
+    pub fn pass_ellipse(&self, r_mm: f64) -> Option<PassEllipse> {
+        let x = &self.positions_mm;
+        if !(r_mm >= x[0] && r_mm <= x[x.len() - 1]) {
+            return None;
+        }
+        let i = x.partition_point(|v| *v < r_mm).clamp(1, x.len() - 1);
+        let w = (r_mm - x[i - 1]) / (x[i] - x[i - 1]);
+        let (a, b) = (self.ellipses[i - 1], self.ellipses[i]);
+        let l = |p: f64, q: f64| p * (1.0 - w) + q * w;
+        Some(PassEllipse {
+            center_mm: [l(a.center_mm[0], b.center_mm[0]), l(a.center_mm[1], b.center_mm[1])],
+            radii_mm: [l(a.radii_mm[0], b.radii_mm[0]), l(a.radii_mm[1], b.radii_mm[1])],
+        })
+    }
+
+    /// The pass ellipse extrapolated linearly beyond the last position, at most one step.
+    fn extrapolated_ellipse(&self, r_mm: f64) -> Option<PassEllipse> {
+        let x = &self.positions_mm;
+        let k = x.len();
+        let step = x[k - 1] - x[k - 2];
+        if !(r_mm > x[k - 1] && r_mm <= x[k - 1] + step) {
+            return None;
+        }
+        let w = (r_mm - x[k - 1]) / step;
+        let (a, b) = (self.ellipses[k - 2], self.ellipses[k - 1]);
+        let l = |p: f64, q: f64| q + (q - p) * w;
+        Some(PassEllipse {
+            center_mm: [l(a.center_mm[0], b.center_mm[0]), l(a.center_mm[1], b.center_mm[1])],
+            radii_mm: [l(a.radii_mm[0], b.radii_mm[0]), l(a.radii_mm[1], b.radii_mm[1])],
+        })
+    }
+
+    /// Trace a ray given on the input plane (point (x, y) in mm, unit direction toward the lens,
+    /// z > 0): `None` when vignetted; else the output point (x, y, z: z measured as the file does)
+    /// and unit direction.
+    pub fn trace(&self, point_mm: [f64; 2], direction: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
+        let r = point_mm[0].hypot(point_mm[1]);
+        // Rotation taking the point to the +y axis: (x, y) -> (x c - y s, x s + y c) with the angle
+        // that maps (px, py) to (0, r): c = py / r, s = px / r.
+        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
+        let rot = |v: [f64; 2]| [v[0] * c - v[1] * s, v[0] * s + v[1] * c];
+        let d = rot([direction[0], direction[1]]);
+        if direction[2] <= 0.0 {
+            return None;
+        }
+        let e = self.pass_ellipse(r)?;
+        let t = self.pass_plane_distance_mm / direction[2];
+        let (px, py) = (d[0] * t, r + d[1] * t);
+        let (u, v) = ((px - e.center_mm[0]) / e.radii_mm[0], (py - e.center_mm[1]) / e.radii_mm[1]);
+        if u * u + v * v > 1.0 {
+            return None;
+        }
+        let o: Vec<f64> = self.polys.iter().map(|p| p.eval(r, d[0], d[1])).collect();
+        // Rotate back: inverse rotation (x, y) -> (x c + y s, -x s + y c).
+        let back = |v: [f64; 2]| [v[0] * c + v[1] * s, -v[0] * s + v[1] * c];
+        let pos = back([o[0], o[1]]);
+        let dir = back([o[3], o[4]]);
+        Some(([pos[0], pos[1], o[2]], [dir[0], dir[1], o[5]]))
+    }
+
+    /// Relative illumination at film heights `heights_mm` (film on the input plane, lens focused
+    /// at infinity), normalized to the axis: the irradiance of a uniform Lambertian scene is
+    /// E = L integral of cos(theta) d(omega) over the directions that pass (radiance is conserved
+    /// along a ray through a lossless lens, so L is the same for every passing ray). With the pass
+    /// region an ellipse on a plane at distance D from the film point (0, h):
+    /// cos(theta) d(omega) = D^2 dA / rho^4, rho^2 = x^2 + (y - h)^2 + D^2 (the projected solid
+    /// angle of a plane patch). Integrated by the midpoint rule on an `n` x `n` grid over the
+    /// ellipse's bounding box in ellipse coordinates (area element rx ry du dv).
+    pub fn relative_illumination(&self, heights_mm: &[f64], n: usize) -> Vec<Option<f64>> {
+        let e0 = self.irradiance(0.0, n);
+        heights_mm.iter().map(|h| self.irradiance(*h, n).zip(e0).map(|(e, z)| e / z)).collect()
+    }
+
+    /// The integral of [`Self::relative_illumination`] (projected solid angle, sr) at height h.
+    /// Heights up to one table step beyond the last position use the ellipse extrapolated
+    /// linearly from the last two (the shipped Pixel 4a table ends at 3.5 mm; the sensor's
+    /// half-diagonal and Zemax's last field are 3.528 mm).
+    pub fn irradiance(&self, h_mm: f64, n: usize) -> Option<f64> {
+        let e = self.pass_ellipse(h_mm).or_else(|| self.extrapolated_ellipse(h_mm))?;
+        let d = self.pass_plane_distance_mm;
+        let n = n.max(8);
+        let mut s = 0.0;
+        for i in 0..n {
+            let u = -1.0 + (2 * i + 1) as f64 / n as f64;
+            for j in 0..n {
+                let v = -1.0 + (2 * j + 1) as f64 / n as f64;
+                if u * u + v * v > 1.0 {
+                    continue;
+                }
+                let x = e.center_mm[0] + e.radii_mm[0] * u;
+                let y = e.center_mm[1] + e.radii_mm[1] * v;
+                let rho2 = x * x + (y - h_mm) * (y - h_mm) + d * d;
+                s += d * d / (rho2 * rho2);
+            }
+        }
+        Some(s * e.radii_mm[0] * e.radii_mm[1] * (2.0 / n as f64).powi(2))
+    }
+}
+
+/// One row of a Zemax relative-illumination table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RelativeIlluminationRow {
+    /// Image height (Zemax "Y Field"), mm.
+    pub height_mm: f64,
+    /// Relative illumination (fraction).
+    pub ri: f64,
+    /// Effective F/#.
+    pub effective_f_number: f64,
+}
+
+/// Read a Zemax "Relative Illumination Data" text export: header lines, then rows of three
+/// numbers (field in mm, relative illumination, effective F/#). The file may be Latin-1 (Zemax
+/// writes "µm"); non-numeric lines are header text.
+pub fn read_zemax_relative_illumination(path: &Path) -> Result<Vec<RelativeIlluminationRow>> {
+    let bytes = std::fs::read(path).map_err(|e| LensError::File { path: path.to_path_buf(), message: e.to_string() })?;
+    let text = String::from_utf8_lossy(&bytes);
+    let mut rows = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let nums: Vec<f64> = line.split_whitespace().map_while(|t| t.parse::<f64>().ok()).collect();
+        let words = line.split_whitespace().count();
+        if words == 3 && nums.len() == 3 && nums.iter().all(|v| v.is_finite()) {
+            rows.push(RelativeIlluminationRow { height_mm: nums[0], ri: nums[1], effective_f_number: nums[2] });
+        } else if !rows.is_empty() && words > 0 {
+            return Err(LensError::Parse {
+                what: path.display().to_string(),
+                line: n + 1,
+                message: format!("'{}' is not three numbers (field mm, relative illumination, effective F/#)", line.trim()),
+            });
+        }
+    }
+    if rows.is_empty() {
+        return Err(LensError::Lens { what: path.display().to_string(), message: "no relative illumination rows".into() });
+    }
+    Ok(rows)
+}
