@@ -1,0 +1,205 @@
+//! Where the path tracer's uniform numbers come from: a low-discrepancy, Owen-scrambled Sobol
+//! sampler (the default) or independent pseudo-random numbers.
+//!
+//! Both are keyed, never stateful across pixels, so a render is bit-identical for any thread
+//! count:
+//! - [`SamplerKind::Independent`] (pbrt-v4 `IndependentSampler`): uniform numbers drawn in call
+//!   order from the keyed PCG stream of the tile and pass (`camsim_core::rng::keyed(seed,
+//!   stage::RENDER, pass, tile)`); the dimension index is ignored.
+//! - [`SamplerKind::Sobol`] (pbrt-v4 `PaddedSobolSampler`, 4th ed. §8.7.3): each 1D or 2D request
+//!   takes the first one or two dimensions of an Owen-scrambled Sobol sequence (Burley 2020,
+//!   "Practical Hash-based Owen Scrambling", JCGT 9(4), via the `sobol_burley` crate) whose
+//!   scramble and index shuffle are seeded by a hash of (seed, pixel, dimension). The first two
+//!   Sobol dimensions form a (0,2)-sequence, which Owen scrambling and Burley's index shuffle
+//!   keep, so every 2D request (film, light position, BSDF direction) is stratified in every
+//!   power-of-two prefix of a pixel's samples; the different hashes decorrelate the dimensions
+//!   ("padding", Kollig & Keller 2002). There is no fixed number of dimensions: padding by hash
+//!   serves any path depth. `sobol_burley` shuffles at most 2^16 samples per sequence, so sample
+//!   index `i` uses sequence `i >> 16` (mixed into the hash) at index `i & 0xffff`: unbiased for
+//!   any sample count, stratified within each block of 2^16.
+//!
+//! Dimensions are allocated per bounce the same way on every path ([`dim`]), whether or not a
+//! request is made (delta BSDFs skip light sampling; Russian roulette may not run): the same
+//! dimension always serves the same decision.
+
+use camsim_core::rng::mix64;
+use rand::Rng as _;
+
+/// Which sampler a render uses (pbrt-v4's `Sampler` types).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent uniform pseudo-random numbers (pbrt-v4 `"independent"`).
+    Independent,
+    /// Owen-scrambled, padded Sobol (pbrt-v4 `"paddedsobol"`; also what camsim uses for
+    /// `"sobol"` and `"zsobol"`).
+    #[default]
+    Sobol,
+}
+
+impl SamplerKind {
+    /// The name used in settings, overlays and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Independent => "independent",
+            SamplerKind::Sobol => "sobol",
+        }
+    }
+
+    /// Parse a sampler name: `independent`, or `sobol` / `paddedsobol` / `zsobol`.
+    pub fn from_name(name: &str) -> Option<SamplerKind> {
+        match name {
+            "independent" => Some(SamplerKind::Independent),
+            "sobol" | "paddedsobol" | "zsobol" => Some(SamplerKind::Sobol),
+            _ => None,
+        }
+    }
+}
+
+/// The dimension layout of one path sample. A 2D request at dimension `d` uses `d` and `d + 1`.
+pub mod dim {
+    /// Position in the pixel (2D).
+    pub const FILM: u32 = 0;
+    /// Point on the lens (2D; reserved: camsim's camera is a pinhole).
+    pub const LENS: u32 = 2;
+    /// Hero wavelength (1D).
+    pub const WAVELENGTH: u32 = 4;
+    /// First dimension of the first bounce.
+    pub const FIRST_BOUNCE: u32 = 5;
+    /// Dimensions per bounce.
+    pub const PER_BOUNCE: u32 = 7;
+    /// Offsets within a bounce: which light (1D).
+    pub const LIGHT_CHOICE: u32 = 0;
+    /// Point on the light (2D).
+    pub const LIGHT_POSITION: u32 = 1;
+    /// Which BSDF lobe (1D).
+    pub const BSDF_LOBE: u32 = 3;
+    /// BSDF direction (2D).
+    pub const BSDF_DIRECTION: u32 = 4;
+    /// Russian roulette (1D).
+    pub const RUSSIAN_ROULETTE: u32 = 6;
+
+    /// First dimension of bounce `depth` (1 for the first scattering vertex).
+    #[inline(always)]
+    pub fn bounce(depth: u32) -> u32 {
+        // Wrapping: only a hash input, and depths past 6e8 bounces never occur.
+        FIRST_BOUNCE.wrapping_add(PER_BOUNCE.wrapping_mul(depth.saturating_sub(1)))
+    }
+}
+
+/// A source of uniform numbers in [0, 1) for one path sample, addressed by dimension.
+pub(crate) trait PathSampler {
+    /// Start sample `index` of the current pixel.
+    fn start_sample(&mut self, index: u64);
+    /// One number for dimension `d`.
+    fn get_1d(&mut self, d: u32) -> f32;
+    /// Two numbers for dimensions `d`, `d + 1`.
+    fn get_2d(&mut self, d: u32) -> [f32; 2];
+}
+
+/// Independent numbers from a keyed PCG stream, in call order.
+pub(crate) struct IndependentSampler<'a> {
+    pub rng: &'a mut camsim_core::rng::Rng,
+}
+
+impl PathSampler for IndependentSampler<'_> {
+    #[inline(always)]
+    fn start_sample(&mut self, _index: u64) {}
+    #[inline(always)]
+    fn get_1d(&mut self, _d: u32) -> f32 {
+        self.rng.gen()
+    }
+    #[inline(always)]
+    fn get_2d(&mut self, _d: u32) -> [f32; 2] {
+        [self.rng.gen(), self.rng.gen()]
+    }
+}
+
+/// Samples per `sobol_burley` sequence (its index shuffle covers 16 bits).
+const SOBOL_BLOCK: u64 = 1 << 16;
+
+/// The padded, Owen-scrambled Sobol sampler of one pixel ([module docs](self)).
+#[derive(Debug, Clone, Copy)]
+pub struct SobolSampler {
+    pixel_key: u64,
+    /// Hash key of the current block of 2^16 samples.
+    block_key: u64,
+    /// Index within the block.
+    index: u32,
+}
+
+impl SobolSampler {
+    /// The sampler of pixel (`x`, `y`) (raster coordinates) for render seed `seed`, at sample 0.
+    pub fn new(seed: u64, x: u32, y: u32) -> SobolSampler {
+        // SplitMix64 chain over (seed, a tag for this sampler, pixel): distinct pixels and seeds
+        // get unrelated scrambles.
+        const TAG: u64 = 0x536F_626F_6C53_6D70; // "SobolSmp"
+        let pixel_key = mix64(mix64(seed ^ TAG) ^ (((x as u64) << 32) | y as u64));
+        let mut s = SobolSampler { pixel_key, block_key: 0, index: 0 };
+        s.set_sample(0);
+        s
+    }
+
+    /// Move to sample `index` of this pixel.
+    #[inline]
+    pub fn set_sample(&mut self, index: u64) {
+        self.block_key = mix64(self.pixel_key ^ mix64(index / SOBOL_BLOCK));
+        self.index = (index % SOBOL_BLOCK) as u32;
+    }
+
+    /// The 32-bit sequence seed of dimension `d` in the current block.
+    #[inline(always)]
+    fn dim_seed(&self, d: u32) -> u32 {
+        (mix64(self.block_key ^ (d as u64).wrapping_mul(0xD1B5_4A32_D192_ED03)) >> 32) as u32
+    }
+
+    /// One number for dimension `d` of the current sample.
+    #[inline]
+    pub fn sample_1d(&self, d: u32) -> f32 {
+        sobol_burley::sample(self.index, 0, self.dim_seed(d))
+    }
+
+    /// Two numbers for dimensions `d`, `d + 1` of the current sample: the first two Sobol
+    /// dimensions of one scrambled sequence, so they are jointly stratified.
+    #[inline]
+    pub fn sample_2d(&self, d: u32) -> [f32; 2] {
+        let s = self.dim_seed(d);
+        [sobol_burley::sample(self.index, 0, s), sobol_burley::sample(self.index, 1, s)]
+    }
+}
+
+impl PathSampler for SobolSampler {
+    #[inline(always)]
+    fn start_sample(&mut self, index: u64) {
+        self.set_sample(index);
+    }
+    #[inline(always)]
+    fn get_1d(&mut self, d: u32) -> f32 {
+        self.sample_1d(d)
+    }
+    #[inline(always)]
+    fn get_2d(&mut self, d: u32) -> [f32; 2] {
+        self.sample_2d(d)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for k in [SamplerKind::Independent, SamplerKind::Sobol] {
+            assert_eq!(SamplerKind::from_name(k.name()), Some(k));
+        }
+        assert_eq!(SamplerKind::from_name("zsobol"), Some(SamplerKind::Sobol));
+        assert_eq!(SamplerKind::from_name("halton"), None);
+    }
+
+    #[test]
+    fn bounce_dimensions_do_not_overlap_the_camera_or_each_other() {
+        assert_eq!(dim::bounce(1), dim::FIRST_BOUNCE);
+        assert_eq!(dim::bounce(2) - dim::bounce(1), dim::PER_BOUNCE);
+        assert!(dim::WAVELENGTH < dim::FIRST_BOUNCE && dim::LENS + 2 <= dim::WAVELENGTH);
+        assert!(dim::RUSSIAN_ROULETTE < dim::PER_BOUNCE && dim::BSDF_DIRECTION + 2 <= dim::RUSSIAN_ROULETTE);
+    }
+}
