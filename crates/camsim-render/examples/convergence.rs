@@ -4,8 +4,12 @@
 //! the new default (Sobol sampler, Russian roulette from depth 5), plus the two mixed ones to
 //! separate the effects.
 //!
-//! Relative RMSE of luminance: `sqrt(mean_p (Y_p - Yref_p)^2) / mean_p Yref_p`, with `Y` the
-//! luminance `683 sum L(lambda) ybar(lambda) dlambda` of each pixel, cd/m^2. For each
+//! Relative RMSE of luminance: `sqrt(mean_p (Y_p - Yref_p)^2 / (Yref_p^2 + eps^2))` with
+//! `eps = 0.01 mean_p Yref_p` (the per-pixel relative error of Rousselle et al. 2011 "Adaptive
+//! sampling and reconstruction using greedy error minimization", `eps` for black pixels), with
+//! `Y` the luminance `683 sum L(lambda) ybar(lambda) dlambda` of each pixel, cd/m^2. The RMSE
+//! over the image divided by its mean luminance is printed too; it is dominated by the few
+//! pixels on the light's edge. For each
 //! configuration the scene is rendered at 4, 8, 16, ... samples per pixel (new seed each, so the
 //! errors are independent) until the error falls below 5 %; the time and the sample count to 5 %
 //! are interpolated between the two bracketing renders in log-log (error ~ time^-1/2 for Monte
@@ -17,8 +21,8 @@
 //! `target/convergence-reference-<spp>spp-256x256.bin`; its own noise is printed (an upper
 //! bound: the sample standard deviation over sqrt(spp), which overstates a Sobol estimate's error).
 //!
-//! Run: `cargo run --release -p camsim-render --example convergence [REF_SPP] [THREADS]`
-//! (defaults 4096 and 2).
+//! Run: `cargo run --release -p camsim-render --example convergence [REF_SPP] [THREADS]
+//! [MAX_SPP]` (defaults 4096, 2 and 4096: the largest sample count tried per configuration).
 
 use camsim_core::colorimetry::Cmfs;
 use camsim_render::builtin::{scene, BuiltinOptions};
@@ -47,12 +51,36 @@ fn luminance(sc: &SceneDescription, out: &camsim_render::RenderOutput) -> Vec<f6
 
 fn rel_rmse(y: &[f64], reference: &[f64]) -> f64 {
     let n = y.len() as f64;
-    let mse = y.iter().zip(reference).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / n;
+    let eps = 0.01 * reference.iter().sum::<f64>() / n;
+    let mse = y
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (a - b) * (a - b) / (b * b + eps * eps))
+        .sum::<f64>()
+        / n;
+    mse.sqrt()
+}
+
+/// RMSE over the pixels divided by the mean reference luminance (dominated by the few pixels
+/// on the light's edge, whose luminance is ~100x the image mean); reported, not the target.
+fn global_rel_rmse(y: &[f64], reference: &[f64]) -> f64 {
+    let n = y.len() as f64;
+    let mse = y
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        / n;
     mse.sqrt() / (reference.iter().sum::<f64>() / n)
 }
 
 fn cornell(spp: u32, seed: u64, sampler: SamplerKind, rr_depth: u32) -> SceneDescription {
-    let opts = BuiltinOptions { resolution: Some((SIZE, SIZE)), samples_per_pixel: spp, seed, ..BuiltinOptions::default() };
+    let opts = BuiltinOptions {
+        resolution: Some((SIZE, SIZE)),
+        samples_per_pixel: spp,
+        seed,
+        ..BuiltinOptions::default()
+    };
     let mut sc = scene("cornell-box", &opts).expect("built-in cornell-box");
     sc.settings.sampler = sampler;
     sc.settings.russian_roulette_depth = rr_depth;
@@ -64,19 +92,29 @@ fn cpu_s() -> f64 {
     u + s
 }
 
-/// The reference luminance, from the cache or rendered (and cached).
-fn reference(spp: u32) -> Vec<f64> {
+/// The reference luminance and the variance of its per-pixel mean, from the cache or rendered
+/// (and cached).
+fn reference(spp: u32) -> (Vec<f64>, Vec<f64>) {
     let path = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../target"))
         .join(format!("convergence-reference-{spp}spp-{SIZE}x{SIZE}.bin"));
     if let Ok(mut f) = std::fs::File::open(&path) {
         let mut bytes = vec![];
-        if f.read_to_end(&mut bytes).is_ok() && bytes.len() == SIZE * SIZE * 8 {
+        if f.read_to_end(&mut bytes).is_ok() && bytes.len() == 2 * SIZE * SIZE * 8 {
             eprintln!("reference: cached {}", path.display());
-            return bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+            let v: Vec<f64> = bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+                .collect();
+            return (v[..SIZE * SIZE].to_vec(), v[SIZE * SIZE..].to_vec());
         }
     }
-    eprintln!("reference: rendering {spp} spp on {} threads (cached afterwards) ...", rayon::current_num_threads());
-    let sc = cornell(spp, 0xC0FFEE, SamplerKind::Sobol, 5);
+    eprintln!(
+        "reference: rendering {spp} spp on {} threads (cached afterwards) ...",
+        rayon::current_num_threads()
+    );
+    // Independent sampler: its per-pixel sample variance is an unbiased estimate of the
+    // reference's own error, which main() subtracts.
+    let sc = cornell(spp, 0xC0FFEE, SamplerKind::Independent, 5);
     let out = render(&sc, &|done, total| {
         if done % 64 == 0 {
             eprint!("\r  {done}/{total} tile passes");
@@ -86,7 +124,16 @@ fn reference(spp: u32) -> Vec<f64> {
     eprintln!();
     let y = luminance(&sc, &out);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
-    let noise = (out.variance.iter().map(|v| *v as f64).sum::<f64>() / y.len() as f64).sqrt() / mean;
+    // The sample variance of the mean per pixel, in the metric of `rel_rmse`.
+    let eps = 0.01 * mean;
+    let noise = (out
+        .variance
+        .iter()
+        .zip(&y)
+        .map(|(v, r)| *v as f64 / (r * r + eps * eps))
+        .sum::<f64>()
+        / y.len() as f64)
+        .sqrt();
     eprintln!(
         "reference: {:.1} s, {:.3} M samples/s, {:.2} M rays/s; mean luminance {mean:.3} cd/m^2, noise <= {:.3} % relative RMSE",
         out.stats.seconds,
@@ -94,7 +141,8 @@ fn reference(spp: u32) -> Vec<f64> {
         out.stats.rays_per_second / 1e6,
         noise * 100.0
     );
-    let bytes: Vec<u8> = y.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let var: Vec<f64> = out.variance.iter().map(|v| *v as f64).collect();
+    let bytes: Vec<u8> = y.iter().chain(&var).flat_map(|v| v.to_le_bytes()).collect();
     if let Some(dir) = path.parent() {
         let _ = std::fs::create_dir_all(dir);
     }
@@ -102,7 +150,7 @@ fn reference(spp: u32) -> Vec<f64> {
         Ok(()) => eprintln!("reference: cached in {}", path.display()),
         Err(e) => eprintln!("reference: could not cache in {}: {e}", path.display()),
     }
-    y
+    (y, var)
 }
 
 /// One measured render.
@@ -123,18 +171,52 @@ fn crossing(a: (f64, f64), b: (f64, f64)) -> f64 {
 }
 
 fn main() {
-    let ref_spp: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(4096);
-    let threads: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(2);
-    let y_ref = reference(ref_spp);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+    let ref_spp: u32 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4096);
+    let threads: usize = std::env::args()
+        .nth(2)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2);
+    let max_spp: u32 = std::env::args()
+        .nth(3)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4096);
+    let (y_ref, var_ref) = reference(ref_spp);
+    // The reference's own squared error in the metric of `rel_rmse` (its sample variance of the
+    // mean): E[measured^2] = error^2 + this, so it is subtracted.
+    let eps = 0.01 * y_ref.iter().sum::<f64>() / y_ref.len() as f64;
+    let ref_mse = var_ref
+        .iter()
+        .zip(&y_ref)
+        .map(|(v, r)| v / (r * r + eps * eps))
+        .sum::<f64>()
+        / y_ref.len() as f64;
+    println!(
+        "reference noise {:.2} % (subtracted in quadrature)",
+        ref_mse.sqrt() * 100.0
+    );
+    if max_spp == 0 {
+        return;
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool");
     let configs = [
-        ("independent, RR from depth 2 (before)", SamplerKind::Independent, 2),
+        (
+            "independent, RR from depth 2 (before)",
+            SamplerKind::Independent,
+            2,
+        ),
         ("independent, RR from depth 5", SamplerKind::Independent, 5),
         ("sobol, RR from depth 2", SamplerKind::Sobol, 2),
         ("sobol, RR from depth 5 (after)", SamplerKind::Sobol, 5),
     ];
     let mut rows = vec![];
-    let mut csv = String::from("config,spp,rel_rmse,wall_s,cpu_s,samples_per_s,rays_per_s\n");
+    let mut csv =
+        String::from("config,spp,rel_rmse,global_rel_rmse,wall_s,cpu_s,samples_per_s,rays_per_s\n");
     for (ci, (name, sampler, rr)) in configs.iter().enumerate() {
         println!("{name}:");
         let mut pts: Vec<Point> = vec![];
@@ -144,40 +226,78 @@ fn main() {
             let c0 = cpu_s();
             let out = pool.install(|| render(&sc, &|_, _| {})).expect("render");
             let cpu = cpu_s() - c0;
-            let e = rel_rmse(&luminance(&sc, &out), &y_ref);
+            let y = luminance(&sc, &out);
+            let (em, eg) = (rel_rmse(&y, &y_ref), global_rel_rmse(&y, &y_ref));
+            let e = (em * em - ref_mse).max(1e-12).sqrt();
             let st = out.stats;
             println!(
-                "  {spp:5} spp: rel. RMSE {:6.2} %, {:7.2} s wall, {:7.2} CPU-s, {:.3} M samples/s, {:.2} M rays/s",
+                "  {spp:5} spp: rel. RMSE {:6.2} % (measured {:6.2} %, global {:6.2} %), {:7.2} s wall, {:7.2} CPU-s, {:.3} M samples/s, {:.2} M rays/s",
                 e * 100.0,
+                em * 100.0,
+                eg * 100.0,
                 st.seconds,
                 cpu,
                 st.samples_per_second / 1e6,
                 st.rays_per_second / 1e6
             );
-            csv += &format!("{name},{spp},{e},{},{cpu},{},{}\n", st.seconds, st.samples_per_second, st.rays_per_second);
-            pts.push(Point { spp, rel_rmse: e, wall_s: st.seconds, cpu_s: cpu, samples_per_s: st.samples_per_second, rays_per_s: st.rays_per_second });
-            if e < TARGET_REL_RMSE && pts.len() >= 2 || spp >= 4096 {
+            csv += &format!(
+                "{name},{spp},{e},{eg},{},{cpu},{},{}\n",
+                st.seconds, st.samples_per_second, st.rays_per_second
+            );
+            pts.push(Point {
+                spp,
+                rel_rmse: e,
+                wall_s: st.seconds,
+                cpu_s: cpu,
+                samples_per_s: st.samples_per_second,
+                rays_per_s: st.rays_per_second,
+            });
+            if e < TARGET_REL_RMSE && pts.len() >= 2 || spp >= max_spp {
                 break;
             }
             spp *= 2;
         }
         let n = pts.len();
         let (a, b) = (&pts[n.saturating_sub(2)], &pts[n - 1]);
-        if b.rel_rmse >= TARGET_REL_RMSE || a.rel_rmse < TARGET_REL_RMSE {
-            println!("  (5 % not bracketed: from {:.2} % to {:.2} %)", a.rel_rmse * 100.0, b.rel_rmse * 100.0);
+        let bracketed = a.rel_rmse >= TARGET_REL_RMSE && b.rel_rmse < TARGET_REL_RMSE;
+        let at5 = |xa: f64, xb: f64| {
+            if bracketed {
+                crossing((xa, a.rel_rmse), (xb, b.rel_rmse))
+            } else {
+                // Monte Carlo: error^2 x time is constant (conservative for Sobol, whose error
+                // falls faster); from the last render.
+                xb * (b.rel_rmse / TARGET_REL_RMSE).powi(2)
+            }
+        };
+        if !bracketed {
+            println!(
+                "  (5 % not reached by {} spp ({:.2} %): extrapolated with error^2 ~ 1/samples)",
+                b.spp,
+                b.rel_rmse * 100.0
+            );
         }
-        let spp5 = crossing((a.spp as f64, a.rel_rmse), (b.spp as f64, b.rel_rmse));
-        let wall5 = crossing((a.wall_s, a.rel_rmse), (b.wall_s, b.rel_rmse));
-        let cpu5 = crossing((a.cpu_s, a.rel_rmse), (b.cpu_s, b.rel_rmse));
+        let spp5 = at5(a.spp as f64, b.spp as f64);
+        let wall5 = at5(a.wall_s, b.wall_s);
+        let cpu5 = at5(a.cpu_s, b.cpu_s);
         // Throughput of the longest render (least dominated by set-up).
         println!(
             "  -> 5 % at {spp5:.1} spp, {wall5:.2} s wall, {cpu5:.2} CPU-s; {:.3} M samples/s, {:.2} M rays/s",
             b.samples_per_s / 1e6,
             b.rays_per_s / 1e6
         );
-        rows.push((name.to_string(), spp5, wall5, cpu5, b.samples_per_s, b.rays_per_s));
+        rows.push((
+            name.to_string(),
+            spp5,
+            wall5,
+            cpu5,
+            b.samples_per_s,
+            b.rays_per_s,
+        ));
     }
-    let out_csv = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/convergence.csv"));
+    let out_csv = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../target/convergence.csv"
+    ));
     if std::fs::write(&out_csv, &csv).is_ok() {
         eprintln!("measurements: {}", out_csv.display());
     }
@@ -187,7 +307,11 @@ fn main() {
     println!("| configuration | spp to 5 % | wall s to 5 % | CPU s to 5 % | samples/s | rays/s |");
     println!("| --- | ---: | ---: | ---: | ---: | ---: |");
     for (name, spp5, wall5, cpu5, sps, rps) in &rows {
-        println!("| {name} | {spp5:.1} | {wall5:.2} | {cpu5:.2} | {:.3} M | {:.2} M |", sps / 1e6, rps / 1e6);
+        println!(
+            "| {name} | {spp5:.1} | {wall5:.2} | {cpu5:.2} | {:.3} M | {:.2} M |",
+            sps / 1e6,
+            rps / 1e6
+        );
     }
     let (before, after) = (&rows[0], &rows[rows.len() - 1]);
     println!();
