@@ -241,7 +241,7 @@ fn main() {
                 st.rays_per_second / 1e6
             );
             csv += &format!(
-                "{name},{spp},{e},{eg},{},{cpu},{},{}\n",
+                "\"{name}\",{spp},{e},{eg},{},{cpu},{},{}\n",
                 st.seconds, st.samples_per_second, st.rays_per_second
             );
             pts.push(Point {
