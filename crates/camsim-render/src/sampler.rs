@@ -20,8 +20,8 @@
 //!
 //! Dimensions are allocated per bounce the same way on every path ([`dim`]), whether or not a
 //! request is made (delta BSDFs skip light sampling; Russian roulette may not run): the same
-//! dimension always serves the same decision. For speed a bounce's three 1D numbers are
-//! Sobol dimensions 0-2 of one sequence, evaluated together (`source_1d`).
+//! dimension always serves the same decision. For speed a bounce's seven numbers come from two
+//! 4-wide Sobol evaluations (`source`).
 
 use camsim_core::rng::mix64;
 use rand::Rng as _;
@@ -126,29 +126,39 @@ pub struct SobolSampler {
     block_key: u64,
     /// Index within the block.
     index: u32,
-    /// The bounce whose 1D numbers `bounce_1d` holds (its first dimension), or `u32::MAX`.
-    cached_bounce: u32,
-    bounce_1d: [f32; 4],
+    /// Per group (light sampling, BSDF sampling): the seed dimension whose four numbers
+    /// `cache` holds for the current sample, or `u32::MAX`.
+    cached: [u32; 2],
+    cache: [[f32; 4]; 2],
 }
 
-/// Where 1D dimension `d` comes from: (the dimension whose hash seeds the sequence, the Sobol
-/// dimension). A bounce's three 1D numbers (light choice, BSDF lobe, Russian roulette) are
-/// Sobol dimensions 0, 1, 2 of one sequence seeded by the bounce's first dimension, computed
-/// by one 4-wide evaluation; each Sobol dimension alone is a (0,1)-sequence, so each stays
-/// stratified. Any other 1D dimension is Sobol dimension 0 of its own sequence.
+/// Where dimension `d` comes from: (the dimension whose hash seeds the Sobol sequence, the
+/// Sobol dimension, i.e. the lane of `sobol_burley::sample_4d`; a 2D request takes that lane
+/// and the next). Within a bounce, one 4-wide evaluation serves light sampling (lanes 0-1 the
+/// light position, 2 the light choice, 3 the BSDF lobe) and one BSDF sampling (lanes 0-1 the
+/// direction, 2 Russian roulette): Sobol dimensions 0-1 are a (0,2)-sequence and each
+/// dimension alone a (0,1)-sequence, so every request stays stratified. Camera dimensions use
+/// lane 0 (and 1) of their own sequence.
 #[inline(always)]
-fn source_1d(d: u32) -> (u32, usize) {
+fn source(d: u32) -> (u32, usize) {
     if d >= dim::FIRST_BOUNCE {
         let off = (d - dim::FIRST_BOUNCE) % dim::PER_BOUNCE;
-        let lane = match off {
-            dim::LIGHT_CHOICE => 0,
-            dim::BSDF_LOBE => 1,
-            dim::RUSSIAN_ROULETTE => 2,
-            _ => return (d, 0),
+        let d0 = d - off;
+        return match off {
+            dim::LIGHT_CHOICE => (d0 + dim::LIGHT_POSITION, 2),
+            dim::BSDF_LOBE => (d0 + dim::LIGHT_POSITION, 3),
+            dim::RUSSIAN_ROULETTE => (d0 + dim::BSDF_DIRECTION, 2),
+            _ => (d, 0),
         };
-        return (d - off, lane);
     }
     (d, 0)
+}
+
+/// Which cache slot a bounce dimension's sequence uses (0 light sampling, 1 BSDF sampling).
+#[inline(always)]
+fn slot(seed_dim: u32) -> usize {
+    let off = seed_dim.wrapping_sub(dim::FIRST_BOUNCE) % dim::PER_BOUNCE;
+    usize::from(off >= dim::BSDF_LOBE)
 }
 
 impl SobolSampler {
@@ -162,8 +172,8 @@ impl SobolSampler {
             pixel_key,
             block_key: 0,
             index: 0,
-            cached_bounce: u32::MAX,
-            bounce_1d: [0.0; 4],
+            cached: [u32::MAX; 2],
+            cache: [[0.0; 4]; 2],
         };
         s.set_sample(0);
         s
@@ -174,7 +184,7 @@ impl SobolSampler {
     pub fn set_sample(&mut self, index: u64) {
         self.block_key = mix64(self.pixel_key ^ mix64(index / SOBOL_BLOCK));
         self.index = (index % SOBOL_BLOCK) as u32;
-        self.cached_bounce = u32::MAX;
+        self.cached = [u32::MAX; 2];
     }
 
     /// The 32-bit sequence seed of dimension `d` in the current block.
@@ -186,8 +196,8 @@ impl SobolSampler {
     /// One number for dimension `d` of the current sample.
     #[inline]
     pub fn sample_1d(&self, d: u32) -> f32 {
-        let (seed_dim, lane) = source_1d(d);
-        // Lane 0 of `sample_4d` equals `sample(.., 0, ..)`.
+        let (seed_dim, lane) = source(d);
+        // Lane 0 of `sample_4d` equals `sample(.., 0, ..)`, at a quarter of the work.
         if lane == 0 {
             sobol_burley::sample(self.index, 0, self.dim_seed(seed_dim))
         } else {
@@ -195,14 +205,24 @@ impl SobolSampler {
         }
     }
 
-    /// Two numbers for dimensions `d`, `d + 1` of the current sample: the first two Sobol
-    /// dimensions of one scrambled sequence, so they are jointly stratified.
+    /// Two numbers for dimensions `d`, `d + 1` of the current sample: two consecutive Sobol
+    /// dimensions (0 and 1) of one scrambled sequence, so they are jointly stratified.
     #[inline]
     pub fn sample_2d(&self, d: u32) -> [f32; 2] {
-        // `sample_4d` computes dimensions 0-3 at once (SIMD on x86-64), equal to four `sample`
-        // calls; one shuffle of the index instead of two.
-        let v = sobol_burley::sample_4d(self.index, 0, self.dim_seed(d));
-        [v[0], v[1]]
+        let (seed_dim, lane) = source(d);
+        let v = sobol_burley::sample_4d(self.index, 0, self.dim_seed(seed_dim));
+        [v[lane], v[lane + 1]]
+    }
+
+    /// The four numbers of bounce sequence `seed_dim`, computed once per sample.
+    #[inline(always)]
+    fn cached4(&mut self, seed_dim: u32) -> &[f32; 4] {
+        let k = slot(seed_dim);
+        if self.cached[k] != seed_dim {
+            self.cache[k] = sobol_burley::sample_4d(self.index, 0, self.dim_seed(seed_dim));
+            self.cached[k] = seed_dim;
+        }
+        &self.cache[k]
     }
 }
 
@@ -213,19 +233,20 @@ impl PathSampler for SobolSampler {
     }
     #[inline(always)]
     fn get_1d(&mut self, d: u32) -> f32 {
-        let (seed_dim, lane) = source_1d(d);
-        if seed_dim == d && lane == 0 && d < dim::FIRST_BOUNCE {
+        if d < dim::FIRST_BOUNCE {
             return self.sample_1d(d);
         }
-        if self.cached_bounce != seed_dim {
-            self.bounce_1d = sobol_burley::sample_4d(self.index, 0, self.dim_seed(seed_dim));
-            self.cached_bounce = seed_dim;
-        }
-        self.bounce_1d[lane]
+        let (seed_dim, lane) = source(d);
+        self.cached4(seed_dim)[lane]
     }
     #[inline(always)]
     fn get_2d(&mut self, d: u32) -> [f32; 2] {
-        self.sample_2d(d)
+        if d < dim::FIRST_BOUNCE {
+            return self.sample_2d(d);
+        }
+        let (seed_dim, lane) = source(d);
+        let v = self.cached4(seed_dim);
+        [v[lane], v[lane + 1]]
     }
 }
 
@@ -262,10 +283,9 @@ mod tests {
                         "sample {i} dimension {d}"
                     );
                 }
-                assert_eq!(
-                    s.get_2d(d0 + dim::BSDF_DIRECTION),
-                    s.sample_2d(d0 + dim::BSDF_DIRECTION)
-                );
+                for d in [d0 + dim::LIGHT_POSITION, d0 + dim::BSDF_DIRECTION] {
+                    assert_eq!(s.get_2d(d), s.sample_2d(d), "sample {i} dimension {d}");
+                }
             }
             assert_eq!(s.get_1d(dim::WAVELENGTH), s.sample_1d(dim::WAVELENGTH));
         }
