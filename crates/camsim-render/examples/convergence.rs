@@ -9,17 +9,19 @@
 //! sampling and reconstruction using greedy error minimization", `eps` for black pixels), with
 //! `Y` the luminance `683 sum L(lambda) ybar(lambda) dlambda` of each pixel, cd/m^2. The RMSE
 //! over the image divided by its mean luminance is printed too; it is dominated by the few
-//! pixels on the light's edge. For each
-//! configuration the scene is rendered at 4, 8, 16, ... samples per pixel (new seed each, so the
-//! errors are independent) until the error falls below 5 %; the time and the sample count to 5 %
-//! are interpolated between the two bracketing renders in log-log (error ~ time^-1/2 for Monte
-//! Carlo). Times are the renders' wall-clock (scene compile and BVH build included) and the
-//! process CPU time (user + system; robust to other load on a shared machine).
+//! pixels on the light's edge. For each configuration the scene is rendered at 4, 8, 16, ...
+//! samples per pixel (new seed each, so the errors are independent) until the error falls
+//! below 5 % or MAX_SPP is reached; the time and sample count to 5 % are interpolated between
+//! the two bracketing renders in log-log, or, when 5 % is not reached, extrapolated from the
+//! last render with error^2 ~ 1/time (Monte Carlo; conservative for Sobol). Times are the
+//! renders' wall clock (scene compile and BVH build included), which depends on other load on
+//! a shared machine, and the process CPU time (user + system), which barely does.
 //!
-//! The reference (Sobol sampler, Russian roulette from depth 5, a seed no measured render uses,
-//! all threads) is rendered once and cached as luminance in
-//! `target/convergence-reference-<spp>spp-256x256.bin`; its own noise is printed (an upper
-//! bound: the sample standard deviation over sqrt(spp), which overstates a Sobol estimate's error).
+//! The reference (independent sampler, Russian roulette from depth 5, a seed no measured render
+//! uses, all threads) is rendered once and cached, luminance and its per-pixel variance of the
+//! mean, in `target/convergence-reference-<spp>spp-256x256.bin`. The independent sampler makes
+//! that variance an unbiased estimate of the reference's own squared error, which is subtracted
+//! from every measured squared error (E[measured^2] = error^2 + reference^2).
 //!
 //! Run: `cargo run --release -p camsim-render --example convergence [REF_SPP] [THREADS]
 //! [MAX_SPP]` (defaults 4096, 2 and 4096: the largest sample count tried per configuration).
