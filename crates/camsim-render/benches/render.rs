@@ -77,6 +77,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
             seed: 1,
             time_budget_s: None,
             direct_only: false,
+            ..RenderSettings::default()
         },
         focus_distance_m: Some(1.08),
         notes: vec![],

@@ -13,7 +13,7 @@ use crate::sampling::power_heuristic;
 use crate::scene::{Geometry, SceneDescription};
 use crate::texture::{eval_float, FTex, Tex, TexCtx};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
-use rand::Rng as _;
+use crate::sampler::{dim, PathSampler};
 
 /// Marks a primitive without an emitter.
 pub(crate) const NO_LIGHT: u32 = u32::MAX;
@@ -103,6 +103,8 @@ pub(crate) struct Tracer {
     pub images: Vec<ImageTex>,
     pub lights: Lights,
     pub max_depth: u32,
+    /// Russian roulette runs at scattering vertices with `depth >= rr_depth`.
+    pub rr_depth: u32,
     /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
     pub offset_scale: f32,
     /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
@@ -275,7 +277,22 @@ impl Tracer {
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
         let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
         let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
-        Ok(Tracer { bvh, info, tri_normals, meshes, materials, tables, images, lights, max_depth, offset_scale: 3e-5, shape_flip, has_interface })
+        let rr_depth = scene.settings.russian_roulette_depth.max(1);
+        Ok(Tracer {
+            bvh,
+            info,
+            tri_normals,
+            meshes,
+            materials,
+            tables,
+            images,
+            lights,
+            max_depth,
+            rr_depth,
+            offset_scale: 3e-5,
+            shape_flip,
+            has_interface,
+        })
     }
 
     /// Closest hit along `r`, if any.
@@ -455,12 +472,13 @@ impl Tracer {
     }
 
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
-    /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have).
-    pub(crate) fn li<const N: usize>(
+    /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have). The
+    /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
+    pub(crate) fn li<const N: usize, S: PathSampler>(
         &self,
         mut ray: Ray,
         lambdas: &Lambdas<N>,
-        rng: &mut camsim_core::rng::Rng,
+        sampler: &mut S,
         counts: &mut RayCounts,
     ) -> [f32; N] {
         let mut l = [0f32; N];
@@ -525,6 +543,7 @@ impl Tracer {
                 break;
             }
             depth += 1;
+            let d0 = dim::bounce(depth);
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
             let ctx = TexCtx { uv: sh.uv, n: sh.ng };
@@ -548,9 +567,8 @@ impl Tracer {
 
             // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
             if !self.lights.is_empty() && !bsdf.is_delta() {
-                let u_sel: f32 = rng.gen();
-                let u0: f32 = rng.gen();
-                let u1: f32 = rng.gen();
+                let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
+                let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
                     let LightSample { wi, dist, p_light, n_light, le, pdf, delta } = ls;
                     let cos_g = wi.dot(ng);
@@ -574,9 +592,8 @@ impl Tracer {
             }
 
             // BSDF sampling for the next vertex.
-            let uc: f32 = rng.gen();
-            let u0: f32 = rng.gen();
-            let u1: f32 = rng.gen();
+            let uc = sampler.get_1d(d0 + dim::BSDF_LOBE);
+            let [u0, u1] = sampler.get_2d(d0 + dim::BSDF_DIRECTION);
             let Some(bs) = bsdf.sample(&wo_local, uc, u0, u1) else { break };
             let wi = frame.to_world(bs.wi_local);
             // The geometric side must agree with the lobe (shading normals can disagree).
@@ -598,12 +615,13 @@ impl Tracer {
             if bs.transmission {
                 eta_scale *= bs.eta * bs.eta;
             }
-            // Russian roulette (pbrt-v4): after two bounces, continue with probability
-            // max(beta) * etaScale.
+            // Russian roulette (pbrt-v4 4th ed. §13.4.1, `PathIntegrator::Li`): from vertex
+            // `rr_depth` on, end the path with probability q = max(0, 1 - max(beta) etaScale)
+            // and divide the survivors' beta by 1 - q, which keeps the estimator unbiased.
             let rr_beta = max_beta * eta_scale;
-            if rr_beta < 1.0 && depth > 1 {
+            if rr_beta < 1.0 && depth >= self.rr_depth {
                 let q = (1.0 - rr_beta).max(0.0);
-                let u: f32 = rng.gen();
+                let u = sampler.get_1d(d0 + dim::RUSSIAN_ROULETTE);
                 if u < q {
                     break;
                 }

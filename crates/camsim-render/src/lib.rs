@@ -4,7 +4,7 @@
 //! Renderer layout (pbrt-v4's split of concepts, one module each): [`math`] (f32 vectors,
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
 //! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
-//! pdfs), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
+//! pdfs), [`sampler`] (Sobol and independent samplers), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
 //! diffuse, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
 //! (texture graphs), `lights` (area, infinite, point, spot and distant lights), [`envmap`]
@@ -26,6 +26,7 @@ mod lights;
 mod materials;
 pub mod math;
 pub mod render;
+pub mod sampler;
 pub mod sampling;
 pub mod spectral;
 mod texture;
@@ -38,4 +39,5 @@ pub mod uplift;
 
 pub use camera::{camera_from_focal_length, look_at_camera_to_world, pbrt_look_at};
 pub use render::{render, RenderError, RenderOutput, RenderStats};
+pub use sampler::SamplerKind;
 pub use scene::*;

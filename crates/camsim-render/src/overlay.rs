@@ -16,6 +16,8 @@
 //! max_depth = 8
 //! seed = 7
 //! wavelengths_per_path = 4
+//! sampler = "sobol"              # or "independent" (also "paddedsobol", "zsobol")
+//! russian_roulette_depth = 5     # first bounce with Russian roulette
 //! time_budget_s = 60.0
 //! grid = { start_nm = 400.0, end_nm = 700.0, step_nm = 10.0 }
 //!
@@ -124,6 +126,10 @@ pub struct RenderOverlay {
     pub seed: Option<u64>,
     /// Wavelengths traced per path.
     pub wavelengths_per_path: Option<usize>,
+    /// Sampler name (`crate::sampler::SamplerKind::from_name`).
+    pub sampler: Option<String>,
+    /// First scattering vertex where Russian roulette may end a path.
+    pub russian_roulette_depth: Option<u32>,
     /// Stop after this many seconds, s.
     pub time_budget_s: Option<f64>,
     /// Output wavelength grid, nm.
@@ -402,6 +408,17 @@ pub fn apply_overlay(
                 return Err(format!("render.wavelengths_per_path {v} must be 1-64"));
             }
             s.wavelengths_per_path = v;
+        }
+        if let Some(v) = &r.sampler {
+            s.sampler = crate::sampler::SamplerKind::from_name(v).ok_or_else(|| {
+                format!("render.sampler \"{v}\" is unknown: use \"sobol\", \"paddedsobol\", \"zsobol\" or \"independent\"")
+            })?;
+        }
+        if let Some(v) = r.russian_roulette_depth {
+            if v == 0 {
+                return Err("render.russian_roulette_depth must be at least 1".into());
+            }
+            s.russian_roulette_depth = v;
         }
         if let Some(v) = r.time_budget_s {
             if !(v > 0.0) {

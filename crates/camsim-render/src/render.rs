@@ -1,10 +1,11 @@
 //! The film and the render loop: passes of samples over 16 x 16 tiles in parallel (rayon),
 //! deterministic for any thread count, with a sample-count or time-budget stop.
 //!
-//! Determinism: the random stream of tile `k` in pass `p` is
-//! `camsim_core::rng::keyed(seed, stage::RENDER, p, k)`, each tile is rendered sequentially by
-//! one thread, and passes are added to the film in pass order, so the radiance is bit-identical
-//! for any number of threads. Passes hold [`SAMPLES_PER_PASS`] samples per pixel (fewer in the
+//! Determinism: with the Sobol sampler (default) sample `i` of pixel (x, y) depends only on
+//! (seed, x, y, i) (`crate::sampler`); with the independent sampler the random stream of tile
+//! `k` in pass `p` is `camsim_core::rng::keyed(seed, stage::RENDER, p, k)`. Each tile is
+//! rendered sequentially by one thread, and passes are added to the film in pass order, so the
+//! radiance is bit-identical for any number of threads. Passes hold [`SAMPLES_PER_PASS`] samples per pixel (fewer in the
 //! last one); a time budget is checked between passes, so a render that stopped after `k` passes
 //! equals a render with `samples_per_pixel = k * SAMPLES_PER_PASS` of the same seed.
 
@@ -15,7 +16,7 @@ use crate::spectral::WavelengthSampler;
 use camsim_core::image::ImageGeometry;
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{CoreError, Quantity, SpectralImage};
-use rand::Rng as _;
+use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -109,6 +110,62 @@ impl<T> SharedMut<T> {
     }
 }
 
+/// What every pixel of a render shares.
+struct TraceCtx<'a> {
+    tracer: &'a Tracer,
+    rig: &'a CameraRig,
+    ws: &'a WavelengthSampler,
+    /// Film weight of one wavelength sample.
+    splat: f32,
+    /// Luminance weight per band, cd/m^2 per W/(sr m^2 nm) of one wavelength sample.
+    lum_w: &'a [f64],
+}
+
+/// One pixel's share of a pass: samples `first .. first + count` of pixel (`x`, `y`).
+struct PixelJob {
+    x: usize,
+    y: usize,
+    first: u64,
+    count: u32,
+    /// Index of the pixel in its tile, and the tile's pixel count (band stride of `acc`).
+    local: usize,
+    tile_px: usize,
+}
+
+impl PixelJob {
+    /// Trace the samples, add their spectral radiance to the tile accumulator `acc` (band-major)
+    /// and return the sum and sum of squares of the per-sample luminance, cd/m^2.
+    #[inline]
+    fn trace<const N: usize, S: PathSampler>(
+        &self,
+        ctx: &TraceCtx,
+        sampler: &mut S,
+        acc: &mut [f64],
+        c: &mut RayCounts,
+    ) -> (f64, f64) {
+        let (mut ls, mut ls2) = (0f64, 0f64);
+        for i in 0..self.count as u64 {
+            sampler.start_sample(self.first + i);
+            // Wavelength before film position: the independent sampler's draw order since
+            // before the Sobol sampler, so its renders are unchanged.
+            let u_l = sampler.get_1d(dim::WAVELENGTH);
+            let [jx, jy] = sampler.get_2d(dim::FILM);
+            let (lambdas, band) = ctx.ws.sample::<N>(u_l);
+            let ray = ctx.rig.ray(self.x as f32 + jx, self.y as f32 + jy);
+            let l = ctx.tracer.li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c);
+            let mut y_lum = 0f64;
+            for j in 0..N {
+                let v = if l[j].is_finite() { l[j] } else { 0.0 };
+                acc[band[j] as usize * self.tile_px + self.local] += (v * ctx.splat) as f64;
+                y_lum += v as f64 * ctx.lum_w[band[j] as usize];
+            }
+            ls += y_lum;
+            ls2 += y_lum * y_lum;
+        }
+        (ls, ls2)
+    }
+}
+
 /// Render `scene`. `progress(done, total)` is called after every finished tile with the
 /// number of tile-passes done and planned.
 pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<RenderOutput, RenderError> {
@@ -179,6 +236,7 @@ fn run<const N: usize>(
         .map(|b| camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * ybar[b] * (ws.hi_nm - ws.lo_nm) as f64 / N as f64)
         .collect();
 
+    let ctx = TraceCtx { tracer, rig, ws, splat, lum_w: &lum_w };
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
     let lum_ptr = SharedMut(lum.as_mut_ptr());
@@ -212,22 +270,17 @@ fn run<const N: usize>(
                             // SAFETY: pixel `pix` belongs to this tile only.
                             unsafe { *depth_ptr.ptr().add(pix) = d };
                         }
-                        let (mut ls, mut ls2) = (0f64, 0f64);
-                        for _ in 0..k {
-                            let u_l: f32 = rng.gen();
-                            let (jx, jy): (f32, f32) = (rng.gen(), rng.gen());
-                            let (lambdas, band) = ws.sample::<N>(u_l);
-                            let ray = rig.ray(x as f32 + jx, y as f32 + jy);
-                            let l = tracer.li::<N>(ray, &ws.locate(lambdas), &mut rng, &mut c);
-                            let mut y_lum = 0f64;
-                            for i in 0..N {
-                                let v = if l[i].is_finite() { l[i] } else { 0.0 };
-                                acc[band[i] as usize * tile_px + local] += (v * splat) as f64;
-                                y_lum += v as f64 * lum_w[band[i] as usize];
+                        let px = PixelJob { x, y, first: s0 as u64, count: k, local, tile_px };
+                        let (ls, ls2) = match st.sampler {
+                            SamplerKind::Independent => {
+                                let mut smp = IndependentSampler { rng: &mut rng };
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
                             }
-                            ls += y_lum;
-                            ls2 += y_lum * y_lum;
-                        }
+                            SamplerKind::Sobol => {
+                                let mut smp = SobolSampler::new(st.seed, x as u32, y as u32);
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
+                            }
+                        };
                         // SAFETY: pixel `pix` belongs to this tile only.
                         unsafe {
                             let e = &mut *lum_ptr.ptr().add(pix);

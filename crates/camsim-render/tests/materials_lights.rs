@@ -23,6 +23,7 @@ fn settings(spp: u32, max_depth: u32) -> RenderSettings {
         seed: 7,
         time_budget_s: None,
         direct_only: false,
+        ..RenderSettings::default()
     }
 }
 

@@ -24,6 +24,7 @@ fn settings(grid: WavelengthGrid, spp: u32, max_depth: u32) -> RenderSettings {
         seed: 7,
         time_budget_s: None,
         direct_only: false,
+        ..RenderSettings::default()
     }
 }
 
@@ -434,18 +435,28 @@ fn index_one_dielectric_sphere_is_invisible() {
 fn interface_sphere_is_invisible() {
     assert_invisible("interface sphere", Material::Interface);
     // Stronger: the paths are the same (an interface consumes no random numbers and lets
-    // shadow rays through), so the images agree pixel by pixel up to float rounding.
+    // shadow rays through), so the images agree pixel by pixel up to float rounding. Passing
+    // the interface moves the ray sideways by the spawn offset (~4e-5 m), so now and then one
+    // path of the ~10^5 through the sphere lands on the other side of a discontinuity (the
+    // lamp's edge) and changes its pixel by up to ~1e-3 (seen with the Sobol sampler in one
+    // pixel for 3 of 5 seeds; all other pixels agree to 2e-6): allow two such pixels, within 1 %.
     let (a, b, covered) = floor_with_and_without_sphere(Material::Interface);
     let nb = a.bands();
+    let mut diverged = vec![];
     for &p in &covered {
         for k in 0..nb {
             let (x, y) = (a.band(k)[p], b.band(k)[p]);
-            assert!(
-                (x - y).abs() <= 1e-3 * y.abs().max(1e-3),
-                "pixel {p} band {k}: {x} vs {y}"
-            );
+            let rel = (x - y).abs() / y.abs().max(1e-3);
+            assert!(rel <= 1e-2, "pixel {p} band {k}: {x} vs {y}");
+            if rel > 1e-5 && !diverged.contains(&p) {
+                diverged.push(p);
+            }
         }
     }
+    assert!(
+        diverged.len() <= 2,
+        "pixels {diverged:?} differ by more than float rounding"
+    );
 }
 
 /// A strongly dispersive glass sphere in front of a wall split into a short-wave and a

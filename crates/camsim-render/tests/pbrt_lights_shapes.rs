@@ -454,6 +454,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
             seed: 5,
             time_budget_s: None,
             direct_only: false,
+            ..RenderSettings::default()
         },
         focus_distance_m: None,
         notes: vec![],

@@ -21,6 +21,7 @@ fn settings(spp: u32, max_depth: u32) -> RenderSettings {
         seed: 11,
         time_budget_s: None,
         direct_only: false,
+        ..RenderSettings::default()
     }
 }
 

@@ -17,7 +17,7 @@ fn flat(v: f64) -> Spectrum {
 }
 
 fn settings(grid: WavelengthGrid, spp: u32, max_depth: u32) -> RenderSettings {
-    RenderSettings { grid, samples_per_pixel: spp, max_depth, wavelengths_per_path: 4, seed: 7, time_budget_s: None, direct_only: false }
+    RenderSettings { grid, samples_per_pixel: spp, max_depth, wavelengths_per_path: 4, seed: 7, time_budget_s: None, direct_only: false, ..RenderSettings::default() }
 }
 
 fn camera(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, w: usize, h: usize) -> Camera {

@@ -13,7 +13,9 @@
 //!   parameter the directive does not use, or one of the wrong type, is an error.
 //! - Options block: `LookAt`, `Camera "perspective"` (`fov`, `lensradius`, `focaldistance`),
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
-//!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`), `Integrator` (`path`,
+//!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`; `"independent"` selects
+//!   camsim's independent sampler, every other type its padded Owen-scrambled Sobol sampler, see
+//!   [`crate::sampler`]), `Integrator` (`path`,
 //!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`
 //!   (other colour spaces, `Option`, `PixelFilter`, `Accelerator` and unknown `Sampler` types
 //!   are warnings in the notes).
@@ -97,7 +99,8 @@
 //! `maxcomponentvalue`, `diagonal`, `cropwindow`, `pixelbounds`, `nbuckets`, `lambdamin`,
 //! `lambdamax`, `coordinatesystem`, `writefp16`; `Camera` `lensradius` > 0 (camsim's camera is a
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
-//! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` type and
+//! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` types other
+//! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
 //! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MakeNamedMedium`
 //! (defined but never selected, a medium changes nothing); `MediumInterface` with empty names
 //! (vacuum);

@@ -9,6 +9,7 @@ use super::params::{parse_params, Param, ParamList};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
+use crate::sampler::SamplerKind;
 use crate::scene::{
     AreaLight, Camera, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
     Shape, Texture, Transform,
@@ -941,7 +942,22 @@ impl Parser {
         self.ignore_params(params, &["randomization"], "Sampler");
         params.check_unused(&format!("Sampler \"{ty}\""))?;
         self.settings.samples_per_pixel = spp as u32;
-        self.note(loc, format!("Sampler \"{ty}\": camsim uses its own keyed random sampler; {spp} samples per pixel"));
+        // pbrt-v4 "independent" keeps independent numbers; "sobol", "paddedsobol" and "zsobol"
+        // get camsim's padded Owen-scrambled Sobol sampler, and so do the other
+        // stratified types, approximated by it (crate::sampler).
+        match SamplerKind::from_name(ty) {
+            Some(kind) => {
+                self.settings.sampler = kind;
+                self.note(loc, format!("Sampler \"{ty}\": camsim's {} sampler; {spp} samples per pixel", kind.name()));
+            }
+            None => {
+                self.settings.sampler = SamplerKind::Sobol;
+                self.note(
+                    loc,
+                    format!("Sampler \"{ty}\": approximated by camsim's padded Owen-scrambled Sobol sampler; {spp} samples per pixel"),
+                );
+            }
+        }
         Ok(())
     }
 
