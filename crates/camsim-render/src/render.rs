@@ -217,11 +217,21 @@ fn run<const N: usize>(
                             let u_l: f32 = rng.gen();
                             let (jx, jy): (f32, f32) = (rng.gen(), rng.gen());
                             let (lambdas, band) = ws.sample::<N>(u_l);
-                            let ray = rig.ray(x as f32 + jx, y as f32 + jy);
-                            let l = tracer.li::<N>(ray, &ws.locate(lambdas), &mut rng, &mut c);
+                            let (mut l, mut w_cam) = ([0f32; N], 1f32);
+                            if rig.has_lens() {
+                                // Realistic camera: traced at the hero wavelength, weighted.
+                                let u_pupil: [f32; 2] = [rng.gen(), rng.gen()];
+                                if let Some((ray, w)) = rig.lens_ray(x as f32 + jx, y as f32 + jy, u_pupil, lambdas[0]) {
+                                    l = tracer.li::<N>(ray, &ws.locate(lambdas), &mut rng, &mut c);
+                                    w_cam = w;
+                                }
+                            } else {
+                                let ray = rig.ray(x as f32 + jx, y as f32 + jy);
+                                l = tracer.li::<N>(ray, &ws.locate(lambdas), &mut rng, &mut c);
+                            }
                             let mut y_lum = 0f64;
                             for i in 0..N {
-                                let v = if l[i].is_finite() { l[i] } else { 0.0 };
+                                let v = if l[i].is_finite() { l[i] * w_cam } else { 0.0 };
                                 acc[band[i] as usize * tile_px + local] += (v * splat) as f64;
                                 y_lum += v as f64 * lum_w[band[i] as usize];
                             }
