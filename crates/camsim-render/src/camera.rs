@@ -76,8 +76,9 @@ impl CameraRig {
                     return Err(format!("realistic camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
                 }
                 // The pinhole ray (depth map) through the film point's image.
-                half_x = (film_half_mm[0] / d_mm) as f32;
-                half_y = (film_half_mm[1] / d_mm) as f32;
+                let v_mm = pinhole_image_distance_mm(&l.camera);
+                half_x = (film_half_mm[0] / v_mm) as f32;
+                half_y = (film_half_mm[1] / v_mm) as f32;
                 let film_z_mm = l.camera.film_z_mm();
                 Some(LensRig { camera: l.camera.clone(), film_half_mm, film_z_mm, rear_z_mm: film_z_mm - d_mm })
             }
@@ -163,6 +164,19 @@ pub fn film_half_extent_mm(diagonal_mm: f64, width: usize, height: usize) -> [f6
     [w * k, h * k]
 }
 
+/// The pinhole camera with the same image scale as `camera`: the film's distance from the rear
+/// principal point (paraxial, 550 nm; the nodal point in air), v = film distance - BFD + EFL
+/// (Hecht, Optics, 5th ed., sec. 6.1); the film distance itself for a lens without a positive v.
+fn pinhole_image_distance_mm(camera: &LensCamera) -> f64 {
+    let p = camera.lens.paraxial(550.0);
+    let v_mm = camera.film_distance_mm - p.bfd_mm + p.efl_mm;
+    if v_mm > 0.0 && v_mm.is_finite() {
+        v_mm
+    } else {
+        camera.film_distance_mm
+    }
+}
+
 /// pbrt-v4 `RealisticCamera` set-up: `lens` with its stop opened to `aperture_diameter_mm`
 /// (clamped to the stop's own diameter, as pbrt does), focused on `focus_distance_m` in front of
 /// its first vertex, with a film of `film_diagonal_mm`. Also returns the pinhole-equivalent field
@@ -189,7 +203,7 @@ pub fn realistic_lens(
     let lens = lens.with_stop_semi_aperture_mm((aperture_diameter_mm / 2.0).min(stop_r_mm));
     let camera = LensCamera::focused(lens, focus_distance_m * 1e3, film_diagonal_mm).map_err(|e| e.to_string())?;
     let half = film_half_extent_mm(film_diagonal_mm, width, height);
-    let fov_deg = 2.0 * (half[0].min(half[1]) / camera.film_distance_mm).atan().to_degrees();
+    let fov_deg = 2.0 * (half[0].min(half[1]) / pinhole_image_distance_mm(&camera)).atan().to_degrees();
     Ok((RealisticLens { camera: Arc::new(camera), film_diagonal_mm }, fov_deg))
 }
 
