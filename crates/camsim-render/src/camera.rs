@@ -193,7 +193,7 @@ pub fn realistic_lens(
     if !(aperture_diameter_mm > 0.0 && aperture_diameter_mm.is_finite()) {
         return Err(format!("aperturediameter {aperture_diameter_mm} mm is not > 0"));
     }
-    if !(focus_distance_m > 0.0) {
+    if !(focus_distance_m > 0.0 && focus_distance_m.is_finite()) {
         return Err(format!("focusdistance {focus_distance_m} m is not > 0"));
     }
     if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
