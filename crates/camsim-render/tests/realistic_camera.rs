@@ -311,3 +311,25 @@ fn image_is_upright_like_the_pinhole_camera() {
         );
     }
 }
+
+#[test]
+fn realistic_render_is_the_same_for_any_thread_count() {
+    let text = scene_text(
+        &realistic(&dgauss(), 1.2, 0.5),
+        "Film \"spectral\" \"integer xresolution\" 40 \"integer yresolution\" 24 \"float diagonal\" 3.0",
+        "LightSource \"infinite\" \"rgb L\" [1 1 1]",
+    );
+    let scene = parse_str(&text, "/tmp/realistic.pbrt").unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| render_scene(scene.clone(), 8));
+    let many = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap()
+        .install(|| render_scene(scene, 8));
+    assert!(one.radiance.data.iter().any(|v| *v > 0.0));
+    assert_eq!(one.radiance.data, many.radiance.data);
+}
