@@ -235,6 +235,34 @@ fn parser_reads_realistic_camera_and_reports_bad_lens() {
     assert!((l.camera.lens.surfaces[stop].semi_aperture_mm - 0.5).abs() < 1e-12);
     assert!(l.camera.film_distance_mm > 0.0);
 
+    // The same prescription as a pbrt-v4 lens text file (radius, thickness, ior, aperture
+    // diameter per line, mm) focuses to the same film distance.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dgauss()).unwrap()).unwrap();
+    let mut dat = String::from("# dgauss from the ISET3d JSON\n");
+    for sf in json["surfaces"].as_array().unwrap() {
+        let f = |k: &str| sf[k].as_f64().unwrap();
+        dat += &format!(
+            "{} {} {} {}\n",
+            f("radius"),
+            f("thickness"),
+            f("ior"),
+            2.0 * f("semi_aperture")
+        );
+    }
+    std::fs::write(dir.path().join("dgauss.dat"), dat).unwrap();
+    let s2 = parse_str(
+        &scene_text(&realistic("dgauss.dat", 1.0, 0.5), film, world),
+        &scene_path,
+    )
+    .unwrap();
+    let d2 = s2.camera.lens.as_ref().unwrap().camera.film_distance_mm;
+    assert!(
+        (d2 - l.camera.film_distance_mm).abs() < 1e-9,
+        "{d2} vs {}",
+        l.camera.film_distance_mm
+    );
+
     let e = parse_str(
         &scene_text(&realistic("missing.json", 1.0, 0.5), film, world),
         &scene_path,
