@@ -623,6 +623,7 @@ fn pixel4a_camera(from: [f64; 3], width: usize, height: usize) -> Result<Camera,
         fov_deg: 2.0 * tan_short.atan().to_degrees(),
         width,
         height,
+        lens: None,
     })
 }
 
@@ -670,6 +671,7 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
                     fov_deg,
                     width: w,
                     height: h,
+                    lens: None,
                 },
                 0.8 + 0.5592,
             )

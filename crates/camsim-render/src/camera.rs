@@ -1,12 +1,26 @@
-//! Pinhole perspective camera (pbrt-v4 `PerspectiveCamera` with `lensradius 0`) and helpers to
-//! set one up from a look-at triple or from a lens focal length and sensor size.
+//! Pinhole perspective camera (pbrt-v4 `PerspectiveCamera` with `lensradius 0`), pbrt-v4's
+//! `RealisticCamera` (rays traced through a lens prescription) and helpers to set one up from a
+//! look-at triple or from a lens focal length and sensor size.
 
 use crate::geometry::Ray;
 use crate::math::V3;
-use crate::scene::{Camera, Transform};
+use crate::scene::{Camera, RealisticLens, Transform};
+use camsim_lens::{Lens, LensCamera};
+use std::sync::Arc;
+
+/// A realistic camera prepared for ray generation.
+#[derive(Debug, Clone)]
+struct LensRig {
+    camera: Arc<LensCamera>,
+    /// Half the film's width and height, mm.
+    film_half_mm: [f64; 2],
+    /// z of the film plane and of the rear vertex in lens coordinates, mm.
+    film_z_mm: f64,
+    rear_z_mm: f64,
+}
 
 /// The camera prepared for ray generation.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(crate) struct CameraRig {
     origin: V3,
     /// World images of the camera-space x, y and z axes.
@@ -18,6 +32,7 @@ pub(crate) struct CameraRig {
     half_y: f32,
     inv_w: f32,
     inv_h: f32,
+    lens: Option<LensRig>,
 }
 
 impl CameraRig {
@@ -51,15 +66,83 @@ impl CameraRig {
         // [-1, 1] x [-1/aspect, 1/aspect]; `fov` spans the shorter axis.
         let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
         let azv = V3::from_f64(az);
+        let (mut half_x, mut half_y) = ((sx * tan_half) as f32, (sy * tan_half) as f32);
+        let lens = match &c.lens {
+            None => None,
+            Some(l) => {
+                let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
+                let d_mm = l.camera.film_distance_mm;
+                if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && d_mm > 0.0) {
+                    return Err(format!("realistic camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
+                }
+                // The pinhole ray (depth map) through the film point's image.
+                let v_mm = pinhole_image_distance_mm(&l.camera);
+                half_x = (film_half_mm[0] / v_mm) as f32;
+                half_y = (film_half_mm[1] / v_mm) as f32;
+                let film_z_mm = l.camera.film_z_mm();
+                Some(LensRig { camera: l.camera.clone(), film_half_mm, film_z_mm, rear_z_mm: film_z_mm - d_mm })
+            }
+        };
         Ok(CameraRig {
             origin: V3::from_f64(o),
             axes: [V3::from_f64(ax), V3::from_f64(ay), azv],
             forward: azv.normalize(),
-            half_x: (sx * tan_half) as f32,
-            half_y: (sy * tan_half) as f32,
+            half_x,
+            half_y,
             inv_w: 1.0 / c.width as f32,
             inv_h: 1.0 / c.height as f32,
+            lens,
         })
+    }
+
+    /// Whether camera rays need [`CameraRig::lens_ray`] (a realistic camera).
+    #[inline(always)]
+    pub(crate) fn has_lens(&self) -> bool {
+        self.lens.is_some()
+    }
+
+    /// A camera ray of a realistic camera at continuous raster position (`x`, `y`) through the
+    /// exit-pupil point chosen by `u_pupil`, traced through the lens at `wavelength_nm`, with its
+    /// weight; `None` when the lens blocks it (a zero-weight sample). pbrt-v4 4th ed. sec. 5.3.5
+    /// (`RealisticCamera::GenerateRay`): the film point, a point drawn uniformly in the exit-pupil
+    /// bounds for the film radius (rotated to the film point's azimuth), and the weight
+    /// cos^4(theta) * A / D^2 (A the bounds' area, D the film-to-rear-vertex distance), which
+    /// turns the scene radiance into film irradiance over radiance (sr): E = L integral of
+    /// cos(theta) d(omega) = L integral over the rear plane of cos^4(theta) / D^2 dA.
+    /// A perspective camera returns `rig.ray(x, y)` with weight 1.
+    pub(crate) fn lens_ray(&self, x: f32, y: f32, u_pupil: [f32; 2], wavelength_nm: f32) -> Option<(Ray, f32)> {
+        let Some(l) = &self.lens else {
+            return Some((self.ray(x, y), 1.0));
+        };
+        // The lens inverts the image: the scene point seen at screen (u, v) (right, up) forms
+        // its image at film (-u, -v).
+        let u = (2.0 * x * self.inv_w - 1.0) as f64;
+        let v = (1.0 - 2.0 * y * self.inv_h) as f64;
+        let p = [-u * l.film_half_mm[0], -v * l.film_half_mm[1]];
+        let r_mm = p[0].hypot(p[1]);
+        let b = l.camera.exit_pupil_bounds(r_mm);
+        let area_mm2 = (b[1] - b[0]) * (b[3] - b[2]);
+        if area_mm2 <= 0.0 {
+            return None;
+        }
+        let qx = b[0] + (b[1] - b[0]) * u_pupil[0] as f64;
+        let qy = b[2] + (b[3] - b[2]) * u_pupil[1] as f64;
+        // Rotate from the frame where the film point lies on +x to its azimuth.
+        let (cos_phi, sin_phi) = if r_mm > 0.0 { (p[0] / r_mm, p[1] / r_mm) } else { (1.0, 0.0) };
+        let rear = [qx * cos_phi - qy * sin_phi, qx * sin_phi + qy * cos_phi];
+        let d_mm = l.film_z_mm - l.rear_z_mm;
+        let dir = [rear[0] - p[0], rear[1] - p[1], -d_mm];
+        let out = l.camera.trace_ray(p, dir, wavelength_nm as f64)?;
+        let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+        let cos_theta = d_mm / len;
+        let weight = cos_theta.powi(4) * area_mm2 / (d_mm * d_mm);
+        // Lens coordinates (mm, scene toward -z) to camera space (m, scene toward +z, film at
+        // the origin): pbrt's CameraFromLens = Scale(1, 1, -1).
+        let o = [out.origin_mm[0] * 1e-3, out.origin_mm[1] * 1e-3, (l.film_z_mm - out.origin_mm[2]) * 1e-3];
+        let d = [out.direction[0], out.direction[1], -out.direction[2]];
+        let world_o = self.origin + self.axes[0] * o[0] as f32 + self.axes[1] * o[1] as f32 + self.axes[2] * o[2] as f32;
+        let world_d = self.axes[0] * d[0] as f32 + self.axes[1] * d[1] as f32 + self.axes[2] * d[2] as f32;
+        Some((Ray { o: world_o, d: world_d.normalize() }, weight as f32))
     }
 
     /// Ray through continuous raster position (`x`, `y`) (pixel (i, j) covers [i, i+1) x [j, j+1),
@@ -71,6 +154,57 @@ impl CameraRig {
         let d = self.axes[0] * cx + self.axes[1] * cy + self.axes[2];
         Ray { o: self.origin, d: d.normalize() }
     }
+}
+
+/// Half the width and height (mm) of a film of diagonal `diagonal_mm` with `width` x `height`
+/// square pixels (pbrt-v4 `PixelSensor`/`Film` physical extent).
+pub fn film_half_extent_mm(diagonal_mm: f64, width: usize, height: usize) -> [f64; 2] {
+    let (w, h) = (width as f64, height as f64);
+    let k = diagonal_mm / 2.0 / w.hypot(h);
+    [w * k, h * k]
+}
+
+/// The pinhole camera with the same image scale as `camera`: the film's distance from the rear
+/// principal point (paraxial, 550 nm; the nodal point in air), v = film distance - BFD + EFL
+/// (Hecht, Optics, 5th ed., sec. 6.1); the film distance itself for a lens without a positive v.
+fn pinhole_image_distance_mm(camera: &LensCamera) -> f64 {
+    let p = camera.lens.paraxial(550.0);
+    let v_mm = camera.film_distance_mm - p.bfd_mm + p.efl_mm;
+    if v_mm > 0.0 && v_mm.is_finite() {
+        v_mm
+    } else {
+        camera.film_distance_mm
+    }
+}
+
+/// pbrt-v4 `RealisticCamera` set-up: `lens` with its stop opened to `aperture_diameter_mm`
+/// (clamped to the stop's own diameter, as pbrt does), focused on `focus_distance_m` in front of
+/// its first vertex, with a film of `film_diagonal_mm`. Also returns the pinhole-equivalent field
+/// of view across the shorter image axis (degrees). The error names what fails (a lens that
+/// cannot form an image of that distance).
+pub fn realistic_lens(
+    lens: Lens,
+    aperture_diameter_mm: f64,
+    focus_distance_m: f64,
+    film_diagonal_mm: f64,
+    width: usize,
+    height: usize,
+) -> Result<(RealisticLens, f64), String> {
+    if !(aperture_diameter_mm > 0.0 && aperture_diameter_mm.is_finite()) {
+        return Err(format!("aperturediameter {aperture_diameter_mm} mm is not > 0"));
+    }
+    if !(focus_distance_m > 0.0 && focus_distance_m.is_finite()) {
+        return Err(format!("focusdistance {focus_distance_m} m is not > 0"));
+    }
+    if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
+        return Err(format!("film diagonal {film_diagonal_mm} mm is not > 0"));
+    }
+    let stop_r_mm = lens.surfaces[lens.stop_index()].semi_aperture_mm;
+    let lens = lens.with_stop_semi_aperture_mm((aperture_diameter_mm / 2.0).min(stop_r_mm));
+    let camera = LensCamera::focused(lens, focus_distance_m * 1e3, film_diagonal_mm).map_err(|e| e.to_string())?;
+    let half = film_half_extent_mm(film_diagonal_mm, width, height);
+    let fov_deg = 2.0 * (half[0].min(half[1]) / pinhole_image_distance_mm(&camera)).atan().to_degrees();
+    Ok((RealisticLens { camera: Arc::new(camera), film_diagonal_mm }, fov_deg))
 }
 
 /// pbrt-v4 `LookAt`: the world-to-camera transform for an eye at `from` looking at `to` with
@@ -156,7 +290,7 @@ pub fn camera_from_focal_length(
     let fov_deg = 2.0 * (short_side_m / (2.0 * focal_length_m)).atan().to_degrees();
     let fov_deg = if fov_deg.is_finite() && focal_length_m > 0.0 && short_side_m > 0.0 { fov_deg } else { f64::NAN };
     let camera_to_world = look_at_camera_to_world(from, to, up, true).unwrap_or(Transform { m: [[0.0; 4]; 4] });
-    Camera { camera_to_world, fov_deg, width, height }
+    Camera { camera_to_world, fov_deg, width, height, lens: None }
 }
 
 #[cfg(test)]
@@ -173,7 +307,7 @@ mod tests {
 
     #[test]
     fn rays_follow_pbrt_screen_window() {
-        let c = Camera { camera_to_world: Transform::identity(), fov_deg: 90.0, width: 200, height: 100 };
+        let c = Camera { camera_to_world: Transform::identity(), fov_deg: 90.0, width: 200, height: 100, lens: None };
         let rig = CameraRig::new(&c).unwrap();
         // Centre ray looks down +z.
         let r = rig.ray(100.0, 50.0);

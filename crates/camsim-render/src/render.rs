@@ -151,11 +151,21 @@ impl PixelJob {
             let u_l = sampler.get_1d(dim::WAVELENGTH);
             let [jx, jy] = sampler.get_2d(dim::FILM);
             let (lambdas, band) = ctx.ws.sample::<N>(u_l);
-            let ray = ctx.rig.ray(self.x as f32 + jx, self.y as f32 + jy);
-            let l = ctx.tracer.li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c);
+            let (fx, fy) = (self.x as f32 + jx, self.y as f32 + jy);
+            let (l, w_cam) = if ctx.rig.has_lens() {
+                // Realistic camera: a point in the exit pupil, the ray traced through the lens at
+                // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
+                let u_pupil = sampler.get_2d(dim::LENS);
+                match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
+                    Some((ray, w)) => (ctx.tracer.li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c), w),
+                    None => ([0f32; N], 0f32),
+                }
+            } else {
+                (ctx.tracer.li::<N, S>(ctx.rig.ray(fx, fy), &ctx.ws.locate(lambdas), sampler, c), 1f32)
+            };
             let mut y_lum = 0f64;
             for j in 0..N {
-                let v = if l[j].is_finite() { l[j] } else { 0.0 };
+                let v = if l[j].is_finite() { l[j] * w_cam } else { 0.0 };
                 acc[band[j] as usize * self.tile_px + self.local] += (v * ctx.splat) as f64;
                 y_lum += v as f64 * ctx.lum_w[band[j] as usize];
             }

@@ -282,14 +282,29 @@ pub struct EnvironmentMap {
     pub light_to_world: Transform,
 }
 
-/// A pinhole perspective camera (pbrt-v4 `perspective` with lensradius 0).
+/// The camera: a pinhole perspective camera (pbrt-v4 `perspective` with lensradius 0), or with
+/// `lens` a pbrt-v4 `realistic` camera (a traced lens in front of the film).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
     pub camera_to_world: Transform,
-    /// Field of view across the shorter image axis, degrees (pbrt-v4 `fov`).
+    /// Field of view across the shorter image axis, degrees (pbrt-v4 `fov`). For a realistic
+    /// camera, the pinhole-equivalent field (film size over film distance), used for the depth
+    /// map and the image geometry only.
     pub fov_deg: f64,
     pub width: usize,
     pub height: usize,
+    /// `Some`: a realistic camera; camera rays are traced through this lens.
+    pub lens: Option<RealisticLens>,
+}
+
+/// A pbrt-v4 `realistic` camera (4th ed. sec. 5.3): a focused lens with its film. Camera space
+/// as pbrt: the film at the origin, the lens toward +z.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RealisticLens {
+    /// The lens with its film plane and exit-pupil bounds (camsim-lens).
+    pub camera: std::sync::Arc<camsim_lens::LensCamera>,
+    /// Film diagonal, mm (pbrt-v4 `Film` `diagonal`).
+    pub film_diagonal_mm: f64,
 }
 
 impl Camera {

@@ -40,6 +40,7 @@ fn camera_down(h_m: f64, fov_deg: f64, n: usize) -> Camera {
         fov_deg,
         width: n,
         height: n,
+        lens: None,
     }
 }
 

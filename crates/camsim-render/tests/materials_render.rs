@@ -34,6 +34,7 @@ fn camera(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, w: usize, h:
         fov_deg,
         width: w,
         height: h,
+        lens: None,
     }
 }
 

@@ -437,6 +437,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         fov_deg: fov,
         width: 64,
         height: 64,
+        lens: None,
     };
     let sc = SceneDescription {
         camera: cam,

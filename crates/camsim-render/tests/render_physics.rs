@@ -21,7 +21,7 @@ fn settings(grid: WavelengthGrid, spp: u32, max_depth: u32) -> RenderSettings {
 }
 
 fn camera(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, w: usize, h: usize) -> Camera {
-    Camera { camera_to_world: look_at_camera_to_world(from, to, up, true).unwrap(), fov_deg, width: w, height: h }
+    Camera { camera_to_world: look_at_camera_to_world(from, to, up, true).unwrap(), fov_deg, width: w, height: h, lens: None }
 }
 
 fn scene(camera: Camera, shapes: Vec<Shape>, materials: Vec<Material>, lights: Vec<Light>, settings: RenderSettings) -> SceneDescription {

@@ -93,6 +93,10 @@ struct Parser {
     fov_deg: f64,
     width: usize,
     height: usize,
+    /// A `Camera "realistic"`: set up once the film is known (the `Film` may follow it).
+    realistic: Option<PendingRealistic>,
+    /// `Film` `diagonal`, mm (pbrt-v4 default 35).
+    film_diagonal_mm: f64,
     settings: RenderSettings,
     focus_distance_m: Option<f64>,
     notes: Vec<String>,
@@ -153,6 +157,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         fov_deg: 90.0,
         width: 1280,
         height: 720,
+        realistic: None,
+        film_diagonal_mm: 35.0,
         settings: RenderSettings {
             samples_per_pixel: 16,
             max_depth: 5,
@@ -832,11 +838,15 @@ impl Parser {
     }
 
     fn camera(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        if ty == "realistic" {
+            return self.realistic_camera(params, loc);
+        }
         if ty != "perspective" {
             return Err(loc.err(format!(
-                "Camera \"{ty}\" is not supported (only \"perspective\")"
+                "Camera \"{ty}\" is not supported (\"perspective\", \"realistic\")"
             )));
         }
+        self.realistic = None;
         let fov = params.float("fov", 90.0)?;
         if !(fov > 0.0 && fov < 180.0) {
             return Err(loc.err(format!(
@@ -873,6 +883,35 @@ impl Parser {
         Ok(())
     }
 
+    /// pbrt-v4 `Camera "realistic"`: `lensfile` (pbrt-v4 lens text or ISET3d JSON, relative to
+    /// the scene file), `aperturediameter` (mm, default 1), `focusdistance` (m, default 10).
+    fn realistic_camera(&mut self, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        let name = params
+            .string("lensfile")?
+            .ok_or_else(|| loc.err("Camera \"realistic\": \"lensfile\" is required"))?;
+        let path = self.resolve(&loc.file, &name);
+        let lens = camsim_lens::Lens::from_file(&path)
+            .map_err(|e| loc.err(format!("Camera \"realistic\": lens file: {e}")))?;
+        let aperture_diameter_mm = params.float("aperturediameter", 1.0)?;
+        let focus_distance_m = params.float("focusdistance", 10.0)?;
+        self.ignore_params(params, &["shutteropen", "shutterclose"], "Camera");
+        params.check_unused("Camera \"realistic\"")?;
+        // Focused (and checked) at the end of the file, when the film's size is known; errors
+        // name this directive.
+        self.focus_distance_m = Some(focus_distance_m);
+        self.realistic = Some(PendingRealistic {
+            lens,
+            aperture_diameter_mm,
+            focus_distance_m,
+            loc: loc.clone(),
+        });
+        self.camera_from_world = self.gs.ctm;
+        let world_from_camera = inverse(&self.gs.ctm)
+            .ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
+        self.named_coords.insert("camera".into(), world_from_camera);
+        Ok(())
+    }
+
     fn film(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
         if !matches!(ty, "rgb" | "spectral" | "gbuffer") {
             return Err(loc.err(format!(
@@ -888,13 +927,18 @@ impl Parser {
         }
         self.width = w as usize;
         self.height = h as usize;
+        let diagonal_mm = params.float("diagonal", 35.0)?;
+        if !(diagonal_mm > 0.0 && diagonal_mm.is_finite()) {
+            return Err(loc.err(format!("Film: diagonal {diagonal_mm} mm must be > 0")));
+        }
+        self.film_diagonal_mm = diagonal_mm;
         if let Some(l) = params.ignore("filename") {
             self.note(&l, "Film: filename ignored (camsim writes spectral radiance where the command line says)");
         }
         self.ignore_params(
             params,
             &[
-                "iso", "exposuretime", "whitebalance", "sensor", "savefp16", "writefp16", "maxcomponentvalue", "diagonal",
+                "iso", "exposuretime", "whitebalance", "sensor", "savefp16", "writefp16", "maxcomponentvalue",
                 "cropwindow", "pixelbounds", "nbuckets", "lambdamin", "lambdamax", "coordinatesystem",
             ],
             "Film (camsim outputs spectral radiance; sensor, crop and bucket settings do not apply)",
@@ -1391,12 +1435,26 @@ impl Parser {
             return Err(PbrtError::combine(errors));
         }
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
+        let (mut fov_deg, mut lens) = (self.fov_deg, None);
+        if let Some(r) = self.realistic {
+            let (l, f) = crate::camera::realistic_lens(
+                r.lens,
+                r.aperture_diameter_mm,
+                r.focus_distance_m,
+                self.film_diagonal_mm,
+                self.width,
+                self.height,
+            )
+            .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
+            (fov_deg, lens) = (f, Some(l));
+        }
         Ok(SceneDescription {
             camera: Camera {
                 camera_to_world,
-                fov_deg: self.fov_deg,
+                fov_deg,
                 width: self.width,
                 height: self.height,
+                lens,
             },
             shapes,
             materials: self.materials,
@@ -1515,4 +1573,13 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
             .map(|p| [dec(p.0[0]), dec(p.0[1]), dec(p.0[2])])
             .collect(),
     ))
+}
+
+/// A `Camera "realistic"` read but not yet set up (it needs the film's size).
+#[derive(Debug)]
+struct PendingRealistic {
+    lens: camsim_lens::Lens,
+    aperture_diameter_mm: f64,
+    focus_distance_m: f64,
+    loc: Loc,
 }
