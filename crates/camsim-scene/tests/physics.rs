@@ -38,7 +38,7 @@ fn mean_luminance_equals_the_request_for_every_kind() {
             SceneConfig::Uniform(c) => c.mean_luminance_cd_m2,
             SceneConfig::Macbeth(c) => c.mean_luminance_cd_m2,
             SceneConfig::SlantedEdge(c) => c.mean_luminance_cd_m2,
-            SceneConfig::File(_) => unreachable!(),
+            _ => unreachable!(),
         };
         let got = independent_mean_luminance(&img);
         // f32 storage: relative error ~ 1e-7 per value.
