@@ -22,6 +22,6 @@ pub mod qefit;
 pub mod roi;
 pub mod sfr;
 
-pub use error::{AnalysisError, Result};
 pub use color_difference::{ciede2000, xyz_to_lab, Lab};
+pub use error::{AnalysisError, Result};
 pub use image::{cfa_channel_plane, Plane, Rect};

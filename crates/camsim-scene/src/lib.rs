@@ -21,10 +21,10 @@ pub mod geometry;
 pub mod patterns;
 
 pub use config::{FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene};
+pub use geometry::{Edge, MacbethLayout, Rect};
 pub use patterns::{
     CheckerboardScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
 };
-pub use geometry::{Edge, MacbethLayout, Rect};
 
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::error::{CoreError, Result};

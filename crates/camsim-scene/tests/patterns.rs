@@ -42,11 +42,7 @@ fn min(v: &[f64]) -> f64 {
 
 /// Positions (fractional indices) where `v` changes sign, by linear interpolation.
 fn zero_crossings(v: &[f64]) -> Vec<f64> {
-    v.windows(2)
-        .enumerate()
-        .filter(|(_, w)| (w[0] < 0.0) != (w[1] < 0.0))
-        .map(|(i, w)| i as f64 + w[0] / (w[0] - w[1]))
-        .collect()
+    v.windows(2).enumerate().filter(|(_, w)| (w[0] < 0.0) != (w[1] < 0.0)).map(|(i, w)| i as f64 + w[0] / (w[0] - w[1])).collect()
 }
 
 #[test]
@@ -112,13 +108,14 @@ fn harmonic_mean_contrast_and_fft_peak_match_imageharmonic() {
             data[i * n + j] = col[i];
         }
     }
-    let signed = |k: usize| if k > n / 2 { k as f64 - n as f64 } else { k as f64 };
-    let (best, _) = data
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, c)| (k, c.norm()))
-        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+    let signed = |k: usize| {
+        if k > n / 2 {
+            k as f64 - n as f64
+        } else {
+            k as f64
+        }
+    };
+    let (best, _) = data.iter().enumerate().skip(1).map(|(k, c)| (k, c.norm())).fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
     let (ky, kx) = (signed(best / n), signed(best % n));
     let freq = kx.hypot(ky);
     let angle = ky.atan2(kx).to_degrees().rem_euclid(180.0);

@@ -217,8 +217,9 @@ fn config_parses_from_toml_with_defaults_and_round_trips() {
     }
     let e = SceneConfig::from_toml("kind = \"slanted_edge\"\nangle = 5\n", "edge.toml").unwrap_err().to_string();
     assert!(e.contains("edge.toml") && e.contains("angle"), "{e}");
-    let e = SceneConfig::from_toml("kind = \"checkerboard\"\n", "s.toml").unwrap_err().to_string();
-    assert!(e.contains("checkerboard"), "{e}");
+    // An unknown kind ("checkerboard" is one now: ISETCam's 'rings rays' is not).
+    let e = SceneConfig::from_toml("kind = \"rings_rays\"\n", "s.toml").unwrap_err().to_string();
+    assert!(e.contains("rings_rays"), "{e}");
     let defaults = SceneConfig::default();
     assert_eq!(defaults.kind(), "macbeth");
 }
