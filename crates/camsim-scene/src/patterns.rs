@@ -331,12 +331,12 @@ impl Pattern for CheckerboardScene {
     }
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         need(
-            self.period_px >= 2 && self.period_px % 2 == 0,
+            self.period_px >= 2 && self.period_px.is_multiple_of(2),
             "scene.period_px",
             format!("{} pixels; the period must be even and at least 2 (two checks)", self.period_px),
         )?;
         need(self.number_of_checks >= 1, "scene.number_of_checks", "must be at least 1".to_string())?;
-        let side = self.period_px.checked_mul(self.number_of_checks).unwrap_or(usize::MAX);
+        let side = self.period_px.saturating_mul(self.number_of_checks);
         check_side(side, "scene.number_of_checks", 2)?;
         let check = self.period_px / 2;
         map_rows(side, side, |i, line| {
