@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
 
 pub mod chart;
+pub mod color_difference;
 pub mod emva;
 pub mod error;
 pub mod image;
@@ -21,5 +22,6 @@ pub mod qefit;
 pub mod roi;
 pub mod sfr;
 
+pub use color_difference::{ciede2000, xyz_to_lab, Lab};
 pub use error::{AnalysisError, Result};
 pub use image::{cfa_channel_plane, Plane, Rect};

@@ -1,7 +1,8 @@
 //! Scene configuration (TOML), tagged by `kind`:
 //!
 //! ```toml
-//! kind = "macbeth"            # uniform | macbeth | slanted_edge | file
+//! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | harmonic | zone_plate
+//!                             # | sweep_frequency | star | checkerboard | grid_lines | point_array | ramp
 //! mean_luminance_cd_m2 = 100
 //! fov_deg = 10
 //! distance_m = 1.2
@@ -11,6 +12,9 @@
 //! ```
 
 use crate::geometry::MacbethLayout;
+pub use crate::patterns::{
+    CheckerboardScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+};
 use camsim_core::error::{CoreError, Result};
 use camsim_core::WavelengthGrid;
 use serde::{Deserialize, Serialize};
@@ -199,6 +203,22 @@ pub enum SceneConfig {
     SlantedEdge(SlantedEdgeScene),
     /// `kind = "file"`.
     File(FileScene),
+    /// `kind = "harmonic"` (ISETCam 'harmonic').
+    Harmonic(HarmonicScene),
+    /// `kind = "zone_plate"` (ISETCam 'zone plate').
+    ZonePlate(ZonePlateScene),
+    /// `kind = "sweep_frequency"` (ISETCam 'sweep frequency').
+    SweepFrequency(SweepFrequencyScene),
+    /// `kind = "star"` (Siemens star).
+    Star(StarScene),
+    /// `kind = "checkerboard"` (ISETCam 'checkerboard').
+    Checkerboard(CheckerboardScene),
+    /// `kind = "grid_lines"` (ISETCam 'grid lines').
+    GridLines(GridLinesScene),
+    /// `kind = "point_array"` (ISETCam 'point array').
+    PointArray(PointArrayScene),
+    /// `kind = "ramp"` (ISETCam 'linear intensity ramp').
+    Ramp(RampScene),
 }
 
 impl Default for UniformScene {
@@ -286,7 +306,30 @@ impl SceneConfig {
             SceneConfig::Macbeth(_) => "macbeth",
             SceneConfig::SlantedEdge(_) => "slanted_edge",
             SceneConfig::File(_) => "file",
+            SceneConfig::Harmonic(_) => "harmonic",
+            SceneConfig::ZonePlate(_) => "zone_plate",
+            SceneConfig::SweepFrequency(_) => "sweep_frequency",
+            SceneConfig::Star(_) => "star",
+            SceneConfig::Checkerboard(_) => "checkerboard",
+            SceneConfig::GridLines(_) => "grid_lines",
+            SceneConfig::PointArray(_) => "point_array",
+            SceneConfig::Ramp(_) => "ramp",
         }
+    }
+
+    /// The pattern scene behind a test-pattern kind (harmonic, zone_plate, ...), if it is one.
+    pub(crate) fn pattern(&self) -> Option<&dyn crate::patterns::Pattern> {
+        Some(match self {
+            SceneConfig::Harmonic(c) => c,
+            SceneConfig::ZonePlate(c) => c,
+            SceneConfig::SweepFrequency(c) => c,
+            SceneConfig::Star(c) => c,
+            SceneConfig::Checkerboard(c) => c,
+            SceneConfig::GridLines(c) => c,
+            SceneConfig::PointArray(c) => c,
+            SceneConfig::Ramp(c) => c,
+            SceneConfig::Uniform(_) | SceneConfig::Macbeth(_) | SceneConfig::SlantedEdge(_) | SceneConfig::File(_) => return None,
+        })
     }
 
     /// The wavelength grid the config asks for, or the default 400-700 nm every 10 nm.
@@ -296,6 +339,14 @@ impl SceneConfig {
             SceneConfig::Macbeth(c) => c.wavelengths,
             SceneConfig::SlantedEdge(c) => c.wavelengths,
             SceneConfig::File(c) => c.wavelengths,
+            SceneConfig::Harmonic(c) => c.wavelengths,
+            SceneConfig::ZonePlate(c) => c.wavelengths,
+            SceneConfig::SweepFrequency(c) => c.wavelengths,
+            SceneConfig::Star(c) => c.wavelengths,
+            SceneConfig::Checkerboard(c) => c.wavelengths,
+            SceneConfig::GridLines(c) => c.wavelengths,
+            SceneConfig::PointArray(c) => c.wavelengths,
+            SceneConfig::Ramp(c) => c.wavelengths,
         };
         g.unwrap_or_default()
     }
@@ -324,6 +375,14 @@ impl SceneConfig {
                     c.path = base_dir.join(&c.path);
                 }
             }
+            SceneConfig::Harmonic(c) => fix_string(&mut c.illuminant),
+            SceneConfig::ZonePlate(c) => fix_string(&mut c.illuminant),
+            SceneConfig::SweepFrequency(c) => fix_string(&mut c.illuminant),
+            SceneConfig::Star(c) => fix_string(&mut c.illuminant),
+            SceneConfig::Checkerboard(c) => fix_string(&mut c.illuminant),
+            SceneConfig::GridLines(c) => fix_string(&mut c.illuminant),
+            SceneConfig::PointArray(c) => fix_string(&mut c.illuminant),
+            SceneConfig::Ramp(c) => fix_string(&mut c.illuminant),
         }
     }
 }
@@ -364,6 +423,14 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("macbeth", t) => run::<MacbethScene>(text, t),
         ("slanted_edge", t) => run::<SlantedEdgeScene>(text, t),
         ("file", t) => run::<FileScene>(text, t),
+        ("harmonic", t) => run::<HarmonicScene>(text, t),
+        ("zone_plate", t) => run::<ZonePlateScene>(text, t),
+        ("sweep_frequency", t) => run::<SweepFrequencyScene>(text, t),
+        ("star", t) => run::<StarScene>(text, t),
+        ("checkerboard", t) => run::<CheckerboardScene>(text, t),
+        ("grid_lines", t) => run::<GridLinesScene>(text, t),
+        ("point_array", t) => run::<PointArrayScene>(text, t),
+        ("ramp", t) => run::<RampScene>(text, t),
         _ => None,
     }
 }

@@ -7,8 +7,10 @@
 //!
 //! `L_v = 683 lm/W * sum_lambda y_bar(lambda) L(lambda) d_lambda`, averaged over pixels.
 //!
-//! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker), `slanted_edge` (ISO 12233) and
-//! `file` (a spectral radiance image loaded by the caller, see [`from_image`]).
+//! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker), `slanted_edge` (ISO 12233),
+//! `file` (a spectral radiance image loaded by the caller, see [`from_image`]) and the ISETCam
+//! test patterns of [`patterns`] (`harmonic`, `zone_plate`, `sweep_frequency`, `star`,
+//! `checkerboard`, `grid_lines`, `point_array`, `ramp`).
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
@@ -16,9 +18,13 @@
 
 pub mod config;
 pub mod geometry;
+pub mod patterns;
 
 pub use config::{FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene};
 pub use geometry::{Edge, MacbethLayout, Rect};
+pub use patterns::{
+    CheckerboardScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+};
 
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::error::{CoreError, Result};
@@ -42,6 +48,14 @@ pub fn create(cfg: &SceneConfig, grid: &WavelengthGrid) -> Result<SpectralImage>
             format!("scene kind 'file' ({})", c.path.display()),
             "a radiance file is loaded by the caller (camsim-io) and passed to camsim_scene::from_image",
         )),
+        SceneConfig::Harmonic(c) => patterns::create_pattern(c, grid),
+        SceneConfig::ZonePlate(c) => patterns::create_pattern(c, grid),
+        SceneConfig::SweepFrequency(c) => patterns::create_pattern(c, grid),
+        SceneConfig::Star(c) => patterns::create_pattern(c, grid),
+        SceneConfig::Checkerboard(c) => patterns::create_pattern(c, grid),
+        SceneConfig::GridLines(c) => patterns::create_pattern(c, grid),
+        SceneConfig::PointArray(c) => patterns::create_pattern(c, grid),
+        SceneConfig::Ramp(c) => patterns::create_pattern(c, grid),
     }
 }
 
@@ -57,6 +71,7 @@ pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
         SceneConfig::Macbeth(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::SlantedEdge(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::File(_) => None,
+        c => c.pattern().map(|p| load_illuminant(p.header().illuminant, "scene.illuminant")),
     }
 }
 

@@ -9,13 +9,16 @@ use std::path::PathBuf;
 /// Make a 2D scene's spectral radiance (W/(sr m^2 nm)) and write it as a spectral OpenEXR.
 ///
 /// CONFIG is a scene TOML (the `[scene]` table of a simulate config, on its own: kind = "uniform" |
-/// "macbeth" | "slanted_edge" | "file"), or a whole simulate config whose `[scene]` is used.
+/// "macbeth" | "slanted_edge" | "file" | an ISETCam test pattern: "harmonic" | "zone_plate" |
+/// "sweep_frequency" | "star" | "checkerboard" | "grid_lines" | "point_array" | "ramp"), or a
+/// whole simulate config whose `[scene]` is used.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr")]
+#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr\n  camsim scene examples/zone-plate.toml --out out/zone-plate.exr\n  camsim scene --kind star --out out/star.exr")]
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
-    /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge).
+    /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge,
+    /// harmonic, zone_plate, sweep_frequency, star, checkerboard, grid_lines, point_array, ramp).
     #[arg(long, default_value = "macbeth", conflicts_with = "config")]
     pub kind: String,
     /// Output spectral EXR.

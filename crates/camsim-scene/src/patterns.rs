@@ -1,0 +1,436 @@
+//! Spatial test patterns after ISETCam's `sceneCreate` (harmonic, zone plate, sweep frequency,
+//! star, checkerboard, grid lines, point array, ramp).
+//!
+//! Each pattern is a spectrally flat reflectance map `rho(x, y)` in [0, 1]; the radiance is
+//! `k * illuminant(lambda) * rho(x, y)` with `k` chosen so that the mean luminance over all pixels
+//! is `mean_luminance_cd_m2` (ISETCam `sceneAdjustLuminance`). ISETCam builds the same patterns as
+//! relative images and scales them the same way, so an affine offset/scale of its image (e.g.
+//! `ieScale`) does not change the result beyond the luminance scaling; where ISETCam's image is
+//! signed (`1 + c cos`), ours is the same curve halved to stay within [0, 1].
+//!
+//! Pixel coordinates: column `j`, row `i`, 0-based, pixel centres at integer positions unless
+//! stated otherwise; rows grow downwards (as in ISETCam's `meshgrid`).
+
+use camsim_core::error::{CoreError, Result};
+use camsim_core::WavelengthGrid;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The fields shared by every pattern scene: illuminant, geometry and mean luminance.
+pub(crate) struct Header<'a> {
+    pub illuminant: &'a str,
+    pub fov_deg: f64,
+    pub distance_m: f64,
+    pub mean_luminance_cd_m2: f64,
+}
+
+/// A pattern scene: its shared fields and its reflectance map (rows, cols, row-major values).
+pub(crate) trait Pattern {
+    fn header(&self) -> Header<'_>;
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)>;
+}
+
+/// Declares a pattern scene struct: the shared fields (documented once here) followed by its own.
+/// Missing keys take the values of `Default` (container-level `#[serde(default)]`), unknown keys
+/// are errors.
+macro_rules! pattern_scene {
+    ($(#[$doc:meta])* $name:ident { $( $(#[$fdoc:meta])* $field:ident : $ty:ty = $default:expr ),* $(,)? }) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+        #[serde(default, deny_unknown_fields)]
+        pub struct $name {
+            /// Mean luminance of the image, cd/m^2 (ISETCam `sceneAdjustLuminance`); default 100.
+            pub mean_luminance_cd_m2: f64,
+            /// Horizontal field of view, degrees, in (0, 180); default 10.
+            pub fov_deg: f64,
+            /// Distance from the lens to the chart, m; default 1.2 (ISETCam's).
+            pub distance_m: f64,
+            /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`) or a spectrum
+            /// file (.csv or ISETCam .mat; relative units); default D65.
+            pub illuminant: String,
+            /// Wavelength grid, nm (optional; the default is 400-700 nm every 10 nm).
+            pub wavelengths: Option<WavelengthGrid>,
+            $( $(#[$fdoc])* pub $field: $ty, )*
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                $name {
+                    mean_luminance_cd_m2: 100.0,
+                    fov_deg: 10.0,
+                    distance_m: 1.2,
+                    illuminant: "D65".to_string(),
+                    wavelengths: None,
+                    $( $field: $default, )*
+                }
+            }
+        }
+
+        impl $name {
+            pub(crate) fn header_fields(&self) -> Header<'_> {
+                Header {
+                    illuminant: &self.illuminant,
+                    fov_deg: self.fov_deg,
+                    distance_m: self.distance_m,
+                    mean_luminance_cd_m2: self.mean_luminance_cd_m2,
+                }
+            }
+        }
+    };
+}
+
+pattern_scene! {
+    /// A sinusoidal grating (ISETCam `sceneCreate('harmonic', parms)` / `imageHarmonic`):
+    /// `rho = (1 + contrast cos(2 pi freq (cos(a) X + sin(a) Y) + phase)) / 2` with
+    /// `X = j / cols`, `Y = i / rows` (ISETCam `meshgrid((0:col-1)/col, (0:row-1)/row)`).
+    HarmonicScene {
+        /// Spatial frequency, cycles per image (ISETCam `freq`); default 1.
+        freq: f64 = 1.0,
+        /// Michelson contrast (max - min) / (max + min), in [0, 1] (ISETCam `contrast`); default 1.
+        contrast: f64 = 1.0,
+        /// Phase of the cosine at the top-left pixel, degrees (ISETCam `ph`, radians there);
+        /// default 90 (ISETCam's pi/2).
+        phase_deg: f64 = 90.0,
+        /// Orientation of the wave vector from the +column axis towards +row (downwards), degrees
+        /// (ISETCam `ang`); 0 gives vertical bars; default 0.
+        angle_deg: f64 = 0.0,
+        /// Image height, pixels (ISETCam `row`); default 64.
+        rows: usize = 64,
+        /// Image width, pixels (ISETCam `col`); default 64.
+        cols: usize = 64,
+    }
+}
+
+pattern_scene! {
+    /// A circular zone plate (ISETCam `sceneCreate('zone plate')` / `imgZonePlate`):
+    /// `rho = (1 + amplitude cos(pi r^2 / size_px + phase)) / 2`, `r` in pixels from the centre
+    /// pixel (`size_px / 2`, 0-based). The local frequency at radius `r` is `r / size_px` cycles
+    /// per pixel (`k r / pi` with `k = pi / size_px`): Nyquist (0.5) at the edge's midpoints.
+    ZonePlateScene {
+        /// Image side, pixels (ISETCam `imSize`); default 256.
+        size_px: usize = 256,
+        /// Amplitude of the cosine, in [0, 1] (ISETCam `amp`); default 1.
+        amplitude: f64 = 1.0,
+        /// Phase at the centre, degrees (ISETCam `ph`, radians there); default 0.
+        phase_deg: f64 = 0.0,
+    }
+}
+
+pattern_scene! {
+    /// A sweep-frequency chart (ISETCam `sceneCreate('sweep frequency')` / `imgSweep`): with
+    /// `x = (j + 1) / size_px` and `c = (size_px - i) / size_px`,
+    /// `rho = (1 + c sin(2 pi max_freq x^3)) / 2`. The local frequency grows left to right as
+    /// `3 max_freq x^2` cycles per image (ISETCam's `freq = x^2 maxFreq` multiplied by `x`), and
+    /// the contrast falls linearly from 1 on the top row to `1 / size_px` on the bottom row.
+    SweepFrequencyScene {
+        /// Image side, pixels (ISETCam `imSize`); default 128.
+        size_px: usize = 128,
+        /// ISETCam's `maxFreq`, cycles per image (the phase is `2 pi max_freq x^3`); default 8
+        /// (ISETCam's `imSize / 16`).
+        max_freq: f64 = 8.0,
+    }
+}
+
+pattern_scene! {
+    /// A Siemens star: `number_of_spokes` bright and as many dark wedges about the image centre
+    /// (bright where `sin(N theta) > 0`), each pixel the mean of 4 x 4 point samples
+    /// (ISETCam `sceneCreate('star pattern')`, which draws `nLines` lines instead of wedges).
+    StarScene {
+        /// Image side, pixels (ISETCam `imSize`); default 256.
+        size_px: usize = 256,
+        /// Number of bright wedges N (>= 1); default 8 (ISETCam `nLines`).
+        number_of_spokes: usize = 8,
+    }
+}
+
+pattern_scene! {
+    /// A checkerboard of square checks, dark at the top left (ISETCam `sceneCreate('checkerboard',
+    /// checkPeriod, nCheckPairs)`): one period is a dark and a light check.
+    CheckerboardScene {
+        /// Length of one period (a dark plus a light check), pixels, even and >= 2 (ISETCam
+        /// `checkPeriod`); default 16.
+        period_px: usize = 16,
+        /// Number of periods along each side (ISETCam `nCheckPairs`); the image side is
+        /// `period_px * number_of_checks`; default 8.
+        number_of_checks: usize = 8,
+    }
+}
+
+pattern_scene! {
+    /// Bright horizontal and vertical lines on black (ISETCam `sceneCreate('grid lines', imageSize,
+    /// pixelsBetweenLines, spectralType, lineThickness)`): lines start at row/column
+    /// `round(pixels_between_lines / 2) - 1` (0-based; ISETCam's 1-based `round(s/2)`) and repeat
+    /// every `pixels_between_lines`.
+    GridLinesScene {
+        /// Image side, pixels (ISETCam `imageSize`); default 128.
+        size_px: usize = 128,
+        /// Line pitch, pixels (>= 2); default 16.
+        pixels_between_lines: usize = 16,
+        /// Line width, pixels (>= 1, < pixels_between_lines); default 1.
+        line_thickness_px: usize = 1,
+    }
+}
+
+pattern_scene! {
+    /// Bright square points on black on a regular grid (ISETCam `sceneCreate('point array',
+    /// imageSize, pixelsBetweenPoints, spectralType, pointSize)`), placed like the grid lines.
+    PointArrayScene {
+        /// Image side, pixels (ISETCam `imageSize`); default 128.
+        size_px: usize = 128,
+        /// Point pitch, pixels (>= 2); default 16.
+        pixels_between_points: usize = 16,
+        /// Side of each point, pixels (>= 1, < pixels_between_points); default 1.
+        point_size_px: usize = 1,
+    }
+}
+
+pattern_scene! {
+    /// A horizontal linear luminance ramp (ISETCam `sceneCreate('linear intensity ramp')`): the
+    /// reflectance rises linearly from `1 / dynamic_range` at the left column to 1 at the right,
+    /// the same on every row.
+    RampScene {
+        /// Image side, pixels (>= 2); default 128.
+        size_px: usize = 128,
+        /// Ratio of the brightest to the darkest column (>= 1); default 256.
+        dynamic_range: f64 = 256.0,
+    }
+}
+
+fn need(cond: bool, key: &str, msg: String) -> Result<()> {
+    if cond {
+        Ok(())
+    } else {
+        Err(CoreError::invalid(key, msg))
+    }
+}
+
+fn check_side(n: usize, key: &str, min: usize) -> Result<()> {
+    need(n >= min, key, format!("{n} pixels; need at least {min}"))?;
+    need(n <= 1 << 15, key, format!("{n} pixels; at most {} are allowed", 1 << 15))
+}
+
+fn check_unit(v: f64, key: &str) -> Result<()> {
+    need((0.0..=1.0).contains(&v), key, format!("{v} is not in [0, 1]"))
+}
+
+fn check_finite(v: f64, key: &str) -> Result<()> {
+    need(v.is_finite(), key, format!("{v} is not a finite number"))
+}
+
+/// A rows x cols map filled row by row (in parallel) by `f(row, line)`.
+fn map_rows(rows: usize, cols: usize, f: impl Fn(usize, &mut [f32]) + Sync) -> Result<(usize, usize, Vec<f32>)> {
+    camsim_core::mem::check_alloc((rows * cols * 4) as u64, "the test-pattern reflectance map")?;
+    let mut m = vec![0.0f32; rows * cols];
+    m.par_chunks_mut(cols).enumerate().for_each(|(i, line)| f(i, line));
+    Ok((rows, cols, m))
+}
+
+impl Pattern for HarmonicScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.rows, "scene.rows", 1)?;
+        check_side(self.cols, "scene.cols", 1)?;
+        check_finite(self.freq, "scene.freq")?;
+        check_unit(self.contrast, "scene.contrast")?;
+        check_finite(self.phase_deg, "scene.phase_deg")?;
+        check_finite(self.angle_deg, "scene.angle_deg")?;
+        let (c, ph) = (self.contrast, self.phase_deg.to_radians());
+        let (ca, sa) = (self.angle_deg.to_radians().cos(), self.angle_deg.to_radians().sin());
+        let (rows, cols, f) = (self.rows as f64, self.cols as f64, self.freq);
+        map_rows(self.rows, self.cols, |i, line| {
+            let y = i as f64 / rows;
+            for (j, v) in line.iter_mut().enumerate() {
+                let x = j as f64 / cols;
+                *v = (0.5 * (1.0 + c * (2.0 * PI * f * (ca * x + sa * y) + ph).cos())) as f32;
+            }
+        })
+    }
+}
+
+impl Pattern for ZonePlateScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        check_unit(self.amplitude, "scene.amplitude")?;
+        check_finite(self.phase_deg, "scene.phase_deg")?;
+        let n = self.size_px as f64;
+        let centre = (self.size_px / 2) as f64;
+        let (amp, ph) = (self.amplitude, self.phase_deg.to_radians());
+        map_rows(self.size_px, self.size_px, |i, line| {
+            let dy = i as f64 - centre;
+            for (j, v) in line.iter_mut().enumerate() {
+                let dx = j as f64 - centre;
+                *v = (0.5 * (1.0 + amp * (PI * (dx * dx + dy * dy) / n + ph).cos())) as f32;
+            }
+        })
+    }
+}
+
+impl Pattern for SweepFrequencyScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        check_finite(self.max_freq, "scene.max_freq")?;
+        need(self.max_freq > 0.0, "scene.max_freq", format!("{} cycles per image is not positive", self.max_freq))?;
+        let n = self.size_px as f64;
+        let f = self.max_freq;
+        // The row profile is the same on every row up to the contrast: compute it once.
+        let profile: Vec<f64> = (0..self.size_px).map(|j| (2.0 * PI * f * ((j + 1) as f64 / n).powi(3)).sin()).collect();
+        map_rows(self.size_px, self.size_px, |i, line| {
+            let c = (n - i as f64) / n;
+            for (v, s) in line.iter_mut().zip(&profile) {
+                *v = (0.5 * (1.0 + c * s)) as f32;
+            }
+        })
+    }
+}
+
+impl Pattern for StarScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        need(
+            (1..=4096).contains(&self.number_of_spokes),
+            "scene.number_of_spokes",
+            format!("{} spokes; need 1 to 4096", self.number_of_spokes),
+        )?;
+        // Continuous coordinates: pixel (i, j) covers [j, j + 1) x [i, i + 1); centre at size/2.
+        let centre = 0.5 * self.size_px as f64;
+        let spokes = self.number_of_spokes as f64;
+        const SUB: usize = 4;
+        map_rows(self.size_px, self.size_px, |i, line| {
+            for (j, v) in line.iter_mut().enumerate() {
+                let mut bright = 0usize;
+                for sy in 0..SUB {
+                    let y = i as f64 + (sy as f64 + 0.5) / SUB as f64 - centre;
+                    for sx in 0..SUB {
+                        let x = j as f64 + (sx as f64 + 0.5) / SUB as f64 - centre;
+                        if (spokes * y.atan2(x)).sin() > 0.0 {
+                            bright += 1;
+                        }
+                    }
+                }
+                *v = bright as f32 / (SUB * SUB) as f32;
+            }
+        })
+    }
+}
+
+impl Pattern for CheckerboardScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        need(
+            self.period_px >= 2 && self.period_px.is_multiple_of(2),
+            "scene.period_px",
+            format!("{} pixels; the period must be even and at least 2 (two checks)", self.period_px),
+        )?;
+        need(self.number_of_checks >= 1, "scene.number_of_checks", "must be at least 1".to_string())?;
+        let side = self.period_px.saturating_mul(self.number_of_checks);
+        check_side(side, "scene.number_of_checks", 2)?;
+        let check = self.period_px / 2;
+        map_rows(side, side, |i, line| {
+            for (j, v) in line.iter_mut().enumerate() {
+                *v = ((i / check + j / check) % 2) as f32;
+            }
+        })
+    }
+}
+
+/// Whether 0-based index `k` lies on a line of pitch `pitch` and width `width` whose first line
+/// starts at ISETCam's 1-based `round(pitch / 2)`.
+fn on_line(k: usize, pitch: usize, width: usize) -> bool {
+    let first = (pitch as f64 / 2.0).round() as usize - 1;
+    k >= first && (k - first) % pitch < width
+}
+
+/// The image must reach the first line (or point), else it is black.
+fn check_first_line(size_px: usize, pitch: usize) -> Result<()> {
+    let first = (pitch as f64 / 2.0).round() as usize - 1;
+    need(size_px > first, "scene.size_px", format!("{size_px} pixels do not reach the first line at pixel {first}"))
+}
+
+impl Pattern for GridLinesScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        let (p, w) = (self.pixels_between_lines, self.line_thickness_px);
+        need(p >= 2, "scene.pixels_between_lines", format!("{p} pixels; need at least 2"))?;
+        need(w >= 1 && w < p, "scene.line_thickness_px", format!("{w} pixels; need 1 to pixels_between_lines - 1 = {}", p - 1))?;
+        check_first_line(self.size_px, p)?;
+        map_rows(self.size_px, self.size_px, |i, line| {
+            let row_on = on_line(i, p, w);
+            for (j, v) in line.iter_mut().enumerate() {
+                *v = if row_on || on_line(j, p, w) { 1.0 } else { 0.0 };
+            }
+        })
+    }
+}
+
+impl Pattern for PointArrayScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        let (p, w) = (self.pixels_between_points, self.point_size_px);
+        need(p >= 2, "scene.pixels_between_points", format!("{p} pixels; need at least 2"))?;
+        need(w >= 1 && w < p, "scene.point_size_px", format!("{w} pixels; need 1 to pixels_between_points - 1 = {}", p - 1))?;
+        check_first_line(self.size_px, p)?;
+        map_rows(self.size_px, self.size_px, |i, line| {
+            let row_on = on_line(i, p, w);
+            for (j, v) in line.iter_mut().enumerate() {
+                *v = if row_on && on_line(j, p, w) { 1.0 } else { 0.0 };
+            }
+        })
+    }
+}
+
+impl Pattern for RampScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        let dr = self.dynamic_range;
+        need(dr >= 1.0 && dr.is_finite(), "scene.dynamic_range", format!("{dr} is not a finite ratio >= 1"))?;
+        let n = self.size_px;
+        let lo = 1.0 / dr;
+        map_rows(n, n, |_, line| {
+            for (j, v) in line.iter_mut().enumerate() {
+                *v = (lo + (1.0 - lo) * j as f64 / (n - 1) as f64) as f32;
+            }
+        })
+    }
+}
+
+/// Build the radiance image of a pattern scene: illuminant x reflectance map, scaled to the mean
+/// luminance (the map is spectrally flat, so its pixel mean is the mean reflectance in every band).
+pub(crate) fn create_pattern(p: &dyn Pattern, grid: &WavelengthGrid) -> Result<camsim_core::SpectralImage> {
+    let h = p.header();
+    let com = crate::common(h.illuminant, h.fov_deg, h.distance_m, h.mean_luminance_cd_m2, grid)?;
+    let (rows, cols, map) = p.reflectance_map()?;
+    let mean = map.par_iter().map(|v| *v as f64).sum::<f64>() / map.len() as f64;
+    let k_illum = com.scaled_illuminant(&vec![mean; grid.len()], grid)?;
+    let mut img = com.image(rows, cols, grid)?;
+    let n = img.pixels();
+    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
+        let k = k_illum[b] as f32;
+        for (o, r) in plane.iter_mut().zip(&map) {
+            *o = k * r;
+        }
+    });
+    Ok(img)
+}
