@@ -315,11 +315,9 @@ impl DatasetSpec {
                 Draw::Normal(s) => vec![number(s.min, v.integer), number(s.max, v.integer)],
             };
             for c in candidates {
-                let cfg = self
-                    .config_of(&[(v.key.clone(), c.clone())], 0)
-                    .and_then(|cfg| check_config(&cfg).map(|()| cfg))
+                self.config_of(&[(v.key.clone(), c.clone())], 0)
+                    .and_then(|cfg| check_config(&cfg))
                     .map_err(|e| DatasetError::spec(&self.source, format!("vary[{n}] (key {:?}) = {c}: {e}", v.key)))?;
-                drop(cfg);
             }
         }
         Ok(())

@@ -101,6 +101,14 @@ def test_ray_backend_runs_one_task_per_shard_and_gives_the_same_bytes(tmp_path):
     assert len(camsim.dataset.read_manifest(tmp_path / "ray")) == 6
 
 
+def test_run_shard_writes_one_shard_with_the_local_runs_bytes(tmp_path):
+    camsim.dataset.run(SPEC, out=tmp_path / "all")
+    rec = camsim.dataset.run_shard(SPEC, tmp_path / "one", 1)
+    assert rec["tar"] == "shard-00000002-00000003.tar" and [s["index"] for s in rec["samples"]] == [2, 3]
+    assert tars(tmp_path / "one") == {rec["tar"]: (tmp_path / "all" / rec["tar"]).read_bytes()}
+    assert camsim.dataset.shard_stem(SPEC, 2) == "00000004-00000005"
+
+
 def test_bad_specs_fail_before_any_work(tmp_path):
     bad = {**SPEC, "vary": [{"key": "optics.config.f_numbr", "values": [2.0]}]}
     with pytest.raises(camsim.CamsimError, match="f_numbr"):
