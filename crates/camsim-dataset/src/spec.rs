@@ -62,8 +62,9 @@ pub struct DatasetSection {
     pub seed: u64,
     /// Files per sample besides its `.json` record: any of `raw` (DNG), `raw-npy` (first frame as
     /// a uint16 .npy array), `preview` (sRGB PNG), `raw-png`, `noise-free` (EXR, DN), `xyz` (the
-    /// scene's CIE XYZ ground truth, EXR, Y in cd/m^2), `radiance`, `irradiance`, `depth` (EXR);
-    /// default raw and preview.
+    /// scene's CIE XYZ ground truth, EXR, Y in cd/m^2), `radiance`, `irradiance`, `depth` (EXR),
+    /// `ids` (3D scenes: 16-bit object and material id PNGs and their legend); default raw and
+    /// preview.
     #[serde(default = "default_outputs")]
     pub outputs: Vec<String>,
 }

@@ -10,7 +10,7 @@ mod simulation;
 
 pub use error::{PipelineError, Result};
 pub use outputs::{Output, OutputSet};
-pub use simulation::{image_radiance, simulate, Imaged, Rgb8Image, RunInfo, SimulateOptions, Simulation};
+pub use simulation::{image_radiance, simulate, write_id_maps, Imaged, Rgb8Image, RunInfo, SimulateOptions, Simulation};
 
 use camsim_core::{SpectralImage, WavelengthGrid};
 use camsim_optics::{Optics, OpticsConfig};
@@ -284,16 +284,27 @@ impl SimulateConfig {
 /// Stage 1: the scene radiance (2D chart or 3D render).
 /// `progress(stage, done, total)` is called as long steps advance.
 pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress<'_>) -> Result<SpectralImage> {
+    Ok(scene_stage(cfg, sensor, optics, progress)?.0)
+}
+
+/// [`scene_radiance`] with the object and material id maps of a rendered 3D scene (None for 2D
+/// charts and scene files).
+pub fn scene_stage(
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    progress: &Progress<'_>,
+) -> Result<(SpectralImage, Option<camsim_render::IdMaps>)> {
     cfg.wavelengths.validate()?;
     cfg.check_scene_source()?;
     match (&cfg.scene, &cfg.render) {
         (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
         (Some(SceneConfig::File(f)), None) => {
             let img = camsim_io::exr::read_spectral_exr(&f.path)?;
-            camsim_scene::from_image(f, img).map_err(|e| PipelineError::Scene(e.to_string()))
+            Ok((camsim_scene::from_image(f, img).map_err(|e| PipelineError::Scene(e.to_string()))?, None))
         }
-        (Some(s), None) => camsim_scene::create(s, &cfg.wavelengths).map_err(|e| PipelineError::Scene(e.to_string())),
-        (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress),
+        (Some(s), None) => Ok((camsim_scene::create(s, &cfg.wavelengths).map_err(|e| PipelineError::Scene(e.to_string()))?, None)),
+        (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress).map(|(img, ids)| (img, Some(ids))),
     }
 }
 

@@ -20,11 +20,15 @@ pub enum Output {
     Depth,
     /// noise_free.exr: the expected ADC value per pixel without any noise or quantization (DN).
     NoiseFree,
+    /// object_id.png, material_id.png (16-bit) and ids.json (their legend): which shape and
+    /// material the ray through each scene pixel's centre meets first (3D scenes; 2D charts have
+    /// none, and it is skipped).
+    Ids,
 }
 
 impl Output {
     /// Every output, in the order of [`Self::name`] in `--save`.
-    pub const ALL: [Output; 7] = [Output::Raw, Output::RawPng, Output::Preview, Output::Radiance, Output::Irradiance, Output::Depth, Output::NoiseFree];
+    pub const ALL: [Output; 8] = [Output::Raw, Output::RawPng, Output::Preview, Output::Radiance, Output::Irradiance, Output::Depth, Output::NoiseFree, Output::Ids];
 
     /// The name used in `--save`.
     pub fn name(self) -> &'static str {
@@ -36,6 +40,7 @@ impl Output {
             Output::Irradiance => "irradiance",
             Output::Depth => "depth",
             Output::NoiseFree => "noise-free",
+            Output::Ids => "ids",
         }
     }
 }
@@ -62,7 +67,7 @@ impl OutputSet {
     }
 
     /// Parse `--save`: comma-separated names (`raw,preview,radiance,irradiance,depth,noise-free,
-    /// raw-png`), `all`, or `default`.
+    /// raw-png,ids`), `all`, or `default`.
     pub fn parse(text: &str) -> Result<OutputSet> {
         let mut set = BTreeSet::new();
         for item in text.split(',').map(str::trim) {

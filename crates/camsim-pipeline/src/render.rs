@@ -120,7 +120,8 @@ pub fn render_section(
     sensor: &Sensor,
     optics: &Optics,
     progress: &Progress<'_>,
-) -> Result<SpectralImage> {
+) -> Result<(SpectralImage, camsim_render::IdMaps)> {
     let scene = render_section_scene(r, cfg, sensor, optics)?;
-    Ok(render_scene(&scene, progress)?.radiance)
+    let out = render_scene(&scene, progress)?;
+    Ok((out.radiance, out.ids))
 }

@@ -2,7 +2,7 @@
 //! files ([`Simulation::write`]).
 
 use crate::outputs::{Output, OutputSet};
-use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_radiance, PipelineError, Progress, Result, SimulateConfig};
+use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_stage, PipelineError, Progress, Result, SimulateConfig};
 use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
@@ -49,6 +49,8 @@ pub struct Simulation {
     pub sensor: SensorConfig,
     /// Scene spectral radiance, W/(sr m^2 nm); `depth_m` holds the depth map of 3D scenes.
     pub radiance: SpectralImage,
+    /// Object and material ids per scene pixel of a rendered 3D scene (None for 2D charts).
+    pub ids: Option<camsim_render::IdMaps>,
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
     pub irradiance: SpectralImage,
     /// The raw frames (ADC values, DN; black and white level in each).
@@ -112,7 +114,7 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
 
     let t = Instant::now();
     progress("scene", 0, 1);
-    let radiance = scene_radiance(cfg, &sensor, &optics, progress)?;
+    let (radiance, ids) = scene_stage(cfg, &sensor, &optics, progress)?;
     lap(&mut times, "scene_s", t);
 
     progress("optics", 0, 1);
@@ -147,6 +149,7 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
         optics: optics.config().clone(),
         sensor: sensor.config().clone(),
         radiance,
+        ids,
         irradiance,
         exposure_s: frame.exposure_s,
         mean_electrons_rgb: frame.mean_electrons,
@@ -195,6 +198,18 @@ impl Simulation {
                 None => "not written: this scene (a 2D chart) has no depth map",
             };
             files.insert("depth.exr".into(), note.into());
+        }
+        if outputs.contains(Output::Ids) {
+            match &self.ids {
+                Some(ids) => {
+                    files.insert("object_id.png".into(), "1 + index of the shape met first through each scene pixel's centre (16-bit; 0 = none)".into());
+                    files.insert("material_id.png".into(), "1 + index of that shape's material (16-bit; 0 = none)".into());
+                    files.insert("ids.json".into(), serde_json::to_value(ids.legend()).unwrap_or_default());
+                }
+                None => {
+                    files.insert("ids".into(), "not written: this scene (a 2D chart or a scene file) has no object ids".into());
+                }
+            }
         }
         if outputs.contains(Output::NoiseFree) {
             files.insert("noise_free.exr".into(), "expected ADC value per pixel without noise or quantization, DN (channel Y)".into());
@@ -251,6 +266,9 @@ impl Simulation {
             if let (true, Some(d)) = (outputs.contains(Output::Depth), self.radiance.depth_m.as_deref()) {
                 t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), self.radiance.rows, self.radiance.cols, "Z", d)?)));
             }
+            if let (true, Some(ids)) = (outputs.contains(Output::Ids), self.ids.as_ref()) {
+                t.push(Box::new(move || write_id_maps(out.path(), ids)));
+            }
             if outputs.contains(Output::NoiseFree) {
                 t.push(Box::new(move || {
                     let raw0 = &self.frames[0];
@@ -286,4 +304,21 @@ impl Simulation {
         camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
         Ok(())
     }
+}
+
+/// Write object_id.png and material_id.png (16-bit grey, row-major scene pixels) and ids.json
+/// (the legend) into folder `dir`, each file atomically.
+pub fn write_id_maps(dir: &std::path::Path, ids: &camsim_render::IdMaps) -> Result<()> {
+    if ids.max_id() > u16::MAX as u32 {
+        return Err(PipelineError::config(format!(
+            "ids: the scene has {} shapes or materials, more than a 16-bit id map holds (65535)",
+            ids.max_id()
+        )));
+    }
+    for (name, map) in [("object_id.png", &ids.object_id), ("material_id.png", &ids.material_id)] {
+        let v: Vec<u16> = map.iter().map(|&i| i as u16).collect();
+        camsim_io::raster::write_png16_gray(&dir.join(name), ids.height, ids.width, &v)?;
+    }
+    camsim_io::atomic::write_json_atomic(&dir.join("ids.json"), &ids.legend())?;
+    Ok(())
 }

@@ -36,11 +36,8 @@ fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyAny> {
     PyArray1::from_slice(py, v).into_any()
 }
 
-fn array_f32<'py>(py: Python<'py>, v: &[f32], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    Ok(PyArray1::from_slice(py, v).reshape(shape)?.into_any())
-}
-
-fn array_u16<'py>(py: Python<'py>, v: &[u16], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+/// A numpy array of `shape` holding a copy of `v`.
+fn array<'py, T: numpy::Element>(py: Python<'py>, v: &[T], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_slice(py, v).reshape(shape)?.into_any())
 }
 
@@ -52,14 +49,14 @@ fn wavelengths(img: &SpectralImage) -> Vec<f64> {
 /// `spacing_m`, `fov_deg`, `distance_m`, `depth_m` ((rows, cols) or None), `units`.
 fn spectral_dict<'py>(py: Python<'py>, img: &SpectralImage, key: &str) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item(key, array_f32(py, &img.data, &[img.bands(), img.rows, img.cols])?)?;
+    d.set_item(key, array(py, &img.data, &[img.bands(), img.rows, img.cols])?)?;
     d.set_item("wavelengths_nm", array1(py, &wavelengths(img)))?;
     d.set_item("spacing_m", img.sample_spacing_m)?;
     d.set_item("fov_deg", img.geometry.fov_deg)?;
     d.set_item("distance_m", img.geometry.distance_m)?;
     d.set_item("units", img.quantity.unit())?;
     match &img.depth_m {
-        Some(z) => d.set_item("depth_m", array_f32(py, z, &[img.rows, img.cols])?)?,
+        Some(z) => d.set_item("depth_m", array(py, z, &[img.rows, img.cols])?)?,
         None => d.set_item("depth_m", py.None())?,
     }
     Ok(d)
@@ -122,7 +119,7 @@ impl PySimulation {
     #[getter]
     fn radiance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let r = &self.inner.radiance;
-        array_f32(py, &r.data, &[r.bands(), r.rows, r.cols])
+        array(py, &r.data, &[r.bands(), r.rows, r.cols])
     }
     /// Band centres of radiance and irradiance, nm.
     #[getter]
@@ -138,7 +135,7 @@ impl PySimulation {
     #[getter]
     fn irradiance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let r = &self.inner.irradiance;
-        array_f32(py, &r.data, &[r.bands(), r.rows, r.cols])
+        array(py, &r.data, &[r.bands(), r.rows, r.cols])
     }
     /// Irradiance sample spacing in the sensor plane, m.
     #[getter]
@@ -149,14 +146,35 @@ impl PySimulation {
     #[getter]
     fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.radiance;
-        r.depth_m.as_ref().map(|z| array_f32(py, z, &[r.rows, r.cols])).transpose()
+        r.depth_m.as_ref().map(|z| array(py, z, &[r.rows, r.cols])).transpose()
+    }
+    /// Object ids of a rendered 3D scene, (rows, cols) uint32 in the scene's pixels: 1 + index of
+    /// the shape met first through each pixel centre, 0 = none; None for 2D charts. Names in
+    /// `ids_legend`.
+    #[getter]
+    fn object_id<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner.ids.as_ref().map(|i| array(py, &i.object_id, &[i.height, i.width])).transpose()
+    }
+    /// Material ids of a rendered 3D scene, (rows, cols) uint32: 1 + index of the material of the
+    /// shape in `object_id`, 0 = none; None for 2D charts.
+    #[getter]
+    fn material_id<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner.ids.as_ref().map(|i| array(py, &i.material_id, &[i.height, i.width])).transpose()
+    }
+    /// The names of the ids present: {"background": 0, "objects": {"1": name, ...},
+    /// "materials": {...}}; None for 2D charts.
+    #[getter]
+    fn ids_legend<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(ids) = &self.inner.ids else { return Ok(None) };
+        let v = serde_json::to_value(ids.legend()).map_err(err)?;
+        json_to_py(py, &v).map(Some)
     }
     /// Raw frames, (frames, rows, cols) uint16 ADC values (DN).
     #[getter]
     fn raw<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let f = &self.inner.frames;
         let all: Vec<u16> = f.iter().flat_map(|r| r.dn.iter().copied()).collect();
-        array_u16(py, &all, &[f.len(), f[0].rows, f[0].cols])
+        array(py, &all, &[f.len(), f[0].rows, f[0].cols])
     }
     /// CFA pattern of the raw frames ("RGGB", ...).
     #[getter]
@@ -188,7 +206,7 @@ impl PySimulation {
     #[getter]
     fn noise_free<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.frames[0];
-        self.inner.noise_free_dn.as_ref().map(|v| array_f32(py, v, &[r.rows, r.cols])).transpose()
+        self.inner.noise_free_dn.as_ref().map(|v| array(py, v, &[r.rows, r.cols])).transpose()
     }
     /// sRGB preview, (rows, cols, 3) uint8.
     #[getter]
@@ -317,8 +335,9 @@ fn scene<'py>(py: Python<'py>, scene_json: &str, start_nm: f64, step_nm: f64, co
     spectral_dict(py, &img, "radiance")
 }
 
-/// Stage 1, a 3D scene: a built-in scene or a pbrt-v4 file, path traced -> dict with `radiance`
-/// (and `depth_m`).
+/// Stage 1, a 3D scene: a built-in scene or a pbrt-v4 file, path traced -> dict with `radiance`,
+/// `depth_m`, `object_id` and `material_id` ((rows, cols) uint32: 1 + index of the shape and of
+/// its material met first through each pixel centre, 0 = none) and `ids_legend` (their names).
 #[pyfunction]
 #[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31))]
 #[allow(clippy::too_many_arguments)]
@@ -348,7 +367,12 @@ fn render<'py>(
             camsim::pipeline::render::render_scene(&scene, &|_, _, _| {})
         })
         .map_err(err)?;
-    spectral_dict(py, &out.radiance, "radiance")
+    let d = spectral_dict(py, &out.radiance, "radiance")?;
+    let ids = &out.ids;
+    d.set_item("object_id", array(py, &ids.object_id, &[ids.height, ids.width])?)?;
+    d.set_item("material_id", array(py, &ids.material_id, &[ids.height, ids.width])?)?;
+    d.set_item("ids_legend", json_to_py(py, &serde_json::to_value(ids.legend()).map_err(err)?)?)?;
+    Ok(d)
 }
 
 /// Stage 2: radiance (bands, rows, cols) -> dict with `irradiance`.
@@ -410,7 +434,7 @@ fn sensor<'py>(
     let r0 = &f.raw[0];
     let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
     let d = PyDict::new(py);
-    d.set_item("raw", array_u16(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
+    d.set_item("raw", array(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
     d.set_item("cfa", r0.cfa.name())?;
     d.set_item("black_level", r0.black_level_dn)?;
     d.set_item("white_level", r0.white_level_dn)?;
@@ -431,7 +455,7 @@ fn demosaic<'py>(py: Python<'py>, raw: PyReadonlyArray2<'_, u16>, cfa: &str, bit
     for i in 0..rgb.rows * rgb.cols {
         out.extend_from_slice(&[rgb.r[i], rgb.g[i], rgb.b[i]]);
     }
-    array_f32(py, &out, &[rgb.rows, rgb.cols, 3])
+    array(py, &out, &[rgb.rows, rgb.cols, 3])
 }
 
 fn rect(r: Option<(usize, usize, usize, usize)>) -> Option<Rect> {
@@ -650,7 +674,7 @@ fn dataset_gather(py: Python<'_>, spec: &str, source: &str, base_dir: std::path:
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
     let (r, _) = py.detach(|| camsim::io::dng::read_dng(&path)).map_err(err)?;
     let d = PyDict::new(py);
-    d.set_item("raw", array_u16(py, &r.dn, &[r.rows, r.cols])?)?;
+    d.set_item("raw", array(py, &r.dn, &[r.rows, r.cols])?)?;
     d.set_item("cfa", r.cfa.name())?;
     d.set_item("black_level", r.black_level_dn)?;
     d.set_item("white_level", r.white_level_dn)?;

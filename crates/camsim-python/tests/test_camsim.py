@@ -129,6 +129,12 @@ def test_render_gives_radiance_and_depth():
     z = r["depth_m"]
     assert r["radiance"].min() >= 0 and (z > 0).all() and np.isfinite(z[:, 8:16]).all()
     assert np.isinf(z).any() and (r["radiance"][:, np.isinf(z)] == 0).all()
+    # Segmentation: id 0 exactly where the rays escape (infinite depth); every other id is named.
+    ids, mats, legend = r["object_id"], r["material_id"], r["ids_legend"]
+    assert ids.shape == mats.shape == (16, 24) and ids.dtype == np.uint32
+    assert ((ids == 0) == np.isinf(z)).all() and ((mats == 0) == np.isinf(z)).all()
+    assert {str(i) for i in np.unique(ids) if i} == set(legend["objects"])
+    assert {str(i) for i in np.unique(mats) if i} == set(legend["materials"])
 
 
 def test_sfr_of_a_simulated_slanted_edge():

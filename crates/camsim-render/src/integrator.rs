@@ -637,12 +637,13 @@ impl Tracer {
         l
     }
 
-    /// Distance along the camera's forward axis to the first surface, or infinity.
-    pub(crate) fn depth_along(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> f32 {
+    /// Distance along the camera's forward axis to the first surface (or infinity) and 1 + the
+    /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes).
+    pub(crate) fn first_surface(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> (f32, u32) {
         counts.camera += 1;
         match self.intersect(r) {
-            Some(h) => h.t * r.d.dot(forward),
-            None => f32::INFINITY,
+            Some(h) => (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1),
+            None => (f32::INFINITY, 0),
         }
     }
 }

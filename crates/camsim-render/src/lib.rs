@@ -21,6 +21,7 @@ pub mod bvh;
 pub mod camera;
 pub mod envmap;
 pub mod geometry;
+pub mod ids;
 mod integrator;
 mod lights;
 mod materials;
@@ -38,6 +39,7 @@ pub mod overlay;
 pub mod uplift;
 
 pub use camera::{camera_from_focal_length, look_at_camera_to_world, pbrt_look_at};
+pub use ids::IdMaps;
 pub use render::{render, RenderError, RenderOutput, RenderStats};
 pub use sampler::SamplerKind;
 pub use scene::*;

@@ -90,6 +90,8 @@ pub struct RenderOutput {
     pub variance: Vec<f32>,
     /// Samples taken per pixel (the same for every pixel).
     pub samples_per_pixel: Vec<u32>,
+    /// Object and material ids of the first surface through each pixel centre (the depth ray).
+    pub ids: crate::ids::IdMaps,
     /// Ray counts and speed.
     pub stats: RenderStats,
 }
@@ -194,9 +196,9 @@ pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) ->
     let (width, height) = (scene.camera.width, scene.camera.height);
     let bands = st.grid.len();
     let pixels = width * height;
-    // Output image + depth + variance accumulators (2 x f64) + sample counts.
+    // Output image + depth + variance accumulators (2 x f64) + variance + sample counts + ids.
     camsim_core::mem::check_alloc(
-        pixels as u64 * (bands as u64 * 4 + 4 + 16 + 4 + 4),
+        pixels as u64 * (bands as u64 * 4 + 4 + 16 + 4 + 4 + 8),
         &format!("a {width} x {height} render with {bands} bands"),
     )?;
     let ws = WavelengthSampler::new(&st.grid);
@@ -230,6 +232,7 @@ fn run<const N: usize>(
     let mut radiance = SpectralImage::zeros(height, width, st.grid, spacing_m, Quantity::Radiance)?;
     radiance.geometry = ImageGeometry { fov_deg: hfov_deg, distance_m: distance_m.unwrap_or(0.0), ..Default::default() };
     let mut depth = vec![f32::INFINITY; pixels];
+    let mut object_id = vec![0u32; pixels];
     let mut lum = vec![[0f64; 2]; pixels];
 
     let tiles_x = width.div_ceil(TILE);
@@ -249,6 +252,7 @@ fn run<const N: usize>(
     let ctx = TraceCtx { tracer, rig, ws, splat, lum_w: &lum_w };
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
+    let id_ptr = SharedMut(object_id.as_mut_ptr());
     let lum_ptr = SharedMut(lum.as_mut_ptr());
     let mut counts_total = RayCounts::default();
     let mut samples_done = 0u32;
@@ -276,9 +280,12 @@ fn run<const N: usize>(
                         let local = (y - y0) * tw + (x - x0);
                         if pass == 0 {
                             let r = rig.ray(x as f32 + 0.5, y as f32 + 0.5);
-                            let d = tracer.depth_along(&r, rig.forward, &mut c);
+                            let (d, id) = tracer.first_surface(&r, rig.forward, &mut c);
                             // SAFETY: pixel `pix` belongs to this tile only.
-                            unsafe { *depth_ptr.ptr().add(pix) = d };
+                            unsafe {
+                                *depth_ptr.ptr().add(pix) = d;
+                                *id_ptr.ptr().add(pix) = id;
+                            }
                         }
                         let px = PixelJob { x, y, first: s0 as u64, count: k, local, tile_px };
                         let (ls, ls2) = match st.sampler {
@@ -345,5 +352,6 @@ fn run<const N: usize>(
         samples_per_second: pixels as f64 * n / seconds,
         rays_per_second: rays as f64 / seconds,
     };
-    Ok(RenderOutput { radiance, depth_m: depth, variance, samples_per_pixel: vec![samples_done; pixels], stats })
+    let ids = crate::ids::IdMaps::from_object_ids(scene, width, height, object_id);
+    Ok(RenderOutput { radiance, depth_m: depth, variance, samples_per_pixel: vec![samples_done; pixels], ids, stats })
 }

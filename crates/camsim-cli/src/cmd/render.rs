@@ -13,8 +13,9 @@ use std::path::PathBuf;
 /// Input: a pbrt-v4 scene file (the subset described in README.md) or a built-in scene
 /// (cornell-box, cornell-box-mcc, slanted-edge). An overlay TOML moves or replaces objects and
 /// sets reflectances and the light's spectrum, as ISET3d does. Writes radiance.exr (spectral
-/// OpenEXR with the depth as channel Z), depth.exr (m), variance.exr, preview.png (sRGB) and
-/// render.json (settings, the samples per pixel actually taken, and ray statistics) in --out.
+/// OpenEXR with the depth as channel Z), depth.exr (m), variance.exr, preview.png (sRGB),
+/// object_id.png and material_id.png (16-bit: 1 + index of the shape and of its material met
+/// first through each pixel centre, 0 = none) with their legend ids.json, and render.json (settings, the samples per pixel actually taken, and ray statistics) in --out.
 ///
 /// Command-line options win over the scene file and the overlay: an explicit --resolution, --spp
 /// or --max-depth replaces what the pbrt file or the overlay says.
@@ -134,6 +135,7 @@ pub fn run(a: Args) -> Result<()> {
     camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &r.radiance, "render")?;
     camsim_io::exr::write_gray_exr(&out.join("depth.exr"), rows, cols, "Z", &r.depth_m)?;
     camsim_io::exr::write_gray_exr(&out.join("variance.exr"), rows, cols, "Y", &r.variance)?;
+    camsim_pipeline::write_id_maps(&out, &r.ids)?;
     let srgb = camsim_isp::preview::radiance_srgb8(&r.radiance);
     camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rows, cols, &srgb)?;
     let info = serde_json::json!({

@@ -105,7 +105,9 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
            wavelengths_nm: Optional[Sequence[float]] = None) -> Dict[str, Any]:
     """Stage 1, a 3D scene: path-trace a built-in scene ("cornell-box", "cornell-box-mcc",
     "slanted-edge") or a pbrt-v4 file. resolution = (width, height). Returns a dict like scene()'s,
-    with depth_m (rows, cols) float32 m."""
+    with depth_m (rows, cols) float32 m, and segmentation: object_id and material_id (rows, cols)
+    uint32 (1 + index of the shape and of its material met first through each pixel centre, 0 =
+    none) with ids_legend {"objects": {"1": name, ...}, "materials": {...}}."""
     start, step, count = _grid(wavelengths_nm)
     return _camsim.render(builtin, None if pbrt is None else os.fspath(pbrt), resolution, samples_per_pixel, seed, start, step, count)
 
