@@ -4,7 +4,7 @@
 
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
-use crate::geometry::{Prim, Ray, RayInv};
+use crate::geometry::{Prim, Ray, RayInv, SphereClip};
 use crate::lights::{LightKind, LightSample, Lights};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
@@ -112,6 +112,8 @@ pub(crate) struct Tracer {
     pub shape_flip: Vec<bool>,
     /// Some material is (or mixes in) `interface`: shadow rays must pass through those surfaces.
     pub has_interface: bool,
+    /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
+    pub has_alpha: bool,
 }
 
 /// Surface data at a hit.
@@ -141,7 +143,7 @@ impl Tracer {
         for s in &scene.shapes {
             n_prims += match &s.geometry {
                 Geometry::Triangles { indices, .. } => indices.len() as u64,
-                Geometry::Sphere { .. } => 1,
+                Geometry::Sphere { .. } | Geometry::PartialSphere { .. } => 1,
             };
         }
         // Prim (44 B) + info (16 B) + normal (12 B) + bounds/centroid/index during the build (40 B) + binary nodes
@@ -156,6 +158,7 @@ impl Tracer {
         let mut meshes: Vec<Option<MeshShading>> = Vec::with_capacity(scene.shapes.len());
         let mut lights = Lights::default();
         let mut scene_bounds = crate::geometry::Aabb::EMPTY;
+        let mut clips: Vec<SphereClip> = Vec::new();
 
         for (si, s) in scene.shapes.iter().enumerate() {
             let shape_err = |message: String| RenderError::Shape { index: si, name: s.name.clone().unwrap_or_default(), message };
@@ -249,6 +252,39 @@ impl Tracer {
                     info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
                     meshes.push(None);
                 }
+                Geometry::PartialSphere { center, radius, axes, z_min, z_max, phi_max_deg } => {
+                    let axes_ok = axes.iter().all(|a| a.iter().all(|v| v.is_finite()) && ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() - 1.0).abs() < 1e-3);
+                    if !(center.iter().all(|v| v.is_finite()) && *radius > 0.0 && radius.is_finite() && axes_ok) {
+                        return Err(shape_err(format!("partial sphere at {center:?} with radius {radius} m and axes {axes:?} is invalid")));
+                    }
+                    if !(*z_min >= -radius && z_max <= radius && z_min < z_max && *phi_max_deg > 0.0 && *phi_max_deg <= 360.0) {
+                        return Err(shape_err(format!(
+                            "partial sphere z range [{z_min}, {z_max}] m (radius {radius} m) or phi_max {phi_max_deg} deg is invalid"
+                        )));
+                    }
+                    let c = V3::from_f64(*center);
+                    let r = *radius as f32;
+                    let clip = SphereClip {
+                        ex: V3::from_f64(axes[0]).normalize(),
+                        ey: V3::from_f64(axes[1]).normalize(),
+                        ez: V3::from_f64(axes[2]).normalize(),
+                        z_min: *z_min as f32,
+                        z_max: *z_max as f32,
+                        phi_max: phi_max_deg.to_radians() as f32,
+                    };
+                    scene_bounds.grow_point(c - V3::splat(r));
+                    scene_bounds.grow_point(c + V3::splat(r));
+                    let mut light = NO_LIGHT;
+                    if let Some((table, two_sided)) = le_table {
+                        // pbrt-v4 Sphere::Area: phi_max r (z_max - z_min).
+                        let area = clip.phi_max * r * (clip.z_max - clip.z_min);
+                        light = lights.push(LightKind::SphereZone { center: c, radius: r, clip, area, inward: s.reverse_orientation }, table, two_sided);
+                    }
+                    prims.push(Prim::PartialSphere { center: c, radius: r, clip: clips.len() as u32 });
+                    clips.push(clip);
+                    info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
+                    meshes.push(None);
+                }
             }
         }
         for (li, l) in scene.lights.iter().enumerate() {
@@ -264,19 +300,21 @@ impl Tracer {
         let scene_radius = if prims.is_empty() { 1.0 } else { ((scene_bounds.max - scene_bounds.min) * 0.5).length().max(1e-3) };
         lights.finish(&tables, scene_radius);
 
-        let bvh = Bvh::build(prims);
+        let mut bvh = Bvh::build(prims);
+        bvh.clips = clips;
         let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
         let tri_normals: Vec<V3> = bvh
             .prims
             .iter()
             .map(|p| match *p {
                 Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
-                Prim::Sphere { .. } => V3::splat(0.0),
+                Prim::Sphere { .. } | Prim::PartialSphere { .. } => V3::splat(0.0),
             })
             .collect();
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
         let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
         let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
+        let has_alpha = materials.iter().any(|m| matches!(m, Mat::AlphaMasked { .. }));
         let rr_depth = scene.settings.russian_roulette_depth.max(1);
         Ok(Tracer {
             bvh,
@@ -292,6 +330,7 @@ impl Tracer {
             offset_scale: 3e-5,
             shape_flip,
             has_interface,
+            has_alpha,
         })
     }
 
@@ -338,6 +377,19 @@ impl Tracer {
                 let phi = n.y.atan2(n.x);
                 let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
                 let uv = [phi / (2.0 * std::f32::consts::PI), n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
+                SurfaceHit { p, ng: n, ns: n, uv }
+            }
+            Prim::PartialSphere { center, radius, clip } => {
+                let c = &self.bvh.clips[clip as usize];
+                let n = (r.o + r.d * h.t - center).normalize();
+                let p = center + n * radius;
+                // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame:
+                // u = phi / phi_max, v = (theta - theta_zmin) / (theta_zmax - theta_zmin).
+                let l = c.local(n * radius);
+                let theta = (l.z / radius).clamp(-1.0, 1.0).acos();
+                let th0 = (c.z_min / radius).clamp(-1.0, 1.0).acos();
+                let th1 = (c.z_max / radius).clamp(-1.0, 1.0).acos();
+                let uv = [SphereClip::phi(l) / c.phi_max, (theta - th0) / (th1 - th0)];
                 SurfaceHit { p, ng: n, ns: n, uv }
             }
         }
@@ -448,7 +500,7 @@ impl Tracer {
     /// path rays through.
     #[inline]
     fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
-        if !self.has_interface {
+        if !self.has_interface && !self.has_alpha {
             return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
         }
         let (mut o, mut t_left) = (o, t_max);
@@ -457,8 +509,8 @@ impl Tracer {
             let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
             let sh = self.surface(&r, &h);
             let pi = self.info[h.slot as usize];
-            let m = self.resolve_material(pi.material, sh.p, -d);
-            if !matches!(self.materials[m as usize], Mat::Interface) {
+            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, o, d);
+            if keep && !matches!(self.materials[self.resolve_material(pi.material, sh.p, -d) as usize], Mat::Interface) {
                 return true;
             }
             let next = self.offset(sh.p, sh.ng.face_forward(d));
@@ -510,6 +562,17 @@ impl Tracer {
             };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
+            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+                // Alpha test failed: the hit is ignored and the ray goes on from the far side
+                // (pbrt-v4 `GeometricPrimitive::Intersect` re-intersects a spawned ray), no bounce.
+                skips += 1;
+                if skips > MAX_INTERFACE_SKIPS {
+                    break;
+                }
+                ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+                counts.bounce += 1;
+                continue;
+            }
             let wo = -ray.d;
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
@@ -640,9 +703,23 @@ impl Tracer {
     /// Distance along the camera's forward axis to the first surface, or infinity.
     pub(crate) fn depth_along(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> f32 {
         counts.camera += 1;
-        match self.intersect(r) {
-            Some(h) => h.t * r.d.dot(forward),
-            None => f32::INFINITY,
+        if !self.has_alpha {
+            return match self.intersect(r) {
+                Some(h) => h.t * r.d.dot(forward),
+                None => f32::INFINITY,
+            };
         }
+        // Surfaces cut out by alpha are skipped as the path skips them.
+        let mut ray = *r;
+        for _ in 0..MAX_INTERFACE_SKIPS {
+            let Some(h) = self.intersect(&ray) else { return f32::INFINITY };
+            let sh = self.surface(&ray, &h);
+            let pi = self.info[h.slot as usize];
+            if self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+                return (sh.p - r.o).dot(forward);
+            }
+            ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+        }
+        f32::INFINITY
     }
 }

@@ -20,6 +20,9 @@ pub(crate) enum LightKind {
     Tri { p0: V3, e1: V3, e2: V3, n: V3, area: f32 },
     /// Sphere; one-sided spheres emit outward, or inward when `inward` (ReverseOrientation).
     Sphere { center: V3, radius: f32, inward: bool },
+    /// Partial sphere (pbrt-v4 `sphere` with `zmin`/`zmax`/`phimax`): sampled uniformly by
+    /// area (a zone's area is uniform in z, Archimedes' hat-box theorem); `area` in m^2.
+    SphereZone { center: V3, radius: f32, clip: crate::geometry::SphereClip, area: f32, inward: bool },
     /// Uniform radiance from every direction.
     Infinite,
     /// Environment map: index into `Lights::envs`.
@@ -116,6 +119,7 @@ impl Lights {
                 match l.kind {
                     LightKind::Tri { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Sphere { radius, .. } => p * sides * 4.0 * p * (radius as f64).powi(2) * lmean,
+                    LightKind::SphereZone { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Infinite => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean,
                     // pbrt-v4 ImageInfiniteLight::Phi: 4 pi pi r^2 times the mean radiance.
                     LightKind::Env(e) => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean * self.envs[e as usize].mean_scale,
@@ -167,7 +171,7 @@ impl Lights {
         }
         match light.kind {
             LightKind::Tri { n, .. } => n.dot(w) > 0.0,
-            LightKind::Sphere { center, inward, .. } => {
+            LightKind::Sphere { center, inward, .. } | LightKind::SphereZone { center, inward, .. } => {
                 let out = (p - center).dot(w) > 0.0;
                 let _ = ng;
                 out != inward
@@ -200,6 +204,13 @@ impl Lights {
                     light.pmf * dist2 / (cos * 4.0 * PI * radius * radius)
                 }
             },
+            LightKind::SphereZone { area, .. } => {
+                let cos = (ng.dot(d)).abs() / dist2.sqrt();
+                if cos <= 0.0 {
+                    return 0.0;
+                }
+                light.pmf * dist2 / (cos * area)
+            }
             LightKind::Infinite => light.pmf * UNIFORM_SPHERE_PDF,
             LightKind::Env(e) => light.pmf * self.envs[e as usize].pdf_dir(d / dist2.sqrt()),
             _ => 0.0,
@@ -343,6 +354,29 @@ impl Lights {
                 }
                 (wi, dist, q, n, pdf)
             }
+            LightKind::SphereZone { center, radius, clip, area, inward } => {
+                // Uniform by area: z uniform in [z_min, z_max] (Archimedes), phi in [0, phi_max].
+                let z = clip.z_min + u0 * (clip.z_max - clip.z_min);
+                let rho = (radius * radius - z * z).max(0.0).sqrt();
+                let (s, c) = (u1 * clip.phi_max).sin_cos();
+                let n = (clip.ex * (rho * c) + clip.ey * (rho * s) + clip.ez * z) / radius;
+                let q = center + n * radius;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && dist.is_finite()) {
+                    return None;
+                }
+                let wi = d / dist;
+                if !light.two_sided && ((n.dot(-wi) > 0.0) == inward) {
+                    return None;
+                }
+                let cos_l = n.dot(wi).abs();
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                (wi, dist, q, n, dist2 / (cos_l * area))
+            }
             LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
             LightKind::Env(e) => {
                 let env = &self.envs[e as usize];
@@ -408,12 +442,17 @@ mod tests {
         lights.push(LightKind::Sphere { center: V3::new(2.0, 0.5, 0.0), radius: 0.4, inward: false }, 0, true);
         lights.push(LightKind::Sphere { center: V3::new(0.0, 0.0, 0.0), radius: 5.0, inward: true }, 0, false);
         lights.push(LightKind::Infinite, 0, true);
+        // A quarter of a dome (z in [0.1, 0.6] of radius 0.7, phi in [0, 90 deg]), tilted frame.
+        let (ex, ey) = (V3::new(0.6, 0.8, 0.0), V3::new(0.0, 0.0, 1.0));
+        let clip = crate::geometry::SphereClip { ex, ey, ez: ex.cross(ey), z_min: 0.1, z_max: 0.6, phi_max: 0.5 * PI };
+        let area = clip.phi_max * 0.7 * (clip.z_max - clip.z_min);
+        lights.push(LightKind::SphereZone { center: V3::new(-1.5, 0.4, 0.3), radius: 0.7, clip, area, inward: false }, 0, false);
         lights.finish(&tables, 5.0);
         let total: f32 = lights.list.iter().map(|l| l.pmf).sum();
         assert!((total - 1.0).abs() < 1e-6);
         let mut rng = camsim_core::rng::seeded(4);
         let p = V3::new(0.1, -0.3, 0.2);
-        let mut seen = [0usize; 4];
+        let mut seen = [0usize; 5];
         for _ in 0..50_000 {
             let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
             let k = lights.pick(us);
@@ -429,6 +468,10 @@ mod tests {
             let ng = match light.kind {
                 LightKind::Tri { n, .. } => n,
                 LightKind::Sphere { center, .. } => (q - center).normalize(),
+                LightKind::SphereZone { center, radius, clip, .. } => {
+                    assert!(clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4, "{q:?} off the zone");
+                    (q - center).normalize()
+                }
                 _ => unreachable!(),
             };
             assert!(lights.emits_toward(light, q, ng, -s.wi), "sample from the back of a one-sided light");

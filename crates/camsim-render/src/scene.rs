@@ -170,6 +170,20 @@ pub enum Material {
     Mix { materials: [usize; 2], amount: f64 },
     /// No surface: rays pass straight through (pbrt-v4 `interface`, a boundary of media).
     Interface,
+    /// A shape's `alpha` cut-out (pbrt-v4 4th ed. §7.1.1, `GeometricPrimitive::Intersect`) with
+    /// the shape's own material `material` (index into `SceneDescription::materials`). pbrt-v4
+    /// keeps `alpha` with the shape; camsim's reader gives each alpha-textured shape this
+    /// wrapper as its material. At a hit with `a = alpha(uv)`: `a >= 1` keeps the hit, `a <= 0`
+    /// ignores it (the ray goes on), otherwise the hit is ignored when a deterministic hash of
+    /// the ray's origin and direction, uniform in [0, 1), exceeds `a` (pbrt-v4
+    /// `HashFloat(r.o, r.d)`). The test applies to camera, bounce and shadow rays alike.
+    AlphaMasked { material: usize, alpha: FloatTexture },
+    /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
+    /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
+    /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
+    /// `roughness`, `uroughness`, `vroughness` as float textures evaluated per hit, 4th ed.
+    /// §10.4). `remap` as [`Roughness::remap`]; negative texture values count as 0.
+    VaryingRoughness { material: usize, u: FloatTexture, v: FloatTexture, remap: bool },
 }
 
 /// The optical constants of a conductor.
@@ -220,6 +234,13 @@ pub struct AreaLight {
 pub enum Geometry {
     Triangles { positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>> },
     Sphere { center: [f64; 3], radius: f64 },
+    /// A partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`; 4th ed. §6.2): the
+    /// points of the sphere of `radius` about `center` whose object-frame coordinates have
+    /// `z_min <= z <= z_max` (m, `-radius <= z_min < z_max <= radius`) and azimuth
+    /// `0 <= phi <= phi_max_deg` (from the frame's x axis toward its y axis). `axes` are the
+    /// object frame's x, y, z unit axes in world space (a mirrored frame when the transform
+    /// swaps handedness). The outward normal is flipped by `Shape::reverse_orientation`.
+    PartialSphere { center: [f64; 3], radius: f64, axes: [[f64; 3]; 3], z_min: f64, z_max: f64, phi_max_deg: f64 },
 }
 
 /// One object: geometry, its material (index into `SceneDescription::materials`), and an

@@ -67,6 +67,10 @@ struct PendingShape {
     /// One pbrt shape tessellated into triangles (disk, cylinder): `power` applies to the whole
     /// mesh, not per triangle as for a pbrt triangle mesh.
     single: bool,
+    /// The shape's `alpha` when it varies or is fractional (a constant 1 is `None`, a constant
+    /// 0 drops the shape), keyed by its parameter text so shapes sharing one material and one
+    /// alpha share one [`Material::AlphaMasked`].
+    alpha: Option<(String, FloatTexture)>,
 }
 
 enum Block {
@@ -83,6 +87,8 @@ struct Parser {
     named_coords: HashMap<String, Transform>,
     materials: Vec<Material>,
     named_materials: HashMap<String, usize>,
+    /// Roughness textures read by the material being built (see `parser/materials.rs`).
+    varying: Option<(FloatTexture, FloatTexture, bool)>,
     textures: HashMap<String, Texture>,
     float_textures: HashMap<String, FloatTexture>,
     shapes: Vec<PendingShape>,
@@ -147,6 +153,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         named_coords: HashMap::new(),
         materials: vec![default_material],
         named_materials: HashMap::new(),
+        varying: None,
         textures: HashMap::new(),
         float_textures: HashMap::new(),
         shapes: Vec::new(),
@@ -1045,22 +1052,27 @@ impl Parser {
         let inv =
             inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
         let swaps = det3(&ctm) < 0.0;
-        // Constant alpha: 1 is opaque; 0 cuts the whole shape out (dropped, exactly what
-        // pbrt-v4's alpha test does for every hit); anything else needs per-hit alpha tests.
+        // Alpha (pbrt-v4 4th ed. §7.1.1): a constant 1 is opaque; a constant 0 cuts the whole
+        // shape out (dropped, exactly what pbrt-v4's alpha test does for every hit); a fraction
+        // or a float texture is tested per hit by the tracer (`Material::AlphaMasked`).
         let mut cut_out = false;
+        let mut alpha = None;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let a = if p.ty == "float" {
-                p.nums()?.first().copied()
-            } else {
-                None
-            };
-            match a {
-                Some(1.0) => {}
-                Some(0.0) => cut_out = true,
+            let key = format!("{} {:?}", p.ty, p.strings().ok().or_else(|| p.nums().ok().map(|v| v.iter().map(|x| x.to_string()).collect())));
+            let tex = self.float_texture_param(params, "alpha", 1.0)?;
+            match (p.ty.as_str(), &tex) {
+                (_, FloatTexture::Constant(a)) if *a >= 1.0 => {}
+                ("float", FloatTexture::Constant(a)) if *a <= 0.0 => cut_out = true,
+                (_, FloatTexture::Constant(a)) if !a.is_finite() => {
+                    return Err(p.loc.err(format!("Shape: alpha {a} is not finite")));
+                }
                 _ => {
-                    return Err(p.loc.err(
-                        "Shape: alpha cut-outs are not supported (only constant alpha 0 or 1)",
-                    ))
+                    if self.gs.area_light.is_some() {
+                        return Err(p.loc.err(
+                            "Shape: alpha cut-outs on area lights are not supported (the light's emission would ignore the mask)",
+                        ));
+                    }
+                    alpha = Some((key, tex));
                 }
             }
         }
@@ -1165,21 +1177,33 @@ impl Parser {
                 if !(r > 0.0) {
                     return Err(loc.err(format!("Shape \"sphere\": radius {r} must be positive")));
                 }
-                for (n, def) in [("zmin", -r), ("zmax", r), ("phimax", 360.0)] {
-                    if let Some(v) = params.float_opt(n)? {
-                        if (v - def).abs() > 1e-9 * def.abs().max(1.0)
-                            && !(n == "zmin" && v <= -r)
-                            && !(n == "zmax" && v >= r)
-                        {
-                            return Err(loc.err(format!(
-                                "Shape \"sphere\": partial spheres (\"{n}\") are not supported"
-                            )));
-                        }
-                    }
+                // pbrt-v4 Sphere (4th ed. §6.2): z range clamped to [-r, r], phimax to [0, 360].
+                let (z0, z1) = (params.float("zmin", -r)?, params.float("zmax", r)?);
+                let phi_max_deg = params.float("phimax", 360.0)?;
+                if !(z0.is_finite() && z1.is_finite() && phi_max_deg.is_finite()) {
+                    return Err(loc.err("Shape \"sphere\": zmin, zmax and phimax must be finite"));
                 }
-                Geometry::Sphere {
-                    center: [0.0; 3],
-                    radius: r,
+                let (z_min, z_max) = (z0.min(z1).clamp(-r, r), z0.max(z1).clamp(-r, r));
+                let phi_max_deg = phi_max_deg.clamp(0.0, 360.0);
+                if !(z_max > z_min && phi_max_deg > 0.0) {
+                    return Err(loc.err(format!(
+                        "Shape \"sphere\": zmin {z0}, zmax {z1}, phimax {phi_max_deg} leave no surface"
+                    )));
+                }
+                if z_min <= -r && z_max >= r && phi_max_deg >= 360.0 {
+                    Geometry::Sphere {
+                        center: [0.0; 3],
+                        radius: r,
+                    }
+                } else {
+                    Geometry::PartialSphere {
+                        center: [0.0; 3],
+                        radius: r,
+                        axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                        z_min,
+                        z_max,
+                        phi_max_deg,
+                    }
                 }
             }
             "disk" => crate::shapes::disk(
@@ -1226,6 +1250,18 @@ impl Parser {
         params.check_unused(&format!("Shape \"{ty}\""))?;
         // To world space.
         let (geometry, reverse_orientation) = match geometry {
+            g @ Geometry::PartialSphere { .. } => {
+                let mut s = Shape {
+                    name: None,
+                    geometry: g,
+                    material: 0,
+                    area_light: None,
+                    reverse_orientation: self.gs.reverse_orientation,
+                };
+                xform::transform_shape(&mut s, &ctm)
+                    .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                (s.geometry, s.reverse_orientation)
+            }
             Geometry::Sphere { center, radius } => {
                 let (c, r) = xform::sphere_under(&ctm, center, radius)
                     .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
@@ -1318,6 +1354,7 @@ impl Parser {
             mat: self.gs.material.clone(),
             light: self.gs.area_light.clone(),
             single: matches!(ty, "disk" | "cylinder"),
+            alpha,
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1340,6 +1377,9 @@ impl Parser {
         let mut shapes = Vec::with_capacity(self.shapes.len());
         let mut notes = self.notes;
         let mut errors = self.errors;
+        let mut materials = self.materials;
+        // (base material, alpha parameter text) -> its `AlphaMasked` material.
+        let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
             let material = match &ps.mat {
                 MatRef::Index(i) => *i,
@@ -1356,6 +1396,13 @@ impl Parser {
                         continue;
                     }
                 },
+            };
+            let material = match ps.alpha {
+                None => material,
+                Some((key, alpha)) => *masked.entry((material, key)).or_insert_with(|| {
+                    materials.push(Material::AlphaMasked { material, alpha });
+                    materials.len() - 1
+                }),
             };
             let mut shape = ps.shape;
             shape.material = material;
@@ -1457,7 +1504,7 @@ impl Parser {
                 lens,
             },
             shapes,
-            materials: self.materials,
+            materials,
             named_materials: self.named_materials,
             lights: self.lights,
             settings: self.settings,

@@ -37,17 +37,34 @@ impl Parser {
 
     /// `roughness`, `uroughness`, `vroughness`, `remaproughness` (pbrt-v4: u and v default to
     /// `roughness`, which defaults to 0; remap defaults to true).
-    fn roughness(&self, params: &ParamList, what: &str, loc: &Loc) -> Result<Roughness, PbrtError> {
-        let r = self.float_param(params, "roughness", 0.0, what)?;
-        let u = self.float_param(params, "uroughness", r, what)?;
-        let v = self.float_param(params, "vroughness", r, what)?;
+    /// Any of them may be a float texture (pbrt-v4 evaluates them per hit): then the material's
+    /// own roughness is a placeholder and `self.varying` holds the textures, which
+    /// [`Parser::material`] turns into a [`Material::VaryingRoughness`] around the material.
+    fn roughness(&mut self, params: &ParamList, what: &str, loc: &Loc) -> Result<Roughness, PbrtError> {
+        let r = self.float_texture_param(params, "roughness", 0.0)?;
+        let u = match params.get("uroughness", &["float", "texture"])? {
+            Some(_) => self.float_texture_param(params, "uroughness", 0.0)?,
+            None => r.clone(),
+        };
+        let v = match params.get("vroughness", &["float", "texture"])? {
+            Some(_) => self.float_texture_param(params, "vroughness", 0.0)?,
+            None => r,
+        };
         let remap = params.bool("remaproughness", true)?;
-        for x in [u, v] {
-            if !(x >= 0.0) {
-                return Err(loc.err(format!("{what}: roughness {x} must be >= 0")));
+        match (&u, &v) {
+            (FloatTexture::Constant(u), FloatTexture::Constant(v)) => {
+                for x in [*u, *v] {
+                    if !(x >= 0.0) {
+                        return Err(loc.err(format!("{what}: roughness {x} must be >= 0")));
+                    }
+                }
+                Ok(Roughness { u: *u, v: *v, remap })
+            }
+            _ => {
+                self.varying = Some((u, v, remap));
+                Ok(Roughness::SMOOTH)
             }
         }
-        Ok(Roughness { u, v, remap })
     }
 
     /// An index of refraction: `float eta` or a spectrum (`spectrum eta "glass-BK7"`, inline
@@ -151,6 +168,7 @@ impl Parser {
             }
         }
         params.get("type", &["string"])?;
+        self.varying = None;
         let m = match ty {
             "diffuse" => Material::Diffuse {
                 reflectance: self.spectrum_texture(params, "reflectance", file, 0.5)?,
@@ -287,6 +305,11 @@ impl Parser {
             }
         };
         params.check_unused(&what)?;
+        // Roughness textures: the material as read is the base of a per-hit roughness wrapper.
+        if let Some((u, v, remap)) = self.varying.take() {
+            self.materials.push(m);
+            return Ok(Material::VaryingRoughness { material: self.materials.len() - 1, u, v, remap });
+        }
         Ok(m)
     }
 }
