@@ -170,6 +170,10 @@ impl Tracer {
                 )));
             }
             let le_table = match &s.area_light {
+                Some(_) if matches!(materials[s.material], Mat::AlphaMasked { .. }) => {
+                    // Light sampling would ignore the mask that camera and bounce rays see.
+                    return Err(shape_err("an area light with an alpha cut-out is not supported".into()));
+                }
                 Some(al) => {
                     if let Err(e) = al.radiance.require_non_negative("area light radiance") {
                         return Err(shape_err(e.to_string()));

@@ -219,9 +219,15 @@ impl Tracer {
                 let (ru, rv) = (eval_float(u, ctx).max(0.0), eval_float(v, ctx).max(0.0));
                 // pbrt-v4 TrowbridgeReitzDistribution::RoughnessToAlpha: alpha = sqrt(roughness).
                 let d = if *remap {
-                    TrowbridgeReitz { alpha_x: ru.sqrt(), alpha_y: rv.sqrt() }
+                    TrowbridgeReitz {
+                        alpha_x: ru.sqrt(),
+                        alpha_y: rv.sqrt(),
+                    }
                 } else {
-                    TrowbridgeReitz { alpha_x: ru, alpha_y: rv }
+                    TrowbridgeReitz {
+                        alpha_x: ru,
+                        alpha_y: rv,
+                    }
                 };
                 match &mut bsdf {
                     Bsdf::Conductor { distrib, .. }
@@ -408,7 +414,12 @@ pub(crate) fn compile_material(
             }
         }
         Material::Interface => Mat::Interface,
-        Material::VaryingRoughness { material, u, v, remap } => {
+        Material::VaryingRoughness {
+            material,
+            u,
+            v,
+            remap,
+        } => {
             if *material >= n_materials {
                 return Err(err(format!(
                     "varying roughness refers to material {material} but the scene has {n_materials}"

@@ -23,7 +23,10 @@ fn render_text(text: &str) -> RenderOutput {
 fn mean(out: &RenderOutput) -> f64 {
     let img = &out.radiance;
     let n = (img.bands() * img.pixels()) as f64;
-    (0..img.bands()).map(|b| img.band(b).iter().map(|v| *v as f64).sum::<f64>()).sum::<f64>() / n
+    (0..img.bands())
+        .map(|b| img.band(b).iter().map(|v| *v as f64).sum::<f64>())
+        .sum::<f64>()
+        / n
 }
 
 /// Measure of `{x in [0, b] : floor(x) even}`.
@@ -65,28 +68,55 @@ fn alpha_parameters_become_masked_materials() {
         panic!("{:?}", s.materials[m])
     };
     assert!(matches!(s.materials[*material], Material::Diffuse { .. }));
-    let FloatTexture::Checkerboard { mapping, .. } = alpha else { panic!("{alpha:?}") };
+    let FloatTexture::Checkerboard { mapping, .. } = alpha else {
+        panic!("{alpha:?}")
+    };
     assert_eq!((mapping.uscale, mapping.vscale), (3.3, 4.7));
     // A fraction is a constant mask; 1 is opaque (no mask); 0 drops the shape (noted).
     let s = parse(&blocker("\"float alpha\" 0.25")).unwrap();
     assert!(matches!(&s.materials[s.shapes[1].material],
         Material::AlphaMasked { alpha: FloatTexture::Constant(a), .. } if *a == 0.25));
     let s = parse(&blocker("\"float alpha\" 1")).unwrap();
-    assert!(matches!(s.materials[s.shapes[1].material], Material::Diffuse { .. }));
+    assert!(matches!(
+        s.materials[s.shapes[1].material],
+        Material::Diffuse { .. }
+    ));
     let s = parse(&blocker("\"float alpha\" 0")).unwrap();
     assert_eq!(s.shapes.len(), 1);
-    assert!(s.notes.iter().any(|n| n.contains("alpha 0")), "{:?}", s.notes);
+    assert!(
+        s.notes.iter().any(|n| n.contains("alpha 0")),
+        "{:?}",
+        s.notes
+    );
     // Shapes sharing material and alpha share one mask.
-    let two = format!("{}Shape \"sphere\" \"texture alpha\" \"checks\"\n", blocker("\"texture alpha\" \"checks\""));
+    let two = format!(
+        "{}Shape \"sphere\" \"texture alpha\" \"checks\"\n",
+        blocker("\"texture alpha\" \"checks\"")
+    );
     let s = parse(&two).unwrap();
     assert_eq!(s.shapes[1].material, s.shapes[2].material);
     // Errors name the place: a spectrum texture, an unknown name, alpha on an area light.
     let e = parse(&format!("{ALPHA_HEADER}Texture \"sp\" \"spectrum\" \"constant\" \"rgb value\" [1 1 1]\nShape \"sphere\" \"texture alpha\" \"sp\"\n")).unwrap_err();
-    assert!(e.to_string().contains("breadth.pbrt:") && e.to_string().contains("spectrum texture"), "{e}");
-    let e = parse(&format!("{ALPHA_HEADER}Shape \"sphere\" \"texture alpha\" \"nope\"\n")).unwrap_err();
-    assert!(e.to_string().contains("no float texture named \"nope\""), "{e}");
-    let e = parse(&format!("{ALPHA_HEADER}AreaLightSource \"diffuse\"\nShape \"sphere\" \"float alpha\" 0.5\n")).unwrap_err();
-    assert!(e.to_string().contains("alpha cut-outs on area lights"), "{e}");
+    assert!(
+        e.to_string().contains("breadth.pbrt:") && e.to_string().contains("spectrum texture"),
+        "{e}"
+    );
+    let e = parse(&format!(
+        "{ALPHA_HEADER}Shape \"sphere\" \"texture alpha\" \"nope\"\n"
+    ))
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("no float texture named \"nope\""),
+        "{e}"
+    );
+    let e = parse(&format!(
+        "{ALPHA_HEADER}AreaLightSource \"diffuse\"\nShape \"sphere\" \"float alpha\" 0.5\n"
+    ))
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("alpha cut-outs on area lights"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -111,14 +141,20 @@ fn alpha_zero_is_invisible_one_opaque_and_checks_pass_their_area() {
     let w = (15f64).to_radians().tan(); // half-width of the view at z = 1
     let window = |scale: f64| (scale * (1.0 - w) / 2.0, scale * (1.0 + w) / 2.0);
     let ((sa, sb), (ta, tb)) = (window(3.3), window(4.7));
-    let (es, et) = (even_measure(sb) - even_measure(sa), even_measure(tb) - even_measure(ta));
+    let (es, et) = (
+        even_measure(sb) - even_measure(sa),
+        even_measure(tb) - even_measure(ta),
+    );
     let (os, ot) = ((sb - sa) - es, (tb - ta) - et);
     let opaque = (es * et + os * ot) / ((sb - sa) * (tb - ta));
     let want = 1.0 - opaque;
     let got = mean(&checks) / l_flat;
     eprintln!("alpha checkerboard: transmitted {got:.4}, analytic {want:.4}");
     assert!((got - want).abs() < 0.01, "{got} vs {want}");
-    assert!((want - 0.5).abs() > 0.03, "the window must not give one half by symmetry");
+    assert!(
+        (want - 0.5).abs() > 0.03,
+        "the window must not give one half by symmetry"
+    );
 }
 
 #[test]
@@ -150,7 +186,10 @@ fn fractional_alpha_is_a_stochastic_test_on_camera_and_shadow_rays() {
     let clear = mean(&render_text(&scene("\"float alpha\" 0")));
     let opaque = mean(&render_text(&scene("")));
     let half = mean(&render_text(&scene("\"float alpha\" 0.5")));
-    eprintln!("floor through alpha 0.5: {:.4} of the unblocked light", half / clear);
+    eprintln!(
+        "floor through alpha 0.5: {:.4} of the unblocked light",
+        half / clear
+    );
     assert!(clear > 0.0 && opaque == 0.0, "{clear} {opaque}");
     assert!((half / clear - 0.5).abs() < 0.03, "{}", half / clear);
 }
@@ -167,10 +206,21 @@ fn partial_sphere_parameters_frame_and_area() {
          Shape \"sphere\" \"float radius\" 2 \"float zmin\" -3 \"float zmax\" 5\n",
     )
     .unwrap();
-    let Geometry::PartialSphere { center, radius, axes, z_min, z_max, phi_max_deg } = s.shapes[0].geometry else {
+    let Geometry::PartialSphere {
+        center,
+        radius,
+        axes,
+        z_min,
+        z_max,
+        phi_max_deg,
+    } = s.shapes[0].geometry
+    else {
         panic!("{:?}", s.shapes[0].geometry)
     };
-    assert_eq!((center, radius, z_min, z_max, phi_max_deg), ([1.0, 2.0, 3.0], 1.0, 0.0, 1.0, 90.0));
+    assert_eq!(
+        (center, radius, z_min, z_max, phi_max_deg),
+        ([1.0, 2.0, 3.0], 1.0, 0.0, 1.0, 90.0)
+    );
     // Rotate 90 about x: object x stays, y goes to +z, z to -y.
     let want = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]];
     for k in 0..3 {
@@ -207,14 +257,22 @@ fn hemisphere_is_open_below_and_its_inside_shows_through_the_cut() {
                Sampler \"sobol\" \"integer pixelsamples\" 16\nIntegrator \"path\" \"integer maxdepth\" 1\n";
     let hemi = "Shape \"sphere\" \"float radius\" 1 \"float zmin\" 0";
     let s = parse(&dome(true, hemi, cam)).unwrap();
-    let l = s.shapes[0].area_light.as_ref().unwrap().radiance.eval(550.0);
+    let l = s.shapes[0]
+        .area_light
+        .as_ref()
+        .unwrap()
+        .radiance
+        .eval(550.0);
     // Two-sided: the inside of the dome fills the opening disk, the outside is never seen.
     let two = render_text(&dome(true, hemi, cam));
     let fraction = mean(&two) / l;
     let half = (30f64).to_radians().tan();
     let want = PI * (r / h).powi(2) / (2.0 * half).powi(2);
     eprintln!("dome opening: image fraction {fraction:.4}, analytic {want:.4}");
-    assert!((fraction - want).abs() < 0.01 * want.max(0.1) + 0.004, "{fraction} vs {want}");
+    assert!(
+        (fraction - want).abs() < 0.01 * want.max(0.1) + 0.004,
+        "{fraction} vs {want}"
+    );
     let c = two.radiance.band(1)[16 * 32 + 16] as f64;
     assert!((c - l).abs() < 1e-5 * l, "centre pixel {c} vs L {l}");
     let d = two.depth_m[16 * 32 + 16] as f64;
@@ -222,7 +280,11 @@ fn hemisphere_is_open_below_and_its_inside_shows_through_the_cut() {
     // One-sided (outward): the inside does not emit and the outside is not visible: black.
     assert_eq!(mean(&render_text(&dome(false, hemi, cam))), 0.0);
     // The whole sphere would show its lower outside: pi (r/h)^2-ish, different from above.
-    let full = mean(&render_text(&dome(false, "Shape \"sphere\" \"float radius\" 1", cam))) / l;
+    let full = mean(&render_text(&dome(
+        false,
+        "Shape \"sphere\" \"float radius\" 1",
+        cam,
+    ))) / l;
     assert!(full > want * 1.05, "{full} vs {want}");
 }
 
@@ -244,7 +306,12 @@ fn light_through_the_cut_gives_the_irradiance_of_the_opening() {
                     \"integer indices\" [0 1 2 0 2 3]\n";
     let text = format!("{}{receiver}", dome(true, hemi, cam));
     let s = parse(&text).unwrap();
-    let l = s.shapes[0].area_light.as_ref().unwrap().radiance.eval(550.0);
+    let l = s.shapes[0]
+        .area_light
+        .as_ref()
+        .unwrap()
+        .radiance
+        .eval(550.0);
     let got = mean(&render_text(&text)) / l;
     let want = r * r / (r * r + h * h);
     eprintln!("receiver under the dome: {got:.4} L, analytic {want:.4} L");
@@ -269,7 +336,12 @@ fn roughness_textures_wrap_the_material() {
     )
     .unwrap();
     let base_of = |i: usize| match &s.materials[s.shapes[i].material] {
-        Material::VaryingRoughness { material, u, v, remap } => (&s.materials[*material], u.clone(), v.clone(), *remap),
+        Material::VaryingRoughness {
+            material,
+            u,
+            v,
+            remap,
+        } => (&s.materials[*material], u.clone(), v.clone(), *remap),
         m => panic!("shape {i}: {m:?}"),
     };
     let (m, u, v, remap) = base_of(0);
@@ -282,8 +354,12 @@ fn roughness_textures_wrap_the_material() {
     // A constant stays a plain roughness.
     assert!(matches!(&s.materials[s.shapes[3].material],
         Material::Conductor { roughness, .. } if roughness.u == 0.3 && roughness.v == 0.3));
-    let e = parse("WorldBegin\nMaterial \"conductor\" \"texture roughness\" \"missing\"\n").unwrap_err();
-    assert!(e.to_string().contains("breadth.pbrt:2:") && e.to_string().contains("missing"), "{e}");
+    let e = parse("WorldBegin\nMaterial \"conductor\" \"texture roughness\" \"missing\"\n")
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("breadth.pbrt:2:") && e.to_string().contains("missing"),
+        "{e}"
+    );
 }
 
 /// A metal floor (uv halves: u < 1/2 and u >= 1/2, a checkerboard with uscale 2) mirroring a
@@ -312,18 +388,32 @@ fn checkerboard_roughness_renders_each_half_like_its_constant() {
     let c = render_text(&glossy_floor("\"texture roughness\" \"halves\""));
     let (w, h) = (24usize, 24usize);
     let col = |o: &RenderOutput, x: usize| -> f64 {
-        (0..o.radiance.bands()).map(|k| (0..h).map(|y| o.radiance.band(k)[y * w + x] as f64).sum::<f64>()).sum()
+        (0..o.radiance.bands())
+            .map(|k| {
+                (0..h)
+                    .map(|y| o.radiance.band(k)[y * w + x] as f64)
+                    .sum::<f64>()
+            })
+            .sum()
     };
     // The seam (u = 1/2, world x = 0) runs down the middle columns; which half is on the left
     // depends on the camera's handedness, so both assignments are tried.
-    let cols: Vec<usize> = (0..w).filter(|x| !(w / 2 - 1..=w / 2).contains(x)).collect();
+    let cols: Vec<usize> = (0..w)
+        .filter(|x| !(w / 2 - 1..=w / 2).contains(x))
+        .collect();
     let err = |left: &RenderOutput, right: &RenderOutput| -> f64 {
-        cols.iter().map(|&x| (col(&c, x) - col(if x < w / 2 { left } else { right }, x)).abs()).sum::<f64>()
+        cols.iter()
+            .map(|&x| (col(&c, x) - col(if x < w / 2 { left } else { right }, x)).abs())
+            .sum::<f64>()
     };
     let total: f64 = cols.iter().map(|&x| col(&c, x)).sum();
     let (e1, e2) = (err(&a, &b), err(&b, &a));
     let ab: f64 = cols.iter().map(|&x| (col(&a, x) - col(&b, x)).abs()).sum();
     eprintln!("roughness halves: |C - halves| / C = {:.2e} (other assignment {:.2e}); |A - B| / C = {:.3}", e1.min(e2) / total, e1.max(e2) / total, ab / total);
-    assert!(ab / total > 0.2, "the two roughnesses must look different: {}", ab / total);
+    assert!(
+        ab / total > 0.2,
+        "the two roughnesses must look different: {}",
+        ab / total
+    );
     assert!(e1.min(e2) / total < 1e-3, "{} {}", e1 / total, e2 / total);
 }

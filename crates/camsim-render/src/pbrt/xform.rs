@@ -163,7 +163,14 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
                 shape.reverse_orientation = !shape.reverse_orientation;
             }
         }
-        Geometry::PartialSphere { center, radius, axes, z_min, z_max, .. } => {
+        Geometry::PartialSphere {
+            center,
+            radius,
+            axes,
+            z_min,
+            z_max,
+            ..
+        } => {
             let (c, r) = sphere_under(t, *center, *radius)?;
             let s = r / *radius;
             *center = c;
@@ -202,9 +209,13 @@ pub fn shape_area(g: &Geometry) -> f64 {
             .sum(),
         Geometry::Sphere { radius, .. } => 4.0 * std::f64::consts::PI * radius * radius,
         // pbrt-v4 Sphere::Area (4th ed. §6.2.4): phi_max r (z_max - z_min).
-        Geometry::PartialSphere { radius, z_min, z_max, phi_max_deg, .. } => {
-            phi_max_deg.to_radians() * radius * (z_max - z_min)
-        }
+        Geometry::PartialSphere {
+            radius,
+            z_min,
+            z_max,
+            phi_max_deg,
+            ..
+        } => phi_max_deg.to_radians() * radius * (z_max - z_min),
         #[allow(unreachable_patterns)]
         _ => 0.0,
     }

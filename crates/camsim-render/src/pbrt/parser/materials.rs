@@ -40,7 +40,12 @@ impl Parser {
     /// Any of them may be a float texture (pbrt-v4 evaluates them per hit): then the material's
     /// own roughness is a placeholder and `self.varying` holds the textures, which
     /// [`Parser::material`] turns into a [`Material::VaryingRoughness`] around the material.
-    fn roughness(&mut self, params: &ParamList, what: &str, loc: &Loc) -> Result<Roughness, PbrtError> {
+    fn roughness(
+        &mut self,
+        params: &ParamList,
+        what: &str,
+        loc: &Loc,
+    ) -> Result<Roughness, PbrtError> {
         let r = self.float_texture_param(params, "roughness", 0.0)?;
         let u = match params.get("uroughness", &["float", "texture"])? {
             Some(_) => self.float_texture_param(params, "uroughness", 0.0)?,
@@ -58,7 +63,11 @@ impl Parser {
                         return Err(loc.err(format!("{what}: roughness {x} must be >= 0")));
                     }
                 }
-                Ok(Roughness { u: *u, v: *v, remap })
+                Ok(Roughness {
+                    u: *u,
+                    v: *v,
+                    remap,
+                })
             }
             _ => {
                 self.varying = Some((u, v, remap));
@@ -308,7 +317,12 @@ impl Parser {
         // Roughness textures: the material as read is the base of a per-hit roughness wrapper.
         if let Some((u, v, remap)) = self.varying.take() {
             self.materials.push(m);
-            return Ok(Material::VaryingRoughness { material: self.materials.len() - 1, u, v, remap });
+            return Ok(Material::VaryingRoughness {
+                material: self.materials.len() - 1,
+                u,
+                v,
+                remap,
+            });
         }
         Ok(m)
     }
