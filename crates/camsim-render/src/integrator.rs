@@ -5,7 +5,7 @@
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv, SphereClip};
-use crate::lights::{LightKind, LightSample, Lights};
+use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_IMAGE};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
 use crate::materials::{check_mix_cycles, compile_material, Mat};
@@ -183,6 +183,23 @@ impl Tracer {
                 }
                 None => None,
             };
+            // A textured area light (pbrt-v4 `filename`): its image, for triangle meshes.
+            let mut emit_image = NO_IMAGE;
+            if let Some(im) = s.area_light.as_ref().and_then(|al| al.image.as_ref()) {
+                if !matches!(s.geometry, Geometry::Triangles { .. }) {
+                    return Err(shape_err("an area light image needs a triangle mesh (its uv)".into()));
+                }
+                if im.width == 0 || im.height == 0 || im.rgb.len() != im.width * im.height {
+                    return Err(shape_err(format!("area light image of {} x {} pixels has {} texels", im.width, im.height, im.rgb.len())));
+                }
+                if im.rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err(shape_err("area light image has negative or non-finite texels".into()));
+                }
+                let mean_rgb = im.rgb.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / im.rgb.len() as f64;
+                let tex = ImageTex { width: im.width, height: im.height, rgb: im.rgb.clone(), uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 };
+                lights.images.push(EmitImage { tex, mean_rgb: mean_rgb as f32 });
+                emit_image = (lights.images.len() - 1) as u32;
+            }
             match &s.geometry {
                 Geometry::Triangles { positions, indices, uvs, normals } => {
                     if let Some(i) = positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
@@ -225,6 +242,16 @@ impl Tracer {
                                     n = -n;
                                 }
                                 light = lights.push(LightKind::Tri { p0, e1, e2, n, area }, table, two_sided);
+                                if emit_image != NO_IMAGE {
+                                    // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)),
+                                    // as `surface` interpolates them at a hit.
+                                    let e = &mut lights.list[light as usize];
+                                    e.image = emit_image;
+                                    e.uvs = match uvs {
+                                        Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
+                                        None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+                                    };
+                                }
                             }
                         }
                         prims.push(Prim::Tri { p0, e1, e2 });
@@ -587,7 +614,7 @@ impl Tracer {
                     } else {
                         power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
                     };
-                    let le = self.tables[light.table as usize].eval_path(lambdas);
+                    let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }

@@ -54,6 +54,21 @@ pub(crate) struct LightEntry {
     pub table: u32,
     pub two_sided: bool,
     pub pmf: f32,
+    /// Emission image (index into `Lights::images`) or [`NO_IMAGE`]; then `table` is the
+    /// illuminant per unit RGB and `uvs` the triangle's vertex uvs.
+    pub image: u32,
+    pub uvs: [[f32; 2]; 3],
+}
+
+/// Marks a light without an emission image.
+pub(crate) const NO_IMAGE: u32 = u32::MAX;
+
+/// An area light's emission image (pbrt-v4 `DiffuseAreaLight` `image`) and its mean RGB, which
+/// scales the light's power for light selection.
+#[derive(Debug, Clone)]
+pub(crate) struct EmitImage {
+    pub tex: crate::integrator::ImageTex,
+    pub mean_rgb: f32,
 }
 
 /// All lights and the power distribution used to pick one.
@@ -65,6 +80,8 @@ pub(crate) struct Lights {
     pub infinite: Vec<u32>,
     /// Environment maps (`LightKind::Env`).
     pub envs: Vec<EnvLight>,
+    /// Emission images of textured area lights.
+    pub images: Vec<EmitImage>,
 }
 
 /// A sampled light direction from a reference point.
@@ -95,7 +112,7 @@ impl Lights {
         if matches!(kind, LightKind::Infinite | LightKind::Env(_)) {
             self.infinite.push(self.list.len() as u32);
         }
-        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0 });
+        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0, image: NO_IMAGE, uvs: [[0.0; 2]; 3] });
         (self.list.len() - 1) as u32
     }
 
@@ -113,7 +130,10 @@ impl Lights {
             .list
             .iter()
             .map(|l| {
-                let lmean = tables[l.table as usize].mean();
+                let mut lmean = tables[l.table as usize].mean();
+                if l.image != NO_IMAGE {
+                    lmean *= self.images[l.image as usize].mean_rgb as f64;
+                }
                 let sides = if l.two_sided { 2.0 } else { 1.0 };
                 let p = std::f64::consts::PI;
                 match l.kind {
@@ -307,9 +327,11 @@ impl Lights {
         lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
         let light = &self.list[self.pick(u_sel)];
+        let mut bary = (0f32, 0f32);
         let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
             LightKind::Tri { p0, e1, e2, n, area } => {
                 let (b1, b2) = uniform_triangle(u0, u1);
+                bary = (b1, b2);
                 let q = p0 + e1 * b1 + e2 * b2;
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -416,8 +438,34 @@ impl Lights {
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        let le = tables[light.table as usize].eval_path(lambdas);
+        let le = if light.image == NO_IMAGE {
+            tables[light.table as usize].eval_path(lambdas)
+        } else {
+            let (b1, b2) = bary;
+            let t = &light.uvs;
+            let uv = std::array::from_fn(|k| (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]);
+            self.emitted(light, uv, tables, lambdas)
+        };
         Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false })
+    }
+
+    /// Radiance an area light emits at surface coordinates `uv` (its table alone, or with an
+    /// image: pbrt-v4 `DiffuseAreaLight::L`, the bilinear RGB at `uv` as an illuminant spectrum
+    /// `2 m S(rgb / 2m)(lambda) illuminant(lambda)`, `m` the largest component,
+    /// `RGBIlluminantSpectrum`, with `S` the Jakob & Hanika 2019 uplift, `crate::uplift`).
+    #[inline]
+    pub(crate) fn emitted<const N: usize>(&self, light: &LightEntry, uv: [f32; 2], tables: &[SpectrumTable], lambdas: &Lambdas<N>) -> [f32; N] {
+        let il = tables[light.table as usize].eval_path(lambdas);
+        if light.image == NO_IMAGE {
+            return il;
+        }
+        let rgb = self.images[light.image as usize].tex.lookup(uv).map(|v| v.max(0.0));
+        let m = rgb[0].max(rgb[1]).max(rgb[2]);
+        if !(m > 0.0) {
+            return [0.0; N];
+        }
+        let poly = crate::uplift::rgb_to_coefficients(rgb.map(|v| v / (2.0 * m)));
+        std::array::from_fn(|i| 2.0 * m * poly.eval(lambdas.nm[i] as f64) as f32 * il[i])
     }
 }
 

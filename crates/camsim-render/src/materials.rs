@@ -110,7 +110,7 @@ impl Tracer {
         if a >= 1.0 {
             return true;
         }
-        if !(a > 0.0) {
+        if a <= 0.0 || a.is_nan() {
             return false;
         }
         mix_hash(origin, dir, ALPHA_HASH_TAG, m) <= a

@@ -227,6 +227,20 @@ impl Roughness {
 pub struct AreaLight {
     pub radiance: Spectrum,
     pub two_sided: bool,
+    /// pbrt-v4 `DiffuseAreaLight` with `filename`: the emission varies over the surface as this
+    /// image, looked up by the shape's uv (bilinear, repeat, row 0 at v = 1), each RGB value an
+    /// illuminant spectrum `2 m S(rgb / 2m)(lambda) radiance(lambda)` (`m` the largest
+    /// component; pbrt-v4 `RGBIlluminantSpectrum`): `radiance` is then the colour space's
+    /// illuminant with every scale applied, W/(sr m^2 nm) per unit RGB. Triangle meshes only.
+    pub image: Option<std::sync::Arc<EmissionImage>>,
+}
+
+/// A linear RGB emission image (non-negative), row-major, row 0 at the top (v = 1).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmissionImage {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
 }
 
 /// Geometry in world space, metres.

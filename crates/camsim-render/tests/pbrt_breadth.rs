@@ -417,3 +417,151 @@ fn checkerboard_roughness_renders_each_half_like_its_constant() {
     );
     assert!(e1.min(e2) / total < 1e-3, "{} {}", e1 / total, e2 / total);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Textured area lights
+
+/// A 2 x 2 grey PFM (linear): top row `top`, bottom row `bottom`; returns its path.
+fn grey_pfm(dir: &std::path::Path, top: [f32; 2], bottom: [f32; 2]) -> String {
+    // PFM: "PF", size, negative scale = little endian, rows stored bottom to top.
+    let mut bytes = b"PF\n2 2\n-1.0\n".to_vec();
+    for row in [bottom, top] {
+        for v in row {
+            for _ in 0..3 {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    let path = dir.join("emit.pfm");
+    std::fs::write(&path, bytes).unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+fn emitter_quad(file: &str, extra: &str) -> String {
+    format!(
+        "LookAt 0 0 1  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 90\n\
+         Film \"rgb\" \"integer xresolution\" 2 \"integer yresolution\" 2\n\
+         Sampler \"sobol\" \"integer pixelsamples\" 256\nIntegrator \"path\" \"integer maxdepth\" 1\n\
+         WorldBegin\nAreaLightSource \"diffuse\" \"string filename\" \"{file}\" {extra}\n\
+         Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
+         Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] \"integer indices\" [0 1 2 0 2 3] \
+         \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
+    )
+}
+
+#[test]
+fn image_area_light_power_and_radiance_follow_the_texels() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c, d) = (0.2f64, 0.4, 0.6, 0.8);
+    let file = grey_pfm(dir.path(), [a as f32, b as f32], [c as f32, d as f32]);
+    // power: pbrt-v4 k_e = mean Y(rgb) * sides * area * pi, per pbrt shape (each triangle of a
+    // mesh, 2 m^2 here): L_v per unit RGB = P / (pi A mean_Y).
+    let s = parse(&emitter_quad(&file, "\"float power\" 50")).unwrap();
+    assert_eq!(s.shapes.len(), 2, "power on a mesh: one light per triangle");
+    let mean_y = (a + b + c + d) / 4.0;
+    for sh in &s.shapes {
+        let l = sh.area_light.as_ref().unwrap();
+        let im = l.image.as_ref().unwrap();
+        assert_eq!(
+            (im.width, im.height, im.rgb[0][0], im.rgb[3][2]),
+            (2, 2, a as f32, d as f32)
+        );
+        let lv = LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&l.radiance);
+        let want = 50.0 / (PI * 2.0 * mean_y);
+        assert!((lv - want).abs() < 1e-6 * want, "{lv} vs {want}"); // texels are f32
+    }
+    // Errors: L and filename together; a sphere cannot carry an image (no mesh uv).
+    let e = parse(&emitter_quad(&file, "\"rgb L\" [1 1 1]")).unwrap_err();
+    assert!(
+        e.to_string().contains("either \"L\" or \"filename\""),
+        "{e}"
+    );
+    let mut sph =
+        parse(&emitter_quad(&file, "").replace("Shape \"trianglemesh\"", "Shape \"sphere\" #"))
+            .unwrap();
+    sph.settings.samples_per_pixel = 1;
+    assert!(render(&sph, &|_, _| {})
+        .unwrap_err()
+        .to_string()
+        .contains("triangle mesh"));
+
+    // Seen face-on, each of the 2 x 2 pixels covers one texel's uv square: the bilinear
+    // texture (repeat wrap) averaged over it is 9/16 the texel, 3/16 each neighbour along u
+    // and v and 1/16 the diagonal one. Grey texels are flat spectra times the illuminant.
+    let text = emitter_quad(&file, "");
+    let mut s = parse(&text).unwrap();
+    s.settings.grid = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
+    let illum = s.shapes[0].area_light.as_ref().unwrap().radiance.clone();
+    let out = render(&s, &|_, _| {}).unwrap();
+    // Band averages of the illuminant, by dense quadrature, then their mean over the bands.
+    let nb = out.radiance.bands();
+    let band_mean = (0..nb)
+        .map(|k| {
+            (0..100)
+                .map(|j| illum.eval(400.0 + 10.0 * k as f64 + 0.1 * (j as f64 + 0.5)))
+                .sum::<f64>()
+                / 100.0
+        })
+        .sum::<f64>()
+        / nb as f64;
+    let eff =
+        |v: f64, h: f64, w: f64, diag: f64| 9.0 / 16.0 * v + 3.0 / 16.0 * (h + w) + diag / 16.0;
+    let mut want = [
+        eff(a, b, c, d),
+        eff(b, a, d, c),
+        eff(c, d, a, b),
+        eff(d, c, b, a),
+    ];
+    let mut got: Vec<f64> = (0..4)
+        .map(|p| {
+            (0..nb).map(|k| out.radiance.band(k)[p] as f64).sum::<f64>() / nb as f64 / band_mean
+        })
+        .collect();
+    want.sort_by(f64::total_cmp);
+    got.sort_by(f64::total_cmp);
+    eprintln!("image area light pixels / illuminant: {got:.4?}, analytic {want:.4?}");
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs() < 0.015 * w, "{got:?} vs {want:?}");
+    }
+}
+
+#[test]
+fn image_area_light_lights_a_receiver_with_the_texel_under_it() {
+    // A transmitting receiver (r = 0, t = 1) 1 cm above the centre of the top-right texel
+    // (uv (0.75, 0.75), value b): nearly its whole cosine-weighted hemisphere sees the light
+    // within a few cm, where the bilinear emission averages to the texel value, so its radiance
+    // seen from above is E / pi = L(b) (next-event estimation at the light's sampled uv, and
+    // BSDF samples hitting the light, combined by MIS). The other texels differ by >= 50 %.
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, c, d) = (0.2f64, 0.4, 0.6, 0.8);
+    let file = grey_pfm(dir.path(), [a as f32, b as f32], [c as f32, d as f32]);
+    let text = format!(
+        "LookAt 0.5 0.5 1  0.5 0.5 0  0 1 0\nCamera \"perspective\" \"float fov\" 2\n\
+         Film \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\n\
+         Sampler \"sobol\" \"integer pixelsamples\" 256\nIntegrator \"path\" \"integer maxdepth\" 1\n\
+         WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"string filename\" \"{file}\"\n\
+         Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
+         Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] \"integer indices\" [0 1 2 0 2 3] \
+         \"point2 uv\" [0 0 1 0 1 1 0 1]\nAttributeEnd\n\
+         Material \"diffusetransmission\" \"spectrum reflectance\" [300 0 900 0] \"spectrum transmittance\" [300 1 900 1]\n\
+         Shape \"trianglemesh\" \"point3 P\" [0.47 0.47 0.01  0.53 0.47 0.01  0.53 0.53 0.01  0.47 0.53 0.01] \
+         \"integer indices\" [0 1 2 0 2 3]\n"
+    );
+    let mut s = parse(&text).unwrap();
+    s.settings.grid = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
+    let illum = s.shapes[0].area_light.as_ref().unwrap().radiance.clone();
+    let out = render(&s, &|_, _| {}).unwrap();
+    let nb = out.radiance.bands();
+    let band_mean = (0..nb)
+        .map(|k| {
+            (0..100)
+                .map(|j| illum.eval(400.0 + 10.0 * k as f64 + 0.1 * (j as f64 + 0.5)))
+                .sum::<f64>()
+                / 100.0
+        })
+        .sum::<f64>()
+        / nb as f64;
+    let got = mean(&out) / band_mean;
+    eprintln!("receiver over texel b = {b}: {got:.4}");
+    assert!((got - b).abs() < 0.03 * b, "{got} vs {b}");
+}

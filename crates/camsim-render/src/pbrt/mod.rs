@@ -60,7 +60,10 @@
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`); texture-valued parameters take a value or a
 //!   texture name (the renderer's `texture` module compiles and evaluates them),
-//!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`),
+//!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
+//!   `encoding`: an RGB image over a triangle mesh's uv, each value an illuminant spectrum as
+//!   pbrt-v4's `RGBIlluminantSpectrum`, `power` divided by the image's mean luminance as
+//!   pbrt-v4 does; see [`crate::scene::AreaLight::image`]),
 //!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
 //!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
@@ -123,7 +126,7 @@
 //! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
 //! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
 //! `alpha` on area lights;
-//! `goniometric` and `projection` lights, area-light images (`filename`), infinite-light
+//! `goniometric` and `projection` lights, area-light images on spheres, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a
 //! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`

@@ -11,7 +11,7 @@ use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::sampler::SamplerKind;
 use crate::scene::{
-    AreaLight, Camera, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
+    AreaLight, Camera, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
     Shape, Texture, Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
@@ -41,6 +41,9 @@ struct AreaLightSpec {
     scale: f64,
     two_sided: bool,
     power: Option<f64>,
+    /// `filename`: the emission image and its mean luminance `Y(rgb)` (Rec. 709 weights, the
+    /// sRGB colour space's luminance vector), pbrt-v4's `k_e` factor for `power`.
+    image: Option<(std::sync::Arc<EmissionImage>, f64)>,
 }
 
 #[derive(Debug, Clone)]
@@ -676,11 +679,35 @@ impl Parser {
                             "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
                         )));
                     }
-                    if params.get("filename", &["string"])?.is_some() {
-                        return Err(loc.err("AreaLightSource \"diffuse\": image emission (\"filename\") is not supported"));
-                    }
                     let spectrum =
                         self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                    // pbrt-v4 DiffuseAreaLight::Create: `filename` (exclusive with `L`) gives an
+                    // RGB image over the shape's uv, its values illuminant spectra of the colour
+                    // space; scale /= SpectrumToPhotometric(colour space illuminant).
+                    let image = match params.string("filename")? {
+                        None => None,
+                        Some(fname) => {
+                            if spectrum.is_some() {
+                                return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
+                            }
+                            let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+                            let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+                            let encoding = parse_encoding(&enc).ok_or_else(|| {
+                                loc.err(format!("AreaLightSource \"diffuse\": unknown encoding \"{enc}\""))
+                            })?;
+                            let path = self.resolve(file, &fname);
+                            let (width, height, rgb) = load_image(&path, encoding)
+                                .map_err(|e| loc.err(format!("AreaLightSource \"diffuse\": {e}")))?;
+                            if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                                return Err(loc.err(format!(
+                                    "AreaLightSource \"diffuse\": {fname} is empty or has negative or non-finite texels"
+                                )));
+                            }
+                            let mean_y = rgb.iter().map(|c| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64).sum::<f64>()
+                                / rgb.len() as f64;
+                            Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
+                        }
+                    };
                     let spectrum = match spectrum {
                         Some(s) => s,
                         None => default_illuminant(),
@@ -694,6 +721,7 @@ impl Parser {
                         scale,
                         two_sided,
                         power,
+                        image,
                     });
                 }
                 "LightSource" => {
@@ -1412,7 +1440,10 @@ impl Parser {
                     // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
                     // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
                     let base = l.scale / l.spectrum.photometric;
-                    let sides = if l.two_sided { 2.0 } else { 1.0 };
+                    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
+                    // "sides" here is sides times that mean).
+                    let sides = (if l.two_sided { 2.0 } else { 1.0 })
+                        * l.image.as_ref().map_or(1.0, |(_, y)| *y);
                     let to_light = |scale: f64| AreaLight {
                         radiance: l
                             .spectrum
@@ -1420,6 +1451,7 @@ impl Parser {
                             .clone()
                             .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                         two_sided: l.two_sided,
+                        image: l.image.as_ref().map(|(im, _)| im.clone()),
                     };
                     match (l.power, &shape.geometry) {
                         (
@@ -1448,7 +1480,7 @@ impl Parser {
                                 };
                                 let area = xform::shape_area(&g);
                                 let scale = if area > 0.0 {
-                                    base * power / (std::f64::consts::PI * area * sides)
+                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
                                 } else {
                                     0.0
                                 };
@@ -1466,7 +1498,7 @@ impl Parser {
                             if let Some(power) = power {
                                 let area = xform::shape_area(g);
                                 scale = if area > 0.0 {
-                                    base * power / (std::f64::consts::PI * area * sides)
+                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
                                 } else {
                                     0.0
                                 };
