@@ -39,8 +39,8 @@ pub(crate) struct MeshShading {
     pub normals: Option<Vec<V3>>,
 }
 
-/// Most `interface` surfaces one path passes through before it is ended (a guard against
-/// rays trapped by coincident surfaces; pbrt-v4 has none).
+/// Most `interface` surfaces (and alpha cut-out hits) one path passes through before it is
+/// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;
 
 /// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).

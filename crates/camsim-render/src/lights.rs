@@ -461,7 +461,7 @@ impl Lights {
         }
         let rgb = self.images[light.image as usize].tex.lookup(uv).map(|v| v.max(0.0));
         let m = rgb[0].max(rgb[1]).max(rgb[2]);
-        if !(m > 0.0) {
+        if m <= 0.0 || m.is_nan() {
             return [0.0; N];
         }
         let poly = crate::uplift::rgb_to_coefficients(rgb.map(|v| v / (2.0 * m)));
