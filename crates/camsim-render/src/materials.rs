@@ -42,6 +42,13 @@ pub(crate) enum Mat {
         thickness: f32,
         r_return: f32,
     },
+    CoatedConductor {
+        eta: f32,
+        coat: TrowbridgeReitz,
+        thickness: f32,
+        optics: CondOptics,
+        base: TrowbridgeReitz,
+    },
     Mix {
         materials: [u32; 2],
         amount: f32,
@@ -96,6 +103,31 @@ impl Tracer {
         m
     }
 
+    /// A conductor's `(eta, k)` at the path's wavelengths (tables, or pbrt-v4's
+    /// `ConductorMaterial` conversion of a reflectance: eta = 1, k = 2 sqrt(r) / sqrt(1 - r)).
+    #[inline]
+    fn conductor_constants<const N: usize>(
+        &self,
+        optics: &CondOptics,
+        ctx: &TexCtx,
+        lambdas: &Lambdas<N>,
+    ) -> ([f32; N], [f32; N]) {
+        match optics {
+            CondOptics::EtaK(e, k) => (
+                self.tables[*e as usize].eval_path(lambdas),
+                self.tables[*k as usize].eval_path(lambdas),
+            ),
+            CondOptics::Reflectance(tex) => {
+                let r = self.eval_texture(tex, ctx, lambdas);
+                let k = std::array::from_fn(|i| {
+                    let r = r[i].clamp(0.0, 0.9999);
+                    2.0 * r.sqrt() / (1.0 - r).sqrt()
+                });
+                ([1.0; N], k)
+            }
+        }
+    }
+
     /// pbrt-v4's alpha test of a hit (4th ed. §7.1.1, `GeometricPrimitive::Intersect`) on a
     /// surface with material `m`: false when the hit must be ignored and the ray continued.
     /// `a = alpha(uv)`; `a >= 1` keeps, `a <= 0` ignores, otherwise the hit is kept when a
@@ -136,6 +168,28 @@ impl Tracer {
                 },
                 false,
             ),
+            Mat::CoatedConductor {
+                eta,
+                coat,
+                thickness,
+                optics,
+                base,
+            } => {
+                // pbrt-v4 CoatedConductorMaterial: the conductor's constants relative to the
+                // coating (ce /= ieta, ck /= ieta).
+                let (ce, ck) = self.conductor_constants(optics, ctx, lambdas);
+                (
+                    Bsdf::CoatedConductor {
+                        eta: *eta,
+                        coat: *coat,
+                        thickness: *thickness,
+                        c_eta: ce.map(|v| v / eta),
+                        c_k: ck.map(|v| v / eta),
+                        base: *base,
+                    },
+                    false,
+                )
+            }
             Mat::Conductor { optics, distrib } => {
                 let (eta, k) = match optics {
                     CondOptics::EtaK(e, k) => (
@@ -345,6 +399,41 @@ pub(crate) fn compile_material(
             Mat::Conductor {
                 optics,
                 distrib: distribution(roughness, mi)?,
+            }
+        }
+        Material::CoatedConductor {
+            interface_eta,
+            interface_roughness,
+            thickness,
+            conductor,
+            conductor_roughness,
+        } => {
+            if !(interface_eta.is_finite() && *interface_eta > 0.0) {
+                return Err(err(format!(
+                    "coated conductor interface eta {interface_eta} must be > 0"
+                )));
+            }
+            if !(thickness.is_finite() && *thickness >= 0.0) {
+                return Err(err(format!(
+                    "coated conductor thickness {thickness} must be >= 0"
+                )));
+            }
+            let optics = match conductor {
+                ConductorOptics::EtaK { eta, k } => {
+                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
+                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
+                    CondOptics::EtaK(e, k)
+                }
+                ConductorOptics::Reflectance(t) => {
+                    CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?)
+                }
+            };
+            Mat::CoatedConductor {
+                eta: *interface_eta as f32,
+                coat: distribution(interface_roughness, mi)?,
+                thickness: *thickness as f32,
+                optics,
+                base: distribution(conductor_roughness, mi)?,
             }
         }
         Material::Dielectric { eta, roughness } => {

@@ -164,6 +164,18 @@ pub enum Material {
     /// approximation, see [`crate::bsdf::Bsdf::CoatedDiffuse`]). `thickness` is pbrt-v4's layer
     /// thickness, an optical depth (dimensionless: transmittance `exp(-thickness / |cos|)`).
     CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64 },
+    /// A dielectric coating over a conductor (pbrt-v4 `coatedconductor`, 4th ed. §14.3):
+    /// coating index `interface_eta` and roughness, layer `thickness` (optical depth, as
+    /// [`Material::CoatedDiffuse`]), the conductor's optics (relative to the outside, as pbrt-v4
+    /// gives them; divided by the coating's index at render time) and roughness. camsim's
+    /// one-pass closed form, see [`crate::bsdf::Bsdf::CoatedConductor`].
+    CoatedConductor {
+        interface_eta: f64,
+        interface_roughness: Roughness,
+        thickness: f64,
+        conductor: ConductorOptics,
+        conductor_roughness: Roughness,
+    },
     /// Chooses `materials[1]` with probability `amount` and `materials[0]` otherwise, per hit
     /// by a deterministic hash of the hit point and direction (pbrt-v4 `mix`). Indices into
     /// `SceneDescription::materials`.

@@ -47,7 +47,11 @@
 //!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
 //!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
 //!   model, exact for a smooth coating, see [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must
-//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `mix` (`materials` two named
+//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `coatedconductor`
+//!   (`interface.roughness`/`uroughness`/`vroughness`, `interface.eta`, `thickness`,
+//!   `conductor.eta`, `conductor.k` or `reflectance`, `conductor.roughness`/`uroughness`/
+//!   `vroughness`, `remaproughness`; camsim's one-pass closed form, darker than pbrt-v4 for rough
+//!   conductors, noted; see [`crate::bsdf::Bsdf::CoatedConductor`]), `mix` (`materials` two named
 //!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
 //!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
 //!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
@@ -119,8 +123,8 @@
 //! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective` and `screenwindow`; materials other than the eight above
-//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), varying float
+//! Cameras other than `perspective` and `screenwindow`; materials other than the nine above
+//! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses, `coateddiffuse` with a
 //! scattering layer (`albedo` > 0);
 //! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
