@@ -109,7 +109,7 @@ impl<const N: usize> CoatedConductor<'_, N> {
         };
         let wm = (wo_t + wi_t).normalize();
         let dot = wo_t.dot(wm).abs();
-        if !(dot > 0.0) {
+        if dot.is_nan() || dot <= 0.0 {
             return ([0.0; N], 0.0);
         }
         let k = self.pass(*wo, wo_t) * self.pass(*wi, wi_t) / (self.eta * self.eta);
