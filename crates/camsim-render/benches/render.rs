@@ -53,7 +53,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
         name: Some("light".into()),
         geometry: quad([[343.0, 548.7, 227.0], [343.0, 548.7, 332.0], [213.0, 548.7, 332.0], [213.0, 548.7, 227.0]]),
         material: 3,
-        area_light: Some(AreaLight { radiance: flat(10.0), two_sided: false }),
+        area_light: Some(AreaLight { radiance: flat(10.0), two_sided: false, image: None }),
         reverse_orientation: false,
     });
     // Grey-ish walls; red and green as smooth ramps (speed does not depend on the values).

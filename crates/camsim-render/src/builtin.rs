@@ -549,6 +549,7 @@ fn build_box(
         Some(AreaLight {
             radiance,
             two_sided: false,
+            image: None,
         }),
     );
     if with_blocks {

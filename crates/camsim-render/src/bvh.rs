@@ -186,6 +186,8 @@ pub struct Bvh {
     bounds: Aabb,
     pub prims: Vec<Prim>,
     pub ids: Vec<u32>,
+    /// Clips of the partial spheres among `prims` (empty by default; set by the caller).
+    pub clips: Vec<crate::geometry::SphereClip>,
 }
 
 /// A closest hit: distance, barycentrics and the primitive's position in [`Bvh::prims`]
@@ -216,7 +218,7 @@ impl Bvh {
         let n = prims.len();
         assert!(n <= MAX_PRIMS, "a BVH holds at most {MAX_PRIMS} primitives");
         if n == 0 {
-            return Bvh { nodes: Vec::new(), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: Aabb::EMPTY, prims, ids: Vec::new() };
+            return Bvh { nodes: Vec::new(), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: Aabb::EMPTY, prims, ids: Vec::new(), clips: Vec::new() };
         }
         let bounds: Vec<Aabb> = prims.par_iter().map(|p| p.bounds()).collect();
         let centroids: Vec<V3> = bounds.par_iter().map(|b| b.center()).collect();
@@ -230,7 +232,7 @@ impl Bvh {
         flatten(sub, &mut bin);
         let ordered: Vec<Prim> = idx.iter().map(|&i| prims[i as usize]).collect();
         drop(prims);
-        let mut bvh = Bvh { nodes: Vec::with_capacity(bin.len() / 3 + 1), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: b, prims: ordered, ids: idx };
+        let mut bvh = Bvh { nodes: Vec::with_capacity(bin.len() / 3 + 1), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: b, prims: ordered, ids: idx, clips: Vec::new() };
         bvh.root = bvh.collapse(&bin, 0);
         bvh.nodes.shrink_to_fit();
         bvh.packets.shrink_to_fit();
@@ -362,7 +364,7 @@ impl Bvh {
             } else {
                 let leaf = self.leaves[(cur & INDEX) as usize];
                 for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
-                    if let Some((t, u, v)) = self.prims[i].intersect(r, t_max) {
+                    if let Some((t, u, v)) = self.prims[i].intersect_with(r, t_max, &self.clips) {
                         t_max = t;
                         (best, bu, bv) = (i as u32, u, v);
                     }
@@ -412,7 +414,7 @@ impl Bvh {
             } else {
                 let leaf = self.leaves[(cur & INDEX) as usize];
                 for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
-                    if self.prims[i].intersect(r, t_max).is_some() {
+                    if self.prims[i].intersect_with(r, t_max, &self.clips).is_some() {
                         return true;
                     }
                 }

@@ -107,6 +107,52 @@ pub enum Prim {
     Tri { p0: V3, e1: V3, e2: V3 },
     /// Sphere.
     Sphere { center: V3, radius: f32 },
+    /// Partial sphere: the sphere clipped by `Bvh::clips[clip]` (see [`SphereClip`]).
+    PartialSphere { center: V3, radius: f32, clip: u32 },
+}
+
+/// The clipping of a partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`, 4th ed.
+/// §6.2): its object frame's unit axes in world space, the kept z range (m, along `ez` from the
+/// centre) and azimuth range `[0, phi_max]` (rad, from `ex` toward `ey`).
+#[derive(Debug, Clone, Copy)]
+pub struct SphereClip {
+    pub ex: V3,
+    pub ey: V3,
+    pub ez: V3,
+    pub z_min: f32,
+    pub z_max: f32,
+    pub phi_max: f32,
+}
+
+impl SphereClip {
+    /// Object-frame coordinates of the offset `q = p - center`.
+    #[inline(always)]
+    pub fn local(&self, q: V3) -> V3 {
+        V3::new(q.dot(self.ex), q.dot(self.ey), q.dot(self.ez))
+    }
+
+    /// Azimuth of object-frame point `l` in `[0, 2 pi)` (pbrt-v4 Sphere: `phi = atan2(y, x)`,
+    /// plus 2 pi when negative).
+    #[inline(always)]
+    pub fn phi(l: V3) -> f32 {
+        let phi = l.y.atan2(l.x);
+        if phi < 0.0 {
+            phi + 2.0 * std::f32::consts::PI
+        } else {
+            phi
+        }
+    }
+
+    /// Whether the sphere point at offset `q` from the centre is kept (pbrt-v4
+    /// `Sphere::BasicIntersect`: `z < zMin || z > zMax || phi > phiMax` is cut away).
+    #[inline(always)]
+    pub fn keeps(&self, q: V3) -> bool {
+        let l = self.local(q);
+        if l.z < self.z_min || l.z > self.z_max {
+            return false;
+        }
+        self.phi_max >= 2.0 * std::f32::consts::PI || Self::phi(l) <= self.phi_max
+    }
 }
 
 impl Prim {
@@ -120,7 +166,9 @@ impl Prim {
                 b.grow_point(p0 + e2);
                 b
             }
-            Prim::Sphere { center, radius } => Aabb { min: center - V3::splat(radius), max: center + V3::splat(radius) },
+            Prim::Sphere { center, radius } | Prim::PartialSphere { center, radius, .. } => {
+                Aabb { min: center - V3::splat(radius), max: center + V3::splat(radius) }
+            }
         }
     }
 
@@ -131,6 +179,19 @@ impl Prim {
         match *self {
             Prim::Tri { p0, e1, e2 } => intersect_triangle(r.o, r.d, p0, e1, e2, t_max),
             Prim::Sphere { center, radius } => intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0)),
+            // Without its clip a partial sphere is tested whole ([`Prim::intersect_with`] clips).
+            Prim::PartialSphere { center, radius, .. } => intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0)),
+        }
+    }
+
+    /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`).
+    #[inline(always)]
+    pub fn intersect_with(&self, r: &RayInv, t_max: f32, clips: &[SphereClip]) -> Option<(f32, f32, f32)> {
+        match *self {
+            Prim::PartialSphere { center, radius, clip } => {
+                intersect_partial_sphere(r.o, r.d, center, radius, &clips[clip as usize], t_max).map(|t| (t, 0.0, 0.0))
+            }
+            _ => self.intersect(r, t_max),
         }
     }
 }
@@ -189,6 +250,28 @@ pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Op
     } else {
         None
     }
+}
+
+/// Ray-partial-sphere intersection (pbrt-v4 `Sphere::BasicIntersect`, 4th ed. §6.2.2): the
+/// roots of [`intersect_sphere`]'s quadratic in order, the first in `(0, t_max)` whose point the
+/// clip keeps (a near hit cut away falls through to the far one).
+#[inline(always)]
+pub fn intersect_partial_sphere(o: V3, d: V3, center: V3, radius: f32, clip: &SphereClip, t_max: f32) -> Option<f32> {
+    let oc = o - center;
+    let b = oc.dot(d);
+    let perp = oc - d * b;
+    let disc = radius * radius - perp.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let c = oc.length_squared() - radius * radius;
+    let sq = disc.sqrt();
+    let q = if b > 0.0 { -b - sq } else { -b + sq };
+    let (mut t0, mut t1) = if q != 0.0 { (c / q, q) } else { (0.0, 0.0) };
+    if t0 > t1 {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    [t0, t1].into_iter().find(|&t| t > 0.0 && t < t_max && clip.keeps(oc + d * t))
 }
 
 #[cfg(test)]

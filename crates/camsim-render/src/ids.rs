@@ -7,7 +7,7 @@
 //! the shape's name (pbrt `Attribute "shape" "string name"`, or the built-in scenes' names) or
 //! `shape N`; the material's `MakeNamedMaterial` name or `material N`.
 
-use crate::scene::SceneDescription;
+use crate::scene::{Material, SceneDescription};
 use std::collections::BTreeMap;
 
 /// What each id of an [`IdMaps`] stands for (only the ids present in the image).
@@ -46,7 +46,7 @@ impl IdMaps {
         let material_id = object_id
             .iter()
             .map(|&o| match o.checked_sub(1).and_then(|s| scene.shapes.get(s as usize)) {
-                Some(shape) => shape.material as u32 + 1,
+                Some(shape) => surface_material(scene, shape.material) as u32 + 1,
                 None => 0,
             })
             .collect();
@@ -87,4 +87,17 @@ impl IdMaps {
     pub fn max_id(&self) -> u32 {
         self.object_id.iter().chain(&self.material_id).copied().max().unwrap_or(0)
     }
+}
+
+/// The material a shape's surface is made of: an alpha cut-out wraps the shape's material
+/// ([`Material::AlphaMasked`]) without being one, so its id is the wrapped material's.
+fn surface_material(scene: &SceneDescription, mut m: usize) -> usize {
+    // Wrappers nest at most once per shape; the bound only guards against a malformed scene.
+    for _ in 0..8 {
+        match scene.materials.get(m) {
+            Some(Material::AlphaMasked { material, .. }) => m = *material,
+            _ => break,
+        }
+    }
+    m
 }

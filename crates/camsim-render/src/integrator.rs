@@ -4,8 +4,8 @@
 
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
-use crate::geometry::{Prim, Ray, RayInv};
-use crate::lights::{LightKind, LightSample, Lights};
+use crate::geometry::{Prim, Ray, RayInv, SphereClip};
+use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_IMAGE};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
 use crate::materials::{check_mix_cycles, compile_material, Mat};
@@ -39,8 +39,8 @@ pub(crate) struct MeshShading {
     pub normals: Option<Vec<V3>>,
 }
 
-/// Most `interface` surfaces one path passes through before it is ended (a guard against
-/// rays trapped by coincident surfaces; pbrt-v4 has none).
+/// Most `interface` surfaces (and alpha cut-out hits) one path passes through before it is
+/// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;
 
 /// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
@@ -112,6 +112,8 @@ pub(crate) struct Tracer {
     pub shape_flip: Vec<bool>,
     /// Some material is (or mixes in) `interface`: shadow rays must pass through those surfaces.
     pub has_interface: bool,
+    /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
+    pub has_alpha: bool,
 }
 
 /// Surface data at a hit.
@@ -141,7 +143,7 @@ impl Tracer {
         for s in &scene.shapes {
             n_prims += match &s.geometry {
                 Geometry::Triangles { indices, .. } => indices.len() as u64,
-                Geometry::Sphere { .. } => 1,
+                Geometry::Sphere { .. } | Geometry::PartialSphere { .. } => 1,
             };
         }
         // Prim (44 B) + info (16 B) + normal (12 B) + bounds/centroid/index during the build (40 B) + binary nodes
@@ -156,6 +158,7 @@ impl Tracer {
         let mut meshes: Vec<Option<MeshShading>> = Vec::with_capacity(scene.shapes.len());
         let mut lights = Lights::default();
         let mut scene_bounds = crate::geometry::Aabb::EMPTY;
+        let mut clips: Vec<SphereClip> = Vec::new();
 
         for (si, s) in scene.shapes.iter().enumerate() {
             let shape_err = |message: String| RenderError::Shape { index: si, name: s.name.clone().unwrap_or_default(), message };
@@ -167,6 +170,10 @@ impl Tracer {
                 )));
             }
             let le_table = match &s.area_light {
+                Some(_) if matches!(materials[s.material], Mat::AlphaMasked { .. }) => {
+                    // Light sampling would ignore the mask that camera and bounce rays see.
+                    return Err(shape_err("an area light with an alpha cut-out is not supported".into()));
+                }
                 Some(al) => {
                     if let Err(e) = al.radiance.require_non_negative("area light radiance") {
                         return Err(shape_err(e.to_string()));
@@ -176,6 +183,23 @@ impl Tracer {
                 }
                 None => None,
             };
+            // A textured area light (pbrt-v4 `filename`): its image, for triangle meshes.
+            let mut emit_image = NO_IMAGE;
+            if let Some(im) = s.area_light.as_ref().and_then(|al| al.image.as_ref()) {
+                if !matches!(s.geometry, Geometry::Triangles { .. }) {
+                    return Err(shape_err("an area light image needs a triangle mesh (its uv)".into()));
+                }
+                if im.width == 0 || im.height == 0 || im.rgb.len() != im.width * im.height {
+                    return Err(shape_err(format!("area light image of {} x {} pixels has {} texels", im.width, im.height, im.rgb.len())));
+                }
+                if im.rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err(shape_err("area light image has negative or non-finite texels".into()));
+                }
+                let mean_rgb = im.rgb.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / im.rgb.len() as f64;
+                let tex = ImageTex { width: im.width, height: im.height, rgb: im.rgb.clone(), uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 };
+                lights.images.push(EmitImage { tex, mean_rgb: mean_rgb as f32 });
+                emit_image = (lights.images.len() - 1) as u32;
+            }
             match &s.geometry {
                 Geometry::Triangles { positions, indices, uvs, normals } => {
                     if let Some(i) = positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
@@ -218,6 +242,16 @@ impl Tracer {
                                     n = -n;
                                 }
                                 light = lights.push(LightKind::Tri { p0, e1, e2, n, area }, table, two_sided);
+                                if emit_image != NO_IMAGE {
+                                    // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)),
+                                    // as `surface` interpolates them at a hit.
+                                    let e = &mut lights.list[light as usize];
+                                    e.image = emit_image;
+                                    e.uvs = match uvs {
+                                        Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
+                                        None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+                                    };
+                                }
                             }
                         }
                         prims.push(Prim::Tri { p0, e1, e2 });
@@ -249,6 +283,39 @@ impl Tracer {
                     info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
                     meshes.push(None);
                 }
+                Geometry::PartialSphere { center, radius, axes, z_min, z_max, phi_max_deg } => {
+                    let axes_ok = axes.iter().all(|a| a.iter().all(|v| v.is_finite()) && ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() - 1.0).abs() < 1e-3);
+                    if !(center.iter().all(|v| v.is_finite()) && *radius > 0.0 && radius.is_finite() && axes_ok) {
+                        return Err(shape_err(format!("partial sphere at {center:?} with radius {radius} m and axes {axes:?} is invalid")));
+                    }
+                    if !(*z_min >= -radius && z_max <= radius && z_min < z_max && *phi_max_deg > 0.0 && *phi_max_deg <= 360.0) {
+                        return Err(shape_err(format!(
+                            "partial sphere z range [{z_min}, {z_max}] m (radius {radius} m) or phi_max {phi_max_deg} deg is invalid"
+                        )));
+                    }
+                    let c = V3::from_f64(*center);
+                    let r = *radius as f32;
+                    let clip = SphereClip {
+                        ex: V3::from_f64(axes[0]).normalize(),
+                        ey: V3::from_f64(axes[1]).normalize(),
+                        ez: V3::from_f64(axes[2]).normalize(),
+                        z_min: *z_min as f32,
+                        z_max: *z_max as f32,
+                        phi_max: phi_max_deg.to_radians() as f32,
+                    };
+                    scene_bounds.grow_point(c - V3::splat(r));
+                    scene_bounds.grow_point(c + V3::splat(r));
+                    let mut light = NO_LIGHT;
+                    if let Some((table, two_sided)) = le_table {
+                        // pbrt-v4 Sphere::Area: phi_max r (z_max - z_min).
+                        let area = clip.phi_max * r * (clip.z_max - clip.z_min);
+                        light = lights.push(LightKind::SphereZone { center: c, radius: r, clip, area, inward: s.reverse_orientation }, table, two_sided);
+                    }
+                    prims.push(Prim::PartialSphere { center: c, radius: r, clip: clips.len() as u32 });
+                    clips.push(clip);
+                    info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
+                    meshes.push(None);
+                }
             }
         }
         for (li, l) in scene.lights.iter().enumerate() {
@@ -264,19 +331,21 @@ impl Tracer {
         let scene_radius = if prims.is_empty() { 1.0 } else { ((scene_bounds.max - scene_bounds.min) * 0.5).length().max(1e-3) };
         lights.finish(&tables, scene_radius);
 
-        let bvh = Bvh::build(prims);
+        let mut bvh = Bvh::build(prims);
+        bvh.clips = clips;
         let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
         let tri_normals: Vec<V3> = bvh
             .prims
             .iter()
             .map(|p| match *p {
                 Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
-                Prim::Sphere { .. } => V3::splat(0.0),
+                Prim::Sphere { .. } | Prim::PartialSphere { .. } => V3::splat(0.0),
             })
             .collect();
         let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
         let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
         let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
+        let has_alpha = materials.iter().any(|m| matches!(m, Mat::AlphaMasked { .. }));
         let rr_depth = scene.settings.russian_roulette_depth.max(1);
         Ok(Tracer {
             bvh,
@@ -292,6 +361,7 @@ impl Tracer {
             offset_scale: 3e-5,
             shape_flip,
             has_interface,
+            has_alpha,
         })
     }
 
@@ -338,6 +408,19 @@ impl Tracer {
                 let phi = n.y.atan2(n.x);
                 let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
                 let uv = [phi / (2.0 * std::f32::consts::PI), n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
+                SurfaceHit { p, ng: n, ns: n, uv }
+            }
+            Prim::PartialSphere { center, radius, clip } => {
+                let c = &self.bvh.clips[clip as usize];
+                let n = (r.o + r.d * h.t - center).normalize();
+                let p = center + n * radius;
+                // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame:
+                // u = phi / phi_max, v = (theta - theta_zmin) / (theta_zmax - theta_zmin).
+                let l = c.local(n * radius);
+                let theta = (l.z / radius).clamp(-1.0, 1.0).acos();
+                let th0 = (c.z_min / radius).clamp(-1.0, 1.0).acos();
+                let th1 = (c.z_max / radius).clamp(-1.0, 1.0).acos();
+                let uv = [SphereClip::phi(l) / c.phi_max, (theta - th0) / (th1 - th0)];
                 SurfaceHit { p, ng: n, ns: n, uv }
             }
         }
@@ -448,7 +531,7 @@ impl Tracer {
     /// path rays through.
     #[inline]
     fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
-        if !self.has_interface {
+        if !self.has_interface && !self.has_alpha {
             return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
         }
         let (mut o, mut t_left) = (o, t_max);
@@ -457,8 +540,8 @@ impl Tracer {
             let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
             let sh = self.surface(&r, &h);
             let pi = self.info[h.slot as usize];
-            let m = self.resolve_material(pi.material, sh.p, -d);
-            if !matches!(self.materials[m as usize], Mat::Interface) {
+            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, o, d);
+            if keep && !matches!(self.materials[self.resolve_material(pi.material, sh.p, -d) as usize], Mat::Interface) {
                 return true;
             }
             let next = self.offset(sh.p, sh.ng.face_forward(d));
@@ -510,6 +593,17 @@ impl Tracer {
             };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
+            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+                // Alpha test failed: the hit is ignored and the ray goes on from the far side
+                // (pbrt-v4 `GeometricPrimitive::Intersect` re-intersects a spawned ray), no bounce.
+                skips += 1;
+                if skips > MAX_INTERFACE_SKIPS {
+                    break;
+                }
+                ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+                counts.bounce += 1;
+                continue;
+            }
             let wo = -ray.d;
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
@@ -520,7 +614,7 @@ impl Tracer {
                     } else {
                         power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
                     };
-                    let le = self.tables[light.table as usize].eval_path(lambdas);
+                    let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }
@@ -641,9 +735,23 @@ impl Tracer {
     /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes).
     pub(crate) fn first_surface(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> (f32, u32) {
         counts.camera += 1;
-        match self.intersect(r) {
-            Some(h) => (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1),
-            None => (f32::INFINITY, 0),
+        if !self.has_alpha {
+            return match self.intersect(r) {
+                Some(h) => (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1),
+                None => (f32::INFINITY, 0),
+            };
         }
+        // Surfaces cut out by alpha are skipped as the path skips them.
+        let mut ray = *r;
+        for _ in 0..MAX_INTERFACE_SKIPS {
+            let Some(h) = self.intersect(&ray) else { return (f32::INFINITY, 0) };
+            let sh = self.surface(&ray, &h);
+            let pi = self.info[h.slot as usize];
+            if self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+                return ((sh.p - r.o).dot(forward), pi.shape + 1);
+            }
+            ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+        }
+        (f32::INFINITY, 0)
     }
 }

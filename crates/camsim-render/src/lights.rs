@@ -20,6 +20,9 @@ pub(crate) enum LightKind {
     Tri { p0: V3, e1: V3, e2: V3, n: V3, area: f32 },
     /// Sphere; one-sided spheres emit outward, or inward when `inward` (ReverseOrientation).
     Sphere { center: V3, radius: f32, inward: bool },
+    /// Partial sphere (pbrt-v4 `sphere` with `zmin`/`zmax`/`phimax`): sampled uniformly by
+    /// area (a zone's area is uniform in z, Archimedes' hat-box theorem); `area` in m^2.
+    SphereZone { center: V3, radius: f32, clip: crate::geometry::SphereClip, area: f32, inward: bool },
     /// Uniform radiance from every direction.
     Infinite,
     /// Environment map: index into `Lights::envs`.
@@ -51,6 +54,21 @@ pub(crate) struct LightEntry {
     pub table: u32,
     pub two_sided: bool,
     pub pmf: f32,
+    /// Emission image (index into `Lights::images`) or [`NO_IMAGE`]; then `table` is the
+    /// illuminant per unit RGB and `uvs` the triangle's vertex uvs.
+    pub image: u32,
+    pub uvs: [[f32; 2]; 3],
+}
+
+/// Marks a light without an emission image.
+pub(crate) const NO_IMAGE: u32 = u32::MAX;
+
+/// An area light's emission image (pbrt-v4 `DiffuseAreaLight` `image`) and its mean RGB, which
+/// scales the light's power for light selection.
+#[derive(Debug, Clone)]
+pub(crate) struct EmitImage {
+    pub tex: crate::integrator::ImageTex,
+    pub mean_rgb: f32,
 }
 
 /// All lights and the power distribution used to pick one.
@@ -62,6 +80,8 @@ pub(crate) struct Lights {
     pub infinite: Vec<u32>,
     /// Environment maps (`LightKind::Env`).
     pub envs: Vec<EnvLight>,
+    /// Emission images of textured area lights.
+    pub images: Vec<EmitImage>,
 }
 
 /// A sampled light direction from a reference point.
@@ -92,7 +112,7 @@ impl Lights {
         if matches!(kind, LightKind::Infinite | LightKind::Env(_)) {
             self.infinite.push(self.list.len() as u32);
         }
-        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0 });
+        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0, image: NO_IMAGE, uvs: [[0.0; 2]; 3] });
         (self.list.len() - 1) as u32
     }
 
@@ -110,12 +130,16 @@ impl Lights {
             .list
             .iter()
             .map(|l| {
-                let lmean = tables[l.table as usize].mean();
+                let mut lmean = tables[l.table as usize].mean();
+                if l.image != NO_IMAGE {
+                    lmean *= self.images[l.image as usize].mean_rgb as f64;
+                }
                 let sides = if l.two_sided { 2.0 } else { 1.0 };
                 let p = std::f64::consts::PI;
                 match l.kind {
                     LightKind::Tri { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Sphere { radius, .. } => p * sides * 4.0 * p * (radius as f64).powi(2) * lmean,
+                    LightKind::SphereZone { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Infinite => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean,
                     // pbrt-v4 ImageInfiniteLight::Phi: 4 pi pi r^2 times the mean radiance.
                     LightKind::Env(e) => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean * self.envs[e as usize].mean_scale,
@@ -167,7 +191,7 @@ impl Lights {
         }
         match light.kind {
             LightKind::Tri { n, .. } => n.dot(w) > 0.0,
-            LightKind::Sphere { center, inward, .. } => {
+            LightKind::Sphere { center, inward, .. } | LightKind::SphereZone { center, inward, .. } => {
                 let out = (p - center).dot(w) > 0.0;
                 let _ = ng;
                 out != inward
@@ -200,6 +224,13 @@ impl Lights {
                     light.pmf * dist2 / (cos * 4.0 * PI * radius * radius)
                 }
             },
+            LightKind::SphereZone { area, .. } => {
+                let cos = (ng.dot(d)).abs() / dist2.sqrt();
+                if cos <= 0.0 {
+                    return 0.0;
+                }
+                light.pmf * dist2 / (cos * area)
+            }
             LightKind::Infinite => light.pmf * UNIFORM_SPHERE_PDF,
             LightKind::Env(e) => light.pmf * self.envs[e as usize].pdf_dir(d / dist2.sqrt()),
             _ => 0.0,
@@ -296,9 +327,11 @@ impl Lights {
         lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
         let light = &self.list[self.pick(u_sel)];
+        let mut bary = (0f32, 0f32);
         let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
             LightKind::Tri { p0, e1, e2, n, area } => {
                 let (b1, b2) = uniform_triangle(u0, u1);
+                bary = (b1, b2);
                 let q = p0 + e1 * b1 + e2 * b2;
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -343,6 +376,29 @@ impl Lights {
                 }
                 (wi, dist, q, n, pdf)
             }
+            LightKind::SphereZone { center, radius, clip, area, inward } => {
+                // Uniform by area: z uniform in [z_min, z_max] (Archimedes), phi in [0, phi_max].
+                let z = clip.z_min + u0 * (clip.z_max - clip.z_min);
+                let rho = (radius * radius - z * z).max(0.0).sqrt();
+                let (s, c) = (u1 * clip.phi_max).sin_cos();
+                let n = (clip.ex * (rho * c) + clip.ey * (rho * s) + clip.ez * z) / radius;
+                let q = center + n * radius;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && dist.is_finite()) {
+                    return None;
+                }
+                let wi = d / dist;
+                if !light.two_sided && ((n.dot(-wi) > 0.0) == inward) {
+                    return None;
+                }
+                let cos_l = n.dot(wi).abs();
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                (wi, dist, q, n, dist2 / (cos_l * area))
+            }
             LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
             LightKind::Env(e) => {
                 let env = &self.envs[e as usize];
@@ -382,8 +438,34 @@ impl Lights {
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        let le = tables[light.table as usize].eval_path(lambdas);
+        let le = if light.image == NO_IMAGE {
+            tables[light.table as usize].eval_path(lambdas)
+        } else {
+            let (b1, b2) = bary;
+            let t = &light.uvs;
+            let uv = std::array::from_fn(|k| (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]);
+            self.emitted(light, uv, tables, lambdas)
+        };
         Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false })
+    }
+
+    /// Radiance an area light emits at surface coordinates `uv` (its table alone, or with an
+    /// image: pbrt-v4 `DiffuseAreaLight::L`, the bilinear RGB at `uv` as an illuminant spectrum
+    /// `2 m S(rgb / 2m)(lambda) illuminant(lambda)`, `m` the largest component,
+    /// `RGBIlluminantSpectrum`, with `S` the Jakob & Hanika 2019 uplift, `crate::uplift`).
+    #[inline]
+    pub(crate) fn emitted<const N: usize>(&self, light: &LightEntry, uv: [f32; 2], tables: &[SpectrumTable], lambdas: &Lambdas<N>) -> [f32; N] {
+        let il = tables[light.table as usize].eval_path(lambdas);
+        if light.image == NO_IMAGE {
+            return il;
+        }
+        let rgb = self.images[light.image as usize].tex.lookup(uv).map(|v| v.max(0.0));
+        let m = rgb[0].max(rgb[1]).max(rgb[2]);
+        if m <= 0.0 || m.is_nan() {
+            return [0.0; N];
+        }
+        let poly = crate::uplift::rgb_to_coefficients(rgb.map(|v| v / (2.0 * m)));
+        std::array::from_fn(|i| 2.0 * m * poly.eval(lambdas.nm[i] as f64) as f32 * il[i])
     }
 }
 
@@ -408,12 +490,17 @@ mod tests {
         lights.push(LightKind::Sphere { center: V3::new(2.0, 0.5, 0.0), radius: 0.4, inward: false }, 0, true);
         lights.push(LightKind::Sphere { center: V3::new(0.0, 0.0, 0.0), radius: 5.0, inward: true }, 0, false);
         lights.push(LightKind::Infinite, 0, true);
+        // A quarter of a dome (z in [0.1, 0.6] of radius 0.7, phi in [0, 90 deg]), tilted frame.
+        let (ex, ey) = (V3::new(0.6, 0.8, 0.0), V3::new(0.0, 0.0, 1.0));
+        let clip = crate::geometry::SphereClip { ex, ey, ez: ex.cross(ey), z_min: 0.1, z_max: 0.6, phi_max: 0.5 * PI };
+        let area = clip.phi_max * 0.7 * (clip.z_max - clip.z_min);
+        lights.push(LightKind::SphereZone { center: V3::new(-1.5, 0.4, 0.3), radius: 0.7, clip, area, inward: false }, 0, false);
         lights.finish(&tables, 5.0);
         let total: f32 = lights.list.iter().map(|l| l.pmf).sum();
         assert!((total - 1.0).abs() < 1e-6);
         let mut rng = camsim_core::rng::seeded(4);
         let p = V3::new(0.1, -0.3, 0.2);
-        let mut seen = [0usize; 4];
+        let mut seen = [0usize; 5];
         for _ in 0..50_000 {
             let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
             let k = lights.pick(us);
@@ -429,6 +516,10 @@ mod tests {
             let ng = match light.kind {
                 LightKind::Tri { n, .. } => n,
                 LightKind::Sphere { center, .. } => (q - center).normalize(),
+                LightKind::SphereZone { center, radius, clip, .. } => {
+                    assert!(clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4, "{q:?} off the zone");
+                    (q - center).normalize()
+                }
                 _ => unreachable!(),
             };
             assert!(lights.emits_toward(light, q, ng, -s.wi), "sample from the back of a one-sided light");

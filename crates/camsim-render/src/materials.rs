@@ -9,7 +9,7 @@ use crate::math::V3;
 use crate::render::RenderError;
 use crate::scene::{ConductorOptics, Material, Roughness};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
-use crate::texture::{compile_texture, Tex, TexCtx};
+use crate::texture::{compile_float_texture, compile_texture, eval_float, FTex, Tex, TexCtx};
 
 /// A compiled material; new BSDFs add a variant here and an arm in [`Tracer::bsdf_at`].
 #[derive(Debug, Clone)]
@@ -42,11 +42,30 @@ pub(crate) enum Mat {
         thickness: f32,
         r_return: f32,
     },
+    CoatedConductor {
+        eta: f32,
+        coat: TrowbridgeReitz,
+        thickness: f32,
+        optics: CondOptics,
+        base: TrowbridgeReitz,
+    },
     Mix {
         materials: [u32; 2],
         amount: f32,
     },
     Interface,
+    /// A shape's alpha cut-out over material `base` (tested by [`Tracer::alpha_keeps`]).
+    AlphaMasked {
+        base: u32,
+        alpha: FTex,
+    },
+    /// Material `base` with the roughness `(u, v)` evaluated per hit.
+    VaryingRoughness {
+        base: u32,
+        u: FTex,
+        v: FTex,
+        remap: bool,
+    },
 }
 
 /// A conductor's optical constants, compiled.
@@ -76,10 +95,57 @@ impl Tracer {
                         materials[0]
                     };
                 }
+                // The alpha test ran before (`alpha_keeps`): the surface is the base material.
+                Mat::AlphaMasked { base, .. } => m = *base,
                 _ => return m,
             }
         }
         m
+    }
+
+    /// A conductor's `(eta, k)` at the path's wavelengths (tables, or pbrt-v4's
+    /// `ConductorMaterial` conversion of a reflectance: eta = 1, k = 2 sqrt(r) / sqrt(1 - r)).
+    #[inline]
+    fn conductor_constants<const N: usize>(
+        &self,
+        optics: &CondOptics,
+        ctx: &TexCtx,
+        lambdas: &Lambdas<N>,
+    ) -> ([f32; N], [f32; N]) {
+        match optics {
+            CondOptics::EtaK(e, k) => (
+                self.tables[*e as usize].eval_path(lambdas),
+                self.tables[*k as usize].eval_path(lambdas),
+            ),
+            CondOptics::Reflectance(tex) => {
+                let r = self.eval_texture(tex, ctx, lambdas);
+                let k = std::array::from_fn(|i| {
+                    let r = r[i].clamp(0.0, 0.9999);
+                    2.0 * r.sqrt() / (1.0 - r).sqrt()
+                });
+                ([1.0; N], k)
+            }
+        }
+    }
+
+    /// pbrt-v4's alpha test of a hit (4th ed. §7.1.1, `GeometricPrimitive::Intersect`) on a
+    /// surface with material `m`: false when the hit must be ignored and the ray continued.
+    /// `a = alpha(uv)`; `a >= 1` keeps, `a <= 0` ignores, otherwise the hit is kept when a
+    /// deterministic hash of the ray (`origin`, `dir`), uniform in [0, 1), is at most `a`
+    /// (pbrt-v4 `HashFloat(r.o, r.d)`). Materials without alpha keep every hit.
+    #[inline]
+    pub(crate) fn alpha_keeps(&self, m: u32, ctx: &TexCtx, origin: V3, dir: V3) -> bool {
+        let Mat::AlphaMasked { alpha, .. } = &self.materials[m as usize] else {
+            return true;
+        };
+        let a = eval_float(alpha, ctx);
+        if a >= 1.0 {
+            return true;
+        }
+        if a <= 0.0 || a.is_nan() {
+            return false;
+        }
+        mix_hash(origin, dir, ALPHA_HASH_TAG, m) <= a
     }
 
     /// The BSDF of (non-mix, non-interface) material `m` at a hit, at the path's wavelengths,
@@ -102,6 +168,28 @@ impl Tracer {
                 },
                 false,
             ),
+            Mat::CoatedConductor {
+                eta,
+                coat,
+                thickness,
+                optics,
+                base,
+            } => {
+                // pbrt-v4 CoatedConductorMaterial: the conductor's constants relative to the
+                // coating (ce /= ieta, ck /= ieta).
+                let (ce, ck) = self.conductor_constants(optics, ctx, lambdas);
+                (
+                    Bsdf::CoatedConductor {
+                        eta: *eta,
+                        coat: *coat,
+                        thickness: *thickness,
+                        c_eta: ce.map(|v| v / eta),
+                        c_k: ck.map(|v| v / eta),
+                        base: *base,
+                    },
+                    false,
+                )
+            }
             Mat::Conductor { optics, distrib } => {
                 let (eta, k) = match optics {
                     CondOptics::EtaK(e, k) => (
@@ -180,8 +268,31 @@ impl Tracer {
                     false,
                 )
             }
-            // Resolved before (mix) or handled by the tracer (interface): never reached.
-            Mat::Mix { .. } | Mat::Interface => (
+            Mat::VaryingRoughness { base, u, v, remap } => {
+                let (mut bsdf, terminate) = self.bsdf_at(*base, ctx, lambdas, outside);
+                let (ru, rv) = (eval_float(u, ctx).max(0.0), eval_float(v, ctx).max(0.0));
+                // pbrt-v4 TrowbridgeReitzDistribution::RoughnessToAlpha: alpha = sqrt(roughness).
+                let d = if *remap {
+                    TrowbridgeReitz {
+                        alpha_x: ru.sqrt(),
+                        alpha_y: rv.sqrt(),
+                    }
+                } else {
+                    TrowbridgeReitz {
+                        alpha_x: ru,
+                        alpha_y: rv,
+                    }
+                };
+                match &mut bsdf {
+                    Bsdf::Conductor { distrib, .. }
+                    | Bsdf::Dielectric { distrib, .. }
+                    | Bsdf::CoatedDiffuse { distrib, .. } => *distrib = d,
+                    _ => {}
+                }
+                (bsdf, terminate)
+            }
+            // Resolved before (mix, alpha) or handled by the tracer (interface): never reached.
+            Mat::Mix { .. } | Mat::Interface | Mat::AlphaMasked { .. } => (
                 Bsdf::Diffuse {
                     reflectance: [0.0; N],
                 },
@@ -190,6 +301,9 @@ impl Tracer {
         }
     }
 }
+
+/// Distinguishes the alpha test's hash from a `mix` choice's (material indices are far below).
+const ALPHA_HASH_TAG: u32 = 0xA1FA_0000;
 
 /// Deterministic uniform number in [0, 1) for a `mix` decision at a hit (pbrt-v4 hashes the
 /// point, the direction and the two materials; here a SplitMix64-style mix of their bits,
@@ -287,6 +401,41 @@ pub(crate) fn compile_material(
                 distrib: distribution(roughness, mi)?,
             }
         }
+        Material::CoatedConductor {
+            interface_eta,
+            interface_roughness,
+            thickness,
+            conductor,
+            conductor_roughness,
+        } => {
+            if !(interface_eta.is_finite() && *interface_eta > 0.0) {
+                return Err(err(format!(
+                    "coated conductor interface eta {interface_eta} must be > 0"
+                )));
+            }
+            if !(thickness.is_finite() && *thickness >= 0.0) {
+                return Err(err(format!(
+                    "coated conductor thickness {thickness} must be >= 0"
+                )));
+            }
+            let optics = match conductor {
+                ConductorOptics::EtaK { eta, k } => {
+                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
+                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
+                    CondOptics::EtaK(e, k)
+                }
+                ConductorOptics::Reflectance(t) => {
+                    CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?)
+                }
+            };
+            Mat::CoatedConductor {
+                eta: *interface_eta as f32,
+                coat: distribution(interface_roughness, mi)?,
+                thickness: *thickness as f32,
+                optics,
+                base: distribution(conductor_roughness, mi)?,
+            }
+        }
         Material::Dielectric { eta, roughness } => {
             let (eta, dispersive) = index_table(eta, "dielectric eta", mi, ws, tables, true)?;
             Mat::Dielectric {
@@ -354,10 +503,39 @@ pub(crate) fn compile_material(
             }
         }
         Material::Interface => Mat::Interface,
+        Material::VaryingRoughness {
+            material,
+            u,
+            v,
+            remap,
+        } => {
+            if *material >= n_materials {
+                return Err(err(format!(
+                    "varying roughness refers to material {material} but the scene has {n_materials}"
+                )));
+            }
+            Mat::VaryingRoughness {
+                base: *material as u32,
+                u: compile_float_texture(u, mi)?,
+                v: compile_float_texture(v, mi)?,
+                remap: *remap,
+            }
+        }
+        Material::AlphaMasked { material, alpha } => {
+            if *material >= n_materials {
+                return Err(err(format!(
+                    "alpha mask refers to material {material} but the scene has {n_materials}"
+                )));
+            }
+            Mat::AlphaMasked {
+                base: *material as u32,
+                alpha: compile_float_texture(alpha, mi)?,
+            }
+        }
     })
 }
 
-/// Refuse `mix` materials that (through other mixes) contain themselves.
+/// Refuse `mix` (and alpha-mask) materials that (through others) contain themselves.
 pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
     // 0 = unvisited, 1 = on the stack, 2 = done (iterative depth-first search).
     let mut state = vec![0u8; materials.len()];
@@ -370,6 +548,9 @@ pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
         while let Some(&mut (node, ref mut next)) = stack.last_mut() {
             let children: &[u32] = match &materials[node] {
                 Mat::Mix { materials, .. } => materials,
+                Mat::AlphaMasked { base, .. } | Mat::VaryingRoughness { base, .. } => {
+                    std::slice::from_ref(base)
+                }
                 _ => &[],
             };
             if *next < children.len() {

@@ -164,12 +164,38 @@ pub enum Material {
     /// approximation, see [`crate::bsdf::Bsdf::CoatedDiffuse`]). `thickness` is pbrt-v4's layer
     /// thickness, an optical depth (dimensionless: transmittance `exp(-thickness / |cos|)`).
     CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64 },
+    /// A dielectric coating over a conductor (pbrt-v4 `coatedconductor`, 4th ed. §14.3):
+    /// coating index `interface_eta` and roughness, layer `thickness` (optical depth, as
+    /// [`Material::CoatedDiffuse`]), the conductor's optics (relative to the outside, as pbrt-v4
+    /// gives them; divided by the coating's index at render time) and roughness. camsim's
+    /// one-pass closed form, see [`crate::bsdf::Bsdf::CoatedConductor`].
+    CoatedConductor {
+        interface_eta: f64,
+        interface_roughness: Roughness,
+        thickness: f64,
+        conductor: ConductorOptics,
+        conductor_roughness: Roughness,
+    },
     /// Chooses `materials[1]` with probability `amount` and `materials[0]` otherwise, per hit
     /// by a deterministic hash of the hit point and direction (pbrt-v4 `mix`). Indices into
     /// `SceneDescription::materials`.
     Mix { materials: [usize; 2], amount: f64 },
     /// No surface: rays pass straight through (pbrt-v4 `interface`, a boundary of media).
     Interface,
+    /// A shape's `alpha` cut-out (pbrt-v4 4th ed. §7.1.1, `GeometricPrimitive::Intersect`) with
+    /// the shape's own material `material` (index into `SceneDescription::materials`). pbrt-v4
+    /// keeps `alpha` with the shape; camsim's reader gives each alpha-textured shape this
+    /// wrapper as its material. At a hit with `a = alpha(uv)`: `a >= 1` keeps the hit, `a <= 0`
+    /// ignores it (the ray goes on), otherwise the hit is ignored when a deterministic hash of
+    /// the ray's origin and direction, uniform in [0, 1), exceeds `a` (pbrt-v4
+    /// `HashFloat(r.o, r.d)`). The test applies to camera, bounce and shadow rays alike.
+    AlphaMasked { material: usize, alpha: FloatTexture },
+    /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
+    /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
+    /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
+    /// `roughness`, `uroughness`, `vroughness` as float textures evaluated per hit, 4th ed.
+    /// §10.4). `remap` as [`Roughness::remap`]; negative texture values count as 0.
+    VaryingRoughness { material: usize, u: FloatTexture, v: FloatTexture, remap: bool },
 }
 
 /// The optical constants of a conductor.
@@ -213,6 +239,20 @@ impl Roughness {
 pub struct AreaLight {
     pub radiance: Spectrum,
     pub two_sided: bool,
+    /// pbrt-v4 `DiffuseAreaLight` with `filename`: the emission varies over the surface as this
+    /// image, looked up by the shape's uv (bilinear, repeat, row 0 at v = 1), each RGB value an
+    /// illuminant spectrum `2 m S(rgb / 2m)(lambda) radiance(lambda)` (`m` the largest
+    /// component; pbrt-v4 `RGBIlluminantSpectrum`): `radiance` is then the colour space's
+    /// illuminant with every scale applied, W/(sr m^2 nm) per unit RGB. Triangle meshes only.
+    pub image: Option<std::sync::Arc<EmissionImage>>,
+}
+
+/// A linear RGB emission image (non-negative), row-major, row 0 at the top (v = 1).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmissionImage {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
 }
 
 /// Geometry in world space, metres.
@@ -220,6 +260,13 @@ pub struct AreaLight {
 pub enum Geometry {
     Triangles { positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>> },
     Sphere { center: [f64; 3], radius: f64 },
+    /// A partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`; 4th ed. §6.2): the
+    /// points of the sphere of `radius` about `center` whose object-frame coordinates have
+    /// `z_min <= z <= z_max` (m, `-radius <= z_min < z_max <= radius`) and azimuth
+    /// `0 <= phi <= phi_max_deg` (from the frame's x axis toward its y axis). `axes` are the
+    /// object frame's x, y, z unit axes in world space (a mirrored frame when the transform
+    /// swaps handedness). The outward normal is flipped by `Shape::reverse_orientation`.
+    PartialSphere { center: [f64; 3], radius: f64, axes: [[f64; 3]; 3], z_min: f64, z_max: f64, phi_max_deg: f64 },
 }
 
 /// One object: geometry, its material (index into `SceneDescription::materials`), and an

@@ -155,6 +155,21 @@ fn bsdfs() -> Vec<(String, Bsdf<1>)> {
             r_return: coating_return_probability(1.5, 0.01),
         },
     ));
+    // Coated conductor (pbrt-v4 coatedconductor): smooth coat over a rough metal, rough over
+    // rough, rough over a nearly smooth metal.
+    for (ca, ba) in [(0.0, 0.3), (0.2, 0.35), (0.3, 0.05)] {
+        v.push((
+            format!("coated conductor coat {ca} base {ba}"),
+            Bsdf::CoatedConductor {
+                eta: 1.5,
+                coat: tr(ca, ca),
+                thickness: 0.05,
+                c_eta: [0.2 / 1.5],
+                c_k: [3.0 / 1.5],
+                base: tr(ba, ba),
+            },
+        ));
+    }
     v.push((
         "coated diffuse alpha 0.3".into(),
         Bsdf::CoatedDiffuse {
@@ -593,6 +608,38 @@ fn coated_diffuse_albedo_matches_a_photon_random_walk() {
         assert!(
             (m - walk).abs() < 4.5 * (se * se + walk_se * walk_se).sqrt(),
             "{m} vs walk {walk}"
+        );
+    }
+}
+
+/// A smooth coating over a smooth metal reflects only along the mirror direction, with albedo
+/// `F(cos) + (1 - F(cos))^2 exp(-2 thickness / cos_t) F_c(cos_t)` (one pass down and up through
+/// the layer; F from the closed form with k = 0, F_c relative to the coating); never above 1.
+#[test]
+fn smooth_coated_conductor_albedo_closed_form() {
+    let (eta, thickness, ce, ck) = (1.5f64, 0.05f64, 0.2f64 / 1.5, 3.0f64 / 1.5);
+    let b = Bsdf::<1>::CoatedConductor {
+        eta: eta as f32,
+        coat: tr(0.0, 0.0),
+        thickness: thickness as f32,
+        c_eta: [ce as f32],
+        c_k: [ck as f32],
+        base: tr(0.0, 0.0),
+    };
+    assert!(b.is_delta());
+    for ct in [0.95, 0.55, 0.2] {
+        let wo = dir(ct, 0.3);
+        let (m, se) = albedo(&b, wo, 100_000, 11);
+        let f = fresnel_conductor_closed_form(ct, eta, 0.0);
+        let cos_t = (1.0 - (1.0 - ct * ct) / (eta * eta)).sqrt();
+        let fc = fresnel_conductor_closed_form(cos_t, ce, ck);
+        let want = f + (1.0 - f).powi(2) * (-2.0 * thickness / cos_t).exp() * fc;
+        eprintln!(
+            "smooth coated conductor cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4}"
+        );
+        assert!(
+            (m - want).abs() < 4.0 * se + 2e-3 && m <= 1.0,
+            "{m} vs {want}"
         );
     }
 }

@@ -331,6 +331,7 @@ fn floor_with_and_without_sphere(
         area_light: Some(AreaLight {
             radiance: flat(5.0),
             two_sided: false,
+            image: None,
         }),
         reverse_orientation: false,
     };
@@ -482,6 +483,7 @@ fn dispersive_scene(wavelengths: usize, seed: u64) -> camsim_core::SpectralImage
         area_light: Some(AreaLight {
             radiance,
             two_sided: true,
+            image: None,
         }),
         reverse_orientation: false,
     };

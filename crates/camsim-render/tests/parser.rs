@@ -366,7 +366,7 @@ fn errors_name_file_line_and_column() {
         ("WorldBegin\nLightSource \"goniometric\"\n", 2, 1, "goniometric"),
         ("WorldEnd\n", 1, 1, "pbrt-v3"),
         ("LookAt 0 0 0 0 0 1 0 0 1\n", 1, 1, "parallel"),
-        ("WorldBegin\nShape \"sphere\" \"float radius\" 1 \"float zmax\" 0.5\n", 2, 1, "partial"),
+        ("WorldBegin\nShape \"sphere\" \"float radius\" 1 \"float zmin\" 2\n", 2, 1, "leave no surface"),
     ];
     for (text, line, col, needle) in cases {
         let e = parse(text).expect_err(text);

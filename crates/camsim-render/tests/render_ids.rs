@@ -1,6 +1,7 @@
 //! Object and material id maps (issue 14: segmentation ground truth beside each raw image).
 //! Two spheres with named materials in front of a uniform environment: the id maps must agree
-//! with the geometry (projected area, depth) and with the rendered colour of each material.
+//! with the geometry (projected area, depth) and with the rendered colour of each material, and
+//! look through alpha cut-outs.
 
 use camsim_render::pbrt::parse_str;
 use camsim_render::render;
@@ -18,6 +19,14 @@ AttributeBegin
   NamedMaterial "red"
   Translate -1 0 0
   Shape "sphere" "float radius" 0.5
+AttributeEnd
+# A fully cut-out quad in front of everything: an alpha texture that is 0 everywhere (pbrt-v4)
+# makes it invisible to the id rays as to every other ray.
+Texture "cut" "float" "checkerboard" "float tex1" 0 "float tex2" 0
+AttributeBegin
+  NamedMaterial "blue"
+  Shape "trianglemesh" "texture alpha" "cut" "integer indices" [0 1 2 0 2 3]
+    "point3 P" [-3 -2 2  3 -2 2  3 2 2  -3 2 2]
 AttributeEnd
 AttributeBegin
   NamedMaterial "blue"

@@ -129,7 +129,7 @@ fn furnace(shape: Geometry, two_sided: bool, reverse: bool, spp: u32) -> (Wavele
         name: Some("enclosure".into()),
         geometry: shape,
         material: 0,
-        area_light: Some(AreaLight { radiance: le, two_sided }),
+        area_light: Some(AreaLight { radiance: le, two_sided, image: None }),
         reverse_orientation: reverse,
     }];
     let sc = scene(cam, shapes, vec![diffuse(rho)], vec![], settings(grid, spp, 1000));
@@ -226,7 +226,7 @@ fn direct_light_under_a_rectangle_corner() {
             name: Some("light".into()),
             geometry: emitter,
             material: 1,
-            area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+            area_light: Some(AreaLight { radiance: flat(le), two_sided: false, image: None }),
             reverse_orientation: true,
         },
     ];
@@ -254,7 +254,7 @@ fn visible_emitter_reads_its_band_averaged_radiance() {
         name: None,
         geometry: Geometry::Sphere { center: [0.0, 0.0, 5.0], radius: 1.0 },
         material: 0,
-        area_light: Some(AreaLight { radiance: le.clone(), two_sided: false }),
+        area_light: Some(AreaLight { radiance: le.clone(), two_sided: false, image: None }),
         reverse_orientation: false,
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 16, 16);
@@ -291,7 +291,7 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
             name: None,
             geometry: Geometry::Sphere { center: [0.0, 0.0, d], radius: r },
             material: 1,
-            area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+            area_light: Some(AreaLight { radiance: flat(le), two_sided: false, image: None }),
             reverse_orientation: false,
         },
     ];
@@ -320,7 +320,7 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
             name: None,
             geometry: Geometry::Sphere { center: [0.0, 0.7, 0.3], radius: 0.2 },
             material: 1,
-            area_light: Some(AreaLight { radiance: flat(10.0), two_sided: false }),
+            area_light: Some(AreaLight { radiance: flat(10.0), two_sided: false, image: None }),
             reverse_orientation: false,
         },
     ];
@@ -475,7 +475,7 @@ fn irradiance_from_a_sphere_light_close_up() {
                 name: Some("sphere light".into()),
                 geometry: Geometry::Sphere { center: [cx, cy, z0 + d], radius: r },
                 material: 1,
-                area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+                area_light: Some(AreaLight { radiance: flat(le), two_sided: false, image: None }),
                 reverse_orientation: false,
             },
         ];
@@ -537,7 +537,7 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
             name: Some("light".into()),
             geometry: light,
             material: 1,
-            area_light: Some(AreaLight { radiance: flat(le), two_sided: false }),
+            area_light: Some(AreaLight { radiance: flat(le), two_sided: false, image: None }),
             reverse_orientation: true,
         },
     ];
@@ -566,7 +566,7 @@ fn spectrum_ends_at_its_last_sample() {
         name: None,
         geometry: Geometry::Sphere { center: [0.0, 0.0, 5.0], radius: 1.0 },
         material: 0,
-        area_light: Some(AreaLight { radiance: spec(&[400.0, 700.0], &[le, le]), two_sided: false }),
+        area_light: Some(AreaLight { radiance: spec(&[400.0, 700.0], &[le, le]), two_sided: false, image: None }),
         reverse_orientation: false,
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 32, 32);

@@ -380,6 +380,7 @@ fn truncated_furnace(rr_depth: u32, sampler: SamplerKind) -> (Vec<f64>, RenderSt
         area_light: Some(AreaLight {
             radiance: flat(le),
             two_sided: true,
+            image: None,
         }),
         reverse_orientation: false,
     }];

@@ -12,6 +12,7 @@
 //! `wo`'s side, seen from the +z side: `eta` applies for `wo.z > 0` and `1 / eta` for
 //! `wo.z < 0` (the tracer orients the frame and passes the matching value).
 
+mod coated_conductor;
 pub mod fresnel;
 pub mod microfacet;
 
@@ -68,6 +69,18 @@ pub enum Bsdf<const N: usize> {
         distrib: TrowbridgeReitz,
         thickness: f32,
         r_return: f32,
+    },
+    /// A dielectric coating (relative index `eta`, roughness `coat`, layer optical depth
+    /// `thickness`) over a conductor (`c_eta + i c_k` relative to the coating, roughness `base`):
+    /// pbrt-v4 `coatedconductor` (4th ed. §14.3) in camsim's one-pass closed form, see
+    /// [`coated_conductor`]. Reflects on both sides.
+    CoatedConductor {
+        eta: f32,
+        coat: TrowbridgeReitz,
+        thickness: f32,
+        c_eta: [f32; N],
+        c_k: [f32; N],
+        base: TrowbridgeReitz,
     },
 }
 
@@ -192,9 +205,30 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::Conductor { distrib, .. } => distrib.effectively_smooth(),
             Bsdf::Dielectric { eta, distrib } => *eta == 1.0 || distrib.effectively_smooth(),
             Bsdf::ThinDielectric { .. } => true,
+            Bsdf::CoatedConductor { coat, base, .. } => {
+                coat.effectively_smooth() && base.effectively_smooth()
+            }
             Bsdf::Diffuse { .. }
             | Bsdf::DiffuseTransmission { .. }
             | Bsdf::CoatedDiffuse { .. } => false,
+        }
+    }
+
+    /// The coated conductor's lobes, for a BSDF of that kind.
+    #[inline]
+    fn coated_conductor(&self) -> Option<coated_conductor::CoatedConductor<'_, N>> {
+        match self {
+            Bsdf::CoatedConductor { eta, coat, thickness, c_eta, c_k, base } => {
+                Some(coated_conductor::CoatedConductor {
+                    eta: *eta,
+                    coat: *coat,
+                    thickness: *thickness,
+                    c_eta,
+                    c_k,
+                    base: *base,
+                })
+            }
+            _ => None,
         }
     }
 
@@ -214,6 +248,15 @@ impl<const N: usize> Bsdf<N> {
     pub fn eval(&self, wo: &V3, wi: &V3) -> ([f32; N], f32) {
         const ZERO: f32 = 0.0;
         match self {
+            Bsdf::CoatedConductor { .. } => {
+                // Two-sided: mirror both directions to the upper hemisphere.
+                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
+                let (wo, wi) = (V3::new(wo.x, wo.y, wo.z * s), V3::new(wi.x, wi.y, wi.z * s));
+                match self.coated_conductor() {
+                    Some(c) => c.eval(&wo, &wi),
+                    None => ([ZERO; N], 0.0),
+                }
+            }
             Bsdf::Diffuse { reflectance } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
@@ -299,6 +342,13 @@ impl<const N: usize> Bsdf<N> {
     #[inline]
     pub fn sample(&self, wo: &V3, uc: f32, u0: f32, u1: f32) -> Option<BsdfSample<N>> {
         match self {
+            Bsdf::CoatedConductor { .. } => {
+                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
+                let wo_up = V3::new(wo.x, wo.y, wo.z * s);
+                let mut b = self.coated_conductor()?.sample(&wo_up, uc, u0, u1)?;
+                b.wi_local.z *= s;
+                Some(b)
+            }
             Bsdf::Diffuse { reflectance } => {
                 // Cosine-weighted on wo's side (pbrt-v4 DiffuseBxDF::Sample_f).
                 let mut wi = cosine_hemisphere(u0, u1);

@@ -27,23 +27,34 @@
 //!   (only the start transform is used: no motion blur).
 //! - World: `WorldBegin`, `Shape` (`trianglemesh`: `P`, `indices`, `uv`, `N`; `bilinearmesh`:
 //!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
-//!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin;
+//!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin, and
+//!   `zmin`, `zmax`, `phimax` (a partial sphere, intersected exactly with pbrt-v4's clipping,
+//!   area `phimax r (zmax - zmin)`, see [`crate::scene::Geometry::PartialSphere`]);
 //!   `disk`: `height`, `radius`, `innerradius`, `phimax`; `cylinder`: `radius`, `zmin`, `zmax`,
 //!   `phimax` -- both tessellated at load, area-preserving, see [`crate::shapes`];
 //!   `loopsubdiv`: `levels`, `P`, `indices` -- Loop-subdivided at load and moved to the limit
-//!   surface as pbrt-v4 does),
+//!   surface as pbrt-v4 does); every shape takes `alpha` (a number or a float texture, pbrt-v4
+//!   4th ed. §7.1.1: hits where it is 0 are ignored, where it is fractional a deterministic
+//!   hash of the ray decides, for camera, bounce and shadow rays alike; a constant 0 drops the
+//!   shape; see [`crate::scene::Material::AlphaMasked`]; not on area lights),
 //!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
 //!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
 //!   `parser/materials.rs`): `diffuse` (`reflectance`), `conductor` (`eta`/`k` spectra, default
-//!   copper, or `reflectance`; `roughness`, `uroughness`, `vroughness`, `remaproughness`),
+//!   copper, or `reflectance`; `roughness`, `uroughness`, `vroughness`, `remaproughness`; the
+//!   roughnesses may be any float texture, evaluated per hit:
+//!   [`crate::scene::Material::VaryingRoughness`]),
 //!   `dielectric` (`eta` float or spectrum, e.g. `"glass-BK7"`; roughness as conductor),
 //!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
 //!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
 //!   model, exact for a smooth coating, see [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must
-//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `mix` (`materials` two named
+//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `coatedconductor`
+//!   (`interface.roughness`/`uroughness`/`vroughness`, `interface.eta`, `thickness`,
+//!   `conductor.eta`, `conductor.k` or `reflectance`, `conductor.roughness`/`uroughness`/
+//!   `vroughness`, `remaproughness`; camsim's one-pass closed form, darker than pbrt-v4 for rough
+//!   conductors, noted; see [`crate::bsdf::Bsdf::CoatedConductor`]), `mix` (`materials` two named
 //!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
 //!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
-//!   texture; float parameters (roughness, `scale`, `thickness`, `amount`) take a number or a
+//!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
 //!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
 //!   ([`optical_constants`]),
 //!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
@@ -53,7 +64,10 @@
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`); texture-valued parameters take a value or a
 //!   texture name (the renderer's `texture` module compiles and evaluates them),
-//!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`),
+//!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
+//!   `encoding`: an RGB image over a triangle mesh's uv, each value an illuminant spectrum as
+//!   pbrt-v4's `RGBIlluminantSpectrum`, `power` divided by the image's mean luminance as
+//!   pbrt-v4 does; see [`crate::scene::AreaLight::image`]),
 //!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
 //!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
@@ -106,16 +120,17 @@
 //! (vacuum);
 //! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); material `normalmap`,
 //! `bumpmap`, `displacement` (no bump, displacement or normal mapping); shape
-//! `faceIndices`, `S`, `emission`-free `alpha` of 1; `TransformTimes`.
+//! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective` and `screenwindow`; materials other than the eight above
-//! (`coatedconductor`, `hair`, `measured`, `subsurface`: named in the message), varying float
-//! textures as material parameters, `coateddiffuse` with a scattering layer (`albedo` > 0);
+//! Cameras other than `perspective` and `screenwindow`; materials other than the nine above
+//! (`hair`, `measured`, `subsurface`: named in the message), varying float
+//! textures as material parameters other than the roughnesses, `coateddiffuse` with a
+//! scattering layer (`albedo` > 0);
 //! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
 //! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
-//! sphere `zmin`/`zmax`/`phimax`, alpha other than constant 0 (shape dropped, noted) or 1;
-//! `goniometric` and `projection` lights, area-light images (`filename`), infinite-light
+//! `alpha` on area lights;
+//! `goniometric` and `projection` lights, area-light images on spheres, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a
 //! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`

@@ -11,7 +11,7 @@ use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::sampler::SamplerKind;
 use crate::scene::{
-    AreaLight, Camera, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
+    AreaLight, Camera, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
     Shape, Texture, Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
@@ -41,6 +41,9 @@ struct AreaLightSpec {
     scale: f64,
     two_sided: bool,
     power: Option<f64>,
+    /// `filename`: the emission image and its mean luminance `Y(rgb)` (Rec. 709 weights, the
+    /// sRGB colour space's luminance vector), pbrt-v4's `k_e` factor for `power`.
+    image: Option<(std::sync::Arc<EmissionImage>, f64)>,
 }
 
 #[derive(Debug, Clone)]
@@ -67,6 +70,10 @@ struct PendingShape {
     /// One pbrt shape tessellated into triangles (disk, cylinder): `power` applies to the whole
     /// mesh, not per triangle as for a pbrt triangle mesh.
     single: bool,
+    /// The shape's `alpha` when it varies or is fractional (a constant 1 is `None`, a constant
+    /// 0 drops the shape), keyed by its parameter text so shapes sharing one material and one
+    /// alpha share one [`Material::AlphaMasked`].
+    alpha: Option<(String, FloatTexture)>,
 }
 
 enum Block {
@@ -83,6 +90,8 @@ struct Parser {
     named_coords: HashMap<String, Transform>,
     materials: Vec<Material>,
     named_materials: HashMap<String, usize>,
+    /// Roughness textures read by the material being built (see `parser/materials.rs`).
+    varying: Option<(FloatTexture, FloatTexture, bool)>,
     textures: HashMap<String, Texture>,
     float_textures: HashMap<String, FloatTexture>,
     shapes: Vec<PendingShape>,
@@ -147,6 +156,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         named_coords: HashMap::new(),
         materials: vec![default_material],
         named_materials: HashMap::new(),
+        varying: None,
         textures: HashMap::new(),
         float_textures: HashMap::new(),
         shapes: Vec::new(),
@@ -669,11 +679,35 @@ impl Parser {
                             "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
                         )));
                     }
-                    if params.get("filename", &["string"])?.is_some() {
-                        return Err(loc.err("AreaLightSource \"diffuse\": image emission (\"filename\") is not supported"));
-                    }
                     let spectrum =
                         self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                    // pbrt-v4 DiffuseAreaLight::Create: `filename` (exclusive with `L`) gives an
+                    // RGB image over the shape's uv, its values illuminant spectra of the colour
+                    // space; scale /= SpectrumToPhotometric(colour space illuminant).
+                    let image = match params.string("filename")? {
+                        None => None,
+                        Some(fname) => {
+                            if spectrum.is_some() {
+                                return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
+                            }
+                            let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+                            let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+                            let encoding = parse_encoding(&enc).ok_or_else(|| {
+                                loc.err(format!("AreaLightSource \"diffuse\": unknown encoding \"{enc}\""))
+                            })?;
+                            let path = self.resolve(file, &fname);
+                            let (width, height, rgb) = load_image(&path, encoding)
+                                .map_err(|e| loc.err(format!("AreaLightSource \"diffuse\": {e}")))?;
+                            if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                                return Err(loc.err(format!(
+                                    "AreaLightSource \"diffuse\": {fname} is empty or has negative or non-finite texels"
+                                )));
+                            }
+                            let mean_y = rgb.iter().map(|c| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64).sum::<f64>()
+                                / rgb.len() as f64;
+                            Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
+                        }
+                    };
                     let spectrum = match spectrum {
                         Some(s) => s,
                         None => default_illuminant(),
@@ -687,6 +721,7 @@ impl Parser {
                         scale,
                         two_sided,
                         power,
+                        image,
                     });
                 }
                 "LightSource" => {
@@ -1045,22 +1080,27 @@ impl Parser {
         let inv =
             inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
         let swaps = det3(&ctm) < 0.0;
-        // Constant alpha: 1 is opaque; 0 cuts the whole shape out (dropped, exactly what
-        // pbrt-v4's alpha test does for every hit); anything else needs per-hit alpha tests.
+        // Alpha (pbrt-v4 4th ed. §7.1.1): a constant 1 is opaque; a constant 0 cuts the whole
+        // shape out (dropped, exactly what pbrt-v4's alpha test does for every hit); a fraction
+        // or a float texture is tested per hit by the tracer (`Material::AlphaMasked`).
         let mut cut_out = false;
+        let mut alpha = None;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let a = if p.ty == "float" {
-                p.nums()?.first().copied()
-            } else {
-                None
-            };
-            match a {
-                Some(1.0) => {}
-                Some(0.0) => cut_out = true,
+            let key = format!("{} {:?}", p.ty, p.strings().ok().or_else(|| p.nums().ok().map(|v| v.iter().map(|x| x.to_string()).collect())));
+            let tex = self.float_texture_param(params, "alpha", 1.0)?;
+            match (p.ty.as_str(), &tex) {
+                (_, FloatTexture::Constant(a)) if *a >= 1.0 => {}
+                ("float", FloatTexture::Constant(a)) if *a <= 0.0 => cut_out = true,
+                (_, FloatTexture::Constant(a)) if !a.is_finite() => {
+                    return Err(p.loc.err(format!("Shape: alpha {a} is not finite")));
+                }
                 _ => {
-                    return Err(p.loc.err(
-                        "Shape: alpha cut-outs are not supported (only constant alpha 0 or 1)",
-                    ))
+                    if self.gs.area_light.is_some() {
+                        return Err(p.loc.err(
+                            "Shape: alpha cut-outs on area lights are not supported (the light's emission would ignore the mask)",
+                        ));
+                    }
+                    alpha = Some((key, tex));
                 }
             }
         }
@@ -1165,21 +1205,33 @@ impl Parser {
                 if !(r > 0.0) {
                     return Err(loc.err(format!("Shape \"sphere\": radius {r} must be positive")));
                 }
-                for (n, def) in [("zmin", -r), ("zmax", r), ("phimax", 360.0)] {
-                    if let Some(v) = params.float_opt(n)? {
-                        if (v - def).abs() > 1e-9 * def.abs().max(1.0)
-                            && !(n == "zmin" && v <= -r)
-                            && !(n == "zmax" && v >= r)
-                        {
-                            return Err(loc.err(format!(
-                                "Shape \"sphere\": partial spheres (\"{n}\") are not supported"
-                            )));
-                        }
-                    }
+                // pbrt-v4 Sphere (4th ed. §6.2): z range clamped to [-r, r], phimax to [0, 360].
+                let (z0, z1) = (params.float("zmin", -r)?, params.float("zmax", r)?);
+                let phi_max_deg = params.float("phimax", 360.0)?;
+                if !(z0.is_finite() && z1.is_finite() && phi_max_deg.is_finite()) {
+                    return Err(loc.err("Shape \"sphere\": zmin, zmax and phimax must be finite"));
                 }
-                Geometry::Sphere {
-                    center: [0.0; 3],
-                    radius: r,
+                let (z_min, z_max) = (z0.min(z1).clamp(-r, r), z0.max(z1).clamp(-r, r));
+                let phi_max_deg = phi_max_deg.clamp(0.0, 360.0);
+                if !(z_max > z_min && phi_max_deg > 0.0) {
+                    return Err(loc.err(format!(
+                        "Shape \"sphere\": zmin {z0}, zmax {z1}, phimax {phi_max_deg} leave no surface"
+                    )));
+                }
+                if z_min <= -r && z_max >= r && phi_max_deg >= 360.0 {
+                    Geometry::Sphere {
+                        center: [0.0; 3],
+                        radius: r,
+                    }
+                } else {
+                    Geometry::PartialSphere {
+                        center: [0.0; 3],
+                        radius: r,
+                        axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                        z_min,
+                        z_max,
+                        phi_max_deg,
+                    }
                 }
             }
             "disk" => crate::shapes::disk(
@@ -1226,6 +1278,18 @@ impl Parser {
         params.check_unused(&format!("Shape \"{ty}\""))?;
         // To world space.
         let (geometry, reverse_orientation) = match geometry {
+            g @ Geometry::PartialSphere { .. } => {
+                let mut s = Shape {
+                    name: None,
+                    geometry: g,
+                    material: 0,
+                    area_light: None,
+                    reverse_orientation: self.gs.reverse_orientation,
+                };
+                xform::transform_shape(&mut s, &ctm)
+                    .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                (s.geometry, s.reverse_orientation)
+            }
             Geometry::Sphere { center, radius } => {
                 let (c, r) = xform::sphere_under(&ctm, center, radius)
                     .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
@@ -1318,6 +1382,7 @@ impl Parser {
             mat: self.gs.material.clone(),
             light: self.gs.area_light.clone(),
             single: matches!(ty, "disk" | "cylinder"),
+            alpha,
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1340,6 +1405,9 @@ impl Parser {
         let mut shapes = Vec::with_capacity(self.shapes.len());
         let mut notes = self.notes;
         let mut errors = self.errors;
+        let mut materials = self.materials;
+        // (base material, alpha parameter text) -> its `AlphaMasked` material.
+        let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
             let material = match &ps.mat {
                 MatRef::Index(i) => *i,
@@ -1357,6 +1425,13 @@ impl Parser {
                     }
                 },
             };
+            let material = match ps.alpha {
+                None => material,
+                Some((key, alpha)) => *masked.entry((material, key)).or_insert_with(|| {
+                    materials.push(Material::AlphaMasked { material, alpha });
+                    materials.len() - 1
+                }),
+            };
             let mut shape = ps.shape;
             shape.material = material;
             match ps.light {
@@ -1365,7 +1440,10 @@ impl Parser {
                     // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
                     // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
                     let base = l.scale / l.spectrum.photometric;
-                    let sides = if l.two_sided { 2.0 } else { 1.0 };
+                    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
+                    // "sides" here is sides times that mean).
+                    let sides = (if l.two_sided { 2.0 } else { 1.0 })
+                        * l.image.as_ref().map_or(1.0, |(_, y)| *y);
                     let to_light = |scale: f64| AreaLight {
                         radiance: l
                             .spectrum
@@ -1373,6 +1451,7 @@ impl Parser {
                             .clone()
                             .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                         two_sided: l.two_sided,
+                        image: l.image.as_ref().map(|(im, _)| im.clone()),
                     };
                     match (l.power, &shape.geometry) {
                         (
@@ -1401,7 +1480,7 @@ impl Parser {
                                 };
                                 let area = xform::shape_area(&g);
                                 let scale = if area > 0.0 {
-                                    base * power / (std::f64::consts::PI * area * sides)
+                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
                                 } else {
                                     0.0
                                 };
@@ -1419,7 +1498,7 @@ impl Parser {
                             if let Some(power) = power {
                                 let area = xform::shape_area(g);
                                 scale = if area > 0.0 {
-                                    base * power / (std::f64::consts::PI * area * sides)
+                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
                                 } else {
                                     0.0
                                 };
@@ -1457,7 +1536,7 @@ impl Parser {
                 lens,
             },
             shapes,
-            materials: self.materials,
+            materials,
             named_materials: self.named_materials,
             lights: self.lights,
             settings: self.settings,

@@ -163,6 +163,28 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
                 shape.reverse_orientation = !shape.reverse_orientation;
             }
         }
+        Geometry::PartialSphere {
+            center,
+            radius,
+            axes,
+            z_min,
+            z_max,
+            ..
+        } => {
+            let (c, r) = sphere_under(t, *center, *radius)?;
+            let s = r / *radius;
+            *center = c;
+            *radius = r;
+            *z_min *= s;
+            *z_max *= s;
+            for a in axes.iter_mut() {
+                let v = t.apply_vector(*a);
+                *a = [v[0] / s, v[1] / s, v[2] / s];
+            }
+            if swaps {
+                shape.reverse_orientation = !shape.reverse_orientation;
+            }
+        }
         #[allow(unreachable_patterns)]
         _ => return Err("this geometry cannot be transformed by the scene reader".into()),
     }
@@ -186,6 +208,14 @@ pub fn shape_area(g: &Geometry) -> f64 {
             })
             .sum(),
         Geometry::Sphere { radius, .. } => 4.0 * std::f64::consts::PI * radius * radius,
+        // pbrt-v4 Sphere::Area (4th ed. §6.2.4): phi_max r (z_max - z_min).
+        Geometry::PartialSphere {
+            radius,
+            z_min,
+            z_max,
+            phi_max_deg,
+            ..
+        } => phi_max_deg.to_radians() * radius * (z_max - z_min),
         #[allow(unreachable_patterns)]
         _ => 0.0,
     }
@@ -205,7 +235,7 @@ pub fn shape_bounds(g: &Geometry) -> ([f64; 3], [f64; 3]) {
             }
             (lo, hi)
         }
-        Geometry::Sphere { center, radius } => (
+        Geometry::Sphere { center, radius } | Geometry::PartialSphere { center, radius, .. } => (
             [center[0] - radius, center[1] - radius, center[2] - radius],
             [center[0] + radius, center[1] + radius, center[2] + radius],
         ),
