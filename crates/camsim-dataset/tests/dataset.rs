@@ -12,7 +12,7 @@ fn spec_text(extra: &str) -> String {
 samples = 7
 shard_size = 3
 seed = 11
-outputs = ["raw", "raw-npy", "preview", "noise-free"]
+outputs = ["raw", "raw-npy", "preview", "noise-free", "irradiance"]
 
 [base]
 wavelengths = {{ start_nm = 400.0, step_nm = 20.0, count = 16 }}
@@ -221,7 +221,7 @@ fn bad_specs_are_refused_before_any_work_naming_the_key() {
         (spec_text("[[vary]]\nkey = \"capture.exposure_ms\"\nvalues = [1.0]\nuniform = [1.0, 2.0]\n"), "exactly one"),
         (spec_text("").replace("samples = 7", "samples = 0"), "samples"),
         (spec_text("").replace("[base]", "[base]\nseed = 3"), "seed"),
-        (spec_text("").replace("\"noise-free\"]", "\"noise-free\", \"hdr\"]"), "hdr"),
+        (spec_text("").replace("\"irradiance\"]", "\"irradiance\", \"hdr\"]"), "hdr"),
         (spec_text("").replace("[dataset]", "[dataset]\nsample = 3"), "sample"),
     ];
     for (text, needle) in cases {

@@ -239,6 +239,7 @@ fn write_planes_in_batches(
             sampling: Vec2(1, 1),
         })
         .collect();
+    let custom: Vec<Vec<u8>> = attrs.other.keys().map(|k| k.as_slice().to_vec()).collect();
     let header = Header::new(Text::from("camsim"), (cols, rows), channels)
         .with_encoding(compression.compression(), exr::meta::BlockDescription::ScanLines, LineOrder::Increasing)
         .with_attributes(attrs);
@@ -295,8 +296,49 @@ fn write_planes_in_batches(
             write(pending)?;
             Ok(())
         })
-        .map_err(|e| exr_err(path, e))
+        .map_err(|e| exr_err(path, e))?;
+        sort_custom_attributes(tmp, &custom).map_err(|e| IoError::io(path, e))
     })
+}
+
+/// The exr crate keeps custom header attributes in a `std::collections::HashMap`, whose order
+/// changes from run to run (its hasher is seeded randomly), so the same image would give
+/// different bytes. Sort them by name in place: the crate writes them last in the header, one
+/// after another, and sorting keeps their total length, so the chunk offsets stay valid.
+/// Header layout (OpenEXR file layout): magic and version (8 bytes), then attributes
+/// `name\0 type\0 size (i32 LE) value`, ended by a 0 byte.
+fn sort_custom_attributes(file: &Path, custom: &[Vec<u8>]) -> std::io::Result<()> {
+    use std::io::{Read, Seek, SeekFrom, Write};
+    if custom.len() < 2 {
+        return Ok(());
+    }
+    let bad = |what: &str| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("EXR header as written: {what}"));
+    let mut f = std::fs::OpenOptions::new().read(true).write(true).open(file)?;
+    let mut head = Vec::new();
+    (&mut f).take(1 << 20).read_to_end(&mut head)?;
+    let nul_from = |at: usize| head.get(at..).and_then(|h| h.iter().position(|&b| b == 0)).map(|i| at + i).ok_or_else(|| bad("unterminated name"));
+    let mut spans = Vec::new(); // (name, start, end)
+    let mut at = 8;
+    while *head.get(at).ok_or_else(|| bad("no end of header"))? != 0 {
+        let name_end = nul_from(at)?;
+        let type_end = nul_from(name_end + 1)?;
+        let size = head.get(type_end + 1..type_end + 5).ok_or_else(|| bad("attribute size"))?;
+        let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
+        let end = type_end + 5 + usize::try_from(size).map_err(|_| bad("negative attribute size"))?;
+        spans.push((&head[at..name_end], at, end));
+        at = end;
+    }
+    let first = spans.iter().position(|(n, _, _)| custom.iter().any(|c| c == n)).ok_or_else(|| bad("custom attributes missing"))?;
+    let mut mine: Vec<_> = spans[first..].to_vec();
+    if mine.len() != custom.len() || mine.iter().any(|(n, _, _)| !custom.iter().any(|c| c == n)) {
+        return Err(bad("custom attributes not written last"));
+    }
+    let (start, end) = (mine[0].1, mine[mine.len() - 1].2);
+    mine.sort_by(|a, b| a.0.cmp(b.0));
+    let sorted: Vec<u8> = mine.iter().flat_map(|(_, s, e)| head[*s..*e].iter().copied()).collect();
+    debug_assert_eq!(sorted.len(), end - start);
+    f.seek(SeekFrom::Start(start as u64))?;
+    f.write_all(&sorted)
 }
 
 /// Write a spectral image as a spectral OpenEXR (see the module doc for the layout), with the
@@ -776,6 +818,25 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_same_image_gives_the_same_bytes() {
+        // The custom header attributes live in a randomly seeded HashMap inside the exr crate:
+        // without sorting them, two writes (two maps) order them differently.
+        let dir = tempfile::tempdir().unwrap();
+        let img = sample_image(5, 4, WavelengthGrid::new(400.0, 700.0, 50.0).unwrap());
+        let bytes: Vec<Vec<u8>> = (0..4)
+            .map(|i| {
+                let p = dir.path().join(format!("{i}.exr"));
+                write_spectral_exr(&p, &img, "scene").unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        assert!(bytes.windows(2).all(|w| w[0] == w[1]));
+        let (back, info) = read_spectral_exr_with_info(&dir.path().join("0.exr")).unwrap();
+        assert_eq!(back.data, img.data);
+        assert_eq!((info.stage.as_deref(), back.geometry), (Some("scene"), img.geometry));
     }
 
     #[test]
