@@ -361,3 +361,19 @@ fn bad_configs_give_clear_errors() {
     let e = err(&format!("{base}blur = {{ method = \"shift-invariant\", lens_file = \"x.json\" }}"));
     assert!(e.contains("blur.method"), "{e}");
 }
+
+/// The example `examples/lens-dgauss-shift-variant.toml`: its `[optics.config]` parses and builds
+/// (lens file resolved against the example's folder, as the pipeline does).
+#[test]
+fn example_config_builds() {
+    let path = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/lens-dgauss-shift-variant.toml"));
+    let text = std::fs::read_to_string(&path).unwrap();
+    let doc: toml::Table = toml::from_str(&text).unwrap();
+    let optics = doc["optics"].as_table().unwrap()["config"].clone();
+    let mut c: OpticsConfig = optics.try_into().unwrap();
+    let b = c.blur.as_mut().unwrap();
+    let lens = b.lens_file.as_mut().unwrap();
+    *lens = path.parent().unwrap().join(&*lens);
+    let o = Optics::from_config(&c).unwrap();
+    assert!(o.shift_variant().is_some());
+}
