@@ -85,7 +85,7 @@ impl ShiftVariant {
             }
         }
         let s = b.rotation_oversampling;
-        if !(1..=9).contains(&s) || s % 2 == 0 {
+        if !(1..=9).contains(&s) || s.is_multiple_of(2) {
             return Err(OpticsError::config("blur.rotation_oversampling", format!("{s} must be odd, 1..=9")));
         }
         let source = match (&b.lens_file, &b.field_zernike) {
@@ -271,7 +271,7 @@ impl ShiftVariant {
             .par_iter()
             .map(|h| if *h == 0.0 { Ok(0.0) } else { lens.chief_image_point_mm(cam, geo.field(*h)).map(|p| p[0] * 1e-3) })
             .collect::<Result<_>>()?;
-        if real_m.windows(2).any(|p| !(p[1] > p[0])) {
+        if real_m.windows(2).any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater)) {
             return Err(OpticsError::config(
                 "blur.lens_file",
                 "the lens's chief-ray image height does not grow with field height over the image (distortion folds)",
@@ -325,7 +325,7 @@ impl ShiftVariant {
         let tail = cfg.psf.tail_energy;
         // Kernel side: as the shift-invariant path, the largest over bands, here also over heights
         // (for the output's padding the model is evaluated first at the unpadded corner).
-        let max_kernel = if cfg.psf.max_kernel_size % 2 == 0 { cfg.psf.max_kernel_size - 1 } else { cfg.psf.max_kernel_size };
+        let max_kernel = if cfg.psf.max_kernel_size.is_multiple_of(2) { cfg.psf.max_kernel_size - 1 } else { cfg.psf.max_kernel_size };
         let (wfs, cam) = self.field_wavefronts(&base, &heights_m, half_diag_m, &wavelengths, &geo)?;
         let wf_at = |i: usize, b: usize| pick(&wfs, i, b);
         let k_wanted = (0..n_h * bands)
@@ -422,7 +422,7 @@ impl ShiftVariant {
                     }
                 }
                 let sum: f32 = kernel.iter().sum();
-                if !(sum > 0.0) {
+                if sum.is_nan() || sum <= 0.0 {
                     return Err(OpticsError::Input(format!("the field PSF at {wl} nm has no energy inside the {k} x {k} kernel")));
                 }
                 if s > 1 {

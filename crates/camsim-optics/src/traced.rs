@@ -197,7 +197,7 @@ impl TracedLens {
             x1 += step;
             g1 = g2;
         }
-        if !(g1.abs() < 1e-6) {
+        if g1.is_nan() || g1.abs() >= 1e-6 {
             return Err(lens_err("blur.lens_file", format!("{}: cannot aim the chief ray of field {f:?} at the stop", self.what)));
         }
         Ok(x1)

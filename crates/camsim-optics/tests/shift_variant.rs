@@ -52,7 +52,7 @@ fn image(
 
 fn pattern(b: usize, r: usize, c: usize) -> f32 {
     let h = (r.wrapping_mul(7919) ^ c.wrapping_mul(104729) ^ b.wrapping_mul(31)) % 997;
-    0.2 + (h as f32 / 997.0) + if (r / 9 + c / 13) % 2 == 0 { 1.0 } else { 0.0 }
+    0.2 + (h as f32 / 997.0) + if (r / 9 + c / 13).is_multiple_of(2) { 1.0 } else { 0.0 }
 }
 
 /// (i) A field-independent, rotationally symmetric wavefront: the shift-variant stage must give
