@@ -244,10 +244,16 @@ impl ShiftVariant {
             FieldSource::Lens(lens) => {
                 // Film large enough for a padded output's corner with 50 % distortion margin.
                 let cam = lens.camera(geo.d_obj_m * 1e3, 2.0 * 1.5 * 1.25 * half_diag_m * 1e3)?;
-                let fits: Vec<Vec<Vec<f64>>> = heights_m
-                    .par_iter()
-                    .map(|h| lens.wavefront_zernike_um(&cam, geo.field(*h), wavelengths_nm, [0.0, 0.0]))
-                    .collect::<Result<_>>()?;
+                let mut fits: Vec<Result<Vec<Vec<f64>>>> =
+                    heights_m.par_iter().map(|h| lens.wavefront_zernike_um(&cam, geo.field(*h), wavelengths_nm, [0.0, 0.0])).collect();
+                // Heights where the lens vignettes most of the pupil (its relative illumination is
+                // then near 0) reuse the last height whose fit holds.
+                for i in 1..fits.len() {
+                    if fits[i].is_err() && fits[i - 1].is_ok() {
+                        fits[i] = Ok(fits[i - 1].as_ref().map(|v| v.clone()).unwrap_or_default());
+                    }
+                }
+                let fits = fits.into_iter().collect::<Result<Vec<_>>>()?;
                 let pupil = base.lens_pupil_diameter_m();
                 let wfs = fits
                     .into_iter()
@@ -265,12 +271,24 @@ impl ShiftVariant {
             return Err(OpticsError::Input("lens maps without a lens".into()));
         };
         // Distortion: chief rays out past the padded output's corner.
-        let m = 48;
-        let ideal_m: Vec<f64> = (0..=m).map(|i| 1.1 * out_half_diag_m * i as f64 / m as f64).collect();
-        let real_m: Vec<f64> = ideal_m
+        let n_table = 48;
+        let ideal_m: Vec<f64> = (0..=n_table).map(|i| 1.1 * out_half_diag_m * i as f64 / n_table as f64).collect();
+        let chief: Vec<Result<f64>> = ideal_m
             .par_iter()
             .map(|h| if *h == 0.0 { Ok(0.0) } else { lens.chief_image_point_mm(cam, geo.field(*h)).map(|p| p[0] * 1e-3) })
-            .collect::<Result<_>>()?;
+            .collect();
+        // Past the lens's field (chief rays blocked) the mapping is extended linearly from the
+        // last traced heights (no light arrives there: the relative illumination is 0).
+        let n_ok = chief.iter().take_while(|r| r.is_ok()).count();
+        if n_ok < 3 {
+            return Err(chief
+                .into_iter()
+                .find_map(|r| r.err())
+                .unwrap_or_else(|| OpticsError::config("blur.lens_file", "no chief ray passes")));
+        }
+        let m = n_ok - 1;
+        let ideal_m: Vec<f64> = ideal_m[..n_ok].to_vec();
+        let real_m: Vec<f64> = chief.into_iter().take(n_ok).map(|r| r.unwrap_or(0.0)).collect();
         if real_m.windows(2).any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater)) {
             return Err(OpticsError::config(
                 "blur.lens_file",
@@ -280,7 +298,9 @@ impl ShiftVariant {
         if real_m[m] > cam.max_film_radius_mm * 1e-3 {
             return Err(OpticsError::config("blur.lens_file", "the lens's distortion exceeds 50 % at the image corner"));
         }
-        let r_max = real_m[m];
+        // The table reaches the output's corner on the film (where no chief ray passes the RI
+        // integral finds no light: 0).
+        let r_max = real_m[m].max(1.05 * out_half_diag_m).min(cam.max_film_radius_mm * 1e-3);
         let ri_height_m: Vec<f64> = (0..=32).map(|i| r_max * i as f64 / 32.0).collect();
         let h_mm: Vec<f64> = ri_height_m.iter().map(|h| h * 1e3).collect();
         let ri = cam.relative_illumination(&h_mm, 64, crate::traced::REFERENCE_WAVELENGTH_NM);

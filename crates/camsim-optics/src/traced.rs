@@ -288,7 +288,7 @@ impl TracedLens {
             let mut ata = vec![0.0; FIT_TERMS * FIT_TERMS];
             let mut atb = vec![0.0; FIT_TERMS];
             let mut zv = vec![0.0; FIT_TERMS];
-            let mut used = 0usize;
+            let (mut used, mut inside) = (0usize, 0usize);
             for i in 0..n {
                 for j in 0..n {
                     let u = (j as f64 + 0.5) / n as f64 * 2.0 - 1.0;
@@ -297,6 +297,7 @@ impl TracedLens {
                     if rho > 1.0 {
                         continue;
                     }
+                    inside += 1;
                     let Some(l) = opl(xc + a * u, a * v) else {
                         continue;
                     };
@@ -314,8 +315,13 @@ impl TracedLens {
                     used += 1;
                 }
             }
-            if used < 2 * FIT_TERMS {
-                return Err(lens_err(key, format!("{}: only {used} rays of field {f:?} pass the lens at {wl} nm", self.what)));
+            // A pupil vignetted to a sliver leaves the fit's extrapolation over the blocked part
+            // unconstrained: refuse fits on less than a quarter of the pupil.
+            if used < 2 * FIT_TERMS || 4 * used < inside {
+                return Err(lens_err(
+                    key,
+                    format!("{}: only {used} of {inside} pupil rays of field {f:?} pass the lens at {wl} nm", self.what),
+                ));
             }
             let c = crate::shading::solve(ata, atb, FIT_TERMS).filter(|c| c.iter().all(|v| v.is_finite())).ok_or_else(|| {
                 lens_err(key, format!("{}: the Zernike fit of field {f:?} at {wl} nm is singular (the pupil is vignetted)", self.what))
