@@ -401,7 +401,11 @@ impl ShiftVariant {
             let psfs: Vec<Vec<f32>> = (0..n_h)
                 .map(|i| {
                     let w = wf_at(i, b);
-                    let p = if s == 1 { w.psf_with(wl, spacing_m, k, oversampling)? } else { w.psf_with(wl, spacing_m / s as f64, ks, 1)? };
+                    let p = if s == 1 {
+                        w.psf_with(wl, spacing_m, k, oversampling)?
+                    } else {
+                        w.clone().with_kernel_field(1.3).psf_with(wl, spacing_m / s as f64, ks, 1)?
+                    };
                     Ok(p.to_f32())
                 })
                 .collect::<Result<_>>()?;
