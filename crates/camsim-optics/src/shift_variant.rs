@@ -496,22 +496,36 @@ fn apply_lens_maps(out: &mut SpectralImage, m: &LensMaps, spacing_m: f64) {
         })
         .collect();
     let plane = rows * cols;
-    out.data.par_chunks_mut(plane).for_each(|band| {
-        let src = band.to_vec();
-        let at = |r: isize, c: isize| {
-            if r >= 0 && c >= 0 && (r as usize) < rows && (c as usize) < cols {
-                src[r as usize * cols + c as usize]
-            } else {
-                0.0
+    // One source copy per worker (reused across bands), bilinear taps: direct indexing inside,
+    // zeros outside the image.
+    out.data.par_chunks_mut(plane).for_each_init(
+        || vec![0.0f32; plane],
+        |src, band| {
+            src.copy_from_slice(band);
+            let at = |r: isize, c: isize| {
+                if r >= 0 && c >= 0 && (r as usize) < rows && (c as usize) < cols {
+                    src[r as usize * cols + c as usize]
+                } else {
+                    0.0
+                }
+            };
+            for (d, &(sx, sy, g)) in band.iter_mut().zip(&map) {
+                let inside = sx >= 0.0 && sy >= 0.0 && (sx as usize) + 1 < cols && (sy as usize) + 1 < rows;
+                let v = if inside {
+                    // Truncation is floor for non-negative coordinates.
+                    let (c0, r0) = (sx as usize, sy as usize);
+                    let (fx, fy) = (sx - c0 as f32, sy - r0 as f32);
+                    let i = r0 * cols + c0;
+                    (src[i] * (1.0 - fx) + src[i + 1] * fx) * (1.0 - fy) + (src[i + cols] * (1.0 - fx) + src[i + cols + 1] * fx) * fy
+                } else {
+                    let (x0, y0) = (sx.floor(), sy.floor());
+                    let (fx, fy) = (sx - x0, sy - y0);
+                    let (c0, r0) = (x0 as isize, y0 as isize);
+                    (at(r0, c0) * (1.0 - fx) + at(r0, c0 + 1) * fx) * (1.0 - fy)
+                        + (at(r0 + 1, c0) * (1.0 - fx) + at(r0 + 1, c0 + 1) * fx) * fy
+                };
+                *d = v * g;
             }
-        };
-        for (d, &(sx, sy, g)) in band.iter_mut().zip(&map) {
-            let (x0, y0) = (sx.floor(), sy.floor());
-            let (fx, fy) = (sx - x0, sy - y0);
-            let (c0, r0) = (x0 as isize, y0 as isize);
-            let v =
-                (at(r0, c0) * (1.0 - fx) + at(r0, c0 + 1) * fx) * (1.0 - fy) + (at(r0 + 1, c0) * (1.0 - fx) + at(r0 + 1, c0 + 1) * fx) * fy;
-            *d = v * g;
-        }
-    });
+        },
+    );
 }
