@@ -28,4 +28,4 @@ pub use error::{LensError, Result};
 pub use glass::Medium;
 pub use prescription::{Lens, Surface};
 pub use rtf::Rtf;
-pub use trace::{Blocked, Paraxial, Ray};
+pub use trace::{Blocked, Paraxial, Ray, TracedPath};

@@ -141,6 +141,17 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
     Some((t, n))
 }
 
+/// A ray traced through the lens with its optical path ([`Lens::trace_forward_path`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TracedPath {
+    /// The ray leaving the last surface (image space).
+    pub ray: Ray,
+    /// Optical path from the input ray's origin to the point on the last surface, mm.
+    pub optical_path_mm: f64,
+    /// Where the ray crossed the stop plane, mm.
+    pub stop_point_mm: [f64; 3],
+}
+
 /// Paraxial (first-order) properties of a lens at one wavelength.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Paraxial {
@@ -204,6 +215,28 @@ impl Lens {
             r = self.through_surface(i, s, z[i], &r, s.medium.index(wavelength_nm), self.index_before(i, wavelength_nm))?;
         }
         Ok(r)
+    }
+
+    /// [`Lens::trace_forward`] that also returns the optical path length (mm: sum of index x
+    /// geometric length, Born & Wolf sec. 3.3.1) from the ray's origin to where it leaves the last
+    /// surface, and the point where it crosses the stop plane. The wavefront stage builds
+    /// optical path differences from it.
+    pub fn trace_forward_path(&self, ray: &Ray, wavelength_nm: f64) -> Result<TracedPath, Blocked> {
+        let z = self.vertex_z_mm();
+        let mut r = *ray;
+        let mut opl = 0.0;
+        let mut stop = r.origin_mm;
+        for (i, s) in self.surfaces.iter().enumerate() {
+            let n_in = self.index_before(i, wavelength_nm);
+            let next = self.through_surface(i, s, z[i], &r, n_in, s.medium.index(wavelength_nm))?;
+            let d = [next.origin_mm[0] - r.origin_mm[0], next.origin_mm[1] - r.origin_mm[1], next.origin_mm[2] - r.origin_mm[2]];
+            opl += n_in * dot(d, d).sqrt();
+            if s.is_stop {
+                stop = next.origin_mm;
+            }
+            r = next;
+        }
+        Ok(TracedPath { ray: r, optical_path_mm: opl, stop_point_mm: stop })
     }
 
     fn through_surface(&self, i: usize, s: &Surface, z0: f64, r: &Ray, n_in: f64, n_out: f64) -> Result<Ray, Blocked> {

@@ -60,6 +60,79 @@ pub struct OpticsConfig {
     /// fits it with the defocus to a measured MTF (the `pixel4a-measured` preset).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub crosstalk_sigma_um: f64,
+    /// How the PSF varies over the image (unset: one PSF, shift-invariant). Example:
+    /// `blur = { method = "shift-variant", field_heights = 12, lens_file = "dgauss.json" }`;
+    /// see [`BlurConfig`] and [`crate::shift_variant`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blur: Option<BlurConfig>,
+}
+
+/// `blur = { ... }`: shift-invariant (the default) or shift-variant ("ray-trace") optics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BlurConfig {
+    /// `"shift-invariant"` (one PSF per wavelength for the whole image, as without `blur`) or
+    /// `"shift-variant"` (PSFs per field height and wavelength, rotated to each block's azimuth
+    /// and interpolated between field heights; ISETCam's ray-trace optics).
+    pub method: BlurKind,
+    /// Field heights at which PSFs are computed, from the axis to the image corner, equally
+    /// spaced (2..=64, default 12).
+    #[serde(default = "default_field_heights")]
+    pub field_heights: usize,
+    /// Block side, image samples: each block is blurred with one PSF (at its centre's field
+    /// height and azimuth). Default: the FFT tile that is cheapest for the kernel size (~230 for
+    /// kernels of 30 samples). 8..=4096.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub block_px: Option<usize>,
+    /// Oversampling of the stored PSFs for the rotation (odd, 1..=9, default 3): each rotated
+    /// fine sample is binned into the image sample cell it falls in.
+    #[serde(default = "default_rotation_oversampling")]
+    pub rotation_oversampling: usize,
+    /// A lens prescription (ISET3d lens JSON or pbrt-v4 `realistic` lens file; relative to the
+    /// config file): PSFs from its traced wavefront (optical path difference fitted with Zernike
+    /// terms per field height and wavelength), distortion from its chief rays and relative
+    /// illumination from its traced pupil. The stop is scaled to `f_number`; the lens's focal
+    /// length must be within 2 % of `focal_length_mm`; `shading` must be `"none"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens_file: Option<PathBuf>,
+    /// Or a table of Zernike terms per field height (added to `[wavefront]`'s terms).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_zernike: Option<FieldZernikeConfig>,
+}
+
+/// Shift-invariant or shift-variant blur.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BlurKind {
+    /// One PSF per wavelength.
+    ShiftInvariant,
+    /// PSFs per field height and wavelength.
+    ShiftVariant,
+}
+
+/// `field_zernike = { field_height_normalized = [0, 0.5, 1], zernike_um = [[...], [...], [...]] }`:
+/// Zernike coefficients (um, OSA index j, unit RMS, over the measurement pupil as `[wavefront]`)
+/// at each field height, in the frame where the field point lies on the +x axis (x radial, y
+/// tangential); linear interpolation between heights, end values held. Give exactly one of
+/// `field_height_mm` or `field_height_normalized` (1 = the image's corner).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldZernikeConfig {
+    /// Field heights in the sensor plane, mm, increasing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_height_mm: Option<Vec<f64>>,
+    /// Field heights normalized to the image half-diagonal, increasing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_height_normalized: Option<Vec<f64>>,
+    /// One list of coefficients per field height, indexed by OSA j (um).
+    pub zernike_um: Vec<Vec<f64>>,
+}
+
+fn default_field_heights() -> usize {
+    12
+}
+fn default_rotation_oversampling() -> usize {
+    3
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -358,6 +431,13 @@ impl OpticsConfig {
             if f.file.is_relative() {
                 if let Some(dir) = path.parent() {
                     f.file = dir.join(&f.file);
+                }
+            }
+        }
+        if let Some(l) = c.blur.as_mut().and_then(|b| b.lens_file.as_mut()) {
+            if l.is_relative() {
+                if let Some(dir) = path.parent() {
+                    *l = dir.join(&*l);
                 }
             }
         }

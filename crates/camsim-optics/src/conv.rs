@@ -163,6 +163,20 @@ impl TileConvolver {
         KernelSpectrum(s.cols)
     }
 
+    /// [`Self::kernel_spectrum`] into `out` with the working buffers `s` (no allocation once `out`
+    /// has its size): for a kernel per tile, as the shift-variant blur builds them.
+    pub fn kernel_spectrum_in(&self, kernel: &[f32], s: &mut Scratch, out: &mut KernelSpectrum) {
+        assert_eq!(kernel.len(), self.k * self.k);
+        let (k, f) = (self.k, self.f);
+        self.rows_forward(k, s, |r, row| row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k]));
+        out.0.resize(s.cols.len(), Complex32::new(0.0, 0.0));
+        let scale = 1.0 / (f * f) as f32;
+        for (col, o) in s.cols.chunks_exact_mut(f).zip(out.0.chunks_exact_mut(f)) {
+            self.col_fwd.process_with_scratch(col, &mut s.c_scratch);
+            o.iter_mut().zip(col.iter()).for_each(|(o, c)| *o = *c * scale);
+        }
+    }
+
     /// Convolve one tile: input rows `r0..r0+tr`, columns `c0..c0+tc` of a plane, values supplied
     /// by `load(r, c0, dst)` (fills `dst[..tc]` with input row `r0 + r`), and add the result to `out`.
     #[allow(clippy::too_many_arguments)]

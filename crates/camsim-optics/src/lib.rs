@@ -8,6 +8,9 @@
 //! - [`Optics`] (from an [`OpticsConfig`] or a preset) does the whole stage: [`Optics::compute`].
 //! - [`Wavefront`] computes PSFs and MTFs; [`lens`] holds the closed forms (diffraction MTF, thin
 //!   lens, defocus); [`zernike`] the OSA polynomials; [`shading`] the flat-field fit.
+//! - [`shift_variant`]: PSFs per field height, rotated and interpolated per image block
+//!   (`blur = { method = "shift-variant" }`), from field-dependent Zernike terms or a traced lens
+//!   ([`traced`]: optical path difference fitted with Zernike terms, distortion, relative illumination).
 
 pub mod config;
 pub mod conv;
@@ -18,7 +21,9 @@ pub mod optics;
 pub mod presets;
 pub mod psf;
 pub mod shading;
+pub mod shift_variant;
 pub mod tail;
+pub mod traced;
 pub mod wavefront;
 pub mod zernike;
 

@@ -7,6 +7,7 @@ use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::tail::{self, FarTail};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
+use crate::shift_variant::ShiftVariant;
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, Spectrum};
@@ -41,6 +42,7 @@ pub struct Optics {
     transmittance: Option<Spectrum>,
     scalar_transmittance: f64,
     shading: ShadingModel,
+    shift_variant: Option<ShiftVariant>,
 }
 
 /// How a depth map was split into layers (for reports and tests).
@@ -173,7 +175,11 @@ impl Optics {
                 ShadingModel::Fit(ShadingFit::from_toml(&text, &f.file.display().to_string())?, f.channel)
             }
         };
-        Ok(Optics { config: config.clone(), wavefront, transmittance, scalar_transmittance, shading })
+        let shift_variant = match &c.blur {
+            Some(b) => ShiftVariant::from_config(b, c.f_number, c.focal_length_mm, matches!(c.shading, ShadingConfig::Named(ShadingName::None)))?,
+            None => None,
+        };
+        Ok(Optics { config: config.clone(), wavefront, transmittance, scalar_transmittance, shading, shift_variant })
     }
 
     /// A built-in preset (`pixel4a`, `pixel4a-measured`, `diffraction-limited`).
@@ -311,7 +317,7 @@ impl Optics {
         Ok(DepthLayers { c4_um: layers, index: raw_idx.iter().map(|k| remap[*k]).collect(), step_um: step })
     }
 
-    fn shading_map(&self, rows: usize, cols: usize, spacing_m: f64, image_distance_m: f64) -> Option<Vec<f32>> {
+    pub(crate) fn shading_map(&self, rows: usize, cols: usize, spacing_m: f64, image_distance_m: f64) -> Option<Vec<f32>> {
         let cx = cols as f64 / 2.0;
         let cy = rows as f64 / 2.0;
         let half_diag = (cx * cx + cy * cy).sqrt() * spacing_m;
@@ -421,6 +427,9 @@ impl Optics {
         let grid = radiance.grid;
         let scale: Vec<f32> =
             (0..bands).map(|b| lens::irradiance_factor(n, m, self.transmittance(grid.wavelength_nm(b))) as f32).collect();
+        if let Some(sv) = &self.shift_variant {
+            return sv.compute(self, radiance, &scale, spacing, v_s, d_obj);
+        }
 
         // Defocus: depth layers, or one wavefront for the whole image.
         let layered = match (&radiance.depth_m, self.config.focus_distance_m) {
@@ -546,6 +555,21 @@ impl Optics {
             self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &scale, spacing, k, (pad_r, pad_c), None)?;
         }
 
+        Ok(self.finish(out, radiance, (pad_r, pad_c), spacing, v_s))
+    }
+
+    /// The shift-variant model, when `blur.method = "shift-variant"`.
+    pub fn shift_variant(&self) -> Option<&ShiftVariant> {
+        self.shift_variant.as_ref()
+    }
+
+    /// Step 4 of [`Self::compute`]: carry the depth map (edge-replicated into the padding) and set
+    /// the irradiance image's geometry.
+    pub(crate) fn finish(&self, mut out: SpectralImage, radiance: &SpectralImage, (pad_r, pad_c): (usize, usize), spacing: f64, v_s: f64) -> SpectralImage {
+        let (rows, cols) = (radiance.rows, radiance.cols);
+        let (out_rows, out_cols) = (out.rows, out.cols);
+        let f = self.focal_m();
+        let n = self.config.f_number;
         if let Some(depth) = &radiance.depth_m {
             let mut dm = vec![0.0f32; out_rows * out_cols];
             for r in 0..out_rows {
@@ -563,7 +587,7 @@ impl Optics {
             focal_length_m: f,
             f_number: n,
         };
-        Ok(out)
+        out
     }
 
     /// Step 3 by tiled FFT convolution with `k` x `k` kernels (see [`Self::compute`]), added onto

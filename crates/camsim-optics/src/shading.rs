@@ -219,7 +219,7 @@ impl ShadingFit {
 
 /// Solve the symmetric positive definite system `a x = b` (n x n, row-major) by Gaussian
 /// elimination with partial pivoting; None if singular.
-fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
+pub(crate) fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f64>> {
     for col in 0..n {
         let p = (col..n).max_by(|i, j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;
         if a[p * n + col].abs() < 1e-300 {

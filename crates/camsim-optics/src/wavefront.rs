@@ -52,6 +52,8 @@ pub struct Wavefront {
     chromatic_defocus_um: Option<Spectrum>,
     min_pupil_samples: usize,
     crosstalk_sigma_m: f64,
+    /// FFT field of a trimmed kernel as a multiple of its side (None: 2.5, at most 2048 samples).
+    kernel_field: Option<f64>,
 }
 
 impl Wavefront {
@@ -75,6 +77,7 @@ impl Wavefront {
             chromatic_defocus_um: None,
             min_pupil_samples: 64,
             crosstalk_sigma_m: 0.0,
+            kernel_field: None,
         })
     }
 
@@ -151,6 +154,16 @@ impl Wavefront {
     /// the same image as applying it in the sensor. Negative or non-finite values count as 0.
     pub fn with_crosstalk_sigma_m(mut self, sigma_m: f64) -> Self {
         self.crosstalk_sigma_m = if sigma_m.is_finite() && sigma_m > 0.0 { sigma_m } else { 0.0 };
+        self
+    }
+
+    /// FFT field of the kernels ([`Self::psf_with`]) as a multiple of the kernel side (>= 1.3):
+    /// the FFT PSF is periodic, so the tail beyond the field folds back into the kernel. The
+    /// default (2.5, up to 2048 samples) keeps that fold small enough for the far-tail model; the
+    /// shift-variant blur, which renormalizes its trimmed kernels and adds no far tail, uses 1.3
+    /// (about a quarter of the FFT work).
+    pub fn with_kernel_field(mut self, factor: f64) -> Self {
+        self.kernel_field = Some(factor.max(1.3));
         self
     }
 
@@ -444,7 +457,12 @@ impl Wavefront {
             // fold near the rim: chart patch means within 0.05 % of the whole-image OTF (0.10 %
             // at 4x, whose cleaner window is short of the asymptote's slight underestimate of the
             // near tail), and a third of 4x's cost per PSF.
-            n_out.map(|n| (2.5 * n as f64).min(2048.0).max(1.3 * n as f64).ceil()).unwrap_or(0.0),
+            n_out
+                .map(|n| match self.kernel_field {
+                    Some(f) => (f * n as f64).ceil(),
+                    None => (2.5 * n as f64).min(2048.0).max(1.3 * n as f64).ceil(),
+                })
+                .unwrap_or(0.0),
             self.min_pupil_samples as f64 / q,
             // The field must hold the geometric blur with room for the diffraction tail; this also
             // samples the pupil phase finely enough (the phase steps by < pi per pupil sample).

@@ -1,0 +1,531 @@
+//! Shift-variant ("ray-trace") optics: a PSF per field height and wavelength, rotated to each
+//! image block's azimuth and interpolated between field heights, applied blockwise; with a traced
+//! lens also its distortion and relative illumination (ISETCam's ray-trace optics,
+//! `rtPrecomputePSF` / `rtPrecomputePSFApply`, with the lens model of [`crate::traced`]).
+//!
+//! Scheme (`blur = { method = "shift-variant", ... }`, [`crate::config::BlurConfig`]):
+//! 1. PSFs at `field_heights` heights h_i = i / (n - 1) * (image half-diagonal) along +x, per
+//!    wavelength, from a [`Wavefront`] per height: the `[wavefront]` terms plus an interpolated
+//!    `field_zernike` table, or the Zernike fit of a traced lens's optical path difference
+//!    ([`crate::traced`]). Each PSF is centred on the chief ray.
+//! 2. The image is cut into square blocks (the FFT tiles of [`TileConvolver`]); each block gets
+//!    the PSF at its centre's field height h and azimuth phi: the two neighbouring field PSFs are
+//!    mixed linearly in h, and the mix (stored `rotation_oversampling` times finer) is rotated by
+//!    phi, each fine sample binned into the image cell its rotated position falls in (this
+//!    conserves energy; the kernel is renormalized to unit sum). A rotationally symmetric model
+//!    skips the rotation and mixes the image-sampled kernels directly.
+//! 3. Each block is convolved with its kernel by FFT and overlap-added (exact linear convolution
+//!    of the block; the blur is piecewise shift-invariant: the PSF jumps at block seams). rayon
+//!    over wavelengths, f32, one kernel spectrum buffer per thread.
+//! 4. Traced lens: distortion as a radial resampling of the blurred (ideal-geometry) irradiance:
+//!    the output sample at film height r takes the bilinear value at ideal height D^-1(r), D the
+//!    550 nm chief-ray mapping; then the relative illumination at r (which is computed on the film
+//!    and so already holds the area change of distortion) as a gain.
+//!
+//! Accuracy / speed: the cost over the shift-invariant tiled blur is one kernel FFT per block and
+//! wavelength (about a third of a block's convolution) plus the kernel rotation; accuracy is set
+//! by the field-height spacing (PSFs mixed linearly between heights) and the block size (the
+//! PSF is constant over a block). Smaller blocks follow the field more closely but the FFT tile
+//! overhead (kernel side K against block side B: cost ~ (B + K)^2 / B^2) grows.
+
+use crate::config::{BlurConfig, BlurKind, Padding};
+use crate::conv::{KernelSpectrum, OutputWindow, TileConvolver};
+use crate::error::{OpticsError, Result};
+use crate::optics::Optics;
+use crate::traced::{ObjectField, TracedLens};
+use crate::wavefront::Wavefront;
+use camsim_core::{Quantity, SpectralImage};
+use camsim_lens::LensCamera;
+use rayon::prelude::*;
+
+/// Where the field PSFs come from.
+#[derive(Debug, Clone)]
+pub enum FieldSource {
+    /// `[wavefront]` terms at every height plus a table of terms per field height (local frame).
+    Zernike {
+        /// Field heights (m in the sensor plane, or normalized to the half-diagonal).
+        heights: Vec<f64>,
+        /// Heights are normalized.
+        normalized: bool,
+        /// Dense OSA coefficients per height, um (empty table: field-independent).
+        terms_um: Vec<Vec<f64>>,
+    },
+    /// A traced lens prescription.
+    Lens(Box<TracedLens>),
+}
+
+/// The shift-variant blur settings and PSF source, checked.
+#[derive(Debug, Clone)]
+pub struct ShiftVariant {
+    /// Field heights with PSFs (>= 2).
+    pub field_heights: usize,
+    /// Block side, samples (None: the cheapest FFT tile).
+    pub block_px: Option<usize>,
+    /// Fine samples per image sample for the rotation (odd).
+    pub rotation_oversampling: usize,
+    /// The PSF source.
+    pub source: FieldSource,
+}
+
+impl ShiftVariant {
+    /// Check a `blur` config; `None` for the shift-invariant method.
+    pub fn from_config(b: &BlurConfig, f_number: f64, focal_length_mm: f64, shading_is_none: bool) -> Result<Option<ShiftVariant>> {
+        if b.method == BlurKind::ShiftInvariant {
+            if b.lens_file.is_some() || b.field_zernike.is_some() {
+                return Err(OpticsError::config("blur.method", "lens_file and field_zernike need method = \"shift-variant\""));
+            }
+            return Ok(None);
+        }
+        if !(2..=64).contains(&b.field_heights) {
+            return Err(OpticsError::config("blur.field_heights", format!("{} must be 2..=64", b.field_heights)));
+        }
+        if let Some(p) = b.block_px {
+            if !(8..=4096).contains(&p) {
+                return Err(OpticsError::config("blur.block_px", format!("{p} must be 8..=4096")));
+            }
+        }
+        let s = b.rotation_oversampling;
+        if !(1..=9).contains(&s) || s.is_multiple_of(2) {
+            return Err(OpticsError::config("blur.rotation_oversampling", format!("{s} must be odd, 1..=9")));
+        }
+        let source = match (&b.lens_file, &b.field_zernike) {
+            (Some(_), Some(_)) => return Err(OpticsError::config("blur", "give lens_file or field_zernike, not both")),
+            (Some(path), None) => {
+                if !shading_is_none {
+                    return Err(OpticsError::config(
+                        "shading",
+                        "with blur.lens_file the lens's traced relative illumination is applied; set shading = \"none\"",
+                    ));
+                }
+                FieldSource::Lens(Box::new(TracedLens::from_file(path, f_number, focal_length_mm)?))
+            }
+            (None, Some(t)) => {
+                let (heights, normalized, key) = match (&t.field_height_mm, &t.field_height_normalized) {
+                    (Some(h), None) => (h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(), false, "blur.field_zernike.field_height_mm"),
+                    (None, Some(h)) => (h.clone(), true, "blur.field_zernike.field_height_normalized"),
+                    _ => {
+                        return Err(OpticsError::config(
+                            "blur.field_zernike",
+                            "give exactly one of field_height_mm or field_height_normalized",
+                        ))
+                    }
+                };
+                if heights.is_empty() || heights.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || heights.windows(2).any(|p| p[1] <= p[0]) {
+                    return Err(OpticsError::config(key, "field heights must be finite, >= 0 and strictly increasing"));
+                }
+                if t.zernike_um.len() != heights.len() {
+                    return Err(OpticsError::config(
+                        "blur.field_zernike.zernike_um",
+                        format!("{} lists of terms for {} field heights", t.zernike_um.len(), heights.len()),
+                    ));
+                }
+                for (i, l) in t.zernike_um.iter().enumerate() {
+                    if let Some((j, c)) = l.iter().enumerate().find(|(_, c)| !c.is_finite()) {
+                        return Err(OpticsError::config(
+                            format!("blur.field_zernike.zernike_um[{i}][{j}]"),
+                            format!("{c} is not a finite number"),
+                        ));
+                    }
+                    if l.len() > 231 {
+                        return Err(OpticsError::config(
+                            format!("blur.field_zernike.zernike_um[{i}]"),
+                            "at most 231 terms (radial order 20)",
+                        ));
+                    }
+                }
+                FieldSource::Zernike { heights, normalized, terms_um: t.zernike_um.clone() }
+            }
+            (None, None) => FieldSource::Zernike { heights: vec![0.0], normalized: false, terms_um: vec![Vec::new()] },
+        };
+        Ok(Some(ShiftVariant { field_heights: b.field_heights, block_px: b.block_px, rotation_oversampling: s, source }))
+    }
+}
+
+fn interp(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    if xs.len() == 1 || x <= xs[0] {
+        return ys[0];
+    }
+    let n = xs.len();
+    if x >= xs[n - 1] {
+        return ys[n - 1];
+    }
+    let i = xs.partition_point(|v| *v < x);
+    let t = (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+    ys[i - 1] * (1.0 - t) + ys[i] * t
+}
+
+/// Linear interpolation that extends the end segments (for the distortion mapping past the
+/// traced range).
+fn interp_extend(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    let n = xs.len();
+    let i = xs.partition_point(|v| *v < x).clamp(1, n - 1);
+    let t = (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+    ys[i - 1] * (1.0 - t) + ys[i] * t
+}
+
+/// Distortion and relative illumination of a traced lens on the film.
+#[derive(Debug, Clone)]
+pub struct LensMaps {
+    /// Ideal (rectilinear, thin-lens) image heights, m.
+    pub ideal_m: Vec<f64>,
+    /// The 550 nm chief ray's film height for each, m.
+    pub real_m: Vec<f64>,
+    /// Film heights of the relative illumination table, m.
+    pub ri_height_m: Vec<f64>,
+    /// Relative illumination (1 on the axis).
+    pub ri: Vec<f64>,
+}
+
+/// What the shift-variant stage needs of the scene geometry.
+struct Geometry {
+    /// Object distance, m (infinite allowed).
+    d_obj_m: f64,
+    /// Thin-lens image distance, m.
+    v_s_m: f64,
+}
+
+impl Geometry {
+    fn field(&self, ideal_height_m: f64) -> ObjectField {
+        if self.d_obj_m.is_finite() {
+            ObjectField::Finite { height_mm: ideal_height_m * self.d_obj_m / self.v_s_m * 1e3, distance_mm: self.d_obj_m * 1e3 }
+        } else {
+            ObjectField::Infinity { tan_theta: ideal_height_m / self.v_s_m }
+        }
+    }
+}
+
+/// The wavefront of field height `i` and band `b` (one entry: the same for every band).
+fn pick(wfs: &[Vec<Wavefront>], i: usize, b: usize) -> &Wavefront {
+    if wfs[i].len() == 1 {
+        &wfs[i][0]
+    } else {
+        &wfs[i][b]
+    }
+}
+
+/// Pixel-centre offset from the optical axis (the image centre), samples.
+fn centre_offset(i: usize, n: usize) -> f64 {
+    i as f64 + 0.5 - n as f64 / 2.0
+}
+
+impl ShiftVariant {
+    /// The wavefront at each field height (outer) and band (inner; one entry when the model does
+    /// not depend on wavelength), and the lens maps for a traced lens.
+    fn field_wavefronts(
+        &self,
+        base: &Wavefront,
+        heights_m: &[f64],
+        half_diag_m: f64,
+        wavelengths_nm: &[f64],
+        geo: &Geometry,
+    ) -> Result<(Vec<Vec<Wavefront>>, Option<LensCamera>)> {
+        match &self.source {
+            FieldSource::Zernike { heights, normalized, terms_um } => {
+                let field_independent = terms_um.iter().all(|t| t.iter().all(|c| *c == 0.0));
+                let n_terms = terms_um.iter().map(|t| t.len()).max().unwrap_or(0).max(base.zernike_um().len());
+                let table_h: Vec<f64> = heights.iter().map(|h| if *normalized { h * half_diag_m } else { *h }).collect();
+                let wfs = heights_m
+                    .iter()
+                    .map(|h| {
+                        if field_independent {
+                            return Ok(vec![base.clone()]);
+                        }
+                        let mut c = base.zernike_um().to_vec();
+                        c.resize(n_terms, 0.0);
+                        for (j, cj) in c.iter_mut().enumerate() {
+                            let col: Vec<f64> = terms_um.iter().map(|t| t.get(j).copied().unwrap_or(0.0)).collect();
+                            *cj += interp(&table_h, &col, *h);
+                        }
+                        Ok(vec![base.clone().with_zernike(c, base.measurement_pupil_m())?])
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                Ok((wfs, None))
+            }
+            FieldSource::Lens(lens) => {
+                // Film large enough for a padded output's corner with 50 % distortion margin.
+                let cam = lens.camera(geo.d_obj_m * 1e3, 2.0 * 1.5 * 1.25 * half_diag_m * 1e3)?;
+                let mut fits: Vec<Result<Vec<Vec<f64>>>> =
+                    heights_m.par_iter().map(|h| lens.wavefront_zernike_um(&cam, geo.field(*h), wavelengths_nm, [0.0, 0.0])).collect();
+                // Heights where the lens vignettes most of the pupil (its relative illumination is
+                // then near 0) reuse the last height whose fit holds.
+                for i in 1..fits.len() {
+                    if fits[i].is_err() && fits[i - 1].is_ok() {
+                        fits[i] = Ok(fits[i - 1].as_ref().map(|v| v.clone()).unwrap_or_default());
+                    }
+                }
+                let fits = fits.into_iter().collect::<Result<Vec<_>>>()?;
+                let pupil = base.lens_pupil_diameter_m();
+                let wfs = fits
+                    .into_iter()
+                    .map(|per_band| per_band.into_iter().map(|c| base.clone().with_zernike(c, pupil)).collect::<Result<Vec<_>>>())
+                    .collect::<Result<Vec<_>>>()?;
+                Ok((wfs, Some(cam)))
+            }
+        }
+    }
+
+    /// Distortion and relative illumination of the traced lens out to film height
+    /// `out_half_diag_m` (the padded output's corner).
+    fn lens_maps(&self, cam: &LensCamera, geo: &Geometry, out_half_diag_m: f64) -> Result<LensMaps> {
+        let FieldSource::Lens(lens) = &self.source else {
+            return Err(OpticsError::Input("lens maps without a lens".into()));
+        };
+        // Distortion: chief rays out past the padded output's corner.
+        let n_table = 48;
+        let ideal_m: Vec<f64> = (0..=n_table).map(|i| 1.1 * out_half_diag_m * i as f64 / n_table as f64).collect();
+        let chief: Vec<Result<f64>> = ideal_m
+            .par_iter()
+            .map(|h| if *h == 0.0 { Ok(0.0) } else { lens.chief_image_point_mm(cam, geo.field(*h)).map(|p| p[0] * 1e-3) })
+            .collect();
+        // Past the lens's field (chief rays blocked) the mapping is extended linearly from the
+        // last traced heights (no light arrives there: the relative illumination is 0).
+        let n_ok = chief.iter().take_while(|r| r.is_ok()).count();
+        if n_ok < 3 {
+            return Err(chief
+                .into_iter()
+                .find_map(|r| r.err())
+                .unwrap_or_else(|| OpticsError::config("blur.lens_file", "no chief ray passes")));
+        }
+        let m = n_ok - 1;
+        let ideal_m: Vec<f64> = ideal_m[..n_ok].to_vec();
+        let real_m: Vec<f64> = chief.into_iter().take(n_ok).map(|r| r.unwrap_or(0.0)).collect();
+        if real_m.windows(2).any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater)) {
+            return Err(OpticsError::config(
+                "blur.lens_file",
+                "the lens's chief-ray image height does not grow with field height over the image (distortion folds)",
+            ));
+        }
+        if real_m[m] > cam.max_film_radius_mm * 1e-3 {
+            return Err(OpticsError::config("blur.lens_file", "the lens's distortion exceeds 50 % at the image corner"));
+        }
+        // The table reaches the output's corner on the film (where no chief ray passes the RI
+        // integral finds no light: 0).
+        let r_max = real_m[m].max(1.05 * out_half_diag_m).min(cam.max_film_radius_mm * 1e-3);
+        let ri_height_m: Vec<f64> = (0..=32).map(|i| r_max * i as f64 / 32.0).collect();
+        let h_mm: Vec<f64> = ri_height_m.iter().map(|h| h * 1e3).collect();
+        let ri = cam.relative_illumination(&h_mm, 64, crate::traced::REFERENCE_WAVELENGTH_NM);
+        if ri.iter().any(|v| !v.is_finite()) {
+            return Err(OpticsError::config(
+                "blur.lens_file",
+                "the lens's relative illumination is not finite (no light passes on the axis)",
+            ));
+        }
+        Ok(LensMaps { ideal_m, real_m, ri_height_m, ri })
+    }
+
+    /// The shift-variant optics stage ([`Optics::compute`] with `blur.method = "shift-variant"`):
+    /// `scale` per band is the camera equation's factor, `spacing_m` the sensor-plane sample
+    /// spacing, `v_s_m` the image distance, `d_obj_m` the object distance (infinite allowed).
+    pub(crate) fn compute(
+        &self,
+        optics: &Optics,
+        radiance: &SpectralImage,
+        scale: &[f32],
+        spacing_m: f64,
+        v_s_m: f64,
+        d_obj_m: f64,
+    ) -> Result<SpectralImage> {
+        let cfg = optics.config();
+        if radiance.depth_m.is_some() && cfg.focus_distance_m.is_some() {
+            return Err(OpticsError::config(
+                "blur.method",
+                "\"shift-variant\" does not combine with depth-layered defocus (a depth map with focus_distance_m) yet",
+            ));
+        }
+        let (rows, cols) = (radiance.rows, radiance.cols);
+        let grid = radiance.grid;
+        let bands = radiance.bands();
+        let wavelengths: Vec<f64> = (0..bands).map(|b| grid.wavelength_nm(b)).collect();
+        let extra = cfg.focus_distance_m.map(|fd| optics.defocus_c4_um(fd, d_obj_m)).unwrap_or(0.0);
+        let base = optics.wavefront().clone().with_image_distance(v_s_m).with_extra_defocus_um(extra);
+        let half_diag_m = 0.5 * (rows as f64).hypot(cols as f64) * spacing_m;
+        let n_h = self.field_heights;
+        let heights_m: Vec<f64> = (0..n_h).map(|i| half_diag_m * i as f64 / (n_h - 1) as f64).collect();
+        let geo = Geometry { d_obj_m, v_s_m };
+        let tail = cfg.psf.tail_energy;
+        // Kernel side: as the shift-invariant path, the largest over bands, here also over heights
+        // (for the output's padding the model is evaluated first at the unpadded corner).
+        let max_kernel = if cfg.psf.max_kernel_size.is_multiple_of(2) { cfg.psf.max_kernel_size - 1 } else { cfg.psf.max_kernel_size };
+        let (wfs, cam) = self.field_wavefronts(&base, &heights_m, half_diag_m, &wavelengths, &geo)?;
+        let wf_at = |i: usize, b: usize| pick(&wfs, i, b);
+        let k_wanted = (0..n_h * bands)
+            .into_par_iter()
+            .map(|ib| wf_at(ib / bands, ib % bands).kernel_size(wavelengths[ib % bands], spacing_m, tail))
+            .max()
+            .unwrap_or(1);
+        let k = k_wanted.min(max_kernel);
+        let h = k / 2;
+        let (pad_r, pad_c) = match cfg.padding {
+            Padding::Psf => (h, h),
+            Padding::Isetcam => (((rows as f64) / 8.0).round() as usize, ((cols as f64) / 8.0).round() as usize),
+            Padding::None => (0, 0),
+        };
+        let (out_rows, out_cols) = (rows + 2 * pad_r, cols + 2 * pad_c);
+        let mut out = SpectralImage::zeros(out_rows, out_cols, grid, spacing_m, Quantity::Irradiance)?;
+        let maps = match &cam {
+            Some(cam) => Some(self.lens_maps(cam, &geo, 0.5 * (out_rows as f64).hypot(out_cols as f64) * spacing_m)?),
+            None => None,
+        };
+        let shade = if maps.is_some() { None } else { optics.shading_map(rows, cols, spacing_m, v_s_m) };
+        let symmetric = wfs.iter().flatten().all(|w| w.is_rotationally_symmetric());
+        let conv = match self.block_px {
+            Some(b) => TileConvolver::with_tile(k, crate::wavefront::fast_fft_len(b + k - 1)),
+            None => TileConvolver::new(k),
+        };
+        let t = conv.t;
+        let (ntr, ntc) = (rows.div_ceil(t), cols.div_ceil(t));
+        // Each block's field height (as a fractional index into heights_m) and azimuth.
+        let dh = half_diag_m / (n_h - 1) as f64;
+        let blocks: Vec<(usize, f32, f64, f64)> = (0..ntr * ntc)
+            .map(|bi| {
+                let (tr, tc) = (bi / ntc, bi % ntc);
+                let (r0, c0) = (tr * t, tc * t);
+                let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
+                let y = (r0 as f64 + nr as f64 / 2.0 - rows as f64 / 2.0) * spacing_m;
+                let x = (c0 as f64 + nc as f64 / 2.0 - cols as f64 / 2.0) * spacing_m;
+                let u = (x.hypot(y) / dh).min((n_h - 1) as f64);
+                let i = (u.floor() as usize).min(n_h - 2);
+                let phi = y.atan2(x);
+                (i, (u - i as f64) as f32, phi.cos(), phi.sin())
+            })
+            .collect();
+        let s = if symmetric { 1 } else { self.rotation_oversampling };
+        let ks = k * s;
+        let oversampling = cfg.psf.oversampling;
+        let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
+        let plane = rows * cols;
+        out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
+            out_band.fill(0.0);
+            let wl = wavelengths[b];
+            // Field PSFs of this band: image-sampled kernels (symmetric) or s-times finer.
+            let psfs: Vec<Vec<f32>> = (0..n_h)
+                .map(|i| {
+                    let w = wf_at(i, b);
+                    let p = if s == 1 {
+                        w.psf_with(wl, spacing_m, k, oversampling)?
+                    } else {
+                        w.clone().with_kernel_field(1.3).psf_with(wl, spacing_m / s as f64, ks, 1)?
+                    };
+                    Ok(p.to_f32())
+                })
+                .collect::<Result<_>>()?;
+            let src = &radiance.data[b * plane..(b + 1) * plane];
+            let sc = scale[b];
+            let mut scratch = conv.scratch();
+            let mut spec = KernelSpectrum(Vec::new());
+            let mut kernel = vec![0.0f32; k * k];
+            let hf = (ks / 2) as f32;
+            let hk = (k / 2) as f32;
+            let inv_s = 1.0 / s as f32;
+            for (bi, &(i, tt, cphi, sphi)) in blocks.iter().enumerate() {
+                let (tr, tc) = (bi / ntc, bi % ntc);
+                let (r0, c0) = (tr * t, tc * t);
+                let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
+                let (a, bb) = (&psfs[i], &psfs[i + 1]);
+                if s == 1 {
+                    kernel.iter_mut().zip(a.iter().zip(bb)).for_each(|(kv, (x, y))| *kv = x + tt * (y - x));
+                } else {
+                    kernel.iter_mut().for_each(|v| *v = 0.0);
+                    let (cp, sp) = (cphi as f32, sphi as f32);
+                    for r in 0..ks {
+                        let yf = (r as f32 - hf) * inv_s;
+                        let (row_a, row_b) = (&a[r * ks..(r + 1) * ks], &bb[r * ks..(r + 1) * ks]);
+                        for c in 0..ks {
+                            let v = row_a[c] + tt * (row_b[c] - row_a[c]);
+                            if v == 0.0 {
+                                continue;
+                            }
+                            let xf = (c as f32 - hf) * inv_s;
+                            // Rotate the local (radial x, tangential y) offset to azimuth phi.
+                            let xr = xf * cp - yf * sp + hk + 0.5;
+                            let yr = xf * sp + yf * cp + hk + 0.5;
+                            if xr >= 0.0 && yr >= 0.0 && xr < k as f32 && yr < k as f32 {
+                                kernel[yr as usize * k + xr as usize] += v;
+                            }
+                        }
+                    }
+                }
+                let sum: f32 = kernel.iter().sum();
+                if sum.is_nan() || sum <= 0.0 {
+                    return Err(OpticsError::Input(format!("the field PSF at {wl} nm has no energy inside the {k} x {k} kernel")));
+                }
+                if s > 1 {
+                    kernel.iter_mut().for_each(|v| *v /= sum);
+                }
+                conv.kernel_spectrum_in(&kernel, &mut scratch, &mut spec);
+                let shade = shade.as_deref();
+                conv.tile_sum(r0, c0, nr, nc, &[&spec], out_band, win, &mut scratch, |_, r, dst| {
+                    let i0 = (r0 + r) * cols + c0;
+                    let row = &src[i0..i0 + nc];
+                    match shade {
+                        None => dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc),
+                        Some(sh) => dst.iter_mut().zip(row).zip(&sh[i0..i0 + nc]).for_each(|((d, v), w)| *d = v * sc * w),
+                    }
+                });
+            }
+            out_band.iter_mut().for_each(|v| *v = v.max(0.0));
+            Ok(())
+        })?;
+        if let Some(m) = &maps {
+            apply_lens_maps(&mut out, m, spacing_m);
+        }
+        Ok(optics.finish(out, radiance, (pad_r, pad_c), spacing_m, v_s_m))
+    }
+}
+
+/// Distortion (radial resampling, bilinear, zero outside) and relative illumination (gain at the
+/// film height) on every band of `out`, centred on the optical axis.
+fn apply_lens_maps(out: &mut SpectralImage, m: &LensMaps, spacing_m: f64) {
+    let (rows, cols) = (out.rows, out.cols);
+    // Per output sample: the source position (fractional sample index) and the gain. The same
+    // for every band, so computed once (12 bytes per sample).
+    let map: Vec<(f32, f32, f32)> = (0..rows * cols)
+        .into_par_iter()
+        .map(|i| {
+            let (r, c) = (i / cols, i % cols);
+            let (x, y) = (centre_offset(c, cols) * spacing_m, centre_offset(r, rows) * spacing_m);
+            let h_real = x.hypot(y);
+            let (sx, sy) = if h_real > 0.0 {
+                let f = interp_extend(&m.real_m, &m.ideal_m, h_real) / h_real;
+                (x * f, y * f)
+            } else {
+                (0.0, 0.0)
+            };
+            let gain = interp(&m.ri_height_m, &m.ri, h_real);
+            ((sx / spacing_m + cols as f64 / 2.0 - 0.5) as f32, (sy / spacing_m + rows as f64 / 2.0 - 0.5) as f32, gain as f32)
+        })
+        .collect();
+    let plane = rows * cols;
+    // One source copy per worker (reused across bands), bilinear taps: direct indexing inside,
+    // zeros outside the image.
+    out.data.par_chunks_mut(plane).for_each_init(
+        || vec![0.0f32; plane],
+        |src, band| {
+            src.copy_from_slice(band);
+            let at = |r: isize, c: isize| {
+                if r >= 0 && c >= 0 && (r as usize) < rows && (c as usize) < cols {
+                    src[r as usize * cols + c as usize]
+                } else {
+                    0.0
+                }
+            };
+            for (d, &(sx, sy, g)) in band.iter_mut().zip(&map) {
+                let inside = sx >= 0.0 && sy >= 0.0 && (sx as usize) + 1 < cols && (sy as usize) + 1 < rows;
+                let v = if inside {
+                    // Truncation is floor for non-negative coordinates.
+                    let (c0, r0) = (sx as usize, sy as usize);
+                    let (fx, fy) = (sx - c0 as f32, sy - r0 as f32);
+                    let i = r0 * cols + c0;
+                    (src[i] * (1.0 - fx) + src[i + 1] * fx) * (1.0 - fy) + (src[i + cols] * (1.0 - fx) + src[i + cols + 1] * fx) * fy
+                } else {
+                    let (x0, y0) = (sx.floor(), sy.floor());
+                    let (fx, fy) = (sx - x0, sy - y0);
+                    let (c0, r0) = (x0 as isize, y0 as isize);
+                    (at(r0, c0) * (1.0 - fx) + at(r0, c0 + 1) * fx) * (1.0 - fy)
+                        + (at(r0 + 1, c0) * (1.0 - fx) + at(r0 + 1, c0 + 1) * fx) * fy
+                };
+                *d = v * g;
+            }
+        },
+    );
+}
