@@ -4,19 +4,27 @@
 
 use crate::geometry::Ray;
 use crate::math::V3;
-use crate::scene::{Camera, RealisticLens, Transform};
-use camsim_lens::{Lens, LensCamera};
+use crate::scene::{Camera, CameraLens, RayTransferLens, RealisticLens, Transform};
+use camsim_lens::{Lens, LensCamera, Rtf};
 use std::sync::Arc;
 
-/// A realistic camera prepared for ray generation.
+/// A realistic or ray-transfer camera prepared for ray generation.
 #[derive(Debug, Clone)]
 struct LensRig {
-    camera: Arc<LensCamera>,
+    optics: RigOptics,
     /// Half the film's width and height, mm.
     film_half_mm: [f64; 2],
-    /// z of the film plane and of the rear vertex in lens coordinates, mm.
-    film_z_mm: f64,
-    rear_z_mm: f64,
+}
+
+#[derive(Debug, Clone)]
+enum RigOptics {
+    Traced {
+        camera: Arc<LensCamera>,
+        /// z of the film plane and of the rear vertex in lens coordinates, mm.
+        film_z_mm: f64,
+        rear_z_mm: f64,
+    },
+    RayTransfer(Arc<Rtf>),
 }
 
 /// The camera prepared for ray generation.
@@ -69,7 +77,7 @@ impl CameraRig {
         let (mut half_x, mut half_y) = ((sx * tan_half) as f32, (sy * tan_half) as f32);
         let lens = match &c.lens {
             None => None,
-            Some(l) => {
+            Some(CameraLens::Realistic(l)) => {
                 let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
                 let d_mm = l.camera.film_distance_mm;
                 if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && d_mm > 0.0) {
@@ -80,7 +88,17 @@ impl CameraRig {
                 half_x = (film_half_mm[0] / v_mm) as f32;
                 half_y = (film_half_mm[1] / v_mm) as f32;
                 let film_z_mm = l.camera.film_z_mm();
-                Some(LensRig { camera: l.camera.clone(), film_half_mm, film_z_mm, rear_z_mm: film_z_mm - d_mm })
+                let optics = RigOptics::Traced { camera: l.camera.clone(), film_z_mm, rear_z_mm: film_z_mm - d_mm };
+                Some(LensRig { optics, film_half_mm })
+            }
+            Some(CameraLens::RayTransfer(l)) => {
+                let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
+                if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && l.focal_length_mm > 0.0) {
+                    return Err(format!("ray-transfer camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
+                }
+                half_x = (film_half_mm[0] / l.focal_length_mm) as f32;
+                half_y = (film_half_mm[1] / l.focal_length_mm) as f32;
+                Some(LensRig { optics: RigOptics::RayTransfer(l.rtf.clone()), film_half_mm })
             }
         };
         Ok(CameraRig {
@@ -120,7 +138,11 @@ impl CameraRig {
         let v = (1.0 - 2.0 * y * self.inv_h) as f64;
         let p = [-u * l.film_half_mm[0], -v * l.film_half_mm[1]];
         let r_mm = p[0].hypot(p[1]);
-        let b = l.camera.exit_pupil_bounds(r_mm);
+        let (camera, film_z_mm, rear_z_mm) = match &l.optics {
+            RigOptics::Traced { camera, film_z_mm, rear_z_mm } => (camera, *film_z_mm, *rear_z_mm),
+            RigOptics::RayTransfer(rtf) => return self.rtf_ray(rtf, p, u_pupil),
+        };
+        let b = camera.exit_pupil_bounds(r_mm);
         let area_mm2 = (b[1] - b[0]) * (b[3] - b[2]);
         if area_mm2 <= 0.0 {
             return None;
@@ -130,19 +152,52 @@ impl CameraRig {
         // Rotate from the frame where the film point lies on +x to its azimuth.
         let (cos_phi, sin_phi) = if r_mm > 0.0 { (p[0] / r_mm, p[1] / r_mm) } else { (1.0, 0.0) };
         let rear = [qx * cos_phi - qy * sin_phi, qx * sin_phi + qy * cos_phi];
-        let d_mm = l.film_z_mm - l.rear_z_mm;
+        let d_mm = film_z_mm - rear_z_mm;
         let dir = [rear[0] - p[0], rear[1] - p[1], -d_mm];
-        let out = l.camera.trace_ray(p, dir, wavelength_nm as f64)?;
+        let out = camera.trace_ray(p, dir, wavelength_nm as f64)?;
         let len = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
         let cos_theta = d_mm / len;
         let weight = cos_theta.powi(4) * area_mm2 / (d_mm * d_mm);
         // Lens coordinates (mm, scene toward -z) to camera space (m, scene toward +z, film at
         // the origin): pbrt's CameraFromLens = Scale(1, 1, -1).
-        let o = [out.origin_mm[0] * 1e-3, out.origin_mm[1] * 1e-3, (l.film_z_mm - out.origin_mm[2]) * 1e-3];
+        let o = [out.origin_mm[0] * 1e-3, out.origin_mm[1] * 1e-3, (film_z_mm - out.origin_mm[2]) * 1e-3];
         let d = [out.direction[0], out.direction[1], -out.direction[2]];
+        Some((self.camera_ray_to_world(o, d), weight as f32))
+    }
+
+    /// A ray-transfer camera's ray from film point `p` (mm, on the RTF's input plane): a point
+    /// drawn uniformly (concentric map of `u_pupil`) in the pass ellipse for the film height, on
+    /// the pass plane a distance D in front, gives the direction; the RTF maps the ray to its
+    /// output. The weight is the projected solid angle per unit pdf, D^2 A / rho^4 (A the
+    /// ellipse's area, rho the distance to the drawn point): the same measure as the realistic
+    /// camera's cos^4(theta) A / D^2 and as [`Rtf::relative_illumination`]. The RTF is fitted at
+    /// one wavelength: no dispersion. Outside the RTF's table of heights nothing passes.
+    fn rtf_ray(&self, rtf: &Rtf, p: [f64; 2], u_pupil: [f32; 2]) -> Option<(Ray, f32)> {
+        let r_mm = p[0].hypot(p[1]);
+        let e = rtf.pass_ellipse(r_mm)?;
+        let (du, dv) = crate::sampling::concentric_disk(u_pupil[0], u_pupil[1]);
+        // The ellipse is given in the frame where the film point lies on +y at height r.
+        let q = [e.center_mm[0] + e.radii_mm[0] * du as f64, e.center_mm[1] + e.radii_mm[1] * dv as f64];
+        let d_mm = rtf.pass_plane_distance_mm;
+        let local = [q[0], q[1] - r_mm, d_mm];
+        let rho2 = local[0] * local[0] + local[1] * local[1] + d_mm * d_mm;
+        let weight = d_mm * d_mm * std::f64::consts::PI * e.radii_mm[0] * e.radii_mm[1] / (rho2 * rho2);
+        // Back from that frame: (x, y) -> (x c + y s, -x s + y c) with c = py / r, s = px / r.
+        let (c, s) = if r_mm > 0.0 { (p[1] / r_mm, p[0] / r_mm) } else { (1.0, 0.0) };
+        let rho = rho2.sqrt();
+        let dir = [(local[0] * c + local[1] * s) / rho, (-local[0] * s + local[1] * c) / rho, d_mm / rho];
+        let (out_p, out_d) = rtf.trace(p, dir)?;
+        // RTF coordinates (mm, toward the scene along +z from the input plane = the film) are
+        // camera space's (m, film at the origin, scene toward +z).
+        let o = [out_p[0] * 1e-3, out_p[1] * 1e-3, out_p[2] * 1e-3];
+        Some((self.camera_ray_to_world(o, out_d), weight as f32))
+    }
+
+    /// A camera-space ray (origin in m, direction) in world space.
+    fn camera_ray_to_world(&self, o: [f64; 3], d: [f64; 3]) -> Ray {
         let world_o = self.origin + self.axes[0] * o[0] as f32 + self.axes[1] * o[1] as f32 + self.axes[2] * o[2] as f32;
         let world_d = self.axes[0] * d[0] as f32 + self.axes[1] * d[1] as f32 + self.axes[2] * d[2] as f32;
-        Some((Ray { o: world_o, d: world_d.normalize() }, weight as f32))
+        Ray { o: world_o, d: world_d.normalize() }
     }
 
     /// Ray through continuous raster position (`x`, `y`) (pixel (i, j) covers [i, i+1) x [j, j+1),
@@ -205,6 +260,32 @@ pub fn realistic_lens(
     let half = film_half_extent_mm(film_diagonal_mm, width, height);
     let fov_deg = 2.0 * (half[0].min(half[1]) / pinhole_image_distance_mm(&camera)).atan().to_degrees();
     Ok((RealisticLens { camera: Arc::new(camera), film_diagonal_mm }, fov_deg))
+}
+
+/// ISET3d `raytransfer` camera set-up: the RTF with a film of `film_diagonal_mm` on its input
+/// plane. Its focal length comes from the RTF itself by the Abbe sine condition (a film point on
+/// the axis leaves as a parallel beam of height f sin(theta) for a ray at angle theta); also
+/// returns the pinhole-equivalent field of view across the shorter image axis (degrees).
+pub fn ray_transfer_lens(rtf: Rtf, film_diagonal_mm: f64, width: usize, height: usize) -> Result<(RayTransferLens, f64), String> {
+    if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
+        return Err(format!("film diagonal {film_diagonal_mm} mm is not > 0"));
+    }
+    let sin_theta = 0.02f64;
+    let h = |s: f64| rtf.trace([0.0, 0.0], [0.0, s, (1.0 - s * s).sqrt()]).map(|(p, _)| p[1]);
+    let f_mm = match (h(0.0), h(sin_theta)) {
+        (Some(a), Some(b)) if ((b - a) / sin_theta) > 0.0 => (b - a) / sin_theta,
+        _ => return Err("the ray-transfer function passes no ray from the film centre near the axis: no focal length".into()),
+    };
+    let half = film_half_extent_mm(film_diagonal_mm, width, height);
+    let corner_mm = half[0].hypot(half[1]);
+    if corner_mm > rtf.max_height_mm() {
+        return Err(format!(
+            "the film's corner is {corner_mm:.3} mm off the axis, beyond the ray-transfer function's last field height {:.3} mm: use a smaller Film \"diagonal\"",
+            rtf.max_height_mm()
+        ));
+    }
+    let fov_deg = 2.0 * (half[0].min(half[1]) / f_mm).atan().to_degrees();
+    Ok((RayTransferLens { rtf: Arc::new(rtf), film_diagonal_mm, focal_length_mm: f_mm }, fov_deg))
 }
 
 /// pbrt-v4 `LookAt`: the world-to-camera transform for an eye at `from` looking at `to` with

@@ -340,8 +340,40 @@ pub struct Camera {
     pub fov_deg: f64,
     pub width: usize,
     pub height: usize,
-    /// `Some`: a realistic camera; camera rays are traced through this lens.
-    pub lens: Option<RealisticLens>,
+    /// `Some`: camera rays are traced through this lens (a realistic or ray-transfer camera).
+    pub lens: Option<CameraLens>,
+}
+
+/// The optics of a camera that is not a pinhole.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraLens {
+    /// pbrt-v4 `realistic`: rays traced through a lens prescription.
+    Realistic(RealisticLens),
+    /// ISET3d's `raytransfer`: rays mapped through a ray-transfer function.
+    RayTransfer(RayTransferLens),
+}
+
+impl CameraLens {
+    /// The prescription lens of a realistic camera.
+    pub fn realistic(&self) -> Option<&RealisticLens> {
+        match self {
+            CameraLens::Realistic(l) => Some(l),
+            CameraLens::RayTransfer(_) => None,
+        }
+    }
+}
+
+/// A lens known only by its ray-transfer function (Goossens et al. 2022; ISET3d's `raytransfer`
+/// camera): the film lies on the RTF's input plane (the shipped Pixel 4a RTF's input plane is
+/// its focal plane, so the camera is focused at infinity).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RayTransferLens {
+    pub rtf: std::sync::Arc<camsim_lens::Rtf>,
+    /// Film diagonal, mm (pbrt-v4 `Film` `diagonal`).
+    pub film_diagonal_mm: f64,
+    /// Effective focal length measured from the RTF (Abbe sine condition on the axis), mm: the
+    /// pinhole-equivalent scale of the depth map and the image geometry.
+    pub focal_length_mm: f64,
 }
 
 /// A pbrt-v4 `realistic` camera (4th ed. sec. 5.3): a focused lens with its film. Camera space

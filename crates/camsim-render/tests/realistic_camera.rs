@@ -77,7 +77,7 @@ fn uniform_sky_gives_camera_equation_and_relative_illumination() {
         "LightSource \"infinite\" \"rgb L\" [1 1 1]",
     );
     let scene = parse_str(&text, "/tmp/realistic.pbrt").unwrap();
-    let lens = scene.camera.lens.clone().unwrap();
+    let lens = scene.camera.lens.as_ref().and_then(|l| l.realistic()).cloned().unwrap();
     let mut pinhole = scene.clone();
     pinhole.camera.lens = None;
     // The sky's radiance through a pinhole: L per pixel.
@@ -179,7 +179,7 @@ fn line_at_focus_is_sharp_and_defocused_line_is_blurred() {
     };
     let sharp = line_rms_width_px(&render_scene(scene(0.5), 64));
     let defocused = scene(0.05);
-    let cam = defocused.camera.lens.clone().unwrap().camera;
+    let cam = defocused.camera.lens.as_ref().and_then(|l| l.realistic()).unwrap().camera.clone();
     let blurred = line_rms_width_px(&render_scene(defocused, 64));
     // Geometric prediction: the blur disk of the axial point of the line, from rays traced
     // forward (object to film) through the lens; a uniform disk of radius R projects onto x with
@@ -227,7 +227,7 @@ fn parser_reads_realistic_camera_and_reports_bad_lens() {
         &scene_path,
     )
     .unwrap();
-    let l = s.camera.lens.as_ref().expect("a realistic camera");
+    let l = s.camera.lens.as_ref().and_then(|l| l.realistic()).expect("a realistic camera");
     assert_eq!(l.film_diagonal_mm, 35.0);
     assert_eq!(s.focus_distance_m, Some(0.5));
     // Stop opened to 1.0 mm: semi-aperture 0.5 mm.
@@ -256,7 +256,7 @@ fn parser_reads_realistic_camera_and_reports_bad_lens() {
         &scene_path,
     )
     .unwrap();
-    let d2 = s2.camera.lens.as_ref().unwrap().camera.film_distance_mm;
+    let d2 = s2.camera.lens.as_ref().and_then(|l| l.realistic()).unwrap().camera.film_distance_mm;
     assert!(
         (d2 - l.camera.film_distance_mm).abs() < 1e-9,
         "{d2} vs {}",

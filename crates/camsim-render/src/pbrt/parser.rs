@@ -11,7 +11,7 @@ use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::sampler::SamplerKind;
 use crate::scene::{
-    AreaLight, Camera, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
+    AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
     Shape, Texture, Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
@@ -104,6 +104,8 @@ struct Parser {
     height: usize,
     /// A `Camera "realistic"`: set up once the film is known (the `Film` may follow it).
     realistic: Option<PendingRealistic>,
+    /// A `Camera "raytransfer"`: its RTF, set up once the film is known.
+    ray_transfer: Option<(camsim_lens::Rtf, Loc)>,
     /// `Film` `diagonal`, mm (pbrt-v4 default 35).
     film_diagonal_mm: f64,
     settings: RenderSettings,
@@ -168,6 +170,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         width: 1280,
         height: 720,
         realistic: None,
+        ray_transfer: None,
         film_diagonal_mm: 35.0,
         settings: RenderSettings {
             samples_per_pixel: 16,
@@ -876,12 +879,16 @@ impl Parser {
         if ty == "realistic" {
             return self.realistic_camera(params, loc);
         }
+        if ty == "raytransfer" {
+            return self.ray_transfer_camera(params, loc);
+        }
         if ty != "perspective" {
             return Err(loc.err(format!(
-                "Camera \"{ty}\" is not supported (\"perspective\", \"realistic\")"
+                "Camera \"{ty}\" is not supported (\"perspective\", \"realistic\", \"raytransfer\")"
             )));
         }
         self.realistic = None;
+        self.ray_transfer = None;
         let fov = params.float("fov", 90.0)?;
         if !(fov > 0.0 && fov < 180.0) {
             return Err(loc.err(format!(
@@ -943,6 +950,24 @@ impl Parser {
         self.camera_from_world = self.gs.ctm;
         let world_from_camera = inverse(&self.gs.ctm)
             .ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
+        self.named_coords.insert("camera".into(), world_from_camera);
+        Ok(())
+    }
+
+    /// ISET3d's `Camera "raytransfer"`: `lensfile` names a ray-transfer-function JSON (ISET/isetrtf
+    /// layout, relative to the scene file); the film lies on its input plane (focused at infinity).
+    fn ray_transfer_camera(&mut self, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        let name = params
+            .string("lensfile")?
+            .ok_or_else(|| loc.err("Camera \"raytransfer\": \"lensfile\" is required"))?;
+        let path = self.resolve(&loc.file, &name);
+        let rtf = camsim_lens::Rtf::from_file(&path).map_err(|e| loc.err(format!("Camera \"raytransfer\": lens file: {e}")))?;
+        self.ignore_params(params, &["shutteropen", "shutterclose"], "Camera");
+        params.check_unused("Camera \"raytransfer\"")?;
+        self.realistic = None;
+        self.ray_transfer = Some((rtf, loc.clone()));
+        self.camera_from_world = self.gs.ctm;
+        let world_from_camera = inverse(&self.gs.ctm).ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
         self.named_coords.insert("camera".into(), world_from_camera);
         Ok(())
     }
@@ -1525,7 +1550,12 @@ impl Parser {
                 self.height,
             )
             .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
-            (fov_deg, lens) = (f, Some(l));
+            (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
+        }
+        if let Some((rtf, loc)) = self.ray_transfer {
+            let (l, f) = crate::camera::ray_transfer_lens(rtf, self.film_diagonal_mm, self.width, self.height)
+                .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
+            (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
         }
         Ok(SceneDescription {
             camera: Camera {
