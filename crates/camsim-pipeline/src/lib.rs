@@ -146,7 +146,9 @@ pub struct CaptureSection {
     pub frames: usize,
     /// Exposure bracketing / burst (ISETCam: a vector of exposure times): one raw per entry (x
     /// `frames`), ms, each with its own temporal noise, written raw.dng, raw_0001.dng, ... in
-    /// this order. Replaces `exposure_ms` (giving both is an error).
+    /// this order. Replaces `exposure_ms` (giving both is an error). The preview, noise_free.exr
+    /// and run.json's exposure_s / mean figures are those of the first raw; run.json lists every
+    /// raw's exposure time as results.frame_exposures_s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exposures_ms: Option<Vec<f64>>,
 }

@@ -141,7 +141,7 @@ impl Sensor {
         Sensor::from_toml_str_in(&text, &path.display().to_string(), path.parent().unwrap_or(Path::new("")))
     }
 
-    /// A built-in preset (`imx363`, `pixel4a`, `ideal`).
+    /// A built-in preset (`imx363`, `pixel4a`, `pixel4a-raw10`, `ideal`).
     pub fn preset(name: &str) -> Result<Sensor> {
         let text = presets::toml(name)?;
         Sensor::from_toml_str(text, &format!("preset {name}"))
