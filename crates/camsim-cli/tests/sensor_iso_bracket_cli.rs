@@ -68,6 +68,9 @@ fn pixel4a_raw10_iso_and_bracket_from_the_cli() {
     // ISO 110 = twice the base ISO 55: twice the signal above black at t/4.
     sensor("iso", &["--exposure-ms", &t1, "--iso", "110"]);
     let iso = mean_above_black(&raw(&d("iso/raw.dng")));
+    // The EXIF ISO tag: the sensor's iso (55 for the preset, 110 with --iso 110).
+    let iso_tag = |f: &str| camsim_io::dng::read_dng(&d(f)).unwrap().1.iso;
+    assert_eq!((iso_tag("auto/raw.dng"), iso_tag("iso/raw.dng")), (Some(55.0), Some(110.0)));
     assert!((iso / m[0] - 2.0).abs() < 0.04, "ISO 110 over ISO 55: {}", iso / m[0]);
     eprintln!("auto {t_ms:.3} ms; bracket means above black {m:?}; t/2 over t/4 {:.4}; ISO 110 over 55 {:.4}", m[1] / m[0], iso / m[0]);
 

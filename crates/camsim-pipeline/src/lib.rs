@@ -350,6 +350,9 @@ pub fn dng_metadata(sensor: &Sensor, color: &ColorPipeline, cfg: Option<&Simulat
         color_matrix1: Some(color.xyz_to_camera()),
         as_shot_neutral: Some(color.as_shot_neutral()),
         description: cfg.map(serde_json::to_string).transpose()?,
+        // Only a sensor that states its ISO (`iso`) gets the EXIF tag: the DNGs of the other
+        // presets stay byte-identical.
+        iso: sensor.config().iso,
         ..DngMetadata::default()
     })
 }
