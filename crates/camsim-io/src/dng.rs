@@ -101,6 +101,9 @@ pub struct DngMetadata {
     pub orientation: u16,
     /// ActiveArea: top, left, bottom, right in pixels (`None`: the whole image).
     pub active_area: Option<[u32; 4]>,
+    /// ISO speed (EXIF ISOSpeedRatings, tag 34855, rounded to an integer): written when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iso: Option<f64>,
 }
 
 impl Default for DngMetadata {
@@ -114,6 +117,7 @@ impl Default for DngMetadata {
             description: None,
             orientation: 1,
             active_area: None,
+            iso: None,
         }
     }
 }
@@ -341,6 +345,9 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
             tag::EXPOSURE_TIME,
             Value::Rational(vec![exposure_rational(raw.exposure_s)]),
         ));
+    }
+    if let Some(iso) = meta.iso.filter(|v| v.is_finite() && *v >= 1.0) {
+        exif_tags.push((tag::ISO_SPEED, Value::Short(vec![iso.round().min(65535.0) as u16])));
     }
     if raw.pixel_pitch_m > 0.0 {
         // FocalPlaneX/YResolution in pixels per cm (unit 3).

@@ -107,7 +107,7 @@ impl Default for OpticsSection {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorSection {
-    /// Built-in sensor: "pixel4a" (default), "imx363", "ideal".
+    /// Built-in sensor: "pixel4a" (default), "pixel4a-raw10", "imx363", "ideal".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preset: Option<String>,
     /// Or a sensor TOML file (relative to the config file).
@@ -141,9 +141,16 @@ pub struct CaptureSection {
     /// voltage swing (0, 1]. Default 0.9.
     #[serde(default = "default_target")]
     pub auto_target_fraction: f64,
-    /// Frames of the same exposure (>= 1).
+    /// Frames of the same exposure (>= 1); with `exposures_ms`, frames per exposure.
     #[serde(default = "default_frames")]
     pub frames: usize,
+    /// Exposure bracketing / burst (ISETCam: a vector of exposure times): one raw per entry (x
+    /// `frames`), ms, each with its own temporal noise, written raw.dng, raw_0001.dng, ... in
+    /// this order. Replaces `exposure_ms` (giving both is an error). The preview, noise_free.exr
+    /// and run.json's exposure_s / mean figures are those of the first raw; run.json lists every
+    /// raw's exposure time as results.frame_exposures_s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposures_ms: Option<Vec<f64>>,
 }
 
 fn default_target() -> f64 {
@@ -155,7 +162,7 @@ fn default_frames() -> usize {
 
 impl Default for CaptureSection {
     fn default() -> Self {
-        CaptureSection { exposure_ms: None, auto_target_fraction: 0.9, frames: 1 }
+        CaptureSection { exposure_ms: None, auto_target_fraction: 0.9, frames: 1, exposures_ms: None }
     }
 }
 
@@ -265,11 +272,28 @@ impl SimulateConfig {
         })
     }
 
+    /// The bracket's exposure times, s (`capture.exposures_ms`), or `None` for one exposure.
+    pub fn bracket_exposures_s(&self) -> Result<Option<Vec<f64>>> {
+        let c = &self.capture;
+        let Some(list) = &c.exposures_ms else { return Ok(None) };
+        if c.exposure_ms.is_some() {
+            return Err(PipelineError::config("give either capture.exposure_ms or capture.exposures_ms (a bracket), not both"));
+        }
+        if list.is_empty() {
+            return Err(PipelineError::config("capture.exposures_ms is empty: give at least one exposure time, ms"));
+        }
+        if let Some((i, ms)) = list.iter().enumerate().find(|(_, ms)| !(ms.is_finite() && **ms >= 0.0)) {
+            return Err(PipelineError::config(format!("capture.exposures_ms[{i}] = {ms}: must be a finite time >= 0 ms")));
+        }
+        Ok(Some(list.iter().map(|ms| ms * 1e-3).collect()))
+    }
+
     pub fn capture(&self) -> Result<Capture> {
         let c = &self.capture;
         if c.frames == 0 {
             return Err(PipelineError::config("capture.frames must be at least 1"));
         }
+        self.bracket_exposures_s()?;
         let exposure = match c.exposure_ms {
             Some(ms) if !(ms >= 0.0 && ms.is_finite()) => return Err(PipelineError::config(format!("capture.exposure_ms = {ms}: must be >= 0"))),
             Some(ms) => Exposure::Seconds(ms * 1e-3),
@@ -340,6 +364,9 @@ pub fn dng_metadata(sensor: &Sensor, color: &ColorPipeline, cfg: Option<&Simulat
         color_matrix1: Some(color.xyz_to_camera()),
         as_shot_neutral: Some(color.as_shot_neutral()),
         description: cfg.map(serde_json::to_string).transpose()?,
+        // Only a sensor that states its ISO (`iso`) gets the EXIF tag: the DNGs of the other
+        // presets stay byte-identical.
+        iso: sensor.config().iso,
         ..DngMetadata::default()
     })
 }

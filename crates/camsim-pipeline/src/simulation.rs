@@ -86,6 +86,24 @@ pub fn image_radiance(radiance: &SpectralImage, optics: &Optics, sensor: &Sensor
     Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
 }
 
+/// [`image_radiance`] for an exposure bracket / burst: `frames_per_exposure` raws for each of
+/// `exposures_s` ([`Sensor::compute_bracket`]).
+pub fn image_radiance_bracket(
+    radiance: &SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    exposures_s: &[f64],
+    frames_per_exposure: usize,
+    seed: u64,
+) -> Result<Imaged> {
+    let t = Instant::now();
+    let irradiance = optics.compute(radiance)?;
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let frame = sensor.compute_bracket(&irradiance, exposures_s, frames_per_exposure, seed)?;
+    Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
+}
+
 /// What [`image_radiance`] returns.
 #[derive(Debug, Clone)]
 pub struct Imaged {
@@ -118,7 +136,10 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     lap(&mut times, "scene_s", t);
 
     progress("optics", 0, 1);
-    let Imaged { irradiance, frame, optics_s, sensor_s } = image_radiance(&radiance, &optics, &sensor, &capture)?;
+    let Imaged { irradiance, frame, optics_s, sensor_s } = match cfg.bracket_exposures_s()? {
+        None => image_radiance(&radiance, &optics, &sensor, &capture)?,
+        Some(times_s) => image_radiance_bracket(&radiance, &optics, &sensor, &times_s, capture.frames, capture.seed)?,
+    };
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
@@ -214,7 +235,7 @@ impl Simulation {
         if outputs.contains(Output::NoiseFree) {
             files.insert("noise_free.exr".into(), "expected ADC value per pixel without noise or quantization, DN (channel Y)".into());
         }
-        serde_json::json!({
+        let mut v = serde_json::json!({
             "camsim_version": env!("CARGO_PKG_VERSION"),
             "command": info.command,
             "config_file": info.config_file.as_ref().map(|p| p.display().to_string()),
@@ -234,7 +255,12 @@ impl Simulation {
             },
             "files": files,
             "times": self.times_s,
-        })
+        });
+        // An exposure bracket: each raw's exposure time, in file order (raw.dng, raw_0001.dng, ...).
+        if self.config.capture.exposures_ms.is_some() {
+            v["results"]["frame_exposures_s"] = self.frames.iter().map(|r| r.exposure_s).collect::<Vec<_>>().into();
+        }
+        v
     }
 
     /// Write the chosen outputs and run.json into folder `dir`, atomically as a whole: the files

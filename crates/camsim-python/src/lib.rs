@@ -402,7 +402,7 @@ fn optics<'py>(
 
 /// Stage 3: irradiance (bands, rows, cols) -> dict with `raw` (frames, rows, cols) uint16.
 #[pyfunction]
-#[pyo3(signature = (irradiance, wavelengths_nm, spacing_m, sensor = "pixel4a", exposure_s = None, seed = 1, frames = 1, rows = None, cols = None))]
+#[pyo3(signature = (irradiance, wavelengths_nm, spacing_m, sensor = "pixel4a", exposure_s = None, seed = 1, frames = 1, rows = None, cols = None, exposures_s = None, iso = None))]
 #[allow(clippy::too_many_arguments)]
 fn sensor<'py>(
     py: Python<'py>,
@@ -415,9 +415,18 @@ fn sensor<'py>(
     frames: usize,
     rows: Option<usize>,
     cols: Option<usize>,
+    exposures_s: Option<Vec<f64>>,
+    iso: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let img = spectral_from(irradiance, wavelengths_nm, spacing_m, Quantity::Irradiance, ImageGeometry::default())?;
     let mut s = sensor_from(sensor)?;
+    if let Some(iso) = iso {
+        // iso replaces the analog gain: gain = base_iso / iso (the sensor needs base_iso).
+        let mut c = s.config().clone();
+        c.iso = Some(iso);
+        c.analog_gain = 1.0;
+        s = Sensor::from_config_named(c, &format!("sensor with iso = {iso}")).map_err(err)?;
+    }
     if rows.is_some() || cols.is_some() {
         s = s.window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols())).map_err(err)?;
     }
@@ -430,7 +439,11 @@ fn sensor<'py>(
         None => Capture::auto().exposure,
     };
     let cap = Capture { exposure, frames, seed };
-    let f = py.detach(|| s.compute(&img, &cap)).map_err(err)?;
+    let f = match exposures_s {
+        Some(_) if exposure_s.is_some() => return Err(err("give either exposure_s or exposures_s (a bracket), not both")),
+        Some(times) => py.detach(|| s.compute_bracket(&img, &times, frames, seed)).map_err(err)?,
+        None => py.detach(|| s.compute(&img, &cap)).map_err(err)?,
+    };
     let r0 = &f.raw[0];
     let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
     let d = PyDict::new(py);
@@ -440,6 +453,7 @@ fn sensor<'py>(
     d.set_item("white_level", r0.white_level_dn)?;
     d.set_item("bits", r0.bits)?;
     d.set_item("exposure_s", f.exposure_s)?;
+    d.set_item("exposures_s", f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>())?;
     d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
     Ok(d)
 }

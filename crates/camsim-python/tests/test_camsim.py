@@ -321,3 +321,32 @@ def test_emva_series_from_files_equals_the_array_analysis(tmp_path):
     (tmp_path / "bad.csv").write_text("\n".join(lines) + "\n")
     with pytest.raises(camsim.CamsimError, match=r"bad\.csv.*line 3.*missing\.png"):
         camsim.emva_series(tmp_path / "bad.csv", cfa="RGGB", bits=12)
+
+
+def test_pixel4a_raw10_iso_and_exposure_bracket():
+    # The Pixel 4a's own raw format beside the paper's Table 1 sensor: 10-bit, black 64, white 1023.
+    sens = camsim.presets.sensor("pixel4a-raw10")
+    assert sens["bits"] == 10 and sens["black_level_dn"] == 64.0 and sens["iso"] == sens["base_iso"]
+    wl = np.arange(400, 701, 10.0)
+    flat = np.full((len(wl), 128, 128), 1e-3, np.float32)  # W/(m^2 nm): ~280 green e- per ms
+    quiet = dict(sens, noise=dict(shot=False, read=False, dsnu=False, prnu=False, dark=False, quantization=True))
+    r = camsim.sensor(flat, wl, 1.4e-6, sensor=quiet, exposure_s=2e-3, rows=64, cols=64)
+    assert r["black_level"] == 64.0 and r["white_level"] == 1023.0 and r["bits"] == 10
+    # Closed form: DN = round(64 + K e), K = conversion gain x 2^10 / swing (gain 1 at the base ISO).
+    k_dn_per_e = sens["conversion_gain_uv_per_e"] * 1e-6 * 2 ** 10 / sens["voltage_swing_v"]
+    green = r["raw"][0][0::2, 1::2]
+    assert np.all(green == np.round(64 + k_dn_per_e * r["mean_electrons_rgb"][1]))
+    # ISO x2 doubles the signal above black (within one DN of rounding).
+    r2 = camsim.sensor(flat, wl, 1.4e-6, sensor=quiet, exposure_s=2e-3, rows=64, cols=64, iso=2 * sens["base_iso"])
+    g2 = r2["raw"][0][0::2, 1::2].astype(float) - 64
+    assert np.all(np.abs(g2 - 2 * (green.astype(float) - 64)) <= 1.0)
+    # Over-exposure clips at the white level.
+    r3 = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=0.5, rows=64, cols=64)
+    assert np.all(r3["raw"] == 1023)
+    # A bracket: one raw per exposure time, means above black scale with the time, noise independent.
+    b = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=[1e-3, 2e-3, 4e-3], rows=128, cols=128, seed=4)
+    assert b["raw"].shape == (3, 128, 128) and b["exposures_s"] == [1e-3, 2e-3, 4e-3]
+    means = [f[0::2, 1::2].astype(float).mean() - 64 for f in b["raw"]]
+    assert means[1] / means[0] == pytest.approx(2.0, rel=0.03) and means[2] / means[0] == pytest.approx(4.0, rel=0.03)
+    with pytest.raises(Exception, match="base_iso"):
+        camsim.sensor(flat, wl, 1.4e-6, sensor=dict(sens, base_iso=None, iso=None), exposure_s=1e-3, rows=8, cols=8, iso=100)

@@ -85,7 +85,7 @@ pub struct Frame {
     /// channel has no pixel).
     pub mean_electrons: [f64; 3],
     /// With the quantization switch off: per frame, the unrounded ADC value (volts x dn_per_v after
-    /// gain, offset and clipping), row-major. `None` otherwise.
+    /// gain, offset and clipping, plus the black-level pedestal), row-major. `None` otherwise.
     pub analog_dn: Option<Vec<Vec<f32>>>,
 }
 
@@ -191,6 +191,63 @@ impl Sensor {
         check_capture(capture)?;
         let rate = self.electron_rate_image(irradiance)?;
         self.capture_from_rate(&rate, self.rows(), self.cols(), capture, 0)
+    }
+
+    /// Exposure bracketing / bursts (ISETCam: a vector `exposure time`, one capture per entry):
+    /// `frames_per_exposure` raw frames for each exposure time of `exposures_s`, exposure-major
+    /// (all frames of the first exposure, then the next...). Each raw carries its own
+    /// `exposure_s`. Temporal noise of raw k (0-based, in that order) is keyed on frame index k
+    /// with the capture `seed`, so every frame has independent shot and read noise and a
+    /// one-entry list gives exactly [`Sensor::compute`]'s frames; the fixed pattern (DSNU, PRNU)
+    /// is the sensor's own, the same in every frame. The returned [`Frame`]'s `exposure_s` and
+    /// `mean_electrons` are those of the first exposure.
+    pub fn compute_bracket(
+        &self,
+        irradiance: &SpectralImage,
+        exposures_s: &[f64],
+        frames_per_exposure: usize,
+        seed: u64,
+    ) -> Result<Frame> {
+        if exposures_s.is_empty() {
+            return Err(SensorError::input(
+                "exposures_s",
+                "the list of exposure times is empty",
+            ));
+        }
+        if let Some((i, t)) = exposures_s
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !(t.is_finite() && **t >= 0.0))
+        {
+            return Err(SensorError::input(
+                "exposures_s",
+                format!("entry {i}: {t} s is not a finite time >= 0"),
+            ));
+        }
+        if frames_per_exposure == 0 {
+            return Err(SensorError::input("frames", "must be at least 1"));
+        }
+        let rate = self.electron_rate_image(irradiance)?;
+        let mut out: Option<Frame> = None;
+        for (i, &t) in exposures_s.iter().enumerate() {
+            let capture = Capture {
+                exposure: Exposure::Seconds(t),
+                frames: frames_per_exposure,
+                seed,
+            };
+            let base = (i * frames_per_exposure) as u64;
+            let f = self.capture_from_rate(&rate, self.rows(), self.cols(), &capture, base)?;
+            match &mut out {
+                None => out = Some(f),
+                Some(o) => {
+                    o.raw.extend(f.raw);
+                    if let (Some(a), Some(b)) = (&mut o.analog_dn, f.analog_dn) {
+                        a.extend(b);
+                    }
+                }
+            }
+        }
+        out.ok_or_else(|| SensorError::input("exposures_s", "the list of exposure times is empty"))
     }
 
     /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major:
@@ -461,6 +518,7 @@ impl Sensor {
         let fpn = nz.prnu || nz.dsnu;
         let offset = self.analog_offset_v;
         let inv_gain = 1.0 / self.analog_gain;
+        let pedestal_dn = self.black_level_pedestal_dn;
         let swing = self.voltage_swing_v;
         let dn_per_v = self.dn_per_v();
         let max_dn = self.max_dn() as f64;
@@ -496,8 +554,13 @@ impl Sensor {
                 v
             };
             // ISETCam: analog gain and offset, (v + offset) / gain; clip to [0, swing].
-            let v_out = ((v + offset) * inv_gain).clamp(0.0, swing);
-            let x = v_out * dn_per_v;
+            let x = if pedestal_dn == 0.0 {
+                ((v + offset) * inv_gain).clamp(0.0, swing) * dn_per_v
+            } else {
+                // With a black-level pedestal the ADC sees the signal plus the pedestal, so noise
+                // below zero light survives down to 0 DN (real raws; DNG BlackLevel).
+                (((v + offset) * inv_gain).min(swing) * dn_per_v + pedestal_dn).max(0.0)
+            };
             // Quantization: DN = round(v / (swing / 2^bits)), clipped to 2^bits - 1.
             // x >= 0, so x + 0.5 truncated is round-half-away-from-zero (f64::round is a libm
             // call on baseline x86-64).

@@ -206,9 +206,25 @@ pub struct SensorConfig {
     /// Analog gain (dimensionless, > 0): v_out = (v + offset) / gain (ISETCam sensorCompute).
     #[serde(default = "one")]
     pub analog_gain: f64,
+    /// Sensitivity as ISO (ISO 12232 arithmetic units), an alternative to `analog_gain`: the signal
+    /// above black scales with ISO / `base_iso`. ISETCam divides by its analog gain
+    /// (v_out = (v + offset) / gain, sensorCompute), so `iso` sets analog_gain = base_iso / iso.
+    /// Giving both `iso` and an `analog_gain` other than 1 is an error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iso: Option<f64>,
+    /// The ISO at analog gain 1 (unity gain), needed by `iso`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_iso: Option<f64>,
     /// Analog offset, mV, added before the gain (ISETCam `analog offset`).
     #[serde(default)]
     pub analog_offset_mv: f64,
+    /// Black level, DN: a digital pedestal added to every pixel before rounding (after the analog
+    /// gain and the clip at the voltage swing), so read noise around zero light is kept instead of
+    /// being clipped at 0 DN; DN values still clip to [0, 2^bits - 1] (the white level). Written
+    /// to the DNG's BlackLevel tag (with any analog offset). Real raws have one (the Pixel 4a: 64
+    /// DN of 1023). 0 (the default) is ISETCam's model exactly.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub black_level_dn: f64,
     /// ADC bits, 1..=16. Quantization step = voltage_swing_v / 2^bits.
     pub bits: u32,
     /// DSNU: standard deviation of the fixed per-pixel dark offset, mV.
@@ -244,6 +260,10 @@ fn one() -> f64 {
     1.0
 }
 
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
 /// Largest pixel count a sensor may have (a guard against typos; 2^31 pixels).
 const MAX_PIXELS: u64 = 1 << 31;
 
@@ -275,6 +295,16 @@ impl SensorConfig {
             self.qe_correction = Some(m);
         }
         Ok(())
+    }
+
+    /// ISETCam's analog gain (the divisor of v_out = (v + offset) / gain): base_iso / iso when
+    /// `iso` is given (a camera's ISO gain multiplies the signal by iso / base_iso), else
+    /// `analog_gain`.
+    pub fn effective_analog_gain(&self) -> f64 {
+        match (self.iso, self.base_iso) {
+            (Some(iso), Some(base)) => base / iso,
+            _ => self.analog_gain,
+        }
     }
 
     /// Check every value; the error names `source_name` and the key.
@@ -327,11 +357,45 @@ impl SensorConfig {
             }
         }
         positive("analog_gain", self.analog_gain)?;
+        if let Some(base) = self.base_iso {
+            positive("base_iso", base)?;
+        }
+        if let Some(iso) = self.iso {
+            positive("iso", iso)?;
+            if self.base_iso.is_none() {
+                return Err(bad(
+                    "iso",
+                    format!("iso = {iso} needs base_iso (the ISO at analog gain 1)"),
+                ));
+            }
+            if self.analog_gain != 1.0 {
+                return Err(bad(
+                    "iso",
+                    format!(
+                        "give either iso or analog_gain, not both (iso = {iso}, analog_gain = {})",
+                        self.analog_gain
+                    ),
+                ));
+            }
+        }
         if !self.analog_offset_mv.is_finite() {
             return Err(bad("analog_offset_mv", format!("must be a finite number, got {}", self.analog_offset_mv)));
         }
         if !(1..=16).contains(&self.bits) {
             return Err(bad("bits", format!("must be in 1..=16, got {}", self.bits)));
+        }
+        let white_dn = ((1u64 << self.bits) - 1) as f64;
+        if !(self.black_level_dn.is_finite()
+            && self.black_level_dn >= 0.0
+            && self.black_level_dn < white_dn)
+        {
+            return Err(bad(
+                "black_level_dn",
+                format!(
+                    "must be in [0, {white_dn}) (below the white level 2^bits - 1), got {}",
+                    self.black_level_dn
+                ),
+            ));
         }
         non_negative("dsnu_mv", self.dsnu_mv)?;
         non_negative("prnu_percent", self.prnu_percent)?;

@@ -2,7 +2,8 @@
 //!
 //! A [`Sensor`] is built from a [`SensorConfig`] (a TOML file or a built-in preset: `imx363`
 //! with every value of the paper's Table 1 and the published IMX363 QE, `pixel4a` with the paper's
-//! corrected QE, `ideal` for tests). [`Sensor::compute`] follows ISETCam's `sensorCompute`:
+//! corrected QE, `pixel4a-raw10` with the phone's own raw format (10-bit, black level 64, white
+//! level 1023), `ideal` for tests). [`Sensor::compute`] follows ISETCam's `sensorCompute`:
 //!
 //! 1. the sensor-plane irradiance is integrated over each pixel's photodetector (pitch^2 x fill factor);
 //! 2. electrons = sum_lambda E QE_c lambda/(h c) d lambda x area x t for the pixel's CFA channel
@@ -10,7 +11,10 @@
 //! 3. dark current, photon shot noise (Poisson), PRNU gain and DSNU offset maps (fixed per sensor),
 //!    read noise (per frame);
 //! 4. analog gain and offset `v = (v + offset) / gain`, clipping to the voltage swing, and
-//!    quantization `DN = round(v / (swing / 2^bits))` clipped to 2^bits - 1.
+//!    quantization `DN = round(v / (swing / 2^bits) + black_level_dn)` clipped to [0, 2^bits - 1]
+//!    (`black_level_dn` 0 by default; `iso` sets the gain to base_iso / iso).
+//!
+//! [`Sensor::compute_bracket`] takes a list of exposure times (bracketing, bursts).
 //!
 //! Randomness is keyed on (seed, stage, frame, row), so frames are bit-identical for any thread count.
 //! [`Sensor::predicted_noise_dn`] gives the matching EMVA 1288 noise model and

@@ -5,10 +5,11 @@ use crate::error::{Result, SensorError};
 const PRESETS: &[(&str, &str)] = &[
     ("imx363", include_str!("../presets/imx363.toml")),
     ("pixel4a", include_str!("../presets/pixel4a.toml")),
+    ("pixel4a-raw10", include_str!("../presets/pixel4a-raw10.toml")),
     ("ideal", include_str!("../presets/ideal.toml")),
 ];
 
-const NAMES: &[&str] = &["imx363", "pixel4a", "ideal"];
+const NAMES: &[&str] = &["imx363", "pixel4a", "pixel4a-raw10", "ideal"];
 
 /// Names of the built-in presets.
 pub fn names() -> &'static [&'static str] {

@@ -18,6 +18,8 @@ pub struct Sensor {
     pub(crate) voltage_swing_v: f64,
     pub(crate) analog_gain: f64,
     pub(crate) analog_offset_v: f64,
+    /// Digital black-level pedestal, DN (`black_level_dn` of the config).
+    pub(crate) black_level_pedestal_dn: f64,
     pub(crate) bits: u32,
     pub(crate) dsnu_v: f64,
     pub(crate) prnu_fraction: f64,
@@ -104,7 +106,8 @@ impl Sensor {
             fill_factor: config.fill_factor,
             conversion_gain_v_per_e: config.conversion_gain_uv_per_e * 1e-6,
             voltage_swing_v: config.voltage_swing_v,
-            analog_gain: config.analog_gain,
+            analog_gain: config.effective_analog_gain(),
+            black_level_pedestal_dn: config.black_level_dn,
             analog_offset_v: config.analog_offset_mv * 1e-3,
             bits: config.bits,
             dsnu_v: config.dsnu_mv * 1e-3,
@@ -138,7 +141,7 @@ impl Sensor {
         Sensor::from_toml_str_in(&text, &path.display().to_string(), path.parent().unwrap_or(Path::new("")))
     }
 
-    /// A built-in preset (`imx363`, `pixel4a`, `ideal`).
+    /// A built-in preset (`imx363`, `pixel4a`, `pixel4a-raw10`, `ideal`).
     pub fn preset(name: &str) -> Result<Sensor> {
         let text = presets::toml(name)?;
         Sensor::from_toml_str(text, &format!("preset {name}"))
@@ -231,7 +234,8 @@ impl Sensor {
     pub fn voltage_swing_v(&self) -> f64 {
         self.voltage_swing_v
     }
-    /// Analog gain.
+    /// Analog gain, ISETCam's divisor (v_out = (v + offset) / gain); base_iso / iso when the
+    /// config gives `iso`.
     pub fn analog_gain(&self) -> f64 {
         self.analog_gain
     }
@@ -280,9 +284,23 @@ impl Sensor {
         self.conversion_gain_v_per_e / self.analog_gain * self.dn_per_v()
     }
 
-    /// DN of zero light (noise-free, unrounded): offset / gain x dn_per_v.
+    /// DN of zero light (noise-free, unrounded): offset / gain x dn_per_v + the black-level
+    /// pedestal `black_level_dn` of the config.
     pub fn black_level_dn(&self) -> f64 {
-        self.analog_offset_v / self.analog_gain * self.dn_per_v()
+        self.analog_offset_v / self.analog_gain * self.dn_per_v() + self.black_level_pedestal_dn
+    }
+
+    /// The digital black-level pedestal alone (`black_level_dn` of the config), DN.
+    pub fn black_level_pedestal_dn(&self) -> f64 {
+        self.black_level_pedestal_dn
+    }
+
+    /// ISO of this sensor: `iso` of the config, or base_iso / analog_gain when only `base_iso`
+    /// is given; `None` without a base ISO.
+    pub fn iso(&self) -> Option<f64> {
+        self.config
+            .iso
+            .or_else(|| self.config.base_iso.map(|b| b / self.analog_gain))
     }
 
     /// Mean dark-current electrons in `exposure_s` (0 when the dark switch is off).

@@ -24,12 +24,12 @@ use std::path::{Path, PathBuf};
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv")]
+#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv")]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
     pub input: Option<PathBuf>,
-    /// Sensor: a preset (pixel4a, imx363, ideal) or a sensor TOML file.
+    /// Sensor: a preset (pixel4a, pixel4a-raw10, imx363, ideal) or a sensor TOML file.
     #[arg(long, default_value = "pixel4a")]
     pub sensor: String,
     /// Window rows centred on the optical axis (default: the full sensor; at most the sensor's rows).
@@ -39,9 +39,17 @@ pub struct Args {
     #[arg(long)]
     pub cols: Option<usize>,
     /// Exposure time, ms (default: auto-exposure to 90 % of the swing at the 99th percentile).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "exposures_ms")]
     pub exposure_ms: Option<f64>,
-    /// Frames of the same exposure.
+    /// Exposure bracket / burst: comma-separated exposure times, ms (e.g. 5,10,20); one raw per
+    /// time (x --frames), raw.dng, raw_0001.dng, ... in this order, each with its own noise.
+    #[arg(long, value_delimiter = ',', value_name = "MS,MS,...")]
+    pub exposures_ms: Option<Vec<f64>>,
+    /// Sensitivity as ISO (analog gain = base_iso / iso, ISETCam's divisor); the sensor needs a
+    /// base_iso (the presets have 55).
+    #[arg(long, value_parser = crate::common::finite_f64)]
+    pub iso: Option<f64>,
+    /// Frames of the same exposure (with --exposures-ms: frames per exposure).
     #[arg(long, default_value_t = 1)]
     pub frames: usize,
     /// Temporal noise seed.
@@ -74,6 +82,12 @@ pub fn run(a: Args) -> Result<()> {
     if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
         sensor = sensor.window(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
     }
+    if let Some(iso) = a.iso {
+        let mut c = sensor.config().clone();
+        c.iso = Some(iso);
+        c.analog_gain = 1.0;
+        sensor = Sensor::from_config_named(c, &format!("{} with --iso {iso}", a.sensor))?;
+    }
     if a.no_noise {
         sensor = sensor.with_noise(NoiseSwitches::none());
     }
@@ -94,7 +108,13 @@ pub fn run(a: Args) -> Result<()> {
         None => Exposure::default(),
     };
     let pb = common::spinner("sensor");
-    let frame = sensor.compute(&irr, &Capture { exposure, frames: a.frames, seed: a.seed })?;
+    let frame = match &a.exposures_ms {
+        None => sensor.compute(&irr, &Capture { exposure, frames: a.frames, seed: a.seed })?,
+        Some(list) => {
+            let times_s: Vec<f64> = list.iter().map(|ms| ms * 1e-3).collect();
+            sensor.compute_bracket(&irr, &times_s, a.frames, a.seed)?
+        }
+    };
     pb.finish_and_clear();
     let illum = camsim_core::tables::illuminant("D65")?;
     let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;

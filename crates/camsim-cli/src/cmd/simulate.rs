@@ -36,8 +36,12 @@ pub struct Args {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Exposure time in ms (default: auto-exposure).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "exposures_ms")]
     pub exposure_ms: Option<f64>,
+    /// Exposure bracket / burst: comma-separated exposure times, ms (e.g. 5,10,20); one raw per
+    /// time (x --frames), raw.dng, raw_0001.dng, ... in this order, each with its own noise.
+    #[arg(long, value_delimiter = ',', value_name = "MS,MS,...")]
+    pub exposures_ms: Option<Vec<f64>>,
     /// Outputs to write, comma-separated: raw, preview, raw-png, radiance, irradiance, depth,
     /// noise-free; or all; or default (raw,preview). run.json is always written.
     #[arg(long, default_value = "default", value_name = "LIST")]
@@ -101,6 +105,11 @@ pub fn run(a: Args) -> Result<()> {
     }
     if let Some(e) = a.exposure_ms {
         cfg.capture.exposure_ms = Some(e);
+        cfg.capture.exposures_ms = None;
+    }
+    if let Some(list) = a.exposures_ms {
+        cfg.capture.exposures_ms = Some(list);
+        cfg.capture.exposure_ms = None;
     }
     if a.print_config {
         println!("{}", toml::to_string_pretty(&cfg)?);

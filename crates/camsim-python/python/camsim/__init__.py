@@ -130,14 +130,23 @@ def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union
 
 
 def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: float, *,
-           sensor: Union[str, Dict[str, Any]] = "pixel4a", exposure_s: Optional[float] = None, seed: int = 1,
-           frames: int = 1, rows: Optional[int] = None, cols: Optional[int] = None) -> Dict[str, Any]:
+           sensor: Union[str, Dict[str, Any]] = "pixel4a", exposure_s: Union[None, float, Sequence[float]] = None, seed: int = 1,
+           frames: int = 1, rows: Optional[int] = None, cols: Optional[int] = None,
+           iso: Optional[float] = None) -> Dict[str, Any]:
     """Stage 3: sensor-plane irradiance (bands, rows, cols) at spacing_m -> raw frames. sensor: a
-    preset ("pixel4a", "imx363"), a sensor TOML path, or a dict (camsim.presets.sensor()).
-    exposure_s None: auto-exposure. rows/cols: a centred window of the sensor. Returns a dict: raw
-    (frames, rows, cols) uint16, cfa, black_level, white_level, bits, exposure_s, mean_electrons_rgb."""
+    preset ("pixel4a", "pixel4a-raw10", "imx363"), a sensor TOML path, or a dict (camsim.presets.sensor()).
+    exposure_s None: auto-exposure; a list of times: an exposure bracket / burst (ISETCam's vector
+    exposure time), `frames` raws per time in list order, each with its own temporal noise.
+    iso: sensitivity (analog gain = base_iso / iso; the sensor needs base_iso). rows/cols: a centred
+    window of the sensor. Returns a dict: raw (frames, rows, cols) uint16, cfa, black_level,
+    white_level, bits, exposure_s (the first raw's), exposures_s (per raw), mean_electrons_rgb."""
     e = np.ascontiguousarray(irradiance, dtype=np.float32)
-    return _camsim.sensor(e, [float(w) for w in wavelengths_nm], float(spacing_m), _spec(sensor), exposure_s, seed, frames, rows, cols)
+    bracket = None
+    if exposure_s is not None and not isinstance(exposure_s, (int, float)):
+        bracket = [float(t) for t in exposure_s]
+        exposure_s = None
+    return _camsim.sensor(e, [float(w) for w in wavelengths_nm], float(spacing_m), _spec(sensor), exposure_s, seed, frames, rows, cols,
+                          bracket, iso)
 
 
 def demosaic(raw: np.ndarray, cfa: str = "RGGB", *, bits: int = 12, black_level: float = 0.0) -> np.ndarray:
