@@ -313,7 +313,7 @@ fn load_stats_image(path: &Path, raw: &RawInput) -> Result<(StatsImage, f64)> {
 }
 
 /// `X,Y,X,Y,X,Y,X,Y`: the chart's four corners in pixels.
-fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
+pub(crate) fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
     let v = parse_points(s)?;
     if v.len() != 8 || v.iter().any(|x| !x.is_finite()) {
         return Err(format!("'{s}': give 8 finite numbers X,Y of the top-left, top-right, bottom-right and bottom-left corners, got {}", v.len()));
@@ -323,7 +323,7 @@ fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
 
 /// The chart's corners for a camsim DNG: from the run.json beside it (the scene's chart size,
 /// field of view and distance, the lens and the sensor window), as camsim-pipeline images it.
-fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
+pub(crate) fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
     let run = image.with_file_name("run.json");
     if !run.is_file() {
         bail!(
