@@ -51,7 +51,7 @@ fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
 /// -> sRGB transfer function (IEC 61966-2-1).
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 806,287,1283,287,1283,605,806,605 --report out/canon-isp.json --out out/canon.png"
+    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 806,287,1283,287,1283,605,806,605 --out out/canon.png"
 )]
 pub struct Args {
     /// Raw DNG.
@@ -84,16 +84,16 @@ pub struct Args {
     /// beside a camsim DNG.
     #[arg(long, value_parser = crate::cmd::analyze::parse_corners, allow_hyphen_values = true, value_name = "X,Y,X,Y,X,Y,X,Y")]
     pub corners: Option<ChartCorners>,
-    /// Write the gains, matrix and per-patch CIEDE2000 (--ccm chart) as JSON here.
+    /// Also print the gains, the matrix and (--ccm chart) the per-patch CIEDE2000 as JSON on stdout.
     #[arg(long)]
-    pub report: Option<PathBuf>,
+    pub json: bool,
     /// Output PNG.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (raw, info) = camsim_io::dng::read_dng(&a.input)?;
+    let (raw, _info) = camsim_io::dng::read_dng(&a.input)?;
     let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     let grid = WavelengthGrid::default();
     let illum = camsim_scene::load_illuminant(&a.illuminant, "--illuminant")?;
@@ -174,13 +174,10 @@ pub fn run(a: Args) -> Result<()> {
             camsim_isp::output::render_rgb8(&rgb, &m, &DisplayModel::srgb(), 1.0)?
         }
     };
-    let _ = info;
     crate::common::parent_dir(&a.out)?;
     camsim_io::raster::write_png8_rgb(&a.out, rgb.rows, rgb.cols, &srgb)?;
-    if let Some(p) = &a.report {
-        crate::common::parent_dir(p)?;
-        std::fs::write(p, serde_json::to_string_pretty(&report)?)
-            .with_context(|| format!("cannot write {}", p.display()))?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
     }
     say(format!(
         "wrote {} ({} x {})",
