@@ -424,7 +424,14 @@ fn sensor<'py>(
 /// subtracted); `method` = bilinear, malvar, adaptive-laplacian.
 #[pyfunction]
 #[pyo3(signature = (raw, cfa = "RGGB", bits = 12, black_level = 0.0, method = "bilinear"))]
-fn demosaic<'py>(py: Python<'py>, raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64, method: &str) -> PyResult<Bound<'py, PyAny>> {
+fn demosaic<'py>(
+    py: Python<'py>,
+    raw: PyReadonlyArray2<'_, u16>,
+    cfa: &str,
+    bits: u32,
+    black_level: f64,
+    method: &str,
+) -> PyResult<Bound<'py, PyAny>> {
     let method: camsim::isp::DemosaicMethod = method.parse().map_err(err)?;
     let img = raw_from(raw, cfa, bits, black_level)?;
     let rgb = py.detach(|| camsim::isp::demosaic(&img, method)).map_err(err)?;
