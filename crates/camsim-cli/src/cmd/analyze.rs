@@ -17,6 +17,7 @@ pub enum Command {
     Chart(ChartArgs),
     Roi(RoiArgs),
     Emva(EmvaArgs),
+    Demosaic(crate::cmd::demosaic_zone_plate::Args),
 }
 
 /// Where a raw file's CFA and levels come from when the file does not say (PNG/TIFF mosaics).
@@ -592,6 +593,7 @@ pub fn run(c: Command) -> Result<()> {
         Command::Chart(a) => chart_cmd(a),
         Command::Roi(a) => roi_cmd(a),
         Command::Emva(a) => emva_cmd(a),
+        Command::Demosaic(a) => crate::cmd::demosaic_zone_plate::run(a),
     }
 }
 
