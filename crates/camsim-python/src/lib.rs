@@ -507,6 +507,34 @@ fn fit_ccm(camera: Vec<[f64; 3]>, target_xyz: Vec<[f64; 3]>, white_xyz: [f64; 3]
     Ok((m.to_vec(), de))
 }
 
+/// Every demosaicking method on a gray zone plate of side `size` reaching `f_max` cycles/pixel at
+/// the edge, sampled by a `cfa` mosaic: MTF per annulus, MTF50 and RMS false colour, as JSON
+/// (`{method: {frequency_cy_per_px, mtf, mtf50_cy_per_px, false_colour_low_rms, false_colour_rms}}`).
+#[pyfunction]
+#[pyo3(signature = (size = 512, f_max = 0.5, cfa = "RGGB"))]
+fn demosaic_zone_plate_json(py: Python<'_>, size: usize, f_max: f64, cfa: &str) -> PyResult<String> {
+    use camsim::isp::demosaic_quality::{zone_plate_quality, ZonePlate};
+    if !(32..=8192).contains(&size) {
+        return Err(err(format!("size = {size}: give 32 to 8192 pixels")));
+    }
+    if !(f_max > 0.0 && f_max <= 0.5) {
+        return Err(err(format!("f_max = {f_max}: give a frequency in (0, 0.5] cycles/pixel")));
+    }
+    let cfa = CfaPattern::parse(cfa).map_err(err)?;
+    let out = py.detach(|| {
+        let zp = ZonePlate::new(size, f_max);
+        let raw = zp.mosaic(cfa);
+        let mut map = serde_json::Map::new();
+        for m in camsim::isp::DemosaicMethod::ALL {
+            let rgb = camsim::isp::demosaic(&raw, m)?;
+            let q = zone_plate_quality(&zp, &rgb, 0.01f64.min(f_max / 10.0));
+            map.insert(m.name().to_string(), serde_json::to_value(q).unwrap_or_default());
+        }
+        Ok::<_, camsim::core::error::CoreError>(serde_json::Value::Object(map))
+    });
+    serde_json::to_string(&out.map_err(err)?).map_err(err)
+}
+
 /// XYZ of the 24 ColorChecker patches under a built-in illuminant (white Y = 1) and the white's XYZ.
 #[pyfunction]
 #[pyo3(signature = (illuminant = "D65"))]
@@ -759,6 +787,7 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(illuminant_white_balance_gains, m)?,
         wrap_pyfunction!(fit_ccm, m)?,
         wrap_pyfunction!(macbeth_xyz, m)?,
+        wrap_pyfunction!(demosaic_zone_plate_json, m)?,
         wrap_pyfunction!(sfr_json, m)?,
         wrap_pyfunction!(roi_json, m)?,
         wrap_pyfunction!(chart_json, m)?,

@@ -41,6 +41,7 @@ __all__ = [
     "white_balance",
     "fit_ccm",
     "macbeth_xyz",
+    "demosaic_zone_plate",
     "sfr",
     "roi",
     "chart",
@@ -180,6 +181,15 @@ def fit_ccm(camera_rgb: np.ndarray, target_xyz: np.ndarray, white_xyz: Sequence[
     tgt = [tuple(float(v) for v in row) for row in np.asarray(target_xyz, dtype=np.float64).reshape(-1, 3)]
     m, de = _camsim.fit_ccm(cam, tgt, tuple(float(v) for v in white_xyz), objective)
     return np.asarray(m, dtype=np.float64), np.asarray(de, dtype=np.float64)
+
+
+def demosaic_zone_plate(size: int = 512, f_max: float = 0.5, cfa: str = "RGGB") -> Dict[str, Any]:
+    """Every demosaicking method on a gray zone plate (a circular chirp whose local frequency rises
+    linearly from 0 at the centre to `f_max` cycles/pixel at the edge) sampled by a `cfa` mosaic.
+    Returns {method: {"frequency_cy_per_px", "mtf" (luminance, in-phase amplitude / true),
+    "mtf50_cy_per_px" (None: not reached), "false_colour_low_rms" (chroma error / amplitude below
+    0.25 cycles/pixel), "false_colour_rms"}} (same as `camsim analyze demosaic`)."""
+    return json.loads(_camsim.demosaic_zone_plate_json(int(size), float(f_max), cfa))
 
 
 def macbeth_xyz(illuminant: str = "D65") -> Tuple[np.ndarray, np.ndarray]:
