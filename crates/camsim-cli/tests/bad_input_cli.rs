@@ -168,6 +168,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ["analyze", "sfr"] => vec!["analyze", "sfr", "{F}/edge/raw.dng", "--out", "{O}"],
         ["analyze", "chart"] => vec!["analyze", "chart", "{F}/sim/raw.dng", "--out", "{O}"],
         ["analyze", "roi"] => vec!["analyze", "roi", "{F}/sim/raw.dng", "--region", "8,8,16,16", "--out", "{O}"],
+        ["analyze", "demosaic"] => vec!["analyze", "demosaic", "--size", "64", "--out", "{O}"],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
         ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],

@@ -1,16 +1,27 @@
 //! camsim stage 4: demosaic and sRGB preview.
 //!
 //! [`demosaic_bilinear`] turns a Bayer [`camsim_core::RawImage`] into a planar linear
-//! [`RgbImage`] (the paper's bilinear interpolation); [`ColorPipeline`] fits a sensor-RGB -> XYZ
-//! matrix on the Macbeth ColorChecker under the scene illuminant and renders an 8-bit sRGB preview.
+//! [`RgbImage`] (the paper's bilinear interpolation); [`demosaic()`] adds Malvar-He-Cutler and
+//! Hamilton-Adams ([`DemosaicMethod`]), [`demosaic_quality`] measures them on a zone plate.
+//! [`ColorPipeline`] fits a sensor-RGB -> XYZ matrix on the Macbeth ColorChecker under the scene
+//! illuminant from the sensor QE and renders an 8-bit sRGB preview; [`white_balance`] finds
+//! per-channel gains (gray world, white patch, known illuminant), [`ccm`] fits a colour-correction
+//! matrix on measured chart patches, [`output`] renders to sRGB or to a display model.
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod ccm;
 pub mod color;
 pub mod demosaic;
+pub mod demosaic_methods;
+pub mod demosaic_quality;
+pub mod output;
 pub mod preview;
+pub mod white_balance;
 
 pub use color::{bradford_adaptation, camera_response, ColorPipeline, Mat3};
 pub use demosaic::{demosaic_bilinear, try_demosaic_bilinear, RgbImage};
+pub use demosaic_methods::{demosaic, DemosaicMethod};
+pub use white_balance::WhiteBalanceMethod;

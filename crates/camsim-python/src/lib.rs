@@ -458,18 +458,127 @@ fn sensor<'py>(
     Ok(d)
 }
 
-/// Bilinear demosaic of a raw mosaic (rows, cols) uint16 -> (rows, cols, 3) float32 DN (black
-/// level subtracted).
+/// Demosaic of a raw mosaic (rows, cols) uint16 -> (rows, cols, 3) float32 DN (black level
+/// subtracted); `method` = bilinear, malvar, adaptive-laplacian.
 #[pyfunction]
-#[pyo3(signature = (raw, cfa = "RGGB", bits = 12, black_level = 0.0))]
-fn demosaic<'py>(py: Python<'py>, raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<Bound<'py, PyAny>> {
+#[pyo3(signature = (raw, cfa = "RGGB", bits = 12, black_level = 0.0, method = "bilinear"))]
+fn demosaic<'py>(
+    py: Python<'py>,
+    raw: PyReadonlyArray2<'_, u16>,
+    cfa: &str,
+    bits: u32,
+    black_level: f64,
+    method: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let method: camsim::isp::DemosaicMethod = method.parse().map_err(err)?;
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let rgb = py.detach(|| camsim::isp::try_demosaic_bilinear(&img)).map_err(err)?;
+    let rgb = py.detach(|| camsim::isp::demosaic(&img, method)).map_err(err)?;
+    rgb_to_array(py, &rgb)
+}
+
+fn rgb_to_array<'py>(py: Python<'py>, rgb: &camsim::isp::RgbImage) -> PyResult<Bound<'py, PyAny>> {
     let mut out = Vec::with_capacity(rgb.rows * rgb.cols * 3);
     for i in 0..rgb.rows * rgb.cols {
         out.extend_from_slice(&[rgb.r[i], rgb.g[i], rgb.b[i]]);
     }
     array(py, &out, &[rgb.rows, rgb.cols, 3])
+}
+
+fn rgb_from(rgb: PyReadonlyArray3<'_, f32>) -> PyResult<camsim::isp::RgbImage> {
+    let shape = rgb.shape();
+    if shape[2] != 3 {
+        return Err(err(format!("rgb has shape {shape:?}; expected (rows, cols, 3)")));
+    }
+    let (rows, cols) = (shape[0], shape[1]);
+    let mut img = camsim::isp::RgbImage::zeros(rows, cols);
+    let a = rgb.as_array();
+    for y in 0..rows {
+        for x in 0..cols {
+            let i = y * cols + x;
+            (img.r[i], img.g[i], img.b[i]) = (a[[y, x, 0]], a[[y, x, 1]], a[[y, x, 2]]);
+        }
+    }
+    Ok(img)
+}
+
+/// White-balance gains (green = 1) of a linear RGB image (rows, cols, 3): gray-world or
+/// white-patch (pixels at or above the `percentile` of R+G+B, those with a channel at or above
+/// `saturation` left out). Returns the gains.
+#[pyfunction]
+#[pyo3(signature = (rgb, method = "gray-world", percentile = 99.0, saturation = None))]
+fn white_balance_gains(rgb: PyReadonlyArray3<'_, f32>, method: &str, percentile: f64, saturation: Option<f64>) -> PyResult<Vec<f64>> {
+    use camsim::isp::white_balance::{gray_world_gains, white_patch_gains};
+    use camsim::isp::WhiteBalanceMethod;
+    let img = rgb_from(rgb)?;
+    let g = match method.parse::<WhiteBalanceMethod>().map_err(err)? {
+        WhiteBalanceMethod::None => [1.0; 3],
+        WhiteBalanceMethod::GrayWorld => gray_world_gains(&img).map_err(err)?,
+        WhiteBalanceMethod::WhitePatch => white_patch_gains(&img, percentile, saturation).map_err(err)?,
+        WhiteBalanceMethod::Illuminant => {
+            return Err(err("white_balance_gains: 'illuminant' needs the sensor and illuminant; use illuminant_white_balance_gains"))
+        }
+    };
+    Ok(g.to_vec())
+}
+
+/// White-balance gains (green = 1) from a known illuminant (built-in name) and a sensor (preset
+/// name, TOML file or JSON text): the camera response to a perfect white, `sum QE_c E l dl`, inverted.
+#[pyfunction]
+#[pyo3(signature = (illuminant = "D65", sensor = "pixel4a"))]
+fn illuminant_white_balance_gains(illuminant: &str, sensor: &str) -> PyResult<Vec<f64>> {
+    let s = sensor_from(sensor)?;
+    let grid = WavelengthGrid::default();
+    let illum = camsim::core::tables::illuminant(illuminant).map_err(err)?;
+    Ok(camsim::isp::white_balance::illuminant_gains(&s.channel_qe(&grid), &grid, &illum).map_err(err)?.to_vec())
+}
+
+/// Fit a 3x3 colour-correction matrix camera RGB -> XYZ on patch pairs: `camera` and
+/// `target_xyz` are (n, 3); `objective` = xyz, linear-srgb or cielab (relative to `white_xyz`).
+/// Returns (matrix as 3 rows, per-patch CIEDE2000).
+#[pyfunction]
+#[pyo3(signature = (camera, target_xyz, white_xyz, objective = "linear-srgb"))]
+#[allow(clippy::type_complexity)]
+fn fit_ccm(camera: Vec<[f64; 3]>, target_xyz: Vec<[f64; 3]>, white_xyz: [f64; 3], objective: &str) -> PyResult<(Vec<[f64; 3]>, Vec<f64>)> {
+    let obj: camsim::isp::ccm::CcmObjective = objective.parse().map_err(err)?;
+    let m = camsim::isp::ccm::fit_ccm(&camera, &target_xyz, white_xyz, obj).map_err(err)?;
+    let de = camsim::isp::ccm::ccm_delta_e2000(&m, &camera, &target_xyz, white_xyz);
+    Ok((m.to_vec(), de))
+}
+
+/// Every demosaicking method on a gray zone plate of side `size` reaching `f_max` cycles/pixel at
+/// the edge, sampled by a `cfa` mosaic: MTF per annulus, MTF50 and RMS false colour, as JSON
+/// (`{method: {frequency_cy_per_px, mtf, mtf50_cy_per_px, false_colour_low_rms, false_colour_rms}}`).
+#[pyfunction]
+#[pyo3(signature = (size = 512, f_max = 0.5, cfa = "RGGB"))]
+fn demosaic_zone_plate_json(py: Python<'_>, size: usize, f_max: f64, cfa: &str) -> PyResult<String> {
+    use camsim::isp::demosaic_quality::{zone_plate_quality, ZonePlate};
+    if !(32..=8192).contains(&size) {
+        return Err(err(format!("size = {size}: give 32 to 8192 pixels")));
+    }
+    if !(f_max > 0.0 && f_max <= 0.5) {
+        return Err(err(format!("f_max = {f_max}: give a frequency in (0, 0.5] cycles/pixel")));
+    }
+    let cfa = CfaPattern::parse(cfa).map_err(err)?;
+    let out = py.detach(|| {
+        let zp = ZonePlate::new(size, f_max);
+        let raw = zp.mosaic(cfa);
+        let mut map = serde_json::Map::new();
+        for m in camsim::isp::DemosaicMethod::ALL {
+            let rgb = camsim::isp::demosaic(&raw, m)?;
+            let q = zone_plate_quality(&zp, &rgb, 0.01f64.min(f_max / 10.0));
+            map.insert(m.name().to_string(), serde_json::to_value(q).unwrap_or_default());
+        }
+        Ok::<_, camsim::core::error::CoreError>(serde_json::Value::Object(map))
+    });
+    serde_json::to_string(&out.map_err(err)?).map_err(err)
+}
+
+/// XYZ of the 24 ColorChecker patches under a built-in illuminant (white Y = 1) and the white's XYZ.
+#[pyfunction]
+#[pyo3(signature = (illuminant = "D65"))]
+fn macbeth_xyz(illuminant: &str) -> PyResult<(Vec<[f64; 3]>, [f64; 3])> {
+    let illum = camsim::core::tables::illuminant(illuminant).map_err(err)?;
+    camsim::isp::ccm::macbeth_xyz(&illum, &WavelengthGrid::default()).map_err(err)
 }
 
 fn rect(r: Option<(usize, usize, usize, usize)>) -> Option<Rect> {
@@ -712,6 +821,11 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(optics, m)?,
         wrap_pyfunction!(sensor, m)?,
         wrap_pyfunction!(demosaic, m)?,
+        wrap_pyfunction!(white_balance_gains, m)?,
+        wrap_pyfunction!(illuminant_white_balance_gains, m)?,
+        wrap_pyfunction!(fit_ccm, m)?,
+        wrap_pyfunction!(macbeth_xyz, m)?,
+        wrap_pyfunction!(demosaic_zone_plate_json, m)?,
         wrap_pyfunction!(sfr_json, m)?,
         wrap_pyfunction!(roi_json, m)?,
         wrap_pyfunction!(chart_json, m)?,

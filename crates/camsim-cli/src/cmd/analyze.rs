@@ -17,6 +17,7 @@ pub enum Command {
     Chart(ChartArgs),
     Roi(RoiArgs),
     Emva(EmvaArgs),
+    Demosaic(crate::cmd::demosaic_zone_plate::Args),
 }
 
 /// Where a raw file's CFA and levels come from when the file does not say (PNG/TIFF mosaics).
@@ -313,7 +314,7 @@ fn load_stats_image(path: &Path, raw: &RawInput) -> Result<(StatsImage, f64)> {
 }
 
 /// `X,Y,X,Y,X,Y,X,Y`: the chart's four corners in pixels.
-fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
+pub(crate) fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
     let v = parse_points(s)?;
     if v.len() != 8 || v.iter().any(|x| !x.is_finite()) {
         return Err(format!("'{s}': give 8 finite numbers X,Y of the top-left, top-right, bottom-right and bottom-left corners, got {}", v.len()));
@@ -323,7 +324,7 @@ fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String> {
 
 /// The chart's corners for a camsim DNG: from the run.json beside it (the scene's chart size,
 /// field of view and distance, the lens and the sensor window), as camsim-pipeline images it.
-fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
+pub(crate) fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
     let run = image.with_file_name("run.json");
     if !run.is_file() {
         bail!(
@@ -592,6 +593,7 @@ pub fn run(c: Command) -> Result<()> {
         Command::Chart(a) => chart_cmd(a),
         Command::Roi(a) => roi_cmd(a),
         Command::Emva(a) => emva_cmd(a),
+        Command::Demosaic(a) => crate::cmd::demosaic_zone_plate::run(a),
     }
 }
 

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 pub mod analyze;
 pub mod dataset;
+pub mod demosaic_zone_plate;
 pub mod fit;
 pub mod fit_mtf;
 pub mod emva;

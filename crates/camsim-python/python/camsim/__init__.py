@@ -38,6 +38,10 @@ __all__ = [
     "optics",
     "sensor",
     "demosaic",
+    "white_balance",
+    "fit_ccm",
+    "macbeth_xyz",
+    "demosaic_zone_plate",
     "sfr",
     "roi",
     "chart",
@@ -149,10 +153,61 @@ def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: f
                           bracket, iso)
 
 
-def demosaic(raw: np.ndarray, cfa: str = "RGGB", *, bits: int = 12, black_level: float = 0.0) -> np.ndarray:
-    """Bilinear demosaic of a raw mosaic (rows, cols) -> (rows, cols, 3) float32, black level
-    subtracted (DN)."""
-    return _camsim.demosaic(np.ascontiguousarray(raw, dtype=np.uint16), cfa, bits, black_level)
+def demosaic(raw: np.ndarray, cfa: str = "RGGB", *, bits: int = 12, black_level: float = 0.0,
+             method: str = "bilinear") -> np.ndarray:
+    """Demosaic a raw mosaic (rows, cols) -> (rows, cols, 3) float32, black level subtracted.
+
+    method (ISETCam's 'demosaic method'): "bilinear" (the paper's), "malvar" (Malvar, He & Cutler
+    2004 gradient-corrected linear, ISETCam "laplacian") or "adaptive-laplacian" (Hamilton & Adams
+    1997, directional). All four Bayer phases (cfa "RGGB", "BGGR", "GRBG", "GBRG")."""
+    return _camsim.demosaic(np.ascontiguousarray(raw, dtype=np.uint16), cfa, bits, black_level, method)
+
+
+def white_balance(rgb: np.ndarray, method: str = "gray-world", *, percentile: float = 99.0,
+                  saturation: Optional[float] = None, illuminant: str = "D65",
+                  sensor: Union[str, Dict[str, Any]] = "pixel4a") -> Tuple[np.ndarray, List[float]]:
+    """White-balance a linear RGB image (rows, cols, 3); returns (balanced image, gains), gains
+    with green = 1 (ISETCam 'illuminant correction method').
+
+    method: "gray-world" (gain_c = mean G / mean c), "white-patch" (the same over the pixels whose
+    R+G+B is at or above `percentile`, leaving out any with a channel >= `saturation`; ISETCam
+    "white world"), "illuminant" (from the camera response of `sensor` to a perfect white under
+    the built-in `illuminant`: a gray surface under it comes out neutral exactly) or "none"."""
+    a = np.ascontiguousarray(rgb, dtype=np.float32)
+    if method.strip().lower().replace("_", "-").replace(" ", "-") == "illuminant":
+        gains = _camsim.illuminant_white_balance_gains(illuminant, _spec(sensor))
+    else:
+        gains = _camsim.white_balance_gains(a, method, float(percentile), saturation)
+    return a * np.asarray(gains, dtype=np.float32), list(gains)
+
+
+def fit_ccm(camera_rgb: np.ndarray, target_xyz: np.ndarray, white_xyz: Sequence[float], *,
+            objective: str = "linear-srgb") -> Tuple[np.ndarray, np.ndarray]:
+    """Fit a 3x3 colour-correction matrix M (camera RGB -> CIE XYZ, `xyz = M @ rgb`) on n patch
+    pairs (n, 3), by least squares in "xyz", in "linear-srgb" (IEC 61966-2-1), or minimising the
+    CIELAB error ("cielab": Gauss-Newton from the linear-sRGB fit) relative to `white_xyz`.
+    Returns (M as a (3, 3) array, CIEDE2000 of each patch). Targets for the ColorChecker:
+    `macbeth_xyz()`."""
+    cam = [tuple(float(v) for v in row) for row in np.asarray(camera_rgb, dtype=np.float64).reshape(-1, 3)]
+    tgt = [tuple(float(v) for v in row) for row in np.asarray(target_xyz, dtype=np.float64).reshape(-1, 3)]
+    m, de = _camsim.fit_ccm(cam, tgt, tuple(float(v) for v in white_xyz), objective)
+    return np.asarray(m, dtype=np.float64), np.asarray(de, dtype=np.float64)
+
+
+def demosaic_zone_plate(size: int = 512, f_max: float = 0.5, cfa: str = "RGGB") -> Dict[str, Any]:
+    """Every demosaicking method on a gray zone plate (a circular chirp whose local frequency rises
+    linearly from 0 at the centre to `f_max` cycles/pixel at the edge) sampled by a `cfa` mosaic.
+    Returns {method: {"frequency_cy_per_px", "mtf" (luminance, in-phase amplitude / true),
+    "mtf50_cy_per_px" (None: not reached), "false_colour_low_rms" (chroma error / amplitude below
+    0.25 cycles/pixel), "false_colour_rms"}} (same as `camsim analyze demosaic`)."""
+    return json.loads(_camsim.demosaic_zone_plate_json(int(size), float(f_max), cfa))
+
+
+def macbeth_xyz(illuminant: str = "D65") -> Tuple[np.ndarray, np.ndarray]:
+    """CIE XYZ of the 24 ColorChecker patches (standard order; Ohta 1997 reflectances) under a
+    built-in illuminant, scaled so a perfect white has Y = 1; returns (xyz (24, 3), white xyz)."""
+    xyz, white = _camsim.macbeth_xyz(illuminant)
+    return np.asarray(xyz, dtype=np.float64), np.asarray(white, dtype=np.float64)
 
 
 def sfr(raw: np.ndarray, cfa: str = "RGGB", *, channel: str = "G", roi: Optional[Tuple[int, int, int, int]] = None,
