@@ -404,10 +404,12 @@ impl Tracer {
                 let p0 = r.o + r.d * h.t;
                 let n = (p0 - center).normalize();
                 let p = center + n * radius;
-                // pbrt-v4 sphere uv: u = phi / (2 pi), v = theta / pi (z up).
+                // pbrt-v4 full-sphere uv (4th ed. §6.2.3 with theta_zmin = pi, theta_zmax = 0):
+                // u = phi / (2 pi), v = (theta - pi) / (0 - pi) = 1 - theta / pi, z up. Rotated
+                // spheres are partial spheres with their object frame (pbrt::xform).
                 let phi = n.y.atan2(n.x);
                 let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
-                let uv = [phi / (2.0 * std::f32::consts::PI), n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
+                let uv = [phi / (2.0 * std::f32::consts::PI), 1.0 - n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
                 SurfaceHit { p, ng: n, ns: n, uv }
             }
             Prim::PartialSphere { center, radius, clip } => {

@@ -20,6 +20,12 @@ fn luminance(s: &camsim_core::Spectrum) -> f64 {
 fn sphere(s: &SceneDescription, i: usize) -> ([f64; 3], f64) {
     match &s.shapes[i].geometry {
         Geometry::Sphere { center, radius } => (*center, *radius),
+        // A rotated or mirrored sphere keeps its object frame (for its uv): the full range.
+        Geometry::PartialSphere { center, radius, z_min, z_max, phi_max_deg, .. }
+            if *z_min == -*radius && *z_max == *radius && *phi_max_deg == 360.0 =>
+        {
+            (*center, *radius)
+        }
         g => panic!("not a sphere: {g:?}"),
     }
 }

@@ -1318,13 +1318,42 @@ impl Parser {
             Geometry::Sphere { center, radius } => {
                 let (c, r) = xform::sphere_under(&ctm, center, radius)
                     .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
-                (
-                    Geometry::Sphere {
-                        center: c,
-                        radius: r,
-                    },
-                    self.gs.reverse_orientation ^ swaps,
-                )
+                let s = r / radius;
+                let axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|a| {
+                    let v = ctm.apply_vector(a);
+                    [v[0] / s, v[1] / s, v[2] / s]
+                });
+                let turned = (0..3).any(|i| (0..3).any(|k| (axes[i][k] - if i == k { 1.0 } else { 0.0 }).abs() > 1e-12));
+                if turned && self.gs.area_light.is_none() {
+                    // A rotated (or mirrored) sphere keeps its object frame so that its uv
+                    // (pbrt-v4: u = phi / 2 pi, v = 1 - theta / pi in the object frame) turns
+                    // with it: a partial sphere with the full range. Emitters stay full spheres
+                    // (cone sampling; their uv is taken in the world frame).
+                    let mut s = Shape {
+                        name: None,
+                        geometry: Geometry::PartialSphere {
+                            center,
+                            radius,
+                            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                            z_min: -radius,
+                            z_max: radius,
+                            phi_max_deg: 360.0,
+                        },
+                        material: 0,
+                        area_light: None,
+                        reverse_orientation: self.gs.reverse_orientation,
+                    };
+                    xform::transform_shape(&mut s, &ctm).map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                    (s.geometry, s.reverse_orientation)
+                } else {
+                    (
+                        Geometry::Sphere {
+                            center: c,
+                            radius: r,
+                        },
+                        self.gs.reverse_orientation ^ swaps,
+                    )
+                }
             }
             Geometry::Triangles {
                 positions,
