@@ -167,13 +167,15 @@ fn demosaic_row(dn: &[u16], rows: usize, cols: usize, cfa: CfaPattern, black: f3
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use camsim_core::CfaPattern;
 
-    const PATTERNS: [CfaPattern; 4] = [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr];
+    /// Every Bayer phase.
+    pub(crate) const PATTERNS: [CfaPattern; 4] = [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr];
 
-    fn mosaic(rows: usize, cols: usize, cfa: CfaPattern, black: f64, f: impl Fn(usize, usize, usize) -> f64) -> RawImage {
+    /// A 16-bit mosaic with value `f(y, x, channel) + black` at each pixel.
+    pub(crate) fn mosaic(rows: usize, cols: usize, cfa: CfaPattern, black: f64, f: impl Fn(usize, usize, usize) -> f64) -> RawImage {
         let mut raw = RawImage::new(rows, cols, cfa, 16).unwrap();
         raw.black_level_dn = black;
         for y in 0..rows {

@@ -281,19 +281,7 @@ fn hamilton_adams(p: &Padded, cfa: CfaPattern) -> RgbImage {
 mod tests {
     use super::*;
 
-    const PATTERNS: [CfaPattern; 4] = [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr];
-
-    fn mosaic(rows: usize, cols: usize, cfa: CfaPattern, black: f64, f: impl Fn(usize, usize, usize) -> f64) -> RawImage {
-        let mut raw = RawImage::new(rows, cols, cfa, 16).unwrap();
-        raw.black_level_dn = black;
-        for y in 0..rows {
-            for x in 0..cols {
-                let ch = cfa.channel_at(y, x).index();
-                raw.dn[y * cols + x] = (f(y, x, ch) + black).round() as u16;
-            }
-        }
-        raw
-    }
+    use crate::demosaic::tests::{mosaic, PATTERNS};
 
     #[test]
     fn names_parse_and_unknown_is_an_error() {

@@ -223,11 +223,12 @@ pub fn intersect_triangle(o: V3, d: V3, p0: V3, e1: V3, e2: V3, t_max: f32) -> O
     }
 }
 
-/// Ray-sphere intersection with the numerically robust discriminant
-/// `r^2 - |oc - (oc.d) d|^2` (Haines et al., "Precision Improvements for Ray/Sphere
-/// Intersection", Ray Tracing Gems 2019, ch. 7). `d` must be a unit vector.
+/// The roots `t0 <= t1` of the ray-sphere quadratic with `oc = o - center` (`None` when the ray
+/// misses), computed stably: the discriminant from the perpendicular distance and the roots as
+/// c/q and q (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing
+/// Gems 2019, ch. 7). `d` must be a unit vector.
 #[inline(always)]
-pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Option<f32> {
+fn sphere_roots(o: V3, d: V3, center: V3, radius: f32) -> Option<(V3, f32, f32)> {
     let oc = o - center;
     let b = oc.dot(d);
     let perp = oc - d * b;
@@ -243,6 +244,15 @@ pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Op
     if t0 > t1 {
         std::mem::swap(&mut t0, &mut t1);
     }
+    Some((oc, t0, t1))
+}
+
+/// Ray-sphere intersection with the numerically robust discriminant
+/// `r^2 - |oc - (oc.d) d|^2` (Haines et al., "Precision Improvements for Ray/Sphere
+/// Intersection", Ray Tracing Gems 2019, ch. 7). `d` must be a unit vector.
+#[inline(always)]
+pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Option<f32> {
+    let (_, t0, t1) = sphere_roots(o, d, center, radius)?;
     if t0 > 0.0 && t0 < t_max {
         Some(t0)
     } else if t1 > 0.0 && t1 < t_max {
@@ -257,20 +267,7 @@ pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Op
 /// clip keeps (a near hit cut away falls through to the far one).
 #[inline(always)]
 pub fn intersect_partial_sphere(o: V3, d: V3, center: V3, radius: f32, clip: &SphereClip, t_max: f32) -> Option<f32> {
-    let oc = o - center;
-    let b = oc.dot(d);
-    let perp = oc - d * b;
-    let disc = radius * radius - perp.length_squared();
-    if disc < 0.0 {
-        return None;
-    }
-    let c = oc.length_squared() - radius * radius;
-    let sq = disc.sqrt();
-    let q = if b > 0.0 { -b - sq } else { -b + sq };
-    let (mut t0, mut t1) = if q != 0.0 { (c / q, q) } else { (0.0, 0.0) };
-    if t0 > t1 {
-        std::mem::swap(&mut t0, &mut t1);
-    }
+    let (oc, t0, t1) = sphere_roots(o, d, center, radius)?;
     [t0, t1].into_iter().find(|&t| t > 0.0 && t < t_max && clip.keeps(oc + d * t))
 }
 

@@ -191,21 +191,7 @@ impl Tracer {
                 )
             }
             Mat::Conductor { optics, distrib } => {
-                let (eta, k) = match optics {
-                    CondOptics::EtaK(e, k) => (
-                        self.tables[*e as usize].eval_path(lambdas),
-                        self.tables[*k as usize].eval_path(lambdas),
-                    ),
-                    CondOptics::Reflectance(tex) => {
-                        // pbrt-v4 ConductorMaterial: eta = 1, k = 2 sqrt(r) / sqrt(1 - r).
-                        let r = self.eval_texture(tex, ctx, lambdas);
-                        let k = std::array::from_fn(|i| {
-                            let r = r[i].clamp(0.0, 0.9999);
-                            2.0 * r.sqrt() / (1.0 - r).sqrt()
-                        });
-                        ([1.0; N], k)
-                    }
-                };
+                let (eta, k) = self.conductor_constants(optics, ctx, lambdas);
                 (
                     Bsdf::Conductor {
                         eta,

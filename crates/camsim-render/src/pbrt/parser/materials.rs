@@ -112,6 +112,43 @@ impl Parser {
         }
     }
 
+    /// A conductor's optical constants: spectra `eta_name` and `k_name` (pbrt-v4's copper where
+    /// absent) or a `reflectance`, not both (pbrt-v4 `conductor` and `coatedconductor`).
+    fn conductor_optics(
+        &self,
+        params: &ParamList,
+        file: &Path,
+        loc: &Loc,
+        eta_name: &str,
+        k_name: &str,
+        what: &str,
+    ) -> Result<ConductorOptics, PbrtError> {
+        let eta = self.conductor_spectrum(params, eta_name, file, "metal-Cu-eta")?;
+        let k = self.conductor_spectrum(params, k_name, file, "metal-Cu-k")?;
+        let refl = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?.map(|p| p.loc.clone());
+        Ok(match (refl, eta, k) {
+            (Some(l), e, k) if e.is_some() || k.is_some() => {
+                return Err(l.err(format!("{what}: give either \"reflectance\" or \"{eta_name}\" and \"{k_name}\", not both")));
+            }
+            (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(params, "reflectance", file, 0.0)?),
+            (None, e, k) => {
+                let named = |n: &str| {
+                    super::super::optical_constants::named(n).ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
+                };
+                ConductorOptics::EtaK {
+                    eta: match e {
+                        Some(s) => s,
+                        None => named("metal-Cu-eta")?,
+                    },
+                    k: match k {
+                        Some(s) => s,
+                        None => named("metal-Cu-k")?,
+                    },
+                }
+            }
+        })
+    }
+
     /// A spectrum parameter of a conductor (`eta` or `k`), or `default_name` (pbrt-v4's copper).
     fn conductor_spectrum(
         &self,
@@ -183,38 +220,7 @@ impl Parser {
                 reflectance: self.spectrum_texture(params, "reflectance", file, 0.5)?,
             },
             "conductor" => {
-                let eta = self.conductor_spectrum(params, "eta", file, "metal-Cu-eta")?;
-                let k = self.conductor_spectrum(params, "k", file, "metal-Cu-k")?;
-                let refl = params
-                    .get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?
-                    .map(|p| p.loc.clone());
-                let optics = match (refl, eta, k) {
-                    (Some(l), e, k) if e.is_some() || k.is_some() => {
-                        return Err(l.err("material \"conductor\": give either \"reflectance\" or \"eta\" and \"k\", not both"));
-                    }
-                    (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(
-                        params,
-                        "reflectance",
-                        file,
-                        0.0,
-                    )?),
-                    (None, e, k) => {
-                        let named = |n: &str| {
-                            super::super::optical_constants::named(n)
-                                .ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
-                        };
-                        ConductorOptics::EtaK {
-                            eta: match e {
-                                Some(s) => s,
-                                None => named("metal-Cu-eta")?,
-                            },
-                            k: match k {
-                                Some(s) => s,
-                                None => named("metal-Cu-k")?,
-                            },
-                        }
-                    }
-                };
+                let optics = self.conductor_optics(params, file, loc, "eta", "k", &what)?;
                 Material::Conductor {
                     optics,
                     roughness: self.roughness(params, &what, loc)?,
@@ -319,38 +325,7 @@ impl Parser {
                         e
                     }
                 };
-                let eta = self.conductor_spectrum(params, "conductor.eta", file, "metal-Cu-eta")?;
-                let k = self.conductor_spectrum(params, "conductor.k", file, "metal-Cu-k")?;
-                let refl = params
-                    .get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?
-                    .map(|p| p.loc.clone());
-                let conductor = match (refl, eta, k) {
-                    (Some(l), e, k) if e.is_some() || k.is_some() => {
-                        return Err(l.err(format!("{what}: give either \"reflectance\" or \"conductor.eta\" and \"conductor.k\", not both")));
-                    }
-                    (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(
-                        params,
-                        "reflectance",
-                        file,
-                        0.0,
-                    )?),
-                    (None, e, k) => {
-                        let named = |n: &str| {
-                            super::super::optical_constants::named(n)
-                                .ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
-                        };
-                        ConductorOptics::EtaK {
-                            eta: match e {
-                                Some(s) => s,
-                                None => named("metal-Cu-eta")?,
-                            },
-                            k: match k {
-                                Some(s) => s,
-                                None => named("metal-Cu-k")?,
-                            },
-                        }
-                    }
-                };
+                let conductor = self.conductor_optics(params, file, loc, "conductor.eta", "conductor.k", &what)?;
                 if let Some(p) = params.get("albedo", &["rgb", "spectrum", "float", "texture"])? {
                     let zero = matches!(p.nums().ok().as_deref(), Some(vals) if vals.iter().all(|x| *x == 0.0));
                     if !zero {
