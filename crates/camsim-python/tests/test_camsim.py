@@ -38,7 +38,7 @@ def test_simulate_returns_every_stage_as_numpy_arrays():
     assert sim.radiance.dtype == np.float32 and sim.radiance.shape[0] == bands
     assert sim.irradiance.dtype == np.float32 and sim.irradiance.shape[0] == bands
     assert sim.preview.shape == (48, 64, 3) and sim.preview.dtype == np.uint8
-    assert sim.depth is None  # a 2D chart
+    assert sim.depth is None and sim.object_id is None and sim.ids_legend is None  # a 2D chart
     assert sim.noise_free.shape == (48, 64)
     # Physical values: radiance and irradiance non-negative, the raw within the ADC's range.
     assert sim.radiance.min() >= 0 and sim.irradiance.min() >= 0
@@ -135,6 +135,20 @@ def test_render_gives_radiance_and_depth():
     assert ((ids == 0) == np.isinf(z)).all() and ((mats == 0) == np.isinf(z)).all()
     assert {str(i) for i in np.unique(ids) if i} == set(legend["objects"])
     assert {str(i) for i in np.unique(mats) if i} == set(legend["materials"])
+
+
+def test_simulate_of_a_rendered_scene_carries_its_id_maps():
+    cfg = {"wavelengths": {"start_nm": 400.0, "step_nm": 50.0, "count": 7},
+           "render": {"builtin": "cornell-box", "samples_per_pixel": 1, "resolution": [24, 24]},
+           "sensor": {"preset": "pixel4a", "rows": 1536, "cols": 1536}, "capture": {"exposure_ms": 1.0}}
+    sim = camsim.simulate(cfg)
+    ids, mats, legend = sim.object_id, sim.material_id, sim.ids_legend
+    assert ids.shape == mats.shape == (24, 24) and ids.dtype == np.uint32
+    # Every id in the maps is named, with the built-in box's object and material names.
+    assert {str(i) for i in np.unique(ids) if i} == set(legend["objects"])
+    assert set(legend["objects"].values()) <= {"floor", "back_wall", "right_wall", "left_wall", "ceiling", "light", "short_block", "tall_block"}
+    assert set(legend["materials"].values()) <= {"white", "red", "green", "light"}
+    assert ((ids == 0) == np.isinf(sim.depth)).all()
 
 
 def test_sfr_of_a_simulated_slanted_edge():

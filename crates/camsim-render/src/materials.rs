@@ -324,6 +324,25 @@ fn distribution(r: &Roughness, material_index: usize) -> Result<TrowbridgeReitz,
 
 /// A spectrum used as an index of refraction (or extinction): tabulated holding its end values
 /// (an index is never zero beyond the data), and whether it varies with wavelength.
+/// A conductor's optical constants in render form: eta and k as spectrum tables, or a
+/// reflectance texture (turned into eta = 1, k at each hit, pbrt-v4 `ConductorMaterial`).
+fn compile_conductor_optics(
+    optics: &ConductorOptics,
+    material_index: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<crate::integrator::ImageTex>,
+) -> Result<CondOptics, RenderError> {
+    Ok(match optics {
+        ConductorOptics::EtaK { eta, k } => {
+            let (e, _) = index_table(eta, "conductor eta", material_index, ws, tables, false)?;
+            let (k, _) = index_table(k, "conductor k", material_index, ws, tables, false)?;
+            CondOptics::EtaK(e, k)
+        }
+        ConductorOptics::Reflectance(t) => CondOptics::Reflectance(compile_texture(t, material_index, ws, tables, images)?),
+    })
+}
+
 fn index_table(
     s: &camsim_core::Spectrum,
     what: &str,
@@ -372,16 +391,7 @@ pub(crate) fn compile_material(
             Mat::Diffuse(compile_texture(reflectance, mi, ws, tables, images)?)
         }
         Material::Conductor { optics, roughness } => {
-            let optics = match optics {
-                ConductorOptics::EtaK { eta, k } => {
-                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
-                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
-                    CondOptics::EtaK(e, k)
-                }
-                ConductorOptics::Reflectance(t) => {
-                    CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?)
-                }
-            };
+            let optics = compile_conductor_optics(optics, mi, ws, tables, images)?;
             Mat::Conductor {
                 optics,
                 distrib: distribution(roughness, mi)?,
@@ -404,16 +414,7 @@ pub(crate) fn compile_material(
                     "coated conductor thickness {thickness} must be >= 0"
                 )));
             }
-            let optics = match conductor {
-                ConductorOptics::EtaK { eta, k } => {
-                    let (e, _) = index_table(eta, "conductor eta", mi, ws, tables, false)?;
-                    let (k, _) = index_table(k, "conductor k", mi, ws, tables, false)?;
-                    CondOptics::EtaK(e, k)
-                }
-                ConductorOptics::Reflectance(t) => {
-                    CondOptics::Reflectance(compile_texture(t, mi, ws, tables, images)?)
-                }
-            };
+            let optics = compile_conductor_optics(conductor, mi, ws, tables, images)?;
             Mat::CoatedConductor {
                 eta: *interface_eta as f32,
                 coat: distribution(interface_roughness, mi)?,
