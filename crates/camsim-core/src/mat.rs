@@ -789,6 +789,34 @@ pub fn read_mat_variables(path: impl AsRef<Path>) -> Result<Vec<MatVariable>> {
     parse_mat_bytes(&bytes, path)
 }
 
+/// Write numeric matrices as an uncompressed little-endian Level 5 MAT-file (the layout of the
+/// reader above): `(name, rows, cols, values column-major)` per variable, MATLAB class double.
+/// For exporting spectra to ISETCam (`wavelength` n x 1, `data` n x k) and for tests.
+pub fn mat_v5_doubles(vars: &[(&str, usize, usize, &[f64])]) -> Vec<u8> {
+    fn element(out: &mut Vec<u8>, data_type: u32, data: &[u8]) {
+        out.extend(data_type.to_le_bytes());
+        out.extend((data.len() as u32).to_le_bytes());
+        out.extend(data);
+        out.resize(out.len().next_multiple_of(8), 0);
+    }
+    let mut out = vec![b' '; 116];
+    out[..19].copy_from_slice(b"MATLAB 5.0 MAT-file");
+    out.extend([0u8; 8]);
+    out.extend([0x00, 0x01, b'I', b'M']);
+    for (name, rows, cols, values) in vars {
+        debug_assert_eq!(values.len(), rows * cols);
+        let mut body = Vec::new();
+        element(&mut body, MI_UINT32, &[6 /* mxDOUBLE_CLASS */, 0, 0, 0, 0, 0, 0, 0]);
+        element(&mut body, MI_INT32, &[(*rows as i32).to_le_bytes(), (*cols as i32).to_le_bytes()].concat());
+        element(&mut body, MI_INT8, name.as_bytes());
+        element(&mut body, MI_DOUBLE, &values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
+        out.extend(MI_MATRIX.to_le_bytes());
+        out.extend((body.len() as u32).to_le_bytes());
+        out.extend(body);
+    }
+    out
+}
+
 /// An ISETCam spectral data file: the spectra and the file's `comment`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IsetcamSpectra {

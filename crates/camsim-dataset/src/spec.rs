@@ -407,8 +407,10 @@ fn check_config(cfg: &SimulateConfig) -> std::result::Result<(), String> {
         files.extend(r.pbrt.as_deref());
         files.extend(r.overlay.as_deref());
     }
-    if let Some(camsim_scene::SceneConfig::File(f)) = &cfg.scene {
-        files.push(&f.path);
+    match &cfg.scene {
+        Some(camsim_scene::SceneConfig::File(f)) => files.push(&f.path),
+        Some(camsim_scene::SceneConfig::Rgb(f)) => files.push(&f.path),
+        _ => {}
     }
     for f in files {
         if !f.is_file() {

@@ -744,6 +744,25 @@ pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize
     }
 }
 
+/// Read every channel of an EXR as f32: `(rows, cols, [(name, data)])`, in the file's order.
+/// All channels must have the same size (one layer, or layers of one size).
+pub fn read_channels_exr(path: &Path) -> Result<(usize, usize, Vec<(String, Vec<f32>)>)> {
+    let image = read_any(path)?;
+    let mut size = None;
+    let mut out = Vec::new();
+    for layer in image.layer_data.into_iter() {
+        let (rows, cols) = (layer.size.height(), layer.size.width());
+        if *size.get_or_insert((rows, cols)) != (rows, cols) {
+            return Err(IoError::format(path, "has layers of different sizes"));
+        }
+        for ch in layer.channel_data.list.into_iter() {
+            out.push((ch.name.to_string(), samples_into_f32(ch.sample_data)));
+        }
+    }
+    let (rows, cols) = size.ok_or_else(|| IoError::format(path, "the file has no layers"))?;
+    Ok((rows, cols, out))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@
 //!   uncompressed or lossless JPEG, strips or tiles, linearization, black/white levels, active area).
 //! - [`ljpeg`]: the lossless JPEG (ITU-T T.81 process 14) decoder DNG needs.
 //! - [`raster`]: 16-bit PNG/TIFF mosaics and 8-bit RGB PNG.
+//! - [`rgb_image`]: colour photographs (PNG, JPEG, TIFF code values; OpenEXR linear) as f32 RGB.
 //! - [`measurements`]: CSV inputs of the analyses (EMVA 1288 series lists, `sfr.csv` curves,
 //!   chart patch means for the QE fit).
 //! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
@@ -20,6 +21,7 @@ pub mod ljpeg;
 pub mod measurements;
 pub mod plot;
 pub mod raster;
+pub mod rgb_image;
 pub mod tiff;
 
 pub use error::{IoError, Result};

@@ -243,8 +243,9 @@ impl SimulateConfig {
         if let Some(c) = &mut self.sensor.config {
             c.qe.file.as_mut().map(fix);
         }
-        if let Some(SceneConfig::File(f)) = &mut self.scene {
-            fix(&mut f.path);
+        // Scene files: the radiance EXR, the photograph and display, illuminant and reflectance files.
+        if let Some(scene) = &mut self.scene {
+            scene.resolve_paths(base);
         }
     }
 
@@ -326,10 +327,6 @@ pub fn scene_stage(
     cfg.check_scene_source()?;
     match (&cfg.scene, &cfg.render) {
         (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
-        (Some(SceneConfig::File(f)), None) => {
-            let img = camsim_io::exr::read_spectral_exr(&f.path)?;
-            Ok((camsim_scene::from_image(f, img).map_err(|e| PipelineError::Scene(e.to_string()))?, None))
-        }
         (Some(s), None) => Ok((camsim_scene::create(s, &cfg.wavelengths).map_err(|e| PipelineError::Scene(e.to_string()))?, None)),
         (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress).map(|(img, ids)| (img, Some(ids))),
     }

@@ -322,15 +322,7 @@ fn scene<'py>(py: Python<'py>, scene_json: &str, start_nm: f64, step_nm: f64, co
     let cfg: camsim::scene::SceneConfig = serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
     let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
     let img = py
-        .detach(|| -> Result<SpectralImage, String> {
-            match &cfg {
-                camsim::scene::SceneConfig::File(f) => {
-                    let img = camsim::io::exr::read_spectral_exr(&f.path).map_err(|e| e.to_string())?;
-                    camsim::scene::from_image(f, img).map_err(|e| e.to_string())
-                }
-                c => camsim::scene::create(c, &grid).map_err(|e| e.to_string()),
-            }
-        })
+        .detach(|| camsim::scene::create(&cfg, &grid).map_err(|e| e.to_string()))
         .map_err(err)?;
     spectral_dict(py, &img, "radiance")
 }

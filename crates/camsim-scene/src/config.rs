@@ -1,8 +1,9 @@
 //! Scene configuration (TOML), tagged by `kind`:
 //!
 //! ```toml
-//! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | harmonic | zone_plate
+//! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | rgb | harmonic | zone_plate
 //!                             # | sweep_frequency | star | checkerboard | grid_lines | point_array | ramp
+//!                             # | dead_leaves
 //! mean_luminance_cd_m2 = 100
 //! fov_deg = 10
 //! distance_m = 1.2
@@ -13,8 +14,10 @@
 
 use crate::geometry::MacbethLayout;
 pub use crate::patterns::{
-    CheckerboardScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
+    ZonePlateScene,
 };
+pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
 use camsim_core::WavelengthGrid;
 use serde::{Deserialize, Serialize};
@@ -129,6 +132,12 @@ pub struct MacbethScene {
     /// Reflectance of the borders, fraction (0 = black, as on the physical chart).
     #[serde(default)]
     pub border_reflectance: f64,
+    /// The 24 patch reflectances, in chart order (optional; default N. Ohta's 1997 measurements):
+    /// a CSV (`wavelength_nm` and 24 columns) or an ISETCam `.mat` in `macbethChart.mat`'s layout
+    /// (`wavelength`, `data` with 24 columns), fractions. ISETCam's own chart differs from Ohta's
+    /// by up to 19 % per patch: give its file to compare results with ISETCam.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reflectances: Option<String>,
 }
 
 /// An ISO 12233 slanted edge: a straight edge through the image centre, tilted from the vertical,
@@ -203,6 +212,8 @@ pub enum SceneConfig {
     SlantedEdge(SlantedEdgeScene),
     /// `kind = "file"`.
     File(FileScene),
+    /// `kind = "rgb"`: an RGB image on a display model (ISETCam `sceneFromFile`).
+    Rgb(RgbScene),
     /// `kind = "harmonic"` (ISETCam 'harmonic').
     Harmonic(HarmonicScene),
     /// `kind = "zone_plate"` (ISETCam 'zone plate').
@@ -219,6 +230,8 @@ pub enum SceneConfig {
     PointArray(PointArrayScene),
     /// `kind = "ramp"` (ISETCam 'linear intensity ramp').
     Ramp(RampScene),
+    /// `kind = "dead_leaves"` (ISO 19567-2 texture-loss target; ISETCam 'dead leaves').
+    DeadLeaves(DeadLeavesScene),
 }
 
 impl Default for UniformScene {
@@ -247,6 +260,7 @@ impl Default for MacbethScene {
             patch_size_px: default_patch_size(),
             border_px: default_border(),
             border_reflectance: 0.0,
+            reflectances: None,
         }
     }
 }
@@ -306,6 +320,7 @@ impl SceneConfig {
             SceneConfig::Macbeth(_) => "macbeth",
             SceneConfig::SlantedEdge(_) => "slanted_edge",
             SceneConfig::File(_) => "file",
+            SceneConfig::Rgb(_) => "rgb",
             SceneConfig::Harmonic(_) => "harmonic",
             SceneConfig::ZonePlate(_) => "zone_plate",
             SceneConfig::SweepFrequency(_) => "sweep_frequency",
@@ -314,6 +329,7 @@ impl SceneConfig {
             SceneConfig::GridLines(_) => "grid_lines",
             SceneConfig::PointArray(_) => "point_array",
             SceneConfig::Ramp(_) => "ramp",
+            SceneConfig::DeadLeaves(_) => "dead_leaves",
         }
     }
 
@@ -328,7 +344,10 @@ impl SceneConfig {
             SceneConfig::GridLines(c) => c,
             SceneConfig::PointArray(c) => c,
             SceneConfig::Ramp(c) => c,
-            SceneConfig::Uniform(_) | SceneConfig::Macbeth(_) | SceneConfig::SlantedEdge(_) | SceneConfig::File(_) => return None,
+            SceneConfig::DeadLeaves(c) => c,
+            SceneConfig::Uniform(_) | SceneConfig::Macbeth(_) | SceneConfig::SlantedEdge(_) | SceneConfig::File(_) | SceneConfig::Rgb(_) => {
+                return None
+            }
         })
     }
 
@@ -339,6 +358,7 @@ impl SceneConfig {
             SceneConfig::Macbeth(c) => c.wavelengths,
             SceneConfig::SlantedEdge(c) => c.wavelengths,
             SceneConfig::File(c) => c.wavelengths,
+            SceneConfig::Rgb(c) => c.wavelengths,
             SceneConfig::Harmonic(c) => c.wavelengths,
             SceneConfig::ZonePlate(c) => c.wavelengths,
             SceneConfig::SweepFrequency(c) => c.wavelengths,
@@ -347,6 +367,7 @@ impl SceneConfig {
             SceneConfig::GridLines(c) => c.wavelengths,
             SceneConfig::PointArray(c) => c.wavelengths,
             SceneConfig::Ramp(c) => c.wavelengths,
+            SceneConfig::DeadLeaves(c) => c.wavelengths,
         };
         g.unwrap_or_default()
     }
@@ -368,12 +389,23 @@ impl SceneConfig {
                     }
                 }
             }
-            SceneConfig::Macbeth(c) => fix_string(&mut c.illuminant),
+            SceneConfig::Macbeth(c) => {
+                fix_string(&mut c.illuminant);
+                if let Some(r) = &mut c.reflectances {
+                    fix_string(r);
+                }
+            }
             SceneConfig::SlantedEdge(c) => fix_string(&mut c.illuminant),
             SceneConfig::File(c) => {
                 if c.path.is_relative() {
                     c.path = base_dir.join(&c.path);
                 }
+            }
+            SceneConfig::Rgb(c) => {
+                if c.path.is_relative() {
+                    c.path = base_dir.join(&c.path);
+                }
+                fix_string(&mut c.display);
             }
             SceneConfig::Harmonic(c) => fix_string(&mut c.illuminant),
             SceneConfig::ZonePlate(c) => fix_string(&mut c.illuminant),
@@ -383,6 +415,7 @@ impl SceneConfig {
             SceneConfig::GridLines(c) => fix_string(&mut c.illuminant),
             SceneConfig::PointArray(c) => fix_string(&mut c.illuminant),
             SceneConfig::Ramp(c) => fix_string(&mut c.illuminant),
+            SceneConfig::DeadLeaves(c) => fix_string(&mut c.illuminant),
         }
     }
 }
@@ -423,6 +456,8 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("macbeth", t) => run::<MacbethScene>(text, t),
         ("slanted_edge", t) => run::<SlantedEdgeScene>(text, t),
         ("file", t) => run::<FileScene>(text, t),
+        ("rgb", t) => run::<RgbScene>(text, t),
+        ("dead_leaves", t) => run::<DeadLeavesScene>(text, t),
         ("harmonic", t) => run::<HarmonicScene>(text, t),
         ("zone_plate", t) => run::<ZonePlateScene>(text, t),
         ("sweep_frequency", t) => run::<SweepFrequencyScene>(text, t),

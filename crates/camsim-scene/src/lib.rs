@@ -7,24 +7,30 @@
 //!
 //! `L_v = 683 lm/W * sum_lambda y_bar(lambda) L(lambda) d_lambda`, averaged over pixels.
 //!
-//! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker), `slanted_edge` (ISO 12233),
-//! `file` (a spectral radiance image loaded by the caller, see [`from_image`]) and the ISETCam
-//! test patterns of [`patterns`] (`harmonic`, `zone_plate`, `sweep_frequency`, `star`,
-//! `checkerboard`, `grid_lines`, `point_array`, `ramp`).
+//! Kinds ([`SceneConfig`]): `uniform`, `macbeth` (ColorChecker, N. Ohta's reflectances or any set
+//! of 24 from a file), `slanted_edge` (ISO 12233), `file` (a spectral radiance OpenEXR, see
+//! [`from_image`]), `rgb` (a photograph on a display model, [`rgb`] and [`display`]) and the
+//! ISETCam test patterns of [`patterns`] (`harmonic`, `zone_plate`, `sweep_frequency`, `star`,
+//! `checkerboard`, `grid_lines`, `point_array`, `ramp`, `dead_leaves`).
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod config;
+pub mod display;
 pub mod geometry;
 pub mod patterns;
+pub mod rgb;
 
 pub use config::{FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene};
+pub use display::{Display, Transfer};
 pub use geometry::{Edge, MacbethLayout, Rect};
 pub use patterns::{
-    CheckerboardScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
+    ZonePlateScene,
 };
+pub use rgb::RgbScene;
 
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::error::{CoreError, Result};
@@ -33,8 +39,8 @@ use camsim_core::{tables, Quantity, SpectralImage, Spectrum, WavelengthGrid};
 use rayon::prelude::*;
 use std::path::Path;
 
-/// Build the spectral radiance image of a chart scene on `grid` (every kind but `file`, whose
-/// image the caller loads and passes to [`from_image`]).
+/// Build the spectral radiance image of a scene on `grid`. `file` scenes read their OpenEXR
+/// ([`from_image`]) and `rgb` scenes their photograph through camsim-io.
 ///
 /// The result has `quantity = Radiance` (W/(sr m^2 nm)), `sample_spacing_m = 2 d tan(fov/2) / cols`
 /// (ISETCam `sceneGet(scene, 'sample spacing')`), and `geometry.fov_deg` / `distance_m` set.
@@ -44,18 +50,15 @@ pub fn create(cfg: &SceneConfig, grid: &WavelengthGrid) -> Result<SpectralImage>
         SceneConfig::Uniform(c) => create_uniform(c, grid),
         SceneConfig::Macbeth(c) => create_macbeth(c, grid),
         SceneConfig::SlantedEdge(c) => create_slanted_edge(c, grid),
-        SceneConfig::File(c) => Err(CoreError::invalid(
-            format!("scene kind 'file' ({})", c.path.display()),
-            "a radiance file is loaded by the caller (camsim-io) and passed to camsim_scene::from_image",
-        )),
-        SceneConfig::Harmonic(c) => patterns::create_pattern(c, grid),
-        SceneConfig::ZonePlate(c) => patterns::create_pattern(c, grid),
-        SceneConfig::SweepFrequency(c) => patterns::create_pattern(c, grid),
-        SceneConfig::Star(c) => patterns::create_pattern(c, grid),
-        SceneConfig::Checkerboard(c) => patterns::create_pattern(c, grid),
-        SceneConfig::GridLines(c) => patterns::create_pattern(c, grid),
-        SceneConfig::PointArray(c) => patterns::create_pattern(c, grid),
-        SceneConfig::Ramp(c) => patterns::create_pattern(c, grid),
+        SceneConfig::File(c) => {
+            let img = camsim_io::exr::read_spectral_exr(&c.path).map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
+            from_image(c, img)
+        }
+        SceneConfig::Rgb(c) => rgb::create_rgb(c, grid),
+        c => match c.pattern() {
+            Some(p) => patterns::create_pattern(p, grid),
+            None => unreachable!("every other kind is a pattern"),
+        },
     }
 }
 
@@ -70,7 +73,7 @@ pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
         SceneConfig::Uniform(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::Macbeth(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::SlantedEdge(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
-        SceneConfig::File(_) => None,
+        SceneConfig::File(_) | SceneConfig::Rgb(_) => None,
         c => c.pattern().map(|p| load_illuminant(p.header().illuminant, "scene.illuminant")),
     }
 }
@@ -331,11 +334,18 @@ impl Common {
     }
 
     fn image(&self, rows: usize, cols: usize, grid: &WavelengthGrid) -> Result<SpectralImage> {
-        let mut img = SpectralImage::zeros(rows, cols, *grid, sample_spacing_m(self.fov_deg, self.distance_m, cols), Quantity::Radiance)?;
-        img.geometry.fov_deg = self.fov_deg;
-        img.geometry.distance_m = self.distance_m;
-        Ok(img)
+        blank_radiance(self.fov_deg, self.distance_m, rows, cols, grid)
     }
+}
+
+/// A zero radiance image of a flat scene `distance_m` away spanning `fov_deg` horizontally.
+pub(crate) fn blank_radiance(fov_deg: f64, distance_m: f64, rows: usize, cols: usize, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    check_fov(fov_deg, "scene.fov_deg")?;
+    check_distance(distance_m, "scene.distance_m")?;
+    let mut img = SpectralImage::zeros(rows, cols, *grid, sample_spacing_m(fov_deg, distance_m, cols), Quantity::Radiance)?;
+    img.geometry.fov_deg = fov_deg;
+    img.geometry.distance_m = distance_m;
+    Ok(img)
 }
 
 fn create_uniform(c: &UniformScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
@@ -358,7 +368,7 @@ fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralIma
     let layout = c.layout();
     let (rows, cols) = (layout.rows(), layout.cols());
     // Reflectance of patch i on the grid; index 24 = the border.
-    let mut refl: Vec<Vec<f64>> = tables::macbeth_reflectances().iter().map(|s| s.sample(grid)).collect();
+    let mut refl: Vec<Vec<f64>> = macbeth_reflectances(c)?.iter().map(|s| s.sample(grid)).collect();
     refl.push(vec![c.border_reflectance; grid.len()]);
     // Pixel-mean reflectance per band, from the areas: 24 patches of p^2 pixels, the rest border.
     let patch_area = (c.patch_size_px * c.patch_size_px) as f64;
@@ -391,6 +401,24 @@ fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralIma
         }
     });
     Ok(img)
+}
+
+/// The chart's 24 patch reflectances: the config's file, or N. Ohta's.
+pub fn macbeth_reflectances(c: &MacbethScene) -> Result<Vec<Spectrum>> {
+    let Some(file) = &c.reflectances else { return Ok(tables::macbeth_reflectances()) };
+    let key = "scene.reflectances";
+    let table = camsim_core::spectrum_csv::load_spectra(Path::new(file)).map_err(|e| CoreError::invalid(key, e.to_string()))?;
+    if table.len() != 24 {
+        return Err(CoreError::invalid(key, format!("{file} has {} spectra; a ColorChecker needs 24, in chart order", table.len())));
+    }
+    let spectra = table.spectra().map_err(|e| CoreError::invalid(key, format!("{file}: {e}")))?;
+    for (i, s) in spectra.iter().enumerate() {
+        if let Some(v) = s.values.iter().find(|v| !(v.is_finite() && (0.0..=1.0).contains(*v))) {
+            return Err(CoreError::invalid(key, format!("{file}: patch {} has reflectance {v}, not a fraction in [0, 1]", i + 1)));
+        }
+    }
+    // A measured reflectance may stop short of the grid: hold its end values.
+    Ok(spectra.into_iter().map(|s| s.with_extrapolation(Extrapolation::Hold)).collect())
 }
 
 fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<SpectralImage> {

@@ -1,5 +1,5 @@
 //! Spatial test patterns after ISETCam's `sceneCreate` (harmonic, zone plate, sweep frequency,
-//! star, checkerboard, grid lines, point array, ramp).
+//! star, checkerboard, grid lines, point array, ramp, dead leaves).
 //!
 //! Each pattern is a spectrally flat reflectance map `rho(x, y)` in [0, 1]; the radiance is
 //! `k * illuminant(lambda) * rho(x, y)` with `k` chosen so that the mean luminance over all pixels
@@ -13,6 +13,7 @@
 
 use camsim_core::error::{CoreError, Result};
 use camsim_core::WavelengthGrid;
+use rand::Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -194,6 +195,34 @@ pattern_scene! {
         size_px: usize = 128,
         /// Ratio of the brightest to the darkest column (>= 1); default 256.
         dynamic_range: f64 = 256.0,
+    }
+}
+
+pattern_scene! {
+    /// A dead-leaves texture (ISO 19567-2 texture-loss target; Cao, Guichard & Hornung 2010;
+    /// ISETCam `sceneCreate('dead leaves')`): opaque discs fall one after another, each hiding
+    /// what lies under it, until the image is covered. Built front to back (Kendall & Thonnat's
+    /// equivalence): a disc paints only the pixels no earlier disc covered. Radii follow the
+    /// density `r^-sigma` on [`r_min_px`, `r_max_px`] (sigma = 3: a scale-invariant image with a
+    /// power spectrum ~ 1/f^2, as natural images), centres are uniform over the image grown by
+    /// `r_max_px` on every side (so the statistics are the same everywhere in it), grey levels
+    /// uniform in [`reflectance_min`, `reflectance_max`]. A pixel takes the disc covering its
+    /// centre. `seed` fixes the texture.
+    DeadLeavesScene {
+        /// Image side, pixels; default 256.
+        size_px: usize = 256,
+        /// Exponent of the radius density `r^-sigma` (ISETCam `sigma`), > 1; default 3.
+        sigma: f64 = 3.0,
+        /// Smallest disc radius, pixels (>= 0.5); default 1.
+        r_min_px: f64 = 1.0,
+        /// Largest disc radius, pixels (>= r_min_px); default 64.
+        r_max_px: f64 = 64.0,
+        /// Lowest grey level (reflectance), fraction; default 0.05.
+        reflectance_min: f64 = 0.05,
+        /// Highest grey level (reflectance), fraction; default 0.95.
+        reflectance_max: f64 = 0.95,
+        /// Seed of the random discs; the same seed gives the same texture.
+        seed: u64 = 1,
     }
 }
 
@@ -413,6 +442,63 @@ impl Pattern for RampScene {
                 *v = (lo + (1.0 - lo) * j as f64 / (n - 1) as f64) as f32;
             }
         })
+    }
+}
+
+impl Pattern for DeadLeavesScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.size_px, "scene.size_px", 2)?;
+        let (sigma, a, b) = (self.sigma, self.r_min_px, self.r_max_px);
+        need(sigma > 1.0 && sigma.is_finite(), "scene.sigma", format!("{sigma} is not a finite exponent > 1"))?;
+        need(a >= 0.5 && a.is_finite(), "scene.r_min_px", format!("{a} pixels; need a radius >= 0.5"))?;
+        need(b >= a && b <= 1e4, "scene.r_max_px", format!("{b} pixels; need r_min_px ({a}) to 10000"))?;
+        check_unit(self.reflectance_min, "scene.reflectance_min")?;
+        check_unit(self.reflectance_max, "scene.reflectance_max")?;
+        let (lo, hi) = (self.reflectance_min, self.reflectance_max);
+        need(lo <= hi, "scene.reflectance_max", format!("{hi} is below reflectance_min = {lo}"))?;
+        let n = self.size_px;
+        camsim_core::mem::check_alloc((n * n * 4) as u64, "the dead-leaves map")?;
+        let mut map = vec![-1.0f32; n * n];
+        let mut uncovered = n * n;
+        let mut rng = camsim_core::rng::keyed(self.seed, camsim_core::rng::stage::SCENE, 0, 0);
+        // Inverse CDF of the density r^-sigma on [a, b]: r = (a^e + u (b^e - a^e))^(1/e), e = 1 - sigma.
+        let e = 1.0 - sigma;
+        let (ae, be) = (a.powf(e), b.powf(e));
+        let span = n as f64 + 2.0 * b;
+        // Far more discs than full coverage needs (the last pixels take about ln(n^2) times the
+        // discs that cover the area once); a bound against a config that cannot finish.
+        let max_discs = 2_000_000usize.max(400 * n * n);
+        for _ in 0..max_discs {
+            let cx = -b + span * rng.gen::<f64>();
+            let cy = -b + span * rng.gen::<f64>();
+            let r = (ae + rng.gen::<f64>() * (be - ae)).powf(1.0 / e);
+            let g = (lo + (hi - lo) * rng.gen::<f64>()) as f32;
+            let (i0, i1) = ((cy - r).ceil().max(0.0), (cy + r).floor().min(n as f64 - 1.0));
+            if i0 > i1 {
+                continue;
+            }
+            for i in i0 as usize..=i1 as usize {
+                let dy = i as f64 - cy;
+                let dx = (r * r - dy * dy).max(0.0).sqrt();
+                let (j0, j1) = ((cx - dx).ceil().max(0.0), (cx + dx).floor().min(n as f64 - 1.0));
+                if j0 > j1 {
+                    continue;
+                }
+                for v in &mut map[i * n + j0 as usize..=i * n + j1 as usize] {
+                    if *v < 0.0 {
+                        *v = g;
+                        uncovered -= 1;
+                    }
+                }
+            }
+            if uncovered == 0 {
+                return Ok((n, n, map));
+            }
+        }
+        Err(CoreError::invalid("scene.r_min_px", format!("{max_discs} discs left {uncovered} pixels uncovered; raise r_min_px")))
     }
 }
 

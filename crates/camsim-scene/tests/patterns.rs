@@ -56,6 +56,7 @@ fn every_pattern_has_the_requested_mean_luminance_and_round_trips_through_toml()
         SceneConfig::GridLines(GridLinesScene { mean_luminance_cd_m2: 1000.0, ..Default::default() }),
         SceneConfig::PointArray(PointArrayScene { point_size_px: 3, ..Default::default() }),
         SceneConfig::Ramp(RampScene { size_px: 50, ..Default::default() }),
+        SceneConfig::DeadLeaves(DeadLeavesScene { size_px: 48, r_max_px: 12.0, mean_luminance_cd_m2: 7.0, ..Default::default() }),
     ];
     for cfg in cases {
         let want = match &cfg {
@@ -67,6 +68,7 @@ fn every_pattern_has_the_requested_mean_luminance_and_round_trips_through_toml()
             SceneConfig::GridLines(c) => c.mean_luminance_cd_m2,
             SceneConfig::PointArray(c) => c.mean_luminance_cd_m2,
             SceneConfig::Ramp(c) => c.mean_luminance_cd_m2,
+            SceneConfig::DeadLeaves(c) => c.mean_luminance_cd_m2,
             _ => unreachable!(),
         };
         let (img, lum) = make(cfg.clone());

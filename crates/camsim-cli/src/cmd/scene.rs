@@ -9,16 +9,18 @@ use std::path::PathBuf;
 /// Make a 2D scene's spectral radiance (W/(sr m^2 nm)) and write it as a spectral OpenEXR.
 ///
 /// CONFIG is a scene TOML (the `[scene]` table of a simulate config, on its own: kind = "uniform" |
-/// "macbeth" | "slanted_edge" | "file" | an ISETCam test pattern: "harmonic" | "zone_plate" |
-/// "sweep_frequency" | "star" | "checkerboard" | "grid_lines" | "point_array" | "ramp"), or a
-/// whole simulate config whose `[scene]` is used.
+/// "macbeth" | "slanted_edge" | "file" (a spectral EXR) | "rgb" (a PNG/JPEG/TIFF/EXR photograph on
+/// a display model) | an ISETCam test pattern: "harmonic" | "zone_plate" | "sweep_frequency" |
+/// "star" | "checkerboard" | "grid_lines" | "point_array" | "ramp" | "dead_leaves"), or a whole
+/// simulate config whose `[scene]` is used. Relative paths in it are relative to its folder.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr\n  camsim scene examples/zone-plate.toml --out out/zone-plate.exr\n  camsim scene --kind star --out out/star.exr")]
+#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr\n  camsim scene examples/zone-plate.toml --out out/zone-plate.exr\n  camsim scene --kind star --out out/star.exr\n  camsim scene examples/dead-leaves.toml --out out/dead-leaves.exr\n  camsim scene examples/rgb-photo.toml --out out/rgb-photo.exr")]
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
     /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge,
-    /// harmonic, zone_plate, sweep_frequency, star, checkerboard, grid_lines, point_array, ramp).
+    /// harmonic, zone_plate, sweep_frequency, star, checkerboard, grid_lines, point_array, ramp,
+    /// dead_leaves).
     #[arg(long, default_value = "macbeth", conflicts_with = "config")]
     pub kind: String,
     /// Output spectral EXR.
@@ -36,7 +38,10 @@ pub fn run(a: Args) -> Result<()> {
                 let s = c.scene.ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
                 (s, c.wavelengths)
             } else {
-                (SceneConfig::from_toml(&text, &p.display().to_string())?, WavelengthGrid::default())
+                let mut s = SceneConfig::from_toml(&text, &p.display().to_string())?;
+                s.resolve_paths(p.parent().unwrap_or(std::path::Path::new(".")));
+                let grid = s.grid();
+                (s, grid)
             }
         }
         None => {

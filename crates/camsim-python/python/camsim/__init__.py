@@ -94,8 +94,10 @@ def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]
 
 
 def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[float]] = None) -> Dict[str, Any]:
-    """Stage 1, a 2D chart: a [scene] table as a dict (kind = "macbeth", "uniform",
-    "slanted_edge", "file") or a preset name (the same kinds with defaults). Returns a dict:
+    """Stage 1, a 2D scene: a [scene] table as a dict (kind = "macbeth", "uniform",
+    "slanted_edge", "file" (a spectral EXR), "rgb" (a PNG/JPEG/TIFF/EXR photograph on a display
+    model: path, display, transfer, white_luminance_cd_m2), a test pattern such as "zone_plate" or
+    "dead_leaves") or a kind name alone (with defaults). Returns a dict:
     radiance (bands, rows, cols) float32 W/(sr m^2 nm), wavelengths_nm, spacing_m, fov_deg,
     distance_m, depth_m (None), units."""
     if isinstance(config, str):

@@ -1,0 +1,54 @@
+"""Scenes users make from their own data: a photograph on a display model (ISETCam
+sceneFromFile), the dead-leaves target and a ColorChecker from another reflectance set."""
+
+import pathlib
+
+import numpy as np
+
+import camsim
+
+REPO = pathlib.Path(__file__).resolve().parents[3]
+CARD = REPO / "examples" / "rgb-test-card.png"
+
+# IEC 61966-2-1: CIE 1931 XYZ (white Y = 1) -> linear sRGB.
+XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
+
+
+def test_an_srgb_photograph_keeps_its_colours_on_the_srgb_display():
+    s = camsim.scene({"kind": "rgb", "path": str(CARD), "white_luminance_cd_m2": 80.0})
+    L = s["radiance"]
+    assert L.shape == (31, 64, 96) and L.dtype == np.float32 and (L >= 0).all()
+    # The top-left bar is sRGB code (235, 235, 235): a neutral at 80 cd/m^2 x decode(235/255).
+    # CIE 1931 y-bar at 400..700 nm every 10 nm (the tabulated values).
+    ybar = np.array([0.000396, 0.00121, 0.004, 0.0116, 0.023, 0.038, 0.06, 0.09098, 0.13902, 0.20802, 0.323, 0.503, 0.71,
+                     0.862, 0.954, 0.99495, 0.995, 0.952, 0.87, 0.757, 0.631, 0.503, 0.381, 0.265, 0.175, 0.107, 0.061,
+                     0.032, 0.017, 0.00821, 0.004102])
+    lum = 683.0 * 10.0 * np.tensordot(ybar, L[:, 4, 4], axes=1)
+    v = 235 / 255
+    decoded = ((v + 0.055) / 1.055) ** 2.4
+    assert abs(lum - 80.0 * decoded) < 0.01 * 80.0 * decoded, lum
+
+
+def test_dead_leaves_is_reproducible_and_spans_its_grey_levels():
+    cfg = {"kind": "dead_leaves", "size_px": 64, "r_max_px": 16.0, "seed": 5, "mean_luminance_cd_m2": 50.0}
+    a = camsim.scene(cfg)["radiance"]
+    b = camsim.scene(cfg)["radiance"]
+    assert np.array_equal(a, b)
+    c = camsim.scene(dict(cfg, seed=6))["radiance"]
+    assert not np.array_equal(a, c)
+    band = a[15]
+    # Grey levels in [0.05, 0.95]: the ratio of any two pixels is at most 19.
+    assert band.min() > 0 and band.max() / band.min() <= 19.0 + 1e-3
+
+
+def test_macbeth_from_an_isetcam_style_reflectance_csv(tmp_path):
+    wl = np.arange(400, 701, 10)
+    refl = np.tile(np.arange(1, 25) / 25.0, (len(wl), 1))
+    csv = tmp_path / "chart.csv"
+    header = "wavelength_nm," + ",".join(f"p{k}" for k in range(1, 25))
+    np.savetxt(csv, np.column_stack([wl, refl]), delimiter=",", header=header, comments="")
+    s = camsim.scene({"kind": "macbeth", "patch_size_px": 4, "border_px": 1, "reflectances": str(csv)})
+    L = s["radiance"][15]
+    # Patch k (row-major 4 x 6) reflects k/25: patch 24 is 24 times patch 1.
+    p1, p24 = L[2, 2], L[1 + 3 * 5 + 1, 1 + 5 * 5 + 1]
+    assert abs(p24 / p1 - 24.0) < 1e-3
