@@ -189,13 +189,18 @@ pub fn ccm_delta_e2000(m: &Mat3, camera: &[[f64; 3]], target_xyz: &[[f64; 3]], w
 /// standard order) under `illuminant`, scaled so a perfect white has Y = 1; returns them and that
 /// white's XYZ.
 pub fn macbeth_xyz(illuminant: &Spectrum, grid: &WavelengthGrid) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
+    chart_xyz(&tables::macbeth_reflectances(), illuminant, grid)
+}
+
+/// [`macbeth_xyz`] for any set of patch reflectances (e.g. ISETCam's own ColorChecker data).
+pub fn chart_xyz(reflectances: &[Spectrum], illuminant: &Spectrum, grid: &WavelengthGrid) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
     let illum = illuminant.sample(grid);
     let cmfs = Cmfs::on(grid);
     let white = cmfs.xyz(&illum);
     if !(white[1] > 0.0) {
         return Err(CoreError::invalid("chart targets", "the illuminant has no luminance on this wavelength grid"));
     }
-    let xyz = tables::macbeth_reflectances()
+    let xyz = reflectances
         .iter()
         .map(|r| {
             let rho = r.sample(grid);

@@ -405,9 +405,18 @@ fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralIma
 
 /// The chart's 24 patch reflectances: the config's file, or N. Ohta's.
 pub fn macbeth_reflectances(c: &MacbethScene) -> Result<Vec<Spectrum>> {
-    let Some(file) = &c.reflectances else { return Ok(tables::macbeth_reflectances()) };
-    let key = "scene.reflectances";
-    let table = camsim_core::spectrum_csv::load_spectra(Path::new(file)).map_err(|e| CoreError::invalid(key, e.to_string()))?;
+    match &c.reflectances {
+        None => Ok(tables::macbeth_reflectances()),
+        Some(file) => load_chart_reflectances(Path::new(file), "scene.reflectances"),
+    }
+}
+
+/// Read a ColorChecker reflectance set: 24 spectra in chart order, fractions in [0, 1], from a
+/// CSV (`wavelength_nm` + 24 columns) or an ISETCam `.mat` (`macbethChart.mat` layout). End values
+/// are held beyond the file's wavelengths. `key` names the config key or flag in errors.
+pub fn load_chart_reflectances(path: &Path, key: &str) -> Result<Vec<Spectrum>> {
+    let file = path.display();
+    let table = camsim_core::spectrum_csv::load_spectra(path).map_err(|e| CoreError::invalid(key, e.to_string()))?;
     if table.len() != 24 {
         return Err(CoreError::invalid(key, format!("{file} has {} spectra; a ColorChecker needs 24, in chart order", table.len())));
     }
@@ -417,7 +426,6 @@ pub fn macbeth_reflectances(c: &MacbethScene) -> Result<Vec<Spectrum>> {
             return Err(CoreError::invalid(key, format!("{file}: patch {} has reflectance {v}, not a fraction in [0, 1]", i + 1)));
         }
     }
-    // A measured reflectance may stop short of the grid: hold its end values.
     Ok(spectra.into_iter().map(|s| s.with_extrapolation(Extrapolation::Hold)).collect())
 }
 

@@ -82,6 +82,11 @@ pub struct Args {
     /// beside a camsim DNG.
     #[arg(long, value_parser = crate::cmd::analyze::parse_corners, allow_hyphen_values = true, value_name = "X,Y,X,Y,X,Y,X,Y")]
     pub corners: Option<ChartCorners>,
+    /// The photographed chart's 24 patch reflectances for --ccm chart (CSV `wavelength_nm` + 24
+    /// columns, or an ISETCam `.mat` in macbethChart.mat's layout); default N. Ohta's ColorChecker
+    /// (a simulated chart made with `reflectances = FILE` needs the same file here).
+    #[arg(long, value_name = "FILE")]
+    pub chart_reflectances: Option<PathBuf>,
     /// Also print the gains, the matrix and (--ccm chart) the per-patch CIEDE2000 as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -142,7 +147,10 @@ pub fn run(a: Args) -> Result<()> {
             drop(planes);
             let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
             let d65 = camsim_core::tables::illuminant("D65")?;
-            let (target, white) = ccm::macbeth_xyz(&d65, &grid)?;
+            let (target, white) = match &a.chart_reflectances {
+                Some(p) => ccm::chart_xyz(&camsim_scene::load_chart_reflectances(p, "--chart-reflectances")?, &d65, &grid)?,
+                None => ccm::macbeth_xyz(&d65, &grid)?,
+            };
             let m = ccm::fit_ccm(&camera, &target, white, a.ccm_objective).context("--ccm chart")?;
             let de = ccm::ccm_delta_e2000(&m, &camera, &target, white);
             let mean = de.iter().sum::<f64>() / de.len() as f64;
