@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
         // A virtual path in an empty folder: Include and file names resolve to nothing.
-        let _ = camsim_render::pbrt::parse_str(text, "/nonexistent-camsim-fuzz/scene.pbrt");
+        let _ = camsim_pbrt::parse_str(text, "/nonexistent-camsim-fuzz/scene.pbrt");
     }
-    let _ = camsim_render::pbrt::ply::parse_ply(data);
+    let _ = camsim_pbrt::ply::parse_ply(data);
 });

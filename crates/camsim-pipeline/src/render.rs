@@ -4,8 +4,9 @@
 use crate::{PipelineError, Progress, RenderSection, Result, SimulateConfig};
 use camsim_core::SpectralImage;
 use camsim_optics::Optics;
-use camsim_render::builtin::{self, BuiltinOptions};
-use camsim_render::{RenderOutput, SceneDescription};
+use camsim_scene3d::builtin::{self, BuiltinOptions};
+use camsim_render::RenderOutput;
+use camsim_scene3d::SceneDescription;
 use camsim_sensor::Sensor;
 use std::path::Path;
 
@@ -20,7 +21,7 @@ pub fn load_scene(
     let mut scene = match (builtin_name, pbrt) {
         (Some(name), None) => builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?,
         (None, Some(path)) => {
-            let mut s = camsim_render::pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
+            let mut s = camsim_pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -40,7 +41,7 @@ pub fn load_scene(
     if let Some(o) = overlay {
         let text = std::fs::read_to_string(o).map_err(|e| PipelineError::file(o, format!("cannot read: {e}")))?;
         let base = o.parent().unwrap_or(Path::new("."));
-        camsim_render::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
+        camsim_pbrt::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
             .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     Ok(scene)
@@ -104,7 +105,7 @@ pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Se
     if let Some(t) = &r.overlay_inline {
         let text = toml::to_string(t).map_err(|e| PipelineError::config(format!("render.overlay_inline: {e}")))?;
         let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
-        camsim_render::overlay::apply(&mut scene, &text, "render.overlay_inline", base).map_err(|e| PipelineError::Scene(e.to_string()))?;
+        camsim_pbrt::overlay::apply(&mut scene, &text, "render.overlay_inline", base).map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;

@@ -345,7 +345,7 @@ fn render<'py>(
     count: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
-    let mut opts = camsim::render::builtin::BuiltinOptions { grid, seed, resolution, ..Default::default() };
+    let mut opts = camsim::scene3d::builtin::BuiltinOptions { grid, seed, resolution, ..Default::default() };
     if let Some(spp) = samples_per_pixel {
         opts.samples_per_pixel = spp;
     }

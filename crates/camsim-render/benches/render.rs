@@ -11,6 +11,7 @@ use camsim_render::bvh::Bvh;
 use camsim_render::geometry::Prim;
 use camsim_render::math::V3;
 use camsim_render::*;
+use camsim_scene3d::*;
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::Rng;
 use std::collections::HashMap;

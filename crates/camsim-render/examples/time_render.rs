@@ -5,7 +5,7 @@
 //!
 //! Run: `cargo run --release -p camsim-render --example time_render [SPP] [SIZE] [RUNS]`
 //! (defaults 16, 512, 3; a small SIZE and one run suit `valgrind --tool=callgrind`).
-use camsim_render::builtin::{scene, BuiltinOptions};
+use camsim_scene3d::builtin::{scene, BuiltinOptions};
 use camsim_render::render;
 
 fn main() {

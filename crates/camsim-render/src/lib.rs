@@ -1,5 +1,6 @@
-//! camsim stage 1 (3D): a spectral Monte Carlo path tracer and a pbrt-v4 scene reader, producing
-//! spectral radiance (W/(sr m^2 nm)) and depth (m) for the optics stage.
+//! camsim stage 1 (3D): a spectral Monte Carlo path tracer rendering a
+//! [`camsim_scene3d::SceneDescription`] (from the pbrt-v4 reader `camsim-pbrt` or a built-in
+//! scene) to spectral radiance (W/(sr m^2 nm)) and depth (m) for the optics stage.
 //!
 //! Renderer layout (pbrt-v4's split of concepts, one module each): [`math`] (f32 vectors,
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
@@ -8,17 +9,14 @@
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
 //! diffuse, coated conductor, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
 //! (texture graphs), `lights` (area, infinite, point, spot and distant lights), [`envmap`]
-//! (environment maps), [`camera`] (pinhole camera), `materials` (materials compiled for the
+//! (environment maps), `camera` (ray generation for the pinhole, realistic and ray-transfer cameras), `materials` (materials compiled for the
 //! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
 //! statistics).
-//! The scene contract shared with the pbrt-v4 reader is [`scene`]; [`shapes`] turns disks,
-//! cylinders and Loop subdivision surfaces into triangles.
-
-pub mod scene;
+//! The scene contract shared with the pbrt-v4 reader is the `camsim-scene3d` crate.
 
 pub mod bsdf;
 pub mod bvh;
-pub mod camera;
+mod camera;
 pub mod envmap;
 pub mod geometry;
 pub mod ids;
@@ -32,14 +30,9 @@ pub mod sampling;
 pub mod spectral;
 mod texture;
 
-pub mod pbrt;
-pub mod shapes;
-pub mod builtin;
-pub mod overlay;
-pub mod uplift;
+// The scene-description modules the tracer reads, under the paths the tracer's modules use.
+use camsim_scene3d::{scene, uplift, xform};
 
-pub use camera::{camera_from_focal_length, look_at_camera_to_world, pbrt_look_at};
 pub use ids::IdMaps;
 pub use render::{render, RenderError, RenderOutput, RenderStats};
 pub use sampler::SamplerKind;
-pub use scene::*;

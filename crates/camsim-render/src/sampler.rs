@@ -26,35 +26,7 @@
 use camsim_core::rng::mix64;
 use rand::Rng as _;
 
-/// Which sampler a render uses (pbrt-v4's `Sampler` types).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum SamplerKind {
-    /// Independent uniform pseudo-random numbers (pbrt-v4 `"independent"`).
-    Independent,
-    /// Owen-scrambled, padded Sobol (pbrt-v4 `"paddedsobol"`; also what camsim uses for
-    /// `"sobol"` and `"zsobol"`).
-    #[default]
-    Sobol,
-}
-
-impl SamplerKind {
-    /// The name used in settings, overlays and reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            SamplerKind::Independent => "independent",
-            SamplerKind::Sobol => "sobol",
-        }
-    }
-
-    /// Parse a sampler name: `independent`, or `sobol` / `paddedsobol` / `zsobol`.
-    pub fn from_name(name: &str) -> Option<SamplerKind> {
-        match name {
-            "independent" => Some(SamplerKind::Independent),
-            "sobol" | "paddedsobol" | "zsobol" => Some(SamplerKind::Sobol),
-            _ => None,
-        }
-    }
-}
+pub use camsim_scene3d::scene::SamplerKind;
 
 /// The dimension layout of one path sample. A 2D request at dimension `d` uses `d` and `d + 1`.
 pub mod dim {

@@ -7,6 +7,7 @@
 
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 

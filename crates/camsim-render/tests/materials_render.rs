@@ -5,6 +5,7 @@
 
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 
 fn spec(w: &[f64], v: &[f64]) -> Spectrum {
@@ -202,7 +203,7 @@ fn dispersive_glass_keeps_the_sky_spectrum() {
     // varying uniform field: each band still reads the sky's band average.
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let sky = spec(&[350.0, 750.0], &[1.0, 3.0]);
-    let eta = camsim_render::pbrt::optical_constants::named("glass-BK7").unwrap();
+    let eta = camsim_pbrt::optical_constants::named("glass-BK7").unwrap();
     let (img, on) = sphere_under_sky(
         vec![Material::Dielectric {
             eta,

@@ -5,8 +5,9 @@
 
 use camsim_core::WavelengthGrid;
 use camsim_lens::Rtf;
-use camsim_render::pbrt::parse_str;
+use camsim_pbrt::parse_str;
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::path::Path;
 
 const LENS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens");

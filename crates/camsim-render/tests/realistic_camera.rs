@@ -3,8 +3,9 @@
 //! camera equation's irradiance with the lens's relative illumination.
 
 use camsim_core::WavelengthGrid;
-use camsim_render::pbrt::parse_str;
+use camsim_pbrt::parse_str;
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::path::PathBuf;
 
 fn dgauss() -> String {

@@ -3,7 +3,7 @@
 //! with the geometry (projected area, depth) and with the rendered colour of each material, and
 //! look through alpha cut-outs.
 
-use camsim_render::pbrt::parse_str;
+use camsim_pbrt::parse_str;
 use camsim_render::render;
 
 const SCENE: &str = r#"

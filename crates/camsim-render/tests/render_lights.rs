@@ -5,6 +5,7 @@
 
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
@@ -299,16 +300,16 @@ fn disk_emitter_on_axis_irradiance() {
     let text = format!(
         "WorldBegin\nAttributeBegin\nTranslate 0 0 {h}\nReverseOrientation\nAreaLightSource \"diffuse\" \"blackbody L\" 5000 \"float power\" {power_lm}\nShape \"disk\" \"float radius\" {r}\nAttributeEnd\n"
     );
-    let parsed = pbrt::parse_str(&text, "/tmp/virtual/disk.pbrt").unwrap();
+    let parsed = camsim_pbrt::parse_str(&text, "/tmp/virtual/disk.pbrt").unwrap();
     let disk = parsed.shapes[0].clone();
     let Some(al) = disk.area_light.clone() else {
         panic!("no emitter")
     };
     // Area and emitted power of the tessellated disk against the analytic ones.
-    let area = pbrt::xform::shape_area(&disk.geometry);
+    let area = camsim_scene3d::xform::shape_area(&disk.geometry);
     assert!(report("disk area", area, PI * r * r).abs() < 1e-9);
     let lum =
-        camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&al.radiance);
+        camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * camsim_pbrt::spectra::photometric(&al.radiance);
     assert!(
         report(
             "disk emitted luminous flux pi A L_v",
@@ -359,7 +360,7 @@ fn environment_map_irradiance_matches_the_map_integral() {
         }
     }
     // Where is the block? It must be in the upper hemisphere for the test to mean something.
-    let d = envmap::equal_area_square_to_sphere(10.5 / n as f64, 21.5 / n as f64);
+    let d = camsim_scene3d::envmap::equal_area_square_to_sphere(10.5 / n as f64, 21.5 / n as f64);
     assert!(d[2] > 0.2, "bright block at {d:?}");
     let map = EnvironmentMap {
         width: n,
@@ -377,7 +378,7 @@ fn environment_map_irradiance_matches_the_map_integral() {
                 for a in 0..q {
                     let u = (x as f64 + (a as f64 + 0.5) / q as f64) / n as f64;
                     let v = (y as f64 + (b as f64 + 0.5) / q as f64) / n as f64;
-                    let d = envmap::equal_area_square_to_sphere(u, v);
+                    let d = camsim_scene3d::envmap::equal_area_square_to_sphere(u, v);
                     if d[2] > 0.0 {
                         e += rgb[y * n + x][0] as f64 * d[2] * 4.0 * PI / (n * n * q * q) as f64;
                     }

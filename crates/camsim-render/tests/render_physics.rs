@@ -6,6 +6,7 @@
 
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 
 fn spec(w: &[f64], v: &[f64]) -> Spectrum {

@@ -7,6 +7,7 @@
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::sampler::{dim, SobolSampler};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 
 fn flat(v: f64) -> Spectrum {

@@ -4,7 +4,7 @@
 //! a hair below its pole (a partial sphere, whose uv code is separate) must render alike, rotated
 //! or not.
 
-use camsim_render::pbrt::parse_str;
+use camsim_pbrt::parse_str;
 use camsim_render::render;
 
 fn image(transform: &str, cut: &str) -> Vec<f64> {

@@ -1,6 +1,6 @@
 //! Experiment: R/G of the ColorChecker's gray series at three positions from well-converged
 //! renders (radiance x pixel4a QE, no sensor), to size the inter-reflection effect.
-use camsim_render::builtin::{self, BuiltinOptions, MccPosition};
+use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
 fn main() {
     let spp: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(128);
     let res = (252usize, 189usize);

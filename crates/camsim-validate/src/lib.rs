@@ -69,7 +69,7 @@ pub enum ValidateError {
     Render(#[from] camsim_render::RenderError),
     /// A built-in scene could not be built.
     #[error("built-in scene: {0}")]
-    Builtin(#[from] camsim_render::builtin::BuiltinError),
+    Builtin(#[from] camsim_scene3d::builtin::BuiltinError),
     /// The optics stage failed.
     #[error("optics: {0}")]
     Optics(#[from] camsim_optics::OpticsError),

@@ -28,7 +28,7 @@ use camsim_analysis::{Plane, Rect};
 use camsim_core::{CfaChannel, SpectralImage};
 use camsim_optics::config::{Padding, WavefrontConfig, ZernikeTerm, ZernikeTerms};
 use camsim_optics::{lens, Optics, OpticsConfig};
-use camsim_render::builtin::{self, BuiltinOptions};
+use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_sensor::{Capture, Sensor};
 use rayon::prelude::*;
 use serde::Serialize;

@@ -31,8 +31,8 @@ use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{RawImage, SpectralImage, WavelengthGrid};
 use camsim_isp::RgbImage;
 use camsim_optics::Optics;
-use camsim_render::builtin::{self, BuiltinOptions, MccPosition};
-use camsim_render::{Geometry, SceneDescription};
+use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
+use camsim_scene3d::{Geometry, SceneDescription};
 use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
 use serde::Serialize;
 

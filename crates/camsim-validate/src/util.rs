@@ -6,7 +6,7 @@ use crate::{Provenance, Result, ValidateError, ValidateOptions, ValidationResult
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::spectrum_csv::{load_spectra, SpectraTable};
 use camsim_core::{Spectrum, WavelengthGrid};
-use camsim_render::builtin::{BuiltinOptions, WallSpectra};
+use camsim_scene3d::builtin::{BuiltinOptions, WallSpectra};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 

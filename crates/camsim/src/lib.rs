@@ -31,8 +31,9 @@
 //! Stages alone (the same functions the pipeline calls):
 //!
 //! - [`scene`]: `scene::create(&SceneConfig, &WavelengthGrid)` -> radiance ([`SpectralImage`]);
-//!   [`render`]: `render::render(&SceneDescription, progress)` for 3D scenes (pbrt-v4 files via
-//!   `render::pbrt::parse_file`).
+//!   [`render`]: `render::render(&SceneDescription, progress)` for 3D scenes, whose description
+//!   ([`scene3d`]: `scene3d::SceneDescription`, `scene3d::builtin` scenes) comes from a pbrt-v4
+//!   file via [`pbrt`] (`pbrt::parse_file`, TOML overlays `pbrt::overlay::apply`).
 //! - [`optics`]: `optics::Optics::preset("pixel4a")?.compute(&radiance)` -> irradiance.
 //! - [`sensor`]: `sensor::Sensor::preset("pixel4a")?.compute(&irradiance, &Capture)` -> raw frames.
 //! - [`isp`]: `isp::demosaic_bilinear(&raw)`, `isp::ColorPipeline` for colour.
@@ -49,9 +50,11 @@ pub use camsim_dataset as dataset;
 pub use camsim_io as io;
 pub use camsim_isp as isp;
 pub use camsim_optics as optics;
+pub use camsim_pbrt as pbrt;
 pub use camsim_pipeline as pipeline;
 pub use camsim_render as render;
 pub use camsim_scene as scene;
+pub use camsim_scene3d as scene3d;
 pub use camsim_sensor as sensor;
 
 pub use camsim_core::{RawImage, SpectralImage, WavelengthGrid};

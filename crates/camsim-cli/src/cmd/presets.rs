@@ -17,7 +17,7 @@ pub fn run(a: Args) -> Result<()> {
         (None, _) => {
             println!("sensors (camsim presets sensor NAME):  {}", camsim_sensor::presets::names().join(", "));
             println!("lenses  (camsim presets optics NAME):  {}", camsim_optics::presets::names().join(", "));
-            println!("3D scenes (camsim render --builtin NAME): {}", camsim_render::builtin::names().join(", "));
+            println!("3D scenes (camsim render --builtin NAME): {}", camsim_scene3d::builtin::names().join(", "));
             println!("2D scene kinds ([scene] kind = ...):    uniform, macbeth, slanted_edge, file");
             println!("simulate default config:               camsim simulate --print-config");
         }
@@ -28,7 +28,7 @@ pub fn run(a: Args) -> Result<()> {
         },
         (Some("sensor"), None) => println!("{}", camsim_sensor::presets::names().join("\n")),
         (Some("optics" | "lens"), None) => println!("{}", camsim_optics::presets::names().join("\n")),
-        (Some("scene"), _) => println!("{}", camsim_render::builtin::names().join("\n")),
+        (Some("scene"), _) => println!("{}", camsim_scene3d::builtin::names().join("\n")),
         (Some(k), _) => bail!("unknown preset kind '{k}': use sensor, optics or scene"),
     }
     Ok(())

@@ -4,8 +4,9 @@ use crate::common::{self, say};
 use anyhow::{Context, Result};
 use camsim_core::WavelengthGrid;
 use camsim_pipeline::render::{load_scene, render_scene};
-use camsim_render::builtin::{BuiltinOptions, MccPosition};
-use camsim_render::{RenderOutput, SceneDescription};
+use camsim_scene3d::builtin::{BuiltinOptions, MccPosition};
+use camsim_render::RenderOutput;
+use camsim_scene3d::SceneDescription;
 use std::path::PathBuf;
 
 /// Render a 3D scene to spectral radiance (W/(sr m^2 nm)) with a spectral path tracer.

@@ -1,10 +1,10 @@
 //! Built-in scenes: the Cornell data page's geometry and camera, the ColorChecker's placement and
 //! visibility, the slanted edge's angle, and the light's absolute level.
 
-use camsim_render::builtin::{self, BuiltinOptions, MccPosition};
-use camsim_render::pbrt::spectra::photometric;
-use camsim_render::pbrt::xform::{cross, dot, normalize, shape_bounds, sub};
-use camsim_render::{Geometry, SceneDescription, Shape};
+use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
+use camsim_scene3d::spectra::photometric;
+use camsim_scene3d::xform::{cross, dot, normalize, shape_bounds, sub};
+use camsim_scene3d::{Geometry, SceneDescription, Shape};
 
 fn shape<'a>(s: &'a SceneDescription, name: &str) -> &'a Shape {
     s.shapes
@@ -104,7 +104,7 @@ fn cornell_box_geometry_camera_and_light() {
     assert!((shape_bounds(&shape(&s, "short_block").geometry).1[1] - 0.165).abs() < 1e-12);
     // Light: 130 x 105 mm, emitting downward, 1000 cd/m^2 (683 * sum y_bar L).
     let light = shape(&s, "light");
-    let area = camsim_render::pbrt::xform::shape_area(&light.geometry);
+    let area = camsim_scene3d::xform::shape_area(&light.geometry);
     assert!((area - 0.130 * 0.105).abs() < 1e-12);
     for t in tris(light) {
         assert!((normal(&t)[1] + 1.0).abs() < 1e-12);
@@ -115,7 +115,7 @@ fn cornell_box_geometry_camera_and_light() {
     // Relative shape: the data page's points.
     assert!((l.radiance.eval(600.0) / l.radiance.eval(500.0) - 15.6 / 8.0).abs() < 1e-12);
     // The ceiling's hole has the light's area: ceiling area = 0.556 * 0.5592 - light.
-    let ceil = camsim_render::pbrt::xform::shape_area(&shape(&s, "ceiling").geometry);
+    let ceil = camsim_scene3d::xform::shape_area(&shape(&s, "ceiling").geometry);
     assert!((ceil - (0.556 * 0.5592 - area)).abs() < 1e-12);
     // Camera: 35 mm lens on 25 mm film.
     assert!((s.camera.fov_deg - 2.0 * (12.5f64 / 35.0).atan().to_degrees()).abs() < 1e-12);
@@ -180,8 +180,8 @@ fn mcc_scene_pixel4a_and_chart_visibility() {
         assert!(corners[2][0] > centers[23][0] && corners[2][1] > centers[23][1]);
         // Frame reflectance 0 (the paper's black margins).
         let fm = shape(&s, "mcc_frame").material;
-        let camsim_render::Material::Diffuse {
-            reflectance: camsim_render::Texture::Constant(k),
+        let camsim_scene3d::Material::Diffuse {
+            reflectance: camsim_scene3d::Texture::Constant(k),
         } = &s.materials[fm]
         else {
             panic!()
@@ -284,8 +284,8 @@ fn options_override_light_and_walls() {
     assert!((683.0 * photometric(l) - 250.0).abs() < 1e-9);
     let d65 = camsim_core::tables::illuminant("D65").unwrap();
     assert!((l.eval(450.0) / l.eval(600.0) - d65.eval(450.0) / d65.eval(600.0)).abs() < 1e-12);
-    let camsim_render::Material::Diffuse {
-        reflectance: camsim_render::Texture::Constant(r),
+    let camsim_scene3d::Material::Diffuse {
+        reflectance: camsim_scene3d::Texture::Constant(r),
     } = &s.materials[s.named_materials["red"]]
     else {
         panic!()

@@ -61,8 +61,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::builtin::{cornell_reflectance, spectrum_at_luminance};
-use crate::pbrt::spectra::photometric;
-use crate::pbrt::xform::{self, det3, shape_bounds};
+use crate::spectra::photometric;
+use crate::xform::{self, det3, shape_bounds};
 use crate::scene::{Geometry, Light, Material, SceneDescription, Shape, Texture, Transform};
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
@@ -126,7 +126,7 @@ pub struct RenderOverlay {
     pub seed: Option<u64>,
     /// Wavelengths traced per path.
     pub wavelengths_per_path: Option<usize>,
-    /// Sampler name (`crate::sampler::SamplerKind::from_name`).
+    /// Sampler name (`SamplerKind::from_name`).
     pub sampler: Option<String>,
     /// First scattering vertex where Russian roulette may end a path.
     pub russian_roulette_depth: Option<u32>,
@@ -410,7 +410,7 @@ pub fn apply_overlay(
             s.wavelengths_per_path = v;
         }
         if let Some(v) = &r.sampler {
-            s.sampler = crate::sampler::SamplerKind::from_name(v).ok_or_else(|| {
+            s.sampler = crate::scene::SamplerKind::from_name(v).ok_or_else(|| {
                 format!("render.sampler \"{v}\" is unknown: use \"sobol\", \"paddedsobol\", \"zsobol\" or \"independent\"")
             })?;
         }
@@ -592,7 +592,7 @@ fn apply_object(
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
         {
-            let m = crate::pbrt::ply::read_ply(&path).map_err(|e| format!("{key}: {e}"))?;
+            let m = crate::ply::read_ply(&path).map_err(|e| format!("{key}: {e}"))?;
             vec![Shape {
                 name: name.clone(),
                 geometry: Geometry::Triangles {
@@ -606,7 +606,7 @@ fn apply_object(
                 reverse_orientation: false,
             }]
         } else {
-            let sub = crate::pbrt::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
+            let sub = crate::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
             let offset = scene.materials.len();
             // Material indices inside the inserted scene (a `mix`'s) move with it.
             scene

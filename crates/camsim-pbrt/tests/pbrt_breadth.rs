@@ -6,10 +6,11 @@
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::WavelengthGrid;
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::f64::consts::PI;
 
-fn parse(text: &str) -> Result<SceneDescription, pbrt::PbrtError> {
-    pbrt::parse_str(text, "/tmp/virtual/breadth.pbrt")
+fn parse(text: &str) -> Result<SceneDescription, camsim_pbrt::PbrtError> {
+    camsim_pbrt::parse_str(text, "/tmp/virtual/breadth.pbrt")
 }
 
 /// Parse, coarsen the wavelength grid (tests stay fast) and render.
@@ -232,7 +233,7 @@ fn partial_sphere_parameters_frame_and_area() {
     // L_v = P / (pi A) (one-sided).
     let area = PI / 2.0;
     let l = s.shapes[0].area_light.as_ref().unwrap();
-    let lv = LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&l.radiance);
+    let lv = LUMINOUS_EFFICACY_LM_PER_W * camsim_pbrt::spectra::photometric(&l.radiance);
     assert!((lv - 100.0 / (PI * area)).abs() < 1e-6 * lv, "{lv}");
     // A z range beyond the radius is clamped: the whole sphere.
     assert!(matches!(s.shapes[1].geometry, Geometry::Sphere { radius, .. } if radius == 2.0));
@@ -466,7 +467,7 @@ fn image_area_light_power_and_radiance_follow_the_texels() {
             (im.width, im.height, im.rgb[0][0], im.rgb[3][2]),
             (2, 2, a as f32, d as f32)
         );
-        let lv = LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(&l.radiance);
+        let lv = LUMINOUS_EFFICACY_LM_PER_W * camsim_pbrt::spectra::photometric(&l.radiance);
         let want = 50.0 / (PI * 2.0 * mean_y);
         assert!((lv - want).abs() < 1e-6 * want, "{lv} vs {want}"); // texels are f32
     }

@@ -5,16 +5,17 @@
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
-fn parse(text: &str) -> Result<SceneDescription, pbrt::PbrtError> {
-    pbrt::parse_str(text, "/tmp/virtual/test.pbrt")
+fn parse(text: &str) -> Result<SceneDescription, camsim_pbrt::PbrtError> {
+    camsim_pbrt::parse_str(text, "/tmp/virtual/test.pbrt")
 }
 
 /// Luminous quantity (cd, cd/m^2, lx ...) of a spectral one in camsim's absolute units.
 fn luminous(s: &Spectrum) -> f64 {
-    LUMINOUS_EFFICACY_LM_PER_W * pbrt::spectra::photometric(s)
+    LUMINOUS_EFFICACY_LM_PER_W * camsim_pbrt::spectra::photometric(s)
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -118,7 +119,7 @@ fn infinite_light_from_an_image_file() {
         exr::prelude::write_rgb_file(&path, w, h, |_, _| (0.5f32, 0.5f32, 0.5f32)).unwrap();
         let text =
             format!("WorldBegin\nRotate 30 0 1 0\nLightSource \"infinite\" \"string filename\" \"{name}\" \"float illuminance\" 1000\n");
-        let s = pbrt::parse_str(&text, dir.path().join("scene.pbrt")).unwrap();
+        let s = camsim_pbrt::parse_str(&text, dir.path().join("scene.pbrt")).unwrap();
         let Light::Environment(m) = &s.lights[0] else {
             panic!("{:?}", s.lights[0])
         };
@@ -136,13 +137,13 @@ fn infinite_light_from_an_image_file() {
         (1f32, 1f32, 1f32)
     })
     .unwrap();
-    let e = pbrt::parse_str(
+    let e = camsim_pbrt::parse_str(
         "WorldBegin\nLightSource \"infinite\" \"string filename\" \"bad.exr\"\n",
         dir.path().join("s.pbrt"),
     )
     .unwrap_err();
     assert!(e.message.contains("square"), "{e}");
-    let e = pbrt::parse_str(
+    let e = camsim_pbrt::parse_str(
         "WorldBegin\nLightSource \"infinite\" \"string filename\" \"sq.exr\" \"rgb L\" [1 1 1]\n",
         dir.path().join("s.pbrt"),
     )
@@ -152,7 +153,7 @@ fn infinite_light_from_an_image_file() {
 
 fn tri_normal(p: &[[f64; 3]], t: &[u32; 3]) -> [f64; 3] {
     let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-    pbrt::xform::cross(pbrt::xform::sub(b, a), pbrt::xform::sub(c, a))
+    camsim_scene3d::xform::cross(camsim_scene3d::xform::sub(b, a), camsim_scene3d::xform::sub(c, a))
 }
 
 #[test]
@@ -172,7 +173,7 @@ fn disk_and_cylinder_area_power_and_orientation() {
         3,
         "a tessellated disk/cylinder stays one shape, even with power"
     );
-    let area = |i: usize| pbrt::xform::shape_area(&s.shapes[i].geometry);
+    let area = |i: usize| camsim_scene3d::xform::shape_area(&s.shapes[i].geometry);
     let want_disk = 0.75 * PI * (4.0 - 0.25);
     let want_cyl = 4.0 * PI * 0.5 * 3.0; // (phimax r (zmax - zmin)) scaled by 2^2
     eprintln!(
@@ -255,7 +256,7 @@ fn mesh_area(p: &[[f64; 3]], tris: &[[u32; 3]]) -> f64 {
     tris.iter()
         .map(|t| {
             let n = tri_normal(p, t);
-            0.5 * pbrt::xform::dot(n, n).sqrt()
+            0.5 * camsim_scene3d::xform::dot(n, n).sqrt()
         })
         .sum()
 }
@@ -318,14 +319,14 @@ fn loop_subdivision_of_a_tetrahedron() {
         }
         // Outward normals (the tetrahedron's centre is the origin).
         for (i, v) in p.iter().enumerate() {
-            assert!(pbrt::xform::dot(n[i], *v) > 0.0);
+            assert!(camsim_scene3d::xform::dot(n[i], *v) > 0.0);
         }
         let area = mesh_area(&p, &t);
         let gap = p
             .iter()
             .zip(&pl)
             .map(|(a, b)| {
-                pbrt::xform::dot(pbrt::xform::sub(*a, *b), pbrt::xform::sub(*a, *b)).sqrt()
+                camsim_scene3d::xform::dot(camsim_scene3d::xform::sub(*a, *b), camsim_scene3d::xform::sub(*a, *b)).sqrt()
             })
             .fold(0.0, f64::max);
         eprintln!(
@@ -514,7 +515,7 @@ fn one_pass_report_lists_every_problem_across_includes() {
          \x20 Shape \"curve\" \"point3 P\" [0 0 0 1 1 1 2 2 2 3 3 3]\n",
     )
     .unwrap();
-    let e = pbrt::parse_file(dir.path().join("main.pbrt")).unwrap_err();
+    let e = camsim_pbrt::parse_file(dir.path().join("main.pbrt")).unwrap_err();
     let all: Vec<(String, usize, usize)> = e
         .problems()
         .map(|p| {

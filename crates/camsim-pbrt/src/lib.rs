@@ -1,6 +1,15 @@
 //! pbrt-v4 scene reader: the subset of the pbrt-v4 file format
 //! (<https://pbrt.org/fileformat-v4>) that a Cornell box and similar scenes use, read with
-//! pbrt-v4's semantics, producing a [`SceneDescription`].
+//! pbrt-v4's semantics, producing a [`SceneDescription`] (`camsim-scene3d`) for the path tracer
+//! (`camsim-render`).
+//!
+//! Layout, as pbrt-v4 separates its parser from its `BasicSceneBuilder`: [`tokenize`] (the
+//! lexer), the parameter lists (`params`), the directive dispatch and scene builder (`parser`,
+//! with one module per directive family: `parser/materials.rs`, `parser/textures.rs`,
+//! `parser/lights.rs`), [`spectra`] (spectrum-valued parameters, named spectra,
+//! [`optical_constants`]), [`ply`] and [`pfm`] (mesh and image files). [`overlay`] applies
+//! camsim's TOML scene overlays (ISET3d-style scene control) to a scene from either source; it
+//! lives here because its `replace` reads PLY and pbrt files.
 //!
 //! # Supported
 //! - Tokens: quoted strings (escapes `\n \t \r \b \f \\ \' \"`), numbers, `[ ]`, `#` comments.
@@ -15,7 +24,7 @@
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
 //!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`; `"independent"` selects
 //!   camsim's independent sampler, every other type its padded Owen-scrambled Sobol sampler, see
-//!   [`crate::sampler`]), `Integrator` (`path`,
+//!   `camsim_render::sampler`), `Integrator` (`path`,
 //!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`
 //!   (other colour spaces, `Option`, `PixelFilter`, `Accelerator` and unknown `Sampler` types
 //!   are warnings in the notes).
@@ -29,29 +38,29 @@
 //!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
 //!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin, and
 //!   `zmin`, `zmax`, `phimax` (a partial sphere, intersected exactly with pbrt-v4's clipping,
-//!   area `phimax r (zmax - zmin)`, see [`crate::scene::Geometry::PartialSphere`]);
+//!   area `phimax r (zmax - zmin)`, see [`camsim_scene3d::scene::Geometry::PartialSphere`]);
 //!   `disk`: `height`, `radius`, `innerradius`, `phimax`; `cylinder`: `radius`, `zmin`, `zmax`,
-//!   `phimax` -- both tessellated at load, area-preserving, see [`crate::shapes`];
+//!   `phimax` -- both tessellated at load, area-preserving, see [`camsim_scene3d::shapes`];
 //!   `loopsubdiv`: `levels`, `P`, `indices` -- Loop-subdivided at load and moved to the limit
 //!   surface as pbrt-v4 does); every shape takes `alpha` (a number or a float texture, pbrt-v4
 //!   4th ed. §7.1.1: hits where it is 0 are ignored, where it is fractional a deterministic
 //!   hash of the ray decides, for camera, bounce and shadow rays alike; a constant 0 drops the
-//!   shape; see [`crate::scene::Material::AlphaMasked`]; not on area lights),
+//!   shape; see [`camsim_scene3d::scene::Material::AlphaMasked`]; not on area lights),
 //!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
 //!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
 //!   `parser/materials.rs`): `diffuse` (`reflectance`), `conductor` (`eta`/`k` spectra, default
 //!   copper, or `reflectance`; `roughness`, `uroughness`, `vroughness`, `remaproughness`; the
 //!   roughnesses may be any float texture, evaluated per hit:
-//!   [`crate::scene::Material::VaryingRoughness`]),
+//!   [`camsim_scene3d::scene::Material::VaryingRoughness`]),
 //!   `dielectric` (`eta` float or spectrum, e.g. `"glass-BK7"`; roughness as conductor),
 //!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
 //!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
-//!   model, exact for a smooth coating, see [`crate::bsdf::Bsdf::CoatedDiffuse`]; `albedo` must
+//!   model, exact for a smooth coating, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`; `albedo` must
 //!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `coatedconductor`
 //!   (`interface.roughness`/`uroughness`/`vroughness`, `interface.eta`, `thickness`,
 //!   `conductor.eta`, `conductor.k` or `reflectance`, `conductor.roughness`/`uroughness`/
 //!   `vroughness`, `remaproughness`; camsim's one-pass closed form, darker than pbrt-v4 for rough
-//!   conductors, noted; see [`crate::bsdf::Bsdf::CoatedConductor`]), `mix` (`materials` two named
+//!   conductors, noted; see `camsim_render::bsdf::Bsdf::CoatedConductor`), `mix` (`materials` two named
 //!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
 //!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
 //!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
@@ -67,12 +76,12 @@
 //!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
 //!   `encoding`: an RGB image over a triangle mesh's uv, each value an illuminant spectrum as
 //!   pbrt-v4's `RGBIlluminantSpectrum`, `power` divided by the image's mean luminance as
-//!   pbrt-v4 does; see [`crate::scene::AreaLight::image`]),
+//!   pbrt-v4 does; see [`camsim_scene3d::scene::AreaLight::image`]),
 //!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
 //!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
 //!   `filename`: a square image is pbrt-v4's equal-area octahedral map, a 2:1 image a lat-long
-//!   map, see [`crate::envmap`]; PNG, EXR or PFM as the Bitterli scenes ship them),
+//!   map, see [`camsim_scene3d::envmap`]; PNG, EXR or PFM as the Bitterli scenes ship them),
 //!   `Attribute "shape"|"light"|"material"|"medium"|"texture"` (defaults for later directives
 //!   of that category in the same attribute scope; a directive's own parameter wins, as pbrt-v4's
 //!   `ParameterDictionary` with graphics-state attributes), `ObjectBegin`/`ObjectEnd`/
@@ -97,7 +106,7 @@
 //!   this by splitting such a mesh into one emitting shape per triangle (and notes it). A disk or
 //!   cylinder is one pbrt shape: its `power` is for the whole shape.
 //! - RGB: `rgb` reflectances are uplifted with Jakob & Hanika (2019) sigmoid polynomials
-//!   ([`crate::uplift`]; pbrt-v4's method, fitted by camsim, not pbrt's tables); components
+//!   ([`camsim_scene3d::uplift`]; pbrt-v4's method, fitted by camsim, not pbrt's tables); components
 //!   above 1 are an error as in pbrt-v4. `rgb` emission is `2 m * uplift(rgb / 2m) * D65` with
 //!   `m` the largest component (pbrt-v4 `RGBIlluminantSpectrum`).
 //! - Named illuminants (`stdillum-*`) are scaled so their y-bar integral is `CIE_Y_integral`
@@ -148,7 +157,11 @@ mod parser;
 pub mod pfm;
 pub mod ply;
 pub mod spectra;
-pub mod xform;
+
+pub mod overlay;
+
+// The scene-description modules the reader builds with, under the paths the reader's modules use.
+use camsim_scene3d::{builtin, camera, envmap, scene, shapes, xform};
 
 pub use lexer::{tokenize, Token, TokenKind};
 

@@ -1,8 +1,8 @@
 //! pbrt-v4 materials in the scene reader: every supported material with pbrt-v4's parameter
 //! names and defaults, named metal and glass spectra, and errors with file:line:column.
 
-use camsim_render::pbrt::{self, PbrtError};
-use camsim_render::{ConductorOptics, Material, Roughness, SceneDescription, Texture};
+use camsim_pbrt::{self as pbrt, PbrtError};
+use camsim_scene3d::{ConductorOptics, Material, Roughness, SceneDescription, Texture};
 
 fn parse(text: &str) -> Result<SceneDescription, PbrtError> {
     pbrt::parse_str(text, "/tmp/virtual/materials.pbrt")
@@ -285,7 +285,7 @@ fn mix_cycles_and_bad_values_are_render_errors_not_panics() {
 
 #[test]
 fn overlay_replacement_keeps_mix_references_inside_the_inserted_scene() {
-    use camsim_render::builtin::{self, BuiltinOptions};
+    use camsim_scene3d::builtin::{self, BuiltinOptions};
     let mut s = builtin::scene("cornell-box-mcc", &BuiltinOptions::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(
@@ -296,7 +296,7 @@ fn overlay_replacement_keeps_mix_references_inside_the_inserted_scene() {
          NamedMaterial \"m\"\nShape \"sphere\" \"float radius\" 0.1\n",
     )
     .unwrap();
-    camsim_render::overlay::apply(
+    camsim_pbrt::overlay::apply(
         &mut s,
         "[[object]]\nname = \"tall_block\"\nreplace = { file = \"obj.pbrt\" }\n",
         "t",

@@ -18,7 +18,7 @@
 //!
 //! Greys (r = g = b) map exactly to the constant spectrum of that value (pbrt-v4 does the same).
 //! RGB components are clamped to [0, 1] (a reflectance cannot exceed 1; pbrt-v4 rejects
-//! `rgb reflectance` components above 1 at parse time, see [`crate::pbrt`]).
+//! `rgb reflectance` components above 1 at parse time, see `camsim_pbrt`).
 
 use camsim_core::colorimetry::{linear_srgb_to_xyz, xyz_to_linear_srgb};
 use camsim_core::{tables, Spectrum, WavelengthGrid};

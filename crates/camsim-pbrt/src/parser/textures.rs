@@ -4,9 +4,9 @@
 //! spectrum- or float-texture parameter.
 
 use super::{load_image, parse_encoding, Parser};
-use crate::pbrt::params::ParamList;
-use crate::pbrt::spectra::{param_spectrum, SpectrumUse};
-use crate::pbrt::{Loc, PbrtError};
+use crate::params::ParamList;
+use crate::spectra::{param_spectrum, SpectrumUse};
+use crate::{Loc, PbrtError};
 use crate::scene::{FloatTexture, Texture, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
@@ -297,9 +297,9 @@ impl Parser {
             },
         };
         let w = self.gs.ctm.apply_vector(d);
-        if !(crate::pbrt::xform::dot(w, w) > 0.0) {
+        if !(crate::xform::dot(w, w) > 0.0) {
             return Err(loc.err(format!("{what}: \"dir\" is the zero vector")));
         }
-        Ok(crate::pbrt::xform::normalize(w))
+        Ok(crate::xform::normalize(w))
     }
 }

@@ -61,8 +61,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::camera::look_at_camera_to_world;
-use crate::pbrt::spectra::photometric;
-use crate::pbrt::xform::{cross, dot, inverse, sub};
+use crate::spectra::photometric;
+use crate::xform::{cross, dot, inverse, sub};
 use crate::scene::{
     AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
 };

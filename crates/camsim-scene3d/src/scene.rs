@@ -5,7 +5,6 @@
 //! to the right in the image; raster (0, 0) is the top-left pixel. `Camera::camera_to_world` is
 //! pbrt's camera transform (the inverse of the CTM at `WorldBegin`).
 
-use crate::sampler::SamplerKind;
 use camsim_core::{Spectrum, WavelengthGrid};
 use std::collections::HashMap;
 
@@ -102,13 +101,13 @@ impl Default for UvMapping {
 }
 
 /// A spectrum (reflectance fraction 0..1, or any other spectral quantity a material takes) that
-/// may vary over the surface. Compiled and evaluated by `crate::texture`.
+/// may vary over the surface. Compiled and evaluated by `camsim_render`'s texture module.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Texture {
     /// The same spectrum everywhere.
     Constant(Spectrum),
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
-    /// uplifted to a smooth spectrum per lookup (`crate::uplift`).
+    /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]).
     Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64 },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
@@ -138,7 +137,7 @@ pub enum FloatTexture {
     Bilerp { v00: f64, v01: f64, v10: f64, v11: f64, mapping: UvMapping },
 }
 
-/// Surface scattering, with pbrt-v4's material semantics (see [`crate::bsdf`] for the BSDFs).
+/// Surface scattering, with pbrt-v4's material semantics (see `camsim_render::bsdf` for the BSDFs).
 /// The set is closed (dispatch by `match`); a new BSDF is a new variant here and a new arm in
 /// the renderer.
 // A scene holds a handful of materials, read once at compile time: the size of the largest
@@ -161,14 +160,14 @@ pub enum Material {
     /// by `scale`.
     DiffuseTransmission { reflectance: Texture, transmittance: Texture, scale: f64 },
     /// A dielectric coating over a diffuse base (pbrt-v4 `coateddiffuse`; camsim's closed-form
-    /// approximation, see [`crate::bsdf::Bsdf::CoatedDiffuse`]). `thickness` is pbrt-v4's layer
+    /// approximation, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`). `thickness` is pbrt-v4's layer
     /// thickness, an optical depth (dimensionless: transmittance `exp(-thickness / |cos|)`).
     CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64 },
     /// A dielectric coating over a conductor (pbrt-v4 `coatedconductor`, 4th ed. §14.3):
     /// coating index `interface_eta` and roughness, layer `thickness` (optical depth, as
     /// [`Material::CoatedDiffuse`]), the conductor's optics (relative to the outside, as pbrt-v4
     /// gives them; divided by the coating's index at render time) and roughness. camsim's
-    /// one-pass closed form, see [`crate::bsdf::Bsdf::CoatedConductor`].
+    /// one-pass closed form, see `camsim_render::bsdf::Bsdf::CoatedConductor`.
     CoatedConductor {
         interface_eta: f64,
         interface_roughness: Roughness,
@@ -411,7 +410,7 @@ pub struct RenderSettings {
     pub time_budget_s: Option<f64>,
     /// Direct lighting only (tests).
     pub direct_only: bool,
-    /// Where the uniform numbers come from (`crate::sampler`); default Owen-scrambled Sobol.
+    /// Where the uniform numbers come from (`camsim_render::sampler`); default Owen-scrambled Sobol.
     pub sampler: SamplerKind,
     /// Russian roulette runs at scattering vertices `depth >= russian_roulette_depth` (1 is the
     /// first surface hit). pbrt-v4 starts at 2; camsim's default 5 traces longer paths for less
@@ -450,4 +449,34 @@ pub struct SceneDescription {
     pub focus_distance_m: Option<f64>,
     /// Things the reader ignored or approximated (unsupported parameters), for the user.
     pub notes: Vec<String>,
+}
+
+/// Which sampler a render uses (pbrt-v4's `Sampler` types).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent uniform pseudo-random numbers (pbrt-v4 `"independent"`).
+    Independent,
+    /// Owen-scrambled, padded Sobol (pbrt-v4 `"paddedsobol"`; also what camsim uses for
+    /// `"sobol"` and `"zsobol"`).
+    #[default]
+    Sobol,
+}
+
+impl SamplerKind {
+    /// The name used in settings, overlays and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Independent => "independent",
+            SamplerKind::Sobol => "sobol",
+        }
+    }
+
+    /// Parse a sampler name: `independent`, or `sobol` / `paddedsobol` / `zsobol`.
+    pub fn from_name(name: &str) -> Option<SamplerKind> {
+        match name {
+            "independent" => Some(SamplerKind::Independent),
+            "sobol" | "paddedsobol" | "zsobol" => Some(SamplerKind::Sobol),
+            _ => None,
+        }
+    }
 }

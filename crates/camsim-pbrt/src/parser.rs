@@ -1,5 +1,5 @@
 //! The directive interpreter: graphics state, transforms, shapes, materials, textures, lights.
-//! See the module docs of [`crate::pbrt`] for what is supported.
+//! See the module docs of [`crate`] for what is supported.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -9,7 +9,7 @@ use super::params::{parse_params, Param, ParamList};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
-use crate::sampler::SamplerKind;
+use crate::scene::SamplerKind;
 use crate::scene::{
     AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
     Shape, Texture, Transform,
@@ -22,6 +22,12 @@ use std::path::{Path, PathBuf};
 mod lights;
 mod materials;
 mod textures;
+
+// The directive families, dispatched by `Parser::directive`.
+mod blocks;
+mod options;
+mod transforms;
+mod world;
 
 /// Problems reported before reading stops.
 const MAX_ERRORS: usize = 100;
@@ -429,418 +435,32 @@ impl Parser {
                 _ => return Err(loc.err(format!("expected a directive, found {}", tok.describe()))),
             };
             pos += 1;
-            let f = file;
-            match d.as_str() {
-                "Identity" => {
-                    self.gs.ctm = if self.gs.start_active {
-                        Transform::identity()
-                    } else {
-                        self.gs.ctm
-                    }
-                }
-                "Translate" => {
-                    let v = nums(tokens, &mut pos, f, &d, 3)?;
-                    self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
-                }
-                "Scale" => {
-                    let v = nums(tokens, &mut pos, f, &d, 3)?;
-                    self.apply_transform(Transform::scale([v[0], v[1], v[2]]));
-                }
-                "Rotate" => {
-                    let v = nums(tokens, &mut pos, f, &d, 4)?;
-                    if v[1] == 0.0 && v[2] == 0.0 && v[3] == 0.0 {
-                        return Err(loc.err("Rotate: the axis is the zero vector"));
-                    }
-                    self.apply_transform(Transform::rotate(v[0], [v[1], v[2], v[3]]));
-                }
-                "LookAt" => {
-                    let v = nums(tokens, &mut pos, f, &d, 9)?;
-                    let t =
-                        xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
-                            .map_err(|e| loc.err(e))?;
-                    self.apply_transform(t);
-                }
-                "Transform" => {
-                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
-                    if self.gs.start_active {
-                        self.gs.ctm = t;
-                    }
-                }
-                "ConcatTransform" => {
-                    let t = matrix16(tokens, &mut pos, f, &d, &loc)?;
-                    self.apply_transform(t);
-                }
-                "CoordinateSystem" => {
-                    let n = string_arg(tokens, &mut pos, f, &d)?;
-                    self.named_coords.insert(n, self.gs.ctm);
-                }
-                "CoordSysTransform" => {
-                    let n = string_arg(tokens, &mut pos, f, &d)?;
-                    match self.named_coords.get(&n) {
-                        Some(t) => self.gs.ctm = *t,
-                        None => self.note(&loc, format!("CoordSysTransform: no coordinate system \"{n}\" (ignored, as pbrt-v4 warns)")),
-                    }
-                }
-                "ActiveTransform" => {
-                    let w = match tokens.get(pos) {
-                        Some(Token {
-                            kind: TokenKind::Word(w),
-                            ..
-                        }) => w.clone(),
-                        _ => {
-                            return Err(
-                                loc.err("ActiveTransform: expected StartTime, EndTime or All")
-                            )
-                        }
-                    };
-                    pos += 1;
-                    match w.as_str() {
-                        "StartTime" | "All" => self.gs.start_active = true,
-                        "EndTime" => {
-                            self.gs.start_active = false;
-                            self.note(&loc, "ActiveTransform EndTime: end-time transforms are ignored (no motion blur)");
-                        }
-                        _ => return Err(loc.err(format!("ActiveTransform: unknown \"{w}\""))),
-                    }
-                }
-                "TransformTimes" => {
-                    nums(tokens, &mut pos, f, &d, 2)?;
-                    self.note(&loc, "TransformTimes ignored (no motion blur)");
-                }
-                "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
-                "AttributeBegin" | "TransformBegin" => {
-                    if d == "TransformBegin" {
-                        self.note(
-                            &loc,
-                            "TransformBegin is deprecated in pbrt-v4 (treated as a CTM push)",
-                        );
-                    }
-                    if self.stack.len() > 10_000 {
-                        return Err(loc.err("attribute blocks nested more than 10000 deep"));
-                    }
-                    let b = if d == "AttributeBegin" {
-                        Block::Attribute
-                    } else {
-                        Block::Transform
-                    };
-                    self.stack.push((self.gs.clone(), b, loc.clone()));
-                }
-                "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
-                    None => self.note(
-                        &loc,
-                        format!("unmatched {d} ignored (pbrt-v4 reports and ignores it)"),
-                    ),
-                    Some((saved, block, _)) => match block {
-                        Block::Attribute => {
-                            if d != "AttributeEnd" {
-                                return Err(loc.err("TransformEnd closes an AttributeBegin"));
-                            }
-                            self.gs = saved;
-                        }
-                        Block::Transform => {
-                            if d != "TransformEnd" {
-                                return Err(loc.err("AttributeEnd closes a TransformBegin"));
-                            }
-                            self.gs.ctm = saved.ctm;
-                            self.gs.start_active = saved.start_active;
-                        }
-                    },
-                },
-                "Camera" | "Film" | "Sampler" | "Integrator" => {
-                    self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
-                    match d.as_str() {
-                        "Camera" => self.camera(&ty, &params, &loc)?,
-                        "Film" => self.film(&ty, &params, &loc)?,
-                        "Sampler" => self.sampler(&ty, &params, &loc)?,
-                        _ => self.integrator(&ty, &params, &loc)?,
-                    }
-                }
-                "PixelFilter" => {
-                    self.require_world(&loc, &d, false)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
-                    params.params.iter().for_each(|p| p.used.set(true));
-                    self.note(&loc, format!("PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"));
-                }
-                "Accelerator" => {
-                    self.require_world(&loc, &d, false)?;
-                    let _ = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
-                    params.params.iter().for_each(|p| p.used.set(true));
-                    self.note(&loc, "Accelerator ignored (camsim builds its own BVH)");
-                }
-                "ColorSpace" => {
-                    let n = string_arg(tokens, &mut pos, f, &d)?;
-                    if n != "srgb" {
-                        self.note(&loc, format!("warning: ColorSpace \"{n}\" ignored: camsim reads RGB values as linear sRGB"));
-                    }
-                }
-                "Option" => {
-                    let params = parse_params(tokens, &mut pos, f)?;
-                    params.params.iter().for_each(|p| p.used.set(true));
-                    self.note(&loc, "Option ignored");
-                }
-                "WorldBegin" => {
-                    self.require_world(&loc, &d, false)?;
-                    self.in_world = true;
-                    self.camera_world_check();
-                    self.gs.ctm = Transform::identity();
-                    self.named_coords
-                        .insert("world".into(), Transform::identity());
-                }
-                "WorldEnd" => {
-                    return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
-                }
-                "Include" | "Import" => {
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    let path = self.resolve(file, &name);
-                    let canon = canonical(&path);
-                    if self.include_stack.contains(&canon) {
-                        return Err(loc.err(format!(
-                            "{d} \"{name}\": include cycle ({} is already being read)",
-                            path.display()
-                        )));
-                    }
-                    if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
-                        return Err(loc.err(format!(
-                            "{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}"
-                        )));
-                    }
-                    let text = std::fs::read_to_string(&path).map_err(|e| {
-                        loc.err(format!(
-                            "{d} \"{name}\": cannot read {}: {e}",
-                            path.display()
-                        ))
-                    })?;
-                    if d == "Import" && !self.in_world {
-                        return Err(loc.err("Import is only allowed after WorldBegin"));
-                    }
-                    let here = self.cur_pos;
-                    self.include_stack.push(canon);
-                    if d == "Import" {
-                        // Import: the imported file cannot change the includer's graphics state.
-                        let saved = (self.gs.clone(), self.stack.len());
-                        self.parse_text(&text, &path)?;
-                        self.stack.truncate(saved.1);
-                        self.gs = saved.0;
-                    } else {
-                        self.parse_text(&text, &path)?;
-                    }
-                    self.include_stack.pop();
-                    self.cur_pos = here;
-                }
-                "Material" => {
-                    self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params =
-                        self.with_attributes("material", parse_params(tokens, &mut pos, f)?);
-                    let m = self.material(&ty, &params, &loc, file)?;
-                    self.materials.push(m);
-                    self.gs.material = MatRef::Index(self.materials.len() - 1);
-                }
-                "MakeNamedMaterial" => {
-                    self.require_world(&loc, &d, true)?;
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    let params =
-                        self.with_attributes("material", parse_params(tokens, &mut pos, f)?);
-                    let ty = params.string("type")?.ok_or_else(|| {
-                        loc.err(format!(
-                            "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
-                        ))
-                    })?;
-                    if self.named_materials.contains_key(&name) {
-                        return Err(loc.err(format!(
-                            "MakeNamedMaterial: named material \"{name}\" redefined"
-                        )));
-                    }
-                    let m = self.material(&ty, &params, &loc, file)?;
-                    self.materials.push(m);
-                    self.named_materials.insert(name, self.materials.len() - 1);
-                }
-                "NamedMaterial" => {
-                    self.require_world(&loc, &d, true)?;
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    self.gs.material = MatRef::Named(name, loc.clone());
-                }
-                "Texture" => {
-                    self.require_world(&loc, &d, true)?;
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let class = string_arg(tokens, &mut pos, f, &d)?;
-                    let params =
-                        self.with_attributes("texture", parse_params(tokens, &mut pos, f)?);
-                    self.texture(&name, &ty, &class, &params, &loc, file)?;
-                }
-                "AreaLightSource" => {
-                    self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = self.with_attributes("light", parse_params(tokens, &mut pos, f)?);
-                    if ty != "diffuse" {
-                        return Err(loc.err(format!(
-                            "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
-                        )));
-                    }
-                    let spectrum =
-                        self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
-                    // pbrt-v4 DiffuseAreaLight::Create: `filename` (exclusive with `L`) gives an
-                    // RGB image over the shape's uv, its values illuminant spectra of the colour
-                    // space; scale /= SpectrumToPhotometric(colour space illuminant).
-                    let image = match params.string("filename")? {
-                        None => None,
-                        Some(fname) => {
-                            if spectrum.is_some() {
-                                return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
-                            }
-                            let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
-                            let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
-                            let encoding = parse_encoding(&enc).ok_or_else(|| {
-                                loc.err(format!("AreaLightSource \"diffuse\": unknown encoding \"{enc}\""))
-                            })?;
-                            let path = self.resolve(file, &fname);
-                            let (width, height, rgb) = load_image(&path, encoding)
-                                .map_err(|e| loc.err(format!("AreaLightSource \"diffuse\": {e}")))?;
-                            if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                                return Err(loc.err(format!(
-                                    "AreaLightSource \"diffuse\": {fname} is empty or has negative or non-finite texels"
-                                )));
-                            }
-                            let mean_y = rgb.iter().map(|c| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64).sum::<f64>()
-                                / rgb.len() as f64;
-                            Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
-                        }
-                    };
-                    let spectrum = match spectrum {
-                        Some(s) => s,
-                        None => default_illuminant(),
-                    };
-                    let scale = params.float("scale", 1.0)?;
-                    let two_sided = params.bool("twosided", false)?;
-                    let power = params.float_opt("power")?.filter(|p| *p > 0.0);
-                    params.check_unused("AreaLightSource \"diffuse\"")?;
-                    self.gs.area_light = Some(AreaLightSpec {
-                        spectrum,
-                        scale,
-                        two_sided,
-                        power,
-                        image,
-                    });
-                }
-                "LightSource" => {
-                    self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = self.with_attributes("light", parse_params(tokens, &mut pos, f)?);
-                    self.light_source(&ty, &params, &loc, file)?;
-                }
-                "Shape" => {
-                    self.require_world(&loc, &d, true)?;
-                    let ty = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = self.with_attributes("shape", parse_params(tokens, &mut pos, f)?);
-                    self.shape(&ty, &params, &loc, file)?;
-                }
-                "ObjectBegin" => {
-                    self.require_world(&loc, &d, true)?;
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    if self.current_object.is_some() {
-                        return Err(loc.err("ObjectBegin inside another ObjectBegin"));
-                    }
-                    if self.objects.contains_key(&name) {
-                        return Err(loc.err(format!("ObjectBegin: object \"{name}\" redefined")));
-                    }
-                    self.stack
-                        .push((self.gs.clone(), Block::Attribute, loc.clone()));
-                    self.current_object = Some((name, Vec::new(), loc.clone()));
-                }
-                "ObjectEnd" => {
-                    let Some((name, shapes, _)) = self.current_object.take() else {
-                        return Err(loc.err("ObjectEnd without ObjectBegin"));
-                    };
-                    self.objects.insert(name, shapes);
-                    if let Some((saved, _, _)) = self.stack.pop() {
-                        self.gs = saved;
-                    }
-                }
-                "ObjectInstance" => {
-                    self.require_world(&loc, &d, true)?;
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    if self.current_object.is_some() {
-                        return Err(loc.err("ObjectInstance inside an object definition"));
-                    }
-                    let shapes = self
-                        .objects
-                        .get(&name)
-                        .ok_or_else(|| {
-                            loc.err(format!("ObjectInstance: no object named \"{name}\""))
-                        })?
-                        .clone();
-                    let total: usize = self.shapes.len() + shapes.len();
-                    camsim_core::mem::check_alloc(total as u64 * 256, "object instances")
-                        .map_err(|e| loc.err(e.to_string()))?;
-                    for mut s in shapes {
-                        xform::transform_shape(&mut s.shape, &self.gs.ctm)
-                            .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
-                        if s.shape.name.is_none() {
-                            s.shape.name =
-                                Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
-                        }
-                        self.shapes.push(s);
-                    }
-                }
-                "MakeNamedMedium" => {
-                    // A medium that no MediumInterface selects changes nothing (pbrt-v4 only
-                    // attaches media through MediumInterface), so defining one is harmless;
-                    // selecting one is an error below.
-                    let name = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = self.with_attributes("medium", parse_params(tokens, &mut pos, f)?);
-                    for p in &params.params {
-                        p.used.set(true);
-                    }
-                    self.note(&loc, format!("MakeNamedMedium \"{name}\" recorded but not rendered (no participating media); any MediumInterface that selects it is an error"));
-                }
-                "MediumInterface" => {
-                    // pbrt-v4: `MediumInterface "inside" ["outside"]` (one name sets both).
-                    let inside = string_arg(tokens, &mut pos, f, &d)?;
-                    let mut outside = inside.clone();
-                    if let Some(Token {
-                        kind: TokenKind::Str(s),
-                        ..
-                    }) = tokens.get(pos)
-                    {
-                        outside = s.clone();
-                        pos += 1;
-                    }
-                    // The empty name is vacuum: harmless. A named medium would scatter and absorb.
-                    let selected = if inside.is_empty() { outside } else { inside };
-                    if !selected.is_empty() {
-                        return Err(loc.err(format!(
-                            "MediumInterface selects medium \"{selected}\": participating media are not supported"
-                        )));
-                    }
-                }
-                "Attribute" => {
-                    let cat = string_arg(tokens, &mut pos, f, &d)?;
-                    let params = parse_params(tokens, &mut pos, f)?;
-                    let Some(cat) = ["shape", "light", "material", "medium", "texture"]
-                        .into_iter()
-                        .find(|c| *c == cat)
-                    else {
-                        return Err(loc.err(format!(
-                            "Attribute: unknown category \"{cat}\" (shape, light, material, medium, texture)"
-                        )));
-                    };
-                    // A later Attribute for the same name replaces the earlier one.
-                    for p in params.params {
-                        self.gs
-                            .attributes
-                            .retain(|(c, q)| !(*c == cat && q.name == p.name));
-                        self.gs.attributes.push((cat, p));
-                    }
-                }
-                other => return Err(loc.err(format!("unknown directive \"{other}\""))),
-            }
+            self.directive(&d, tokens, &mut pos, file, &loc)?;
         }
         Ok(())
+    }
+
+    /// Directive dispatch (pbrt-v4 separates its parser from the `ParserTarget` that builds the
+    /// scene): each directive family is handled in its own module under `parser/`.
+    fn directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+        match d {
+            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform" | "ConcatTransform" | "CoordinateSystem"
+            | "CoordSysTransform" | "ActiveTransform" | "TransformTimes" | "ReverseOrientation" => {
+                self.transform_directive(d, tokens, pos, file, loc)
+            }
+            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd" | "WorldBegin" | "WorldEnd" | "Include"
+            | "Import" | "ObjectBegin" | "ObjectEnd" | "ObjectInstance" | "Attribute" => {
+                self.block_directive(d, tokens, pos, file, loc)
+            }
+            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator" | "ColorSpace" | "Option" => {
+                self.option_directive(d, tokens, pos, file, loc)
+            }
+            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource" | "LightSource" | "Shape"
+            | "MakeNamedMedium" | "MediumInterface" => {
+                self.world_directive(d, tokens, pos, file, loc)
+            }
+            other => Err(loc.err(format!("unknown directive \"{other}\""))),
+        }
     }
 
     fn camera_world_check(&mut self) {}
@@ -1048,7 +668,7 @@ impl Parser {
         self.settings.samples_per_pixel = spp as u32;
         // pbrt-v4 "independent" keeps independent numbers; "sobol", "paddedsobol" and "zsobol"
         // get camsim's padded Owen-scrambled Sobol sampler, and so do the other
-        // stratified types, approximated by it (crate::sampler).
+        // stratified types, approximated by it (camsim_render::sampler).
         match SamplerKind::from_name(ty) {
             Some(kind) => {
                 self.settings.sampler = kind;

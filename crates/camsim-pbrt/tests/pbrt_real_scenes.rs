@@ -6,6 +6,7 @@
 //! but not selected, and a mirrored camera (`Scale -1 1 1` before `LookAt`).
 
 use camsim_render::*;
+use camsim_scene3d::*;
 use std::path::Path;
 
 /// A binary little-endian PLY quad (x y z nx ny nz u v, one 4-index face), like the Bitterli
@@ -163,7 +164,7 @@ AttributeEnd
 "#;
     let path = dir.path().join("scene-v4.pbrt");
     std::fs::write(&path, main).unwrap();
-    let scene = pbrt::parse_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    let scene = camsim_pbrt::parse_file(&path).unwrap_or_else(|e| panic!("{e}"));
     // Floor, ply quad (2 triangles, one shape), glass sphere, subdivided blob, emitter sphere.
     assert_eq!(scene.shapes.len(), 5, "{:?}", scene.notes);
     assert_eq!(scene.lights.len(), 1, "the PFM environment light");
@@ -198,7 +199,7 @@ fn scale_minus_one_before_lookat_mirrors_the_image() {
                 AttributeEnd\n";
     let look = "LookAt 0 0 -10  0 0 0  0 1 0\n";
     let hit_pixels = |text: String| -> Vec<(usize, usize)> {
-        let mut s = pbrt::parse_str(&text, "/tmp/virtual/mirror.pbrt").unwrap();
+        let mut s = camsim_pbrt::parse_str(&text, "/tmp/virtual/mirror.pbrt").unwrap();
         s.settings.samples_per_pixel = 1;
         let out = render(&s, &|_, _| {}).unwrap();
         let mut px: Vec<(usize, usize)> = (0..out.depth_m.len())
@@ -225,7 +226,7 @@ fn scale_minus_one_before_lookat_mirrors_the_image() {
 /// parameter given on the shape wins; the defaults end with the scope.
 #[test]
 fn attribute_defaults_apply_in_scope_and_yield_to_explicit_parameters() {
-    let s = pbrt::parse_str(
+    let s = camsim_pbrt::parse_str(
         "WorldBegin\n\
          AttributeBegin\n\
          Attribute \"shape\" \"float radius\" 0.25\n\
@@ -260,7 +261,7 @@ fn attribute_defaults_apply_in_scope_and_yield_to_explicit_parameters() {
         "light scale attribute: {ratio}"
     );
 
-    let e = pbrt::parse_str(
+    let e = camsim_pbrt::parse_str(
         "WorldBegin\nAttribute \"camera\" \"float fov\" 3\n",
         "/tmp/virtual/attr2.pbrt",
     )
@@ -272,7 +273,7 @@ fn attribute_defaults_apply_in_scope_and_yield_to_explicit_parameters() {
 /// fine; selecting a medium is an error naming it (media are not rendered).
 #[test]
 fn media_defined_but_unselected_load_and_selected_media_are_errors() {
-    let ok = pbrt::parse_str(
+    let ok = camsim_pbrt::parse_str(
         "MediumInterface \"\" \"\"\n\
          Camera \"perspective\"\n\
          WorldBegin\n\
@@ -289,7 +290,7 @@ fn media_defined_but_unselected_load_and_selected_media_are_errors() {
         "{:?}",
         ok.notes
     );
-    let e = pbrt::parse_str(
+    let e = camsim_pbrt::parse_str(
         "WorldBegin\n\
          MakeNamedMedium \"tea\" \"string type\" \"homogeneous\"\n\
          MediumInterface \"tea\" \"\"\n",
@@ -327,8 +328,8 @@ fn constant_pfm_environment_equals_uniform_rgb_l() {
         format!("{head}LightSource \"infinite\" \"rgb L\" [ {c} {c} {c} ]\n"),
     )
     .unwrap();
-    let a = render_small(pbrt::parse_file(&a_path).unwrap(), 8, 8, 1);
-    let b = render_small(pbrt::parse_file(&b_path).unwrap(), 8, 8, 1);
+    let a = render_small(camsim_pbrt::parse_file(&a_path).unwrap(), 8, 8, 1);
+    let b = render_small(camsim_pbrt::parse_file(&b_path).unwrap(), 8, 8, 1);
     assert_finite_nonnegative_and_lit(&a, "pfm sky");
     for (x, y) in a.data.iter().zip(&b.data) {
         let r = (*x as f64 - *y as f64).abs() / (*y as f64).max(1e-30);

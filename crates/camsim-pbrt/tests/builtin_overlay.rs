@@ -1,11 +1,11 @@
 //! Overlays: moves, removals, replacements, reflectances and light spectra/levels, camera, and
 //! the example overlays (against the files and tables they name).
 
-use camsim_render::builtin::{self, BuiltinOptions};
-use camsim_render::overlay;
-use camsim_render::pbrt::spectra::photometric;
-use camsim_render::pbrt::xform::shape_bounds;
-use camsim_render::{Material, SceneDescription, Texture};
+use camsim_scene3d::builtin::{self, BuiltinOptions};
+use camsim_pbrt::overlay;
+use camsim_scene3d::spectra::photometric;
+use camsim_scene3d::xform::shape_bounds;
+use camsim_scene3d::{Material, SceneDescription, Texture};
 use std::path::Path;
 
 fn mcc() -> SceneDescription {
@@ -242,7 +242,7 @@ fn camera_render_settings_and_strict_keys() {
         (9, 3, 5, 16)
     );
     // Still a right-handed view: the red wall stays on the left.
-    assert!(camsim_render::pbrt::xform::det3(&s.camera.camera_to_world) < 0.0);
+    assert!(camsim_scene3d::xform::det3(&s.camera.camera_to_world) < 0.0);
     let eye = s.camera.camera_to_world.apply_point([0.0; 3]);
     assert!((eye[2] + 1.0).abs() < 1e-12);
     // deny_unknown_fields: a misspelt key names itself and its line.

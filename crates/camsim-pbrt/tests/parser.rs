@@ -1,9 +1,10 @@
 //! pbrt-v4 reader: directives, parameter types, Include/Import, named spectra, pbrt-v4's light
 //! normalisation, errors with positions, and the Cornell box file against the built-in scene.
 
-use camsim_render::builtin::{self, BuiltinOptions};
-use camsim_render::pbrt::{self, spectra::photometric, PbrtError};
-use camsim_render::{Geometry, Light, Material, SceneDescription, Texture};
+use camsim_scene3d::builtin::{self, BuiltinOptions};
+use camsim_pbrt::{self as pbrt, PbrtError};
+use camsim_scene3d::spectra::photometric;
+use camsim_scene3d::{Geometry, Light, Material, SceneDescription, Texture};
 use std::path::Path;
 
 const LM_PER_W: f64 = 683.0;
@@ -163,8 +164,8 @@ fn meshes_and_parameter_types() {
         Geometry::Triangles { indices, .. } => assert_eq!(indices.len(), 2),
         g => panic!("{g:?}"),
     }
-    assert!((pbrt::xform::shape_area(&s.shapes[1].geometry) - 1.0).abs() < 1e-12);
-    assert!((pbrt::xform::shape_area(&s.shapes[2].geometry) - 0.5).abs() < 1e-12);
+    assert!((camsim_scene3d::xform::shape_area(&s.shapes[1].geometry) - 1.0).abs() < 1e-12);
+    assert!((camsim_scene3d::xform::shape_area(&s.shapes[2].geometry) - 0.5).abs() < 1e-12);
 }
 
 #[test]
@@ -217,7 +218,7 @@ fn materials_textures_and_spectra() {
     assert!((bb.eval(580.0) - 1.0).abs() < 1e-4 && bb.eval(400.0) < 0.8);
     // RGB reflectance: uplifted, reproduces its colour under D65 and stays in [0, 1].
     let a = c(refl("a"));
-    let rgb = camsim_render::uplift::reflectance_to_rgb(&a);
+    let rgb = camsim_scene3d::uplift::reflectance_to_rgb(&a);
     assert!(
         (rgb[0] - 0.8).abs() < 0.01 && (rgb[1] - 0.2).abs() < 0.01 && (rgb[2] - 0.1).abs() < 0.01,
         "{rgb:?}"
@@ -395,7 +396,7 @@ fn triangles(s: &SceneDescription, name: &str) -> Vec<([[i64; 3]; 3], [i64; 3])>
         for t in indices {
             let p: Vec<[f64; 3]> = t.iter().map(|&i| positions[i as usize]).collect();
             let mut n =
-                pbrt::xform::cross(pbrt::xform::sub(p[1], p[0]), pbrt::xform::sub(p[2], p[0]));
+                camsim_scene3d::xform::cross(camsim_scene3d::xform::sub(p[1], p[0]), camsim_scene3d::xform::sub(p[2], p[0]));
             if sh.reverse_orientation {
                 n = [-n[0], -n[1], -n[2]];
             }
@@ -408,7 +409,7 @@ fn triangles(s: &SceneDescription, name: &str) -> Vec<([[i64; 3]; 3], [i64; 3])>
             };
             let mut v = [q(p[0]), q(p[1]), q(p[2])];
             v.sort();
-            let nn = pbrt::xform::normalize(n);
+            let nn = camsim_scene3d::xform::normalize(n);
             out.push((
                 v,
                 [
@@ -612,7 +613,7 @@ fn ply_ascii_and_binary_round_trip() {
         g => panic!("{g:?}"),
     }
     assert!(
-        (pbrt::xform::shape_area(&s.shapes[0].geometry) - (1.0 + 0.5 * 1.0625f64.sqrt())).abs()
+        (camsim_scene3d::xform::shape_area(&s.shapes[0].geometry) - (1.0 + 0.5 * 1.0625f64.sqrt())).abs()
             < 1e-12
     );
     // Truncated binary data and bad indices are errors, not panics.

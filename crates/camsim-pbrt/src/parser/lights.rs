@@ -1,11 +1,11 @@
 //! `LightSource`: pbrt-v4 `point`, `spot`, `distant` and `infinite` (uniform `L`, or an image
 //! `filename`), with pbrt-v4's parameter names, defaults and normalisations (pbrt-v4
-//! `lights.cpp`, `*Light::Create`), and camsim's absolute units (see [`crate::pbrt`]).
+//! `lights.cpp`, `*Light::Create`), and camsim's absolute units (see [`crate`]).
 
 use super::{default_illuminant, load_image, parse_encoding, Parser};
-use crate::pbrt::params::ParamList;
-use crate::pbrt::spectra::SpectrumUse;
-use crate::pbrt::{Loc, PbrtError};
+use crate::params::ParamList;
+use crate::spectra::SpectrumUse;
+use crate::{Loc, PbrtError};
 use crate::scene::{EnvMapping, EnvironmentMap, Light, Transform};
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use std::f64::consts::PI;
@@ -81,7 +81,7 @@ impl Parser {
                     params.check_unused("LightSource \"spot\"")?;
                     Light::Spot {
                         position_m,
-                        direction: crate::pbrt::xform::normalize(ctm.apply_vector(axis)),
+                        direction: crate::xform::normalize(ctm.apply_vector(axis)),
                         intensity: s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                         cone_angle_deg,
                         cone_delta_deg,
@@ -103,13 +103,13 @@ impl Parser {
                 }
                 params.check_unused("LightSource \"distant\"")?;
                 let d = ctm.apply_vector([to[0] - from[0], to[1] - from[1], to[2] - from[2]]);
-                if crate::pbrt::xform::dot(d, d) == 0.0 {
+                if crate::xform::dot(d, d) == 0.0 {
                     return Err(
                         loc.err("LightSource \"distant\": \"from\" and \"to\" are the same point")
                     );
                 }
                 self.lights.push(Light::Distant {
-                    direction: crate::pbrt::xform::normalize(d),
+                    direction: crate::xform::normalize(d),
                     irradiance: s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                 });
             }

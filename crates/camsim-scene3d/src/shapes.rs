@@ -313,14 +313,14 @@ pub fn loop_subdivide(
     for t in &tris {
         let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
         let n =
-            crate::pbrt::xform::cross(crate::pbrt::xform::sub(b, a), crate::pbrt::xform::sub(c, a));
+            crate::xform::cross(crate::xform::sub(b, a), crate::xform::sub(c, a));
         for &i in t {
             normals[i as usize] = add(normals[i as usize], n, 1.0);
         }
     }
     let normals = normals
         .into_iter()
-        .map(crate::pbrt::xform::normalize)
+        .map(crate::xform::normalize)
         .collect();
     Ok((p, tris, normals))
 }

@@ -1,6 +1,6 @@
 //! Property tests: malformed or random input never panics the pbrt-v4 reader or the PLY reader.
 
-use camsim_render::pbrt;
+use camsim_pbrt as pbrt;
 use proptest::prelude::*;
 
 const WORDS: &[&str] = &[

@@ -1,11 +1,11 @@
 //! Spectrum-valued parameters as pbrt-v4 builds them (`ParameterDictionary::GetOneSpectrum`):
-//! `rgb` (uplifted, see [`crate::uplift`]), `spectrum` (inline pairs, a named spectrum or a file)
+//! `rgb` (uplifted, see [`camsim_scene3d::uplift`]), `spectrum` (inline pairs, a named spectrum or a file)
 //! and `blackbody`, for the three uses pbrt distinguishes (albedo, unbounded, illuminant), plus
 //! pbrt-v4's photometric normalisation of lights (`SpectrumToPhotometric`).
 
 use super::params::{Param, Value};
 use super::PbrtError;
-use crate::uplift;
+use camsim_scene3d::uplift;
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::{tables, Spectrum};
 use std::path::Path;
@@ -45,22 +45,7 @@ pub const NAMED_SPECTRA: &[&str] = &[
     "stdillum-E",
 ];
 
-fn y_bar_1nm() -> &'static Vec<f64> {
-    static Y: OnceLock<Vec<f64>> = OnceLock::new();
-    Y.get_or_init(|| {
-        let [_, y, _] = tables::cie1931_xyz_cmfs();
-        (360..=830).map(|l| y.eval(l as f64)).collect()
-    })
-}
-
-/// pbrt-v4 `SpectrumToPhotometric` for a plain spectrum: `sum_{360..830} y_bar s` at 1 nm.
-pub fn photometric(s: &Spectrum) -> f64 {
-    y_bar_1nm()
-        .iter()
-        .enumerate()
-        .map(|(i, y)| y * s.eval(360.0 + i as f64))
-        .sum()
-}
+pub use camsim_scene3d::spectra::photometric;
 
 /// Scale a named illuminant so its photometric integral is `CIE_Y_INTEGRAL` (pbrt-v4 normalises
 /// its named illuminant spectra this way, `FromInterleaved(..., normalize = true)`).

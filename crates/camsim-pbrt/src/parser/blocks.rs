@@ -1,0 +1,169 @@
+//! Block structure: attribute and transform blocks, object definitions and instances, `Attribute`,
+//! `Include`/`Import` and the `WorldBegin` boundary.
+//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+
+use super::*;
+
+impl Parser {
+    pub(super) fn block_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+        let f = file;
+        match d {
+            "AttributeBegin" | "TransformBegin" => {
+                if d == "TransformBegin" {
+                    self.note(
+                        loc,
+                        "TransformBegin is deprecated in pbrt-v4 (treated as a CTM push)",
+                    );
+                }
+                if self.stack.len() > 10_000 {
+                    return Err(loc.err("attribute blocks nested more than 10000 deep"));
+                }
+                let b = if d == "AttributeBegin" {
+                    Block::Attribute
+                } else {
+                    Block::Transform
+                };
+                self.stack.push((self.gs.clone(), b, loc.clone()));
+            }
+            "AttributeEnd" | "TransformEnd" => match self.stack.pop() {
+                None => self.note(
+                    loc,
+                    format!("unmatched {d} ignored (pbrt-v4 reports and ignores it)"),
+                ),
+                Some((saved, block, _)) => match block {
+                    Block::Attribute => {
+                        if d != "AttributeEnd" {
+                            return Err(loc.err("TransformEnd closes an AttributeBegin"));
+                        }
+                        self.gs = saved;
+                    }
+                    Block::Transform => {
+                        if d != "TransformEnd" {
+                            return Err(loc.err("AttributeEnd closes a TransformBegin"));
+                        }
+                        self.gs.ctm = saved.ctm;
+                        self.gs.start_active = saved.start_active;
+                    }
+                },
+            },
+            "WorldBegin" => {
+                self.require_world(loc, d, false)?;
+                self.in_world = true;
+                self.camera_world_check();
+                self.gs.ctm = Transform::identity();
+                self.named_coords
+                    .insert("world".into(), Transform::identity());
+            }
+            "WorldEnd" => {
+                return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
+            }
+            "Include" | "Import" => {
+                let name = string_arg(tokens, pos, f, d)?;
+                let path = self.resolve(file, &name);
+                let canon = canonical(&path);
+                if self.include_stack.contains(&canon) {
+                    return Err(loc.err(format!(
+                        "{d} \"{name}\": include cycle ({} is already being read)",
+                        path.display()
+                    )));
+                }
+                if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
+                    return Err(loc.err(format!(
+                        "{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}"
+                    )));
+                }
+                let text = std::fs::read_to_string(&path).map_err(|e| {
+                    loc.err(format!(
+                        "{d} \"{name}\": cannot read {}: {e}",
+                        path.display()
+                    ))
+                })?;
+                if d == "Import" && !self.in_world {
+                    return Err(loc.err("Import is only allowed after WorldBegin"));
+                }
+                let here = self.cur_pos;
+                self.include_stack.push(canon);
+                if d == "Import" {
+                    // Import: the imported file cannot change the includer's graphics state.
+                    let saved = (self.gs.clone(), self.stack.len());
+                    self.parse_text(&text, &path)?;
+                    self.stack.truncate(saved.1);
+                    self.gs = saved.0;
+                } else {
+                    self.parse_text(&text, &path)?;
+                }
+                self.include_stack.pop();
+                self.cur_pos = here;
+            }
+            "ObjectBegin" => {
+                self.require_world(loc, d, true)?;
+                let name = string_arg(tokens, pos, f, d)?;
+                if self.current_object.is_some() {
+                    return Err(loc.err("ObjectBegin inside another ObjectBegin"));
+                }
+                if self.objects.contains_key(&name) {
+                    return Err(loc.err(format!("ObjectBegin: object \"{name}\" redefined")));
+                }
+                self.stack
+                    .push((self.gs.clone(), Block::Attribute, loc.clone()));
+                self.current_object = Some((name, Vec::new(), loc.clone()));
+            }
+            "ObjectEnd" => {
+                let Some((name, shapes, _)) = self.current_object.take() else {
+                    return Err(loc.err("ObjectEnd without ObjectBegin"));
+                };
+                self.objects.insert(name, shapes);
+                if let Some((saved, _, _)) = self.stack.pop() {
+                    self.gs = saved;
+                }
+            }
+            "ObjectInstance" => {
+                self.require_world(loc, d, true)?;
+                let name = string_arg(tokens, pos, f, d)?;
+                if self.current_object.is_some() {
+                    return Err(loc.err("ObjectInstance inside an object definition"));
+                }
+                let shapes = self
+                    .objects
+                    .get(&name)
+                    .ok_or_else(|| {
+                        loc.err(format!("ObjectInstance: no object named \"{name}\""))
+                    })?
+                    .clone();
+                let total: usize = self.shapes.len() + shapes.len();
+                camsim_core::mem::check_alloc(total as u64 * 256, "object instances")
+                    .map_err(|e| loc.err(e.to_string()))?;
+                for mut s in shapes {
+                    xform::transform_shape(&mut s.shape, &self.gs.ctm)
+                        .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
+                    if s.shape.name.is_none() {
+                        s.shape.name =
+                            Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
+                    }
+                    self.shapes.push(s);
+                }
+            }
+            "Attribute" => {
+                let cat = string_arg(tokens, pos, f, d)?;
+                let params = parse_params(tokens, pos, f)?;
+                let Some(cat) = ["shape", "light", "material", "medium", "texture"]
+                    .into_iter()
+                    .find(|c| *c == cat)
+                else {
+                    return Err(loc.err(format!(
+                        "Attribute: unknown category \"{cat}\" (shape, light, material, medium, texture)"
+                    )));
+                };
+                // A later Attribute for the same name replaces the earlier one.
+                for p in params.params {
+                    self.gs
+                        .attributes
+                        .retain(|(c, q)| !(*c == cat && q.name == p.name));
+                    self.gs.attributes.push((cat, p));
+                }
+            }
+            other => return Err(loc.err(format!("unknown directive \"{other}\""))),
+        }
+        Ok(())
+    }
+}

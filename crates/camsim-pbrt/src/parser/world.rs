@@ -1,0 +1,154 @@
+//! World-block directives that build the scene: materials, textures, area and other lights, shapes,
+//! and media (recorded, or refused where selected).
+//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+
+use super::*;
+
+impl Parser {
+    pub(super) fn world_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+        let f = file;
+        match d {
+            "Material" => {
+                self.require_world(loc, d, true)?;
+                let ty = string_arg(tokens, pos, f, d)?;
+                let params =
+                    self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let m = self.material(&ty, &params, loc, file)?;
+                self.materials.push(m);
+                self.gs.material = MatRef::Index(self.materials.len() - 1);
+            }
+            "MakeNamedMaterial" => {
+                self.require_world(loc, d, true)?;
+                let name = string_arg(tokens, pos, f, d)?;
+                let params =
+                    self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let ty = params.string("type")?.ok_or_else(|| {
+                    loc.err(format!(
+                        "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
+                    ))
+                })?;
+                if self.named_materials.contains_key(&name) {
+                    return Err(loc.err(format!(
+                        "MakeNamedMaterial: named material \"{name}\" redefined"
+                    )));
+                }
+                let m = self.material(&ty, &params, loc, file)?;
+                self.materials.push(m);
+                self.named_materials.insert(name, self.materials.len() - 1);
+            }
+            "NamedMaterial" => {
+                self.require_world(loc, d, true)?;
+                let name = string_arg(tokens, pos, f, d)?;
+                self.gs.material = MatRef::Named(name, loc.clone());
+            }
+            "Texture" => {
+                self.require_world(loc, d, true)?;
+                let name = string_arg(tokens, pos, f, d)?;
+                let ty = string_arg(tokens, pos, f, d)?;
+                let class = string_arg(tokens, pos, f, d)?;
+                let params =
+                    self.with_attributes("texture", parse_params(tokens, pos, f)?);
+                self.texture(&name, &ty, &class, &params, loc, file)?;
+            }
+            "AreaLightSource" => {
+                self.require_world(loc, d, true)?;
+                let ty = string_arg(tokens, pos, f, d)?;
+                let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                if ty != "diffuse" {
+                    return Err(loc.err(format!(
+                        "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
+                    )));
+                }
+                let spectrum =
+                    self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                // pbrt-v4 DiffuseAreaLight::Create: `filename` (exclusive with `L`) gives an
+                // RGB image over the shape's uv, its values illuminant spectra of the colour
+                // space; scale /= SpectrumToPhotometric(colour space illuminant).
+                let image = match params.string("filename")? {
+                    None => None,
+                    Some(fname) => {
+                        if spectrum.is_some() {
+                            return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
+                        }
+                        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+                        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+                        let encoding = parse_encoding(&enc).ok_or_else(|| {
+                            loc.err(format!("AreaLightSource \"diffuse\": unknown encoding \"{enc}\""))
+                        })?;
+                        let path = self.resolve(file, &fname);
+                        let (width, height, rgb) = load_image(&path, encoding)
+                            .map_err(|e| loc.err(format!("AreaLightSource \"diffuse\": {e}")))?;
+                        if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+                            return Err(loc.err(format!(
+                                "AreaLightSource \"diffuse\": {fname} is empty or has negative or non-finite texels"
+                            )));
+                        }
+                        let mean_y = rgb.iter().map(|c| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64).sum::<f64>()
+                            / rgb.len() as f64;
+                        Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
+                    }
+                };
+                let spectrum = match spectrum {
+                    Some(s) => s,
+                    None => default_illuminant(),
+                };
+                let scale = params.float("scale", 1.0)?;
+                let two_sided = params.bool("twosided", false)?;
+                let power = params.float_opt("power")?.filter(|p| *p > 0.0);
+                params.check_unused("AreaLightSource \"diffuse\"")?;
+                self.gs.area_light = Some(AreaLightSpec {
+                    spectrum,
+                    scale,
+                    two_sided,
+                    power,
+                    image,
+                });
+            }
+            "LightSource" => {
+                self.require_world(loc, d, true)?;
+                let ty = string_arg(tokens, pos, f, d)?;
+                let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                self.light_source(&ty, &params, loc, file)?;
+            }
+            "Shape" => {
+                self.require_world(loc, d, true)?;
+                let ty = string_arg(tokens, pos, f, d)?;
+                let params = self.with_attributes("shape", parse_params(tokens, pos, f)?);
+                self.shape(&ty, &params, loc, file)?;
+            }
+            "MakeNamedMedium" => {
+                // A medium that no MediumInterface selects changes nothing (pbrt-v4 only
+                // attaches media through MediumInterface), so defining one is harmless;
+                // selecting one is an error below.
+                let name = string_arg(tokens, pos, f, d)?;
+                let params = self.with_attributes("medium", parse_params(tokens, pos, f)?);
+                for p in &params.params {
+                    p.used.set(true);
+                }
+                self.note(loc, format!("MakeNamedMedium \"{name}\" recorded but not rendered (no participating media); any MediumInterface that selects it is an error"));
+            }
+            "MediumInterface" => {
+                // pbrt-v4: `MediumInterface "inside" ["outside"]` (one name sets both).
+                let inside = string_arg(tokens, pos, f, d)?;
+                let mut outside = inside.clone();
+                if let Some(Token {
+                    kind: TokenKind::Str(s),
+                    ..
+                }) = tokens.get(*pos)
+                {
+                    outside = s.clone();
+                    *pos += 1;
+                }
+                // The empty name is vacuum: harmless. A named medium would scatter and absorb.
+                let selected = if inside.is_empty() { outside } else { inside };
+                if !selected.is_empty() {
+                    return Err(loc.err(format!(
+                        "MediumInterface selects medium \"{selected}\": participating media are not supported"
+                    )));
+                }
+            }
+            other => return Err(loc.err(format!("unknown directive \"{other}\""))),
+        }
+        Ok(())
+    }
+}

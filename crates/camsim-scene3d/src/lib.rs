@@ -1,0 +1,22 @@
+//! camsim stage 1 (3D): the scene description. What the pbrt-v4 reader (`camsim-pbrt`), the
+//! built-in scenes and the TOML overlays produce and what the path tracer (`camsim-render`)
+//! consumes: plain data in world space, metres and absolute spectral units.
+//!
+//! Modules: [`scene`] (the [`SceneDescription`] and what it is made of: shapes, materials,
+//! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
+//! surfaces turned into triangles), [`xform`] (transform and shape-bounds math), [`camera`]
+//! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
+//! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
+//! [`builtin`] (the built-in scenes: the Cornell box and its variants).
+
+pub mod builtin;
+pub mod camera;
+pub mod envmap;
+pub mod scene;
+pub mod shapes;
+pub mod spectra;
+pub mod uplift;
+pub mod xform;
+
+pub use camera::{camera_from_focal_length, look_at_camera_to_world, pbrt_look_at};
+pub use scene::*;
