@@ -372,14 +372,14 @@ impl ShiftVariant {
             Some(b) => TileConvolver::with_tile(k, crate::wavefront::fast_fft_len(b + k - 1)),
             None => {
                 // Each block also pays its own kernel spectrum and (rotated models) the kernel
-                // rotation, which the shift-invariant tile choice does not count: take tiles at
-                // least the power of two >= 4 K, so blocks are ~3 K wide and these per-block
-                // costs are spread over more samples. Measured (2 cores, K = 99, traced dgauss,
-                // 4032 x 3024 x 31): F = 384 (the invariant choice) 15.2 s CPU, 512 12.9 s, 768
-                // 12.5 s, 1024 15.0 s; for K = 43 both rules give F = 256.
+                // rotation, which the shift-invariant tile choice does not count (for K = 99 it
+                // picks F = 1024): take the power of two >= 4 K when smaller, so blocks are ~3 K
+                // wide. Measured (2 cores under load 10, traced dgauss at f/2.8, K = 99, 4032 x
+                // 3024 x 31, CPU user time; +-5 % run to run): F = 1024 15.0 s, F = 512 12.6-12.9
+                // s, F = 768 12.5 s. For K = 43 (the Zernike example) both give F = 256.
                 let inv = TileConvolver::new(k);
-                let f = (4 * k).next_power_of_two().min(4096);
-                if f > inv.f {
+                let f = (4 * k).next_power_of_two();
+                if f < inv.f {
                     TileConvolver::with_tile(k, f)
                 } else {
                     inv
