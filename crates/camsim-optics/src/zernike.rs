@@ -123,7 +123,7 @@ mod tests {
 
     #[test]
     fn eval_at_matches_eval_for_every_term_up_to_order_20() {
-        for &(rho, th) in &[(0.0f64, 0.0f64), (0.3, 0.7), (0.95, -2.9), (1.0, 3.0), (0.6, 1.5707963)] {
+        for &(rho, th) in &[(0.0f64, 0.0f64), (0.3, 0.7), (0.95, -2.9), (1.0, 3.0), (0.6, 1.2)] {
             let p = PointTerms::new(rho, th.cos(), th.sin(), MAX_ORDER);
             for j in 0..231 {
                 let z = Zernike::new(j);
