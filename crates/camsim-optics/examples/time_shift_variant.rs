@@ -6,6 +6,8 @@
 //!   kernels);
 //! - lens: shift-variant from the traced dgauss.82deg.4.38mm lens at f/2.8 (Zernike fits per
 //!   field height and wavelength, distortion and relative illumination).
+//!
+//! `SV_BLOCK_PX=N` sets the shift-variant cases' `block_px` (default: the automatic tile).
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, WavelengthGrid};
 use camsim_optics::config::{BlurConfig, BlurKind, FieldZernikeConfig, ShadingConfig, ShadingName};
@@ -28,7 +30,7 @@ fn main() {
         let sv = |fz: Option<FieldZernikeConfig>, lens: Option<std::path::PathBuf>| BlurConfig {
             method: BlurKind::ShiftVariant,
             field_heights: 12,
-            block_px: None,
+            block_px: std::env::var("SV_BLOCK_PX").ok().and_then(|v| v.parse().ok()),
             rotation_oversampling: 3,
             lens_file: lens,
             field_zernike: fz,

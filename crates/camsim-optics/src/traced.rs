@@ -302,9 +302,9 @@ impl TracedLens {
                         continue;
                     };
                     let w_um = -(l - opl_chief) * 1e3;
-                    let th = v.atan2(u);
+                    let pt = crate::zernike::PointTerms::new(rho, u, v, FIT_ORDER);
                     for (z, o) in zern.iter().zip(zv.iter_mut()) {
-                        *o = z.eval(rho, th);
+                        *o = z.eval_at(&pt);
                     }
                     for r in 0..FIT_TERMS {
                         for c in 0..FIT_TERMS {

@@ -235,11 +235,13 @@ impl Wavefront {
         let scale = self.lens_pupil_diameter_m() / self.measurement_pupil_m;
         let rho_l = (x * x + y * y).sqrt();
         let rho = rho_l * scale;
-        let theta = y.atan2(x);
+        // Powers and harmonics once per point for all terms (no trigonometry per term).
+        let order = self.zern.last().map(|z| z.n).unwrap_or(0);
+        let p = crate::zernike::PointTerms::new(rho, x, y, order);
         let mut w = 0.0;
         for (c, z) in self.zernike_um.iter().zip(&self.zern) {
             if *c != 0.0 {
-                w += c * z.eval(rho, theta);
+                w += c * z.eval_at(&p);
             }
         }
         let sq3 = 3f64.sqrt();
@@ -535,7 +537,8 @@ impl Wavefront {
                     };
                     // Pupil function A exp(-i 2 pi W / lambda) (ISETCam wvfComputePupilFunction).
                     let ph = -2.0 * PI * w_um * inv_lambda_um;
-                    row[j] = Complex64::new(cov * ph.cos(), cov * ph.sin());
+                    let (s_ph, c_ph) = ph.sin_cos();
+                    row[j] = Complex64::new(cov * c_ph, cov * s_ph);
                 }
             }
             fft.process_with_scratch(row, &mut scratch);

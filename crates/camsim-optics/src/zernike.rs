@@ -72,11 +72,66 @@ impl Zernike {
         let ang = if self.m >= 0 { (self.m as f64 * theta).cos() } else { ((-self.m) as f64 * theta).sin() };
         self.norm * self.radial(rho) * ang
     }
+
+    /// Z_j from precomputed powers and harmonics of one point, [`PointTerms`]: no trigonometry
+    /// (for many polynomials at one point, as a wavefront of many terms is evaluated).
+    pub fn eval_at(&self, p: &PointTerms) -> f64 {
+        let mut r = 0.0;
+        for (k, c) in self.radial.iter().enumerate() {
+            r += c * p.rho_pow[self.n - 2 * k];
+        }
+        let ma = self.m.unsigned_abs() as usize;
+        let ang = if self.m >= 0 { p.cos_m[ma] } else { p.sin_m[ma] };
+        self.norm * r * ang
+    }
+}
+
+/// Highest radial order [`PointTerms`] holds (OSA index 230).
+pub const MAX_ORDER: usize = 20;
+
+/// Powers rho^k and harmonics cos(m theta), sin(m theta) (k, m <= [`MAX_ORDER`]) of one point,
+/// the harmonics by the angle-addition recurrence cos((m+1) t) = cos(m t) cos t - sin(m t) sin t,
+/// sin((m+1) t) = sin(m t) cos t + cos(m t) sin t from cos t = x / rho, sin t = y / rho.
+pub struct PointTerms {
+    rho_pow: [f64; MAX_ORDER + 1],
+    cos_m: [f64; MAX_ORDER + 1],
+    sin_m: [f64; MAX_ORDER + 1],
+}
+
+impl PointTerms {
+    /// The point (rho cos t, rho sin t) given by its polar radius `rho` and the direction (x, y)
+    /// of its angle (any length; (0, 0) counts as t = 0, as `atan2(0, 0)`), up to order `order`.
+    pub fn new(rho: f64, x: f64, y: f64, order: usize) -> Self {
+        let order = order.min(MAX_ORDER);
+        let len = x.hypot(y);
+        let (c, s) = if len > 0.0 { (x / len, y / len) } else { (1.0, 0.0) };
+        let mut t = PointTerms { rho_pow: [0.0; MAX_ORDER + 1], cos_m: [0.0; MAX_ORDER + 1], sin_m: [0.0; MAX_ORDER + 1] };
+        t.rho_pow[0] = 1.0;
+        t.cos_m[0] = 1.0;
+        for k in 1..=order {
+            t.rho_pow[k] = t.rho_pow[k - 1] * rho;
+            t.cos_m[k] = t.cos_m[k - 1] * c - t.sin_m[k - 1] * s;
+            t.sin_m[k] = t.sin_m[k - 1] * c + t.cos_m[k - 1] * s;
+        }
+        t
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn eval_at_matches_eval_for_every_term_up_to_order_20() {
+        for &(rho, th) in &[(0.0f64, 0.0f64), (0.3, 0.7), (0.95, -2.9), (1.0, 3.0), (0.6, 1.2)] {
+            let p = PointTerms::new(rho, th.cos(), th.sin(), MAX_ORDER);
+            for j in 0..231 {
+                let z = Zernike::new(j);
+                let (a, b) = (z.eval(rho, th), z.eval_at(&p));
+                assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()), "j {j} rho {rho} theta {th}: {a} against {b}");
+            }
+        }
+    }
 
     #[test]
     fn osa_index_follows_ansi_z80_28() {
