@@ -14,7 +14,7 @@ use std::path::PathBuf;
 /// CIEDE2000 per patch). Writes DIR/report.html, DIR/results.json and DIR/compare_*.png.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim compare --out out/compare                                          pixel4a vs imx363 (corrected vs published QE)\n  camsim compare --a pixel4a --b pixel4a --pitch-b-um 2.8 --out out/compare-pitch   4x the pixel area\n  camsim compare --a pixel4a --b pixel4a-raw10 --size 96 --out out/compare-raw10"
+    after_help = "Examples:\n  camsim compare --out out/compare                                          pixel4a vs imx363 (corrected vs published QE)\n  camsim compare --a pixel4a --b pixel4a --pitch-b-um 2.8 --out out/compare-pitch   4x the pixel area\n  camsim compare --a pixel4a --b pixel4a-raw10 --size 64 --out out/compare-raw10"
 )]
 pub struct Args {
     /// First camera's sensor: a preset (`camsim presets sensor`) or a sensor TOML file.
