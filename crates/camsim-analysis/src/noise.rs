@@ -115,7 +115,7 @@ pub fn nps(plane: &Plane, rect: Option<Rect>, opts: &NpsOptions) -> Result<NpsRe
     let rect = rect.unwrap_or_else(|| plane.full_rect());
     rect.check_inside(plane.rows, plane.cols, "nps region")?;
     let n = opts.roi_px;
-    if n < 4 || n > 4096 {
+    if !(4..=4096).contains(&n) {
         return Err(AnalysisError::invalid("nps roi_px", format!("{n}: must be 4 to 4096 pixels")));
     }
     if !(opts.overlap >= 0.0 && opts.overlap <= 0.9) {
@@ -250,10 +250,14 @@ mod tests {
         let s2 = sigma * sigma;
         eprintln!("white noise: NPS integral {:.4} vs sigma^2 {s2}, mean {:.3}", r.variance, r.mean);
         assert!((r.variance / s2 - 1.0).abs() < 0.03, "Parseval: {} vs {s2}", r.variance);
-        // Flat: every radial bin but DC (removed with the mean) at sigma^2 dx dy.
-        let worst = r.radial_nps[1..].iter().map(|x| (x / s2 - 1.0).abs()).fold(0.0, f64::max);
-        eprintln!("white noise: worst radial bin deviation {:.3}", worst);
-        assert!(worst < 0.1, "radial NPS {:?}", r.radial_nps);
+        // Flat: every radial bin but DC (removed with the mean) at sigma^2 dx dy. Each periodogram
+        // value scatters by 100 % (exponential); bin k holds ~8k points of which half are
+        // mirror images, in ~100 independent sub-ROIs: 5 % scatter in bin 1, less beyond, so the
+        // bounds are 4 standard deviations.
+        let dev: Vec<f64> = r.radial_nps.iter().map(|x| (x / s2 - 1.0).abs()).collect();
+        let worst = dev[2..].iter().cloned().fold(0.0, f64::max);
+        eprintln!("white noise: radial bin 1 off by {:.3}, worst of bins 2.. {:.3}", dev[1], worst);
+        assert!(dev[1] < 0.2 && worst < 0.12, "radial NPS {:?}", r.radial_nps);
         assert!(r.radial_nps[0] < 1e-6 * s2, "DC bin {}", r.radial_nps[0]);
     }
 

@@ -79,7 +79,7 @@ impl ScielabFilters {
     /// filter's support of one degree (an odd number of taps, `2 ceil(spd / 2) - 1`, as Zhang's
     /// code) and normalised to unit sum there.
     pub fn new(samples_per_deg: f64) -> Result<ScielabFilters> {
-        if !(samples_per_deg >= 1.0 && samples_per_deg <= 10_000.0) {
+        if !(1.0..=10_000.0).contains(&samples_per_deg) {
             return Err(AnalysisError::invalid("samples_per_deg", format!("{samples_per_deg} must be in [1, 10000] samples per degree")));
         }
         let taps = ((samples_per_deg / 2.0).ceil() as usize * 2).saturating_sub(1).max(1);

