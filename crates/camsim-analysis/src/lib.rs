@@ -6,6 +6,9 @@
 //! - [`roi`]: mean and standard deviation per CFA channel in rectangles; two-image comparison.
 //! - [`qefit`]: photon-counting RGB prediction from a QE and the least-squares QE correction matrix M.
 //! - [`emva`]: EMVA 1288 release 4.0 photon-transfer characterization.
+//! - [`scielab`]: S-CIELAB (Zhang & Wandell 1997) colour difference of two images at a viewing condition.
+//! - [`noise`]: SNR of a uniform region and its noise power spectrum (IEC 62220-1 / ISO 15739 style).
+//! - [`acutance`]: SFR weighted by the CPIQ contrast sensitivity at a viewing condition.
 //!
 //! Every result type is `serde::Serialize` so the CLI can write it as JSON or CSV.
 
@@ -21,6 +24,10 @@ pub mod nnls;
 pub mod qefit;
 pub mod roi;
 pub mod sfr;
+
+pub mod acutance;
+pub mod noise;
+pub mod scielab;
 
 pub use color_difference::{ciede2000, xyz_to_lab, Lab};
 pub use error::{AnalysisError, Result};

@@ -23,6 +23,7 @@ Examples:
   camsim render --builtin cornell-box-mcc --out out/render-box-mcc
   camsim validate cornell-box --out out/report    the paper's validation, with report.html
   camsim dataset --out out/dataset                48 captures as WebDataset shards + manifest
+  camsim compare --out out/compare                two cameras side by side: MTF, SNR, CIEDE2000
 
 Output folders (--out) always hold one complete run: a command writes into a fresh sibling
 folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
@@ -69,6 +70,7 @@ enum Commands {
     Fit(cmd::fit::Command),
     Validate(cmd::validate::Args),
     Dataset(cmd::dataset::Args),
+    Compare(cmd::compare::Args),
 }
 
 fn main() {
@@ -105,6 +107,7 @@ fn main() {
         Commands::Fit(c) => cmd::fit::run(c),
         Commands::Validate(a) => cmd::validate::run(a),
         Commands::Dataset(a) => cmd::dataset::run(a),
+        Commands::Compare(a) => cmd::compare::run(a),
     });
     if camsim_io::atomic::interrupted() {
         // The interrupt handler is removing the temporaries and will exit with 130; an error the

@@ -174,6 +174,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],
         ["validate"] => vec!["validate", "cornell-box", "--out", "{O}"],
         ["dataset"] => vec!["dataset", "{F}/dataset.toml", "--out", "{O}"],
+        ["compare"] => vec!["compare", "--size", "64", "--out", "{O}"],
         _ => return None,
     })
 }
@@ -268,6 +269,7 @@ fn malformed_files_exit_2_and_name_the_file() {
         (vec!["fit", "mtf", "--measured", "{X}", "--out", "{O}"], "mtf.csv", "csv"),
         (vec!["validate", "compare", "{X}", "--out", "{O}"], "small.toml", "toml"),
         (vec!["dataset", "{X}", "--out", "{O}"], "dataset.toml", "toml"),
+        (vec!["compare", "--size", "64", "--a", "{X}", "--out", "{O}"], "small.toml", "toml"),
     ];
     let mut failures = Vec::new();
     for (i, (args, valid, ext)) in slots.iter().enumerate() {

@@ -797,6 +797,126 @@ fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
     Ok(d)
 }
 
+// --- Image-quality metrics and the two-camera comparison (issue 16) ---
+
+/// A contiguous float32 (rows, cols) array as a Plane.
+fn plane_from(a: &PyReadonlyArray2<'_, f32>, what: &str) -> PyResult<Plane> {
+    let shape = a.shape().to_vec();
+    Plane::new(shape[0], shape[1], a.as_array().iter().copied().collect()).map_err(|e| err(format!("{what}: {e}")))
+}
+
+/// A (rows, cols, 3) float32 XYZ array as three planes.
+fn xyz_planes(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<[Plane; 3]> {
+    let shape = a.shape().to_vec();
+    if shape[2] != 3 {
+        return Err(err(format!("{what}: shape {shape:?}, expected (rows, cols, 3) CIE XYZ")));
+    }
+    let v = a.as_array();
+    let plane = |c: usize| Plane::new(shape[0], shape[1], v.index_axis(numpy::ndarray::Axis(2), c).iter().copied().collect());
+    Ok([plane(0).map_err(err)?, plane(1).map_err(err)?, plane(2).map_err(err)?])
+}
+
+/// S-CIELAB difference of two (rows, cols, 3) XYZ images: dict with `delta_e` (rows, cols)
+/// float32 and `mean`, `p95`, `max`.
+#[pyfunction]
+#[pyo3(signature = (a_xyz, b_xyz, white_xyz, samples_per_deg, formula = "cie76"))]
+fn scielab<'py>(
+    py: Python<'py>,
+    a_xyz: PyReadonlyArray3<'_, f32>,
+    b_xyz: PyReadonlyArray3<'_, f32>,
+    white_xyz: [f64; 3],
+    samples_per_deg: f64,
+    formula: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    use camsim::analysis::scielab::{scielab as sc, DeltaEFormula};
+    let formula: DeltaEFormula = formula.parse().map_err(err)?;
+    let (a, b) = (xyz_planes(&a_xyz, "a_xyz")?, xyz_planes(&b_xyz, "b_xyz")?);
+    let r = py.detach(|| sc(&a, &b, white_xyz, samples_per_deg, formula)).map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("delta_e", array(py, &r.delta_e.data, &[r.delta_e.rows, r.delta_e.cols])?)?;
+    d.set_item("mean", r.mean)?;
+    d.set_item("p95", r.p95)?;
+    d.set_item("max", r.max)?;
+    Ok(d)
+}
+
+/// Noise power spectrum of a (rows, cols) float32 image: dict with `nps_2d` (n, n), the
+/// frequency axes and the radial average (JSON fields of camsim's NpsResult).
+#[pyfunction]
+#[pyo3(signature = (image, roi = None, roi_px = 64, overlap = 0.5, detrend = "mean"))]
+fn nps<'py>(
+    py: Python<'py>,
+    image: PyReadonlyArray2<'_, f32>,
+    roi: Option<(usize, usize, usize, usize)>,
+    roi_px: usize,
+    overlap: f64,
+    detrend: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    use camsim::analysis::noise::{nps as n, Detrend, NpsOptions};
+    let detrend = match detrend {
+        "mean" => Detrend::Mean,
+        "plane" => Detrend::Plane,
+        o => return Err(err(format!("detrend {o:?}: mean or plane"))),
+    };
+    let p = plane_from(&image, "image")?;
+    let r = py.detach(|| n(&p, rect(roi), &NpsOptions { roi_px, overlap, detrend })).map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("nps_2d", array(py, &r.nps_2d, &[r.roi_px, r.roi_px])?)?;
+    d.set_item("freq_cy_per_px", array1(py, &r.freq_cy_per_px))?;
+    d.set_item("radial_freq_cy_per_px", array1(py, &r.radial_freq_cy_per_px))?;
+    d.set_item("radial_nps", array1(py, &r.radial_nps))?;
+    d.set_item("variance", r.variance)?;
+    d.set_item("mean", r.mean)?;
+    d.set_item("rois", r.rois)?;
+    Ok(d)
+}
+
+/// SNR (mean / std, and dB) of a (rows, cols) float32 image region, as JSON.
+#[pyfunction]
+#[pyo3(signature = (image, roi = None))]
+fn snr_json(image: PyReadonlyArray2<'_, f32>, roi: Option<(usize, usize, usize, usize)>) -> PyResult<String> {
+    let p = plane_from(&image, "image")?;
+    let r = camsim::analysis::noise::snr(&p, rect(roi)).map_err(err)?;
+    serde_json::to_string(&r).map_err(err)
+}
+
+/// CPIQ acutance of an SFR (frequencies in cycles/pixel) at `pixels_per_degree`, as JSON.
+#[pyfunction]
+fn acutance_json(freq_cy_per_px: Vec<f64>, sfr: Vec<f64>, pixels_per_degree: f64) -> PyResult<String> {
+    let r = camsim::analysis::acutance::acutance(&freq_cy_per_px, &sfr, pixels_per_degree).map_err(err)?;
+    serde_json::to_string(&r).map_err(err)
+}
+
+/// Compare two cameras (`camsim compare`); returns results.json's text; writes the report to
+/// `out` when given.
+#[pyfunction]
+#[pyo3(signature = (a, b, out = None, lens_a = "pixel4a", lens_b = "pixel4a", pitch_a_um = None, pitch_b_um = None, size = 128, seed = 1))]
+#[allow(clippy::too_many_arguments)]
+fn compare_json(
+    py: Python<'_>,
+    a: &str,
+    b: &str,
+    out: Option<std::path::PathBuf>,
+    lens_a: &str,
+    lens_b: &str,
+    pitch_a_um: Option<f64>,
+    pitch_b_um: Option<f64>,
+    size: usize,
+    seed: u64,
+) -> PyResult<String> {
+    use camsim_validate::{CameraCompareOptions, CameraSpec};
+    let mut o = CameraCompareOptions::new(
+        CameraSpec { sensor: a.into(), pixel_pitch_um: pitch_a_um, lens: lens_a.into() },
+        CameraSpec { sensor: b.into(), pixel_pitch_um: pitch_b_um, lens: lens_b.into() },
+    );
+    o.size_px = size;
+    o.seed = seed;
+    o.out_dir = out;
+    o.command_line = "camsim.compare (Python)".into();
+    let r = py.detach(|| camsim_validate::compare_cameras(&o, &|_, _, _| {})).map_err(err)?;
+    serde_json::to_string(&r).map_err(err)
+}
+
 #[pymodule]
 fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("CamsimError", m.py().get_type::<CamsimError>())?;
@@ -828,6 +948,11 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(dataset_plan_json, m)?,
         wrap_pyfunction!(dataset_run_json, m)?,
         wrap_pyfunction!(dataset_gather, m)?,
+        wrap_pyfunction!(scielab, m)?,
+        wrap_pyfunction!(nps, m)?,
+        wrap_pyfunction!(snr_json, m)?,
+        wrap_pyfunction!(acutance_json, m)?,
+        wrap_pyfunction!(compare_json, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -13,11 +13,15 @@
 //!    (Figure 5) and 5. noise in three regions against the noise model (Figure 6) ([`scene_fig`]);
 //! 6. provenance: parameters, version, run times, the command.
 //!
+//! [`compare_cameras`] puts two cameras side by side (MTF, acutance, SNR, NPS, CIEDE2000 per
+//! patch; `camsim compare`).
+//!
 //! [`compare()`] does the region-by-region comparison for a user's own camera (measured DNGs
 //! against simulated ones, [`CompareConfig`]).
 
 #![warn(missing_docs)]
 
+pub mod cameras;
 pub mod compare;
 pub mod optics_fig;
 pub mod plot;
@@ -26,6 +30,7 @@ pub mod report;
 pub mod scene_fig;
 mod util;
 
+pub use cameras::{compare_cameras, CameraCompareOptions, CameraComparison, CameraSpec};
 pub use compare::{compare, CompareConfig, CompareResults, RegionConfig};
 pub use util::FigurePng;
 

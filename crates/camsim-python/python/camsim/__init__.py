@@ -52,6 +52,11 @@ __all__ = [
     "load_config",
     "presets",
     "dataset",
+    "scielab",
+    "snr",
+    "nps",
+    "acutance",
+    "compare",
 ]
 
 Config = Union[Dict[str, Any], str, "os.PathLike[str]"]
@@ -270,3 +275,50 @@ def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str,
 def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
     """Read a raw DNG: raw (rows, cols) uint16, cfa, black_level, white_level, bits."""
     return _camsim.read_dng(os.fspath(path))
+
+
+# --- Image-quality metrics and the two-camera comparison -----------------------------------------
+
+def scielab(a_xyz: np.ndarray, b_xyz: np.ndarray, white_xyz: Sequence[float], samples_per_deg: float, *,
+            formula: str = "cie76") -> Dict[str, Any]:
+    """S-CIELAB (Zhang & Wandell 1997) difference of two (rows, cols, 3) CIE XYZ images viewed at
+    samples_per_deg samples per degree; white_xyz is CIELAB's reference white (same units).
+    formula: "cie76" (the original) or "ciede2000". Returns delta_e (rows, cols), mean, p95, max."""
+    a = np.ascontiguousarray(a_xyz, dtype=np.float32)
+    b = np.ascontiguousarray(b_xyz, dtype=np.float32)
+    w = tuple(float(v) for v in white_xyz)
+    return _camsim.scielab(a, b, w, float(samples_per_deg), formula)
+
+
+def snr(image: np.ndarray, roi: Optional[Tuple[int, int, int, int]] = None) -> Dict[str, Any]:
+    """SNR of a uniform region of a 2D image: mean, std (n - 1), snr = mean / std, snr_db, n.
+    roi = (row, col, rows, cols); None: the whole image."""
+    return json.loads(_camsim.snr_json(np.ascontiguousarray(image, dtype=np.float32), roi))
+
+
+def nps(image: np.ndarray, roi: Optional[Tuple[int, int, int, int]] = None, *, roi_px: int = 64, overlap: float = 0.5,
+        detrend: str = "mean") -> Dict[str, Any]:
+    """Noise power spectrum of a 2D image region: NPS(u, v) = <|DFT(sub-ROI - trend)|^2> / (n n)
+    over overlapping roi_px square sub-ROIs (unit: image unit^2 x pixel^2). detrend: "mean" or
+    "plane". Returns nps_2d (zero frequency at [n/2, n/2]), freq_cy_per_px, radial_freq_cy_per_px,
+    radial_nps, variance (the NPS integral), mean, rois."""
+    return _camsim.nps(np.ascontiguousarray(image, dtype=np.float32), roi, roi_px, overlap, detrend)
+
+
+def acutance(freq_cy_per_px: Sequence[float], sfr: Sequence[float], pixels_per_degree: float) -> Dict[str, Any]:
+    """CPIQ acutance of an SFR (frequencies in cycles/pixel) viewed at pixels_per_degree: the SFR
+    weighted by the CPIQ contrast sensitivity up to Nyquist. Returns acutance, pixels_per_degree,
+    upper_cpd."""
+    f = [float(v) for v in np.asarray(freq_cy_per_px, dtype=np.float64).ravel()]
+    s = [float(v) for v in np.asarray(sfr, dtype=np.float64).ravel()]
+    return json.loads(_camsim.acutance_json(f, s, float(pixels_per_degree)))
+
+
+def compare(a: str = "pixel4a", b: str = "imx363", out: Optional[Union[str, "os.PathLike[str]"]] = None, *,
+            lens_a: str = "pixel4a", lens_b: str = "pixel4a", pitch_a_um: Optional[float] = None,
+            pitch_b_um: Optional[float] = None, size: int = 128, seed: int = 1) -> Dict[str, Any]:
+    """Two cameras side by side (as `camsim compare`): MTF, acutance, SNR, NPS and CIEDE2000 per
+    ColorChecker patch of each; a and b are sensor presets or sensor TOML files. With out, also
+    writes report.html, results.json and the plots there. Returns results.json as a dict."""
+    o = None if out is None else os.fspath(out)
+    return json.loads(_camsim.compare_json(a, b, o, lens_a, lens_b, pitch_a_um, pitch_b_um, size, seed))
