@@ -22,6 +22,7 @@
 
 #![warn(missing_docs)]
 
+mod cfa_compute;
 pub mod compute;
 pub mod config;
 pub mod emva;
