@@ -82,12 +82,9 @@ impl CfaLayout {
         let s = |v: &[&[&str]]| v.iter().map(|r| r.iter().map(|c| c.to_string()).collect()).collect::<Vec<Vec<String>>>();
         match name.trim().to_ascii_lowercase().replace('_', "-").as_str() {
             "rgbw" => CfaLayout::from_names(&s(&[&["r", "g"], &["w", "b"]])),
-            "quad-bayer" | "quadbayer" | "tetracell" => CfaLayout::from_names(&s(&[
-                &["r", "r", "g", "g"],
-                &["r", "r", "g", "g"],
-                &["g", "g", "b", "b"],
-                &["g", "g", "b", "b"],
-            ])),
+            "quad-bayer" | "quadbayer" | "tetracell" => {
+                CfaLayout::from_names(&s(&[&["r", "r", "g", "g"], &["r", "r", "g", "g"], &["g", "g", "b", "b"], &["g", "g", "b", "b"]]))
+            }
             _ => Err(CoreError::invalid(
                 "cfa",
                 format!("'{name}' is not one of RGGB, GRBG, GBRG, BGGR, RGBW, quad-bayer (or give cfa_pattern)"),
@@ -180,7 +177,8 @@ impl CfaLayout {
         for r in 0..rows {
             let mut row = Vec::with_capacity(cols);
             for &c in &codes[r * cols..(r + 1) * cols] {
-                let n = DNG_CODES.get(c as usize).ok_or_else(|| CoreError::invalid("CFAPattern", format!("colour code {c} is not 0..=6")))?;
+                let n =
+                    DNG_CODES.get(c as usize).ok_or_else(|| CoreError::invalid("CFAPattern", format!("colour code {c} is not 0..=6")))?;
                 row.push(n.to_string());
             }
             names.push(row);

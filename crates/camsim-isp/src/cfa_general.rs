@@ -111,19 +111,20 @@ pub fn bin_2x2(raw: &RawImage) -> Result<RawImage> {
     check(raw)?;
     let layout = raw.cfa_layout();
     let (tn, tm) = (layout.rows(), layout.cols());
-    let blocks_ok = tn % 2 == 0
-        && tm % 2 == 0
-        && (0..tn).all(|r| (0..tm).all(|c| layout.filter_at(r, c) == layout.filter_at(r & !1, c & !1)));
+    let blocks_ok =
+        tn % 2 == 0 && tm % 2 == 0 && (0..tn).all(|r| (0..tm).all(|c| layout.filter_at(r, c) == layout.filter_at(r & !1, c & !1)));
     if !blocks_ok {
-        return Err(CoreError::invalid("binning", format!("the CFA {} is not made of 2x2 blocks of one filter (Quad Bayer is)", layout.name())));
+        return Err(CoreError::invalid(
+            "binning",
+            format!("the CFA {} is not made of 2x2 blocks of one filter (Quad Bayer is)", layout.name()),
+        ));
     }
     let (rows, cols) = (raw.rows / 2, raw.cols / 2);
     if rows == 0 || cols == 0 {
         return Err(CoreError::invalid("binning", format!("a {} x {} frame has no 2x2 block", raw.rows, raw.cols)));
     }
-    let names: Vec<Vec<String>> = (0..tn / 2)
-        .map(|r| (0..tm / 2).map(|c| layout.filters()[layout.filter_at(2 * r, 2 * c)].clone()).collect())
-        .collect();
+    let names: Vec<Vec<String>> =
+        (0..tn / 2).map(|r| (0..tm / 2).map(|c| layout.filters()[layout.filter_at(2 * r, 2 * c)].clone()).collect()).collect();
     let half = CfaLayout::from_names(&names)?;
     let bits = (raw.bits + 2).min(16);
     let mut out = RawImage::new(rows, cols, half.as_bayer().unwrap_or_default(), bits)?;

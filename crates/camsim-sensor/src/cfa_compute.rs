@@ -20,8 +20,7 @@ impl Sensor {
         let pd_width_m = self.pixel_pitch_m * self.fill_factor.sqrt();
         let ax = Axis::new(cols, self.pixel_pitch_m, pd_width_m, irr.cols, irr.sample_spacing_m);
         let ay = Axis::new(rows, self.pixel_pitch_m, pd_width_m, irr.rows, irr.sample_spacing_m);
-        let fac: Vec<Vec<f32>> =
-            self.band_factors_filters(&irr.grid).iter().map(|f| f.iter().map(|v| *v as f32).collect()).collect();
+        let fac: Vec<Vec<f32>> = self.band_factors_filters(&irr.grid).iter().map(|f| f.iter().map(|v| *v as f32).collect()).collect();
         let in_cols = irr.cols;
         let phases = layout.cols();
         let mut rate = vec![0.0f32; rows * cols];

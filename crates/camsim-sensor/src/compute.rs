@@ -256,7 +256,18 @@ impl Sensor {
     /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major:
     /// steps 1-2 of [`Sensor::compute`]. Reads each band plane once, in blocks of rows (rayon over
     /// row blocks), accumulating in f32; no per-pixel allocation.
+    /// With `[pixel_vignetting]`, each pixel's rate is scaled by its relative response
+    /// ([`crate::pixel_vignetting`]).
     pub fn electron_rate_image(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
+        let mut rate = self.electron_rate_image_bare(irr)?;
+        if let Some(pv) = &self.config().pixel_vignetting {
+            let gain = pv.relative_response(self.rows(), self.cols(), self.pixel_pitch_m * 1e6, self.fill_factor);
+            rate.par_iter_mut().zip(gain.par_iter()).for_each(|(r, g)| *r *= g);
+        }
+        Ok(rate)
+    }
+
+    fn electron_rate_image_bare(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
         check_irradiance(irr)?;
         if let Some(layout) = &self.layout {
             return self.electron_rate_image_layout(irr, layout);

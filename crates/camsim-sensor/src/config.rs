@@ -274,6 +274,9 @@ pub struct SensorConfig {
     pub noise: NoiseSwitches,
     /// Spectral QE.
     pub qe: QeConfig,
+    /// Pixel vignetting (light lost in the pixel stack at oblique chief rays; absent = none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_vignetting: Option<crate::pixel_vignetting::PixelVignettingConfig>,
 }
 
 fn one() -> f64 {
@@ -452,6 +455,9 @@ impl SensorConfig {
                     }
                 }
             }
+        }
+        if let Some(pv) = &self.pixel_vignetting {
+            pv.validate().map_err(|(key, message)| bad(&key, message))?;
         }
         // QE tables.
         let q = &self.qe;

@@ -28,6 +28,7 @@ pub mod config;
 pub mod emva;
 pub mod error;
 mod normal;
+pub mod pixel_vignetting;
 mod poisson;
 pub mod presets;
 pub mod sensor;

@@ -15,3 +15,4 @@ pub mod scene;
 pub mod sensor;
 pub mod simulate;
 pub mod validate;
+pub mod isp_cfa;
