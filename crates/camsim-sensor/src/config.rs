@@ -508,6 +508,17 @@ impl SensorConfig {
             }
         }
         let layout = self.cfa_layout().map_err(|e| bad("cfa_pattern", e.to_string()))?;
+        // A named filter no CFA cell uses is most likely a typo (or a wrong file): refuse it.
+        if let Some(unused) = q.filters.keys().find(|k| layout.filter_index(k).is_none()) {
+            let from = q.loaded_from.as_ref().map_or(String::new(), |f| format!(" of {f}"));
+            return Err(bad(
+                &format!("qe.filters.{unused}"),
+                format!(
+                    "filter column '{unused}'{from} is not r, g, b, ir_cut or pixel_qe, and the CFA {} does not use it",
+                    layout.name()
+                ),
+            ));
+        }
         for f in layout.filters() {
             let known = ["r", "g", "b", "w"].contains(&f.as_str()) || self.filter_curve(f).is_some();
             if !known {

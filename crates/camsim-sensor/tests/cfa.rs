@@ -9,7 +9,7 @@ use camsim_core::WavelengthGrid;
 use camsim_sensor::{Capture, NoiseSwitches, Sensor};
 use common::{quiet, uniform_image};
 
-/// A test sensor: flat QE per filter (r 0.3, g 0.5, b 0.2, cyan 0.6), IR cut 0.9, pixel QE 0.8,
+/// A test sensor: flat QE per filter (r 0.3, g 0.5, b 0.2, cyan 0.6 when used), IR cut 0.9, pixel QE 0.8,
 /// 1 uV/e-, 16 bits over 1 V.
 fn sensor(cfa_lines: &str, rows: usize, cols: usize) -> Sensor {
     let text = format!(
@@ -30,10 +30,10 @@ g = [0.5, 0.5]
 b = [0.2, 0.2]
 ir_cut = [0.9, 0.9]
 pixel_qe = [0.8, 0.8]
-[qe.filters]
-cyan = [0.6, 0.6]
 "#
     );
+    // A named filter must be used by the CFA (an unused one is refused as a likely typo).
+    let text = if cfa_lines.contains("cyan") { text + "[qe.filters]\ncyan = [0.6, 0.6]\n" } else { text };
     Sensor::from_toml_str(&text, "cfa test").unwrap()
 }
 
@@ -138,4 +138,26 @@ fn bad_cfa_configs_name_the_key() {
         let err = Sensor::from_toml_str(&base(cfa), "bad.toml").unwrap_err().to_string();
         assert!(err.contains(key) && err.contains(words) && err.contains("bad.toml"), "{cfa}: {err}");
     }
+}
+
+#[test]
+fn qe_file_extra_columns_are_named_filters() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("qe.csv"), "wavelength_nm,r,g,b,cyan,ir_cut\n400,0.3,0.5,0.2,0.6,0.9\n700,0.3,0.5,0.2,0.6,0.9\n").unwrap();
+    let text = |cfa: &str| {
+        format!(
+            "name = \"x\"\nrows = 4\ncols = 4\npixel_pitch_um = 2.0\nfill_factor = 0.5\n{cfa}\nconversion_gain_uv_per_e = 1.0\nvoltage_swing_v = 1.0\nbits = 16\n[qe]\nfile = \"qe.csv\"\n"
+        )
+    };
+    let path = dir.path().join("s.toml");
+    std::fs::write(&path, text("cfa_pattern = [[\"r\", \"cyan\"], [\"g\", \"b\"]]")).unwrap();
+    let s = Sensor::from_file(&path).unwrap();
+    let layout = s.cfa_layout();
+    let c = layout.filter_index("cyan").unwrap();
+    // Filter QE = column x IR cut (no pixel QE column: 1).
+    assert!((s.filter_qe_spectra()[c].eval(500.0) - 0.6 * 0.9).abs() < 1e-12);
+    // The same file under a Bayer CFA: the unused column is refused, naming it and the file.
+    std::fs::write(&path, text("cfa = \"RGGB\"")).unwrap();
+    let err = Sensor::from_file(&path).unwrap_err().to_string();
+    assert!(err.contains("column 'c'") && err.contains("qe.csv") && err.contains("RGGB"), "{err}");
 }
