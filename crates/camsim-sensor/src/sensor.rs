@@ -461,7 +461,7 @@ impl Sensor {
         };
         let d = det(&a);
         let scale = a.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max).powi(3);
-        if !(d.abs() > 1e-12 * scale) {
+        if d.abs() <= 1e-12 * scale || !d.is_finite() {
             return Err(SensorError::input("filter", "the r, g, b QE curves are linearly dependent; no fit of another filter to them"));
         }
         let mut w = [0.0; 3];
