@@ -97,6 +97,7 @@ fn ten_bit_sensor() -> Sensor {
         pixel_pitch_um: 3.45,
         fill_factor: 0.8,
         cfa: "GRBG".into(),
+        cfa_pattern: None,
         conversion_gain_uv_per_e: 150.0,
         well_capacity_e: None,
         voltage_swing_v: 0.45,
@@ -114,6 +115,7 @@ fn ten_bit_sensor() -> Sensor {
         qe_correction: None,
         noise: Default::default(),
         qe,
+        pixel_vignetting: None,
     };
     with_black_level(&Sensor::from_config(c).unwrap(), 64.0)
 }
@@ -266,7 +268,7 @@ fn p4a_corrected_qe() -> camsim_sensor::QeConfig {
     assert_eq!(lines.next().unwrap().trim(), "wavelength_nm,r,g,b", "{path}: header");
     let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
     let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    camsim_sensor::QeConfig { file: None, loaded_from: None, correction: None, wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None }
+    camsim_sensor::QeConfig { file: None, loaded_from: None, correction: None, wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None, filters: Default::default() }
 }
 
 

@@ -7,6 +7,7 @@
 //! physical constants and unit conversions, the built-in spectral tables, spectrum files (CSV and
 //! ISETCam MATLAB v5) and keyed random streams that make output independent of thread count.
 
+pub mod cfa;
 pub mod colorimetry;
 pub mod csv_records;
 pub mod error;
@@ -22,6 +23,7 @@ pub mod spectrum_csv;
 pub mod tables;
 pub mod units;
 
+pub use cfa::CfaLayout;
 pub use error::CoreError;
 pub use grid::WavelengthGrid;
 pub use image::{Quantity, SpectralImage};

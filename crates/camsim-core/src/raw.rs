@@ -1,5 +1,6 @@
 //! Raw sensor mosaics: the Bayer colour filter array pattern and a frame of digital values.
 
+use crate::cfa::CfaLayout;
 use crate::error::{CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -96,6 +97,9 @@ pub struct RawImage {
     pub rows: usize,
     pub cols: usize,
     pub cfa: CfaPattern,
+    /// A non-Bayer colour filter array (RGBW, Quad Bayer, any N x M); `None` for the Bayer
+    /// pattern `cfa`. Bayer-only code must refuse a frame that has one ([`RawImage::require_bayer`]).
+    pub layout: Option<CfaLayout>,
     /// Digital values, row-major, `rows * cols`.
     pub dn: Vec<u16>,
     /// DN of zero light (analog offset after quantization).
@@ -120,6 +124,7 @@ impl RawImage {
             rows,
             cols,
             cfa,
+            layout: None,
             dn: vec![0; rows * cols],
             black_level_dn: 0.0,
             white_level_dn: ((1u64 << bits) - 1) as f64,
@@ -136,6 +141,22 @@ impl RawImage {
 
     pub fn channel_at(&self, row: usize, col: usize) -> CfaChannel {
         self.cfa.channel_at(row, col)
+    }
+
+    /// The colour filter array: `layout`, or the Bayer `cfa` as a layout.
+    pub fn cfa_layout(&self) -> CfaLayout {
+        self.layout.clone().unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
+    }
+
+    /// An error naming `what` when this frame is not a Bayer mosaic.
+    pub fn require_bayer(&self, what: &str) -> Result<()> {
+        match &self.layout {
+            Some(l) if l.as_bayer().is_none() => Err(CoreError::invalid(
+                what,
+                format!("needs a Bayer mosaic; this frame's CFA is {} (bin or demosaic it with the general-CFA tools first)", l.name()),
+            )),
+            _ => Ok(()),
+        }
     }
 }
 

@@ -15,7 +15,7 @@
 
 use crate::error::{IoError, Result};
 use crate::tiff::{Ifd, IfdSpec, Tiff, Value};
-use camsim_core::{mem, CfaPattern, RawImage};
+use camsim_core::{mem, CfaLayout, CfaPattern, RawImage};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::Path;
@@ -209,7 +209,7 @@ pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> 
         rows: raw.rows,
         cols: raw.cols,
         dn: &raw.dn,
-        cfa: Some(raw.cfa),
+        cfa: Some(raw.cfa_layout()),
         black_level_dn: &[raw.black_level_dn],
         white_level_dn: &[raw.white_level_dn],
         exposure_s: raw.exposure_s,
@@ -240,7 +240,7 @@ struct Samples<'a> {
     rows: usize,
     cols: usize,
     dn: &'a [u16],
-    cfa: Option<CfaPattern>,
+    cfa: Option<CfaLayout>,
     black_level_dn: &'a [f64],
     white_level_dn: &'a [f64],
     exposure_s: f64,
@@ -323,10 +323,24 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
             Value::Short(vec![meta.calibration_illuminant]),
         ),
     ];
-    if let Some(cfa) = raw.cfa {
-        tags.push((tag::CFA_REPEAT_PATTERN_DIM, Value::Short(vec![2, 2])));
-        tags.push((tag::CFA_PATTERN, Value::Byte(cfa.dng_codes().to_vec())));
-        tags.push((tag::CFA_PLANE_COLOR, Value::Byte(vec![0, 1, 2])));
+    if let Some(cfa) = &raw.cfa {
+        // DNG 1.4: CFAPattern holds plane indices, CFAPlaneColor each plane's TIFF/EP colour code
+        // (0 red, 1 green, 2 blue, 3 cyan, 4 magenta, 5 yellow, 6 white); planes = our filters.
+        // A filter without a code (e.g. `ir`) cannot be written.
+        let colours = cfa.dng_codes().map_err(|e| IoError::invalid(path, e.to_string()))?;
+        let (n, m) = (cfa.rows(), cfa.cols());
+        let mut plane_colour = vec![0u8; cfa.filters().len()];
+        let mut pattern = Vec::with_capacity(n * m);
+        for r in 0..n {
+            for c in 0..m {
+                let f = cfa.filter_at(r, c);
+                plane_colour[f] = colours[r * m + c];
+                pattern.push(f as u8);
+            }
+        }
+        tags.push((tag::CFA_REPEAT_PATTERN_DIM, Value::Short(vec![n as u16, m as u16])));
+        tags.push((tag::CFA_PATTERN, Value::Byte(pattern)));
+        tags.push((tag::CFA_PLANE_COLOR, Value::Byte(plane_colour)));
         tags.push((tag::CFA_LAYOUT, Value::Short(vec![1])));
     }
     if let Some(d) = &meta.description {
@@ -604,7 +618,7 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     info.compression = compression as u16;
     info.bits_per_sample = bps as u16;
 
-    // CFA pattern (2x2 Bayer only), with CFAPlaneColor mapping codes to R, G, B.
+    // CFA pattern (Bayer or a general N x M layout), with CFAPlaneColor mapping codes to colours.
     let cfa = if linear { None } else { Some(cfa_pattern(&r, raw)?) };
 
     // Pixels (interleaved samples).
@@ -776,10 +790,11 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     };
 
     let image = match cfa {
-        Some(cfa) => DngImage::Cfa(RawImage {
+        Some((cfa, layout)) => DngImage::Cfa(RawImage {
             rows,
             cols,
             cfa,
+            layout,
             dn,
             black_level_dn: black,
             white_level_dn: white,
@@ -800,35 +815,44 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     Ok((image, info))
 }
 
-/// The 2x2 Bayer pattern of a CFA IFD, with CFAPlaneColor mapping codes to R, G, B.
-fn cfa_pattern(r: &Reader, raw: &Ifd) -> Result<CfaPattern> {
+/// The CFA of a raw IFD, with CFAPlaneColor mapping plane indices to TIFF/EP colours: a Bayer
+/// pattern (layout `None`), or any N x M pattern (N, M <= 8) of red, green, blue, cyan, magenta,
+/// yellow and white cells as a [`CfaLayout`] (with `CfaPattern::Rggb` as the unused Bayer field).
+fn cfa_pattern(r: &Reader, raw: &Ifd) -> Result<(CfaPattern, Option<CfaLayout>)> {
     let dim = r
         .uints(raw, tag::CFA_REPEAT_PATTERN_DIM)?
         .unwrap_or_else(|| vec![2, 2]);
-    if dim.len() < 2 || dim[0] != 2 || dim[1] != 2 {
+    let max = camsim_core::cfa::MAX_CFA_SIDE as u64;
+    if dim.len() < 2 || !(1..=max).contains(&dim[0]) || !(1..=max).contains(&dim[1]) {
         return r.fail(format!(
-            "CFARepeatPatternDim {dim:?}: only 2x2 Bayer patterns are supported"
+            "CFARepeatPatternDim {dim:?}: expected two sides of 1..={max} cells"
         ));
     }
+    let (n, m) = (dim[0] as usize, dim[1] as usize);
     let Some(codes) = r.uints(raw, tag::CFA_PATTERN)? else {
         return r.fail("no CFAPattern tag");
     };
-    if codes.len() < 4 {
-        return r.fail(format!("CFAPattern has {} values; expected 4", codes.len()));
+    if codes.len() < n * m {
+        return r.fail(format!("CFAPattern has {} values; expected {}", codes.len(), n * m));
     }
     let plane = r
         .uints(raw, tag::CFA_PLANE_COLOR)?
         .unwrap_or_else(|| vec![0, 1, 2]);
-    let mapped: Vec<u8> = codes[..4]
+    let mapped: Vec<u8> = codes[..n * m]
         .iter()
-        .map(|c| plane.get(*c as usize).copied().unwrap_or(99) as u8)
+        .map(|c| plane.get(*c as usize).copied().unwrap_or(99).min(255) as u8)
         .collect();
-    match CfaPattern::from_dng_codes(&mapped) {
-        Some(cfa) => Ok(cfa),
-        None => r.fail(format!(
-            "CFAPattern {:?} is not an RGGB/GRBG/GBRG/BGGR Bayer pattern",
-            &codes[..4]
-        )),
+    if n == 2 && m == 2 {
+        if let Some(cfa) = CfaPattern::from_dng_codes(&mapped) {
+            return Ok((cfa, None));
+        }
+    }
+    match CfaLayout::from_dng_codes(n, m, &mapped) {
+        Ok(l) => Ok(match l.as_bayer() {
+            Some(p) => (p, None),
+            None => (CfaPattern::Rggb, Some(l)),
+        }),
+        Err(e) => r.fail(format!("CFAPattern {:?}: {e}", &codes[..n * m])),
     }
 }
 

@@ -61,6 +61,7 @@ impl RgbImage {
 /// [`demosaic_bilinear`] for input that may be malformed: errors (instead of panicking) when
 /// `raw.dn` does not hold `rows * cols` values, and refuses an output that would not fit in memory.
 pub fn try_demosaic_bilinear(raw: &RawImage) -> Result<RgbImage> {
+    raw.require_bayer("bilinear demosaic")?;
     if raw.dn.len() != raw.rows * raw.cols {
         return Err(CoreError::invalid(
             "raw image",

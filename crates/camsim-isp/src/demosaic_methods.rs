@@ -84,6 +84,7 @@ impl FromStr for DemosaicMethod {
 /// Demosaic `raw` (black level subtracted) with `method`. Errors when `raw.dn` does not hold
 /// `rows * cols` values or the output would not fit in memory.
 pub fn demosaic(raw: &RawImage, method: DemosaicMethod) -> Result<RgbImage> {
+    raw.require_bayer("demosaic")?;
     if raw.dn.len() != raw.rows * raw.cols {
         return Err(CoreError::invalid("raw image", format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols)));
     }

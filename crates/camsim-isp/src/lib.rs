@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod ccm;
+pub mod cfa_general;
 pub mod color;
 pub mod demosaic;
 pub mod demosaic_methods;

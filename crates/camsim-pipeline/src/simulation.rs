@@ -158,7 +158,9 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
     let dng = dng_metadata(&sensor, &color, Some(cfg))?;
     let raw0 = frame.raw.first().ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
-    let rgb = camsim_isp::demosaic_bilinear(raw0);
+    // Bayer: the paper's bilinear demosaic; other CFAs (RGBW, Quad Bayer, cfa_pattern): the
+    // per-filter bilinear interpolation's r, g, b planes.
+    let rgb = camsim_isp::cfa_general::demosaic_any(raw0)?;
     let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
     let preview = Rgb8Image { rows: rgb.rows, cols: rgb.cols, data: srgb };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
@@ -187,6 +189,20 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
 fn mean_dn_per_channel(raw: &RawImage) -> [f64; 3] {
     let mut sum = [0.0f64; 3];
     let mut n = [0usize; 3];
+    if let Some(layout) = &raw.layout {
+        // A general CFA: the r, g, b filters' pixels (other filters, e.g. w, are not counted).
+        let rgb: Vec<Option<usize>> =
+            layout.filters().iter().map(|f| ["r", "g", "b"].iter().position(|c| c == f)).collect();
+        for r in 0..raw.rows {
+            for c in 0..raw.cols {
+                if let Some(i) = rgb[layout.filter_at(r, c)] {
+                    sum[i] += raw.at(r, c) as f64;
+                    n[i] += 1;
+                }
+            }
+        }
+        return [0, 1, 2].map(|i| sum[i] / n[i].max(1) as f64);
+    }
     for r in 0..raw.rows {
         for c in 0..raw.cols {
             let i = match raw.channel_at(r, c) {

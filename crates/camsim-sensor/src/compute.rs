@@ -87,11 +87,14 @@ pub struct Frame {
     /// With the quantization switch off: per frame, the unrounded ADC value (volts x dn_per_v after
     /// gain, offset and clipping, plus the black-level pedestal), row-major. `None` otherwise.
     pub analog_dn: Option<Vec<Vec<f32>>>,
+    /// Noise-free mean electrons (photo + dark) per filter of the sensor's CFA
+    /// ([`Sensor::cfa_layout`] order: r, g, b, then e.g. w; 0 where a filter has no pixel).
+    pub mean_electrons_by_filter: Vec<f64>,
 }
 
 /// 1D area-integration weights from an input sampling (cells of `spacing` centred on the axis) to
 /// output photodetectors (width `pd_width` centred in pixels of `pitch`, centred on the axis).
-struct Axis {
+pub(crate) struct Axis {
     /// Per output index: first input index, and range into `w`.
     start: Vec<usize>,
     range: Vec<(usize, usize)>,
@@ -102,7 +105,7 @@ struct Axis {
 }
 
 impl Axis {
-    fn new(n_out: usize, pitch_m: f64, pd_width_m: f64, n_in: usize, spacing_m: f64) -> Axis {
+    pub(crate) fn new(n_out: usize, pitch_m: f64, pd_width_m: f64, n_in: usize, spacing_m: f64) -> Axis {
         let mut start = Vec::with_capacity(n_out);
         let mut range = Vec::with_capacity(n_out);
         let mut w = Vec::new();
@@ -172,7 +175,7 @@ impl Axis {
     }
 
     #[inline]
-    fn entries(&self, c: usize) -> (usize, &[f32]) {
+    pub(crate) fn entries(&self, c: usize) -> (usize, &[f32]) {
         let (a, b) = self.range[c];
         (self.start[c], &self.w[a..b])
     }
@@ -253,8 +256,22 @@ impl Sensor {
     /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major:
     /// steps 1-2 of [`Sensor::compute`]. Reads each band plane once, in blocks of rows (rayon over
     /// row blocks), accumulating in f32; no per-pixel allocation.
+    /// With `[pixel_vignetting]`, each pixel's rate is scaled by its relative response
+    /// ([`crate::pixel_vignetting`]).
     pub fn electron_rate_image(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
+        let mut rate = self.electron_rate_image_bare(irr)?;
+        if let Some(pv) = &self.config().pixel_vignetting {
+            let gain = pv.relative_response(self.rows(), self.cols(), self.pixel_pitch_m * 1e6, self.fill_factor);
+            rate.par_iter_mut().zip(gain.par_iter()).for_each(|(r, g)| *r *= g);
+        }
+        Ok(rate)
+    }
+
+    fn electron_rate_image_bare(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
         check_irradiance(irr)?;
+        if let Some(layout) = &self.layout {
+            return self.electron_rate_image_layout(irr, layout);
+        }
         let (rows, cols) = (self.rows(), self.cols());
         mem::check_alloc((rows * cols * 4) as u64, "the sensor electron image")?;
         let pd_width_m = self.pixel_pitch_m * self.fill_factor.sqrt();
@@ -439,6 +456,7 @@ impl Sensor {
             raw.white_level_dn = self.max_dn() as f64;
             raw.exposure_s = exposure_s;
             raw.pixel_pitch_m = self.pixel_pitch_m;
+            raw.layout = self.layout.clone();
             let mut analog = if keep_analog { vec![0.0f32; n] } else { Vec::new() };
             let frame_key = frame_base + k as u64;
             if keep_analog {
@@ -454,6 +472,17 @@ impl Sensor {
             if keep_analog {
                 analogs.push(analog);
             }
+        }
+        if let Some(layout) = &self.layout {
+            let by_filter = self.layout_mean_electrons(layout, rate, rows, cols, exposure_s);
+            let mut mean_electrons = [0.0; 3];
+            for (c, name) in ["r", "g", "b"].iter().enumerate() {
+                if let Some(i) = layout.filter_index(name) {
+                    mean_electrons[c] = by_filter[i];
+                }
+            }
+            let analog_dn = if keep_analog { Some(analogs) } else { None };
+            return Ok(Frame { raw: raws, exposure_s, mean_electrons, analog_dn, mean_electrons_by_filter: by_filter });
         }
         // Noise-free mean electrons per channel; per-row sums then a sequential total, so the
         // figure does not depend on the thread count either.
@@ -493,7 +522,13 @@ impl Sensor {
                 mean_electrons[c] = sums[c] / counts[c] as f64 * exposure_s + dark_e;
             }
         }
-        Ok(Frame { raw: raws, exposure_s, mean_electrons, analog_dn: if keep_analog { Some(analogs) } else { None } })
+        Ok(Frame {
+            raw: raws,
+            exposure_s,
+            mean_electrons,
+            analog_dn: if keep_analog { Some(analogs) } else { None },
+            mean_electrons_by_filter: mean_electrons.to_vec(),
+        })
     }
 
     /// One row of one frame: electrons -> noise -> volts -> DN (ISETCam sensorComputeNoise order).

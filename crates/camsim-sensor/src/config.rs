@@ -3,8 +3,9 @@
 //! Units in the file are the ones data sheets use; [`crate::Sensor`] converts them to SI.
 
 use crate::error::{Result, SensorError};
-use camsim_core::CfaPattern;
+use camsim_core::CfaLayout;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Which noise sources are on. All default to on; a noise-free sensor is how tests check the mean
@@ -59,7 +60,8 @@ impl NoiseSwitches {
 /// a CSV (`wavelength_nm,r,g,b[,ir_cut][,pixel_qe]`) or an ISETCam sensor `.mat` (`wavelength`,
 /// `data`, `filterNames`). Columns are found by name: `r`/`red`, `g`/`green`, `b`/`blue`,
 /// `ir_cut`/`ir_filter`/`ir`, `pixel_qe`; failing an exact name, ISETCam's convention that a
-/// filter name starts with its colour letter (`rDefault`, `gDefault`, ...).
+/// filter name starts with its colour letter (`rDefault`, `gDefault`, ...). Any other column is a
+/// named filter (`filters`, e.g. `w`, `cyan`, `yellow`) that a general CFA (`cfa_pattern`) can use.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QeConfig {
@@ -96,6 +98,12 @@ pub struct QeConfig {
     /// moved to `qe_correction` (giving both is an error).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub correction: Option<[[f64; 3]; 3]>,
+    /// More colour filters by name (transmittance, fraction, one value per wavelength) for a
+    /// general CFA (`cfa = "RGBW"`, `cfa_pattern`): `[qe.filters] cyan = [...]`, or the extra
+    /// columns of a QE file. Their QE = filter x IR-cut x pixel QE (no QE correction). A `w`
+    /// (white, panchromatic) filter that is not given has transmittance 1.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub filters: BTreeMap<String, Vec<f64>>,
 }
 
 /// Column names accepted for each curve of a QE file (case-insensitive).
@@ -144,11 +152,14 @@ impl QeConfig {
         }
         let names = table.names.join(", ");
         let file_key = format!("qe.file {}", path.display());
-        if let Some(i) = used.iter().position(|u| !u) {
-            return Err(bad(
-                &file_key,
-                format!("column '{}' is not a QE curve (expected r, g, b and optionally ir_cut, pixel_qe; the file has {names})", table.names[i]),
-            ));
+        // Columns that are not r, g, b, IR cut or pixel QE are named filters of a general CFA.
+        for (i, u) in used.iter().enumerate() {
+            if !u {
+                let name = camsim_core::cfa::canonical_filter_name(&table.names[i]);
+                if self.filters.insert(name.clone(), table.columns[i].clone()).is_some() {
+                    return Err(bad(&file_key, format!("filter '{name}' is given twice (inline [qe.filters] or another column)")));
+                }
+            }
         }
         let [r, g, b, ir, px] = found;
         let need = |c: Option<Vec<f64>>, key: &str| {
@@ -193,8 +204,17 @@ pub struct SensorConfig {
     /// Photosensitive fraction of the pixel area, in (0, 1]. The photodetector is a centred square
     /// of side pitch x sqrt(fill_factor) (ISETCam `pixelCenterFillPD`).
     pub fill_factor: f64,
-    /// Bayer pattern, top-left first: "RGGB", "GRBG", "GBRG" or "BGGR".
+    /// Colour filter array: a Bayer pattern, top-left first ("RGGB", "GRBG", "GBRG", "BGGR"), or
+    /// a preset "RGBW" (R G / W B) or "quad-bayer" (4x4, each Bayer colour on 2x2 pixels). Leave
+    /// it out (or "custom") when `cfa_pattern` gives the pattern.
+    #[serde(default)]
     pub cfa: String,
+    /// A general CFA tile (ISETCam `sensorSet(sensor, 'pattern', ...)` with `filterNames`): rows
+    /// of filter names, up to 8 x 8, e.g. `[["r", "g"], ["w", "b"]]`. Names are r/red, g/green,
+    /// b/blue (the QE curves `r`, `g`, `b`), w/white (panchromatic: transmittance 1 unless
+    /// `[qe.filters]` gives `w`) or any filter of `[qe.filters]` / a QE file's extra columns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cfa_pattern: Option<Vec<Vec<String>>>,
     /// Conversion gain, uV per electron (Table 1 of the paper: 7.65e-5 V/e- = 76.5 uV/e-).
     pub conversion_gain_uv_per_e: f64,
     /// Optional cross-check of the well capacity, electrons: if given it must agree with
@@ -254,6 +274,9 @@ pub struct SensorConfig {
     pub noise: NoiseSwitches,
     /// Spectral QE.
     pub qe: QeConfig,
+    /// Pixel vignetting (light lost in the pixel stack at oblique chief rays; absent = none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_vignetting: Option<crate::pixel_vignetting::PixelVignettingConfig>,
 }
 
 fn one() -> f64 {
@@ -295,6 +318,23 @@ impl SensorConfig {
             self.qe_correction = Some(m);
         }
         Ok(())
+    }
+
+    /// The colour filter array this config describes (`cfa_pattern`, else the `cfa` name).
+    pub fn cfa_layout(&self) -> camsim_core::error::Result<CfaLayout> {
+        match &self.cfa_pattern {
+            Some(_) if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) => {
+                Err(camsim_core::CoreError::invalid("cfa", "give either a cfa name or cfa_pattern, not both"))
+            }
+            Some(p) => CfaLayout::from_names(p),
+            None => CfaLayout::parse(&self.cfa),
+        }
+    }
+
+    /// The `[qe.filters]` transmittance of a filter (any alias of its name), if given.
+    pub fn filter_curve(&self, name: &str) -> Option<&Vec<f64>> {
+        let n = camsim_core::cfa::canonical_filter_name(name);
+        self.qe.filters.iter().find(|(k, _)| camsim_core::cfa::canonical_filter_name(k) == n).map(|(_, v)| v)
     }
 
     /// ISETCam's analog gain (the divisor of v_out = (v + offset) / gain): base_iso / iso when
@@ -341,7 +381,13 @@ impl SensorConfig {
         if !(self.fill_factor.is_finite() && self.fill_factor > 0.0 && self.fill_factor <= 1.0) {
             return Err(bad("fill_factor", format!("must be in (0, 1], got {}", self.fill_factor)));
         }
-        CfaPattern::parse(&self.cfa).map_err(|_| bad("cfa", format!("'{}' is not one of RGGB, GRBG, GBRG, BGGR", self.cfa)))?;
+        self.cfa_layout().map_err(|e| match &self.cfa_pattern {
+            Some(_) if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) => {
+                bad("cfa", format!("give either cfa = \"{}\" or cfa_pattern, not both", self.cfa))
+            }
+            Some(_) => bad("cfa_pattern", e.to_string()),
+            None => bad("cfa", format!("'{}' is not one of RGGB, GRBG, GBRG, BGGR, RGBW, quad-bayer (or give cfa_pattern)", self.cfa)),
+        })?;
         positive("conversion_gain_uv_per_e", self.conversion_gain_uv_per_e)?;
         positive("voltage_swing_v", self.voltage_swing_v)?;
         if let Some(w) = self.well_capacity_e {
@@ -410,6 +456,9 @@ impl SensorConfig {
                 }
             }
         }
+        if let Some(pv) = &self.pixel_vignetting {
+            pv.validate().map_err(|(key, message)| bad(&key, message))?;
+        }
         // QE tables.
         let q = &self.qe;
         let n = q.wavelengths_nm.len();
@@ -447,6 +496,36 @@ impl SensorConfig {
                 if !(v.is_finite() && *v >= 0.0) {
                     return Err(bad(key, format!("value at {w} nm is {v}, not a finite number >= 0")));
                 }
+            }
+        }
+        for (name, c) in &q.filters {
+            let key = format!("qe.filters.{name}");
+            if c.len() != n {
+                return Err(bad(&key, format!("has {} values for {n} wavelengths", c.len())));
+            }
+            if let Some((v, w)) = c.iter().zip(&q.wavelengths_nm).find(|(v, _)| !(v.is_finite() && **v >= 0.0)) {
+                return Err(bad(&key, format!("value at {w} nm is {v}, not a finite number >= 0")));
+            }
+        }
+        let layout = self.cfa_layout().map_err(|e| bad("cfa_pattern", e.to_string()))?;
+        // A named filter no CFA cell uses is most likely a typo (or a wrong file): refuse it.
+        if let Some(unused) = q.filters.keys().find(|k| layout.filter_index(k).is_none()) {
+            let from = q.loaded_from.as_ref().map_or(String::new(), |f| format!(" of {f}"));
+            return Err(bad(
+                &format!("qe.filters.{unused}"),
+                format!(
+                    "filter column '{unused}'{from} is not r, g, b, ir_cut or pixel_qe, and the CFA {} does not use it",
+                    layout.name()
+                ),
+            ));
+        }
+        for f in layout.filters() {
+            let known = ["r", "g", "b", "w"].contains(&f.as_str()) || self.filter_curve(f).is_some();
+            if !known {
+                return Err(bad(
+                    "cfa_pattern",
+                    format!("filter '{f}' has no transmittance curve: add it to [qe.filters] or as a column of the QE file"),
+                ));
             }
         }
         // Corrected QE must stay non-negative.

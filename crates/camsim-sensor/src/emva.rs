@@ -56,11 +56,20 @@ impl Sensor {
             "the EMVA frame series",
         )?;
         // Uniform field: every pixel of channel c collects the same electron rate.
-        let per_channel = self.mean_electrons_uniform(irradiance_w_per_m2_nm, grid, 1.0)?;
         let mut bright_rate = vec![0.0f32; n];
-        for r in 0..rows {
-            for c in 0..cols {
-                bright_rate[r * cols + c] = per_channel[self.cfa.channel_at(r, c).index()] as f32;
+        if let Some(layout) = &self.layout {
+            let per_filter = self.mean_electrons_uniform_filters(irradiance_w_per_m2_nm, grid, 1.0)?;
+            for r in 0..rows {
+                for c in 0..cols {
+                    bright_rate[r * cols + c] = per_filter[layout.filter_at(r, c)] as f32;
+                }
+            }
+        } else {
+            let per_channel = self.mean_electrons_uniform(irradiance_w_per_m2_nm, grid, 1.0)?;
+            for r in 0..rows {
+                for c in 0..cols {
+                    bright_rate[r * cols + c] = per_channel[self.cfa.channel_at(r, c).index()] as f32;
+                }
             }
         }
         let dark_rate = vec![0.0f32; n];

@@ -16,17 +16,24 @@
 //!
 //! [`Sensor::compute_bracket`] takes a list of exposure times (bracketing, bursts).
 //!
+//! Colour filter arrays: a Bayer `cfa`, the presets `RGBW` and `quad-bayer`, or any tile of up
+//! to 8 x 8 named filters (`cfa_pattern`, filters from the QE's r, g, b, `w` = panchromatic,
+//! or `[qe.filters]` / extra QE-file columns); [`Sensor::cfa_layout`], [`Frame::mean_electrons_by_filter`].
+//! Pixel vignetting: `[pixel_vignetting]` ([`pixel_vignetting`]).
+//!
 //! Randomness is keyed on (seed, stage, frame, row), so frames are bit-identical for any thread count.
 //! [`Sensor::predicted_noise_dn`] gives the matching EMVA 1288 noise model and
 //! [`Sensor::emva_series`] the frame stacks an EMVA 1288 analysis needs.
 
 #![warn(missing_docs)]
 
+mod cfa_compute;
 pub mod compute;
 pub mod config;
 pub mod emva;
 pub mod error;
 mod normal;
+pub mod pixel_vignetting;
 mod poisson;
 pub mod presets;
 pub mod sensor;

@@ -4,7 +4,7 @@ use crate::config::{NoiseSwitches, SensorConfig};
 use crate::error::{Result, SensorError};
 use crate::presets;
 use camsim_core::units::{PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S};
-use camsim_core::{CfaPattern, Spectrum, WavelengthGrid};
+use camsim_core::{CfaLayout, CfaPattern, Spectrum, WavelengthGrid};
 use std::path::Path;
 
 /// A sensor ready to compute: the config it came from plus every parameter in SI units.
@@ -12,6 +12,10 @@ use std::path::Path;
 pub struct Sensor {
     config: SensorConfig,
     pub(crate) cfa: CfaPattern,
+    /// A non-Bayer CFA (RGBW, Quad Bayer, `cfa_pattern`); `None` for the Bayer `cfa`.
+    pub(crate) layout: Option<CfaLayout>,
+    /// With `layout`: the effective QE of each of its filters, in its filter order.
+    pub(crate) filter_qe: Vec<Spectrum>,
     pub(crate) pixel_pitch_m: f64,
     pub(crate) fill_factor: f64,
     pub(crate) conversion_gain_v_per_e: f64,
@@ -99,9 +103,31 @@ impl Sensor {
                 .map_err(SensorError::from)
         };
         let qe = [mk(0)?, mk(1)?, mk(2)?];
-        let cfa = CfaPattern::parse(&config.cfa)?;
+        let full_layout = config.cfa_layout()?;
+        let (cfa, layout) = match full_layout.as_bayer() {
+            Some(p) => (p, None),
+            None => (CfaPattern::Rggb, Some(full_layout)),
+        };
+        // Filter QE of a general CFA: r, g, b as above (corrected); any other filter's
+        // transmittance x IR cut x pixel QE (ISETCam spectral QE), `w` without a curve = 1.
+        let mut filter_qe = Vec::new();
+        for f in layout.iter().flat_map(|l| l.filters()) {
+            let spectrum = match f.as_str() {
+                "r" => qe[0].clone(),
+                "g" => qe[1].clone(),
+                "b" => qe[2].clone(),
+                _ => {
+                    let t = config.filter_curve(f);
+                    let values = (0..n).map(|k| t.map_or(1.0, |t| t[k]) * ir(k) * px(k)).collect();
+                    Spectrum::new(q.wavelengths_nm.clone(), values, "qe").map_err(SensorError::from)?
+                }
+            };
+            filter_qe.push(spectrum);
+        }
         Ok(Sensor {
             cfa,
+            layout,
+            filter_qe,
             pixel_pitch_m: config.pixel_pitch_um * 1e-6,
             fill_factor: config.fill_factor,
             conversion_gain_v_per_e: config.conversion_gain_uv_per_e * 1e-6,
@@ -206,9 +232,25 @@ impl Sensor {
     pub fn cols(&self) -> usize {
         self.config.cols
     }
-    /// Bayer pattern.
+    /// Bayer pattern (RGGB, unused, for a non-Bayer CFA: see [`Sensor::cfa_layout`]).
     pub fn cfa(&self) -> CfaPattern {
         self.cfa
+    }
+    /// The colour filter array as a general layout (a Bayer pattern too).
+    pub fn cfa_layout(&self) -> CfaLayout {
+        self.layout.clone().unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
+    }
+    /// True when the CFA is not a Bayer pattern (RGBW, Quad Bayer, `cfa_pattern`).
+    pub fn is_bayer(&self) -> bool {
+        self.layout.is_none()
+    }
+    /// Effective QE of each filter of [`Sensor::cfa_layout`], in its filter order.
+    pub fn filter_qe_spectra(&self) -> Vec<&Spectrum> {
+        if self.layout.is_some() {
+            self.filter_qe.iter().collect()
+        } else {
+            self.qe.iter().collect()
+        }
     }
     /// Pixel pitch, m.
     pub fn pixel_pitch_m(&self) -> f64 {
@@ -357,6 +399,80 @@ impl Sensor {
             }
         }
         Ok(e)
+    }
+
+    /// Electrons per second per pixel per unit spectral irradiance in each band, per filter of
+    /// [`Sensor::cfa_layout`] (as [`Sensor::band_factors`]; that one is the Bayer hot path's).
+    pub(crate) fn band_factors_filters(&self, grid: &WavelengthGrid) -> Vec<Vec<f64>> {
+        let qe: Vec<Vec<f64>> = self.filter_qe_spectra().iter().map(|s| s.sample(grid)).collect();
+        let area = self.photodetector_area_m2();
+        (0..grid.len())
+            .map(|b| {
+                let lambda_m = grid.wavelength_nm(b) * 1e-9;
+                let k = lambda_m / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S) * grid.step_nm * area;
+                qe.iter().map(|q| q[b] * k).collect()
+            })
+            .collect()
+    }
+
+    /// [`Sensor::mean_electrons_uniform`] for every filter of [`Sensor::cfa_layout`], in its
+    /// filter order (r, g, b, then e.g. w).
+    pub fn mean_electrons_uniform_filters(
+        &self,
+        irradiance_w_per_m2_nm: &[f64],
+        grid: &WavelengthGrid,
+        exposure_s: f64,
+    ) -> Result<Vec<f64>> {
+        check_spectrum(irradiance_w_per_m2_nm, grid, "uniform irradiance")?;
+        let f = self.band_factors_filters(grid);
+        let mut e = vec![0.0; self.filter_qe_spectra().len()];
+        for (b, fb) in f.iter().enumerate() {
+            for (ec, fc) in e.iter_mut().zip(fb) {
+                *ec += fc * irradiance_w_per_m2_nm[b] * exposure_s;
+            }
+        }
+        Ok(e)
+    }
+
+    /// Least-squares weights (a, b, c) with QE_f ~= a QE_r + b QE_g + c QE_b over the QE
+    /// wavelength samples, for filter `name` of the CFA (e.g. `w`): the RGBW -> RGB fusion's
+    /// prediction of W from R, G, B (`camsim_isp::cfa_general::rgbw_to_rgb`). 3x3 normal
+    /// equations solved by Cramer's rule.
+    pub fn filter_from_rgb_weights(&self, name: &str) -> Result<[f64; 3]> {
+        let layout = self.cfa_layout();
+        let Some(i) = layout.filter_index(name) else {
+            return Err(SensorError::input("filter", format!("the CFA {} has no filter '{name}'", layout.name())));
+        };
+        let target = self.filter_qe_spectra()[i].values.clone();
+        let basis: Vec<&[f64]> = self.qe.iter().map(|s| s.values.as_slice()).collect();
+        let mut a = [[0.0f64; 3]; 3];
+        let mut y = [0.0f64; 3];
+        for k in 0..target.len() {
+            for p in 0..3 {
+                y[p] += basis[p][k] * target[k];
+                for q in 0..3 {
+                    a[p][q] += basis[p][k] * basis[q][k];
+                }
+            }
+        }
+        let det = |m: &[[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let d = det(&a);
+        let scale = a.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max).powi(3);
+        if d.abs() <= 1e-12 * scale || !d.is_finite() {
+            return Err(SensorError::input("filter", "the r, g, b QE curves are linearly dependent; no fit of another filter to them"));
+        }
+        let mut w = [0.0; 3];
+        for (c, wc) in w.iter_mut().enumerate() {
+            let mut m = a;
+            for r in 0..3 {
+                m[r][c] = y[r];
+            }
+            *wc = det(&m) / d;
+        }
+        Ok(w)
     }
 
     /// Mean photons reaching the whole pixel area (pitch^2) of a uniform irradiance in `exposure_s`,

@@ -46,7 +46,7 @@ fn impossible_values_name_the_key() {
         ("well_capacity_e", "8000.0"),
         ("rows", "0"),
         ("cols", "0"),
-        ("cfa", "\"RGBW\""),
+        ("cfa", "\"RGBX\""),
     ];
     for (key, value) in cases {
         let err = error_of(&with(key, value));

@@ -214,6 +214,7 @@ fn measuring_sensor(opts: &ValidateOptions) -> Result<(Sensor, String)> {
         b: col("b", 2),
         ir_cut: None,
         pixel_qe: None,
+        filters: Default::default(),
     };
     cfg.qe_correction = None;
     let s = Sensor::from_config(cfg).map_err(|e| ValidateError::file(&path, e.to_string()))?;

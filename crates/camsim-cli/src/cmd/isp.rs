@@ -49,7 +49,7 @@ fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
 /// -> sRGB transfer function (IEC 61966-2-1).
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png"
+    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png"
 )]
 pub struct Args {
     /// Raw DNG.
@@ -90,6 +90,9 @@ pub struct Args {
     /// Also print the gains, the matrix and (--ccm chart) the per-patch CIEDE2000 as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Bin 2x2 same-filter blocks first (Quad Bayer -> Bayer at half the size, 4x the signal).
+    #[arg(long)]
+    pub bin: bool,
     /// Output PNG.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
@@ -101,7 +104,8 @@ pub fn run(a: Args) -> Result<()> {
     let grid = WavelengthGrid::default();
     let illum = camsim_scene::load_illuminant(&a.illuminant, "--illuminant")?;
     let qe = sensor.channel_qe(&grid);
-    let mut rgb = camsim_isp::demosaic(&raw, a.demosaic)?;
+    let raw = if a.bin { camsim_isp::cfa_general::bin_2x2(&raw)? } else { raw };
+    let mut rgb = crate::cmd::isp_cfa::demosaic_general(&raw, &sensor, a.demosaic)?;
     let saturation_dn = raw.white_level_dn - raw.black_level_dn;
     let gains = match a.white_balance {
         WhiteBalanceMethod::None => [1.0; 3],

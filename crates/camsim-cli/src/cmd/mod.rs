@@ -16,3 +16,4 @@ pub mod sensor;
 pub mod simulate;
 pub mod validate;
 pub mod compare;
+pub mod isp_cfa;

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv")]
+#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad")]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
@@ -71,6 +71,11 @@ pub struct Args {
     /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
     #[arg(long, value_parser = crate::common::finite_f64)]
     pub analog_offset_mv: Option<f64>,
+    /// Colour filter array instead of the sensor's: a Bayer name (RGGB, GRBG, GBRG, BGGR), RGBW
+    /// (R G / W B, W = the pixel without colour filter) or quad-bayer (4x4, each Bayer colour on
+    /// 2x2 pixels). Other tiles: `cfa_pattern` in the sensor TOML.
+    #[arg(long)]
+    pub cfa: Option<String>,
     /// Output folder (created; an earlier camsim run in it is replaced as a whole when this
     /// run completes; any other existing content is refused).
     #[arg(long, default_value = "out/sensor")]
@@ -87,6 +92,12 @@ pub fn run(a: Args) -> Result<()> {
         c.iso = Some(iso);
         c.analog_gain = 1.0;
         sensor = Sensor::from_config_named(c, &format!("{} with --iso {iso}", a.sensor))?;
+    }
+    if let Some(cfa) = &a.cfa {
+        let mut c = sensor.config().clone();
+        c.cfa = cfa.clone();
+        c.cfa_pattern = None;
+        sensor = Sensor::from_config_named(c, &format!("{} with --cfa", a.sensor))?;
     }
     if a.no_noise {
         sensor = sensor.with_noise(NoiseSwitches::none());
@@ -126,6 +137,12 @@ pub fn run(a: Args) -> Result<()> {
     let r0 = &frame.raw[0];
     camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), r0.rows, r0.cols, &r0.dn, r0.bits)?;
     common::commit(out)?;
+    if !sensor.is_bayer() {
+        let layout = sensor.cfa_layout();
+        let per: Vec<String> =
+            layout.filters().iter().zip(&frame.mean_electrons_by_filter).map(|(f, e)| format!("{f} {e:.0}")).collect();
+        say(format!("CFA {}: mean electrons {}", layout.name(), per.join(", ")));
+    }
     say(format!(
         "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
         frame.raw.len(),

@@ -1,0 +1,229 @@
+//! General colour filter arrays: a repeating tile of N x M cells (N, M <= 8), each naming one
+//! filter (ISETCam `sensorSet(sensor, 'pattern', P)` with `filterNames`: P holds indices into the
+//! filter list). Bayer patterns are the 2x2 case with filters r, g, b ([`CfaLayout::from_bayer`]);
+//! RGBW and Quad Bayer are presets ([`CfaLayout::parse`]).
+
+use crate::error::{CoreError, Result};
+use crate::raw::CfaPattern;
+
+/// Largest tile side, cells.
+pub const MAX_CFA_SIDE: usize = 8;
+
+/// A repeating CFA tile: `rows` x `cols` cells, row-major, each an index into `filters`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CfaLayout {
+    rows: usize,
+    cols: usize,
+    cells: Vec<u8>,
+    filters: Vec<String>,
+}
+
+/// Canonical (lower-case) filter name of a colour alias: `red` -> `r`, `white`/`pan`/`clear` -> `w`...
+pub fn canonical_filter_name(name: &str) -> String {
+    let n = name.trim().to_ascii_lowercase();
+    match n.as_str() {
+        "r" | "red" => "r".into(),
+        "g" | "green" => "g".into(),
+        "b" | "blue" => "b".into(),
+        "w" | "white" | "pan" | "panchromatic" | "clear" => "w".into(),
+        "c" | "cyan" => "c".into(),
+        "m" | "magenta" => "m".into(),
+        "y" | "yellow" => "y".into(),
+        _ => n,
+    }
+}
+
+/// TIFF/EP CFAPattern colour codes (TIFF/EP ISO 12234-2 §5.2.4; DNG 1.4 CFAPlaneColor):
+/// 0 red, 1 green, 2 blue, 3 cyan, 4 magenta, 5 yellow, 6 white.
+const DNG_CODES: [&str; 7] = ["r", "g", "b", "c", "m", "y", "w"];
+
+impl CfaLayout {
+    /// A layout from rows of filter names (aliases as [`canonical_filter_name`]). Filters are
+    /// numbered r, g, b first (those present), then the others in order of first appearance.
+    pub fn from_names(pattern: &[Vec<String>]) -> Result<CfaLayout> {
+        let bad = |m: String| CoreError::invalid("cfa pattern", m);
+        let rows = pattern.len();
+        let cols = pattern.first().map_or(0, |r| r.len());
+        if rows == 0 || cols == 0 {
+            return Err(bad("is empty; give rows of filter names, e.g. [[\"r\", \"g\"], [\"g\", \"b\"]]".into()));
+        }
+        if rows > MAX_CFA_SIDE || cols > MAX_CFA_SIDE {
+            return Err(bad(format!("{rows} x {cols} cells; at most {MAX_CFA_SIDE} x {MAX_CFA_SIDE}")));
+        }
+        if let Some(i) = pattern.iter().position(|r| r.len() != cols) {
+            return Err(bad(format!("row {i} has {} cells, row 0 has {cols}", pattern[i].len())));
+        }
+        let names: Vec<String> = pattern.iter().flatten().map(|s| canonical_filter_name(s)).collect();
+        if let Some(n) = names.iter().find(|n| n.is_empty()) {
+            return Err(bad(format!("empty filter name '{n}'")));
+        }
+        let mut filters: Vec<String> = ["r", "g", "b"].iter().filter(|c| names.iter().any(|n| n == *c)).map(|c| c.to_string()).collect();
+        for n in &names {
+            if !filters.contains(n) {
+                filters.push(n.clone());
+            }
+        }
+        let cells = names.iter().map(|n| filters.iter().position(|f| f == n).unwrap_or(0) as u8).collect();
+        Ok(CfaLayout { rows, cols, cells, filters })
+    }
+
+    /// A 2x2 Bayer pattern (filters r, g, b).
+    pub fn from_bayer(p: CfaPattern) -> CfaLayout {
+        CfaLayout { rows: 2, cols: 2, cells: p.channels().map(|c| c as u8).to_vec(), filters: vec!["r".into(), "g".into(), "b".into()] }
+    }
+
+    /// A Bayer name (`RGGB`, `GRBG`, `GBRG`, `BGGR`) or a preset: `RGBW` (2x2, R G / W B: one green
+    /// of RGGB replaced by a panchromatic pixel), `quad-bayer`
+    /// (4x4, each RGGB colour on a 2x2 block of pixels: Sony "Quad Bayer", also called Tetracell).
+    pub fn parse(name: &str) -> Result<CfaLayout> {
+        if let Ok(p) = CfaPattern::parse(name) {
+            return Ok(CfaLayout::from_bayer(p));
+        }
+        let s = |v: &[&[&str]]| v.iter().map(|r| r.iter().map(|c| c.to_string()).collect()).collect::<Vec<Vec<String>>>();
+        match name.trim().to_ascii_lowercase().replace('_', "-").as_str() {
+            "rgbw" => CfaLayout::from_names(&s(&[&["r", "g"], &["w", "b"]])),
+            "quad-bayer" | "quadbayer" | "tetracell" => {
+                CfaLayout::from_names(&s(&[&["r", "r", "g", "g"], &["r", "r", "g", "g"], &["g", "g", "b", "b"], &["g", "g", "b", "b"]]))
+            }
+            _ => Err(CoreError::invalid(
+                "cfa",
+                format!("'{name}' is not one of RGGB, GRBG, GBRG, BGGR, RGBW, quad-bayer (or give cfa_pattern)"),
+            )),
+        }
+    }
+
+    /// Tile rows (N).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+    /// Tile columns (M).
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+    /// Filter names (canonical, lower case); cells index this list.
+    pub fn filters(&self) -> &[String] {
+        &self.filters
+    }
+    /// Index of filter `name` (any alias), if the layout has it.
+    pub fn filter_index(&self, name: &str) -> Option<usize> {
+        let n = canonical_filter_name(name);
+        self.filters.iter().position(|f| *f == n)
+    }
+
+    /// Filter index at pixel (row, col) of the image (the tile repeats from the top-left pixel).
+    #[inline]
+    pub fn filter_at(&self, row: usize, col: usize) -> usize {
+        self.cells[(row % self.rows) * self.cols + col % self.cols] as usize
+    }
+
+    /// The Bayer pattern this layout is, if it is one (2x2, filters r, g, b, two greens on a diagonal).
+    pub fn as_bayer(&self) -> Option<CfaPattern> {
+        if self.rows != 2 || self.cols != 2 || self.filters.len() != 3 || self.filters != ["r", "g", "b"] {
+            return None;
+        }
+        CfaPattern::from_dng_codes(&self.cells)
+    }
+
+    /// Short name: the Bayer name, `RGBW`/`quad-bayer` for the presets, else the rows of filter
+    /// names joined by `/` (e.g. `r c/y b`).
+    pub fn name(&self) -> String {
+        if let Some(p) = self.as_bayer() {
+            return p.name().to_string();
+        }
+        for preset in ["RGBW", "quad-bayer"] {
+            if CfaLayout::parse(preset).is_ok_and(|l| l == *self) {
+                return preset.to_string();
+            }
+        }
+        (0..self.rows)
+            .map(|r| (0..self.cols).map(|c| self.filters[self.filter_at(r, c)].as_str()).collect::<Vec<_>>().join(" "))
+            .collect::<Vec<_>>()
+            .join("/")
+    }
+
+    /// Number of pixels of each filter in a `rows` x `cols` image.
+    pub fn pixel_counts(&self, rows: usize, cols: usize) -> Vec<usize> {
+        let mut n = vec![0usize; self.filters.len()];
+        for tr in 0..self.rows.min(rows) {
+            for tc in 0..self.cols.min(cols) {
+                n[self.filter_at(tr, tc)] += (rows - tr).div_ceil(self.rows) * (cols - tc).div_ceil(self.cols);
+            }
+        }
+        n
+    }
+
+    /// DNG CFAPattern codes, row-major (TIFF/EP: 0 red ... 6 white); an error names a filter
+    /// (e.g. `ir`) that TIFF/EP has no code for.
+    pub fn dng_codes(&self) -> Result<Vec<u8>> {
+        let codes: Vec<u8> = self
+            .filters
+            .iter()
+            .map(|f| {
+                DNG_CODES.iter().position(|c| c == f).map(|i| i as u8).ok_or_else(|| {
+                    CoreError::invalid("cfa pattern", format!("filter '{f}' has no DNG CFAPattern code (DNG knows r, g, b, c, m, y, w)"))
+                })
+            })
+            .collect::<Result<_>>()?;
+        Ok(self.cells.iter().map(|&i| codes[i as usize]).collect())
+    }
+
+    /// The layout of a DNG CFARepeatPatternDim (`rows`, `cols`) and CFAPattern `codes` (already
+    /// mapped through CFAPlaneColor to TIFF/EP colours 0..=6).
+    pub fn from_dng_codes(rows: usize, cols: usize, codes: &[u8]) -> Result<CfaLayout> {
+        if rows * cols != codes.len() {
+            return Err(CoreError::invalid("CFAPattern", format!("{} codes for a {rows} x {cols} pattern", codes.len())));
+        }
+        let mut names = Vec::with_capacity(rows);
+        for r in 0..rows {
+            let mut row = Vec::with_capacity(cols);
+            for &c in &codes[r * cols..(r + 1) * cols] {
+                let n =
+                    DNG_CODES.get(c as usize).ok_or_else(|| CoreError::invalid("CFAPattern", format!("colour code {c} is not 0..=6")))?;
+                row.push(n.to_string());
+            }
+            names.push(row);
+        }
+        CfaLayout::from_names(&names)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_and_bayer() {
+        for p in [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr] {
+            let l = CfaLayout::from_bayer(p);
+            assert_eq!(l.as_bayer(), Some(p));
+            assert_eq!(CfaLayout::parse(p.name()).unwrap(), l);
+            for (r, c) in [(0, 0), (3, 5), (6, 1)] {
+                assert_eq!(l.filter_at(r, c), p.channel_at(r, c).index());
+            }
+        }
+        let w = CfaLayout::parse("RGBW").unwrap();
+        assert_eq!(w.filters(), ["r", "g", "b", "w"]);
+        assert_eq!(w.filter_at(1, 0), 3);
+        assert_eq!(w.as_bayer(), None);
+        assert_eq!(w.name(), "RGBW");
+        let q = CfaLayout::parse("quad_bayer").unwrap();
+        assert_eq!((q.rows(), q.cols()), (4, 4));
+        assert_eq!(q.pixel_counts(8, 8), vec![16, 32, 16]);
+        // 5 x 6 image: rows 0,1,4 x cols 0,1,4,5 are red = 3 x 4.
+        assert_eq!(q.pixel_counts(5, 6)[0], 12);
+        assert_eq!(q.name(), "quad-bayer");
+        assert!(CfaLayout::parse("RGBX").is_err());
+    }
+
+    #[test]
+    fn dng_codes_round_trip_and_reject_ir() {
+        let l = CfaLayout::from_names(&[vec!["cyan".into(), "Yellow".into()], vec!["w".into(), "magenta".into()]]).unwrap();
+        let codes = l.dng_codes().unwrap();
+        assert_eq!(codes, vec![3, 5, 6, 4]);
+        assert_eq!(CfaLayout::from_dng_codes(2, 2, &codes).unwrap(), l);
+        let ir = CfaLayout::from_names(&[vec!["r".into(), "ir".into()], vec!["g".into(), "b".into()]]).unwrap();
+        assert!(ir.dng_codes().unwrap_err().to_string().contains("'ir'"));
+        assert!(CfaLayout::from_names(&[vec!["r".into(); 9]]).is_err());
+        assert!(CfaLayout::from_names(&[vec!["r".into(), "g".into()], vec!["b".into()]]).is_err());
+    }
+}
