@@ -253,7 +253,7 @@ pub fn raw_plane(raw: &RawImage) -> Result<Plane> {
 /// position in the 2x2 block), black subtracted, in DN. Sub-grid pixel (i, j) is sensor pixel
 /// (2 i + dr, 2 j + dc) with (dr, dc) from [`cfa_channel_offset`]; its pitch is twice the sensor's.
 pub fn cfa_channel_plane(raw: &RawImage, ch: CfaChannel, which_green: Option<usize>) -> Result<Plane> {
-    check_raw(raw)?;
+    check_bayer_raw(raw)?;
     let (dr, dc) = cfa_channel_offset(raw.cfa, ch, which_green)?;
     let rows = (raw.rows - dr).div_ceil(2);
     let cols = (raw.cols - dc).div_ceil(2);
@@ -283,6 +283,13 @@ pub fn sub_grid_rect(rect: &Rect, offset: (usize, usize)) -> Rect {
 }
 
 /// Error unless the raw frame's sizes agree with its data.
+/// [`check_raw`] for the per-channel statistics, which read the 2x2 Bayer layout: a frame with
+/// another CFA (RGBW, Quad Bayer, ...) is refused rather than read as Bayer.
+pub(crate) fn check_bayer_raw(raw: &RawImage) -> Result<()> {
+    check_raw(raw)?;
+    raw.require_bayer("CFA channel statistics").map_err(|e| AnalysisError::invalid("raw image", e.to_string()))
+}
+
 pub(crate) fn check_raw(raw: &RawImage) -> Result<()> {
     if raw.rows == 0 || raw.cols == 0 || raw.rows.checked_mul(raw.cols) != Some(raw.dn.len()) {
         return Err(AnalysisError::invalid(
@@ -362,6 +369,18 @@ mod tests {
             assert_ne!(g0, g1);
             assert!(cfa_channel_offset(cfa, CfaChannel::G, Some(2)).is_err());
         }
+    }
+
+    #[test]
+    fn a_non_bayer_frame_is_refused_by_the_channel_statistics() {
+        let mut raw = raw_with(CfaPattern::Rggb);
+        raw.layout = Some(camsim_core::cfa::CfaLayout::parse("RGBW").unwrap());
+        let e = cfa_channel_plane(&raw, CfaChannel::R, None).unwrap_err().to_string();
+        assert!(e.contains("RGBW"), "{e}");
+        let e = crate::roi::raw_rect_moments(&raw, &Rect::new(0, 0, 2, 2)).unwrap_err().to_string();
+        assert!(e.contains("Bayer"), "{e}");
+        // The whole mosaic needs no layout: still readable.
+        assert!(raw_plane(&raw).is_ok());
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! simulated and a measured image with the noise a sensor model predicts (paper, Figure 6).
 
 use crate::error::{AnalysisError, Result};
-use crate::image::{check_raw, check_rgb, Moments, Plane, Rect};
+use crate::image::{check_rgb, Moments, Plane, Rect};
 use camsim_core::RawImage;
 use serde::{Deserialize, Serialize};
 
@@ -28,7 +28,7 @@ impl RegionStats {
 
 /// Moments of each CFA channel's pixels (black subtracted) inside `rect` (both greens pooled).
 pub fn raw_rect_moments(raw: &RawImage, rect: &Rect) -> Result<[Moments; 3]> {
-    check_raw(raw)?;
+    crate::image::check_bayer_raw(raw)?;
     rect.check_inside(raw.rows, raw.cols, "raw region")?;
     let mut m = [Moments::default(); 3];
     for r in rect.row..rect.row_end() {
