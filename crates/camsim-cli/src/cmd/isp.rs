@@ -99,6 +99,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
+    // The chart's reflectances serve only the chart fit: read (and check) them before any work.
+    let chart_reflectances = match (&a.chart_reflectances, a.ccm) {
+        (None, _) => None,
+        (Some(p), CcmSource::Chart) => Some(camsim_scene::load_chart_reflectances(p, "--chart-reflectances")?),
+        (Some(_), _) => bail!("--chart-reflectances is for --ccm chart (the colour matrix fitted on the photographed chart)"),
+    };
     let (raw, _info) = camsim_io::dng::read_dng(&a.input)?;
     let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     let grid = WavelengthGrid::default();
@@ -151,8 +157,8 @@ pub fn run(a: Args) -> Result<()> {
             drop(planes);
             let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
             let d65 = camsim_core::tables::illuminant("D65")?;
-            let (target, white) = match &a.chart_reflectances {
-                Some(p) => ccm::chart_xyz(&camsim_scene::load_chart_reflectances(p, "--chart-reflectances")?, &d65, &grid)?,
+            let (target, white) = match &chart_reflectances {
+                Some(r) => ccm::chart_xyz(r, &d65, &grid)?,
                 None => ccm::macbeth_xyz(&d65, &grid)?,
             };
             let m = ccm::fit_ccm(&camera, &target, white, a.ccm_objective).context("--ccm chart")?;
