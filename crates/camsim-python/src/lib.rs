@@ -176,10 +176,11 @@ impl PySimulation {
         let all: Vec<u16> = f.iter().flat_map(|r| r.dn.iter().copied()).collect();
         array(py, &all, &[f.len(), f[0].rows, f[0].cols])
     }
-    /// CFA pattern of the raw frames ("RGGB", ...).
+    /// CFA of the raw frames: a Bayer name ("RGGB", ...), "RGBW", "quad-bayer", or the tile's
+    /// rows of filter names ("r c/y b").
     #[getter]
-    fn cfa(&self) -> &'static str {
-        self.inner.frames[0].cfa.name()
+    fn cfa(&self) -> String {
+        self.inner.frames[0].cfa_layout().name()
     }
     /// Black level, DN.
     #[getter]
@@ -263,7 +264,7 @@ impl PySimulation {
             self.inner.frames.len(),
             r.rows,
             r.cols,
-            r.cfa.name(),
+            r.cfa_layout().name(),
             self.inner.exposure_s,
             self.inner.radiance.bands()
         )
@@ -440,13 +441,16 @@ fn sensor<'py>(
     let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
     let d = PyDict::new(py);
     d.set_item("raw", array(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
-    d.set_item("cfa", r0.cfa.name())?;
+    let layout = r0.cfa_layout();
+    d.set_item("cfa", layout.name())?;
+    d.set_item("filters", layout.filters().to_vec())?;
     d.set_item("black_level", r0.black_level_dn)?;
     d.set_item("white_level", r0.white_level_dn)?;
     d.set_item("bits", r0.bits)?;
     d.set_item("exposure_s", f.exposure_s)?;
     d.set_item("exposures_s", f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>())?;
     d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
+    d.set_item("mean_electrons_by_filter", f.mean_electrons_by_filter.clone())?;
     Ok(d)
 }
 

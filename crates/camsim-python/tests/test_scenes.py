@@ -1,9 +1,11 @@
-"""Scenes users make from their own data: a photograph on a display model (ISETCam
-sceneFromFile), the dead-leaves target and a ColorChecker from another reflectance set."""
+"""Scenes users make from their own data (a photograph on a display model, ISETCam
+sceneFromFile; the dead-leaves target; a ColorChecker from another reflectance set) and a
+non-Bayer sensor driven from Python."""
 
 import pathlib
 
 import numpy as np
+import pytest
 
 import camsim
 
@@ -52,3 +54,20 @@ def test_macbeth_from_an_isetcam_style_reflectance_csv(tmp_path):
     # Patch k (row-major 4 x 6) reflects k/25: patch 24 is 24 times patch 1.
     p1, p24 = L[2, 2], L[1 + 3 * 5 + 1, 1 + 5 * 5 + 1]
     assert abs(p24 / p1 - 24.0) < 1e-3
+
+
+def test_an_rgbw_sensor_reports_its_layout_and_per_filter_electrons():
+    # A flat field through the pixel4a with an RGBW array (R G / W B): the raw's W and G pixels
+    # stand in the ratio of the noise-free per-filter electrons the sensor reports, and W (the
+    # bare pixel, no colour filter) collects the most.
+    wl = np.arange(400.0, 701.0, 10.0)
+    flat = np.full((31, 96, 96), 3e-4, np.float32)  # W/(m^2 nm): about 850 e- in green at 10 ms
+    sens = camsim.presets.sensor("pixel4a")
+    sens["cfa"] = "RGBW"
+    r = camsim.sensor(flat, wl, 1.4e-6, sensor=sens, exposure_s=0.01, rows=64, cols=64, seed=4)
+    assert r["cfa"] == "RGBW" and r["filters"] == ["r", "g", "b", "w"]
+    e = dict(zip(r["filters"], r["mean_electrons_by_filter"]))
+    assert e["w"] > max(e["r"], e["g"], e["b"])
+    raw = r["raw"][0].astype(float) - r["black_level"]
+    g, w = raw[0::2, 1::2].mean(), raw[1::2, 0::2].mean()
+    assert w / g == pytest.approx(e["w"] / e["g"], rel=0.02)

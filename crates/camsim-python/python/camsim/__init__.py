@@ -149,8 +149,10 @@ def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: f
     exposure_s None: auto-exposure; a list of times: an exposure bracket / burst (ISETCam's vector
     exposure time), `frames` raws per time in list order, each with its own temporal noise.
     iso: sensitivity (analog gain = base_iso / iso; the sensor needs base_iso). rows/cols: a centred
-    window of the sensor. Returns a dict: raw (frames, rows, cols) uint16, cfa, black_level,
-    white_level, bits, exposure_s (the first raw's), exposures_s (per raw), mean_electrons_rgb."""
+    window of the sensor. Returns a dict: raw (frames, rows, cols) uint16, cfa (a Bayer name, "RGBW",
+    "quad-bayer" or the tile's filter names), filters (the CFA's filter names), black_level,
+    white_level, bits, exposure_s (the first raw's), exposures_s (per raw), mean_electrons_rgb,
+    mean_electrons_by_filter (noise-free means in the order of filters)."""
     e = np.ascontiguousarray(irradiance, dtype=np.float32)
     bracket = None
     if exposure_s is not None and not isinstance(exposure_s, (int, float)):
