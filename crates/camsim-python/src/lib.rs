@@ -794,7 +794,7 @@ fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
     let (r, _) = py.detach(|| camsim::io::dng::read_dng(&path)).map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("raw", array(py, &r.dn, &[r.rows, r.cols])?)?;
-    d.set_item("cfa", r.cfa.name())?;
+    d.set_item("cfa", r.cfa_layout().name())?;
     d.set_item("black_level", r.black_level_dn)?;
     d.set_item("white_level", r.white_level_dn)?;
     d.set_item("bits", r.bits)?;

@@ -71,3 +71,16 @@ def test_an_rgbw_sensor_reports_its_layout_and_per_filter_electrons():
     raw = r["raw"][0].astype(float) - r["black_level"]
     g, w = raw[0::2, 1::2].mean(), raw[1::2, 0::2].mean()
     assert w / g == pytest.approx(e["w"] / e["g"], rel=0.02)
+
+
+def test_an_rgbw_simulation_writes_a_dng_that_reads_back_as_rgbw(tmp_path):
+    sens = camsim.presets.sensor("pixel4a")
+    sens["cfa"] = "RGBW"
+    cfg = {"seed": 2, "scene": {"kind": "uniform", "rows": 16, "cols": 16},
+           "sensor": {"config": sens, "rows": 32, "cols": 48}, "capture": {"exposure_ms": 5.0}}
+    sim = camsim.simulate(cfg)
+    assert sim.cfa == "RGBW"
+    sim.write(tmp_path / "run", save="raw")
+    back = camsim.read_dng(tmp_path / "run" / "raw.dng")
+    assert back["cfa"] == "RGBW"
+    assert np.array_equal(back["raw"], sim.raw[0])
