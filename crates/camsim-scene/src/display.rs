@@ -62,7 +62,7 @@ impl Transfer {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Display {
     /// Red, green and blue primaries' spectral radiance at full drive, W/(sr m^2 nm).
-    pub primaries: [Vec<f64>; 3],
+    pub primaries_w_per_sr_m2_nm: [Vec<f64>; 3],
 }
 
 /// The Gaussian bands the built-in `srgb` display mixes: (centre nm, standard deviation nm).
@@ -99,7 +99,7 @@ impl Display {
             }
             *p = (0..grid.len()).map(|b| (0..3).map(|j| a[j] * bands[j][b]).sum()).collect();
         }
-        Ok(Display { primaries })
+        Ok(Display { primaries_w_per_sr_m2_nm: primaries })
     }
 
     /// A display from a CSV of primaries (`wavelength_nm` and three columns found by name: `r`/
@@ -124,12 +124,12 @@ impl Display {
         if primaries.iter().all(|p| p.iter().all(|v| *v == 0.0)) {
             return Err(CoreError::invalid(&key, format!("no primary emits between {} and {} nm", grid.start_nm, grid.end_nm())));
         }
-        Ok(Display { primaries })
+        Ok(Display { primaries_w_per_sr_m2_nm: primaries })
     }
 
     /// Luminance of each primary at full drive, cd/m^2.
     pub fn primary_luminance_cd_m2(&self, grid: &WavelengthGrid) -> [f64; 3] {
         let cmfs = Cmfs::on(grid);
-        [0, 1, 2].map(|i| cmfs.luminance_cd_m2(&self.primaries[i]))
+        [0, 1, 2].map(|i| cmfs.luminance_cd_m2(&self.primaries_w_per_sr_m2_nm[i]))
     }
 }

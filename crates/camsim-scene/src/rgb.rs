@@ -110,7 +110,7 @@ pub(crate) fn create_rgb(c: &RgbScene, grid: &WavelengthGrid) -> Result<Spectral
     };
     let mut img = crate::blank_radiance(c.fov_deg, c.distance_m, file.rows, file.cols, grid)?;
     img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let spd = [display.primaries[0][b] as f32, display.primaries[1][b] as f32, display.primaries[2][b] as f32];
+        let spd = display.primaries_w_per_sr_m2_nm.each_ref().map(|p| p[b] as f32);
         for (o, px) in plane.iter_mut().zip(levels.chunks_exact(3)) {
             *o = px[0] * spd[0] + px[1] * spd[1] + px[2] * spd[2];
         }

@@ -70,7 +70,7 @@ fn display_file_gamma_and_linear_exr_follow_their_closed_forms() {
     let disp = camsim_scene::Display::from_file(&csv, &grid).unwrap();
     for (p, code) in [[128u8, 64, 255], [0, 255, 0]].iter().enumerate() {
         for b in 0..grid.len() {
-            let want: f64 = (0..3).map(|i| (code[i] as f64 / 255.0).powf(2.2) * disp.primaries[i][b]).sum();
+            let want: f64 = (0..3).map(|i| (code[i] as f64 / 255.0).powf(2.2) * disp.primaries_w_per_sr_m2_nm[i][b]).sum();
             let got = img.band(b)[p] as f64;
             assert!((got - want).abs() <= 1e-6 * want.max(1e-9), "pixel {p} band {b}: {got} vs {want}");
         }

@@ -24,17 +24,9 @@ impl Sensor {
         let in_cols = irr.cols;
         let phases = layout.cols();
         let mut rate = vec![0.0f32; rows * cols];
-        let (jmin, jmax) = (0..cols).fold((usize::MAX, 0usize), |(a, b), c| {
-            let (s, w) = ax.entries(c);
-            if w.is_empty() {
-                (a, b)
-            } else {
-                (a.min(s), b.max(s + w.len()))
-            }
-        });
-        if jmin >= jmax {
+        let Some((jmin, jmax)) = ax.input_span() else {
             return Ok(rate);
-        }
+        };
         let range = jmax - jmin;
         const BLOCK_ROWS: usize = 8;
         rate.par_chunks_mut(cols * BLOCK_ROWS).enumerate().for_each_init(Vec::<f32>::new, |tmp, (blk, out)| {

@@ -179,6 +179,20 @@ impl Axis {
         let (a, b) = self.range[c];
         (self.start[c], &self.w[a..b])
     }
+
+    /// The range `[first, end)` of input indices that any output index touches, or None when no
+    /// output sees the input (the row buffer of the general integration path).
+    pub(crate) fn input_span(&self) -> Option<(usize, usize)> {
+        let (lo, hi) = (0..self.start.len()).fold((usize::MAX, 0usize), |(a, b), c| {
+            let (s, w) = self.entries(c);
+            if w.is_empty() {
+                (a, b)
+            } else {
+                (a.min(s), b.max(s + w.len()))
+            }
+        });
+        (lo < hi).then_some((lo, hi))
+    }
 }
 
 impl Sensor {
@@ -283,17 +297,9 @@ impl Sensor {
         let cfa = self.cfa;
         let mut rate = vec![0.0f32; rows * cols];
         // Range of input columns any output column touches (for the general path's row buffer).
-        let (jmin, jmax) = (0..cols).fold((usize::MAX, 0usize), |(a, b), c| {
-            let (s, w) = ax.entries(c);
-            if w.is_empty() {
-                (a, b)
-            } else {
-                (a.min(s), b.max(s + w.len()))
-            }
-        });
-        if jmin >= jmax {
+        let Some((jmin, jmax)) = ax.input_span() else {
             return Ok(rate); // no pixel sees the image
-        }
+        };
         let range = jmax - jmin;
         let fast = match (ax.identity, ay.identity) {
             (Some(x), Some(y)) => Some((x, y)),
