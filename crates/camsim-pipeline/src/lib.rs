@@ -137,8 +137,8 @@ pub struct CaptureSection {
     /// Exposure time, ms. Absent: auto-exposure.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exposure_ms: Option<f64>,
-    /// Auto-exposure target: the 99th percentile of the signal reaches this fraction of the
-    /// voltage swing (0, 1]. Default 0.9.
+    /// Auto-exposure target: the 99th percentile of the brightest colour filter's signal (taken
+    /// over that filter's own pixels) reaches this fraction of the voltage swing (0, 1]. Default 0.9.
     #[serde(default = "default_target")]
     pub auto_target_fraction: f64,
     /// Frames of the same exposure (>= 1); with `exposures_ms`, frames per exposure.

@@ -21,9 +21,12 @@ pub const POISSON_EXACT_BELOW_E: f64 = 100.0;
 pub enum Exposure {
     /// A given exposure time, s (>= 0).
     Seconds(f64),
-    /// Auto-exposure: the time at which the 99th percentile of the noise-free pixel signal reaches
-    /// `target_fraction` of the voltage swing after gain and offset (ISETCam `autoExposure`,
-    /// percentile instead of the maximum).
+    /// Auto-exposure: the time at which the 99th percentile of the noise-free signal of the
+    /// brightest colour filter reaches `target_fraction` of the voltage swing after gain and
+    /// offset (ISETCam `autoExposure`, a percentile per filter instead of the maximum). The
+    /// percentile is taken over each filter's own pixels, so a white patch covering more than 1 %
+    /// of the frame is never clipped by the mix of filters (over the whole mosaic, the reddest
+    /// filter's white pixels are only 1/4 of the patch).
     Auto {
         /// Fraction of the voltage swing, in (0, 1].
         target_fraction: f64,
@@ -395,20 +398,12 @@ impl Sensor {
         Ok(rate)
     }
 
-    /// Exposure time for a capture, given the noise-free electron-rate image.
-    fn resolve_exposure(&self, rate: &[f32], exposure: Exposure) -> Result<f64> {
+    /// Exposure time for a capture, given the noise-free electron-rate image (`rows` x `cols`).
+    fn resolve_exposure(&self, rate: &[f32], rows: usize, cols: usize, exposure: Exposure) -> Result<f64> {
         match exposure {
             Exposure::Seconds(t) => Ok(t),
             Exposure::Auto { target_fraction } => {
-                // 99th percentile of a deterministic strided sample (<= 1 M pixels).
-                let stride = (rate.len() / 1_000_000).max(1);
-                let mut sample: Vec<f32> = rate.iter().step_by(stride).copied().collect();
-                if sample.is_empty() {
-                    return Err(SensorError::input("auto exposure", "the sensor has no pixels"));
-                }
-                let k = ((sample.len() - 1) as f64 * 0.99).round() as usize;
-                let (_, p99, _) = sample.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-                let p99 = *p99 as f64;
+                let p99 = self.brightest_filter_p99(rate, rows, cols)?;
                 let dark_rate_e = if self.noise.dark { self.dark_voltage_v_per_s / self.conversion_gain_v_per_e } else { 0.0 };
                 // (v + offset) / gain = target x swing, v = cg x (rate + dark rate) x t.
                 let v_needed = target_fraction * self.voltage_swing_v * self.analog_gain - self.analog_offset_v;
@@ -432,6 +427,32 @@ impl Sensor {
         }
     }
 
+    /// The largest, over the CFA's filters, of the 99th percentile of that filter's pixels in
+    /// `rate` (e-/s): a deterministic sample of every `stride`-th row and column (<= ~1 M pixels).
+    fn brightest_filter_p99(&self, rate: &[f32], rows: usize, cols: usize) -> Result<f64> {
+        if rate.is_empty() || rows * cols != rate.len() {
+            return Err(SensorError::input("auto exposure", "the sensor has no pixels"));
+        }
+        let layout = self.layout.clone().unwrap_or_else(|| camsim_core::cfa::CfaLayout::from_bayer(self.cfa));
+        // A stride that keeps whole CFA tiles: step over tiles, take every pixel of a sampled tile.
+        let tiles = (rows / layout.rows()).max(1) * (cols / layout.cols()).max(1);
+        let tile_stride = ((tiles as f64 / 1e6).sqrt().ceil() as usize).max(1);
+        let mut by_filter: Vec<Vec<f32>> = vec![Vec::new(); layout.filters().len()];
+        for r in (0..rows).filter(|r| (r / layout.rows()) % tile_stride == 0) {
+            let row = &rate[r * cols..(r + 1) * cols];
+            for (c, v) in row.iter().enumerate().filter(|(c, _)| (c / layout.cols()) % tile_stride == 0) {
+                by_filter[layout.filter_at(r, c)].push(*v);
+            }
+        }
+        let mut p99 = 0.0f64;
+        for sample in by_filter.iter_mut().filter(|s| !s.is_empty()) {
+            let k = ((sample.len() - 1) as f64 * 0.99).round() as usize;
+            let (_, v, _) = sample.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+            p99 = p99.max(*v as f64);
+        }
+        Ok(p99)
+    }
+
     /// Frames from an electron-rate image (`rows` x `cols`, row-major, e-/s). Temporal noise of
     /// frame k is keyed on frame index `frame_base + k`.
     pub(crate) fn capture_from_rate(
@@ -443,7 +464,7 @@ impl Sensor {
         frame_base: u64,
     ) -> Result<Frame> {
         check_capture(capture)?;
-        let exposure_s = self.resolve_exposure(rate, capture.exposure)?;
+        let exposure_s = self.resolve_exposure(rate, rows, cols, capture.exposure)?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
             return Err(SensorError::input("exposure", format!("{exposure_s} s is not a finite time >= 0")));
         }

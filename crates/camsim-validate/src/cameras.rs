@@ -306,9 +306,9 @@ fn measure_color(cam: &Loaded, opts: &CameraCompareOptions, min_extent_m: f64, g
         "[scene]\nkind = \"macbeth\"\nmean_luminance_cd_m2 = 100.0\nfov_deg = {fov}\ndistance_m = 1.2\nilluminant = \"D65\"\n\
          patch_size_px = 16\nborder_px = 2\n"
     ))?;
-    // Auto-exposure to half range: the white patch is ~2 % of the window, so a 99th-percentile
-    // target near full range would clip its most sensitive channel (measured: white ΔE00 14.8 at
-    // 0.8, 3.6 at 0.5 for the pixel4a).
+    // Auto-exposure to half range: the white patch (~2 % of the window) holds the brightest
+    // filter's 99th percentile, so it sits at half the swing, well inside the linear range
+    // (before the percentile was taken per filter, a target near full range clipped it).
     let (raw, exposure_s) = capture_one(cam, &cfg, rows, cols, Exposure::Auto { target_fraction: 0.5 }, opts.seed)?;
     let mut rgb = camsim_isp::try_demosaic_bilinear(&raw)?;
     let d65 = camsim_core::tables::illuminant("D65")?;

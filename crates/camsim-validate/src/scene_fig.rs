@@ -38,7 +38,7 @@ use serde::Serialize;
 
 /// Patches (0-based chart order) whose R/G is compared between positions: neutral 8 ... black.
 pub const GRAY_RG_PATCHES: std::ops::Range<usize> = 19..24;
-/// Auto-exposure of the Cornell box: the 99th percentile of the noise-free signal at this
+/// Auto-exposure of the Cornell box: the brightest filter's 99th percentile of the noise-free signal at this
 /// fraction of the voltage swing (the light itself still saturates; the chart stays linear).
 pub const AUTO_EXPOSURE_FRACTION: f64 = 0.5;
 

@@ -38,7 +38,8 @@ pub struct Args {
     /// Window columns (at most the sensor's columns).
     #[arg(long)]
     pub cols: Option<usize>,
-    /// Exposure time, ms (default: auto-exposure to 90 % of the swing at the 99th percentile).
+    /// Exposure time, ms (default: auto-exposure, the brightest colour filter's 99th percentile at
+    /// 90 % of the swing).
     #[arg(long, conflicts_with = "exposures_ms")]
     pub exposure_ms: Option<f64>,
     /// Exposure bracket / burst: comma-separated exposure times, ms (e.g. 5,10,20); one raw per
