@@ -398,7 +398,7 @@ fn numbers(el: &Element, e: Endian, what: &str, ctx: &Elements) -> PResult<Vec<f
         }
     };
     let d = el.data;
-    if d.len() % size != 0 {
+    if !d.len().is_multiple_of(size) {
         return Err(format!(
             "{}: {what} has {} bytes, not a multiple of its {size}-byte element size",
             ctx.where_(el.offset),
@@ -429,7 +429,7 @@ fn characters(el: &Element, e: Endian, ctx: &Elements) -> PResult<Vec<char>> {
     let bad = |what: &str| format!("{}: char data is not valid {what}", ctx.where_(el.offset));
     match el.data_type {
         MI_UINT16 | MI_UTF16 | MI_INT16 => {
-            if d.len() % 2 != 0 {
+            if !d.len().is_multiple_of(2) {
                 return Err(bad("UTF-16 (odd byte count)"));
             }
             let units: Vec<u16> = d.chunks_exact(2).map(|c| e.u16(c)).collect();

@@ -438,9 +438,9 @@ impl Sensor {
         let tiles = (rows / layout.rows()).max(1) * (cols / layout.cols()).max(1);
         let tile_stride = ((tiles as f64 / 1e6).sqrt().ceil() as usize).max(1);
         let mut by_filter: Vec<Vec<f32>> = vec![Vec::new(); layout.filters().len()];
-        for r in (0..rows).filter(|r| (r / layout.rows()) % tile_stride == 0) {
+        for r in (0..rows).filter(|r| (r / layout.rows()).is_multiple_of(tile_stride)) {
             let row = &rate[r * cols..(r + 1) * cols];
-            for (c, v) in row.iter().enumerate().filter(|(c, _)| (c / layout.cols()) % tile_stride == 0) {
+            for (c, v) in row.iter().enumerate().filter(|(c, _)| (c / layout.cols()).is_multiple_of(tile_stride)) {
                 by_filter[layout.filter_at(r, c)].push(*v);
             }
         }
