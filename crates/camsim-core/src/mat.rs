@@ -445,7 +445,7 @@ fn characters(el: &Element, e: Endian, ctx: &Elements) -> PResult<Vec<char>> {
             Err(_) => Ok(d.iter().map(|b| *b as char).collect()),
         },
         MI_UTF32 | MI_UINT32 | MI_INT32 => {
-            if d.len() % 4 != 0 {
+            if !d.len().is_multiple_of(4) {
                 return Err(bad("UTF-32 (byte count not a multiple of 4)"));
             }
             Ok(d.chunks_exact(4)
