@@ -1,5 +1,11 @@
 //! 3D scenes in the pipeline: load (built-in or pbrt-v4, plus overlay), match the camera to the
 //! sensor, render.
+//!
+//! A pinhole camera renders scene radiance, which the optics stage turns into sensor irradiance.
+//! A lens camera (pbrt-v4 `Camera "realistic"`, ISET3d `"raytransfer"`) already renders the
+//! film irradiance behind its lens, blur, vignetting and distortion included: `simulate` puts its
+//! film on the sensor window ([`fit_lens_film_to_sensor`]) and hands the irradiance straight to
+//! the sensor, skipping the optics stage (which would blur a second time).
 
 use crate::{PipelineError, Progress, RenderSection, Result, SimulateConfig};
 use camsim_core::SpectralImage;
@@ -110,11 +116,75 @@ pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Se
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }
-    match_camera_to_sensor(&mut scene, sensor, optics.config(), w, h)?;
+    if scene.camera.lens.is_some() {
+        fit_lens_film_to_sensor(&mut scene, sensor, w, h)?;
+    } else {
+        match_camera_to_sensor(&mut scene, sensor, optics.config(), w, h)?;
+    }
     Ok(scene)
 }
 
-/// `simulate` with a `[render]` section: render [`render_section_scene`].
+/// A lens camera's film set to the sensor window: the film diagonal becomes the window's
+/// (cols x rows x pixel pitch), the lens keeps its film distance (its focus) and recomputes its
+/// exit-pupil bounds (realistic) or checks the new film against its field heights (ray
+/// transfer). The render (`width` x `height`) must have the window's aspect ratio (within 1 %),
+/// so that each render pixel is a patch of the film of one size; it need not have its pixel count
+/// (the sensor resamples the irradiance at its pitch).
+pub fn fit_lens_film_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, width: usize, height: usize) -> Result<()> {
+    use camsim_scene3d::scene::CameraLens;
+    let (cols, rows) = (sensor.cols() as f64, sensor.rows() as f64);
+    if ((width as f64 / height as f64) / (cols / rows) - 1.0).abs() > 0.01 {
+        return Err(PipelineError::config(format!(
+            "render.resolution = [{width}, {height}]: a lens camera renders the film on the sensor window ({} x {} pixels), so the resolution must have its aspect ratio",
+            sensor.cols(),
+            sensor.rows()
+        )));
+    }
+    let diagonal_mm = cols.hypot(rows) * sensor.pixel_pitch_m() * 1e3;
+    let lens_err = |e: String| {
+        PipelineError::Scene(format!(
+            "the scene's lens camera on the {diagonal_mm:.3} mm diagonal of the sensor window: {e} (simulate puts the film on the sensor window: a smaller window, [sensor] rows and cols, is a smaller film)"
+        ))
+    };
+    let (lens, fov_deg) = match scene.camera.lens.take() {
+        Some(CameraLens::Realistic(l)) => {
+            let camera = camsim_lens::LensCamera::new(l.camera.lens.clone(), l.camera.film_distance_mm, diagonal_mm)
+                .map_err(|e| lens_err(e.to_string()))?;
+            let half = camsim_scene3d::camera::film_half_extent_mm(diagonal_mm, width, height);
+            let fov_deg = 2.0 * (half[0].min(half[1]) / camsim_scene3d::camera::pinhole_image_distance_mm(&camera)).atan().to_degrees();
+            let realistic = camsim_scene3d::scene::RealisticLens { camera: std::sync::Arc::new(camera), film_diagonal_mm: diagonal_mm };
+            (CameraLens::Realistic(realistic), fov_deg)
+        }
+        Some(CameraLens::RayTransfer(l)) => {
+            let (rt, fov_deg) = camsim_scene3d::camera::ray_transfer_lens((*l.rtf).clone(), diagonal_mm, width, height).map_err(lens_err)?;
+            (CameraLens::RayTransfer(rt), fov_deg)
+        }
+        None => return Ok(()),
+    };
+    scene.camera.lens = Some(lens);
+    scene.camera.fov_deg = fov_deg;
+    scene.camera.width = width;
+    scene.camera.height = height;
+    Ok(())
+}
+
+/// The film of a lens camera's render as what it is: sensor-plane spectral irradiance, W/(m^2
+/// nm), sampled at the film's pixel pitch (the realistic camera's weight cos^4(theta) A / D^2 is a
+/// projected solid angle, so its pixel values are E = L x sr; pbrt-v4 4th ed. sec. 5.3.5).
+fn film_as_irradiance(scene: &SceneDescription, img: &mut SpectralImage) {
+    use camsim_scene3d::scene::CameraLens;
+    let diagonal_mm = match &scene.camera.lens {
+        Some(CameraLens::Realistic(l)) => l.film_diagonal_mm,
+        Some(CameraLens::RayTransfer(l)) => l.film_diagonal_mm,
+        None => return,
+    };
+    let half = camsim_scene3d::camera::film_half_extent_mm(diagonal_mm, img.cols, img.rows);
+    img.quantity = camsim_core::Quantity::Irradiance;
+    img.sample_spacing_m = 2.0 * half[0] * 1e-3 / img.cols as f64;
+}
+
+/// `simulate` with a `[render]` section: render [`render_section_scene`]. A lens camera's image
+/// comes back as sensor-plane irradiance (its quantity says so), the others' as scene radiance.
 pub fn render_section(
     r: &RenderSection,
     cfg: &SimulateConfig,
@@ -123,6 +193,7 @@ pub fn render_section(
     progress: &Progress<'_>,
 ) -> Result<(SpectralImage, camsim_render::IdMaps)> {
     let scene = render_section_scene(r, cfg, sensor, optics)?;
-    let out = render_scene(&scene, progress)?;
+    let mut out = render_scene(&scene, progress)?;
+    film_as_irradiance(&scene, &mut out.radiance);
     Ok((out.radiance, out.ids))
 }

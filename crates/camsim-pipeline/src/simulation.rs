@@ -3,7 +3,7 @@
 
 use crate::outputs::{Output, OutputSet};
 use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_stage, PipelineError, Progress, Result, SimulateConfig};
-use camsim_core::{CfaChannel, RawImage, SpectralImage};
+use camsim_core::{CfaChannel, Quantity, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_io::exr::ExrOptions;
@@ -76,14 +76,23 @@ pub struct Simulation {
 
 /// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
 /// seconds each stage took (the one wiring of optics into sensor; `simulate` and
-/// `camsim validate` both use it).
+/// `camsim validate` both use it). An image that is already sensor-plane irradiance (a lens
+/// camera's render, [`crate::render`]) goes to the sensor as it is.
 pub fn image_radiance(radiance: &SpectralImage, optics: &Optics, sensor: &Sensor, capture: &Capture) -> Result<Imaged> {
     let t = Instant::now();
-    let irradiance = optics.compute(radiance)?;
+    let irradiance = optics_stage(radiance, optics)?;
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let frame = sensor.compute(&irradiance, capture)?;
     Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
+}
+
+/// The optics stage, or the image itself when it is already sensor-plane irradiance.
+fn optics_stage(image: &SpectralImage, optics: &Optics) -> Result<SpectralImage> {
+    match image.quantity {
+        Quantity::Irradiance => Ok(image.clone()),
+        _ => Ok(optics.compute(image)?),
+    }
 }
 
 /// [`image_radiance`] for an exposure bracket / burst: `frames_per_exposure` raws for each of
@@ -97,7 +106,7 @@ pub fn image_radiance_bracket(
     seed: u64,
 ) -> Result<Imaged> {
     let t = Instant::now();
-    let irradiance = optics.compute(radiance)?;
+    let irradiance = optics_stage(radiance, optics)?;
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let frame = sensor.compute_bracket(&irradiance, exposures_s, frames_per_exposure, seed)?;
@@ -229,6 +238,12 @@ impl Simulation {
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
         }
+        if outputs.contains(Output::Radiance) && self.radiance.quantity != Quantity::Radiance {
+            files.insert(
+                "radiance.exr".into(),
+                "not written: the scene's lens camera renders the sensor-plane irradiance directly (irradiance.exr); the [optics] section is not used".into(),
+            );
+        }
         if outputs.contains(Output::Depth) {
             let note = match self.radiance.depth_m {
                 Some(_) => "the scene's depth map, m (channel Z)",
@@ -263,7 +278,9 @@ impl Simulation {
                 "exposure_s": self.exposure_s,
                 "mean_electrons_rgb": self.mean_electrons_rgb,
                 "mean_dn_rgb": self.mean_dn_rgb,
-                "scene_mean_luminance_cd_m2": mean_luminance_cd_m2(&self.radiance),
+                // A lens camera renders irradiance (no scene radiance to average).
+                "scene_mean_luminance_cd_m2": (self.radiance.quantity == Quantity::Radiance).then(|| mean_luminance_cd_m2(&self.radiance)),
+                "lens_camera": self.radiance.quantity == Quantity::Irradiance,
                 "radiance_size": [self.radiance.rows, self.radiance.cols, self.radiance.bands()],
                 "irradiance_size": [self.irradiance.rows, self.irradiance.cols, self.irradiance.bands()],
                 "irradiance_sample_spacing_um": self.irradiance.sample_spacing_m * 1e6,
@@ -298,7 +315,7 @@ impl Simulation {
         // on every thread).
         let tasks: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = {
             let mut t: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = Vec::new();
-            if outputs.contains(Output::Radiance) {
+            if outputs.contains(Output::Radiance) && self.radiance.quantity == Quantity::Radiance {
                 t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), &self.radiance, "scene", exr)?)));
             }
             if outputs.contains(Output::Irradiance) {

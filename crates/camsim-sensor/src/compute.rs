@@ -433,7 +433,7 @@ impl Sensor {
         if rate.is_empty() || rows * cols != rate.len() {
             return Err(SensorError::input("auto exposure", "the sensor has no pixels"));
         }
-        let layout = self.layout.clone().unwrap_or_else(|| camsim_core::cfa::CfaLayout::from_bayer(self.cfa));
+        let layout = self.cfa_layout();
         // A stride that keeps whole CFA tiles: step over tiles, take every pixel of a sampled tile.
         let tiles = (rows / layout.rows()).max(1) * (cols / layout.cols()).max(1);
         let tile_stride = ((tiles as f64 / 1e6).sqrt().ceil() as usize).max(1);
