@@ -81,7 +81,9 @@ def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = 
     irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
     uint16, with cfa, black_level, white_level), preview ((rows, cols, 3) uint8), depth,
     noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
-    `camsim simulate` give the same raw values, bit for bit."""
+    `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
+    camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]: radiance
+    then holds that irradiance too (metadata["results"]["lens_camera"] is True)."""
     cfg = load_config(config)
     if seed is not None:
         cfg["seed"] = int(seed)
