@@ -3,8 +3,9 @@
 //! Prints rays/s of wall time and rays per CPU-second (user + system), the second being the
 //! per-core figure that is robust to other load on the machine.
 //!
-//! Run: `cargo run --release -p camsim-render --example time_render [SPP] [SIZE] [RUNS]`
-//! (defaults 16, 512, 3; a small SIZE and one run suit `valgrind --tool=callgrind`).
+//! Run: `cargo run --release -p camsim-render --example time_render [SPP] [SIZE] [RUNS] [SAMPLER]`
+//! (defaults 16, 512, 3, sobol; SAMPLER `independent` or `sobol`; a small SIZE and one run suit
+//! `valgrind --tool=callgrind` or `perf record`).
 use camsim_scene3d::builtin::{scene, BuiltinOptions};
 use camsim_render::render;
 
@@ -15,6 +16,9 @@ fn main() {
     let mut sc = scene("cornell-box", &opts).expect("built-in scene");
     sc.settings.max_depth = 8;
     sc.settings.wavelengths_per_path = 4;
+    if let Some(name) = std::env::args().nth(4) {
+        sc.settings.sampler = camsim_scene3d::scene::SamplerKind::from_name(&name).expect("sampler: independent or sobol");
+    }
     for _ in 0..runs {
         let (u0, s0) = camsim_core::mem::process_cpu_s();
         let out = render(&sc, &|_, _| {}).expect("render");
