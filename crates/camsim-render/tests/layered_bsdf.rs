@@ -161,7 +161,9 @@ fn black_base_reflects_only_the_coating() {
         }
         let want = s / n as f64;
         let want_se = ((s2 / n as f64 - want * want) / n as f64).sqrt();
-        eprintln!("black coated diffuse, alpha 0.3, cos {ct}: albedo {m:.5} +- {se:.5}, rough dielectric reflection {want:.5} +- {want_se:.5}");
+        eprintln!(
+            "black coated diffuse, alpha 0.3, cos {ct}: albedo {m:.5} +- {se:.5}, rough dielectric reflection {want:.5} +- {want_se:.5}"
+        );
         assert!((m - want).abs() < 4.5 * (se * se + want_se * want_se).sqrt(), "{m} vs {want}");
     }
 }
@@ -185,7 +187,9 @@ fn index_matched_coating_over_a_conductor_is_the_bare_conductor() {
         for ct in [0.9, 0.4] {
             let (m, se) = albedo(&coated, dir(ct, 0.5), 100_000, 3);
             let (want, want_se) = albedo(&bare, dir(ct, 0.5), 100_000, 4);
-            eprintln!("index-matched coating over conductor alpha {alpha}, cos {ct}: albedo {m:.4} +- {se:.4}, bare {want:.4} +- {want_se:.4}");
+            eprintln!(
+                "index-matched coating over conductor alpha {alpha}, cos {ct}: albedo {m:.4} +- {se:.4}, bare {want:.4} +- {want_se:.4}"
+            );
             assert!((m - want).abs() < 4.5 * (se * se + want_se * want_se).sqrt() + 1e-4);
         }
     }
@@ -211,7 +215,10 @@ fn clear_coat_over_a_perfect_mirror_releases_the_trapped_light() {
             let f = fr_dielectric(ct as f32, 1.5) as f64;
             let want = 1.0 - (1.0 - f) * f.powi((d / 2) as i32);
             let (m, se) = albedo(&b, dir(ct, 0.0), 100_000, 20 + d as u64);
-            eprintln!("clear coat over mirror, maxdepth {d}, cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4} (one pass {:.4})", 1.0 - f * (1.0 - f));
+            eprintln!(
+                "clear coat over mirror, maxdepth {d}, cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4} (one pass {:.4})",
+                1.0 - f * (1.0 - f)
+            );
             assert!((m - want).abs() < 4.5 * se + 1e-3, "{m} vs {want}");
         }
     }
@@ -527,7 +534,8 @@ fn white_index_matched_coated_sphere_is_invisible_in_a_furnace() {
     let l = 2.5;
     // Reflectance 1 under an index-matched coating, thickness 0: every path carries weight 1,
     // the sphere reads the sky's radiance.
-    let m = Material::CoatedDiffuse { reflectance: white.clone(), roughness: rough(0.3), eta: 1.0, thickness: 0.0, walk: LayerWalk::default() };
+    let m =
+        Material::CoatedDiffuse { reflectance: white.clone(), roughness: rough(0.3), eta: 1.0, thickness: 0.0, walk: LayerWalk::default() };
     // Exact along every BSDF-sampled path; light sampling adds MIS noise (the weights use the
     // walk's stochastic pdf estimate), unbiased.
     let (mean, se, secs) = furnace_render(m, l, 256);

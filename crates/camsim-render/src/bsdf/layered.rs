@@ -83,8 +83,7 @@ impl<const N: usize> Event<N> {
     #[inline(always)]
     fn valid(self) -> Option<Self> {
         let nonzero = self.f.iter().any(|&v| v > 0.0);
-        (nonzero && self.pdf > 0.0 && self.pdf.is_finite() && self.wi.z != 0.0 && self.f.iter().all(|v| v.is_finite()))
-            .then_some(self)
+        (nonzero && self.pdf > 0.0 && self.pdf.is_finite() && self.wi.z != 0.0 && self.f.iter().all(|v| v.is_finite())).then_some(self)
     }
 }
 
@@ -444,8 +443,8 @@ impl<const N: usize> Layered<N> {
                         if pp <= 0.0 || pw.z == 0.0 {
                             continue;
                         }
-                        for i in 0..N {
-                            beta[i] *= layer.albedo[i];
+                        for (b, a) in beta.iter_mut().zip(&layer.albedo) {
+                            *b *= a;
                         }
                         w = pw;
                         z = zp;
@@ -467,8 +466,8 @@ impl<const N: usize> Layered<N> {
                     let Some(bs) = top.sample::<N>(-w, uniform(r), uniform(r), uniform(r), Mode::Radiance, Lobes::Reflection) else {
                         break;
                     };
-                    for i in 0..N {
-                        beta[i] *= bs.f[i] * bs.wi.z.abs() / bs.pdf;
+                    for (b, fe) in beta.iter_mut().zip(&bs.f) {
+                        *b *= fe * bs.wi.z.abs() / bs.pdf;
                     }
                     w = bs.wi;
                 } else {
@@ -484,8 +483,8 @@ impl<const N: usize> Layered<N> {
                     let Some(bs) = bottom.sample(-w, uniform(r), uniform(r), uniform(r)) else {
                         break;
                     };
-                    for i in 0..N {
-                        beta[i] *= bs.f[i] * bs.wi.z.abs() / bs.pdf;
+                    for (b, fe) in beta.iter_mut().zip(&bs.f) {
+                        *b *= fe * bs.wi.z.abs() / bs.pdf;
                     }
                     w = bs.wi;
                     // The base sample's own way out through a rough top.
@@ -583,8 +582,8 @@ impl<const N: usize> Layered<N> {
                     if pp <= 0.0 || pw.z == 0.0 {
                         return None;
                     }
-                    for i in 0..N {
-                        f[i] *= layer.albedo[i] * pp;
+                    for (v, a) in f.iter_mut().zip(&layer.albedo) {
+                        *v *= a * pp;
                     }
                     pdf *= pp;
                     specular_path = false;
@@ -602,8 +601,8 @@ impl<const N: usize> Layered<N> {
             }
             let (uc, u0, u1) = (uniform(r), uniform(r), uniform(r));
             let e = if z == 0.0 { bottom.sample(-w, uc, u0, u1)? } else { top.sample::<N>(-w, uc, u0, u1, Mode::Radiance, Lobes::All)? };
-            for i in 0..N {
-                f[i] *= e.f[i];
+            for (v, fe) in f.iter_mut().zip(&e.f) {
+                *v *= fe;
             }
             pdf *= e.pdf;
             specular_path &= e.specular;
