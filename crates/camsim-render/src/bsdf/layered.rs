@@ -11,7 +11,7 @@
 //! `CoatedConductorBxDF`.
 //!
 //! The three operations are unbiased or consistent Monte Carlo estimates, as in pbrt-v4:
-//! * [`Layered::f`] estimates the BSDF value by `n_samples` walks from `wo` into the layer with
+//! * `Layered::f` estimates the BSDF value by `n_samples` walks from `wo` into the layer with
 //!   next-event estimation towards `wi` through the top (the exit direction pre-sampled from
 //!   `wi` in importance transport, the adjoint of the radiance walk), combined with the walk's
 //!   own exit by the power heuristic (§14.3.2). The weight of the walk's own exit uses the
@@ -20,10 +20,10 @@
 //!   two weights do not sum to 1 through a rough coating (Veach 1997, §9.2: a biased
 //!   combination; measured here as a 5-sigma failure of reciprocity and of the chi-square
 //!   test);
-//! * [`Layered::sample`] follows one walk until it leaves the top; the returned weight
+//! * `Layered::sample` follows one walk until it leaves the top; the returned weight
 //!   `f cos / pdf` is the product of the events' weights (an unbiased estimator of the BSDF
 //!   integral, not a ratio of the estimates of `f` and `pdf`);
-//! * [`Layered::pdf`] estimates the density of the sampled directions by the TRT term
+//! * `Layered::pdf` estimates the density of the sampled directions by the TRT term
 //!   (transmission, reflection at the base, transmission) mixed 9:1 with a uniform sphere
 //!   density (§14.3.3); it only serves multiple importance sampling, where any positive density
 //!   keeps the estimator unbiased.

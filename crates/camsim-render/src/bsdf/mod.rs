@@ -11,6 +11,11 @@
 //! For dielectrics `eta` is the relative index of the side `wo` is *not* on, over the index of
 //! `wo`'s side, seen from the +z side: `eta` applies for `wo.z > 0` and `1 / eta` for
 //! `wo.z < 0` (the tracer orients the frame and passes the matching value).
+//!
+//! The coated BSDFs ([`Bsdf::CoatedDiffuse`], [`Bsdf::CoatedConductor`]) are pbrt-v4's layered
+//! BSDFs: their `eval` and `pdf` are Monte Carlo estimates (deterministic for a given pair of
+//! directions) and a sample's weight is the walk's own unbiased `f cos / pdf`, not the ratio of
+//! the two estimates; see [`layered`].
 
 pub mod fresnel;
 pub mod layered;
