@@ -222,6 +222,23 @@ fn clear_coat_over_a_perfect_mirror_releases_the_trapped_light() {
             assert!((m - want).abs() < 4.5 * se + 1e-3, "{m} vs {want}");
         }
     }
+    // An absorbing metal (eta 0.2, k 3.0 outside, relative to the coating / 1.5) under a layer of
+    // optical depth 0.05: each round trip through the layer multiplies by A^2 F_c (A = exp(-0.05 /
+    // cos_t), F_c the metal's Fresnel reflectance at cos_t inside), each return to the top
+    // escapes with 1 - F: albedo = F + (1 - F)^2 A^2 F_c sum_{k < K} (F A^2 F_c)^k.
+    let (ce, ck, tau) = (0.2f32 / 1.5, 3.0f32 / 1.5, 0.05f64);
+    for d in [2u32, 10] {
+        let b = coated_conductor(1.5, 0.0, ce, ck, 0.0, layer(tau as f32, d));
+        for ct in [0.9, 0.3, 0.08] {
+            let f = fr_dielectric(ct as f32, 1.5) as f64;
+            let cos_t: f64 = (1.0 - (1.0 - ct * ct) / 2.25f64).sqrt();
+            let loop_gain = (-2.0 * tau / cos_t).exp() * fr_complex(cos_t as f32, ce, ck) as f64;
+            let want = f + (1.0 - f).powi(2) * loop_gain * (0..d / 2).map(|k| (f * loop_gain).powi(k as i32)).sum::<f64>();
+            let (m, se) = albedo(&b, dir(ct, 0.0), 100_000, 50 + d as u64);
+            eprintln!("clear coat over absorbing metal, maxdepth {d}, cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4}");
+            assert!((m - want).abs() < 4.5 * se + 1e-3, "{m} vs {want}");
+        }
+    }
     // A rough mirror under the coat: light scattered beyond the critical angle is trapped by
     // total internal reflection and released only by later bounces; the albedo grows with
     // maxdepth towards the rough mirror's own (single-scattering microfacet) albedo.
