@@ -54,13 +54,11 @@
 //!   [`camsim_scene3d::scene::Material::VaryingRoughness`]),
 //!   `dielectric` (`eta` float or spectrum, e.g. `"glass-BK7"`; roughness as conductor),
 //!   `thindielectric` (`eta`), `diffusetransmission` (`reflectance`, `transmittance`, `scale`),
-//!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`; camsim's closed-form layer
-//!   model, exact for a smooth coating, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`; `albedo` must
-//!   be 0; `g`, `maxdepth`, `nsamples` noted and ignored), `coatedconductor`
+//!   `coateddiffuse` (`reflectance`, roughness, `thickness`, `eta`) and `coatedconductor`
 //!   (`interface.roughness`/`uroughness`/`vroughness`, `interface.eta`, `thickness`,
 //!   `conductor.eta`, `conductor.k` or `reflectance`, `conductor.roughness`/`uroughness`/
-//!   `vroughness`, `remaproughness`; camsim's one-pass closed form, darker than pbrt-v4 for rough
-//!   conductors, noted; see `camsim_render::bsdf::Bsdf::CoatedConductor`), `mix` (`materials` two named
+//!   `vroughness`, `remaproughness`), both with pbrt-v4's layered random walk and its `albedo`,
+//!   `g`, `maxdepth`, `nsamples` (see `camsim_render::bsdf::layered`), `mix` (`materials` two named
 //!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
 //!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
 //!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
@@ -134,8 +132,7 @@
 //! # Unsupported, with an error naming file:line:column
 //! Cameras other than `perspective` and `screenwindow`; materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
-//! textures as material parameters other than the roughnesses, `coateddiffuse` with a
-//! scattering layer (`albedo` > 0);
+//! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
 //! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
 //! `alpha` on area lights;

@@ -124,9 +124,12 @@ Shape \"sphere\"\n"
             roughness,
             eta,
             thickness,
+            walk,
             ..
         } => {
             assert_eq!((roughness.u, *eta, *thickness), (0.05, 1.5, 0.02));
+            // pbrt-v4 LayeredBxDF parameters: maxdepth given, nsamples and g defaulted.
+            assert_eq!((walk.max_depth, walk.n_samples, walk.g), (5, 1, 0.0));
         }
         m => panic!("paint: {m:?}"),
     }
@@ -161,8 +164,8 @@ Shape \"sphere\"\n"
         s.notes
     );
     assert!(
-        s.notes.iter().any(|n| n.contains("maxdepth")),
-        "{:?}",
+        !s.notes.iter().any(|n| n.contains("maxdepth")),
+        "maxdepth is read, not ignored: {:?}",
         s.notes
     );
 }
@@ -200,7 +203,8 @@ fn material_errors_name_file_line_and_column() {
         // Unknown parameter: pbrt-v4 reports unused parameters.
         ("Material \"conductor\"\n  \"float roughnes\" 0.1\n", 4, 3, "roughnes"),
         ("Material \"dielectric\" \"float eta\" 1.5 \"rgb reflectance\" [1 1 1]\n", 3, 39, "reflectance"),
-        ("Material \"coateddiffuse\" \"rgb albedo\" [0.5 0.5 0.5]\n", 3, 26, "albedo"),
+        ("Material \"coateddiffuse\" \"integer nsamples\" 0\n", 3, 26, "nsamples"),
+        ("Material \"coatedconductor\" \"float g\" 1\n", 3, 28, "\"g\""),
         ("Material \"conductor\" \"rgb reflectance\" [0.5 0.5 0.5] \"spectrum eta\" \"metal-Au-eta\"\n", 3, 22, "either"),
         ("Material \"dielectric\" \"float eta\" -1\n", 3, 23, "positive"),
         ("Material \"conductor\" \"spectrum eta\" \"metal-Zn-eta\"\n", 3, 22, "metal-Zn-eta"),

@@ -585,6 +585,7 @@ fn coated_conductor_is_read_with_pbrt_names_and_conserves_energy_in_a_furnace() 
         thickness,
         conductor,
         conductor_roughness,
+        walk,
     } = &s.materials[s.shapes[0].material]
     else {
         panic!("{:?}", s.materials[s.shapes[0].material])
@@ -595,17 +596,15 @@ fn coated_conductor_is_read_with_pbrt_names_and_conserves_energy_in_a_furnace() 
     );
     assert_eq!((conductor_roughness.u, conductor_roughness.v), (0.2, 0.3));
     assert!(matches!(conductor, ConductorOptics::EtaK { .. }));
+    assert_eq!((walk.max_depth, walk.n_samples), (10, 1));
     assert!(matches!(&s.materials[s.shapes[1].material],
         Material::CoatedConductor { conductor: ConductorOptics::Reflectance(_), interface_eta, thickness, .. }
             if *interface_eta == 1.5 && *thickness == 0.01));
-    assert!(
-        s.notes.iter().any(|n| n.contains("one-pass closed form")),
-        "{:?}",
-        s.notes
-    );
-    let e = parse("WorldBegin\nMaterial \"coatedconductor\" \"rgb albedo\" [0.5 0.5 0.5]\n")
-        .unwrap_err();
-    assert!(e.to_string().contains("scattering layer"), "{e}");
+    // A scattering layer (pbrt-v4 `albedo`, `g`) is read.
+    let s = parse("WorldBegin\nMaterial \"coatedconductor\" \"rgb albedo\" [0.5 0.5 0.5] \"float g\" 0.3 \"integer nsamples\" 4\nShape \"sphere\"\n")
+        .unwrap();
+    let Material::CoatedConductor { walk, .. } = &s.materials[s.shapes[0].material] else { panic!() };
+    assert_eq!((walk.g, walk.n_samples), (0.3, 4));
     let e = parse("WorldBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] \"spectrum conductor.eta\" \"metal-Au-eta\"\n").unwrap_err();
     assert!(e.to_string().contains("not both"), "{e}");
 
@@ -655,10 +654,11 @@ fn coated_conductor_is_read_with_pbrt_names_and_conserves_energy_in_a_furnace() 
         bare_mean <= 1.0 && bare_max <= 1.05,
         "{bare_mean} {bare_max}"
     );
-    // One pass through a clear coat over the metal: (1 - F)^2 of the bare metal's light and
-    // more, minus the light trapped by total internal reflection (the model's documented loss).
+    // pbrt-v4's random walk releases the light the coating traps by total internal reflection:
+    // the coated metal keeps most of the bare metal's light (camsim's former one-pass closed
+    // form lost about 40 %); it stays below it (each bounce on the rough metal loses some).
     assert!(
-        coated_mean > 0.3 && coated_mean < bare_mean,
+        coated_mean > 0.8 * bare_mean && coated_mean < bare_mean + 0.01,
         "{coated_mean} vs {bare_mean}"
     );
 }

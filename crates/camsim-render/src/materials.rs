@@ -1,13 +1,12 @@
 //! Materials compiled for the tracer: the per-hit choice of a `mix`, the BSDF of a material at a
 //! hit and the path's wavelengths, and the compile step from [`crate::scene::Material`]
-//! (validation, spectrum tables, the coating's return probability).
+//! (validation, spectrum tables, the coatings' layer parameters).
 
-use crate::bsdf::fresnel::coating_return_probability;
-use crate::bsdf::{Bsdf, TrowbridgeReitz};
+use crate::bsdf::{Bsdf, Layer, TrowbridgeReitz};
 use crate::integrator::{ImageTex, Tracer};
 use crate::math::V3;
 use crate::render::RenderError;
-use crate::scene::{ConductorOptics, Material, Roughness};
+use crate::scene::{ConductorOptics, LayerWalk, Material, Roughness};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::texture::{compile_float_texture, compile_texture, eval_float, FTex, Tex, TexCtx};
 
@@ -39,15 +38,14 @@ pub(crate) enum Mat {
         r: Tex,
         eta: f32,
         distrib: TrowbridgeReitz,
-        thickness: f32,
-        r_return: f32,
+        walk: Walk,
     },
     CoatedConductor {
         eta: f32,
         coat: TrowbridgeReitz,
-        thickness: f32,
         optics: CondOptics,
         base: TrowbridgeReitz,
+        walk: Walk,
     },
     Mix {
         materials: [u32; 2],
@@ -66,6 +64,17 @@ pub(crate) enum Mat {
         v: FTex,
         remap: bool,
     },
+}
+
+/// A coating's layer (pbrt-v4 `LayeredBxDF` parameters), compiled: the medium's albedo texture
+/// is evaluated per hit.
+#[derive(Debug, Clone)]
+pub(crate) struct Walk {
+    thickness: f32,
+    albedo: Tex,
+    g: f32,
+    max_depth: u32,
+    n_samples: u32,
 }
 
 /// A conductor's optical constants, compiled.
@@ -128,6 +137,14 @@ impl Tracer {
         }
     }
 
+    /// A coating's layer at a hit: the medium's albedo at the path's wavelengths, clamped to
+    /// [0, 1].
+    #[inline]
+    fn layer_at<const N: usize>(&self, w: &Walk, ctx: &TexCtx, lambdas: &Lambdas<N>) -> Layer<N> {
+        let albedo = self.eval_texture(&w.albedo, ctx, lambdas).map(|a| a.clamp(0.0, 1.0));
+        Layer { thickness: w.thickness, albedo, g: w.g, max_depth: w.max_depth, n_samples: w.n_samples }
+    }
+
     /// pbrt-v4's alpha test of a hit (4th ed. §7.1.1, `GeometricPrimitive::Intersect`) on a
     /// surface with material `m`: false when the hit must be ignored and the ray continued.
     /// `a = alpha(uv)`; `a >= 1` keeps, `a <= 0` ignores, otherwise the hit is kept when a
@@ -171,9 +188,9 @@ impl Tracer {
             Mat::CoatedConductor {
                 eta,
                 coat,
-                thickness,
                 optics,
                 base,
+                walk,
             } => {
                 // pbrt-v4 CoatedConductorMaterial: the conductor's constants relative to the
                 // coating (ce /= ieta, ck /= ieta).
@@ -182,10 +199,10 @@ impl Tracer {
                     Bsdf::CoatedConductor {
                         eta: *eta,
                         coat: *coat,
-                        thickness: *thickness,
                         c_eta: ce.map(|v| v / eta),
                         c_k: ck.map(|v| v / eta),
                         base: *base,
+                        layer: self.layer_at(walk, ctx, lambdas),
                     },
                     false,
                 )
@@ -236,8 +253,7 @@ impl Tracer {
                 r,
                 eta,
                 distrib,
-                thickness,
-                r_return,
+                walk,
             } => {
                 let mut rho = self.eval_texture(r, ctx, lambdas);
                 for v in rho.iter_mut() {
@@ -248,8 +264,7 @@ impl Tracer {
                         reflectance: rho,
                         eta: *eta,
                         distrib: *distrib,
-                        thickness: *thickness,
-                        r_return: *r_return,
+                        layer: self.layer_at(walk, ctx, lambdas),
                     },
                     false,
                 )
@@ -326,6 +341,32 @@ fn distribution(r: &Roughness, material_index: usize) -> Result<TrowbridgeReitz,
 /// (an index is never zero beyond the data), and whether it varies with wavelength.
 /// A conductor's optical constants in render form: eta and k as spectrum tables, or a
 /// reflectance texture (turned into eta = 1, k at each hit, pbrt-v4 `ConductorMaterial`).
+/// A coating's layer: thickness (optical depth, finite and >= 0, checked by the caller), the
+/// medium's albedo texture, `g` in (-1, 1), `max_depth`, `n_samples` >= 1.
+fn compile_walk(
+    walk: &LayerWalk,
+    thickness: f64,
+    material_index: usize,
+    ws: &WavelengthSampler,
+    tables: &mut Vec<SpectrumTable>,
+    images: &mut Vec<crate::integrator::ImageTex>,
+) -> Result<Walk, RenderError> {
+    let err = |message: String| RenderError::Material { index: material_index, message };
+    if !(walk.g > -1.0 && walk.g < 1.0) {
+        return Err(err(format!("coating medium g {} must lie in (-1, 1)", walk.g)));
+    }
+    if walk.n_samples == 0 {
+        return Err(err("coating nsamples must be >= 1".into()));
+    }
+    Ok(Walk {
+        thickness: thickness as f32,
+        albedo: compile_texture(&walk.albedo, material_index, ws, tables, images)?,
+        g: walk.g as f32,
+        max_depth: walk.max_depth,
+        n_samples: walk.n_samples,
+    })
+}
+
 fn compile_conductor_optics(
     optics: &ConductorOptics,
     material_index: usize,
@@ -403,6 +444,7 @@ pub(crate) fn compile_material(
             thickness,
             conductor,
             conductor_roughness,
+            walk,
         } => {
             if !(interface_eta.is_finite() && *interface_eta > 0.0) {
                 return Err(err(format!(
@@ -418,9 +460,9 @@ pub(crate) fn compile_material(
             Mat::CoatedConductor {
                 eta: *interface_eta as f32,
                 coat: distribution(interface_roughness, mi)?,
-                thickness: *thickness as f32,
                 optics,
                 base: distribution(conductor_roughness, mi)?,
+                walk: compile_walk(walk, *thickness, mi, ws, tables, images)?,
             }
         }
         Material::Dielectric { eta, roughness } => {
@@ -456,6 +498,7 @@ pub(crate) fn compile_material(
             roughness,
             eta,
             thickness,
+            walk,
         } => {
             if !(eta.is_finite() && *eta > 0.0) {
                 return Err(err(format!("coated diffuse eta {eta} must be > 0")));
@@ -465,14 +508,11 @@ pub(crate) fn compile_material(
                     "coated diffuse thickness {thickness} must be >= 0"
                 )));
             }
-            let eta = *eta as f32;
-            let r_return = coating_return_probability(eta, *thickness as f32);
             Mat::CoatedDiffuse {
                 r: compile_texture(reflectance, mi, ws, tables, images)?,
-                eta,
+                eta: *eta as f32,
                 distrib: distribution(roughness, mi)?,
-                thickness: *thickness as f32,
-                r_return,
+                walk: compile_walk(walk, *thickness, mi, ws, tables, images)?,
             }
         }
         Material::Mix { materials, amount } => {

@@ -2,11 +2,10 @@
 //! every BSDF's `sample` against its `pdf`, sample weights equal `f cos / pdf`, reciprocity,
 //! energy conservation (directional albedo <= 1), the conductor Fresnel equations against the
 //! closed real-arithmetic form (Born & Wolf), the rough -> smooth limit, and the single-scatter
-//! energy loss of rough microfacet reflection (a bound that grows with roughness).
+//! energy loss of rough microfacet reflection (a bound that grows with roughness). The layered
+//! (coated) BSDFs, whose `f` and `pdf` are stochastic estimates, are tested in `layered_bsdf.rs`.
 
-use camsim_render::bsdf::fresnel::{
-    coating_return_probability, fr_complex, fr_dielectric, fresnel_hemispherical_average,
-};
+use camsim_render::bsdf::fresnel::{fr_complex, fr_dielectric};
 use camsim_render::bsdf::{Bsdf, TrowbridgeReitz};
 use camsim_render::math::V3;
 use rand::Rng;
@@ -145,41 +144,6 @@ fn bsdfs() -> Vec<(String, Bsdf<1>)> {
             },
         ));
     }
-    v.push((
-        "coated diffuse smooth".into(),
-        Bsdf::CoatedDiffuse {
-            reflectance: [0.6],
-            eta: 1.5,
-            distrib: tr(0.0, 0.0),
-            thickness: 0.01,
-            r_return: coating_return_probability(1.5, 0.01),
-        },
-    ));
-    // Coated conductor (pbrt-v4 coatedconductor): smooth coat over a rough metal, rough over
-    // rough, rough over a nearly smooth metal.
-    for (ca, ba) in [(0.0, 0.3), (0.2, 0.35), (0.3, 0.05)] {
-        v.push((
-            format!("coated conductor coat {ca} base {ba}"),
-            Bsdf::CoatedConductor {
-                eta: 1.5,
-                coat: tr(ca, ca),
-                thickness: 0.05,
-                c_eta: [0.2 / 1.5],
-                c_k: [3.0 / 1.5],
-                base: tr(ba, ba),
-            },
-        ));
-    }
-    v.push((
-        "coated diffuse alpha 0.3".into(),
-        Bsdf::CoatedDiffuse {
-            reflectance: [0.6],
-            eta: 1.5,
-            distrib: tr(0.3, 0.3),
-            thickness: 0.01,
-            r_return: coating_return_probability(1.5, 0.01),
-        },
-    ));
     v
 }
 
@@ -307,26 +271,6 @@ fn albedo(b: &Bsdf<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
 fn no_bsdf_creates_energy() {
     let mut all = bsdfs();
     // Extremes: white bases, a thin coating, a lossless conductor, glass from both sides.
-    all.push((
-        "coated white, thickness 0".into(),
-        Bsdf::CoatedDiffuse {
-            reflectance: [1.0],
-            eta: 1.5,
-            distrib: tr(0.0, 0.0),
-            thickness: 0.0,
-            r_return: coating_return_probability(1.5, 0.0),
-        },
-    ));
-    all.push((
-        "coated white rough".into(),
-        Bsdf::CoatedDiffuse {
-            reflectance: [1.0],
-            eta: 1.5,
-            distrib: tr(0.5, 0.5),
-            thickness: 0.0,
-            r_return: coating_return_probability(1.5, 0.0),
-        },
-    ));
     all.push((
         "diffuse transmission white".into(),
         Bsdf::DiffuseTransmission { r: [0.5], t: [0.5] },
@@ -544,102 +488,5 @@ fn nearly_smooth_conductor_albedo_equals_the_smooth_one() {
             eprintln!("alpha 1e-3 conductor ({eta}, {k}) cos {ct}: albedo {m:.5} +- {se:.5}, smooth {want:.5}");
             assert!((m - want).abs() < 2e-3 * want, "{m} vs smooth {want}");
         }
-    }
-}
-
-#[test]
-fn coated_diffuse_albedo_matches_a_photon_random_walk() {
-    // Thickness 0: the return probability is the internal Fresnel average, which reciprocity
-    // ties to the external one: 1 - F_int = (1 - F_ext) / eta^2.
-    let eta = 1.5f32;
-    let f_int = coating_return_probability(eta, 0.0);
-    let from_ext = 1.0 - (1.0 - fresnel_hemispherical_average(eta)) / (eta * eta);
-    assert!(
-        (f_int - from_ext).abs() < 1e-4,
-        "F_int {f_int} vs {from_ext}"
-    );
-    // Independent reference: photons through pbrt-v4's layered configuration (smooth dielectric
-    // over a Lambertian base, a non-scattering layer of optical depth tau): reflected at the top
-    // with F(cos_o), else refracted and attenuated by exp(-tau / cos_t) on the way down;
-    // absorbed by the base with 1 - rho, else sent up cosine-distributed, attenuated, escaping
-    // with 1 - F_in(mu) or reflected down again (attenuated once more).
-    let (rho, tau) = (0.6f32, 0.05f32);
-    let b = Bsdf::<1>::CoatedDiffuse {
-        reflectance: [rho],
-        eta,
-        distrib: tr(0.0, 0.0),
-        thickness: tau,
-        r_return: coating_return_probability(eta, tau),
-    };
-    let mut rng = camsim_core::rng::seeded(77);
-    for ct in [0.9f32, 0.4, 0.1] {
-        let n = 400_000;
-        let mut escaped = 0usize;
-        for _ in 0..n {
-            if rng.gen::<f32>() < fr_dielectric(ct, eta) {
-                escaped += 1;
-                continue;
-            }
-            let cos_t = (1.0 - (1.0 - ct * ct) / (eta * eta)).sqrt();
-            if rng.gen::<f32>() >= (-tau / cos_t).exp() {
-                continue;
-            }
-            loop {
-                if rng.gen::<f32>() >= rho {
-                    break;
-                }
-                let mu = rng.gen::<f32>().sqrt().max(1e-6);
-                if rng.gen::<f32>() >= (-tau / mu).exp() {
-                    break;
-                }
-                if rng.gen::<f32>() >= fr_dielectric(mu, 1.0 / eta) {
-                    escaped += 1;
-                    break;
-                }
-                if rng.gen::<f32>() >= (-tau / mu).exp() {
-                    break;
-                }
-            }
-        }
-        let walk = escaped as f64 / n as f64;
-        let walk_se = (walk * (1.0 - walk) / n as f64).sqrt();
-        let (m, se) = albedo(&b, dir(ct as f64, 0.0), 200_000, 2);
-        eprintln!("coated diffuse cos {ct}: albedo {m:.4} +- {se:.4}, photon walk {walk:.4} +- {walk_se:.4}");
-        assert!(
-            (m - walk).abs() < 4.5 * (se * se + walk_se * walk_se).sqrt(),
-            "{m} vs walk {walk}"
-        );
-    }
-}
-
-/// A smooth coating over a smooth metal reflects only along the mirror direction, with albedo
-/// `F(cos) + (1 - F(cos))^2 exp(-2 thickness / cos_t) F_c(cos_t)` (one pass down and up through
-/// the layer; F from the closed form with k = 0, F_c relative to the coating); never above 1.
-#[test]
-fn smooth_coated_conductor_albedo_closed_form() {
-    let (eta, thickness, ce, ck) = (1.5f64, 0.05f64, 0.2f64 / 1.5, 3.0f64 / 1.5);
-    let b = Bsdf::<1>::CoatedConductor {
-        eta: eta as f32,
-        coat: tr(0.0, 0.0),
-        thickness: thickness as f32,
-        c_eta: [ce as f32],
-        c_k: [ck as f32],
-        base: tr(0.0, 0.0),
-    };
-    assert!(b.is_delta());
-    for ct in [0.95, 0.55, 0.2] {
-        let wo = dir(ct, 0.3);
-        let (m, se) = albedo(&b, wo, 100_000, 11);
-        let f = fresnel_conductor_closed_form(ct, eta, 0.0);
-        let cos_t = (1.0 - (1.0 - ct * ct) / (eta * eta)).sqrt();
-        let fc = fresnel_conductor_closed_form(cos_t, ce, ck);
-        let want = f + (1.0 - f).powi(2) * (-2.0 * thickness / cos_t).exp() * fc;
-        eprintln!(
-            "smooth coated conductor cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4}"
-        );
-        assert!(
-            (m - want).abs() < 4.0 * se + 2e-3 && m <= 1.0,
-            "{m} vs {want}"
-        );
     }
 }

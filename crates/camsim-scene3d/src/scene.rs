@@ -159,21 +159,23 @@ pub enum Material {
     /// Lambertian reflection and transmission (pbrt-v4 `diffusetransmission`), both multiplied
     /// by `scale`.
     DiffuseTransmission { reflectance: Texture, transmittance: Texture, scale: f64 },
-    /// A dielectric coating over a diffuse base (pbrt-v4 `coateddiffuse`; camsim's closed-form
-    /// approximation, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`). `thickness` is pbrt-v4's layer
-    /// thickness, an optical depth (dimensionless: transmittance `exp(-thickness / |cos|)`).
-    CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64 },
+    /// A dielectric coating over a diffuse base (pbrt-v4 `coateddiffuse`, 4th ed. §14.3: a
+    /// stochastic random walk between the interfaces, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`).
+    /// `thickness` is pbrt-v4's layer thickness, an optical depth (dimensionless: transmittance
+    /// `exp(-thickness / |cos|)`); `walk` the medium and the walk's parameters.
+    CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64, walk: LayerWalk },
     /// A dielectric coating over a conductor (pbrt-v4 `coatedconductor`, 4th ed. §14.3):
     /// coating index `interface_eta` and roughness, layer `thickness` (optical depth, as
     /// [`Material::CoatedDiffuse`]), the conductor's optics (relative to the outside, as pbrt-v4
-    /// gives them; divided by the coating's index at render time) and roughness. camsim's
-    /// one-pass closed form, see `camsim_render::bsdf::Bsdf::CoatedConductor`.
+    /// gives them; divided by the coating's index at render time) and roughness, evaluated by
+    /// pbrt-v4's random walk (see `camsim_render::bsdf::Bsdf::CoatedConductor`).
     CoatedConductor {
         interface_eta: f64,
         interface_roughness: Roughness,
         thickness: f64,
         conductor: ConductorOptics,
         conductor_roughness: Roughness,
+        walk: LayerWalk,
     },
     /// Chooses `materials[1]` with probability `amount` and `materials[0]` otherwise, per hit
     /// by a deterministic hash of the hit point and direction (pbrt-v4 `mix`). Indices into
@@ -195,6 +197,34 @@ pub enum Material {
     /// `roughness`, `uroughness`, `vroughness` as float textures evaluated per hit, 4th ed.
     /// §10.4). `remap` as [`Roughness::remap`]; negative texture values count as 0.
     VaryingRoughness { material: usize, u: FloatTexture, v: FloatTexture, remap: bool },
+}
+
+/// The medium between a coating's two interfaces and the random walk that evaluates the
+/// layered BSDF (pbrt-v4 `LayeredBxDF`, 4th ed. §14.3; parameters `albedo`, `g`, `maxdepth`,
+/// `nsamples` of `coateddiffuse` and `coatedconductor`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LayerWalk {
+    /// Single-scattering albedo of the homogeneous medium in the layer (0: no medium, the layer
+    /// only attenuates by `exp(-thickness / |cos|)`); unit extinction per unit of thickness.
+    pub albedo: Texture,
+    /// Henyey-Greenstein asymmetry of the medium's phase function, in (-1, 1).
+    pub g: f64,
+    /// Scattering events of one walk before it is cut (pbrt-v4 default 10).
+    pub max_depth: u32,
+    /// Independent walks averaged per evaluation (pbrt-v4 default 1).
+    pub n_samples: u32,
+}
+
+impl Default for LayerWalk {
+    /// pbrt-v4's defaults: no medium, g 0, maxdepth 10, nsamples 1.
+    fn default() -> Self {
+        LayerWalk {
+            albedo: Texture::Constant(Spectrum::from_pairs(&[(300.0, 0.0), (900.0, 0.0)])),
+            g: 0.0,
+            max_depth: 10,
+            n_samples: 1,
+        }
+    }
 }
 
 /// The optical constants of a conductor.

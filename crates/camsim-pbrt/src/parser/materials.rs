@@ -6,7 +6,7 @@ use super::super::spectra::{param_spectrum, SpectrumUse};
 use super::super::{Loc, PbrtError};
 use super::textures::flat;
 use super::Parser;
-use crate::scene::{ConductorOptics, FloatTexture, Material, Roughness, Texture};
+use crate::scene::{ConductorOptics, FloatTexture, LayerWalk, Material, Roughness, Texture};
 use camsim_core::Spectrum;
 use std::path::Path;
 
@@ -198,6 +198,30 @@ impl Parser {
             .unwrap_or_else(|| Texture::Constant(flat(default))))
     }
 
+    /// The layered BSDF's random walk (pbrt-v4 `CoatedDiffuseMaterial::Create` and
+    /// `CoatedConductorMaterial::Create`): `albedo` (spectrum texture, default 0), `g` (default 0),
+    /// `maxdepth` (default 10), `nsamples` (default 1).
+    fn layer_walk(&self, params: &ParamList, file: &Path, what: &str, loc: &Loc) -> Result<LayerWalk, PbrtError> {
+        let albedo = self.spectrum_texture(params, "albedo", file, 0.0)?;
+        // Errors point at the parameter when it is given, else at the material.
+        let at = |name: &str, types: &[&str]| -> Result<Loc, PbrtError> {
+            Ok(params.get(name, types)?.map(|p| p.loc.clone()).unwrap_or_else(|| loc.clone()))
+        };
+        let g = self.float_param(params, "g", 0.0, what)?;
+        if !(g > -1.0 && g < 1.0) {
+            return Err(at("g", &["float", "texture"])?.err(format!("{what}: \"g\" {g} must lie in (-1, 1)")));
+        }
+        let max_depth = params.int("maxdepth", 10)?;
+        if !(0..=100_000).contains(&max_depth) {
+            return Err(at("maxdepth", &["integer"])?.err(format!("{what}: \"maxdepth\" {max_depth} must lie in 0..=100000")));
+        }
+        let n_samples = params.int("nsamples", 1)?;
+        if !(1..=10_000).contains(&n_samples) {
+            return Err(at("nsamples", &["integer"])?.err(format!("{what}: \"nsamples\" {n_samples} must lie in 1..=10000")));
+        }
+        Ok(LayerWalk { albedo, g, max_depth: max_depth as u32, n_samples: n_samples as u32 })
+    }
+
     /// Build a material of type `ty` from its parameters.
     pub(super) fn material(
         &mut self,
@@ -254,25 +278,7 @@ impl Parser {
                         format!("{what}: a wavelength-dependent eta is taken at 550 nm ({eta:.4})"),
                     );
                 }
-                let albedo_loc = params
-                    .get("albedo", &["rgb", "spectrum", "float", "texture"])?
-                    .map(|p| (p.loc.clone(), p.nums().ok()));
-                if let Some((l, v)) = albedo_loc {
-                    let zero = matches!(v.as_deref(), Some(vals) if vals.iter().all(|x| *x == 0.0));
-                    if !zero {
-                        return Err(l.err(format!("{what}: a scattering layer (\"albedo\" > 0) is not supported by camsim's coated diffuse")));
-                    }
-                }
-                for n in ["g", "maxdepth", "nsamples"] {
-                    if let Some(l) = params.ignore(n) {
-                        self.note(
-                            &l,
-                            format!(
-                                "{what}: \"{n}\" ignored (closed-form layer model, no random walk)"
-                            ),
-                        );
-                    }
-                }
+                let walk = self.layer_walk(params, file, &what, loc)?;
                 if !(thickness >= 0.0) {
                     return Err(loc.err(format!("{what}: thickness {thickness} must be >= 0")));
                 }
@@ -281,6 +287,7 @@ impl Parser {
                     roughness,
                     eta,
                     thickness,
+                    walk,
                 }
             }
             "coatedconductor" => {
@@ -326,31 +333,14 @@ impl Parser {
                     }
                 };
                 let conductor = self.conductor_optics(params, file, loc, "conductor.eta", "conductor.k", &what)?;
-                if let Some(p) = params.get("albedo", &["rgb", "spectrum", "float", "texture"])? {
-                    let zero = matches!(p.nums().ok().as_deref(), Some(vals) if vals.iter().all(|x| *x == 0.0));
-                    if !zero {
-                        return Err(p.loc.err(format!(
-                            "{what}: a scattering layer (\"albedo\" > 0) is not supported"
-                        )));
-                    }
-                }
-                for n in ["g", "maxdepth", "nsamples"] {
-                    if let Some(l) = params.ignore(n) {
-                        self.note(
-                            &l,
-                            format!(
-                                "{what}: \"{n}\" ignored (closed-form layer model, no random walk)"
-                            ),
-                        );
-                    }
-                }
-                self.note(loc, format!("{what}: camsim's one-pass closed form drops the light that the coating reflects back (total internal reflection): darker than pbrt-v4's random walk, most for rough conductors (about 40 % at normal incidence for roughness 0.09 / alpha 0.3)"));
+                let walk = self.layer_walk(params, file, &what, loc)?;
                 Material::CoatedConductor {
                     interface_eta: ieta,
                     interface_roughness,
                     thickness,
                     conductor,
                     conductor_roughness,
+                    walk,
                 }
             }
             "mix" => {

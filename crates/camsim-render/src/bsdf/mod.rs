@@ -11,14 +11,20 @@
 //! For dielectrics `eta` is the relative index of the side `wo` is *not* on, over the index of
 //! `wo`'s side, seen from the +z side: `eta` applies for `wo.z > 0` and `1 / eta` for
 //! `wo.z < 0` (the tracer orients the frame and passes the matching value).
+//!
+//! The coated BSDFs ([`Bsdf::CoatedDiffuse`], [`Bsdf::CoatedConductor`]) are pbrt-v4's layered
+//! BSDFs: their `eval` and `pdf` are Monte Carlo estimates (deterministic for a given pair of
+//! directions) and a sample's weight is the walk's own unbiased `f cos / pdf`, not the ratio of
+//! the two estimates; see [`layered`].
 
-mod coated_conductor;
 pub mod fresnel;
+pub mod layered;
 pub mod microfacet;
 
 use crate::math::V3;
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use fresnel::{fr_complex, fr_dielectric, reflect, refract};
+pub use layered::Layer;
 pub use microfacet::TrowbridgeReitz;
 use std::f32::consts::FRAC_1_PI;
 
@@ -48,39 +54,26 @@ pub enum Bsdf<const N: usize> {
     /// other side (pbrt-v4 `DiffuseTransmissionBxDF`).
     DiffuseTransmission { r: [f32; N], t: [f32; N] },
     /// A dielectric coating (relative index `eta`, roughness `distrib`) over a Lambertian base of
-    /// albedo `reflectance`, in closed form (not pbrt-v4's stochastic `CoatedDiffuseBxDF` random
-    /// walk): the coating's reflection (specular, or Trowbridge-Reitz microfacet when rough) plus
-    /// a diffuse lobe
-    /// `f_d = rho (1 - F(cos_o)) (1 - F(cos_i)) A(o) A(i) / (pi eta^2 (1 - rho R_ret))`,
-    /// where `F` is the smooth-interface Fresnel reflectance, `A(x) = exp(-thickness /
-    /// cos theta_t(x))` the attenuation of one pass through the layer along the refracted
-    /// direction (pbrt-v4's layer transmittance with albedo 0), and `R_ret`
-    /// (`fresnel::coating_return_probability`) the probability that light leaving the base
-    /// returns to it after internal reflection; `1 / (1 - rho R_ret)` sums the inter-reflections
-    /// (Kelemen & Szirmay-Kalos 2001; Weidlich & Wilkie 2007). For a smooth coating this is the
-    /// exact solution of pbrt-v4's configuration (smooth dielectric over a Lambertian base,
-    /// non-scattering layer), which pbrt estimates stochastically; for a rough coating the
-    /// diffuse part keeps the smooth-interface transmission (an approximation that conserves
-    /// energy but, like every single-scattering microfacet model, loses some at grazing angles).
-    /// Reflects on both sides (pbrt-v4's coated diffuse is two-sided).
+    /// albedo `reflectance`, with the medium and walk parameters `layer` (pbrt-v4
+    /// `CoatedDiffuseBxDF`, 4th ed. §14.3): evaluated, sampled and its density estimated by
+    /// pbrt-v4's stochastic random walk between the interfaces, see [`layered`]. Two-sided.
     CoatedDiffuse {
         reflectance: [f32; N],
         eta: f32,
         distrib: TrowbridgeReitz,
-        thickness: f32,
-        r_return: f32,
+        layer: Layer<N>,
     },
-    /// A dielectric coating (relative index `eta`, roughness `coat`, layer optical depth
-    /// `thickness`) over a conductor (`c_eta + i c_k` relative to the coating, roughness `base`):
-    /// pbrt-v4 `coatedconductor` (4th ed. §14.3) in camsim's one-pass closed form, see
-    /// [`coated_conductor`]. Reflects on both sides.
+    /// A dielectric coating (relative index `eta`, roughness `coat`) over a conductor
+    /// (`c_eta + i c_k` relative to the coating, roughness `base`), with the medium and walk
+    /// parameters `layer` (pbrt-v4 `CoatedConductorBxDF`, §14.3), by the random walk of
+    /// [`layered`]. Two-sided.
     CoatedConductor {
         eta: f32,
         coat: TrowbridgeReitz,
-        thickness: f32,
         c_eta: [f32; N],
         c_k: [f32; N],
         base: TrowbridgeReitz,
+        layer: Layer<N>,
     },
 }
 
@@ -131,71 +124,6 @@ impl<const N: usize> BsdfSample<N> {
     }
 }
 
-/// Coated diffuse: the diffuse lobe and the coating's reflection, for `wo`, `wi` in the upper
-/// hemisphere.
-struct Coated<'a, const N: usize> {
-    rho: &'a [f32; N],
-    eta: f32,
-    distrib: TrowbridgeReitz,
-    thickness: f32,
-    r_return: f32,
-}
-
-impl<const N: usize> Coated<'_, N> {
-    /// `(1 - F(cos)) A(cos)`: transmission into the layer and attenuation along the refracted ray.
-    #[inline]
-    fn entry(&self, cos: f32) -> f32 {
-        let sin2_t = (1.0 - cos * cos).max(0.0) / (self.eta * self.eta);
-        let cos_t = (1.0 - sin2_t).max(1e-6).sqrt();
-        (1.0 - fr_dielectric(cos, self.eta)) * (-self.thickness / cos_t).exp()
-    }
-    /// Diffuse lobe value per wavelength.
-    #[inline]
-    fn diffuse(&self, wo: &V3, wi: &V3) -> [f32; N] {
-        let k = self.entry(wo.z) * self.entry(wi.z) * FRAC_1_PI / (self.eta * self.eta);
-        std::array::from_fn(|i| self.rho[i] * k / (1.0 - self.rho[i] * self.r_return))
-    }
-    /// Probability of sampling the coating's reflection rather than the diffuse lobe.
-    #[inline]
-    fn p_spec(&self, wo: &V3) -> f32 {
-        let f = fr_dielectric(wo.z, self.eta);
-        let rho_avg = self.rho.iter().sum::<f32>() / N as f32;
-        let d = (1.0 - f) * rho_avg;
-        if f + d > 0.0 {
-            f / (f + d)
-        } else {
-            1.0
-        }
-    }
-    /// Rough coating reflection `D G F / (4 cos_o cos_i)` and its sampling density.
-    #[inline]
-    fn glossy(&self, wo: &V3, wi: &V3) -> (f32, f32) {
-        let wm = *wo + *wi;
-        if wm.length_squared() == 0.0 {
-            return (0.0, 0.0);
-        }
-        let wm = wm.normalize();
-        let f = self.distrib.d(wm) * self.distrib.g(*wo, *wi) * fr_dielectric(wo.dot(wm), self.eta)
-            / (4.0 * wo.z * wi.z);
-        let pdf = self.distrib.pdf(*wo, wm) / (4.0 * wo.dot(wm).abs());
-        (f, pdf)
-    }
-    /// `(f, pdf)` of the non-delta part.
-    fn eval(&self, wo: &V3, wi: &V3) -> ([f32; N], f32) {
-        let ps = self.p_spec(wo);
-        let mut f = self.diffuse(wo, wi);
-        let mut pdf = (1.0 - ps) * cosine_hemisphere_pdf(wi.z);
-        if !self.distrib.effectively_smooth() {
-            let (fs, ps_pdf) = self.glossy(wo, wi);
-            for v in f.iter_mut() {
-                *v += fs;
-            }
-            pdf += ps * ps_pdf;
-        }
-        (f, pdf)
-    }
-}
-
 impl<const N: usize> Bsdf<N> {
     /// True when the BSDF is only delta lobes: `eval` is zero everywhere, light sampling is
     /// useless and skipped.
@@ -205,31 +133,37 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::Conductor { distrib, .. } => distrib.effectively_smooth(),
             Bsdf::Dielectric { eta, distrib } => *eta == 1.0 || distrib.effectively_smooth(),
             Bsdf::ThinDielectric { .. } => true,
-            Bsdf::CoatedConductor { coat, base, .. } => {
-                coat.effectively_smooth() && base.effectively_smooth()
-            }
+            Bsdf::CoatedConductor { .. } => self.layered().is_some_and(|l| l.is_delta()),
             Bsdf::Diffuse { .. }
             | Bsdf::DiffuseTransmission { .. }
             | Bsdf::CoatedDiffuse { .. } => false,
         }
     }
 
-    /// The coated conductor's lobes, for a BSDF of that kind.
+    /// The layered BSDF of a coated material (the base relative to the coating).
     #[inline]
-    fn coated_conductor(&self) -> Option<coated_conductor::CoatedConductor<'_, N>> {
+    fn layered(&self) -> Option<layered::Layered<N>> {
         match self {
-            Bsdf::CoatedConductor { eta, coat, thickness, c_eta, c_k, base } => {
-                Some(coated_conductor::CoatedConductor {
-                    eta: *eta,
-                    coat: *coat,
-                    thickness: *thickness,
-                    c_eta,
-                    c_k,
-                    base: *base,
-                })
+            Bsdf::CoatedDiffuse { reflectance, eta, distrib, layer } => {
+                Some(layered::Layered::new(*eta, *distrib, Bsdf::Diffuse { reflectance: *reflectance }, layer))
+            }
+            Bsdf::CoatedConductor { eta, coat, c_eta, c_k, base, layer } => {
+                Some(layered::Layered::new(*eta, *coat, Bsdf::Conductor { eta: *c_eta, k: *c_k, distrib: *base }, layer))
             }
             _ => None,
         }
+    }
+
+    /// `(f, pdf)` estimates of a layered BSDF: two-sided (both directions mirrored through the
+    /// origin when `wo` is below, as pbrt-v4's `twoSided` layers), reflection only.
+    #[inline]
+    fn layered_eval(&self, wo: &V3, wi: &V3) -> ([f32; N], f32) {
+        let Some(l) = self.layered() else { return ([0.0; N], 0.0) };
+        if !same_hemisphere(wo, wi) {
+            return ([0.0; N], 0.0);
+        }
+        let (wo, wi) = if wo.z < 0.0 { (-*wo, -*wi) } else { (*wo, *wi) };
+        (l.f(wo, wi), l.pdf(wo, wi))
     }
 
     /// True when the BSDF can send light to the other side of the surface.
@@ -248,15 +182,7 @@ impl<const N: usize> Bsdf<N> {
     pub fn eval(&self, wo: &V3, wi: &V3) -> ([f32; N], f32) {
         const ZERO: f32 = 0.0;
         match self {
-            Bsdf::CoatedConductor { .. } => {
-                // Two-sided: mirror both directions to the upper hemisphere.
-                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
-                let (wo, wi) = (V3::new(wo.x, wo.y, wo.z * s), V3::new(wi.x, wi.y, wi.z * s));
-                match self.coated_conductor() {
-                    Some(c) => c.eval(&wo, &wi),
-                    None => ([ZERO; N], 0.0),
-                }
-            }
+            Bsdf::CoatedConductor { .. } | Bsdf::CoatedDiffuse { .. } => self.layered_eval(wo, wi),
             Bsdf::Diffuse { reflectance } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
@@ -312,28 +238,6 @@ impl<const N: usize> Bsdf<N> {
                     )
                 }
             }
-            Bsdf::CoatedDiffuse {
-                reflectance,
-                eta,
-                distrib,
-                thickness,
-                r_return,
-            } => {
-                if !same_hemisphere(wo, wi) {
-                    return ([ZERO; N], 0.0);
-                }
-                // Two-sided: mirror both directions to the upper hemisphere.
-                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
-                let (wo, wi) = (V3::new(wo.x, wo.y, wo.z * s), V3::new(wi.x, wi.y, wi.z * s));
-                Coated {
-                    rho: reflectance,
-                    eta: *eta,
-                    distrib: *distrib,
-                    thickness: *thickness,
-                    r_return: *r_return,
-                }
-                .eval(&wo, &wi)
-            }
         }
     }
 
@@ -342,12 +246,13 @@ impl<const N: usize> Bsdf<N> {
     #[inline]
     pub fn sample(&self, wo: &V3, uc: f32, u0: f32, u1: f32) -> Option<BsdfSample<N>> {
         match self {
-            Bsdf::CoatedConductor { .. } => {
-                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
-                let wo_up = V3::new(wo.x, wo.y, wo.z * s);
-                let mut b = self.coated_conductor()?.sample(&wo_up, uc, u0, u1)?;
-                b.wi_local.z *= s;
-                Some(b)
+            Bsdf::CoatedConductor { .. } | Bsdf::CoatedDiffuse { .. } => {
+                let l = self.layered()?;
+                let flip = wo.z < 0.0;
+                let wo_up = if flip { -*wo } else { *wo };
+                let x = l.sample(wo_up, uc, u0, u1)?;
+                let wi = if flip { -x.wi } else { x.wi };
+                BsdfSample::new(wi, x.weight, x.pdf, x.specular, false, 1.0)
             }
             Bsdf::Diffuse { reflectance } => {
                 // Cosine-weighted on wo's side (pbrt-v4 DiffuseBxDF::Sample_f).
@@ -470,63 +375,6 @@ impl<const N: usize> Bsdf<N> {
                     )
                 }
             }
-            Bsdf::CoatedDiffuse {
-                reflectance,
-                eta,
-                distrib,
-                thickness,
-                r_return,
-            } => {
-                let s = if wo.z < 0.0 { -1.0 } else { 1.0 };
-                let wo_up = V3::new(wo.x, wo.y, wo.z * s);
-                if wo_up.z == 0.0 {
-                    return None;
-                }
-                let c = Coated {
-                    rho: reflectance,
-                    eta: *eta,
-                    distrib: *distrib,
-                    thickness: *thickness,
-                    r_return: *r_return,
-                };
-                let ps = c.p_spec(&wo_up);
-                let flip = |w: V3| V3::new(w.x, w.y, w.z * s);
-                if uc < ps {
-                    if distrib.effectively_smooth() {
-                        // Mirror reflection by the coating: f = F / cos delta, chosen with ps.
-                        let wi = V3::new(-wo_up.x, -wo_up.y, wo_up.z);
-                        let f = fr_dielectric(wo_up.z, *eta);
-                        return BsdfSample::new(flip(wi), [f / ps; N], ps, true, false, 1.0);
-                    }
-                    let wm = distrib.sample_wm(wo_up, u0, u1);
-                    let wi = reflect(wo_up, wm);
-                    if wi.z <= 0.0 {
-                        return None;
-                    }
-                    let (f, pdf) = c.eval(&wo_up, &wi);
-                    return BsdfSample::new(
-                        flip(wi),
-                        std::array::from_fn(|i| f[i] * wi.z / pdf),
-                        pdf,
-                        false,
-                        false,
-                        1.0,
-                    );
-                }
-                let wi = cosine_hemisphere(u0, u1);
-                if wi.z <= 0.0 {
-                    return None;
-                }
-                let (f, pdf) = c.eval(&wo_up, &wi);
-                BsdfSample::new(
-                    flip(wi),
-                    std::array::from_fn(|i| f[i] * wi.z / pdf),
-                    pdf,
-                    false,
-                    false,
-                    1.0,
-                )
-            }
         }
     }
 
@@ -541,6 +389,13 @@ impl<const N: usize> Bsdf<N> {
                     0.0
                 }
             }
+            Bsdf::CoatedConductor { .. } | Bsdf::CoatedDiffuse { .. } => match self.layered() {
+                Some(l) if same_hemisphere(wo, wi) => {
+                    let (wo, wi) = if wo.z < 0.0 { (-*wo, -*wi) } else { (*wo, *wi) };
+                    l.pdf(wo, wi)
+                }
+                _ => 0.0,
+            },
             _ => self.eval(wo, wi).1,
         }
     }
