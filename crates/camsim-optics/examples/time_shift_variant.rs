@@ -33,6 +33,7 @@ fn main() {
             block_px: std::env::var("SV_BLOCK_PX").ok().and_then(|v| v.parse().ok()),
             rotation_oversampling: 3,
             lens_file: lens,
+            rtf_file: None,
             field_zernike: fz,
         };
         match w {
