@@ -9,7 +9,8 @@ fn example() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/pixel4a-rtf-shift-variant.toml"))
 }
 
-/// The example with a 96 x 128 window (and a field of view to match), its RTF path made absolute.
+/// The example with a 96 x 128 window (and a field of view to match), the RTF copied next to the
+/// config and named by a relative path (resolved against the config's folder).
 fn small_config(dir: &std::path::Path, f_number: &str) -> PathBuf {
     let ex = example();
     let text = std::fs::read_to_string(&ex).unwrap();
@@ -27,12 +28,14 @@ fn small_config(dir: &std::path::Path, f_number: &str) -> PathBuf {
                 "count" => "count = 7".to_string(),
                 "step_nm" => "step_nm = 50.0".to_string(),
                 "f_number" => format!("f_number = {f_number}"),
-                "rtf_file" => format!("rtf_file = \"{}\"", rtf.display()),
+                "rtf_file" => "rtf_file = \"lens/pixel4a-rtf.json\"".to_string(),
                 _ => l.to_string(),
             }
         })
         .collect::<Vec<_>>()
         .join("\n");
+    std::fs::create_dir_all(dir.join("lens")).unwrap();
+    std::fs::copy(&rtf, dir.join("lens/pixel4a-rtf.json")).unwrap();
     let p = dir.join("rtf.toml");
     std::fs::write(&p, text).unwrap();
     p

@@ -310,7 +310,7 @@ impl RtfLens {
             }
         }
         let total: f64 = hits.iter().map(|h| h.1).sum();
-        if hits.len() < 16 || !(total > 0.0) {
+        if hits.len() < 16 || total.is_nan() || total <= 0.0 {
             return Err(OpticsError::config(KEY, format!("{}: no ray of the field at {:.4} mm passes", self.what, f.ideal_height_mm)));
         }
         let cen = hits.iter().fold([0.0, 0.0], |a, (p, w)| [a[0] + p[0] * w / total, a[1] + p[1] * w / total]);

@@ -28,9 +28,10 @@
 //! Accuracy / speed: the cost over the shift-invariant tiled blur is one kernel FFT per block and
 //! wavelength (about a third of a block's convolution) plus the kernel rotation and (lens, RTF)
 //! the resampling. Measured at 4032 x 3024 x 31, 2 threads, CPU user time
-//! (`examples/time_shift_variant.rs`): shift-invariant 3.3-3.7 s; traced dgauss f/2.8 (K = 99)
-//! 10.0 s = 2.7x (11.5-11.8 s before the in-place, all-band resampling; it took 4.4 s of it,
-//! streaming a 155 MB per-sample map once per band). Accuracy is set
+//! (`examples/time_shift_variant.rs`, loaded machine): shift-invariant 3.4-3.7 s; traced dgauss
+//! f/2.8 (K = 99) 9.3-9.5 s = 2.7x (11.5-11.8 s = 3.4x before the in-place, all-band resampling,
+//! which took 4.4 s streaming a 155 MB per-sample map once per band, and before the mirror
+//! blocks' shared kernel spectra). Accuracy is set
 //! by the field-height spacing (PSFs mixed linearly between heights) and the block size (the
 //! PSF is constant over a block). Smaller blocks follow the field more closely but the FFT tile
 //! overhead (kernel side K against block side B: cost ~ (B + K)^2 / B^2) grows.
@@ -455,10 +456,9 @@ impl ShiftVariant {
         };
         // Groups: a block whose kernel is built, and the mirror blocks (flip x, flip y) that reuse
         // its spectrum.
-        let mut groups: Vec<(Block, Vec<(Block, bool, bool)>)> = Vec::new();
-        for a in 0..spans_r.len() {
-            for bc in 0..spans_c.len() {
-                let (ma, mb) = (spans_r[a].2, spans_c[bc].2);
+        let mut groups: Vec<BlockGroup> = Vec::new();
+        for (a, &(_, _, ma)) in spans_r.iter().enumerate() {
+            for (bc, &(_, _, mb)) in spans_c.iter().enumerate() {
                 if !mirrored {
                     groups.push((block(a, bc), Vec::new()));
                     continue;
@@ -734,6 +734,10 @@ impl RadialLut {
         d.ceil() as usize + 2
     }
 }
+
+/// A block whose kernel is built and the mirror blocks (flip in x, flip in y) that reuse its
+/// spectrum.
+type BlockGroup = (Block, Vec<(Block, bool, bool)>);
 
 /// One block of the shift-variant blur: its rows and columns, field-height index and weight, azimuth.
 #[derive(Debug, Clone, Copy)]

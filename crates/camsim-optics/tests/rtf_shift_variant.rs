@@ -195,8 +195,8 @@ fn uniform_scene_follows_the_rtf_relative_illumination() {
         let (r, c) = ((r0 as f64 + t * out.rows as f64 / 2.0) as usize, (c0 as f64 + t * out.cols as f64 / 2.0) as usize);
         let h = height(r, c);
         let want = rtf.relative_illumination(&[h], RI_GRID)[0].unwrap();
-        for b in 0..out.bands() {
-            let got = out.data[(b * out.rows + r) * out.cols + c] as f64 / e0[b];
+        for (b, e0b) in e0.iter().enumerate() {
+            let got = out.data[(b * out.rows + r) * out.cols + c] as f64 / e0b;
             worst = worst.max((got / want - 1.0).abs());
             devs.push((got / want - 1.0).abs());
             assert!((got / want - 1.0).abs() < 2e-3, "band {b}, {h:.3} mm: {got} vs {want}");
