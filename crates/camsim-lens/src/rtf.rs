@@ -218,32 +218,50 @@ impl Rtf {
         })
     }
 
+    /// The pass ellipse at input height `r_mm`, with [`Self::irradiance`]'s linear extrapolation up
+    /// to one table step beyond the last position (`None` further out).
+    pub fn pass_region(&self, r_mm: f64) -> Option<PassEllipse> {
+        self.pass_ellipse(r_mm).or_else(|| self.extrapolated_ellipse(r_mm))
+    }
+
     /// Trace a ray given on the input plane (point (x, y) in mm, unit direction toward the lens,
     /// z > 0): `None` when vignetted; else the output point (x, y, z: z measured as the file does)
     /// and unit direction.
     pub fn trace(&self, point_mm: [f64; 2], direction: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
         let r = point_mm[0].hypot(point_mm[1]);
-        // Rotation taking the point to the +y axis: (x, y) -> (x c - y s, x s + y c) with the angle
-        // that maps (px, py) to (0, r): c = py / r, s = px / r.
-        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
-        let rot = |v: [f64; 2]| [v[0] * c - v[1] * s, v[0] * s + v[1] * c];
-        let d = rot([direction[0], direction[1]]);
-        if direction[2] <= 0.0 {
+        if direction[2] <= 0.0 || !self.inside(&self.pass_ellipse(r)?, point_mm, direction) {
             return None;
         }
-        let e = self.pass_ellipse(r)?;
+        Some(self.transfer(point_mm, direction))
+    }
+
+    /// Whether the ray (input-plane point, direction with z > 0), continued to the pass plane,
+    /// lands inside the pass ellipse `e` (given in the frame where the point lies on +y).
+    pub fn inside(&self, e: &PassEllipse, point_mm: [f64; 2], direction: [f64; 3]) -> bool {
+        let r = point_mm[0].hypot(point_mm[1]);
+        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
+        let d = [direction[0] * c - direction[1] * s, direction[0] * s + direction[1] * c];
         let t = self.pass_plane_distance_mm / direction[2];
         let (px, py) = (d[0] * t, r + d[1] * t);
         let (u, v) = ((px - e.center_mm[0]) / e.radii_mm[0], (py - e.center_mm[1]) / e.radii_mm[1]);
-        if u * u + v * v > 1.0 {
-            return None;
-        }
-        let o: Vec<f64> = self.polys.iter().map(|p| p.eval(r, d[0], d[1])).collect();
+        u * u + v * v <= 1.0
+    }
+
+    /// The polynomial transfer of a ray given on the input plane, without the pass test (the
+    /// caller checks [`Self::inside`]): output point (x, y, z) and direction.
+    pub fn transfer(&self, point_mm: [f64; 2], direction: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let r = point_mm[0].hypot(point_mm[1]);
+        // Rotation taking the point to the +y axis: (x, y) -> (x c - y s, x s + y c) with the angle
+        // that maps (px, py) to (0, r): c = py / r, s = px / r.
+        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
+        let d = [direction[0] * c - direction[1] * s, direction[0] * s + direction[1] * c];
+        let mut o = [0.0; 6];
+        o.iter_mut().zip(&self.polys).for_each(|(v, p)| *v = p.eval(r, d[0], d[1]));
         // Rotate back: inverse rotation (x, y) -> (x c + y s, -x s + y c).
         let back = |v: [f64; 2]| [v[0] * c + v[1] * s, -v[0] * s + v[1] * c];
         let pos = back([o[0], o[1]]);
         let dir = back([o[3], o[4]]);
-        Some(([pos[0], pos[1], o[2]], [dir[0], dir[1], o[5]]))
+        ([pos[0], pos[1], o[2]], [dir[0], dir[1], o[5]])
     }
 
     /// Relative illumination at film heights `heights_mm` (film on the input plane, lens focused
@@ -264,7 +282,7 @@ impl Rtf {
     /// linearly from the last two (the shipped Pixel 4a table ends at 3.5 mm; the sensor's
     /// half-diagonal and Zemax's last field are 3.528 mm).
     pub fn irradiance(&self, h_mm: f64, n: usize) -> Option<f64> {
-        let e = self.pass_ellipse(h_mm).or_else(|| self.extrapolated_ellipse(h_mm))?;
+        let e = self.pass_region(h_mm)?;
         let d = self.pass_plane_distance_mm;
         let n = n.max(8);
         let mut s = 0.0;

@@ -1,11 +1,13 @@
 //! Timing of the full-size shift-variant blur against the shift-invariant one (release build):
-//! `cargo run --release -p camsim-optics --example time_shift_variant [invariant|zernike|lens]...`
+//! `cargo run --release -p camsim-optics --example time_shift_variant [invariant|zernike|lens|rtf]...`
 //! (default: all three). 4032 x 3024 x 31 bands, 1.4 um samples, the pixel4a lens geometry.
 //! - invariant: the pixel4a preset with kernels (as examples/time_blur.rs, far tail on);
 //! - zernike: shift-variant, 12 field heights, astigmatism growing with field height (rotated
 //!   kernels);
 //! - lens: shift-variant from the traced dgauss.82deg.4.38mm lens at f/2.8 (Zernike fits per
-//!   field height and wavelength, distortion and relative illumination).
+//!   field height and wavelength, distortion and relative illumination);
+//! - rtf: shift-variant from the Pixel 4a ray-transfer function at its f/3.44 (traced spots with
+//!   diffraction, distortion and relative illumination).
 //!
 //! `SV_BLOCK_PX=N` sets the shift-variant cases' `block_px` (default: the automatic tile).
 use camsim_core::image::ImageGeometry;
@@ -27,12 +29,13 @@ fn main() {
     img.geometry = ImageGeometry { fov_deg: fov, distance_m: 0.0, focal_length_m: 0.0, f_number: 0.0 };
     for w in which {
         let mut c = OpticsConfig::preset("pixel4a").unwrap();
-        let sv = |fz: Option<FieldZernikeConfig>, lens: Option<std::path::PathBuf>| BlurConfig {
+        let sv = |fz: Option<FieldZernikeConfig>, lens: Option<std::path::PathBuf>, rtf: Option<std::path::PathBuf>| BlurConfig {
             method: BlurKind::ShiftVariant,
             field_heights: 12,
             block_px: std::env::var("SV_BLOCK_PX").ok().and_then(|v| v.parse().ok()),
             rotation_oversampling: 3,
             lens_file: lens,
+            rtf_file: rtf,
             field_zernike: fz,
         };
         match w {
@@ -46,6 +49,7 @@ fn main() {
                         zernike_um: vec![row(0.0), row(1.0)],
                     }),
                     None,
+                    None,
                 ));
             }
             "lens" => {
@@ -56,9 +60,19 @@ fn main() {
                     env!("CARGO_MANIFEST_DIR"),
                     "/../../../shared/data/isetcornellbox/lens/dgauss.82deg.4.38mm.json"
                 ));
-                c.blur = Some(sv(None, Some(p)));
+                c.blur = Some(sv(None, Some(p), None));
             }
-            other => panic!("unknown case {other}: invariant, zernike or lens"),
+            "rtf" => {
+                c.f_number = 3.44;
+                c.wavefront = Default::default();
+                c.shading = ShadingConfig::Named(ShadingName::None);
+                let p = std::path::PathBuf::from(concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/../../../shared/data/isetcornellbox/lens/pixel4a-rearcamera-ellipse-raytransfer.json"
+                ));
+                c.blur = Some(sv(None, None, Some(p)));
+            }
+            other => panic!("unknown case {other}: invariant, zernike, lens or rtf"),
         }
         let o = Optics::from_config(&c).unwrap();
         for _ in 0..2 {

@@ -95,6 +95,13 @@ pub struct BlurConfig {
     /// length must be within 2 % of `focal_length_mm`; `shading` must be `"none"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lens_file: Option<PathBuf>,
+    /// Or a ray-transfer function (ISET3d/isetrtf JSON, relative to the config file): PSFs from
+    /// rays traced through it (geometric spot convolved with the diffraction of its pass ellipse),
+    /// distortion from its chief rays and relative illumination from its pass regions
+    /// ([`crate::rtf_psf`]). Its focal length must be within 2 % of `focal_length_mm` and its
+    /// on-axis f-number within 2 % of `f_number`; `shading` must be `"none"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rtf_file: Option<PathBuf>,
     /// Or a table of Zernike terms per field height (added to `[wavefront]`'s terms).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field_zernike: Option<FieldZernikeConfig>,
@@ -434,7 +441,7 @@ impl OpticsConfig {
                 }
             }
         }
-        if let Some(l) = c.blur.as_mut().and_then(|b| b.lens_file.as_mut()) {
+        for l in c.blur.as_mut().into_iter().flat_map(|b| [b.lens_file.as_mut(), b.rtf_file.as_mut()]).flatten() {
             if l.is_relative() {
                 if let Some(dir) = path.parent() {
                     *l = dir.join(&*l);

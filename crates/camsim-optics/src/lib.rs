@@ -22,6 +22,7 @@ pub mod presets;
 pub mod psf;
 pub mod shading;
 pub mod shift_variant;
+pub mod rtf_psf;
 pub mod tail;
 pub mod traced;
 pub mod wavefront;

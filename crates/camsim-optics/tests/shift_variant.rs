@@ -24,7 +24,7 @@ fn config(n: f64, f_mm: f64) -> OpticsConfig {
 }
 
 fn sv(field_heights: usize, block_px: Option<usize>) -> BlurConfig {
-    BlurConfig { method: BlurKind::ShiftVariant, field_heights, block_px, rotation_oversampling: 3, lens_file: None, field_zernike: None }
+    BlurConfig { method: BlurKind::ShiftVariant, field_heights, block_px, rotation_oversampling: 3, lens_file: None, rtf_file: None, field_zernike: None }
 }
 
 /// A radiance image at `distance_m` (0: infinity, then `fov_deg` sets the sampling).

@@ -236,8 +236,9 @@ impl SimulateConfig {
             r.overlay_inline_base = Some(base.to_path_buf());
         }
         self.optics.file.as_mut().map(fix);
-        if let Some(l) = self.optics.config.as_mut().and_then(|c| c.blur.as_mut()).and_then(|b| b.lens_file.as_mut()) {
-            fix(l);
+        if let Some(b) = self.optics.config.as_mut().and_then(|c| c.blur.as_mut()) {
+            b.lens_file.as_mut().map(fix);
+            b.rtf_file.as_mut().map(fix);
         }
         self.sensor.file.as_mut().map(fix);
         if let Some(c) = &mut self.sensor.config {
