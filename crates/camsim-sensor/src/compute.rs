@@ -396,7 +396,7 @@ impl Sensor {
     }
 
     /// Exposure time for a capture, given the noise-free electron-rate image.
-    fn resolve_exposure(&self, rate: &[f32], exposure: Exposure) -> Result<f64> {
+    pub(crate) fn resolve_exposure(&self, rate: &[f32], exposure: Exposure) -> Result<f64> {
         match exposure {
             Exposure::Seconds(t) => Ok(t),
             Exposure::Auto { target_fraction } => {
