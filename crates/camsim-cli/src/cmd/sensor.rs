@@ -184,9 +184,12 @@ fn hdr_capture(sensor: &Sensor, irr: &camsim_core::SpectralImage, capture: Captu
     let m = f.model;
     let peak = f.merged_e[0].iter().fold(0.0f32, |a, b| a.max(*b));
     say(format!(
-        "{} HDR frame(s) ({:?}), exposure {:.3} ms, merged peak {peak:.0} e-, switch at {:.0} e-, dynamic range {:.1} dB -> {}",
+        "{} HDR frame(s) ({}), exposure {:.3} ms, merged peak {peak:.0} e-, switch at {:.0} e-, dynamic range {:.1} dB -> {}",
         f.high.len(),
-        m.mode,
+        match m.mode {
+            camsim_sensor::HdrMode::Dcg => "dual conversion gain",
+            camsim_sensor::HdrMode::SplitPixel => "split pixel",
+        },
         f.exposure_s * 1e3,
         m.switch_e,
         m.dynamic_range_db(),
