@@ -58,11 +58,11 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
     let k_low = 10e-6 * 4096.0 / 0.5;
     let switch_e = 0.8 * (4095.0 - 64.0) / k_high;
     let mut used_low = 0;
-    for i in 0..merged.len() {
+    for (i, m) in merged.iter().enumerate() {
         let e_high = (high.dn[i] as f64 - 64.0) / k_high;
         let want = if e_high < switch_e { e_high } else { (low.dn[i] as f64 - 64.0) / k_low };
         used_low += (e_high >= switch_e) as usize;
-        assert!((merged[i] as f64 - want).abs() <= 1e-3 * want.abs().max(1.0), "pixel {i}: {} vs {want}", merged[i]);
+        assert!((*m as f64 - want).abs() <= 1e-3 * want.abs().max(1.0), "pixel {i}: {m} vs {want}");
     }
     assert!(used_low > 0, "auto-exposure at 90 % of the HCG swing puts some pixels above the switch");
 }

@@ -176,7 +176,10 @@ impl HdrConfig {
     pub(crate) fn validate(&self, s: &crate::config::SensorConfig) -> std::result::Result<(), (String, String)> {
         let bad = |k: &str, m: String| Err((format!("hdr.{k}"), m));
         if !(self.switch_level.is_finite() && self.switch_level > 0.0 && self.switch_level <= 1.0) {
-            return bad("switch_level", format!("must be in (0, 1] (a fraction of the high readout's saturation signal), got {}", self.switch_level));
+            return bad(
+                "switch_level",
+                format!("must be in (0, 1] (a fraction of the high readout's saturation signal), got {}", self.switch_level),
+            );
         }
         let need = |k: &str, v: Option<f64>| -> std::result::Result<f64, (String, String)> {
             match v {
@@ -340,7 +343,9 @@ impl Sensor {
             let (mut hi, mut lo) = (new_raw()?, new_raw()?);
             let mut merged = vec![0.0f32; n];
             hi.dn.par_chunks_mut(cols).zip(lo.dn.par_chunks_mut(cols)).zip(merged.par_chunks_mut(cols)).enumerate().for_each(
-                |(r, ((h, l), m))| self.hdr_row(&model, r, &rate_e_per_s[r * cols..(r + 1) * cols], exposure_s, capture.seed, k as u64, h, l, m),
+                |(r, ((h, l), m))| {
+                    self.hdr_row(&model, r, &rate_e_per_s[r * cols..(r + 1) * cols], exposure_s, capture.seed, k as u64, h, l, m)
+                },
             );
             out.high.push(hi);
             out.low.push(lo);

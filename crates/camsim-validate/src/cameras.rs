@@ -482,10 +482,10 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     figs.push(save_png(dir, "compare_mtf.png", "MTF (ISO 12233 e-SFR) of both cameras against sensor-plane frequency", mtf_fig.png()?)?);
 
     let zp_fig = Figure::new("Zone-plate MTF (demosaicked luminance, all orientations) and slanted edge", "cycles/mm on the sensor", "MTF")
-        .with(Series::new(&format!("{} zone plate", a.label), a.zone_plate.freq_cy_per_mm.clone(), a.zone_plate.mtf.clone(), Style::Line, COLOR_A))
-        .with(Series::new(&format!("{} zone plate", b.label), b.zone_plate.freq_cy_per_mm.clone(), b.zone_plate.mtf.clone(), Style::Line, COLOR_B))
-        .with(Series::new(&format!("{} edge", a.label), a.mtf.freq_cy_per_mm.clone(), a.mtf.mtf.clone(), Style::Dashed, COLOR_A))
-        .with(Series::new(&format!("{} edge", b.label), b.mtf.freq_cy_per_mm.clone(), b.mtf.mtf.clone(), Style::Dashed, COLOR_B))
+        .with(Series::new(format!("{} zone plate", a.label), a.zone_plate.freq_cy_per_mm.clone(), a.zone_plate.mtf.clone(), Style::Line, COLOR_A))
+        .with(Series::new(format!("{} zone plate", b.label), b.zone_plate.freq_cy_per_mm.clone(), b.zone_plate.mtf.clone(), Style::Line, COLOR_B))
+        .with(Series::new(format!("{} edge", a.label), a.mtf.freq_cy_per_mm.clone(), a.mtf.mtf.clone(), Style::Dashed, COLOR_A))
+        .with(Series::new(format!("{} edge", b.label), b.mtf.freq_cy_per_mm.clone(), b.mtf.mtf.clone(), Style::Dashed, COLOR_B))
         .ranges(None, Some((0.0, 1.1)));
     figs.push(save_png(
         dir,

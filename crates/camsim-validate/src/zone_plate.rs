@@ -111,7 +111,8 @@ fn solve3(m: &[[f64; 3]; 3], v: &[f64; 3]) -> Option<[f64; 3]> {
     };
     let d = det(m);
     let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max).powi(3);
-    if !(d.abs() > 1e-12 * scale) {
+    // Also refuses a NaN determinant.
+    if d.is_nan() || d.abs() <= 1e-12 * scale {
         return None;
     }
     let mut x = [0.0; 3];

@@ -54,9 +54,13 @@ fn zone_plate_mtf_self_defocus_and_agreement_with_the_edge() {
     assert!(worst < 0.06, "zone-plate and edge MTF differ by {worst:.3} at mid frequencies");
 
     o.b = CameraSpec::new("pixel4a", blurry.to_string_lossy());
+    o.out_dir = Some(dir.path().join("report"));
     let r = compare_cameras(&o, &|_, _, _| {}).unwrap();
     let sharp = band_mean(&r.a.zone_plate.freq_cy_per_px, &r.a.zone_plate.mtf, 0.1, 0.3);
     let soft = band_mean(&r.b.zone_plate.freq_cy_per_px, &r.b.zone_plate.mtf, 0.1, 0.3);
     eprintln!("zone-plate MTF 0.1-0.3 cy/px: in focus {sharp:.3}, focused at 0.15 m {soft:.3}");
     assert!(soft < 0.7 * sharp, "defocus: {soft:.3} vs {sharp:.3}");
+    assert!(dir.path().join("report/compare_zone_plate.png").is_file());
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("report/results.json")).unwrap()).unwrap();
+    assert_eq!(json["b"]["zone_plate"]["mtf"].as_array().map(|v| v.len()), Some(r.b.zone_plate.mtf.len()));
 }
