@@ -90,7 +90,8 @@ pub fn zone_plate_mtf(
     }
     let (mut freq, mut mtf) = (Vec::new(), Vec::new());
     for b in 0..bins {
-        if count[b] < 16 {
+        // Fewer than 64 pixels (the innermost annuli, radius < ~6 pixels): too little of a cycle for the fit.
+        if count[b] < 64 {
             continue;
         }
         let Some([a, s, c]) = solve3(&normal[b], &rhs[b]) else { continue };
