@@ -116,6 +116,7 @@ fn ten_bit_sensor() -> Sensor {
         noise: Default::default(),
         qe,
         pixel_vignetting: None,
+        hdr: None,
     };
     with_black_level(&Sensor::from_config(c).unwrap(), 64.0)
 }

@@ -399,7 +399,7 @@ impl Sensor {
     }
 
     /// Exposure time for a capture, given the noise-free electron-rate image (`rows` x `cols`).
-    fn resolve_exposure(&self, rate: &[f32], rows: usize, cols: usize, exposure: Exposure) -> Result<f64> {
+    pub(crate) fn resolve_exposure(&self, rate: &[f32], rows: usize, cols: usize, exposure: Exposure) -> Result<f64> {
         match exposure {
             Exposure::Seconds(t) => Ok(t),
             Exposure::Auto { target_fraction } => {

@@ -277,6 +277,9 @@ pub struct SensorConfig {
     /// Pixel vignetting (light lost in the pixel stack at oblique chief rays; absent = none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pixel_vignetting: Option<crate::pixel_vignetting::PixelVignettingConfig>,
+    /// HDR pixel (dual conversion gain or split pixel, [`crate::hdr`]); absent = a plain pixel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hdr: Option<crate::hdr::HdrConfig>,
 }
 
 fn one() -> f64 {
@@ -458,6 +461,9 @@ impl SensorConfig {
         }
         if let Some(pv) = &self.pixel_vignetting {
             pv.validate().map_err(|(key, message)| bad(&key, message))?;
+        }
+        if let Some(h) = &self.hdr {
+            h.validate(self).map_err(|(key, message)| bad(&key, message))?;
         }
         // QE tables.
         let q = &self.qe;

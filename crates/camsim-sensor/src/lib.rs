@@ -20,6 +20,7 @@
 //! to 8 x 8 named filters (`cfa_pattern`, filters from the QE's r, g, b, `w` = panchromatic,
 //! or `[qe.filters]` / extra QE-file columns); [`Sensor::cfa_layout`], [`Frame::mean_electrons_by_filter`].
 //! Pixel vignetting: `[pixel_vignetting]` ([`pixel_vignetting`]).
+//! HDR pixels (dual conversion gain, split pixel): `[hdr]` ([`hdr`], [`Sensor::compute_hdr`]).
 //!
 //! Randomness is keyed on (seed, stage, frame, row), so frames are bit-identical for any thread count.
 //! [`Sensor::predicted_noise_dn`] gives the matching EMVA 1288 noise model and
@@ -32,6 +33,7 @@ pub mod compute;
 pub mod config;
 pub mod emva;
 pub mod error;
+pub mod hdr;
 mod normal;
 pub mod pixel_vignetting;
 mod poisson;
@@ -42,4 +44,5 @@ pub use compute::{Capture, Exposure, Frame, POISSON_EXACT_BELOW_E};
 pub use config::{NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};
+pub use hdr::{HdrConfig, HdrFrame, HdrMode, HdrModel};
 pub use sensor::{NoiseBreakdown, Sensor};

@@ -12,6 +12,8 @@
 //! 3. the ColorChecker under D65: bilinear demosaic, white balance from the illuminant, a 3x3
 //!    colour matrix fitted on the 24 patches (linear sRGB least squares), and CIEDE2000 per patch
 //!    against the chart's true colours (the ISP chain of `camsim isp --ccm chart`);
+//! 4. ISETCam's zone plate: the modulation of the demosaicked luminance against radial frequency
+//!    in every orientation at once ([`crate::zone_plate`]), beside the slanted-edge MTF;
 //!
 //! and `report.html`, `results.json` and the PNG plots (MTF curves overlaid, SNR bars, NPS curves,
 //! ΔE00 bars per patch) are written.
@@ -135,6 +137,21 @@ pub struct MtfMetrics {
     pub edge_angle_deg: f64,
 }
 
+/// Zone-plate MTF of one camera ([`crate::zone_plate`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct ZonePlateMetrics {
+    /// Annulus centre frequencies, cycles/pixel.
+    pub freq_cy_per_px: Vec<f64>,
+    /// The same in cycles/mm on the sensor.
+    pub freq_cy_per_mm: Vec<f64>,
+    /// In-phase modulation of the demosaicked luminance / the scene's modulation.
+    pub mtf: Vec<f64>,
+    /// First frequency where it falls below 0.5, cycles/pixel.
+    pub mtf50_cy_per_px: Option<f64>,
+    /// Sensor pixels per scene sample of the zone plate scene.
+    pub sensor_px_per_sample: f64,
+}
+
 /// Noise of one camera on the uniform field.
 #[derive(Debug, Clone, Serialize)]
 pub struct NoiseMetrics {
@@ -180,6 +197,8 @@ pub struct CameraMetrics {
     pub noise: NoiseMetrics,
     /// Colour.
     pub color: ColorMetrics,
+    /// Zone-plate MTF.
+    pub zone_plate: ZonePlateMetrics,
 }
 
 /// The comparison (written as results.json).
@@ -266,6 +285,42 @@ fn measure_mtf(cam: &Loaded, opts: &CameraCompareOptions, max_pitch_m: f64) -> R
         acutance: ac.acutance,
         pixels_per_degree: ppd,
         edge_angle_deg: s.edge_angle_deg,
+    })
+}
+
+/// The zone plate's MTF: an N x N zone plate (amplitude 0.8) seen at ~0.5 sensor pixels per scene
+/// sample, N = 4 x the window side, so its local frequency reaches ~0.5 cycles/pixel at the
+/// window's edge midpoints (f = r_px / (N k^2)) while the scene stays sampled at 4 samples per
+/// cycle or finer there.
+fn measure_zone_plate(cam: &Loaded, opts: &CameraCompareOptions) -> Result<ZonePlateMetrics> {
+    let n = opts.size_px;
+    let samples = 4 * n;
+    let amplitude = 0.8;
+    let pitch_m = cam.sensor.pixel_pitch_m();
+    let fov = fov_deg(0.5 * samples as f64 * pitch_m, cam.lens.focal_length_mm);
+    let distance_m = 1.2;
+    let cfg = scene_config(&format!(
+        "[scene]\nkind = \"zone_plate\"\nmean_luminance_cd_m2 = 100.0\nfov_deg = {fov}\ndistance_m = {distance_m}\nilluminant = \"D65\"\n\
+         size_px = {samples}\namplitude = {amplitude}\nphase_deg = 0.0\n"
+    ))?;
+    // Sensor pixels per scene sample: the thin-lens image scale (as macbeth_chart_corners_px).
+    let f_m = cam.lens.focal_length_mm * 1e-3;
+    let v_m = camsim_optics::lens::image_distance_m(f_m, cam.lens.focus_distance_m.unwrap_or(distance_m))
+        .ok_or_else(|| ValidateError::invalid("zone plate", "focus distance inside the focal length: no real image"))?;
+    let k = camsim_scene::sample_spacing_m(fov, distance_m, samples) * v_m / distance_m / pitch_m;
+    let (raw, _) = capture_one(cam, &cfg, n, n, Exposure::Auto { target_fraction: 0.7 }, opts.seed)?;
+    let planes = rgb_planes(&raw)?;
+    let y = camsim_analysis::image::luminance(&planes, LUMINANCE_WEIGHTS_REC709)?;
+    let geom = crate::zone_plate::ZonePlateGeometry { size_samples: samples, sensor_px_per_sample: k, amplitude, phase_rad: 0.0 };
+    let (freq, mtf) = crate::zone_plate::zone_plate_mtf(&y.data, y.rows, y.cols, raw.black_level_dn, &geom, 0.02, 0.5);
+    let pitch_mm = pitch_m * 1e3;
+    let mtf50 = sfr::crossing(&freq, &mtf, 0.5);
+    Ok(ZonePlateMetrics {
+        freq_cy_per_mm: freq.iter().map(|f| f / pitch_mm).collect(),
+        freq_cy_per_px: freq,
+        mtf,
+        mtf50_cy_per_px: mtf50,
+        sensor_px_per_sample: k,
     })
 }
 
@@ -356,9 +411,11 @@ pub fn compare_cameras(opts: &CameraCompareOptions, progress: &(dyn Fn(&str, u64
     let chart_cols = (n * 4 / 3 + 1) & !1;
     let min_extent_m = cams.iter().map(|c| c.sensor.pixel_pitch_m() * chart_cols as f64).fold(f64::INFINITY, f64::min);
 
-    progress("slanted edge", 0, 3);
+    progress("slanted edge", 0, 4);
     let mtf = [measure_mtf(&cams[0], opts, max_pitch_m)?, measure_mtf(&cams[1], opts, max_pitch_m)?];
-    progress("uniform field", 1, 3);
+    progress("zone plate", 1, 4);
+    let zone = [measure_zone_plate(&cams[0], opts)?, measure_zone_plate(&cams[1], opts)?];
+    progress("uniform field", 2, 4);
     // The same exposure time for both: the shorter of the two auto-exposures at half range.
     let ucfg = [uniform_config(&cams[0], n, max_pitch_m)?, uniform_config(&cams[1], n, max_pitch_m)?];
     let mut exposure_s = f64::INFINITY;
@@ -368,23 +425,25 @@ pub fn compare_cameras(opts: &CameraCompareOptions, progress: &(dyn Fn(&str, u64
     }
     let noise =
         [measure_noise(&cams[0], &ucfg[0], n, exposure_s, opts.seed)?, measure_noise(&cams[1], &ucfg[1], n, exposure_s, opts.seed)?];
-    progress("ColorChecker", 2, 3);
+    progress("ColorChecker", 3, 4);
     let color = [measure_color(&cams[0], opts, min_extent_m, &grid)?, measure_color(&cams[1], opts, min_extent_m, &grid)?];
-    progress("report", 3, 3);
+    progress("report", 4, 4);
 
     let [mtf_a, mtf_b] = mtf;
     let [noise_a, noise_b] = noise;
     let [color_a, color_b] = color;
-    let metrics = |spec: &CameraSpec, cam: &Loaded, mtf, noise, color| CameraMetrics {
+    let [zone_a, zone_b] = zone;
+    let metrics = |spec: &CameraSpec, cam: &Loaded, mtf, noise, color, zone_plate| CameraMetrics {
         label: spec.label(),
         spec: spec.clone(),
         pixel_pitch_um: cam.sensor.pixel_pitch_m() * 1e6,
         mtf,
         noise,
         color,
+        zone_plate,
     };
-    let mut a = metrics(&opts.a, &cams[0], mtf_a, noise_a, color_a);
-    let mut b = metrics(&opts.b, &cams[1], mtf_b, noise_b, color_b);
+    let mut a = metrics(&opts.a, &cams[0], mtf_a, noise_a, color_a, zone_a);
+    let mut b = metrics(&opts.b, &cams[1], mtf_b, noise_b, color_b, zone_b);
     if a.label == b.label {
         a.label = format!("A: {}", a.label);
         b.label = format!("B: {}", b.label);
@@ -422,6 +481,19 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         .ranges(None, Some((0.0, 1.1)));
     figs.push(save_png(dir, "compare_mtf.png", "MTF (ISO 12233 e-SFR) of both cameras against sensor-plane frequency", mtf_fig.png()?)?);
 
+    let zp_fig = Figure::new("Zone-plate MTF (demosaicked luminance, all orientations) and slanted edge", "cycles/mm on the sensor", "MTF")
+        .with(Series::new(format!("{} zone plate", a.label), a.zone_plate.freq_cy_per_mm.clone(), a.zone_plate.mtf.clone(), Style::Line, COLOR_A))
+        .with(Series::new(format!("{} zone plate", b.label), b.zone_plate.freq_cy_per_mm.clone(), b.zone_plate.mtf.clone(), Style::Line, COLOR_B))
+        .with(Series::new(format!("{} edge", a.label), a.mtf.freq_cy_per_mm.clone(), a.mtf.mtf.clone(), Style::Dashed, COLOR_A))
+        .with(Series::new(format!("{} edge", b.label), b.mtf.freq_cy_per_mm.clone(), b.mtf.mtf.clone(), Style::Dashed, COLOR_B))
+        .ranges(None, Some((0.0, 1.1)));
+    figs.push(save_png(
+        dir,
+        "compare_zone_plate.png",
+        "Zone-plate MTF (lines; in-phase modulation per annulus of radial frequency, all orientations) beside the slanted-edge MTF (dashed)",
+        zp_fig.png()?,
+    )?);
+
     let ch = [0.0, 1.0, 2.0];
     let snr_db = |m: &CameraMetrics| m.noise.snr.map(|s| s.snr_db).to_vec();
     let snr_fig = Figure::new("SNR of a uniform field, same exposure (channel 0 R, 1 G, 2 B)", "CFA channel", "SNR, dB")
@@ -445,7 +517,7 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
 
     let mut h = Html::new(&format!("camsim compare: {} vs {}", a.label, b.label));
     h.p(&format!(
-        "Two cameras simulated with camsim {} on a slanted edge, a uniform grey field and the ColorChecker (D65, 100 cd/m^2), \
+        "Two cameras simulated with camsim {} on a slanted edge, a zone plate, a uniform grey field and the ColorChecker (D65, 100 cd/m^2), \
          {} x {} pixel windows, seed {}.",
         r.camsim_version, r.options.size_px, r.options.size_px, r.options.seed
     ));
@@ -456,6 +528,7 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         row("MTF50, cycles/pixel", o(a.mtf.mtf50_cy_per_px, 3), o(b.mtf.mtf50_cy_per_px, 3)),
         row("MTF50, cycles/mm", o(a.mtf.mtf50_cy_per_mm, 1), o(b.mtf.mtf50_cy_per_mm, 1)),
         row("acutance (CPIQ CSF)", f(a.mtf.acutance, 3), f(b.mtf.acutance, 3)),
+        row("zone-plate MTF50, cycles/pixel", o(a.zone_plate.mtf50_cy_per_px, 3), o(b.zone_plate.mtf50_cy_per_px, 3)),
         row("uniform field exposure, ms", f(a.noise.exposure_s * 1e3, 3), f(b.noise.exposure_s * 1e3, 3)),
         row("green mean, fraction of range", f(a.noise.green_fraction_of_range, 3), f(b.noise.green_fraction_of_range, 3)),
         row("SNR R, dB", f(a.noise.snr[0].snr_db, 2), f(b.noise.snr[0].snr_db, 2)),

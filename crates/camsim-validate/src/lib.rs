@@ -29,6 +29,7 @@ pub mod qe_fig;
 pub mod report;
 pub mod scene_fig;
 mod util;
+pub mod zone_plate;
 
 pub use cameras::{compare_cameras, CameraCompareOptions, CameraComparison, CameraSpec};
 pub use compare::{compare, CompareConfig, CompareResults, RegionConfig};

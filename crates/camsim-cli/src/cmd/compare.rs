@@ -8,7 +8,9 @@ use std::path::PathBuf;
 
 /// Compare two cameras on the standard targets. Each camera (a sensor preset or TOML file, with an
 /// optional pixel pitch, behind a lens) is simulated on a slanted edge (e-SFR of the demosaicked
-/// luminance: MTF curves, MTF50 and the CPIQ acutance at a viewing condition), a uniform grey field
+/// luminance: MTF curves, MTF50 and the CPIQ acutance at a viewing condition), ISETCam's zone plate
+/// (the demosaicked luminance's modulation against radial frequency in all orientations, plotted
+/// beside the edge MTF, in cycles/mm), a uniform grey field
 /// at the same exposure time for both (SNR per CFA channel, normalised noise power spectrum) and the
 /// ColorChecker under D65 (bilinear demosaic, white balance, a colour matrix fitted on the patches,
 /// CIEDE2000 per patch). Writes DIR/report.html, DIR/results.json and DIR/compare_*.png.
@@ -69,7 +71,7 @@ pub fn run(a: Args) -> Result<()> {
     opts.display_height_m = a.display_height_m;
     opts.out_dir = Some(staged.path().to_path_buf());
     opts.command_line = std::env::args().collect::<Vec<_>>().join(" ");
-    let pb = common::progress(3, "compare");
+    let pb = common::progress(4, "compare");
     let r = camsim_validate::compare_cameras(&opts, &|stage, done, total| {
         pb.set_message(stage.to_string());
         pb.set_length(total.max(1));
@@ -79,9 +81,10 @@ pub fn run(a: Args) -> Result<()> {
     common::commit(staged)?;
     for m in [&r.a, &r.b] {
         say(format!(
-            "{}: MTF50 {} cy/px, acutance {:.3}, SNR G {:.1} dB, CIEDE2000 mean {:.2}",
+            "{}: MTF50 {} cy/px (zone plate {}), acutance {:.3}, SNR G {:.1} dB, CIEDE2000 mean {:.2}",
             m.label,
             m.mtf.mtf50_cy_per_px.map(|v| format!("{v:.3}")).unwrap_or_else(|| "-".into()),
+            m.zone_plate.mtf50_cy_per_px.map(|v| format!("{v:.3}")).unwrap_or_else(|| "-".into()),
             m.mtf.acutance,
             m.noise.snr[1].snr_db,
             m.color.mean_delta_e2000

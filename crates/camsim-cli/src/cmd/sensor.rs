@@ -20,11 +20,16 @@ use std::path::{Path, PathBuf};
 /// The output folder always holds one complete run (written beside it, swapped in at the end; an
 /// earlier run is replaced as a whole, a failed or interrupted one leaves it untouched).
 ///
+/// An HDR sensor (`[hdr]` in its TOML: dual conversion gain or split pixel) writes each readout
+/// as its own DNG (high.dng: HCG / large photodiode, low.dng: LCG / small photodiode;
+/// high_0001.dng ... for more frames) and the merged linear frame as merged.exr (one channel Y,
+/// f32, in electrons of the HCG / large photodiode, black level removed).
+///
 /// With --emva-series it instead simulates an EMVA 1288 photon-transfer series (flat fields at
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad")]
+#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-dcg.toml --out out/raw-dcg\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-split-pixel.toml --exposure-ms 20 --out out/raw-split")]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
@@ -113,12 +118,18 @@ pub fn run(a: Args) -> Result<()> {
         return common::commit(out);
     }
     let input = a.input.as_ref().expect("clap requires --in without --emva-series");
+    if sensor.hdr_model().is_some() && a.exposures_ms.is_some() {
+        anyhow::bail!("--exposures-ms: an [hdr] sensor ({}) takes one exposure (--exposure-ms)", a.sensor);
+    }
     let irr = common::read_spectral_exr(input)?;
     let exposure = match a.exposure_ms {
         Some(ms) if !(ms >= 0.0 && ms.is_finite()) => anyhow::bail!("--exposure-ms {ms}: must be >= 0"),
         Some(ms) => Exposure::Seconds(ms * 1e-3),
         None => Exposure::default(),
     };
+    if sensor.hdr_model().is_some() {
+        return hdr_capture(&sensor, &irr, Capture { exposure, frames: a.frames, seed: a.seed }, &a, out);
+    }
     let pb = common::spinner("sensor");
     let frame = match &a.exposures_ms {
         None => sensor.compute(&irr, &Capture { exposure, frames: a.frames, seed: a.seed })?,
@@ -151,6 +162,38 @@ pub fn run(a: Args) -> Result<()> {
         frame.mean_electrons[0],
         frame.mean_electrons[1],
         frame.mean_electrons[2],
+        a.out.display()
+    ));
+    Ok(())
+}
+
+/// An `[hdr]` sensor: high.dng, low.dng and merged.exr per frame (see the command's help).
+fn hdr_capture(sensor: &Sensor, irr: &camsim_core::SpectralImage, capture: Capture, a: &Args, out: camsim_io::atomic::OutputDir) -> Result<()> {
+    let pb = common::spinner("sensor (HDR)");
+    let f = sensor.compute_hdr(irr, &capture)?;
+    pb.finish_and_clear();
+    let illum = camsim_core::tables::illuminant("D65")?;
+    let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
+    let meta = camsim_pipeline::dng_metadata(sensor, &color, None)?;
+    for (i, ((hi, lo), merged)) in f.high.iter().zip(&f.low).zip(&f.merged_e).enumerate() {
+        let suffix = if i == 0 { String::new() } else { format!("_{i:04}") };
+        camsim_io::dng::write_dng(&out.join(format!("high{suffix}.dng")), hi, &meta)?;
+        camsim_io::dng::write_dng(&out.join(format!("low{suffix}.dng")), lo, &meta)?;
+        camsim_io::exr::write_gray_exr(&out.join(format!("merged{suffix}.exr")), hi.rows, hi.cols, "Y", merged)?;
+    }
+    common::commit(out)?;
+    let m = f.model;
+    let peak = f.merged_e[0].iter().fold(0.0f32, |a, b| a.max(*b));
+    say(format!(
+        "{} HDR frame(s) ({}), exposure {:.3} ms, merged peak {peak:.0} e-, switch at {:.0} e-, dynamic range {:.1} dB -> {}",
+        f.high.len(),
+        match m.mode {
+            camsim_sensor::HdrMode::Dcg => "dual conversion gain",
+            camsim_sensor::HdrMode::SplitPixel => "split pixel",
+        },
+        f.exposure_s * 1e3,
+        m.switch_e,
+        m.dynamic_range_db(),
         a.out.display()
     ));
     Ok(())
