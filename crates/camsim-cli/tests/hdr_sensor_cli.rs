@@ -66,3 +66,22 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
     }
     assert!(used_low > 0, "auto-exposure at 90 % of the HCG swing puts some pixels above the switch");
 }
+
+/// `camsim simulate` with an `[hdr]` sensor does not silently write only the high readout: it
+/// stops with exit 2, naming the sensor and the commands that do write both readouts.
+#[test]
+fn simulate_refuses_an_hdr_sensor_and_says_what_to_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let sensor = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sensor-dcg.toml");
+    let cfg = dir.path().join("hdr.toml");
+    std::fs::write(&cfg, format!("seed = 1\n[scene]\nkind = \"macbeth\"\n[sensor]\nfile = \"{sensor}\"\n")).unwrap();
+    let out = dir.path().join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("[hdr]") && stderr.contains("camsim sensor"), "{stderr}");
+    assert!(!out.exists(), "a partial output folder was left");
+}

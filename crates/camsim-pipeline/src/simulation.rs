@@ -133,6 +133,14 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
+    if sensor.hdr_model().is_some() {
+        return Err(PipelineError::config(format!(
+            "sensor {}: its [hdr] table (dual conversion gain / split pixel) needs both readouts, which simulate does not write yet: \
+             make the irradiance with the stage commands (camsim scene, then camsim optics) and run camsim sensor --in \
+             IRRADIANCE.exr --sensor FILE, which writes high.dng, low.dng and merged.exr",
+            sensor.name()
+        )));
+    }
     let capture = cfg.capture()?;
     let mut times = serde_json::Map::new();
     let lap = |times: &mut serde_json::Map<String, serde_json::Value>, name: &str, t: Instant| {

@@ -432,6 +432,34 @@ fn sensor<'py>(
         None => Capture::auto().exposure,
     };
     let cap = Capture { exposure, frames, seed };
+    if let Some(model) = s.hdr_model() {
+        // An [hdr] sensor (dual conversion gain / split pixel): both readouts and the merged frame.
+        if exposures_s.is_some() {
+            return Err(err("an [hdr] sensor takes one exposure (exposure_s or auto), not a bracket"));
+        }
+        let h = py.detach(|| s.compute_hdr(&img, &cap)).map_err(err)?;
+        let r0 = &h.high[0];
+        let (rows, cols, n) = (r0.rows, r0.cols, h.high.len());
+        let stack = |v: &[RawImage]| v.iter().flat_map(|r| r.dn.iter().copied()).collect::<Vec<u16>>();
+        let merged: Vec<f32> = h.merged_e.iter().flat_map(|m| m.iter().copied()).collect();
+        let d = PyDict::new(py);
+        d.set_item("raw", array(py, &stack(&h.high), &[n, rows, cols])?)?;
+        d.set_item("raw_low", array(py, &stack(&h.low), &[n, rows, cols])?)?;
+        d.set_item("merged_e", array(py, &merged, &[n, rows, cols])?)?;
+        d.set_item("hdr_mode", match model.mode {
+            camsim::sensor::HdrMode::Dcg => "dcg",
+            camsim::sensor::HdrMode::SplitPixel => "split-pixel",
+        })?;
+        d.set_item("dynamic_range_db", model.dynamic_range_db())?;
+        let layout = r0.cfa_layout();
+        d.set_item("cfa", layout.name())?;
+        d.set_item("filters", layout.filters().to_vec())?;
+        d.set_item("black_level", r0.black_level_dn)?;
+        d.set_item("white_level", r0.white_level_dn)?;
+        d.set_item("bits", r0.bits)?;
+        d.set_item("exposure_s", h.exposure_s)?;
+        return Ok(d);
+    }
     let f = match exposures_s {
         Some(_) if exposure_s.is_some() => return Err(err("give either exposure_s or exposures_s (a bracket), not both")),
         Some(times) => py.detach(|| s.compute_bracket(&img, &times, frames, seed)).map_err(err)?,

@@ -84,3 +84,36 @@ def test_an_rgbw_simulation_writes_a_dng_that_reads_back_as_rgbw(tmp_path):
     back = camsim.read_dng(tmp_path / "run" / "raw.dng")
     assert back["cfa"] == "RGBW"
     assert np.array_equal(back["raw"], sim.raw[0])
+
+
+def test_a_dual_conversion_gain_sensor_returns_both_readouts_and_a_linear_merge(tmp_path):
+    """An [hdr] sensor (examples/sensor-dcg.toml, noise off) on a horizontal irradiance ramp that
+    runs from 1/20 of the HCG range to 6x past it: the high readout saturates on the bright side,
+    and the merged frame (HCG electrons below the switch, LCG x gain ratio above) stays
+    proportional to the irradiance everywhere (within the ADC step of each readout)."""
+    cfg = tmp_path / "dcg-quiet.toml"
+    quiet = "\n[noise]\nshot = false\nread = false\ndsnu = false\nprnu = false\ndark = false\nquantization = true\n"
+    cfg.write_text((REPO / "examples" / "sensor-dcg.toml").read_text() + quiet)
+    cfg = str(cfg)
+    rows, cols = 8, 64
+    level = np.geomspace(0.05, 6.0, cols // 2).repeat(2)  # pairs of columns: every Bayer colour
+    irr = np.ones((31, rows, cols), np.float32) * level[None, None, :].astype(np.float32)
+    wl = np.arange(400.0, 701.0, 10.0)
+    # A short probe (the brightest column well inside the HCG range) gives the green electrons per
+    # unit level; then level 1 is exposed to the HCG range (6250 e-).
+    probe = camsim.sensor(irr, wl, 3e-6, sensor=cfg, exposure_s=1e-7, rows=rows, cols=cols)
+    assert probe["raw"][0].max() < 0.5 * probe["white_level"]
+    g_per_level = probe["merged_e"][0][0, -1] / level[-1]
+    t = 1e-7 * 6250.0 / g_per_level
+    out = camsim.sensor(irr, wl, 3e-6, sensor=cfg, exposure_s=t, rows=rows, cols=cols)
+    assert out["hdr_mode"] == "dcg"
+    assert out["raw"].shape == out["raw_low"].shape == out["merged_e"].shape == (1, rows, cols)
+    high = out["raw"][0].astype(float)
+    assert high[:, -2:].min() == out["white_level"], "the high readout should saturate at 6x its range"
+    merged = out["merged_e"][0]
+    for r0, c0 in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        per_level = merged[r0::2, c0::2].mean(axis=0) / level[c0::2]
+        k = per_level[len(per_level) // 2]
+        assert np.all(np.abs(per_level / k - 1.0) < 0.02), (r0, c0, per_level / k)
+    # Dynamic range of the example: full well 40000 e- over 2 e- read noise, ~86 dB.
+    assert 80.0 < out["dynamic_range_db"] < 90.0

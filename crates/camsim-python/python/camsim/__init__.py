@@ -154,7 +154,10 @@ def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: f
     window of the sensor. Returns a dict: raw (frames, rows, cols) uint16, cfa (a Bayer name, "RGBW",
     "quad-bayer" or the tile's filter names), filters (the CFA's filter names), black_level,
     white_level, bits, exposure_s (the first raw's), exposures_s (per raw), mean_electrons_rgb,
-    mean_electrons_by_filter (noise-free means in the order of filters)."""
+    mean_electrons_by_filter (noise-free means in the order of filters). A sensor with an [hdr]
+    table (dual conversion gain or split pixel) returns raw (the high readout), raw_low, merged_e
+    ((frames, rows, cols) float32, electrons of the high readout, black removed), hdr_mode,
+    dynamic_range_db, cfa, filters, black_level, white_level, bits and exposure_s."""
     e = np.ascontiguousarray(irradiance, dtype=np.float32)
     bracket = None
     if exposure_s is not None and not isinstance(exposure_s, (int, float)):
