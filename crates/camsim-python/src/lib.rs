@@ -451,12 +451,7 @@ fn sensor<'py>(
             camsim::sensor::HdrMode::SplitPixel => "split-pixel",
         })?;
         d.set_item("dynamic_range_db", model.dynamic_range_db())?;
-        let layout = r0.cfa_layout();
-        d.set_item("cfa", layout.name())?;
-        d.set_item("filters", layout.filters().to_vec())?;
-        d.set_item("black_level", r0.black_level_dn)?;
-        d.set_item("white_level", r0.white_level_dn)?;
-        d.set_item("bits", r0.bits)?;
+        raw_layout_items(&d, r0)?;
         d.set_item("exposure_s", h.exposure_s)?;
         return Ok(d);
     }
@@ -469,17 +464,23 @@ fn sensor<'py>(
     let all: Vec<u16> = f.raw.iter().flat_map(|r| r.dn.iter().copied()).collect();
     let d = PyDict::new(py);
     d.set_item("raw", array(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
+    raw_layout_items(&d, r0)?;
+    d.set_item("exposure_s", f.exposure_s)?;
+    d.set_item("exposures_s", f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>())?;
+    d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
+    d.set_item("mean_electrons_by_filter", f.mean_electrons_by_filter.clone())?;
+    Ok(d)
+}
+
+/// The raw's CFA and levels as `sensor()` returns them: cfa, filters, black_level, white_level, bits.
+fn raw_layout_items(d: &Bound<'_, PyDict>, r0: &RawImage) -> PyResult<()> {
     let layout = r0.cfa_layout();
     d.set_item("cfa", layout.name())?;
     d.set_item("filters", layout.filters().to_vec())?;
     d.set_item("black_level", r0.black_level_dn)?;
     d.set_item("white_level", r0.white_level_dn)?;
     d.set_item("bits", r0.bits)?;
-    d.set_item("exposure_s", f.exposure_s)?;
-    d.set_item("exposures_s", f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>())?;
-    d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
-    d.set_item("mean_electrons_by_filter", f.mean_electrons_by_filter.clone())?;
-    Ok(d)
+    Ok(())
 }
 
 /// Demosaic of a raw mosaic (rows, cols) uint16 -> (rows, cols, 3) float32 DN (black level
