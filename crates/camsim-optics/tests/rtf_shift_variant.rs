@@ -315,19 +315,3 @@ fn bad_rtf_configs_give_clear_errors() {
     let e = err(&format!("{base}blur = {{ method = \"shift-invariant\", rtf_file = \"{}\" }}", rtf.display()));
     assert!(e.contains("blur.method"), "{e}");
 }
-
-/// The example `examples/pixel4a-rtf-shift-variant.toml`: its `[optics.config]` parses and builds
-/// with the RTF resolved against the example's folder.
-#[test]
-fn rtf_example_config_builds() {
-    let path = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/pixel4a-rtf-shift-variant.toml"));
-    let text = std::fs::read_to_string(&path).unwrap();
-    let doc: toml::Table = toml::from_str(&text).unwrap();
-    let optics = doc["optics"].as_table().unwrap()["config"].clone();
-    let mut c: OpticsConfig = optics.try_into().unwrap();
-    let b = c.blur.as_mut().unwrap();
-    let p = b.rtf_file.as_mut().unwrap();
-    *p = path.parent().unwrap().join(&*p);
-    let o = Optics::from_config(&c).unwrap();
-    assert!(o.shift_variant().is_some());
-}
