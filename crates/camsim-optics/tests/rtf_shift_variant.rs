@@ -315,3 +315,19 @@ fn bad_rtf_configs_give_clear_errors() {
     let e = err(&format!("{base}blur = {{ method = \"shift-invariant\", rtf_file = \"{}\" }}", rtf.display()));
     assert!(e.contains("blur.method"), "{e}");
 }
+
+/// The two autofocus criteria agree: this module's image-space one (the on-axis spot's RMS radius
+/// on the film) and the renderer camera's object-space one (`Rtf::focus_offset_mm`: the angular
+/// spread of the axial film point's rays), at infinity and at 1 m (object distances from the
+/// output plane and from the film differ by the lens's 6.8 mm: 0.13 um of focus at 1 m).
+#[test]
+fn image_and_object_space_autofocus_agree() {
+    let l = lens();
+    let rtf = Rtf::from_file(&rtf_path()).unwrap();
+    for d_mm in [f64::INFINITY, 1000.0] {
+        let image = l.focus_offset_mm(d_mm).unwrap();
+        let object = rtf.focus_offset_mm(d_mm).unwrap();
+        println!("focus at {d_mm} mm: image-space {:.3} um, object-space {:.3} um", image * 1e3, object * 1e3);
+        assert!((image - object).abs() < 1e-3, "{image} vs {object} mm");
+    }
+}

@@ -21,6 +21,8 @@
 //!   temperature in K; normalised to peak 1 as pbrt-v4's `BlackbodySpectrum`). As in pbrt-v4 a
 //!   parameter the directive does not use, or one of the wrong type, is an error.
 //! - Options block: `LookAt`, `Camera "perspective"` (`fov`, `lensradius`, `focaldistance`),
+//!   `Camera "realistic"` (`lensfile`, `aperturediameter`, `focusdistance`), ISET3d's
+//!   `Camera "raytransfer"` (`lensfile`, and `filmdistance` in mm or `focusdistance` in m),
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
 //!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`; `"independent"` selects
 //!   camsim's independent sampler, every other type its padded Owen-scrambled Sobol sampler, see
@@ -130,7 +132,7 @@
 //! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective` and `screenwindow`; materials other than the nine above
+//! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`; materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,

@@ -111,7 +111,7 @@ struct Parser {
     /// A `Camera "realistic"`: set up once the film is known (the `Film` may follow it).
     realistic: Option<PendingRealistic>,
     /// A `Camera "raytransfer"`: its RTF, set up once the film is known.
-    ray_transfer: Option<(camsim_lens::Rtf, Loc)>,
+    ray_transfer: Option<(camsim_lens::Rtf, camsim_scene3d::camera::RtfFilm, Loc)>,
     /// `Film` `diagonal`, mm (pbrt-v4 default 35).
     film_diagonal_mm: f64,
     settings: RenderSettings,
@@ -575,17 +575,31 @@ impl Parser {
     }
 
     /// ISET3d's `Camera "raytransfer"`: `lensfile` names a ray-transfer-function JSON (ISET/isetrtf
-    /// layout, relative to the scene file); the film lies on its input plane (focused at infinity).
+    /// layout, relative to the scene file); `filmdistance` (mm, film to the lens's sensor-side
+    /// vertex, as ISET3d) places the film, or else `focusdistance` (m from the film, default
+    /// infinity) focuses it by the RTF's autofocus.
     fn ray_transfer_camera(&mut self, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        use camsim_scene3d::camera::RtfFilm;
         let name = params
             .string("lensfile")?
             .ok_or_else(|| loc.err("Camera \"raytransfer\": \"lensfile\" is required"))?;
         let path = self.resolve(&loc.file, &name);
         let rtf = camsim_lens::Rtf::from_file(&path).map_err(|e| loc.err(format!("Camera \"raytransfer\": lens file: {e}")))?;
+        let film = match (params.float_opt("filmdistance")?, params.float_opt("focusdistance")?) {
+            (Some(_), Some(_)) => {
+                return Err(loc.err("Camera \"raytransfer\": give \"filmdistance\" or \"focusdistance\", not both"));
+            }
+            (Some(d), None) => RtfFilm::DistanceMm(d),
+            (None, Some(m)) => {
+                self.focus_distance_m = Some(m);
+                RtfFilm::FocusM(m)
+            }
+            (None, None) => RtfFilm::FocusM(f64::INFINITY),
+        };
         self.ignore_params(params, &["shutteropen", "shutterclose"], "Camera");
         params.check_unused("Camera \"raytransfer\"")?;
         self.realistic = None;
-        self.ray_transfer = Some((rtf, loc.clone()));
+        self.ray_transfer = Some((rtf, film, loc.clone()));
         self.camera_from_world = self.gs.ctm;
         let world_from_camera = inverse(&self.gs.ctm).ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
         self.named_coords.insert("camera".into(), world_from_camera);
@@ -1201,8 +1215,8 @@ impl Parser {
             .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
             (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
         }
-        if let Some((rtf, loc)) = self.ray_transfer {
-            let (l, f) = crate::camera::ray_transfer_lens(rtf, self.film_diagonal_mm, self.width, self.height)
+        if let Some((rtf, film, loc)) = self.ray_transfer {
+            let (l, f) = crate::camera::ray_transfer_lens(rtf, film, self.film_diagonal_mm, self.width, self.height)
                 .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
             (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
         }

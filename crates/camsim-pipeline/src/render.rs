@@ -156,7 +156,13 @@ pub fn fit_lens_film_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, wi
             (CameraLens::Realistic(realistic), fov_deg)
         }
         Some(CameraLens::RayTransfer(l)) => {
-            let (rt, fov_deg) = camsim_scene3d::camera::ray_transfer_lens((*l.rtf).clone(), diagonal_mm, width, height).map_err(lens_err)?;
+            let (rt, fov_deg) = camsim_scene3d::camera::ray_transfer_lens(
+                (*l.rtf).clone(),
+                camsim_scene3d::camera::RtfFilm::DistanceMm(l.rtf.plane_offset_input_mm + l.film_offset_mm),
+                diagonal_mm,
+                width,
+                height,
+            ).map_err(lens_err)?;
             (CameraLens::RayTransfer(rt), fov_deg)
         }
         None => return Ok(()),

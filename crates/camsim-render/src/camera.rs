@@ -26,7 +26,11 @@ enum RigOptics {
         film_z_mm: f64,
         rear_z_mm: f64,
     },
-    RayTransfer(Arc<Rtf>),
+    RayTransfer {
+        rtf: Arc<Rtf>,
+        /// Film distance behind the RTF's input plane, mm.
+        film_offset_mm: f64,
+    },
 }
 
 /// The camera prepared for ray generation.
@@ -100,7 +104,8 @@ impl CameraRig {
                 }
                 half_x = (film_half_mm[0] / l.focal_length_mm) as f32;
                 half_y = (film_half_mm[1] / l.focal_length_mm) as f32;
-                Some(LensRig { optics: RigOptics::RayTransfer(l.rtf.clone()), film_half_mm })
+                let optics = RigOptics::RayTransfer { rtf: l.rtf.clone(), film_offset_mm: l.film_offset_mm };
+                Some(LensRig { optics, film_half_mm })
             }
         };
         Ok(CameraRig {
@@ -142,7 +147,7 @@ impl CameraRig {
         let r_mm = p[0].hypot(p[1]);
         let (camera, film_z_mm, rear_z_mm) = match &l.optics {
             RigOptics::Traced { camera, film_z_mm, rear_z_mm } => (camera, *film_z_mm, *rear_z_mm),
-            RigOptics::RayTransfer(rtf) => return self.rtf_ray(rtf, p, u_pupil),
+            RigOptics::RayTransfer { rtf, film_offset_mm } => return self.rtf_ray(rtf, *film_offset_mm, p, u_pupil),
         };
         let b = camera.exit_pupil_bounds(r_mm);
         let area_mm2 = (b[1] - b[0]) * (b[3] - b[2]);
@@ -167,31 +172,44 @@ impl CameraRig {
         Some((self.camera_ray_to_world(o, d), weight as f32))
     }
 
-    /// A ray-transfer camera's ray from film point `p` (mm, on the RTF's input plane): a point
-    /// drawn uniformly (concentric map of `u_pupil`) in the pass ellipse for the film height, on
-    /// the pass plane a distance D in front, gives the direction; the RTF maps the ray to its
-    /// output. The weight is the projected solid angle per unit pdf, D^2 A / rho^4 (A the
-    /// ellipse's area, rho the distance to the drawn point): the same measure as the realistic
-    /// camera's cos^4(theta) A / D^2 and as [`Rtf::relative_illumination`]. The RTF is fitted at
-    /// one wavelength: no dispersion. Outside the RTF's table of heights nothing passes.
-    fn rtf_ray(&self, rtf: &Rtf, p: [f64; 2], u_pupil: [f32; 2]) -> Option<(Ray, f32)> {
+    /// A ray-transfer camera's ray from film point `p` (mm), the film `dz` mm behind the RTF's
+    /// input plane: a point drawn uniformly (concentric map of `u_pupil`) in the pass ellipse of
+    /// the input height where the ray toward the ellipse's centre crosses the input plane (on the
+    /// pass plane, D + dz in front of the film) gives the direction; the RTF maps the ray to its
+    /// output after its own pass test at the ray's input-plane point. Off the input plane
+    /// (dz != 0) the rays of one film point cross the input plane at different heights, so the
+    /// drawn ellipse is enlarged (by 5 % and 0.25 |dz|: the ellipses' centres move by at most
+    /// 0.6 mm per mm of input height, and the pupil spreads the crossings over 0.15 |dz|) to hold
+    /// every ray that can pass. The weight is the projected solid angle per unit pdf,
+    /// D'^2 A / rho^4 (A the drawn ellipse's area, rho the distance to the drawn point, D' = D +
+    /// dz): the same measure as the realistic camera's cos^4(theta) A / D^2 and as
+    /// [`Rtf::relative_illumination`]. The RTF is fitted at one wavelength: no dispersion.
+    /// Outside the RTF's table of heights nothing passes.
+    fn rtf_ray(&self, rtf: &Rtf, dz: f64, p: [f64; 2], u_pupil: [f32; 2]) -> Option<(Ray, f32)> {
         let r_mm = p[0].hypot(p[1]);
-        let e = rtf.pass_ellipse(r_mm)?;
-        let (du, dv) = crate::sampling::concentric_disk(u_pupil[0], u_pupil[1]);
-        // The ellipse is given in the frame where the film point lies on +y at height r.
-        let q = [e.center_mm[0] + e.radii_mm[0] * du as f64, e.center_mm[1] + e.radii_mm[1] * dv as f64];
-        let d_mm = rtf.pass_plane_distance_mm;
-        let local = [q[0], q[1] - r_mm, d_mm];
-        let rho2 = local[0] * local[0] + local[1] * local[1] + d_mm * d_mm;
-        let weight = d_mm * d_mm * std::f64::consts::PI * e.radii_mm[0] * e.radii_mm[1] / (rho2 * rho2);
-        // Back from that frame: (x, y) -> (x c + y s, -x s + y c) with c = py / r, s = px / r.
+        // The frame where the film point lies on +y at height r (the file's ellipse frame).
         let (c, s) = if r_mm > 0.0 { (p[1] / r_mm, p[0] / r_mm) } else { (1.0, 0.0) };
-        let rho = rho2.sqrt();
-        let dir = [(local[0] * c + local[1] * s) / rho, (-local[0] * s + local[1] * c) / rho, d_mm / rho];
-        let (out_p, out_d) = rtf.trace(p, dir)?;
-        // RTF coordinates (mm, toward the scene along +z from the input plane = the film) are
-        // camera space's (m, film at the origin, scene toward +z).
-        let o = [out_p[0] * 1e-3, out_p[1] * 1e-3, out_p[2] * 1e-3];
+        let mut e = rtf.pass_ellipse(r_mm)?;
+        let mut grow = [1.0, 1.0];
+        if dz != 0.0 {
+            for _ in 0..2 {
+                let (pin, _, _) = rtf.film_ray([0.0, r_mm], dz, e.center_mm)?;
+                e = rtf.pass_region(pin[0].hypot(pin[1]))?;
+            }
+            grow = [1.05 + 0.25 * dz.abs() / e.radii_mm[0], 1.05 + 0.25 * dz.abs() / e.radii_mm[1]];
+        }
+        let (du, dv) = crate::sampling::concentric_disk(u_pupil[0], u_pupil[1]);
+        let (rx, ry) = (e.radii_mm[0] * grow[0], e.radii_mm[1] * grow[1]);
+        let q = [e.center_mm[0] + rx * du as f64, e.center_mm[1] + ry * dv as f64];
+        let (pin, local, w) = rtf.film_ray([0.0, r_mm], dz, q)?;
+        let weight = w * std::f64::consts::PI * rx * ry;
+        // Back from that frame: (x, y) -> (x c + y s, -x s + y c).
+        let back = |v: [f64; 2]| [v[0] * c + v[1] * s, -v[0] * s + v[1] * c];
+        let (pin, dxy) = (back(pin), back([local[0], local[1]]));
+        let (out_p, out_d) = rtf.trace(pin, [dxy[0], dxy[1], local[2]])?;
+        // RTF coordinates (mm, z toward the scene from the input plane) to camera space (m, film
+        // at the origin, scene toward +z).
+        let o = [out_p[0] * 1e-3, out_p[1] * 1e-3, (out_p[2] + dz) * 1e-3];
         Some((self.camera_ray_to_world(o, out_d), weight as f32))
     }
 

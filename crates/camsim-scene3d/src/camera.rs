@@ -57,11 +57,21 @@ pub fn realistic_lens(
     Ok((RealisticLens { camera: Arc::new(camera), film_diagonal_mm }, fov_deg))
 }
 
-/// ISET3d `raytransfer` camera set-up: the RTF with a film of `film_diagonal_mm` on its input
-/// plane. Its focal length comes from the RTF itself by the Abbe sine condition (a film point on
-/// the axis leaves as a parallel beam of height f sin(theta) for a ray at angle theta); also
-/// returns the pinhole-equivalent field of view across the shorter image axis (degrees).
-pub fn ray_transfer_lens(rtf: Rtf, film_diagonal_mm: f64, width: usize, height: usize) -> Result<(RayTransferLens, f64), String> {
+/// Where a ray-transfer camera's film lies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RtfFilm {
+    /// ISET3d's `filmdistance`: from the film to the lens's sensor-side vertex, mm.
+    DistanceMm(f64),
+    /// Focused (autofocus, [`Rtf::focus_offset_mm`]) on an object plane this far from the film, m
+    /// (infinite allowed).
+    FocusM(f64),
+}
+
+/// ISET3d `raytransfer` camera set-up: the RTF with a film of `film_diagonal_mm` placed as `film`
+/// says. Its focal length comes from the RTF itself by the Abbe sine condition (a point on the
+/// input plane's axis leaves as a parallel beam of height f sin(theta) for a ray at angle theta);
+/// also returns the pinhole-equivalent field of view across the shorter image axis (degrees).
+pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: usize, height: usize) -> Result<(RayTransferLens, f64), String> {
     if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
         return Err(format!("film diagonal {film_diagonal_mm} mm is not > 0"));
     }
@@ -79,8 +89,40 @@ pub fn ray_transfer_lens(rtf: Rtf, film_diagonal_mm: f64, width: usize, height: 
             rtf.max_height_mm()
         ));
     }
+    let pass_mm = rtf.pass_plane_distance_mm;
+    let film_offset_mm = match film {
+        RtfFilm::DistanceMm(d) => {
+            let dz = d - rtf.plane_offset_input_mm;
+            if !(d > 0.0 && d.is_finite() && pass_mm + dz > 0.0) {
+                return Err(format!(
+                    "filmdistance {d} mm must be > 0 and put the film in front of the pass plane ({:.4} mm beyond the lens's sensor-side vertex)",
+                    pass_mm - rtf.plane_offset_input_mm
+                ));
+            }
+            dz
+        }
+        RtfFilm::FocusM(m) => {
+            if !(m > 0.0) || m.is_nan() {
+                return Err(format!("focusdistance {m} m must be > 0"));
+            }
+            let lens_mm = rtf.plane_offset_input_mm + rtf.thickness_mm + rtf.plane_offset_output_mm;
+            if m * 1e3 <= lens_mm {
+                return Err(format!(
+                    "focusdistance {m} m lies inside the lens (its RTF spans {lens_mm:.3} mm from the film's side to its output plane)"
+                ));
+            }
+            let dz = rtf.focus_offset_mm(m * 1e3).ok_or("the ray-transfer function passes no ray from the film centre: no focus")?;
+            // The search runs over -0.2..0.8 mm: an optimum on its edge is no focus.
+            if !(-0.199..=0.799).contains(&dz) {
+                return Err(format!(
+                    "the lens does not focus at focusdistance {m} m: the sharpest film lies {dz:.3} mm from the input plane, at the end of the 1 mm focus range (set filmdistance instead)"
+                ));
+            }
+            dz
+        }
+    };
     let fov_deg = 2.0 * (half[0].min(half[1]) / f_mm).atan().to_degrees();
-    Ok((RayTransferLens { rtf: Arc::new(rtf), film_diagonal_mm, focal_length_mm: f_mm }, fov_deg))
+    Ok((RayTransferLens { rtf: Arc::new(rtf), film_offset_mm, film_diagonal_mm, focal_length_mm: f_mm }, fov_deg))
 }
 
 /// pbrt-v4 `LookAt`: the world-to-camera transform for an eye at `from` looking at `to` with

@@ -393,11 +393,14 @@ impl CameraLens {
 }
 
 /// A lens known only by its ray-transfer function (Goossens et al. 2022; ISET3d's `raytransfer`
-/// camera): the film lies on the RTF's input plane (the shipped Pixel 4a RTF's input plane is
-/// its focal plane, so the camera is focused at infinity).
+/// camera): the film lies `film_offset_mm` behind the RTF's input plane (ISET3d's `filmdistance`,
+/// film to the lens's sensor-side vertex, is the RTF's `plane_offset_input_mm` plus this).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RayTransferLens {
     pub rtf: std::sync::Arc<camsim_lens::Rtf>,
+    /// Film distance behind the RTF's input plane, mm (0: the film on the input plane; the
+    /// shipped Pixel 4a RTF focuses at infinity 0.0166 mm behind it).
+    pub film_offset_mm: f64,
     /// Film diagonal, mm (pbrt-v4 `Film` `diagonal`).
     pub film_diagonal_mm: f64,
     /// Effective focal length measured from the RTF (Abbe sine condition on the axis), mm: the
