@@ -63,11 +63,13 @@ fn a_ray_transfer_camera_images_a_uniform_sky_as_the_camera_equation_says() {
     let pinhole = simulate(dir.path(), "pinhole", "Camera \"perspective\" \"float fov\" 30", res, (480, 640)).unwrap();
     assert_eq!(lens["results"]["lens_camera"], true);
     assert_eq!(pinhole["results"]["lens_camera"], false);
-    assert!(lens["results"]["scene_mean_luminance_cd_m2"].is_null());
+    assert!(lens["results"]["scene_mean_luminance_cd_m2"].is_null() && lens["results"]["radiance_size"].is_null());
     let spacing = lens["results"]["irradiance_sample_spacing_um"].as_f64().unwrap();
     assert!((spacing - 640.0 * 1.4 / 160.0).abs() < 1e-9, "film pixel {spacing} um");
     // Same irradiance on the axis; over the window the RTF's relative illumination and the
-    // optics stage's cos^4 shading differ slightly (measured ratio 1.0036 to 1.0045 over r, g, b).
+    // optics stage's cos^4 shading differ slightly, and the autofocused film lies 16.6 um behind
+    // the RTF's input plane, where the pass ellipse subtends 1.3 % less solid angle (measured
+    // ratio 0.9915 to 0.9922 over r, g, b; 1.0036 to 1.0045 with the film on the input plane).
     for (c, (a, b)) in electrons(&lens).iter().zip(electrons(&pinhole)).enumerate() {
         eprintln!("channel {c}: ray transfer / pinhole electrons {:.4}", a / b);
         assert!((a / b - 1.0).abs() < 0.02, "channel {c}: ray transfer {a} e-, pinhole through f/3.41 optics {b} e-");

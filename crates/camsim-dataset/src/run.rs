@@ -262,8 +262,11 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
         drop(dir); // not committed: the staging folder is removed
         if spec.xyz {
             let path = scratch.join(format!("{key}.xyz.exr"));
-            let [x, y, z] = scene_xyz(&sim.radiance);
-            camsim_io::exr::write_channels_exr(&path, sim.radiance.rows, sim.radiance.cols, &[("X", &x), ("Y", &y), ("Z", &z)])
+            let radiance = sim.radiance.as_ref().ok_or(
+                "xyz = true needs the scene's radiance, but the scene's lens camera (realistic or raytransfer) renders sensor-plane irradiance: set xyz = false or use a pinhole camera",
+            )?;
+            let [x, y, z] = scene_xyz(radiance);
+            camsim_io::exr::write_channels_exr(&path, radiance.rows, radiance.cols, &[("X", &x), ("Y", &y), ("Z", &z)])
                 .map_err(|e| e.to_string())?;
             files.push((format!("{key}.xyz.exr"), std::fs::read(&path).map_err(|e| e.to_string())?));
             let _ = std::fs::remove_file(&path);

@@ -47,8 +47,10 @@ pub struct Simulation {
     pub optics: OpticsConfig,
     /// The sensor used (its window).
     pub sensor: SensorConfig,
-    /// Scene spectral radiance, W/(sr m^2 nm); `depth_m` holds the depth map of 3D scenes.
-    pub radiance: SpectralImage,
+    /// Scene spectral radiance, W/(sr m^2 nm); `depth_m` holds the depth map of 3D scenes. `None`
+    /// when the scene's camera is a lens (`realistic`, `raytransfer`): its render is already the
+    /// sensor-plane irradiance, in `irradiance` (with the depth map).
+    pub radiance: Option<SpectralImage>,
     /// Object and material ids per scene pixel of a rendered 3D scene (None for 2D charts).
     pub ids: Option<camsim_render::IdMaps>,
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
@@ -95,22 +97,32 @@ fn optics_stage(image: &SpectralImage, optics: &Optics) -> Result<SpectralImage>
     }
 }
 
-/// [`image_radiance`] for an exposure bracket / burst: `frames_per_exposure` raws for each of
-/// `exposures_s` ([`Sensor::compute_bracket`]).
-pub fn image_radiance_bracket(
-    radiance: &SpectralImage,
+/// Stages 2 and 3 on a scene image taken by value, for [`simulate`]: with `bracket`, an exposure
+/// bracket / burst (`capture.frames` raws for each exposure, [`Sensor::compute_bracket`]). A lens
+/// camera's render, already sensor-plane irradiance, becomes [`Imaged::irradiance`] without a
+/// copy (a full-frame 31-band cube is 1.5 GB), and no radiance is handed back (`None`).
+fn image_owned(
+    image: SpectralImage,
     optics: &Optics,
     sensor: &Sensor,
-    exposures_s: &[f64],
-    frames_per_exposure: usize,
-    seed: u64,
-) -> Result<Imaged> {
+    capture: &Capture,
+    bracket: Option<&[f64]>,
+) -> Result<(Option<SpectralImage>, Imaged)> {
     let t = Instant::now();
-    let irradiance = optics_stage(radiance, optics)?;
+    let (radiance, irradiance) = match image.quantity {
+        Quantity::Irradiance => (None, image),
+        _ => {
+            let irradiance = optics.compute(&image)?;
+            (Some(image), irradiance)
+        }
+    };
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let frame = sensor.compute_bracket(&irradiance, exposures_s, frames_per_exposure, seed)?;
-    Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
+    let frame = match bracket {
+        None => sensor.compute(&irradiance, capture)?,
+        Some(times_s) => sensor.compute_bracket(&irradiance, times_s, capture.frames, capture.seed)?,
+    };
+    Ok((radiance, Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() }))
 }
 
 /// What [`image_radiance`] returns.
@@ -153,10 +165,8 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
     lap(&mut times, "scene_s", t);
 
     progress("optics", 0, 1);
-    let Imaged { irradiance, frame, optics_s, sensor_s } = match cfg.bracket_exposures_s()? {
-        None => image_radiance(&radiance, &optics, &sensor, &capture)?,
-        Some(times_s) => image_radiance_bracket(&radiance, &optics, &sensor, &times_s, capture.frames, capture.seed)?,
-    };
+    let bracket = cfg.bracket_exposures_s()?;
+    let (radiance, Imaged { irradiance, frame, optics_s, sensor_s }) = image_owned(radiance, &optics, &sensor, &capture, bracket.as_deref())?;
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
@@ -235,6 +245,12 @@ fn mean_dn_per_channel(raw: &RawImage) -> [f64; 3] {
 }
 
 impl Simulation {
+    /// The image the scene stage made: the radiance, or a lens camera's irradiance (which also
+    /// carries the depth map and the wavelength grid then).
+    pub fn scene_image(&self) -> &SpectralImage {
+        self.radiance.as_ref().unwrap_or(&self.irradiance)
+    }
+
     /// The run's record (run.json): version, configs, results, the files written and the times.
     /// `camsim simulate run.json` repeats the run from it.
     pub fn metadata(&self, info: &RunInfo, outputs: &OutputSet) -> serde_json::Value {
@@ -246,14 +262,14 @@ impl Simulation {
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
         }
-        if outputs.contains(Output::Radiance) && self.radiance.quantity != Quantity::Radiance {
+        if outputs.contains(Output::Radiance) && self.radiance.is_none() {
             files.insert(
                 "radiance.exr".into(),
                 "not written: the scene's lens camera renders the sensor-plane irradiance directly (irradiance.exr); the [optics] section is not used".into(),
             );
         }
         if outputs.contains(Output::Depth) {
-            let note = match self.radiance.depth_m {
+            let note = match self.scene_image().depth_m {
                 Some(_) => "the scene's depth map, m (channel Z)",
                 None => "not written: this scene (a 2D chart) has no depth map",
             };
@@ -287,9 +303,9 @@ impl Simulation {
                 "mean_electrons_rgb": self.mean_electrons_rgb,
                 "mean_dn_rgb": self.mean_dn_rgb,
                 // A lens camera renders irradiance (no scene radiance to average).
-                "scene_mean_luminance_cd_m2": (self.radiance.quantity == Quantity::Radiance).then(|| mean_luminance_cd_m2(&self.radiance)),
-                "lens_camera": self.radiance.quantity == Quantity::Irradiance,
-                "radiance_size": [self.radiance.rows, self.radiance.cols, self.radiance.bands()],
+                "scene_mean_luminance_cd_m2": self.radiance.as_ref().map(mean_luminance_cd_m2),
+                "lens_camera": self.radiance.is_none(),
+                "radiance_size": self.radiance.as_ref().map(|r| [r.rows, r.cols, r.bands()]),
                 "irradiance_size": [self.irradiance.rows, self.irradiance.cols, self.irradiance.bands()],
                 "irradiance_sample_spacing_um": self.irradiance.sample_spacing_m * 1e6,
                 "frames": self.frames.len(),
@@ -323,15 +339,16 @@ impl Simulation {
         // on every thread).
         let tasks: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = {
             let mut t: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = Vec::new();
-            if outputs.contains(Output::Radiance) && self.radiance.quantity == Quantity::Radiance {
-                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), &self.radiance, "scene", exr)?)));
+            if let (true, Some(radiance)) = (outputs.contains(Output::Radiance), self.radiance.as_ref()) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), radiance, "scene", exr)?)));
             }
             if outputs.contains(Output::Irradiance) {
                 t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("irradiance.exr"), &self.irradiance, "optics", exr)?)));
             }
             // 2D charts have no depth map: depth.exr only for 3D scenes (run.json says which).
-            if let (true, Some(d)) = (outputs.contains(Output::Depth), self.radiance.depth_m.as_deref()) {
-                t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), self.radiance.rows, self.radiance.cols, "Z", d)?)));
+            let scene = self.scene_image();
+            if let (true, Some(d)) = (outputs.contains(Output::Depth), scene.depth_m.as_deref()) {
+                t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), scene.rows, scene.cols, "Z", d)?)));
             }
             if let (true, Some(ids)) = (outputs.contains(Output::Ids), self.ids.as_ref()) {
                 t.push(Box::new(move || write_id_maps(out.path(), ids)));

@@ -115,21 +115,22 @@ struct PySimulation {
 
 #[pymethods]
 impl PySimulation {
-    /// Scene spectral radiance, (bands, rows, cols) float32, W/(sr m^2 nm).
+    /// Scene spectral radiance, (bands, rows, cols) float32, W/(sr m^2 nm); None when the
+    /// scene's camera is a lens (`realistic`, `raytransfer`), whose render is the irradiance.
     #[getter]
-    fn radiance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let r = &self.inner.radiance;
-        array(py, &r.data, &[r.bands(), r.rows, r.cols])
+    fn radiance<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner.radiance.as_ref().map(|r| array(py, &r.data, &[r.bands(), r.rows, r.cols])).transpose()
     }
     /// Band centres of radiance and irradiance, nm.
     #[getter]
     fn wavelengths_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
-        array1(py, &wavelengths(&self.inner.radiance))
+        array1(py, &wavelengths(self.inner.scene_image()))
     }
-    /// Scene sample spacing, m (at the scene's distance; see metadata for the geometry).
+    /// Scene sample spacing, m (at the scene's distance; see metadata for the geometry); None
+    /// with a lens camera.
     #[getter]
-    fn radiance_spacing_m(&self) -> f64 {
-        self.inner.radiance.sample_spacing_m
+    fn radiance_spacing_m(&self) -> Option<f64> {
+        self.inner.radiance.as_ref().map(|r| r.sample_spacing_m)
     }
     /// Sensor-plane spectral irradiance, (bands, rows, cols) float32, W/(m^2 nm).
     #[getter]
@@ -145,7 +146,7 @@ impl PySimulation {
     /// Depth map of a 3D scene, (rows, cols) float32 m, or None.
     #[getter]
     fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let r = &self.inner.radiance;
+        let r = self.inner.scene_image();
         r.depth_m.as_ref().map(|z| array(py, z, &[r.rows, r.cols])).transpose()
     }
     /// Object ids of a rendered 3D scene, (rows, cols) uint32 in the scene's pixels: 1 + index of
@@ -260,13 +261,14 @@ impl PySimulation {
     fn __repr__(&self) -> String {
         let r = &self.inner.frames[0];
         format!(
-            "camsim.Simulation({} frame(s) {} x {} {}, exposure {:.4} s, radiance {} bands)",
+            "camsim.Simulation({} frame(s) {} x {} {}, exposure {:.4} s, {} {} bands)",
             self.inner.frames.len(),
             r.rows,
             r.cols,
             r.cfa_layout().name(),
             self.inner.exposure_s,
-            self.inner.radiance.bands()
+            if self.inner.radiance.is_some() { "radiance" } else { "lens-camera irradiance" },
+            self.inner.scene_image().bands()
         )
     }
 }

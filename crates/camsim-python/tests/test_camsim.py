@@ -151,6 +151,24 @@ def test_simulate_of_a_rendered_scene_carries_its_id_maps():
     assert ((ids == 0) == np.isinf(sim.depth)).all()
 
 
+def test_simulate_through_a_lens_camera_hands_back_irradiance_and_no_radiance():
+    # The documented example scene: a checkerboard at 1 m through the Pixel 4a's ray-transfer
+    # function, rendered on a film fitted to a 48 x 64 window (sensor-plane irradiance).
+    cfg = {"wavelengths": {"start_nm": 400.0, "step_nm": 50.0, "count": 7},
+           "render": {"pbrt": str(REPO / "examples" / "pbrt" / "rtf-checkerboard.pbrt"), "samples_per_pixel": 2,
+                      "resolution": [32, 24]},
+           "sensor": {"preset": "pixel4a", "rows": 48, "cols": 64}, "capture": {"exposure_ms": 20.0}}
+    sim = camsim.simulate(cfg)
+    assert sim.radiance is None and sim.radiance_spacing_m is None
+    assert sim.irradiance.shape == (7, 24, 32) and sim.irradiance.min() >= 0 and sim.irradiance.max() > 0
+    # Film pixels: the 64 x 1.4 um window over 32 columns.
+    assert abs(sim.irradiance_spacing_m - 64 * 1.4e-6 / 32) < 1e-12
+    assert sim.depth.shape == (24, 32) and np.isfinite(sim.depth).all()
+    md = sim.metadata["results"]
+    assert md["lens_camera"] is True and md["radiance_size"] is None
+    assert len(sim.wavelengths_nm) == 7 and "lens-camera irradiance" in repr(sim)
+
+
 def test_sfr_of_a_simulated_slanted_edge():
     cfg = camsim.load_config(REPO / "examples" / "slanted-edge.toml")
     sim = camsim.simulate(cfg)
