@@ -4,12 +4,19 @@
 //!   lens pupil), one PSF per band, tiled FFT convolution.
 //! - `depth_layered`: the same with a depth map from 0.35 m to 3 m across the image (focus 0.5 m),
 //!   split into defocus layers (tolerance 0.02 um).
+//! - `shift_variant_traced_lens`: the traced dgauss.82deg.4.38mm lens at f/2.8 (12 field heights,
+//!   Zernike fits per height and wavelength, distortion and relative illumination), blockwise.
+//! - `shift_variant_rtf`: the Pixel 4a ray-transfer function at its f/3.44 (traced spots with
+//!   diffraction per height).
+//!
+//! The two shift-variant cases read the shared reference data (`../shared/data`); the goal
+//! is <= 3x `shift_invariant_defocus`. `examples/time_shift_variant.rs` prints CPU times too.
 //!
 //! Run: `cargo bench -p camsim-optics --bench blur` (set RAYON_NUM_THREADS=2 for the 2-core figure).
 
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, WavelengthGrid};
-use camsim_optics::config::{ShadingConfig, ShadingName};
+use camsim_optics::config::{BlurConfig, BlurKind, ShadingConfig, ShadingName};
 use camsim_optics::{Optics, OpticsConfig};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::Duration;
@@ -43,6 +50,25 @@ fn optics(focus: f64) -> Optics {
     Optics::from_config(&c).unwrap()
 }
 
+/// The shift-variant optics from a traced lens file or an RTF file (shared reference data).
+fn shift_variant(f_number: f64, lens: Option<&str>, rtf: Option<&str>) -> Optics {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens/");
+    let mut c = OpticsConfig::preset("pixel4a").unwrap();
+    c.f_number = f_number;
+    c.wavefront = Default::default();
+    c.shading = ShadingConfig::Named(ShadingName::None);
+    c.blur = Some(BlurConfig {
+        method: BlurKind::ShiftVariant,
+        field_heights: 12,
+        block_px: None,
+        rotation_oversampling: 3,
+        lens_file: lens.map(|f| format!("{dir}{f}").into()),
+        rtf_file: rtf.map(|f| format!("{dir}{f}").into()),
+        field_zernike: None,
+    });
+    Optics::from_config(&c).unwrap()
+}
+
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("optics_imx363_31bands");
     g.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(40));
@@ -53,6 +79,16 @@ fn bench(c: &mut Criterion) {
     let img = scene(true);
     let o = optics(0.5);
     g.bench_function("depth_layered", |b| b.iter(|| o.compute(&img).unwrap()));
+    drop(img);
+    // The shift-variant cases image a scene at infinity on the sensor grid (1.4 um samples over
+    // the lens's field of view), as examples/time_shift_variant.rs.
+    let mut img = scene(false);
+    img.sample_spacing_m = 1.4e-6;
+    img.geometry = ImageGeometry { fov_deg: 2.0 * (4032.0 * 1.4e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(), ..Default::default() };
+    let o = shift_variant(2.8, Some("dgauss.82deg.4.38mm.json"), None);
+    g.bench_function("shift_variant_traced_lens", |b| b.iter(|| o.compute(&img).unwrap()));
+    let o = shift_variant(3.44, None, Some("pixel4a-rearcamera-ellipse-raytransfer.json"));
+    g.bench_function("shift_variant_rtf", |b| b.iter(|| o.compute(&img).unwrap()));
     g.finish();
 }
 
