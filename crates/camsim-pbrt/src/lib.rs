@@ -119,7 +119,7 @@
 //!
 //! # Ignored, with a note in `SceneDescription::notes`
 //! `Film` `filename`, `iso`, `exposuretime`, `whitebalance`, `sensor`, `savefp16`,
-//! `maxcomponentvalue`, `diagonal`, `cropwindow`, `pixelbounds`, `nbuckets`, `lambdamin`,
+//! `maxcomponentvalue`, `diagonal` (except for `realistic` and `raytransfer` cameras, whose film it sizes), `cropwindow`, `pixelbounds`, `nbuckets`, `lambdamin`,
 //! `lambdamax`, `coordinatesystem`, `writefp16`; `Camera` `lensradius` > 0 (camsim's camera is a
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` types other
