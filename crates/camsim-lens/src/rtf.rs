@@ -347,6 +347,30 @@ impl Rtf {
         Some(([p[0] + v[0] * t, p[1] + v[1] * t], [v[0] / rho, v[1] / rho, v[2] / rho], dd * dd / (rho2 * rho2)))
     }
 
+    /// The pass ellipse that governs the rays from film point (0, `r_mm`), the film `dz` mm behind
+    /// the input plane: the one at the input height where the ray toward the ellipse's own centre
+    /// crosses the input plane (two fixed-point steps; on the input plane, the ellipse at r).
+    pub fn film_pass_ellipse(&self, r_mm: f64, dz: f64) -> Option<PassEllipse> {
+        let mut e = self.pass_ellipse(r_mm)?;
+        if dz != 0.0 {
+            for _ in 0..2 {
+                let (pin, _, _) = self.film_ray([0.0, r_mm], dz, e.center_mm)?;
+                e = self.pass_region(pin[0].hypot(pin[1]))?;
+            }
+        }
+        Some(e)
+    }
+
+    /// The chief ray of film point (0, `h_mm`), the film `dz` mm behind the input plane: the ray
+    /// toward the centre of its pass ellipse, as it leaves the lens: output point (mm, z from the
+    /// film) and unit direction; `None` when it does not pass.
+    pub fn chief_ray(&self, h_mm: f64, dz: f64) -> Option<([f64; 3], [f64; 3])> {
+        let e = self.film_pass_ellipse(h_mm, dz)?;
+        let (pin, dir, _) = self.film_ray([0.0, h_mm], dz, e.center_mm)?;
+        let (o, d) = self.trace(pin, dir)?;
+        Some(([o[0], o[1], o[2] + dz], d))
+    }
+
     /// The integral of [`Self::relative_illumination`] (projected solid angle, sr) at height h.
     /// Heights up to one table step beyond the last position use the ellipse extrapolated
     /// linearly from the last two (the shipped Pixel 4a table ends at 3.5 mm; the sensor's

@@ -150,9 +150,8 @@ pub fn fit_lens_film_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, wi
         Some(CameraLens::Realistic(l)) => {
             let camera = camsim_lens::LensCamera::new(l.camera.lens.clone(), l.camera.film_distance_mm, diagonal_mm)
                 .map_err(|e| lens_err(e.to_string()))?;
-            let half = camsim_scene3d::camera::film_half_extent_mm(diagonal_mm, width, height);
-            let fov_deg = 2.0 * (half[0].min(half[1]) / camsim_scene3d::camera::pinhole_image_distance_mm(&camera)).atan().to_degrees();
-            let realistic = camsim_scene3d::scene::RealisticLens { camera: std::sync::Arc::new(camera), film_diagonal_mm: diagonal_mm };
+            let realistic = camsim_scene3d::camera::realistic_lens_with_pinhole(camera, diagonal_mm);
+            let fov_deg = realistic.fov_deg(width, height);
             (CameraLens::Realistic(realistic), fov_deg)
         }
         Some(CameraLens::RayTransfer(l)) => {

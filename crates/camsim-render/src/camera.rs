@@ -5,7 +5,7 @@
 
 use crate::geometry::Ray;
 use crate::math::V3;
-use camsim_scene3d::camera::{film_half_extent_mm, pinhole_image_distance_mm};
+use camsim_scene3d::camera::film_half_extent_mm;
 use camsim_scene3d::scene::{Camera, CameraLens};
 use camsim_lens::{LensCamera, Rtf};
 use std::sync::Arc;
@@ -37,6 +37,9 @@ enum RigOptics {
 #[derive(Debug, Clone)]
 pub(crate) struct CameraRig {
     origin: V3,
+    /// Origin of the pinhole rays ([`CameraRig::ray`]: depth map, object ids, perspective camera):
+    /// the camera's origin, or a lens camera's entrance pupil (the centre of perspective).
+    pinhole: V3,
     /// World images of the camera-space x, y and z axes.
     axes: [V3; 3],
     /// Unit world direction of the camera's +z axis (depth is measured along it).
@@ -81,6 +84,8 @@ impl CameraRig {
         let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
         let azv = V3::from_f64(az);
         let (mut half_x, mut half_y) = ((sx * tan_half) as f32, (sy * tan_half) as f32);
+        // Camera-space z of the pinhole rays' origin, m.
+        let mut pinhole_z_m = 0.0;
         let lens = match &c.lens {
             None => None,
             Some(CameraLens::Realistic(l)) => {
@@ -89,27 +94,30 @@ impl CameraRig {
                 if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && d_mm > 0.0) {
                     return Err(format!("realistic camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
                 }
-                // The pinhole ray (depth map) through the film point's image.
-                let v_mm = pinhole_image_distance_mm(&l.camera);
-                half_x = (film_half_mm[0] / v_mm) as f32;
-                half_y = (film_half_mm[1] / v_mm) as f32;
+                // The pinhole rays (depth map, ids) from the entrance pupil through the film
+                // point's image.
+                half_x = (film_half_mm[0] / l.image_distance_mm) as f32;
+                half_y = (film_half_mm[1] / l.image_distance_mm) as f32;
+                pinhole_z_m = l.pupil_z_mm * 1e-3;
                 let film_z_mm = l.camera.film_z_mm();
                 let optics = RigOptics::Traced { camera: l.camera.clone(), film_z_mm, rear_z_mm: film_z_mm - d_mm };
                 Some(LensRig { optics, film_half_mm })
             }
             Some(CameraLens::RayTransfer(l)) => {
                 let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
-                if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && l.focal_length_mm > 0.0) {
+                if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && l.image_distance_mm > 0.0) {
                     return Err(format!("ray-transfer camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
                 }
-                half_x = (film_half_mm[0] / l.focal_length_mm) as f32;
-                half_y = (film_half_mm[1] / l.focal_length_mm) as f32;
+                half_x = (film_half_mm[0] / l.image_distance_mm) as f32;
+                half_y = (film_half_mm[1] / l.image_distance_mm) as f32;
+                pinhole_z_m = l.pupil_z_mm * 1e-3;
                 let optics = RigOptics::RayTransfer { rtf: l.rtf.clone(), film_offset_mm: l.film_offset_mm };
                 Some(LensRig { optics, film_half_mm })
             }
         };
         Ok(CameraRig {
             origin: V3::from_f64(o),
+            pinhole: V3::from_f64(o) + azv * pinhole_z_m as f32,
             axes: [V3::from_f64(ax), V3::from_f64(ay), azv],
             forward: azv.normalize(),
             half_x,
@@ -189,15 +197,8 @@ impl CameraRig {
         let r_mm = p[0].hypot(p[1]);
         // The frame where the film point lies on +y at height r (the file's ellipse frame).
         let (c, s) = if r_mm > 0.0 { (p[1] / r_mm, p[0] / r_mm) } else { (1.0, 0.0) };
-        let mut e = rtf.pass_ellipse(r_mm)?;
-        let mut grow = [1.0, 1.0];
-        if dz != 0.0 {
-            for _ in 0..2 {
-                let (pin, _, _) = rtf.film_ray([0.0, r_mm], dz, e.center_mm)?;
-                e = rtf.pass_region(pin[0].hypot(pin[1]))?;
-            }
-            grow = [1.05 + 0.25 * dz.abs() / e.radii_mm[0], 1.05 + 0.25 * dz.abs() / e.radii_mm[1]];
-        }
+        let e = rtf.film_pass_ellipse(r_mm, dz)?;
+        let grow = if dz == 0.0 { [1.0, 1.0] } else { [1.05 + 0.25 * dz.abs() / e.radii_mm[0], 1.05 + 0.25 * dz.abs() / e.radii_mm[1]] };
         let (du, dv) = crate::sampling::concentric_disk(u_pupil[0], u_pupil[1]);
         let (rx, ry) = (e.radii_mm[0] * grow[0], e.radii_mm[1] * grow[1]);
         let q = [e.center_mm[0] + rx * du as f64, e.center_mm[1] + ry * dv as f64];
@@ -227,7 +228,7 @@ impl CameraRig {
         let cx = (2.0 * x * self.inv_w - 1.0) * self.half_x;
         let cy = (1.0 - 2.0 * y * self.inv_h) * self.half_y;
         let d = self.axes[0] * cx + self.axes[1] * cy + self.axes[2];
-        Ray { o: self.origin, d: d.normalize() }
+        Ray { o: self.pinhole, d: d.normalize() }
     }
 }
 

@@ -82,7 +82,10 @@ pub struct RenderOutput {
     /// focus distance (or to 1 m when the scene has none): `2 d tan(hfov/2) / width`.
     pub radiance: SpectralImage,
     /// Distance along the camera's +z (optical) axis from the pinhole to the first surface
-    /// through each pixel centre, m, row-major; `f32::INFINITY` where the ray escapes.
+    /// through each pixel centre, m, row-major; `f32::INFINITY` where the ray escapes. For a lens
+    /// camera (`realistic`, `raytransfer`) the pinhole is the lens's entrance pupil, with the
+    /// image distance of its chief rays near the axis, so depth and ids line up with the image
+    /// through the lens up to its distortion.
     pub depth_m: Vec<f32>,
     /// Per pixel: variance of the mean luminance estimate, (cd/m^2)^2, i.e. the sample variance
     /// of the per-sample luminance `683 sum L(lambda) ybar(lambda) dlambda` divided by the number

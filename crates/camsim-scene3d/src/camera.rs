@@ -52,9 +52,28 @@ pub fn realistic_lens(
     let stop_r_mm = lens.surfaces[lens.stop_index()].semi_aperture_mm;
     let lens = lens.with_stop_semi_aperture_mm((aperture_diameter_mm / 2.0).min(stop_r_mm));
     let camera = LensCamera::focused(lens, focus_distance_m * 1e3, film_diagonal_mm).map_err(|e| e.to_string())?;
-    let half = film_half_extent_mm(film_diagonal_mm, width, height);
-    let fov_deg = 2.0 * (half[0].min(half[1]) / pinhole_image_distance_mm(&camera)).atan().to_degrees();
-    Ok((RealisticLens { camera: Arc::new(camera), film_diagonal_mm }, fov_deg))
+    let lens = realistic_lens_with_pinhole(camera, film_diagonal_mm);
+    let fov_deg = lens.fov_deg(width, height);
+    Ok((lens, fov_deg))
+}
+
+/// A realistic camera's lens with the pinhole that images as it does near the axis
+/// ([`chief_ray_pinhole`]): the chief ray (through the centre of the exit-pupil bounds, 550 nm) of
+/// a film point 1 % of the focal length off the axis. Falls back to the paraxial image distance
+/// with the pinhole on the film ([`pinhole_image_distance_mm`]) if that ray is blocked.
+pub fn realistic_lens_with_pinhole(camera: LensCamera, film_diagonal_mm: f64) -> RealisticLens {
+    let h_mm = 0.01 * camera.lens.paraxial(550.0).efl_mm.abs();
+    let b = camera.exit_pupil_bounds(h_mm);
+    let dir = [0.5 * (b[0] + b[1]) - h_mm, 0.5 * (b[2] + b[3]), -camera.film_distance_mm];
+    // Lens coordinates (scene toward -z, the film point on +x) to the film frame of
+    // `chief_ray_pinhole` (z from the film toward the scene, the film point on +y).
+    let film_z_mm = camera.film_z_mm();
+    let chief = camera.trace_ray([h_mm, 0.0], dir, 550.0).map(|r| {
+        ([r.origin_mm[1], r.origin_mm[0], film_z_mm - r.origin_mm[2]], [r.direction[1], r.direction[0], -r.direction[2]])
+    });
+    let (image_distance_mm, pupil_z_mm) =
+        chief_ray_pinhole(h_mm, chief).unwrap_or_else(|| (pinhole_image_distance_mm(&camera), 0.0));
+    RealisticLens { camera: Arc::new(camera), film_diagonal_mm, image_distance_mm, pupil_z_mm }
 }
 
 /// Where a ray-transfer camera's film lies.
@@ -70,7 +89,8 @@ pub enum RtfFilm {
 /// ISET3d `raytransfer` camera set-up: the RTF with a film of `film_diagonal_mm` placed as `film`
 /// says. Its focal length comes from the RTF itself by the Abbe sine condition (a point on the
 /// input plane's axis leaves as a parallel beam of height f sin(theta) for a ray at angle theta);
-/// also returns the pinhole-equivalent field of view across the shorter image axis (degrees).
+/// also returns the pinhole-equivalent field of view across the shorter image axis (degrees), at
+/// the image distance of the film's focus.
 pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: usize, height: usize) -> Result<(RayTransferLens, f64), String> {
     if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
         return Err(format!("film diagonal {film_diagonal_mm} mm is not > 0"));
@@ -121,8 +141,32 @@ pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: 
             dz
         }
     };
-    let fov_deg = 2.0 * (half[0].min(half[1]) / f_mm).atan().to_degrees();
-    Ok((RayTransferLens { rtf: Arc::new(rtf), film_offset_mm, film_diagonal_mm, focal_length_mm: f_mm }, fov_deg))
+    // The pinhole that images as the lens does near the axis (0.1 mm: clear of the RTF's kink at
+    // r = 0, see camsim-optics' rtf_psf).
+    let h_mm = 0.1;
+    let (image_distance_mm, pupil_z_mm) = chief_ray_pinhole(h_mm, rtf.chief_ray(h_mm, film_offset_mm))
+        .ok_or("the ray-transfer function passes no chief ray 0.1 mm off the axis: no image scale")?;
+    let fov_deg = 2.0 * (half[0].min(half[1]) / image_distance_mm).atan().to_degrees();
+    let lens =
+        RayTransferLens { rtf: Arc::new(rtf), film_offset_mm, film_diagonal_mm, focal_length_mm: f_mm, image_distance_mm, pupil_z_mm };
+    Ok((lens, fov_deg))
+}
+
+/// The pinhole camera equivalent to a lens near its axis, from the chief ray of a film point `h_mm`
+/// up the +y axis as it leaves the lens (`chief`: point, mm with z from the film toward the
+/// scene, and unit direction): the image distance v = h / tan(theta) (theta its angle in object
+/// space; the image is inverted, so the ray heads down) and the entrance pupil's z, where the
+/// ray continued backwards crosses the axis (the centre of perspective: a point at any distance
+/// images where the ray from the pupil at that angle meets it). `None` for a ray that does not
+/// head down toward the scene.
+pub fn chief_ray_pinhole(h_mm: f64, chief: Option<([f64; 3], [f64; 3])>) -> Option<(f64, f64)> {
+    let (o, d) = chief?;
+    if !(d[2] > 0.0 && d[1] < 0.0) {
+        return None;
+    }
+    let v_mm = h_mm * d[2] / -d[1];
+    let pupil_z_mm = o[2] - o[1] * d[2] / d[1];
+    (v_mm > 0.0 && v_mm.is_finite() && pupil_z_mm.is_finite()).then_some((v_mm, pupil_z_mm))
 }
 
 /// pbrt-v4 `LookAt`: the world-to-camera transform for an eye at `from` looking at `to` with

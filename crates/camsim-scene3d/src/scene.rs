@@ -403,9 +403,17 @@ pub struct RayTransferLens {
     pub film_offset_mm: f64,
     /// Film diagonal, mm (pbrt-v4 `Film` `diagonal`).
     pub film_diagonal_mm: f64,
-    /// Effective focal length measured from the RTF (Abbe sine condition on the axis), mm: the
-    /// pinhole-equivalent scale of the depth map and the image geometry.
+    /// Effective focal length measured from the RTF (Abbe sine condition on the axis), mm.
     pub focal_length_mm: f64,
+    /// Pinhole-equivalent image distance, mm: a film height over the tangent of its chief ray's
+    /// angle in object space, near the axis (about f plus the film's move from the infinity
+    /// focus); with [`Self::pupil_z_mm`] the pinhole of the depth map, the object ids and the
+    /// image geometry.
+    pub image_distance_mm: f64,
+    /// The entrance pupil's distance in front of the film, mm: where the chief rays, continued
+    /// back from object space, cross the axis (the centre of perspective; the depth map is
+    /// measured from there).
+    pub pupil_z_mm: f64,
 }
 
 /// A pbrt-v4 `realistic` camera (4th ed. sec. 5.3): a focused lens with its film. Camera space
@@ -416,6 +424,22 @@ pub struct RealisticLens {
     pub camera: std::sync::Arc<camsim_lens::LensCamera>,
     /// Film diagonal, mm (pbrt-v4 `Film` `diagonal`).
     pub film_diagonal_mm: f64,
+    /// Pinhole-equivalent image distance, mm (a film height over the tangent of its chief ray's
+    /// object-space angle, near the axis); with `pupil_z_mm` the pinhole of the depth map, the
+    /// object ids and the image geometry.
+    pub image_distance_mm: f64,
+    /// The entrance pupil's distance in front of the film, mm (the centre of perspective; the
+    /// depth map is measured from there).
+    pub pupil_z_mm: f64,
+}
+
+impl RealisticLens {
+    /// The pinhole-equivalent field of view across the shorter axis of a `width` x `height`
+    /// film, degrees.
+    pub fn fov_deg(&self, width: usize, height: usize) -> f64 {
+        let half = crate::camera::film_half_extent_mm(self.film_diagonal_mm, width, height);
+        2.0 * (half[0].min(half[1]) / self.image_distance_mm).atan().to_degrees()
+    }
 }
 
 impl Camera {
