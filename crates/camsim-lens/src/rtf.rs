@@ -288,7 +288,7 @@ impl Rtf {
     /// the axial point of its input plane leave with an RMS spread of 3.5e-4 rad (1.5 um at
     /// f = 4.38 mm); 16.6 um further back they leave parallel (spread 6e-5 rad).
     pub fn focus_offset_mm(&self, focus_distance_mm: f64) -> Option<f64> {
-        if !(focus_distance_mm > 0.0) {
+        if focus_distance_mm.is_nan() || focus_distance_mm <= 0.0 {
             return None;
         }
         let spread = |dz: f64| self.axial_spread(dz, focus_distance_mm).unwrap_or(f64::INFINITY);
@@ -337,7 +337,7 @@ impl Rtf {
     /// beyond the pass plane.
     pub fn film_ray(&self, p: [f64; 2], dz: f64, q: [f64; 2]) -> Option<([f64; 2], [f64; 3], f64)> {
         let dd = self.pass_plane_distance_mm + dz;
-        if !(dd > 0.0) {
+        if dd.is_nan() || dd <= 0.0 {
             return None;
         }
         let v = [q[0] - p[0], q[1] - p[1], dd];

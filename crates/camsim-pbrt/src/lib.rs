@@ -71,7 +71,11 @@
 //!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
 //!   channels), `constant` (`value`), `checkerboard` (2D: `tex1`, `tex2`, uv mapping),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
-//!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`); texture-valued parameters take a value or a
+//!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`), `dots` (`inside`, `outside`, uv mapping),
+//!   the solid noises `fbm`, `wrinkled` (`octaves`, `roughness`) and `windy` (float) and `marble`
+//!   (spectrum: `octaves`, `roughness`, `scale`, `variation`), on the hit point mapped by the
+//!   inverse of the texture's CTM (point-sampled with every octave: no ray differentials;
+//!   `camsim_render::noise`); texture-valued parameters take a value or a
 //!   texture name (the renderer's `texture` module compiles and evaluates them),
 //!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
 //!   `encoding`: an RGB image over a triangle mesh's uv, each value an illuminant spectrum as
@@ -135,8 +139,7 @@
 //! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`; materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
-//! texture classes other than those above (`fbm`, `wrinkled`, `windy`, `marble`, `dots`,
-//! `ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
+//! texture classes other than those above (`ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
 //! `alpha` on area lights;
 //! `goniometric` and `projection` lights, area-light images on spheres, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a

@@ -814,6 +814,27 @@ impl Parser {
                         )));
                     }
                 }
+                let (mut p, mut uv, mut n, mut idx) = (p, uv, n, idx);
+                if per == 4 && uv.is_none() {
+                    // pbrt-v4's bilinear patch without "uv" is parameterized (0,0), (1,0), (0,1),
+                    // (1,1) at p00, p10, p01, p11, patch by patch: vertices shared between
+                    // patches are duplicated to carry each patch's own uv (a triangle's default
+                    // uv would not match).
+                    let corners = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+                    let (op, on) = (std::mem::take(&mut p), n.take());
+                    let mut uvs = Vec::with_capacity(idx.len());
+                    let mut normals = on.as_ref().map(|_| Vec::with_capacity(idx.len()));
+                    for (k, &i) in idx.iter().enumerate() {
+                        p.push(op[i as usize].clone());
+                        uvs.push(corners[k % 4].to_vec());
+                        if let (Some(dst), Some(src)) = (normals.as_mut(), on.as_ref()) {
+                            dst.push(src[i as usize].clone());
+                        }
+                    }
+                    idx = (0..idx.len() as i64).collect();
+                    uv = Some(uvs);
+                    n = normals;
+                }
                 let tris: Vec<[u32; 3]> = if per == 3 {
                     idx.chunks(3)
                         .map(|c| [c[0] as u32, c[1] as u32, c[2] as u32])

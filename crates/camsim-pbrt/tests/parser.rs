@@ -670,3 +670,27 @@ fn an_empty_scene_file_is_an_error_naming_the_file() {
     let e = pbrt::parse_file(&path).unwrap_err().to_string();
     assert!(e.contains("nothing.pbrt") && e.contains("empty"), "{e}");
 }
+
+/// A bilinear mesh without "uv" carries pbrt-v4's per-patch parameterization, (0,0), (1,0), (0,1),
+/// (1,1) at p00, p10, p01, p11, on both of its triangles and in every patch, also where patches
+/// share vertices: two unit squares side by side sharing their middle edge; at every triangle
+/// vertex uv = (x - x0, y) of its own square. (A triangle's default uv, (0,0), (1,0), (1,1) per
+/// triangle, would put a texture askew on one of the two triangles.)
+#[test]
+fn bilinear_mesh_default_uv_is_per_patch() {
+    let s = parse(&format!(
+        "{WORLD_HEAD}\
+         Shape \"bilinearmesh\" \"point3 P\" [0 0 0  1 0 0  2 0 0  0 1 0  1 1 0  2 1 0] \"integer indices\" [0 1 3 4  1 2 4 5]\n"
+    ))
+    .unwrap();
+    let Geometry::Triangles { positions, indices, uvs, .. } = &s.shapes[0].geometry else { panic!("triangles") };
+    let uvs = uvs.as_ref().expect("uv from the patches");
+    assert_eq!(indices.len(), 4);
+    for (k, t) in indices.iter().enumerate() {
+        let x0 = if k < 2 { 0.0 } else { 1.0 };
+        for &i in t {
+            let (p, uv) = (positions[i as usize], uvs[i as usize]);
+            assert_eq!([uv[0] as f64, uv[1] as f64], [p[0] - x0, p[1]], "triangle {k}, vertex {p:?}");
+        }
+    }
+}

@@ -491,6 +491,14 @@ impl Tracer {
                 }
                 out
             }
+            Tex::Marble(solid) => {
+                let poly = crate::uplift::rgb_to_coefficients(solid.rgb(ctx));
+                std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
+            }
+            Tex::Dots(c, map) => {
+                let (s, t) = map.st(ctx.uv);
+                self.eval_texture(&c[!crate::noise::inside_polka_dot(s as f64, t as f64) as usize], ctx, lambdas)
+            }
         }
     }
 
@@ -542,7 +550,7 @@ impl Tracer {
             let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
             let sh = self.surface(&r, &h);
             let pi = self.info[h.slot as usize];
-            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, o, d);
+            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, o, d);
             if keep && !matches!(self.materials[self.resolve_material(pi.material, sh.p, -d) as usize], Mat::Interface) {
                 return true;
             }
@@ -595,7 +603,7 @@ impl Tracer {
             };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, ray.o, ray.d) {
                 // Alpha test failed: the hit is ignored and the ray goes on from the far side
                 // (pbrt-v4 `GeometricPrimitive::Intersect` re-intersects a spawned ray), no bounce.
                 skips += 1;
@@ -642,7 +650,7 @@ impl Tracer {
             let d0 = dim::bounce(depth);
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
-            let ctx = TexCtx { uv: sh.uv, n: sh.ng };
+            let ctx = TexCtx { uv: sh.uv, n: sh.ng, p: sh.p };
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each
@@ -749,7 +757,7 @@ impl Tracer {
             let Some(h) = self.intersect(&ray) else { return (f32::INFINITY, 0) };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng }, ray.o, ray.d) {
+            if self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, ray.o, ray.d) {
                 return ((sh.p - r.o).dot(forward), pi.shape + 1);
             }
             ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };

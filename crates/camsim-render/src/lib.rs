@@ -23,6 +23,7 @@ pub mod ids;
 mod integrator;
 mod lights;
 mod materials;
+pub mod noise;
 pub mod math;
 pub mod render;
 pub mod sampler;

@@ -1,13 +1,14 @@
 //! Textures compiled for tracing, and their evaluation (pbrt-v4 "Textures": `constant`,
-//! `imagemap`, `checkerboard` (2D), `scale`, `mix`, `directionmix`, `bilerp`), for spectrum and
-//! float textures.
+//! `imagemap`, `checkerboard` (2D), `scale`, `mix`, `directionmix`, `bilerp`, `dots`, and the
+//! solid noises `fbm`, `wrinkled`, `windy`, `marble` ([`crate::noise`])), for spectrum and float
+//! textures.
 //!
 //! API for materials: compile a scene [`Texture`] with [`compile_texture`] (spectrum; tables and
 //! images go into the tracer's shared lists) or a [`FloatTexture`] with
 //! [`compile_float_texture`], then evaluate at a hit with `Tracer::eval_texture(&tex, &ctx,
 //! lambdas)` (`[f32; N]` at the path's wavelengths) or [`eval_float`] (`f32`). The context
 //! [`TexCtx`] holds what pbrt-v4's `TextureEvalContext` holds that these textures read: the
-//! surface's `(u, v)` and normal.
+//! surface's `(u, v)`, normal and point.
 //!
 //! A compiled texture is a small tree (`Box`ed nodes); leaves are indices into the tracer's
 //! spectrum tables and RGB images. Evaluation allocates nothing.
@@ -25,6 +26,67 @@ pub(crate) struct TexCtx {
     pub uv: [f32; 2],
     /// Unit surface normal (its sign does not matter to any texture here).
     pub n: V3,
+    /// The hit point, world space (the solid textures map it to texture space).
+    pub p: V3,
+}
+
+/// What a solid texture computes ([`crate::noise`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum SolidKind {
+    Fbm,
+    Wrinkled,
+    Windy,
+    Marble,
+}
+
+/// A compiled solid (3D) texture: pbrt-v4 `fbm`, `wrinkled`, `windy` (float) or `marble`
+/// (spectrum), at the hit point mapped to texture space.
+#[derive(Debug, Clone)]
+pub(crate) struct Solid {
+    kind: SolidKind,
+    octaves: u32,
+    omega: f64,
+    /// `marble`'s `scale` and `variation`.
+    scale: f64,
+    variation: f64,
+    /// World to texture space, the top three rows of the affine matrix.
+    xf: [[f64; 4]; 3],
+}
+
+impl Solid {
+    fn new(kind: SolidKind, octaves: u32, omega: f64, scale: f64, variation: f64, t: &crate::scene::Transform) -> Result<Solid, String> {
+        if !(omega.is_finite() && scale.is_finite() && variation.is_finite()) || t.m.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(format!("solid texture with a non-finite roughness {omega}, scale {scale}, variation {variation} or transform"));
+        }
+        Ok(Solid { kind, octaves, omega, scale, variation, xf: [t.m[0], t.m[1], t.m[2]] })
+    }
+
+    /// The hit point in texture space.
+    #[inline]
+    fn point(&self, p: V3) -> [f64; 3] {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        self.xf.map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+    }
+
+    /// A float solid texture's value at `ctx`.
+    pub(crate) fn value(&self, ctx: &TexCtx) -> f32 {
+        let q = self.point(ctx.p);
+        (match self.kind {
+            SolidKind::Fbm => crate::noise::fbm(q, self.omega, self.octaves),
+            SolidKind::Wrinkled => crate::noise::turbulence(q, self.omega, self.octaves),
+            SolidKind::Windy => crate::noise::windy(q),
+            SolidKind::Marble => {
+                let c = self.rgb(ctx);
+                (c[0] + c[1] + c[2]) as f64 / 3.0
+            }
+        }) as f32
+    }
+
+    /// `marble`'s RGB albedo at `ctx` (clamped to [0, 1], as pbrt-v4's `RGBAlbedoSpectrum`).
+    pub(crate) fn rgb(&self, ctx: &TexCtx) -> [f32; 3] {
+        let q = self.point(ctx.p).map(|v| v * self.scale);
+        crate::noise::marble_rgb(q, self.variation, self.omega, self.octaves).map(|v| v.clamp(0.0, 1.0) as f32)
+    }
 }
 
 /// pbrt-v4 `UVMapping` in f32.
@@ -64,6 +126,10 @@ pub(crate) enum Tex {
     DirMix(Box<[Tex; 2]>, V3),
     /// Tables of v00, v10, v01, v11.
     Bilerp([u32; 4], Map),
+    /// pbrt-v4 `marble`.
+    Marble(Box<Solid>),
+    /// pbrt-v4 `dots`: inside, outside.
+    Dots(Box<[Tex; 2]>, Map),
 }
 
 /// A one-channel image (float `imagemap`).
@@ -84,6 +150,9 @@ pub(crate) enum FTex {
     Mix(Box<[FTex; 3]>),
     DirMix(Box<[FTex; 2]>, V3),
     Bilerp([f32; 4], Map),
+    Solid(Box<Solid>),
+    /// pbrt-v4 `dots`: inside, outside.
+    Dots(Box<[FTex; 2]>, Map),
 }
 
 /// Weight of `tex2` in pbrt-v4's 2D checkerboard without filtering: 0 where
@@ -196,6 +265,11 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
             let w = bilerp_weights(s, tt);
             (0..4).map(|k| w[k] * v[k]).sum()
         }
+        FTex::Solid(solid) => solid.value(ctx),
+        FTex::Dots(c, map) => {
+            let (s, tt) = map.st(ctx.uv);
+            eval_float(&c[!crate::noise::inside_polka_dot(s as f64, tt as f64) as usize], ctx)
+        }
     }
 }
 
@@ -302,6 +376,17 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             }
             FTex::Bilerp(v.map(|x| x as f32), check_map(mapping)?)
         }
+        FloatTexture::Noise(n) => {
+            let kind = match n.kind {
+                crate::scene::NoiseKind::Fbm => SolidKind::Fbm,
+                crate::scene::NoiseKind::Wrinkled => SolidKind::Wrinkled,
+                crate::scene::NoiseKind::Windy => SolidKind::Windy,
+            };
+            FTex::Solid(Box::new(Solid::new(kind, n.octaves, n.roughness, 1.0, 0.0, &n.texture_from_world)?))
+        }
+        FloatTexture::Dots { inside, outside, mapping } => {
+            FTex::Dots(Box::new([compile_float(inside)?, compile_float(outside)?]), check_map(mapping)?)
+        }
     })
 }
 
@@ -407,6 +492,16 @@ pub(crate) fn compile_texture(
                 map,
             )
         }
+        Texture::Marble { octaves, roughness, scale, variation, texture_from_world } => {
+            Tex::Marble(Box::new(Solid::new(SolidKind::Marble, *octaves, *roughness, *scale, *variation, texture_from_world).map_err(err)?))
+        }
+        Texture::Dots { inside, outside, mapping } => Tex::Dots(
+            Box::new([
+                compile_texture(inside, material_index, ws, tables, images)?,
+                compile_texture(outside, material_index, ws, tables, images)?,
+            ]),
+            check_map(mapping).map_err(err)?,
+        ),
     })
 }
 
@@ -432,6 +527,7 @@ mod tests {
         let ctx = TexCtx {
             uv: [0.25, 0.75],
             n: V3::new(0.0, 0.0, 1.0),
+            p: V3::new(0.0, 0.0, 0.0),
         };
         let c = |v: f64| Box::new(FloatTexture::Constant(v));
         let mix = FloatTexture::Mix {

@@ -122,7 +122,7 @@ pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: 
             dz
         }
         RtfFilm::FocusM(m) => {
-            if !(m > 0.0) || m.is_nan() {
+            if m.is_nan() || m <= 0.0 {
                 return Err(format!("focusdistance {m} m must be > 0"));
             }
             let lens_mm = rtf.plane_offset_input_mm + rtf.thickness_mm + rtf.plane_offset_output_mm;

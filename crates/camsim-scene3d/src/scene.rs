@@ -120,6 +120,36 @@ pub enum Texture {
     DirectionMix { tex1: Box<Texture>, tex2: Box<Texture>, direction: [f64; 3] },
     /// pbrt-v4 `bilerp`: bilinear in `(s, t)` between `v00` (0,0), `v10` (1,0), `v01` (0,1), `v11`.
     Bilerp { v00: Spectrum, v01: Spectrum, v10: Spectrum, v11: Spectrum, mapping: UvMapping },
+    /// pbrt-v4 `marble`: stripes of a fixed grey and blue-grey palette (RGB albedo) along texture
+    /// space's y, bent by fractional Brownian motion: t = 1/2 + sin(y + variation FBm(p)) / 2 with
+    /// p the hit point in texture space times `scale`.
+    Marble { octaves: u32, roughness: f64, scale: f64, variation: f64, texture_from_world: Transform },
+    /// pbrt-v4 `dots`: `inside` within the polka dots of the `(s, t)` unit cells, else `outside`.
+    Dots { inside: Box<Texture>, outside: Box<Texture>, mapping: UvMapping },
+}
+
+/// A solid-noise float texture (pbrt-v4 `fbm`, `wrinkled`, `windy`), evaluated at the hit point
+/// in texture space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseTexture {
+    pub kind: NoiseKind,
+    /// Octaves summed (`fbm`, `wrinkled`; `windy` has its own 3 and 6).
+    pub octaves: u32,
+    /// Amplitude ratio between octaves (pbrt-v4 `roughness`, omega).
+    pub roughness: f64,
+    /// World to texture space: the inverse of the CTM at the `Texture` directive.
+    pub texture_from_world: Transform,
+}
+
+/// Which octave sum a [`NoiseTexture`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseKind {
+    /// Fractional Brownian motion: sum of omega^i noise(1.99^i p).
+    Fbm,
+    /// Turbulence: sum of omega^i |noise(1.99^i p)|.
+    Wrinkled,
+    /// |FBm(0.1 p, 0.5, 3)| FBm(p, 0.5, 6).
+    Windy,
 }
 
 /// A dimensionless scalar that may vary over the surface (roughness, amounts, scales).
@@ -135,6 +165,10 @@ pub enum FloatTexture {
     Mix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, amount: Box<FloatTexture> },
     DirectionMix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, direction: [f64; 3] },
     Bilerp { v00: f64, v01: f64, v10: f64, v11: f64, mapping: UvMapping },
+    /// pbrt-v4 `fbm`, `wrinkled`, `windy`.
+    Noise(NoiseTexture),
+    /// pbrt-v4 `dots` (as [`Texture::Dots`]).
+    Dots { inside: Box<FloatTexture>, outside: Box<FloatTexture>, mapping: UvMapping },
 }
 
 /// Surface scattering, with pbrt-v4's material semantics (see `camsim_render::bsdf` for the BSDFs).

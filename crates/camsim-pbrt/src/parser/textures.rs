@@ -1,5 +1,6 @@
 //! `Texture`: pbrt-v4 spectrum and float textures `constant`, `imagemap`, `checkerboard` (2D),
-//! `scale`, `mix`, `directionmix` and `bilerp`, with pbrt-v4's parameter names and defaults
+//! `scale`, `mix`, `directionmix`, `bilerp`, `dots`, and the solid noises `fbm`, `wrinkled`,
+//! `windy` (float) and `marble` (spectrum), with pbrt-v4's parameter names and defaults
 //! (pbrt-v4 `textures.cpp`, `*Texture::Create`), and the helpers materials use to read a
 //! spectrum- or float-texture parameter.
 
@@ -7,9 +8,14 @@ use super::{load_image, parse_encoding, Parser};
 use crate::params::ParamList;
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
-use crate::scene::{FloatTexture, Texture, UvMapping};
+use crate::scene::{FloatTexture, NoiseKind, NoiseTexture, Texture, Transform, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
+
+/// The float texture classes read here (for messages).
+const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, fbm, wrinkled, windy";
+/// The spectrum texture classes read here (for messages).
+const SPECTRUM_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
 /// An image texture's width, height, texels and mapping.
 type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping);
@@ -244,7 +250,20 @@ impl Parser {
                     v11: params.float("v11", 1.0)?,
                     mapping: self.uv_mapping(name, params, loc)?,
                 },
-                _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported (constant, imagemap, checkerboard, scale, mix, directionmix, bilerp)"))),
+                "dots" => FloatTexture::Dots { inside: f(self, "inside", 1.0)?, outside: f(self, "outside", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+                "fbm" | "wrinkled" => FloatTexture::Noise(NoiseTexture {
+                    kind: if class == "fbm" { NoiseKind::Fbm } else { NoiseKind::Wrinkled },
+                    octaves: self.octaves(params, loc, &what)?,
+                    roughness: params.float("roughness", 0.5)?,
+                    texture_from_world: self.texture_from_world(loc, &what)?,
+                }),
+                "windy" => FloatTexture::Noise(NoiseTexture {
+                    kind: NoiseKind::Windy,
+                    octaves: 6,
+                    roughness: 0.5,
+                    texture_from_world: self.texture_from_world(loc, &what)?,
+                }),
+                _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported ({FLOAT_CLASSES})"))),
             };
             params.check_unused(&what)?;
             self.float_textures.insert(name.to_string(), t);
@@ -274,11 +293,35 @@ impl Parser {
                 };
                 Texture::Bilerp { v00: v("v00", 0.0)?, v01: v("v01", 1.0)?, v10: v("v10", 0.0)?, v11: v("v11", 1.0)?, mapping: self.uv_mapping(name, params, loc)? }
             }
-            _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported (constant, imagemap, checkerboard, scale, mix, directionmix, bilerp)"))),
+            "dots" => Texture::Dots { inside: s(self, "inside", 1.0)?, outside: s(self, "outside", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+            "marble" => Texture::Marble {
+                octaves: self.octaves(params, loc, &what)?,
+                roughness: params.float("roughness", 0.5)?,
+                scale: params.float("scale", 1.0)?,
+                variation: params.float("variation", 0.2)?,
+                texture_from_world: self.texture_from_world(loc, &what)?,
+            },
+            _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported ({SPECTRUM_CLASSES})"))),
         };
         params.check_unused(&what)?;
         self.textures.insert(name.to_string(), t);
         Ok(())
+    }
+
+    /// `octaves` (pbrt-v4 default 8), at least 1 and at most 30 (beyond, 1.99^i overflows the
+    /// noise lattice's useful range).
+    fn octaves(&self, params: &ParamList, loc: &Loc, what: &str) -> Result<u32, PbrtError> {
+        let n = params.int("octaves", 8)?;
+        if !(1..=30).contains(&n) {
+            return Err(loc.err(format!("{what}: \"octaves\" {n} must be between 1 and 30")));
+        }
+        Ok(n as u32)
+    }
+
+    /// pbrt-v4 `TextureMapping3D`: world (render) space to texture space, the inverse of the CTM
+    /// at the `Texture` directive.
+    fn texture_from_world(&self, loc: &Loc, what: &str) -> Result<Transform, PbrtError> {
+        crate::xform::inverse(&self.gs.ctm).ok_or_else(|| loc.err(format!("{what}: the current transform is singular")))
     }
 
     /// pbrt-v4 DirectionMixTexture: `dir` (default (0, 1, 0)) in texture space, transformed by the
