@@ -69,7 +69,8 @@
 //!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
 //!   crate, PFM by [`pfm`], linear; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
 //!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
-//!   channels), `constant` (`value`), `checkerboard` (2D: `tex1`, `tex2`, uv mapping),
+//!   channels), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
+//!   mapping, 3 in texture space),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`), `dots` (`inside`, `outside`, uv mapping),
 //!   the solid noises `fbm`, `wrinkled` (`octaves`, `roughness`) and `windy` (float) and `marble`
@@ -139,7 +140,7 @@
 //! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`; materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
-//! texture classes other than those above (`ptex`, 3D `checkerboard`), non-`uv` mappings; shapes other than those above (`curve`, ...),
+//! texture classes other than those above (`ptex`), non-`uv` mappings; shapes other than those above (`curve`, ...),
 //! `alpha` on area lights;
 //! `goniometric` and `projection` lights, area-light images on spheres, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a

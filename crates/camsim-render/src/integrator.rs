@@ -459,6 +459,7 @@ impl Tracer {
                 let k = crate::texture::checker_weight(s, t) as usize;
                 self.eval_texture(&c[k], ctx, lambdas)
             }
+            Tex::Checker3(c, space) => self.eval_texture(&c[space.checker(ctx.p)], ctx, lambdas),
             Tex::Scale(t, sc) => {
                 // pbrt-v4 SpectrumScaledTexture: a zero scale short-circuits.
                 let k = eval_float(sc, ctx);

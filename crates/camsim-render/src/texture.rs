@@ -39,6 +39,34 @@ pub(crate) enum SolidKind {
     Marble,
 }
 
+/// pbrt-v4 `TransformMapping3D`: world to texture space (the top three rows of the affine
+/// matrix, the inverse of the texture's CTM).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TexSpace([[f64; 4]; 3]);
+
+impl TexSpace {
+    fn new(t: &crate::scene::Transform) -> Result<TexSpace, String> {
+        if t.m.iter().flatten().any(|v| !v.is_finite()) {
+            return Err("a 3D texture's transform has a non-finite entry".into());
+        }
+        Ok(TexSpace([t.m[0], t.m[1], t.m[2]]))
+    }
+
+    /// The hit point in texture space.
+    #[inline]
+    pub(crate) fn point(&self, p: V3) -> [f64; 3] {
+        let q = [p.x as f64, p.y as f64, p.z as f64];
+        self.0.map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+    }
+
+    /// pbrt-v4's 3D checkerboard with a zero footprint: which of the two textures (0 or 1) at `p`,
+    /// by the parity of floor(x) + floor(y) + floor(z).
+    #[inline]
+    pub(crate) fn checker(&self, p: V3) -> usize {
+        (self.point(p).iter().map(|v| v.floor() as i64).sum::<i64>() & 1) as usize
+    }
+}
+
 /// A compiled solid (3D) texture: pbrt-v4 `fbm`, `wrinkled`, `windy` (float) or `marble`
 /// (spectrum), at the hit point mapped to texture space.
 #[derive(Debug, Clone)]
@@ -49,28 +77,20 @@ pub(crate) struct Solid {
     /// `marble`'s `scale` and `variation`.
     scale: f64,
     variation: f64,
-    /// World to texture space, the top three rows of the affine matrix.
-    xf: [[f64; 4]; 3],
+    space: TexSpace,
 }
 
 impl Solid {
     fn new(kind: SolidKind, octaves: u32, omega: f64, scale: f64, variation: f64, t: &crate::scene::Transform) -> Result<Solid, String> {
-        if !(omega.is_finite() && scale.is_finite() && variation.is_finite()) || t.m.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(format!("solid texture with a non-finite roughness {omega}, scale {scale}, variation {variation} or transform"));
+        if !(omega.is_finite() && scale.is_finite() && variation.is_finite()) {
+            return Err(format!("solid texture with a non-finite roughness {omega}, scale {scale} or variation {variation}"));
         }
-        Ok(Solid { kind, octaves, omega, scale, variation, xf: [t.m[0], t.m[1], t.m[2]] })
-    }
-
-    /// The hit point in texture space.
-    #[inline]
-    fn point(&self, p: V3) -> [f64; 3] {
-        let q = [p.x as f64, p.y as f64, p.z as f64];
-        self.xf.map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+        Ok(Solid { kind, octaves, omega, scale, variation, space: TexSpace::new(t)? })
     }
 
     /// A float solid texture's value at `ctx`.
     pub(crate) fn value(&self, ctx: &TexCtx) -> f32 {
-        let q = self.point(ctx.p);
+        let q = self.space.point(ctx.p);
         (match self.kind {
             SolidKind::Fbm => crate::noise::fbm(q, self.omega, self.octaves),
             SolidKind::Wrinkled => crate::noise::turbulence(q, self.omega, self.octaves),
@@ -84,7 +104,7 @@ impl Solid {
 
     /// `marble`'s RGB albedo at `ctx` (clamped to [0, 1], as pbrt-v4's `RGBAlbedoSpectrum`).
     pub(crate) fn rgb(&self, ctx: &TexCtx) -> [f32; 3] {
-        let q = self.point(ctx.p).map(|v| v * self.scale);
+        let q = self.space.point(ctx.p).map(|v| v * self.scale);
         crate::noise::marble_rgb(q, self.variation, self.omega, self.octaves).map(|v| v.clamp(0.0, 1.0) as f32)
     }
 }
@@ -121,6 +141,8 @@ pub(crate) enum Tex {
     /// Index into `Tracer::images`.
     Image(u32),
     Checker(Box<[Tex; 2]>, Map),
+    /// 3D checkerboard.
+    Checker3(Box<[Tex; 2]>, TexSpace),
     Scale(Box<Tex>, Box<FTex>),
     Mix(Box<[Tex; 2]>, Box<FTex>),
     DirMix(Box<[Tex; 2]>, V3),
@@ -146,6 +168,7 @@ pub(crate) enum FTex {
     Const(f32),
     Image(Arc<FloatImage>, Map),
     Checker(Box<[FTex; 2]>, Map),
+    Checker3(Box<[FTex; 2]>, TexSpace),
     Scale(Box<[FTex; 2]>),
     Mix(Box<[FTex; 3]>),
     DirMix(Box<[FTex; 2]>, V3),
@@ -223,6 +246,7 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
                 eval_float(&c[1], ctx)
             }
         }
+        FTex::Checker3(c, space) => eval_float(&c[space.checker(ctx.p)], ctx),
         FTex::Scale(c) => {
             // pbrt-v4 FloatScaledTexture: a zero scale short-circuits.
             let sc = eval_float(&c[1], ctx);
@@ -347,6 +371,9 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             Box::new([compile_float(tex1)?, compile_float(tex2)?]),
             check_map(mapping)?,
         ),
+        FloatTexture::Checkerboard3d { tex1, tex2, texture_from_world } => {
+            FTex::Checker3(Box::new([compile_float(tex1)?, compile_float(tex2)?]), TexSpace::new(texture_from_world)?)
+        }
         FloatTexture::Scale { tex, scale } => {
             FTex::Scale(Box::new([compile_float(tex)?, compile_float(scale)?]))
         }
@@ -451,6 +478,13 @@ pub(crate) fn compile_texture(
                 compile_texture(tex2, material_index, ws, tables, images)?,
             ]),
             check_map(mapping).map_err(err)?,
+        ),
+        Texture::Checkerboard3d { tex1, tex2, texture_from_world } => Tex::Checker3(
+            Box::new([
+                compile_texture(tex1, material_index, ws, tables, images)?,
+                compile_texture(tex2, material_index, ws, tables, images)?,
+            ]),
+            TexSpace::new(texture_from_world).map_err(err)?,
         ),
         Texture::Scale { tex, scale } => Tex::Scale(
             Box::new(compile_texture(tex, material_index, ws, tables, images)?),

@@ -178,3 +178,37 @@ fn bad_procedural_texture_parameters_are_refused() {
         assert!(e.contains("bad-tex.pbrt:4:") && e.contains(want), "{tex}: {e}");
     }
 }
+
+/// 3D `checkerboard` (`dimension 3`): in texture space (10 x world here) the cell parity of
+/// floor(x) + floor(y) + floor(z) picks `tex2`; on the square at z = 1 the texture z is 10 (even),
+/// and translating the texture by 0.05 along z makes it 9.5 (odd), which inverts the pattern. The
+/// reference is the albedo averaged over each pixel (8 x 8 points; the pixel filter is a box).
+#[test]
+fn checkerboard_in_3d_follows_the_cell_parity() {
+    for (shift, flip) in [("", 0), ("Translate 0 0 0.05\n", 1)] {
+        let world = format!(
+            "AttributeBegin\n{shift}Scale 0.1 0.1 0.1\nTexture \"c\" \"spectrum\" \"checkerboard\" \"integer dimension\" 3 \
+             \"rgb tex1\" [0.1 0.1 0.1] \"rgb tex2\" [0.8 0.8 0.8]\nAttributeEnd\nMaterial \"diffuse\" \"texture reflectance\" \"c\""
+        );
+        let got = albedo(&world);
+        let k = 8;
+        let mut err = 0.0;
+        for r in 0..N {
+            for c in 0..N {
+                let mut odd = 0;
+                for a in 0..k {
+                    for b in 0..k {
+                        let x = (2.0 * (c as f64 + (a as f64 + 0.5) / k as f64) / N as f64 - 1.0) * HALF;
+                        let y = (1.0 - 2.0 * (r as f64 + (b as f64 + 0.5) / k as f64) / N as f64) * HALF;
+                        odd += (((10.0 * x).floor() + (10.0 * y).floor()) as i64 & 1 ^ flip) as usize;
+                    }
+                }
+                let want = 0.1 + 0.7 * odd as f64 / (k * k) as f64;
+                err += (got[r * N + c] - want).abs();
+            }
+        }
+        let mean = err / (N * N) as f64;
+        eprintln!("3D checkerboard{}: |rendered - pixel-averaged cells| mean {mean:.4}", if flip == 1 { " (shifted)" } else { "" });
+        assert!(mean < 0.01, "{mean}");
+    }
+}

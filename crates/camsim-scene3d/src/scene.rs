@@ -112,6 +112,9 @@ pub enum Texture {
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
     Checkerboard { tex1: Box<Texture>, tex2: Box<Texture>, mapping: UvMapping },
+    /// pbrt-v4 3D `checkerboard` (`dimension 3`): `tex1` where floor(x) + floor(y) + floor(z) of
+    /// the hit point in texture space is even, else `tex2` (point-sampled).
+    Checkerboard3d { tex1: Box<Texture>, tex2: Box<Texture>, texture_from_world: Transform },
     /// pbrt-v4 `scale`: `tex * scale`.
     Scale { tex: Box<Texture>, scale: FloatTexture },
     /// pbrt-v4 `mix`: `(1 - amount) tex1 + amount tex2`.
@@ -161,6 +164,8 @@ pub enum FloatTexture {
     /// Row 0 at t = 1, bilinear, repeat wrap (as [`Texture::Image`]).
     Image { width: usize, height: usize, values: Vec<f32>, mapping: UvMapping },
     Checkerboard { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, mapping: UvMapping },
+    /// As [`Texture::Checkerboard3d`].
+    Checkerboard3d { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, texture_from_world: Transform },
     Scale { tex: Box<FloatTexture>, scale: Box<FloatTexture> },
     Mix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, amount: Box<FloatTexture> },
     DirectionMix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, direction: [f64; 3] },

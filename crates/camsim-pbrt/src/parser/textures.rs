@@ -181,12 +181,14 @@ impl Parser {
             }
         };
         let what = format!("Texture \"{name}\" \"{ty}\" \"{class}\"");
-        if class == "checkerboard" {
+        // pbrt-v4 CheckerboardTexture: `dimension` 2 (uv mapping) or 3 (texture space).
+        let checker_3d = class == "checkerboard" && {
             let dim = params.int("dimension", 2)?;
-            if dim != 2 {
-                return Err(loc.err(format!("{what}: only \"dimension\" 2 is supported (3D checkerboards need a 3D mapping)")));
+            if dim != 2 && dim != 3 {
+                return Err(loc.err(format!("{what}: \"dimension\" {dim} must be 2 or 3")));
             }
-        }
+            dim == 3
+        };
         if class == "imagemap" {
             let (width, height, rgb, mapping) = self.imagemap(name, params, loc, file)?;
             if float {
@@ -239,6 +241,11 @@ impl Parser {
             let f = |p: &Self, n: &str, d: f64| p.float_texture_param(params, n, d).map(Box::new);
             let t = match class {
                 "constant" => FloatTexture::Constant(params.float("value", 1.0)?),
+                "checkerboard" if checker_3d => FloatTexture::Checkerboard3d {
+                    tex1: f(self, "tex1", 1.0)?,
+                    tex2: f(self, "tex2", 0.0)?,
+                    texture_from_world: self.texture_from_world(loc, &what)?,
+                },
                 "checkerboard" => FloatTexture::Checkerboard { tex1: f(self, "tex1", 1.0)?, tex2: f(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
                 "scale" => FloatTexture::Scale { tex: f(self, "tex", 1.0)?, scale: f(self, "scale", 1.0)? },
                 "mix" => FloatTexture::Mix { tex1: f(self, "tex1", 0.0)?, tex2: f(self, "tex2", 1.0)?, amount: f(self, "amount", 0.5)? },
@@ -277,6 +284,11 @@ impl Parser {
         };
         let t = match class {
             "constant" => *s(self, "value", 1.0)?,
+            "checkerboard" if checker_3d => Texture::Checkerboard3d {
+                tex1: s(self, "tex1", 1.0)?,
+                tex2: s(self, "tex2", 0.0)?,
+                texture_from_world: self.texture_from_world(loc, &what)?,
+            },
             "checkerboard" => Texture::Checkerboard { tex1: s(self, "tex1", 1.0)?, tex2: s(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
             "scale" => Texture::Scale { tex: s(self, "tex", 1.0)?, scale: self.float_texture_param(params, "scale", 1.0)? },
             "mix" => Texture::Mix { tex1: s(self, "tex1", 0.0)?, tex2: s(self, "tex2", 1.0)?, amount: self.float_texture_param(params, "amount", 0.5)? },
