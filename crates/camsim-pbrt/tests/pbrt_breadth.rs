@@ -113,7 +113,7 @@ fn alpha_parameters_become_masked_materials() {
     // Alpha on an area light (pbrt-v4 `DiffuseAreaLight::AlphaMasked`): the emitter's material
     // is masked like any other shape's; the renderer gates its emission with the same test.
     let s = parse(&format!("{ALPHA_HEADER}AreaLightSource \"diffuse\"\nShape \"sphere\" \"float alpha\" 0.5\n")).unwrap();
-    let lit = s.shapes.iter().find(|sh| sh.area_light.is_some()).expect("the emitter is kept");
+    let lit = s.shapes.last().filter(|sh| sh.area_light.is_some()).expect("the emitter is kept");
     assert!(
         matches!(s.materials[lit.material], Material::AlphaMasked { alpha: FloatTexture::Constant(a), .. } if a == 0.5),
         "{:?}",
