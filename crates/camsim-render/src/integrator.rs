@@ -273,7 +273,17 @@ impl Tracer {
                     scene_bounds.grow_point(c + V3::splat(r));
                     let mut light = NO_LIGHT;
                     if let Some((table, two_sided)) = le_table {
-                        light = lights.push(LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }, table, two_sided);
+                        let kind = if alpha_mat == NO_ALPHA {
+                            LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }
+                        } else {
+                            // Through alpha cut-outs the far side's inner face shows, which cone
+                            // sampling (near side only) never picks: sample the whole sphere by
+                            // area, as a zone with the full range (same uv, `lights::zone_uv`).
+                            let (ex, ey, ez) = (V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0), V3::new(0.0, 0.0, 1.0));
+                            let clip = SphereClip { ex, ey, ez, z_min: -r, z_max: r, phi_max: 2.0 * std::f32::consts::PI };
+                            LightKind::SphereZone { center: c, radius: r, clip, area: 4.0 * std::f32::consts::PI * r * r, inward: s.reverse_orientation }
+                        };
+                        light = lights.push(kind, table, two_sided);
                         let e = &mut lights.list[light as usize];
                         e.image = emit_image;
                         e.alpha_mat = alpha_mat;

@@ -375,6 +375,21 @@ fn fractional_alpha_quad_light_gives_half_the_irradiance() {
     check("alpha 0.5 quad seen over an environment of 0.25", measure(&s, emitter_unit(&s)), 0.625, 1e-3);
 }
 
+/// A two-sided sphere light with alpha 0.5, seen from a receiver below on its axis: every
+/// direction within the sphere's cone meets its near side (kept with probability 1/2) and, where
+/// that is cut, its far side's inner face (kept with 1/2 again, emitting since two-sided), so
+/// the irradiance is 3/4 of the opaque sphere's `pi L (R / H)^2`. Light sampling must reach the
+/// far side through the holes.
+#[test]
+fn fractional_alpha_two_sided_sphere_shows_its_far_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = "\"rgb L\" [1 1 1] \"bool twosided\" true";
+    let text =
+        format!("{}{}{}", receiver_view(0.0, 0.0, 8, 128), partial_sphere_light(light, "", "\"float alpha\" 0.5"), receiver(0.0, 0.0));
+    let s = parse(&text, dir.path());
+    check("two-sided sphere with alpha 0.5, E / (pi L)", measure(&s, emitter_unit(&s)), 0.75 * (R_M / H_M).powi(2), 1e-3);
+}
+
 /// Bad input stays a clear error: a missing emission image names the file and the line.
 #[test]
 fn missing_emission_image_names_file_and_line() {
