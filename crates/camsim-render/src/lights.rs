@@ -4,8 +4,8 @@
 //! and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
 //! with probability proportional to their power (pbrt-v4 `PowerLightSampler`); points on
 //! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
-//! they subtend, from inside uniformly by area; environment maps by their piecewise-constant
-//! texel distribution.
+//! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
+//! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
 
 use crate::math::V3;
 use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
