@@ -47,7 +47,8 @@
 //!   surface as pbrt-v4 does); every shape takes `alpha` (a number or a float texture, pbrt-v4
 //!   4th ed. §7.1.1: hits where it is 0 are ignored, where it is fractional a deterministic
 //!   hash of the ray decides, for camera, bounce and shadow rays alike; a constant 0 drops the
-//!   shape; see [`camsim_scene3d::scene::Material::AlphaMasked`]; not on area lights),
+//!   shape; see [`camsim_scene3d::scene::Material::AlphaMasked`]; on an area light the mask
+//!   also removes its emission where it cuts, for rays and light samples alike),
 //!   `Material` / `MakeNamedMaterial` / `NamedMaterial` (forward references to named materials
 //!   resolve at the end) with pbrt-v4's materials, parameter names and defaults (see
 //!   `parser/materials.rs`): `diffuse` (`reflectance`), `conductor` (`eta`/`k` spectra, default
@@ -79,7 +80,7 @@
 //!   `camsim_render::noise`); texture-valued parameters take a value or a
 //!   texture name (the renderer's `texture` module compiles and evaluates them),
 //!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
-//!   `encoding`: an RGB image over a triangle mesh's uv, each value an illuminant spectrum as
+//!   `encoding`: an RGB image over the uv of a triangle mesh or a (partial) sphere, each value an illuminant spectrum as
 //!   pbrt-v4's `RGBIlluminantSpectrum`, `power` divided by the image's mean luminance as
 //!   pbrt-v4 does; see [`camsim_scene3d::scene::AreaLight::image`]),
 //!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
@@ -141,8 +142,7 @@
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`ptex`), non-`uv` mappings; shapes other than those above (`curve`, ...),
-//! `alpha` on area lights;
-//! `goniometric` and `projection` lights, area-light images on spheres, infinite-light
+//! `goniometric` and `projection` lights, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a
 //! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`

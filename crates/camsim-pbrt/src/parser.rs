@@ -753,14 +753,9 @@ impl Parser {
                 (_, FloatTexture::Constant(a)) if !a.is_finite() => {
                     return Err(p.loc.err(format!("Shape: alpha {a} is not finite")));
                 }
-                _ => {
-                    if self.gs.area_light.is_some() {
-                        return Err(p.loc.err(
-                            "Shape: alpha cut-outs on area lights are not supported (the light's emission would ignore the mask)",
-                        ));
-                    }
-                    alpha = Some((key, tex));
-                }
+                // On an area light the mask also gates its emission (pbrt-v4
+                // `DiffuseAreaLight::AlphaMasked`, applied by the renderer to hits and samples).
+                _ => alpha = Some((key, tex)),
             }
         }
         self.ignore_params(params, &["faceIndices", "S", "emissionfilename"], "Shape");
@@ -979,11 +974,13 @@ impl Parser {
                     [v[0] / s, v[1] / s, v[2] / s]
                 });
                 let turned = (0..3).any(|i| (0..3).any(|k| (axes[i][k] - if i == k { 1.0 } else { 0.0 }).abs() > 1e-12));
-                if turned && self.gs.area_light.is_none() {
+                let uv_free_light = self.gs.area_light.as_ref().is_some_and(|l| l.image.is_none()) && alpha.is_none();
+                if turned && !uv_free_light {
                     // A rotated (or mirrored) sphere keeps its object frame so that its uv
                     // (pbrt-v4: u = phi / 2 pi, v = 1 - theta / pi in the object frame) turns
-                    // with it: a partial sphere with the full range. Emitters stay full spheres
-                    // (cone sampling; their uv is taken in the world frame).
+                    // with it: a partial sphere with the full range. Emitters whose emission
+                    // does not depend on uv (no image, no alpha) stay full spheres (cone
+                    // sampling; their uv is taken in the world frame).
                     let mut s = Shape {
                         name: None,
                         geometry: Geometry::PartialSphere {

@@ -5,7 +5,7 @@
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv, SphereClip};
-use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_IMAGE};
+use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
 use crate::materials::{check_mix_cycles, compile_material, Mat};
@@ -169,11 +169,10 @@ impl Tracer {
                     materials.len()
                 )));
             }
+            // An alpha-masked emitter (pbrt-v4 `DiffuseAreaLight::AlphaMasked`): rays skip the
+            // points its test rejects (as on any shape) and light samples there carry nothing.
+            let alpha_mat = if matches!(materials[s.material], Mat::AlphaMasked { .. }) { s.material as u32 } else { NO_ALPHA };
             let le_table = match &s.area_light {
-                Some(_) if matches!(materials[s.material], Mat::AlphaMasked { .. }) => {
-                    // Light sampling would ignore the mask that camera and bounce rays see.
-                    return Err(shape_err("an area light with an alpha cut-out is not supported".into()));
-                }
                 Some(al) => {
                     if let Err(e) = al.radiance.require_non_negative("area light radiance") {
                         return Err(shape_err(e.to_string()));
@@ -183,12 +182,10 @@ impl Tracer {
                 }
                 None => None,
             };
-            // A textured area light (pbrt-v4 `filename`): its image, for triangle meshes.
+            // A textured area light (pbrt-v4 `filename`): its image, over the uv of a triangle
+            // mesh or of a (partial) sphere.
             let mut emit_image = NO_IMAGE;
             if let Some(im) = s.area_light.as_ref().and_then(|al| al.image.as_ref()) {
-                if !matches!(s.geometry, Geometry::Triangles { .. }) {
-                    return Err(shape_err("an area light image needs a triangle mesh (its uv)".into()));
-                }
                 if im.width == 0 || im.height == 0 || im.rgb.len() != im.width * im.height {
                     return Err(shape_err(format!("area light image of {} x {} pixels has {} texels", im.width, im.height, im.rgb.len())));
                 }
@@ -242,16 +239,15 @@ impl Tracer {
                                     n = -n;
                                 }
                                 light = lights.push(LightKind::Tri { p0, e1, e2, n, area }, table, two_sided);
-                                if emit_image != NO_IMAGE {
-                                    // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)),
-                                    // as `surface` interpolates them at a hit.
-                                    let e = &mut lights.list[light as usize];
-                                    e.image = emit_image;
-                                    e.uvs = match uvs {
-                                        Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
-                                        None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
-                                    };
-                                }
+                                // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)), as
+                                // `surface` interpolates them at a hit.
+                                let e = &mut lights.list[light as usize];
+                                e.image = emit_image;
+                                e.alpha_mat = alpha_mat;
+                                e.uvs = match uvs {
+                                    Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
+                                    None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+                                };
                             }
                         }
                         prims.push(Prim::Tri { p0, e1, e2 });
@@ -277,7 +273,20 @@ impl Tracer {
                     scene_bounds.grow_point(c + V3::splat(r));
                     let mut light = NO_LIGHT;
                     if let Some((table, two_sided)) = le_table {
-                        light = lights.push(LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }, table, two_sided);
+                        let kind = if alpha_mat == NO_ALPHA {
+                            LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }
+                        } else {
+                            // Through alpha cut-outs the far side's inner face shows, which cone
+                            // sampling (near side only) never picks: sample the whole sphere by
+                            // area, as a zone with the full range (same uv, `lights::zone_uv`).
+                            let (ex, ey, ez) = (V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0), V3::new(0.0, 0.0, 1.0));
+                            let clip = SphereClip { ex, ey, ez, z_min: -r, z_max: r, phi_max: 2.0 * std::f32::consts::PI };
+                            LightKind::SphereZone { center: c, radius: r, clip, area: 4.0 * std::f32::consts::PI * r * r, inward: s.reverse_orientation }
+                        };
+                        light = lights.push(kind, table, two_sided);
+                        let e = &mut lights.list[light as usize];
+                        e.image = emit_image;
+                        e.alpha_mat = alpha_mat;
                     }
                     prims.push(Prim::Sphere { center: c, radius: r });
                     info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
@@ -310,6 +319,9 @@ impl Tracer {
                         // pbrt-v4 Sphere::Area: phi_max r (z_max - z_min).
                         let area = clip.phi_max * r * (clip.z_max - clip.z_min);
                         light = lights.push(LightKind::SphereZone { center: c, radius: r, clip, area, inward: s.reverse_orientation }, table, two_sided);
+                        let e = &mut lights.list[light as usize];
+                        e.image = emit_image;
+                        e.alpha_mat = alpha_mat;
                     }
                     prims.push(Prim::PartialSphere { center: c, radius: r, clip: clips.len() as u32 });
                     clips.push(clip);
@@ -404,25 +416,18 @@ impl Tracer {
                 let p0 = r.o + r.d * h.t;
                 let n = (p0 - center).normalize();
                 let p = center + n * radius;
-                // pbrt-v4 full-sphere uv (4th ed. §6.2.3 with theta_zmin = pi, theta_zmax = 0):
-                // u = phi / (2 pi), v = (theta - pi) / (0 - pi) = 1 - theta / pi, z up. Rotated
-                // spheres are partial spheres with their object frame (pbrt::xform).
-                let phi = n.y.atan2(n.x);
-                let phi = if phi < 0.0 { phi + 2.0 * std::f32::consts::PI } else { phi };
-                let uv = [phi / (2.0 * std::f32::consts::PI), 1.0 - n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI];
+                // pbrt-v4 full-sphere uv, z up (`lights::full_sphere_uv`). Rotated spheres are
+                // partial spheres with their object frame (pbrt::xform).
+                let uv = crate::lights::full_sphere_uv(n);
                 SurfaceHit { p, ng: n, ns: n, uv }
             }
             Prim::PartialSphere { center, radius, clip } => {
                 let c = &self.bvh.clips[clip as usize];
                 let n = (r.o + r.d * h.t - center).normalize();
                 let p = center + n * radius;
-                // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame:
-                // u = phi / phi_max, v = (theta - theta_zmin) / (theta_zmax - theta_zmin).
-                let l = c.local(n * radius);
-                let theta = (l.z / radius).clamp(-1.0, 1.0).acos();
-                let th0 = (c.z_min / radius).clamp(-1.0, 1.0).acos();
-                let th1 = (c.z_max / radius).clamp(-1.0, 1.0).acos();
-                let uv = [SphereClip::phi(l) / c.phi_max, (theta - th0) / (th1 - th0)];
+                // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame
+                // (`lights::zone_uv`).
+                let uv = crate::lights::zone_uv(c, radius, n);
                 SurfaceHit { p, ng: n, ns: n, uv }
             }
         }
@@ -675,14 +680,19 @@ impl Tracer {
                 let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
                 let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
                 if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
-                    let LightSample { wi, dist, p_light, n_light, le, pdf, delta } = ls;
+                    let LightSample { wi, dist, p_light, n_light, le, pdf, delta, uv, alpha_mat } = ls;
                     let cos_g = wi.dot(ng);
                     if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
                         let wi_local = frame.to_local(wi);
                         let (f, bsdf_pdf) = bsdf.eval(&wo_local, &wi_local);
-                        if bsdf_pdf > 0.0 {
+                        let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
+                        // A masked emitter gives nothing where its alpha test rejects the sampled
+                        // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
+                        // is the per-hit one with the ray a BSDF sample toward it would carry
+                        // (origin `p_from`, direction `wi`), so both strategies see one mask.
+                        let masked = alpha_mat != NO_ALPHA && !self.alpha_keeps(alpha_mat, &TexCtx { uv, n: n_light, p: p_light }, p_from, wi);
+                        if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
-                            let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
                             if self.unoccluded(p_from, wi, dist, p_light, n_light) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta { 1.0 } else { power_heuristic(pdf, bsdf_pdf) };

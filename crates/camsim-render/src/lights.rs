@@ -1,10 +1,11 @@
-//! Light sources: diffuse area lights on triangles and spheres (one- or two-sided), a uniform
+//! Light sources: diffuse area lights on triangles and spheres (one- or two-sided, optionally
+//! with an emission image over the shape's uv and an alpha mask), a uniform
 //! infinite light, image environment lights (`crate::envmap`), and the delta lights point, spot
 //! and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
 //! with probability proportional to their power (pbrt-v4 `PowerLightSampler`); points on
 //! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
-//! they subtend, from inside uniformly by area; environment maps by their piecewise-constant
-//! texel distribution.
+//! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
+//! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
 
 use crate::math::V3;
 use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
@@ -55,13 +56,41 @@ pub(crate) struct LightEntry {
     pub two_sided: bool,
     pub pmf: f32,
     /// Emission image (index into `Lights::images`) or [`NO_IMAGE`]; then `table` is the
-    /// illuminant per unit RGB and `uvs` the triangle's vertex uvs.
+    /// illuminant per unit RGB.
     pub image: u32,
+    /// A triangle's vertex uvs (the surface coordinates of image and alpha lookups).
     pub uvs: [[f32; 2]; 3],
+    /// The emitter's `AlphaMasked` material (compiled index), or [`NO_ALPHA`]: where its alpha
+    /// test rejects a point the light emits nothing (pbrt-v4 `DiffuseAreaLight::AlphaMasked`).
+    pub alpha_mat: u32,
 }
 
 /// Marks a light without an emission image.
 pub(crate) const NO_IMAGE: u32 = u32::MAX;
+/// Marks a light without an alpha mask.
+pub(crate) const NO_ALPHA: u32 = u32::MAX;
+
+/// pbrt-v4 full-sphere surface coordinates of the unit normal `n` in the sphere's frame
+/// (4th ed. §6.2.3 with theta_zmin = pi, theta_zmax = 0): u = phi / 2 pi with phi = atan2(y, x)
+/// in [0, 2 pi), v = (theta - pi) / (0 - pi) = 1 - theta / pi.
+#[inline]
+pub(crate) fn full_sphere_uv(n: V3) -> [f32; 2] {
+    let phi = n.y.atan2(n.x);
+    let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
+    [phi / (2.0 * PI), 1.0 - n.z.clamp(-1.0, 1.0).acos() / PI]
+}
+
+/// pbrt-v4 partial-sphere surface coordinates (4th ed. §6.2.3) of the unit world normal `n`,
+/// in the object frame of `clip`: u = phi / phi_max, v = (theta - theta_zmin) / (theta_zmax -
+/// theta_zmin), theta = acos(z / r).
+#[inline]
+pub(crate) fn zone_uv(clip: &crate::geometry::SphereClip, radius: f32, n: V3) -> [f32; 2] {
+    let l = clip.local(n * radius);
+    let theta = (l.z / radius).clamp(-1.0, 1.0).acos();
+    let th0 = (clip.z_min / radius).clamp(-1.0, 1.0).acos();
+    let th1 = (clip.z_max / radius).clamp(-1.0, 1.0).acos();
+    [crate::geometry::SphereClip::phi(l) / clip.phi_max, (theta - th0) / (th1 - th0)]
+}
 
 /// An area light's emission image (pbrt-v4 `DiffuseAreaLight` `image`) and its mean RGB, which
 /// scales the light's power for light selection.
@@ -104,6 +133,11 @@ pub(crate) struct LightSample<const N: usize> {
     pub pdf: f32,
     /// The light is a delta light (no MIS: BSDF sampling cannot find it).
     pub delta: bool,
+    /// Surface coordinates of `p_light` (zero unless the light has an image or an alpha mask).
+    pub uv: [f32; 2],
+    /// The light's alpha-masked material, or [`NO_ALPHA`]: the caller runs the alpha test at
+    /// `p_light` (the renderer's per-hit test, so light samples and rays agree).
+    pub alpha_mat: u32,
 }
 
 impl Lights {
@@ -112,7 +146,7 @@ impl Lights {
         if matches!(kind, LightKind::Infinite | LightKind::Env(_)) {
             self.infinite.push(self.list.len() as u32);
         }
-        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0, image: NO_IMAGE, uvs: [[0.0; 2]; 3] });
+        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0, image: NO_IMAGE, uvs: [[0.0; 2]; 3], alpha_mat: NO_ALPHA });
         (self.list.len() - 1) as u32
     }
 
@@ -327,11 +361,17 @@ impl Lights {
         lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
         let light = &self.list[self.pick(u_sel)];
-        let mut bary = (0f32, 0f32);
+        // Surface coordinates are needed for an image or an alpha mask only.
+        let want_uv = light.image != NO_IMAGE || light.alpha_mat != NO_ALPHA;
+        let mut uv = [0f32; 2];
         let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
             LightKind::Tri { p0, e1, e2, n, area } => {
                 let (b1, b2) = uniform_triangle(u0, u1);
-                bary = (b1, b2);
+                if want_uv {
+                    // As `Tracer::surface` interpolates them at a hit.
+                    let t = &light.uvs;
+                    uv = std::array::from_fn(|k| (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]);
+                }
                 let q = p0 + e1 * b1 + e2 * b2;
                 let d = q - p;
                 let dist2 = d.length_squared();
@@ -374,6 +414,9 @@ impl Lights {
                 if !light.two_sided && ((n.dot(-wi) > 0.0) == inward) {
                     return None;
                 }
+                if want_uv {
+                    uv = full_sphere_uv(n);
+                }
                 (wi, dist, q, n, pdf)
             }
             LightKind::SphereZone { center, radius, clip, area, inward } => {
@@ -397,6 +440,9 @@ impl Lights {
                 if cos_l <= 0.0 {
                     return None;
                 }
+                if want_uv {
+                    uv = zone_uv(&clip, radius, n);
+                }
                 (wi, dist, q, n, dist2 / (cos_l * area))
             }
             LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
@@ -408,7 +454,7 @@ impl Lights {
                     return None;
                 }
                 let le = env.radiance(texel, &tables[light.table as usize], lambdas);
-                return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false });
+                return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
             LightKind::Point { p: q } | LightKind::Spot { p: q, .. } => {
                 // pbrt-v4 PointLight/SpotLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
@@ -427,26 +473,19 @@ impl Lights {
                     return None;
                 }
                 let le = tables[light.table as usize].eval_path(lambdas).map(|v| v * k);
-                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true });
+                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
             LightKind::Distant { to_light } => {
                 let le = tables[light.table as usize].eval_path(lambdas);
-                return Some(LightSample { wi: to_light, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true });
+                return Some(LightSample { wi: to_light, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
         };
         let pdf = pdf_sa * light.pmf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        let le = if light.image == NO_IMAGE {
-            tables[light.table as usize].eval_path(lambdas)
-        } else {
-            let (b1, b2) = bary;
-            let t = &light.uvs;
-            let uv = std::array::from_fn(|k| (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]);
-            self.emitted(light, uv, tables, lambdas)
-        };
-        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false })
+        let le = self.emitted(light, uv, tables, lambdas);
+        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false, uv, alpha_mat: light.alpha_mat })
     }
 
     /// Radiance an area light emits at surface coordinates `uv` (its table alone, or with an

@@ -311,7 +311,8 @@ pub struct AreaLight {
     /// image, looked up by the shape's uv (bilinear, repeat, row 0 at v = 1), each RGB value an
     /// illuminant spectrum `2 m S(rgb / 2m)(lambda) radiance(lambda)` (`m` the largest
     /// component; pbrt-v4 `RGBIlluminantSpectrum`): `radiance` is then the colour space's
-    /// illuminant with every scale applied, W/(sr m^2 nm) per unit RGB. Triangle meshes only.
+    /// illuminant with every scale applied, W/(sr m^2 nm) per unit RGB. Triangle meshes and
+    /// (partial) spheres (pbrt-v4 sphere uv, object frame).
     pub image: Option<std::sync::Arc<EmissionImage>>,
 }
 
