@@ -77,7 +77,9 @@
 //!   the solid noises `fbm`, `wrinkled` (`octaves`, `roughness`) and `windy` (float) and `marble`
 //!   (spectrum: `octaves`, `roughness`, `scale`, `variation`), on the hit point mapped by the
 //!   inverse of the texture's CTM (point-sampled with every octave: no ray differentials;
-//!   `camsim_render::noise`); texture-valued parameters take a value or a
+//!   `camsim_render::noise`); 2D textures take `mapping` `uv` (default), `spherical`,
+//!   `cylindrical` or `planar` (`v1`, `v2`, `udelta`, `vdelta`) as pbrt-v4, the last three on the
+//!   hit point in texture space; texture-valued parameters take a value or a
 //!   texture name (the renderer's `texture` module compiles and evaluates them),
 //!   `AreaLightSource "diffuse"` (`L`, `scale`, `twosided`, `power`; or `filename` with
 //!   `encoding`: an RGB image over the uv of a triangle mesh or a (partial) sphere, each value an illuminant spectrum as
@@ -141,7 +143,7 @@
 //! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`; materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
-//! texture classes other than those above (`ptex`), non-`uv` mappings; shapes other than those above (`curve`, ...),
+//! texture classes other than those above (`ptex`); shapes other than those above (`curve`, ...),
 //! `goniometric` and `projection` lights, infinite-light
 //! `portal`s and maps that are neither square nor 2:1; participating media (a
 //! `MediumInterface` that selects a named medium); `Attribute` categories other than the five

@@ -411,12 +411,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     let tex = Texture::Checkerboard {
         tex1: Box::new(Texture::Constant(flat(rho1))),
         tex2: Box::new(Texture::Constant(flat(rho2))),
-        mapping: UvMapping {
-            uscale: 2.5,
-            vscale: 1.5,
-            udelta: 0.0,
-            vdelta: 0.0,
-        },
+        mapping: UvMapping { uscale: 2.5, vscale: 1.5, ..Default::default() },
     };
     // Quad [-1, 1]^2 at z = 0 with uv = ((x + 1) / 2, (y + 1) / 2); camera 2 m above, fov 40.
     let quad = Shape {

@@ -453,14 +453,15 @@ impl Tracer {
     pub(crate) fn eval_texture<const N: usize>(&self, tex: &Tex, ctx: &TexCtx, lambdas: &Lambdas<N>) -> [f32; N] {
         match tex {
             Tex::Table(t) => self.tables[*t as usize].eval_path(lambdas),
-            Tex::Image(im) => {
+            Tex::Image(im, map) => {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
-                let rgb = self.images[*im as usize].lookup(ctx.uv);
+                let (s, t) = map.st(ctx);
+                let rgb = self.images[*im as usize].lookup([s, t]);
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
             Tex::Checker(c, map) => {
-                let (s, t) = map.st(ctx.uv);
+                let (s, t) = map.st(ctx);
                 let k = crate::texture::checker_weight(s, t) as usize;
                 self.eval_texture(&c[k], ctx, lambdas)
             }
@@ -486,7 +487,7 @@ impl Tracer {
                 std::array::from_fn(|i| amt * a[i] + (1.0 - amt) * b[i])
             }
             Tex::Bilerp(t, map) => {
-                let (s, tt) = map.st(ctx.uv);
+                let (s, tt) = map.st(ctx);
                 let w = crate::texture::bilerp_weights(s, tt);
                 let mut out = [0f32; N];
                 for k in 0..4 {
@@ -502,7 +503,7 @@ impl Tracer {
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
             Tex::Dots(c, map) => {
-                let (s, t) = map.st(ctx.uv);
+                let (s, t) = map.st(ctx);
                 self.eval_texture(&c[!crate::noise::inside_polka_dot(s as f64, t as f64) as usize], ctx, lambdas)
             }
         }

@@ -109,27 +109,69 @@ impl Solid {
     }
 }
 
-/// pbrt-v4 `UVMapping` in f32.
+/// pbrt-v4's 2D texture mappings (`UVMapping` in f32; spherical, cylindrical and planar on the
+/// hit point in texture space).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Map {
     pub su: f32,
     pub sv: f32,
     pub du: f32,
     pub dv: f32,
+    kind: MapKind,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum MapKind {
+    Uv,
+    Spherical(TexSpace),
+    Cylindrical(TexSpace),
+    Planar(TexSpace, [f64; 3], [f64; 3]),
 }
 
 impl Map {
-    fn new(m: &UvMapping) -> Map {
-        Map {
-            su: m.uscale as f32,
-            sv: m.vscale as f32,
-            du: m.udelta as f32,
-            dv: m.vdelta as f32,
-        }
+    fn new(m: &UvMapping) -> Result<Map, String> {
+        use crate::scene::MappingKind as K;
+        let unit = |v: [f64; 3]| -> Result<[f64; 3], String> {
+            if v.iter().all(|c| c.is_finite()) {
+                Ok(v)
+            } else {
+                Err(format!("planar mapping vector {v:?} is not finite"))
+            }
+        };
+        let kind = match &m.kind {
+            K::Uv => MapKind::Uv,
+            K::Spherical { texture_from_world } => MapKind::Spherical(TexSpace::new(texture_from_world)?),
+            K::Cylindrical { texture_from_world } => MapKind::Cylindrical(TexSpace::new(texture_from_world)?),
+            K::Planar { texture_from_world, v1, v2 } => MapKind::Planar(TexSpace::new(texture_from_world)?, unit(*v1)?, unit(*v2)?),
+        };
+        Ok(Map { su: m.uscale as f32, sv: m.vscale as f32, du: m.udelta as f32, dv: m.vdelta as f32, kind })
     }
+
+    /// Texture coordinates `(s, t)` at `ctx` (pbrt-v4 4th ed. sec. 10.2.1).
     #[inline(always)]
-    pub fn st(&self, uv: [f32; 2]) -> (f32, f32) {
-        (self.su * uv[0] + self.du, self.sv * uv[1] + self.dv)
+    pub fn st(&self, ctx: &TexCtx) -> (f32, f32) {
+        match &self.kind {
+            MapKind::Uv => (self.su * ctx.uv[0] + self.du, self.sv * ctx.uv[1] + self.dv),
+            MapKind::Spherical(space) => {
+                let p = space.point(ctx.p);
+                let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                if r == 0.0 {
+                    return (0.0, 0.0);
+                }
+                let theta = (p[2] / r).clamp(-1.0, 1.0).acos();
+                let phi = p[1].atan2(p[0]).rem_euclid(std::f64::consts::TAU);
+                ((theta / std::f64::consts::PI) as f32, (phi / std::f64::consts::TAU) as f32)
+            }
+            MapKind::Cylindrical(space) => {
+                let p = space.point(ctx.p);
+                (((std::f64::consts::PI + p[1].atan2(p[0])) / std::f64::consts::TAU) as f32, p[2] as f32)
+            }
+            MapKind::Planar(space, v1, v2) => {
+                let p = space.point(ctx.p);
+                let dot = |v: &[f64; 3]| p[0] * v[0] + p[1] * v[1] + p[2] * v[2];
+                (self.du + dot(v1) as f32, self.dv + dot(v2) as f32)
+            }
+        }
     }
 }
 
@@ -138,8 +180,8 @@ impl Map {
 pub(crate) enum Tex {
     /// Index into `Tracer::tables`.
     Table(u32),
-    /// Index into `Tracer::images`.
-    Image(u32),
+    /// Index into `Tracer::images`, and the mapping to its (s, t).
+    Image(u32, Map),
     Checker(Box<[Tex; 2]>, Map),
     /// 3D checkerboard.
     Checker3(Box<[Tex; 2]>, TexSpace),
@@ -234,12 +276,12 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
     match t {
         FTex::Const(v) => *v,
         FTex::Image(im, map) => {
-            let (s, tt) = map.st(ctx.uv);
+            let (s, tt) = map.st(ctx);
             let (idx, w) = bilinear_texels(im.width, im.height, s, tt);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
         }
         FTex::Checker(c, map) => {
-            let (s, tt) = map.st(ctx.uv);
+            let (s, tt) = map.st(ctx);
             if checker_weight(s, tt) == 0.0 {
                 eval_float(&c[0], ctx)
             } else {
@@ -285,13 +327,13 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
             amt * a + (1.0 - amt) * b
         }
         FTex::Bilerp(v, map) => {
-            let (s, tt) = map.st(ctx.uv);
+            let (s, tt) = map.st(ctx);
             let w = bilerp_weights(s, tt);
             (0..4).map(|k| w[k] * v[k]).sum()
         }
         FTex::Solid(solid) => solid.value(ctx),
         FTex::Dots(c, map) => {
-            let (s, tt) = map.st(ctx.uv);
+            let (s, tt) = map.st(ctx);
             eval_float(&c[!crate::noise::inside_polka_dot(s as f64, tt as f64) as usize], ctx)
         }
     }
@@ -314,7 +356,7 @@ fn check_map(m: &UvMapping) -> Result<Map, String> {
         .iter()
         .all(|v| v.is_finite())
     {
-        Ok(Map::new(m))
+        Map::new(m)
     } else {
         Err(format!("texture mapping {m:?} has a non-finite value"))
     }
@@ -439,15 +481,7 @@ pub(crate) fn compile_texture(
         };
     Ok(match t {
         Texture::Constant(s) => Tex::Table(table(s, tables)?),
-        Texture::Image {
-            width,
-            height,
-            rgb,
-            uscale,
-            vscale,
-            udelta,
-            vdelta,
-        } => {
+        Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta, kind } => {
             if *width == 0 || *height == 0 || rgb.len() != width * height {
                 return Err(err(format!(
                     "image texture of {width} x {height} pixels has {} values",
@@ -457,16 +491,18 @@ pub(crate) fn compile_texture(
             if rgb.iter().flatten().any(|v| !v.is_finite()) {
                 return Err(err("image texture has a non-finite value".into()));
             }
+            // The mapping gives (s, t); the image itself is looked up with the identity scale.
+            let map = check_map(&UvMapping { uscale: *uscale, vscale: *vscale, udelta: *udelta, vdelta: *vdelta, kind: *kind }).map_err(err)?;
             images.push(crate::integrator::ImageTex {
                 width: *width,
                 height: *height,
                 rgb: rgb.clone(),
-                uscale: *uscale as f32,
-                vscale: *vscale as f32,
-                udelta: *udelta as f32,
-                vdelta: *vdelta as f32,
+                uscale: 1.0,
+                vscale: 1.0,
+                udelta: 0.0,
+                vdelta: 0.0,
             });
-            Tex::Image((images.len() - 1) as u32)
+            Tex::Image((images.len() - 1) as u32, map)
         }
         Texture::Checkerboard {
             tex1,

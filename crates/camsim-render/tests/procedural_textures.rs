@@ -212,3 +212,38 @@ fn checkerboard_in_3d_follows_the_cell_parity() {
         assert!(mean < 0.01, "{mean}");
     }
 }
+
+/// pbrt-v4's 2D mappings other than uv, on the hit point in texture space: a float `bilerp` with
+/// v00 = v01 = 0 and v10 = v11 = 1 returns s, shown as albedo. The texture is moved 1 m left
+/// (`Translate -1 0 0` before `Texture`: texture space is world + (1, 0, 0), so no seam is in
+/// view). Planar (v1 = (1, 0, 0), udelta -0.5): s = -0.5 + (x + 1); spherical: s = theta / pi of
+/// the direction from the texture origin; cylindrical: s = (pi + atan2(y, x + 1)) / (2 pi).
+#[test]
+fn planar_spherical_and_cylindrical_mappings_give_their_coordinates() {
+    let cases: [(&str, &str, fn([f64; 3]) -> f64); 3] = [
+        ("planar", "\"float udelta\" -0.5 \"vector3 v1\" [1 0 0]", |p| 0.5 + p[0]),
+        ("spherical", "", |p| {
+            let q = [p[0] + 1.0, p[1], p[2]];
+            (q[2] / (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()).acos() / std::f64::consts::PI
+        }),
+        ("cylindrical", "", |p| (std::f64::consts::PI + p[1].atan2(p[0] + 1.0)) / std::f64::consts::TAU),
+    ];
+    for (mapping, params, want) in cases {
+        let world = format!(
+            "AttributeBegin\nTranslate -1 0 0\nTexture \"b\" \"float\" \"bilerp\" \"string mapping\" \"{mapping}\" {params} \
+             \"float v00\" 0 \"float v01\" 0 \"float v10\" 1 \"float v11\" 1\nAttributeEnd\n\
+             Texture \"m\" \"spectrum\" \"mix\" \"rgb tex1\" [0 0 0] \"rgb tex2\" [1 1 1] \"texture amount\" \"b\"\n\
+             Material \"diffuse\" \"texture reflectance\" \"m\""
+        );
+        let got = albedo(&world);
+        let (mean, max) = compare(&got, want);
+        let (lo, hi) = got.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+        eprintln!("{mapping} mapping: |rendered - s| mean {mean:.4}, max {max:.4}; s from {lo:.3} to {hi:.3}");
+        assert!(hi - lo > 0.05, "{mapping}: s must vary over the image");
+        assert!(mean < 0.003 && max < 0.02, "{mapping}: mean {mean}, max {max}");
+    }
+    // An unknown mapping names the directive.
+    let text = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\"\nWorldBegin\nTexture \"b\" \"float\" \"bilerp\" \"string mapping\" \"conical\"\n";
+    let e = parse_str(text, "/tmp/bad-map.pbrt").unwrap_err().to_string();
+    assert!(e.contains("bad-map.pbrt:4:") && e.contains("conical"), "{e}");
+}

@@ -428,7 +428,7 @@ fn image_texture_is_looked_up_by_uv() {
     let grid = WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let l_sky = 1.5;
     let rgb: Vec<[f32; 3]> = (0..8).map(|i| if i < 4 { [0.2; 3] } else { [0.8; 3] }).collect();
-    let tex = Texture::Image { width: 8, height: 1, rgb, uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 };
+    let tex = Texture::Image { width: 8, height: 1, rgb, uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0, kind: MappingKind::Uv };
     let quad = Geometry::Triangles {
         positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
         indices: vec![[0, 1, 2], [0, 2, 3]],

@@ -85,19 +85,37 @@ impl Transform {
     }
 }
 
-/// pbrt-v4 `UVMapping`: texture coordinates `(s, t) = (uscale u + udelta, vscale v + vdelta)`.
+/// pbrt-v4's 2D texture mappings (4th ed. sec. 10.2.1): `kind` [`MappingKind::Uv`] gives
+/// `(s, t) = (uscale u + udelta, vscale v + vdelta)`; the others map the hit point (see
+/// [`MappingKind`]; `udelta`/`vdelta` are the planar mapping's offsets, the scales unused).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UvMapping {
     pub uscale: f64,
     pub vscale: f64,
     pub udelta: f64,
     pub vdelta: f64,
+    pub kind: MappingKind,
 }
 
 impl Default for UvMapping {
     fn default() -> Self {
-        UvMapping { uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 }
+        UvMapping { uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0, kind: MappingKind::Uv }
     }
+}
+
+/// How a 2D texture finds its `(s, t)` (pbrt-v4 `TextureMapping2D`); the transforms take world
+/// space to texture space (the inverse of the texture's CTM).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum MappingKind {
+    /// The surface's (u, v), scaled and offset.
+    #[default]
+    Uv,
+    /// `(theta / pi, phi / (2 pi))` of the texture-space point's direction from the origin.
+    Spherical { texture_from_world: Transform },
+    /// `((pi + atan2(y, x)) / (2 pi), z)` of the texture-space point.
+    Cylindrical { texture_from_world: Transform },
+    /// `(udelta + p . v1, vdelta + p . v2)` of the texture-space point `p`.
+    Planar { texture_from_world: Transform, v1: [f64; 3], v2: [f64; 3] },
 }
 
 /// A spectrum (reflectance fraction 0..1, or any other spectral quantity a material takes) that
@@ -108,7 +126,7 @@ pub enum Texture {
     Constant(Spectrum),
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
     /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]).
-    Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64 },
+    Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64, kind: MappingKind },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
     Checkerboard { tex1: Box<Texture>, tex2: Box<Texture>, mapping: UvMapping },

@@ -8,7 +8,7 @@ use super::{load_image, parse_encoding, Parser};
 use crate::params::ParamList;
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
-use crate::scene::{FloatTexture, NoiseKind, NoiseTexture, Texture, Transform, UvMapping};
+use crate::scene::{FloatTexture, MappingKind, NoiseKind, NoiseTexture, Texture, Transform, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
 
@@ -98,18 +98,48 @@ impl Parser {
         params: &ParamList,
         loc: &Loc,
     ) -> Result<UvMapping, PbrtError> {
+        // pbrt-v4 TextureMapping2D::Create: "uv" (default), "spherical", "cylindrical", "planar".
         let mapping = params.string("mapping")?.unwrap_or_else(|| "uv".into());
-        if mapping != "uv" {
-            return Err(loc.err(format!(
-                "Texture \"{name}\": mapping \"{mapping}\" is not supported (only uv)"
-            )));
-        }
-        Ok(UvMapping {
-            uscale: params.float("uscale", 1.0)?,
-            vscale: params.float("vscale", 1.0)?,
-            udelta: params.float("udelta", 0.0)?,
-            vdelta: params.float("vdelta", 0.0)?,
-        })
+        let what = format!("Texture \"{name}\"");
+        let kind = match mapping.as_str() {
+            "uv" => {
+                return Ok(UvMapping {
+                    uscale: params.float("uscale", 1.0)?,
+                    vscale: params.float("vscale", 1.0)?,
+                    udelta: params.float("udelta", 0.0)?,
+                    vdelta: params.float("vdelta", 0.0)?,
+                    kind: MappingKind::Uv,
+                })
+            }
+            "spherical" => MappingKind::Spherical { texture_from_world: self.texture_from_world(loc, &what)? },
+            "cylindrical" => MappingKind::Cylindrical { texture_from_world: self.texture_from_world(loc, &what)? },
+            "planar" => {
+                let v = |n: &str, d: [f64; 3]| -> Result<[f64; 3], PbrtError> {
+                    match params.get(n, &["vector3", "vector"])? {
+                        None => Ok(d),
+                        Some(p) => match p.nums()?.as_slice() {
+                            [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+                            v => Err(p.loc.err(format!("{what}: \"vector3 {n}\" needs 3 finite numbers, got {v:?}"))),
+                        },
+                    }
+                };
+                MappingKind::Planar {
+                    texture_from_world: self.texture_from_world(loc, &what)?,
+                    v1: v("v1", [1.0, 0.0, 0.0])?,
+                    v2: v("v2", [0.0, 1.0, 0.0])?,
+                }
+            }
+            _ => {
+                return Err(loc.err(format!(
+                    "{what}: mapping \"{mapping}\" is not one of uv, spherical, cylindrical, planar"
+                )))
+            }
+        };
+        let (udelta, vdelta) = match kind {
+            MappingKind::Planar { .. } => (params.float("udelta", 0.0)?, params.float("vdelta", 0.0)?),
+            _ => (0.0, 0.0),
+        };
+        Ok(UvMapping { uscale: 1.0, vscale: 1.0, udelta, vdelta, kind })
     }
 
     /// pbrt-v4 image texture parameters and texels: (width, height, linear rgb * scale,
@@ -216,24 +246,8 @@ impl Parser {
                         })
                     })
                     .collect();
-                let UvMapping {
-                    uscale,
-                    vscale,
-                    udelta,
-                    vdelta,
-                } = mapping;
-                self.textures.insert(
-                    name.to_string(),
-                    Texture::Image {
-                        width,
-                        height,
-                        rgb,
-                        uscale,
-                        vscale,
-                        udelta,
-                        vdelta,
-                    },
-                );
+                let UvMapping { uscale, vscale, udelta, vdelta, kind } = mapping;
+                self.textures.insert(name.to_string(), Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta, kind });
             }
             return Ok(());
         }
