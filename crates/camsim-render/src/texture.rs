@@ -142,7 +142,7 @@ impl Map {
             K::Uv => MapKind::Uv,
             K::Spherical { texture_from_world } => MapKind::Spherical(TexSpace::new(texture_from_world)?),
             K::Cylindrical { texture_from_world } => MapKind::Cylindrical(TexSpace::new(texture_from_world)?),
-            K::Planar { texture_from_world, v1, v2 } => MapKind::Planar(TexSpace::new(texture_from_world)?, unit(*v1)?, unit(*v2)?),
+            K::Planar(p) => MapKind::Planar(TexSpace::new(&p.texture_from_world)?, unit(p.v1)?, unit(p.v2)?),
         };
         Ok(Map { su: m.uscale as f32, sv: m.vscale as f32, du: m.udelta as f32, dv: m.vdelta as f32, kind })
     }
@@ -492,7 +492,7 @@ pub(crate) fn compile_texture(
                 return Err(err("image texture has a non-finite value".into()));
             }
             // The mapping gives (s, t); the image itself is looked up with the identity scale.
-            let map = check_map(&UvMapping { uscale: *uscale, vscale: *vscale, udelta: *udelta, vdelta: *vdelta, kind: *kind }).map_err(err)?;
+            let map = check_map(&UvMapping { uscale: *uscale, vscale: *vscale, udelta: *udelta, vdelta: *vdelta, kind: kind.clone() }).map_err(err)?;
             images.push(crate::integrator::ImageTex {
                 width: *width,
                 height: *height,

@@ -220,7 +220,8 @@ fn checkerboard_in_3d_follows_the_cell_parity() {
 /// the direction from the texture origin; cylindrical: s = (pi + atan2(y, x + 1)) / (2 pi).
 #[test]
 fn planar_spherical_and_cylindrical_mappings_give_their_coordinates() {
-    let cases: [(&str, &str, fn([f64; 3]) -> f64); 3] = [
+    type Case = (&'static str, &'static str, fn([f64; 3]) -> f64);
+    let cases: [Case; 3] = [
         ("planar", "\"float udelta\" -0.5 \"vector3 v1\" [1 0 0]", |p| 0.5 + p[0]),
         ("spherical", "", |p| {
             let q = [p[0] + 1.0, p[1], p[2]];

@@ -88,7 +88,7 @@ impl Transform {
 /// pbrt-v4's 2D texture mappings (4th ed. sec. 10.2.1): `kind` [`MappingKind::Uv`] gives
 /// `(s, t) = (uscale u + udelta, vscale v + vdelta)`; the others map the hit point (see
 /// [`MappingKind`]; `udelta`/`vdelta` are the planar mapping's offsets, the scales unused).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct UvMapping {
     pub uscale: f64,
     pub vscale: f64,
@@ -104,18 +104,27 @@ impl Default for UvMapping {
 }
 
 /// How a 2D texture finds its `(s, t)` (pbrt-v4 `TextureMapping2D`); the transforms take world
-/// space to texture space (the inverse of the texture's CTM).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// space to texture space (the inverse of the texture's CTM; boxed, so that the common uv mapping
+/// keeps textures small).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum MappingKind {
     /// The surface's (u, v), scaled and offset.
     #[default]
     Uv,
     /// `(theta / pi, phi / (2 pi))` of the texture-space point's direction from the origin.
-    Spherical { texture_from_world: Transform },
+    Spherical { texture_from_world: Box<Transform> },
     /// `((pi + atan2(y, x)) / (2 pi), z)` of the texture-space point.
-    Cylindrical { texture_from_world: Transform },
+    Cylindrical { texture_from_world: Box<Transform> },
     /// `(udelta + p . v1, vdelta + p . v2)` of the texture-space point `p`.
-    Planar { texture_from_world: Transform, v1: [f64; 3], v2: [f64; 3] },
+    Planar(Box<PlanarMapping>),
+}
+
+/// pbrt-v4's planar texture mapping: the texture-space point projected on `v1` and `v2`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanarMapping {
+    pub texture_from_world: Transform,
+    pub v1: [f64; 3],
+    pub v2: [f64; 3],
 }
 
 /// A spectrum (reflectance fraction 0..1, or any other spectral quantity a material takes) that

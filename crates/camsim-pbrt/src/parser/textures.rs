@@ -8,7 +8,7 @@ use super::{load_image, parse_encoding, Parser};
 use crate::params::ParamList;
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
-use crate::scene::{FloatTexture, MappingKind, NoiseKind, NoiseTexture, Texture, Transform, UvMapping};
+use crate::scene::{FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
 
@@ -111,8 +111,8 @@ impl Parser {
                     kind: MappingKind::Uv,
                 })
             }
-            "spherical" => MappingKind::Spherical { texture_from_world: self.texture_from_world(loc, &what)? },
-            "cylindrical" => MappingKind::Cylindrical { texture_from_world: self.texture_from_world(loc, &what)? },
+            "spherical" => MappingKind::Spherical { texture_from_world: Box::new(self.texture_from_world(loc, &what)?) },
+            "cylindrical" => MappingKind::Cylindrical { texture_from_world: Box::new(self.texture_from_world(loc, &what)?) },
             "planar" => {
                 let v = |n: &str, d: [f64; 3]| -> Result<[f64; 3], PbrtError> {
                     match params.get(n, &["vector3", "vector"])? {
@@ -123,11 +123,11 @@ impl Parser {
                         },
                     }
                 };
-                MappingKind::Planar {
+                MappingKind::Planar(Box::new(PlanarMapping {
                     texture_from_world: self.texture_from_world(loc, &what)?,
                     v1: v("v1", [1.0, 0.0, 0.0])?,
                     v2: v("v2", [0.0, 1.0, 0.0])?,
-                }
+                }))
             }
             _ => {
                 return Err(loc.err(format!(
@@ -135,8 +135,8 @@ impl Parser {
                 )))
             }
         };
-        let (udelta, vdelta) = match kind {
-            MappingKind::Planar { .. } => (params.float("udelta", 0.0)?, params.float("vdelta", 0.0)?),
+        let (udelta, vdelta) = match &kind {
+            MappingKind::Planar(_) => (params.float("udelta", 0.0)?, params.float("vdelta", 0.0)?),
             _ => (0.0, 0.0),
         };
         Ok(UvMapping { uscale: 1.0, vscale: 1.0, udelta, vdelta, kind })
