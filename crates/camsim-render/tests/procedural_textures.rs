@@ -45,6 +45,21 @@ fn pixel_point(c: usize, r: usize) -> [f64; 3] {
     [x, y, 1.0]
 }
 
+/// The mean of `f` over pixel (column c, row r) of the square at z = 1, on 8 x 8 points (the
+/// film's pixel filter is a box): the reference where a texture changes within a pixel.
+fn pixel_mean(c: usize, r: usize, f: impl Fn([f64; 3]) -> f64) -> f64 {
+    let k = 8;
+    let mut sum = 0.0;
+    for a in 0..k {
+        for b in 0..k {
+            let x = (2.0 * (c as f64 + (a as f64 + 0.5) / k as f64) / N as f64 - 1.0) * HALF;
+            let y = (1.0 - 2.0 * (r as f64 + (b as f64 + 0.5) / k as f64) / N as f64) * HALF;
+            sum += f([x, y, 1.0]);
+        }
+    }
+    sum / (k * k) as f64
+}
+
 /// Mean and largest |rendered - expected| over the pixels.
 fn compare(got: &[f64], want: impl Fn([f64; 3]) -> f64) -> (f64, f64) {
     let (mut sum, mut max) = (0.0f64, 0.0f64);
@@ -114,21 +129,7 @@ fn marble_renders_its_palette() {
     // windows overlap, the curve is not continuous): pixels straddling a jump average two colours,
     // so the reference is the palette averaged over each pixel (8 x 8 points; camsim's pixel
     // filter is a box).
-    let k = 8;
-    let avg: Vec<f64> = (0..N * N)
-        .map(|i| {
-            let (c, r) = (i % N, i / N);
-            let mut sum = 0.0;
-            for a in 0..k {
-                for b in 0..k {
-                    let x = (2.0 * (c as f64 + (a as f64 + 0.5) / k as f64) / N as f64 - 1.0) * HALF;
-                    let y = (1.0 - 2.0 * (r as f64 + (b as f64 + 0.5) / k as f64) / N as f64) * HALF;
-                    sum += want([x, y, 1.0]);
-                }
-            }
-            sum / (k * k) as f64
-        })
-        .collect();
+    let avg: Vec<f64> = (0..N * N).map(|i| pixel_mean(i % N, i / N, want)).collect();
     let errs: Vec<f64> = (0..N * N).map(|i| (got[i] - avg[i]).abs()).collect();
     let mean = errs.iter().sum::<f64>() / errs.len() as f64;
     let max = errs.iter().cloned().fold(0.0, f64::max);
@@ -191,20 +192,11 @@ fn checkerboard_in_3d_follows_the_cell_parity() {
              \"rgb tex1\" [0.1 0.1 0.1] \"rgb tex2\" [0.8 0.8 0.8]\nAttributeEnd\nMaterial \"diffuse\" \"texture reflectance\" \"c\""
         );
         let got = albedo(&world);
-        let k = 8;
         let mut err = 0.0;
         for r in 0..N {
             for c in 0..N {
-                let mut odd = 0;
-                for a in 0..k {
-                    for b in 0..k {
-                        let x = (2.0 * (c as f64 + (a as f64 + 0.5) / k as f64) / N as f64 - 1.0) * HALF;
-                        let y = (1.0 - 2.0 * (r as f64 + (b as f64 + 0.5) / k as f64) / N as f64) * HALF;
-                        odd += (((10.0 * x).floor() + (10.0 * y).floor()) as i64 & 1 ^ flip) as usize;
-                    }
-                }
-                let want = 0.1 + 0.7 * odd as f64 / (k * k) as f64;
-                err += (got[r * N + c] - want).abs();
+                let odd = pixel_mean(c, r, |p| (((10.0 * p[0]).floor() + (10.0 * p[1]).floor()) as i64 & 1 ^ flip) as f64);
+                err += (got[r * N + c] - (0.1 + 0.7 * odd)).abs();
             }
         }
         let mean = err / (N * N) as f64;

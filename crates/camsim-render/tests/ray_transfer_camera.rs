@@ -10,6 +10,8 @@ use camsim_render::*;
 use camsim_scene3d::*;
 use std::path::Path;
 
+mod common;
+
 const LENS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens");
 
 fn rtf_path() -> String {
@@ -271,14 +273,8 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
             prof[i % w] += *v as f64;
         }
     }
-    let hi = prof[w - 8..w - 2].iter().sum::<f64>() / 6.0;
-    let i = (1..w).find(|&i| prof[i - 1] < 0.5 * hi && prof[i] >= 0.5 * hi).expect("an edge");
-    // Pixel k covers [k, k + 1): its value stands at its centre k + 0.5.
-    let lens_x = i as f64 - 0.5 + (0.5 * hi - prof[i - 1]) / (prof[i] - prof[i - 1]);
-    let row = &out.depth_m[w..2 * w];
-    // The first pixel whose centre ray meets the plane: the edge lies within half a pixel of its
-    // left border.
-    let depth_x = row.iter().position(|d| d.is_finite()).expect("the pinhole rays meet the plane") as f64;
+    let lens_x = common::half_crossing_px(&prof);
+    let depth_x = common::first_finite_px(&out.depth_m, w, 1);
     let focal_scale_px = (lens.image_distance_mm / lens.focal_length_mm - 1.0) * 0.9 * w as f64 / 2.0;
     eprintln!(
         "edge: lens image {lens_x:.2} px, depth map {depth_x:.0} px (pinhole {:.3} mm before the film, v = {:.4} mm; f = {:.4} mm would move it {focal_scale_px:.2} px)",

@@ -8,6 +8,8 @@ use camsim_render::*;
 use camsim_scene3d::*;
 use std::path::PathBuf;
 
+mod common;
+
 fn dgauss() -> String {
     concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -391,11 +393,8 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
         let e = band_sum(&out);
         (0..w).map(|c| (0..h).map(|r| e[r * w + c]).sum()).collect()
     };
-    let hi = prof[w - 8..w - 2].iter().sum::<f64>() / 6.0;
-    let i = (1..w).find(|&i| prof[i - 1] < 0.5 * hi && prof[i] >= 0.5 * hi).expect("an edge");
-    // Pixel k covers [k, k + 1): its value stands at its centre k + 0.5.
-    let lens_x = i as f64 - 0.5 + (0.5 * hi - prof[i - 1]) / (prof[i] - prof[i - 1]);
-    let depth_x = out.depth_m[w..2 * w].iter().position(|d| d.is_finite()).expect("the pinhole rays meet the plane") as f64;
+    let lens_x = common::half_crossing_px(&prof);
+    let depth_x = common::first_finite_px(&out.depth_m, w, 1);
     // Where a pinhole on the film (same image distance) would see the edge, from the 90 % mark.
     let off = 0.9 * w as f64 / 2.0;
     let on_film_px = off * (z - lens.pupil_z_mm * 1e-3) / z - off;
