@@ -784,7 +784,7 @@ fn apply_light(
                     *radiance = change(radiance)?;
                     n += 1;
                 }
-                Light::Point { intensity, .. } | Light::Spot { intensity, .. } => {
+                Light::Point { intensity, .. } | Light::Spot { intensity, .. } | Light::Goniometric(crate::scene::GoniometricLight { intensity, .. }) => {
                     *intensity = change(intensity)?;
                     n += 1;
                 }

@@ -19,6 +19,7 @@ pub mod bvh;
 mod camera;
 pub mod envmap;
 pub mod geometry;
+mod goniometric;
 pub mod ids;
 mod integrator;
 mod lights;

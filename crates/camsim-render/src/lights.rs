@@ -36,6 +36,9 @@ pub(crate) enum LightKind {
     /// Distant light: `to_light` is the unit direction toward the light (table: irradiance
     /// W/(m^2 nm) on a surface facing it).
     Distant { to_light: V3 },
+    /// Goniometric point light (pbrt-v4 `GoniometricLight`): index into `Lights::gonios`
+    /// (table: intensity per unit image value, W/(sr nm)).
+    Gonio { p: V3, g: u32 },
 }
 
 /// pbrt-v4 `SmoothStep(a, b, x)`: 0 below `a`, 1 above `b`, `3t^2 - 2t^3` between.
@@ -111,6 +114,8 @@ pub(crate) struct Lights {
     pub envs: Vec<EnvLight>,
     /// Emission images of textured area lights.
     pub images: Vec<EmitImage>,
+    /// Goniometric lights (`LightKind::Gonio`).
+    pub(crate) gonios: Vec<crate::goniometric::GonioLight>,
 }
 
 /// A sampled light direction from a reference point.
@@ -186,6 +191,8 @@ impl Lights {
                     }
                     // pbrt-v4 DistantLight::Phi = pi r^2 E.
                     LightKind::Distant { .. } => p * (scene_radius_m as f64).powi(2) * lmean,
+                    // pbrt-v4 GoniometricLight::Phi = 4 pi I mean(image) (equal-area texels).
+                    LightKind::Gonio { g, .. } => 4.0 * p * lmean * self.gonios[g as usize].mean_value,
                 }
             })
             .collect();
@@ -345,6 +352,13 @@ impl Lights {
                 self.envs.push(env);
                 self.push(LightKind::Env((self.envs.len() - 1) as u32), t, true);
             }
+            Light::Goniometric(gl) => {
+                let g = crate::goniometric::GonioLight::new(gl)?;
+                let t = table(&gl.intensity, "goniometric light intensity")?;
+                self.gonios.push(g);
+                let p = V3::from_f64(gl.position_m);
+                self.push(LightKind::Gonio { p, g: (self.gonios.len() - 1) as u32 }, t, true);
+            }
         }
         Ok(())
     }
@@ -456,8 +470,8 @@ impl Lights {
                 let le = env.radiance(texel, &tables[light.table as usize], lambdas);
                 return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
-            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } => {
-                // pbrt-v4 PointLight/SpotLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
+            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } | LightKind::Gonio { p: q, .. } => {
+                // pbrt-v4 Point/Spot/GoniometricLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
                 let d = q - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -468,6 +482,9 @@ impl Lights {
                 let mut k = 1.0 / dist2;
                 if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
                     k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
+                }
+                if let LightKind::Gonio { g, .. } = light.kind {
+                    k *= self.gonios[g as usize].value(-wi);
                 }
                 if k <= 0.0 {
                     return None;

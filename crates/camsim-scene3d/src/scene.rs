@@ -371,6 +371,25 @@ pub enum Light {
     Distant { direction: [f64; 3], irradiance: Spectrum },
     /// Image-based environment light (pbrt-v4 `infinite` with `filename`).
     Environment(EnvironmentMap),
+    /// Point light with a tabulated angular distribution (pbrt-v4 `goniometric`).
+    Goniometric(GoniometricLight),
+}
+
+/// pbrt-v4 `GoniometricLight` (4th ed. §12.2.3): a point source at `position_m` whose radiant
+/// intensity toward the unit light-frame direction `w` is `intensity(lambda) * value(w)`, W/(sr nm),
+/// with `value` the single-channel, equal-area octahedral square image looked up at the nearest
+/// texel of `EqualAreaSphereToSquare(w)` (row 0 at the top).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoniometricLight {
+    pub position_m: [f64; 3],
+    /// Light-to-world linear map (translation ignored). For pbrt scenes this is the CTM times
+    /// pbrt-v4's y <-> z swap, so the image's pole (its +z) is the CTM's +y axis.
+    pub light_to_world: Transform,
+    /// Square image, `size x size` non-negative values (pbrt-v4 averages RGB channels).
+    pub size: usize,
+    pub values: Vec<f32>,
+    /// Intensity per unit image value, W/(sr nm), every scale applied.
+    pub intensity: Spectrum,
 }
 
 /// How an environment image covers the sphere of directions (light space: +z up).

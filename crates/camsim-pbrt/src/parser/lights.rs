@@ -6,7 +6,7 @@ use super::{default_illuminant, load_image, parse_encoding, Parser};
 use crate::params::ParamList;
 use crate::spectra::SpectrumUse;
 use crate::{Loc, PbrtError};
-use crate::scene::{EnvMapping, EnvironmentMap, Light, Transform};
+use crate::scene::{EnvMapping, EnvironmentMap, GoniometricLight, Light, Transform};
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -197,18 +197,76 @@ impl Parser {
                     light_to_world: rot,
                 }));
             }
-            "goniometric" | "projection" => {
-                return Err(loc.err(format!(
-                    "LightSource \"{ty}\" is not supported (point, spot, distant, infinite)"
-                )));
+            "goniometric" => {
+                let light = self.goniometric(params, loc, file)?;
+                self.lights.push(light);
+            }
+            "projection" => {
+                return Err(loc.err(
+                    "LightSource \"projection\" is not supported (point, spot, goniometric, distant, infinite)",
+                ));
             }
             other => {
                 return Err(loc.err(format!(
-                    "unknown LightSource \"{other}\" (point, spot, distant, infinite)"
+                    "unknown LightSource \"{other}\" (point, spot, goniometric, distant, infinite)"
                 )))
             }
         }
         Ok(())
+    }
+}
+
+impl Parser {
+    /// pbrt-v4 `GoniometricLight::Create` (lights.cpp): `I` (default the colour space's
+    /// illuminant), `scale`, `filename` (a square equal-area octahedral image; RGB averaged to one
+    /// channel as pbrt-v4 does), `power` (`scale *= Phi / (4 pi mean(image))`, after `scale /=
+    /// SpectrumToPhotometric(I)`), and the light frame `CTM * swapYZ`. camsim extension: `from`
+    /// (default the origin) moves the light as for `point`; pbrt-v4 places it with the CTM only.
+    fn goniometric(&mut self, params: &ParamList, loc: &Loc, file: &Path) -> Result<Light, PbrtError> {
+        const WHAT: &str = "LightSource \"goniometric\"";
+        let s = self.spectrum_param(params, "I", SpectrumUse::Illuminant, file)?.unwrap_or_else(default_illuminant);
+        let mut scale = params.float("scale", 1.0)? / s.photometric;
+        let power = params.float_opt("power")?;
+        let from = point3(params, "from", [0.0; 3])?;
+        // pbrt-v4 only warns without a file (and the light is then black); refuse instead.
+        let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the intensity image) is required")))?;
+        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{WHAT}: unknown encoding \"{enc}\"")))?;
+        params.check_unused(WHAT)?;
+        let path = self.resolve(file, &fname);
+        let (width, height, rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("{WHAT}: {e}")))?;
+        if width != height || width == 0 {
+            return Err(loc.err(format!(
+                "{WHAT}: {fname} is {width} x {height}: the image must be square (pbrt-v4 equal-area octahedral)"
+            )));
+        }
+        let values: Vec<f32> = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+        if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(loc.err(format!("{WHAT}: {fname} has negative or non-finite texels")));
+        }
+        if let Some(p) = power.filter(|p| *p > 0.0) {
+            // Every texel covers 4 pi / n^2 sr (equal-area mapping): Phi = 4 pi mean(image) I.
+            let mean = values.iter().map(|v| *v as f64).sum::<f64>() / values.len() as f64;
+            if !(mean > 0.0) {
+                return Err(loc.err(format!("{WHAT}: \"power\" given but {fname} is black")));
+            }
+            scale *= p / (4.0 * PI * mean);
+        }
+        let ctm = self.gs.ctm;
+        // pbrt-v4 swapYZ: light-frame (x, y, z) -> CTM frame (x, z, y).
+        let swap_yz = Transform { m: [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]] };
+        let mut light_to_world = ctm.then_apply_to(&swap_yz);
+        for row in light_to_world.m.iter_mut().take(3) {
+            row[3] = 0.0;
+        }
+        Ok(Light::Goniometric(GoniometricLight {
+            position_m: ctm.apply_point(from),
+            light_to_world,
+            size: width,
+            values,
+            intensity: s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+        }))
     }
 }
 

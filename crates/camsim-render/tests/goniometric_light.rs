@@ -1,0 +1,292 @@
+//! pbrt-v4 `goniometric` light (issue 12), read by the pbrt reader and rendered: closed-form
+//! checks on a Lambertian floor (reflectance `rho`) lit by the light alone. A delta light adds no
+//! Monte Carlo noise to direct lighting, so pixels are compared with `rho / pi * E`, `E = I(w)
+//! cos(theta) / d^2` (inverse-square law, pbrt-v4 4th ed. §12.1), averaged over each pixel's
+//! footprint by 8 x 8 sub-samples of the same closed form.
+//!
+//! Image geometry (pbrt-v4 `GoniometricLight`, 4th ed. §12.2.3): the light-frame direction `w`
+//! selects texel `EqualAreaSphereToSquare(w)` (u across, v down the image), and the light frame
+//! is the CTM with y and z swapped. So in CTM coordinates (X, Y, Z): the left image half (u < 1/2)
+//! is X < 0, the top half (v < 1/2) is Z < 0 (below the light), the bottom half Z > 0.
+
+use camsim_core::{Spectrum, WavelengthGrid};
+use camsim_render::*;
+use camsim_scene3d::*;
+use std::collections::HashMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+const RHO: f64 = 0.5;
+/// Light (and camera) height above the floor, m; field of view, deg; image side, pixels.
+const H_M: f64 = 1.0;
+const FOV_DEG: f64 = 90.0;
+const N_PX: usize = 16;
+
+fn flat(v: f64) -> Spectrum {
+    Spectrum::new(vec![300.0, 900.0], vec![v, v], "test").unwrap()
+}
+
+/// Writes a grey PFM (`Pf`, little-endian, rows stored bottom to top) of `n x m` texels with
+/// value `f(column, row)`, row 0 at the top.
+fn write_pfm(path: &Path, n: usize, m: usize, f: impl Fn(usize, usize) -> f32) {
+    let mut bytes = format!("Pf\n{n} {m}\n-1.0\n").into_bytes();
+    for row in (0..m).rev() {
+        for col in 0..n {
+            bytes.extend_from_slice(&f(col, row).to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// Parses one light: `xform` (transform directives) then `LightSource "<kind>" <params>` inside
+/// an attribute block, in a scene file in `dir`.
+fn parse_light(dir: &Path, xform: &str, kind: &str, params: &str) -> Result<Light, camsim_pbrt::PbrtError> {
+    let text = format!("WorldBegin\nAttributeBegin\n{xform}\nLightSource \"{kind}\" {params}\nAttributeEnd\n");
+    let scene = camsim_pbrt::parse_str(&text, dir.join("scene.pbrt"))?;
+    assert_eq!(scene.lights.len(), 1);
+    Ok(scene.lights[0].clone())
+}
+
+/// Flat `I` so the closed form needs no band averaging.
+const FLAT_I: &str = "\"spectrum I\" [300 1 900 1]";
+
+/// The light's flat intensity per unit image value, W/(sr nm).
+fn intensity_w_sr_nm(l: &Light) -> f64 {
+    let s = match l {
+        Light::Point { intensity, .. } => intensity,
+        Light::Goniometric(g) => &g.intensity,
+        other => panic!("unexpected light {other:?}"),
+    };
+    let (a, b) = (s.eval(400.0), s.eval(700.0));
+    assert!((a - b).abs() <= 1e-12 * a, "intensity not flat: {a} vs {b}");
+    a
+}
+
+/// Renders the floor z = 0 (a 200 m square) seen straight down from (0, 0, H_M), `up` +y, lit by
+/// `light` alone; per-pixel mean over bands.
+fn render_floor(light: Light) -> Vec<f64> {
+    let camera = Camera {
+        camera_to_world: look_at_camera_to_world([0.0, 0.0, H_M], [0.0; 3], [0.0, 1.0, 0.0], true).unwrap(),
+        fov_deg: FOV_DEG,
+        width: N_PX,
+        height: N_PX,
+        lens: None,
+    };
+    let s = 100.0;
+    let floor = Shape {
+        name: Some("floor".into()),
+        geometry: Geometry::Triangles {
+            positions: vec![[-s, -s, 0.0], [s, -s, 0.0], [s, s, 0.0], [-s, s, 0.0]],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            uvs: None,
+            normals: None,
+        },
+        material: 0,
+        area_light: None,
+        reverse_orientation: false,
+    };
+    let scene = SceneDescription {
+        camera,
+        shapes: vec![floor],
+        materials: vec![Material::Diffuse { reflectance: Texture::Constant(flat(RHO)) }],
+        named_materials: HashMap::new(),
+        lights: vec![light],
+        settings: RenderSettings {
+            grid: WavelengthGrid::new(400.0, 700.0, 100.0).unwrap(),
+            samples_per_pixel: 64,
+            max_depth: 1,
+            wavelengths_per_path: 4,
+            seed: 5,
+            time_budget_s: None,
+            direct_only: false,
+            ..RenderSettings::default()
+        },
+        focus_distance_m: None,
+        notes: vec![],
+    };
+    let out = render(&scene, &|_, _| {}).unwrap();
+    let img = &out.radiance;
+    let nb = img.bands();
+    (0..img.pixels()).map(|p| (0..nb).map(|b| img.band(b)[p] as f64).sum::<f64>() / nb as f64).collect()
+}
+
+/// Closed-form floor radiance `rho / pi * I(x, y) cos / d^2` for the light at (0, 0, H_M),
+/// `i_of(x, y)` the intensity toward floor point (x, y), averaged over each pixel's footprint
+/// (column i: x increasing; row j: y decreasing, row 0 at the top as the camera's `up` is +y).
+fn expected(i_of: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+    let t = (FOV_DEG.to_radians() / 2.0).tan();
+    let k = 8;
+    let mut out = Vec::with_capacity(N_PX * N_PX);
+    for j in 0..N_PX {
+        for i in 0..N_PX {
+            let mut s = 0.0;
+            for b in 0..k {
+                for a in 0..k {
+                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / N_PX as f64 - 1.0) * t * H_M;
+                    let y = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / N_PX as f64) * t * H_M;
+                    let d2 = H_M * H_M + x * x + y * y;
+                    s += RHO / PI * i_of(x, y) * (H_M / d2.sqrt()) / d2;
+                }
+            }
+            out.push(s / (k * k) as f64);
+        }
+    }
+    out
+}
+
+/// Largest per-pixel error relative to the brightest expected pixel; where the expected value
+/// is zero the rendered one must be exactly zero.
+fn worst_error(what: &str, got: &[f64], want: &[f64]) -> f64 {
+    let peak = want.iter().cloned().fold(0.0, f64::max);
+    assert!(peak > 0.0);
+    let mut worst = 0.0f64;
+    for (p, (g, w)) in got.iter().zip(want).enumerate() {
+        if *w == 0.0 {
+            assert_eq!(*g, 0.0, "{what}: pixel {p} should be dark, got {g}");
+        } else {
+            worst = worst.max(((g - w) / w).abs());
+        }
+    }
+    let lit = want.iter().filter(|w| **w > 0.0).count();
+    eprintln!("{what}: {lit} lit pixels of {}, worst rel. error {:.4} % (peak {peak:.4e})", want.len(), worst * 100.0);
+    worst
+}
+
+/// A uniform image of value c gives exactly c times the `point` light with the same `I`
+/// (pbrt-v4: `I(w) = scale I image(w)`), pixel by pixel; and both match the closed form.
+#[test]
+fn uniform_image_equals_point_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let tr = format!("Translate 0 0 {H_M}");
+    let point = parse_light(dir.path(), &tr, "point", FLAT_I).unwrap();
+    let i_pt = intensity_w_sr_nm(&point);
+    let reference = render_floor(point);
+    let worst = worst_error("point light vs closed form", &reference, &expected(|_, _| i_pt));
+    assert!(worst < 0.01);
+    for c in [1.0f32, 2.5] {
+        write_pfm(&dir.path().join("u.pfm"), 8, 8, |_, _| c);
+        let gonio = parse_light(dir.path(), &tr, "goniometric", &format!("{FLAT_I} \"string filename\" \"u.pfm\"")).unwrap();
+        assert_eq!(intensity_w_sr_nm(&gonio), i_pt, "same I, same normalisation as point");
+        let got = render_floor(gonio);
+        let worst = got.iter().zip(&reference).map(|(g, r)| (g / (c as f64 * r) - 1.0).abs()).fold(0.0, f64::max);
+        eprintln!("uniform image {c}: worst pixel |L_gonio / ({c} L_point) - 1| = {worst:.3e}");
+        assert!(worst < 1e-5);
+    }
+}
+
+/// Image halves light the sides pbrt-v4's mapping predicts: top half (Z < 0) lights the whole
+/// floor below; bottom half (Z > 0) leaves it dark (an image with its pole on z, without the
+/// y-z swap, would light half of it either way); left half (X < 0) lights x < 0 only, with
+/// E = c I cos / d^2 there.
+#[test]
+fn image_halves_light_the_predicted_side() {
+    let dir = tempfile::tempdir().unwrap();
+    let tr = format!("Translate 0 0 {H_M}");
+    let n = 8;
+    let gonio = |name: &str, f: &dyn Fn(usize, usize) -> f32| {
+        write_pfm(&dir.path().join(name), n, n, f);
+        parse_light(dir.path(), &tr, "goniometric", &format!("{FLAT_I} \"string filename\" \"{name}\"")).unwrap()
+    };
+    let top = gonio("top.pfm", &|_, row| if row < n / 2 { 1.0 } else { 0.0 });
+    let i0 = intensity_w_sr_nm(&top);
+    let w = worst_error("top image half -> floor below lit", &render_floor(top), &expected(|_, _| i0));
+    assert!(w < 0.01);
+
+    let bottom = gonio("bottom.pfm", &|_, row| if row >= n / 2 { 1.0 } else { 0.0 });
+    let got = render_floor(bottom);
+    assert!(got.iter().all(|v| *v == 0.0), "bottom image half must leave the floor below dark");
+
+    let c = 3.0;
+    let left = gonio("left.pfm", &|col, _| if col < n / 2 { c } else { 0.0 });
+    let want = expected(|x, _| if x < 0.0 { c as f64 * i0 } else { 0.0 });
+    let w = worst_error("left image half -> x < 0 lit", &render_floor(left), &want);
+    assert!(w < 0.01);
+}
+
+/// `Rotate` before the light turns its pattern: with `Rotate 90 0 0 1` the CTM's X axis is the
+/// world's +y, so the left image half (X < 0) lights y < 0; with `Rotate 180 1 0 0` the CTM's Z
+/// points up, so the top half (Z < 0) lights nothing below and the bottom half lights it all.
+#[test]
+fn rotation_turns_the_pattern() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 8;
+    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| if col < n / 2 { 1.0 } else { 0.0 });
+    write_pfm(&dir.path().join("top.pfm"), n, n, |_, row| if row < n / 2 { 1.0 } else { 0.0 });
+    write_pfm(&dir.path().join("bottom.pfm"), n, n, |_, row| if row >= n / 2 { 1.0 } else { 0.0 });
+    let light = |rot: &str, file: &str| {
+        parse_light(dir.path(), &format!("Translate 0 0 {H_M}\n{rot}"), "goniometric", &format!("{FLAT_I} \"string filename\" \"{file}\""))
+            .unwrap()
+    };
+    let l = light("Rotate 90 0 0 1", "left.pfm");
+    let i0 = intensity_w_sr_nm(&l);
+    let w = worst_error("Rotate 90 z, left half -> y < 0 lit", &render_floor(l), &expected(|_, y| if y < 0.0 { i0 } else { 0.0 }));
+    assert!(w < 0.01);
+    let got = render_floor(light("Rotate 180 1 0 0", "top.pfm"));
+    assert!(got.iter().all(|v| *v == 0.0), "Rotate 180 x: the top half now faces up");
+    let w =
+        worst_error("Rotate 180 x, bottom half -> floor lit", &render_floor(light("Rotate 180 1 0 0", "bottom.pfm")), &expected(|_, _| i0));
+    assert!(w < 0.01);
+}
+
+/// `power` (pbrt-v4 `GoniometricLight::Create`: `scale *= Phi / (4 pi mean(image))`): a
+/// uniform image of any value c gives luminous intensity `Phi / (4 pi)` (checked with an
+/// independent 1 nm CIE luminance integral); an image bright (value 2) in one half and black in
+/// the other emits twice the intensity of a `point` light of the same power into that half and
+/// none into the other, so both emit the same flux Phi.
+#[test]
+fn power_normalisation() {
+    let dir = tempfile::tempdir().unwrap();
+    let power_lm = 500.0;
+    let grid_1nm = WavelengthGrid::new(360.0, 830.0, 1.0).unwrap();
+    for c in [0.3f32, 7.0] {
+        write_pfm(&dir.path().join("u.pfm"), 4, 4, |_, _| c);
+        let l = parse_light(dir.path(), "", "goniometric", &format!("\"string filename\" \"u.pfm\" \"float power\" {power_lm}")).unwrap();
+        let Light::Goniometric(g) = &l else { panic!("not goniometric") };
+        let iv_cd = c as f64 * camsim_core::colorimetry::luminance_cd_m2(&g.intensity.sample(&grid_1nm), &grid_1nm);
+        let want = power_lm / (4.0 * PI);
+        let err = iv_cd / want - 1.0;
+        eprintln!("uniform image {c}, power {power_lm} lm: I_v = {iv_cd:.6} cd, want {want:.6} cd ({:+.4} %)", err * 100.0);
+        assert!(err.abs() < 1e-3);
+    }
+    let tr = format!("Translate 0 0 {H_M}");
+    let n = 8;
+    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| if col < n / 2 { 2.0 } else { 0.0 });
+    let pw = format!("{FLAT_I} \"float power\" {power_lm}");
+    let point = parse_light(dir.path(), &tr, "point", &pw).unwrap();
+    let gonio = parse_light(dir.path(), &tr, "goniometric", &format!("{pw} \"string filename\" \"left.pfm\"")).unwrap();
+    let (i_pt, i_g) = (intensity_w_sr_nm(&point), intensity_w_sr_nm(&gonio));
+    eprintln!("half image of 2 with power: I per unit image {i_g:.6e} vs point I {i_pt:.6e} W/(sr nm)");
+    assert!((i_g / i_pt - 1.0).abs() < 1e-12, "mean image value 1: same scale as the point light");
+    let reference = render_floor(point);
+    let got = render_floor(gonio);
+    let want: Vec<f64> = expected(|x, _| if x < 0.0 { 1.0 } else { 0.0 })
+        .iter()
+        .zip(&reference)
+        .map(|(m, r)| if *m > 0.0 { 2.0 * r } else { 0.0 })
+        .collect();
+    let w = worst_error("half image with power vs 2 x point with power", &got, &want);
+    assert!(w < 1e-5);
+}
+
+/// Bad input is a typed error naming the scene file and line (the `LightSource` is on line 4): a missing image, a non-square
+/// image, no `filename`, negative texels, `power` with a black image.
+#[test]
+fn bad_input_names_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pfm(&dir.path().join("wide.pfm"), 4, 2, |_, _| 1.0);
+    write_pfm(&dir.path().join("neg.pfm"), 2, 2, |c, _| if c == 0 { -1.0 } else { 1.0 });
+    write_pfm(&dir.path().join("black.pfm"), 2, 2, |_, _| 0.0);
+    let cases = [
+        ("\"string filename\" \"missing.pfm\"", "missing.pfm"),
+        ("\"string filename\" \"wide.pfm\"", "must be square"),
+        ("\"float scale\" 2", "\"filename\""),
+        ("\"string filename\" \"neg.pfm\"", "negative"),
+        ("\"string filename\" \"black.pfm\" \"float power\" 10", "black"),
+    ];
+    for (params, needle) in cases {
+        let e = parse_light(dir.path(), "", "goniometric", params).expect_err(params).to_string();
+        eprintln!("{params}: {e}");
+        assert!(e.contains("scene.pbrt:4:"), "{e}");
+        assert!(e.contains(needle), "{e}");
+    }
+}
