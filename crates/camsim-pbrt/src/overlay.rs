@@ -788,8 +788,9 @@ fn apply_light(
                     *intensity = change(intensity)?;
                     n += 1;
                 }
-                Light::Environment(map) => {
-                    map.illuminant = change(&map.illuminant)?;
+                Light::Environment(crate::scene::EnvironmentMap { illuminant, .. })
+                | Light::Projection(crate::scene::ProjectionLight { illuminant, .. }) => {
+                    *illuminant = change(illuminant)?;
                     n += 1;
                 }
             }

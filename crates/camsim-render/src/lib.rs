@@ -25,6 +25,7 @@ mod integrator;
 mod lights;
 mod materials;
 pub mod noise;
+mod projection;
 pub mod math;
 pub mod render;
 pub mod sampler;

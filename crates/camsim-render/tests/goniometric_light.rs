@@ -290,3 +290,102 @@ fn bad_input_names_file_and_line() {
         assert!(e.contains(needle), "{e}");
     }
 }
+
+// ---- pbrt-v4 `projection` light ----
+//
+// The light hangs at (0, 0, H_M) under `Rotate 180 1 0 0` (its +z points down); with pbrt-v4's
+// `Scale(1, -1, 1)` the light-frame direction toward floor point (x, y) is (x, y, H_M), so the
+// screen point is (x, y) / (H_M tan(fov / 2)); image column 0 is at x < 0, row 0 (top) at y < 0.
+// With tan(fov / 2) = 1/2 and a 2:1 image the lit window is |x| <= H_M, |y| <= H_M / 2: the
+// camera's full width and its middle 8 of 16 rows (edges on pixel boundaries).
+
+/// `fov` with tan(fov / 2) = 1/2.
+fn proj_fov_deg() -> f64 {
+    2.0 * 0.5f64.atan().to_degrees()
+}
+
+/// Writes an RGB PFM (`PF`, rows bottom to top) with texel `f(column, row)`, row 0 at the top.
+fn write_pfm_rgb(path: &Path, n: usize, m: usize, f: impl Fn(usize, usize) -> [f32; 3]) {
+    let mut bytes = format!("PF\n{n} {m}\n-1.0\n").into_bytes();
+    for row in (0..m).rev() {
+        for col in 0..n {
+            for v in f(col, row) {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+fn projection(dir: &Path, file: &str, extra: &str) -> Result<Light, camsim_pbrt::PbrtError> {
+    let tr = format!("Translate 0 0 {H_M}\nRotate 180 1 0 0");
+    parse_light(dir, &tr, "projection", &format!("\"string filename\" \"{file}\" \"float fov\" {} {extra}", proj_fov_deg()))
+}
+
+/// A grey image of value c projects c times a `point` light with the colour space's illuminant
+/// (an RGB grey uplifts to a flat spectrum, and both lights divide `scale` by the illuminant's
+/// photometric value) inside the frustum, and nothing outside; one bright image quadrant (left
+/// columns, top rows) lights only x < 0, y < 0 of the window.
+#[test]
+fn projection_window_and_image_orientation() {
+    let dir = tempfile::tempdir().unwrap();
+    let point = parse_light(dir.path(), &format!("Translate 0 0 {H_M}"), "point", "").unwrap();
+    let reference = render_floor(point);
+    let inside = |x: f64, y: f64| x.abs() <= H_M && y.abs() <= H_M / 2.0;
+    let lit_where =
+        |f: &dyn Fn(f64, f64) -> bool| -> Vec<bool> { expected(|x, y| if f(x, y) { 1.0 } else { 0.0 }).iter().map(|v| *v > 0.0).collect() };
+    for c in [1.0f32, 2.5] {
+        write_pfm_rgb(&dir.path().join("grey.pfm"), 8, 4, |_, _| [c; 3]);
+        let got = render_floor(projection(dir.path(), "grey.pfm", "").unwrap());
+        let want: Vec<f64> = lit_where(&inside).iter().zip(&reference).map(|(l, r)| if *l { c as f64 * r } else { 0.0 }).collect();
+        let w = worst_error(&format!("projection, grey {c} image vs {c} x point light in the window"), &got, &want);
+        assert!(w < 1e-4);
+    }
+    write_pfm_rgb(&dir.path().join("quad.pfm"), 8, 4, |col, row| if col < 4 && row < 2 { [1.0; 3] } else { [0.0; 3] });
+    let got = render_floor(projection(dir.path(), "quad.pfm", "").unwrap());
+    let quad = |x: f64, y: f64| inside(x, y) && x < 0.0 && y < 0.0;
+    let want: Vec<f64> = lit_where(&quad).iter().zip(&reference).map(|(l, r)| if *l { *r } else { 0.0 }).collect();
+    let w = worst_error("projection, top-left image quadrant -> x < 0, y < 0", &got, &want);
+    assert!(w < 1e-4);
+}
+
+/// `power` Phi: a white image's luminous intensity I_v times the frustum's solid angle
+/// `4 asin(a b / sqrt((1 + a^2)(1 + b^2)))` (rectangular pyramid of half-tangents a, b) is Phi;
+/// pbrt-v4 normalises with the midpoint rule over the texel centres, so a 64 x 32 image is
+/// within the rule's error of the exact solid angle.
+#[test]
+fn projection_power_normalisation() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pfm_rgb(&dir.path().join("white.pfm"), 64, 32, |_, _| [1.0; 3]);
+    let power_lm = 800.0;
+    let l = projection(dir.path(), "white.pfm", &format!("\"float power\" {power_lm}")).unwrap();
+    let Light::Projection(p) = &l else { panic!("not a projection light") };
+    let grid_1nm = WavelengthGrid::new(360.0, 830.0, 1.0).unwrap();
+    // White RGB (1, 1, 1) is the illuminant itself (2m S = 1 for rgb / 2m = 1/2).
+    let iv_cd = camsim_core::colorimetry::luminance_cd_m2(&p.illuminant.sample(&grid_1nm), &grid_1nm);
+    let (a, b) = (1.0f64, 0.5f64);
+    let omega_sr = 4.0 * (a * b / ((1.0 + a * a) * (1.0 + b * b)).sqrt()).asin();
+    let err = iv_cd * omega_sr / power_lm - 1.0;
+    eprintln!(
+        "projection power {power_lm} lm: I_v = {iv_cd:.4} cd, Omega = {omega_sr:.6} sr, flux {:.4} lm ({:+.4} %)",
+        iv_cd * omega_sr,
+        err * 100.0
+    );
+    assert!(err.abs() < 1e-3);
+}
+
+#[test]
+fn projection_bad_input_names_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pfm_rgb(&dir.path().join("w.pfm"), 2, 2, |_, _| [1.0; 3]);
+    let cases = [
+        ("\"string filename\" \"missing.pfm\"", "missing.pfm"),
+        ("\"float scale\" 2", "\"filename\""),
+        ("\"string filename\" \"w.pfm\" \"float fov\" 180", "fov"),
+    ];
+    for (params, needle) in cases {
+        let e = parse_light(dir.path(), "", "projection", params).expect_err(params).to_string();
+        eprintln!("{params}: {e}");
+        assert!(e.contains("scene.pbrt:4:") && e.contains(needle), "{e}");
+    }
+}
