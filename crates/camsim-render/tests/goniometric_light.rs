@@ -325,7 +325,8 @@ fn projection(dir: &Path, file: &str, extra: &str) -> Result<Light, camsim_pbrt:
 /// A grey image of value c projects c times a `point` light with the colour space's illuminant
 /// (an RGB grey uplifts to a flat spectrum, and both lights divide `scale` by the illuminant's
 /// photometric value) inside the frustum, and nothing outside; one bright image quadrant (left
-/// columns, top rows) lights only x < 0, y < 0 of the window.
+/// columns, top rows) lights only x < 0, y < 0 of the window; a coloured image equals a point
+/// light with that `rgb I`.
 #[test]
 fn projection_window_and_image_orientation() {
     let dir = tempfile::tempdir().unwrap();
@@ -347,6 +348,18 @@ fn projection_window_and_image_orientation() {
     let want: Vec<f64> = lit_where(&quad).iter().zip(&reference).map(|(l, r)| if *l { *r } else { 0.0 }).collect();
     let w = worst_error("projection, top-left image quadrant -> x < 0, y < 0", &got, &want);
     assert!(w < 1e-4);
+    // A coloured texel is uplifted as pbrt-v4's RGBIlluminantSpectrum, as a point light's `rgb I`
+    // (the reader tabulates that spectrum; the renderer uplifts texels per wavelength).
+    let rgb = [0.8f32, 0.3, 0.1];
+    let point_rgb =
+        parse_light(dir.path(), &format!("Translate 0 0 {H_M}"), "point", &format!("\"rgb I\" [{} {} {}]", rgb[0], rgb[1], rgb[2]))
+            .unwrap();
+    let reference = render_floor(point_rgb);
+    write_pfm_rgb(&dir.path().join("rgb.pfm"), 8, 4, |_, _| rgb);
+    let got = render_floor(projection(dir.path(), "rgb.pfm", "").unwrap());
+    let want: Vec<f64> = lit_where(&inside).iter().zip(&reference).map(|(l, r)| if *l { *r } else { 0.0 }).collect();
+    let w = worst_error("projection, rgb (0.8, 0.3, 0.1) image vs point light with the same rgb I", &got, &want);
+    assert!(w < 2e-3);
 }
 
 /// `power` Phi: a white image's luminous intensity I_v times the frustum's solid angle
