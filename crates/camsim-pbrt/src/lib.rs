@@ -86,7 +86,13 @@
 //!   pbrt-v4's `RGBIlluminantSpectrum`, `power` divided by the image's mean luminance as
 //!   pbrt-v4 does; see [`camsim_scene3d::scene::AreaLight::image`]),
 //!   `LightSource` `"point"` (`I`, `scale`, `power`, `from`), `"spot"` (`I`, `scale`, `power`,
-//!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"distant"` (`L`,
+//!   `from`, `to`, `coneangle`, `conedelta`; pbrt-v4's smoothstep falloff), `"goniometric"` (`I`,
+//!   `scale`, `power`, `filename`: a square equal-area octahedral intensity image, RGB averaged
+//!   to one channel and looked up at the nearest texel as pbrt-v4, light frame = CTM with y and z
+//!   swapped; `filename` is required; `from` is a camsim extension), `"projection"` (`scale`,
+//!   `power`, `fov`, `filename`: an RGB image projected along the light's +z through a frustum
+//!   whose `fov` spans the shorter image side, nearest texel as an illuminant spectrum, zero
+//!   outside; light frame = CTM with y flipped, as pbrt-v4), `"distant"` (`L`,
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
 //!   `filename`: a square image is pbrt-v4's equal-area octahedral map, a 2:1 image a lat-long
 //!   map, see [`camsim_scene3d::envmap`]; PNG, EXR or PFM as the Bitterli scenes ship them),
@@ -101,7 +107,10 @@
 //!   of the spectrum over 360-830 nm at 1 nm; for an `rgb` L only the colour space's illuminant
 //!   counts), so `scale` = 1 means a luminance of "1 nit" in pbrt's convention. `power` (area
 //!   lights) multiplies by `power / (pi * area * sides)`, for point lights by `power / (4 pi)`,
-//!   for spot lights by `power / (2 pi (1 - cos_start + (cos_start - cos_end) / 2))`;
+//!   for spot lights by `power / (2 pi (1 - cos_start + (cos_start - cos_end) / 2))`, for
+//!   goniometric lights by `power / (4 pi mean(image))`, projection lights by `power / (A
+//!   mean(Y(rgb) cos^3 theta))` over the texel centres (`A` the screen window's area at unit
+//!   distance; `scale` first divided by the colour space illuminant's photometric value);
 //!   `illuminance` multiplies a uniform infinite light by `E / pi`, a distant light by `E`, and an
 //!   image infinite light by `E / E_map` with `E_map` the map's illuminance on an upward surface
 //!   (whose `scale` is first divided by the colour space illuminant's photometric value). camsim reads pbrt's normalised radiance `L_pbrt(lambda)` as photometric:
@@ -144,8 +153,7 @@
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`ptex`); shapes other than those above (`curve`, ...),
-//! `goniometric` and `projection` lights, infinite-light
-//! `portal`s and maps that are neither square nor 2:1; participating media (a
+//! infinite-light `portal`s and maps that are neither square nor 2:1; participating media (a
 //! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`
 //! (pbrt-v3); unknown directives.

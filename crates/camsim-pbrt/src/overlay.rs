@@ -784,12 +784,13 @@ fn apply_light(
                     *radiance = change(radiance)?;
                     n += 1;
                 }
-                Light::Point { intensity, .. } | Light::Spot { intensity, .. } => {
+                Light::Point { intensity, .. } | Light::Spot { intensity, .. } | Light::Goniometric(crate::scene::GoniometricLight { intensity, .. }) => {
                     *intensity = change(intensity)?;
                     n += 1;
                 }
-                Light::Environment(map) => {
-                    map.illuminant = change(&map.illuminant)?;
+                Light::Environment(crate::scene::EnvironmentMap { illuminant, .. })
+                | Light::Projection(crate::scene::ProjectionLight { illuminant, .. }) => {
+                    *illuminant = change(illuminant)?;
                     n += 1;
                 }
             }

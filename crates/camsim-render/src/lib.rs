@@ -8,7 +8,7 @@
 //! pdfs), [`sampler`] (Sobol and independent samplers), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
 //! diffuse and coated conductor by pbrt-v4's layered random walk, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
-//! (texture graphs), `lights` (area, infinite, point, spot and distant lights), [`envmap`]
+//! (texture graphs), `lights` (area, infinite, point, spot, goniometric, projection and distant lights), [`envmap`]
 //! (environment maps), `camera` (ray generation for the pinhole, realistic and ray-transfer cameras), `materials` (materials compiled for the
 //! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
 //! statistics).
@@ -19,11 +19,13 @@ pub mod bvh;
 mod camera;
 pub mod envmap;
 pub mod geometry;
+mod goniometric;
 pub mod ids;
 mod integrator;
 mod lights;
 mod materials;
 pub mod noise;
+mod projection;
 pub mod math;
 pub mod render;
 pub mod sampler;

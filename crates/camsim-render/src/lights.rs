@@ -1,7 +1,7 @@
 //! Light sources: diffuse area lights on triangles and spheres (one- or two-sided, optionally
 //! with an emission image over the shape's uv and an alpha mask), a uniform
-//! infinite light, image environment lights (`crate::envmap`), and the delta lights point, spot
-//! and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
+//! infinite light, image environment lights (`crate::envmap`), and the delta lights point, spot,
+//! goniometric (`crate::goniometric`), projection (`crate::projection`) and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
 //! with probability proportional to their power (pbrt-v4 `PowerLightSampler`); points on
 //! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
 //! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
@@ -36,6 +36,12 @@ pub(crate) enum LightKind {
     /// Distant light: `to_light` is the unit direction toward the light (table: irradiance
     /// W/(m^2 nm) on a surface facing it).
     Distant { to_light: V3 },
+    /// Goniometric point light (pbrt-v4 `GoniometricLight`): index into `Lights::gonios`
+    /// (table: intensity per unit image value, W/(sr nm)).
+    Gonio { p: V3, g: u32 },
+    /// Projection light (pbrt-v4 `ProjectionLight`): index into `Lights::projs` (table: the
+    /// illuminant per unit RGB, W/(sr nm)).
+    Proj { p: V3, j: u32 },
 }
 
 /// pbrt-v4 `SmoothStep(a, b, x)`: 0 below `a`, 1 above `b`, `3t^2 - 2t^3` between.
@@ -111,6 +117,10 @@ pub(crate) struct Lights {
     pub envs: Vec<EnvLight>,
     /// Emission images of textured area lights.
     pub images: Vec<EmitImage>,
+    /// Goniometric lights (`LightKind::Gonio`).
+    pub(crate) gonios: Vec<crate::goniometric::GonioLight>,
+    /// Projection lights (`LightKind::Proj`).
+    pub(crate) projs: Vec<crate::projection::ProjLight>,
 }
 
 /// A sampled light direction from a reference point.
@@ -186,6 +196,10 @@ impl Lights {
                     }
                     // pbrt-v4 DistantLight::Phi = pi r^2 E.
                     LightKind::Distant { .. } => p * (scene_radius_m as f64).powi(2) * lmean,
+                    // pbrt-v4 GoniometricLight::Phi = 4 pi I mean(image) (equal-area texels).
+                    LightKind::Gonio { g, .. } => 4.0 * p * lmean * self.gonios[g as usize].mean_value,
+                    // pbrt-v4 ProjectionLight::Phi = A mean(I cos^3 theta) over the screen.
+                    LightKind::Proj { j, .. } => lmean * self.projs[j as usize].power_factor,
                 }
             })
             .collect();
@@ -345,6 +359,20 @@ impl Lights {
                 self.envs.push(env);
                 self.push(LightKind::Env((self.envs.len() - 1) as u32), t, true);
             }
+            Light::Goniometric(gl) => {
+                let g = crate::goniometric::GonioLight::new(gl)?;
+                let t = table(&gl.intensity, "goniometric light intensity")?;
+                self.gonios.push(g);
+                let p = V3::from_f64(gl.position_m);
+                self.push(LightKind::Gonio { p, g: (self.gonios.len() - 1) as u32 }, t, true);
+            }
+            Light::Projection(pl) => {
+                let pr = crate::projection::ProjLight::new(pl)?;
+                let t = table(&pl.illuminant, "projection light illuminant")?;
+                self.projs.push(pr);
+                let p = V3::from_f64(pl.position_m);
+                self.push(LightKind::Proj { p, j: (self.projs.len() - 1) as u32 }, t, true);
+            }
         }
         Ok(())
     }
@@ -456,8 +484,8 @@ impl Lights {
                 let le = env.radiance(texel, &tables[light.table as usize], lambdas);
                 return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
-            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } => {
-                // pbrt-v4 PointLight/SpotLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
+            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } | LightKind::Gonio { p: q, .. } => {
+                // pbrt-v4 Point/Spot/GoniometricLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
                 let d = q - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -469,10 +497,27 @@ impl Lights {
                 if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
                     k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
                 }
+                if let LightKind::Gonio { g, .. } = light.kind {
+                    k *= self.gonios[g as usize].value(-wi);
+                }
                 if k <= 0.0 {
                     return None;
                 }
                 let le = tables[light.table as usize].eval_path(lambdas).map(|v| v * k);
+                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
+            }
+            LightKind::Proj { p: q, j } => {
+                // pbrt-v4 ProjectionLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0 && dist.is_finite()) {
+                    return None;
+                }
+                let wi = d / dist;
+                let pr = &self.projs[j as usize];
+                let texel = pr.texel(-wi)?;
+                let le = pr.intensity(texel, &tables[light.table as usize], lambdas).map(|v| v / dist2);
                 return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
             LightKind::Distant { to_light } => {

@@ -398,6 +398,50 @@ pub enum Light {
     Distant { direction: [f64; 3], irradiance: Spectrum },
     /// Image-based environment light (pbrt-v4 `infinite` with `filename`).
     Environment(EnvironmentMap),
+    /// Point light with a tabulated angular distribution (pbrt-v4 `goniometric`).
+    Goniometric(GoniometricLight),
+    /// Point light projecting an image through a frustum (pbrt-v4 `projection`).
+    Projection(ProjectionLight),
+}
+
+/// pbrt-v4 `ProjectionLight` (4th ed. §12.2.2): a point source at `position_m` projecting an RGB
+/// image along its light-frame +z. A light-frame direction `w` with `w.z >= 1e-3` meets the
+/// plane z = 1 at `(w.x, w.y) / w.z`; divided by `tan(fov / 2)` that is the screen point, and the
+/// screen window is `[-a, a] x [-1, 1]` for an aspect `a = width / height > 1`, else `[-1, 1] x
+/// [-1/a, 1/a]` (the field of view spans the shorter image side). Outside it the intensity is
+/// zero; inside it is the nearest texel (screen y from its minimum at row 0, the image top) as
+/// an illuminant: `I(lambda) = 2 m S(rgb / 2m)(lambda) illuminant(lambda)`, W/(sr nm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProjectionLight {
+    pub position_m: [f64; 3],
+    /// Light-to-world linear map (translation ignored). For pbrt scenes this is the CTM times
+    /// pbrt-v4's `Scale(1, -1, 1)`, so the image's top row lights the CTM's +y side.
+    pub light_to_world: Transform,
+    /// Full field of view across the shorter image side, degrees (pbrt-v4 `fov`).
+    pub fov_deg: f64,
+    pub width: usize,
+    pub height: usize,
+    /// Linear RGB texels, row 0 at the top.
+    pub rgb: Vec<[f32; 3]>,
+    /// The colour space's illuminant with every scale applied: W/(sr nm) per unit RGB.
+    pub illuminant: Spectrum,
+}
+
+/// pbrt-v4 `GoniometricLight` (4th ed. §12.2.3): a point source at `position_m` whose radiant
+/// intensity toward the unit light-frame direction `w` is `intensity(lambda) * value(w)`, W/(sr nm),
+/// with `value` the single-channel, equal-area octahedral square image looked up at the nearest
+/// texel of `EqualAreaSphereToSquare(w)` (row 0 at the top).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoniometricLight {
+    pub position_m: [f64; 3],
+    /// Light-to-world linear map (translation ignored). For pbrt scenes this is the CTM times
+    /// pbrt-v4's y <-> z swap, so the image's pole (its +z) is the CTM's +y axis.
+    pub light_to_world: Transform,
+    /// Square image, `size x size` non-negative values (pbrt-v4 averages RGB channels).
+    pub size: usize,
+    pub values: Vec<f32>,
+    /// Intensity per unit image value, W/(sr nm), every scale applied.
+    pub intensity: Spectrum,
 }
 
 /// How an environment image covers the sphere of directions (light space: +z up).

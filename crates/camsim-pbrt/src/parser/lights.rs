@@ -1,12 +1,12 @@
-//! `LightSource`: pbrt-v4 `point`, `spot`, `distant` and `infinite` (uniform `L`, or an image
-//! `filename`), with pbrt-v4's parameter names, defaults and normalisations (pbrt-v4
+//! `LightSource`: pbrt-v4 `point`, `spot`, `goniometric`, `projection`, `distant` and `infinite`
+//! (uniform `L`, or an image `filename`), with pbrt-v4's parameter names, defaults and normalisations (pbrt-v4
 //! `lights.cpp`, `*Light::Create`), and camsim's absolute units (see [`crate`]).
 
 use super::{default_illuminant, load_image, parse_encoding, Parser};
 use crate::params::ParamList;
 use crate::spectra::SpectrumUse;
 use crate::{Loc, PbrtError};
-use crate::scene::{EnvMapping, EnvironmentMap, Light, Transform};
+use crate::scene::{EnvMapping, EnvironmentMap, GoniometricLight, Light, ProjectionLight, Transform};
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -197,18 +197,146 @@ impl Parser {
                     light_to_world: rot,
                 }));
             }
-            "goniometric" | "projection" => {
-                return Err(loc.err(format!(
-                    "LightSource \"{ty}\" is not supported (point, spot, distant, infinite)"
-                )));
+            "goniometric" => {
+                let light = self.goniometric(params, loc, file)?;
+                self.lights.push(light);
+            }
+            "projection" => {
+                let light = self.projection(params, loc, file)?;
+                self.lights.push(light);
             }
             other => {
                 return Err(loc.err(format!(
-                    "unknown LightSource \"{other}\" (point, spot, distant, infinite)"
+                    "unknown LightSource \"{other}\" (point, spot, goniometric, projection, distant, infinite)"
                 )))
             }
         }
         Ok(())
+    }
+}
+
+impl Parser {
+    /// pbrt-v4 `GoniometricLight::Create` (lights.cpp): `I` (default the colour space's
+    /// illuminant), `scale`, `filename` (a square equal-area octahedral image; RGB averaged to one
+    /// channel as pbrt-v4 does), `power` (`scale *= Phi / (4 pi mean(image))`, after `scale /=
+    /// SpectrumToPhotometric(I)`), and the light frame `CTM * swapYZ`. camsim extension: `from`
+    /// (default the origin) moves the light as for `point`; pbrt-v4 places it with the CTM only.
+    fn goniometric(&mut self, params: &ParamList, loc: &Loc, file: &Path) -> Result<Light, PbrtError> {
+        const WHAT: &str = "LightSource \"goniometric\"";
+        let s = self.spectrum_param(params, "I", SpectrumUse::Illuminant, file)?.unwrap_or_else(default_illuminant);
+        let mut scale = params.float("scale", 1.0)? / s.photometric;
+        let power = params.float_opt("power")?;
+        let from = point3(params, "from", [0.0; 3])?;
+        // pbrt-v4 only warns without a file (and the light is then black); refuse instead.
+        let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the intensity image) is required")))?;
+        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{WHAT}: unknown encoding \"{enc}\"")))?;
+        params.check_unused(WHAT)?;
+        let path = self.resolve(file, &fname);
+        let (width, height, rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("{WHAT}: {e}")))?;
+        if width != height || width == 0 {
+            return Err(loc.err(format!(
+                "{WHAT}: {fname} is {width} x {height}: the image must be square (pbrt-v4 equal-area octahedral)"
+            )));
+        }
+        let values: Vec<f32> = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+        if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(loc.err(format!("{WHAT}: {fname} has negative or non-finite texels")));
+        }
+        if let Some(p) = power.filter(|p| *p > 0.0) {
+            // Every texel covers 4 pi / n^2 sr (equal-area mapping): Phi = 4 pi mean(image) I.
+            let mean = values.iter().map(|v| *v as f64).sum::<f64>() / values.len() as f64;
+            if !(mean > 0.0) {
+                return Err(loc.err(format!("{WHAT}: \"power\" given but {fname} is black")));
+            }
+            scale *= p / (4.0 * PI * mean);
+        }
+        let ctm = self.gs.ctm;
+        // pbrt-v4 swapYZ: light-frame (x, y, z) -> CTM frame (x, z, y).
+        let swap_yz = Transform { m: [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]] };
+        let mut light_to_world = ctm.then_apply_to(&swap_yz);
+        for row in light_to_world.m.iter_mut().take(3) {
+            row[3] = 0.0;
+        }
+        Ok(Light::Goniometric(GoniometricLight {
+            position_m: ctm.apply_point(from),
+            light_to_world,
+            size: width,
+            values,
+            intensity: s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+        }))
+    }
+}
+
+impl Parser {
+    /// pbrt-v4 `ProjectionLight::Create` and constructor (lights.cpp): `scale`, `fov` (default
+    /// 90 deg), `filename` (required, RGB), `power`; `scale /= SpectrumToPhotometric(illuminant)`
+    /// and with `power` Phi: `scale *= Phi / (A mean(Y(rgb) cos^3 theta))` over the texel centres,
+    /// `A = 4 tan^2(fov / 2) max(a, 1 / a)` the screen window's area at z = 1 and `cos^3 theta`
+    /// the solid angle per unit area there. Light frame: CTM times `Scale(1, -1, 1)`. camsim
+    /// extension: `from` (default the origin) moves the light as for `point`.
+    fn projection(&mut self, params: &ParamList, loc: &Loc, file: &Path) -> Result<Light, PbrtError> {
+        const WHAT: &str = "LightSource \"projection\"";
+        let mut scale = params.float("scale", 1.0)?;
+        let power = params.float_opt("power")?;
+        let fov_deg = params.float("fov", 90.0)?;
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(loc.err(format!("{WHAT}: fov {fov_deg} deg must be in (0, 180)")));
+        }
+        let from = point3(params, "from", [0.0; 3])?;
+        let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the projected image) is required")))?;
+        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{WHAT}: unknown encoding \"{enc}\"")))?;
+        params.check_unused(WHAT)?;
+        let path = self.resolve(file, &fname);
+        let (width, height, rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("{WHAT}: {e}")))?;
+        if width == 0 || height == 0 {
+            return Err(loc.err(format!("{WHAT}: {fname} is empty")));
+        }
+        if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(loc.err(format!("{WHAT}: {fname} has negative or non-finite texels")));
+        }
+        let illum = default_illuminant();
+        scale /= illum.photometric;
+        if let Some(p) = power.filter(|p| *p > 0.0) {
+            let aspect = width as f64 / height as f64;
+            let tan_half = (fov_deg.to_radians() / 2.0).tan();
+            let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
+            let area = 4.0 * tan_half * tan_half * aspect.max(1.0 / aspect);
+            let mut sum = 0.0;
+            for (i, c) in rgb.iter().enumerate() {
+                let (x, y) = (i % width, i / width);
+                // Texel centre on the plane z = 1 (light frame).
+                let px = (-sx + 2.0 * sx * (x as f64 + 0.5) / width as f64) * tan_half;
+                let py = (-sy + 2.0 * sy * (y as f64 + 0.5) / height as f64) * tan_half;
+                let cos3 = (1.0 + px * px + py * py).powf(-1.5);
+                // Rec. 709 / sRGB luminance weights (pbrt-v4 RGBColorSpace::LuminanceVector).
+                let lum = 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+                sum += lum * cos3;
+            }
+            let k_e = area * sum / rgb.len() as f64;
+            if !(k_e > 0.0) {
+                return Err(loc.err(format!("{WHAT}: \"power\" given but {fname} is black")));
+            }
+            scale *= p / k_e;
+        }
+        let ctm = self.gs.ctm;
+        let flip_y = Transform::scale([1.0, -1.0, 1.0]);
+        let mut light_to_world = ctm.then_apply_to(&flip_y);
+        for row in light_to_world.m.iter_mut().take(3) {
+            row[3] = 0.0;
+        }
+        Ok(Light::Projection(ProjectionLight {
+            position_m: ctm.apply_point(from),
+            light_to_world,
+            fov_deg,
+            width,
+            height,
+            rgb,
+            illuminant: illum.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+        }))
     }
 }
 
