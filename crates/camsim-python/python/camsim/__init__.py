@@ -77,7 +77,8 @@ def load_config(config: Config) -> Dict[str, Any]:
 
 
 def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = None) -> Simulation:
-    """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance,
+    """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance (None
+    when the scene's camera is a lens, whose render is the irradiance),
     irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
     uint16, with cfa, black_level, white_level), preview ((rows, cols, 3) uint8), depth,
     noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
