@@ -1258,6 +1258,12 @@ impl Parser {
 }
 
 /// pbrt-v4's default area/infinite light spectrum: the colour space's illuminant (D65).
+/// Luminance Y of a linear sRGB / Rec. 709 colour (ITU-R BT.709 weights; pbrt-v4
+/// `RGBColorSpace::LuminanceVector` of sRGB), relative to white = 1.
+fn luminance_709(c: [f32; 3]) -> f64 {
+    0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64
+}
+
 fn default_illuminant() -> ParsedSpectrum {
     let s = super::spectra::srgb_illuminant().clone();
     let p = super::spectra::photometric(&s);
@@ -1297,6 +1303,31 @@ fn parse_encoding(s: &str) -> Option<Encoding> {
             let g = s.strip_prefix("gamma ")?.trim().parse::<f32>().ok()?;
             (g > 0.0).then_some(Encoding::Gamma(g))
         }
+    }
+}
+
+impl Parser {
+    /// A light's image (`filename` of `infinite`, `goniometric`, `projection` lights and of
+    /// `AreaLightSource "diffuse"`): resolved against the scene file, decoded with the
+    /// `encoding` parameter (pbrt-v4 default: sRGB for PNG, linear otherwise), as linear RGB.
+    /// Refused, naming `what`, when it cannot be read, is empty, or has a negative or non-finite
+    /// texel.
+    pub(super) fn light_image(
+        &self,
+        fname: &str,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+        what: &str,
+    ) -> Result<(usize, usize, Vec<[f32; 3]>), PbrtError> {
+        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
+        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{what}: unknown encoding \"{enc}\"")))?;
+        let (width, height, rgb) = load_image(&self.resolve(file, fname), encoding).map_err(|e| loc.err(format!("{what}: {e}")))?;
+        if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(loc.err(format!("{what}: {fname} is empty or has negative or non-finite texels")));
+        }
+        Ok((width, height, rgb))
     }
 }
 

@@ -33,15 +33,54 @@ pub fn texel_weights(map: &EnvironmentMap) -> Vec<f64> {
         .collect()
 }
 
+/// An RGB image whose texels are illuminant spectra (pbrt-v4 `RGBIlluminantSpectrum`): per texel
+/// `2 m` (m the largest channel) and the Jakob-Hanika sigmoid polynomial of `rgb / 2m`, so the
+/// spectrum is `2m S(lambda)` times the colour space's illuminant. Shared by the environment and
+/// projection lights; evaluation allocates nothing.
+#[derive(Debug, Clone)]
+pub(crate) struct RgbIlluminants {
+    scale: Vec<f32>,
+    poly: Vec<SigmoidPolynomial>,
+}
+
+impl RgbIlluminants {
+    /// Uplift every texel once (non-negative RGB; black texels stay 0).
+    pub(crate) fn new(rgb: &[[f32; 3]]) -> RgbIlluminants {
+        let (mut scale, mut poly) = (Vec::with_capacity(rgb.len()), Vec::with_capacity(rgb.len()));
+        for c in rgb {
+            let mx = c[0].max(c[1]).max(c[2]);
+            if mx > 0.0 {
+                let s = 2.0 * mx;
+                scale.push(s);
+                poly.push(crate::uplift::rgb_to_coefficients([c[0] / s, c[1] / s, c[2] / s]));
+            } else {
+                scale.push(0.0);
+                poly.push(SigmoidPolynomial::constant(0.0));
+            }
+        }
+        RgbIlluminants { scale, poly }
+    }
+
+    /// Texel `texel`'s spectrum at the path's wavelengths, in the units of `illuminant`.
+    #[inline]
+    pub(crate) fn eval<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
+        let s = self.scale[texel];
+        if s == 0.0 {
+            return [0.0; N];
+        }
+        let il = illuminant.eval_path(lambdas);
+        let p = &self.poly[texel];
+        std::array::from_fn(|i| s * p.eval(lambdas.nm[i] as f64) as f32 * il[i])
+    }
+}
+
 /// A compiled environment light.
 #[derive(Debug, Clone)]
 pub(crate) struct EnvLight {
     width: usize,
     height: usize,
     mapping: EnvMapping,
-    /// Per texel: `2 m` and the sigmoid polynomial of `rgb / 2m` (pbrt-v4 `RGBIlluminantSpectrum`).
-    scale: Vec<f32>,
-    poly: Vec<SigmoidPolynomial>,
+    texels: RgbIlluminants,
     /// Rows of the world-to-light and light-to-world rotations.
     to_light: [V3; 3],
     to_world: [V3; 3],
@@ -104,23 +143,7 @@ impl EnvLight {
             V3::from_f64([inv.m[1][0], inv.m[1][1], inv.m[1][2]]),
             V3::from_f64([inv.m[2][0], inv.m[2][1], inv.m[2][2]]),
         ];
-        let mut scale = Vec::with_capacity(w * h);
-        let mut poly = Vec::with_capacity(w * h);
-        for c in &map.rgb {
-            let mx = c[0].max(c[1]).max(c[2]);
-            if mx > 0.0 {
-                let s = 2.0 * mx;
-                scale.push(s);
-                poly.push(crate::uplift::rgb_to_coefficients([
-                    c[0] / s,
-                    c[1] / s,
-                    c[2] / s,
-                ]));
-            } else {
-                scale.push(0.0);
-                poly.push(SigmoidPolynomial::constant(0.0));
-            }
-        }
+        let texels = RgbIlluminants::new(&map.rgb);
         let weight = texel_weights(map);
         let mut row_cdf = vec![0.0; h + 1];
         let mut col_cdf = vec![0.0; (w + 1) * h];
@@ -155,8 +178,7 @@ impl EnvLight {
             width: w,
             height: h,
             mapping: map.mapping,
-            scale,
-            poly,
+            texels,
             to_light,
             to_world,
             row_cdf,
@@ -259,19 +281,8 @@ impl EnvLight {
 
     /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`.
     #[inline]
-    pub(crate) fn radiance<const N: usize>(
-        &self,
-        texel: usize,
-        illuminant: &SpectrumTable,
-        lambdas: &Lambdas<N>,
-    ) -> [f32; N] {
-        let s = self.scale[texel];
-        if s == 0.0 {
-            return [0.0; N];
-        }
-        let il = illuminant.eval_path(lambdas);
-        let p = &self.poly[texel];
-        std::array::from_fn(|i| s * p.eval(lambdas.nm[i] as f64) as f32 * il[i])
+    pub(crate) fn radiance<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
+        self.texels.eval(texel, illuminant, lambdas)
     }
 }
 

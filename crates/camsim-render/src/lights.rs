@@ -484,8 +484,9 @@ impl Lights {
                 let le = env.radiance(texel, &tables[light.table as usize], lambdas);
                 return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
-            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } | LightKind::Gonio { p: q, .. } => {
-                // pbrt-v4 Point/Spot/GoniometricLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
+            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } | LightKind::Gonio { p: q, .. } | LightKind::Proj { p: q, .. } => {
+                // pbrt-v4 Point/Spot/Goniometric/ProjectionLight::SampleLi: Li = I(w) / r^2, pdf 1
+                // (delta).
                 let d = q - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -493,31 +494,23 @@ impl Lights {
                     return None;
                 }
                 let wi = d / dist;
-                let mut k = 1.0 / dist2;
-                if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
-                    k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
-                }
-                if let LightKind::Gonio { g, .. } = light.kind {
-                    k *= self.gonios[g as usize].value(-wi);
-                }
-                if k <= 0.0 {
-                    return None;
-                }
-                let le = tables[light.table as usize].eval_path(lambdas).map(|v| v * k);
-                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
-            }
-            LightKind::Proj { p: q, j } => {
-                // pbrt-v4 ProjectionLight::SampleLi: Li = I(w) / r^2, pdf 1 (delta).
-                let d = q - p;
-                let dist2 = d.length_squared();
-                let dist = dist2.sqrt();
-                if !(dist > 0.0 && dist.is_finite()) {
-                    return None;
-                }
-                let wi = d / dist;
-                let pr = &self.projs[j as usize];
-                let texel = pr.texel(-wi)?;
-                let le = pr.intensity(texel, &tables[light.table as usize], lambdas).map(|v| v / dist2);
+                let table = &tables[light.table as usize];
+                let le = if let LightKind::Proj { j, .. } = light.kind {
+                    let pr = &self.projs[j as usize];
+                    pr.intensity(pr.texel(-wi)?, table, lambdas).map(|v| v / dist2)
+                } else {
+                    let mut k = 1.0 / dist2;
+                    if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
+                        k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
+                    }
+                    if let LightKind::Gonio { g, .. } = light.kind {
+                        k *= self.gonios[g as usize].value(-wi);
+                    }
+                    if k <= 0.0 {
+                        return None;
+                    }
+                    table.eval_path(lambdas).map(|v| v * k)
+                };
                 return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
             }
             LightKind::Distant { to_light } => {

@@ -7,7 +7,7 @@
 use crate::math::V3;
 use crate::scene::ProjectionLight;
 use crate::spectral::{Lambdas, SpectrumTable};
-use crate::uplift::SigmoidPolynomial;
+use crate::envmap::RgbIlluminants;
 
 /// pbrt-v4 `ProjectionLight::hither`: directions with a smaller light-frame z emit nothing.
 const HITHER: f32 = 1e-3;
@@ -24,9 +24,8 @@ pub(crate) struct ProjLight {
     sy: f32,
     width: usize,
     height: usize,
-    /// Per texel: `2 m` and the sigmoid polynomial of `rgb / 2m`.
-    scale: Vec<f32>,
-    poly: Vec<SigmoidPolynomial>,
+    /// Per texel: the illuminant uplift of its RGB.
+    texels: RgbIlluminants,
     /// pbrt-v4 `ProjectionLight::Phi` per unit illuminant: `A mean(mean(rgb) cos^3 theta)`
     /// (channel mean instead of the uplifted spectrum: used only to pick lights by power).
     pub power_factor: f64,
@@ -55,24 +54,6 @@ impl ProjLight {
         let aspect = w as f64 / h as f64;
         let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
         let tan_half = (l.fov_deg.to_radians() / 2.0).tan();
-        let mut scale = Vec::with_capacity(w * h);
-        let mut poly = Vec::with_capacity(w * h);
-        let mut sum = 0.0;
-        for (i, c) in l.rgb.iter().enumerate() {
-            let mx = c[0].max(c[1]).max(c[2]);
-            if mx > 0.0 {
-                let s = 2.0 * mx;
-                scale.push(s);
-                poly.push(crate::uplift::rgb_to_coefficients([c[0] / s, c[1] / s, c[2] / s]));
-            } else {
-                scale.push(0.0);
-                poly.push(SigmoidPolynomial::constant(0.0));
-            }
-            let px = (-sx + 2.0 * sx * ((i % w) as f64 + 0.5) / w as f64) * tan_half;
-            let py = (-sy + 2.0 * sy * ((i / w) as f64 + 0.5) / h as f64) * tan_half;
-            sum += (c[0] + c[1] + c[2]) as f64 / 3.0 * (1.0 + px * px + py * py).powf(-1.5);
-        }
-        let area = 4.0 * tan_half * tan_half * sx * sy;
         Ok(ProjLight {
             to_light,
             inv_tan_half: (1.0 / tan_half) as f32,
@@ -80,9 +61,8 @@ impl ProjLight {
             sy: sy as f32,
             width: w,
             height: h,
-            scale,
-            poly,
-            power_factor: area * sum / (w * h) as f64,
+            texels: RgbIlluminants::new(&l.rgb),
+            power_factor: crate::scene::projection_frustum_sum(w, h, &l.rgb, l.fov_deg, |c| (c[0] + c[1] + c[2]) as f64 / 3.0),
         })
     }
 
@@ -109,12 +89,6 @@ impl ProjLight {
     /// Intensity of `texel` at the path's wavelengths, W/(sr nm): `2m S(lambda) illuminant`.
     #[inline]
     pub(crate) fn intensity<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
-        let s = self.scale[texel];
-        if s == 0.0 {
-            return [0.0; N];
-        }
-        let il = illuminant.eval_path(lambdas);
-        let p = &self.poly[texel];
-        std::array::from_fn(|i| s * p.eval(lambdas.nm[i] as f64) as f32 * il[i])
+        self.texels.eval(texel, illuminant, lambdas)
     }
 }

@@ -16,6 +16,8 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::path::Path;
 
+mod common;
+
 const RHO: f64 = 0.5;
 /// Light (and camera) height above the floor, m; field of view, deg; image side, pixels.
 const H_M: f64 = 1.0;
@@ -72,19 +74,7 @@ fn render_floor(light: Light) -> Vec<f64> {
         height: N_PX,
         lens: None,
     };
-    let s = 100.0;
-    let floor = Shape {
-        name: Some("floor".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[-s, -s, 0.0], [s, -s, 0.0], [s, s, 0.0], [-s, s, 0.0]],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-    };
+    let floor = common::floor(100.0);
     let scene = SceneDescription {
         camera,
         shapes: vec![floor],

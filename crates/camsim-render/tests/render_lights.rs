@@ -9,6 +9,9 @@ use camsim_scene3d::*;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
+mod common;
+use common::floor;
+
 fn flat(v: f64) -> Spectrum {
     Spectrum::new(vec![300.0, 900.0], vec![v, v], "test").unwrap()
 }
@@ -57,21 +60,6 @@ fn scene(
     }
 }
 
-/// The square `[-s, s]^2` in the plane z = 0, wound so its normal is +z.
-fn floor(s: f64) -> Shape {
-    Shape {
-        name: Some("floor".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[-s, -s, 0.0], [s, -s, 0.0], [s, s, 0.0], [-s, s, 0.0]],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-    }
-}
 
 /// Per-pixel mean over bands.
 fn pixel_means(img: &camsim_core::SpectralImage) -> Vec<f64> {

@@ -427,6 +427,26 @@ pub struct ProjectionLight {
     pub illuminant: Spectrum,
 }
 
+/// The flux integral of a projection light's image per unit intensity scale: `A mean(weight(rgb)
+/// cos^3 theta)` over the texel centres, `A = 4 tan^2(fov / 2) max(a, 1 / a)` the screen
+/// window's area at z = 1 (aspect a = width / height, `fov` across the shorter side) and
+/// `cos^3 theta` the solid angle per unit area there (pbrt-v4 `ProjectionLight` constructor and
+/// `Phi`, midpoint sum). `weight` turns a texel into the quantity integrated (luminance for
+/// `power`, a channel mean for picking lights by power).
+pub fn projection_frustum_sum(width: usize, height: usize, rgb: &[[f32; 3]], fov_deg: f64, weight: impl Fn([f32; 3]) -> f64) -> f64 {
+    let aspect = width as f64 / height as f64;
+    let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
+    let tan_half = (fov_deg.to_radians() / 2.0).tan();
+    let mut sum = 0.0;
+    for (i, c) in rgb.iter().enumerate() {
+        // Texel centre on the plane z = 1 (light frame).
+        let px = (-sx + 2.0 * sx * ((i % width) as f64 + 0.5) / width as f64) * tan_half;
+        let py = (-sy + 2.0 * sy * ((i / width) as f64 + 0.5) / height as f64) * tan_half;
+        sum += weight(*c) * (1.0 + px * px + py * py).powf(-1.5);
+    }
+    4.0 * tan_half * tan_half * sx * sy * sum / rgb.len() as f64
+}
+
 /// pbrt-v4 `GoniometricLight` (4th ed. §12.2.3): a point source at `position_m` whose radiant
 /// intensity toward the unit light-frame direction `w` is `intensity(lambda) * value(w)`, W/(sr nm),
 /// with `value` the single-channel, equal-area octahedral square image looked up at the nearest

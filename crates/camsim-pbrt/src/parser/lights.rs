@@ -2,7 +2,7 @@
 //! (uniform `L`, or an image `filename`), with pbrt-v4's parameter names, defaults and normalisations (pbrt-v4
 //! `lights.cpp`, `*Light::Create`), and camsim's absolute units (see [`crate`]).
 
-use super::{default_illuminant, load_image, parse_encoding, Parser};
+use super::{default_illuminant, luminance_709, Parser};
 use crate::params::ParamList;
 use crate::spectra::SpectrumUse;
 use crate::{Loc, PbrtError};
@@ -137,23 +137,8 @@ impl Parser {
                 if l.is_some() {
                     return Err(loc.err("LightSource \"infinite\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
                 }
-                let enc_default = if fname.to_ascii_lowercase().ends_with(".png") {
-                    "sRGB"
-                } else {
-                    "linear"
-                };
-                let enc = params
-                    .string("encoding")?
-                    .unwrap_or_else(|| enc_default.to_string());
-                let encoding = parse_encoding(&enc).ok_or_else(|| {
-                    loc.err(format!(
-                        "LightSource \"infinite\": unknown encoding \"{enc}\""
-                    ))
-                })?;
+                let (width, height, rgb) = self.light_image(&fname, params, loc, file, "LightSource \"infinite\"")?;
                 params.check_unused("LightSource \"infinite\"")?;
-                let path = self.resolve(file, &fname);
-                let (width, height, rgb) = load_image(&path, encoding)
-                    .map_err(|e| loc.err(format!("LightSource \"infinite\": {e}")))?;
                 let mapping = if width == height {
                     EnvMapping::EqualAreaOctahedral
                 } else if width == 2 * height {
@@ -163,11 +148,6 @@ impl Parser {
                         "LightSource \"infinite\": {fname} is {width} x {height}: an environment map must be square (pbrt-v4 equal-area octahedral) or twice as wide as high (lat-long)"
                     )));
                 };
-                if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(loc.err(format!(
-                        "LightSource \"infinite\": {fname} has negative or non-finite texels"
-                    )));
-                }
                 // pbrt-v4 ImageInfiniteLight::Create: scale /= SpectrumToPhotometric(illuminant);
                 // illuminance E_v: scale *= E_v / k_e, k_e the map's illuminance on an upward
                 // (+z in light space) surface: sum of luminance Y(rgb) cos(theta) d_omega.
@@ -229,21 +209,14 @@ impl Parser {
         let from = point3(params, "from", [0.0; 3])?;
         // pbrt-v4 only warns without a file (and the light is then black); refuse instead.
         let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the intensity image) is required")))?;
-        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
-        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
-        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{WHAT}: unknown encoding \"{enc}\"")))?;
+        let (width, height, rgb) = self.light_image(&fname, params, loc, file, WHAT)?;
         params.check_unused(WHAT)?;
-        let path = self.resolve(file, &fname);
-        let (width, height, rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("{WHAT}: {e}")))?;
         if width != height || width == 0 {
             return Err(loc.err(format!(
                 "{WHAT}: {fname} is {width} x {height}: the image must be square (pbrt-v4 equal-area octahedral)"
             )));
         }
         let values: Vec<f32> = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
-        if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(loc.err(format!("{WHAT}: {fname} has negative or non-finite texels")));
-        }
         if let Some(p) = power.filter(|p| *p > 0.0) {
             // Every texel covers 4 pi / n^2 sr (equal-area mapping): Phi = 4 pi mean(image) I.
             let mean = values.iter().map(|v| *v as f64).sum::<f64>() / values.len() as f64;
@@ -286,37 +259,12 @@ impl Parser {
         }
         let from = point3(params, "from", [0.0; 3])?;
         let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the projected image) is required")))?;
-        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
-        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
-        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{WHAT}: unknown encoding \"{enc}\"")))?;
+        let (width, height, rgb) = self.light_image(&fname, params, loc, file, WHAT)?;
         params.check_unused(WHAT)?;
-        let path = self.resolve(file, &fname);
-        let (width, height, rgb) = load_image(&path, encoding).map_err(|e| loc.err(format!("{WHAT}: {e}")))?;
-        if width == 0 || height == 0 {
-            return Err(loc.err(format!("{WHAT}: {fname} is empty")));
-        }
-        if rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(loc.err(format!("{WHAT}: {fname} has negative or non-finite texels")));
-        }
         let illum = default_illuminant();
         scale /= illum.photometric;
         if let Some(p) = power.filter(|p| *p > 0.0) {
-            let aspect = width as f64 / height as f64;
-            let tan_half = (fov_deg.to_radians() / 2.0).tan();
-            let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
-            let area = 4.0 * tan_half * tan_half * aspect.max(1.0 / aspect);
-            let mut sum = 0.0;
-            for (i, c) in rgb.iter().enumerate() {
-                let (x, y) = (i % width, i / width);
-                // Texel centre on the plane z = 1 (light frame).
-                let px = (-sx + 2.0 * sx * (x as f64 + 0.5) / width as f64) * tan_half;
-                let py = (-sy + 2.0 * sy * (y as f64 + 0.5) / height as f64) * tan_half;
-                let cos3 = (1.0 + px * px + py * py).powf(-1.5);
-                // Rec. 709 / sRGB luminance weights (pbrt-v4 RGBColorSpace::LuminanceVector).
-                let lum = 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
-                sum += lum * cos3;
-            }
-            let k_e = area * sum / rgb.len() as f64;
+            let k_e = crate::scene::projection_frustum_sum(width, height, &rgb, fov_deg, luminance_709);
             if !(k_e > 0.0) {
                 return Err(loc.err(format!("{WHAT}: \"power\" given but {fname} is black")));
             }
@@ -356,7 +304,7 @@ pub(crate) fn map_upper_illuminance(
     for yy in 0..hk {
         for xx in 0..wk {
             let c = rgb[(yy / k) * width + xx / k];
-            let lum = 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+            let lum = luminance_709(c);
             let (u, v) = ((xx as f64 + 0.5) / wk as f64, (yy as f64 + 0.5) / hk as f64);
             let (d, d_omega) = match mapping {
                 EnvMapping::EqualAreaOctahedral => (

@@ -70,20 +70,8 @@ impl Parser {
                         if spectrum.is_some() {
                             return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
                         }
-                        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
-                        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
-                        let encoding = parse_encoding(&enc).ok_or_else(|| {
-                            loc.err(format!("AreaLightSource \"diffuse\": unknown encoding \"{enc}\""))
-                        })?;
-                        let path = self.resolve(file, &fname);
-                        let (width, height, rgb) = load_image(&path, encoding)
-                            .map_err(|e| loc.err(format!("AreaLightSource \"diffuse\": {e}")))?;
-                        if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                            return Err(loc.err(format!(
-                                "AreaLightSource \"diffuse\": {fname} is empty or has negative or non-finite texels"
-                            )));
-                        }
-                        let mean_y = rgb.iter().map(|c| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64).sum::<f64>()
+                        let (width, height, rgb) = self.light_image(&fname, &params, loc, file, "AreaLightSource \"diffuse\"")?;
+                        let mean_y = rgb.iter().map(|c| super::luminance_709(*c)).sum::<f64>()
                             / rgb.len() as f64;
                         Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
                     }
