@@ -16,10 +16,18 @@ fn edge(rows: usize, cols: usize) -> Plane {
 
 fn bench(c: &mut Criterion) {
     let img = edge(256, 128);
-    c.bench_function("sfr 256x128 roi", |b| b.iter(|| sfr(&img, None, &SfrOptions::default()).unwrap()));
+    c.bench_function("sfr 256x128 roi", |b| {
+        b.iter(|| sfr(&img, None, &SfrOptions::default()).unwrap())
+    });
     // EMVA: 12 levels of 2 bright + 2 dark 512 x 512 frames (a deterministic pseudo-noise pattern).
     let frames: Vec<Plane> = (0..48)
-        .map(|k| Plane::from_fn(512, 512, |r, c| (100 + (k / 4) * 50) as f32 * if k % 4 < 2 { 1.0 } else { 0.0 } + ((r * 31 + c * 17 + k * 7) % 13) as f32).unwrap())
+        .map(|k| {
+            Plane::from_fn(512, 512, |r, c| {
+                (100 + (k / 4) * 50) as f32 * if k % 4 < 2 { 1.0 } else { 0.0 }
+                    + ((r * 31 + c * 17 + k * 7) % 13) as f32
+            })
+            .unwrap()
+        })
         .collect();
     let levels: Vec<EmvaInput> = (0..12)
         .map(|l| EmvaInput {
@@ -29,7 +37,9 @@ fn bench(c: &mut Criterion) {
             dark: vec![&frames[4 * l + 2], &frames[4 * l + 3]],
         })
         .collect();
-    c.bench_function("emva 12 levels 512x512", |b| b.iter(|| emva(&levels, &EmvaOptions::default())));
+    c.bench_function("emva 12 levels 512x512", |b| {
+        b.iter(|| emva(&levels, &EmvaOptions::default()))
+    });
 }
 
 criterion_group!(benches, bench);

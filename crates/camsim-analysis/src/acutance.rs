@@ -41,14 +41,22 @@ impl ViewingCondition {
     /// `image_height_px / display_height_m` pixels per metre and one degree spans
     /// `2 d tan(0.5 deg)` metres at distance d.
     pub fn pixels_per_degree(&self) -> Result<f64> {
-        if self.image_height_px == 0 || !(self.display_height_m > 0.0 && self.display_height_m.is_finite()) {
+        if self.image_height_px == 0
+            || !(self.display_height_m > 0.0 && self.display_height_m.is_finite())
+        {
             return Err(AnalysisError::invalid(
                 "viewing condition",
-                format!("{} pixels over {} m: need a positive pixel count and height", self.image_height_px, self.display_height_m),
+                format!(
+                    "{} pixels over {} m: need a positive pixel count and height",
+                    self.image_height_px, self.display_height_m
+                ),
             ));
         }
         if !(self.viewing_distance_m > 0.0 && self.viewing_distance_m.is_finite()) {
-            return Err(AnalysisError::invalid("viewing condition", format!("distance {} m must be positive", self.viewing_distance_m)));
+            return Err(AnalysisError::invalid(
+                "viewing condition",
+                format!("distance {} m must be positive", self.viewing_distance_m),
+            ));
         }
         let px_per_m = self.image_height_px as f64 / self.display_height_m;
         Ok(px_per_m * 2.0 * self.viewing_distance_m * 0.5f64.to_radians().tan())
@@ -75,19 +83,34 @@ pub fn acutance(freq_cy_per_px: &[f64], sfr: &[f64], pixels_per_degree: f64) -> 
     if freq_cy_per_px.len() != sfr.len() || freq_cy_per_px.len() < 2 {
         return Err(AnalysisError::invalid(
             "acutance",
-            format!("{} frequencies and {} SFR values: need the same number, at least 2", freq_cy_per_px.len(), sfr.len()),
+            format!(
+                "{} frequencies and {} SFR values: need the same number, at least 2",
+                freq_cy_per_px.len(),
+                sfr.len()
+            ),
         ));
     }
-    if freq_cy_per_px.iter().chain(sfr).any(|v| !v.is_finite()) || freq_cy_per_px.windows(2).any(|w| !(w[1] > w[0])) {
-        return Err(AnalysisError::invalid("acutance", "the frequencies must increase and every value must be finite"));
+    if freq_cy_per_px.iter().chain(sfr).any(|v| !v.is_finite())
+        || freq_cy_per_px.windows(2).any(|w| !(w[1] > w[0]))
+    {
+        return Err(AnalysisError::invalid(
+            "acutance",
+            "the frequencies must increase and every value must be finite",
+        ));
     }
     if !(pixels_per_degree > 0.0 && pixels_per_degree.is_finite()) {
-        return Err(AnalysisError::invalid("acutance", format!("{pixels_per_degree} pixels per degree must be positive")));
+        return Err(AnalysisError::invalid(
+            "acutance",
+            format!("{pixels_per_degree} pixels per degree must be positive"),
+        ));
     }
     let f_last = *freq_cy_per_px.last().unwrap_or(&0.5);
     let upper_cy_per_px = f_last.min(0.5);
     if !(upper_cy_per_px > 0.0) {
-        return Err(AnalysisError::invalid("acutance", "the SFR has no positive frequency"));
+        return Err(AnalysisError::invalid(
+            "acutance",
+            "the SFR has no positive frequency",
+        ));
     }
     let upper_cpd = upper_cy_per_px * pixels_per_degree;
     let steps = 4096;
@@ -101,7 +124,11 @@ pub fn acutance(freq_cy_per_px: &[f64], sfr: &[f64], pixels_per_degree: f64) -> 
         num += w * crate::sfr::interp(freq_cy_per_px, sfr, nu / pixels_per_degree);
         den += w;
     }
-    Ok(Acutance { acutance: num / den, pixels_per_degree, upper_cpd })
+    Ok(Acutance {
+        acutance: num / den,
+        pixels_per_degree,
+        upper_cpd,
+    })
 }
 
 #[cfg(test)]
@@ -111,10 +138,24 @@ mod tests {
     #[test]
     fn viewing_geometry() {
         // 1000 pixels over 0.2 m at 0.5 m: 5000 px/m x 2 x 0.5 m x tan(0.5 deg) = 43.63 px/deg.
-        let v = ViewingCondition { image_height_px: 1000, display_height_m: 0.2, viewing_distance_m: 0.5 };
+        let v = ViewingCondition {
+            image_height_px: 1000,
+            display_height_m: 0.2,
+            viewing_distance_m: 0.5,
+        };
         assert!((v.pixels_per_degree().unwrap() - 5000.0 * 0.5f64.to_radians().tan()).abs() < 1e-9);
-        assert!(ViewingCondition { viewing_distance_m: f64::NAN, ..v }.pixels_per_degree().is_err());
-        assert!(ViewingCondition { image_height_px: 0, ..v }.pixels_per_degree().is_err());
+        assert!(ViewingCondition {
+            viewing_distance_m: f64::NAN,
+            ..v
+        }
+        .pixels_per_degree()
+        .is_err());
+        assert!(ViewingCondition {
+            image_height_px: 0,
+            ..v
+        }
+        .pixels_per_degree()
+        .is_err());
     }
 
     #[test]
@@ -138,8 +179,15 @@ mod tests {
             let sfr: Vec<f64> = f.iter().map(|x| (-k * x * ppd).exp()).collect();
             let a = acutance(&f, &sfr, ppd).unwrap();
             let expect = (b / (b + k)).powf(c + 1.0);
-            eprintln!("exponential SFR k = {k} deg: acutance {:.6} vs closed form {expect:.6}", a.acutance);
-            assert!((a.acutance - expect).abs() < 1e-3 * expect, "k = {k}: {} vs {expect}", a.acutance);
+            eprintln!(
+                "exponential SFR k = {k} deg: acutance {:.6} vs closed form {expect:.6}",
+                a.acutance
+            );
+            assert!(
+                (a.acutance - expect).abs() < 1e-3 * expect,
+                "k = {k}: {} vs {expect}",
+                a.acutance
+            );
         }
     }
 
@@ -161,7 +209,11 @@ mod tests {
                 num += csf_cpiq(nu) * g(nu);
                 den += csf_cpiq(nu);
             }
-            assert!((a - num / den).abs() < 1e-3, "s = {s}: {a} vs {}", num / den);
+            assert!(
+                (a - num / den).abs() < 1e-3,
+                "s = {s}: {a} vs {}",
+                num / den
+            );
             assert!(a > last && a < 1.0, "s = {s}: {a}");
             last = a;
         }

@@ -42,7 +42,12 @@ impl ChartCorners {
     /// has its centre at k - 0.5 in our coordinates.
     pub fn from_isetcam(points: [[f64; 2]; 4]) -> ChartCorners {
         let p = |i: usize| [points[i][0] - 0.5, points[i][1] - 0.5];
-        ChartCorners { bottom_left: p(0), bottom_right: p(1), top_right: p(2), top_left: p(3) }
+        ChartCorners {
+            bottom_left: p(0),
+            bottom_right: p(1),
+            top_right: p(2),
+            top_left: p(3),
+        }
     }
 
     /// The image point at chart coordinates (u, v) in [0, 1]^2 (u across, v down), by bilinear
@@ -59,7 +64,10 @@ impl ChartCorners {
 
     /// Centre of patch (row, col) in image coordinates.
     pub fn patch_centre(&self, row: usize, col: usize) -> [f64; 2] {
-        self.point((col as f64 + 0.5) / PATCH_COLS as f64, (row as f64 + 0.5) / PATCH_ROWS as f64)
+        self.point(
+            (col as f64 + 0.5) / PATCH_COLS as f64,
+            (row as f64 + 0.5) / PATCH_ROWS as f64,
+        )
     }
 
     /// End points of a line through the centres of patch row `row` (3 = the gray series), from
@@ -70,9 +78,17 @@ impl ChartCorners {
     }
 
     fn check(&self) -> Result<()> {
-        let all = [self.top_left, self.top_right, self.bottom_right, self.bottom_left];
+        let all = [
+            self.top_left,
+            self.top_right,
+            self.bottom_right,
+            self.bottom_left,
+        ];
         if all.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(AnalysisError::invalid("chart corners", "a corner coordinate is not a finite number"));
+            return Err(AnalysisError::invalid(
+                "chart corners",
+                "a corner coordinate is not a finite number",
+            ));
         }
         // Signed area (shoelace) must be clearly non-zero and the corners in clockwise image order.
         let mut area = 0.0;
@@ -111,14 +127,28 @@ pub struct PatchRegion {
 /// opposite chart edges / 6 across, / 4 down) centred on each patch (ISETCam `chartRectangles`,
 /// whose default fraction is 0.5). Errors if a region falls outside a `rows x cols` image or
 /// holds no pixel.
-pub fn chart_patch_rects(corners: &ChartCorners, fraction: f64, rows: usize, cols: usize) -> Result<Vec<PatchRegion>> {
+pub fn chart_patch_rects(
+    corners: &ChartCorners,
+    fraction: f64,
+    rows: usize,
+    cols: usize,
+) -> Result<Vec<PatchRegion>> {
     corners.check()?;
     if !(fraction > 0.0 && fraction <= 1.0) {
-        return Err(AnalysisError::invalid("chart patch fraction", format!("{fraction} is not in (0, 1]")));
+        return Err(AnalysisError::invalid(
+            "chart patch fraction",
+            format!("{fraction} is not in (0, 1]"),
+        ));
     }
     let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
-    let pitch_x = 0.5 * (dist(corners.top_left, corners.top_right) + dist(corners.bottom_left, corners.bottom_right)) / PATCH_COLS as f64;
-    let pitch_y = 0.5 * (dist(corners.top_left, corners.bottom_left) + dist(corners.top_right, corners.bottom_right)) / PATCH_ROWS as f64;
+    let pitch_x = 0.5
+        * (dist(corners.top_left, corners.top_right)
+            + dist(corners.bottom_left, corners.bottom_right))
+        / PATCH_COLS as f64;
+    let pitch_y = 0.5
+        * (dist(corners.top_left, corners.bottom_left)
+            + dist(corners.top_right, corners.bottom_right))
+        / PATCH_ROWS as f64;
     let half = 0.5 * fraction * pitch_x.min(pitch_y);
     let mut out = Vec::with_capacity(24);
     for pr in 0..PATCH_ROWS {
@@ -130,7 +160,13 @@ pub fn chart_patch_rects(corners: &ChartCorners, fraction: f64, rows: usize, col
             let hi = |c: f64| (c + half - 0.5).ceil() - 1.0;
             let (c0, c1, r0, r1) = (lo(centre[0]), hi(centre[0]), lo(centre[1]), hi(centre[1]));
             if c1 < c0 || r1 < r0 {
-                return Err(AnalysisError::invalid("chart", format!("patch {index} ({}) holds no pixel: the chart is too small", PATCH_NAMES[index])));
+                return Err(AnalysisError::invalid(
+                    "chart",
+                    format!(
+                        "patch {index} ({}) holds no pixel: the chart is too small",
+                        PATCH_NAMES[index]
+                    ),
+                ));
             }
             if c0 < 0.0 || r0 < 0.0 || c1 >= cols as f64 || r1 >= rows as f64 {
                 return Err(AnalysisError::invalid(
@@ -138,8 +174,20 @@ pub fn chart_patch_rects(corners: &ChartCorners, fraction: f64, rows: usize, col
                     format!("patch {index} ({}) at [{:.1}, {:.1}] lies outside the {rows} x {cols} image", PATCH_NAMES[index], centre[0], centre[1]),
                 ));
             }
-            let rect = Rect::new(r0 as usize, c0 as usize, (r1 - r0) as usize + 1, (c1 - c0) as usize + 1);
-            out.push(PatchRegion { index, name: PATCH_NAMES[index].to_string(), row: pr, col: pc, centre, rect });
+            let rect = Rect::new(
+                r0 as usize,
+                c0 as usize,
+                (r1 - r0) as usize + 1,
+                (c1 - c0) as usize + 1,
+            );
+            out.push(PatchRegion {
+                index,
+                name: PATCH_NAMES[index].to_string(),
+                row: pr,
+                col: pc,
+                centre,
+                rect,
+            });
         }
     }
     Ok(out)
@@ -164,24 +212,46 @@ pub struct PatchStats {
 
 /// Patch statistics on a raw mosaic: each CFA channel's own pixels inside each patch region
 /// (both greens pooled), black subtracted.
-pub fn chart_patch_stats_raw(raw: &RawImage, corners: &ChartCorners, fraction: f64) -> Result<Vec<PatchStats>> {
+pub fn chart_patch_stats_raw(
+    raw: &RawImage,
+    corners: &ChartCorners,
+    fraction: f64,
+) -> Result<Vec<PatchStats>> {
     chart_patch_rects(corners, fraction, raw.rows, raw.cols)?
         .into_iter()
         .map(|p| {
             let m = raw_rect_moments(raw, &p.rect)?;
-            Ok(PatchStats { index: p.index, name: p.name, rect: p.rect, mean: m.map(|v| v.mean()), std: m.map(|v| v.std()), n: m.map(|v| v.n) })
+            Ok(PatchStats {
+                index: p.index,
+                name: p.name,
+                rect: p.rect,
+                mean: m.map(|v| v.mean()),
+                std: m.map(|v| v.std()),
+                n: m.map(|v| v.n),
+            })
         })
         .collect()
 }
 
 /// Patch statistics on demosaicked RGB planes.
-pub fn chart_patch_stats_rgb(planes: &[Plane; 3], corners: &ChartCorners, fraction: f64) -> Result<Vec<PatchStats>> {
+pub fn chart_patch_stats_rgb(
+    planes: &[Plane; 3],
+    corners: &ChartCorners,
+    fraction: f64,
+) -> Result<Vec<PatchStats>> {
     check_rgb(planes)?;
     chart_patch_rects(corners, fraction, planes[0].rows, planes[0].cols)?
         .into_iter()
         .map(|p| {
             let m = rgb_rect_moments(planes, &p.rect)?;
-            Ok(PatchStats { index: p.index, name: p.name, rect: p.rect, mean: m.map(|v| v.mean()), std: m.map(|v| v.std()), n: m.map(|v| v.n) })
+            Ok(PatchStats {
+                index: p.index,
+                name: p.name,
+                rect: p.rect,
+                mean: m.map(|v| v.mean()),
+                std: m.map(|v| v.std()),
+                n: m.map(|v| v.n),
+            })
         })
         .collect()
 }
@@ -199,10 +269,16 @@ pub struct ProfilePoint {
 
 fn line_points(p0: [f64; 2], p1: [f64; 2], samples: usize) -> Result<Vec<[f64; 2]>> {
     if !(2..=1_000_000).contains(&samples) {
-        return Err(AnalysisError::invalid("line profile", format!("{samples} samples is not in 2..=1000000")));
+        return Err(AnalysisError::invalid(
+            "line profile",
+            format!("{samples} samples is not in 2..=1000000"),
+        ));
     }
     if p0.iter().chain(p1.iter()).any(|v| !v.is_finite()) {
-        return Err(AnalysisError::invalid("line profile", "an end point is not a finite number"));
+        return Err(AnalysisError::invalid(
+            "line profile",
+            "an end point is not a finite number",
+        ));
     }
     Ok((0..samples)
         .map(|i| {
@@ -214,7 +290,12 @@ fn line_points(p0: [f64; 2], p1: [f64; 2], samples: usize) -> Result<Vec<[f64; 2
 
 /// Values of three planes along the line p0 -> p1 (`[x, y]` pixels), `samples` points
 /// including both ends, bilinear interpolation. Errors if the line leaves the image.
-pub fn line_profile(planes: &[Plane; 3], p0: [f64; 2], p1: [f64; 2], samples: usize) -> Result<Vec<ProfilePoint>> {
+pub fn line_profile(
+    planes: &[Plane; 3],
+    p0: [f64; 2],
+    p1: [f64; 2],
+    samples: usize,
+) -> Result<Vec<ProfilePoint>> {
     check_rgb(planes)?;
     let pts = line_points(p0, p1, samples)?;
     pts.iter()
@@ -222,26 +303,52 @@ pub fn line_profile(planes: &[Plane; 3], p0: [f64; 2], p1: [f64; 2], samples: us
             let mut rgb = [0.0; 3];
             for (k, plane) in planes.iter().enumerate() {
                 rgb[k] = plane.sample_bilinear(p[0], p[1]).ok_or_else(|| {
-                    AnalysisError::invalid("line profile", format!("point [{:.1}, {:.1}] lies outside the image", p[0], p[1]))
+                    AnalysisError::invalid(
+                        "line profile",
+                        format!("point [{:.1}, {:.1}] lies outside the image", p[0], p[1]),
+                    )
                 })?;
             }
-            Ok(ProfilePoint { distance_px: ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2)).sqrt(), position: *p, rgb })
+            Ok(ProfilePoint {
+                distance_px: ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2)).sqrt(),
+                position: *p,
+                rgb,
+            })
         })
         .collect()
 }
 
 /// Line profile on a raw mosaic without demosaicking: each channel is interpolated bilinearly on
 /// its own sub-grid (green: the mean of the two green sub-grids), black subtracted.
-pub fn line_profile_raw(raw: &RawImage, p0: [f64; 2], p1: [f64; 2], samples: usize) -> Result<Vec<ProfilePoint>> {
+pub fn line_profile_raw(
+    raw: &RawImage,
+    p0: [f64; 2],
+    p1: [f64; 2],
+    samples: usize,
+) -> Result<Vec<ProfilePoint>> {
     let pts = line_points(p0, p1, samples)?;
-    let grids = [(CfaChannel::R, None), (CfaChannel::G, Some(0)), (CfaChannel::G, Some(1)), (CfaChannel::B, None)]
-        .into_iter()
-        .map(|(ch, g)| Ok((ch, cfa_channel_plane(raw, ch, g)?, cfa_channel_offset(raw.cfa, ch, g)?)))
-        .collect::<Result<Vec<_>>>()?;
+    let grids = [
+        (CfaChannel::R, None),
+        (CfaChannel::G, Some(0)),
+        (CfaChannel::G, Some(1)),
+        (CfaChannel::B, None),
+    ]
+    .into_iter()
+    .map(|(ch, g)| {
+        Ok((
+            ch,
+            cfa_channel_plane(raw, ch, g)?,
+            cfa_channel_offset(raw.cfa, ch, g)?,
+        ))
+    })
+    .collect::<Result<Vec<_>>>()?;
     pts.iter()
         .map(|p| {
             if !(p[0] >= 0.0 && p[1] >= 0.0 && p[0] <= raw.cols as f64 && p[1] <= raw.rows as f64) {
-                return Err(AnalysisError::invalid("line profile", format!("point [{:.1}, {:.1}] lies outside the image", p[0], p[1])));
+                return Err(AnalysisError::invalid(
+                    "line profile",
+                    format!("point [{:.1}, {:.1}] lies outside the image", p[0], p[1]),
+                ));
             }
             let mut sum = [0.0f64; 3];
             let mut cnt = [0.0f64; 3];
@@ -276,7 +383,12 @@ mod tests {
     /// An upright chart with its grid from x 10..166, y 8..112 (26-pixel patches), black
     /// (0 above black) borders of 3 pixels around each patch.
     fn chart_corners() -> ChartCorners {
-        ChartCorners { top_left: [10.0, 8.0], top_right: [166.0, 8.0], bottom_right: [166.0, 112.0], bottom_left: [10.0, 112.0] }
+        ChartCorners {
+            top_left: [10.0, 8.0],
+            top_right: [166.0, 8.0],
+            bottom_right: [166.0, 112.0],
+            bottom_left: [10.0, 112.0],
+        }
     }
 
     fn patch_at(x: f64, y: f64) -> Option<usize> {
@@ -297,7 +409,11 @@ mod tests {
         let (rows, cols) = (120, 180);
         let mut raw = RawImage::new(rows, cols, CfaPattern::Bggr, 14).unwrap();
         raw.black_level_dn = 256.0;
-        let mut planes = [Plane::zeros(rows, cols).unwrap(), Plane::zeros(rows, cols).unwrap(), Plane::zeros(rows, cols).unwrap()];
+        let mut planes = [
+            Plane::zeros(rows, cols).unwrap(),
+            Plane::zeros(rows, cols).unwrap(),
+            Plane::zeros(rows, cols).unwrap(),
+        ];
         for r in 0..rows {
             for c in 0..cols {
                 let p = patch_at(c as f64 + 0.5, r as f64 + 0.5);
@@ -309,14 +425,22 @@ mod tests {
             }
         }
         let corners = chart_corners();
-        for stats in [chart_patch_stats_raw(&raw, &corners, 0.5).unwrap(), chart_patch_stats_rgb(&planes, &corners, 0.5).unwrap()] {
+        for stats in [
+            chart_patch_stats_raw(&raw, &corners, 0.5).unwrap(),
+            chart_patch_stats_rgb(&planes, &corners, 0.5).unwrap(),
+        ] {
             assert_eq!(stats.len(), 24);
             for s in &stats {
                 // 13 x 13 pixels: the central half of a 26-pixel patch.
                 assert_eq!(s.rect.rows, 13);
                 assert_eq!(s.rect.cols, 13);
                 for c in 0..3 {
-                    assert_eq!(s.mean[c], value(s.index, c), "patch {} channel {c}", s.index);
+                    assert_eq!(
+                        s.mean[c],
+                        value(s.index, c),
+                        "patch {} channel {c}",
+                        s.index
+                    );
                     assert_eq!(s.std[c], 0.0);
                     assert!(s.n[c] > 0);
                 }
@@ -332,7 +456,10 @@ mod tests {
             let i = 13 + 26 * k; // x = 10 + 13 + 26 k: the centre of patch 18 + k
             for c in 0..3 {
                 assert!((prof[i].rgb[c] - value(18 + k, c)).abs() < 1e-9);
-                assert!((prof_raw[i].rgb[c] - value(18 + k, c)).abs() < 1e-9, "raw profile {k} {c}");
+                assert!(
+                    (prof_raw[i].rgb[c] - value(18 + k, c)).abs() < 1e-9,
+                    "raw profile {k} {c}"
+                );
             }
         }
         assert_eq!(prof[0].rgb, [0.0; 3]);
@@ -344,21 +471,44 @@ mod tests {
         // A chart rotated by 10 degrees about its centre: patch centres rotate with it.
         let (cx, cy) = (88.0, 60.0);
         let (s, c) = 10f64.to_radians().sin_cos();
-        let rot = |p: [f64; 2]| [cx + (p[0] - cx) * c - (p[1] - cy) * s, cy + (p[0] - cx) * s + (p[1] - cy) * c];
+        let rot = |p: [f64; 2]| {
+            [
+                cx + (p[0] - cx) * c - (p[1] - cy) * s,
+                cy + (p[0] - cx) * s + (p[1] - cy) * c,
+            ]
+        };
         let k = chart_corners();
-        let r = ChartCorners { top_left: rot(k.top_left), top_right: rot(k.top_right), bottom_right: rot(k.bottom_right), bottom_left: rot(k.bottom_left) };
+        let r = ChartCorners {
+            top_left: rot(k.top_left),
+            top_right: rot(k.top_right),
+            bottom_right: rot(k.bottom_right),
+            bottom_left: rot(k.bottom_left),
+        };
         for (pr, pc) in [(0, 0), (1, 4), (3, 5)] {
             let a = rot(k.patch_centre(pr, pc));
             let b = r.patch_centre(pr, pc);
             assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
         }
-        let i = ChartCorners::from_isetcam([[10.5, 112.5], [166.5, 112.5], [166.5, 8.5], [10.5, 8.5]]);
+        let i =
+            ChartCorners::from_isetcam([[10.5, 112.5], [166.5, 112.5], [166.5, 8.5], [10.5, 8.5]]);
         assert_eq!(i, k);
-        assert!(chart_patch_rects(&k, 0.5, 100, 180).is_err(), "outside the image");
+        assert!(
+            chart_patch_rects(&k, 0.5, 100, 180).is_err(),
+            "outside the image"
+        );
         assert!(chart_patch_rects(&k, 1.5, 120, 180).is_err());
-        let flipped = ChartCorners { top_left: k.bottom_left, bottom_left: k.top_left, top_right: k.bottom_right, bottom_right: k.top_right };
+        let flipped = ChartCorners {
+            top_left: k.bottom_left,
+            bottom_left: k.top_left,
+            top_right: k.bottom_right,
+            bottom_right: k.top_right,
+        };
         assert!(chart_patch_rects(&flipped, 0.5, 120, 180).is_err());
-        let p = [Plane::zeros(4, 4).unwrap(), Plane::zeros(4, 4).unwrap(), Plane::zeros(4, 4).unwrap()];
+        let p = [
+            Plane::zeros(4, 4).unwrap(),
+            Plane::zeros(4, 4).unwrap(),
+            Plane::zeros(4, 4).unwrap(),
+        ];
         assert!(line_profile(&p, [0.0, 0.0], [10.0, 0.0], 5).is_err());
         assert!(line_profile(&p, [0.0, 0.0], [1.0, 0.0], 1).is_err());
     }

@@ -43,7 +43,11 @@ pub fn xyz_to_lab(xyz: [f64; 3], white_xyz: [f64; 3]) -> Lab {
     let fx = f(ratio(xyz[0], white_xyz[0]));
     let fy = f(ratio(xyz[1], white_xyz[1]));
     let fz = f(ratio(xyz[2], white_xyz[2]));
-    Lab { l: 116.0 * fy - 16.0, a: 500.0 * (fx - fy), b: 200.0 * (fy - fz) }
+    Lab {
+        l: 116.0 * fy - 16.0,
+        a: 500.0 * (fx - fy),
+        b: 200.0 * (fy - fz),
+    }
 }
 
 /// CIEDE2000 colour difference ΔE00 between two CIELAB colours, parametric factors
@@ -59,7 +63,11 @@ pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
     let prime = |lab: Lab| {
         let a = (1.0 + g) * lab.a;
         let c = a.hypot(lab.b);
-        let h_deg = if a == 0.0 && lab.b == 0.0 { 0.0 } else { lab.b.atan2(a).to_degrees().rem_euclid(360.0) };
+        let h_deg = if a == 0.0 && lab.b == 0.0 {
+            0.0
+        } else {
+            lab.b.atan2(a).to_degrees().rem_euclid(360.0)
+        };
         (c, h_deg)
     };
     let (c1, h1_deg) = prime(lab1);
@@ -94,7 +102,9 @@ pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
     };
     // Eqs. 15-21: weights and the rotation term.
     let cos_deg = |x: f64| x.to_radians().cos();
-    let t = 1.0 - 0.17 * cos_deg(h_mean_deg - 30.0) + 0.24 * cos_deg(2.0 * h_mean_deg) + 0.32 * cos_deg(3.0 * h_mean_deg + 6.0)
+    let t = 1.0 - 0.17 * cos_deg(h_mean_deg - 30.0)
+        + 0.24 * cos_deg(2.0 * h_mean_deg)
+        + 0.32 * cos_deg(3.0 * h_mean_deg + 6.0)
         - 0.20 * cos_deg(4.0 * h_mean_deg - 63.0);
     let d_theta_deg = 30.0 * (-((h_mean_deg - 275.0) / 25.0).powi(2)).exp();
     let r_c = 2.0 * (pow7(c_mean) / (pow7(c_mean) + twenty_five_7)).sqrt();
@@ -118,9 +128,15 @@ mod tests {
         [50.0000, 2.6772, -79.7751, 50.0000, 0.0000, -82.7485, 2.0425],
         [50.0000, 3.1571, -77.2803, 50.0000, 0.0000, -82.7485, 2.8615],
         [50.0000, 2.8361, -74.0200, 50.0000, 0.0000, -82.7485, 3.4412],
-        [50.0000, -1.3802, -84.2814, 50.0000, 0.0000, -82.7485, 1.0000],
-        [50.0000, -1.1848, -84.8006, 50.0000, 0.0000, -82.7485, 1.0000],
-        [50.0000, -0.9009, -85.5211, 50.0000, 0.0000, -82.7485, 1.0000],
+        [
+            50.0000, -1.3802, -84.2814, 50.0000, 0.0000, -82.7485, 1.0000,
+        ],
+        [
+            50.0000, -1.1848, -84.8006, 50.0000, 0.0000, -82.7485, 1.0000,
+        ],
+        [
+            50.0000, -0.9009, -85.5211, 50.0000, 0.0000, -82.7485, 1.0000,
+        ],
         [50.0000, 0.0000, 0.0000, 50.0000, -1.0000, 2.0000, 2.3669],
         [50.0000, -1.0000, 2.0000, 50.0000, 0.0000, 0.0000, 2.3669],
         [50.0000, 2.4900, -0.0010, 50.0000, -2.4900, 0.0009, 7.1792],
@@ -139,11 +155,17 @@ mod tests {
         [50.0000, 2.5000, 0.0000, 50.0000, 3.2972, 0.0000, 1.0000],
         [50.0000, 2.5000, 0.0000, 50.0000, 1.8634, 0.5757, 1.0000],
         [50.0000, 2.5000, 0.0000, 50.0000, 3.2592, 0.3350, 1.0000],
-        [60.2574, -34.0099, 36.2677, 60.4626, -34.1751, 39.4387, 1.2644],
-        [63.0109, -31.0961, -5.8663, 62.8187, -29.7946, -4.0864, 1.2630],
+        [
+            60.2574, -34.0099, 36.2677, 60.4626, -34.1751, 39.4387, 1.2644,
+        ],
+        [
+            63.0109, -31.0961, -5.8663, 62.8187, -29.7946, -4.0864, 1.2630,
+        ],
         [61.2901, 3.7196, -5.3901, 61.4292, 2.2480, -4.9620, 1.8731],
         [35.0831, -44.1164, 3.7933, 35.0232, -40.0716, 1.5901, 1.8645],
-        [22.7233, 20.0904, -46.6940, 23.0331, 14.9730, -42.5619, 2.0373],
+        [
+            22.7233, 20.0904, -46.6940, 23.0331, 14.9730, -42.5619, 2.0373,
+        ],
         [36.4612, 47.8580, 18.3852, 36.2715, 50.5065, 21.2231, 1.4146],
         [90.8027, -2.0831, 1.4410, 91.1528, -1.6435, 0.0447, 1.4441],
         [90.9257, -0.5406, -0.9208, 88.6381, -0.8985, -0.7239, 1.5381],
@@ -155,16 +177,30 @@ mod tests {
     fn ciede2000_matches_sharma_2005_table_1() {
         let mut worst = 0.0f64;
         for (i, row) in SHARMA_2005_TABLE_1.iter().enumerate() {
-            let (p, q) = (Lab::new(row[0], row[1], row[2]), Lab::new(row[3], row[4], row[5]));
+            let (p, q) = (
+                Lab::new(row[0], row[1], row[2]),
+                Lab::new(row[3], row[4], row[5]),
+            );
             let de = ciede2000(p, q);
             // The table is rounded to 4 decimals: agreement means |error| <= 0.5e-4 (+ float slack).
             let err = (de - row[6]).abs();
-            assert!(err <= 0.5e-4 + 1e-9, "pair {}: {de:.6} vs {:.4}", i + 1, row[6]);
+            assert!(
+                err <= 0.5e-4 + 1e-9,
+                "pair {}: {de:.6} vs {:.4}",
+                i + 1,
+                row[6]
+            );
             // Symmetric in its arguments (Sharma et al. 2005 §3).
-            assert!((ciede2000(q, p) - de).abs() < 1e-12, "pair {} not symmetric", i + 1);
+            assert!(
+                (ciede2000(q, p) - de).abs() < 1e-12,
+                "pair {} not symmetric",
+                i + 1
+            );
             worst = worst.max(err);
         }
-        eprintln!("CIEDE2000 vs Sharma et al. 2005 Table 1: max |error| = {worst:.2e} over 34 pairs");
+        eprintln!(
+            "CIEDE2000 vs Sharma et al. 2005 Table 1: max |error| = {worst:.2e} over 34 pairs"
+        );
     }
 
     #[test]
@@ -180,10 +216,17 @@ mod tests {
     fn lab_of_the_white_is_100_0_0_and_the_linear_segment_joins_the_cube_root() {
         let white = [95.047, 100.0, 108.883];
         let w = xyz_to_lab(white, white);
-        assert!((w.l - 100.0).abs() < 1e-12 && w.a.abs() < 1e-12 && w.b.abs() < 1e-12, "{w:?}");
+        assert!(
+            (w.l - 100.0).abs() < 1e-12 && w.a.abs() < 1e-12 && w.b.abs() < 1e-12,
+            "{w:?}"
+        );
         // Neutral grey with Y/Yn = 0.18: L* = 116 * 0.18^(1/3) - 16 = 49.4961...
         let g = xyz_to_lab([0.18 * white[0], 18.0, 0.18 * white[2]], white);
-        assert!((g.l - (116.0 * 0.18f64.cbrt() - 16.0)).abs() < 1e-12 && g.a.abs() < 1e-12 && g.b.abs() < 1e-12);
+        assert!(
+            (g.l - (116.0 * 0.18f64.cbrt() - 16.0)).abs() < 1e-12
+                && g.a.abs() < 1e-12
+                && g.b.abs() < 1e-12
+        );
         // Continuity at t = (6/29)^3, and L* = 903.3 Y/Yn (CIE's kappa = 24389/27) below it.
         let t0 = (6.0f64 / 29.0).powi(3);
         let below = xyz_to_lab([0.0, t0 * (1.0 - 1e-12) * 100.0, 0.0], white).l;

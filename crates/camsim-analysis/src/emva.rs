@@ -48,7 +48,10 @@ pub struct EmvaOptions {
 
 impl Default for EmvaOptions {
     fn default() -> Self {
-        EmvaOptions { fit_max_fraction: 0.7, quantization_var_dn2: 1.0 / 12.0 }
+        EmvaOptions {
+            fit_max_fraction: 0.7,
+            quantization_var_dn2: 1.0 / 12.0,
+        }
     }
 }
 
@@ -168,7 +171,11 @@ pub struct EmvaResult {
 /// for sigma_y^2 from two frames).
 fn stack_stats(frames: &[&Plane]) -> (f64, f64) {
     let n = frames[0].data.len() as f64;
-    let mean = frames.iter().map(|f| f.data.iter().map(|v| *v as f64).sum::<f64>() / n).sum::<f64>() / frames.len() as f64;
+    let mean = frames
+        .iter()
+        .map(|f| f.data.iter().map(|v| *v as f64).sum::<f64>() / n)
+        .sum::<f64>()
+        / frames.len() as f64;
     let pairs = frames.len() / 2;
     let mut var = 0.0;
     for p in 0..pairs {
@@ -225,33 +232,67 @@ fn line_fit(x: &[f64], y: &[f64]) -> Option<(f64, f64, f64)> {
 
 fn check_levels(levels: &[EmvaInput]) -> Result<(usize, usize)> {
     if levels.len() < 3 {
-        return Err(AnalysisError::invalid("emva", format!("{} levels given; the photon transfer method needs at least 3", levels.len())));
+        return Err(AnalysisError::invalid(
+            "emva",
+            format!(
+                "{} levels given; the photon transfer method needs at least 3",
+                levels.len()
+            ),
+        ));
     }
-    let first = levels.iter().flat_map(|l| l.bright.first()).next().ok_or_else(|| AnalysisError::invalid("emva", "no frames"))?;
+    let first = levels
+        .iter()
+        .flat_map(|l| l.bright.first())
+        .next()
+        .ok_or_else(|| AnalysisError::invalid("emva", "no frames"))?;
     let (rows, cols) = (first.rows, first.cols);
     if rows * cols < 2 {
-        return Err(AnalysisError::invalid("emva", "frames need at least 2 pixels"));
+        return Err(AnalysisError::invalid(
+            "emva",
+            "frames need at least 2 pixels",
+        ));
     }
     for (i, l) in levels.iter().enumerate() {
         if !(l.exposure_s >= 0.0 && l.exposure_s.is_finite()) {
-            return Err(AnalysisError::invalid("emva", format!("level {i}: exposure {} s is not a non-negative number", l.exposure_s)));
+            return Err(AnalysisError::invalid(
+                "emva",
+                format!(
+                    "level {i}: exposure {} s is not a non-negative number",
+                    l.exposure_s
+                ),
+            ));
         }
         if let Some(p) = l.photons_per_pixel {
             if !(p >= 0.0 && p.is_finite()) {
-                return Err(AnalysisError::invalid("emva", format!("level {i}: photons per pixel {p} is not a non-negative number")));
+                return Err(AnalysisError::invalid(
+                    "emva",
+                    format!("level {i}: photons per pixel {p} is not a non-negative number"),
+                ));
             }
         }
         if l.bright.len() < 2 {
-            return Err(AnalysisError::invalid("emva", format!("level {i} has {} illuminated frames; at least 2 are needed", l.bright.len())));
+            return Err(AnalysisError::invalid(
+                "emva",
+                format!(
+                    "level {i} has {} illuminated frames; at least 2 are needed",
+                    l.bright.len()
+                ),
+            ));
         }
         if l.dark.len() == 1 {
-            return Err(AnalysisError::invalid("emva", format!("level {i} has 1 dark frame; give 0 or at least 2")));
+            return Err(AnalysisError::invalid(
+                "emva",
+                format!("level {i} has 1 dark frame; give 0 or at least 2"),
+            ));
         }
         for f in l.bright.iter().chain(&l.dark) {
             if f.rows != rows || f.cols != cols || f.data.len() != rows * cols {
                 return Err(AnalysisError::invalid(
                     "emva",
-                    format!("level {i}: a {} x {} frame in a {rows} x {cols} series", f.rows, f.cols),
+                    format!(
+                        "level {i}: a {} x {} frame in a {rows} x {cols} series",
+                        f.rows, f.cols
+                    ),
                 ));
             }
         }
@@ -280,17 +321,30 @@ fn dark_at(known: &[(f64, f64, f64)], t: f64) -> (f64, f64) {
 /// levels at increasing exposure or irradiance.
 pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     check_levels(levels)?;
-    if !(opts.fit_max_fraction > 0.0 && opts.fit_max_fraction <= 1.0) || !(opts.quantization_var_dn2 >= 0.0) {
-        return Err(AnalysisError::invalid("emva options", "fit_max_fraction must be in (0, 1] and quantization_var_dn2 >= 0"));
+    if !(opts.fit_max_fraction > 0.0 && opts.fit_max_fraction <= 1.0)
+        || !(opts.quantization_var_dn2 >= 0.0)
+    {
+        return Err(AnalysisError::invalid(
+            "emva options",
+            "fit_max_fraction must be in (0, 1] and quantization_var_dn2 >= 0",
+        ));
     }
     // Statistics per level (levels in parallel; each sum is sequential, so results do not depend
     // on the thread count).
     let stats: Vec<((f64, f64), Option<(f64, f64)>)> = levels
         .par_iter()
-        .map(|l| (stack_stats(&l.bright), (!l.dark.is_empty()).then(|| stack_stats(&l.dark))))
+        .map(|l| {
+            (
+                stack_stats(&l.bright),
+                (!l.dark.is_empty()).then(|| stack_stats(&l.dark)),
+            )
+        })
         .collect();
-    let mut known: Vec<(f64, f64, f64)> =
-        levels.iter().zip(&stats).filter_map(|(l, s)| s.1.map(|(m, v)| (l.exposure_s, m, v))).collect();
+    let mut known: Vec<(f64, f64, f64)> = levels
+        .iter()
+        .zip(&stats)
+        .filter_map(|(l, s)| s.1.map(|(m, v)| (l.exposure_s, m, v)))
+        .collect();
     known.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut points: Vec<EmvaPoint> = levels
         .iter()
@@ -315,10 +369,15 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
         .collect();
 
     // Saturation: the level of maximum temporal variance (EMVA 1288 4.0 Linear, saturation point).
-    let sat = (0..points.len()).max_by(|a, b| points[*a].var_dn2.total_cmp(&points[*b].var_dn2)).unwrap_or(0);
+    let sat = (0..points.len())
+        .max_by(|a, b| points[*a].var_dn2.total_cmp(&points[*b].var_dn2))
+        .unwrap_or(0);
     let sat_signal = points[sat].signal_dn;
     if !(sat_signal > 0.0) {
-        return Err(AnalysisError::invalid("emva", "the illuminated frames are not brighter than the dark frames"));
+        return Err(AnalysisError::invalid(
+            "emva",
+            "the illuminated frames are not brighter than the dark frames",
+        ));
     }
     // PTC fit: from the darkest level up to fit_max_fraction of the saturation signal.
     let limit = opts.fit_max_fraction * sat_signal;
@@ -334,7 +393,12 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     }
     let xs: Vec<f64> = fit_idx.iter().map(|i| points[*i].signal_dn).collect();
     let ys: Vec<f64> = fit_idx.iter().map(|i| points[*i].signal_var_dn2).collect();
-    let (ptc_offset, k, k_se) = line_fit(&xs, &ys).ok_or_else(|| AnalysisError::invalid("emva", "the levels in the fit range all have the same signal"))?;
+    let (ptc_offset, k, k_se) = line_fit(&xs, &ys).ok_or_else(|| {
+        AnalysisError::invalid(
+            "emva",
+            "the levels in the fit range all have the same signal",
+        )
+    })?;
     if !(k > 0.0) {
         return Err(AnalysisError::invalid("emva", format!("the photon transfer curve has slope {k:.4}; the variance does not grow with the signal")));
     }
@@ -342,7 +406,10 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     // Responsivity and QE (photons known at every fitted level).
     let photons_known = levels.iter().all(|l| l.photons_per_pixel.is_some());
     let responsivity = if photons_known {
-        let px: Vec<f64> = fit_idx.iter().map(|i| points[*i].photons_per_pixel.unwrap_or(0.0)).collect();
+        let px: Vec<f64> = fit_idx
+            .iter()
+            .map(|i| points[*i].photons_per_pixel.unwrap_or(0.0))
+            .collect();
         line_fit(&px, &xs).map(|(_, r, _)| r)
     } else {
         None
@@ -358,12 +425,18 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
         let m: Vec<f64> = known.iter().map(|k| k.1).collect();
         let v: Vec<f64> = known.iter().map(|k| k.2).collect();
         // EMVA 1288 4.0: mu_y.dark = mu_y.dark(0) + K mu_I t_exp; sigma_y.dark^2 grows by K^2 mu_I t_exp.
-        (line_fit(&t, &m).map(|f| f.1 / k), line_fit(&t, &v).map(|f| f.1 / (k * k)))
+        (
+            line_fit(&t, &m).map(|f| f.1 / k),
+            line_fit(&t, &v).map(|f| f.1 / (k * k)),
+        )
     } else {
         (None, None)
     };
 
-    let plateau = points.iter().map(|p| p.signal_dn).fold(f64::NEG_INFINITY, f64::max);
+    let plateau = points
+        .iter()
+        .map(|p| p.signal_dn)
+        .fold(f64::NEG_INFINITY, f64::max);
     // Saturation capacity.
     let sat_photons = points[sat].photons_per_pixel.filter(|_| eta.is_some());
     let sat_e = match (eta, sat_photons) {
@@ -372,7 +445,9 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     };
 
     // DSNU and PRNU from the level with the largest stacks (ties: closest to 50 % saturation).
-    let candidates: Vec<usize> = (0..levels.len()).filter(|i| !levels[*i].dark.is_empty() && *i != sat && points[*i].signal_dn < sat_signal).collect();
+    let candidates: Vec<usize> = (0..levels.len())
+        .filter(|i| !levels[*i].dark.is_empty() && *i != sat && points[*i].signal_dn < sat_signal)
+        .collect();
     let nu = candidates
         .iter()
         .copied()
@@ -385,7 +460,12 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
                 db.total_cmp(&da)
             })
         })
-        .ok_or_else(|| AnalysisError::invalid("emva", "no level below saturation has dark frames for DSNU/PRNU"))?;
+        .ok_or_else(|| {
+            AnalysisError::invalid(
+                "emva",
+                "no level below saturation has dark frames for DSNU/PRNU",
+            )
+        })?;
     let lvl = &levels[nu];
     let (lb, ld) = (lvl.bright.len() as f64, lvl.dark.len() as f64);
     // EMVA 1288 4.0: s_y^2 = s_y.measured^2 - sigma_y^2 / L.
@@ -501,8 +581,14 @@ pub fn emva_raw(levels: &[EmvaRawInput], opts: &EmvaOptions) -> Result<Vec<Chann
                 .iter()
                 .map(|l| {
                     Ok((
-                        l.bright.iter().map(|r| channel_pixels(r, ch)).collect::<Result<Vec<_>>>()?,
-                        l.dark.iter().map(|r| channel_pixels(r, ch)).collect::<Result<Vec<_>>>()?,
+                        l.bright
+                            .iter()
+                            .map(|r| channel_pixels(r, ch))
+                            .collect::<Result<Vec<_>>>()?,
+                        l.dark
+                            .iter()
+                            .map(|r| channel_pixels(r, ch))
+                            .collect::<Result<Vec<_>>>()?,
                     ))
                 })
                 .collect::<Result<_>>()?;
@@ -516,7 +602,10 @@ pub fn emva_raw(levels: &[EmvaRawInput], opts: &EmvaOptions) -> Result<Vec<Chann
                     dark: d.iter().collect(),
                 })
                 .collect();
-            Ok(ChannelEmva { channel: ch, result: emva(&inputs, opts)? })
+            Ok(ChannelEmva {
+                channel: ch,
+                result: emva(&inputs, opts)?,
+            })
         })
         .collect()
 }
@@ -529,9 +618,16 @@ mod tests {
     fn pair_variance_is_half_the_difference_variance() {
         // A = offset pattern + t, B = offset pattern - t: var(A - B) / 2 = 2 var(t).
         let pattern: Vec<f32> = (0..100).map(|i| (i % 7) as f32 * 10.0).collect();
-        let t: Vec<f32> = (0..100).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+        let t: Vec<f32> = (0..100)
+            .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
         let a = Plane::new(10, 10, pattern.iter().zip(&t).map(|(p, v)| p + v).collect()).unwrap();
-        let b = Plane::new(10, 10, pattern.iter().zip(&t).map(|(p, v)| p - v + 3.0).collect()).unwrap();
+        let b = Plane::new(
+            10,
+            10,
+            pattern.iter().zip(&t).map(|(p, v)| p - v + 3.0).collect(),
+        )
+        .unwrap();
         let (m, v) = stack_stats(&[&a, &b]);
         let pm = pattern.iter().map(|v| *v as f64).sum::<f64>() / 100.0;
         assert!((m - (pm + 1.5)).abs() < 1e-9);
@@ -542,14 +638,43 @@ mod tests {
     fn bad_series_are_errors() {
         let p = Plane::zeros(4, 4).unwrap();
         let q = Plane::zeros(4, 5).unwrap();
-        let lvl = |b: Vec<&'static Plane>, d: Vec<&'static Plane>| EmvaInput { exposure_s: 1e-3, photons_per_pixel: None, bright: b, dark: d };
+        let lvl = |b: Vec<&'static Plane>, d: Vec<&'static Plane>| EmvaInput {
+            exposure_s: 1e-3,
+            photons_per_pixel: None,
+            bright: b,
+            dark: d,
+        };
         let p: &'static Plane = Box::leak(Box::new(p));
         let q: &'static Plane = Box::leak(Box::new(q));
         let o = EmvaOptions::default();
         assert!(emva(&[lvl(vec![p, p], vec![p, p])], &o).is_err());
-        assert!(emva(&[lvl(vec![p], vec![p, p]), lvl(vec![p, p], vec![]), lvl(vec![p, p], vec![])], &o).is_err());
-        assert!(emva(&[lvl(vec![p, q], vec![p, p]), lvl(vec![p, p], vec![]), lvl(vec![p, p], vec![])], &o).is_err());
+        assert!(emva(
+            &[
+                lvl(vec![p], vec![p, p]),
+                lvl(vec![p, p], vec![]),
+                lvl(vec![p, p], vec![])
+            ],
+            &o
+        )
+        .is_err());
+        assert!(emva(
+            &[
+                lvl(vec![p, q], vec![p, p]),
+                lvl(vec![p, p], vec![]),
+                lvl(vec![p, p], vec![])
+            ],
+            &o
+        )
+        .is_err());
         // Flat frames (no signal) are an error, not a panic.
-        assert!(emva(&[lvl(vec![p, p], vec![p, p]), lvl(vec![p, p], vec![]), lvl(vec![p, p], vec![])], &o).is_err());
+        assert!(emva(
+            &[
+                lvl(vec![p, p], vec![p, p]),
+                lvl(vec![p, p], vec![]),
+                lvl(vec![p, p], vec![])
+            ],
+            &o
+        )
+        .is_err());
     }
 }

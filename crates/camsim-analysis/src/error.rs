@@ -16,7 +16,10 @@ pub enum AnalysisError {
 impl AnalysisError {
     /// Shorthand for [`AnalysisError::Invalid`].
     pub fn invalid(what: impl Into<String>, message: impl Into<String>) -> Self {
-        AnalysisError::Invalid { what: what.into(), message: message.into() }
+        AnalysisError::Invalid {
+            what: what.into(),
+            message: message.into(),
+        }
     }
 }
 

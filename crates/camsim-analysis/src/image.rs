@@ -24,7 +24,12 @@ pub struct Rect {
 impl Rect {
     /// A rectangle from its first row, first column, height and width.
     pub fn new(row: usize, col: usize, rows: usize, cols: usize) -> Rect {
-        Rect { row, col, rows, cols }
+        Rect {
+            row,
+            col,
+            rows,
+            cols,
+        }
     }
 
     /// One past the last row.
@@ -45,7 +50,10 @@ impl Rect {
     /// Error unless the rectangle is non-empty and lies inside a `rows x cols` image.
     pub fn check_inside(&self, rows: usize, cols: usize, what: &str) -> Result<()> {
         if self.rows == 0 || self.cols == 0 {
-            return Err(AnalysisError::invalid(what, format!("rectangle {self} is empty")));
+            return Err(AnalysisError::invalid(
+                what,
+                format!("rectangle {self} is empty"),
+            ));
         }
         if self.row.checked_add(self.rows).map_or(true, |e| e > rows)
             || self.col.checked_add(self.cols).map_or(true, |e| e > cols)
@@ -61,7 +69,14 @@ impl Rect {
 
 impl std::fmt::Display for Rect {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "rows {}..{}, columns {}..{}", self.row, self.row_end(), self.col, self.col_end())
+        write!(
+            f,
+            "rows {}..{}, columns {}..{}",
+            self.row,
+            self.row_end(),
+            self.col,
+            self.col_end()
+        )
     }
 }
 
@@ -81,26 +96,39 @@ impl Plane {
     /// Wrap row-major data, checking its length.
     pub fn new(rows: usize, cols: usize, data: Vec<f32>) -> Result<Plane> {
         if rows == 0 || cols == 0 {
-            return Err(AnalysisError::invalid("plane", format!("{rows} x {cols} has no pixels")));
+            return Err(AnalysisError::invalid(
+                "plane",
+                format!("{rows} x {cols} has no pixels"),
+            ));
         }
         if rows.checked_mul(cols) != Some(data.len()) {
-            return Err(AnalysisError::invalid("plane", format!("{} values for {rows} x {cols} pixels", data.len())));
+            return Err(AnalysisError::invalid(
+                "plane",
+                format!("{} values for {rows} x {cols} pixels", data.len()),
+            ));
         }
         Ok(Plane { rows, cols, data })
     }
 
     /// A plane of zeros, refusing sizes that do not fit in memory.
     pub fn zeros(rows: usize, cols: usize) -> Result<Plane> {
-        let n = rows
-            .checked_mul(cols)
-            .filter(|n| *n > 0)
-            .ok_or_else(|| AnalysisError::invalid("plane", format!("{rows} x {cols} is not a valid size")))?;
+        let n = rows.checked_mul(cols).filter(|n| *n > 0).ok_or_else(|| {
+            AnalysisError::invalid("plane", format!("{rows} x {cols} is not a valid size"))
+        })?;
         camsim_core::mem::check_alloc(n as u64 * 4, &format!("a {rows} x {cols} plane"))?;
-        Ok(Plane { rows, cols, data: vec![0.0; n] })
+        Ok(Plane {
+            rows,
+            cols,
+            data: vec![0.0; n],
+        })
     }
 
     /// A plane computed from `f(row, col)`.
-    pub fn from_fn(rows: usize, cols: usize, mut f: impl FnMut(usize, usize) -> f32) -> Result<Plane> {
+    pub fn from_fn(
+        rows: usize,
+        cols: usize,
+        mut f: impl FnMut(usize, usize) -> f32,
+    ) -> Result<Plane> {
         let mut p = Plane::zeros(rows, cols)?;
         for r in 0..rows {
             for c in 0..cols {
@@ -134,7 +162,11 @@ impl Plane {
         for r in rect.row..rect.row_end() {
             data.extend_from_slice(&self.row(r)[rect.col..rect.col_end()]);
         }
-        Ok(Plane { rows: rect.rows, cols: rect.cols, data })
+        Ok(Plane {
+            rows: rect.rows,
+            cols: rect.cols,
+            data,
+        })
     }
 
     /// The transposed plane (rows become columns).
@@ -145,7 +177,11 @@ impl Plane {
                 data[c * self.rows + r] = self.data[r * self.cols + c];
             }
         }
-        Plane { rows: self.cols, cols: self.rows, data }
+        Plane {
+            rows: self.cols,
+            cols: self.rows,
+            data,
+        }
     }
 
     /// Bilinear interpolation at the continuous point (x, y) (pixel centres at +0.5), clamped
@@ -228,10 +264,21 @@ impl Moments {
 /// Position (row, col) within the 2x2 Bayer block of `ch`. For green, `which_green` picks the
 /// first (0, default) or second (1) green of the block in the pattern's reading order
 /// (top-left, top-right, bottom-left, bottom-right); it is ignored for red and blue.
-pub fn cfa_channel_offset(cfa: CfaPattern, ch: CfaChannel, which_green: Option<usize>) -> Result<(usize, usize)> {
-    let want = if ch == CfaChannel::G { which_green.unwrap_or(0) } else { 0 };
+pub fn cfa_channel_offset(
+    cfa: CfaPattern,
+    ch: CfaChannel,
+    which_green: Option<usize>,
+) -> Result<(usize, usize)> {
+    let want = if ch == CfaChannel::G {
+        which_green.unwrap_or(0)
+    } else {
+        0
+    };
     if want > 1 {
-        return Err(AnalysisError::invalid("green channel", format!("which_green must be 0 or 1, got {want}")));
+        return Err(AnalysisError::invalid(
+            "green channel",
+            format!("which_green must be 0 or 1, got {want}"),
+        ));
     }
     cfa.channels()
         .iter()
@@ -239,26 +286,45 @@ pub fn cfa_channel_offset(cfa: CfaPattern, ch: CfaChannel, which_green: Option<u
         .filter(|(_, c)| **c == ch)
         .nth(want)
         .map(|(i, _)| (i / 2, i % 2))
-        .ok_or_else(|| AnalysisError::invalid("cfa channel", format!("{} is not in pattern {}", ch.letter(), cfa.name())))
+        .ok_or_else(|| {
+            AnalysisError::invalid(
+                "cfa channel",
+                format!("{} is not in pattern {}", ch.letter(), cfa.name()),
+            )
+        })
 }
 
 /// The whole mosaic as a plane of DN above black (`dn - black_level_dn`).
 pub fn raw_plane(raw: &RawImage) -> Result<Plane> {
     check_raw(raw)?;
     let black = raw.black_level_dn as f32;
-    Ok(Plane { rows: raw.rows, cols: raw.cols, data: raw.dn.iter().map(|v| *v as f32 - black).collect() })
+    Ok(Plane {
+        rows: raw.rows,
+        cols: raw.cols,
+        data: raw.dn.iter().map(|v| *v as f32 - black).collect(),
+    })
 }
 
 /// The sub-grid of one CFA channel (every other row and column, starting at the channel's
 /// position in the 2x2 block), black subtracted, in DN. Sub-grid pixel (i, j) is sensor pixel
 /// (2 i + dr, 2 j + dc) with (dr, dc) from [`cfa_channel_offset`]; its pitch is twice the sensor's.
-pub fn cfa_channel_plane(raw: &RawImage, ch: CfaChannel, which_green: Option<usize>) -> Result<Plane> {
+pub fn cfa_channel_plane(
+    raw: &RawImage,
+    ch: CfaChannel,
+    which_green: Option<usize>,
+) -> Result<Plane> {
     check_bayer_raw(raw)?;
     let (dr, dc) = cfa_channel_offset(raw.cfa, ch, which_green)?;
     let rows = (raw.rows - dr).div_ceil(2);
     let cols = (raw.cols - dc).div_ceil(2);
     if rows == 0 || cols == 0 {
-        return Err(AnalysisError::invalid("raw image", format!("{} x {} is too small for a CFA sub-grid", raw.rows, raw.cols)));
+        return Err(AnalysisError::invalid(
+            "raw image",
+            format!(
+                "{} x {} is too small for a CFA sub-grid",
+                raw.rows, raw.cols
+            ),
+        ));
     }
     let black = raw.black_level_dn as f32;
     let mut data = Vec::with_capacity(rows * cols);
@@ -273,7 +339,13 @@ pub fn cfa_channel_plane(raw: &RawImage, ch: CfaChannel, which_green: Option<usi
 /// The sub-grid rectangle of a channel covering the sensor-pixel rectangle `rect`: the sub-grid
 /// pixels whose sensor pixels lie inside `rect`.
 pub fn sub_grid_rect(rect: &Rect, offset: (usize, usize)) -> Rect {
-    let first = |start: usize, d: usize| if start <= d { 0 } else { (start - d).div_ceil(2) };
+    let first = |start: usize, d: usize| {
+        if start <= d {
+            0
+        } else {
+            (start - d).div_ceil(2)
+        }
+    };
     let end = |stop: usize, d: usize| if stop <= d { 0 } else { (stop - d).div_ceil(2) };
     let r0 = first(rect.row, offset.0);
     let c0 = first(rect.col, offset.1);
@@ -287,18 +359,27 @@ pub fn sub_grid_rect(rect: &Rect, offset: (usize, usize)) -> Rect {
 /// another CFA (RGBW, Quad Bayer, ...) is refused rather than read as Bayer.
 pub(crate) fn check_bayer_raw(raw: &RawImage) -> Result<()> {
     check_raw(raw)?;
-    raw.require_bayer("CFA channel statistics").map_err(|e| AnalysisError::invalid("raw image", e.to_string()))
+    raw.require_bayer("CFA channel statistics")
+        .map_err(|e| AnalysisError::invalid("raw image", e.to_string()))
 }
 
 pub(crate) fn check_raw(raw: &RawImage) -> Result<()> {
     if raw.rows == 0 || raw.cols == 0 || raw.rows.checked_mul(raw.cols) != Some(raw.dn.len()) {
         return Err(AnalysisError::invalid(
             "raw image",
-            format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols),
+            format!(
+                "{} values for {} x {} pixels",
+                raw.dn.len(),
+                raw.rows,
+                raw.cols
+            ),
         ));
     }
     if !raw.black_level_dn.is_finite() {
-        return Err(AnalysisError::invalid("raw image", format!("black level {} is not a number", raw.black_level_dn)));
+        return Err(AnalysisError::invalid(
+            "raw image",
+            format!("black level {} is not a number", raw.black_level_dn),
+        ));
     }
     Ok(())
 }
@@ -313,19 +394,34 @@ pub fn luminance(planes: &[Plane; 3], weights: [f64; 3]) -> Result<Plane> {
     let data = (0..planes[0].data.len())
         .map(|i| w[0] * planes[0].data[i] + w[1] * planes[1].data[i] + w[2] * planes[2].data[i])
         .collect();
-    Ok(Plane { rows: planes[0].rows, cols: planes[0].cols, data })
+    Ok(Plane {
+        rows: planes[0].rows,
+        cols: planes[0].cols,
+        data,
+    })
 }
 
 /// Error unless three planes share one size.
 pub(crate) fn check_rgb(planes: &[Plane; 3]) -> Result<()> {
     for (i, p) in planes.iter().enumerate() {
         if p.rows * p.cols != p.data.len() || p.rows == 0 {
-            return Err(AnalysisError::invalid("rgb planes", format!("plane {i} has {} values for {} x {}", p.data.len(), p.rows, p.cols)));
+            return Err(AnalysisError::invalid(
+                "rgb planes",
+                format!(
+                    "plane {i} has {} values for {} x {}",
+                    p.data.len(),
+                    p.rows,
+                    p.cols
+                ),
+            ));
         }
         if p.rows != planes[0].rows || p.cols != planes[0].cols {
             return Err(AnalysisError::invalid(
                 "rgb planes",
-                format!("plane {i} is {} x {} but plane 0 is {} x {}", p.rows, p.cols, planes[0].rows, planes[0].cols),
+                format!(
+                    "plane {i} is {} x {} but plane 0 is {} x {}",
+                    p.rows, p.cols, planes[0].rows, planes[0].cols
+                ),
             ));
         }
     }
@@ -342,7 +438,8 @@ mod tests {
         for r in 0..6 {
             for c in 0..8 {
                 // Encode the channel and position so the sub-grid can be checked exactly.
-                raw.dn[r * 8 + c] = 100 + 1000 * cfa.channel_at(r, c).index() as u16 + (r * 8 + c) as u16;
+                raw.dn[r * 8 + c] =
+                    100 + 1000 * cfa.channel_at(r, c).index() as u16 + (r * 8 + c) as u16;
             }
         }
         raw
@@ -350,9 +447,19 @@ mod tests {
 
     #[test]
     fn channel_sub_grids_hold_only_their_channel_at_twice_the_pitch() {
-        for cfa in [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr] {
+        for cfa in [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ] {
             let raw = raw_with(cfa);
-            for (ch, g) in [(CfaChannel::R, None), (CfaChannel::G, Some(0)), (CfaChannel::G, Some(1)), (CfaChannel::B, None)] {
+            for (ch, g) in [
+                (CfaChannel::R, None),
+                (CfaChannel::G, Some(0)),
+                (CfaChannel::G, Some(1)),
+                (CfaChannel::B, None),
+            ] {
                 let p = cfa_channel_plane(&raw, ch, g).unwrap();
                 let (dr, dc) = cfa_channel_offset(cfa, ch, g).unwrap();
                 assert_eq!((p.rows, p.cols), (3, 4));
@@ -375,9 +482,13 @@ mod tests {
     fn a_non_bayer_frame_is_refused_by_the_channel_statistics() {
         let mut raw = raw_with(CfaPattern::Rggb);
         raw.layout = Some(camsim_core::cfa::CfaLayout::parse("RGBW").unwrap());
-        let e = cfa_channel_plane(&raw, CfaChannel::R, None).unwrap_err().to_string();
+        let e = cfa_channel_plane(&raw, CfaChannel::R, None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("RGBW"), "{e}");
-        let e = crate::roi::raw_rect_moments(&raw, &Rect::new(0, 0, 2, 2)).unwrap_err().to_string();
+        let e = crate::roi::raw_rect_moments(&raw, &Rect::new(0, 0, 2, 2))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("Bayer"), "{e}");
         // The whole mosaic needs no layout: still readable.
         assert!(raw_plane(&raw).is_ok());
@@ -386,7 +497,12 @@ mod tests {
     #[test]
     fn sub_grid_rect_selects_exactly_the_channel_pixels_inside() {
         for off in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-            for rect in [Rect::new(0, 0, 6, 8), Rect::new(1, 2, 3, 5), Rect::new(2, 1, 1, 1), Rect::new(3, 3, 2, 2)] {
+            for rect in [
+                Rect::new(0, 0, 6, 8),
+                Rect::new(1, 2, 3, 5),
+                Rect::new(2, 1, 1, 1),
+                Rect::new(3, 3, 2, 2),
+            ] {
                 let s = sub_grid_rect(&rect, off);
                 let mut expect = vec![];
                 for r in rect.row..rect.row_end() {

@@ -22,13 +22,22 @@ pub fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>> {
 
 fn check(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<()> {
     if a.nrows() != b.len() {
-        return Err(AnalysisError::invalid("least squares", format!("{} equations but {} right-hand values", a.nrows(), b.len())));
+        return Err(AnalysisError::invalid(
+            "least squares",
+            format!("{} equations but {} right-hand values", a.nrows(), b.len()),
+        ));
     }
     if a.ncols() == 0 || a.nrows() == 0 {
-        return Err(AnalysisError::invalid("least squares", "no unknowns or no equations"));
+        return Err(AnalysisError::invalid(
+            "least squares",
+            "no unknowns or no equations",
+        ));
     }
     if a.iter().chain(b.iter()).any(|v| !v.is_finite()) {
-        return Err(AnalysisError::invalid("least squares", "the data hold values that are not finite"));
+        return Err(AnalysisError::invalid(
+            "least squares",
+            "the data hold values that are not finite",
+        ));
     }
     Ok(())
 }
@@ -39,21 +48,27 @@ pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Result<DVector<f64>> {
     let n = a.ncols();
     let mut x = DVector::<f64>::zeros(n);
     let mut passive = vec![false; n];
-    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs())) * b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let scale =
+        a.iter().fold(0.0f64, |m, v| m.max(v.abs())) * b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let tol = 1e-12 * scale.max(1e-300) * a.nrows() as f64;
     let max_iter = 30 * n + 10;
     let mut iter = 0;
     loop {
         // Gradient of -1/2 ||A x - b||^2: w = A^T (b - A x).
         let w = a.transpose() * (b - a * &x);
-        let cand = (0..n).filter(|j| !passive[*j] && w[*j] > tol).max_by(|i, j| w[*i].total_cmp(&w[*j]));
+        let cand = (0..n)
+            .filter(|j| !passive[*j] && w[*j] > tol)
+            .max_by(|i, j| w[*i].total_cmp(&w[*j]));
         let Some(t) = cand else { break };
         passive[t] = true;
         // Inner loop: keep the passive set feasible.
         loop {
             iter += 1;
             if iter > max_iter {
-                return Err(AnalysisError::invalid("non-negative least squares", "did not converge"));
+                return Err(AnalysisError::invalid(
+                    "non-negative least squares",
+                    "did not converge",
+                ));
             }
             let p: Vec<usize> = (0..n).filter(|j| passive[*j]).collect();
             let sp = ls_subset(a, b, &p)?;
@@ -101,10 +116,19 @@ mod tests {
     fn nnls_satisfies_the_kkt_conditions_when_a_bound_is_active() {
         // Unconstrained solution has a negative component; NNLS must return x >= 0 with the
         // Karush-Kuhn-Tucker conditions: w = A^T(b - A x) <= 0 everywhere, w_j = 0 where x_j > 0.
-        let a = DMatrix::from_row_slice(5, 3, &[1.0, 0.9, 0.1, 0.5, 0.6, 0.3, 0.2, 0.1, 1.0, 0.9, 1.0, 0.2, 0.3, 0.2, 0.7]);
+        let a = DMatrix::from_row_slice(
+            5,
+            3,
+            &[
+                1.0, 0.9, 0.1, 0.5, 0.6, 0.3, 0.2, 0.1, 1.0, 0.9, 1.0, 0.2, 0.3, 0.2, 0.7,
+            ],
+        );
         let b = DVector::from_vec(vec![0.2, 0.1, 1.0, -0.1, 0.8]);
         let ls = lstsq(&a, &b).unwrap();
-        assert!(ls.iter().any(|v| *v < 0.0), "test needs an active bound: {ls}");
+        assert!(
+            ls.iter().any(|v| *v < 0.0),
+            "test needs an active bound: {ls}"
+        );
         let x = nnls(&a, &b).unwrap();
         let w = a.transpose() * (&b - &a * &x);
         for j in 0..3 {

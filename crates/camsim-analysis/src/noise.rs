@@ -36,7 +36,13 @@ impl Snr {
     fn from_moments(m: &Moments) -> Snr {
         let (mean, std) = (m.mean(), m.std());
         let snr = mean / std;
-        Snr { mean, std, snr, snr_db: 20.0 * snr.log10(), n: m.n }
+        Snr {
+            mean,
+            std,
+            snr,
+            snr_db: 20.0 * snr.log10(),
+            n: m.n,
+        }
     }
 }
 
@@ -45,17 +51,32 @@ pub fn snr(plane: &Plane, rect: Option<Rect>) -> Result<Snr> {
     let rect = rect.unwrap_or_else(|| plane.full_rect());
     let (mean, std, n) = plane.stats(&rect)?;
     if n < 2 {
-        return Err(AnalysisError::invalid("snr region", format!("{rect} holds {n} pixel(s): need at least 2")));
+        return Err(AnalysisError::invalid(
+            "snr region",
+            format!("{rect} holds {n} pixel(s): need at least 2"),
+        ));
     }
     let snr = mean / std;
-    Ok(Snr { mean, std, snr, snr_db: 20.0 * snr.log10(), n })
+    Ok(Snr {
+        mean,
+        std,
+        snr,
+        snr_db: 20.0 * snr.log10(),
+        n,
+    })
 }
 
 /// SNR per CFA channel (R, G, B; both greens pooled) of a raw mosaic in `rect`, black subtracted.
 pub fn snr_raw(raw: &RawImage, rect: &Rect) -> Result<[Snr; 3]> {
     let m = raw_rect_moments(raw, rect)?;
     if let Some(k) = m.iter().position(|m| m.n < 2) {
-        return Err(AnalysisError::invalid("snr region", format!("{rect} holds {} pixel(s) of channel {k}: need at least 2", m[k].n)));
+        return Err(AnalysisError::invalid(
+            "snr region",
+            format!(
+                "{rect} holds {} pixel(s) of channel {k}: need at least 2",
+                m[k].n
+            ),
+        ));
     }
     Ok(m.map(|m| Snr::from_moments(&m)))
 }
@@ -84,7 +105,11 @@ pub struct NpsOptions {
 
 impl Default for NpsOptions {
     fn default() -> Self {
-        NpsOptions { roi_px: 64, overlap: 0.5, detrend: Detrend::Mean }
+        NpsOptions {
+            roi_px: 64,
+            overlap: 0.5,
+            detrend: Detrend::Mean,
+        }
     }
 }
 
@@ -116,21 +141,34 @@ pub fn nps(plane: &Plane, rect: Option<Rect>, opts: &NpsOptions) -> Result<NpsRe
     rect.check_inside(plane.rows, plane.cols, "nps region")?;
     let n = opts.roi_px;
     if !(4..=4096).contains(&n) {
-        return Err(AnalysisError::invalid("nps roi_px", format!("{n}: must be 4 to 4096 pixels")));
+        return Err(AnalysisError::invalid(
+            "nps roi_px",
+            format!("{n}: must be 4 to 4096 pixels"),
+        ));
     }
     if !(opts.overlap >= 0.0 && opts.overlap <= 0.9) {
-        return Err(AnalysisError::invalid("nps overlap", format!("{}: must be in [0, 0.9]", opts.overlap)));
+        return Err(AnalysisError::invalid(
+            "nps overlap",
+            format!("{}: must be in [0, 0.9]", opts.overlap),
+        ));
     }
     if rect.rows < n || rect.cols < n {
-        return Err(AnalysisError::invalid("nps region", format!("{rect} is smaller than one {n} x {n} sub-ROI")));
+        return Err(AnalysisError::invalid(
+            "nps region",
+            format!("{rect} is smaller than one {n} x {n} sub-ROI"),
+        ));
     }
     if plane.data.iter().any(|v| !v.is_finite()) {
-        return Err(AnalysisError::invalid("nps", "the plane holds values that are not finite"));
+        return Err(AnalysisError::invalid(
+            "nps",
+            "the plane holds values that are not finite",
+        ));
     }
     let step = ((n as f64 * (1.0 - opts.overlap)).round() as usize).max(1);
     let starts = |len: usize| (0..=(len - n) / step).map(move |i| i * step);
-    let corners: Vec<(usize, usize)> =
-        starts(rect.rows).flat_map(|r| starts(rect.cols).map(move |c| (rect.row + r, rect.col + c))).collect();
+    let corners: Vec<(usize, usize)> = starts(rect.rows)
+        .flat_map(|r| starts(rect.cols).map(move |c| (rect.row + r, rect.col + c)))
+        .collect();
     let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
     // One periodogram per sub-ROI (in parallel), summed in a fixed order: deterministic.
     let spectra: Vec<Vec<f64>> = corners
@@ -138,7 +176,11 @@ pub fn nps(plane: &Plane, rect: Option<Rect>, opts: &NpsOptions) -> Result<NpsRe
         .map(|&(r0, c0)| {
             let mut buf: Vec<Complex<f64>> = Vec::with_capacity(n * n);
             for r in r0..r0 + n {
-                buf.extend(plane.row(r)[c0..c0 + n].iter().map(|v| Complex::new(*v as f64, 0.0)));
+                buf.extend(
+                    plane.row(r)[c0..c0 + n]
+                        .iter()
+                        .map(|v| Complex::new(*v as f64, 0.0)),
+                );
             }
             detrend(&mut buf, n, opts.detrend);
             // 2D DFT: rows, then columns (through a transpose).
@@ -183,10 +225,23 @@ pub fn nps(plane: &Plane, rect: Option<Rect>, opts: &NpsOptions) -> Result<NpsRe
             }
         }
     }
-    let radial_nps = sum.iter().zip(&cnt).map(|(s, c)| s / (*c).max(1) as f64).collect();
+    let radial_nps = sum
+        .iter()
+        .zip(&cnt)
+        .map(|(s, c)| s / (*c).max(1) as f64)
+        .collect();
     let radial_freq_cy_per_px = (0..=h).map(|k| k as f64 / n as f64).collect();
     let (mean, _, _) = plane.stats(&rect)?;
-    Ok(NpsResult { roi_px: n, rois: corners.len(), freq_cy_per_px, nps_2d, radial_freq_cy_per_px, radial_nps, variance, mean })
+    Ok(NpsResult {
+        roi_px: n,
+        rois: corners.len(),
+        freq_cy_per_px,
+        nps_2d,
+        radial_freq_cy_per_px,
+        radial_nps,
+        variance,
+        mean,
+    })
 }
 
 fn transpose(a: &[Complex<f64>], n: usize) -> Vec<Complex<f64>> {
@@ -243,21 +298,38 @@ mod tests {
     #[test]
     fn white_noise_has_a_flat_nps_whose_integral_is_the_variance() {
         let (rows, cols, sigma) = (512, 512, 3.0);
-        let v: Vec<f32> = gaussian_plane(rows, cols, sigma, 11).iter().map(|x| (100.0 + x) as f32).collect();
+        let v: Vec<f32> = gaussian_plane(rows, cols, sigma, 11)
+            .iter()
+            .map(|x| (100.0 + x) as f32)
+            .collect();
         let p = Plane::new(rows, cols, v).unwrap();
         let r = nps(&p, None, &NpsOptions::default()).unwrap();
         assert_eq!(r.rois, 15 * 15);
         let s2 = sigma * sigma;
-        eprintln!("white noise: NPS integral {:.4} vs sigma^2 {s2}, mean {:.3}", r.variance, r.mean);
-        assert!((r.variance / s2 - 1.0).abs() < 0.03, "Parseval: {} vs {s2}", r.variance);
+        eprintln!(
+            "white noise: NPS integral {:.4} vs sigma^2 {s2}, mean {:.3}",
+            r.variance, r.mean
+        );
+        assert!(
+            (r.variance / s2 - 1.0).abs() < 0.03,
+            "Parseval: {} vs {s2}",
+            r.variance
+        );
         // Flat: every radial bin but DC (removed with the mean) at sigma^2 dx dy. Each periodogram
         // value scatters by 100 % (exponential); bin k holds ~8k points of which half are
         // mirror images, in ~100 independent sub-ROIs: 5 % scatter in bin 1, less beyond, so the
         // bounds are 4 standard deviations.
         let dev: Vec<f64> = r.radial_nps.iter().map(|x| (x / s2 - 1.0).abs()).collect();
         let worst = dev[2..].iter().cloned().fold(0.0, f64::max);
-        eprintln!("white noise: radial bin 1 off by {:.3}, worst of bins 2.. {:.3}", dev[1], worst);
-        assert!(dev[1] < 0.2 && worst < 0.12, "radial NPS {:?}", r.radial_nps);
+        eprintln!(
+            "white noise: radial bin 1 off by {:.3}, worst of bins 2.. {:.3}",
+            dev[1], worst
+        );
+        assert!(
+            dev[1] < 0.2 && worst < 0.12,
+            "radial NPS {:?}",
+            r.radial_nps
+        );
         assert!(r.radial_nps[0] < 1e-6 * s2, "DC bin {}", r.radial_nps[0]);
     }
 
@@ -270,21 +342,42 @@ mod tests {
         let y: Vec<f32> = (0..rows)
             .flat_map(|r| {
                 let x = &x;
-                (1..cols - 1).map(move |c| (50.0 + 0.25 * x[r * cols + c - 1] + 0.5 * x[r * cols + c] + 0.25 * x[r * cols + c + 1]) as f32)
+                (1..cols - 1).map(move |c| {
+                    (50.0
+                        + 0.25 * x[r * cols + c - 1]
+                        + 0.5 * x[r * cols + c]
+                        + 0.25 * x[r * cols + c + 1]) as f32
+                })
             })
             .collect();
         let p = Plane::new(rows, cols - 2, y).unwrap();
-        let r = nps(&p, None, &NpsOptions { roi_px: 64, overlap: 0.5, detrend: Detrend::Mean }).unwrap();
+        let r = nps(
+            &p,
+            None,
+            &NpsOptions {
+                roi_px: 64,
+                overlap: 0.5,
+                detrend: Detrend::Mean,
+            },
+        )
+        .unwrap();
         let n = r.roi_px;
         let s2 = sigma * sigma;
         let mut worst = 0.0f64;
         for u in 0..n {
             let fu = r.freq_cy_per_px[u];
             // Average over the vertical frequencies except v = 0 (the mean removal's zero row).
-            let meas = (0..n).filter(|v| r.freq_cy_per_px[*v] != 0.0).map(|v| r.nps_2d[v * n + u]).sum::<f64>() / (n - 1) as f64;
+            let meas = (0..n)
+                .filter(|v| r.freq_cy_per_px[*v] != 0.0)
+                .map(|v| r.nps_2d[v * n + u])
+                .sum::<f64>()
+                / (n - 1) as f64;
             let expect = s2 * (std::f64::consts::PI * fu).cos().powi(4);
             worst = worst.max((meas - expect).abs() / s2);
-            assert!((meas - expect).abs() < 0.04 * s2 + 0.05 * expect, "u = {fu}: {meas} vs {expect}");
+            assert!(
+                (meas - expect).abs() < 0.04 * s2 + 0.05 * expect,
+                "u = {fu}: {meas} vs {expect}"
+            );
         }
         eprintln!("low-pass noise: worst |NPS - sigma^2 cos^4| = {worst:.4} sigma^2; variance {:.4} vs {:.4}", r.variance, s2 * 0.375);
         assert!((r.variance / (s2 * 0.375) - 1.0).abs() < 0.04);
@@ -294,11 +387,25 @@ mod tests {
     fn plane_detrending_removes_a_ramp() {
         let (rows, cols, sigma) = (256, 256, 1.0);
         let g = gaussian_plane(rows, cols, sigma, 3);
-        let v: Vec<f32> = (0..rows * cols).map(|i| (100.0 + 0.2 * (i % cols) as f64 - 0.1 * (i / cols) as f64 + g[i]) as f32).collect();
+        let v: Vec<f32> = (0..rows * cols)
+            .map(|i| (100.0 + 0.2 * (i % cols) as f64 - 0.1 * (i / cols) as f64 + g[i]) as f32)
+            .collect();
         let p = Plane::new(rows, cols, v).unwrap();
-        let with_plane = nps(&p, None, &NpsOptions { detrend: Detrend::Plane, ..Default::default() }).unwrap();
+        let with_plane = nps(
+            &p,
+            None,
+            &NpsOptions {
+                detrend: Detrend::Plane,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let with_mean = nps(&p, None, &NpsOptions::default()).unwrap();
-        assert!((with_plane.variance - 1.0).abs() < 0.05, "{}", with_plane.variance);
+        assert!(
+            (with_plane.variance - 1.0).abs() < 0.05,
+            "{}",
+            with_plane.variance
+        );
         assert!(with_mean.variance > 10.0, "{}", with_mean.variance);
     }
 
@@ -307,10 +414,24 @@ mod tests {
         let p = Plane::from_fn(10, 10, |r, c| if (r + c) % 2 == 0 { 90.0 } else { 110.0 }).unwrap();
         let s = snr(&p, None).unwrap();
         // mean 100, std = 10 sqrt(100/99) (n - 1).
-        assert!((s.mean - 100.0).abs() < 1e-9 && (s.std - 10.0 * (100.0f64 / 99.0).sqrt()).abs() < 1e-9);
+        assert!(
+            (s.mean - 100.0).abs() < 1e-9 && (s.std - 10.0 * (100.0f64 / 99.0).sqrt()).abs() < 1e-9
+        );
         assert!((s.snr_db - 20.0 * s.snr.log10()).abs() < 1e-12);
-        assert!(nps(&p, None, &NpsOptions::default()).is_err(), "10 x 10 is smaller than a 64 x 64 sub-ROI");
-        assert!(nps(&p, None, &NpsOptions { roi_px: 4, overlap: f64::NAN, ..Default::default() }).is_err());
+        assert!(
+            nps(&p, None, &NpsOptions::default()).is_err(),
+            "10 x 10 is smaller than a 64 x 64 sub-ROI"
+        );
+        assert!(nps(
+            &p,
+            None,
+            &NpsOptions {
+                roi_px: 4,
+                overlap: f64::NAN,
+                ..Default::default()
+            }
+        )
+        .is_err());
         assert!(snr(&p, Some(Rect::new(0, 0, 1, 1))).is_err());
     }
 }

@@ -31,8 +31,16 @@ impl MatrixForm {
     pub fn mask(self) -> [[bool; 3]; 3] {
         match self {
             MatrixForm::Unconstrained => [[true; 3]; 3],
-            MatrixForm::Diagonal => [[true, false, false], [false, true, false], [false, false, true]],
-            MatrixForm::PaperLowerNonNegative => [[true, false, false], [true, true, false], [false, true, true]],
+            MatrixForm::Diagonal => [
+                [true, false, false],
+                [false, true, false],
+                [false, false, true],
+            ],
+            MatrixForm::PaperLowerNonNegative => [
+                [true, false, false],
+                [true, true, false],
+                [false, true, true],
+            ],
         }
     }
     /// Whether the free entries are constrained to be >= 0.
@@ -83,7 +91,10 @@ pub fn apply_matrix(rgb: &[[f64; 3]], m: &[[f64; 3]; 3]) -> Vec<[f64; 3]> {
 pub fn transform_qe(qe: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> Result<[Vec<f64>; 3]> {
     let n = qe[0].len();
     if qe.iter().any(|c| c.len() != n) {
-        return Err(AnalysisError::invalid("qe", "the three channels have different numbers of samples"));
+        return Err(AnalysisError::invalid(
+            "qe",
+            "the three channels have different numbers of samples",
+        ));
     }
     let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
     for k in 0..n {
@@ -97,15 +108,30 @@ pub fn transform_qe(qe: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> Result<[Vec<f64>; 
 /// Relative RMS difference per channel between the transformed curves `source M` and `target`
 /// over the wavelength samples: `sqrt(sum (source M - target)^2 / sum target^2)` (0 for an
 /// all-zero target channel). How far a correction matrix is from turning one QE into another.
-pub fn qe_relative_rms_difference(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3], m: &[[f64; 3]; 3]) -> Result<[f64; 3]> {
+pub fn qe_relative_rms_difference(
+    source: &[Vec<f64>; 3],
+    target: &[Vec<f64>; 3],
+    m: &[[f64; 3]; 3],
+) -> Result<[f64; 3]> {
     let transformed = transform_qe(source, m)?;
     if target.iter().any(|c| c.len() != transformed[0].len()) {
-        return Err(AnalysisError::invalid("qe", "source and target curves have different numbers of samples"));
+        return Err(AnalysisError::invalid(
+            "qe",
+            "source and target curves have different numbers of samples",
+        ));
     }
     Ok([0, 1, 2].map(|j| {
-        let num: f64 = transformed[j].iter().zip(&target[j]).map(|(p, t)| (p - t).powi(2)).sum();
+        let num: f64 = transformed[j]
+            .iter()
+            .zip(&target[j])
+            .map(|(p, t)| (p - t).powi(2))
+            .sum();
         let den: f64 = target[j].iter().map(|t| t * t).sum();
-        if den > 0.0 { (num / den).sqrt() } else { 0.0 }
+        if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            0.0
+        }
     }))
 }
 
@@ -116,27 +142,46 @@ pub fn qe_relative_rms_difference(source: &[Vec<f64>; 3], target: &[Vec<f64>; 3]
 /// (fraction, IR filter included) on `grid`. The sum is photons/(s sr m^2); `scale_sr_m2_s` is the
 /// etendue times exposure (sr m^2 s), with any gain (DN/e-) folded in by the caller, so the
 /// result is in electrons (or DN).
-pub fn predict_rgb(qe: &[Vec<f64>; 3], grid: &WavelengthGrid, radiances: &[Vec<f64>], scale_sr_m2_s: f64) -> Result<Vec<[f64; 3]>> {
+pub fn predict_rgb(
+    qe: &[Vec<f64>; 3],
+    grid: &WavelengthGrid,
+    radiances: &[Vec<f64>],
+    scale_sr_m2_s: f64,
+) -> Result<Vec<[f64; 3]>> {
     let n = grid.len();
     for (c, q) in qe.iter().enumerate() {
         if q.len() != n {
-            return Err(AnalysisError::invalid("qe", format!("channel {c} has {} samples for a {n}-band grid", q.len())));
+            return Err(AnalysisError::invalid(
+                "qe",
+                format!("channel {c} has {} samples for a {n}-band grid", q.len()),
+            ));
         }
         if q.iter().any(|v| !v.is_finite()) {
-            return Err(AnalysisError::invalid("qe", format!("channel {c} holds values that are not finite")));
+            return Err(AnalysisError::invalid(
+                "qe",
+                format!("channel {c} holds values that are not finite"),
+            ));
         }
     }
     if !scale_sr_m2_s.is_finite() {
-        return Err(AnalysisError::invalid("qe prediction", format!("scale {scale_sr_m2_s} is not finite")));
+        return Err(AnalysisError::invalid(
+            "qe prediction",
+            format!("scale {scale_sr_m2_s} is not finite"),
+        ));
     }
     // Photons per joule at each band, times the band width.
-    let w: Vec<f64> = (0..n).map(|b| units::energy_to_photons(1.0, grid.wavelength_nm(b)) * grid.step_nm).collect();
+    let w: Vec<f64> = (0..n)
+        .map(|b| units::energy_to_photons(1.0, grid.wavelength_nm(b)) * grid.step_nm)
+        .collect();
     radiances
         .iter()
         .enumerate()
         .map(|(p, l)| {
             if l.len() != n {
-                return Err(AnalysisError::invalid("radiance", format!("patch {p} has {} samples for a {n}-band grid", l.len())));
+                return Err(AnalysisError::invalid(
+                    "radiance",
+                    format!("patch {p} has {} samples for a {n}-band grid", l.len()),
+                ));
             }
             let mut o = [0.0; 3];
             for (c, oc) in o.iter_mut().enumerate() {
@@ -151,27 +196,49 @@ fn rms(res: &[[f64; 3]]) -> f64 {
     if res.is_empty() {
         return 0.0;
     }
-    (res.iter().flat_map(|r| r.iter()).map(|v| v * v).sum::<f64>() / (3 * res.len()) as f64).sqrt()
+    (res.iter()
+        .flat_map(|r| r.iter())
+        .map(|v| v * v)
+        .sum::<f64>()
+        / (3 * res.len()) as f64)
+        .sqrt()
 }
 
 fn residuals(measured: &[[f64; 3]], predicted: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    measured.iter().zip(predicted).map(|(m, p)| [m[0] - p[0], m[1] - p[1], m[2] - p[2]]).collect()
+    measured
+        .iter()
+        .zip(predicted)
+        .map(|(m, p)| [m[0] - p[0], m[1] - p[1], m[2] - p[2]])
+        .collect()
 }
 
 /// Fit M (of the given form) by least squares so that `measured ~ predicted M`, with RMS error
 /// and per-patch residuals before and after. `measured` and `predicted` are n x 3 (one row per
 /// patch and light), in the same unit.
-pub fn fit_qe_matrix(measured: &[[f64; 3]], predicted: &[[f64; 3]], form: MatrixForm) -> Result<QeFit> {
+pub fn fit_qe_matrix(
+    measured: &[[f64; 3]],
+    predicted: &[[f64; 3]],
+    form: MatrixForm,
+) -> Result<QeFit> {
     let n = measured.len();
     if n != predicted.len() {
-        return Err(AnalysisError::invalid("qe fit", format!("{n} measured patches but {} predicted", predicted.len())));
+        return Err(AnalysisError::invalid(
+            "qe fit",
+            format!("{n} measured patches but {} predicted", predicted.len()),
+        ));
     }
     if n < 3 {
-        return Err(AnalysisError::invalid("qe fit", format!("{n} patches are too few to fit a 3x3 matrix")));
+        return Err(AnalysisError::invalid(
+            "qe fit",
+            format!("{n} patches are too few to fit a 3x3 matrix"),
+        ));
     }
     for (i, (m, p)) in measured.iter().zip(predicted).enumerate() {
         if m.iter().chain(p.iter()).any(|v| !v.is_finite()) {
-            return Err(AnalysisError::invalid("qe fit", format!("patch {i} holds values that are not finite")));
+            return Err(AnalysisError::invalid(
+                "qe fit",
+                format!("patch {i} holds values that are not finite"),
+            ));
         }
     }
     let mask = form.mask();
@@ -180,7 +247,11 @@ pub fn fit_qe_matrix(measured: &[[f64; 3]], predicted: &[[f64; 3]], form: Matrix
         let inputs: Vec<usize> = (0..3).filter(|i| mask[*i][j]).collect();
         let a = DMatrix::from_fn(n, inputs.len(), |r, k| predicted[r][inputs[k]]);
         let b = DVector::from_fn(n, |r, _| measured[r][j]);
-        let x = if form.non_negative() { nnls(&a, &b)? } else { lstsq(&a, &b)? };
+        let x = if form.non_negative() {
+            nnls(&a, &b)?
+        } else {
+            lstsq(&a, &b)?
+        };
         for (k, i) in inputs.iter().enumerate() {
             m[*i][j] = x[k];
         }
@@ -206,12 +277,21 @@ mod tests {
 
     #[test]
     fn qe_difference_is_the_relative_rms_of_the_residual() {
-        let src = [vec![1.0, 2.0, 3.0], vec![0.5, 0.5, 0.5], vec![0.0, 1.0, 0.0]];
+        let src = [
+            vec![1.0, 2.0, 3.0],
+            vec![0.5, 0.5, 0.5],
+            vec![0.0, 1.0, 0.0],
+        ];
         // target = 2 x source: M = 2 I matches exactly; M = I leaves |x - 2x| / |2x| = 1/2.
-        let target = src.clone().map(|c| c.iter().map(|v| 2.0 * v).collect::<Vec<_>>());
+        let target = src
+            .clone()
+            .map(|c| c.iter().map(|v| 2.0 * v).collect::<Vec<_>>());
         let two = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]];
         let one = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        assert_eq!(qe_relative_rms_difference(&src, &target, &two).unwrap(), [0.0; 3]);
+        assert_eq!(
+            qe_relative_rms_difference(&src, &target, &two).unwrap(),
+            [0.0; 3]
+        );
         for e in qe_relative_rms_difference(&src, &target, &one).unwrap() {
             assert!((e - 0.5).abs() < 1e-15, "{e}");
         }
@@ -225,7 +305,10 @@ mod tests {
         // One band at 500 nm, 10 nm wide: L = 1e-3 W/(sr m^2 nm), QE 0.5, scale 2 sr m^2 s:
         // photons = 2 * 1e-3 * 10 * 0.5 / (h c / 500 nm).
         let grid = WavelengthGrid::new(500.0, 500.0, 10.0).unwrap();
-        let grid = WavelengthGrid { step_nm: 10.0, ..grid };
+        let grid = WavelengthGrid {
+            step_nm: 10.0,
+            ..grid
+        };
         let qe = [vec![0.5], vec![0.25], vec![0.0]];
         let p = predict_rgb(&qe, &grid, &[vec![1e-3]], 2.0).unwrap();
         let e = units::photon_energy_j(500.0);
@@ -237,8 +320,18 @@ mod tests {
     #[test]
     fn the_transformed_qe_predicts_prediction_times_m() {
         let grid = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
-        let qe = [0.0, 1.0, 2.0].map(|c: f64| (0..31).map(|b| ((b as f64 * 0.3 + c).sin() + 1.2) * 0.3).collect::<Vec<_>>());
-        let rad: Vec<Vec<f64>> = (0..5).map(|p| (0..31).map(|b| 1e-3 * (1.0 + ((p * b) as f64 * 0.1).cos())).collect()).collect();
+        let qe = [0.0, 1.0, 2.0].map(|c: f64| {
+            (0..31)
+                .map(|b| ((b as f64 * 0.3 + c).sin() + 1.2) * 0.3)
+                .collect::<Vec<_>>()
+        });
+        let rad: Vec<Vec<f64>> = (0..5)
+            .map(|p| {
+                (0..31)
+                    .map(|b| 1e-3 * (1.0 + ((p * b) as f64 * 0.1).cos()))
+                    .collect()
+            })
+            .collect();
         let p0 = predict_rgb(&qe, &grid, &rad, 1e-12).unwrap();
         let p1 = predict_rgb(&transform_qe(&qe, &PAPER_M).unwrap(), &grid, &rad, 1e-12).unwrap();
         for (a, b) in apply_matrix(&p0, &PAPER_M).iter().zip(&p1) {

@@ -22,7 +22,12 @@ pub struct RegionStats {
 
 impl RegionStats {
     fn from_moments(rect: Rect, m: &[Moments; 3]) -> RegionStats {
-        RegionStats { rect, mean_dn: m.map(|v| v.mean()), std_dn: m.map(|v| v.std()), n: m.map(|v| v.n) }
+        RegionStats {
+            rect,
+            mean_dn: m.map(|v| v.mean()),
+            std_dn: m.map(|v| v.std()),
+            n: m.map(|v| v.n),
+        }
     }
 }
 
@@ -57,12 +62,18 @@ pub fn rgb_rect_moments(planes: &[Plane; 3], rect: &Rect) -> Result<[Moments; 3]
 
 /// Mean and standard deviation per CFA channel of a raw mosaic in each rectangle.
 pub fn roi_stats_raw(raw: &RawImage, rects: &[Rect]) -> Result<Vec<RegionStats>> {
-    rects.iter().map(|r| Ok(RegionStats::from_moments(*r, &raw_rect_moments(raw, r)?))).collect()
+    rects
+        .iter()
+        .map(|r| Ok(RegionStats::from_moments(*r, &raw_rect_moments(raw, r)?)))
+        .collect()
 }
 
 /// Mean and standard deviation per plane of a demosaicked RGB image in each rectangle.
 pub fn roi_stats_rgb(planes: &[Plane; 3], rects: &[Rect]) -> Result<Vec<RegionStats>> {
-    rects.iter().map(|r| Ok(RegionStats::from_moments(*r, &rgb_rect_moments(planes, r)?))).collect()
+    rects
+        .iter()
+        .map(|r| Ok(RegionStats::from_moments(*r, &rgb_rect_moments(planes, r)?)))
+        .collect()
 }
 
 /// One region measured in two images (a: simulated, b: measured), with the standard deviation
@@ -86,12 +97,23 @@ pub struct RegionPair {
 fn pair(a: RegionStats, b: RegionStats) -> RegionPair {
     let md = [0, 1, 2].map(|c| b.mean_dn[c] - a.mean_dn[c]);
     let sd = [0, 1, 2].map(|c| b.std_dn[c] - a.std_dn[c]);
-    RegionPair { a, b, mean_difference_dn: md, std_difference_dn: sd, predicted_std_dn_a: None, predicted_std_dn_b: None }
+    RegionPair {
+        a,
+        b,
+        mean_difference_dn: md,
+        std_difference_dn: sd,
+        predicted_std_dn_a: None,
+        predicted_std_dn_b: None,
+    }
 }
 
 /// Compare two raw mosaics region by region: `regions[k] = (rect in a, rect in b)` (the regions
 /// may differ between the images, as the paper picks corresponding regions by hand).
-pub fn compare_regions_raw(a: &RawImage, b: &RawImage, regions: &[(Rect, Rect)]) -> Result<Vec<RegionPair>> {
+pub fn compare_regions_raw(
+    a: &RawImage,
+    b: &RawImage,
+    regions: &[(Rect, Rect)],
+) -> Result<Vec<RegionPair>> {
     regions
         .iter()
         .map(|(ra, rb)| {
@@ -104,7 +126,11 @@ pub fn compare_regions_raw(a: &RawImage, b: &RawImage, regions: &[(Rect, Rect)])
 }
 
 /// [`compare_regions_raw`] for demosaicked RGB planes.
-pub fn compare_regions_rgb(a: &[Plane; 3], b: &[Plane; 3], regions: &[(Rect, Rect)]) -> Result<Vec<RegionPair>> {
+pub fn compare_regions_rgb(
+    a: &[Plane; 3],
+    b: &[Plane; 3],
+    regions: &[(Rect, Rect)],
+) -> Result<Vec<RegionPair>> {
     regions
         .iter()
         .map(|(ra, rb)| {
@@ -124,7 +150,10 @@ pub fn add_predicted_std(pairs: &mut [RegionPair], model: impl Fn(f64) -> f64) -
         for c in 0..3 {
             o[c] = model(m[c]);
             if !(o[c] >= 0.0 && o[c].is_finite()) {
-                return Err(AnalysisError::invalid("noise model", format!("predicted std {} at mean {} DN", o[c], m[c])));
+                return Err(AnalysisError::invalid(
+                    "noise model",
+                    format!("predicted std {} at mean {} DN", o[c], m[c]),
+                ));
             }
         }
         Ok(o)
@@ -173,11 +202,28 @@ mod tests {
             let sd = (sigma[c] * sigma[c] + 1.0 / 12.0).sqrt();
             let n = s.n[c] as f64;
             // 4 standard errors: mean sd/sqrt(n), std sd/sqrt(2 n).
-            assert!((s.mean_dn[c] - level[c]).abs() < 4.0 * sd / n.sqrt(), "mean {c}: {}", s.mean_dn[c]);
-            assert!((s.std_dn[c] - sd).abs() < 4.0 * sd / (2.0 * n).sqrt(), "std {c}: {}", s.std_dn[c]);
+            assert!(
+                (s.mean_dn[c] - level[c]).abs() < 4.0 * sd / n.sqrt(),
+                "mean {c}: {}",
+                s.mean_dn[c]
+            );
+            assert!(
+                (s.std_dn[c] - sd).abs() < 4.0 * sd / (2.0 * n).sqrt(),
+                "std {c}: {}",
+                s.std_dn[c]
+            );
         }
         // A model that returns the generating sigma for each level.
-        add_predicted_std(&mut pairs, |m| if m > 1000.0 { 20.0 } else if m > 400.0 { 10.0 } else { 6.0 }).unwrap();
+        add_predicted_std(&mut pairs, |m| {
+            if m > 1000.0 {
+                20.0
+            } else if m > 400.0 {
+                10.0
+            } else {
+                6.0
+            }
+        })
+        .unwrap();
         assert_eq!(pairs[0].predicted_std_dn_a, Some(sigma));
         assert!(add_predicted_std(&mut pairs, |_| f64::NAN).is_err());
         assert!(roi_stats_raw(&a, &[Rect::new(60, 0, 10, 10)]).is_err());
@@ -185,13 +231,18 @@ mod tests {
 
     #[test]
     fn constant_regions_have_exact_means_and_zero_std() {
-        let p = [Plane::from_fn(10, 10, |_, _| 3.0).unwrap(), Plane::from_fn(10, 10, |_, _| 4.5).unwrap(), Plane::from_fn(10, 10, |r, _| r as f32).unwrap()];
+        let p = [
+            Plane::from_fn(10, 10, |_, _| 3.0).unwrap(),
+            Plane::from_fn(10, 10, |_, _| 4.5).unwrap(),
+            Plane::from_fn(10, 10, |r, _| r as f32).unwrap(),
+        ];
         let s = roi_stats_rgb(&p, &[Rect::new(2, 2, 4, 3)]).unwrap();
         assert_eq!(s[0].mean_dn, [3.0, 4.5, 3.5]);
         assert_eq!(s[0].std_dn[0], 0.0);
         // Rows 2..6: values 2,3,4,5 each 3 times: sample variance = 15/11.
         assert!((s[0].std_dn[2] - (15.0f64 / 11.0).sqrt()).abs() < 1e-12);
-        let q = compare_regions_rgb(&p, &p, &[(Rect::new(0, 0, 2, 2), Rect::new(5, 5, 2, 2))]).unwrap();
+        let q =
+            compare_regions_rgb(&p, &p, &[(Rect::new(0, 0, 2, 2), Rect::new(5, 5, 2, 2))]).unwrap();
         assert_eq!(q[0].mean_difference_dn[0], 0.0);
         assert_eq!(q[0].mean_difference_dn[2], 5.0);
     }

@@ -21,8 +21,11 @@ use serde::Serialize;
 
 /// CIE XYZ -> opponent (O1 luminance, O2 red-green, O3 blue-yellow), Poirson & Wandell 1993 as
 /// used by S-CIELAB (`cmatrix('xyz2opp')` of Zhang's S-CIELAB code).
-pub const XYZ_TO_OPPONENT: [[f64; 3]; 3] =
-    [[0.2787336, 0.7218031, -0.1065520], [-0.4487736, 0.2898056, 0.0771569], [0.0859513, -0.5899859, 0.5011089]];
+pub const XYZ_TO_OPPONENT: [[f64; 3]; 3] = [
+    [0.2787336, 0.7218031, -0.1065520],
+    [-0.4487736, 0.2898056, 0.0771569],
+    [0.0859513, -0.5899859, 0.5011089],
+];
 
 /// The Gaussians of each opponent channel as (full width at half maximum, degrees; weight):
 /// Zhang's `separableFilters.m` (Zhang & Wandell 1997), weights normalised to sum to 1.
@@ -49,7 +52,10 @@ impl std::str::FromStr for DeltaEFormula {
         match s.trim().to_ascii_lowercase().as_str() {
             "cie76" | "76" | "deltaeab" => Ok(DeltaEFormula::Cie76),
             "ciede2000" | "2000" | "de2000" => Ok(DeltaEFormula::Ciede2000),
-            _ => Err(AnalysisError::invalid("colour difference formula", format!("'{s}' is not one of cie76, ciede2000"))),
+            _ => Err(AnalysisError::invalid(
+                "colour difference formula",
+                format!("'{s}' is not one of cie76, ciede2000"),
+            )),
         }
     }
 }
@@ -80,9 +86,14 @@ impl ScielabFilters {
     /// code) and normalised to unit sum there.
     pub fn new(samples_per_deg: f64) -> Result<ScielabFilters> {
         if !(1.0..=10_000.0).contains(&samples_per_deg) {
-            return Err(AnalysisError::invalid("samples_per_deg", format!("{samples_per_deg} must be in [1, 10000] samples per degree")));
+            return Err(AnalysisError::invalid(
+                "samples_per_deg",
+                format!("{samples_per_deg} must be in [1, 10000] samples per degree"),
+            ));
         }
-        let taps = ((samples_per_deg / 2.0).ceil() as usize * 2).saturating_sub(1).max(1);
+        let taps = ((samples_per_deg / 2.0).ceil() as usize * 2)
+            .saturating_sub(1)
+            .max(1);
         let half = (taps / 2) as f64;
         let channels = CHANNEL_GAUSSIANS_DEG.map(|terms| {
             terms
@@ -108,13 +119,19 @@ impl ScielabFilters {
                 })
                 .collect()
         });
-        Ok(ScielabFilters { samples_per_deg, channels })
+        Ok(ScielabFilters {
+            samples_per_deg,
+            channels,
+        })
     }
 
     /// Sum of a channel's 2D point spread (`sum_i w_i (sum g_i)^2`): 1 for every channel, so a
     /// uniform image passes unchanged.
     pub fn dc_gain(&self, channel: usize) -> f64 {
-        self.channels[channel].iter().map(|t| t.weight * t.kernel.iter().sum::<f64>().powi(2)).sum()
+        self.channels[channel]
+            .iter()
+            .map(|t| t.weight * t.kernel.iter().sum::<f64>().powi(2))
+            .sum()
     }
 
     /// The channel's 2D point spread as a `taps x taps` plane (for plots and tests).
@@ -166,7 +183,11 @@ fn separable(data: &[f64], rows: usize, cols: usize, k: &[f64]) -> Vec<f64> {
     tmp.par_chunks_mut(cols).enumerate().for_each(|(r, out)| {
         let row = &data[r * cols..(r + 1) * cols];
         for (c, o) in out.iter_mut().enumerate() {
-            *o = k.iter().enumerate().map(|(j, w)| w * row[mirror(c as isize + j as isize - h, cols)]).sum();
+            *o = k
+                .iter()
+                .enumerate()
+                .map(|(j, w)| w * row[mirror(c as isize + j as isize - h, cols)])
+                .sum();
         }
     });
     let mut out = vec![0.0; data.len()];
@@ -187,7 +208,13 @@ fn filtered_xyz(xyz: &[Plane; 3], filters: &ScielabFilters) -> [Vec<f64>; 3] {
     let n = rows * cols;
     let m = XYZ_TO_OPPONENT;
     let opp: [Vec<f64>; 3] = [0, 1, 2].map(|o| {
-        (0..n).map(|i| m[o][0] * xyz[0].data[i] as f64 + m[o][1] * xyz[1].data[i] as f64 + m[o][2] * xyz[2].data[i] as f64).collect()
+        (0..n)
+            .map(|i| {
+                m[o][0] * xyz[0].data[i] as f64
+                    + m[o][1] * xyz[1].data[i] as f64
+                    + m[o][2] * xyz[2].data[i] as f64
+            })
+            .collect()
     });
     let blurred: Vec<Vec<f64>> = (0..3)
         .map(|ch| {
@@ -200,7 +227,13 @@ fn filtered_xyz(xyz: &[Plane; 3], filters: &ScielabFilters) -> [Vec<f64>; 3] {
         })
         .collect();
     let inv = invert3(&m);
-    [0, 1, 2].map(|x| (0..n).map(|i| inv[x][0] * blurred[0][i] + inv[x][1] * blurred[1][i] + inv[x][2] * blurred[2][i]).collect())
+    [0, 1, 2].map(|x| {
+        (0..n)
+            .map(|i| {
+                inv[x][0] * blurred[0][i] + inv[x][1] * blurred[1][i] + inv[x][2] * blurred[2][i]
+            })
+            .collect()
+    })
 }
 
 fn invert3(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
@@ -222,23 +255,35 @@ pub fn scielab(
 ) -> Result<ScielabResult> {
     let (rows, cols) = (a_xyz[0].rows, a_xyz[0].cols);
     if rows == 0 || cols == 0 {
-        return Err(AnalysisError::invalid("scielab", "the images have no pixels"));
+        return Err(AnalysisError::invalid(
+            "scielab",
+            "the images have no pixels",
+        ));
     }
     for (name, img) in [("first image", a_xyz), ("second image", b_xyz)] {
         for (ch, p) in img.iter().enumerate() {
             if p.rows != rows || p.cols != cols || p.data.len() != rows * cols {
                 return Err(AnalysisError::invalid(
                     "scielab",
-                    format!("{name} plane {ch} is {} x {}, the first X plane {rows} x {cols}", p.rows, p.cols),
+                    format!(
+                        "{name} plane {ch} is {} x {}, the first X plane {rows} x {cols}",
+                        p.rows, p.cols
+                    ),
                 ));
             }
             if p.data.iter().any(|v| !v.is_finite()) {
-                return Err(AnalysisError::invalid("scielab", format!("{name} plane {ch} holds values that are not finite")));
+                return Err(AnalysisError::invalid(
+                    "scielab",
+                    format!("{name} plane {ch} holds values that are not finite"),
+                ));
             }
         }
     }
     if !white_xyz.iter().all(|w| *w > 0.0 && w.is_finite()) {
-        return Err(AnalysisError::invalid("scielab white", format!("{white_xyz:?} must be three positive tristimulus values")));
+        return Err(AnalysisError::invalid(
+            "scielab white",
+            format!("{white_xyz:?} must be three positive tristimulus values"),
+        ));
     }
     let filters = ScielabFilters::new(samples_per_deg)?;
     let fa = filtered_xyz(a_xyz, &filters);
@@ -249,7 +294,9 @@ pub fn scielab(
             let la = xyz_to_lab([fa[0][i], fa[1][i], fa[2][i]], white_xyz);
             let lb = xyz_to_lab([fb[0][i], fb[1][i], fb[2][i]], white_xyz);
             (match formula {
-                DeltaEFormula::Cie76 => ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt(),
+                DeltaEFormula::Cie76 => {
+                    ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
+                }
                 DeltaEFormula::Ciede2000 => ciede2000(la, lb),
             }) as f32
         })
@@ -259,22 +306,43 @@ pub fn scielab(
     let mean = de.iter().map(|v| *v as f64).sum::<f64>() / de.len() as f64;
     let p95 = sorted[((sorted.len() - 1) as f64 * 0.95).round() as usize] as f64;
     let max = *sorted.last().unwrap_or(&0.0) as f64;
-    Ok(ScielabResult { delta_e: Plane::new(rows, cols, de)?, mean, p95, max, formula, samples_per_deg })
+    Ok(ScielabResult {
+        delta_e: Plane::new(rows, cols, de)?,
+        mean,
+        p95,
+        max,
+        formula,
+        samples_per_deg,
+    })
 }
 
 /// Pixelwise colour difference without any spatial filtering (what S-CIELAB reduces to for
 /// uniform fields), for comparison.
-pub fn pixelwise_delta_e(a_xyz: &[Plane; 3], b_xyz: &[Plane; 3], white_xyz: [f64; 3], formula: DeltaEFormula) -> Result<Plane> {
+pub fn pixelwise_delta_e(
+    a_xyz: &[Plane; 3],
+    b_xyz: &[Plane; 3],
+    white_xyz: [f64; 3],
+    formula: DeltaEFormula,
+) -> Result<Plane> {
     let (rows, cols) = (a_xyz[0].rows, a_xyz[0].cols);
-    if a_xyz.iter().chain(b_xyz.iter()).any(|p| p.rows != rows || p.cols != cols || p.data.len() != rows * cols) {
-        return Err(AnalysisError::invalid("pixelwise colour difference", "the six planes must have the same size"));
+    if a_xyz
+        .iter()
+        .chain(b_xyz.iter())
+        .any(|p| p.rows != rows || p.cols != cols || p.data.len() != rows * cols)
+    {
+        return Err(AnalysisError::invalid(
+            "pixelwise colour difference",
+            "the six planes must have the same size",
+        ));
     }
     let de = (0..rows * cols)
         .map(|i| {
             let la = xyz_to_lab([0, 1, 2].map(|c| a_xyz[c].data[i] as f64), white_xyz);
             let lb = xyz_to_lab([0, 1, 2].map(|c| b_xyz[c].data[i] as f64), white_xyz);
             (match formula {
-                DeltaEFormula::Cie76 => ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt(),
+                DeltaEFormula::Cie76 => {
+                    ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
+                }
                 DeltaEFormula::Ciede2000 => ciede2000(la, lb),
             }) as f32
         })
@@ -299,9 +367,16 @@ mod tests {
             for ch in 0..3 {
                 let psf = f.point_spread(ch);
                 let sum: f64 = psf.iter().flatten().sum();
-                assert!((sum - 1.0).abs() < 1e-12 && (f.dc_gain(ch) - 1.0).abs() < 1e-12, "spd {spd} ch {ch}: {sum}");
+                assert!(
+                    (sum - 1.0).abs() < 1e-12 && (f.dc_gain(ch) - 1.0).abs() < 1e-12,
+                    "spd {spd} ch {ch}: {sum}"
+                );
                 assert_eq!(psf.len() % 2, 1);
-                assert!(psf.len() as f64 <= spd.max(1.0) + 1.0, "spd {spd}: {} taps", psf.len());
+                assert!(
+                    psf.len() as f64 <= spd.max(1.0) + 1.0,
+                    "spd {spd}: {} taps",
+                    psf.len()
+                );
             }
         }
         // The published weights themselves sum to 1 per channel (Zhang's normalised table).
@@ -312,8 +387,12 @@ mod tests {
 
     #[test]
     fn identical_images_give_zero() {
-        let img =
-            [0, 1, 2].map(|c| Plane::from_fn(40, 50, |r, k| (20.0 + 30.0 * ((r * 7 + k * 3 + c) % 11) as f64 / 11.0) as f32).unwrap());
+        let img = [0, 1, 2].map(|c| {
+            Plane::from_fn(40, 50, |r, k| {
+                (20.0 + 30.0 * ((r * 7 + k * 3 + c) % 11) as f64 / 11.0) as f32
+            })
+            .unwrap()
+        });
         let r = scielab(&img, &img, D65, 40.0, DeltaEFormula::Ciede2000).unwrap();
         assert_eq!(r.max, 0.0);
     }
@@ -326,7 +405,10 @@ mod tests {
             ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
         };
         let expect00 = ciede2000(xyz_to_lab(a, D65), xyz_to_lab(b, D65));
-        for (formula, expect) in [(DeltaEFormula::Cie76, expect76), (DeltaEFormula::Ciede2000, expect00)] {
+        for (formula, expect) in [
+            (DeltaEFormula::Cie76, expect76),
+            (DeltaEFormula::Ciede2000, expect00),
+        ] {
             let r = scielab(&uniform(24, 30, a), &uniform(24, 30, b), D65, 30.0, formula).unwrap();
             // f32 inputs and outputs: agreement to single precision.
             assert!(
@@ -343,18 +425,43 @@ mod tests {
         // far above the chromatic channels' cut-off (a few cycles/degree), against its uniform mean.
         let (rows, cols) = (48, 64);
         let (p, q) = ([40.0, 30.0, 20.0], [25.0, 32.0, 24.0]);
-        let img = [0, 1, 2].map(|c| Plane::from_fn(rows, cols, |_, k| if k % 2 == 0 { p[c] } else { q[c] } as f32).unwrap());
+        let img = [0, 1, 2].map(|c| {
+            Plane::from_fn(
+                rows,
+                cols,
+                |_, k| if k % 2 == 0 { p[c] } else { q[c] } as f32,
+            )
+            .unwrap()
+        });
         let mean = uniform(rows, cols, [0, 1, 2].map(|c| 0.5 * (p[c] + q[c])));
         let s = scielab(&img, &mean, D65, 60.0, DeltaEFormula::Cie76).unwrap();
         let px = pixelwise_delta_e(&img, &mean, D65, DeltaEFormula::Cie76).unwrap();
         let px_mean = px.data.iter().map(|v| *v as f64).sum::<f64>() / px.data.len() as f64;
-        eprintln!("30 cy/deg grating: S-CIELAB mean {:.3}, pixelwise mean {px_mean:.3}", s.mean);
-        assert!(s.mean < 0.1 * px_mean, "S-CIELAB {} vs pixelwise {px_mean}", s.mean);
+        eprintln!(
+            "30 cy/deg grating: S-CIELAB mean {:.3}, pixelwise mean {px_mean:.3}",
+            s.mean
+        );
+        assert!(
+            s.mean < 0.1 * px_mean,
+            "S-CIELAB {} vs pixelwise {px_mean}",
+            s.mean
+        );
         // A coarse grating (period 32 samples = 1.9 cycles/degree) stays visible: S-CIELAB keeps
         // a large part of the pixelwise difference.
-        let coarse = [0, 1, 2].map(|c| Plane::from_fn(rows, cols, |_, k| if (k / 16) % 2 == 0 { p[c] } else { q[c] } as f32).unwrap());
+        let coarse = [0, 1, 2].map(|c| {
+            Plane::from_fn(
+                rows,
+                cols,
+                |_, k| if (k / 16) % 2 == 0 { p[c] } else { q[c] } as f32,
+            )
+            .unwrap()
+        });
         let s2 = scielab(&coarse, &mean, D65, 60.0, DeltaEFormula::Cie76).unwrap();
-        assert!(s2.mean > 0.5 * px_mean, "coarse: S-CIELAB {} vs pixelwise {px_mean}", s2.mean);
+        assert!(
+            s2.mean > 0.5 * px_mean,
+            "coarse: S-CIELAB {} vs pixelwise {px_mean}",
+            s2.mean
+        );
     }
 
     #[test]

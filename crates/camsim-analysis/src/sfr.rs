@@ -41,7 +41,11 @@ pub struct SfrOptions {
 
 impl Default for SfrOptions {
     fn default() -> Self {
-        SfrOptions { oversample: 4, poly_order: 1, pixel_pitch_mm: None }
+        SfrOptions {
+            oversample: 4,
+            poly_order: 1,
+            pixel_pitch_mm: None,
+        }
     }
 }
 
@@ -193,27 +197,47 @@ pub fn sfr(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions) -> Result<SfrRes
 }
 
 /// [`sfr`] on a grid whose samples are `pitch_sensor_px` sensor pixels apart.
-fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sensor_px: f64) -> Result<SfrResult> {
+fn sfr_with_pitch(
+    plane: &Plane,
+    roi: Option<Rect>,
+    opts: &SfrOptions,
+    pitch_sensor_px: f64,
+) -> Result<SfrResult> {
     if opts.oversample == 0 || opts.oversample > 64 {
-        return Err(AnalysisError::invalid("sfr oversample", format!("{} is not in 1..=64", opts.oversample)));
+        return Err(AnalysisError::invalid(
+            "sfr oversample",
+            format!("{} is not in 1..=64", opts.oversample),
+        ));
     }
     if opts.poly_order != 1 && opts.poly_order != 2 {
-        return Err(AnalysisError::invalid("sfr poly_order", format!("{} is not 1 or 2", opts.poly_order)));
+        return Err(AnalysisError::invalid(
+            "sfr poly_order",
+            format!("{} is not 1 or 2", opts.poly_order),
+        ));
     }
     if let Some(p) = opts.pixel_pitch_mm {
         if !(p > 0.0 && p.is_finite()) {
-            return Err(AnalysisError::invalid("sfr pixel_pitch_mm", format!("{p} is not a positive number")));
+            return Err(AnalysisError::invalid(
+                "sfr pixel_pitch_mm",
+                format!("{p} is not a positive number"),
+            ));
         }
     }
     let roi = roi.unwrap_or_else(|| plane.full_rect());
     let crop = plane.crop(&roi)?;
     if crop.data.iter().any(|v| !v.is_finite()) {
-        return Err(AnalysisError::invalid("sfr", format!("ROI {roi} holds values that are not finite")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("ROI {roi} holds values that are not finite"),
+        ));
     }
     let mut a: Vec<f64> = crop.data.iter().map(|v| *v as f64).collect();
     let (mut nlin, mut npix) = (crop.rows, crop.cols);
     if nlin.min(npix) < 4 {
-        return Err(AnalysisError::invalid("sfr", format!("ROI {roi} is smaller than 4 x 4 pixels")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("ROI {roi} is smaller than 4 x 4 pixels"),
+        ));
     }
     let orientation = if is_horizontal(&a, nlin, npix) {
         let t = crop.transpose();
@@ -232,7 +256,9 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     // Make the edge dark-to-light from left to right (ISO 12233 allows either polarity).
     let k = (npix / 8).clamp(1, 5);
     let side = |a: &[f64], cs: std::ops::Range<usize>| -> f64 {
-        (0..nlin).map(|r| cs.clone().map(|c| a[r * npix + c]).sum::<f64>()).sum::<f64>()
+        (0..nlin)
+            .map(|r| cs.clone().map(|c| a[r * npix + c]).sum::<f64>())
+            .sum::<f64>()
     };
     let (left, right) = (side(&a, 0..k), side(&a, npix - k..npix));
     let polarity = if right >= left { 1.0 } else { -1.0 };
@@ -242,7 +268,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     let contrast = (right - left).abs() / (nlin * k) as f64;
     let level = a.iter().map(|v| v.abs()).fold(0.0, f64::max);
     if !(contrast > 1e-9 * level.max(1e-30)) {
-        return Err(AnalysisError::invalid("sfr", format!("ROI {roi} shows no edge (no contrast between its sides)")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("ROI {roi} shows no edge (no contrast between its sides)"),
+        ));
     }
 
     // 1-2. Edge location per row: centroid of the windowed derivative; two passes (sfrmat).
@@ -260,8 +289,9 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     let row0 = (nlin as f64 - 1.0) / 2.0;
     let fit_rows = |rows: &[usize], locs: &[f64]| -> Result<Vec<f64>> {
         let xs: Vec<f64> = rows.iter().map(|r| *r as f64).collect();
-        polyfit(&xs, locs, opts.poly_order, row0)
-            .ok_or_else(|| AnalysisError::invalid("sfr", format!("cannot fit a line to the edge in ROI {roi}")))
+        polyfit(&xs, locs, opts.poly_order, row0).ok_or_else(|| {
+            AnalysisError::invalid("sfr", format!("cannot fit a line to the edge in ROI {roi}"))
+        })
     };
     let mut rows_ok = Vec::with_capacity(nlin);
     let mut locs = Vec::with_capacity(nlin);
@@ -272,7 +302,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
         }
     }
     if rows_ok.len() < nlin.div_ceil(2).max(3) {
-        return Err(AnalysisError::invalid("sfr", format!("no edge found in most rows of ROI {roi}")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("no edge found in most rows of ROI {roi}"),
+        ));
     }
     let fit1 = fit_rows(&rows_ok, &locs)?;
     rows_ok.clear();
@@ -285,7 +318,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
         }
     }
     if rows_ok.len() < nlin.div_ceil(2).max(3) {
-        return Err(AnalysisError::invalid("sfr", format!("no edge found in most rows of ROI {roi}")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("no edge found in most rows of ROI {roi}"),
+        ));
     }
     let fit2 = fit_rows(&rows_ok, &locs)?;
     let slope = poly_slope(&fit2, 0.0);
@@ -303,7 +339,9 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     }
     let nlin1 = ((cycles / slope.abs()).round() as usize).clamp(1, nlin);
     let first = (nlin - nlin1) / 2;
-    let keep: Vec<usize> = (0..rows_ok.len()).filter(|i| rows_ok[*i] >= first && rows_ok[*i] < first + nlin1).collect();
+    let keep: Vec<usize> = (0..rows_ok.len())
+        .filter(|i| rows_ok[*i] >= first && rows_ok[*i] < first + nlin1)
+        .collect();
     let fit = if keep.len() >= 3 && nlin1 < nlin {
         let rs: Vec<usize> = keep.iter().map(|i| rows_ok[*i]).collect();
         let ls: Vec<f64> = keep.iter().map(|i| locs[*i]).collect();
@@ -315,7 +353,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     let edge_angle_deg = slope.atan().to_degrees();
     let mid_loc = poly_eval(&fit, 0.0);
     if !(mid_loc > 0.0 && mid_loc < npix as f64 - 1.0) {
-        return Err(AnalysisError::invalid("sfr", format!("the fitted edge leaves ROI {roi}")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("the fitted edge leaves ROI {roi}"),
+        ));
     }
 
     // 4. Project onto the edge normal and bin at 1/oversample pixel.
@@ -340,7 +381,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     }
     let filled: Vec<usize> = (0..nn).filter(|b| count[*b] > 0).collect();
     if filled.len() < 2 {
-        return Err(AnalysisError::invalid("sfr", format!("too few pixels in ROI {roi} to build the edge profile")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("too few pixels in ROI {roi} to build the edge profile"),
+        ));
     }
     let mut esf = vec![0.0f64; nn];
     for b in &filled {
@@ -373,7 +417,11 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
     }
     let s: f64 = lsf.iter().sum();
     let sx: f64 = lsf.iter().enumerate().map(|(i, v)| i as f64 * v).sum();
-    let centre = if s > 0.0 { (sx / s).clamp(0.0, nn as f64 - 2.0) } else { half };
+    let centre = if s > 0.0 {
+        (sx / s).clamp(0.0, nn as f64 - 2.0)
+    } else {
+        half
+    };
     for (i, v) in lsf.iter_mut().enumerate().take(nn - 1) {
         *v *= hamming_at(i as f64, centre, nn - 1);
     }
@@ -387,7 +435,10 @@ fn sfr_with_pitch(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions, pitch_sen
         .map_err(|e| AnalysisError::invalid("sfr", format!("FFT failed: {e}")))?;
     let dc = spectrum[0].norm();
     if !(dc > 0.0) {
-        return Err(AnalysisError::invalid("sfr", format!("the edge in ROI {roi} has no net contrast")));
+        return Err(AnalysisError::invalid(
+            "sfr",
+            format!("the edge in ROI {roi} has no net contrast"),
+        ));
     }
     let nf = nn / 2 + 1;
     let spacing = 1.0 / ovs as f64;
@@ -457,7 +508,12 @@ pub fn interp(x: &[f64], y: &[f64], x0: f64) -> f64 {
 /// `opts.pixel_pitch_mm` is the sensor pitch; if `None`, the frame's `pixel_pitch_m` is used
 /// when set. Frequencies: `freq_cyc_per_sensor_px` per sensor pixel (`freq_cyc_per_sample` per
 /// sub-grid sample, twice as large); `mtf_at_nyquist` is at the sub-grid's Nyquist (0.25 cycles per sensor pixel).
-pub fn sfr_raw_channel(raw: &RawImage, ch: CfaChannel, roi: Option<Rect>, opts: &SfrOptions) -> Result<SfrResult> {
+pub fn sfr_raw_channel(
+    raw: &RawImage,
+    ch: CfaChannel,
+    roi: Option<Rect>,
+    opts: &SfrOptions,
+) -> Result<SfrResult> {
     sfr_raw_sub_grid(raw, ch, None, roi, opts)
 }
 
@@ -487,7 +543,12 @@ pub fn sfr_raw_sub_grid(
 
 /// SFR of the luminance (weights, e.g. [`crate::image::LUMINANCE_WEIGHTS_REC709`]) of a
 /// demosaicked RGB image.
-pub fn sfr_luminance(planes: &[Plane; 3], weights: [f64; 3], roi: Option<Rect>, opts: &SfrOptions) -> Result<SfrResult> {
+pub fn sfr_luminance(
+    planes: &[Plane; 3],
+    weights: [f64; 3],
+    roi: Option<Rect>,
+    opts: &SfrOptions,
+) -> Result<SfrResult> {
     let y = luminance(planes, weights)?;
     sfr(&y, roi, opts)
 }
@@ -506,28 +567,47 @@ pub fn sfr_luminance(planes: &[Plane; 3], weights: [f64; 3], roi: Option<Rect>, 
 /// transition widths each side), but stops short of any other strong edge beside it.
 pub fn find_edge_roi(plane: &Plane) -> Result<Rect> {
     if plane.rows < 8 || plane.cols < 8 || plane.data.len() != plane.rows * plane.cols {
-        return Err(AnalysisError::invalid("edge search", format!("a {} x {} plane is too small", plane.rows, plane.cols)));
+        return Err(AnalysisError::invalid(
+            "edge search",
+            format!("a {} x {} plane is too small", plane.rows, plane.cols),
+        ));
     }
     if plane.data.iter().any(|v| !v.is_finite()) {
-        return Err(AnalysisError::invalid("edge search", "the plane holds values that are not finite"));
+        return Err(AnalysisError::invalid(
+            "edge search",
+            "the plane holds values that are not finite",
+        ));
     }
     // Both orientations; the horizontal candidates' rectangles are transposed back.
     // (A plane flat in one direction has no candidates in it.)
     let mut cands = edge_candidates(plane);
     let transposed = edge_candidates(&plane.transpose());
-    cands.extend(transposed.into_iter().map(|c| EdgeCandidate { rect: Rect::new(c.rect.col, c.rect.row, c.rect.cols, c.rect.rows), ..c }));
-    let longest_slanted = cands.iter().filter(|c| c.slanted).map(|c| c.len).max().unwrap_or(0);
+    cands.extend(transposed.into_iter().map(|c| EdgeCandidate {
+        rect: Rect::new(c.rect.col, c.rect.row, c.rect.cols, c.rect.rows),
+        ..c
+    }));
+    let longest_slanted = cands
+        .iter()
+        .filter(|c| c.slanted)
+        .map(|c| c.len)
+        .max()
+        .unwrap_or(0);
     let best = if longest_slanted > 0 {
         cands
             .iter()
             .filter(|c| c.slanted && 2 * c.len >= longest_slanted)
             .max_by(|a, b| a.contrast.total_cmp(&b.contrast).then(a.len.cmp(&b.len)))
     } else {
-        cands.iter().max_by(|a, b| a.len.cmp(&b.len).then(a.contrast.total_cmp(&b.contrast)))
+        cands
+            .iter()
+            .max_by(|a, b| a.len.cmp(&b.len).then(a.contrast.total_cmp(&b.contrast)))
     };
     match best {
         Some(c) => Ok(c.rect),
-        None => Err(AnalysisError::invalid("edge search", "no straight edge of 8 pixels or longer found (is the image flat?)")),
+        None => Err(AnalysisError::invalid(
+            "edge search",
+            "no straight edge of 8 pixels or longer found (is the image flat?)",
+        )),
     }
 }
 
@@ -605,7 +685,12 @@ fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
         for &(c, v, w) in pk {
             let near = (0..open.len())
                 .filter(|i| !taken[*i])
-                .map(|i| (i, (open[i].last().map_or(0, |q| q.1) as i64 - c as i64).abs()))
+                .map(|i| {
+                    (
+                        i,
+                        (open[i].last().map_or(0, |q| q.1) as i64 - c as i64).abs(),
+                    )
+                })
                 .filter(|(_, dc)| *dc <= 3)
                 .min_by_key(|(_, dc)| *dc);
             match near {
@@ -628,14 +713,23 @@ fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
     done.extend(open);
     done.retain(|t| t.len() >= 8);
     // Trim two rows at each end (the 3-row average blurs an edge's ends).
-    let tracks: Vec<&[TrackPoint]> = done.iter().map(|t| &t[2.min(t.len() / 4)..t.len() - 2.min(t.len() / 4)]).collect();
+    let tracks: Vec<&[TrackPoint]> = done
+        .iter()
+        .map(|t| &t[2.min(t.len() / 4)..t.len() - 2.min(t.len() / 4)])
+        .collect();
     let stats: Vec<(f64, f64)> = tracks
         .iter()
         .map(|t| {
             // Least-squares line c = c0 + s r through the peaks; the median peak value.
             let n = t.len() as f64;
-            let (mr, mc) = (t.iter().map(|q| q.0 as f64).sum::<f64>() / n, t.iter().map(|q| q.1 as f64).sum::<f64>() / n);
-            let sxy: f64 = t.iter().map(|q| (q.0 as f64 - mr) * (q.1 as f64 - mc)).sum();
+            let (mr, mc) = (
+                t.iter().map(|q| q.0 as f64).sum::<f64>() / n,
+                t.iter().map(|q| q.1 as f64).sum::<f64>() / n,
+            );
+            let sxy: f64 = t
+                .iter()
+                .map(|q| (q.0 as f64 - mr) * (q.1 as f64 - mc))
+                .sum();
             let sxx: f64 = t.iter().map(|q| (q.0 as f64 - mr).powi(2)).sum();
             let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
             let mut vs: Vec<f64> = t.iter().map(|q| q.2).collect();
@@ -660,8 +754,15 @@ fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
             if j == k || stats[j].1 < 0.5 * contrast {
                 continue;
             }
-            let cs: Vec<usize> = o.iter().filter(|q| q.0 >= r0 && q.0 < r1).map(|q| q.1).collect();
-            let (Some(omin), Some(omax)) = (cs.iter().min().copied(), cs.iter().max().copied()) else { continue };
+            let cs: Vec<usize> = o
+                .iter()
+                .filter(|q| q.0 >= r0 && q.0 < r1)
+                .map(|q| q.1)
+                .collect();
+            let (Some(omin), Some(omax)) = (cs.iter().min().copied(), cs.iter().max().copied())
+            else {
+                continue;
+            };
             let ow = o[o.len() / 2].3;
             if omin > cmax {
                 c1 = c1.min(omin.saturating_sub(ow).max(cmax + 2));
@@ -672,7 +773,12 @@ fn edge_candidates(p: &Plane) -> Vec<EdgeCandidate> {
         let len = t.len();
         let angle_deg = slope.atan().to_degrees().abs();
         let slanted = len as f64 * slope.abs() >= 1.0 && (0.5..=45.0).contains(&angle_deg);
-        out.push(EdgeCandidate { rect: Rect::new(r0, c0, r1 - r0, c1 - c0), len, contrast, slanted });
+        out.push(EdgeCandidate {
+            rect: Rect::new(r0, c0, r1 - r0, c1 - c0),
+            len,
+            contrast,
+            slanted,
+        });
     }
     out
 }
@@ -684,12 +790,22 @@ mod tests {
     #[test]
     fn polyfit_recovers_a_parabola_and_hamming_is_one_at_centre() {
         let xs: Vec<f64> = (0..20).map(|i| i as f64).collect();
-        let ys: Vec<f64> = xs.iter().map(|x| 1.5 - 0.25 * (x - 9.5) + 0.01 * (x - 9.5) * (x - 9.5)).collect();
+        let ys: Vec<f64> = xs
+            .iter()
+            .map(|x| 1.5 - 0.25 * (x - 9.5) + 0.01 * (x - 9.5) * (x - 9.5))
+            .collect();
         let c = polyfit(&xs, &ys, 2, 9.5).unwrap();
-        assert!((c[0] - 1.5).abs() < 1e-10 && (c[1] + 0.25).abs() < 1e-10 && (c[2] - 0.01).abs() < 1e-10);
+        assert!(
+            (c[0] - 1.5).abs() < 1e-10
+                && (c[1] + 0.25).abs() < 1e-10
+                && (c[2] - 0.01).abs() < 1e-10
+        );
         assert!((hamming_at(7.0, 7.0, 20) - 1.0).abs() < 1e-15);
         assert!((hamming_at(19.0, 7.0, 20) - 0.08).abs() < 1e-12);
-        assert_eq!(crossing(&[0.0, 1.0, 2.0], &[1.0, 0.6, 0.2], 0.5), Some(1.25));
+        assert_eq!(
+            crossing(&[0.0, 1.0, 2.0], &[1.0, 0.6, 0.2], 0.5),
+            Some(1.25)
+        );
     }
 
     #[test]
@@ -700,12 +816,29 @@ mod tests {
         assert!(sfr(&tiny, None, &SfrOptions::default()).is_err());
         // A perfectly vertical edge has no phase diversity: an error, not a wrong answer.
         let vertical = Plane::from_fn(32, 32, |_, c| if c > 16 { 1.0 } else { 0.0 }).unwrap();
-        let e = sfr(&vertical, None, &SfrOptions::default()).unwrap_err().to_string();
+        let e = sfr(&vertical, None, &SfrOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("phase cycle"), "{e}");
-        let bad = SfrOptions { poly_order: 3, ..Default::default() };
-        let slanted = Plane::from_fn(32, 32, |r, c| if c as f64 > 16.0 + 0.1 * r as f64 { 1.0 } else { 0.0 }).unwrap();
+        let bad = SfrOptions {
+            poly_order: 3,
+            ..Default::default()
+        };
+        let slanted = Plane::from_fn(32, 32, |r, c| {
+            if c as f64 > 16.0 + 0.1 * r as f64 {
+                1.0
+            } else {
+                0.0
+            }
+        })
+        .unwrap();
         assert!(sfr(&slanted, None, &bad).is_err());
-        assert!(sfr(&slanted, Some(Rect::new(30, 0, 8, 8)), &SfrOptions::default()).is_err());
+        assert!(sfr(
+            &slanted,
+            Some(Rect::new(30, 0, 8, 8)),
+            &SfrOptions::default()
+        )
+        .is_err());
         let mut nan = slanted.clone();
         nan.data[5] = f32::NAN;
         assert!(sfr(&nan, None, &SfrOptions::default()).is_err());

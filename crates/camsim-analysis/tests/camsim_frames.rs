@@ -130,20 +130,37 @@ fn clip_e(s: &Sensor) -> f64 {
 fn balanced_irradiance(s: &Sensor, grid: &WavelengthGrid, rate_e_per_s: f64) -> Vec<f64> {
     let irr = s.balanced_emva_irradiance(grid, rate_e_per_s).unwrap();
     let check = s.mean_electrons_uniform(&irr, grid, 1.0).unwrap();
-    assert!(check.iter().all(|r| rel(*r, rate_e_per_s) < 1e-9), "{check:?}");
+    assert!(
+        check.iter().all(|r| rel(*r, rate_e_per_s) < 1e-9),
+        "{check:?}"
+    );
     irr
 }
 
 /// The series: a ladder of exposures from 0 to 1.3 x the clipping time (`frames_per_level` frames
 /// each up to 0.7, the PTC fit range; 4 frames above), and 128 frames at half of it for DSNU and
 /// PRNU. Each call has its own temporal seed; the fixed pattern is the sensor's.
-fn series(s: &Sensor, grid: &WavelengthGrid, irr: &[f64], t_clip_s: f64, frames_per_level: usize) -> Vec<EmvaLevel> {
+fn series(
+    s: &Sensor,
+    grid: &WavelengthGrid,
+    irr: &[f64],
+    t_clip_s: f64,
+    frames_per_level: usize,
+) -> Vec<EmvaLevel> {
     let fit = [0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7];
     let high = [0.8, 0.9, 0.95, 1.0, 1.05, 1.15, 1.3];
     let t = |f: &[f64]| f.iter().map(|f| f * t_clip_s).collect::<Vec<f64>>();
-    let mut levels = s.emva_series(grid, irr, &t(&fit), frames_per_level, ROWS, COLS, 11).unwrap();
-    levels.extend(s.emva_series(grid, irr, &t(&high), 4, ROWS, COLS, 12).unwrap());
-    levels.extend(s.emva_series(grid, irr, &[0.5 * t_clip_s], 128, ROWS, COLS, 13).unwrap());
+    let mut levels = s
+        .emva_series(grid, irr, &t(&fit), frames_per_level, ROWS, COLS, 11)
+        .unwrap();
+    levels.extend(
+        s.emva_series(grid, irr, &t(&high), 4, ROWS, COLS, 12)
+            .unwrap(),
+    );
+    levels.extend(
+        s.emva_series(grid, irr, &[0.5 * t_clip_s], 128, ROWS, COLS, 13)
+            .unwrap(),
+    );
     levels
 }
 
@@ -208,26 +225,56 @@ fn check(s: &Sensor, name: &str, t_clip_s: f64, frames_per_level: usize) {
         );
         let ch = channel.letter();
         // The sampling error of K (the regression's own standard error) is well below 3 %.
-        assert!(r.system_gain_std_err < 0.0075 * r.system_gain_dn_per_e, "{name} {ch}: K s.e. {}", r.system_gain_std_err);
+        assert!(
+            r.system_gain_std_err < 0.0075 * r.system_gain_dn_per_e,
+            "{name} {ch}: K s.e. {}",
+            r.system_gain_std_err
+        );
         assert!(rel(r.system_gain_dn_per_e, k_true) < 0.03, "{name} {ch}: K");
-        assert!(rel(r.temporal_dark_noise_e, read_e_true) < 0.03, "{name} {ch}: temporal dark noise");
-        assert!(rel(r.dsnu_dn, dsnu_dn_true) < 0.03, "{name} {ch}: DSNU (DN)");
+        assert!(
+            rel(r.temporal_dark_noise_e, read_e_true) < 0.03,
+            "{name} {ch}: temporal dark noise"
+        );
+        assert!(
+            rel(r.dsnu_dn, dsnu_dn_true) < 0.03,
+            "{name} {ch}: DSNU (DN)"
+        );
         assert!(rel(r.dsnu_e, dsnu_e_true) < 0.03, "{name} {ch}: DSNU (e-)");
         assert!(rel(r.prnu_percent, prnu_true) < 0.03, "{name} {ch}: PRNU");
-        assert!(rel(r.saturation_plateau_e, sat_true) < 0.03, "{name} {ch}: saturation (plateau)");
-        assert!(rel(r.quantum_efficiency.unwrap(), qe_true) < 0.03, "{name} {ch}: QE");
+        assert!(
+            rel(r.saturation_plateau_e, sat_true) < 0.03,
+            "{name} {ch}: saturation (plateau)"
+        );
+        assert!(
+            rel(r.quantum_efficiency.unwrap(), qe_true) < 0.03,
+            "{name} {ch}: QE"
+        );
         let sat_ratio = r.saturation_capacity_e / sat_true;
-        assert!((0.85..1.0).contains(&sat_ratio), "{name} {ch}: EMVA saturation point {sat_ratio} x clip");
-        assert_eq!(r.nonuniformity_frames, [128, 128], "{name} {ch}: DSNU/PRNU level");
+        assert!(
+            (0.85..1.0).contains(&sat_ratio),
+            "{name} {ch}: EMVA saturation point {sat_ratio} x clip"
+        );
+        assert_eq!(
+            r.nonuniformity_frames,
+            [128, 128],
+            "{name} {ch}: DSNU/PRNU level"
+        );
         // The frames carry the configured black level (offset / gain x 2^bits / swing), which the
         // analysis subtracts: the dark mean left is 0 within 5 standard errors of a mean over the
         // channel's pixels (DSNU, and read noise over the 4 dark frames at t = 0).
         let read_dn = s.read_noise_v() * s.dn_per_v() / g;
         let n_min = (ROWS * COLS / 4) as f64;
         let tol = 5.0 * (dsnu_dn_true.powi(2) + read_dn.powi(2) / 4.0).sqrt() / n_min.sqrt();
-        assert!(r.dark_offset_dn.abs() < tol, "{name} {ch}: dark mean above black {} DN", r.dark_offset_dn);
+        assert!(
+            r.dark_offset_dn.abs() < tol,
+            "{name} {ch}: dark mean above black {} DN",
+            r.dark_offset_dn
+        );
         if dark_true > 0.0 {
-            assert!(rel(r.dark_current_e_per_s.unwrap(), dark_true) < 0.03, "{name} {ch}: dark current");
+            assert!(
+                rel(r.dark_current_e_per_s.unwrap(), dark_true) < 0.03,
+                "{name} {ch}: dark current"
+            );
         }
     }
     let chans: Vec<CfaChannel> = res.iter().map(|c| c.channel).collect();
@@ -254,8 +301,19 @@ fn emva_recovers_a_ten_bit_low_noise_sensor() {
 /// A uniform irradiance image (W/(m^2 nm)) covering the sensor exactly (sample spacing = pitch).
 fn uniform_image(s: &Sensor, grid: &WavelengthGrid, irr: &[f64]) -> SpectralImage {
     let n = s.rows() * s.cols();
-    let data: Vec<f32> = irr.iter().flat_map(|v| (0..n).map(move |_| *v as f32)).collect();
-    SpectralImage::from_data(s.rows(), s.cols(), *grid, s.pixel_pitch_m(), Quantity::Irradiance, data).unwrap()
+    let data: Vec<f32> = irr
+        .iter()
+        .flat_map(|v| (0..n).map(move |_| *v as f32))
+        .collect();
+    SpectralImage::from_data(
+        s.rows(),
+        s.cols(),
+        *grid,
+        s.pixel_pitch_m(),
+        Quantity::Irradiance,
+        data,
+    )
+    .unwrap()
 }
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
@@ -265,14 +323,35 @@ const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
 fn p4a_corrected_qe() -> camsim_sensor::QeConfig {
     let path = format!("{DATA}/isetcornellbox/p4aCorrected.csv");
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let mut lines = text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty());
-    assert_eq!(lines.next().unwrap().trim(), "wavelength_nm,r,g,b", "{path}: header");
-    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
+    let mut lines = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty());
+    assert_eq!(
+        lines.next().unwrap().trim(),
+        "wavelength_nm,r,g,b",
+        "{path}: header"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.trim().parse::<f64>().unwrap())
+                .collect()
+        })
+        .collect();
     let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    camsim_sensor::QeConfig { file: None, loaded_from: None, correction: None, wavelengths_nm: col(0), r: col(1), g: col(2), b: col(3), ir_cut: None, pixel_qe: None, filters: Default::default() }
+    camsim_sensor::QeConfig {
+        file: None,
+        loaded_from: None,
+        correction: None,
+        wavelengths_nm: col(0),
+        r: col(1),
+        g: col(2),
+        b: col(3),
+        ir_cut: None,
+        pixel_qe: None,
+        filters: Default::default(),
+    }
 }
-
-
 
 /// Expected standard error of each free entry of M: the weighted least-squares covariance of the
 /// (unweighted) estimator, (A^T A)^-1 A^T diag(sigma^2) A (A^T A)^-1, per output column j.
@@ -281,7 +360,9 @@ fn fit_std_errors(predicted: &[[f64; 3]], sigma: &[[f64; 3]], form: MatrixForm) 
     let mut se = [[0.0f64; 3]; 3];
     for j in 0..3 {
         let inputs: Vec<usize> = (0..3).filter(|i| mask[*i][j]).collect();
-        let a = DMatrix::from_fn(predicted.len(), inputs.len(), |r, k| predicted[r][inputs[k]]);
+        let a = DMatrix::from_fn(predicted.len(), inputs.len(), |r, k| {
+            predicted[r][inputs[k]]
+        });
         let w = DVector::from_fn(predicted.len(), |r, _| sigma[r][j] * sigma[r][j]);
         let ata_inv = (a.transpose() * &a).try_inverse().unwrap();
         let cov = &ata_inv * (a.transpose() * DMatrix::from_diagonal(&w) * &a) * &ata_inv;
@@ -318,7 +399,10 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
     cfg.name = "pixel4a with p4aCorrected QE".into();
     cfg.qe = p4a_corrected_qe();
     cfg.qe_correction = None;
-    let p4a = Sensor::from_config(cfg).unwrap().with_size(side, side).unwrap();
+    let p4a = Sensor::from_config(cfg)
+        .unwrap()
+        .with_size(side, side)
+        .unwrap();
     // A black level (40 mV, as above): without it the dark patches' noise would clip at 0 DN.
     let p4a = with_black_level(&p4a, 40e-3 * p4a.dn_per_v());
     // The model: the published QE (imx363 preset), noise-free and unrounded.
@@ -326,14 +410,20 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
         .unwrap()
         .with_size(side, side)
         .unwrap()
-        .with_noise(NoiseSwitches { quantization: false, ..NoiseSwitches::none() });
+        .with_noise(NoiseSwitches {
+            quantization: false,
+            ..NoiseSwitches::none()
+        });
 
     // QE level: p4aCorrected against the published QE, on the analysis grid (400-700 nm).
     let (published, corrected) = (imx.channel_qe(&grid), p4a.channel_qe(&grid));
     let (m_qe, qe_rel_rms) = common::qe_level_m(&published, &corrected);
     let eps_paper = qefit::qe_relative_rms_difference(&published, &corrected, &PAPER_M).unwrap();
     println!("QE-level M {m_qe:?}, relative residual {qe_rel_rms:?}\npublished x paper M vs p4aCorrected: relative RMS {eps_paper:?}");
-    assert!(qe_rel_rms.iter().all(|r| *r < 1e-4), "p4aCorrected is not a linear transform of the published QE: {qe_rel_rms:?}");
+    assert!(
+        qe_rel_rms.iter().all(|r| *r < 1e-4),
+        "p4aCorrected is not a linear transform of the published QE: {qe_rel_rms:?}"
+    );
 
     let t_s = 10e-3;
     let patches = tables::macbeth_reflectances();
@@ -352,10 +442,14 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
             let img = uniform_image(&p4a, &grid, &irr);
             // Its own temporal seed per capture (the same seed would repeat the same normals).
             let seed = (li * 24 + pi) as u64 + 1;
-            let frame = p4a.compute(&img, &Capture::seconds(t_s).with_seed(seed)).unwrap();
+            let frame = p4a
+                .compute(&img, &Capture::seconds(t_s).with_seed(seed))
+                .unwrap();
             let stats = &roi_stats_raw(&frame.raw[0], &[full]).unwrap()[0];
             measured.push(stats.mean_dn);
-            sigma.push([0, 1, 2].map(|c| p4a.predicted_noise_dn(stats.mean_dn[c], t_s).total / (stats.n[c] as f64).sqrt()));
+            sigma.push([0, 1, 2].map(|c| {
+                p4a.predicted_noise_dn(stats.mean_dn[c], t_s).total / (stats.n[c] as f64).sqrt()
+            }));
             // Prediction: the noise-free model's unrounded output, per channel.
             let pf = imx.compute(&img, &Capture::seconds(t_s)).unwrap();
             let analog = &pf.analog_dn.as_ref().unwrap()[0];
@@ -372,7 +466,11 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
             // Independent check of the prediction: mean electrons x K.
             for c in 0..3 {
                 let k_e = pf.mean_electrons[c] * imx.k_dn_per_e();
-                assert!((p[c] - k_e).abs() <= 1e-5 * k_e + 1e-3, "prediction {} vs {k_e}", p[c]);
+                assert!(
+                    (p[c] - k_e).abs() <= 1e-5 * k_e + 1e-3,
+                    "prediction {} vs {k_e}",
+                    p[c]
+                );
             }
             predicted.push(p);
         }
@@ -381,15 +479,29 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
     // 1. Unconstrained: the chart recovers the QE-level M within the noise.
     let full_fit = fit_qe_matrix(&measured, &predicted, MatrixForm::Unconstrained).unwrap();
     let se = fit_std_errors(&predicted, &sigma, MatrixForm::Unconstrained);
-    println!("unconstrained chart fit {:?}\nexpected s.e. {se:?}", full_fit.m);
+    println!(
+        "unconstrained chart fit {:?}\nexpected s.e. {se:?}",
+        full_fit.m
+    );
     for i in 0..3 {
         for j in 0..3 {
             let err = (full_fit.m[i][j] - m_qe[i][j]).abs();
-            assert!(err <= 5.0 * se[i][j] + 1e-4, "M[{i}][{j}] = {} vs the QE-level {} ({:.1} s.e.)", full_fit.m[i][j], m_qe[i][j], err / se[i][j]);
+            assert!(
+                err <= 5.0 * se[i][j] + 1e-4,
+                "M[{i}][{j}] = {} vs the QE-level {} ({:.1} s.e.)",
+                full_fit.m[i][j],
+                m_qe[i][j],
+                err / se[i][j]
+            );
         }
     }
-    let rms_sigma = (sigma.iter().flatten().map(|s| s * s).sum::<f64>() / (3 * sigma.len()) as f64).sqrt();
-    assert!(full_fit.rms_after < 2.0 * rms_sigma, "RMS after {} vs noise {rms_sigma}", full_fit.rms_after);
+    let rms_sigma =
+        (sigma.iter().flatten().map(|s| s * s).sum::<f64>() / (3 * sigma.len()) as f64).sqrt();
+    assert!(
+        full_fit.rms_after < 2.0 * rms_sigma,
+        "RMS after {} vs noise {rms_sigma}",
+        full_fit.rms_after
+    );
 
     // 2. The paper's form: close to the paper's M within what the data's mismatch allows.
     let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative).unwrap();
@@ -401,12 +513,22 @@ fn qe_fit_of_frames_made_with_the_papers_corrected_qe_recovers_m() {
         for i in 0..3 {
             let d = (fit.m[i][j] - PAPER_M[i][j]).abs();
             worst = worst.max(d);
-            assert!(d <= tol, "M[{i}][{j}] = {:.4} vs the paper's {} (tolerance {tol:.3})", fit.m[i][j], PAPER_M[i][j]);
+            assert!(
+                d <= tol,
+                "M[{i}][{j}] = {:.4} vs the paper's {} (tolerance {tol:.3})",
+                fit.m[i][j],
+                PAPER_M[i][j]
+            );
             if !MatrixForm::PaperLowerNonNegative.mask()[i][j] {
                 assert_eq!(fit.m[i][j], 0.0);
             }
         }
-        assert!(eps_fit[j] <= eps_paper[j], "channel {j}: fitted M reproduces p4aCorrected to {} vs the paper's M {}", eps_fit[j], eps_paper[j]);
+        assert!(
+            eps_fit[j] <= eps_paper[j],
+            "channel {j}: fitted M reproduces p4aCorrected to {} vs the paper's M {}",
+            eps_fit[j],
+            eps_paper[j]
+        );
     }
     println!(
         "paper-form chart fit {:?}\nlargest |M - M_paper| {worst:.4}; RMS {:.1} -> {:.2} DN (noise {rms_sigma:.2}); QE mismatch {eps_fit:?} vs the paper's M {eps_paper:?}",

@@ -59,10 +59,19 @@ impl Synth {
             let mut rng = keyed(self.seed, stage::SENSOR_TEMPORAL, frame, r as u64);
             for c in 0..self.cols {
                 let i = r * self.cols + c;
-                let lambda = self.qe * photons * (1.0 + maps.1[i]) + self.dark_current_e_per_s * t_s;
-                let e = if lambda > 0.0 { Poisson::new(lambda).unwrap().sample(&mut rng) } else { 0.0 };
+                let lambda =
+                    self.qe * photons * (1.0 + maps.1[i]) + self.dark_current_e_per_s * t_s;
+                let e = if lambda > 0.0 {
+                    Poisson::new(lambda).unwrap().sample(&mut rng)
+                } else {
+                    0.0
+                };
                 let v = e.min(self.well_e) + maps.0[i] + read.sample(&mut rng);
-                out.push((self.k_dn_per_e * v + self.black_dn).round().clamp(0.0, self.max_dn));
+                out.push(
+                    (self.k_dn_per_e * v + self.black_dn)
+                        .round()
+                        .clamp(0.0, self.max_dn),
+                );
             }
         }
         out
@@ -71,7 +80,10 @@ impl Synth {
     /// Levels at fractions of the full well: (exposure, photons, bright frames, dark frames).
     fn series(&self, stack: usize) -> Vec<(f64, f64, Vec<Vec<f64>>, Vec<Vec<f64>>)> {
         let maps = self.maps();
-        let fractions = [0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.94, 0.97, 0.98, 0.99, 1.0, 1.02, 1.05, 1.1, 1.2];
+        let fractions = [
+            0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.94, 0.97,
+            0.98, 0.99, 1.0, 1.02, 1.05, 1.1, 1.2,
+        ];
         let mut id = 0u64;
         let mut next = || {
             id += 1;
@@ -83,7 +95,9 @@ impl Synth {
                 let photons = f * self.well_e / self.qe;
                 let t = f * 0.1; // fixed irradiance, exposure time grows with the level
                 let n = if (*f - 0.5).abs() < 1e-9 { stack } else { 8 };
-                let bright = (0..n).map(|_| self.frame(&maps, photons, t, next())).collect();
+                let bright = (0..n)
+                    .map(|_| self.frame(&maps, photons, t, next()))
+                    .collect();
                 let dark = (0..n).map(|_| self.frame(&maps, 0.0, t, next())).collect();
                 (t, photons, bright, dark)
             })
@@ -104,14 +118,21 @@ fn check_opt(s: &Synth, name: &str, strict: bool) {
     let planes: Vec<(Vec<Plane>, Vec<Plane>)> = series
         .iter()
         .map(|(_, _, b, d)| {
-            let p = |v: &Vec<f64>| Plane::new(s.rows, s.cols, v.iter().map(|x| *x as f32).collect()).unwrap();
+            let p = |v: &Vec<f64>| {
+                Plane::new(s.rows, s.cols, v.iter().map(|x| *x as f32).collect()).unwrap()
+            };
             (b.iter().map(p).collect(), d.iter().map(p).collect())
         })
         .collect();
     let inputs: Vec<EmvaInput> = series
         .iter()
         .zip(&planes)
-        .map(|((t, ph, _, _), (b, d))| EmvaInput { exposure_s: *t, photons_per_pixel: Some(*ph), bright: b.iter().collect(), dark: d.iter().collect() })
+        .map(|((t, ph, _, _), (b, d))| EmvaInput {
+            exposure_s: *t,
+            photons_per_pixel: Some(*ph),
+            bright: b.iter().collect(),
+            dark: d.iter().collect(),
+        })
         .collect();
     let r = emva(&inputs, &EmvaOptions::default()).unwrap();
     let json = serde_json::to_string(&r).unwrap();
@@ -132,20 +153,40 @@ fn check_opt(s: &Synth, name: &str, strict: bool) {
     if !strict {
         return;
     }
-    assert!(rel(r.system_gain_dn_per_e, s.k_dn_per_e) < 0.03, "{name}: K");
-    assert!(rel(r.temporal_dark_noise_e, s.read_e) < 0.03, "{name}: read noise");
+    assert!(
+        rel(r.system_gain_dn_per_e, s.k_dn_per_e) < 0.03,
+        "{name}: K"
+    );
+    assert!(
+        rel(r.temporal_dark_noise_e, s.read_e) < 0.03,
+        "{name}: read noise"
+    );
     assert!(rel(r.dsnu_e, s.dsnu_e) < 0.03, "{name}: DSNU");
     assert!(rel(r.prnu_percent, 100.0 * s.prnu) < 0.03, "{name}: PRNU");
-    assert!(rel(r.quantum_efficiency.unwrap(), s.qe) < 0.03, "{name}: QE");
-    let sigma_tot = (s.read_e.powi(2) + s.dsnu_e.powi(2) + sat_true + (s.prnu * sat_true).powi(2)).sqrt();
-    assert!(r.saturation_capacity_e < sat_true && r.saturation_capacity_e > sat_true - 4.0 * sigma_tot, "{name}: EMVA saturation point");
-    assert!(rel(r.saturation_plateau_e, sat_true) < 0.03, "{name}: saturation plateau");
+    assert!(
+        rel(r.quantum_efficiency.unwrap(), s.qe) < 0.03,
+        "{name}: QE"
+    );
+    let sigma_tot =
+        (s.read_e.powi(2) + s.dsnu_e.powi(2) + sat_true + (s.prnu * sat_true).powi(2)).sqrt();
+    assert!(
+        r.saturation_capacity_e < sat_true && r.saturation_capacity_e > sat_true - 4.0 * sigma_tot,
+        "{name}: EMVA saturation point"
+    );
+    assert!(
+        rel(r.saturation_plateau_e, sat_true) < 0.03,
+        "{name}: saturation plateau"
+    );
     if dark_e > 0.0 {
-        assert!(rel(r.dark_current_e_per_s.unwrap(), dark_e) < 0.05, "{name}: dark current");
+        assert!(
+            rel(r.dark_current_e_per_s.unwrap(), dark_e) < 0.05,
+            "{name}: dark current"
+        );
     }
     assert_eq!(r.nonuniformity_frames, [100, 100]);
     // Threshold and dynamic range follow from the recovered values (EMVA definitions).
-    let thr = 0.5 + (r.temporal_dark_noise_dn.powi(2) / r.system_gain_dn_per_e.powi(2) + 0.25).sqrt();
+    let thr =
+        0.5 + (r.temporal_dark_noise_dn.powi(2) / r.system_gain_dn_per_e.powi(2) + 0.25).sqrt();
     assert!((r.threshold_e - thr).abs() < 1e-9);
     assert!((r.dynamic_range - r.saturation_capacity_e / thr).abs() < 1e-6 * r.dynamic_range);
 }
@@ -196,13 +237,30 @@ fn low_noise_sensor_with_dark_current_is_recovered() {
 fn raw_series_are_characterized_per_cfa_channel() {
     // Same synthetic model on a Bayer mosaic, with a different QE per channel: each channel's
     // QE is recovered, K is common.
-    let s = Synth { rows: 128, cols: 128, k_dn_per_e: 0.5, qe: 1.0, read_e: 6.0, dsnu_e: 2.0, prnu: 0.01, well_e: 8000.0, dark_current_e_per_s: 0.0, black_dn: 64.0, max_dn: 4095.0, seed: 13 };
+    let s = Synth {
+        rows: 128,
+        cols: 128,
+        k_dn_per_e: 0.5,
+        qe: 1.0,
+        read_e: 6.0,
+        dsnu_e: 2.0,
+        prnu: 0.01,
+        well_e: 8000.0,
+        dark_current_e_per_s: 0.0,
+        black_dn: 64.0,
+        max_dn: 4095.0,
+        seed: 13,
+    };
     let qe = [0.3, 0.6, 0.45];
     let cfa = CfaPattern::Rggb;
     // Photons chosen so that green spans its full well; per-channel QE scales the mean.
     let maps = s.maps();
     // Green saturates near 1.0, blue near 1.33, red near 2.0: dense levels below each.
-    let fractions = [0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.97, 0.98, 0.99, 1.0, 1.03, 1.1, 1.2, 1.27, 1.29, 1.31, 1.33, 1.36, 1.5, 1.7, 1.85, 1.92, 1.95, 1.97, 1.99, 2.05, 2.2, 2.6];
+    let fractions = [
+        0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.97, 0.98, 0.99, 1.0, 1.03,
+        1.1, 1.2, 1.27, 1.29, 1.31, 1.33, 1.36, 1.5, 1.7, 1.85, 1.92, 1.95, 1.97, 1.99, 2.05, 2.2,
+        2.6,
+    ];
     let mut frames: Vec<(f64, Vec<RawImage>, Vec<RawImage>)> = vec![];
     let mut id = 0;
     for f in fractions {
@@ -214,7 +272,12 @@ fn raw_series_are_characterized_per_cfa_channel() {
             // Per channel: a frame from the scalar model with that channel's QE, sampled at its pixels.
             for (ch, q) in qe.iter().enumerate() {
                 let sc = Synth { qe: *q, ..s };
-                let v = sc.frame(&maps, if light { photons } else { 0.0 }, 0.01, id * 4 + ch as u64);
+                let v = sc.frame(
+                    &maps,
+                    if light { photons } else { 0.0 },
+                    0.01,
+                    id * 4 + ch as u64,
+                );
                 for r in 0..s.rows {
                     for c in 0..s.cols {
                         if cfa.channel_at(r, c).index() == ch {
@@ -232,18 +295,34 @@ fn raw_series_are_characterized_per_cfa_channel() {
     }
     let inputs: Vec<EmvaRawInput> = frames
         .iter()
-        .map(|(p, b, d)| EmvaRawInput { exposure_s: 0.01, photons_per_pixel: Some(*p), bright: b.iter().collect(), dark: d.iter().collect() })
+        .map(|(p, b, d)| EmvaRawInput {
+            exposure_s: 0.01,
+            photons_per_pixel: Some(*p),
+            bright: b.iter().collect(),
+            dark: d.iter().collect(),
+        })
         .collect();
     let res = emva_raw(&inputs, &EmvaOptions::default()).unwrap();
     for c in &res {
         let i = c.channel.index();
         let r = &c.result;
-        println!("raw channel {}: K {:.4}, QE {:.4} (true {}), sat {:.0} e, plateau {:.0} e", c.channel.letter(), r.system_gain_dn_per_e, r.quantum_efficiency.unwrap(), qe[i], r.saturation_capacity_e, r.saturation_plateau_e);
+        println!(
+            "raw channel {}: K {:.4}, QE {:.4} (true {}), sat {:.0} e, plateau {:.0} e",
+            c.channel.letter(),
+            r.system_gain_dn_per_e,
+            r.quantum_efficiency.unwrap(),
+            qe[i],
+            r.saturation_capacity_e,
+            r.saturation_plateau_e
+        );
         assert!(rel(r.system_gain_dn_per_e, s.k_dn_per_e) < 0.03);
         assert!(rel(r.quantum_efficiency.unwrap(), qe[i]) < 0.03);
-        let sigma_tot = (s.read_e.powi(2) + s.dsnu_e.powi(2) + s.well_e + (s.prnu * s.well_e).powi(2)).sqrt();
-        assert!(r.saturation_capacity_e < s.well_e && r.saturation_capacity_e > s.well_e - 4.0 * sigma_tot);
+        let sigma_tot =
+            (s.read_e.powi(2) + s.dsnu_e.powi(2) + s.well_e + (s.prnu * s.well_e).powi(2)).sqrt();
+        assert!(
+            r.saturation_capacity_e < s.well_e
+                && r.saturation_capacity_e > s.well_e - 4.0 * sigma_tot
+        );
         assert!(rel(r.saturation_plateau_e, s.well_e) < 0.03);
     }
 }
-

@@ -29,17 +29,31 @@ const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data");
 /// named columns sampled on the 400-700 nm, 10 nm grid.
 fn read_qe(path: &str, cols: &[&str]) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let mut lines = text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty());
     let header: Vec<&str> = lines.next().unwrap().split(',').map(|s| s.trim()).collect();
-    let idx: Vec<usize> = cols.iter().map(|c| header.iter().position(|h| h == c).unwrap()).collect();
-    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
+    let idx: Vec<usize> = cols
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.trim().parse::<f64>().unwrap())
+                .collect()
+        })
+        .collect();
     let grid = WavelengthGrid::default();
     idx.iter()
         .map(|i| {
             (0..grid.len())
                 .map(|b| {
                     let w = grid.wavelength_nm(b);
-                    rows.iter().find(|r| (r[0] - w).abs() < 1e-6).map(|r| r[*i]).unwrap()
+                    rows.iter()
+                        .find(|r| (r[0] - w).abs() < 1e-6)
+                        .map(|r| r[*i])
+                        .unwrap()
                 })
                 .collect()
         })
@@ -47,13 +61,24 @@ fn read_qe(path: &str, cols: &[&str]) -> Vec<Vec<f64>> {
 }
 
 fn published_qe() -> [Vec<f64>; 3] {
-    let v = read_qe(&format!("{DATA}/imx363_qe.csv"), &["r", "g", "b", "ir_filter"]);
-    let eff = |c: usize| v[c].iter().zip(&v[3]).map(|(a, b)| a * b).collect::<Vec<f64>>();
+    let v = read_qe(
+        &format!("{DATA}/imx363_qe.csv"),
+        &["r", "g", "b", "ir_filter"],
+    );
+    let eff = |c: usize| {
+        v[c].iter()
+            .zip(&v[3])
+            .map(|(a, b)| a * b)
+            .collect::<Vec<f64>>()
+    };
     [eff(0), eff(1), eff(2)]
 }
 
 fn corrected_qe() -> [Vec<f64>; 3] {
-    let v = read_qe(&format!("{DATA}/isetcornellbox/p4aCorrected.csv"), &["r", "g", "b"]);
+    let v = read_qe(
+        &format!("{DATA}/isetcornellbox/p4aCorrected.csv"),
+        &["r", "g", "b"],
+    );
     [v[0].clone(), v[1].clone(), v[2].clone()]
 }
 
@@ -76,8 +101,14 @@ fn known_matrices_are_recovered_for_every_form() {
     let grid = WavelengthGrid::default();
     let pred = predict_rgb(&published_qe(), &grid, &radiances(), 1.0).unwrap();
     let cases = [
-        (MatrixForm::Unconstrained, [[0.9, 0.05, -0.02], [0.1, 0.8, 0.05], [0.0, 0.3, 0.85]]),
-        (MatrixForm::Diagonal, [[0.55, 0.0, 0.0], [0.0, 0.72, 0.0], [0.0, 0.0, 0.81]]),
+        (
+            MatrixForm::Unconstrained,
+            [[0.9, 0.05, -0.02], [0.1, 0.8, 0.05], [0.0, 0.3, 0.85]],
+        ),
+        (
+            MatrixForm::Diagonal,
+            [[0.55, 0.0, 0.0], [0.0, 0.72, 0.0], [0.0, 0.0, 0.81]],
+        ),
         (MatrixForm::PaperLowerNonNegative, PAPER_M),
     ];
     let noise = Normal::new(0.0, 0.003).unwrap();
@@ -92,8 +123,13 @@ fn known_matrices_are_recovered_for_every_form() {
             })
             .collect();
         let fit = fit_qe_matrix(&measured, &pred, form).unwrap();
-        let worst = (0..9).map(|k| (fit.m[k / 3][k % 3] - m[k / 3][k % 3]).abs()).fold(0.0, f64::max);
-        println!("{form:?}: worst entry error {worst:.5}, relative RMS before {:.4} after {:.4}", fit.relative_rms_before, fit.relative_rms_after);
+        let worst = (0..9)
+            .map(|k| (fit.m[k / 3][k % 3] - m[k / 3][k % 3]).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "{form:?}: worst entry error {worst:.5}, relative RMS before {:.4} after {:.4}",
+            fit.relative_rms_before, fit.relative_rms_after
+        );
         assert!(worst < 0.01, "{form:?}: {:?}", fit.m);
         // Entries outside the form stay exactly zero.
         for i in 0..3 {
@@ -108,8 +144,6 @@ fn known_matrices_are_recovered_for_every_form() {
     }
 }
 
-
-
 #[test]
 fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
     let grid = WavelengthGrid::default();
@@ -123,7 +157,11 @@ fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
     println!("QE-level M {m_qe:?} (residual {rel_qe:?}); published x paper M vs p4aCorrected {eps_paper:?}");
     let measured = predict_rgb(&corrected, &grid, &rad, 1.0).unwrap();
     let pred = predict_rgb(&published, &grid, &rad, 1.0).unwrap();
-    for form in [MatrixForm::Unconstrained, MatrixForm::Diagonal, MatrixForm::PaperLowerNonNegative] {
+    for form in [
+        MatrixForm::Unconstrained,
+        MatrixForm::Diagonal,
+        MatrixForm::PaperLowerNonNegative,
+    ] {
         let fit = fit_qe_matrix(&measured, &pred, form).unwrap();
         println!(
             "{form:?}: M = [{:.4} {:.4} {:.4}; {:.4} {:.4} {:.4}; {:.4} {:.4} {:.4}], relative RMS {:.4} -> {:.6}",
@@ -134,15 +172,25 @@ fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
             MatrixForm::PaperLowerNonNegative => {
                 // A relative curve error eps_j moves column j of M by about eps_j |M_j|.
                 for j in 0..3 {
-                    let tol = eps_paper[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt();
+                    let tol =
+                        eps_paper[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt();
                     for i in 0..3 {
                         let d = (fit.m[i][j] - PAPER_M[i][j]).abs();
-                        assert!(d <= tol, "M[{i}][{j}] = {:.4}, paper {} (tolerance {tol:.3})", fit.m[i][j], PAPER_M[i][j]);
+                        assert!(
+                            d <= tol,
+                            "M[{i}][{j}] = {:.4}, paper {} (tolerance {tol:.3})",
+                            fit.m[i][j],
+                            PAPER_M[i][j]
+                        );
                     }
                 }
                 // And the fitted M describes p4aCorrected at least as well as the paper's M.
-                let eps_fit = qefit::qe_relative_rms_difference(&published, &corrected, &fit.m).unwrap();
-                assert!((0..3).all(|j| eps_fit[j] <= eps_paper[j]), "{eps_fit:?} vs {eps_paper:?}");
+                let eps_fit =
+                    qefit::qe_relative_rms_difference(&published, &corrected, &fit.m).unwrap();
+                assert!(
+                    (0..3).all(|j| eps_fit[j] <= eps_paper[j]),
+                    "{eps_fit:?} vs {eps_paper:?}"
+                );
                 assert!(fit.relative_rms_after < 0.1 * fit.relative_rms_before);
             }
             MatrixForm::Unconstrained => {
@@ -150,7 +198,12 @@ fn fitted_matrix_for_published_qe_against_pixel4a_is_close_to_the_paper() {
                 assert!(fit.relative_rms_after < 1e-4, "{}", fit.relative_rms_after);
                 for i in 0..3 {
                     for j in 0..3 {
-                        assert!((fit.m[i][j] - m_qe[i][j]).abs() < 1e-3, "M[{i}][{j}] = {} vs QE-level {}", fit.m[i][j], m_qe[i][j]);
+                        assert!(
+                            (fit.m[i][j] - m_qe[i][j]).abs() < 1e-3,
+                            "M[{i}][{j}] = {} vs QE-level {}",
+                            fit.m[i][j],
+                            m_qe[i][j]
+                        );
                     }
                 }
             }

@@ -10,12 +10,18 @@
 
 mod common;
 use camsim_analysis::image::{cfa_channel_offset, Plane, Rect};
-use camsim_analysis::sfr::{find_edge_roi, sfr, sfr_raw_channel, sfr_raw_sub_grid, EdgeOrientation, SfrOptions};
+use camsim_analysis::sfr::{
+    find_edge_roi, sfr, sfr_raw_channel, sfr_raw_sub_grid, EdgeOrientation, SfrOptions,
+};
 use camsim_core::{CfaChannel, CfaPattern, RawImage};
 use common::*;
 
 /// Largest |measured - expected| for f <= f_max, and the relative MTF50 error.
-fn compare(res: &camsim_analysis::sfr::SfrResult, expected: impl Fn(f64) -> f64, f_max: f64) -> (f64, f64) {
+fn compare(
+    res: &camsim_analysis::sfr::SfrResult,
+    expected: impl Fn(f64) -> f64,
+    f_max: f64,
+) -> (f64, f64) {
     let mut worst: f64 = 0.0;
     for (f, m) in res.freq_cyc_per_sample.iter().zip(&res.mtf) {
         if *f <= f_max + 1e-12 {
@@ -46,13 +52,21 @@ fn area_integrated_gaussian_edges_match_analytic_mtf() {
             let img = slanted_edge(96, 64, angle, sigma, 0.1, 0.9, true);
             let res = sfr(&img, None, &opts).unwrap();
             assert_eq!(res.orientation, EdgeOrientation::Vertical);
-            assert!((res.edge_angle_deg.abs() - angle).abs() < 0.05, "angle {angle}: measured {}", res.edge_angle_deg);
+            assert!(
+                (res.edge_angle_deg.abs() - angle).abs() < 0.05,
+                "angle {angle}: measured {}",
+                res.edge_angle_deg
+            );
             let th = (angle as f64).to_radians();
-            let expected = |f: f64| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs();
+            let expected =
+                |f: f64| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs();
             let (e, e50) = compare(&res, expected, 0.5);
             println!("area  angle {angle:4} sigma {sigma}: max |dSFR| {e:.4}, MTF50 err {:.3} %, rows {}", 100.0 * e50, res.rows_used);
             assert!(e < 0.02, "angle {angle}, sigma {sigma}: SFR error {e}");
-            assert!(e50 < 0.02, "angle {angle}, sigma {sigma}: MTF50 error {e50}");
+            assert!(
+                e50 < 0.02,
+                "angle {angle}, sigma {sigma}: MTF50 error {e50}"
+            );
             worst = (worst.0.max(e), worst.1.max(e50));
         }
     }
@@ -75,7 +89,10 @@ fn point_sampled_edges_match_the_gaussian_alone_in_every_orientation_and_polarit
             let res = sfr(img, None, &opts).unwrap();
             assert_eq!(res.orientation, orient);
             let (e, e50) = compare(&res, |f| gauss_mtf(sigma, f), 0.5);
-            println!("point angle {angle:4} {name}: max |dSFR| {e:.4}, MTF50 err {:.3} %", 100.0 * e50);
+            println!(
+                "point angle {angle:4} {name}: max |dSFR| {e:.4}, MTF50 err {:.3} %",
+                100.0 * e50
+            );
             assert!(e < 0.02 && e50 < 0.02, "{name} angle {angle}: {e} {e50}");
         }
     }
@@ -94,18 +111,31 @@ fn cycles_per_mm_scale_with_the_pitch_and_second_order_fit_handles_a_curved_edge
         phi(d / sigma) as f32
     })
     .unwrap();
-    let o2 = SfrOptions { poly_order: 2, pixel_pitch_mm: Some(0.0014), ..Default::default() };
+    let o2 = SfrOptions {
+        poly_order: 2,
+        pixel_pitch_mm: Some(0.0014),
+        ..Default::default()
+    };
     let r2 = sfr(&img, None, &o2).unwrap();
     let (e2, _) = compare(&r2, |f| gauss_mtf(sigma, f), 0.5);
     let r1 = sfr(&img, None, &SfrOptions::default()).unwrap();
     let (e1, _) = compare(&r1, |f| gauss_mtf(sigma, f), 0.5);
     println!("curved edge: 1st order max err {e1:.4}, 2nd order {e2:.4}");
     assert!(e2 < 0.02, "2nd order {e2}");
-    assert!(e2 < e1, "the 2nd-order fit should beat the straight line on a curved edge");
-    assert!((r2.edge_fit[2] - k).abs() < 2e-4, "curvature {}", r2.edge_fit[2]);
+    assert!(
+        e2 < e1,
+        "the 2nd-order fit should beat the straight line on a curved edge"
+    );
+    assert!(
+        (r2.edge_fit[2] - k).abs() < 2e-4,
+        "curvature {}",
+        r2.edge_fit[2]
+    );
     let mm = r2.freq_cyc_per_mm.as_ref().unwrap();
     assert!((mm[10] - r2.freq_cyc_per_sample[10] / 0.0014).abs() < 1e-9);
-    assert!((r2.mtf50_cyc_per_mm.unwrap() - r2.mtf50_cyc_per_sample.unwrap() / 0.0014).abs() < 1e-6);
+    assert!(
+        (r2.mtf50_cyc_per_mm.unwrap() - r2.mtf50_cyc_per_sample.unwrap() / 0.0014).abs() < 1e-6
+    );
 }
 
 #[test]
@@ -124,11 +154,18 @@ fn automatic_roi_finds_the_edge_in_a_larger_frame() {
     }
     let roi = find_edge_roi(&frame).unwrap();
     println!("found ROI {roi}");
-    assert!(roi.row >= 20 && roi.row_end() <= 140 && roi.rows >= 100, "{roi}");
+    assert!(
+        roi.row >= 20 && roi.row_end() <= 140 && roi.rows >= 100,
+        "{roi}"
+    );
     assert!(roi.col <= 70 + 27 && roi.col_end() >= 70 + 37, "{roi}");
     let res = sfr(&frame, Some(roi), &SfrOptions::default()).unwrap();
     let th = 5f64.to_radians();
-    let (e, e50) = compare(&res, |f| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs(), 0.5);
+    let (e, e50) = compare(
+        &res,
+        |f| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs(),
+        0.5,
+    );
     assert!(e < 0.02 && e50 < 0.02, "{e} {e50}");
     // Horizontal edge: the transposed frame gives the transposed ROI.
     let t = find_edge_roi(&frame.transpose()).unwrap();
@@ -152,7 +189,8 @@ fn cfa_mosaic_channels_on_their_own_sub_grids() {
         for r in 0..rows {
             for c in 0..cols {
                 let ch = raw.channel_at(r, c).index();
-                raw.dn[r * cols + c] = (512.0 + 1000.0 + gain[ch] * edge.at(r, c) as f64).round() as u16;
+                raw.dn[r * cols + c] =
+                    (512.0 + 1000.0 + gain[ch] * edge.at(r, c) as f64).round() as u16;
             }
         }
         let th = (angle as f64).to_radians();
@@ -161,7 +199,12 @@ fn cfa_mosaic_channels_on_their_own_sub_grids() {
             gauss_mtf(sigma, fs) * (sinc(fs * th.cos()) * sinc(fs * th.sin())).abs()
         };
         let roi = Rect::new(0, 0, rows, cols);
-        for (ch, g) in [(CfaChannel::R, None), (CfaChannel::G, Some(0)), (CfaChannel::G, Some(1)), (CfaChannel::B, None)] {
+        for (ch, g) in [
+            (CfaChannel::R, None),
+            (CfaChannel::G, Some(0)),
+            (CfaChannel::G, Some(1)),
+            (CfaChannel::B, None),
+        ] {
             let res = sfr_raw_sub_grid(&raw, ch, g, Some(roi), &SfrOptions::default()).unwrap();
             assert_eq!(res.sample_pitch_sensor_px, 2.0);
             let (e, e50) = compare(&res, expected, 0.5);
@@ -170,7 +213,9 @@ fn cfa_mosaic_channels_on_their_own_sub_grids() {
             assert!(e < 0.02 && e50 < 0.02, "{:?}: {e} {e50}", ch);
             let mm = res.freq_cyc_per_mm.as_ref().unwrap();
             assert!((mm[8] - res.freq_cyc_per_sensor_px[8] / 1.4e-3).abs() < 1e-6);
-            assert!((res.freq_cyc_per_sensor_px[8] * 2.0 - res.freq_cyc_per_sample[8]).abs() < 1e-12);
+            assert!(
+                (res.freq_cyc_per_sensor_px[8] * 2.0 - res.freq_cyc_per_sample[8]).abs() < 1e-12
+            );
         }
         // Automatic ROI on the sub-grid gives the same answer within tolerance.
         let auto = sfr_raw_channel(&raw, CfaChannel::R, None, &SfrOptions::default()).unwrap();
@@ -193,19 +238,43 @@ fn automatic_roi_prefers_the_slanted_edge_over_the_frame_of_a_smaller_scene() {
             frame.data[(r + 20) * cols + c + 30] = edge.at(r, c);
         }
     }
-    for (name, img, transposed) in [("vertical edge", frame.clone(), false), ("horizontal edge", frame.transpose(), true)] {
+    for (name, img, transposed) in [
+        ("vertical edge", frame.clone(), false),
+        ("horizontal edge", frame.transpose(), true),
+    ] {
         let roi = find_edge_roi(&img).unwrap();
-        let roi_v = if transposed { Rect::new(roi.col, roi.row, roi.cols, roi.rows) } else { roi };
+        let roi_v = if transposed {
+            Rect::new(roi.col, roi.row, roi.cols, roi.rows)
+        } else {
+            roi
+        };
         println!("{name}: found ROI {roi}");
         // The slanted edge crosses column 30 + 90.3 at the middle row and moves by 160 tan(5 deg)
         // = 14 columns over its length; the frame's right border is at column 210.
-        assert!(roi_v.col > 30 && roi_v.col_end() < 210, "{name}: ROI {roi} takes in the frame");
-        assert!(roi_v.col <= 120 - 7 - 12 && roi_v.col_end() >= 120 + 7 + 12, "{name}: ROI {roi} misses the edge");
-        assert!(roi_v.row >= 20 && roi_v.row_end() <= 180 && roi_v.rows >= 100, "{name}: ROI {roi}");
+        assert!(
+            roi_v.col > 30 && roi_v.col_end() < 210,
+            "{name}: ROI {roi} takes in the frame"
+        );
+        assert!(
+            roi_v.col <= 120 - 7 - 12 && roi_v.col_end() >= 120 + 7 + 12,
+            "{name}: ROI {roi} misses the edge"
+        );
+        assert!(
+            roi_v.row >= 20 && roi_v.row_end() <= 180 && roi_v.rows >= 100,
+            "{name}: ROI {roi}"
+        );
         let res = sfr(&img, Some(roi), &SfrOptions::default()).unwrap();
-        assert!((res.edge_angle_deg.abs() - 5.0).abs() < 0.1, "{name}: angle {}", res.edge_angle_deg);
+        assert!(
+            (res.edge_angle_deg.abs() - 5.0).abs() < 0.1,
+            "{name}: angle {}",
+            res.edge_angle_deg
+        );
         let th = 5f64.to_radians();
-        let (e, e50) = compare(&res, |f| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs(), 0.5);
+        let (e, e50) = compare(
+            &res,
+            |f| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs(),
+            0.5,
+        );
         assert!(e < 0.02 && e50 < 0.02, "{name}: {e} {e50}");
     }
 }

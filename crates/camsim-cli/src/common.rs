@@ -20,8 +20,10 @@ pub fn progress(total: u64, what: &str) -> ProgressBar {
     }
     let pb = ProgressBar::new(total);
     pb.set_style(
-        ProgressStyle::with_template("{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb.set_message(what.to_string());
     pb
@@ -56,7 +58,12 @@ pub fn stage_out_dir(dir: &Path) -> Result<OutputDir> {
     let out = OutputDir::create(dir)?;
     if let Some(old) = out.replaces() {
         const SHOWN: usize = 8;
-        let mut list = old.iter().take(SHOWN).cloned().collect::<Vec<_>>().join(", ");
+        let mut list = old
+            .iter()
+            .take(SHOWN)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ");
         if old.len() > SHOWN {
             list.push_str(&format!(" and {} more", old.len() - SHOWN));
         }
@@ -95,7 +102,8 @@ pub fn commit(out: OutputDir) -> Result<()> {
 /// Create the output folder (and parents). Prefer [`stage_out_dir`]: a folder made with this
 /// one can be left half-written by a failed or interrupted run.
 pub fn out_dir(dir: &Path) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create output folder {}", dir.display()))?;
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
     Ok(dir.to_path_buf())
 }
 

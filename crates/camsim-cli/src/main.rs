@@ -81,7 +81,9 @@ fn main() {
             std::process::exit(2);
         }
         // Ignore the error if a pool exists already (cannot happen in main).
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global();
     }
     common::set_quiet(cli.quiet);
     // Ctrl-C, SIGTERM, SIGHUP: remove every registered temporary file and staging folder (the

@@ -24,8 +24,17 @@ fn camsim(args: &[String], limit: Duration) -> (Option<i32>, String) {
 }
 
 fn run_ok(args: &[&str]) -> Output {
-    let o = Command::new(BIN).args(args).arg("--quiet").output().unwrap();
-    assert!(o.status.success(), "fixture `camsim {}` failed: {}", args.join(" "), String::from_utf8_lossy(&o.stderr));
+    let o = Command::new(BIN)
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "fixture `camsim {}` failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&o.stderr)
+    );
     o
 }
 
@@ -35,11 +44,16 @@ fn value_options(text: &str) -> Vec<String> {
     for line in text.lines() {
         let t = line.trim_start();
         // `-q, --quiet`: the long form follows the short one.
-        let t = if t.starts_with('-') && t.as_bytes().get(1) != Some(&b'-') { t.split_once(", ").map_or("", |(_, long)| long) } else { t };
+        let t = if t.starts_with('-') && t.as_bytes().get(1) != Some(&b'-') {
+            t.split_once(", ").map_or("", |(_, long)| long)
+        } else {
+            t
+        };
         if let Some(rest) = t.strip_prefix("--") {
             let mut words = rest.split_whitespace();
             let name = words.next().unwrap_or("");
-            if words.next().is_some_and(|w| w.starts_with('<')) && !out.contains(&name.to_string()) {
+            if words.next().is_some_and(|w| w.starts_with('<')) && !out.contains(&name.to_string())
+            {
                 out.push(name.to_string());
             }
         }
@@ -49,8 +63,11 @@ fn value_options(text: &str) -> Vec<String> {
 
 /// The leaf subcommands (those that do the work), from the help walk.
 fn leaves() -> Vec<Vec<String>> {
-    let mut out: Vec<Vec<String>> =
-        command_tree().into_iter().filter(|(_, text)| subcommands(text).is_empty()).map(|(p, _)| p).collect();
+    let mut out: Vec<Vec<String>> = command_tree()
+        .into_iter()
+        .filter(|(_, text)| subcommands(text).is_empty())
+        .map(|(p, _)| p)
+        .collect();
     out.sort();
     out
 }
@@ -127,10 +144,32 @@ fn fixture() -> &'static Fixture {
         std::fs::write(root.join("flat.toml"), FLAT).unwrap();
         std::fs::write(root.join("edge.toml"), EDGE).unwrap();
         std::fs::write(root.join("dataset.toml"), DATASET).unwrap();
-        run_ok(&["simulate", &p("small.toml"), "--out", &p("sim"), "--save", "all"]);
+        run_ok(&[
+            "simulate",
+            &p("small.toml"),
+            "--out",
+            &p("sim"),
+            "--save",
+            "all",
+        ]);
         run_ok(&["simulate", &p("flat.toml"), "--out", &p("flat")]);
         run_ok(&["simulate", &p("edge.toml"), "--out", &p("edge")]);
-        run_ok(&["sensor", "--emva-series", "--sensor", "imx363", "--rows", "32", "--cols", "32", "--levels", "6", "--frames-per-level", "2", "--out", &p("emva")]);
+        run_ok(&[
+            "sensor",
+            "--emva-series",
+            "--sensor",
+            "imx363",
+            "--rows",
+            "32",
+            "--cols",
+            "32",
+            "--levels",
+            "6",
+            "--frames-per-level",
+            "2",
+            "--out",
+            &p("emva"),
+        ]);
         // Chart means in the `fit qe` format: 24 patches under three lights.
         let mut csv = String::from("light,patch,r,g,b\n");
         for light in ["A", "F2", "D65"] {
@@ -158,16 +197,48 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
     Some(match p.as_slice() {
         ["simulate"] => vec!["simulate", "{F}/small.toml", "--out", "{O}"],
         ["scene"] => vec!["scene", "{F}/small.toml", "--out", "{O}/r.exr"],
-        ["render"] => vec!["render", "--builtin", "cornell-box", "--resolution", "16x16", "--spp", "1", "--out", "{O}"],
-        ["optics"] => vec!["optics", "--in", "{F}/sim/radiance.exr", "--out", "{O}/i.exr"],
+        ["render"] => vec![
+            "render",
+            "--builtin",
+            "cornell-box",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "1",
+            "--out",
+            "{O}",
+        ],
+        ["optics"] => vec![
+            "optics",
+            "--in",
+            "{F}/sim/radiance.exr",
+            "--out",
+            "{O}/i.exr",
+        ],
         ["psf"] => vec!["psf", "--lens", "pixel4a", "--out", "{O}"],
         ["fit-shading"] => vec!["fit-shading", "{F}/flat/raw.dng", "--out", "{O}/s.toml"],
-        ["sensor"] => vec!["sensor", "--in", "{F}/sim/irradiance.exr", "--exposure-ms", "5", "--out", "{O}"],
+        ["sensor"] => vec![
+            "sensor",
+            "--in",
+            "{F}/sim/irradiance.exr",
+            "--exposure-ms",
+            "5",
+            "--out",
+            "{O}",
+        ],
         ["isp"] => vec!["isp", "--in", "{F}/sim/raw.dng", "--out", "{O}/p.png"],
         ["presets"] => vec!["presets", "sensor", "imx363"],
         ["analyze", "sfr"] => vec!["analyze", "sfr", "{F}/edge/raw.dng", "--out", "{O}"],
         ["analyze", "chart"] => vec!["analyze", "chart", "{F}/sim/raw.dng", "--out", "{O}"],
-        ["analyze", "roi"] => vec!["analyze", "roi", "{F}/sim/raw.dng", "--region", "8,8,16,16", "--out", "{O}"],
+        ["analyze", "roi"] => vec![
+            "analyze",
+            "roi",
+            "{F}/sim/raw.dng",
+            "--region",
+            "8,8,16,16",
+            "--out",
+            "{O}",
+        ],
         ["analyze", "demosaic"] => vec!["analyze", "demosaic", "--size", "64", "--out", "{O}"],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
@@ -180,11 +251,18 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
 }
 
 fn expand(args: &[&str], f: &Path, o: &Path) -> Vec<String> {
-    args.iter().map(|a| a.replace("{F}", &f.to_string_lossy()).replace("{O}", &o.to_string_lossy())).collect()
+    args.iter()
+        .map(|a| {
+            a.replace("{F}", &f.to_string_lossy())
+                .replace("{O}", &o.to_string_lossy())
+        })
+        .collect()
 }
 
 fn is_internal_error(code: Option<i32>, stderr: &str) -> bool {
-    !matches!(code, Some(0) | Some(2)) || stderr.contains("panicked") || stderr.contains("internal error")
+    !matches!(code, Some(0) | Some(2))
+        || stderr.contains("panicked")
+        || stderr.contains("internal error")
 }
 
 #[test]
@@ -195,14 +273,20 @@ fn malformed_option_values_exit_2_never_panic() {
     let mut tried = 0;
     for path in leaves() {
         let Some(args) = base(&path) else {
-            failures.push(format!("`camsim {}` has no base invocation in bad_input_cli.rs: add one", path.join(" ")));
+            failures.push(format!(
+                "`camsim {}` has no base invocation in bad_input_cli.rs: add one",
+                path.join(" ")
+            ));
             continue;
         };
         let out = f.root.join(format!("out-{}", path.join("-")));
         // The base itself must succeed, or the malformed values below test nothing.
         let (code, err) = camsim(&expand(&args, &f.root, &out), limit);
         if code != Some(0) {
-            failures.push(format!("base `camsim {}` failed ({code:?}): {err}", args.join(" ")));
+            failures.push(format!(
+                "base `camsim {}` failed ({code:?}): {err}",
+                args.join(" ")
+            ));
             continue;
         }
         for opt in value_options(&help(&path)) {
@@ -222,17 +306,38 @@ fn malformed_option_values_exit_2_never_panic() {
                 tried += 1;
                 let (code, err) = camsim(&a, limit);
                 if is_internal_error(code, &err) {
-                    failures.push(format!("`camsim {}` exited {code:?}: {}", a.join(" "), err.trim()));
+                    failures.push(format!(
+                        "`camsim {}` exited {code:?}: {}",
+                        a.join(" "),
+                        err.trim()
+                    ));
                 } else if code == Some(2) && err.trim().is_empty() {
-                    failures.push(format!("`camsim {}` exited 2 without a message", a.join(" ")));
-                } else if code == Some(0) && (value == "nan" || value == "1e999") && !accepts_any_text(&opt) {
-                    failures.push(format!("`camsim {}` accepted a non-finite value for --{opt}", a.join(" ")));
+                    failures.push(format!(
+                        "`camsim {}` exited 2 without a message",
+                        a.join(" ")
+                    ));
+                } else if code == Some(0)
+                    && (value == "nan" || value == "1e999")
+                    && !accepts_any_text(&opt)
+                {
+                    failures.push(format!(
+                        "`camsim {}` accepted a non-finite value for --{opt}",
+                        a.join(" ")
+                    ));
                 }
             }
         }
     }
-    assert!(tried > 100, "only {tried} malformed invocations found: did the help format change?");
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        tried > 100,
+        "only {tried} malformed invocations found: did the help format change?"
+    );
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
 
 /// Options whose value is free text (a name that can legitimately be "nan", a file that may be
@@ -249,27 +354,166 @@ fn malformed_files_exit_2_and_name_the_file() {
     std::fs::create_dir_all(&bad).unwrap();
     // Each input slot of each command, with a valid file to truncate.
     let slots: Vec<(Vec<&str>, &str, &str)> = vec![
-        (vec!["simulate", "{X}", "--out", "{O}"], "small.toml", "toml"),
-        (vec!["scene", "{X}", "--out", "{O}/r.exr"], "small.toml", "toml"),
-        (vec!["render", "{X}", "--resolution", "8x8", "--spp", "1", "--out", "{O}"], "small.toml", "pbrt"),
-        (vec!["render", "--builtin", "cornell-box", "--overlay", "{X}", "--resolution", "8x8", "--spp", "1", "--out", "{O}"], "small.toml", "toml"),
-        (vec!["optics", "--in", "{X}", "--out", "{O}/i.exr"], "sim/radiance.exr", "exr"),
-        (vec!["optics", "--in", "{F}/sim/radiance.exr", "--lens", "{X}", "--out", "{O}/i.exr"], "small.toml", "toml"),
-        (vec!["psf", "--lens", "{X}", "--out", "{O}"], "small.toml", "toml"),
-        (vec!["fit-shading", "{X}", "--out", "{O}/s.toml"], "flat/raw.dng", "dng"),
-        (vec!["sensor", "--in", "{X}", "--exposure-ms", "5", "--out", "{O}"], "sim/irradiance.exr", "exr"),
-        (vec!["sensor", "--in", "{F}/sim/irradiance.exr", "--sensor", "{X}", "--exposure-ms", "5", "--out", "{O}"], "small.toml", "toml"),
-        (vec!["isp", "--in", "{X}", "--out", "{O}/p.png"], "sim/raw.dng", "dng"),
-        (vec!["analyze", "sfr", "{X}", "--out", "{O}"], "edge/raw.dng", "dng"),
-        (vec!["analyze", "sfr", "{X}", "--out", "{O}"], "sim/irradiance.exr", "exr"),
-        (vec!["analyze", "chart", "{X}", "--out", "{O}"], "sim/raw.dng", "dng"),
-        (vec!["analyze", "roi", "{X}", "--region", "8,8,16,16", "--out", "{O}"], "sim/raw.dng", "dng"),
-        (vec!["analyze", "emva", "{X}", "--out", "{O}"], "emva/series.csv", "csv"),
-        (vec!["fit", "qe", "--measured", "{X}", "--out", "{O}"], "means.csv", "csv"),
-        (vec!["fit", "mtf", "--measured", "{X}", "--out", "{O}"], "mtf.csv", "csv"),
-        (vec!["validate", "compare", "{X}", "--out", "{O}"], "small.toml", "toml"),
-        (vec!["dataset", "{X}", "--out", "{O}"], "dataset.toml", "toml"),
-        (vec!["compare", "--size", "64", "--a", "{X}", "--out", "{O}"], "small.toml", "toml"),
+        (
+            vec!["simulate", "{X}", "--out", "{O}"],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["scene", "{X}", "--out", "{O}/r.exr"],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec![
+                "render",
+                "{X}",
+                "--resolution",
+                "8x8",
+                "--spp",
+                "1",
+                "--out",
+                "{O}",
+            ],
+            "small.toml",
+            "pbrt",
+        ),
+        (
+            vec![
+                "render",
+                "--builtin",
+                "cornell-box",
+                "--overlay",
+                "{X}",
+                "--resolution",
+                "8x8",
+                "--spp",
+                "1",
+                "--out",
+                "{O}",
+            ],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["optics", "--in", "{X}", "--out", "{O}/i.exr"],
+            "sim/radiance.exr",
+            "exr",
+        ),
+        (
+            vec![
+                "optics",
+                "--in",
+                "{F}/sim/radiance.exr",
+                "--lens",
+                "{X}",
+                "--out",
+                "{O}/i.exr",
+            ],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["psf", "--lens", "{X}", "--out", "{O}"],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["fit-shading", "{X}", "--out", "{O}/s.toml"],
+            "flat/raw.dng",
+            "dng",
+        ),
+        (
+            vec![
+                "sensor",
+                "--in",
+                "{X}",
+                "--exposure-ms",
+                "5",
+                "--out",
+                "{O}",
+            ],
+            "sim/irradiance.exr",
+            "exr",
+        ),
+        (
+            vec![
+                "sensor",
+                "--in",
+                "{F}/sim/irradiance.exr",
+                "--sensor",
+                "{X}",
+                "--exposure-ms",
+                "5",
+                "--out",
+                "{O}",
+            ],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["isp", "--in", "{X}", "--out", "{O}/p.png"],
+            "sim/raw.dng",
+            "dng",
+        ),
+        (
+            vec!["analyze", "sfr", "{X}", "--out", "{O}"],
+            "edge/raw.dng",
+            "dng",
+        ),
+        (
+            vec!["analyze", "sfr", "{X}", "--out", "{O}"],
+            "sim/irradiance.exr",
+            "exr",
+        ),
+        (
+            vec!["analyze", "chart", "{X}", "--out", "{O}"],
+            "sim/raw.dng",
+            "dng",
+        ),
+        (
+            vec![
+                "analyze",
+                "roi",
+                "{X}",
+                "--region",
+                "8,8,16,16",
+                "--out",
+                "{O}",
+            ],
+            "sim/raw.dng",
+            "dng",
+        ),
+        (
+            vec!["analyze", "emva", "{X}", "--out", "{O}"],
+            "emva/series.csv",
+            "csv",
+        ),
+        (
+            vec!["fit", "qe", "--measured", "{X}", "--out", "{O}"],
+            "means.csv",
+            "csv",
+        ),
+        (
+            vec!["fit", "mtf", "--measured", "{X}", "--out", "{O}"],
+            "mtf.csv",
+            "csv",
+        ),
+        (
+            vec!["validate", "compare", "{X}", "--out", "{O}"],
+            "small.toml",
+            "toml",
+        ),
+        (
+            vec!["dataset", "{X}", "--out", "{O}"],
+            "dataset.toml",
+            "toml",
+        ),
+        (
+            vec!["compare", "--size", "64", "--a", "{X}", "--out", "{O}"],
+            "small.toml",
+            "toml",
+        ),
     ];
     let mut failures = Vec::new();
     for (i, (args, valid, ext)) in slots.iter().enumerate() {
@@ -277,7 +521,10 @@ fn malformed_files_exit_2_and_name_the_file() {
         let cases: Vec<(&str, Option<Vec<u8>>)> = vec![
             ("missing", None),
             ("empty", Some(Vec::new())),
-            ("junk", Some(b"\x00\xffnot a camsim file\n[[[ = \"".to_vec())),
+            (
+                "junk",
+                Some(b"\x00\xffnot a camsim file\n[[[ = \"".to_vec()),
+            ),
             ("truncated", Some(whole[..whole.len() / 3].to_vec())),
             ("bitflipped", Some(flip_bits(&whole))),
         ];
@@ -289,26 +536,50 @@ fn malformed_files_exit_2_and_name_the_file() {
             let out = bad.join(format!("out-{i}-{what}"));
             let a: Vec<String> = args
                 .iter()
-                .map(|s| s.replace("{X}", &file.to_string_lossy()).replace("{F}", &f.root.to_string_lossy()).replace("{O}", &out.to_string_lossy()))
+                .map(|s| {
+                    s.replace("{X}", &file.to_string_lossy())
+                        .replace("{F}", &f.root.to_string_lossy())
+                        .replace("{O}", &out.to_string_lossy())
+                })
                 .collect();
             let (code, err) = camsim(&a, limit);
             let name = file.file_name().unwrap().to_string_lossy().into_owned();
             if is_internal_error(code, &err) {
-                failures.push(format!("`camsim {}` ({what}) exited {code:?}: {}", a.join(" "), err.trim()));
+                failures.push(format!(
+                    "`camsim {}` ({what}) exited {code:?}: {}",
+                    a.join(" "),
+                    err.trim()
+                ));
             } else if what == "bitflipped" || (what == "truncated" && *ext == "csv") {
                 // A CSV cut at a line end, or a bit flip, may leave a valid (smaller) file.
                 // When refused, the file must be named.
                 if code == Some(2) && !err.contains(&name) {
-                    failures.push(format!("`camsim {}` ({what}): message does not name the file: {}", a.join(" "), err.trim()));
+                    failures.push(format!(
+                        "`camsim {}` ({what}): message does not name the file: {}",
+                        a.join(" "),
+                        err.trim()
+                    ));
                 }
             } else if code != Some(2) {
-                failures.push(format!("`camsim {}` ({what}) exited {code:?}, expected 2", a.join(" ")));
+                failures.push(format!(
+                    "`camsim {}` ({what}) exited {code:?}, expected 2",
+                    a.join(" ")
+                ));
             } else if !err.contains(&name) {
-                failures.push(format!("`camsim {}` ({what}): message does not name the file: {}", a.join(" "), err.trim()));
+                failures.push(format!(
+                    "`camsim {}` ({what}): message does not name the file: {}",
+                    a.join(" "),
+                    err.trim()
+                ));
             }
         }
     }
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
 
 /// The file with a few bytes in the middle inverted (a damaged header or payload).

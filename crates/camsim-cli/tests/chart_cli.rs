@@ -7,7 +7,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn camsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_camsim")).args(args).arg("--quiet").output().expect("camsim runs")
+    Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .expect("camsim runs")
 }
 
 fn stderr(o: &Output) -> String {
@@ -16,11 +20,17 @@ fn stderr(o: &Output) -> String {
 
 fn json_of(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "camsim failed: {}", stderr(o));
-    serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {}", String::from_utf8_lossy(&o.stdout)))
+    serde_json::from_slice(&o.stdout).unwrap_or_else(|e| {
+        panic!(
+            "stdout is not JSON ({e}): {}",
+            String::from_utf8_lossy(&o.stdout)
+        )
+    })
 }
 
 fn canon_dng() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/dng/canon-550d-colorchecker-passport.dng")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/dng/canon-550d-colorchecker-passport.dng")
 }
 
 /// Corners of the Passport's 24-patch grid in the Canon file (outer corners of the dark-skin,
@@ -70,10 +80,22 @@ fn chart_of_a_camsim_run_is_found_from_run_json_and_neutral_ratios_match_macbeth
     let cfg = dir.path().join("chart.toml");
     std::fs::write(&cfg, CHART_CONFIG).unwrap();
     let sim = dir.path().join("sim");
-    let o = camsim(&["simulate", cfg.to_str().unwrap(), "--out", sim.to_str().unwrap()]);
+    let o = camsim(&[
+        "simulate",
+        cfg.to_str().unwrap(),
+        "--out",
+        sim.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "simulate: {}", stderr(&o));
     let out = dir.path().join("chart");
-    let v = json_of(&camsim(&["analyze", "chart", sim.join("raw.dng").to_str().unwrap(), "--json", "--out", out.to_str().unwrap()]));
+    let v = json_of(&camsim(&[
+        "analyze",
+        "chart",
+        sim.join("raw.dng").to_str().unwrap(),
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]));
     for f in ["patches.csv", "profile.csv", "profile.png", "chart.json"] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
@@ -84,16 +106,33 @@ fn chart_of_a_camsim_run_is_found_from_run_json_and_neutral_ratios_match_macbeth
     // reflectance x green-QE integral over the grid (the scene, optics and sensor scale every
     // patch alike; N. Ohta's reflectances from camsim-core's table).
     let grid = WavelengthGrid::default();
-    let d65 = camsim_core::tables::illuminant("D65").unwrap().sample(&grid);
-    let qe_g = camsim_sensor::Sensor::preset("pixel4a").unwrap().channel_qe(&grid)[1].clone();
+    let d65 = camsim_core::tables::illuminant("D65")
+        .unwrap()
+        .sample(&grid);
+    let qe_g = camsim_sensor::Sensor::preset("pixel4a")
+        .unwrap()
+        .channel_qe(&grid)[1]
+        .clone();
     let refl = camsim_core::tables::macbeth_reflectances();
-    let signal = |k: usize| -> f64 { refl[k].sample(&grid).iter().zip(&d65).zip(&qe_g).map(|((r, e), q)| r * e * q).sum() };
+    let signal = |k: usize| -> f64 {
+        refl[k]
+            .sample(&grid)
+            .iter()
+            .zip(&d65)
+            .zip(&qe_g)
+            .map(|((r, e), q)| r * e * q)
+            .sum()
+    };
     let white = 18;
     let (mw, sw, nw) = (p[white].0[1], p[white].1[1], p[white].2[1]);
     for k in 18..24 {
         let (m, s, n) = (p[k].0[1], p[k].1[1], p[k].2[1]);
         if k > 18 {
-            assert!(m < p[k - 1].0[1], "green means not ordered white > ... > black: {:?}", (18..24).map(|i| p[i].0[1]).collect::<Vec<_>>());
+            assert!(
+                m < p[k - 1].0[1],
+                "green means not ordered white > ... > black: {:?}",
+                (18..24).map(|i| p[i].0[1]).collect::<Vec<_>>()
+            );
         }
         let expected = signal(k) / signal(white);
         let ratio = m / mw;
@@ -110,7 +149,8 @@ fn chart_of_a_camsim_run_is_found_from_run_json_and_neutral_ratios_match_macbeth
     // level scaled by sqrt(mean)), which fails if a square straddles a border.
     for (k, (m, s, _)) in p.iter().enumerate() {
         for c in 0..3 {
-            let noise_bound = 3.0 * (p[white].1[c] / p[white].0[c].sqrt()) * m[c].max(1.0).sqrt() + 3.0 * p[23].1[c];
+            let noise_bound = 3.0 * (p[white].1[c] / p[white].0[c].sqrt()) * m[c].max(1.0).sqrt()
+                + 3.0 * p[23].1[c];
             assert!(s[c] < noise_bound, "patch {k} channel {c}: std {} DN > {noise_bound:.2}: the square straddles a border", s[c]);
         }
     }
@@ -137,9 +177,20 @@ fn chart_of_the_real_canon_dng_with_corners_orders_the_neutral_patches() {
             let (a, b) = (&p[k - 1], &p[k]);
             // Ordered, and by more than 4 standard errors of the difference.
             let se = ((a.1[c].powi(2) / a.2[c]) + (b.1[c].powi(2) / b.2[c])).sqrt();
-            assert!(a.0[c] - b.0[c] > 4.0 * se, "channel {c}: neutral patch {} ({:.1} DN) not above {} ({:.1} DN), se {se:.2}", k - 1, a.0[c], k, b.0[c]);
+            assert!(
+                a.0[c] - b.0[c] > 4.0 * se,
+                "channel {c}: neutral patch {} ({:.1} DN) not above {} ({:.1} DN), se {se:.2}",
+                k - 1,
+                a.0[c],
+                k,
+                b.0[c]
+            );
         }
-        assert!(p[23].0[c] > -5.0, "channel {c}: black patch {} DN below black", p[23].0[c]);
+        assert!(
+            p[23].0[c] > -5.0,
+            "channel {c}: black patch {} DN below black",
+            p[23].0[c]
+        );
     }
     // Dark skin (0) is redder than it is blue; bluish green (5) is bluer than red; red (14) is red.
     assert!(p[0].0[0] > p[0].0[2] && p[5].0[2] > p[5].0[0] && p[14].0[0] > 2.0 * p[14].0[1]);
@@ -154,14 +205,32 @@ fn linear_raw_chart(path: &Path) -> [f64; 3] {
     for r in 0..rows {
         for c in 0..cols {
             let (u, v) = (c as i64 - 10, r as i64 - 8);
-            let patch = (u >= 0 && v >= 0 && u < 120 && v < 80 && u % 20 >= 2 && u % 20 < 18 && v % 20 >= 2 && v % 20 < 18).then(|| (v / 20 * 6 + u / 20) as usize);
+            let patch = (u >= 0
+                && v >= 0
+                && u < 120
+                && v < 80
+                && u % 20 >= 2
+                && u % 20 < 18
+                && v % 20 >= 2
+                && v % 20 < 18)
+                .then(|| (v / 20 * 6 + u / 20) as usize);
             for k in 0..3 {
-                dn[(r * cols + c) * 3 + k] = (black[k] + patch.map_or(0.0, |p| lin_value(p, k))) as u16;
+                dn[(r * cols + c) * 3 + k] =
+                    (black[k] + patch.map_or(0.0, |p| lin_value(p, k))) as u16;
             }
         }
     }
-    let img = camsim_io::dng::LinearRawImage { rows, cols, dn, black_level_dn: black, white_level_dn: [65535.0; 3], exposure_s: 0.01, pixel_pitch_m: 0.0 };
-    camsim_io::dng::write_linear_raw_dng(path, &img, &camsim_io::dng::DngMetadata::default()).unwrap();
+    let img = camsim_io::dng::LinearRawImage {
+        rows,
+        cols,
+        dn,
+        black_level_dn: black,
+        white_level_dn: [65535.0; 3],
+        exposure_s: 0.01,
+        pixel_pitch_m: 0.0,
+    };
+    camsim_io::dng::write_linear_raw_dng(path, &img, &camsim_io::dng::DngMetadata::default())
+        .unwrap();
     black
 }
 
@@ -209,7 +278,11 @@ fn linear_raw_dngs_are_read_as_rgb_by_chart_and_roi() {
     let n = v["a"][0]["n"].as_array().unwrap();
     for c in 0..3 {
         assert_eq!(m[c].as_f64().unwrap(), lin_value(18, c));
-        assert_eq!(n[c].as_u64().unwrap(), 100, "every pixel carries all three channels");
+        assert_eq!(
+            n[c].as_u64().unwrap(),
+            100,
+            "every pixel carries all three channels"
+        );
     }
 }
 
@@ -226,37 +299,200 @@ fn malformed_chart_and_roi_arguments_exit_2_with_a_message() {
     let o = out.to_str().unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         // The --help example form: 8 numbers (panicked with a clap type mismatch before).
-        (vec!["chart", d, "--corners", "100,80,700,80,700,480,100,480", "--out", o], "outside"),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "100,80,700,80,700,480,100,480",
+                "--out",
+                o,
+            ],
+            "outside",
+        ),
         (vec!["chart", d, "--corners", "1,2,3", "--out", o], "8"),
-        (vec!["chart", d, "--corners", "1,2,3,4,5,6,7,8,9", "--out", o], "8"),
-        (vec!["chart", d, "--corners", "a,b,c,d,e,f,g,h", "--out", o], "numbers"),
-        (vec!["chart", d, "--corners", "10,8,130,8,130,88,nan,88", "--out", o], "finite"),
-        (vec!["chart", d, "--corners", "-10,8,130,8,130,88,10,88", "--out", o], "outside"),
-        (vec!["chart", d, "--corners", "10,88,130,88,130,8,10,8", "--out", o], "upright"),
-        (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "0", "--out", o], "fraction"),
-        (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "1.5", "--out", o], "fraction"),
-        (vec!["chart", d, "--corners", "10,8,130,8,130,88,10,88", "--fraction", "x", "--out", o], "fraction"),
+        (
+            vec!["chart", d, "--corners", "1,2,3,4,5,6,7,8,9", "--out", o],
+            "8",
+        ),
+        (
+            vec!["chart", d, "--corners", "a,b,c,d,e,f,g,h", "--out", o],
+            "numbers",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "10,8,130,8,130,88,nan,88",
+                "--out",
+                o,
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "-10,8,130,8,130,88,10,88",
+                "--out",
+                o,
+            ],
+            "outside",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "10,88,130,88,130,8,10,8",
+                "--out",
+                o,
+            ],
+            "upright",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "10,8,130,8,130,88,10,88",
+                "--fraction",
+                "0",
+                "--out",
+                o,
+            ],
+            "fraction",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "10,8,130,8,130,88,10,88",
+                "--fraction",
+                "1.5",
+                "--out",
+                o,
+            ],
+            "fraction",
+        ),
+        (
+            vec![
+                "chart",
+                d,
+                "--corners",
+                "10,8,130,8,130,88,10,88",
+                "--fraction",
+                "x",
+                "--out",
+                o,
+            ],
+            "fraction",
+        ),
         (vec!["chart", d, "--corners"], "corners"),
-        (vec!["chart", nocfg.to_str().unwrap(), "--out", o], "run.json"),
-        (vec!["chart", "/nonexistent/raw.dng", "--corners", "10,8,130,8,130,88,10,88", "--out", o], "/nonexistent/raw.dng"),
+        (
+            vec!["chart", nocfg.to_str().unwrap(), "--out", o],
+            "run.json",
+        ),
+        (
+            vec![
+                "chart",
+                "/nonexistent/raw.dng",
+                "--corners",
+                "10,8,130,8,130,88,10,88",
+                "--out",
+                o,
+            ],
+            "/nonexistent/raw.dng",
+        ),
         (vec!["roi", d, "--out", o], "--region"),
-        (vec!["roi", d, "--region", "1,2,3", "--out", o], "ROW,COL,ROWS,COLS"),
+        (
+            vec!["roi", d, "--region", "1,2,3", "--out", o],
+            "ROW,COL,ROWS,COLS",
+        ),
         (vec!["roi", d, "--region", "0,0,0,5", "--out", o], "ROWS"),
-        (vec!["roi", d, "--region", "0,0,5,5", "--region-b", "0,0,5,5", "--out", o], "second image"),
-        (vec!["roi", d, d, "--region", "0,0,5,5", "--region-b", "0,0,5,5", "--region-b", "1,1,5,5", "--out", o], "--region-b"),
-        (vec!["roi", d, "--region", "95,0,10,10", "--out", o], "does not fit"),
-        (vec!["roi", d, "--region", "18446744073709551615,0,10,10", "--out", o], "does not fit"),
-        (vec!["roi", d, "--region", "0,0,5,5", "--sensor", "nosuchsensor", "--out", o], "nosuchsensor"),
+        (
+            vec![
+                "roi",
+                d,
+                "--region",
+                "0,0,5,5",
+                "--region-b",
+                "0,0,5,5",
+                "--out",
+                o,
+            ],
+            "second image",
+        ),
+        (
+            vec![
+                "roi",
+                d,
+                d,
+                "--region",
+                "0,0,5,5",
+                "--region-b",
+                "0,0,5,5",
+                "--region-b",
+                "1,1,5,5",
+                "--out",
+                o,
+            ],
+            "--region-b",
+        ),
+        (
+            vec!["roi", d, "--region", "95,0,10,10", "--out", o],
+            "does not fit",
+        ),
+        (
+            vec![
+                "roi",
+                d,
+                "--region",
+                "18446744073709551615,0,10,10",
+                "--out",
+                o,
+            ],
+            "does not fit",
+        ),
+        (
+            vec![
+                "roi",
+                d,
+                "--region",
+                "0,0,5,5",
+                "--sensor",
+                "nosuchsensor",
+                "--out",
+                o,
+            ],
+            "nosuchsensor",
+        ),
     ];
     for (args, needle) in cases {
         let mut full = vec!["analyze"];
         full.extend(&args);
         let r = camsim(&full);
         let e = stderr(&r);
-        assert_eq!(r.status.code(), Some(2), "{args:?}: exit code {:?}, stderr: {e}", r.status.code());
-        assert!(!e.contains("internal error") && !e.contains("panicked"), "{args:?}: {e}");
-        assert!(e.to_lowercase().contains(&needle.to_lowercase()), "{args:?}: the message should mention '{needle}': {e}");
-        let left: Vec<_> = std::fs::read_dir(&out).map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name()).collect()).unwrap_or_default();
+        assert_eq!(
+            r.status.code(),
+            Some(2),
+            "{args:?}: exit code {:?}, stderr: {e}",
+            r.status.code()
+        );
+        assert!(
+            !e.contains("internal error") && !e.contains("panicked"),
+            "{args:?}: {e}"
+        );
+        assert!(
+            e.to_lowercase().contains(&needle.to_lowercase()),
+            "{args:?}: the message should mention '{needle}': {e}"
+        );
+        let left: Vec<_> = std::fs::read_dir(&out)
+            .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name()).collect())
+            .unwrap_or_default();
         assert!(left.is_empty(), "{args:?}: left {left:?}");
     }
 }
@@ -267,26 +503,44 @@ fn chart_and_roi_help_describe_every_option_and_examples_are_single_lines() {
         let o = camsim(&["analyze", sub, "--help"]);
         assert!(o.status.success());
         let text = String::from_utf8_lossy(&o.stdout).into_owned();
-        let (_, rest) = text.split_once("Options:").unwrap_or_else(|| panic!("{sub}: {text}"));
-        let (options, examples) = rest.split_once("Examples:").unwrap_or_else(|| panic!("{sub}: no Examples: {text}"));
+        let (_, rest) = text
+            .split_once("Options:")
+            .unwrap_or_else(|| panic!("{sub}: {text}"));
+        let (options, examples) = rest
+            .split_once("Examples:")
+            .unwrap_or_else(|| panic!("{sub}: no Examples: {text}"));
         // Every option line ("  -q, --quiet  Hide ..." / "  --out <OUT>  Output ...") has a description.
         let mut seen = Vec::new();
         for line in options.lines() {
             let t = line.trim_start();
             if t.starts_with('-') {
                 let desc = t.split_once("  ").map(|(_, d)| d.trim()).unwrap_or("");
-                assert!(!desc.is_empty(), "{sub}: option without a description: {line}");
-                seen.push(t.split_whitespace().find(|w| w.starts_with("--")).unwrap_or("").to_string());
+                assert!(
+                    !desc.is_empty(),
+                    "{sub}: option without a description: {line}"
+                );
+                seen.push(
+                    t.split_whitespace()
+                        .find(|w| w.starts_with("--"))
+                        .unwrap_or("")
+                        .to_string(),
+                );
             }
         }
         for opt in ["--json", "--out", "--cfa", "--black-dn", "--bits"] {
-            assert!(seen.iter().any(|s| s == opt), "{sub} --help lacks {opt}: {seen:?}");
+            assert!(
+                seen.iter().any(|s| s == opt),
+                "{sub} --help lacks {opt}: {seen:?}"
+            );
         }
         // Example lines are whole commands (a wrapped line would not start with "camsim").
         let lines: Vec<&str> = examples.lines().filter(|l| !l.trim().is_empty()).collect();
         assert!(lines.len() >= 2, "{sub}: {examples}");
         for l in lines {
-            assert!(l.starts_with(&format!("  camsim analyze {sub} ")), "{sub}: example line is not a whole command: {l:?}");
+            assert!(
+                l.starts_with(&format!("  camsim analyze {sub} ")),
+                "{sub}: example line is not a whole command: {l:?}"
+            );
         }
     }
 }

@@ -8,8 +8,16 @@ use std::process::Command;
 const BIN: &str = env!("CARGO_BIN_EXE_camsim");
 
 fn run(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(BIN).args(args).arg("--quiet").output().unwrap();
-    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    let o = Command::new(BIN)
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 fn mean_delta_e(stdout: &str) -> f64 {
@@ -44,16 +52,33 @@ fn chart_from_a_reflectance_file_is_fitted_against_the_same_file() {
                   [capture]\nauto_target_fraction = 0.5\n";
     std::fs::write(dir.path().join("chart.toml"), config).unwrap();
     let out = dir.path().join("sim");
-    let (code, _, stderr) = run(&["simulate", dir.path().join("chart.toml").to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let (code, _, stderr) = run(&[
+        "simulate",
+        dir.path().join("chart.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let dng = out.join("raw.dng");
     let png = dir.path().join("p.png");
     let isp = |extra: &[&str]| {
-        let mut args = vec!["isp", "--in", dng.to_str().unwrap(), "--ccm", "chart", "--json", "--out", png.to_str().unwrap()];
+        let mut args = vec![
+            "isp",
+            "--in",
+            dng.to_str().unwrap(),
+            "--ccm",
+            "chart",
+            "--json",
+            "--out",
+            png.to_str().unwrap(),
+        ];
         args.extend_from_slice(extra);
         run(&args)
     };
-    let (code, same, stderr) = isp(&["--chart-reflectances", dir.path().join("reversed.csv").to_str().unwrap()]);
+    let (code, same, stderr) = isp(&[
+        "--chart-reflectances",
+        dir.path().join("reversed.csv").to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let (code, default, stderr) = isp(&[]);
     assert_eq!(code, 0, "{stderr}");
@@ -63,10 +88,20 @@ fn chart_from_a_reflectance_file_is_fitted_against_the_same_file() {
     assert!(de_same < 4.0, "{de_same}");
     assert!(de_default > 3.0 * de_same, "{de_default} vs {de_same}");
     // A set of the wrong size is refused, naming the flag.
-    std::fs::write(dir.path().join("bad.csv"), "wavelength_nm,a\n400,0.5\n700,0.5\n").unwrap();
-    let (code, _, stderr) = isp(&["--chart-reflectances", dir.path().join("bad.csv").to_str().unwrap()]);
+    std::fs::write(
+        dir.path().join("bad.csv"),
+        "wavelength_nm,a\n400,0.5\n700,0.5\n",
+    )
+    .unwrap();
+    let (code, _, stderr) = isp(&[
+        "--chart-reflectances",
+        dir.path().join("bad.csv").to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("--chart-reflectances") && stderr.contains("24"), "{stderr}");
+    assert!(
+        stderr.contains("--chart-reflectances") && stderr.contains("24"),
+        "{stderr}"
+    );
 }
 
 /// The default auto-exposure (the brightest filter's 99th percentile at 0.9 of the swing) leaves a
@@ -77,15 +112,29 @@ fn chart_from_a_reflectance_file_is_fitted_against_the_same_file() {
 #[test]
 fn default_auto_exposure_keeps_a_small_white_patch_linear() {
     let dir = tempfile::tempdir().unwrap();
-    let config = "seed = 1\n[scene]\nkind = \"macbeth\"\nfov_deg = 5.0\npatch_size_px = 32\nborder_px = 4\n\
+    let config =
+        "seed = 1\n[scene]\nkind = \"macbeth\"\nfov_deg = 5.0\npatch_size_px = 32\nborder_px = 4\n\
                   [sensor]\npreset = \"pixel4a\"\nrows = 240\ncols = 320\n";
     std::fs::write(dir.path().join("chart.toml"), config).unwrap();
     let out = dir.path().join("sim");
-    let (code, _, stderr) = run(&["simulate", dir.path().join("chart.toml").to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let (code, _, stderr) = run(&[
+        "simulate",
+        dir.path().join("chart.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let png = dir.path().join("p.png");
-    let (code, stdout, stderr) =
-        run(&["isp", "--in", out.join("raw.dng").to_str().unwrap(), "--ccm", "chart", "--json", "--out", png.to_str().unwrap()]);
+    let (code, stdout, stderr) = run(&[
+        "isp",
+        "--in",
+        out.join("raw.dng").to_str().unwrap(),
+        "--ccm",
+        "chart",
+        "--json",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{stderr}");
     let de = mean_delta_e(&stdout);
     assert!(de < 4.0, "mean CIEDE2000 {de}: the white patch clipped?");

@@ -10,18 +10,36 @@ fn compare_writes_the_report_and_a_camera_matches_itself() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cmp");
     let o = Command::new(BIN)
-        .args(["compare", "--a", "pixel4a", "--b", "pixel4a", "--size", "64", "--quiet", "--out"])
+        .args([
+            "compare", "--a", "pixel4a", "--b", "pixel4a", "--size", "64", "--quiet", "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for f in ["report.html", "results.json", "compare_mtf.png", "compare_snr.png", "compare_nps.png", "compare_delta_e.png"] {
+    for f in [
+        "report.html",
+        "results.json",
+        "compare_mtf.png",
+        "compare_snr.png",
+        "compare_nps.png",
+        "compare_delta_e.png",
+    ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(j["a"]["mtf"]["mtf"], j["b"]["mtf"]["mtf"]);
-    assert_eq!(j["a"]["color"]["patch_delta_e2000"], j["b"]["color"]["patch_delta_e2000"]);
-    assert_eq!(j["a"]["color"]["patch_delta_e2000"].as_array().map(|v| v.len()), Some(24));
+    assert_eq!(
+        j["a"]["color"]["patch_delta_e2000"],
+        j["b"]["color"]["patch_delta_e2000"]
+    );
+    assert_eq!(
+        j["a"]["color"]["patch_delta_e2000"]
+            .as_array()
+            .map(|v| v.len()),
+        Some(24)
+    );
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("CIEDE2000") && html.contains("MTF50") && html.contains("SNR G"));
 }
@@ -30,7 +48,11 @@ fn compare_writes_the_report_and_a_camera_matches_itself() {
 fn a_bad_sensor_exits_2_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cmp");
-    let o = Command::new(BIN).args(["compare", "--a", "no-such-sensor", "--size", "64", "--out"]).arg(&out).output().unwrap();
+    let o = Command::new(BIN)
+        .args(["compare", "--a", "no-such-sensor", "--size", "64", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-sensor"));
     assert!(!out.exists());

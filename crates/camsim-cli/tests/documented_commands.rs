@@ -27,7 +27,10 @@ mod common;
 use common::{command_tree, run_limited, subcommands, Outcome, BIN};
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().unwrap()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
 }
 
 /// Lines of `Example...:` blocks that are camsim commands, comments cut off.
@@ -105,7 +108,9 @@ fn claimed_outputs(cmd: &str) -> Vec<String> {
 
 fn non_empty(p: &Path) -> bool {
     if p.is_dir() {
-        std::fs::read_dir(p).map(|mut d| d.next().is_some()).unwrap_or(false)
+        std::fs::read_dir(p)
+            .map(|mut d| d.next().is_some())
+            .unwrap_or(false)
     } else {
         std::fs::metadata(p).map(|m| m.len() > 0).unwrap_or(false)
     }
@@ -116,7 +121,9 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
     let mut found = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
-        let Ok(rd) = std::fs::read_dir(&d) else { continue };
+        let Ok(rd) = std::fs::read_dir(&d) else {
+            continue;
+        };
         for e in rd.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
             if name.contains(".tmp") {
@@ -133,7 +140,11 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
 /// Run one documented command line with `sh -c` in `root`, with camsim first on PATH.
 fn run_line(root: &Path, line: &str, limit: Duration) -> Outcome {
     let bin_dir = Path::new(BIN).parent().unwrap();
-    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    let path = format!(
+        "{}:{}",
+        bin_dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
     let mut cmd = Command::new("sh");
     cmd.arg("-c").arg(line).current_dir(root).env("PATH", path);
     run_limited(cmd, limit)
@@ -150,7 +161,8 @@ fn scratch_root() -> (tempfile::TempDir, PathBuf) {
     copy_dir(&repo.join("examples"), &root.join("examples"));
     let shared = repo.join("../shared");
     if shared.exists() {
-        std::os::unix::fs::symlink(shared.canonicalize().unwrap(), tmp.path().join("shared")).unwrap();
+        std::os::unix::fs::symlink(shared.canonicalize().unwrap(), tmp.path().join("shared"))
+            .unwrap();
     }
     (tmp, root)
 }
@@ -169,7 +181,10 @@ fn copy_dir(from: &Path, to: &Path) {
 
 #[test]
 fn every_documented_command_runs() {
-    let mut lines: Vec<(String, String)> = readme_commands().into_iter().map(|c| ("README.md".to_string(), c)).collect();
+    let mut lines: Vec<(String, String)> = readme_commands()
+        .into_iter()
+        .map(|c| ("README.md".to_string(), c))
+        .collect();
     let tree = command_tree();
     for (path, text) in &tree {
         let origin = format!("camsim {} --help", path.join(" ")).replace("  ", " ");
@@ -179,7 +194,12 @@ fn every_documented_command_runs() {
     }
     // The documentation must actually show commands: the README's default run and at least one
     // example for every leaf subcommand.
-    assert!(lines.iter().any(|(o, c)| o == "README.md" && c == "camsim simulate"), "README lost its default run");
+    assert!(
+        lines
+            .iter()
+            .any(|(o, c)| o == "README.md" && c == "camsim simulate"),
+        "README lost its default run"
+    );
     for (path, text) in &tree {
         let leaf = subcommands(text).is_empty();
         if leaf && !path.is_empty() {
@@ -205,12 +225,16 @@ fn every_documented_command_runs() {
         let before = pending.len();
         for (origin, line) in pending {
             let o = run_line(&root, &line, limit);
-            eprintln!("[pass {pass}] {:>6.1} s  exit {:?}  {line}", o.seconds, o.code);
+            eprintln!(
+                "[pass {pass}] {:>6.1} s  exit {:?}  {line}",
+                o.seconds, o.code
+            );
             match o.code {
                 Some(0) => {
                     for p in claimed_outputs(&line) {
                         if !non_empty(&root.join(&p)) {
-                            failures.push(format!("{origin}: `{line}` exited 0 but did not write {p}"));
+                            failures
+                                .push(format!("{origin}: `{line}` exited 0 but did not write {p}"));
                         }
                     }
                 }
@@ -218,7 +242,10 @@ fn every_documented_command_runs() {
                     last_err.push(format!("{origin}: `{line}` exited 2:\n{}", tail(&o.stderr)));
                     still.push((origin, line));
                 }
-                other => failures.push(format!("{origin}: `{line}` exited {other:?} (never allowed):\n{}", tail(&o.stderr))),
+                other => failures.push(format!(
+                    "{origin}: `{line}` exited {other:?} (never allowed):\n{}",
+                    tail(&o.stderr)
+                )),
             }
         }
         if still.is_empty() {
@@ -234,7 +261,11 @@ fn every_documented_command_runs() {
     if !temps.is_empty() {
         failures.push(format!("temporary files left: {temps:?}"));
     }
-    assert!(failures.is_empty(), "documented commands that fail:\n\n{}", failures.join("\n\n"));
+    assert!(
+        failures.is_empty(),
+        "documented commands that fail:\n\n{}",
+        failures.join("\n\n")
+    );
 }
 
 fn tail(s: &str) -> String {
@@ -245,9 +276,22 @@ fn tail(s: &str) -> String {
 #[test]
 fn extraction_finds_commands_and_strips_comments() {
     let text = "Usage: x\n\nExamples:\n  camsim simulate --out out/a      (repeat)\n  then edit it\n  camsim presets sensor pixel4a > s.toml\n\nOptions:\n  camsim not-an-example\n";
-    assert_eq!(examples_in_help(text), vec!["camsim simulate --out out/a", "camsim presets sensor pixel4a > s.toml"]);
-    assert_eq!(claimed_outputs("camsim presets sensor pixel4a > s.toml"), vec!["s.toml"]);
-    assert_eq!(claimed_outputs("camsim psf --out=out/p --lens x"), vec!["out/p"]);
-    let cmds = "Commands:\n  simulate  Run\n            wrapped text\n  help      Print\n\nOptions:\n";
+    assert_eq!(
+        examples_in_help(text),
+        vec![
+            "camsim simulate --out out/a",
+            "camsim presets sensor pixel4a > s.toml"
+        ]
+    );
+    assert_eq!(
+        claimed_outputs("camsim presets sensor pixel4a > s.toml"),
+        vec!["s.toml"]
+    );
+    assert_eq!(
+        claimed_outputs("camsim psf --out=out/p --lens x"),
+        vec!["out/p"]
+    );
+    let cmds =
+        "Commands:\n  simulate  Run\n            wrapped text\n  help      Print\n\nOptions:\n";
     assert_eq!(subcommands(cmds), vec!["simulate"]);
 }

@@ -12,25 +12,58 @@ fn examples() -> std::path::PathBuf {
 }
 
 fn camsim(args: &[&str], dir: &Path) -> (Option<i32>, String) {
-    let o = Command::new(BIN).args(args).current_dir(dir).output().unwrap();
-    (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+    let o = Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 #[test]
 fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (code, err) = camsim(&["scene", &examples().join("zone-plate.toml").to_string_lossy(), "--out", "radiance.exr"], d);
+    let (code, err) = camsim(
+        &[
+            "scene",
+            &examples().join("zone-plate.toml").to_string_lossy(),
+            "--out",
+            "radiance.exr",
+        ],
+        d,
+    );
     assert_eq!(code, Some(0), "{err}");
-    let (code, err) = camsim(&["optics", "--in", "radiance.exr", "--out", "irradiance.exr"], d);
+    let (code, err) = camsim(
+        &["optics", "--in", "radiance.exr", "--out", "irradiance.exr"],
+        d,
+    );
     assert_eq!(code, Some(0), "{err}");
     let dcg = std::fs::read_to_string(examples().join("sensor-dcg.toml")).unwrap();
     let split = std::fs::read_to_string(examples().join("sensor-split-pixel.toml")).unwrap();
     let cases = [
-        (split.replace("sensitivity_ratio = 0.0625", "sensitivity_ratio = 0.0"), "hdr.sensitivity_ratio"),
-        (split.replace("sensitivity_ratio = 0.0625", "sensitivity_ratio = -1.0"), "hdr.sensitivity_ratio"),
-        (dcg.replace("switch_level = 0.8", "switch_level = 1.5"), "hdr.switch_level"),
-        (dcg.replace("lcg_conversion_gain_uv_per_e = 10.0", "lcg_conversion_gain_uv_per_e = 90.0"), "hdr.lcg_conversion_gain_uv_per_e"),
+        (
+            split.replace("sensitivity_ratio = 0.0625", "sensitivity_ratio = 0.0"),
+            "hdr.sensitivity_ratio",
+        ),
+        (
+            split.replace("sensitivity_ratio = 0.0625", "sensitivity_ratio = -1.0"),
+            "hdr.sensitivity_ratio",
+        ),
+        (
+            dcg.replace("switch_level = 0.8", "switch_level = 1.5"),
+            "hdr.switch_level",
+        ),
+        (
+            dcg.replace(
+                "lcg_conversion_gain_uv_per_e = 10.0",
+                "lcg_conversion_gain_uv_per_e = 90.0",
+            ),
+            "hdr.lcg_conversion_gain_uv_per_e",
+        ),
         (dcg.replace("mode = \"dcg\"", "mode = \"triple\""), "triple"),
     ];
     for (i, (text, key)) in cases.iter().enumerate() {
@@ -38,20 +71,42 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
         let file = format!("bad{i}.toml");
         std::fs::write(d.join(&file), text).unwrap();
         let out = format!("out-bad{i}");
-        let (code, err) = camsim(&["sensor", "--in", "irradiance.exr", "--sensor", &file, "--out", &out], d);
+        let (code, err) = camsim(
+            &[
+                "sensor",
+                "--in",
+                "irradiance.exr",
+                "--sensor",
+                &file,
+                "--out",
+                &out,
+            ],
+            d,
+        );
         assert_eq!(code, Some(2), "{key}: {err}");
         assert!(err.contains(key) && err.contains(&file), "{key}: {err}");
         assert!(!d.join(&out).exists(), "{key}: output written");
     }
-    let (code, err) =
-        camsim(&["sensor", "--in", "irradiance.exr", "--sensor", &examples().join("sensor-dcg.toml").to_string_lossy(), "--out", "dcg"], d);
+    let (code, err) = camsim(
+        &[
+            "sensor",
+            "--in",
+            "irradiance.exr",
+            "--sensor",
+            &examples().join("sensor-dcg.toml").to_string_lossy(),
+            "--out",
+            "dcg",
+        ],
+        d,
+    );
     assert_eq!(code, Some(0), "{err}");
     for f in ["high.dng", "low.dng", "merged.exr"] {
         assert!(d.join("dcg").join(f).is_file(), "{f}");
     }
     let (high, _) = camsim_io::dng::read_dng(&d.join("dcg/high.dng")).unwrap();
     let (low, _) = camsim_io::dng::read_dng(&d.join("dcg/low.dng")).unwrap();
-    let (rows, cols, merged) = camsim_io::exr::read_gray_exr(&d.join("dcg/merged.exr"), Some("Y")).unwrap();
+    let (rows, cols, merged) =
+        camsim_io::exr::read_gray_exr(&d.join("dcg/merged.exr"), Some("Y")).unwrap();
     assert_eq!((rows, cols), (high.rows, high.cols));
     // The documented merge: HCG electrons below 80 % of the HCG range, LCG electrons above.
     let k_high = 80e-6 * 4096.0 / 0.5;
@@ -60,11 +115,21 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
     let mut used_low = 0;
     for (i, m) in merged.iter().enumerate() {
         let e_high = (high.dn[i] as f64 - 64.0) / k_high;
-        let want = if e_high < switch_e { e_high } else { (low.dn[i] as f64 - 64.0) / k_low };
+        let want = if e_high < switch_e {
+            e_high
+        } else {
+            (low.dn[i] as f64 - 64.0) / k_low
+        };
         used_low += (e_high >= switch_e) as usize;
-        assert!((*m as f64 - want).abs() <= 1e-3 * want.abs().max(1.0), "pixel {i}: {m} vs {want}");
+        assert!(
+            (*m as f64 - want).abs() <= 1e-3 * want.abs().max(1.0),
+            "pixel {i}: {m} vs {want}"
+        );
     }
-    assert!(used_low > 0, "auto-exposure at 90 % of the HCG swing puts some pixels above the switch");
+    assert!(
+        used_low > 0,
+        "auto-exposure at 90 % of the HCG swing puts some pixels above the switch"
+    );
 }
 
 /// `camsim simulate` with an `[hdr]` sensor does not silently write only the high readout: it
@@ -72,16 +137,32 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
 #[test]
 fn simulate_refuses_an_hdr_sensor_and_says_what_to_run() {
     let dir = tempfile::tempdir().unwrap();
-    let sensor = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sensor-dcg.toml");
+    let sensor = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/sensor-dcg.toml"
+    );
     let cfg = dir.path().join("hdr.toml");
-    std::fs::write(&cfg, format!("seed = 1\n[scene]\nkind = \"macbeth\"\n[sensor]\nfile = \"{sensor}\"\n")).unwrap();
+    std::fs::write(
+        &cfg,
+        format!("seed = 1\n[scene]\nkind = \"macbeth\"\n[sensor]\nfile = \"{sensor}\"\n"),
+    )
+    .unwrap();
     let out = dir.path().join("out");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
+        .args([
+            "simulate",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("[hdr]") && stderr.contains("camsim sensor"), "{stderr}");
+    assert!(
+        stderr.contains("[hdr]") && stderr.contains("camsim sensor"),
+        "{stderr}"
+    );
     assert!(!out.exists(), "a partial output folder was left");
 }

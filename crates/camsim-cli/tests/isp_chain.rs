@@ -15,7 +15,11 @@ const BIN: &str = env!("CARGO_BIN_EXE_camsim");
 const CANON_CORNERS: &str = "662,579,1299,572,1303,970,654,977";
 
 fn canon_dng() -> Option<PathBuf> {
-    let p = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dng/canon-550d-colorchecker-passport.dng")).to_path_buf();
+    let p = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/dng/canon-550d-colorchecker-passport.dng"
+    ))
+    .to_path_buf();
     if p.is_file() {
         Some(p)
     } else {
@@ -25,8 +29,17 @@ fn canon_dng() -> Option<PathBuf> {
 }
 
 fn isp(args: &[&str]) -> (i32, String, String) {
-    let o = Command::new(BIN).arg("isp").args(args).arg("--quiet").output().unwrap();
-    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    let o = Command::new(BIN)
+        .arg("isp")
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -56,7 +69,12 @@ fn canon_chart_renders_within_a_few_delta_e_for_every_demosaic_method() {
             assert_eq!(code, 0, "{stderr}");
             assert!(std::fs::metadata(&out).unwrap().len() > 100_000);
             let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-            let de: Vec<f64> = v["patch_delta_e2000"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+            let de: Vec<f64> = v["patch_delta_e2000"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect();
             let mean = de.iter().sum::<f64>() / 24.0;
             let max = de.iter().cloned().fold(0.0, f64::max);
             let light_gray_max = de[18..21].iter().cloned().fold(0.0, f64::max);
@@ -76,13 +94,32 @@ fn unknown_methods_exit_2_with_a_message() {
     let Some(dng) = canon_dng() else { return };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("p.png");
-    for (flag, value) in [("--demosaic", "ahd2"), ("--white-balance", "auto"), ("--ccm", "dng"), ("--ccm-objective", "l1")] {
-        let (code, _, stderr) = isp(&["--in", dng.to_str().unwrap(), flag, value, "--out", out.to_str().unwrap()]);
+    for (flag, value) in [
+        ("--demosaic", "ahd2"),
+        ("--white-balance", "auto"),
+        ("--ccm", "dng"),
+        ("--ccm-objective", "l1"),
+    ] {
+        let (code, _, stderr) = isp(&[
+            "--in",
+            dng.to_str().unwrap(),
+            flag,
+            value,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert_eq!(code, 2, "{flag} {value}: {stderr}");
         assert!(stderr.contains(value), "{flag} {value}: {stderr}");
     }
     // A chart fit needs the chart's position: no corners and no run.json beside the file.
-    let (code, _, stderr) = isp(&["--in", dng.to_str().unwrap(), "--ccm", "chart", "--out", out.to_str().unwrap()]);
+    let (code, _, stderr) = isp(&[
+        "--in",
+        dng.to_str().unwrap(),
+        "--ccm",
+        "chart",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--corners"), "{stderr}");
 }

@@ -6,7 +6,11 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn camsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_camsim")).args(args).arg("--quiet").output().expect("camsim runs")
+    Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .expect("camsim runs")
 }
 
 fn stderr(o: &Output) -> String {
@@ -23,7 +27,11 @@ fn p(path: &Path) -> &str {
 #[test]
 fn scene_optics_sensor_chain_reads_its_own_irradiance() {
     let dir = tempfile::tempdir().unwrap();
-    let (r, i, raw) = (dir.path().join("r.exr"), dir.path().join("i.exr"), dir.path().join("raw"));
+    let (r, i, raw) = (
+        dir.path().join("r.exr"),
+        dir.path().join("i.exr"),
+        dir.path().join("raw"),
+    );
     let o = camsim(&["scene", "--kind", "macbeth", "--out", p(&r)]);
     assert!(o.status.success(), "scene: {}", stderr(&o));
     let o = camsim(&["optics", "--in", p(&r), "--out", p(&i)]);
@@ -32,7 +40,17 @@ fn scene_optics_sensor_chain_reads_its_own_irradiance() {
     let (img, info) = camsim_io_read(&i);
     assert_eq!(info, 0, "the optics output needed clamping");
     assert!(img.iter().all(|v| *v >= 0.0));
-    let o = camsim(&["sensor", "--in", p(&i), "--rows", "48", "--cols", "64", "--out", p(&raw)]);
+    let o = camsim(&[
+        "sensor",
+        "--in",
+        p(&i),
+        "--rows",
+        "48",
+        "--cols",
+        "64",
+        "--out",
+        p(&raw),
+    ]);
     assert!(o.status.success(), "sensor: {}", stderr(&o));
     assert!(raw.join("raw.dng").is_file());
 }
@@ -55,19 +73,38 @@ fn real_negative_is_refused_once() {
     img.data[5] = -1.0;
     let bad = dir.path().join("bad.exr");
     camsim_io::exr::write_spectral_exr(&bad, &img, "scene").unwrap();
-    let o = camsim(&["optics", "--in", p(&bad), "--out", p(&dir.path().join("i.exr"))]);
+    let o = camsim(&[
+        "optics",
+        "--in",
+        p(&bad),
+        "--out",
+        p(&dir.path().join("i.exr")),
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
-    assert!(e.contains("bad.exr") && e.contains("S0.") && e.contains("-1"), "{e}");
+    assert!(
+        e.contains("bad.exr") && e.contains("S0.") && e.contains("-1"),
+        "{e}"
+    );
     assert_eq!(e.matches("bad.exr").count(), 1, "message repeated: {e}");
     assert!(!dir.path().join("i.exr").exists());
     // A NaN goes through the core's value check (an error with a source): printed once.
     img.data[5] = f32::NAN;
     camsim_io::exr::write_spectral_exr(&bad, &img, "scene").unwrap();
-    let o = camsim(&["optics", "--in", p(&bad), "--out", p(&dir.path().join("i.exr"))]);
+    let o = camsim(&[
+        "optics",
+        "--in",
+        p(&bad),
+        "--out",
+        p(&dir.path().join("i.exr")),
+    ]);
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
-    assert_eq!(e.matches("is not a finite").count(), 1, "message repeated: {e}");
+    assert_eq!(
+        e.matches("is not a finite").count(),
+        1,
+        "message repeated: {e}"
+    );
 }
 
 /// Issue 13: the `diffraction_limit` column of mtf.csv is the diffraction MTF at the working
@@ -80,7 +117,17 @@ fn psf_diffraction_limit_uses_the_working_f_number() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("psf");
     let o = camsim(&[
-        "psf", "--lens", "diffraction-limited", "--focus-m", "0.05", "--object-m", "0.05", "--spacing-um", "0.25", "--out", p(&out),
+        "psf",
+        "--lens",
+        "diffraction-limited",
+        "--focus-m",
+        "0.05",
+        "--object-m",
+        "0.05",
+        "--spacing-um",
+        "0.25",
+        "--out",
+        p(&out),
     ]);
     assert!(o.status.success(), "psf: {}", stderr(&o));
     let csv = std::fs::read_to_string(out.join("mtf.csv")).unwrap();
@@ -92,8 +139,14 @@ fn psf_diffraction_limit_uses_the_working_f_number() {
         let c: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
         let (wl, fr, mx, dl) = (c[0], c[1], c[2], c[4]);
         let want = camsim_optics::diffraction_mtf(fr, wl, n_w);
-        assert!((dl - want).abs() < 2e-6, "{wl} nm, {fr} cyc/mm: column {dl} vs {want}");
-        assert!((mx - dl).abs() < 0.01, "{wl} nm, {fr} cyc/mm: MTF {mx} vs diffraction limit {dl}");
+        assert!(
+            (dl - want).abs() < 2e-6,
+            "{wl} nm, {fr} cyc/mm: column {dl} vs {want}"
+        );
+        assert!(
+            (mx - dl).abs() < 0.01,
+            "{wl} nm, {fr} cyc/mm: MTF {mx} vs diffraction limit {dl}"
+        );
         rows += 1;
     }
     assert!(rows > 30, "{rows} rows");
@@ -111,26 +164,85 @@ fn fit_shading_accepts_a_flat_field_and_refuses_a_chart() {
     let o = if o.status.success() {
         o
     } else {
-        camsim(&["scene", concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/uniform.toml"), "--out", p(&d("flat.exr"))])
+        camsim(&[
+            "scene",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/uniform.toml"),
+            "--out",
+            p(&d("flat.exr")),
+        ])
     };
     assert!(o.status.success(), "scene: {}", stderr(&o));
-    let o = camsim(&["optics", "--in", p(&d("flat.exr")), "--out", p(&d("flat-irr.exr"))]);
+    let o = camsim(&[
+        "optics",
+        "--in",
+        p(&d("flat.exr")),
+        "--out",
+        p(&d("flat-irr.exr")),
+    ]);
     assert!(o.status.success(), "optics: {}", stderr(&o));
-    let o = camsim(&["sensor", "--in", p(&d("flat-irr.exr")), "--rows", "64", "--cols", "64", "--out", p(&d("flat"))]);
+    let o = camsim(&[
+        "sensor",
+        "--in",
+        p(&d("flat-irr.exr")),
+        "--rows",
+        "64",
+        "--cols",
+        "64",
+        "--out",
+        p(&d("flat")),
+    ]);
     assert!(o.status.success(), "sensor: {}", stderr(&o));
-    let o = camsim(&["fit-shading", p(&d("flat").join("raw.dng")), "--out", p(&d("shading.toml"))]);
-    assert!(o.status.success(), "fit-shading on a flat field: {}", stderr(&o));
+    let o = camsim(&[
+        "fit-shading",
+        p(&d("flat").join("raw.dng")),
+        "--out",
+        p(&d("shading.toml")),
+    ]);
+    assert!(
+        o.status.success(),
+        "fit-shading on a flat field: {}",
+        stderr(&o)
+    );
     assert!(d("shading.toml").is_file());
 
     let o = camsim(&["scene", "--kind", "macbeth", "--out", p(&d("chart.exr"))]);
     assert!(o.status.success(), "scene: {}", stderr(&o));
-    let o = camsim(&["optics", "--in", p(&d("chart.exr")), "--out", p(&d("chart-irr.exr"))]);
+    let o = camsim(&[
+        "optics",
+        "--in",
+        p(&d("chart.exr")),
+        "--out",
+        p(&d("chart-irr.exr")),
+    ]);
     assert!(o.status.success(), "optics: {}", stderr(&o));
-    let o = camsim(&["sensor", "--in", p(&d("chart-irr.exr")), "--rows", "64", "--cols", "96", "--out", p(&d("chart"))]);
+    let o = camsim(&[
+        "sensor",
+        "--in",
+        p(&d("chart-irr.exr")),
+        "--rows",
+        "64",
+        "--cols",
+        "96",
+        "--out",
+        p(&d("chart")),
+    ]);
     assert!(o.status.success(), "sensor: {}", stderr(&o));
-    let o = camsim(&["fit-shading", p(&d("chart").join("raw.dng")), "--out", p(&d("bad.toml"))]);
-    assert_eq!(o.status.code(), Some(2), "fit-shading on a chart: {}", stderr(&o));
+    let o = camsim(&[
+        "fit-shading",
+        p(&d("chart").join("raw.dng")),
+        "--out",
+        p(&d("bad.toml")),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "fit-shading on a chart: {}",
+        stderr(&o)
+    );
     let e = stderr(&o);
-    assert!(e.contains("raw.dng") && e.contains("not a flat field"), "{e}");
+    assert!(
+        e.contains("raw.dng") && e.contains("not a flat field"),
+        "{e}"
+    );
     assert!(!d("bad.toml").exists());
 }

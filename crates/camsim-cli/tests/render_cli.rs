@@ -5,11 +5,20 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn camsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_camsim")).args(args).arg("--quiet").output().expect("camsim runs")
+    Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .expect("camsim runs")
 }
 
 fn ok(o: &Output) {
-    assert!(o.status.success(), "camsim failed ({:?}): {}", o.status.code(), String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "camsim failed ({:?}): {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 /// Width and height of a PNG from its IHDR chunk (PNG spec: 8-byte signature, chunk length and
@@ -17,7 +26,10 @@ fn ok(o: &Output) {
 fn png_size(path: &Path) -> (u32, u32) {
     let b = std::fs::read(path).unwrap();
     assert_eq!(&b[12..16], b"IHDR", "{} is not a PNG", path.display());
-    (u32::from_be_bytes(b[16..20].try_into().unwrap()), u32::from_be_bytes(b[20..24].try_into().unwrap()))
+    (
+        u32::from_be_bytes(b[16..20].try_into().unwrap()),
+        u32::from_be_bytes(b[20..24].try_into().unwrap()),
+    )
 }
 
 fn render_json(dir: &Path) -> serde_json::Value {
@@ -32,12 +44,35 @@ fn explicit_resolution_wins_over_the_overlay() {
     let ov = overlay.to_str().unwrap();
     // The overlay's resolution applies when the command line gives none ...
     let a = dir.path().join("a");
-    ok(&camsim(&["render", "--builtin", "cornell-box", "--overlay", ov, "--spp", "1", "--max-depth", "1", "--out", a.to_str().unwrap()]));
+    ok(&camsim(&[
+        "render",
+        "--builtin",
+        "cornell-box",
+        "--overlay",
+        ov,
+        "--spp",
+        "1",
+        "--max-depth",
+        "1",
+        "--out",
+        a.to_str().unwrap(),
+    ]));
     assert_eq!(png_size(&a.join("preview.png")), (20, 10));
     // ... and an explicit --resolution replaces it.
     let b = dir.path().join("b");
     ok(&camsim(&[
-        "render", "--builtin", "cornell-box", "--overlay", ov, "--resolution", "12x6", "--spp", "1", "--max-depth", "1", "--out",
+        "render",
+        "--builtin",
+        "cornell-box",
+        "--overlay",
+        ov,
+        "--resolution",
+        "12x6",
+        "--spp",
+        "1",
+        "--max-depth",
+        "1",
+        "--out",
         b.to_str().unwrap(),
     ]));
     assert_eq!(png_size(&b.join("preview.png")), (12, 6));
@@ -51,17 +86,36 @@ fn time_budget_render_reports_the_samples_it_took() {
     let asked = 100_000u64;
     let t0 = std::time::Instant::now();
     ok(&camsim(&[
-        "render", "--builtin", "cornell-box", "--resolution", "8x8", "--spp", &asked.to_string(), "--time-budget-s", "0.001", "--out",
+        "render",
+        "--builtin",
+        "cornell-box",
+        "--resolution",
+        "8x8",
+        "--spp",
+        &asked.to_string(),
+        "--time-budget-s",
+        "0.001",
+        "--out",
         out.to_str().unwrap(),
     ]));
     let j = render_json(&out);
     let taken = j["samples_per_pixel"].as_u64().unwrap();
-    eprintln!("asked {asked}, took {taken} samples per pixel in {:.2} s", t0.elapsed().as_secs_f64());
+    eprintln!(
+        "asked {asked}, took {taken} samples per pixel in {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
     assert_eq!(j["samples_per_pixel_requested"].as_u64(), Some(asked));
     assert_eq!(j["time_budget_s"].as_f64(), Some(0.001));
     // Whole passes of 8 samples, far fewer than asked.
-    assert!(taken >= 8 && taken.is_multiple_of(8) && taken < asked, "{taken}");
+    assert!(
+        taken >= 8 && taken.is_multiple_of(8) && taken < asked,
+        "{taken}"
+    );
     // The ray count agrees: one camera ray per sample and one depth ray per pixel.
     let pixels = 64;
-    assert_eq!(j["stats"]["camera_rays"].as_u64(), Some(pixels * (taken + 1)), "{j}");
+    assert_eq!(
+        j["stats"]["camera_rays"].as_u64(),
+        Some(pixels * (taken + 1)),
+        "{j}"
+    );
 }

@@ -6,7 +6,10 @@ use std::path::PathBuf;
 use std::process::Command;
 
 fn example() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/pixel4a-rtf-shift-variant.toml"))
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/pixel4a-rtf-shift-variant.toml"
+    ))
 }
 
 /// The example with a 96 x 128 window (and a field of view to match), the RTF copied next to the
@@ -14,7 +17,10 @@ fn example() -> PathBuf {
 fn small_config(dir: &std::path::Path, f_number: &str) -> PathBuf {
     let ex = example();
     let text = std::fs::read_to_string(&ex).unwrap();
-    let rtf = ex.parent().unwrap().join("../../shared/data/isetcornellbox/lens/pixel4a-rearcamera-ellipse-raytransfer.json");
+    let rtf = ex
+        .parent()
+        .unwrap()
+        .join("../../shared/data/isetcornellbox/lens/pixel4a-rearcamera-ellipse-raytransfer.json");
     let text = text
         .lines()
         .map(|l| {
@@ -47,7 +53,13 @@ fn simulate_with_the_rtf_shift_variant_optics() {
     let cfg = small_config(dir.path(), "3.44");
     let out = dir.path().join("run");
     let o = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
+        .args([
+            "simulate",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -60,7 +72,13 @@ fn rtf_with_the_wrong_f_number_is_refused() {
     let cfg = small_config(dir.path(), "1.73");
     let out = dir.path().join("run");
     let o = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["simulate", cfg.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"])
+        .args([
+            "simulate",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

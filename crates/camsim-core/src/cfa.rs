@@ -45,31 +45,59 @@ impl CfaLayout {
         let rows = pattern.len();
         let cols = pattern.first().map_or(0, |r| r.len());
         if rows == 0 || cols == 0 {
-            return Err(bad("is empty; give rows of filter names, e.g. [[\"r\", \"g\"], [\"g\", \"b\"]]".into()));
+            return Err(bad(
+                "is empty; give rows of filter names, e.g. [[\"r\", \"g\"], [\"g\", \"b\"]]".into(),
+            ));
         }
         if rows > MAX_CFA_SIDE || cols > MAX_CFA_SIDE {
-            return Err(bad(format!("{rows} x {cols} cells; at most {MAX_CFA_SIDE} x {MAX_CFA_SIDE}")));
+            return Err(bad(format!(
+                "{rows} x {cols} cells; at most {MAX_CFA_SIDE} x {MAX_CFA_SIDE}"
+            )));
         }
         if let Some(i) = pattern.iter().position(|r| r.len() != cols) {
-            return Err(bad(format!("row {i} has {} cells, row 0 has {cols}", pattern[i].len())));
+            return Err(bad(format!(
+                "row {i} has {} cells, row 0 has {cols}",
+                pattern[i].len()
+            )));
         }
-        let names: Vec<String> = pattern.iter().flatten().map(|s| canonical_filter_name(s)).collect();
+        let names: Vec<String> = pattern
+            .iter()
+            .flatten()
+            .map(|s| canonical_filter_name(s))
+            .collect();
         if let Some(n) = names.iter().find(|n| n.is_empty()) {
             return Err(bad(format!("empty filter name '{n}'")));
         }
-        let mut filters: Vec<String> = ["r", "g", "b"].iter().filter(|c| names.iter().any(|n| n == *c)).map(|c| c.to_string()).collect();
+        let mut filters: Vec<String> = ["r", "g", "b"]
+            .iter()
+            .filter(|c| names.iter().any(|n| n == *c))
+            .map(|c| c.to_string())
+            .collect();
         for n in &names {
             if !filters.contains(n) {
                 filters.push(n.clone());
             }
         }
-        let cells = names.iter().map(|n| filters.iter().position(|f| f == n).unwrap_or(0) as u8).collect();
-        Ok(CfaLayout { rows, cols, cells, filters })
+        let cells = names
+            .iter()
+            .map(|n| filters.iter().position(|f| f == n).unwrap_or(0) as u8)
+            .collect();
+        Ok(CfaLayout {
+            rows,
+            cols,
+            cells,
+            filters,
+        })
     }
 
     /// A 2x2 Bayer pattern (filters r, g, b).
     pub fn from_bayer(p: CfaPattern) -> CfaLayout {
-        CfaLayout { rows: 2, cols: 2, cells: p.channels().map(|c| c as u8).to_vec(), filters: vec!["r".into(), "g".into(), "b".into()] }
+        CfaLayout {
+            rows: 2,
+            cols: 2,
+            cells: p.channels().map(|c| c as u8).to_vec(),
+            filters: vec!["r".into(), "g".into(), "b".into()],
+        }
     }
 
     /// A Bayer name (`RGGB`, `GRBG`, `GBRG`, `BGGR`) or a preset: `RGBW` (2x2, R G / W B: one green
@@ -79,7 +107,11 @@ impl CfaLayout {
         if let Ok(p) = CfaPattern::parse(name) {
             return Ok(CfaLayout::from_bayer(p));
         }
-        let s = |v: &[&[&str]]| v.iter().map(|r| r.iter().map(|c| c.to_string()).collect()).collect::<Vec<Vec<String>>>();
+        let s = |v: &[&[&str]]| {
+            v.iter()
+                .map(|r| r.iter().map(|c| c.to_string()).collect())
+                .collect::<Vec<Vec<String>>>()
+        };
         match name.trim().to_ascii_lowercase().replace('_', "-").as_str() {
             "rgbw" => CfaLayout::from_names(&s(&[&["r", "g"], &["w", "b"]])),
             "quad-bayer" | "quadbayer" | "tetracell" => {
@@ -118,7 +150,11 @@ impl CfaLayout {
 
     /// The Bayer pattern this layout is, if it is one (2x2, filters r, g, b, two greens on a diagonal).
     pub fn as_bayer(&self) -> Option<CfaPattern> {
-        if self.rows != 2 || self.cols != 2 || self.filters.len() != 3 || self.filters != ["r", "g", "b"] {
+        if self.rows != 2
+            || self.cols != 2
+            || self.filters.len() != 3
+            || self.filters != ["r", "g", "b"]
+        {
             return None;
         }
         CfaPattern::from_dng_codes(&self.cells)
@@ -136,7 +172,12 @@ impl CfaLayout {
             }
         }
         (0..self.rows)
-            .map(|r| (0..self.cols).map(|c| self.filters[self.filter_at(r, c)].as_str()).collect::<Vec<_>>().join(" "))
+            .map(|r| {
+                (0..self.cols)
+                    .map(|c| self.filters[self.filter_at(r, c)].as_str())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
             .collect::<Vec<_>>()
             .join("/")
     }
@@ -146,7 +187,8 @@ impl CfaLayout {
         let mut n = vec![0usize; self.filters.len()];
         for tr in 0..self.rows.min(rows) {
             for tc in 0..self.cols.min(cols) {
-                n[self.filter_at(tr, tc)] += (rows - tr).div_ceil(self.rows) * (cols - tc).div_ceil(self.cols);
+                n[self.filter_at(tr, tc)] +=
+                    (rows - tr).div_ceil(self.rows) * (cols - tc).div_ceil(self.cols);
             }
         }
         n
@@ -171,14 +213,18 @@ impl CfaLayout {
     /// mapped through CFAPlaneColor to TIFF/EP colours 0..=6).
     pub fn from_dng_codes(rows: usize, cols: usize, codes: &[u8]) -> Result<CfaLayout> {
         if rows * cols != codes.len() {
-            return Err(CoreError::invalid("CFAPattern", format!("{} codes for a {rows} x {cols} pattern", codes.len())));
+            return Err(CoreError::invalid(
+                "CFAPattern",
+                format!("{} codes for a {rows} x {cols} pattern", codes.len()),
+            ));
         }
         let mut names = Vec::with_capacity(rows);
         for r in 0..rows {
             let mut row = Vec::with_capacity(cols);
             for &c in &codes[r * cols..(r + 1) * cols] {
-                let n =
-                    DNG_CODES.get(c as usize).ok_or_else(|| CoreError::invalid("CFAPattern", format!("colour code {c} is not 0..=6")))?;
+                let n = DNG_CODES.get(c as usize).ok_or_else(|| {
+                    CoreError::invalid("CFAPattern", format!("colour code {c} is not 0..=6"))
+                })?;
                 row.push(n.to_string());
             }
             names.push(row);
@@ -193,7 +239,12 @@ mod tests {
 
     #[test]
     fn presets_and_bayer() {
-        for p in [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr] {
+        for p in [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ] {
             let l = CfaLayout::from_bayer(p);
             assert_eq!(l.as_bayer(), Some(p));
             assert_eq!(CfaLayout::parse(p.name()).unwrap(), l);
@@ -217,11 +268,17 @@ mod tests {
 
     #[test]
     fn dng_codes_round_trip_and_reject_ir() {
-        let l = CfaLayout::from_names(&[vec!["cyan".into(), "Yellow".into()], vec!["w".into(), "magenta".into()]]).unwrap();
+        let l = CfaLayout::from_names(&[
+            vec!["cyan".into(), "Yellow".into()],
+            vec!["w".into(), "magenta".into()],
+        ])
+        .unwrap();
         let codes = l.dng_codes().unwrap();
         assert_eq!(codes, vec![3, 5, 6, 4]);
         assert_eq!(CfaLayout::from_dng_codes(2, 2, &codes).unwrap(), l);
-        let ir = CfaLayout::from_names(&[vec!["r".into(), "ir".into()], vec!["g".into(), "b".into()]]).unwrap();
+        let ir =
+            CfaLayout::from_names(&[vec!["r".into(), "ir".into()], vec!["g".into(), "b".into()]])
+                .unwrap();
         assert!(ir.dng_codes().unwrap_err().to_string().contains("'ir'"));
         assert!(CfaLayout::from_names(&[vec!["r".into(); 9]]).is_err());
         assert!(CfaLayout::from_names(&[vec!["r".into(), "g".into()], vec!["b".into()]]).is_err());

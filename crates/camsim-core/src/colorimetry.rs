@@ -274,7 +274,10 @@ mod tests {
         let g = WavelengthGrid::new(360.0, 830.0, 5.0).unwrap();
         let xyz_e = try_xyz(&vec![1.0; g.len()], &g).unwrap();
         let [x, y] = chromaticity_xy(xyz_e);
-        assert!((x - 1.0 / 3.0).abs() < 2e-4 && (y - 1.0 / 3.0).abs() < 2e-4, "x {x} y {y}");
+        assert!(
+            (x - 1.0 / 3.0).abs() < 2e-4 && (y - 1.0 / 3.0).abs() < 2e-4,
+            "x {x} y {y}"
+        );
         // Y of E (1 W/nm everywhere) is the integral of V(lambda) = 106.857 nm (CIE 015:2018 table
         // sums: 21.3714 x 5 nm); luminance of a flat 1 W/(sr m^2 nm) radiance is 683 x that.
         assert!((xyz_e[1] - 106.857).abs() < 0.01, "Y = {}", xyz_e[1]);

@@ -59,7 +59,9 @@ impl LineCounter {
         let Some(pos) = pos else {
             return self.newlines + 1;
         };
-        let mut i = usize::try_from(pos.byte()).unwrap_or(usize::MAX).min(input.len());
+        let mut i = usize::try_from(pos.byte())
+            .unwrap_or(usize::MAX)
+            .min(input.len());
         loop {
             while i < input.len() && matches!(input[i], b'\n' | b'\r') {
                 i += 1;
@@ -73,7 +75,10 @@ impl LineCounter {
             break;
         }
         if i > self.offset {
-            self.newlines += input[self.offset..i].iter().filter(|b| **b == b'\n').count();
+            self.newlines += input[self.offset..i]
+                .iter()
+                .filter(|b| **b == b'\n')
+                .count();
             self.offset = i;
         }
         self.newlines + 1
@@ -106,7 +111,10 @@ mod tests {
         assert_eq!(got, want);
         // Without comments, '#' lines are records.
         let got = lines_and_fields("#x\n\n1\n", false);
-        assert_eq!(got, vec![(1, vec!["#x".to_string()]), (3, vec!["1".to_string()])]);
+        assert_eq!(
+            got,
+            vec![(1, vec!["#x".to_string()]), (3, vec!["1".to_string()])]
+        );
     }
 
     #[test]

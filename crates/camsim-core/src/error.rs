@@ -9,19 +9,36 @@ pub enum CoreError {
     #[error("{path}: {message}")]
     File { path: PathBuf, message: String },
     #[error("{path}, line {line}: {message}")]
-    Line { path: PathBuf, line: usize, message: String },
+    Line {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
     #[error("{what} needs {needed_mib} MiB but only {available_mib} MiB of memory is available; reduce the image size or the number of bands")]
-    OutOfMemory { what: String, needed_mib: u64, available_mib: u64 },
+    OutOfMemory {
+        what: String,
+        needed_mib: u64,
+        available_mib: u64,
+    },
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
 
 impl CoreError {
     pub fn invalid(what: impl Into<String>, message: impl Into<String>) -> Self {
-        CoreError::Invalid { what: what.into(), message: message.into() }
+        CoreError::Invalid {
+            what: what.into(),
+            message: message.into(),
+        }
     }
     pub fn file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        CoreError::File { path: path.into(), message: message.into() }
+        CoreError::File {
+            path: path.into(),
+            message: message.into(),
+        }
     }
 }
 

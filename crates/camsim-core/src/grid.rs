@@ -16,7 +16,11 @@ pub struct WavelengthGrid {
 
 impl Default for WavelengthGrid {
     fn default() -> Self {
-        WavelengthGrid { start_nm: 400.0, step_nm: 10.0, count: 31 }
+        WavelengthGrid {
+            start_nm: 400.0,
+            step_nm: 10.0,
+            count: 31,
+        }
     }
 }
 
@@ -24,7 +28,10 @@ impl WavelengthGrid {
     /// Grid from `start_nm` to `end_nm` inclusive every `step_nm`.
     pub fn new(start_nm: f64, end_nm: f64, step_nm: f64) -> Result<Self> {
         if !(start_nm.is_finite() && end_nm.is_finite() && step_nm.is_finite()) {
-            return Err(CoreError::invalid("wavelength grid", "start, end and step must be finite numbers"));
+            return Err(CoreError::invalid(
+                "wavelength grid",
+                "start, end and step must be finite numbers",
+            ));
         }
         if start_nm <= 0.0 || step_nm <= 0.0 || end_nm < start_nm {
             return Err(CoreError::invalid(
@@ -34,16 +41,26 @@ impl WavelengthGrid {
         }
         let n = ((end_nm - start_nm) / step_nm + 1e-6).floor() as usize + 1;
         if n > 10_000 {
-            return Err(CoreError::invalid("wavelength grid", format!("{n} bands is more than 10000")));
+            return Err(CoreError::invalid(
+                "wavelength grid",
+                format!("{n} bands is more than 10000"),
+            ));
         }
-        Ok(WavelengthGrid { start_nm, step_nm, count: n })
+        Ok(WavelengthGrid {
+            start_nm,
+            step_nm,
+            count: n,
+        })
     }
 
     /// Check a grid read from a config: positive step, at least one band.
     pub fn validate(&self) -> Result<()> {
         WavelengthGrid::new(self.start_nm, self.end_nm(), self.step_nm).map(|_| ())?;
         if self.count == 0 {
-            return Err(CoreError::invalid("wavelength grid", "count must be at least 1"));
+            return Err(CoreError::invalid(
+                "wavelength grid",
+                "count must be at least 1",
+            ));
         }
         Ok(())
     }
@@ -83,12 +100,19 @@ impl WavelengthGrid {
     pub fn from_wavelengths(wavelengths_nm: &[f64]) -> Result<Self> {
         match wavelengths_nm.len() {
             0 => Err(CoreError::invalid("wavelength grid", "no wavelengths")),
-            1 => Ok(WavelengthGrid { start_nm: wavelengths_nm[0], step_nm: 1.0, count: 1 }),
+            1 => Ok(WavelengthGrid {
+                start_nm: wavelengths_nm[0],
+                step_nm: 1.0,
+                count: 1,
+            }),
             n => {
                 let start = wavelengths_nm[0];
                 let step = (wavelengths_nm[n - 1] - start) / (n - 1) as f64;
                 if step <= 0.0 {
-                    return Err(CoreError::invalid("wavelength grid", "wavelengths must increase"));
+                    return Err(CoreError::invalid(
+                        "wavelength grid",
+                        "wavelengths must increase",
+                    ));
                 }
                 for (i, w) in wavelengths_nm.iter().enumerate() {
                     if (w - (start + step * i as f64)).abs() > 1e-3 * step {
@@ -98,7 +122,11 @@ impl WavelengthGrid {
                         ));
                     }
                 }
-                Ok(WavelengthGrid { start_nm: start, step_nm: step, count: n })
+                Ok(WavelengthGrid {
+                    start_nm: start,
+                    step_nm: step,
+                    count: n,
+                })
             }
         }
     }

@@ -77,18 +77,38 @@ pub struct SpectralImage {
 
 impl SpectralImage {
     /// A zero image, refusing sizes that do not fit in memory before allocating.
-    pub fn zeros(rows: usize, cols: usize, grid: WavelengthGrid, sample_spacing_m: f64, quantity: Quantity) -> Result<Self> {
+    pub fn zeros(
+        rows: usize,
+        cols: usize,
+        grid: WavelengthGrid,
+        sample_spacing_m: f64,
+        quantity: Quantity,
+    ) -> Result<Self> {
         if rows == 0 || cols == 0 {
-            return Err(CoreError::invalid("image size", format!("{rows} x {cols} has no pixels")));
+            return Err(CoreError::invalid(
+                "image size",
+                format!("{rows} x {cols} has no pixels"),
+            ));
         }
         if !(sample_spacing_m > 0.0 && sample_spacing_m.is_finite()) {
-            return Err(CoreError::invalid("sample spacing", format!("{sample_spacing_m} m is not a positive number")));
+            return Err(CoreError::invalid(
+                "sample spacing",
+                format!("{sample_spacing_m} m is not a positive number"),
+            ));
         }
         let n = rows
             .checked_mul(cols)
             .and_then(|p| p.checked_mul(grid.len()))
-            .ok_or_else(|| CoreError::invalid("image size", format!("{rows} x {cols} x {} overflows", grid.len())))?;
-        mem::check_alloc(n as u64 * 4, &format!("a {rows} x {cols} x {}-band spectral image", grid.len()))?;
+            .ok_or_else(|| {
+                CoreError::invalid(
+                    "image size",
+                    format!("{rows} x {cols} x {} overflows", grid.len()),
+                )
+            })?;
+        mem::check_alloc(
+            n as u64 * 4,
+            &format!("a {rows} x {cols} x {}-band spectral image", grid.len()),
+        )?;
         Ok(SpectralImage {
             rows,
             cols,
@@ -113,7 +133,11 @@ impl SpectralImage {
         if data.len() != rows * cols * grid.len() {
             return Err(CoreError::invalid(
                 "spectral image",
-                format!("{} values for {rows} x {cols} x {} bands", data.len(), grid.len()),
+                format!(
+                    "{} values for {rows} x {cols} x {} bands",
+                    data.len(),
+                    grid.len()
+                ),
             ));
         }
         Ok(SpectralImage {
@@ -152,7 +176,9 @@ impl SpectralImage {
     }
     /// The spectrum at one pixel (allocates; not for hot loops).
     pub fn pixel_spectrum(&self, row: usize, col: usize) -> Vec<f64> {
-        (0..self.bands()).map(|b| self.at(row, col, b) as f64).collect()
+        (0..self.bands())
+            .map(|b| self.at(row, col, b) as f64)
+            .collect()
     }
     /// Width and height of the image in metres in its own plane.
     pub fn width_m(&self) -> f64 {

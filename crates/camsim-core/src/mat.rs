@@ -806,10 +806,25 @@ pub fn mat_v5_doubles(vars: &[(&str, usize, usize, &[f64])]) -> Vec<u8> {
     for (name, rows, cols, values) in vars {
         debug_assert_eq!(values.len(), rows * cols);
         let mut body = Vec::new();
-        element(&mut body, MI_UINT32, &[6 /* mxDOUBLE_CLASS */, 0, 0, 0, 0, 0, 0, 0]);
-        element(&mut body, MI_INT32, &[(*rows as i32).to_le_bytes(), (*cols as i32).to_le_bytes()].concat());
+        element(
+            &mut body,
+            MI_UINT32,
+            &[6 /* mxDOUBLE_CLASS */, 0, 0, 0, 0, 0, 0, 0],
+        );
+        element(
+            &mut body,
+            MI_INT32,
+            &[(*rows as i32).to_le_bytes(), (*cols as i32).to_le_bytes()].concat(),
+        );
         element(&mut body, MI_INT8, name.as_bytes());
-        element(&mut body, MI_DOUBLE, &values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
+        element(
+            &mut body,
+            MI_DOUBLE,
+            &values
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect::<Vec<u8>>(),
+        );
         out.extend(MI_MATRIX.to_le_bytes());
         out.extend((body.len() as u32).to_le_bytes());
         out.extend(body);

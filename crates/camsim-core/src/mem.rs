@@ -5,13 +5,20 @@ use crate::error::{CoreError, Result};
 /// Memory available to this process in bytes: `MemAvailable` from /proc/meminfo on Linux,
 /// otherwise a conservative 8 GiB. `CAMSIM_MEMORY_LIMIT_MIB` overrides it (tests, shared hosts).
 pub fn available_bytes() -> u64 {
-    if let Some(mib) = std::env::var("CAMSIM_MEMORY_LIMIT_MIB").ok().and_then(|s| s.parse::<u64>().ok()) {
+    if let Some(mib) = std::env::var("CAMSIM_MEMORY_LIMIT_MIB")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+    {
         return mib << 20;
     }
     if let Ok(s) = std::fs::read_to_string("/proc/meminfo") {
         for line in s.lines() {
             if let Some(rest) = line.strip_prefix("MemAvailable:") {
-                if let Some(kb) = rest.split_whitespace().next().and_then(|v| v.parse::<u64>().ok()) {
+                if let Some(kb) = rest
+                    .split_whitespace()
+                    .next()
+                    .and_then(|v| v.parse::<u64>().ok())
+                {
                     return kb * 1024;
                 }
             }
@@ -24,7 +31,11 @@ pub fn available_bytes() -> u64 {
 pub fn check_alloc(bytes: u64, what: &str) -> Result<()> {
     let avail = available_bytes();
     if bytes > avail {
-        return Err(CoreError::OutOfMemory { what: what.to_string(), needed_mib: bytes >> 20, available_mib: avail >> 20 });
+        return Err(CoreError::OutOfMemory {
+            what: what.to_string(),
+            needed_mib: bytes >> 20,
+            available_mib: avail >> 20,
+        });
     }
     Ok(())
 }
@@ -41,7 +52,13 @@ pub fn process_cpu_s() -> (f64, f64) {
         let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
         // Fields after the command name (which may hold spaces) closed by ')': utime is the 12th,
         // stime the 13th (proc(5)).
-        let f: Vec<f64> = stat.rsplit(')').next().unwrap_or("").split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
+        let f: Vec<f64> = stat
+            .rsplit(')')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .map(|v| v.parse().unwrap_or(0.0))
+            .collect();
         if f.len() > 12 {
             return (f[11] / ticks, f[12] / ticks);
         }

@@ -65,9 +65,14 @@ impl CfaPattern {
     }
 
     pub fn from_dng_codes(codes: &[u8]) -> Option<CfaPattern> {
-        [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr]
-            .into_iter()
-            .find(|p| p.dng_codes()[..] == *codes)
+        [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ]
+        .into_iter()
+        .find(|p| p.dng_codes()[..] == *codes)
     }
 
     pub fn name(self) -> &'static str {
@@ -85,7 +90,10 @@ impl CfaPattern {
             "GRBG" => Ok(CfaPattern::Grbg),
             "GBRG" => Ok(CfaPattern::Gbrg),
             "BGGR" => Ok(CfaPattern::Bggr),
-            _ => Err(CoreError::invalid("cfa pattern", format!("'{s}' is not one of RGGB, GRBG, GBRG, BGGR"))),
+            _ => Err(CoreError::invalid(
+                "cfa pattern",
+                format!("'{s}' is not one of RGGB, GRBG, GBRG, BGGR"),
+            )),
         }
     }
 }
@@ -117,7 +125,10 @@ pub struct RawImage {
 impl RawImage {
     pub fn new(rows: usize, cols: usize, cfa: CfaPattern, bits: u32) -> Result<Self> {
         if rows == 0 || cols == 0 {
-            return Err(CoreError::invalid("raw image size", format!("{rows} x {cols} has no pixels")));
+            return Err(CoreError::invalid(
+                "raw image size",
+                format!("{rows} x {cols} has no pixels"),
+            ));
         }
         crate::mem::check_alloc((rows * cols * 2) as u64, "a raw frame")?;
         Ok(RawImage {
@@ -145,7 +156,9 @@ impl RawImage {
 
     /// The colour filter array: `layout`, or the Bayer `cfa` as a layout.
     pub fn cfa_layout(&self) -> CfaLayout {
-        self.layout.clone().unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
+        self.layout
+            .clone()
+            .unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
     }
 
     /// An error naming `what` when this frame is not a Bayer mosaic.
@@ -166,7 +179,12 @@ mod tests {
 
     #[test]
     fn patterns_round_trip_dng_codes() {
-        for p in [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr] {
+        for p in [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ] {
             assert_eq!(CfaPattern::from_dng_codes(&p.dng_codes()), Some(p));
             assert_eq!(CfaPattern::parse(p.name()).unwrap(), p);
             // Every 2x2 block has two greens, one red, one blue.

@@ -32,7 +32,11 @@ impl Spectrum {
         if wavelengths_nm.len() != values.len() {
             return Err(CoreError::invalid(
                 what,
-                format!("{} wavelengths but {} values", wavelengths_nm.len(), values.len()),
+                format!(
+                    "{} wavelengths but {} values",
+                    wavelengths_nm.len(),
+                    values.len()
+                ),
             ));
         }
         if wavelengths_nm.is_empty() {
@@ -40,22 +44,43 @@ impl Spectrum {
         }
         for (i, (w, v)) in wavelengths_nm.iter().zip(&values).enumerate() {
             if !w.is_finite() || *w <= 0.0 {
-                return Err(CoreError::invalid(what, format!("wavelength {i} is {w}, not a positive number")));
+                return Err(CoreError::invalid(
+                    what,
+                    format!("wavelength {i} is {w}, not a positive number"),
+                ));
             }
             if !v.is_finite() {
-                return Err(CoreError::invalid(what, format!("value at {w} nm is {v}, not a finite number")));
+                return Err(CoreError::invalid(
+                    what,
+                    format!("value at {w} nm is {v}, not a finite number"),
+                ));
             }
         }
         if wavelengths_nm.windows(2).any(|p| p[1] <= p[0]) {
-            return Err(CoreError::invalid(what, "wavelengths must be strictly increasing"));
+            return Err(CoreError::invalid(
+                what,
+                "wavelengths must be strictly increasing",
+            ));
         }
-        Ok(Spectrum { wavelengths_nm, values, extrapolation: Extrapolation::Zero })
+        Ok(Spectrum {
+            wavelengths_nm,
+            values,
+            extrapolation: Extrapolation::Zero,
+        })
     }
 
     /// A spectrum already sampled on `grid`.
     pub fn on_grid(grid: &WavelengthGrid, values: Vec<f64>) -> Self {
-        assert_eq!(grid.len(), values.len(), "on_grid: values must match the grid");
-        Spectrum { wavelengths_nm: grid.wavelengths_nm(), values, extrapolation: Extrapolation::Zero }
+        assert_eq!(
+            grid.len(),
+            values.len(),
+            "on_grid: values must match the grid"
+        );
+        Spectrum {
+            wavelengths_nm: grid.wavelengths_nm(),
+            values,
+            extrapolation: Extrapolation::Zero,
+        }
     }
 
     /// The same value at every wavelength of `grid` (an equal-energy spectrum, a grey reflectance).
@@ -79,8 +104,16 @@ impl Spectrum {
 
     /// Error naming `what` if any value is negative (radiances, reflectances, QE must not be).
     pub fn require_non_negative(&self, what: &str) -> Result<()> {
-        if let Some((w, v)) = self.wavelengths_nm.iter().zip(&self.values).find(|(_, v)| **v < 0.0) {
-            return Err(CoreError::invalid(what, format!("negative value {v} at {w} nm")));
+        if let Some((w, v)) = self
+            .wavelengths_nm
+            .iter()
+            .zip(&self.values)
+            .find(|(_, v)| **v < 0.0)
+        {
+            return Err(CoreError::invalid(
+                what,
+                format!("negative value {v} at {w} nm"),
+            ));
         }
         Ok(())
     }
@@ -90,7 +123,9 @@ impl Spectrum {
         let w = &self.wavelengths_nm;
         let n = w.len();
         if n == 1 {
-            return if (wavelength_nm - w[0]).abs() < 1e-9 || self.extrapolation == Extrapolation::Hold {
+            return if (wavelength_nm - w[0]).abs() < 1e-9
+                || self.extrapolation == Extrapolation::Hold
+            {
                 self.values[0]
             } else {
                 0.0
@@ -128,7 +163,9 @@ impl Spectrum {
 
     /// Values at every wavelength of `grid` (linear resampling).
     pub fn sample(&self, grid: &WavelengthGrid) -> Vec<f64> {
-        (0..grid.len()).map(|i| self.eval(grid.wavelength_nm(i))).collect()
+        (0..grid.len())
+            .map(|i| self.eval(grid.wavelength_nm(i)))
+            .collect()
     }
 
     /// This spectrum resampled onto `grid`.
@@ -153,7 +190,10 @@ impl Spectrum {
     }
 
     pub fn max_value(&self) -> f64 {
-        self.values.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        self.values
+            .iter()
+            .cloned()
+            .fold(f64::NEG_INFINITY, f64::max)
     }
 }
 
@@ -168,7 +208,12 @@ mod tests {
         assert!((s.eval(600.0) - 3.0).abs() < 1e-12);
         assert_eq!(s.eval(700.0), 4.0);
         assert_eq!(s.eval(399.0), 0.0);
-        assert_eq!(s.clone().with_extrapolation(Extrapolation::Hold).eval(800.0), 4.0);
+        assert_eq!(
+            s.clone()
+                .with_extrapolation(Extrapolation::Hold)
+                .eval(800.0),
+            4.0
+        );
     }
 
     #[test]

@@ -499,14 +499,23 @@ mod tests {
         assert_eq!(t.wavelengths_nm, vec![400.0, 410.0]);
         assert_eq!(t.columns, vec![vec![0.1, 0.3], vec![0.2, 0.4]]);
         // Lines are counted in the file, comments and blank lines included.
-        let e = parse_spectra_csv("# a\n\n\"w\",\"a\"\n# b\n400,1\n410,\"x,y\"\n", &p()).unwrap_err().to_string();
-        assert!(e.starts_with("t.csv, line 6:") && e.contains("'x,y' is not a number"), "{e}");
+        let e = parse_spectra_csv("# a\n\n\"w\",\"a\"\n# b\n400,1\n410,\"x,y\"\n", &p())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("t.csv, line 6:") && e.contains("'x,y' is not a number"),
+            "{e}"
+        );
         // A quoted field may hold a comma, but a spectrum's name may not (the writer could not
         // write it back): a clear error, never a wrong table.
-        let e = parse_spectra_csv("w,\"a,b\"\n400,1\n", &p()).unwrap_err().to_string();
+        let e = parse_spectra_csv("w,\"a,b\"\n400,1\n", &p())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("t.csv") && e.contains("'a,b'"), "{e}");
         // An unterminated quote swallows the rest of the file: a ragged row, not a panic.
-        let e = parse_spectra_csv("w,a\n400,\"1\n410,2\n", &p()).unwrap_err().to_string();
+        let e = parse_spectra_csv("w,a\n400,\"1\n410,2\n", &p())
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("t.csv, line 2:"), "{e}");
     }
 
@@ -532,7 +541,8 @@ mod tests {
         let w: Vec<f64> = (0..7).map(|i| 400.0 + i as f64 * 10.0 / 3.0).collect();
         let c: Vec<f64> = (0..7).map(|i| (i as f64 * 0.7).sin() / 3.0).collect();
         let table = SpectraTable::new(w.clone(), vec!["s".into()], vec![c.clone()], "t").unwrap();
-        let back = parse_spectra_csv(&format_spectra_csv(&table, &["a comment"]).unwrap(), &p()).unwrap();
+        let back =
+            parse_spectra_csv(&format_spectra_csv(&table, &["a comment"]).unwrap(), &p()).unwrap();
         assert_eq!(back.wavelengths_nm, w);
         assert_eq!(back.columns[0], c);
     }

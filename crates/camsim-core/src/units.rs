@@ -32,7 +32,8 @@ pub fn planck_radiance_w_per_sr_m2_nm(wavelength_nm: f64, temperature_k: f64) ->
     let c = SPEED_OF_LIGHT_M_PER_S;
     let k = BOLTZMANN_J_PER_K;
     // B = 2 h c^2 / lambda^5 / (exp(h c / (lambda k T)) - 1)   [W / (sr m^2 m)]
-    let b_per_m = 2.0 * h * c * c / lambda_m.powi(5) / ((h * c / (lambda_m * k * temperature_k)).exp_m1());
+    let b_per_m =
+        2.0 * h * c * c / lambda_m.powi(5) / ((h * c / (lambda_m * k * temperature_k)).exp_m1());
     b_per_m * 1e-9
 }
 
@@ -53,10 +54,16 @@ mod tests {
         for t in [3000.0, 5000.0, 6500.0] {
             let peak = (2000..20000)
                 .map(|i| i as f64 * 0.1)
-                .max_by(|a, b| planck_radiance_w_per_sr_m2_nm(*a, t).total_cmp(&planck_radiance_w_per_sr_m2_nm(*b, t)))
+                .max_by(|a, b| {
+                    planck_radiance_w_per_sr_m2_nm(*a, t)
+                        .total_cmp(&planck_radiance_w_per_sr_m2_nm(*b, t))
+                })
                 .unwrap();
             let wien_nm = 2.897_771_955e-3 / t * 1e9;
-            assert!((peak - wien_nm).abs() < 0.2, "T={t}: peak {peak} vs Wien {wien_nm}");
+            assert!(
+                (peak - wien_nm).abs() < 0.2,
+                "T={t}: peak {peak} vs Wien {wien_nm}"
+            );
         }
     }
 }

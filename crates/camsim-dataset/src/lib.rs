@@ -13,7 +13,9 @@
 pub mod run;
 pub mod spec;
 
-pub use run::{gather, run, run_shard, shard_complete, RunSummary, SampleRecord, ShardRecord, ShardSelect};
+pub use run::{
+    gather, run, run_shard, shard_complete, RunSummary, SampleRecord, ShardRecord, ShardSelect,
+};
 pub use spec::{DatasetSpec, Sample};
 
 use std::path::{Path, PathBuf};
@@ -23,25 +25,40 @@ use std::path::{Path, PathBuf};
 pub enum DatasetError {
     /// The spec (the message names the key or variation).
     #[error("{source_name}: {message}")]
-    Spec { source_name: String, message: String },
+    Spec {
+        source_name: String,
+        message: String,
+    },
     /// A file of the dataset folder.
     #[error("{}: {message}", path.display())]
     File { path: PathBuf, message: String },
     #[error("{}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error(transparent)]
     Write(#[from] camsim_io::IoError),
 }
 
 impl DatasetError {
     pub(crate) fn spec(source: impl std::fmt::Display, message: impl Into<String>) -> Self {
-        DatasetError::Spec { source_name: source.to_string(), message: message.into() }
+        DatasetError::Spec {
+            source_name: source.to_string(),
+            message: message.into(),
+        }
     }
     pub(crate) fn file(path: &Path, message: impl Into<String>) -> Self {
-        DatasetError::File { path: path.to_path_buf(), message: message.into() }
+        DatasetError::File {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
     }
     pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
-        DatasetError::Io { path: path.to_path_buf(), source }
+        DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     }
 }
 

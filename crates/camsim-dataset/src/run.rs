@@ -42,9 +42,17 @@ impl Default for ShardSelect {
 impl ShardSelect {
     /// Parse `i/n` with 0 <= i < n.
     pub fn parse(text: &str) -> std::result::Result<ShardSelect, String> {
-        let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard {text:?}: write i/n, e.g. 0/4"))?;
-        let index: u64 = i.trim().parse().map_err(|_| format!("--shard {text:?}: {i:?} is not a whole number"))?;
-        let count: u64 = n.trim().parse().map_err(|_| format!("--shard {text:?}: {n:?} is not a whole number"))?;
+        let (i, n) = text
+            .split_once('/')
+            .ok_or_else(|| format!("--shard {text:?}: write i/n, e.g. 0/4"))?;
+        let index: u64 = i
+            .trim()
+            .parse()
+            .map_err(|_| format!("--shard {text:?}: {i:?} is not a whole number"))?;
+        let count: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("--shard {text:?}: {n:?} is not a whole number"))?;
         if count == 0 || index >= count {
             return Err(format!("--shard {text:?}: needs 0 <= i < n"));
         }
@@ -125,7 +133,8 @@ pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
     let path = out.join("spec.json");
     if path.is_file() {
         let text = std::fs::read_to_string(&path).map_err(|e| DatasetError::io(&path, e))?;
-        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| DatasetError::file(&path, e.to_string()))?;
+        let v: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| DatasetError::file(&path, e.to_string()))?;
         if v["fingerprint"].as_str() != Some(spec.fingerprint.as_str()) {
             return Err(DatasetError::file(
                 &path,
@@ -210,10 +219,23 @@ struct SampleFiles {
 }
 
 /// Simulate sample `i` and collect its files (staged in `scratch`, then read back).
-fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &str) -> SampleFiles {
+fn run_sample(
+    spec: &DatasetSpec,
+    sample: &Sample,
+    scratch: &Path,
+    shard_name: &str,
+) -> SampleFiles {
     let key = format!("{:08}", sample.index);
-    let params: serde_json::Map<String, serde_json::Value> =
-        sample.params.iter().map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or(serde_json::Value::Null))).collect();
+    let params: serde_json::Map<String, serde_json::Value> = sample
+        .params
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                serde_json::to_value(v).unwrap_or(serde_json::Value::Null),
+            )
+        })
+        .collect();
     let mut record = SampleRecord {
         index: sample.index,
         key: key.clone(),
@@ -227,12 +249,21 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
         times_s: serde_json::Map::new(),
     };
     let result = (|| -> std::result::Result<Vec<(String, Vec<u8>)>, String> {
-        let opts = SimulateOptions { noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree), ..Default::default() };
+        let opts = SimulateOptions {
+            noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
+            ..Default::default()
+        };
         let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
         record.exposure_s = Some(sim.exposure_s);
         record.times_s = sim.times_s.clone();
         let dir = OutputDir::create(scratch.join(&key)).map_err(|e| e.to_string())?;
-        sim.write_into(&dir, &spec.outputs, ExrOptions::default(), &RunInfo::default()).map_err(|e| e.to_string())?;
+        sim.write_into(
+            &dir,
+            &spec.outputs,
+            ExrOptions::default(),
+            &RunInfo::default(),
+        )
+        .map_err(|e| e.to_string())?;
         let mut files = Vec::new();
         // The sample's record: deterministic (no timings, no command line): the same bytes for
         // the same (spec, index) on any machine.
@@ -245,7 +276,10 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
             m.insert("seed".into(), sample.seed.into());
             m.insert("params".into(), serde_json::Value::Object(params.clone()));
         }
-        files.push((format!("{key}.json"), serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?));
+        files.push((
+            format!("{key}.json"),
+            serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?,
+        ));
         let mut names: Vec<String> = std::fs::read_dir(dir.path())
             .map_err(|e| e.to_string())?
             .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
@@ -256,7 +290,11 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
         for n in names {
             let bytes = std::fs::read(dir.join(&n)).map_err(|e| format!("{n}: {e}"))?;
             // raw.dng -> KEY.dng (the WebDataset extension); the others keep their names.
-            let name = if n == "raw.dng" { format!("{key}.dng") } else { format!("{key}.{n}") };
+            let name = if n == "raw.dng" {
+                format!("{key}.dng")
+            } else {
+                format!("{key}.{n}")
+            };
             files.push((name, bytes));
         }
         drop(dir); // not committed: the staging folder is removed
@@ -266,9 +304,17 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
                 "xyz = true needs the scene's radiance, but the scene's lens camera (realistic or raytransfer) renders sensor-plane irradiance: set xyz = false or use a pinhole camera",
             )?;
             let [x, y, z] = scene_xyz(radiance);
-            camsim_io::exr::write_channels_exr(&path, radiance.rows, radiance.cols, &[("X", &x), ("Y", &y), ("Z", &z)])
-                .map_err(|e| e.to_string())?;
-            files.push((format!("{key}.xyz.exr"), std::fs::read(&path).map_err(|e| e.to_string())?));
+            camsim_io::exr::write_channels_exr(
+                &path,
+                radiance.rows,
+                radiance.cols,
+                &[("X", &x), ("Y", &y), ("Z", &z)],
+            )
+            .map_err(|e| e.to_string())?;
+            files.push((
+                format!("{key}.xyz.exr"),
+                std::fs::read(&path).map_err(|e| e.to_string())?,
+            ));
             let _ = std::fs::remove_file(&path);
         }
         if spec.raw_npy {
@@ -285,7 +331,10 @@ fn run_sample(spec: &DatasetSpec, sample: &Sample, scratch: &Path, shard_name: &
         Err(e) => {
             record.status = "error".into();
             record.error = Some(e);
-            SampleFiles { record, files: Vec::new() }
+            SampleFiles {
+                record,
+                files: Vec::new(),
+            }
         }
     }
 }
@@ -337,9 +386,20 @@ fn npy_u16(data: &[u16], rows: usize, cols: usize) -> Vec<u8> {
 
 /// Run shard `s` of `spec` into `out` (samples in parallel on the current rayon pool), writing
 /// its tar and record atomically. `on_sample` is called as each sample finishes.
-pub fn run_shard(spec: &DatasetSpec, out: &Path, s: u64, on_sample: &(dyn Fn(&SampleRecord) + Sync)) -> Result<ShardRecord> {
+pub fn run_shard(
+    spec: &DatasetSpec,
+    out: &Path,
+    s: u64,
+    on_sample: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<ShardRecord> {
     if s >= spec.shards() {
-        return Err(DatasetError::spec(&spec.source, format!("shard {s} is out of range (the dataset has {})", spec.shards())));
+        return Err(DatasetError::spec(
+            &spec.source,
+            format!(
+                "shard {s} is out of range (the dataset has {})",
+                spec.shards()
+            ),
+        ));
     }
     prepare(spec, out)?;
     let t0 = Instant::now();
@@ -381,7 +441,11 @@ pub fn run_shard(spec: &DatasetSpec, out: &Path, s: u64, on_sample: &(dyn Fn(&Sa
     let tar_path = out.join(&tar_name);
     let mut digest = (String::new(), 0u64);
     write_atomic(&tar_path, |w| {
-        let mut hw = Hashing { inner: w, hash: Sha256::new(), bytes: 0 };
+        let mut hw = Hashing {
+            inner: w,
+            hash: Sha256::new(),
+            bytes: 0,
+        };
         {
             let mut b = tar::Builder::new(&mut hw);
             b.mode(tar::HeaderMode::Deterministic);
@@ -421,12 +485,26 @@ pub type RunProgress<'a> = dyn Fn(u64, u64, u64) + Sync + 'a;
 
 /// Run every shard `select` owns that is not already complete, then gather the manifest if the
 /// whole dataset is complete. `workers` samples run at once (None: one per core).
-pub fn run(spec: &DatasetSpec, out: &Path, select: ShardSelect, workers: Option<usize>, verify: bool, progress: &RunProgress<'_>) -> Result<RunSummary> {
+pub fn run(
+    spec: &DatasetSpec,
+    out: &Path,
+    select: ShardSelect,
+    workers: Option<usize>,
+    verify: bool,
+    progress: &RunProgress<'_>,
+) -> Result<RunSummary> {
     let t0 = Instant::now();
     prepare(spec, out)?;
     let owned: Vec<u64> = (0..spec.shards()).filter(|s| select.owns(*s)).collect();
-    let todo: Vec<u64> = owned.iter().copied().filter(|s| shard_complete(spec, out, *s, verify).is_none()).collect();
-    let total: u64 = todo.iter().map(|s| spec.shard_range(*s).count() as u64).sum();
+    let todo: Vec<u64> = owned
+        .iter()
+        .copied()
+        .filter(|s| shard_complete(spec, out, *s, verify).is_none())
+        .collect();
+    let total: u64 = todo
+        .iter()
+        .map(|s| spec.shard_range(*s).count() as u64)
+        .sum();
     let done = AtomicU64::new(0);
     let failed = AtomicU64::new(0);
     progress(0, total, 0);
@@ -434,7 +512,12 @@ pub fn run(spec: &DatasetSpec, out: &Path, select: ShardSelect, workers: Option<
     if let Some(w) = workers {
         builder = builder.num_threads(w.max(1));
     }
-    let pool = builder.build().map_err(|e| DatasetError::spec(&spec.source, format!("cannot start {workers:?} workers: {e}")))?;
+    let pool = builder.build().map_err(|e| {
+        DatasetError::spec(
+            &spec.source,
+            format!("cannot start {workers:?} workers: {e}"),
+        )
+    })?;
     for s in &todo {
         remove_stale_temporaries(out, &shard_stem(spec, *s));
         pool.install(|| {
@@ -461,10 +544,14 @@ pub fn run(spec: &DatasetSpec, out: &Path, select: ShardSelect, workers: Option<
 
 /// Leftovers of a killed run of this shard: its tar's temporary files and scratch folders.
 fn remove_stale_temporaries(out: &Path, stem: &str) {
-    let Ok(entries) = std::fs::read_dir(out) else { return };
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return;
+    };
     for e in entries.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        if n.starts_with(&format!(".{stem}.tar.tmp-")) || n.starts_with(&format!(".{stem}.json.tmp-")) {
+        if n.starts_with(&format!(".{stem}.tar.tmp-"))
+            || n.starts_with(&format!(".{stem}.json.tmp-"))
+        {
             let _ = std::fs::remove_file(e.path());
         } else if n.starts_with(&format!(".{stem}.scratch-")) {
             let _ = std::fs::remove_dir_all(e.path());
@@ -486,7 +573,9 @@ pub fn gather(spec: &DatasetSpec, out: &Path, verify: bool) -> Result<Option<Pat
     write_atomic(&path, |w| {
         for r in &records {
             for s in &r.samples {
-                serde_json::to_writer(&mut *w, s).map_err(|e| camsim_io::IoError::invalid(Path::new("manifest.jsonl"), e.to_string()))?;
+                serde_json::to_writer(&mut *w, s).map_err(|e| {
+                    camsim_io::IoError::invalid(Path::new("manifest.jsonl"), e.to_string())
+                })?;
                 w.write_all(b"\n")?;
             }
         }

@@ -174,8 +174,12 @@ pub struct Sample {
 impl DatasetSpec {
     /// Read a spec file (TOML).
     pub fn from_file(path: &Path) -> Result<DatasetSpec> {
-        let text = std::fs::read_to_string(path).map_err(|e| DatasetError::spec(path.display(), format!("cannot read: {e}")))?;
-        let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."));
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| DatasetError::spec(path.display(), format!("cannot read: {e}")))?;
+        let base_dir = path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
         Self::from_toml_str(&text, &path.display().to_string(), &base_dir)
     }
 
@@ -185,7 +189,8 @@ impl DatasetSpec {
         let file: SpecFile = if text.trim_start().starts_with('{') {
             serde_json::from_str(text).map_err(|e| DatasetError::spec(source, e.to_string()))?
         } else {
-            toml::from_str(text).map_err(|e| DatasetError::spec(source, e.to_string().trim_end().to_string()))?
+            toml::from_str(text)
+                .map_err(|e| DatasetError::spec(source, e.to_string().trim_end().to_string()))?
         };
         Self::from_spec_file(file, source, base_dir)
     }
@@ -215,16 +220,28 @@ impl DatasetSpec {
         } else {
             OutputSet::parse(&names.join(","))
         }
-        .map_err(|e| err(format!("dataset.outputs: {}", e.to_string().trim_start_matches("--save: "))))?;
+        .map_err(|e| {
+            err(format!(
+                "dataset.outputs: {}",
+                e.to_string().trim_start_matches("--save: ")
+            ))
+        })?;
 
         let (mut base, base_dir) = match (&file.base, &file.base_config) {
             (Some(_), Some(_)) => return Err(err("give [base] or base_config, not both".into())),
-            (None, None) => return Err(err("the spec needs a [base] table or base_config = \"simulate.toml\"".into())),
+            (None, None) => {
+                return Err(err(
+                    "the spec needs a [base] table or base_config = \"simulate.toml\"".into(),
+                ))
+            }
             (Some(t), None) => (t.clone(), base_dir.to_path_buf()),
             (None, Some(p)) => {
                 let path = base_dir.join(p);
-                let text = std::fs::read_to_string(&path).map_err(|e| err(format!("base_config {}: cannot read: {e}", path.display())))?;
-                let t: toml::Table = toml::from_str(&text).map_err(|e| err(format!("base_config {}: {e}", path.display())))?;
+                let text = std::fs::read_to_string(&path).map_err(|e| {
+                    err(format!("base_config {}: cannot read: {e}", path.display()))
+                })?;
+                let t: toml::Table = toml::from_str(&text)
+                    .map_err(|e| err(format!("base_config {}: {e}", path.display())))?;
                 (t, path.parent().map(Path::to_path_buf).unwrap_or_default())
             }
         };
@@ -235,19 +252,35 @@ impl DatasetSpec {
         let mut vary = Vec::new();
         for (n, v) in file.vary.iter().enumerate() {
             let at = format!("vary[{n}] (key {:?})", v.key);
-            let kinds = [v.values.is_some(), v.uniform.is_some(), v.log_uniform.is_some(), v.choice.is_some(), v.normal.is_some()];
+            let kinds = [
+                v.values.is_some(),
+                v.uniform.is_some(),
+                v.log_uniform.is_some(),
+                v.choice.is_some(),
+                v.normal.is_some(),
+            ];
             if kinds.iter().filter(|k| **k).count() != 1 {
-                return Err(err(format!("{at}: give exactly one of values, uniform, log_uniform, choice, normal")));
+                return Err(err(format!(
+                    "{at}: give exactly one of values, uniform, log_uniform, choice, normal"
+                )));
             }
             if v.key.is_empty() || v.key.split('.').any(str::is_empty) || v.key == "seed" {
                 return Err(err(format!("{at}: not a config key (dotted, e.g. optics.config.f_number; seed is the dataset's)")));
             }
             let range = |r: [f64; 2], what: &str, positive: bool| -> Result<(f64, f64)> {
-                let ok = r[0].is_finite() && r[1].is_finite() && r[0] < r[1] && (!positive || r[0] > 0.0);
+                let ok = r[0].is_finite()
+                    && r[1].is_finite()
+                    && r[0] < r[1]
+                    && (!positive || r[0] > 0.0);
                 if ok {
                     Ok((r[0], r[1]))
                 } else {
-                    Err(err(format!("{at}: {what} = [{}, {}] must be [min, max] with min < max{}", r[0], r[1], if positive { " and min > 0" } else { "" })))
+                    Err(err(format!(
+                        "{at}: {what} = [{}, {}] must be [min, max] with min < max{}",
+                        r[0],
+                        r[1],
+                        if positive { " and min > 0" } else { "" }
+                    )))
                 }
             };
             let draw = if let Some(vals) = &v.values {
@@ -267,15 +300,28 @@ impl DatasetSpec {
                 }
                 Draw::Choice(vals.clone())
             } else {
-                let s = v.normal.unwrap_or(NormalSpec { mean: 0.0, std: 0.0, min: 0.0, max: 0.0 });
-                let ok = [s.mean, s.std, s.min, s.max].iter().all(|x| x.is_finite()) && s.std > 0.0 && s.min < s.max;
+                let s = v.normal.unwrap_or(NormalSpec {
+                    mean: 0.0,
+                    std: 0.0,
+                    min: 0.0,
+                    max: 0.0,
+                });
+                let ok = [s.mean, s.std, s.min, s.max].iter().all(|x| x.is_finite())
+                    && s.std > 0.0
+                    && s.min < s.max;
                 // The truncation window must hold some probability, or the redraw never ends.
                 if !ok || s.max < s.mean - 6.0 * s.std || s.min > s.mean + 6.0 * s.std {
-                    return Err(err(format!("{at}: normal needs std > 0 and min < max overlapping mean +- 6 std")));
+                    return Err(err(format!(
+                        "{at}: normal needs std > 0 and min < max overlapping mean +- 6 std"
+                    )));
                 }
                 Draw::Normal(s)
             };
-            vary.push(Variation { key: v.key.clone(), draw, integer: v.integer });
+            vary.push(Variation {
+                key: v.key.clone(),
+                draw,
+                integer: v.integer,
+            });
         }
         expand_presets(&mut base, &vary).map_err(err)?;
 
@@ -307,18 +353,28 @@ impl DatasetSpec {
     /// each random variation (with the other variations at their first value) must make a valid
     /// config whose files exist.
     fn check(&self) -> Result<()> {
-        let base = self.config_of(&[], 0).map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
-        check_config(&base).map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
+        let base = self
+            .config_of(&[], 0)
+            .map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
+        check_config(&base)
+            .map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
         for (n, v) in self.vary.iter().enumerate() {
             let candidates: Vec<toml::Value> = match &v.draw {
                 Draw::Grid(vals) | Draw::Choice(vals) => vals.clone(),
-                Draw::Uniform(a, b) | Draw::LogUniform(a, b) => vec![number(*a, v.integer), number(*b, v.integer)],
+                Draw::Uniform(a, b) | Draw::LogUniform(a, b) => {
+                    vec![number(*a, v.integer), number(*b, v.integer)]
+                }
                 Draw::Normal(s) => vec![number(s.min, v.integer), number(s.max, v.integer)],
             };
             for c in candidates {
                 self.config_of(&[(v.key.clone(), c.clone())], 0)
                     .and_then(|cfg| check_config(&cfg))
-                    .map_err(|e| DatasetError::spec(&self.source, format!("vary[{n}] (key {:?}) = {c}: {e}", v.key)))?;
+                    .map_err(|e| {
+                        DatasetError::spec(
+                            &self.source,
+                            format!("vary[{n}] (key {:?}) = {c}: {e}", v.key),
+                        )
+                    })?;
             }
         }
         Ok(())
@@ -338,7 +394,13 @@ impl DatasetSpec {
     /// Sample `i`: its variations' values and effective config. A function of (spec, i) only.
     pub fn sample(&self, i: u64) -> Result<Sample> {
         if i >= self.samples {
-            return Err(DatasetError::spec(&self.source, format!("sample {i} is out of range (the dataset has {})", self.samples)));
+            return Err(DatasetError::spec(
+                &self.source,
+                format!(
+                    "sample {i} is out of range (the dataset has {})",
+                    self.samples
+                ),
+            ));
         }
         let mut params = Vec::with_capacity(self.vary.len());
         let mut grid_index = i;
@@ -357,10 +419,13 @@ impl DatasetSpec {
                     match draw {
                         Draw::Uniform(a, b) => number(rng.gen_range(*a..*b), v.integer),
                         // exp of a uniform in [ln a, ln b): density proportional to 1/x.
-                        Draw::LogUniform(a, b) => number(rng.gen_range(a.ln()..b.ln()).exp(), v.integer),
+                        Draw::LogUniform(a, b) => {
+                            number(rng.gen_range(a.ln()..b.ln()).exp(), v.integer)
+                        }
                         Draw::Choice(vals) => vals[rng.gen_range(0..vals.len())].clone(),
                         Draw::Normal(s) => {
-                            let nd = rand_distr::Normal::new(s.mean, s.std).map_err(|e| DatasetError::spec(&self.source, e.to_string()))?;
+                            let nd = rand_distr::Normal::new(s.mean, s.std)
+                                .map_err(|e| DatasetError::spec(&self.source, e.to_string()))?;
                             let x = loop {
                                 let x = nd.sample(&mut rng);
                                 if (s.min..=s.max).contains(&x) {
@@ -377,18 +442,31 @@ impl DatasetSpec {
         }
         // 53 bits: exact as a JSON number (pandas, JavaScript) and as a TOML integer.
         let seed = mix(&[self.seed, i, 0]) >> 11;
-        let config = self.config_of(&params, seed).map_err(|e| DatasetError::spec(&self.source, format!("sample {i}: {e}")))?;
-        Ok(Sample { index: i, seed, params, config })
+        let config = self
+            .config_of(&params, seed)
+            .map_err(|e| DatasetError::spec(&self.source, format!("sample {i}: {e}")))?;
+        Ok(Sample {
+            index: i,
+            seed,
+            params,
+            config,
+        })
     }
 
     /// The base with `params` set, as a checked [`SimulateConfig`] with `seed`.
-    fn config_of(&self, params: &[(String, toml::Value)], seed: u64) -> std::result::Result<SimulateConfig, String> {
+    fn config_of(
+        &self,
+        params: &[(String, toml::Value)],
+        seed: u64,
+    ) -> std::result::Result<SimulateConfig, String> {
         let mut t = self.base.clone();
         for (k, v) in params {
             set_key(&mut t, k, v.clone())?;
         }
         t.insert("seed".into(), toml::Value::Integer(seed as i64));
-        let mut cfg: SimulateConfig = toml::Value::Table(t).try_into().map_err(|e: toml::de::Error| e.message().to_string())?;
+        let mut cfg: SimulateConfig = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| e.message().to_string())?;
         cfg.check_scene_source().map_err(|e| e.to_string())?;
         cfg.resolve_paths(&self.base_dir);
         Ok(cfg)
@@ -432,7 +510,9 @@ fn number(x: f64, integer: bool) -> toml::Value {
 /// existing array (`render.overlay_inline.object.0.translate_m.1`).
 fn set_key(t: &mut toml::Table, key: &str, value: toml::Value) -> std::result::Result<(), String> {
     let parts: Vec<&str> = key.split('.').collect();
-    let mut cur: &mut toml::Value = t.entry(parts[0].to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    let mut cur: &mut toml::Value = t
+        .entry(parts[0].to_string())
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
     if parts.len() == 1 {
         *cur = value;
         return Ok(());
@@ -445,12 +525,17 @@ fn set_key(t: &mut toml::Table, key: &str, value: toml::Value) -> std::result::R
                     tt.insert(p.to_string(), value);
                     return Ok(());
                 }
-                tt.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                tt.entry(p.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
             }
             toml::Value::Array(a) => {
                 let len = a.len();
-                let i: usize = p.parse().map_err(|_| format!("{here} is an array: index it with a number, not {p:?}"))?;
-                let slot = a.get_mut(i).ok_or_else(|| format!("{here} has {len} entries: no index {i}"))?;
+                let i: usize = p.parse().map_err(|_| {
+                    format!("{here} is an array: index it with a number, not {p:?}")
+                })?;
+                let slot = a
+                    .get_mut(i)
+                    .ok_or_else(|| format!("{here} has {len} entries: no index {i}"))?;
                 if n + 1 == parts.len() {
                     *slot = value;
                     return Ok(());
@@ -471,7 +556,9 @@ fn expand_presets(base: &mut toml::Table, vary: &[Variation]) -> std::result::Re
         if !vary.iter().any(|v| v.key.starts_with(&prefix)) {
             continue;
         }
-        let sec = base.entry(section).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let sec = base
+            .entry(section)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
         let Some(sec) = sec.as_table_mut() else {
             return Err(format!("[base] {section} must be a table"));
         };
@@ -487,8 +574,14 @@ fn expand_presets(base: &mut toml::Table, vary: &[Variation]) -> std::result::Re
             None => "pixel4a".to_string(),
         };
         let value = match section {
-            "optics" => toml::Value::try_from(camsim_optics::OpticsConfig::preset(&name).map_err(|e| e.to_string())?),
-            _ => toml::Value::try_from(camsim_sensor::Sensor::preset(&name).map_err(|e| e.to_string())?.config()),
+            "optics" => toml::Value::try_from(
+                camsim_optics::OpticsConfig::preset(&name).map_err(|e| e.to_string())?,
+            ),
+            _ => toml::Value::try_from(
+                camsim_sensor::Sensor::preset(&name)
+                    .map_err(|e| e.to_string())?
+                    .config(),
+            ),
         }
         .map_err(|e| format!("{section} preset {name}: {e}"))?;
         sec.insert("config".into(), value);

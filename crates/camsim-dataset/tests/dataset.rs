@@ -49,13 +49,22 @@ fn grids_cycle_in_mixed_radix_and_random_draws_depend_on_the_index_only() {
     for i in 0..7u64 {
         let a = s.sample(i).unwrap();
         // First grid fastest: illuminant = i mod 2, f-number = (i / 2) mod 3.
-        assert_eq!(a.params[0].1.as_str().unwrap(), ["D65", "A"][(i % 2) as usize]);
-        assert_eq!(a.params[1].1.as_float().unwrap(), [1.73, 2.8, 4.0][((i / 2) % 3) as usize]);
+        assert_eq!(
+            a.params[0].1.as_str().unwrap(),
+            ["D65", "A"][(i % 2) as usize]
+        );
+        assert_eq!(
+            a.params[1].1.as_float().unwrap(),
+            [1.73, 2.8, 4.0][((i / 2) % 3) as usize]
+        );
         let t = a.params[2].1.as_float().unwrap();
         assert!((1.0..10.0).contains(&t), "{t}");
         // The effective config carries the drawn values.
         assert_eq!(a.config.capture.exposure_ms, Some(t));
-        assert_eq!(a.config.optics.config.as_ref().unwrap().f_number, a.params[1].1.as_float().unwrap());
+        assert_eq!(
+            a.config.optics.config.as_ref().unwrap().f_number,
+            a.params[1].1.as_float().unwrap()
+        );
         assert_eq!(a.config.seed, a.seed);
         // Drawn again, in another order: identical.
         let again = s.sample(i).unwrap();
@@ -63,8 +72,16 @@ fn grids_cycle_in_mixed_radix_and_random_draws_depend_on_the_index_only() {
         assert_eq!(again.seed, a.seed);
     }
     // A different master seed draws other values.
-    let other = DatasetSpec::from_toml_str(&spec_text("").replace("seed = 11", "seed = 12"), "t", Path::new(".")).unwrap();
-    assert_ne!(other.sample(0).unwrap().params[2], s.sample(0).unwrap().params[2]);
+    let other = DatasetSpec::from_toml_str(
+        &spec_text("").replace("seed = 11", "seed = 12"),
+        "t",
+        Path::new("."),
+    )
+    .unwrap();
+    assert_ne!(
+        other.sample(0).unwrap().params[2],
+        s.sample(0).unwrap().params[2]
+    );
 }
 
 #[test]
@@ -99,7 +116,10 @@ normal = { mean = 100.0, std = 20.0, min = 80.0, max = 200.0 }
     // A normal truncated to [mean - 1 sd, mean + 5 sd]: mean = mu + sd phi(-1) / (1 - Phi(-1))
     // = 100 + 20 x 0.24197 / 0.84134 = 105.752 (Johnson, Kotz & Balakrishnan, truncated normal).
     let mean = norm.iter().sum::<f64>() / n as f64;
-    assert!((mean - 105.752).abs() < 4.0 * 20.0 * 0.8 / (n as f64).sqrt(), "truncated normal mean {mean}");
+    assert!(
+        (mean - 105.752).abs() < 4.0 * 20.0 * 0.8 / (n as f64).sqrt(),
+        "truncated normal mean {mean}"
+    );
 }
 
 #[test]
@@ -107,26 +127,67 @@ fn same_bytes_for_any_worker_count_and_shard_split_and_resume_redoes_only_damage
     let s = spec("");
     let a = tempfile::tempdir().unwrap();
     let b = tempfile::tempdir().unwrap();
-    let ra = run(&s, a.path(), ShardSelect::default(), Some(1), true, &|_, _, _| {}).unwrap();
-    assert!(ra.complete && ra.shards_written == 3 && ra.samples_run == 7 && ra.samples_failed == 0, "{ra:?}");
+    let ra = run(
+        &s,
+        a.path(),
+        ShardSelect::default(),
+        Some(1),
+        true,
+        &|_, _, _| {},
+    )
+    .unwrap();
+    assert!(
+        ra.complete && ra.shards_written == 3 && ra.samples_run == 7 && ra.samples_failed == 0,
+        "{ra:?}"
+    );
     // Two parts of two, the second first, with two workers.
     for part in [1, 0] {
-        let r = run(&s, b.path(), ShardSelect { index: part, count: 2 }, Some(2), true, &|_, _, _| {}).unwrap();
+        let r = run(
+            &s,
+            b.path(),
+            ShardSelect {
+                index: part,
+                count: 2,
+            },
+            Some(2),
+            true,
+            &|_, _, _| {},
+        )
+        .unwrap();
         assert_eq!(r.complete, part == 0);
     }
-    for stem in ["shard-00000000-00000002", "shard-00000003-00000005", "shard-00000006-00000006"] {
-        assert_eq!(bytes(a.path(), &format!("{stem}.tar")), bytes(b.path(), &format!("{stem}.tar")), "{stem}");
+    for stem in [
+        "shard-00000000-00000002",
+        "shard-00000003-00000005",
+        "shard-00000006-00000006",
+    ] {
+        assert_eq!(
+            bytes(a.path(), &format!("{stem}.tar")),
+            bytes(b.path(), &format!("{stem}.tar")),
+            "{stem}"
+        );
     }
     // The manifest: one line per sample, in index order, each with its files.
     let manifest = String::from_utf8(bytes(a.path(), "manifest.jsonl")).unwrap();
-    let lines: Vec<serde_json::Value> = manifest.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let lines: Vec<serde_json::Value> = manifest
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     assert_eq!(lines.len(), 7);
     for (i, l) in lines.iter().enumerate() {
         assert_eq!(l["index"], i as u64);
-        let files: Vec<&str> = l["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+        let files: Vec<&str> = l["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_str().unwrap())
+            .collect();
         let key = format!("{i:08}");
         for ext in ["json", "dng", "raw.npy", "preview.png", "noise_free.exr"] {
-            assert!(files.contains(&format!("{key}.{ext}").as_str()), "{files:?}");
+            assert!(
+                files.contains(&format!("{key}.{ext}").as_str()),
+                "{files:?}"
+            );
         }
     }
 
@@ -138,7 +199,15 @@ fn same_bytes_for_any_worker_count_and_shard_split_and_resume_redoes_only_damage
     let stale = a.path().join(".shard-00000003-00000005.tar.tmp-999999-0");
     std::fs::write(&stale, b"partial").unwrap();
     assert!(shard_complete(&s, a.path(), 1, true).is_none());
-    let r = run(&s, a.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
+    let r = run(
+        &s,
+        a.path(),
+        ShardSelect::default(),
+        None,
+        true,
+        &|_, _, _| {},
+    )
+    .unwrap();
     assert_eq!((r.shards_written, r.shards_skipped), (1, 2), "{r:?}");
     assert_eq!(std::fs::read(&mid).unwrap(), good);
     assert!(!stale.exists());
@@ -146,8 +215,14 @@ fn same_bytes_for_any_worker_count_and_shard_split_and_resume_redoes_only_damage
     let mut flipped = good.clone();
     flipped[600] ^= 1;
     std::fs::write(&mid, &flipped).unwrap();
-    assert!(shard_complete(&s, a.path(), 1, false).is_some(), "size-only check passes");
-    assert!(shard_complete(&s, a.path(), 1, true).is_none(), "checksum catches it");
+    assert!(
+        shard_complete(&s, a.path(), 1, false).is_some(),
+        "size-only check passes"
+    );
+    assert!(
+        shard_complete(&s, a.path(), 1, true).is_none(),
+        "checksum catches it"
+    );
 }
 
 #[test]
@@ -155,7 +230,9 @@ fn the_raw_npy_holds_the_dng_values() {
     let s = spec("");
     let d = tempfile::tempdir().unwrap();
     run_shard(&s, d.path(), 2, &|_| {}).unwrap();
-    let mut ar = tar::Archive::new(std::fs::File::open(d.path().join("shard-00000006-00000006.tar")).unwrap());
+    let mut ar = tar::Archive::new(
+        std::fs::File::open(d.path().join("shard-00000006-00000006.tar")).unwrap(),
+    );
     let mut files = std::collections::BTreeMap::new();
     for e in ar.entries().unwrap() {
         let mut e = e.unwrap();
@@ -167,16 +244,25 @@ fn the_raw_npy_holds_the_dng_values() {
     let npy = &files["00000006.raw.npy"];
     let header_len = u16::from_le_bytes([npy[8], npy[9]]) as usize;
     let header = std::str::from_utf8(&npy[10..10 + header_len]).unwrap();
-    assert!(header.contains("'descr': '<u2'") && header.contains("'shape': (32, 48)"), "{header}");
+    assert!(
+        header.contains("'descr': '<u2'") && header.contains("'shape': (32, 48)"),
+        "{header}"
+    );
     assert_eq!((10 + header_len) % 64, 0);
-    let values: Vec<u16> = npy[10 + header_len..].chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+    let values: Vec<u16> = npy[10 + header_len..]
+        .chunks(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
     let dng_path = d.path().join("x.dng");
     std::fs::write(&dng_path, &files["00000006.dng"]).unwrap();
     let (raw, _) = camsim_io::dng::read_dng(&dng_path).unwrap();
     assert_eq!(values, raw.dn);
     let record: serde_json::Value = serde_json::from_slice(&files["00000006.json"]).unwrap();
     assert_eq!(record["index"], 6);
-    assert!(record.get("times").is_none(), "the per-sample record holds no timings");
+    assert!(
+        record.get("times").is_none(),
+        "the per-sample record holds no timings"
+    );
 }
 
 #[test]
@@ -196,7 +282,10 @@ values = [{ kind = "macbeth" }, { kind = "file", path = "broken.exr" }]
     let r = run(&s, &out, ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
     assert!(r.complete);
     let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
-    let lines: Vec<serde_json::Value> = manifest.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let lines: Vec<serde_json::Value> = manifest
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     // The 4th variation is the slowest grid: samples 0-5 use macbeth... with 2 x 3 x 2 grid
     // points, index i takes the file scene when (i / 6) mod 2 == 1: sample 6.
     for l in &lines {
@@ -225,17 +314,39 @@ fn bad_specs_are_refused_before_any_work_naming_the_key() {
         (spec_text("").replace("[dataset]", "[dataset]\nsample = 3"), "sample"),
     ];
     for (text, needle) in cases {
-        let e = DatasetSpec::from_toml_str(&text, "my-spec.toml", Path::new(".")).unwrap_err().to_string();
-        assert!(e.contains("my-spec.toml") && e.contains(needle), "expected {needle:?} in: {e}");
+        let e = DatasetSpec::from_toml_str(&text, "my-spec.toml", Path::new("."))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("my-spec.toml") && e.contains(needle),
+            "expected {needle:?} in: {e}"
+        );
     }
     // A folder of another spec is refused.
     let d = tempfile::tempdir().unwrap();
     run_shard(&spec(""), d.path(), 2, &|_| {}).unwrap();
-    let other = DatasetSpec::from_toml_str(&spec_text("").replace("seed = 11", "seed = 5"), "t", Path::new(".")).unwrap();
-    let e = run(&other, d.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap_err().to_string();
+    let other = DatasetSpec::from_toml_str(
+        &spec_text("").replace("seed = 11", "seed = 5"),
+        "t",
+        Path::new("."),
+    )
+    .unwrap();
+    let e = run(
+        &other,
+        d.path(),
+        ShardSelect::default(),
+        None,
+        true,
+        &|_, _, _| {},
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("spec.json") && e.contains("another spec"), "{e}");
     assert!(ShardSelect::parse("2/2").is_err() && ShardSelect::parse("x").is_err());
-    assert_eq!(ShardSelect::parse("1/3").unwrap(), ShardSelect { index: 1, count: 3 });
+    assert_eq!(
+        ShardSelect::parse("1/3").unwrap(),
+        ShardSelect { index: 1, count: 3 }
+    );
 }
 
 #[test]
@@ -274,7 +385,10 @@ capture = { exposure_ms = 1.0 }
     let (mx, my, mz) = (mean(&x), mean(&y), mean(&z));
     assert!((my - 100.0).abs() < 0.01, "Y {my}");
     let (cx, cy) = (mx / (mx + my + mz), my / (mx + my + mz));
-    assert!((cx - 0.3127).abs() < 0.0005 && (cy - 0.3290).abs() < 0.0005, "xy {cx} {cy}");
+    assert!(
+        (cx - 0.3127).abs() < 0.0005 && (cy - 0.3290).abs() < 0.0005,
+        "xy {cx} {cy}"
+    );
 }
 
 #[test]
@@ -313,16 +427,46 @@ values = [0.0, 0.08]
 "#;
     let s = DatasetSpec::from_toml_str(text, "t", Path::new(".")).unwrap();
     let p1 = s.sample(1).unwrap();
-    let ov = p1.config.render.as_ref().unwrap().overlay_inline.as_ref().unwrap();
+    let ov = p1
+        .config
+        .render
+        .as_ref()
+        .unwrap()
+        .overlay_inline
+        .as_ref()
+        .unwrap();
     assert_eq!(ov["light"]["luminance_cd_m2"].as_float(), Some(2000.0));
-    assert_eq!(s.sample(2).unwrap().config.render.unwrap().overlay_inline.unwrap()["object"][0]["translate_m"][0].as_float(), Some(0.08));
+    assert_eq!(
+        s.sample(2)
+            .unwrap()
+            .config
+            .render
+            .unwrap()
+            .overlay_inline
+            .unwrap()["object"][0]["translate_m"][0]
+            .as_float(),
+        Some(0.08)
+    );
     let d = tempfile::tempdir().unwrap();
-    let r = run(&s, d.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
+    let r = run(
+        &s,
+        d.path(),
+        ShardSelect::default(),
+        None,
+        true,
+        &|_, _, _| {},
+    )
+    .unwrap();
     assert_eq!(r.samples_failed, 0);
-    let lines: Vec<serde_json::Value> =
-        std::fs::read_to_string(d.path().join("manifest.jsonl")).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(d.path().join("manifest.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     // Radiance is linear in the only light's luminance: with the same random stream, exactly 2x.
-    let mut ar = tar::Archive::new(std::fs::File::open(d.path().join(lines[0]["shard"].as_str().unwrap())).unwrap());
+    let mut ar = tar::Archive::new(
+        std::fs::File::open(d.path().join(lines[0]["shard"].as_str().unwrap())).unwrap(),
+    );
     let mut means = std::collections::BTreeMap::new();
     for e in ar.entries().unwrap() {
         let mut e = e.unwrap();
@@ -332,18 +476,28 @@ values = [0.0, 0.08]
             let mut f = std::fs::File::create(&p).unwrap();
             std::io::copy(&mut e, &mut f).unwrap();
             let img = camsim_io::exr::read_spectral_exr(&p).unwrap();
-            let m: f64 = (0..img.bands()).map(|b| img.band(b).iter().map(|v| *v as f64).sum::<f64>()).sum();
+            let m: f64 = (0..img.bands())
+                .map(|b| img.band(b).iter().map(|v| *v as f64).sum::<f64>())
+                .sum();
             means.insert(name[..8].to_string(), m);
         }
     }
     let ratio = means["00000001"] / means["00000000"];
-    assert!((ratio - 2.0).abs() < 1e-4, "light 2000 / 1000 cd/m^2: radiance ratio {ratio}");
+    assert!(
+        (ratio - 2.0).abs() < 1e-4,
+        "light 2000 / 1000 cd/m^2: radiance ratio {ratio}"
+    );
     // Moving the block changes the image; the light does not move it back.
     let moved = means["00000002"] / means["00000000"];
-    assert!((moved - 1.0).abs() > 1e-4, "the block moved but the image did not change: {moved}");
+    assert!(
+        (moved - 1.0).abs() > 1e-4,
+        "the block moved but the image did not change: {moved}"
+    );
     // An index past the array is refused before any work.
     let bad = text.replace("object.0.translate_m.0", "object.3.translate_m.0");
-    let e = DatasetSpec::from_toml_str(&bad, "t", Path::new(".")).unwrap_err().to_string();
+    let e = DatasetSpec::from_toml_str(&bad, "t", Path::new("."))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("no index 3"), "{e}");
 }
 
@@ -375,9 +529,22 @@ values = [0.0, 0.08]
 "#;
     let s = DatasetSpec::from_toml_str(text, "t", Path::new(".")).unwrap();
     let d = tempfile::tempdir().unwrap();
-    let r = run(&s, d.path(), ShardSelect::default(), None, true, &|_, _, _| {}).unwrap();
+    let r = run(
+        &s,
+        d.path(),
+        ShardSelect::default(),
+        None,
+        true,
+        &|_, _, _| {},
+    )
+    .unwrap();
     assert_eq!(r.samples_failed, 0);
-    let shard = std::fs::read_dir(d.path()).unwrap().filter_map(|e| e.ok()).map(|e| e.path()).find(|p| p.extension().is_some_and(|x| x == "tar")).unwrap();
+    let shard = std::fs::read_dir(d.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|x| x == "tar"))
+        .unwrap();
     let mut ar = tar::Archive::new(std::fs::File::open(&shard).unwrap());
     let mut files = std::collections::BTreeMap::new();
     for e in ar.entries().unwrap() {
@@ -389,8 +556,15 @@ values = [0.0, 0.08]
     }
     let mut regions = Vec::new();
     for key in ["00000000", "00000001"] {
-        let legend: serde_json::Value = serde_json::from_slice(&files[&format!("{key}.ids.json")]).unwrap();
-        let block_id: u16 = legend["objects"].as_object().unwrap().iter().find(|(_, v)| v == &"short_block").map(|(k, _)| k.parse().unwrap()).unwrap_or_else(|| panic!("short_block not in the legend {legend}"));
+        let legend: serde_json::Value =
+            serde_json::from_slice(&files[&format!("{key}.ids.json")]).unwrap();
+        let block_id: u16 = legend["objects"]
+            .as_object()
+            .unwrap()
+            .iter()
+            .find(|(_, v)| v == &"short_block")
+            .map(|(k, _)| k.parse().unwrap())
+            .unwrap_or_else(|| panic!("short_block not in the legend {legend}"));
         let p = d.path().join(format!("{key}.object_id.png"));
         std::fs::write(&p, &files[&format!("{key}.object_id.png")]).unwrap();
         let (rows, cols, ids) = camsim_io::raster::read_mosaic_16(&p).unwrap();
@@ -405,7 +579,10 @@ values = [0.0, 0.08]
         assert!(px.iter().all(|&i| mat[i] == mat[px[0]] && mat[i] != 0));
     }
     let ((a0, x0), (a1, x1)) = (regions[0], regions[1]);
-    assert!(a0 > 40.0 && (a1 / a0 - 1.0).abs() < 0.25, "block area {a0} -> {a1} px");
+    assert!(
+        a0 > 40.0 && (a1 / a0 - 1.0).abs() < 0.25,
+        "block area {a0} -> {a1} px"
+    );
     // 8 cm of a 55 cm box seen across ~48 px: several pixels.
     assert!((x1 - x0).abs() > 3.0, "block centroid column {x0} -> {x1}");
 }

@@ -213,7 +213,9 @@ pub const OUTPUT_MARKER: &str = ".camsim-output";
 
 /// Extensions of the files camsim writes; a folder holding only such regular files (an output
 /// folder of a camsim older than [`OUTPUT_MARKER`]) may be replaced as well.
-const OUTPUT_EXTENSIONS: &[&str] = &["exr", "dng", "png", "json", "csv", "html", "svg", "txt", "tif", "tiff"];
+const OUTPUT_EXTENSIONS: &[&str] = &[
+    "exr", "dng", "png", "json", "csv", "html", "svg", "txt", "tif", "tiff",
+];
 
 /// A run's output folder, staged: files are written into a fresh sibling folder `DIR.tmp-<pid>`
 /// ([`OutputDir::path`], [`OutputDir::join`]) and [`OutputDir::commit`] swaps it in for `DIR`.
@@ -255,7 +257,12 @@ impl OutputDir {
         fs::create_dir_all(&parent).map_err(|e| IoError::io(&parent, e))?;
         let staging = parent.join(format!("{name}.tmp-{}", std::process::id()));
         register(&staging);
-        let dir = OutputDir { target, staging, replaces, committed: false };
+        let dir = OutputDir {
+            target,
+            staging,
+            replaces,
+            committed: false,
+        };
         // A leftover of an earlier process with the same id (a crash) is ours to remove.
         if fs::symlink_metadata(&dir.staging).is_ok() {
             let _ = fs::remove_dir_all(&dir.staging);
@@ -280,7 +287,10 @@ impl OutputDir {
         if !meta.is_dir() {
             return Err(IoError::invalid(
                 target,
-                format!("exists and is {}, not an output folder; choose another --out", describe(&meta)),
+                format!(
+                    "exists and is {}, not an output folder; choose another --out",
+                    describe(&meta)
+                ),
             ));
         }
         let mut names = Vec::new();
@@ -294,7 +304,9 @@ impl OutputDir {
                 continue;
             }
             let is_file = e.file_type().map(|t| t.is_file()).unwrap_or(false);
-            let ext = Path::new(&n).extension().map(|x| x.to_string_lossy().to_ascii_lowercase());
+            let ext = Path::new(&n)
+                .extension()
+                .map(|x| x.to_string_lossy().to_ascii_lowercase());
             if !(is_file && ext.is_some_and(|x| OUTPUT_EXTENSIONS.contains(&x.as_str()))) {
                 foreign.push(n.clone());
             }
@@ -354,12 +366,16 @@ impl OutputDir {
         // Checked again: the target may have changed while the run was computing.
         Self::check_target(&self.target)?;
         if fs::symlink_metadata(&self.target).is_err() {
-            return fs::rename(&self.staging, &self.target).map_err(|e| IoError::io(&self.target, e));
+            return fs::rename(&self.staging, &self.target)
+                .map_err(|e| IoError::io(&self.target, e));
         }
         let mut old = self.staging.clone();
         old.set_file_name(format!(
             "{}.old-{}",
-            self.target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            self.target
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
             std::process::id()
         ));
         if fs::symlink_metadata(&old).is_ok() {
@@ -471,15 +487,37 @@ mod tests {
         write_bytes_atomic(&d.join("raw_0001.dng"), b"frame 2 of seed 11").unwrap();
         assert!(!target.exists(), "nothing appears before the commit");
         d.commit().unwrap();
-        assert_eq!(entries(&target), vec![OUTPUT_MARKER.to_string(), "raw.dng".into(), "raw_0001.dng".into(), "run.json".into()]);
+        assert_eq!(
+            entries(&target),
+            vec![
+                OUTPUT_MARKER.to_string(),
+                "raw.dng".into(),
+                "raw_0001.dng".into(),
+                "run.json".into()
+            ]
+        );
         // A new run with one frame: the old second frame must not survive beside it.
         let d = OutputDir::create(&target).unwrap();
-        assert_eq!(d.replaces().unwrap(), ["raw.dng", "raw_0001.dng", "run.json"]);
+        assert_eq!(
+            d.replaces().unwrap(),
+            ["raw.dng", "raw_0001.dng", "run.json"]
+        );
         write_run(&d, "13");
         d.commit().unwrap();
-        assert_eq!(entries(&target), vec![OUTPUT_MARKER.to_string(), "raw.dng".into(), "run.json".into()]);
+        assert_eq!(
+            entries(&target),
+            vec![
+                OUTPUT_MARKER.to_string(),
+                "raw.dng".into(),
+                "run.json".into()
+            ]
+        );
         assert_eq!(fs::read(target.join("raw.dng")).unwrap(), b"13");
-        assert_eq!(entries(root.path()), vec!["run".to_string()], "no staging or old folder left");
+        assert_eq!(
+            entries(root.path()),
+            vec!["run".to_string()],
+            "no staging or old folder left"
+        );
     }
 
     #[test]
@@ -504,7 +542,10 @@ mod tests {
         // A regular file.
         let f = root.path().join("file.txt");
         fs::write(&f, b"keep").unwrap();
-        assert!(OutputDir::create(&f).unwrap_err().to_string().contains("not an output folder"));
+        assert!(OutputDir::create(&f)
+            .unwrap_err()
+            .to_string()
+            .contains("not an output folder"));
         // A folder with foreign content (a source tree, a README).
         let src = root.path().join("src");
         fs::create_dir(&src).unwrap();
@@ -517,7 +558,10 @@ mod tests {
         let old = root.path().join("old");
         fs::create_dir(&old).unwrap();
         fs::write(old.join("raw.png"), b"x").unwrap();
-        assert_eq!(OutputDir::create(&old).unwrap().replaces().unwrap(), ["raw.png"]);
+        assert_eq!(
+            OutputDir::create(&old).unwrap().replaces().unwrap(),
+            ["raw.png"]
+        );
         assert!(OutputDir::create(root.path().join("..")).is_err());
     }
 
@@ -529,11 +573,20 @@ mod tests {
         std::os::unix::fs::symlink("/dev/null", &link).unwrap();
         let e = write_bytes_atomic(&link, b"x").unwrap_err().to_string();
         assert!(e.contains("symbolic link"), "{e}");
-        assert!(fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
         let sub = root.path().join("sub");
         fs::create_dir(&sub).unwrap();
-        assert!(write_bytes_atomic(&sub, b"x").unwrap_err().to_string().contains("a folder"));
+        assert!(write_bytes_atomic(&sub, b"x")
+            .unwrap_err()
+            .to_string()
+            .contains("a folder"));
         assert!(sub.is_dir());
-        assert_eq!(entries(root.path()), vec!["link.bin".to_string(), "sub".into()]);
+        assert_eq!(
+            entries(root.path()),
+            vec!["link.bin".to_string(), "sub".into()]
+        );
     }
 }

@@ -282,7 +282,11 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
         (tag::COMPRESSION, Value::Short(vec![1])),
         (
             tag::PHOTOMETRIC,
-            Value::Short(vec![if raw.cfa.is_some() { PHOTOMETRIC_CFA } else { PHOTOMETRIC_LINEAR_RAW }]),
+            Value::Short(vec![if raw.cfa.is_some() {
+                PHOTOMETRIC_CFA
+            } else {
+                PHOTOMETRIC_LINEAR_RAW
+            }]),
         ),
         (tag::MAKE, Value::Ascii(meta.make.clone())),
         (tag::MODEL, Value::Ascii(meta.camera_model.clone())),
@@ -327,7 +331,9 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
         // DNG 1.4: CFAPattern holds plane indices, CFAPlaneColor each plane's TIFF/EP colour code
         // (0 red, 1 green, 2 blue, 3 cyan, 4 magenta, 5 yellow, 6 white); planes = our filters.
         // A filter without a code (e.g. `ir`) cannot be written.
-        let colours = cfa.dng_codes().map_err(|e| IoError::invalid(path, e.to_string()))?;
+        let colours = cfa
+            .dng_codes()
+            .map_err(|e| IoError::invalid(path, e.to_string()))?;
         let (n, m) = (cfa.rows(), cfa.cols());
         let mut plane_colour = vec![0u8; cfa.filters().len()];
         let mut pattern = Vec::with_capacity(n * m);
@@ -338,7 +344,10 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
                 pattern.push(f as u8);
             }
         }
-        tags.push((tag::CFA_REPEAT_PATTERN_DIM, Value::Short(vec![n as u16, m as u16])));
+        tags.push((
+            tag::CFA_REPEAT_PATTERN_DIM,
+            Value::Short(vec![n as u16, m as u16]),
+        ));
         tags.push((tag::CFA_PATTERN, Value::Byte(pattern)));
         tags.push((tag::CFA_PLANE_COLOR, Value::Byte(plane_colour)));
         tags.push((tag::CFA_LAYOUT, Value::Short(vec![1])));
@@ -361,7 +370,10 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
         ));
     }
     if let Some(iso) = meta.iso.filter(|v| v.is_finite() && *v >= 1.0) {
-        exif_tags.push((tag::ISO_SPEED, Value::Short(vec![iso.round().min(65535.0) as u16])));
+        exif_tags.push((
+            tag::ISO_SPEED,
+            Value::Short(vec![iso.round().min(65535.0) as u16]),
+        ));
     }
     if raw.pixel_pitch_m > 0.0 {
         // FocalPlaneX/YResolution in pixels per cm (unit 3).
@@ -619,7 +631,11 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     info.bits_per_sample = bps as u16;
 
     // CFA pattern (Bayer or a general N x M layout), with CFAPlaneColor mapping codes to colours.
-    let cfa = if linear { None } else { Some(cfa_pattern(&r, raw)?) };
+    let cfa = if linear {
+        None
+    } else {
+        Some(cfa_pattern(&r, raw)?)
+    };
 
     // Pixels (interleaved samples).
     let mut img = decode_pixels(&r, raw, width, height, spp, bps as u32, compression)?;
@@ -833,7 +849,11 @@ fn cfa_pattern(r: &Reader, raw: &Ifd) -> Result<(CfaPattern, Option<CfaLayout>)>
         return r.fail("no CFAPattern tag");
     };
     if codes.len() < n * m {
-        return r.fail(format!("CFAPattern has {} values; expected {}", codes.len(), n * m));
+        return r.fail(format!(
+            "CFAPattern has {} values; expected {}",
+            codes.len(),
+            n * m
+        ));
     }
     let plane = r
         .uints(raw, tag::CFA_PLANE_COLOR)?
@@ -1466,10 +1486,16 @@ mod tests {
             sub_ifds: vec![],
             exif_tags: vec![],
         };
-        let segs = vec![bytes[..48].to_vec(), bytes[48..96].to_vec(), bytes[96..].to_vec()];
+        let segs = vec![
+            bytes[..48].to_vec(),
+            bytes[48..96].to_vec(),
+            bytes[96..].to_vec(),
+        ];
         let t = assemble_tiff(&spec, &segs, false).unwrap();
         let (img, info) = read_dng_image_bytes(&t, Path::new("lin.dng")).unwrap();
-        let DngImage::LinearRaw(img) = img else { panic!("expected a LinearRaw image") };
+        let DngImage::LinearRaw(img) = img else {
+            panic!("expected a LinearRaw image")
+        };
         assert_eq!((img.rows, img.cols), (3, 3));
         assert_eq!(info.active_area, [1, 1, 4, 4]);
         for r in 0..3 {
@@ -1482,7 +1508,9 @@ mod tests {
         assert_eq!(img.black_level_dn, [5.0, 6.0, 7.0]);
         assert_eq!(img.white_level_dn, [4000.0, 4001.0, 4002.0]);
         // The CFA reader refuses it and says why.
-        let e = read_dng_bytes(&t, Path::new("lin.dng")).unwrap_err().to_string();
+        let e = read_dng_bytes(&t, Path::new("lin.dng"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("LinearRaw"), "{e}");
     }
 
@@ -1495,7 +1523,9 @@ mod tests {
         let img = LinearRawImage {
             rows,
             cols,
-            dn: (0..rows * cols * 3).map(|_| (next() % 65536) as u16).collect(),
+            dn: (0..rows * cols * 3)
+                .map(|_| (next() % 65536) as u16)
+                .collect(),
             black_level_dn: [64.0, 65.0, 66.5],
             white_level_dn: [65535.0, 60000.0, 50000.0],
             exposure_s: 0.01,
@@ -1504,7 +1534,12 @@ mod tests {
         write_linear_raw_dng(&path, &img, &DngMetadata::default()).unwrap();
         let (back, info) = read_dng_image(&path).unwrap();
         assert_eq!(back, DngImage::LinearRaw(img.clone()), "{info:?}");
-        assert!(write_linear_raw_dng(&path, &LinearRawImage { rows: 8, ..img }, &DngMetadata::default()).is_err());
+        assert!(write_linear_raw_dng(
+            &path,
+            &LinearRawImage { rows: 8, ..img },
+            &DngMetadata::default()
+        )
+        .is_err());
     }
 
     fn small_valid_dng() -> Vec<u8> {

@@ -241,10 +241,17 @@ fn write_planes_in_batches(
         .collect();
     let custom: Vec<Vec<u8>> = attrs.other.keys().map(|k| k.as_slice().to_vec()).collect();
     let header = Header::new(Text::from("camsim"), (cols, rows), channels)
-        .with_encoding(compression.compression(), exr::meta::BlockDescription::ScanLines, LineOrder::Increasing)
+        .with_encoding(
+            compression.compression(),
+            exr::meta::BlockDescription::ScanLines,
+            LineOrder::Increasing,
+        )
         .with_attributes(attrs);
     let planes = &planes;
-    let pixel_bytes: usize = planes.iter().map(|p| p.precision.sample_type().bytes_per_sample()).sum();
+    let pixel_bytes: usize = planes
+        .iter()
+        .map(|p| p.precision.sample_type().bytes_per_sample())
+        .sum();
     // One block's uncompressed bytes: for each of its lines, each channel's samples of that line
     // (native byte order; the crate converts to little-endian when it compresses).
     let assemble = |index: exr::block::BlockIndex| -> UncompressedBlock {
@@ -260,10 +267,14 @@ fn write_planes_in_batches(
                 rest = tail;
                 // Element-wise copies of fixed size: the compiler turns these into vector moves.
                 match p.precision {
-                    ExrPrecision::F32 => dst.chunks_exact_mut(4).zip(row).for_each(|(d, v)| d.copy_from_slice(&v.to_ne_bytes())),
-                    ExrPrecision::F16 => {
-                        dst.chunks_exact_mut(2).zip(row).for_each(|(d, v)| d.copy_from_slice(&f16::from_f32(*v).to_ne_bytes()))
-                    }
+                    ExrPrecision::F32 => dst
+                        .chunks_exact_mut(4)
+                        .zip(row)
+                        .for_each(|(d, v)| d.copy_from_slice(&v.to_ne_bytes())),
+                    ExrPrecision::F16 => dst
+                        .chunks_exact_mut(2)
+                        .zip(row)
+                        .for_each(|(d, v)| d.copy_from_slice(&f16::from_f32(*v).to_ne_bytes())),
                 }
             }
         }
@@ -312,30 +323,52 @@ fn sort_custom_attributes(file: &Path, custom: &[Vec<u8>]) -> std::io::Result<()
     if custom.len() < 2 {
         return Ok(());
     }
-    let bad = |what: &str| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("EXR header as written: {what}"));
-    let mut f = std::fs::OpenOptions::new().read(true).write(true).open(file)?;
+    let bad = |what: &str| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("EXR header as written: {what}"),
+        )
+    };
+    let mut f = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(file)?;
     let mut head = Vec::new();
     (&mut f).take(1 << 20).read_to_end(&mut head)?;
-    let nul_from = |at: usize| head.get(at..).and_then(|h| h.iter().position(|&b| b == 0)).map(|i| at + i).ok_or_else(|| bad("unterminated name"));
+    let nul_from = |at: usize| {
+        head.get(at..)
+            .and_then(|h| h.iter().position(|&b| b == 0))
+            .map(|i| at + i)
+            .ok_or_else(|| bad("unterminated name"))
+    };
     let mut spans = Vec::new(); // (name, start, end)
     let mut at = 8;
     while *head.get(at).ok_or_else(|| bad("no end of header"))? != 0 {
         let name_end = nul_from(at)?;
         let type_end = nul_from(name_end + 1)?;
-        let size = head.get(type_end + 1..type_end + 5).ok_or_else(|| bad("attribute size"))?;
+        let size = head
+            .get(type_end + 1..type_end + 5)
+            .ok_or_else(|| bad("attribute size"))?;
         let size = i32::from_le_bytes([size[0], size[1], size[2], size[3]]);
-        let end = type_end + 5 + usize::try_from(size).map_err(|_| bad("negative attribute size"))?;
+        let end =
+            type_end + 5 + usize::try_from(size).map_err(|_| bad("negative attribute size"))?;
         spans.push((&head[at..name_end], at, end));
         at = end;
     }
-    let first = spans.iter().position(|(n, _, _)| custom.iter().any(|c| c == n)).ok_or_else(|| bad("custom attributes missing"))?;
+    let first = spans
+        .iter()
+        .position(|(n, _, _)| custom.iter().any(|c| c == n))
+        .ok_or_else(|| bad("custom attributes missing"))?;
     let mut mine: Vec<_> = spans[first..].to_vec();
     if mine.len() != custom.len() || mine.iter().any(|(n, _, _)| !custom.iter().any(|c| c == n)) {
         return Err(bad("custom attributes not written last"));
     }
     let (start, end) = (mine[0].1, mine[mine.len() - 1].2);
     mine.sort_by(|a, b| a.0.cmp(b.0));
-    let sorted: Vec<u8> = mine.iter().flat_map(|(_, s, e)| head[*s..*e].iter().copied()).collect();
+    let sorted: Vec<u8> = mine
+        .iter()
+        .flat_map(|(_, s, e)| head[*s..*e].iter().copied())
+        .collect();
     debug_assert_eq!(sorted.len(), end - start);
     f.seek(SeekFrom::Start(start as u64))?;
     f.write_all(&sorted)
@@ -349,7 +382,12 @@ pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Resu
 }
 
 /// [`write_spectral_exr`] with a choice of sample precision and compression.
-pub fn write_spectral_exr_with(path: &Path, img: &SpectralImage, stage: &str, options: ExrOptions) -> Result<()> {
+pub fn write_spectral_exr_with(
+    path: &Path,
+    img: &SpectralImage,
+    stage: &str,
+    options: ExrOptions,
+) -> Result<()> {
     let n = img.pixels();
     if n == 0 || img.bands() == 0 || img.data.len() != n * img.bands() {
         return Err(IoError::invalid(
@@ -365,7 +403,11 @@ pub fn write_spectral_exr_with(path: &Path, img: &SpectralImage, stage: &str, op
     }
     let mut planes = Vec::with_capacity(img.bands() + 1);
     for b in 0..img.bands() {
-        planes.push(Plane { name: text(path, &spectral_channel_name(img.grid.wavelength_nm(b)))?, samples: img.band(b), precision: options.precision });
+        planes.push(Plane {
+            name: text(path, &spectral_channel_name(img.grid.wavelength_nm(b)))?,
+            samples: img.band(b),
+            precision: options.precision,
+        });
     }
     if let Some(d) = &img.depth_m {
         if d.len() != n {
@@ -375,7 +417,11 @@ pub fn write_spectral_exr_with(path: &Path, img: &SpectralImage, stage: &str, op
             ));
         }
         // Depth stays f32 whatever the spectral precision: half floats would lose millimetres.
-        planes.push(Plane { name: Text::from("Z"), samples: d, precision: ExrPrecision::F32 });
+        planes.push(Plane {
+            name: Text::from("Z"),
+            samples: d,
+            precision: ExrPrecision::F32,
+        });
     }
     let mut attrs = LayerAttributes::default();
     let o = &mut attrs.other;
@@ -687,21 +733,54 @@ pub fn write_gray_exr(
             format!("{} values for {rows} x {cols} pixels", data.len()),
         ));
     }
-    let plane = Plane { name: text(path, channel)?, samples: data, precision: ExrPrecision::F32 };
-    write_planes(path, rows, cols, vec![plane], LayerAttributes::default(), ExrCompression::None)
+    let plane = Plane {
+        name: text(path, channel)?,
+        samples: data,
+        precision: ExrPrecision::F32,
+    };
+    write_planes(
+        path,
+        rows,
+        cols,
+        vec![plane],
+        LayerAttributes::default(),
+        ExrCompression::None,
+    )
 }
 
 /// Write several f32 planes (each `rows * cols`, row-major) as one EXR with the given channel
 /// names (e.g. X, Y, Z), atomically.
-pub fn write_channels_exr(path: &Path, rows: usize, cols: usize, channels: &[(&str, &[f32])]) -> Result<()> {
+pub fn write_channels_exr(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    channels: &[(&str, &[f32])],
+) -> Result<()> {
     let mut chans = Vec::with_capacity(channels.len());
     for (name, data) in channels {
         if rows == 0 || cols == 0 || data.len() != rows * cols {
-            return Err(IoError::invalid(path, format!("channel {name}: {} values for {rows} x {cols} pixels", data.len())));
+            return Err(IoError::invalid(
+                path,
+                format!(
+                    "channel {name}: {} values for {rows} x {cols} pixels",
+                    data.len()
+                ),
+            ));
         }
-        chans.push(Plane { name: text(path, name)?, samples: data, precision: ExrPrecision::F32 });
+        chans.push(Plane {
+            name: text(path, name)?,
+            samples: data,
+            precision: ExrPrecision::F32,
+        });
     }
-    write_planes(path, rows, cols, chans, LayerAttributes::default(), ExrCompression::None)
+    write_planes(
+        path,
+        rows,
+        cols,
+        chans,
+        LayerAttributes::default(),
+        ExrCompression::None,
+    )
 }
 
 /// Read one channel of an EXR as f32, returning `(rows, cols, data)`. With `channel = None` the
@@ -812,20 +891,61 @@ mod tests {
         let mut clamped = full.clone();
         clamped.data.iter_mut().for_each(|v| *v = v.min(6.0e4));
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        for compression in [ExrCompression::None, ExrCompression::Rle, ExrCompression::Zip, ExrCompression::Zips, ExrCompression::Piz] {
+        for compression in [
+            ExrCompression::None,
+            ExrCompression::Rle,
+            ExrCompression::Zip,
+            ExrCompression::Zips,
+            ExrCompression::Piz,
+        ] {
             for precision in [ExrPrecision::F32, ExrPrecision::F16] {
-                let img = if precision == ExrPrecision::F16 { &clamped } else { &full };
-                let path = dir.path().join(format!("{compression:?}-{precision:?}.exr"));
+                let img = if precision == ExrPrecision::F16 {
+                    &clamped
+                } else {
+                    &full
+                };
+                let path = dir
+                    .path()
+                    .join(format!("{compression:?}-{precision:?}.exr"));
                 let mut planes: Vec<Plane> = (0..img.bands())
-                    .map(|b| Plane { name: Text::from(spectral_channel_name(img.grid.wavelength_nm(b)).as_str()), samples: img.band(b), precision })
+                    .map(|b| Plane {
+                        name: Text::from(spectral_channel_name(img.grid.wavelength_nm(b)).as_str()),
+                        samples: img.band(b),
+                        precision,
+                    })
                     .collect();
-                planes.push(Plane { name: Text::from("Z"), samples: img.depth_m.as_deref().unwrap(), precision: ExrPrecision::F32 });
-                write_planes_in_batches(&path, img.rows, img.cols, planes, LayerAttributes::default(), compression, 1).unwrap();
+                planes.push(Plane {
+                    name: Text::from("Z"),
+                    samples: img.depth_m.as_deref().unwrap(),
+                    precision: ExrPrecision::F32,
+                });
+                write_planes_in_batches(
+                    &path,
+                    img.rows,
+                    img.cols,
+                    planes,
+                    LayerAttributes::default(),
+                    compression,
+                    1,
+                )
+                .unwrap();
                 let (back, _) = read_spectral_exr_with_info(&path).unwrap();
-                assert_eq!((back.rows, back.cols, back.bands()), (37, 23, img.bands()), "{compression:?} {precision:?}");
-                assert_eq!(bits(back.depth_m.as_deref().unwrap()), bits(img.depth_m.as_deref().unwrap()), "{compression:?} {precision:?}: depth is always f32");
+                assert_eq!(
+                    (back.rows, back.cols, back.bands()),
+                    (37, 23, img.bands()),
+                    "{compression:?} {precision:?}"
+                );
+                assert_eq!(
+                    bits(back.depth_m.as_deref().unwrap()),
+                    bits(img.depth_m.as_deref().unwrap()),
+                    "{compression:?} {precision:?}: depth is always f32"
+                );
                 match precision {
-                    ExrPrecision::F32 => assert_eq!(bits(&back.data), bits(&img.data), "{compression:?}: lossless f32"),
+                    ExrPrecision::F32 => assert_eq!(
+                        bits(&back.data),
+                        bits(&img.data),
+                        "{compression:?}: lossless f32"
+                    ),
                     ExrPrecision::F16 => {
                         // Rounding to nearest half: relative error <= 2^-11 in the normal range
                         // (6.1e-5 .. 65504); below it the absolute error is <= 2^-25.
@@ -855,7 +975,10 @@ mod tests {
         assert!(bytes.windows(2).all(|w| w[0] == w[1]));
         let (back, info) = read_spectral_exr_with_info(&dir.path().join("0.exr")).unwrap();
         assert_eq!(back.data, img.data);
-        assert_eq!((info.stage.as_deref(), back.geometry), (Some("scene"), img.geometry));
+        assert_eq!(
+            (info.stage.as_deref(), back.geometry),
+            (Some("scene"), img.geometry)
+        );
     }
 
     #[test]
@@ -1051,7 +1174,10 @@ mod tests {
         write_spectral_exr(&p, &img, "optics").unwrap();
         let (back, info) = read_spectral_exr_with_info(&p).unwrap();
         assert_eq!(info.clamped_negatives, 2);
-        assert_eq!(info.most_negative_clamped, -NEGATIVE_ROUNDOFF_FRACTION * max);
+        assert_eq!(
+            info.most_negative_clamped,
+            -NEGATIVE_ROUNDOFF_FRACTION * max
+        );
         assert_eq!(back.band(1)[3], 0.0);
         assert_eq!(back.band(2)[7], 0.0);
         assert!(back.data.iter().all(|v| *v >= 0.0));

@@ -58,7 +58,9 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
     let rows = records(csv, true)?;
     let base = csv.parent().unwrap_or(Path::new("."));
     let mut rows = rows.into_iter();
-    let (hline, header) = rows.next().ok_or_else(|| IoError::format(csv, "no header line"))?;
+    let (hline, header) = rows
+        .next()
+        .ok_or_else(|| IoError::format(csv, "no header line"))?;
     let cols: Vec<String> = header.iter().map(|s| s.to_ascii_lowercase()).collect();
     if cols.len() < 3 || cols[0] != "exposure_s" || cols[1] != "photons_per_pixel" {
         return Err(IoError::line(
@@ -72,25 +74,53 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
     }
     let kinds: Vec<Option<bool>> = cols
         .iter()
-        .map(|c| if c.starts_with("bright") { Some(true) } else if c.starts_with("dark") { Some(false) } else { None })
+        .map(|c| {
+            if c.starts_with("bright") {
+                Some(true)
+            } else if c.starts_with("dark") {
+                Some(false)
+            } else {
+                None
+            }
+        })
         .collect();
-    if let Some((i, c)) = cols.iter().enumerate().skip(2).find(|(i, _)| kinds[*i].is_none()) {
-        return Err(IoError::line(csv, hline, format!("column {} '{c}' is neither a bright nor a dark frame column", i + 1)));
+    if let Some((i, c)) = cols
+        .iter()
+        .enumerate()
+        .skip(2)
+        .find(|(i, _)| kinds[*i].is_none())
+    {
+        return Err(IoError::line(
+            csv,
+            hline,
+            format!(
+                "column {} '{c}' is neither a bright nor a dark frame column",
+                i + 1
+            ),
+        ));
     }
     let mut levels = Vec::new();
     for (n, cells) in rows {
         let err = |m: String| IoError::line(csv, n, m);
         if cells.len() != cols.len() {
-            return Err(err(format!("{} values for {} columns", cells.len(), cols.len())));
+            return Err(err(format!(
+                "{} values for {} columns",
+                cells.len(),
+                cols.len()
+            )));
         }
-        let exposure_s: f64 = cells[0].parse().map_err(|_| err(format!("exposure_s '{}' is not a number", &cells[0])))?;
+        let exposure_s: f64 = cells[0]
+            .parse()
+            .map_err(|_| err(format!("exposure_s '{}' is not a number", &cells[0])))?;
         if !(exposure_s >= 0.0 && exposure_s.is_finite()) {
             return Err(err(format!("exposure_s {exposure_s} is not a time >= 0")));
         }
         let photons_per_pixel = match &cells[1] {
             "" | "-" => None,
             s => {
-                let v: f64 = s.parse().map_err(|_| err(format!("photons_per_pixel '{s}' is not a number")))?;
+                let v: f64 = s
+                    .parse()
+                    .map_err(|_| err(format!("photons_per_pixel '{s}' is not a number")))?;
                 if v.is_nan() {
                     None
                 } else if v >= 0.0 && v.is_finite() {
@@ -113,18 +143,36 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
             }
         }
         if bright.len() < 2 {
-            return Err(err(format!("{} bright frame(s); each level needs at least 2", bright.len())));
+            return Err(err(format!(
+                "{} bright frame(s); each level needs at least 2",
+                bright.len()
+            )));
         }
         if dark.len() == 1 {
             return Err(err("1 dark frame; give none or at least 2".into()));
         }
-        levels.push(EmvaLevelFiles { line: n, exposure_s, photons_per_pixel, bright, dark });
+        levels.push(EmvaLevelFiles {
+            line: n,
+            exposure_s,
+            photons_per_pixel,
+            bright,
+            dark,
+        });
     }
     if levels.len() < 3 {
-        return Err(IoError::format(csv, format!("{} level(s); the photon transfer method needs at least 3", levels.len())));
+        return Err(IoError::format(
+            csv,
+            format!(
+                "{} level(s); the photon transfer method needs at least 3",
+                levels.len()
+            ),
+        ));
     }
     // The analysis does not need the photon count, but it is all or nothing.
-    let known = levels.iter().filter(|l| l.photons_per_pixel.is_some()).count();
+    let known = levels
+        .iter()
+        .filter(|l| l.photons_per_pixel.is_some())
+        .count();
     if known != 0 && known != levels.len() {
         return Err(IoError::format(
             csv,
@@ -152,13 +200,22 @@ pub fn read_sfr_csv(path: &Path) -> Result<Vec<SfrCurve>> {
     let mut rows = records(path, false)?.into_iter();
     let (_, header) = rows.next().ok_or_else(|| IoError::format(path, "empty"))?;
     if header.get(0) != Some("freq_cyc_per_sensor_px") {
-        return Err(IoError::format(path, "not an sfr.csv (its first column must be freq_cyc_per_sensor_px)"));
+        return Err(IoError::format(
+            path,
+            "not an sfr.csv (its first column must be freq_cyc_per_sensor_px)",
+        ));
     }
     let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
     for (line, record) in rows {
-        let v: Vec<f64> = record.deserialize(None).map_err(|_| IoError::line(path, line, "not numbers"))?;
+        let v: Vec<f64> = record
+            .deserialize(None)
+            .map_err(|_| IoError::line(path, line, "not numbers"))?;
         if v.len() != header.len() {
-            return Err(IoError::line(path, line, format!("{} values for {} columns", v.len(), header.len())));
+            return Err(IoError::line(
+                path,
+                line,
+                format!("{} values for {} columns", v.len(), header.len()),
+            ));
         }
         for (k, x) in v.iter().enumerate().skip(1) {
             if x.is_finite() && v[0].is_finite() {
@@ -171,7 +228,10 @@ pub fn read_sfr_csv(path: &Path) -> Result<Vec<SfrCurve>> {
         .zip(cols)
         .skip(1)
         .filter(|(h, _)| h.starts_with("mtf_"))
-        .map(|(h, points)| SfrCurve { name: h.to_string(), points })
+        .map(|(h, points)| SfrCurve {
+            name: h.to_string(),
+            points,
+        })
         .collect())
 }
 
@@ -206,12 +266,19 @@ struct PatchRow {
 /// blank lines are ignored; at least 3 measurements.
 pub fn read_qe_means(path: &Path) -> Result<Vec<PatchMeans>> {
     let mut rows = records(path, true)?.into_iter();
-    let (hline, header) = rows
-        .next()
-        .ok_or_else(|| IoError::format(path, "no header line; the header must be light,patch,r,g,b"))?;
+    let (hline, header) = rows.next().ok_or_else(|| {
+        IoError::format(path, "no header line; the header must be light,patch,r,g,b")
+    })?;
     let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
     if names != ["light", "patch", "r", "g", "b"] {
-        return Err(IoError::line(path, hline, format!("the header must be light,patch,r,g,b, got '{}'", joined(&header))));
+        return Err(IoError::line(
+            path,
+            hline,
+            format!(
+                "the header must be light,patch,r,g,b, got '{}'",
+                joined(&header)
+            ),
+        ));
     }
     let mut out = Vec::new();
     for (line, record) in rows {
@@ -223,7 +290,15 @@ pub fn read_qe_means(path: &Path) -> Result<Vec<PatchMeans>> {
                 csv::ErrorKind::Deserialize { err, .. } => err.field(),
                 _ => None,
             };
-            IoError::line(path, line, if field == Some(1) { "patch must be 1..24" } else { "r, g, b must be numbers" })
+            IoError::line(
+                path,
+                line,
+                if field == Some(1) {
+                    "patch must be 1..24"
+                } else {
+                    "r, g, b must be numbers"
+                },
+            )
         })?;
         if !(1..=24).contains(&row.patch) {
             return Err(IoError::line(path, line, "patch must be 1..24"));
@@ -232,10 +307,18 @@ pub fn read_qe_means(path: &Path) -> Result<Vec<PatchMeans>> {
         if rgb.iter().any(|v| !v.is_finite()) {
             return Err(IoError::line(path, line, "r, g, b must be finite numbers"));
         }
-        out.push(PatchMeans { line, light: row.light, patch: row.patch, rgb });
+        out.push(PatchMeans {
+            line,
+            light: row.light,
+            patch: row.patch,
+            rgb,
+        });
     }
     if out.len() < 3 {
-        return Err(IoError::format(path, format!("need at least 3 measurements, found {}", out.len())));
+        return Err(IoError::format(
+            path,
+            format!("need at least 3 measurements, found {}", out.len()),
+        ));
     }
     Ok(out)
 }
@@ -274,8 +357,12 @@ pub fn read_mtf_csv(path: &Path) -> Result<MeasuredMtf> {
         )
     })?;
     let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
-    let freq_ok = names.first().is_some_and(|n| n.contains("freq") || n.contains("cy"));
-    let mtf_ok = names.get(1).is_some_and(|n| ["mtf", "sfr", "modulation"].iter().any(|k| n.contains(k)));
+    let freq_ok = names
+        .first()
+        .is_some_and(|n| n.contains("freq") || n.contains("cy"));
+    let mtf_ok = names
+        .get(1)
+        .is_some_and(|n| ["mtf", "sfr", "modulation"].iter().any(|k| n.contains(k)));
     if names.len() != 2 || !freq_ok || !mtf_ok {
         return Err(IoError::line(
             path,
@@ -287,32 +374,74 @@ pub fn read_mtf_csv(path: &Path) -> Result<MeasuredMtf> {
         ));
     }
     if names[0].contains("px") || names[0].contains("pixel") {
-        return Err(IoError::line(path, hline, format!("column '{}' is per pixel; give the frequency in cycles/mm", &names[0])));
+        return Err(IoError::line(
+            path,
+            hline,
+            format!(
+                "column '{}' is per pixel; give the frequency in cycles/mm",
+                &names[0]
+            ),
+        ));
     }
-    let scale = if names[1].contains("percent") || names[1].contains('%') { 0.01 } else { 1.0 };
-    let mut out = MeasuredMtf { freq_cyc_per_mm: Vec::new(), mtf: Vec::new(), lines: Vec::new() };
+    let scale = if names[1].contains("percent") || names[1].contains('%') {
+        0.01
+    } else {
+        1.0
+    };
+    let mut out = MeasuredMtf {
+        freq_cyc_per_mm: Vec::new(),
+        mtf: Vec::new(),
+        lines: Vec::new(),
+    };
     for (line, record) in rows {
         if record.len() != 2 {
-            return Err(IoError::line(path, line, format!("{} values; expected frequency,mtf", record.len())));
+            return Err(IoError::line(
+                path,
+                line,
+                format!("{} values; expected frequency,mtf", record.len()),
+            ));
         }
-        let row: MtfRow =
-            record.deserialize(None).map_err(|_| IoError::line(path, line, format!("'{}' is not two numbers", joined(&record))))?;
+        let row: MtfRow = record.deserialize(None).map_err(|_| {
+            IoError::line(
+                path,
+                line,
+                format!("'{}' is not two numbers", joined(&record)),
+            )
+        })?;
         if !(row.freq.is_finite() && row.freq >= 0.0) {
-            return Err(IoError::line(path, line, format!("frequency {} is not a number >= 0", row.freq)));
+            return Err(IoError::line(
+                path,
+                line,
+                format!("frequency {} is not a number >= 0", row.freq),
+            ));
         }
         if out.freq_cyc_per_mm.last().is_some_and(|f| row.freq <= *f) {
-            return Err(IoError::line(path, line, format!("frequency {} does not increase", row.freq)));
+            return Err(IoError::line(
+                path,
+                line,
+                format!("frequency {} does not increase", row.freq),
+            ));
         }
         let m = row.mtf * scale;
         if !(m.is_finite() && (-0.05..=1.5).contains(&m)) {
-            return Err(IoError::line(path, line, format!("MTF {} is not a modulation (fraction in [-0.05, 1.5])", row.mtf)));
+            return Err(IoError::line(
+                path,
+                line,
+                format!(
+                    "MTF {} is not a modulation (fraction in [-0.05, 1.5])",
+                    row.mtf
+                ),
+            ));
         }
         out.freq_cyc_per_mm.push(row.freq);
         out.mtf.push(m);
         out.lines.push(line);
     }
     if out.mtf.len() < 3 {
-        return Err(IoError::format(path, format!("need at least 3 points, found {}", out.mtf.len())));
+        return Err(IoError::format(
+            path,
+            format!("need at least 3 points, found {}", out.mtf.len()),
+        ));
     }
     Ok(out)
 }
@@ -334,16 +463,26 @@ mod tests {
     #[test]
     fn emva_series_with_quotes_comments_and_relative_paths() {
         let dir = tempfile::tempdir().unwrap();
-        let text = "# series\n\"exposure_s\",\"photons_per_pixel\",bright_0,bright_1,dark_0,dark_1\n\n\
+        let text =
+            "# series\n\"exposure_s\",\"photons_per_pixel\",bright_0,bright_1,dark_0,dark_1\n\n\
                     0.001, 10 ,\"a 0.dng\",\"b,1.dng\",,\n  # indented comment\n\
                     0.002,-,c.dng,d.dng,e.dng,f.dng\n0.003,nan,g.dng,h.dng,,\n";
         let p = file(&dir, "series.csv", text);
         let e = err(read_emva_series(&p));
-        assert!(e.starts_with(&format!("{}: photons_per_pixel is given on 1 of 3 lines", p.display())), "{e}");
+        assert!(
+            e.starts_with(&format!(
+                "{}: photons_per_pixel is given on 1 of 3 lines",
+                p.display()
+            )),
+            "{e}"
+        );
         let p = file(&dir, "series.csv", &text.replace(" 10 ", ""));
         let l = read_emva_series(&p).unwrap();
         assert_eq!(l.iter().map(|l| l.line).collect::<Vec<_>>(), [4, 6, 7]);
-        assert_eq!(l[0].bright, [dir.path().join("a 0.dng"), dir.path().join("b,1.dng")]);
+        assert_eq!(
+            l[0].bright,
+            [dir.path().join("a 0.dng"), dir.path().join("b,1.dng")]
+        );
         assert!(l[0].dark.is_empty() && l[1].dark.len() == 2);
         assert_eq!((l[1].exposure_s, l[1].photons_per_pixel), (0.002, None));
     }
@@ -356,28 +495,66 @@ mod tests {
         let cases = [
             ("", "no header line".to_string()),
             ("# only a comment\n", "no header line".into()),
-            ("a,b\n1,2\n", "line 1: the header must start with exposure_s,photons_per_pixel".into()),
-            ("exposure_s,photons_per_pixel,flat_0\n", "line 1: column 3 'flat_0' is neither".into()),
-            (&format!("{h}{ok}0.003,,a\n"), "line 4: 3 values for 6 columns".into()),
-            (&format!("{h}{ok}x,,a,b,,\n"), "line 4: exposure_s 'x' is not a number".into()),
-            (&format!("{h}{ok}-1,,a,b,,\n"), "line 4: exposure_s -1 is not a time >= 0".into()),
-            (&format!("{h}{ok}1,-5,a,b,,\n"), "line 4: photons_per_pixel -5 is not a number >= 0".into()),
-            (&format!("{h}{ok}1,,a,,,\n"), "line 4: 1 bright frame(s)".into()),
-            (&format!("{h}{ok}1,,a,b,c,\n"), "line 4: 1 dark frame".into()),
-            (&format!("{h}{ok}1,,\"a,b,,\n"), "line 4: 3 values for 6 columns".into()),
+            (
+                "a,b\n1,2\n",
+                "line 1: the header must start with exposure_s,photons_per_pixel".into(),
+            ),
+            (
+                "exposure_s,photons_per_pixel,flat_0\n",
+                "line 1: column 3 'flat_0' is neither".into(),
+            ),
+            (
+                &format!("{h}{ok}0.003,,a\n"),
+                "line 4: 3 values for 6 columns".into(),
+            ),
+            (
+                &format!("{h}{ok}x,,a,b,,\n"),
+                "line 4: exposure_s 'x' is not a number".into(),
+            ),
+            (
+                &format!("{h}{ok}-1,,a,b,,\n"),
+                "line 4: exposure_s -1 is not a time >= 0".into(),
+            ),
+            (
+                &format!("{h}{ok}1,-5,a,b,,\n"),
+                "line 4: photons_per_pixel -5 is not a number >= 0".into(),
+            ),
+            (
+                &format!("{h}{ok}1,,a,,,\n"),
+                "line 4: 1 bright frame(s)".into(),
+            ),
+            (
+                &format!("{h}{ok}1,,a,b,c,\n"),
+                "line 4: 1 dark frame".into(),
+            ),
+            (
+                &format!("{h}{ok}1,,\"a,b,,\n"),
+                "line 4: 3 values for 6 columns".into(),
+            ),
             (&format!("{h}{ok}"), "2 level(s)".into()),
         ];
         for (text, want) in cases {
             let p = file(&dir, "s.csv", text);
             let e = err(read_emva_series(&p));
-            let want = if want.starts_with("line") { format!("{}, {want}", p.display()) } else { format!("{}: {want}", p.display()) };
+            let want = if want.starts_with("line") {
+                format!("{}, {want}", p.display())
+            } else {
+                format!("{}: {want}", p.display())
+            };
             assert!(e.starts_with(&want), "{text:?}: {e}");
         }
         assert!(err(read_emva_series(&dir.path().join("missing.csv"))).contains("missing.csv"));
         let p = dir.path().join("bin.csv");
-        std::fs::write(&p, [h.as_bytes(), ok.as_bytes(), b"1,,a\xff,b,,\n"].concat()).unwrap();
+        std::fs::write(
+            &p,
+            [h.as_bytes(), ok.as_bytes(), b"1,,a\xff,b,,\n"].concat(),
+        )
+        .unwrap();
         let e = err(read_emva_series(&p));
-        assert!(e.starts_with(&format!("{}, line 4: not UTF-8 text", p.display())), "{e}");
+        assert!(
+            e.starts_with(&format!("{}, line 4: not UTF-8 text", p.display())),
+            "{e}"
+        );
     }
 
     #[test]
@@ -390,17 +567,38 @@ mod tests {
         );
         let c = read_sfr_csv(&p).unwrap();
         assert_eq!(c.len(), 2);
-        assert_eq!(c[0], SfrCurve { name: "mtf_R".into(), points: vec![(0.0, 1.0), (0.01, 0.99)] });
-        assert_eq!(c[1], SfrCurve { name: "mtf_luminance".into(), points: vec![(0.0, 1.0)] });
+        assert_eq!(
+            c[0],
+            SfrCurve {
+                name: "mtf_R".into(),
+                points: vec![(0.0, 1.0), (0.01, 0.99)]
+            }
+        );
+        assert_eq!(
+            c[1],
+            SfrCurve {
+                name: "mtf_luminance".into(),
+                points: vec![(0.0, 1.0)]
+            }
+        );
         for (text, want) in [
             ("", ": empty"),
             ("a,b\n1,2\n", ": not an sfr.csv"),
-            ("freq_cyc_per_sensor_px,mtf_R\n0,1\n\n0.1,x\n", ", line 4: not numbers"),
-            ("freq_cyc_per_sensor_px,mtf_R\n0,1,2\n", ", line 2: 3 values for 2 columns"),
+            (
+                "freq_cyc_per_sensor_px,mtf_R\n0,1\n\n0.1,x\n",
+                ", line 4: not numbers",
+            ),
+            (
+                "freq_cyc_per_sensor_px,mtf_R\n0,1,2\n",
+                ", line 2: 3 values for 2 columns",
+            ),
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_sfr_csv(&p));
-            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+            assert!(
+                e.starts_with(&format!("{}{want}", p.display())),
+                "{text:?}: {e}"
+            );
         }
     }
 
@@ -413,30 +611,69 @@ mod tests {
             "# chart means\nLight,Patch,R,G,B\n\"D65, 6504 K\",1,1.5,2,3\n  # skipped\n\"A\",\"24\",4,5,6e1\nF2,3,7,8,9\n",
         );
         let m = read_qe_means(&p).unwrap();
-        assert_eq!(m[0], PatchMeans { line: 3, light: "D65, 6504 K".into(), patch: 1, rgb: [1.5, 2.0, 3.0] });
-        assert_eq!((m[1].line, m[1].light.as_str(), m[1].patch, m[1].rgb), (5, "A", 24, [4.0, 5.0, 60.0]));
+        assert_eq!(
+            m[0],
+            PatchMeans {
+                line: 3,
+                light: "D65, 6504 K".into(),
+                patch: 1,
+                rgb: [1.5, 2.0, 3.0]
+            }
+        );
+        assert_eq!(
+            (m[1].line, m[1].light.as_str(), m[1].patch, m[1].rgb),
+            (5, "A", 24, [4.0, 5.0, 60.0])
+        );
         assert_eq!(m[2].line, 6);
         let h = "light,patch,r,g,b\n";
         for (text, want) in [
             ("", ": no header line".to_string()),
-            ("D65,1,1,2,3\n", ", line 1: the header must be light,patch,r,g,b, got 'D65,1,1,2,3'".into()),
-            (&format!("{h}D65,1,1,2\n"), ", line 2: expected light,patch,r,g,b".into()),
-            (&format!("{h}D65,25,1,2,3\n"), ", line 2: patch must be 1..24".into()),
-            (&format!("{h}D65,x,1,2,3\n"), ", line 2: patch must be 1..24".into()),
-            (&format!("{h}D65,1,1,y,3\n"), ", line 2: r, g, b must be numbers".into()),
-            (&format!("{h}D65,1,1,nan,3\n"), ", line 2: r, g, b must be finite numbers".into()),
-            (&format!("{h}D65,1,1,2,3\n"), ": need at least 3 measurements, found 1".into()),
+            (
+                "D65,1,1,2,3\n",
+                ", line 1: the header must be light,patch,r,g,b, got 'D65,1,1,2,3'".into(),
+            ),
+            (
+                &format!("{h}D65,1,1,2\n"),
+                ", line 2: expected light,patch,r,g,b".into(),
+            ),
+            (
+                &format!("{h}D65,25,1,2,3\n"),
+                ", line 2: patch must be 1..24".into(),
+            ),
+            (
+                &format!("{h}D65,x,1,2,3\n"),
+                ", line 2: patch must be 1..24".into(),
+            ),
+            (
+                &format!("{h}D65,1,1,y,3\n"),
+                ", line 2: r, g, b must be numbers".into(),
+            ),
+            (
+                &format!("{h}D65,1,1,nan,3\n"),
+                ", line 2: r, g, b must be finite numbers".into(),
+            ),
+            (
+                &format!("{h}D65,1,1,2,3\n"),
+                ": need at least 3 measurements, found 1".into(),
+            ),
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_qe_means(&p));
-            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+            assert!(
+                e.starts_with(&format!("{}{want}", p.display())),
+                "{text:?}: {e}"
+            );
         }
     }
 
     #[test]
     fn measured_mtf_percent_and_fraction_with_errors_naming_the_line() {
         let dir = tempfile::tempdir().unwrap();
-        let p = file(&dir, "m.csv", "# slanted edge\nfrequency_cy_per_mm,mtf_percent\n9.5,97.5\n\n20,\"90\"\n40,50\n");
+        let p = file(
+            &dir,
+            "m.csv",
+            "# slanted edge\nfrequency_cy_per_mm,mtf_percent\n9.5,97.5\n\n20,\"90\"\n40,50\n",
+        );
         let m = read_mtf_csv(&p).unwrap();
         assert_eq!(m.freq_cyc_per_mm, [9.5, 20.0, 40.0]);
         assert_eq!(m.mtf, [0.975, 0.9, 0.5]);
@@ -447,18 +684,42 @@ mod tests {
         for (text, want) in [
             ("", ": no header line".to_string()),
             ("a,b\n", ", line 1: the header must be two columns".into()),
-            ("freq_cyc_per_px,mtf\n", ", line 1: column 'freq_cyc_per_px' is per pixel".into()),
-            (&format!("{h}1,99\n2,x\n"), ", line 3: '2,x' is not two numbers".into()),
+            (
+                "freq_cyc_per_px,mtf\n",
+                ", line 1: column 'freq_cyc_per_px' is per pixel".into(),
+            ),
+            (
+                &format!("{h}1,99\n2,x\n"),
+                ", line 3: '2,x' is not two numbers".into(),
+            ),
             (&format!("{h}1,99\n2\n"), ", line 3: 1 values".into()),
-            (&format!("{h}1,99\n1,98\n"), ", line 3: frequency 1 does not increase".into()),
-            (&format!("{h}1,99\n-2,98\n"), ", line 3: frequency -2 is not".into()),
-            (&format!("{h}1,99\n2,nan\n"), ", line 3: MTF NaN is not a modulation".into()),
-            (&format!("{h}1,99\n2,9000\n"), ", line 3: MTF 9000 is not a modulation".into()),
-            (&format!("{h}1,99\n2,98\n"), ": need at least 3 points, found 2".into()),
+            (
+                &format!("{h}1,99\n1,98\n"),
+                ", line 3: frequency 1 does not increase".into(),
+            ),
+            (
+                &format!("{h}1,99\n-2,98\n"),
+                ", line 3: frequency -2 is not".into(),
+            ),
+            (
+                &format!("{h}1,99\n2,nan\n"),
+                ", line 3: MTF NaN is not a modulation".into(),
+            ),
+            (
+                &format!("{h}1,99\n2,9000\n"),
+                ", line 3: MTF 9000 is not a modulation".into(),
+            ),
+            (
+                &format!("{h}1,99\n2,98\n"),
+                ": need at least 3 points, found 2".into(),
+            ),
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_mtf_csv(&p));
-            assert!(e.starts_with(&format!("{}{want}", p.display())), "{text:?}: {e}");
+            assert!(
+                e.starts_with(&format!("{}{want}", p.display())),
+                "{text:?}: {e}"
+            );
         }
     }
 }

@@ -52,9 +52,18 @@ pub fn scale_dn_to_16(dn: u16, bits: u32) -> u16 {
 /// Write a `bits`-bit raw mosaic (e.g. 12-bit ADC values) as a 16-bit grayscale PNG scaled to
 /// the full 16-bit range with [`scale_dn_to_16`], so it is visible in ordinary viewers (the
 /// unscaled values in a 16-bit PNG look black). The DNG keeps the exact data.
-pub fn write_png16_mosaic_scaled(path: &Path, rows: usize, cols: usize, dn: &[u16], bits: u32) -> Result<()> {
+pub fn write_png16_mosaic_scaled(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    dn: &[u16],
+    bits: u32,
+) -> Result<()> {
     if !(1..=16).contains(&bits) {
-        return Err(IoError::invalid(path, format!("{bits}-bit data: must be 1..16 bits")));
+        return Err(IoError::invalid(
+            path,
+            format!("{bits}-bit data: must be 1..16 bits"),
+        ));
     }
     let scaled: Vec<u16> = dn.iter().map(|&v| scale_dn_to_16(v, bits)).collect();
     write_png16_gray(path, rows, cols, &scaled)
@@ -152,7 +161,11 @@ mod tests {
             let max = (1u32 << bits) - 1;
             for dn in (0..=max).step_by(7).chain([max]) {
                 let v = scale_dn_to_16(dn as u16, bits) as f64;
-                assert_eq!((v * max as f64 / 65535.0).round() as u32, dn, "{bits} bits, dn {dn}");
+                assert_eq!(
+                    (v * max as f64 / 65535.0).round() as u32,
+                    dn,
+                    "{bits} bits, dn {dn}"
+                );
             }
         }
         let dir = tempfile::tempdir().unwrap();

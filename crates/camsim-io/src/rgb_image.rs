@@ -37,20 +37,29 @@ pub fn read_rgb_image(path: &Path) -> Result<RgbFile> {
         use std::io::Read;
         let mut magic = [0u8; 4];
         let mut f = std::fs::File::open(path).map_err(|e| IoError::io(path, e))?;
-        f.read(&mut magic).map_err(|e| IoError::io(path, e))? == 4 && magic == [0x76, 0x2f, 0x31, 0x01]
+        f.read(&mut magic).map_err(|e| IoError::io(path, e))? == 4
+            && magic == [0x76, 0x2f, 0x31, 0x01]
     };
     if is_exr {
         return read_exr_rgb(path);
     }
     let reader = image::ImageReader::open(path).map_err(|e| IoError::io(path, e))?;
-    let reader = reader.with_guessed_format().map_err(|e| IoError::io(path, e))?;
+    let reader = reader
+        .with_guessed_format()
+        .map_err(|e| IoError::io(path, e))?;
     if reader.format().is_none() {
-        return Err(IoError::format(path, "not a PNG, JPEG, TIFF or OpenEXR image"));
+        return Err(IoError::format(
+            path,
+            "not a PNG, JPEG, TIFF or OpenEXR image",
+        ));
     }
-    let (cols, rows) = reader.into_dimensions().map_err(|e| IoError::format(path, format!("cannot read the image size: {e}")))?;
+    let (cols, rows) = reader
+        .into_dimensions()
+        .map_err(|e| IoError::format(path, format!("cannot read the image size: {e}")))?;
     // The decoded image (up to 16 bit x 4 channels) and the f32 copy.
     let bytes = (rows as u64) * (cols as u64) * (8 + 12);
-    mem::check_alloc(bytes, &format!("the pixels of {}", path.display())).map_err(|e| IoError::core(path, e))?;
+    mem::check_alloc(bytes, &format!("the pixels of {}", path.display()))
+        .map_err(|e| IoError::core(path, e))?;
     let img = image::ImageReader::open(path)
         .map_err(|e| IoError::io(path, e))?
         .with_guessed_format()
@@ -61,22 +70,46 @@ pub fn read_rgb_image(path: &Path) -> Result<RgbFile> {
             other => IoError::format(path, format!("cannot decode: {other}")),
         })?;
     let rgb: Vec<f32> = if img.color().bytes_per_pixel() / img.color().channel_count().max(1) >= 2 {
-        img.to_rgb16().into_raw().into_iter().map(|v| v as f32 / 65535.0).collect()
+        img.to_rgb16()
+            .into_raw()
+            .into_iter()
+            .map(|v| v as f32 / 65535.0)
+            .collect()
     } else {
-        img.to_rgb8().into_raw().into_iter().map(|v| v as f32 / 255.0).collect()
+        img.to_rgb8()
+            .into_raw()
+            .into_iter()
+            .map(|v| v as f32 / 255.0)
+            .collect()
     };
-    Ok(RgbFile { rows: rows as usize, cols: cols as usize, rgb, encoding: RgbEncoding::CodeValues })
+    Ok(RgbFile {
+        rows: rows as usize,
+        cols: cols as usize,
+        rgb,
+        encoding: RgbEncoding::CodeValues,
+    })
 }
 
 fn read_exr_rgb(path: &Path) -> Result<RgbFile> {
     let (rows, cols, channels) = crate::exr::read_channels_exr(path)?;
-    let find = |n: &str| channels.iter().find(|(c, _)| c == n).map(|(_, d)| d.as_slice());
+    let find = |n: &str| {
+        channels
+            .iter()
+            .find(|(c, _)| c == n)
+            .map(|(_, d)| d.as_slice())
+    };
     let planes: Vec<&[f32]> = match (find("R"), find("G"), find("B"), find("Y")) {
         (Some(r), Some(g), Some(b), _) => vec![r, g, b],
         (_, _, _, Some(y)) => vec![y],
         _ => {
             let names: Vec<&str> = channels.iter().map(|(c, _)| c.as_str()).collect();
-            return Err(IoError::format(path, format!("has channels {}; an RGB image needs R, G and B (or Y)", names.join(", "))));
+            return Err(IoError::format(
+                path,
+                format!(
+                    "has channels {}; an RGB image needs R, G and B (or Y)",
+                    names.join(", ")
+                ),
+            ));
         }
     };
     let mut rgb = vec![0f32; rows * cols * 3];
@@ -87,9 +120,17 @@ fn read_exr_rgb(path: &Path) -> Result<RgbFile> {
     }
     if let Some(i) = rgb.iter().position(|v| !v.is_finite()) {
         let p = i / 3;
-        return Err(IoError::format(path, format!("pixel (row {}, col {}) is not finite", p / cols, p % cols)));
+        return Err(IoError::format(
+            path,
+            format!("pixel (row {}, col {}) is not finite", p / cols, p % cols),
+        ));
     }
-    Ok(RgbFile { rows, cols, rgb, encoding: RgbEncoding::Linear })
+    Ok(RgbFile {
+        rows,
+        cols,
+        rgb,
+        encoding: RgbEncoding::Linear,
+    })
 }
 
 #[cfg(test)]
@@ -103,8 +144,14 @@ mod tests {
         let p8 = dir.path().join("a.png");
         crate::raster::write_png8_rgb(&p8, 1, 2, &[0, 51, 255, 128, 7, 9]).unwrap();
         let f = read_rgb_image(&p8).unwrap();
-        assert_eq!((f.rows, f.cols, f.encoding), (1, 2, RgbEncoding::CodeValues));
-        assert_eq!(f.rgb, [0.0, 0.2, 1.0, 128.0 / 255.0, 7.0 / 255.0, 9.0 / 255.0]);
+        assert_eq!(
+            (f.rows, f.cols, f.encoding),
+            (1, 2, RgbEncoding::CodeValues)
+        );
+        assert_eq!(
+            f.rgb,
+            [0.0, 0.2, 1.0, 128.0 / 255.0, 7.0 / 255.0, 9.0 / 255.0]
+        );
         // 16-bit grey PNG: / 65535, copied to R, G and B.
         let p16 = dir.path().join("g.png");
         crate::raster::write_png16_gray(&p16, 1, 1, &[65535 / 5]).unwrap();
@@ -112,7 +159,13 @@ mod tests {
         assert_eq!(f.rgb, [(65535 / 5) as f32 / 65535.0; 3]);
         // EXR: linear values as stored.
         let pe = dir.path().join("l.exr");
-        crate::exr::write_channels_exr(&pe, 1, 2, &[("R", &[0.5, 4.0]), ("G", &[0.25, 0.0]), ("B", &[1.0, 2.0])]).unwrap();
+        crate::exr::write_channels_exr(
+            &pe,
+            1,
+            2,
+            &[("R", &[0.5, 4.0]), ("G", &[0.25, 0.0]), ("B", &[1.0, 2.0])],
+        )
+        .unwrap();
         let f = read_rgb_image(&pe).unwrap();
         assert_eq!(f.encoding, RgbEncoding::Linear);
         assert_eq!(f.rgb, [0.5, 0.25, 1.0, 4.0, 0.0, 2.0]);

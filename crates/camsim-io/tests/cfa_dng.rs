@@ -16,8 +16,16 @@ fn frame(layout: Option<CfaLayout>) -> RawImage {
 #[test]
 fn general_layouts_round_trip() {
     let dir = tempfile::tempdir().unwrap();
-    let cmyw = CfaLayout::from_names(&[vec!["c".into(), "y".into(), "c".into()], vec!["w".into(), "m".into(), "w".into()]]).unwrap();
-    for layout in [CfaLayout::parse("RGBW").unwrap(), CfaLayout::parse("quad-bayer").unwrap(), cmyw] {
+    let cmyw = CfaLayout::from_names(&[
+        vec!["c".into(), "y".into(), "c".into()],
+        vec!["w".into(), "m".into(), "w".into()],
+    ])
+    .unwrap();
+    for layout in [
+        CfaLayout::parse("RGBW").unwrap(),
+        CfaLayout::parse("quad-bayer").unwrap(),
+        cmyw,
+    ] {
         let raw = frame(Some(layout.clone()));
         let path = dir.path().join("cfa.dng");
         write_dng(&path, &raw, &DngMetadata::default()).unwrap();
@@ -36,9 +44,12 @@ fn general_layouts_round_trip() {
 #[test]
 fn a_filter_without_a_dng_code_is_an_error_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let ir = CfaLayout::from_names(&[vec!["r".into(), "g".into()], vec!["ir".into(), "b".into()]]).unwrap();
+    let ir = CfaLayout::from_names(&[vec!["r".into(), "g".into()], vec!["ir".into(), "b".into()]])
+        .unwrap();
     let path = dir.path().join("ir.dng");
-    let err = write_dng(&path, &frame(Some(ir)), &DngMetadata::default()).unwrap_err().to_string();
+    let err = write_dng(&path, &frame(Some(ir)), &DngMetadata::default())
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("'ir'") && err.contains("ir.dng"), "{err}");
     assert!(!path.exists());
 }

@@ -25,8 +25,12 @@ fn bench(c: &mut Criterion) {
     // Any plausible QE will do for timing: the CIE CMFs.
     let qe = tables::cie1931_xyz_cmfs().map(|s| s.sample(&grid));
     let p = ColorPipeline::fit(&qe, &grid, &tables::illuminant("D65").unwrap()).unwrap();
-    g.bench_function("render_srgb8_auto_exposure", |b| b.iter(|| p.render_srgb8(&rgb, None)));
-    g.bench_function("colour_fit", |b| b.iter(|| ColorPipeline::fit(&qe, &grid, &tables::illuminant("A").unwrap()).unwrap()));
+    g.bench_function("render_srgb8_auto_exposure", |b| {
+        b.iter(|| p.render_srgb8(&rgb, None))
+    });
+    g.bench_function("colour_fit", |b| {
+        b.iter(|| ColorPipeline::fit(&qe, &grid, &tables::illuminant("A").unwrap()).unwrap())
+    });
     g.finish();
 }
 

@@ -39,12 +39,24 @@ pub enum CcmObjective {
 impl FromStr for CcmObjective {
     type Err = CoreError;
     fn from_str(s: &str) -> Result<Self> {
-        Ok(match s.trim().to_ascii_lowercase().replace(['_', ' '], "-").as_str() {
-            "xyz" => CcmObjective::Xyz,
-            "linear-srgb" | "linear" | "srgb" => CcmObjective::LinearSrgb,
-            "cielab" | "lab" => CcmObjective::Cielab,
-            _ => return Err(CoreError::invalid("CCM objective", format!("'{s}' is not one of xyz, linear-srgb, cielab"))),
-        })
+        Ok(
+            match s
+                .trim()
+                .to_ascii_lowercase()
+                .replace(['_', ' '], "-")
+                .as_str()
+            {
+                "xyz" => CcmObjective::Xyz,
+                "linear-srgb" | "linear" | "srgb" => CcmObjective::LinearSrgb,
+                "cielab" | "lab" => CcmObjective::Cielab,
+                _ => {
+                    return Err(CoreError::invalid(
+                        "CCM objective",
+                        format!("'{s}' is not one of xyz, linear-srgb, cielab"),
+                    ))
+                }
+            },
+        )
     }
 }
 
@@ -80,30 +92,60 @@ fn least_squares(camera: &[[f64; 3]], target: &[[f64; 3]]) -> Result<Mat3> {
         ctt += c * t.transpose();
     }
     // M^T = (C^T C)^-1 C^T T.
-    let inv =
-        ctc.try_inverse().ok_or_else(|| CoreError::invalid("CCM fit", "the camera values of the patches do not span three dimensions"))?;
+    let inv = ctc.try_inverse().ok_or_else(|| {
+        CoreError::invalid(
+            "CCM fit",
+            "the camera values of the patches do not span three dimensions",
+        )
+    })?;
     Ok(unmat(&(inv * ctt).transpose()))
 }
 
 fn check(camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3]) -> Result<()> {
     if camera.len() != target_xyz.len() {
-        return Err(CoreError::invalid("CCM fit", format!("{} camera values for {} targets", camera.len(), target_xyz.len())));
+        return Err(CoreError::invalid(
+            "CCM fit",
+            format!(
+                "{} camera values for {} targets",
+                camera.len(),
+                target_xyz.len()
+            ),
+        ));
     }
     if camera.len() < 3 {
-        return Err(CoreError::invalid("CCM fit", format!("{} patches: at least 3 are needed", camera.len())));
+        return Err(CoreError::invalid(
+            "CCM fit",
+            format!("{} patches: at least 3 are needed", camera.len()),
+        ));
     }
-    if camera.iter().chain(target_xyz).flatten().any(|v| !v.is_finite()) {
-        return Err(CoreError::invalid("CCM fit", "a camera or target value is not finite"));
+    if camera
+        .iter()
+        .chain(target_xyz)
+        .flatten()
+        .any(|v| !v.is_finite())
+    {
+        return Err(CoreError::invalid(
+            "CCM fit",
+            "a camera or target value is not finite",
+        ));
     }
     if white_xyz.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err(CoreError::invalid("CCM fit", format!("white point {white_xyz:?} must be positive")));
+        return Err(CoreError::invalid(
+            "CCM fit",
+            format!("white point {white_xyz:?} must be positive"),
+        ));
     }
     Ok(())
 }
 
 /// Fit the CCM camera RGB -> XYZ on `camera` / `target_xyz` pairs (same order), minimising
 /// `objective`. `white_xyz` is the reference white of the targets (for CIELAB).
-pub fn fit_ccm(camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3], objective: CcmObjective) -> Result<Mat3> {
+pub fn fit_ccm(
+    camera: &[[f64; 3]],
+    target_xyz: &[[f64; 3]],
+    white_xyz: [f64; 3],
+    objective: CcmObjective,
+) -> Result<Mat3> {
     check(camera, target_xyz, white_xyz)?;
     match objective {
         CcmObjective::Xyz => least_squares(camera, target_xyz),
@@ -112,7 +154,9 @@ pub fn fit_ccm(camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3]
             let target_srgb: Vec<[f64; 3]> = target_xyz.iter().map(|x| apply(&s, *x)).collect();
             let a = least_squares(camera, &target_srgb)?;
             // The exact inverse of S (the tabulated LINEAR_SRGB_TO_XYZ is rounded separately).
-            let s_inv = mat(&s).try_inverse().ok_or_else(|| CoreError::invalid("CCM fit", "singular sRGB matrix"))?;
+            let s_inv = mat(&s)
+                .try_inverse()
+                .ok_or_else(|| CoreError::invalid("CCM fit", "singular sRGB matrix"))?;
             let m = unmat(&(s_inv * mat(&a)));
             if objective == CcmObjective::Cielab {
                 Ok(refine_cielab(m, camera, target_xyz, white_xyz, 20))
@@ -123,7 +167,12 @@ pub fn fit_ccm(camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3]
     }
 }
 
-fn lab_residuals(m: &Mat3, camera: &[[f64; 3]], target_lab: &[Lab], white_xyz: [f64; 3]) -> DVector<f64> {
+fn lab_residuals(
+    m: &Mat3,
+    camera: &[[f64; 3]],
+    target_lab: &[Lab],
+    white_xyz: [f64; 3],
+) -> DVector<f64> {
     let mut r = DVector::zeros(3 * camera.len());
     for (i, (c, t)) in camera.iter().zip(target_lab).enumerate() {
         let l = xyz_to_lab(apply(m, *c), white_xyz);
@@ -137,8 +186,17 @@ fn lab_residuals(m: &Mat3, camera: &[[f64; 3]], target_lab: &[Lab], white_xyz: [
 /// Gauss-Newton on the nine entries of M minimising the squared CIELAB error, `iterations` steps
 /// at most; each step is halved until the error decreases (else the fit stops).
 #[allow(clippy::needless_range_loop)]
-fn refine_cielab(m0: Mat3, camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3], iterations: usize) -> Mat3 {
-    let target_lab: Vec<Lab> = target_xyz.iter().map(|x| xyz_to_lab(*x, white_xyz)).collect();
+fn refine_cielab(
+    m0: Mat3,
+    camera: &[[f64; 3]],
+    target_xyz: &[[f64; 3]],
+    white_xyz: [f64; 3],
+    iterations: usize,
+) -> Mat3 {
+    let target_lab: Vec<Lab> = target_xyz
+        .iter()
+        .map(|x| xyz_to_lab(*x, white_xyz))
+        .collect();
     let mut m = m0;
     let mut r = lab_residuals(&m, camera, &target_lab, white_xyz);
     let mut err = r.norm_squared();
@@ -150,7 +208,9 @@ fn refine_cielab(m0: Mat3, camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_x
             let (mut mp, mut mm) = (m, m);
             mp[k / 3][k % 3] += h;
             mm[k / 3][k % 3] -= h;
-            let d = (lab_residuals(&mp, camera, &target_lab, white_xyz) - lab_residuals(&mm, camera, &target_lab, white_xyz)) / (2.0 * h);
+            let d = (lab_residuals(&mp, camera, &target_lab, white_xyz)
+                - lab_residuals(&mm, camera, &target_lab, white_xyz))
+                / (2.0 * h);
             jac.set_column(k, &d);
         }
         let jt = jac.transpose();
@@ -181,24 +241,48 @@ fn refine_cielab(m0: Mat3, camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_x
 }
 
 /// CIEDE2000 difference of each patch between `M c_i` and its target (both relative to `white_xyz`).
-pub fn ccm_delta_e2000(m: &Mat3, camera: &[[f64; 3]], target_xyz: &[[f64; 3]], white_xyz: [f64; 3]) -> Vec<f64> {
-    camera.iter().zip(target_xyz).map(|(c, t)| ciede2000(xyz_to_lab(apply(m, *c), white_xyz), xyz_to_lab(*t, white_xyz))).collect()
+pub fn ccm_delta_e2000(
+    m: &Mat3,
+    camera: &[[f64; 3]],
+    target_xyz: &[[f64; 3]],
+    white_xyz: [f64; 3],
+) -> Vec<f64> {
+    camera
+        .iter()
+        .zip(target_xyz)
+        .map(|(c, t)| {
+            ciede2000(
+                xyz_to_lab(apply(m, *c), white_xyz),
+                xyz_to_lab(*t, white_xyz),
+            )
+        })
+        .collect()
 }
 
 /// CIE 1931 XYZ of the 24 ColorChecker patches (N. Ohta 1997 reflectances, camsim-core's table,
 /// standard order) under `illuminant`, scaled so a perfect white has Y = 1; returns them and that
 /// white's XYZ.
-pub fn macbeth_xyz(illuminant: &Spectrum, grid: &WavelengthGrid) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
+pub fn macbeth_xyz(
+    illuminant: &Spectrum,
+    grid: &WavelengthGrid,
+) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
     chart_xyz(&tables::macbeth_reflectances(), illuminant, grid)
 }
 
 /// [`macbeth_xyz`] for any set of patch reflectances (e.g. ISETCam's own ColorChecker data).
-pub fn chart_xyz(reflectances: &[Spectrum], illuminant: &Spectrum, grid: &WavelengthGrid) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
+pub fn chart_xyz(
+    reflectances: &[Spectrum],
+    illuminant: &Spectrum,
+    grid: &WavelengthGrid,
+) -> Result<(Vec<[f64; 3]>, [f64; 3])> {
     let illum = illuminant.sample(grid);
     let cmfs = Cmfs::on(grid);
     let white = cmfs.xyz(&illum);
     if !(white[1] > 0.0) {
-        return Err(CoreError::invalid("chart targets", "the illuminant has no luminance on this wavelength grid"));
+        return Err(CoreError::invalid(
+            "chart targets",
+            "the illuminant has no luminance on this wavelength grid",
+        ));
     }
     let xyz = reflectances
         .iter()
@@ -213,9 +297,16 @@ pub fn chart_xyz(reflectances: &[Spectrum], illuminant: &Spectrum, grid: &Wavele
 
 /// Camera responses (photon counts, [`camera_response`]) of the 24 ColorChecker patches under
 /// `illuminant` for a sensor with per-channel QE `channel_qe` on `grid` (a synthetic chart shot).
-pub fn macbeth_camera_rgb(channel_qe: &[Vec<f64>; 3], illuminant: &Spectrum, grid: &WavelengthGrid) -> Vec<[f64; 3]> {
+pub fn macbeth_camera_rgb(
+    channel_qe: &[Vec<f64>; 3],
+    illuminant: &Spectrum,
+    grid: &WavelengthGrid,
+) -> Vec<[f64; 3]> {
     let illum = illuminant.sample(grid);
-    tables::macbeth_reflectances().iter().map(|r| camera_response(channel_qe, &illum, &r.sample(grid), grid)).collect()
+    tables::macbeth_reflectances()
+        .iter()
+        .map(|r| camera_response(channel_qe, &illum, &r.sample(grid), grid))
+        .collect()
 }
 
 #[cfg(test)]
@@ -234,15 +325,24 @@ mod tests {
         // Camera RGB made from the true XYZ by a known (invertible, non-trivial) matrix.
         let truth: Mat3 = [[1.6, -0.4, 0.1], [-0.3, 1.5, -0.2], [0.05, -0.35, 1.9]];
         let inv = mat(&truth).try_inverse().unwrap();
-        let camera: Vec<[f64; 3]> = xyz.iter().map(|x| (inv * Vector3::from(*x)).into()).collect();
-        for obj in [CcmObjective::Xyz, CcmObjective::LinearSrgb, CcmObjective::Cielab] {
+        let camera: Vec<[f64; 3]> = xyz
+            .iter()
+            .map(|x| (inv * Vector3::from(*x)).into())
+            .collect();
+        for obj in [
+            CcmObjective::Xyz,
+            CcmObjective::LinearSrgb,
+            CcmObjective::Cielab,
+        ] {
             let m = fit_ccm(&camera, &xyz, white, obj).unwrap();
             for r in 0..3 {
                 for c in 0..3 {
                     assert!((m[r][c] - truth[r][c]).abs() < 1e-6, "{obj}: {m:?}");
                 }
             }
-            assert!(ccm_delta_e2000(&m, &camera, &xyz, white).iter().all(|d| *d < 1e-4));
+            assert!(ccm_delta_e2000(&m, &camera, &xyz, white)
+                .iter()
+                .all(|d| *d < 1e-4));
         }
     }
 
@@ -252,7 +352,11 @@ mod tests {
         // objective must reach a clearly lower Delta E*ab than the linear-sRGB fit it starts from
         // (measured: RMS 2.15 -> 1.89).
         let grid = WavelengthGrid::default();
-        let g = |mu: f64, s: f64| (0..grid.len()).map(|b| 0.6 * (-0.5 * ((grid.wavelength_nm(b) - mu) / s).powi(2)).exp()).collect();
+        let g = |mu: f64, s: f64| {
+            (0..grid.len())
+                .map(|b| 0.6 * (-0.5 * ((grid.wavelength_nm(b) - mu) / s).powi(2)).exp())
+                .collect()
+        };
         let qe: [Vec<f64>; 3] = [g(610.0, 25.0), g(535.0, 30.0), g(455.0, 20.0)];
         let d65 = tables::illuminant("D65").unwrap();
         let (xyz, white) = macbeth_xyz(&d65, &grid).unwrap();
@@ -264,7 +368,10 @@ mod tests {
         let lin = fit_ccm(&cam, &xyz, white, CcmObjective::LinearSrgb).unwrap();
         let lab = fit_ccm(&cam, &xyz, white, CcmObjective::Cielab).unwrap();
         let (e_lin, e_lab) = (lab_rms(&lin), lab_rms(&lab));
-        let (d_lin, d_lab) = (ccm_delta_e2000(&lin, &cam, &xyz, white), ccm_delta_e2000(&lab, &cam, &xyz, white));
+        let (d_lin, d_lab) = (
+            ccm_delta_e2000(&lin, &cam, &xyz, white),
+            ccm_delta_e2000(&lab, &cam, &xyz, white),
+        );
         eprintln!(
             "Delta E*ab RMS: linear-sRGB fit {e_lin:.3}, CIELAB fit {e_lab:.3}; mean Delta E00 {:.3} -> {:.3}",
             mean(&d_lin),
@@ -276,9 +383,29 @@ mod tests {
     #[test]
     fn bad_inputs_are_errors() {
         let w = [0.95, 1.0, 1.09];
-        assert!(fit_ccm(&[[1.0, 0.0, 0.0]; 2], &[[1.0, 0.0, 0.0]; 2], w, CcmObjective::Xyz).is_err());
-        assert!(fit_ccm(&[[1.0, 1.0, 1.0]; 5], &[[1.0, 0.0, 0.0]; 5], w, CcmObjective::Xyz).unwrap_err().to_string().contains("span"));
-        assert!(fit_ccm(&[[1.0, 1.0, 1.0]; 5], &[[1.0, 0.0, 0.0]; 4], w, CcmObjective::Xyz).is_err());
+        assert!(fit_ccm(
+            &[[1.0, 0.0, 0.0]; 2],
+            &[[1.0, 0.0, 0.0]; 2],
+            w,
+            CcmObjective::Xyz
+        )
+        .is_err());
+        assert!(fit_ccm(
+            &[[1.0, 1.0, 1.0]; 5],
+            &[[1.0, 0.0, 0.0]; 5],
+            w,
+            CcmObjective::Xyz
+        )
+        .unwrap_err()
+        .to_string()
+        .contains("span"));
+        assert!(fit_ccm(
+            &[[1.0, 1.0, 1.0]; 5],
+            &[[1.0, 0.0, 0.0]; 4],
+            w,
+            CcmObjective::Xyz
+        )
+        .is_err());
         assert!("lab".parse::<CcmObjective>().is_ok() && "l2".parse::<CcmObjective>().is_err());
     }
 }

@@ -41,13 +41,24 @@ impl FilterPlanes {
     /// The plane of filter `name` (any alias: `red`, `white`...).
     pub fn plane(&self, name: &str) -> Option<&[f32]> {
         let n = camsim_core::cfa::canonical_filter_name(name);
-        self.names.iter().position(|f| *f == n).map(|i| self.planes[i].as_slice())
+        self.names
+            .iter()
+            .position(|f| *f == n)
+            .map(|i| self.planes[i].as_slice())
     }
 }
 
 fn check(raw: &RawImage) -> Result<()> {
     if raw.dn.len() != raw.rows * raw.cols || raw.rows == 0 || raw.cols == 0 {
-        return Err(CoreError::invalid("raw image", format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols)));
+        return Err(CoreError::invalid(
+            "raw image",
+            format!(
+                "{} values for {} x {} pixels",
+                raw.dn.len(),
+                raw.rows,
+                raw.cols
+            ),
+        ));
     }
     Ok(())
 }
@@ -58,49 +69,62 @@ pub fn demosaic_layout_bilinear(raw: &RawImage) -> Result<FilterPlanes> {
     let layout = raw.cfa_layout();
     let nf = layout.filters().len();
     let (rows, cols) = (raw.rows, raw.cols);
-    camsim_core::mem::check_alloc((rows * cols * 4 * nf) as u64, "the demosaicked filter planes")?;
+    camsim_core::mem::check_alloc(
+        (rows * cols * 4 * nf) as u64,
+        "the demosaicked filter planes",
+    )?;
     let (tn, tm) = (layout.rows() as isize, layout.cols() as isize);
     let black = raw.black_level_dn as f32;
     // Interleaved output (pixel-major, nf values per pixel), split into planes after.
     let mut inter = vec![0.0f32; rows * cols * nf];
-    inter.par_chunks_mut(cols * nf).enumerate().for_each(|(y, out)| {
-        let mut sum = [0.0f32; 64];
-        let mut wsum = [0.0f32; 64];
-        for x in 0..cols {
-            sum[..nf].fill(0.0);
-            wsum[..nf].fill(0.0);
-            for dy in -(tn - 1)..tn {
-                let yy = y as isize + dy;
-                if yy < 0 || yy >= rows as isize {
-                    continue;
-                }
-                let wy = 1.0 - dy.abs() as f32 / tn as f32;
-                for dx in -(tm - 1)..tm {
-                    let xx = x as isize + dx;
-                    if xx < 0 || xx >= cols as isize {
+    inter
+        .par_chunks_mut(cols * nf)
+        .enumerate()
+        .for_each(|(y, out)| {
+            let mut sum = [0.0f32; 64];
+            let mut wsum = [0.0f32; 64];
+            for x in 0..cols {
+                sum[..nf].fill(0.0);
+                wsum[..nf].fill(0.0);
+                for dy in -(tn - 1)..tn {
+                    let yy = y as isize + dy;
+                    if yy < 0 || yy >= rows as isize {
                         continue;
                     }
-                    let w = wy * (1.0 - dx.abs() as f32 / tm as f32);
-                    let f = layout.filter_at(yy as usize, xx as usize);
-                    sum[f] += w * (raw.dn[yy as usize * cols + xx as usize] as f32 - black);
-                    wsum[f] += w;
+                    let wy = 1.0 - dy.abs() as f32 / tn as f32;
+                    for dx in -(tm - 1)..tm {
+                        let xx = x as isize + dx;
+                        if xx < 0 || xx >= cols as isize {
+                            continue;
+                        }
+                        let w = wy * (1.0 - dx.abs() as f32 / tm as f32);
+                        let f = layout.filter_at(yy as usize, xx as usize);
+                        sum[f] += w * (raw.dn[yy as usize * cols + xx as usize] as f32 - black);
+                        wsum[f] += w;
+                    }
+                }
+                let own = layout.filter_at(y, x);
+                let px = &mut out[x * nf..(x + 1) * nf];
+                for f in 0..nf {
+                    px[f] = if f == own {
+                        raw.dn[y * cols + x] as f32 - black
+                    } else if wsum[f] > 0.0 {
+                        sum[f] / wsum[f]
+                    } else {
+                        0.0
+                    };
                 }
             }
-            let own = layout.filter_at(y, x);
-            let px = &mut out[x * nf..(x + 1) * nf];
-            for f in 0..nf {
-                px[f] = if f == own {
-                    raw.dn[y * cols + x] as f32 - black
-                } else if wsum[f] > 0.0 {
-                    sum[f] / wsum[f]
-                } else {
-                    0.0
-                };
-            }
-        }
-    });
-    let planes = (0..nf).map(|f| inter.iter().skip(f).step_by(nf).copied().collect()).collect();
-    Ok(FilterPlanes { rows, cols, names: layout.filters().to_vec(), planes })
+        });
+    let planes = (0..nf)
+        .map(|f| inter.iter().skip(f).step_by(nf).copied().collect())
+        .collect();
+    Ok(FilterPlanes {
+        rows,
+        cols,
+        names: layout.filters().to_vec(),
+        planes,
+    })
 }
 
 /// Digital 2x2 binning of same-filter blocks (Quad Bayer -> Bayer): output pixel (i, j) is the sum
@@ -111,37 +135,61 @@ pub fn bin_2x2(raw: &RawImage) -> Result<RawImage> {
     check(raw)?;
     let layout = raw.cfa_layout();
     let (tn, tm) = (layout.rows(), layout.cols());
-    let blocks_ok =
-        tn % 2 == 0 && tm % 2 == 0 && (0..tn).all(|r| (0..tm).all(|c| layout.filter_at(r, c) == layout.filter_at(r & !1, c & !1)));
+    let blocks_ok = tn % 2 == 0
+        && tm % 2 == 0
+        && (0..tn)
+            .all(|r| (0..tm).all(|c| layout.filter_at(r, c) == layout.filter_at(r & !1, c & !1)));
     if !blocks_ok {
         return Err(CoreError::invalid(
             "binning",
-            format!("the CFA {} is not made of 2x2 blocks of one filter (Quad Bayer is)", layout.name()),
+            format!(
+                "the CFA {} is not made of 2x2 blocks of one filter (Quad Bayer is)",
+                layout.name()
+            ),
         ));
     }
     let (rows, cols) = (raw.rows / 2, raw.cols / 2);
     if rows == 0 || cols == 0 {
-        return Err(CoreError::invalid("binning", format!("a {} x {} frame has no 2x2 block", raw.rows, raw.cols)));
+        return Err(CoreError::invalid(
+            "binning",
+            format!("a {} x {} frame has no 2x2 block", raw.rows, raw.cols),
+        ));
     }
-    let names: Vec<Vec<String>> =
-        (0..tn / 2).map(|r| (0..tm / 2).map(|c| layout.filters()[layout.filter_at(2 * r, 2 * c)].clone()).collect()).collect();
+    let names: Vec<Vec<String>> = (0..tn / 2)
+        .map(|r| {
+            (0..tm / 2)
+                .map(|c| layout.filters()[layout.filter_at(2 * r, 2 * c)].clone())
+                .collect()
+        })
+        .collect();
     let half = CfaLayout::from_names(&names)?;
     let bits = (raw.bits + 2).min(16);
     let mut out = RawImage::new(rows, cols, half.as_bayer().unwrap_or_default(), bits)?;
-    out.layout = if half.as_bayer().is_some() { None } else { Some(half) };
+    out.layout = if half.as_bayer().is_some() {
+        None
+    } else {
+        Some(half)
+    };
     let black = raw.black_level_dn;
     out.black_level_dn = black;
     out.white_level_dn = (4.0 * (raw.white_level_dn - black) + black).min(65535.0);
     out.exposure_s = raw.exposure_s;
     out.pixel_pitch_m = raw.pixel_pitch_m * 2.0;
     let src_cols = raw.cols;
-    out.dn.par_chunks_mut(cols).enumerate().for_each(|(i, orow)| {
-        let (a, b) = (&raw.dn[2 * i * src_cols..][..src_cols], &raw.dn[(2 * i + 1) * src_cols..][..src_cols]);
-        for (j, o) in orow.iter_mut().enumerate() {
-            let s = a[2 * j] as f64 + a[2 * j + 1] as f64 + b[2 * j] as f64 + b[2 * j + 1] as f64;
-            *o = (s - 3.0 * black).round().clamp(0.0, 65535.0) as u16;
-        }
-    });
+    out.dn
+        .par_chunks_mut(cols)
+        .enumerate()
+        .for_each(|(i, orow)| {
+            let (a, b) = (
+                &raw.dn[2 * i * src_cols..][..src_cols],
+                &raw.dn[(2 * i + 1) * src_cols..][..src_cols],
+            );
+            for (j, o) in orow.iter_mut().enumerate() {
+                let s =
+                    a[2 * j] as f64 + a[2 * j + 1] as f64 + b[2 * j] as f64 + b[2 * j + 1] as f64;
+                *o = (s - 3.0 * black).round().clamp(0.0, 65535.0) as u16;
+            }
+        });
     Ok(out)
 }
 
@@ -151,14 +199,23 @@ pub fn bin_2x2(raw: &RawImage) -> Result<RawImage> {
 pub fn rgbw_to_rgb(raw: &RawImage, w_from_rgb: [f64; 3]) -> Result<RgbImage> {
     let p = demosaic_layout_bilinear(raw)?;
     let get = |n: &str| {
-        p.plane(n).ok_or_else(|| CoreError::invalid("RGBW to RGB", format!("the CFA {} has no '{n}' filter", raw.cfa_layout().name())))
+        p.plane(n).ok_or_else(|| {
+            CoreError::invalid(
+                "RGBW to RGB",
+                format!("the CFA {} has no '{n}' filter", raw.cfa_layout().name()),
+            )
+        })
     };
     let (r, g, b, w) = (get("r")?, get("g")?, get("b")?, get("w")?);
     let [wa, wb, wc] = w_from_rgb.map(|v| v as f32);
     let mut out = RgbImage::zeros(p.rows, p.cols);
     for i in 0..p.rows * p.cols {
         let predicted = wa * r[i] + wb * g[i] + wc * b[i];
-        let k = if predicted > 0.0 && w[i].is_finite() { w[i] / predicted } else { 1.0 };
+        let k = if predicted > 0.0 && w[i].is_finite() {
+            w[i] / predicted
+        } else {
+            1.0
+        };
         out.r[i] = r[i] * k;
         out.g[i] = g[i] * k;
         out.b[i] = b[i] * k;
@@ -181,7 +238,13 @@ pub fn demosaic_any(raw: &RawImage) -> Result<RgbImage> {
     let mut out = RgbImage::zeros(p.rows, p.cols);
     for (name, dst) in [("r", &mut out.r), ("g", &mut out.g), ("b", &mut out.b)] {
         let plane = p.plane(name).ok_or_else(|| {
-            CoreError::invalid("demosaic", format!("the CFA {} has no '{name}' filter, so it gives no RGB image", raw.cfa_layout().name()))
+            CoreError::invalid(
+                "demosaic",
+                format!(
+                    "the CFA {} has no '{name}' filter, so it gives no RGB image",
+                    raw.cfa_layout().name()
+                ),
+            )
         })?;
         dst.copy_from_slice(plane);
     }

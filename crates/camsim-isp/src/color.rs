@@ -32,7 +32,11 @@ use rayon::prelude::*;
 pub type Mat3 = [[f64; 3]; 3];
 
 /// The Bradford cone-response matrix (Lam 1985; Lindbloom, "Chromatic Adaptation").
-pub const BRADFORD: Mat3 = [[0.8951, 0.2664, -0.1614], [-0.7502, 1.7135, 0.0367], [0.0389, -0.0685, 1.0296]];
+pub const BRADFORD: Mat3 = [
+    [0.8951, 0.2664, -0.1614],
+    [-0.7502, 1.7135, 0.0367],
+    [0.0389, -0.0685, 1.0296],
+];
 
 /// Target luminance of the 99th-percentile pixel under automatic exposure (Y of the white = 1).
 pub const AUTO_EXPOSURE_P99_Y: f64 = 0.9;
@@ -76,10 +80,18 @@ pub fn bradford_adaptation(src_white_xyz: [f64; 3], dst_white_xyz: [f64; 3]) -> 
 /// Relative camera responses (photon counts) of a surface: `sum QE_c(l) E(l) rho(l) l dl` for the
 /// three channels, with every spectrum sampled on `grid` (ISETCam `sensorCompute` up to the constant
 /// 1/(h c) and the exposure).
-pub fn camera_response(channel_qe: &[Vec<f64>; 3], illuminant: &[f64], reflectance: &[f64], grid: &WavelengthGrid) -> [f64; 3] {
+pub fn camera_response(
+    channel_qe: &[Vec<f64>; 3],
+    illuminant: &[f64],
+    reflectance: &[f64],
+    grid: &WavelengthGrid,
+) -> [f64; 3] {
     let mut out = [0.0; 3];
     for (c, qe) in channel_qe.iter().enumerate() {
-        out[c] = (0..grid.len()).map(|b| qe[b] * illuminant[b] * reflectance[b] * grid.wavelength_nm(b)).sum::<f64>() * grid.step_nm;
+        out[c] = (0..grid.len())
+            .map(|b| qe[b] * illuminant[b] * reflectance[b] * grid.wavelength_nm(b))
+            .sum::<f64>()
+            * grid.step_nm;
     }
     out
 }
@@ -105,16 +117,28 @@ impl ColorPipeline {
     /// Fit the pipeline for a sensor with per-channel QE `channel_qe` (R, G, B; fractions sampled on
     /// `grid`) under `illuminant` (relative SPD, resampled onto `grid`). Errors when the QE does not
     /// match the grid, the illuminant gives no signal or no luminance, or the fit is singular.
-    pub fn fit(channel_qe: &[Vec<f64>; 3], grid: &WavelengthGrid, illuminant: &Spectrum) -> Result<ColorPipeline> {
+    pub fn fit(
+        channel_qe: &[Vec<f64>; 3],
+        grid: &WavelengthGrid,
+        illuminant: &Spectrum,
+    ) -> Result<ColorPipeline> {
         for (c, qe) in channel_qe.iter().enumerate() {
             if qe.len() != grid.len() {
                 return Err(CoreError::invalid(
                     "colour pipeline",
-                    format!("channel {} QE has {} values for a {}-band grid", ['R', 'G', 'B'][c], qe.len(), grid.len()),
+                    format!(
+                        "channel {} QE has {} values for a {}-band grid",
+                        ['R', 'G', 'B'][c],
+                        qe.len(),
+                        grid.len()
+                    ),
                 ));
             }
             if qe.iter().any(|v| !v.is_finite()) {
-                return Err(CoreError::invalid("colour pipeline", format!("channel {} QE is not finite", ['R', 'G', 'B'][c])));
+                return Err(CoreError::invalid(
+                    "colour pipeline",
+                    format!("channel {} QE is not finite", ['R', 'G', 'B'][c]),
+                ));
             }
         }
         let illum = illuminant.sample(grid);
@@ -130,10 +154,17 @@ impl ColorPipeline {
         }
         let white_xyz_raw = cmfs.xyz(&illum);
         if !(white_xyz_raw[1] > 0.0) {
-            return Err(CoreError::invalid("colour pipeline", "the illuminant has no luminance on this wavelength grid"));
+            return Err(CoreError::invalid(
+                "colour pipeline",
+                "the illuminant has no luminance on this wavelength grid",
+            ));
         }
         let y_norm = white_xyz_raw[1];
-        let as_shot_neutral = [white_cam[0] / cam_norm, white_cam[1] / cam_norm, white_cam[2] / cam_norm];
+        let as_shot_neutral = [
+            white_cam[0] / cam_norm,
+            white_cam[1] / cam_norm,
+            white_cam[2] / cam_norm,
+        ];
         let illuminant_white_xyz = [white_xyz_raw[0] / y_norm, 1.0, white_xyz_raw[2] / y_norm];
 
         // Patch responses and targets.
@@ -142,7 +173,11 @@ impl ColorPipeline {
         for r in tables::macbeth_reflectances() {
             let rho = r.sample(grid);
             let c = camera_response(channel_qe, &illum, &rho, grid);
-            cam.push(Vector3::new(c[0] / cam_norm, c[1] / cam_norm, c[2] / cam_norm));
+            cam.push(Vector3::new(
+                c[0] / cam_norm,
+                c[1] / cam_norm,
+                c[2] / cam_norm,
+            ));
             let radiance: Vec<f64> = illum.iter().zip(&rho).map(|(e, p)| e * p).collect();
             let t = cmfs.xyz(&radiance);
             xyz.push(Vector3::new(t[0] / y_norm, t[1] / y_norm, t[2] / y_norm));
@@ -168,19 +203,42 @@ impl ColorPipeline {
             }
             rhs[3] = illuminant_white_xyz[row];
             let sol = lu.solve(&rhs).ok_or_else(|| {
-                CoreError::invalid("colour pipeline", "the ColorChecker responses do not determine a 3x3 matrix (degenerate QE)")
+                CoreError::invalid(
+                    "colour pipeline",
+                    "the ColorChecker responses do not determine a 3x3 matrix (degenerate QE)",
+                )
             })?;
             *m_row = [sol[0], sol[1], sol[2]];
         }
         if mat3_inverse(&m).is_none() {
-            return Err(CoreError::invalid("colour pipeline", "the fitted camera -> XYZ matrix is singular"));
+            return Err(CoreError::invalid(
+                "colour pipeline",
+                "the fitted camera -> XYZ matrix is singular",
+            ));
         }
         let mn = to_na(&m);
-        let fit_rms_xyz = (cam.iter().zip(&xyz).map(|(c, x)| (mn * c - x).norm_squared()).sum::<f64>() / 24.0).sqrt();
-        let d65 = colorimetry::xyy_to_xyz(colorimetry::SRGB_WHITE_XY[0], colorimetry::SRGB_WHITE_XY[1], 1.0);
+        let fit_rms_xyz = (cam
+            .iter()
+            .zip(&xyz)
+            .map(|(c, x)| (mn * c - x).norm_squared())
+            .sum::<f64>()
+            / 24.0)
+            .sqrt();
+        let d65 = colorimetry::xyy_to_xyz(
+            colorimetry::SRGB_WHITE_XY[0],
+            colorimetry::SRGB_WHITE_XY[1],
+            1.0,
+        );
         let adaptation = bradford_adaptation(illuminant_white_xyz, d65);
         let camera_to_srgb = mat3_mul(&colorimetry::XYZ_TO_LINEAR_SRGB, &mat3_mul(&adaptation, &m));
-        Ok(ColorPipeline { camera_to_xyz: m, as_shot_neutral, illuminant_white_xyz, adaptation, camera_to_srgb, fit_rms_xyz })
+        Ok(ColorPipeline {
+            camera_to_xyz: m,
+            as_shot_neutral,
+            illuminant_white_xyz,
+            adaptation,
+            camera_to_srgb,
+            fit_rms_xyz,
+        })
     }
 
     /// The fitted matrix from normalised camera RGB to CIE XYZ under the scene illuminant (white
@@ -205,7 +263,11 @@ impl ColorPipeline {
     /// White-balance gains `1 / as_shot_neutral` (largest-channel-normalised: the channel with the
     /// strongest white response has gain 1).
     pub fn white_balance_gains(&self) -> [f64; 3] {
-        [1.0 / self.as_shot_neutral[0], 1.0 / self.as_shot_neutral[1], 1.0 / self.as_shot_neutral[2]]
+        [
+            1.0 / self.as_shot_neutral[0],
+            1.0 / self.as_shot_neutral[1],
+            1.0 / self.as_shot_neutral[2],
+        ]
     }
 
     /// XYZ of the scene illuminant's white, Y = 1.
@@ -271,7 +333,12 @@ impl ColorPipeline {
     /// saturated lamp turns magenta). Each camera channel c is therefore clipped at
     /// `saturation_dn * as_shot_neutral[c]`, the level at which it equals the saturated channel
     /// after white balance, so clipped highlights render neutral (dcraw's default highlight mode).
-    pub fn render_srgb8_clipped(&self, img: &RgbImage, exposure_scale: Option<f64>, saturation_dn: Option<f64>) -> Vec<u8> {
+    pub fn render_srgb8_clipped(
+        &self,
+        img: &RgbImage,
+        exposure_scale: Option<f64>,
+        saturation_dn: Option<f64>,
+    ) -> Vec<u8> {
         let clip = match saturation_dn {
             Some(s) if s > 0.0 => self.as_shot_neutral.map(|n| s * n),
             _ => [f64::INFINITY; 3],
@@ -281,16 +348,22 @@ impl ColorPipeline {
         let cols = img.cols.max(1);
         let encoder = Srgb8Encoder::new();
         let mut out = vec![0u8; img.pixels() * 3];
-        out.par_chunks_mut(cols * 3).enumerate().for_each(|(y, line)| {
-            let base = y * cols;
-            for (x, px) in line.chunks_exact_mut(3).enumerate() {
-                let i = base + x;
-                let (r, g, b) = ((img.r[i] as f64).min(clip[0]), (img.g[i] as f64).min(clip[1]), (img.b[i] as f64).min(clip[2]));
-                for (c, o) in px.iter_mut().enumerate() {
-                    *o = encoder.encode(m[c][0] * r + m[c][1] * g + m[c][2] * b);
+        out.par_chunks_mut(cols * 3)
+            .enumerate()
+            .for_each(|(y, line)| {
+                let base = y * cols;
+                for (x, px) in line.chunks_exact_mut(3).enumerate() {
+                    let i = base + x;
+                    let (r, g, b) = (
+                        (img.r[i] as f64).min(clip[0]),
+                        (img.g[i] as f64).min(clip[1]),
+                        (img.b[i] as f64).min(clip[2]),
+                    );
+                    for (c, o) in px.iter_mut().enumerate() {
+                        *o = encoder.encode(m[c][0] * r + m[c][1] * g + m[c][2] * b);
+                    }
                 }
-            }
-        });
+            });
         out
     }
 
@@ -366,7 +439,11 @@ mod tests {
         // Exactly the threshold count everywhere (the plain search).
         for i in 0..=200_000 {
             let v = i as f64 / 200_000.0;
-            assert_eq!(e.encode(v) as usize, e.thresholds[..255].partition_point(|t| *t <= v), "{v}");
+            assert_eq!(
+                e.encode(v) as usize,
+                e.thresholds[..255].partition_point(|t| *t <= v),
+                "{v}"
+            );
         }
     }
 }

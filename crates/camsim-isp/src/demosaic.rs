@@ -34,7 +34,13 @@ impl RgbImage {
     /// A black image.
     pub fn zeros(rows: usize, cols: usize) -> RgbImage {
         let n = rows * cols;
-        RgbImage { rows, cols, r: vec![0.0; n], g: vec![0.0; n], b: vec![0.0; n] }
+        RgbImage {
+            rows,
+            cols,
+            r: vec![0.0; n],
+            g: vec![0.0; n],
+            b: vec![0.0; n],
+        }
     }
 
     /// Number of pixels.
@@ -65,10 +71,18 @@ pub fn try_demosaic_bilinear(raw: &RawImage) -> Result<RgbImage> {
     if raw.dn.len() != raw.rows * raw.cols {
         return Err(CoreError::invalid(
             "raw image",
-            format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols),
+            format!(
+                "{} values for {} x {} pixels",
+                raw.dn.len(),
+                raw.rows,
+                raw.cols
+            ),
         ));
     }
-    camsim_core::mem::check_alloc((raw.rows * raw.cols * 12) as u64, "the demosaicked RGB image")?;
+    camsim_core::mem::check_alloc(
+        (raw.rows * raw.cols * 12) as u64,
+        "the demosaicked RGB image",
+    )?;
     Ok(demosaic_bilinear(raw))
 }
 
@@ -99,13 +113,24 @@ pub fn demosaic_bilinear(raw: &RawImage) -> RgbImage {
 /// One output row. Interior pixels take the fast path (all eight neighbours exist); border
 /// pixels average whichever neighbours of the wanted colour lie inside the image.
 #[allow(clippy::needless_range_loop)]
-fn demosaic_row(dn: &[u16], rows: usize, cols: usize, cfa: CfaPattern, black: f32, y: usize, out: &mut [&mut [f32]; 3]) {
+fn demosaic_row(
+    dn: &[u16],
+    rows: usize,
+    cols: usize,
+    cfa: CfaPattern,
+    black: f32,
+    y: usize,
+    out: &mut [&mut [f32]; 3],
+) {
     let v = |yy: usize, xx: usize| dn[yy * cols + xx] as f32 - black;
     let interior_row = y > 0 && y + 1 < rows;
     // Channel of the pixel, of its row neighbours and of its column neighbours, by column parity.
     let own_of = [cfa.channel_at(y, 0).index(), cfa.channel_at(y, 1).index()];
     let horiz_of = [own_of[1], own_of[0]];
-    let vert_of = [cfa.channel_at(y + 1, 0).index(), cfa.channel_at(y + 1, 1).index()];
+    let vert_of = [
+        cfa.channel_at(y + 1, 0).index(),
+        cfa.channel_at(y + 1, 1).index(),
+    ];
     for x in 0..cols {
         if interior_row && x > 0 && x + 1 < cols {
             let c = v(y, x);
@@ -117,7 +142,8 @@ fn demosaic_row(dn: &[u16], rows: usize, cols: usize, cfa: CfaPattern, black: f3
                 // Red or blue site: green from the 4-cross, the other colour from the diagonals.
                 px[horiz_ch] = 0.25 * (up + down + left + right);
                 let other = 3 - own - horiz_ch;
-                px[other] = 0.25 * (v(y - 1, x - 1) + v(y - 1, x + 1) + v(y + 1, x - 1) + v(y + 1, x + 1));
+                px[other] =
+                    0.25 * (v(y - 1, x - 1) + v(y - 1, x + 1) + v(y + 1, x - 1) + v(y + 1, x + 1));
             } else {
                 // Green site: one colour along the row, the other along the column.
                 px[horiz_ch] = 0.5 * (left + right);
@@ -173,10 +199,21 @@ pub(crate) mod tests {
     use camsim_core::CfaPattern;
 
     /// Every Bayer phase.
-    pub(crate) const PATTERNS: [CfaPattern; 4] = [CfaPattern::Rggb, CfaPattern::Grbg, CfaPattern::Gbrg, CfaPattern::Bggr];
+    pub(crate) const PATTERNS: [CfaPattern; 4] = [
+        CfaPattern::Rggb,
+        CfaPattern::Grbg,
+        CfaPattern::Gbrg,
+        CfaPattern::Bggr,
+    ];
 
     /// A 16-bit mosaic with value `f(y, x, channel) + black` at each pixel.
-    pub(crate) fn mosaic(rows: usize, cols: usize, cfa: CfaPattern, black: f64, f: impl Fn(usize, usize, usize) -> f64) -> RawImage {
+    pub(crate) fn mosaic(
+        rows: usize,
+        cols: usize,
+        cfa: CfaPattern,
+        black: f64,
+        f: impl Fn(usize, usize, usize) -> f64,
+    ) -> RawImage {
         let mut raw = RawImage::new(rows, cols, cfa, 16).unwrap();
         raw.black_level_dn = black;
         for y in 0..rows {
@@ -201,9 +238,17 @@ pub(crate) mod tests {
                     .flat_map(|y| (0..cols).map(move |x| cfa.channel_at(y, x).index()))
                     .collect();
                 for (ch, &level) in levels.iter().enumerate() {
-                    let expect = if present.contains(&ch) { level as f32 } else { 0.0 };
+                    let expect = if present.contains(&ch) {
+                        level as f32
+                    } else {
+                        0.0
+                    };
                     for i in 0..rows * cols {
-                        assert_eq!(rgb.plane(ch)[i], expect, "{cfa:?} {rows}x{cols} pixel {i} channel {ch}");
+                        assert_eq!(
+                            rgb.plane(ch)[i],
+                            expect,
+                            "{cfa:?} {rows}x{cols} pixel {i} channel {ch}"
+                        );
                     }
                 }
             }
@@ -214,7 +259,9 @@ pub(crate) mod tests {
     fn linear_ramp_is_exact_in_the_interior_for_every_pattern() {
         // Bilinear interpolation is exact for f = a + b*row + c*col (each channel its own plane).
         let coef = [(100.0, 3.0, 5.0), (200.0, 7.0, 2.0), (50.0, 1.0, 11.0)];
-        let f = |y: usize, x: usize, ch: usize| coef[ch].0 + coef[ch].1 * y as f64 + coef[ch].2 * x as f64;
+        let f = |y: usize, x: usize, ch: usize| {
+            coef[ch].0 + coef[ch].1 * y as f64 + coef[ch].2 * x as f64
+        };
         for cfa in PATTERNS {
             let (rows, cols) = (12, 15);
             let raw = mosaic(rows, cols, cfa, 16.0, f);
@@ -223,7 +270,12 @@ pub(crate) mod tests {
                 for x in 1..cols - 1 {
                     let px = rgb.at(y, x);
                     for ch in 0..3 {
-                        assert!((px[ch] as f64 - f(y, x, ch)).abs() < 1e-3, "{cfa:?} ({y},{x}) ch {ch}: {} vs {}", px[ch], f(y, x, ch));
+                        assert!(
+                            (px[ch] as f64 - f(y, x, ch)).abs() < 1e-3,
+                            "{cfa:?} ({y},{x}) ch {ch}: {} vs {}",
+                            px[ch],
+                            f(y, x, ch)
+                        );
                     }
                 }
             }
@@ -261,6 +313,9 @@ pub(crate) mod tests {
         let mut raw = RawImage::new(4, 4, CfaPattern::Rggb, 12).unwrap();
         assert!(try_demosaic_bilinear(&raw).is_ok());
         raw.dn.pop();
-        assert!(try_demosaic_bilinear(&raw).unwrap_err().to_string().contains("15 values"));
+        assert!(try_demosaic_bilinear(&raw)
+            .unwrap_err()
+            .to_string()
+            .contains("15 values"));
     }
 }

@@ -43,7 +43,11 @@ pub enum DemosaicMethod {
 
 impl DemosaicMethod {
     /// Every method, in the order of the CLI's list.
-    pub const ALL: [DemosaicMethod; 3] = [DemosaicMethod::Bilinear, DemosaicMethod::Malvar, DemosaicMethod::AdaptiveLaplacian];
+    pub const ALL: [DemosaicMethod; 3] = [
+        DemosaicMethod::Bilinear,
+        DemosaicMethod::Malvar,
+        DemosaicMethod::AdaptiveLaplacian,
+    ];
 
     /// The method's name (`bilinear`, `malvar`, `adaptive-laplacian`).
     pub fn name(self) -> &'static str {
@@ -66,7 +70,12 @@ impl FromStr for DemosaicMethod {
     /// Accepts the names above and ISETCam's (`laplacian`, `adaptive laplacian`), any case, with
     /// `-`, `_` or a space between words; `hamilton-adams` names the adaptive method too.
     fn from_str(s: &str) -> Result<Self> {
-        let key: String = s.trim().to_ascii_lowercase().chars().map(|c| if c == '_' || c == ' ' { '-' } else { c }).collect();
+        let key: String = s
+            .trim()
+            .to_ascii_lowercase()
+            .chars()
+            .map(|c| if c == '_' || c == ' ' { '-' } else { c })
+            .collect();
         Ok(match key.as_str() {
             "bilinear" | "iebilinear" => DemosaicMethod::Bilinear,
             "malvar" | "laplacian" | "malvar-he-cutler" | "mhc" => DemosaicMethod::Malvar,
@@ -86,15 +95,29 @@ impl FromStr for DemosaicMethod {
 pub fn demosaic(raw: &RawImage, method: DemosaicMethod) -> Result<RgbImage> {
     raw.require_bayer("demosaic")?;
     if raw.dn.len() != raw.rows * raw.cols {
-        return Err(CoreError::invalid("raw image", format!("{} values for {} x {} pixels", raw.dn.len(), raw.rows, raw.cols)));
+        return Err(CoreError::invalid(
+            "raw image",
+            format!(
+                "{} values for {} x {} pixels",
+                raw.dn.len(),
+                raw.rows,
+                raw.cols
+            ),
+        ));
     }
-    camsim_core::mem::check_alloc((raw.rows * raw.cols * 12) as u64, "the demosaicked RGB image")?;
+    camsim_core::mem::check_alloc(
+        (raw.rows * raw.cols * 12) as u64,
+        "the demosaicked RGB image",
+    )?;
     // The 5 x 5 methods need 3 pixels on each axis for the mirror extension; smaller images (and
     // the bilinear method) take the bilinear path.
     if method == DemosaicMethod::Bilinear || raw.rows < PAD + 1 || raw.cols < PAD + 1 {
         return Ok(demosaic_bilinear(raw));
     }
-    camsim_core::mem::check_alloc(((raw.rows + 2 * PAD) * (raw.cols + 2 * PAD) * 8) as u64, "the padded mosaic")?;
+    camsim_core::mem::check_alloc(
+        ((raw.rows + 2 * PAD) * (raw.cols + 2 * PAD) * 8) as u64,
+        "the padded mosaic",
+    )?;
     let pad = Padded::from_raw(raw);
     Ok(match method {
         DemosaicMethod::Malvar => malvar(&pad, raw.cfa),
@@ -137,13 +160,20 @@ impl Padded {
                 *o = f(y, reflect(px as isize - PAD as isize, cols));
             }
         });
-        Padded { rows, cols, stride, v }
+        Padded {
+            rows,
+            cols,
+            stride,
+            v,
+        }
     }
 
     fn from_raw(raw: &RawImage) -> Padded {
         let black = raw.black_level_dn as f32;
         let cols = raw.cols;
-        Padded::from_fn(raw.rows, raw.cols, |y, x| raw.dn[y * cols + x] as f32 - black)
+        Padded::from_fn(raw.rows, raw.cols, |y, x| {
+            raw.dn[y * cols + x] as f32 - black
+        })
     }
 
     /// Index of image pixel (y, x) in `v`.
@@ -159,7 +189,10 @@ impl Padded {
 fn row_channels(cfa: CfaPattern, y: usize) -> ([usize; 2], [usize; 2], [usize; 2]) {
     let own = [cfa.channel_at(y, 0).index(), cfa.channel_at(y, 1).index()];
     let horiz = [own[1], own[0]];
-    let vert = [cfa.channel_at(y + 1, 0).index(), cfa.channel_at(y + 1, 1).index()];
+    let vert = [
+        cfa.channel_at(y + 1, 0).index(),
+        cfa.channel_at(y + 1, 1).index(),
+    ];
     (own, horiz, vert)
 }
 
@@ -170,8 +203,12 @@ fn malvar(p: &Padded, cfa: CfaPattern) -> RgbImage {
     let mut out = RgbImage::zeros(rows, cols);
     let s = p.stride;
     let v = &p.v;
-    out.r.par_chunks_mut(cols).zip(out.g.par_chunks_mut(cols)).zip(out.b.par_chunks_mut(cols)).enumerate().for_each(
-        |(y, ((rr, gr), br))| {
+    out.r
+        .par_chunks_mut(cols)
+        .zip(out.g.par_chunks_mut(cols))
+        .zip(out.b.par_chunks_mut(cols))
+        .enumerate()
+        .for_each(|(y, ((rr, gr), br))| {
             let (own_of, horiz_of, vert_of) = row_channels(cfa, y);
             for x in 0..cols {
                 let i = p.idx(y, x);
@@ -189,15 +226,16 @@ fn malvar(p: &Padded, cfa: CfaPattern) -> RgbImage {
                     px[3 - own - h] = (6.0 * c + 2.0 * diag - 1.5 * far) * 0.125;
                 } else {
                     // Green site (beta = 5/8): the row colour and the column colour.
-                    px[h] = (5.0 * c + 4.0 * (w1 + e1) - (w2 + e2) - diag + 0.5 * (n2 + s2)) * 0.125;
-                    px[vc] = (5.0 * c + 4.0 * (n1 + s1) - (n2 + s2) - diag + 0.5 * (w2 + e2)) * 0.125;
+                    px[h] =
+                        (5.0 * c + 4.0 * (w1 + e1) - (w2 + e2) - diag + 0.5 * (n2 + s2)) * 0.125;
+                    px[vc] =
+                        (5.0 * c + 4.0 * (n1 + s1) - (n2 + s2) - diag + 0.5 * (w2 + e2)) * 0.125;
                 }
                 rr[x] = px[0];
                 gr[x] = px[1];
                 br[x] = px[2];
             }
-        },
-    );
+        });
     out
 }
 
@@ -210,36 +248,43 @@ fn hamilton_adams(p: &Padded, cfa: CfaPattern) -> RgbImage {
     let v = &p.v;
     // Pass 1: the full green plane.
     let mut green = vec![0.0f32; rows * cols];
-    green.par_chunks_mut(cols).enumerate().for_each(|(y, line)| {
-        let (own_of, _, _) = row_channels(cfa, y);
-        for (x, o) in line.iter_mut().enumerate() {
-            let i = p.idx(y, x);
-            let c = v[i];
-            if own_of[x & 1] == 1 {
-                *o = c;
-                continue;
+    green
+        .par_chunks_mut(cols)
+        .enumerate()
+        .for_each(|(y, line)| {
+            let (own_of, _, _) = row_channels(cfa, y);
+            for (x, o) in line.iter_mut().enumerate() {
+                let i = p.idx(y, x);
+                let c = v[i];
+                if own_of[x & 1] == 1 {
+                    *o = c;
+                    continue;
+                }
+                let lap_h = 2.0 * c - v[i - 2] - v[i + 2];
+                let lap_v = 2.0 * c - v[i - 2 * s] - v[i + 2 * s];
+                let grad_h = (v[i - 1] - v[i + 1]).abs() + lap_h.abs();
+                let grad_v = (v[i - s] - v[i + s]).abs() + lap_v.abs();
+                let g_h = 0.5 * (v[i - 1] + v[i + 1]) + 0.25 * lap_h;
+                let g_v = 0.5 * (v[i - s] + v[i + s]) + 0.25 * lap_v;
+                *o = if grad_h < grad_v {
+                    g_h
+                } else if grad_v < grad_h {
+                    g_v
+                } else {
+                    0.5 * (g_h + g_v)
+                };
             }
-            let lap_h = 2.0 * c - v[i - 2] - v[i + 2];
-            let lap_v = 2.0 * c - v[i - 2 * s] - v[i + 2 * s];
-            let grad_h = (v[i - 1] - v[i + 1]).abs() + lap_h.abs();
-            let grad_v = (v[i - s] - v[i + s]).abs() + lap_v.abs();
-            let g_h = 0.5 * (v[i - 1] + v[i + 1]) + 0.25 * lap_h;
-            let g_v = 0.5 * (v[i - s] + v[i + s]) + 0.25 * lap_v;
-            *o = if grad_h < grad_v {
-                g_h
-            } else if grad_v < grad_h {
-                g_v
-            } else {
-                0.5 * (g_h + g_v)
-            };
-        }
-    });
+        });
     let gp = Padded::from_fn(rows, cols, |y, x| green[y * cols + x]);
     let g = &gp.v;
     // Pass 2: red and blue.
     let mut out = RgbImage::zeros(rows, cols);
-    out.r.par_chunks_mut(cols).zip(out.g.par_chunks_mut(cols)).zip(out.b.par_chunks_mut(cols)).enumerate().for_each(
-        |(y, ((rr, gr), br))| {
+    out.r
+        .par_chunks_mut(cols)
+        .zip(out.g.par_chunks_mut(cols))
+        .zip(out.b.par_chunks_mut(cols))
+        .enumerate()
+        .for_each(|(y, ((rr, gr), br))| {
             let (own_of, horiz_of, vert_of) = row_channels(cfa, y);
             for x in 0..cols {
                 let i = p.idx(y, x);
@@ -273,8 +318,7 @@ fn hamilton_adams(p: &Padded, cfa: CfaPattern) -> RgbImage {
                 gr[x] = px[1];
                 br[x] = px[2];
             }
-        },
-    );
+        });
     out
 }
 
@@ -289,9 +333,19 @@ mod tests {
         for m in DemosaicMethod::ALL {
             assert_eq!(m.name().parse::<DemosaicMethod>().unwrap(), m);
         }
-        assert_eq!("adaptive laplacian".parse::<DemosaicMethod>().unwrap(), DemosaicMethod::AdaptiveLaplacian);
-        assert_eq!("Laplacian".parse::<DemosaicMethod>().unwrap(), DemosaicMethod::Malvar);
-        assert!("ahd2".parse::<DemosaicMethod>().unwrap_err().to_string().contains("ahd2"));
+        assert_eq!(
+            "adaptive laplacian".parse::<DemosaicMethod>().unwrap(),
+            DemosaicMethod::AdaptiveLaplacian
+        );
+        assert_eq!(
+            "Laplacian".parse::<DemosaicMethod>().unwrap(),
+            DemosaicMethod::Malvar
+        );
+        assert!("ahd2"
+            .parse::<DemosaicMethod>()
+            .unwrap_err()
+            .to_string()
+            .contains("ahd2"));
     }
 
     #[test]
@@ -303,7 +357,10 @@ mod tests {
                     let raw = mosaic(rows, cols, cfa, 64.0, |_, _, ch| levels[ch]);
                     let rgb = demosaic(&raw, m).unwrap();
                     for (ch, level) in levels.iter().enumerate() {
-                        assert!(rgb.plane(ch).iter().all(|v| *v == *level as f32), "{m} {cfa:?} {rows}x{cols} ch {ch}");
+                        assert!(
+                            rgb.plane(ch).iter().all(|v| *v == *level as f32),
+                            "{m} {cfa:?} {rows}x{cols} ch {ch}"
+                        );
                     }
                 }
             }
@@ -314,7 +371,9 @@ mod tests {
     fn linear_ramps_are_exact_in_the_interior_and_samples_are_kept() {
         // Every correction term is a second difference, zero on f = a + b row + c col per channel.
         let coef = [(100.0, 3.0, 5.0), (200.0, 7.0, 2.0), (50.0, 1.0, 11.0)];
-        let f = |y: usize, x: usize, ch: usize| coef[ch].0 + coef[ch].1 * y as f64 + coef[ch].2 * x as f64;
+        let f = |y: usize, x: usize, ch: usize| {
+            coef[ch].0 + coef[ch].1 * y as f64 + coef[ch].2 * x as f64
+        };
         for m in DemosaicMethod::ALL {
             for cfa in PATTERNS {
                 let (rows, cols) = (14, 17);
@@ -327,10 +386,18 @@ mod tests {
                         assert_eq!(px[own] as f64, f(y, x, own), "{m} keeps the sample");
                         // Malvar reads two pixels out, Hamilton-Adams' red/blue read green that
                         // was itself interpolated from two pixels further: three.
-                        let k = if m == DemosaicMethod::AdaptiveLaplacian { 3 } else { 2 };
+                        let k = if m == DemosaicMethod::AdaptiveLaplacian {
+                            3
+                        } else {
+                            2
+                        };
                         if y >= k && x >= k && y + k < rows && x + k < cols {
                             for (ch, p) in px.iter().enumerate() {
-                                assert!((*p as f64 - f(y, x, ch)).abs() < 1e-3, "{m} {cfa:?} ({y},{x}) ch {ch}: {p} vs {}", f(y, x, ch));
+                                assert!(
+                                    (*p as f64 - f(y, x, ch)).abs() < 1e-3,
+                                    "{m} {cfa:?} ({y},{x}) ch {ch}: {p} vs {}",
+                                    f(y, x, ch)
+                                );
                             }
                         }
                     }
@@ -369,7 +436,13 @@ mod tests {
         // the vertical direction there (zero vertical gradient) and keeps green exact.
         let (rows, cols) = (12, 12);
         for cfa in PATTERNS {
-            let raw = mosaic(rows, cols, cfa, 0.0, |_, x, _| if x < 6 { 100.0 } else { 1000.0 });
+            let raw = mosaic(
+                rows,
+                cols,
+                cfa,
+                0.0,
+                |_, x, _| if x < 6 { 100.0 } else { 1000.0 },
+            );
             let rgb = demosaic(&raw, DemosaicMethod::AdaptiveLaplacian).unwrap();
             for y in 2..rows - 2 {
                 for x in 2..cols - 2 {
@@ -386,6 +459,9 @@ mod tests {
     fn malformed_raw_is_an_error() {
         let mut raw = RawImage::new(6, 6, CfaPattern::Rggb, 12).unwrap();
         raw.dn.pop();
-        assert!(demosaic(&raw, DemosaicMethod::Malvar).unwrap_err().to_string().contains("35 values"));
+        assert!(demosaic(&raw, DemosaicMethod::Malvar)
+            .unwrap_err()
+            .to_string()
+            .contains("35 values"));
     }
 }

@@ -36,7 +36,12 @@ impl ZonePlate {
     /// A zone plate of side `size_px` reaching `f_max_cy_per_px` at the edge's midpoints,
     /// mean 30000 DN, amplitude 25000 DN (16-bit mosaic, quantisation negligible).
     pub fn new(size_px: usize, f_max_cy_per_px: f64) -> ZonePlate {
-        ZonePlate { size_px, f_max_cy_per_px, mean_dn: 30000.0, amplitude_dn: 25000.0 }
+        ZonePlate {
+            size_px,
+            f_max_cy_per_px,
+            mean_dn: 30000.0,
+            amplitude_dn: 25000.0,
+        }
     }
 
     fn radius_px(&self) -> f64 {
@@ -171,10 +176,17 @@ mod tests {
         // Measured (512 px, f_max 0.5 cy/px, RGGB; see the test output): the ordering must hold
         // by a clear margin for every Bayer phase.
         let zp = ZonePlate::new(512, 0.5);
-        for cfa in [CfaPattern::Rggb, CfaPattern::Bggr, CfaPattern::Grbg, CfaPattern::Gbrg] {
+        for cfa in [
+            CfaPattern::Rggb,
+            CfaPattern::Bggr,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+        ] {
             let raw = zp.mosaic(cfa);
-            let q: Vec<ZonePlateQuality> =
-                DemosaicMethod::ALL.iter().map(|m| zone_plate_quality(&zp, &demosaic(&raw, *m).unwrap(), 0.01)).collect();
+            let q: Vec<ZonePlateQuality> = DemosaicMethod::ALL
+                .iter()
+                .map(|m| zone_plate_quality(&zp, &demosaic(&raw, *m).unwrap(), 0.01))
+                .collect();
             for (m, qi) in DemosaicMethod::ALL.iter().zip(&q) {
                 eprintln!(
                     "{cfa:?} {m:>18}: MTF50 {:?} cy/px, MTF at 0.1/0.2/0.3 cy/px {:.3}/{:.3}/{:.3}, false colour RMS below 0.25 cy/px {:.4}, overall {:.4}",
@@ -188,8 +200,18 @@ mod tests {
             }
             let mtf50 = |i: usize| q[i].mtf50_cy_per_px.unwrap_or(0.5);
             // Sharper: higher MTF50 than bilinear.
-            assert!(mtf50(1) > mtf50(0) + 0.03, "malvar {} vs bilinear {}", mtf50(1), mtf50(0));
-            assert!(mtf50(2) > mtf50(0) + 0.03, "adaptive {} vs bilinear {}", mtf50(2), mtf50(0));
+            assert!(
+                mtf50(1) > mtf50(0) + 0.03,
+                "malvar {} vs bilinear {}",
+                mtf50(1),
+                mtf50(0)
+            );
+            assert!(
+                mtf50(2) > mtf50(0) + 0.03,
+                "adaptive {} vs bilinear {}",
+                mtf50(2),
+                mtf50(0)
+            );
             // Less false colour in the band the red/blue samples can represent.
             assert!(q[1].false_colour_low_rms < 0.7 * q[0].false_colour_low_rms);
             assert!(q[2].false_colour_low_rms < 0.7 * q[0].false_colour_low_rms);

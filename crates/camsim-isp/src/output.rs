@@ -26,28 +26,43 @@ pub struct DisplayModel {
 impl DisplayModel {
     /// The sRGB display (ITU-R BT.709 primaries, D65, IEC 61966-2-1 transfer function).
     pub fn srgb() -> DisplayModel {
-        DisplayModel { primaries_xy: [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]], white_xy: colorimetry::SRGB_WHITE_XY, gamma: None }
+        DisplayModel {
+            primaries_xy: [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]],
+            white_xy: colorimetry::SRGB_WHITE_XY,
+            gamma: None,
+        }
     }
 
     /// Display linear RGB -> XYZ (white Y = 1), SMPTE RP 177-1993. Errors on degenerate primaries.
     pub fn rgb_to_xyz(&self) -> Result<Mat3> {
         let xyz = |xy: [f64; 2]| {
             if !(xy[1] > 0.0) {
-                return Err(CoreError::invalid("display model", format!("chromaticity {xy:?} needs y > 0")));
+                return Err(CoreError::invalid(
+                    "display model",
+                    format!("chromaticity {xy:?} needs y > 0"),
+                ));
             }
             Ok(colorimetry::xyy_to_xyz(xy[0], xy[1], 1.0))
         };
-        let p = [xyz(self.primaries_xy[0])?, xyz(self.primaries_xy[1])?, xyz(self.primaries_xy[2])?];
+        let p = [
+            xyz(self.primaries_xy[0])?,
+            xyz(self.primaries_xy[1])?,
+            xyz(self.primaries_xy[2])?,
+        ];
         let w = xyz(self.white_xy)?;
         let prim: Mat3 = std::array::from_fn(|r| std::array::from_fn(|c| p[c][r]));
-        let inv = mat3_inverse(&prim).ok_or_else(|| CoreError::invalid("display model", "the primaries are collinear"))?;
+        let inv = mat3_inverse(&prim)
+            .ok_or_else(|| CoreError::invalid("display model", "the primaries are collinear"))?;
         let s = colorimetry::mat3_mul_vec(&inv, w);
-        Ok(std::array::from_fn(|r| std::array::from_fn(|c| prim[r][c] * s[c])))
+        Ok(std::array::from_fn(|r| {
+            std::array::from_fn(|c| prim[r][c] * s[c])
+        }))
     }
 
     /// XYZ -> display linear RGB.
     pub fn xyz_to_rgb(&self) -> Result<Mat3> {
-        mat3_inverse(&self.rgb_to_xyz()?).ok_or_else(|| CoreError::invalid("display model", "singular display matrix"))
+        mat3_inverse(&self.rgb_to_xyz()?)
+            .ok_or_else(|| CoreError::invalid("display model", "singular display matrix"))
     }
 
     /// Encode a linear value in [0, 1] (clipped) for this display.
@@ -62,25 +77,35 @@ impl DisplayModel {
 
 /// Render `img` to 8-bit interleaved RGB on `display`: `camera_to_xyz` (white Y = 1 under the
 /// display white) then the display's XYZ -> RGB, clip, encode. `exposure_scale` multiplies first.
-pub fn render_rgb8(img: &RgbImage, camera_to_xyz: &Mat3, display: &DisplayModel, exposure_scale: f64) -> Result<Vec<u8>> {
-    let m = mat3_mul(&display.xyz_to_rgb()?, camera_to_xyz).map(|row| row.map(|v| v * exposure_scale));
+pub fn render_rgb8(
+    img: &RgbImage,
+    camera_to_xyz: &Mat3,
+    display: &DisplayModel,
+    exposure_scale: f64,
+) -> Result<Vec<u8>> {
+    let m =
+        mat3_mul(&display.xyz_to_rgb()?, camera_to_xyz).map(|row| row.map(|v| v * exposure_scale));
     // 4096-entry lookup of the encoding (error below half a code: the steepest slope of the
     // sRGB curve is 12.92, of a gamma curve near 0 larger, so the table is indexed finely near 0
     // by encoding sqrt-spaced entries).
-    let lut: Vec<u8> = (0..=LUT_N).map(|i| (display.encode((i as f64 / LUT_N as f64).powi(2)) * 255.0).round() as u8).collect();
+    let lut: Vec<u8> = (0..=LUT_N)
+        .map(|i| (display.encode((i as f64 / LUT_N as f64).powi(2)) * 255.0).round() as u8)
+        .collect();
     let cols = img.cols.max(1);
     let mut out = vec![0u8; img.pixels() * 3];
-    out.par_chunks_mut(cols * 3).enumerate().for_each(|(y, line)| {
-        for (x, px) in line.chunks_exact_mut(3).enumerate() {
-            let i = y * cols + x;
-            let (r, g, b) = (img.r[i] as f64, img.g[i] as f64, img.b[i] as f64);
-            for (c, o) in px.iter_mut().enumerate() {
-                let v = m[c][0] * r + m[c][1] * g + m[c][2] * b;
-                let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
-                *o = lut[(v.sqrt() * LUT_N as f64).round() as usize];
+    out.par_chunks_mut(cols * 3)
+        .enumerate()
+        .for_each(|(y, line)| {
+            for (x, px) in line.chunks_exact_mut(3).enumerate() {
+                let i = y * cols + x;
+                let (r, g, b) = (img.r[i] as f64, img.g[i] as f64, img.b[i] as f64);
+                for (c, o) in px.iter_mut().enumerate() {
+                    let v = m[c][0] * r + m[c][1] * g + m[c][2] * b;
+                    let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
+                    *o = lut[(v.sqrt() * LUT_N as f64).round() as usize];
+                }
             }
-        }
-    });
+        });
     Ok(out)
 }
 
@@ -96,7 +121,10 @@ mod tests {
         let m = DisplayModel::srgb().xyz_to_rgb().unwrap();
         for r in 0..3 {
             for c in 0..3 {
-                assert!((m[r][c] - colorimetry::XYZ_TO_LINEAR_SRGB[r][c]).abs() < 2e-3, "{m:?}");
+                assert!(
+                    (m[r][c] - colorimetry::XYZ_TO_LINEAR_SRGB[r][c]).abs() < 2e-3,
+                    "{m:?}"
+                );
             }
         }
         // White (D65, Y = 1) renders as R = G = B = 255; 18 % gray as sRGB code 118
@@ -109,13 +137,22 @@ mod tests {
         let px = render_rgb8(&img, &id, &DisplayModel::srgb(), 1.0).unwrap();
         assert_eq!(px, vec![255, 255, 255, 118, 118, 118]);
         // A gamma-2.2 display: 18 % gray -> 0.18^(1/2.2) = 0.4587 -> 117.
-        let g22 = DisplayModel { gamma: Some(2.2), ..DisplayModel::srgb() };
-        assert_eq!(render_rgb8(&img, &id, &g22, 1.0).unwrap()[3..], [117, 117, 117]);
+        let g22 = DisplayModel {
+            gamma: Some(2.2),
+            ..DisplayModel::srgb()
+        };
+        assert_eq!(
+            render_rgb8(&img, &id, &g22, 1.0).unwrap()[3..],
+            [117, 117, 117]
+        );
     }
 
     #[test]
     fn collinear_primaries_are_an_error() {
-        let d = DisplayModel { primaries_xy: [[0.3, 0.3], [0.3, 0.3], [0.2, 0.2]], ..DisplayModel::srgb() };
+        let d = DisplayModel {
+            primaries_xy: [[0.3, 0.3], [0.3, 0.3], [0.2, 0.2]],
+            ..DisplayModel::srgb()
+        };
         assert!(d.rgb_to_xyz().is_err());
     }
 }

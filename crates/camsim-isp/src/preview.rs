@@ -14,11 +14,13 @@ pub fn radiance_srgb8(img: &SpectralImage) -> Vec<u8> {
     let mut xyz = vec![[0f32; 3]; n];
     for b in 0..img.bands() {
         let w = [cmfs.x[b] as f32, cmfs.y[b] as f32, cmfs.z[b] as f32];
-        xyz.par_iter_mut().zip(img.band(b).par_iter()).for_each(|(o, v)| {
-            o[0] += w[0] * v;
-            o[1] += w[1] * v;
-            o[2] += w[2] * v;
-        });
+        xyz.par_iter_mut()
+            .zip(img.band(b).par_iter())
+            .for_each(|(o, v)| {
+                o[0] += w[0] * v;
+                o[1] += w[1] * v;
+                o[2] += w[2] * v;
+            });
     }
     let mut ys: Vec<f32> = xyz.iter().map(|p| p[1]).filter(|y| y.is_finite()).collect();
     let scale = if ys.is_empty() {
@@ -26,17 +28,27 @@ pub fn radiance_srgb8(img: &SpectralImage) -> Vec<u8> {
     } else {
         let k = ((ys.len() - 1) as f64 * 0.99) as usize;
         let (_, p99, _) = ys.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-        if *p99 > 0.0 { 0.9 / *p99 as f64 } else { 1.0 }
+        if *p99 > 0.0 {
+            0.9 / *p99 as f64
+        } else {
+            1.0
+        }
     };
     let m = XYZ_TO_LINEAR_SRGB;
     let mut out = vec![0u8; n * 3];
-    out.par_chunks_exact_mut(3).zip(xyz.par_iter()).for_each(|(o, p)| {
-        let v = [p[0] as f64 * scale, p[1] as f64 * scale, p[2] as f64 * scale];
-        for (c, oc) in o.iter_mut().enumerate() {
-            let lin = m[c][0] * v[0] + m[c][1] * v[1] + m[c][2] * v[2];
-            *oc = srgb_encode_u8(lin);
-        }
-    });
+    out.par_chunks_exact_mut(3)
+        .zip(xyz.par_iter())
+        .for_each(|(o, p)| {
+            let v = [
+                p[0] as f64 * scale,
+                p[1] as f64 * scale,
+                p[2] as f64 * scale,
+            ];
+            for (c, oc) in o.iter_mut().enumerate() {
+                let lin = m[c][0] * v[0] + m[c][1] * v[1] + m[c][2] * v[2];
+                *oc = srgb_encode_u8(lin);
+            }
+        });
     out
 }
 
@@ -58,7 +70,10 @@ mod tests {
             let px = radiance_srgb8(&img);
             let (r, g, b) = (px[0] as i32, px[1] as i32, px[2] as i32);
             if neutral {
-                assert!((r - g).abs() <= 2 && (b - g).abs() <= 2, "D65 -> {r} {g} {b}");
+                assert!(
+                    (r - g).abs() <= 2 && (b - g).abs() <= 2,
+                    "D65 -> {r} {g} {b}"
+                );
             } else {
                 assert!(r > g && g > b, "A -> {r} {g} {b}");
             }

@@ -44,8 +44,12 @@ pub enum WhiteBalanceMethod {
 
 impl WhiteBalanceMethod {
     /// Every method.
-    pub const ALL: [WhiteBalanceMethod; 4] =
-        [WhiteBalanceMethod::None, WhiteBalanceMethod::GrayWorld, WhiteBalanceMethod::WhitePatch, WhiteBalanceMethod::Illuminant];
+    pub const ALL: [WhiteBalanceMethod; 4] = [
+        WhiteBalanceMethod::None,
+        WhiteBalanceMethod::GrayWorld,
+        WhiteBalanceMethod::WhitePatch,
+        WhiteBalanceMethod::Illuminant,
+    ];
 
     /// The method's name (`none`, `gray-world`, `white-patch`, `illuminant`).
     pub fn name(self) -> &'static str {
@@ -68,20 +72,33 @@ impl FromStr for WhiteBalanceMethod {
     type Err = CoreError;
     /// The names above or ISETCam's (`gray world`, `white world`), any case, `-`/`_`/space.
     fn from_str(s: &str) -> Result<Self> {
-        let key: String = s.trim().to_ascii_lowercase().chars().map(|c| if c == '_' || c == ' ' { '-' } else { c }).collect();
+        let key: String = s
+            .trim()
+            .to_ascii_lowercase()
+            .chars()
+            .map(|c| if c == '_' || c == ' ' { '-' } else { c })
+            .collect();
         Ok(match key.as_str() {
             "none" => WhiteBalanceMethod::None,
             "gray-world" | "grey-world" => WhiteBalanceMethod::GrayWorld,
             "white-patch" | "white-world" => WhiteBalanceMethod::WhitePatch,
             "illuminant" => WhiteBalanceMethod::Illuminant,
-            _ => return Err(CoreError::invalid("white balance", format!("'{s}' is not one of none, gray-world, white-patch, illuminant"))),
+            _ => {
+                return Err(CoreError::invalid(
+                    "white balance",
+                    format!("'{s}' is not one of none, gray-world, white-patch, illuminant"),
+                ))
+            }
         })
     }
 }
 
 fn gains_from_neutral(neutral: [f64; 3], what: &str) -> Result<[f64; 3]> {
     if neutral.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err(CoreError::invalid("white balance", format!("{what}: the neutral estimate {neutral:?} needs every channel positive")));
+        return Err(CoreError::invalid(
+            "white balance",
+            format!("{what}: the neutral estimate {neutral:?} needs every channel positive"),
+        ));
     }
     Ok([neutral[1] / neutral[0], 1.0, neutral[1] / neutral[2]])
 }
@@ -98,16 +115,29 @@ pub fn gray_world_gains(img: &RgbImage) -> Result<[f64; 3]> {
 /// `saturation` (black-subtracted DN; `None` keeps all). Errors on a bad percentile or when no
 /// pixel qualifies.
 #[allow(clippy::needless_range_loop)]
-pub fn white_patch_gains(img: &RgbImage, percentile: f64, saturation: Option<f64>) -> Result<[f64; 3]> {
+pub fn white_patch_gains(
+    img: &RgbImage,
+    percentile: f64,
+    saturation: Option<f64>,
+) -> Result<[f64; 3]> {
     if !(0.0..=100.0).contains(&percentile) {
-        return Err(CoreError::invalid("white balance", format!("white-patch percentile {percentile} is not in [0, 100]")));
+        return Err(CoreError::invalid(
+            "white balance",
+            format!("white-patch percentile {percentile} is not in [0, 100]"),
+        ));
     }
     let sat = saturation.unwrap_or(f64::INFINITY) as f32;
     let ok = |i: usize| img.r[i] < sat && img.g[i] < sat && img.b[i] < sat;
-    let mut sums: Vec<f32> =
-        (0..img.pixels()).filter(|&i| ok(i)).map(|i| img.r[i] + img.g[i] + img.b[i]).filter(|s| s.is_finite()).collect();
+    let mut sums: Vec<f32> = (0..img.pixels())
+        .filter(|&i| ok(i))
+        .map(|i| img.r[i] + img.g[i] + img.b[i])
+        .filter(|s| s.is_finite())
+        .collect();
     if sums.is_empty() {
-        return Err(CoreError::invalid("white balance", "white patch: no unclipped pixel"));
+        return Err(CoreError::invalid(
+            "white balance",
+            "white patch: no unclipped pixel",
+        ));
     }
     let k = ((sums.len() - 1) as f64 * percentile / 100.0).round() as usize;
     let (_, thr, _) = sums.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
@@ -124,9 +154,16 @@ pub fn white_patch_gains(img: &RgbImage, percentile: f64, saturation: Option<f64
 }
 
 /// Gains from a known illuminant (relative SPD) and the sensor's per-channel QE on `grid`.
-pub fn illuminant_gains(channel_qe: &[Vec<f64>; 3], grid: &WavelengthGrid, illuminant: &Spectrum) -> Result<[f64; 3]> {
+pub fn illuminant_gains(
+    channel_qe: &[Vec<f64>; 3],
+    grid: &WavelengthGrid,
+    illuminant: &Spectrum,
+) -> Result<[f64; 3]> {
     if channel_qe.iter().any(|q| q.len() != grid.len()) {
-        return Err(CoreError::invalid("white balance", "the QE curves do not match the wavelength grid"));
+        return Err(CoreError::invalid(
+            "white balance",
+            "the QE curves do not match the wavelength grid",
+        ));
     }
     let illum = illuminant.sample(grid);
     let white = camera_response(channel_qe, &illum, &vec![1.0; grid.len()], grid);
@@ -146,7 +183,11 @@ mod tests {
     use super::*;
 
     fn gaussian_qe(grid: &WavelengthGrid) -> [Vec<f64>; 3] {
-        let g = |mu: f64, s: f64| (0..grid.len()).map(|b| 0.6 * (-0.5 * ((grid.wavelength_nm(b) - mu) / s).powi(2)).exp()).collect();
+        let g = |mu: f64, s: f64| {
+            (0..grid.len())
+                .map(|b| 0.6 * (-0.5 * ((grid.wavelength_nm(b) - mu) / s).powi(2)).exp())
+                .collect()
+        };
         [g(600.0, 30.0), g(540.0, 35.0), g(460.0, 25.0)]
     }
 
@@ -162,7 +203,10 @@ mod tests {
                 let rho = vec![reflectance; grid.len()];
                 let c = camera_response(&qe, &illum.sample(&grid), &rho, &grid);
                 let out = [c[0] * gains[0], c[1] * gains[1], c[2] * gains[2]];
-                assert!((out[0] / out[1] - 1.0).abs() < 1e-12 && (out[2] / out[1] - 1.0).abs() < 1e-12, "{name} {out:?}");
+                assert!(
+                    (out[0] / out[1] - 1.0).abs() < 1e-12 && (out[2] / out[1] - 1.0).abs() < 1e-12,
+                    "{name} {out:?}"
+                );
             }
         }
     }
@@ -182,10 +226,14 @@ mod tests {
         let gw = gray_world_gains(&img).unwrap();
         let wp = white_patch_gains(&img, 90.0, None).unwrap();
         for g in [gw, wp] {
-            assert!((g[0] - 0.5).abs() < 1e-6 && g[1] == 1.0 && (g[2] - 2.0).abs() < 1e-6, "{g:?}");
+            assert!(
+                (g[0] - 0.5).abs() < 1e-6 && g[1] == 1.0 && (g[2] - 2.0).abs() < 1e-6,
+                "{g:?}"
+            );
         }
         apply_gains(&mut img, gw);
-        assert!((0..rows * cols).all(|i| (img.r[i] - img.g[i]).abs() < 1e-6 && (img.b[i] - img.g[i]).abs() < 1e-6));
+        assert!((0..rows * cols)
+            .all(|i| (img.r[i] - img.g[i]).abs() < 1e-6 && (img.b[i] - img.g[i]).abs() < 1e-6));
         // Clipped pixels are left out: saturate the white, the white patch falls back to the gray.
         let mut img2 = img.clone();
         img2.r[0] = 10.0;
@@ -195,9 +243,16 @@ mod tests {
     #[test]
     fn bad_inputs_are_errors() {
         let img = RgbImage::zeros(4, 4);
-        assert!(gray_world_gains(&img).unwrap_err().to_string().contains("positive"));
+        assert!(gray_world_gains(&img)
+            .unwrap_err()
+            .to_string()
+            .contains("positive"));
         assert!(white_patch_gains(&img, 120.0, None).is_err());
         assert!("grey world".parse::<WhiteBalanceMethod>().is_ok());
-        assert!("auto".parse::<WhiteBalanceMethod>().unwrap_err().to_string().contains("auto"));
+        assert!("auto"
+            .parse::<WhiteBalanceMethod>()
+            .unwrap_err()
+            .to_string()
+            .contains("auto"));
     }
 }

@@ -32,7 +32,12 @@ fn imx363_qe(g: &WavelengthGrid) -> [Vec<f64>; 3] {
         .map(|l| l.split(',').map(|v| v.trim().parse().unwrap()).collect())
         .collect();
     let ch = |c: usize| {
-        let s = Spectrum::from_pairs(&rows.iter().map(|r| (r[0], r[1 + c] * r[4])).collect::<Vec<_>>());
+        let s = Spectrum::from_pairs(
+            &rows
+                .iter()
+                .map(|r| (r[0], r[1 + c] * r[4]))
+                .collect::<Vec<_>>(),
+        );
         s.sample(g)
     };
     [ch(0), ch(1), ch(2)]
@@ -53,7 +58,10 @@ fn patch_xyz(g: &WavelengthGrid, illum: &Spectrum) -> (Vec<[f64; 3]>, [f64; 3]) 
     };
     let white = integrate(&|_| 1.0);
     let norm = |t: [f64; 3]| [t[0] / white[1], t[1] / white[1], t[2] / white[1]];
-    let patches = tables::macbeth_reflectances().iter().map(|r| norm(integrate(&|w| r.eval(w)))).collect();
+    let patches = tables::macbeth_reflectances()
+        .iter()
+        .map(|r| norm(integrate(&|w| r.eval(w))))
+        .collect();
     (patches, norm(white))
 }
 
@@ -63,10 +71,14 @@ fn apply(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
 
 fn camera(qe: &[Vec<f64>; 3], g: &WavelengthGrid, illum: &Spectrum, refl: &Spectrum) -> [f64; 3] {
     // Photon counts: sum QE * E * rho * lambda (independent loop, same definition as the docs).
-    [0, 1, 2].map(|c| (0..g.len()).map(|b| {
-        let w = g.wavelength_nm(b);
-        qe[c][b] * illum.eval(w) * refl.eval(w) * w
-    }).sum::<f64>())
+    [0, 1, 2].map(|c| {
+        (0..g.len())
+            .map(|b| {
+                let w = g.wavelength_nm(b);
+                qe[c][b] * illum.eval(w) * refl.eval(w) * w
+            })
+            .sum::<f64>()
+    })
 }
 
 #[test]
@@ -84,9 +96,17 @@ fn luther_sensor_fit_is_exact() {
         for (i, r) in tables::macbeth_reflectances().iter().enumerate() {
             let c = camera(&qe, &g, &illum, r).map(|v| v / cmax);
             let got = apply(&m, c);
-            let err = ((got[0] - xyz[i][0]).powi(2) + (got[1] - xyz[i][1]).powi(2) + (got[2] - xyz[i][2]).powi(2)).sqrt();
+            let err = ((got[0] - xyz[i][0]).powi(2)
+                + (got[1] - xyz[i][1]).powi(2)
+                + (got[2] - xyz[i][2]).powi(2))
+            .sqrt();
             let size = (xyz[i][0].powi(2) + xyz[i][1].powi(2) + xyz[i][2].powi(2)).sqrt();
-            assert!(err / size < 1e-6, "{name} patch {}: {got:?} vs {:?}", i + 1, xyz[i]);
+            assert!(
+                err / size < 1e-6,
+                "{name} patch {}: {got:?} vs {:?}",
+                i + 1,
+                xyz[i]
+            );
         }
         assert!(p.fit_rms_xyz() < 1e-7);
         // DNG quantities: XYZ of the white -> camera neutral, largest 1; inverse matrices.
@@ -103,11 +123,20 @@ fn luther_sensor_fit_is_exact() {
 fn bradford_matches_lindbloom() {
     // B. Lindbloom, "Chromatic Adaptation": Bradford D65 -> D50 with his white points
     // D65 = (0.95047, 1, 1.08883), D50 = (0.96422, 1, 0.82521).
-    let want = [[1.0478112, 0.0228866, -0.0501270], [0.0295424, 0.9904844, -0.0170491], [-0.0092345, 0.0150436, 0.7521316]];
+    let want = [
+        [1.0478112, 0.0228866, -0.0501270],
+        [0.0295424, 0.9904844, -0.0170491],
+        [-0.0092345, 0.0150436, 0.7521316],
+    ];
     let got = bradford_adaptation([0.95047, 1.0, 1.08883], [0.96422, 1.0, 0.82521]);
     for r in 0..3 {
         for c in 0..3 {
-            assert!((got[r][c] - want[r][c]).abs() < 1e-6, "[{r}][{c}] {} vs {}", got[r][c], want[r][c]);
+            assert!(
+                (got[r][c] - want[r][c]).abs() < 1e-6,
+                "[{r}][{c}] {} vs {}",
+                got[r][c],
+                want[r][c]
+            );
         }
     }
 }
@@ -138,7 +167,10 @@ fn luther_sensor_under_d65_renders_the_patches_srgb() {
     let illum = tables::illuminant("D65").unwrap();
     let p = ColorPipeline::fit(&qe, &g, &illum).unwrap();
     let flat = Spectrum::constant(&g, 1.0);
-    let cmax = camera(&qe, &g, &illum, &flat).iter().cloned().fold(0.0, f64::max);
+    let cmax = camera(&qe, &g, &illum, &flat)
+        .iter()
+        .cloned()
+        .fold(0.0, f64::max);
     // Camera values in DN-like units (a perfect white's largest channel at 4000), and the exposure
     // scale that takes them back to the normalised camera space.
     let gain = 4000.0 / cmax;
@@ -152,7 +184,9 @@ fn luther_sensor_under_d65_renders_the_patches_srgb() {
         for c in 0..3 {
             let want = srgb_encode_u8(lin[c]) as i32;
             let got = srgb[px * 3 + c] as i32;
-            if (want - got).abs() > 1 { eprintln!("patch {} c {c}: want {want} got {got}", i + 1); }
+            if (want - got).abs() > 1 {
+                eprintln!("patch {} c {c}: want {want} got {got}", i + 1);
+            }
             max_diff = max_diff.max((want - got).abs());
         }
     }
@@ -176,28 +210,58 @@ fn white_renders_neutral_under_d65_and_a() {
             assert_eq!(srgb, p.render_srgb8(&img, None));
             let px = (3 * 4 + 1) * 24 + 1; // inside patch 19 (white), bottom left
             let rgb = [srgb[px * 3], srgb[px * 3 + 1], srgb[px * 3 + 2]];
-            let spread = |v: [u8; 3]| *v.iter().max().unwrap() as i32 - *v.iter().min().unwrap() as i32;
-            assert!(spread(rgb) <= 2, "{sensor} under {name}: white patch renders {rgb:?}");
+            let spread =
+                |v: [u8; 3]| *v.iter().max().unwrap() as i32 - *v.iter().min().unwrap() as i32;
+            assert!(
+                spread(rgb) <= 2,
+                "{sensor} under {name}: white patch renders {rgb:?}"
+            );
             // Auto exposure: the white is the brightest patch, so it sits near Y = 0.9 (sRGB ~ 243).
-            assert!((238..=248).contains(&rgb[1]), "{sensor} under {name}: {rgb:?}");
+            assert!(
+                (238..=248).contains(&rgb[1]),
+                "{sensor} under {name}: {rgb:?}"
+            );
             // The flat reflector at the same exposure.
-            let c = camera(&qe, &g, &illum, &Spectrum::constant(&g, 0.9)).map(|v| (v * 1e-3) as f32);
-            let one = RgbImage { rows: 1, cols: 1, r: vec![c[0]], g: vec![c[1]], b: vec![c[2]] };
+            let c =
+                camera(&qe, &g, &illum, &Spectrum::constant(&g, 0.9)).map(|v| (v * 1e-3) as f32);
+            let one = RgbImage {
+                rows: 1,
+                cols: 1,
+                r: vec![c[0]],
+                g: vec![c[1]],
+                b: vec![c[2]],
+            };
             let flat = p.render_srgb8(&one, Some(k));
             let flat = [flat[0], flat[1], flat[2]];
             println!("{sensor} under {name}: ColorChecker white {rgb:?}, flat 90 % {flat:?}");
-            assert!(spread(flat) <= 1, "{sensor} under {name}: flat 90 % renders {flat:?}");
+            assert!(
+                spread(flat) <= 1,
+                "{sensor} under {name}: flat 90 % renders {flat:?}"
+            );
             // Perfect white -> exactly neutral through the whole chain (to the 4-digit sRGB matrix).
             let white = apply(&p.camera_to_srgb(), p.as_shot_neutral());
-            assert!((white[0] - white[1]).abs() < 1e-3 && (white[2] - white[1]).abs() < 1e-3, "{white:?}");
+            assert!(
+                (white[0] - white[1]).abs() < 1e-3 && (white[2] - white[1]).abs() < 1e-3,
+                "{white:?}"
+            );
         }
     }
 }
 
 /// CIE 1976 L*a*b* (CIE 015:2018 eq. 8.1-8.3) relative to `white`.
 fn lab(xyz: [f64; 3], white: [f64; 3]) -> [f64; 3] {
-    let f = |t: f64| if t > (6.0f64 / 29.0).powi(3) { t.cbrt() } else { t / (3.0 * (6.0f64 / 29.0).powi(2)) + 4.0 / 29.0 };
-    let (fx, fy, fz) = (f(xyz[0] / white[0]), f(xyz[1] / white[1]), f(xyz[2] / white[2]));
+    let f = |t: f64| {
+        if t > (6.0f64 / 29.0).powi(3) {
+            t.cbrt()
+        } else {
+            t / (3.0 * (6.0f64 / 29.0).powi(2)) + 4.0 / 29.0
+        }
+    };
+    let (fx, fy, fz) = (
+        f(xyz[0] / white[0]),
+        f(xyz[1] / white[1]),
+        f(xyz[2] / white[2]),
+    );
     [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
 }
 
@@ -212,16 +276,27 @@ fn imx363_fit_error_is_that_of_a_good_3x3_colour_correction() {
         let illum = tables::illuminant(name).unwrap();
         let p = ColorPipeline::fit(&qe, &g, &illum).unwrap();
         let (xyz, white) = patch_xyz(&g, &illum);
-        let cmax = camera(&qe, &g, &illum, &Spectrum::constant(&g, 1.0)).iter().cloned().fold(0.0, f64::max);
+        let cmax = camera(&qe, &g, &illum, &Spectrum::constant(&g, 1.0))
+            .iter()
+            .cloned()
+            .fold(0.0, f64::max);
         let mut des = vec![];
         for (i, r) in tables::macbeth_reflectances().iter().enumerate() {
-            let got = apply(&p.camera_to_xyz(), camera(&qe, &g, &illum, r).map(|v| v / cmax));
+            let got = apply(
+                &p.camera_to_xyz(),
+                camera(&qe, &g, &illum, r).map(|v| v / cmax),
+            );
             let (a, b) = (lab(got, white), lab(xyz[i], white));
-            des.push(((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt());
+            des.push(
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt(),
+            );
         }
         let mean = des.iter().sum::<f64>() / 24.0;
         let max = des.iter().cloned().fold(0.0, f64::max);
-        println!("IMX363 under {name}: mean Delta E*ab {mean:.2}, max {max:.2}, rms XYZ {:.4}", p.fit_rms_xyz());
+        println!(
+            "IMX363 under {name}: mean Delta E*ab {mean:.2}, max {max:.2}, rms XYZ {:.4}",
+            p.fit_rms_xyz()
+        );
         assert!(mean < 5.0 && max < 15.0, "{name}: mean {mean}, max {max}");
     }
 }
@@ -231,7 +306,10 @@ fn fit_rejects_bad_input() {
     let g = WavelengthGrid::default();
     let d65 = tables::illuminant("D65").unwrap();
     let short = [vec![1.0; 30], vec![1.0; 31], vec![1.0; 31]];
-    assert!(ColorPipeline::fit(&short, &g, &d65).unwrap_err().to_string().contains("30"));
+    assert!(ColorPipeline::fit(&short, &g, &d65)
+        .unwrap_err()
+        .to_string()
+        .contains("30"));
     let blind = [vec![0.0; 31], vec![1.0; 31], vec![1.0; 31]];
     assert!(ColorPipeline::fit(&blind, &g, &d65).is_err());
     // Three identical channels cannot separate colours.
@@ -249,15 +327,42 @@ fn saturated_highlights_render_neutral_with_clipping() {
     let grid = WavelengthGrid::default();
     // A sensor with unequal channel sensitivities (so the white-balance gains differ).
     let qe: [Vec<f64>; 3] = [
-        grid.wavelengths_nm().iter().map(|w| if *w > 580.0 { 0.5 } else { 0.02 }).collect(),
-        grid.wavelengths_nm().iter().map(|w| if (*w > 490.0) && (*w < 600.0) { 0.8 } else { 0.05 }).collect(),
-        grid.wavelengths_nm().iter().map(|w| if *w < 510.0 { 0.4 } else { 0.02 }).collect(),
+        grid.wavelengths_nm()
+            .iter()
+            .map(|w| if *w > 580.0 { 0.5 } else { 0.02 })
+            .collect(),
+        grid.wavelengths_nm()
+            .iter()
+            .map(|w| {
+                if (*w > 490.0) && (*w < 600.0) {
+                    0.8
+                } else {
+                    0.05
+                }
+            })
+            .collect(),
+        grid.wavelengths_nm()
+            .iter()
+            .map(|w| if *w < 510.0 { 0.4 } else { 0.02 })
+            .collect(),
     ];
     let cp = ColorPipeline::fit(&qe, &grid, &tables::illuminant("A").unwrap()).unwrap();
     let sat = 4000.0f32;
-    let img = RgbImage { rows: 1, cols: 1, r: vec![sat], g: vec![sat], b: vec![sat] };
+    let img = RgbImage {
+        rows: 1,
+        cols: 1,
+        r: vec![sat],
+        g: vec![sat],
+        b: vec![sat],
+    };
     let clipped = cp.render_srgb8_clipped(&img, Some(1.0 / sat as f64), Some(sat as f64));
-    assert!(clipped[0] == clipped[1] && clipped[1] == clipped[2], "clipped highlight {clipped:?} is not neutral");
+    assert!(
+        clipped[0] == clipped[1] && clipped[1] == clipped[2],
+        "clipped highlight {clipped:?} is not neutral"
+    );
     let raw = cp.render_srgb8(&img, Some(1.0 / sat as f64));
-    assert!(raw[0] != raw[1] || raw[1] != raw[2], "test setup: without clipping the pixel should be coloured, got {raw:?}");
+    assert!(
+        raw[0] != raw[1] || raw[1] != raw[2],
+        "test setup: without clipping the pixel should be coloured, got {raw:?}"
+    );
 }

@@ -39,34 +39,63 @@ impl LensCamera {
     /// `film_diagonal_mm`; computes the exit-pupil bounds at 550 nm.
     pub fn new(lens: Lens, film_distance_mm: f64, film_diagonal_mm: f64) -> Result<LensCamera> {
         if !(film_distance_mm > 0.0 && film_distance_mm.is_finite()) {
-            return Err(LensError::Lens { what: lens.name.clone(), message: format!("film distance {film_distance_mm} mm is not > 0") });
+            return Err(LensError::Lens {
+                what: lens.name.clone(),
+                message: format!("film distance {film_distance_mm} mm is not > 0"),
+            });
         }
         if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
-            return Err(LensError::Lens { what: lens.name.clone(), message: format!("film diagonal {film_diagonal_mm} mm is not > 0") });
+            return Err(LensError::Lens {
+                what: lens.name.clone(),
+                message: format!("film diagonal {film_diagonal_mm} mm is not > 0"),
+            });
         }
-        let mut cam = LensCamera { lens, film_distance_mm, max_film_radius_mm: film_diagonal_mm / 2.0, pupil_bounds: Vec::new() };
-        cam.pupil_bounds = (0..PUPIL_INTERVALS).map(|i| cam.bound_exit_pupil(i)).collect();
+        let mut cam = LensCamera {
+            lens,
+            film_distance_mm,
+            max_film_radius_mm: film_diagonal_mm / 2.0,
+            pupil_bounds: Vec::new(),
+        };
+        cam.pupil_bounds = (0..PUPIL_INTERVALS)
+            .map(|i| cam.bound_exit_pupil(i))
+            .collect();
         Ok(cam)
     }
 
     /// The lens focused on an object `object_distance_mm` in front of its first vertex (`inf`:
     /// infinity) at 550 nm: the film where a near-axis real ray from the axial object point
     /// crosses the axis.
-    pub fn focused(lens: Lens, object_distance_mm: f64, film_diagonal_mm: f64) -> Result<LensCamera> {
+    pub fn focused(
+        lens: Lens,
+        object_distance_mm: f64,
+        film_diagonal_mm: f64,
+    ) -> Result<LensCamera> {
         let what = lens.name.clone();
-        let err = |m: String| LensError::Lens { what: what.clone(), message: m };
+        let err = |m: String| LensError::Lens {
+            what: what.clone(),
+            message: m,
+        };
         let h = lens.surfaces[0].semi_aperture_mm * 1e-3;
         let ray = if object_distance_mm.is_infinite() {
             Ray::new([0.0, h, -1.0], [0.0, 0.0, 1.0])
         } else if object_distance_mm > 0.0 {
-            Ray::new([0.0, 0.0, -object_distance_mm], [0.0, h, object_distance_mm])
+            Ray::new(
+                [0.0, 0.0, -object_distance_mm],
+                [0.0, h, object_distance_mm],
+            )
         } else {
-            return Err(err(format!("object distance {object_distance_mm} mm is not > 0")));
+            return Err(err(format!(
+                "object distance {object_distance_mm} mm is not > 0"
+            )));
         };
-        let out = lens.trace_forward(&ray, 550.0).map_err(|b| err(format!("the focusing ray is blocked ({b:?})")))?;
+        let out = lens
+            .trace_forward(&ray, 550.0)
+            .map_err(|b| err(format!("the focusing ray is blocked ({b:?})")))?;
         let (o, d) = (out.origin_mm, out.direction);
         if (d[1] * o[1]).partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
-            return Err(err(format!("no real image of an object at {object_distance_mm} mm (the rays diverge)")));
+            return Err(err(format!(
+                "no real image of an object at {object_distance_mm} mm (the rays diverge)"
+            )));
         }
         let z_cross = o[2] - o[1] * d[2] / d[1];
         let z_last = lens.vertex_z_mm().last().copied().unwrap_or(0.0);
@@ -81,11 +110,19 @@ impl LensCamera {
     /// Trace a ray leaving the film point `origin_on_film_mm` (x, y) along `direction` (toward the
     /// lens: z < 0) out through the lens at `wavelength_nm`: the ray in object space, or `None`
     /// when an aperture blocks it or it reflects totally.
-    pub fn trace_ray(&self, origin_on_film_mm: [f64; 2], direction: [f64; 3], wavelength_nm: f64) -> Option<Ray> {
+    pub fn trace_ray(
+        &self,
+        origin_on_film_mm: [f64; 2],
+        direction: [f64; 3],
+        wavelength_nm: f64,
+    ) -> Option<Ray> {
         if direction[2].partial_cmp(&0.0) != Some(std::cmp::Ordering::Less) {
             return None;
         }
-        let ray = Ray::new([origin_on_film_mm[0], origin_on_film_mm[1], self.film_z_mm()], direction);
+        let ray = Ray::new(
+            [origin_on_film_mm[0], origin_on_film_mm[1], self.film_z_mm()],
+            direction,
+        );
         self.lens.trace_backward(&ray, wavelength_nm).ok()
     }
 
@@ -105,7 +142,12 @@ impl LensCamera {
     /// from the film point). For a thin lens with a small stop at the lens this tends to
     /// cos^4 of the chief ray angle (the "cosine-fourth law"; Kingslake, Optical System Design,
     /// sec. 6.5).
-    pub fn relative_illumination(&self, heights_mm: &[f64], n: usize, wavelength_nm: f64) -> Vec<f64> {
+    pub fn relative_illumination(
+        &self,
+        heights_mm: &[f64],
+        n: usize,
+        wavelength_nm: f64,
+    ) -> Vec<f64> {
         let e = |h: f64| {
             let b = self.exit_pupil_bounds(h);
             let (dx, dy) = ((b[1] - b[0]) / n as f64, (b[3] - b[2]) / n as f64);
@@ -131,18 +173,34 @@ impl LensCamera {
     /// rear vertex plane spanning the last surface's aperture; the box of those that pass, grown
     /// by one grid cell.
     fn bound_exit_pupil(&self, i: usize) -> [f64; 4] {
-        let last = self.lens.surfaces.last().map(|s| s.semi_aperture_mm).unwrap_or(0.0);
+        let last = self
+            .lens
+            .surfaces
+            .last()
+            .map(|s| s.semi_aperture_mm)
+            .unwrap_or(0.0);
         let rear = 1.5 * last;
         let z_rear = self.film_z_mm() - self.film_distance_mm;
         let n = 48;
         let cell = 2.0 * rear / n as f64;
-        let (r0, r1) = (i as f64 / PUPIL_INTERVALS as f64, (i + 1) as f64 / PUPIL_INTERVALS as f64);
-        let mut b = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        let (r0, r1) = (
+            i as f64 / PUPIL_INTERVALS as f64,
+            (i + 1) as f64 / PUPIL_INTERVALS as f64,
+        );
+        let mut b = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
         for k in 0..=4 {
             let fx = self.max_film_radius_mm * (r0 + (r1 - r0) * k as f64 / 4.0);
             for a in 0..n {
                 for c in 0..n {
-                    let (x, y) = (-rear + (a as f64 + 0.5) * cell, -rear + (c as f64 + 0.5) * cell);
+                    let (x, y) = (
+                        -rear + (a as f64 + 0.5) * cell,
+                        -rear + (c as f64 + 0.5) * cell,
+                    );
                     let d = [x - fx, y, z_rear - self.film_z_mm()];
                     if self.trace_ray([fx, 0.0], d, 550.0).is_some() {
                         b = [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];

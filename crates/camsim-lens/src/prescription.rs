@@ -157,13 +157,21 @@ impl Lens {
     /// for inspecting a prescription that is physically inconsistent somewhere, e.g. its paraxial
     /// properties near the axis.
     pub fn from_file_unchecked(path: &Path) -> Result<Lens> {
-        let text = std::fs::read_to_string(path).map_err(|e| LensError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| LensError::File {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         let what = path.display().to_string();
-        let is_json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+        let is_json = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"));
         if is_json {
             Lens::parse_iset3d_json(&text, &what)
         } else {
-            let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
             Lens::parse_pbrt(&text, &what, &name)
         }
     }
@@ -180,11 +188,18 @@ impl Lens {
     }
 
     fn parse_iset3d_json(text: &str, what: &str) -> Result<Lens> {
-        let j: JsonLens =
-            serde_json::from_str(text).map_err(|e| LensError::Parse { what: what.to_string(), line: e.line(), message: e.to_string() })?;
+        let j: JsonLens = serde_json::from_str(text).map_err(|e| LensError::Parse {
+            what: what.to_string(),
+            line: e.line(),
+            message: e.to_string(),
+        })?;
         let mut surfaces = Vec::with_capacity(j.surfaces.len());
         for (i, s) in j.surfaces.iter().enumerate() {
-            let bad = |m: String| LensError::Surface { what: what.to_string(), surface: i + 1, message: m };
+            let bad = |m: String| LensError::Surface {
+                what: what.to_string(),
+                surface: i + 1,
+                message: m,
+            };
             let conic = match &s.conic_constant {
                 None => 0.0,
                 Some(NumberOrList::Number(k)) => *k,
@@ -192,7 +207,10 @@ impl Lens {
                 Some(NumberOrList::List(v)) if v.len() == 1 => v[0],
                 Some(NumberOrList::List(v)) if *v == s.aspheric_coefficients => 0.0,
                 Some(NumberOrList::List(v)) => {
-                    return Err(bad(format!("conic_constant is a list of {} numbers; give one number", v.len())))
+                    return Err(bad(format!(
+                        "conic_constant is a list of {} numbers; give one number",
+                        v.len()
+                    )))
                 }
             };
             let medium = match s.abbe_number {
@@ -209,7 +227,14 @@ impl Lens {
                 is_stop: s.radius == 0.0,
             });
         }
-        Ok(Lens { name: j.name.unwrap_or_else(|| what.to_string()).trim().to_string(), surfaces })
+        Ok(Lens {
+            name: j
+                .name
+                .unwrap_or_else(|| what.to_string())
+                .trim()
+                .to_string(),
+            surfaces,
+        })
     }
 
     /// Parse a pbrt-v4 `realistic` lens file: one surface per line, object side first, four
@@ -229,14 +254,24 @@ impl Lens {
             if line.is_empty() {
                 continue;
             }
-            let err = |m: String| LensError::Parse { what: what.to_string(), line: n + 1, message: m };
+            let err = |m: String| LensError::Parse {
+                what: what.to_string(),
+                line: n + 1,
+                message: m,
+            };
             let v: Vec<f64> = line
                 .split(|c: char| c.is_whitespace() || c == ',')
                 .filter(|t| !t.is_empty())
-                .map(|t| t.parse::<f64>().map_err(|_| err(format!("'{t}' is not a number"))))
+                .map(|t| {
+                    t.parse::<f64>()
+                        .map_err(|_| err(format!("'{t}' is not a number")))
+                })
                 .collect::<Result<_>>()?;
             if v.len() != 4 {
-                return Err(err(format!("{} numbers; expected radius thickness eta aperture-diameter (mm)", v.len())));
+                return Err(err(format!(
+                    "{} numbers; expected radius thickness eta aperture-diameter (mm)",
+                    v.len()
+                )));
             }
             surfaces.push(Surface {
                 radius_mm: v[0],
@@ -249,9 +284,15 @@ impl Lens {
             });
         }
         if surfaces.is_empty() {
-            return Err(LensError::Lens { what: what.to_string(), message: "no surfaces".into() });
+            return Err(LensError::Lens {
+                what: what.to_string(),
+                message: "no surfaces".into(),
+            });
         }
-        Ok(Lens { name: name.to_string(), surfaces })
+        Ok(Lens {
+            name: name.to_string(),
+            surfaces,
+        })
     }
 
     /// Check the prescription (`what` names it in messages): at least one refracting surface and
@@ -261,9 +302,16 @@ impl Lens {
     /// cross inside their common clear aperture (surface i + 1 lies behind surface i, up to
     /// [`CROSSING_TOLERANCE_MM`]).
     pub fn check(&self, what: &str) -> Result<()> {
-        let bad = |i: usize, m: String| LensError::Surface { what: what.to_string(), surface: i + 1, message: m };
+        let bad = |i: usize, m: String| LensError::Surface {
+            what: what.to_string(),
+            surface: i + 1,
+            message: m,
+        };
         if self.surfaces.is_empty() {
-            return Err(LensError::Lens { what: what.to_string(), message: "no surfaces".into() });
+            return Err(LensError::Lens {
+                what: what.to_string(),
+                message: "no surfaces".into(),
+            });
         }
         for (i, s) in self.surfaces.iter().enumerate() {
             let nums = [
@@ -276,14 +324,23 @@ impl Lens {
                 return Err(bad(i, format!("{k} is {v}, not a finite number")));
             }
             if let Some(a) = s.aspheric.iter().find(|a| !a.is_finite()) {
-                return Err(bad(i, format!("aspheric coefficient {a} is not a finite number")));
+                return Err(bad(
+                    i,
+                    format!("aspheric coefficient {a} is not a finite number"),
+                ));
             }
             s.medium.check().map_err(|m| bad(i, m))?;
             if s.semi_aperture_mm <= 0.0 {
-                return Err(bad(i, format!("semi-aperture {} mm is not > 0", s.semi_aperture_mm)));
+                return Err(bad(
+                    i,
+                    format!("semi-aperture {} mm is not > 0", s.semi_aperture_mm),
+                ));
             }
             if s.thickness_mm < 0.0 {
-                return Err(bad(i, format!("thickness {} mm is negative", s.thickness_mm)));
+                return Err(bad(
+                    i,
+                    format!("thickness {} mm is negative", s.thickness_mm),
+                ));
             }
             if s.is_stop && !s.aspheric.is_empty() && s.aspheric.iter().any(|a| *a != 0.0) {
                 return Err(bad(i, "the stop (radius 0) has aspheric terms".into()));
@@ -300,17 +357,32 @@ impl Lens {
         }
         let stops = self.surfaces.iter().filter(|s| s.is_stop).count();
         if stops == 0 {
-            return Err(LensError::Lens { what: what.to_string(), message: "no aperture stop (a surface with radius 0)".into() });
-        }
-        if stops > 1 {
-            let list: Vec<String> = self.surfaces.iter().enumerate().filter(|(_, s)| s.is_stop).map(|(i, _)| (i + 1).to_string()).collect();
             return Err(LensError::Lens {
                 what: what.to_string(),
-                message: format!("{stops} surfaces with radius 0 ({}); one stop expected", list.join(", ")),
+                message: "no aperture stop (a surface with radius 0)".into(),
+            });
+        }
+        if stops > 1 {
+            let list: Vec<String> = self
+                .surfaces
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| s.is_stop)
+                .map(|(i, _)| (i + 1).to_string())
+                .collect();
+            return Err(LensError::Lens {
+                what: what.to_string(),
+                message: format!(
+                    "{stops} surfaces with radius 0 ({}); one stop expected",
+                    list.join(", ")
+                ),
             });
         }
         if self.surfaces.iter().all(|s| s.is_stop) {
-            return Err(LensError::Lens { what: what.to_string(), message: "no refracting surface".into() });
+            return Err(LensError::Lens {
+                what: what.to_string(),
+                message: "no refracting surface".into(),
+            });
         }
         // Consecutive surfaces must not cross inside their common aperture.
         let z = self.vertex_z_mm();

@@ -80,7 +80,10 @@ struct Poly {
 
 impl Poly {
     fn eval(&self, r: f64, dx: f64, dy: f64) -> f64 {
-        self.terms.iter().map(|(c, a, b, e)| c * r.powi(*a) * dx.powi(*b) * dy.powi(*e)).sum()
+        self.terms
+            .iter()
+            .map(|(c, a, b, e)| c * r.powi(*a) * dx.powi(*b) * dy.powi(*e))
+            .sum()
     }
 }
 
@@ -119,54 +122,117 @@ const OUTPUTS: [&str; 6] = ["outx", "outy", "outz", "outdx", "outdy", "outdz"];
 impl Rtf {
     /// Read an RTF JSON file (the first wavelength it holds).
     pub fn from_file(path: &Path) -> Result<Rtf> {
-        let text = std::fs::read_to_string(path).map_err(|e| LensError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| LensError::File {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         Rtf::from_json(&text, &path.display().to_string())
     }
 
     /// Parse RTF JSON (`what` names the source in messages).
     pub fn from_json(text: &str, what: &str) -> Result<Rtf> {
-        let bad = |m: String| LensError::Lens { what: what.to_string(), message: m };
-        let j: JsonRtf =
-            serde_json::from_str(text).map_err(|e| LensError::Parse { what: what.to_string(), line: e.line(), message: e.to_string() })?;
-        let w = j.polynomials.first().ok_or_else(|| bad("no polynomials".into()))?;
+        let bad = |m: String| LensError::Lens {
+            what: what.to_string(),
+            message: m,
+        };
+        let j: JsonRtf = serde_json::from_str(text).map_err(|e| LensError::Parse {
+            what: what.to_string(),
+            line: e.line(),
+            message: e.to_string(),
+        })?;
+        let w = j
+            .polynomials
+            .first()
+            .ok_or_else(|| bad("no polynomials".into()))?;
         let p = &w.passnopass;
         if p.method != "minimalellipse" {
-            return Err(bad(format!("passnopass.method '{}': only 'minimalellipse' is supported", p.method)));
+            return Err(bad(format!(
+                "passnopass.method '{}': only 'minimalellipse' is supported",
+                p.method
+            )));
         }
         let n = p.positions.len();
-        if n < 2 || [p.radii_x.len(), p.radii_y.len(), p.centers_x.len(), p.centers_y.len()].iter().any(|l| *l != n) {
+        if n < 2
+            || [
+                p.radii_x.len(),
+                p.radii_y.len(),
+                p.centers_x.len(),
+                p.centers_y.len(),
+            ]
+            .iter()
+            .any(|l| *l != n)
+        {
             return Err(bad(format!(
                 "passnopass: positions, radiiX, radiiY, centersX, centersY must have the same length >= 2 ({n} positions)"
             )));
         }
-        if p.positions.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        if p.positions
+            .windows(2)
+            .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
             || p.positions.iter().any(|v| !v.is_finite())
         {
-            return Err(bad("passnopass.positions must be finite and increasing".into()));
+            return Err(bad(
+                "passnopass.positions must be finite and increasing".into()
+            ));
         }
         let all = [&p.radii_x, &p.radii_y, &p.centers_x, &p.centers_y];
-        if all.iter().any(|v| v.iter().any(|x| !x.is_finite())) || p.radii_x.iter().chain(&p.radii_y).any(|r| *r <= 0.0) {
-            return Err(bad("passnopass: radii must be finite and > 0, centres finite".into()));
+        if all.iter().any(|v| v.iter().any(|x| !x.is_finite()))
+            || p.radii_x.iter().chain(&p.radii_y).any(|r| *r <= 0.0)
+        {
+            return Err(bad(
+                "passnopass: radii must be finite and > 0, centres finite".into(),
+            ));
         }
         if !(p.intersect_plane_distance.is_finite() && p.intersect_plane_distance != 0.0) {
-            return Err(bad(format!("passnopass.intersectPlaneDistance {} must be finite and nonzero", p.intersect_plane_distance)));
+            return Err(bad(format!(
+                "passnopass.intersectPlaneDistance {} must be finite and nonzero",
+                p.intersect_plane_distance
+            )));
         }
-        let ellipses =
-            (0..n).map(|i| PassEllipse { center_mm: [p.centers_x[i], p.centers_y[i]], radii_mm: [p.radii_x[i], p.radii_y[i]] }).collect();
+        let ellipses = (0..n)
+            .map(|i| PassEllipse {
+                center_mm: [p.centers_x[i], p.centers_y[i]],
+                radii_mm: [p.radii_x[i], p.radii_y[i]],
+            })
+            .collect();
         let mut polys: Vec<Poly> = Vec::new();
         for name in OUTPUTS {
-            let q = w.poly.iter().find(|q| q.outputname == name).ok_or_else(|| bad(format!("no polynomial for {name}")))?;
+            let q = w
+                .poly
+                .iter()
+                .find(|q| q.outputname == name)
+                .ok_or_else(|| bad(format!("no polynomial for {name}")))?;
             let k = q.coeff.len();
-            if [q.termr.len(), q.termdx.len(), q.termdy.len()].iter().any(|l| *l != k) || q.coeff.iter().any(|c| !c.is_finite()) {
+            if [q.termr.len(), q.termdx.len(), q.termdy.len()]
+                .iter()
+                .any(|l| *l != k)
+                || q.coeff.iter().any(|c| !c.is_finite())
+            {
                 return Err(bad(format!("polynomial {name}: coeff, termr, termdx, termdy must be finite and of one length")));
             }
-            if q.termr.iter().chain(&q.termdx).chain(&q.termdy).any(|e| *e > 16) {
+            if q.termr
+                .iter()
+                .chain(&q.termdx)
+                .chain(&q.termdy)
+                .any(|e| *e > 16)
+            {
                 return Err(bad(format!("polynomial {name}: exponents above 16")));
             }
-            let terms = (0..k).map(|i| (q.coeff[i], q.termr[i] as i32, q.termdx[i] as i32, q.termdy[i] as i32)).collect();
+            let terms = (0..k)
+                .map(|i| {
+                    (
+                        q.coeff[i],
+                        q.termr[i] as i32,
+                        q.termdx[i] as i32,
+                        q.termdy[i] as i32,
+                    )
+                })
+                .collect();
             polys.push(Poly { terms });
         }
-        let polys: [Poly; 6] = polys.try_into().map_err(|_| bad("six polynomials expected".into()))?;
+        let polys: [Poly; 6] = polys
+            .try_into()
+            .map_err(|_| bad("six polynomials expected".into()))?;
         Ok(Rtf {
             name: j.name.unwrap_or_default(),
             wavelength_nm: w.wavelength_nm,
@@ -196,8 +262,14 @@ impl Rtf {
         let (a, b) = (self.ellipses[i - 1], self.ellipses[i]);
         let l = |p: f64, q: f64| p * (1.0 - w) + q * w;
         Some(PassEllipse {
-            center_mm: [l(a.center_mm[0], b.center_mm[0]), l(a.center_mm[1], b.center_mm[1])],
-            radii_mm: [l(a.radii_mm[0], b.radii_mm[0]), l(a.radii_mm[1], b.radii_mm[1])],
+            center_mm: [
+                l(a.center_mm[0], b.center_mm[0]),
+                l(a.center_mm[1], b.center_mm[1]),
+            ],
+            radii_mm: [
+                l(a.radii_mm[0], b.radii_mm[0]),
+                l(a.radii_mm[1], b.radii_mm[1]),
+            ],
         })
     }
 
@@ -213,15 +285,22 @@ impl Rtf {
         let (a, b) = (self.ellipses[k - 2], self.ellipses[k - 1]);
         let l = |p: f64, q: f64| q + (q - p) * w;
         Some(PassEllipse {
-            center_mm: [l(a.center_mm[0], b.center_mm[0]), l(a.center_mm[1], b.center_mm[1])],
-            radii_mm: [l(a.radii_mm[0], b.radii_mm[0]), l(a.radii_mm[1], b.radii_mm[1])],
+            center_mm: [
+                l(a.center_mm[0], b.center_mm[0]),
+                l(a.center_mm[1], b.center_mm[1]),
+            ],
+            radii_mm: [
+                l(a.radii_mm[0], b.radii_mm[0]),
+                l(a.radii_mm[1], b.radii_mm[1]),
+            ],
         })
     }
 
     /// The pass ellipse at input height `r_mm`, with [`Self::irradiance`]'s linear extrapolation up
     /// to one table step beyond the last position (`None` further out).
     pub fn pass_region(&self, r_mm: f64) -> Option<PassEllipse> {
-        self.pass_ellipse(r_mm).or_else(|| self.extrapolated_ellipse(r_mm))
+        self.pass_ellipse(r_mm)
+            .or_else(|| self.extrapolated_ellipse(r_mm))
     }
 
     /// Trace a ray given on the input plane (point (x, y) in mm, unit direction toward the lens,
@@ -239,11 +318,21 @@ impl Rtf {
     /// lands inside the pass ellipse `e` (given in the frame where the point lies on +y).
     pub fn inside(&self, e: &PassEllipse, point_mm: [f64; 2], direction: [f64; 3]) -> bool {
         let r = point_mm[0].hypot(point_mm[1]);
-        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
-        let d = [direction[0] * c - direction[1] * s, direction[0] * s + direction[1] * c];
+        let (c, s) = if r > 0.0 {
+            (point_mm[1] / r, point_mm[0] / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let d = [
+            direction[0] * c - direction[1] * s,
+            direction[0] * s + direction[1] * c,
+        ];
         let t = self.pass_plane_distance_mm / direction[2];
         let (px, py) = (d[0] * t, r + d[1] * t);
-        let (u, v) = ((px - e.center_mm[0]) / e.radii_mm[0], (py - e.center_mm[1]) / e.radii_mm[1]);
+        let (u, v) = (
+            (px - e.center_mm[0]) / e.radii_mm[0],
+            (py - e.center_mm[1]) / e.radii_mm[1],
+        );
         u * u + v * v <= 1.0
     }
 
@@ -253,10 +342,19 @@ impl Rtf {
         let r = point_mm[0].hypot(point_mm[1]);
         // Rotation taking the point to the +y axis: (x, y) -> (x c - y s, x s + y c) with the angle
         // that maps (px, py) to (0, r): c = py / r, s = px / r.
-        let (c, s) = if r > 0.0 { (point_mm[1] / r, point_mm[0] / r) } else { (1.0, 0.0) };
-        let d = [direction[0] * c - direction[1] * s, direction[0] * s + direction[1] * c];
+        let (c, s) = if r > 0.0 {
+            (point_mm[1] / r, point_mm[0] / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let d = [
+            direction[0] * c - direction[1] * s,
+            direction[0] * s + direction[1] * c,
+        ];
         let mut o = [0.0; 6];
-        o.iter_mut().zip(&self.polys).for_each(|(v, p)| *v = p.eval(r, d[0], d[1]));
+        o.iter_mut()
+            .zip(&self.polys)
+            .for_each(|(v, p)| *v = p.eval(r, d[0], d[1]));
         // Rotate back: inverse rotation (x, y) -> (x c + y s, -x s + y c).
         let back = |v: [f64; 2]| [v[0] * c + v[1] * s, -v[0] * s + v[1] * c];
         let pos = back([o[0], o[1]]);
@@ -274,7 +372,10 @@ impl Rtf {
     /// ellipse's bounding box in ellipse coordinates (area element rx ry du dv).
     pub fn relative_illumination(&self, heights_mm: &[f64], n: usize) -> Vec<Option<f64>> {
         let e0 = self.irradiance(0.0, n);
-        heights_mm.iter().map(|h| self.irradiance(*h, n).zip(e0).map(|(e, z)| e / z)).collect()
+        heights_mm
+            .iter()
+            .map(|h| self.irradiance(*h, n).zip(e0).map(|(e, z)| e / z))
+            .collect()
     }
 
     /// Film offset behind the input plane (mm) that focuses an object plane `focus_distance_mm`
@@ -291,7 +392,10 @@ impl Rtf {
         if focus_distance_mm.is_nan() || focus_distance_mm <= 0.0 {
             return None;
         }
-        let spread = |dz: f64| self.axial_spread(dz, focus_distance_mm).unwrap_or(f64::INFINITY);
+        let spread = |dz: f64| {
+            self.axial_spread(dz, focus_distance_mm)
+                .unwrap_or(f64::INFINITY)
+        };
         self.axial_spread(0.0, focus_distance_mm)?;
         Some(golden_section_min(spread, -0.2, 0.8, 5e-5))
     }
@@ -310,14 +414,24 @@ impl Rtf {
             for j in 0..m {
                 let u = -1.0 + (2 * i + 1) as f64 / m as f64;
                 let v = -1.0 + (2 * j + 1) as f64 / m as f64;
-                let q = [e.center_mm[0] + grow * e.radii_mm[0] * u, e.center_mm[1] + grow * e.radii_mm[1] * v];
-                let Some((pin, dir, w)) = self.film_ray([0.0, 0.0], dz, q) else { continue };
-                let Some((o, od)) = self.trace(pin, dir) else { continue };
+                let q = [
+                    e.center_mm[0] + grow * e.radii_mm[0] * u,
+                    e.center_mm[1] + grow * e.radii_mm[1] * v,
+                ];
+                let Some((pin, dir, w)) = self.film_ray([0.0, 0.0], dz, q) else {
+                    continue;
+                };
+                let Some((o, od)) = self.trace(pin, dir) else {
+                    continue;
+                };
                 let t = if focus_distance_mm.is_finite() {
                     // Land on the object plane (z from the input plane), as an angle from the film.
                     let z_obj = focus_distance_mm - dz;
                     let s = (z_obj - o[2]) / od[2];
-                    [(o[0] + od[0] * s) / focus_distance_mm, (o[1] + od[1] * s) / focus_distance_mm]
+                    [
+                        (o[0] + od[0] * s) / focus_distance_mm,
+                        (o[1] + od[1] * s) / focus_distance_mm,
+                    ]
                 } else {
                     [od[0] / od[2], od[1] / od[2]]
                 };
@@ -327,7 +441,11 @@ impl Rtf {
                 s2 += w * (t[0] * t[0] + t[1] * t[1]);
             }
         }
-        (sw > 0.0).then(|| (s2 / sw - (s1[0] / sw).powi(2) - (s1[1] / sw).powi(2)).max(0.0).sqrt())
+        (sw > 0.0).then(|| {
+            (s2 / sw - (s1[0] / sw).powi(2) - (s1[1] / sw).powi(2))
+                .max(0.0)
+                .sqrt()
+        })
     }
 
     /// The ray from film point `p` (mm), the film `dz` mm behind the input plane, toward point `q`
@@ -344,7 +462,11 @@ impl Rtf {
         let rho2 = v[0] * v[0] + v[1] * v[1] + dd * dd;
         let rho = rho2.sqrt();
         let t = dz / dd;
-        Some(([p[0] + v[0] * t, p[1] + v[1] * t], [v[0] / rho, v[1] / rho, v[2] / rho], dd * dd / (rho2 * rho2)))
+        Some((
+            [p[0] + v[0] * t, p[1] + v[1] * t],
+            [v[0] / rho, v[1] / rho, v[2] / rho],
+            dd * dd / (rho2 * rho2),
+        ))
     }
 
     /// The pass ellipse that governs the rays from film point (0, `r_mm`), the film `dz` mm behind
@@ -412,24 +534,40 @@ pub struct RelativeIlluminationRow {
 /// numbers (field in mm, relative illumination, effective F/#). The file may be Latin-1 (Zemax
 /// writes "µm"); non-numeric lines are header text.
 pub fn read_zemax_relative_illumination(path: &Path) -> Result<Vec<RelativeIlluminationRow>> {
-    let bytes = std::fs::read(path).map_err(|e| LensError::File { path: path.to_path_buf(), message: e.to_string() })?;
+    let bytes = std::fs::read(path).map_err(|e| LensError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let text = String::from_utf8_lossy(&bytes);
     let mut rows = Vec::new();
     for (n, line) in text.lines().enumerate() {
-        let nums: Vec<f64> = line.split_whitespace().map_while(|t| t.parse::<f64>().ok()).collect();
+        let nums: Vec<f64> = line
+            .split_whitespace()
+            .map_while(|t| t.parse::<f64>().ok())
+            .collect();
         let words = line.split_whitespace().count();
         if words == 3 && nums.len() == 3 && nums.iter().all(|v| v.is_finite()) {
-            rows.push(RelativeIlluminationRow { height_mm: nums[0], ri: nums[1], effective_f_number: nums[2] });
+            rows.push(RelativeIlluminationRow {
+                height_mm: nums[0],
+                ri: nums[1],
+                effective_f_number: nums[2],
+            });
         } else if !rows.is_empty() && words > 0 {
             return Err(LensError::Parse {
                 what: path.display().to_string(),
                 line: n + 1,
-                message: format!("'{}' is not three numbers (field mm, relative illumination, effective F/#)", line.trim()),
+                message: format!(
+                    "'{}' is not three numbers (field mm, relative illumination, effective F/#)",
+                    line.trim()
+                ),
             });
         }
     }
     if rows.is_empty() {
-        return Err(LensError::Lens { what: path.display().to_string(), message: "no relative illumination rows".into() });
+        return Err(LensError::Lens {
+            what: path.display().to_string(),
+            message: "no relative illumination rows".into(),
+        });
     }
     Ok(rows)
 }

@@ -15,12 +15,19 @@ pub struct Ray {
 impl Ray {
     /// A ray from `origin_mm` along `direction` (normalized here).
     pub fn new(origin_mm: [f64; 3], direction: [f64; 3]) -> Ray {
-        Ray { origin_mm, direction: normalize(direction) }
+        Ray {
+            origin_mm,
+            direction: normalize(direction),
+        }
     }
 
     /// The point at parameter `t` (mm along the ray).
     pub fn at(&self, t: f64) -> [f64; 3] {
-        [self.origin_mm[0] + t * self.direction[0], self.origin_mm[1] + t * self.direction[1], self.origin_mm[2] + t * self.direction[2]]
+        [
+            self.origin_mm[0] + t * self.direction[0],
+            self.origin_mm[1] + t * self.direction[1],
+            self.origin_mm[2] + t * self.direction[2],
+        ]
     }
 
     /// Where the ray meets the plane z = `z_mm` (`None` when parallel to it).
@@ -118,7 +125,11 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
             let sag = s.sag_mm(r)?;
             let g = p[2] - z0 - sag;
             let slope = s.sag_slope(r)?;
-            let dr_dt = if r > 0.0 { (p[0] * d[0] + p[1] * d[1]) / r } else { 0.0 };
+            let dr_dt = if r > 0.0 {
+                (p[0] * d[0] + p[1] * d[1]) / r
+            } else {
+                0.0
+            };
             let dg = d[2] - slope * dr_dt;
             if dg.abs() < 1e-300 {
                 return None;
@@ -137,7 +148,11 @@ fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
         return None;
     }
     let slope = s.sag_slope(r)?;
-    let n = if r > 0.0 { normalize([-slope * p[0] / r, -slope * p[1] / r, 1.0]) } else { [0.0, 0.0, 1.0] };
+    let n = if r > 0.0 {
+        normalize([-slope * p[0] / r, -slope * p[1] / r, 1.0])
+    } else {
+        [0.0, 0.0, 1.0]
+    };
     Some((t, n))
 }
 
@@ -176,8 +191,14 @@ impl Lens {
         let mut m = [[1.0, 0.0], [0.0, 1.0]];
         let mul = |a: [[f64; 2]; 2], b: [[f64; 2]; 2]| {
             [
-                [a[0][0] * b[0][0] + a[0][1] * b[1][0], a[0][0] * b[0][1] + a[0][1] * b[1][1]],
-                [a[1][0] * b[0][0] + a[1][1] * b[1][0], a[1][0] * b[0][1] + a[1][1] * b[1][1]],
+                [
+                    a[0][0] * b[0][0] + a[0][1] * b[1][0],
+                    a[0][0] * b[0][1] + a[0][1] * b[1][1],
+                ],
+                [
+                    a[1][0] * b[0][0] + a[1][1] * b[1][0],
+                    a[1][0] * b[0][1] + a[1][1] * b[1][1],
+                ],
             ]
         };
         let last = self.surfaces.len() - 1;
@@ -191,7 +212,12 @@ impl Lens {
             }
         }
         let (a, c, d) = (m[0][0], m[1][0], m[1][1]);
-        Paraxial { abcd: m, efl_mm: -1.0 / c, bfd_mm: -a / c, ffd_mm: d / c }
+        Paraxial {
+            abcd: m,
+            efl_mm: -1.0 / c,
+            bfd_mm: -a / c,
+            ffd_mm: d / c,
+        }
     }
 
     /// Trace `ray` (in object space, travelling toward +z) through every surface at
@@ -200,7 +226,14 @@ impl Lens {
         let z = self.vertex_z_mm();
         let mut r = *ray;
         for (i, s) in self.surfaces.iter().enumerate() {
-            r = self.through_surface(i, s, z[i], &r, self.index_before(i, wavelength_nm), s.medium.index(wavelength_nm))?;
+            r = self.through_surface(
+                i,
+                s,
+                z[i],
+                &r,
+                self.index_before(i, wavelength_nm),
+                s.medium.index(wavelength_nm),
+            )?;
         }
         Ok(r)
     }
@@ -212,7 +245,14 @@ impl Lens {
         let z = self.vertex_z_mm();
         let mut r = *ray;
         for (i, s) in self.surfaces.iter().enumerate().rev() {
-            r = self.through_surface(i, s, z[i], &r, s.medium.index(wavelength_nm), self.index_before(i, wavelength_nm))?;
+            r = self.through_surface(
+                i,
+                s,
+                z[i],
+                &r,
+                s.medium.index(wavelength_nm),
+                self.index_before(i, wavelength_nm),
+            )?;
         }
         Ok(r)
     }
@@ -229,24 +269,43 @@ impl Lens {
         for (i, s) in self.surfaces.iter().enumerate() {
             let n_in = self.index_before(i, wavelength_nm);
             let next = self.through_surface(i, s, z[i], &r, n_in, s.medium.index(wavelength_nm))?;
-            let d = [next.origin_mm[0] - r.origin_mm[0], next.origin_mm[1] - r.origin_mm[1], next.origin_mm[2] - r.origin_mm[2]];
+            let d = [
+                next.origin_mm[0] - r.origin_mm[0],
+                next.origin_mm[1] - r.origin_mm[1],
+                next.origin_mm[2] - r.origin_mm[2],
+            ];
             opl += n_in * dot(d, d).sqrt();
             if s.is_stop {
                 stop = next.origin_mm;
             }
             r = next;
         }
-        Ok(TracedPath { ray: r, optical_path_mm: opl, stop_point_mm: stop })
+        Ok(TracedPath {
+            ray: r,
+            optical_path_mm: opl,
+            stop_point_mm: stop,
+        })
     }
 
-    fn through_surface(&self, i: usize, s: &Surface, z0: f64, r: &Ray, n_in: f64, n_out: f64) -> Result<Ray, Blocked> {
+    fn through_surface(
+        &self,
+        i: usize,
+        s: &Surface,
+        z0: f64,
+        r: &Ray,
+        n_in: f64,
+        n_out: f64,
+    ) -> Result<Ray, Blocked> {
         if s.is_stop {
             let p = r.at_z(z0).ok_or(Blocked::Aperture(i))?;
             let t = (z0 - r.origin_mm[2]) / r.direction[2];
             if t < -1e-9 || p[0].hypot(p[1]) > s.semi_aperture_mm {
                 return Err(Blocked::Aperture(i));
             }
-            return Ok(Ray { origin_mm: p, direction: r.direction });
+            return Ok(Ray {
+                origin_mm: p,
+                direction: r.direction,
+            });
         }
         let (t, n) = intersect(s, z0, r).ok_or(Blocked::Aperture(i))?;
         let p = r.at(t);
@@ -254,7 +313,10 @@ impl Lens {
             return Err(Blocked::Aperture(i));
         }
         let d = refract(r.direction, n, n_in, n_out).ok_or(Blocked::TotalInternalReflection(i))?;
-        Ok(Ray { origin_mm: p, direction: d })
+        Ok(Ray {
+            origin_mm: p,
+            direction: d,
+        })
     }
 
     /// Effective focal length and back focal distance by real ray tracing: a ray parallel to the
@@ -262,7 +324,8 @@ impl Lens {
     /// definition, exact as h -> 0), BFD = axial distance from the last vertex to where the ray
     /// crosses the axis.
     pub fn traced_focus(&self, h_mm: f64, wavelength_nm: f64) -> Result<(f64, f64), Blocked> {
-        let out = self.trace_forward(&Ray::new([0.0, h_mm, -1.0], [0.0, 0.0, 1.0]), wavelength_nm)?;
+        let out =
+            self.trace_forward(&Ray::new([0.0, h_mm, -1.0], [0.0, 0.0, 1.0]), wavelength_nm)?;
         let d = out.direction;
         let tan_u = d[1] / d[2];
         let efl = -h_mm / tan_u;

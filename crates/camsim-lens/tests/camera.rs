@@ -4,14 +4,24 @@
 use camsim_lens::{Lens, LensCamera, Medium, Surface};
 use std::path::Path;
 
-const LENS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens");
+const LENS_DIR: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/data/isetcornellbox/lens"
+);
 
 #[test]
 fn focused_at_infinity_a_film_point_leaves_as_a_parallel_beam() {
-    let lens = Lens::from_file(&Path::new(LENS_DIR).join("dgauss.82deg.4.38mm.json")).unwrap().with_stop_semi_aperture_mm(0.4);
+    let lens = Lens::from_file(&Path::new(LENS_DIR).join("dgauss.82deg.4.38mm.json"))
+        .unwrap()
+        .with_stop_semi_aperture_mm(0.4);
     let p = lens.paraxial(550.0);
     let cam = LensCamera::focused(lens, f64::INFINITY, 2.0).unwrap();
-    assert!((cam.film_distance_mm - p.bfd_mm).abs() < 1e-3 * p.efl_mm, "{} vs {}", cam.film_distance_mm, p.bfd_mm);
+    assert!(
+        (cam.film_distance_mm - p.bfd_mm).abs() < 1e-3 * p.efl_mm,
+        "{} vs {}",
+        cam.film_distance_mm,
+        p.bfd_mm
+    );
     // From a film point near the axis, every passing ray leaves at the same angle, tan = h / f.
     let h = 0.02;
     let b = cam.exit_pupil_bounds(h);
@@ -26,14 +36,24 @@ fn focused_at_infinity_a_film_point_leaves_as_a_parallel_beam() {
         }
     }
     assert!(slopes.len() > 20, "{} rays passed", slopes.len());
-    let (lo, hi) = slopes.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, s| (a.0.min(*s), a.1.max(*s)));
-    println!("{} rays; slope {lo:.6} .. {hi:.6}; h / f = {:.6}", slopes.len(), h / p.efl_mm);
+    let (lo, hi) = slopes
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, s| {
+            (a.0.min(*s), a.1.max(*s))
+        });
+    println!(
+        "{} rays; slope {lo:.6} .. {hi:.6}; h / f = {:.6}",
+        slopes.len(),
+        h / p.efl_mm
+    );
     // Parallel within the lens's residual aberration: 1 mrad, a 4 um blur at f = 4.38 mm.
     assert!(hi - lo < 1e-3, "not collimated: {lo} .. {hi}");
     assert!(((lo + hi) / 2.0 / (h / p.efl_mm) - 1.0).abs() < 0.02);
     // Outside the bounds nothing passes.
     for (x, y) in [(b[1] + 0.05, 0.0), (b[0] - 0.05, 0.0), (0.0, b[3] + 0.05)] {
-        assert!(cam.trace_ray([h, 0.0], [x - h, y, -cam.film_distance_mm], 550.0).is_none());
+        assert!(cam
+            .trace_ray([h, 0.0], [x - h, y, -cam.film_distance_mm], 550.0)
+            .is_none());
     }
 }
 
@@ -41,15 +61,16 @@ fn focused_at_infinity_a_film_point_leaves_as_a_parallel_beam() {
 /// illumination of the traced lens tends to cos^4 of the chief-ray angle.
 #[test]
 fn traced_relative_illumination_approaches_cos4_for_a_thin_lens() {
-    let surf = |radius_mm: f64, thickness_mm: f64, medium: Medium, semi: f64, is_stop: bool| Surface {
-        radius_mm,
-        thickness_mm,
-        medium,
-        semi_aperture_mm: semi,
-        conic: 0.0,
-        aspheric: vec![],
-        is_stop,
-    };
+    let surf =
+        |radius_mm: f64, thickness_mm: f64, medium: Medium, semi: f64, is_stop: bool| Surface {
+            radius_mm,
+            thickness_mm,
+            medium,
+            semi_aperture_mm: semi,
+            conic: 0.0,
+            aspheric: vec![],
+            is_stop,
+        };
     let lens = Lens {
         name: "thin".into(),
         surfaces: vec![

@@ -31,8 +31,15 @@ fn plate_optical_path_matches_the_closed_form() {
         let p = lens.trace_forward_path(&ray, 550.0).unwrap();
         let th_g = (th.sin() / n_glass).asin();
         let want = 1.1 / th.cos() + n_glass * 2.0 / th_g.cos();
-        println!("{theta_deg} deg: OPL {:.12} mm (closed form {want:.12})", p.optical_path_mm);
-        assert!((p.optical_path_mm - want).abs() < 1e-12, "{theta_deg}: {} vs {want}", p.optical_path_mm);
+        println!(
+            "{theta_deg} deg: OPL {:.12} mm (closed form {want:.12})",
+            p.optical_path_mm
+        );
+        assert!(
+            (p.optical_path_mm - want).abs() < 1e-12,
+            "{theta_deg}: {} vs {want}",
+            p.optical_path_mm
+        );
         assert!((p.stop_point_mm[0] - th.tan()).abs() < 1e-12 && p.stop_point_mm[2].abs() < 1e-12);
         // The ray leaves parallel to how it came in (a plate does not deviate).
         assert!((p.ray.direction[0] - th.sin()).abs() < 1e-12);

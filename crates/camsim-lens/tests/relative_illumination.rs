@@ -5,12 +5,20 @@
 use camsim_lens::rtf::{read_zemax_relative_illumination, Rtf};
 use std::path::Path;
 
-const LENS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens");
+const LENS_DIR: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/data/isetcornellbox/lens"
+);
 
 #[test]
 fn rtf_relative_illumination_matches_zemax() {
-    let rtf = Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json")).unwrap();
-    let zemax = read_zemax_relative_illumination(&Path::new(LENS_DIR).join("zemax-relative-illumination.txt")).unwrap();
+    let rtf =
+        Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json"))
+            .unwrap();
+    let zemax = read_zemax_relative_illumination(
+        &Path::new(LENS_DIR).join("zemax-relative-illumination.txt"),
+    )
+    .unwrap();
     assert_eq!(zemax.len(), 21);
     let heights: Vec<f64> = zemax.iter().map(|r| r.height_mm).collect();
     let ri = rtf.relative_illumination(&heights, 400);
@@ -20,7 +28,14 @@ fn rtf_relative_illumination_matches_zemax() {
         let r = r.expect("inside the RTF's table");
         let d = r - z.ri;
         worst_abs = worst_abs.max(d.abs());
-        println!("| {:.4} | {:.4} | {:.4} | {:+.4} | {:+.2} % |", z.height_mm, z.ri, r, d, 100.0 * d / z.ri);
+        println!(
+            "| {:.4} | {:.4} | {:.4} | {:+.4} | {:+.2} % |",
+            z.height_mm,
+            z.ri,
+            r,
+            d,
+            100.0 * d / z.ri
+        );
     }
     println!("largest |RTF - Zemax| = {worst_abs:.4}");
     assert!(worst_abs <= 0.02, "{worst_abs}");
@@ -30,7 +45,13 @@ fn rtf_relative_illumination_matches_zemax() {
     for (z, r) in zemax.iter().zip(&ri) {
         let rel = (r.unwrap() / z.ri - 1.0).abs();
         let bound = if z.height_mm <= 2.65 { 0.02 } else { 0.04 };
-        assert!(rel <= bound, "{} mm: {:.2} % > {:.0} %", z.height_mm, 100.0 * rel, 100.0 * bound);
+        assert!(
+            rel <= bound,
+            "{} mm: {:.2} % > {:.0} %",
+            z.height_mm,
+            100.0 * rel,
+            100.0 * bound
+        );
     }
 }
 
@@ -45,11 +66,21 @@ fn rtf_relative_illumination_matches_zemax() {
 /// relative illumination cannot be expected to follow Zemax's closer than the few per cent seen.
 #[test]
 fn rtf_pass_region_is_an_f3_4_pupil_while_zemax_integrates_f1_83() {
-    let rtf = Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json")).unwrap();
-    let zemax = read_zemax_relative_illumination(&Path::new(LENS_DIR).join("zemax-relative-illumination.txt")).unwrap();
+    let rtf =
+        Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json"))
+            .unwrap();
+    let zemax = read_zemax_relative_illumination(
+        &Path::new(LENS_DIR).join("zemax-relative-illumination.txt"),
+    )
+    .unwrap();
     for z in &zemax {
         let implied = (zemax[0].effective_f_number / z.effective_f_number).powi(2);
-        assert!((implied / z.ri - 1.0).abs() < 1e-3, "{}: RI {} against (N0/N)^2 {implied}", z.height_mm, z.ri);
+        assert!(
+            (implied / z.ri - 1.0).abs() < 1e-3,
+            "{}: RI {} against (N0/N)^2 {implied}",
+            z.height_mm,
+            z.ri
+        );
     }
     let omega_rtf_sr = rtf.irradiance(0.0, 400).unwrap();
     let n_rtf = 1.0 / (2.0 * (omega_rtf_sr / std::f64::consts::PI).sqrt());
@@ -70,7 +101,9 @@ fn rtf_pass_region_is_an_f3_4_pupil_while_zemax_integrates_f1_83() {
 /// `RealisticCamera` weight for uniform sampling of a plane at distance D).
 #[test]
 fn rtf_irradiance_matches_a_render_through_trace() {
-    let rtf = Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json")).unwrap();
+    let rtf =
+        Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json"))
+            .unwrap();
     let d = rtf.pass_plane_distance_mm;
     for h in [0.0, 1.75, 3.0] {
         let e = rtf.pass_ellipse(h).unwrap();
@@ -94,15 +127,23 @@ fn rtf_irradiance_matches_a_render_through_trace() {
         }
         let render = sum * (2.0 * half).powi(2) / (n as f64 * d * d);
         let integral = rtf.irradiance(h, 400).unwrap();
-        println!("h {h} mm: render {render:.6} sr, integral {integral:.6} sr, ratio {:.5}", render / integral);
-        assert!((render / integral - 1.0).abs() < 2e-3, "{h}: {render} against {integral}");
+        println!(
+            "h {h} mm: render {render:.6} sr, integral {integral:.6} sr, ratio {:.5}",
+            render / integral
+        );
+        assert!(
+            (render / integral - 1.0).abs() < 2e-3,
+            "{h}: {render} against {integral}"
+        );
     }
 }
 
 #[test]
 fn rtf_on_axis_point_leaves_collimated_and_the_focal_length_is_4_38_mm() {
     // A film point on the axis leaves as a parallel beam (the input plane is the focal plane).
-    let rtf = Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json")).unwrap();
+    let rtf =
+        Rtf::from_file(&Path::new(LENS_DIR).join("pixel4a-rearcamera-ellipse-raytransfer.json"))
+            .unwrap();
     // The polynomial's constant term puts the axial ray 2.5 um off the axis: measure from it.
     let h0 = rtf.trace([0.0, 0.0], [0.0, 0.0, 1.0]).expect("passes").0[1];
     for dy in [0.02f64, 0.05, 0.1] {
@@ -122,9 +163,20 @@ fn rtf_on_axis_point_leaves_collimated_and_the_focal_length_is_4_38_mm() {
     // Rotational symmetry: the same ray rotated about the axis gives the rotated output.
     // The ray from (0, 1.5) toward the middle of its pass ellipse, and the same rotated by 90 deg.
     let e = rtf.pass_ellipse(1.5).unwrap();
-    let v = [e.center_mm[0], e.center_mm[1] - 1.5, rtf.pass_plane_distance_mm];
+    let v = [
+        e.center_mm[0],
+        e.center_mm[1] - 1.5,
+        rtf.pass_plane_distance_mm,
+    ];
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let a = rtf.trace([0.0, 1.5], [v[0] / n, v[1] / n, v[2] / n]).unwrap();
-    let b = rtf.trace([1.5, 0.0], [v[1] / n, -v[0] / n, v[2] / n]).unwrap();
-    assert!((a.0[1] - b.0[0]).abs() < 1e-12 && (a.0[0] + b.0[1]).abs() < 1e-12, "{a:?} {b:?}");
+    let a = rtf
+        .trace([0.0, 1.5], [v[0] / n, v[1] / n, v[2] / n])
+        .unwrap();
+    let b = rtf
+        .trace([1.5, 0.0], [v[1] / n, -v[0] / n, v[2] / n])
+        .unwrap();
+    assert!(
+        (a.0[1] - b.0[0]).abs() < 1e-12 && (a.0[0] + b.0[1]).abs() < 1e-12,
+        "{a:?} {b:?}"
+    );
 }

@@ -32,13 +32,27 @@ fn scene(depth: bool) -> SpectralImage {
     data.chunks_mut(cols).enumerate().for_each(|(i, row)| {
         let r = i % rows;
         for (c, v) in row.iter_mut().enumerate() {
-            *v = if ((r / 64) + (c / 64)) % 2 == 0 { 0.02 } else { 0.01 };
+            *v = if ((r / 64) + (c / 64)) % 2 == 0 {
+                0.02
+            } else {
+                0.01
+            };
         }
     });
-    let mut img = SpectralImage::from_data(rows, cols, grid, scene_dx, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry { fov_deg: 0.0, distance_m: d, focal_length_m: 0.0, f_number: 0.0 };
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, scene_dx, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg: 0.0,
+        distance_m: d,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     if depth {
-        img.depth_m = Some((0..rows * cols).map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32).collect());
+        img.depth_m = Some(
+            (0..rows * cols)
+                .map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32)
+                .collect(),
+        );
     }
     img
 }
@@ -52,7 +66,10 @@ fn optics(focus: f64) -> Optics {
 
 /// The shift-variant optics from a traced lens file or an RTF file (shared reference data).
 fn shift_variant(f_number: f64, lens: Option<&str>, rtf: Option<&str>) -> Optics {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens/");
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/isetcornellbox/lens/"
+    );
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.f_number = f_number;
     c.wavefront = Default::default();
@@ -71,10 +88,14 @@ fn shift_variant(f_number: f64, lens: Option<&str>, rtf: Option<&str>) -> Optics
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("optics_imx363_31bands");
-    g.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(40));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(40));
     let img = scene(false);
     let o = optics(0.3);
-    g.bench_function("shift_invariant_defocus", |b| b.iter(|| o.compute(&img).unwrap()));
+    g.bench_function("shift_invariant_defocus", |b| {
+        b.iter(|| o.compute(&img).unwrap())
+    });
     drop(img);
     let img = scene(true);
     let o = optics(0.5);
@@ -84,10 +105,19 @@ fn bench(c: &mut Criterion) {
     // the lens's field of view), as examples/time_shift_variant.rs.
     let mut img = scene(false);
     img.sample_spacing_m = 1.4e-6;
-    img.geometry = ImageGeometry { fov_deg: 2.0 * (4032.0 * 1.4e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(), ..Default::default() };
+    img.geometry = ImageGeometry {
+        fov_deg: 2.0 * (4032.0 * 1.4e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(),
+        ..Default::default()
+    };
     let o = shift_variant(2.8, Some("dgauss.82deg.4.38mm.json"), None);
-    g.bench_function("shift_variant_traced_lens", |b| b.iter(|| o.compute(&img).unwrap()));
-    let o = shift_variant(3.44, None, Some("pixel4a-rearcamera-ellipse-raytransfer.json"));
+    g.bench_function("shift_variant_traced_lens", |b| {
+        b.iter(|| o.compute(&img).unwrap())
+    });
+    let o = shift_variant(
+        3.44,
+        None,
+        Some("pixel4a-rearcamera-ellipse-raytransfer.json"),
+    );
     g.bench_function("shift_variant_rtf", |b| b.iter(|| o.compute(&img).unwrap()));
     g.finish();
 }

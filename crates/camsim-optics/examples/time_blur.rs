@@ -13,13 +13,24 @@ fn main() {
     let f: f64 = 4.38e-3;
     let v = 1.0 / (1.0 / f - 1.0 / 0.3);
     let data = vec![0.01f32; rows * cols * grid.len()];
-    let mut img = SpectralImage::from_data(rows, cols, grid, 1.4e-6 * d / v, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry { fov_deg: 0.0, distance_m: d, focal_length_m: 0.0, f_number: 0.0 };
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, 1.4e-6 * d / v, Quantity::Radiance, data)
+            .unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg: 0.0,
+        distance_m: d,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.focus_distance_m = Some(0.3);
     c.psf.far_tail = !notail;
     if depth {
-        img.depth_m = Some((0..rows * cols).map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32).collect());
+        img.depth_m = Some(
+            (0..rows * cols)
+                .map(|i| 0.35 + 2.65 * (i % cols) as f32 / cols as f32)
+                .collect(),
+        );
         c.focus_distance_m = Some(0.5);
     }
     let o = Optics::from_config(&c).unwrap();

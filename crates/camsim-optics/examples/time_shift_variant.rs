@@ -18,21 +18,37 @@ use std::time::Instant;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let which: Vec<&str> = if args.is_empty() { vec!["invariant", "zernike", "lens"] } else { args.iter().map(|s| s.as_str()).collect() };
+    let which: Vec<&str> = if args.is_empty() {
+        vec!["invariant", "zernike", "lens"]
+    } else {
+        args.iter().map(|s| s.as_str()).collect()
+    };
     let (rows, cols) = (3024usize, 4032usize);
     let grid = WavelengthGrid::default();
     let f: f64 = 4.38e-3;
     let spacing = 1.4e-6;
-    let data: Vec<f32> = (0..rows * cols * grid.len()).map(|i| 0.01 + 0.005 * ((i % 4032) / 64 % 2) as f32).collect();
-    let mut img = SpectralImage::from_data(rows, cols, grid, spacing, Quantity::Radiance, data).unwrap();
+    let data: Vec<f32> = (0..rows * cols * grid.len())
+        .map(|i| 0.01 + 0.005 * ((i % 4032) / 64 % 2) as f32)
+        .collect();
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, spacing, Quantity::Radiance, data).unwrap();
     let fov = 2.0 * (cols as f64 * spacing / 2.0 / f).atan().to_degrees();
-    img.geometry = ImageGeometry { fov_deg: fov, distance_m: 0.0, focal_length_m: 0.0, f_number: 0.0 };
+    img.geometry = ImageGeometry {
+        fov_deg: fov,
+        distance_m: 0.0,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     for w in which {
         let mut c = OpticsConfig::preset("pixel4a").unwrap();
-        let sv = |fz: Option<FieldZernikeConfig>, lens: Option<std::path::PathBuf>, rtf: Option<std::path::PathBuf>| BlurConfig {
+        let sv = |fz: Option<FieldZernikeConfig>,
+                  lens: Option<std::path::PathBuf>,
+                  rtf: Option<std::path::PathBuf>| BlurConfig {
             method: BlurKind::ShiftVariant,
             field_heights: 12,
-            block_px: std::env::var("SV_BLOCK_PX").ok().and_then(|v| v.parse().ok()),
+            block_px: std::env::var("SV_BLOCK_PX")
+                .ok()
+                .and_then(|v| v.parse().ok()),
             rotation_oversampling: 3,
             lens_file: lens,
             rtf_file: rtf,

@@ -248,13 +248,19 @@ impl ZernikeTerms {
             ZernikeTerms::Terms(t) => {
                 let n = t.iter().map(|z| z.j + 1).max().unwrap_or(0);
                 if n > 231 {
-                    return Err(OpticsError::config("wavefront.zernike_um", format!("j = {} is beyond 230 (radial order 20)", n - 1)));
+                    return Err(OpticsError::config(
+                        "wavefront.zernike_um",
+                        format!("j = {} is beyond 230 (radial order 20)", n - 1),
+                    ));
                 }
                 let mut v = vec![0.0; n];
                 let mut seen = vec![false; n];
                 for z in t {
                     if seen[z.j] {
-                        return Err(OpticsError::config("wavefront.zernike_um", format!("j = {} is given twice", z.j)));
+                        return Err(OpticsError::config(
+                            "wavefront.zernike_um",
+                            format!("j = {} is given twice", z.j),
+                        ));
                     }
                     seen[z.j] = true;
                     v[z.j] = z.c;
@@ -407,7 +413,14 @@ fn default_min_pupil() -> usize {
 
 impl Default for PsfOptions {
     fn default() -> Self {
-        PsfOptions { oversampling: 1, tail_energy: 0.01, max_kernel_size: 1025, min_pupil_samples: 64, far_tail: true, method: BlurMethod::Auto }
+        PsfOptions {
+            oversampling: 1,
+            tail_energy: 0.01,
+            max_kernel_size: 1025,
+            min_pupil_samples: 64,
+            far_tail: true,
+            method: BlurMethod::Auto,
+        }
     }
 }
 
@@ -427,12 +440,18 @@ pub enum Padding {
 impl OpticsConfig {
     /// Parse TOML text; `what` (file or preset name) names it in errors.
     pub fn from_toml_str(text: &str, what: &str) -> Result<Self> {
-        toml::from_str(text).map_err(|e| OpticsError::Parse { what: what.to_string(), message: e.to_string() })
+        toml::from_str(text).map_err(|e| OpticsError::Parse {
+            what: what.to_string(),
+            message: e.to_string(),
+        })
     }
 
     /// Read a TOML file; a relative shading file path is resolved against the file's folder.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| OpticsError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        let text = std::fs::read_to_string(path).map_err(|e| OpticsError::File {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         let mut c = Self::from_toml_str(&text, &path.display().to_string())?;
         if let ShadingConfig::File(f) = &mut c.shading {
             if f.file.is_relative() {
@@ -441,7 +460,13 @@ impl OpticsConfig {
                 }
             }
         }
-        for l in c.blur.as_mut().into_iter().flat_map(|b| [b.lens_file.as_mut(), b.rtf_file.as_mut()]).flatten() {
+        for l in c
+            .blur
+            .as_mut()
+            .into_iter()
+            .flat_map(|b| [b.lens_file.as_mut(), b.rtf_file.as_mut()])
+            .flatten()
+        {
             if l.is_relative() {
                 if let Some(dir) = path.parent() {
                     *l = dir.join(&*l);
@@ -459,7 +484,13 @@ impl OpticsConfig {
     /// A built-in preset's config (see [`crate::presets::names`]).
     pub fn preset(name: &str) -> Result<Self> {
         let text = crate::presets::toml_text(name).ok_or_else(|| {
-            OpticsError::config("preset", format!("unknown optics preset '{name}'; known: {}", crate::presets::names().join(", ")))
+            OpticsError::config(
+                "preset",
+                format!(
+                    "unknown optics preset '{name}'; known: {}",
+                    crate::presets::names().join(", ")
+                ),
+            )
         })?;
         Self::from_toml_str(text, &format!("optics preset {name}"))
     }

@@ -102,7 +102,10 @@ impl TileConvolver {
 
     /// Plans for kernels of side `k` (odd) with FFT tile side `f` (even, > k).
     pub fn with_tile(k: usize, f: usize) -> Self {
-        assert!(k % 2 == 1 && f % 2 == 0 && f > k, "kernel size must be odd and smaller than the tile");
+        assert!(
+            k % 2 == 1 && f % 2 == 0 && f > k,
+            "kernel size must be odd and smaller than the tile"
+        );
         let mut rp = RealFftPlanner::<f32>::new();
         let mut cp = FftPlanner::<f32>::new();
         TileConvolver {
@@ -126,7 +129,12 @@ impl TileConvolver {
             cols: vec![z; nc * self.f],
             acc: Vec::new(),
             r_scratch: vec![z; self.r2c.get_scratch_len().max(self.c2r.get_scratch_len())],
-            c_scratch: vec![z; self.col_fwd.get_inplace_scratch_len().max(self.col_inv.get_inplace_scratch_len())],
+            c_scratch: vec![
+                z;
+                self.col_fwd
+                    .get_inplace_scratch_len()
+                    .max(self.col_inv.get_inplace_scratch_len())
+            ],
         }
     }
 
@@ -134,20 +142,29 @@ impl TileConvolver {
     /// column-major `s.cols` (zero below `rows_in`); the column transforms are left to the caller.
     /// Scattering row by row needs no separate transpose pass: a 64-byte line holds 8 complex
     /// samples, so the (F/2+1) destination lines stay in L1 for 8 consecutive rows.
-    fn rows_forward(&self, rows_in: usize, s: &mut Scratch, mut fill: impl FnMut(usize, &mut [f32])) {
+    fn rows_forward(
+        &self,
+        rows_in: usize,
+        s: &mut Scratch,
+        mut fill: impl FnMut(usize, &mut [f32]),
+    ) {
         let f = self.f;
         let nc = f / 2 + 1;
         for r in 0..rows_in {
             s.row.iter_mut().for_each(|v| *v = 0.0);
             fill(r, &mut s.row);
-            self.r2c.process_with_scratch(&mut s.row, &mut s.row_spec, &mut s.r_scratch).expect("r2c buffer sizes");
+            self.r2c
+                .process_with_scratch(&mut s.row, &mut s.row_spec, &mut s.r_scratch)
+                .expect("r2c buffer sizes");
             for (c, v) in s.row_spec.iter().enumerate() {
                 s.cols[c * f + r] = *v;
             }
         }
         let z = Complex32::new(0.0, 0.0);
         for c in 0..nc {
-            s.cols[c * f + rows_in..(c + 1) * f].iter_mut().for_each(|v| *v = z);
+            s.cols[c * f + rows_in..(c + 1) * f]
+                .iter_mut()
+                .for_each(|v| *v = z);
         }
     }
 
@@ -156,8 +173,11 @@ impl TileConvolver {
         assert_eq!(kernel.len(), self.k * self.k);
         let mut s = self.scratch();
         let k = self.k;
-        self.rows_forward(k, &mut s, |r, row| row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k]));
-        self.col_fwd.process_with_scratch(&mut s.cols, &mut s.c_scratch);
+        self.rows_forward(k, &mut s, |r, row| {
+            row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k])
+        });
+        self.col_fwd
+            .process_with_scratch(&mut s.cols, &mut s.c_scratch);
         let scale = 1.0 / (self.f * self.f) as f32;
         s.cols.iter_mut().for_each(|c| *c *= scale);
         KernelSpectrum(s.cols)
@@ -168,12 +188,16 @@ impl TileConvolver {
     pub fn kernel_spectrum_in(&self, kernel: &[f32], s: &mut Scratch, out: &mut KernelSpectrum) {
         assert_eq!(kernel.len(), self.k * self.k);
         let (k, f) = (self.k, self.f);
-        self.rows_forward(k, s, |r, row| row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k]));
+        self.rows_forward(k, s, |r, row| {
+            row[..k].copy_from_slice(&kernel[r * k..(r + 1) * k])
+        });
         out.0.resize(s.cols.len(), Complex32::new(0.0, 0.0));
         let scale = 1.0 / (f * f) as f32;
         for (col, o) in s.cols.chunks_exact_mut(f).zip(out.0.chunks_exact_mut(f)) {
             self.col_fwd.process_with_scratch(col, &mut s.c_scratch);
-            o.iter_mut().zip(col.iter()).for_each(|(o, c)| *o = *c * scale);
+            o.iter_mut()
+                .zip(col.iter())
+                .for_each(|(o, c)| *o = *c * scale);
         }
     }
 
@@ -192,7 +216,9 @@ impl TileConvolver {
         s: &mut Scratch,
         mut load: impl FnMut(usize, &mut [f32]),
     ) {
-        self.tile_sum(r0, c0, tr, tc, &[spec], out, win, s, |_, r, dst| load(r, dst));
+        self.tile_sum(r0, c0, tr, tc, &[spec], out, win, s, |_, r, dst| {
+            load(r, dst)
+        });
     }
 
     /// Sum of convolutions over one tile: `sum_i specs[i] * input_i`, where `load(i, r, dst)`
@@ -235,9 +261,15 @@ impl TileConvolver {
                 } else {
                     let acc = &mut s.acc[j * f..(j + 1) * f];
                     if i == 0 {
-                        acc.iter_mut().zip(col.iter()).zip(kcol).for_each(|((a, c), k)| *a = *c * *k);
+                        acc.iter_mut()
+                            .zip(col.iter())
+                            .zip(kcol)
+                            .for_each(|((a, c), k)| *a = *c * *k);
                     } else {
-                        acc.iter_mut().zip(col.iter()).zip(kcol).for_each(|((a, c), k)| *a += *c * *k);
+                        acc.iter_mut()
+                            .zip(col.iter())
+                            .zip(kcol)
+                            .for_each(|((a, c), k)| *a += *c * *k);
                     }
                     if i == last {
                         col.copy_from_slice(acc);
@@ -262,7 +294,9 @@ impl TileConvolver {
             // The row-DC and Nyquist columns are real for a real image; drop round-off.
             s.row_spec[0].im = 0.0;
             s.row_spec[nc - 1].im = 0.0;
-            self.c2r.process_with_scratch(&mut s.row_spec, &mut s.row, &mut s.r_scratch).expect("c2r buffer sizes");
+            self.c2r
+                .process_with_scratch(&mut s.row_spec, &mut s.row, &mut s.r_scratch)
+                .expect("c2r buffer sizes");
             let oc0 = c0 as isize - h + win.off_c;
             let lo = (-oc0).max(0) as usize;
             let hi = ((win.cols as isize - oc0).min(out_cols_n as isize)).max(0) as usize;
@@ -270,7 +304,8 @@ impl TileConvolver {
                 continue;
             }
             let base = orow as usize * win.cols;
-            let dst = &mut out[base + (oc0 + lo as isize) as usize..base + (oc0 + hi as isize) as usize];
+            let dst =
+                &mut out[base + (oc0 + lo as isize) as usize..base + (oc0 + hi as isize) as usize];
             for (d, v) in dst.iter_mut().zip(&s.row[lo..hi]) {
                 *d += *v;
             }
@@ -295,7 +330,14 @@ impl Fft2 {
     pub fn new(rows: usize, cols: usize) -> Self {
         let mut rp = RealFftPlanner::<f64>::new();
         let mut cp = FftPlanner::<f64>::new();
-        Fft2 { rows, cols, r2c: rp.plan_fft_forward(cols), c2r: rp.plan_fft_inverse(cols), col_fwd: cp.plan_fft_forward(rows), col_inv: cp.plan_fft_inverse(rows) }
+        Fft2 {
+            rows,
+            cols,
+            r2c: rp.plan_fft_forward(cols),
+            c2r: rp.plan_fft_inverse(cols),
+            col_fwd: cp.plan_fft_forward(rows),
+            col_inv: cp.plan_fft_inverse(rows),
+        }
     }
 
     /// Spectrum of a row-major plane, column-major: `cols/2 + 1` columns of `rows` values.
@@ -309,7 +351,9 @@ impl Fft2 {
         let mut scratch = vec![Complex64::new(0.0, 0.0); self.r2c.get_scratch_len()];
         for r in 0..rows {
             row.copy_from_slice(&plane[r * cols..(r + 1) * cols]);
-            self.r2c.process_with_scratch(&mut row, &mut rs, &mut scratch).expect("r2c buffer sizes");
+            self.r2c
+                .process_with_scratch(&mut row, &mut rs, &mut scratch)
+                .expect("r2c buffer sizes");
             for (c, v) in rs.iter().enumerate() {
                 spec[c * rows + r] = *v;
             }
@@ -343,7 +387,9 @@ impl Fft2 {
                 rs[nc - 1].im = 0.0;
             }
             let dst = &mut out[r * cols..(r + 1) * cols];
-            self.c2r.process_with_scratch(&mut rs, dst, &mut scratch).expect("c2r buffer sizes");
+            self.c2r
+                .process_with_scratch(&mut rs, dst, &mut scratch)
+                .expect("c2r buffer sizes");
             dst.iter_mut().for_each(|v| *v *= norm);
         }
         out
@@ -358,12 +404,19 @@ mod tests {
     #[test]
     fn matches_direct_convolution() {
         let (rows, cols, k) = (37usize, 53usize, 9usize);
-        let img: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect();
+        let img: Vec<f32> = (0..rows * cols)
+            .map(|i| ((i * 7919) % 101) as f32 / 101.0)
+            .collect();
         let ker: Vec<f32> = (0..k * k).map(|i| ((i * 31) % 17) as f32 + 1.0).collect();
         let conv = TileConvolver::new(k);
         let spec = conv.kernel_spectrum(&ker);
         let h = k / 2;
-        let win = OutputWindow { rows: rows + 2 * h, cols: cols + 2 * h, off_r: h as isize, off_c: h as isize };
+        let win = OutputWindow {
+            rows: rows + 2 * h,
+            cols: cols + 2 * h,
+            off_r: h as isize,
+            off_c: h as isize,
+        };
         let mut out = vec![0.0f32; win.rows * win.cols];
         let mut s = conv.scratch();
         // Use a small tile to exercise the overlap: split the image into 2 x 3 tiles.
@@ -390,12 +443,16 @@ mod tests {
                         let ir = orow as isize - kr as isize;
                         let ic = ocol as isize - kc as isize;
                         if ir >= 0 && ic >= 0 && (ir as usize) < rows && (ic as usize) < cols {
-                            want += img[ir as usize * cols + ic as usize] as f64 * ker[kr * k + kc] as f64;
+                            want += img[ir as usize * cols + ic as usize] as f64
+                                * ker[kr * k + kc] as f64;
                         }
                     }
                 }
                 let got = out[orow * win.cols + ocol] as f64;
-                assert!((got - want).abs() < 1e-4 * want.abs().max(1.0), "({orow},{ocol}) {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-4 * want.abs().max(1.0),
+                    "({orow},{ocol}) {got} vs {want}"
+                );
             }
         }
     }
@@ -405,26 +462,53 @@ mod tests {
     #[test]
     fn frequency_domain_sum_matches_direct_convolutions() {
         let (rows, cols, k) = (29usize, 41usize, 7usize);
-        let img: Vec<f32> = (0..rows * cols).map(|i| ((i * 7919) % 97) as f32 / 97.0).collect();
+        let img: Vec<f32> = (0..rows * cols)
+            .map(|i| ((i * 7919) % 97) as f32 / 97.0)
+            .collect();
         let layer = |r: usize, c: usize| (r / 5 + c / 6) % 2;
-        let kers: Vec<Vec<f32>> = (0..2).map(|j| (0..k * k).map(|i| ((i * (13 + 6 * j)) % 11) as f32 + 0.5).collect()).collect();
+        let kers: Vec<Vec<f32>> = (0..2)
+            .map(|j| {
+                (0..k * k)
+                    .map(|i| ((i * (13 + 6 * j)) % 11) as f32 + 0.5)
+                    .collect()
+            })
+            .collect();
         let conv = TileConvolver::with_tile(k, 32);
         let specs: Vec<KernelSpectrum> = kers.iter().map(|kk| conv.kernel_spectrum(kk)).collect();
         let spec_refs: Vec<&KernelSpectrum> = specs.iter().collect();
         let h = k / 2;
-        let win = OutputWindow { rows: rows + 2 * h, cols: cols + 2 * h, off_r: h as isize, off_c: h as isize };
+        let win = OutputWindow {
+            rows: rows + 2 * h,
+            cols: cols + 2 * h,
+            off_r: h as isize,
+            off_c: h as isize,
+        };
         let mut out = vec![0.0f32; win.rows * win.cols];
         let mut s = conv.scratch();
         let t = conv.t;
         for r0 in (0..rows).step_by(t) {
             for c0 in (0..cols).step_by(t) {
                 let (tr, tc) = (t.min(rows - r0), t.min(cols - c0));
-                conv.tile_sum(r0, c0, tr, tc, &spec_refs, &mut out, win, &mut s, |i, r, dst| {
-                    for (j, d) in dst.iter_mut().enumerate() {
-                        let (rr, cc) = (r0 + r, c0 + j);
-                        *d = if layer(rr, cc) == i { img[rr * cols + cc] } else { 0.0 };
-                    }
-                });
+                conv.tile_sum(
+                    r0,
+                    c0,
+                    tr,
+                    tc,
+                    &spec_refs,
+                    &mut out,
+                    win,
+                    &mut s,
+                    |i, r, dst| {
+                        for (j, d) in dst.iter_mut().enumerate() {
+                            let (rr, cc) = (r0 + r, c0 + j);
+                            *d = if layer(rr, cc) == i {
+                                img[rr * cols + cc]
+                            } else {
+                                0.0
+                            };
+                        }
+                    },
+                );
             }
         }
         for orow in 0..win.rows {
@@ -435,12 +519,16 @@ mod tests {
                         let (ir, ic) = (orow as isize - kr as isize, ocol as isize - kc as isize);
                         if ir >= 0 && ic >= 0 && (ir as usize) < rows && (ic as usize) < cols {
                             let (ir, ic) = (ir as usize, ic as usize);
-                            want += img[ir * cols + ic] as f64 * kers[layer(ir, ic)][kr * k + kc] as f64;
+                            want += img[ir * cols + ic] as f64
+                                * kers[layer(ir, ic)][kr * k + kc] as f64;
                         }
                     }
                 }
                 let got = out[orow * win.cols + ocol] as f64;
-                assert!((got - want).abs() < 1e-4 * want.abs().max(1.0), "({orow},{ocol}) {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-4 * want.abs().max(1.0),
+                    "({orow},{ocol}) {got} vs {want}"
+                );
             }
         }
     }

@@ -40,7 +40,10 @@ pub enum OpticsError {
 impl OpticsError {
     /// A config error for `key`.
     pub fn config(key: impl Into<String>, message: impl Into<String>) -> Self {
-        OpticsError::Config { key: key.into(), message: message.into() }
+        OpticsError::Config {
+            key: key.into(),
+            message: message.into(),
+        }
     }
 }
 

@@ -70,7 +70,13 @@ pub fn irradiance_factor(f_number: f64, magnification: f64, transmittance: f64) 
 /// focus distance (it focuses in front of the sensor); negative: nearer than the focus distance.
 /// Distances <= 0 or infinite mean infinity.
 pub fn defocus_w020_m(pupil_radius_m: f64, focus_distance_m: f64, object_distance_m: f64) -> f64 {
-    let inv = |d: f64| if d > 0.0 && d.is_finite() { 1.0 / d } else { 0.0 };
+    let inv = |d: f64| {
+        if d > 0.0 && d.is_finite() {
+            1.0 / d
+        } else {
+            0.0
+        }
+    };
     0.5 * pupil_radius_m * pupil_radius_m * (inv(focus_distance_m) - inv(object_distance_m))
 }
 
@@ -83,7 +89,12 @@ pub fn c4_from_w020(w020: f64) -> f64 {
 
 /// Defocus c4 in micrometres over the lens pupil for an object at `object_distance_m` when the
 /// lens is focused at `focus_distance_m` (thin lens; see [`defocus_w020_m`]).
-pub fn defocus_c4_um(focal_length_m: f64, f_number: f64, focus_distance_m: f64, object_distance_m: f64) -> f64 {
+pub fn defocus_c4_um(
+    focal_length_m: f64,
+    f_number: f64,
+    focus_distance_m: f64,
+    object_distance_m: f64,
+) -> f64 {
     let a = focal_length_m / f_number / 2.0;
     c4_from_w020(defocus_w020_m(a, focus_distance_m, object_distance_m)) * 1e6
 }
@@ -91,7 +102,12 @@ pub fn defocus_c4_um(focal_length_m: f64, f_number: f64, focus_distance_m: f64, 
 /// Geometric circle-of-confusion diameter (m) on a sensor at the image distance of
 /// `focus_distance_m`: c = A |v_sensor - v_obj| / v_obj, A = f / N (similar triangles).
 /// Equals 4 |W020| v_sensor / a, the transverse ray aberration of the defocus wavefront.
-pub fn circle_of_confusion_m(focal_length_m: f64, f_number: f64, focus_distance_m: f64, object_distance_m: f64) -> Option<f64> {
+pub fn circle_of_confusion_m(
+    focal_length_m: f64,
+    f_number: f64,
+    focus_distance_m: f64,
+    object_distance_m: f64,
+) -> Option<f64> {
     let vs = image_distance_m(focal_length_m, focus_distance_m)?;
     let vo = image_distance_m(focal_length_m, object_distance_m)?;
     Some(focal_length_m / f_number * (vs - vo).abs() / vo)
@@ -112,7 +128,10 @@ mod tests {
     #[test]
     fn diffraction_mtf_limits() {
         assert!((diffraction_mtf(0.0, 550.0, 2.0) - 1.0).abs() < 1e-15);
-        assert_eq!(diffraction_mtf(cutoff_cyc_per_mm(550.0, 2.0), 550.0, 2.0), 0.0);
+        assert_eq!(
+            diffraction_mtf(cutoff_cyc_per_mm(550.0, 2.0), 550.0, 2.0),
+            0.0
+        );
         // At s = 0.5: (2/pi)(pi/3 - 0.5 sqrt(0.75)) = 0.39100 (tabulated, e.g. Goodman fig. 6.10).
         assert!((diffraction_mtf_normalized(0.5) - 0.391002).abs() < 1e-6);
     }

@@ -74,23 +74,38 @@ impl SystemMtfModel {
             if v > 0.0 && v.is_finite() {
                 Ok(())
             } else {
-                Err(OpticsError::config(key, format!("{v} is not a positive number")))
+                Err(OpticsError::config(
+                    key,
+                    format!("{v} is not a positive number"),
+                ))
             }
         };
         pos("f_number", self.f_number)?;
         pos("focal_length_mm", self.focal_length_mm)?;
         pos("wavelength_nm", self.wavelength_nm)?;
         if !(self.pixel_pitch_um >= 0.0 && self.pixel_pitch_um.is_finite()) {
-            return Err(OpticsError::config("pixel_pitch_um", format!("{} is not a number >= 0", self.pixel_pitch_um)));
+            return Err(OpticsError::config(
+                "pixel_pitch_um",
+                format!("{} is not a number >= 0", self.pixel_pitch_um),
+            ));
         }
         if !(self.fill_factor > 0.0 && self.fill_factor <= 1.0) {
-            return Err(OpticsError::config("fill_factor", format!("{} is not in (0, 1]", self.fill_factor)));
+            return Err(OpticsError::config(
+                "fill_factor",
+                format!("{} is not in (0, 1]", self.fill_factor),
+            ));
         }
         if !self.defocus_um.is_finite() {
-            return Err(OpticsError::config("defocus_um", format!("{} is not a finite number", self.defocus_um)));
+            return Err(OpticsError::config(
+                "defocus_um",
+                format!("{} is not a finite number", self.defocus_um),
+            ));
         }
         if !(self.crosstalk_sigma_um >= 0.0 && self.crosstalk_sigma_um.is_finite()) {
-            return Err(OpticsError::config("crosstalk_sigma_um", format!("{} is not a number >= 0", self.crosstalk_sigma_um)));
+            return Err(OpticsError::config(
+                "crosstalk_sigma_um",
+                format!("{} is not a number >= 0", self.crosstalk_sigma_um),
+            ));
         }
         Ok(())
     }
@@ -98,7 +113,8 @@ impl SystemMtfModel {
     /// The lens MTF alone (wavefront model) at `freq_cyc_per_mm`.
     pub fn lens_mtf(&self, freq_cyc_per_mm: &[f64]) -> Result<Vec<f64>> {
         self.check()?;
-        LensCurve::new(self, self.defocus_um).map(|c| freq_cyc_per_mm.iter().map(|f| c.at(*f)).collect())
+        LensCurve::new(self, self.defocus_um)
+            .map(|c| freq_cyc_per_mm.iter().map(|f| c.at(*f)).collect())
     }
 
     /// Pixel aperture x crosstalk factor at `f_cyc_per_mm` (the sensor's share of the MTF).
@@ -106,13 +122,18 @@ impl SystemMtfModel {
         let f_per_um = f_cyc_per_mm * 1e-3;
         let side_um = self.pixel_pitch_um * self.fill_factor.sqrt();
         let s = self.crosstalk_sigma_um;
-        sinc(f_per_um * side_um).abs() * (-2.0 * std::f64::consts::PI.powi(2) * s * s * f_per_um * f_per_um).exp()
+        sinc(f_per_um * side_um).abs()
+            * (-2.0 * std::f64::consts::PI.powi(2) * s * s * f_per_um * f_per_um).exp()
     }
 
     /// The system MTF at each frequency (cycles/mm in the sensor plane).
     pub fn mtf(&self, freq_cyc_per_mm: &[f64]) -> Result<Vec<f64>> {
         let lens = self.lens_mtf(freq_cyc_per_mm)?;
-        Ok(freq_cyc_per_mm.iter().zip(lens).map(|(f, l)| l * self.sensor_factor(*f)).collect())
+        Ok(freq_cyc_per_mm
+            .iter()
+            .zip(lens)
+            .map(|(f, l)| l * self.sensor_factor(*f))
+            .collect())
     }
 }
 
@@ -125,9 +146,13 @@ struct LensCurve {
 
 impl LensCurve {
     fn new(m: &SystemMtfModel, defocus_um: f64) -> Result<Self> {
-        let wf = Wavefront::diffraction_limited(m.focal_length_mm * 1e-3, m.f_number)?.with_extra_defocus_um(defocus_um);
+        let wf = Wavefront::diffraction_limited(m.focal_length_mm * 1e-3, m.f_number)?
+            .with_extra_defocus_um(defocus_um);
         let c = wf.mtf(m.wavelength_nm)?;
-        Ok(LensCurve { freq_cyc_per_mm: c.freq_cyc_per_mm, mtf: c.mtf_x })
+        Ok(LensCurve {
+            freq_cyc_per_mm: c.freq_cyc_per_mm,
+            mtf: c.mtf_x,
+        })
     }
 
     /// Linear interpolation; 0 beyond the diffraction cutoff.
@@ -170,7 +195,10 @@ pub struct MtfFitOptions {
 impl Default for MtfFitOptions {
     fn default() -> Self {
         MtfFitOptions {
-            fit: FitParams { defocus: true, crosstalk: true },
+            fit: FitParams {
+                defocus: true,
+                crosstalk: true,
+            },
             max_freq_cyc_per_mm: f64::INFINITY,
             max_defocus_um: 1.0,
             max_crosstalk_sigma_um: 3.0,
@@ -207,10 +235,12 @@ pub struct MtfFit {
 /// First frequency where `mtf` falls below `level`, by linear interpolation between samples
 /// (`None` when it never does). Samples must be in increasing frequency.
 pub fn mtf_crossing(freq: &[f64], mtf: &[f64], level: f64) -> Option<f64> {
-    (1..freq.len().min(mtf.len())).find(|i| mtf[i - 1] >= level && mtf[*i] < level).map(|i| {
-        let w = (mtf[i - 1] - level) / (mtf[i - 1] - mtf[i]);
-        freq[i - 1] + w * (freq[i] - freq[i - 1])
-    })
+    (1..freq.len().min(mtf.len()))
+        .find(|i| mtf[i - 1] >= level && mtf[*i] < level)
+        .map(|i| {
+            let w = (mtf[i - 1] - level) / (mtf[i - 1] - mtf[i]);
+            freq[i - 1] + w * (freq[i] - freq[i - 1])
+        })
 }
 
 /// MTF50 of `model`, cycles/mm: bisection of the continuous model between samples 1 cycle/mm
@@ -225,8 +255,16 @@ pub fn model_mtf50(model: &SystemMtfModel) -> Result<Option<f64>> {
 /// RMS and largest absolute difference of `model` from the measurement at `freq` (same length).
 fn residual(model: &[f64], measured: &[f64]) -> (f64, f64) {
     let n = model.len().max(1) as f64;
-    let ss: f64 = model.iter().zip(measured).map(|(a, b)| (a - b).powi(2)).sum();
-    let mx = model.iter().zip(measured).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let ss: f64 = model
+        .iter()
+        .zip(measured)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum();
+    let mx = model
+        .iter()
+        .zip(measured)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
     ((ss / n).sqrt(), mx)
 }
 
@@ -241,32 +279,62 @@ pub fn fit_mtf(
 ) -> Result<(SystemMtfModel, MtfFit)> {
     start.check()?;
     if freq_cyc_per_mm.len() != measured.len() {
-        return Err(OpticsError::Input(format!("{} frequencies for {} MTF values", freq_cyc_per_mm.len(), measured.len())));
+        return Err(OpticsError::Input(format!(
+            "{} frequencies for {} MTF values",
+            freq_cyc_per_mm.len(),
+            measured.len()
+        )));
     }
-    if let Some(i) = (0..measured.len()).find(|i| !(freq_cyc_per_mm[*i].is_finite() && measured[*i].is_finite())) {
-        return Err(OpticsError::Input(format!("point {} ({}, {}) is not finite", i + 1, freq_cyc_per_mm[i], measured[i])));
+    if let Some(i) =
+        (0..measured.len()).find(|i| !(freq_cyc_per_mm[*i].is_finite() && measured[*i].is_finite()))
+    {
+        return Err(OpticsError::Input(format!(
+            "point {} ({}, {}) is not finite",
+            i + 1,
+            freq_cyc_per_mm[i],
+            measured[i]
+        )));
     }
-    if freq_cyc_per_mm.windows(2).any(|w| w[1] <= w[0]) || freq_cyc_per_mm.first().is_some_and(|f| *f < 0.0) {
-        return Err(OpticsError::Input("the frequencies must be >= 0 and increasing".into()));
+    if freq_cyc_per_mm.windows(2).any(|w| w[1] <= w[0])
+        || freq_cyc_per_mm.first().is_some_and(|f| *f < 0.0)
+    {
+        return Err(OpticsError::Input(
+            "the frequencies must be >= 0 and increasing".into(),
+        ));
     }
     if !(opts.max_defocus_um > 0.0 && opts.max_crosstalk_sigma_um > 0.0) {
-        return Err(OpticsError::Input("the search bounds must be positive".into()));
+        return Err(OpticsError::Input(
+            "the search bounds must be positive".into(),
+        ));
     }
-    let used: Vec<usize> = (0..freq_cyc_per_mm.len()).filter(|i| freq_cyc_per_mm[*i] <= opts.max_freq_cyc_per_mm).collect();
+    let used: Vec<usize> = (0..freq_cyc_per_mm.len())
+        .filter(|i| freq_cyc_per_mm[*i] <= opts.max_freq_cyc_per_mm)
+        .collect();
     let n_free = opts.fit.defocus as usize + opts.fit.crosstalk as usize;
     if n_free == 0 {
-        return Err(OpticsError::Input("nothing to fit: free the defocus, the crosstalk or both".into()));
+        return Err(OpticsError::Input(
+            "nothing to fit: free the defocus, the crosstalk or both".into(),
+        ));
     }
     if used.len() < n_free + 1 {
-        return Err(OpticsError::Input(format!("{} measured points up to the frequency limit; need at least {}", used.len(), n_free + 1)));
+        return Err(OpticsError::Input(format!(
+            "{} measured points up to the frequency limit; need at least {}",
+            used.len(),
+            n_free + 1
+        )));
     }
     let f: Vec<f64> = used.iter().map(|i| freq_cyc_per_mm[*i]).collect();
     let y: Vec<f64> = used.iter().map(|i| measured[*i]).collect();
     let mut evaluations = 0usize;
     // Cost of (c4, sigma), with the lens curve given.
     let sensor_part = |sigma_um: f64| {
-        let m = SystemMtfModel { crosstalk_sigma_um: sigma_um, ..*start };
-        f.iter().map(|fr| m.sensor_factor(*fr)).collect::<Vec<f64>>()
+        let m = SystemMtfModel {
+            crosstalk_sigma_um: sigma_um,
+            ..*start
+        };
+        f.iter()
+            .map(|fr| m.sensor_factor(*fr))
+            .collect::<Vec<f64>>()
     };
     let cost_with = |lens: &LensCurve, sigma_um: f64| {
         let s = sensor_part(sigma_um);
@@ -274,13 +342,20 @@ pub fn fit_mtf(
         residual(&model, &y).0
     };
     let sigma_grid: Vec<f64> = if opts.fit.crosstalk {
-        (0..=30).map(|i| opts.max_crosstalk_sigma_um * i as f64 / 30.0).collect()
+        (0..=30)
+            .map(|i| opts.max_crosstalk_sigma_um * i as f64 / 30.0)
+            .collect()
     } else {
         vec![start.crosstalk_sigma_um]
     };
     // Coarse scan: c4 on a grid (one lens MTF each), sigma on a grid.
-    let c4_grid: Vec<f64> =
-        if opts.fit.defocus { (0..=40).map(|i| opts.max_defocus_um * i as f64 / 40.0).collect() } else { vec![start.defocus_um] };
+    let c4_grid: Vec<f64> = if opts.fit.defocus {
+        (0..=40)
+            .map(|i| opts.max_defocus_um * i as f64 / 40.0)
+            .collect()
+    } else {
+        vec![start.defocus_um]
+    };
     let mut best = (f64::INFINITY, start.defocus_um, start.crosstalk_sigma_um);
     for c4 in &c4_grid {
         let lens = LensCurve::new(start, *c4)?;
@@ -294,7 +369,12 @@ pub fn fit_mtf(
     }
     // Nelder-Mead refinement on the free parameters, clamped to [0, max].
     let bounds = [opts.max_defocus_um, opts.max_crosstalk_sigma_um];
-    let free: Vec<usize> = [opts.fit.defocus, opts.fit.crosstalk].iter().enumerate().filter(|(_, b)| **b).map(|(i, _)| i).collect();
+    let free: Vec<usize> = [opts.fit.defocus, opts.fit.crosstalk]
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b)
+        .map(|(i, _)| i)
+        .collect();
     let full = |x: &[f64]| {
         let mut p = [best.1, best.2];
         for (k, i) in free.iter().enumerate() {
@@ -321,7 +401,11 @@ pub fn fit_mtf(
         return Err(e);
     }
     let p = full(&x);
-    let fitted = SystemMtfModel { defocus_um: p[0], crosstalk_sigma_um: p[1], ..*start };
+    let fitted = SystemMtfModel {
+        defocus_um: p[0],
+        crosstalk_sigma_um: p[1],
+        ..*start
+    };
     let model = fitted.mtf(&f)?;
     let (rms, max_abs) = residual(&model, &y);
     let lens_pupil_mm = start.focal_length_mm / start.f_number;
@@ -344,7 +428,13 @@ pub fn fit_mtf(
 /// 1965; standard coefficients reflection 1, expansion 2, contraction 1/2, shrink 1/2), initial
 /// simplex `x0` plus `step[i]` along each axis; stops when the spread of the simplex's values is
 /// below `ftol` or after `max_iter` iterations.
-fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: &[f64], ftol: f64, max_iter: usize) -> Vec<f64> {
+fn nelder_mead(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    x0: &[f64],
+    step: &[f64],
+    ftol: f64,
+    max_iter: usize,
+) -> Vec<f64> {
     let n = x0.len();
     let mut pts: Vec<Vec<f64>> = vec![x0.to_vec()];
     for i in 0..n {
@@ -353,7 +443,12 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: &[f64], ftol:
         pts.push(p);
     }
     let mut vals: Vec<f64> = pts.iter().map(|p| f(p)).collect();
-    let lerp = |a: &[f64], b: &[f64], t: f64| a.iter().zip(b).map(|(x, y)| x + t * (y - x)).collect::<Vec<f64>>();
+    let lerp = |a: &[f64], b: &[f64], t: f64| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x + t * (y - x))
+            .collect::<Vec<f64>>()
+    };
     for _ in 0..max_iter {
         let mut order: Vec<usize> = (0..=n).collect();
         order.sort_by(|a, b| vals[*a].total_cmp(&vals[*b]));
@@ -362,7 +457,9 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: &[f64], ftol:
         if (vals[n] - vals[0]).abs() <= ftol {
             break;
         }
-        let centroid: Vec<f64> = (0..n).map(|k| pts[..n].iter().map(|p| p[k]).sum::<f64>() / n as f64).collect();
+        let centroid: Vec<f64> = (0..n)
+            .map(|k| pts[..n].iter().map(|p| p[k]).sum::<f64>() / n as f64)
+            .collect();
         // Reflection: centroid + (centroid - worst).
         let xr = lerp(&centroid, &pts[n], -1.0);
         let fr = f(&xr);
@@ -378,7 +475,11 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: &[f64], ftol:
             (pts[n], vals[n]) = (xr, fr);
         } else {
             // Contraction towards the better of the worst point and its reflection.
-            let (base, fb) = if fr < vals[n] { (xr.clone(), fr) } else { (pts[n].clone(), vals[n]) };
+            let (base, fb) = if fr < vals[n] {
+                (xr.clone(), fr)
+            } else {
+                (pts[n].clone(), vals[n])
+            };
             let xc = lerp(&centroid, &base, 0.5);
             let fc = f(&xc);
             if fc < fb {
@@ -391,7 +492,9 @@ fn nelder_mead(f: &mut dyn FnMut(&[f64]) -> f64, x0: &[f64], step: &[f64], ftol:
             }
         }
     }
-    let best = (0..=n).min_by(|a, b| vals[*a].total_cmp(&vals[*b])).unwrap_or(0);
+    let best = (0..=n)
+        .min_by(|a, b| vals[*a].total_cmp(&vals[*b]))
+        .unwrap_or(0);
     pts[best].clone()
 }
 
@@ -403,15 +506,22 @@ mod tests {
     fn nelder_mead_finds_a_quadratic_minimum() {
         let mut f = |x: &[f64]| (x[0] - 0.3).powi(2) + 4.0 * (x[1] - 1.7).powi(2);
         let x = nelder_mead(&mut f, &[0.0, 0.0], &[0.1, 0.1], 1e-14, 500);
-        assert!((x[0] - 0.3).abs() < 1e-5 && (x[1] - 1.7).abs() < 1e-5, "{x:?}");
+        assert!(
+            (x[0] - 0.3).abs() < 1e-5 && (x[1] - 1.7).abs() < 1e-5,
+            "{x:?}"
+        );
     }
 
     #[test]
     fn sensor_factor_is_the_pixel_sinc_times_the_gaussian() {
-        let m = SystemMtfModel { crosstalk_sigma_um: 0.5, ..SystemMtfModel::pixel4a() };
+        let m = SystemMtfModel {
+            crosstalk_sigma_um: 0.5,
+            ..SystemMtfModel::pixel4a()
+        };
         // At f = 1 / (2 p) the sinc is 2 / pi; Gaussian exp(-2 pi^2 sigma^2 f^2).
         let f_per_um = 1.0 / 2.8;
-        let want = 2.0 / std::f64::consts::PI * (-2.0 * std::f64::consts::PI.powi(2) * 0.25 * f_per_um * f_per_um).exp();
+        let want = 2.0 / std::f64::consts::PI
+            * (-2.0 * std::f64::consts::PI.powi(2) * 0.25 * f_per_um * f_per_um).exp();
         assert!((m.sensor_factor(f_per_um * 1e3) - want).abs() < 1e-12);
     }
 }

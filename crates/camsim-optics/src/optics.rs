@@ -5,9 +5,9 @@ use crate::conv::{Fft2, KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
-use crate::tail::{self, FarTail};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
 use crate::shift_variant::ShiftVariant;
+use crate::tail::{self, FarTail};
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, Spectrum};
@@ -73,7 +73,10 @@ fn interp_hold(xs: &[f64], ys: &[f64], x: f64) -> f64 {
 
 fn check_increasing(key: &str, xs: &[f64]) -> Result<()> {
     if xs.iter().any(|v| !v.is_finite()) || xs.windows(2).any(|p| p[1] <= p[0]) {
-        return Err(OpticsError::config(key, "values must be finite and strictly increasing"));
+        return Err(OpticsError::config(
+            key,
+            "values must be finite and strictly increasing",
+        ));
     }
     Ok(())
 }
@@ -83,25 +86,44 @@ impl Optics {
     pub fn from_config(config: &OpticsConfig) -> Result<Optics> {
         let c = config;
         if !(c.f_number > 0.0 && c.f_number.is_finite()) {
-            return Err(OpticsError::config("f_number", format!("{} is not a positive number", c.f_number)));
+            return Err(OpticsError::config(
+                "f_number",
+                format!("{} is not a positive number", c.f_number),
+            ));
         }
         if !(c.focal_length_mm > 0.0 && c.focal_length_mm.is_finite()) {
-            return Err(OpticsError::config("focal_length_mm", format!("{} mm is not a positive number", c.focal_length_mm)));
+            return Err(OpticsError::config(
+                "focal_length_mm",
+                format!("{} mm is not a positive number", c.focal_length_mm),
+            ));
         }
         let f_m = c.focal_length_mm * 1e-3;
         let (transmittance, scalar_transmittance) = match &c.transmittance {
             Transmittance::Scalar(t) => {
                 if !(0.0..=1.0).contains(t) {
-                    return Err(OpticsError::config("transmittance", format!("{t} is not a fraction in [0, 1]")));
+                    return Err(OpticsError::config(
+                        "transmittance",
+                        format!("{t} is not a fraction in [0, 1]"),
+                    ));
                 }
                 (None, *t)
             }
             Transmittance::Spectrum(s) => {
-                let sp = Spectrum::new(s.wavelengths_nm.clone(), s.values.clone(), "optics config key `transmittance`")?;
+                let sp = Spectrum::new(
+                    s.wavelengths_nm.clone(),
+                    s.values.clone(),
+                    "optics config key `transmittance`",
+                )?;
                 if let Some(v) = sp.values.iter().find(|v| !(0.0..=1.0).contains(*v)) {
-                    return Err(OpticsError::config("transmittance.values", format!("{v} is not a fraction in [0, 1]")));
+                    return Err(OpticsError::config(
+                        "transmittance.values",
+                        format!("{v} is not a fraction in [0, 1]"),
+                    ));
                 }
-                (Some(sp.with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)), 1.0)
+                (
+                    Some(sp.with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)),
+                    1.0,
+                )
             }
         };
         let w = &c.wavefront;
@@ -115,11 +137,18 @@ impl Optics {
             .with_reference_wavelength(w.reference_wavelength_nm)?
             .with_min_pupil_samples(c.psf.min_pupil_samples);
         if !(c.crosstalk_sigma_um >= 0.0 && c.crosstalk_sigma_um.is_finite()) {
-            return Err(OpticsError::config("crosstalk_sigma_um", format!("{} is not a number >= 0", c.crosstalk_sigma_um)));
+            return Err(OpticsError::config(
+                "crosstalk_sigma_um",
+                format!("{} is not a number >= 0", c.crosstalk_sigma_um),
+            ));
         }
         wavefront = wavefront.with_crosstalk_sigma_m(c.crosstalk_sigma_um * 1e-6);
         if let Some(cd) = &w.chromatic_defocus {
-            let s = Spectrum::new(cd.wavelengths_nm.clone(), cd.c4_um.clone(), "optics config key `wavefront.chromatic_defocus`")?;
+            let s = Spectrum::new(
+                cd.wavelengths_nm.clone(),
+                cd.c4_um.clone(),
+                "optics config key `wavefront.chromatic_defocus`",
+            )?;
             wavefront = wavefront.with_chromatic_defocus(s);
         }
         if let Some(d) = c.focus_distance_m {
@@ -131,55 +160,102 @@ impl Optics {
             }
         }
         if !(c.defocus_tolerance_um > 0.0 && c.defocus_tolerance_um.is_finite()) {
-            return Err(OpticsError::config("defocus_tolerance_um", format!("{} is not a positive number", c.defocus_tolerance_um)));
+            return Err(OpticsError::config(
+                "defocus_tolerance_um",
+                format!("{} is not a positive number", c.defocus_tolerance_um),
+            ));
         }
         if c.max_depth_layers == 0 || c.max_depth_layers > 4096 {
-            return Err(OpticsError::config("max_depth_layers", format!("{} must be 1..=4096", c.max_depth_layers)));
+            return Err(OpticsError::config(
+                "max_depth_layers",
+                format!("{} must be 1..=4096", c.max_depth_layers),
+            ));
         }
         if c.psf.oversampling == 0 || c.psf.oversampling > 63 {
-            return Err(OpticsError::config("psf.oversampling", format!("{} must be 1..=63", c.psf.oversampling)));
+            return Err(OpticsError::config(
+                "psf.oversampling",
+                format!("{} must be 1..=63", c.psf.oversampling),
+            ));
         }
         if !(c.psf.tail_energy > 0.0 && c.psf.tail_energy < 0.5) {
-            return Err(OpticsError::config("psf.tail_energy", format!("{} must be in (0, 0.5)", c.psf.tail_energy)));
+            return Err(OpticsError::config(
+                "psf.tail_energy",
+                format!("{} must be in (0, 0.5)", c.psf.tail_energy),
+            ));
         }
         if c.psf.max_kernel_size < 3 || c.psf.max_kernel_size > 4095 {
-            return Err(OpticsError::config("psf.max_kernel_size", format!("{} must be 3..=4095", c.psf.max_kernel_size)));
+            return Err(OpticsError::config(
+                "psf.max_kernel_size",
+                format!("{} must be 3..=4095", c.psf.max_kernel_size),
+            ));
         }
-        let shading = match &c.shading {
-            ShadingConfig::Named(ShadingName::None) => ShadingModel::None,
-            ShadingConfig::Named(ShadingName::Cos4) => ShadingModel::Cos4,
-            ShadingConfig::Table(t) => {
-                let r = &t.relative_illumination;
-                let (heights, normalized, key) = match (&r.field_height_mm, &r.field_height_normalized) {
-                    (Some(h), None) => (h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(), false, "field_height_mm"),
-                    (None, Some(h)) => (h.clone(), true, "field_height_normalized"),
-                    _ => {
+        let shading =
+            match &c.shading {
+                ShadingConfig::Named(ShadingName::None) => ShadingModel::None,
+                ShadingConfig::Named(ShadingName::Cos4) => ShadingModel::Cos4,
+                ShadingConfig::Table(t) => {
+                    let r = &t.relative_illumination;
+                    let (heights, normalized, key) =
+                        match (&r.field_height_mm, &r.field_height_normalized) {
+                            (Some(h), None) => (
+                                h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(),
+                                false,
+                                "field_height_mm",
+                            ),
+                            (None, Some(h)) => (h.clone(), true, "field_height_normalized"),
+                            _ => return Err(OpticsError::config(
+                                "shading.relative_illumination",
+                                "give exactly one of field_height_mm or field_height_normalized",
+                            )),
+                        };
+                    let key = format!("shading.relative_illumination.{key}");
+                    check_increasing(&key, &heights)?;
+                    if heights.is_empty() || heights.len() != r.ri.len() {
                         return Err(OpticsError::config(
-                            "shading.relative_illumination",
-                            "give exactly one of field_height_mm or field_height_normalized",
-                        ))
+                            key,
+                            format!("{} heights but {} ri values", heights.len(), r.ri.len()),
+                        ));
                     }
-                };
-                let key = format!("shading.relative_illumination.{key}");
-                check_increasing(&key, &heights)?;
-                if heights.is_empty() || heights.len() != r.ri.len() {
-                    return Err(OpticsError::config(key, format!("{} heights but {} ri values", heights.len(), r.ri.len())));
+                    if let Some(v) = r.ri.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                        return Err(OpticsError::config(
+                            "shading.relative_illumination.ri",
+                            format!("{v} is not a non-negative number"),
+                        ));
+                    }
+                    ShadingModel::Table {
+                        heights,
+                        ri: r.ri.clone(),
+                        normalized,
+                    }
                 }
-                if let Some(v) = r.ri.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-                    return Err(OpticsError::config("shading.relative_illumination.ri", format!("{v} is not a non-negative number")));
+                ShadingConfig::File(f) => {
+                    let text = std::fs::read_to_string(&f.file).map_err(|e| OpticsError::File {
+                        path: f.file.clone(),
+                        message: e.to_string(),
+                    })?;
+                    ShadingModel::Fit(
+                        ShadingFit::from_toml(&text, &f.file.display().to_string())?,
+                        f.channel,
+                    )
                 }
-                ShadingModel::Table { heights, ri: r.ri.clone(), normalized }
-            }
-            ShadingConfig::File(f) => {
-                let text = std::fs::read_to_string(&f.file).map_err(|e| OpticsError::File { path: f.file.clone(), message: e.to_string() })?;
-                ShadingModel::Fit(ShadingFit::from_toml(&text, &f.file.display().to_string())?, f.channel)
-            }
-        };
+            };
         let shift_variant = match &c.blur {
-            Some(b) => ShiftVariant::from_config(b, c.f_number, c.focal_length_mm, matches!(c.shading, ShadingConfig::Named(ShadingName::None)))?,
+            Some(b) => ShiftVariant::from_config(
+                b,
+                c.f_number,
+                c.focal_length_mm,
+                matches!(c.shading, ShadingConfig::Named(ShadingName::None)),
+            )?,
             None => None,
         };
-        Ok(Optics { config: config.clone(), wavefront, transmittance, scalar_transmittance, shading, shift_variant })
+        Ok(Optics {
+            config: config.clone(),
+            wavefront,
+            transmittance,
+            scalar_transmittance,
+            shading,
+            shift_variant,
+        })
     }
 
     /// A built-in preset (`pixel4a`, `pixel4a-measured`, `diffraction-limited`).
@@ -217,22 +293,38 @@ impl Optics {
     /// Thin-lens defocus c4 (um, over the lens pupil) of an object at `object_distance_m` with the
     /// lens focused at `focus_distance_m` ([`lens::defocus_c4_um`]).
     pub fn defocus_c4_um(&self, focus_distance_m: f64, object_distance_m: f64) -> f64 {
-        lens::defocus_c4_um(self.focal_m(), self.config.f_number, focus_distance_m, object_distance_m)
+        lens::defocus_c4_um(
+            self.focal_m(),
+            self.config.f_number,
+            focus_distance_m,
+            object_distance_m,
+        )
     }
 
     /// The wavefront for an object at `object_distance_m` (<= 0 or infinite: infinity) with the
     /// lens focused at `focus_distance_m` (None: focused on the object): image distance at the
     /// focus, plus the thin-lens focus error as extra defocus.
-    pub fn wavefront_for(&self, focus_distance_m: Option<f64>, object_distance_m: f64) -> Result<Wavefront> {
+    pub fn wavefront_for(
+        &self,
+        focus_distance_m: Option<f64>,
+        object_distance_m: f64,
+    ) -> Result<Wavefront> {
         let f = self.focal_m();
         let focus = focus_distance_m.unwrap_or(object_distance_m);
-        let v = lens::image_distance_m(f, focus)
-            .ok_or_else(|| OpticsError::Input(format!("focus distance {focus} m is inside the focal length {f} m")))?;
+        let v = lens::image_distance_m(f, focus).ok_or_else(|| {
+            OpticsError::Input(format!(
+                "focus distance {focus} m is inside the focal length {f} m"
+            ))
+        })?;
         let extra = match focus_distance_m {
             Some(fd) => self.defocus_c4_um(fd, object_distance_m),
             None => 0.0,
         };
-        Ok(self.wavefront.clone().with_image_distance(v).with_extra_defocus_um(extra))
+        Ok(self
+            .wavefront
+            .clone()
+            .with_image_distance(v)
+            .with_extra_defocus_um(extra))
     }
 
     /// PSFs at `wavelengths_nm` sampled at `spacing_m` (sensor plane), for an object in focus,
@@ -242,19 +334,30 @@ impl Optics {
     }
 
     /// [`Self::psf_stack`] for a given wavefront (e.g. from [`Self::wavefront_for`]).
-    pub fn psf_stack_for(&self, wf: &Wavefront, wavelengths_nm: &[f64], spacing_m: f64) -> Result<Vec<Psf>> {
+    pub fn psf_stack_for(
+        &self,
+        wf: &Wavefront,
+        wavelengths_nm: &[f64],
+        spacing_m: f64,
+    ) -> Result<Vec<Psf>> {
         let size = wavelengths_nm
             .iter()
             .map(|w| wf.kernel_size(*w, spacing_m, self.config.psf.tail_energy))
             .max()
             .unwrap_or(1)
             .min(self.max_kernel());
-        wavelengths_nm.par_iter().map(|w| wf.psf_with(*w, spacing_m, size, self.config.psf.oversampling)).collect()
+        wavelengths_nm
+            .par_iter()
+            .map(|w| wf.psf_with(*w, spacing_m, size, self.config.psf.oversampling))
+            .collect()
     }
 
     /// MTF curves (cycles/mm in the sensor plane) per wavelength, object in focus.
     pub fn mtf_curves(&self, wavelengths_nm: &[f64]) -> Result<Vec<MtfCurve>> {
-        wavelengths_nm.par_iter().map(|w| self.wavefront.mtf(*w)).collect()
+        wavelengths_nm
+            .par_iter()
+            .map(|w| self.wavefront.mtf(*w))
+            .collect()
     }
 
     fn max_kernel(&self) -> usize {
@@ -271,7 +374,12 @@ impl Optics {
     /// is always a layer centre and every pixel's defocus is within tolerance / 2 of its layer's);
     /// when that gives more than `max_depth_layers` layers the step grows until it fits.
     /// Depth must be > 0 (infinity allowed); NaN or <= 0 is an error naming the pixel.
-    pub fn depth_layers(&self, depth_m: &[f32], cols: usize, focus_distance_m: f64) -> Result<DepthLayers> {
+    pub fn depth_layers(
+        &self,
+        depth_m: &[f32],
+        cols: usize,
+        focus_distance_m: f64,
+    ) -> Result<DepthLayers> {
         let mut c4 = Vec::with_capacity(depth_m.len());
         for (i, d) in depth_m.iter().enumerate() {
             let d = *d as f64;
@@ -284,7 +392,11 @@ impl Optics {
             }
             c4.push(self.defocus_c4_um(focus_distance_m, d));
         }
-        let (lo, hi) = c4.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        let (lo, hi) = c4
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
         let mut step = self.config.defocus_tolerance_um;
         let max_layers = self.config.max_depth_layers as i64;
         loop {
@@ -314,10 +426,20 @@ impl Optics {
                 layers.push((k as i64 + base) as f64 * step);
             }
         }
-        Ok(DepthLayers { c4_um: layers, index: raw_idx.iter().map(|k| remap[*k]).collect(), step_um: step })
+        Ok(DepthLayers {
+            c4_um: layers,
+            index: raw_idx.iter().map(|k| remap[*k]).collect(),
+            step_um: step,
+        })
     }
 
-    pub(crate) fn shading_map(&self, rows: usize, cols: usize, spacing_m: f64, image_distance_m: f64) -> Option<Vec<f32>> {
+    pub(crate) fn shading_map(
+        &self,
+        rows: usize,
+        cols: usize,
+        spacing_m: f64,
+        image_distance_m: f64,
+    ) -> Option<Vec<f32>> {
         let cx = cols as f64 / 2.0;
         let cy = rows as f64 / 2.0;
         let half_diag = (cx * cx + cy * cy).sqrt() * spacing_m;
@@ -330,12 +452,17 @@ impl Optics {
                     for (c, v) in row.iter_mut().enumerate() {
                         let x = (c as f64 + 0.5 - cx) * spacing_m;
                         // cos^4 theta with cos^2 theta = z^2 / (z^2 + r^2) (ISETCam opticsCos4).
-                        let c2 = image_distance_m * image_distance_m / (image_distance_m * image_distance_m + x * x + y * y);
+                        let c2 = image_distance_m * image_distance_m
+                            / (image_distance_m * image_distance_m + x * x + y * y);
                         *v = (c2 * c2) as f32;
                     }
                 });
             }
-            ShadingModel::Table { heights, ri, normalized } => {
+            ShadingModel::Table {
+                heights,
+                ri,
+                normalized,
+            } => {
                 map.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                     let y = (r as f64 + 0.5 - cy) * spacing_m;
                     for (c, v) in row.iter_mut().enumerate() {
@@ -350,17 +477,25 @@ impl Optics {
             }
             ShadingModel::Fit(fit, which) => {
                 let chans: Vec<camsim_core::CfaChannel> = match which {
-                    ShadingChannel::Mean => vec![camsim_core::CfaChannel::R, camsim_core::CfaChannel::G, camsim_core::CfaChannel::B],
+                    ShadingChannel::Mean => vec![
+                        camsim_core::CfaChannel::R,
+                        camsim_core::CfaChannel::G,
+                        camsim_core::CfaChannel::B,
+                    ],
                     ShadingChannel::R => vec![camsim_core::CfaChannel::R],
                     ShadingChannel::G => vec![camsim_core::CfaChannel::G],
                     ShadingChannel::B => vec![camsim_core::CfaChannel::B],
                 };
                 map.par_chunks_mut(cols).enumerate().for_each(|(r, row)| {
                     let y = (r as f64 + 0.5) / rows as f64 * 2.0 - 1.0;
-                    let rc: Vec<Vec<f64>> = chans.iter().map(|ch| row_coefficients(fit.coefficients(*ch), fit.order, y)).collect();
+                    let rc: Vec<Vec<f64>> = chans
+                        .iter()
+                        .map(|ch| row_coefficients(fit.coefficients(*ch), fit.order, y))
+                        .collect();
                     for (c, v) in row.iter_mut().enumerate() {
                         let x = (c as f64 + 0.5) / cols as f64 * 2.0 - 1.0;
-                        let s: f64 = rc.iter().map(|cx| horner(cx, x)).sum::<f64>() / rc.len() as f64;
+                        let s: f64 =
+                            rc.iter().map(|cx| horner(cx, x)).sum::<f64>() / rc.len() as f64;
                         *v = s.max(0.0) as f32;
                     }
                 });
@@ -398,18 +533,29 @@ impl Optics {
     ///    `depth_m` is carried through (padding replicates the edge depth).
     pub fn compute(&self, radiance: &SpectralImage) -> Result<SpectralImage> {
         if radiance.quantity != Quantity::Radiance {
-            return Err(OpticsError::Input(format!("expected a radiance image, got {}", radiance.quantity.name())));
+            return Err(OpticsError::Input(format!(
+                "expected a radiance image, got {}",
+                radiance.quantity.name()
+            )));
         }
         let (rows, cols) = (radiance.rows, radiance.cols);
         if radiance.data.len() != rows * cols * radiance.bands() {
-            return Err(OpticsError::Input("radiance data length does not match rows x cols x bands".into()));
+            return Err(OpticsError::Input(
+                "radiance data length does not match rows x cols x bands".into(),
+            ));
         }
         let f = self.focal_m();
         let n = self.config.f_number;
         let d_raw = radiance.geometry.distance_m;
-        let d_obj = if d_raw > 0.0 && d_raw.is_finite() { d_raw } else { f64::INFINITY };
+        let d_obj = if d_raw > 0.0 && d_raw.is_finite() {
+            d_raw
+        } else {
+            f64::INFINITY
+        };
         if d_obj <= f {
-            return Err(OpticsError::Input(format!("scene distance {d_obj} m is inside the focal length {f} m")));
+            return Err(OpticsError::Input(format!(
+                "scene distance {d_obj} m is inside the focal length {f} m"
+            )));
         }
         let focus = self.config.focus_distance_m.unwrap_or(d_obj);
         let v_s = lens::image_distance_m(f, focus).unwrap_or(f);
@@ -425,8 +571,11 @@ impl Optics {
         let m = lens::magnification(f, d_obj);
         let bands = radiance.bands();
         let grid = radiance.grid;
-        let scale: Vec<f32> =
-            (0..bands).map(|b| lens::irradiance_factor(n, m, self.transmittance(grid.wavelength_nm(b))) as f32).collect();
+        let scale: Vec<f32> = (0..bands)
+            .map(|b| {
+                lens::irradiance_factor(n, m, self.transmittance(grid.wavelength_nm(b))) as f32
+            })
+            .collect();
         if let Some(sv) = &self.shift_variant {
             return sv.compute(self, radiance, &scale, spacing, v_s, d_obj);
         }
@@ -435,7 +584,10 @@ impl Optics {
         let layered = match (&radiance.depth_m, self.config.focus_distance_m) {
             (Some(depth), Some(fd)) => {
                 if depth.len() != rows * cols {
-                    return Err(OpticsError::Input(format!("depth map has {} values for {rows} x {cols}", depth.len())));
+                    return Err(OpticsError::Input(format!(
+                        "depth map has {} values for {rows} x {cols}",
+                        depth.len()
+                    )));
                 }
                 Some(self.depth_layers(depth, cols, fd)?)
             }
@@ -443,7 +595,11 @@ impl Optics {
         };
         let base = self.wavefront.clone().with_image_distance(v_s);
         let wavefronts: Vec<Wavefront> = match &layered {
-            Some(l) => l.c4_um.iter().map(|c4| base.clone().with_extra_defocus_um(*c4)).collect(),
+            Some(l) => l
+                .c4_um
+                .iter()
+                .map(|c4| base.clone().with_extra_defocus_um(*c4))
+                .collect(),
             None => {
                 let extra = match self.config.focus_distance_m {
                     Some(fd) => self.defocus_c4_um(fd, d_obj),
@@ -459,18 +615,27 @@ impl Optics {
         let tail = self.config.psf.tail_energy;
         let k_wanted = wavefronts
             .par_iter()
-            .map(|w| (0..bands).map(|b| w.kernel_size(grid.wavelength_nm(b), spacing, tail)).max().unwrap_or(1))
+            .map(|w| {
+                (0..bands)
+                    .map(|b| w.kernel_size(grid.wavelength_nm(b), spacing, tail))
+                    .max()
+                    .unwrap_or(1)
+            })
             .max()
             .unwrap_or(1);
         let k = k_wanted.min(self.max_kernel());
         let h = k / 2;
         let (pad_r, pad_c) = match self.config.padding {
             Padding::Psf => (h, h),
-            Padding::Isetcam => (((rows as f64) / 8.0).round() as usize, ((cols as f64) / 8.0).round() as usize),
+            Padding::Isetcam => (
+                ((rows as f64) / 8.0).round() as usize,
+                ((cols as f64) / 8.0).round() as usize,
+            ),
             Padding::None => (0, 0),
         };
         let (out_rows, out_cols) = (rows + 2 * pad_r, cols + 2 * pad_c);
-        let mut out = SpectralImage::zeros(out_rows, out_cols, grid, spacing, Quantity::Irradiance)?;
+        let mut out =
+            SpectralImage::zeros(out_rows, out_cols, grid, spacing, Quantity::Irradiance)?;
         let shade = self.shading_map(rows, cols, spacing, v_s);
 
         // Small images without depth layers: the whole-image OTF blur (ISETCam opticsOTF): the
@@ -483,14 +648,19 @@ impl Optics {
         // the FFT period, k_os the cell oversampling): used while it is <= WHOLE_IMAGE_MAX_FINE
         // (a 142 x 142 x 31 output at 1.4 um, k_os = 5: 0.15 s against 0.04 s with kernels).
         let oversampling = self.config.psf.oversampling;
-        let k_os = (0..bands).map(|b| base.oversampling(grid.wavelength_nm(b), spacing, oversampling)).max().unwrap_or(1);
+        let k_os = (0..bands)
+            .map(|b| base.oversampling(grid.wavelength_nm(b), spacing, oversampling))
+            .max()
+            .unwrap_or(1);
         // A square FFT plane (the periodic PSF is then exact, see Wavefront::psf_periodic) of a fast
         // FFT length >= twice the output's longer side.
         let fft_side = crate::wavefront::fast_fft_len(2 * out_rows.max(out_cols));
         let (fft_rows, fft_cols) = (fft_side, fft_side);
         let (ext_r, ext_c) = ((fft_rows - out_rows) / 2, (fft_cols - out_cols) / 2);
         let whole = match self.config.psf.method {
-            BlurMethod::Auto => layered.is_none() && fft_rows.max(fft_cols) * k_os <= WHOLE_IMAGE_MAX_FINE,
+            BlurMethod::Auto => {
+                layered.is_none() && fft_rows.max(fft_cols) * k_os <= WHOLE_IMAGE_MAX_FINE
+            }
             BlurMethod::Otf => {
                 if layered.is_some() {
                     return Err(OpticsError::config("psf.method", "\"otf\" blurs with one PSF; a depth map with focus_distance_m needs \"auto\" or \"kernel\""));
@@ -512,47 +682,100 @@ impl Optics {
         if whole {
             let wf = &wavefronts[0];
             let fft = Fft2::new(fft_rows, fft_cols);
-            out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
-                let src = &radiance.data[b * rows * cols..(b + 1) * rows * cols];
-                let sc = scale[b] as f64;
-                let (off_r, off_c) = (ext_r + pad_r, ext_c + pad_c);
-                let mut plane = vec![0.0f64; fft_rows * fft_cols];
-                for r in 0..rows {
-                    let dst = &mut plane[(r + off_r) * fft_cols + off_c..(r + off_r) * fft_cols + off_c + cols];
-                    for (c, d) in dst.iter_mut().enumerate() {
-                        let w = shade.as_ref().map(|s| s[r * cols + c] as f64).unwrap_or(1.0);
-                        *d = src[r * cols + c] as f64 * sc * w;
+            out.data
+                .par_chunks_mut(out_rows * out_cols)
+                .enumerate()
+                .try_for_each(|(b, out_band)| -> Result<()> {
+                    let src = &radiance.data[b * rows * cols..(b + 1) * rows * cols];
+                    let sc = scale[b] as f64;
+                    let (off_r, off_c) = (ext_r + pad_r, ext_c + pad_c);
+                    let mut plane = vec![0.0f64; fft_rows * fft_cols];
+                    for r in 0..rows {
+                        let dst = &mut plane
+                            [(r + off_r) * fft_cols + off_c..(r + off_r) * fft_cols + off_c + cols];
+                        for (c, d) in dst.iter_mut().enumerate() {
+                            let w = shade
+                                .as_ref()
+                                .map(|s| s[r * cols + c] as f64)
+                                .unwrap_or(1.0);
+                            *d = src[r * cols + c] as f64 * sc * w;
+                        }
                     }
-                }
-                let psf = wf.psf_periodic(grid.wavelength_nm(b), spacing, fft_rows, fft_cols, oversampling)?;
-                let otf = fft.forward(&psf);
-                let mut spec = fft.forward(&plane);
-                spec.iter_mut().zip(&otf).for_each(|(s, o)| *s *= *o);
-                let blurred = fft.inverse(spec);
-                // Round-off leaves samples of either sign near 1e-16 of the maximum: clamp at 0.
-                for (r, orow) in out_band.chunks_exact_mut(out_cols).enumerate() {
-                    let brow = &blurred[(r + ext_r) * fft_cols + ext_c..(r + ext_r) * fft_cols + ext_c + out_cols];
-                    orow.iter_mut().zip(brow).for_each(|(o, v)| *o = v.max(0.0) as f32);
-                }
-                Ok(())
-            })?;
+                    let psf = wf.psf_periodic(
+                        grid.wavelength_nm(b),
+                        spacing,
+                        fft_rows,
+                        fft_cols,
+                        oversampling,
+                    )?;
+                    let otf = fft.forward(&psf);
+                    let mut spec = fft.forward(&plane);
+                    spec.iter_mut().zip(&otf).for_each(|(s, o)| *s *= *o);
+                    let blurred = fft.inverse(spec);
+                    // Round-off leaves samples of either sign near 1e-16 of the maximum: clamp at 0.
+                    for (r, orow) in out_band.chunks_exact_mut(out_cols).enumerate() {
+                        let brow = &blurred[(r + ext_r) * fft_cols + ext_c
+                            ..(r + ext_r) * fft_cols + ext_c + out_cols];
+                        orow.iter_mut()
+                            .zip(brow)
+                            .for_each(|(o, v)| *o = v.max(0.0) as f32);
+                    }
+                    Ok(())
+                })?;
         } else if self.config.psf.far_tail && k == k_wanted {
             // Kernels plus the far tail (crate::tail): the kernel carries 1 - e of each band's
             // energy, the coarse-grid tail the rest. (A kernel clamped by max_kernel_size does
             // not reach past the geometric blur, where the tail's asymptote holds: no tail then.)
             let far = FarTail::new(out_rows, out_cols, k / 2);
             let n_w = base.working_f_number();
-            let amp: Vec<f64> = (0..bands).map(|b| tail::tail_amplitude(grid.wavelength_nm(b), n_w, spacing)).collect();
-            let near: Vec<f32> = scale.iter().zip(&amp).map(|(s, a)| (*s as f64 * (1.0 - far.energy(*a))) as f32).collect();
+            let amp: Vec<f64> = (0..bands)
+                .map(|b| tail::tail_amplitude(grid.wavelength_nm(b), n_w, spacing))
+                .collect();
+            let near: Vec<f32> = scale
+                .iter()
+                .zip(&amp)
+                .map(|(s, a)| (*s as f64 * (1.0 - far.energy(*a))) as f32)
+                .collect();
             let plane = rows * cols;
             let far_band = |b: usize, out_band: &mut [f32]| {
                 let src = &radiance.data[b * plane..(b + 1) * plane];
-                far.write_band(src, rows, cols, (pad_r, pad_c), scale[b], shade.as_deref(), amp[b], out_band)
+                far.write_band(
+                    src,
+                    rows,
+                    cols,
+                    (pad_r, pad_c),
+                    scale[b],
+                    shade.as_deref(),
+                    amp[b],
+                    out_band,
+                )
             };
             let init: &(dyn Fn(usize, &mut [f32]) + Sync) = &far_band;
-            self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &near, spacing, k, (pad_r, pad_c), Some(init))?;
+            self.blur_tiled(
+                radiance,
+                &mut out,
+                &wavefronts,
+                layered.as_ref(),
+                shade.as_deref(),
+                &near,
+                spacing,
+                k,
+                (pad_r, pad_c),
+                Some(init),
+            )?;
         } else {
-            self.blur_tiled(radiance, &mut out, &wavefronts, layered.as_ref(), shade.as_deref(), &scale, spacing, k, (pad_r, pad_c), None)?;
+            self.blur_tiled(
+                radiance,
+                &mut out,
+                &wavefronts,
+                layered.as_ref(),
+                shade.as_deref(),
+                &scale,
+                spacing,
+                k,
+                (pad_r, pad_c),
+                None,
+            )?;
         }
 
         Ok(self.finish(out, radiance, (pad_r, pad_c), spacing, v_s))
@@ -565,7 +788,14 @@ impl Optics {
 
     /// Step 4 of [`Self::compute`]: carry the depth map (edge-replicated into the padding) and set
     /// the irradiance image's geometry.
-    pub(crate) fn finish(&self, mut out: SpectralImage, radiance: &SpectralImage, (pad_r, pad_c): (usize, usize), spacing: f64, v_s: f64) -> SpectralImage {
+    pub(crate) fn finish(
+        &self,
+        mut out: SpectralImage,
+        radiance: &SpectralImage,
+        (pad_r, pad_c): (usize, usize),
+        spacing: f64,
+        v_s: f64,
+    ) -> SpectralImage {
         let (rows, cols) = (radiance.rows, radiance.cols);
         let (out_rows, out_cols) = (out.rows, out.cols);
         let f = self.focal_m();
@@ -626,59 +856,92 @@ impl Optics {
                             seen[l.index[r * cols + c] as usize] = true;
                         }
                     }
-                    seen.iter().enumerate().filter(|(_, s)| **s).map(|(i, _)| i as u16).collect()
+                    seen.iter()
+                        .enumerate()
+                        .filter(|(_, s)| **s)
+                        .map(|(i, _)| i as u16)
+                        .collect()
                 })
                 .collect(),
         };
-        let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
+        let win = OutputWindow {
+            rows: out_rows,
+            cols: out_cols,
+            off_r: pad_r as isize,
+            off_c: pad_c as isize,
+        };
         let plane = rows * cols;
-        out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
-            // Touch the band's pages with a write first (zeros or `init`): the allocator hands out
-            // lazily mapped zero pages, and the tiles' read-modify-write (`+=`) would fault each
-            // page twice (zero-page read, then copy-on-write).
-            match init {
-                Some(f) => f(b, out_band),
-                None => out_band.fill(0.0),
-            }
-            let wl = grid.wavelength_nm(b);
-            let src = &radiance.data[b * plane..(b + 1) * plane];
-            let sc = scale[b];
-            let mut specs = Vec::with_capacity(wavefronts.len());
-            for w in wavefronts {
-                let psf = w.psf_with(wl, spacing, k, oversampling)?;
-                specs.push(conv.kernel_spectrum(&psf.to_f32()));
-            }
-            let mut s = conv.scratch();
-            for tr in 0..ntr {
-                for tc in 0..ntc {
-                    let (r0, c0) = (tr * t, tc * t);
-                    let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
-                    // The depth layers present in this tile: one convolution per layer, summed
-                    // in the frequency domain (TileConvolver::tile_sum).
-                    let tile_layers = &tile_layers[tr * ntc + tc];
-                    let tile_specs: Vec<&KernelSpectrum> = tile_layers.iter().map(|&l| &specs[l as usize]).collect();
-                    conv.tile_sum(r0, c0, nr, nc, &tile_specs, out_band, win, &mut s, |i, r, dst| {
-                        let i0 = (r0 + r) * cols + c0;
-                        let row = &src[i0..i0 + nc];
-                        match (shade, layered) {
-                            (None, None) => dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc),
-                            (Some(sh), None) => dst.iter_mut().zip(row).zip(&sh[i0..i0 + nc]).for_each(|((d, v), w)| *d = v * sc * w),
-                            (sh, Some(l)) => {
-                                let layer = tile_layers[i];
-                                let idx = &l.index[i0..i0 + nc];
-                                for j in 0..nc {
-                                    let w = sh.as_ref().map(|s| s[i0 + j]).unwrap_or(1.0);
-                                    dst[j] = if idx[j] == layer { row[j] * sc * w } else { 0.0 };
-                                }
-                            }
-                        }
-                    });
+        out.data
+            .par_chunks_mut(out_rows * out_cols)
+            .enumerate()
+            .try_for_each(|(b, out_band)| -> Result<()> {
+                // Touch the band's pages with a write first (zeros or `init`): the allocator hands out
+                // lazily mapped zero pages, and the tiles' read-modify-write (`+=`) would fault each
+                // page twice (zero-page read, then copy-on-write).
+                match init {
+                    Some(f) => f(b, out_band),
+                    None => out_band.fill(0.0),
                 }
-            }
-            // FFT round-off leaves samples of either sign around 1e-7 of the maximum; irradiance is
-            // non-negative, so clamp at 0 (the in-memory image and every file written from it).
-            out_band.iter_mut().for_each(|v| *v = v.max(0.0));
-            Ok(())
-        })
+                let wl = grid.wavelength_nm(b);
+                let src = &radiance.data[b * plane..(b + 1) * plane];
+                let sc = scale[b];
+                let mut specs = Vec::with_capacity(wavefronts.len());
+                for w in wavefronts {
+                    let psf = w.psf_with(wl, spacing, k, oversampling)?;
+                    specs.push(conv.kernel_spectrum(&psf.to_f32()));
+                }
+                let mut s = conv.scratch();
+                for tr in 0..ntr {
+                    for tc in 0..ntc {
+                        let (r0, c0) = (tr * t, tc * t);
+                        let (nr, nc) = (t.min(rows - r0), t.min(cols - c0));
+                        // The depth layers present in this tile: one convolution per layer, summed
+                        // in the frequency domain (TileConvolver::tile_sum).
+                        let tile_layers = &tile_layers[tr * ntc + tc];
+                        let tile_specs: Vec<&KernelSpectrum> =
+                            tile_layers.iter().map(|&l| &specs[l as usize]).collect();
+                        conv.tile_sum(
+                            r0,
+                            c0,
+                            nr,
+                            nc,
+                            &tile_specs,
+                            out_band,
+                            win,
+                            &mut s,
+                            |i, r, dst| {
+                                let i0 = (r0 + r) * cols + c0;
+                                let row = &src[i0..i0 + nc];
+                                match (shade, layered) {
+                                    (None, None) => {
+                                        dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc)
+                                    }
+                                    (Some(sh), None) => dst
+                                        .iter_mut()
+                                        .zip(row)
+                                        .zip(&sh[i0..i0 + nc])
+                                        .for_each(|((d, v), w)| *d = v * sc * w),
+                                    (sh, Some(l)) => {
+                                        let layer = tile_layers[i];
+                                        let idx = &l.index[i0..i0 + nc];
+                                        for j in 0..nc {
+                                            let w = sh.as_ref().map(|s| s[i0 + j]).unwrap_or(1.0);
+                                            dst[j] = if idx[j] == layer {
+                                                row[j] * sc * w
+                                            } else {
+                                                0.0
+                                            };
+                                        }
+                                    }
+                                }
+                            },
+                        );
+                    }
+                }
+                // FFT round-off leaves samples of either sign around 1e-7 of the maximum; irradiance is
+                // non-negative, so clamp at 0 (the in-memory image and every file written from it).
+                out_band.iter_mut().for_each(|v| *v = v.max(0.0));
+                Ok(())
+            })
     }
 }

@@ -3,8 +3,14 @@
 /// (name, TOML text) of every preset.
 const PRESETS: &[(&str, &str)] = &[
     ("pixel4a", include_str!("../presets/pixel4a.toml")),
-    ("pixel4a-measured", include_str!("../presets/pixel4a-measured.toml")),
-    ("diffraction-limited", include_str!("../presets/diffraction-limited.toml")),
+    (
+        "pixel4a-measured",
+        include_str!("../presets/pixel4a-measured.toml"),
+    ),
+    (
+        "diffraction-limited",
+        include_str!("../presets/diffraction-limited.toml"),
+    ),
 ];
 
 /// Names of the built-in presets.

@@ -55,7 +55,10 @@ impl Psf {
 
     /// Line-spread function along y (row sums).
     pub fn lsf_y(&self) -> Vec<f64> {
-        self.data.chunks_exact(self.size).map(|row| row.iter().sum()).collect()
+        self.data
+            .chunks_exact(self.size)
+            .map(|row| row.iter().sum())
+            .collect()
     }
 
     /// MTF from this PSF at the frequencies of its own grid, k / (size * spacing) for
@@ -78,7 +81,10 @@ impl Psf {
         let ks: Vec<usize> = (0..=n / 2).collect();
         MtfCurve {
             wavelength_nm: self.wavelength_nm,
-            freq_cyc_per_mm: ks.iter().map(|k| *k as f64 / (n as f64 * self.spacing_m) * 1e-3).collect(),
+            freq_cyc_per_mm: ks
+                .iter()
+                .map(|k| *k as f64 / (n as f64 * self.spacing_m) * 1e-3)
+                .collect(),
             mtf_x: ks.iter().map(|k| dft(&lx, *k)).collect(),
             mtf_y: ks.iter().map(|k| dft(&ly, *k)).collect(),
         }

@@ -113,11 +113,19 @@ impl RtfLens {
     /// Check `rtf` (`what` names it in errors); see [`Self::from_file`].
     pub fn new(rtf: Rtf, what: &str, f_number: f64, focal_length_mm: f64) -> Result<RtfLens> {
         let s = 0.02f64;
-        let h = |s: f64| rtf.trace([0.0, 0.0], [0.0, s, (1.0 - s * s).sqrt()]).map(|(p, _)| p[1]);
+        let h = |s: f64| {
+            rtf.trace([0.0, 0.0], [0.0, s, (1.0 - s * s).sqrt()])
+                .map(|(p, _)| p[1])
+        };
         let f_mm = match (h(0.0), h(s)) {
             (Some(a), Some(b)) if (b - a) / s > 0.0 => (b - a) / s,
             _ => {
-                return Err(OpticsError::config(KEY, format!("{what}: no ray passes from the film centre near the axis (no focal length)")))
+                return Err(OpticsError::config(
+                    KEY,
+                    format!(
+                    "{what}: no ray passes from the film centre near the axis (no focal length)"
+                ),
+                ))
             }
         };
         if ((f_mm - focal_length_mm) / focal_length_mm).abs() > 0.02 {
@@ -126,10 +134,17 @@ impl RtfLens {
                 format!("{what}: the RTF's focal length is {f_mm:.4} mm but focal_length_mm = {focal_length_mm}; set it within 2 %"),
             ));
         }
-        let omega = rtf.irradiance(0.0, 256).filter(|v| *v > 0.0 && v.is_finite());
+        let omega = rtf
+            .irradiance(0.0, 256)
+            .filter(|v| *v > 0.0 && v.is_finite());
         let n_rtf = match omega {
             Some(o) => (std::f64::consts::PI / (4.0 * o)).sqrt(),
-            None => return Err(OpticsError::config(KEY, format!("{what}: no light passes on the axis"))),
+            None => {
+                return Err(OpticsError::config(
+                    KEY,
+                    format!("{what}: no light passes on the axis"),
+                ))
+            }
         };
         if ((n_rtf - f_number) / f_number).abs() > 0.02 {
             return Err(OpticsError::config(
@@ -137,7 +152,12 @@ impl RtfLens {
                 format!("{what}: the RTF's on-axis pass region is an f/{n_rtf:.3} aperture but f_number = {f_number}; set f_number = {n_rtf:.2} (the camera equation uses it)"),
             ));
         }
-        Ok(RtfLens { rtf, focal_length_mm: f_mm, f_number: n_rtf, what: what.to_string() })
+        Ok(RtfLens {
+            rtf,
+            focal_length_mm: f_mm,
+            f_number: n_rtf,
+            what: what.to_string(),
+        })
     }
 
     /// Film offset behind the input plane (mm) that focuses an object at `focus_distance_mm`
@@ -147,7 +167,11 @@ impl RtfLens {
     /// lies 16.6 um behind it (the renderer's `raytransfer` camera focuses with
     /// [`Rtf::focus_offset_mm`], the object-space twin of this image-space criterion).
     pub fn focus_offset_mm(&self, focus_distance_mm: f64) -> Result<f64> {
-        let f = Field { ideal_height_mm: 0.0, image_distance_mm: self.focal_length_mm, object_distance_mm: focus_distance_mm };
+        let f = Field {
+            ideal_height_mm: 0.0,
+            image_distance_mm: self.focal_length_mm,
+            object_distance_mm: focus_distance_mm,
+        };
         let mut failed = None;
         let rms = |dz: f64| match self.spot_with(&f, dz, FOCUS_PUPIL_SAMPLES) {
             Ok(s) => s.rms_radius_m,
@@ -168,7 +192,9 @@ impl RtfLens {
     fn ray(&self, p: [f64; 2], q: [f64; 2], dz: f64) -> ([f64; 2], [f64; 3]) {
         // A film at or beyond the pass plane has no ray: NaN, which the callers' finiteness
         // checks turn into an error.
-        self.rtf.film_ray(p, dz, q).map_or(([f64::NAN; 2], [f64::NAN; 3]), |(pin, dir, _)| (pin, dir))
+        self.rtf
+            .film_ray(p, dz, q)
+            .map_or(([f64::NAN; 2], [f64::NAN; 3]), |(pin, dir, _)| (pin, dir))
     }
 
     /// Miss of the ray P -> Q against the object point, in object-space angle (tan) units.
@@ -190,7 +216,11 @@ impl RtfLens {
     fn pupil_frame(&self, p_in: [f64; 2]) -> Option<(camsim_lens::rtf::PassEllipse, f64, f64)> {
         let r = p_in[0].hypot(p_in[1]);
         let e = self.rtf.pass_region(r)?;
-        let (c, s) = if r > 0.0 { (p_in[1] / r, p_in[0] / r) } else { (1.0, 0.0) };
+        let (c, s) = if r > 0.0 {
+            (p_in[1] / r, p_in[0] / r)
+        } else {
+            (1.0, 0.0)
+        };
         Some((e, c, s))
     }
 
@@ -198,7 +228,13 @@ impl RtfLens {
     /// within 0.05 mm of the axis, where the paraxial -1 / f is used: the RTF's polynomials are in
     /// the distance r from the axis and keep a constant exit tilt at r = 0 (1.2e-4 in the Pixel 4a
     /// file), so the ray map has a kink there and differences across it are meaningless.
-    fn inverse_jacobian(&self, p: [f64; 2], q: [f64; 2], dz: f64, f: &Field) -> Option<[[f64; 2]; 2]> {
+    fn inverse_jacobian(
+        &self,
+        p: [f64; 2],
+        q: [f64; 2],
+        dz: f64,
+        f: &Field,
+    ) -> Option<[[f64; 2]; 2]> {
         if p[0].hypot(p[1]) < 0.05 {
             let fl = self.focal_length_mm;
             return Some([[-fl, 0.0], [0.0, -fl]]);
@@ -209,23 +245,45 @@ impl RtfLens {
     /// Jacobian of [`Self::miss`] against the film point (central differences).
     fn jacobian(&self, p: [f64; 2], q: [f64; 2], dz: f64, f: &Field) -> [[f64; 2]; 2] {
         let e = 1e-4;
-        let mx = [self.miss([p[0] + e, p[1]], q, dz, f), self.miss([p[0] - e, p[1]], q, dz, f)];
-        let my = [self.miss([p[0], p[1] + e], q, dz, f), self.miss([p[0], p[1] - e], q, dz, f)];
+        let mx = [
+            self.miss([p[0] + e, p[1]], q, dz, f),
+            self.miss([p[0] - e, p[1]], q, dz, f),
+        ];
+        let my = [
+            self.miss([p[0], p[1] + e], q, dz, f),
+            self.miss([p[0], p[1] - e], q, dz, f),
+        ];
         [
-            [(mx[0][0] - mx[1][0]) / (2.0 * e), (my[0][0] - my[1][0]) / (2.0 * e)],
-            [(mx[0][1] - mx[1][1]) / (2.0 * e), (my[0][1] - my[1][1]) / (2.0 * e)],
+            [
+                (mx[0][0] - mx[1][0]) / (2.0 * e),
+                (my[0][0] - my[1][0]) / (2.0 * e),
+            ],
+            [
+                (mx[0][1] - mx[1][1]) / (2.0 * e),
+                (my[0][1] - my[1][1]) / (2.0 * e),
+            ],
         ]
     }
 
     /// Solve miss(P, q) = 0 for P by the chord method with inverse Jacobian `ji`.
-    fn solve(&self, mut p: [f64; 2], q: impl Fn([f64; 2]) -> Option<[f64; 2]>, dz: f64, f: &Field, ji: &[[f64; 2]; 2]) -> Option<[f64; 2]> {
+    fn solve(
+        &self,
+        mut p: [f64; 2],
+        q: impl Fn([f64; 2]) -> Option<[f64; 2]>,
+        dz: f64,
+        f: &Field,
+        ji: &[[f64; 2]; 2],
+    ) -> Option<[f64; 2]> {
         // Off the axis the chord steps shrink by about the distortion's change over the spot and
         // converge in a few steps (to 1e-8 mm). At the axis the RTF's kink (see
         // `inverse_jacobian`) leaves a ring of near-solutions and a tangential residue: there
         // the steps stop after 12, which is the first-order landing f x (angular aberration).
         for _ in 0..12 {
             let m = self.miss(p, q(p)?, dz, f);
-            let step = [ji[0][0] * m[0] + ji[0][1] * m[1], ji[1][0] * m[0] + ji[1][1] * m[1]];
+            let step = [
+                ji[0][0] * m[0] + ji[0][1] * m[1],
+                ji[1][0] * m[0] + ji[1][1] * m[1],
+            ];
             p = [p[0] - step[0], p[1] - step[1]];
             if step[0].hypot(step[1]) < 1e-8 {
                 break;
@@ -239,11 +297,23 @@ impl RtfLens {
         let centre = |p: [f64; 2]| -> Option<[f64; 2]> {
             let (pin, _) = self.ray(p, p, dz);
             let (e, c, s) = self.pupil_frame(pin)?;
-            Some([e.center_mm[0] * c + e.center_mm[1] * s, -e.center_mm[0] * s + e.center_mm[1] * c])
+            Some([
+                e.center_mm[0] * c + e.center_mm[1] * s,
+                -e.center_mm[0] * s + e.center_mm[1] * c,
+            ])
         };
-        let p0 = [0.0, f.ideal_height_mm * self.focal_length_mm / f.image_distance_mm];
+        let p0 = [
+            0.0,
+            f.ideal_height_mm * self.focal_length_mm / f.image_distance_mm,
+        ];
         let fail = || {
-            OpticsError::config(KEY, format!("{}: no chief ray for the field at ideal image height {:.4} mm", self.what, f.ideal_height_mm))
+            OpticsError::config(
+                KEY,
+                format!(
+                    "{}: no chief ray for the field at ideal image height {:.4} mm",
+                    self.what, f.ideal_height_mm
+                ),
+            )
         };
         let mut q = centre(p0).ok_or_else(fail)?;
         let ji = self.inverse_jacobian(p0, q, dz, f).ok_or_else(fail)?;
@@ -278,11 +348,16 @@ impl RtfLens {
     /// [`Self::field_spot`] with `m` x `m` pupil samples.
     fn spot_with(&self, f: &Field, dz: f64, m: usize) -> Result<Spot> {
         let (pc, qc) = self.chief(f, dz)?;
-        let ji = self
-            .inverse_jacobian(pc, qc, dz, f)
-            .ok_or_else(|| OpticsError::config(KEY, format!("{}: singular ray map at the chief ray", self.what)))?;
+        let ji = self.inverse_jacobian(pc, qc, dz, f).ok_or_else(|| {
+            OpticsError::config(
+                KEY,
+                format!("{}: singular ray map at the chief ray", self.what),
+            )
+        })?;
         let (pin, _) = self.ray(pc, qc, dz);
-        let (e, c, s) = self.pupil_frame(pin).ok_or_else(|| OpticsError::config(KEY, format!("{}: no pass region", self.what)))?;
+        let (e, c, s) = self
+            .pupil_frame(pin)
+            .ok_or_else(|| OpticsError::config(KEY, format!("{}: no pass region", self.what)))?;
         let d = self.rtf.pass_plane_distance_mm + dz;
         // Pupil grid over the ellipse's bounding box (5 % margin: the pass region moves a little
         // with the landing point), in the ellipse's frame, turned to absolute coordinates.
@@ -294,9 +369,13 @@ impl RtfLens {
                 let u = e.center_mm[0] + ax * (-1.0 + (2 * i + 1) as f64 / m as f64);
                 let v = e.center_mm[1] + ay * (-1.0 + (2 * k + 1) as f64 / m as f64);
                 let q = [u * c + v * s, -u * s + v * c];
-                let Some(p) = self.solve(pc, |_| Some(q), dz, f, &ji) else { continue };
+                let Some(p) = self.solve(pc, |_| Some(q), dz, f, &ji) else {
+                    continue;
+                };
                 let (pin, dir) = self.ray(p, q, dz);
-                let Some((ep, _, _)) = self.pupil_frame(pin) else { continue };
+                let Some((ep, _, _)) = self.pupil_frame(pin) else {
+                    continue;
+                };
                 if !self.rtf.inside(&ep, pin, dir) {
                     continue;
                 }
@@ -306,10 +385,22 @@ impl RtfLens {
         }
         let total: f64 = hits.iter().map(|h| h.1).sum();
         if hits.len() < 16 || total.is_nan() || total <= 0.0 {
-            return Err(OpticsError::config(KEY, format!("{}: no ray of the field at {:.4} mm passes", self.what, f.ideal_height_mm)));
+            return Err(OpticsError::config(
+                KEY,
+                format!(
+                    "{}: no ray of the field at {:.4} mm passes",
+                    self.what, f.ideal_height_mm
+                ),
+            ));
         }
-        let cen = hits.iter().fold([0.0, 0.0], |a, (p, w)| [a[0] + p[0] * w / total, a[1] + p[1] * w / total]);
-        let var = hits.iter().map(|(p, w)| ((p[0] - cen[0]).powi(2) + (p[1] - cen[1]).powi(2)) * w).sum::<f64>() / total;
+        let cen = hits.iter().fold([0.0, 0.0], |a, (p, w)| {
+            [a[0] + p[0] * w / total, a[1] + p[1] * w / total]
+        });
+        let var = hits
+            .iter()
+            .map(|(p, w)| ((p[0] - cen[0]).powi(2) + (p[1] - cen[1]).powi(2)) * w)
+            .sum::<f64>()
+            / total;
         let mut radii: Vec<(f64, f64)> = hits.iter().map(|(p, w)| (p[0].hypot(p[1]), *w)).collect();
         radii.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mut acc = 0.0;
@@ -321,10 +412,16 @@ impl RtfLens {
         // Numerical apertures of the pass ellipse seen from the chief ray's film point.
         let rho_c = ((qc[0] - pc[0]).powi(2) + (qc[1] - pc[1]).powi(2) + d * d).sqrt();
         let cos_t = d / rho_c;
-        let na = [e.radii_mm[1] * cos_t * cos_t / rho_c.hypot(e.radii_mm[1]), e.radii_mm[0] / rho_c.hypot(e.radii_mm[0])];
+        let na = [
+            e.radii_mm[1] * cos_t * cos_t / rho_c.hypot(e.radii_mm[1]),
+            e.radii_mm[0] / rho_c.hypot(e.radii_mm[0]),
+        ];
         Ok(Spot {
             chief_height_m: pc[1] * 1e-3,
-            hits: hits.into_iter().map(|(p, w)| ([p[0] * 1e-3, p[1] * 1e-3], w / total)).collect(),
+            hits: hits
+                .into_iter()
+                .map(|(p, w)| ([p[0] * 1e-3, p[1] * 1e-3], w / total))
+                .collect(),
             centroid_m: [cen[0] * 1e-3, cen[1] * 1e-3],
             rms_radius_m: var.sqrt() * 1e-3,
             r995_m,
@@ -411,10 +508,19 @@ impl RtfLens {
                 for c in 0..nc {
                     let fx = c as f64 * df;
                     for r in 0..m {
-                        let fy = (if r <= m / 2 { r as f64 } else { r as f64 - m as f64 }) * df;
+                        let fy = (if r <= m / 2 {
+                            r as f64
+                        } else {
+                            r as f64 - m as f64
+                        }) * df;
                         let rho = ((fx / cx).powi(2) + (fy / cy).powi(2)).sqrt();
                         // Goodman eq. 6-32: the diffraction-limited OTF of a circular pupil.
-                        let otf = if rho >= 1.0 { 0.0 } else { 2.0 / std::f64::consts::PI * (rho.acos() - rho * (1.0 - rho * rho).sqrt()) };
+                        let otf = if rho >= 1.0 {
+                            0.0
+                        } else {
+                            2.0 / std::f64::consts::PI
+                                * (rho.acos() - rho * (1.0 - rho * rho).sqrt())
+                        };
                         s[c * m + r] *= otf;
                     }
                 }
@@ -434,33 +540,76 @@ impl RtfLens {
 
     /// Distortion (ideal -> chief-ray film height) out to `out_half_diag_m` and the relative
     /// illumination table ([`Rtf::relative_illumination`]) for the shift-variant stage.
-    pub fn maps(&self, image_distance_mm: f64, object_distance_mm: f64, dz: f64, out_half_diag_m: f64) -> Result<LensMaps> {
+    pub fn maps(
+        &self,
+        image_distance_mm: f64,
+        object_distance_mm: f64,
+        dz: f64,
+        out_half_diag_m: f64,
+    ) -> Result<LensMaps> {
         let n_table = 48;
-        let ideal_mm: Vec<f64> = (0..=n_table).map(|i| 1.1 * out_half_diag_m * 1e3 * i as f64 / n_table as f64).collect();
+        let ideal_mm: Vec<f64> = (0..=n_table)
+            .map(|i| 1.1 * out_half_diag_m * 1e3 * i as f64 / n_table as f64)
+            .collect();
         let chief: Vec<Result<f64>> = ideal_mm
             .par_iter()
             .map(|h| {
                 if *h == 0.0 {
                     Ok(0.0)
                 } else {
-                    self.chief_height_mm(&Field { ideal_height_mm: *h, image_distance_mm, object_distance_mm }, dz)
+                    self.chief_height_mm(
+                        &Field {
+                            ideal_height_mm: *h,
+                            image_distance_mm,
+                            object_distance_mm,
+                        },
+                        dz,
+                    )
                 }
             })
             .collect();
         let n_ok = chief.iter().take_while(|r| r.is_ok()).count();
         if n_ok < 3 {
-            return Err(chief.into_iter().find_map(|r| r.err()).unwrap_or_else(|| OpticsError::config(KEY, "no chief ray passes")));
+            return Err(chief
+                .into_iter()
+                .find_map(|r| r.err())
+                .unwrap_or_else(|| OpticsError::config(KEY, "no chief ray passes")));
         }
         let ideal_m: Vec<f64> = ideal_mm[..n_ok].iter().map(|h| h * 1e-3).collect();
-        let real_m: Vec<f64> = chief.into_iter().take(n_ok).map(|r| r.unwrap_or(0.0) * 1e-3).collect();
-        if real_m.windows(2).any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater)) {
-            return Err(OpticsError::config(KEY, format!("{}: the chief-ray image height does not grow with field height", self.what)));
+        let real_m: Vec<f64> = chief
+            .into_iter()
+            .take(n_ok)
+            .map(|r| r.unwrap_or(0.0) * 1e-3)
+            .collect();
+        if real_m
+            .windows(2)
+            .any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater))
+        {
+            return Err(OpticsError::config(
+                KEY,
+                format!(
+                    "{}: the chief-ray image height does not grow with field height",
+                    self.what
+                ),
+            ));
         }
         let r_max_m = 1.05 * out_half_diag_m;
-        let ri_height_m: Vec<f64> = (0..RI_SAMPLES).map(|i| r_max_m * i as f64 / (RI_SAMPLES - 1) as f64).collect();
+        let ri_height_m: Vec<f64> = (0..RI_SAMPLES)
+            .map(|i| r_max_m * i as f64 / (RI_SAMPLES - 1) as f64)
+            .collect();
         let h_mm: Vec<f64> = ri_height_m.iter().map(|h| h * 1e3).collect();
-        let ri: Vec<f64> = self.rtf.relative_illumination(&h_mm, RI_GRID).into_iter().map(|v| v.unwrap_or(0.0)).collect();
-        Ok(LensMaps { ideal_m, real_m, ri_height_m, ri })
+        let ri: Vec<f64> = self
+            .rtf
+            .relative_illumination(&h_mm, RI_GRID)
+            .into_iter()
+            .map(|v| v.unwrap_or(0.0))
+            .collect();
+        Ok(LensMaps {
+            ideal_m,
+            real_m,
+            ri_height_m,
+            ri,
+        })
     }
 }
 
@@ -469,7 +618,10 @@ fn inverse(j: &[[f64; 2]; 2]) -> Option<[[f64; 2]; 2]> {
     if !(det.abs() > 0.0 && det.is_finite()) {
         return None;
     }
-    Some([[j[1][1] / det, -j[0][1] / det], [-j[1][0] / det, j[0][0] / det]])
+    Some([
+        [j[1][1] / det, -j[0][1] / det],
+        [-j[1][0] / det, j[0][0] / det],
+    ])
 }
 
 /// What the shift-variant stage takes from an RTF: the kernel side, the fine field kernels per
@@ -513,7 +665,10 @@ impl RtfLens {
         // reaches them: the relative illumination is 0 there).
         for i in 1..spots.len() {
             if spots[i].is_err() && spots[i - 1].is_ok() {
-                spots[i] = Ok(spots[i - 1].as_ref().map(|v| v.clone()).map_err(|_| OpticsError::Input(String::new()))?);
+                spots[i] = Ok(spots[i - 1]
+                    .as_ref()
+                    .map(|v| v.clone())
+                    .map_err(|_| OpticsError::Input(String::new()))?);
             }
         }
         let spots = spots.into_iter().collect::<Result<Vec<_>>>()?;
@@ -524,10 +679,14 @@ impl RtfLens {
             .iter()
             .map(|sp| {
                 let ln = lam_max_m / (2.0 * sp.na[0].min(sp.na[1]));
-                sp.r995_m + (2.0 * ln / (std::f64::consts::PI.powi(2) * tail_energy.max(1e-6))).max(3.0 * ln)
+                sp.r995_m
+                    + (2.0 * ln / (std::f64::consts::PI.powi(2) * tail_energy.max(1e-6)))
+                        .max(3.0 * ln)
             })
             .fold(0.0, f64::max);
-        let k = (2 * (r_m / spacing_m).ceil() as usize + 1).max(3).min(max_kernel);
+        let k = (2 * (r_m / spacing_m).ceil() as usize + 1)
+            .max(3)
+            .min(max_kernel);
         let ks = k * s;
         let fine = spacing_m / s as f64;
         let kernels = spots

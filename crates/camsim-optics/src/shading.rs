@@ -112,7 +112,10 @@ impl ShadingFit {
     pub fn eval_for(&self, which: ShadingChannel, x: f64, y: f64) -> f64 {
         match which {
             ShadingChannel::Mean => {
-                (self.eval(CfaChannel::R, x, y) + self.eval(CfaChannel::G, x, y) + self.eval(CfaChannel::B, x, y)) / 3.0
+                (self.eval(CfaChannel::R, x, y)
+                    + self.eval(CfaChannel::G, x, y)
+                    + self.eval(CfaChannel::B, x, y))
+                    / 3.0
             }
             ShadingChannel::R => self.eval(CfaChannel::R, x, y),
             ShadingChannel::G => self.eval(CfaChannel::G, x, y),
@@ -133,20 +136,37 @@ impl ShadingFit {
 
     /// Read a shading file; `what` names it in errors.
     pub fn from_toml(text: &str, what: &str) -> Result<Self> {
-        let fit: ShadingFit = toml::from_str(text).map_err(|e| OpticsError::Parse { what: what.to_string(), message: e.to_string() })?;
+        let fit: ShadingFit = toml::from_str(text).map_err(|e| OpticsError::Parse {
+            what: what.to_string(),
+            message: e.to_string(),
+        })?;
         let n = monomials(fit.order).len();
-        for (name, c) in [("red", &fit.red), ("green", &fit.green), ("blue", &fit.blue)] {
+        for (name, c) in [
+            ("red", &fit.red),
+            ("green", &fit.green),
+            ("blue", &fit.blue),
+        ] {
             if c.len() != n {
                 return Err(OpticsError::Parse {
                     what: what.to_string(),
-                    message: format!("`{name}` has {} coefficients; order {} needs {n}", c.len(), fit.order),
+                    message: format!(
+                        "`{name}` has {} coefficients; order {} needs {n}",
+                        c.len(),
+                        fit.order
+                    ),
                 });
             }
             if c.iter().any(|v| !v.is_finite()) {
-                return Err(OpticsError::Parse { what: what.to_string(), message: format!("`{name}` has a non-finite coefficient") });
+                return Err(OpticsError::Parse {
+                    what: what.to_string(),
+                    message: format!("`{name}` has a non-finite coefficient"),
+                });
             }
         }
-        fit.check().map_err(|m| OpticsError::Parse { what: what.to_string(), message: m })?;
+        fit.check().map_err(|m| OpticsError::Parse {
+            what: what.to_string(),
+            message: m,
+        })?;
         Ok(fit)
     }
 
@@ -156,7 +176,9 @@ impl ShadingFit {
     /// to its maximum) and falls off monotonically from its maximum (rise < [`MAX_OUTWARD_RISE`]
     /// along 32 rays, 64 steps each). The message says which test failed and by how much.
     pub fn check(&self) -> std::result::Result<(), String> {
-        let excess = (self.rms_residual_percent.powi(2) - self.noise_percent.powi(2)).max(0.0).sqrt();
+        let excess = (self.rms_residual_percent.powi(2) - self.noise_percent.powi(2))
+            .max(0.0)
+            .sqrt();
         if !(excess <= MAX_EXCESS_RESIDUAL_PERCENT) {
             return Err(format!(
                 "not a flat field: the fitted shading leaves an RMS residual of {:.1} % against a pixel noise of {:.1} % \
@@ -168,7 +190,14 @@ impl ShadingFit {
             let coef = self.coefficients(ch);
             // Values on a 65 x 65 grid over the image (corners included), and the maximum.
             let n = 64;
-            let at = |i: usize, j: usize| poly_eval(coef, self.order, -1.0 + 2.0 * i as f64 / n as f64, -1.0 + 2.0 * j as f64 / n as f64);
+            let at = |i: usize, j: usize| {
+                poly_eval(
+                    coef,
+                    self.order,
+                    -1.0 + 2.0 * i as f64 / n as f64,
+                    -1.0 + 2.0 * j as f64 / n as f64,
+                )
+            };
             let (mut lo, mut hi, mut arg) = (f64::INFINITY, f64::NEG_INFINITY, (0.0, 0.0));
             for i in 0..=n {
                 for j in 0..=n {
@@ -176,7 +205,10 @@ impl ShadingFit {
                     lo = lo.min(v);
                     if v > hi {
                         hi = v;
-                        arg = (-1.0 + 2.0 * i as f64 / n as f64, -1.0 + 2.0 * j as f64 / n as f64);
+                        arg = (
+                            -1.0 + 2.0 * i as f64 / n as f64,
+                            -1.0 + 2.0 * j as f64 / n as f64,
+                        );
                     }
                 }
             }
@@ -262,10 +294,16 @@ pub(crate) fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize) -> Option<Vec<f6
 /// when the input is not a flat field ([`ShadingFit::check`]).
 pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
     if order > 8 {
-        return Err(OpticsError::config("order", format!("{order}: the shading polynomial order must be 0..=8")));
+        return Err(OpticsError::config(
+            "order",
+            format!("{order}: the shading polynomial order must be 0..=8"),
+        ));
     }
     if raw.dn.len() != raw.rows * raw.cols || raw.rows < 4 || raw.cols < 4 {
-        return Err(OpticsError::Input(format!("flat field {} x {} is too small or inconsistent", raw.rows, raw.cols)));
+        return Err(OpticsError::Input(format!(
+            "flat field {} x {} is too small or inconsistent",
+            raw.rows, raw.cols
+        )));
     }
     let terms = monomials(order);
     let nt = terms.len();
@@ -323,8 +361,12 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
                 ch.letter()
             )));
         }
-        let mut coef = solve(ata, atb, nt)
-            .ok_or_else(|| OpticsError::Input(format!("flat field: the shading fit for channel {} is singular", ch.letter())))?;
+        let mut coef = solve(ata, atb, nt).ok_or_else(|| {
+            OpticsError::Input(format!(
+                "flat field: the shading fit for channel {} is singular",
+                ch.letter()
+            ))
+        })?;
         // Normalize to 1 at the maximum over the image (evaluated on a 129 x 129 grid plus corners).
         let mut mx = f64::NEG_INFINITY;
         for i in 0..=128 {
@@ -335,7 +377,10 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
             }
         }
         if !(mx > 0.0) {
-            return Err(OpticsError::Input(format!("flat field: channel {} has no signal above the black level", ch.letter())));
+            return Err(OpticsError::Input(format!(
+                "flat field: channel {} has no signal above the black level",
+                ch.letter()
+            )));
         }
         coef.iter_mut().for_each(|c| *c /= mx);
         // Keep the absolute scale for the residual.
@@ -347,7 +392,9 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
     let (mut nss, mut nn) = (0.0f64, 0usize);
     for r in 0..rows {
         let y = yn(r);
-        let rc: Vec<Vec<f64>> = (0..3).map(|ch| row_coefficients(&fits[2 * ch], order, y)).collect();
+        let rc: Vec<Vec<f64>> = (0..3)
+            .map(|ch| row_coefficients(&fits[2 * ch], order, y))
+            .collect();
         for c in 0..cols.saturating_sub(2) {
             let (a, b) = (raw.dn[r * cols + c] as f64, raw.dn[r * cols + c + 2] as f64);
             if a >= sat || b >= sat {
@@ -364,7 +411,9 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
     let (mut ss, mut n) = (0.0f64, 0usize);
     for r in 0..rows {
         let y = yn(r);
-        let rc: Vec<Vec<f64>> = (0..3).map(|ch| row_coefficients(&fits[2 * ch], order, y)).collect();
+        let rc: Vec<Vec<f64>> = (0..3)
+            .map(|ch| row_coefficients(&fits[2 * ch], order, y))
+            .collect();
         for c in 0..cols {
             let v = raw.dn[r * cols + c] as f64;
             if v >= sat {
@@ -387,9 +436,18 @@ pub fn fit_flat_field(raw: &RawImage, order: usize) -> Result<ShadingFit> {
         green: fits[3].clone(),
         blue: fits[5].clone(),
         // No pixel with a positive fit: the fit is useless, report an infinite residual.
-        rms_residual_percent: if n > 0 { (ss / n as f64).sqrt() * 100.0 } else { f64::INFINITY },
-        noise_percent: if nn > 0 { (nss / nn as f64).sqrt() * 100.0 } else { 0.0 },
+        rms_residual_percent: if n > 0 {
+            (ss / n as f64).sqrt() * 100.0
+        } else {
+            f64::INFINITY
+        },
+        noise_percent: if nn > 0 {
+            (nss / nn as f64).sqrt() * 100.0
+        } else {
+            0.0
+        },
     };
-    fit.check().map_err(|m| OpticsError::Input(format!("flat field: {m}")))?;
+    fit.check()
+        .map_err(|m| OpticsError::Input(format!("flat field: {m}")))?;
     Ok(fit)
 }

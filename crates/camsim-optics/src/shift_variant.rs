@@ -80,27 +80,56 @@ pub struct ShiftVariant {
 
 impl ShiftVariant {
     /// Check a `blur` config; `None` for the shift-invariant method.
-    pub fn from_config(b: &BlurConfig, f_number: f64, focal_length_mm: f64, shading_is_none: bool) -> Result<Option<ShiftVariant>> {
+    pub fn from_config(
+        b: &BlurConfig,
+        f_number: f64,
+        focal_length_mm: f64,
+        shading_is_none: bool,
+    ) -> Result<Option<ShiftVariant>> {
         if b.method == BlurKind::ShiftInvariant {
             if b.lens_file.is_some() || b.rtf_file.is_some() || b.field_zernike.is_some() {
-                return Err(OpticsError::config("blur.method", "lens_file, rtf_file and field_zernike need method = \"shift-variant\""));
+                return Err(OpticsError::config(
+                    "blur.method",
+                    "lens_file, rtf_file and field_zernike need method = \"shift-variant\"",
+                ));
             }
             return Ok(None);
         }
         if !(2..=64).contains(&b.field_heights) {
-            return Err(OpticsError::config("blur.field_heights", format!("{} must be 2..=64", b.field_heights)));
+            return Err(OpticsError::config(
+                "blur.field_heights",
+                format!("{} must be 2..=64", b.field_heights),
+            ));
         }
         if let Some(p) = b.block_px {
             if !(8..=4096).contains(&p) {
-                return Err(OpticsError::config("blur.block_px", format!("{p} must be 8..=4096")));
+                return Err(OpticsError::config(
+                    "blur.block_px",
+                    format!("{p} must be 8..=4096"),
+                ));
             }
         }
         let s = b.rotation_oversampling;
         if !(1..=9).contains(&s) || s.is_multiple_of(2) {
-            return Err(OpticsError::config("blur.rotation_oversampling", format!("{s} must be odd, 1..=9")));
+            return Err(OpticsError::config(
+                "blur.rotation_oversampling",
+                format!("{s} must be odd, 1..=9"),
+            ));
         }
-        if [b.lens_file.is_some(), b.rtf_file.is_some(), b.field_zernike.is_some()].iter().filter(|v| **v).count() > 1 {
-            return Err(OpticsError::config("blur", "give one of lens_file, rtf_file or field_zernike"));
+        if [
+            b.lens_file.is_some(),
+            b.rtf_file.is_some(),
+            b.field_zernike.is_some(),
+        ]
+        .iter()
+        .filter(|v| **v)
+        .count()
+            > 1
+        {
+            return Err(OpticsError::config(
+                "blur",
+                "give one of lens_file, rtf_file or field_zernike",
+            ));
         }
         if let Some(path) = &b.rtf_file {
             if !shading_is_none {
@@ -109,11 +138,25 @@ impl ShiftVariant {
                     "with blur.rtf_file the ray-transfer function's relative illumination is applied; set shading = \"none\"",
                 ));
             }
-            let source = FieldSource::Rtf(Box::new(RtfLens::from_file(path, f_number, focal_length_mm)?));
-            return Ok(Some(ShiftVariant { field_heights: b.field_heights, block_px: b.block_px, rotation_oversampling: s, source }));
+            let source = FieldSource::Rtf(Box::new(RtfLens::from_file(
+                path,
+                f_number,
+                focal_length_mm,
+            )?));
+            return Ok(Some(ShiftVariant {
+                field_heights: b.field_heights,
+                block_px: b.block_px,
+                rotation_oversampling: s,
+                source,
+            }));
         }
         let source = match (&b.lens_file, &b.field_zernike) {
-            (Some(_), Some(_)) => return Err(OpticsError::config("blur", "give one of lens_file, rtf_file or field_zernike")),
+            (Some(_), Some(_)) => {
+                return Err(OpticsError::config(
+                    "blur",
+                    "give one of lens_file, rtf_file or field_zernike",
+                ))
+            }
             (Some(path), None) => {
                 if !shading_is_none {
                     return Err(OpticsError::config(
@@ -121,26 +164,49 @@ impl ShiftVariant {
                         "with blur.lens_file the lens's traced relative illumination is applied; set shading = \"none\"",
                     ));
                 }
-                FieldSource::Lens(Box::new(TracedLens::from_file(path, f_number, focal_length_mm)?))
+                FieldSource::Lens(Box::new(TracedLens::from_file(
+                    path,
+                    f_number,
+                    focal_length_mm,
+                )?))
             }
             (None, Some(t)) => {
-                let (heights, normalized, key) = match (&t.field_height_mm, &t.field_height_normalized) {
-                    (Some(h), None) => (h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(), false, "blur.field_zernike.field_height_mm"),
-                    (None, Some(h)) => (h.clone(), true, "blur.field_zernike.field_height_normalized"),
-                    _ => {
-                        return Err(OpticsError::config(
-                            "blur.field_zernike",
-                            "give exactly one of field_height_mm or field_height_normalized",
-                        ))
-                    }
-                };
-                if heights.is_empty() || heights.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || heights.windows(2).any(|p| p[1] <= p[0]) {
-                    return Err(OpticsError::config(key, "field heights must be finite, >= 0 and strictly increasing"));
+                let (heights, normalized, key) =
+                    match (&t.field_height_mm, &t.field_height_normalized) {
+                        (Some(h), None) => (
+                            h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(),
+                            false,
+                            "blur.field_zernike.field_height_mm",
+                        ),
+                        (None, Some(h)) => (
+                            h.clone(),
+                            true,
+                            "blur.field_zernike.field_height_normalized",
+                        ),
+                        _ => {
+                            return Err(OpticsError::config(
+                                "blur.field_zernike",
+                                "give exactly one of field_height_mm or field_height_normalized",
+                            ))
+                        }
+                    };
+                if heights.is_empty()
+                    || heights.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+                    || heights.windows(2).any(|p| p[1] <= p[0])
+                {
+                    return Err(OpticsError::config(
+                        key,
+                        "field heights must be finite, >= 0 and strictly increasing",
+                    ));
                 }
                 if t.zernike_um.len() != heights.len() {
                     return Err(OpticsError::config(
                         "blur.field_zernike.zernike_um",
-                        format!("{} lists of terms for {} field heights", t.zernike_um.len(), heights.len()),
+                        format!(
+                            "{} lists of terms for {} field heights",
+                            t.zernike_um.len(),
+                            heights.len()
+                        ),
                     ));
                 }
                 for (i, l) in t.zernike_um.iter().enumerate() {
@@ -157,11 +223,24 @@ impl ShiftVariant {
                         ));
                     }
                 }
-                FieldSource::Zernike { heights, normalized, terms_um: t.zernike_um.clone() }
+                FieldSource::Zernike {
+                    heights,
+                    normalized,
+                    terms_um: t.zernike_um.clone(),
+                }
             }
-            (None, None) => FieldSource::Zernike { heights: vec![0.0], normalized: false, terms_um: vec![Vec::new()] },
+            (None, None) => FieldSource::Zernike {
+                heights: vec![0.0],
+                normalized: false,
+                terms_um: vec![Vec::new()],
+            },
         };
-        Ok(Some(ShiftVariant { field_heights: b.field_heights, block_px: b.block_px, rotation_oversampling: s, source }))
+        Ok(Some(ShiftVariant {
+            field_heights: b.field_heights,
+            block_px: b.block_px,
+            rotation_oversampling: s,
+            source,
+        }))
     }
 }
 
@@ -211,9 +290,14 @@ struct Geometry {
 impl Geometry {
     fn field(&self, ideal_height_m: f64) -> ObjectField {
         if self.d_obj_m.is_finite() {
-            ObjectField::Finite { height_mm: ideal_height_m * self.d_obj_m / self.v_s_m * 1e3, distance_mm: self.d_obj_m * 1e3 }
+            ObjectField::Finite {
+                height_mm: ideal_height_m * self.d_obj_m / self.v_s_m * 1e3,
+                distance_mm: self.d_obj_m * 1e3,
+            }
         } else {
-            ObjectField::Infinity { tan_theta: ideal_height_m / self.v_s_m }
+            ObjectField::Infinity {
+                tan_theta: ideal_height_m / self.v_s_m,
+            }
         }
     }
 }
@@ -244,10 +328,22 @@ impl ShiftVariant {
         geo: &Geometry,
     ) -> Result<(Vec<Vec<Wavefront>>, Option<LensCamera>)> {
         match &self.source {
-            FieldSource::Zernike { heights, normalized, terms_um } => {
+            FieldSource::Zernike {
+                heights,
+                normalized,
+                terms_um,
+            } => {
                 let field_independent = terms_um.iter().all(|t| t.iter().all(|c| *c == 0.0));
-                let n_terms = terms_um.iter().map(|t| t.len()).max().unwrap_or(0).max(base.zernike_um().len());
-                let table_h: Vec<f64> = heights.iter().map(|h| if *normalized { h * half_diag_m } else { *h }).collect();
+                let n_terms = terms_um
+                    .iter()
+                    .map(|t| t.len())
+                    .max()
+                    .unwrap_or(0)
+                    .max(base.zernike_um().len());
+                let table_h: Vec<f64> = heights
+                    .iter()
+                    .map(|h| if *normalized { h * half_diag_m } else { *h })
+                    .collect();
                 let wfs = heights_m
                     .iter()
                     .map(|h| {
@@ -257,10 +353,15 @@ impl ShiftVariant {
                         let mut c = base.zernike_um().to_vec();
                         c.resize(n_terms, 0.0);
                         for (j, cj) in c.iter_mut().enumerate() {
-                            let col: Vec<f64> = terms_um.iter().map(|t| t.get(j).copied().unwrap_or(0.0)).collect();
+                            let col: Vec<f64> = terms_um
+                                .iter()
+                                .map(|t| t.get(j).copied().unwrap_or(0.0))
+                                .collect();
                             *cj += interp(&table_h, &col, *h);
                         }
-                        Ok(vec![base.clone().with_zernike(c, base.measurement_pupil_m())?])
+                        Ok(vec![base
+                            .clone()
+                            .with_zernike(c, base.measurement_pupil_m())?])
                     })
                     .collect::<Result<Vec<_>>>()?;
                 Ok((wfs, None))
@@ -268,8 +369,12 @@ impl ShiftVariant {
             FieldSource::Lens(lens) => {
                 // Film large enough for a padded output's corner with 50 % distortion margin.
                 let cam = lens.camera(geo.d_obj_m * 1e3, 2.0 * 1.5 * 1.25 * half_diag_m * 1e3)?;
-                let mut fits: Vec<Result<Vec<Vec<f64>>>> =
-                    heights_m.par_iter().map(|h| lens.wavefront_zernike_um(&cam, geo.field(*h), wavelengths_nm, [0.0, 0.0])).collect();
+                let mut fits: Vec<Result<Vec<Vec<f64>>>> = heights_m
+                    .par_iter()
+                    .map(|h| {
+                        lens.wavefront_zernike_um(&cam, geo.field(*h), wavelengths_nm, [0.0, 0.0])
+                    })
+                    .collect();
                 // Heights where the lens vignettes most of the pupil (its relative illumination is
                 // then near 0) reuse the last height whose fit holds.
                 for i in 1..fits.len() {
@@ -281,26 +386,47 @@ impl ShiftVariant {
                 let pupil = base.lens_pupil_diameter_m();
                 let wfs = fits
                     .into_iter()
-                    .map(|per_band| per_band.into_iter().map(|c| base.clone().with_zernike(c, pupil)).collect::<Result<Vec<_>>>())
+                    .map(|per_band| {
+                        per_band
+                            .into_iter()
+                            .map(|c| base.clone().with_zernike(c, pupil))
+                            .collect::<Result<Vec<_>>>()
+                    })
                     .collect::<Result<Vec<_>>>()?;
                 Ok((wfs, Some(cam)))
             }
-            FieldSource::Rtf(_) => Ok((heights_m.iter().map(|_| vec![base.clone()]).collect(), None)),
+            FieldSource::Rtf(_) => {
+                Ok((heights_m.iter().map(|_| vec![base.clone()]).collect(), None))
+            }
         }
     }
 
     /// Distortion and relative illumination of the traced lens out to film height
     /// `out_half_diag_m` (the padded output's corner).
-    fn lens_maps(&self, cam: &LensCamera, geo: &Geometry, out_half_diag_m: f64) -> Result<LensMaps> {
+    fn lens_maps(
+        &self,
+        cam: &LensCamera,
+        geo: &Geometry,
+        out_half_diag_m: f64,
+    ) -> Result<LensMaps> {
         let FieldSource::Lens(lens) = &self.source else {
             return Err(OpticsError::Input("lens maps without a lens".into()));
         };
         // Distortion: chief rays out past the padded output's corner.
         let n_table = 48;
-        let ideal_m: Vec<f64> = (0..=n_table).map(|i| 1.1 * out_half_diag_m * i as f64 / n_table as f64).collect();
+        let ideal_m: Vec<f64> = (0..=n_table)
+            .map(|i| 1.1 * out_half_diag_m * i as f64 / n_table as f64)
+            .collect();
         let chief: Vec<Result<f64>> = ideal_m
             .par_iter()
-            .map(|h| if *h == 0.0 { Ok(0.0) } else { lens.chief_image_point_mm(cam, geo.field(*h)).map(|p| p[0] * 1e-3) })
+            .map(|h| {
+                if *h == 0.0 {
+                    Ok(0.0)
+                } else {
+                    lens.chief_image_point_mm(cam, geo.field(*h))
+                        .map(|p| p[0] * 1e-3)
+                }
+            })
             .collect();
         // Past the lens's field (chief rays blocked) the mapping is extended linearly from the
         // last traced heights (no light arrives there: the relative illumination is 0).
@@ -313,19 +439,31 @@ impl ShiftVariant {
         }
         let m = n_ok - 1;
         let ideal_m: Vec<f64> = ideal_m[..n_ok].to_vec();
-        let real_m: Vec<f64> = chief.into_iter().take(n_ok).map(|r| r.unwrap_or(0.0)).collect();
-        if real_m.windows(2).any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater)) {
+        let real_m: Vec<f64> = chief
+            .into_iter()
+            .take(n_ok)
+            .map(|r| r.unwrap_or(0.0))
+            .collect();
+        if real_m
+            .windows(2)
+            .any(|p| p[1].partial_cmp(&p[0]) != Some(std::cmp::Ordering::Greater))
+        {
             return Err(OpticsError::config(
                 "blur.lens_file",
                 "the lens's chief-ray image height does not grow with field height over the image (distortion folds)",
             ));
         }
         if real_m[m] > cam.max_film_radius_mm * 1e-3 {
-            return Err(OpticsError::config("blur.lens_file", "the lens's distortion exceeds 50 % at the image corner"));
+            return Err(OpticsError::config(
+                "blur.lens_file",
+                "the lens's distortion exceeds 50 % at the image corner",
+            ));
         }
         // The table reaches the output's corner on the film (where no chief ray passes the RI
         // integral finds no light: 0).
-        let r_max = real_m[m].max(1.05 * out_half_diag_m).min(cam.max_film_radius_mm * 1e-3);
+        let r_max = real_m[m]
+            .max(1.05 * out_half_diag_m)
+            .min(cam.max_film_radius_mm * 1e-3);
         let ri_height_m: Vec<f64> = (0..=32).map(|i| r_max * i as f64 / 32.0).collect();
         let h_mm: Vec<f64> = ri_height_m.iter().map(|h| h * 1e3).collect();
         let ri = cam.relative_illumination(&h_mm, 64, crate::traced::REFERENCE_WAVELENGTH_NM);
@@ -335,7 +473,12 @@ impl ShiftVariant {
                 "the lens's relative illumination is not finite (no light passes on the axis)",
             ));
         }
-        Ok(LensMaps { ideal_m, real_m, ri_height_m, ri })
+        Ok(LensMaps {
+            ideal_m,
+            real_m,
+            ri_height_m,
+            ri,
+        })
     }
 
     /// The shift-variant optics stage ([`Optics::compute`] with `blur.method = "shift-variant"`):
@@ -361,17 +504,31 @@ impl ShiftVariant {
         let grid = radiance.grid;
         let bands = radiance.bands();
         let wavelengths: Vec<f64> = (0..bands).map(|b| grid.wavelength_nm(b)).collect();
-        let extra = cfg.focus_distance_m.map(|fd| optics.defocus_c4_um(fd, d_obj_m)).unwrap_or(0.0);
-        let base = optics.wavefront().clone().with_image_distance(v_s_m).with_extra_defocus_um(extra);
+        let extra = cfg
+            .focus_distance_m
+            .map(|fd| optics.defocus_c4_um(fd, d_obj_m))
+            .unwrap_or(0.0);
+        let base = optics
+            .wavefront()
+            .clone()
+            .with_image_distance(v_s_m)
+            .with_extra_defocus_um(extra);
         let half_diag_m = 0.5 * (rows as f64).hypot(cols as f64) * spacing_m;
         let n_h = self.field_heights;
-        let heights_m: Vec<f64> = (0..n_h).map(|i| half_diag_m * i as f64 / (n_h - 1) as f64).collect();
+        let heights_m: Vec<f64> = (0..n_h)
+            .map(|i| half_diag_m * i as f64 / (n_h - 1) as f64)
+            .collect();
         let geo = Geometry { d_obj_m, v_s_m };
         let tail = cfg.psf.tail_energy;
         // Kernel side: as the shift-invariant path, the largest over bands, here also over heights
         // (for the output's padding the model is evaluated first at the unpadded corner).
-        let max_kernel = if cfg.psf.max_kernel_size.is_multiple_of(2) { cfg.psf.max_kernel_size - 1 } else { cfg.psf.max_kernel_size };
-        let (wfs, cam) = self.field_wavefronts(&base, &heights_m, half_diag_m, &wavelengths, &geo)?;
+        let max_kernel = if cfg.psf.max_kernel_size.is_multiple_of(2) {
+            cfg.psf.max_kernel_size - 1
+        } else {
+            cfg.psf.max_kernel_size
+        };
+        let (wfs, cam) =
+            self.field_wavefronts(&base, &heights_m, half_diag_m, &wavelengths, &geo)?;
         let wf_at = |i: usize, b: usize| pick(&wfs, i, b);
         // An RTF's field kernels (fine grid, per height and band) and its film offset.
         let rtf = match &self.source {
@@ -397,7 +554,13 @@ impl ShiftVariant {
             Some((_, _, kern)) => kern.k,
             None => (0..n_h * bands)
                 .into_par_iter()
-                .map(|ib| wf_at(ib / bands, ib % bands).kernel_size(wavelengths[ib % bands], spacing_m, tail))
+                .map(|ib| {
+                    wf_at(ib / bands, ib % bands).kernel_size(
+                        wavelengths[ib % bands],
+                        spacing_m,
+                        tail,
+                    )
+                })
                 .max()
                 .unwrap_or(1)
                 .min(max_kernel),
@@ -405,19 +568,30 @@ impl ShiftVariant {
         let h = k / 2;
         let (pad_r, pad_c) = match cfg.padding {
             Padding::Psf => (h, h),
-            Padding::Isetcam => (((rows as f64) / 8.0).round() as usize, ((cols as f64) / 8.0).round() as usize),
+            Padding::Isetcam => (
+                ((rows as f64) / 8.0).round() as usize,
+                ((cols as f64) / 8.0).round() as usize,
+            ),
             Padding::None => (0, 0),
         };
         let (out_rows, out_cols) = (rows + 2 * pad_r, cols + 2 * pad_c);
-        let mut out = SpectralImage::zeros(out_rows, out_cols, grid, spacing_m, Quantity::Irradiance)?;
+        let mut out =
+            SpectralImage::zeros(out_rows, out_cols, grid, spacing_m, Quantity::Irradiance)?;
         let out_half_diag_m = 0.5 * (out_rows as f64).hypot(out_cols as f64) * spacing_m;
         let maps = match (&cam, &rtf) {
             (Some(cam), _) => Some(self.lens_maps(cam, &geo, out_half_diag_m)?),
-            (None, Some((l, dz, _))) => Some(l.maps(v_s_m * 1e3, d_obj_m * 1e3, *dz, out_half_diag_m)?),
+            (None, Some((l, dz, _))) => {
+                Some(l.maps(v_s_m * 1e3, d_obj_m * 1e3, *dz, out_half_diag_m)?)
+            }
             (None, None) => None,
         };
-        let shade = if maps.is_some() { None } else { optics.shading_map(rows, cols, spacing_m, v_s_m) };
-        let symmetric = rtf.is_none() && wfs.iter().flatten().all(|w| w.is_rotationally_symmetric());
+        let shade = if maps.is_some() {
+            None
+        } else {
+            optics.shading_map(rows, cols, spacing_m, v_s_m)
+        };
+        let symmetric =
+            rtf.is_none() && wfs.iter().flatten().all(|w| w.is_rotationally_symmetric());
         let conv = match self.block_px {
             Some(b) => TileConvolver::with_tile(k, crate::wavefront::fast_fft_len(b + k - 1)),
             None => {
@@ -442,7 +616,11 @@ impl ShiftVariant {
         // laid out symmetrically about the axis, one kernel spectrum serves up to four blocks
         // (`flip_spectrum`). The RTF's spots are traced, not symmetrized: each block its own.
         let mirrored = rtf.is_none() && wfs.iter().flatten().all(meridional);
-        let (spans_r, spans_c) = if mirrored { (symmetric_spans(rows, t), symmetric_spans(cols, t)) } else { (plain_spans(rows, t), plain_spans(cols, t)) };
+        let (spans_r, spans_c) = if mirrored {
+            (symmetric_spans(rows, t), symmetric_spans(cols, t))
+        } else {
+            (plain_spans(rows, t), plain_spans(cols, t))
+        };
         // Each block's field height (as a fractional index into heights_m) and azimuth.
         let dh = half_diag_m / (n_h - 1) as f64;
         let block = |a: usize, bc: usize| -> Block {
@@ -452,7 +630,16 @@ impl ShiftVariant {
             let u = (x.hypot(y) / dh).min((n_h - 1) as f64);
             let i = (u.floor() as usize).min(n_h - 2);
             let phi = y.atan2(x);
-            Block { r0, c0, nr, nc, i, tt: (u - i as f64) as f32, cphi: phi.cos(), sphi: phi.sin() }
+            Block {
+                r0,
+                c0,
+                nr,
+                nc,
+                i,
+                tt: (u - i as f64) as f32,
+                cphi: phi.cos(),
+                sphi: phi.sin(),
+            }
         };
         // Groups: a block whose kernel is built, and the mirror blocks (flip x, flip y) that reuse
         // its spectrum.
@@ -487,104 +674,150 @@ impl ShiftVariant {
                 rustfft::num_complex::Complex32::new(a.cos() as f32, a.sin() as f32)
             })
             .collect();
-        let s = if symmetric { 1 } else { self.rotation_oversampling };
+        let s = if symmetric {
+            1
+        } else {
+            self.rotation_oversampling
+        };
         let ks = k * s;
         let oversampling = cfg.psf.oversampling;
-        let win = OutputWindow { rows: out_rows, cols: out_cols, off_r: pad_r as isize, off_c: pad_c as isize };
+        let win = OutputWindow {
+            rows: out_rows,
+            cols: out_cols,
+            off_r: pad_r as isize,
+            off_c: pad_c as isize,
+        };
         let plane = rows * cols;
-        out.data.par_chunks_mut(out_rows * out_cols).enumerate().try_for_each(|(b, out_band)| -> Result<()> {
-            // `out` is SpectralImage::zeros: no second zeroing pass (that pass only faulted the
-            // pages in ahead of the tiles).
-            let wl = wavelengths[b];
-            // Field PSFs of this band: image-sampled kernels (symmetric) or s-times finer.
-            let psfs: Vec<Vec<f32>> = (0..n_h)
-                .map(|i| {
-                    if let Some((_, _, kern)) = &rtf {
-                        return Ok(kern.kernels[i][b].clone());
-                    }
-                    let w = wf_at(i, b);
-                    let p = if s == 1 {
-                        w.psf_with(wl, spacing_m, k, oversampling)?
+        out.data
+            .par_chunks_mut(out_rows * out_cols)
+            .enumerate()
+            .try_for_each(|(b, out_band)| -> Result<()> {
+                // `out` is SpectralImage::zeros: no second zeroing pass (that pass only faulted the
+                // pages in ahead of the tiles).
+                let wl = wavelengths[b];
+                // Field PSFs of this band: image-sampled kernels (symmetric) or s-times finer.
+                let psfs: Vec<Vec<f32>> = (0..n_h)
+                    .map(|i| {
+                        if let Some((_, _, kern)) = &rtf {
+                            return Ok(kern.kernels[i][b].clone());
+                        }
+                        let w = wf_at(i, b);
+                        let p = if s == 1 {
+                            w.psf_with(wl, spacing_m, k, oversampling)?
+                        } else {
+                            w.clone().with_kernel_field(1.3).psf_with(
+                                wl,
+                                spacing_m / s as f64,
+                                ks,
+                                1,
+                            )?
+                        };
+                        Ok(p.to_f32())
+                    })
+                    .collect::<Result<_>>()?;
+                let src = &radiance.data[b * plane..(b + 1) * plane];
+                let sc = scale[b];
+                let mut scratch = conv.scratch();
+                let mut spec = KernelSpectrum(Vec::new());
+                let mut kernel = vec![0.0f32; k * k];
+                let hf = (ks / 2) as f32;
+                let hk = (k / 2) as f32;
+                let inv_s = 1.0 / s as f32;
+                let mut spec2 = KernelSpectrum(Vec::new());
+                for (rep, mirrors) in &groups {
+                    let Block {
+                        i, tt, cphi, sphi, ..
+                    } = *rep;
+                    let (a, bb) = (&psfs[i], &psfs[i + 1]);
+                    if s == 1 {
+                        kernel
+                            .iter_mut()
+                            .zip(a.iter().zip(bb))
+                            .for_each(|(kv, (x, y))| *kv = x + tt * (y - x));
                     } else {
-                        w.clone().with_kernel_field(1.3).psf_with(wl, spacing_m / s as f64, ks, 1)?
-                    };
-                    Ok(p.to_f32())
-                })
-                .collect::<Result<_>>()?;
-            let src = &radiance.data[b * plane..(b + 1) * plane];
-            let sc = scale[b];
-            let mut scratch = conv.scratch();
-            let mut spec = KernelSpectrum(Vec::new());
-            let mut kernel = vec![0.0f32; k * k];
-            let hf = (ks / 2) as f32;
-            let hk = (k / 2) as f32;
-            let inv_s = 1.0 / s as f32;
-            let mut spec2 = KernelSpectrum(Vec::new());
-            for (rep, mirrors) in &groups {
-                let Block { i, tt, cphi, sphi, .. } = *rep;
-                let (a, bb) = (&psfs[i], &psfs[i + 1]);
-                if s == 1 {
-                    kernel.iter_mut().zip(a.iter().zip(bb)).for_each(|(kv, (x, y))| *kv = x + tt * (y - x));
-                } else {
-                    kernel.iter_mut().for_each(|v| *v = 0.0);
-                    let (cp, sp) = (cphi as f32, sphi as f32);
-                    let kf = k as f32;
-                    for r in 0..ks {
-                        let yf = (r as f32 - hf) * inv_s;
-                        let (row_a, row_b) = (&a[r * ks..(r + 1) * ks], &bb[r * ks..(r + 1) * ks]);
-                        // Rotate the local (radial x, tangential y) offset to azimuth phi. Runs of
-                        // fine samples that land in one image cell (about s in a row) are summed
-                        // in a register and stored once (no store-to-load chain through the cell).
-                        let (bx, by) = (hk + 0.5 - yf * sp, hk + 0.5 + yf * cp);
-                        let (mut cell, mut run) = (usize::MAX, 0.0f32);
-                        for c in 0..ks {
-                            let v = row_a[c] + tt * (row_b[c] - row_a[c]);
-                            let xf = (c as f32 - hf) * inv_s;
-                            let xr = xf * cp + bx;
-                            let yr = xf * sp + by;
-                            let idx = if xr >= 0.0 && yr >= 0.0 && xr < kf && yr < kf { yr as usize * k + xr as usize } else { usize::MAX };
-                            if idx != cell {
-                                if cell != usize::MAX {
-                                    kernel[cell] += run;
+                        kernel.iter_mut().for_each(|v| *v = 0.0);
+                        let (cp, sp) = (cphi as f32, sphi as f32);
+                        let kf = k as f32;
+                        for r in 0..ks {
+                            let yf = (r as f32 - hf) * inv_s;
+                            let (row_a, row_b) =
+                                (&a[r * ks..(r + 1) * ks], &bb[r * ks..(r + 1) * ks]);
+                            // Rotate the local (radial x, tangential y) offset to azimuth phi. Runs of
+                            // fine samples that land in one image cell (about s in a row) are summed
+                            // in a register and stored once (no store-to-load chain through the cell).
+                            let (bx, by) = (hk + 0.5 - yf * sp, hk + 0.5 + yf * cp);
+                            let (mut cell, mut run) = (usize::MAX, 0.0f32);
+                            for c in 0..ks {
+                                let v = row_a[c] + tt * (row_b[c] - row_a[c]);
+                                let xf = (c as f32 - hf) * inv_s;
+                                let xr = xf * cp + bx;
+                                let yr = xf * sp + by;
+                                let idx = if xr >= 0.0 && yr >= 0.0 && xr < kf && yr < kf {
+                                    yr as usize * k + xr as usize
+                                } else {
+                                    usize::MAX
+                                };
+                                if idx != cell {
+                                    if cell != usize::MAX {
+                                        kernel[cell] += run;
+                                    }
+                                    (cell, run) = (idx, 0.0);
                                 }
-                                (cell, run) = (idx, 0.0);
+                                run += v;
                             }
-                            run += v;
-                        }
-                        if cell != usize::MAX {
-                            kernel[cell] += run;
+                            if cell != usize::MAX {
+                                kernel[cell] += run;
+                            }
                         }
                     }
+                    let sum: f32 = kernel.iter().sum();
+                    if sum.is_nan() || sum <= 0.0 {
+                        return Err(OpticsError::Input(format!(
+                            "the field PSF at {wl} nm has no energy inside the {k} x {k} kernel"
+                        )));
+                    }
+                    if s > 1 {
+                        kernel.iter_mut().for_each(|v| *v /= sum);
+                    }
+                    conv.kernel_spectrum_in(&kernel, &mut scratch, &mut spec);
+                    let shade = shade.as_deref();
+                    let mut blur =
+                        |bl: &Block, sp: &KernelSpectrum, scratch: &mut crate::conv::Scratch| {
+                            let Block { r0, c0, nr, nc, .. } = *bl;
+                            conv.tile_sum(
+                                r0,
+                                c0,
+                                nr,
+                                nc,
+                                &[sp],
+                                out_band,
+                                win,
+                                scratch,
+                                |_, r, dst| {
+                                    let i0 = (r0 + r) * cols + c0;
+                                    let row = &src[i0..i0 + nc];
+                                    match shade {
+                                        None => {
+                                            dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc)
+                                        }
+                                        Some(sh) => dst
+                                            .iter_mut()
+                                            .zip(row)
+                                            .zip(&sh[i0..i0 + nc])
+                                            .for_each(|((d, v), w)| *d = v * sc * w),
+                                    }
+                                },
+                            );
+                        };
+                    blur(rep, &spec, &mut scratch);
+                    for (bl, fx, fy) in mirrors {
+                        flip_spectrum(&spec, &mut spec2, conv.f, &phase, *fx, *fy);
+                        blur(bl, &spec2, &mut scratch);
+                    }
                 }
-                let sum: f32 = kernel.iter().sum();
-                if sum.is_nan() || sum <= 0.0 {
-                    return Err(OpticsError::Input(format!("the field PSF at {wl} nm has no energy inside the {k} x {k} kernel")));
-                }
-                if s > 1 {
-                    kernel.iter_mut().for_each(|v| *v /= sum);
-                }
-                conv.kernel_spectrum_in(&kernel, &mut scratch, &mut spec);
-                let shade = shade.as_deref();
-                let mut blur = |bl: &Block, sp: &KernelSpectrum, scratch: &mut crate::conv::Scratch| {
-                    let Block { r0, c0, nr, nc, .. } = *bl;
-                    conv.tile_sum(r0, c0, nr, nc, &[sp], out_band, win, scratch, |_, r, dst| {
-                        let i0 = (r0 + r) * cols + c0;
-                        let row = &src[i0..i0 + nc];
-                        match shade {
-                            None => dst.iter_mut().zip(row).for_each(|(d, v)| *d = v * sc),
-                            Some(sh) => dst.iter_mut().zip(row).zip(&sh[i0..i0 + nc]).for_each(|((d, v), w)| *d = v * sc * w),
-                        }
-                    });
-                };
-                blur(rep, &spec, &mut scratch);
-                for (bl, fx, fy) in mirrors {
-                    flip_spectrum(&spec, &mut spec2, conv.f, &phase, *fx, *fy);
-                    blur(bl, &spec2, &mut scratch);
-                }
-            }
-            out_band.iter_mut().for_each(|v| *v = v.max(0.0));
-            Ok(())
-        })?;
+                out_band.iter_mut().for_each(|v| *v = v.max(0.0));
+                Ok(())
+            })?;
         if let Some(m) = &maps {
             apply_lens_maps(&mut out, m, spacing_m);
         }
@@ -627,7 +860,10 @@ fn apply_lens_maps(out: &mut SpectralImage, m: &LensMaps, spacing_m: f64) {
             // Source rows a strip may read: [lo, hi).
             let lo = r0.saturating_sub(d_rows + 1);
             let hi = (r_end + d_rows + 1).min(rows);
-            for (band, ring) in grp.chunks_mut(plane).zip(rings.chunks_mut(ring_rows * cols)) {
+            for (band, ring) in grp
+                .chunks_mut(plane)
+                .zip(rings.chunks_mut(ring_rows * cols))
+            {
                 for r in r0..r_end {
                     let k = r % ring_rows;
                     ring[k * cols..(k + 1) * cols].copy_from_slice(&band[r * cols..(r + 1) * cols]);
@@ -645,19 +881,32 @@ fn apply_lens_maps(out: &mut SpectralImage, m: &LensMaps, spacing_m: f64) {
                         }
                     })
                     .collect();
-                let row = |r: i32| -> Option<&[f32]> { if r >= lo as i32 && r < hi as i32 { Some(src_rows[(r - lo as i32) as usize]) } else { None } };
+                let row = |r: i32| -> Option<&[f32]> {
+                    if r >= lo as i32 && r < hi as i32 {
+                        Some(src_rows[(r - lo as i32) as usize])
+                    } else {
+                        None
+                    }
+                };
                 for (d, t) in head[r0 * cols..].iter_mut().zip(taps.iter()) {
                     let v = if t.inside {
-                        let (a, b) = (src_rows[t.row as usize - lo], src_rows[t.row as usize + 1 - lo]);
+                        let (a, b) = (
+                            src_rows[t.row as usize - lo],
+                            src_rows[t.row as usize + 1 - lo],
+                        );
                         let c = t.col as usize;
-                        (a[c] * (1.0 - t.fx) + a[c + 1] * t.fx) * (1.0 - t.fy) + (b[c] * (1.0 - t.fx) + b[c + 1] * t.fx) * t.fy
+                        (a[c] * (1.0 - t.fx) + a[c + 1] * t.fx) * (1.0 - t.fy)
+                            + (b[c] * (1.0 - t.fx) + b[c + 1] * t.fx) * t.fy
                     } else {
                         let at = |r: i32, c: i32| match row(r) {
                             Some(x) if c >= 0 && (c as usize) < cols => x[c as usize],
                             _ => 0.0,
                         };
-                        (at(t.row, t.col) * (1.0 - t.fx) + at(t.row, t.col + 1) * t.fx) * (1.0 - t.fy)
-                            + (at(t.row + 1, t.col) * (1.0 - t.fx) + at(t.row + 1, t.col + 1) * t.fx) * t.fy
+                        (at(t.row, t.col) * (1.0 - t.fx) + at(t.row, t.col + 1) * t.fx)
+                            * (1.0 - t.fy)
+                            + (at(t.row + 1, t.col) * (1.0 - t.fx)
+                                + at(t.row + 1, t.col + 1) * t.fx)
+                                * t.fy
                     };
                     *d = (v * t.gain).max(0.0);
                 }
@@ -695,15 +944,29 @@ impl RadialLut {
     fn new(m: &LensMaps, rows: usize, cols: usize, spacing_m: f64) -> RadialLut {
         let r2_max = ((rows * rows + cols * cols) as f64 / 4.0 + 4.0 * (rows + cols) as f64) * 1.01;
         let step = r2_max / (Self::N - 1) as f64;
-        let slope0 = if m.real_m.len() > 1 && m.real_m[1] > 0.0 { m.ideal_m[1] / m.real_m[1] } else { 1.0 };
+        let slope0 = if m.real_m.len() > 1 && m.real_m[1] > 0.0 {
+            m.ideal_m[1] / m.real_m[1]
+        } else {
+            1.0
+        };
         let (scale, gain) = (0..Self::N)
             .map(|i| {
                 let h_real = (i as f64 * step).sqrt() * spacing_m;
-                let f = if h_real > 0.0 { interp_extend(&m.real_m, &m.ideal_m, h_real) / h_real } else { slope0 };
+                let f = if h_real > 0.0 {
+                    interp_extend(&m.real_m, &m.ideal_m, h_real) / h_real
+                } else {
+                    slope0
+                };
                 (f, interp(&m.ri_height_m, &m.ri, h_real))
             })
             .unzip();
-        RadialLut { rows, cols, inv_step: 1.0 / step, scale, gain }
+        RadialLut {
+            rows,
+            cols,
+            inv_step: 1.0 / step,
+            scale,
+            gain,
+        }
     }
 
     /// The taps of output sample (r, c).
@@ -714,11 +977,25 @@ impl RadialLut {
         let t = u - i as f64;
         let f = self.scale[i] + t * (self.scale[i + 1] - self.scale[i]);
         let gain = (self.gain[i] + t * (self.gain[i + 1] - self.gain[i])) as f32;
-        let (sx, sy) = (x * f + self.cols as f64 / 2.0 - 0.5, y * f + self.rows as f64 / 2.0 - 0.5);
+        let (sx, sy) = (
+            x * f + self.cols as f64 / 2.0 - 0.5,
+            y * f + self.rows as f64 / 2.0 - 0.5,
+        );
         // Far outside (beyond one sample of the image) nothing is read: the clamp keeps i32.
-        let (x0, y0) = (sx.floor().clamp(-2.0, self.cols as f64 + 1.0), sy.floor().clamp(-2.0, self.rows as f64 + 1.0));
-        let inside = x0 >= 0.0 && y0 >= 0.0 && x0 + 1.0 < self.cols as f64 && y0 + 1.0 < self.rows as f64;
-        Tap { row: y0 as i32, col: x0 as i32, fx: (sx - sx.floor()) as f32, fy: (sy - sy.floor()) as f32, gain, inside }
+        let (x0, y0) = (
+            sx.floor().clamp(-2.0, self.cols as f64 + 1.0),
+            sy.floor().clamp(-2.0, self.rows as f64 + 1.0),
+        );
+        let inside =
+            x0 >= 0.0 && y0 >= 0.0 && x0 + 1.0 < self.cols as f64 && y0 + 1.0 < self.rows as f64;
+        Tap {
+            row: y0 as i32,
+            col: x0 as i32,
+            fx: (sx - sx.floor()) as f32,
+            fy: (sy - sy.floor()) as f32,
+            gain,
+            inside,
+        }
     }
 
     /// The largest |source row - output row| over the image, rounded up, plus 2.
@@ -754,7 +1031,9 @@ struct Block {
 
 /// Spans (start, length, index of the mirror span) of side `t` from 0.
 fn plain_spans(n: usize, t: usize) -> Vec<(usize, usize, usize)> {
-    (0..n.div_ceil(t)).map(|j| (j * t, t.min(n - j * t), j)).collect()
+    (0..n.div_ceil(t))
+        .map(|j| (j * t, t.min(n - j * t), j))
+        .collect()
 }
 
 /// Spans of side <= `t` laid out symmetrically about n / 2 (mirror of [a, b) is [n - b, n - a)),
@@ -778,7 +1057,10 @@ fn symmetric_spans(n: usize, t: usize) -> Vec<(usize, usize, usize)> {
     v.extend(centre);
     v.extend(upper);
     let m = v.len();
-    v.into_iter().enumerate().map(|(j, (a, l))| (a, l, m - 1 - j)).collect()
+    v.into_iter()
+        .enumerate()
+        .map(|(j, (a, l))| (a, l, m - 1 - j))
+        .collect()
 }
 
 /// Whether a wavefront is mirror-symmetric about its local x axis (the meridian): no Zernike
@@ -786,7 +1068,9 @@ fn symmetric_spans(n: usize, t: usize) -> Vec<(usize, usize, usize)> {
 fn meridional(w: &Wavefront) -> bool {
     let c = w.zernike_um();
     let big = c.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    c.iter().enumerate().all(|(j, v)| crate::zernike::osa_to_nm(j).1 >= 0 || v.abs() <= 1e-9 * big.max(1e-12))
+    c.iter()
+        .enumerate()
+        .all(|(j, v)| crate::zernike::osa_to_nm(j).1 >= 0 || v.abs() <= 1e-9 * big.max(1e-12))
 }
 
 /// The spectrum (layout of [`TileConvolver::kernel_spectrum_in`]: column frequency v major, row
@@ -795,9 +1079,21 @@ fn meridional(w: &Wavefront) -> bool {
 /// Hermitian symmetry of a real kernel, S(u, -v) = conj S(-u, v):
 /// x: exp(-2 pi i v (K-1) / F) conj S(-u, v); y: exp(-2 pi i u (K-1) / F) S(-u, v);
 /// both: exp(-2 pi i (u + v) (K-1) / F) conj S(u, v). `phase[u]` = exp(-2 pi i u (K-1) / F).
-fn flip_spectrum(src: &KernelSpectrum, dst: &mut KernelSpectrum, f: usize, phase: &[rustfft::num_complex::Complex32], fx: bool, fy: bool) {
+fn flip_spectrum(
+    src: &KernelSpectrum,
+    dst: &mut KernelSpectrum,
+    f: usize,
+    phase: &[rustfft::num_complex::Complex32],
+    fx: bool,
+    fy: bool,
+) {
     dst.0.resize(src.0.len(), Default::default());
-    for (v, (col_s, col_d)) in src.0.chunks_exact(f).zip(dst.0.chunks_exact_mut(f)).enumerate() {
+    for (v, (col_s, col_d)) in src
+        .0
+        .chunks_exact(f)
+        .zip(dst.0.chunks_exact_mut(f))
+        .enumerate()
+    {
         for (u, d) in col_d.iter_mut().enumerate() {
             let neg = (f - u) % f;
             *d = match (fx, fy) {
@@ -820,7 +1116,9 @@ mod tests {
     fn flipped_spectrum_is_the_spectrum_of_the_flipped_kernel() {
         let (k, f) = (7usize, 32usize);
         let conv = TileConvolver::with_tile(k, f);
-        let kern: Vec<f32> = (0..k * k).map(|i| ((i * 37 % 11) as f32 + 0.3 * (i / k) as f32) / 50.0).collect();
+        let kern: Vec<f32> = (0..k * k)
+            .map(|i| ((i * 37 % 11) as f32 + 0.3 * (i / k) as f32) / 50.0)
+            .collect();
         let phase: Vec<rustfft::num_complex::Complex32> = (0..f)
             .map(|u| {
                 let a = -2.0 * std::f64::consts::PI * (u * (k - 1)) as f64 / f as f64;
@@ -832,14 +1130,22 @@ mod tests {
             let flipped: Vec<f32> = (0..k * k)
                 .map(|i| {
                     let (r, c) = (i / k, i % k);
-                    let (r, c) = (if fy { k - 1 - r } else { r }, if fx { k - 1 - c } else { c });
+                    let (r, c) = (
+                        if fy { k - 1 - r } else { r },
+                        if fx { k - 1 - c } else { c },
+                    );
                     kern[r * k + c]
                 })
                 .collect();
             let want = conv.kernel_spectrum(&flipped);
             let mut got = KernelSpectrum(Vec::new());
             flip_spectrum(&spec, &mut got, f, &phase, fx, fy);
-            let err = got.0.iter().zip(&want.0).map(|(a, b)| (a - b).norm()).fold(0.0f32, f32::max);
+            let err = got
+                .0
+                .iter()
+                .zip(&want.0)
+                .map(|(a, b)| (a - b).norm())
+                .fold(0.0f32, f32::max);
             assert!(err < 1e-6, "flip ({fx}, {fy}): {err}");
         }
         for (n, t) in [(3024usize, 414usize), (301, 60), (7, 4), (5, 9)] {

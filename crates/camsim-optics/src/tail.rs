@@ -68,7 +68,11 @@ impl FarTail {
         let mut block = odd_at_least(side.div_ceil(COARSE_TARGET));
         if block > h.max(1) {
             // Keep the block within the window where the grid stays affordable.
-            let largest_odd_in_window = if h % 2 == 1 { h } else { h.saturating_sub(1).max(1) };
+            let largest_odd_in_window = if h % 2 == 1 {
+                h
+            } else {
+                h.saturating_sub(1).max(1)
+            };
             block = largest_odd_in_window.max(odd_at_least(side.div_ceil(COARSE_MAX)));
         }
         let (coarse_rows, coarse_cols) = (out_rows.div_ceil(block), out_cols.div_ceil(block));
@@ -110,7 +114,18 @@ impl FarTail {
             }
         }
         let spectrum = fft.forward(&plane);
-        FarTail { block, half_width: h, out_rows, out_cols, coarse_rows, coarse_cols, fft, fft_rows, fft_cols, spectrum }
+        FarTail {
+            block,
+            half_width: h,
+            out_rows,
+            out_cols,
+            coarse_rows,
+            coarse_cols,
+            fft,
+            fft_rows,
+            fft_cols,
+            spectrum,
+        }
     }
 
     /// Fraction of the PSF energy the tail carries (outside the window) for amplitude `a`.
@@ -150,20 +165,33 @@ impl FarTail {
         for r in 0..rows {
             let row = &src[r * cols..(r + 1) * cols];
             match shade {
-                None => runs.iter().for_each(|(bc, cs)| acc[*bc] += row[cs.clone()].iter().sum::<f32>()),
+                None => runs
+                    .iter()
+                    .for_each(|(bc, cs)| acc[*bc] += row[cs.clone()].iter().sum::<f32>()),
                 Some(sh) => {
                     let w = &sh[r * cols..(r + 1) * cols];
-                    runs.iter().for_each(|(bc, cs)| acc[*bc] += row[cs.clone()].iter().zip(&w[cs.clone()]).map(|(v, w)| v * w).sum::<f32>())
+                    runs.iter().for_each(|(bc, cs)| {
+                        acc[*bc] += row[cs.clone()]
+                            .iter()
+                            .zip(&w[cs.clone()])
+                            .map(|(v, w)| v * w)
+                            .sum::<f32>()
+                    })
                 }
             }
             if (r + pad_r + 1) % d == 0 || r + 1 == rows {
                 let br = (r + pad_r) / d;
-                plane[br * fc..br * fc + self.coarse_cols].iter_mut().zip(&acc).for_each(|(p, v)| *p += *v as f64 * scale as f64);
+                plane[br * fc..br * fc + self.coarse_cols]
+                    .iter_mut()
+                    .zip(&acc)
+                    .for_each(|(p, v)| *p += *v as f64 * scale as f64);
                 acc.fill(0.0);
             }
         }
         let mut spec = self.fft.forward(&plane);
-        spec.iter_mut().zip(&self.spectrum).for_each(|(s, k)| *s *= *k * a);
+        spec.iter_mut()
+            .zip(&self.spectrum)
+            .for_each(|(s, k)| *s *= *k * a);
         let coarse = self.fft.inverse(spec);
         // Bilinear interpolation between block centres (fine coordinate i d + (d - 1) / 2), held
         // beyond the outer centres: per output row the coarse row interpolated in y, then in x.
@@ -175,7 +203,9 @@ impl FarTail {
             (i0, i1, t - i0 as f64)
         };
         // Output columns in runs between neighbouring block centres (c0, c1), with their weights.
-        let fx: Vec<f32> = (0..self.out_cols).map(|c| locate(c, self.coarse_cols).2 as f32).collect();
+        let fx: Vec<f32> = (0..self.out_cols)
+            .map(|c| locate(c, self.coarse_cols).2 as f32)
+            .collect();
         let mut col_runs: Vec<(usize, usize, std::ops::Range<usize>)> = Vec::new();
         for c in 0..self.out_cols {
             let (c0, c1, _) = locate(c, self.coarse_cols);
@@ -185,14 +215,26 @@ impl FarTail {
             }
         }
         let mut line = vec![0.0f32; self.coarse_cols];
-        for (r, orow) in out_band.chunks_exact_mut(self.out_cols).enumerate().take(self.out_rows) {
+        for (r, orow) in out_band
+            .chunks_exact_mut(self.out_cols)
+            .enumerate()
+            .take(self.out_rows)
+        {
             let (r0, r1, fy) = locate(r, self.coarse_rows);
-            let (a0, a1) = (&coarse[r0 * fc..r0 * fc + self.coarse_cols], &coarse[r1 * fc..r1 * fc + self.coarse_cols]);
+            let (a0, a1) = (
+                &coarse[r0 * fc..r0 * fc + self.coarse_cols],
+                &coarse[r1 * fc..r1 * fc + self.coarse_cols],
+            );
             // Round-off of the coarse FFT may leave tiny negatives where no light is.
-            line.iter_mut().zip(a0.iter().zip(a1)).for_each(|(l, (u, v))| *l = (u + (v - u) * fy).max(0.0) as f32);
+            line.iter_mut()
+                .zip(a0.iter().zip(a1))
+                .for_each(|(l, (u, v))| *l = (u + (v - u) * fy).max(0.0) as f32);
             for (c0, c1, range) in &col_runs {
                 let (u, dv) = (line[*c0], line[*c1] - line[*c0]);
-                orow[range.clone()].iter_mut().zip(&fx[range.clone()]).for_each(|(o, w)| *o = u + dv * w);
+                orow[range.clone()]
+                    .iter_mut()
+                    .zip(&fx[range.clone()])
+                    .for_each(|(o, w)| *o = u + dv * w);
             }
         }
     }
@@ -213,7 +255,11 @@ mod tests {
             let sum = t.spectrum[0].re * (t.block * t.block) as f64;
             let reach = ((t.coarse_rows - 1) * t.block) as f64;
             let want = energy_outside_square(1.0, h as f64 + 0.5) - 2.0 * PI / reach;
-            assert!((sum / want - 1.0).abs() < 0.02, "h {h}, block {}: sum {sum} vs {want}", t.block);
+            assert!(
+                (sum / want - 1.0).abs() < 0.02,
+                "h {h}, block {}: sum {sum} vs {want}",
+                t.block
+            );
         }
     }
 
@@ -235,11 +281,20 @@ mod tests {
         // circles).
         let mid = out[(rows / 2) * cols + cols / 2] as f64;
         let full = energy_outside_square(a, h as f64 + 0.5);
-        let (r_in, r_out) = (rows as f64 / 2.0, ((rows * rows + cols * cols) as f64).sqrt() / 2.0);
+        let (r_in, r_out) = (
+            rows as f64 / 2.0,
+            ((rows * rows + cols * cols) as f64).sqrt() / 2.0,
+        );
         let (lo, hi) = (full - 2.0 * PI * a / r_in, full - 2.0 * PI * a / r_out);
-        assert!(mid > lo * 0.99 && mid < hi * 1.01, "centre {mid} outside [{lo}, {hi}]");
+        assert!(
+            mid > lo * 0.99 && mid < hi * 1.01,
+            "centre {mid} outside [{lo}, {hi}]"
+        );
         // A corner gets about a quarter of it.
         let corner = out[0] as f64;
-        assert!(corner > 0.2 * lo && corner < 0.3 * hi, "corner {corner}, full {full}");
+        assert!(
+            corner > 0.2 * lo && corner < 0.3 * hi,
+            "corner {corner}, full {full}"
+        );
     }
 }

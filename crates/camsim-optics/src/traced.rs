@@ -93,7 +93,10 @@ impl TracedLens {
         let p = lens.paraxial(REFERENCE_WAVELENGTH_NM);
         let efl = p.efl_mm;
         if !(efl.is_finite() && efl > 0.0) {
-            return Err(lens_err(key, format!("{what}: the lens has no positive focal length (EFL {efl} mm)")));
+            return Err(lens_err(
+                key,
+                format!("{what}: the lens has no positive focal length (EFL {efl} mm)"),
+            ));
         }
         if ((efl - focal_length_mm) / focal_length_mm).abs() > 0.02 {
             return Err(lens_err(
@@ -102,28 +105,58 @@ impl TracedLens {
             ));
         }
         let mut open = lens.clone();
-        open.surfaces.iter_mut().for_each(|s| s.semi_aperture_mm *= 1e3);
+        open.surfaces
+            .iter_mut()
+            .for_each(|s| s.semi_aperture_mm *= 1e3);
         let first = &lens.surfaces[0];
-        let z_start_mm = -1.0 - first.semi_aperture_mm.min(first.radius_mm.abs().max(first.semi_aperture_mm));
+        let z_start_mm = -1.0
+            - first
+                .semi_aperture_mm
+                .min(first.radius_mm.abs().max(first.semi_aperture_mm));
         let a = efl / (2.0 * f_number);
         let h0 = 1e-3 * a;
         let near = open
-            .trace_forward_path(&Ray::new([h0, 0.0, z_start_mm], [0.0, 0.0, 1.0]), REFERENCE_WAVELENGTH_NM)
-            .map_err(|b| lens_err(key, format!("{what}: a near-axis ray does not pass ({b:?})")))?;
+            .trace_forward_path(
+                &Ray::new([h0, 0.0, z_start_mm], [0.0, 0.0, 1.0]),
+                REFERENCE_WAVELENGTH_NM,
+            )
+            .map_err(|b| {
+                lens_err(
+                    key,
+                    format!("{what}: a near-axis ray does not pass ({b:?})"),
+                )
+            })?;
         let k = near.stop_point_mm[0] / h0;
         if !(k.is_finite() && k > 0.0) {
-            return Err(lens_err(key, format!("{what}: the stop is not imaged into an entrance pupil (ratio {k})")));
+            return Err(lens_err(
+                key,
+                format!("{what}: the stop is not imaged into an entrance pupil (ratio {k})"),
+            ));
         }
         let lens = lens.with_stop_semi_aperture_mm(k * a);
-        let mut t =
-            TracedLens { lens, efl_mm: efl, entrance_pupil_radius_mm: a, open, z_start_mm, z_entrance_mm: 0.0, what: what.to_string() };
+        let mut t = TracedLens {
+            lens,
+            efl_mm: efl,
+            entrance_pupil_radius_mm: a,
+            open,
+            z_start_mm,
+            z_entrance_mm: 0.0,
+            what: what.to_string(),
+        };
         // Entrance pupil: aim a near-axis collimated chief ray from the first vertex's plane.
         let tan0 = 1e-4;
         let f0 = ObjectField::Infinity { tan_theta: tan0 };
         let x0 = t.aim_chief(f0)?;
         t.z_entrance_mm = z_start_mm - x0 / tan0;
         // The axial beam must fill the pupil: element apertures may not cut it.
-        let passes = |h: f64| t.lens.trace_forward(&Ray::new([h, 0.0, z_start_mm], [0.0, 0.0, 1.0]), REFERENCE_WAVELENGTH_NM).is_ok();
+        let passes = |h: f64| {
+            t.lens
+                .trace_forward(
+                    &Ray::new([h, 0.0, z_start_mm], [0.0, 0.0, 1.0]),
+                    REFERENCE_WAVELENGTH_NM,
+                )
+                .is_ok()
+        };
         if !passes(0.98 * a) {
             let (mut lo, mut hi) = (0.0f64, 0.98 * a);
             for _ in 0..40 {
@@ -148,15 +181,24 @@ impl TracedLens {
     /// The lens focused on `object_distance_mm` (`inf`: infinity) with a film of diagonal
     /// `film_diagonal_mm` (paraxial focus at 550 nm, [`LensCamera::focused`]).
     pub fn camera(&self, object_distance_mm: f64, film_diagonal_mm: f64) -> Result<LensCamera> {
-        LensCamera::focused(self.lens.clone(), object_distance_mm, film_diagonal_mm).map_err(|e| lens_err("blur.lens_file", e))
+        LensCamera::focused(self.lens.clone(), object_distance_mm, film_diagonal_mm)
+            .map_err(|e| lens_err("blur.lens_file", e))
     }
 
     /// The object-space ray of field `f` through start parameter `x` (infinity: the start point's
     /// x on the start plane; finite: the x where it crosses the first vertex plane).
     fn field_ray(&self, f: ObjectField, x: f64, y: f64) -> Ray {
         match f {
-            ObjectField::Infinity { tan_theta } => Ray::new([x, y, self.z_start_mm], [tan_theta, 0.0, 1.0]),
-            ObjectField::Finite { height_mm, distance_mm } => Ray::new([-height_mm, 0.0, -distance_mm], [x + height_mm, y, distance_mm]),
+            ObjectField::Infinity { tan_theta } => {
+                Ray::new([x, y, self.z_start_mm], [tan_theta, 0.0, 1.0])
+            }
+            ObjectField::Finite {
+                height_mm,
+                distance_mm,
+            } => Ray::new(
+                [-height_mm, 0.0, -distance_mm],
+                [x + height_mm, y, distance_mm],
+            ),
         }
     }
 
@@ -167,13 +209,24 @@ impl TracedLens {
             self.open
                 .trace_forward_path(&self.field_ray(f, x, 0.0), REFERENCE_WAVELENGTH_NM)
                 .map(|p| p.stop_point_mm[0])
-                .map_err(|b| lens_err("blur.lens_file", format!("{}: the chief ray of field {f:?} does not pass ({b:?})", self.what)))
+                .map_err(|b| {
+                    lens_err(
+                        "blur.lens_file",
+                        format!(
+                            "{}: the chief ray of field {f:?} does not pass ({b:?})",
+                            self.what
+                        ),
+                    )
+                })
         };
         // Start: the line through the (paraxial) entrance pupil's centre.
         let ze = self.z_entrance_mm;
         let mut x0 = match f {
             ObjectField::Infinity { tan_theta } => (self.z_start_mm - ze) * tan_theta,
-            ObjectField::Finite { height_mm, distance_mm } => -height_mm * ze / (ze + distance_mm),
+            ObjectField::Finite {
+                height_mm,
+                distance_mm,
+            } => -height_mm * ze / (ze + distance_mm),
         };
         let mut x1 = x0 + 1e-3 * self.entrance_pupil_radius_mm;
         let (mut g0, mut g1) = (g(x0)?, g(x1)?);
@@ -191,14 +244,27 @@ impl TracedLens {
                 }
                 step *= 0.5;
             }
-            let g2 = next
-                .ok_or_else(|| lens_err("blur.lens_file", format!("{}: cannot aim the chief ray of field {f:?} at the stop", self.what)))?;
+            let g2 = next.ok_or_else(|| {
+                lens_err(
+                    "blur.lens_file",
+                    format!(
+                        "{}: cannot aim the chief ray of field {f:?} at the stop",
+                        self.what
+                    ),
+                )
+            })?;
             (x0, g0) = (x1, g1);
             x1 += step;
             g1 = g2;
         }
         if g1.is_nan() || g1.abs() >= 1e-6 {
-            return Err(lens_err("blur.lens_file", format!("{}: cannot aim the chief ray of field {f:?} at the stop", self.what)));
+            return Err(lens_err(
+                "blur.lens_file",
+                format!(
+                    "{}: cannot aim the chief ray of field {f:?} at the stop",
+                    self.what
+                ),
+            ));
         }
         Ok(x1)
     }
@@ -209,8 +275,18 @@ impl TracedLens {
         let out = self
             .open
             .trace_forward(&self.field_ray(f, x, 0.0), REFERENCE_WAVELENGTH_NM)
-            .map_err(|b| lens_err("blur.lens_file", format!("{}: chief ray blocked ({b:?})", self.what)))?;
-        out.at_z(cam.film_z_mm()).ok_or_else(|| lens_err("blur.lens_file", format!("{}: the chief ray does not reach the film", self.what)))
+            .map_err(|b| {
+                lens_err(
+                    "blur.lens_file",
+                    format!("{}: chief ray blocked ({b:?})", self.what),
+                )
+            })?;
+        out.at_z(cam.film_z_mm()).ok_or_else(|| {
+            lens_err(
+                "blur.lens_file",
+                format!("{}: the chief ray does not reach the film", self.what),
+            )
+        })
     }
 
     /// z of the exit pupil, mm: where a near-axis chief ray (through the stop's centre) crosses the
@@ -221,7 +297,12 @@ impl TracedLens {
         let out = self
             .open
             .trace_forward(&self.field_ray(f, x, 0.0), REFERENCE_WAVELENGTH_NM)
-            .map_err(|b| lens_err("blur.lens_file", format!("{}: chief ray blocked ({b:?})", self.what)))?;
+            .map_err(|b| {
+                lens_err(
+                    "blur.lens_file",
+                    format!("{}: chief ray blocked ({b:?})", self.what),
+                )
+            })?;
         let (o, d) = (out.origin_mm, out.direction);
         Ok(o[2] - o[0] * d[2] / d[0])
     }
@@ -245,11 +326,21 @@ impl TracedLens {
     ) -> Result<Vec<Vec<f64>>> {
         let key = "blur.lens_file";
         let xc = self.aim_chief(f)?;
-        let chief =
-            self.open.trace_forward(&self.field_ray(f, xc, 0.0), REFERENCE_WAVELENGTH_NM).map_err(|b| lens_err(key, format!("{b:?}")))?;
-        let p0 = chief.at_z(cam.film_z_mm()).ok_or_else(|| lens_err(key, "the chief ray does not reach the film"))?;
-        let centre = [p0[0] + reference_offset_mm[0], p0[1] + reference_offset_mm[1], p0[2]];
-        let e = chief.at_z(self.exit_pupil_z_mm()?).ok_or_else(|| lens_err(key, "the chief ray does not reach the exit pupil"))?;
+        let chief = self
+            .open
+            .trace_forward(&self.field_ray(f, xc, 0.0), REFERENCE_WAVELENGTH_NM)
+            .map_err(|b| lens_err(key, format!("{b:?}")))?;
+        let p0 = chief
+            .at_z(cam.film_z_mm())
+            .ok_or_else(|| lens_err(key, "the chief ray does not reach the film"))?;
+        let centre = [
+            p0[0] + reference_offset_mm[0],
+            p0[1] + reference_offset_mm[1],
+            p0[2],
+        ];
+        let e = chief
+            .at_z(self.exit_pupil_z_mm()?)
+            .ok_or_else(|| lens_err(key, "the chief ray does not reach the exit pupil"))?;
         let radius = dot(sub(centre, e), sub(centre, e)).sqrt();
         let a = self.entrance_pupil_radius_mm;
         // The pupil grid's origin: the chief ray's start (collimated) or its crossing of the first
@@ -260,17 +351,25 @@ impl TracedLens {
         // on the first vertex plane (finite: the cone from the object point through the pupil).
         let a = match f {
             ObjectField::Infinity { .. } => a,
-            ObjectField::Finite { distance_mm, .. } => a * distance_mm / (distance_mm + self.z_entrance_mm),
+            ObjectField::Finite { distance_mm, .. } => {
+                a * distance_mm / (distance_mm + self.z_entrance_mm)
+            }
         };
         let mut out = Vec::with_capacity(wavelengths_nm.len());
         let chief_start = self.field_ray(f, xc, 0.0);
         for &wl in wavelengths_nm {
             let opl = |x: f64, y: f64| -> Option<f64> {
                 let ray = self.field_ray(f, x, y);
-                let lens = if x == xc && y == 0.0 { &self.open } else { &self.lens };
+                let lens = if x == xc && y == 0.0 {
+                    &self.open
+                } else {
+                    &self.lens
+                };
                 let path = lens.trace_forward_path(&ray, wl).ok()?;
                 let start = match f {
-                    ObjectField::Infinity { .. } => dot(sub(ray.origin_mm, chief_start.origin_mm), ray.direction),
+                    ObjectField::Infinity { .. } => {
+                        dot(sub(ray.origin_mm, chief_start.origin_mm), ray.direction)
+                    }
                     ObjectField::Finite { .. } => 0.0,
                 };
                 // On to the reference sphere: |q + t d - c| = R, the root near the pupil.
@@ -283,8 +382,12 @@ impl TracedLens {
                 }
                 Some(start + path.optical_path_mm + (-b - disc.sqrt()))
             };
-            let opl_chief =
-                opl(xc, 0.0).ok_or_else(|| lens_err(key, format!("{}: the chief ray misses the reference sphere", self.what)))?;
+            let opl_chief = opl(xc, 0.0).ok_or_else(|| {
+                lens_err(
+                    key,
+                    format!("{}: the chief ray misses the reference sphere", self.what),
+                )
+            })?;
             let mut ata = vec![0.0; FIT_TERMS * FIT_TERMS];
             let mut atb = vec![0.0; FIT_TERMS];
             let mut zv = vec![0.0; FIT_TERMS];

@@ -60,10 +60,16 @@ impl Wavefront {
     /// A diffraction-limited lens (all coefficients zero) focused at infinity.
     pub fn diffraction_limited(focal_length_m: f64, f_number: f64) -> Result<Self> {
         if !(focal_length_m > 0.0 && focal_length_m.is_finite()) {
-            return Err(OpticsError::config("focal_length_mm", format!("{} mm is not a positive number", focal_length_m * 1e3)));
+            return Err(OpticsError::config(
+                "focal_length_mm",
+                format!("{} mm is not a positive number", focal_length_m * 1e3),
+            ));
         }
         if !(f_number > 0.0 && f_number.is_finite()) {
-            return Err(OpticsError::config("f_number", format!("{f_number} is not a positive number")));
+            return Err(OpticsError::config(
+                "f_number",
+                format!("{f_number} is not a positive number"),
+            ));
         }
         Ok(Wavefront {
             zernike_um: Vec::new(),
@@ -84,13 +90,22 @@ impl Wavefront {
     /// Set the Zernike coefficients (um, indexed by OSA j) and the measurement pupil diameter (m).
     pub fn with_zernike(mut self, zernike_um: Vec<f64>, measurement_pupil_m: f64) -> Result<Self> {
         if let Some((j, c)) = zernike_um.iter().enumerate().find(|(_, c)| !c.is_finite()) {
-            return Err(OpticsError::config(format!("wavefront.zernike_um[{j}]"), format!("{c} is not a finite number")));
+            return Err(OpticsError::config(
+                format!("wavefront.zernike_um[{j}]"),
+                format!("{c} is not a finite number"),
+            ));
         }
         if zernike_um.len() > 231 {
-            return Err(OpticsError::config("wavefront.zernike_um", format!("{} terms; at most 231 (radial order 20)", zernike_um.len())));
+            return Err(OpticsError::config(
+                "wavefront.zernike_um",
+                format!("{} terms; at most 231 (radial order 20)", zernike_um.len()),
+            ));
         }
         if !(measurement_pupil_m > 0.0 && measurement_pupil_m.is_finite()) {
-            return Err(OpticsError::config("wavefront.measurement_pupil_mm", format!("{} mm is not a positive number", measurement_pupil_m * 1e3)));
+            return Err(OpticsError::config(
+                "wavefront.measurement_pupil_mm",
+                format!("{} mm is not a positive number", measurement_pupil_m * 1e3),
+            ));
         }
         let lens = self.lens_pupil_diameter_m();
         if measurement_pupil_m < lens * (1.0 - 1e-9) {
@@ -114,7 +129,10 @@ impl Wavefront {
     /// to its value here).
     pub fn with_reference_wavelength(mut self, nm: f64) -> Result<Self> {
         if !(nm > 0.0 && nm.is_finite()) {
-            return Err(OpticsError::config("wavefront.reference_wavelength_nm", format!("{nm} is not a positive number")));
+            return Err(OpticsError::config(
+                "wavefront.reference_wavelength_nm",
+                format!("{nm} is not a positive number"),
+            ));
         }
         self.reference_wavelength_nm = nm;
         Ok(self)
@@ -123,7 +141,8 @@ impl Wavefront {
     /// Chromatic defocus: c4 (um, over the measurement pupil) against wavelength, added to j = 4
     /// after subtracting its value at the reference wavelength (like ISETCam's LCA model).
     pub fn with_chromatic_defocus(mut self, c4_um: Spectrum) -> Self {
-        self.chromatic_defocus_um = Some(c4_um.with_extrapolation(camsim_core::spectrum::Extrapolation::Hold));
+        self.chromatic_defocus_um =
+            Some(c4_um.with_extrapolation(camsim_core::spectrum::Extrapolation::Hold));
         self
     }
 
@@ -153,7 +172,11 @@ impl Wavefront {
     /// stages are linear and shift-invariant, so applying the sensor's blur with the lens PSF gives
     /// the same image as applying it in the sensor. Negative or non-finite values count as 0.
     pub fn with_crosstalk_sigma_m(mut self, sigma_m: f64) -> Self {
-        self.crosstalk_sigma_m = if sigma_m.is_finite() && sigma_m > 0.0 { sigma_m } else { 0.0 };
+        self.crosstalk_sigma_m = if sigma_m.is_finite() && sigma_m > 0.0 {
+            sigma_m
+        } else {
+            0.0
+        };
         self
     }
 
@@ -225,8 +248,13 @@ impl Wavefront {
 
     /// As [`Self::defocus_at_lens_pupil_um`], including the chromatic defocus at `wavelength_nm`.
     pub fn defocus_at_lens_pupil_um_at(&self, wavelength_nm: f64) -> f64 {
-        let c4 = self.zernike_um.get(4).copied().unwrap_or(0.0) + self.chromatic_c4_um(wavelength_nm);
-        lens::rescale_defocus(c4, self.measurement_pupil_m / 2.0, self.lens_pupil_diameter_m() / 2.0) + self.extra_defocus_um
+        let c4 =
+            self.zernike_um.get(4).copied().unwrap_or(0.0) + self.chromatic_c4_um(wavelength_nm);
+        lens::rescale_defocus(
+            c4,
+            self.measurement_pupil_m / 2.0,
+            self.lens_pupil_diameter_m() / 2.0,
+        ) + self.extra_defocus_um
     }
 
     /// Wavefront aberration W in um at a point of the lens pupil given in lens-pupil-normalized
@@ -257,7 +285,10 @@ impl Wavefront {
 
     /// True when every nonzero term is rotationally symmetric (m = 0): W depends on rho only.
     pub fn is_rotationally_symmetric(&self) -> bool {
-        self.zernike_um.iter().zip(&self.zern).all(|(c, z)| *c == 0.0 || z.m == 0)
+        self.zernike_um
+            .iter()
+            .zip(&self.zern)
+            .all(|(c, z)| *c == 0.0 || z.m == 0)
     }
 
     /// W (um) of a rotationally symmetric wavefront at lens-pupil radius `rho_l` (no trigonometry;
@@ -271,7 +302,8 @@ impl Wavefront {
             }
         }
         let sq3 = 3f64.sqrt();
-        w + chrom * sq3 * (2.0 * rho * rho - 1.0) + self.extra_defocus_um * sq3 * (2.0 * rho_l * rho_l - 1.0)
+        w + chrom * sq3 * (2.0 * rho * rho - 1.0)
+            + self.extra_defocus_um * sq3 * (2.0 * rho_l * rho_l - 1.0)
     }
 
     /// Geometric blur radius, m: the largest transverse ray aberration over the pupil,
@@ -288,8 +320,12 @@ impl Wavefront {
                 if x * x + y * y > 1.0 {
                     continue;
                 }
-                let gx = (self.wavefront_um(x + h, y, wavelength_nm) - self.wavefront_um(x - h, y, wavelength_nm)) / (2.0 * h);
-                let gy = (self.wavefront_um(x, y + h, wavelength_nm) - self.wavefront_um(x, y - h, wavelength_nm)) / (2.0 * h);
+                let gx = (self.wavefront_um(x + h, y, wavelength_nm)
+                    - self.wavefront_um(x - h, y, wavelength_nm))
+                    / (2.0 * h);
+                let gy = (self.wavefront_um(x, y + h, wavelength_nm)
+                    - self.wavefront_um(x, y - h, wavelength_nm))
+                    / (2.0 * h);
                 g_max = g_max.max((gx * gx + gy * gy).sqrt());
             }
         }
@@ -336,12 +372,22 @@ impl Wavefront {
     }
 
     /// [`Self::psf`] with a minimum oversampling factor.
-    pub fn psf_with(&self, wavelength_nm: f64, spacing_m: f64, size: usize, min_oversampling: usize) -> Result<Psf> {
+    pub fn psf_with(
+        &self,
+        wavelength_nm: f64,
+        spacing_m: f64,
+        size: usize,
+        min_oversampling: usize,
+    ) -> Result<Psf> {
         if !(wavelength_nm > 0.0 && wavelength_nm.is_finite()) {
-            return Err(OpticsError::Input(format!("PSF wavelength {wavelength_nm} nm is not a positive number")));
+            return Err(OpticsError::Input(format!(
+                "PSF wavelength {wavelength_nm} nm is not a positive number"
+            )));
         }
         if !(spacing_m > 0.0 && spacing_m.is_finite()) {
-            return Err(OpticsError::Input(format!("PSF sample spacing {spacing_m} m is not a positive number")));
+            return Err(OpticsError::Input(format!(
+                "PSF sample spacing {spacing_m} m is not a positive number"
+            )));
         }
         if size == 0 || size % 2 == 0 {
             return Err(OpticsError::Input(format!("PSF size {size} must be odd")));
@@ -357,7 +403,12 @@ impl Wavefront {
         }
         let s: f64 = data.iter().sum();
         data.iter_mut().for_each(|v| *v /= s);
-        Ok(Psf { wavelength_nm, spacing_m, size, data })
+        Ok(Psf {
+            wavelength_nm,
+            spacing_m,
+            size,
+            data,
+        })
     }
 
     /// The complete (periodized) PSF on an N x N grid at `spacing_m`, centre at (N/2, N/2), where
@@ -373,7 +424,12 @@ impl Wavefront {
         }
         let data = self.psf_grid(wavelength_nm, spacing_m, None, None)?;
         let size = (data.len() as f64).sqrt().round() as usize;
-        Ok(Psf { wavelength_nm, spacing_m, size, data })
+        Ok(Psf {
+            wavelength_nm,
+            spacing_m,
+            size,
+            data,
+        })
     }
 
     /// The PSF periodized with period `rows` x `cols` samples at `spacing_m`, integrated over the
@@ -384,15 +440,28 @@ impl Wavefront {
     /// a square fine grid whose side is a multiple of k max(rows, cols) (k the oversampling), so
     /// the fold is exact along the longer side; along the shorter side only the tail beyond
     /// max(rows, cols) / 2 samples, already folded once, lands at a different (periodic) position.
-    pub fn psf_periodic(&self, wavelength_nm: f64, spacing_m: f64, rows: usize, cols: usize, min_oversampling: usize) -> Result<Vec<f64>> {
+    pub fn psf_periodic(
+        &self,
+        wavelength_nm: f64,
+        spacing_m: f64,
+        rows: usize,
+        cols: usize,
+        min_oversampling: usize,
+    ) -> Result<Vec<f64>> {
         if !(wavelength_nm > 0.0 && wavelength_nm.is_finite()) {
-            return Err(OpticsError::Input(format!("PSF wavelength {wavelength_nm} nm is not a positive number")));
+            return Err(OpticsError::Input(format!(
+                "PSF wavelength {wavelength_nm} nm is not a positive number"
+            )));
         }
         if !(spacing_m > 0.0 && spacing_m.is_finite()) {
-            return Err(OpticsError::Input(format!("PSF sample spacing {spacing_m} m is not a positive number")));
+            return Err(OpticsError::Input(format!(
+                "PSF sample spacing {spacing_m} m is not a positive number"
+            )));
         }
         if rows == 0 || cols == 0 {
-            return Err(OpticsError::Input("periodic PSF needs at least one row and column".into()));
+            return Err(OpticsError::Input(
+                "periodic PSF needs at least one row and column".into(),
+            ));
         }
         let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);
         let m = rows.max(cols);
@@ -410,8 +479,12 @@ impl Wavefront {
         // Fine sample i lies at offset i - N/2 from the axis; cell c (odd k) holds the offsets
         // c k - k/2 ..= c k + k/2.
         let cell = |i: usize| (i as i64 - half + kh).div_euclid(k as i64);
-        let rix: Vec<usize> = (0..nf).map(|i| cell(i).rem_euclid(rows as i64) as usize).collect();
-        let cix: Vec<usize> = (0..nf).map(|i| cell(i).rem_euclid(cols as i64) as usize).collect();
+        let rix: Vec<usize> = (0..nf)
+            .map(|i| cell(i).rem_euclid(rows as i64) as usize)
+            .collect();
+        let cix: Vec<usize> = (0..nf)
+            .map(|i| cell(i).rem_euclid(cols as i64) as usize)
+            .collect();
         let mut data = vec![0.0; rows * cols];
         for (r, ri) in rix.iter().enumerate() {
             let dst = &mut data[ri * cols..(ri + 1) * cols];
@@ -429,10 +502,17 @@ impl Wavefront {
     /// samples across the pupil at least; frequency step = cutoff / (pupil samples)).
     pub fn mtf(&self, wavelength_nm: f64) -> Result<MtfCurve> {
         let lam_n = wavelength_nm * 1e-9 * self.working_f_number();
-        let psf = self.clone().with_min_pupil_samples(self.min_pupil_samples.max(128)).psf_full(wavelength_nm, lam_n / 4.0)?;
+        let psf = self
+            .clone()
+            .with_min_pupil_samples(self.min_pupil_samples.max(128))
+            .psf_full(wavelength_nm, lam_n / 4.0)?;
         let mut m = psf.mtf();
         let cutoff = 1e-3 / lam_n;
-        let keep = m.freq_cyc_per_mm.iter().take_while(|f| **f <= cutoff * (1.0 + 1e-9)).count();
+        let keep = m
+            .freq_cyc_per_mm
+            .iter()
+            .take_while(|f| **f <= cutoff * (1.0 + 1e-9))
+            .count();
         m.freq_cyc_per_mm.truncate(keep);
         m.mtf_x.truncate(keep);
         m.mtf_y.truncate(keep);
@@ -443,7 +523,13 @@ impl Wavefront {
     /// centred on the middle one, or the full N x N grid (centre N/2) for `None`; unit sum.
     /// With `period = Some(p)` the FFT side N is a multiple of p (so the periodized PSF, folded
     /// modulo p, is the PSF periodized with period p samples exactly).
-    fn psf_grid(&self, wavelength_nm: f64, dx: f64, n_out: Option<usize>, period: Option<usize>) -> Result<Vec<f64>> {
+    fn psf_grid(
+        &self,
+        wavelength_nm: f64,
+        dx: f64,
+        n_out: Option<usize>,
+        period: Option<usize>,
+    ) -> Result<Vec<f64>> {
         let lambda_m = wavelength_nm * 1e-9;
         let z = self.image_distance_m;
         let d = self.lens_pupil_diameter_m();
@@ -547,7 +633,10 @@ impl Wavefront {
         let (m, kxs): (usize, Vec<usize>) = match n_out {
             Some(no) => {
                 let h = (no / 2) as i64;
-                (no, (-h..=h).map(|k| k.rem_euclid(n as i64) as usize).collect())
+                (
+                    no,
+                    (-h..=h).map(|k| k.rem_euclid(n as i64) as usize).collect(),
+                )
             }
             None => (n, (0..n).map(|p| (p + n - half) % n).collect()),
         };
@@ -575,7 +664,9 @@ impl Wavefront {
         }
         let s: f64 = out.iter().sum();
         if !(s > 0.0) {
-            return Err(OpticsError::Input(format!("PSF at {wavelength_nm} nm has no energy (pupil too small for the sampling)")));
+            return Err(OpticsError::Input(format!(
+                "PSF at {wavelength_nm} nm has no energy (pupil too small for the sampling)"
+            )));
         }
         out.iter_mut().for_each(|v| *v /= s);
         Ok(out)
@@ -588,7 +679,9 @@ impl Wavefront {
 /// 5 sigma; `periodic` wraps around the edges, otherwise light past an edge is lost.
 fn gaussian_blur(data: &mut [f64], m: usize, sigma_px: f64, periodic: bool) {
     let half = (5.0 * sigma_px).ceil().max(1.0) as i64;
-    let w: Vec<f64> = (-half..=half).map(|k| (-0.5 * (k as f64 / sigma_px).powi(2)).exp()).collect();
+    let w: Vec<f64> = (-half..=half)
+        .map(|k| (-0.5 * (k as f64 / sigma_px).powi(2)).exp())
+        .collect();
     let ws: f64 = w.iter().sum();
     let w: Vec<f64> = w.iter().map(|v| v / ws).collect();
     let mut line = vec![0.0; m];

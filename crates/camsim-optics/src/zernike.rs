@@ -51,10 +51,15 @@ impl Zernike {
         let radial = (0..=(n - ma) / 2)
             .map(|k| {
                 let s = if k % 2 == 0 { 1.0 } else { -1.0 };
-                s * factorial(n - k) / (factorial(k) * factorial((n + ma) / 2 - k) * factorial((n - ma) / 2 - k))
+                s * factorial(n - k)
+                    / (factorial(k) * factorial((n + ma) / 2 - k) * factorial((n - ma) / 2 - k))
             })
             .collect();
-        let norm = if m == 0 { ((n + 1) as f64).sqrt() } else { (2.0 * (n + 1) as f64).sqrt() };
+        let norm = if m == 0 {
+            ((n + 1) as f64).sqrt()
+        } else {
+            (2.0 * (n + 1) as f64).sqrt()
+        };
         Zernike { n, m, radial, norm }
     }
 
@@ -69,7 +74,11 @@ impl Zernike {
 
     /// Z_j at polar coordinates (rho, theta); rho is not restricted to the unit disk.
     pub fn eval(&self, rho: f64, theta: f64) -> f64 {
-        let ang = if self.m >= 0 { (self.m as f64 * theta).cos() } else { ((-self.m) as f64 * theta).sin() };
+        let ang = if self.m >= 0 {
+            (self.m as f64 * theta).cos()
+        } else {
+            ((-self.m) as f64 * theta).sin()
+        };
         self.norm * self.radial(rho) * ang
     }
 
@@ -81,7 +90,11 @@ impl Zernike {
             r += c * p.rho_pow[self.n - 2 * k];
         }
         let ma = self.m.unsigned_abs() as usize;
-        let ang = if self.m >= 0 { p.cos_m[ma] } else { p.sin_m[ma] };
+        let ang = if self.m >= 0 {
+            p.cos_m[ma]
+        } else {
+            p.sin_m[ma]
+        };
         self.norm * r * ang
     }
 }
@@ -104,8 +117,16 @@ impl PointTerms {
     pub fn new(rho: f64, x: f64, y: f64, order: usize) -> Self {
         let order = order.min(MAX_ORDER);
         let len = x.hypot(y);
-        let (c, s) = if len > 0.0 { (x / len, y / len) } else { (1.0, 0.0) };
-        let mut t = PointTerms { rho_pow: [0.0; MAX_ORDER + 1], cos_m: [0.0; MAX_ORDER + 1], sin_m: [0.0; MAX_ORDER + 1] };
+        let (c, s) = if len > 0.0 {
+            (x / len, y / len)
+        } else {
+            (1.0, 0.0)
+        };
+        let mut t = PointTerms {
+            rho_pow: [0.0; MAX_ORDER + 1],
+            cos_m: [0.0; MAX_ORDER + 1],
+            sin_m: [0.0; MAX_ORDER + 1],
+        };
         t.rho_pow[0] = 1.0;
         t.cos_m[0] = 1.0;
         for k in 1..=order {
@@ -123,12 +144,21 @@ mod tests {
 
     #[test]
     fn eval_at_matches_eval_for_every_term_up_to_order_20() {
-        for &(rho, th) in &[(0.0f64, 0.0f64), (0.3, 0.7), (0.95, -2.9), (1.0, 3.0), (0.6, 1.2)] {
+        for &(rho, th) in &[
+            (0.0f64, 0.0f64),
+            (0.3, 0.7),
+            (0.95, -2.9),
+            (1.0, 3.0),
+            (0.6, 1.2),
+        ] {
             let p = PointTerms::new(rho, th.cos(), th.sin(), MAX_ORDER);
             for j in 0..231 {
                 let z = Zernike::new(j);
                 let (a, b) = (z.eval(rho, th), z.eval_at(&p));
-                assert!((a - b).abs() <= 1e-9 * (1.0 + a.abs()), "j {j} rho {rho} theta {th}: {a} against {b}");
+                assert!(
+                    (a - b).abs() <= 1e-9 * (1.0 + a.abs()),
+                    "j {j} rho {rho} theta {th}: {a} against {b}"
+                );
             }
         }
     }
@@ -165,11 +195,18 @@ mod tests {
     fn known_closed_forms() {
         // Defocus sqrt(3)(2 rho^2 - 1), spherical sqrt(5)(6 rho^4 - 6 rho^2 + 1), vertical tilt 2 rho sin.
         let (rho, th) = (0.7f64, 0.3f64);
-        assert!((Zernike::new(4).eval(rho, th) - 3f64.sqrt() * (2.0 * rho * rho - 1.0)).abs() < 1e-12);
+        assert!(
+            (Zernike::new(4).eval(rho, th) - 3f64.sqrt() * (2.0 * rho * rho - 1.0)).abs() < 1e-12
+        );
         let r2 = rho * rho;
-        assert!((Zernike::new(12).eval(rho, th) - 5f64.sqrt() * (6.0 * r2 * r2 - 6.0 * r2 + 1.0)).abs() < 1e-12);
+        assert!(
+            (Zernike::new(12).eval(rho, th) - 5f64.sqrt() * (6.0 * r2 * r2 - 6.0 * r2 + 1.0)).abs()
+                < 1e-12
+        );
         assert!((Zernike::new(1).eval(rho, th) - 2.0 * rho * th.sin()).abs() < 1e-12);
-        assert!((Zernike::new(5).eval(rho, th) - 6f64.sqrt() * r2 * (2.0 * th).cos()).abs() < 1e-12);
+        assert!(
+            (Zernike::new(5).eval(rho, th) - 6f64.sqrt() * r2 * (2.0 * th).cos()).abs() < 1e-12
+        );
     }
 
     #[test]
@@ -188,7 +225,8 @@ mod tests {
                 for (k, z) in zs.iter().enumerate() {
                     vals[k] = z.eval(rho, th);
                 }
-                let w = rho * (1.0 / nr as f64) * (2.0 * std::f64::consts::PI / nt as f64) / std::f64::consts::PI;
+                let w = rho * (1.0 / nr as f64) * (2.0 * std::f64::consts::PI / nt as f64)
+                    / std::f64::consts::PI;
                 for a in 0..nj {
                     for b in 0..nj {
                         gram[a * nj + b] += w * vals[a] * vals[b];
@@ -200,7 +238,11 @@ mod tests {
             for b in 0..nj {
                 let want = if a == b { 1.0 } else { 0.0 };
                 // Midpoint rule error ~ n^2 / nr^2 for degree-n polynomials: < 2e-4 here.
-                assert!((gram[a * nj + b] - want).abs() < 2e-3, "<Z{a}, Z{b}> = {}", gram[a * nj + b]);
+                assert!(
+                    (gram[a * nj + b] - want).abs() < 2e-3,
+                    "<Z{a}, Z{b}> = {}",
+                    gram[a * nj + b]
+                );
             }
         }
     }

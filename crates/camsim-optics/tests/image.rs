@@ -15,7 +15,14 @@ fn config(n: f64, f_mm: f64) -> OpticsConfig {
     c
 }
 
-fn image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, distance_m: f64, f: impl Fn(usize, usize, usize) -> f32) -> SpectralImage {
+fn image(
+    rows: usize,
+    cols: usize,
+    grid: WavelengthGrid,
+    spacing_m: f64,
+    distance_m: f64,
+    f: impl Fn(usize, usize, usize) -> f32,
+) -> SpectralImage {
     let mut data = vec![0.0f32; rows * cols * grid.len()];
     for b in 0..grid.len() {
         for r in 0..rows {
@@ -24,8 +31,14 @@ fn image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, distanc
             }
         }
     }
-    let mut img = SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry { fov_deg: 0.0, distance_m, focal_length_m: 0.0, f_number: 0.0 };
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg: 0.0,
+        distance_m,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     img
 }
 
@@ -35,45 +48,56 @@ fn image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, distanc
 #[test]
 fn uniform_field_irradiance_follows_the_camera_equation() {
     let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
-    for &(n, f_mm, d, t) in &[(2.8, 50.0, 1.0, 0.9), (1.73, 4.38, 0.5, 1.0), (4.0, 10.0, 0.05, 0.8)] {
-      for (method, far_tail) in [(BlurMethod::Otf, true), (BlurMethod::Kernel, true), (BlurMethod::Kernel, false)] {
-        let mut c = config(n, f_mm);
-        c.transmittance = camsim_optics::config::Transmittance::Scalar(t);
-        c.psf.method = method;
-        c.psf.far_tail = far_tail;
-        let o = Optics::from_config(&c).unwrap();
-        let f: f64 = f_mm * 1e-3;
-        let v = 1.0 / (1.0 / f - 1.0 / d);
-        let m = v / d;
-        // Scene spacing such that the sensor spacing is 4 um; 128 x 128 samples. The centre misses
-        // the light its PSF sends beyond the field: at most the Airy energy outside the inscribed
-        // circle r = 64 samples, 2 lambda N_w / (pi^2 r) (Born & Wolf sec. 8.5.2 asymptote; N_w the
-        // working f-number N (1 + m)), up to 0.22 % here; at least the energy outside the
-        // circumscribed circle; so with kernels and their far tail. With trimmed kernels
-        // (`far_tail = false`: renormalized, radius < 64 samples here) the centre gets all of its
-        // light back: exact to f32 round-off.
-        let scene_dx = 4e-6 / m;
-        let img = image(128, 128, grid, scene_dx, d, |b, _, _| 0.01 * (b + 1) as f32);
-        let out = o.compute(&img).unwrap();
-        assert!((out.sample_spacing_m / 4e-6 - 1.0).abs() < 1e-9);
-        assert_eq!(out.geometry.f_number, n);
-        let want_k = PI * t / (1.0 + 4.0 * n * n * (1.0 + m) * (1.0 + m));
-        for b in 0..3 {
-            let got = out.at(out.rows / 2, out.cols / 2, b) as f64;
-            let want = want_k * 0.01 * (b + 1) as f64;
-            let lam_nw = grid.wavelength_nm(b) * 1e-9 * n * (1.0 + m);
-            let e_out = |r_m: f64| 2.0 * lam_nw / (PI * PI * r_m);
-            let (lo, hi) = (e_out(64.0 * 4e-6 * 2f64.sqrt()), e_out(64.0 * 4e-6));
-            // 2e-4: the asymptote's error at r ~ 100 lambda N (the next term is O((lambda N / r)^2))
-            // and f32 irradiance.
-            let missing = 1.0 - got / want;
-            if !far_tail {
-                assert!(missing.abs() < 1e-5, "trimmed kernels, N {n}, d {d}, band {b}: {got} vs {want}");
-            } else {
-                assert!(missing > lo - 2e-4 && missing < hi + 2e-4, "{method:?}, N {n}, d {d}, band {b}: {got} vs {want} ({:.4} % missing, Airy tail {:.4}..{:.4} %)", missing * 100.0, lo * 100.0, hi * 100.0);
+    for &(n, f_mm, d, t) in &[
+        (2.8, 50.0, 1.0, 0.9),
+        (1.73, 4.38, 0.5, 1.0),
+        (4.0, 10.0, 0.05, 0.8),
+    ] {
+        for (method, far_tail) in [
+            (BlurMethod::Otf, true),
+            (BlurMethod::Kernel, true),
+            (BlurMethod::Kernel, false),
+        ] {
+            let mut c = config(n, f_mm);
+            c.transmittance = camsim_optics::config::Transmittance::Scalar(t);
+            c.psf.method = method;
+            c.psf.far_tail = far_tail;
+            let o = Optics::from_config(&c).unwrap();
+            let f: f64 = f_mm * 1e-3;
+            let v = 1.0 / (1.0 / f - 1.0 / d);
+            let m = v / d;
+            // Scene spacing such that the sensor spacing is 4 um; 128 x 128 samples. The centre misses
+            // the light its PSF sends beyond the field: at most the Airy energy outside the inscribed
+            // circle r = 64 samples, 2 lambda N_w / (pi^2 r) (Born & Wolf sec. 8.5.2 asymptote; N_w the
+            // working f-number N (1 + m)), up to 0.22 % here; at least the energy outside the
+            // circumscribed circle; so with kernels and their far tail. With trimmed kernels
+            // (`far_tail = false`: renormalized, radius < 64 samples here) the centre gets all of its
+            // light back: exact to f32 round-off.
+            let scene_dx = 4e-6 / m;
+            let img = image(128, 128, grid, scene_dx, d, |b, _, _| 0.01 * (b + 1) as f32);
+            let out = o.compute(&img).unwrap();
+            assert!((out.sample_spacing_m / 4e-6 - 1.0).abs() < 1e-9);
+            assert_eq!(out.geometry.f_number, n);
+            let want_k = PI * t / (1.0 + 4.0 * n * n * (1.0 + m) * (1.0 + m));
+            for b in 0..3 {
+                let got = out.at(out.rows / 2, out.cols / 2, b) as f64;
+                let want = want_k * 0.01 * (b + 1) as f64;
+                let lam_nw = grid.wavelength_nm(b) * 1e-9 * n * (1.0 + m);
+                let e_out = |r_m: f64| 2.0 * lam_nw / (PI * PI * r_m);
+                let (lo, hi) = (e_out(64.0 * 4e-6 * 2f64.sqrt()), e_out(64.0 * 4e-6));
+                // 2e-4: the asymptote's error at r ~ 100 lambda N (the next term is O((lambda N / r)^2))
+                // and f32 irradiance.
+                let missing = 1.0 - got / want;
+                if !far_tail {
+                    assert!(
+                        missing.abs() < 1e-5,
+                        "trimmed kernels, N {n}, d {d}, band {b}: {got} vs {want}"
+                    );
+                } else {
+                    assert!(missing > lo - 2e-4 && missing < hi + 2e-4, "{method:?}, N {n}, d {d}, band {b}: {got} vs {want} ({:.4} % missing, Airy tail {:.4}..{:.4} %)", missing * 100.0, lo * 100.0, hi * 100.0);
+                }
             }
         }
-      }
     }
 }
 
@@ -100,7 +124,10 @@ fn cos4_falloff() {
         let cos2_0 = 1.0 / (1.0 + (x0 / 4e-3).powi(2));
         let want = (cos2 * cos2) / (cos2_0 * cos2_0);
         let got = out.at(20, col, 0) as f64 / centre;
-        assert!((got - want).abs() < 2e-3, "col {col}: {got} vs cos^4 {want}");
+        assert!(
+            (got - want).abs() < 2e-3,
+            "col {col}: {got} vs cos^4 {want}"
+        );
     }
 }
 
@@ -118,7 +145,9 @@ fn relative_illumination_table() {
     let out = o.compute(&img).unwrap();
     let centre = out.at(30, 40, 0) as f64;
     // Pixel (30, 70): field height 30.5 samples of a half-diagonal of 50 samples.
-    let ri = |r: f64, c: f64| 1.0 - 0.5 * ((c + 0.5 - 40.0).powi(2) + (r + 0.5 - 30.0).powi(2)).sqrt() / 50.0;
+    let ri = |r: f64, c: f64| {
+        1.0 - 0.5 * ((c + 0.5 - 40.0).powi(2) + (r + 0.5 - 30.0).powi(2)).sqrt() / 50.0
+    };
     let want = ri(30.0, 70.0) / ri(30.0, 40.0);
     let got = out.at(30, 70, 0) as f64 / centre;
     assert!((got - want).abs() < 3e-3, "{got} vs {want}");
@@ -138,7 +167,9 @@ fn blur_conserves_energy() {
                 measurement_pupil_mm = 8.0\nzernike_um = [{ j = 4, c = 1.225 }, { j = 7, c = 0.3 }, { j = 12, c = 0.2 }]\n";
     let o = Optics::from_config(&OpticsConfig::from_toml_str(text, "t").unwrap()).unwrap();
     let (rows, cols) = (90, 70);
-    let img = image(rows, cols, grid, 1e-6, 0.0, |b, r, c| (((r * 131 + c * 71 + b * 17) % 97) as f32) / 97.0);
+    let img = image(rows, cols, grid, 1e-6, 0.0, |b, r, c| {
+        (((r * 131 + c * 71 + b * 17) % 97) as f32) / 97.0
+    });
     let mut img = img;
     img.geometry.fov_deg = 2.0 * (cols as f64 * 0.7e-6 / 2.0 / 4.38e-3).atan().to_degrees();
     let k = PI / (1.0 + 4.0 * 1.73 * 1.73);
@@ -153,11 +184,21 @@ fn blur_conserves_energy() {
     for b in 0..3 {
         let sin: f64 = img.band(b).iter().map(|v| *v as f64).sum::<f64>() * k;
         let sout_k: f64 = out_k.band(b).iter().map(|v| *v as f64).sum();
-        assert!((sout_k / sin - 1.0).abs() < 1e-4, "trimmed kernels, band {b}: {sout_k} vs {sin}");
-        for (name, o) in [("whole-image OTF", &out), ("kernels with far tail", &out_tail)] {
+        assert!(
+            (sout_k / sin - 1.0).abs() < 1e-4,
+            "trimmed kernels, band {b}: {sout_k} vs {sin}"
+        );
+        for (name, o) in [
+            ("whole-image OTF", &out),
+            ("kernels with far tail", &out_tail),
+        ] {
             let sout: f64 = o.band(b).iter().map(|v| *v as f64).sum();
             let lost = 1.0 - sout / sin;
-            assert!(lost > -1e-6 && lost < tail, "{name}, band {b}: {sout} vs {sin} ({:.4} % lost)", lost * 100.0);
+            assert!(
+                lost > -1e-6 && lost < tail,
+                "{name}, band {b}: {sout} vs {sin} ({:.4} % lost)",
+                lost * 100.0
+            );
         }
     }
 }
@@ -178,7 +219,13 @@ fn edge_blurs_as_the_diffraction_mtf() {
     // Rows >= the kernel, so the centre row integrates the whole PSF along y (the row is the LSF
     // convolved with the step).
     let (rows, cols) = (701, 1500);
-    let mut img = image(rows, cols, grid, dx, 0.0, |_, _, c| if c >= cols / 2 { 1.0 } else { 0.0 });
+    let mut img = image(rows, cols, grid, dx, 0.0, |_, _, c| {
+        if c >= cols / 2 {
+            1.0
+        } else {
+            0.0
+        }
+    });
     img.geometry.fov_deg = 2.0 * (cols as f64 * dx / 2.0 / 4e-3).atan().to_degrees();
     let out = o.compute(&img).unwrap();
     assert!((out.sample_spacing_m / dx - 1.0).abs() < 1e-9);
@@ -190,7 +237,9 @@ fn edge_blurs_as_the_diffraction_mtf() {
         let wl = grid.wavelength_nm(b);
         let r = out.rows / 2;
         let row: Vec<f64> = (0..out.cols).map(|c| out.at(r, c, b) as f64).collect();
-        let lsf: Vec<f64> = (edge - w / 2..edge + w / 2).map(|c| row[c] - row[c - 1]).collect();
+        let lsf: Vec<f64> = (edge - w / 2..edge + w / 2)
+            .map(|c| row[c] - row[c - 1])
+            .collect();
         let total: f64 = lsf.iter().sum();
         for kf in 1..w / 2 {
             let (mut re, mut im) = (0.0, 0.0);
@@ -203,7 +252,10 @@ fn edge_blurs_as_the_diffraction_mtf() {
             let f_cyc_mm = kf as f64 / (w as f64 * dx) * 1e-3;
             let want = diffraction_mtf(f_cyc_mm, wl, n);
             worst = worst.max((got - want).abs());
-            assert!((got - want).abs() < 0.01, "{wl} nm, {f_cyc_mm:.0} cyc/mm: {got:.4} vs {want:.4}");
+            assert!(
+                (got - want).abs() < 0.01,
+                "{wl} nm, {f_cyc_mm:.0} cyc/mm: {got:.4} vs {want:.4}"
+            );
         }
     }
     eprintln!("edge MTF vs diffraction MTF: max |error| = {worst:.5}");
@@ -252,9 +304,13 @@ fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
         let out = o.compute(&img).unwrap();
         let pad = (out.rows - rows) / 2;
         let r = pad + 80;
-        let row: Vec<f64> = (pad + 20..pad + 140).map(|c| out.at(r, c, 0) as f64).collect();
+        let row: Vec<f64> = (pad + 20..pad + 140)
+            .map(|c| out.at(r, c, 0) as f64)
+            .collect();
         let k = PI / (1.0 + 4.0 * n * n * (1.0 + lens_m(f, d)).powi(2));
-        rises.push(rise_10_90(&row, 0.2 * k, 1.0 * k, out.sample_spacing_m) * (5f64).to_radians().cos());
+        rises.push(
+            rise_10_90(&row, 0.2 * k, 1.0 * k, out.sample_spacing_m) * (5f64).to_radians().cos(),
+        );
     }
     // Disk ESF: fraction of a unit disk left of x: F(x) = (x sqrt(1-x^2) + asin x)/pi + 1/2.
     let esf = |x: f64| (x * (1.0 - x * x).sqrt() + x.asin()) / PI + 0.5;
@@ -300,7 +356,9 @@ fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
             0.5 + sum * h / 3.0 / PI
         };
         // Level crossings on a fine scan (the defocused ESF ripples), linear between scan points.
-        let xs: Vec<f64> = (0..=1000).map(|i| -span + 2.0 * span * i as f64 / 1000.0).collect();
+        let xs: Vec<f64> = (0..=1000)
+            .map(|i| -span + 2.0 * span * i as f64 / 1000.0)
+            .collect();
         let e: Vec<f64> = xs.iter().map(|x| esf(*x)).collect();
         let cross = |p: f64| {
             let i = e.iter().position(|v| *v >= p).unwrap();
@@ -309,7 +367,11 @@ fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
         cross(0.9) - cross(0.1)
     };
     let lam_n_in = 550e-9 * n * (1.0 + lens_m(f, d));
-    let dl_rise = esf_rise(lam_n_in, &camsim_optics::lens::diffraction_mtf_normalized, 5.0 * lam_n_in);
+    let dl_rise = esf_rise(
+        lam_n_in,
+        &camsim_optics::lens::diffraction_mtf_normalized,
+        5.0 * lam_n_in,
+    );
     let lam_n_out = 550e-9 * n * vs / f;
     let c4_um = camsim_optics::lens::defocus_c4_um(f, n, 0.3, d);
     let w020_waves = 2.0 * 3f64.sqrt() * c4_um / 0.55;
@@ -322,11 +384,26 @@ fn slanted_edge_sharp_in_focus_blurred_out_of_focus() {
     // < 0.03 um of extra rise. The sampled pupil's OTF is within 0.01 of the analytic ones
     // (tests/wavefront.rs), which moves the ESF by up to ~3 % of the step, i.e. the crossings by
     // up to ~4 % of the rise. In focus: 8 %; the 10 um defocused rise: 5 %.
-    assert!((rises[0] / dl_rise - 1.0).abs() < 0.08, "in-focus rise {} vs diffraction-limited {}", rises[0], dl_rise);
-    assert!((rises[1] / defocus_rise - 1.0).abs() < 0.05, "defocused rise {} vs Hopkins {}", rises[1], defocus_rise);
+    assert!(
+        (rises[0] / dl_rise - 1.0).abs() < 0.08,
+        "in-focus rise {} vs diffraction-limited {}",
+        rises[0],
+        dl_rise
+    );
+    assert!(
+        (rises[1] / defocus_rise - 1.0).abs() < 0.05,
+        "defocused rise {} vs Hopkins {}",
+        rises[1],
+        defocus_rise
+    );
     // Geometric optics (the disk of the thin-lens circle of confusion) holds to the diffraction
     // spread lambda N_w against the rise.
-    assert!((rises[1] / disk_rise - 1.0).abs() < lam_n_out / disk_rise, "defocused rise {} vs disk {}", rises[1], disk_rise);
+    assert!(
+        (rises[1] / disk_rise - 1.0).abs() < lam_n_out / disk_rise,
+        "defocused rise {} vs disk {}",
+        rises[1],
+        disk_rise
+    );
 }
 
 /// Hopkins (1955) defocus OTF (signed; real for a symmetric pupil) by quadrature:
@@ -367,9 +444,19 @@ fn point_in_the_focal_plane_gets_the_in_focus_psf() {
     let (rows, cols) = (64, 200);
     let d = 1.0;
     let mk = |depth: bool| {
-        let mut img = image(rows, cols, grid, 2e-6, d, |_, r, c| if r == 32 && c == 40 { 1.0 } else { 0.0 });
+        let mut img = image(rows, cols, grid, 2e-6, d, |_, r, c| {
+            if r == 32 && c == 40 {
+                1.0
+            } else {
+                0.0
+            }
+        });
         if depth {
-            img.depth_m = Some((0..rows * cols).map(|i| if i % cols < 100 { d as f32 } else { 0.3 }).collect());
+            img.depth_m = Some(
+                (0..rows * cols)
+                    .map(|i| if i % cols < 100 { d as f32 } else { 0.3 })
+                    .collect(),
+            );
         }
         img
     };
@@ -377,12 +464,17 @@ fn point_in_the_focal_plane_gets_the_in_focus_psf() {
     c.shading = ShadingConfig::Named(ShadingName::None);
     c.focus_distance_m = Some(d);
     let layered = Optics::from_config(&c).unwrap();
-    let layers = layered.depth_layers(mk(true).depth_m.as_ref().unwrap(), cols, d).unwrap();
+    let layers = layered
+        .depth_layers(mk(true).depth_m.as_ref().unwrap(), cols, d)
+        .unwrap();
     assert_eq!(layers.c4_um.len(), 2);
     assert!(layers.c4_um.contains(&0.0));
     let a = layered.compute(&mk(true)).unwrap();
     c.focus_distance_m = None;
-    let flat = Optics::from_config(&c).unwrap().compute(&mk(false)).unwrap();
+    let flat = Optics::from_config(&c)
+        .unwrap()
+        .compute(&mk(false))
+        .unwrap();
     // Kernel sizes differ (the defocused layer needs a bigger one): compare around the point.
     let (pa, pf) = ((a.rows - rows) / 2, (flat.rows - rows) / 2);
     let mut peak = 0.0f64;
@@ -390,8 +482,16 @@ fn point_in_the_focal_plane_gets_the_in_focus_psf() {
     for b in 0..2 {
         for dr in -10i64..=10 {
             for dc in -10i64..=10 {
-                let va = a.at((pa as i64 + 32 + dr) as usize, (pa as i64 + 40 + dc) as usize, b) as f64;
-                let vf = flat.at((pf as i64 + 32 + dr) as usize, (pf as i64 + 40 + dc) as usize, b) as f64;
+                let va = a.at(
+                    (pa as i64 + 32 + dr) as usize,
+                    (pa as i64 + 40 + dc) as usize,
+                    b,
+                ) as f64;
+                let vf = flat.at(
+                    (pf as i64 + 32 + dr) as usize,
+                    (pf as i64 + 40 + dc) as usize,
+                    b,
+                ) as f64;
                 peak = peak.max(vf);
                 maxdiff = maxdiff.max((va - vf).abs());
             }
@@ -426,18 +526,29 @@ fn depth_layers_respect_the_tolerance() {
 fn isetcam_otf_blur(plane: &[f64], rows: usize, cols: usize, psf_origin: &[f64]) -> Vec<f64> {
     use rustfft::num_complex::Complex64;
     let mut planner = rustfft::FftPlanner::<f64>::new();
-    let fft2 = |data: &mut Vec<Complex64>, inverse: bool, planner: &mut rustfft::FftPlanner<f64>| {
-        let (fr, fc) = if inverse { (planner.plan_fft_inverse(cols), planner.plan_fft_inverse(rows)) } else { (planner.plan_fft_forward(cols), planner.plan_fft_forward(rows)) };
-        for row in data.chunks_exact_mut(cols) {
-            fr.process(row);
-        }
-        let mut col = vec![Complex64::new(0.0, 0.0); rows];
-        for c in 0..cols {
-            (0..rows).for_each(|r| col[r] = data[r * cols + c]);
-            fc.process(&mut col);
-            (0..rows).for_each(|r| data[r * cols + c] = col[r]);
-        }
-    };
+    let fft2 =
+        |data: &mut Vec<Complex64>, inverse: bool, planner: &mut rustfft::FftPlanner<f64>| {
+            let (fr, fc) = if inverse {
+                (
+                    planner.plan_fft_inverse(cols),
+                    planner.plan_fft_inverse(rows),
+                )
+            } else {
+                (
+                    planner.plan_fft_forward(cols),
+                    planner.plan_fft_forward(rows),
+                )
+            };
+            for row in data.chunks_exact_mut(cols) {
+                fr.process(row);
+            }
+            let mut col = vec![Complex64::new(0.0, 0.0); rows];
+            for c in 0..cols {
+                (0..rows).for_each(|r| col[r] = data[r * cols + c]);
+                fc.process(&mut col);
+                (0..rows).for_each(|r| data[r * cols + c] = col[r]);
+            }
+        };
     let mut img: Vec<Complex64> = plane.iter().map(|v| Complex64::new(*v, 0.0)).collect();
     let mut otf: Vec<Complex64> = psf_origin.iter().map(|v| Complex64::new(*v, 0.0)).collect();
     fft2(&mut img, false, &mut planner);
@@ -467,11 +578,19 @@ struct ChartErrors {
 /// around (then it is the linear convolution with the untrimmed PSF of the sampled pupil); it
 /// conserves energy exactly (OTF(0) = 1; checked to 1e-9). Compares each patch's interior mean
 /// (`ps / 6` samples in from its edges) in both bands; every output sample must be non-negative.
-fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: impl Fn(usize) -> usize) -> ChartErrors {
+fn chart_errors(
+    grid: WavelengthGrid,
+    ps: usize,
+    border: usize,
+    extra_per_side: impl Fn(usize) -> usize,
+) -> ChartErrors {
     assert_eq!(grid.len(), 2);
     let (pr, pc) = (4usize, 6usize);
     let (rows, cols) = (pr * ps + 2 * border, pc * ps + 2 * border);
-    let refl = [0.31, 0.90, 0.59, 0.36, 0.19, 0.031, 0.45, 0.12, 0.70, 0.05, 0.25, 0.62, 0.09, 0.80, 0.40, 0.15, 0.55, 0.08, 0.66, 0.28, 0.033, 0.90, 0.21, 0.48];
+    let refl = [
+        0.31, 0.90, 0.59, 0.36, 0.19, 0.031, 0.45, 0.12, 0.70, 0.05, 0.25, 0.62, 0.09, 0.80, 0.40,
+        0.15, 0.55, 0.08, 0.66, 0.28, 0.033, 0.90, 0.21, 0.48,
+    ];
     let value = |b: usize, r: usize, c: usize| -> f32 {
         if r < border || c < border || r >= rows - border || c >= cols - border {
             return 0.9;
@@ -485,7 +604,10 @@ fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: 
     };
     let f_mm = 4.38;
     let mut img = image(rows, cols, grid, 1e-6, 0.0, value);
-    img.geometry.fov_deg = 2.0 * (cols as f64 * 1.4e-6 / 2.0 / (f_mm * 1e-3)).atan().to_degrees();
+    img.geometry.fov_deg = 2.0
+        * (cols as f64 * 1.4e-6 / 2.0 / (f_mm * 1e-3))
+            .atan()
+            .to_degrees();
     let mut c = OpticsConfig::preset("pixel4a").unwrap();
     c.shading = ShadingConfig::Named(ShadingName::None);
     let optics = Optics::from_config(&c).unwrap();
@@ -507,17 +629,27 @@ fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: 
             .map(|b| {
                 let wl = grid.wavelength_nm(b);
                 // Scene at infinity: magnification 0 in the camera equation.
-                let e = camsim_optics::lens::irradiance_factor(c.f_number, 0.0, optics.transmittance(wl));
+                let e = camsim_optics::lens::irradiance_factor(
+                    c.f_number,
+                    0.0,
+                    optics.transmittance(wl),
+                );
                 let mut plane = vec![0.0f64; fr * fc];
                 for r in 0..rows {
                     for cc in 0..cols {
                         plane[(r + pr0) * fc + cc + pc0] = value(b, r, cc) as f64 * e;
                     }
                 }
-                let psf = optics.wavefront().psf_periodic(wl, default.sample_spacing_m, fr, fc, c.psf.oversampling).unwrap();
+                let psf = optics
+                    .wavefront()
+                    .psf_periodic(wl, default.sample_spacing_m, fr, fc, c.psf.oversampling)
+                    .unwrap();
                 let out = isetcam_otf_blur(&plane, fr, fc, &psf);
                 let (si, so) = (plane.iter().sum::<f64>(), out.iter().sum::<f64>());
-                assert!((so / si - 1.0).abs() < 1e-9, "reference blur does not conserve energy: {so} vs {si}");
+                assert!(
+                    (so / si - 1.0).abs() < 1e-9,
+                    "reference blur does not conserve energy: {so} vs {si}"
+                );
                 out
             })
             .collect();
@@ -529,7 +661,10 @@ fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: 
     let (dpr, dpc) = ((default.rows - rows) / 2, (default.cols - cols) / 2);
     let inset = ps / 6;
     let mean = |get: &dyn Fn(usize, usize) -> f64, k: usize| {
-        let (r0, c0) = (pad_r + border + (k / pc) * ps + inset, pad_c + border + (k % pc) * ps + inset);
+        let (r0, c0) = (
+            pad_r + border + (k / pc) * ps + inset,
+            pad_c + border + (k % pc) * ps + inset,
+        );
         let n = ps - 2 * inset;
         let mut s = 0.0f64;
         for r in r0..r0 + n {
@@ -539,8 +674,15 @@ fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: 
         }
         s / (n * n) as f64
     };
-    let mut worst = ChartErrors { default: 0.0, kernel: 0.0, kernel_trimmed: 0.0, wrapped: 0.0 };
-    let at = |o: &SpectralImage, r: usize, cc: usize, b: usize| o.at(r + dpr - pad_r, cc + dpc - pad_c, b) as f64;
+    let mut worst = ChartErrors {
+        default: 0.0,
+        kernel: 0.0,
+        kernel_trimmed: 0.0,
+        wrapped: 0.0,
+    };
+    let at = |o: &SpectralImage, r: usize, cc: usize, b: usize| {
+        o.at(r + dpr - pad_r, cc + dpc - pad_c, b) as f64
+    };
     for b in 0..2 {
         for k in 0..pr * pc {
             let want = mean(&|r, cc| reference[b][r * out_cols + cc], k);
@@ -588,9 +730,21 @@ fn chart_errors(grid: WavelengthGrid, ps: usize, border: usize, extra_per_side: 
 fn chart_patch_means_match_the_isetcam_otf_blur() {
     let grid = WavelengthGrid::new(450.0, 650.0, 200.0).unwrap();
     let w = chart_errors(grid, 20, 4, |side| 2 * side);
-    assert!(w.default < 2e-3, "default: worst patch mean error {:.3} %", w.default * 100.0);
-    assert!(w.kernel < 2e-3, "kernel with far tail: worst patch mean error {:.3} %", w.kernel * 100.0);
-    assert!(w.kernel_trimmed > 3e-3, "the trimmed kernel is only {:.3} % off", w.kernel_trimmed * 100.0);
+    assert!(
+        w.default < 2e-3,
+        "default: worst patch mean error {:.3} %",
+        w.default * 100.0
+    );
+    assert!(
+        w.kernel < 2e-3,
+        "kernel with far tail: worst patch mean error {:.3} %",
+        w.kernel * 100.0
+    );
+    assert!(
+        w.kernel_trimmed > 3e-3,
+        "the trimmed kernel is only {:.3} % off",
+        w.kernel_trimmed * 100.0
+    );
 }
 
 /// Issue 13: a chart whose output is too large for the whole-image OTF route (patches of 60
@@ -602,9 +756,21 @@ fn chart_patch_means_match_the_isetcam_otf_blur() {
 fn large_chart_patch_means_match_the_otf_blur_with_the_far_tail() {
     let grid = WavelengthGrid::new(550.0, 650.0, 100.0).unwrap();
     let w = chart_errors(grid, 60, 12, |side| side / 2);
-    assert!(w.default < 2e-3, "default: worst patch mean error {:.3} %", w.default * 100.0);
-    assert!((w.default - w.kernel).abs() < 1e-12, "the default is not the kernel route here");
-    assert!(w.kernel_trimmed > 2.0 * w.default, "trimmed kernel {:.3} % vs default {:.3} %", w.kernel_trimmed * 100.0, w.default * 100.0);
+    assert!(
+        w.default < 2e-3,
+        "default: worst patch mean error {:.3} %",
+        w.default * 100.0
+    );
+    assert!(
+        (w.default - w.kernel).abs() < 1e-12,
+        "the default is not the kernel route here"
+    );
+    assert!(
+        w.kernel_trimmed > 2.0 * w.default,
+        "trimmed kernel {:.3} % vs default {:.3} %",
+        w.kernel_trimmed * 100.0,
+        w.default * 100.0
+    );
 }
 /// `psf.method = "otf"` refuses what it cannot do, with a message naming the key or the method:
 /// a depth map (one PSF per depth layer) and an image too large for the periodic PSF grid.

@@ -11,7 +11,11 @@ use camsim_optics::{Optics, OpticsConfig};
 use std::path::PathBuf;
 
 fn data(name: &str) -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens")).join(name)
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/isetcornellbox/lens"
+    ))
+    .join(name)
 }
 
 fn rtf_path() -> PathBuf {
@@ -48,7 +52,13 @@ fn lens() -> RtfLens {
 }
 
 /// A radiance image at infinity with `fov_deg` across its columns.
-fn image(rows: usize, cols: usize, grid: WavelengthGrid, fov_deg: f64, f: impl Fn(usize, usize) -> f32) -> SpectralImage {
+fn image(
+    rows: usize,
+    cols: usize,
+    grid: WavelengthGrid,
+    fov_deg: f64,
+    f: impl Fn(usize, usize) -> f32,
+) -> SpectralImage {
     let mut data = vec![0.0f32; rows * cols * grid.len()];
     for plane in data.chunks_mut(rows * cols) {
         for r in 0..rows {
@@ -57,13 +67,23 @@ fn image(rows: usize, cols: usize, grid: WavelengthGrid, fov_deg: f64, f: impl F
             }
         }
     }
-    let mut img = SpectralImage::from_data(rows, cols, grid, 1e-6, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry { fov_deg, distance_m: 0.0, focal_length_m: 0.0, f_number: 0.0 };
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, 1e-6, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg,
+        distance_m: 0.0,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     img
 }
 
 fn field(h_mm: f64) -> Field {
-    Field { ideal_height_mm: h_mm, image_distance_mm: 4.38, object_distance_mm: f64::INFINITY }
+    Field {
+        ideal_height_mm: h_mm,
+        image_distance_mm: 4.38,
+        object_distance_mm: f64::INFINITY,
+    }
 }
 
 /// Energy and centre: each field's geometric spot lies inside its grid (the splat conserves the
@@ -75,7 +95,10 @@ fn field(h_mm: f64) -> Field {
 fn field_psfs_hold_their_energy_and_centre_on_the_chief_ray() {
     let l = lens();
     let dz = l.focus_offset_mm(f64::INFINITY).unwrap();
-    println!("infinity focus: film {:.2} um behind the RTF's input plane", dz * 1e3);
+    println!(
+        "infinity focus: film {:.2} um behind the RTF's input plane",
+        dz * 1e3
+    );
     let (spacing, n) = (1.4e-6 / 3.0, 41usize);
     let r_window = (n / 2) as f64 * spacing;
     for h in [0.0, 1.0, 2.0, 2.8, 3.3] {
@@ -87,7 +110,12 @@ fn field_psfs_hold_their_energy_and_centre_on_the_chief_ray() {
         let ksum: Vec<f32> = k.iter().map(|k| k.iter().sum()).collect();
         // The Airy pattern's energy outside radius R: ~ 2 lambda N / (pi^2 R) (Born & Wolf 8.5.2).
         let n_eff = 1.0 / (2.0 * sp.na[0].min(sp.na[1]));
-        let floor: Vec<f64> = wl.iter().map(|w| 1.0 - 2.0 * w * 1e-9 * n_eff / (std::f64::consts::PI.powi(2) * r_window) - 0.01).collect();
+        let floor: Vec<f64> = wl
+            .iter()
+            .map(|w| {
+                1.0 - 2.0 * w * 1e-9 * n_eff / (std::f64::consts::PI.powi(2) * r_window) - 0.01
+            })
+            .collect();
         println!(
             "ideal {h:.2} mm: chief lands at {:.4} mm ({} rays), centroid ({:.3}, {:.3}) um, RMS radius {:.3} um, r99.5 {:.3} um, NA ({:.4}, {:.4}); spot sum {sum:.6}, kernel sums {ksum:?}",
             sp.chief_height_m * 1e3,
@@ -100,17 +128,35 @@ fn field_psfs_hold_their_energy_and_centre_on_the_chief_ray() {
             sp.na[1]
         );
         assert!((sum - 1.0).abs() < 1e-9, "spot sum {sum}");
-        assert!(ksum.iter().zip(&floor).all(|(s, f)| *s as f64 > *f && *s <= 1.0 + 1e-5), "{ksum:?} vs {floor:?}");
+        assert!(
+            ksum.iter()
+                .zip(&floor)
+                .all(|(s, f)| *s as f64 > *f && *s <= 1.0 + 1e-5),
+            "{ksum:?} vs {floor:?}"
+        );
         // On the axis the RTF's polynomials keep a constant exit tilt (1.2e-4 rad at r = 0, a
         // fitting residue): the axial film point's rays form a ring of f x 1.2e-4 = 0.5 um about
         // it, and the chief ray is undefined at that scale. Off the axis the centroid sits on the
         // meridian (mirror symmetry: tangential offset ~0) and off the chief ray radially by the
         // coma only: under half the spot's RMS radius (measured <= 0.32 um, 0.23 px).
         if h == 0.0 {
-            assert!(sp.centroid_m[0].hypot(sp.centroid_m[1]) < 0.6e-6, "centroid {:?}", sp.centroid_m);
+            assert!(
+                sp.centroid_m[0].hypot(sp.centroid_m[1]) < 0.6e-6,
+                "centroid {:?}",
+                sp.centroid_m
+            );
         } else {
-            assert!(sp.centroid_m[1].abs() < 0.02e-6, "tangential centroid {:?}", sp.centroid_m);
-            assert!(sp.centroid_m[0].abs() < 0.5 * sp.rms_radius_m, "radial centroid {:?} vs RMS {}", sp.centroid_m, sp.rms_radius_m);
+            assert!(
+                sp.centroid_m[1].abs() < 0.02e-6,
+                "tangential centroid {:?}",
+                sp.centroid_m
+            );
+            assert!(
+                sp.centroid_m[0].abs() < 0.5 * sp.rms_radius_m,
+                "radial centroid {:?} vs RMS {}",
+                sp.centroid_m,
+                sp.rms_radius_m
+            );
         }
     }
 }
@@ -125,11 +171,25 @@ fn field_psfs_hold_their_energy_and_centre_on_the_chief_ray() {
 fn on_axis_psf_is_the_airy_pattern_of_the_pass_ellipse() {
     let l = lens();
     let n_rtf = rtf_f_number();
-    let sp = l.field_spot(&field(0.0), l.focus_offset_mm(f64::INFINITY).unwrap()).unwrap();
+    let sp = l
+        .field_spot(&field(0.0), l.focus_offset_mm(f64::INFINITY).unwrap())
+        .unwrap();
     let na_want = 1.0 / (2.0 * n_rtf);
-    println!("on-axis NA {:?} vs 1/(2N) = {na_want:.4} (N = {n_rtf:.3})", sp.na);
-    assert!(sp.na.iter().all(|v| (v / na_want - 1.0).abs() < 0.02), "{:?}", sp.na);
-    let point = Spot { hits: vec![([0.0, 0.0], 1.0)], rms_radius_m: 0.0, r995_m: 0.0, ..sp.clone() };
+    println!(
+        "on-axis NA {:?} vs 1/(2N) = {na_want:.4} (N = {n_rtf:.3})",
+        sp.na
+    );
+    assert!(
+        sp.na.iter().all(|v| (v / na_want - 1.0).abs() < 0.02),
+        "{:?}",
+        sp.na
+    );
+    let point = Spot {
+        hits: vec![([0.0, 0.0], 1.0)],
+        rms_radius_m: 0.0,
+        r995_m: 0.0,
+        ..sp.clone()
+    };
     let spacing = 0.1e-6;
     let n = 201;
     let ee = |k: &[f32], r_m: f64| -> f64 {
@@ -158,7 +218,11 @@ fn on_axis_psf_is_the_airy_pattern_of_the_pass_ellipse() {
         assert!((e_airy - 0.838).abs() < 0.01, "{e_airy}");
         assert!(e_full > 0.75 && e_full <= e_airy + 0.005, "{e_full}");
     }
-    assert!(sp.rms_radius_m < 0.5 * 1.22 * 550e-9 * n_rtf, "on-axis spot RMS radius {} m", sp.rms_radius_m);
+    assert!(
+        sp.rms_radius_m < 0.5 * 1.22 * 550e-9 * n_rtf,
+        "on-axis spot RMS radius {} m",
+        sp.rms_radius_m
+    );
 }
 
 /// Relative illumination and flat field: a uniform scene through the RTF blur (blur,
@@ -177,31 +241,48 @@ fn uniform_scene_follows_the_rtf_relative_illumination() {
     let img = image(rows, cols, grid, fov, |_, _| 1.0);
     let out = o.compute(&img).unwrap();
     let rtf = Rtf::from_file(&rtf_path()).unwrap();
-    let zemax = camsim_lens::rtf::read_zemax_relative_illumination(&data("zemax-relative-illumination.txt")).unwrap();
+    let zemax = camsim_lens::rtf::read_zemax_relative_illumination(&data(
+        "zemax-relative-illumination.txt",
+    ))
+    .unwrap();
     let (r0, c0) = (out.rows / 2, out.cols / 2);
     let height = |r: usize, c: usize| {
-        let (x, y) = ((c as f64 + 0.5 - out.cols as f64 / 2.0) * spacing, (r as f64 + 0.5 - out.rows as f64 / 2.0) * spacing);
+        let (x, y) = (
+            (c as f64 + 0.5 - out.cols as f64 / 2.0) * spacing,
+            (r as f64 + 0.5 - out.rows as f64 / 2.0) * spacing,
+        );
         x.hypot(y) * 1e3
     };
     // Per band: the axial irradiance (the camera equation) over the RI at the centre sample.
     let ri0 = rtf.relative_illumination(&[height(r0, c0)], RI_GRID)[0].unwrap();
-    let e0: Vec<f64> = (0..out.bands()).map(|b| out.data[(b * out.rows + r0) * out.cols + c0] as f64 / ri0).collect();
+    let e0: Vec<f64> = (0..out.bands())
+        .map(|b| out.data[(b * out.rows + r0) * out.cols + c0] as f64 / ri0)
+        .collect();
     let diag = (out.rows as f64).hypot(out.cols as f64) / 2.0;
     let mut worst = 0.0f64;
     let mut devs = Vec::new();
     for row in zemax.iter().filter(|z| z.height_mm <= 3.3) {
         // The sample on the diagonal nearest the listed height (at least 12 samples inside).
         let t = (row.height_mm / (spacing * 1e3) / diag).min(1.0 - 16.0 / diag);
-        let (r, c) = ((r0 as f64 + t * out.rows as f64 / 2.0) as usize, (c0 as f64 + t * out.cols as f64 / 2.0) as usize);
+        let (r, c) = (
+            (r0 as f64 + t * out.rows as f64 / 2.0) as usize,
+            (c0 as f64 + t * out.cols as f64 / 2.0) as usize,
+        );
         let h = height(r, c);
         let want = rtf.relative_illumination(&[h], RI_GRID)[0].unwrap();
         for (b, e0b) in e0.iter().enumerate() {
             let got = out.data[(b * out.rows + r) * out.cols + c] as f64 / e0b;
             worst = worst.max((got / want - 1.0).abs());
             devs.push((got / want - 1.0).abs());
-            assert!((got / want - 1.0).abs() < 2e-3, "band {b}, {h:.3} mm: {got} vs {want}");
+            assert!(
+                (got / want - 1.0).abs() < 2e-3,
+                "band {b}, {h:.3} mm: {got} vs {want}"
+            );
         }
-        println!("film height {h:.3} mm (Zemax row {:.3} mm): RTF RI {want:.4}, Zemax {:.4}", row.height_mm, row.ri);
+        println!(
+            "film height {h:.3} mm (Zemax row {:.3} mm): RTF RI {want:.4}, Zemax {:.4}",
+            row.height_mm, row.ri
+        );
     }
     devs.sort_by(f64::total_cmp);
     let median = devs[devs.len() / 2];
@@ -218,7 +299,10 @@ fn shading_map_is_the_rtf_relative_illumination() {
     let dz = l.focus_offset_mm(f64::INFINITY).unwrap();
     let maps = l.maps(4.38, f64::INFINITY, dz, 3.6e-3).unwrap();
     let rtf = Rtf::from_file(&rtf_path()).unwrap();
-    let zemax = camsim_lens::rtf::read_zemax_relative_illumination(&data("zemax-relative-illumination.txt")).unwrap();
+    let zemax = camsim_lens::rtf::read_zemax_relative_illumination(&data(
+        "zemax-relative-illumination.txt",
+    ))
+    .unwrap();
     let interp = |x: f64| {
         let xs = &maps.ri_height_m;
         let i = xs.partition_point(|v| *v < x).clamp(1, xs.len() - 1);
@@ -230,9 +314,16 @@ fn shading_map_is_the_rtf_relative_illumination() {
         let want = rtf.relative_illumination(&[z.height_mm], RI_GRID)[0].unwrap();
         let got = interp(z.height_mm * 1e-3);
         worst = worst.max((got / want - 1.0).abs());
-        assert!((got / want - 1.0).abs() < 1e-3, "{} mm: {got} vs {want}", z.height_mm);
+        assert!(
+            (got / want - 1.0).abs() < 1e-3,
+            "{} mm: {got} vs {want}",
+            z.height_mm
+        );
     }
-    println!("shading map vs Rtf::relative_illumination at {} Zemax heights: worst {worst:.2e}", zemax.len());
+    println!(
+        "shading map vs Rtf::relative_illumination at {} Zemax heights: worst {worst:.2e}",
+        zemax.len()
+    );
     assert!(maps.real_m.windows(2).all(|w| w[1] > w[0]));
 }
 
@@ -246,17 +337,37 @@ fn point_source_lands_on_the_rtf_chief_ray() {
     let o = Optics::from_config(&config()).unwrap();
     let l = lens();
     for (pr, pc) in [(40usize, 50usize), (151, 390), (280, 210)] {
-        let img = image(rows, cols, grid, fov, |r, c| if r == pr && c == pc { 1.0 } else { 0.0 });
+        let img = image(rows, cols, grid, fov, |r, c| {
+            if r == pr && c == pc {
+                1.0
+            } else {
+                0.0
+            }
+        });
         let out = o.compute(&img).unwrap();
         let v = out.sample_spacing_m;
-        let (x, y) = ((pc as f64 + 0.5 - cols as f64 / 2.0) * v, (pr as f64 + 0.5 - rows as f64 / 2.0) * v);
+        let (x, y) = (
+            (pc as f64 + 0.5 - cols as f64 / 2.0) * v,
+            (pr as f64 + 0.5 - rows as f64 / 2.0) * v,
+        );
         let h = x.hypot(y);
         let dz = l.focus_offset_mm(f64::INFINITY).unwrap();
-        let real =
-            l.chief_height_mm(&Field { ideal_height_mm: h * 1e3, image_distance_mm: 4.38, object_distance_mm: f64::INFINITY }, dz).unwrap()
-                * 1e-3;
+        let real = l
+            .chief_height_mm(
+                &Field {
+                    ideal_height_mm: h * 1e3,
+                    image_distance_mm: 4.38,
+                    object_distance_mm: f64::INFINITY,
+                },
+                dz,
+            )
+            .unwrap()
+            * 1e-3;
         let s = real / h;
-        let (want_r, want_c) = (y * s / v + out.rows as f64 / 2.0 - 0.5, x * s / v + out.cols as f64 / 2.0 - 0.5);
+        let (want_r, want_c) = (
+            y * s / v + out.rows as f64 / 2.0 - 0.5,
+            x * s / v + out.cols as f64 / 2.0 - 0.5,
+        );
         let (mut sw, mut sr, mut sc) = (0.0, 0.0, 0.0);
         for r in (want_r as usize).saturating_sub(4)..=(want_r as usize + 4).min(out.rows - 1) {
             for c in (want_c as usize).saturating_sub(4)..=(want_c as usize + 4).min(out.cols - 1) {
@@ -289,30 +400,53 @@ fn bad_rtf_configs_give_clear_errors() {
         }
     };
     let base = format!("f_number = {n}\nfocal_length_mm = 4.38\nshading = \"none\"\n");
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", rtf_file = \"/nonexistent/rtf.json\" }}"));
-    assert!(e.contains("blur.rtf_file") && e.contains("/nonexistent/rtf.json"), "{e}");
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", rtf_file = \"/nonexistent/rtf.json\" }}"
+    ));
+    assert!(
+        e.contains("blur.rtf_file") && e.contains("/nonexistent/rtf.json"),
+        "{e}"
+    );
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad-rtf.json");
     std::fs::write(&bad, "{ \"thickness\": 1.0 }").unwrap();
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", rtf_file = \"{}\" }}", bad.display()));
-    assert!(e.contains("blur.rtf_file") && e.contains("bad-rtf.json"), "{e}");
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", rtf_file = \"{}\" }}",
+        bad.display()
+    ));
+    assert!(
+        e.contains("blur.rtf_file") && e.contains("bad-rtf.json"),
+        "{e}"
+    );
     // The pixel4a preset's f/1.73 is the design's; the RTF's pass region is about f/3.4.
     let e = err(&format!(
         "f_number = 1.73\nfocal_length_mm = 4.38\nshading = \"none\"\nblur = {{ method = \"shift-variant\", rtf_file = \"{}\" }}",
         rtf.display()
     ));
-    assert!(e.contains("f_number") && e.contains(&format!("{n:.2}")), "{e}");
+    assert!(
+        e.contains("f_number") && e.contains(&format!("{n:.2}")),
+        "{e}"
+    );
     let e = err(&format!(
         "f_number = {n}\nfocal_length_mm = 5.0\nshading = \"none\"\nblur = {{ method = \"shift-variant\", rtf_file = \"{}\" }}",
         rtf.display()
     ));
-    assert!(e.contains("blur.rtf_file") && e.contains("focal_length_mm"), "{e}");
+    assert!(
+        e.contains("blur.rtf_file") && e.contains("focal_length_mm"),
+        "{e}"
+    );
     let e =
         err(&format!("f_number = {n}\nfocal_length_mm = 4.38\nblur = {{ method = \"shift-variant\", rtf_file = \"{}\" }}", rtf.display()));
     assert!(e.contains("shading"), "{e}");
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", rtf_file = \"{}\", lens_file = \"x.json\" }}", rtf.display()));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", rtf_file = \"{}\", lens_file = \"x.json\" }}",
+        rtf.display()
+    ));
     assert!(e.contains("one of lens_file, rtf_file"), "{e}");
-    let e = err(&format!("{base}blur = {{ method = \"shift-invariant\", rtf_file = \"{}\" }}", rtf.display()));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-invariant\", rtf_file = \"{}\" }}",
+        rtf.display()
+    ));
     assert!(e.contains("blur.method"), "{e}");
 }
 
@@ -327,7 +461,11 @@ fn image_and_object_space_autofocus_agree() {
     for d_mm in [f64::INFINITY, 1000.0] {
         let image = l.focus_offset_mm(d_mm).unwrap();
         let object = rtf.focus_offset_mm(d_mm).unwrap();
-        println!("focus at {d_mm} mm: image-space {:.3} um, object-space {:.3} um", image * 1e3, object * 1e3);
+        println!(
+            "focus at {d_mm} mm: image-space {:.3} um, object-space {:.3} um",
+            image * 1e3,
+            object * 1e3
+        );
         assert!((image - object).abs() < 1e-3, "{image} vs {object} mm");
     }
 }

@@ -4,13 +4,19 @@
 
 use camsim_core::image::ImageGeometry;
 use camsim_core::{Quantity, SpectralImage, WavelengthGrid};
-use camsim_optics::config::{BlurConfig, BlurKind, BlurMethod, FieldZernikeConfig, ShadingConfig, ShadingName, ZernikeTerms};
+use camsim_optics::config::{
+    BlurConfig, BlurKind, BlurMethod, FieldZernikeConfig, ShadingConfig, ShadingName, ZernikeTerms,
+};
 use camsim_optics::traced::{ObjectField, TracedLens};
 use camsim_optics::{diffraction_mtf, Optics, OpticsConfig, Wavefront};
 use std::path::PathBuf;
 
 fn lens_path(name: &str) -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens")).join(name)
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/isetcornellbox/lens"
+    ))
+    .join(name)
 }
 
 fn config(n: f64, f_mm: f64) -> OpticsConfig {
@@ -24,7 +30,15 @@ fn config(n: f64, f_mm: f64) -> OpticsConfig {
 }
 
 fn sv(field_heights: usize, block_px: Option<usize>) -> BlurConfig {
-    BlurConfig { method: BlurKind::ShiftVariant, field_heights, block_px, rotation_oversampling: 3, lens_file: None, rtf_file: None, field_zernike: None }
+    BlurConfig {
+        method: BlurKind::ShiftVariant,
+        field_heights,
+        block_px,
+        rotation_oversampling: 3,
+        lens_file: None,
+        rtf_file: None,
+        field_zernike: None,
+    }
 }
 
 /// A radiance image at `distance_m` (0: infinity, then `fov_deg` sets the sampling).
@@ -45,14 +59,25 @@ fn image(
             }
         }
     }
-    let mut img = SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
-    img.geometry = ImageGeometry { fov_deg, distance_m, focal_length_m: 0.0, f_number: 0.0 };
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg,
+        distance_m,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     img
 }
 
 fn pattern(b: usize, r: usize, c: usize) -> f32 {
     let h = (r.wrapping_mul(7919) ^ c.wrapping_mul(104729) ^ b.wrapping_mul(31)) % 997;
-    0.2 + (h as f32 / 997.0) + if (r / 9 + c / 13).is_multiple_of(2) { 1.0 } else { 0.0 }
+    0.2 + (h as f32 / 997.0)
+        + if (r / 9 + c / 13).is_multiple_of(2) {
+            1.0
+        } else {
+            0.0
+        }
 }
 
 /// (i) A field-independent, rotationally symmetric wavefront: the shift-variant stage must give
@@ -62,8 +87,18 @@ fn pattern(b: usize, r: usize, c: usize) -> f32 {
 fn field_independent_terms_match_the_shift_invariant_blur() {
     let grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
     let mut c = config(2.8, 4.38);
-    c.wavefront.zernike_um = ZernikeTerms::Indexed(vec![0.0, 0.0, 0.0, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.08]);
-    let img = image(150, 170, grid, 1.2e-6, 0.0, 2.0 * (170.0 * 1.2e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(), pattern);
+    c.wavefront.zernike_um = ZernikeTerms::Indexed(vec![
+        0.0, 0.0, 0.0, 0.0, 0.15, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.08,
+    ]);
+    let img = image(
+        150,
+        170,
+        grid,
+        1.2e-6,
+        0.0,
+        2.0 * (170.0 * 1.2e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(),
+        pattern,
+    );
     let reference = Optics::from_config(&c).unwrap().compute(&img).unwrap();
     let peak = reference.data.iter().cloned().fold(0.0f32, f32::max);
     for block in [None, Some(40)] {
@@ -71,7 +106,13 @@ fn field_independent_terms_match_the_shift_invariant_blur() {
         cs.blur = Some(sv(8, block));
         let out = Optics::from_config(&cs).unwrap().compute(&img).unwrap();
         assert_eq!((out.rows, out.cols), (reference.rows, reference.cols));
-        let err = out.data.iter().zip(&reference.data).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max) / peak;
+        let err = out
+            .data
+            .iter()
+            .zip(&reference.data)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max)
+            / peak;
         println!("block {block:?}: max |shift-variant - shift-invariant| / peak = {err:.2e}");
         assert!(err < 2e-6, "block {block:?}: relative error {err}");
     }
@@ -103,14 +144,29 @@ fn shift_variant_blur_conserves_energy() {
     let mut b = sv(6, Some(24));
     b.field_zernike = Some(astig_table(0.4));
     c.blur = Some(b);
-    let img = image(120, 140, grid, 1.2e-6, 0.0, 2.0 * (140.0 * 1.2e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(), pattern);
+    let img = image(
+        120,
+        140,
+        grid,
+        1.2e-6,
+        0.0,
+        2.0 * (140.0 * 1.2e-6 / 2.0 / 4.38e-3f64).atan().to_degrees(),
+        pattern,
+    );
     let o = Optics::from_config(&c).unwrap();
     let out = o.compute(&img).unwrap();
     let factor = camsim_optics::lens::irradiance_factor(2.8, 0.0, 1.0);
     for band in 0..grid.len() {
-        let sin: f64 = img.data[band * 120 * 140..(band + 1) * 120 * 140].iter().map(|v| *v as f64).sum::<f64>() * factor;
+        let sin: f64 = img.data[band * 120 * 140..(band + 1) * 120 * 140]
+            .iter()
+            .map(|v| *v as f64)
+            .sum::<f64>()
+            * factor;
         let n = out.rows * out.cols;
-        let sout: f64 = out.data[band * n..(band + 1) * n].iter().map(|v| *v as f64).sum();
+        let sout: f64 = out.data[band * n..(band + 1) * n]
+            .iter()
+            .map(|v| *v as f64)
+            .sum();
         let rel = (sout / sin - 1.0).abs();
         println!("band {band}: relative energy change {rel:.2e}");
         assert!(rel < 1e-4, "band {band}: {rel}");
@@ -168,13 +224,21 @@ fn psf_long_axis_follows_the_azimuth() {
             (128.0 + radius_px * az_deg.to_radians().sin()).round() as usize,
             (128.0 + radius_px * az_deg.to_radians().cos()).round() as usize,
         );
-        let img = image(rows, cols, grid, spacing, 0.0, 2.0 * (cols as f64 * spacing / 2.0 / 4.38e-3).atan().to_degrees(), |_, r, cc| {
-            if r == pr && cc == pc {
-                1.0
-            } else {
-                0.0
-            }
-        });
+        let img = image(
+            rows,
+            cols,
+            grid,
+            spacing,
+            0.0,
+            2.0 * (cols as f64 * spacing / 2.0 / 4.38e-3).atan().to_degrees(),
+            |_, r, cc| {
+                if r == pr && cc == pc {
+                    1.0
+                } else {
+                    0.0
+                }
+            },
+        );
         let out = o.compute(&img).unwrap();
         let pad = (out.rows - rows) / 2;
         let (mr, mc, angle, elong) = moments(&out.data, out.cols, pr + pad, pc + pad, 12);
@@ -189,8 +253,14 @@ fn psf_long_axis_follows_the_azimuth() {
             mr - (pr + pad) as f64,
             mc - (pc + pad) as f64
         );
-        assert!(elong > 2.0, "the astigmatic PSF is a line (elongation {elong})");
-        assert!(d < 8.0, "azimuth {az_deg}: long axis {angle} deg, radius {az_true} deg");
+        assert!(
+            elong > 2.0,
+            "the astigmatic PSF is a line (elongation {elong})"
+        );
+        assert!(
+            d < 8.0,
+            "azimuth {az_deg}: long axis {angle} deg, radius {az_true} deg"
+        );
         assert!((mr - (pr + pad) as f64).abs() < 0.05 && (mc - (pc + pad) as f64).abs() < 0.05);
     }
 }
@@ -201,9 +271,20 @@ fn psf_long_axis_follows_the_azimuth() {
 fn traced_lens_on_axis_is_diffraction_limited_at_small_aperture() {
     let t = TracedLens::from_file(&lens_path("dgauss.82deg.4.38mm.json"), 8.0, 4.38).unwrap();
     let cam = t.camera(f64::INFINITY, 8.0).unwrap();
-    let c = t.wavefront_zernike_um(&cam, ObjectField::Infinity { tan_theta: 0.0 }, &[550.0], [0.0, 0.0]).unwrap().remove(0);
+    let c = t
+        .wavefront_zernike_um(
+            &cam,
+            ObjectField::Infinity { tan_theta: 0.0 },
+            &[550.0],
+            [0.0, 0.0],
+        )
+        .unwrap()
+        .remove(0);
     let rms_waves = c[1..].iter().map(|v| v * v).sum::<f64>().sqrt() / 0.55;
-    let w = Wavefront::diffraction_limited(t.efl_mm * 1e-3, 8.0).unwrap().with_zernike(c, t.efl_mm * 1e-3 / 8.0).unwrap();
+    let w = Wavefront::diffraction_limited(t.efl_mm * 1e-3, 8.0)
+        .unwrap()
+        .with_zernike(c, t.efl_mm * 1e-3 / 8.0)
+        .unwrap();
     let m = w.mtf(550.0).unwrap();
     let cutoff = m.freq_cyc_per_mm.last().copied().unwrap();
     let mut worst: f64 = 0.0;
@@ -212,8 +293,13 @@ fn traced_lens_on_axis_is_diffraction_limited_at_small_aperture() {
             worst = worst.max((v - diffraction_mtf(*f, 550.0, 8.0)).abs());
         }
     }
-    println!("dgauss f/8 on axis: rms wavefront {rms_waves:.4} waves, worst |MTF - Airy MTF| {worst:.4}");
-    assert!(rms_waves < 0.07, "Marechal criterion: rms {rms_waves} waves");
+    println!(
+        "dgauss f/8 on axis: rms wavefront {rms_waves:.4} waves, worst |MTF - Airy MTF| {worst:.4}"
+    );
+    assert!(
+        rms_waves < 0.07,
+        "Marechal criterion: rms {rms_waves} waves"
+    );
     assert!(worst < 0.03, "MTF off the diffraction limit by {worst}");
 }
 
@@ -225,7 +311,15 @@ fn traced_wavefront_tilt_moves_the_psf_to_the_real_focus() {
     let cam = t.camera(f64::INFINITY, 8.0).unwrap();
     let delta_mm = 0.004;
     for (dx, dy) in [(delta_mm, 0.0), (0.0, delta_mm)] {
-        let c = t.wavefront_zernike_um(&cam, ObjectField::Infinity { tan_theta: 0.0 }, &[550.0], [dx, dy]).unwrap().remove(0);
+        let c = t
+            .wavefront_zernike_um(
+                &cam,
+                ObjectField::Infinity { tan_theta: 0.0 },
+                &[550.0],
+                [dx, dy],
+            )
+            .unwrap()
+            .remove(0);
         let w = Wavefront::diffraction_limited(t.efl_mm * 1e-3, 8.0)
             .unwrap()
             .with_zernike(c, t.efl_mm * 1e-3 / 8.0)
@@ -241,7 +335,10 @@ fn traced_wavefront_tilt_moves_the_psf_to_the_real_focus() {
             }
         }
         println!("reference moved by ({dx}, {dy}) mm: PSF centroid ({cx:.5}, {cy:.5}) mm");
-        assert!((cx + dx).abs() < 0.1 * delta_mm && (cy + dy).abs() < 0.1 * delta_mm, "centroid ({cx}, {cy}) for offset ({dx}, {dy})");
+        assert!(
+            (cx + dx).abs() < 0.1 * delta_mm && (cy + dy).abs() < 0.1 * delta_mm,
+            "centroid ({cx}, {cy}) for offset ({dx}, {dy})"
+        );
     }
 }
 
@@ -264,17 +361,36 @@ fn point_source_lands_on_the_chief_ray() {
     let t = TracedLens::from_file(&lens_path("dgauss.82deg.4.38mm.json"), 8.0, 4.38).unwrap();
     let cam = t.camera(f64::INFINITY, 2.0 * 3.0).unwrap();
     for (pr, pc) in [(10usize, 10usize), (290, 390), (150, 396)] {
-        let img = image(rows, cols, grid, spacing, 0.0, fov, |_, r, c| if r == pr && c == pc { 1.0 } else { 0.0 });
+        let img = image(rows, cols, grid, spacing, 0.0, fov, |_, r, c| {
+            if r == pr && c == pc {
+                1.0
+            } else {
+                0.0
+            }
+        });
         let out = o.compute(&img).unwrap();
         let pad = (out.rows - rows) / 2;
         // Ideal position (m from the axis) and its field angle.
-        let (x, y) =
-            ((pc as f64 + 0.5 - cols as f64 / 2.0) * out.sample_spacing_m, (pr as f64 + 0.5 - rows as f64 / 2.0) * out.sample_spacing_m);
+        let (x, y) = (
+            (pc as f64 + 0.5 - cols as f64 / 2.0) * out.sample_spacing_m,
+            (pr as f64 + 0.5 - rows as f64 / 2.0) * out.sample_spacing_m,
+        );
         let h = x.hypot(y);
-        let real_mm = t.chief_image_point_mm(&cam, ObjectField::Infinity { tan_theta: h / f }).unwrap()[0];
+        let real_mm = t
+            .chief_image_point_mm(&cam, ObjectField::Infinity { tan_theta: h / f })
+            .unwrap()[0];
         let s = real_mm * 1e-3 / h;
-        let (want_r, want_c) = (y * s / spacing + out.rows as f64 / 2.0 - 0.5, x * s / spacing + out.cols as f64 / 2.0 - 0.5);
-        let (mr, mc, _, _) = moments(&out.data, out.cols, want_r.round() as usize, want_c.round() as usize, 4);
+        let (want_r, want_c) = (
+            y * s / spacing + out.rows as f64 / 2.0 - 0.5,
+            x * s / spacing + out.cols as f64 / 2.0 - 0.5,
+        );
+        let (mr, mc, _, _) = moments(
+            &out.data,
+            out.cols,
+            want_r.round() as usize,
+            want_c.round() as usize,
+            4,
+        );
         let shift_px = (h * (s - 1.0)).abs() / spacing;
         println!(
             "point ({pr}, {pc}): distortion moves it {shift_px:.2} px; image centroid off the chief ray by ({:.3}, {:.3}) px",
@@ -304,12 +420,18 @@ fn relative_illumination_matches_the_lens_camera() {
     let e0 = centre(r0 as f64, c0 as f64) as f64;
     for frac in [0.3f64, 0.6, 0.85] {
         let (r, c) = (r0 as f64 + frac * 100.0, c0 as f64 + frac * 140.0);
-        let (x, y) = ((c + 0.5 - out.cols as f64 / 2.0) * spacing, (r + 0.5 - out.rows as f64 / 2.0) * spacing);
+        let (x, y) = (
+            (c + 0.5 - out.cols as f64 / 2.0) * spacing,
+            (r + 0.5 - out.rows as f64 / 2.0) * spacing,
+        );
         let h_mm = x.hypot(y) * 1e3;
         let want = cam.relative_illumination(&[h_mm], 64, 550.0)[0];
         let got = centre(r, c) as f64 / e0;
         println!("film height {h_mm:.3} mm: RI {got:.4} (lens camera {want:.4})");
-        assert!((got / want - 1.0).abs() < 0.01, "{h_mm} mm: {got} vs {want}");
+        assert!(
+            (got / want - 1.0).abs() < 0.01,
+            "{h_mm} mm: {got} vs {want}"
+        );
     }
 }
 
@@ -323,18 +445,27 @@ fn bad_configs_give_clear_errors() {
             Err(e) => e.to_string(),
         }
     };
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", field_heights = 1 }}"));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", field_heights = 1 }}"
+    ));
     assert!(e.contains("blur.field_heights"), "{e}");
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", fields = 3 }}"));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", fields = 3 }}"
+    ));
     assert!(e.contains("fields"), "{e}");
     let e = err(&format!("{base}blur = {{ method = \"sideways\" }}"));
     assert!(e.contains("sideways"), "{e}");
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", lens_file = \"/nonexistent/lens.json\" }}"));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", lens_file = \"/nonexistent/lens.json\" }}"
+    ));
     assert!(e.contains("/nonexistent/lens.json"), "{e}");
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.json");
     std::fs::write(&bad, "{ \"surfaces\": [ { \"radius\": 1.0 } ] }").unwrap();
-    let e = err(&format!("{base}blur = {{ method = \"shift-variant\", lens_file = \"{}\" }}", bad.display()));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-variant\", lens_file = \"{}\" }}",
+        bad.display()
+    ));
     assert!(e.contains("bad.json"), "{e}");
     let lens = lens_path("dgauss.82deg.4.38mm.json");
     let e = err(&format!(
@@ -358,7 +489,9 @@ fn bad_configs_give_clear_errors() {
     assert!(e.contains("blur.field_zernike.zernike_um"), "{e}");
     let e = err(&format!("{base}[blur]\nmethod = \"shift-variant\"\n[blur.field_zernike]\nfield_height_normalized = [0.0, 1.0]\nzernike_um = [[0.0], [0.0, nan]]\n"));
     assert!(e.contains("zernike_um[1][1]"), "{e}");
-    let e = err(&format!("{base}blur = {{ method = \"shift-invariant\", lens_file = \"x.json\" }}"));
+    let e = err(&format!(
+        "{base}blur = {{ method = \"shift-invariant\", lens_file = \"x.json\" }}"
+    ));
     assert!(e.contains("blur.method"), "{e}");
 }
 
@@ -366,7 +499,10 @@ fn bad_configs_give_clear_errors() {
 /// (lens file resolved against the example's folder, as the pipeline does).
 #[test]
 fn example_config_builds() {
-    let path = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/lens-dgauss-shift-variant.toml"));
+    let path = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/lens-dgauss-shift-variant.toml"
+    ));
     let text = std::fs::read_to_string(&path).unwrap();
     let doc: toml::Table = toml::from_str(&text).unwrap();
     let optics = doc["optics"].as_table().unwrap()["config"].clone();

@@ -15,13 +15,20 @@ fn diffraction_limited_mtf_matches_the_analytic_otf() {
         for &wl in &[450.0, 550.0, 650.0] {
             let wf = Wavefront::diffraction_limited(4.38e-3, n).unwrap();
             let m = wf.mtf(wl).unwrap();
-            assert!(m.freq_cyc_per_mm.len() > 100, "{} frequencies", m.freq_cyc_per_mm.len());
+            assert!(
+                m.freq_cyc_per_mm.len() > 100,
+                "{} frequencies",
+                m.freq_cyc_per_mm.len()
+            );
             for (i, f) in m.freq_cyc_per_mm.iter().enumerate() {
                 let want = diffraction_mtf(*f, wl, n);
                 for got in [m.mtf_x[i], m.mtf_y[i]] {
                     let e = (got - want).abs();
                     worst = worst.max(e);
-                    assert!(e < 0.01, "N {n}, {wl} nm, {f:.1} cyc/mm: MTF {got:.4} vs analytic {want:.4}");
+                    assert!(
+                        e < 0.01,
+                        "N {n}, {wl} nm, {f:.1} cyc/mm: MTF {got:.4} vs analytic {want:.4}"
+                    );
                 }
             }
         }
@@ -40,14 +47,25 @@ fn airy_first_dark_ring_at_1_22_lambda_n() {
         let psf = wf.psf(wl, dx, 61).unwrap();
         let c = 30;
         let prof: Vec<f64> = (0..31).map(|i| psf.at(c, c + i)).collect();
-        let i = (1..30).find(|&i| prof[i] < prof[i - 1] && prof[i] <= prof[i + 1]).unwrap();
+        let i = (1..30)
+            .find(|&i| prof[i] < prof[i - 1] && prof[i] <= prof[i + 1])
+            .unwrap();
         // Parabolic interpolation of the minimum.
         let (a, b, cc) = (prof[i - 1], prof[i], prof[i + 1]);
         let off = 0.5 * (a - cc) / (a - 2.0 * b + cc);
         let r = (i as f64 + off) * dx;
         let want = 1.2197 * lam_n;
-        assert!((r / want - 1.0).abs() < 0.01, "{wl} nm f/{n}: first dark ring at {:.4} um, want {:.4} um", r * 1e6, want * 1e6);
-        assert!(prof[i] < 1e-3 * prof[0], "ring minimum {} is not dark", prof[i] / prof[0]);
+        assert!(
+            (r / want - 1.0).abs() < 0.01,
+            "{wl} nm f/{n}: first dark ring at {:.4} um, want {:.4} um",
+            r * 1e6,
+            want * 1e6
+        );
+        assert!(
+            prof[i] < 1e-3 * prof[0],
+            "ring minimum {} is not dark",
+            prof[i] / prof[0]
+        );
     }
 }
 
@@ -79,18 +97,30 @@ fn hopkins_mtf(s: f64, w020_over_lambda: f64) -> f64 {
 #[test]
 fn defocused_mtf_matches_hopkins() {
     let mut worst: f64 = 0.0;
-    for &(wl, n, w020_waves) in &[(550.0, 1.73, 0.25), (550.0, 2.8, 0.5), (450.0, 4.0, 1.0), (650.0, 1.73, 1.5)] {
+    for &(wl, n, w020_waves) in &[
+        (550.0, 1.73, 0.25),
+        (550.0, 2.8, 0.5),
+        (450.0, 4.0, 1.0),
+        (650.0, 1.73, 1.5),
+    ] {
         let w020_um = w020_waves * wl * 1e-3;
         let c4_um = w020_um / (2.0 * 3f64.sqrt()); // W020 = 2 sqrt(3) c4
         let f = 4.38e-3;
-        let wf = Wavefront::diffraction_limited(f, n).unwrap().with_zernike(vec![0.0, 0.0, 0.0, 0.0, c4_um], f / n).unwrap();
+        let wf = Wavefront::diffraction_limited(f, n)
+            .unwrap()
+            .with_zernike(vec![0.0, 0.0, 0.0, 0.0, c4_um], f / n)
+            .unwrap();
         let m = wf.mtf(wl).unwrap();
         for (i, fr) in m.freq_cyc_per_mm.iter().enumerate() {
             let s = fr * 1e3 * wl * 1e-9 * n;
             let want = hopkins_mtf(s, w020_waves);
             let e = (m.mtf_x[i] - want).abs().max((m.mtf_y[i] - want).abs());
             worst = worst.max(e);
-            assert!(e < 0.01, "W020 {w020_waves} waves, s = {s:.3}: MTF {:.4} vs Hopkins {want:.4}", m.mtf_x[i]);
+            assert!(
+                e < 0.01,
+                "W020 {w020_waves} waves, s = {s:.3}: MTF {:.4} vs Hopkins {want:.4}",
+                m.mtf_x[i]
+            );
         }
     }
     // The quadrature reduces to the diffraction-limited MTF without defocus (checks the reference).
@@ -125,15 +155,29 @@ fn pixel4a_preset_reproduces_the_paper_defocus() {
     // of the comparison is the paper's rounding to two digits (3.45 .. 3.55 um), so the ratio must
     // lie in 0.3084 um / ((3.55 .. 3.45 um) x scale) = 0.867 .. 0.893 (1e-3 for the 5e-4 um on ours).
     let ratio = ours / (3.5 * scale);
-    assert!(ratio > 0.3084 / (3.55 * scale) - 1e-3 && ratio < 0.3084 / (3.45 * scale) + 1e-3, "thin lens {ours} um vs paper 3.5 um scaled {} (ratio {ratio})", 3.5 * scale);
+    assert!(
+        ratio > 0.3084 / (3.55 * scale) - 1e-3 && ratio < 0.3084 / (3.45 * scale) + 1e-3,
+        "thin lens {ours} um vs paper 3.5 um scaled {} (ratio {ratio})",
+        3.5 * scale
+    );
     // The focus error adds to the preset's residual defocus.
     let wf = o.wavefront_for(Some(0.3), 0.5).unwrap();
     assert!((wf.defocus_at_lens_pupil_um() - (in_focus + ours)).abs() < 1e-9);
     // In focus: nothing added.
-    assert!((o.wavefront_for(Some(0.5), 0.5).unwrap().defocus_at_lens_pupil_um() - in_focus).abs() < 1e-12);
+    assert!(
+        (o.wavefront_for(Some(0.5), 0.5)
+            .unwrap()
+            .defocus_at_lens_pupil_um()
+            - in_focus)
+            .abs()
+            < 1e-12
+    );
     // A 3.5 um defocus directly on the 2.53 mm pupil is 12 um of W020: it blurs over > 150 um and
     // the PSF must still be computable.
-    let big = Wavefront::diffraction_limited(4.38e-3, 1.73).unwrap().with_zernike(vec![0.0, 0.0, 0.0, 0.0, 3.5], d_mm * 1e-3).unwrap();
+    let big = Wavefront::diffraction_limited(4.38e-3, 1.73)
+        .unwrap()
+        .with_zernike(vec![0.0, 0.0, 0.0, 0.0, 3.5], d_mm * 1e-3)
+        .unwrap();
     let blur_d = 2.0 * big.geometric_blur_radius_m(550.0);
     assert!(blur_d > 150e-6, "{blur_d}");
     let k = big.kernel_size(550.0, 2e-6, 0.005);
@@ -178,7 +222,10 @@ fn kernels_have_unit_volume() {
         let psf = wf.psf(500.0, dx, 21).unwrap();
         assert!((psf.sum() - 1.0).abs() < 1e-12);
         let c = psf.at(10, 10);
-        assert!(psf.data.iter().all(|v| *v <= c + 1e-15), "peak not at the centre for dx {dx}");
+        assert!(
+            psf.data.iter().all(|v| *v <= c + 1e-15),
+            "peak not at the centre for dx {dx}"
+        );
     }
 }
 
@@ -196,7 +243,10 @@ fn kernels_have_unit_volume() {
 #[test]
 fn periodic_psf_dft_is_the_cell_integrated_diffraction_otf() {
     let mut worst: f64 = 0.0;
-    for &(wl, n, dx, rows, cols) in &[(550.0, 2.8, 0.6e-6, 90usize, 128usize), (450.0, 1.73, 1.4e-6, 128, 100)] {
+    for &(wl, n, dx, rows, cols) in &[
+        (550.0, 2.8, 0.6e-6, 90usize, 128usize),
+        (450.0, 1.73, 1.4e-6, 128, 100),
+    ] {
         let wf = Wavefront::diffraction_limited(4.38e-3, n).unwrap();
         let k = wf.oversampling(wl, dx, 1);
         let p = wf.psf_periodic(wl, dx, rows, cols, 1).unwrap();
@@ -222,7 +272,13 @@ fn periodic_psf_dft_is_the_cell_integrated_diffraction_otf() {
         // DFT along x at row frequency 0 (sum over rows), and along y.
         for (len, along_x) in [(cols, true), (rows, false)] {
             let line: Vec<f64> = (0..len)
-                .map(|i| if along_x { (0..rows).map(|r| p[r * cols + i]).sum() } else { p[i * cols..(i + 1) * cols].iter().sum() })
+                .map(|i| {
+                    if along_x {
+                        (0..rows).map(|r| p[r * cols + i]).sum()
+                    } else {
+                        p[i * cols..(i + 1) * cols].iter().sum()
+                    }
+                })
                 .collect();
             for j in 0..=len / 2 {
                 let (mut re, mut im) = (0.0, 0.0);
@@ -234,7 +290,13 @@ fn periodic_psf_dft_is_the_cell_integrated_diffraction_otf() {
                 let f = j as f64 / (len as f64 * dx);
                 let e = (re - want(f)).abs().max(im.abs());
                 worst = worst.max(e);
-                assert!(e < 5e-3, "{wl} nm, k {k}, {} f = {:.0} cyc/mm: {re:.5} vs {:.5}", if along_x { "x" } else { "y" }, f * 1e-3, want(f));
+                assert!(
+                    e < 5e-3,
+                    "{wl} nm, k {k}, {} f = {:.0} cyc/mm: {re:.5} vs {:.5}",
+                    if along_x { "x" } else { "y" },
+                    f * 1e-3,
+                    want(f)
+                );
             }
         }
     }

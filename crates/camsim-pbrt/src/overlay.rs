@@ -61,9 +61,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::builtin::{cornell_reflectance, spectrum_at_luminance};
+use crate::scene::{Geometry, Light, Material, SceneDescription, Shape, Texture, Transform};
 use crate::spectra::photometric;
 use crate::xform::{self, det3, shape_bounds};
-use crate::scene::{Geometry, Light, Material, SceneDescription, Shape, Texture, Transform};
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{tables, Spectrum, WavelengthGrid};
@@ -368,7 +368,10 @@ pub fn apply(
     base_dir: &Path,
 ) -> Result<(), OverlayError> {
     if overlay_toml.trim().is_empty() {
-        return Err(OverlayError { source_name: source_name.to_string(), message: "the overlay is empty: it would change nothing".to_string() });
+        return Err(OverlayError {
+            source_name: source_name.to_string(),
+            message: "the overlay is empty: it would change nothing".to_string(),
+        });
     }
     let ov: Overlay = toml::from_str(overlay_toml).map_err(|e| OverlayError {
         source_name: source_name.to_string(),
@@ -780,11 +783,17 @@ fn apply_light(
     if l.name.is_none() {
         for li in scene.lights.iter_mut() {
             match li {
-                Light::Infinite { radiance } | Light::Distant { irradiance: radiance, .. } => {
+                Light::Infinite { radiance }
+                | Light::Distant {
+                    irradiance: radiance,
+                    ..
+                } => {
                     *radiance = change(radiance)?;
                     n += 1;
                 }
-                Light::Point { intensity, .. } | Light::Spot { intensity, .. } | Light::Goniometric(crate::scene::GoniometricLight { intensity, .. }) => {
+                Light::Point { intensity, .. }
+                | Light::Spot { intensity, .. }
+                | Light::Goniometric(crate::scene::GoniometricLight { intensity, .. }) => {
                     *intensity = change(intensity)?;
                     n += 1;
                 }

@@ -11,8 +11,8 @@ use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::{ply, Loc, PbrtError};
 use crate::scene::SamplerKind;
 use crate::scene::{
-    AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material, RenderSettings, SceneDescription,
-    Shape, Texture, Transform,
+    AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material,
+    RenderSettings, SceneDescription, Shape, Texture, Transform,
 };
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::Spectrum;
@@ -442,21 +442,27 @@ impl Parser {
 
     /// Directive dispatch (pbrt-v4 separates its parser from the `ParserTarget` that builds the
     /// scene): each directive family is handled in its own module under `parser/`.
-    fn directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+    fn directive(
+        &mut self,
+        d: &str,
+        tokens: &[Token],
+        pos: &mut usize,
+        file: &Path,
+        loc: &Loc,
+    ) -> Result<(), PbrtError> {
         match d {
-            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform" | "ConcatTransform" | "CoordinateSystem"
-            | "CoordSysTransform" | "ActiveTransform" | "TransformTimes" | "ReverseOrientation" => {
+            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
+            | "ConcatTransform" | "CoordinateSystem" | "CoordSysTransform" | "ActiveTransform"
+            | "TransformTimes" | "ReverseOrientation" => {
                 self.transform_directive(d, tokens, pos, file, loc)
             }
-            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd" | "WorldBegin" | "WorldEnd" | "Include"
-            | "Import" | "ObjectBegin" | "ObjectEnd" | "ObjectInstance" | "Attribute" => {
-                self.block_directive(d, tokens, pos, file, loc)
-            }
-            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator" | "ColorSpace" | "Option" => {
-                self.option_directive(d, tokens, pos, file, loc)
-            }
-            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource" | "LightSource" | "Shape"
-            | "MakeNamedMedium" | "MediumInterface" => {
+            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd"
+            | "WorldBegin" | "WorldEnd" | "Include" | "Import" | "ObjectBegin" | "ObjectEnd"
+            | "ObjectInstance" | "Attribute" => self.block_directive(d, tokens, pos, file, loc),
+            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator"
+            | "ColorSpace" | "Option" => self.option_directive(d, tokens, pos, file, loc),
+            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource"
+            | "LightSource" | "Shape" | "MakeNamedMedium" | "MediumInterface" => {
                 self.world_directive(d, tokens, pos, file, loc)
             }
             other => Err(loc.err(format!("unknown directive \"{other}\""))),
@@ -584,10 +590,16 @@ impl Parser {
             .string("lensfile")?
             .ok_or_else(|| loc.err("Camera \"raytransfer\": \"lensfile\" is required"))?;
         let path = self.resolve(&loc.file, &name);
-        let rtf = camsim_lens::Rtf::from_file(&path).map_err(|e| loc.err(format!("Camera \"raytransfer\": lens file: {e}")))?;
-        let film = match (params.float_opt("filmdistance")?, params.float_opt("focusdistance")?) {
+        let rtf = camsim_lens::Rtf::from_file(&path)
+            .map_err(|e| loc.err(format!("Camera \"raytransfer\": lens file: {e}")))?;
+        let film = match (
+            params.float_opt("filmdistance")?,
+            params.float_opt("focusdistance")?,
+        ) {
             (Some(_), Some(_)) => {
-                return Err(loc.err("Camera \"raytransfer\": give \"filmdistance\" or \"focusdistance\", not both"));
+                return Err(loc.err(
+                    "Camera \"raytransfer\": give \"filmdistance\" or \"focusdistance\", not both",
+                ));
             }
             (Some(d), None) => RtfFilm::DistanceMm(d),
             (None, Some(m)) => {
@@ -601,7 +613,8 @@ impl Parser {
         self.realistic = None;
         self.ray_transfer = Some((rtf, film, loc.clone()));
         self.camera_from_world = self.gs.ctm;
-        let world_from_camera = inverse(&self.gs.ctm).ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
+        let world_from_camera = inverse(&self.gs.ctm)
+            .ok_or_else(|| loc.err("Camera: the camera transform is singular"))?;
         self.named_coords.insert("camera".into(), world_from_camera);
         Ok(())
     }
@@ -686,7 +699,13 @@ impl Parser {
         match SamplerKind::from_name(ty) {
             Some(kind) => {
                 self.settings.sampler = kind;
-                self.note(loc, format!("Sampler \"{ty}\": camsim's {} sampler; {spp} samples per pixel", kind.name()));
+                self.note(
+                    loc,
+                    format!(
+                        "Sampler \"{ty}\": camsim's {} sampler; {spp} samples per pixel",
+                        kind.name()
+                    ),
+                );
             }
             None => {
                 self.settings.sampler = SamplerKind::Sobol;
@@ -745,7 +764,14 @@ impl Parser {
         let mut cut_out = false;
         let mut alpha = None;
         if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let key = format!("{} {:?}", p.ty, p.strings().ok().or_else(|| p.nums().ok().map(|v| v.iter().map(|x| x.to_string()).collect())));
+            let key = format!(
+                "{} {:?}",
+                p.ty,
+                p.strings().ok().or_else(|| p
+                    .nums()
+                    .ok()
+                    .map(|v| v.iter().map(|x| x.to_string()).collect()))
+            );
             let tex = self.float_texture_param(params, "alpha", 1.0)?;
             match (p.ty.as_str(), &tex) {
                 (_, FloatTexture::Constant(a)) if *a >= 1.0 => {}
@@ -973,8 +999,15 @@ impl Parser {
                     let v = ctm.apply_vector(a);
                     [v[0] / s, v[1] / s, v[2] / s]
                 });
-                let turned = (0..3).any(|i| (0..3).any(|k| (axes[i][k] - if i == k { 1.0 } else { 0.0 }).abs() > 1e-12));
-                let uv_free_light = self.gs.area_light.as_ref().is_some_and(|l| l.image.is_none()) && alpha.is_none();
+                let turned = (0..3).any(|i| {
+                    (0..3).any(|k| (axes[i][k] - if i == k { 1.0 } else { 0.0 }).abs() > 1e-12)
+                });
+                let uv_free_light = self
+                    .gs
+                    .area_light
+                    .as_ref()
+                    .is_some_and(|l| l.image.is_none())
+                    && alpha.is_none();
                 if turned && !uv_free_light {
                     // A rotated (or mirrored) sphere keeps its object frame so that its uv
                     // (pbrt-v4: u = phi / 2 pi, v = 1 - theta / pi in the object frame) turns
@@ -995,7 +1028,8 @@ impl Parser {
                         area_light: None,
                         reverse_orientation: self.gs.reverse_orientation,
                     };
-                    xform::transform_shape(&mut s, &ctm).map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                    xform::transform_shape(&mut s, &ctm)
+                        .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
                     (s.geometry, s.reverse_orientation)
                 } else {
                     (
@@ -1186,7 +1220,11 @@ impl Parser {
                                 };
                                 let area = xform::shape_area(&g);
                                 let scale = if area > 0.0 {
-                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
+                                    if sides > 0.0 {
+                                        base * power / (std::f64::consts::PI * area * sides)
+                                    } else {
+                                        0.0
+                                    }
                                 } else {
                                     0.0
                                 };
@@ -1204,7 +1242,11 @@ impl Parser {
                             if let Some(power) = power {
                                 let area = xform::shape_area(g);
                                 scale = if area > 0.0 {
-                                    if sides > 0.0 { base * power / (std::f64::consts::PI * area * sides) } else { 0.0 }
+                                    if sides > 0.0 {
+                                        base * power / (std::f64::consts::PI * area * sides)
+                                    } else {
+                                        0.0
+                                    }
                                 } else {
                                     0.0
                                 };
@@ -1234,8 +1276,14 @@ impl Parser {
             (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
         }
         if let Some((rtf, film, loc)) = self.ray_transfer {
-            let (l, f) = crate::camera::ray_transfer_lens(rtf, film, self.film_diagonal_mm, self.width, self.height)
-                .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
+            let (l, f) = crate::camera::ray_transfer_lens(
+                rtf,
+                film,
+                self.film_diagonal_mm,
+                self.width,
+                self.height,
+            )
+            .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
             (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
         }
         Ok(SceneDescription {
@@ -1320,12 +1368,22 @@ impl Parser {
         file: &Path,
         what: &str,
     ) -> Result<(usize, usize, Vec<[f32; 3]>), PbrtError> {
-        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") { "sRGB" } else { "linear" };
-        let enc = params.string("encoding")?.unwrap_or_else(|| enc_default.to_string());
-        let encoding = parse_encoding(&enc).ok_or_else(|| loc.err(format!("{what}: unknown encoding \"{enc}\"")))?;
-        let (width, height, rgb) = load_image(&self.resolve(file, fname), encoding).map_err(|e| loc.err(format!("{what}: {e}")))?;
+        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") {
+            "sRGB"
+        } else {
+            "linear"
+        };
+        let enc = params
+            .string("encoding")?
+            .unwrap_or_else(|| enc_default.to_string());
+        let encoding = parse_encoding(&enc)
+            .ok_or_else(|| loc.err(format!("{what}: unknown encoding \"{enc}\"")))?;
+        let (width, height, rgb) = load_image(&self.resolve(file, fname), encoding)
+            .map_err(|e| loc.err(format!("{what}: {e}")))?;
         if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(loc.err(format!("{what}: {fname} is empty or has negative or non-finite texels")));
+            return Err(loc.err(format!(
+                "{what}: {fname} is empty or has negative or non-finite texels"
+            )));
         }
         Ok((width, height, rgb))
     }

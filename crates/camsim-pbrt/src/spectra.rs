@@ -5,9 +5,9 @@
 
 use super::params::{Param, Value};
 use super::PbrtError;
-use camsim_scene3d::uplift;
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::{tables, Spectrum};
+use camsim_scene3d::uplift;
 use std::path::Path;
 use std::sync::OnceLock;
 

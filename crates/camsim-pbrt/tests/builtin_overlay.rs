@@ -1,8 +1,8 @@
 //! Overlays: moves, removals, replacements, reflectances and light spectra/levels, camera, and
 //! the example overlays (against the files and tables they name).
 
-use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_pbrt::overlay;
+use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_scene3d::spectra::photometric;
 use camsim_scene3d::xform::shape_bounds;
 use camsim_scene3d::{Material, SceneDescription, Texture};

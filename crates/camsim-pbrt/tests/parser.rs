@@ -1,8 +1,8 @@
 //! pbrt-v4 reader: directives, parameter types, Include/Import, named spectra, pbrt-v4's light
 //! normalisation, errors with positions, and the Cornell box file against the built-in scene.
 
-use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_pbrt::{self as pbrt, PbrtError};
+use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_scene3d::spectra::photometric;
 use camsim_scene3d::{Geometry, Light, Material, SceneDescription, Texture};
 use std::path::Path;
@@ -22,11 +22,14 @@ fn sphere(s: &SceneDescription, i: usize) -> ([f64; 3], f64) {
     match &s.shapes[i].geometry {
         Geometry::Sphere { center, radius } => (*center, *radius),
         // A rotated or mirrored sphere keeps its object frame (for its uv): the full range.
-        Geometry::PartialSphere { center, radius, z_min, z_max, phi_max_deg, .. }
-            if *z_min == -*radius && *z_max == *radius && *phi_max_deg == 360.0 =>
-        {
-            (*center, *radius)
-        }
+        Geometry::PartialSphere {
+            center,
+            radius,
+            z_min,
+            z_max,
+            phi_max_deg,
+            ..
+        } if *z_min == -*radius && *z_max == *radius && *phi_max_deg == 360.0 => (*center, *radius),
         g => panic!("not a sphere: {g:?}"),
     }
 }
@@ -395,8 +398,10 @@ fn triangles(s: &SceneDescription, name: &str) -> Vec<([[i64; 3]; 3], [i64; 3])>
         };
         for t in indices {
             let p: Vec<[f64; 3]> = t.iter().map(|&i| positions[i as usize]).collect();
-            let mut n =
-                camsim_scene3d::xform::cross(camsim_scene3d::xform::sub(p[1], p[0]), camsim_scene3d::xform::sub(p[2], p[0]));
+            let mut n = camsim_scene3d::xform::cross(
+                camsim_scene3d::xform::sub(p[1], p[0]),
+                camsim_scene3d::xform::sub(p[2], p[0]),
+            );
             if sh.reverse_orientation {
                 n = [-n[0], -n[1], -n[2]];
             }
@@ -613,7 +618,8 @@ fn ply_ascii_and_binary_round_trip() {
         g => panic!("{g:?}"),
     }
     assert!(
-        (camsim_scene3d::xform::shape_area(&s.shapes[0].geometry) - (1.0 + 0.5 * 1.0625f64.sqrt())).abs()
+        (camsim_scene3d::xform::shape_area(&s.shapes[0].geometry) - (1.0 + 0.5 * 1.0625f64.sqrt()))
+            .abs()
             < 1e-12
     );
     // Truncated binary data and bad indices are errors, not panics.
@@ -683,14 +689,26 @@ fn bilinear_mesh_default_uv_is_per_patch() {
          Shape \"bilinearmesh\" \"point3 P\" [0 0 0  1 0 0  2 0 0  0 1 0  1 1 0  2 1 0] \"integer indices\" [0 1 3 4  1 2 4 5]\n"
     ))
     .unwrap();
-    let Geometry::Triangles { positions, indices, uvs, .. } = &s.shapes[0].geometry else { panic!("triangles") };
+    let Geometry::Triangles {
+        positions,
+        indices,
+        uvs,
+        ..
+    } = &s.shapes[0].geometry
+    else {
+        panic!("triangles")
+    };
     let uvs = uvs.as_ref().expect("uv from the patches");
     assert_eq!(indices.len(), 4);
     for (k, t) in indices.iter().enumerate() {
         let x0 = if k < 2 { 0.0 } else { 1.0 };
         for &i in t {
             let (p, uv) = (positions[i as usize], uvs[i as usize]);
-            assert_eq!([uv[0] as f64, uv[1] as f64], [p[0] - x0, p[1]], "triangle {k}, vertex {p:?}");
+            assert_eq!(
+                [uv[0] as f64, uv[1] as f64],
+                [p[0] - x0, p[1]],
+                "triangle {k}, vertex {p:?}"
+            );
         }
     }
 }

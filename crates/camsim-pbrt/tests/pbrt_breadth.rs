@@ -112,8 +112,15 @@ fn alpha_parameters_become_masked_materials() {
     );
     // Alpha on an area light (pbrt-v4 `DiffuseAreaLight::AlphaMasked`): the emitter's material
     // is masked like any other shape's; the renderer gates its emission with the same test.
-    let s = parse(&format!("{ALPHA_HEADER}AreaLightSource \"diffuse\"\nShape \"sphere\" \"float alpha\" 0.5\n")).unwrap();
-    let lit = s.shapes.last().filter(|sh| sh.area_light.is_some()).expect("the emitter is kept");
+    let s = parse(&format!(
+        "{ALPHA_HEADER}AreaLightSource \"diffuse\"\nShape \"sphere\" \"float alpha\" 0.5\n"
+    ))
+    .unwrap();
+    let lit = s
+        .shapes
+        .last()
+        .filter(|sh| sh.area_light.is_some())
+        .expect("the emitter is kept");
     assert!(
         matches!(s.materials[lit.material], Material::AlphaMasked { alpha: FloatTexture::Constant(a), .. } if a == 0.5),
         "{:?}",
@@ -605,7 +612,9 @@ fn coated_conductor_is_read_with_pbrt_names_and_conserves_energy_in_a_furnace() 
     // A scattering layer (pbrt-v4 `albedo`, `g`) is read.
     let s = parse("WorldBegin\nMaterial \"coatedconductor\" \"rgb albedo\" [0.5 0.5 0.5] \"float g\" 0.3 \"integer nsamples\" 4\nShape \"sphere\"\n")
         .unwrap();
-    let Material::CoatedConductor { walk, .. } = &s.materials[s.shapes[0].material] else { panic!() };
+    let Material::CoatedConductor { walk, .. } = &s.materials[s.shapes[0].material] else {
+        panic!()
+    };
     assert_eq!((walk.g, walk.n_samples), (0.3, 4));
     let e = parse("WorldBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" [0.5 0.5 0.5] \"spectrum conductor.eta\" \"metal-Au-eta\"\n").unwrap_err();
     assert!(e.to_string().contains("not both"), "{e}");

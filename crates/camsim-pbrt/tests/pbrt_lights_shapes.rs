@@ -153,7 +153,10 @@ fn infinite_light_from_an_image_file() {
 
 fn tri_normal(p: &[[f64; 3]], t: &[u32; 3]) -> [f64; 3] {
     let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-    camsim_scene3d::xform::cross(camsim_scene3d::xform::sub(b, a), camsim_scene3d::xform::sub(c, a))
+    camsim_scene3d::xform::cross(
+        camsim_scene3d::xform::sub(b, a),
+        camsim_scene3d::xform::sub(c, a),
+    )
 }
 
 #[test]
@@ -326,7 +329,11 @@ fn loop_subdivision_of_a_tetrahedron() {
             .iter()
             .zip(&pl)
             .map(|(a, b)| {
-                camsim_scene3d::xform::dot(camsim_scene3d::xform::sub(*a, *b), camsim_scene3d::xform::sub(*a, *b)).sqrt()
+                camsim_scene3d::xform::dot(
+                    camsim_scene3d::xform::sub(*a, *b),
+                    camsim_scene3d::xform::sub(*a, *b),
+                )
+                .sqrt()
             })
             .fold(0.0, f64::max);
         eprintln!(
@@ -411,7 +418,11 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
     let tex = Texture::Checkerboard {
         tex1: Box::new(Texture::Constant(flat(rho1))),
         tex2: Box::new(Texture::Constant(flat(rho2))),
-        mapping: UvMapping { uscale: 2.5, vscale: 1.5, ..Default::default() },
+        mapping: UvMapping {
+            uscale: 2.5,
+            vscale: 1.5,
+            ..Default::default()
+        },
     };
     // Quad [-1, 1]^2 at z = 0 with uv = ((x + 1) / 2, (y + 1) / 2); camera 2 m above, fov 40.
     let quad = Shape {

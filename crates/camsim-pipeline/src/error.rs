@@ -37,6 +37,9 @@ impl PipelineError {
         PipelineError::Config(msg.into())
     }
     pub(crate) fn file(path: &std::path::Path, message: impl std::fmt::Display) -> Self {
-        PipelineError::File { path: path.to_path_buf(), message: message.to_string() }
+        PipelineError::File {
+            path: path.to_path_buf(),
+            message: message.to_string(),
+        }
     }
 }

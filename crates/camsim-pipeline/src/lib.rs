@@ -10,13 +10,16 @@ mod simulation;
 
 pub use error::{PipelineError, Result};
 pub use outputs::{Output, OutputSet};
-pub use simulation::{image_radiance, simulate, write_id_maps, Imaged, Rgb8Image, RunInfo, SimulateOptions, Simulation};
+pub use simulation::{
+    image_radiance, simulate, write_id_maps, Imaged, Rgb8Image, RunInfo, SimulateOptions,
+    Simulation,
+};
 
 use camsim_core::{SpectralImage, WavelengthGrid};
-use camsim_optics::{Optics, OpticsConfig};
-use camsim_scene::SceneConfig;
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ColorPipeline;
+use camsim_optics::{Optics, OpticsConfig};
+use camsim_scene::SceneConfig;
 use camsim_sensor::{Capture, Exposure, Sensor, SensorConfig};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -99,7 +102,11 @@ pub struct OpticsSection {
 
 impl Default for OpticsSection {
     fn default() -> Self {
-        OpticsSection { preset: Some("pixel4a".into()), file: None, config: None }
+        OpticsSection {
+            preset: Some("pixel4a".into()),
+            file: None,
+            config: None,
+        }
     }
 }
 
@@ -126,7 +133,13 @@ pub struct SensorSection {
 
 impl Default for SensorSection {
     fn default() -> Self {
-        SensorSection { preset: Some("pixel4a".into()), file: None, config: None, rows: None, cols: None }
+        SensorSection {
+            preset: Some("pixel4a".into()),
+            file: None,
+            config: None,
+            rows: None,
+            cols: None,
+        }
     }
 }
 
@@ -162,7 +175,12 @@ fn default_frames() -> usize {
 
 impl Default for CaptureSection {
     fn default() -> Self {
-        CaptureSection { exposure_ms: None, auto_target_fraction: 0.9, frames: 1, exposures_ms: None }
+        CaptureSection {
+            exposure_ms: None,
+            auto_target_fraction: 0.9,
+            frames: 1,
+            exposures_ms: None,
+        }
     }
 }
 
@@ -176,15 +194,19 @@ impl SimulateConfig {
 
     /// Read a TOML config, or a run.json written by an earlier run.
     pub fn load(path: &Path) -> Result<SimulateConfig> {
-        let text = std::fs::read_to_string(path).map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
         let mut cfg: SimulateConfig = if path.extension().is_some_and(|e| e == "json") {
-            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| PipelineError::file(path, format!("not valid JSON: {e}")))?;
+            let v: serde_json::Value = serde_json::from_str(&text)
+                .map_err(|e| PipelineError::file(path, format!("not valid JSON: {e}")))?;
             let c = v.get("config").cloned().unwrap_or(v);
-            serde_json::from_value(c).map_err(|e| PipelineError::file(path, format!("not a camsim run.json: {e}")))?
+            serde_json::from_value(c)
+                .map_err(|e| PipelineError::file(path, format!("not a camsim run.json: {e}")))?
         } else {
             Self::from_toml_text(&text).map_err(|e| PipelineError::file(path, e))?
         };
-        cfg.check_scene_source().map_err(|e| PipelineError::file(path, e))?;
+        cfg.check_scene_source()
+            .map_err(|e| PipelineError::file(path, e))?;
         // Paths inside the config are relative to the config file.
         let base = path.parent().unwrap_or(Path::new("."));
         cfg.resolve_paths(base);
@@ -203,7 +225,8 @@ impl SimulateConfig {
         toml::from_str(text).map_err(|e| {
             // The [scene] table is tagged by `kind`, which hides the key's position from
             // toml's first message: find the offending key's own line and column.
-            let msg = camsim_scene::config::locate_scene_error(text, Some("scene")).unwrap_or_else(|| e.to_string());
+            let msg = camsim_scene::config::locate_scene_error(text, Some("scene"))
+                .unwrap_or_else(|| e.to_string());
             msg.trim_end().to_string()
         })
     }
@@ -216,8 +239,12 @@ impl SimulateConfig {
     /// Exactly one of `[scene]` (2D) and `[render]` (3D) must be given.
     pub fn check_scene_source(&self) -> Result<()> {
         match (&self.scene, &self.render) {
-            (Some(_), Some(_)) => Err(PipelineError::config("give either [scene] (2D) or [render] (3D), not both")),
-            (None, None) => Err(PipelineError::config("the config has neither a [scene] nor a [render] table")),
+            (Some(_), Some(_)) => Err(PipelineError::config(
+                "give either [scene] (2D) or [render] (3D), not both",
+            )),
+            (None, None) => Err(PipelineError::config(
+                "the config has neither a [scene] nor a [render] table",
+            )),
             _ => Ok(()),
         }
     }
@@ -277,15 +304,27 @@ impl SimulateConfig {
     /// The bracket's exposure times, s (`capture.exposures_ms`), or `None` for one exposure.
     pub fn bracket_exposures_s(&self) -> Result<Option<Vec<f64>>> {
         let c = &self.capture;
-        let Some(list) = &c.exposures_ms else { return Ok(None) };
+        let Some(list) = &c.exposures_ms else {
+            return Ok(None);
+        };
         if c.exposure_ms.is_some() {
-            return Err(PipelineError::config("give either capture.exposure_ms or capture.exposures_ms (a bracket), not both"));
+            return Err(PipelineError::config(
+                "give either capture.exposure_ms or capture.exposures_ms (a bracket), not both",
+            ));
         }
         if list.is_empty() {
-            return Err(PipelineError::config("capture.exposures_ms is empty: give at least one exposure time, ms"));
+            return Err(PipelineError::config(
+                "capture.exposures_ms is empty: give at least one exposure time, ms",
+            ));
         }
-        if let Some((i, ms)) = list.iter().enumerate().find(|(_, ms)| !(ms.is_finite() && **ms >= 0.0)) {
-            return Err(PipelineError::config(format!("capture.exposures_ms[{i}] = {ms}: must be a finite time >= 0 ms")));
+        if let Some((i, ms)) = list
+            .iter()
+            .enumerate()
+            .find(|(_, ms)| !(ms.is_finite() && **ms >= 0.0))
+        {
+            return Err(PipelineError::config(format!(
+                "capture.exposures_ms[{i}] = {ms}: must be a finite time >= 0 ms"
+            )));
         }
         Ok(Some(list.iter().map(|ms| ms * 1e-3).collect()))
     }
@@ -297,22 +336,40 @@ impl SimulateConfig {
         }
         self.bracket_exposures_s()?;
         let exposure = match c.exposure_ms {
-            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => return Err(PipelineError::config(format!("capture.exposure_ms = {ms}: must be >= 0"))),
+            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
+                return Err(PipelineError::config(format!(
+                    "capture.exposure_ms = {ms}: must be >= 0"
+                )))
+            }
             Some(ms) => Exposure::Seconds(ms * 1e-3),
             None => {
                 if !(c.auto_target_fraction > 0.0 && c.auto_target_fraction <= 1.0) {
-                    return Err(PipelineError::config(format!("capture.auto_target_fraction = {}: must be in (0, 1]", c.auto_target_fraction)));
+                    return Err(PipelineError::config(format!(
+                        "capture.auto_target_fraction = {}: must be in (0, 1]",
+                        c.auto_target_fraction
+                    )));
                 }
-                Exposure::Auto { target_fraction: c.auto_target_fraction }
+                Exposure::Auto {
+                    target_fraction: c.auto_target_fraction,
+                }
             }
         };
-        Ok(Capture { exposure, frames: c.frames, seed: self.seed })
+        Ok(Capture {
+            exposure,
+            frames: c.frames,
+            seed: self.seed,
+        })
     }
 }
 
 /// Stage 1: the scene radiance (2D chart or 3D render).
 /// `progress(stage, done, total)` is called as long steps advance.
-pub fn scene_radiance(cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics, progress: &Progress<'_>) -> Result<SpectralImage> {
+pub fn scene_radiance(
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    progress: &Progress<'_>,
+) -> Result<SpectralImage> {
     Ok(scene_stage(cfg, sensor, optics, progress)?.0)
 }
 
@@ -328,8 +385,13 @@ pub fn scene_stage(
     cfg.check_scene_source()?;
     match (&cfg.scene, &cfg.render) {
         (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
-        (Some(s), None) => Ok((camsim_scene::create(s, &cfg.wavelengths).map_err(|e| PipelineError::Scene(e.to_string()))?, None)),
-        (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress).map(|(img, ids)| (img, Some(ids))),
+        (Some(s), None) => Ok((
+            camsim_scene::create(s, &cfg.wavelengths)
+                .map_err(|e| PipelineError::Scene(e.to_string()))?,
+            None,
+        )),
+        (None, Some(r)) => render::render_section(r, cfg, sensor, optics, progress)
+            .map(|(img, ids)| (img, Some(ids))),
     }
 }
 
@@ -346,17 +408,26 @@ pub fn raw_png_note(bits: u32) -> serde_json::Value {
 }
 
 /// The colour pipeline for a sensor under the scene's illuminant (D65 when unknown).
-pub fn color_pipeline(sensor: &Sensor, grid: &WavelengthGrid, scene: Option<&SceneConfig>) -> Result<ColorPipeline> {
+pub fn color_pipeline(
+    sensor: &Sensor,
+    grid: &WavelengthGrid,
+    scene: Option<&SceneConfig>,
+) -> Result<ColorPipeline> {
     let illum = match scene.and_then(camsim_scene::scene_illuminant) {
         Some(r) => r?,
         None => camsim_core::tables::illuminant("D65")?,
     };
-    ColorPipeline::fit(&sensor.channel_qe(grid), grid, &illum).map_err(|e| PipelineError::config(format!("colour pipeline: {e}")))
+    ColorPipeline::fit(&sensor.channel_qe(grid), grid, &illum)
+        .map_err(|e| PipelineError::config(format!("colour pipeline: {e}")))
 }
 
 /// DNG metadata: camera name, the colour matrix and neutral fitted by the ISP, and the run's
 /// config as the image description.
-pub fn dng_metadata(sensor: &Sensor, color: &ColorPipeline, cfg: Option<&SimulateConfig>) -> Result<DngMetadata> {
+pub fn dng_metadata(
+    sensor: &Sensor,
+    color: &ColorPipeline,
+    cfg: Option<&SimulateConfig>,
+) -> Result<DngMetadata> {
     Ok(DngMetadata {
         camera_model: format!("camsim {}", sensor.name()),
         color_matrix1: Some(color.xyz_to_camera()),
@@ -391,17 +462,36 @@ pub fn load_lens(spec: &str) -> Result<OpticsConfig> {
 
 /// A raw mosaic from a DNG, or from a 16-bit PNG/TIFF mosaic with the CFA pattern given
 /// (`cfa`), black level `black_dn` and ADC `bits` (PNG/TIFF carry none of these).
-pub fn load_raw(path: &Path, cfa: Option<camsim_core::CfaPattern>, black_dn: f64, bits: u32) -> Result<camsim_core::RawImage> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+pub fn load_raw(
+    path: &Path,
+    cfa: Option<camsim_core::CfaPattern>,
+    black_dn: f64,
+    bits: u32,
+) -> Result<camsim_core::RawImage> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     if ext == "dng" {
         return Ok(camsim_io::dng::read_dng(path)?.0);
     }
     if !matches!(ext.as_str(), "png" | "tif" | "tiff") {
-        return Err(PipelineError::file(path, "not a raw file camsim reads (DNG, or a 16-bit PNG/TIFF mosaic with --cfa)"));
+        return Err(PipelineError::file(
+            path,
+            "not a raw file camsim reads (DNG, or a 16-bit PNG/TIFF mosaic with --cfa)",
+        ));
     }
-    let cfa = cfa.ok_or_else(|| PipelineError::file(path, "a PNG/TIFF mosaic needs its CFA pattern (--cfa RGGB|GRBG|GBRG|BGGR)"))?;
+    let cfa = cfa.ok_or_else(|| {
+        PipelineError::file(
+            path,
+            "a PNG/TIFF mosaic needs its CFA pattern (--cfa RGGB|GRBG|GBRG|BGGR)",
+        )
+    })?;
     if !(1..=16).contains(&bits) {
-        return Err(PipelineError::config(format!("--bits {bits}: must be 1..16")));
+        return Err(PipelineError::config(format!(
+            "--bits {bits}: must be 1..16"
+        )));
     }
     let (rows, cols, dn) = camsim_io::raster::read_mosaic_16(path)?;
     let mut raw = camsim_core::RawImage::new(rows, cols, cfa, bits)?;
@@ -428,23 +518,41 @@ pub fn macbeth_chart_corners_px(
     rows: usize,
     cols: usize,
 ) -> Result<Option<[[f64; 2]; 4]>> {
-    let Some(SceneConfig::Macbeth(m)) = &cfg.scene else { return Ok(None) };
+    let Some(SceneConfig::Macbeth(m)) = &cfg.scene else {
+        return Ok(None);
+    };
     if !(pixel_pitch_m > 0.0 && pixel_pitch_m.is_finite()) {
-        return Err(PipelineError::config(format!("pixel pitch {pixel_pitch_m} m is not a positive number")));
+        return Err(PipelineError::config(format!(
+            "pixel pitch {pixel_pitch_m} m is not a positive number"
+        )));
     }
-    let layout = camsim_scene::MacbethLayout { patch_px: m.patch_size_px, border_px: m.border_px };
+    let layout = camsim_scene::MacbethLayout {
+        patch_px: m.patch_size_px,
+        border_px: m.border_px,
+    };
     let (scene_rows, scene_cols) = (layout.rows() as f64, layout.cols() as f64);
     let f_m = optics.focal_length_mm * 1e-3;
     let d_m = m.distance_m;
-    let Some(v_m) = camsim_optics::lens::image_distance_m(f_m, optics.focus_distance_m.unwrap_or(d_m)) else {
-        return Err(PipelineError::config(format!("focus distance inside the focal length ({f_m} m): no real image")));
+    let Some(v_m) =
+        camsim_optics::lens::image_distance_m(f_m, optics.focus_distance_m.unwrap_or(d_m))
+    else {
+        return Err(PipelineError::config(format!(
+            "focus distance inside the focal length ({f_m} m): no real image"
+        )));
     };
     let spacing_img_m = camsim_scene::sample_spacing_m(m.fov_deg, d_m, layout.cols()) * v_m / d_m;
     let k = spacing_img_m / pixel_pitch_m; // sensor pixels per scene sample
     if !(k > 0.0 && k.is_finite()) {
-        return Err(PipelineError::config("scene.fov_deg / distance_m give no finite image scale"));
+        return Err(PipelineError::config(
+            "scene.fov_deg / distance_m give no finite image scale",
+        ));
     }
-    let to_sensor = |x: f64, y: f64| [cols as f64 / 2.0 + (x - scene_cols / 2.0) * k, rows as f64 / 2.0 + (y - scene_rows / 2.0) * k];
+    let to_sensor = |x: f64, y: f64| {
+        [
+            cols as f64 / 2.0 + (x - scene_cols / 2.0) * k,
+            rows as f64 / 2.0 + (y - scene_rows / 2.0) * k,
+        ]
+    };
     let h = m.border_px as f64 / 2.0;
     Ok(Some([
         to_sensor(h, h),
@@ -477,5 +585,6 @@ pub fn mean_luminance_cd_m2(radiance: &SpectralImage) -> f64 {
             (lanes.iter().sum::<f64>() + rest) * cmfs.y[b]
         })
         .sum();
-    total * camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * radiance.grid.step_nm / radiance.pixels() as f64
+    total * camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * radiance.grid.step_nm
+        / radiance.pixels() as f64
 }

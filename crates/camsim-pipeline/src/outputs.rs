@@ -28,7 +28,16 @@ pub enum Output {
 
 impl Output {
     /// Every output, in the order of [`Self::name`] in `--save`.
-    pub const ALL: [Output; 8] = [Output::Raw, Output::RawPng, Output::Preview, Output::Radiance, Output::Irradiance, Output::Depth, Output::NoiseFree, Output::Ids];
+    pub const ALL: [Output; 8] = [
+        Output::Raw,
+        Output::RawPng,
+        Output::Preview,
+        Output::Radiance,
+        Output::Irradiance,
+        Output::Depth,
+        Output::NoiseFree,
+        Output::Ids,
+    ];
 
     /// The name used in `--save`.
     pub fn name(self) -> &'static str {
@@ -101,7 +110,11 @@ impl OutputSet {
 
     /// The names, comma-separated (as `--save` takes them).
     pub fn names(&self) -> String {
-        self.0.iter().map(|o| o.name()).collect::<Vec<_>>().join(",")
+        self.0
+            .iter()
+            .map(|o| o.name())
+            .collect::<Vec<_>>()
+            .join(",")
     }
 }
 
@@ -114,11 +127,18 @@ mod tests {
         assert_eq!(OutputSet::parse("default").unwrap(), OutputSet::default());
         assert_eq!(OutputSet::parse("all").unwrap(), OutputSet::all());
         let s = OutputSet::parse("raw, irradiance,noise-free").unwrap();
-        assert!(s.contains(Output::Raw) && s.contains(Output::Irradiance) && s.contains(Output::NoiseFree));
+        assert!(
+            s.contains(Output::Raw)
+                && s.contains(Output::Irradiance)
+                && s.contains(Output::NoiseFree)
+        );
         assert!(!s.contains(Output::Preview));
         assert_eq!(s.names(), "raw,irradiance,noise-free");
         let e = OutputSet::parse("raw,radience").unwrap_err().to_string();
-        assert!(e.contains("--save") && e.contains("radience") && e.contains("radiance"), "{e}");
+        assert!(
+            e.contains("--save") && e.contains("radience") && e.contains("radiance"),
+            "{e}"
+        );
         assert!(OutputSet::parse("").is_err());
     }
 }

@@ -10,8 +10,8 @@
 use crate::{PipelineError, Progress, RenderSection, Result, SimulateConfig};
 use camsim_core::SpectralImage;
 use camsim_optics::Optics;
-use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_render::RenderOutput;
+use camsim_scene3d::builtin::{self, BuiltinOptions};
 use camsim_scene3d::SceneDescription;
 use camsim_sensor::Sensor;
 use std::path::Path;
@@ -25,9 +25,12 @@ pub fn load_scene(
     opts: &BuiltinOptions,
 ) -> Result<SceneDescription> {
     let mut scene = match (builtin_name, pbrt) {
-        (Some(name), None) => builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?,
+        (Some(name), None) => {
+            builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?
+        }
         (None, Some(path)) => {
-            let mut s = camsim_pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
+            let mut s =
+                camsim_pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -36,7 +39,11 @@ pub fn load_scene(
             }
             s
         }
-        (Some(_), Some(_)) => return Err(PipelineError::config("give a pbrt file or a built-in scene, not both")),
+        (Some(_), Some(_)) => {
+            return Err(PipelineError::config(
+                "give a pbrt file or a built-in scene, not both",
+            ))
+        }
         (None, None) => {
             return Err(PipelineError::config(format!(
                 "give a pbrt-v4 scene file or a built-in scene (one of {})",
@@ -45,7 +52,8 @@ pub fn load_scene(
         }
     };
     if let Some(o) = overlay {
-        let text = std::fs::read_to_string(o).map_err(|e| PipelineError::file(o, format!("cannot read: {e}")))?;
+        let text = std::fs::read_to_string(o)
+            .map_err(|e| PipelineError::file(o, format!("cannot read: {e}")))?;
         let base = o.parent().unwrap_or(Path::new("."));
         camsim_pbrt::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
             .map_err(|e| PipelineError::Scene(e.to_string()))?;
@@ -55,18 +63,29 @@ pub fn load_scene(
 
 /// Render, reporting progress as ("render", tiles done, tiles in all).
 pub fn render_scene(scene: &SceneDescription, progress: &Progress<'_>) -> Result<RenderOutput> {
-    Ok(camsim_render::render(scene, &|done, total| progress("render", done, total))?)
+    Ok(camsim_render::render(scene, &|done, total| {
+        progress("render", done, total)
+    })?)
 }
 
 /// The distance from the lens to the sensor, m, as the optics stage places it
 /// ([`camsim_optics::Optics::compute`]): the thin-lens image distance of the lens's
 /// `focus_distance_m`, else of the scene's own focus distance, else of infinity (the focal
 /// length). The one rule for every field of view matched to a sensor window.
-pub fn sensor_image_distance_m(optics: &camsim_optics::OpticsConfig, scene_focus_distance_m: Option<f64>) -> Result<f64> {
+pub fn sensor_image_distance_m(
+    optics: &camsim_optics::OpticsConfig,
+    scene_focus_distance_m: Option<f64>,
+) -> Result<f64> {
     let f_m = optics.focal_length_mm * 1e-3;
-    let focus = optics.focus_distance_m.or(scene_focus_distance_m.filter(|d| *d > 0.0 && d.is_finite())).unwrap_or(f64::INFINITY);
-    camsim_optics::lens::image_distance_m(f_m, focus)
-        .ok_or_else(|| PipelineError::config(format!("focus distance {focus} m is inside the focal length ({f_m} m): no real image")))
+    let focus = optics
+        .focus_distance_m
+        .or(scene_focus_distance_m.filter(|d| *d > 0.0 && d.is_finite()))
+        .unwrap_or(f64::INFINITY);
+    camsim_optics::lens::image_distance_m(f_m, focus).ok_or_else(|| {
+        PipelineError::config(format!(
+            "focus distance {focus} m is inside the focal length ({f_m} m): no real image"
+        ))
+    })
 }
 
 /// The full angle, degrees, that `extent_m` of the sensor plane spans seen from the lens at
@@ -78,7 +97,13 @@ pub fn field_of_view_deg(extent_m: f64, image_distance_m: f64) -> f64 {
 /// Set the camera's field of view to what the sensor window sees through the lens (from the lens
 /// at [`sensor_image_distance_m`], so one render pixel lands on the sensor exactly as the optics
 /// stage scales it), for an image of `width` x `height` pixels.
-pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, optics: &camsim_optics::OpticsConfig, width: usize, height: usize) -> Result<()> {
+pub fn match_camera_to_sensor(
+    scene: &mut SceneDescription,
+    sensor: &Sensor,
+    optics: &camsim_optics::OpticsConfig,
+    width: usize,
+    height: usize,
+) -> Result<()> {
     let v_m = sensor_image_distance_m(optics, scene.focus_distance_m)?;
     let sensor_w_m = sensor.cols() as f64 * sensor.pixel_pitch_m();
     let sensor_h_m = sensor.rows() as f64 * sensor.pixel_pitch_m();
@@ -98,20 +123,37 @@ pub fn match_camera_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, opt
 /// the sensor window's size), samples and seed, and the camera's field of view set to the sensor
 /// window seen through the lens, so the radiance covers exactly the sensor. `camsim render
 /// --config` uses this too, so `render -> optics -> sensor` reproduces `simulate`.
-pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Sensor, optics: &Optics) -> Result<SceneDescription> {
+pub fn render_section_scene(
+    r: &RenderSection,
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+) -> Result<SceneDescription> {
     let (w, h) = match r.resolution {
         Some([w, h]) => (w, h),
         None => (sensor.cols(), sensor.rows()),
     };
-    let mut opts = BuiltinOptions { grid: cfg.wavelengths, seed: cfg.seed, resolution: Some((w, h)), ..BuiltinOptions::default() };
+    let mut opts = BuiltinOptions {
+        grid: cfg.wavelengths,
+        seed: cfg.seed,
+        resolution: Some((w, h)),
+        ..BuiltinOptions::default()
+    };
     if let Some(spp) = r.samples_per_pixel {
         opts.samples_per_pixel = spp;
     }
-    let mut scene = load_scene(r.builtin.as_deref(), r.pbrt.as_deref(), r.overlay.as_deref(), &opts)?;
+    let mut scene = load_scene(
+        r.builtin.as_deref(),
+        r.pbrt.as_deref(),
+        r.overlay.as_deref(),
+        &opts,
+    )?;
     if let Some(t) = &r.overlay_inline {
-        let text = toml::to_string(t).map_err(|e| PipelineError::config(format!("render.overlay_inline: {e}")))?;
+        let text = toml::to_string(t)
+            .map_err(|e| PipelineError::config(format!("render.overlay_inline: {e}")))?;
         let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
-        camsim_pbrt::overlay::apply(&mut scene, &text, "render.overlay_inline", base).map_err(|e| PipelineError::Scene(e.to_string()))?;
+        camsim_pbrt::overlay::apply(&mut scene, &text, "render.overlay_inline", base)
+            .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
@@ -130,7 +172,12 @@ pub fn render_section_scene(r: &RenderSection, cfg: &SimulateConfig, sensor: &Se
 /// transfer). The render (`width` x `height`) must have the window's aspect ratio (within 1 %),
 /// so that each render pixel is a patch of the film of one size; it need not have its pixel count
 /// (the sensor resamples the irradiance at its pitch).
-pub fn fit_lens_film_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, width: usize, height: usize) -> Result<()> {
+pub fn fit_lens_film_to_sensor(
+    scene: &mut SceneDescription,
+    sensor: &Sensor,
+    width: usize,
+    height: usize,
+) -> Result<()> {
     use camsim_scene3d::scene::CameraLens;
     let (cols, rows) = (sensor.cols() as f64, sensor.rows() as f64);
     if ((width as f64 / height as f64) / (cols / rows) - 1.0).abs() > 0.01 {
@@ -148,20 +195,28 @@ pub fn fit_lens_film_to_sensor(scene: &mut SceneDescription, sensor: &Sensor, wi
     };
     let (lens, fov_deg) = match scene.camera.lens.take() {
         Some(CameraLens::Realistic(l)) => {
-            let camera = camsim_lens::LensCamera::new(l.camera.lens.clone(), l.camera.film_distance_mm, diagonal_mm)
-                .map_err(|e| lens_err(e.to_string()))?;
-            let realistic = camsim_scene3d::camera::realistic_lens_with_pinhole(camera, diagonal_mm);
+            let camera = camsim_lens::LensCamera::new(
+                l.camera.lens.clone(),
+                l.camera.film_distance_mm,
+                diagonal_mm,
+            )
+            .map_err(|e| lens_err(e.to_string()))?;
+            let realistic =
+                camsim_scene3d::camera::realistic_lens_with_pinhole(camera, diagonal_mm);
             let fov_deg = realistic.fov_deg(width, height);
             (CameraLens::Realistic(realistic), fov_deg)
         }
         Some(CameraLens::RayTransfer(l)) => {
             let (rt, fov_deg) = camsim_scene3d::camera::ray_transfer_lens(
                 (*l.rtf).clone(),
-                camsim_scene3d::camera::RtfFilm::DistanceMm(l.rtf.plane_offset_input_mm + l.film_offset_mm),
+                camsim_scene3d::camera::RtfFilm::DistanceMm(
+                    l.rtf.plane_offset_input_mm + l.film_offset_mm,
+                ),
                 diagonal_mm,
                 width,
                 height,
-            ).map_err(lens_err)?;
+            )
+            .map_err(lens_err)?;
             (CameraLens::RayTransfer(rt), fov_deg)
         }
         None => return Ok(()),

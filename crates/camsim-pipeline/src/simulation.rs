@@ -2,7 +2,10 @@
 //! files ([`Simulation::write`]).
 
 use crate::outputs::{Output, OutputSet};
-use crate::{color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_stage, PipelineError, Progress, Result, SimulateConfig};
+use crate::{
+    color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_stage, PipelineError,
+    Progress, Result, SimulateConfig,
+};
 use camsim_core::{CfaChannel, Quantity, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
@@ -80,13 +83,23 @@ pub struct Simulation {
 /// seconds each stage took (the one wiring of optics into sensor; `simulate` and
 /// `camsim validate` both use it). An image that is already sensor-plane irradiance (a lens
 /// camera's render, [`crate::render`]) goes to the sensor as it is.
-pub fn image_radiance(radiance: &SpectralImage, optics: &Optics, sensor: &Sensor, capture: &Capture) -> Result<Imaged> {
+pub fn image_radiance(
+    radiance: &SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    capture: &Capture,
+) -> Result<Imaged> {
     let t = Instant::now();
     let irradiance = optics_stage(radiance, optics)?;
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let frame = sensor.compute(&irradiance, capture)?;
-    Ok(Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() })
+    Ok(Imaged {
+        irradiance,
+        frame,
+        optics_s,
+        sensor_s: t.elapsed().as_secs_f64(),
+    })
 }
 
 /// The optics stage, or the image itself when it is already sensor-plane irradiance.
@@ -120,9 +133,19 @@ fn image_owned(
     let t = Instant::now();
     let frame = match bracket {
         None => sensor.compute(&irradiance, capture)?,
-        Some(times_s) => sensor.compute_bracket(&irradiance, times_s, capture.frames, capture.seed)?,
+        Some(times_s) => {
+            sensor.compute_bracket(&irradiance, times_s, capture.frames, capture.seed)?
+        }
     };
-    Ok((radiance, Imaged { irradiance, frame, optics_s, sensor_s: t.elapsed().as_secs_f64() }))
+    Ok((
+        radiance,
+        Imaged {
+            irradiance,
+            frame,
+            optics_s,
+            sensor_s: t.elapsed().as_secs_f64(),
+        },
+    ))
 }
 
 /// What [`image_radiance`] returns.
@@ -141,7 +164,11 @@ pub struct Imaged {
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
 /// Reads only the files the config names (scene files, pbrt scenes, lens or sensor files);
 /// writes nothing. `progress(stage, done, total)` is called as long steps advance.
-pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progress<'_>) -> Result<Simulation> {
+pub fn simulate(
+    cfg: &SimulateConfig,
+    opts: &SimulateOptions,
+    progress: &Progress<'_>,
+) -> Result<Simulation> {
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
@@ -166,30 +193,58 @@ pub fn simulate(cfg: &SimulateConfig, opts: &SimulateOptions, progress: &Progres
 
     progress("optics", 0, 1);
     let bracket = cfg.bracket_exposures_s()?;
-    let (radiance, Imaged { irradiance, frame, optics_s, sensor_s }) = image_owned(radiance, &optics, &sensor, &capture, bracket.as_deref())?;
+    let (
+        radiance,
+        Imaged {
+            irradiance,
+            frame,
+            optics_s,
+            sensor_s,
+        },
+    ) = image_owned(radiance, &optics, &sensor, &capture, bracket.as_deref())?;
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
     let noise_free_dn = if opts.noise_free {
-        let quiet = sensor.with_noise(NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: true, quantization: false });
+        let quiet = sensor.with_noise(NoiseSwitches {
+            shot: false,
+            read: false,
+            dsnu: false,
+            prnu: false,
+            dark: true,
+            quantization: false,
+        });
         let nf = quiet.compute(&irradiance, &Capture::seconds(frame.exposure_s))?;
         let plane = nf.analog_dn.and_then(|mut v| v.drain(..).next());
-        Some(plane.ok_or_else(|| PipelineError::config("the noise-free sensor pass returned no analog values"))?)
+        Some(plane.ok_or_else(|| {
+            PipelineError::config("the noise-free sensor pass returned no analog values")
+        })?)
     } else {
         None
     };
-    times.insert("sensor_s".into(), (sensor_s + t.elapsed().as_secs_f64()).into());
+    times.insert(
+        "sensor_s".into(),
+        (sensor_s + t.elapsed().as_secs_f64()).into(),
+    );
 
     let t = Instant::now();
     progress("isp", 0, 1);
     let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
     let dng = dng_metadata(&sensor, &color, Some(cfg))?;
-    let raw0 = frame.raw.first().ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
+    let raw0 = frame
+        .raw
+        .first()
+        .ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
     // Bayer: the paper's bilinear demosaic; other CFAs (RGBW, Quad Bayer, cfa_pattern): the
     // per-filter bilinear interpolation's r, g, b planes.
     let rgb = camsim_isp::cfa_general::demosaic_any(raw0)?;
-    let srgb = color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
-    let preview = Rgb8Image { rows: rgb.rows, cols: rgb.cols, data: srgb };
+    let srgb =
+        color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
+    let preview = Rgb8Image {
+        rows: rgb.rows,
+        cols: rgb.cols,
+        data: srgb,
+    };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -218,8 +273,11 @@ fn mean_dn_per_channel(raw: &RawImage) -> [f64; 3] {
     let mut n = [0usize; 3];
     if let Some(layout) = &raw.layout {
         // A general CFA: the r, g, b filters' pixels (other filters, e.g. w, are not counted).
-        let rgb: Vec<Option<usize>> =
-            layout.filters().iter().map(|f| ["r", "g", "b"].iter().position(|c| c == f)).collect();
+        let rgb: Vec<Option<usize>> = layout
+            .filters()
+            .iter()
+            .map(|f| ["r", "g", "b"].iter().position(|c| c == f))
+            .collect();
         for r in 0..raw.rows {
             for c in 0..raw.cols {
                 if let Some(i) = rgb[layout.filter_at(r, c)] {
@@ -257,7 +315,10 @@ impl Simulation {
         let raw0 = &self.frames[0];
         let mut files = serde_json::Map::new();
         if outputs.contains(Output::Raw) {
-            files.insert("raw.dng".into(), "the exact ADC values (DN), black and white level in its tags".into());
+            files.insert(
+                "raw.dng".into(),
+                "the exact ADC values (DN), black and white level in its tags".into(),
+            );
         }
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
@@ -279,16 +340,29 @@ impl Simulation {
             match &self.ids {
                 Some(ids) => {
                     files.insert("object_id.png".into(), "1 + index of the shape met first through each scene pixel's centre (16-bit; 0 = none)".into());
-                    files.insert("material_id.png".into(), "1 + index of that shape's material (16-bit; 0 = none)".into());
-                    files.insert("ids.json".into(), serde_json::to_value(ids.legend()).unwrap_or_default());
+                    files.insert(
+                        "material_id.png".into(),
+                        "1 + index of that shape's material (16-bit; 0 = none)".into(),
+                    );
+                    files.insert(
+                        "ids.json".into(),
+                        serde_json::to_value(ids.legend()).unwrap_or_default(),
+                    );
                 }
                 None => {
-                    files.insert("ids".into(), "not written: this scene (a 2D chart or a scene file) has no object ids".into());
+                    files.insert(
+                        "ids".into(),
+                        "not written: this scene (a 2D chart or a scene file) has no object ids"
+                            .into(),
+                    );
                 }
             }
         }
         if outputs.contains(Output::NoiseFree) {
-            files.insert("noise_free.exr".into(), "expected ADC value per pixel without noise or quantization, DN (channel Y)".into());
+            files.insert(
+                "noise_free.exr".into(),
+                "expected ADC value per pixel without noise or quantization, DN (channel Y)".into(),
+            );
         }
         let mut v = serde_json::json!({
             "camsim_version": env!("CARGO_PKG_VERSION"),
@@ -315,7 +389,12 @@ impl Simulation {
         });
         // An exposure bracket: each raw's exposure time, in file order (raw.dng, raw_0001.dng, ...).
         if self.config.capture.exposures_ms.is_some() {
-            v["results"]["frame_exposures_s"] = self.frames.iter().map(|r| r.exposure_s).collect::<Vec<_>>().into();
+            v["results"]["frame_exposures_s"] = self
+                .frames
+                .iter()
+                .map(|r| r.exposure_s)
+                .collect::<Vec<_>>()
+                .into();
         }
         v
     }
@@ -323,7 +402,13 @@ impl Simulation {
     /// Write the chosen outputs and run.json into folder `dir`, atomically as a whole: the files
     /// go into a staging folder beside it, which then replaces `dir` (an earlier camsim run there
     /// is replaced; any other existing content is refused).
-    pub fn write(&self, dir: &Path, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
+    pub fn write(
+        &self,
+        dir: &Path,
+        outputs: &OutputSet,
+        exr: ExrOptions,
+        info: &RunInfo,
+    ) -> Result<()> {
         let out = OutputDir::create(dir)?;
         self.write_into(&out, outputs, exr, info)?;
         out.commit()?;
@@ -331,7 +416,13 @@ impl Simulation {
     }
 
     /// [`Self::write`] into a staging folder the caller commits.
-    pub fn write_into(&self, out: &OutputDir, outputs: &OutputSet, exr: ExrOptions, info: &RunInfo) -> Result<()> {
+    pub fn write_into(
+        &self,
+        out: &OutputDir,
+        outputs: &OutputSet,
+        exr: ExrOptions,
+        info: &RunInfo,
+    ) -> Result<()> {
         if outputs.contains(Output::NoiseFree) && self.noise_free_dn.is_none() {
             return Err(PipelineError::config("noise-free output asked for, but the run did not compute it (SimulateOptions::noise_free)"));
         }
@@ -339,16 +430,40 @@ impl Simulation {
         // on every thread).
         let tasks: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = {
             let mut t: Vec<Box<dyn Fn() -> Result<()> + Sync + '_>> = Vec::new();
-            if let (true, Some(radiance)) = (outputs.contains(Output::Radiance), self.radiance.as_ref()) {
-                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("radiance.exr"), radiance, "scene", exr)?)));
+            if let (true, Some(radiance)) =
+                (outputs.contains(Output::Radiance), self.radiance.as_ref())
+            {
+                t.push(Box::new(move || {
+                    Ok(camsim_io::exr::write_spectral_exr_with(
+                        &out.join("radiance.exr"),
+                        radiance,
+                        "scene",
+                        exr,
+                    )?)
+                }));
             }
             if outputs.contains(Output::Irradiance) {
-                t.push(Box::new(move || Ok(camsim_io::exr::write_spectral_exr_with(&out.join("irradiance.exr"), &self.irradiance, "optics", exr)?)));
+                t.push(Box::new(move || {
+                    Ok(camsim_io::exr::write_spectral_exr_with(
+                        &out.join("irradiance.exr"),
+                        &self.irradiance,
+                        "optics",
+                        exr,
+                    )?)
+                }));
             }
             // 2D charts have no depth map: depth.exr only for 3D scenes (run.json says which).
             let scene = self.scene_image();
             if let (true, Some(d)) = (outputs.contains(Output::Depth), scene.depth_m.as_deref()) {
-                t.push(Box::new(move || Ok(camsim_io::exr::write_gray_exr(&out.join("depth.exr"), scene.rows, scene.cols, "Z", d)?)));
+                t.push(Box::new(move || {
+                    Ok(camsim_io::exr::write_gray_exr(
+                        &out.join("depth.exr"),
+                        scene.rows,
+                        scene.cols,
+                        "Z",
+                        d,
+                    )?)
+                }));
             }
             if let (true, Some(ids)) = (outputs.contains(Output::Ids), self.ids.as_ref()) {
                 t.push(Box::new(move || write_id_maps(out.path(), ids)));
@@ -357,13 +472,23 @@ impl Simulation {
                 t.push(Box::new(move || {
                     let raw0 = &self.frames[0];
                     let nf = self.noise_free_dn.as_deref().unwrap_or_default();
-                    Ok(camsim_io::exr::write_gray_exr(&out.join("noise_free.exr"), raw0.rows, raw0.cols, "Y", nf)?)
+                    Ok(camsim_io::exr::write_gray_exr(
+                        &out.join("noise_free.exr"),
+                        raw0.rows,
+                        raw0.cols,
+                        "Y",
+                        nf,
+                    )?)
                 }));
             }
             if outputs.contains(Output::Raw) {
                 for (i, raw) in self.frames.iter().enumerate() {
                     t.push(Box::new(move || {
-                        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
+                        let name = if i == 0 {
+                            "raw.dng".to_string()
+                        } else {
+                            format!("raw_{i:04}.dng")
+                        };
                         Ok(camsim_io::dng::write_dng(&out.join(&name), raw, &self.dng)?)
                     }));
                 }
@@ -371,19 +496,33 @@ impl Simulation {
             if outputs.contains(Output::RawPng) {
                 t.push(Box::new(move || {
                     let raw0 = &self.frames[0];
-                    Ok(camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), raw0.rows, raw0.cols, &raw0.dn, raw0.bits)?)
+                    Ok(camsim_io::raster::write_png16_mosaic_scaled(
+                        &out.join("raw.png"),
+                        raw0.rows,
+                        raw0.cols,
+                        &raw0.dn,
+                        raw0.bits,
+                    )?)
                 }));
             }
             if outputs.contains(Output::Preview) {
                 t.push(Box::new(move || {
                     let p = &self.preview;
-                    Ok(camsim_io::raster::write_png8_rgb(&out.join("preview.png"), p.rows, p.cols, &p.data)?)
+                    Ok(camsim_io::raster::write_png8_rgb(
+                        &out.join("preview.png"),
+                        p.rows,
+                        p.cols,
+                        &p.data,
+                    )?)
                 }));
             }
             t
         };
         use rayon::prelude::*;
-        tasks.par_iter().map(|task| task()).collect::<Result<Vec<()>>>()?;
+        tasks
+            .par_iter()
+            .map(|task| task())
+            .collect::<Result<Vec<()>>>()?;
         // run.json last: its presence marks a complete run.
         camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
         Ok(())
@@ -399,7 +538,10 @@ pub fn write_id_maps(dir: &std::path::Path, ids: &camsim_render::IdMaps) -> Resu
             ids.max_id()
         )));
     }
-    for (name, map) in [("object_id.png", &ids.object_id), ("material_id.png", &ids.material_id)] {
+    for (name, map) in [
+        ("object_id.png", &ids.object_id),
+        ("material_id.png", &ids.material_id),
+    ] {
         let v: Vec<u16> = map.iter().map(|&i| i as u16).collect();
         camsim_io::raster::write_png16_gray(&dir.join(name), ids.height, ids.width, &v)?;
     }

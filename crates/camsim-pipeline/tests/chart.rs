@@ -57,13 +57,25 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
     // spacing at the sensor = 2 v tan(fov / 2) / cols, v the thin-lens image distance.
     let f_m = oc.focal_length_mm * 1e-3;
     let v_m = lens::image_distance_m(f_m, DISTANCE_M).unwrap();
-    let probe = MacbethScene { patch_size_px: PATCH_PX, border_px: BORDER_PX, ..MacbethScene::default() };
+    let probe = MacbethScene {
+        patch_size_px: PATCH_PX,
+        border_px: BORDER_PX,
+        ..MacbethScene::default()
+    };
     let (rows, cols) = (probe.layout().rows(), probe.layout().cols());
     let fov_deg = 2.0 * (pitch_m * cols as f64 / (2.0 * v_m)).atan().to_degrees();
-    let scene = MacbethScene { fov_deg, distance_m: DISTANCE_M, ..probe };
+    let scene = MacbethScene {
+        fov_deg,
+        distance_m: DISTANCE_M,
+        ..probe
+    };
     let radiance = camsim_scene::create(&SceneConfig::Macbeth(scene.clone()), &grid).unwrap();
     let irradiance = optics.compute(&radiance).unwrap();
-    assert!((irradiance.sample_spacing_m / pitch_m - 1.0).abs() < 1e-9, "irradiance spacing {}", irradiance.sample_spacing_m);
+    assert!(
+        (irradiance.sample_spacing_m / pitch_m - 1.0).abs() < 1e-9,
+        "irradiance spacing {}",
+        irradiance.sample_spacing_m
+    );
     // PSF padding on each side = the kernel half width, pixels.
     let kernel_half_px = (irradiance.cols - cols) / 2;
     assert_eq!(irradiance.rows - rows, 2 * kernel_half_px);
@@ -77,8 +89,11 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
     // Analytic response of each patch: its radiance (the scene's value at the patch) -> irradiance
     // (camera equation, on axis, no shading) -> electrons -> DN.
     let m = lens::magnification(f_m, DISTANCE_M);
-    let factor: Vec<f64> =
-        (0..grid.len()).map(|b| lens::irradiance_factor(oc.f_number, m, optics.transmittance(grid.wavelength_nm(b)))).collect();
+    let factor: Vec<f64> = (0..grid.len())
+        .map(|b| {
+            lens::irradiance_factor(oc.f_number, m, optics.transmittance(grid.wavelength_nm(b)))
+        })
+        .collect();
     let rects = camsim_scene::macbeth_patch_rects(&scene);
     let electrons_per_s: Vec<[f64; 3]> = rects
         .iter()
@@ -90,19 +105,34 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
         .collect();
     // Exposure: the white patch's green at 80 % of the 12-bit range.
     let t_s = 0.8 * sensor.max_dn() as f64 / k / electrons_per_s[18][1];
-    let analytic_dn: Vec<[f64; 3]> = electrons_per_s.iter().map(|e| e.map(|v| v * t_s * k + black)).collect();
+    let analytic_dn: Vec<[f64; 3]> = electrons_per_s
+        .iter()
+        .map(|e| e.map(|v| v * t_s * k + black))
+        .collect();
 
     // Chart corners from the scene geometry: the outer corners of the 4 x 6 grid of patch pitches
     // (patch + border), half a border outside the outer patches, mapped to sensor pixels
     // (x_sensor = (x_scene - cols/2) spacing / pitch + sensor cols / 2: the identity here).
-    let to_sensor = |x: f64, n_scene: usize, n_sensor: usize| (x - n_scene as f64 / 2.0) * irradiance.sample_spacing_m / pitch_m + n_sensor as f64 / 2.0;
+    let to_sensor = |x: f64, n_scene: usize, n_sensor: usize| {
+        (x - n_scene as f64 / 2.0) * irradiance.sample_spacing_m / pitch_m + n_sensor as f64 / 2.0
+    };
     let half_border = BORDER_PX as f64 / 2.0;
     let x0 = rects[0].col0 as f64 - half_border;
     let x1 = (rects[5].col0 + PATCH_PX) as f64 + half_border;
     let y0 = rects[0].row0 as f64 - half_border;
     let y1 = (rects[18].row0 + PATCH_PX) as f64 + half_border;
-    let p = |x: f64, y: f64| [to_sensor(x, cols, sensor.cols()), to_sensor(y, rows, sensor.rows())];
-    let corners = ChartCorners { top_left: p(x0, y0), top_right: p(x1, y0), bottom_right: p(x1, y1), bottom_left: p(x0, y1) };
+    let p = |x: f64, y: f64| {
+        [
+            to_sensor(x, cols, sensor.cols()),
+            to_sensor(y, rows, sensor.rows()),
+        ]
+    };
+    let corners = ChartCorners {
+        top_left: p(x0, y0),
+        top_right: p(x1, y0),
+        bottom_right: p(x1, y1),
+        bottom_left: p(x0, y1),
+    };
 
     // Premise: every measured region lies inside its patch, further from the edges than the PSF reaches.
     let regions = chart_patch_rects(&corners, 0.5, sensor.rows(), sensor.cols()).unwrap();
@@ -113,11 +143,18 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
             (r.row0 + r.rows) as isize - reg.rect.row_end() as isize,
             (r.col0 + r.cols) as isize - reg.rect.col_end() as isize,
         ];
-        assert!(margin.iter().all(|m| *m > kernel_half_px as isize), "patch {}: margins {margin:?} px, PSF half width {kernel_half_px} px", reg.index);
+        assert!(
+            margin.iter().all(|m| *m > kernel_half_px as isize),
+            "patch {}: margins {margin:?} px, PSF half width {kernel_half_px} px",
+            reg.index
+        );
     }
 
     // Raw (always rounded by the ADC): each region reads round(analytic).
-    let frame = sensor.with_noise(NoiseSwitches::none()).compute(&irradiance, &Capture::seconds(t_s)).unwrap();
+    let frame = sensor
+        .with_noise(NoiseSwitches::none())
+        .compute(&irradiance, &Capture::seconds(t_s))
+        .unwrap();
     let raw = &frame.raw[0];
     let check_raw = |raw: &RawImage, what: &str| {
         let stats = chart_patch_stats_raw(raw, &corners, 0.5).unwrap();
@@ -127,8 +164,18 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
                 let expect = a[c] - black;
                 let err = (s.mean[c] - expect).abs();
                 worst_dn = worst_dn.max(err);
-                assert!(err <= 0.5 + 1e-5 * expect, "{what}: patch {} ({}) channel {c}: mean {} DN vs analytic {expect} DN", s.index, s.name, s.mean[c]);
-                assert_eq!(s.std[c], 0.0, "{what}: patch {} channel {c} is not uniform", s.index);
+                assert!(
+                    err <= 0.5 + 1e-5 * expect,
+                    "{what}: patch {} ({}) channel {c}: mean {} DN vs analytic {expect} DN",
+                    s.index,
+                    s.name,
+                    s.mean[c]
+                );
+                assert_eq!(
+                    s.std[c], 0.0,
+                    "{what}: patch {} channel {c} is not uniform",
+                    s.index
+                );
                 assert!(s.n[c] > 100);
             }
         }
@@ -144,7 +191,10 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
     check_raw(&back, "DNG");
 
     // Unrounded: quantization off, the ADC input over each region's pixels of each channel.
-    let noq = sensor.with_noise(NoiseSwitches { quantization: false, ..NoiseSwitches::none() });
+    let noq = sensor.with_noise(NoiseSwitches {
+        quantization: false,
+        ..NoiseSwitches::none()
+    });
     let frame = noq.compute(&irradiance, &Capture::seconds(t_s)).unwrap();
     let analog = &frame.analog_dn.as_ref().unwrap()[0];
     let mut worst_rel: f64 = 0.0;
@@ -161,7 +211,13 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
             let mean = sum[c] / n[c] as f64;
             let rel = (mean - a[c]).abs() / (a[c] - black);
             worst_rel = worst_rel.max(rel);
-            assert!(rel < 0.005, "patch {} ({}) channel {c}: {mean} DN vs analytic {} DN", reg.index, reg.name, a[c]);
+            assert!(
+                rel < 0.005,
+                "patch {} ({}) channel {c}: {mean} DN vs analytic {} DN",
+                reg.index,
+                reg.name,
+                a[c]
+            );
         }
     }
     println!("unrounded: largest relative error {worst_rel:.2e}");

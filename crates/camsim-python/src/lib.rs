@@ -14,14 +14,22 @@ use camsim::core::image::ImageGeometry;
 use camsim::core::{CfaChannel, CfaPattern, Quantity, RawImage, SpectralImage, WavelengthGrid};
 use camsim::optics::{Optics, OpticsConfig};
 use camsim::sensor::{Capture, Exposure, Sensor, SensorConfig};
-use camsim::{ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions, Simulation};
+use camsim::{
+    ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig, SimulateOptions,
+    Simulation,
+};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-create_exception!(_camsim, CamsimError, PyException, "An error reported by camsim (bad input, a file it cannot read, ...).");
+create_exception!(
+    _camsim,
+    CamsimError,
+    PyException,
+    "An error reported by camsim (bad input, a file it cannot read, ...)."
+);
 
 fn err(e: impl std::fmt::Display) -> PyErr {
     CamsimError::new_err(e.to_string())
@@ -29,7 +37,8 @@ fn err(e: impl std::fmt::Display) -> PyErr {
 
 /// A Python object from JSON text (through the `json` module: plain dicts, lists, numbers).
 fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    py.import("json")?.call_method1("loads", (value.to_string(),))
+    py.import("json")?
+        .call_method1("loads", (value.to_string(),))
 }
 
 fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyAny> {
@@ -37,19 +46,32 @@ fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyAny> {
 }
 
 /// A numpy array of `shape` holding a copy of `v`.
-fn array<'py, T: numpy::Element>(py: Python<'py>, v: &[T], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
+fn array<'py, T: numpy::Element>(
+    py: Python<'py>,
+    v: &[T],
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
     Ok(PyArray1::from_slice(py, v).reshape(shape)?.into_any())
 }
 
 fn wavelengths(img: &SpectralImage) -> Vec<f64> {
-    (0..img.bands()).map(|b| img.grid.wavelength_nm(b)).collect()
+    (0..img.bands())
+        .map(|b| img.grid.wavelength_nm(b))
+        .collect()
 }
 
 /// A spectral image as a dict: `key` -> (bands, rows, cols) float32, `wavelengths_nm`,
 /// `spacing_m`, `fov_deg`, `distance_m`, `depth_m` ((rows, cols) or None), `units`.
-fn spectral_dict<'py>(py: Python<'py>, img: &SpectralImage, key: &str) -> PyResult<Bound<'py, PyDict>> {
+fn spectral_dict<'py>(
+    py: Python<'py>,
+    img: &SpectralImage,
+    key: &str,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item(key, array(py, &img.data, &[img.bands(), img.rows, img.cols])?)?;
+    d.set_item(
+        key,
+        array(py, &img.data, &[img.bands(), img.rows, img.cols])?,
+    )?;
     d.set_item("wavelengths_nm", array1(py, &wavelengths(img)))?;
     d.set_item("spacing_m", img.sample_spacing_m)?;
     d.set_item("fov_deg", img.geometry.fov_deg)?;
@@ -72,19 +94,35 @@ fn spectral_from(
 ) -> PyResult<SpectralImage> {
     let shape = data.shape().to_vec();
     if shape[0] != wavelengths_nm.len() {
-        return Err(err(format!("the array has {} bands (axis 0) but {} wavelengths were given", shape[0], wavelengths_nm.len())));
+        return Err(err(format!(
+            "the array has {} bands (axis 0) but {} wavelengths were given",
+            shape[0],
+            wavelengths_nm.len()
+        )));
     }
     let grid = WavelengthGrid::from_wavelengths(&wavelengths_nm).map_err(err)?;
     let values = data.as_array().iter().copied().collect::<Vec<f32>>();
-    let mut img = SpectralImage::from_data(shape[1], shape[2], grid, spacing_m, quantity, values).map_err(err)?;
+    let mut img = SpectralImage::from_data(shape[1], shape[2], grid, spacing_m, quantity, values)
+        .map_err(err)?;
     img.validate_values(quantity.name()).map_err(err)?;
     img.geometry = geometry;
     Ok(img)
 }
 
-fn raw_from(raw: PyReadonlyArray2<'_, u16>, cfa: &str, bits: u32, black_level: f64) -> PyResult<RawImage> {
+fn raw_from(
+    raw: PyReadonlyArray2<'_, u16>,
+    cfa: &str,
+    bits: u32,
+    black_level: f64,
+) -> PyResult<RawImage> {
     let shape = raw.shape().to_vec();
-    let mut img = RawImage::new(shape[0], shape[1], CfaPattern::parse(cfa).map_err(err)?, bits).map_err(err)?;
+    let mut img = RawImage::new(
+        shape[0],
+        shape[1],
+        CfaPattern::parse(cfa).map_err(err)?,
+        bits,
+    )
+    .map_err(err)?;
     img.dn = raw.as_array().iter().copied().collect();
     img.black_level_dn = black_level;
     Ok(img)
@@ -100,7 +138,8 @@ fn lens_from(lens: &str) -> PyResult<OpticsConfig> {
 
 fn sensor_from(sensor: &str) -> PyResult<Sensor> {
     if sensor.trim_start().starts_with('{') {
-        let c: SensorConfig = serde_json::from_str(sensor).map_err(|e| err(format!("sensor: {e}")))?;
+        let c: SensorConfig =
+            serde_json::from_str(sensor).map_err(|e| err(format!("sensor: {e}")))?;
         Sensor::from_config_named(c, "the sensor dict").map_err(err)
     } else {
         camsim::pipeline::load_sensor(sensor).map_err(err)
@@ -119,7 +158,11 @@ impl PySimulation {
     /// scene's camera is a lens (`realistic`, `raytransfer`), whose render is the irradiance.
     #[getter]
     fn radiance<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.inner.radiance.as_ref().map(|r| array(py, &r.data, &[r.bands(), r.rows, r.cols])).transpose()
+        self.inner
+            .radiance
+            .as_ref()
+            .map(|r| array(py, &r.data, &[r.bands(), r.rows, r.cols]))
+            .transpose()
     }
     /// Band centres of radiance and irradiance, nm.
     #[getter]
@@ -147,26 +190,39 @@ impl PySimulation {
     #[getter]
     fn depth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = self.inner.scene_image();
-        r.depth_m.as_ref().map(|z| array(py, z, &[r.rows, r.cols])).transpose()
+        r.depth_m
+            .as_ref()
+            .map(|z| array(py, z, &[r.rows, r.cols]))
+            .transpose()
     }
     /// Object ids of a rendered 3D scene, (rows, cols) uint32 in the scene's pixels: 1 + index of
     /// the shape met first through each pixel centre, 0 = none; None for 2D charts. Names in
     /// `ids_legend`.
     #[getter]
     fn object_id<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.inner.ids.as_ref().map(|i| array(py, &i.object_id, &[i.height, i.width])).transpose()
+        self.inner
+            .ids
+            .as_ref()
+            .map(|i| array(py, &i.object_id, &[i.height, i.width]))
+            .transpose()
     }
     /// Material ids of a rendered 3D scene, (rows, cols) uint32: 1 + index of the material of the
     /// shape in `object_id`, 0 = none; None for 2D charts.
     #[getter]
     fn material_id<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.inner.ids.as_ref().map(|i| array(py, &i.material_id, &[i.height, i.width])).transpose()
+        self.inner
+            .ids
+            .as_ref()
+            .map(|i| array(py, &i.material_id, &[i.height, i.width]))
+            .transpose()
     }
     /// The names of the ids present: {"background": 0, "objects": {"1": name, ...},
     /// "materials": {...}}; None for 2D charts.
     #[getter]
     fn ids_legend<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let Some(ids) = &self.inner.ids else { return Ok(None) };
+        let Some(ids) = &self.inner.ids else {
+            return Ok(None);
+        };
         let v = serde_json::to_value(ids.legend()).map_err(err)?;
         json_to_py(py, &v).map(Some)
     }
@@ -208,18 +264,29 @@ impl PySimulation {
     #[getter]
     fn noise_free<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.frames[0];
-        self.inner.noise_free_dn.as_ref().map(|v| array(py, v, &[r.rows, r.cols])).transpose()
+        self.inner
+            .noise_free_dn
+            .as_ref()
+            .map(|v| array(py, v, &[r.rows, r.cols]))
+            .transpose()
     }
     /// sRGB preview, (rows, cols, 3) uint8.
     #[getter]
     fn preview<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let p = &self.inner.preview;
-        Ok(PyArray1::from_slice(py, &p.data).reshape([p.rows, p.cols, 3])?.into_any())
+        Ok(PyArray1::from_slice(py, &p.data)
+            .reshape([p.rows, p.cols, 3])?
+            .into_any())
     }
     /// The run's record as a dict (what run.json holds: configs, results, times).
     #[getter]
     fn metadata<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        json_to_py(py, &self.inner.metadata(&RunInfo::default(), &OutputSet::default()))
+        json_to_py(
+            py,
+            &self
+                .inner
+                .metadata(&RunInfo::default(), &OutputSet::default()),
+        )
     }
     /// For a Macbeth chart scene: the chart's outer corners on the sensor, [[x, y], ...] pixels
     /// (top-left = dark skin, top-right, bottom-right, bottom-left), as `chart()` takes them;
@@ -228,7 +295,14 @@ impl PySimulation {
     fn chart_corners(&self) -> PyResult<Option<Vec<[f64; 2]>>> {
         let s = &self.inner.sensor;
         let r = &self.inner.frames[0];
-        let c = camsim::pipeline::macbeth_chart_corners_px(&self.inner.config, &self.inner.optics, s.pixel_pitch_um * 1e-6, r.rows, r.cols).map_err(err)?;
+        let c = camsim::pipeline::macbeth_chart_corners_px(
+            &self.inner.config,
+            &self.inner.optics,
+            s.pixel_pitch_um * 1e-6,
+            r.rows,
+            r.cols,
+        )
+        .map_err(err)?;
         Ok(c.map(|c| c.to_vec()))
     }
     /// The effective config as a dict (pass it back to simulate to repeat the run).
@@ -238,7 +312,14 @@ impl PySimulation {
     }
     /// Write files into folder `dir` as `camsim simulate --save` does (atomically as a whole).
     #[pyo3(signature = (dir, save = "default", exr_precision = "f32", exr_compression = "none"))]
-    fn write(&self, py: Python<'_>, dir: std::path::PathBuf, save: &str, exr_precision: &str, exr_compression: &str) -> PyResult<()> {
+    fn write(
+        &self,
+        py: Python<'_>,
+        dir: std::path::PathBuf,
+        save: &str,
+        exr_precision: &str,
+        exr_compression: &str,
+    ) -> PyResult<()> {
         let outputs = OutputSet::parse(save).map_err(err)?;
         let precision = match exr_precision {
             "f32" => ExrPrecision::F32,
@@ -251,12 +332,27 @@ impl PySimulation {
             "zip" => ExrCompression::Zip,
             "zips" => ExrCompression::Zips,
             "piz" => ExrCompression::Piz,
-            o => return Err(err(format!("exr_compression {o:?}: none, rle, zip, zips or piz"))),
+            o => {
+                return Err(err(format!(
+                    "exr_compression {o:?}: none, rle, zip, zips or piz"
+                )))
+            }
         };
         if outputs.contains(camsim::Output::NoiseFree) && self.inner.noise_free_dn.is_none() {
             return Err(err("save noise-free needs simulate(..., noise_free=True)"));
         }
-        py.detach(|| self.inner.write(&dir, &outputs, ExrOptions { precision, compression }, &RunInfo::default())).map_err(err)
+        py.detach(|| {
+            self.inner.write(
+                &dir,
+                &outputs,
+                ExrOptions {
+                    precision,
+                    compression,
+                },
+                &RunInfo::default(),
+            )
+        })
+        .map_err(err)
     }
     fn __repr__(&self) -> String {
         let r = &self.inner.frames[0];
@@ -267,7 +363,11 @@ impl PySimulation {
             r.cols,
             r.cfa_layout().name(),
             self.inner.exposure_s,
-            if self.inner.radiance.is_some() { "radiance" } else { "lens-camera irradiance" },
+            if self.inner.radiance.is_some() {
+                "radiance"
+            } else {
+                "lens-camera irradiance"
+            },
             self.inner.scene_image().bands()
         )
     }
@@ -277,9 +377,12 @@ impl PySimulation {
 #[pyfunction]
 #[pyo3(signature = (config_json, noise_free = false))]
 fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResult<PySimulation> {
-    let cfg: SimulateConfig = serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
+    let cfg: SimulateConfig =
+        serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
-    let sim = py.detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {})).map_err(err)?;
+    let sim = py
+        .detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {}))
+        .map_err(err)?;
     Ok(PySimulation { inner: sim })
 }
 
@@ -293,7 +396,8 @@ fn config_from_toml(text: &str) -> PyResult<String> {
 /// A SimulateConfig from JSON (checked, every default filled in), as JSON.
 #[pyfunction]
 fn config_from_json(text: &str) -> PyResult<String> {
-    let cfg: SimulateConfig = serde_json::from_str(text).map_err(|e| err(format!("config: {e}")))?;
+    let cfg: SimulateConfig =
+        serde_json::from_str(text).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
     serde_json::to_string(&cfg).map_err(err)
 }
@@ -311,9 +415,15 @@ fn config_from_file(path: std::path::PathBuf) -> PyResult<String> {
 fn preset_json(kind: &str, name: Option<&str>) -> PyResult<String> {
     match (kind, name) {
         ("simulate", _) => serde_json::to_string(&SimulateConfig::builtin_default()).map_err(err),
-        ("sensor", Some(n)) => serde_json::to_string(Sensor::preset(n).map_err(err)?.config()).map_err(err),
-        ("lens", Some(n)) => serde_json::to_string(&OpticsConfig::preset(n).map_err(err)?).map_err(err),
-        _ => Err(err(format!("unknown preset kind {kind:?} (simulate, sensor NAME, lens NAME)"))),
+        ("sensor", Some(n)) => {
+            serde_json::to_string(Sensor::preset(n).map_err(err)?.config()).map_err(err)
+        }
+        ("lens", Some(n)) => {
+            serde_json::to_string(&OpticsConfig::preset(n).map_err(err)?).map_err(err)
+        }
+        _ => Err(err(format!(
+            "unknown preset kind {kind:?} (simulate, sensor NAME, lens NAME)"
+        ))),
     }
 }
 
@@ -321,9 +431,21 @@ fn preset_json(kind: &str, name: Option<&str>) -> PyResult<String> {
 /// (start_nm, step_nm, count) -> dict with `radiance`.
 #[pyfunction]
 #[pyo3(signature = (scene_json, start_nm = 400.0, step_nm = 10.0, count = 31))]
-fn scene<'py>(py: Python<'py>, scene_json: &str, start_nm: f64, step_nm: f64, count: usize) -> PyResult<Bound<'py, PyDict>> {
-    let cfg: camsim::scene::SceneConfig = serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
-    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
+fn scene<'py>(
+    py: Python<'py>,
+    scene_json: &str,
+    start_nm: f64,
+    step_nm: f64,
+    count: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let cfg: camsim::scene::SceneConfig =
+        serde_json::from_str(scene_json).map_err(|e| err(format!("scene: {e}")))?;
+    let grid = WavelengthGrid::from_wavelengths(
+        &(0..count)
+            .map(|i| start_nm + step_nm * i as f64)
+            .collect::<Vec<_>>(),
+    )
+    .map_err(err)?;
     let img = py
         .detach(|| camsim::scene::create(&cfg, &grid).map_err(|e| e.to_string()))
         .map_err(err)?;
@@ -347,15 +469,30 @@ fn render<'py>(
     step_nm: f64,
     count: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let grid = WavelengthGrid::from_wavelengths(&(0..count).map(|i| start_nm + step_nm * i as f64).collect::<Vec<_>>()).map_err(err)?;
-    let mut opts = camsim::scene3d::builtin::BuiltinOptions { grid, seed, resolution, ..Default::default() };
+    let grid = WavelengthGrid::from_wavelengths(
+        &(0..count)
+            .map(|i| start_nm + step_nm * i as f64)
+            .collect::<Vec<_>>(),
+    )
+    .map_err(err)?;
+    let mut opts = camsim::scene3d::builtin::BuiltinOptions {
+        grid,
+        seed,
+        resolution,
+        ..Default::default()
+    };
     if let Some(spp) = samples_per_pixel {
         opts.samples_per_pixel = spp;
     }
     let builtin = builtin.map(str::to_string);
     let out = py
         .detach(|| -> camsim::Result<camsim::render::RenderOutput> {
-            let mut scene = camsim::pipeline::render::load_scene(builtin.as_deref(), pbrt.as_deref(), None, &opts)?;
+            let mut scene = camsim::pipeline::render::load_scene(
+                builtin.as_deref(),
+                pbrt.as_deref(),
+                None,
+                &opts,
+            )?;
             if let Some(spp) = samples_per_pixel {
                 scene.settings.samples_per_pixel = spp;
             }
@@ -364,9 +501,18 @@ fn render<'py>(
         .map_err(err)?;
     let d = spectral_dict(py, &out.radiance, "radiance")?;
     let ids = &out.ids;
-    d.set_item("object_id", array(py, &ids.object_id, &[ids.height, ids.width])?)?;
-    d.set_item("material_id", array(py, &ids.material_id, &[ids.height, ids.width])?)?;
-    d.set_item("ids_legend", json_to_py(py, &serde_json::to_value(ids.legend()).map_err(err)?)?)?;
+    d.set_item(
+        "object_id",
+        array(py, &ids.object_id, &[ids.height, ids.width])?,
+    )?;
+    d.set_item(
+        "material_id",
+        array(py, &ids.material_id, &[ids.height, ids.width])?,
+    )?;
+    d.set_item(
+        "ids_legend",
+        json_to_py(py, &serde_json::to_value(ids.legend()).map_err(err)?)?,
+    )?;
     Ok(d)
 }
 
@@ -384,9 +530,20 @@ fn optics<'py>(
     fov_deg: f64,
     depth_m: Option<PyReadonlyArray2<'_, f32>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let geometry = ImageGeometry { fov_deg, distance_m, focal_length_m: 0.0, f_number: 0.0 };
+    let geometry = ImageGeometry {
+        fov_deg,
+        distance_m,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
     let spacing = if spacing_m > 0.0 { spacing_m } else { 1.0 };
-    let mut img = spectral_from(radiance, wavelengths_nm, spacing, Quantity::Radiance, geometry)?;
+    let mut img = spectral_from(
+        radiance,
+        wavelengths_nm,
+        spacing,
+        Quantity::Radiance,
+        geometry,
+    )?;
     if let Some(z) = depth_m {
         img.depth_m = Some(z.as_array().iter().copied().collect());
     }
@@ -413,7 +570,13 @@ fn sensor<'py>(
     exposures_s: Option<Vec<f64>>,
     iso: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let img = spectral_from(irradiance, wavelengths_nm, spacing_m, Quantity::Irradiance, ImageGeometry::default())?;
+    let img = spectral_from(
+        irradiance,
+        wavelengths_nm,
+        spacing_m,
+        Quantity::Irradiance,
+        ImageGeometry::default(),
+    )?;
     let mut s = sensor_from(sensor)?;
     if let Some(iso) = iso {
         // iso replaces the analog gain: gain = base_iso / iso (the sensor needs base_iso).
@@ -423,43 +586,66 @@ fn sensor<'py>(
         s = Sensor::from_config_named(c, &format!("sensor with iso = {iso}")).map_err(err)?;
     }
     if rows.is_some() || cols.is_some() {
-        s = s.window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols())).map_err(err)?;
+        s = s
+            .window(rows.unwrap_or(s.rows()), cols.unwrap_or(s.cols()))
+            .map_err(err)?;
     }
     if frames == 0 {
         return Err(err("frames must be at least 1"));
     }
     let exposure = match exposure_s {
-        Some(t) if !(t >= 0.0 && t.is_finite()) => return Err(err(format!("exposure_s = {t}: must be >= 0"))),
+        Some(t) if !(t >= 0.0 && t.is_finite()) => {
+            return Err(err(format!("exposure_s = {t}: must be >= 0")))
+        }
         Some(t) => Exposure::Seconds(t),
         None => Capture::auto().exposure,
     };
-    let cap = Capture { exposure, frames, seed };
+    let cap = Capture {
+        exposure,
+        frames,
+        seed,
+    };
     if let Some(model) = s.hdr_model() {
         // An [hdr] sensor (dual conversion gain / split pixel): both readouts and the merged frame.
         if exposures_s.is_some() {
-            return Err(err("an [hdr] sensor takes one exposure (exposure_s or auto), not a bracket"));
+            return Err(err(
+                "an [hdr] sensor takes one exposure (exposure_s or auto), not a bracket",
+            ));
         }
         let h = py.detach(|| s.compute_hdr(&img, &cap)).map_err(err)?;
         let r0 = &h.high[0];
         let (rows, cols, n) = (r0.rows, r0.cols, h.high.len());
-        let stack = |v: &[RawImage]| v.iter().flat_map(|r| r.dn.iter().copied()).collect::<Vec<u16>>();
+        let stack = |v: &[RawImage]| {
+            v.iter()
+                .flat_map(|r| r.dn.iter().copied())
+                .collect::<Vec<u16>>()
+        };
         let merged: Vec<f32> = h.merged_e.iter().flat_map(|m| m.iter().copied()).collect();
         let d = PyDict::new(py);
         d.set_item("raw", array(py, &stack(&h.high), &[n, rows, cols])?)?;
         d.set_item("raw_low", array(py, &stack(&h.low), &[n, rows, cols])?)?;
         d.set_item("merged_e", array(py, &merged, &[n, rows, cols])?)?;
-        d.set_item("hdr_mode", match model.mode {
-            camsim::sensor::HdrMode::Dcg => "dcg",
-            camsim::sensor::HdrMode::SplitPixel => "split-pixel",
-        })?;
+        d.set_item(
+            "hdr_mode",
+            match model.mode {
+                camsim::sensor::HdrMode::Dcg => "dcg",
+                camsim::sensor::HdrMode::SplitPixel => "split-pixel",
+            },
+        )?;
         d.set_item("dynamic_range_db", model.dynamic_range_db())?;
         raw_layout_items(&d, r0)?;
         d.set_item("exposure_s", h.exposure_s)?;
         return Ok(d);
     }
     let f = match exposures_s {
-        Some(_) if exposure_s.is_some() => return Err(err("give either exposure_s or exposures_s (a bracket), not both")),
-        Some(times) => py.detach(|| s.compute_bracket(&img, &times, frames, seed)).map_err(err)?,
+        Some(_) if exposure_s.is_some() => {
+            return Err(err(
+                "give either exposure_s or exposures_s (a bracket), not both",
+            ))
+        }
+        Some(times) => py
+            .detach(|| s.compute_bracket(&img, &times, frames, seed))
+            .map_err(err)?,
         None => py.detach(|| s.compute(&img, &cap)).map_err(err)?,
     };
     let r0 = &f.raw[0];
@@ -468,9 +654,15 @@ fn sensor<'py>(
     d.set_item("raw", array(py, &all, &[f.raw.len(), r0.rows, r0.cols])?)?;
     raw_layout_items(&d, r0)?;
     d.set_item("exposure_s", f.exposure_s)?;
-    d.set_item("exposures_s", f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>())?;
+    d.set_item(
+        "exposures_s",
+        f.raw.iter().map(|r| r.exposure_s).collect::<Vec<f64>>(),
+    )?;
     d.set_item("mean_electrons_rgb", f.mean_electrons.to_vec())?;
-    d.set_item("mean_electrons_by_filter", f.mean_electrons_by_filter.clone())?;
+    d.set_item(
+        "mean_electrons_by_filter",
+        f.mean_electrons_by_filter.clone(),
+    )?;
     Ok(d)
 }
 
@@ -499,7 +691,9 @@ fn demosaic<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let method: camsim::isp::DemosaicMethod = method.parse().map_err(err)?;
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let rgb = py.detach(|| camsim::isp::demosaic(&img, method)).map_err(err)?;
+    let rgb = py
+        .detach(|| camsim::isp::demosaic(&img, method))
+        .map_err(err)?;
     rgb_to_array(py, &rgb)
 }
 
@@ -514,7 +708,9 @@ fn rgb_to_array<'py>(py: Python<'py>, rgb: &camsim::isp::RgbImage) -> PyResult<B
 fn rgb_from(rgb: PyReadonlyArray3<'_, f32>) -> PyResult<camsim::isp::RgbImage> {
     let shape = rgb.shape();
     if shape[2] != 3 {
-        return Err(err(format!("rgb has shape {shape:?}; expected (rows, cols, 3)")));
+        return Err(err(format!(
+            "rgb has shape {shape:?}; expected (rows, cols, 3)"
+        )));
     }
     let (rows, cols) = (shape[0], shape[1]);
     let mut img = camsim::isp::RgbImage::zeros(rows, cols);
@@ -533,7 +729,12 @@ fn rgb_from(rgb: PyReadonlyArray3<'_, f32>) -> PyResult<camsim::isp::RgbImage> {
 /// `saturation` left out). Returns the gains.
 #[pyfunction]
 #[pyo3(signature = (rgb, method = "gray-world", percentile = 99.0, saturation = None))]
-fn white_balance_gains(rgb: PyReadonlyArray3<'_, f32>, method: &str, percentile: f64, saturation: Option<f64>) -> PyResult<Vec<f64>> {
+fn white_balance_gains(
+    rgb: PyReadonlyArray3<'_, f32>,
+    method: &str,
+    percentile: f64,
+    saturation: Option<f64>,
+) -> PyResult<Vec<f64>> {
     use camsim::isp::white_balance::{gray_world_gains, white_patch_gains};
     use camsim::isp::WhiteBalanceMethod;
     let img = rgb_from(rgb)?;
@@ -556,7 +757,11 @@ fn illuminant_white_balance_gains(illuminant: &str, sensor: &str) -> PyResult<Ve
     let s = sensor_from(sensor)?;
     let grid = WavelengthGrid::default();
     let illum = camsim::core::tables::illuminant(illuminant).map_err(err)?;
-    Ok(camsim::isp::white_balance::illuminant_gains(&s.channel_qe(&grid), &grid, &illum).map_err(err)?.to_vec())
+    Ok(
+        camsim::isp::white_balance::illuminant_gains(&s.channel_qe(&grid), &grid, &illum)
+            .map_err(err)?
+            .to_vec(),
+    )
 }
 
 /// Fit a 3x3 colour-correction matrix camera RGB -> XYZ on patch pairs: `camera` and
@@ -565,7 +770,12 @@ fn illuminant_white_balance_gains(illuminant: &str, sensor: &str) -> PyResult<Ve
 #[pyfunction]
 #[pyo3(signature = (camera, target_xyz, white_xyz, objective = "linear-srgb"))]
 #[allow(clippy::type_complexity)]
-fn fit_ccm(camera: Vec<[f64; 3]>, target_xyz: Vec<[f64; 3]>, white_xyz: [f64; 3], objective: &str) -> PyResult<(Vec<[f64; 3]>, Vec<f64>)> {
+fn fit_ccm(
+    camera: Vec<[f64; 3]>,
+    target_xyz: Vec<[f64; 3]>,
+    white_xyz: [f64; 3],
+    objective: &str,
+) -> PyResult<(Vec<[f64; 3]>, Vec<f64>)> {
     let obj: camsim::isp::ccm::CcmObjective = objective.parse().map_err(err)?;
     let m = camsim::isp::ccm::fit_ccm(&camera, &target_xyz, white_xyz, obj).map_err(err)?;
     let de = camsim::isp::ccm::ccm_delta_e2000(&m, &camera, &target_xyz, white_xyz);
@@ -577,13 +787,20 @@ fn fit_ccm(camera: Vec<[f64; 3]>, target_xyz: Vec<[f64; 3]>, white_xyz: [f64; 3]
 /// (`{method: {frequency_cy_per_px, mtf, mtf50_cy_per_px, false_colour_low_rms, false_colour_rms}}`).
 #[pyfunction]
 #[pyo3(signature = (size = 512, f_max = 0.5, cfa = "RGGB"))]
-fn demosaic_zone_plate_json(py: Python<'_>, size: usize, f_max: f64, cfa: &str) -> PyResult<String> {
+fn demosaic_zone_plate_json(
+    py: Python<'_>,
+    size: usize,
+    f_max: f64,
+    cfa: &str,
+) -> PyResult<String> {
     use camsim::isp::demosaic_quality::{zone_plate_quality, ZonePlate};
     if !(32..=8192).contains(&size) {
         return Err(err(format!("size = {size}: give 32 to 8192 pixels")));
     }
     if !(f_max > 0.0 && f_max <= 0.5) {
-        return Err(err(format!("f_max = {f_max}: give a frequency in (0, 0.5] cycles/pixel")));
+        return Err(err(format!(
+            "f_max = {f_max}: give a frequency in (0, 0.5] cycles/pixel"
+        )));
     }
     let cfa = CfaPattern::parse(cfa).map_err(err)?;
     let out = py.detach(|| {
@@ -593,7 +810,10 @@ fn demosaic_zone_plate_json(py: Python<'_>, size: usize, f_max: f64, cfa: &str) 
         for m in camsim::isp::DemosaicMethod::ALL {
             let rgb = camsim::isp::demosaic(&raw, m)?;
             let q = zone_plate_quality(&zp, &rgb, 0.01f64.min(f_max / 10.0));
-            map.insert(m.name().to_string(), serde_json::to_value(q).unwrap_or_default());
+            map.insert(
+                m.name().to_string(),
+                serde_json::to_value(q).unwrap_or_default(),
+            );
         }
         Ok::<_, camsim::core::error::CoreError>(serde_json::Value::Object(map))
     });
@@ -628,7 +848,10 @@ fn sfr_json(
     black_level: f64,
 ) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let opts = SfrOptions { pixel_pitch_mm: pitch_um.map(|p| p * 1e-3), ..SfrOptions::default() };
+    let opts = SfrOptions {
+        pixel_pitch_mm: pitch_um.map(|p| p * 1e-3),
+        ..SfrOptions::default()
+    };
     let ch = match channel {
         "R" | "r" => Some(CfaChannel::R),
         "G" | "g" => Some(CfaChannel::G),
@@ -641,13 +864,20 @@ fn sfr_json(
             match ch {
                 Some(c) => sfr_raw_channel(&img, c, rect(roi), &opts).map_err(|e| e.to_string()),
                 None => {
-                    let rgb = camsim::isp::try_demosaic_bilinear(&img).map_err(|e| e.to_string())?;
+                    let rgb =
+                        camsim::isp::try_demosaic_bilinear(&img).map_err(|e| e.to_string())?;
                     let planes = [
                         Plane::new(rgb.rows, rgb.cols, rgb.r).map_err(|e| e.to_string())?,
                         Plane::new(rgb.rows, rgb.cols, rgb.g).map_err(|e| e.to_string())?,
                         Plane::new(rgb.rows, rgb.cols, rgb.b).map_err(|e| e.to_string())?,
                     ];
-                    sfr_luminance(&planes, camsim::analysis::image::LUMINANCE_WEIGHTS_REC709, rect(roi), &opts).map_err(|e| e.to_string())
+                    sfr_luminance(
+                        &planes,
+                        camsim::analysis::image::LUMINANCE_WEIGHTS_REC709,
+                        rect(roi),
+                        &opts,
+                    )
+                    .map_err(|e| e.to_string())
                 }
             }
         })
@@ -658,9 +888,18 @@ fn sfr_json(
 /// Per-channel statistics of raw regions [(row, col, rows, cols), ...], as JSON.
 #[pyfunction]
 #[pyo3(signature = (raw, rects, cfa = "RGGB", bits = 12, black_level = 0.0))]
-fn roi_json(raw: PyReadonlyArray2<'_, u16>, rects: Vec<(usize, usize, usize, usize)>, cfa: &str, bits: u32, black_level: f64) -> PyResult<String> {
+fn roi_json(
+    raw: PyReadonlyArray2<'_, u16>,
+    rects: Vec<(usize, usize, usize, usize)>,
+    cfa: &str,
+    bits: u32,
+    black_level: f64,
+) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let rects: Vec<Rect> = rects.into_iter().map(|(r, c, h, w)| Rect::new(r, c, h, w)).collect();
+    let rects: Vec<Rect> = rects
+        .into_iter()
+        .map(|(r, c, h, w)| Rect::new(r, c, h, w))
+        .collect();
     serde_json::to_string(&roi_stats_raw(&img, &rects).map_err(err)?).map_err(err)
 }
 
@@ -668,9 +907,21 @@ fn roi_json(raw: PyReadonlyArray2<'_, u16>, rects: Vec<(usize, usize, usize, usi
 /// (dark skin), top-right, bottom-right, bottom-left; as JSON.
 #[pyfunction]
 #[pyo3(signature = (raw, corners, cfa = "RGGB", fraction = 0.5, bits = 12, black_level = 0.0))]
-fn chart_json(raw: PyReadonlyArray2<'_, u16>, corners: [[f64; 2]; 4], cfa: &str, fraction: f64, bits: u32, black_level: f64) -> PyResult<String> {
+fn chart_json(
+    raw: PyReadonlyArray2<'_, u16>,
+    corners: [[f64; 2]; 4],
+    cfa: &str,
+    fraction: f64,
+    bits: u32,
+    black_level: f64,
+) -> PyResult<String> {
     let img = raw_from(raw, cfa, bits, black_level)?;
-    let c = ChartCorners { top_left: corners[0], top_right: corners[1], bottom_right: corners[2], bottom_left: corners[3] };
+    let c = ChartCorners {
+        top_left: corners[0],
+        top_right: corners[1],
+        bottom_right: corners[2],
+        bottom_left: corners[3],
+    };
     serde_json::to_string(&chart_patch_stats_raw(&img, &c, fraction).map_err(err)?).map_err(err)
 }
 
@@ -679,7 +930,8 @@ fn chart_json(raw: PyReadonlyArray2<'_, u16>, corners: [[f64; 2]; 4], cfa: &str,
 #[pyfunction]
 #[pyo3(signature = (measured, predicted, form = "unconstrained"))]
 fn fit_qe_json(measured: Vec<[f64; 3]>, predicted: Vec<[f64; 3]>, form: &str) -> PyResult<String> {
-    let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into())).map_err(|e| err(format!("form {form:?}: {e}")))?;
+    let form: MatrixForm = serde_json::from_value(serde_json::Value::String(form.into()))
+        .map_err(|e| err(format!("form {form:?}: {e}")))?;
     serde_json::to_string(&fit_qe_matrix(&measured, &predicted, form).map_err(err)?).map_err(err)
 }
 
@@ -702,29 +954,45 @@ fn emva_json(
 ) -> PyResult<String> {
     let (b, d) = (bright.shape().to_vec(), dark.shape().to_vec());
     if b[0] != exposures_s.len() || d[0] != exposures_s.len() {
-        return Err(err(format!("{} exposures for {} bright and {} dark levels (axis 0)", exposures_s.len(), b[0], d[0])));
+        return Err(err(format!(
+            "{} exposures for {} bright and {} dark levels (axis 0)",
+            exposures_s.len(),
+            b[0],
+            d[0]
+        )));
     }
-    if photons_per_pixel.as_ref().is_some_and(|p| p.len() != exposures_s.len()) {
+    if photons_per_pixel
+        .as_ref()
+        .is_some_and(|p| p.len() != exposures_s.len())
+    {
         return Err(err("photons_per_pixel needs one value per level"));
     }
     let pattern = CfaPattern::parse(cfa).map_err(err)?;
-    let frames = |a: &numpy::PyReadonlyArray4<'_, u16>, s: &[usize]| -> PyResult<Vec<Vec<RawImage>>> {
-        let v = a.as_array();
-        (0..s[0])
-            .map(|l| {
-                (0..s[1])
-                    .map(|f| {
-                        let mut r = RawImage::new(s[2], s[3], pattern, bits).map_err(err)?;
-                        r.dn = v.slice(numpy::ndarray::s![l, f, .., ..]).iter().copied().collect();
-                        r.black_level_dn = black_level;
-                        Ok(r)
-                    })
-                    .collect()
-            })
-            .collect()
-    };
+    let frames =
+        |a: &numpy::PyReadonlyArray4<'_, u16>, s: &[usize]| -> PyResult<Vec<Vec<RawImage>>> {
+            let v = a.as_array();
+            (0..s[0])
+                .map(|l| {
+                    (0..s[1])
+                        .map(|f| {
+                            let mut r = RawImage::new(s[2], s[3], pattern, bits).map_err(err)?;
+                            r.dn = v
+                                .slice(numpy::ndarray::s![l, f, .., ..])
+                                .iter()
+                                .copied()
+                                .collect();
+                            r.black_level_dn = black_level;
+                            Ok(r)
+                        })
+                        .collect()
+                })
+                .collect()
+        };
     let (bf, df) = (frames(&bright, &b)?, frames(&dark, &d)?);
-    let opts = camsim::analysis::emva::EmvaOptions { fit_max_fraction, ..Default::default() };
+    let opts = camsim::analysis::emva::EmvaOptions {
+        fit_max_fraction,
+        ..Default::default()
+    };
     let res = py
         .detach(|| {
             let levels: Vec<camsim::analysis::emva::EmvaRawInput> = (0..exposures_s.len())
@@ -746,16 +1014,29 @@ fn emva_json(
 /// snr.png there (the folder must exist).
 #[pyfunction]
 #[pyo3(signature = (csv, out = None, cfa = None, bits = 16, black_level = 0.0))]
-fn emva_series_json(py: Python<'_>, csv: std::path::PathBuf, out: Option<std::path::PathBuf>, cfa: Option<&str>, bits: u32, black_level: f64) -> PyResult<String> {
+fn emva_series_json(
+    py: Python<'_>,
+    csv: std::path::PathBuf,
+    out: Option<std::path::PathBuf>,
+    cfa: Option<&str>,
+    bits: u32,
+    black_level: f64,
+) -> PyResult<String> {
     use camsim::pipeline::emva::{analyze_series, MosaicFormat};
     let cfa = cfa.map(CfaPattern::parse).transpose().map_err(err)?;
-    let format = MosaicFormat { cfa, black_dn: black_level, bits };
+    let format = MosaicFormat {
+        cfa,
+        black_dn: black_level,
+        bits,
+    };
     let json = py
         .detach(|| -> Result<serde_json::Value, String> {
-            let series = analyze_series(&csv, format, &Default::default(), &|_, _, _| {}).map_err(|e| e.to_string())?;
+            let series = analyze_series(&csv, format, &Default::default(), &|_, _, _| {})
+                .map_err(|e| e.to_string())?;
             let json = series.to_json();
             if let Some(dir) = &out {
-                camsim::io::atomic::write_json_atomic(&dir.join("emva.json"), &json).map_err(|e| e.to_string())?;
+                camsim::io::atomic::write_json_atomic(&dir.join("emva.json"), &json)
+                    .map_err(|e| e.to_string())?;
                 series.write_plots(dir).map_err(|e| e.to_string())?;
             }
             Ok(json)
@@ -766,7 +1047,11 @@ fn emva_series_json(py: Python<'_>, csv: std::path::PathBuf, out: Option<std::pa
 
 /// A dataset spec from text (TOML, or JSON for a dict) with relative paths resolved against
 /// `base_dir`, checked completely.
-fn dataset_spec(spec: &str, source: &str, base_dir: &std::path::Path) -> PyResult<camsim::dataset::DatasetSpec> {
+fn dataset_spec(
+    spec: &str,
+    source: &str,
+    base_dir: &std::path::Path,
+) -> PyResult<camsim::dataset::DatasetSpec> {
     camsim::dataset::DatasetSpec::from_toml_str(spec, source, base_dir).map_err(err)
 }
 
@@ -778,8 +1063,11 @@ fn dataset_plan_json(spec: &str, source: &str, base_dir: std::path::PathBuf) -> 
     let first: Vec<serde_json::Value> = (0..s.samples.min(5))
         .map(|i| {
             let x = s.sample(i).map_err(err)?;
-            let p: serde_json::Map<String, serde_json::Value> =
-                x.params.iter().map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default())).collect();
+            let p: serde_json::Map<String, serde_json::Value> = x
+                .params
+                .iter()
+                .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default()))
+                .collect();
             Ok(serde_json::json!({ "index": i, "seed": x.seed, "params": p }))
         })
         .collect::<PyResult<_>>()?;
@@ -807,22 +1095,34 @@ fn dataset_run_json(
     verify: bool,
 ) -> PyResult<String> {
     let s = dataset_spec(spec, source, &base_dir)?;
-    let select = camsim::dataset::ShardSelect::parse(&format!("{shard_index}/{shard_count}")).map_err(err)?;
-    let summary = py.detach(|| camsim::dataset::run(&s, &out, select, workers, verify, &|_, _, _| {})).map_err(err)?;
+    let select = camsim::dataset::ShardSelect::parse(&format!("{shard_index}/{shard_count}"))
+        .map_err(err)?;
+    let summary = py
+        .detach(|| camsim::dataset::run(&s, &out, select, workers, verify, &|_, _, _| {}))
+        .map_err(err)?;
     serde_json::to_string(&summary).map_err(err)
 }
 
 /// Write manifest.jsonl when every shard is complete; returns its path, or None.
 #[pyfunction]
-fn dataset_gather(py: Python<'_>, spec: &str, source: &str, base_dir: std::path::PathBuf, out: std::path::PathBuf) -> PyResult<Option<std::path::PathBuf>> {
+fn dataset_gather(
+    py: Python<'_>,
+    spec: &str,
+    source: &str,
+    base_dir: std::path::PathBuf,
+    out: std::path::PathBuf,
+) -> PyResult<Option<std::path::PathBuf>> {
     let s = dataset_spec(spec, source, &base_dir)?;
-    py.detach(|| camsim::dataset::gather(&s, &out, true)).map_err(err)
+    py.detach(|| camsim::dataset::gather(&s, &out, true))
+        .map_err(err)
 }
 
 /// Read a raw DNG: dict with `raw` (rows, cols) uint16, `cfa`, `black_level`, `white_level`, `bits`.
 #[pyfunction]
 fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let (r, _) = py.detach(|| camsim::io::dng::read_dng(&path)).map_err(err)?;
+    let (r, _) = py
+        .detach(|| camsim::io::dng::read_dng(&path))
+        .map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("raw", array(py, &r.dn, &[r.rows, r.cols])?)?;
     d.set_item("cfa", r.cfa_layout().name())?;
@@ -837,18 +1137,34 @@ fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
 /// A contiguous float32 (rows, cols) array as a Plane.
 fn plane_from(a: &PyReadonlyArray2<'_, f32>, what: &str) -> PyResult<Plane> {
     let shape = a.shape().to_vec();
-    Plane::new(shape[0], shape[1], a.as_array().iter().copied().collect()).map_err(|e| err(format!("{what}: {e}")))
+    Plane::new(shape[0], shape[1], a.as_array().iter().copied().collect())
+        .map_err(|e| err(format!("{what}: {e}")))
 }
 
 /// A (rows, cols, 3) float32 XYZ array as three planes.
 fn xyz_planes(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<[Plane; 3]> {
     let shape = a.shape().to_vec();
     if shape[2] != 3 {
-        return Err(err(format!("{what}: shape {shape:?}, expected (rows, cols, 3) CIE XYZ")));
+        return Err(err(format!(
+            "{what}: shape {shape:?}, expected (rows, cols, 3) CIE XYZ"
+        )));
     }
     let v = a.as_array();
-    let plane = |c: usize| Plane::new(shape[0], shape[1], v.index_axis(numpy::ndarray::Axis(2), c).iter().copied().collect());
-    Ok([plane(0).map_err(err)?, plane(1).map_err(err)?, plane(2).map_err(err)?])
+    let plane = |c: usize| {
+        Plane::new(
+            shape[0],
+            shape[1],
+            v.index_axis(numpy::ndarray::Axis(2), c)
+                .iter()
+                .copied()
+                .collect(),
+        )
+    };
+    Ok([
+        plane(0).map_err(err)?,
+        plane(1).map_err(err)?,
+        plane(2).map_err(err)?,
+    ])
 }
 
 /// S-CIELAB difference of two (rows, cols, 3) XYZ images: dict with `delta_e` (rows, cols)
@@ -866,9 +1182,14 @@ fn scielab<'py>(
     use camsim::analysis::scielab::{scielab as sc, DeltaEFormula};
     let formula: DeltaEFormula = formula.parse().map_err(err)?;
     let (a, b) = (xyz_planes(&a_xyz, "a_xyz")?, xyz_planes(&b_xyz, "b_xyz")?);
-    let r = py.detach(|| sc(&a, &b, white_xyz, samples_per_deg, formula)).map_err(err)?;
+    let r = py
+        .detach(|| sc(&a, &b, white_xyz, samples_per_deg, formula))
+        .map_err(err)?;
     let d = PyDict::new(py);
-    d.set_item("delta_e", array(py, &r.delta_e.data, &[r.delta_e.rows, r.delta_e.cols])?)?;
+    d.set_item(
+        "delta_e",
+        array(py, &r.delta_e.data, &[r.delta_e.rows, r.delta_e.cols])?,
+    )?;
     d.set_item("mean", r.mean)?;
     d.set_item("p95", r.p95)?;
     d.set_item("max", r.max)?;
@@ -894,11 +1215,26 @@ fn nps<'py>(
         o => return Err(err(format!("detrend {o:?}: mean or plane"))),
     };
     let p = plane_from(&image, "image")?;
-    let r = py.detach(|| n(&p, rect(roi), &NpsOptions { roi_px, overlap, detrend })).map_err(err)?;
+    let r = py
+        .detach(|| {
+            n(
+                &p,
+                rect(roi),
+                &NpsOptions {
+                    roi_px,
+                    overlap,
+                    detrend,
+                },
+            )
+        })
+        .map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("nps_2d", array(py, &r.nps_2d, &[r.roi_px, r.roi_px])?)?;
     d.set_item("freq_cy_per_px", array1(py, &r.freq_cy_per_px))?;
-    d.set_item("radial_freq_cy_per_px", array1(py, &r.radial_freq_cy_per_px))?;
+    d.set_item(
+        "radial_freq_cy_per_px",
+        array1(py, &r.radial_freq_cy_per_px),
+    )?;
     d.set_item("radial_nps", array1(py, &r.radial_nps))?;
     d.set_item("variance", r.variance)?;
     d.set_item("mean", r.mean)?;
@@ -909,7 +1245,10 @@ fn nps<'py>(
 /// SNR (mean / std, and dB) of a (rows, cols) float32 image region, as JSON.
 #[pyfunction]
 #[pyo3(signature = (image, roi = None))]
-fn snr_json(image: PyReadonlyArray2<'_, f32>, roi: Option<(usize, usize, usize, usize)>) -> PyResult<String> {
+fn snr_json(
+    image: PyReadonlyArray2<'_, f32>,
+    roi: Option<(usize, usize, usize, usize)>,
+) -> PyResult<String> {
     let p = plane_from(&image, "image")?;
     let r = camsim::analysis::noise::snr(&p, rect(roi)).map_err(err)?;
     serde_json::to_string(&r).map_err(err)
@@ -917,8 +1256,13 @@ fn snr_json(image: PyReadonlyArray2<'_, f32>, roi: Option<(usize, usize, usize, 
 
 /// CPIQ acutance of an SFR (frequencies in cycles/pixel) at `pixels_per_degree`, as JSON.
 #[pyfunction]
-fn acutance_json(freq_cy_per_px: Vec<f64>, sfr: Vec<f64>, pixels_per_degree: f64) -> PyResult<String> {
-    let r = camsim::analysis::acutance::acutance(&freq_cy_per_px, &sfr, pixels_per_degree).map_err(err)?;
+fn acutance_json(
+    freq_cy_per_px: Vec<f64>,
+    sfr: Vec<f64>,
+    pixels_per_degree: f64,
+) -> PyResult<String> {
+    let r = camsim::analysis::acutance::acutance(&freq_cy_per_px, &sfr, pixels_per_degree)
+        .map_err(err)?;
     serde_json::to_string(&r).map_err(err)
 }
 
@@ -941,14 +1285,24 @@ fn compare_json(
 ) -> PyResult<String> {
     use camsim_validate::{CameraCompareOptions, CameraSpec};
     let mut o = CameraCompareOptions::new(
-        CameraSpec { sensor: a.into(), pixel_pitch_um: pitch_a_um, lens: lens_a.into() },
-        CameraSpec { sensor: b.into(), pixel_pitch_um: pitch_b_um, lens: lens_b.into() },
+        CameraSpec {
+            sensor: a.into(),
+            pixel_pitch_um: pitch_a_um,
+            lens: lens_a.into(),
+        },
+        CameraSpec {
+            sensor: b.into(),
+            pixel_pitch_um: pitch_b_um,
+            lens: lens_b.into(),
+        },
     );
     o.size_px = size;
     o.seed = seed;
     o.out_dir = out;
     o.command_line = "camsim.compare (Python)".into();
-    let r = py.detach(|| camsim_validate::compare_cameras(&o, &|_, _, _| {})).map_err(err)?;
+    let r = py
+        .detach(|| camsim_validate::compare_cameras(&o, &|_, _, _| {}))
+        .map_err(err)?;
     serde_json::to_string(&r).map_err(err)
 }
 

@@ -22,21 +22,156 @@ use std::time::{Duration, Instant};
 /// metres. The light is lowered 0.1 mm below the ceiling so the two do not coincide.
 fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
     let quads: Vec<(&str, usize, [[f64; 3]; 4])> = vec![
-        ("floor", 0, [[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2], [549.6, 0.0, 559.2]]),
-        ("ceiling", 0, [[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2], [0.0, 548.8, 0.0]]),
-        ("back_wall", 0, [[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2], [556.0, 548.8, 559.2]]),
-        ("right_wall", 2, [[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]]),
-        ("left_wall", 1, [[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]]),
-        ("short_block", 0, [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]]),
-        ("short_block", 0, [[290.0, 0.0, 114.0], [290.0, 165.0, 114.0], [240.0, 165.0, 272.0], [240.0, 0.0, 272.0]]),
-        ("short_block", 0, [[130.0, 0.0, 65.0], [130.0, 165.0, 65.0], [290.0, 165.0, 114.0], [290.0, 0.0, 114.0]]),
-        ("short_block", 0, [[82.0, 0.0, 225.0], [82.0, 165.0, 225.0], [130.0, 165.0, 65.0], [130.0, 0.0, 65.0]]),
-        ("short_block", 0, [[240.0, 0.0, 272.0], [240.0, 165.0, 272.0], [82.0, 165.0, 225.0], [82.0, 0.0, 225.0]]),
-        ("tall_block", 0, [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]]),
-        ("tall_block", 0, [[423.0, 0.0, 247.0], [423.0, 330.0, 247.0], [472.0, 330.0, 406.0], [472.0, 0.0, 406.0]]),
-        ("tall_block", 0, [[472.0, 0.0, 406.0], [472.0, 330.0, 406.0], [314.0, 330.0, 456.0], [314.0, 0.0, 456.0]]),
-        ("tall_block", 0, [[314.0, 0.0, 456.0], [314.0, 330.0, 456.0], [265.0, 330.0, 296.0], [265.0, 0.0, 296.0]]),
-        ("tall_block", 0, [[265.0, 0.0, 296.0], [265.0, 330.0, 296.0], [423.0, 330.0, 247.0], [423.0, 0.0, 247.0]]),
+        (
+            "floor",
+            0,
+            [
+                [552.8, 0.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 559.2],
+                [549.6, 0.0, 559.2],
+            ],
+        ),
+        (
+            "ceiling",
+            0,
+            [
+                [556.0, 548.8, 0.0],
+                [556.0, 548.8, 559.2],
+                [0.0, 548.8, 559.2],
+                [0.0, 548.8, 0.0],
+            ],
+        ),
+        (
+            "back_wall",
+            0,
+            [
+                [549.6, 0.0, 559.2],
+                [0.0, 0.0, 559.2],
+                [0.0, 548.8, 559.2],
+                [556.0, 548.8, 559.2],
+            ],
+        ),
+        (
+            "right_wall",
+            2,
+            [
+                [0.0, 0.0, 559.2],
+                [0.0, 0.0, 0.0],
+                [0.0, 548.8, 0.0],
+                [0.0, 548.8, 559.2],
+            ],
+        ),
+        (
+            "left_wall",
+            1,
+            [
+                [552.8, 0.0, 0.0],
+                [549.6, 0.0, 559.2],
+                [556.0, 548.8, 559.2],
+                [556.0, 548.8, 0.0],
+            ],
+        ),
+        (
+            "short_block",
+            0,
+            [
+                [130.0, 165.0, 65.0],
+                [82.0, 165.0, 225.0],
+                [240.0, 165.0, 272.0],
+                [290.0, 165.0, 114.0],
+            ],
+        ),
+        (
+            "short_block",
+            0,
+            [
+                [290.0, 0.0, 114.0],
+                [290.0, 165.0, 114.0],
+                [240.0, 165.0, 272.0],
+                [240.0, 0.0, 272.0],
+            ],
+        ),
+        (
+            "short_block",
+            0,
+            [
+                [130.0, 0.0, 65.0],
+                [130.0, 165.0, 65.0],
+                [290.0, 165.0, 114.0],
+                [290.0, 0.0, 114.0],
+            ],
+        ),
+        (
+            "short_block",
+            0,
+            [
+                [82.0, 0.0, 225.0],
+                [82.0, 165.0, 225.0],
+                [130.0, 165.0, 65.0],
+                [130.0, 0.0, 65.0],
+            ],
+        ),
+        (
+            "short_block",
+            0,
+            [
+                [240.0, 0.0, 272.0],
+                [240.0, 165.0, 272.0],
+                [82.0, 165.0, 225.0],
+                [82.0, 0.0, 225.0],
+            ],
+        ),
+        (
+            "tall_block",
+            0,
+            [
+                [423.0, 330.0, 247.0],
+                [265.0, 330.0, 296.0],
+                [314.0, 330.0, 456.0],
+                [472.0, 330.0, 406.0],
+            ],
+        ),
+        (
+            "tall_block",
+            0,
+            [
+                [423.0, 0.0, 247.0],
+                [423.0, 330.0, 247.0],
+                [472.0, 330.0, 406.0],
+                [472.0, 0.0, 406.0],
+            ],
+        ),
+        (
+            "tall_block",
+            0,
+            [
+                [472.0, 0.0, 406.0],
+                [472.0, 330.0, 406.0],
+                [314.0, 330.0, 456.0],
+                [314.0, 0.0, 456.0],
+            ],
+        ),
+        (
+            "tall_block",
+            0,
+            [
+                [314.0, 0.0, 456.0],
+                [314.0, 330.0, 456.0],
+                [265.0, 330.0, 296.0],
+                [265.0, 0.0, 296.0],
+            ],
+        ),
+        (
+            "tall_block",
+            0,
+            [
+                [265.0, 0.0, 296.0],
+                [265.0, 330.0, 296.0],
+                [423.0, 330.0, 247.0],
+                [423.0, 0.0, 247.0],
+            ],
+        ),
     ];
     let mm = |p: [f64; 3]| [p[0] * 1e-3, p[1] * 1e-3, p[2] * 1e-3];
     let quad = |q: [[f64; 3]; 4]| Geometry::Triangles {
@@ -47,23 +182,62 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
     };
     let mut shapes: Vec<Shape> = quads
         .into_iter()
-        .map(|(name, m, q)| Shape { name: Some(name.into()), geometry: quad(q), material: m, area_light: None, reverse_orientation: false })
+        .map(|(name, m, q)| Shape {
+            name: Some(name.into()),
+            geometry: quad(q),
+            material: m,
+            area_light: None,
+            reverse_orientation: false,
+        })
         .collect();
     // The light faces down: (p1 - p0) x (p2 - p0) = -y for this winding.
     shapes.push(Shape {
         name: Some("light".into()),
-        geometry: quad([[343.0, 548.7, 227.0], [343.0, 548.7, 332.0], [213.0, 548.7, 332.0], [213.0, 548.7, 227.0]]),
+        geometry: quad([
+            [343.0, 548.7, 227.0],
+            [343.0, 548.7, 332.0],
+            [213.0, 548.7, 332.0],
+            [213.0, 548.7, 227.0],
+        ]),
         material: 3,
-        area_light: Some(AreaLight { radiance: flat(10.0), two_sided: false, image: None }),
+        area_light: Some(AreaLight {
+            radiance: flat(10.0),
+            two_sided: false,
+            image: None,
+        }),
         reverse_orientation: false,
     });
     // Grey-ish walls; red and green as smooth ramps (speed does not depend on the values).
     let white = flat(0.75);
-    let red = Spectrum::new(vec![400.0, 580.0, 620.0, 700.0], vec![0.05, 0.06, 0.5, 0.6], "red").unwrap();
-    let green = Spectrum::new(vec![400.0, 500.0, 550.0, 600.0, 700.0], vec![0.08, 0.3, 0.45, 0.15, 0.1], "green").unwrap();
-    let materials = [white, red, green, flat(0.78)].into_iter().map(|s| Material::Diffuse { reflectance: Texture::Constant(s) }).collect();
+    let red = Spectrum::new(
+        vec![400.0, 580.0, 620.0, 700.0],
+        vec![0.05, 0.06, 0.5, 0.6],
+        "red",
+    )
+    .unwrap();
+    let green = Spectrum::new(
+        vec![400.0, 500.0, 550.0, 600.0, 700.0],
+        vec![0.08, 0.3, 0.45, 0.15, 0.1],
+        "green",
+    )
+    .unwrap();
+    let materials = [white, red, green, flat(0.78)]
+        .into_iter()
+        .map(|s| Material::Diffuse {
+            reflectance: Texture::Constant(s),
+        })
+        .collect();
     // Camera of the Cornell data: (278, 273, -800) mm looking +z, 35 mm lens on a 25 mm sensor.
-    let camera = camera_from_focal_length(0.035, 0.025, 0.025, mm([278.0, 273.0, -800.0]), mm([278.0, 273.0, 0.0]), [0.0, 1.0, 0.0], width, height);
+    let camera = camera_from_focal_length(
+        0.035,
+        0.025,
+        0.025,
+        mm([278.0, 273.0, -800.0]),
+        mm([278.0, 273.0, 0.0]),
+        [0.0, 1.0, 0.0],
+        width,
+        height,
+    );
     SceneDescription {
         camera,
         shapes,
@@ -100,7 +274,11 @@ fn big_mesh(n: usize) -> Vec<Prim> {
         for j in 0..=cols {
             let ph = 2.0 * std::f32::consts::PI * j as f32 / cols as f32;
             let r = 1.0 + 0.02 * rng.gen::<f32>();
-            pts.push(V3::new(r * th.sin() * ph.cos(), r * th.sin() * ph.sin(), r * th.cos()));
+            pts.push(V3::new(
+                r * th.sin() * ph.cos(),
+                r * th.sin() * ph.sin(),
+                r * th.cos(),
+            ));
         }
     }
     let mut prims = Vec::with_capacity(2 * rows * cols);
@@ -108,8 +286,16 @@ fn big_mesh(n: usize) -> Vec<Prim> {
     for i in 0..rows {
         for j in 0..cols {
             let (a, b, c, d) = (at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
-            prims.push(Prim::Tri { p0: a, e1: b - a, e2: c - a });
-            prims.push(Prim::Tri { p0: a, e1: c - a, e2: d - a });
+            prims.push(Prim::Tri {
+                p0: a,
+                e1: b - a,
+                e2: c - a,
+            });
+            prims.push(Prim::Tri {
+                p0: a,
+                e1: c - a,
+                e2: d - a,
+            });
         }
     }
     prims
@@ -137,7 +323,9 @@ fn bench_cornell(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(20));
     let scene = cornell_box(512, 512, 4);
     g.throughput(criterion::Throughput::Elements(512 * 512 * 4));
-    g.bench_function("render_4spp", |b| b.iter(|| render(&scene, &|_, _| {}).unwrap()));
+    g.bench_function("render_4spp", |b| {
+        b.iter(|| render(&scene, &|_, _| {}).unwrap())
+    });
     g.finish();
 }
 
@@ -145,12 +333,20 @@ fn bench_bvh(c: &mut Criterion) {
     let prims = big_mesh(1_000_000);
     let t = Instant::now();
     let bvh = Bvh::build(prims.clone());
-    eprintln!("BVH build of {} triangles: {:.3} s, {} nodes, depth {}", prims.len(), t.elapsed().as_secs_f64(), bvh.node_count(), bvh.depth());
+    eprintln!(
+        "BVH build of {} triangles: {:.3} s, {} nodes, depth {}",
+        prims.len(),
+        t.elapsed().as_secs_f64(),
+        bvh.node_count(),
+        bvh.depth()
+    );
     drop(bvh);
     let mut g = c.benchmark_group("bvh");
     g.sample_size(10);
     g.measurement_time(Duration::from_secs(15));
-    g.bench_function("build_1M_triangles", |b| b.iter(|| Bvh::build(prims.clone())));
+    g.bench_function("build_1M_triangles", |b| {
+        b.iter(|| Bvh::build(prims.clone()))
+    });
     g.finish();
 }
 

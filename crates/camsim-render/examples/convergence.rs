@@ -27,8 +27,8 @@
 //! [MAX_SPP]` (defaults 4096, 2 and 4096: the largest sample count tried per configuration).
 
 use camsim_core::colorimetry::Cmfs;
-use camsim_scene3d::builtin::{scene, BuiltinOptions};
 use camsim_render::render;
+use camsim_scene3d::builtin::{scene, BuiltinOptions};
 use camsim_scene3d::{SamplerKind, SceneDescription};
 use std::io::{Read, Write};
 use std::path::PathBuf;

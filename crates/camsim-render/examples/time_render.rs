@@ -6,18 +6,28 @@
 //! Run: `cargo run --release -p camsim-render --example time_render [SPP] [SIZE] [RUNS] [SAMPLER]`
 //! (defaults 16, 512, 3, sobol; SAMPLER `independent` or `sobol`; a small SIZE and one run suit
 //! `valgrind --tool=callgrind` or `perf record`).
-use camsim_scene3d::builtin::{scene, BuiltinOptions};
 use camsim_render::render;
+use camsim_scene3d::builtin::{scene, BuiltinOptions};
 
 fn main() {
-    let arg = |i: usize, default: u32| std::env::args().nth(i).and_then(|s| s.parse().ok()).unwrap_or(default);
+    let arg = |i: usize, default: u32| {
+        std::env::args()
+            .nth(i)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default)
+    };
     let (spp, size, runs) = (arg(1, 16), arg(2, 512) as usize, arg(3, 3));
-    let opts = BuiltinOptions { resolution: Some((size, size)), samples_per_pixel: spp, ..BuiltinOptions::default() };
+    let opts = BuiltinOptions {
+        resolution: Some((size, size)),
+        samples_per_pixel: spp,
+        ..BuiltinOptions::default()
+    };
     let mut sc = scene("cornell-box", &opts).expect("built-in scene");
     sc.settings.max_depth = 8;
     sc.settings.wavelengths_per_path = 4;
     if let Some(name) = std::env::args().nth(4) {
-        sc.settings.sampler = camsim_scene3d::scene::SamplerKind::from_name(&name).expect("sampler: independent or sobol");
+        sc.settings.sampler = camsim_scene3d::scene::SamplerKind::from_name(&name)
+            .expect("sampler: independent or sobol");
     }
     for _ in 0..runs {
         let (u0, s0) = camsim_core::mem::process_cpu_s();

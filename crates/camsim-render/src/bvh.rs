@@ -57,10 +57,19 @@ struct BinNode {
 
 impl BinNode {
     fn new(b: &Aabb, index: u32, count: u32) -> BinNode {
-        BinNode { min: [b.min.x, b.min.y, b.min.z], index, max: [b.max.x, b.max.y, b.max.z], count }
+        BinNode {
+            min: [b.min.x, b.min.y, b.min.z],
+            index,
+            max: [b.max.x, b.max.y, b.max.z],
+            count,
+        }
     }
     fn half_area(&self) -> f32 {
-        let d = [self.max[0] - self.min[0], self.max[1] - self.min[1], self.max[2] - self.min[2]];
+        let d = [
+            self.max[0] - self.min[0],
+            self.max[1] - self.min[1],
+            self.max[2] - self.min[2],
+        ];
         d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
     }
 }
@@ -75,7 +84,10 @@ pub struct Node4 {
 }
 
 impl Node4 {
-    const EMPTY: Node4 = Node4 { b: [[[f32::INFINITY; 4]; 3]; 2], child: [EMPTY; 4] };
+    const EMPTY: Node4 = Node4 {
+        b: [[[f32::INFINITY; 4]; 3]; 2],
+        child: [EMPTY; 4],
+    };
 
     /// Entry distances of the ray into the four child boxes within `(0, t_max)`, `f32::INFINITY`
     /// for a miss: the slab test of [`crate::geometry::ray_box`], four lanes at once, with the
@@ -94,7 +106,9 @@ impl Node4 {
             t_far = tf.fast_min(t_far);
         }
         // Robust traversal slack (Ize 2013), as in the scalar test.
-        t_near.cmp_le(t_far * f32x4::splat(1.000_000_2)).blend(t_near, f32x4::splat(f32::INFINITY))
+        t_near
+            .cmp_le(t_far * f32x4::splat(1.000_000_2))
+            .blend(t_near, f32x4::splat(f32::INFINITY))
     }
 }
 
@@ -207,7 +221,11 @@ struct BuildCtx<'a> {
 
 enum Sub {
     Flat(Vec<BinNode>),
-    Split { bounds: Aabb, left: Box<Sub>, right: Box<Sub> },
+    Split {
+        bounds: Aabb,
+        left: Box<Sub>,
+        right: Box<Sub>,
+    },
 }
 
 impl Bvh {
@@ -218,12 +236,24 @@ impl Bvh {
         let n = prims.len();
         assert!(n <= MAX_PRIMS, "a BVH holds at most {MAX_PRIMS} primitives");
         if n == 0 {
-            return Bvh { nodes: Vec::new(), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: Aabb::EMPTY, prims, ids: Vec::new(), clips: Vec::new() };
+            return Bvh {
+                nodes: Vec::new(),
+                packets: Vec::new(),
+                leaves: Vec::new(),
+                root: EMPTY,
+                bounds: Aabb::EMPTY,
+                prims,
+                ids: Vec::new(),
+                clips: Vec::new(),
+            };
         }
         let bounds: Vec<Aabb> = prims.par_iter().map(|p| p.bounds()).collect();
         let centroids: Vec<V3> = bounds.par_iter().map(|b| b.center()).collect();
         let mut idx: Vec<u32> = (0..n as u32).collect();
-        let ctx = BuildCtx { bounds: &bounds, centroids: &centroids };
+        let ctx = BuildCtx {
+            bounds: &bounds,
+            centroids: &centroids,
+        };
         let (b, cb) = range_bounds(&ctx, &idx);
         let sub = build_par(&ctx, &mut idx, 0, 0, b, cb);
         drop(bounds);
@@ -232,7 +262,16 @@ impl Bvh {
         flatten(sub, &mut bin);
         let ordered: Vec<Prim> = idx.iter().map(|&i| prims[i as usize]).collect();
         drop(prims);
-        let mut bvh = Bvh { nodes: Vec::with_capacity(bin.len() / 3 + 1), packets: Vec::new(), leaves: Vec::new(), root: EMPTY, bounds: b, prims: ordered, ids: idx, clips: Vec::new() };
+        let mut bvh = Bvh {
+            nodes: Vec::with_capacity(bin.len() / 3 + 1),
+            packets: Vec::new(),
+            leaves: Vec::new(),
+            root: EMPTY,
+            bounds: b,
+            prims: ordered,
+            ids: idx,
+            clips: Vec::new(),
+        };
         bvh.root = bvh.collapse(&bin, 0);
         bvh.nodes.shrink_to_fit();
         bvh.packets.shrink_to_fit();
@@ -249,7 +288,12 @@ impl Bvh {
             let (start, count) = (nd.index as usize, nd.count as usize);
             let tris = &self.prims[start..start + count];
             if count <= 4 && tris.iter().all(|p| matches!(p, Prim::Tri { .. })) {
-                let mut pk = Tri4 { p0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], start: start as u32 };
+                let mut pk = Tri4 {
+                    p0: [[0.0; 4]; 3],
+                    e1: [[0.0; 4]; 3],
+                    e2: [[0.0; 4]; 3],
+                    start: start as u32,
+                };
                 for (lane, p) in tris.iter().enumerate() {
                     if let Prim::Tri { p0, e1, e2 } = *p {
                         for a in 0..3 {
@@ -262,13 +306,22 @@ impl Bvh {
                 self.packets.push(pk);
                 return LEAF | PACKET | (self.packets.len() - 1) as u32;
             }
-            self.leaves.push(Leaf { start: start as u32, count: count as u32 });
+            self.leaves.push(Leaf {
+                start: start as u32,
+                count: count as u32,
+            });
             return LEAF | (self.leaves.len() - 1) as u32;
         }
         let mut kids = [i + 1, nd.index as usize, 0, 0];
         let mut n = 2;
         while n < 4 {
-            let open = (0..n).filter(|&k| bin[kids[k]].count == 0).max_by(|&a, &b| bin[kids[a]].half_area().total_cmp(&bin[kids[b]].half_area()));
+            let open = (0..n)
+                .filter(|&k| bin[kids[k]].count == 0)
+                .max_by(|&a, &b| {
+                    bin[kids[a]]
+                        .half_area()
+                        .total_cmp(&bin[kids[b]].half_area())
+                });
             let Some(k) = open else { break };
             let c = kids[k];
             kids[k] = c + 1;
@@ -305,7 +358,8 @@ impl Bvh {
         let (mut best, mut bu, mut bv) = (u32::MAX, 0f32, 0f32);
         let r4 = Ray4::new(r);
         // Uninitialised: zeroing the stack per ray costs as much as a traversal step.
-        let mut stack: [std::mem::MaybeUninit<(u32, f32)>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
+        let mut stack: [std::mem::MaybeUninit<(u32, f32)>; STACK] =
+            [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
         let mut cur = self.root;
         if cur == EMPTY {
@@ -373,7 +427,12 @@ impl Bvh {
             // Pop the next subtree that can still hold a closer hit.
             loop {
                 if sp == 0 {
-                    return (best != u32::MAX).then_some(Hit { t: t_max, u: bu, v: bv, slot: best });
+                    return (best != u32::MAX).then_some(Hit {
+                        t: t_max,
+                        u: bu,
+                        v: bv,
+                        slot: best,
+                    });
                 }
                 sp -= 1;
                 // SAFETY: entries below `sp` were written before being popped.
@@ -390,7 +449,8 @@ impl Bvh {
     #[inline]
     pub fn occluded(&self, r: &RayInv, t_max: f32) -> bool {
         let r4 = Ray4::new(r);
-        let mut stack: [std::mem::MaybeUninit<u32>; STACK] = [std::mem::MaybeUninit::uninit(); STACK];
+        let mut stack: [std::mem::MaybeUninit<u32>; STACK] =
+            [std::mem::MaybeUninit::uninit(); STACK];
         let mut sp = 0usize;
         let mut cur = self.root;
         if cur == EMPTY {
@@ -399,7 +459,10 @@ impl Bvh {
         loop {
             if cur & LEAF == 0 {
                 let node = &self.nodes[cur as usize];
-                let mut mask = node.hit(&r4, t_max).cmp_lt(f32x4::splat(f32::INFINITY)).move_mask();
+                let mut mask = node
+                    .hit(&r4, t_max)
+                    .cmp_lt(f32x4::splat(f32::INFINITY))
+                    .move_mask();
                 while mask != 0 {
                     let lane = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
@@ -414,7 +477,10 @@ impl Bvh {
             } else {
                 let leaf = self.leaves[(cur & INDEX) as usize];
                 for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
-                    if self.prims[i].intersect_with(r, t_max, &self.clips).is_some() {
+                    if self.prims[i]
+                        .intersect_with(r, t_max, &self.clips)
+                        .is_some()
+                    {
                         return true;
                     }
                 }
@@ -436,7 +502,12 @@ impl Bvh {
             } else if c & LEAF != 0 {
                 1
             } else {
-                1 + b.nodes[c as usize].child.iter().map(|&k| rec(b, k)).max().unwrap_or(0)
+                1 + b.nodes[c as usize]
+                    .child
+                    .iter()
+                    .map(|&k| rec(b, k))
+                    .max()
+                    .unwrap_or(0)
             }
         }
         rec(self, self.root)
@@ -459,7 +530,11 @@ type Split = (usize, (Aabb, Aabb), (Aabb, Aabb));
 
 /// Split at `mid` after ordering (or not) by the caller; bounds by a pass over both halves.
 fn split_at(ctx: &BuildCtx, idx: &[u32], mid: usize) -> Split {
-    (mid, range_bounds(ctx, &idx[..mid]), range_bounds(ctx, &idx[mid..]))
+    (
+        mid,
+        range_bounds(ctx, &idx[..mid]),
+        range_bounds(ctx, &idx[mid..]),
+    )
 }
 
 /// Decide how to split `idx` (bounds `b`, centroid bounds `cb`); partition it and return the
@@ -479,7 +554,11 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
     };
     if ext[axis] <= 0.0 || !ext[axis].is_finite() {
         // All centroids coincide: a leaf, unless too big, then split by count.
-        return if n <= MAX_LEAF { None } else { Some(split_at(ctx, idx, n / 2)) };
+        return if n <= MAX_LEAF {
+            None
+        } else {
+            Some(split_at(ctx, idx, n / 2))
+        };
     }
     if depth >= FORCE_MEDIAN_DEPTH {
         let mid = n / 2;
@@ -494,7 +573,11 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
         cb: Aabb,
         n: u32,
     }
-    let mut bins = [Bin { b: Aabb::EMPTY, cb: Aabb::EMPTY, n: 0 }; BINS];
+    let mut bins = [Bin {
+        b: Aabb::EMPTY,
+        cb: Aabb::EMPTY,
+        n: 0,
+    }; BINS];
     let lo = cb.min[axis];
     let scale = BINS as f32 * (1.0 - 1e-6) / ext[axis];
     let bin_of = |c: f32| -> usize { (((c - lo) * scale) as usize).min(BINS - 1) };
@@ -536,7 +619,11 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
         return None;
     }
     if !best.0.is_finite() {
-        return if n <= MAX_LEAF { None } else { Some(split_at(ctx, idx, n / 2)) };
+        return if n <= MAX_LEAF {
+            None
+        } else {
+            Some(split_at(ctx, idx, n / 2))
+        };
     }
     let k = best.1;
     // In-place partition: bin index <= k goes left.
@@ -565,7 +652,15 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
 /// Serial build of a subtree into `out` with node indices relative to `out`'s start.
 /// `offset` is the position of `idx[0]` in the global primitive order; `b`, `cb` the bounds
 /// and centroid bounds of `idx`.
-fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb, out: &mut Vec<BinNode>) {
+fn build_serial(
+    ctx: &BuildCtx,
+    idx: &mut [u32],
+    offset: usize,
+    depth: usize,
+    b: Aabb,
+    cb: Aabb,
+    out: &mut Vec<BinNode>,
+) {
     match split(ctx, idx, &b, &cb, depth) {
         None => out.push(BinNode::new(&b, offset as u32, idx.len() as u32)),
         Some((mid, (lb, lcb), (rb, rcb))) => {
@@ -579,7 +674,14 @@ fn build_serial(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b:
     }
 }
 
-fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aabb, cb: Aabb) -> Sub {
+fn build_par(
+    ctx: &BuildCtx,
+    idx: &mut [u32],
+    offset: usize,
+    depth: usize,
+    b: Aabb,
+    cb: Aabb,
+) -> Sub {
     if idx.len() < PARALLEL_THRESHOLD {
         let mut v = Vec::with_capacity(idx.len() * 2 / MAX_LEAF.max(1) + 1);
         build_serial(ctx, idx, offset, depth, b, cb, &mut v);
@@ -593,7 +695,11 @@ fn build_par(ctx: &BuildCtx, idx: &mut [u32], offset: usize, depth: usize, b: Aa
                 || build_par(ctx, l, offset, depth + 1, lb, lcb),
                 || build_par(ctx, r, offset + mid, depth + 1, rb, rcb),
             );
-            Sub::Split { bounds: b, left: Box::new(left), right: Box::new(right) }
+            Sub::Split {
+                bounds: b,
+                left: Box::new(left),
+                right: Box::new(right),
+            }
         }
     }
 }
@@ -609,7 +715,11 @@ fn flatten(sub: Sub, out: &mut Vec<BinNode>) {
                 n
             }));
         }
-        Sub::Split { bounds, left, right } => {
+        Sub::Split {
+            bounds,
+            left,
+            right,
+        } => {
             let me = out.len();
             out.push(BinNode::new(&bounds, 0, 0));
             flatten(*left, out);
@@ -635,28 +745,62 @@ mod tests {
             let lanes = 1 + k % 4;
             let mut boxes = vec![];
             for lane in 0..lanes {
-                let c: [f32; 3] = [rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0)];
-                let h: [f32; 3] = [rng.gen_range(0.0..1.0), rng.gen_range(0.0..1.0), if k % 7 == 0 { 0.0 } else { rng.gen_range(0.0..1.0) }];
-                let (min, max) = ([c[0] - h[0], c[1] - h[1], c[2] - h[2]], [c[0] + h[0], c[1] + h[1], c[2] + h[2]]);
+                let c: [f32; 3] = [
+                    rng.gen_range(-3.0..3.0),
+                    rng.gen_range(-3.0..3.0),
+                    rng.gen_range(-3.0..3.0),
+                ];
+                let h: [f32; 3] = [
+                    rng.gen_range(0.0..1.0),
+                    rng.gen_range(0.0..1.0),
+                    if k % 7 == 0 {
+                        0.0
+                    } else {
+                        rng.gen_range(0.0..1.0)
+                    },
+                ];
+                let (min, max) = (
+                    [c[0] - h[0], c[1] - h[1], c[2] - h[2]],
+                    [c[0] + h[0], c[1] + h[1], c[2] + h[2]],
+                );
                 for a in 0..3 {
                     node.b[0][a][lane] = min[a];
                     node.b[1][a][lane] = max[a];
                 }
                 boxes.push((min, max));
             }
-            let o = V3::new(rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0));
+            let o = V3::new(
+                rng.gen_range(-5.0..5.0),
+                rng.gen_range(-5.0..5.0),
+                rng.gen_range(-5.0..5.0),
+            );
             // Aimed near a box (most rays hit it), with some axis-parallel directions.
             let (lo, hi) = boxes[k % lanes];
-            let aim = V3::new(rng.gen_range(lo[0] - 0.3..hi[0] + 0.3), rng.gen_range(lo[1] - 0.3..hi[1] + 0.3), rng.gen_range(lo[2] - 0.3..hi[2] + 0.3));
+            let aim = V3::new(
+                rng.gen_range(lo[0] - 0.3..hi[0] + 0.3),
+                rng.gen_range(lo[1] - 0.3..hi[1] + 0.3),
+                rng.gen_range(lo[2] - 0.3..hi[2] + 0.3),
+            );
             let mut d = aim - o;
             if k % 5 == 0 {
                 d.y = 0.0;
             }
-            let r = RayInv::new(&Ray { o, d: d.normalize() });
-            let t_max = if k % 3 == 0 { rng.gen_range(0.5..6.0) } else { f32::INFINITY };
+            let r = RayInv::new(&Ray {
+                o,
+                d: d.normalize(),
+            });
+            let t_max = if k % 3 == 0 {
+                rng.gen_range(0.5..6.0)
+            } else {
+                f32::INFINITY
+            };
             let wide = node.hit(&Ray4::new(&r), t_max).to_array();
             for lane in 0..4 {
-                let want = if lane < lanes { ray_box(&r, &boxes[lane].0, &boxes[lane].1, t_max) } else { f32::INFINITY };
+                let want = if lane < lanes {
+                    ray_box(&r, &boxes[lane].0, &boxes[lane].1, t_max)
+                } else {
+                    f32::INFINITY
+                };
                 assert_eq!(wide[lane].to_bits(), want.to_bits(), "case {k} lane {lane}");
                 checked += (want < f32::INFINITY) as usize;
             }

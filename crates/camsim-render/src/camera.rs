@@ -5,9 +5,9 @@
 
 use crate::geometry::Ray;
 use crate::math::V3;
+use camsim_lens::{LensCamera, Rtf};
 use camsim_scene3d::camera::film_half_extent_mm;
 use camsim_scene3d::scene::{Camera, CameraLens};
-use camsim_lens::{LensCamera, Rtf};
 use std::sync::Arc;
 
 /// A realistic or ray-transfer camera prepared for ray generation.
@@ -56,10 +56,16 @@ impl CameraRig {
     /// Check and prepare `c`; the error names what is wrong.
     pub(crate) fn new(c: &Camera) -> Result<CameraRig, String> {
         if c.width == 0 || c.height == 0 {
-            return Err(format!("image size {} x {} has no pixels", c.width, c.height));
+            return Err(format!(
+                "image size {} x {} has no pixels",
+                c.width, c.height
+            ));
         }
         if c.width > 1 << 20 || c.height > 1 << 20 {
-            return Err(format!("image size {} x {} is too large", c.width, c.height));
+            return Err(format!(
+                "image size {} x {} is too large",
+                c.width, c.height
+            ));
         }
         if !(c.fov_deg > 0.0 && c.fov_deg < 180.0) {
             return Err(format!("fov {} degrees is not in (0, 180)", c.fov_deg));
@@ -81,7 +87,11 @@ impl CameraRig {
         let aspect = c.width as f64 / c.height as f64;
         // pbrt-v4 CameraBase: screen window [-aspect, aspect] x [-1, 1] when aspect > 1, else
         // [-1, 1] x [-1/aspect, 1/aspect]; `fov` spans the shorter axis.
-        let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
+        let (sx, sy) = if aspect > 1.0 {
+            (aspect, 1.0)
+        } else {
+            (1.0, 1.0 / aspect)
+        };
         let azv = V3::from_f64(az);
         let (mut half_x, mut half_y) = ((sx * tan_half) as f32, (sy * tan_half) as f32);
         // Camera-space z of the pinhole rays' origin, m.
@@ -92,7 +102,10 @@ impl CameraRig {
                 let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
                 let d_mm = l.camera.film_distance_mm;
                 if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && d_mm > 0.0) {
-                    return Err(format!("realistic camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
+                    return Err(format!(
+                        "realistic camera: film diagonal {} mm is not > 0",
+                        l.film_diagonal_mm
+                    ));
                 }
                 // The pinhole rays (depth map, ids) from the entrance pupil through the film
                 // point's image.
@@ -100,19 +113,35 @@ impl CameraRig {
                 half_y = (film_half_mm[1] / l.image_distance_mm) as f32;
                 pinhole_z_m = l.pupil_z_mm * 1e-3;
                 let film_z_mm = l.camera.film_z_mm();
-                let optics = RigOptics::Traced { camera: l.camera.clone(), film_z_mm, rear_z_mm: film_z_mm - d_mm };
-                Some(LensRig { optics, film_half_mm })
+                let optics = RigOptics::Traced {
+                    camera: l.camera.clone(),
+                    film_z_mm,
+                    rear_z_mm: film_z_mm - d_mm,
+                };
+                Some(LensRig {
+                    optics,
+                    film_half_mm,
+                })
             }
             Some(CameraLens::RayTransfer(l)) => {
                 let film_half_mm = film_half_extent_mm(l.film_diagonal_mm, c.width, c.height);
                 if !(film_half_mm[0] > 0.0 && film_half_mm[1] > 0.0 && l.image_distance_mm > 0.0) {
-                    return Err(format!("ray-transfer camera: film diagonal {} mm is not > 0", l.film_diagonal_mm));
+                    return Err(format!(
+                        "ray-transfer camera: film diagonal {} mm is not > 0",
+                        l.film_diagonal_mm
+                    ));
                 }
                 half_x = (film_half_mm[0] / l.image_distance_mm) as f32;
                 half_y = (film_half_mm[1] / l.image_distance_mm) as f32;
                 pinhole_z_m = l.pupil_z_mm * 1e-3;
-                let optics = RigOptics::RayTransfer { rtf: l.rtf.clone(), film_offset_mm: l.film_offset_mm };
-                Some(LensRig { optics, film_half_mm })
+                let optics = RigOptics::RayTransfer {
+                    rtf: l.rtf.clone(),
+                    film_offset_mm: l.film_offset_mm,
+                };
+                Some(LensRig {
+                    optics,
+                    film_half_mm,
+                })
             }
         };
         Ok(CameraRig {
@@ -143,7 +172,13 @@ impl CameraRig {
     /// turns the scene radiance into film irradiance over radiance (sr): E = L integral of
     /// cos(theta) d(omega) = L integral over the rear plane of cos^4(theta) / D^2 dA.
     /// A perspective camera returns `rig.ray(x, y)` with weight 1.
-    pub(crate) fn lens_ray(&self, x: f32, y: f32, u_pupil: [f32; 2], wavelength_nm: f32) -> Option<(Ray, f32)> {
+    pub(crate) fn lens_ray(
+        &self,
+        x: f32,
+        y: f32,
+        u_pupil: [f32; 2],
+        wavelength_nm: f32,
+    ) -> Option<(Ray, f32)> {
         let Some(l) = &self.lens else {
             return Some((self.ray(x, y), 1.0));
         };
@@ -154,8 +189,15 @@ impl CameraRig {
         let p = [-u * l.film_half_mm[0], -v * l.film_half_mm[1]];
         let r_mm = p[0].hypot(p[1]);
         let (camera, film_z_mm, rear_z_mm) = match &l.optics {
-            RigOptics::Traced { camera, film_z_mm, rear_z_mm } => (camera, *film_z_mm, *rear_z_mm),
-            RigOptics::RayTransfer { rtf, film_offset_mm } => return self.rtf_ray(rtf, *film_offset_mm, p, u_pupil),
+            RigOptics::Traced {
+                camera,
+                film_z_mm,
+                rear_z_mm,
+            } => (camera, *film_z_mm, *rear_z_mm),
+            RigOptics::RayTransfer {
+                rtf,
+                film_offset_mm,
+            } => return self.rtf_ray(rtf, *film_offset_mm, p, u_pupil),
         };
         let b = camera.exit_pupil_bounds(r_mm);
         let area_mm2 = (b[1] - b[0]) * (b[3] - b[2]);
@@ -165,7 +207,11 @@ impl CameraRig {
         let qx = b[0] + (b[1] - b[0]) * u_pupil[0] as f64;
         let qy = b[2] + (b[3] - b[2]) * u_pupil[1] as f64;
         // Rotate from the frame where the film point lies on +x to its azimuth.
-        let (cos_phi, sin_phi) = if r_mm > 0.0 { (p[0] / r_mm, p[1] / r_mm) } else { (1.0, 0.0) };
+        let (cos_phi, sin_phi) = if r_mm > 0.0 {
+            (p[0] / r_mm, p[1] / r_mm)
+        } else {
+            (1.0, 0.0)
+        };
         let rear = [qx * cos_phi - qy * sin_phi, qx * sin_phi + qy * cos_phi];
         let d_mm = film_z_mm - rear_z_mm;
         let dir = [rear[0] - p[0], rear[1] - p[1], -d_mm];
@@ -175,7 +221,11 @@ impl CameraRig {
         let weight = cos_theta.powi(4) * area_mm2 / (d_mm * d_mm);
         // Lens coordinates (mm, scene toward -z) to camera space (m, scene toward +z, film at
         // the origin): pbrt's CameraFromLens = Scale(1, 1, -1).
-        let o = [out.origin_mm[0] * 1e-3, out.origin_mm[1] * 1e-3, (film_z_mm - out.origin_mm[2]) * 1e-3];
+        let o = [
+            out.origin_mm[0] * 1e-3,
+            out.origin_mm[1] * 1e-3,
+            (film_z_mm - out.origin_mm[2]) * 1e-3,
+        ];
         let d = [out.direction[0], out.direction[1], -out.direction[2]];
         Some((self.camera_ray_to_world(o, d), weight as f32))
     }
@@ -196,12 +246,26 @@ impl CameraRig {
     fn rtf_ray(&self, rtf: &Rtf, dz: f64, p: [f64; 2], u_pupil: [f32; 2]) -> Option<(Ray, f32)> {
         let r_mm = p[0].hypot(p[1]);
         // The frame where the film point lies on +y at height r (the file's ellipse frame).
-        let (c, s) = if r_mm > 0.0 { (p[1] / r_mm, p[0] / r_mm) } else { (1.0, 0.0) };
+        let (c, s) = if r_mm > 0.0 {
+            (p[1] / r_mm, p[0] / r_mm)
+        } else {
+            (1.0, 0.0)
+        };
         let e = rtf.film_pass_ellipse(r_mm, dz)?;
-        let grow = if dz == 0.0 { [1.0, 1.0] } else { [1.05 + 0.25 * dz.abs() / e.radii_mm[0], 1.05 + 0.25 * dz.abs() / e.radii_mm[1]] };
+        let grow = if dz == 0.0 {
+            [1.0, 1.0]
+        } else {
+            [
+                1.05 + 0.25 * dz.abs() / e.radii_mm[0],
+                1.05 + 0.25 * dz.abs() / e.radii_mm[1],
+            ]
+        };
         let (du, dv) = crate::sampling::concentric_disk(u_pupil[0], u_pupil[1]);
         let (rx, ry) = (e.radii_mm[0] * grow[0], e.radii_mm[1] * grow[1]);
-        let q = [e.center_mm[0] + rx * du as f64, e.center_mm[1] + ry * dv as f64];
+        let q = [
+            e.center_mm[0] + rx * du as f64,
+            e.center_mm[1] + ry * dv as f64,
+        ];
         let (pin, local, w) = rtf.film_ray([0.0, r_mm], dz, q)?;
         let weight = w * std::f64::consts::PI * rx * ry;
         // Back from that frame: (x, y) -> (x c + y s, -x s + y c).
@@ -216,9 +280,16 @@ impl CameraRig {
 
     /// A camera-space ray (origin in m, direction) in world space.
     fn camera_ray_to_world(&self, o: [f64; 3], d: [f64; 3]) -> Ray {
-        let world_o = self.origin + self.axes[0] * o[0] as f32 + self.axes[1] * o[1] as f32 + self.axes[2] * o[2] as f32;
-        let world_d = self.axes[0] * d[0] as f32 + self.axes[1] * d[1] as f32 + self.axes[2] * d[2] as f32;
-        Ray { o: world_o, d: world_d.normalize() }
+        let world_o = self.origin
+            + self.axes[0] * o[0] as f32
+            + self.axes[1] * o[1] as f32
+            + self.axes[2] * o[2] as f32;
+        let world_d =
+            self.axes[0] * d[0] as f32 + self.axes[1] * d[1] as f32 + self.axes[2] * d[2] as f32;
+        Ray {
+            o: world_o,
+            d: world_d.normalize(),
+        }
     }
 
     /// Ray through continuous raster position (`x`, `y`) (pixel (i, j) covers [i, i+1) x [j, j+1),
@@ -228,7 +299,10 @@ impl CameraRig {
         let cx = (2.0 * x * self.inv_w - 1.0) * self.half_x;
         let cy = (1.0 - 2.0 * y * self.inv_h) * self.half_y;
         let d = self.axes[0] * cx + self.axes[1] * cy + self.axes[2];
-        Ray { o: self.pinhole, d: d.normalize() }
+        Ray {
+            o: self.pinhole,
+            d: d.normalize(),
+        }
     }
 }
 
@@ -239,7 +313,13 @@ mod tests {
 
     #[test]
     fn rays_follow_pbrt_screen_window() {
-        let c = Camera { camera_to_world: Transform::identity(), fov_deg: 90.0, width: 200, height: 100, lens: None };
+        let c = Camera {
+            camera_to_world: Transform::identity(),
+            fov_deg: 90.0,
+            width: 200,
+            height: 100,
+            lens: None,
+        };
         let rig = CameraRig::new(&c).unwrap();
         // Centre ray looks down +z.
         let r = rig.ray(100.0, 50.0);

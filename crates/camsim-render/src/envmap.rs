@@ -12,7 +12,9 @@ use crate::spectral::{Lambdas, SpectrumTable};
 use crate::uplift::SigmoidPolynomial;
 use std::f64::consts::PI;
 
-pub use camsim_scene3d::envmap::{equal_area_sphere_to_square, equal_area_square_to_sphere, latlong_to_sphere, sphere_to_latlong};
+pub use camsim_scene3d::envmap::{
+    equal_area_sphere_to_square, equal_area_square_to_sphere, latlong_to_sphere, sphere_to_latlong,
+};
 
 /// Sampling weight of each texel: the mean of its RGB channels (pbrt-v4 uses the channel
 /// average too), times sin(theta) at the row centre for lat-long maps (their texels' solid
@@ -52,7 +54,11 @@ impl RgbIlluminants {
             if mx > 0.0 {
                 let s = 2.0 * mx;
                 scale.push(s);
-                poly.push(crate::uplift::rgb_to_coefficients([c[0] / s, c[1] / s, c[2] / s]));
+                poly.push(crate::uplift::rgb_to_coefficients([
+                    c[0] / s,
+                    c[1] / s,
+                    c[2] / s,
+                ]));
             } else {
                 scale.push(0.0);
                 poly.push(SigmoidPolynomial::constant(0.0));
@@ -63,7 +69,12 @@ impl RgbIlluminants {
 
     /// Texel `texel`'s spectrum at the path's wavelengths, in the units of `illuminant`.
     #[inline]
-    pub(crate) fn eval<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
+    pub(crate) fn eval<const N: usize>(
+        &self,
+        texel: usize,
+        illuminant: &SpectrumTable,
+        lambdas: &Lambdas<N>,
+    ) -> [f32; N] {
         let s = self.scale[texel];
         if s == 0.0 {
             return [0.0; N];
@@ -281,7 +292,12 @@ impl EnvLight {
 
     /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`.
     #[inline]
-    pub(crate) fn radiance<const N: usize>(&self, texel: usize, illuminant: &SpectrumTable, lambdas: &Lambdas<N>) -> [f32; N] {
+    pub(crate) fn radiance<const N: usize>(
+        &self,
+        texel: usize,
+        illuminant: &SpectrumTable,
+        lambdas: &Lambdas<N>,
+    ) -> [f32; N] {
         self.texels.eval(texel, illuminant, lambdas)
     }
 }

@@ -33,8 +33,17 @@ impl RayInv {
             }
         }
         let inv_d = V3::new(1.0 / safe(r.d.x), 1.0 / safe(r.d.y), 1.0 / safe(r.d.z));
-        let neg = [(inv_d.x < 0.0) as usize, (inv_d.y < 0.0) as usize, (inv_d.z < 0.0) as usize];
-        RayInv { o: r.o, d: r.d, inv_d, neg }
+        let neg = [
+            (inv_d.x < 0.0) as usize,
+            (inv_d.y < 0.0) as usize,
+            (inv_d.z < 0.0) as usize,
+        ];
+        RayInv {
+            o: r.o,
+            d: r.d,
+            inv_d,
+            neg,
+        }
     }
 }
 
@@ -47,7 +56,10 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box (min = +inf, max = -inf).
-    pub const EMPTY: Aabb = Aabb { min: V3::splat(f32::INFINITY), max: V3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: V3::splat(f32::INFINITY),
+        max: V3::splat(f32::NEG_INFINITY),
+    };
 
     /// Grow to include a point.
     #[inline(always)]
@@ -89,8 +101,14 @@ pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
     let tz0 = (min[2] - r.o.z) * r.inv_d.z;
     let tz1 = (max[2] - r.o.z) * r.inv_d.z;
     // inv_d is finite (RayInv::new), so no NaN arises and one-instruction min/max suffice.
-    let t_near = fmax(fmax(fmin(tx0, tx1), fmin(ty0, ty1)), fmax(fmin(tz0, tz1), 0.0));
-    let t_far = fmin(fmin(fmax(tx0, tx1), fmax(ty0, ty1)), fmin(fmax(tz0, tz1), t_max));
+    let t_near = fmax(
+        fmax(fmin(tx0, tx1), fmin(ty0, ty1)),
+        fmax(fmin(tz0, tz1), 0.0),
+    );
+    let t_far = fmin(
+        fmin(fmax(tx0, tx1), fmax(ty0, ty1)),
+        fmin(fmax(tz0, tz1), t_max),
+    );
     // Robust traversal slack (Ize 2013): widen t_far by 2 ulp-ish so grazing boxes are not lost.
     if t_near <= t_far * 1.000_000_2 {
         t_near
@@ -166,9 +184,10 @@ impl Prim {
                 b.grow_point(p0 + e2);
                 b
             }
-            Prim::Sphere { center, radius } | Prim::PartialSphere { center, radius, .. } => {
-                Aabb { min: center - V3::splat(radius), max: center + V3::splat(radius) }
-            }
+            Prim::Sphere { center, radius } | Prim::PartialSphere { center, radius, .. } => Aabb {
+                min: center - V3::splat(radius),
+                max: center + V3::splat(radius),
+            },
         }
     }
 
@@ -178,19 +197,31 @@ impl Prim {
     pub fn intersect(&self, r: &RayInv, t_max: f32) -> Option<(f32, f32, f32)> {
         match *self {
             Prim::Tri { p0, e1, e2 } => intersect_triangle(r.o, r.d, p0, e1, e2, t_max),
-            Prim::Sphere { center, radius } => intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0)),
+            Prim::Sphere { center, radius } => {
+                intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0))
+            }
             // Without its clip a partial sphere is tested whole ([`Prim::intersect_with`] clips).
-            Prim::PartialSphere { center, radius, .. } => intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0)),
+            Prim::PartialSphere { center, radius, .. } => {
+                intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0))
+            }
         }
     }
 
     /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`).
     #[inline(always)]
-    pub fn intersect_with(&self, r: &RayInv, t_max: f32, clips: &[SphereClip]) -> Option<(f32, f32, f32)> {
+    pub fn intersect_with(
+        &self,
+        r: &RayInv,
+        t_max: f32,
+        clips: &[SphereClip],
+    ) -> Option<(f32, f32, f32)> {
         match *self {
-            Prim::PartialSphere { center, radius, clip } => {
-                intersect_partial_sphere(r.o, r.d, center, radius, &clips[clip as usize], t_max).map(|t| (t, 0.0, 0.0))
-            }
+            Prim::PartialSphere {
+                center,
+                radius,
+                clip,
+            } => intersect_partial_sphere(r.o, r.d, center, radius, &clips[clip as usize], t_max)
+                .map(|t| (t, 0.0, 0.0)),
             _ => self.intersect(r, t_max),
         }
     }
@@ -198,7 +229,14 @@ impl Prim {
 
 /// Moller & Trumbore (1997), "Fast, minimum storage ray-triangle intersection".
 #[inline(always)]
-pub fn intersect_triangle(o: V3, d: V3, p0: V3, e1: V3, e2: V3, t_max: f32) -> Option<(f32, f32, f32)> {
+pub fn intersect_triangle(
+    o: V3,
+    d: V3,
+    p0: V3,
+    e1: V3,
+    e2: V3,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
     if det == 0.0 || !det.is_finite() {
@@ -266,9 +304,18 @@ pub fn intersect_sphere(o: V3, d: V3, center: V3, radius: f32, t_max: f32) -> Op
 /// roots of [`intersect_sphere`]'s quadratic in order, the first in `(0, t_max)` whose point the
 /// clip keeps (a near hit cut away falls through to the far one).
 #[inline(always)]
-pub fn intersect_partial_sphere(o: V3, d: V3, center: V3, radius: f32, clip: &SphereClip, t_max: f32) -> Option<f32> {
+pub fn intersect_partial_sphere(
+    o: V3,
+    d: V3,
+    center: V3,
+    radius: f32,
+    clip: &SphereClip,
+    t_max: f32,
+) -> Option<f32> {
     let (oc, t0, t1) = sphere_roots(o, d, center, radius)?;
-    [t0, t1].into_iter().find(|&t| t > 0.0 && t < t_max && clip.keeps(oc + d * t))
+    [t0, t1]
+        .into_iter()
+        .find(|&t| t > 0.0 && t < t_max && clip.keeps(oc + d * t))
 }
 
 #[cfg(test)]
@@ -277,7 +324,11 @@ mod tests {
 
     #[test]
     fn triangle_hit_and_miss() {
-        let (p0, e1, e2) = (V3::new(0.0, 0.0, 1.0), V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0));
+        let (p0, e1, e2) = (
+            V3::new(0.0, 0.0, 1.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        );
         let o = V3::new(0.25, 0.25, 0.0);
         let d = V3::new(0.0, 0.0, 1.0);
         let (t, u, v) = intersect_triangle(o, d, p0, e1, e2, f32::INFINITY).unwrap();
@@ -289,10 +340,24 @@ mod tests {
     #[test]
     fn sphere_from_outside_and_inside() {
         let c = V3::new(0.0, 0.0, 5.0);
-        let t = intersect_sphere(V3::splat(0.0), V3::new(0.0, 0.0, 1.0), c, 1.0, f32::INFINITY).unwrap();
+        let t = intersect_sphere(
+            V3::splat(0.0),
+            V3::new(0.0, 0.0, 1.0),
+            c,
+            1.0,
+            f32::INFINITY,
+        )
+        .unwrap();
         assert!((t - 4.0).abs() < 1e-5);
         let t = intersect_sphere(c, V3::new(0.0, 1.0, 0.0), c, 1.0, f32::INFINITY).unwrap();
         assert!((t - 1.0).abs() < 1e-6);
-        assert!(intersect_sphere(V3::splat(0.0), V3::new(0.0, 1.0, 0.0), c, 1.0, f32::INFINITY).is_none());
+        assert!(intersect_sphere(
+            V3::splat(0.0),
+            V3::new(0.0, 1.0, 0.0),
+            c,
+            1.0,
+            f32::INFINITY
+        )
+        .is_none());
     }
 }

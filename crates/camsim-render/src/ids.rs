@@ -42,25 +42,50 @@ pub struct IdMaps {
 
 impl IdMaps {
     /// The id maps of `scene` from its per-pixel object ids (1-based shape index, 0 = none).
-    pub fn from_object_ids(scene: &SceneDescription, width: usize, height: usize, object_id: Vec<u32>) -> IdMaps {
+    pub fn from_object_ids(
+        scene: &SceneDescription,
+        width: usize,
+        height: usize,
+        object_id: Vec<u32>,
+    ) -> IdMaps {
         let material_id = object_id
             .iter()
-            .map(|&o| match o.checked_sub(1).and_then(|s| scene.shapes.get(s as usize)) {
-                Some(shape) => surface_material(scene, shape.material) as u32 + 1,
-                None => 0,
-            })
+            .map(
+                |&o| match o.checked_sub(1).and_then(|s| scene.shapes.get(s as usize)) {
+                    Some(shape) => surface_material(scene, shape.material) as u32 + 1,
+                    None => 0,
+                },
+            )
             .collect();
-        let objects = scene.shapes.iter().enumerate().map(|(i, s)| s.name.clone().unwrap_or_else(|| format!("shape {i}"))).collect();
-        let mut materials: Vec<String> = (0..scene.materials.len()).map(|i| format!("material {i}")).collect();
+        let objects = scene
+            .shapes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| s.name.clone().unwrap_or_else(|| format!("shape {i}")))
+            .collect();
+        let mut materials: Vec<String> = (0..scene.materials.len())
+            .map(|i| format!("material {i}"))
+            .collect();
         // Named materials keep their names; one material under several names lists them all.
         let mut named: Vec<(&String, &usize)> = scene.named_materials.iter().collect();
         named.sort();
         for (name, &i) in named {
             if let Some(m) = materials.get_mut(i) {
-                *m = if m.starts_with("material ") { name.clone() } else { format!("{m}, {name}") };
+                *m = if m.starts_with("material ") {
+                    name.clone()
+                } else {
+                    format!("{m}, {name}")
+                };
             }
         }
-        IdMaps { width, height, object_id, material_id, objects, materials }
+        IdMaps {
+            width,
+            height,
+            object_id,
+            material_id,
+            objects,
+            materials,
+        }
     }
 
     /// The legend of the ids that appear in the image (serializes as
@@ -73,7 +98,10 @@ impl IdMaps {
                     *s = true;
                 }
             }
-            (1..seen.len()).filter(|&k| seen[k]).map(|k| (k as u32, names[k - 1].clone())).collect()
+            (1..seen.len())
+                .filter(|&k| seen[k])
+                .map(|k| (k as u32, names[k - 1].clone()))
+                .collect()
         };
         IdLegend {
             background: 0,
@@ -85,7 +113,12 @@ impl IdMaps {
 
     /// The largest id in either map.
     pub fn max_id(&self) -> u32 {
-        self.object_id.iter().chain(&self.material_id).copied().max().unwrap_or(0)
+        self.object_id
+            .iter()
+            .chain(&self.material_id)
+            .copied()
+            .max()
+            .unwrap_or(0)
     }
 }
 

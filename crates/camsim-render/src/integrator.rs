@@ -6,14 +6,14 @@ use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv, SphereClip};
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
+use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
 use crate::render::RenderError;
-use crate::materials::{check_mix_cycles, compile_material, Mat};
+use crate::sampler::{dim, PathSampler};
 use crate::sampling::power_heuristic;
 use crate::scene::{Geometry, SceneDescription};
-use crate::texture::{eval_float, FTex, Tex, TexCtx};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
-use crate::sampler::{dim, PathSampler};
+use crate::texture::{eval_float, FTex, Tex, TexCtx};
 
 /// Marks a primitive without an emitter.
 pub(crate) const NO_LIGHT: u32 = u32::MAX;
@@ -77,7 +77,10 @@ impl ImageTex {
         let (a, b, c, d) = (px(xa, ya), px(xb, ya), px(xa, yb), px(xb, yb));
         let mut out = [0f32; 3];
         for k in 0..3 {
-            out[k] = (1.0 - fx) * (1.0 - fy) * a[k] + fx * (1.0 - fy) * b[k] + (1.0 - fx) * fy * c[k] + fx * fy * d[k];
+            out[k] = (1.0 - fx) * (1.0 - fy) * a[k]
+                + fx * (1.0 - fy) * b[k]
+                + (1.0 - fx) * fy * c[k]
+                + fx * fy * d[k];
         }
         out
     }
@@ -128,7 +131,10 @@ struct SurfaceHit {
 
 impl Tracer {
     /// Compile `scene` for the sampler `ws`.
-    pub(crate) fn new(scene: &SceneDescription, ws: &WavelengthSampler) -> Result<Tracer, RenderError> {
+    pub(crate) fn new(
+        scene: &SceneDescription,
+        ws: &WavelengthSampler,
+    ) -> Result<Tracer, RenderError> {
         let mut tables: Vec<SpectrumTable> = Vec::new();
         let mut images: Vec<ImageTex> = Vec::new();
         let mut materials = Vec::with_capacity(scene.materials.len());
@@ -150,7 +156,9 @@ impl Tracer {
         // (16 B) + wide nodes (43 B) + one packet per leaf (<= 192 B / 2: leaves hold ~2 prims).
         camsim_core::mem::check_alloc(n_prims * 256, &format!("a BVH over {n_prims} primitives"))?;
         if n_prims > crate::bvh::MAX_PRIMS as u64 {
-            return Err(RenderError::Settings(format!("{n_prims} primitives is more than the renderer supports")));
+            return Err(RenderError::Settings(format!(
+                "{n_prims} primitives is more than the renderer supports"
+            )));
         }
 
         let mut prims: Vec<Prim> = Vec::with_capacity(n_prims as usize);
@@ -161,7 +169,11 @@ impl Tracer {
         let mut clips: Vec<SphereClip> = Vec::new();
 
         for (si, s) in scene.shapes.iter().enumerate() {
-            let shape_err = |message: String| RenderError::Shape { index: si, name: s.name.clone().unwrap_or_default(), message };
+            let shape_err = |message: String| RenderError::Shape {
+                index: si,
+                name: s.name.clone().unwrap_or_default(),
+                message,
+            };
             if s.material >= materials.len() {
                 return Err(shape_err(format!(
                     "material index {} but the scene has {} materials",
@@ -171,7 +183,11 @@ impl Tracer {
             }
             // An alpha-masked emitter (pbrt-v4 `DiffuseAreaLight::AlphaMasked`): rays skip the
             // points its test rejects (as on any shape) and light samples there carry nothing.
-            let alpha_mat = if matches!(materials[s.material], Mat::AlphaMasked { .. }) { s.material as u32 } else { NO_ALPHA };
+            let alpha_mat = if matches!(materials[s.material], Mat::AlphaMasked { .. }) {
+                s.material as u32
+            } else {
+                NO_ALPHA
+            };
             let le_table = match &s.area_light {
                 Some(al) => {
                     if let Err(e) = al.radiance.require_non_negative("area light radiance") {
@@ -187,39 +203,94 @@ impl Tracer {
             let mut emit_image = NO_IMAGE;
             if let Some(im) = s.area_light.as_ref().and_then(|al| al.image.as_ref()) {
                 if im.width == 0 || im.height == 0 || im.rgb.len() != im.width * im.height {
-                    return Err(shape_err(format!("area light image of {} x {} pixels has {} texels", im.width, im.height, im.rgb.len())));
+                    return Err(shape_err(format!(
+                        "area light image of {} x {} pixels has {} texels",
+                        im.width,
+                        im.height,
+                        im.rgb.len()
+                    )));
                 }
-                if im.rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(shape_err("area light image has negative or non-finite texels".into()));
+                if im
+                    .rgb
+                    .iter()
+                    .flatten()
+                    .any(|v| !(v.is_finite() && *v >= 0.0))
+                {
+                    return Err(shape_err(
+                        "area light image has negative or non-finite texels".into(),
+                    ));
                 }
-                let mean_rgb = im.rgb.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / im.rgb.len() as f64;
-                let tex = ImageTex { width: im.width, height: im.height, rgb: im.rgb.clone(), uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0 };
-                lights.images.push(EmitImage { tex, mean_rgb: mean_rgb as f32 });
+                let mean_rgb = im
+                    .rgb
+                    .iter()
+                    .map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0)
+                    .sum::<f64>()
+                    / im.rgb.len() as f64;
+                let tex = ImageTex {
+                    width: im.width,
+                    height: im.height,
+                    rgb: im.rgb.clone(),
+                    uscale: 1.0,
+                    vscale: 1.0,
+                    udelta: 0.0,
+                    vdelta: 0.0,
+                };
+                lights.images.push(EmitImage {
+                    tex,
+                    mean_rgb: mean_rgb as f32,
+                });
                 emit_image = (lights.images.len() - 1) as u32;
             }
             match &s.geometry {
-                Geometry::Triangles { positions, indices, uvs, normals } => {
-                    if let Some(i) = positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+                Geometry::Triangles {
+                    positions,
+                    indices,
+                    uvs,
+                    normals,
+                } => {
+                    if let Some(i) = positions
+                        .iter()
+                        .position(|p| p.iter().any(|v| !v.is_finite()))
+                    {
                         return Err(shape_err(format!("vertex {i} has a non-finite coordinate")));
                     }
                     if let Some(uv) = uvs {
                         if uv.len() != positions.len() {
-                            return Err(shape_err(format!("{} uvs for {} vertices", uv.len(), positions.len())));
+                            return Err(shape_err(format!(
+                                "{} uvs for {} vertices",
+                                uv.len(),
+                                positions.len()
+                            )));
                         }
                     }
                     if let Some(n) = normals {
                         if n.len() != positions.len() {
-                            return Err(shape_err(format!("{} normals for {} vertices", n.len(), positions.len())));
+                            return Err(shape_err(format!(
+                                "{} normals for {} vertices",
+                                n.len(),
+                                positions.len()
+                            )));
                         }
                     }
                     let pos: Vec<V3> = positions.iter().map(|p| V3::from_f64(*p)).collect();
-                    let nrm: Option<Vec<V3>> =
-                        normals.as_ref().map(|n| n.iter().map(|v| V3::from_f64(*v).normalize()).map(|v| if v.is_finite() { v } else { V3::splat(0.0) }).collect());
+                    let nrm: Option<Vec<V3>> = normals.as_ref().map(|n| {
+                        n.iter()
+                            .map(|v| V3::from_f64(*v).normalize())
+                            .map(|v| if v.is_finite() { v } else { V3::splat(0.0) })
+                            .collect()
+                    });
                     for (ti, tri) in indices.iter().enumerate() {
                         if let Some(bad) = tri.iter().find(|i| **i as usize >= positions.len()) {
-                            return Err(shape_err(format!("triangle {ti} uses vertex {bad} but there are {} vertices", positions.len())));
+                            return Err(shape_err(format!(
+                                "triangle {ti} uses vertex {bad} but there are {} vertices",
+                                positions.len()
+                            )));
                         }
-                        let (p0, p1, p2) = (pos[tri[0] as usize], pos[tri[1] as usize], pos[tri[2] as usize]);
+                        let (p0, p1, p2) = (
+                            pos[tri[0] as usize],
+                            pos[tri[1] as usize],
+                            pos[tri[2] as usize],
+                        );
                         let (e1, e2) = (p1 - p0, p2 - p0);
                         scene_bounds.grow_point(p0);
                         scene_bounds.grow_point(p1);
@@ -233,25 +304,44 @@ impl Tracer {
                                 // the vertex normals if given, else flipped by ReverseOrientation.
                                 let mut n = c.normalize();
                                 if let Some(nv) = &nrm {
-                                    let avg = nv[tri[0] as usize] + nv[tri[1] as usize] + nv[tri[2] as usize];
+                                    let avg = nv[tri[0] as usize]
+                                        + nv[tri[1] as usize]
+                                        + nv[tri[2] as usize];
                                     n = n.face_forward(avg);
                                 } else if s.reverse_orientation {
                                     n = -n;
                                 }
-                                light = lights.push(LightKind::Tri { p0, e1, e2, n, area }, table, two_sided);
+                                light = lights.push(
+                                    LightKind::Tri {
+                                        p0,
+                                        e1,
+                                        e2,
+                                        n,
+                                        area,
+                                    },
+                                    table,
+                                    two_sided,
+                                );
                                 // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)), as
                                 // `surface` interpolates them at a hit.
                                 let e = &mut lights.list[light as usize];
                                 e.image = emit_image;
                                 e.alpha_mat = alpha_mat;
                                 e.uvs = match uvs {
-                                    Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
+                                    Some(t) => {
+                                        [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]]
+                                    }
                                     None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
                                 };
                             }
                         }
                         prims.push(Prim::Tri { p0, e1, e2 });
-                        info.push(PrimInfo { shape: si as u32, tri: ti as u32, material: s.material as u32, light });
+                        info.push(PrimInfo {
+                            shape: si as u32,
+                            tri: ti as u32,
+                            material: s.material as u32,
+                            light,
+                        });
                     }
                     if uvs.is_some() || normals.is_some() {
                         meshes.push(Some(MeshShading {
@@ -264,8 +354,13 @@ impl Tracer {
                     }
                 }
                 Geometry::Sphere { center, radius } => {
-                    if !(center.iter().all(|v| v.is_finite()) && *radius > 0.0 && radius.is_finite()) {
-                        return Err(shape_err(format!("sphere at {center:?} with radius {radius} m is invalid")));
+                    if !(center.iter().all(|v| v.is_finite())
+                        && *radius > 0.0
+                        && radius.is_finite())
+                    {
+                        return Err(shape_err(format!(
+                            "sphere at {center:?} with radius {radius} m is invalid"
+                        )));
                     }
                     let c = V3::from_f64(*center);
                     let r = *radius as f32;
@@ -274,30 +369,78 @@ impl Tracer {
                     let mut light = NO_LIGHT;
                     if let Some((table, two_sided)) = le_table {
                         let kind = if alpha_mat == NO_ALPHA {
-                            LightKind::Sphere { center: c, radius: r, inward: s.reverse_orientation }
+                            LightKind::Sphere {
+                                center: c,
+                                radius: r,
+                                inward: s.reverse_orientation,
+                            }
                         } else {
                             // Through alpha cut-outs the far side's inner face shows, which cone
                             // sampling (near side only) never picks: sample the whole sphere by
                             // area, as a zone with the full range (same uv, `lights::zone_uv`).
-                            let (ex, ey, ez) = (V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0), V3::new(0.0, 0.0, 1.0));
-                            let clip = SphereClip { ex, ey, ez, z_min: -r, z_max: r, phi_max: 2.0 * std::f32::consts::PI };
-                            LightKind::SphereZone { center: c, radius: r, clip, area: 4.0 * std::f32::consts::PI * r * r, inward: s.reverse_orientation }
+                            let (ex, ey, ez) = (
+                                V3::new(1.0, 0.0, 0.0),
+                                V3::new(0.0, 1.0, 0.0),
+                                V3::new(0.0, 0.0, 1.0),
+                            );
+                            let clip = SphereClip {
+                                ex,
+                                ey,
+                                ez,
+                                z_min: -r,
+                                z_max: r,
+                                phi_max: 2.0 * std::f32::consts::PI,
+                            };
+                            LightKind::SphereZone {
+                                center: c,
+                                radius: r,
+                                clip,
+                                area: 4.0 * std::f32::consts::PI * r * r,
+                                inward: s.reverse_orientation,
+                            }
                         };
                         light = lights.push(kind, table, two_sided);
                         let e = &mut lights.list[light as usize];
                         e.image = emit_image;
                         e.alpha_mat = alpha_mat;
                     }
-                    prims.push(Prim::Sphere { center: c, radius: r });
-                    info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
+                    prims.push(Prim::Sphere {
+                        center: c,
+                        radius: r,
+                    });
+                    info.push(PrimInfo {
+                        shape: si as u32,
+                        tri: 0,
+                        material: s.material as u32,
+                        light,
+                    });
                     meshes.push(None);
                 }
-                Geometry::PartialSphere { center, radius, axes, z_min, z_max, phi_max_deg } => {
-                    let axes_ok = axes.iter().all(|a| a.iter().all(|v| v.is_finite()) && ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() - 1.0).abs() < 1e-3);
-                    if !(center.iter().all(|v| v.is_finite()) && *radius > 0.0 && radius.is_finite() && axes_ok) {
+                Geometry::PartialSphere {
+                    center,
+                    radius,
+                    axes,
+                    z_min,
+                    z_max,
+                    phi_max_deg,
+                } => {
+                    let axes_ok = axes.iter().all(|a| {
+                        a.iter().all(|v| v.is_finite())
+                            && ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() - 1.0).abs() < 1e-3
+                    });
+                    if !(center.iter().all(|v| v.is_finite())
+                        && *radius > 0.0
+                        && radius.is_finite()
+                        && axes_ok)
+                    {
                         return Err(shape_err(format!("partial sphere at {center:?} with radius {radius} m and axes {axes:?} is invalid")));
                     }
-                    if !(*z_min >= -radius && z_max <= radius && z_min < z_max && *phi_max_deg > 0.0 && *phi_max_deg <= 360.0) {
+                    if !(*z_min >= -radius
+                        && z_max <= radius
+                        && z_min < z_max
+                        && *phi_max_deg > 0.0
+                        && *phi_max_deg <= 360.0)
+                    {
                         return Err(shape_err(format!(
                             "partial sphere z range [{z_min}, {z_max}] m (radius {radius} m) or phi_max {phi_max_deg} deg is invalid"
                         )));
@@ -318,20 +461,41 @@ impl Tracer {
                     if let Some((table, two_sided)) = le_table {
                         // pbrt-v4 Sphere::Area: phi_max r (z_max - z_min).
                         let area = clip.phi_max * r * (clip.z_max - clip.z_min);
-                        light = lights.push(LightKind::SphereZone { center: c, radius: r, clip, area, inward: s.reverse_orientation }, table, two_sided);
+                        light = lights.push(
+                            LightKind::SphereZone {
+                                center: c,
+                                radius: r,
+                                clip,
+                                area,
+                                inward: s.reverse_orientation,
+                            },
+                            table,
+                            two_sided,
+                        );
                         let e = &mut lights.list[light as usize];
                         e.image = emit_image;
                         e.alpha_mat = alpha_mat;
                     }
-                    prims.push(Prim::PartialSphere { center: c, radius: r, clip: clips.len() as u32 });
+                    prims.push(Prim::PartialSphere {
+                        center: c,
+                        radius: r,
+                        clip: clips.len() as u32,
+                    });
                     clips.push(clip);
-                    info.push(PrimInfo { shape: si as u32, tri: 0, material: s.material as u32, light });
+                    info.push(PrimInfo {
+                        shape: si as u32,
+                        tri: 0,
+                        material: s.material as u32,
+                        light,
+                    });
                     meshes.push(None);
                 }
             }
         }
         for (li, l) in scene.lights.iter().enumerate() {
-            lights.add_scene_light(l, ws, &mut tables).map_err(|message| RenderError::Light { index: li, message })?;
+            lights
+                .add_scene_light(l, ws, &mut tables)
+                .map_err(|message| RenderError::Light { index: li, message })?;
         }
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
@@ -340,7 +504,13 @@ impl Tracer {
             return Err(RenderError::NoLights);
         }
         // Scene radius for the infinite light's power (pbrt-v4 UniformInfiniteLight::Phi).
-        let scene_radius = if prims.is_empty() { 1.0 } else { ((scene_bounds.max - scene_bounds.min) * 0.5).length().max(1e-3) };
+        let scene_radius = if prims.is_empty() {
+            1.0
+        } else {
+            ((scene_bounds.max - scene_bounds.min) * 0.5)
+                .length()
+                .max(1e-3)
+        };
         lights.finish(&tables, scene_radius);
 
         let mut bvh = Bvh::build(prims);
@@ -354,10 +524,16 @@ impl Tracer {
                 Prim::Sphere { .. } | Prim::PartialSphere { .. } => V3::splat(0.0),
             })
             .collect();
-        let max_depth = if scene.settings.direct_only { scene.settings.max_depth.min(1) } else { scene.settings.max_depth };
+        let max_depth = if scene.settings.direct_only {
+            scene.settings.max_depth.min(1)
+        } else {
+            scene.settings.max_depth
+        };
         let shape_flip = scene.shapes.iter().map(|s| s.reverse_orientation).collect();
         let has_interface = materials.iter().any(|m| matches!(m, Mat::Interface));
-        let has_alpha = materials.iter().any(|m| matches!(m, Mat::AlphaMasked { .. }));
+        let has_alpha = materials
+            .iter()
+            .any(|m| matches!(m, Mat::AlphaMasked { .. }));
         let rr_depth = scene.settings.russian_roulette_depth.max(1);
         Ok(Tracer {
             bvh,
@@ -395,14 +571,20 @@ impl Tracer {
                     let tri = m.indices[pi.tri as usize];
                     let w = 1.0 - h.u - h.v;
                     if let Some(n) = &m.normals {
-                        let v = n[tri[0] as usize] * w + n[tri[1] as usize] * h.u + n[tri[2] as usize] * h.v;
+                        let v = n[tri[0] as usize] * w
+                            + n[tri[1] as usize] * h.u
+                            + n[tri[2] as usize] * h.v;
                         if v.length_squared() > 0.0 {
                             ns = v.normalize();
                         }
                     }
                     if let Some(t) = &m.uvs {
-                        let (a, b, c) = (t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]);
-                        uv = [w * a[0] + h.u * b[0] + h.v * c[0], w * a[1] + h.u * b[1] + h.v * c[1]];
+                        let (a, b, c) =
+                            (t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]);
+                        uv = [
+                            w * a[0] + h.u * b[0] + h.v * c[0],
+                            w * a[1] + h.u * b[1] + h.v * c[1],
+                        ];
                     } else {
                         // pbrt-v4 default triangle uvs (0,0), (1,0), (1,1).
                         uv = [h.u + h.v, h.v];
@@ -419,16 +601,30 @@ impl Tracer {
                 // pbrt-v4 full-sphere uv, z up (`lights::full_sphere_uv`). Rotated spheres are
                 // partial spheres with their object frame (pbrt::xform).
                 let uv = crate::lights::full_sphere_uv(n);
-                SurfaceHit { p, ng: n, ns: n, uv }
+                SurfaceHit {
+                    p,
+                    ng: n,
+                    ns: n,
+                    uv,
+                }
             }
-            Prim::PartialSphere { center, radius, clip } => {
+            Prim::PartialSphere {
+                center,
+                radius,
+                clip,
+            } => {
                 let c = &self.bvh.clips[clip as usize];
                 let n = (r.o + r.d * h.t - center).normalize();
                 let p = center + n * radius;
                 // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame
                 // (`lights::zone_uv`).
                 let uv = crate::lights::zone_uv(c, radius, n);
-                SurfaceHit { p, ng: n, ns: n, uv }
+                SurfaceHit {
+                    p,
+                    ng: n,
+                    ns: n,
+                    uv,
+                }
             }
         }
     }
@@ -438,7 +634,9 @@ impl Tracer {
     /// dielectric.
     #[inline]
     fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
-        let has_normals = self.meshes[pi.shape as usize].as_ref().is_some_and(|m| m.normals.is_some());
+        let has_normals = self.meshes[pi.shape as usize]
+            .as_ref()
+            .is_some_and(|m| m.normals.is_some());
         if has_normals {
             sh.ng.face_forward(sh.ns)
         } else if self.shape_flip[pi.shape as usize] {
@@ -450,7 +648,12 @@ impl Tracer {
 
     /// A spectrum texture at a hit, at the path's wavelengths (`crate::texture`).
     #[inline]
-    pub(crate) fn eval_texture<const N: usize>(&self, tex: &Tex, ctx: &TexCtx, lambdas: &Lambdas<N>) -> [f32; N] {
+    pub(crate) fn eval_texture<const N: usize>(
+        &self,
+        tex: &Tex,
+        ctx: &TexCtx,
+        lambdas: &Lambdas<N>,
+    ) -> [f32; N] {
         match tex {
             Tex::Table(t) => self.tables[*t as usize].eval_path(lambdas),
             Tex::Image(im, map) => {
@@ -476,14 +679,30 @@ impl Tracer {
             }
             Tex::Mix(c, amount) => {
                 let amt = eval_float(amount, ctx);
-                let a = if amt != 1.0 { self.eval_texture(&c[0], ctx, lambdas) } else { [0.0; N] };
-                let b = if amt != 0.0 { self.eval_texture(&c[1], ctx, lambdas) } else { [0.0; N] };
+                let a = if amt != 1.0 {
+                    self.eval_texture(&c[0], ctx, lambdas)
+                } else {
+                    [0.0; N]
+                };
+                let b = if amt != 0.0 {
+                    self.eval_texture(&c[1], ctx, lambdas)
+                } else {
+                    [0.0; N]
+                };
                 std::array::from_fn(|i| (1.0 - amt) * a[i] + amt * b[i])
             }
             Tex::DirMix(c, dir) => {
                 let amt = ctx.n.dot(*dir).abs();
-                let a = if amt != 0.0 { self.eval_texture(&c[0], ctx, lambdas) } else { [0.0; N] };
-                let b = if amt != 1.0 { self.eval_texture(&c[1], ctx, lambdas) } else { [0.0; N] };
+                let a = if amt != 0.0 {
+                    self.eval_texture(&c[0], ctx, lambdas)
+                } else {
+                    [0.0; N]
+                };
+                let b = if amt != 1.0 {
+                    self.eval_texture(&c[1], ctx, lambdas)
+                } else {
+                    [0.0; N]
+                };
                 std::array::from_fn(|i| amt * a[i] + (1.0 - amt) * b[i])
             }
             Tex::Bilerp(t, map) => {
@@ -504,7 +723,11 @@ impl Tracer {
             }
             Tex::Dots(c, map) => {
                 let (s, t) = map.st(ctx);
-                self.eval_texture(&c[!crate::noise::inside_polka_dot(s as f64, t as f64) as usize], ctx, lambdas)
+                self.eval_texture(
+                    &c[!crate::noise::inside_polka_dot(s as f64, t as f64) as usize],
+                    ctx,
+                    lambdas,
+                )
             }
         }
     }
@@ -554,11 +777,28 @@ impl Tracer {
         let (mut o, mut t_left) = (o, t_max);
         for _ in 0..MAX_INTERFACE_SKIPS {
             let r = Ray { o, d };
-            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else { return false };
+            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else {
+                return false;
+            };
             let sh = self.surface(&r, &h);
             let pi = self.info[h.slot as usize];
-            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, o, d);
-            if keep && !matches!(self.materials[self.resolve_material(pi.material, sh.p, -d) as usize], Mat::Interface) {
+            let keep = !self.has_alpha
+                || self.alpha_keeps(
+                    pi.material,
+                    &TexCtx {
+                        uv: sh.uv,
+                        n: sh.ng,
+                        p: sh.p,
+                    },
+                    o,
+                    d,
+                );
+            if keep
+                && !matches!(
+                    self.materials[self.resolve_material(pi.material, sh.p, -d) as usize],
+                    Mat::Interface
+                )
+            {
                 return true;
             }
             let next = self.offset(sh.p, sh.ng.face_forward(d));
@@ -601,7 +841,11 @@ impl Tracer {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
                     let (le, light_pdf) = self.lights.escaped(li, ray.d, &self.tables, lambdas);
-                    let w = if depth == 0 || prev_specular { 1.0 } else { power_heuristic(prev_bsdf_pdf, light_pdf) };
+                    let w = if depth == 0 || prev_specular {
+                        1.0
+                    } else {
+                        power_heuristic(prev_bsdf_pdf, light_pdf)
+                    };
                     for i in 0..N {
                         l[i] += beta[i] * w * le[i];
                     }
@@ -610,14 +854,28 @@ impl Tracer {
             };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, ray.o, ray.d) {
+            if self.has_alpha
+                && !self.alpha_keeps(
+                    pi.material,
+                    &TexCtx {
+                        uv: sh.uv,
+                        n: sh.ng,
+                        p: sh.p,
+                    },
+                    ray.o,
+                    ray.d,
+                )
+            {
                 // Alpha test failed: the hit is ignored and the ray goes on from the far side
                 // (pbrt-v4 `GeometricPrimitive::Intersect` re-intersects a spawned ray), no bounce.
                 skips += 1;
                 if skips > MAX_INTERFACE_SKIPS {
                     break;
                 }
-                ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+                ray = Ray {
+                    o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                    d: ray.d,
+                };
                 counts.bounce += 1;
                 continue;
             }
@@ -629,7 +887,10 @@ impl Tracer {
                     let w = if depth == 0 || prev_specular {
                         1.0
                     } else {
-                        power_heuristic(prev_bsdf_pdf, self.lights.pdf_hit(light, prev_p, sh.p, sh.ng))
+                        power_heuristic(
+                            prev_bsdf_pdf,
+                            self.lights.pdf_hit(light, prev_p, sh.p, sh.ng),
+                        )
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     for i in 0..N {
@@ -646,7 +907,10 @@ impl Tracer {
                     break;
                 }
                 let far = sh.ng.face_forward(ray.d);
-                ray = Ray { o: self.offset(sh.p, far), d: ray.d };
+                ray = Ray {
+                    o: self.offset(sh.p, far),
+                    d: ray.d,
+                };
                 counts.bounce += 1;
                 continue;
             }
@@ -657,7 +921,11 @@ impl Tracer {
             let d0 = dim::bounce(depth);
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
-            let ctx = TexCtx { uv: sh.uv, n: sh.ng, p: sh.p };
+            let ctx = TexCtx {
+                uv: sh.uv,
+                n: sh.ng,
+                p: sh.p,
+            };
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each
@@ -680,23 +948,54 @@ impl Tracer {
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
                 let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
-                if let Some(ls) = self.lights.sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas) {
-                    let LightSample { wi, dist, p_light, n_light, le, pdf, delta, uv, alpha_mat } = ls;
+                if let Some(ls) =
+                    self.lights
+                        .sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas)
+                {
+                    let LightSample {
+                        wi,
+                        dist,
+                        p_light,
+                        n_light,
+                        le,
+                        pdf,
+                        delta,
+                        uv,
+                        alpha_mat,
+                    } = ls;
                     let cos_g = wi.dot(ng);
                     if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
                         let wi_local = frame.to_local(wi);
                         let (f, bsdf_pdf) = bsdf.eval(&wo_local, &wi_local);
-                        let p_from = if cos_g > 0.0 { p_out } else { self.offset(sh.p, -ng) };
+                        let p_from = if cos_g > 0.0 {
+                            p_out
+                        } else {
+                            self.offset(sh.p, -ng)
+                        };
                         // A masked emitter gives nothing where its alpha test rejects the sampled
                         // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
                         // is the per-hit one with the ray a BSDF sample toward it would carry
                         // (origin `p_from`, direction `wi`), so both strategies see one mask.
-                        let masked = alpha_mat != NO_ALPHA && !self.alpha_keeps(alpha_mat, &TexCtx { uv, n: n_light, p: p_light }, p_from, wi);
+                        let masked = alpha_mat != NO_ALPHA
+                            && !self.alpha_keeps(
+                                alpha_mat,
+                                &TexCtx {
+                                    uv,
+                                    n: n_light,
+                                    p: p_light,
+                                },
+                                p_from,
+                                wi,
+                            );
                         if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
                             if self.unoccluded(p_from, wi, dist, p_light, n_light) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
-                                let mis = if delta { 1.0 } else { power_heuristic(pdf, bsdf_pdf) };
+                                let mis = if delta {
+                                    1.0
+                                } else {
+                                    power_heuristic(pdf, bsdf_pdf)
+                                };
                                 let w = mis * wi_local.z.abs() / pdf;
                                 for i in 0..N {
                                     l[i] += beta[i] * f[i] * le[i] * w;
@@ -710,7 +1009,9 @@ impl Tracer {
             // BSDF sampling for the next vertex.
             let uc = sampler.get_1d(d0 + dim::BSDF_LOBE);
             let [u0, u1] = sampler.get_2d(d0 + dim::BSDF_DIRECTION);
-            let Some(bs) = bsdf.sample(&wo_local, uc, u0, u1) else { break };
+            let Some(bs) = bsdf.sample(&wo_local, uc, u0, u1) else {
+                break;
+            };
             let wi = frame.to_world(bs.wi_local);
             // The geometric side must agree with the lobe (shading normals can disagree).
             let cos_g = wi.dot(ng);
@@ -747,7 +1048,11 @@ impl Tracer {
                 }
             }
             counts.bounce += 1;
-            let o = if bs.transmission { self.offset(sh.p, -ng) } else { p_out };
+            let o = if bs.transmission {
+                self.offset(sh.p, -ng)
+            } else {
+                p_out
+            };
             ray = Ray { o, d: wi };
         }
         l
@@ -766,13 +1071,27 @@ impl Tracer {
         // Surfaces cut out by alpha are skipped as the path skips them.
         let mut ray = *r;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let Some(h) = self.intersect(&ray) else { return (f32::INFINITY, 0) };
+            let Some(h) = self.intersect(&ray) else {
+                return (f32::INFINITY, 0);
+            };
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.alpha_keeps(pi.material, &TexCtx { uv: sh.uv, n: sh.ng, p: sh.p }, ray.o, ray.d) {
+            if self.alpha_keeps(
+                pi.material,
+                &TexCtx {
+                    uv: sh.uv,
+                    n: sh.ng,
+                    p: sh.p,
+                },
+                ray.o,
+                ray.d,
+            ) {
                 return ((sh.p - r.o).dot(forward), pi.shape + 1);
             }
-            ray = Ray { o: self.offset(sh.p, sh.ng.face_forward(ray.d)), d: ray.d };
+            ray = Ray {
+                o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                d: ray.d,
+            };
         }
         (f32::INFINITY, 0)
     }

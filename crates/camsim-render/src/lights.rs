@@ -7,9 +7,12 @@
 //! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
 //! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
 
-use crate::math::V3;
-use crate::sampling::{self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle, UNIFORM_SPHERE_PDF};
 use crate::envmap::EnvLight;
+use crate::math::V3;
+use crate::sampling::{
+    self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle,
+    UNIFORM_SPHERE_PDF,
+};
 use crate::scene::Light;
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use std::f32::consts::PI;
@@ -18,12 +21,28 @@ use std::f32::consts::PI;
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum LightKind {
     /// Triangle `p0, p0 + e1, p0 + e2`; `n` is the unit normal of the emitting side; `area` in m^2.
-    Tri { p0: V3, e1: V3, e2: V3, n: V3, area: f32 },
+    Tri {
+        p0: V3,
+        e1: V3,
+        e2: V3,
+        n: V3,
+        area: f32,
+    },
     /// Sphere; one-sided spheres emit outward, or inward when `inward` (ReverseOrientation).
-    Sphere { center: V3, radius: f32, inward: bool },
+    Sphere {
+        center: V3,
+        radius: f32,
+        inward: bool,
+    },
     /// Partial sphere (pbrt-v4 `sphere` with `zmin`/`zmax`/`phimax`): sampled uniformly by
     /// area (a zone's area is uniform in z, Archimedes' hat-box theorem); `area` in m^2.
-    SphereZone { center: V3, radius: f32, clip: crate::geometry::SphereClip, area: f32, inward: bool },
+    SphereZone {
+        center: V3,
+        radius: f32,
+        clip: crate::geometry::SphereClip,
+        area: f32,
+        inward: bool,
+    },
     /// Uniform radiance from every direction.
     Infinite,
     /// Environment map: index into `Lights::envs`.
@@ -32,7 +51,12 @@ pub(crate) enum LightKind {
     Point { p: V3 },
     /// Spot light (pbrt-v4 `SpotLight`): unit `axis` it points along, cosines of the full cone
     /// angle (`cos_end`) and of the start of the falloff (`cos_start`).
-    Spot { p: V3, axis: V3, cos_end: f32, cos_start: f32 },
+    Spot {
+        p: V3,
+        axis: V3,
+        cos_end: f32,
+        cos_start: f32,
+    },
     /// Distant light: `to_light` is the unit direction toward the light (table: irradiance
     /// W/(m^2 nm) on a surface facing it).
     Distant { to_light: V3 },
@@ -95,7 +119,10 @@ pub(crate) fn zone_uv(clip: &crate::geometry::SphereClip, radius: f32, n: V3) ->
     let theta = (l.z / radius).clamp(-1.0, 1.0).acos();
     let th0 = (clip.z_min / radius).clamp(-1.0, 1.0).acos();
     let th1 = (clip.z_max / radius).clamp(-1.0, 1.0).acos();
-    [crate::geometry::SphereClip::phi(l) / clip.phi_max, (theta - th0) / (th1 - th0)]
+    [
+        crate::geometry::SphereClip::phi(l) / clip.phi_max,
+        (theta - th0) / (th1 - th0),
+    ]
 }
 
 /// An area light's emission image (pbrt-v4 `DiffuseAreaLight` `image`) and its mean RGB, which
@@ -156,7 +183,15 @@ impl Lights {
         if matches!(kind, LightKind::Infinite | LightKind::Env(_)) {
             self.infinite.push(self.list.len() as u32);
         }
-        self.list.push(LightEntry { kind, table, two_sided, pmf: 0.0, image: NO_IMAGE, uvs: [[0.0; 2]; 3], alpha_mat: NO_ALPHA });
+        self.list.push(LightEntry {
+            kind,
+            table,
+            two_sided,
+            pmf: 0.0,
+            image: NO_IMAGE,
+            uvs: [[0.0; 2]; 3],
+            alpha_mat: NO_ALPHA,
+        });
         (self.list.len() - 1) as u32
     }
 
@@ -182,22 +217,34 @@ impl Lights {
                 let p = std::f64::consts::PI;
                 match l.kind {
                     LightKind::Tri { area, .. } => p * sides * area as f64 * lmean,
-                    LightKind::Sphere { radius, .. } => p * sides * 4.0 * p * (radius as f64).powi(2) * lmean,
+                    LightKind::Sphere { radius, .. } => {
+                        p * sides * 4.0 * p * (radius as f64).powi(2) * lmean
+                    }
                     LightKind::SphereZone { area, .. } => p * sides * area as f64 * lmean,
                     LightKind::Infinite => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean,
                     // pbrt-v4 ImageInfiniteLight::Phi: 4 pi pi r^2 times the mean radiance.
-                    LightKind::Env(e) => 4.0 * p * p * (scene_radius_m as f64).powi(2) * lmean * self.envs[e as usize].mean_scale,
+                    LightKind::Env(e) => {
+                        4.0 * p
+                            * p
+                            * (scene_radius_m as f64).powi(2)
+                            * lmean
+                            * self.envs[e as usize].mean_scale
+                    }
                     // pbrt-v4 PointLight::Phi = 4 pi I.
                     LightKind::Point { .. } => 4.0 * p * lmean,
                     // pbrt-v4 SpotLight::Phi = I 2 pi ((1 - cos_start) + (cos_start - cos_end) / 2).
-                    LightKind::Spot { cos_end, cos_start, .. } => {
+                    LightKind::Spot {
+                        cos_end, cos_start, ..
+                    } => {
                         let (ce, cs) = (cos_end as f64, cos_start as f64);
                         lmean * 2.0 * p * ((1.0 - cs) + (cs - ce) / 2.0)
                     }
                     // pbrt-v4 DistantLight::Phi = pi r^2 E.
                     LightKind::Distant { .. } => p * (scene_radius_m as f64).powi(2) * lmean,
                     // pbrt-v4 GoniometricLight::Phi = 4 pi I mean(image) (equal-area texels).
-                    LightKind::Gonio { g, .. } => 4.0 * p * lmean * self.gonios[g as usize].mean_value,
+                    LightKind::Gonio { g, .. } => {
+                        4.0 * p * lmean * self.gonios[g as usize].mean_value
+                    }
                     // pbrt-v4 ProjectionLight::Phi = A mean(I cos^3 theta) over the screen.
                     LightKind::Proj { j, .. } => lmean * self.projs[j as usize].power_factor,
                 }
@@ -205,8 +252,11 @@ impl Lights {
             .collect();
         let total: f64 = powers.iter().sum();
         let n = self.list.len();
-        let probs: Vec<f64> =
-            if total > 0.0 && total.is_finite() { powers.iter().map(|p| p / total).collect() } else { vec![1.0 / n as f64; n] };
+        let probs: Vec<f64> = if total > 0.0 && total.is_finite() {
+            powers.iter().map(|p| p / total).collect()
+        } else {
+            vec![1.0 / n as f64; n]
+        };
         self.cdf.clear();
         let mut acc = 0.0;
         for (l, p) in self.list.iter_mut().zip(&probs) {
@@ -239,7 +289,8 @@ impl Lights {
         }
         match light.kind {
             LightKind::Tri { n, .. } => n.dot(w) > 0.0,
-            LightKind::Sphere { center, inward, .. } | LightKind::SphereZone { center, inward, .. } => {
+            LightKind::Sphere { center, inward, .. }
+            | LightKind::SphereZone { center, inward, .. } => {
                 let out = (p - center).dot(w) > 0.0;
                 let _ = ng;
                 out != inward
@@ -289,7 +340,13 @@ impl Lights {
     /// (unit), and the density per steradian (times the selection probability) with which
     /// [`Lights::sample`] would have chosen that direction.
     #[inline]
-    pub(crate) fn escaped<const N: usize>(&self, li: u32, dir: V3, tables: &[SpectrumTable], lambdas: &Lambdas<N>) -> ([f32; N], f32) {
+    pub(crate) fn escaped<const N: usize>(
+        &self,
+        li: u32,
+        dir: V3,
+        tables: &[SpectrumTable],
+        lambdas: &Lambdas<N>,
+    ) -> ([f32; N], f32) {
         let light = &self.list[li as usize];
         let table = &tables[light.table as usize];
         match light.kind {
@@ -303,7 +360,12 @@ impl Lights {
     }
 
     /// Add a non-shape scene light (validated; spectra tabulated into `tables`).
-    pub(crate) fn add_scene_light(&mut self, l: &Light, ws: &WavelengthSampler, tables: &mut Vec<SpectrumTable>) -> Result<(), String> {
+    pub(crate) fn add_scene_light(
+        &mut self,
+        l: &Light,
+        ws: &WavelengthSampler,
+        tables: &mut Vec<SpectrumTable>,
+    ) -> Result<(), String> {
         let unit = |d: [f64; 3], what: &str| -> Result<V3, String> {
             let v = V3::from_f64(d);
             let len = v.length();
@@ -330,15 +392,28 @@ impl Lights {
                 let t = table(radiance, "infinite light radiance")?;
                 self.push(LightKind::Infinite, t, true);
             }
-            Light::Point { position_m, intensity } => {
+            Light::Point {
+                position_m,
+                intensity,
+            } => {
                 let p = finite_point(*position_m)?;
                 let t = table(intensity, "point light intensity")?;
                 self.push(LightKind::Point { p }, t, true);
             }
-            Light::Spot { position_m, direction, intensity, cone_angle_deg, cone_delta_deg } => {
+            Light::Spot {
+                position_m,
+                direction,
+                intensity,
+                cone_angle_deg,
+                cone_delta_deg,
+            } => {
                 let p = finite_point(*position_m)?;
                 let axis = unit(*direction, "spot light direction")?;
-                if !(cone_angle_deg.is_finite() && cone_delta_deg.is_finite() && *cone_angle_deg > 0.0 && *cone_delta_deg >= 0.0) {
+                if !(cone_angle_deg.is_finite()
+                    && cone_delta_deg.is_finite()
+                    && *cone_angle_deg > 0.0
+                    && *cone_delta_deg >= 0.0)
+                {
                     return Err(format!("spot light cone angle {cone_angle_deg} deg / delta {cone_delta_deg} deg are invalid"));
                 }
                 // pbrt-v4 SpotLight: cosFalloffEnd = cos(coneangle), cosFalloffStart =
@@ -346,9 +421,21 @@ impl Lights {
                 let cos_end = cone_angle_deg.to_radians().cos() as f32;
                 let cos_start = (cone_angle_deg - cone_delta_deg).to_radians().cos() as f32;
                 let t = table(intensity, "spot light intensity")?;
-                self.push(LightKind::Spot { p, axis, cos_end, cos_start }, t, true);
+                self.push(
+                    LightKind::Spot {
+                        p,
+                        axis,
+                        cos_end,
+                        cos_start,
+                    },
+                    t,
+                    true,
+                );
             }
-            Light::Distant { direction, irradiance } => {
+            Light::Distant {
+                direction,
+                irradiance,
+            } => {
                 let d = unit(*direction, "distant light direction")?;
                 let t = table(irradiance, "distant light irradiance")?;
                 self.push(LightKind::Distant { to_light: -d }, t, true);
@@ -364,14 +451,28 @@ impl Lights {
                 let t = table(&gl.intensity, "goniometric light intensity")?;
                 self.gonios.push(g);
                 let p = V3::from_f64(gl.position_m);
-                self.push(LightKind::Gonio { p, g: (self.gonios.len() - 1) as u32 }, t, true);
+                self.push(
+                    LightKind::Gonio {
+                        p,
+                        g: (self.gonios.len() - 1) as u32,
+                    },
+                    t,
+                    true,
+                );
             }
             Light::Projection(pl) => {
                 let pr = crate::projection::ProjLight::new(pl)?;
                 let t = table(&pl.illuminant, "projection light illuminant")?;
                 self.projs.push(pr);
                 let p = V3::from_f64(pl.position_m);
-                self.push(LightKind::Proj { p, j: (self.projs.len() - 1) as u32 }, t, true);
+                self.push(
+                    LightKind::Proj {
+                        p,
+                        j: (self.projs.len() - 1) as u32,
+                    },
+                    t,
+                    true,
+                );
             }
         }
         Ok(())
@@ -393,12 +494,20 @@ impl Lights {
         let want_uv = light.image != NO_IMAGE || light.alpha_mat != NO_ALPHA;
         let mut uv = [0f32; 2];
         let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
-            LightKind::Tri { p0, e1, e2, n, area } => {
+            LightKind::Tri {
+                p0,
+                e1,
+                e2,
+                n,
+                area,
+            } => {
                 let (b1, b2) = uniform_triangle(u0, u1);
                 if want_uv {
                     // As `Tracer::surface` interpolates them at a hit.
                     let t = &light.uvs;
-                    uv = std::array::from_fn(|k| (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]);
+                    uv = std::array::from_fn(|k| {
+                        (1.0 - b1 - b2) * t[0][k] + b1 * t[1][k] + b2 * t[2][k]
+                    });
                 }
                 let q = p0 + e1 * b1 + e2 * b2;
                 let d = q - p;
@@ -415,10 +524,15 @@ impl Lights {
                 }
                 (wi, dist, q, n, dist2 / (cos_l * area))
             }
-            LightKind::Sphere { center, radius, inward } => {
+            LightKind::Sphere {
+                center,
+                radius,
+                inward,
+            } => {
                 let (q, n, pdf) = match sphere_cone(p, center, radius) {
                     Some((cos_max, sin2_max)) => {
-                        let (q, n) = sample_sphere_cone(p, center, radius, cos_max, sin2_max, u0, u1);
+                        let (q, n) =
+                            sample_sphere_cone(p, center, radius, cos_max, sin2_max, u0, u1);
                         (q, n, cone_pdf(cos_max, sin2_max))
                     }
                     None => {
@@ -447,7 +561,13 @@ impl Lights {
                 }
                 (wi, dist, q, n, pdf)
             }
-            LightKind::SphereZone { center, radius, clip, area, inward } => {
+            LightKind::SphereZone {
+                center,
+                radius,
+                clip,
+                area,
+                inward,
+            } => {
                 // Uniform by area: z uniform in [z_min, z_max] (Archimedes), phi in [0, phi_max].
                 let z = clip.z_min + u0 * (clip.z_max - clip.z_min);
                 let rho = (radius * radius - z * z).max(0.0).sqrt();
@@ -473,7 +593,13 @@ impl Lights {
                 }
                 (wi, dist, q, n, dist2 / (cos_l * area))
             }
-            LightKind::Infinite => (uniform_sphere(u0, u1), f32::INFINITY, V3::splat(0.0), V3::splat(0.0), sampling::UNIFORM_SPHERE_PDF),
+            LightKind::Infinite => (
+                uniform_sphere(u0, u1),
+                f32::INFINITY,
+                V3::splat(0.0),
+                V3::splat(0.0),
+                sampling::UNIFORM_SPHERE_PDF,
+            ),
             LightKind::Env(e) => {
                 let env = &self.envs[e as usize];
                 let (wi, texel, pdf) = env.sample(u0, u1)?;
@@ -482,9 +608,22 @@ impl Lights {
                     return None;
                 }
                 let le = env.radiance(texel, &tables[light.table as usize], lambdas);
-                return Some(LightSample { wi, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf, delta: false, uv: [0.0; 2], alpha_mat: NO_ALPHA });
+                return Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    p_light: V3::splat(0.0),
+                    n_light: V3::splat(0.0),
+                    le,
+                    pdf,
+                    delta: false,
+                    uv: [0.0; 2],
+                    alpha_mat: NO_ALPHA,
+                });
             }
-            LightKind::Point { p: q } | LightKind::Spot { p: q, .. } | LightKind::Gonio { p: q, .. } | LightKind::Proj { p: q, .. } => {
+            LightKind::Point { p: q }
+            | LightKind::Spot { p: q, .. }
+            | LightKind::Gonio { p: q, .. }
+            | LightKind::Proj { p: q, .. } => {
                 // pbrt-v4 Point/Spot/Goniometric/ProjectionLight::SampleLi: Li = I(w) / r^2, pdf 1
                 // (delta).
                 let d = q - p;
@@ -497,10 +636,17 @@ impl Lights {
                 let table = &tables[light.table as usize];
                 let le = if let LightKind::Proj { j, .. } = light.kind {
                     let pr = &self.projs[j as usize];
-                    pr.intensity(pr.texel(-wi)?, table, lambdas).map(|v| v / dist2)
+                    pr.intensity(pr.texel(-wi)?, table, lambdas)
+                        .map(|v| v / dist2)
                 } else {
                     let mut k = 1.0 / dist2;
-                    if let LightKind::Spot { axis, cos_end, cos_start, .. } = light.kind {
+                    if let LightKind::Spot {
+                        axis,
+                        cos_end,
+                        cos_start,
+                        ..
+                    } = light.kind
+                    {
                         k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
                     }
                     if let LightKind::Gonio { g, .. } = light.kind {
@@ -511,11 +657,31 @@ impl Lights {
                     }
                     table.eval_path(lambdas).map(|v| v * k)
                 };
-                return Some(LightSample { wi, dist, p_light: q, n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
+                return Some(LightSample {
+                    wi,
+                    dist,
+                    p_light: q,
+                    n_light: V3::splat(0.0),
+                    le,
+                    pdf: light.pmf,
+                    delta: true,
+                    uv: [0.0; 2],
+                    alpha_mat: NO_ALPHA,
+                });
             }
             LightKind::Distant { to_light } => {
                 let le = tables[light.table as usize].eval_path(lambdas);
-                return Some(LightSample { wi: to_light, dist: f32::INFINITY, p_light: V3::splat(0.0), n_light: V3::splat(0.0), le, pdf: light.pmf, delta: true, uv: [0.0; 2], alpha_mat: NO_ALPHA });
+                return Some(LightSample {
+                    wi: to_light,
+                    dist: f32::INFINITY,
+                    p_light: V3::splat(0.0),
+                    n_light: V3::splat(0.0),
+                    le,
+                    pdf: light.pmf,
+                    delta: true,
+                    uv: [0.0; 2],
+                    alpha_mat: NO_ALPHA,
+                });
             }
         };
         let pdf = pdf_sa * light.pmf;
@@ -523,7 +689,17 @@ impl Lights {
             return None;
         }
         let le = self.emitted(light, uv, tables, lambdas);
-        Some(LightSample { wi, dist, p_light: q_light, n_light, le, pdf, delta: false, uv, alpha_mat: light.alpha_mat })
+        Some(LightSample {
+            wi,
+            dist,
+            p_light: q_light,
+            n_light,
+            le,
+            pdf,
+            delta: false,
+            uv,
+            alpha_mat: light.alpha_mat,
+        })
     }
 
     /// Radiance an area light emits at surface coordinates `uv` (its table alone, or with an
@@ -531,12 +707,21 @@ impl Lights {
     /// `2 m S(rgb / 2m)(lambda) illuminant(lambda)`, `m` the largest component,
     /// `RGBIlluminantSpectrum`, with `S` the Jakob & Hanika 2019 uplift, `crate::uplift`).
     #[inline]
-    pub(crate) fn emitted<const N: usize>(&self, light: &LightEntry, uv: [f32; 2], tables: &[SpectrumTable], lambdas: &Lambdas<N>) -> [f32; N] {
+    pub(crate) fn emitted<const N: usize>(
+        &self,
+        light: &LightEntry,
+        uv: [f32; 2],
+        tables: &[SpectrumTable],
+        lambdas: &Lambdas<N>,
+    ) -> [f32; N] {
         let il = tables[light.table as usize].eval_path(lambdas);
         if light.image == NO_IMAGE {
             return il;
         }
-        let rgb = self.images[light.image as usize].tex.lookup(uv).map(|v| v.max(0.0));
+        let rgb = self.images[light.image as usize]
+            .tex
+            .lookup(uv)
+            .map(|v| v.max(0.0));
         let m = rgb[0].max(rgb[1]).max(rgb[2]);
         if m <= 0.0 || m.is_nan() {
             return [0.0; N];
@@ -559,19 +744,70 @@ mod tests {
     #[test]
     fn sample_pdf_matches_pdf_hit() {
         let ws = WavelengthSampler::new(&WavelengthGrid::default());
-        let tables = vec![SpectrumTable::new(&Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(), 1.0, &ws)];
+        let tables = vec![SpectrumTable::new(
+            &Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(),
+            1.0,
+            &ws,
+        )];
         let mut lights = Lights::default();
-        let (p0, e1, e2) = (V3::new(-0.5, 1.0, -0.5), V3::new(1.0, 0.0, 0.2), V3::new(0.1, 0.0, 1.0));
+        let (p0, e1, e2) = (
+            V3::new(-0.5, 1.0, -0.5),
+            V3::new(1.0, 0.0, 0.2),
+            V3::new(0.1, 0.0, 1.0),
+        );
         let n = e1.cross(e2).normalize();
-        lights.push(LightKind::Tri { p0, e1, e2, n, area: 0.5 * e1.cross(e2).length() }, 0, false);
-        lights.push(LightKind::Sphere { center: V3::new(2.0, 0.5, 0.0), radius: 0.4, inward: false }, 0, true);
-        lights.push(LightKind::Sphere { center: V3::new(0.0, 0.0, 0.0), radius: 5.0, inward: true }, 0, false);
+        lights.push(
+            LightKind::Tri {
+                p0,
+                e1,
+                e2,
+                n,
+                area: 0.5 * e1.cross(e2).length(),
+            },
+            0,
+            false,
+        );
+        lights.push(
+            LightKind::Sphere {
+                center: V3::new(2.0, 0.5, 0.0),
+                radius: 0.4,
+                inward: false,
+            },
+            0,
+            true,
+        );
+        lights.push(
+            LightKind::Sphere {
+                center: V3::new(0.0, 0.0, 0.0),
+                radius: 5.0,
+                inward: true,
+            },
+            0,
+            false,
+        );
         lights.push(LightKind::Infinite, 0, true);
         // A quarter of a dome (z in [0.1, 0.6] of radius 0.7, phi in [0, 90 deg]), tilted frame.
         let (ex, ey) = (V3::new(0.6, 0.8, 0.0), V3::new(0.0, 0.0, 1.0));
-        let clip = crate::geometry::SphereClip { ex, ey, ez: ex.cross(ey), z_min: 0.1, z_max: 0.6, phi_max: 0.5 * PI };
+        let clip = crate::geometry::SphereClip {
+            ex,
+            ey,
+            ez: ex.cross(ey),
+            z_min: 0.1,
+            z_max: 0.6,
+            phi_max: 0.5 * PI,
+        };
         let area = clip.phi_max * 0.7 * (clip.z_max - clip.z_min);
-        lights.push(LightKind::SphereZone { center: V3::new(-1.5, 0.4, 0.3), radius: 0.7, clip, area, inward: false }, 0, false);
+        lights.push(
+            LightKind::SphereZone {
+                center: V3::new(-1.5, 0.4, 0.3),
+                radius: 0.7,
+                clip,
+                area,
+                inward: false,
+            },
+            0,
+            false,
+        );
         lights.finish(&tables, 5.0);
         let total: f32 = lights.list.iter().map(|l| l.pmf).sum();
         assert!((total - 1.0).abs() < 1e-6);
@@ -581,7 +817,9 @@ mod tests {
         for _ in 0..50_000 {
             let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
             let k = lights.pick(us);
-            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &ws.locate([500.0; 4])) else { continue };
+            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &ws.locate([500.0; 4])) else {
+                continue;
+            };
             seen[k] += 1;
             let light = &lights.list[k];
             assert_eq!(s.le, [2.0; 4]);
@@ -593,15 +831,30 @@ mod tests {
             let ng = match light.kind {
                 LightKind::Tri { n, .. } => n,
                 LightKind::Sphere { center, .. } => (q - center).normalize(),
-                LightKind::SphereZone { center, radius, clip, .. } => {
-                    assert!(clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4, "{q:?} off the zone");
+                LightKind::SphereZone {
+                    center,
+                    radius,
+                    clip,
+                    ..
+                } => {
+                    assert!(
+                        clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4,
+                        "{q:?} off the zone"
+                    );
                     (q - center).normalize()
                 }
                 _ => unreachable!(),
             };
-            assert!(lights.emits_toward(light, q, ng, -s.wi), "sample from the back of a one-sided light");
+            assert!(
+                lights.emits_toward(light, q, ng, -s.wi),
+                "sample from the back of a one-sided light"
+            );
             let ph = lights.pdf_hit(light, p, q, ng);
-            assert!((ph / s.pdf - 1.0).abs() < 2e-3, "light {k}: sample pdf {} vs pdf_hit {ph}", s.pdf);
+            assert!(
+                (ph / s.pdf - 1.0).abs() < 2e-3,
+                "light {k}: sample pdf {} vs pdf_hit {ph}",
+                s.pdf
+            );
         }
         assert!(seen.iter().all(|c| *c > 10), "{seen:?}");
     }

@@ -141,8 +141,16 @@ impl Tracer {
     /// [0, 1].
     #[inline]
     fn layer_at<const N: usize>(&self, w: &Walk, ctx: &TexCtx, lambdas: &Lambdas<N>) -> Layer<N> {
-        let albedo = self.eval_texture(&w.albedo, ctx, lambdas).map(|a| a.clamp(0.0, 1.0));
-        Layer { thickness: w.thickness, albedo, g: w.g, max_depth: w.max_depth, n_samples: w.n_samples }
+        let albedo = self
+            .eval_texture(&w.albedo, ctx, lambdas)
+            .map(|a| a.clamp(0.0, 1.0));
+        Layer {
+            thickness: w.thickness,
+            albedo,
+            g: w.g,
+            max_depth: w.max_depth,
+            n_samples: w.n_samples,
+        }
     }
 
     /// pbrt-v4's alpha test of a hit (4th ed. §7.1.1, `GeometricPrimitive::Intersect`) on a
@@ -351,9 +359,15 @@ fn compile_walk(
     tables: &mut Vec<SpectrumTable>,
     images: &mut Vec<crate::integrator::ImageTex>,
 ) -> Result<Walk, RenderError> {
-    let err = |message: String| RenderError::Material { index: material_index, message };
+    let err = |message: String| RenderError::Material {
+        index: material_index,
+        message,
+    };
     if !(walk.g > -1.0 && walk.g < 1.0) {
-        return Err(err(format!("coating medium g {} must lie in (-1, 1)", walk.g)));
+        return Err(err(format!(
+            "coating medium g {} must lie in (-1, 1)",
+            walk.g
+        )));
     }
     if walk.n_samples == 0 {
         return Err(err("coating nsamples must be >= 1".into()));
@@ -380,7 +394,9 @@ fn compile_conductor_optics(
             let (k, _) = index_table(k, "conductor k", material_index, ws, tables, false)?;
             CondOptics::EtaK(e, k)
         }
-        ConductorOptics::Reflectance(t) => CondOptics::Reflectance(compile_texture(t, material_index, ws, tables, images)?),
+        ConductorOptics::Reflectance(t) => {
+            CondOptics::Reflectance(compile_texture(t, material_index, ws, tables, images)?)
+        }
     })
 }
 

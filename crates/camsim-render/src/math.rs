@@ -54,7 +54,11 @@ impl V3 {
     /// Cross product (right-handed formula).
     #[inline(always)]
     pub fn cross(self, o: V3) -> V3 {
-        V3::new(self.y * o.z - self.z * o.y, self.z * o.x - self.x * o.z, self.x * o.y - self.y * o.x)
+        V3::new(
+            self.y * o.z - self.z * o.y,
+            self.z * o.x - self.x * o.z,
+            self.x * o.y - self.y * o.x,
+        )
     }
     /// Squared length.
     #[inline(always)]
@@ -204,7 +208,9 @@ mod tests {
             let n = V3::new(a.cos() * b.cos(), a.sin() * b.cos(), b.sin()).normalize();
             let f = Frame::from_normal(n);
             assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
-            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
+            assert!(
+                f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5
+            );
             let v = V3::new(0.3, -0.5, 0.8);
             let back = f.to_local(f.to_world(v));
             assert!((back - v).length() < 1e-5);

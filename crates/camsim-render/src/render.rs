@@ -11,12 +11,12 @@
 
 use crate::camera::CameraRig;
 use crate::integrator::{RayCounts, Tracer};
+use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use crate::scene::SceneDescription;
 use crate::spectral::WavelengthSampler;
 use camsim_core::image::ImageGeometry;
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{CoreError, Quantity, SpectralImage};
-use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -43,7 +43,11 @@ pub enum RenderError {
     Settings(String),
     /// A shape is malformed.
     #[error("shape {index} ('{name}'): {message}")]
-    Shape { index: usize, name: String, message: String },
+    Shape {
+        index: usize,
+        name: String,
+        message: String,
+    },
     /// A material is malformed.
     #[error("material {index}: {message}")]
     Material { index: usize, message: String },
@@ -162,11 +166,19 @@ impl PixelJob {
                 // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
                 let u_pupil = sampler.get_2d(dim::LENS);
                 match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
-                    Some((ray, w)) => (ctx.tracer.li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c), w),
+                    Some((ray, w)) => (
+                        ctx.tracer
+                            .li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c),
+                        w,
+                    ),
                     None => ([0f32; N], 0f32),
                 }
             } else {
-                (ctx.tracer.li::<N, S>(ctx.rig.ray(fx, fy), &ctx.ws.locate(lambdas), sampler, c), 1f32)
+                (
+                    ctx.tracer
+                        .li::<N, S>(ctx.rig.ray(fx, fy), &ctx.ws.locate(lambdas), sampler, c),
+                    1f32,
+                )
             };
             let mut y_lum = 0f64;
             for j in 0..N {
@@ -183,16 +195,25 @@ impl PixelJob {
 
 /// Render `scene`. `progress(done, total)` is called after every finished tile with the
 /// number of tile-passes done and planned.
-pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) -> Result<RenderOutput, RenderError> {
+pub fn render(
+    scene: &SceneDescription,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
     let st = &scene.settings;
-    st.grid.validate().map_err(|e| RenderError::Settings(e.to_string()))?;
+    st.grid
+        .validate()
+        .map_err(|e| RenderError::Settings(e.to_string()))?;
     if st.samples_per_pixel == 0 {
-        return Err(RenderError::Settings("samples_per_pixel must be at least 1".into()));
+        return Err(RenderError::Settings(
+            "samples_per_pixel must be at least 1".into(),
+        ));
     }
     if let Some(b) = st.time_budget_s {
         if b.is_nan() || b <= 0.0 {
-            return Err(RenderError::Settings(format!("time_budget_s = {b} s is not a positive number")));
+            return Err(RenderError::Settings(format!(
+                "time_budget_s = {b} s is not a positive number"
+            )));
         }
     }
     let rig = CameraRig::new(&scene.camera).map_err(RenderError::Camera)?;
@@ -213,7 +234,9 @@ pub fn render(scene: &SceneDescription, progress: &(dyn Fn(u64, u64) + Sync)) ->
         4 => run::<4>(scene, &tracer, &rig, &ws, progress, start),
         8 => run::<8>(scene, &tracer, &rig, &ws, progress, start),
         16 => run::<16>(scene, &tracer, &rig, &ws, progress, start),
-        n => Err(RenderError::Settings(format!("wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"))),
+        n => Err(RenderError::Settings(format!(
+            "wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"
+        ))),
     }
 }
 
@@ -231,9 +254,14 @@ fn run<const N: usize>(
     let bands = st.grid.len();
     let hfov_deg = scene.camera.horizontal_fov_deg();
     let distance_m = scene.focus_distance_m.filter(|d| *d > 0.0 && d.is_finite());
-    let spacing_m = distance_m.unwrap_or(1.0) * 2.0 * (hfov_deg.to_radians() / 2.0).tan() / width as f64;
+    let spacing_m =
+        distance_m.unwrap_or(1.0) * 2.0 * (hfov_deg.to_radians() / 2.0).tan() / width as f64;
     let mut radiance = SpectralImage::zeros(height, width, st.grid, spacing_m, Quantity::Radiance)?;
-    radiance.geometry = ImageGeometry { fov_deg: hfov_deg, distance_m: distance_m.unwrap_or(0.0), ..Default::default() };
+    radiance.geometry = ImageGeometry {
+        fov_deg: hfov_deg,
+        distance_m: distance_m.unwrap_or(0.0),
+        ..Default::default()
+    };
     let mut depth = vec![f32::INFINITY; pixels];
     let mut object_id = vec![0u32; pixels];
     let mut lum = vec![[0f64; 2]; pixels];
@@ -249,10 +277,19 @@ fn run<const N: usize>(
     // Luminance weight per band: 683 ybar(lambda_b) (hi - lo)/N per wavelength sample (CIE 1931 ybar).
     let ybar = camsim_core::colorimetry::Cmfs::on(&st.grid).y;
     let lum_w: Vec<f64> = (0..bands)
-        .map(|b| camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * ybar[b] * (ws.hi_nm - ws.lo_nm) as f64 / N as f64)
+        .map(|b| {
+            camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * ybar[b] * (ws.hi_nm - ws.lo_nm) as f64
+                / N as f64
+        })
         .collect();
 
-    let ctx = TraceCtx { tracer, rig, ws, splat, lum_w: &lum_w };
+    let ctx = TraceCtx {
+        tracer,
+        rig,
+        ws,
+        splat,
+        lum_w: &lum_w,
+    };
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
     let id_ptr = SharedMut(object_id.as_mut_ptr());
@@ -290,7 +327,14 @@ fn run<const N: usize>(
                                 *id_ptr.ptr().add(pix) = id;
                             }
                         }
-                        let px = PixelJob { x, y, first: s0 as u64, count: k, local, tile_px };
+                        let px = PixelJob {
+                            x,
+                            y,
+                            first: s0 as u64,
+                            count: k,
+                            local,
+                            tile_px,
+                        };
                         let (ls, ls2) = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
@@ -313,7 +357,8 @@ fn run<const N: usize>(
                     for (ly, row) in plane.chunks_exact(tw).enumerate() {
                         let start = b * pixels + (y0 + ly) * width + x0;
                         // SAFETY: these `tw` samples of band `b` belong to this tile only.
-                        let dst = unsafe { std::slice::from_raw_parts_mut(img_ptr.ptr().add(start), tw) };
+                        let dst =
+                            unsafe { std::slice::from_raw_parts_mut(img_ptr.ptr().add(start), tw) };
                         for (d, a) in dst.iter_mut().zip(row) {
                             *d += *a as f32;
                         }
@@ -342,7 +387,13 @@ fn run<const N: usize>(
     radiance.data.par_iter_mut().for_each(|v| *v *= inv);
     let variance: Vec<f32> = lum
         .iter()
-        .map(|[s, s2]| if samples_done >= 2 { (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n) as f32 } else { 0.0 })
+        .map(|[s, s2]| {
+            if samples_done >= 2 {
+                (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n) as f32
+            } else {
+                0.0
+            }
+        })
         .collect();
     radiance.depth_m = Some(depth.clone());
     let seconds = start.elapsed().as_secs_f64();
@@ -356,5 +407,12 @@ fn run<const N: usize>(
         rays_per_second: rays as f64 / seconds,
     };
     let ids = crate::ids::IdMaps::from_object_ids(scene, width, height, object_id);
-    Ok(RenderOutput { radiance, depth_m: depth, variance, samples_per_pixel: vec![samples_done; pixels], ids, stats })
+    Ok(RenderOutput {
+        radiance,
+        depth_m: depth,
+        variance,
+        samples_per_pixel: vec![samples_done; pixels],
+        ids,
+        stats,
+    })
 }

@@ -118,14 +118,25 @@ fn sobol_4d(index: u32, seed: u32) -> [f32; 4] {
     use sobol_burley::parts::{hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev, Int4};
     let rev = owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x79c6_8e4a));
     let t = &*SOBOL_BYTES;
-    let (hi, lo) = (t[0][(rev >> 24) as usize], t[1][((rev >> 16) & 0xff) as usize]);
+    let (hi, lo) = (
+        t[0][(rev >> 24) as usize],
+        t[1][((rev >> 16) & 0xff) as usize],
+    );
     let sobol: Int4 = [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]].into();
     // The crate's per-lane scramble of dimension set 0.
     let scramble: Int4 = {
         let s = seed.wrapping_mul(0x9c8f_2d3b);
-        [s ^ 0x912f_69ba, s ^ 0x174f_18ab, s ^ 0x691e_72ca, s ^ 0xb40c_c1b8].into()
+        [
+            s ^ 0x912f_69ba,
+            s ^ 0x174f_18ab,
+            s ^ 0x691e_72ca,
+            s ^ 0xb40c_c1b8,
+        ]
+        .into()
     };
-    owen_scramble_int4_rev(sobol, hash_int4(scramble)).reverse_bits().to_f32_norm()
+    owen_scramble_int4_rev(sobol, hash_int4(scramble))
+        .reverse_bits()
+        .to_f32_norm()
 }
 
 /// The padded, Owen-scrambled Sobol sampler of one pixel ([module docs](self)).
@@ -267,8 +278,15 @@ mod tests {
             seed = (mix64(seed as u64 ^ index as u64) >> 32) as u32;
             let fast = sobol_4d(index, seed);
             let want = sobol_burley::sample_4d(index, 0, seed);
-            assert_eq!(fast.map(f32::to_bits), want.map(f32::to_bits), "index {index} seed {seed}");
-            assert_eq!(fast[0].to_bits(), sobol_burley::sample(index, 0, seed).to_bits());
+            assert_eq!(
+                fast.map(f32::to_bits),
+                want.map(f32::to_bits),
+                "index {index} seed {seed}"
+            );
+            assert_eq!(
+                fast[0].to_bits(),
+                sobol_burley::sample(index, 0, seed).to_bits()
+            );
         }
     }
 

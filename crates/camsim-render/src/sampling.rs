@@ -12,7 +12,11 @@ pub fn concentric_disk(u0: f32, u1: f32) -> (f32, f32) {
     if ox == 0.0 && oy == 0.0 {
         return (0.0, 0.0);
     }
-    let (r, theta) = if ox.abs() > oy.abs() { (ox, FRAC_PI_4 * (oy / ox)) } else { (oy, FRAC_PI_2 - FRAC_PI_4 * (ox / oy)) };
+    let (r, theta) = if ox.abs() > oy.abs() {
+        (ox, FRAC_PI_4 * (oy / ox))
+    } else {
+        (oy, FRAC_PI_2 - FRAC_PI_4 * (ox / oy))
+    };
     let (s, c) = theta.sin_cos();
     (r * c, r * s)
 }
@@ -91,7 +95,15 @@ pub fn cone_pdf(cos_max: f32, sin2_max: f32) -> f32 {
 /// angle (pbrt-v4 `Sphere::Sample(ctx, u)`, after Shirley et al. 1996). Returns the point on the
 /// sphere and the outward unit normal there.
 #[inline]
-pub fn sample_sphere_cone(p: V3, center: V3, radius: f32, cos_max: f32, sin2_max: f32, u0: f32, u1: f32) -> (V3, V3) {
+pub fn sample_sphere_cone(
+    p: V3,
+    center: V3,
+    radius: f32,
+    cos_max: f32,
+    sin2_max: f32,
+    u0: f32,
+    u1: f32,
+) -> (V3, V3) {
     let one_minus = one_minus_cos(cos_max, sin2_max);
     // cos(theta) uniform in [cos_max, 1].
     let (cos_theta, sin2_theta) = if sin2_max < 0.00068523 {
@@ -102,7 +114,8 @@ pub fn sample_sphere_cone(p: V3, center: V3, radius: f32, cos_max: f32, sin2_max
         (c, 1.0 - c * c)
     };
     // Angle alpha at the centre between -wc and the sampled point (pbrt-v4 eq. in Sphere::Sample).
-    let cos_alpha = sin2_theta / sin2_max.sqrt() + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
+    let cos_alpha =
+        sin2_theta / sin2_max.sqrt() + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
     let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
     let phi = 2.0 * PI * u1;
     let (s, c) = phi.sin_cos();

@@ -79,7 +79,12 @@ impl WavelengthSampler {
             idx[i] = k as u32;
             frac[i] = t;
         }
-        Lambdas { nm, idx, frac, table_len: n as u32 }
+        Lambdas {
+            nm,
+            idx,
+            frac,
+            table_len: n as u32,
+        }
     }
 
     /// Weight that turns `L(lambda_i)` into its share of its band's average: `(hi - lo)/(n step)`.
@@ -114,13 +119,26 @@ impl SpectrumTable {
     pub fn new(s: &Spectrum, scale: f64, ws: &WavelengthSampler) -> SpectrumTable {
         let (dx, n) = ws.table_layout();
         debug_assert_eq!(((1.0 / dx) as f32, n), (ws.table_inv_dx, ws.table_len));
-        let (w0, w1) = (s.wavelengths_nm[0], s.wavelengths_nm[s.wavelengths_nm.len() - 1]);
-        let values = (0..n).map(|i| (s.eval((ws.lo_nm as f64 + i as f64 * dx).clamp(w0, w1)) * scale).max(0.0) as f32).collect();
+        let (w0, w1) = (
+            s.wavelengths_nm[0],
+            s.wavelengths_nm[s.wavelengths_nm.len() - 1],
+        );
+        let values = (0..n)
+            .map(|i| {
+                (s.eval((ws.lo_nm as f64 + i as f64 * dx).clamp(w0, w1)) * scale).max(0.0) as f32
+            })
+            .collect();
         let (data_lo_nm, data_hi_nm) = match s.extrapolation {
             Extrapolation::Zero => (w0 as f32, w1 as f32),
             Extrapolation::Hold => (f32::NEG_INFINITY, f32::INFINITY),
         };
-        SpectrumTable { lo_nm: ws.lo_nm, inv_dx: (1.0 / dx) as f32, values, data_lo_nm, data_hi_nm }
+        SpectrumTable {
+            lo_nm: ws.lo_nm,
+            inv_dx: (1.0 / dx) as f32,
+            values,
+            data_lo_nm,
+            data_hi_nm,
+        }
     }
 
     /// True where the spectrum has data (or holds its end values).
@@ -149,7 +167,11 @@ impl SpectrumTable {
     /// [`Self::eval`] at each wavelength.
     #[inline(always)]
     pub fn eval_path<const N: usize>(&self, l: &Lambdas<N>) -> [f32; N] {
-        debug_assert_eq!(l.table_len as usize, self.values.len(), "wavelengths located for another sampler");
+        debug_assert_eq!(
+            l.table_len as usize,
+            self.values.len(),
+            "wavelengths located for another sampler"
+        );
         std::array::from_fn(|k| {
             if !self.covers(l.nm[k]) {
                 return 0.0;
@@ -162,7 +184,13 @@ impl SpectrumTable {
 
     /// The table's values with zero outside the data.
     fn effective(&self) -> impl Iterator<Item = f32> + '_ {
-        self.values.iter().enumerate().map(|(i, v)| if self.covers(self.wavelength_of(i)) { *v } else { 0.0 })
+        self.values.iter().enumerate().map(|(i, v)| {
+            if self.covers(self.wavelength_of(i)) {
+                *v
+            } else {
+                0.0
+            }
+        })
     }
 
     /// Mean value over the table (for light power estimates).
@@ -209,7 +237,12 @@ mod tests {
         for i in 0..4 {
             assert!(l[i] >= 395.0 && l[i] < 705.0);
             let centre = g.wavelength_nm(b[i] as usize) as f32;
-            assert!((l[i] - centre).abs() <= 5.0 + 1e-3, "{} in band centred {}", l[i], centre);
+            assert!(
+                (l[i] - centre).abs() <= 5.0 + 1e-3,
+                "{} in band centred {}",
+                l[i],
+                centre
+            );
         }
         assert!((ws.splat_weight(4) - 31.0 / 4.0).abs() < 1e-5);
     }
@@ -222,14 +255,21 @@ mod tests {
         let t = SpectrumTable::new(&s, 2.0, &ws);
         for w in [395.0f32, 400.3, 555.5, 704.99] {
             let want = 2.0 * s.eval(w as f64) as f32;
-            assert!((t.eval(w) - want).abs() < 1e-5, "{w}: {} vs {want}", t.eval(w));
+            assert!(
+                (t.eval(w) - want).abs() < 1e-5,
+                "{w}: {} vs {want}",
+                t.eval(w)
+            );
         }
     }
 
     /// Band average of a table over `[lo, hi]` nm (midpoint rule, 0.001 nm steps).
     fn band_average(t: &SpectrumTable, lo: f64, hi: f64) -> f64 {
         let n = ((hi - lo) / 0.001).round() as usize;
-        (0..n).map(|i| t.eval((lo + (i as f64 + 0.5) * (hi - lo) / n as f64) as f32) as f64).sum::<f64>() / n as f64
+        (0..n)
+            .map(|i| t.eval((lo + (i as f64 + 0.5) * (hi - lo) / n as f64) as f32) as f64)
+            .sum::<f64>()
+            / n as f64
     }
 
     /// pbrt-v4 `PiecewiseLinearSpectrum`: zero outside the data. A constant 400-700 nm spectrum
@@ -248,7 +288,11 @@ mod tests {
         assert_eq!(t.eval(700.0), 0.5);
         for (lo, want) in [(395.0, 0.25), (405.0, 0.5), (685.0, 0.5), (695.0, 0.25)] {
             let got = band_average(&t, lo, lo + 10.0);
-            assert!((got - want).abs() < 1e-3 * want, "band {lo}-{} nm: {got} vs {want}", lo + 10.0);
+            assert!(
+                (got - want).abs() < 1e-3 * want,
+                "band {lo}-{} nm: {got} vs {want}",
+                lo + 10.0
+            );
         }
         // A sloped spectrum keeps its exact values up to its last sample (no ramp to zero
         // between the last table entry inside and the first outside).
@@ -258,7 +302,11 @@ mod tests {
             // (clamped: the f32 ends may fall a hair outside the f64 data). Tolerance: the slope
             // (0.002 / nm) times the table step (0.25 nm); a ramp to zero would be off by ~0.1.
             let want = s.eval((w as f64).clamp(401.3, 698.6));
-            assert!((t.eval(w) as f64 - want).abs() < 5e-4, "{w}: {} vs {want}", t.eval(w));
+            assert!(
+                (t.eval(w) as f64 - want).abs() < 5e-4,
+                "{w}: {} vs {want}",
+                t.eval(w)
+            );
         }
         assert_eq!(t.eval(401.2), 0.0);
         assert_eq!(t.eval(698.7), 0.0);
@@ -267,7 +315,11 @@ mod tests {
         let m = SpectrumTable::new(&flat, 1.0, &ws).mean();
         assert!((m - 300.0 / 310.0).abs() < 2e-3, "{m}");
         // A spectrum marked Extrapolation::Hold holds its end values.
-        let held = SpectrumTable::new(&flat.clone().with_extrapolation(Extrapolation::Hold), 1.0, &ws);
+        let held = SpectrumTable::new(
+            &flat.clone().with_extrapolation(Extrapolation::Hold),
+            1.0,
+            &ws,
+        );
         assert_eq!((held.eval(396.0), held.eval(704.0)), (1.0, 1.0));
         let narrow = Spectrum::new(vec![500.0, 510.0], vec![1.0, 1.0], "t").unwrap();
         let t = SpectrumTable::new(&narrow, 1.0, &ws);
@@ -279,7 +331,12 @@ mod tests {
     #[test]
     fn path_lookup_equals_single_lookups() {
         let ws = WavelengthSampler::new(&WavelengthGrid::default());
-        let s = Spectrum::new(vec![400.0, 480.0, 520.0, 700.0], vec![0.2, 0.9, 0.1, 0.6], "t").unwrap();
+        let s = Spectrum::new(
+            vec![400.0, 480.0, 520.0, 700.0],
+            vec![0.2, 0.9, 0.1, 0.6],
+            "t",
+        )
+        .unwrap();
         let t = SpectrumTable::new(&s, 1.5, &ws);
         for k in 0..200 {
             let (nm, _) = ws.sample::<4>(k as f32 / 200.0);

@@ -56,7 +56,8 @@ impl TexSpace {
     #[inline]
     pub(crate) fn point(&self, p: V3) -> [f64; 3] {
         let q = [p.x as f64, p.y as f64, p.z as f64];
-        self.0.map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
+        self.0
+            .map(|r| r[0] * q[0] + r[1] * q[1] + r[2] * q[2] + r[3])
     }
 
     /// pbrt-v4's 3D checkerboard with a zero footprint: which of the two textures (0 or 1) at `p`,
@@ -81,11 +82,25 @@ pub(crate) struct Solid {
 }
 
 impl Solid {
-    fn new(kind: SolidKind, octaves: u32, omega: f64, scale: f64, variation: f64, t: &crate::scene::Transform) -> Result<Solid, String> {
+    fn new(
+        kind: SolidKind,
+        octaves: u32,
+        omega: f64,
+        scale: f64,
+        variation: f64,
+        t: &crate::scene::Transform,
+    ) -> Result<Solid, String> {
         if !(omega.is_finite() && scale.is_finite() && variation.is_finite()) {
             return Err(format!("solid texture with a non-finite roughness {omega}, scale {scale} or variation {variation}"));
         }
-        Ok(Solid { kind, octaves, omega, scale, variation, space: TexSpace::new(t)? })
+        Ok(Solid {
+            kind,
+            octaves,
+            omega,
+            scale,
+            variation,
+            space: TexSpace::new(t)?,
+        })
     }
 
     /// A float solid texture's value at `ctx`.
@@ -105,7 +120,8 @@ impl Solid {
     /// `marble`'s RGB albedo at `ctx` (clamped to [0, 1], as pbrt-v4's `RGBAlbedoSpectrum`).
     pub(crate) fn rgb(&self, ctx: &TexCtx) -> [f32; 3] {
         let q = self.space.point(ctx.p).map(|v| v * self.scale);
-        crate::noise::marble_rgb(q, self.variation, self.omega, self.octaves).map(|v| v.clamp(0.0, 1.0) as f32)
+        crate::noise::marble_rgb(q, self.variation, self.omega, self.octaves)
+            .map(|v| v.clamp(0.0, 1.0) as f32)
     }
 }
 
@@ -140,11 +156,25 @@ impl Map {
         };
         let kind = match &m.kind {
             K::Uv => MapKind::Uv,
-            K::Spherical { texture_from_world } => MapKind::Spherical(TexSpace::new(texture_from_world)?),
-            K::Cylindrical { texture_from_world } => MapKind::Cylindrical(TexSpace::new(texture_from_world)?),
-            K::Planar(p) => MapKind::Planar(TexSpace::new(&p.texture_from_world)?, unit(p.v1)?, unit(p.v2)?),
+            K::Spherical { texture_from_world } => {
+                MapKind::Spherical(TexSpace::new(texture_from_world)?)
+            }
+            K::Cylindrical { texture_from_world } => {
+                MapKind::Cylindrical(TexSpace::new(texture_from_world)?)
+            }
+            K::Planar(p) => MapKind::Planar(
+                TexSpace::new(&p.texture_from_world)?,
+                unit(p.v1)?,
+                unit(p.v2)?,
+            ),
         };
-        Ok(Map { su: m.uscale as f32, sv: m.vscale as f32, du: m.udelta as f32, dv: m.vdelta as f32, kind })
+        Ok(Map {
+            su: m.uscale as f32,
+            sv: m.vscale as f32,
+            du: m.udelta as f32,
+            dv: m.vdelta as f32,
+            kind,
+        })
     }
 
     /// Texture coordinates `(s, t)` at `ctx` (pbrt-v4 4th ed. sec. 10.2.1).
@@ -160,11 +190,17 @@ impl Map {
                 }
                 let theta = (p[2] / r).clamp(-1.0, 1.0).acos();
                 let phi = p[1].atan2(p[0]).rem_euclid(std::f64::consts::TAU);
-                ((theta / std::f64::consts::PI) as f32, (phi / std::f64::consts::TAU) as f32)
+                (
+                    (theta / std::f64::consts::PI) as f32,
+                    (phi / std::f64::consts::TAU) as f32,
+                )
             }
             MapKind::Cylindrical(space) => {
                 let p = space.point(ctx.p);
-                (((std::f64::consts::PI + p[1].atan2(p[0])) / std::f64::consts::TAU) as f32, p[2] as f32)
+                (
+                    ((std::f64::consts::PI + p[1].atan2(p[0])) / std::f64::consts::TAU) as f32,
+                    p[2] as f32,
+                )
             }
             MapKind::Planar(space, v1, v2) => {
                 let p = space.point(ctx.p);
@@ -334,7 +370,10 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Solid(solid) => solid.value(ctx),
         FTex::Dots(c, map) => {
             let (s, tt) = map.st(ctx);
-            eval_float(&c[!crate::noise::inside_polka_dot(s as f64, tt as f64) as usize], ctx)
+            eval_float(
+                &c[!crate::noise::inside_polka_dot(s as f64, tt as f64) as usize],
+                ctx,
+            )
         }
     }
 }
@@ -413,9 +452,14 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             Box::new([compile_float(tex1)?, compile_float(tex2)?]),
             check_map(mapping)?,
         ),
-        FloatTexture::Checkerboard3d { tex1, tex2, texture_from_world } => {
-            FTex::Checker3(Box::new([compile_float(tex1)?, compile_float(tex2)?]), TexSpace::new(texture_from_world)?)
-        }
+        FloatTexture::Checkerboard3d {
+            tex1,
+            tex2,
+            texture_from_world,
+        } => FTex::Checker3(
+            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
+            TexSpace::new(texture_from_world)?,
+        ),
         FloatTexture::Scale { tex, scale } => {
             FTex::Scale(Box::new([compile_float(tex)?, compile_float(scale)?]))
         }
@@ -451,11 +495,23 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
                 crate::scene::NoiseKind::Wrinkled => SolidKind::Wrinkled,
                 crate::scene::NoiseKind::Windy => SolidKind::Windy,
             };
-            FTex::Solid(Box::new(Solid::new(kind, n.octaves, n.roughness, 1.0, 0.0, &n.texture_from_world)?))
+            FTex::Solid(Box::new(Solid::new(
+                kind,
+                n.octaves,
+                n.roughness,
+                1.0,
+                0.0,
+                &n.texture_from_world,
+            )?))
         }
-        FloatTexture::Dots { inside, outside, mapping } => {
-            FTex::Dots(Box::new([compile_float(inside)?, compile_float(outside)?]), check_map(mapping)?)
-        }
+        FloatTexture::Dots {
+            inside,
+            outside,
+            mapping,
+        } => FTex::Dots(
+            Box::new([compile_float(inside)?, compile_float(outside)?]),
+            check_map(mapping)?,
+        ),
     })
 }
 
@@ -481,7 +537,16 @@ pub(crate) fn compile_texture(
         };
     Ok(match t {
         Texture::Constant(s) => Tex::Table(table(s, tables)?),
-        Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta, kind } => {
+        Texture::Image {
+            width,
+            height,
+            rgb,
+            uscale,
+            vscale,
+            udelta,
+            vdelta,
+            kind,
+        } => {
             if *width == 0 || *height == 0 || rgb.len() != width * height {
                 return Err(err(format!(
                     "image texture of {width} x {height} pixels has {} values",
@@ -492,7 +557,14 @@ pub(crate) fn compile_texture(
                 return Err(err("image texture has a non-finite value".into()));
             }
             // The mapping gives (s, t); the image itself is looked up with the identity scale.
-            let map = check_map(&UvMapping { uscale: *uscale, vscale: *vscale, udelta: *udelta, vdelta: *vdelta, kind: kind.clone() }).map_err(err)?;
+            let map = check_map(&UvMapping {
+                uscale: *uscale,
+                vscale: *vscale,
+                udelta: *udelta,
+                vdelta: *vdelta,
+                kind: kind.clone(),
+            })
+            .map_err(err)?;
             images.push(crate::integrator::ImageTex {
                 width: *width,
                 height: *height,
@@ -515,7 +587,11 @@ pub(crate) fn compile_texture(
             ]),
             check_map(mapping).map_err(err)?,
         ),
-        Texture::Checkerboard3d { tex1, tex2, texture_from_world } => Tex::Checker3(
+        Texture::Checkerboard3d {
+            tex1,
+            tex2,
+            texture_from_world,
+        } => Tex::Checker3(
             Box::new([
                 compile_texture(tex1, material_index, ws, tables, images)?,
                 compile_texture(tex2, material_index, ws, tables, images)?,
@@ -562,10 +638,28 @@ pub(crate) fn compile_texture(
                 map,
             )
         }
-        Texture::Marble { octaves, roughness, scale, variation, texture_from_world } => {
-            Tex::Marble(Box::new(Solid::new(SolidKind::Marble, *octaves, *roughness, *scale, *variation, texture_from_world).map_err(err)?))
-        }
-        Texture::Dots { inside, outside, mapping } => Tex::Dots(
+        Texture::Marble {
+            octaves,
+            roughness,
+            scale,
+            variation,
+            texture_from_world,
+        } => Tex::Marble(Box::new(
+            Solid::new(
+                SolidKind::Marble,
+                *octaves,
+                *roughness,
+                *scale,
+                *variation,
+                texture_from_world,
+            )
+            .map_err(err)?,
+        )),
+        Texture::Dots {
+            inside,
+            outside,
+            mapping,
+        } => Tex::Dots(
             Box::new([
                 compile_texture(inside, material_index, ws, tables, images)?,
                 compile_texture(outside, material_index, ws, tables, images)?,

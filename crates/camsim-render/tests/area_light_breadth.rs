@@ -65,7 +65,14 @@ fn quad_image_at(u: f64) -> f64 {
 
 /// A scene header: a camera at `from` looking at `to`, `n` x `n` pixels, `spp` samples, direct
 /// lighting only.
-fn header(from: [f64; 3], to: [f64; 3], up: [f64; 3], fov_deg: f64, n: usize, spp: usize) -> String {
+fn header(
+    from: [f64; 3],
+    to: [f64; 3],
+    up: [f64; 3],
+    fov_deg: f64,
+    n: usize,
+    spp: usize,
+) -> String {
     format!(
         "LookAt {} {} {}  {} {} {}  {} {} {}\nCamera \"perspective\" \"float fov\" {fov_deg}\n\
          Film \"rgb\" \"integer xresolution\" {n} \"integer yresolution\" {n}\n\
@@ -98,7 +105,8 @@ fn receiver_view(x: f64, y: f64, n: usize, spp: usize) -> String {
 }
 
 fn parse(text: &str, dir: &Path) -> SceneDescription {
-    let mut s = camsim_pbrt::parse_str(text, dir.join("scene.pbrt")).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let mut s = camsim_pbrt::parse_str(text, dir.join("scene.pbrt"))
+        .unwrap_or_else(|e| panic!("{e}\n{text}"));
     s.settings.grid = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
     s
 }
@@ -107,13 +115,23 @@ fn parse(text: &str, dir: &Path) -> SceneDescription {
 /// centred on the grid's wavelengths), averaged over the bands (dense midpoint quadrature):
 /// the per-unit value a flat-scaled pixel estimates.
 fn band_mean(s: &camsim_core::Spectrum) -> f64 {
-    (0..31).map(|k| (0..100).map(|j| s.eval(395.0 + 10.0 * k as f64 + 0.1 * (j as f64 + 0.5))).sum::<f64>() / 100.0).sum::<f64>() / 31.0
+    (0..31)
+        .map(|k| {
+            (0..100)
+                .map(|j| s.eval(395.0 + 10.0 * k as f64 + 0.1 * (j as f64 + 0.5)))
+                .sum::<f64>()
+                / 100.0
+        })
+        .sum::<f64>()
+        / 31.0
 }
 
 /// The band-averaged radiance of every pixel.
 fn pixels(out: &RenderOutput) -> Vec<f64> {
     let img = &out.radiance;
-    (0..img.pixels()).map(|p| (0..img.bands()).map(|b| img.band(b)[p] as f64).sum::<f64>() / img.bands() as f64).collect()
+    (0..img.pixels())
+        .map(|p| (0..img.bands()).map(|b| img.band(b)[p] as f64).sum::<f64>() / img.bands() as f64)
+        .collect()
 }
 
 /// Mean over the pixels and its standard error (the pixels are independent estimates of one
@@ -134,13 +152,26 @@ fn measure(s: &SceneDescription, unit: f64) -> (f64, f64) {
 
 /// The illuminant of the first emitting shape (per unit RGB for an image light).
 fn emitter_unit(s: &SceneDescription) -> f64 {
-    band_mean(&s.shapes.iter().find_map(|sh| sh.area_light.as_ref()).unwrap().radiance)
+    band_mean(
+        &s.shapes
+            .iter()
+            .find_map(|sh| sh.area_light.as_ref())
+            .unwrap()
+            .radiance,
+    )
 }
 
 fn check(what: &str, got: (f64, f64), want: f64, systematic: f64) {
     let (m, se) = got;
-    eprintln!("{what}: got {m:.5} +- {se:.5}, want {want:.5} ({:+.2} sigma, {:+.3} %)", (m - want) / se, (m / want - 1.0) * 100.0);
-    assert!((m - want).abs() <= 3.0 * se + systematic * want.abs(), "{what}: {m} +- {se} vs {want}");
+    eprintln!(
+        "{what}: got {m:.5} +- {se:.5}, want {want:.5} ({:+.2} sigma, {:+.3} %)",
+        (m - want) / se,
+        (m / want - 1.0) * 100.0
+    );
+    assert!(
+        (m - want).abs() <= 3.0 * se + systematic * want.abs(),
+        "{what}: {m} +- {se} vs {want}"
+    );
 }
 
 /// Irradiance at `p` (normal +z) from the sphere of radius `R_M` at `(0, 0, H_M)` with radiance
@@ -154,7 +185,11 @@ fn sphere_irradiance(p: [f64; 3], l: impl Fn(f64) -> f64) -> f64 {
         for j in 0..np {
             let ph = (j as f64 + 0.5) * dp;
             let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-            let w = [R_M * n[0] - p[0], R_M * n[1] - p[1], H_M + R_M * n[2] - p[2]];
+            let w = [
+                R_M * n[0] - p[0],
+                R_M * n[1] - p[1],
+                H_M + R_M * n[2] - p[2],
+            ];
             let d2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
             let d = d2.sqrt();
             let cos_q = -(n[0] * w[0] + n[1] * w[1] + n[2] * w[2]) / d;
@@ -178,9 +213,15 @@ fn polygon_irradiance(p: [f64; 3], poly: &[[f64; 3]]) -> f64 {
     let mut sum = 0.0;
     for i in 0..poly.len() {
         let (a, b) = (unit(poly[i]), unit(poly[(i + 1) % poly.len()]));
-        let c = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+        let c = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
         let cl = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        let gamma = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0).acos();
+        let gamma = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+            .clamp(-1.0, 1.0)
+            .acos();
         sum += gamma * c[2] / cl;
     }
     0.5 * sum.abs()
@@ -211,29 +252,67 @@ fn uniform_image_sphere_equals_constant_radiance_sphere() {
     let dir = tempfile::tempdir().unwrap();
     let c = 0.7f32;
     let file = pfm(dir.path(), "flat.pfm", 8, 4, |_, _| c);
-    let lights = [format!("\"string filename\" \"{file}\""), format!("\"rgb L\" [{c} {c} {c}]")];
+    let lights = [
+        format!("\"string filename\" \"{file}\""),
+        format!("\"rgb L\" [{c} {c} {c}]"),
+    ];
     let mut seen = vec![];
     let mut lit = vec![];
     for l in &lights {
         // Directly seen from the side, 5 x 5 pixels inside the disc.
         let s = parse(
-            &format!("{}{}", header([0.0, -3.0, H_M], [0.0, 0.0, H_M], [0.0, 0.0, 1.0], 3.0, 5, 16), sphere_light(l, "")),
+            &format!(
+                "{}{}",
+                header(
+                    [0.0, -3.0, H_M],
+                    [0.0, 0.0, H_M],
+                    [0.0, 0.0, 1.0],
+                    3.0,
+                    5,
+                    16
+                ),
+                sphere_light(l, "")
+            ),
             dir.path(),
         );
-        let unit = emitter_unit(&s) * if l.contains("filename") { c as f64 } else { 1.0 };
+        let unit = emitter_unit(&s)
+            * if l.contains("filename") {
+                c as f64
+            } else {
+                1.0
+            };
         seen.push(measure(&s, unit).0);
-        let s = parse(&format!("{}{}{}", receiver_view(0.0, 0.0, 8, 64), sphere_light(l, ""), receiver(0.0, 0.0)), dir.path());
+        let s = parse(
+            &format!(
+                "{}{}{}",
+                receiver_view(0.0, 0.0, 8, 64),
+                sphere_light(l, ""),
+                receiver(0.0, 0.0)
+            ),
+            dir.path(),
+        );
         let got = measure(&s, unit);
         // Receiver on the axis: E / pi = L (R / H)^2.
-        check(&format!("uniform sphere ({l}), E / (pi L)"), got, (R_M / H_M).powi(2), 1e-3);
+        check(
+            &format!("uniform sphere ({l}), E / (pi L)"),
+            got,
+            (R_M / H_M).powi(2),
+            1e-3,
+        );
         lit.push(got);
     }
-    eprintln!("directly seen / L: image {:.6}, constant {:.6}", seen[0], seen[1]);
+    eprintln!(
+        "directly seen / L: image {:.6}, constant {:.6}",
+        seen[0], seen[1]
+    );
     // Same seed, same wavelengths: equal to f32 rounding; against L within the wavelength
     // sampling noise of 5 x 5 x 16 paths.
     assert!((seen[0] - seen[1]).abs() < 1e-5, "{seen:?}");
     assert!((seen[0] - 1.0).abs() < 0.01, "{seen:?}");
-    assert!((lit[0].0 - lit[1].0).abs() < 3.0 * (lit[0].1 + lit[1].1), "{lit:?}");
+    assert!(
+        (lit[0].0 - lit[1].0).abs() < 3.0 * (lit[0].1 + lit[1].1),
+        "{lit:?}"
+    );
 }
 
 /// The split image (the +y half bright) on a sphere: the irradiance below on its axis, at +y
@@ -255,14 +334,35 @@ fn split_image_sphere_follows_pbrt_uv_in_the_object_frame() {
         (-0.4, 0.0, "Rotate 90 0 0 1", 0.5 * PI),
         (0.4, 0.0, "Rotate 90 0 0 1", 0.5 * PI),
     ] {
-        let s = parse(&format!("{}{}{}", receiver_view(x, y, 8, 64), sphere_light(&light, extra), receiver(x, y)), dir.path());
+        let s = parse(
+            &format!(
+                "{}{}{}",
+                receiver_view(x, y, 8, 64),
+                sphere_light(&light, extra),
+                receiver(x, y)
+            ),
+            dir.path(),
+        );
         let got = measure(&s, emitter_unit(&s));
-        let want = sphere_irradiance([x, y, 0.0], |ph| image_at_phi((ph - phi0).rem_euclid(2.0 * PI))) / PI;
-        check(&format!("split sphere {extra:?}, receiver at ({x}, {y}), E / pi per unit RGB"), got, want, 2e-3);
+        let want = sphere_irradiance([x, y, 0.0], |ph| {
+            image_at_phi((ph - phi0).rem_euclid(2.0 * PI))
+        }) / PI;
+        check(
+            &format!("split sphere {extra:?}, receiver at ({x}, {y}), E / pi per unit RGB"),
+            got,
+            want,
+            2e-3,
+        );
     }
     // The bright side really is brighter: the reference itself differs by far more than noise.
-    let (e_plus, e_minus) = (sphere_irradiance([0.0, 0.4, 0.0], image_at_phi), sphere_irradiance([0.0, -0.4, 0.0], image_at_phi));
-    eprintln!("split sphere: reference E(+y) / E(-y) = {:.3}", e_plus / e_minus);
+    let (e_plus, e_minus) = (
+        sphere_irradiance([0.0, 0.4, 0.0], image_at_phi),
+        sphere_irradiance([0.0, -0.4, 0.0], image_at_phi),
+    );
+    eprintln!(
+        "split sphere: reference E(+y) / E(-y) = {:.3}",
+        e_plus / e_minus
+    );
     assert!(e_plus > 1.3 * e_minus);
 
     // Seen from azimuth phi (narrow view of the equator point there): the texel of phi's
@@ -272,14 +372,25 @@ fn split_image_sphere_follows_pbrt_uv_in_the_object_frame() {
             let ph = (45.0 + 90.0 * k as f64).to_radians();
             let from = [3.0 * ph.cos(), 3.0 * ph.sin(), H_M];
             let s = parse(
-                &format!("{}{}", header(from, [0.0, 0.0, H_M], [0.0, 0.0, 1.0], 1.0, 3, 16), sphere_light(&light, extra)),
+                &format!(
+                    "{}{}",
+                    header(from, [0.0, 0.0, H_M], [0.0, 0.0, 1.0], 1.0, 3, 16),
+                    sphere_light(&light, extra)
+                ),
                 dir.path(),
             );
             let (got, _) = measure(&s, emitter_unit(&s));
             let want = image_at_phi((ph - phi0).rem_euclid(2.0 * PI));
-            eprintln!("split sphere {extra:?} seen from phi = {:.0} deg: {got:.4} (texel {want})", ph.to_degrees());
+            eprintln!(
+                "split sphere {extra:?} seen from phi = {:.0} deg: {got:.4} (texel {want})",
+                ph.to_degrees()
+            );
             // Within the wavelength sampling noise of 3 x 3 x 16 paths.
-            assert!((got - want).abs() < 0.01 * want.max(1.0), "{extra:?} phi {}: {got} vs {want}", ph.to_degrees());
+            assert!(
+                (got - want).abs() < 0.01 * want.max(1.0),
+                "{extra:?} phi {}: {got} vs {want}",
+                ph.to_degrees()
+            );
         }
     }
     // A half sphere (phimax 180 deg): u = phi / phi_max, so the four quadrants of the image
@@ -295,8 +406,15 @@ fn split_image_sphere_follows_pbrt_uv_in_the_object_frame() {
         let s = parse(&text, dir.path());
         let (got, _) = measure(&s, emitter_unit(&s));
         let want = *want as f64;
-        eprintln!("split half sphere seen from phi = {:.1} deg: {got:.4} (texel {want})", ph.to_degrees());
-        assert!((got - want).abs() < 0.01 * want.max(1.0), "half sphere phi {}: {got} vs {want}", ph.to_degrees());
+        eprintln!(
+            "split half sphere seen from phi = {:.1} deg: {got:.4} (texel {want})",
+            ph.to_degrees()
+        );
+        assert!(
+            (got - want).abs() < 0.01 * want.max(1.0),
+            "half sphere phi {}: {got} vs {want}",
+            ph.to_degrees()
+        );
     }
 }
 
@@ -312,7 +430,8 @@ fn quad_light(alpha: &str) -> String {
 }
 
 /// 2 x 2 alpha checkerboard: uv cells (0, 0) and (1, 1) kept (tex1 = 1), the others cut (0).
-const CHECKER: &str = "Texture \"mask\" \"float\" \"checkerboard\" \"float tex1\" 1 \"float tex2\" 0 \
+const CHECKER: &str =
+    "Texture \"mask\" \"float\" \"checkerboard\" \"float tex1\" 1 \"float tex2\" 0 \
                        \"float uscale\" 2 \"float vscale\" 2\n";
 
 /// An alpha checkerboard on a quad light: the irradiance below is that of the kept cells
@@ -325,18 +444,40 @@ fn alpha_checkerboard_quad_light_emits_only_where_kept() {
     // quad's irradiance there, far from the 50 % of a uniform half mask.
     for (x, y) in [(0.2, 0.15), (0.2, -0.15)] {
         let p = [x, y, 0.0];
-        let kept = polygon_irradiance(p, &rect(-0.5, 0.0, -0.5, 0.0, 0.5)) + polygon_irradiance(p, &rect(0.0, 0.5, 0.0, 0.5, 0.5));
+        let kept = polygon_irradiance(p, &rect(-0.5, 0.0, -0.5, 0.0, 0.5))
+            + polygon_irradiance(p, &rect(0.0, 0.5, 0.0, 0.5, 0.5));
         let full = polygon_irradiance(p, &rect(-0.5, 0.5, -0.5, 0.5, 0.5));
-        assert!((kept - 0.5 * full).abs() > 0.06 * full, "the point must tell the checkerboard from a uniform half");
-        let text = format!("{}{CHECKER}{}{}", receiver_view(x, y, 8, 64), quad_light("\"texture alpha\" \"mask\""), receiver(x, y));
+        assert!(
+            (kept - 0.5 * full).abs() > 0.06 * full,
+            "the point must tell the checkerboard from a uniform half"
+        );
+        let text = format!(
+            "{}{CHECKER}{}{}",
+            receiver_view(x, y, 8, 64),
+            quad_light("\"texture alpha\" \"mask\""),
+            receiver(x, y)
+        );
         let s = parse(&text, dir.path());
         let got = measure(&s, emitter_unit(&s));
-        check(&format!("checkerboard-masked quad at ({x}, {y}), E / pi (kept / full = {:.3})", kept / full), got, kept / PI, 1e-3);
+        check(
+            &format!(
+                "checkerboard-masked quad at ({x}, {y}), E / pi (kept / full = {:.3})",
+                kept / full
+            ),
+            got,
+            kept / PI,
+            1e-3,
+        );
     }
 
     // Seen from below (narrow views of cell centres): a kept cell shows the light (L = 1),
     // a cut cell the uniform environment behind it (L = 0.25).
-    for (cx, cy, want) in [(-0.25, -0.25, 1.0), (0.25, 0.25, 1.0), (0.25, -0.25, 0.25), (-0.25, 0.25, 0.25)] {
+    for (cx, cy, want) in [
+        (-0.25, -0.25, 1.0),
+        (0.25, 0.25, 1.0),
+        (0.25, -0.25, 0.25),
+        (-0.25, 0.25, 0.25),
+    ] {
         let text = format!(
             "{}{CHECKER}LightSource \"infinite\" \"rgb L\" [0.25 0.25 0.25]\n{}",
             header([cx, cy, -0.5], [cx, cy, 0.5], [0.0, 1.0, 0.0], 1.0, 3, 16),
@@ -357,22 +498,49 @@ fn fractional_alpha_quad_light_gives_half_the_irradiance() {
     let dir = tempfile::tempdir().unwrap();
     let p = [0.1, -0.2, 0.0];
     let full = polygon_irradiance(p, &rect(-0.5, 0.5, -0.5, 0.5, 0.5));
-    let text = format!("{}{}{}", receiver_view(p[0], p[1], 8, 128), quad_light("\"float alpha\" 0.5"), receiver(p[0], p[1]));
+    let text = format!(
+        "{}{}{}",
+        receiver_view(p[0], p[1], 8, 128),
+        quad_light("\"float alpha\" 0.5"),
+        receiver(p[0], p[1])
+    );
     let s = parse(&text, dir.path());
     let got = measure(&s, emitter_unit(&s));
     check("alpha 0.5 quad, E / pi", got, 0.5 * full / PI, 1e-3);
     // Unmasked, the same point gets the full irradiance (the receiver setup itself is right).
-    let text = format!("{}{}{}", receiver_view(p[0], p[1], 8, 64), quad_light(""), receiver(p[0], p[1]));
+    let text = format!(
+        "{}{}{}",
+        receiver_view(p[0], p[1], 8, 64),
+        quad_light(""),
+        receiver(p[0], p[1])
+    );
     let s = parse(&text, dir.path());
-    check("unmasked quad, E / pi", measure(&s, emitter_unit(&s)), full / PI, 1e-3);
+    check(
+        "unmasked quad, E / pi",
+        measure(&s, emitter_unit(&s)),
+        full / PI,
+        1e-3,
+    );
 
     let text = format!(
         "{}LightSource \"infinite\" \"rgb L\" [0.25 0.25 0.25]\n{}",
-        header([0.0, 0.0, -0.5], [0.0, 0.0, 0.5], [0.0, 1.0, 0.0], 1.0, 8, 64),
+        header(
+            [0.0, 0.0, -0.5],
+            [0.0, 0.0, 0.5],
+            [0.0, 1.0, 0.0],
+            1.0,
+            8,
+            64
+        ),
         quad_light("\"float alpha\" 0.5")
     );
     let s = parse(&text, dir.path());
-    check("alpha 0.5 quad seen over an environment of 0.25", measure(&s, emitter_unit(&s)), 0.625, 1e-3);
+    check(
+        "alpha 0.5 quad seen over an environment of 0.25",
+        measure(&s, emitter_unit(&s)),
+        0.625,
+        1e-3,
+    );
 }
 
 /// A two-sided sphere light with alpha 0.5, seen from a receiver below on its axis: every
@@ -384,10 +552,19 @@ fn fractional_alpha_quad_light_gives_half_the_irradiance() {
 fn fractional_alpha_two_sided_sphere_shows_its_far_side() {
     let dir = tempfile::tempdir().unwrap();
     let light = "\"rgb L\" [1 1 1] \"bool twosided\" true";
-    let text =
-        format!("{}{}{}", receiver_view(0.0, 0.0, 8, 128), partial_sphere_light(light, "", "\"float alpha\" 0.5"), receiver(0.0, 0.0));
+    let text = format!(
+        "{}{}{}",
+        receiver_view(0.0, 0.0, 8, 128),
+        partial_sphere_light(light, "", "\"float alpha\" 0.5"),
+        receiver(0.0, 0.0)
+    );
     let s = parse(&text, dir.path());
-    check("two-sided sphere with alpha 0.5, E / (pi L)", measure(&s, emitter_unit(&s)), 0.75 * (R_M / H_M).powi(2), 1e-3);
+    check(
+        "two-sided sphere with alpha 0.5, E / (pi L)",
+        measure(&s, emitter_unit(&s)),
+        0.75 * (R_M / H_M).powi(2),
+        1e-3,
+    );
 }
 
 /// Bad input stays a clear error: a missing emission image names the file and the line.
@@ -398,7 +575,12 @@ fn missing_emission_image_names_file_and_line() {
         "{}AttributeBegin\nAreaLightSource \"diffuse\" \"string filename\" \"missing.pfm\"\nShape \"sphere\"\nAttributeEnd\n",
         header([0.0, -3.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 30.0, 4, 1)
     );
-    let e = camsim_pbrt::parse_str(&text, dir.path().join("scene.pbrt")).unwrap_err().to_string();
+    let e = camsim_pbrt::parse_str(&text, dir.path().join("scene.pbrt"))
+        .unwrap_err()
+        .to_string();
     eprintln!("{e}");
-    assert!(e.contains("scene.pbrt:8") && e.contains("missing.pfm"), "{e}");
+    assert!(
+        e.contains("scene.pbrt:8") && e.contains("missing.pfm"),
+        "{e}"
+    );
 }

@@ -42,8 +42,15 @@ fn write_pfm(path: &Path, n: usize, m: usize, f: impl Fn(usize, usize) -> f32) {
 
 /// Parses one light: `xform` (transform directives) then `LightSource "<kind>" <params>` inside
 /// an attribute block, in a scene file in `dir`.
-fn parse_light(dir: &Path, xform: &str, kind: &str, params: &str) -> Result<Light, camsim_pbrt::PbrtError> {
-    let text = format!("WorldBegin\nAttributeBegin\n{xform}\nLightSource \"{kind}\" {params}\nAttributeEnd\n");
+fn parse_light(
+    dir: &Path,
+    xform: &str,
+    kind: &str,
+    params: &str,
+) -> Result<Light, camsim_pbrt::PbrtError> {
+    let text = format!(
+        "WorldBegin\nAttributeBegin\n{xform}\nLightSource \"{kind}\" {params}\nAttributeEnd\n"
+    );
     let scene = camsim_pbrt::parse_str(&text, dir.join("scene.pbrt"))?;
     assert_eq!(scene.lights.len(), 1);
     Ok(scene.lights[0].clone())
@@ -68,7 +75,8 @@ fn intensity_w_sr_nm(l: &Light) -> f64 {
 /// `light` alone; per-pixel mean over bands.
 fn render_floor(light: Light) -> Vec<f64> {
     let camera = Camera {
-        camera_to_world: look_at_camera_to_world([0.0, 0.0, H_M], [0.0; 3], [0.0, 1.0, 0.0], true).unwrap(),
+        camera_to_world: look_at_camera_to_world([0.0, 0.0, H_M], [0.0; 3], [0.0, 1.0, 0.0], true)
+            .unwrap(),
         fov_deg: FOV_DEG,
         width: N_PX,
         height: N_PX,
@@ -78,7 +86,9 @@ fn render_floor(light: Light) -> Vec<f64> {
     let scene = SceneDescription {
         camera,
         shapes: vec![floor],
-        materials: vec![Material::Diffuse { reflectance: Texture::Constant(flat(RHO)) }],
+        materials: vec![Material::Diffuse {
+            reflectance: Texture::Constant(flat(RHO)),
+        }],
         named_materials: HashMap::new(),
         lights: vec![light],
         settings: RenderSettings {
@@ -97,7 +107,9 @@ fn render_floor(light: Light) -> Vec<f64> {
     let out = render(&scene, &|_, _| {}).unwrap();
     let img = &out.radiance;
     let nb = img.bands();
-    (0..img.pixels()).map(|p| (0..nb).map(|b| img.band(b)[p] as f64).sum::<f64>() / nb as f64).collect()
+    (0..img.pixels())
+        .map(|p| (0..nb).map(|b| img.band(b)[p] as f64).sum::<f64>() / nb as f64)
+        .collect()
 }
 
 /// Closed-form floor radiance `rho / pi * I(x, y) cos / d^2` for the light at (0, 0, H_M),
@@ -112,8 +124,12 @@ fn expected(i_of: impl Fn(f64, f64) -> f64) -> Vec<f64> {
             let mut s = 0.0;
             for b in 0..k {
                 for a in 0..k {
-                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / N_PX as f64 - 1.0) * t * H_M;
-                    let y = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / N_PX as f64) * t * H_M;
+                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / N_PX as f64 - 1.0)
+                        * t
+                        * H_M;
+                    let y = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / N_PX as f64)
+                        * t
+                        * H_M;
                     let d2 = H_M * H_M + x * x + y * y;
                     s += RHO / PI * i_of(x, y) * (H_M / d2.sqrt()) / d2;
                 }
@@ -138,7 +154,11 @@ fn worst_error(what: &str, got: &[f64], want: &[f64]) -> f64 {
         }
     }
     let lit = want.iter().filter(|w| **w > 0.0).count();
-    eprintln!("{what}: {lit} lit pixels of {}, worst rel. error {:.4} % (peak {peak:.4e})", want.len(), worst * 100.0);
+    eprintln!(
+        "{what}: {lit} lit pixels of {}, worst rel. error {:.4} % (peak {peak:.4e})",
+        want.len(),
+        worst * 100.0
+    );
     worst
 }
 
@@ -151,14 +171,32 @@ fn uniform_image_equals_point_light() {
     let point = parse_light(dir.path(), &tr, "point", FLAT_I).unwrap();
     let i_pt = intensity_w_sr_nm(&point);
     let reference = render_floor(point);
-    let worst = worst_error("point light vs closed form", &reference, &expected(|_, _| i_pt));
+    let worst = worst_error(
+        "point light vs closed form",
+        &reference,
+        &expected(|_, _| i_pt),
+    );
     assert!(worst < 0.01);
     for c in [1.0f32, 2.5] {
         write_pfm(&dir.path().join("u.pfm"), 8, 8, |_, _| c);
-        let gonio = parse_light(dir.path(), &tr, "goniometric", &format!("{FLAT_I} \"string filename\" \"u.pfm\"")).unwrap();
-        assert_eq!(intensity_w_sr_nm(&gonio), i_pt, "same I, same normalisation as point");
+        let gonio = parse_light(
+            dir.path(),
+            &tr,
+            "goniometric",
+            &format!("{FLAT_I} \"string filename\" \"u.pfm\""),
+        )
+        .unwrap();
+        assert_eq!(
+            intensity_w_sr_nm(&gonio),
+            i_pt,
+            "same I, same normalisation as point"
+        );
         let got = render_floor(gonio);
-        let worst = got.iter().zip(&reference).map(|(g, r)| (g / (c as f64 * r) - 1.0).abs()).fold(0.0, f64::max);
+        let worst = got
+            .iter()
+            .zip(&reference)
+            .map(|(g, r)| (g / (c as f64 * r) - 1.0).abs())
+            .fold(0.0, f64::max);
         eprintln!("uniform image {c}: worst pixel |L_gonio / ({c} L_point) - 1| = {worst:.3e}");
         assert!(worst < 1e-5);
     }
@@ -175,16 +213,29 @@ fn image_halves_light_the_predicted_side() {
     let n = 8;
     let gonio = |name: &str, f: &dyn Fn(usize, usize) -> f32| {
         write_pfm(&dir.path().join(name), n, n, f);
-        parse_light(dir.path(), &tr, "goniometric", &format!("{FLAT_I} \"string filename\" \"{name}\"")).unwrap()
+        parse_light(
+            dir.path(),
+            &tr,
+            "goniometric",
+            &format!("{FLAT_I} \"string filename\" \"{name}\""),
+        )
+        .unwrap()
     };
     let top = gonio("top.pfm", &|_, row| if row < n / 2 { 1.0 } else { 0.0 });
     let i0 = intensity_w_sr_nm(&top);
-    let w = worst_error("top image half -> floor below lit", &render_floor(top), &expected(|_, _| i0));
+    let w = worst_error(
+        "top image half -> floor below lit",
+        &render_floor(top),
+        &expected(|_, _| i0),
+    );
     assert!(w < 0.01);
 
     let bottom = gonio("bottom.pfm", &|_, row| if row >= n / 2 { 1.0 } else { 0.0 });
     let got = render_floor(bottom);
-    assert!(got.iter().all(|v| *v == 0.0), "bottom image half must leave the floor below dark");
+    assert!(
+        got.iter().all(|v| *v == 0.0),
+        "bottom image half must leave the floor below dark"
+    );
 
     let c = 3.0;
     let left = gonio("left.pfm", &|col, _| if col < n / 2 { c } else { 0.0 });
@@ -200,21 +251,54 @@ fn image_halves_light_the_predicted_side() {
 fn rotation_turns_the_pattern() {
     let dir = tempfile::tempdir().unwrap();
     let n = 8;
-    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| if col < n / 2 { 1.0 } else { 0.0 });
-    write_pfm(&dir.path().join("top.pfm"), n, n, |_, row| if row < n / 2 { 1.0 } else { 0.0 });
-    write_pfm(&dir.path().join("bottom.pfm"), n, n, |_, row| if row >= n / 2 { 1.0 } else { 0.0 });
+    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| {
+        if col < n / 2 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    write_pfm(&dir.path().join("top.pfm"), n, n, |_, row| {
+        if row < n / 2 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    write_pfm(&dir.path().join("bottom.pfm"), n, n, |_, row| {
+        if row >= n / 2 {
+            1.0
+        } else {
+            0.0
+        }
+    });
     let light = |rot: &str, file: &str| {
-        parse_light(dir.path(), &format!("Translate 0 0 {H_M}\n{rot}"), "goniometric", &format!("{FLAT_I} \"string filename\" \"{file}\""))
-            .unwrap()
+        parse_light(
+            dir.path(),
+            &format!("Translate 0 0 {H_M}\n{rot}"),
+            "goniometric",
+            &format!("{FLAT_I} \"string filename\" \"{file}\""),
+        )
+        .unwrap()
     };
     let l = light("Rotate 90 0 0 1", "left.pfm");
     let i0 = intensity_w_sr_nm(&l);
-    let w = worst_error("Rotate 90 z, left half -> y < 0 lit", &render_floor(l), &expected(|_, y| if y < 0.0 { i0 } else { 0.0 }));
+    let w = worst_error(
+        "Rotate 90 z, left half -> y < 0 lit",
+        &render_floor(l),
+        &expected(|_, y| if y < 0.0 { i0 } else { 0.0 }),
+    );
     assert!(w < 0.01);
     let got = render_floor(light("Rotate 180 1 0 0", "top.pfm"));
-    assert!(got.iter().all(|v| *v == 0.0), "Rotate 180 x: the top half now faces up");
-    let w =
-        worst_error("Rotate 180 x, bottom half -> floor lit", &render_floor(light("Rotate 180 1 0 0", "bottom.pfm")), &expected(|_, _| i0));
+    assert!(
+        got.iter().all(|v| *v == 0.0),
+        "Rotate 180 x: the top half now faces up"
+    );
+    let w = worst_error(
+        "Rotate 180 x, bottom half -> floor lit",
+        &render_floor(light("Rotate 180 1 0 0", "bottom.pfm")),
+        &expected(|_, _| i0),
+    );
     assert!(w < 0.01);
 }
 
@@ -230,9 +314,18 @@ fn power_normalisation() {
     let grid_1nm = WavelengthGrid::new(360.0, 830.0, 1.0).unwrap();
     for c in [0.3f32, 7.0] {
         write_pfm(&dir.path().join("u.pfm"), 4, 4, |_, _| c);
-        let l = parse_light(dir.path(), "", "goniometric", &format!("\"string filename\" \"u.pfm\" \"float power\" {power_lm}")).unwrap();
-        let Light::Goniometric(g) = &l else { panic!("not goniometric") };
-        let iv_cd = c as f64 * camsim_core::colorimetry::luminance_cd_m2(&g.intensity.sample(&grid_1nm), &grid_1nm);
+        let l = parse_light(
+            dir.path(),
+            "",
+            "goniometric",
+            &format!("\"string filename\" \"u.pfm\" \"float power\" {power_lm}"),
+        )
+        .unwrap();
+        let Light::Goniometric(g) = &l else {
+            panic!("not goniometric")
+        };
+        let iv_cd = c as f64
+            * camsim_core::colorimetry::luminance_cd_m2(&g.intensity.sample(&grid_1nm), &grid_1nm);
         let want = power_lm / (4.0 * PI);
         let err = iv_cd / want - 1.0;
         eprintln!("uniform image {c}, power {power_lm} lm: I_v = {iv_cd:.6} cd, want {want:.6} cd ({:+.4} %)", err * 100.0);
@@ -240,13 +333,30 @@ fn power_normalisation() {
     }
     let tr = format!("Translate 0 0 {H_M}");
     let n = 8;
-    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| if col < n / 2 { 2.0 } else { 0.0 });
+    write_pfm(&dir.path().join("left.pfm"), n, n, |col, _| {
+        if col < n / 2 {
+            2.0
+        } else {
+            0.0
+        }
+    });
     let pw = format!("{FLAT_I} \"float power\" {power_lm}");
     let point = parse_light(dir.path(), &tr, "point", &pw).unwrap();
-    let gonio = parse_light(dir.path(), &tr, "goniometric", &format!("{pw} \"string filename\" \"left.pfm\"")).unwrap();
+    let gonio = parse_light(
+        dir.path(),
+        &tr,
+        "goniometric",
+        &format!("{pw} \"string filename\" \"left.pfm\""),
+    )
+    .unwrap();
     let (i_pt, i_g) = (intensity_w_sr_nm(&point), intensity_w_sr_nm(&gonio));
-    eprintln!("half image of 2 with power: I per unit image {i_g:.6e} vs point I {i_pt:.6e} W/(sr nm)");
-    assert!((i_g / i_pt - 1.0).abs() < 1e-12, "mean image value 1: same scale as the point light");
+    eprintln!(
+        "half image of 2 with power: I per unit image {i_g:.6e} vs point I {i_pt:.6e} W/(sr nm)"
+    );
+    assert!(
+        (i_g / i_pt - 1.0).abs() < 1e-12,
+        "mean image value 1: same scale as the point light"
+    );
     let reference = render_floor(point);
     let got = render_floor(gonio);
     let want: Vec<f64> = expected(|x, _| if x < 0.0 { 1.0 } else { 0.0 })
@@ -264,17 +374,28 @@ fn power_normalisation() {
 fn bad_input_names_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     write_pfm(&dir.path().join("wide.pfm"), 4, 2, |_, _| 1.0);
-    write_pfm(&dir.path().join("neg.pfm"), 2, 2, |c, _| if c == 0 { -1.0 } else { 1.0 });
+    write_pfm(&dir.path().join("neg.pfm"), 2, 2, |c, _| {
+        if c == 0 {
+            -1.0
+        } else {
+            1.0
+        }
+    });
     write_pfm(&dir.path().join("black.pfm"), 2, 2, |_, _| 0.0);
     let cases = [
         ("\"string filename\" \"missing.pfm\"", "missing.pfm"),
         ("\"string filename\" \"wide.pfm\"", "must be square"),
         ("\"float scale\" 2", "\"filename\""),
         ("\"string filename\" \"neg.pfm\"", "negative"),
-        ("\"string filename\" \"black.pfm\" \"float power\" 10", "black"),
+        (
+            "\"string filename\" \"black.pfm\" \"float power\" 10",
+            "black",
+        ),
     ];
     for (params, needle) in cases {
-        let e = parse_light(dir.path(), "", "goniometric", params).expect_err(params).to_string();
+        let e = parse_light(dir.path(), "", "goniometric", params)
+            .expect_err(params)
+            .to_string();
         eprintln!("{params}: {e}");
         assert!(e.contains("scene.pbrt:4:"), "{e}");
         assert!(e.contains(needle), "{e}");
@@ -309,7 +430,15 @@ fn write_pfm_rgb(path: &Path, n: usize, m: usize, f: impl Fn(usize, usize) -> [f
 
 fn projection(dir: &Path, file: &str, extra: &str) -> Result<Light, camsim_pbrt::PbrtError> {
     let tr = format!("Translate 0 0 {H_M}\nRotate 180 1 0 0");
-    parse_light(dir, &tr, "projection", &format!("\"string filename\" \"{file}\" \"float fov\" {} {extra}", proj_fov_deg()))
+    parse_light(
+        dir,
+        &tr,
+        "projection",
+        &format!(
+            "\"string filename\" \"{file}\" \"float fov\" {} {extra}",
+            proj_fov_deg()
+        ),
+    )
 }
 
 /// A grey image of value c projects c times a `point` light with the colour space's illuminant
@@ -323,32 +452,70 @@ fn projection_window_and_image_orientation() {
     let point = parse_light(dir.path(), &format!("Translate 0 0 {H_M}"), "point", "").unwrap();
     let reference = render_floor(point);
     let inside = |x: f64, y: f64| x.abs() <= H_M && y.abs() <= H_M / 2.0;
-    let lit_where =
-        |f: &dyn Fn(f64, f64) -> bool| -> Vec<bool> { expected(|x, y| if f(x, y) { 1.0 } else { 0.0 }).iter().map(|v| *v > 0.0).collect() };
+    let lit_where = |f: &dyn Fn(f64, f64) -> bool| -> Vec<bool> {
+        expected(|x, y| if f(x, y) { 1.0 } else { 0.0 })
+            .iter()
+            .map(|v| *v > 0.0)
+            .collect()
+    };
     for c in [1.0f32, 2.5] {
         write_pfm_rgb(&dir.path().join("grey.pfm"), 8, 4, |_, _| [c; 3]);
         let got = render_floor(projection(dir.path(), "grey.pfm", "").unwrap());
-        let want: Vec<f64> = lit_where(&inside).iter().zip(&reference).map(|(l, r)| if *l { c as f64 * r } else { 0.0 }).collect();
-        let w = worst_error(&format!("projection, grey {c} image vs {c} x point light in the window"), &got, &want);
+        let want: Vec<f64> = lit_where(&inside)
+            .iter()
+            .zip(&reference)
+            .map(|(l, r)| if *l { c as f64 * r } else { 0.0 })
+            .collect();
+        let w = worst_error(
+            &format!("projection, grey {c} image vs {c} x point light in the window"),
+            &got,
+            &want,
+        );
         assert!(w < 1e-4);
     }
-    write_pfm_rgb(&dir.path().join("quad.pfm"), 8, 4, |col, row| if col < 4 && row < 2 { [1.0; 3] } else { [0.0; 3] });
+    write_pfm_rgb(&dir.path().join("quad.pfm"), 8, 4, |col, row| {
+        if col < 4 && row < 2 {
+            [1.0; 3]
+        } else {
+            [0.0; 3]
+        }
+    });
     let got = render_floor(projection(dir.path(), "quad.pfm", "").unwrap());
     let quad = |x: f64, y: f64| inside(x, y) && x < 0.0 && y < 0.0;
-    let want: Vec<f64> = lit_where(&quad).iter().zip(&reference).map(|(l, r)| if *l { *r } else { 0.0 }).collect();
-    let w = worst_error("projection, top-left image quadrant -> x < 0, y < 0", &got, &want);
+    let want: Vec<f64> = lit_where(&quad)
+        .iter()
+        .zip(&reference)
+        .map(|(l, r)| if *l { *r } else { 0.0 })
+        .collect();
+    let w = worst_error(
+        "projection, top-left image quadrant -> x < 0, y < 0",
+        &got,
+        &want,
+    );
     assert!(w < 1e-4);
     // A coloured texel is uplifted as pbrt-v4's RGBIlluminantSpectrum, as a point light's `rgb I`
     // (the reader tabulates that spectrum; the renderer uplifts texels per wavelength).
     let rgb = [0.8f32, 0.3, 0.1];
-    let point_rgb =
-        parse_light(dir.path(), &format!("Translate 0 0 {H_M}"), "point", &format!("\"rgb I\" [{} {} {}]", rgb[0], rgb[1], rgb[2]))
-            .unwrap();
+    let point_rgb = parse_light(
+        dir.path(),
+        &format!("Translate 0 0 {H_M}"),
+        "point",
+        &format!("\"rgb I\" [{} {} {}]", rgb[0], rgb[1], rgb[2]),
+    )
+    .unwrap();
     let reference = render_floor(point_rgb);
     write_pfm_rgb(&dir.path().join("rgb.pfm"), 8, 4, |_, _| rgb);
     let got = render_floor(projection(dir.path(), "rgb.pfm", "").unwrap());
-    let want: Vec<f64> = lit_where(&inside).iter().zip(&reference).map(|(l, r)| if *l { *r } else { 0.0 }).collect();
-    let w = worst_error("projection, rgb (0.8, 0.3, 0.1) image vs point light with the same rgb I", &got, &want);
+    let want: Vec<f64> = lit_where(&inside)
+        .iter()
+        .zip(&reference)
+        .map(|(l, r)| if *l { *r } else { 0.0 })
+        .collect();
+    let w = worst_error(
+        "projection, rgb (0.8, 0.3, 0.1) image vs point light with the same rgb I",
+        &got,
+        &want,
+    );
     assert!(w < 2e-3);
 }
 
@@ -361,11 +528,19 @@ fn projection_power_normalisation() {
     let dir = tempfile::tempdir().unwrap();
     write_pfm_rgb(&dir.path().join("white.pfm"), 64, 32, |_, _| [1.0; 3]);
     let power_lm = 800.0;
-    let l = projection(dir.path(), "white.pfm", &format!("\"float power\" {power_lm}")).unwrap();
-    let Light::Projection(p) = &l else { panic!("not a projection light") };
+    let l = projection(
+        dir.path(),
+        "white.pfm",
+        &format!("\"float power\" {power_lm}"),
+    )
+    .unwrap();
+    let Light::Projection(p) = &l else {
+        panic!("not a projection light")
+    };
     let grid_1nm = WavelengthGrid::new(360.0, 830.0, 1.0).unwrap();
     // White RGB (1, 1, 1) is the illuminant itself (2m S = 1 for rgb / 2m = 1/2).
-    let iv_cd = camsim_core::colorimetry::luminance_cd_m2(&p.illuminant.sample(&grid_1nm), &grid_1nm);
+    let iv_cd =
+        camsim_core::colorimetry::luminance_cd_m2(&p.illuminant.sample(&grid_1nm), &grid_1nm);
     let (a, b) = (1.0f64, 0.5f64);
     let omega_sr = 4.0 * (a * b / ((1.0 + a * a) * (1.0 + b * b)).sqrt()).asin();
     let err = iv_cd * omega_sr / power_lm - 1.0;
@@ -387,7 +562,9 @@ fn projection_bad_input_names_file_and_line() {
         ("\"string filename\" \"w.pfm\" \"float fov\" 180", "fov"),
     ];
     for (params, needle) in cases {
-        let e = parse_light(dir.path(), "", "projection", params).expect_err(params).to_string();
+        let e = parse_light(dir.path(), "", "projection", params)
+            .expect_err(params)
+            .to_string();
         eprintln!("{params}: {e}");
         assert!(e.contains("scene.pbrt:4:") && e.contains(needle), "{e}");
     }
@@ -408,7 +585,10 @@ fn arbitrary_image_under_rotation_matches_the_mapping() {
     let (angle_deg, axis) = (30.0, [1.0, 1.0, 0.0]);
     let l = parse_light(
         dir.path(),
-        &format!("Translate 0 0 {H_M}\nRotate {angle_deg} {} {} {}", axis[0], axis[1], axis[2]),
+        &format!(
+            "Translate 0 0 {H_M}\nRotate {angle_deg} {} {} {}",
+            axis[0], axis[1], axis[2]
+        ),
         "goniometric",
         &format!("{FLAT_I} \"string filename\" \"pattern.pfm\""),
     )
@@ -420,8 +600,15 @@ fn arbitrary_image_under_rotation_matches_the_mapping() {
         let c = world_to_ctm.apply_vector([x, y, -H_M]);
         // pbrt-v4 swapYZ: light frame (x, y, z) = CTM (X, Z, Y).
         let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        let (u, v) = camsim_scene3d::envmap::equal_area_sphere_to_square([c[0] / len, c[2] / len, c[1] / len]);
-        (((u * n as f64) as usize).min(n - 1), ((v * n as f64) as usize).min(n - 1))
+        let (u, v) = camsim_scene3d::envmap::equal_area_sphere_to_square([
+            c[0] / len,
+            c[2] / len,
+            c[1] / len,
+        ]);
+        (
+            ((u * n as f64) as usize).min(n - 1),
+            ((v * n as f64) as usize).min(n - 1),
+        )
     };
     let t = (FOV_DEG.to_radians() / 2.0).tan();
     let k = 8;
@@ -433,8 +620,12 @@ fn arbitrary_image_under_rotation_matches_the_mapping() {
             let mut s = 0.0;
             for b in 0..k {
                 for a in 0..k {
-                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / N_PX as f64 - 1.0) * t * H_M;
-                    let y = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / N_PX as f64) * t * H_M;
+                    let x = (2.0 * (i as f64 + (a as f64 + 0.5) / k as f64) / N_PX as f64 - 1.0)
+                        * t
+                        * H_M;
+                    let y = (1.0 - 2.0 * (j as f64 + (b as f64 + 0.5) / k as f64) / N_PX as f64)
+                        * t
+                        * H_M;
                     let tx = texel_of(x, y);
                     texels.insert(tx);
                     let d2 = H_M * H_M + x * x + y * y;
@@ -458,7 +649,15 @@ fn arbitrary_image_under_rotation_matches_the_mapping() {
             }
         }
     }
-    eprintln!("rotated pattern: {compared} pixels inside one texel ({} texels), worst rel. error {:.4} %", seen.len(), worst * 100.0);
-    assert!(compared >= 40 && seen.len() >= 3, "{compared} pixels, {} texels", seen.len());
+    eprintln!(
+        "rotated pattern: {compared} pixels inside one texel ({} texels), worst rel. error {:.4} %",
+        seen.len(),
+        worst * 100.0
+    );
+    assert!(
+        compared >= 40 && seen.len() >= 3,
+        "{compared} pixels, {} texels",
+        seen.len()
+    );
     assert!(worst < 0.01);
 }

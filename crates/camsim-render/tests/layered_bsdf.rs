@@ -19,13 +19,20 @@ use rand::Rng;
 use std::f64::consts::PI;
 
 fn tr(a: f32) -> TrowbridgeReitz {
-    TrowbridgeReitz { alpha_x: a, alpha_y: a }
+    TrowbridgeReitz {
+        alpha_x: a,
+        alpha_y: a,
+    }
 }
 
 /// Direction with polar cosine `cos_theta` and azimuth `phi`.
 fn dir(cos_theta: f64, phi: f64) -> V3 {
     let s = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    V3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, cos_theta as f32)
+    V3::new(
+        (s * phi.cos()) as f32,
+        (s * phi.sin()) as f32,
+        cos_theta as f32,
+    )
 }
 
 /// Rotation of `w` about the normal by `phi` (the BSDFs here are isotropic).
@@ -35,15 +42,33 @@ fn rot(w: V3, phi: f64) -> V3 {
 }
 
 fn layer(thickness: f32, max_depth: u32) -> Layer<1> {
-    Layer { thickness, albedo: [0.0], g: 0.0, max_depth, n_samples: 1 }
+    Layer {
+        thickness,
+        albedo: [0.0],
+        g: 0.0,
+        max_depth,
+        n_samples: 1,
+    }
 }
 
 fn coated_diffuse(rho: f32, eta: f32, alpha: f32, layer: Layer<1>) -> Bsdf<1> {
-    Bsdf::CoatedDiffuse { reflectance: [rho], eta, distrib: tr(alpha), layer }
+    Bsdf::CoatedDiffuse {
+        reflectance: [rho],
+        eta,
+        distrib: tr(alpha),
+        layer,
+    }
 }
 
 fn coated_conductor(eta: f32, coat: f32, ce: f32, ck: f32, base: f32, layer: Layer<1>) -> Bsdf<1> {
-    Bsdf::CoatedConductor { eta, coat: tr(coat), c_eta: [ce], c_k: [ck], base: tr(base), layer }
+    Bsdf::CoatedConductor {
+        eta,
+        coat: tr(coat),
+        c_eta: [ce],
+        c_k: [ck],
+        base: tr(base),
+        layer,
+    }
 }
 
 /// Directional albedo by sampling (mean of the sample weights) with its standard error.
@@ -52,7 +77,10 @@ fn albedo(b: &Bsdf<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
     let (mut s, mut s2) = (0.0, 0.0);
     for _ in 0..n {
         if let Some(x) = b.sample(&wo, rng.gen(), rng.gen(), rng.gen()) {
-            assert!(!x.transmission && x.wi_local.z * wo.z > 0.0, "a coating reflects only");
+            assert!(
+                !x.transmission && x.wi_local.z * wo.z > 0.0,
+                "a coating reflects only"
+            );
             let w = x.weight[0] as f64;
             s += w;
             s2 += w * w;
@@ -75,7 +103,10 @@ fn albedo_of_f(b: &Bsdf<1>, wo: V3, m: usize, seed: u64) -> (f64, f64) {
         s2 += x * x;
     }
     let mean = s / m as f64;
-    (mean, ((s2 / m as f64 - mean * mean).max(0.0) / m as f64).sqrt())
+    (
+        mean,
+        ((s2 / m as f64 - mean * mean).max(0.0) / m as f64).sqrt(),
+    )
 }
 
 #[test]
@@ -87,7 +118,9 @@ fn index_matched_white_coating_is_a_white_lambertian() {
         for ct in [1.0, 0.7, 0.3, 0.05] {
             let wo = dir(ct, 0.4);
             let (m, se) = albedo(&b, wo, 20_000, 3);
-            eprintln!("index-matched white coating alpha {rough}, cos {ct}: albedo {m:.6} +- {se:.1e}");
+            eprintln!(
+                "index-matched white coating alpha {rough}, cos {ct}: albedo {m:.6} +- {se:.1e}"
+            );
             assert!((m - 1.0).abs() < 1e-5 && se < 1e-6, "albedo {m} +- {se}");
             for k in 0..50 {
                 let wi = dir(0.02 + 0.0196 * k as f64, 0.3 * k as f64);
@@ -114,7 +147,10 @@ fn white_base_under_glass_returns_all_light_as_the_walk_deepens() {
             let want = f + (1.0 - f) * (1.0 - f_int.powi((d / 2) as i32));
             let (m, se) = albedo(&b, dir(ct, 0.1), 100_000, 5 + d as u64);
             eprintln!("white coated diffuse eta 1.5 maxdepth {d}, cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4}");
-            assert!((m - want).abs() < 4.5 * se + 1e-3, "maxdepth {d} cos {ct}: {m} vs {want}");
+            assert!(
+                (m - want).abs() < 4.5 * se + 1e-3,
+                "maxdepth {d} cos {ct}: {m} vs {want}"
+            );
             assert!(m <= 1.0 + 4.0 * se, "albedo {m} > 1");
             if d == 100 {
                 assert!(m > 0.99, "deep walk still loses light: {m}");
@@ -142,12 +178,17 @@ fn black_base_reflects_only_the_coating() {
         let b = coated_diffuse(0.0, 1.5, 0.0, layer(0.01, 10));
         let (m, se) = albedo(&b, wo, 100_000, 9);
         let want = fr_dielectric(ct as f32, 1.5) as f64;
-        eprintln!("black coated diffuse, smooth, cos {ct}: albedo {m:.5} +- {se:.5}, Fresnel {want:.5}");
+        eprintln!(
+            "black coated diffuse, smooth, cos {ct}: albedo {m:.5} +- {se:.5}, Fresnel {want:.5}"
+        );
         assert!((m - want).abs() < 4.5 * se + 1e-4, "{m} vs {want}");
 
         let b = coated_diffuse(0.0, 1.5, 0.3, layer(0.01, 10));
         let (m, se) = albedo(&b, wo, 100_000, 10);
-        let glass = Bsdf::<1>::Dielectric { eta: 1.5, distrib: tr(0.3) };
+        let glass = Bsdf::<1>::Dielectric {
+            eta: 1.5,
+            distrib: tr(0.3),
+        };
         let mut rng = camsim_core::rng::seeded(12);
         let n = 200_000;
         let (mut s, mut s2) = (0.0, 0.0);
@@ -164,7 +205,10 @@ fn black_base_reflects_only_the_coating() {
         eprintln!(
             "black coated diffuse, alpha 0.3, cos {ct}: albedo {m:.5} +- {se:.5}, rough dielectric reflection {want:.5} +- {want_se:.5}"
         );
-        assert!((m - want).abs() < 4.5 * (se * se + want_se * want_se).sqrt(), "{m} vs {want}");
+        assert!(
+            (m - want).abs() < 4.5 * (se * se + want_se * want_se).sqrt(),
+            "{m} vs {want}"
+        );
     }
 }
 
@@ -177,12 +221,19 @@ fn index_matched_coating_over_a_conductor_is_the_bare_conductor() {
     let mut rng = camsim_core::rng::seeded(2);
     for alpha in [0.05f32, 0.3, 0.7] {
         let coated = coated_conductor(1.0, 0.0, ce, ck, alpha, layer(0.0, 10));
-        let bare = Bsdf::<1>::Conductor { eta: [ce], k: [ck], distrib: tr(alpha) };
+        let bare = Bsdf::<1>::Conductor {
+            eta: [ce],
+            k: [ck],
+            distrib: tr(alpha),
+        };
         for _ in 0..300 {
             let wo = dir(rng.gen_range(0.05..1.0), rng.gen_range(0.0..2.0 * PI));
             let wi = dir(rng.gen_range(0.05..1.0), rng.gen_range(0.0..2.0 * PI));
             let (a, b) = (coated.eval(&wo, &wi).0[0], bare.eval(&wo, &wi).0[0]);
-            assert!((a - b).abs() <= 1e-4 * b.max(1e-3), "alpha {alpha}: coated f {a} vs bare {b}");
+            assert!(
+                (a - b).abs() <= 1e-4 * b.max(1e-3),
+                "alpha {alpha}: coated f {a} vs bare {b}"
+            );
         }
         for ct in [0.9, 0.4] {
             let (m, se) = albedo(&coated, dir(ct, 0.5), 100_000, 3);
@@ -198,7 +249,11 @@ fn index_matched_coating_over_a_conductor_is_the_bare_conductor() {
     for ct in [1.0, 0.5, 0.1] {
         let s = coated.sample(&dir(ct, 0.0), 0.5, 0.5, 0.5).unwrap();
         let want = fr_complex(ct as f32, ce, ck);
-        assert!(s.specular && (s.weight[0] - want).abs() < 1e-5, "{} vs {want}", s.weight[0]);
+        assert!(
+            s.specular && (s.weight[0] - want).abs() < 1e-5,
+            "{} vs {want}",
+            s.weight[0]
+        );
     }
 }
 
@@ -233,7 +288,12 @@ fn clear_coat_over_a_perfect_mirror_releases_the_trapped_light() {
             let f = fr_dielectric(ct as f32, 1.5) as f64;
             let cos_t: f64 = (1.0 - (1.0 - ct * ct) / 2.25f64).sqrt();
             let loop_gain = (-2.0 * tau / cos_t).exp() * fr_complex(cos_t as f32, ce, ck) as f64;
-            let want = f + (1.0 - f).powi(2) * loop_gain * (0..d / 2).map(|k| (f * loop_gain).powi(k as i32)).sum::<f64>();
+            let want = f
+                + (1.0 - f).powi(2)
+                    * loop_gain
+                    * (0..d / 2)
+                        .map(|k| (f * loop_gain).powi(k as i32))
+                        .sum::<f64>();
             let (m, se) = albedo(&b, dir(ct, 0.0), 100_000, 50 + d as u64);
             eprintln!("clear coat over absorbing metal, maxdepth {d}, cos {ct}: albedo {m:.4} +- {se:.4}, closed form {want:.4}");
             assert!((m - want).abs() < 4.5 * se + 1e-3, "{m} vs {want}");
@@ -247,7 +307,10 @@ fn clear_coat_over_a_perfect_mirror_releases_the_trapped_light() {
         let b = coated_conductor(1.5, 0.0, 0.0, 1e4, 0.3, layer(0.0, d));
         let (m, se) = albedo(&b, dir(1.0, 0.0), 200_000, 30 + d as u64);
         eprintln!("clear coat over rough mirror alpha 0.3, maxdepth {d}, normal incidence: albedo {m:.4} +- {se:.4}");
-        assert!(m > prev - 4.0 * se, "albedo falls with maxdepth: {m} after {prev}");
+        assert!(
+            m > prev - 4.0 * se,
+            "albedo falls with maxdepth: {m} after {prev}"
+        );
         if d == 2 {
             first = m;
         }
@@ -255,10 +318,17 @@ fn clear_coat_over_a_perfect_mirror_releases_the_trapped_light() {
     }
     // Measured: 0.59 at maxdepth 2 (about the one-pass figure), 0.77 at 50; the rest is the
     // rough mirror's single-scattering loss, repeated at every (often grazing) internal bounce.
-    let bare = Bsdf::<1>::Conductor { eta: [0.0], k: [1e4], distrib: tr(0.3) };
+    let bare = Bsdf::<1>::Conductor {
+        eta: [0.0],
+        k: [1e4],
+        distrib: tr(0.3),
+    };
     let (mb, _) = albedo(&bare, dir(1.0, 0.0), 200_000, 31);
     eprintln!("bare rough mirror alpha 0.3, normal incidence: albedo {mb:.4}");
-    assert!(prev > first + 0.15 && prev < mb, "coated rough mirror albedo {prev} (maxdepth 2: {first}, bare {mb})");
+    assert!(
+        prev > first + 0.15 && prev < mb,
+        "coated rough mirror albedo {prev} (maxdepth 2: {first}, bare {mb})"
+    );
 }
 
 #[test]
@@ -277,7 +347,10 @@ fn rough_coated_metal_is_no_longer_dark() {
     let deep = coated_conductor(1.5, 0.0, 0.2 / 1.5, 3.0 / 1.5, 0.3, layer(0.05, 100));
     let (md, sed) = albedo(&deep, dir(1.0, 0.0), 200_000, 42);
     eprintln!("coated metal alpha 0.3, normal incidence: random walk albedo {mr:.4} +- {ser:.4} (maxdepth 100: {md:.4} +- {sed:.4}; one-pass closed form: 0.48); smooth base {ms:.4}");
-    assert!(mr > 0.53 && md > mr - 4.0 * sed && md < ms, "{mr} / {md} vs smooth {ms}");
+    assert!(
+        mr > 0.53 && md > mr - 4.0 * sed && md < ms,
+        "{mr} / {md} vs smooth {ms}"
+    );
 }
 
 #[test]
@@ -324,7 +397,10 @@ fn smooth_coated_diffuse_matches_a_photon_random_walk() {
         let walk_se = (walk * (1.0 - walk) / n as f64).sqrt();
         let (m, se) = albedo(&b, dir(ct as f64, 0.0), 200_000, 2);
         eprintln!("coated diffuse cos {ct}: albedo {m:.4} +- {se:.4}, photon walk {walk:.4} +- {walk_se:.4}");
-        assert!((m - walk).abs() < 4.5 * (se * se + walk_se * walk_se).sqrt(), "{m} vs walk {walk}");
+        assert!(
+            (m - walk).abs() < 4.5 * (se * se + walk_se * walk_se).sqrt(),
+            "{m} vs walk {walk}"
+        );
     }
 }
 
@@ -334,12 +410,30 @@ fn configs() -> Vec<(&'static str, Bsdf<1>)> {
     medium.albedo = [0.7];
     medium.g = 0.4;
     vec![
-        ("coated diffuse alpha 0.3", coated_diffuse(0.6, 1.5, 0.3, layer(0.01, 100))),
-        ("coated diffuse smooth", coated_diffuse(0.6, 1.5, 0.0, layer(0.01, 100))),
-        ("coated conductor smooth over alpha 0.3", coated_conductor(1.5, 0.0, 0.2 / 1.5, 3.0 / 1.5, 0.3, layer(0.05, 100))),
-        ("coated conductor alpha 0.2 over 0.35", coated_conductor(1.5, 0.2, 0.2 / 1.5, 3.0 / 1.5, 0.35, layer(0.05, 100))),
-        ("coated conductor alpha 0.3 over smooth", coated_conductor(1.5, 0.3, 0.2 / 1.5, 3.0 / 1.5, 0.0, layer(0.05, 100))),
-        ("coated diffuse alpha 0.2, scattering medium", coated_diffuse(0.5, 1.5, 0.2, medium)),
+        (
+            "coated diffuse alpha 0.3",
+            coated_diffuse(0.6, 1.5, 0.3, layer(0.01, 100)),
+        ),
+        (
+            "coated diffuse smooth",
+            coated_diffuse(0.6, 1.5, 0.0, layer(0.01, 100)),
+        ),
+        (
+            "coated conductor smooth over alpha 0.3",
+            coated_conductor(1.5, 0.0, 0.2 / 1.5, 3.0 / 1.5, 0.3, layer(0.05, 100)),
+        ),
+        (
+            "coated conductor alpha 0.2 over 0.35",
+            coated_conductor(1.5, 0.2, 0.2 / 1.5, 3.0 / 1.5, 0.35, layer(0.05, 100)),
+        ),
+        (
+            "coated conductor alpha 0.3 over smooth",
+            coated_conductor(1.5, 0.3, 0.2 / 1.5, 3.0 / 1.5, 0.0, layer(0.05, 100)),
+        ),
+        (
+            "coated diffuse alpha 0.2, scattering medium",
+            coated_diffuse(0.5, 1.5, 0.2, medium),
+        ),
     ]
 }
 
@@ -350,7 +444,12 @@ fn expected_value_of_f_is_reciprocal() {
     // averages M estimates with independent seeds: the pair is turned about the normal (the
     // BSDFs are isotropic, so the expectation is unchanged), which changes the hash of the
     // directions.
-    let pairs = [((0.9, 0.0), (0.5, 2.0)), ((0.3, 1.0), (0.8, 2.5)), ((0.2, 0.3), (0.25, 3.3)), ((0.7, 0.0), (0.35, 2.0))];
+    let pairs = [
+        ((0.9, 0.0), (0.5, 2.0)),
+        ((0.3, 1.0), (0.8, 2.5)),
+        ((0.2, 0.3), (0.25, 3.3)),
+        ((0.7, 0.0), (0.35, 2.0)),
+    ];
     let m = 4000;
     for (name, b) in configs() {
         for ((c1, p1), (c2, p2)) in pairs {
@@ -364,7 +463,10 @@ fn expected_value_of_f_is_reciprocal() {
                     s2 += x * x;
                 }
                 let mean = s / m as f64;
-                (mean, ((s2 / m as f64 - mean * mean).max(0.0) / m as f64).sqrt())
+                (
+                    mean,
+                    ((s2 / m as f64 - mean * mean).max(0.0) / m as f64).sqrt(),
+                )
             };
             let (a, sa) = stats(wo, wi);
             let (c, sc) = stats(wi, wo);
@@ -390,7 +492,14 @@ fn chi2_critical(k: f64, z: f64) -> f64 {
 /// Both are unbiased for `int_c E[f] cos dw` when the sampler is right; the statistic
 /// `sum (a - b)^2 / (var a + var b)` over the cells with enough mass is then chi-square
 /// distributed. Returns `(chi2, critical value at p = 1e-4, number of cells)`.
-fn weighted_chi_square(sampler: &Bsdf<1>, density: &Bsdf<1>, wo: V3, n: usize, q: usize, seed: u64) -> (f64, f64, usize) {
+fn weighted_chi_square(
+    sampler: &Bsdf<1>,
+    density: &Bsdf<1>,
+    wo: V3,
+    n: usize,
+    q: usize,
+    seed: u64,
+) -> (f64, f64, usize) {
     let (nt, np) = (8usize, 16usize);
     let cells = nt * np;
     let (mut s1, mut s2) = (vec![0f64; cells], vec![0f64; cells]);
@@ -450,7 +559,10 @@ fn sampled_directions_match_the_evaluated_bsdf_chi_square() {
             seed += 1;
             let (chi2, crit, dof) = weighted_chi_square(&b, &b, dir(ct, 0.7), 200_000, 200, seed);
             eprintln!("{name}, cos theta_o {ct}: chi2 {chi2:.1} over {dof} cells, critical (p = 1e-4) {crit:.1}");
-            assert!(chi2 < crit, "{name}, cos {ct}: chi-square {chi2:.1} exceeds {crit:.1}");
+            assert!(
+                chi2 < crit,
+                "{name}, cos {ct}: chi-square {chi2:.1} exceeds {crit:.1}"
+            );
         }
     }
 }
@@ -463,12 +575,18 @@ fn weighted_chi_square_rejects_a_wrong_sampler() {
     let claimed = coated_conductor(1.5, 0.0, 0.2 / 1.5, 3.0 / 1.5, 0.2, layer(0.05, 100));
     let (chi2, crit, _) = weighted_chi_square(&sampled, &claimed, dir(0.8, 0.3), 200_000, 200, 7);
     eprintln!("wrong base roughness: chi2 {chi2:.0} vs critical {crit:.0}");
-    assert!(chi2 > 3.0 * crit, "the test failed to notice a wrong sampler ({chi2} vs {crit})");
+    assert!(
+        chi2 > 3.0 * crit,
+        "the test failed to notice a wrong sampler ({chi2} vs {crit})"
+    );
     let sampled = coated_diffuse(0.6, 1.5, 0.3, layer(0.01, 100));
     let claimed = coated_diffuse(0.6, 1.5, 0.2, layer(0.01, 100));
     let (chi2, crit, _) = weighted_chi_square(&sampled, &claimed, dir(0.6, 0.3), 200_000, 200, 8);
     eprintln!("wrong coating roughness: chi2 {chi2:.0} vs critical {crit:.0}");
-    assert!(chi2 > 3.0 * crit, "the test failed to notice a wrong sampler ({chi2} vs {crit})");
+    assert!(
+        chi2 > 3.0 * crit,
+        "the test failed to notice a wrong sampler ({chi2} vs {crit})"
+    );
 }
 
 #[test]
@@ -484,21 +602,33 @@ fn estimates_are_deterministic_and_two_sided() {
         assert_eq!(b.eval(&wo, &-wi).0[0], 0.0, "{name}: no transmission");
         let s1 = b.sample(&wo, 0.3, 0.6, 0.2);
         let s2 = b.sample(&wo, 0.3, 0.6, 0.2);
-        assert_eq!(s1.map(|s| s.weight[0].to_bits()), s2.map(|s| s.weight[0].to_bits()), "{name}");
+        assert_eq!(
+            s1.map(|s| s.weight[0].to_bits()),
+            s2.map(|s| s.weight[0].to_bits()),
+            "{name}"
+        );
         if let Some(s) = b.sample(&-wo, 0.3, 0.6, 0.2) {
-            assert!(s.wi_local.z < 0.0, "{name}: a sample from below stays below");
+            assert!(
+                s.wi_local.z < 0.0,
+                "{name}: a sample from below stays below"
+            );
         }
     }
 }
 
 /// A sphere of `material` under a uniform infinite light of radiance `l` (no other geometry),
 /// filling the view of a 16 x 16 camera.
-fn furnace_scene(material: camsim_scene3d::Material, l: f64, spp: u32) -> camsim_scene3d::SceneDescription {
+fn furnace_scene(
+    material: camsim_scene3d::Material,
+    l: f64,
+    spp: u32,
+) -> camsim_scene3d::SceneDescription {
     use camsim_scene3d::*;
     let grid = camsim_core::WavelengthGrid::new(400.0, 700.0, 100.0).unwrap();
     let flat = |v: f64| camsim_core::Spectrum::new(vec![300.0, 900.0], vec![v, v], "test").unwrap();
     let camera = Camera {
-        camera_to_world: look_at_camera_to_world([0.0, 0.0, -3.0], [0.0; 3], [0.0, 1.0, 0.0], true).unwrap(),
+        camera_to_world: look_at_camera_to_world([0.0, 0.0, -3.0], [0.0; 3], [0.0, 1.0, 0.0], true)
+            .unwrap(),
         fov_deg: 8.0,
         width: 16,
         height: 16,
@@ -516,7 +646,10 @@ fn furnace_scene(material: camsim_scene3d::Material, l: f64, spp: u32) -> camsim
     };
     let shapes = vec![Shape {
         name: None,
-        geometry: Geometry::Sphere { center: [0.0; 3], radius: 1.0 },
+        geometry: Geometry::Sphere {
+            center: [0.0; 3],
+            radius: 1.0,
+        },
         material: 0,
         area_light: None,
         reverse_orientation: false,
@@ -542,7 +675,9 @@ fn furnace_render(material: camsim_scene3d::Material, l: f64, spp: u32) -> (f64,
     let secs = t0.elapsed().as_secs_f64();
     let img = &out.radiance;
     let nb = img.bands();
-    let v: Vec<f64> = (0..img.pixels()).map(|p| (0..nb).map(|b| img.band(b)[p] as f64).sum::<f64>() / nb as f64).collect();
+    let v: Vec<f64> = (0..img.pixels())
+        .map(|p| (0..nb).map(|b| img.band(b)[p] as f64).sum::<f64>() / nb as f64)
+        .collect();
     let n = v.len() as f64;
     let m = v.iter().sum::<f64>() / n;
     let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
@@ -554,10 +689,25 @@ fn coated_renders_are_bit_identical_for_one_and_two_threads() {
     // The walks are seeded from their directions, never from thread state.
     use camsim_scene3d::{ConductorOptics, LayerWalk, Material, Roughness, Texture};
     let spec = |v: f64| camsim_core::Spectrum::new(vec![300.0, 900.0], vec![v, v], "t").unwrap();
-    let rough = |r: f64| Roughness { u: r, v: r, remap: false };
-    let walk = LayerWalk { albedo: Texture::Constant(spec(0.6)), g: 0.3, max_depth: 10, n_samples: 2 };
+    let rough = |r: f64| Roughness {
+        u: r,
+        v: r,
+        remap: false,
+    };
+    let walk = LayerWalk {
+        albedo: Texture::Constant(spec(0.6)),
+        g: 0.3,
+        max_depth: 10,
+        n_samples: 2,
+    };
     let materials = [
-        Material::CoatedDiffuse { reflectance: Texture::Constant(spec(0.5)), roughness: rough(0.2), eta: 1.5, thickness: 0.1, walk },
+        Material::CoatedDiffuse {
+            reflectance: Texture::Constant(spec(0.5)),
+            roughness: rough(0.2),
+            eta: 1.5,
+            thickness: 0.1,
+            walk,
+        },
         Material::CoatedConductor {
             interface_eta: 1.5,
             interface_roughness: rough(0.1),
@@ -570,13 +720,22 @@ fn coated_renders_are_bit_identical_for_one_and_two_threads() {
     for m in materials {
         let sc = furnace_scene(m, 1.0, 8);
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
             pool.install(|| camsim_render::render(&sc, &|_, _| {}).unwrap())
         };
         let (a, b) = (run(1), run(2));
-        assert!(a.radiance.data.iter().zip(&b.radiance.data).all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert!(a
+            .radiance
+            .data
+            .iter()
+            .zip(&b.radiance.data)
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
         // The comparison means something: the sphere reflects a good part of the sky.
-        let mean = a.radiance.data.iter().map(|v| *v as f64).sum::<f64>() / a.radiance.data.len() as f64;
+        let mean =
+            a.radiance.data.iter().map(|v| *v as f64).sum::<f64>() / a.radiance.data.len() as f64;
         assert!(mean > 0.2 && mean < 1.0, "mean {mean}");
     }
 }
@@ -584,28 +743,60 @@ fn coated_renders_are_bit_identical_for_one_and_two_threads() {
 #[test]
 fn white_index_matched_coated_sphere_is_invisible_in_a_furnace() {
     use camsim_scene3d::{LayerWalk, Material, Roughness, Texture};
-    let white = Texture::Constant(camsim_core::Spectrum::new(vec![300.0, 900.0], vec![1.0, 1.0], "white").unwrap());
-    let rough = |r: f64| Roughness { u: r, v: r, remap: false };
+    let white = Texture::Constant(
+        camsim_core::Spectrum::new(vec![300.0, 900.0], vec![1.0, 1.0], "white").unwrap(),
+    );
+    let rough = |r: f64| Roughness {
+        u: r,
+        v: r,
+        remap: false,
+    };
     let l = 2.5;
     // Reflectance 1 under an index-matched coating, thickness 0: every path carries weight 1,
     // the sphere reads the sky's radiance.
-    let m =
-        Material::CoatedDiffuse { reflectance: white.clone(), roughness: rough(0.3), eta: 1.0, thickness: 0.0, walk: LayerWalk::default() };
+    let m = Material::CoatedDiffuse {
+        reflectance: white.clone(),
+        roughness: rough(0.3),
+        eta: 1.0,
+        thickness: 0.0,
+        walk: LayerWalk::default(),
+    };
     // Exact along every BSDF-sampled path; light sampling adds MIS noise (the weights use the
     // walk's stochastic pdf estimate), unbiased.
     let (mean, se, secs) = furnace_render(m, l, 256);
     eprintln!("index-matched white coated sphere in a furnace: {mean:.5} +- {se:.5} (sky {l}), {secs:.2} s");
-    assert!((mean - l).abs() < 4.5 * se + 1e-4 * l && se < 2e-3 * l, "{mean} +- {se} vs {l}");
+    assert!(
+        (mean - l).abs() < 4.5 * se + 1e-4 * l && se < 2e-3 * l,
+        "{mean} +- {se} vs {l}"
+    );
     // Under glass (eta 1.5, maxdepth 100) the white sphere still returns all light (closed form
     // above: 1 - (1 - F) F_int^50 ~ 1): the sphere reads the sky within the noise.
-    let deep = LayerWalk { max_depth: 100, ..LayerWalk::default() };
-    let m = Material::CoatedDiffuse { reflectance: white.clone(), roughness: rough(0.0), eta: 1.5, thickness: 0.0, walk: deep };
+    let deep = LayerWalk {
+        max_depth: 100,
+        ..LayerWalk::default()
+    };
+    let m = Material::CoatedDiffuse {
+        reflectance: white.clone(),
+        roughness: rough(0.0),
+        eta: 1.5,
+        thickness: 0.0,
+        walk: deep,
+    };
     let (mean, se, secs) = furnace_render(m, l, 256);
     eprintln!("white coated sphere (eta 1.5, maxdepth 100) in a furnace: {mean:.5} +- {se:.5} (sky {l}), {secs:.2} s");
-    assert!((mean - l).abs() < 4.5 * se + 2e-3 * l && se < 0.01 * l, "{mean} +- {se} vs {l}");
+    assert!(
+        (mean - l).abs() < 4.5 * se + 2e-3 * l && se < 0.01 * l,
+        "{mean} +- {se} vs {l}"
+    );
     // Cost of the walk: pbrt-v4's default coated diffuse (eta 1.5, rough 0.1, thickness 0.01,
     // maxdepth 10), for the record.
-    let m = Material::CoatedDiffuse { reflectance: white, roughness: rough(0.1), eta: 1.5, thickness: 0.01, walk: LayerWalk::default() };
+    let m = Material::CoatedDiffuse {
+        reflectance: white,
+        roughness: rough(0.1),
+        eta: 1.5,
+        thickness: 0.01,
+        walk: LayerWalk::default(),
+    };
     let (mean, se, secs) = furnace_render(m, l, 64);
     eprintln!("pbrt-default white coated diffuse sphere: {mean:.5} +- {se:.5}, {secs:.2} s for 16 x 16 x 64 paths");
     assert!(mean <= l * (1.0 + 1e-3) + 4.5 * se);

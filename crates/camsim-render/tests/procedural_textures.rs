@@ -27,7 +27,9 @@ fn render_band_sums(world: &str, grid: WavelengthGrid) -> Vec<Vec<f64>> {
     s.settings.max_depth = 1;
     s.settings.seed = 3;
     let out = render(&s, &|_, _| {}).unwrap();
-    (0..out.radiance.bands()).map(|b| out.radiance.band(b).iter().map(|v| *v as f64).collect()).collect()
+    (0..out.radiance.bands())
+        .map(|b| out.radiance.band(b).iter().map(|v| *v as f64).collect())
+        .collect()
 }
 
 /// Per pixel albedo: the textured square's band-summed radiance over the white square's.
@@ -35,7 +37,9 @@ fn albedo(world: &str) -> Vec<f64> {
     let grid = WavelengthGrid::new(400.0, 700.0, 50.0).unwrap();
     let t = render_band_sums(world, grid);
     let w = render_band_sums("Material \"diffuse\" \"rgb reflectance\" [1 1 1]", grid);
-    (0..N * N).map(|i| t.iter().map(|b| b[i]).sum::<f64>() / w.iter().map(|b| b[i]).sum::<f64>()).collect()
+    (0..N * N)
+        .map(|i| t.iter().map(|b| b[i]).sum::<f64>() / w.iter().map(|b| b[i]).sum::<f64>())
+        .collect()
 }
 
 /// The world point (on z = 1) that pixel (column c, row r)'s centre sees.
@@ -81,9 +85,21 @@ fn solid_noises_render_as_their_functions() {
     let scaled = |p: [f64; 3]| p.map(|v| 4.0 * v);
     type Albedo = Box<dyn Fn([f64; 3]) -> f64>;
     let cases: [(&str, &str, Albedo); 3] = [
-        ("wrinkled", "\"integer octaves\" 2", Box::new(move |p| noise::turbulence(scaled(p), 0.5, 2))),
-        ("fbm", "\"integer octaves\" 3 \"float roughness\" 0.4", Box::new(move |p| 0.5 + 0.5 * noise::fbm(scaled(p), 0.4, 3))),
-        ("windy", "", Box::new(move |p| 0.5 + 0.5 * noise::windy(scaled(p)))),
+        (
+            "wrinkled",
+            "\"integer octaves\" 2",
+            Box::new(move |p| noise::turbulence(scaled(p), 0.5, 2)),
+        ),
+        (
+            "fbm",
+            "\"integer octaves\" 3 \"float roughness\" 0.4",
+            Box::new(move |p| 0.5 + 0.5 * noise::fbm(scaled(p), 0.4, 3)),
+        ),
+        (
+            "windy",
+            "",
+            Box::new(move |p| 0.5 + 0.5 * noise::windy(scaled(p))),
+        ),
     ];
     for (class, params, want) in cases {
         // wrinkled is >= 0: albedo = amount; fbm and windy lie in [-1, 1]: albedo 0.5 + amount / 2.
@@ -100,15 +116,23 @@ fn solid_noises_render_as_their_functions() {
             (got.iter().map(|v| (v - m).powi(2)).sum::<f64>() / got.len() as f64).sqrt()
         };
         eprintln!("{class}: |rendered - function| mean {mean:.4}, max {max:.4}; albedo std over the image {spread:.3}");
-        assert!(spread > 0.05, "{class}: the pattern must vary across the image ({spread})");
+        assert!(
+            spread > 0.05,
+            "{class}: the pattern must vary across the image ({spread})"
+        );
         assert!(mean < 0.01 && max < 0.06, "{class}: mean {mean}, max {max}");
     }
     // Without the transform the pattern is 4 x coarser in texture space: it no longer matches.
     let world = "Texture \"n\" \"float\" \"wrinkled\" \"integer octaves\" 2\n\
                  Texture \"m\" \"spectrum\" \"mix\" \"rgb tex1\" [0 0 0] \"rgb tex2\" [1 1 1] \"texture amount\" \"n\"\n\
                  Material \"diffuse\" \"texture reflectance\" \"m\"";
-    let (mean, _) = compare(&albedo(world), move |p| noise::turbulence(scaled(p), 0.5, 2));
-    assert!(mean > 0.05, "a texture without its transform matched the transformed one ({mean})");
+    let (mean, _) = compare(&albedo(world), move |p| {
+        noise::turbulence(scaled(p), 0.5, 2)
+    });
+    assert!(
+        mean > 0.05,
+        "a texture without its transform matched the transformed one ({mean})"
+    );
 }
 
 /// `marble`: the albedo at 550 nm is the Jakob-Hanika uplift of pbrt-v4's marble colour at the
@@ -122,7 +146,8 @@ fn marble_renders_its_palette() {
     let w = render_band_sums("Material \"diffuse\" \"rgb reflectance\" [1 1 1]", grid);
     let got: Vec<f64> = (0..N * N).map(|i| t[0][i] / w[0][i]).collect();
     let want = |p: [f64; 3]| {
-        let rgb = noise::marble_rgb(p.map(|v| 4.0 * v), 0.5, 0.5, 4).map(|v| v.clamp(0.0, 1.0) as f32);
+        let rgb =
+            noise::marble_rgb(p.map(|v| 4.0 * v), 0.5, 0.5, 4).map(|v| v.clamp(0.0, 1.0) as f32);
         camsim_scene3d::uplift::rgb_to_coefficients(rgb).eval(550.0)
     };
     // pbrt's palette spline jumps where t crosses from one four-colour window to the next (the
@@ -134,7 +159,9 @@ fn marble_renders_its_palette() {
     let mean = errs.iter().sum::<f64>() / errs.len() as f64;
     let max = errs.iter().cloned().fold(0.0, f64::max);
     let (_, centre_max) = compare(&got, want);
-    let (lo, hi) = got.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    let (lo, hi) = got
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     eprintln!(
         "marble at 550 nm: |rendered - pixel-averaged palette| mean {mean:.4}, max {max:.4} (against the centre value: max {centre_max:.3}); albedo {lo:.3} to {hi:.3}"
     );
@@ -161,7 +188,11 @@ fn dots_render_where_the_polka_dots_are() {
         }
     }
     let frac = agree as f64 / (N * N) as f64;
-    eprintln!("dots: {inside} of {} pixel centres inside a dot; rendered agrees at {:.1} %", N * N, 100.0 * frac);
+    eprintln!(
+        "dots: {inside} of {} pixel centres inside a dot; rendered agrees at {:.1} %",
+        N * N,
+        100.0 * frac
+    );
     assert!(inside > 50 && inside < N * N - 50, "{inside}");
     assert!(frac > 0.93, "{frac}");
 }
@@ -170,13 +201,25 @@ fn dots_render_where_the_polka_dots_are() {
 #[test]
 fn bad_procedural_texture_parameters_are_refused() {
     for (tex, want) in [
-        ("Texture \"n\" \"float\" \"fbm\" \"integer octaves\" 0", "octaves"),
-        ("Texture \"n\" \"float\" \"wrinkled\" \"float roughnes\" 0.3", "roughnes"),
+        (
+            "Texture \"n\" \"float\" \"fbm\" \"integer octaves\" 0",
+            "octaves",
+        ),
+        (
+            "Texture \"n\" \"float\" \"wrinkled\" \"float roughnes\" 0.3",
+            "roughnes",
+        ),
         ("Texture \"n\" \"spectrum\" \"wrinkled\"", "not supported"),
     ] {
-        let text = format!("LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\"\nWorldBegin\n{tex}\n");
-        let e = parse_str(&text, "/tmp/bad-tex.pbrt").unwrap_err().to_string();
-        assert!(e.contains("bad-tex.pbrt:4:") && e.contains(want), "{tex}: {e}");
+        let text =
+            format!("LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\"\nWorldBegin\n{tex}\n");
+        let e = parse_str(&text, "/tmp/bad-tex.pbrt")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bad-tex.pbrt:4:") && e.contains(want),
+            "{tex}: {e}"
+        );
     }
 }
 
@@ -195,12 +238,17 @@ fn checkerboard_in_3d_follows_the_cell_parity() {
         let mut err = 0.0;
         for r in 0..N {
             for c in 0..N {
-                let odd = pixel_mean(c, r, |p| (((10.0 * p[0]).floor() + (10.0 * p[1]).floor()) as i64 & 1 ^ flip) as f64);
+                let odd = pixel_mean(c, r, |p| {
+                    (((10.0 * p[0]).floor() + (10.0 * p[1]).floor()) as i64 & 1 ^ flip) as f64
+                });
                 err += (got[r * N + c] - (0.1 + 0.7 * odd)).abs();
             }
         }
         let mean = err / (N * N) as f64;
-        eprintln!("3D checkerboard{}: |rendered - pixel-averaged cells| mean {mean:.4}", if flip == 1 { " (shifted)" } else { "" });
+        eprintln!(
+            "3D checkerboard{}: |rendered - pixel-averaged cells| mean {mean:.4}",
+            if flip == 1 { " (shifted)" } else { "" }
+        );
         assert!(mean < 0.01, "{mean}");
     }
 }
@@ -214,12 +262,18 @@ fn checkerboard_in_3d_follows_the_cell_parity() {
 fn planar_spherical_and_cylindrical_mappings_give_their_coordinates() {
     type Case = (&'static str, &'static str, fn([f64; 3]) -> f64);
     let cases: [Case; 3] = [
-        ("planar", "\"float udelta\" -0.5 \"vector3 v1\" [1 0 0]", |p| 0.5 + p[0]),
+        (
+            "planar",
+            "\"float udelta\" -0.5 \"vector3 v1\" [1 0 0]",
+            |p| 0.5 + p[0],
+        ),
         ("spherical", "", |p| {
             let q = [p[0] + 1.0, p[1], p[2]];
             (q[2] / (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()).acos() / std::f64::consts::PI
         }),
-        ("cylindrical", "", |p| (std::f64::consts::PI + p[1].atan2(p[0] + 1.0)) / std::f64::consts::TAU),
+        ("cylindrical", "", |p| {
+            (std::f64::consts::PI + p[1].atan2(p[0] + 1.0)) / std::f64::consts::TAU
+        }),
     ];
     for (mapping, params, want) in cases {
         let world = format!(
@@ -230,13 +284,23 @@ fn planar_spherical_and_cylindrical_mappings_give_their_coordinates() {
         );
         let got = albedo(&world);
         let (mean, max) = compare(&got, want);
-        let (lo, hi) = got.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+        let (lo, hi) = got
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
         eprintln!("{mapping} mapping: |rendered - s| mean {mean:.4}, max {max:.4}; s from {lo:.3} to {hi:.3}");
         assert!(hi - lo > 0.05, "{mapping}: s must vary over the image");
-        assert!(mean < 0.003 && max < 0.02, "{mapping}: mean {mean}, max {max}");
+        assert!(
+            mean < 0.003 && max < 0.02,
+            "{mapping}: mean {mean}, max {max}"
+        );
     }
     // An unknown mapping names the directive.
     let text = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\"\nWorldBegin\nTexture \"b\" \"float\" \"bilerp\" \"string mapping\" \"conical\"\n";
-    let e = parse_str(text, "/tmp/bad-map.pbrt").unwrap_err().to_string();
-    assert!(e.contains("bad-map.pbrt:4:") && e.contains("conical"), "{e}");
+    let e = parse_str(text, "/tmp/bad-map.pbrt")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad-map.pbrt:4:") && e.contains("conical"),
+        "{e}"
+    );
 }

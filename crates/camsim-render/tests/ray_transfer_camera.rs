@@ -12,7 +12,10 @@ use std::path::Path;
 
 mod common;
 
-const LENS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/isetcornellbox/lens");
+const LENS_DIR: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/data/isetcornellbox/lens"
+);
 
 fn rtf_path() -> String {
     format!("{LENS_DIR}/pixel4a-rearcamera-ellipse-raytransfer.json")
@@ -22,7 +25,11 @@ fn rtf_path() -> String {
 const INPUT_PLANE_MM: f64 = 0.464135918;
 
 fn scene_text(n: usize, diagonal_mm: f64) -> String {
-    sky_scene(n, diagonal_mm, &format!("\"float filmdistance\" {INPUT_PLANE_MM}"))
+    sky_scene(
+        n,
+        diagonal_mm,
+        &format!("\"float filmdistance\" {INPUT_PLANE_MM}"),
+    )
 }
 
 /// A uniform sky through the RTF camera with extra `Camera` parameters `film`.
@@ -50,7 +57,10 @@ fn brute_force_axial_sr(rtf: &Rtf, dz: f64) -> f64 {
             let d = [t.sin() * ph.cos(), t.sin() * ph.sin(), t.cos()];
             let pin = [d[0] / d[2] * dz, d[1] / d[2] * dz];
             if rtf.trace(pin, d).is_some() {
-                brute += t.cos() * t.sin() * (theta_max / nt as f64) * (std::f64::consts::TAU / np as f64);
+                brute += t.cos()
+                    * t.sin()
+                    * (theta_max / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
             }
         }
     }
@@ -77,9 +87,15 @@ fn render_scene(mut s: SceneDescription, spp: u32) -> Vec<f64> {
 fn uniform_sky_gives_the_camera_equation_and_the_rtf_relative_illumination() {
     let (n, diagonal_mm) = (33usize, 6.0);
     let scene = parse_str(&scene_text(n, diagonal_mm), "/tmp/rtf.pbrt").unwrap();
-    let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else { panic!("a ray-transfer camera") };
+    let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else {
+        panic!("a ray-transfer camera")
+    };
     // The focal length the RTF implies (Abbe sine condition): the lens is a 4.38 mm lens.
-    assert!((lens.focal_length_mm / 4.38 - 1.0).abs() < 0.01, "f = {} mm", lens.focal_length_mm);
+    assert!(
+        (lens.focal_length_mm / 4.38 - 1.0).abs() < 0.01,
+        "f = {} mm",
+        lens.focal_length_mm
+    );
     let mut pinhole = scene.clone();
     pinhole.camera.lens = None;
     let l_ref = render_scene(pinhole, 2);
@@ -92,14 +108,25 @@ fn uniform_sky_gives_the_camera_equation_and_the_rtf_relative_illumination() {
     let brute = brute_force_axial_sr(&rtf, 0.0);
     let omega = rtf.irradiance(0.0, 400).unwrap();
     let c = n / 2;
-    let centre = (c - 1..=c + 1).flat_map(|r| (c - 1..=c + 1).map(move |q| r * n + q)).map(|i| e[i]).sum::<f64>() / 9.0 / l_mean;
+    let centre = (c - 1..=c + 1)
+        .flat_map(|r| (c - 1..=c + 1).map(move |q| r * n + q))
+        .map(|i| e[i])
+        .sum::<f64>()
+        / 9.0
+        / l_mean;
     // For the record: the camera equation at Zemax's axial working f-number 1.8308 would give
     // pi / (4 N^2) = 0.234 sr; this RTF's pass ellipse (radius 0.38 mm at 2.589 mm) passes only
     // a cone of NA 0.146 (about f/3.4), so its absolute irradiance is 3.5x lower (its relative
     // illumination agrees with Zemax within 0.014).
     eprintln!("centre E/L {centre:.5} sr; RTF ellipse integral {omega:.5} sr; brute-force pass test {brute:.5} sr");
-    assert!((omega / brute - 1.0).abs() < 0.01, "ellipse integral {omega} vs brute force {brute}");
-    assert!((centre / brute - 1.0).abs() < 0.02, "rendered {centre} vs {brute}");
+    assert!(
+        (omega / brute - 1.0).abs() < 0.01,
+        "ellipse integral {omega} vs brute force {brute}"
+    );
+    assert!(
+        (centre / brute - 1.0).abs() < 0.02,
+        "rendered {centre} vs {brute}"
+    );
 
     // Fall-off with film height, binned, against Rtf::relative_illumination.
     let half = camera::film_half_extent_mm(diagonal_mm, n, n);
@@ -128,21 +155,39 @@ fn uniform_sky_gives_the_camera_equation_and_the_rtf_relative_illumination() {
 
 #[test]
 fn a_film_larger_than_the_rtf_field_is_refused_naming_the_camera() {
-    let e = parse_str(&scene_text(8, 8.0), "/tmp/rtf-big.pbrt").unwrap_err().to_string();
-    assert!(e.contains("rtf-big.pbrt:2:") && e.contains("raytransfer") && e.contains("diagonal"), "{e}");
+    let e = parse_str(&scene_text(8, 8.0), "/tmp/rtf-big.pbrt")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("rtf-big.pbrt:2:") && e.contains("raytransfer") && e.contains("diagonal"),
+        "{e}"
+    );
     // Film placement: both ways at once, a film behind the pass plane, and a focus too near.
     for (params, want) in [
-        ("\"float filmdistance\" 0.5 \"float focusdistance\" 1", "not both"),
+        (
+            "\"float filmdistance\" 0.5 \"float focusdistance\" 1",
+            "not both",
+        ),
         ("\"float filmdistance\" -3", "filmdistance"),
         ("\"float focusdistance\" 0", "focusdistance"),
         ("\"float focusdistance\" 0.005", "inside the lens"),
     ] {
-        let e = parse_str(&sky_scene(8, 1.0, params), "/tmp/rtf-film.pbrt").unwrap_err().to_string();
-        assert!(e.contains("rtf-film.pbrt:2:") && e.contains(want), "{params}: {e}");
+        let e = parse_str(&sky_scene(8, 1.0, params), "/tmp/rtf-film.pbrt")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("rtf-film.pbrt:2:") && e.contains(want),
+            "{params}: {e}"
+        );
     }
     let missing = "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"raytransfer\" \"string lensfile\" \"nowhere.json\"\nWorldBegin\n";
-    let e = parse_str(missing, "/tmp/rtf-missing.pbrt").unwrap_err().to_string();
-    assert!(e.contains("rtf-missing.pbrt:2:") && e.contains("nowhere.json"), "{e}");
+    let e = parse_str(missing, "/tmp/rtf-missing.pbrt")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("rtf-missing.pbrt:2:") && e.contains("nowhere.json"),
+        "{e}"
+    );
 }
 
 /// The film off the input plane: autofocus at infinity (the default) and at 0.1 m, and an explicit
@@ -153,9 +198,15 @@ fn a_film_larger_than_the_rtf_field_is_refused_naming_the_camera() {
 fn a_film_off_the_input_plane_keeps_the_irradiance_of_the_rays_that_pass() {
     let n = 9usize;
     let rtf = Rtf::from_file(Path::new(&rtf_path())).unwrap();
-    for film in ["", "\"float focusdistance\" 0.1", "\"float filmdistance\" 0.52"] {
+    for film in [
+        "",
+        "\"float focusdistance\" 0.1",
+        "\"float filmdistance\" 0.52",
+    ] {
         let scene = parse_str(&sky_scene(n, 0.05, film), "/tmp/rtf-film.pbrt").unwrap();
-        let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else { panic!("a ray-transfer camera") };
+        let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else {
+            panic!("a ray-transfer camera")
+        };
         let dz = lens.film_offset_mm;
         let mut pinhole = scene.clone();
         pinhole.camera.lens = None;
@@ -165,7 +216,10 @@ fn a_film_off_the_input_plane_keeps_the_irradiance_of_the_rays_that_pass() {
         let centre = e[(n / 2) * n + n / 2] / l_mean;
         let brute = brute_force_axial_sr(&rtf, dz);
         eprintln!("film {film:?}: {:.2} um behind the input plane; centre E/L {centre:.5} sr, brute force {brute:.5} sr", dz * 1e3);
-        assert!((centre / brute - 1.0).abs() < 0.01, "{film}: rendered {centre} vs {brute}");
+        assert!(
+            (centre / brute - 1.0).abs() < 0.01,
+            "{film}: rendered {centre} vs {brute}"
+        );
         if film.contains("filmdistance") {
             assert!((dz - (0.52 - INPUT_PLANE_MM)).abs() < 1e-12, "{dz}");
         }
@@ -181,10 +235,15 @@ fn edge_width_px(img: &[f64], n: usize) -> f64 {
             *p += img[r * n + c];
         }
     }
-    let (lo, hi) = (prof[..4].iter().sum::<f64>() / 4.0, prof[n - 4..].iter().sum::<f64>() / 4.0);
+    let (lo, hi) = (
+        prof[..4].iter().sum::<f64>() / 4.0,
+        prof[n - 4..].iter().sum::<f64>() / 4.0,
+    );
     let cross = |level: f64| -> f64 {
         let t = lo + level * (hi - lo);
-        let i = (1..n).find(|&i| (prof[i - 1] - t) * (prof[i] - t) <= 0.0 && prof[i] != prof[i - 1]).expect("the edge crosses the level");
+        let i = (1..n)
+            .find(|&i| (prof[i - 1] - t) * (prof[i] - t) <= 0.0 && prof[i] != prof[i - 1])
+            .expect("the edge crosses the level");
         (i - 1) as f64 + (t - prof[i - 1]) / (prof[i] - prof[i - 1])
     };
     (cross(0.9) - cross(0.1)).abs()
@@ -211,8 +270,13 @@ fn autofocus_sharpens_the_edge_the_input_plane_film_blurs() {
             m = -w
         );
         let scene = parse_str(&text, "/tmp/rtf-edge.pbrt").unwrap();
-        let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else { panic!("a ray-transfer camera") };
-        (edge_width_px(&render_scene(scene, 256), n), lens.film_offset_mm)
+        let Some(CameraLens::RayTransfer(lens)) = scene.camera.lens.clone() else {
+            panic!("a ray-transfer camera")
+        };
+        (
+            edge_width_px(&render_scene(scene, 256), n),
+            lens.film_offset_mm,
+        )
     };
     let input_plane = format!("\"float filmdistance\" {INPUT_PLANE_MM}");
     let (far_on_input, _) = edge(100.0, &input_plane);
@@ -225,13 +289,26 @@ fn autofocus_sharpens_the_edge_the_input_plane_film_blurs() {
         dz_inf * 1e3,
         dz_near * 1e3
     );
-    assert!((dz_inf - 0.0166).abs() < 0.001, "infinity focus {dz_inf} mm");
+    assert!(
+        (dz_inf - 0.0166).abs() < 0.001,
+        "infinity focus {dz_inf} mm"
+    );
     // Newton's lens equation: the film moves f^2 / x for an object x in front of the front focal
     // point (x = 0.3 m less about f and the lens: within 5 %).
     let newton = 4.38f64.powi(2) / (300.0 - 4.38 - 5.0);
-    assert!(((dz_near - dz_inf) / newton - 1.0).abs() < 0.05, "near focus moved {} mm vs f^2/x = {newton} mm", dz_near - dz_inf);
-    assert!(far_focused < 1.6 && far_on_input > 2.0 * far_focused, "{far_focused} vs {far_on_input}");
-    assert!(near_focused < 1.6 && near_at_inf > 4.0 * near_focused, "{near_focused} vs {near_at_inf}");
+    assert!(
+        ((dz_near - dz_inf) / newton - 1.0).abs() < 0.05,
+        "near focus moved {} mm vs f^2/x = {newton} mm",
+        dz_near - dz_inf
+    );
+    assert!(
+        far_focused < 1.6 && far_on_input > 2.0 * far_focused,
+        "{far_focused} vs {far_on_input}"
+    );
+    assert!(
+        near_focused < 1.6 && near_at_inf > 4.0 * near_focused,
+        "{near_focused} vs {near_at_inf}"
+    );
 }
 
 /// The depth map (and so the object ids, which come from the same pinhole rays) lines up with the
@@ -260,8 +337,11 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
     // The edge's x at 0.3 m for 90 % of the half film width through the (near-focus) pinhole at
     // the entrance pupil.
     let probe = parse_str(&text.replace('X', "0.5"), "/tmp/rtf-depth.pbrt").unwrap();
-    let Some(CameraLens::RayTransfer(lens)) = probe.camera.lens.clone() else { panic!("a ray-transfer camera") };
-    let x0 = 0.9 * (w as f64 / 2.0) * pitch_mm / lens.image_distance_mm * (z - lens.pupil_z_mm * 1e-3);
+    let Some(CameraLens::RayTransfer(lens)) = probe.camera.lens.clone() else {
+        panic!("a ray-transfer camera")
+    };
+    let x0 =
+        0.9 * (w as f64 / 2.0) * pitch_mm / lens.image_distance_mm * (z - lens.pupil_z_mm * 1e-3);
     let mut scene = parse_str(&text.replace('X', &format!("{x0}")), "/tmp/rtf-depth.pbrt").unwrap();
     scene.settings.grid = WavelengthGrid::new(500.0, 600.0, 50.0).unwrap();
     scene.settings.samples_per_pixel = 64;
@@ -275,11 +355,18 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
     }
     let lens_x = common::half_crossing_px(&prof);
     let depth_x = common::first_finite_px(&out.depth_m, w, 1);
-    let focal_scale_px = (lens.image_distance_mm / lens.focal_length_mm - 1.0) * 0.9 * w as f64 / 2.0;
+    let focal_scale_px =
+        (lens.image_distance_mm / lens.focal_length_mm - 1.0) * 0.9 * w as f64 / 2.0;
     eprintln!(
         "edge: lens image {lens_x:.2} px, depth map {depth_x:.0} px (pinhole {:.3} mm before the film, v = {:.4} mm; f = {:.4} mm would move it {focal_scale_px:.2} px)",
         lens.pupil_z_mm, lens.image_distance_mm, lens.focal_length_mm
     );
-    assert!(focal_scale_px > 2.0, "the test must tell the two scales apart: {focal_scale_px}");
-    assert!((lens_x - depth_x).abs() < 1.0, "lens edge {lens_x} px vs depth edge {depth_x} px");
+    assert!(
+        focal_scale_px > 2.0,
+        "the test must tell the two scales apart: {focal_scale_px}"
+    );
+    assert!(
+        (lens_x - depth_x).abs() < 1.0,
+        "lens edge {lens_x} px vs depth edge {depth_x} px"
+    );
 }

@@ -80,7 +80,13 @@ fn uniform_sky_gives_camera_equation_and_relative_illumination() {
         "LightSource \"infinite\" \"rgb L\" [1 1 1]",
     );
     let scene = parse_str(&text, "/tmp/realistic.pbrt").unwrap();
-    let lens = scene.camera.lens.as_ref().and_then(|l| l.realistic()).cloned().unwrap();
+    let lens = scene
+        .camera
+        .lens
+        .as_ref()
+        .and_then(|l| l.realistic())
+        .cloned()
+        .unwrap();
     let mut pinhole = scene.clone();
     pinhole.camera.lens = None;
     // The sky's radiance through a pinhole: L per pixel.
@@ -182,7 +188,14 @@ fn line_at_focus_is_sharp_and_defocused_line_is_blurred() {
     };
     let sharp = line_rms_width_px(&render_scene(scene(0.5), 64));
     let defocused = scene(0.05);
-    let cam = defocused.camera.lens.as_ref().and_then(|l| l.realistic()).unwrap().camera.clone();
+    let cam = defocused
+        .camera
+        .lens
+        .as_ref()
+        .and_then(|l| l.realistic())
+        .unwrap()
+        .camera
+        .clone();
     let blurred = line_rms_width_px(&render_scene(defocused, 64));
     // Geometric prediction: the blur disk of the axial point of the line, from rays traced
     // forward (object to film) through the lens; a uniform disk of radius R projects onto x with
@@ -230,7 +243,12 @@ fn parser_reads_realistic_camera_and_reports_bad_lens() {
         &scene_path,
     )
     .unwrap();
-    let l = s.camera.lens.as_ref().and_then(|l| l.realistic()).expect("a realistic camera");
+    let l = s
+        .camera
+        .lens
+        .as_ref()
+        .and_then(|l| l.realistic())
+        .expect("a realistic camera");
     assert_eq!(l.film_diagonal_mm, 35.0);
     assert_eq!(s.focus_distance_m, Some(0.5));
     // Stop opened to 1.0 mm: semi-aperture 0.5 mm.
@@ -259,7 +277,14 @@ fn parser_reads_realistic_camera_and_reports_bad_lens() {
         &scene_path,
     )
     .unwrap();
-    let d2 = s2.camera.lens.as_ref().and_then(|l| l.realistic()).unwrap().camera.film_distance_mm;
+    let d2 = s2
+        .camera
+        .lens
+        .as_ref()
+        .and_then(|l| l.realistic())
+        .unwrap()
+        .camera
+        .film_distance_mm;
     assert!(
         (d2 - l.camera.film_distance_mm).abs() < 1e-9,
         "{d2} vs {}",
@@ -384,10 +409,21 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
              Shape \"bilinearmesh\" \"point3 P\" [{x0} -1 {z}  1 -1 {z}  {x0} 1 {z}  1 1 {z}]\nAttributeEnd"
         )
     };
-    let probe = parse_str(&scene_text(&realistic(&dgauss(), 1.2, z), &film, &world(0.5)), "/tmp/real-depth.pbrt").unwrap();
-    let Some(CameraLens::Realistic(lens)) = probe.camera.lens.clone() else { panic!("a realistic camera") };
-    let x0 = 0.9 * (w as f64 / 2.0) * pitch_mm / lens.image_distance_mm * (z - lens.pupil_z_mm * 1e-3);
-    let s = parse_str(&scene_text(&realistic(&dgauss(), 1.2, z), &film, &world(x0)), "/tmp/real-depth.pbrt").unwrap();
+    let probe = parse_str(
+        &scene_text(&realistic(&dgauss(), 1.2, z), &film, &world(0.5)),
+        "/tmp/real-depth.pbrt",
+    )
+    .unwrap();
+    let Some(CameraLens::Realistic(lens)) = probe.camera.lens.clone() else {
+        panic!("a realistic camera")
+    };
+    let x0 =
+        0.9 * (w as f64 / 2.0) * pitch_mm / lens.image_distance_mm * (z - lens.pupil_z_mm * 1e-3);
+    let s = parse_str(
+        &scene_text(&realistic(&dgauss(), 1.2, z), &film, &world(x0)),
+        "/tmp/real-depth.pbrt",
+    )
+    .unwrap();
     let out = render_scene(s, 64);
     let prof: Vec<f64> = {
         let e = band_sum(&out);
@@ -404,6 +440,12 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
         lens.image_distance_mm,
         camsim_scene3d::camera::pinhole_image_distance_mm(&lens.camera)
     );
-    assert!(on_film_px.abs() > 0.9, "the test must tell the pupil from the film: {on_film_px}");
-    assert!((lens_x - depth_x).abs() < 0.6, "lens edge {lens_x} px vs depth edge {depth_x} px");
+    assert!(
+        on_film_px.abs() > 0.9,
+        "the test must tell the pupil from the film: {on_film_px}"
+    );
+    assert!(
+        (lens_x - depth_x).abs() < 0.6,
+        "lens edge {lens_x} px vs depth edge {depth_x} px"
+    );
 }

@@ -41,7 +41,15 @@ fn id_maps_match_geometry_depth_and_rendered_colour() {
     let out = render(&scene, &|_, _| {}).unwrap();
     let ids = &out.ids;
     let (w, h) = (64usize, 32usize);
-    assert_eq!((ids.width, ids.height, ids.object_id.len(), ids.material_id.len()), (w, h, w * h, w * h));
+    assert_eq!(
+        (
+            ids.width,
+            ids.height,
+            ids.object_id.len(),
+            ids.material_id.len()
+        ),
+        (w, h, w * h, w * h)
+    );
     // Background: corners see only the environment, depth infinite.
     for p in [0, w - 1, (h - 1) * w, h * w - 1] {
         assert_eq!((ids.object_id[p], ids.material_id[p]), (0, 0));
@@ -71,12 +79,24 @@ fn id_maps_match_geometry_depth_and_rendered_colour() {
         let id: u32 = id.parse().unwrap();
         let pixels: Vec<usize> = (0..w * h).filter(|&p| ids.material_id[p] == id).collect();
         let area = pixels.len() as f64;
-        assert!((area / expected - 1.0).abs() < 0.12, "{name}: {area} px against {expected:.1} px");
+        assert!(
+            (area / expected - 1.0).abs() < 0.12,
+            "{name}: {area} px against {expected:.1} px"
+        );
         // The nearest point of each sphere is 4.5 m along the optical axis.
-        let near = pixels.iter().map(|&p| out.depth_m[p]).fold(f32::INFINITY, f32::min);
+        let near = pixels
+            .iter()
+            .map(|&p| out.depth_m[p])
+            .fold(f32::INFINITY, f32::min);
         assert!((near - 4.5).abs() < 0.02, "{name}: nearest depth {near} m");
         // Where the id map says "red", the render is red; where "blue", blue.
-        let mean = |b: usize| pixels.iter().map(|&p| out.radiance.band(b)[p] as f64).sum::<f64>() / area;
+        let mean = |b: usize| {
+            pixels
+                .iter()
+                .map(|&p| out.radiance.band(b)[p] as f64)
+                .sum::<f64>()
+                / area
+        };
         let (r, b) = (mean(b_red), mean(b_blue));
         match name.as_str().unwrap() {
             "red" => assert!(r > 4.0 * b, "red sphere: 650 nm {r}, 450 nm {b}"),

@@ -60,7 +60,6 @@ fn scene(
     }
 }
 
-
 /// Per-pixel mean over bands.
 fn pixel_means(img: &camsim_core::SpectralImage) -> Vec<f64> {
     let nb = img.bands();
@@ -296,8 +295,8 @@ fn disk_emitter_on_axis_irradiance() {
     // Area and emitted power of the tessellated disk against the analytic ones.
     let area = camsim_scene3d::xform::shape_area(&disk.geometry);
     assert!(report("disk area", area, PI * r * r).abs() < 1e-9);
-    let lum =
-        camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * camsim_pbrt::spectra::photometric(&al.radiance);
+    let lum = camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W
+        * camsim_pbrt::spectra::photometric(&al.radiance);
     assert!(
         report(
             "disk emitted luminous flux pi A L_v",

@@ -18,7 +18,12 @@ fn chi2_critical(k: f64, z: f64) -> f64 {
 
 /// Chi-square test of sampled directions against `pdf`, on a (cos theta, phi) grid over the
 /// sphere; expected counts come from integrating `pdf` over each cell (Simpson, 8 x 8 points).
-fn chi_square_directions(sample: impl Fn(f32, f32) -> Option<V3>, pdf: impl Fn(V3) -> f64, n: usize, seed: u64) -> (f64, f64) {
+fn chi_square_directions(
+    sample: impl Fn(f32, f32) -> Option<V3>,
+    pdf: impl Fn(V3) -> f64,
+    n: usize,
+    seed: u64,
+) -> (f64, f64) {
     let (nt, np) = (20usize, 40usize);
     let mut observed = vec![0f64; nt * np];
     let mut rng = camsim_core::rng::seeded(seed);
@@ -36,17 +41,41 @@ fn chi_square_directions(sample: impl Fn(f32, f32) -> Option<V3>, pdf: impl Fn(V
     let mut expected = vec![0f64; nt * np];
     for i in 0..nt {
         for j in 0..np {
-            let (c0, c1) = (-1.0 + 2.0 * i as f64 / nt as f64, -1.0 + 2.0 * (i + 1) as f64 / nt as f64);
-            let (p0, p1) = (2.0 * PI * j as f64 / np as f64, 2.0 * PI * (j + 1) as f64 / np as f64);
+            let (c0, c1) = (
+                -1.0 + 2.0 * i as f64 / nt as f64,
+                -1.0 + 2.0 * (i + 1) as f64 / nt as f64,
+            );
+            let (p0, p1) = (
+                2.0 * PI * j as f64 / np as f64,
+                2.0 * PI * (j + 1) as f64 / np as f64,
+            );
             let mut s = 0.0;
             for a in 0..=q {
                 for b in 0..=q {
-                    let wa = if a == 0 || a == q { 1.0 } else if a % 2 == 1 { 4.0 } else { 2.0 };
-                    let wb = if b == 0 || b == q { 1.0 } else if b % 2 == 1 { 4.0 } else { 2.0 };
+                    let wa = if a == 0 || a == q {
+                        1.0
+                    } else if a % 2 == 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
+                    let wb = if b == 0 || b == q {
+                        1.0
+                    } else if b % 2 == 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
                     let ct = c0 + (c1 - c0) * a as f64 / q as f64;
                     let ph = p0 + (p1 - p0) * b as f64 / q as f64;
                     let st = (1.0 - ct * ct).max(0.0).sqrt();
-                    s += wa * wb * pdf(V3::new((st * ph.cos()) as f32, (st * ph.sin()) as f32, ct as f32));
+                    s += wa
+                        * wb
+                        * pdf(V3::new(
+                            (st * ph.cos()) as f32,
+                            (st * ph.sin()) as f32,
+                            ct as f32,
+                        ));
                 }
             }
             expected[i * np + j] = n as f64 * s * (c1 - c0) * (p1 - p0) / (9.0 * (q * q) as f64);
@@ -67,15 +96,27 @@ fn chi_square_directions(sample: impl Fn(f32, f32) -> Option<V3>, pdf: impl Fn(V
         chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
         dof += 1;
     } else {
-        assert!(pool_o < 10.0, "{pool_o} samples where the pdf expects {pool_e}");
+        assert!(
+            pool_o < 10.0,
+            "{pool_o} samples where the pdf expects {pool_e}"
+        );
     }
     (chi2, chi2_critical((dof - 1) as f64, 3.719))
 }
 
 #[test]
 fn lambertian_sampling_passes_chi_square_against_its_pdf() {
-    let bsdf: Bsdf<4> = Bsdf::Diffuse { reflectance: [0.5; 4] };
-    for (k, wo) in [V3::new(0.0, 0.0, 1.0), V3::new(0.6, 0.0, 0.8), V3::new(0.3, 0.4, -0.866)].iter().enumerate() {
+    let bsdf: Bsdf<4> = Bsdf::Diffuse {
+        reflectance: [0.5; 4],
+    };
+    for (k, wo) in [
+        V3::new(0.0, 0.0, 1.0),
+        V3::new(0.6, 0.0, 0.8),
+        V3::new(0.3, 0.4, -0.866),
+    ]
+    .iter()
+    .enumerate()
+    {
         let wo = wo.normalize();
         let (chi2, crit) = chi_square_directions(
             |u0, u1| bsdf.sample(&wo, 0.5, u0, u1).map(|s| s.wi_local),
@@ -111,7 +152,10 @@ fn chi_square_test_rejects_a_wrong_pdf() {
 fn sphere_cone_sampling_is_uniform_in_its_cone() {
     // Uniform in solid angle within the cone <=> (1 - cos theta)/(1 - cos theta_max) and
     // phi/(2 pi) are independent uniforms: chi-square on a 16 x 16 grid of those.
-    for (center, radius) in [(V3::new(0.0, 0.0, 3.0), 1.2f32), (V3::new(0.0, 0.0, 50.0), 0.5)] {
+    for (center, radius) in [
+        (V3::new(0.0, 0.0, 3.0), 1.2f32),
+        (V3::new(0.0, 0.0, 50.0), 0.5),
+    ] {
         let p = V3::splat(0.0);
         let (cos_max, sin2_max) = sphere_cone(p, center, radius).unwrap();
         let one_minus = one_minus_cos(cos_max, sin2_max) as f64;
@@ -120,13 +164,15 @@ fn sphere_cone_sampling_is_uniform_in_its_cone() {
         let mut counts = vec![0f64; k * k];
         let mut rng = camsim_core::rng::seeded(5);
         for _ in 0..n {
-            let (q, nrm) = sample_sphere_cone(p, center, radius, cos_max, sin2_max, rng.gen(), rng.gen());
+            let (q, nrm) =
+                sample_sphere_cone(p, center, radius, cos_max, sin2_max, rng.gen(), rng.gen());
             // The point is on the sphere, its normal is outward and it faces p.
             assert!(((q - center).length() - radius).abs() < 1e-4 * center.length());
             assert!((nrm - (q - center) / radius).length() < 1e-3 && nrm.dot(p - q) >= -1e-4);
             let w = (q - p).normalize();
             // 1 - cos theta without cancellation: |w - z|^2 / 2.
-            let omc = ((w.x as f64).powi(2) + (w.y as f64).powi(2) + (w.z as f64 - 1.0).powi(2)) / 2.0;
+            let omc =
+                ((w.x as f64).powi(2) + (w.y as f64).powi(2) + (w.z as f64 - 1.0).powi(2)) / 2.0;
             let a = ((omc / one_minus * k as f64) as usize).min(k - 1);
             let phi = (w.y as f64).atan2(w.x as f64).rem_euclid(2.0 * PI);
             let b = ((phi / (2.0 * PI) * k as f64) as usize).min(k - 1);
@@ -135,7 +181,10 @@ fn sphere_cone_sampling_is_uniform_in_its_cone() {
         let e = n as f64 / (k * k) as f64;
         let chi2: f64 = counts.iter().map(|o| (o - e) * (o - e) / e).sum();
         let crit = chi2_critical((k * k - 1) as f64, 3.719);
-        eprintln!("sphere cone (r/d = {:.3}): chi2 {chi2:.1}, critical {crit:.1}", radius / center.length());
+        eprintln!(
+            "sphere cone (r/d = {:.3}): chi2 {chi2:.1}, critical {crit:.1}",
+            radius / center.length()
+        );
         assert!(chi2 < crit, "chi-square {chi2} exceeds {crit}");
     }
 }
@@ -183,7 +232,11 @@ fn sampling_pdfs_integrate_to_one() {
     assert!((m - 1.0).abs() < 4.5 * se && se < 0.005);
 
     // Triangle area sampling as a solid-angle density, pdf = d^2 / (cos A), seen from a point.
-    let (p0, p1, p2) = (V3::new(-0.5, -0.3, 1.0), V3::new(0.7, -0.2, 1.3), V3::new(0.1, 0.8, 0.7));
+    let (p0, p1, p2) = (
+        V3::new(-0.5, -0.3, 1.0),
+        V3::new(0.7, -0.2, 1.3),
+        V3::new(0.1, 0.8, 0.7),
+    );
     let (e1, e2) = (p1 - p0, p2 - p0);
     let area = 0.5 * e1.cross(e2).length() as f64;
     let ng = e1.cross(e2).normalize();
@@ -214,17 +267,29 @@ fn sampling_pdfs_integrate_to_one() {
     // Sphere cone density over the directions that hit the sphere.
     // (a) a wide cone, (b) a cone narrower than 1.5 degrees (the small-angle branch), integrated
     // over a cap three times wider than the cone.
-    for (c, r) in [(V3::new(0.0, 0.0, 2.0), 0.9f32), (V3::new(0.0, 0.0, 30.0), 0.3)] {
+    for (c, r) in [
+        (V3::new(0.0, 0.0, 2.0), 0.9f32),
+        (V3::new(0.0, 0.0, 30.0), 0.3),
+    ] {
         let (cos_max, sin2_max) = sphere_cone(V3::splat(0.0), c, r).unwrap();
         let pdf = cone_pdf(cos_max, sin2_max) as f64;
         let cap = (3.0 * (r as f64 / c.length() as f64).asin()).cos();
         let (m, se) = integrate_over_cap(
-            |w| if intersect_sphere(V3::splat(0.0), w, c, r, f32::INFINITY).is_some() { pdf } else { 0.0 },
+            |w| {
+                if intersect_sphere(V3::splat(0.0), w, c, r, f32::INFINITY).is_some() {
+                    pdf
+                } else {
+                    0.0
+                }
+            },
             cap,
             n,
             3,
         );
-        eprintln!("sphere cone pdf integral (r/d = {:.3}) {m:.5} +- {se:.5}", r / c.length());
+        eprintln!(
+            "sphere cone pdf integral (r/d = {:.3}) {m:.5} +- {se:.5}",
+            r / c.length()
+        );
         assert!((m - 1.0).abs() < 4.5 * se && se < 0.01, "{m} +- {se}");
     }
 }

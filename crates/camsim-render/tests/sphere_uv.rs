@@ -28,7 +28,9 @@ AttributeEnd
     let scene = parse_str(&text, "sphere-uv.pbrt").unwrap();
     let out = render(&scene, &|_, _| {}).unwrap();
     let img = &out.radiance;
-    (0..img.rows * img.cols).map(|p| (0..img.bands()).map(|b| img.band(b)[p] as f64).sum()).collect()
+    (0..img.rows * img.cols)
+        .map(|p| (0..img.bands()).map(|b| img.band(b)[p] as f64).sum())
+        .collect()
 }
 
 fn mean_abs_difference(a: &[f64], b: &[f64]) -> f64 {
@@ -45,7 +47,13 @@ fn full_and_partial_spheres_share_pbrt_uv_rotated_or_not() {
         let flipped = image(transform, "\"float zmax\" 0.99999 \"float phimax\" 180");
         let d_ref = mean_abs_difference(&full, &flipped);
         eprintln!("{transform:?}: full vs cut {d:.5}, vs a half sphere {d_ref:.3}");
-        assert!(d < 0.01, "{transform:?}: full and partial sphere differ by {d}");
-        assert!(d_ref > 0.1, "{transform:?}: the test cannot see a different texture ({d_ref})");
+        assert!(
+            d < 0.01,
+            "{transform:?}: full and partial sphere differ by {d}"
+        );
+        assert!(
+            d_ref > 0.1,
+            "{transform:?}: the test cannot see a different texture ({d_ref})"
+        );
     }
 }

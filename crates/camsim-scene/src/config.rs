@@ -14,8 +14,8 @@
 
 use crate::geometry::MacbethLayout;
 pub use crate::patterns::{
-    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
-    ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene,
+    StarScene, SweepFrequencyScene, ZonePlateScene,
 };
 pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
@@ -292,7 +292,10 @@ impl Default for SceneConfig {
 impl MacbethScene {
     /// The chart layout in pixels.
     pub fn layout(&self) -> MacbethLayout {
-        MacbethLayout { patch_px: self.patch_size_px, border_px: self.border_px }
+        MacbethLayout {
+            patch_px: self.patch_size_px,
+            border_px: self.border_px,
+        }
     }
 }
 
@@ -345,9 +348,11 @@ impl SceneConfig {
             SceneConfig::PointArray(c) => c,
             SceneConfig::Ramp(c) => c,
             SceneConfig::DeadLeaves(c) => c,
-            SceneConfig::Uniform(_) | SceneConfig::Macbeth(_) | SceneConfig::SlantedEdge(_) | SceneConfig::File(_) | SceneConfig::Rgb(_) => {
-                return None
-            }
+            SceneConfig::Uniform(_)
+            | SceneConfig::Macbeth(_)
+            | SceneConfig::SlantedEdge(_)
+            | SceneConfig::File(_)
+            | SceneConfig::Rgb(_) => return None,
         })
     }
 
@@ -423,7 +428,8 @@ impl SceneConfig {
 /// A string names a spectrum file (rather than a built-in table) when it has a path separator or a
 /// file extension.
 pub(crate) fn looks_like_file(s: &str) -> bool {
-    camsim_core::tables::illuminant(s).is_err() && (s.contains('/') || s.contains('\\') || Path::new(s).extension().is_some())
+    camsim_core::tables::illuminant(s).is_err()
+        && (s.contains('/') || s.contains('\\') || Path::new(s).extension().is_some())
 }
 
 /// Find where a scene table in TOML `text` is wrong, with the offending key's line and column.
@@ -473,7 +479,9 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
 /// Deserializers for [`locate_scene_error`]: read a table into `T` with its `kind` key skipped,
 /// straight from toml's map (so errors keep the key's position).
 mod diag {
-    use serde::de::{self, DeserializeSeed, Deserializer, IgnoredAny, IntoDeserializer, MapAccess, Visitor};
+    use serde::de::{
+        self, DeserializeSeed, Deserializer, IgnoredAny, IntoDeserializer, MapAccess, Visitor,
+    };
     use serde::Deserialize;
     use std::marker::PhantomData;
 
@@ -532,7 +540,10 @@ mod diag {
 
     impl<'de, A: MapAccess<'de>> MapAccess<'de> for SkipKind<A> {
         type Error = A::Error;
-        fn next_key_seed<K: DeserializeSeed<'de>>(&mut self, seed: K) -> Result<Option<K::Value>, A::Error> {
+        fn next_key_seed<K: DeserializeSeed<'de>>(
+            &mut self,
+            seed: K,
+        ) -> Result<Option<K::Value>, A::Error> {
             let mut seed = seed;
             loop {
                 match self.0.next_key_seed(KeySeed(seed))? {
@@ -545,7 +556,10 @@ mod diag {
                 }
             }
         }
-        fn next_value_seed<S: DeserializeSeed<'de>>(&mut self, seed: S) -> Result<S::Value, A::Error> {
+        fn next_value_seed<S: DeserializeSeed<'de>>(
+            &mut self,
+            seed: S,
+        ) -> Result<S::Value, A::Error> {
             self.0.next_value_seed(seed)
         }
     }
@@ -560,7 +574,9 @@ mod diag {
             if key == "kind" {
                 return Ok(Err(self.0));
             }
-            self.0.deserialize(IntoDeserializer::<D::Error>::into_deserializer(key)).map(Ok)
+            self.0
+                .deserialize(IntoDeserializer::<D::Error>::into_deserializer(key))
+                .map(Ok)
         }
     }
 }
@@ -571,11 +587,18 @@ mod error_position_tests {
 
     /// The line and column toml reports, parsed from its message.
     fn line_col(msg: &str) -> (usize, usize) {
-        let i = msg.find("line ").unwrap_or_else(|| panic!("no line in: {msg}"));
+        let i = msg
+            .find("line ")
+            .unwrap_or_else(|| panic!("no line in: {msg}"));
         let rest = &msg[i + 5..];
         let line: usize = rest.split(',').next().unwrap().trim().parse().unwrap();
         let j = rest.find("column ").unwrap();
-        let col: usize = rest[j + 7..].split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap();
+        let col: usize = rest[j + 7..]
+            .split(|c: char| !c.is_ascii_digit())
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
         (line, col)
     }
 
@@ -583,20 +606,28 @@ mod error_position_tests {
     fn wrong_type_and_unknown_key_point_at_the_key_itself() {
         // Line 4, column 17 is where "big" starts.
         let text = "kind = \"macbeth\"\nfov_deg = 2.0\nborder_px = 2\npatch_size_px = \"big\"\n";
-        let e = SceneConfig::from_toml(text, "chart.toml").unwrap_err().to_string();
+        let e = SceneConfig::from_toml(text, "chart.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("chart.toml"), "{e}");
         assert_eq!(line_col(&e), (4, 17), "{e}");
         // An unknown key on line 3, column 1.
         let text = "fov_deg = 2.0\nkind = \"uniform\"\nreflectanse = 0.5\n";
-        let e = SceneConfig::from_toml(text, "u.toml").unwrap_err().to_string();
+        let e = SceneConfig::from_toml(text, "u.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("reflectanse"), "{e}");
         assert_eq!(line_col(&e), (3, 1), "{e}");
         // Inside a simulate config's [scene] table (kind after the bad key).
-        let text = "seed = 3\n[sensor]\nrows = 4\n[scene]\npatch_size_px = -1\nkind = \"macbeth\"\n";
+        let text =
+            "seed = 3\n[sensor]\nrows = 4\n[scene]\npatch_size_px = -1\nkind = \"macbeth\"\n";
         let msg = locate_scene_error(text, Some("scene")).unwrap();
         assert_eq!(line_col(&msg), (5, 17), "{msg}");
         // No error in the scene table: nothing to report.
-        assert_eq!(locate_scene_error("[scene]\nkind = \"macbeth\"\n", Some("scene")), None);
+        assert_eq!(
+            locate_scene_error("[scene]\nkind = \"macbeth\"\n", Some("scene")),
+            None
+        );
         assert!(SceneConfig::from_toml("kind = \"macbeth\"\npatch_size_px = 8\n", "ok").is_ok());
     }
 }

@@ -37,9 +37,15 @@ impl Transfer {
     /// Check the transfer function; `key` names the config key in errors.
     pub fn validate(&self, key: &str) -> Result<()> {
         match self {
-            Transfer::Gamma(g) if !(*g > 0.0 && g.is_finite()) => Err(CoreError::invalid(key, format!("gamma {g} is not a positive number"))),
+            Transfer::Gamma(g) if !(*g > 0.0 && g.is_finite()) => Err(CoreError::invalid(
+                key,
+                format!("gamma {g} is not a positive number"),
+            )),
             Transfer::Named(s) if !matches!(s.to_ascii_lowercase().as_str(), "srgb" | "linear") => {
-                Err(CoreError::invalid(key, format!("'{s}' is not 'srgb', 'linear' or a gamma exponent")))
+                Err(CoreError::invalid(
+                    key,
+                    format!("'{s}' is not 'srgb', 'linear' or a gamma exponent"),
+                ))
             }
             _ => Ok(()),
         }
@@ -74,7 +80,11 @@ impl Display {
         let cmfs = Cmfs::on(grid);
         let bands: Vec<Vec<f64>> = SRGB_BANDS_NM
             .iter()
-            .map(|(c, s)| (0..grid.len()).map(|i| (-0.5 * ((grid.wavelength_nm(i) - c) / s).powi(2)).exp()).collect())
+            .map(|(c, s)| {
+                (0..grid.len())
+                    .map(|i| (-0.5 * ((grid.wavelength_nm(i) - c) / s).powi(2)).exp())
+                    .collect()
+            })
             .collect();
         // Columns: XYZ of each band; solve T a_i = XYZ of primary i (white Y = L / 683).
         let t = nalgebra::Matrix3::from_fn(|k, j| cmfs.xyz(&bands[j])[k]);
@@ -97,9 +107,13 @@ impl Display {
                     format!("on the grid {}-{} nm the sRGB primaries cannot be made from non-negative spectra (weights {a:?})", grid.start_nm, grid.end_nm()),
                 ));
             }
-            *p = (0..grid.len()).map(|b| (0..3).map(|j| a[j] * bands[j][b]).sum()).collect();
+            *p = (0..grid.len())
+                .map(|b| (0..3).map(|j| a[j] * bands[j][b]).sum())
+                .collect();
         }
-        Ok(Display { primaries_w_per_sr_m2_nm: primaries })
+        Ok(Display {
+            primaries_w_per_sr_m2_nm: primaries,
+        })
     }
 
     /// A display from a CSV of primaries (`wavelength_nm` and three columns found by name: `r`/
@@ -107,24 +121,62 @@ impl Display {
     /// W/(sr m^2 nm), sampled on `grid` (zero outside the file's range).
     pub fn from_file(path: &Path, grid: &WavelengthGrid) -> Result<Display> {
         let key = format!("scene.display ({})", path.display());
-        let table = camsim_core::spectrum_csv::load_spectra(path).map_err(|e| CoreError::invalid(&key, e.to_string()))?;
+        let table = camsim_core::spectrum_csv::load_spectra(path)
+            .map_err(|e| CoreError::invalid(&key, e.to_string()))?;
         if table.len() < 3 {
-            return Err(CoreError::invalid(&key, format!("has {} spectra; a display needs three primaries (r, g, b)", table.len())));
+            return Err(CoreError::invalid(
+                &key,
+                format!(
+                    "has {} spectra; a display needs three primaries (r, g, b)",
+                    table.len()
+                ),
+            ));
         }
-        let pick = |names: &[&str], fallback: usize| names.iter().find_map(|n| table.index_of(n)).unwrap_or(fallback);
-        let idx = [pick(&["r", "red"], 0), pick(&["g", "green"], 1), pick(&["b", "blue"], 2)];
+        let pick = |names: &[&str], fallback: usize| {
+            names
+                .iter()
+                .find_map(|n| table.index_of(n))
+                .unwrap_or(fallback)
+        };
+        let idx = [
+            pick(&["r", "red"], 0),
+            pick(&["g", "green"], 1),
+            pick(&["b", "blue"], 2),
+        ];
         let mut primaries: [Vec<f64>; 3] = Default::default();
         for ((p, i), name) in primaries.iter_mut().zip(idx).zip(["r", "g", "b"]) {
-            let s = table.spectrum_at(i).map_err(|e| CoreError::invalid(&key, e.to_string()))?.with_extrapolation(Extrapolation::Zero);
+            let s = table
+                .spectrum_at(i)
+                .map_err(|e| CoreError::invalid(&key, e.to_string()))?
+                .with_extrapolation(Extrapolation::Zero);
             *p = s.sample(grid);
-            if let Some((b, v)) = p.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
-                return Err(CoreError::invalid(&key, format!("primary {name} is {v} at {} nm: radiance must be >= 0", grid.wavelength_nm(b))));
+            if let Some((b, v)) = p
+                .iter()
+                .enumerate()
+                .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+            {
+                return Err(CoreError::invalid(
+                    &key,
+                    format!(
+                        "primary {name} is {v} at {} nm: radiance must be >= 0",
+                        grid.wavelength_nm(b)
+                    ),
+                ));
             }
         }
         if primaries.iter().all(|p| p.iter().all(|v| *v == 0.0)) {
-            return Err(CoreError::invalid(&key, format!("no primary emits between {} and {} nm", grid.start_nm, grid.end_nm())));
+            return Err(CoreError::invalid(
+                &key,
+                format!(
+                    "no primary emits between {} and {} nm",
+                    grid.start_nm,
+                    grid.end_nm()
+                ),
+            ));
         }
-        Ok(Display { primaries_w_per_sr_m2_nm: primaries })
+        Ok(Display {
+            primaries_w_per_sr_m2_nm: primaries,
+        })
     }
 
     /// Luminance of each primary at full drive, cd/m^2.

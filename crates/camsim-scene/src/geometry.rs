@@ -20,14 +20,22 @@ pub struct Rect {
 impl Rect {
     /// True when pixel (row, col) lies inside.
     pub fn contains(&self, row: usize, col: usize) -> bool {
-        row >= self.row0 && row < self.row0 + self.rows && col >= self.col0 && col < self.col0 + self.cols
+        row >= self.row0
+            && row < self.row0 + self.rows
+            && col >= self.col0
+            && col < self.col0 + self.cols
     }
     /// The rectangle shrunk by `margin` pixels on every side (for measuring a patch away from its
     /// edges, where optics blur mixes in the neighbours); empty sides saturate at zero size.
     pub fn inset(&self, margin: usize) -> Rect {
         let rows = self.rows.saturating_sub(2 * margin);
         let cols = self.cols.saturating_sub(2 * margin);
-        Rect { row0: self.row0 + margin.min(self.rows / 2), col0: self.col0 + margin.min(self.cols / 2), rows, cols }
+        Rect {
+            row0: self.row0 + margin.min(self.rows / 2),
+            col0: self.col0 + margin.min(self.cols / 2),
+            rows,
+            cols,
+        }
     }
 }
 
@@ -74,9 +82,16 @@ impl MacbethLayout {
     #[inline]
     pub fn patch_at(&self, row: usize, col: usize) -> Option<usize> {
         let pitch = self.patch_px + self.border_px;
-        let (r, c) = (row.checked_sub(self.border_px)?, col.checked_sub(self.border_px)?);
+        let (r, c) = (
+            row.checked_sub(self.border_px)?,
+            col.checked_sub(self.border_px)?,
+        );
         let (pr, pc) = (r / pitch, c / pitch);
-        if pr < Self::PATCH_ROWS && pc < Self::PATCH_COLS && r % pitch < self.patch_px && c % pitch < self.patch_px {
+        if pr < Self::PATCH_ROWS
+            && pc < Self::PATCH_COLS
+            && r % pitch < self.patch_px
+            && c % pitch < self.patch_px
+        {
             Some(pr * Self::PATCH_COLS + pc)
         } else {
             None
@@ -157,7 +172,10 @@ mod tests {
 
     #[test]
     fn macbeth_layout_rects_and_lookup_agree() {
-        let l = MacbethLayout { patch_px: 10, border_px: 3 };
+        let l = MacbethLayout {
+            patch_px: 10,
+            border_px: 3,
+        };
         assert_eq!((l.rows(), l.cols()), (4 * 10 + 5 * 3, 6 * 10 + 7 * 3));
         let rects = l.patch_rects();
         let mut counts = [0usize; 25];
@@ -175,7 +193,15 @@ mod tests {
         // Standard order: white (19) bottom left, black (24) bottom right.
         assert_eq!(rects[18].col0, 3);
         assert_eq!(rects[23].row0, 3 + 3 * 13);
-        assert_eq!(rects[0].inset(2), Rect { row0: 5, col0: 5, rows: 6, cols: 6 });
+        assert_eq!(
+            rects[0].inset(2),
+            Rect {
+                row0: 5,
+                col0: 5,
+                rows: 6,
+                cols: 6
+            }
+        );
     }
 
     #[test]
@@ -183,7 +209,11 @@ mod tests {
         // Independent check: count 400 x 400 sub-pixel centres on the bright side. The count
         // error is at most about one sub-pixel row crossing the edge: < 2 / 400.
         for angle in [0.0, 5.0, -12.0, 30.0, 44.0] {
-            let e = Edge { x0: 3.3, y0: 2.1, angle_deg: angle };
+            let e = Edge {
+                x0: 3.3,
+                y0: 2.1,
+                angle_deg: angle,
+            };
             for row in 0..5 {
                 for col in 0..7 {
                     let n = 400;
@@ -199,7 +229,10 @@ mod tests {
                     }
                     let mc = k as f64 / (n * n) as f64;
                     let a = e.coverage(row, col);
-                    assert!((a - mc).abs() < 2.0 / n as f64, "angle {angle} ({row},{col}): {a} vs {mc}");
+                    assert!(
+                        (a - mc).abs() < 2.0 / n as f64,
+                        "angle {angle} ({row},{col}): {a} vs {mc}"
+                    );
                 }
             }
         }

@@ -23,12 +23,14 @@ pub mod geometry;
 pub mod patterns;
 pub mod rgb;
 
-pub use config::{FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene};
+pub use config::{
+    FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene,
+};
 pub use display::{Display, Transfer};
 pub use geometry::{Edge, MacbethLayout, Rect};
 pub use patterns::{
-    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
-    ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene,
+    StarScene, SweepFrequencyScene, ZonePlateScene,
 };
 pub use rgb::RgbScene;
 
@@ -51,7 +53,8 @@ pub fn create(cfg: &SceneConfig, grid: &WavelengthGrid) -> Result<SpectralImage>
         SceneConfig::Macbeth(c) => create_macbeth(c, grid),
         SceneConfig::SlantedEdge(c) => create_slanted_edge(c, grid),
         SceneConfig::File(c) => {
-            let img = camsim_io::exr::read_spectral_exr(&c.path).map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
+            let img = camsim_io::exr::read_spectral_exr(&c.path)
+                .map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
             from_image(c, img)
         }
         SceneConfig::Rgb(c) => rgb::create_rgb(c, grid),
@@ -74,7 +77,9 @@ pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
         SceneConfig::Macbeth(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::SlantedEdge(c) => Some(load_illuminant(&c.illuminant, "scene.illuminant")),
         SceneConfig::File(_) | SceneConfig::Rgb(_) => None,
-        c => c.pattern().map(|p| load_illuminant(p.header().illuminant, "scene.illuminant")),
+        c => c
+            .pattern()
+            .map(|p| load_illuminant(p.header().illuminant, "scene.illuminant")),
     }
 }
 
@@ -100,7 +105,8 @@ pub fn load_spectrum_file(spec: &Path, key: &str) -> Result<Spectrum> {
         Some((p, c)) if !c.contains('/') && !c.contains('\\') => (Path::new(p), Some(c)),
         _ => (spec, None),
     };
-    let table = camsim_core::spectrum_csv::load_spectra(path).map_err(|e| CoreError::invalid(key, e.to_string()))?;
+    let table = camsim_core::spectrum_csv::load_spectra(path)
+        .map_err(|e| CoreError::invalid(key, e.to_string()))?;
     let s = match column {
         Some(c) => table.spectrum(c),
         None => table.spectrum_at(0),
@@ -129,10 +135,17 @@ pub fn reflectance_on(r: &Reflectance, grid: &WavelengthGrid, key: &str) -> Resu
                 ));
             };
             let v = spectrum.sample(grid);
-            if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= 0.0)) {
+            if let Some((i, x)) = v
+                .iter()
+                .enumerate()
+                .find(|(_, x)| !(x.is_finite() && **x >= 0.0))
+            {
                 return Err(CoreError::invalid(
                     key,
-                    format!("'{s}': reflectance {x} at {} nm is not a non-negative number", grid.wavelength_nm(i)),
+                    format!(
+                        "'{s}': reflectance {x} at {} nm is not a non-negative number",
+                        grid.wavelength_nm(i)
+                    ),
                 ));
             }
             Ok(v)
@@ -166,7 +179,9 @@ pub fn scale_to_luminance(img: &mut SpectralImage, cd_m2: f64) -> Result<f64> {
         ));
     };
     let f = factor as f32;
-    img.data.par_chunks_mut(1 << 16).for_each(|c| c.iter_mut().for_each(|v| *v *= f));
+    img.data
+        .par_chunks_mut(1 << 16)
+        .for_each(|c| c.iter_mut().for_each(|v| *v *= f));
     Ok(factor)
 }
 
@@ -178,7 +193,11 @@ pub fn from_image(cfg: &FileScene, mut img: SpectralImage) -> Result<SpectralIma
     if img.quantity != Quantity::Radiance {
         return Err(CoreError::invalid(
             what,
-            format!("holds {} ({}), not spectral radiance", img.quantity.name(), img.quantity.unit()),
+            format!(
+                "holds {} ({}), not spectral radiance",
+                img.quantity.name(),
+                img.quantity.unit()
+            ),
         ));
     }
     img.validate_values(&what)?;
@@ -217,30 +236,39 @@ pub fn from_image(cfg: &FileScene, mut img: SpectralImage) -> Result<SpectralIma
 /// Resample a spectral image onto another wavelength grid by linear interpolation between bands
 /// (zero outside the image's range, ISETCam `interp1(..., 'linear', 0)`).
 pub fn resample_bands(img: &SpectralImage, grid: &WavelengthGrid) -> Result<SpectralImage> {
-    let mut out = SpectralImage::zeros(img.rows, img.cols, *grid, img.sample_spacing_m, img.quantity)?;
+    let mut out = SpectralImage::zeros(
+        img.rows,
+        img.cols,
+        *grid,
+        img.sample_spacing_m,
+        img.quantity,
+    )?;
     out.geometry = img.geometry;
     out.depth_m = img.depth_m.clone();
     let src = img.grid;
     let n = img.pixels();
-    out.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let w = grid.wavelength_nm(b);
-        let x = (w - src.start_nm) / src.step_nm;
-        let last = src.len() - 1;
-        if x < -1e-9 || x > last as f64 + 1e-9 {
-            return; // outside: zero
-        }
-        let i0 = (x.floor().max(0.0) as usize).min(last);
-        let t = (x - i0 as f64).clamp(0.0, 1.0) as f32;
-        let a = img.band(i0);
-        if t < 1e-7 || i0 == last {
-            plane.copy_from_slice(a);
-        } else {
-            let bb = img.band(i0 + 1);
-            for ((o, va), vb) in plane.iter_mut().zip(a).zip(bb) {
-                *o = va * (1.0 - t) + vb * t;
+    out.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| {
+            let w = grid.wavelength_nm(b);
+            let x = (w - src.start_nm) / src.step_nm;
+            let last = src.len() - 1;
+            if x < -1e-9 || x > last as f64 + 1e-9 {
+                return; // outside: zero
             }
-        }
-    });
+            let i0 = (x.floor().max(0.0) as usize).min(last);
+            let t = (x - i0 as f64).clamp(0.0, 1.0) as f32;
+            let a = img.band(i0);
+            if t < 1e-7 || i0 == last {
+                plane.copy_from_slice(a);
+            } else {
+                let bb = img.band(i0 + 1);
+                for ((o, va), vb) in plane.iter_mut().zip(a).zip(bb) {
+                    *o = va * (1.0 - t) + vb * t;
+                }
+            }
+        });
     Ok(out)
 }
 
@@ -252,38 +280,56 @@ pub fn sample_spacing_m(fov_deg: f64, distance_m: f64, cols: usize) -> f64 {
 
 fn check_fov(fov: f64, key: &str) -> Result<()> {
     if !(fov > 0.0 && fov < 180.0) {
-        return Err(CoreError::invalid(key, format!("{fov} degrees is not in (0, 180)")));
+        return Err(CoreError::invalid(
+            key,
+            format!("{fov} degrees is not in (0, 180)"),
+        ));
     }
     Ok(())
 }
 
 fn check_distance(d: f64, key: &str) -> Result<()> {
     if !(d > 0.0 && d.is_finite()) {
-        return Err(CoreError::invalid(key, format!("{d} m is not a positive distance")));
+        return Err(CoreError::invalid(
+            key,
+            format!("{d} m is not a positive distance"),
+        ));
     }
     Ok(())
 }
 
 fn check_luminance(l: f64, key: &str) -> Result<()> {
     if !(l >= 0.0 && l.is_finite()) {
-        return Err(CoreError::invalid(key, format!("{l} cd/m^2 is not a non-negative luminance")));
+        return Err(CoreError::invalid(
+            key,
+            format!("{l} cd/m^2 is not a non-negative luminance"),
+        ));
     }
     Ok(())
 }
 
 fn check_fraction(v: f64, key: &str) -> Result<()> {
     if !(0.0..=1.0).contains(&v) {
-        return Err(CoreError::invalid(key, format!("reflectance {v} is not a fraction in [0, 1]")));
+        return Err(CoreError::invalid(
+            key,
+            format!("reflectance {v} is not a fraction in [0, 1]"),
+        ));
     }
     Ok(())
 }
 
 fn check_size(rows: usize, cols: usize, min: usize) -> Result<()> {
     if rows < min {
-        return Err(CoreError::invalid("scene.rows", format!("{rows} rows; need at least {min}")));
+        return Err(CoreError::invalid(
+            "scene.rows",
+            format!("{rows} rows; need at least {min}"),
+        ));
     }
     if cols < min {
-        return Err(CoreError::invalid("scene.cols", format!("{cols} columns; need at least {min}")));
+        return Err(CoreError::invalid(
+            "scene.cols",
+            format!("{cols} columns; need at least {min}"),
+        ));
     }
     Ok(())
 }
@@ -296,7 +342,13 @@ struct Common {
     mean_luminance_cd_m2: f64,
 }
 
-fn common(illuminant: &str, fov_deg: f64, distance_m: f64, lum: f64, grid: &WavelengthGrid) -> Result<Common> {
+fn common(
+    illuminant: &str,
+    fov_deg: f64,
+    distance_m: f64,
+    lum: f64,
+    grid: &WavelengthGrid,
+) -> Result<Common> {
     check_fov(fov_deg, "scene.fov_deg")?;
     check_distance(distance_m, "scene.distance_m")?;
     check_luminance(lum, "scene.mean_luminance_cd_m2")?;
@@ -304,18 +356,36 @@ fn common(illuminant: &str, fov_deg: f64, distance_m: f64, lum: f64, grid: &Wave
     if illum.iter().all(|v| *v == 0.0) {
         return Err(CoreError::invalid(
             "scene.illuminant",
-            format!("'{illuminant}' has no power between {} and {} nm", grid.start_nm, grid.end_nm()),
+            format!(
+                "'{illuminant}' has no power between {} and {} nm",
+                grid.start_nm,
+                grid.end_nm()
+            ),
         ));
     }
-    Ok(Common { illuminant: illum, fov_deg, distance_m, mean_luminance_cd_m2: lum })
+    Ok(Common {
+        illuminant: illum,
+        fov_deg,
+        distance_m,
+        mean_luminance_cd_m2: lum,
+    })
 }
 
 impl Common {
     /// Radiance per unit reflectance per band: `k * illuminant`, with `k` chosen so that a scene whose
     /// pixel-mean reflectance per band is `mean_reflectance` has the requested mean luminance.
-    fn scaled_illuminant(&self, mean_reflectance: &[f64], grid: &WavelengthGrid) -> Result<Vec<f64>> {
+    fn scaled_illuminant(
+        &self,
+        mean_reflectance: &[f64],
+        grid: &WavelengthGrid,
+    ) -> Result<Vec<f64>> {
         let cmfs = Cmfs::on(grid);
-        let mean_radiance: Vec<f64> = self.illuminant.iter().zip(mean_reflectance).map(|(e, r)| e * r).collect();
+        let mean_radiance: Vec<f64> = self
+            .illuminant
+            .iter()
+            .zip(mean_reflectance)
+            .map(|(e, r)| e * r)
+            .collect();
         let unit = cmfs.luminance_cd_m2(&mean_radiance);
         let k = if self.mean_luminance_cd_m2 == 0.0 {
             0.0
@@ -339,67 +409,109 @@ impl Common {
 }
 
 /// A zero radiance image of a flat scene `distance_m` away spanning `fov_deg` horizontally.
-pub(crate) fn blank_radiance(fov_deg: f64, distance_m: f64, rows: usize, cols: usize, grid: &WavelengthGrid) -> Result<SpectralImage> {
+pub(crate) fn blank_radiance(
+    fov_deg: f64,
+    distance_m: f64,
+    rows: usize,
+    cols: usize,
+    grid: &WavelengthGrid,
+) -> Result<SpectralImage> {
     check_fov(fov_deg, "scene.fov_deg")?;
     check_distance(distance_m, "scene.distance_m")?;
-    let mut img = SpectralImage::zeros(rows, cols, *grid, sample_spacing_m(fov_deg, distance_m, cols), Quantity::Radiance)?;
+    let mut img = SpectralImage::zeros(
+        rows,
+        cols,
+        *grid,
+        sample_spacing_m(fov_deg, distance_m, cols),
+        Quantity::Radiance,
+    )?;
     img.geometry.fov_deg = fov_deg;
     img.geometry.distance_m = distance_m;
     Ok(img)
 }
 
 fn create_uniform(c: &UniformScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
-    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    let com = common(
+        &c.illuminant,
+        c.fov_deg,
+        c.distance_m,
+        c.mean_luminance_cd_m2,
+        grid,
+    )?;
     check_size(c.rows, c.cols, 1)?;
     let refl = reflectance_on(&c.reflectance, grid, "scene.reflectance")?;
     let k_illum = com.scaled_illuminant(&refl, grid)?;
     let mut img = com.image(c.rows, c.cols, grid)?;
     let n = img.pixels();
-    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| plane.fill((k_illum[b] * refl[b]) as f32));
+    img.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| plane.fill((k_illum[b] * refl[b]) as f32));
     Ok(img)
 }
 
 fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
-    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    let com = common(
+        &c.illuminant,
+        c.fov_deg,
+        c.distance_m,
+        c.mean_luminance_cd_m2,
+        grid,
+    )?;
     if c.patch_size_px == 0 {
-        return Err(CoreError::invalid("scene.patch_size_px", "must be at least 1 pixel"));
+        return Err(CoreError::invalid(
+            "scene.patch_size_px",
+            "must be at least 1 pixel",
+        ));
     }
     check_fraction(c.border_reflectance, "scene.border_reflectance")?;
     let layout = c.layout();
     let (rows, cols) = (layout.rows(), layout.cols());
     // Reflectance of patch i on the grid; index 24 = the border.
-    let mut refl: Vec<Vec<f64>> = macbeth_reflectances(c)?.iter().map(|s| s.sample(grid)).collect();
+    let mut refl: Vec<Vec<f64>> = macbeth_reflectances(c)?
+        .iter()
+        .map(|s| s.sample(grid))
+        .collect();
     refl.push(vec![c.border_reflectance; grid.len()]);
     // Pixel-mean reflectance per band, from the areas: 24 patches of p^2 pixels, the rest border.
     let patch_area = (c.patch_size_px * c.patch_size_px) as f64;
     let total = (rows * cols) as f64;
     let border_area = total - 24.0 * patch_area;
     let mean_refl: Vec<f64> = (0..grid.len())
-        .map(|b| (patch_area * refl[..24].iter().map(|r| r[b]).sum::<f64>() + border_area * refl[24][b]) / total)
+        .map(|b| {
+            (patch_area * refl[..24].iter().map(|r| r[b]).sum::<f64>() + border_area * refl[24][b])
+                / total
+        })
         .collect();
     let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
     let mut img = com.image(rows, cols, grid)?;
     let n = img.pixels();
     // Each row is a border row or a sequence of border and patch runs: fill runs, not pixels.
     let pitch = c.patch_size_px + c.border_px;
-    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let values: Vec<f32> = refl.iter().map(|r| (k_illum[b] * r[b]) as f32).collect();
-        for (row, line) in plane.chunks_exact_mut(cols).enumerate() {
-            // Patch row of this image row, if it crosses patches (any column inside a patch).
-            let patch_row = layout.patch_at(row, c.border_px).map(|i| i / MacbethLayout::PATCH_COLS);
-            match patch_row {
-                None => line.fill(values[24]),
-                Some(pr) => {
-                    line[..c.border_px].fill(values[24]);
-                    for pc in 0..MacbethLayout::PATCH_COLS {
-                        let x0 = c.border_px + pc * pitch;
-                        line[x0..x0 + c.patch_size_px].fill(values[pr * MacbethLayout::PATCH_COLS + pc]);
-                        line[x0 + c.patch_size_px..x0 + pitch].fill(values[24]);
+    img.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| {
+            let values: Vec<f32> = refl.iter().map(|r| (k_illum[b] * r[b]) as f32).collect();
+            for (row, line) in plane.chunks_exact_mut(cols).enumerate() {
+                // Patch row of this image row, if it crosses patches (any column inside a patch).
+                let patch_row = layout
+                    .patch_at(row, c.border_px)
+                    .map(|i| i / MacbethLayout::PATCH_COLS);
+                match patch_row {
+                    None => line.fill(values[24]),
+                    Some(pr) => {
+                        line[..c.border_px].fill(values[24]);
+                        for pc in 0..MacbethLayout::PATCH_COLS {
+                            let x0 = c.border_px + pc * pitch;
+                            line[x0..x0 + c.patch_size_px]
+                                .fill(values[pr * MacbethLayout::PATCH_COLS + pc]);
+                            line[x0 + c.patch_size_px..x0 + pitch].fill(values[24]);
+                        }
                     }
                 }
             }
-        }
-    });
+        });
     Ok(img)
 }
 
@@ -416,70 +528,123 @@ pub fn macbeth_reflectances(c: &MacbethScene) -> Result<Vec<Spectrum>> {
 /// are held beyond the file's wavelengths. `key` names the config key or flag in errors.
 pub fn load_chart_reflectances(path: &Path, key: &str) -> Result<Vec<Spectrum>> {
     let file = path.display();
-    let table = camsim_core::spectrum_csv::load_spectra(path).map_err(|e| CoreError::invalid(key, e.to_string()))?;
+    let table = camsim_core::spectrum_csv::load_spectra(path)
+        .map_err(|e| CoreError::invalid(key, e.to_string()))?;
     if table.len() != 24 {
-        return Err(CoreError::invalid(key, format!("{file} has {} spectra; a ColorChecker needs 24, in chart order", table.len())));
+        return Err(CoreError::invalid(
+            key,
+            format!(
+                "{file} has {} spectra; a ColorChecker needs 24, in chart order",
+                table.len()
+            ),
+        ));
     }
-    let spectra = table.spectra().map_err(|e| CoreError::invalid(key, format!("{file}: {e}")))?;
+    let spectra = table
+        .spectra()
+        .map_err(|e| CoreError::invalid(key, format!("{file}: {e}")))?;
     for (i, s) in spectra.iter().enumerate() {
-        if let Some(v) = s.values.iter().find(|v| !(v.is_finite() && (0.0..=1.0).contains(*v))) {
-            return Err(CoreError::invalid(key, format!("{file}: patch {} has reflectance {v}, not a fraction in [0, 1]", i + 1)));
+        if let Some(v) = s
+            .values
+            .iter()
+            .find(|v| !(v.is_finite() && (0.0..=1.0).contains(*v)))
+        {
+            return Err(CoreError::invalid(
+                key,
+                format!(
+                    "{file}: patch {} has reflectance {v}, not a fraction in [0, 1]",
+                    i + 1
+                ),
+            ));
         }
     }
-    Ok(spectra.into_iter().map(|s| s.with_extrapolation(Extrapolation::Hold)).collect())
+    Ok(spectra
+        .into_iter()
+        .map(|s| s.with_extrapolation(Extrapolation::Hold))
+        .collect())
 }
 
 fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
-    let com = common(&c.illuminant, c.fov_deg, c.distance_m, c.mean_luminance_cd_m2, grid)?;
+    let com = common(
+        &c.illuminant,
+        c.fov_deg,
+        c.distance_m,
+        c.mean_luminance_cd_m2,
+        grid,
+    )?;
     check_size(c.rows, c.cols, 2)?;
     if !(c.angle_deg.abs() < 45.0) {
-        return Err(CoreError::invalid("scene.angle_deg", format!("{} degrees is not in (-45, 45)", c.angle_deg)));
+        return Err(CoreError::invalid(
+            "scene.angle_deg",
+            format!("{} degrees is not in (-45, 45)", c.angle_deg),
+        ));
     }
     check_fraction(c.bright_reflectance, "scene.bright_reflectance")?;
     check_fraction(c.dark_reflectance, "scene.dark_reflectance")?;
     let edge = slanted_edge_geometry(c);
-    camsim_core::mem::check_alloc((c.rows * c.cols * 4) as u64, "the slanted-edge coverage map")?;
+    camsim_core::mem::check_alloc(
+        (c.rows * c.cols * 4) as u64,
+        "the slanted-edge coverage map",
+    )?;
     let mut coverage = vec![0.0f32; c.rows * c.cols];
-    coverage.par_chunks_mut(c.cols).enumerate().for_each(|(row, line)| {
-        // The edge crosses this row strip between columns xa and xb: pixels wholly left of it are
-        // dark (0), wholly right bright (1); only the few in between need the exact area.
-        let (x_top, x_bottom) = (edge.x_at(row as f64), edge.x_at(row as f64 + 1.0));
-        let (xa, xb) = (x_top.min(x_bottom), x_top.max(x_bottom));
-        let first = (xa.floor() - 1.0).clamp(0.0, c.cols as f64) as usize;
-        let last = (xb.ceil() + 1.0).clamp(0.0, c.cols as f64) as usize;
-        line[..first].fill(0.0);
-        for (col, v) in line.iter_mut().enumerate().take(last).skip(first) {
-            *v = edge.coverage(row, col) as f32;
-        }
-        line[last..].fill(1.0);
-    });
+    coverage
+        .par_chunks_mut(c.cols)
+        .enumerate()
+        .for_each(|(row, line)| {
+            // The edge crosses this row strip between columns xa and xb: pixels wholly left of it are
+            // dark (0), wholly right bright (1); only the few in between need the exact area.
+            let (x_top, x_bottom) = (edge.x_at(row as f64), edge.x_at(row as f64 + 1.0));
+            let (xa, xb) = (x_top.min(x_bottom), x_top.max(x_bottom));
+            let first = (xa.floor() - 1.0).clamp(0.0, c.cols as f64) as usize;
+            let last = (xb.ceil() + 1.0).clamp(0.0, c.cols as f64) as usize;
+            line[..first].fill(0.0);
+            for (col, v) in line.iter_mut().enumerate().take(last).skip(first) {
+                *v = edge.coverage(row, col) as f32;
+            }
+            line[last..].fill(1.0);
+        });
     let mean_cov = coverage.iter().map(|v| *v as f64).sum::<f64>() / coverage.len() as f64;
     // Coverage grows along each row (bright side on the right, |angle| < 45 deg): per row, the
     // columns before `first` are fully dark and those from `full` on fully bright.
     let spans: Vec<(usize, usize)> = coverage
         .chunks_exact(c.cols)
-        .map(|line| (line.partition_point(|a| *a <= 0.0), line.partition_point(|a| *a < 1.0)))
+        .map(|line| {
+            (
+                line.partition_point(|a| *a <= 0.0),
+                line.partition_point(|a| *a < 1.0),
+            )
+        })
         .collect();
     let (dark, bright) = (c.dark_reflectance, c.bright_reflectance);
     let mean_refl = vec![dark + (bright - dark) * mean_cov; grid.len()];
     let k_illum = com.scaled_illuminant(&mean_refl, grid)?;
     let mut img = com.image(c.rows, c.cols, grid)?;
     let n = img.pixels();
-    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let (lo, hi) = ((k_illum[b] * dark) as f32, (k_illum[b] * bright) as f32);
-        for ((line, cov), (first, full)) in plane.chunks_exact_mut(c.cols).zip(coverage.chunks_exact(c.cols)).zip(&spans) {
-            line[..*first].fill(lo);
-            for (v, a) in line[*first..*full].iter_mut().zip(&cov[*first..*full]) {
-                *v = lo + (hi - lo) * a;
+    img.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| {
+            let (lo, hi) = ((k_illum[b] * dark) as f32, (k_illum[b] * bright) as f32);
+            for ((line, cov), (first, full)) in plane
+                .chunks_exact_mut(c.cols)
+                .zip(coverage.chunks_exact(c.cols))
+                .zip(&spans)
+            {
+                line[..*first].fill(lo);
+                for (v, a) in line[*first..*full].iter_mut().zip(&cov[*first..*full]) {
+                    *v = lo + (hi - lo) * a;
+                }
+                line[*full..].fill(hi);
             }
-            line[*full..].fill(hi);
-        }
-    });
+        });
     Ok(img)
 }
 
 /// The edge of a slanted-edge scene in pixel coordinates: through the image centre
 /// (cols/2, rows/2), tilted `angle_deg` from the vertical, bright side on the right.
 pub fn slanted_edge_geometry(c: &SlantedEdgeScene) -> Edge {
-    Edge { x0: 0.5 * c.cols as f64, y0: 0.5 * c.rows as f64, angle_deg: c.angle_deg }
+    Edge {
+        x0: 0.5 * c.cols as f64,
+        y0: 0.5 * c.rows as f64,
+        angle_deg: c.angle_deg,
+    }
 }

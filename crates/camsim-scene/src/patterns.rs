@@ -236,11 +236,19 @@ fn need(cond: bool, key: &str, msg: String) -> Result<()> {
 
 fn check_side(n: usize, key: &str, min: usize) -> Result<()> {
     need(n >= min, key, format!("{n} pixels; need at least {min}"))?;
-    need(n <= 1 << 15, key, format!("{n} pixels; at most {} are allowed", 1 << 15))
+    need(
+        n <= 1 << 15,
+        key,
+        format!("{n} pixels; at most {} are allowed", 1 << 15),
+    )
 }
 
 fn check_unit(v: f64, key: &str) -> Result<()> {
-    need((0.0..=1.0).contains(&v), key, format!("{v} is not in [0, 1]"))
+    need(
+        (0.0..=1.0).contains(&v),
+        key,
+        format!("{v} is not in [0, 1]"),
+    )
 }
 
 fn check_finite(v: f64, key: &str) -> Result<()> {
@@ -248,10 +256,16 @@ fn check_finite(v: f64, key: &str) -> Result<()> {
 }
 
 /// A rows x cols map filled row by row (in parallel) by `f(row, line)`.
-fn map_rows(rows: usize, cols: usize, f: impl Fn(usize, &mut [f32]) + Sync) -> Result<(usize, usize, Vec<f32>)> {
+fn map_rows(
+    rows: usize,
+    cols: usize,
+    f: impl Fn(usize, &mut [f32]) + Sync,
+) -> Result<(usize, usize, Vec<f32>)> {
     camsim_core::mem::check_alloc((rows * cols * 4) as u64, "the test-pattern reflectance map")?;
     let mut m = vec![0.0f32; rows * cols];
-    m.par_chunks_mut(cols).enumerate().for_each(|(i, line)| f(i, line));
+    m.par_chunks_mut(cols)
+        .enumerate()
+        .for_each(|(i, line)| f(i, line));
     Ok((rows, cols, m))
 }
 
@@ -267,7 +281,10 @@ impl Pattern for HarmonicScene {
         check_finite(self.phase_deg, "scene.phase_deg")?;
         check_finite(self.angle_deg, "scene.angle_deg")?;
         let (c, ph) = (self.contrast, self.phase_deg.to_radians());
-        let (ca, sa) = (self.angle_deg.to_radians().cos(), self.angle_deg.to_radians().sin());
+        let (ca, sa) = (
+            self.angle_deg.to_radians().cos(),
+            self.angle_deg.to_radians().sin(),
+        );
         let (rows, cols, f) = (self.rows as f64, self.cols as f64, self.freq);
         map_rows(self.rows, self.cols, |i, line| {
             let y = i as f64 / rows;
@@ -307,11 +324,17 @@ impl Pattern for SweepFrequencyScene {
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         check_finite(self.max_freq, "scene.max_freq")?;
-        need(self.max_freq > 0.0, "scene.max_freq", format!("{} cycles per image is not positive", self.max_freq))?;
+        need(
+            self.max_freq > 0.0,
+            "scene.max_freq",
+            format!("{} cycles per image is not positive", self.max_freq),
+        )?;
         let n = self.size_px as f64;
         let f = self.max_freq;
         // The row profile is the same on every row up to the contrast: compute it once.
-        let profile: Vec<f64> = (0..self.size_px).map(|j| (2.0 * PI * f * ((j + 1) as f64 / n).powi(3)).sin()).collect();
+        let profile: Vec<f64> = (0..self.size_px)
+            .map(|j| (2.0 * PI * f * ((j + 1) as f64 / n).powi(3)).sin())
+            .collect();
         map_rows(self.size_px, self.size_px, |i, line| {
             let c = (n - i as f64) / n;
             for (v, s) in line.iter_mut().zip(&profile) {
@@ -362,9 +385,16 @@ impl Pattern for CheckerboardScene {
         need(
             self.period_px >= 2 && self.period_px.is_multiple_of(2),
             "scene.period_px",
-            format!("{} pixels; the period must be even and at least 2 (two checks)", self.period_px),
+            format!(
+                "{} pixels; the period must be even and at least 2 (two checks)",
+                self.period_px
+            ),
         )?;
-        need(self.number_of_checks >= 1, "scene.number_of_checks", "must be at least 1".to_string())?;
+        need(
+            self.number_of_checks >= 1,
+            "scene.number_of_checks",
+            "must be at least 1".to_string(),
+        )?;
         let side = self.period_px.saturating_mul(self.number_of_checks);
         check_side(side, "scene.number_of_checks", 2)?;
         let check = self.period_px / 2;
@@ -386,7 +416,11 @@ fn on_line(k: usize, pitch: usize, width: usize) -> bool {
 /// The image must reach the first line (or point), else it is black.
 fn check_first_line(size_px: usize, pitch: usize) -> Result<()> {
     let first = (pitch as f64 / 2.0).round() as usize - 1;
-    need(size_px > first, "scene.size_px", format!("{size_px} pixels do not reach the first line at pixel {first}"))
+    need(
+        size_px > first,
+        "scene.size_px",
+        format!("{size_px} pixels do not reach the first line at pixel {first}"),
+    )
 }
 
 impl Pattern for GridLinesScene {
@@ -396,8 +430,16 @@ impl Pattern for GridLinesScene {
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (p, w) = (self.pixels_between_lines, self.line_thickness_px);
-        need(p >= 2, "scene.pixels_between_lines", format!("{p} pixels; need at least 2"))?;
-        need(w >= 1 && w < p, "scene.line_thickness_px", format!("{w} pixels; need 1 to pixels_between_lines - 1 = {}", p - 1))?;
+        need(
+            p >= 2,
+            "scene.pixels_between_lines",
+            format!("{p} pixels; need at least 2"),
+        )?;
+        need(
+            w >= 1 && w < p,
+            "scene.line_thickness_px",
+            format!("{w} pixels; need 1 to pixels_between_lines - 1 = {}", p - 1),
+        )?;
         check_first_line(self.size_px, p)?;
         map_rows(self.size_px, self.size_px, |i, line| {
             let row_on = on_line(i, p, w);
@@ -415,8 +457,19 @@ impl Pattern for PointArrayScene {
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (p, w) = (self.pixels_between_points, self.point_size_px);
-        need(p >= 2, "scene.pixels_between_points", format!("{p} pixels; need at least 2"))?;
-        need(w >= 1 && w < p, "scene.point_size_px", format!("{w} pixels; need 1 to pixels_between_points - 1 = {}", p - 1))?;
+        need(
+            p >= 2,
+            "scene.pixels_between_points",
+            format!("{p} pixels; need at least 2"),
+        )?;
+        need(
+            w >= 1 && w < p,
+            "scene.point_size_px",
+            format!(
+                "{w} pixels; need 1 to pixels_between_points - 1 = {}",
+                p - 1
+            ),
+        )?;
         check_first_line(self.size_px, p)?;
         map_rows(self.size_px, self.size_px, |i, line| {
             let row_on = on_line(i, p, w);
@@ -434,7 +487,11 @@ impl Pattern for RampScene {
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let dr = self.dynamic_range;
-        need(dr >= 1.0 && dr.is_finite(), "scene.dynamic_range", format!("{dr} is not a finite ratio >= 1"))?;
+        need(
+            dr >= 1.0 && dr.is_finite(),
+            "scene.dynamic_range",
+            format!("{dr} is not a finite ratio >= 1"),
+        )?;
         let n = self.size_px;
         let lo = 1.0 / dr;
         map_rows(n, n, |_, line| {
@@ -452,13 +509,29 @@ impl Pattern for DeadLeavesScene {
     fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (sigma, a, b) = (self.sigma, self.r_min_px, self.r_max_px);
-        need(sigma > 1.0 && sigma.is_finite(), "scene.sigma", format!("{sigma} is not a finite exponent > 1"))?;
-        need(a >= 0.5 && a.is_finite(), "scene.r_min_px", format!("{a} pixels; need a radius >= 0.5"))?;
-        need(b >= a && b <= 1e4, "scene.r_max_px", format!("{b} pixels; need r_min_px ({a}) to 10000"))?;
+        need(
+            sigma > 1.0 && sigma.is_finite(),
+            "scene.sigma",
+            format!("{sigma} is not a finite exponent > 1"),
+        )?;
+        need(
+            a >= 0.5 && a.is_finite(),
+            "scene.r_min_px",
+            format!("{a} pixels; need a radius >= 0.5"),
+        )?;
+        need(
+            b >= a && b <= 1e4,
+            "scene.r_max_px",
+            format!("{b} pixels; need r_min_px ({a}) to 10000"),
+        )?;
         check_unit(self.reflectance_min, "scene.reflectance_min")?;
         check_unit(self.reflectance_max, "scene.reflectance_max")?;
         let (lo, hi) = (self.reflectance_min, self.reflectance_max);
-        need(lo <= hi, "scene.reflectance_max", format!("{hi} is below reflectance_min = {lo}"))?;
+        need(
+            lo <= hi,
+            "scene.reflectance_max",
+            format!("{hi} is below reflectance_min = {lo}"),
+        )?;
         let n = self.size_px;
         camsim_core::mem::check_alloc((n * n * 4) as u64, "the dead-leaves map")?;
         let mut map = vec![-1.0f32; n * n];
@@ -476,14 +549,20 @@ impl Pattern for DeadLeavesScene {
             let cy = -b + span * rng.gen::<f64>();
             let r = (ae + rng.gen::<f64>() * (be - ae)).powf(1.0 / e);
             let g = (lo + (hi - lo) * rng.gen::<f64>()) as f32;
-            let (i0, i1) = ((cy - r).ceil().max(0.0), (cy + r).floor().min(n as f64 - 1.0));
+            let (i0, i1) = (
+                (cy - r).ceil().max(0.0),
+                (cy + r).floor().min(n as f64 - 1.0),
+            );
             if i0 > i1 {
                 continue;
             }
             for i in i0 as usize..=i1 as usize {
                 let dy = i as f64 - cy;
                 let dx = (r * r - dy * dy).max(0.0).sqrt();
-                let (j0, j1) = ((cx - dx).ceil().max(0.0), (cx + dx).floor().min(n as f64 - 1.0));
+                let (j0, j1) = (
+                    (cx - dx).ceil().max(0.0),
+                    (cx + dx).floor().min(n as f64 - 1.0),
+                );
                 if j0 > j1 {
                     continue;
                 }
@@ -498,25 +577,40 @@ impl Pattern for DeadLeavesScene {
                 return Ok((n, n, map));
             }
         }
-        Err(CoreError::invalid("scene.r_min_px", format!("{max_discs} discs left {uncovered} pixels uncovered; raise r_min_px")))
+        Err(CoreError::invalid(
+            "scene.r_min_px",
+            format!("{max_discs} discs left {uncovered} pixels uncovered; raise r_min_px"),
+        ))
     }
 }
 
 /// Build the radiance image of a pattern scene: illuminant x reflectance map, scaled to the mean
 /// luminance (the map is spectrally flat, so its pixel mean is the mean reflectance in every band).
-pub(crate) fn create_pattern(p: &dyn Pattern, grid: &WavelengthGrid) -> Result<camsim_core::SpectralImage> {
+pub(crate) fn create_pattern(
+    p: &dyn Pattern,
+    grid: &WavelengthGrid,
+) -> Result<camsim_core::SpectralImage> {
     let h = p.header();
-    let com = crate::common(h.illuminant, h.fov_deg, h.distance_m, h.mean_luminance_cd_m2, grid)?;
+    let com = crate::common(
+        h.illuminant,
+        h.fov_deg,
+        h.distance_m,
+        h.mean_luminance_cd_m2,
+        grid,
+    )?;
     let (rows, cols, map) = p.reflectance_map()?;
     let mean = map.par_iter().map(|v| *v as f64).sum::<f64>() / map.len() as f64;
     let k_illum = com.scaled_illuminant(&vec![mean; grid.len()], grid)?;
     let mut img = com.image(rows, cols, grid)?;
     let n = img.pixels();
-    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let k = k_illum[b] as f32;
-        for (o, r) in plane.iter_mut().zip(&map) {
-            *o = k * r;
-        }
-    });
+    img.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| {
+            let k = k_illum[b] as f32;
+            for (o, r) in plane.iter_mut().zip(&map) {
+                *o = k * r;
+            }
+        });
     Ok(img)
 }

@@ -66,13 +66,22 @@ impl RgbScene {
     pub fn display_on(&self, grid: &WavelengthGrid) -> Result<Display> {
         if self.display.eq_ignore_ascii_case("srgb") {
             if !(self.white_luminance_cd_m2 > 0.0 && self.white_luminance_cd_m2.is_finite()) {
-                return Err(CoreError::invalid("scene.white_luminance_cd_m2", format!("{} is not a positive luminance", self.white_luminance_cd_m2)));
+                return Err(CoreError::invalid(
+                    "scene.white_luminance_cd_m2",
+                    format!("{} is not a positive luminance", self.white_luminance_cd_m2),
+                ));
             }
             Display::srgb(grid, self.white_luminance_cd_m2)
         } else if crate::config::looks_like_file(&self.display) {
             Display::from_file(std::path::Path::new(&self.display), grid)
         } else {
-            Err(CoreError::invalid("scene.display", format!("'{}' is neither 'srgb' nor a display file (.csv)", self.display)))
+            Err(CoreError::invalid(
+                "scene.display",
+                format!(
+                    "'{}' is neither 'srgb' nor a display file (.csv)",
+                    self.display
+                ),
+            ))
         }
     }
 
@@ -92,7 +101,8 @@ impl RgbScene {
 pub(crate) fn create_rgb(c: &RgbScene, grid: &WavelengthGrid) -> Result<SpectralImage> {
     let display = c.display_on(grid)?;
     let transfer = c.transfer_fn()?;
-    let file = read_rgb_image(&c.path).map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
+    let file =
+        read_rgb_image(&c.path).map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
     let n = file.rows * file.cols;
     camsim_core::mem::check_alloc((n as u64) * 4 * (3 + grid.len() as u64), "the RGB scene")?;
     let levels: Vec<f32> = match file.encoding {
@@ -102,19 +112,31 @@ pub(crate) fn create_rgb(c: &RgbScene, grid: &WavelengthGrid) -> Result<Spectral
                 let p = i / 3;
                 return Err(CoreError::invalid(
                     "scene.path",
-                    format!("{}: pixel (row {}, col {}) has a negative level {}", c.path.display(), p / file.cols, p % file.cols, file.rgb[i]),
+                    format!(
+                        "{}: pixel (row {}, col {}) has a negative level {}",
+                        c.path.display(),
+                        p / file.cols,
+                        p % file.cols,
+                        file.rgb[i]
+                    ),
                 ));
             }
             file.rgb
         }
     };
     let mut img = crate::blank_radiance(c.fov_deg, c.distance_m, file.rows, file.cols, grid)?;
-    img.data.par_chunks_mut(n).enumerate().for_each(|(b, plane)| {
-        let spd = display.primaries_w_per_sr_m2_nm.each_ref().map(|p| p[b] as f32);
-        for (o, px) in plane.iter_mut().zip(levels.chunks_exact(3)) {
-            *o = px[0] * spd[0] + px[1] * spd[1] + px[2] * spd[2];
-        }
-    });
+    img.data
+        .par_chunks_mut(n)
+        .enumerate()
+        .for_each(|(b, plane)| {
+            let spd = display
+                .primaries_w_per_sr_m2_nm
+                .each_ref()
+                .map(|p| p[b] as f32);
+            for (o, px) in plane.iter_mut().zip(levels.chunks_exact(3)) {
+                *o = px[0] * spd[0] + px[1] * spd[1] + px[2] * spd[2];
+            }
+        });
     debug_assert_eq!(img.quantity, Quantity::Radiance);
     if let Some(l) = c.mean_luminance_cd_m2 {
         crate::scale_to_luminance(&mut img, l)?;

@@ -22,12 +22,32 @@ fn srgb_display_reproduces_the_image_colours_iec_61966_2_1() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("photo.png");
     // Black, white, the three primaries, greys and a few colours.
-    let codes: [[u8; 3]; 10] =
-        [[0, 0, 0], [255, 255, 255], [255, 0, 0], [0, 255, 0], [0, 0, 255], [128, 128, 128], [10, 10, 10], [200, 120, 30], [40, 180, 220], [250, 5, 130]];
+    let codes: [[u8; 3]; 10] = [
+        [0, 0, 0],
+        [255, 255, 255],
+        [255, 0, 0],
+        [0, 255, 0],
+        [0, 0, 255],
+        [128, 128, 128],
+        [10, 10, 10],
+        [200, 120, 30],
+        [40, 180, 220],
+        [250, 5, 130],
+    ];
     let flat: Vec<u8> = codes.iter().flatten().copied().collect();
     camsim_io::raster::write_png8_rgb(&png, 2, 5, &flat).unwrap();
-    for grid in [WavelengthGrid::default(), WavelengthGrid { start_nm: 380.0, step_nm: 5.0, count: 81 }] {
-        let cfg = scene(&format!("kind = \"rgb\"\npath = \"{}\"\nwhite_luminance_cd_m2 = 80\n", png.display()));
+    for grid in [
+        WavelengthGrid::default(),
+        WavelengthGrid {
+            start_nm: 380.0,
+            step_nm: 5.0,
+            count: 81,
+        },
+    ] {
+        let cfg = scene(&format!(
+            "kind = \"rgb\"\npath = \"{}\"\nwhite_luminance_cd_m2 = 80\n",
+            png.display()
+        ));
         let img = create(&cfg, &grid).unwrap();
         assert_eq!((img.rows, img.cols), (2, 5));
         let cmfs = Cmfs::on(&grid);
@@ -38,7 +58,11 @@ fn srgb_display_reproduces_the_image_colours_iec_61966_2_1() {
             for c in 0..3 {
                 let want = srgb_decode(code[c] as f64 / 255.0);
                 // The standard's 4-digit matrices are inverse to about 1e-4.
-                assert!((rgb[c] - want).abs() < 4e-4, "grid {grid:?} pixel {code:?} channel {c}: {} vs {want}", rgb[c]);
+                assert!(
+                    (rgb[c] - want).abs() < 4e-4,
+                    "grid {grid:?} pixel {code:?} channel {c}: {} vs {want}",
+                    rgb[c]
+                );
             }
         }
         // White at the reference display's 80 cd/m^2.
@@ -58,34 +82,67 @@ fn display_file_gamma_and_linear_exr_follow_their_closed_forms() {
     for w in (400..=700).step_by(10) {
         let r = if w >= 600 { 0.02 } else { 0.0 };
         let g = if (500..600).contains(&w) { 0.03 } else { 0.0 };
-        let b = if w < 500 { 0.01 * (w - 390) as f64 / 100.0 } else { 0.0 };
+        let b = if w < 500 {
+            0.01 * (w - 390) as f64 / 100.0
+        } else {
+            0.0
+        };
         text += &format!("{w},{r},{g},{b}\n");
     }
     std::fs::write(&csv, text).unwrap();
     let png = dir.path().join("p.png");
     camsim_io::raster::write_png8_rgb(&png, 1, 2, &[128, 64, 255, 0, 255, 0]).unwrap();
     let grid = WavelengthGrid::default();
-    let cfg = scene(&format!("kind = \"rgb\"\npath = \"{}\"\ndisplay = \"{}\"\ntransfer = 2.2\n", png.display(), csv.display()));
+    let cfg = scene(&format!(
+        "kind = \"rgb\"\npath = \"{}\"\ndisplay = \"{}\"\ntransfer = 2.2\n",
+        png.display(),
+        csv.display()
+    ));
     let img = create(&cfg, &grid).unwrap();
     let disp = camsim_scene::Display::from_file(&csv, &grid).unwrap();
     for (p, code) in [[128u8, 64, 255], [0, 255, 0]].iter().enumerate() {
         for b in 0..grid.len() {
-            let want: f64 = (0..3).map(|i| (code[i] as f64 / 255.0).powf(2.2) * disp.primaries_w_per_sr_m2_nm[i][b]).sum();
+            let want: f64 = (0..3)
+                .map(|i| (code[i] as f64 / 255.0).powf(2.2) * disp.primaries_w_per_sr_m2_nm[i][b])
+                .sum();
             let got = img.band(b)[p] as f64;
-            assert!((got - want).abs() <= 1e-6 * want.max(1e-9), "pixel {p} band {b}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 1e-6 * want.max(1e-9),
+                "pixel {p} band {b}: {got} vs {want}"
+            );
         }
     }
     // Rescaled to a mean luminance.
-    let cfg = scene(&format!("kind = \"rgb\"\npath = \"{}\"\ndisplay = \"{}\"\nmean_luminance_cd_m2 = 50\n", png.display(), csv.display()));
+    let cfg = scene(&format!(
+        "kind = \"rgb\"\npath = \"{}\"\ndisplay = \"{}\"\nmean_luminance_cd_m2 = 50\n",
+        png.display(),
+        csv.display()
+    ));
     let l = mean_luminance_cd_m2(&create(&cfg, &grid).unwrap());
     assert!((l - 50.0).abs() < 1e-3, "{l}");
     // An OpenEXR is linear: level 2 is twice the display's white, level 0.5 half of it.
     let exr = dir.path().join("hdr.exr");
-    camsim_io::exr::write_channels_exr(&exr, 1, 2, &[("R", &[2.0, 0.5]), ("G", &[2.0, 0.5]), ("B", &[2.0, 0.5])]).unwrap();
-    let img = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\n", exr.display())), &grid).unwrap();
+    camsim_io::exr::write_channels_exr(
+        &exr,
+        1,
+        2,
+        &[("R", &[2.0, 0.5]), ("G", &[2.0, 0.5]), ("B", &[2.0, 0.5])],
+    )
+    .unwrap();
+    let img = create(
+        &scene(&format!("kind = \"rgb\"\npath = \"{}\"\n", exr.display())),
+        &grid,
+    )
+    .unwrap();
     let cmfs = Cmfs::on(&grid);
-    let (l0, l1) = (cmfs.luminance_cd_m2(&pixel(&img, 0)), cmfs.luminance_cd_m2(&pixel(&img, 1)));
-    assert!((l0 - 160.0).abs() < 0.02 && (l1 - 40.0).abs() < 0.005, "{l0} {l1}");
+    let (l0, l1) = (
+        cmfs.luminance_cd_m2(&pixel(&img, 0)),
+        cmfs.luminance_cd_m2(&pixel(&img, 1)),
+    );
+    assert!(
+        (l0 - 160.0).abs() < 0.02 && (l1 - 40.0).abs() < 0.005,
+        "{l0} {l1}"
+    );
 }
 
 #[test]
@@ -93,22 +150,65 @@ fn rgb_scene_bad_input_names_the_key_or_file() {
     let dir = tempfile::tempdir().unwrap();
     let grid = WavelengthGrid::default();
     let missing = dir.path().join("nope.png");
-    let e = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\n", missing.display())), &grid).unwrap_err().to_string();
+    let e = create(
+        &scene(&format!(
+            "kind = \"rgb\"\npath = \"{}\"\n",
+            missing.display()
+        )),
+        &grid,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("nope.png"), "{e}");
     let png = dir.path().join("p.png");
     camsim_io::raster::write_png8_rgb(&png, 1, 1, &[1, 2, 3]).unwrap();
-    let e = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\ndisplay = \"oled\"\n", png.display())), &grid).unwrap_err().to_string();
+    let e = create(
+        &scene(&format!(
+            "kind = \"rgb\"\npath = \"{}\"\ndisplay = \"oled\"\n",
+            png.display()
+        )),
+        &grid,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("scene.display") && e.contains("oled"), "{e}");
-    let e = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\ntransfer = \"gamma\"\n", png.display())), &grid).unwrap_err().to_string();
+    let e = create(
+        &scene(&format!(
+            "kind = \"rgb\"\npath = \"{}\"\ntransfer = \"gamma\"\n",
+            png.display()
+        )),
+        &grid,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("scene.transfer"), "{e}");
-    let e = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\ntransfer = -1.0\n", png.display())), &grid).unwrap_err().to_string();
+    let e = create(
+        &scene(&format!(
+            "kind = \"rgb\"\npath = \"{}\"\ntransfer = -1.0\n",
+            png.display()
+        )),
+        &grid,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("scene.transfer"), "{e}");
     // The built-in display needs the visible range.
-    let narrow = WavelengthGrid { start_nm: 600.0, step_nm: 10.0, count: 11 };
-    let e = create(&scene(&format!("kind = \"rgb\"\npath = \"{}\"\n", png.display())), &narrow).unwrap_err().to_string();
+    let narrow = WavelengthGrid {
+        start_nm: 600.0,
+        step_nm: 10.0,
+        count: 11,
+    };
+    let e = create(
+        &scene(&format!("kind = \"rgb\"\npath = \"{}\"\n", png.display())),
+        &narrow,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("scene.display"), "{e}");
     // An unknown key is reported at its line.
-    let e = SceneConfig::from_toml("kind = \"rgb\"\npath = \"a.png\"\ngama = 2\n", "s.toml").unwrap_err().to_string();
+    let e = SceneConfig::from_toml("kind = \"rgb\"\npath = \"a.png\"\ngama = 2\n", "s.toml")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("gama") && e.contains("line 3"), "{e}");
 }
 
@@ -122,7 +222,11 @@ fn same_leaf_probability(tau: f64, sigma: f64, a: f64, b: f64) -> f64 {
         // Integrate in log r: dr = r dlog r.
         let r = a * (b / a).powf((k as f64 + 0.5) / n as f64);
         let w = r.powf(-sigma) * r;
-        let i = if tau < 2.0 * r { 2.0 * r * r * (tau / (2.0 * r)).acos() - 0.5 * tau * (4.0 * r * r - tau * tau).sqrt() } else { 0.0 };
+        let i = if tau < 2.0 * r {
+            2.0 * r * r * (tau / (2.0 * r)).acos() - 0.5 * tau * (4.0 * r * r - tau * tau).sqrt()
+        } else {
+            0.0
+        };
         inter += w * i;
         union += w * (2.0 * std::f64::consts::PI * r * r - i);
     }
@@ -131,7 +235,11 @@ fn same_leaf_probability(tau: f64, sigma: f64, a: f64, b: f64) -> f64 {
 
 #[test]
 fn dead_leaves_two_point_correlation_follows_matheron() {
-    let grid = WavelengthGrid { start_nm: 500.0, step_nm: 10.0, count: 3 };
+    let grid = WavelengthGrid {
+        start_nm: 500.0,
+        step_nm: 10.0,
+        count: 3,
+    };
     let (size, seeds) = (512usize, [1u64, 2, 3]);
     let taus = [1usize, 2, 4, 8, 16];
     let mut corr = vec![0.0; taus.len()];
@@ -141,7 +249,9 @@ fn dead_leaves_two_point_correlation_follows_matheron() {
         let img = create(&cfg, &grid).unwrap();
         let v: Vec<f64> = img.band(1).iter().map(|x| *x as f64).collect();
         // Reflectance = radiance / k: the grey levels lie within [0.05, 0.95] x k.
-        let (mn, mx) = v.iter().fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(*x), b.max(*x)));
+        let (mn, mx) = v
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(*x), b.max(*x)));
         assert!(mn > 0.0 && mx / mn <= 0.95 / 0.05 + 1e-3, "{mn} {mx}");
         let mean = v.iter().sum::<f64>() / v.len() as f64;
         let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64;
@@ -168,7 +278,10 @@ fn dead_leaves_two_point_correlation_follows_matheron() {
     for (t, c) in taus.iter().zip(&corr) {
         let want = same_leaf_probability(*t as f64, 3.0, 1.0, 32.0);
         eprintln!("dead leaves, tau {t} px: correlation {c:.4}, Matheron {want:.4}");
-        assert!((c - want).abs() < 0.03, "tau {t} px: correlation {c:.4} against Matheron's {want:.4}");
+        assert!(
+            (c - want).abs() < 0.03,
+            "tau {t} px: correlation {c:.4} against Matheron's {want:.4}"
+        );
     }
 }
 
@@ -179,9 +292,17 @@ fn dead_leaves_bad_parameters_are_refused() {
         ("sigma = 1.0", "scene.sigma"),
         ("r_min_px = 0.1", "scene.r_min_px"),
         ("r_min_px = 8\nr_max_px = 4", "scene.r_max_px"),
-        ("reflectance_min = 0.9\nreflectance_max = 0.1", "scene.reflectance_max"),
+        (
+            "reflectance_min = 0.9\nreflectance_max = 0.1",
+            "scene.reflectance_max",
+        ),
     ] {
-        let e = create(&scene(&format!("kind = \"dead_leaves\"\nsize_px = 16\n{text}\n")), &grid).unwrap_err().to_string();
+        let e = create(
+            &scene(&format!("kind = \"dead_leaves\"\nsize_px = 16\n{text}\n")),
+            &grid,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains(key), "{text}: {e}");
     }
 }
@@ -206,7 +327,11 @@ fn write_reflectance_set(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf)
     // The same set in ISETCam's macbethChart.mat layout: wavelength (31 x 1), data (31 x 24).
     let data: Vec<f64> = (1..=24).flat_map(|k| vec![k as f64 / 25.0; 31]).collect();
     let mat = dir.join("macbethChart.mat");
-    std::fs::write(&mat, camsim_core::mat::mat_v5_doubles(&[("wavelength", 31, 1, &wl), ("data", 31, 24, &data)])).unwrap();
+    std::fs::write(
+        &mat,
+        camsim_core::mat::mat_v5_doubles(&[("wavelength", 31, 1, &wl), ("data", 31, 24, &data)]),
+    )
+    .unwrap();
     (csv, mat)
 }
 
@@ -216,8 +341,13 @@ fn macbeth_chart_from_a_reflectance_file_csv_and_isetcam_mat() {
     let (csv, mat) = write_reflectance_set(dir.path());
     let grid = WavelengthGrid::default();
     for file in [&csv, &mat] {
-        let cfg = scene(&format!("kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\nreflectances = \"{}\"\n", file.display()));
-        let SceneConfig::Macbeth(m) = &cfg else { unreachable!() };
+        let cfg = scene(&format!(
+            "kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\nreflectances = \"{}\"\n",
+            file.display()
+        ));
+        let SceneConfig::Macbeth(m) = &cfg else {
+            unreachable!()
+        };
         let rects = camsim_scene::macbeth_patch_rects(m);
         let img = create(&cfg, &grid).unwrap();
         let at = |k: usize, b: usize| {
@@ -227,17 +357,45 @@ fn macbeth_chart_from_a_reflectance_file_csv_and_isetcam_mat() {
         for k in 0..24 {
             for b in [0, 15, 30] {
                 let ratio = at(k, b) / at(0, b);
-                assert!((ratio - (k + 1) as f64).abs() < 1e-5 * (k + 1) as f64, "{}: patch {} band {b}: {ratio}", file.display(), k + 1);
+                assert!(
+                    (ratio - (k + 1) as f64).abs() < 1e-5 * (k + 1) as f64,
+                    "{}: patch {} band {b}: {ratio}",
+                    file.display(),
+                    k + 1
+                );
             }
         }
     }
     // The default stays N. Ohta's chart.
-    let ohta = create(&scene("kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\n"), &grid).unwrap();
-    let mine = create(&scene(&format!("kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\nreflectances = \"{}\"\n", csv.display())), &grid).unwrap();
+    let ohta = create(
+        &scene("kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\n"),
+        &grid,
+    )
+    .unwrap();
+    let mine = create(
+        &scene(&format!(
+            "kind = \"macbeth\"\npatch_size_px = 4\nborder_px = 1\nreflectances = \"{}\"\n",
+            csv.display()
+        )),
+        &grid,
+    )
+    .unwrap();
     assert_ne!(ohta.data, mine.data);
     // A set that is not 24 spectra is refused, naming the key.
     let bad = dir.path().join("three.csv");
-    std::fs::write(&bad, "wavelength_nm,a,b,c\n400,0.1,0.2,0.3\n700,0.1,0.2,0.3\n").unwrap();
-    let e = create(&scene(&format!("kind = \"macbeth\"\nreflectances = \"{}\"\n", bad.display())), &grid).unwrap_err().to_string();
+    std::fs::write(
+        &bad,
+        "wavelength_nm,a,b,c\n400,0.1,0.2,0.3\n700,0.1,0.2,0.3\n",
+    )
+    .unwrap();
+    let e = create(
+        &scene(&format!(
+            "kind = \"macbeth\"\nreflectances = \"{}\"\n",
+            bad.display()
+        )),
+        &grid,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("scene.reflectances") && e.contains("24"), "{e}");
 }

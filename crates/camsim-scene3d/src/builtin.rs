@@ -61,11 +61,11 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::camera::look_at_camera_to_world;
-use crate::spectra::photometric;
-use crate::xform::{cross, dot, inverse, sub};
 use crate::scene::{
     AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
 };
+use crate::spectra::photometric;
+use crate::xform::{cross, dot, inverse, sub};
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{tables, Spectrum, WavelengthGrid};
@@ -914,12 +914,21 @@ pub fn mcc_patch_centers_px(opts: &BuiltinOptions) -> Result<(Vec<[f64; 2]>, f64
 /// [`mcc_patch_centers_px`] seen through any `camera` (e.g. the built-in camera after the
 /// pipeline matched its field of view to a sensor): the 24 patch centres in raster coordinates
 /// and the patch side in pixels.
-pub fn mcc_patch_centers_on(camera: &Camera, position: &MccPosition) -> Result<(Vec<[f64; 2]>, f64), BuiltinError> {
+pub fn mcc_patch_centers_on(
+    camera: &Camera,
+    position: &MccPosition,
+) -> Result<(Vec<[f64; 2]>, f64), BuiltinError> {
     let l = mcc_layout(position)?;
-    let pts: Option<Vec<[f64; 2]>> = l.patch_centers.iter().map(|c| project_to_raster(camera, *c)).collect();
+    let pts: Option<Vec<[f64; 2]>> = l
+        .patch_centers
+        .iter()
+        .map(|c| project_to_raster(camera, *c))
+        .collect();
     let pts = pts.ok_or_else(|| berr("ColorChecker", "behind the camera"))?;
     let c0 = l.patch_centers[0];
-    let a = project_to_raster(camera, [c0[0] + MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
-    let bpx = project_to_raster(camera, [c0[0] - MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
+    let a =
+        project_to_raster(camera, [c0[0] + MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
+    let bpx =
+        project_to_raster(camera, [c0[0] - MCC_PATCH_M / 2.0, c0[1], c0[2]]).unwrap_or([0.0; 2]);
     Ok((pts, (bpx[0] - a[0]).abs()))
 }

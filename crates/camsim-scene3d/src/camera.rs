@@ -41,7 +41,9 @@ pub fn realistic_lens(
     height: usize,
 ) -> Result<(RealisticLens, f64), String> {
     if !(aperture_diameter_mm > 0.0 && aperture_diameter_mm.is_finite()) {
-        return Err(format!("aperturediameter {aperture_diameter_mm} mm is not > 0"));
+        return Err(format!(
+            "aperturediameter {aperture_diameter_mm} mm is not > 0"
+        ));
     }
     if !(focus_distance_m > 0.0 && focus_distance_m.is_finite()) {
         return Err(format!("focusdistance {focus_distance_m} m is not > 0"));
@@ -51,7 +53,8 @@ pub fn realistic_lens(
     }
     let stop_r_mm = lens.surfaces[lens.stop_index()].semi_aperture_mm;
     let lens = lens.with_stop_semi_aperture_mm((aperture_diameter_mm / 2.0).min(stop_r_mm));
-    let camera = LensCamera::focused(lens, focus_distance_m * 1e3, film_diagonal_mm).map_err(|e| e.to_string())?;
+    let camera = LensCamera::focused(lens, focus_distance_m * 1e3, film_diagonal_mm)
+        .map_err(|e| e.to_string())?;
     let lens = realistic_lens_with_pinhole(camera, film_diagonal_mm);
     let fov_deg = lens.fov_deg(width, height);
     Ok((lens, fov_deg))
@@ -64,16 +67,28 @@ pub fn realistic_lens(
 pub fn realistic_lens_with_pinhole(camera: LensCamera, film_diagonal_mm: f64) -> RealisticLens {
     let h_mm = 0.01 * camera.lens.paraxial(550.0).efl_mm.abs();
     let b = camera.exit_pupil_bounds(h_mm);
-    let dir = [0.5 * (b[0] + b[1]) - h_mm, 0.5 * (b[2] + b[3]), -camera.film_distance_mm];
+    let dir = [
+        0.5 * (b[0] + b[1]) - h_mm,
+        0.5 * (b[2] + b[3]),
+        -camera.film_distance_mm,
+    ];
     // Lens coordinates (scene toward -z, the film point on +x) to the film frame of
     // `chief_ray_pinhole` (z from the film toward the scene, the film point on +y).
     let film_z_mm = camera.film_z_mm();
     let chief = camera.trace_ray([h_mm, 0.0], dir, 550.0).map(|r| {
-        ([r.origin_mm[1], r.origin_mm[0], film_z_mm - r.origin_mm[2]], [r.direction[1], r.direction[0], -r.direction[2]])
+        (
+            [r.origin_mm[1], r.origin_mm[0], film_z_mm - r.origin_mm[2]],
+            [r.direction[1], r.direction[0], -r.direction[2]],
+        )
     });
     let (image_distance_mm, pupil_z_mm) =
         chief_ray_pinhole(h_mm, chief).unwrap_or_else(|| (pinhole_image_distance_mm(&camera), 0.0));
-    RealisticLens { camera: Arc::new(camera), film_diagonal_mm, image_distance_mm, pupil_z_mm }
+    RealisticLens {
+        camera: Arc::new(camera),
+        film_diagonal_mm,
+        image_distance_mm,
+        pupil_z_mm,
+    }
 }
 
 /// Where a ray-transfer camera's film lies.
@@ -91,12 +106,21 @@ pub enum RtfFilm {
 /// input plane's axis leaves as a parallel beam of height f sin(theta) for a ray at angle theta);
 /// also returns the pinhole-equivalent field of view across the shorter image axis (degrees), at
 /// the image distance of the film's focus.
-pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: usize, height: usize) -> Result<(RayTransferLens, f64), String> {
+pub fn ray_transfer_lens(
+    rtf: Rtf,
+    film: RtfFilm,
+    film_diagonal_mm: f64,
+    width: usize,
+    height: usize,
+) -> Result<(RayTransferLens, f64), String> {
     if !(film_diagonal_mm > 0.0 && film_diagonal_mm.is_finite()) {
         return Err(format!("film diagonal {film_diagonal_mm} mm is not > 0"));
     }
     let sin_theta = 0.02f64;
-    let h = |s: f64| rtf.trace([0.0, 0.0], [0.0, s, (1.0 - s * s).sqrt()]).map(|(p, _)| p[1]);
+    let h = |s: f64| {
+        rtf.trace([0.0, 0.0], [0.0, s, (1.0 - s * s).sqrt()])
+            .map(|(p, _)| p[1])
+    };
     let f_mm = match (h(0.0), h(sin_theta)) {
         (Some(a), Some(b)) if ((b - a) / sin_theta) > 0.0 => (b - a) / sin_theta,
         _ => return Err("the ray-transfer function passes no ray from the film centre near the axis: no focal length".into()),
@@ -131,7 +155,9 @@ pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: 
                     "focusdistance {m} m lies inside the lens (its RTF spans {lens_mm:.3} mm from the film's side to its output plane)"
                 ));
             }
-            let dz = rtf.focus_offset_mm(m * 1e3).ok_or("the ray-transfer function passes no ray from the film centre: no focus")?;
+            let dz = rtf
+                .focus_offset_mm(m * 1e3)
+                .ok_or("the ray-transfer function passes no ray from the film centre: no focus")?;
             // The search runs over -0.2..0.8 mm: an optimum on its edge is no focus.
             if !(-0.199..=0.799).contains(&dz) {
                 return Err(format!(
@@ -144,11 +170,22 @@ pub fn ray_transfer_lens(rtf: Rtf, film: RtfFilm, film_diagonal_mm: f64, width: 
     // The pinhole that images as the lens does near the axis (0.1 mm: clear of the RTF's kink at
     // r = 0, see camsim-optics' rtf_psf).
     let h_mm = 0.1;
-    let (image_distance_mm, pupil_z_mm) = chief_ray_pinhole(h_mm, rtf.chief_ray(h_mm, film_offset_mm))
-        .ok_or("the ray-transfer function passes no chief ray 0.1 mm off the axis: no image scale")?;
-    let fov_deg = 2.0 * (half[0].min(half[1]) / image_distance_mm).atan().to_degrees();
-    let lens =
-        RayTransferLens { rtf: Arc::new(rtf), film_offset_mm, film_diagonal_mm, focal_length_mm: f_mm, image_distance_mm, pupil_z_mm };
+    let (image_distance_mm, pupil_z_mm) =
+        chief_ray_pinhole(h_mm, rtf.chief_ray(h_mm, film_offset_mm)).ok_or(
+            "the ray-transfer function passes no chief ray 0.1 mm off the axis: no image scale",
+        )?;
+    let fov_deg = 2.0
+        * (half[0].min(half[1]) / image_distance_mm)
+            .atan()
+            .to_degrees();
+    let lens = RayTransferLens {
+        rtf: Arc::new(rtf),
+        film_offset_mm,
+        film_diagonal_mm,
+        focal_length_mm: f_mm,
+        image_distance_mm,
+        pupil_z_mm,
+    };
     Ok((lens, fov_deg))
 }
 
@@ -182,9 +219,20 @@ pub fn pbrt_look_at(from: [f64; 3], to: [f64; 3], up: [f64; 3]) -> Option<Transf
 /// `right_handed_view == false`: pbrt-v4 `LookAt` exactly (inverse of [`pbrt_look_at`]).
 /// `right_handed_view == true`: the image shows a right-handed world as a viewer at `from` sees it
 /// (camera +x maps to `dir x up`, i.e. pbrt's `Scale -1 1 1` followed by `LookAt`).
-pub fn look_at_camera_to_world(from: [f64; 3], to: [f64; 3], up: [f64; 3], right_handed_view: bool) -> Option<Transform> {
+pub fn look_at_camera_to_world(
+    from: [f64; 3],
+    to: [f64; 3],
+    up: [f64; 3],
+    right_handed_view: bool,
+) -> Option<Transform> {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
     let norm = |a: [f64; 3]| {
         let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
         if l > 0.0 && l.is_finite() {
@@ -248,11 +296,26 @@ pub fn camera_from_focal_length(
     width: usize,
     height: usize,
 ) -> Camera {
-    let short_side_m = if width >= height { sensor_height_m } else { sensor_width_m };
+    let short_side_m = if width >= height {
+        sensor_height_m
+    } else {
+        sensor_width_m
+    };
     let fov_deg = 2.0 * (short_side_m / (2.0 * focal_length_m)).atan().to_degrees();
-    let fov_deg = if fov_deg.is_finite() && focal_length_m > 0.0 && short_side_m > 0.0 { fov_deg } else { f64::NAN };
-    let camera_to_world = look_at_camera_to_world(from, to, up, true).unwrap_or(Transform { m: [[0.0; 4]; 4] });
-    Camera { camera_to_world, fov_deg, width, height, lens: None }
+    let fov_deg = if fov_deg.is_finite() && focal_length_m > 0.0 && short_side_m > 0.0 {
+        fov_deg
+    } else {
+        f64::NAN
+    };
+    let camera_to_world =
+        look_at_camera_to_world(from, to, up, true).unwrap_or(Transform { m: [[0.0; 4]; 4] });
+    Camera {
+        camera_to_world,
+        fov_deg,
+        width,
+        height,
+        lens: None,
+    }
 }
 
 #[cfg(test)]
@@ -261,10 +324,23 @@ mod tests {
 
     #[test]
     fn pixel4a_field_of_view() {
-        let c = camera_from_focal_length(4.38e-3, 4032.0 * 1.4e-6, 3024.0 * 1.4e-6, [0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 4032, 3024);
+        let c = camera_from_focal_length(
+            4.38e-3,
+            4032.0 * 1.4e-6,
+            3024.0 * 1.4e-6,
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            4032,
+            3024,
+        );
         assert!((c.fov_deg - 51.60).abs() < 0.02, "{}", c.fov_deg);
         // Horizontal: 2 atan(5.6448 / 8.76) = 65.594 degrees.
-        assert!((c.horizontal_fov_deg() - 65.594).abs() < 0.002, "{}", c.horizontal_fov_deg());
+        assert!(
+            (c.horizontal_fov_deg() - 65.594).abs() < 0.002,
+            "{}",
+            c.horizontal_fov_deg()
+        );
     }
 
     #[test]
@@ -274,7 +350,8 @@ mod tests {
         let x = t.apply_vector([1.0, 0.0, 0.0]);
         assert!((x[0] - 1.0).abs() < 1e-12);
         // pbrt's LookAt maps camera +x to world -x here, and pbrt_look_at is its inverse.
-        let t2 = look_at_camera_to_world([1.0, 2.0, 3.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], false).unwrap();
+        let t2 = look_at_camera_to_world([1.0, 2.0, 3.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], false)
+            .unwrap();
         let w2c = pbrt_look_at([1.0, 2.0, 3.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]).unwrap();
         let id = w2c.then_apply_to(&t2);
         for r in 0..4 {
@@ -282,6 +359,8 @@ mod tests {
                 assert!((id.m[r][c] - if r == c { 1.0 } else { 0.0 }).abs() < 1e-12);
             }
         }
-        assert!(look_at_camera_to_world([0.0; 3], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], false).is_none());
+        assert!(
+            look_at_camera_to_world([0.0; 3], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], false).is_none()
+        );
     }
 }

@@ -48,9 +48,24 @@ impl Transform {
         let (x, y, z) = (axis[0] / len, axis[1] / len, axis[2] / len);
         let (s, c) = angle_deg.to_radians().sin_cos();
         let mut t = Transform::identity();
-        t.m[0] = [x * x + (1.0 - x * x) * c, x * y * (1.0 - c) - z * s, x * z * (1.0 - c) + y * s, 0.0];
-        t.m[1] = [x * y * (1.0 - c) + z * s, y * y + (1.0 - y * y) * c, y * z * (1.0 - c) - x * s, 0.0];
-        t.m[2] = [x * z * (1.0 - c) - y * s, y * z * (1.0 - c) + x * s, z * z + (1.0 - z * z) * c, 0.0];
+        t.m[0] = [
+            x * x + (1.0 - x * x) * c,
+            x * y * (1.0 - c) - z * s,
+            x * z * (1.0 - c) + y * s,
+            0.0,
+        ];
+        t.m[1] = [
+            x * y * (1.0 - c) + z * s,
+            y * y + (1.0 - y * y) * c,
+            y * z * (1.0 - c) - x * s,
+            0.0,
+        ];
+        t.m[2] = [
+            x * z * (1.0 - c) - y * s,
+            y * z * (1.0 - c) + x * s,
+            z * z + (1.0 - z * z) * c,
+            0.0,
+        ];
         t
     }
     /// `self * other` (apply `other` first).
@@ -99,7 +114,13 @@ pub struct UvMapping {
 
 impl Default for UvMapping {
     fn default() -> Self {
-        UvMapping { uscale: 1.0, vscale: 1.0, udelta: 0.0, vdelta: 0.0, kind: MappingKind::Uv }
+        UvMapping {
+            uscale: 1.0,
+            vscale: 1.0,
+            udelta: 0.0,
+            vdelta: 0.0,
+            kind: MappingKind::Uv,
+        }
     }
 }
 
@@ -135,27 +156,71 @@ pub enum Texture {
     Constant(Spectrum),
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
     /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]).
-    Image { width: usize, height: usize, rgb: Vec<[f32; 3]>, uscale: f64, vscale: f64, udelta: f64, vdelta: f64, kind: MappingKind },
+    Image {
+        width: usize,
+        height: usize,
+        rgb: Vec<[f32; 3]>,
+        uscale: f64,
+        vscale: f64,
+        udelta: f64,
+        vdelta: f64,
+        kind: MappingKind,
+    },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
-    Checkerboard { tex1: Box<Texture>, tex2: Box<Texture>, mapping: UvMapping },
+    Checkerboard {
+        tex1: Box<Texture>,
+        tex2: Box<Texture>,
+        mapping: UvMapping,
+    },
     /// pbrt-v4 3D `checkerboard` (`dimension 3`): `tex1` where floor(x) + floor(y) + floor(z) of
     /// the hit point in texture space is even, else `tex2` (point-sampled).
-    Checkerboard3d { tex1: Box<Texture>, tex2: Box<Texture>, texture_from_world: Transform },
+    Checkerboard3d {
+        tex1: Box<Texture>,
+        tex2: Box<Texture>,
+        texture_from_world: Transform,
+    },
     /// pbrt-v4 `scale`: `tex * scale`.
-    Scale { tex: Box<Texture>, scale: FloatTexture },
+    Scale {
+        tex: Box<Texture>,
+        scale: FloatTexture,
+    },
     /// pbrt-v4 `mix`: `(1 - amount) tex1 + amount tex2`.
-    Mix { tex1: Box<Texture>, tex2: Box<Texture>, amount: FloatTexture },
+    Mix {
+        tex1: Box<Texture>,
+        tex2: Box<Texture>,
+        amount: FloatTexture,
+    },
     /// pbrt-v4 `directionmix`: `w tex1 + (1 - w) tex2` with `w = |n . dir|` (`dir` unit, world).
-    DirectionMix { tex1: Box<Texture>, tex2: Box<Texture>, direction: [f64; 3] },
+    DirectionMix {
+        tex1: Box<Texture>,
+        tex2: Box<Texture>,
+        direction: [f64; 3],
+    },
     /// pbrt-v4 `bilerp`: bilinear in `(s, t)` between `v00` (0,0), `v10` (1,0), `v01` (0,1), `v11`.
-    Bilerp { v00: Spectrum, v01: Spectrum, v10: Spectrum, v11: Spectrum, mapping: UvMapping },
+    Bilerp {
+        v00: Spectrum,
+        v01: Spectrum,
+        v10: Spectrum,
+        v11: Spectrum,
+        mapping: UvMapping,
+    },
     /// pbrt-v4 `marble`: stripes of a fixed grey and blue-grey palette (RGB albedo) along texture
     /// space's y, bent by fractional Brownian motion: t = 1/2 + sin(y + variation FBm(p)) / 2 with
     /// p the hit point in texture space times `scale`.
-    Marble { octaves: u32, roughness: f64, scale: f64, variation: f64, texture_from_world: Transform },
+    Marble {
+        octaves: u32,
+        roughness: f64,
+        scale: f64,
+        variation: f64,
+        texture_from_world: Transform,
+    },
     /// pbrt-v4 `dots`: `inside` within the polka dots of the `(s, t)` unit cells, else `outside`.
-    Dots { inside: Box<Texture>, outside: Box<Texture>, mapping: UvMapping },
+    Dots {
+        inside: Box<Texture>,
+        outside: Box<Texture>,
+        mapping: UvMapping,
+    },
 }
 
 /// A solid-noise float texture (pbrt-v4 `fbm`, `wrinkled`, `windy`), evaluated at the hit point
@@ -189,18 +254,52 @@ pub enum NoiseKind {
 pub enum FloatTexture {
     Constant(f64),
     /// Row 0 at t = 1, bilinear, repeat wrap (as [`Texture::Image`]).
-    Image { width: usize, height: usize, values: Vec<f32>, mapping: UvMapping },
-    Checkerboard { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, mapping: UvMapping },
+    Image {
+        width: usize,
+        height: usize,
+        values: Vec<f32>,
+        mapping: UvMapping,
+    },
+    Checkerboard {
+        tex1: Box<FloatTexture>,
+        tex2: Box<FloatTexture>,
+        mapping: UvMapping,
+    },
     /// As [`Texture::Checkerboard3d`].
-    Checkerboard3d { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, texture_from_world: Transform },
-    Scale { tex: Box<FloatTexture>, scale: Box<FloatTexture> },
-    Mix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, amount: Box<FloatTexture> },
-    DirectionMix { tex1: Box<FloatTexture>, tex2: Box<FloatTexture>, direction: [f64; 3] },
-    Bilerp { v00: f64, v01: f64, v10: f64, v11: f64, mapping: UvMapping },
+    Checkerboard3d {
+        tex1: Box<FloatTexture>,
+        tex2: Box<FloatTexture>,
+        texture_from_world: Transform,
+    },
+    Scale {
+        tex: Box<FloatTexture>,
+        scale: Box<FloatTexture>,
+    },
+    Mix {
+        tex1: Box<FloatTexture>,
+        tex2: Box<FloatTexture>,
+        amount: Box<FloatTexture>,
+    },
+    DirectionMix {
+        tex1: Box<FloatTexture>,
+        tex2: Box<FloatTexture>,
+        direction: [f64; 3],
+    },
+    Bilerp {
+        v00: f64,
+        v01: f64,
+        v10: f64,
+        v11: f64,
+        mapping: UvMapping,
+    },
     /// pbrt-v4 `fbm`, `wrinkled`, `windy`.
     Noise(NoiseTexture),
     /// pbrt-v4 `dots` (as [`Texture::Dots`]).
-    Dots { inside: Box<FloatTexture>, outside: Box<FloatTexture>, mapping: UvMapping },
+    Dots {
+        inside: Box<FloatTexture>,
+        outside: Box<FloatTexture>,
+        mapping: UvMapping,
+    },
 }
 
 /// Surface scattering, with pbrt-v4's material semantics (see `camsim_render::bsdf` for the BSDFs).
@@ -214,7 +313,10 @@ pub enum Material {
     /// Lambertian reflection with a spectral reflectance (pbrt-v4 `diffuse`).
     Diffuse { reflectance: Texture },
     /// A metal (pbrt-v4 `conductor`).
-    Conductor { optics: ConductorOptics, roughness: Roughness },
+    Conductor {
+        optics: ConductorOptics,
+        roughness: Roughness,
+    },
     /// A dielectric interface (pbrt-v4 `dielectric`): `eta` is the index of refraction inside
     /// (the side the geometric normal points away from) relative to outside. A spectrum that
     /// varies with wavelength is dispersive: the path keeps only its hero wavelength.
@@ -224,12 +326,22 @@ pub enum Material {
     ThinDielectric { eta: Spectrum },
     /// Lambertian reflection and transmission (pbrt-v4 `diffusetransmission`), both multiplied
     /// by `scale`.
-    DiffuseTransmission { reflectance: Texture, transmittance: Texture, scale: f64 },
+    DiffuseTransmission {
+        reflectance: Texture,
+        transmittance: Texture,
+        scale: f64,
+    },
     /// A dielectric coating over a diffuse base (pbrt-v4 `coateddiffuse`, 4th ed. §14.3: a
     /// stochastic random walk between the interfaces, see `camsim_render::bsdf::Bsdf::CoatedDiffuse`).
     /// `thickness` is pbrt-v4's layer thickness, an optical depth (dimensionless: transmittance
     /// `exp(-thickness / |cos|)`); `walk` the medium and the walk's parameters.
-    CoatedDiffuse { reflectance: Texture, roughness: Roughness, eta: f64, thickness: f64, walk: LayerWalk },
+    CoatedDiffuse {
+        reflectance: Texture,
+        roughness: Roughness,
+        eta: f64,
+        thickness: f64,
+        walk: LayerWalk,
+    },
     /// A dielectric coating over a conductor (pbrt-v4 `coatedconductor`, 4th ed. §14.3):
     /// coating index `interface_eta` and roughness, layer `thickness` (optical depth, as
     /// [`Material::CoatedDiffuse`]), the conductor's optics (relative to the outside, as pbrt-v4
@@ -256,13 +368,21 @@ pub enum Material {
     /// ignores it (the ray goes on), otherwise the hit is ignored when a deterministic hash of
     /// the ray's origin and direction, uniform in [0, 1), exceeds `a` (pbrt-v4
     /// `HashFloat(r.o, r.d)`). The test applies to camera, bounce and shadow rays alike.
-    AlphaMasked { material: usize, alpha: FloatTexture },
+    AlphaMasked {
+        material: usize,
+        alpha: FloatTexture,
+    },
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
     /// `roughness`, `uroughness`, `vroughness` as float textures evaluated per hit, 4th ed.
     /// §10.4). `remap` as [`Roughness::remap`]; negative texture values count as 0.
-    VaryingRoughness { material: usize, u: FloatTexture, v: FloatTexture, remap: bool },
+    VaryingRoughness {
+        material: usize,
+        u: FloatTexture,
+        v: FloatTexture,
+        remap: bool,
+    },
 }
 
 /// The medium between a coating's two interfaces and the random walk that evaluates the
@@ -315,7 +435,11 @@ pub struct Roughness {
 
 impl Roughness {
     /// A perfectly smooth surface.
-    pub const SMOOTH: Roughness = Roughness { u: 0.0, v: 0.0, remap: true };
+    pub const SMOOTH: Roughness = Roughness {
+        u: 0.0,
+        v: 0.0,
+        remap: true,
+    };
 
     /// The Trowbridge-Reitz `(alpha_x, alpha_y)` (NaN for a negative roughness when remapped:
     /// the renderer refuses non-finite or negative alphas).
@@ -354,15 +478,30 @@ pub struct EmissionImage {
 /// Geometry in world space, metres.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Geometry {
-    Triangles { positions: Vec<[f64; 3]>, indices: Vec<[u32; 3]>, uvs: Option<Vec<[f32; 2]>>, normals: Option<Vec<[f64; 3]>> },
-    Sphere { center: [f64; 3], radius: f64 },
+    Triangles {
+        positions: Vec<[f64; 3]>,
+        indices: Vec<[u32; 3]>,
+        uvs: Option<Vec<[f32; 2]>>,
+        normals: Option<Vec<[f64; 3]>>,
+    },
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+    },
     /// A partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`; 4th ed. §6.2): the
     /// points of the sphere of `radius` about `center` whose object-frame coordinates have
     /// `z_min <= z <= z_max` (m, `-radius <= z_min < z_max <= radius`) and azimuth
     /// `0 <= phi <= phi_max_deg` (from the frame's x axis toward its y axis). `axes` are the
     /// object frame's x, y, z unit axes in world space (a mirrored frame when the transform
     /// swaps handedness). The outward normal is flipped by `Shape::reverse_orientation`.
-    PartialSphere { center: [f64; 3], radius: f64, axes: [[f64; 3]; 3], z_min: f64, z_max: f64, phi_max_deg: f64 },
+    PartialSphere {
+        center: [f64; 3],
+        radius: f64,
+        axes: [[f64; 3]; 3],
+        z_min: f64,
+        z_max: f64,
+        phi_max_deg: f64,
+    },
 }
 
 /// One object: geometry, its material (index into `SceneDescription::materials`), and an
@@ -389,13 +528,25 @@ pub enum Light {
     /// Uniform radiance from every direction, W/(sr m^2 nm) (pbrt-v4 `infinite` without a map).
     Infinite { radiance: Spectrum },
     /// Isotropic point source: radiant intensity in W/(sr nm) (pbrt-v4 `point`).
-    Point { position_m: [f64; 3], intensity: Spectrum },
+    Point {
+        position_m: [f64; 3],
+        intensity: Spectrum,
+    },
     /// Spot light (pbrt-v4 `spot`): intensity `intensity * smoothstep(cos(cone_angle),
     /// cos(cone_angle - cone_delta), cos theta)` around the unit axis `direction`, W/(sr nm).
-    Spot { position_m: [f64; 3], direction: [f64; 3], intensity: Spectrum, cone_angle_deg: f64, cone_delta_deg: f64 },
+    Spot {
+        position_m: [f64; 3],
+        direction: [f64; 3],
+        intensity: Spectrum,
+        cone_angle_deg: f64,
+        cone_delta_deg: f64,
+    },
     /// Light from one direction (pbrt-v4 `distant`): `direction` is the unit vector the light
     /// travels along (from -> to); `irradiance` W/(m^2 nm) on a surface facing the light.
-    Distant { direction: [f64; 3], irradiance: Spectrum },
+    Distant {
+        direction: [f64; 3],
+        irradiance: Spectrum,
+    },
     /// Image-based environment light (pbrt-v4 `infinite` with `filename`).
     Environment(EnvironmentMap),
     /// Point light with a tabulated angular distribution (pbrt-v4 `goniometric`).
@@ -433,9 +584,19 @@ pub struct ProjectionLight {
 /// `cos^3 theta` the solid angle per unit area there (pbrt-v4 `ProjectionLight` constructor and
 /// `Phi`, midpoint sum). `weight` turns a texel into the quantity integrated (luminance for
 /// `power`, a channel mean for picking lights by power).
-pub fn projection_frustum_sum(width: usize, height: usize, rgb: &[[f32; 3]], fov_deg: f64, weight: impl Fn([f32; 3]) -> f64) -> f64 {
+pub fn projection_frustum_sum(
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    fov_deg: f64,
+    weight: impl Fn([f32; 3]) -> f64,
+) -> f64 {
     let aspect = width as f64 / height as f64;
-    let (sx, sy) = if aspect > 1.0 { (aspect, 1.0) } else { (1.0, 1.0 / aspect) };
+    let (sx, sy) = if aspect > 1.0 {
+        (aspect, 1.0)
+    } else {
+        (1.0, 1.0 / aspect)
+    };
     let tan_half = (fov_deg.to_radians() / 2.0).tan();
     let mut sum = 0.0;
     for (i, c) in rgb.iter().enumerate() {
@@ -569,7 +730,9 @@ impl RealisticLens {
     /// film, degrees.
     pub fn fov_deg(&self, width: usize, height: usize) -> f64 {
         let half = crate::camera::film_half_extent_mm(self.film_diagonal_mm, width, height);
-        2.0 * (half[0].min(half[1]) / self.image_distance_mm).atan().to_degrees()
+        2.0 * (half[0].min(half[1]) / self.image_distance_mm)
+            .atan()
+            .to_degrees()
     }
 }
 
@@ -578,7 +741,11 @@ impl Camera {
     pub fn horizontal_fov_deg(&self) -> f64 {
         let half_short = (self.fov_deg.to_radians() / 2.0).tan();
         let aspect = self.width as f64 / self.height as f64;
-        let half_h = if aspect >= 1.0 { half_short * aspect } else { half_short };
+        let half_h = if aspect >= 1.0 {
+            half_short * aspect
+        } else {
+            half_short
+        };
         2.0 * half_h.atan().to_degrees()
     }
 }

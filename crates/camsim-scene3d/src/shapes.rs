@@ -312,16 +312,12 @@ pub fn loop_subdivide(
     let mut normals = vec![[0.0; 3]; p.len()];
     for t in &tris {
         let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-        let n =
-            crate::xform::cross(crate::xform::sub(b, a), crate::xform::sub(c, a));
+        let n = crate::xform::cross(crate::xform::sub(b, a), crate::xform::sub(c, a));
         for &i in t {
             normals[i as usize] = add(normals[i as usize], n, 1.0);
         }
     }
-    let normals = normals
-        .into_iter()
-        .map(crate::xform::normalize)
-        .collect();
+    let normals = normals.into_iter().map(crate::xform::normalize).collect();
     Ok((p, tris, normals))
 }
 

@@ -14,19 +14,35 @@ use std::time::Instant;
 pub fn test_irradiance(sensor: &Sensor, grid: WavelengthGrid) -> SpectralImage {
     let (rows, cols) = (sensor.rows(), sensor.cols());
     // SPACING=0.9 samples the irradiance at 0.9 x the pitch (the general area-integration path).
-    let ratio: f64 = std::env::var("SPACING").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
-    let mut img = SpectralImage::zeros(rows, cols, grid, sensor.pixel_pitch_m() * ratio, Quantity::Irradiance).unwrap();
+    let ratio: f64 = std::env::var("SPACING")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1.0);
+    let mut img = SpectralImage::zeros(
+        rows,
+        cols,
+        grid,
+        sensor.pixel_pitch_m() * ratio,
+        Quantity::Irradiance,
+    )
+    .unwrap();
     let bands = grid.len();
-    img.bands_mut().enumerate().collect::<Vec<_>>().into_par_iter().for_each(|(b, plane)| {
-        let w = b as f32 / (bands - 1) as f32;
-        for (r, row) in plane.chunks_mut(cols).enumerate() {
-            let y = r as f32 / rows as f32;
-            for (c, v) in row.iter_mut().enumerate() {
-                let x = c as f32 / cols as f32;
-                *v = 2e-3 * (0.2 + 0.8 * (x * w + y * (1.0 - w))) * (1.0 + 0.1 * ((c ^ r) & 7) as f32 / 7.0);
+    img.bands_mut()
+        .enumerate()
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .for_each(|(b, plane)| {
+            let w = b as f32 / (bands - 1) as f32;
+            for (r, row) in plane.chunks_mut(cols).enumerate() {
+                let y = r as f32 / rows as f32;
+                for (c, v) in row.iter_mut().enumerate() {
+                    let x = c as f32 / cols as f32;
+                    *v = 2e-3
+                        * (0.2 + 0.8 * (x * w + y * (1.0 - w)))
+                        * (1.0 + 0.1 * ((c ^ r) & 7) as f32 / 7.0);
+                }
             }
-        }
-    });
+        });
     img
 }
 
@@ -41,18 +57,27 @@ fn main() {
     let grid = WavelengthGrid::default();
     let img = test_irradiance(&sensor, grid);
     let bytes = img.data.len() * 4;
-    let reps: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(3);
+    let reps: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3);
     let mut best = f64::INFINITY;
     let mut best_cpu = f64::INFINITY;
     for i in 0..reps {
         let (t0, c0) = (Instant::now(), cpu_s());
-        let frame = sensor.compute(&img, &Capture::auto().with_seed(i as u64)).unwrap();
+        let frame = sensor
+            .compute(&img, &Capture::auto().with_seed(i as u64))
+            .unwrap();
         let dt = t0.elapsed().as_secs_f64();
         best = best.min(dt);
-        let mean = frame.raw[0].dn.iter().map(|v| *v as f64).sum::<f64>() / frame.raw[0].dn.len() as f64;
+        let mean =
+            frame.raw[0].dn.iter().map(|v| *v as f64).sum::<f64>() / frame.raw[0].dn.len() as f64;
         let cpu = cpu_s() - c0;
         best_cpu = best_cpu.min(cpu);
-        println!("run {i}: {dt:.3} s wall, {cpu:.2} s CPU (exposure {:.4} s, mean {mean:.1} DN)", frame.exposure_s);
+        println!(
+            "run {i}: {dt:.3} s wall, {cpu:.2} s CPU (exposure {:.4} s, mean {mean:.1} DN)",
+            frame.exposure_s
+        );
     }
     let (t0, c0) = (Instant::now(), cpu_s());
     let rate = sensor.electron_rate_image(&img).unwrap();

@@ -3,11 +3,11 @@
 //! dark current -> shot noise -> PRNU/DSNU -> read noise -> analog gain/offset -> clip -> quantize.
 
 use crate::error::{Result, SensorError};
+use crate::normal::Ziggurat;
+use crate::poisson;
 use crate::sensor::Sensor;
 use camsim_core::rng::{keyed, stage};
 use camsim_core::{mem, Quantity, RawImage, SpectralImage};
-use crate::normal::Ziggurat;
-use crate::poisson;
 use rayon::prelude::*;
 
 /// Shot noise is drawn from the exact Poisson distribution (inversion below a mean of 10,
@@ -35,7 +35,9 @@ pub enum Exposure {
 
 impl Default for Exposure {
     fn default() -> Self {
-        Exposure::Auto { target_fraction: 0.9 }
+        Exposure::Auto {
+            target_fraction: 0.9,
+        }
     }
 }
 
@@ -52,14 +54,22 @@ pub struct Capture {
 
 impl Default for Capture {
     fn default() -> Self {
-        Capture { exposure: Exposure::default(), frames: 1, seed: 0 }
+        Capture {
+            exposure: Exposure::default(),
+            frames: 1,
+            seed: 0,
+        }
     }
 }
 
 impl Capture {
     /// One frame of `exposure_s` seconds with seed 0.
     pub fn seconds(exposure_s: f64) -> Capture {
-        Capture { exposure: Exposure::Seconds(exposure_s), frames: 1, seed: 0 }
+        Capture {
+            exposure: Exposure::Seconds(exposure_s),
+            frames: 1,
+            seed: 0,
+        }
     }
     /// One auto-exposed frame (99th percentile at 90 % of the swing) with seed 0.
     pub fn auto() -> Capture {
@@ -108,7 +118,13 @@ pub(crate) struct Axis {
 }
 
 impl Axis {
-    pub(crate) fn new(n_out: usize, pitch_m: f64, pd_width_m: f64, n_in: usize, spacing_m: f64) -> Axis {
+    pub(crate) fn new(
+        n_out: usize,
+        pitch_m: f64,
+        pd_width_m: f64,
+        n_in: usize,
+        spacing_m: f64,
+    ) -> Axis {
         let mut start = Vec::with_capacity(n_out);
         let mut range = Vec::with_capacity(n_out);
         let mut w = Vec::new();
@@ -174,7 +190,12 @@ impl Axis {
         } else {
             None
         };
-        Axis { start, range, w, identity }
+        Axis {
+            start,
+            range,
+            w,
+            identity,
+        }
     }
 
     #[inline]
@@ -278,8 +299,15 @@ impl Sensor {
     pub fn electron_rate_image(&self, irr: &SpectralImage) -> Result<Vec<f32>> {
         let mut rate = self.electron_rate_image_bare(irr)?;
         if let Some(pv) = &self.config().pixel_vignetting {
-            let gain = pv.relative_response(self.rows(), self.cols(), self.pixel_pitch_m * 1e6, self.fill_factor);
-            rate.par_iter_mut().zip(gain.par_iter()).for_each(|(r, g)| *r *= g);
+            let gain = pv.relative_response(
+                self.rows(),
+                self.cols(),
+                self.pixel_pitch_m * 1e6,
+                self.fill_factor,
+            );
+            rate.par_iter_mut()
+                .zip(gain.par_iter())
+                .for_each(|(r, g)| *r *= g);
         }
         Ok(rate)
     }
@@ -292,10 +320,25 @@ impl Sensor {
         let (rows, cols) = (self.rows(), self.cols());
         mem::check_alloc((rows * cols * 4) as u64, "the sensor electron image")?;
         let pd_width_m = self.pixel_pitch_m * self.fill_factor.sqrt();
-        let ax = Axis::new(cols, self.pixel_pitch_m, pd_width_m, irr.cols, irr.sample_spacing_m);
-        let ay = Axis::new(rows, self.pixel_pitch_m, pd_width_m, irr.rows, irr.sample_spacing_m);
-        let fac: Vec<[f32; 3]> =
-            self.band_factors(&irr.grid).iter().map(|f| [f[0] as f32, f[1] as f32, f[2] as f32]).collect();
+        let ax = Axis::new(
+            cols,
+            self.pixel_pitch_m,
+            pd_width_m,
+            irr.cols,
+            irr.sample_spacing_m,
+        );
+        let ay = Axis::new(
+            rows,
+            self.pixel_pitch_m,
+            pd_width_m,
+            irr.rows,
+            irr.sample_spacing_m,
+        );
+        let fac: Vec<[f32; 3]> = self
+            .band_factors(&irr.grid)
+            .iter()
+            .map(|f| [f[0] as f32, f[1] as f32, f[2] as f32])
+            .collect();
         let in_cols = irr.cols;
         let cfa = self.cfa;
         let mut rate = vec![0.0f32; rows * cols];
@@ -312,9 +355,9 @@ impl Sensor {
         // neighbouring rows of one band plane at a time (prefetch- and cache-friendly). The block
         // structure is fixed by row index, so the result does not depend on the thread count.
         const BLOCK_ROWS: usize = 8;
-        rate.par_chunks_mut(cols * BLOCK_ROWS).enumerate().for_each_init(
-            Vec::<f32>::new,
-            |tmp, (blk, out)| {
+        rate.par_chunks_mut(cols * BLOCK_ROWS)
+            .enumerate()
+            .for_each_init(Vec::<f32>::new, |tmp, (blk, out)| {
                 let nrows = out.len() / cols;
                 if let Some(((ox, c0, c1), (oy, _, _))) = fast {
                     // Same pitch and spacing, integer offsets: pixel (r, c) sees sample
@@ -329,12 +372,16 @@ impl Sensor {
                             if ay.entries(r).1.is_empty() {
                                 continue;
                             }
-                            let (f0, f1) = (f[cfa.channel_at(r, 0).index()], f[cfa.channel_at(r, 1).index()]);
+                            let (f0, f1) = (
+                                f[cfa.channel_at(r, 0).index()],
+                                f[cfa.channel_at(r, 1).index()],
+                            );
                             if f0 == 0.0 && f1 == 0.0 {
                                 continue;
                             }
                             let i = (r as isize + oy) as usize;
-                            let src = &plane[((i * in_cols + c0) as isize + ox) as usize..][..c1 - c0];
+                            let src =
+                                &plane[((i * in_cols + c0) as isize + ox) as usize..][..c1 - c0];
                             let d = &mut orow[c0..c1];
                             let (fa, fb) = if c0 % 2 == 0 { (f0, f1) } else { (f1, f0) };
                             // Alternating channel factors in blocks of 16 (vectorises).
@@ -349,7 +396,12 @@ impl Sensor {
                                     dd[k] += pat[k] * ss[k];
                                 }
                             }
-                            for (k, (dd, ss)) in dc.into_remainder().iter_mut().zip(sc.remainder()).enumerate() {
+                            for (k, (dd, ss)) in dc
+                                .into_remainder()
+                                .iter_mut()
+                                .zip(sc.remainder())
+                                .enumerate()
+                            {
                                 *dd += pat[k] * ss;
                             }
                         }
@@ -367,7 +419,10 @@ impl Sensor {
                     for k in 0..nrows {
                         let r = blk * BLOCK_ROWS + k;
                         let (i0, wy) = ay.entries(r);
-                        let (f0, f1) = (f[cfa.channel_at(r, 0).index()], f[cfa.channel_at(r, 1).index()]);
+                        let (f0, f1) = (
+                            f[cfa.channel_at(r, 0).index()],
+                            f[cfa.channel_at(r, 1).index()],
+                        );
                         if wy.is_empty() || (f0 == 0.0 && f1 == 0.0) {
                             continue;
                         }
@@ -390,23 +445,37 @@ impl Sensor {
                     for (c, o) in orow.iter_mut().enumerate() {
                         let (st, wx) = ax.entries(c);
                         let src = if c % 2 == 0 { s0 } else { s1 };
-                        *o = wx.iter().zip(&src[st.saturating_sub(jmin)..]).map(|(a, b)| a * b).sum();
+                        *o = wx
+                            .iter()
+                            .zip(&src[st.saturating_sub(jmin)..])
+                            .map(|(a, b)| a * b)
+                            .sum();
                     }
                 }
-            },
-        );
+            });
         Ok(rate)
     }
 
     /// Exposure time for a capture, given the noise-free electron-rate image (`rows` x `cols`).
-    pub(crate) fn resolve_exposure(&self, rate: &[f32], rows: usize, cols: usize, exposure: Exposure) -> Result<f64> {
+    pub(crate) fn resolve_exposure(
+        &self,
+        rate: &[f32],
+        rows: usize,
+        cols: usize,
+        exposure: Exposure,
+    ) -> Result<f64> {
         match exposure {
             Exposure::Seconds(t) => Ok(t),
             Exposure::Auto { target_fraction } => {
                 let p99 = self.brightest_filter_p99(rate, rows, cols)?;
-                let dark_rate_e = if self.noise.dark { self.dark_voltage_v_per_s / self.conversion_gain_v_per_e } else { 0.0 };
+                let dark_rate_e = if self.noise.dark {
+                    self.dark_voltage_v_per_s / self.conversion_gain_v_per_e
+                } else {
+                    0.0
+                };
                 // (v + offset) / gain = target x swing, v = cg x (rate + dark rate) x t.
-                let v_needed = target_fraction * self.voltage_swing_v * self.analog_gain - self.analog_offset_v;
+                let v_needed = target_fraction * self.voltage_swing_v * self.analog_gain
+                    - self.analog_offset_v;
                 let v_rate = self.conversion_gain_v_per_e * (p99 + dark_rate_e);
                 if !(v_rate > 0.0 && v_rate.is_finite()) {
                     return Err(SensorError::input(
@@ -431,7 +500,10 @@ impl Sensor {
     /// `rate` (e-/s): a deterministic sample of every `stride`-th row and column (<= ~1 M pixels).
     fn brightest_filter_p99(&self, rate: &[f32], rows: usize, cols: usize) -> Result<f64> {
         if rate.is_empty() || rows * cols != rate.len() {
-            return Err(SensorError::input("auto exposure", "the sensor has no pixels"));
+            return Err(SensorError::input(
+                "auto exposure",
+                "the sensor has no pixels",
+            ));
         }
         let layout = self.cfa_layout();
         // A stride that keeps whole CFA tiles: step over tiles, take every pixel of a sampled tile.
@@ -440,7 +512,11 @@ impl Sensor {
         let mut by_filter: Vec<Vec<f32>> = vec![Vec::new(); layout.filters().len()];
         for r in (0..rows).filter(|r| (r / layout.rows()).is_multiple_of(tile_stride)) {
             let row = &rate[r * cols..(r + 1) * cols];
-            for (c, v) in row.iter().enumerate().filter(|(c, _)| (c / layout.cols()).is_multiple_of(tile_stride)) {
+            for (c, v) in row
+                .iter()
+                .enumerate()
+                .filter(|(c, _)| (c / layout.cols()).is_multiple_of(tile_stride))
+            {
                 by_filter[layout.filter_at(r, c)].push(*v);
             }
         }
@@ -466,14 +542,23 @@ impl Sensor {
         check_capture(capture)?;
         let exposure_s = self.resolve_exposure(rate, rows, cols, capture.exposure)?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
-            return Err(SensorError::input("exposure", format!("{exposure_s} s is not a finite time >= 0")));
+            return Err(SensorError::input(
+                "exposure",
+                format!("{exposure_s} s is not a finite time >= 0"),
+            ));
         }
         let n = rows * cols;
         let frames = capture.frames;
-        mem::check_alloc((n * 2 * frames) as u64, &format!("{frames} raw frames of {rows} x {cols}"))?;
+        mem::check_alloc(
+            (n * 2 * frames) as u64,
+            &format!("{frames} raw frames of {rows} x {cols}"),
+        )?;
         let keep_analog = !self.noise.quantization;
         if keep_analog {
-            mem::check_alloc((n * 4 * frames) as u64, &format!("{frames} analog frames of {rows} x {cols}"))?;
+            mem::check_alloc(
+                (n * 4 * frames) as u64,
+                &format!("{frames} analog frames of {rows} x {cols}"),
+            )?;
         }
         let mut raws = Vec::with_capacity(frames);
         let mut analogs = Vec::new();
@@ -484,15 +569,39 @@ impl Sensor {
             raw.exposure_s = exposure_s;
             raw.pixel_pitch_m = self.pixel_pitch_m;
             raw.layout = self.layout.clone();
-            let mut analog = if keep_analog { vec![0.0f32; n] } else { Vec::new() };
+            let mut analog = if keep_analog {
+                vec![0.0f32; n]
+            } else {
+                Vec::new()
+            };
             let frame_key = frame_base + k as u64;
             if keep_analog {
-                raw.dn.par_chunks_mut(cols).zip(analog.par_chunks_mut(cols)).enumerate().for_each(|(r, (d, a))| {
-                    self.noise_row(r, &rate[r * cols..(r + 1) * cols], exposure_s, capture.seed, frame_key, d, Some(a))
-                });
+                raw.dn
+                    .par_chunks_mut(cols)
+                    .zip(analog.par_chunks_mut(cols))
+                    .enumerate()
+                    .for_each(|(r, (d, a))| {
+                        self.noise_row(
+                            r,
+                            &rate[r * cols..(r + 1) * cols],
+                            exposure_s,
+                            capture.seed,
+                            frame_key,
+                            d,
+                            Some(a),
+                        )
+                    });
             } else {
                 raw.dn.par_chunks_mut(cols).enumerate().for_each(|(r, d)| {
-                    self.noise_row(r, &rate[r * cols..(r + 1) * cols], exposure_s, capture.seed, frame_key, d, None)
+                    self.noise_row(
+                        r,
+                        &rate[r * cols..(r + 1) * cols],
+                        exposure_s,
+                        capture.seed,
+                        frame_key,
+                        d,
+                        None,
+                    )
                 });
             }
             raws.push(raw);
@@ -509,7 +618,13 @@ impl Sensor {
                 }
             }
             let analog_dn = if keep_analog { Some(analogs) } else { None };
-            return Ok(Frame { raw: raws, exposure_s, mean_electrons, analog_dn, mean_electrons_by_filter: by_filter });
+            return Ok(Frame {
+                raw: raws,
+                exposure_s,
+                mean_electrons,
+                analog_dn,
+                mean_electrons_by_filter: by_filter,
+            });
         }
         // Noise-free mean electrons per channel; per-row sums then a sequential total, so the
         // figure does not depend on the thread count either.
@@ -586,7 +701,12 @@ impl Sensor {
         let max_dn = self.max_dn() as f64;
         // Fixed pattern: the sensor's own stream per row (two normals per pixel, PRNU then DSNU),
         // the same for every frame and call. Temporal: the capture's stream per frame and row.
-        let mut fp = keyed(self.config().fixed_pattern_seed, stage::SENSOR_FIXED_PATTERN, 0, r as u64);
+        let mut fp = keyed(
+            self.config().fixed_pattern_seed,
+            stage::SENSOR_FIXED_PATTERN,
+            0,
+            r as u64,
+        );
         let mut tr = keyed(seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
         let zig = Ziggurat::get();
         for (c, o) in out.iter_mut().enumerate() {
@@ -607,7 +727,11 @@ impl Sensor {
                 let z = zig.sample(&mut tr);
                 cg * gain_map * mu_e + offset_map_v + (sd_shot_v * sd_shot_v + read_var).sqrt() * z
             } else {
-                let e = if nz.shot { poisson::sample(&mut tr, mu_e) } else { mu_e };
+                let e = if nz.shot {
+                    poisson::sample(&mut tr, mu_e)
+                } else {
+                    mu_e
+                };
                 let mut v = e * cg * gain_map + offset_map_v;
                 if nz.read {
                     let z = zig.sample(&mut tr);
@@ -638,20 +762,32 @@ fn check_irradiance(irradiance: &SpectralImage) -> Result<()> {
     if irradiance.quantity != Quantity::Irradiance {
         return Err(SensorError::input(
             "sensor input",
-            format!("needs a sensor-plane irradiance image (W/(m^2 nm)), got {}", irradiance.quantity.name()),
+            format!(
+                "needs a sensor-plane irradiance image (W/(m^2 nm)), got {}",
+                irradiance.quantity.name()
+            ),
         ));
     }
     if !(irradiance.sample_spacing_m.is_finite() && irradiance.sample_spacing_m > 0.0) {
         return Err(SensorError::input(
             "sensor input",
-            format!("sample spacing {} m is not a positive number", irradiance.sample_spacing_m),
+            format!(
+                "sample spacing {} m is not a positive number",
+                irradiance.sample_spacing_m
+            ),
         ));
     }
     if irradiance.rows == 0 || irradiance.cols == 0 || irradiance.bands() == 0 {
-        return Err(SensorError::input("sensor input", "the irradiance image is empty"));
+        return Err(SensorError::input(
+            "sensor input",
+            "the irradiance image is empty",
+        ));
     }
     if irradiance.data.len() != irradiance.rows * irradiance.cols * irradiance.bands() {
-        return Err(SensorError::input("sensor input", "image data length does not match rows x cols x bands"));
+        return Err(SensorError::input(
+            "sensor input",
+            "image data length does not match rows x cols x bands",
+        ));
     }
     Ok(())
 }
@@ -661,12 +797,18 @@ fn check_capture(capture: &Capture) -> Result<()> {
         return Err(SensorError::input("frames", "must be at least 1"));
     }
     match capture.exposure {
-        Exposure::Seconds(t) if !(t.is_finite() && t >= 0.0) => {
-            Err(SensorError::input("exposure_s", format!("{t} s is not a finite time >= 0")))
+        Exposure::Seconds(t) if !(t.is_finite() && t >= 0.0) => Err(SensorError::input(
+            "exposure_s",
+            format!("{t} s is not a finite time >= 0"),
+        )),
+        Exposure::Auto { target_fraction }
+            if !(target_fraction > 0.0 && target_fraction <= 1.0) =>
+        {
+            Err(SensorError::input(
+                "auto exposure target_fraction",
+                format!("must be in (0, 1], got {target_fraction}"),
+            ))
         }
-        Exposure::Auto { target_fraction } if !(target_fraction > 0.0 && target_fraction <= 1.0) => Err(
-            SensorError::input("auto exposure target_fraction", format!("must be in (0, 1], got {target_fraction}")),
-        ),
         _ => Ok(()),
     }
 }

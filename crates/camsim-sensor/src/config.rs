@@ -41,14 +41,28 @@ fn yes() -> bool {
 
 impl Default for NoiseSwitches {
     fn default() -> Self {
-        NoiseSwitches { shot: true, read: true, dsnu: true, prnu: true, dark: true, quantization: true }
+        NoiseSwitches {
+            shot: true,
+            read: true,
+            dsnu: true,
+            prnu: true,
+            dark: true,
+            quantization: true,
+        }
     }
 }
 
 impl NoiseSwitches {
     /// Every noise source off (quantization stays: the ADC always rounds).
     pub fn none() -> Self {
-        NoiseSwitches { shot: false, read: false, dsnu: false, prnu: false, dark: false, quantization: true }
+        NoiseSwitches {
+            shot: false,
+            read: false,
+            dsnu: false,
+            prnu: false,
+            dark: false,
+            quantization: true,
+        }
     }
 }
 
@@ -111,7 +125,10 @@ const QE_COLUMNS: [(&str, &[&str]); 5] = [
     ("r", &["r", "red"]),
     ("g", &["g", "green"]),
     ("b", &["b", "blue"]),
-    ("ir_cut", &["ir_cut", "ir_filter", "ir", "ircut", "irfilter"]),
+    (
+        "ir_cut",
+        &["ir_cut", "ir_filter", "ir", "ircut", "irfilter"],
+    ),
     ("pixel_qe", &["pixel_qe", "pixel", "pd_qe"]),
 ];
 
@@ -119,18 +136,35 @@ impl QeConfig {
     /// Read `file` (relative paths against `base_dir`) into the inline curves. No-op without a
     /// file. Errors name the file, the missing column or the conflicting inline key.
     pub fn load_file(&mut self, base_dir: &Path, source_name: &str) -> Result<()> {
-        let Some(file) = self.file.take() else { return Ok(()) };
-        let path = if file.is_relative() { base_dir.join(&file) } else { file.clone() };
+        let Some(file) = self.file.take() else {
+            return Ok(());
+        };
+        let path = if file.is_relative() {
+            base_dir.join(&file)
+        } else {
+            file.clone()
+        };
         let bad = |key: &str, message: String| SensorError::Config {
             source_name: source_name.to_string(),
             key: key.to_string(),
             message,
         };
-        if !self.wavelengths_nm.is_empty() || !self.r.is_empty() || !self.g.is_empty() || !self.b.is_empty() {
-            return Err(bad("qe.file", "give either file or the inline curves (wavelengths_nm, r, g, b), not both".into()));
+        if !self.wavelengths_nm.is_empty()
+            || !self.r.is_empty()
+            || !self.g.is_empty()
+            || !self.b.is_empty()
+        {
+            return Err(bad(
+                "qe.file",
+                "give either file or the inline curves (wavelengths_nm, r, g, b), not both".into(),
+            ));
         }
         let table = camsim_core::spectrum_csv::load_spectra(&path)?;
-        let lower: Vec<String> = table.names.iter().map(|n| n.trim().to_ascii_lowercase()).collect();
+        let lower: Vec<String> = table
+            .names
+            .iter()
+            .map(|n| n.trim().to_ascii_lowercase())
+            .collect();
         let mut used = vec![false; lower.len()];
         let mut found: [Option<Vec<f64>>; 5] = Default::default();
         for (k, (key, aliases)) in QE_COLUMNS.iter().enumerate() {
@@ -141,7 +175,13 @@ impl QeConfig {
                     return None;
                 }
                 let hits: Vec<usize> = (0..lower.len())
-                    .filter(|&i| !used[i] && lower[i].starts_with(*key) && !QE_COLUMNS.iter().any(|(_, a)| a.contains(&lower[i].as_str())))
+                    .filter(|&i| {
+                        !used[i]
+                            && lower[i].starts_with(*key)
+                            && !QE_COLUMNS
+                                .iter()
+                                .any(|(_, a)| a.contains(&lower[i].as_str()))
+                    })
                     .collect();
                 (hits.len() == 1).then(|| hits[0])
             };
@@ -156,27 +196,42 @@ impl QeConfig {
         for (i, u) in used.iter().enumerate() {
             if !u {
                 let name = camsim_core::cfa::canonical_filter_name(&table.names[i]);
-                if self.filters.insert(name.clone(), table.columns[i].clone()).is_some() {
+                if self
+                    .filters
+                    .insert(name.clone(), table.columns[i].clone())
+                    .is_some()
+                {
                     return Err(bad(&file_key, format!("filter '{name}' is given twice (inline [qe.filters] or another column)")));
                 }
             }
         }
         let [r, g, b, ir, px] = found;
         let need = |c: Option<Vec<f64>>, key: &str| {
-            c.ok_or_else(|| bad(&file_key, format!("no '{key}' column (the file has {names})")))
+            c.ok_or_else(|| {
+                bad(
+                    &file_key,
+                    format!("no '{key}' column (the file has {names})"),
+                )
+            })
         };
         self.r = need(r, "r")?;
         self.g = need(g, "g")?;
         self.b = need(b, "b")?;
         if ir.is_some() {
             if self.ir_cut.is_some() {
-                return Err(bad("qe.ir_cut", format!("given inline and as a column of {}", path.display())));
+                return Err(bad(
+                    "qe.ir_cut",
+                    format!("given inline and as a column of {}", path.display()),
+                ));
             }
             self.ir_cut = ir;
         }
         if px.is_some() {
             if self.pixel_qe.is_some() {
-                return Err(bad("qe.pixel_qe", format!("given inline and as a column of {}", path.display())));
+                return Err(bad(
+                    "qe.pixel_qe",
+                    format!("given inline and as a column of {}", path.display()),
+                ));
             }
             self.pixel_qe = px;
         }
@@ -296,14 +351,17 @@ const MAX_PIXELS: u64 = 1 << 31;
 impl SensorConfig {
     /// Parse TOML text; `source_name` (file name or preset) goes into every error message.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
-        toml::from_str::<SensorConfig>(text)
-            .map_err(|e| SensorError::Parse { source_name: source_name.to_string(), message: e.to_string() })
+        toml::from_str::<SensorConfig>(text).map_err(|e| SensorError::Parse {
+            source_name: source_name.to_string(),
+            message: e.to_string(),
+        })
     }
 
     /// The config as TOML text (parses back to an equal config).
     pub fn to_toml(&self) -> String {
         // Serialising a struct of plain numbers, strings and arrays cannot fail.
-        toml::to_string(self).unwrap_or_else(|e| format!("# could not serialise sensor config: {e}\n"))
+        toml::to_string(self)
+            .unwrap_or_else(|e| format!("# could not serialise sensor config: {e}\n"))
     }
 
     /// Make the config self-contained: read `[qe] file` (relative to `base_dir`) into the
@@ -327,7 +385,10 @@ impl SensorConfig {
     pub fn cfa_layout(&self) -> camsim_core::error::Result<CfaLayout> {
         match &self.cfa_pattern {
             Some(_) if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) => {
-                Err(camsim_core::CoreError::invalid("cfa", "give either a cfa name or cfa_pattern, not both"))
+                Err(camsim_core::CoreError::invalid(
+                    "cfa",
+                    "give either a cfa name or cfa_pattern, not both",
+                ))
             }
             Some(p) => CfaLayout::from_names(p),
             None => CfaLayout::parse(&self.cfa),
@@ -337,7 +398,11 @@ impl SensorConfig {
     /// The `[qe.filters]` transmittance of a filter (any alias of its name), if given.
     pub fn filter_curve(&self, name: &str) -> Option<&Vec<f64>> {
         let n = camsim_core::cfa::canonical_filter_name(name);
-        self.qe.filters.iter().find(|(k, _)| camsim_core::cfa::canonical_filter_name(k) == n).map(|(_, v)| v)
+        self.qe
+            .filters
+            .iter()
+            .find(|(k, _)| camsim_core::cfa::canonical_filter_name(k) == n)
+            .map(|(_, v)| v)
     }
 
     /// ISETCam's analog gain (the divisor of v_out = (v + offset) / gain): base_iso / iso when
@@ -378,11 +443,17 @@ impl SensorConfig {
             return Err(bad("cols", "must be at least 1".into()));
         }
         if (self.rows as u64).saturating_mul(self.cols as u64) > MAX_PIXELS {
-            return Err(bad("rows", format!("{} x {} pixels is more than 2^31", self.rows, self.cols)));
+            return Err(bad(
+                "rows",
+                format!("{} x {} pixels is more than 2^31", self.rows, self.cols),
+            ));
         }
         positive("pixel_pitch_um", self.pixel_pitch_um)?;
         if !(self.fill_factor.is_finite() && self.fill_factor > 0.0 && self.fill_factor <= 1.0) {
-            return Err(bad("fill_factor", format!("must be in (0, 1], got {}", self.fill_factor)));
+            return Err(bad(
+                "fill_factor",
+                format!("must be in (0, 1], got {}", self.fill_factor),
+            ));
         }
         self.cfa_layout().map_err(|e| match &self.cfa_pattern {
             Some(_) if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) => {
@@ -428,7 +499,10 @@ impl SensorConfig {
             }
         }
         if !self.analog_offset_mv.is_finite() {
-            return Err(bad("analog_offset_mv", format!("must be a finite number, got {}", self.analog_offset_mv)));
+            return Err(bad(
+                "analog_offset_mv",
+                format!("must be a finite number, got {}", self.analog_offset_mv),
+            ));
         }
         if !(1..=16).contains(&self.bits) {
             return Err(bad("bits", format!("must be in 1..=16, got {}", self.bits)));
@@ -454,7 +528,10 @@ impl SensorConfig {
             for (i, row) in m.iter().enumerate() {
                 for (j, v) in row.iter().enumerate() {
                     if !v.is_finite() {
-                        return Err(bad("qe_correction", format!("element [{i}][{j}] is {v}, not a finite number")));
+                        return Err(bad(
+                            "qe_correction",
+                            format!("element [{i}][{j}] is {v}, not a finite number"),
+                        ));
                     }
                 }
             }
@@ -463,7 +540,8 @@ impl SensorConfig {
             pv.validate().map_err(|(key, message)| bad(&key, message))?;
         }
         if let Some(h) = &self.hdr {
-            h.validate(self).map_err(|(key, message)| bad(&key, message))?;
+            h.validate(self)
+                .map_err(|(key, message)| bad(&key, message))?;
         }
         // QE tables.
         let q = &self.qe;
@@ -473,7 +551,10 @@ impl SensorConfig {
         }
         for (i, w) in q.wavelengths_nm.iter().enumerate() {
             if !(w.is_finite() && *w > 0.0) {
-                return Err(bad("qe.wavelengths_nm", format!("value {i} is {w}, not a positive number")));
+                return Err(bad(
+                    "qe.wavelengths_nm",
+                    format!("value {i} is {w}, not a positive number"),
+                ));
             }
         }
         if let Some(i) = q.wavelengths_nm.windows(2).position(|p| p[1] <= p[0]) {
@@ -496,27 +577,48 @@ impl SensorConfig {
         for (key, c) in curves {
             let Some(c) = c else { continue };
             if c.len() != n {
-                return Err(bad(key, format!("has {} values for {n} wavelengths", c.len())));
+                return Err(bad(
+                    key,
+                    format!("has {} values for {n} wavelengths", c.len()),
+                ));
             }
             for (v, w) in c.iter().zip(&q.wavelengths_nm) {
                 if !(v.is_finite() && *v >= 0.0) {
-                    return Err(bad(key, format!("value at {w} nm is {v}, not a finite number >= 0")));
+                    return Err(bad(
+                        key,
+                        format!("value at {w} nm is {v}, not a finite number >= 0"),
+                    ));
                 }
             }
         }
         for (name, c) in &q.filters {
             let key = format!("qe.filters.{name}");
             if c.len() != n {
-                return Err(bad(&key, format!("has {} values for {n} wavelengths", c.len())));
+                return Err(bad(
+                    &key,
+                    format!("has {} values for {n} wavelengths", c.len()),
+                ));
             }
-            if let Some((v, w)) = c.iter().zip(&q.wavelengths_nm).find(|(v, _)| !(v.is_finite() && **v >= 0.0)) {
-                return Err(bad(&key, format!("value at {w} nm is {v}, not a finite number >= 0")));
+            if let Some((v, w)) = c
+                .iter()
+                .zip(&q.wavelengths_nm)
+                .find(|(v, _)| !(v.is_finite() && **v >= 0.0))
+            {
+                return Err(bad(
+                    &key,
+                    format!("value at {w} nm is {v}, not a finite number >= 0"),
+                ));
             }
         }
-        let layout = self.cfa_layout().map_err(|e| bad("cfa_pattern", e.to_string()))?;
+        let layout = self
+            .cfa_layout()
+            .map_err(|e| bad("cfa_pattern", e.to_string()))?;
         // A named filter no CFA cell uses is most likely a typo (or a wrong file): refuse it.
         if let Some(unused) = q.filters.keys().find(|k| layout.filter_index(k).is_none()) {
-            let from = q.loaded_from.as_ref().map_or(String::new(), |f| format!(" of {f}"));
+            let from = q
+                .loaded_from
+                .as_ref()
+                .map_or(String::new(), |f| format!(" of {f}"));
             return Err(bad(
                 &format!("qe.filters.{unused}"),
                 format!(
@@ -526,7 +628,8 @@ impl SensorConfig {
             ));
         }
         for f in layout.filters() {
-            let known = ["r", "g", "b", "w"].contains(&f.as_str()) || self.filter_curve(f).is_some();
+            let known =
+                ["r", "g", "b", "w"].contains(&f.as_str()) || self.filter_curve(f).is_some();
             if !known {
                 return Err(bad(
                     "cfa_pattern",

@@ -39,16 +39,26 @@ impl Sensor {
     ) -> Result<Vec<EmvaLevel>> {
         check_spectrum(irradiance_w_per_m2_nm, grid, "EMVA irradiance")?;
         if frames_per_level < 2 {
-            return Err(SensorError::input("frames_per_level", format!("must be at least 2, got {frames_per_level}")));
+            return Err(SensorError::input(
+                "frames_per_level",
+                format!("must be at least 2, got {frames_per_level}"),
+            ));
         }
         if rows == 0 || cols == 0 || rows > self.rows() || cols > self.cols() {
             return Err(SensorError::input(
                 "EMVA window",
-                format!("{rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor", self.rows(), self.cols()),
+                format!(
+                    "{rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor",
+                    self.rows(),
+                    self.cols()
+                ),
             ));
         }
         if let Some(t) = exposures_s.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
-            return Err(SensorError::input("exposures_s", format!("{t} s is not a finite time >= 0")));
+            return Err(SensorError::input(
+                "exposures_s",
+                format!("{t} s is not a finite time >= 0"),
+            ));
         }
         let n = rows * cols;
         mem::check_alloc(
@@ -58,7 +68,8 @@ impl Sensor {
         // Uniform field: every pixel of channel c collects the same electron rate.
         let mut bright_rate = vec![0.0f32; n];
         if let Some(layout) = &self.layout {
-            let per_filter = self.mean_electrons_uniform_filters(irradiance_w_per_m2_nm, grid, 1.0)?;
+            let per_filter =
+                self.mean_electrons_uniform_filters(irradiance_w_per_m2_nm, grid, 1.0)?;
             for r in 0..rows {
                 for c in 0..cols {
                     bright_rate[r * cols + c] = per_filter[layout.filter_at(r, c)] as f32;
@@ -68,7 +79,8 @@ impl Sensor {
             let per_channel = self.mean_electrons_uniform(irradiance_w_per_m2_nm, grid, 1.0)?;
             for r in 0..rows {
                 for c in 0..cols {
-                    bright_rate[r * cols + c] = per_channel[self.cfa.channel_at(r, c).index()] as f32;
+                    bright_rate[r * cols + c] =
+                        per_channel[self.cfa.channel_at(r, c).index()] as f32;
                 }
             }
         }
@@ -76,7 +88,11 @@ impl Sensor {
         let f = frames_per_level as u64;
         let mut out = Vec::with_capacity(exposures_s.len());
         for (level, &t) in exposures_s.iter().enumerate() {
-            let capture = Capture { exposure: Exposure::Seconds(t), frames: frames_per_level, seed };
+            let capture = Capture {
+                exposure: Exposure::Seconds(t),
+                frames: frames_per_level,
+                seed,
+            };
             let base = level as u64 * 2 * f;
             let bright = self.capture_from_rate(&bright_rate, rows, cols, &capture, base)?;
             let dark = self.capture_from_rate(&dark_rate, rows, cols, &capture, base + f)?;
@@ -97,17 +113,20 @@ impl Sensor {
     /// second. An EMVA 1288 series lit with it saturates every channel at the same exposure
     /// (EMVA 1288 4.0 measures a colour sensor per channel; one light for all three is a
     /// convenience that keeps one exposure ladder). Solves the 3x3 system by Cramer's rule.
-    pub fn balanced_emva_irradiance(&self, grid: &WavelengthGrid, rate_e_per_s: f64) -> Result<Vec<f64>> {
+    pub fn balanced_emva_irradiance(
+        &self,
+        grid: &WavelengthGrid,
+        rate_e_per_s: f64,
+    ) -> Result<Vec<f64>> {
         let bands = [460.0, 540.0, 620.0].map(|w| grid.band_of(w));
-        let bands = match bands {
-            [Some(a), Some(b), Some(c)] => [a, b, c],
-            _ => {
-                return Err(SensorError::input(
+        let bands =
+            match bands {
+                [Some(a), Some(b), Some(c)] => [a, b, c],
+                _ => return Err(SensorError::input(
                     "EMVA light",
                     "the wavelength grid needs bands at 460, 540 and 620 nm for the balanced light",
-                ))
-            }
-        };
+                )),
+            };
         // a[c][k]: electrons/s of channel c per W/(m^2 nm) in line k.
         let mut a = [[0.0; 3]; 3];
         for (k, b) in bands.iter().enumerate() {
@@ -119,7 +138,8 @@ impl Sensor {
             }
         }
         let det = |m: &[[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                 + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
         };
         let d = det(&a);

@@ -46,7 +46,10 @@ pub enum SensorError {
 
 impl SensorError {
     pub(crate) fn input(what: impl Into<String>, message: impl Into<String>) -> Self {
-        SensorError::Input { what: what.into(), message: message.into() }
+        SensorError::Input {
+            what: what.into(),
+            message: message.into(),
+        }
     }
 }
 

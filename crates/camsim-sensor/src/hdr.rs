@@ -115,11 +115,13 @@ pub struct HdrModel {
 impl HdrModel {
     /// Largest signal the high readout reports, electrons: min(full well, ADC range / K).
     pub fn high_saturation_e(&self) -> f64 {
-        self.full_well_high_e.min((self.white_dn - self.black_dn) / self.k_high_dn_per_e)
+        self.full_well_high_e
+            .min((self.white_dn - self.black_dn) / self.k_high_dn_per_e)
     }
     /// Largest signal the low readout reports, its own electrons: min(full well, ADC range / K).
     pub fn low_saturation_e(&self) -> f64 {
-        self.full_well_low_e.min((self.white_dn - self.black_dn) / self.k_low_dn_per_e)
+        self.full_well_low_e
+            .min((self.white_dn - self.black_dn) / self.k_low_dn_per_e)
     }
     /// Largest merged signal, high-readout electrons: low saturation / ratio.
     pub fn max_merged_e(&self) -> f64 {
@@ -138,7 +140,11 @@ impl HdrModel {
     /// quantization of the branch the mean signal falls in, EMVA 1288 eq. 9; no fixed pattern).
     pub fn predicted_snr(&self, signal_e: f64) -> f64 {
         if signal_e < self.switch_e {
-            signal_e / (signal_e + self.read_high_e.powi(2) + 1.0 / (12.0 * self.k_high_dn_per_e.powi(2))).sqrt()
+            signal_e
+                / (signal_e
+                    + self.read_high_e.powi(2)
+                    + 1.0 / (12.0 * self.k_high_dn_per_e.powi(2)))
+                .sqrt()
         } else {
             let s = signal_e * self.ratio;
             s / (s + self.read_low_e.powi(2) + 1.0 / (12.0 * self.k_low_dn_per_e.powi(2))).sqrt()
@@ -173,7 +179,10 @@ pub struct HdrFrame {
 
 impl HdrConfig {
     /// Check the values against the sensor; errors name the key (`hdr.switch_level`, ...).
-    pub(crate) fn validate(&self, s: &crate::config::SensorConfig) -> std::result::Result<(), (String, String)> {
+    pub(crate) fn validate(
+        &self,
+        s: &crate::config::SensorConfig,
+    ) -> std::result::Result<(), (String, String)> {
         let bad = |k: &str, m: String| Err((format!("hdr.{k}"), m));
         if !(self.switch_level.is_finite() && self.switch_level > 0.0 && self.switch_level <= 1.0) {
             return bad(
@@ -183,39 +192,70 @@ impl HdrConfig {
         }
         let need = |k: &str, v: Option<f64>| -> std::result::Result<f64, (String, String)> {
             match v {
-                None => Err((format!("hdr.{k}"), format!("is required for mode = \"{}\"", self.mode_name()))),
-                Some(x) if !(x.is_finite() && x > 0.0) => Err((format!("hdr.{k}"), format!("must be a positive number, got {x}"))),
+                None => Err((
+                    format!("hdr.{k}"),
+                    format!("is required for mode = \"{}\"", self.mode_name()),
+                )),
+                Some(x) if !(x.is_finite() && x > 0.0) => Err((
+                    format!("hdr.{k}"),
+                    format!("must be a positive number, got {x}"),
+                )),
                 Some(x) => Ok(x),
             }
         };
         let non_neg = |k: &str, v: Option<f64>| -> std::result::Result<f64, (String, String)> {
             match v {
-                None => Err((format!("hdr.{k}"), format!("is required for mode = \"{}\"", self.mode_name()))),
-                Some(x) if !(x.is_finite() && x >= 0.0) => Err((format!("hdr.{k}"), format!("must be a finite number >= 0, got {x}"))),
+                None => Err((
+                    format!("hdr.{k}"),
+                    format!("is required for mode = \"{}\"", self.mode_name()),
+                )),
+                Some(x) if !(x.is_finite() && x >= 0.0) => Err((
+                    format!("hdr.{k}"),
+                    format!("must be a finite number >= 0, got {x}"),
+                )),
                 Some(x) => Ok(x),
             }
         };
         let forbid = |k: &str, v: Option<f64>| -> std::result::Result<(), (String, String)> {
             match v {
-                Some(_) => Err((format!("hdr.{k}"), format!("does not belong to mode = \"{}\"", self.mode_name()))),
+                Some(_) => Err((
+                    format!("hdr.{k}"),
+                    format!("does not belong to mode = \"{}\"", self.mode_name()),
+                )),
                 None => Ok(()),
             }
         };
         if s.effective_analog_gain() != 1.0 || s.iso.is_some() {
-            return Err(("analog_gain".into(), "an [hdr] sensor models no analog gain or ISO (leave analog_gain = 1, no iso)".into()));
+            return Err((
+                "analog_gain".into(),
+                "an [hdr] sensor models no analog gain or ISO (leave analog_gain = 1, no iso)"
+                    .into(),
+            ));
         }
         if s.analog_offset_mv != 0.0 {
-            return Err(("analog_offset_mv".into(), "an [hdr] sensor models no analog offset (use black_level_dn)".into()));
+            return Err((
+                "analog_offset_mv".into(),
+                "an [hdr] sensor models no analog offset (use black_level_dn)".into(),
+            ));
         }
         let hcg_sat_e = s.voltage_swing_v / (s.conversion_gain_uv_per_e * 1e-6);
         match self.mode {
             HdrMode::Dcg => {
-                for (k, v) in [("sensitivity_ratio", self.sensitivity_ratio), ("spd_full_well_e", self.spd_full_well_e)] {
+                for (k, v) in [
+                    ("sensitivity_ratio", self.sensitivity_ratio),
+                    ("spd_full_well_e", self.spd_full_well_e),
+                ] {
                     forbid(k, v)?;
                 }
-                forbid("spd_conversion_gain_uv_per_e", self.spd_conversion_gain_uv_per_e)?;
+                forbid(
+                    "spd_conversion_gain_uv_per_e",
+                    self.spd_conversion_gain_uv_per_e,
+                )?;
                 forbid("spd_read_noise_e", self.spd_read_noise_e)?;
-                let cg_l = need("lcg_conversion_gain_uv_per_e", self.lcg_conversion_gain_uv_per_e)?;
+                let cg_l = need(
+                    "lcg_conversion_gain_uv_per_e",
+                    self.lcg_conversion_gain_uv_per_e,
+                )?;
                 if cg_l >= s.conversion_gain_uv_per_e {
                     return bad(
                         "lcg_conversion_gain_uv_per_e",
@@ -233,14 +273,23 @@ impl HdrConfig {
             }
             HdrMode::SplitPixel => {
                 forbid("full_well_e", self.full_well_e)?;
-                forbid("lcg_conversion_gain_uv_per_e", self.lcg_conversion_gain_uv_per_e)?;
+                forbid(
+                    "lcg_conversion_gain_uv_per_e",
+                    self.lcg_conversion_gain_uv_per_e,
+                )?;
                 forbid("lcg_read_noise_e", self.lcg_read_noise_e)?;
                 let r = need("sensitivity_ratio", self.sensitivity_ratio)?;
                 if r >= 1.0 {
-                    return bad("sensitivity_ratio", format!("must be in (0, 1) (SPD / LPD responsivity), got {r}"));
+                    return bad(
+                        "sensitivity_ratio",
+                        format!("must be in (0, 1) (SPD / LPD responsivity), got {r}"),
+                    );
                 }
                 let fw = need("spd_full_well_e", self.spd_full_well_e)?;
-                need("spd_conversion_gain_uv_per_e", self.spd_conversion_gain_uv_per_e)?;
+                need(
+                    "spd_conversion_gain_uv_per_e",
+                    self.spd_conversion_gain_uv_per_e,
+                )?;
                 non_neg("spd_read_noise_e", self.spd_read_noise_e)?;
                 if fw / r <= hcg_sat_e {
                     return bad(
@@ -274,7 +323,13 @@ impl Sensor {
         let (k_low, read_low_e, fw_high, fw_low, ratio) = match h.mode {
             HdrMode::Dcg => {
                 let fw = h.full_well_e.unwrap_or(0.0);
-                (h.lcg_conversion_gain_uv_per_e.unwrap_or(0.0) * 1e-6 * dpv, h.lcg_read_noise_e.unwrap_or(0.0), fw, fw, 1.0)
+                (
+                    h.lcg_conversion_gain_uv_per_e.unwrap_or(0.0) * 1e-6 * dpv,
+                    h.lcg_read_noise_e.unwrap_or(0.0),
+                    fw,
+                    fw,
+                    1.0,
+                )
             }
             HdrMode::SplitPixel => (
                 h.spd_conversion_gain_uv_per_e.unwrap_or(0.0) * 1e-6 * dpv,
@@ -312,23 +367,42 @@ impl Sensor {
     /// rows x cols row-major). Temporal noise is keyed on (capture seed, frame, row), the fixed
     /// pattern on (fixed_pattern_seed, row): bit-identical for any thread count. Auto-exposure
     /// puts the 99th percentile at the target fraction of the HCG / LPD swing.
-    pub fn compute_hdr_from_rate(&self, rate_e_per_s: &[f32], capture: &Capture) -> Result<HdrFrame> {
+    pub fn compute_hdr_from_rate(
+        &self,
+        rate_e_per_s: &[f32],
+        capture: &Capture,
+    ) -> Result<HdrFrame> {
         let Some(model) = self.hdr_model() else {
-            return Err(SensorError::input("hdr", "the sensor has no [hdr] table (dual conversion gain or split pixel)"));
+            return Err(SensorError::input(
+                "hdr",
+                "the sensor has no [hdr] table (dual conversion gain or split pixel)",
+            ));
         };
         let (rows, cols) = (self.rows(), self.cols());
         let n = rows * cols;
         if rate_e_per_s.len() != n {
-            return Err(SensorError::input("hdr", format!("{} electron rates for {rows} x {cols} pixels", rate_e_per_s.len())));
+            return Err(SensorError::input(
+                "hdr",
+                format!(
+                    "{} electron rates for {rows} x {cols} pixels",
+                    rate_e_per_s.len()
+                ),
+            ));
         }
         if capture.frames == 0 {
             return Err(SensorError::input("frames", "must be at least 1"));
         }
         let exposure_s = self.resolve_exposure(rate_e_per_s, rows, cols, capture.exposure)?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
-            return Err(SensorError::input("exposure", format!("{exposure_s} s is not a finite time >= 0")));
+            return Err(SensorError::input(
+                "exposure",
+                format!("{exposure_s} s is not a finite time >= 0"),
+            ));
         }
-        mem::check_alloc((n * 8 * capture.frames) as u64, &format!("{} HDR frames of {rows} x {cols}", capture.frames))?;
+        mem::check_alloc(
+            (n * 8 * capture.frames) as u64,
+            &format!("{} HDR frames of {rows} x {cols}", capture.frames),
+        )?;
         let new_raw = || -> Result<RawImage> {
             let mut raw = RawImage::new(rows, cols, self.cfa, self.bits)?;
             raw.black_level_dn = model.black_dn;
@@ -338,15 +412,34 @@ impl Sensor {
             raw.layout = self.layout.clone();
             Ok(raw)
         };
-        let mut out = HdrFrame { high: Vec::new(), low: Vec::new(), merged_e: Vec::new(), exposure_s, model };
+        let mut out = HdrFrame {
+            high: Vec::new(),
+            low: Vec::new(),
+            merged_e: Vec::new(),
+            exposure_s,
+            model,
+        };
         for k in 0..capture.frames {
             let (mut hi, mut lo) = (new_raw()?, new_raw()?);
             let mut merged = vec![0.0f32; n];
-            hi.dn.par_chunks_mut(cols).zip(lo.dn.par_chunks_mut(cols)).zip(merged.par_chunks_mut(cols)).enumerate().for_each(
-                |(r, ((h, l), m))| {
-                    self.hdr_row(&model, r, &rate_e_per_s[r * cols..(r + 1) * cols], exposure_s, capture.seed, k as u64, h, l, m)
-                },
-            );
+            hi.dn
+                .par_chunks_mut(cols)
+                .zip(lo.dn.par_chunks_mut(cols))
+                .zip(merged.par_chunks_mut(cols))
+                .enumerate()
+                .for_each(|(r, ((h, l), m))| {
+                    self.hdr_row(
+                        &model,
+                        r,
+                        &rate_e_per_s[r * cols..(r + 1) * cols],
+                        exposure_s,
+                        capture.seed,
+                        k as u64,
+                        h,
+                        l,
+                        m,
+                    )
+                });
             out.high.push(hi);
             out.low.push(lo);
             out.merged_e.push(merged);
@@ -372,11 +465,24 @@ impl Sensor {
         let nz = self.noise;
         let dark_e = self.dark_electrons(exposure_s);
         let prnu = if nz.prnu { self.prnu_fraction } else { 0.0 };
-        let dsnu_e = if nz.dsnu { self.dsnu_v / self.conversion_gain_v_per_e } else { 0.0 };
+        let dsnu_e = if nz.dsnu {
+            self.dsnu_v / self.conversion_gain_v_per_e
+        } else {
+            0.0
+        };
         let fpn = nz.prnu || nz.dsnu;
         let split = m.mode == HdrMode::SplitPixel;
-        let (read_h, read_l) = if nz.read { (m.read_high_e, m.read_low_e) } else { (0.0, 0.0) };
-        let mut fp = keyed(self.config().fixed_pattern_seed, stage::SENSOR_FIXED_PATTERN, 0, r as u64);
+        let (read_h, read_l) = if nz.read {
+            (m.read_high_e, m.read_low_e)
+        } else {
+            (0.0, 0.0)
+        };
+        let mut fp = keyed(
+            self.config().fixed_pattern_seed,
+            stage::SENSOR_FIXED_PATTERN,
+            0,
+            r as u64,
+        );
         let mut tr = keyed(seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
         let zig = Ziggurat::get();
         // Electrons of a photodiode of mean mu: Poisson (normal with the same mean and variance
@@ -391,20 +497,29 @@ impl Sensor {
             };
             e.clamp(0.0, fw)
         };
-        let adc = |e: f64, k: f64| -> u16 { (e * k + m.black_dn).clamp(0.0, m.white_dn).round() as u16 };
+        let adc =
+            |e: f64, k: f64| -> u16 { (e * k + m.black_dn).clamp(0.0, m.white_dn).round() as u16 };
         for c in 0..rate.len() {
             let (g_high, offset_e, g_low) = if fpn {
                 // Same two draws per pixel as the base model (PRNU, DSNU), then the SPD's PRNU.
                 let z1 = zig.sample(&mut fp);
                 let z2 = zig.sample(&mut fp);
-                let g_low = if split { 1.0 + prnu * zig.sample(&mut fp) } else { 1.0 + prnu * z1 };
+                let g_low = if split {
+                    1.0 + prnu * zig.sample(&mut fp)
+                } else {
+                    1.0 + prnu * z1
+                };
                 (1.0 + prnu * z1, dsnu_e * z2, g_low)
             } else {
                 (1.0, 0.0, 1.0)
             };
             let mu = (rate[c] as f64 * exposure_s).max(0.0);
             let e_high = electrons(&mut tr, mu * g_high + dark_e, m.full_well_high_e);
-            let e_low = if split { electrons(&mut tr, (mu * g_low + dark_e) * m.ratio, m.full_well_low_e) } else { e_high };
+            let e_low = if split {
+                electrons(&mut tr, (mu * g_low + dark_e) * m.ratio, m.full_well_low_e)
+            } else {
+                e_high
+            };
             let zh = if nz.read { zig.sample(&mut tr) } else { 0.0 };
             let zl = if nz.read { zig.sample(&mut tr) } else { 0.0 };
             let dh = adc(e_high + offset_e + read_h * zh, m.k_high_dn_per_e);

@@ -78,7 +78,8 @@ impl Ziggurat {
                 }
             }
             // Wedge: accept with the density between the layer edges.
-            if self.f[iz] + uniform_open(rng) * (self.f[iz - 1] - self.f[iz]) < (-0.5 * x * x).exp() {
+            if self.f[iz] + uniform_open(rng) * (self.f[iz - 1] - self.f[iz]) < (-0.5 * x * x).exp()
+            {
                 return x;
             }
             let u = rng.next_u64();
@@ -120,7 +121,9 @@ mod tests {
         let z = Ziggurat::get();
         let mut rng = camsim_core::rng::keyed(1, 99, 0, 0);
         let n = 2_000_000usize;
-        let edges = [-4.0, -3.5, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.0, 3.5, 4.0];
+        let edges = [
+            -4.0, -3.5, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 3.0, 3.5, 4.0,
+        ];
         let mut counts = vec![0usize; edges.len() + 1];
         let (mut m1, mut m2, mut m4) = (0.0, 0.0, 0.0);
         for _ in 0..n {
@@ -133,15 +136,27 @@ mod tests {
         let nf = n as f64;
         // Standard errors: mean 1/sqrt(n), variance sqrt(2/n), fourth moment sqrt(96/n).
         assert!((m1 / nf).abs() < 4.0 / nf.sqrt(), "mean {}", m1 / nf);
-        assert!((m2 / nf - 1.0).abs() < 4.0 * (2.0 / nf).sqrt(), "variance {}", m2 / nf);
-        assert!((m4 / nf - 3.0).abs() < 4.0 * (96.0 / nf).sqrt(), "fourth moment {}", m4 / nf);
+        assert!(
+            (m2 / nf - 1.0).abs() < 4.0 * (2.0 / nf).sqrt(),
+            "variance {}",
+            m2 / nf
+        );
+        assert!(
+            (m4 / nf - 3.0).abs() < 4.0 * (96.0 / nf).sqrt(),
+            "fourth moment {}",
+            m4 / nf
+        );
         // Bin counts against the normal probabilities (binomial standard error per bin).
         let mut lo = -12.0;
         for (i, c) in counts.iter().enumerate() {
             let hi = if i < edges.len() { edges[i] } else { 12.0 };
             let p = normal_prob(lo, hi);
             let se = (nf * p * (1.0 - p)).sqrt();
-            assert!((*c as f64 - nf * p).abs() < 4.0 * se + 1.0, "bin [{lo}, {hi}): {c} vs {}", nf * p);
+            assert!(
+                (*c as f64 - nf * p).abs() < 4.0 * se + 1.0,
+                "bin [{lo}, {hi}): {c} vs {}",
+                nf * p
+            );
             lo = hi;
         }
     }

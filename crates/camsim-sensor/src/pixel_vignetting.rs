@@ -65,12 +65,21 @@ impl PixelVignettingConfig {
             }
         };
         pos("pixel_vignetting.f_number", self.f_number)?;
-        pos("pixel_vignetting.exit_pupil_distance_mm", self.exit_pupil_distance_mm)?;
+        pos(
+            "pixel_vignetting.exit_pupil_distance_mm",
+            self.exit_pupil_distance_mm,
+        )?;
         if !(self.stack_height_um.is_finite() && self.stack_height_um >= 0.0) {
-            return Err(("pixel_vignetting.stack_height_um".into(), format!("must be a finite number >= 0, got {}", self.stack_height_um)));
+            return Err((
+                "pixel_vignetting.stack_height_um".into(),
+                format!("must be a finite number >= 0, got {}", self.stack_height_um),
+            ));
         }
         if !(self.dielectric_index.is_finite() && self.dielectric_index >= 1.0) {
-            return Err(("pixel_vignetting.dielectric_index".into(), format!("must be >= 1, got {}", self.dielectric_index)));
+            return Err((
+                "pixel_vignetting.dielectric_index".into(),
+                format!("must be >= 1, got {}", self.dielectric_index),
+            ));
         }
         Ok(())
     }
@@ -89,7 +98,11 @@ impl PixelVignettingConfig {
             MicrolensPlacement::Optimal => h * refracted_tan(tan_chief),
         };
         let half_cone = 1.0 / (2.0 * self.f_number);
-        let overlap = |s: f64| ((pitch_um / 2.0 + s).min(pd_um / 2.0) - (-pitch_um / 2.0 + s).max(-pd_um / 2.0)).max(0.0) / pitch_um;
+        let overlap = |s: f64| {
+            ((pitch_um / 2.0 + s).min(pd_um / 2.0) - (-pitch_um / 2.0 + s).max(-pd_um / 2.0))
+                .max(0.0)
+                / pitch_um
+        };
         (0..PUPIL_SAMPLES)
             .map(|k| {
                 let u = (k as f64 + 0.5) / PUPIL_SAMPLES as f64 * 2.0 - 1.0;
@@ -101,7 +114,13 @@ impl PixelVignettingConfig {
 
     /// Relative response (1 on the axis) of every pixel of a `rows` x `cols` sensor, centred on
     /// the optical axis, row-major.
-    pub fn relative_response(&self, rows: usize, cols: usize, pitch_um: f64, fill_factor: f64) -> Vec<f32> {
+    pub fn relative_response(
+        &self,
+        rows: usize,
+        cols: usize,
+        pitch_um: f64,
+        fill_factor: f64,
+    ) -> Vec<f32> {
         let pd_um = pitch_um * fill_factor.sqrt();
         let d_um = self.exit_pupil_distance_mm * 1e3;
         let on_axis = self.axis_fraction(0.0, pitch_um, pd_um);
@@ -118,6 +137,8 @@ impl PixelVignettingConfig {
                 .collect()
         };
         let (fy, fx) = (axis(rows), axis(cols));
-        fy.iter().flat_map(|y| fx.iter().map(move |x| (y * x) as f32)).collect()
+        fy.iter()
+            .flat_map(|y| fx.iter().map(move |x| (y * x) as f32))
+            .collect()
     }
 }

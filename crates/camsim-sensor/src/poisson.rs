@@ -42,7 +42,9 @@ fn ln_factorial(k: f64) -> f64 {
     let n = k;
     let inv = 1.0 / n;
     let inv2 = inv * inv;
-    (n + 0.5) * n.ln() - n + 0.918_938_533_204_672_7 + inv * (1.0 / 12.0 - inv2 * (1.0 / 360.0 - inv2 / 1260.0))
+    (n + 0.5) * n.ln() - n
+        + 0.918_938_533_204_672_7
+        + inv * (1.0 / 12.0 - inv2 * (1.0 / 360.0 - inv2 / 1260.0))
 }
 
 /// One Poisson deviate of mean `mean` (>= 0, finite), as f64.
@@ -109,7 +111,10 @@ mod tests {
         let mut lf = 0.0f64;
         for k in 1..60 {
             lf += (k as f64).ln();
-            assert!((ln_factorial(k as f64) - lf).abs() < 1e-10 * lf.max(1.0), "{k}");
+            assert!(
+                (ln_factorial(k as f64) - lf).abs() < 1e-10 * lf.max(1.0),
+                "{k}"
+            );
         }
     }
 
@@ -118,7 +123,10 @@ mod tests {
     #[test]
     fn samples_follow_the_poisson_distribution() {
         let n = 400_000usize;
-        for (j, mean) in [0.3f64, 2.5, 9.99, 10.0, 17.3, 55.0, 99.9].into_iter().enumerate() {
+        for (j, mean) in [0.3f64, 2.5, 9.99, 10.0, 17.3, 55.0, 99.9]
+            .into_iter()
+            .enumerate()
+        {
             let mut rng = camsim_core::rng::keyed(3, 98, 0, j as u64);
             let kmax = (mean + 12.0 * mean.sqrt() + 20.0) as usize;
             let mut counts = vec![0usize; kmax + 1];
@@ -133,14 +141,24 @@ mod tests {
             let nf = n as f64;
             let m = s1 / nf;
             let v = s2 / nf - m * m;
-            assert!((m - mean).abs() < 5.0 * (mean / nf).sqrt(), "mean {mean}: {m}");
+            assert!(
+                (m - mean).abs() < 5.0 * (mean / nf).sqrt(),
+                "mean {mean}: {m}"
+            );
             // Var of the sample variance of a Poisson: (mu4 - sigma^4)/n with mu4 = mean (1 + 3 mean).
             let se_v = ((mean * (1.0 + 3.0 * mean) - mean * mean) / nf).sqrt();
-            assert!((v - mean).abs() < 5.0 * se_v, "variance at mean {mean}: {v}");
+            assert!(
+                (v - mean).abs() < 5.0 * se_v,
+                "variance at mean {mean}: {v}"
+            );
             for (k, c) in counts.iter().enumerate().take(kmax) {
                 let p = pmf(k, mean);
                 let se = (nf * p * (1.0 - p)).sqrt();
-                assert!((*c as f64 - nf * p).abs() < 5.0 * se + 2.0, "mean {mean}, k = {k}: {c} vs {}", nf * p);
+                assert!(
+                    (*c as f64 - nf * p).abs() < 5.0 * se + 2.0,
+                    "mean {mean}, k = {k}: {c} vs {}",
+                    nf * p
+                );
             }
         }
     }

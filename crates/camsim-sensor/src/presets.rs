@@ -5,7 +5,10 @@ use crate::error::{Result, SensorError};
 const PRESETS: &[(&str, &str)] = &[
     ("imx363", include_str!("../presets/imx363.toml")),
     ("pixel4a", include_str!("../presets/pixel4a.toml")),
-    ("pixel4a-raw10", include_str!("../presets/pixel4a-raw10.toml")),
+    (
+        "pixel4a-raw10",
+        include_str!("../presets/pixel4a-raw10.toml"),
+    ),
     ("ideal", include_str!("../presets/ideal.toml")),
 ];
 
@@ -22,5 +25,8 @@ pub fn toml(name: &str) -> Result<&'static str> {
         .iter()
         .find(|(n, _)| n.eq_ignore_ascii_case(name))
         .map(|(_, t)| *t)
-        .ok_or_else(|| SensorError::UnknownPreset { name: name.to_string(), known: NAMES.join(", ") })
+        .ok_or_else(|| SensorError::UnknownPreset {
+            name: name.to_string(),
+            known: NAMES.join(", "),
+        })
 }

@@ -57,7 +57,8 @@ pub struct NoiseBreakdown {
 impl NoiseBreakdown {
     /// Temporal part only (shot, dark shot, read, quantization): the spread of one pixel over frames, DN.
     pub fn temporal(&self) -> f64 {
-        (self.shot.powi(2) + self.dark.powi(2) + self.read.powi(2) + self.quantization.powi(2)).sqrt()
+        (self.shot.powi(2) + self.dark.powi(2) + self.read.powi(2) + self.quantization.powi(2))
+            .sqrt()
     }
 }
 
@@ -99,8 +100,12 @@ impl Sensor {
                 .collect(),
         };
         let mk = |c: usize| -> Result<Spectrum> {
-            Spectrum::new(q.wavelengths_nm.clone(), corrected.iter().map(|v| v[c]).collect(), "qe")
-                .map_err(SensorError::from)
+            Spectrum::new(
+                q.wavelengths_nm.clone(),
+                corrected.iter().map(|v| v[c]).collect(),
+                "qe",
+            )
+            .map_err(SensorError::from)
         };
         let qe = [mk(0)?, mk(1)?, mk(2)?];
         let full_layout = config.cfa_layout()?;
@@ -118,8 +123,11 @@ impl Sensor {
                 "b" => qe[2].clone(),
                 _ => {
                     let t = config.filter_curve(f);
-                    let values = (0..n).map(|k| t.map_or(1.0, |t| t[k]) * ir(k) * px(k)).collect();
-                    Spectrum::new(q.wavelengths_nm.clone(), values, "qe").map_err(SensorError::from)?
+                    let values = (0..n)
+                        .map(|k| t.map_or(1.0, |t| t[k]) * ir(k) * px(k))
+                        .collect();
+                    Spectrum::new(q.wavelengths_nm.clone(), values, "qe")
+                        .map_err(SensorError::from)?
                 }
             };
             filter_qe.push(spectrum);
@@ -162,9 +170,15 @@ impl Sensor {
     /// Read a sensor TOML file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Sensor> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| camsim_core::CoreError::Io { path: path.to_path_buf(), source: e })?;
-        Sensor::from_toml_str_in(&text, &path.display().to_string(), path.parent().unwrap_or(Path::new("")))
+        let text = std::fs::read_to_string(path).map_err(|e| camsim_core::CoreError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        Sensor::from_toml_str_in(
+            &text,
+            &path.display().to_string(),
+            path.parent().unwrap_or(Path::new("")),
+        )
     }
 
     /// A built-in preset (`imx363`, `pixel4a`, `pixel4a-raw10`, `ideal`).
@@ -238,7 +252,9 @@ impl Sensor {
     }
     /// The colour filter array as a general layout (a Bayer pattern too).
     pub fn cfa_layout(&self) -> CfaLayout {
-        self.layout.clone().unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
+        self.layout
+            .clone()
+            .unwrap_or_else(|| CfaLayout::from_bayer(self.cfa))
     }
     /// True when the CFA is not a Bayer pattern (RGBW, Quad Bayer, `cfa_pattern`).
     pub fn is_bayer(&self) -> bool {
@@ -362,7 +378,11 @@ impl Sensor {
     /// Effective channel QE (colour filter x IR-cut x pixel QE, corrected) resampled linearly to `grid`
     /// (0 outside the config's wavelengths), r, g, b.
     pub fn channel_qe(&self, grid: &WavelengthGrid) -> [Vec<f64>; 3] {
-        [self.qe[0].sample(grid), self.qe[1].sample(grid), self.qe[2].sample(grid)]
+        [
+            self.qe[0].sample(grid),
+            self.qe[1].sample(grid),
+            self.qe[2].sample(grid),
+        ]
     }
 
     /// Electrons per second per pixel of each channel per unit spectral irradiance in each band:
@@ -404,7 +424,11 @@ impl Sensor {
     /// Electrons per second per pixel per unit spectral irradiance in each band, per filter of
     /// [`Sensor::cfa_layout`] (as [`Sensor::band_factors`]; that one is the Bayer hot path's).
     pub(crate) fn band_factors_filters(&self, grid: &WavelengthGrid) -> Vec<Vec<f64>> {
-        let qe: Vec<Vec<f64>> = self.filter_qe_spectra().iter().map(|s| s.sample(grid)).collect();
+        let qe: Vec<Vec<f64>> = self
+            .filter_qe_spectra()
+            .iter()
+            .map(|s| s.sample(grid))
+            .collect();
         let area = self.photodetector_area_m2();
         (0..grid.len())
             .map(|b| {
@@ -441,7 +465,10 @@ impl Sensor {
     pub fn filter_from_rgb_weights(&self, name: &str) -> Result<[f64; 3]> {
         let layout = self.cfa_layout();
         let Some(i) = layout.filter_index(name) else {
-            return Err(SensorError::input("filter", format!("the CFA {} has no filter '{name}'", layout.name())));
+            return Err(SensorError::input(
+                "filter",
+                format!("the CFA {} has no filter '{name}'", layout.name()),
+            ));
         };
         let target = self.filter_qe_spectra()[i].values.clone();
         let basis: Vec<&[f64]> = self.qe.iter().map(|s| s.values.as_slice()).collect();
@@ -456,13 +483,22 @@ impl Sensor {
             }
         }
         let det = |m: &[[f64; 3]; 3]| {
-            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                 + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
         };
         let d = det(&a);
-        let scale = a.iter().flatten().map(|v| v.abs()).fold(0.0, f64::max).powi(3);
+        let scale = a
+            .iter()
+            .flatten()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max)
+            .powi(3);
         if d.abs() <= 1e-12 * scale || !d.is_finite() {
-            return Err(SensorError::input("filter", "the r, g, b QE curves are linearly dependent; no fit of another filter to them"));
+            return Err(SensorError::input(
+                "filter",
+                "the r, g, b QE curves are linearly dependent; no fit of another filter to them",
+            ));
         }
         let mut w = [0.0; 3];
         for (c, wc) in w.iter_mut().enumerate() {
@@ -477,13 +513,19 @@ impl Sensor {
 
     /// Mean photons reaching the whole pixel area (pitch^2) of a uniform irradiance in `exposure_s`,
     /// wavelength-integrated: sum E lambda/(h c) d lambda x pitch^2 x t (EMVA 1288 mu_p).
-    pub fn photons_per_pixel(&self, irradiance_w_per_m2_nm: &[f64], grid: &WavelengthGrid, exposure_s: f64) -> Result<f64> {
+    pub fn photons_per_pixel(
+        &self,
+        irradiance_w_per_m2_nm: &[f64],
+        grid: &WavelengthGrid,
+        exposure_s: f64,
+    ) -> Result<f64> {
         check_spectrum(irradiance_w_per_m2_nm, grid, "uniform irradiance")?;
         let area = self.pixel_pitch_m * self.pixel_pitch_m;
         Ok((0..grid.len())
             .map(|b| {
                 let lambda_m = grid.wavelength_nm(b) * 1e-9;
-                irradiance_w_per_m2_nm[b] * grid.step_nm * lambda_m / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S)
+                irradiance_w_per_m2_nm[b] * grid.step_nm * lambda_m
+                    / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S)
             })
             .sum::<f64>()
             * area
@@ -496,7 +538,11 @@ impl Sensor {
     /// var_DN = K^2 mu_e + (read_v dn_per_v / g)^2 + (dsnu_v dn_per_v / g)^2 + (prnu mean)^2 + 1/12,
     /// mu_e = photo + dark electrons, K = [`Sensor::k_dn_per_e`]. Switched-off sources give 0.
     /// Ignores clipping (valid well below the swing and above 0).
-    pub fn predicted_noise_dn(&self, mean_signal_dn_above_black: f64, exposure_s: f64) -> NoiseBreakdown {
+    pub fn predicted_noise_dn(
+        &self,
+        mean_signal_dn_above_black: f64,
+        exposure_s: f64,
+    ) -> NoiseBreakdown {
         let k = self.k_dn_per_e();
         let g = self.analog_gain;
         let dpv = self.dn_per_v();
@@ -506,13 +552,43 @@ impl Sensor {
         let photo_e = (total_e - dark_e).max(0.0);
         let n = &self.noise;
         let shot = if n.shot { k * photo_e.sqrt() } else { 0.0 };
-        let dark = if n.shot { k * dark_e.min(total_e).sqrt() } else { 0.0 };
-        let read = if n.read { self.read_noise_v * dpv / g } else { 0.0 };
+        let dark = if n.shot {
+            k * dark_e.min(total_e).sqrt()
+        } else {
+            0.0
+        };
+        let read = if n.read {
+            self.read_noise_v * dpv / g
+        } else {
+            0.0
+        };
         let dsnu = if n.dsnu { self.dsnu_v * dpv / g } else { 0.0 };
-        let prnu = if n.prnu { self.prnu_fraction * mean } else { 0.0 };
-        let quantization = if n.quantization { (1.0f64 / 12.0).sqrt() } else { 0.0 };
-        let total = (shot * shot + dark * dark + read * read + dsnu * dsnu + prnu * prnu + quantization * quantization).sqrt();
-        NoiseBreakdown { shot, read, dsnu, prnu, dark, quantization, total }
+        let prnu = if n.prnu {
+            self.prnu_fraction * mean
+        } else {
+            0.0
+        };
+        let quantization = if n.quantization {
+            (1.0f64 / 12.0).sqrt()
+        } else {
+            0.0
+        };
+        let total = (shot * shot
+            + dark * dark
+            + read * read
+            + dsnu * dsnu
+            + prnu * prnu
+            + quantization * quantization)
+            .sqrt();
+        NoiseBreakdown {
+            shot,
+            read,
+            dsnu,
+            prnu,
+            dark,
+            quantization,
+            total,
+        }
     }
 }
 
@@ -520,13 +596,24 @@ pub(crate) fn check_spectrum(values: &[f64], grid: &WavelengthGrid, what: &str) 
     if values.len() != grid.len() {
         return Err(SensorError::input(
             what,
-            format!("{} values for a {}-band wavelength grid", values.len(), grid.len()),
+            format!(
+                "{} values for a {}-band wavelength grid",
+                values.len(),
+                grid.len()
+            ),
         ));
     }
-    if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
+    if let Some((i, v)) = values
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+    {
         return Err(SensorError::input(
             what,
-            format!("value {v} at {} nm is not a finite number >= 0", grid.wavelength_nm(i)),
+            format!(
+                "value {v} at {} nm is not a finite number >= 0",
+                grid.wavelength_nm(i)
+            ),
         ));
     }
     Ok(())

@@ -22,7 +22,9 @@ fn with(key: &str, value: &str) -> String {
 }
 
 fn error_of(text: &str) -> String {
-    Sensor::from_toml_str(text, "test.toml").unwrap_err().to_string()
+    Sensor::from_toml_str(text, "test.toml")
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
@@ -50,7 +52,10 @@ fn impossible_values_name_the_key() {
     ];
     for (key, value) in cases {
         let err = error_of(&with(key, value));
-        assert!(err.contains("test.toml") && err.contains(key), "{key} = {value}: {err}");
+        assert!(
+            err.contains("test.toml") && err.contains(key),
+            "{key} = {value}: {err}"
+        );
     }
 }
 
@@ -61,10 +66,26 @@ fn bad_qe_tables_name_the_key() {
         ("r = [1.0, 1.0]", "r = [1.0, nan]", "qe.r"),
         ("g = [1.0, 1.0]", "g = [1.0, -0.1]", "qe.g"),
         ("b = [1.0, 1.0]", "b = [1.0]", "qe.b"),
-        ("wavelengths_nm = [300.0, 1100.0]", "wavelengths_nm = [1100.0, 300.0]", "qe.wavelengths_nm"),
-        ("wavelengths_nm = [300.0, 1100.0]", "wavelengths_nm = [300.0, 300.0]", "qe.wavelengths_nm"),
-        ("b = [1.0, 1.0]", "b = [1.0, 1.0]\nir_cut = [1.0]", "qe.ir_cut"),
-        ("b = [1.0, 1.0]", "b = [1.0, 1.0]\npixel_qe = [1.0, inf]", "qe.pixel_qe"),
+        (
+            "wavelengths_nm = [300.0, 1100.0]",
+            "wavelengths_nm = [1100.0, 300.0]",
+            "qe.wavelengths_nm",
+        ),
+        (
+            "wavelengths_nm = [300.0, 1100.0]",
+            "wavelengths_nm = [300.0, 300.0]",
+            "qe.wavelengths_nm",
+        ),
+        (
+            "b = [1.0, 1.0]",
+            "b = [1.0, 1.0]\nir_cut = [1.0]",
+            "qe.ir_cut",
+        ),
+        (
+            "b = [1.0, 1.0]",
+            "b = [1.0, 1.0]\npixel_qe = [1.0, inf]",
+            "qe.pixel_qe",
+        ),
     ];
     for (from, to, key) in cases {
         let text = base.replacen(from, to, 1);
@@ -85,19 +106,32 @@ fn bad_qe_tables_name_the_key() {
 
 #[test]
 fn unknown_keys_and_types_are_parse_errors() {
-    let text = presets::toml("ideal").unwrap().replacen("bits = 16", "bits = 16\npixel_size_um = 2.0", 1);
+    let text =
+        presets::toml("ideal")
+            .unwrap()
+            .replacen("bits = 16", "bits = 16\npixel_size_um = 2.0", 1);
     let err = error_of(&text);
-    assert!(err.contains("test.toml") && err.contains("pixel_size_um"), "{err}");
-    let text = presets::toml("ideal").unwrap().replacen("bits = 16", "bits = \"twelve\"", 1);
+    assert!(
+        err.contains("test.toml") && err.contains("pixel_size_um"),
+        "{err}"
+    );
+    let text = presets::toml("ideal")
+        .unwrap()
+        .replacen("bits = 16", "bits = \"twelve\"", 1);
     let err = error_of(&text);
     assert!(err.contains("test.toml") && err.contains("bits"), "{err}");
-    let text = presets::toml("ideal").unwrap().replacen("shot = false", "shot = false\nflicker = true", 1);
+    let text =
+        presets::toml("ideal")
+            .unwrap()
+            .replacen("shot = false", "shot = false\nflicker = true", 1);
     assert!(error_of(&text).contains("flicker"));
 }
 
 #[test]
 fn missing_file_names_the_path() {
-    let err = Sensor::from_file("/nonexistent/sensor.toml").unwrap_err().to_string();
+    let err = Sensor::from_file("/nonexistent/sensor.toml")
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("/nonexistent/sensor.toml"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("mine.toml");
@@ -105,5 +139,8 @@ fn missing_file_names_the_path() {
     let err = Sensor::from_file(&p).unwrap_err().to_string();
     assert!(err.contains("mine.toml") && err.contains("bits"), "{err}");
     std::fs::write(&p, presets::toml("pixel4a").unwrap()).unwrap();
-    assert_eq!(Sensor::from_file(&p).unwrap(), Sensor::preset("pixel4a").unwrap());
+    assert_eq!(
+        Sensor::from_file(&p).unwrap(),
+        Sensor::preset("pixel4a").unwrap()
+    );
 }

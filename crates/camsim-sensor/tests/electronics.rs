@@ -72,7 +72,11 @@ fn quantization_step_is_swing_over_two_to_the_bits() {
         if (x.fract() - 0.5).abs() < 1e-4 {
             continue; // exactly half a step: either rounding is right within f32
         }
-        assert!(f.raw[0].dn.iter().all(|v| *v as f64 == want), "{e} e-: {:?} vs {want}", &f.raw[0].dn[..4]);
+        assert!(
+            f.raw[0].dn.iter().all(|v| *v as f64 == want),
+            "{e} e-: {:?} vs {want}",
+            &f.raw[0].dn[..4]
+        );
         seen.insert(f.raw[0].dn[0]);
     }
     // Every level 0..=255 is reached (the step is one DN per swing / 256 volts).
@@ -107,7 +111,10 @@ fn analog_gain_and_offset_follow_the_formula() {
                 let e = per_s[c] * t;
                 for i in channel_pixels(&f.raw[0], c) {
                     let want = formula_dn(&s, e);
-                    assert_eq!(f.raw[0].dn[i] as f64, want, "gain {gain}, offset {offset_mv} mV, {e} e-");
+                    assert_eq!(
+                        f.raw[0].dn[i] as f64, want,
+                        "gain {gain}, offset {offset_mv} mV, {e} e-"
+                    );
                     let v_out = ((e * 7.65e-5 + offset_mv * 1e-3) / gain).clamp(0.0, 0.4591);
                     assert!((analog[i] as f64 - v_out * 4096.0 / 0.4591).abs() < 1e-3);
                 }
@@ -134,11 +141,25 @@ fn auto_exposure_reaches_the_target() {
     let spec = flat(&grid);
     let img = uniform_image(32, 32, grid, s.pixel_pitch_m(), &spec);
     for target in [0.5, 0.9] {
-        let f = s.compute(&img, &Capture { exposure: Exposure::Auto { target_fraction: target }, frames: 1, seed: 0 }).unwrap();
+        let f = s
+            .compute(
+                &img,
+                &Capture {
+                    exposure: Exposure::Auto {
+                        target_fraction: target,
+                    },
+                    frames: 1,
+                    seed: 0,
+                },
+            )
+            .unwrap();
         let analog = &f.analog_dn.as_ref().unwrap()[0];
         let brightest = analog.iter().cloned().fold(0.0f32, f32::max) as f64;
         let want = target * s.voltage_swing_v() * s.dn_per_v();
-        assert!((brightest / want - 1.0).abs() < 1e-4, "{brightest} vs {want}");
+        assert!(
+            (brightest / want - 1.0).abs() < 1e-4,
+            "{brightest} vs {want}"
+        );
     }
     // No light: an error that says so, not a panic or an infinite time.
     let dark = uniform_image(32, 32, grid, s.pixel_pitch_m(), &vec![0.0; grid.len()]);
@@ -159,7 +180,11 @@ fn auto_exposure_does_not_clip_a_small_patch_of_the_brightest_filter() {
     });
     let grid = WavelengthGrid::default();
     // Deep red light (nothing below 600 nm): the red filter is by far the brightest.
-    let red: Vec<f64> = grid.wavelengths_nm().iter().map(|w| if *w >= 600.0 { 1e-3 } else { 0.0 }).collect();
+    let red: Vec<f64> = grid
+        .wavelengths_nm()
+        .iter()
+        .map(|w| if *w >= 600.0 { 1e-3 } else { 0.0 })
+        .collect();
     let mut img = uniform_image(40, 40, grid, s.pixel_pitch_m(), &red);
     for plane in img.bands_mut() {
         for (i, v) in plane.iter_mut().enumerate() {
@@ -170,12 +195,32 @@ fn auto_exposure_does_not_clip_a_small_patch_of_the_brightest_filter() {
         }
     }
     let target = 0.9;
-    let f = s.compute(&img, &Capture { exposure: Exposure::Auto { target_fraction: target }, frames: 1, seed: 0 }).unwrap();
+    let f = s
+        .compute(
+            &img,
+            &Capture {
+                exposure: Exposure::Auto {
+                    target_fraction: target,
+                },
+                frames: 1,
+                seed: 0,
+            },
+        )
+        .unwrap();
     let analog = &f.analog_dn.as_ref().unwrap()[0];
     let brightest = analog.iter().cloned().fold(0.0f32, f32::max) as f64;
     let want = target * s.voltage_swing_v() * s.dn_per_v();
-    assert!((brightest / want - 1.0).abs() < 1e-4, "brightest pixel {brightest} DN, target {want} DN");
-    assert!(f.raw[0].dn.iter().all(|v| (*v as f64) < f.raw[0].white_level_dn), "a pixel clipped");
+    assert!(
+        (brightest / want - 1.0).abs() < 1e-4,
+        "brightest pixel {brightest} DN, target {want} DN"
+    );
+    assert!(
+        f.raw[0]
+            .dn
+            .iter()
+            .all(|v| (*v as f64) < f.raw[0].white_level_dn),
+        "a pixel clipped"
+    );
 }
 
 /// Three frames of a horizontal sawtooth (0 to ~5000 e- over every 64 columns: both the exact-Poisson
@@ -189,9 +234,15 @@ fn noisy_frames(s: &Sensor, seed: u64, threads: usize) -> Vec<Vec<u16>> {
             *v *= ((i % cols) % 64) as f32 / 64.0;
         }
     }
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     let t = 5000.0 / s.mean_electrons_uniform(&flat(&grid), &grid, 1.0).unwrap()[1];
-    let f = pool.install(|| s.compute(&img, &Capture::seconds(t).with_frames(3).with_seed(seed)).unwrap());
+    let f = pool.install(|| {
+        s.compute(&img, &Capture::seconds(t).with_frames(3).with_seed(seed))
+            .unwrap()
+    });
     f.raw.into_iter().map(|r| r.dn).collect()
 }
 
@@ -232,14 +283,20 @@ fn fixed_pattern_belongs_to_the_sensor() {
     let s = mk(363);
     let a = noisy_frames(&s, 1, 2);
     let b = noisy_frames(&s, 2, 1);
-    assert_eq!(a, b, "the fixed pattern must not depend on the capture seed");
+    assert_eq!(
+        a, b,
+        "the fixed pattern must not depend on the capture seed"
+    );
     assert_eq!(a[0], a[2]);
     let c = noisy_frames(&mk(364), 1, 2);
     assert_ne!(a[0], c[0]);
     // A window of the same sensor has the same pattern in the top-left corner.
     let small = noisy_frames(&s.with_size(16, 20).unwrap(), 9, 2);
     for r in 0..16 {
-        assert_eq!(&small[0][r * 20..(r + 1) * 20], &a[0][r * 128..r * 128 + 20]);
+        assert_eq!(
+            &small[0][r * 20..(r + 1) * 20],
+            &a[0][r * 128..r * 128 + 20]
+        );
     }
     // With shot and read noise on, frames of different seeds differ but their mean over many
     // frames converges to the same pattern: checked in noise.rs (DSNU/PRNU recovery).
@@ -254,7 +311,16 @@ fn bad_capture_input_is_an_error() {
         (Capture::seconds(-1.0), "exposure_s"),
         (Capture::seconds(f64::NAN), "exposure_s"),
         (Capture::seconds(1.0).with_frames(0), "frames"),
-        (Capture { exposure: Exposure::Auto { target_fraction: 1.5 }, frames: 1, seed: 0 }, "target_fraction"),
+        (
+            Capture {
+                exposure: Exposure::Auto {
+                    target_fraction: 1.5,
+                },
+                frames: 1,
+                seed: 0,
+            },
+            "target_fraction",
+        ),
     ];
     for (cap, key) in cases {
         let err = s.compute(&img, &cap).unwrap_err().to_string();
@@ -262,13 +328,25 @@ fn bad_capture_input_is_an_error() {
     }
     let mut radiance = img.clone();
     radiance.quantity = camsim_core::Quantity::Radiance;
-    let err = s.compute(&radiance, &Capture::seconds(1.0)).unwrap_err().to_string();
+    let err = s
+        .compute(&radiance, &Capture::seconds(1.0))
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("irradiance"), "{err}");
-    let err = s.emva_series(&grid, &flat(&grid), &[1e-3], 1, 8, 8, 0).unwrap_err().to_string();
+    let err = s
+        .emva_series(&grid, &flat(&grid), &[1e-3], 1, 8, 8, 0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("frames_per_level"), "{err}");
-    let err = s.emva_series(&grid, &flat(&grid)[..5], &[1e-3], 2, 8, 8, 0).unwrap_err().to_string();
+    let err = s
+        .emva_series(&grid, &flat(&grid)[..5], &[1e-3], 2, 8, 8, 0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("5 values"), "{err}");
-    let err = s.emva_series(&grid, &flat(&grid), &[1e-3], 2, 800, 8, 0).unwrap_err().to_string();
+    let err = s
+        .emva_series(&grid, &flat(&grid), &[1e-3], 2, 800, 8, 0)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("window"), "{err}");
 }
 
@@ -315,9 +393,15 @@ fn predicted_noise_terms_follow_the_formulas() {
     assert!((p.dsnu - 0.64e-3 * dpv / 2.0).abs() < 1e-9);
     assert!((p.prnu - 0.007 * mean_dn).abs() < 1e-9);
     assert_eq!(p.quantization, 0.0);
-    let total = (p.shot.powi(2) + p.dark.powi(2) + p.read.powi(2) + p.dsnu.powi(2) + p.prnu.powi(2)).sqrt();
+    let total =
+        (p.shot.powi(2) + p.dark.powi(2) + p.read.powi(2) + p.dsnu.powi(2) + p.prnu.powi(2)).sqrt();
     assert!((p.total - total).abs() < 1e-9);
-    let quiet = s.with_noise(camsim_sensor::NoiseSwitches::none()).predicted_noise_dn(mean_dn, t);
-    assert_eq!((quiet.shot, quiet.read, quiet.dsnu, quiet.prnu, quiet.dark), (0.0, 0.0, 0.0, 0.0, 0.0));
+    let quiet = s
+        .with_noise(camsim_sensor::NoiseSwitches::none())
+        .predicted_noise_dn(mean_dn, t);
+    assert_eq!(
+        (quiet.shot, quiet.read, quiet.dsnu, quiet.prnu, quiet.dark),
+        (0.0, 0.0, 0.0, 0.0, 0.0)
+    );
     assert!((quiet.total - (1.0f64 / 12.0).sqrt()).abs() < 1e-12);
 }

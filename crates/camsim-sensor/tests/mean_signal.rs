@@ -20,7 +20,9 @@ fn qe_reference(lambda_nm: f64, m: Option<[[f64; 3]; 3]>) -> [f64; 3] {
         let i = t.iter().position(|r| r[0] >= lambda_nm).unwrap().max(1);
         let (a, b) = (&t[i - 1], &t[i]);
         let u = (lambda_nm - a[0]) / (b[0] - a[0]);
-        let raw: Vec<f64> = (0..3).map(|c| (a[1 + c] * a[4]) * (1.0 - u) + (b[1 + c] * b[4]) * u).collect();
+        let raw: Vec<f64> = (0..3)
+            .map(|c| (a[1 + c] * a[4]) * (1.0 - u) + (b[1 + c] * b[4]) * u)
+            .collect();
         for c in 0..3 {
             out[c] = match m {
                 None => raw[c],
@@ -49,20 +51,42 @@ struct Illuminant {
 
 fn illuminants() -> Vec<Illuminant> {
     vec![
-        Illuminant { name: "blackbody 2856 K", shape: |l| planck_radiance_w_per_sr_m2_nm(l, 2856.0) },
-        Illuminant { name: "blackbody 6500 K", shape: |l| planck_radiance_w_per_sr_m2_nm(l, 6500.0) },
-        Illuminant { name: "flat", shape: |_| 1.0 },
+        Illuminant {
+            name: "blackbody 2856 K",
+            shape: |l| planck_radiance_w_per_sr_m2_nm(l, 2856.0),
+        },
+        Illuminant {
+            name: "blackbody 6500 K",
+            shape: |l| planck_radiance_w_per_sr_m2_nm(l, 6500.0),
+        },
+        Illuminant {
+            name: "flat",
+            shape: |_| 1.0,
+        },
         // A narrow band: Gaussian at 532 nm, sigma 4 nm.
-        Illuminant { name: "narrow band 532 nm", shape: |l| (-0.5 * ((l - 532.0) / 4.0).powi(2)).exp() },
+        Illuminant {
+            name: "narrow band 532 nm",
+            shape: |l| (-0.5 * ((l - 532.0) / 4.0).powi(2)).exp(),
+        },
     ]
 }
 
 /// Electrons per pixel for each channel: integral over [lo, hi] of E QE lambda/(h c) x area x t.
-fn reference_electrons(e_w_per_m2_nm: &dyn Fn(f64) -> f64, m: Option<[[f64; 3]; 3]>, area_m2: f64, t_s: f64, lo: f64, hi: f64) -> [f64; 3] {
+fn reference_electrons(
+    e_w_per_m2_nm: &dyn Fn(f64) -> f64,
+    m: Option<[[f64; 3]; 3]>,
+    area_m2: f64,
+    t_s: f64,
+    lo: f64,
+    hi: f64,
+) -> [f64; 3] {
     let mut out = [0.0; 3];
     for (c, o) in out.iter_mut().enumerate() {
         *o = simpson(
-            |l| e_w_per_m2_nm(l) * qe_reference(l, m)[c] * (l * 1e-9) / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S),
+            |l| {
+                e_w_per_m2_nm(l) * qe_reference(l, m)[c] * (l * 1e-9)
+                    / (PLANCK_J_S * SPEED_OF_LIGHT_M_PER_S)
+            },
             lo,
             hi,
             6000,
@@ -89,7 +113,11 @@ fn mean_electrons_equal_the_analytic_integral() {
         let area = sensor.photodetector_area_m2();
         for ill in illuminants() {
             // Scale to 0.01 W/(m^2 nm) at the peak of the shape over the grid.
-            let peak = grid.wavelengths_nm().iter().map(|l| (ill.shape)(*l)).fold(0.0, f64::max);
+            let peak = grid
+                .wavelengths_nm()
+                .iter()
+                .map(|l| (ill.shape)(*l))
+                .fold(0.0, f64::max);
             let e = move |l: f64| 0.01 * (ill.shape)(l) / peak;
             let spectrum: Vec<f64> = grid.wavelengths_nm().iter().map(|l| e(*l)).collect();
             // Exposure that puts the brightest channel at ~3000 e-.
@@ -103,12 +131,30 @@ fn mean_electrons_equal_the_analytic_integral() {
             for c in 0..3 {
                 let err = frame.mean_electrons[c] / reference[c] - 1.0;
                 let err_helper = analytic[c] / reference[c] - 1.0;
-                eprintln!("{preset} {} channel {c}: {:.1} e- vs reference {:.1} e- ({:+.4} %)", ill.name, frame.mean_electrons[c], reference[c], 100.0 * err);
-                assert!(err.abs() < 0.005, "{preset} {} channel {c}: relative error {err}", ill.name);
-                assert!(err_helper.abs() < 0.005, "{preset} {} channel {c}: helper error {err_helper}", ill.name);
+                eprintln!(
+                    "{preset} {} channel {c}: {:.1} e- vs reference {:.1} e- ({:+.4} %)",
+                    ill.name,
+                    frame.mean_electrons[c],
+                    reference[c],
+                    100.0 * err
+                );
+                assert!(
+                    err.abs() < 0.005,
+                    "{preset} {} channel {c}: relative error {err}",
+                    ill.name
+                );
+                assert!(
+                    err_helper.abs() < 0.005,
+                    "{preset} {} channel {c}: helper error {err_helper}",
+                    ill.name
+                );
                 for i in channel_pixels(&frame.raw[0], c) {
                     let e_pix = analog[i] as f64 / sensor.k_dn_per_e();
-                    assert!((e_pix / reference[c] - 1.0).abs() < 0.005, "pixel {i}: {e_pix} vs {}", reference[c]);
+                    assert!(
+                        (e_pix / reference[c] - 1.0).abs() < 0.005,
+                        "pixel {i}: {e_pix} vs {}",
+                        reference[c]
+                    );
                 }
             }
         }
@@ -126,9 +172,14 @@ fn default_grid_is_accurate_for_smooth_illuminants() {
         c.noise = quiet(true);
     });
     for temp in [2856.0, 4000.0, 6500.0] {
-        let e = move |l: f64| 1e-3 * planck_radiance_w_per_sr_m2_nm(l, temp) / planck_radiance_w_per_sr_m2_nm(550.0, temp);
+        let e = move |l: f64| {
+            1e-3 * planck_radiance_w_per_sr_m2_nm(l, temp)
+                / planck_radiance_w_per_sr_m2_nm(550.0, temp)
+        };
         let spectrum: Vec<f64> = grid.wavelengths_nm().iter().map(|l| e(*l)).collect();
-        let got = sensor.mean_electrons_uniform(&spectrum, &grid, 1.0).unwrap();
+        let got = sensor
+            .mean_electrons_uniform(&spectrum, &grid, 1.0)
+            .unwrap();
         let want = reference_electrons(&e, None, sensor.photodetector_area_m2(), 1.0, 395.0, 705.0);
         for c in 0..3 {
             let err = got[c] / want[c] - 1.0;
@@ -147,7 +198,11 @@ fn ideal_sensor_counts_photons() {
         c.fill_factor = 0.5;
         c.noise.quantization = false;
     });
-    let spectrum: Vec<f64> = grid.wavelengths_nm().iter().map(|l| 1e-3 * (l / 550.0)).collect();
+    let spectrum: Vec<f64> = grid
+        .wavelengths_nm()
+        .iter()
+        .map(|l| 1e-3 * (l / 550.0))
+        .collect();
     let t = 0.01;
     let photons: f64 = grid
         .wavelengths_nm()
@@ -161,11 +216,17 @@ fn ideal_sensor_counts_photons() {
     let img = uniform_image(64, 64, grid, 1.4e-6, &spectrum);
     let frame = sensor.compute(&img, &Capture::seconds(t)).unwrap();
     for c in 0..3 {
-        assert!((frame.mean_electrons[c] / photons - 1.0).abs() < 1e-5, "{} vs {photons}", frame.mean_electrons[c]);
+        assert!(
+            (frame.mean_electrons[c] / photons - 1.0).abs() < 1e-5,
+            "{} vs {photons}",
+            frame.mean_electrons[c]
+        );
     }
     let analog = &frame.analog_dn.unwrap()[0];
     let k = sensor.k_dn_per_e();
-    assert!(analog.iter().all(|v| ((*v as f64) / k / photons - 1.0).abs() < 1e-5));
+    assert!(analog
+        .iter()
+        .all(|v| ((*v as f64) / k / photons - 1.0).abs() < 1e-5));
 }
 
 /// A 1-band ideal sensor (QE 1, fill factor 1) whose photon rate per pixel is simply E x area x
@@ -183,7 +244,12 @@ fn mono_ideal(rows: usize, cols: usize, fill_factor: f64) -> (Sensor, Wavelength
     (s, grid, k)
 }
 
-fn pseudo_random_image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64) -> SpectralImage {
+fn pseudo_random_image(
+    rows: usize,
+    cols: usize,
+    grid: WavelengthGrid,
+    spacing_m: f64,
+) -> SpectralImage {
     let mut img = SpectralImage::zeros(rows, cols, grid, spacing_m, Quantity::Irradiance).unwrap();
     for (i, v) in img.data.iter_mut().enumerate() {
         // A fixed, irregular pattern (Weyl sequence), 0.5..1.5 W/(m^2 nm).
@@ -196,7 +262,9 @@ fn pseudo_random_image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m
 /// irradiance is sampled finer or coarser than the pixels (fill factor 1).
 #[test]
 fn area_integration_conserves_photons() {
-    for (spacing_ratio, in_rows, in_cols) in [(0.37, 50, 61), (1.0, 20, 21), (2.5, 7, 9), (0.5, 40, 40)] {
+    for (spacing_ratio, in_rows, in_cols) in
+        [(0.37, 50, 61), (1.0, 20, 21), (2.5, 7, 9), (0.5, 40, 40)]
+    {
         let (sensor, grid, k) = mono_ideal(48, 48, 1.0);
         let p = sensor.pixel_pitch_m();
         let img = pseudo_random_image(in_rows, in_cols, grid, p * spacing_ratio);
@@ -204,7 +272,10 @@ fn area_integration_conserves_photons() {
         let total: f64 = rate.iter().map(|v| *v as f64).sum();
         let cell_area = (p * spacing_ratio).powi(2);
         let want: f64 = img.data.iter().map(|v| *v as f64).sum::<f64>() * cell_area * k;
-        assert!((total / want - 1.0).abs() < 1e-5, "spacing {spacing_ratio} x pitch: {total} vs {want}");
+        assert!(
+            (total / want - 1.0).abs() < 1e-5,
+            "spacing {spacing_ratio} x pitch: {total} vs {want}"
+        );
     }
 }
 
@@ -227,7 +298,10 @@ fn fill_factor_photodetector_sees_the_centre_of_the_pixel() {
             }
             let want = m * area * k;
             let got = rate[r * 10 + c] as f64;
-            assert!((got / want - 1.0).abs() < 1e-5, "pixel ({r}, {c}): {got} vs {want}");
+            assert!(
+                (got / want - 1.0).abs() < 1e-5,
+                "pixel ({r}, {c}): {got} vs {want}"
+            );
         }
     }
 }
@@ -249,7 +323,10 @@ fn coarse_image_is_centred_and_zero_outside() {
                 assert_eq!(got, 0.0, "border pixel ({r}, {c})");
             } else {
                 let want = img.at((r - 1) / 2, (c - 1) / 2, 0) as f64 * area * k;
-                assert!((got / want - 1.0).abs() < 1e-5, "pixel ({r}, {c}): {got} vs {want}");
+                assert!(
+                    (got / want - 1.0).abs() < 1e-5,
+                    "pixel ({r}, {c}): {got} vs {want}"
+                );
             }
         }
     }
@@ -268,7 +345,10 @@ fn half_sample_offset_averages_neighbours() {
         for c in 0..4 {
             let want = 0.5 * (img.at(r, c, 0) + img.at(r, c + 1, 0)) as f64 * area * k;
             let got = rate[r * 4 + c] as f64;
-            assert!((got / want - 1.0).abs() < 1e-5, "pixel ({r}, {c}): {got} vs {want}");
+            assert!(
+                (got / want - 1.0).abs() < 1e-5,
+                "pixel ({r}, {c}): {got} vs {want}"
+            );
         }
     }
 }

@@ -46,7 +46,9 @@ fn temporal_variance_follows_the_photon_transfer_model() {
         let g_rate = per_s[1];
         for (level, target_e) in [30.0, 400.0, 2000.0, 4500.0].into_iter().enumerate() {
             let t = target_e / g_rate;
-            let levels = s.emva_series(&grid, &spectrum, &[t], n, ROWS, COLS, 1000 + level as u64).unwrap();
+            let levels = s
+                .emva_series(&grid, &spectrum, &[t], n, ROWS, COLS, 1000 + level as u64)
+                .unwrap();
             let (mean, var) = stack_stats(&levels[0].bright);
             let black = s.black_level_dn();
             for c in 0..3 {
@@ -60,7 +62,10 @@ fn temporal_variance_follows_the_photon_transfer_model() {
                     "read {read_mv} mV, {target_e} e- (green), channel {c}: var {got_var:.2} DN^2 vs model {want_var:.2} ({:+.2} SE)",
                     (got_var - want_var) / se_var
                 );
-                assert!((got_var - want_var).abs() < 4.0 * se_var, "channel {c}: {got_var} vs {want_var} (SE {se_var})");
+                assert!(
+                    (got_var - want_var).abs() < 4.0 * se_var,
+                    "channel {c}: {got_var} vs {want_var} (SE {se_var})"
+                );
                 // Mean: black + K mu_e; spread of the mean over pixels and frames includes PRNU and DSNU.
                 let got_mean = idx.iter().map(|i| mean[*i]).sum::<f64>() / idx.len() as f64;
                 let want_mean = black + k * mu_e;
@@ -68,7 +73,10 @@ fn temporal_variance_follows_the_photon_transfer_model() {
                 let se_mean = ((spatial.prnu.powi(2) + spatial.dsnu.powi(2)) / idx.len() as f64
                     + want_var / (idx.len() * n) as f64)
                     .sqrt();
-                assert!((got_mean - want_mean).abs() < 4.0 * se_mean + 1e-9, "mean {got_mean} vs {want_mean} (SE {se_mean})");
+                assert!(
+                    (got_mean - want_mean).abs() < 4.0 * se_mean + 1e-9,
+                    "mean {got_mean} vs {want_mean} (SE {se_mean})"
+                );
             }
         }
     }
@@ -88,7 +96,9 @@ fn dark_frames_match_offset_dsnu_and_read_noise() {
     });
     let grid = WavelengthGrid::default();
     let t = 0.1;
-    let levels = s.emva_series(&grid, &vec![0.0; grid.len()], &[t], n, rows, cols, 7).unwrap();
+    let levels = s
+        .emva_series(&grid, &vec![0.0; grid.len()], &[t], n, rows, cols, 7)
+        .unwrap();
     let dark = &levels[0].dark;
     let (mean, var) = stack_stats(dark);
     let all: Vec<usize> = (0..rows * cols).collect();
@@ -130,7 +140,9 @@ fn prnu_is_recovered_from_a_frame_stack() {
     let spectrum = flat_spectrum(&grid);
     let per_s = s.mean_electrons_uniform(&spectrum, &grid, 1.0).unwrap();
     let t = 4000.0 / per_s[1];
-    let levels = s.emva_series(&grid, &spectrum, &[t], n, rows, cols, 11).unwrap();
+    let levels = s
+        .emva_series(&grid, &spectrum, &[t], n, rows, cols, 11)
+        .unwrap();
     let (mean, var) = stack_stats(&levels[0].bright);
     let idx = channel_pixels(&levels[0].bright[0], 1);
     let (m, spatial_var) = mean_var(&mean, &idx);
@@ -141,7 +153,11 @@ fn prnu_is_recovered_from_a_frame_stack() {
     let prnu_est = prnu_var.sqrt() / signal;
     let se_spatial = spatial_var * (2.0 / (idx.len() - 1) as f64).sqrt();
     let se_prnu = se_spatial / (2.0 * prnu_var.sqrt()) / signal;
-    eprintln!("PRNU {:.4} % vs 0.7 % (SE {:.4} %)", 100.0 * prnu_est, 100.0 * se_prnu);
+    eprintln!(
+        "PRNU {:.4} % vs 0.7 % (SE {:.4} %)",
+        100.0 * prnu_est,
+        100.0 * se_prnu
+    );
     assert!((prnu_est - s.prnu_fraction()).abs() < 4.0 * se_prnu);
 }
 
@@ -160,7 +176,9 @@ fn predicted_total_noise_matches_a_single_frame() {
     let per_s = s.mean_electrons_uniform(&spectrum, &grid, 1.0).unwrap();
     for (j, target_e) in [50.0, 1000.0, 5000.0].into_iter().enumerate() {
         let t = target_e / per_s[1];
-        let levels = s.emva_series(&grid, &spectrum, &[t], 2, 128, 128, 21 + j as u64).unwrap();
+        let levels = s
+            .emva_series(&grid, &spectrum, &[t], 2, 128, 128, 21 + j as u64)
+            .unwrap();
         let frame = &levels[0].bright[0];
         let values: Vec<f64> = frame.dn.iter().map(|v| *v as f64).collect();
         let idx = channel_pixels(frame, 1);
@@ -189,9 +207,14 @@ fn ideal_sensor_emva_series_is_poisson() {
     let grid = WavelengthGrid::default();
     let spectrum = vec![1e-6; grid.len()];
     let photons_per_s = s.photons_per_pixel(&spectrum, &grid, 1.0).unwrap();
-    let exposures: Vec<f64> = [20.0, 80.0, 300.0, 3000.0].iter().map(|p| p / photons_per_s).collect();
+    let exposures: Vec<f64> = [20.0, 80.0, 300.0, 3000.0]
+        .iter()
+        .map(|p| p / photons_per_s)
+        .collect();
     let n = 8;
-    let series = s.emva_series(&grid, &spectrum, &exposures, n, 64, 64, 5).unwrap();
+    let series = s
+        .emva_series(&grid, &spectrum, &exposures, n, 64, 64, 5)
+        .unwrap();
     let k = s.k_dn_per_e();
     for level in &series {
         let (mean, var) = stack_stats(&level.bright);

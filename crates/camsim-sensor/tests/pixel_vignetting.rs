@@ -10,14 +10,22 @@ use camsim_sensor::{Capture, Sensor};
 use common::{config, quiet, uniform_image};
 
 fn pv(f_number: f64, microlens: MicrolensPlacement) -> PixelVignettingConfig {
-    PixelVignettingConfig { f_number, exit_pupil_distance_mm: 0.2, stack_height_um: 4.0, dielectric_index: 1.5, microlens }
+    PixelVignettingConfig {
+        f_number,
+        exit_pupil_distance_mm: 0.2,
+        stack_height_um: 4.0,
+        dielectric_index: 1.5,
+        microlens,
+    }
 }
 
 /// Closed form for a collimated beam at chief slope t: shift s = h tan(asin(sin(atan t) / n)),
 /// overlap of the pitch-wide aperture shifted by s with the centred photodetector, over its value at 0.
 fn closed_form(t: f64, pitch_um: f64, pd_um: f64, h_um: f64, n: f64) -> f64 {
     let s = h_um * ((t.atan().sin() / n).asin()).tan();
-    let overlap = |s: f64| ((pitch_um / 2.0 + s).min(pd_um / 2.0) - (-pitch_um / 2.0 + s).max(-pd_um / 2.0)).max(0.0);
+    let overlap = |s: f64| {
+        ((pitch_um / 2.0 + s).min(pd_um / 2.0) - (-pitch_um / 2.0 + s).max(-pd_um / 2.0)).max(0.0)
+    };
     overlap(s) / overlap(0.0)
 }
 
@@ -34,9 +42,13 @@ fn response_is_one_on_axis_and_follows_the_overlap_closed_form() {
         let x_um = (col as f64 + 0.5 - cols as f64 / 2.0) * pitch_um;
         let t_x = x_um / 200.0;
         let t_y = (0.5 * pitch_um) / 200.0;
-        let want = closed_form(t_x, pitch_um, pd_um, 4.0, 1.5) * closed_form(t_y, pitch_um, pd_um, 4.0, 1.5);
+        let want = closed_form(t_x, pitch_um, pd_um, 4.0, 1.5)
+            * closed_form(t_y, pitch_um, pd_um, 4.0, 1.5);
         let got = got_f32 as f64;
-        assert!((got - want).abs() < 2e-3, "col {col}: {got} vs closed form {want}");
+        assert!(
+            (got - want).abs() < 2e-3,
+            "col {col}: {got} vs closed form {want}"
+        );
         assert!(got_f32 <= last + 1e-6, "not monotone at col {col}");
         last = got_f32;
     }
@@ -52,11 +64,20 @@ fn optimal_microlens_recentres_the_light() {
     let (pitch_um, ff) = (2.0, 0.25);
     let bare = pv(2.8, MicrolensPlacement::None).relative_response(1, 101, pitch_um, ff);
     let opt = pv(2.8, MicrolensPlacement::Optimal).relative_response(1, 101, pitch_um, ff);
-    let collimated = pv(2000.0, MicrolensPlacement::Optimal).relative_response(1, 101, pitch_um, ff);
+    let collimated =
+        pv(2000.0, MicrolensPlacement::Optimal).relative_response(1, 101, pitch_um, ff);
     // Collimated with the chief ray on the photodetector centre: every pixel gets everything.
     assert!(collimated.iter().all(|v| (v - 1.0).abs() < 1e-6));
-    println!("edge pixel: bare {:.3}, optimal microlens {:.3}", bare[100], opt[100]);
-    assert!(bare[100] < 0.6 && opt[100] > 0.95, "bare {} optimal {}", bare[100], opt[100]);
+    println!(
+        "edge pixel: bare {:.3}, optimal microlens {:.3}",
+        bare[100], opt[100]
+    );
+    assert!(
+        bare[100] < 0.6 && opt[100] > 0.95,
+        "bare {} optimal {}",
+        bare[100],
+        opt[100]
+    );
 }
 
 #[test]
@@ -78,16 +99,28 @@ fn sensor_applies_the_map_and_rejects_bad_values() {
     let a = s.compute(&img, &Capture::seconds(0.01)).unwrap();
     let b = plain.compute(&img, &Capture::seconds(0.01)).unwrap();
     let map = pvc.relative_response(9, 41, s.pixel_pitch_m() * 1e6, s.fill_factor());
-    let (va, vb) = (&a.analog_dn.as_ref().unwrap()[0], &b.analog_dn.as_ref().unwrap()[0]);
+    let (va, vb) = (
+        &a.analog_dn.as_ref().unwrap()[0],
+        &b.analog_dn.as_ref().unwrap()[0],
+    );
     for i in 0..va.len() {
         assert!((va[i] - vb[i] * map[i]).abs() <= 1e-4 * vb[i], "pixel {i}");
     }
     assert!(map[4 * 41 + 40] < map[4 * 41 + 20]);
     let mut bad = s.config().clone();
-    bad.pixel_vignetting = Some(PixelVignettingConfig { dielectric_index: 0.5, ..pvc });
+    bad.pixel_vignetting = Some(PixelVignettingConfig {
+        dielectric_index: 0.5,
+        ..pvc
+    });
     let err = Sensor::from_config(bad).unwrap_err().to_string();
     assert!(err.contains("pixel_vignetting.dielectric_index"), "{err}");
     let toml = s.to_toml();
     assert!(toml.contains("[pixel_vignetting]"));
-    assert_eq!(Sensor::from_toml_str(&toml, "round trip").unwrap().config().pixel_vignetting, Some(pvc));
+    assert_eq!(
+        Sensor::from_toml_str(&toml, "round trip")
+            .unwrap()
+            .config()
+            .pixel_vignetting,
+        Some(pvc)
+    );
 }

@@ -11,7 +11,11 @@ fn imx363_has_every_value_of_table_1() {
     // Lyu et al., Table 1.
     assert_eq!(s.pixel_pitch_m(), 1.4e-6);
     assert_eq!(s.fill_factor(), 1.0);
-    assert!((s.well_capacity_e() - 6000.0).abs() / 6000.0 < 0.001, "well {}", s.well_capacity_e());
+    assert!(
+        (s.well_capacity_e() - 6000.0).abs() / 6000.0 < 0.001,
+        "well {}",
+        s.well_capacity_e()
+    );
     assert_eq!(s.voltage_swing_v(), 0.4591);
     assert!((s.conversion_gain_v_per_e() - 7.65e-5).abs() < 1e-12);
     assert_eq!(s.analog_gain(), 1.0);
@@ -36,7 +40,11 @@ fn imx363_qe_is_the_published_filter_times_ir_cut() {
         for c in 0..3 {
             let want = row[1 + c] * row[4];
             let got = s.qe_spectrum(c).eval(row[0]);
-            assert!((got - want).abs() < 1e-12, "channel {c} at {} nm: {got} vs {want}", row[0]);
+            assert!(
+                (got - want).abs() < 1e-12,
+                "channel {c} at {} nm: {got} vs {want}",
+                row[0]
+            );
         }
     }
 }
@@ -45,7 +53,10 @@ fn imx363_qe_is_the_published_filter_times_ir_cut() {
 fn pixel4a_is_imx363_with_the_correction() {
     let a = Sensor::preset("imx363").unwrap().config().clone();
     let mut b = Sensor::preset("pixel4a").unwrap().config().clone();
-    assert_eq!(b.qe_correction, Some([[0.532, 0.0, 0.0], [0.06, 0.70, 0.0], [0.0, 0.36, 0.84]]));
+    assert_eq!(
+        b.qe_correction,
+        Some([[0.532, 0.0, 0.0], [0.06, 0.70, 0.0], [0.0, 0.36, 0.84]])
+    );
     b.name = a.name.clone();
     b.source = a.source.clone();
     b.qe_correction = None;
@@ -55,7 +66,11 @@ fn pixel4a_is_imx363_with_the_correction() {
 fn normalized_difference(x: &[f64], y: &[f64]) -> f64 {
     let nx = x.iter().map(|v| v * v).sum::<f64>().sqrt();
     let ny = y.iter().map(|v| v * v).sum::<f64>().sqrt();
-    x.iter().zip(y).map(|(a, b)| (a / nx - b / ny).powi(2)).sum::<f64>().sqrt()
+    x.iter()
+        .zip(y)
+        .map(|(a, b)| (a / nx - b / ny).powi(2))
+        .sum::<f64>()
+        .sqrt()
 }
 
 fn correlation(x: &[f64], y: &[f64]) -> f64 {
@@ -80,7 +95,11 @@ fn pixel4a_correction_matches_p4a_corrected() {
     // The transposed product, built as a config.
     let mut cfg = paper.config().clone();
     let m = cfg.qe_correction.unwrap();
-    cfg.qe_correction = Some([[m[0][0], m[1][0], m[2][0]], [m[0][1], m[1][1], m[2][1]], [m[0][2], m[1][2], m[2][2]]]);
+    cfg.qe_correction = Some([
+        [m[0][0], m[1][0], m[2][0]],
+        [m[0][1], m[1][1], m[2][1]],
+        [m[0][2], m[1][2], m[2][2]],
+    ]);
     let transposed = Sensor::from_config(cfg).unwrap();
     let wl: Vec<f64> = p4a.iter().map(|r| r[0]).collect();
     let mut nd_paper = [0.0; 3];
@@ -88,11 +107,17 @@ fn pixel4a_correction_matches_p4a_corrected() {
     for c in 0..3 {
         let reference: Vec<f64> = p4a.iter().map(|r| r[1 + c]).collect();
         let a: Vec<f64> = wl.iter().map(|w| paper.qe_spectrum(c).eval(*w)).collect();
-        let b: Vec<f64> = wl.iter().map(|w| transposed.qe_spectrum(c).eval(*w)).collect();
+        let b: Vec<f64> = wl
+            .iter()
+            .map(|w| transposed.qe_spectrum(c).eval(*w))
+            .collect();
         nd_paper[c] = normalized_difference(&a, &reference);
         nd_transposed[c] = normalized_difference(&b, &reference);
         let corr = correlation(&a, &reference);
-        assert!(corr > 0.98, "channel {c}: correlation {corr:.4} of [r,g,b]M with p4aCorrected");
+        assert!(
+            corr > 0.98,
+            "channel {c}: correlation {corr:.4} of [r,g,b]M with p4aCorrected"
+        );
         eprintln!(
             "channel {c}: normalized difference [r,g,b]M {:.4}, transposed {:.4}; correlation {:.4} vs {:.4}",
             nd_paper[c],

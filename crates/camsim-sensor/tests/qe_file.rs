@@ -47,7 +47,10 @@ fn matrix(name: &str, class: u32, dims: &[usize], payload: Vec<u8>) -> Vec<u8> {
     let mut flags = class.to_le_bytes().to_vec();
     flags.extend([0; 4]);
     body.extend(element(MI_UINT32, &flags));
-    let d: Vec<u8> = dims.iter().flat_map(|d| (*d as i32).to_le_bytes()).collect();
+    let d: Vec<u8> = dims
+        .iter()
+        .flat_map(|d| (*d as i32).to_le_bytes())
+        .collect();
     body.extend(element(MI_INT32, &d));
     body.extend(element(MI_INT8, name.as_bytes()));
     body.extend(payload);
@@ -94,7 +97,12 @@ fn isetcam_sensor_mat_maps_filter_names_to_channels() {
         cells.extend(chars("", n));
     }
     let names = matrix("filterNames", MX_CELL, &[1, 3], cells);
-    let bytes = mat_file(&[doubles("wavelength", 4, 1, &wl), doubles("data", 4, 3, &data), names, chars("comment", "test filters")]);
+    let bytes = mat_file(&[
+        doubles("wavelength", 4, 1, &wl),
+        doubles("data", 4, 3, &data),
+        names,
+        chars("comment", "test filters"),
+    ]);
     std::fs::write(dir.path().join("filters.mat"), bytes).unwrap();
     let p = write_sensor(dir.path(), "[qe]\nfile = \"filters.mat\"\n");
     let s = Sensor::from_file(&p).unwrap();
@@ -125,12 +133,19 @@ fn csv_columns_are_found_by_name_and_the_pixel4a_correction_is_dropped() {
     assert_eq!(q.g, vec![0.2, 0.3]);
     assert_eq!(q.b, vec![0.6, 0.05]);
     assert_eq!(q.ir_cut, Some(vec![0.5, 0.25]));
-    assert_eq!(s.config().qe_correction, None, "the paper's M must not be applied to other QE");
+    assert_eq!(
+        s.config().qe_correction,
+        None,
+        "the paper's M must not be applied to other QE"
+    );
     // Channel QE = filter x IR cut, exactly (no M): r at 400 nm = 0.1 x 0.5.
     assert_eq!(s.qe_spectrum(0).eval(400.0), 0.1 * 0.5);
     // The preset itself still has M (it lives in its [qe] table) ...
     let p4a = Sensor::preset("pixel4a").unwrap();
-    assert_eq!(p4a.config().qe_correction, Some([[0.532, 0.0, 0.0], [0.06, 0.70, 0.0], [0.0, 0.36, 0.84]]));
+    assert_eq!(
+        p4a.config().qe_correction,
+        Some([[0.532, 0.0, 0.0], [0.06, 0.70, 0.0], [0.0, 0.36, 0.84]])
+    );
     // ... and a custom sensor keeps a correction only when it sets one explicitly.
     let text = pixel4a_with_qe("[qe]\nfile = \"qe.csv\"\ncorrection = [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]\n");
     std::fs::write(&p, text).unwrap();
@@ -146,7 +161,10 @@ fn bad_qe_files_are_errors_naming_the_file_and_column() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
         ("wavelength_nm,r,b\n400,1,1\n700,1,1\n", "no 'g' column"),
-        ("wavelength_nm,r,g,b,w\n400,1,1,1,1\n700,1,1,1,1\n", "column 'w'"),
+        (
+            "wavelength_nm,r,g,b,w\n400,1,1,1,1\n700,1,1,1,1\n",
+            "column 'w'",
+        ),
     ];
     for (csv, needle) in cases {
         std::fs::write(dir.path().join("qe.csv"), csv).unwrap();
@@ -155,7 +173,10 @@ fn bad_qe_files_are_errors_naming_the_file_and_column() {
         assert!(e.contains("qe.csv") && e.contains(needle), "{e}");
     }
     // Both a file and inline curves.
-    let p = write_sensor(dir.path(), "[qe]\nfile = \"qe.csv\"\nwavelengths_nm = [400.0]\nr = [1.0]\ng = [1.0]\nb = [1.0]\n");
+    let p = write_sensor(
+        dir.path(),
+        "[qe]\nfile = \"qe.csv\"\nwavelengths_nm = [400.0]\nr = [1.0]\ng = [1.0]\nb = [1.0]\n",
+    );
     let e = Sensor::from_file(&p).unwrap_err().to_string();
     assert!(e.contains("not both"), "{e}");
     // A missing file names itself.
@@ -165,7 +186,11 @@ fn bad_qe_files_are_errors_naming_the_file_and_column() {
     // M given twice.
     let text = pixel4a_with_qe("[qe]\nfile = \"qe.csv\"\ncorrection = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]\n")
         .replace("fixed_pattern_seed = 363", "fixed_pattern_seed = 363\nqe_correction = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]");
-    std::fs::write(dir.path().join("qe.csv"), "wavelength_nm,r,g,b\n400,1,1,1\n700,1,1,1\n").unwrap();
+    std::fs::write(
+        dir.path().join("qe.csv"),
+        "wavelength_nm,r,g,b\n400,1,1,1\n700,1,1,1\n",
+    )
+    .unwrap();
     std::fs::write(&p, text).unwrap();
     let e = Sensor::from_file(&p).unwrap_err().to_string();
     assert!(e.contains("qe_correction") && e.contains("both"), "{e}");

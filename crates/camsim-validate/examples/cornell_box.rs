@@ -8,7 +8,11 @@ fn main() {
     };
     let opts = camsim_validate::ValidateOptions {
         quality,
-        out_dir: a.get(2).cloned().unwrap_or_else(|| "out/validate".into()).into(),
+        out_dir: a
+            .get(2)
+            .cloned()
+            .unwrap_or_else(|| "out/validate".into())
+            .into(),
         data_dir: a.get(3).map(Into::into),
         seed: 1,
         command_line: a.join(" "),
@@ -25,7 +29,12 @@ fn main() {
     match r {
         Ok(r) => {
             for c in &r.checks {
-                println!("[{}] {}: {}", if c.passed { "ok" } else { "FAIL" }, c.name, c.detail);
+                println!(
+                    "[{}] {}: {}",
+                    if c.passed { "ok" } else { "FAIL" },
+                    c.name,
+                    c.detail
+                );
             }
             println!("total {:.1} s", r.provenance.total_seconds);
         }

@@ -2,11 +2,23 @@
 //! renders (radiance x pixel4a QE, no sensor), to size the inter-reflection effect.
 use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
 fn main() {
-    let spp: u32 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(128);
+    let spp: u32 = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(128);
     let res = (252usize, 189usize);
     let sensor = camsim_sensor::Sensor::preset("pixel4a").unwrap();
     for pos in [MccPosition::Left, MccPosition::Center, MccPosition::Right] {
-        let bo = BuiltinOptions { resolution: Some(res), samples_per_pixel: spp, mcc_position: pos, seed: std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(7), ..Default::default() };
+        let bo = BuiltinOptions {
+            resolution: Some(res),
+            samples_per_pixel: spp,
+            mcc_position: pos,
+            seed: std::env::args()
+                .nth(2)
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(7),
+            ..Default::default()
+        };
         let scene = builtin::scene("cornell-box-mcc", &bo).unwrap();
         let t0 = std::time::Instant::now();
         let out = camsim_render::render(&scene, &|_, _| {}).unwrap();
@@ -20,9 +32,13 @@ fn main() {
             for y in (c[1] - h).floor() as usize..=(c[1] + h).floor() as usize {
                 for x in (c[0] - h).floor() as usize..=(c[0] + h).floor() as usize {
                     for ch in 0..3 {
-                        let v: f64 = (0..grid.len()).map(|b| rad.at(y, x, b) as f64 * qe[ch][b] * grid.wavelength_nm(b)).sum();
+                        let v: f64 = (0..grid.len())
+                            .map(|b| rad.at(y, x, b) as f64 * qe[ch][b] * grid.wavelength_nm(b))
+                            .sum();
                         sums[0][ch] += v;
-                        if i >= 18 { sums[1][ch] += v; }
+                        if i >= 18 {
+                            sums[1][ch] += v;
+                        }
                     }
                 }
             }

@@ -50,7 +50,11 @@ pub struct CameraSpec {
 impl CameraSpec {
     /// A camera from a sensor and lens spec.
     pub fn new(sensor: impl Into<String>, lens: impl Into<String>) -> CameraSpec {
-        CameraSpec { sensor: sensor.into(), pixel_pitch_um: None, lens: lens.into() }
+        CameraSpec {
+            sensor: sensor.into(),
+            pixel_pitch_um: None,
+            lens: lens.into(),
+        }
     }
 
     /// A short label for legends.
@@ -65,11 +69,15 @@ impl CameraSpec {
         let mut sensor = camsim_pipeline::load_sensor(&self.sensor)?;
         if let Some(p) = self.pixel_pitch_um {
             if !(p > 0.0 && p.is_finite() && p <= 1000.0) {
-                return Err(ValidateError::invalid("pixel pitch", format!("{p} um must be in (0, 1000]")));
+                return Err(ValidateError::invalid(
+                    "pixel pitch",
+                    format!("{p} um must be in (0, 1000]"),
+                ));
             }
             let mut cfg = sensor.config().clone();
             cfg.pixel_pitch_um = p;
-            sensor = Sensor::from_config_named(cfg, &format!("{} with a {p} um pitch", self.sensor))?;
+            sensor =
+                Sensor::from_config_named(cfg, &format!("{} with a {p} um pitch", self.sensor))?;
         }
         let lens = camsim_pipeline::load_lens(&self.lens)?;
         Ok((sensor, lens))
@@ -232,13 +240,33 @@ fn fov_deg(extent_m: f64, f_mm: f64) -> f64 {
     2.0 * (0.5 * extent_m / (f_mm * 1e-3)).atan().to_degrees()
 }
 
-fn capture_one(cam: &Loaded, cfg: &SimulateConfig, rows: usize, cols: usize, exposure: Exposure, seed: u64) -> Result<(RawImage, f64)> {
+fn capture_one(
+    cam: &Loaded,
+    cfg: &SimulateConfig,
+    rows: usize,
+    cols: usize,
+    exposure: Exposure,
+    seed: u64,
+) -> Result<(RawImage, f64)> {
     let sensor = cam.sensor.window(rows, cols)?;
-    let scene = cfg.scene.as_ref().ok_or_else(|| ValidateError::invalid("compare", "scene config without a [scene]"))?;
-    let radiance = camsim_scene::create(scene, &cfg.wavelengths).map_err(|e| ValidateError::invalid("scene", e.to_string()))?;
-    let capture = Capture { exposure, frames: 1, seed };
+    let scene = cfg
+        .scene
+        .as_ref()
+        .ok_or_else(|| ValidateError::invalid("compare", "scene config without a [scene]"))?;
+    let radiance = camsim_scene::create(scene, &cfg.wavelengths)
+        .map_err(|e| ValidateError::invalid("scene", e.to_string()))?;
+    let capture = Capture {
+        exposure,
+        frames: 1,
+        seed,
+    };
     let imaged = camsim_pipeline::image_radiance(&radiance, &cam.optics, &sensor, &capture)?;
-    let raw = imaged.frame.raw.into_iter().next().ok_or_else(|| ValidateError::invalid("sensor", "no frame returned"))?;
+    let raw = imaged
+        .frame
+        .raw
+        .into_iter()
+        .next()
+        .ok_or_else(|| ValidateError::invalid("sensor", "no frame returned"))?;
     Ok((raw, imaged.frame.exposure_s))
 }
 
@@ -253,19 +281,40 @@ fn measure_mtf(cam: &Loaded, opts: &CameraCompareOptions, max_pitch_m: f64) -> R
     // The chart spans 1.4 x the wider camera's window so the edge fills both windows.
     let fov = fov_deg(1.4 * n as f64 * max_pitch_m, cam.lens.focal_length_mm);
     // Two scene samples per pixel of this camera (the edge must be sharper than the pixels).
-    let scene_px = ((2.8 * n as f64 * max_pitch_m / cam.sensor.pixel_pitch_m()).ceil() as usize).clamp(64, 2048);
+    let scene_px = ((2.8 * n as f64 * max_pitch_m / cam.sensor.pixel_pitch_m()).ceil() as usize)
+        .clamp(64, 2048);
     let cfg = scene_config(&format!(
         "[scene]\nkind = \"slanted_edge\"\nmean_luminance_cd_m2 = 100.0\nfov_deg = {fov}\ndistance_m = 1.0\nilluminant = \"D65\"\n\
          rows = {scene_px}\ncols = {scene_px}\nangle_deg = 5.0\nbright_reflectance = 0.8\ndark_reflectance = 0.1\n"
     ))?;
-    let (raw, _) = capture_one(cam, &cfg, n, n, Exposure::Auto { target_fraction: 0.7 }, opts.seed)?;
+    let (raw, _) = capture_one(
+        cam,
+        &cfg,
+        n,
+        n,
+        Exposure::Auto {
+            target_fraction: 0.7,
+        },
+        opts.seed,
+    )?;
     let planes = rgb_planes(&raw)?;
     let y = camsim_analysis::image::luminance(&planes, LUMINANCE_WEIGHTS_REC709)?;
     let roi = sfr::find_edge_roi(&y)?;
     let pitch_mm = cam.sensor.pixel_pitch_m() * 1e3;
-    let s = sfr::sfr(&y, Some(roi), &SfrOptions { pixel_pitch_mm: Some(pitch_mm), ..SfrOptions::default() })?;
+    let s = sfr::sfr(
+        &y,
+        Some(roi),
+        &SfrOptions {
+            pixel_pitch_mm: Some(pitch_mm),
+            ..SfrOptions::default()
+        },
+    )?;
     // Up to the Nyquist frequency (0.5 cycles/pixel) and a little beyond, as plotted.
-    let keep = s.freq_cyc_per_sensor_px.iter().take_while(|f| **f <= 1.0).count();
+    let keep = s
+        .freq_cyc_per_sensor_px
+        .iter()
+        .take_while(|f| **f <= 1.0)
+        .count();
     let freq = s.freq_cyc_per_sensor_px[..keep].to_vec();
     let mtf = s.mtf[..keep].to_vec();
     let mtf50 = sfr::crossing(&freq, &mtf, 0.5);
@@ -305,14 +354,42 @@ fn measure_zone_plate(cam: &Loaded, opts: &CameraCompareOptions) -> Result<ZoneP
     ))?;
     // Sensor pixels per scene sample: the thin-lens image scale (as macbeth_chart_corners_px).
     let f_m = cam.lens.focal_length_mm * 1e-3;
-    let v_m = camsim_optics::lens::image_distance_m(f_m, cam.lens.focus_distance_m.unwrap_or(distance_m))
-        .ok_or_else(|| ValidateError::invalid("zone plate", "focus distance inside the focal length: no real image"))?;
+    let v_m =
+        camsim_optics::lens::image_distance_m(f_m, cam.lens.focus_distance_m.unwrap_or(distance_m))
+            .ok_or_else(|| {
+                ValidateError::invalid(
+                    "zone plate",
+                    "focus distance inside the focal length: no real image",
+                )
+            })?;
     let k = camsim_scene::sample_spacing_m(fov, distance_m, samples) * v_m / distance_m / pitch_m;
-    let (raw, _) = capture_one(cam, &cfg, n, n, Exposure::Auto { target_fraction: 0.7 }, opts.seed)?;
+    let (raw, _) = capture_one(
+        cam,
+        &cfg,
+        n,
+        n,
+        Exposure::Auto {
+            target_fraction: 0.7,
+        },
+        opts.seed,
+    )?;
     let planes = rgb_planes(&raw)?;
     let y = camsim_analysis::image::luminance(&planes, LUMINANCE_WEIGHTS_REC709)?;
-    let geom = crate::zone_plate::ZonePlateGeometry { size_samples: samples, sensor_px_per_sample: k, amplitude, phase_rad: 0.0 };
-    let (freq, mtf) = crate::zone_plate::zone_plate_mtf(&y.data, y.rows, y.cols, raw.black_level_dn, &geom, 0.02, 0.5);
+    let geom = crate::zone_plate::ZonePlateGeometry {
+        size_samples: samples,
+        sensor_px_per_sample: k,
+        amplitude,
+        phase_rad: 0.0,
+    };
+    let (freq, mtf) = crate::zone_plate::zone_plate_mtf(
+        &y.data,
+        y.rows,
+        y.cols,
+        raw.black_level_dn,
+        &geom,
+        0.02,
+        0.5,
+    );
     let pitch_mm = pitch_m * 1e3;
     let mtf50 = sfr::crossing(&freq, &mtf, 0.5);
     Ok(ZonePlateMetrics {
@@ -332,7 +409,13 @@ fn uniform_config(cam: &Loaded, n: usize, max_pitch_m: f64) -> Result<SimulateCo
     ))
 }
 
-fn measure_noise(cam: &Loaded, cfg: &SimulateConfig, n: usize, exposure_s: f64, seed: u64) -> Result<NoiseMetrics> {
+fn measure_noise(
+    cam: &Loaded,
+    cfg: &SimulateConfig,
+    n: usize,
+    exposure_s: f64,
+    seed: u64,
+) -> Result<NoiseMetrics> {
     let (raw, exposure_s) = capture_one(cam, cfg, n, n, Exposure::Seconds(exposure_s), seed)?;
     // The central region, away from the optics' edge fall-off at the window border.
     let m = n / 8;
@@ -340,7 +423,14 @@ fn measure_noise(cam: &Loaded, cfg: &SimulateConfig, n: usize, exposure_s: f64, 
     let snr = snr_raw(&raw, &rect)?;
     let g = camsim_analysis::cfa_channel_plane(&raw, CfaChannel::G, Some(0))?;
     let roi_px = (g.rows.min(g.cols) / 2).clamp(4, 64);
-    let r = nps(&g, None, &NpsOptions { roi_px, ..NpsOptions::default() })?;
+    let r = nps(
+        &g,
+        None,
+        &NpsOptions {
+            roi_px,
+            ..NpsOptions::default()
+        },
+    )?;
     let mean2 = r.mean * r.mean;
     Ok(NoiseMetrics {
         exposure_s,
@@ -348,11 +438,20 @@ fn measure_noise(cam: &Loaded, cfg: &SimulateConfig, n: usize, exposure_s: f64, 
         green_fraction_of_range: snr[1].mean / (raw.white_level_dn - raw.black_level_dn),
         // Green sub-grid samples are 2 sensor pixels apart.
         nps_freq_cy_per_px: r.radial_freq_cy_per_px.iter().map(|f| f / 2.0).collect(),
-        nnps: r.radial_nps.iter().map(|v| if mean2 > 0.0 { v / mean2 } else { f64::NAN }).collect(),
+        nnps: r
+            .radial_nps
+            .iter()
+            .map(|v| if mean2 > 0.0 { v / mean2 } else { f64::NAN })
+            .collect(),
     })
 }
 
-fn measure_color(cam: &Loaded, opts: &CameraCompareOptions, min_extent_m: f64, grid: &WavelengthGrid) -> Result<ColorMetrics> {
+fn measure_color(
+    cam: &Loaded,
+    opts: &CameraCompareOptions,
+    min_extent_m: f64,
+    grid: &WavelengthGrid,
+) -> Result<ColorMetrics> {
     let rows = opts.size_px;
     let cols = (opts.size_px * 4 / 3 + 1) & !1;
     // The chart (6 x 4 patches of 16 samples, 2-sample borders) spans 80 % of the narrower window.
@@ -364,18 +463,39 @@ fn measure_color(cam: &Loaded, opts: &CameraCompareOptions, min_extent_m: f64, g
     // Auto-exposure to half range: the white patch (~2 % of the window) holds the brightest
     // filter's 99th percentile, so it sits at half the swing, well inside the linear range
     // (before the percentile was taken per filter, a target near full range clipped it).
-    let (raw, exposure_s) = capture_one(cam, &cfg, rows, cols, Exposure::Auto { target_fraction: 0.5 }, opts.seed)?;
+    let (raw, exposure_s) = capture_one(
+        cam,
+        &cfg,
+        rows,
+        cols,
+        Exposure::Auto {
+            target_fraction: 0.5,
+        },
+        opts.seed,
+    )?;
     let mut rgb = camsim_isp::try_demosaic_bilinear(&raw)?;
     let d65 = camsim_core::tables::illuminant("D65")?;
-    let gains = camsim_isp::white_balance::illuminant_gains(&cam.sensor.channel_qe(grid), grid, &d65)?;
+    let gains =
+        camsim_isp::white_balance::illuminant_gains(&cam.sensor.channel_qe(grid), grid, &d65)?;
     camsim_isp::white_balance::apply_gains(&mut rgb, gains);
     let planes = {
         let [r, g, b] = [0, 1, 2].map(|c| Plane::new(rgb.rows, rgb.cols, rgb.plane(c).to_vec()));
         [r?, g?, b?]
     };
-    let corners = camsim_pipeline::macbeth_chart_corners_px(&cfg, &cam.lens, cam.sensor.pixel_pitch_m(), rows, cols)?
-        .ok_or_else(|| ValidateError::invalid("compare", "the chart scene is not a Macbeth chart"))?;
-    let corners = ChartCorners { top_left: corners[0], top_right: corners[1], bottom_right: corners[2], bottom_left: corners[3] };
+    let corners = camsim_pipeline::macbeth_chart_corners_px(
+        &cfg,
+        &cam.lens,
+        cam.sensor.pixel_pitch_m(),
+        rows,
+        cols,
+    )?
+    .ok_or_else(|| ValidateError::invalid("compare", "the chart scene is not a Macbeth chart"))?;
+    let corners = ChartCorners {
+        top_left: corners[0],
+        top_right: corners[1],
+        bottom_right: corners[2],
+        bottom_left: corners[3],
+    };
     let stats = chart::chart_patch_stats_rgb(&planes, &corners, 0.5)?;
     let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
     let (target, white) = ccm::macbeth_xyz(&d65, grid)?;
@@ -384,49 +504,103 @@ fn measure_color(cam: &Loaded, opts: &CameraCompareOptions, min_extent_m: f64, g
     let mean = de.iter().sum::<f64>() / de.len().max(1) as f64;
     let max = de.iter().cloned().fold(0.0, f64::max);
     if !mean.is_finite() {
-        return Err(ValidateError::invalid("colour fit", "no finite colour error (is the chart inside the window?)"));
+        return Err(ValidateError::invalid(
+            "colour fit",
+            "no finite colour error (is the chart inside the window?)",
+        ));
     }
-    Ok(ColorMetrics { exposure_s, patch_delta_e2000: de, mean_delta_e2000: mean, max_delta_e2000: max, camera_to_xyz: m })
+    Ok(ColorMetrics {
+        exposure_s,
+        patch_delta_e2000: de,
+        mean_delta_e2000: mean,
+        max_delta_e2000: max,
+        camera_to_xyz: m,
+    })
 }
 
 /// Simulate both cameras, measure them and (with `out_dir`) write the report.
-pub fn compare_cameras(opts: &CameraCompareOptions, progress: &(dyn Fn(&str, u64, u64) + Sync)) -> Result<CameraComparison> {
+pub fn compare_cameras(
+    opts: &CameraCompareOptions,
+    progress: &(dyn Fn(&str, u64, u64) + Sync),
+) -> Result<CameraComparison> {
     if !(16..=1024).contains(&opts.size_px) {
-        return Err(ValidateError::invalid("size", format!("{} pixels: must be 16 to 1024", opts.size_px)));
+        return Err(ValidateError::invalid(
+            "size",
+            format!("{} pixels: must be 16 to 1024", opts.size_px),
+        ));
     }
-    for (what, v) in [("viewing distance", opts.viewing_distance_m), ("display height", opts.display_height_m)] {
+    for (what, v) in [
+        ("viewing distance", opts.viewing_distance_m),
+        ("display height", opts.display_height_m),
+    ] {
         if !(v > 0.0 && v.is_finite()) {
-            return Err(ValidateError::invalid(what, format!("{v} m must be positive")));
+            return Err(ValidateError::invalid(
+                what,
+                format!("{v} m must be positive"),
+            ));
         }
     }
     let load = |spec: &CameraSpec| -> Result<Loaded> {
         let (sensor, lens) = spec.load()?;
         let optics = Optics::from_config(&lens)?;
-        Ok(Loaded { sensor, lens, optics })
+        Ok(Loaded {
+            sensor,
+            lens,
+            optics,
+        })
     };
     let cams = [load(&opts.a)?, load(&opts.b)?];
     let n = opts.size_px;
-    let max_pitch_m = cams.iter().map(|c| c.sensor.pixel_pitch_m()).fold(0.0, f64::max);
+    let max_pitch_m = cams
+        .iter()
+        .map(|c| c.sensor.pixel_pitch_m())
+        .fold(0.0, f64::max);
     let grid = WavelengthGrid::default();
     let chart_cols = (n * 4 / 3 + 1) & !1;
-    let min_extent_m = cams.iter().map(|c| c.sensor.pixel_pitch_m() * chart_cols as f64).fold(f64::INFINITY, f64::min);
+    let min_extent_m = cams
+        .iter()
+        .map(|c| c.sensor.pixel_pitch_m() * chart_cols as f64)
+        .fold(f64::INFINITY, f64::min);
 
     progress("slanted edge", 0, 4);
-    let mtf = [measure_mtf(&cams[0], opts, max_pitch_m)?, measure_mtf(&cams[1], opts, max_pitch_m)?];
+    let mtf = [
+        measure_mtf(&cams[0], opts, max_pitch_m)?,
+        measure_mtf(&cams[1], opts, max_pitch_m)?,
+    ];
     progress("zone plate", 1, 4);
-    let zone = [measure_zone_plate(&cams[0], opts)?, measure_zone_plate(&cams[1], opts)?];
+    let zone = [
+        measure_zone_plate(&cams[0], opts)?,
+        measure_zone_plate(&cams[1], opts)?,
+    ];
     progress("uniform field", 2, 4);
     // The same exposure time for both: the shorter of the two auto-exposures at half range.
-    let ucfg = [uniform_config(&cams[0], n, max_pitch_m)?, uniform_config(&cams[1], n, max_pitch_m)?];
+    let ucfg = [
+        uniform_config(&cams[0], n, max_pitch_m)?,
+        uniform_config(&cams[1], n, max_pitch_m)?,
+    ];
     let mut exposure_s = f64::INFINITY;
     for (cam, cfg) in cams.iter().zip(&ucfg) {
-        let (_, t) = capture_one(cam, cfg, n, n, Exposure::Auto { target_fraction: 0.5 }, opts.seed)?;
+        let (_, t) = capture_one(
+            cam,
+            cfg,
+            n,
+            n,
+            Exposure::Auto {
+                target_fraction: 0.5,
+            },
+            opts.seed,
+        )?;
         exposure_s = exposure_s.min(t);
     }
-    let noise =
-        [measure_noise(&cams[0], &ucfg[0], n, exposure_s, opts.seed)?, measure_noise(&cams[1], &ucfg[1], n, exposure_s, opts.seed)?];
+    let noise = [
+        measure_noise(&cams[0], &ucfg[0], n, exposure_s, opts.seed)?,
+        measure_noise(&cams[1], &ucfg[1], n, exposure_s, opts.seed)?,
+    ];
     progress("ColorChecker", 3, 4);
-    let color = [measure_color(&cams[0], opts, min_extent_m, &grid)?, measure_color(&cams[1], opts, min_extent_m, &grid)?];
+    let color = [
+        measure_color(&cams[0], opts, min_extent_m, &grid)?,
+        measure_color(&cams[1], opts, min_extent_m, &grid)?,
+    ];
     progress("report", 4, 4);
 
     let [mtf_a, mtf_b] = mtf;
@@ -448,8 +622,13 @@ pub fn compare_cameras(opts: &CameraCompareOptions, progress: &(dyn Fn(&str, u64
         a.label = format!("A: {}", a.label);
         b.label = format!("B: {}", b.label);
     }
-    let mut result =
-        CameraComparison { camsim_version: env!("CARGO_PKG_VERSION").to_string(), options: opts.clone(), a, b, figures: Vec::new() };
+    let mut result = CameraComparison {
+        camsim_version: env!("CARGO_PKG_VERSION").to_string(),
+        options: opts.clone(),
+        a,
+        b,
+        figures: Vec::new(),
+    };
     if let Some(dir) = &opts.out_dir {
         write_report(&mut result, dir)?;
     }
@@ -471,22 +650,72 @@ fn bars(label: &str, x: &[f64], y: &[f64], offset: f64, width: f64, color: [u8; 
 }
 
 fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| ValidateError::file(dir, format!("cannot create the output folder: {e}")))?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| ValidateError::file(dir, format!("cannot create the output folder: {e}")))?;
     let (a, b) = (&r.a, &r.b);
     let mut figs = Vec::new();
 
-    let mtf_fig = Figure::new("MTF of the demosaicked luminance (slanted edge)", "cycles/mm on the sensor", "MTF")
-        .with(Series::new(&a.label, a.mtf.freq_cy_per_mm.clone(), a.mtf.mtf.clone(), Style::Line, COLOR_A))
-        .with(Series::new(&b.label, b.mtf.freq_cy_per_mm.clone(), b.mtf.mtf.clone(), Style::Line, COLOR_B))
-        .ranges(None, Some((0.0, 1.1)));
-    figs.push(save_png(dir, "compare_mtf.png", "MTF (ISO 12233 e-SFR) of both cameras against sensor-plane frequency", mtf_fig.png()?)?);
+    let mtf_fig = Figure::new(
+        "MTF of the demosaicked luminance (slanted edge)",
+        "cycles/mm on the sensor",
+        "MTF",
+    )
+    .with(Series::new(
+        &a.label,
+        a.mtf.freq_cy_per_mm.clone(),
+        a.mtf.mtf.clone(),
+        Style::Line,
+        COLOR_A,
+    ))
+    .with(Series::new(
+        &b.label,
+        b.mtf.freq_cy_per_mm.clone(),
+        b.mtf.mtf.clone(),
+        Style::Line,
+        COLOR_B,
+    ))
+    .ranges(None, Some((0.0, 1.1)));
+    figs.push(save_png(
+        dir,
+        "compare_mtf.png",
+        "MTF (ISO 12233 e-SFR) of both cameras against sensor-plane frequency",
+        mtf_fig.png()?,
+    )?);
 
-    let zp_fig = Figure::new("Zone-plate MTF (demosaicked luminance, all orientations) and slanted edge", "cycles/mm on the sensor", "MTF")
-        .with(Series::new(format!("{} zone plate", a.label), a.zone_plate.freq_cy_per_mm.clone(), a.zone_plate.mtf.clone(), Style::Line, COLOR_A))
-        .with(Series::new(format!("{} zone plate", b.label), b.zone_plate.freq_cy_per_mm.clone(), b.zone_plate.mtf.clone(), Style::Line, COLOR_B))
-        .with(Series::new(format!("{} edge", a.label), a.mtf.freq_cy_per_mm.clone(), a.mtf.mtf.clone(), Style::Dashed, COLOR_A))
-        .with(Series::new(format!("{} edge", b.label), b.mtf.freq_cy_per_mm.clone(), b.mtf.mtf.clone(), Style::Dashed, COLOR_B))
-        .ranges(None, Some((0.0, 1.1)));
+    let zp_fig = Figure::new(
+        "Zone-plate MTF (demosaicked luminance, all orientations) and slanted edge",
+        "cycles/mm on the sensor",
+        "MTF",
+    )
+    .with(Series::new(
+        format!("{} zone plate", a.label),
+        a.zone_plate.freq_cy_per_mm.clone(),
+        a.zone_plate.mtf.clone(),
+        Style::Line,
+        COLOR_A,
+    ))
+    .with(Series::new(
+        format!("{} zone plate", b.label),
+        b.zone_plate.freq_cy_per_mm.clone(),
+        b.zone_plate.mtf.clone(),
+        Style::Line,
+        COLOR_B,
+    ))
+    .with(Series::new(
+        format!("{} edge", a.label),
+        a.mtf.freq_cy_per_mm.clone(),
+        a.mtf.mtf.clone(),
+        Style::Dashed,
+        COLOR_A,
+    ))
+    .with(Series::new(
+        format!("{} edge", b.label),
+        b.mtf.freq_cy_per_mm.clone(),
+        b.mtf.mtf.clone(),
+        Style::Dashed,
+        COLOR_B,
+    ))
+    .ranges(None, Some((0.0, 1.1)));
     figs.push(save_png(
         dir,
         "compare_zone_plate.png",
@@ -496,24 +725,69 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
 
     let ch = [0.0, 1.0, 2.0];
     let snr_db = |m: &CameraMetrics| m.noise.snr.map(|s| s.snr_db).to_vec();
-    let snr_fig = Figure::new("SNR of a uniform field, same exposure (channel 0 R, 1 G, 2 B)", "CFA channel", "SNR, dB")
-        .with(bars(&a.label, &ch, &snr_db(a), -0.18, 0.34, COLOR_A))
-        .with(bars(&b.label, &ch, &snr_db(b), 0.18, 0.34, COLOR_B));
-    figs.push(save_png(dir, "compare_snr.png", "SNR per CFA channel (20 log10 mean / std)", snr_fig.png()?)?);
+    let snr_fig = Figure::new(
+        "SNR of a uniform field, same exposure (channel 0 R, 1 G, 2 B)",
+        "CFA channel",
+        "SNR, dB",
+    )
+    .with(bars(&a.label, &ch, &snr_db(a), -0.18, 0.34, COLOR_A))
+    .with(bars(&b.label, &ch, &snr_db(b), 0.18, 0.34, COLOR_B));
+    figs.push(save_png(
+        dir,
+        "compare_snr.png",
+        "SNR per CFA channel (20 log10 mean / std)",
+        snr_fig.png()?,
+    )?);
 
-    let skip_dc = |m: &CameraMetrics| (m.noise.nps_freq_cy_per_px[1..].to_vec(), m.noise.nnps[1..].to_vec());
+    let skip_dc = |m: &CameraMetrics| {
+        (
+            m.noise.nps_freq_cy_per_px[1..].to_vec(),
+            m.noise.nnps[1..].to_vec(),
+        )
+    };
     let ((fa, na), (fb, nb)) = (skip_dc(a), skip_dc(b));
-    let nps_fig = Figure::new("Normalised noise power spectrum (green, uniform field)", "cycles/pixel", "NPS / mean^2")
-        .with(Series::new(&a.label, fa, na, Style::Line, COLOR_A))
-        .with(Series::new(&b.label, fb, nb, Style::Line, COLOR_B));
-    figs.push(save_png(dir, "compare_nps.png", "Radially averaged NNPS of the green sub-grid", nps_fig.png()?)?);
+    let nps_fig = Figure::new(
+        "Normalised noise power spectrum (green, uniform field)",
+        "cycles/pixel",
+        "NPS / mean^2",
+    )
+    .with(Series::new(&a.label, fa, na, Style::Line, COLOR_A))
+    .with(Series::new(&b.label, fb, nb, Style::Line, COLOR_B));
+    figs.push(save_png(
+        dir,
+        "compare_nps.png",
+        "Radially averaged NNPS of the green sub-grid",
+        nps_fig.png()?,
+    )?);
 
     let patches: Vec<f64> = (1..=24).map(|i| i as f64).collect();
-    let de_fig =
-        Figure::new("CIEDE2000 per ColorChecker patch (after demosaic, WB, CCM)", "patch (1 dark skin ... 24 black)", "Delta E 2000")
-            .with(bars(&a.label, &patches, &a.color.patch_delta_e2000, -0.2, 0.38, COLOR_A))
-            .with(bars(&b.label, &patches, &b.color.patch_delta_e2000, 0.2, 0.38, COLOR_B));
-    figs.push(save_png(dir, "compare_delta_e.png", "CIEDE2000 per patch against the chart's D65 colours", de_fig.png()?)?);
+    let de_fig = Figure::new(
+        "CIEDE2000 per ColorChecker patch (after demosaic, WB, CCM)",
+        "patch (1 dark skin ... 24 black)",
+        "Delta E 2000",
+    )
+    .with(bars(
+        &a.label,
+        &patches,
+        &a.color.patch_delta_e2000,
+        -0.2,
+        0.38,
+        COLOR_A,
+    ))
+    .with(bars(
+        &b.label,
+        &patches,
+        &b.color.patch_delta_e2000,
+        0.2,
+        0.38,
+        COLOR_B,
+    ));
+    figs.push(save_png(
+        dir,
+        "compare_delta_e.png",
+        "CIEDE2000 per patch against the chart's D65 colours",
+        de_fig.png()?,
+    )?);
 
     let mut h = Html::new(&format!("camsim compare: {} vs {}", a.label, b.label));
     h.p(&format!(
@@ -524,18 +798,66 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     let row = |name: &str, fa: String, fb: String| vec![name.to_string(), fa, fb];
     let o = |x: Option<f64>, d| x.map(|v| f(v, d)).unwrap_or_else(|| "-".into());
     let rows = vec![
-        row("pixel pitch, um", f(a.pixel_pitch_um, 2), f(b.pixel_pitch_um, 2)),
-        row("MTF50, cycles/pixel", o(a.mtf.mtf50_cy_per_px, 3), o(b.mtf.mtf50_cy_per_px, 3)),
-        row("MTF50, cycles/mm", o(a.mtf.mtf50_cy_per_mm, 1), o(b.mtf.mtf50_cy_per_mm, 1)),
-        row("acutance (CPIQ CSF)", f(a.mtf.acutance, 3), f(b.mtf.acutance, 3)),
-        row("zone-plate MTF50, cycles/pixel", o(a.zone_plate.mtf50_cy_per_px, 3), o(b.zone_plate.mtf50_cy_per_px, 3)),
-        row("uniform field exposure, ms", f(a.noise.exposure_s * 1e3, 3), f(b.noise.exposure_s * 1e3, 3)),
-        row("green mean, fraction of range", f(a.noise.green_fraction_of_range, 3), f(b.noise.green_fraction_of_range, 3)),
-        row("SNR R, dB", f(a.noise.snr[0].snr_db, 2), f(b.noise.snr[0].snr_db, 2)),
-        row("SNR G, dB", f(a.noise.snr[1].snr_db, 2), f(b.noise.snr[1].snr_db, 2)),
-        row("SNR B, dB", f(a.noise.snr[2].snr_db, 2), f(b.noise.snr[2].snr_db, 2)),
-        row("CIEDE2000 mean", f(a.color.mean_delta_e2000, 2), f(b.color.mean_delta_e2000, 2)),
-        row("CIEDE2000 max", f(a.color.max_delta_e2000, 2), f(b.color.max_delta_e2000, 2)),
+        row(
+            "pixel pitch, um",
+            f(a.pixel_pitch_um, 2),
+            f(b.pixel_pitch_um, 2),
+        ),
+        row(
+            "MTF50, cycles/pixel",
+            o(a.mtf.mtf50_cy_per_px, 3),
+            o(b.mtf.mtf50_cy_per_px, 3),
+        ),
+        row(
+            "MTF50, cycles/mm",
+            o(a.mtf.mtf50_cy_per_mm, 1),
+            o(b.mtf.mtf50_cy_per_mm, 1),
+        ),
+        row(
+            "acutance (CPIQ CSF)",
+            f(a.mtf.acutance, 3),
+            f(b.mtf.acutance, 3),
+        ),
+        row(
+            "zone-plate MTF50, cycles/pixel",
+            o(a.zone_plate.mtf50_cy_per_px, 3),
+            o(b.zone_plate.mtf50_cy_per_px, 3),
+        ),
+        row(
+            "uniform field exposure, ms",
+            f(a.noise.exposure_s * 1e3, 3),
+            f(b.noise.exposure_s * 1e3, 3),
+        ),
+        row(
+            "green mean, fraction of range",
+            f(a.noise.green_fraction_of_range, 3),
+            f(b.noise.green_fraction_of_range, 3),
+        ),
+        row(
+            "SNR R, dB",
+            f(a.noise.snr[0].snr_db, 2),
+            f(b.noise.snr[0].snr_db, 2),
+        ),
+        row(
+            "SNR G, dB",
+            f(a.noise.snr[1].snr_db, 2),
+            f(b.noise.snr[1].snr_db, 2),
+        ),
+        row(
+            "SNR B, dB",
+            f(a.noise.snr[2].snr_db, 2),
+            f(b.noise.snr[2].snr_db, 2),
+        ),
+        row(
+            "CIEDE2000 mean",
+            f(a.color.mean_delta_e2000, 2),
+            f(b.color.mean_delta_e2000, 2),
+        ),
+        row(
+            "CIEDE2000 max",
+            f(a.color.max_delta_e2000, 2),
+            f(b.color.max_delta_e2000, 2),
+        ),
     ];
     h.h2("Summary", "summary");
     h.table(&["metric", &a.label, &b.label], &rows);
@@ -555,8 +877,16 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         .map(|i| {
             vec![
                 format!("{} {}", i + 1, PATCH_NAMES.get(i).copied().unwrap_or("")),
-                a.color.patch_delta_e2000.get(i).map(|v| f(*v, 2)).unwrap_or_default(),
-                b.color.patch_delta_e2000.get(i).map(|v| f(*v, 2)).unwrap_or_default(),
+                a.color
+                    .patch_delta_e2000
+                    .get(i)
+                    .map(|v| f(*v, 2))
+                    .unwrap_or_default(),
+                b.color
+                    .patch_delta_e2000
+                    .get(i)
+                    .map(|v| f(*v, 2))
+                    .unwrap_or_default(),
             ]
         })
         .collect();
@@ -564,7 +894,10 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     h.h2("Provenance", "provenance");
     h.table(
         &["parameter", "value"],
-        &[vec!["command".into(), r.options.command_line.clone()], vec!["camsim".into(), r.camsim_version.clone()]],
+        &[
+            vec!["command".into(), r.options.command_line.clone()],
+            vec!["camsim".into(), r.camsim_version.clone()],
+        ],
     );
     r.figures = figs;
     camsim_io::atomic::write_bytes_atomic(&dir.join("report.html"), h.finish().as_bytes())?;

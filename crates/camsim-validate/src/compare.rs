@@ -90,7 +90,8 @@ impl OneOrMany {
 impl CompareConfig {
     /// Parse TOML text; `base_dir` resolves relative paths, `what` names the text in errors.
     pub fn from_toml_str(text: &str, base_dir: &Path, what: &Path) -> Result<CompareConfig> {
-        let mut c: CompareConfig = toml::from_str(text).map_err(|e| ValidateError::file(what, e.to_string()))?;
+        let mut c: CompareConfig =
+            toml::from_str(text).map_err(|e| ValidateError::file(what, e.to_string()))?;
         c.base_dir = base_dir.to_path_buf();
         if c.regions.is_empty() {
             return Err(ValidateError::file(what, "no [[region]] given"));
@@ -101,13 +102,19 @@ impl CompareConfig {
         for r in &c.regions {
             for (k, v) in [("measured", r.measured), ("simulated", r.simulated)] {
                 if v[2] == 0 || v[3] == 0 {
-                    return Err(ValidateError::file(what, format!("region '{}': {k} = {v:?} has no pixels", r.name)));
+                    return Err(ValidateError::file(
+                        what,
+                        format!("region '{}': {k} = {v:?} has no pixels", r.name),
+                    ));
                 }
             }
         }
         if let Some(t) = c.exposure_s {
             if !(t.is_finite() && t >= 0.0) {
-                return Err(ValidateError::file(what, format!("exposure_s = {t} is not a time >= 0")));
+                return Err(ValidateError::file(
+                    what,
+                    format!("exposure_s = {t} is not a time >= 0"),
+                ));
             }
         }
         Ok(c)
@@ -115,7 +122,8 @@ impl CompareConfig {
 
     /// Read a TOML file.
     pub fn from_file(path: &Path) -> Result<CompareConfig> {
-        let text = std::fs::read_to_string(path).map_err(|e| ValidateError::file(path, e.to_string()))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| ValidateError::file(path, e.to_string()))?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         CompareConfig::from_toml_str(&text, &dir, path)
     }
@@ -167,7 +175,10 @@ fn read_raw(path: &Path) -> Result<RawImage> {
         if cand.is_file() {
             cand
         } else {
-            return Err(ValidateError::file(path, "a folder without raw.dng (give the DNG itself)"));
+            return Err(ValidateError::file(
+                path,
+                "a folder without raw.dng (give the DNG itself)",
+            ));
         }
     } else {
         path.to_path_buf()
@@ -182,24 +193,40 @@ fn rect(v: [usize; 4]) -> Rect {
 
 /// Compare measured and simulated raw images region by region and write the report into `out_dir`.
 pub fn compare(cfg: &CompareConfig, out_dir: &Path) -> Result<CompareResults> {
-    std::fs::create_dir_all(out_dir).map_err(|e| ValidateError::file(out_dir, format!("cannot create the output folder: {e}")))?;
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        ValidateError::file(out_dir, format!("cannot create the output folder: {e}"))
+    })?;
     let sim_path = cfg.resolve(&cfg.simulated);
     let sim = read_raw(&sim_path)?;
     let sensor = match &cfg.sensor {
         None => None,
         Some(s) => {
             let p = cfg.resolve(Path::new(s));
-            Some(if p.is_file() { Sensor::from_file(&p)? } else { Sensor::preset(s)? })
+            Some(if p.is_file() {
+                Sensor::from_file(&p)?
+            } else {
+                Sensor::preset(s)?
+            })
         }
     };
     let exposure_s = cfg.exposure_s.unwrap_or(sim.exposure_s);
-    let regions: Vec<(Rect, Rect)> = cfg.regions.iter().map(|r| (rect(r.simulated), rect(r.measured))).collect();
-    let measured_paths: Vec<PathBuf> = cfg.measured.paths().iter().map(|p| cfg.resolve(p)).collect();
+    let regions: Vec<(Rect, Rect)> = cfg
+        .regions
+        .iter()
+        .map(|r| (rect(r.simulated), rect(r.measured)))
+        .collect();
+    let measured_paths: Vec<PathBuf> = cfg
+        .measured
+        .paths()
+        .iter()
+        .map(|p| cfg.resolve(p))
+        .collect();
     // Statistics per measured frame, averaged over frames.
     let mut pairs: Option<Vec<RegionPair>> = None;
     for mp in &measured_paths {
         let meas = read_raw(mp)?;
-        let pr = compare_regions_raw(&sim, &meas, &regions).map_err(|e| ValidateError::file(mp, e.to_string()))?;
+        let pr = compare_regions_raw(&sim, &meas, &regions)
+            .map_err(|e| ValidateError::file(mp, e.to_string()))?;
         pairs = Some(match pairs {
             None => pr,
             Some(mut acc) => {
@@ -241,10 +268,21 @@ pub fn compare(cfg: &CompareConfig, out_dir: &Path) -> Result<CompareResults> {
     }
     let mut res = CompareResults {
         simulated: sim_path.display().to_string(),
-        measured: measured_paths.iter().map(|p| p.display().to_string()).collect(),
+        measured: measured_paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect(),
         sensor: sensor.as_ref().map(|s| s.name().to_string()),
         exposure_s,
-        regions: cfg.regions.iter().zip(pairs).map(|(r, p)| RegionComparison { name: r.name.clone(), pair: p }).collect(),
+        regions: cfg
+            .regions
+            .iter()
+            .zip(pairs)
+            .map(|(r, p)| RegionComparison {
+                name: r.name.clone(),
+                pair: p,
+            })
+            .collect(),
         max_mean_difference_dn: max_mean,
         max_std_difference_dn: max_std,
         max_measured_vs_predicted_std_dn: max_pred,
@@ -259,19 +297,52 @@ pub fn compare(cfg: &CompareConfig, out_dir: &Path) -> Result<CompareResults> {
 
 fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
     let names = ["R", "G", "B"];
-    let mut means = Figure::new("mean digital values", "measured mean (DN above black)", "simulated mean (DN above black)");
-    let mut stds = Figure::new("standard deviations", "measured std (DN)", "simulated std (DN)");
+    let mut means = Figure::new(
+        "mean digital values",
+        "measured mean (DN above black)",
+        "simulated mean (DN above black)",
+    );
+    let mut stds = Figure::new(
+        "standard deviations",
+        "measured std (DN)",
+        "simulated std (DN)",
+    );
     for c in 0..3 {
         let mx: Vec<f64> = r.regions.iter().map(|g| g.pair.b.mean_dn[c]).collect();
         let my: Vec<f64> = r.regions.iter().map(|g| g.pair.a.mean_dn[c]).collect();
-        means = means.with(Series::new(names[c], mx, my, Style::Points, CHANNEL_COLORS[c]));
+        means = means.with(Series::new(
+            names[c],
+            mx,
+            my,
+            Style::Points,
+            CHANNEL_COLORS[c],
+        ));
         let sx: Vec<f64> = r.regions.iter().map(|g| g.pair.b.std_dn[c]).collect();
         let sy: Vec<f64> = r.regions.iter().map(|g| g.pair.a.std_dn[c]).collect();
-        stds = stds.with(Series::new(names[c], sx.clone(), sy, Style::Points, CHANNEL_COLORS[c]));
-        if r.regions.iter().all(|g| g.pair.predicted_std_dn_b.is_some()) {
-            let py: Vec<f64> = r.regions.iter().map(|g| g.pair.predicted_std_dn_b.unwrap()[c]).collect();
+        stds = stds.with(Series::new(
+            names[c],
+            sx.clone(),
+            sy,
+            Style::Points,
+            CHANNEL_COLORS[c],
+        ));
+        if r.regions
+            .iter()
+            .all(|g| g.pair.predicted_std_dn_b.is_some())
+        {
+            let py: Vec<f64> = r
+                .regions
+                .iter()
+                .map(|g| g.pair.predicted_std_dn_b.unwrap()[c])
+                .collect();
             let light = CHANNEL_COLORS[c].map(|v| ((v as u32 + 255) / 2) as u8);
-            stds = stds.with(Series::new(format!("{} model at measured mean", names[c]), sx, py, Style::Points, light));
+            stds = stds.with(Series::new(
+                format!("{} model at measured mean", names[c]),
+                sx,
+                py,
+                Style::Points,
+                light,
+            ));
         }
     }
     Ok(vec![
@@ -287,7 +358,11 @@ fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
 
 fn report(r: &CompareResults) -> String {
     let mut h = Html::new("camsim validate: measured against simulated, region by region");
-    h.p(&format!("Simulated: {}. Measured: {}.", r.simulated, r.measured.join(", ")));
+    h.p(&format!(
+        "Simulated: {}. Measured: {}.",
+        r.simulated,
+        r.measured.join(", ")
+    ));
     if let Some(s) = &r.sensor {
         h.p(&format!("Noise prediction: sensor '{s}' at {:.4} ms exposure (shot + read + DSNU + PRNU + quantization).", r.exposure_s * 1e3));
     }
@@ -305,19 +380,31 @@ fn report(r: &CompareResults) -> String {
                 f(p.a.mean_dn[c], 1),
                 f(p.b.std_dn[c], 2),
                 f(p.a.std_dn[c], 2),
-                p.predicted_std_dn_b.map(|v| f(v[c], 2)).unwrap_or_else(|| "-".into()),
+                p.predicted_std_dn_b
+                    .map(|v| f(v[c], 2))
+                    .unwrap_or_else(|| "-".into()),
             ]);
         }
     }
     h.table(
-        &["region", "channel", "measured mean", "simulated mean", "measured std", "simulated std", "predicted std (at measured mean)"],
+        &[
+            "region",
+            "channel",
+            "measured mean",
+            "simulated mean",
+            "measured std",
+            "simulated std",
+            "predicted std (at measured mean)",
+        ],
         &rows,
     );
     h.p(&format!(
         "Largest differences: mean {:.2} DN, std {:.2} DN{}.",
         r.max_mean_difference_dn,
         r.max_std_difference_dn,
-        r.max_measured_vs_predicted_std_dn.map(|v| format!(", measured std vs model {v:.2} DN")).unwrap_or_default()
+        r.max_measured_vs_predicted_std_dn
+            .map(|v| format!(", measured std vs model {v:.2} DN"))
+            .unwrap_or_default()
     ));
     h.finish()
 }

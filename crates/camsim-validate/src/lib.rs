@@ -114,10 +114,16 @@ pub enum ValidateError {
 
 impl ValidateError {
     pub(crate) fn invalid(what: impl Into<String>, message: impl Into<String>) -> Self {
-        ValidateError::Invalid { what: what.into(), message: message.into() }
+        ValidateError::Invalid {
+            what: what.into(),
+            message: message.into(),
+        }
     }
     pub(crate) fn file(path: &Path, message: impl Into<String>) -> Self {
-        ValidateError::File { path: path.to_path_buf(), message: message.into() }
+        ValidateError::File {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
     }
 }
 
@@ -256,10 +262,18 @@ pub(crate) struct Stages<'a> {
 
 impl<'a> Stages<'a> {
     pub fn new(progress: &'a (dyn Fn(&str, u64, u64) + Sync)) -> Self {
-        Stages { progress, timings: Vec::new(), start: Instant::now() }
+        Stages {
+            progress,
+            timings: Vec::new(),
+            start: Instant::now(),
+        }
     }
     /// Run `f` as stage `name`, timing it.
-    pub fn run<T>(&mut self, name: &str, f: impl FnOnce(&(dyn Fn(u64, u64) + Sync)) -> Result<T>) -> Result<T> {
+    pub fn run<T>(
+        &mut self,
+        name: &str,
+        f: impl FnOnce(&(dyn Fn(u64, u64) + Sync)) -> Result<T>,
+    ) -> Result<T> {
         let t0 = Instant::now();
         let progress = self.progress;
         let name_s = name.to_string();
@@ -267,7 +281,10 @@ impl<'a> Stages<'a> {
         let cb = move |d: u64, t: u64| progress(&name_s, d, t);
         let r = f(&cb)?;
         progress(name, 1, 1);
-        self.timings.push(StageTime { stage: name.to_string(), seconds: t0.elapsed().as_secs_f64() });
+        self.timings.push(StageTime {
+            stage: name.to_string(),
+            seconds: t0.elapsed().as_secs_f64(),
+        });
         Ok(r)
     }
     pub fn total_s(&self) -> f64 {
@@ -277,7 +294,10 @@ impl<'a> Stages<'a> {
 
 /// Run the paper's Cornell box validation and write `DIR/report.html`, `DIR/results.json` and
 /// the figure PNGs (`DIR/fig*.png`). `progress(stage, done, total)` reports progress.
-pub fn cornell_box(opts: &ValidateOptions, progress: &(dyn Fn(&str, u64, u64) + Sync)) -> Result<ValidationResults> {
+pub fn cornell_box(
+    opts: &ValidateOptions,
+    progress: &(dyn Fn(&str, u64, u64) + Sync),
+) -> Result<ValidationResults> {
     cornell_box_with(opts, QualityParams::of(opts.quality), progress)
 }
 
@@ -290,11 +310,18 @@ pub fn cornell_box_with(
 ) -> Result<ValidationResults> {
     if let Some(b) = params.box_time_budget_s {
         if !(b > 0.0 && b.is_finite()) {
-            return Err(ValidateError::invalid("box_time_budget_s", format!("{b} s must be a positive number of seconds")));
+            return Err(ValidateError::invalid(
+                "box_time_budget_s",
+                format!("{b} s must be a positive number of seconds"),
+            ));
         }
     }
-    std::fs::create_dir_all(&opts.out_dir)
-        .map_err(|e| ValidateError::file(&opts.out_dir, format!("cannot create the output folder: {e}")))?;
+    std::fs::create_dir_all(&opts.out_dir).map_err(|e| {
+        ValidateError::file(
+            &opts.out_dir,
+            format!("cannot create the output folder: {e}"),
+        )
+    })?;
     let spectra = util::BoxSpectra::load(opts.data_dir.as_deref(), &params.grid)?;
     let mut stages = Stages::new(progress);
 
@@ -322,14 +349,26 @@ pub fn cornell_box_with(
         total_seconds: 0.0,
         threads: rayon::current_num_threads(),
     };
-    let mut results = ValidationResults { optics, qe, scene, checks, provenance };
+    let mut results = ValidationResults {
+        optics,
+        qe,
+        scene,
+        checks,
+        provenance,
+    };
     // The report itself is the last stage.
     let t0 = Instant::now();
     let html = util::write_report(opts, &mut results, &stages)?;
-    stages.timings.push(StageTime { stage: "report".into(), seconds: t0.elapsed().as_secs_f64() });
+    stages.timings.push(StageTime {
+        stage: "report".into(),
+        seconds: t0.elapsed().as_secs_f64(),
+    });
     results.provenance.timings = stages.timings.clone();
     results.provenance.total_seconds = stages.total_s();
-    let html = html.replace(util::TIMINGS_PLACEHOLDER, &util::timings_html(&results.provenance));
+    let html = html.replace(
+        util::TIMINGS_PLACEHOLDER,
+        &util::timings_html(&results.provenance),
+    );
     camsim_io::atomic::write_bytes_atomic(&opts.out_dir.join("report.html"), html.as_bytes())?;
     camsim_io::atomic::write_json_atomic(&opts.out_dir.join("results.json"), &results)?;
     Ok(results)
@@ -357,7 +396,10 @@ mod tests {
             command_line: String::new(),
         };
         for b in [0.0, -1.0, f64::NAN] {
-            let params = QualityParams { box_time_budget_s: Some(b), ..QualityParams::of(Quality::Quick) };
+            let params = QualityParams {
+                box_time_budget_s: Some(b),
+                ..QualityParams::of(Quality::Quick)
+            };
             let e = cornell_box_with(&opts, params, &|_, _, _| {}).unwrap_err();
             assert!(e.to_string().contains("box_time_budget_s"), "{e}");
         }

@@ -23,7 +23,9 @@ use crate::report::Html;
 use crate::util::{f, fo, save_png, BoxSpectra, FigurePng};
 use crate::{Check, QualityParams, Result, Stages, ValidateOptions};
 use camsim_analysis::image::LUMINANCE_WEIGHTS_REC709;
-use camsim_analysis::sfr::{crossing, interp, sfr_luminance, sfr_raw_channel, SfrOptions, SfrResult};
+use camsim_analysis::sfr::{
+    crossing, interp, sfr_luminance, sfr_raw_channel, SfrOptions, SfrResult,
+};
 use camsim_analysis::{Plane, Rect};
 use camsim_core::{CfaChannel, SpectralImage};
 use camsim_optics::config::{Padding, WavefrontConfig, ZernikeTerm, ZernikeTerms};
@@ -160,19 +162,34 @@ const MEASURED_COLOR: [u8; 3] = [230, 120, 0];
 /// Name of the measured MTF file inside `--data`.
 pub const MEASURED_MTF_FILE: &str = "pixel4a-measured-mtf-in-focus.csv";
 
-fn measured_comparison(opts: &ValidateOptions, pitch_m: f64) -> Result<Option<MeasuredMtfComparison>> {
-    let Some(dir) = opts.data_dir.as_deref() else { return Ok(None) };
+fn measured_comparison(
+    opts: &ValidateOptions,
+    pitch_m: f64,
+) -> Result<Option<MeasuredMtfComparison>> {
+    let Some(dir) = opts.data_dir.as_deref() else {
+        return Ok(None);
+    };
     let path = dir.join(MEASURED_MTF_FILE);
     if !path.exists() {
         return Ok(None);
     }
-    let m = camsim_io::measurements::read_mtf_csv(&path).map_err(|e| crate::ValidateError::invalid("optics", e.to_string()))?;
+    let m = camsim_io::measurements::read_mtf_csv(&path)
+        .map_err(|e| crate::ValidateError::invalid("optics", e.to_string()))?;
     let pitch_mm = pitch_m * 1e3;
     let system = |name: &str, f_mm: &[f64]| -> Result<Vec<f64>> {
         let wf = Optics::preset(name)?.wavefront_for(None, f64::INFINITY)?;
         let c = wf.mtf(550.0)?;
         let last = c.freq_cyc_per_mm.last().copied().unwrap_or(0.0);
-        Ok(f_mm.iter().map(|f| if *f > last { 0.0 } else { interp(&c.freq_cyc_per_mm, &c.mtf_x, *f) * sinc(f * pitch_mm).abs() }).collect())
+        Ok(f_mm
+            .iter()
+            .map(|f| {
+                if *f > last {
+                    0.0
+                } else {
+                    interp(&c.freq_cyc_per_mm, &c.mtf_x, *f) * sinc(f * pitch_mm).abs()
+                }
+            })
+            .collect())
     };
     let fine: Vec<f64> = (0..=400).map(|i| i as f64).collect();
     let mut presets = Vec::new();
@@ -186,7 +203,12 @@ fn measured_comparison(opts: &ValidateOptions, pitch_m: f64) -> Result<Option<Me
             }
         }
         let m50 = crossing(&fine, &system(name, &fine)?, 0.5);
-        presets.push((name.to_string(), at, m50, if n > 0.0 { (sq / n).sqrt() } else { f64::NAN }));
+        presets.push((
+            name.to_string(),
+            at,
+            m50,
+            if n > 0.0 { (sq / n).sqrt() } else { f64::NAN },
+        ));
     }
     Ok(Some(MeasuredMtfComparison {
         file: path.display().to_string(),
@@ -215,7 +237,11 @@ impl Model {
             if *w <= 0.0 || fx.is_empty() {
                 continue;
             }
-            let v = if f_mm > *fx.last().unwrap() { 0.0 } else { interp(fx, m, f_mm) };
+            let v = if f_mm > *fx.last().unwrap() {
+                0.0
+            } else {
+                interp(fx, m, f_mm)
+            };
             num += w * v;
             den += w;
         }
@@ -240,7 +266,12 @@ fn optics_config(c4_um: f64) -> Result<OpticsConfig> {
 }
 
 /// Run section 1.
-pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra, st: &mut Stages) -> Result<OpticsResults> {
+pub(crate) fn run(
+    opts: &ValidateOptions,
+    p: &QualityParams,
+    spectra: &BoxSpectra,
+    st: &mut Stages,
+) -> Result<OpticsResults> {
     let sensor_full = Sensor::preset("pixel4a")?;
     let pitch_m = sensor_full.pixel_pitch_m();
     let base = OpticsConfig::preset("pixel4a")?;
@@ -270,19 +301,34 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         // The pipeline's one rule: the lens sits at the image distance of the scene's focus.
         let v = camsim_pipeline::render::sensor_image_distance_m(&base, scene.focus_distance_m)
             .map_err(|e| crate::ValidateError::invalid("optics", e.to_string()))?;
-        scene.camera.fov_deg = camsim_pipeline::render::field_of_view_deg(side_px as f64 * pitch_m, v);
+        scene.camera.fov_deg =
+            camsim_pipeline::render::field_of_view_deg(side_px as f64 * pitch_m, v);
         let out = camsim_render::render(&scene, prog)?;
         Ok(out.radiance)
     })?;
 
     // Spectral weights: the window's mean radiance spectrum x lambda (photon counting) x QE.
-    let mean_l: Vec<f64> = (0..grid.len()).map(|b| radiance.band(b).iter().map(|v| *v as f64).sum::<f64>() / radiance.pixels() as f64).collect();
+    let mean_l: Vec<f64> = (0..grid.len())
+        .map(|b| radiance.band(b).iter().map(|v| *v as f64).sum::<f64>() / radiance.pixels() as f64)
+        .collect();
     let qe = sensor_full.channel_qe(&grid);
     let mut weights: Vec<Vec<f64>> = (0..3)
-        .map(|c| (0..grid.len()).map(|b| qe[c][b] * mean_l[b] * grid.wavelength_nm(b)).collect())
+        .map(|c| {
+            (0..grid.len())
+                .map(|b| qe[c][b] * mean_l[b] * grid.wavelength_nm(b))
+                .collect()
+        })
         .collect();
     // Luminance of DN: sum_c a_c DN_c, DN_c proportional to sum_lambda w_c.
-    weights.push((0..grid.len()).map(|b| (0..3).map(|c| LUMINANCE_WEIGHTS_REC709[c] * weights[c][b]).sum()).collect());
+    weights.push(
+        (0..grid.len())
+            .map(|b| {
+                (0..3)
+                    .map(|c| LUMINANCE_WEIGHTS_REC709[c] * weights[c][b])
+                    .sum()
+            })
+            .collect(),
+    );
 
     let sensor = sensor_full.with_size(win, win)?;
     // ROI: every row but at most 128 columns around the centre, where the edge runs (it passes
@@ -290,13 +336,23 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
     // keeps pixels far from the edge, which carry only noise, out of the LSF (ISO 12233 practice).
     let roi_cols = (win - 8).min(128);
     let roi = Rect::new(4, (win - roi_cols) / 2, win - 8, roi_cols);
-    let sfr_opts = SfrOptions { pixel_pitch_mm: Some(pitch_m * 1e3), ..SfrOptions::default() };
-    let labels = ["focused at 50 cm (c4 = 1.225 um over 8 mm)", "focused at 30 cm (c4 = 3.5 um over 8 mm)"];
+    let sfr_opts = SfrOptions {
+        pixel_pitch_mm: Some(pitch_m * 1e3),
+        ..SfrOptions::default()
+    };
+    let labels = [
+        "focused at 50 cm (c4 = 1.225 um over 8 mm)",
+        "focused at 30 cm (c4 = 3.5 um over 8 mm)",
+    ];
     let mut settings = Vec::new();
     for (i, c4) in PAPER_C4_UM.iter().enumerate() {
         let cfg = optics_config(*c4)?;
         let optics = Optics::from_config(&cfg)?;
-        let name = if i == 0 { "optics: in focus" } else { "optics: focused at 30 cm" };
+        let name = if i == 0 {
+            "optics: in focus"
+        } else {
+            "optics: focused at 30 cm"
+        };
         let (frame, model) = st.run(name, |_| {
             let cap = Capture::auto().with_seed(opts.seed.wrapping_add(i as u64));
             let frame = camsim_pipeline::image_radiance(&radiance, &optics, &sensor, &cap)?.frame;
@@ -304,9 +360,19 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
             let wf = optics.wavefront_for(None, TARGET_DISTANCE_M)?;
             let curves: Vec<(Vec<f64>, Vec<f64>)> = (0..grid.len())
                 .into_par_iter()
-                .map(|b| wf.mtf(grid.wavelength_nm(b)).map(|m| (m.freq_cyc_per_mm, m.mtf_x)))
+                .map(|b| {
+                    wf.mtf(grid.wavelength_nm(b))
+                        .map(|m| (m.freq_cyc_per_mm, m.mtf_x))
+                })
                 .collect::<std::result::Result<_, _>>()?;
-            Ok((frame, Model { curves, pitch_mm: pitch_m * 1e3, oversampling: k as f64 }))
+            Ok((
+                frame,
+                Model {
+                    curves,
+                    pitch_mm: pitch_m * 1e3,
+                    oversampling: k as f64,
+                },
+            ))
         })?;
         let raw = &frame.raw[0];
         let rgb = camsim_isp::demosaic_bilinear(raw);
@@ -318,7 +384,12 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         let mut channels = Vec::new();
         for (ci, name) in ["R", "G", "B", "luminance"].iter().enumerate() {
             let s: SfrResult = if ci < 3 {
-                sfr_raw_channel(raw, CfaChannel::from_index(ci).unwrap(), Some(roi), &sfr_opts)?
+                sfr_raw_channel(
+                    raw,
+                    CfaChannel::from_index(ci).unwrap(),
+                    Some(roi),
+                    &sfr_opts,
+                )?
             } else {
                 sfr_luminance(&planes, LUMINANCE_WEIGHTS_REC709, Some(roi), &sfr_opts)?
             };
@@ -327,20 +398,37 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         settings.push(FocusSetting {
             label: labels[i].to_string(),
             c4_um_over_8mm: *c4,
-            c4_um_over_lens_pupil: lens::rescale_defocus(*c4, MEASUREMENT_PUPIL_MM / 2.0, focal_m / n * 1e3 / 2.0),
+            c4_um_over_lens_pupil: lens::rescale_defocus(
+                *c4,
+                MEASUREMENT_PUPIL_MM / 2.0,
+                focal_m / n * 1e3 / 2.0,
+            ),
             exposure_s: frame.exposure_s,
             channels,
         });
     }
 
     let lens_pupil_mm = focal_m / n * 1e3;
-    let c4_geometry_um = lens::defocus_c4_um(focal_m, n, DEFOCUS_FOCUS_DISTANCE_M, TARGET_DISTANCE_M);
+    let c4_geometry_um =
+        lens::defocus_c4_um(focal_m, n, DEFOCUS_FOCUS_DISTANCE_M, TARGET_DISTANCE_M);
     let thin_lens = ThinLens {
         lens_pupil_mm,
         c4_geometry_um,
-        c4_paper_defocused_um: lens::rescale_defocus(PAPER_C4_UM[1], MEASUREMENT_PUPIL_MM / 2.0, lens_pupil_mm / 2.0),
-        c4_paper_in_focus_um: lens::rescale_defocus(PAPER_C4_UM[0], MEASUREMENT_PUPIL_MM / 2.0, lens_pupil_mm / 2.0),
-        geometry_c4_for_20cm_shift_over_8mm_um: lens::rescale_defocus(c4_geometry_um, lens_pupil_mm / 2.0, MEASUREMENT_PUPIL_MM / 2.0),
+        c4_paper_defocused_um: lens::rescale_defocus(
+            PAPER_C4_UM[1],
+            MEASUREMENT_PUPIL_MM / 2.0,
+            lens_pupil_mm / 2.0,
+        ),
+        c4_paper_in_focus_um: lens::rescale_defocus(
+            PAPER_C4_UM[0],
+            MEASUREMENT_PUPIL_MM / 2.0,
+            lens_pupil_mm / 2.0,
+        ),
+        geometry_c4_for_20cm_shift_over_8mm_um: lens::rescale_defocus(
+            c4_geometry_um,
+            lens_pupil_mm / 2.0,
+            MEASUREMENT_PUPIL_MM / 2.0,
+        ),
     };
 
     // Checks: in focus sharper in every channel; the raw-channel SFR follows the model.
@@ -351,18 +439,26 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
         let a = settings[0].channels[c].mtf50_cyc_per_px.unwrap_or(f64::NAN);
         let b = settings[1].channels[c].mtf50_cyc_per_px.unwrap_or(0.0);
         all_sharper &= a > b;
-        detail.push(format!("{} {:.3} > {:.3}", settings[0].channels[c].channel, a, b));
+        detail.push(format!(
+            "{} {:.3} > {:.3}",
+            settings[0].channels[c].channel, a, b
+        ));
     }
     checks.push(Check {
         name: "MTF50 in focus above MTF50 focused at 30 cm (every channel)".into(),
         passed: all_sharper,
         detail: format!("{} cycles/pixel", detail.join(", ")),
     });
-    let worst = settings.iter().flat_map(|s| s.channels[..3].iter().map(|c| c.rms_difference_to_nyquist)).fold(0.0, f64::max);
+    let worst = settings
+        .iter()
+        .flat_map(|s| s.channels[..3].iter().map(|c| c.rms_difference_to_nyquist))
+        .fold(0.0, f64::max);
     checks.push(Check {
         name: "raw-channel SFR matches the optics model up to the channel's Nyquist".into(),
         passed: worst < 0.05,
-        detail: format!("largest RMS difference {worst:.4} (< 0.05) over 0 < f <= 0.25 cycles/pixel"),
+        detail: format!(
+            "largest RMS difference {worst:.4} (< 0.05) over 0 < f <= 0.25 cycles/pixel"
+        ),
     });
     let thin_ok = (thin_lens.c4_paper_defocused_um - thin_lens.c4_geometry_um).abs() < 0.1;
     checks.push(Check {
@@ -392,7 +488,13 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
     Ok(res)
 }
 
-fn channel_mtf(name: &str, s: &SfrResult, model: &Model, weights: &[f64], pitch_m: f64) -> ChannelMtf {
+fn channel_mtf(
+    name: &str,
+    s: &SfrResult,
+    model: &Model,
+    weights: &[f64],
+    pitch_m: f64,
+) -> ChannelMtf {
     let freq = s.freq_cyc_per_sensor_px.clone();
     let model_at: Vec<f64> = freq.iter().map(|fr| model.eval(weights, *fr)).collect();
     let nyq = 0.5 / s.sample_pitch_sensor_px;
@@ -405,7 +507,14 @@ fn channel_mtf(name: &str, s: &SfrResult, model: &Model, weights: &[f64], pitch_
                 mx = mx.max((a - b).abs());
             }
         }
-        (if cnt > 0.0 { (sq / cnt).sqrt() } else { f64::NAN }, mx)
+        (
+            if cnt > 0.0 {
+                (sq / cnt).sqrt()
+            } else {
+                f64::NAN
+            },
+            mx,
+        )
     };
     let (rms, mx) = stats(nyq);
     let (rms_sensor, _) = stats(0.5);
@@ -441,19 +550,49 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
         )
         .ranges(Some((0.0, 0.5)), Some((0.0, 1.05)));
         for (ci, c) in s.channels.iter().enumerate() {
-            let keep = |v: &Vec<f64>| -> Vec<f64> { v.iter().zip(&c.freq_cyc_per_px).filter(|(_, fr)| **fr <= 0.5 + 1e-9).map(|(x, _)| *x).collect() };
+            let keep = |v: &Vec<f64>| -> Vec<f64> {
+                v.iter()
+                    .zip(&c.freq_cyc_per_px)
+                    .filter(|(_, fr)| **fr <= 0.5 + 1e-9)
+                    .map(|(x, _)| *x)
+                    .collect()
+            };
             let fx = keep(&c.freq_cyc_per_px);
-            fig = fig.with(Series::new(format!("{} SFR", c.channel), fx.clone(), keep(&c.sfr), Style::Line, CHANNEL_COLORS[ci]));
-            fig = fig.with(Series::new(format!("{} model", c.channel), fx, keep(&c.model), Style::Dashed, CHANNEL_COLORS[ci]));
+            fig = fig.with(Series::new(
+                format!("{} SFR", c.channel),
+                fx.clone(),
+                keep(&c.sfr),
+                Style::Line,
+                CHANNEL_COLORS[ci],
+            ));
+            fig = fig.with(Series::new(
+                format!("{} model", c.channel),
+                fx,
+                keep(&c.model),
+                Style::Dashed,
+                CHANNEL_COLORS[ci],
+            ));
         }
         let mut extra = String::new();
         if let (0, Some(m)) = (i, &r.measured) {
             // The real camera, in cycles per pixel (f [cycles/mm] x pitch [mm]).
             let px = r.pixel_pitch_um * 1e-3;
             let fx: Vec<f64> = m.freq_cyc_per_mm.iter().map(|f| f * px).collect();
-            fig = fig.with(Series::new("measured Pixel 4a", fx.clone(), m.mtf.clone(), Style::Points, MEASURED_COLOR));
+            fig = fig.with(Series::new(
+                "measured Pixel 4a",
+                fx.clone(),
+                m.mtf.clone(),
+                Style::Points,
+                MEASURED_COLOR,
+            ));
             if let Some((name, at, _, _)) = m.presets.iter().find(|p| p.0 == "pixel4a-measured") {
-                fig = fig.with(Series::new(format!("{name} lens x pixel"), fx, at.clone(), Style::Dashed, MEASURED_COLOR));
+                fig = fig.with(Series::new(
+                    format!("{name} lens x pixel"),
+                    fx,
+                    at.clone(),
+                    Style::Dashed,
+                    MEASURED_COLOR,
+                ));
             }
             extra = "; orange points: the measured MTF of a real Pixel 4a (isetcornellbox), orange dashed: the pixel4a-measured lens (fitted to it) x pixel aperture".into();
         }
@@ -501,7 +640,18 @@ impl OpticsResults {
             }
         }
         h.table(
-            &["setting", "channel", "MTF50 (cyc/px)", "MTF50 (cyc/mm)", "model MTF50 (cyc/px)", "model MTF50 (cyc/mm)", "channel Nyquist (cyc/px)", "RMS(SFR - model) to channel Nyquist", "max |SFR - model|", "RMS to 0.5 cyc/px"],
+            &[
+                "setting",
+                "channel",
+                "MTF50 (cyc/px)",
+                "MTF50 (cyc/mm)",
+                "model MTF50 (cyc/px)",
+                "model MTF50 (cyc/mm)",
+                "channel Nyquist (cyc/px)",
+                "RMS(SFR - model) to channel Nyquist",
+                "max |SFR - model|",
+                "RMS to 0.5 cyc/px",
+            ],
             &rows,
         );
         let t = &self.thin_lens;
@@ -516,7 +666,14 @@ impl OpticsResults {
             let rows: Vec<Vec<String>> = m
                 .presets
                 .iter()
-                .map(|(name, _, m50, rms)| vec![name.clone(), fo(*m50, 1), fo(m.mtf50_cyc_per_mm, 1), f(*rms, 4)])
+                .map(|(name, _, m50, rms)| {
+                    vec![
+                        name.clone(),
+                        fo(*m50, 1),
+                        fo(m.mtf50_cyc_per_mm, 1),
+                        f(*rms, 4),
+                    ]
+                })
                 .collect();
             h.p(&format!(
                 "The real camera: the measured in-focus MTF of a Pixel 4a ({}) against the lens presets' system MTF at 550 nm \
@@ -524,7 +681,15 @@ impl OpticsResults {
                  carries the defocus and pixel crosstalk fitted to this curve (camsim fit mtf).",
                 m.file
             ));
-            h.table(&["lens preset", "model MTF50 (cyc/mm)", "measured MTF50 (cyc/mm)", "RMS(model - measured), 0-250 cyc/mm"], &rows);
+            h.table(
+                &[
+                    "lens preset",
+                    "model MTF50 (cyc/mm)",
+                    "measured MTF50 (cyc/mm)",
+                    "RMS(model - measured), 0-250 cyc/mm",
+                ],
+                &rows,
+            );
         }
     }
 }

@@ -31,12 +31,25 @@ pub struct Series {
 pub const IDENTITY_LABEL: &str = "y = x";
 
 /// Colours of the R, G, B channels and of luminance.
-pub const CHANNEL_COLORS: [[u8; 3]; 4] = [[210, 40, 40], [30, 150, 50], [40, 70, 210], [60, 60, 60]];
+pub const CHANNEL_COLORS: [[u8; 3]; 4] =
+    [[210, 40, 40], [30, 150, 50], [40, 70, 210], [60, 60, 60]];
 
 impl Series {
     /// A series.
-    pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>, style: Style, color: [u8; 3]) -> Series {
-        Series { label: label.into(), x, y, style, color }
+    pub fn new(
+        label: impl Into<String>,
+        x: Vec<f64>,
+        y: Vec<f64>,
+        style: Style,
+        color: [u8; 3],
+    ) -> Series {
+        Series {
+            label: label.into(),
+            x,
+            y,
+            style,
+            color,
+        }
     }
 }
 
@@ -61,7 +74,11 @@ pub struct Figure {
 
 impl Figure {
     /// An empty figure.
-    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Figure {
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Figure {
         Figure {
             title: title.into(),
             x_label: x_label.into(),
@@ -101,7 +118,13 @@ impl Figure {
             return self;
         }
         let lo = lo.min(0.0);
-        self.with(Series::new(IDENTITY_LABEL, vec![lo, hi], vec![lo, hi], Style::Dashed, [120, 120, 120]))
+        self.with(Series::new(
+            IDENTITY_LABEL,
+            vec![lo, hi],
+            vec![lo, hi],
+            Style::Dashed,
+            [120, 120, 120],
+        ))
     }
 
     /// Draw to PNG bytes.
@@ -118,16 +141,29 @@ mod backend {
     use camsim_io::plot as p;
 
     fn pts(s: &Series) -> Vec<(f64, f64)> {
-        s.x.iter().zip(&s.y).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (*x, *y)).collect()
+        s.x.iter()
+            .zip(&s.y)
+            .filter(|(x, y)| x.is_finite() && y.is_finite())
+            .map(|(x, y)| (*x, *y))
+            .collect()
     }
 
     pub fn draw(fig: &Figure) -> crate::Result<Vec<u8>> {
         let identity = fig.series.iter().any(|s| s.label == IDENTITY_LABEL);
-        let data: Vec<&Series> = fig.series.iter().filter(|s| s.label != IDENTITY_LABEL).collect();
+        let data: Vec<&Series> = fig
+            .series
+            .iter()
+            .filter(|s| s.label != IDENTITY_LABEL)
+            .collect();
         let scatter = !data.is_empty() && data.iter().all(|s| s.style == Style::Points);
         let series: Vec<p::Series> = data
             .iter()
-            .map(|s| p::Series { name: s.label.clone(), points: pts(s), dashed: s.style == Style::Dashed, color: Some(s.color) })
+            .map(|s| p::Series {
+                name: s.label.clone(),
+                points: pts(s),
+                dashed: s.style == Style::Dashed,
+                color: Some(s.color),
+            })
             .collect();
         let (w, h) = fig.size;
         let rgb = if scatter {

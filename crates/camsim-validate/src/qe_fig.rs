@@ -35,7 +35,11 @@ pub const WHITE_LUMINANCE_CD_M2: f64 = 100.0;
 /// Brightest noise-free channel mean as a fraction of full scale.
 pub const TARGET_FRACTION: f64 = 0.8;
 /// The three lights: camsim_core::tables::illuminant names and descriptions.
-pub const LIGHTS: [(&str, &str); 3] = [("A", "CIE A (tungsten)"), ("F2", "CIE F2 (cool-white fluorescent)"), ("D65", "CIE D65 (daylight)")];
+pub const LIGHTS: [(&str, &str); 3] = [
+    ("A", "CIE A (tungsten)"),
+    ("F2", "CIE F2 (cool-white fluorescent)"),
+    ("D65", "CIE D65 (daylight)"),
+];
 
 /// One patch under one light.
 #[derive(Debug, Clone, Serialize)]
@@ -92,7 +96,10 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
     let published = Sensor::preset("imx363")?;
     let n_f = camsim_optics::OpticsConfig::preset("pixel4a")?.f_number;
     let e_per_l = lens::irradiance_factor(n_f, 0.0, 1.0);
-    let refl: Vec<Vec<f64>> = tables::macbeth_reflectances().iter().map(|s| grid_samples(s, &grid)).collect();
+    let refl: Vec<Vec<f64>> = tables::macbeth_reflectances()
+        .iter()
+        .map(|s| grid_samples(s, &grid))
+        .collect();
     let ps = p.qe_patch_px;
     let (rows, cols) = (4 * ps, 6 * ps);
     let sensor = measured_sensor.with_size(rows, cols)?;
@@ -104,21 +111,34 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
             let spd = grid_samples(&tables::illuminant(light)?, &grid);
             let y = luminance_cd_m2(&spd, &grid);
             if y.is_nan() || y <= 0.0 {
-                return Err(ValidateError::invalid(format!("illuminant {light}"), "has no luminance on the grid"));
+                return Err(ValidateError::invalid(
+                    format!("illuminant {light}"),
+                    "has no luminance on the grid",
+                ));
             }
             // Radiance of a perfect white diffuser of luminance WHITE_LUMINANCE_CD_M2.
             let white: Vec<f64> = spd.iter().map(|v| v * WHITE_LUMINANCE_CD_M2 / y).collect();
-            let irr: Vec<Vec<f64>> = refl.iter().map(|r| r.iter().zip(&white).map(|(a, b)| a * b * e_per_l).collect()).collect();
+            let irr: Vec<Vec<f64>> = refl
+                .iter()
+                .map(|r| r.iter().zip(&white).map(|(a, b)| a * b * e_per_l).collect())
+                .collect();
             // Exposure: brightest noise-free channel mean at TARGET_FRACTION of full scale.
             let mut e_max: f64 = 0.0;
             for e in &irr {
                 let el = measured_sensor.mean_electrons_uniform(e, &grid, 1.0)?;
                 e_max = e_max.max(el.iter().cloned().fold(0.0, f64::max));
             }
-            let t = TARGET_FRACTION * measured_sensor.max_dn() as f64 / (measured_sensor.k_dn_per_e() * e_max);
+            let t = TARGET_FRACTION * measured_sensor.max_dn() as f64
+                / (measured_sensor.k_dn_per_e() * e_max);
             exposures.push((light.to_string(), t));
             // The tiled irradiance frame, sampled at the pixel pitch (identity mapping).
-            let mut img = SpectralImage::zeros(rows, cols, grid, sensor.pixel_pitch_m(), Quantity::Irradiance)?;
+            let mut img = SpectralImage::zeros(
+                rows,
+                cols,
+                grid,
+                sensor.pixel_pitch_m(),
+                Quantity::Irradiance,
+            )?;
             for (b, _) in grid.wavelengths_nm().iter().enumerate() {
                 let plane = img.band_mut(b);
                 for r in 0..rows {
@@ -127,8 +147,13 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
                     }
                 }
             }
-            let frame = sensor.compute(&img, &Capture::seconds(t).with_seed(opts.seed.wrapping_add(100 + li as u64)))?;
-            let rects: Vec<Rect> = (0..24).map(|i| Rect::new((i / 6) * ps + 2, (i % 6) * ps + 2, ps - 4, ps - 4)).collect();
+            let frame = sensor.compute(
+                &img,
+                &Capture::seconds(t).with_seed(opts.seed.wrapping_add(100 + li as u64)),
+            )?;
+            let rects: Vec<Rect> = (0..24)
+                .map(|i| Rect::new((i / 6) * ps + 2, (i % 6) * ps + 2, ps - 4, ps - 4))
+                .collect();
             let stats = roi_stats_raw(&frame.raw[0], &rects)?;
             let k = published.k_dn_per_e();
             for (i, s) in stats.iter().enumerate() {
@@ -148,11 +173,23 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, st: &mut Stages) ->
     let predicted: Vec<[f64; 3]> = patches.iter().map(|p| p.predicted_dn).collect();
     let fit = fit_qe_matrix(&measured, &predicted, MatrixForm::PaperLowerNonNegative)?;
     let fit_u = fit_qe_matrix(&measured, &predicted, MatrixForm::Unconstrained)?;
-    let max_diff = fit.m.iter().flatten().zip(PAPER_M.iter().flatten()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let max_diff = fit
+        .m
+        .iter()
+        .flatten()
+        .zip(PAPER_M.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
     // Tolerance from the data: how far published QE x the paper's M is from the measuring QE.
-    let (published_qe, measuring_qe) = (published.channel_qe(&grid), measured_sensor.channel_qe(&grid));
-    let mismatch = camsim_analysis::qefit::qe_relative_rms_difference(&published_qe, &measuring_qe, &PAPER_M)?;
-    let tol = [0, 1, 2].map(|j| (mismatch[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt()).max(0.01));
+    let (published_qe, measuring_qe) = (
+        published.channel_qe(&grid),
+        measured_sensor.channel_qe(&grid),
+    );
+    let mismatch =
+        camsim_analysis::qefit::qe_relative_rms_difference(&published_qe, &measuring_qe, &PAPER_M)?;
+    let tol = [0, 1, 2].map(|j| {
+        (mismatch[j] * (0..3).map(|i| PAPER_M[i][j].powi(2)).sum::<f64>().sqrt()).max(0.01)
+    });
     let within = (0..3).all(|j| (0..3).all(|i| (fit.m[i][j] - PAPER_M[i][j]).abs() <= tol[j]));
     let checks = vec![
         Check {
@@ -194,12 +231,25 @@ fn measuring_sensor(opts: &ValidateOptions) -> Result<(Sensor, String)> {
     let Some(dir) = opts.data_dir.as_deref() else {
         return Ok((preset, "pixel4a preset: published QE x the paper's M (self-consistency only; give --data for p4aCorrected)".into()));
     };
-    let Some(path) = ["csv", "mat"].iter().map(|e| dir.join(format!("p4aCorrected.{e}"))).find(|p| p.is_file()) else {
-        return Ok((preset, format!("pixel4a preset: published QE x the paper's M (no p4aCorrected in {})", dir.display())));
+    let Some(path) = ["csv", "mat"]
+        .iter()
+        .map(|e| dir.join(format!("p4aCorrected.{e}")))
+        .find(|p| p.is_file())
+    else {
+        return Ok((
+            preset,
+            format!(
+                "pixel4a preset: published QE x the paper's M (no p4aCorrected in {})",
+                dir.display()
+            ),
+        ));
     };
     let t = camsim_core::spectrum_csv::load_spectra(&path)?;
     if t.columns.len() < 3 {
-        return Err(ValidateError::file(&path, format!("needs 3 columns r, g, b, has {}", t.columns.len())));
+        return Err(ValidateError::file(
+            &path,
+            format!("needs 3 columns r, g, b, has {}", t.columns.len()),
+        ));
     }
     let col = |name: &str, k: usize| t.columns[t.index_of(name).unwrap_or(k)].clone();
     let mut cfg = preset.config().clone();
@@ -218,30 +268,72 @@ fn measuring_sensor(opts: &ValidateOptions) -> Result<(Sensor, String)> {
     };
     cfg.qe_correction = None;
     let s = Sensor::from_config(cfg).map_err(|e| ValidateError::file(&path, e.to_string()))?;
-    Ok((s, format!("{} (ISET/isetcornellbox, the paper's corrected QE)", path.display())))
+    Ok((
+        s,
+        format!(
+            "{} (ISET/isetcornellbox, the paper's corrected QE)",
+            path.display()
+        ),
+    ))
 }
 
-fn figures(opts: &ValidateOptions, r: &QeResults, published: &Sensor, grid: &WavelengthGrid) -> Result<Vec<FigurePng>> {
+fn figures(
+    opts: &ValidateOptions,
+    r: &QeResults,
+    published: &Sensor,
+    grid: &WavelengthGrid,
+) -> Result<Vec<FigurePng>> {
     let mut out = Vec::new();
     let wl = grid.wavelengths_nm();
     // (a-c) the lights, relative to their maximum.
-    let mut fig = Figure::new("Figure 3a-c: the lights", "wavelength (nm)", "relative spectral power");
+    let mut fig = Figure::new(
+        "Figure 3a-c: the lights",
+        "wavelength (nm)",
+        "relative spectral power",
+    );
     let colors = [[200, 120, 30], [60, 160, 160], [90, 90, 200]];
     for (i, (name, desc)) in LIGHTS.iter().enumerate() {
         let s = grid_samples(&tables::illuminant(name)?, grid);
         let m = s.iter().cloned().fold(0.0, f64::max).max(1e-30);
-        fig = fig.with(Series::new(*desc, wl.clone(), s.iter().map(|v| v / m).collect(), Style::Line, colors[i]));
+        fig = fig.with(Series::new(
+            *desc,
+            wl.clone(),
+            s.iter().map(|v| v / m).collect(),
+            Style::Line,
+            colors[i],
+        ));
     }
-    out.push(save_png(&opts.out_dir, "fig3a_lights.png", "Figure 3a-c: spectral power of the three lights (normalized to 1).", fig.png()?)?);
+    out.push(save_png(
+        &opts.out_dir,
+        "fig3a_lights.png",
+        "Figure 3a-c: spectral power of the three lights (normalized to 1).",
+        fig.png()?,
+    )?);
 
     // (d) published (dashed) and transformed (solid) QE.
     let qe = published.channel_qe(grid);
     let tq = transform_qe(&qe, &r.fit_paper_form.m)?;
-    let mut fig = Figure::new("Figure 3d: IMX363 QE, published and transformed", "wavelength (nm)", "quantum efficiency");
+    let mut fig = Figure::new(
+        "Figure 3d: IMX363 QE, published and transformed",
+        "wavelength (nm)",
+        "quantum efficiency",
+    );
     for c in 0..3 {
         let ch = ["R", "G", "B"][c];
-        fig = fig.with(Series::new(format!("{ch} published"), wl.clone(), qe[c].clone(), Style::Dashed, CHANNEL_COLORS[c]));
-        fig = fig.with(Series::new(format!("{ch} transformed (fitted M)"), wl.clone(), tq[c].clone(), Style::Line, CHANNEL_COLORS[c]));
+        fig = fig.with(Series::new(
+            format!("{ch} published"),
+            wl.clone(),
+            qe[c].clone(),
+            Style::Dashed,
+            CHANNEL_COLORS[c],
+        ));
+        fig = fig.with(Series::new(
+            format!("{ch} transformed (fitted M)"),
+            wl.clone(),
+            tq[c].clone(),
+            Style::Line,
+            CHANNEL_COLORS[c],
+        ));
     }
     out.push(save_png(
         &opts.out_dir,
@@ -251,13 +343,43 @@ fn figures(opts: &ValidateOptions, r: &QeResults, published: &Sensor, grid: &Wav
     )?);
 
     // (e, f) predicted vs measured, before and after.
-    let after = camsim_analysis::qefit::apply_matrix(&r.patches.iter().map(|p| p.predicted_dn).collect::<Vec<_>>(), &r.fit_paper_form.m);
-    for (k, (title, file)) in [("Figure 3e: published QE", "fig3e_before.png"), ("Figure 3f: transformed QE", "fig3f_after.png")].iter().enumerate() {
-        let mut fig = Figure::new(*title, "predicted mean DN", "measured (simulated pixel4a) mean DN");
+    let after = camsim_analysis::qefit::apply_matrix(
+        &r.patches.iter().map(|p| p.predicted_dn).collect::<Vec<_>>(),
+        &r.fit_paper_form.m,
+    );
+    for (k, (title, file)) in [
+        ("Figure 3e: published QE", "fig3e_before.png"),
+        ("Figure 3f: transformed QE", "fig3f_after.png"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let mut fig = Figure::new(
+            *title,
+            "predicted mean DN",
+            "measured (simulated pixel4a) mean DN",
+        );
         for c in 0..3 {
-            let x: Vec<f64> = r.patches.iter().enumerate().map(|(i, p)| if k == 0 { p.predicted_dn[c] } else { after[i][c] }).collect();
+            let x: Vec<f64> = r
+                .patches
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    if k == 0 {
+                        p.predicted_dn[c]
+                    } else {
+                        after[i][c]
+                    }
+                })
+                .collect();
             let y: Vec<f64> = r.patches.iter().map(|p| p.measured_dn[c]).collect();
-            fig = fig.with(Series::new(["R", "G", "B"][c], x, y, Style::Points, CHANNEL_COLORS[c]));
+            fig = fig.with(Series::new(
+                ["R", "G", "B"][c],
+                x,
+                y,
+                Style::Points,
+                CHANNEL_COLORS[c],
+            ));
         }
         fig = fig.with_identity_line();
         let cap = format!(
@@ -270,7 +392,9 @@ fn figures(opts: &ValidateOptions, r: &QeResults, published: &Sensor, grid: &Wav
 }
 
 fn m_rows(m: &[[f64; 3]; 3]) -> Vec<Vec<String>> {
-    m.iter().map(|r| r.iter().map(|v| f(*v, 4)).collect()).collect()
+    m.iter()
+        .map(|r| r.iter().map(|v| f(*v, 4)).collect())
+        .collect()
 }
 
 impl QeResults {
@@ -295,9 +419,21 @@ impl QeResults {
         h.table(&["r'", "g'", "b'"], &m_rows(&self.fit_unconstrained.m));
         let fp = &self.fit_paper_form;
         h.table(
-            &["fit", "RMS before (DN)", "RMS after (DN)", "relative RMS before", "relative RMS after"],
             &[
-                vec!["paper form".into(), f(fp.rms_before, 2), f(fp.rms_after, 2), f(fp.relative_rms_before, 4), f(fp.relative_rms_after, 4)],
+                "fit",
+                "RMS before (DN)",
+                "RMS after (DN)",
+                "relative RMS before",
+                "relative RMS after",
+            ],
+            &[
+                vec![
+                    "paper form".into(),
+                    f(fp.rms_before, 2),
+                    f(fp.rms_after, 2),
+                    f(fp.relative_rms_before, 4),
+                    f(fp.relative_rms_after, 4),
+                ],
                 vec![
                     "unconstrained".into(),
                     f(self.fit_unconstrained.rms_before, 2),
@@ -307,8 +443,15 @@ impl QeResults {
                 ],
             ],
         );
-        h.p(&format!("Largest |M_fit - M_paper| entry: {:.4}.", self.max_abs_difference_to_paper));
-        let ex: Vec<String> = self.exposure_s.iter().map(|(l, t)| format!("{l}: {:.3} ms", t * 1e3)).collect();
+        h.p(&format!(
+            "Largest |M_fit - M_paper| entry: {:.4}.",
+            self.max_abs_difference_to_paper
+        ));
+        let ex: Vec<String> = self
+            .exposure_s
+            .iter()
+            .map(|(l, t)| format!("{l}: {:.3} ms", t * 1e3))
+            .collect();
         h.p(&format!("Exposure per light: {}.", ex.join(", ")));
     }
 }

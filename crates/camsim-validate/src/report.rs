@@ -29,12 +29,16 @@ pub struct Html {
 impl Html {
     /// A new document with a title.
     pub fn new(title: &str) -> Html {
-        Html { title: title.to_string(), body: String::new() }
+        Html {
+            title: title.to_string(),
+            body: String::new(),
+        }
     }
 
     /// A top-level section heading.
     pub fn h2(&mut self, text: &str, id: &str) {
-        self.body.push_str(&format!("<h2 id=\"{}\">{}</h2>\n", esc(id), esc(text)));
+        self.body
+            .push_str(&format!("<h2 id=\"{}\">{}</h2>\n", esc(id), esc(text)));
     }
 
     /// A sub-heading.
@@ -83,8 +87,15 @@ impl Html {
 
     /// A pass/fail badge followed by text.
     pub fn check(&mut self, passed: bool, text: &str) {
-        let (class, word) = if passed { ("pass", "PASS") } else { ("fail", "FAIL") };
-        self.body.push_str(&format!("<p><span class=\"{class}\">{word}</span> {}</p>\n", esc(text)));
+        let (class, word) = if passed {
+            ("pass", "PASS")
+        } else {
+            ("fail", "FAIL")
+        };
+        self.body.push_str(&format!(
+            "<p><span class=\"{class}\">{word}</span> {}</p>\n",
+            esc(text)
+        ));
     }
 
     /// The complete document.
@@ -111,7 +122,10 @@ mod tests {
 
     #[test]
     fn escapes_markup() {
-        assert_eq!(esc("<a href=\"x\">&'"), "&lt;a href=&quot;x&quot;&gt;&amp;&#39;");
+        assert_eq!(
+            esc("<a href=\"x\">&'"),
+            "&lt;a href=&quot;x&quot;&gt;&amp;&#39;"
+        );
         let mut h = Html::new("T<1>");
         h.table(&["a"], &[vec!["<b>".into()]]);
         let s = h.finish();
@@ -122,10 +136,18 @@ mod tests {
     fn figures_are_standard_padded_base64() {
         // RFC 4648 section 10 vectors, and the two highest symbols ('+', '/') of the standard
         // alphabet (a data: URI needs it, not the URL-safe one).
-        for (bytes, b64) in [(&b"fooba"[..], "Zm9vYmE="), (b"foobar", "Zm9vYmFy"), (&[0xfb, 0xff], "+/8=")] {
+        for (bytes, b64) in [
+            (&b"fooba"[..], "Zm9vYmE="),
+            (b"foobar", "Zm9vYmFy"),
+            (&[0xfb, 0xff], "+/8="),
+        ] {
             let mut h = Html::new("t");
             h.figure(bytes, "c");
-            assert!(h.finish().contains(&format!("src=\"data:image/png;base64,{b64}\"")), "{b64}");
+            assert!(
+                h.finish()
+                    .contains(&format!("src=\"data:image/png;base64,{b64}\"")),
+                "{b64}"
+            );
         }
     }
 }

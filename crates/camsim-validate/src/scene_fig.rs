@@ -23,7 +23,9 @@ use crate::plot::{Figure, Series, Style, CHANNEL_COLORS};
 use crate::report::Html;
 use crate::util::{f, save_png, BoxSpectra, FigurePng};
 use crate::{Check, QualityParams, Result, Stages, ValidateError, ValidateOptions};
-use camsim_analysis::chart::{chart_patch_rects, chart_patch_stats_rgb, line_profile, ChartCorners};
+use camsim_analysis::chart::{
+    chart_patch_rects, chart_patch_stats_rgb, line_profile, ChartCorners,
+};
 use camsim_analysis::image::Moments;
 use camsim_analysis::{Plane, Rect};
 use camsim_core::colorimetry::Cmfs;
@@ -237,16 +239,34 @@ fn capture_position(
     scene.settings.time_budget_s = p.box_time_budget_s;
     // The pipeline's one field-of-view rule (as `simulate` renders a 3D scene): the render covers
     // exactly the sensor seen from the lens at its image distance.
-    camsim_pipeline::render::match_camera_to_sensor(&mut scene, &sensor, optics.config(), p.box_render.0, p.box_render.1)?;
-    let out = st.run(&format!("images: render Cornell box, chart {name}"), |prog| Ok(camsim_render::render(&scene, prog)?))?;
+    camsim_pipeline::render::match_camera_to_sensor(
+        &mut scene,
+        &sensor,
+        optics.config(),
+        p.box_render.0,
+        p.box_render.1,
+    )?;
+    let out = st.run(
+        &format!("images: render Cornell box, chart {name}"),
+        |prog| Ok(camsim_render::render(&scene, prog)?),
+    )?;
     let radiance = out.radiance;
     let cmfs = Cmfs::on(&grid);
-    let w: Vec<f64> = cmfs.y.iter().map(|y| y * LUMINOUS_EFFICACY_LM_PER_W).collect();
+    let w: Vec<f64> = cmfs
+        .y
+        .iter()
+        .map(|y| y * LUMINOUS_EFFICACY_LM_PER_W)
+        .collect();
     let mean_luminance = radiance.mean_weighted_integral(&w);
     let (irr, frame) = st.run(&format!("images: optics + sensor, chart {name}"), |_| {
         let cap = match exposure {
             Some(t) => Capture::seconds(t),
-            None => Capture { exposure: Exposure::Auto { target_fraction: AUTO_EXPOSURE_FRACTION }, ..Capture::default() },
+            None => Capture {
+                exposure: Exposure::Auto {
+                    target_fraction: AUTO_EXPOSURE_FRACTION,
+                },
+                ..Capture::default()
+            },
         }
         .with_seed(opts.seed.wrapping_add(200));
         // The pipeline's own wiring of optics into sensor.
@@ -254,16 +274,27 @@ fn capture_position(
         Ok((imaged.irradiance, imaged.frame))
     })?;
     drop(radiance);
-    let map = PixelMap { scale: irr.sample_spacing_m / sensor.pixel_pitch_m(), render: p.box_render, sensor: (sensor.cols(), sensor.rows()) };
-    let raw = frame.raw.into_iter().next().ok_or_else(|| ValidateError::invalid("sensor", "no frame"))?;
-    let rgb = st.run(&format!("images: demosaic, chart {name}"), |_| Ok(camsim_isp::demosaic_bilinear(&raw)))?;
+    let map = PixelMap {
+        scale: irr.sample_spacing_m / sensor.pixel_pitch_m(),
+        render: p.box_render,
+        sensor: (sensor.cols(), sensor.rows()),
+    };
+    let raw = frame
+        .raw
+        .into_iter()
+        .next()
+        .ok_or_else(|| ValidateError::invalid("sensor", "no frame"))?;
+    let rgb = st.run(&format!("images: demosaic, chart {name}"), |_| {
+        Ok(camsim_isp::demosaic_bilinear(&raw))
+    })?;
     let (centers, _) = builtin::mcc_patch_centers_on(&scene.camera, &bo.mcc_position)?;
     let corners = grid_corners(&centers, &map);
     let planes = planes_of(&rgb)?;
     let stats = chart_patch_stats_rgb(&planes, &corners, 0.5)?;
     let gray: Vec<[f64; 3]> = stats[18..24].iter().map(|s| s.mean).collect();
     let rg_set = &stats[GRAY_RG_PATCHES];
-    let rg = rg_set.iter().map(|g| g.mean[0]).sum::<f64>() / rg_set.iter().map(|g| g.mean[1]).sum::<f64>();
+    let rg = rg_set.iter().map(|g| g.mean[0]).sum::<f64>()
+        / rg_set.iter().map(|g| g.mean[1]).sum::<f64>();
     let (p0, p1) = corners.row_line(3);
     let len = ((p1[0] - p0[0]).powi(2) + (p1[1] - p0[1]).powi(2)).sqrt();
     let samples = (len.round() as usize).clamp(2, 800);
@@ -272,7 +303,12 @@ fn capture_position(
         position: name.to_string(),
         exposure_s: frame.exposure_s,
         mean_luminance_cd_m2: mean_luminance,
-        chart_corners_px: [corners.top_left, corners.top_right, corners.bottom_right, corners.bottom_left],
+        chart_corners_px: [
+            corners.top_left,
+            corners.top_right,
+            corners.bottom_right,
+            corners.bottom_left,
+        ],
         gray_patch_rgb: gray,
         gray_rg_ratio: rg,
         profile_distance_px: prof.iter().map(|q| q.distance_px).collect(),
@@ -281,17 +317,33 @@ fn capture_position(
         render_seconds: out.stats.seconds,
         render_rays_per_second: out.stats.rays_per_second,
     };
-    Ok(Captured { raw, rgb, irr: if keep_irradiance { Some(irr) } else { None }, map, scene, corners, result })
+    Ok(Captured {
+        raw,
+        rgb,
+        irr: if keep_irradiance { Some(irr) } else { None },
+        map,
+        scene,
+        corners,
+        result,
+    })
 }
 
 /// Mean of three planes at projected world points (bilinear), R, G, B.
-fn sample_world(planes: &[Plane; 3], scene: &SceneDescription, map: &PixelMap, pts: &[[f64; 3]]) -> [f64; 3] {
+fn sample_world(
+    planes: &[Plane; 3],
+    scene: &SceneDescription,
+    map: &PixelMap,
+    pts: &[[f64; 3]],
+) -> [f64; 3] {
     let mut s = [0.0; 3];
     let mut n = 0.0;
     for p in pts {
         if let Some(r) = builtin::project_to_raster(&scene.camera, *p) {
             let q = map.to_sensor(r);
-            let v: Vec<Option<f64>> = planes.iter().map(|pl| pl.sample_bilinear(q[0], q[1])).collect();
+            let v: Vec<Option<f64>> = planes
+                .iter()
+                .map(|pl| pl.sample_bilinear(q[0], q[1]))
+                .collect();
             if v.iter().all(|x| x.is_some()) {
                 for c in 0..3 {
                     s[c] += v[c].unwrap();
@@ -312,7 +364,11 @@ fn floor_patch(x: f64, z: f64, half: f64) -> Vec<[f64; 3]> {
     let mut v = Vec::new();
     for i in 0..7 {
         for j in 0..7 {
-            v.push([x - half + 2.0 * half * i as f64 / 6.0, 0.0, z - half + 2.0 * half * j as f64 / 6.0]);
+            v.push([
+                x - half + 2.0 * half * i as f64 / 6.0,
+                0.0,
+                z - half + 2.0 * half * j as f64 / 6.0,
+            ]);
         }
     }
     v
@@ -348,7 +404,12 @@ fn features(c: &Captured) -> Result<ImageFeatures> {
     let Geometry::Triangles { positions, .. } = &light.geometry else {
         return Err(ValidateError::invalid("light", "is not a triangle mesh"));
     };
-    let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut y0, mut x1, mut y1) = (
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    );
     for p in positions {
         if let Some(r) = builtin::project_to_raster(&c.scene.camera, *p) {
             let q = c.map.to_sensor(r);
@@ -360,12 +421,22 @@ fn features(c: &Captured) -> Result<ImageFeatures> {
     }
     let (cols, rows) = (c.raw.cols as f64, c.raw.rows as f64);
     // Inner 60 % of the bounding box, clipped to the sensor.
-    let (cx, cy, hw, hh) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0, 0.3 * (x1 - x0), 0.3 * (y1 - y0));
+    let (cx, cy, hw, hh) = (
+        (x0 + x1) / 2.0,
+        (y0 + y1) / 2.0,
+        0.3 * (x1 - x0),
+        0.3 * (y1 - y0),
+    );
     let rx0 = (cx - hw).clamp(0.0, cols - 1.0) as usize;
     let rx1 = (cx + hw).clamp(1.0, cols) as usize;
     let ry0 = (cy - hh).clamp(0.0, rows - 1.0) as usize;
     let ry1 = (cy + hh).clamp(1.0, rows) as usize;
-    let light_rect = Rect::new(ry0, rx0, ry1.saturating_sub(ry0).max(1), rx1.saturating_sub(rx0).max(1));
+    let light_rect = Rect::new(
+        ry0,
+        rx0,
+        ry1.saturating_sub(ry0).max(1),
+        rx1.saturating_sub(rx0).max(1),
+    );
     let white = c.raw.white_level_dn;
     let mut sat = 0usize;
     let mut tot = 0usize;
@@ -383,11 +454,25 @@ fn features(c: &Captured) -> Result<ImageFeatures> {
     let lit = sample_world(&planes, &c.scene, &c.map, &floor_patch(0.40, 0.06, 0.012));
     // Block faces (Cornell data page vertices): tall block's +x face (toward the red wall),
     // short block's -x face (toward the green wall).
-    let red_face = sample_world(&planes, &c.scene, &c.map, &face_points([0.472, 0.406], [0.423, 0.247], 0.33));
-    let green_face = sample_world(&planes, &c.scene, &c.map, &face_points([0.130, 0.065], [0.082, 0.225], 0.165));
+    let red_face = sample_world(
+        &planes,
+        &c.scene,
+        &c.map,
+        &face_points([0.472, 0.406], [0.423, 0.247], 0.33),
+    );
+    let green_face = sample_world(
+        &planes,
+        &c.scene,
+        &c.map,
+        &face_points([0.130, 0.065], [0.082, 0.225], 0.165),
+    );
     Ok(ImageFeatures {
         light_rect,
-        light_saturated_fraction: if tot > 0 { sat as f64 / tot as f64 } else { 0.0 },
+        light_saturated_fraction: if tot > 0 {
+            sat as f64 / tot as f64
+        } else {
+            0.0
+        },
         shadow_floor_dn: luma(shadow),
         lit_floor_dn: luma(lit),
         shadow_to_lit_ratio: luma(shadow) / luma(lit),
@@ -398,9 +483,14 @@ fn features(c: &Captured) -> Result<ImageFeatures> {
 }
 
 fn noise_regions(c: &Captured, sensor: &Sensor) -> Result<Vec<NoiseRegion>> {
-    let irr = c.irr.as_ref().ok_or_else(|| ValidateError::invalid("noise", "the centre irradiance was not kept"))?;
+    let irr = c
+        .irr
+        .as_ref()
+        .ok_or_else(|| ValidateError::invalid("noise", "the centre irradiance was not kept"))?;
     let t = c.result.exposure_s;
-    let nf = sensor.with_noise(NoiseSwitches::none()).compute(irr, &Capture::seconds(t))?;
+    let nf = sensor
+        .with_noise(NoiseSwitches::none())
+        .compute(irr, &Capture::seconds(t))?;
     let nf = &nf.raw[0];
     let raw = &c.raw;
     let regions = chart_patch_rects(&c.corners, 0.6, raw.rows, raw.cols)?;
@@ -411,7 +501,10 @@ fn noise_regions(c: &Captured, sensor: &Sensor) -> Result<Vec<NoiseRegion>> {
     for reg in &regions[18..24] {
         let m = camsim_analysis::roi::raw_rect_moments(nf, &reg.rect)?;
         let means = m.map(|v| v.mean());
-        if means.iter().all(|v| *v > 0.04 * max_dn && *v < 0.85 * max_dn) {
+        if means
+            .iter()
+            .all(|v| *v > 0.04 * max_dn && *v < 0.85 * max_dn)
+        {
             cand.push((means[1], reg.clone()));
         }
     }
@@ -451,18 +544,38 @@ fn noise_regions(c: &Captured, sensor: &Sensor) -> Result<Vec<NoiseRegion>> {
                 }
             })
             .collect();
-        out.push(NoiseRegion { name: reg.name.clone(), rect: reg.rect, channels });
+        out.push(NoiseRegion {
+            name: reg.name.clone(),
+            rect: reg.rect,
+            channels,
+        });
     }
     Ok(out)
 }
 
 /// Run sections 3-5.
-pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra, st: &mut Stages) -> Result<SceneResults> {
+pub(crate) fn run(
+    opts: &ValidateOptions,
+    p: &QualityParams,
+    spectra: &BoxSpectra,
+    st: &mut Stages,
+) -> Result<SceneResults> {
     let sensor = Sensor::preset("pixel4a")?;
-    let center = capture_position(opts, p, spectra, MccPosition::Center, "center", None, true, st)?;
+    let center = capture_position(
+        opts,
+        p,
+        spectra,
+        MccPosition::Center,
+        "center",
+        None,
+        true,
+        st,
+    )?;
     let t = center.result.exposure_s;
     let feats = features(&center)?;
-    let noise = st.run("noise: noise-free capture and regions", |_| noise_regions(&center, &sensor))?;
+    let noise = st.run("noise: noise-free capture and regions", |_| {
+        noise_regions(&center, &sensor)
+    })?;
     let mut figures = Vec::new();
     // Figure 4 and the centre panel of Figure 5 / 6 from the centre capture.
     figures.extend(image_figures(opts, p, spectra, &center, &noise)?);
@@ -488,7 +601,10 @@ pub(crate) fn run(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectr
     checks.push(Check {
         name: "light source saturates".into(),
         passed: feats.light_saturated_fraction > 0.0,
-        detail: format!("{:.1} % of the light's pixels at the white level", 100.0 * feats.light_saturated_fraction),
+        detail: format!(
+            "{:.1} % of the light's pixels at the white level",
+            100.0 * feats.light_saturated_fraction
+        ),
     });
     checks.push(Check {
         name: "shadow beside the short block darker than the lit floor".into(),
@@ -609,21 +725,38 @@ fn preview_factor(cols: usize) -> usize {
 }
 
 fn light_of(spectra: &BoxSpectra) -> camsim_core::Spectrum {
-    spectra.light.clone().unwrap_or_else(builtin::cornell_light_relative)
+    spectra
+        .light
+        .clone()
+        .unwrap_or_else(builtin::cornell_light_relative)
 }
 
 /// sRGB preview (ColorPipeline for the pixel4a QE under the box's light), downsampled.
-fn srgb_preview(p: &QualityParams, spectra: &BoxSpectra, rgb: &RgbImage, exposure_scale: Option<f64>) -> Result<(Rgb8, usize, f64)> {
+fn srgb_preview(
+    p: &QualityParams,
+    spectra: &BoxSpectra,
+    rgb: &RgbImage,
+    exposure_scale: Option<f64>,
+) -> Result<(Rgb8, usize, f64)> {
     let grid: WavelengthGrid = p.grid;
     let sensor = Sensor::preset("pixel4a")?;
-    let pipe = camsim_isp::ColorPipeline::fit(&sensor.channel_qe(&grid), &grid, &light_of(spectra))?;
+    let pipe =
+        camsim_isp::ColorPipeline::fit(&sensor.channel_qe(&grid), &grid, &light_of(spectra))?;
     let k = preview_factor(rgb.cols);
     let small = downsample(rgb, k);
     let scale = exposure_scale.unwrap_or_else(|| pipe.auto_exposure_scale(&small));
     // Clipped highlights (the lamp) render neutral, not in the false colour white balance gives them.
     let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
     let data = pipe.render_srgb8_clipped(&small, Some(scale), Some(saturation_dn));
-    Ok((Rgb8 { w: small.cols, h: small.rows, data }, k, scale))
+    Ok((
+        Rgb8 {
+            w: small.cols,
+            h: small.rows,
+            data,
+        },
+        k,
+        scale,
+    ))
 }
 
 fn position_thumbnail(p: &QualityParams, spectra: &BoxSpectra, c: &Captured) -> Result<Vec<u8>> {
@@ -644,7 +777,13 @@ fn draw_gray_box(img: &mut Rgb8, corners: &ChartCorners, k: f64) {
     }
 }
 
-fn image_figures(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra, c: &Captured, noise: &[NoiseRegion]) -> Result<Vec<FigurePng>> {
+fn image_figures(
+    opts: &ValidateOptions,
+    p: &QualityParams,
+    spectra: &BoxSpectra,
+    c: &Captured,
+    noise: &[NoiseRegion],
+) -> Result<Vec<FigurePng>> {
     let mut out = Vec::new();
     let k = preview_factor(c.rgb.cols);
     // (a) The demosaicked sensor data as they are: camera RGB, scaled so the 99th percentile is
@@ -652,7 +791,11 @@ fn image_figures(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra
     let small = downsample(&c.rgb, k);
     let mut vals: Vec<f32> = small.g.iter().step_by(7).copied().collect();
     let idx = ((vals.len().max(1) - 1) as f64 * 0.99) as usize;
-    let p99 = if vals.is_empty() { 1.0 } else { *vals.select_nth_unstable_by(idx, |a, b| a.total_cmp(b)).1 as f64 };
+    let p99 = if vals.is_empty() {
+        1.0
+    } else {
+        *vals.select_nth_unstable_by(idx, |a, b| a.total_cmp(b)).1 as f64
+    };
     let sc = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
     let mut data = vec![0u8; small.pixels() * 3];
     for i in 0..small.pixels() {
@@ -660,7 +803,11 @@ fn image_figures(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra
             data[i * 3 + ch] = camsim_core::colorimetry::srgb_encode_u8(plane[i] as f64 * sc);
         }
     }
-    let raw_img = Rgb8 { w: small.cols, h: small.rows, data };
+    let raw_img = Rgb8 {
+        w: small.cols,
+        h: small.rows,
+        data,
+    };
     out.push(save_png(
         &opts.out_dir,
         "fig4a_demosaicked.png",
@@ -678,7 +825,13 @@ fn image_figures(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra
     draw_gray_box(&mut prev, &c.corners, k2 as f64);
     for r in noise {
         let kk = k2 as f64;
-        prev.rect(r.rect.col as f64 / kk, r.rect.row as f64 / kk, r.rect.col_end() as f64 / kk, r.rect.row_end() as f64 / kk, [255, 255, 0]);
+        prev.rect(
+            r.rect.col as f64 / kk,
+            r.rect.row as f64 / kk,
+            r.rect.col_end() as f64 / kk,
+            r.rect.row_end() as f64 / kk,
+            [255, 255, 0],
+        );
     }
     out.push(save_png(
         &opts.out_dir,
@@ -689,7 +842,11 @@ fn image_figures(opts: &ValidateOptions, p: &QualityParams, spectra: &BoxSpectra
     Ok(out)
 }
 
-fn profile_figures(opts: &ValidateOptions, positions: &[PositionResult], thumbs: Vec<(&str, Vec<u8>)>) -> Result<Vec<FigurePng>> {
+fn profile_figures(
+    opts: &ValidateOptions,
+    positions: &[PositionResult],
+    thumbs: Vec<(&str, Vec<u8>)>,
+) -> Result<Vec<FigurePng>> {
     let mut out = Vec::new();
     for (name, png) in thumbs {
         let letter = if name == "left" { 'a' } else { 'c' };
@@ -700,11 +857,18 @@ fn profile_figures(opts: &ValidateOptions, positions: &[PositionResult], thumbs:
             png,
         )?);
     }
-    let ymax = positions.iter().flat_map(|q| q.profile_rgb.iter().flat_map(|v| v.iter().cloned())).fold(0.0, f64::max) * 1.05;
+    let ymax = positions
+        .iter()
+        .flat_map(|q| q.profile_rgb.iter().flat_map(|v| v.iter().cloned()))
+        .fold(0.0, f64::max)
+        * 1.05;
     for (i, q) in positions.iter().enumerate() {
         let letter = ['d', 'e', 'f'][i];
         let mut fig = Figure::new(
-            format!("Figure 5{letter}: gray series, chart {} (R/G {:.3})", q.position, q.gray_rg_ratio),
+            format!(
+                "Figure 5{letter}: gray series, chart {} (R/G {:.3})",
+                q.position, q.gray_rg_ratio
+            ),
             "position along the gray series (pixels)",
             "digital value above black (DN)",
         )
@@ -730,20 +894,63 @@ fn profile_figures(opts: &ValidateOptions, positions: &[PositionResult], thumbs:
 
 fn noise_figures(opts: &ValidateOptions, r: &SceneResults) -> Result<Vec<FigurePng>> {
     let mut out = Vec::new();
-    let mut fig = Figure::new("Figure 6c: mean digital values", "noise-free mean (DN)", "noisy mean (DN)");
-    let mut fig2 = Figure::new("Figure 6d: standard deviations", "predicted std, noise model (DN)", "measured std (DN)");
+    let mut fig = Figure::new(
+        "Figure 6c: mean digital values",
+        "noise-free mean (DN)",
+        "noisy mean (DN)",
+    );
+    let mut fig2 = Figure::new(
+        "Figure 6d: standard deviations",
+        "predicted std, noise model (DN)",
+        "measured std (DN)",
+    );
     for c in 0..3 {
-        let x: Vec<f64> = r.noise.iter().map(|g| g.channels[c].noise_free_mean_dn).collect();
+        let x: Vec<f64> = r
+            .noise
+            .iter()
+            .map(|g| g.channels[c].noise_free_mean_dn)
+            .collect();
         let y: Vec<f64> = r.noise.iter().map(|g| g.channels[c].mean_dn).collect();
-        fig = fig.with(Series::new(["R", "G", "B"][c], x, y, Style::Points, CHANNEL_COLORS[c]));
-        let xp: Vec<f64> = r.noise.iter().map(|g| g.channels[c].predicted_std_dn).collect();
-        let ys: Vec<f64> = r.noise.iter().map(|g| g.channels[c].sensor_noise_std_dn).collect();
+        fig = fig.with(Series::new(
+            ["R", "G", "B"][c],
+            x,
+            y,
+            Style::Points,
+            CHANNEL_COLORS[c],
+        ));
+        let xp: Vec<f64> = r
+            .noise
+            .iter()
+            .map(|g| g.channels[c].predicted_std_dn)
+            .collect();
+        let ys: Vec<f64> = r
+            .noise
+            .iter()
+            .map(|g| g.channels[c].sensor_noise_std_dn)
+            .collect();
         let yr: Vec<f64> = r.noise.iter().map(|g| g.channels[c].raw_std_dn).collect();
-        fig2 = fig2.with(Series::new(format!("{} noisy - noise-free", ["R", "G", "B"][c]), xp.clone(), ys, Style::Points, CHANNEL_COLORS[c]));
+        fig2 = fig2.with(Series::new(
+            format!("{} noisy - noise-free", ["R", "G", "B"][c]),
+            xp.clone(),
+            ys,
+            Style::Points,
+            CHANNEL_COLORS[c],
+        ));
         let light = CHANNEL_COLORS[c].map(|v| ((v as u32 + 255) / 2) as u8);
-        fig2 = fig2.with(Series::new(format!("{} raw within region", ["R", "G", "B"][c]), xp, yr, Style::Points, light));
+        fig2 = fig2.with(Series::new(
+            format!("{} raw within region", ["R", "G", "B"][c]),
+            xp,
+            yr,
+            Style::Points,
+            light,
+        ));
     }
-    out.push(save_png(&opts.out_dir, "fig6c_means.png", "Figure 6c: mean DN of the three regions, noisy vs noise-free capture.", fig.with_identity_line().png()?)?);
+    out.push(save_png(
+        &opts.out_dir,
+        "fig6c_means.png",
+        "Figure 6c: mean DN of the three regions, noisy vs noise-free capture.",
+        fig.with_identity_line().png()?,
+    )?);
     out.push(save_png(
         &opts.out_dir,
         "fig6d_std.png",
@@ -772,23 +979,53 @@ impl SceneResults {
         h.table(
             &["feature", "value"],
             &[
-                vec!["light source: saturated fraction of its pixels".into(), f(ft.light_saturated_fraction, 3)],
-                vec!["floor in the short block's shadow (luminance DN)".into(), f(ft.shadow_floor_dn, 1)],
+                vec![
+                    "light source: saturated fraction of its pixels".into(),
+                    f(ft.light_saturated_fraction, 3),
+                ],
+                vec![
+                    "floor in the short block's shadow (luminance DN)".into(),
+                    f(ft.shadow_floor_dn, 1),
+                ],
                 vec!["lit floor (luminance DN)".into(), f(ft.lit_floor_dn, 1)],
                 vec!["shadow / lit".into(), f(ft.shadow_to_lit_ratio, 3)],
-                vec!["R/G, tall block face toward the red wall".into(), f(ft.rg_face_toward_red_wall, 3)],
-                vec!["R/G, short block face toward the green wall".into(), f(ft.rg_face_toward_green_wall, 3)],
+                vec![
+                    "R/G, tall block face toward the red wall".into(),
+                    f(ft.rg_face_toward_red_wall, 3),
+                ],
+                vec![
+                    "R/G, short block face toward the green wall".into(),
+                    f(ft.rg_face_toward_green_wall, 3),
+                ],
                 vec!["R/G, lit floor".into(), f(ft.rg_lit_floor, 3)],
             ],
         );
-        h.h2("4. Digital values along the gray series (Figure 5)", "digital-values");
+        h.h2(
+            "4. Digital values along the gray series (Figure 5)",
+            "digital-values",
+        );
         fig(h, "fig5", &self.figures);
         let rows: Vec<Vec<String>> = self
             .positions
             .iter()
-            .map(|q| vec![q.position.clone(), f(q.gray_rg_ratio, 4), f(q.mean_luminance_cd_m2, 2), f(q.exposure_s * 1e3, 3)])
+            .map(|q| {
+                vec![
+                    q.position.clone(),
+                    f(q.gray_rg_ratio, 4),
+                    f(q.mean_luminance_cd_m2, 2),
+                    f(q.exposure_s * 1e3, 3),
+                ]
+            })
             .collect();
-        h.table(&["chart position", "R/G (gray patches)", "mean scene luminance (cd/m2)", "exposure (ms)"], &rows);
+        h.table(
+            &[
+                "chart position",
+                "R/G (gray patches)",
+                "mean scene luminance (cd/m2)",
+                "exposure (ms)",
+            ],
+            &rows,
+        );
         h.h2("5. Noise (Figure 6)", "noise");
         h.p("Three gray patches in the linear range of the centre image, raw CFA pixels per channel. The same irradiance captured \
              noise-free at the same exposure removes the render's Monte Carlo noise and the illumination gradient: the standard \
@@ -812,7 +1049,17 @@ impl SceneResults {
             }
         }
         h.table(
-            &["region", "channel", "pixels", "mean (DN)", "raw std (DN)", "std(noisy - noise-free) (DN)", "predicted std (DN)", "ratio", "difference (DN)"],
+            &[
+                "region",
+                "channel",
+                "pixels",
+                "mean (DN)",
+                "raw std (DN)",
+                "std(noisy - noise-free) (DN)",
+                "predicted std (DN)",
+                "ratio",
+                "difference (DN)",
+            ],
             &rows,
         );
         h.p(&format!(

@@ -25,7 +25,11 @@ pub struct FigurePng {
 /// Write a PNG into the output folder and keep its bytes for the report.
 pub fn save_png(out_dir: &Path, file: &str, caption: &str, png: Vec<u8>) -> Result<FigurePng> {
     camsim_io::atomic::write_bytes_atomic(&out_dir.join(file), &png)?;
-    Ok(FigurePng { file: file.to_string(), caption: caption.to_string(), png })
+    Ok(FigurePng {
+        file: file.to_string(),
+        caption: caption.to_string(),
+        png,
+    })
 }
 
 /// The Cornell box's light and wall spectra: the built-in ones (Cornell data page) or the
@@ -65,7 +69,8 @@ fn column(t: &SpectraTable, name: &str, index: usize, path: &Path) -> Result<Spe
             ))
         }
     };
-    Ok(s.map_err(|e| ValidateError::file(path, e.to_string()))?.with_extrapolation(Extrapolation::Hold))
+    Ok(s.map_err(|e| ValidateError::file(path, e.to_string()))?
+        .with_extrapolation(Extrapolation::Hold))
 }
 
 impl BoxSpectra {
@@ -79,21 +84,31 @@ impl BoxSpectra {
                 light: None,
                 walls: WallSpectra::default(),
                 describe: vec![
-                    "light: Cornell Program of Computer Graphics, Cornell box data page (built in)".into(),
-                    "walls: Cornell Program of Computer Graphics, Cornell box data page (built in)".into(),
+                    "light: Cornell Program of Computer Graphics, Cornell box data page (built in)"
+                        .into(),
+                    "walls: Cornell Program of Computer Graphics, Cornell box data page (built in)"
+                        .into(),
                 ],
             });
         };
         if !dir.is_dir() {
             return Err(ValidateError::file(dir, "the --data folder does not exist"));
         }
-        let lp = find_file(dir, &["cboxIlluminant"])
-            .ok_or_else(|| ValidateError::file(dir, "no cboxIlluminant.csv or cboxIlluminant.mat in this folder"))?;
+        let lp = find_file(dir, &["cboxIlluminant"]).ok_or_else(|| {
+            ValidateError::file(
+                dir,
+                "no cboxIlluminant.csv or cboxIlluminant.mat in this folder",
+            )
+        })?;
         let lt = load_spectra(&lp)?;
         let light = column(&lt, "spd", 0, &lp)?;
         light.require_non_negative(&lp.display().to_string())?;
-        let wp = find_file(dir, &["cboxSurfaces", "cboxWalls"])
-            .ok_or_else(|| ValidateError::file(dir, "no cboxSurfaces or cboxWalls (.csv or .mat) in this folder"))?;
+        let wp = find_file(dir, &["cboxSurfaces", "cboxWalls"]).ok_or_else(|| {
+            ValidateError::file(
+                dir,
+                "no cboxSurfaces or cboxWalls (.csv or .mat) in this folder",
+            )
+        })?;
         let wt = load_spectra(&wp)?;
         let clip = |s: Spectrum| -> Spectrum {
             let v = s.values.iter().map(|x| x.clamp(0.0, 1.0)).collect();
@@ -104,10 +119,20 @@ impl BoxSpectra {
         let white = clip(column(&wt, "white", 2, &wp)?);
         Ok(BoxSpectra {
             light: Some(light),
-            walls: WallSpectra { white: Some(white), red: Some(red), green: Some(green) },
+            walls: WallSpectra {
+                white: Some(white),
+                red: Some(red),
+                green: Some(green),
+            },
             describe: vec![
-                format!("light: {} (ISET/isetcornellbox, PR670 measurement)", lp.display()),
-                format!("walls: {} (ISET/isetcornellbox; red, green, white; clipped to [0, 1])", wp.display()),
+                format!(
+                    "light: {} (ISET/isetcornellbox, PR670 measurement)",
+                    lp.display()
+                ),
+                format!(
+                    "walls: {} (ISET/isetcornellbox; red, green, white; clipped to [0, 1])",
+                    wp.display()
+                ),
             ],
         })
     }
@@ -139,7 +164,11 @@ pub const TIMINGS_PLACEHOLDER: &str = "<!--camsim-timings-->";
 /// The timing table.
 pub fn timings_html(p: &Provenance) -> String {
     let mut h = Html::new("");
-    let mut rows: Vec<Vec<String>> = p.timings.iter().map(|t| vec![t.stage.clone(), f(t.seconds, 2)]).collect();
+    let mut rows: Vec<Vec<String>> = p
+        .timings
+        .iter()
+        .map(|t| vec![t.stage.clone(), f(t.seconds, 2)])
+        .collect();
     rows.push(vec!["total".into(), f(p.total_seconds, 2)]);
     h.table(&["stage", "seconds"], &rows);
     let s = h.finish();
@@ -150,7 +179,11 @@ pub fn timings_html(p: &Provenance) -> String {
 }
 
 /// Assemble the HTML report (timings are filled in afterwards).
-pub fn write_report(opts: &ValidateOptions, r: &mut ValidationResults, _stages: &crate::Stages) -> Result<String> {
+pub fn write_report(
+    opts: &ValidateOptions,
+    r: &mut ValidationResults,
+    _stages: &crate::Stages,
+) -> Result<String> {
     let mut h = Html::new("camsim validation: the Cornell box (Lyu et al.)");
     h.p(&format!(
         "This report reproduces figures 2-6 of Lyu et al., \"Validation of image systems simulation technology using a \
@@ -180,7 +213,10 @@ pub fn write_report(opts: &ValidateOptions, r: &mut ValidationResults, _stages: 
             vec!["seed".into(), p.seed.to_string()],
             vec!["threads".into(), p.threads.to_string()],
             vec!["spectra".into(), p.spectra.join("; ")],
-            vec!["quality parameters".into(), serde_json::to_string(&p.params).unwrap_or_default()],
+            vec![
+                "quality parameters".into(),
+                serde_json::to_string(&p.params).unwrap_or_default(),
+            ],
         ],
     );
     h.raw(TIMINGS_PLACEHOLDER);
@@ -203,7 +239,12 @@ pub fn encode_png_rgb8(width: usize, height: usize, data: &[u8]) -> Result<Vec<u
     use image::ImageEncoder;
     let mut buf = Vec::new();
     image::codecs::png::PngEncoder::new(&mut buf)
-        .write_image(data, width as u32, height as u32, image::ExtendedColorType::Rgb8)
+        .write_image(
+            data,
+            width as u32,
+            height as u32,
+            image::ExtendedColorType::Rgb8,
+        )
         .map_err(|e| ValidateError::invalid("PNG encoding", e.to_string()))?;
     Ok(buf)
 }

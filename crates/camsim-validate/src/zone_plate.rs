@@ -94,7 +94,9 @@ pub fn zone_plate_mtf(
         if count[b] < 64 {
             continue;
         }
-        let Some([a, s, c]) = solve3(&normal[b], &rhs[b]) else { continue };
+        let Some([a, s, c]) = solve3(&normal[b], &rhs[b]) else {
+            continue;
+        };
         if c <= 0.0 {
             continue;
         }
@@ -107,11 +109,17 @@ pub fn zone_plate_mtf(
 /// Solve the 3x3 system m x = v by Cramer's rule (None when singular).
 fn solve3(m: &[[f64; 3]; 3], v: &[f64; 3]) -> Option<[f64; 3]> {
     let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     };
     let d = det(m);
-    let scale = m.iter().flatten().map(|x| x.abs()).fold(0.0, f64::max).powi(3);
+    let scale = m
+        .iter()
+        .flatten()
+        .map(|x| x.abs())
+        .fold(0.0, f64::max)
+        .powi(3);
     // Also refuses a NaN determinant.
     if d.is_nan() || d.abs() <= 1e-12 * scale {
         return None;
@@ -136,13 +144,19 @@ mod tests {
     #[test]
     fn an_ideal_image_has_unit_mtf_and_an_attenuation_is_recovered() {
         let (rows, cols) = (96, 128);
-        let geom = ZonePlateGeometry { size_samples: 384, sensor_px_per_sample: 0.5, amplitude: 0.8, phase_rad: 0.3 };
+        let geom = ZonePlateGeometry {
+            size_samples: 384,
+            sensor_px_per_sample: 0.5,
+            amplitude: 0.8,
+            phase_rad: 0.3,
+        };
         for gain in [1.0, 0.5] {
             let mut y = vec![0.0f32; rows * cols];
             for r in 0..rows {
                 for c in 0..cols {
                     let phi = geom.phase(rows, cols, r, c);
-                    y[r * cols + c] = (64.0 + 1000.0 * (1.0 + gain * geom.amplitude * phi.cos())) as f32;
+                    y[r * cols + c] =
+                        (64.0 + 1000.0 * (1.0 + gain * geom.amplitude * phi.cos())) as f32;
                 }
             }
             let (f, m) = zone_plate_mtf(&y, rows, cols, 64.0, &geom, 0.02, 0.4);

@@ -71,7 +71,12 @@ simulated = [32, 30, 20, 12]
         for ch in 0..3 {
             let (ms, ss) = reference(&sim, rc.simulated, ch);
             let (mm, sm) = reference(&meas, rc.measured, ch);
-            assert!((g.pair.a.mean_dn[ch] - ms).abs() < 1e-9, "{} ch {ch}: {} vs {ms}", g.name, g.pair.a.mean_dn[ch]);
+            assert!(
+                (g.pair.a.mean_dn[ch] - ms).abs() < 1e-9,
+                "{} ch {ch}: {} vs {ms}",
+                g.name,
+                g.pair.a.mean_dn[ch]
+            );
             assert!((g.pair.b.mean_dn[ch] - mm).abs() < 1e-9);
             assert!((g.pair.a.std_dn[ch] - ss).abs() < 1e-9);
             assert!((g.pair.b.std_dn[ch] - sm).abs() < 1e-9);
@@ -85,7 +90,8 @@ simulated = [32, 30, 20, 12]
         assert!(r.regions[0].pair.std_difference_dn[ch].abs() < 1e-9);
     }
     assert!(out.join("report.html").is_file() && out.join("compare_std.png").is_file());
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(json["regions"].as_array().unwrap().len(), 2);
 }
 
@@ -93,7 +99,12 @@ simulated = [32, 30, 20, 12]
 fn bad_configs_are_errors_naming_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path();
-    let e = CompareConfig::from_toml_str("simulated = \"a.dng\"\nmeasured = \"b.dng\"\nregion = []\n", p, Path::new("c.toml")).unwrap_err();
+    let e = CompareConfig::from_toml_str(
+        "simulated = \"a.dng\"\nmeasured = \"b.dng\"\nregion = []\n",
+        p,
+        Path::new("c.toml"),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("no [[region]]"), "{e}");
     let e = CompareConfig::from_toml_str("simulated = 3\n", p, Path::new("c.toml")).unwrap_err();
     assert!(e.to_string().contains("c.toml"), "{e}");

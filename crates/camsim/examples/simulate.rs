@@ -4,12 +4,18 @@
 //! cargo run --release -p camsim --example simulate -- [OUT_DIR]
 
 fn main() -> camsim::Result<()> {
-    let out = std::env::args().nth(1).unwrap_or_else(|| "out/lib-example".into());
+    let out = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "out/lib-example".into());
     let mut config = camsim::SimulateConfig::builtin_default();
     let mut last = None;
     for exposure_ms in [5.0, 20.0] {
         config.capture.exposure_ms = Some(exposure_ms);
-        let sim = camsim::simulate(&config, &camsim::SimulateOptions { noise_free: true }, &|_, _, _| {})?;
+        let sim = camsim::simulate(
+            &config,
+            &camsim::SimulateOptions { noise_free: true },
+            &|_, _, _| {},
+        )?;
         let nf = sim.noise_free_dn.as_deref().unwrap_or_default();
         let mean_nf = nf.iter().map(|v| *v as f64).sum::<f64>() / nf.len().max(1) as f64;
         println!(
@@ -25,7 +31,12 @@ fn main() -> camsim::Result<()> {
     }
     if let Some(sim) = last {
         let outputs = camsim::OutputSet::parse("raw,preview,noise-free")?;
-        sim.write(out.as_ref(), &outputs, camsim::ExrOptions::default(), &camsim::RunInfo::default())?;
+        sim.write(
+            out.as_ref(),
+            &outputs,
+            camsim::ExrOptions::default(),
+            &camsim::RunInfo::default(),
+        )?;
         println!("wrote {out}");
     }
     Ok(())

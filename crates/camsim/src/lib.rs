@@ -61,7 +61,8 @@ pub use camsim_core::{RawImage, SpectralImage, WavelengthGrid};
 pub use camsim_io::exr::{ExrCompression, ExrOptions, ExrPrecision};
 pub use camsim_pipeline::render::{field_of_view_deg, sensor_image_distance_m};
 pub use camsim_pipeline::{
-    simulate, Output, OutputSet, PipelineError as Error, Progress, Rgb8Image, RunInfo, SimulateConfig, SimulateOptions, Simulation,
+    simulate, Output, OutputSet, PipelineError as Error, Progress, Rgb8Image, RunInfo,
+    SimulateConfig, SimulateOptions, Simulation,
 };
 
 /// Result with camsim's [`Error`].

@@ -9,13 +9,16 @@ use camsim_analysis::Plane;
 pub fn erfc(x: f64) -> f64 {
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let ans = t * (-z * z - 1.26551223
-        + t * (1.00002368
-            + t * (0.37409196
-                + t * (0.09678418
-                    + t * (-0.18628806
-                        + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-        .exp();
+    let ans = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
     if x >= 0.0 {
         ans
     } else {
@@ -29,8 +32,20 @@ pub fn phi(t: f64) -> f64 {
 }
 
 /// 10-point Gauss-Legendre nodes and weights on [-1, 1] (Abramowitz & Stegun 25.4.30).
-const GL_X: [f64; 5] = [0.1488743389816312, 0.4333953941292472, 0.6794095682990244, 0.8650633666889845, 0.9739065285171717];
-const GL_W: [f64; 5] = [0.2955242247147529, 0.2692667193099963, 0.2190863625159820, 0.1494513491505806, 0.0666713443086881];
+const GL_X: [f64; 5] = [
+    0.1488743389816312,
+    0.4333953941292472,
+    0.6794095682990244,
+    0.8650633666889845,
+    0.9739065285171717,
+];
+const GL_W: [f64; 5] = [
+    0.2955242247147529,
+    0.2692667193099963,
+    0.2190863625159820,
+    0.1494513491505806,
+    0.0666713443086881,
+];
 
 fn gl_nodes() -> Vec<(f64, f64)> {
     let mut v = vec![];
@@ -45,7 +60,15 @@ fn gl_nodes() -> Vec<(f64, f64)> {
 /// left and bright `hi` on the right (swap them for the other polarity), blurred by a Gaussian of
 /// `sigma_px`. `area` = true integrates over each pixel's square aperture (10 x 10 Gauss-Legendre:
 /// exact to ~1e-7 for sigma >= 0.4 px); false samples the pixel centre.
-pub fn slanted_edge(rows: usize, cols: usize, angle_deg: f64, sigma_px: f64, lo: f64, hi: f64, area: bool) -> Plane {
+pub fn slanted_edge(
+    rows: usize,
+    cols: usize,
+    angle_deg: f64,
+    sigma_px: f64,
+    lo: f64,
+    hi: f64,
+    area: bool,
+) -> Plane {
     let th = angle_deg.to_radians();
     let (c, s) = (th.cos(), th.sin());
     let (x0, y0) = (cols as f64 / 2.0 + 0.3, rows as f64 / 2.0);

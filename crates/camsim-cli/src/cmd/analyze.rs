@@ -52,11 +52,20 @@ pub fn parse_rect(s: &str) -> std::result::Result<Rect, String> {
 }
 
 fn parse_points(s: &str) -> std::result::Result<Vec<f64>, String> {
-    s.split(',').map(|t| t.trim().parse::<f64>().map_err(|_| format!("'{s}': not a list of numbers"))).collect()
+    s.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{s}': not a list of numbers"))
+        })
+        .collect()
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {
-    Ok(camsim_io::atomic::write_bytes_atomic(path, text.as_bytes())?)
+    Ok(camsim_io::atomic::write_bytes_atomic(
+        path,
+        text.as_bytes(),
+    )?)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -73,7 +82,9 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
 /// edge angle, the ROI in sensor pixels) and sfr.png; --compare overlays curves from other sfr.csv
 /// files (simulated vs measured, as the paper's Figure 2).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim analyze sfr out/edge/raw.dng --out out/edge-sfr\n  camsim analyze sfr out/edge/raw.dng --roi 40,90,176,80 --quadratic --compare out/edge-sfr/sfr.csv --out out/edge-sfr-roi\n  camsim analyze sfr out/edge/raw.dng --pitch-um 1.4 --json --out out/edge-sfr-json")]
+#[command(
+    after_help = "Examples:\n  camsim simulate examples/slanted-edge.toml --out out/edge\n  camsim analyze sfr out/edge/raw.dng --out out/edge-sfr\n  camsim analyze sfr out/edge/raw.dng --roi 40,90,176,80 --quadratic --compare out/edge-sfr/sfr.csv --out out/edge-sfr-roi\n  camsim analyze sfr out/edge/raw.dng --pitch-um 1.4 --json --out out/edge-sfr-json"
+)]
 pub struct SfrArgs {
     /// Raw DNG, 16-bit PNG/TIFF mosaic (with --cfa), or spectral irradiance EXR.
     pub image: PathBuf,
@@ -104,7 +115,9 @@ pub struct SfrArgs {
 fn parse_pitch_um(s: &str) -> std::result::Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
-        _ => Err(format!("'{s}': give the pixel pitch in um, a number > 0 (e.g. 1.4)")),
+        _ => Err(format!(
+            "'{s}': give the pixel pitch in um, a number > 0 (e.g. 1.4)"
+        )),
     }
 }
 
@@ -113,8 +126,16 @@ type Curves = Vec<(String, SfrResult)>;
 
 /// The SFR curves of the image, and the sensor pixel pitch in mm when known.
 fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
-    let ext = a.image.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let mut opts = SfrOptions { poly_order: if a.quadratic { 2 } else { 1 }, ..SfrOptions::default() };
+    let ext = a
+        .image
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let mut opts = SfrOptions {
+        poly_order: if a.quadratic { 2 } else { 1 },
+        ..SfrOptions::default()
+    };
     if ext == "exr" {
         // Irradiance: a photopic-weighted sum of the bands, at the image's own sampling.
         let img = common::read_spectral_exr(&a.image)?;
@@ -136,23 +157,44 @@ fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
         let plane = Plane::new(img.rows, img.cols, y)?;
         let mut r = sfr::sfr(&plane, a.roi, &opts)?;
         let to_sensor_px = pitch_mm / spacing_mm; // cycles per sample -> cycles per sensor pixel
-        r.freq_cyc_per_sensor_px = r.freq_cyc_per_sample.iter().map(|f| f * to_sensor_px).collect();
+        r.freq_cyc_per_sensor_px = r
+            .freq_cyc_per_sample
+            .iter()
+            .map(|f| f * to_sensor_px)
+            .collect();
         r.mtf50_cyc_per_sensor_px = r.mtf50_cyc_per_sample.map(|f| f * to_sensor_px);
         r.nyquist_cyc_per_sensor_px = 0.5 * to_sensor_px;
         r.sample_pitch_sensor_px = 1.0 / to_sensor_px;
         return Ok((vec![("luminance".into(), r)], Some(pitch_mm)));
     }
     let raw = camsim_pipeline::load_raw(&a.image, a.raw.cfa, a.raw.black_dn, a.raw.bits)?;
-    let pitch_mm = a.pitch_um.map(|p| p * 1e-3).or((raw.pixel_pitch_m > 0.0 && raw.pixel_pitch_m.is_finite()).then_some(raw.pixel_pitch_m * 1e3));
+    let pitch_mm = a
+        .pitch_um
+        .map(|p| p * 1e-3)
+        .or((raw.pixel_pitch_m > 0.0 && raw.pixel_pitch_m.is_finite())
+            .then_some(raw.pixel_pitch_m * 1e3));
     opts.pixel_pitch_mm = pitch_mm;
     // The ROI is found once on the whole mosaic (all channels share it).
     let roi = match a.roi {
         Some(r) => r,
-        None => sfr::find_edge_roi(&camsim_analysis::image::raw_plane(&raw)?).with_context(|| format!("{}: finding the slanted edge (give --roi)", a.image.display()))?,
+        None => {
+            sfr::find_edge_roi(&camsim_analysis::image::raw_plane(&raw)?).with_context(|| {
+                format!(
+                    "{}: finding the slanted edge (give --roi)",
+                    a.image.display()
+                )
+            })?
+        }
     };
     let mut out = Vec::new();
     for ch in [CfaChannel::R, CfaChannel::G, CfaChannel::B] {
-        let r = sfr::sfr_raw_channel(&raw, ch, Some(roi), &opts).with_context(|| format!("{}: SFR of channel {} in ROI {roi}", a.image.display(), ch.letter()))?;
+        let r = sfr::sfr_raw_channel(&raw, ch, Some(roi), &opts).with_context(|| {
+            format!(
+                "{}: SFR of channel {} in ROI {roi}",
+                a.image.display(),
+                ch.letter()
+            )
+        })?;
         out.push((format!("{}", ch.letter()), r));
     }
     let rgb = camsim_isp::demosaic_bilinear(&raw);
@@ -160,13 +202,19 @@ fn sfr_curves(a: &SfrArgs) -> Result<(Curves, Option<f64>)> {
     let [r, g, b] = planes;
     let planes = [r?, g?, b?];
     // Luminance weights of ISO 12233 (Rec. 601 luma) for the demosaicked image.
-    let lum = sfr::sfr_luminance(&planes, [0.299, 0.587, 0.114], Some(roi), &opts).with_context(|| format!("{}: SFR of the luminance in ROI {roi}", a.image.display()))?;
+    let lum = sfr::sfr_luminance(&planes, [0.299, 0.587, 0.114], Some(roi), &opts)
+        .with_context(|| format!("{}: SFR of the luminance in ROI {roi}", a.image.display()))?;
     out.push(("luminance".into(), lum));
     Ok((out, pitch_mm))
 }
 
 /// The sfr.json document: per curve, MTF50 in cycles per sensor pixel and cycles/mm.
-fn sfr_json(a: &SfrArgs, curves: &[(String, SfrResult)], pitch_mm: Option<f64>, roi: Option<Rect>) -> serde_json::Value {
+fn sfr_json(
+    a: &SfrArgs,
+    curves: &[(String, SfrResult)],
+    pitch_mm: Option<f64>,
+    roi: Option<Rect>,
+) -> serde_json::Value {
     let summary: Vec<serde_json::Value> = curves
         .iter()
         .map(|(name, c)| {
@@ -216,7 +264,11 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
             write!(csv, ",{:.4}", f / p)?;
         }
         for (_, c) in &curves {
-            let v = if *f <= *c.freq_cyc_per_sensor_px.last().unwrap_or(&0.0) { sfr::interp(&c.freq_cyc_per_sensor_px, &c.mtf, *f) } else { f64::NAN };
+            let v = if *f <= *c.freq_cyc_per_sensor_px.last().unwrap_or(&0.0) {
+                sfr::interp(&c.freq_cyc_per_sensor_px, &c.mtf, *f)
+            } else {
+                f64::NAN
+            };
             write!(csv, ",{v:.5}")?;
         }
         csv.push('\n');
@@ -226,11 +278,24 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     camsim_io::atomic::write_json_atomic(&out.join("sfr.json"), &json)?;
     let mut series: Vec<Series> = curves
         .iter()
-        .map(|(name, c)| Series::new(name.clone(), c.freq_cyc_per_sensor_px.iter().zip(&c.mtf).filter(|(f, _)| **f <= 1.0).map(|(f, m)| (*f, *m)).collect()))
+        .map(|(name, c)| {
+            Series::new(
+                name.clone(),
+                c.freq_cyc_per_sensor_px
+                    .iter()
+                    .zip(&c.mtf)
+                    .filter(|(f, _)| **f <= 1.0)
+                    .map(|(f, m)| (*f, *m))
+                    .collect(),
+            )
+        })
         .collect();
     for path in &a.compare {
         for c in read_sfr_csv(path)? {
-            series.push(dashed(format!("{} ({})", c.name.trim_start_matches("mtf_"), path.display()), c.points));
+            series.push(dashed(
+                format!("{} ({})", c.name.trim_start_matches("mtf_"), path.display()),
+                c.points,
+            ));
         }
     }
     LinePlot {
@@ -264,7 +329,10 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
 /// or demosaiced RGB planes above black (a LinearRaw DNG, as phones write).
 enum StatsImage {
     Raw(camsim_core::RawImage),
-    Rgb { planes: Box<[Plane; 3]>, exposure_s: f64 },
+    Rgb {
+        planes: Box<[Plane; 3]>,
+        exposure_s: f64,
+    },
 }
 
 impl StatsImage {
@@ -296,19 +364,39 @@ impl StatsImage {
 
 /// A DNG (CFA or LinearRaw) or a PNG/TIFF mosaic; the second value is a LinearRaw DNG's pixel pitch.
 fn load_stats_image(path: &Path, raw: &RawInput) -> Result<(StatsImage, f64)> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     if ext != "dng" {
-        return Ok((StatsImage::Raw(camsim_pipeline::load_raw(path, raw.cfa, raw.black_dn, raw.bits)?), 0.0));
+        return Ok((
+            StatsImage::Raw(camsim_pipeline::load_raw(
+                path,
+                raw.cfa,
+                raw.black_dn,
+                raw.bits,
+            )?),
+            0.0,
+        ));
     }
     Ok(match camsim_io::dng::read_dng_image(path)?.0 {
         camsim_io::dng::DngImage::Cfa(r) => (StatsImage::Raw(r), 0.0),
         camsim_io::dng::DngImage::LinearRaw(l) => {
             let plane = |k: usize| {
-                let data = (0..l.rows * l.cols).map(|i| (l.dn[i * 3 + k] as f64 - l.black_level_dn[k]) as f32).collect();
+                let data = (0..l.rows * l.cols)
+                    .map(|i| (l.dn[i * 3 + k] as f64 - l.black_level_dn[k]) as f32)
+                    .collect();
                 Plane::new(l.rows, l.cols, data)
             };
             let planes = Box::new([plane(0)?, plane(1)?, plane(2)?]);
-            (StatsImage::Rgb { planes, exposure_s: l.exposure_s }, l.pixel_pitch_m)
+            (
+                StatsImage::Rgb {
+                    planes,
+                    exposure_s: l.exposure_s,
+                },
+                l.pixel_pitch_m,
+            )
         }
     })
 }
@@ -319,12 +407,22 @@ pub(crate) fn parse_corners(s: &str) -> std::result::Result<ChartCorners, String
     if v.len() != 8 || v.iter().any(|x| !x.is_finite()) {
         return Err(format!("'{s}': give 8 finite numbers X,Y of the top-left, top-right, bottom-right and bottom-left corners, got {}", v.len()));
     }
-    Ok(ChartCorners { top_left: [v[0], v[1]], top_right: [v[2], v[3]], bottom_right: [v[4], v[5]], bottom_left: [v[6], v[7]] })
+    Ok(ChartCorners {
+        top_left: [v[0], v[1]],
+        top_right: [v[2], v[3]],
+        bottom_right: [v[4], v[5]],
+        bottom_left: [v[6], v[7]],
+    })
 }
 
 /// The chart's corners for a camsim DNG: from the run.json beside it (the scene's chart size,
 /// field of view and distance, the lens and the sensor window), as camsim-pipeline images it.
-pub(crate) fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitch_m: f64) -> Result<ChartCorners> {
+pub(crate) fn corners_from_run_json(
+    image: &Path,
+    rows: usize,
+    cols: usize,
+    pitch_m: f64,
+) -> Result<ChartCorners> {
     let run = image.with_file_name("run.json");
     if !run.is_file() {
         bail!(
@@ -333,17 +431,34 @@ pub(crate) fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitc
         );
     }
     let text = common::read_text(&run)?;
-    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", run.display()))?;
-    let cfg: camsim_pipeline::SimulateConfig = serde_json::from_value(v.get("config").cloned().unwrap_or_default())
-        .with_context(|| format!("{}: key 'config' is not a camsim config", run.display()))?;
-    let optics: camsim_optics::OpticsConfig = serde_json::from_value(v.get("optics").cloned().unwrap_or_default())
-        .with_context(|| format!("{}: key 'optics' is not a lens config", run.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", run.display()))?;
+    let cfg: camsim_pipeline::SimulateConfig =
+        serde_json::from_value(v.get("config").cloned().unwrap_or_default())
+            .with_context(|| format!("{}: key 'config' is not a camsim config", run.display()))?;
+    let optics: camsim_optics::OpticsConfig =
+        serde_json::from_value(v.get("optics").cloned().unwrap_or_default())
+            .with_context(|| format!("{}: key 'optics' is not a lens config", run.display()))?;
     // The sensor's own pitch (the DNG's FocalPlaneXResolution is a rounded rational).
-    let pitch_m = v.pointer("/sensor/pixel_pitch_um").and_then(|p| p.as_f64()).map(|p| p * 1e-6).unwrap_or(pitch_m);
+    let pitch_m = v
+        .pointer("/sensor/pixel_pitch_um")
+        .and_then(|p| p.as_f64())
+        .map(|p| p * 1e-6)
+        .unwrap_or(pitch_m);
     let c = camsim_pipeline::macbeth_chart_corners_px(&cfg, &optics, pitch_m, rows, cols)
         .with_context(|| format!("{}: cannot place the chart", run.display()))?
-        .with_context(|| format!("{}: the scene is not a macbeth chart; give the chart's corners with --corners", run.display()))?;
-    Ok(ChartCorners { top_left: c[0], top_right: c[1], bottom_right: c[2], bottom_left: c[3] })
+        .with_context(|| {
+            format!(
+                "{}: the scene is not a macbeth chart; give the chart's corners with --corners",
+                run.display()
+            )
+        })?;
+    Ok(ChartCorners {
+        top_left: c[0],
+        top_right: c[1],
+        bottom_right: c[2],
+        bottom_left: c[3],
+    })
 }
 
 /// ColorChecker statistics: the 24 patch regions from the chart's four outer corners (the
@@ -355,7 +470,9 @@ pub(crate) fn corners_from_run_json(image: &Path, rows: usize, cols: usize, pitc
 /// profile.csv, profile.png and chart.json in --out.
 #[derive(clap::Args)]
 // (Example lines stay under 100 characters: clap wraps help text at the terminal width.)
-#[command(after_help = "Examples:\n  camsim analyze chart out/simulate/raw.dng --out out/chart\n  camsim analyze chart out/simulate/raw.dng --corners 23,42,617,42,617,438,23,438 --out out/chart2")]
+#[command(
+    after_help = "Examples:\n  camsim analyze chart out/simulate/raw.dng --out out/chart\n  camsim analyze chart out/simulate/raw.dng --corners 23,42,617,42,617,438,23,438 --out out/chart2"
+)]
 pub struct ChartArgs {
     /// Raw DNG (CFA, or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub image: PathBuf,
@@ -390,30 +507,51 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     // Everything is measured before a file is written (no partial output on bad input).
     let (patches, planes) = match &img {
         StatsImage::Raw(raw) => {
-            let patches = chart::chart_patch_stats_raw(raw, &corners, a.fraction).with_context(ctx)?;
+            let patches =
+                chart::chart_patch_stats_raw(raw, &corners, a.fraction).with_context(ctx)?;
             // Bilinear demosaic, black subtracted (camsim-isp).
             let rgb = camsim_isp::demosaic_bilinear(raw);
-            let [r, g, b] = [0, 1, 2].map(|k| Plane::new(rgb.rows, rgb.cols, rgb.plane(k).to_vec()));
+            let [r, g, b] =
+                [0, 1, 2].map(|k| Plane::new(rgb.rows, rgb.cols, rgb.plane(k).to_vec()));
             (patches, [r?, g?, b?])
         }
-        StatsImage::Rgb { planes, .. } => (chart::chart_patch_stats_rgb(planes, &corners, a.fraction).with_context(ctx)?, (**planes).clone()),
+        StatsImage::Rgb { planes, .. } => (
+            chart::chart_patch_stats_rgb(planes, &corners, a.fraction).with_context(ctx)?,
+            (**planes).clone(),
+        ),
     };
     // Gray series: the line through the centres of the bottom row.
     let (p0, p1) = corners.row_line(3);
     let n = ((p1[0] - p0[0]).hypot(p1[1] - p0[1]).ceil() as usize).max(2);
     let prof = chart::line_profile(&planes, p0, p1, n).with_context(ctx)?;
 
-    let mut csv = String::from("patch,name,mean_r_dn,mean_g_dn,mean_b_dn,std_r_dn,std_g_dn,std_b_dn,n_r,n_g,n_b\n");
+    let mut csv = String::from(
+        "patch,name,mean_r_dn,mean_g_dn,mean_b_dn,std_r_dn,std_g_dn,std_b_dn,n_r,n_g,n_b\n",
+    );
     for p in &patches {
         writeln!(
             csv,
             "{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{}",
-            p.index, p.name, p.mean[0], p.mean[1], p.mean[2], p.std[0], p.std[1], p.std[2], p.n[0], p.n[1], p.n[2]
+            p.index,
+            p.name,
+            p.mean[0],
+            p.mean[1],
+            p.mean[2],
+            p.std[0],
+            p.std[1],
+            p.std[2],
+            p.n[0],
+            p.n[1],
+            p.n[2]
         )?;
     }
     let mut pcsv = String::from("distance_px,x,y,r_dn,g_dn,b_dn\n");
     for p in &prof {
-        writeln!(pcsv, "{:.2},{:.2},{:.2},{:.3},{:.3},{:.3}", p.distance_px, p.position[0], p.position[1], p.rgb[0], p.rgb[1], p.rgb[2])?;
+        writeln!(
+            pcsv,
+            "{:.2},{:.2},{:.2},{:.3},{:.3},{:.3}",
+            p.distance_px, p.position[0], p.position[1], p.rgb[0], p.rgb[1], p.rgb[2]
+        )?;
     }
     let json = serde_json::json!({
         "image": a.image.display().to_string(), "data": img.kind(), "corners": corners, "fraction": a.fraction, "patches": patches,
@@ -423,7 +561,10 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     write_text(&out.join("patches.csv"), &csv)?;
     write_text(&out.join("profile.csv"), &pcsv)?;
     let ch = |k: usize, name: &str, col: [u8; 3]| {
-        let mut s = Series::new(name.to_string(), prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect());
+        let mut s = Series::new(
+            name.to_string(),
+            prof.iter().map(|p| (p.distance_px, p.rgb[k])).collect(),
+        );
         s.color = Some(col);
         s
     };
@@ -431,7 +572,11 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
         title: "Digital values along the gray series".into(),
         x_label: "distance along the line (pixels)".into(),
         y_label: "digital value above black (DN)".into(),
-        series: vec![ch(0, "R", [220, 40, 40]), ch(1, "G", [30, 160, 60]), ch(2, "B", [40, 80, 220])],
+        series: vec![
+            ch(0, "R", [220, 40, 40]),
+            ch(1, "G", [30, 160, 60]),
+            ch(2, "B", [40, 80, 220]),
+        ],
         x_range: None,
         y_range: None,
     }
@@ -440,7 +585,11 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
     }
-    say(format!("24 patches ({}) -> {}", img.kind(), a.out.join("patches.csv").display()));
+    say(format!(
+        "24 patches ({}) -> {}",
+        img.kind(),
+        a.out.join("patches.csv").display()
+    ));
     common::commit(staged)?;
     Ok(())
 }
@@ -453,7 +602,9 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
 /// pixels (both greens pooled); a LinearRaw DNG on its RGB planes. Writes roi.csv and roi.json
 /// (and means.png, stds.png for two images) in --out.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim analyze roi out/simulate/raw.dng --region 200,300,40,40 --sensor pixel4a --out out/roi\n  camsim analyze roi out/simulate/raw.dng --region 60,40,20,20 --region 400,580,20,20 --out out/roi2")]
+#[command(
+    after_help = "Examples:\n  camsim analyze roi out/simulate/raw.dng --region 200,300,40,40 --sensor pixel4a --out out/roi\n  camsim analyze roi out/simulate/raw.dng --region 60,40,20,20 --region 400,580,20,20 --out out/roi2"
+)]
 pub struct RoiArgs {
     /// First image (simulated): raw DNG (CFA or LinearRaw RGB), or a 16-bit PNG/TIFF mosaic (with --cfa).
     pub a: PathBuf,
@@ -480,7 +631,10 @@ pub struct RoiArgs {
     pub out: PathBuf,
 }
 
-fn region_stats(img: &StatsImage, rects: &[Rect]) -> Result<Vec<camsim_analysis::roi::RegionStats>> {
+fn region_stats(
+    img: &StatsImage,
+    rects: &[Rect],
+) -> Result<Vec<camsim_analysis::roi::RegionStats>> {
     Ok(match img {
         StatsImage::Raw(r) => camsim_analysis::roi::roi_stats_raw(r, rects)?,
         StatsImage::Rgb { planes, .. } => camsim_analysis::roi::roi_stats_rgb(planes, rects)?,
@@ -492,24 +646,50 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
         bail!("--region-b needs a second image");
     }
     if !a.regions_b.is_empty() && a.regions_b.len() != a.regions.len() {
-        bail!("--region-b: give as many as --region ({}), got {}", a.regions.len(), a.regions_b.len());
+        bail!(
+            "--region-b: give as many as --region ({}), got {}",
+            a.regions.len(),
+            a.regions_b.len()
+        );
     }
     let ra = load_stats_image(&a.a, &a.raw)?.0;
-    let rb = a.b.as_ref().map(|p| load_stats_image(p, &a.raw).map(|x| x.0)).transpose()?;
-    let rects_b: Vec<Rect> = a.regions.iter().enumerate().map(|(i, r)| a.regions_b.get(i).copied().unwrap_or(*r)).collect();
-    let sensor = a.sensor.as_deref().map(camsim_pipeline::load_sensor).transpose()?;
-    let predict = |mean_dn: f64, exposure_s: f64| sensor.as_ref().map(|s| s.predicted_noise_dn(mean_dn, exposure_s).total);
+    let rb =
+        a.b.as_ref()
+            .map(|p| load_stats_image(p, &a.raw).map(|x| x.0))
+            .transpose()?;
+    let rects_b: Vec<Rect> = a
+        .regions
+        .iter()
+        .enumerate()
+        .map(|(i, r)| a.regions_b.get(i).copied().unwrap_or(*r))
+        .collect();
+    let sensor = a
+        .sensor
+        .as_deref()
+        .map(camsim_pipeline::load_sensor)
+        .transpose()?;
+    let predict = |mean_dn: f64, exposure_s: f64| {
+        sensor
+            .as_ref()
+            .map(|s| s.predicted_noise_dn(mean_dn, exposure_s).total)
+    };
     let stats_a = region_stats(&ra, &a.regions).with_context(|| a.a.display().to_string())?;
     let stats_b = match (&rb, &a.b) {
-        (Some(rb), Some(pb)) => Some(region_stats(rb, &rects_b).with_context(|| pb.display().to_string())?),
+        (Some(rb), Some(pb)) => {
+            Some(region_stats(rb, &rects_b).with_context(|| pb.display().to_string())?)
+        }
         _ => None,
     };
-    let mut csv = String::from("region,channel,mean_a_dn,std_a_dn,predicted_std_a_dn,mean_b_dn,std_b_dn\n");
+    let mut csv =
+        String::from("region,channel,mean_a_dn,std_a_dn,predicted_std_a_dn,mean_b_dn,std_b_dn\n");
     let (mut means, mut stds) = (Vec::new(), Vec::new());
     for (i, sa) in stats_a.iter().enumerate() {
         for c in 0..3 {
             let pa = predict(sa.mean_dn[c], ra.exposure_s());
-            let (mb, sb) = stats_b.as_ref().map(|s| (s[i].mean_dn[c], s[i].std_dn[c])).unwrap_or((f64::NAN, f64::NAN));
+            let (mb, sb) = stats_b
+                .as_ref()
+                .map(|s| (s[i].mean_dn[c], s[i].std_dn[c]))
+                .unwrap_or((f64::NAN, f64::NAN));
             writeln!(
                 csv,
                 "{i},{},{:.3},{:.3},{},{:.3},{:.3}",
@@ -527,13 +707,21 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
         }
     }
     let json = serde_json::json!({ "a": stats_a, "b": stats_b, "data_a": ra.kind(), "data_b": rb.as_ref().map(|r| r.kind()) });
-    let inputs: Vec<&std::path::Path> = std::iter::once(a.a.as_path()).chain(a.b.as_deref()).collect();
+    let inputs: Vec<&std::path::Path> = std::iter::once(a.a.as_path())
+        .chain(a.b.as_deref())
+        .collect();
     let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
     let out = staged.path().to_path_buf();
     write_text(&out.join("roi.csv"), &csv)?;
     if stats_b.is_some() {
-        let label_b = a.b.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
-        for (file, title, pts) in [("means.png", "Mean digital values", &means), ("stds.png", "Standard deviations", &stds)] {
+        let label_b =
+            a.b.as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_default();
+        for (file, title, pts) in [
+            ("means.png", "Mean digital values", &means),
+            ("stds.png", "Standard deviations", &stds),
+        ] {
             ScatterPlot {
                 title: title.into(),
                 x_label: format!("{label_b} (DN)"),
@@ -549,7 +737,11 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&json)?);
     }
-    say(format!("{} region(s) -> {}", a.regions.len(), a.out.join("roi.csv").display()));
+    say(format!(
+        "{} region(s) -> {}",
+        a.regions.len(),
+        a.out.join("roi.csv").display()
+    ));
     common::commit(staged)?;
     Ok(())
 }
@@ -569,7 +761,9 @@ pub fn roi_cmd(a: RoiArgs) -> Result<()> {
 /// cells are DNG (or PNG/TIFF mosaic, with --cfa) file names relative to the CSV; an empty
 /// photons_per_pixel cell means the photon count is unknown (no QE then).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --emva-series --sensor imx363 --rows 64 --cols 64 --levels 12 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva-report")]
+#[command(
+    after_help = "Examples:\n  camsim sensor --emva-series --sensor imx363 --rows 64 --cols 64 --levels 12 --out out/emva\n  camsim analyze emva out/emva/series.csv --out out/emva-report"
+)]
 pub struct EmvaArgs {
     /// The series CSV (header `exposure_s,photons_per_pixel,bright_0,...,dark_0,...`).
     pub series: PathBuf,
@@ -599,5 +793,8 @@ pub fn run(c: Command) -> Result<()> {
 
 /// A dashed series (model curves beside measured ones).
 fn dashed(name: String, points: Vec<(f64, f64)>) -> Series {
-    Series { dashed: true, ..Series::new(name, points) }
+    Series {
+        dashed: true,
+        ..Series::new(name, points)
+    }
 }

@@ -59,11 +59,22 @@ pub fn run(a: Args) -> Result<()> {
     if !(64..=1024).contains(&a.size) {
         anyhow::bail!("--size {}: must be 64 to 1024 pixels", a.size);
     }
-    let inputs: Vec<&std::path::Path> = [&a.a, &a.b, &a.lens_a, &a.lens_b].iter().map(|s| std::path::Path::new(s.as_str())).collect();
+    let inputs: Vec<&std::path::Path> = [&a.a, &a.b, &a.lens_a, &a.lens_b]
+        .iter()
+        .map(|s| std::path::Path::new(s.as_str()))
+        .collect();
     let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
     let mut opts = CameraCompareOptions::new(
-        CameraSpec { sensor: a.a.clone(), pixel_pitch_um: a.pitch_a_um, lens: a.lens_a.clone() },
-        CameraSpec { sensor: a.b.clone(), pixel_pitch_um: a.pitch_b_um, lens: a.lens_b.clone() },
+        CameraSpec {
+            sensor: a.a.clone(),
+            pixel_pitch_um: a.pitch_a_um,
+            lens: a.lens_a.clone(),
+        },
+        CameraSpec {
+            sensor: a.b.clone(),
+            pixel_pitch_um: a.pitch_b_um,
+            lens: a.lens_b.clone(),
+        },
     );
     opts.size_px = a.size;
     opts.seed = a.seed;

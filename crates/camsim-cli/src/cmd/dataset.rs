@@ -24,7 +24,9 @@ const DEFAULT_SPEC: &str = include_str!("../../../../examples/datasets/colorchec
 /// the rest, so a killed run loses only the shards in flight. A sample that fails is recorded
 /// with its error in the manifest and does not stop the others.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)")]
+#[command(
+    after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)"
+)]
 pub struct Args {
     /// Dataset spec (TOML). Default: the built-in example.
     pub spec: Option<PathBuf>,
@@ -49,13 +51,23 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let spec = match &a.spec {
         Some(p) => DatasetSpec::from_file(p)?,
-        None => DatasetSpec::from_toml_str(DEFAULT_SPEC, "built-in spec (examples/datasets/colorchecker.toml)", std::path::Path::new("."))?,
+        None => DatasetSpec::from_toml_str(
+            DEFAULT_SPEC,
+            "built-in spec (examples/datasets/colorchecker.toml)",
+            std::path::Path::new("."),
+        )?,
     };
     if a.workers == Some(0) {
         anyhow::bail!("--workers must be at least 1");
     }
     if a.plan {
-        say(format!("{}: {} samples in {} shards of {}", spec.source, spec.samples, spec.shards(), spec.shard_size));
+        say(format!(
+            "{}: {} samples in {} shards of {}",
+            spec.source,
+            spec.samples,
+            spec.shards(),
+            spec.shard_size
+        ));
         for i in 0..spec.samples.min(5) {
             let s = spec.sample(i)?;
             let p: Vec<String> = s.params.iter().map(|(k, v)| format!("{k} = {v}")).collect();
@@ -66,16 +78,25 @@ pub fn run(a: Args) -> Result<()> {
     let select = a.shard.unwrap_or_default();
     let pb = common::progress(0, "samples");
     pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} ({per_sec}, eta {eta})")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(
+            "{msg:>12} [{elapsed_precise}] {wide_bar} {pos}/{len} ({per_sec}, eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let summary = camsim_dataset::run(&spec, &a.out, select, a.workers, !a.no_verify, &|done, total, failed| {
-        pb.set_length(total);
-        pb.set_position(done);
-        if failed > 0 {
-            pb.set_message(format!("{failed} failed"));
-        }
-    });
+    let summary = camsim_dataset::run(
+        &spec,
+        &a.out,
+        select,
+        a.workers,
+        !a.no_verify,
+        &|done, total, failed| {
+            pb.set_length(total);
+            pb.set_position(done);
+            if failed > 0 {
+                pb.set_message(format!("{failed} failed"));
+            }
+        },
+    );
     pb.finish_and_clear();
     let s = summary.with_context(|| format!("dataset {}", a.out.display()))?;
     say(format!(
@@ -88,9 +109,17 @@ pub fn run(a: Args) -> Result<()> {
         s.samples_run as f64 / s.seconds.max(1e-9)
     ));
     if s.complete {
-        say(format!("complete: {} shards -> {}", s.shards_total, a.out.join("manifest.jsonl").display()));
+        say(format!(
+            "complete: {} shards -> {}",
+            s.shards_total,
+            a.out.join("manifest.jsonl").display()
+        ));
     } else {
-        say(format!("{} of {} shards are this part's; the manifest is written when all are complete", select_count(&select, s.shards_total), s.shards_total));
+        say(format!(
+            "{} of {} shards are this part's; the manifest is written when all are complete",
+            select_count(&select, s.shards_total),
+            s.shards_total
+        ));
     }
     Ok(())
 }

@@ -82,7 +82,10 @@ pub fn run(a: Args) -> Result<()> {
         })
         .collect();
     let doc = serde_json::json!({ "size_px": a.size, "f_max_cyc_per_px": a.f_max, "cfa": a.cfa.name(), "methods": json });
-    std::fs::write(staged.join("demosaic.json"), serde_json::to_string_pretty(&doc)?)?;
+    std::fs::write(
+        staged.join("demosaic.json"),
+        serde_json::to_string_pretty(&doc)?,
+    )?;
     common::commit(staged)?;
     for (m, q) in &results {
         say(format!(

@@ -26,11 +26,13 @@ pub enum Command {
 /// Writes fit.json, residuals.csv, scatter_before.png, scatter_after.png and the corrected
 /// sensor as a TOML preset.
 #[derive(clap::Args)]
-#[command(after_help = "The measured CSV has a header `light,patch,r,g,b` (patch 1-24 in the ColorChecker's order, mean DN \
+#[command(
+    after_help = "The measured CSV has a header `light,patch,r,g,b` (patch 1-24 in the ColorChecker's order, mean DN \
 above black of each channel over the patch), one line per light and patch, e.g.\n  D65,1,123.4,210.2,98.7\n\
 examples/qe-means-pixel4a.csv holds such values for the pixel4a preset (noise-free, the defaults below).\n\
 Examples:\n  camsim fit qe --measured examples/qe-means-pixel4a.csv --sensor imx363 --out out/fit-qe\n  \
-camsim fit qe --measured examples/qe-means-pixel4a.csv --lights A,F2,D65 --form unconstrained --json --out out/fit-qe-full")]
+camsim fit qe --measured examples/qe-means-pixel4a.csv --lights A,F2,D65 --form unconstrained --json --out out/fit-qe-full"
+)]
 pub struct QeArgs {
     /// Measured means: CSV `light,patch,r,g,b` (DN above black).
     #[arg(long)]
@@ -102,36 +104,68 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     let mut measured = Vec::new();
     let mut radiances = Vec::new();
     for row in &rows {
-        let light = lights
-            .get(&row.light)
-            .with_context(|| format!("{}, line {}: light '{}' is not in --lights", a.measured.display(), row.line, row.light))?;
+        let light = lights.get(&row.light).with_context(|| {
+            format!(
+                "{}, line {}: light '{}' is not in --lights",
+                a.measured.display(),
+                row.line,
+                row.light
+            )
+        })?;
         measured.push(row.rgb);
         radiances.push(refl[row.patch - 1].product_on(light, &grid));
     }
     // Etendue x time: pi / (1 + 4 N^2) x photodetector area x exposure (ISETCam oiCalculateIrradiance).
-    let scale = std::f64::consts::PI / (1.0 + 4.0 * a.f_number * a.f_number) * sensor.photodetector_area_m2() * a.exposure_ms * 1e-3;
+    let scale = std::f64::consts::PI / (1.0 + 4.0 * a.f_number * a.f_number)
+        * sensor.photodetector_area_m2()
+        * a.exposure_ms
+        * 1e-3;
     let k = sensor.k_dn_per_e();
     let predicted: Vec<[f64; 3]> =
-        qefit::predict_rgb(&sensor.channel_qe(&grid), &grid, &radiances, scale)?.into_iter().map(|e| e.map(|v| v * k)).collect();
+        qefit::predict_rgb(&sensor.channel_qe(&grid), &grid, &radiances, scale)?
+            .into_iter()
+            .map(|e| e.map(|v| v * k))
+            .collect();
     let fit = qefit::fit_qe_matrix(&measured, &predicted, form)?;
     let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
     let out = staged.path().to_path_buf();
     let after = qefit::apply_matrix(&predicted, &fit.m);
     let mut csv = String::from("row,meas_r,meas_g,meas_b,pred_r,pred_g,pred_b,fit_r,fit_g,fit_b\n");
     for (i, ((m, p), q)) in measured.iter().zip(&predicted).zip(&after).enumerate() {
-        writeln!(csv, "{i},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3}", m[0], m[1], m[2], p[0], p[1], p[2], q[0], q[1], q[2])?;
+        writeln!(
+            csv,
+            "{i},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3}",
+            m[0], m[1], m[2], p[0], p[1], p[2], q[0], q[1], q[2]
+        )?;
     }
     camsim_io::atomic::write_bytes_atomic(&out.join("residuals.csv"), csv.as_bytes())?;
-    for (file, title, pts) in [("scatter_before.png", "Published QE", &predicted), ("scatter_after.png", "Corrected QE (fitted M)", &after)] {
+    for (file, title, pts) in [
+        ("scatter_before.png", "Published QE", &predicted),
+        ("scatter_after.png", "Corrected QE (fitted M)", &after),
+    ] {
         let series = (0..3)
             .map(|c| {
-                let mut s = Series::new(["R", "G", "B"][c], measured.iter().zip(pts.iter()).map(|(m, p)| (m[c], p[c])).collect());
+                let mut s = Series::new(
+                    ["R", "G", "B"][c],
+                    measured
+                        .iter()
+                        .zip(pts.iter())
+                        .map(|(m, p)| (m[c], p[c]))
+                        .collect(),
+                );
                 s.color = Some([[220, 40, 40], [30, 160, 60], [40, 80, 220]][c]);
                 s
             })
             .collect();
-        ScatterPlot { title: title.into(), x_label: "measured (DN)".into(), y_label: "predicted (DN)".into(), series, identity_line: true, range: None }
-            .write_png(&out.join(file), 700, 700)?;
+        ScatterPlot {
+            title: title.into(),
+            x_label: "measured (DN)".into(),
+            y_label: "predicted (DN)".into(),
+            series,
+            identity_line: true,
+            range: None,
+        }
+        .write_png(&out.join(file), 700, 700)?;
     }
     // The corrected sensor: compose with any correction it already has.
     let mut cfg = sensor.config().clone();
@@ -141,7 +175,10 @@ pub fn qe_cmd(a: QeArgs) -> Result<()> {
     };
     cfg.qe_correction = Some(m);
     cfg.name = format!("{} (QE corrected)", cfg.name);
-    camsim_io::atomic::write_bytes_atomic(&out.join("sensor_corrected.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
+    camsim_io::atomic::write_bytes_atomic(
+        &out.join("sensor_corrected.toml"),
+        toml::to_string_pretty(&cfg)?.as_bytes(),
+    )?;
     camsim_io::atomic::write_json_atomic(&out.join("fit.json"), &fit)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&fit)?);

@@ -18,7 +18,8 @@ use std::path::PathBuf;
 /// pixels. The fit minimises the RMS difference at the measured frequencies up to --max-freq.
 /// It prints the fitted values, the RMS residual and the MTF50 of fit and measurement.
 #[derive(clap::Args)]
-#[command(after_help = "The measured CSV has a header naming two columns, the frequency in cycles/mm on the sensor \
+#[command(
+    after_help = "The measured CSV has a header naming two columns, the frequency in cycles/mm on the sensor \
 and the modulation (`mtf_percent`: percent; `mtf`: fraction), then one point per line, increasing frequency:\n  \
 frequency_cy_per_mm,mtf_percent\n  9.17,97.78\n\
 Outputs:\n  \
@@ -28,7 +29,8 @@ mtf.csv         measured and fitted MTF at the measured frequencies\n  \
 mtf_fit.png     the measured curve and the fit (or the file --plot names)\n\
 Examples:\n  \
 camsim fit mtf --measured ../shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --out out/fit-mtf\n  \
-camsim fit mtf --measured ../shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --fit defocus --json --out out/fit-defocus")]
+camsim fit mtf --measured ../shared/data/isetcornellbox/pixel4a-measured-mtf-in-focus.csv --fit defocus --json --out out/fit-defocus"
+)]
 pub struct Args {
     /// Measured MTF: CSV `frequency_cy_per_mm,mtf_percent` (or `...,mtf` as a fraction).
     #[arg(long)]
@@ -71,11 +73,17 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     if let Some(p) = &a.plot {
         if !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) {
-            bail!("--plot '{}': the plot is a PNG file; give a name ending in .png", p.display());
+            bail!(
+                "--plot '{}': the plot is a PNG file; give a name ending in .png",
+                p.display()
+            );
         }
     }
     let m = read_mtf_csv(&a.measured)?;
-    let fit = FitParams { defocus: a.fit.iter().any(|s| s == "defocus"), crosstalk: a.fit.iter().any(|s| s == "crosstalk") };
+    let fit = FitParams {
+        defocus: a.fit.iter().any(|s| s == "defocus"),
+        crosstalk: a.fit.iter().any(|s| s == "crosstalk"),
+    };
     if !(fit.defocus || fit.crosstalk) {
         bail!("--fit: name defocus, crosstalk or both");
     }
@@ -88,9 +96,13 @@ pub fn run(a: Args) -> Result<()> {
         defocus_um: a.defocus_um,
         crosstalk_sigma_um: a.crosstalk_um,
     };
-    let opts = MtfFitOptions { fit, max_freq_cyc_per_mm: a.max_freq, ..MtfFitOptions::default() };
-    let (model, result) =
-        fit_mtf(&m.freq_cyc_per_mm, &m.mtf, &start, &opts).map_err(|e| anyhow::anyhow!("{}: {e}", a.measured.display()))?;
+    let opts = MtfFitOptions {
+        fit,
+        max_freq_cyc_per_mm: a.max_freq,
+        ..MtfFitOptions::default()
+    };
+    let (model, result) = fit_mtf(&m.freq_cyc_per_mm, &m.mtf, &start, &opts)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.measured.display()))?;
     let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
     let out = staged.path().to_path_buf();
     let fitted = model.mtf(&m.freq_cyc_per_mm)?;
@@ -104,16 +116,32 @@ pub fn run(a: Args) -> Result<()> {
     let f_end = m.freq_cyc_per_mm.last().copied().unwrap_or(0.0);
     let dense: Vec<f64> = (0..=200).map(|i| f_end * i as f64 / 200.0).collect();
     let curve = model.mtf(&dense)?;
-    let mut meas = Series::new("measured", m.freq_cyc_per_mm.iter().copied().zip(m.mtf.iter().copied()).collect());
+    let mut meas = Series::new(
+        "measured",
+        m.freq_cyc_per_mm
+            .iter()
+            .copied()
+            .zip(m.mtf.iter().copied())
+            .collect(),
+    );
     meas.color = Some([20, 20, 20]);
     let mut fit_s = Series::new(
-        format!("fit: defocus {:.3} um, crosstalk sigma {:.2} um (RMS {:.3})", result.defocus_um, result.crosstalk_sigma_um, result.rms),
+        format!(
+            "fit: defocus {:.3} um, crosstalk sigma {:.2} um (RMS {:.3})",
+            result.defocus_um, result.crosstalk_sigma_um, result.rms
+        ),
         dense.iter().copied().zip(curve).collect(),
     );
     fit_s.dashed = true;
     fit_s.color = Some([214, 39, 40]);
     let plot = LinePlot {
-        title: format!("MTF fit: {}", a.measured.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()),
+        title: format!(
+            "MTF fit: {}",
+            a.measured
+                .file_name()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        ),
         x_label: "spatial frequency (cycles/mm on the sensor)".into(),
         y_label: "MTF".into(),
         series: vec![meas, fit_s],

@@ -8,7 +8,9 @@ use std::path::PathBuf;
 /// integrating sphere), as the paper estimated the Pixel 4a's lens shading. Writes a shading TOML
 /// that a lens config uses as `shading = { file = "shading.toml" }`, and reports the RMS residual.
 #[derive(clap::Args)]
-#[command(after_help = "Examples (a simulated flat field, then its fit):\n  camsim scene examples/uniform.toml --out out/flat-radiance.exr\n  camsim optics --in out/flat-radiance.exr --out out/flat-irradiance.exr\n  camsim sensor --in out/flat-irradiance.exr --rows 64 --cols 64 --out out/flat\n  camsim fit-shading out/flat/raw.dng --order 4 --out out/flat-shading.toml\nthen in a lens TOML:  shading = { file = \"shading.toml\" }\n\nThe input must be a flat field: the fit is refused (exit 2) when it leaves more than 3 % RMS\nresidual beyond the pixel noise, or its relative illumination leaves [0.05, 1] or rises going\nout from its maximum.")]
+#[command(
+    after_help = "Examples (a simulated flat field, then its fit):\n  camsim scene examples/uniform.toml --out out/flat-radiance.exr\n  camsim optics --in out/flat-radiance.exr --out out/flat-irradiance.exr\n  camsim sensor --in out/flat-irradiance.exr --rows 64 --cols 64 --out out/flat\n  camsim fit-shading out/flat/raw.dng --order 4 --out out/flat-shading.toml\nthen in a lens TOML:  shading = { file = \"shading.toml\" }\n\nThe input must be a flat field: the fit is refused (exit 2) when it leaves more than 3 % RMS\nresidual beyond the pixel noise, or its relative illumination leaves [0.05, 1] or rises going\nout from its maximum."
+)]
 pub struct Args {
     /// Flat-field raw image (DNG) of a uniformly lit field (integrating sphere).
     pub flat: PathBuf,
@@ -22,7 +24,8 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let (raw, _info) = camsim_io::dng::read_dng(&a.flat)?;
-    let fit = camsim_optics::fit_flat_field(&raw, a.order).map_err(|e| anyhow::anyhow!("{}: {e}", a.flat.display()))?;
+    let fit = camsim_optics::fit_flat_field(&raw, a.order)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.flat.display()))?;
     crate::common::parent_dir(&a.out)?;
     camsim_io::atomic::write_bytes_atomic(&a.out, fit.to_toml().as_bytes())?;
     let corner = fit.eval(camsim_core::CfaChannel::G, 1.0, 1.0);

@@ -29,7 +29,9 @@ fn parse_ccm(s: &str) -> std::result::Result<CcmSource, String> {
     }
 }
 
-fn parse_str<T: std::str::FromStr<Err = camsim_core::error::CoreError>>(s: &str) -> std::result::Result<T, String> {
+fn parse_str<T: std::str::FromStr<Err = camsim_core::error::CoreError>>(
+    s: &str,
+) -> std::result::Result<T, String> {
     s.parse::<T>().map_err(|e| e.to_string())
 }
 
@@ -110,13 +112,19 @@ pub fn run(a: Args) -> Result<()> {
     let grid = WavelengthGrid::default();
     let illum = camsim_scene::load_illuminant(&a.illuminant, "--illuminant")?;
     let qe = sensor.channel_qe(&grid);
-    let raw = if a.bin { camsim_isp::cfa_general::bin_2x2(&raw)? } else { raw };
+    let raw = if a.bin {
+        camsim_isp::cfa_general::bin_2x2(&raw)?
+    } else {
+        raw
+    };
     let mut rgb = crate::cmd::isp_cfa::demosaic_general(&raw, &sensor, a.demosaic)?;
     let saturation_dn = raw.white_level_dn - raw.black_level_dn;
     let gains = match a.white_balance {
         WhiteBalanceMethod::None => [1.0; 3],
         WhiteBalanceMethod::GrayWorld => white_balance::gray_world_gains(&rgb)?,
-        WhiteBalanceMethod::WhitePatch => white_balance::white_patch_gains(&rgb, a.white_patch_percentile, Some(saturation_dn))?,
+        WhiteBalanceMethod::WhitePatch => {
+            white_balance::white_patch_gains(&rgb, a.white_patch_percentile, Some(saturation_dn))?
+        }
         WhiteBalanceMethod::Illuminant => white_balance::illuminant_gains(&qe, &grid, &illum)?,
     };
     let mut report = serde_json::json!({
@@ -148,12 +156,18 @@ pub fn run(a: Args) -> Result<()> {
             white_balance::apply_gains(&mut rgb, gains);
             let corners = match a.corners {
                 Some(c) => c,
-                None => crate::cmd::analyze::corners_from_run_json(&a.input, raw.rows, raw.cols, raw.pixel_pitch_m)?,
+                None => crate::cmd::analyze::corners_from_run_json(
+                    &a.input,
+                    raw.rows,
+                    raw.cols,
+                    raw.pixel_pitch_m,
+                )?,
             };
             let planes = [0, 1, 2].map(|c| Plane::new(rgb.rows, rgb.cols, rgb.plane(c).to_vec()));
             let [r, g, b] = planes;
             let planes = [r?, g?, b?];
-            let stats = chart::chart_patch_stats_rgb(&planes, &corners, 0.5).context("--ccm chart: measuring the patches")?;
+            let stats = chart::chart_patch_stats_rgb(&planes, &corners, 0.5)
+                .context("--ccm chart: measuring the patches")?;
             drop(planes);
             let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
             let d65 = camsim_core::tables::illuminant("D65")?;
@@ -161,11 +175,15 @@ pub fn run(a: Args) -> Result<()> {
                 Some(r) => ccm::chart_xyz(r, &d65, &grid)?,
                 None => ccm::macbeth_xyz(&d65, &grid)?,
             };
-            let m = ccm::fit_ccm(&camera, &target, white, a.ccm_objective).context("--ccm chart")?;
+            let m =
+                ccm::fit_ccm(&camera, &target, white, a.ccm_objective).context("--ccm chart")?;
             let de = ccm::ccm_delta_e2000(&m, &camera, &target, white);
             let mean = de.iter().sum::<f64>() / de.len() as f64;
             let max = de.iter().cloned().fold(0.0, f64::max);
-            say(format!("chart fit ({}): CIEDE2000 mean {mean:.2}, max {max:.2} over 24 patches", a.ccm_objective));
+            say(format!(
+                "chart fit ({}): CIEDE2000 mean {mean:.2}, max {max:.2} over 24 patches",
+                a.ccm_objective
+            ));
             if !(mean.is_finite()) {
                 bail!("--ccm chart: the fit gave no finite colour error (are the corners on the chart?)");
             }
@@ -183,6 +201,11 @@ pub fn run(a: Args) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
-    say(format!("wrote {} ({} x {})", a.out.display(), rgb.cols, rgb.rows));
+    say(format!(
+        "wrote {} ({} x {})",
+        a.out.display(),
+        rgb.cols,
+        rgb.rows
+    ));
     Ok(())
 }

@@ -1,12 +1,14 @@
 //! One module per subcommand.
 pub mod analyze;
+pub mod compare;
 pub mod dataset;
 pub mod demosaic_zone_plate;
+pub mod emva;
 pub mod fit;
 pub mod fit_mtf;
-pub mod emva;
 pub mod fit_shading;
 pub mod isp;
+pub mod isp_cfa;
 pub mod optics;
 pub mod presets;
 pub mod psf;
@@ -15,5 +17,3 @@ pub mod scene;
 pub mod sensor;
 pub mod simulate;
 pub mod validate;
-pub mod compare;
-pub mod isp_cfa;

@@ -11,7 +11,9 @@ use std::path::PathBuf;
 /// aberrations; depth-dependent defocus when the radiance carries a depth map and the lens has a
 /// focus distance).
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim scene --out out/radiance.exr\n  camsim optics --in out/radiance.exr --lens pixel4a --out out/irradiance.exr\n  camsim optics --in out/radiance.exr --lens diffraction-limited --focus-m 0.3 --out out/irradiance-defocus.exr\n\nNegative samples of FFT round-off size in the input (at most 1e-5 x its maximum) are clamped to 0\nwith a warning; larger negatives are refused. The output irradiance is non-negative.")]
+#[command(
+    after_help = "Examples:\n  camsim scene --out out/radiance.exr\n  camsim optics --in out/radiance.exr --lens pixel4a --out out/irradiance.exr\n  camsim optics --in out/radiance.exr --lens diffraction-limited --focus-m 0.3 --out out/irradiance-defocus.exr\n\nNegative samples of FFT round-off size in the input (at most 1e-5 x its maximum) are clamped to 0\nwith a warning; larger negatives are refused. The output irradiance is non-negative."
+)]
 pub struct Args {
     /// Spectral radiance EXR (from `camsim scene`, `camsim render` or pbrt-v4).
     #[arg(long = "in")]

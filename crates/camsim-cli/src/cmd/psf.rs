@@ -14,7 +14,9 @@ use std::path::PathBuf;
 /// mtf.csv's `diffraction_limit` column is the aberration-free MTF at the working f-number
 /// (image distance / pupil diameter) of the same focus.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim psf --lens pixel4a --out out/psf\n  camsim psf --lens diffraction-limited --spacing-um 0.25 --out out/psf-dl\n  camsim psf --lens pixel4a --focus-m 0.3 --object-m 0.5 --out out/psf-defocus")]
+#[command(
+    after_help = "Examples:\n  camsim psf --lens pixel4a --out out/psf\n  camsim psf --lens diffraction-limited --spacing-um 0.25 --out out/psf-dl\n  camsim psf --lens pixel4a --focus-m 0.3 --object-m 0.5 --out out/psf-defocus"
+)]
 pub struct Args {
     /// Lens preset or TOML file.
     #[arg(long, default_value = "pixel4a")]
@@ -40,7 +42,11 @@ pub fn run(a: Args) -> Result<()> {
     let staged = common::stage_out_dir(&a.out)?;
     let out = staged.path().to_path_buf();
     let optics = Optics::from_config(&camsim_pipeline::load_lens(&a.lens)?)?;
-    let [w0, w1, dw] = [a.wavelengths_nm[0], a.wavelengths_nm[1], a.wavelengths_nm[2]];
+    let [w0, w1, dw] = [
+        a.wavelengths_nm[0],
+        a.wavelengths_nm[1],
+        a.wavelengths_nm[2],
+    ];
     let grid = WavelengthGrid::new(w0, w1, dw)?;
     if !(a.spacing_um > 0.0 && a.spacing_um.is_finite()) {
         anyhow::bail!("--spacing-um {}: must be a positive number", a.spacing_um);
@@ -77,7 +83,11 @@ pub fn run(a: Args) -> Result<()> {
         let m = p.mtf();
         for ((f, mx), my) in m.freq_cyc_per_mm.iter().zip(&m.mtf_x).zip(&m.mtf_y) {
             let dl = camsim_optics::diffraction_mtf(*f, p.wavelength_nm, n);
-            writeln!(mtf_csv, "{},{f:.4},{mx:.6},{my:.6},{dl:.6}", p.wavelength_nm)?;
+            writeln!(
+                mtf_csv,
+                "{},{f:.4},{mx:.6},{my:.6},{dl:.6}",
+                p.wavelength_nm
+            )?;
         }
         let (lx, ly) = (p.lsf_x(), p.lsf_y());
         for (i, (x, y)) in lx.iter().zip(&ly).enumerate() {
@@ -86,11 +96,18 @@ pub fn run(a: Args) -> Result<()> {
         }
         series.push(Series::new(
             format!("{:.0} nm", p.wavelength_nm),
-            m.freq_cyc_per_mm.iter().zip(&m.mtf_x).map(|(f, v)| (*f, *v)).collect(),
+            m.freq_cyc_per_mm
+                .iter()
+                .zip(&m.mtf_x)
+                .map(|(f, v)| (*f, *v))
+                .collect(),
         ));
         series.push(dashed(
             format!("{:.0} nm diffraction limit", p.wavelength_nm),
-            m.freq_cyc_per_mm.iter().map(|f| (*f, camsim_optics::diffraction_mtf(*f, p.wavelength_nm, n))).collect(),
+            m.freq_cyc_per_mm
+                .iter()
+                .map(|f| (*f, camsim_optics::diffraction_mtf(*f, p.wavelength_nm, n)))
+                .collect(),
         ));
     }
     camsim_io::atomic::write_bytes_atomic(&out.join("mtf.csv"), mtf_csv.as_bytes())?;
@@ -110,12 +127,19 @@ pub fn run(a: Args) -> Result<()> {
         y_range: Some((0.0, 1.02)),
     };
     plot.write_png(&out.join("mtf.png"), 900, 600)?;
-    say(format!("wrote psf.exr ({size} x {size} at {} um), mtf.csv, mtf.png, lsf.csv in {}", a.spacing_um, a.out.display()));
+    say(format!(
+        "wrote psf.exr ({size} x {size} at {} um), mtf.csv, mtf.png, lsf.csv in {}",
+        a.spacing_um,
+        a.out.display()
+    ));
     common::commit(staged)?;
     Ok(())
 }
 
 /// A dashed series (model curves beside measured ones).
 fn dashed(name: String, points: Vec<(f64, f64)>) -> Series {
-    Series { dashed: true, ..Series::new(name, points) }
+    Series {
+        dashed: true,
+        ..Series::new(name, points)
+    }
 }

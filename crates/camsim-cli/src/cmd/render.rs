@@ -4,8 +4,8 @@ use crate::common::{self, say};
 use anyhow::{Context, Result};
 use camsim_core::WavelengthGrid;
 use camsim_pipeline::render::{load_scene, render_scene};
-use camsim_scene3d::builtin::{BuiltinOptions, MccPosition};
 use camsim_render::RenderOutput;
+use camsim_scene3d::builtin::{BuiltinOptions, MccPosition};
 use camsim_scene3d::SceneDescription;
 use std::path::PathBuf;
 
@@ -21,7 +21,9 @@ use std::path::PathBuf;
 /// Command-line options win over the scene file and the overlay: an explicit --resolution, --spp
 /// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)")]
+#[command(
+    after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)"
+)]
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,
@@ -66,9 +68,17 @@ pub struct Args {
 }
 
 pub fn parse_resolution(s: &str) -> std::result::Result<(usize, usize), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}': use WIDTHxHEIGHT, e.g. 640x480"))?;
-    let w: usize = w.trim().parse().map_err(|_| format!("'{s}': width is not a whole number"))?;
-    let h: usize = h.trim().parse().map_err(|_| format!("'{s}': height is not a whole number"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}': use WIDTHxHEIGHT, e.g. 640x480"))?;
+    let w: usize = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}': width is not a whole number"))?;
+    let h: usize = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}': height is not a whole number"))?;
     if w == 0 || h == 0 || w > 65536 || h > 65536 {
         return Err(format!("'{s}': width and height must be 1..65536"));
     }
@@ -87,7 +97,13 @@ fn render_with_progress(scene: &SceneDescription) -> Result<RenderOutput> {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let inputs: Vec<&std::path::Path> = a.scene.iter().chain(a.overlay.iter()).chain(a.config.iter()).map(|p| p.as_path()).collect();
+    let inputs: Vec<&std::path::Path> = a
+        .scene
+        .iter()
+        .chain(a.overlay.iter())
+        .chain(a.config.iter())
+        .map(|p| p.as_path())
+        .collect();
     let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
     let out = staged.path().to_path_buf();
     let mcc: MccPosition = a.mcc_position.parse()?;
@@ -108,10 +124,22 @@ pub fn run(a: Args) -> Result<()> {
             if let Some(seed) = a.seed {
                 cfg.seed = seed;
             }
-            let section = cfg.render.clone().ok_or_else(|| anyhow::anyhow!("{}: has no [render] table to render", path.display()))?;
-            camsim_pipeline::render::render_section_scene(&section, &cfg, &cfg.sensor()?, &cfg.optics()?)?
+            let section = cfg.render.clone().ok_or_else(|| {
+                anyhow::anyhow!("{}: has no [render] table to render", path.display())
+            })?;
+            camsim_pipeline::render::render_section_scene(
+                &section,
+                &cfg,
+                &cfg.sensor()?,
+                &cfg.optics()?,
+            )?
         }
-        None => load_scene(a.builtin.as_deref(), a.scene.as_deref(), a.overlay.as_deref(), &opts)?,
+        None => load_scene(
+            a.builtin.as_deref(),
+            a.scene.as_deref(),
+            a.overlay.as_deref(),
+            &opts,
+        )?,
     };
     for n in &scene.notes {
         say(format!("note: {n}"));
@@ -163,7 +191,10 @@ pub fn run(a: Args) -> Result<()> {
     say(format!(
         "rendered {cols}x{rows}, {samples_taken} spp{} in {:.1} s ({:.2} Mrays/s) -> {}",
         if samples_taken < scene.settings.samples_per_pixel {
-            format!(" (of {} asked; the time budget stopped it)", scene.settings.samples_per_pixel)
+            format!(
+                " (of {} asked; the time budget stopped it)",
+                scene.settings.samples_per_pixel
+            )
         } else {
             String::new()
         },

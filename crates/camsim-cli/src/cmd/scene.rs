@@ -14,7 +14,9 @@ use std::path::PathBuf;
 /// "star" | "checkerboard" | "grid_lines" | "point_array" | "ramp" | "dead_leaves"), or a whole
 /// simulate config whose `[scene]` is used. Relative paths in it are relative to its folder.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr\n  camsim scene examples/zone-plate.toml --out out/zone-plate.exr\n  camsim scene --kind star --out out/star.exr\n  camsim scene examples/dead-leaves.toml --out out/dead-leaves.exr\n  camsim scene examples/rgb-photo.toml --out out/rgb-photo.exr")]
+#[command(
+    after_help = "Examples:\n  camsim scene examples/macbeth-d65.toml --out out/radiance.exr\n  camsim scene --kind slanted_edge --out out/edge.exr\n  camsim scene examples/zone-plate.toml --out out/zone-plate.exr\n  camsim scene --kind star --out out/star.exr\n  camsim scene examples/dead-leaves.toml --out out/dead-leaves.exr\n  camsim scene examples/rgb-photo.toml --out out/rgb-photo.exr"
+)]
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
@@ -32,10 +34,13 @@ pub fn run(a: Args) -> Result<()> {
     let (cfg, grid) = match &a.config {
         Some(p) => {
             let text = common::read_text(p)?;
-            let v: toml::Value = toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+            let v: toml::Value =
+                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
             if v.get("scene").is_some() {
                 let c = camsim_pipeline::SimulateConfig::load(p)?;
-                let s = c.scene.ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
+                let s = c
+                    .scene
+                    .ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
                 (s, c.wavelengths)
             } else {
                 let mut s = SceneConfig::from_toml(&text, &p.display().to_string())?;
@@ -46,7 +51,10 @@ pub fn run(a: Args) -> Result<()> {
         }
         None => {
             let text = format!("kind = \"{}\"", a.kind);
-            (SceneConfig::from_toml(&text, "--kind")?, WavelengthGrid::default())
+            (
+                SceneConfig::from_toml(&text, "--kind")?,
+                WavelengthGrid::default(),
+            )
         }
     };
     let img = camsim_scene::create(&cfg, &grid)?;

@@ -9,7 +9,6 @@ use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-
 /// Turn irradiance into raw digital values with the ISETCam sensor model: pixel area
 /// integration, QE x colour filter x IR cut, photon shot noise, dark current, DSNU and PRNU
 /// (a fixed pattern that belongs to the sensor), read noise, analog gain and offset, clipping at
@@ -29,7 +28,9 @@ use std::path::{Path, PathBuf};
 /// increasing exposure plus dark frames, two of each) so `camsim analyze emva` can characterize
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-dcg.toml --out out/raw-dcg\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-split-pixel.toml --exposure-ms 20 --out out/raw-split")]
+#[command(
+    after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-dcg.toml --out out/raw-dcg\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-split-pixel.toml --exposure-ms 20 --out out/raw-split"
+)]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
@@ -91,7 +92,10 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let mut sensor = camsim_pipeline::load_sensor(&a.sensor)?;
     if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
-        sensor = sensor.window(a.rows.unwrap_or(sensor.rows()), a.cols.unwrap_or(sensor.cols()))?;
+        sensor = sensor.window(
+            a.rows.unwrap_or(sensor.rows()),
+            a.cols.unwrap_or(sensor.cols()),
+        )?;
     }
     if let Some(iso) = a.iso {
         let mut c = sensor.config().clone();
@@ -117,22 +121,47 @@ pub fn run(a: Args) -> Result<()> {
         emva_series(&sensor, &a, out.path())?;
         return common::commit(out);
     }
-    let input = a.input.as_ref().expect("clap requires --in without --emva-series");
+    let input = a
+        .input
+        .as_ref()
+        .expect("clap requires --in without --emva-series");
     if sensor.hdr_model().is_some() && a.exposures_ms.is_some() {
-        anyhow::bail!("--exposures-ms: an [hdr] sensor ({}) takes one exposure (--exposure-ms)", a.sensor);
+        anyhow::bail!(
+            "--exposures-ms: an [hdr] sensor ({}) takes one exposure (--exposure-ms)",
+            a.sensor
+        );
     }
     let irr = common::read_spectral_exr(input)?;
     let exposure = match a.exposure_ms {
-        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => anyhow::bail!("--exposure-ms {ms}: must be >= 0"),
+        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
+            anyhow::bail!("--exposure-ms {ms}: must be >= 0")
+        }
         Some(ms) => Exposure::Seconds(ms * 1e-3),
         None => Exposure::default(),
     };
     if sensor.hdr_model().is_some() {
-        return hdr_capture(&sensor, &irr, Capture { exposure, frames: a.frames, seed: a.seed }, &a, out);
+        return hdr_capture(
+            &sensor,
+            &irr,
+            Capture {
+                exposure,
+                frames: a.frames,
+                seed: a.seed,
+            },
+            &a,
+            out,
+        );
     }
     let pb = common::spinner("sensor");
     let frame = match &a.exposures_ms {
-        None => sensor.compute(&irr, &Capture { exposure, frames: a.frames, seed: a.seed })?,
+        None => sensor.compute(
+            &irr,
+            &Capture {
+                exposure,
+                frames: a.frames,
+                seed: a.seed,
+            },
+        )?,
         Some(list) => {
             let times_s: Vec<f64> = list.iter().map(|ms| ms * 1e-3).collect();
             sensor.compute_bracket(&irr, &times_s, a.frames, a.seed)?
@@ -143,17 +172,35 @@ pub fn run(a: Args) -> Result<()> {
     let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
     let meta = camsim_pipeline::dng_metadata(&sensor, &color, None)?;
     for (i, raw) in frame.raw.iter().enumerate() {
-        let name = if i == 0 { "raw.dng".to_string() } else { format!("raw_{i:04}.dng") };
+        let name = if i == 0 {
+            "raw.dng".to_string()
+        } else {
+            format!("raw_{i:04}.dng")
+        };
         camsim_io::dng::write_dng(&out.join(name), raw, &meta)?;
     }
     let r0 = &frame.raw[0];
-    camsim_io::raster::write_png16_mosaic_scaled(&out.join("raw.png"), r0.rows, r0.cols, &r0.dn, r0.bits)?;
+    camsim_io::raster::write_png16_mosaic_scaled(
+        &out.join("raw.png"),
+        r0.rows,
+        r0.cols,
+        &r0.dn,
+        r0.bits,
+    )?;
     common::commit(out)?;
     if !sensor.is_bayer() {
         let layout = sensor.cfa_layout();
-        let per: Vec<String> =
-            layout.filters().iter().zip(&frame.mean_electrons_by_filter).map(|(f, e)| format!("{f} {e:.0}")).collect();
-        say(format!("CFA {}: mean electrons {}", layout.name(), per.join(", ")));
+        let per: Vec<String> = layout
+            .filters()
+            .iter()
+            .zip(&frame.mean_electrons_by_filter)
+            .map(|(f, e)| format!("{f} {e:.0}"))
+            .collect();
+        say(format!(
+            "CFA {}: mean electrons {}",
+            layout.name(),
+            per.join(", ")
+        ));
     }
     say(format!(
         "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
@@ -168,7 +215,13 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 /// An `[hdr]` sensor: high.dng, low.dng and merged.exr per frame (see the command's help).
-fn hdr_capture(sensor: &Sensor, irr: &camsim_core::SpectralImage, capture: Capture, a: &Args, out: camsim_io::atomic::OutputDir) -> Result<()> {
+fn hdr_capture(
+    sensor: &Sensor,
+    irr: &camsim_core::SpectralImage,
+    capture: Capture,
+    a: &Args,
+    out: camsim_io::atomic::OutputDir,
+) -> Result<()> {
     let pb = common::spinner("sensor (HDR)");
     let f = sensor.compute_hdr(irr, &capture)?;
     pb.finish_and_clear();
@@ -176,10 +229,20 @@ fn hdr_capture(sensor: &Sensor, irr: &camsim_core::SpectralImage, capture: Captu
     let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
     let meta = camsim_pipeline::dng_metadata(sensor, &color, None)?;
     for (i, ((hi, lo), merged)) in f.high.iter().zip(&f.low).zip(&f.merged_e).enumerate() {
-        let suffix = if i == 0 { String::new() } else { format!("_{i:04}") };
+        let suffix = if i == 0 {
+            String::new()
+        } else {
+            format!("_{i:04}")
+        };
         camsim_io::dng::write_dng(&out.join(format!("high{suffix}.dng")), hi, &meta)?;
         camsim_io::dng::write_dng(&out.join(format!("low{suffix}.dng")), lo, &meta)?;
-        camsim_io::exr::write_gray_exr(&out.join(format!("merged{suffix}.exr")), hi.rows, hi.cols, "Y", merged)?;
+        camsim_io::exr::write_gray_exr(
+            &out.join(format!("merged{suffix}.exr")),
+            hi.rows,
+            hi.cols,
+            "Y",
+            merged,
+        )?;
     }
     common::commit(out)?;
     let m = f.model;
@@ -221,12 +284,23 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     // time at which the signal reaches the clipping level.
     let rate_e_per_s = 1e5;
     let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
-    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v()) / sensor.conversion_gain_v_per_e();
+    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
+        / sensor.conversion_gain_v_per_e();
     let t_sat = clip_e / rate_e_per_s;
     let n = a.levels.max(3);
-    let exposures: Vec<f64> = (0..n).map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64).collect();
+    let exposures: Vec<f64> = (0..n)
+        .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
+        .collect();
     let pb = common::progress(n as u64, "emva");
-    let levels = sensor.emva_series(&grid, &irr, &exposures, a.frames_per_level.max(2), rows, cols, a.seed)?;
+    let levels = sensor.emva_series(
+        &grid,
+        &irr,
+        &exposures,
+        a.frames_per_level.max(2),
+        rows,
+        cols,
+        a.seed,
+    )?;
     let f = a.frames_per_level.max(2);
     let mut csv = String::from("exposure_s,photons_per_pixel");
     for kind in ["bright", "dark"] {
@@ -235,7 +309,10 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
         }
     }
     csv.push('\n');
-    let meta = DngMetadata { camera_model: format!("camsim {}", sensor.name()), ..DngMetadata::default() };
+    let meta = DngMetadata {
+        camera_model: format!("camsim {}", sensor.name()),
+        ..DngMetadata::default()
+    };
     for (i, l) in levels.iter().enumerate() {
         let mut names = Vec::new();
         for (kind, frames) in [("bright", &l.bright), ("dark", &l.dark)] {
@@ -245,7 +322,13 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
                 names.push(name);
             }
         }
-        writeln!(csv, "{},{},{}", l.exposure_s, l.photons_per_pixel, names.join(","))?;
+        writeln!(
+            csv,
+            "{},{},{}",
+            l.exposure_s,
+            l.photons_per_pixel,
+            names.join(",")
+        )?;
         pb.inc(1);
     }
     pb.finish_and_clear();

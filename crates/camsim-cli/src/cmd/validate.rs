@@ -96,7 +96,10 @@ pub fn run(a: Args) -> Result<()> {
             say(format!("report: {}", a.out.join("report.html").display()));
         }
         "compare" => {
-            let cfg_path = a.config.as_ref().ok_or_else(|| anyhow::anyhow!("camsim validate compare needs a CONFIG.toml"))?;
+            let cfg_path = a
+                .config
+                .as_ref()
+                .ok_or_else(|| anyhow::anyhow!("camsim validate compare needs a CONFIG.toml"))?;
             let cfg = camsim_validate::CompareConfig::from_file(cfg_path)?;
             camsim_validate::compare(&cfg, &out)?;
             say(format!("report: {}", a.out.join("report.html").display()));

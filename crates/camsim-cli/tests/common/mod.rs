@@ -10,8 +10,17 @@ pub const BIN: &str = env!("CARGO_BIN_EXE_camsim");
 /// The help text of `camsim PATH --help`, unwrapped (a wide terminal: clap reads COLUMNS).
 pub fn help<S: AsRef<str>>(path: &[S]) -> String {
     let args: Vec<&str> = path.iter().map(|s| s.as_ref()).collect();
-    let o = Command::new(BIN).args(&args).arg("--help").env("COLUMNS", "400").output().unwrap();
-    assert!(o.status.success(), "camsim {} --help failed", args.join(" "));
+    let o = Command::new(BIN)
+        .args(&args)
+        .arg("--help")
+        .env("COLUMNS", "400")
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "camsim {} --help failed",
+        args.join(" ")
+    );
     String::from_utf8(o.stdout).unwrap()
 }
 
@@ -68,7 +77,12 @@ pub struct Outcome {
 /// Run `cmd` (stdin and stdout closed, stderr captured) and kill it after `limit`.
 pub fn run_limited(mut cmd: Command, limit: Duration) -> Outcome {
     let start = Instant::now();
-    let mut child = cmd.stdin(Stdio::null()).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     let mut pipe = child.stderr.take().unwrap();
     let reader = std::thread::spawn(move || {
         let mut s = String::new();
@@ -86,5 +100,9 @@ pub fn run_limited(mut cmd: Command, limit: Duration) -> Outcome {
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    Outcome { code, stderr: reader.join().unwrap(), seconds: start.elapsed().as_secs_f64() }
+    Outcome {
+        code,
+        stderr: reader.join().unwrap(),
+        seconds: start.elapsed().as_secs_f64(),
+    }
 }

@@ -5,7 +5,14 @@
 use super::*;
 
 impl Parser {
-    pub(super) fn block_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+    pub(super) fn block_directive(
+        &mut self,
+        d: &str,
+        tokens: &[Token],
+        pos: &mut usize,
+        file: &Path,
+        loc: &Loc,
+    ) -> Result<(), PbrtError> {
         let f = file;
         match d {
             "AttributeBegin" | "TransformBegin" => {
@@ -126,9 +133,7 @@ impl Parser {
                 let shapes = self
                     .objects
                     .get(&name)
-                    .ok_or_else(|| {
-                        loc.err(format!("ObjectInstance: no object named \"{name}\""))
-                    })?
+                    .ok_or_else(|| loc.err(format!("ObjectInstance: no object named \"{name}\"")))?
                     .clone();
                 let total: usize = self.shapes.len() + shapes.len();
                 camsim_core::mem::check_alloc(total as u64 * 256, "object instances")
@@ -137,8 +142,7 @@ impl Parser {
                     xform::transform_shape(&mut s.shape, &self.gs.ctm)
                         .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
                     if s.shape.name.is_none() {
-                        s.shape.name =
-                            Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
+                        s.shape.name = Some(self.gs.name.clone().unwrap_or_else(|| name.clone()));
                     }
                     self.shapes.push(s);
                 }

@@ -4,9 +4,11 @@
 
 use super::{default_illuminant, luminance_709, Parser};
 use crate::params::ParamList;
+use crate::scene::{
+    EnvMapping, EnvironmentMap, GoniometricLight, Light, ProjectionLight, Transform,
+};
 use crate::spectra::SpectrumUse;
 use crate::{Loc, PbrtError};
-use crate::scene::{EnvMapping, EnvironmentMap, GoniometricLight, Light, ProjectionLight, Transform};
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -201,14 +203,25 @@ impl Parser {
     /// channel as pbrt-v4 does), `power` (`scale *= Phi / (4 pi mean(image))`, after `scale /=
     /// SpectrumToPhotometric(I)`), and the light frame `CTM * swapYZ`. camsim extension: `from`
     /// (default the origin) moves the light as for `point`; pbrt-v4 places it with the CTM only.
-    fn goniometric(&mut self, params: &ParamList, loc: &Loc, file: &Path) -> Result<Light, PbrtError> {
+    fn goniometric(
+        &mut self,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<Light, PbrtError> {
         const WHAT: &str = "LightSource \"goniometric\"";
-        let s = self.spectrum_param(params, "I", SpectrumUse::Illuminant, file)?.unwrap_or_else(default_illuminant);
+        let s = self
+            .spectrum_param(params, "I", SpectrumUse::Illuminant, file)?
+            .unwrap_or_else(default_illuminant);
         let mut scale = params.float("scale", 1.0)? / s.photometric;
         let power = params.float_opt("power")?;
         let from = point3(params, "from", [0.0; 3])?;
         // pbrt-v4 only warns without a file (and the light is then black); refuse instead.
-        let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the intensity image) is required")))?;
+        let fname = params.string("filename")?.ok_or_else(|| {
+            loc.err(format!(
+                "{WHAT}: \"filename\" (the intensity image) is required"
+            ))
+        })?;
         let (width, height, rgb) = self.light_image(&fname, params, loc, file, WHAT)?;
         params.check_unused(WHAT)?;
         if width != height || width == 0 {
@@ -227,7 +240,14 @@ impl Parser {
         }
         let ctm = self.gs.ctm;
         // pbrt-v4 swapYZ: light-frame (x, y, z) -> CTM frame (x, z, y).
-        let swap_yz = Transform { m: [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]] };
+        let swap_yz = Transform {
+            m: [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ],
+        };
         let mut light_to_world = ctm.then_apply_to(&swap_yz);
         for row in light_to_world.m.iter_mut().take(3) {
             row[3] = 0.0;
@@ -249,7 +269,12 @@ impl Parser {
     /// `A = 4 tan^2(fov / 2) max(a, 1 / a)` the screen window's area at z = 1 and `cos^3 theta`
     /// the solid angle per unit area there. Light frame: CTM times `Scale(1, -1, 1)`. camsim
     /// extension: `from` (default the origin) moves the light as for `point`.
-    fn projection(&mut self, params: &ParamList, loc: &Loc, file: &Path) -> Result<Light, PbrtError> {
+    fn projection(
+        &mut self,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+    ) -> Result<Light, PbrtError> {
         const WHAT: &str = "LightSource \"projection\"";
         let mut scale = params.float("scale", 1.0)?;
         let power = params.float_opt("power")?;
@@ -258,13 +283,18 @@ impl Parser {
             return Err(loc.err(format!("{WHAT}: fov {fov_deg} deg must be in (0, 180)")));
         }
         let from = point3(params, "from", [0.0; 3])?;
-        let fname = params.string("filename")?.ok_or_else(|| loc.err(format!("{WHAT}: \"filename\" (the projected image) is required")))?;
+        let fname = params.string("filename")?.ok_or_else(|| {
+            loc.err(format!(
+                "{WHAT}: \"filename\" (the projected image) is required"
+            ))
+        })?;
         let (width, height, rgb) = self.light_image(&fname, params, loc, file, WHAT)?;
         params.check_unused(WHAT)?;
         let illum = default_illuminant();
         scale /= illum.photometric;
         if let Some(p) = power.filter(|p| *p > 0.0) {
-            let k_e = crate::scene::projection_frustum_sum(width, height, &rgb, fov_deg, luminance_709);
+            let k_e =
+                crate::scene::projection_frustum_sum(width, height, &rgb, fov_deg, luminance_709);
             if !(k_e > 0.0) {
                 return Err(loc.err(format!("{WHAT}: \"power\" given but {fname} is black")));
             }

@@ -125,15 +125,23 @@ impl Parser {
     ) -> Result<ConductorOptics, PbrtError> {
         let eta = self.conductor_spectrum(params, eta_name, file, "metal-Cu-eta")?;
         let k = self.conductor_spectrum(params, k_name, file, "metal-Cu-k")?;
-        let refl = params.get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?.map(|p| p.loc.clone());
+        let refl = params
+            .get("reflectance", &["rgb", "spectrum", "blackbody", "texture"])?
+            .map(|p| p.loc.clone());
         Ok(match (refl, eta, k) {
             (Some(l), e, k) if e.is_some() || k.is_some() => {
                 return Err(l.err(format!("{what}: give either \"reflectance\" or \"{eta_name}\" and \"{k_name}\", not both")));
             }
-            (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(params, "reflectance", file, 0.0)?),
+            (Some(_), _, _) => ConductorOptics::Reflectance(self.spectrum_texture(
+                params,
+                "reflectance",
+                file,
+                0.0,
+            )?),
             (None, e, k) => {
                 let named = |n: &str| {
-                    super::super::optical_constants::named(n).ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
+                    super::super::optical_constants::named(n)
+                        .ok_or_else(|| loc.err(format!("built-in spectrum {n} missing")))
                 };
                 ConductorOptics::EtaK {
                     eta: match e {
@@ -201,25 +209,44 @@ impl Parser {
     /// The layered BSDF's random walk (pbrt-v4 `CoatedDiffuseMaterial::Create` and
     /// `CoatedConductorMaterial::Create`): `albedo` (spectrum texture, default 0), `g` (default 0),
     /// `maxdepth` (default 10), `nsamples` (default 1).
-    fn layer_walk(&self, params: &ParamList, file: &Path, what: &str, loc: &Loc) -> Result<LayerWalk, PbrtError> {
+    fn layer_walk(
+        &self,
+        params: &ParamList,
+        file: &Path,
+        what: &str,
+        loc: &Loc,
+    ) -> Result<LayerWalk, PbrtError> {
         let albedo = self.spectrum_texture(params, "albedo", file, 0.0)?;
         // Errors point at the parameter when it is given, else at the material.
         let at = |name: &str, types: &[&str]| -> Result<Loc, PbrtError> {
-            Ok(params.get(name, types)?.map(|p| p.loc.clone()).unwrap_or_else(|| loc.clone()))
+            Ok(params
+                .get(name, types)?
+                .map(|p| p.loc.clone())
+                .unwrap_or_else(|| loc.clone()))
         };
         let g = self.float_param(params, "g", 0.0, what)?;
         if !(g > -1.0 && g < 1.0) {
-            return Err(at("g", &["float", "texture"])?.err(format!("{what}: \"g\" {g} must lie in (-1, 1)")));
+            return Err(at("g", &["float", "texture"])?
+                .err(format!("{what}: \"g\" {g} must lie in (-1, 1)")));
         }
         let max_depth = params.int("maxdepth", 10)?;
         if !(0..=100_000).contains(&max_depth) {
-            return Err(at("maxdepth", &["integer"])?.err(format!("{what}: \"maxdepth\" {max_depth} must lie in 0..=100000")));
+            return Err(at("maxdepth", &["integer"])?.err(format!(
+                "{what}: \"maxdepth\" {max_depth} must lie in 0..=100000"
+            )));
         }
         let n_samples = params.int("nsamples", 1)?;
         if !(1..=10_000).contains(&n_samples) {
-            return Err(at("nsamples", &["integer"])?.err(format!("{what}: \"nsamples\" {n_samples} must lie in 1..=10000")));
+            return Err(at("nsamples", &["integer"])?.err(format!(
+                "{what}: \"nsamples\" {n_samples} must lie in 1..=10000"
+            )));
         }
-        Ok(LayerWalk { albedo, g, max_depth: max_depth as u32, n_samples: n_samples as u32 })
+        Ok(LayerWalk {
+            albedo,
+            g,
+            max_depth: max_depth as u32,
+            n_samples: n_samples as u32,
+        })
     }
 
     /// Build a material of type `ty` from its parameters.
@@ -332,7 +359,14 @@ impl Parser {
                         e
                     }
                 };
-                let conductor = self.conductor_optics(params, file, loc, "conductor.eta", "conductor.k", &what)?;
+                let conductor = self.conductor_optics(
+                    params,
+                    file,
+                    loc,
+                    "conductor.eta",
+                    "conductor.k",
+                    &what,
+                )?;
                 let walk = self.layer_walk(params, file, &what, loc)?;
                 Material::CoatedConductor {
                     interface_eta: ieta,

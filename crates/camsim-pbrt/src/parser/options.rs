@@ -5,7 +5,14 @@
 use super::*;
 
 impl Parser {
-    pub(super) fn option_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+    pub(super) fn option_directive(
+        &mut self,
+        d: &str,
+        tokens: &[Token],
+        pos: &mut usize,
+        file: &Path,
+        loc: &Loc,
+    ) -> Result<(), PbrtError> {
         let f = file;
         match d {
             "Camera" | "Film" | "Sampler" | "Integrator" => {
@@ -24,7 +31,12 @@ impl Parser {
                 let ty = string_arg(tokens, pos, f, d)?;
                 let params = parse_params(tokens, pos, f)?;
                 params.params.iter().for_each(|p| p.used.set(true));
-                self.note(loc, format!("PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"));
+                self.note(
+                    loc,
+                    format!(
+                        "PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"
+                    ),
+                );
             }
             "Accelerator" => {
                 self.require_world(loc, d, false)?;

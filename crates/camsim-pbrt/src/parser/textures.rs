@@ -6,16 +6,20 @@
 
 use super::{load_image, parse_encoding, Parser};
 use crate::params::ParamList;
+use crate::scene::{
+    FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform,
+    UvMapping,
+};
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
-use crate::scene::{FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform, UvMapping};
 use camsim_core::Spectrum;
 use std::path::Path;
 
 /// The float texture classes read here (for messages).
 const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, fbm, wrinkled, windy";
 /// The spectrum texture classes read here (for messages).
-const SPECTRUM_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
+const SPECTRUM_CLASSES: &str =
+    "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
 /// An image texture's width, height, texels and mapping.
 type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping);
@@ -111,15 +115,23 @@ impl Parser {
                     kind: MappingKind::Uv,
                 })
             }
-            "spherical" => MappingKind::Spherical { texture_from_world: Box::new(self.texture_from_world(loc, &what)?) },
-            "cylindrical" => MappingKind::Cylindrical { texture_from_world: Box::new(self.texture_from_world(loc, &what)?) },
+            "spherical" => MappingKind::Spherical {
+                texture_from_world: Box::new(self.texture_from_world(loc, &what)?),
+            },
+            "cylindrical" => MappingKind::Cylindrical {
+                texture_from_world: Box::new(self.texture_from_world(loc, &what)?),
+            },
             "planar" => {
                 let v = |n: &str, d: [f64; 3]| -> Result<[f64; 3], PbrtError> {
                     match params.get(n, &["vector3", "vector"])? {
                         None => Ok(d),
                         Some(p) => match p.nums()?.as_slice() {
-                            [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
-                            v => Err(p.loc.err(format!("{what}: \"vector3 {n}\" needs 3 finite numbers, got {v:?}"))),
+                            [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => {
+                                Ok([*x, *y, *z])
+                            }
+                            v => Err(p.loc.err(format!(
+                                "{what}: \"vector3 {n}\" needs 3 finite numbers, got {v:?}"
+                            ))),
                         },
                     }
                 };
@@ -139,7 +151,13 @@ impl Parser {
             MappingKind::Planar(_) => (params.float("udelta", 0.0)?, params.float("vdelta", 0.0)?),
             _ => (0.0, 0.0),
         };
-        Ok(UvMapping { uscale: 1.0, vscale: 1.0, udelta, vdelta, kind })
+        Ok(UvMapping {
+            uscale: 1.0,
+            vscale: 1.0,
+            udelta,
+            vdelta,
+            kind,
+        })
     }
 
     /// pbrt-v4 image texture parameters and texels: (width, height, linear rgb * scale,
@@ -246,8 +264,26 @@ impl Parser {
                         })
                     })
                     .collect();
-                let UvMapping { uscale, vscale, udelta, vdelta, kind } = mapping;
-                self.textures.insert(name.to_string(), Texture::Image { width, height, rgb, uscale, vscale, udelta, vdelta, kind });
+                let UvMapping {
+                    uscale,
+                    vscale,
+                    udelta,
+                    vdelta,
+                    kind,
+                } = mapping;
+                self.textures.insert(
+                    name.to_string(),
+                    Texture::Image {
+                        width,
+                        height,
+                        rgb,
+                        uscale,
+                        vscale,
+                        udelta,
+                        vdelta,
+                        kind,
+                    },
+                );
             }
             return Ok(());
         }
@@ -260,10 +296,25 @@ impl Parser {
                     tex2: f(self, "tex2", 0.0)?,
                     texture_from_world: self.texture_from_world(loc, &what)?,
                 },
-                "checkerboard" => FloatTexture::Checkerboard { tex1: f(self, "tex1", 1.0)?, tex2: f(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
-                "scale" => FloatTexture::Scale { tex: f(self, "tex", 1.0)?, scale: f(self, "scale", 1.0)? },
-                "mix" => FloatTexture::Mix { tex1: f(self, "tex1", 0.0)?, tex2: f(self, "tex2", 1.0)?, amount: f(self, "amount", 0.5)? },
-                "directionmix" => FloatTexture::DirectionMix { tex1: f(self, "tex1", 0.0)?, tex2: f(self, "tex2", 1.0)?, direction: self.mix_dir(params, loc, &what)? },
+                "checkerboard" => FloatTexture::Checkerboard {
+                    tex1: f(self, "tex1", 1.0)?,
+                    tex2: f(self, "tex2", 0.0)?,
+                    mapping: self.uv_mapping(name, params, loc)?,
+                },
+                "scale" => FloatTexture::Scale {
+                    tex: f(self, "tex", 1.0)?,
+                    scale: f(self, "scale", 1.0)?,
+                },
+                "mix" => FloatTexture::Mix {
+                    tex1: f(self, "tex1", 0.0)?,
+                    tex2: f(self, "tex2", 1.0)?,
+                    amount: f(self, "amount", 0.5)?,
+                },
+                "directionmix" => FloatTexture::DirectionMix {
+                    tex1: f(self, "tex1", 0.0)?,
+                    tex2: f(self, "tex2", 1.0)?,
+                    direction: self.mix_dir(params, loc, &what)?,
+                },
                 "bilerp" => FloatTexture::Bilerp {
                     v00: params.float("v00", 0.0)?,
                     v01: params.float("v01", 1.0)?,
@@ -271,9 +322,17 @@ impl Parser {
                     v11: params.float("v11", 1.0)?,
                     mapping: self.uv_mapping(name, params, loc)?,
                 },
-                "dots" => FloatTexture::Dots { inside: f(self, "inside", 1.0)?, outside: f(self, "outside", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+                "dots" => FloatTexture::Dots {
+                    inside: f(self, "inside", 1.0)?,
+                    outside: f(self, "outside", 0.0)?,
+                    mapping: self.uv_mapping(name, params, loc)?,
+                },
                 "fbm" | "wrinkled" => FloatTexture::Noise(NoiseTexture {
-                    kind: if class == "fbm" { NoiseKind::Fbm } else { NoiseKind::Wrinkled },
+                    kind: if class == "fbm" {
+                        NoiseKind::Fbm
+                    } else {
+                        NoiseKind::Wrinkled
+                    },
                     octaves: self.octaves(params, loc, &what)?,
                     roughness: params.float("roughness", 0.5)?,
                     texture_from_world: self.texture_from_world(loc, &what)?,
@@ -284,7 +343,11 @@ impl Parser {
                     roughness: 0.5,
                     texture_from_world: self.texture_from_world(loc, &what)?,
                 }),
-                _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported ({FLOAT_CLASSES})"))),
+                _ => {
+                    return Err(loc.err(format!(
+                        "{what}: class \"{class}\" is not supported ({FLOAT_CLASSES})"
+                    )))
+                }
             };
             params.check_unused(&what)?;
             self.float_textures.insert(name.to_string(), t);
@@ -303,10 +366,25 @@ impl Parser {
                 tex2: s(self, "tex2", 0.0)?,
                 texture_from_world: self.texture_from_world(loc, &what)?,
             },
-            "checkerboard" => Texture::Checkerboard { tex1: s(self, "tex1", 1.0)?, tex2: s(self, "tex2", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
-            "scale" => Texture::Scale { tex: s(self, "tex", 1.0)?, scale: self.float_texture_param(params, "scale", 1.0)? },
-            "mix" => Texture::Mix { tex1: s(self, "tex1", 0.0)?, tex2: s(self, "tex2", 1.0)?, amount: self.float_texture_param(params, "amount", 0.5)? },
-            "directionmix" => Texture::DirectionMix { tex1: s(self, "tex1", 0.0)?, tex2: s(self, "tex2", 1.0)?, direction: self.mix_dir(params, loc, &what)? },
+            "checkerboard" => Texture::Checkerboard {
+                tex1: s(self, "tex1", 1.0)?,
+                tex2: s(self, "tex2", 0.0)?,
+                mapping: self.uv_mapping(name, params, loc)?,
+            },
+            "scale" => Texture::Scale {
+                tex: s(self, "tex", 1.0)?,
+                scale: self.float_texture_param(params, "scale", 1.0)?,
+            },
+            "mix" => Texture::Mix {
+                tex1: s(self, "tex1", 0.0)?,
+                tex2: s(self, "tex2", 1.0)?,
+                amount: self.float_texture_param(params, "amount", 0.5)?,
+            },
+            "directionmix" => Texture::DirectionMix {
+                tex1: s(self, "tex1", 0.0)?,
+                tex2: s(self, "tex2", 1.0)?,
+                direction: self.mix_dir(params, loc, &what)?,
+            },
             "bilerp" => {
                 let v = |n: &str, d: f64| -> Result<Spectrum, PbrtError> {
                     match params.get(n, &["rgb", "spectrum", "blackbody"])? {
@@ -317,9 +395,19 @@ impl Parser {
                         None => Ok(flat(d)),
                     }
                 };
-                Texture::Bilerp { v00: v("v00", 0.0)?, v01: v("v01", 1.0)?, v10: v("v10", 0.0)?, v11: v("v11", 1.0)?, mapping: self.uv_mapping(name, params, loc)? }
+                Texture::Bilerp {
+                    v00: v("v00", 0.0)?,
+                    v01: v("v01", 1.0)?,
+                    v10: v("v10", 0.0)?,
+                    v11: v("v11", 1.0)?,
+                    mapping: self.uv_mapping(name, params, loc)?,
+                }
             }
-            "dots" => Texture::Dots { inside: s(self, "inside", 1.0)?, outside: s(self, "outside", 0.0)?, mapping: self.uv_mapping(name, params, loc)? },
+            "dots" => Texture::Dots {
+                inside: s(self, "inside", 1.0)?,
+                outside: s(self, "outside", 0.0)?,
+                mapping: self.uv_mapping(name, params, loc)?,
+            },
             "marble" => Texture::Marble {
                 octaves: self.octaves(params, loc, &what)?,
                 roughness: params.float("roughness", 0.5)?,
@@ -327,7 +415,11 @@ impl Parser {
                 variation: params.float("variation", 0.2)?,
                 texture_from_world: self.texture_from_world(loc, &what)?,
             },
-            _ => return Err(loc.err(format!("{what}: class \"{class}\" is not supported ({SPECTRUM_CLASSES})"))),
+            _ => {
+                return Err(loc.err(format!(
+                    "{what}: class \"{class}\" is not supported ({SPECTRUM_CLASSES})"
+                )))
+            }
         };
         params.check_unused(&what)?;
         self.textures.insert(name.to_string(), t);
@@ -347,7 +439,8 @@ impl Parser {
     /// pbrt-v4 `TextureMapping3D`: world (render) space to texture space, the inverse of the CTM
     /// at the `Texture` directive.
     fn texture_from_world(&self, loc: &Loc, what: &str) -> Result<Transform, PbrtError> {
-        crate::xform::inverse(&self.gs.ctm).ok_or_else(|| loc.err(format!("{what}: the current transform is singular")))
+        crate::xform::inverse(&self.gs.ctm)
+            .ok_or_else(|| loc.err(format!("{what}: the current transform is singular")))
     }
 
     /// pbrt-v4 DirectionMixTexture: `dir` (default (0, 1, 0)) in texture space, transformed by the

@@ -5,7 +5,14 @@
 use super::*;
 
 impl Parser {
-    pub(super) fn transform_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+    pub(super) fn transform_directive(
+        &mut self,
+        d: &str,
+        tokens: &[Token],
+        pos: &mut usize,
+        file: &Path,
+        loc: &Loc,
+    ) -> Result<(), PbrtError> {
         let f = file;
         match d {
             "Identity" => {
@@ -32,9 +39,8 @@ impl Parser {
             }
             "LookAt" => {
                 let v = nums(tokens, pos, f, d, 9)?;
-                let t =
-                    xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
-                        .map_err(|e| loc.err(e))?;
+                let t = xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
+                    .map_err(|e| loc.err(e))?;
                 self.apply_transform(t);
             }
             "Transform" => {
@@ -64,11 +70,7 @@ impl Parser {
                         kind: TokenKind::Word(w),
                         ..
                     }) => w.clone(),
-                    _ => {
-                        return Err(
-                            loc.err("ActiveTransform: expected StartTime, EndTime or All")
-                        )
-                    }
+                    _ => return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All")),
                 };
                 *pos += 1;
                 match w.as_str() {

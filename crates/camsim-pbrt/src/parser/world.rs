@@ -5,14 +5,20 @@
 use super::*;
 
 impl Parser {
-    pub(super) fn world_directive(&mut self, d: &str, tokens: &[Token], pos: &mut usize, file: &Path, loc: &Loc) -> Result<(), PbrtError> {
+    pub(super) fn world_directive(
+        &mut self,
+        d: &str,
+        tokens: &[Token],
+        pos: &mut usize,
+        file: &Path,
+        loc: &Loc,
+    ) -> Result<(), PbrtError> {
         let f = file;
         match d {
             "Material" => {
                 self.require_world(loc, d, true)?;
                 let ty = string_arg(tokens, pos, f, d)?;
-                let params =
-                    self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let params = self.with_attributes("material", parse_params(tokens, pos, f)?);
                 let m = self.material(&ty, &params, loc, file)?;
                 self.materials.push(m);
                 self.gs.material = MatRef::Index(self.materials.len() - 1);
@@ -20,8 +26,7 @@ impl Parser {
             "MakeNamedMaterial" => {
                 self.require_world(loc, d, true)?;
                 let name = string_arg(tokens, pos, f, d)?;
-                let params =
-                    self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let params = self.with_attributes("material", parse_params(tokens, pos, f)?);
                 let ty = params.string("type")?.ok_or_else(|| {
                     loc.err(format!(
                         "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
@@ -46,8 +51,7 @@ impl Parser {
                 let name = string_arg(tokens, pos, f, d)?;
                 let ty = string_arg(tokens, pos, f, d)?;
                 let class = string_arg(tokens, pos, f, d)?;
-                let params =
-                    self.with_attributes("texture", parse_params(tokens, pos, f)?);
+                let params = self.with_attributes("texture", parse_params(tokens, pos, f)?);
                 self.texture(&name, &ty, &class, &params, loc, file)?;
             }
             "AreaLightSource" => {
@@ -59,8 +63,7 @@ impl Parser {
                         "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
                     )));
                 }
-                let spectrum =
-                    self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
+                let spectrum = self.spectrum_param(&params, "L", SpectrumUse::Illuminant, file)?;
                 // pbrt-v4 DiffuseAreaLight::Create: `filename` (exclusive with `L`) gives an
                 // RGB image over the shape's uv, its values illuminant spectra of the colour
                 // space; scale /= SpectrumToPhotometric(colour space illuminant).
@@ -70,10 +73,19 @@ impl Parser {
                         if spectrum.is_some() {
                             return Err(loc.err("AreaLightSource \"diffuse\": give either \"L\" or \"filename\", not both (as pbrt-v4)"));
                         }
-                        let (width, height, rgb) = self.light_image(&fname, &params, loc, file, "AreaLightSource \"diffuse\"")?;
+                        let (width, height, rgb) = self.light_image(
+                            &fname,
+                            &params,
+                            loc,
+                            file,
+                            "AreaLightSource \"diffuse\"",
+                        )?;
                         let mean_y = rgb.iter().map(|c| super::luminance_709(*c)).sum::<f64>()
                             / rgb.len() as f64;
-                        Some((std::sync::Arc::new(EmissionImage { width, height, rgb }), mean_y))
+                        Some((
+                            std::sync::Arc::new(EmissionImage { width, height, rgb }),
+                            mean_y,
+                        ))
                     }
                 };
                 let spectrum = match spectrum {

@@ -83,7 +83,12 @@ impl<const N: usize> Event<N> {
     #[inline(always)]
     fn valid(self) -> Option<Self> {
         let nonzero = self.f.iter().any(|&v| v > 0.0);
-        (nonzero && self.pdf > 0.0 && self.pdf.is_finite() && self.wi.z != 0.0 && self.f.iter().all(|v| v.is_finite())).then_some(self)
+        (nonzero
+            && self.pdf > 0.0
+            && self.pdf.is_finite()
+            && self.wi.z != 0.0
+            && self.f.iter().all(|v| v.is_finite()))
+        .then_some(self)
     }
 }
 
@@ -105,7 +110,13 @@ pub struct Layer<const N: usize> {
 impl<const N: usize> Layer<N> {
     /// pbrt-v4's defaults (`thickness` 0.01, no medium, `maxdepth` 10, `nsamples` 1).
     pub fn pbrt_default() -> Self {
-        Layer { thickness: 0.01, albedo: [0.0; N], g: 0.0, max_depth: 10, n_samples: 1 }
+        Layer {
+            thickness: 0.01,
+            albedo: [0.0; N],
+            g: 0.0,
+            max_depth: 10,
+            n_samples: 1,
+        }
     }
 }
 
@@ -150,7 +161,10 @@ impl Top {
             d.d(wm) * d.g(wo, wi) * r / (4.0 * wo.z * wi.z).abs()
         } else {
             let denom = wi.dot(wm) + wo.dot(wm) / etap;
-            let ft = d.d(wm) * (1.0 - r) * d.g(wo, wi) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
+            let ft = d.d(wm)
+                * (1.0 - r)
+                * d.g(wo, wi)
+                * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
             ft * Self::radiance_scale(mode, etap)
         }
     }
@@ -164,7 +178,10 @@ impl Top {
             return 0.0;
         };
         let r = fr_dielectric(wo.dot(wm), self.eta);
-        let (pr, pt) = (if lobes.reflection() { r } else { 0.0 }, if lobes.transmission() { 1.0 - r } else { 0.0 });
+        let (pr, pt) = (
+            if lobes.reflection() { r } else { 0.0 },
+            if lobes.transmission() { 1.0 - r } else { 0.0 },
+        );
         if pr + pt <= 0.0 {
             return 0.0;
         }
@@ -181,28 +198,56 @@ impl Top {
     /// Sample a direction (pbrt-v4 `DielectricBxDF::Sample_f`): Fresnel-weighted choice between
     /// reflection and transmission among `lobes`, on the smooth interface or on a visible
     /// microfacet.
-    fn sample<const N: usize>(&self, wo: V3, uc: f32, u0: f32, u1: f32, mode: Mode, lobes: Lobes) -> Option<Event<N>> {
+    fn sample<const N: usize>(
+        &self,
+        wo: V3,
+        uc: f32,
+        u0: f32,
+        u1: f32,
+        mode: Mode,
+        lobes: Lobes,
+    ) -> Option<Event<N>> {
         if wo.z == 0.0 {
             return None;
         }
         if self.specular() {
             let r = fr_dielectric(wo.z, self.eta);
-            let (pr, pt) = (if lobes.reflection() { r } else { 0.0 }, if lobes.transmission() { 1.0 - r } else { 0.0 });
+            let (pr, pt) = (
+                if lobes.reflection() { r } else { 0.0 },
+                if lobes.transmission() { 1.0 - r } else { 0.0 },
+            );
             if pr + pt <= 0.0 {
                 return None;
             }
             if uc < pr / (pr + pt) {
                 let wi = V3::new(-wo.x, -wo.y, wo.z);
                 let f = r / wi.z.abs();
-                return Event { wi, f: [f; N], pdf: pr / (pr + pt), specular: true, transmission: false }.valid();
+                return Event {
+                    wi,
+                    f: [f; N],
+                    pdf: pr / (pr + pt),
+                    specular: true,
+                    transmission: false,
+                }
+                .valid();
             }
             let (wi, etap) = refract(wo, V3::new(0.0, 0.0, 1.0), self.eta)?;
             let f = (1.0 - r) / wi.z.abs() * Self::radiance_scale(mode, etap);
-            return Event { wi, f: [f; N], pdf: pt / (pr + pt), specular: true, transmission: true }.valid();
+            return Event {
+                wi,
+                f: [f; N],
+                pdf: pt / (pr + pt),
+                specular: true,
+                transmission: true,
+            }
+            .valid();
         }
         let wm = self.distrib.sample_wm(wo, u0, u1);
         let r = fr_dielectric(wo.dot(wm), self.eta);
-        let (pr, pt) = (if lobes.reflection() { r } else { 0.0 }, if lobes.transmission() { 1.0 - r } else { 0.0 });
+        let (pr, pt) = (
+            if lobes.reflection() { r } else { 0.0 },
+            if lobes.transmission() { 1.0 - r } else { 0.0 },
+        );
         if pr + pt <= 0.0 {
             return None;
         }
@@ -221,7 +266,14 @@ impl Top {
         };
         let f = self.f(wo, wi, mode);
         let pdf = self.pdf(wo, wi, lobes);
-        Event { wi, f: [f; N], pdf, specular: false, transmission: wo.z * wi.z < 0.0 }.valid()
+        Event {
+            wi,
+            f: [f; N],
+            pdf,
+            specular: false,
+            transmission: wo.z * wi.z < 0.0,
+        }
+        .valid()
     }
 }
 
@@ -251,7 +303,14 @@ impl<const N: usize> Bottom<N> {
             return None;
         }
         let f = std::array::from_fn(|i| s.weight[i] * s.pdf / c);
-        Event { wi: s.wi_local, f, pdf: s.pdf, specular: s.specular, transmission: false }.valid()
+        Event {
+            wi: s.wi_local,
+            f,
+            pdf: s.pdf,
+            specular: s.specular,
+            transmission: false,
+        }
+        .valid()
     }
 }
 
@@ -356,12 +415,22 @@ pub(super) struct LayeredSample<const N: usize> {
 
 impl<const N: usize> Layered<N> {
     /// `eta`, `distrib`: the coating; `bottom`: the base's BSDF (already relative to the coating).
-    pub(super) fn new(eta: f32, distrib: TrowbridgeReitz, bottom: Bsdf<N>, layer: &Layer<N>) -> Self {
+    pub(super) fn new(
+        eta: f32,
+        distrib: TrowbridgeReitz,
+        bottom: Bsdf<N>,
+        layer: &Layer<N>,
+    ) -> Self {
         let mut layer = *layer;
         // pbrt-v4 clamps the thickness to the smallest positive float.
         layer.thickness = layer.thickness.max(f32::MIN_POSITIVE);
         let has_medium = layer.albedo.iter().any(|&a| a > 0.0);
-        Layered { top: Top { eta, distrib }, bottom: Bottom(bottom), layer, has_medium }
+        Layered {
+            top: Top { eta, distrib },
+            bottom: Bottom(bottom),
+            layer,
+            has_medium,
+        }
     }
 
     /// True when every walk is a chain of delta events: `f` and `pdf` are zero everywhere.
@@ -396,10 +465,24 @@ impl<const N: usize> Layered<N> {
         for _ in 0..n {
             // Into the layer along wo (radiance) and, for next-event estimation, along wi
             // (importance: the adjoint walk).
-            let Some(wos) = top.sample::<N>(wo, uniform(r), uniform(r), uniform(r), Mode::Radiance, Lobes::Transmission) else {
+            let Some(wos) = top.sample::<N>(
+                wo,
+                uniform(r),
+                uniform(r),
+                uniform(r),
+                Mode::Radiance,
+                Lobes::Transmission,
+            ) else {
                 continue;
             };
-            let Some(wis) = top.sample::<N>(wi, uniform(r), uniform(r), uniform(r), Mode::Importance, Lobes::Transmission) else {
+            let Some(wis) = top.sample::<N>(
+                wi,
+                uniform(r),
+                uniform(r),
+                uniform(r),
+                Mode::Importance,
+                Lobes::Transmission,
+            ) else {
                 continue;
             };
             let mut beta: [f32; N] = std::array::from_fn(|i| wos.f[i] * wos.wi.z.abs() / wos.pdf);
@@ -434,7 +517,11 @@ impl<const N: usize> Layered<N> {
                     if 0.0 < zp && zp < thickness {
                         // Scattering in the medium: next-event estimation through the top
                         // along the pre-sampled wis, then a phase-function sample.
-                        let wt = if top.specular() { 1.0 } else { power_heuristic(wis.pdf, hg_p(layer.g, -w, -wis.wi)) };
+                        let wt = if top.specular() {
+                            1.0
+                        } else {
+                            power_heuristic(wis.pdf, hg_p(layer.g, -w, -wis.wi))
+                        };
                         let k = hg_p(layer.g, -w, -wis.wi) * wt * tr(zp - exit_z, wis.wi) / wis.pdf;
                         for i in 0..N {
                             f[i] += beta[i] * layer.albedo[i] * k * wis.f[i];
@@ -449,7 +536,9 @@ impl<const N: usize> Layered<N> {
                         w = pw;
                         z = zp;
                         // The phase sample's own way out through a rough top.
-                        if ((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !top.specular() {
+                        if ((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0))
+                            && !top.specular()
+                        {
                             let f_exit = top.f(-w, wi, Mode::Radiance);
                             if f_exit > 0.0 {
                                 let wt = power_heuristic(pp, top.pdf(wi, -w, Lobes::Transmission));
@@ -463,7 +552,14 @@ impl<const N: usize> Layered<N> {
                 }
                 if z == exit_z {
                     // Internal reflection at the top.
-                    let Some(bs) = top.sample::<N>(-w, uniform(r), uniform(r), uniform(r), Mode::Radiance, Lobes::Reflection) else {
+                    let Some(bs) = top.sample::<N>(
+                        -w,
+                        uniform(r),
+                        uniform(r),
+                        uniform(r),
+                        Mode::Radiance,
+                        Lobes::Reflection,
+                    ) else {
                         break;
                     };
                     for (b, fe) in beta.iter_mut().zip(&bs.f) {
@@ -473,7 +569,11 @@ impl<const N: usize> Layered<N> {
                 } else {
                     // At the base: next-event estimation through the top along wis.
                     if !bottom.specular() {
-                        let wt = if top.specular() { 1.0 } else { power_heuristic(wis.pdf, bottom.pdf(-w, -wis.wi)) };
+                        let wt = if top.specular() {
+                            1.0
+                        } else {
+                            power_heuristic(wis.pdf, bottom.pdf(-w, -wis.wi))
+                        };
                         let fb = bottom.f(-w, -wis.wi);
                         let s = wis.wi.z.abs() * wt * tr(thickness, wis.wi) / wis.pdf;
                         for i in 0..N {
@@ -491,7 +591,11 @@ impl<const N: usize> Layered<N> {
                     if !top.specular() {
                         let f_exit = top.f(-w, wi, Mode::Radiance);
                         if f_exit > 0.0 {
-                            let wt = if bottom.specular() { 1.0 } else { power_heuristic(bs.pdf, top.pdf(wi, -w, Lobes::Transmission)) };
+                            let wt = if bottom.specular() {
+                                1.0
+                            } else {
+                                power_heuristic(bs.pdf, top.pdf(wi, -w, Lobes::Transmission))
+                            };
                             add(&mut f, &beta, &[1.0; N], tr(thickness, bs.wi) * f_exit * wt);
                         }
                     }
@@ -515,15 +619,33 @@ impl<const N: usize> Layered<N> {
         let mut pdf_sum = n as f32 * top.pdf(wo, wi, Lobes::Reflection);
         for _ in 0..n {
             // TRT: into the layer, reflected by the base, out through the top.
-            let wos = top.sample::<N>(wo, uniform(r), uniform(r), uniform(r), Mode::Radiance, Lobes::Transmission);
-            let wis = top.sample::<N>(wi, uniform(r), uniform(r), uniform(r), Mode::Importance, Lobes::Transmission);
-            let (Some(wos), Some(wis)) = (wos, wis) else { continue };
+            let wos = top.sample::<N>(
+                wo,
+                uniform(r),
+                uniform(r),
+                uniform(r),
+                Mode::Radiance,
+                Lobes::Transmission,
+            );
+            let wis = top.sample::<N>(
+                wi,
+                uniform(r),
+                uniform(r),
+                uniform(r),
+                Mode::Importance,
+                Lobes::Transmission,
+            );
+            let (Some(wos), Some(wis)) = (wos, wis) else {
+                continue;
+            };
             if top.specular() {
                 pdf_sum += bottom.pdf(-wos.wi, -wis.wi);
                 continue;
             }
             // Two estimates of the product of the three densities, combined by MIS.
-            let Some(rs) = bottom.sample(-wos.wi, uniform(r), uniform(r), uniform(r)) else { continue };
+            let Some(rs) = bottom.sample(-wos.wi, uniform(r), uniform(r), uniform(r)) else {
+                continue;
+            };
             if bottom.specular() {
                 pdf_sum += top.pdf(-rs.wi, wi, Lobes::All);
             } else {
@@ -547,9 +669,18 @@ impl<const N: usize> Layered<N> {
         let bs = top.sample::<N>(wo, uc, u0, u1, Mode::Radiance, Lobes::All)?;
         if !bs.transmission {
             // Reflected by the coating: the density for MIS is the layered density estimate.
-            let pdf = if bs.specular { bs.pdf } else { self.pdf(wo, bs.wi) };
+            let pdf = if bs.specular {
+                bs.pdf
+            } else {
+                self.pdf(wo, bs.wi)
+            };
             let weight = bs.f.map(|v| v * bs.wi.z.abs() / bs.pdf);
-            return Some(LayeredSample { wi: bs.wi, weight, pdf, specular: bs.specular });
+            return Some(LayeredSample {
+                wi: bs.wi,
+                weight,
+                pdf,
+                specular: bs.specular,
+            });
         }
         let mut w = bs.wi;
         let mut specular_path = bs.specular;
@@ -600,7 +731,11 @@ impl<const N: usize> Layered<N> {
                 }
             }
             let (uc, u0, u1) = (uniform(r), uniform(r), uniform(r));
-            let e = if z == 0.0 { bottom.sample(-w, uc, u0, u1)? } else { top.sample::<N>(-w, uc, u0, u1, Mode::Radiance, Lobes::All)? };
+            let e = if z == 0.0 {
+                bottom.sample(-w, uc, u0, u1)?
+            } else {
+                top.sample::<N>(-w, uc, u0, u1, Mode::Radiance, Lobes::All)?
+            };
             for (v, fe) in f.iter_mut().zip(&e.f) {
                 *v *= fe;
             }
@@ -611,7 +746,12 @@ impl<const N: usize> Layered<N> {
                 // Left through the top.
                 let weight = f.map(|v| v * w.z.abs() / pdf);
                 let pdf = if specular_path { pdf } else { self.pdf(wo, w) };
-                return Some(LayeredSample { wi: w, weight, pdf, specular: specular_path });
+                return Some(LayeredSample {
+                    wi: w,
+                    weight,
+                    pdf,
+                    specular: specular_path,
+                });
             }
             for v in f.iter_mut() {
                 *v *= w.z.abs();

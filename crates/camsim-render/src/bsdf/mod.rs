@@ -144,12 +144,36 @@ impl<const N: usize> Bsdf<N> {
     #[inline]
     fn layered(&self) -> Option<layered::Layered<N>> {
         match self {
-            Bsdf::CoatedDiffuse { reflectance, eta, distrib, layer } => {
-                Some(layered::Layered::new(*eta, *distrib, Bsdf::Diffuse { reflectance: *reflectance }, layer))
-            }
-            Bsdf::CoatedConductor { eta, coat, c_eta, c_k, base, layer } => {
-                Some(layered::Layered::new(*eta, *coat, Bsdf::Conductor { eta: *c_eta, k: *c_k, distrib: *base }, layer))
-            }
+            Bsdf::CoatedDiffuse {
+                reflectance,
+                eta,
+                distrib,
+                layer,
+            } => Some(layered::Layered::new(
+                *eta,
+                *distrib,
+                Bsdf::Diffuse {
+                    reflectance: *reflectance,
+                },
+                layer,
+            )),
+            Bsdf::CoatedConductor {
+                eta,
+                coat,
+                c_eta,
+                c_k,
+                base,
+                layer,
+            } => Some(layered::Layered::new(
+                *eta,
+                *coat,
+                Bsdf::Conductor {
+                    eta: *c_eta,
+                    k: *c_k,
+                    distrib: *base,
+                },
+                layer,
+            )),
             _ => None,
         }
     }
@@ -158,7 +182,9 @@ impl<const N: usize> Bsdf<N> {
     /// origin when `wo` is below, as pbrt-v4's `twoSided` layers), reflection only.
     #[inline]
     fn layered_eval(&self, wo: &V3, wi: &V3) -> ([f32; N], f32) {
-        let Some(l) = self.layered() else { return ([0.0; N], 0.0) };
+        let Some(l) = self.layered() else {
+            return ([0.0; N], 0.0);
+        };
         if !same_hemisphere(wo, wi) {
             return ([0.0; N], 0.0);
         }

@@ -6,7 +6,11 @@ use camsim_sensor::{NoiseSwitches, Sensor, SensorConfig};
 
 /// Path of a file under the shared reference data folder.
 pub fn shared(path: &str) -> String {
-    format!("{}/../../../shared/data/{}", env!("CARGO_MANIFEST_DIR"), path)
+    format!(
+        "{}/../../../shared/data/{}",
+        env!("CARGO_MANIFEST_DIR"),
+        path
+    )
 }
 
 /// Read the numeric rows of a CSV file (lines starting with a digit).
@@ -14,7 +18,11 @@ pub fn read_csv(path: &str) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(shared(path)).unwrap_or_else(|e| panic!("{path}: {e}"));
     text.lines()
         .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
-        .map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.trim().parse::<f64>().unwrap())
+                .collect()
+        })
         .collect()
 }
 
@@ -26,7 +34,13 @@ pub fn config(preset: &str, f: impl FnOnce(&mut SensorConfig)) -> Sensor {
 }
 
 /// A uniform irradiance image (W/(m^2 nm)) of rows x cols at `spacing_m`.
-pub fn uniform_image(rows: usize, cols: usize, grid: WavelengthGrid, spacing_m: f64, spectrum: &[f64]) -> SpectralImage {
+pub fn uniform_image(
+    rows: usize,
+    cols: usize,
+    grid: WavelengthGrid,
+    spacing_m: f64,
+    spectrum: &[f64],
+) -> SpectralImage {
     let mut img = SpectralImage::zeros(rows, cols, grid, spacing_m, Quantity::Irradiance).unwrap();
     for (b, plane) in img.bands_mut().enumerate() {
         plane.iter_mut().for_each(|v| *v = spectrum[b] as f32);
