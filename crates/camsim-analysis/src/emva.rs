@@ -331,7 +331,8 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     }
     // Statistics per level (levels in parallel; each sum is sequential, so results do not depend
     // on the thread count).
-    let stats: Vec<((f64, f64), Option<(f64, f64)>)> = levels
+    type MeanVar = (f64, f64);
+    let stats: Vec<(MeanVar, Option<MeanVar>)> = levels
         .par_iter()
         .map(|l| {
             (

@@ -55,8 +55,8 @@ impl Rect {
                 format!("rectangle {self} is empty"),
             ));
         }
-        if self.row.checked_add(self.rows).map_or(true, |e| e > rows)
-            || self.col.checked_add(self.cols).map_or(true, |e| e > cols)
+        if self.row.checked_add(self.rows).is_none_or(|e| e > rows)
+            || self.col.checked_add(self.cols).is_none_or(|e| e > cols)
         {
             return Err(AnalysisError::invalid(
                 what,

@@ -13,7 +13,6 @@
 //! Every result type is `serde::Serialize` so the CLI can write it as JSON or CSV.
 
 // `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
 
 pub mod chart;
 pub mod color_difference;

@@ -58,7 +58,6 @@
 //! the fit must recover and why.
 
 // Channel loops index several arrays at once (r, g, b).
-#![allow(clippy::needless_range_loop)]
 
 use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
 mod common;

@@ -18,6 +18,9 @@ use camsim_core::rng::{keyed, stage};
 use camsim_core::{CfaPattern, RawImage};
 use rand_distr::{Distribution, Normal, Poisson};
 
+/// (exposure, photons, bright frames, dark frames) of one level.
+type Level = (f64, f64, Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 #[derive(Clone, Copy)]
 struct Synth {
     rows: usize,
@@ -78,7 +81,7 @@ impl Synth {
     }
 
     /// Levels at fractions of the full well: (exposure, photons, bright frames, dark frames).
-    fn series(&self, stack: usize) -> Vec<(f64, f64, Vec<Vec<f64>>, Vec<Vec<f64>>)> {
+    fn series(&self, stack: usize) -> Vec<Level> {
         let maps = self.maps();
         let fractions = [
             0.01, 0.03, 0.06, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.94, 0.97,

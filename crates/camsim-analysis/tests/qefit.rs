@@ -15,7 +15,6 @@
 //!    column by about that), and it must describe p4aCorrected at least as well as the paper's M.
 
 // Channel loops index several arrays at once (r, g, b).
-#![allow(clippy::needless_range_loop)]
 
 mod common;
 use camsim_analysis::qefit::{self, apply_matrix, fit_qe_matrix, predict_rgb, MatrixForm, PAPER_M};

@@ -57,7 +57,7 @@ fn area_integrated_gaussian_edges_match_analytic_mtf() {
                 "angle {angle}: measured {}",
                 res.edge_angle_deg
             );
-            let th = (angle as f64).to_radians();
+            let th = angle.to_radians();
             let expected =
                 |f: f64| gauss_mtf(sigma, f) * (sinc(f * th.cos()) * sinc(f * th.sin())).abs();
             let (e, e50) = compare(&res, expected, 0.5);
@@ -193,7 +193,7 @@ fn cfa_mosaic_channels_on_their_own_sub_grids() {
                     (512.0 + 1000.0 + gain[ch] * edge.at(r, c) as f64).round() as u16;
             }
         }
-        let th = (angle as f64).to_radians();
+        let th = angle.to_radians();
         let expected = |f_sub: f64| {
             let fs = f_sub / 2.0;
             gauss_mtf(sigma, fs) * (sinc(fs * th.cos()) * sinc(fs * th.sin())).abs()

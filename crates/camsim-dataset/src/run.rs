@@ -251,7 +251,6 @@ fn run_sample(
     let result = (|| -> std::result::Result<Vec<(String, Vec<u8>)>, String> {
         let opts = SimulateOptions {
             noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
-            ..Default::default()
         };
         let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
         record.exposure_s = Some(sim.exposure_s);

@@ -823,9 +823,12 @@ pub fn read_gray_exr(path: &Path, channel: Option<&str>) -> Result<(usize, usize
     }
 }
 
+/// Named f32 channels of one image, in the file's order.
+pub type NamedChannels = Vec<(String, Vec<f32>)>;
+
 /// Read every channel of an EXR as f32: `(rows, cols, [(name, data)])`, in the file's order.
 /// All channels must have the same size (one layer, or layers of one size).
-pub fn read_channels_exr(path: &Path) -> Result<(usize, usize, Vec<(String, Vec<f32>)>)> {
+pub fn read_channels_exr(path: &Path) -> Result<(usize, usize, NamedChannels)> {
     let image = read_any(path)?;
     let mut size = None;
     let mut out = Vec::new();

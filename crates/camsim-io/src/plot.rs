@@ -396,6 +396,12 @@ fn legend<'a, 'b: 'a>(
         .map_err(|e| e.to_string())
 }
 
+/// Write a rendered plot (interleaved RGB of `width` x `height`) as a PNG, naming `path` in errors.
+fn write_rendered(path: &Path, width: u32, height: u32, rgb: Result<Vec<u8>>) -> Result<()> {
+    let rgb = rgb.map_err(|e| retarget(e, path))?;
+    crate::raster::write_png8_rgb(path, height as usize, width as usize, &rgb)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -524,10 +530,4 @@ mod tests {
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
         assert!(LinePlot::default().render_rgb(10, 10).is_err());
     }
-}
-
-/// Write a rendered plot (interleaved RGB of `width` x `height`) as a PNG, naming `path` in errors.
-fn write_rendered(path: &Path, width: u32, height: u32, rgb: Result<Vec<u8>>) -> Result<()> {
-    let rgb = rgb.map_err(|e| retarget(e, path))?;
-    crate::raster::write_png8_rgb(path, height as usize, width as usize, &rgb)
 }

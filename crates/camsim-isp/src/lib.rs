@@ -10,7 +10,6 @@
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod ccm;
 pub mod cfa_general;

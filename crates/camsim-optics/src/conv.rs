@@ -62,7 +62,7 @@ pub struct OutputWindow {
 fn is_fast(n: usize) -> bool {
     let mut k = n;
     for p in [2, 3, 5] {
-        while k % p == 0 {
+        while k.is_multiple_of(p) {
             k /= p;
         }
     }
@@ -79,7 +79,7 @@ impl TileConvolver {
         let mut best = (f64::INFINITY, 0usize);
         let mut f = 16usize;
         while f <= 4096 {
-            if is_fast(f) && f % 2 == 0 && f >= k + 7 {
+            if is_fast(f) && f.is_multiple_of(2) && f >= k + 7 {
                 let t = (f - k + 1) as f64;
                 let cache = if f <= 256 {
                     1.0
@@ -103,7 +103,7 @@ impl TileConvolver {
     /// Plans for kernels of side `k` (odd) with FFT tile side `f` (even, > k).
     pub fn with_tile(k: usize, f: usize) -> Self {
         assert!(
-            k % 2 == 1 && f % 2 == 0 && f > k,
+            k % 2 == 1 && f.is_multiple_of(2) && f > k,
             "kernel size must be odd and smaller than the tile"
         );
         let mut rp = RealFftPlanner::<f32>::new();

@@ -81,6 +81,9 @@ fn check_increasing(key: &str, xs: &[f64]) -> Result<()> {
     Ok(())
 }
 
+/// Fills a band's output plane before the blur adds to it (band index, plane).
+type BandInit<'a> = dyn Fn(usize, &mut [f32]) + Sync + 'a;
+
 impl Optics {
     /// Build the optics from a config, checking every value.
     pub fn from_config(config: &OpticsConfig) -> Result<Optics> {
@@ -362,7 +365,7 @@ impl Optics {
 
     fn max_kernel(&self) -> usize {
         let m = self.config.psf.max_kernel_size;
-        if m % 2 == 0 {
+        if m.is_multiple_of(2) {
             m - 1
         } else {
             m
@@ -834,7 +837,7 @@ impl Optics {
         spacing: f64,
         k: usize,
         (pad_r, pad_c): (usize, usize),
-        init: Option<&(dyn Fn(usize, &mut [f32]) + Sync)>,
+        init: Option<&BandInit<'_>>,
     ) -> Result<()> {
         let (rows, cols) = (radiance.rows, radiance.cols);
         let (out_rows, out_cols) = (out.rows, out.cols);

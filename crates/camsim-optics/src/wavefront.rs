@@ -16,11 +16,11 @@ pub fn fast_fft_len(n: usize) -> usize {
     loop {
         let mut k = m;
         for p in [2, 3, 5] {
-            while k % p == 0 {
+            while k.is_multiple_of(p) {
                 k /= p;
             }
         }
-        if k == 1 && m % 2 == 0 {
+        if k == 1 && m.is_multiple_of(2) {
             return m;
         }
         m += 1;
@@ -354,7 +354,7 @@ impl Wavefront {
         let lam_n = wavelength_nm * 1e-9 * self.working_f_number();
         let mut k = (spacing_m / (0.5 * lam_n) * (1.0 - 1e-9)).ceil().max(1.0) as usize;
         k = k.max(min_k.max(1));
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             k += 1;
         }
         k
@@ -389,7 +389,7 @@ impl Wavefront {
                 "PSF sample spacing {spacing_m} m is not a positive number"
             )));
         }
-        if size == 0 || size % 2 == 0 {
+        if size == 0 || size.is_multiple_of(2) {
             return Err(OpticsError::Input(format!("PSF size {size} must be odd")));
         }
         let k = self.oversampling(wavelength_nm, spacing_m, min_oversampling);

@@ -58,7 +58,6 @@
 //! `luminance_cd_m2` is given; `radiance_scale` multiplies last.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::builtin::{cornell_reflectance, spectrum_at_luminance};
 use crate::scene::{Geometry, Light, Material, SceneDescription, Shape, Texture, Transform};

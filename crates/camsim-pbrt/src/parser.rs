@@ -2,7 +2,6 @@
 //! See the module docs of [`crate`] for what is supported.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::lexer::{tokenize, Token, TokenKind};
 use super::params::{parse_params, Param, ParamList};

@@ -25,7 +25,6 @@
 //! accumulation).
 
 // Channel loops index several arrays at once (r, g, b).
-#![allow(clippy::needless_range_loop)]
 
 use camsim_analysis::chart::{chart_patch_rects, chart_patch_stats_raw, ChartCorners};
 use camsim_core::{RawImage, WavelengthGrid};

@@ -58,7 +58,6 @@
 //! resolution keeps the sensor's 65.64 degree horizontal fov.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::camera::look_at_camera_to_world;
 use crate::scene::{

@@ -2,7 +2,6 @@
 //! moving a [`Shape`] by a transform (positions, normals, sphere centre/radius, handedness).
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::scene::{Geometry, Shape, Transform};
 

@@ -2,7 +2,6 @@
 //! the formulas of ISETCam's sensorCompute: v_out = clip((v + offset) / gain, 0, swing),
 //! DN = min(round(v_out / (swing / 2^bits)), 2^bits - 1).
 
-#![allow(clippy::needless_range_loop)]
 mod common;
 use camsim_core::WavelengthGrid;
 use camsim_sensor::{Capture, Exposure, Sensor};

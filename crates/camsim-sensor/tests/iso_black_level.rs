@@ -2,7 +2,6 @@
 //! closed form DN = min(round(black + K e), 2^bits - 1), K = cg / gain x 2^bits / swing,
 //! gain = base_iso / iso (ISETCam divides by its analog gain, sensorCompute).
 
-#![allow(clippy::needless_range_loop)]
 mod common;
 use camsim_core::WavelengthGrid;
 use camsim_sensor::{Capture, Sensor, SensorError};

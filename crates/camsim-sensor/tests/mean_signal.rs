@@ -1,7 +1,6 @@
 //! Noise-free mean signal against an independent quadrature of E(lambda) QE(lambda) lambda/(h c),
 //! and the area integration of the irradiance onto the pixel grid against conservation laws.
 
-#![allow(clippy::needless_range_loop)]
 mod common;
 use camsim_core::units::{planck_radiance_w_per_sr_m2_nm, PLANCK_J_S, SPEED_OF_LIGHT_M_PER_S};
 use camsim_core::{Quantity, SpectralImage, WavelengthGrid};

@@ -6,7 +6,6 @@
 //! A mean of N samples of spread sigma has standard error sigma / sqrt(N). Tests allow 4 standard
 //! errors (a false failure once in ~16 000 runs per check; the seeds are fixed anyway).
 
-#![allow(clippy::needless_range_loop)]
 mod common;
 use camsim_core::WavelengthGrid;
 use camsim_sensor::{Sensor, SensorConfig};
