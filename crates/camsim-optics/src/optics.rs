@@ -6,7 +6,7 @@ use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
-use crate::shift_variant::ShiftVariant;
+use crate::shift_variant::{ShiftVariant, SvJob};
 use crate::tail::{self, FarTail};
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
@@ -580,7 +580,22 @@ impl Optics {
             })
             .collect();
         if let Some(sv) = &self.shift_variant {
-            return sv.compute(self, radiance, &scale, spacing, v_s, d_obj);
+            let extra = self
+                .config
+                .focus_distance_m
+                .map(|fd| self.defocus_c4_um(fd, d_obj))
+                .unwrap_or(0.0);
+            let job = SvJob {
+                config: &self.config,
+                wavefront: self
+                    .wavefront
+                    .clone()
+                    .with_image_distance(v_s)
+                    .with_extra_defocus_um(extra),
+                shading: &|| self.shading_map(rows, cols, spacing, v_s),
+            };
+            let (out, pad) = sv.compute(&job, radiance, &scale, spacing, v_s, d_obj)?;
+            return Ok(self.finish(out, radiance, pad, spacing, v_s));
         }
 
         // Defocus: depth layers, or one wavefront for the whole image.

@@ -391,7 +391,7 @@ pub(crate) fn run(
                     &sfr_opts,
                 )?
             } else {
-                sfr_luminance(&planes, LUMINANCE_WEIGHTS_REC709, Some(roi), &sfr_opts)?
+                sfr_luminance(&planes, Some(roi), &sfr_opts)?
             };
             channels.push(channel_mtf(name, &s, &model, &weights[ci], pitch_m));
         }
@@ -558,14 +558,14 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
                     .collect()
             };
             let fx = keep(&c.freq_cyc_per_px);
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 format!("{} SFR", c.channel),
                 fx.clone(),
                 keep(&c.sfr),
                 Style::Line,
                 CHANNEL_COLORS[ci],
             ));
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 format!("{} model", c.channel),
                 fx,
                 keep(&c.model),
@@ -578,7 +578,7 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
             // The real camera, in cycles per pixel (f [cycles/mm] x pitch [mm]).
             let px = r.pixel_pitch_um * 1e-3;
             let fx: Vec<f64> = m.freq_cyc_per_mm.iter().map(|f| f * px).collect();
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 "measured Pixel 4a",
                 fx.clone(),
                 m.mtf.clone(),
@@ -586,7 +586,7 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
                 MEASURED_COLOR,
             ));
             if let Some((name, at, _, _)) = m.presets.iter().find(|p| p.0 == "pixel4a-measured") {
-                fig = fig.with(Series::new(
+                fig = fig.with(Series::xy(
                     format!("{name} lens x pixel"),
                     fx,
                     at.clone(),

@@ -2,10 +2,8 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim::{
-    ExrCompression, ExrOptions, ExrPrecision, Output, OutputSet, RunInfo, SimulateConfig,
-    SimulateOptions,
-};
+use camsim::io::exr::{ExrCompression, ExrPrecision, EXR_COMPRESSIONS, EXR_PRECISIONS};
+use camsim::{ExrOptions, Output, OutputSet, RunInfo, SimulateConfig, SimulateOptions};
 use std::path::PathBuf;
 
 /// Run the whole pipeline: scene (2D chart or 3D scene) -> optics -> sensor -> raw DNG and preview.
@@ -52,52 +50,22 @@ pub struct Args {
     #[arg(long, default_value = "default", value_name = "LIST")]
     pub save: String,
     /// Sample precision of the spectral EXRs: f32 (exact) or f16 (half the size).
-    #[arg(long, value_enum, default_value_t = Precision::F32)]
-    pub exr_precision: Precision,
+    #[arg(long, default_value = "f32", value_parser = |s: &str| EXR_PRECISIONS.get(s).map_err(|e| e.to_string()))]
+    pub exr_precision: ExrPrecision,
     /// Compression of the spectral EXRs: none (default: fastest), rle, zip (smallest, slow), zips, piz.
-    #[arg(long, value_enum, default_value_t = Compression::None)]
-    pub exr_compression: Compression,
+    #[arg(long, default_value = "none", value_parser = |s: &str| EXR_COMPRESSIONS.get(s).map_err(|e| e.to_string()))]
+    pub exr_compression: ExrCompression,
     /// Print the effective config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
 }
 
-/// `--exr-precision`.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum Precision {
-    F32,
-    F16,
-}
-
-/// `--exr-compression`.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum Compression {
-    None,
-    Rle,
-    Zip,
-    Zips,
-    Piz,
-}
-
-/// The EXR options the flags ask for.
-pub fn exr_options(p: Precision, c: Compression) -> ExrOptions {
-    ExrOptions {
-        precision: match p {
-            Precision::F32 => ExrPrecision::F32,
-            Precision::F16 => ExrPrecision::F16,
-        },
-        compression: match c {
-            Compression::None => ExrCompression::None,
-            Compression::Rle => ExrCompression::Rle,
-            Compression::Zip => ExrCompression::Zip,
-            Compression::Zips => ExrCompression::Zips,
-            Compression::Piz => ExrCompression::Piz,
-        },
-    }
-}
-
 pub fn run(a: Args) -> Result<()> {
     let t0 = std::time::Instant::now();
+    let exr = ExrOptions {
+        precision: a.exr_precision,
+        compression: a.exr_compression,
+    };
     let mut cfg = match &a.config {
         None => SimulateConfig::builtin_default(),
         Some(p) => SimulateConfig::load(p)?,
@@ -136,12 +104,7 @@ pub fn run(a: Args) -> Result<()> {
         command: Some(std::env::args().collect::<Vec<_>>().join(" ")),
         config_file: a.config.clone(),
     };
-    sim.write_into(
-        &staged,
-        &outputs,
-        exr_options(a.exr_precision, a.exr_compression),
-        &info,
-    )?;
+    sim.write_into(&staged, &outputs, exr, &info)?;
     pb.finish_and_clear();
     common::commit(staged)?;
     let out = &a.out;
