@@ -495,6 +495,44 @@ mod tests {
     }
 
     #[test]
+    fn an_emva_series_written_reads_back_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let level = |line: usize, t: f64, p: Option<f64>, n: usize| EmvaLevelFiles {
+            line,
+            exposure_s: t,
+            photons_per_pixel: p,
+            bright: (0..n)
+                .map(|k| dir.path().join(format!("b{line}_{k}.dng")))
+                .collect(),
+            dark: (0..2)
+                .map(|k| dir.path().join(format!("d{line}_{k}.dng")))
+                .collect(),
+        };
+        let csv = dir.path().join("series.csv");
+        let levels = vec![
+            level(2, 0.0, Some(0.0), 2),
+            level(3, 1e-3, Some(123.456), 2),
+            level(4, 2.5e-3, Some(246.912), 3),
+        ];
+        write_emva_series(&csv, &levels).unwrap();
+        assert_eq!(read_emva_series(&csv).unwrap(), levels);
+        let text = std::fs::read_to_string(&csv).unwrap();
+        assert!(text.starts_with(
+            "exposure_s,photons_per_pixel,bright_0,bright_1,bright_2,dark_0,dark_1\n"
+        ));
+        // An unknown photon count is an empty cell, read back as unknown.
+        let unknown: Vec<_> = levels
+            .iter()
+            .map(|l| EmvaLevelFiles {
+                photons_per_pixel: None,
+                ..l.clone()
+            })
+            .collect();
+        write_emva_series(&csv, &unknown).unwrap();
+        assert_eq!(read_emva_series(&csv).unwrap(), unknown);
+    }
+
+    #[test]
     fn emva_series_with_quotes_comments_and_relative_paths() {
         let dir = tempfile::tempdir().unwrap();
         let text =

@@ -220,6 +220,36 @@ impl Isp {
         })
     }
 
+    /// The white-balance gains (green = 1) of demosaicked camera RGB `rgb` by the ISP's method:
+    /// none, gray world, white patch (pixels with a channel at `saturation_dn` left out), or from
+    /// the illuminant and `sensor`'s QE (which that method needs).
+    pub fn white_balance_gains(
+        &self,
+        rgb: &RgbImage,
+        sensor: Option<&Sensor>,
+        saturation_dn: Option<f64>,
+    ) -> Result<[f64; 3]> {
+        Ok(match self.white_balance {
+            WhiteBalanceMethod::None => [1.0; 3],
+            WhiteBalanceMethod::GrayWorld => white_balance::gray_world_gains(rgb)?,
+            WhiteBalanceMethod::WhitePatch => {
+                white_balance::white_patch_gains(rgb, self.white_patch_percentile, saturation_dn)?
+            }
+            WhiteBalanceMethod::Illuminant => {
+                let sensor = sensor.ok_or_else(|| {
+                    PipelineError::config(
+                        "white balance 'illuminant' needs the sensor (its QE) and the illuminant",
+                    )
+                })?;
+                white_balance::illuminant_gains(
+                    &sensor.channel_qe(&self.grid),
+                    &self.grid,
+                    &self.illuminant,
+                )?
+            }
+        })
+    }
+
     /// White balance, colour matrix and sRGB encoding of demosaicked camera RGB (DN above black,
     /// `saturation_dn` the clipping level above black): the part of [`Isp::compute`] after the
     /// demosaic, for an image the caller demosaicked (and, say, downsampled) itself.
@@ -229,20 +259,7 @@ impl Isp {
         sensor: &Sensor,
         saturation_dn: f64,
     ) -> Result<(crate::Rgb8Image, IspReport)> {
-        let gains = match self.white_balance {
-            WhiteBalanceMethod::None => [1.0; 3],
-            WhiteBalanceMethod::GrayWorld => white_balance::gray_world_gains(rgb)?,
-            WhiteBalanceMethod::WhitePatch => white_balance::white_patch_gains(
-                rgb,
-                self.white_patch_percentile,
-                Some(saturation_dn),
-            )?,
-            WhiteBalanceMethod::Illuminant => white_balance::illuminant_gains(
-                &sensor.channel_qe(&self.grid),
-                &self.grid,
-                &self.illuminant,
-            )?,
-        };
+        let gains = self.white_balance_gains(rgb, Some(sensor), Some(saturation_dn))?;
         let mut report = IspReport {
             demosaic: self.demosaic.name(),
             white_balance: self.white_balance.name(),

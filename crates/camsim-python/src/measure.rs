@@ -35,7 +35,7 @@ fn sfr<'py>(
     let img = SfrImage::Raw(raw_from(raw, cfa, bits, black_level)?);
     let req = SfrRequest {
         roi: rect(roi),
-        pitch_um,
+        pixel_pitch_mm: pitch_um.map(|p| p * 1e-3),
         label: "raw".into(),
         ..SfrRequest::default()
     };

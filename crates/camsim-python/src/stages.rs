@@ -258,47 +258,32 @@ fn isp<'py>(
     ))
 }
 
-/// White-balance gains (green = 1) of a linear RGB image (rows, cols, 3): gray-world or
-/// white-patch (pixels at or above the `percentile` of R+G+B, those with a channel at or above
-/// `saturation` left out).
+/// White-balance gains (green = 1) of a linear RGB image (rows, cols, 3) by `method` (the ISP's
+/// `Isp::white_balance_gains`): gray-world, white-patch (pixels at or above the `percentile` of
+/// R+G+B, those with a channel at or above `saturation` left out), none, or illuminant (the
+/// camera response of `sensor` to a perfect white under `illuminant`, inverted).
 #[pyfunction]
-#[pyo3(signature = (rgb, method = "gray-world", percentile = 99.0, saturation = None))]
+#[pyo3(signature = (rgb, method, percentile, saturation, illuminant, sensor))]
 fn white_balance_gains(
     rgb: PyReadonlyArray3<'_, f32>,
     method: &str,
     percentile: f64,
     saturation: Option<f64>,
-) -> PyResult<Vec<f64>> {
-    use camsim::isp::white_balance::{gray_world_gains, white_patch_gains};
-    use camsim::isp::WhiteBalanceMethod;
-    let img = rgb_from(rgb)?;
-    let g = match method.parse::<WhiteBalanceMethod>().map_err(err)? {
-        WhiteBalanceMethod::None => [1.0; 3],
-        WhiteBalanceMethod::GrayWorld => gray_world_gains(&img).map_err(err)?,
-        WhiteBalanceMethod::WhitePatch => white_patch_gains(&img, percentile, saturation).map_err(err)?,
-        WhiteBalanceMethod::Illuminant => {
-            return Err(err("white_balance_gains: 'illuminant' needs the sensor and illuminant; use illuminant_white_balance_gains"))
-        }
-    };
-    Ok(g.to_vec())
-}
-
-/// White-balance gains (green = 1) from a known illuminant (built-in name or spectrum file) and a
-/// sensor (preset name, TOML file or dict): the camera response to a perfect white, inverted.
-#[pyfunction]
-#[pyo3(signature = (illuminant, sensor))]
-fn illuminant_white_balance_gains(
     illuminant: &str,
     sensor: &Bound<'_, PyAny>,
 ) -> PyResult<Vec<f64>> {
-    let (s, _) = sensor_from(sensor)?;
-    let grid = WavelengthGrid::default();
+    let img = rgb_from(rgb)?;
     let illum = camsim::scene::load_illuminant(illuminant, "illuminant").map_err(err)?;
-    Ok(
-        camsim::isp::white_balance::illuminant_gains(&s.channel_qe(&grid), &grid, &illum)
-            .map_err(err)?
-            .to_vec(),
-    )
+    let mut p = Isp::new(illum, WavelengthGrid::default());
+    p.white_balance = method.parse().map_err(err)?;
+    p.white_patch_percentile = percentile;
+    let s = match p.white_balance {
+        camsim::isp::WhiteBalanceMethod::Illuminant => Some(sensor_from(sensor)?.0),
+        _ => None,
+    };
+    Ok(p.white_balance_gains(&img, s.as_ref(), saturation)
+        .map_err(err)?
+        .to_vec())
 }
 
 /// Fit a 3x3 colour-correction matrix camera RGB -> XYZ on patch pairs: `camera` and
@@ -351,7 +336,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(demosaic, m)?,
         wrap_pyfunction!(isp, m)?,
         wrap_pyfunction!(white_balance_gains, m)?,
-        wrap_pyfunction!(illuminant_white_balance_gains, m)?,
         wrap_pyfunction!(fit_ccm, m)?,
         wrap_pyfunction!(macbeth_xyz, m)?,
         wrap_pyfunction!(read_dng, m)?,

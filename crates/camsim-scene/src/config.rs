@@ -674,4 +674,34 @@ mod error_position_tests {
         );
         assert!(SceneConfig::from_toml("kind = \"macbeth\"\npatch_size_px = 8\n", "ok").is_ok());
     }
+
+    #[test]
+    fn the_scene_kind_table_is_the_config_enum() {
+        assert_eq!(SCENE_KINDS.entries.len(), 14);
+        for e in SCENE_KINDS.entries {
+            let text = format!("kind = \"{}\"", e.name);
+            match SceneConfig::from_toml(&text, "t") {
+                Ok(c) => assert_eq!(c.kind(), e.name),
+                // Kinds that need a file say so, never that the kind is unknown.
+                Err(err) => {
+                    let m = err.to_string();
+                    assert!(
+                        !m.contains("unknown variant") && !m.contains("unknown scene kind"),
+                        "{}: {m}",
+                        e.name
+                    );
+                }
+            }
+        }
+        // The case rule of the table: `Slanted-Edge` is `slanted_edge`; an unknown kind lists them.
+        assert_eq!(
+            SCENE_KINDS.canonical("Slanted-Edge").unwrap(),
+            "slanted_edge"
+        );
+        let m = locate_scene_error("kind = \"zone-plates\"\n", None).unwrap();
+        assert!(
+            m.contains("unknown scene kind 'zone-plates'; known: uniform, macbeth"),
+            "{m}"
+        );
+    }
 }

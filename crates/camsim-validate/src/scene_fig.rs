@@ -695,8 +695,7 @@ fn light_of(spectra: &BoxSpectra) -> camsim_core::Spectrum {
         .unwrap_or_else(builtin::cornell_light_relative)
 }
 
-/// sRGB preview, downsampled: the pipeline's ISP ([`camsim_pipeline::Isp`], the paper's: the
-/// pixel4a QE under the box's light) on the box-averaged demosaicked image.
+/// sRGB preview, downsampled: [`report_preview`] of the pixel4a under the box's light.
 fn srgb_preview(
     p: &QualityParams,
     spectra: &BoxSpectra,
@@ -704,13 +703,36 @@ fn srgb_preview(
     exposure_scale: Option<f64>,
 ) -> Result<(Canvas, usize, f64)> {
     let sensor = Sensor::preset("pixel4a")?;
-    let mut isp = camsim_pipeline::Isp::new(light_of(spectra), p.grid);
+    // Clipped highlights (the lamp) render neutral, not in the false colour white balance gives them.
+    let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
+    report_preview(
+        rgb,
+        &sensor,
+        light_of(spectra),
+        p.grid,
+        exposure_scale,
+        saturation_dn,
+    )
+}
+
+/// The report's sRGB preview of demosaicked camera RGB `rgb` (DN above black, clipping at
+/// `saturation_dn`) made by `sensor` under `illuminant`: box-averaged to at most 672 pixels
+/// wide, then the pipeline's ISP ([`camsim_pipeline::Isp`], the paper's; the colour fit on
+/// `grid`) at `exposure_scale` (None: automatic). The same ISP as `camsim simulate`'s preview
+/// and `camsim isp`. Returns the image, the downsampling factor and the exposure scale used.
+pub fn report_preview(
+    rgb: &RgbImage,
+    sensor: &Sensor,
+    illuminant: camsim_core::Spectrum,
+    grid: camsim_core::WavelengthGrid,
+    exposure_scale: Option<f64>,
+    saturation_dn: f64,
+) -> Result<(Canvas, usize, f64)> {
+    let mut isp = camsim_pipeline::Isp::new(illuminant, grid);
     isp.exposure_scale = exposure_scale;
     let k = preview_factor(rgb.cols);
     let small = downsample(rgb, k);
-    // Clipped highlights (the lamp) render neutral, not in the false colour white balance gives them.
-    let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
-    let (img, report) = isp.render(&small, &sensor, saturation_dn)?;
+    let (img, report) = isp.render(&small, sensor, saturation_dn)?;
     Ok((
         Canvas {
             w: img.cols,

@@ -86,7 +86,7 @@ pub fn sfr_cmd(a: SfrArgs) -> Result<()> {
     let req = SfrRequest {
         roi: a.roi,
         quadratic: a.quadratic,
-        pitch_um: a.pitch_um,
+        pixel_pitch_mm: a.pitch_um.map(|p| p * 1e-3),
         label: name.clone(),
     };
     let report = measure_sfr(&image, &req)?;

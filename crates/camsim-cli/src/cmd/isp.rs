@@ -65,11 +65,9 @@ pub struct Args {
     /// Scene illuminant for white balance and the colour fit: built-in name or spectrum file.
     #[arg(long, default_value = "D65")]
     pub illuminant: String,
-    /// Demosaicking method: bilinear, malvar (ISETCam 'laplacian'), adaptive-laplacian (Hamilton-Adams).
-    #[arg(long, default_value = "bilinear", value_parser = parse_str::<DemosaicMethod>)]
+    #[arg(long, default_value = "bilinear", value_parser = parse_str::<DemosaicMethod>, help = format!("Demosaicking method:\n{}", camsim::isp::DEMOSAIC_METHODS.listing()))]
     pub demosaic: DemosaicMethod,
-    /// White balance: illuminant (from --illuminant and the sensor QE), gray-world, white-patch, none.
-    #[arg(long, default_value = "illuminant", value_parser = parse_str::<WhiteBalanceMethod>)]
+    #[arg(long, default_value = "illuminant", value_parser = parse_str::<WhiteBalanceMethod>, help = format!("White balance (illuminant: from --illuminant and the sensor QE):\n{}", camsim::isp::WHITE_BALANCE_METHODS.listing()))]
     pub white_balance: WhiteBalanceMethod,
     /// Percentile of R+G+B above which pixels count as white for --white-balance white-patch.
     #[arg(long, default_value_t = WHITE_PATCH_PERCENTILE, value_parser = parse_percentile)]

@@ -18,8 +18,7 @@ pub struct Args {
     /// Spectral radiance EXR (from `camsim scene`, `camsim render` or pbrt-v4).
     #[arg(long = "in")]
     pub input: PathBuf,
-    /// Lens: a preset (pixel4a, diffraction-limited) or a lens TOML file.
-    #[arg(long, default_value = "pixel4a")]
+    #[arg(long, default_value = "pixel4a", help = format!("Lens: a preset ({}) or a lens TOML file", camsim::optics::presets::LENS_PRESETS.known()))]
     pub lens: String,
     /// Override the focus distance, m (depth-dependent defocus needs a depth map in the input).
     #[arg(long, value_parser = crate::common::positive_f64)]

@@ -24,8 +24,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,
-    /// A built-in scene instead of a file: cornell-box, cornell-box-mcc, slanted-edge.
-    #[arg(long, conflicts_with = "scene")]
+    #[arg(long, conflicts_with = "scene", help = format!("A built-in scene instead of a file: {}", camsim::scene3d::builtin::BUILTIN_SCENES.known()))]
     pub builtin: Option<String>,
     /// A simulate config with a `[render]` table: render its scene exactly as `camsim simulate`
     /// does (its resolution, samples, seed, wavelengths, and the field of view of the sensor

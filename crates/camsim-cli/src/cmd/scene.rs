@@ -18,10 +18,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
-    /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge,
-    /// harmonic, zone_plate, sweep_frequency, star, checkerboard, grid_lines, point_array, ramp,
-    /// dead_leaves).
-    #[arg(long, default_value = "macbeth", conflicts_with = "config")]
+    #[arg(long, default_value = "macbeth", conflicts_with = "config", help = format!("With no CONFIG: a built-in scene of this kind with default settings, one of {}", camsim::scene::config::SCENE_KINDS.known()))]
     pub kind: String,
     /// Output spectral EXR.
     #[arg(long, default_value = "out/radiance.exr")]

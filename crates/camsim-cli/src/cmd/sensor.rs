@@ -36,8 +36,7 @@ pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
     pub input: Option<PathBuf>,
-    /// Sensor: a preset (pixel4a, pixel4a-raw10, imx363, ideal) or a sensor TOML file.
-    #[arg(long, default_value = "pixel4a")]
+    #[arg(long, default_value = "pixel4a", help = format!("Sensor: a preset ({}) or a sensor TOML file", camsim::sensor::presets::SENSOR_PRESETS.known()))]
     pub sensor: String,
     /// Window rows centred on the optical axis (default: the full sensor; at most the sensor's rows).
     #[arg(long)]
@@ -79,10 +78,7 @@ pub struct Args {
     /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
     #[arg(long, value_parser = crate::common::finite_f64)]
     pub analog_offset_mv: Option<f64>,
-    /// Colour filter array instead of the sensor's: a Bayer name (RGGB, GRBG, GBRG, BGGR), RGBW
-    /// (R G / W B, W = the pixel without colour filter) or quad-bayer (4x4, each Bayer colour on
-    /// 2x2 pixels). Other tiles: `cfa_pattern` in the sensor TOML.
-    #[arg(long)]
+    #[arg(long, help = format!("Colour filter array instead of the sensor's, one of {}: a Bayer phase, RGBW (R G / W B, W = the pixel without colour filter) or quad-bayer (4x4, each Bayer colour on 2x2 pixels). Other tiles: `cfa_pattern` in the sensor TOML", camsim::core::cfa::CFA_NAMES.known()))]
     pub cfa: Option<String>,
     /// Scene illuminant of the DNGs' colour matrix and neutral (ColorMatrix1, AsShotNeutral: the
     /// ISP's QE fit under it, as `camsim simulate` fits it under its scene's): a built-in name or

@@ -50,9 +50,9 @@ pub struct SfrRequest {
     pub roi: Option<Rect>,
     /// Fit the edge with a 2nd-order polynomial (lens distortion) instead of a line.
     pub quadratic: bool,
-    /// Sensor pixel pitch, um, for cycles/mm (raw frames record their own; for a spectral image
+    /// Sensor pixel pitch, mm, for cycles/mm (raw frames record their own; for a spectral image
     /// it also defines the "sensor pixel" of the frequency axis, default its sample spacing).
-    pub pitch_um: Option<f64>,
+    pub pixel_pitch_mm: Option<f64>,
     /// The image's name in messages (a file name).
     pub label: String,
 }
@@ -121,7 +121,7 @@ fn spectral_curves(
     }
     // Cycles/mm from the image's own sample spacing; "sensor pixel" = pitch_um (or a sample).
     opts.pixel_pitch_mm = Some(spacing_mm);
-    let pitch_mm = req.pitch_um.map(|p| p * 1e-3).unwrap_or(spacing_mm);
+    let pitch_mm = req.pixel_pitch_mm.unwrap_or(spacing_mm);
     let plane = spectral_luminance(img)?;
     let mut r =
         sfr::sfr(&plane, req.roi, &opts).map_err(ctx(req, "SFR of the luminance".into()))?;
@@ -151,8 +151,7 @@ fn raw_curves(
     mut opts: SfrOptions,
 ) -> Result<(Vec<SfrCurve>, Option<f64>)> {
     let pitch_mm = req
-        .pitch_um
-        .map(|p| p * 1e-3)
+        .pixel_pitch_mm
         .or((raw.pixel_pitch_m > 0.0 && raw.pixel_pitch_m.is_finite())
             .then_some(raw.pixel_pitch_m * 1e3));
     opts.pixel_pitch_mm = pitch_mm;

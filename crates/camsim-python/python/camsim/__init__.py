@@ -24,10 +24,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _camsim
+from . import _camsim, dataset, presets
 from ._camsim import CamsimError, Simulation
-from . import presets
-from . import dataset
 
 __version__ = _camsim.__version__
 
@@ -184,10 +182,7 @@ def white_balance(rgb: np.ndarray, method: str = "gray-world", *, percentile: fl
     "white world"), "illuminant" (from the camera response of `sensor` to a perfect white under
     the built-in `illuminant`: a gray surface under it comes out neutral exactly) or "none"."""
     a = np.ascontiguousarray(rgb, dtype=np.float32)
-    if method.strip().lower().replace("_", "-").replace(" ", "-") == "illuminant":
-        gains = _camsim.illuminant_white_balance_gains(illuminant, _path_or(sensor))
-    else:
-        gains = _camsim.white_balance_gains(a, method, float(percentile), saturation)
+    gains = _camsim.white_balance_gains(a, method, float(percentile), saturation, illuminant, _path_or(sensor))
     return a * np.asarray(gains, dtype=np.float32), list(gains)
 
 
@@ -279,7 +274,7 @@ def emva(bright: np.ndarray, dark: np.ndarray, exposures_s: Sequence[float], *, 
     return _camsim.emva(b, d, [float(t) for t in exposures_s], p, cfa, bits, black_level, fit_max_fraction)
 
 
-def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str, "os.PathLike[str]"]] = None,
+def emva_series(csv: Union[str, os.PathLike[str]], *, out: Optional[Union[str, os.PathLike[str]]] = None,
                 cfa: Optional[str] = None, bits: int = 16, black_level: float = 0.0) -> Dict[str, Any]:
     """EMVA 1288 of a measurement series on disk, as ``camsim analyze emva`` runs it: the series
     CSV (columns exposure_s, optional photons_per_pixel, then bright*/dark* frame files: DNG, or
@@ -290,7 +285,7 @@ def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str,
     return _camsim.emva_series(os.fspath(csv), o, cfa, bits, black_level)
 
 
-def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
+def read_dng(path: Union[str, os.PathLike[str]]) -> Dict[str, Any]:
     """Read a raw DNG: raw (rows, cols) uint16, cfa, black_level, white_level, bits."""
     return _camsim.read_dng(os.fspath(path))
 
@@ -332,7 +327,7 @@ def acutance(freq_cy_per_px: Sequence[float], sfr: Sequence[float], pixels_per_d
     return _camsim.acutance(f, s, float(pixels_per_degree))
 
 
-def compare(a: str = "pixel4a", b: str = "imx363", out: Optional[Union[str, "os.PathLike[str]"]] = None, *,
+def compare(a: str = "pixel4a", b: str = "imx363", out: Optional[Union[str, os.PathLike[str]]] = None, *,
             lens_a: str = "pixel4a", lens_b: str = "pixel4a", pitch_a_um: Optional[float] = None,
             pitch_b_um: Optional[float] = None, size: int = 128, seed: int = 1) -> Dict[str, Any]:
     """Two cameras side by side (as `camsim compare`): MTF, acutance, SNR, NPS and CIEDE2000 per

@@ -49,7 +49,7 @@ def plan(spec: Spec) -> Dict[str, Any]:
     return _camsim.dataset_plan(*_spec_args(spec))
 
 
-def run_shard(spec: Spec, out: Union[str, "os.PathLike[str]"], shard: int, *, workers: Optional[int] = 1,
+def run_shard(spec: Spec, out: Union[str, os.PathLike[str]], shard: int, *, workers: Optional[int] = 1,
               verify: bool = True) -> Dict[str, Any]:
     """Simulate one shard into ``out`` (skipped when already complete): the unit of work of a
     cluster task. Returns the shard's record (sha256, size, every sample's status and files)."""
@@ -77,7 +77,7 @@ def _ray_shard(spec: Union[str, Dict[str, Any]], source: str, base: str, out: st
     return native.dataset_run(spec, source, base, out, shard, shards, workers, verify)
 
 
-def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "local", shard: Optional[Tuple[int, int]] = None,
+def run(spec: Spec, out: Union[str, os.PathLike[str]], *, backend: str = "local", shard: Optional[Tuple[int, int]] = None,
         workers: Optional[int] = None, verify: bool = True, max_retries: int = 3, cpus_per_task: int = 1,
         ray_address: Optional[str] = None) -> Dict[str, Any]:
     """Simulate the dataset (or part ``shard = (i, n)`` of it) into folder ``out``.
@@ -127,7 +127,7 @@ def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "loca
     return summary
 
 
-def read_manifest(out: Union[str, "os.PathLike[str]"]) -> List[Dict[str, Any]]:
+def read_manifest(out: Union[str, os.PathLike[str]]) -> List[Dict[str, Any]]:
     """The manifest of a complete dataset: one dict per sample (index, key, status, error, seed,
     params, files, shard, exposure_s, times_s), in index order."""
     path = os.path.join(os.fspath(out), "manifest.jsonl")
