@@ -163,6 +163,7 @@
 //! so one [`PbrtError`] lists every problem of the scene, in every included file, each with its
 //! file:line:column ([`PbrtError::problems`]); reading stops after 100.
 
+mod images;
 mod lexer;
 pub mod optical_constants;
 mod params;

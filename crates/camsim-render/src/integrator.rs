@@ -43,7 +43,8 @@ pub(crate) struct MeshShading {
 /// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;
 
-/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
+/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, `wrap` outside the image,
+/// bilinear filter).
 #[derive(Debug, Clone)]
 pub(crate) struct ImageTex {
     pub width: usize,
@@ -53,34 +54,24 @@ pub(crate) struct ImageTex {
     pub vscale: f32,
     pub udelta: f32,
     pub vdelta: f32,
+    pub wrap: crate::scene::WrapMode,
 }
 
 impl ImageTex {
     /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
-    /// t flipped so image row 0 is at t = 1, texel centres at half-integers, repeat wrap).
+    /// t flipped so image row 0 is at t = 1, texel centres at half-integers,
+    /// `crate::texture::bilinear_texels`).
     #[inline]
     pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
         let s = uv[0] * self.uscale + self.udelta;
-        let t = 1.0 - (uv[1] * self.vscale + self.vdelta);
-        let x = s * self.width as f32 - 0.5;
-        let y = t * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: f32, n: usize| -> usize {
-            let n = n as i64;
-            let i = if i.is_finite() { i as i64 } else { 0 };
-            (((i % n) + n) % n) as usize
-        };
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
-        let px = |xx: usize, yy: usize| self.rgb[yy * self.width + xx];
-        let (a, b, c, d) = (px(xa, ya), px(xb, ya), px(xa, yb), px(xb, yb));
+        let t = uv[1] * self.vscale + self.vdelta;
+        let (idx, w) = crate::texture::bilinear_texels(self.width, self.height, s, t, self.wrap);
         let mut out = [0f32; 3];
         for k in 0..3 {
-            out[k] = (1.0 - fx) * (1.0 - fy) * a[k]
-                + fx * (1.0 - fy) * b[k]
-                + (1.0 - fx) * fy * c[k]
-                + fx * fy * d[k];
+            out[k] = w[0] * self.rgb[idx[0]][k]
+                + w[1] * self.rgb[idx[1]][k]
+                + w[2] * self.rgb[idx[2]][k]
+                + w[3] * self.rgb[idx[3]][k];
         }
         out
     }
@@ -234,6 +225,8 @@ impl Tracer {
                     vscale: 1.0,
                     udelta: 0.0,
                     vdelta: 0.0,
+                    // pbrt-v4 `DiffuseAreaLight::L` bilerps with `Image`'s default clamp.
+                    wrap: crate::scene::WrapMode::Clamp,
                 };
                 lights.images.push(EmitImage {
                     tex,

@@ -124,6 +124,35 @@ impl Default for UvMapping {
     }
 }
 
+/// What an image lookup returns outside `[0, 1]^2` (pbrt-v4 `WrapMode`, 4th ed. sec. 10.4.3):
+/// texel coordinates are remapped before the bilinear lookup reads them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    /// The image tiles the plane (pbrt-v4 default).
+    #[default]
+    Repeat,
+    /// Texel coordinates are clamped to the edge texels.
+    Clamp,
+    /// Texels outside the image are zero.
+    Black,
+    /// pbrt-v4's equal-area octahedral sphere: a texel beyond an edge is the mirror image across
+    /// that edge's midpoint (the square's edges fold onto each other on the sphere).
+    OctahedralSphere,
+}
+
+impl WrapMode {
+    /// pbrt-v4's names: `repeat`, `clamp`, `black`, `octahedralsphere`.
+    pub fn from_name(name: &str) -> Option<WrapMode> {
+        match name {
+            "repeat" => Some(WrapMode::Repeat),
+            "clamp" => Some(WrapMode::Clamp),
+            "black" => Some(WrapMode::Black),
+            "octahedralsphere" => Some(WrapMode::OctahedralSphere),
+            _ => None,
+        }
+    }
+}
+
 /// How a 2D texture finds its `(s, t)` (pbrt-v4 `TextureMapping2D`); the transforms take world
 /// space to texture space (the inverse of the texture's CTM; boxed, so that the common uv mapping
 /// keeps textures small).
@@ -155,7 +184,7 @@ pub enum Texture {
     /// The same spectrum everywhere.
     Constant(Spectrum),
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
-    /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]).
+    /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]); `wrap` outside `[0, 1]^2`.
     Image {
         width: usize,
         height: usize,
@@ -165,6 +194,7 @@ pub enum Texture {
         udelta: f64,
         vdelta: f64,
         kind: MappingKind,
+        wrap: WrapMode,
     },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
@@ -248,17 +278,18 @@ pub enum NoiseKind {
 }
 
 /// A dimensionless scalar that may vary over the surface (roughness, amounts, scales).
-/// Same node set as [`Texture`]; image values are the mean of the RGB channels (pbrt-v4
-/// `FloatImageTexture` reads a one-channel image; camsim averages the channels).
+/// Same node set as [`Texture`]; image values are the image's first channel (pbrt-v4
+/// `FloatImageTexture` reads channel 0, R of an RGB image).
 #[derive(Debug, Clone, PartialEq)]
 pub enum FloatTexture {
     Constant(f64),
-    /// Row 0 at t = 1, bilinear, repeat wrap (as [`Texture::Image`]).
+    /// Row 0 at t = 1, bilinear, `wrap` outside `[0, 1]^2` (as [`Texture::Image`]).
     Image {
         width: usize,
         height: usize,
         values: Vec<f32>,
         mapping: UvMapping,
+        wrap: WrapMode,
     },
     Checkerboard {
         tex1: Box<FloatTexture>,
