@@ -181,6 +181,11 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         settings: RenderSettings {
             samples_per_pixel: 16,
             max_depth: 5,
+            // pbrt-v4's default `PixelFilter` (BasicSceneBuilder): gaussian, radius 1.5, sigma 0.5.
+            filter: crate::scene::PixelFilter::Gaussian {
+                radius: [1.5, 1.5],
+                sigma: 0.5,
+            },
             ..RenderSettings::default()
         },
         focus_distance_m: None,
@@ -718,33 +723,67 @@ impl Parser {
         Ok(())
     }
 
+    /// pbrt-v4 `Integrator`: every type that converges to the radiance a path tracer computes
+    /// is rendered by camsim's path tracer, with a note naming the substitution; the volumetric
+    /// ones go through [`Parser::volumetric_integrator`]; `ambientocclusion` is refused (it is
+    /// not radiance).
     fn integrator(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
-        match ty {
-            "path" | "volpath" | "bdpt" | "simplepath" => {}
-            _ => return Err(loc.err(format!("Integrator \"{ty}\" is not supported (path, volpath, bdpt map to camsim's path tracer)"))),
-        }
+        // pbrt-v4's parameters of each type beyond `maxdepth` (camsim's path tracer has no use
+        // for them: they tune the other algorithms' convergence, not the converged image).
+        let extra: &[&str] = match ty {
+            "path" | "volpath" => &["regularize", "lightsampler"],
+            "simplepath" => &["samplelights", "samplebsdf"],
+            "simplevolpath" | "lightpath" | "randomwalk" => &[],
+            "bdpt" => &[
+                "regularize",
+                "lightsampler",
+                "visualizestrategies",
+                "visualizeweights",
+            ],
+            "mlt" => &[
+                "bootstrapsamples",
+                "chains",
+                "mutationsperpixel",
+                "largestepprobability",
+                "sigma",
+                "regularize",
+            ],
+            "sppm" => &["photonsperiteration", "radius", "seed", "iterations"],
+            "ambientocclusion" => {
+                return Err(loc.err(
+                    "Integrator \"ambientocclusion\" is not supported: it computes ambient occlusion, not radiance, and camsim simulates a camera from radiance (use \"path\")",
+                ))
+            }
+            _ => return Err(loc.err(format!(
+                "Integrator \"{ty}\" is not supported (path, volpath, simplepath, simplevolpath, bdpt, lightpath, mlt, randomwalk, sppm: all rendered by camsim's path tracer)"
+            ))),
+        };
         let d = params.int("maxdepth", 5)?;
         if !(0..=100_000).contains(&d) {
             return Err(loc.err(format!("Integrator: maxdepth {d} is out of range")));
         }
         self.settings.max_depth = d as u32;
-        self.ignore_params(
-            params,
-            &[
-                "regularize",
-                "lightsampler",
-                "samplelights",
-                "samplebsdf",
-                "visualizestrategies",
-                "visualizeweights",
-            ],
-            "Integrator",
-        );
+        self.ignore_params(params, extra, &format!("Integrator \"{ty}\""));
         params.check_unused(&format!("Integrator \"{ty}\""))?;
-        if ty != "path" {
-            self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
+        match ty {
+            "path" => {}
+            "volpath" | "simplevolpath" => self.volumetric_integrator(ty, loc),
+            _ => self.note(
+                loc,
+                format!("Integrator \"{ty}\" rendered with camsim's path tracer (it converges to the same radiance)"),
+            ),
         }
         Ok(())
+    }
+
+    /// HOOK for the volumetric tracer (issue 27, participating media): `volpath` and
+    /// `simplevolpath` files, and files with media, belong to it. Until it exists they are
+    /// rendered by the path tracer, which is the same radiance where no medium is selected.
+    fn volumetric_integrator(&mut self, ty: &str, loc: &Loc) {
+        self.note(
+            loc,
+            format!("Integrator \"{ty}\" rendered with camsim's path tracer (the same radiance without participating media)"),
+        );
     }
 
     fn shape(

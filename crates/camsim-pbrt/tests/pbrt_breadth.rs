@@ -451,6 +451,7 @@ fn emitter_quad(file: &str, extra: &str) -> String {
         "LookAt 0 0 1  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 90\n\
          Film \"rgb\" \"integer xresolution\" 2 \"integer yresolution\" 2\n\
          Sampler \"sobol\" \"integer pixelsamples\" 256\nIntegrator \"path\" \"integer maxdepth\" 1\n\
+         PixelFilter \"box\"\n\
          WorldBegin\nAreaLightSource \"diffuse\" \"string filename\" \"{file}\" {extra}\n\
          Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
          Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] \"integer indices\" [0 1 2 0 2 3] \

@@ -18,6 +18,7 @@ pub mod bsdf;
 pub mod bvh;
 mod camera;
 pub mod envmap;
+mod filter;
 pub mod geometry;
 mod goniometric;
 pub mod ids;
