@@ -100,6 +100,8 @@ struct Parser {
     varying: Option<(FloatTexture, FloatTexture, bool)>,
     textures: HashMap<String, Texture>,
     float_textures: HashMap<String, FloatTexture>,
+    /// Normal map images by resolved path (pbrt-v4 reads each file once).
+    normal_maps: HashMap<PathBuf, std::sync::Arc<crate::scene::NormalMapImage>>,
     shapes: Vec<PendingShape>,
     lights: Vec<Light>,
     objects: HashMap<String, Vec<PendingShape>>,
@@ -167,6 +169,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         varying: None,
         textures: HashMap::new(),
         float_textures: HashMap::new(),
+        normal_maps: HashMap::new(),
         shapes: Vec::new(),
         lights: Vec::new(),
         objects: HashMap::new(),

@@ -108,16 +108,18 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
+    /// The camera's pixel footprint, for bump mapping's finite differences (`crate::bump`).
+    pub footprint: crate::bump::Footprint,
 }
 
 /// Surface data at a hit.
-struct SurfaceHit {
-    p: V3,
+pub(crate) struct SurfaceHit {
+    pub(crate) p: V3,
     /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
-    ng: V3,
+    pub(crate) ng: V3,
     /// Shading normal (unit; equals `ng` without vertex normals).
-    ns: V3,
-    uv: [f32; 2],
+    pub(crate) ns: V3,
+    pub(crate) uv: [f32; 2],
 }
 
 impl Tracer {
@@ -543,6 +545,7 @@ impl Tracer {
             shape_flip,
             has_interface,
             has_alpha,
+            footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
         })
     }
 
@@ -626,7 +629,7 @@ impl Tracer {
     /// with vertex normals, else flipped by `ReverseOrientation`): it points to the outside of a
     /// dielectric.
     #[inline]
-    fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
+    pub(crate) fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
         let has_normals = self.meshes[pi.shape as usize]
             .as_ref()
             .is_some_and(|m| m.normals.is_some());
@@ -919,6 +922,8 @@ impl Tracer {
                 n: sh.ng,
                 p: sh.p,
             };
+            // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each
@@ -932,7 +937,7 @@ impl Tracer {
             }
             // Two-sided shading: normals turned toward the outgoing direction.
             let ng = sh.ng.face_forward(wo);
-            let ns = sh.ns.face_forward(ng);
+            let ns = ns_shading.face_forward(ng);
             let frame = Frame::from_normal(ns);
             let wo_local = frame.to_local(wo);
             let p_out = self.offset(sh.p, ng);

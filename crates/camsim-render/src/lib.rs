@@ -15,6 +15,7 @@
 //! The scene contract shared with the pbrt-v4 reader is the `camsim-scene3d` crate.
 
 pub mod bsdf;
+mod bump;
 pub mod bvh;
 mod camera;
 pub mod envmap;

@@ -403,6 +403,13 @@ pub enum Material {
         material: usize,
         alpha: FloatTexture,
     },
+    /// Material `material` (index into `SceneDescription::materials`) with its shading normal
+    /// perturbed at every hit by a bump or normal map (pbrt-v4 materials' `displacement` and
+    /// `normalmap`; the renderer's `bump` module).
+    Bumped {
+        material: usize,
+        perturbation: NormalPerturbation,
+    },
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
@@ -414,6 +421,27 @@ pub enum Material {
         v: FloatTexture,
         remap: bool,
     },
+}
+
+/// What perturbs a material's shading normal per hit (pbrt-v4 4th ed. sec. 10.5.1).
+#[derive(Debug, Clone, PartialEq)]
+pub enum NormalPerturbation {
+    /// pbrt-v4 `displacement` (or `bumpmap`): a float texture, the surface displaced along its
+    /// shading normal by that distance (scene units); the shading normal is the displaced
+    /// surface's (pbrt-v4 `BumpMap`).
+    Displacement(FloatTexture),
+    /// pbrt-v4 `normalmap`: an image of tangent-space normals (pbrt-v4 `NormalMap`).
+    NormalMap(std::sync::Arc<NormalMapImage>),
+}
+
+/// A normal map: linear RGB texels (row 0 at v = 1), each `(n + 1) / 2` of a unit normal in the
+/// tangent frame (dp/du, n x dp/du, n); looked up bilinearly at the surface's (u, v) with repeat
+/// wrap.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NormalMapImage {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
 }
 
 /// The medium between a coating's two interfaces and the random walk that evaluates the
