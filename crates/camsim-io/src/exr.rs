@@ -37,6 +37,109 @@ pub const SPECTRAL_LAYOUT_VERSION: &str = "1.0";
 /// real value (from the camera's film size).
 pub const DEFAULT_SAMPLE_SPACING_M: f64 = 1e-6;
 
+/// pbrt-v4's spectral radiance over camsim's W/(sr m^2 nm) for the same scene: camsim reads a
+/// pbrt-v4 emitter's normalised spectrum as photometric, `L / 683` W/(sr m^2 nm) (camsim-pbrt),
+/// and pbrt-v4's `SpectralFilm::AddSample` multiplies radiance by `CIE_Y_integral` =
+/// 106.856895 nm (src/pbrt/film.h), so pbrt-v4 writes camsim's radiance times 683 x 106.856895.
+pub const PBRT_V4_RADIANCE_UNIT: f64 = 683.0 * 106.856895;
+
+/// How the values of a spectral EXR are taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SourceUnits {
+    /// pbrt-v4's own files (recognised by [`is_pbrt_v4_header`]) are converted from pbrt-v4's
+    /// units, every other file is read as it is.
+    #[default]
+    Auto,
+    /// The file is pbrt-v4 output: divide by [`PBRT_V4_RADIANCE_UNIT`].
+    PbrtV4,
+    /// The values are W/(sr m^2 nm) (or the file's own `camsimQuantity`): no conversion.
+    Absolute,
+}
+
+/// Whether an EXR header is pbrt-v4's `SpectralFilm` output: no camsim attributes, pbrt-v4's
+/// `emissiveUnits` "W.m^-2.sr^-1" with a `spectralLayoutVersion`, and either one of the
+/// attributes pbrt-v4's `Image::WriteEXR` adds (`worldToCamera`, `worldToNDC`,
+/// `renderTimeSeconds`, `samplesPerPixel`) or pbrt-v4's channel set (R, G, B beside the `S0.`
+/// channels). `attribute` names the header's attributes, `channels` its channels.
+pub fn is_pbrt_v4_header<'a>(
+    attribute: impl Fn(&str) -> Option<String>,
+    mut channels: impl Iterator<Item = &'a str>,
+) -> bool {
+    let camsim = ["camsimStage", "camsimQuantity", "camsimUnits"]
+        .iter()
+        .any(|k| attribute(k).is_some());
+    let pbrt_units = attribute("emissiveUnits").as_deref() == Some("W.m^-2.sr^-1")
+        && attribute("spectralLayoutVersion").is_some();
+    let pbrt_attrs = [
+        "worldToCamera",
+        "worldToNDC",
+        "renderTimeSeconds",
+        "samplesPerPixel",
+    ]
+    .iter()
+    .any(|k| attribute(k).is_some());
+    let (mut rgb, mut spectral) = (0, false);
+    for c in channels.by_ref() {
+        if matches!(c, "R" | "G" | "B") {
+            rgb += 1;
+        }
+        spectral |= c.starts_with("S0.");
+    }
+    !camsim && pbrt_units && (pbrt_attrs || (rgb == 3 && spectral))
+}
+
+/// The horizontal field of view, degrees, of a pbrt-v4 perspective camera from the matrices
+/// pbrt-v4 writes (`worldToNDC` = T(1/2) S(1/2) Perspective(fov) `worldToCamera`,
+/// pbrt-v4 `ProjectiveCamera::InitMetadata`; row-major, column vectors): NDC-from-camera's
+/// `[0][0] / [3][2]` is `1 / (2 tan(fov / 2))`, `fov` across the image's shorter side, here
+/// `cols` x `rows`. `None` when the matrices are not a perspective projection.
+pub fn pbrt_v4_horizontal_fov_deg(
+    world_to_camera: &[f32; 16],
+    world_to_ndc: &[f32; 16],
+    cols: usize,
+    rows: usize,
+) -> Option<f64> {
+    let m = |a: &[f32; 16], i: usize, j: usize| a[i * 4 + j] as f64;
+    // camera_to_world: the inverse of the affine worldToCamera (adjugate of its 3 x 3 part).
+    let w = |i, j| m(world_to_camera, i, j);
+    let det = w(0, 0) * (w(1, 1) * w(2, 2) - w(1, 2) * w(2, 1))
+        - w(0, 1) * (w(1, 0) * w(2, 2) - w(1, 2) * w(2, 0))
+        + w(0, 2) * (w(1, 0) * w(2, 1) - w(1, 1) * w(2, 0));
+    if !(det.abs() > 1e-12 && det.is_finite()) {
+        return None;
+    }
+    let mut inv = [[0.0f64; 4]; 4];
+    for i in 0..3 {
+        for j in 0..3 {
+            let (a, b) = ((j + 1) % 3, (j + 2) % 3);
+            let (c, d) = ((i + 1) % 3, (i + 2) % 3);
+            inv[i][j] = (w(a, c) * w(b, d) - w(a, d) * w(b, c)) / det;
+        }
+    }
+    for i in 0..3 {
+        inv[i][3] = -(0..3).map(|k| inv[i][k] * w(k, 3)).sum::<f64>();
+    }
+    inv[3][3] = 1.0;
+    // NDC from camera = worldToNDC * cameraToWorld: entries [0][0] and [3][2].
+    let a = |i: usize, j: usize| {
+        (0..4)
+            .map(|k| m(world_to_ndc, i, k) * inv[k][j])
+            .sum::<f64>()
+    };
+    let (a00, a32) = (a(0, 0), a(3, 2));
+    let tan_half = a32 / (2.0 * a00);
+    if !(tan_half > 0.0 && tan_half.is_finite()) || cols == 0 || rows == 0 {
+        return None;
+    }
+    let aspect = cols as f64 / rows as f64;
+    let tan_h = if aspect >= 1.0 {
+        tan_half * aspect
+    } else {
+        tan_half
+    };
+    Some(2.0 * tan_h.atan().to_degrees())
+}
+
 /// What a spectral EXR's header said, beyond the image itself.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SpectralExrInfo {
@@ -59,6 +162,13 @@ pub struct SpectralExrInfo {
     pub clamped_negatives: usize,
     /// The most negative of those clamped samples (0 when none).
     pub most_negative_clamped: f32,
+    /// The values were pbrt-v4's (recognised by [`is_pbrt_v4_header`], or so declared with
+    /// [`SourceUnits::PbrtV4`]) and were divided by [`PBRT_V4_RADIANCE_UNIT`] into
+    /// W/(sr m^2 nm).
+    pub pbrt_v4_units_converted: bool,
+    /// True when the horizontal field of view came from pbrt-v4's `worldToCamera` and
+    /// `worldToNDC` ([`pbrt_v4_horizontal_fov_deg`]; the image's `geometry.fov_deg`).
+    pub fov_from_pbrt_v4_camera: bool,
 }
 
 /// Negative samples whose magnitude is at most this fraction of the image's largest value are
@@ -608,9 +718,24 @@ pub fn read_spectral_exr(path: &Path) -> Result<SpectralImage> {
 /// refused with the file, channel, pixel and value named otherwise. Missing camsim attributes get defaults:
 /// quantity from `emissiveUnits` (radiance when unknown), sample spacing
 /// [`DEFAULT_SAMPLE_SPACING_M`], geometry zero.
+///
+/// pbrt-v4's own files ([`is_pbrt_v4_header`]) are converted to W/(sr m^2 nm) and take their
+/// field of view from pbrt-v4's camera matrices: see [`read_spectral_exr_as`].
 pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, SpectralExrInfo)> {
+    read_spectral_exr_as(path, SourceUnits::Auto)
+}
+
+/// [`read_spectral_exr_with_info`] with the source units chosen: with [`SourceUnits::Auto`] a
+/// file recognised as pbrt-v4's (or any file with [`SourceUnits::PbrtV4`]) is divided by
+/// [`PBRT_V4_RADIANCE_UNIT`], and where it carries pbrt-v4's `worldToCamera` and `worldToNDC`
+/// its `geometry.fov_deg` is the horizontal field of view they give.
+pub fn read_spectral_exr_as(
+    path: &Path,
+    units: SourceUnits,
+) -> Result<(SpectralImage, SpectralExrInfo)> {
     let image = read_any(path)?;
     let mut info = SpectralExrInfo::default();
+    let image_attrs = image.attributes.other.clone();
     let mut layers: Vec<_> = image.layer_data.into_iter().collect();
     let has = |l: &Layer<AnyChannels<FlatSamples>>, prefix: &str| {
         l.channel_data.list.iter().any(|c| {
@@ -634,7 +759,33 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     let rows = layer.size.height();
     let cols = layer.size.width();
     let n = rows * cols;
-    let attrs = layer.attributes;
+    let mut attrs = layer.attributes;
+    // Header attributes the exr crate keeps with the image rather than the layer.
+    for (k, v) in image_attrs {
+        attrs.other.entry(k).or_insert(v);
+    }
+    // OpenEXR's standard `worldToCamera` and `worldToNDC` (the exr crate keeps them apart).
+    let (world_to_camera, world_to_ndc) = (attrs.world_to_camera, attrs.world_to_normalized_device);
+    let pbrt_v4 = match units {
+        SourceUnits::Auto => is_pbrt_v4_header(
+            |k| match k {
+                "worldToCamera" => world_to_camera.map(|_| String::new()),
+                "worldToNDC" => world_to_ndc.map(|_| String::new()),
+                _ => attrs.other.get(&Text::from(k)).map(|v| match v {
+                    AttributeValue::Text(t) => t.to_string(),
+                    _ => String::new(),
+                }),
+            },
+            layer
+                .channel_data
+                .list
+                .iter()
+                .map(|c| c.name.as_slice())
+                .filter_map(|b| std::str::from_utf8(b).ok()),
+        ),
+        SourceUnits::PbrtV4 => true,
+        SourceUnits::Absolute => false,
+    };
     let mut planes: Vec<(f64, String, Vec<f32>)> = Vec::new();
     let mut depth: Option<Vec<f32>> = None;
     for ch in layer.channel_data.list.into_iter() {
@@ -738,6 +889,11 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     for (_, _, v) in planes.into_iter() {
         data.extend_from_slice(&v); // each plane is dropped after its copy: peak stays near 1x
     }
+    if pbrt_v4 {
+        let k = (1.0 / PBRT_V4_RADIANCE_UNIT) as f32;
+        data.par_iter_mut().for_each(|v| *v *= k);
+        info.pbrt_v4_units_converted = true;
+    }
 
     info.stage = attr_text(&attrs, "camsimStage");
     info.emissive_units = attr_text(&attrs, "emissiveUnits");
@@ -773,8 +929,13 @@ pub fn read_spectral_exr_with_info(path: &Path) -> Result<(SpectralImage, Spectr
     };
     let mut img = SpectralImage::from_data(rows, cols, grid, spacing, quantity, data)
         .map_err(|e| IoError::core(path, e))?;
+    let pbrt_fov = match (pbrt_v4, world_to_camera, world_to_ndc) {
+        (true, Some(c), Some(ndc)) => pbrt_v4_horizontal_fov_deg(&c, &ndc, cols, rows),
+        _ => None,
+    };
+    info.fov_from_pbrt_v4_camera = pbrt_fov.is_some();
     img.geometry = ImageGeometry {
-        fov_deg: attr_f64(&attrs, "camsimFovDeg").unwrap_or(0.0),
+        fov_deg: pbrt_fov.unwrap_or_else(|| attr_f64(&attrs, "camsimFovDeg").unwrap_or(0.0)),
         distance_m: attr_f64(&attrs, "camsimDistanceM").unwrap_or(0.0),
         focal_length_m: attr_f64(&attrs, "camsimFocalLengthM").unwrap_or(0.0),
         f_number: attr_f64(&attrs, "camsimFNumber").unwrap_or(0.0),
@@ -1088,6 +1249,16 @@ mod tests {
     /// A file as pbrt-v4's SpectralFilm writes it: R, G, B plus `S0.%.3fnm` bucket centres,
     /// half floats, `emissiveUnits` "W.m^-2.sr^-1", no camsim attributes.
     fn write_pbrt_like(path: &Path, names: &[&str], value: impl Fn(usize, usize) -> f32) {
+        write_pbrt_like_with(path, names, value, &[]);
+    }
+
+    /// As [`write_pbrt_like`], with extra header attributes (pbrt-v4's camera matrices).
+    fn write_pbrt_like_with(
+        path: &Path,
+        names: &[&str],
+        value: impl Fn(usize, usize) -> f32,
+        extra: &[(&str, AttributeValue)],
+    ) {
         let (rows, cols) = (3, 4);
         let mut chans = Vec::new();
         for (k, n) in ["R", "G", "B"].iter().chain(names.iter()).enumerate() {
@@ -1105,6 +1276,17 @@ mod tests {
             Text::from("emissiveUnits"),
             AttributeValue::Text(Text::from("W.m^-2.sr^-1")),
         );
+        for (k, v) in extra {
+            match (*k, v) {
+                ("worldToCamera", AttributeValue::Matrix4x4(m)) => attrs.world_to_camera = Some(*m),
+                ("worldToNDC", AttributeValue::Matrix4x4(m)) => {
+                    attrs.world_to_normalized_device = Some(*m)
+                }
+                _ => {
+                    attrs.other.insert(Text::from(*k), v.clone());
+                }
+            }
+        }
         let layer = Layer::new(
             (cols, rows),
             attrs,
@@ -1126,7 +1308,8 @@ mod tests {
             "S0.710,000nm",
         ];
         write_pbrt_like(&path, &names, |k, i| 0.5 * k as f32 + 0.125 * i as f32);
-        let (img, info) = read_spectral_exr_with_info(&path).unwrap();
+        let (img, info) = read_spectral_exr_as(&path, SourceUnits::Absolute).unwrap();
+        assert!(!info.pbrt_v4_units_converted);
         assert_eq!(img.bands(), 4);
         assert!(img
             .grid
@@ -1141,6 +1324,82 @@ mod tests {
                 assert_eq!(img.band(b)[i], 0.5 * (b + 3) as f32 + 0.125 * i as f32);
             }
         }
+    }
+
+    /// pbrt-v4's files are recognised by their header and converted from pbrt-v4's units
+    /// (x 683 x 106.856895, pbrt-v4 `SpectralFilm::AddSample` and camsim-pbrt's photometric
+    /// reading of emitters); the field of view comes from pbrt-v4's camera matrices, written
+    /// here as pbrt-v4's `ProjectiveCamera::InitMetadata` builds them for a camera looking
+    /// along world -x from (1, 2, 3) with fov 40 across the shorter side of a 4 x 3 image.
+    #[test]
+    fn pbrt_v4_files_are_converted_and_give_their_field_of_view() {
+        let dir = tempfile::tempdir().unwrap();
+        let names = ["S0.400,000nm", "S0.500,000nm"];
+        // worldToCamera: camera x = world y, camera y = world z, camera z = -world x (a
+        // rotation), then the translation of the camera at (1, 2, 3).
+        let rot = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]];
+        let eye = [1.0, 2.0, 3.0];
+        let mut w2c = [0f32; 16];
+        for i in 0..3 {
+            for j in 0..3 {
+                w2c[i * 4 + j] = rot[i][j] as f32;
+            }
+            w2c[i * 4 + 3] = -(0..3).map(|k| rot[i][k] * eye[k]).sum::<f64>() as f32;
+        }
+        w2c[15] = 1.0;
+        // NDC from camera: T(1/2) S(1/2) Scale(1/t, 1/t, 1) Perspective(near 0.01, far 1000).
+        let t = (20f64).to_radians().tan();
+        let (n, f) = (1e-2, 1e3);
+        let persp = [
+            [0.5 / t, 0.0, 0.5, 0.0],
+            [0.0, 0.5 / t, 0.5, 0.0],
+            [0.0, 0.0, 0.5 * f / (f - n) + 0.5, -0.5 * f * n / (f - n)],
+            [0.0, 0.0, 1.0, 0.0],
+        ];
+        let mut w2ndc = [0f32; 16];
+        for i in 0..4 {
+            for j in 0..4 {
+                w2ndc[i * 4 + j] = (0..4)
+                    .map(|k| persp[i][k] * w2c[k * 4 + j] as f64)
+                    .sum::<f64>() as f32;
+            }
+        }
+        let path = dir.path().join("pbrt.exr");
+        write_pbrt_like_with(
+            &path,
+            &names,
+            |k, i| 100.0 * (k + i) as f32,
+            &[
+                ("worldToCamera", AttributeValue::Matrix4x4(w2c)),
+                ("worldToNDC", AttributeValue::Matrix4x4(w2ndc)),
+            ],
+        );
+        let (img, info) = read_spectral_exr_with_info(&path).unwrap();
+        assert!(info.pbrt_v4_units_converted && info.fov_from_pbrt_v4_camera);
+        let k = 683.0 * 106.856895;
+        for b in 0..2 {
+            for i in 0..12 {
+                let want = (100.0 * (b + 3 + i) as f64 / k) as f32;
+                assert!((img.band(b)[i] - want).abs() <= 1e-6 * want, "{b} {i}");
+            }
+        }
+        // 4 x 3: the horizontal half-angle's tangent is 4/3 tan(20 deg).
+        let want = 2.0 * (4.0 / 3.0 * t).atan().to_degrees();
+        assert!(
+            (img.geometry.fov_deg - want).abs() < 1e-4,
+            "{} vs {want}",
+            img.geometry.fov_deg
+        );
+        // Declared absolute: no conversion.
+        let (raw, info) = read_spectral_exr_as(&path, SourceUnits::Absolute).unwrap();
+        assert!(!info.pbrt_v4_units_converted && raw.band(0)[1] == 400.0);
+        // A camsim file is never converted, even with pbrt-v4's units string.
+        let mut mine = sample_image(2, 3, WavelengthGrid::new(400.0, 500.0, 100.0).unwrap());
+        mine.data.iter_mut().for_each(|v| *v = 2.0);
+        let p2 = dir.path().join("mine.exr");
+        write_spectral_exr(&p2, &mine, "scene").unwrap();
+        let (back, info) = read_spectral_exr_with_info(&p2).unwrap();
+        assert!(!info.pbrt_v4_units_converted && back.data[0] == 2.0);
     }
 
     #[test]

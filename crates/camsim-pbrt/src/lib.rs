@@ -7,7 +7,7 @@
 //! lexer), the parameter lists (`params`), the directive dispatch and scene builder (`parser`,
 //! with one module per directive family: `parser/materials.rs`, `parser/textures.rs`,
 //! `parser/lights.rs`), [`spectra`] (spectrum-valued parameters, named spectra,
-//! [`optical_constants`]), [`ply`] and [`pfm`] (mesh and image files). [`overlay`] applies
+//! [`optical_constants`]), [`ply`], `images` and [`pfm`] (mesh and image files). [`overlay`] applies
 //! camsim's TOML scene overlays (ISET3d-style scene control) to a scene from either source; it
 //! lives here because its `replace` reads PLY and pbrt files.
 //!
@@ -26,10 +26,12 @@
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
 //!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`; `"independent"` selects
 //!   camsim's independent sampler, every other type its padded Owen-scrambled Sobol sampler, see
-//!   `camsim_render::sampler`), `Integrator` (`path`,
-//!   `volpath`, `bdpt`, `simplepath` -> camsim's path tracer; `maxdepth`), `ColorSpace "srgb"`
-//!   (other colour spaces, `Option`, `PixelFilter`, `Accelerator` and unknown `Sampler` types
-//!   are warnings in the notes).
+//!   `camsim_render::sampler`), `Integrator` (`path`; `volpath`, `simplevolpath`, `bdpt`,
+//!   `sppm`, `lightpath`, `mlt`, `randomwalk`, `simplepath` -> camsim's path tracer with a note;
+//!   `maxdepth`), `PixelFilter` (`box`, `gaussian`, `mitchell`, `sinc`/`lanczos`, `triangle`
+//!   with pbrt-v4's parameters and default radii; gaussian without the directive, as pbrt-v4;
+//!   see [`camsim_scene3d::scene::PixelFilter`]), `ColorSpace "srgb"` (other colour spaces,
+//!   `Option`, `Accelerator` and unknown `Sampler` types are warnings in the notes).
 //! - Transforms: `Identity`, `Translate`, `Scale`, `Rotate`, `LookAt`, `Transform`,
 //!   `ConcatTransform` (16 numbers, column-major as pbrt-v4 reads them), `CoordinateSystem`,
 //!   `CoordSysTransform` (`"camera"` is defined by `Camera`), `ReverseOrientation`,
@@ -67,10 +69,14 @@
 //!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
 //!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
 //!   ([`optical_constants`]),
-//!   `Texture "name" "spectrum"|"float"`: `imagemap` (PNG via the `image` crate, EXR via the `exr`
-//!   crate, PFM by [`pfm`], linear; `filename`, `encoding` (`sRGB` default for PNG, `linear` otherwise, `gamma G`),
-//!   `scale`, `invert`, `uscale`, `vscale`, `udelta`, `vdelta`; float images average the RGB
-//!   channels), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
+//!   Every material but `mix` and `interface` takes `displacement` (or pbrt-v3's `bumpmap`), a
+//!   float texture, and `normalmap`, an image file (pbrt-v4 `BumpMap` / `NormalMap`, see
+//!   [`camsim_scene3d::scene::Material::Bumped`]).
+//!   `Texture "name" "spectrum"|"float"`: `imagemap` (every format pbrt-v4 reads, with its
+//!   per-format encoding rules: PNG 8/16 bit honouring `encoding` (`sRGB` default, `linear`,
+//!   `gamma G`), TGA/JPEG/BMP always sRGB, QOI by its own flag, EXR/PFM/HDR linear; `filename`,
+//!   `scale`, `invert`, `wrap` (`repeat`, `clamp`, `black`, `octahedralsphere`), `uscale`,
+//!   `vscale`, `udelta`, `vdelta`; float images read the first channel), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
 //!   mapping, 3 in texture space),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`), `dots` (`inside`, `outside`, uv mapping),
@@ -144,12 +150,13 @@
 //! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MakeNamedMedium`
 //! (defined but never selected, a medium changes nothing); `MediumInterface` with empty names
 //! (vacuum);
-//! texture `filter`, `maxanisotropy`, `wrap` (camsim repeats); material `normalmap`,
-//! `bumpmap`, `displacement` (no bump, displacement or normal mapping); shape
+//! texture `filter`, `maxanisotropy` (bilinear lookups at the hit, no MIP-mapping); the
+//! parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
 //!
 //! # Unsupported, with an error naming file:line:column
-//! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`; materials other than the nine above
+//! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`;
+//! `Integrator "ambientocclusion"` (not radiance); materials other than the nine above
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`ptex`); shapes other than those above (`curve`, ...),
@@ -163,6 +170,7 @@
 //! so one [`PbrtError`] lists every problem of the scene, in every included file, each with its
 //! file:line:column ([`PbrtError::problems`]); reading stops after 100.
 
+mod images;
 mod lexer;
 pub mod optical_constants;
 mod params;

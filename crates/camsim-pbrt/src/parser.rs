@@ -3,6 +3,7 @@
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 
+use super::images::{self, load_image, parse_encoding, Encoding};
 use super::lexer::{tokenize, Token, TokenKind};
 use super::params::{parse_params, Param, ParamList};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
@@ -99,6 +100,8 @@ struct Parser {
     varying: Option<(FloatTexture, FloatTexture, bool)>,
     textures: HashMap<String, Texture>,
     float_textures: HashMap<String, FloatTexture>,
+    /// Normal map images by resolved path (pbrt-v4 reads each file once).
+    normal_maps: HashMap<PathBuf, std::sync::Arc<crate::scene::NormalMapImage>>,
     shapes: Vec<PendingShape>,
     lights: Vec<Light>,
     objects: HashMap<String, Vec<PendingShape>>,
@@ -166,6 +169,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         varying: None,
         textures: HashMap::new(),
         float_textures: HashMap::new(),
+        normal_maps: HashMap::new(),
         shapes: Vec::new(),
         lights: Vec::new(),
         objects: HashMap::new(),
@@ -180,6 +184,11 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         settings: RenderSettings {
             samples_per_pixel: 16,
             max_depth: 5,
+            // pbrt-v4's default `PixelFilter` (BasicSceneBuilder): gaussian, radius 1.5, sigma 0.5.
+            filter: crate::scene::PixelFilter::Gaussian {
+                radius: [1.5, 1.5],
+                sigma: 0.5,
+            },
             ..RenderSettings::default()
         },
         focus_distance_m: None,
@@ -717,33 +726,67 @@ impl Parser {
         Ok(())
     }
 
+    /// pbrt-v4 `Integrator`: every type that converges to the radiance a path tracer computes
+    /// is rendered by camsim's path tracer, with a note naming the substitution; the volumetric
+    /// ones go through [`Parser::volumetric_integrator`]; `ambientocclusion` is refused (it is
+    /// not radiance).
     fn integrator(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
-        match ty {
-            "path" | "volpath" | "bdpt" | "simplepath" => {}
-            _ => return Err(loc.err(format!("Integrator \"{ty}\" is not supported (path, volpath, bdpt map to camsim's path tracer)"))),
-        }
+        // pbrt-v4's parameters of each type beyond `maxdepth` (camsim's path tracer has no use
+        // for them: they tune the other algorithms' convergence, not the converged image).
+        let extra: &[&str] = match ty {
+            "path" | "volpath" => &["regularize", "lightsampler"],
+            "simplepath" => &["samplelights", "samplebsdf"],
+            "simplevolpath" | "lightpath" | "randomwalk" => &[],
+            "bdpt" => &[
+                "regularize",
+                "lightsampler",
+                "visualizestrategies",
+                "visualizeweights",
+            ],
+            "mlt" => &[
+                "bootstrapsamples",
+                "chains",
+                "mutationsperpixel",
+                "largestepprobability",
+                "sigma",
+                "regularize",
+            ],
+            "sppm" => &["photonsperiteration", "radius", "seed", "iterations"],
+            "ambientocclusion" => {
+                return Err(loc.err(
+                    "Integrator \"ambientocclusion\" is not supported: it computes ambient occlusion, not radiance, and camsim simulates a camera from radiance (use \"path\")",
+                ))
+            }
+            _ => return Err(loc.err(format!(
+                "Integrator \"{ty}\" is not supported (path, volpath, simplepath, simplevolpath, bdpt, lightpath, mlt, randomwalk, sppm: all rendered by camsim's path tracer)"
+            ))),
+        };
         let d = params.int("maxdepth", 5)?;
         if !(0..=100_000).contains(&d) {
             return Err(loc.err(format!("Integrator: maxdepth {d} is out of range")));
         }
         self.settings.max_depth = d as u32;
-        self.ignore_params(
-            params,
-            &[
-                "regularize",
-                "lightsampler",
-                "samplelights",
-                "samplebsdf",
-                "visualizestrategies",
-                "visualizeweights",
-            ],
-            "Integrator",
-        );
+        self.ignore_params(params, extra, &format!("Integrator \"{ty}\""));
         params.check_unused(&format!("Integrator \"{ty}\""))?;
-        if ty != "path" {
-            self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
+        match ty {
+            "path" => {}
+            "volpath" | "simplevolpath" => self.volumetric_integrator(ty, loc),
+            _ => self.note(
+                loc,
+                format!("Integrator \"{ty}\" rendered with camsim's path tracer (it converges to the same radiance)"),
+            ),
         }
         Ok(())
+    }
+
+    /// HOOK for the volumetric tracer (issue 27, participating media): `volpath` and
+    /// `simplevolpath` files, and files with media, belong to it. Until it exists they are
+    /// rendered by the path tracer, which is the same radiance where no medium is selected.
+    fn volumetric_integrator(&mut self, ty: &str, loc: &Loc) {
+        self.note(
+            loc,
+            format!("Integrator \"{ty}\" rendered with camsim's path tracer (the same radiance without participating media)"),
+        );
     }
 
     fn shape(
@@ -1334,25 +1377,6 @@ fn mesh_geometry(
     }
 }
 
-/// Image texel encodings (pbrt-v4 `ColorEncoding`).
-#[derive(Debug, Clone, Copy)]
-enum Encoding {
-    Linear,
-    Srgb,
-    Gamma(f32),
-}
-
-fn parse_encoding(s: &str) -> Option<Encoding> {
-    match s {
-        "linear" => Some(Encoding::Linear),
-        "sRGB" | "srgb" => Some(Encoding::Srgb),
-        _ => {
-            let g = s.strip_prefix("gamma ")?.trim().parse::<f32>().ok()?;
-            (g > 0.0).then_some(Encoding::Gamma(g))
-        }
-    }
-}
-
 impl Parser {
     /// A light's image (`filename` of `infinite`, `goniometric`, `projection` lights and of
     /// `AreaLightSource "diffuse"`): resolved against the scene file, decoded with the
@@ -1360,23 +1384,14 @@ impl Parser {
     /// Refused, naming `what`, when it cannot be read, is empty, or has a negative or non-finite
     /// texel.
     pub(super) fn light_image(
-        &self,
+        &mut self,
         fname: &str,
         params: &ParamList,
         loc: &Loc,
         file: &Path,
         what: &str,
     ) -> Result<(usize, usize, Vec<[f32; 3]>), PbrtError> {
-        let enc_default = if fname.to_ascii_lowercase().ends_with(".png") {
-            "sRGB"
-        } else {
-            "linear"
-        };
-        let enc = params
-            .string("encoding")?
-            .unwrap_or_else(|| enc_default.to_string());
-        let encoding = parse_encoding(&enc)
-            .ok_or_else(|| loc.err(format!("{what}: unknown encoding \"{enc}\"")))?;
+        let encoding = self.image_encoding(fname, params, loc, what)?;
         let (width, height, rgb) = load_image(&self.resolve(file, fname), encoding)
             .map_err(|e| loc.err(format!("{what}: {e}")))?;
         if rgb.is_empty() || rgb.iter().flatten().any(|v| !(v.is_finite() && *v >= 0.0)) {
@@ -1386,71 +1401,34 @@ impl Parser {
         }
         Ok((width, height, rgb))
     }
-}
 
-/// Load an RGB image as linear values: EXR through the `exr` crate (linear, encoding ignored as
-/// in pbrt-v4), anything else through the `image` crate with `encoding` applied.
-fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
-    let lower = path.to_string_lossy().to_ascii_lowercase();
-    if lower.ends_with(".pfm") {
-        // PFM holds linear floats; pbrt-v4 ignores "encoding" for float formats.
-        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        return super::pfm::read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()));
-    }
-    if lower.ends_with(".exr") {
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |res, _| {
-                let (w, h) = (res.width(), res.height());
-                (
-                    w,
-                    vec![
-                        [0.0f32; 3];
-                        if (w as u64) * (h as u64) <= (1 << 28) {
-                            w * h
-                        } else {
-                            0
-                        }
-                    ],
-                )
-            },
-            |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                if let Some(p) = px.get_mut(pos.y() * *w + pos.x()) {
-                    *p = [r, g, b];
-                }
-            },
-        )
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-        let size = img.layer_data.size;
-        let (w, h) = (size.width(), size.height());
-        let px = img.layer_data.channel_data.pixels.1;
-        if px.len() != w * h {
-            return Err(format!(
-                "{}: image of {w} x {h} pixels is too large",
-                path.display()
-            ));
+    /// The `encoding` parameter of an image file parameter `fname` (pbrt-v4 default: sRGB for
+    /// PNG, linear otherwise); a note when the file's format fixes its own encoding
+    /// ([`images::fixed_encoding`]) and the parameter is given anyway.
+    pub(super) fn image_encoding(
+        &mut self,
+        fname: &str,
+        params: &ParamList,
+        loc: &Loc,
+        what: &str,
+    ) -> Result<Encoding, PbrtError> {
+        let given = params.string("encoding")?;
+        let enc = given
+            .clone()
+            .unwrap_or_else(|| images::default_encoding(fname).to_string());
+        let encoding = parse_encoding(&enc).ok_or_else(|| {
+            loc.err(format!(
+                "{what}: unknown encoding \"{enc}\" (sRGB, linear, gamma G)"
+            ))
+        })?;
+        if let (Some(g), Some(fixed)) = (given, images::fixed_encoding(fname)) {
+            self.note(
+                loc,
+                format!("{what}: encoding \"{g}\" ignored for {fname}: pbrt-v4 decodes it {fixed}"),
+            );
         }
-        return Ok((w, h, px));
+        Ok(encoding)
     }
-    let img = image::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    camsim_core::mem::check_alloc((w * h * 12) as u64, "texture image")
-        .map_err(|e| e.to_string())?;
-    let rgb = img.to_rgb32f();
-    let dec = |v: f32| -> f32 {
-        match encoding {
-            Encoding::Linear => v,
-            Encoding::Srgb => camsim_core::colorimetry::srgb_decode(v as f64) as f32,
-            Encoding::Gamma(g) => v.max(0.0).powf(g),
-        }
-    };
-    Ok((
-        w,
-        h,
-        rgb.pixels()
-            .map(|p| [dec(p.0[0]), dec(p.0[1]), dec(p.0[2])])
-            .collect(),
-    ))
 }
 
 /// A `Camera "realistic"` read but not yet set up (it needs the film's size).

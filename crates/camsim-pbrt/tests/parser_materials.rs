@@ -28,7 +28,8 @@ MakeNamedMaterial \"leaf\" \"string type\" \"diffusetransmission\" \"rgb transmi
 MakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\" \"rgb reflectance\" [0.7 0.1 0.1] \"float roughness\" 0.05 \"float thickness\" 0.02 \"integer maxdepth\" 5\n\
 MakeNamedMaterial \"blend\" \"string type\" \"mix\" \"string materials\" [\"copper\" \"paint\"] \"float amount\" 0.3\n\
 MakeNamedMaterial \"none\" \"string type\" \"interface\"\n\
-Material \"diffuse\" \"texture bumpmap\" \"bumps\" \"float displacement\" 0.1\n\
+Texture \"bumps\" \"float\" \"fbm\"\n\
+Material \"diffuse\" \"texture bumpmap\" \"bumps\"\n\
 Shape \"sphere\"\n"
     );
     let s = parse(&text).unwrap();
@@ -144,25 +145,14 @@ Shape \"sphere\"\n"
         m => panic!("blend: {m:?}"),
     }
     assert!(matches!(named(&s, "none"), Material::Interface));
-    // bumpmap and displacement: accepted, ignored, noted.
-    assert!(matches!(
-        s.materials[s.shapes[0].material],
-        Material::Diffuse { .. }
-    ));
-    assert!(
-        s.notes
-            .iter()
-            .any(|n| n.contains("bumpmap") && n.contains("ignored")),
-        "{:?}",
-        s.notes
-    );
-    assert!(
-        s.notes
-            .iter()
-            .any(|n| n.contains("displacement") && n.contains("ignored")),
-        "{:?}",
-        s.notes
-    );
+    // bumpmap (pbrt-v3's name for displacement): a bump-mapped diffuse material.
+    match &s.materials[s.shapes[0].material] {
+        Material::Bumped {
+            material,
+            perturbation: camsim_scene3d::scene::NormalPerturbation::Displacement(_),
+        } => assert!(matches!(s.materials[*material], Material::Diffuse { .. })),
+        m => panic!("bump-mapped diffuse: {m:?}"),
+    }
     assert!(
         !s.notes.iter().any(|n| n.contains("maxdepth")),
         "maxdepth is read, not ignored: {:?}",

@@ -451,6 +451,7 @@ fn emitter_quad(file: &str, extra: &str) -> String {
         "LookAt 0 0 1  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 90\n\
          Film \"rgb\" \"integer xresolution\" 2 \"integer yresolution\" 2\n\
          Sampler \"sobol\" \"integer pixelsamples\" 256\nIntegrator \"path\" \"integer maxdepth\" 1\n\
+         PixelFilter \"box\"\n\
          WorldBegin\nAreaLightSource \"diffuse\" \"string filename\" \"{file}\" {extra}\n\
          Material \"diffuse\" \"rgb reflectance\" [0 0 0]\n\
          Shape \"trianglemesh\" \"point3 P\" [-1 -1 0  1 -1 0  1 1 0  -1 1 0] \"integer indices\" [0 1 2 0 2 3] \
@@ -493,8 +494,10 @@ fn image_area_light_power_and_radiance_follow_the_texels() {
     assert!(render(&sph, &|_, _| {}).is_ok());
 
     // Seen face-on, each of the 2 x 2 pixels covers one texel's uv square: the bilinear
-    // texture (repeat wrap) averaged over it is 9/16 the texel, 3/16 each neighbour along u
-    // and v and 1/16 the diagonal one. Grey texels are flat spectra times the illuminant.
+    // emission with pbrt-v4's clamp wrap (`DiffuseAreaLight::L` bilerps with `Image`'s default
+    // `WrapMode::Clamp`) averages, along each axis, 7/8 the texel and 1/8 the neighbour (the
+    // outer half of the square reads the texel itself): 49/64 the texel, 7/64 each neighbour
+    // along u and v, 1/64 the diagonal one. Grey texels are flat spectra times the illuminant.
     let text = emitter_quad(&file, "");
     let mut s = parse(&text).unwrap();
     s.settings.grid = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
@@ -513,7 +516,7 @@ fn image_area_light_power_and_radiance_follow_the_texels() {
         .sum::<f64>()
         / nb as f64;
     let eff =
-        |v: f64, h: f64, w: f64, diag: f64| 9.0 / 16.0 * v + 3.0 / 16.0 * (h + w) + diag / 16.0;
+        |v: f64, h: f64, w: f64, diag: f64| 49.0 / 64.0 * v + 7.0 / 64.0 * (h + w) + diag / 64.0;
     let mut want = [
         eff(a, b, c, d),
         eff(b, a, d, c),

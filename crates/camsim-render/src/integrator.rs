@@ -43,7 +43,8 @@ pub(crate) struct MeshShading {
 /// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;
 
-/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, repeat wrap, bilinear filter).
+/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, `wrap` outside the image,
+/// bilinear filter).
 #[derive(Debug, Clone)]
 pub(crate) struct ImageTex {
     pub width: usize,
@@ -53,34 +54,24 @@ pub(crate) struct ImageTex {
     pub vscale: f32,
     pub udelta: f32,
     pub vdelta: f32,
+    pub wrap: crate::scene::WrapMode,
 }
 
 impl ImageTex {
     /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
-    /// t flipped so image row 0 is at t = 1, texel centres at half-integers, repeat wrap).
+    /// t flipped so image row 0 is at t = 1, texel centres at half-integers,
+    /// `crate::texture::bilinear_texels`).
     #[inline]
     pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
         let s = uv[0] * self.uscale + self.udelta;
-        let t = 1.0 - (uv[1] * self.vscale + self.vdelta);
-        let x = s * self.width as f32 - 0.5;
-        let y = t * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let wrap = |i: f32, n: usize| -> usize {
-            let n = n as i64;
-            let i = if i.is_finite() { i as i64 } else { 0 };
-            (((i % n) + n) % n) as usize
-        };
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
-        let px = |xx: usize, yy: usize| self.rgb[yy * self.width + xx];
-        let (a, b, c, d) = (px(xa, ya), px(xb, ya), px(xa, yb), px(xb, yb));
+        let t = uv[1] * self.vscale + self.vdelta;
+        let (idx, w) = crate::texture::bilinear_texels(self.width, self.height, s, t, self.wrap);
         let mut out = [0f32; 3];
         for k in 0..3 {
-            out[k] = (1.0 - fx) * (1.0 - fy) * a[k]
-                + fx * (1.0 - fy) * b[k]
-                + (1.0 - fx) * fy * c[k]
-                + fx * fy * d[k];
+            out[k] = w[0] * self.rgb[idx[0]][k]
+                + w[1] * self.rgb[idx[1]][k]
+                + w[2] * self.rgb[idx[2]][k]
+                + w[3] * self.rgb[idx[3]][k];
         }
         out
     }
@@ -117,16 +108,18 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
+    /// The camera's pixel footprint, for bump mapping's finite differences (`crate::bump`).
+    pub footprint: crate::bump::Footprint,
 }
 
 /// Surface data at a hit.
-struct SurfaceHit {
-    p: V3,
+pub(crate) struct SurfaceHit {
+    pub(crate) p: V3,
     /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
-    ng: V3,
+    pub(crate) ng: V3,
     /// Shading normal (unit; equals `ng` without vertex normals).
-    ns: V3,
-    uv: [f32; 2],
+    pub(crate) ns: V3,
+    pub(crate) uv: [f32; 2],
 }
 
 impl Tracer {
@@ -234,6 +227,8 @@ impl Tracer {
                     vscale: 1.0,
                     udelta: 0.0,
                     vdelta: 0.0,
+                    // pbrt-v4 `DiffuseAreaLight::L` bilerps with `Image`'s default clamp.
+                    wrap: crate::scene::WrapMode::Clamp,
                 };
                 lights.images.push(EmitImage {
                     tex,
@@ -550,6 +545,7 @@ impl Tracer {
             shape_flip,
             has_interface,
             has_alpha,
+            footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
         })
     }
 
@@ -633,7 +629,7 @@ impl Tracer {
     /// with vertex normals, else flipped by `ReverseOrientation`): it points to the outside of a
     /// dielectric.
     #[inline]
-    fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
+    pub(crate) fn oriented_normal(&self, pi: &PrimInfo, sh: &SurfaceHit) -> V3 {
         let has_normals = self.meshes[pi.shape as usize]
             .as_ref()
             .is_some_and(|m| m.normals.is_some());
@@ -926,6 +922,8 @@ impl Tracer {
                 n: sh.ng,
                 p: sh.p,
             };
+            // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each
@@ -939,7 +937,7 @@ impl Tracer {
             }
             // Two-sided shading: normals turned toward the outgoing direction.
             let ng = sh.ng.face_forward(wo);
-            let ns = sh.ns.face_forward(ng);
+            let ns = ns_shading.face_forward(ng);
             let frame = Frame::from_normal(ns);
             let wo_local = frame.to_local(wo);
             let p_out = self.offset(sh.p, ng);

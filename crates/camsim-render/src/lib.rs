@@ -15,9 +15,11 @@
 //! The scene contract shared with the pbrt-v4 reader is the `camsim-scene3d` crate.
 
 pub mod bsdf;
+mod bump;
 pub mod bvh;
 mod camera;
 pub mod envmap;
+mod filter;
 pub mod geometry;
 mod goniometric;
 pub mod ids;

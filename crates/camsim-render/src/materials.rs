@@ -57,6 +57,11 @@ pub(crate) enum Mat {
         base: u32,
         alpha: FTex,
     },
+    /// Material `base` with its shading normal perturbed per hit (`crate::bump`).
+    Bumped {
+        base: u32,
+        perturb: crate::bump::Perturb,
+    },
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
         base: u32,
@@ -300,6 +305,8 @@ impl Tracer {
                 }
                 (bsdf, terminate)
             }
+            // Unwrapped by the tracer first (`Tracer::shading_normal`); the base as a fallback.
+            Mat::Bumped { base, .. } => self.bsdf_at(*base, ctx, lambdas, outside),
             // Resolved before (mix, alpha) or handled by the tracer (interface): never reached.
             Mat::Mix { .. } | Mat::Interface | Mat::AlphaMasked { .. } => (
                 Bsdf::Diffuse {
@@ -564,6 +571,20 @@ pub(crate) fn compile_material(
                 remap: *remap,
             }
         }
+        Material::Bumped {
+            material,
+            perturbation,
+        } => {
+            if *material >= n_materials {
+                return Err(err(format!(
+                    "bump map refers to material {material} but the scene has {n_materials}"
+                )));
+            }
+            Mat::Bumped {
+                base: *material as u32,
+                perturb: crate::bump::compile(perturbation, mi)?,
+            }
+        }
         Material::AlphaMasked { material, alpha } => {
             if *material >= n_materials {
                 return Err(err(format!(
@@ -591,9 +612,9 @@ pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
         while let Some(&mut (node, ref mut next)) = stack.last_mut() {
             let children: &[u32] = match &materials[node] {
                 Mat::Mix { materials, .. } => materials,
-                Mat::AlphaMasked { base, .. } | Mat::VaryingRoughness { base, .. } => {
-                    std::slice::from_ref(base)
-                }
+                Mat::AlphaMasked { base, .. }
+                | Mat::VaryingRoughness { base, .. }
+                | Mat::Bumped { base, .. } => std::slice::from_ref(base),
                 _ => &[],
             };
             if *next < children.len() {

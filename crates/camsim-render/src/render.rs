@@ -10,6 +10,7 @@
 //! equals a render with `samples_per_pixel = k * SAMPLES_PER_PASS` of the same seed.
 
 use crate::camera::CameraRig;
+use crate::filter::FilterSampler;
 use crate::integrator::{RayCounts, Tracer};
 use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use crate::scene::SceneDescription;
@@ -128,6 +129,8 @@ struct TraceCtx<'a> {
     splat: f32,
     /// Luminance weight per band, cd/m^2 per W/(sr m^2 nm) of one wavelength sample.
     lum_w: &'a [f64],
+    /// The pixel filter: film positions and sample weights (`crate::filter`).
+    filter: &'a FilterSampler,
 }
 
 /// One pixel's share of a pass: samples `first .. first + count` of pixel (`x`, `y`).
@@ -142,8 +145,9 @@ struct PixelJob {
 }
 
 impl PixelJob {
-    /// Trace the samples, add their spectral radiance to the tile accumulator `acc` (band-major)
-    /// and return the sum and sum of squares of the per-sample luminance, cd/m^2.
+    /// Trace the samples, add their filter-weighted spectral radiance to the tile accumulator
+    /// `acc` (band-major) and return the sums of the weighted per-sample luminance (cd/m^2), of
+    /// its square and of the filter weights.
     #[inline]
     fn trace<const N: usize, S: PathSampler>(
         &self,
@@ -151,8 +155,8 @@ impl PixelJob {
         sampler: &mut S,
         acc: &mut [f64],
         c: &mut RayCounts,
-    ) -> (f64, f64) {
-        let (mut ls, mut ls2) = (0f64, 0f64);
+    ) -> [f64; 3] {
+        let (mut ls, mut ls2, mut ws) = (0f64, 0f64, 0f64);
         for i in 0..self.count as u64 {
             sampler.start_sample(self.first + i);
             // Wavelength before film position: the independent sampler's draw order since
@@ -160,7 +164,8 @@ impl PixelJob {
             let u_l = sampler.get_1d(dim::WAVELENGTH);
             let [jx, jy] = sampler.get_2d(dim::FILM);
             let (lambdas, band) = ctx.ws.sample::<N>(u_l);
-            let (fx, fy) = (self.x as f32 + jx, self.y as f32 + jy);
+            // pbrt-v4 filter importance sampling: the film position from the filter, weight f/pdf.
+            let (fx, fy, w_filter) = ctx.filter.film_point(self.x, self.y, [jx, jy]);
             let (l, w_cam) = if ctx.rig.has_lens() {
                 // Realistic camera: a point in the exit pupil, the ray traced through the lens at
                 // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
@@ -183,13 +188,16 @@ impl PixelJob {
             let mut y_lum = 0f64;
             for j in 0..N {
                 let v = if l[j].is_finite() { l[j] * w_cam } else { 0.0 };
-                acc[band[j] as usize * self.tile_px + self.local] += (v * ctx.splat) as f64;
+                acc[band[j] as usize * self.tile_px + self.local] +=
+                    (v * ctx.splat * w_filter) as f64;
                 y_lum += v as f64 * ctx.lum_w[band[j] as usize];
             }
-            ls += y_lum;
-            ls2 += y_lum * y_lum;
+            let y_w = y_lum * w_filter as f64;
+            ls += y_w;
+            ls2 += y_w * y_w;
+            ws += w_filter as f64;
         }
-        (ls, ls2)
+        [ls, ls2, ws]
     }
 }
 
@@ -220,20 +228,23 @@ pub fn render(
     let (width, height) = (scene.camera.width, scene.camera.height);
     let bands = st.grid.len();
     let pixels = width * height;
-    // Output image + depth + variance accumulators (2 x f64) + variance + sample counts + ids.
+    // Output image + depth + variance and filter-weight accumulators (3 x f64) + variance +
+    // sample counts + ids.
     camsim_core::mem::check_alloc(
-        pixels as u64 * (bands as u64 * 4 + 4 + 16 + 4 + 4 + 8),
+        pixels as u64 * (bands as u64 * 4 + 4 + 24 + 4 + 4 + 8),
         &format!("a {width} x {height} render with {bands} bands"),
     )?;
     let ws = WavelengthSampler::new(&st.grid);
+    let filter = FilterSampler::new(&st.filter)
+        .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
     let tracer = Tracer::new(scene, &ws)?;
     match st.wavelengths_per_path {
-        1 => run::<1>(scene, &tracer, &rig, &ws, progress, start),
-        2 => run::<2>(scene, &tracer, &rig, &ws, progress, start),
-        3 => run::<3>(scene, &tracer, &rig, &ws, progress, start),
-        4 => run::<4>(scene, &tracer, &rig, &ws, progress, start),
-        8 => run::<8>(scene, &tracer, &rig, &ws, progress, start),
-        16 => run::<16>(scene, &tracer, &rig, &ws, progress, start),
+        1 => run::<1>(scene, &tracer, &rig, &ws, &filter, progress, start),
+        2 => run::<2>(scene, &tracer, &rig, &ws, &filter, progress, start),
+        3 => run::<3>(scene, &tracer, &rig, &ws, &filter, progress, start),
+        4 => run::<4>(scene, &tracer, &rig, &ws, &filter, progress, start),
+        8 => run::<8>(scene, &tracer, &rig, &ws, &filter, progress, start),
+        16 => run::<16>(scene, &tracer, &rig, &ws, &filter, progress, start),
         n => Err(RenderError::Settings(format!(
             "wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"
         ))),
@@ -245,6 +256,7 @@ fn run<const N: usize>(
     tracer: &Tracer,
     rig: &CameraRig,
     ws: &WavelengthSampler,
+    filter: &FilterSampler,
     progress: &(dyn Fn(u64, u64) + Sync),
     start: Instant,
 ) -> Result<RenderOutput, RenderError> {
@@ -264,7 +276,8 @@ fn run<const N: usize>(
     };
     let mut depth = vec![f32::INFINITY; pixels];
     let mut object_id = vec![0u32; pixels];
-    let mut lum = vec![[0f64; 2]; pixels];
+    // Per pixel: sums of the weighted luminance, its square and the filter weights.
+    let mut lum = vec![[0f64; 3]; pixels];
 
     let tiles_x = width.div_ceil(TILE);
     let tiles_y = height.div_ceil(TILE);
@@ -289,6 +302,7 @@ fn run<const N: usize>(
         ws,
         splat,
         lum_w: &lum_w,
+        filter,
     };
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
@@ -335,7 +349,7 @@ fn run<const N: usize>(
                             local,
                             tile_px,
                         };
-                        let (ls, ls2) = match st.sampler {
+                        let sums = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
                                 px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
@@ -348,8 +362,9 @@ fn run<const N: usize>(
                         // SAFETY: pixel `pix` belongs to this tile only.
                         unsafe {
                             let e = &mut *lum_ptr.ptr().add(pix);
-                            e[0] += ls;
-                            e[1] += ls2;
+                            for (a, b) in e.iter_mut().zip(sums) {
+                                *a += b;
+                            }
                         }
                     }
                 }
@@ -383,13 +398,24 @@ fn run<const N: usize>(
     }
 
     let n = samples_done as f64;
-    let inv = 1.0 / samples_done as f32;
-    radiance.data.par_iter_mut().for_each(|v| *v *= inv);
+    // A pixel is the weighted mean of its samples, sum(w L) / sum(w) (pbrt-v4 `RGBFilm`; a
+    // zero weight sum leaves 0). With the default box filter every weight is 1 and sum(w) = n.
+    let inv_w: Vec<f32> = lum
+        .iter()
+        .map(|e| if e[2] != 0.0 { 1.0 / e[2] as f32 } else { 0.0 })
+        .collect();
+    radiance
+        .data
+        .par_chunks_mut(pixels)
+        .for_each(|band| band.iter_mut().zip(&inv_w).for_each(|(v, k)| *v *= k));
+    // The variance of the mean of the weighted luminance, over the squared mean weight (the
+    // ratio estimator's variance to first order; exactly the sample variance / n for weights 1).
     let variance: Vec<f32> = lum
         .iter()
-        .map(|[s, s2]| {
-            if samples_done >= 2 {
-                (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n) as f32
+        .map(|[s, s2, w]| {
+            let mean_w = w / n;
+            if samples_done >= 2 && mean_w != 0.0 {
+                (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n / (mean_w * mean_w)) as f32
             } else {
                 0.0
             }

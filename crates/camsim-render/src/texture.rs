@@ -15,7 +15,7 @@
 
 use crate::math::V3;
 use crate::render::RenderError;
-use crate::scene::{FloatTexture, Texture, UvMapping};
+use crate::scene::{FloatTexture, Texture, UvMapping, WrapMode};
 use crate::spectral::{SpectrumTable, WavelengthSampler};
 use std::sync::Arc;
 
@@ -238,6 +238,7 @@ pub(crate) struct FloatImage {
     pub width: usize,
     pub height: usize,
     pub values: Vec<f32>,
+    pub wrap: WrapMode,
 }
 
 /// A compiled float texture.
@@ -270,41 +271,84 @@ pub(crate) fn bilerp_weights(s: f32, t: f32) -> [f32; 4] {
     [(1.0 - s) * (1.0 - t), s * (1.0 - t), (1.0 - s) * t, s * t]
 }
 
+/// The texel that integer texel coordinates `(x, y)` outside (or inside) a `width` x `height`
+/// image read, or `None` where `wrap` is [`WrapMode::Black`] and the texel lies outside (pbrt-v4
+/// `RemapPixelCoords`).
+#[inline]
+fn wrap_texel(x: i64, y: i64, width: usize, height: usize, wrap: WrapMode) -> Option<usize> {
+    let (w, h) = (width as i64, height as i64);
+    let (x, y) = match wrap {
+        WrapMode::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
+        WrapMode::Clamp => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+        WrapMode::Black => {
+            if !(0..w).contains(&x) || !(0..h).contains(&y) {
+                return None;
+            }
+            (x, y)
+        }
+        WrapMode::OctahedralSphere => {
+            // Mirror across the crossed edge's midpoint: u = 0 or 1 flips v about 0.5, v = 0
+            // or 1 flips u about 0.5 (the equal-area square's edges fold onto each other).
+            let (mut x, mut y) = (x, y);
+            if x < 0 {
+                x = -x;
+                y = h - 1 - y;
+            } else if x >= w {
+                x = 2 * w - 1 - x;
+                y = h - 1 - y;
+            }
+            if y < 0 {
+                x = w - 1 - x;
+                y = -y;
+            } else if y >= h {
+                x = w - 1 - x;
+                y = 2 * h - 1 - y;
+            }
+            // Farther than one image away (or a 1-texel side): stay inside.
+            (x.clamp(0, w - 1), y.clamp(0, h - 1))
+        }
+    };
+    Some(y as usize * width + x as usize)
+}
+
 /// Texel indices and weights of a bilinear lookup at `(s, t)` in a `width` x `height` image
-/// with repeat wrap, row 0 at t = 1, texel centres at half-integers (as `ImageTex::lookup`).
+/// (pbrt-v4 `Image::Bilerp`: row 0 at t = 1, texel centres at half-integers), the texels outside
+/// the image remapped by `wrap`; a texel that black wrap leaves outside gets weight 0 (reads 0).
 #[inline]
 pub(crate) fn bilinear_texels(
     width: usize,
     height: usize,
     s: f32,
     t: f32,
+    wrap: WrapMode,
 ) -> ([usize; 4], [f32; 4]) {
     let t = 1.0 - t;
     let x = s * width as f32 - 0.5;
     let y = t * height as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let wrap = |i: f32, n: usize| -> usize {
-        let n = n as i64;
-        let i = if i.is_finite() { i as i64 } else { 0 };
-        (((i % n) + n) % n) as usize
+    let (xi, yi) = if x0.is_finite() && y0.is_finite() {
+        (x0 as i64, y0 as i64)
+    } else {
+        (0, 0)
     };
-    let (xa, xb) = (wrap(x0, width), wrap(x0 + 1.0, width));
-    let (ya, yb) = (wrap(y0, height), wrap(y0 + 1.0, height));
-    (
-        [
-            ya * width + xa,
-            ya * width + xb,
-            yb * width + xa,
-            yb * width + xb,
-        ],
-        [
-            (1.0 - fx) * (1.0 - fy),
-            fx * (1.0 - fy),
-            (1.0 - fx) * fy,
-            fx * fy,
-        ],
-    )
+    let mut idx = [0usize; 4];
+    let mut w = [
+        (1.0 - fx) * (1.0 - fy),
+        fx * (1.0 - fy),
+        (1.0 - fx) * fy,
+        fx * fy,
+    ];
+    for (k, (dx, dy)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+        match wrap_texel(xi + dx, yi + dy, width, height, wrap) {
+            Some(i) => idx[k] = i,
+            None => w[k] = 0.0,
+        }
+    }
+    if !(fx.is_finite() && fy.is_finite()) {
+        w = [1.0, 0.0, 0.0, 0.0];
+    }
+    (idx, w)
 }
 
 /// Evaluate a float texture at `ctx`.
@@ -313,7 +357,7 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Const(v) => *v,
         FTex::Image(im, map) => {
             let (s, tt) = map.st(ctx);
-            let (idx, w) = bilinear_texels(im.width, im.height, s, tt);
+            let (idx, w) = bilinear_texels(im.width, im.height, s, tt, im.wrap);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
         }
         FTex::Checker(c, map) => {
@@ -425,6 +469,7 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             height,
             values,
             mapping,
+            wrap,
         } => {
             if *width == 0 || *height == 0 || values.len() != width * height {
                 return Err(format!(
@@ -440,6 +485,7 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
                     width: *width,
                     height: *height,
                     values: values.clone(),
+                    wrap: *wrap,
                 }),
                 check_map(mapping)?,
             )
@@ -546,6 +592,7 @@ pub(crate) fn compile_texture(
             udelta,
             vdelta,
             kind,
+            wrap,
         } => {
             if *width == 0 || *height == 0 || rgb.len() != width * height {
                 return Err(err(format!(
@@ -573,6 +620,7 @@ pub(crate) fn compile_texture(
                 vscale: 1.0,
                 udelta: 0.0,
                 vdelta: 0.0,
+                wrap: *wrap,
             });
             Tex::Image((images.len() - 1) as u32, map)
         }
@@ -684,6 +732,52 @@ mod tests {
         assert_eq!(bilerp_weights(0.0, 1.0), [0.0, 0.0, 1.0, 0.0]);
         let w = bilerp_weights(0.3, 0.7);
         assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+    }
+
+    /// The value a bilinear lookup of a 4 x 2 image with texel value `10 y + x` returns.
+    fn lookup(s: f32, t: f32, wrap: WrapMode) -> f32 {
+        let (idx, w) = bilinear_texels(4, 2, s, t, wrap);
+        (0..4)
+            .map(|k| w[k] * ((idx[k] / 4) * 10 + idx[k] % 4) as f32)
+            .sum()
+    }
+
+    #[test]
+    fn wrap_modes_remap_texels_as_pbrt_v4() {
+        // Texel centres: x = (i + 0.5) / 4, row y at t = 1 - (j + 0.5) / 2. At a texel centre
+        // every mode reads the texel itself.
+        for wrap in [
+            WrapMode::Repeat,
+            WrapMode::Clamp,
+            WrapMode::Black,
+            WrapMode::OctahedralSphere,
+        ] {
+            assert_eq!(lookup(0.625, 0.75, wrap), 2.0, "{wrap:?}");
+            assert_eq!(lookup(0.375, 0.25, wrap), 11.0, "{wrap:?}");
+        }
+        // The centre of texel column -1 (s = -1/8), row 0: repeat reads column 3, clamp column
+        // 0, black 0, the octahedral sphere column 1 of the mirrored row 1 (pbrt-v4
+        // `RemapPixelCoords`: x -> -x, y -> h - 1 - y).
+        assert_eq!(lookup(-0.125, 0.75, WrapMode::Repeat), 3.0);
+        assert_eq!(lookup(-0.125, 0.75, WrapMode::Clamp), 0.0);
+        assert_eq!(lookup(-0.125, 0.75, WrapMode::Black), 0.0);
+        assert_eq!(lookup(-0.125, 0.75, WrapMode::OctahedralSphere), 11.0);
+        // Beyond the right edge (column 4): repeat 0, clamp 3, octahedral 2 w - 1 - 4 = 3 in
+        // the mirrored row.
+        assert_eq!(lookup(1.125, 0.75, WrapMode::Repeat), 0.0);
+        assert_eq!(lookup(1.125, 0.75, WrapMode::Clamp), 3.0);
+        assert_eq!(lookup(1.125, 0.75, WrapMode::OctahedralSphere), 13.0);
+        // Above the top (row -1, t = 1.25): octahedral mirrors u about 0.5 (column 3 - x) and
+        // reads row 1; clamp reads row 0; black 0.
+        assert_eq!(lookup(0.125, 1.25, WrapMode::OctahedralSphere), 13.0);
+        assert_eq!(lookup(0.125, 1.25, WrapMode::Clamp), 0.0);
+        assert_eq!(lookup(0.125, 1.25, WrapMode::Black), 0.0);
+        assert_eq!(lookup(0.125, 1.25, WrapMode::Repeat), 10.0);
+        // Halfway between the last column and the one beyond: black weighs the outside texel
+        // as zero (pbrt-v4: 0.5 * 3 + 0.5 * 0), clamp as the edge texel.
+        assert!((lookup(1.0, 0.75, WrapMode::Black) - 1.5).abs() < 1e-6);
+        assert!((lookup(1.0, 0.75, WrapMode::Clamp) - 3.0).abs() < 1e-6);
+        assert!((lookup(1.0, 0.75, WrapMode::Repeat) - 1.5).abs() < 1e-6);
     }
 
     #[test]

@@ -17,7 +17,7 @@ const HALF: f64 = 0.363_970_234_266_202_4;
 fn render_band_sums(world: &str, grid: WavelengthGrid) -> Vec<Vec<f64>> {
     let text = format!(
         "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
-         Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nWorldBegin\n\
+         Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
          LightSource \"infinite\" \"rgb L\" [1 1 1]\n{world}\n\
          Shape \"bilinearmesh\" \"point3 P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1]\n"
     );

@@ -264,7 +264,7 @@ fn autofocus_sharpens_the_edge_the_input_plane_film_blurs() {
         let text = format!(
             "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"raytransfer\" \"string lensfile\" \"{}\" {film}\n\
              Film \"spectral\" \"integer xresolution\" {n} \"integer yresolution\" {n} \"float diagonal\" {diag_mm}\n\
-             WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n\
+             PixelFilter \"box\"\nWorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n\
              Shape \"bilinearmesh\" \"point3 P\" [0 {m} {z}  {w} {m} {z}  0 {w} {z}  {w} {w} {z}]\nAttributeEnd\n",
             rtf_path(),
             m = -w
@@ -329,7 +329,7 @@ fn the_depth_map_lines_up_with_the_near_focused_lens_image() {
     let z = 0.3;
     let text = format!(
         "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"raytransfer\" \"string lensfile\" \"{}\" \"float focusdistance\" {z}\n\
-         Film \"spectral\" \"integer xresolution\" {w} \"integer yresolution\" {h} \"float diagonal\" {diag_mm}\nWorldBegin\nAttributeBegin\n\
+         Film \"spectral\" \"integer xresolution\" {w} \"integer yresolution\" {h} \"float diagonal\" {diag_mm}\nPixelFilter \"box\"\nWorldBegin\nAttributeBegin\n\
          AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n\
          Shape \"bilinearmesh\" \"point3 P\" [X -1 {z}  1 -1 {z}  X 1 {z}  1 1 {z}]\nAttributeEnd\n",
         rtf_path()

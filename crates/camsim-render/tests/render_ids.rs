@@ -11,6 +11,7 @@ LookAt 0 0 5  0 0 0  0 1 0
 Camera "perspective" "float fov" 40
 Sampler "zsobol" "integer pixelsamples" 4
 Film "rgb" "integer xresolution" 64 "integer yresolution" 32
+PixelFilter "box"
 WorldBegin
 LightSource "infinite" "rgb L" [1 1 1]
 MakeNamedMaterial "red" "string type" "diffuse" "rgb reflectance" [0.7 0.05 0.05]

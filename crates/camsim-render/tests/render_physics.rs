@@ -840,6 +840,7 @@ fn image_texture_is_looked_up_by_uv() {
         udelta: 0.0,
         vdelta: 0.0,
         kind: MappingKind::Uv,
+        wrap: Default::default(),
     };
     let quad = Geometry::Triangles {
         positions: vec![

@@ -199,6 +199,25 @@ pub struct FileScene {
     /// Wavelength grid to resample the file onto, nm (optional; default: keep the file's grid).
     #[serde(default)]
     pub wavelengths: Option<WavelengthGrid>,
+    /// The units of the file's values: `auto` (default: pbrt-v4's own spectral output, known
+    /// by its header, is converted from pbrt-v4's units, 683 x 106.857 times W/(sr m^2 nm), and
+    /// gives its field of view from its camera matrices; any other file is W/(sr m^2 nm)),
+    /// `pbrt-v4` (convert), or `absolute` (never convert).
+    #[serde(default)]
+    pub units: FileUnits,
+}
+
+/// What the values of a `file` scene are (see [`FileScene::units`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FileUnits {
+    /// pbrt-v4's files converted, others as they are.
+    #[default]
+    Auto,
+    /// pbrt-v4's units: divided by 683 x 106.856895.
+    PbrtV4,
+    /// W/(sr m^2 nm): no conversion.
+    Absolute,
 }
 
 /// The 2D scene kinds by name: the `kind` of a `[scene]` table (as written there, with `_`),

@@ -23,7 +23,7 @@ pub mod patterns;
 pub mod rgb;
 
 pub use config::{
-    FileScene, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene,
+    FileScene, FileUnits, MacbethScene, Reflectance, SceneConfig, SlantedEdgeScene, UniformScene,
 };
 pub use display::{Display, Transfer};
 pub use geometry::{Edge, MacbethLayout, Rect};
@@ -59,9 +59,31 @@ pub fn create(cfg: &SceneConfig, grid: &WavelengthGrid) -> Result<SpectralImage>
         SceneConfig::Macbeth(c) => create_macbeth(c, grid),
         SceneConfig::SlantedEdge(c) => create_slanted_edge(c, grid),
         SceneConfig::File(c) => {
-            let img = camsim_io::exr::read_spectral_exr(&c.path)
+            use camsim_io::exr::SourceUnits;
+            let units = match c.units {
+                config::FileUnits::Auto => SourceUnits::Auto,
+                config::FileUnits::PbrtV4 => SourceUnits::PbrtV4,
+                config::FileUnits::Absolute => SourceUnits::Absolute,
+            };
+            let (img, info) = camsim_io::exr::read_spectral_exr_as(&c.path, units)
                 .map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
-            from_image(c, img)
+            let mut c = c.clone();
+            if c.fov_deg.is_none() && !info.sample_spacing_known {
+                // A file without camsim's geometry (pbrt-v4's, another renderer's): its field of
+                // view comes from pbrt-v4's camera matrices, or must be given.
+                if img.geometry.fov_deg > 0.0 {
+                    c.fov_deg = Some(img.geometry.fov_deg);
+                } else {
+                    return Err(CoreError::invalid(
+                        "scene.fov_deg",
+                        format!(
+                            "{} carries no field of view (no camsimSampleSpacingM, no pbrt-v4 worldToCamera and worldToNDC): set scene.fov_deg (horizontal, degrees)",
+                            c.path.display()
+                        ),
+                    ));
+                }
+            }
+            from_image(&c, img)
         }
         SceneConfig::Rgb(c) => rgb::create_rgb(c, grid),
         c => match c.pattern() {

@@ -462,6 +462,7 @@ fn file_scene_is_rescaled_resampled_and_given_geometry() {
         fov_deg: Some(30.0),
         distance_m: Some(2.0),
         wavelengths: Some(WavelengthGrid::default()),
+        units: Default::default(),
     };
     let img = from_image(&cfg, src.clone()).unwrap();
     assert_eq!(img.bands(), 31);
@@ -495,6 +496,7 @@ fn file_scene_is_rescaled_resampled_and_given_geometry() {
             fov_deg: None,
             distance_m: None,
             wavelengths: None,
+            units: Default::default(),
         },
         src.clone(),
     )

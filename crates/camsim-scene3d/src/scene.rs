@@ -124,6 +124,35 @@ impl Default for UvMapping {
     }
 }
 
+/// What an image lookup returns outside `[0, 1]^2` (pbrt-v4 `WrapMode`, 4th ed. sec. 10.4.3):
+/// texel coordinates are remapped before the bilinear lookup reads them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    /// The image tiles the plane (pbrt-v4 default).
+    #[default]
+    Repeat,
+    /// Texel coordinates are clamped to the edge texels.
+    Clamp,
+    /// Texels outside the image are zero.
+    Black,
+    /// pbrt-v4's equal-area octahedral sphere: a texel beyond an edge is the mirror image across
+    /// that edge's midpoint (the square's edges fold onto each other on the sphere).
+    OctahedralSphere,
+}
+
+impl WrapMode {
+    /// pbrt-v4's names: `repeat`, `clamp`, `black`, `octahedralsphere`.
+    pub fn from_name(name: &str) -> Option<WrapMode> {
+        match name {
+            "repeat" => Some(WrapMode::Repeat),
+            "clamp" => Some(WrapMode::Clamp),
+            "black" => Some(WrapMode::Black),
+            "octahedralsphere" => Some(WrapMode::OctahedralSphere),
+            _ => None,
+        }
+    }
+}
+
 /// How a 2D texture finds its `(s, t)` (pbrt-v4 `TextureMapping2D`); the transforms take world
 /// space to texture space (the inverse of the texture's CTM; boxed, so that the common uv mapping
 /// keeps textures small).
@@ -155,7 +184,7 @@ pub enum Texture {
     /// The same spectrum everywhere.
     Constant(Spectrum),
     /// An RGB image (linear reflectance, row 0 at v = 1 as in pbrt) looked up by the mesh's uv,
-    /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]).
+    /// uplifted to a smooth spectrum per lookup ([`crate::uplift`]); `wrap` outside `[0, 1]^2`.
     Image {
         width: usize,
         height: usize,
@@ -165,6 +194,7 @@ pub enum Texture {
         udelta: f64,
         vdelta: f64,
         kind: MappingKind,
+        wrap: WrapMode,
     },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
@@ -248,17 +278,18 @@ pub enum NoiseKind {
 }
 
 /// A dimensionless scalar that may vary over the surface (roughness, amounts, scales).
-/// Same node set as [`Texture`]; image values are the mean of the RGB channels (pbrt-v4
-/// `FloatImageTexture` reads a one-channel image; camsim averages the channels).
+/// Same node set as [`Texture`]; image values are the image's first channel (pbrt-v4
+/// `FloatImageTexture` reads channel 0, R of an RGB image).
 #[derive(Debug, Clone, PartialEq)]
 pub enum FloatTexture {
     Constant(f64),
-    /// Row 0 at t = 1, bilinear, repeat wrap (as [`Texture::Image`]).
+    /// Row 0 at t = 1, bilinear, `wrap` outside `[0, 1]^2` (as [`Texture::Image`]).
     Image {
         width: usize,
         height: usize,
         values: Vec<f32>,
         mapping: UvMapping,
+        wrap: WrapMode,
     },
     Checkerboard {
         tex1: Box<FloatTexture>,
@@ -372,6 +403,13 @@ pub enum Material {
         material: usize,
         alpha: FloatTexture,
     },
+    /// Material `material` (index into `SceneDescription::materials`) with its shading normal
+    /// perturbed at every hit by a bump or normal map (pbrt-v4 materials' `displacement` and
+    /// `normalmap`; the renderer's `bump` module).
+    Bumped {
+        material: usize,
+        perturbation: NormalPerturbation,
+    },
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
@@ -383,6 +421,27 @@ pub enum Material {
         v: FloatTexture,
         remap: bool,
     },
+}
+
+/// What perturbs a material's shading normal per hit (pbrt-v4 4th ed. sec. 10.5.1).
+#[derive(Debug, Clone, PartialEq)]
+pub enum NormalPerturbation {
+    /// pbrt-v4 `displacement` (or `bumpmap`): a float texture, the surface displaced along its
+    /// shading normal by that distance (scene units); the shading normal is the displaced
+    /// surface's (pbrt-v4 `BumpMap`).
+    Displacement(FloatTexture),
+    /// pbrt-v4 `normalmap`: an image of tangent-space normals (pbrt-v4 `NormalMap`).
+    NormalMap(std::sync::Arc<NormalMapImage>),
+}
+
+/// A normal map: linear RGB texels (row 0 at v = 1), each `(n + 1) / 2` of a unit normal in the
+/// tangent frame (dp/du, n x dp/du, n); looked up bilinearly at the surface's (u, v) with repeat
+/// wrap.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NormalMapImage {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
 }
 
 /// The medium between a coating's two interfaces and the random walk that evaluates the
@@ -772,6 +831,80 @@ pub struct RenderSettings {
     /// variance, which reaches a given luminance error sooner on the Cornell box (measured by
     /// `examples/convergence.rs`). 0 behaves as 1.
     pub russian_roulette_depth: u32,
+    /// The pixel reconstruction filter (pbrt-v4 `PixelFilter`), applied by filter importance
+    /// sampling; default a box of radius 0.5 (each pixel averages its own square).
+    pub filter: PixelFilter,
+}
+
+/// pbrt-v4's pixel reconstruction filters (4th ed. sec. 8.8.1), separable, radii in pixels per
+/// axis (x, y). The renderer samples each camera ray's film offset from the filter and weights
+/// the sample by filter / pdf (sec. 8.8.2; negative lobes give negative weights); a pixel is
+/// the weighted mean of its samples. pbrt-v4's defaults in brackets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PixelFilter {
+    /// 1 inside the radius [0.5].
+    Box { radius: [f64; 2] },
+    /// `max(0, G(x) - G(r))` per axis, `G` the normal density of standard deviation `sigma`
+    /// [radius 1.5, sigma 0.5]. pbrt-v4's default when a file has no `PixelFilter`.
+    Gaussian { radius: [f64; 2], sigma: f64 },
+    /// Mitchell-Netravali cubic of `2 x / r` with `b`, `c` [radius 2, b = c = 1/3].
+    Mitchell { radius: [f64; 2], b: f64, c: f64 },
+    /// Lanczos windowed sinc, `sinc(x) sinc(x / tau)` inside the radius (pbrt-v4 `sinc`)
+    /// [radius 4, tau 3].
+    Lanczos { radius: [f64; 2], tau: f64 },
+    /// `max(0, r - |x|)` per axis [radius 2].
+    Triangle { radius: [f64; 2] },
+}
+
+impl Default for PixelFilter {
+    fn default() -> Self {
+        PixelFilter::Box { radius: [0.5, 0.5] }
+    }
+}
+
+impl PixelFilter {
+    /// Largest filter radius accepted, pixels (pbrt-v4 has no limit; the sampling table grows
+    /// with the radius, and a wider filter blurs the image beyond use).
+    pub const MAX_RADIUS_PX: f64 = 64.0;
+
+    /// Check the parameters (radii between 1/32 pixel, pbrt-v4's table resolution, and
+    /// [`Self::MAX_RADIUS_PX`]; a positive `sigma` and `tau`; finite `B` and `C`); the message
+    /// names the bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        let r = self.radius();
+        if !r
+            .iter()
+            .all(|v| v.is_finite() && *v >= 1.0 / 32.0 && *v <= Self::MAX_RADIUS_PX)
+        {
+            return Err(format!(
+                "radius {r:?} must lie between 1/32 and {} pixels",
+                Self::MAX_RADIUS_PX
+            ));
+        }
+        match *self {
+            PixelFilter::Gaussian { sigma, .. } if !(sigma > 0.0 && sigma.is_finite()) => {
+                Err(format!("sigma {sigma} must be > 0"))
+            }
+            PixelFilter::Mitchell { b, c, .. } if !(b.is_finite() && c.is_finite()) => {
+                Err(format!("B {b} and C {c} must be finite"))
+            }
+            PixelFilter::Lanczos { tau, .. } if !(tau > 0.0 && tau.is_finite()) => {
+                Err(format!("tau {tau} must be > 0"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The filter's radius in pixels, (x, y).
+    pub fn radius(&self) -> [f64; 2] {
+        match *self {
+            PixelFilter::Box { radius }
+            | PixelFilter::Gaussian { radius, .. }
+            | PixelFilter::Mitchell { radius, .. }
+            | PixelFilter::Lanczos { radius, .. }
+            | PixelFilter::Triangle { radius } => radius,
+        }
+    }
 }
 
 impl Default for RenderSettings {
@@ -786,6 +919,7 @@ impl Default for RenderSettings {
             direct_only: false,
             sampler: SamplerKind::Sobol,
             russian_roulette_depth: 5,
+            filter: PixelFilter::default(),
         }
     }
 }

@@ -5,8 +5,11 @@ use super::super::params::ParamList;
 use super::super::spectra::{param_spectrum, SpectrumUse};
 use super::super::{Loc, PbrtError};
 use super::textures::flat;
-use super::Parser;
-use crate::scene::{ConductorOptics, FloatTexture, LayerWalk, Material, Roughness, Texture};
+use super::{load_image, Encoding, Parser};
+use crate::scene::{
+    ConductorOptics, FloatTexture, LayerWalk, Material, NormalMapImage, NormalPerturbation,
+    Roughness, Texture,
+};
 use camsim_core::Spectrum;
 use std::path::Path;
 
@@ -258,12 +261,18 @@ impl Parser {
         file: &Path,
     ) -> Result<Material, PbrtError> {
         let what = format!("material \"{ty}\"");
-        // Accepted everywhere and ignored: camsim has no bump, displacement or normal mapping.
-        for n in ["displacement", "bumpmap", "normalmap"] {
-            if let Some(l) = params.ignore(n) {
-                self.note(&l, format!("{what}: \"{n}\" ignored (camsim has no bump, displacement or normal mapping)"));
-            }
-        }
+        // Bump and normal maps on the materials pbrt-v4 gives them to; on the others (`mix`,
+        // `interface`) they stay unused, an error as in pbrt-v4.
+        let perturbation = match ty {
+            "diffuse"
+            | "conductor"
+            | "dielectric"
+            | "thindielectric"
+            | "diffusetransmission"
+            | "coateddiffuse"
+            | "coatedconductor" => self.normal_perturbation(params, loc, file, &what)?,
+            _ => None,
+        };
         params.get("type", &["string"])?;
         self.varying = None;
         let m = match ty {
@@ -415,15 +424,82 @@ impl Parser {
         };
         params.check_unused(&what)?;
         // Roughness textures: the material as read is the base of a per-hit roughness wrapper.
-        if let Some((u, v, remap)) = self.varying.take() {
-            self.materials.push(m);
-            return Ok(Material::VaryingRoughness {
-                material: self.materials.len() - 1,
-                u,
-                v,
-                remap,
-            });
+        let m = match self.varying.take() {
+            Some((u, v, remap)) => {
+                self.materials.push(m);
+                Material::VaryingRoughness {
+                    material: self.materials.len() - 1,
+                    u,
+                    v,
+                    remap,
+                }
+            }
+            None => m,
+        };
+        // A bump or normal map wraps the whole material (its shading normal, per hit).
+        Ok(match perturbation {
+            Some(perturbation) => {
+                self.materials.push(m);
+                Material::Bumped {
+                    material: self.materials.len() - 1,
+                    perturbation,
+                }
+            }
+            None => m,
+        })
+    }
+
+    /// pbrt-v4's `normalmap` (an image file, read with a linear encoding and cached by path)
+    /// or `displacement` (a float texture; pbrt-v3's name `bumpmap` is renamed to it, as
+    /// pbrt-v4's parser does). With both, the normal map wins (pbrt-v4 `GetBSDF`); a constant
+    /// zero displacement is none.
+    fn normal_perturbation(
+        &mut self,
+        params: &ParamList,
+        loc: &Loc,
+        file: &Path,
+        what: &str,
+    ) -> Result<Option<NormalPerturbation>, PbrtError> {
+        let disp_name = match (
+            params.get("displacement", &["float", "texture"])?,
+            params.get("bumpmap", &["float", "texture"])?,
+        ) {
+            (Some(_), Some(p)) => {
+                return Err(p.loc.err(format!(
+                    "{what}: give \"displacement\" or its old name \"bumpmap\", not both"
+                )))
+            }
+            (Some(_), None) => Some("displacement"),
+            (None, Some(_)) => Some("bumpmap"),
+            (None, None) => None,
+        };
+        let displacement = match disp_name {
+            Some(n) => Some(self.float_texture_param(params, n, 0.0)?),
+            None => None,
+        };
+        if let Some(fname) = params.string("normalmap")?.filter(|f| !f.is_empty()) {
+            let path = self.resolve(file, &fname);
+            let image = match self.normal_maps.get(&path) {
+                Some(im) => im.clone(),
+                None => {
+                    let (width, height, rgb) = load_image(&path, Encoding::Linear)
+                        .map_err(|e| loc.err(format!("{what}: normalmap: {e}")))?;
+                    let im = std::sync::Arc::new(NormalMapImage { width, height, rgb });
+                    self.normal_maps.insert(path, im.clone());
+                    im
+                }
+            };
+            if displacement.is_some() {
+                self.note(
+                    loc,
+                    format!("{what}: \"normalmap\" used, displacement ignored (pbrt-v4 applies the normal map when both are given)"),
+                );
+            }
+            return Ok(Some(NormalPerturbation::NormalMap(image)));
         }
-        Ok(m)
+        Ok(match displacement {
+            None | Some(FloatTexture::Constant(0.0)) => None,
+            Some(t) => Some(NormalPerturbation::Displacement(t)),
+        })
     }
 }

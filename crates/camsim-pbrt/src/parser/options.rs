@@ -1,5 +1,6 @@
-//! Rendering options before `WorldBegin`: `Camera`, `Film`, `Sampler`, `Integrator`, and the
-//! directives camsim reads but ignores (`PixelFilter`, `Accelerator`, `ColorSpace`, `Option`).
+//! Rendering options before `WorldBegin`: `Camera`, `Film`, `Sampler`, `Integrator`,
+//! `PixelFilter`, and the directives camsim reads but ignores (`Accelerator`, `ColorSpace`,
+//! `Option`).
 //! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
 
 use super::*;
@@ -30,13 +31,7 @@ impl Parser {
                 self.require_world(loc, d, false)?;
                 let ty = string_arg(tokens, pos, f, d)?;
                 let params = parse_params(tokens, pos, f)?;
-                params.params.iter().for_each(|p| p.used.set(true));
-                self.note(
-                    loc,
-                    format!(
-                        "PixelFilter \"{ty}\" ignored (camsim uses a box filter over each pixel)"
-                    ),
-                );
+                self.pixel_filter(&ty, &params, loc)?;
             }
             "Accelerator" => {
                 self.require_world(loc, d, false)?;
@@ -58,6 +53,50 @@ impl Parser {
             }
             other => return Err(loc.err(format!("unknown directive \"{other}\""))),
         }
+        Ok(())
+    }
+}
+
+impl Parser {
+    /// pbrt-v4 `PixelFilter` (`Filter::Create`): `box` (`xradius`, `yradius` 0.5), `gaussian`
+    /// (1.5, `sigma` 0.5), `mitchell` (2, `B`, `C` 1/3), `sinc` (4, `tau` 3; also read as
+    /// `lanczos`), `triangle` (2). pbrt-v4's default without the directive is `gaussian`.
+    fn pixel_filter(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
+        use crate::scene::PixelFilter;
+        let radius = |d: f64| -> Result<[f64; 2], PbrtError> {
+            Ok([params.float("xradius", d)?, params.float("yradius", d)?])
+        };
+        let filter = match ty {
+            "box" => PixelFilter::Box {
+                radius: radius(0.5)?,
+            },
+            "gaussian" => PixelFilter::Gaussian {
+                radius: radius(1.5)?,
+                sigma: params.float("sigma", 0.5)?,
+            },
+            "mitchell" => PixelFilter::Mitchell {
+                radius: radius(2.0)?,
+                b: params.float("B", 1.0 / 3.0)?,
+                c: params.float("C", 1.0 / 3.0)?,
+            },
+            "sinc" | "lanczos" => PixelFilter::Lanczos {
+                radius: radius(4.0)?,
+                tau: params.float("tau", 3.0)?,
+            },
+            "triangle" => PixelFilter::Triangle {
+                radius: radius(2.0)?,
+            },
+            _ => {
+                return Err(loc.err(format!(
+                    "PixelFilter \"{ty}\" is not one of box, gaussian, mitchell, sinc (lanczos), triangle"
+                )))
+            }
+        };
+        params.check_unused(&format!("PixelFilter \"{ty}\""))?;
+        filter
+            .validate()
+            .map_err(|e| loc.err(format!("PixelFilter \"{ty}\": {e}")))?;
+        self.settings.filter = filter;
         Ok(())
     }
 }

@@ -4,11 +4,11 @@
 //! (pbrt-v4 `textures.cpp`, `*Texture::Create`), and the helpers materials use to read a
 //! spectrum- or float-texture parameter.
 
-use super::{load_image, parse_encoding, Parser};
+use super::{load_image, Parser};
 use crate::params::ParamList;
 use crate::scene::{
     FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform,
-    UvMapping,
+    UvMapping, WrapMode,
 };
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
@@ -21,8 +21,13 @@ const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, direc
 const SPECTRUM_CLASSES: &str =
     "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
-/// An image texture's width, height, texels and mapping.
-type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping);
+/// An image texture's width, height, texels, mapping and wrap mode.
+type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping, WrapMode);
+
+/// Whether an image texture is inverted (`bool invert`, already read and checked).
+fn invert_clamps(params: &ParamList) -> bool {
+    params.bool("invert", false).unwrap_or(false)
+}
 
 /// A constant spectrum `v` at every wavelength.
 pub(crate) fn flat(v: f64) -> Spectrum {
@@ -169,45 +174,38 @@ impl Parser {
         loc: &Loc,
         file: &Path,
     ) -> Result<ImageMap, PbrtError> {
-        let fname = params.string("filename")?.ok_or_else(|| {
-            loc.err(format!(
-                "Texture \"{name}\": imagemap needs \"string filename\""
-            ))
-        })?;
+        let what = format!("Texture \"{name}\"");
+        let fname = params
+            .string("filename")?
+            .ok_or_else(|| loc.err(format!("{what}: imagemap needs \"string filename\"")))?;
         let path = self.resolve(file, &fname);
-        let default_enc = if fname.to_ascii_lowercase().ends_with(".png") {
-            "sRGB"
-        } else {
-            "linear"
-        };
-        let enc = params
-            .string("encoding")?
-            .unwrap_or_else(|| default_enc.to_string());
-        let encoding = parse_encoding(&enc).ok_or_else(|| {
-            loc.err(format!(
-                "Texture \"{name}\": unknown encoding \"{enc}\" (sRGB, linear, gamma G)"
-            ))
-        })?;
+        let encoding = self.image_encoding(&fname, params, loc, &what)?;
         let scale = params.float("scale", 1.0)? as f32;
         let invert = params.bool("invert", false)?;
         let mapping = self.uv_mapping(name, params, loc)?;
-        if let Some(w) = params.string("wrap")? {
-            if w != "repeat" {
-                self.note(
-                    loc,
-                    format!("Texture \"{name}\": wrap \"{w}\" approximated by repeat"),
-                );
-            }
+        let wrap_name = params.string("wrap")?.unwrap_or_else(|| "repeat".into());
+        let wrap = WrapMode::from_name(&wrap_name).ok_or_else(|| {
+            loc.err(format!(
+                "{what}: wrap \"{wrap_name}\" is not one of repeat, clamp, black, octahedralsphere"
+            ))
+        })?;
+        if wrap == WrapMode::OctahedralSphere && !matches!(mapping.kind, MappingKind::Uv) {
+            self.note(
+                loc,
+                format!("{what}: wrap \"octahedralsphere\" with a non-uv mapping"),
+            );
         }
         self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
         params.check_unused("Texture \"imagemap\"")?;
         let (width, height, mut rgb) =
-            load_image(&path, encoding).map_err(|e| loc.err(format!("Texture \"{name}\": {e}")))?;
+            load_image(&path, encoding).map_err(|e| loc.err(format!("{what}: {e}")))?;
+        // pbrt-v4 `*ImageTexture::Evaluate`: scale, then 1 - v if inverted (applied per texel
+        // here: the same after bilinear weights that sum to 1, i.e. for every wrap but black).
         for c in rgb.iter_mut().flatten() {
             let v = *c * scale;
             *c = if invert { 1.0 - v } else { v };
         }
-        Ok((width, height, rgb, mapping))
+        Ok((width, height, rgb, mapping, wrap))
     }
 
     pub(super) fn texture(
@@ -238,9 +236,20 @@ impl Parser {
             dim == 3
         };
         if class == "imagemap" {
-            let (width, height, rgb, mapping) = self.imagemap(name, params, loc, file)?;
+            let (width, height, rgb, mapping, wrap) = self.imagemap(name, params, loc, file)?;
             if float {
-                let values = rgb.iter().map(|c| (c[0] + c[1] + c[2]) / 3.0).collect();
+                // pbrt-v4 `MIPMap::Texel<Float>`: the first channel (R; Y of a grey image). A
+                // float texture never goes negative through `invert` (pbrt-v4 max(0, 1 - v)).
+                let values = rgb
+                    .iter()
+                    .map(|c| {
+                        if invert_clamps(params) {
+                            c[0].max(0.0)
+                        } else {
+                            c[0]
+                        }
+                    })
+                    .collect();
                 self.float_textures.insert(
                     name.to_string(),
                     FloatTexture::Image {
@@ -248,6 +257,7 @@ impl Parser {
                         height,
                         values,
                         mapping,
+                        wrap,
                     },
                 );
             } else {
@@ -282,6 +292,7 @@ impl Parser {
                         udelta,
                         vdelta,
                         kind,
+                        wrap,
                     },
                 );
             }
