@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 
 mod lights;
 mod materials;
+mod media;
 mod textures;
 
 // The directive families, dispatched by `Parser::directive`.
@@ -64,6 +65,8 @@ struct GraphicsState {
     /// `Attribute "category" ...` defaults (pbrt-v4 graphics-state shape/light/material/
     /// medium/texture attributes): `(category, parameter)`, scoped like the rest of the state.
     attributes: Vec<(&'static str, Param)>,
+    /// The media selected by `MediumInterface` (none: vacuum on both sides).
+    medium: Option<media::MediumNames>,
 }
 
 #[derive(Debug, Clone)]
@@ -79,6 +82,8 @@ struct PendingShape {
     /// 0 drops the shape), keyed by its parameter text so shapes sharing one material and one
     /// alpha share one [`Material::AlphaMasked`].
     alpha: Option<(String, FloatTexture)>,
+    /// The media on the shape's two sides (`MediumInterface` current at the shape).
+    medium: Option<media::MediumNames>,
 }
 
 enum Block {
@@ -122,6 +127,8 @@ struct Parser {
     cur_pos: usize,
     /// Too many problems: stop reading.
     aborted: bool,
+    /// Participating media and what selects them (`parser/media.rs`).
+    media: media::ParsedMedia,
 }
 
 /// Index of the first token at or after `from` that can start a directive: a bare word
@@ -158,6 +165,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
             area_light: None,
             name: None,
             attributes: Vec::new(),
+            medium: None,
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
@@ -187,6 +195,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         errors: Vec::new(),
         cur_pos: 0,
         aborted: false,
+        media: Default::default(),
     };
     // An `Err` here means reading stopped early (too many problems); they are all in `errors`.
     let _ = p.parse_text(text, path);
@@ -740,7 +749,9 @@ impl Parser {
             "Integrator",
         );
         params.check_unused(&format!("Integrator \"{ty}\""))?;
-        if ty != "path" {
+        // How "volpath" (and "path"/"bdpt" with media) is rendered is noted at the end.
+        self.media.integrator = Some((ty.to_string(), loc.clone()));
+        if !matches!(ty, "path" | "volpath") {
             self.note(loc, format!("Integrator \"{ty}\" rendered with camsim's path tracer (same converged radiance without media)"));
         }
         Ok(())
@@ -1122,6 +1133,7 @@ impl Parser {
             light: self.gs.area_light.clone(),
             single: matches!(ty, "disk" | "cylinder"),
             alpha,
+            medium: self.gs.medium.clone(),
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1145,6 +1157,7 @@ impl Parser {
         let mut notes = self.notes;
         let mut errors = self.errors;
         let mut materials = self.materials;
+        let mut media = self.media;
         // (base material, alpha parameter text) -> its `AlphaMasked` material.
         let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
@@ -1163,6 +1176,16 @@ impl Parser {
                         continue;
                     }
                 },
+            };
+            // A medium boundary wraps the material; an alpha mask wraps that.
+            let material = match media.wrap(material, ps.medium.as_ref(), &mut materials) {
+                Ok(m) => m,
+                Err(e) => {
+                    if !errors.contains(&e) {
+                        errors.push(e);
+                    }
+                    continue;
+                }
             };
             let material = match ps.alpha {
                 None => material,
@@ -1257,9 +1280,14 @@ impl Parser {
                 }
             }
         }
+        let media = media.finish(&mut notes);
+        if let Err(e) = &media {
+            errors.push(e.clone());
+        }
         if !errors.is_empty() {
             return Err(PbrtError::combine(errors));
         }
+        let media = media?;
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
         let (mut fov_deg, mut lens) = (self.fov_deg, None);
         if let Some(r) = self.realistic {
@@ -1300,6 +1328,7 @@ impl Parser {
             settings: self.settings,
             focus_distance_m: self.focus_distance_m,
             notes,
+            media,
         })
     }
 }

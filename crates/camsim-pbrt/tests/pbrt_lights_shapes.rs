@@ -471,6 +471,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         },
         focus_distance_m: None,
         notes: vec![],
+        media: Default::default(),
     };
     let out = render(&sc, &|_, _| {}).unwrap();
     let img = &out.radiance;

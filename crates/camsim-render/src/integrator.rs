@@ -15,6 +15,8 @@ use crate::scene::{Geometry, SceneDescription};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::texture::{eval_float, FTex, Tex, TexCtx};
 
+mod volpath;
+
 /// Marks a primitive without an emitter.
 pub(crate) const NO_LIGHT: u32 = u32::MAX;
 
@@ -117,6 +119,8 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
+    /// Participating media, when a ray can be in one (then `volpath` renders the scene).
+    pub media: Option<Box<crate::media::MediaSet>>,
 }
 
 /// Surface data at a hit.
@@ -143,6 +147,7 @@ impl Tracer {
             materials.push(mat);
         }
         check_mix_cycles(&materials)?;
+        let media = crate::media::MediaSet::compile(scene, ws)?;
 
         // Count primitives first so the memory guard can refuse huge scenes before allocating.
         let mut n_prims = 0u64;
@@ -500,7 +505,7 @@ impl Tracer {
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
         }
-        if lights.is_empty() {
+        if lights.is_empty() && !media.as_ref().is_some_and(|m| m.emissive()) {
             return Err(RenderError::NoLights);
         }
         // Scene radius for the infinite light's power (pbrt-v4 UniformInfiniteLight::Phi).
@@ -550,6 +555,7 @@ impl Tracer {
             shape_flip,
             has_interface,
             has_alpha,
+            media,
         })
     }
 

@@ -57,6 +57,10 @@ pub(crate) enum Mat {
         base: u32,
         alpha: FTex,
     },
+    /// A medium boundary over material `base` (the media are in `Tracer::media`).
+    MediumBoundary {
+        base: u32,
+    },
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
         base: u32,
@@ -105,7 +109,7 @@ impl Tracer {
                     };
                 }
                 // The alpha test ran before (`alpha_keeps`): the surface is the base material.
-                Mat::AlphaMasked { base, .. } => m = *base,
+                Mat::AlphaMasked { base, .. } | Mat::MediumBoundary { base } => m = *base,
                 _ => return m,
             }
         }
@@ -301,7 +305,10 @@ impl Tracer {
                 (bsdf, terminate)
             }
             // Resolved before (mix, alpha) or handled by the tracer (interface): never reached.
-            Mat::Mix { .. } | Mat::Interface | Mat::AlphaMasked { .. } => (
+            Mat::Mix { .. }
+            | Mat::Interface
+            | Mat::AlphaMasked { .. }
+            | Mat::MediumBoundary { .. } => (
                 Bsdf::Diffuse {
                     reflectance: [0.0; N],
                 },
@@ -564,6 +571,16 @@ pub(crate) fn compile_material(
                 remap: *remap,
             }
         }
+        Material::MediumInterface { material, .. } => {
+            if *material >= n_materials {
+                return Err(err(format!(
+                    "medium boundary refers to material {material} but the scene has {n_materials}"
+                )));
+            }
+            Mat::MediumBoundary {
+                base: *material as u32,
+            }
+        }
         Material::AlphaMasked { material, alpha } => {
             if *material >= n_materials {
                 return Err(err(format!(
@@ -591,9 +608,9 @@ pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
         while let Some(&mut (node, ref mut next)) = stack.last_mut() {
             let children: &[u32] = match &materials[node] {
                 Mat::Mix { materials, .. } => materials,
-                Mat::AlphaMasked { base, .. } | Mat::VaryingRoughness { base, .. } => {
-                    std::slice::from_ref(base)
-                }
+                Mat::AlphaMasked { base, .. }
+                | Mat::VaryingRoughness { base, .. }
+                | Mat::MediumBoundary { base } => std::slice::from_ref(base),
                 _ => &[],
             };
             if *next < children.len() {
