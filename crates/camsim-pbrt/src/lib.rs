@@ -26,12 +26,14 @@
 //!   `Film` (`rgb`, `spectral`, `gbuffer`: `xresolution`, `yresolution`), `Sampler` (any type;
 //!   `pixelsamples`, or `xsamples` x `ysamples` for `stratified`; `seed`; `"independent"` selects
 //!   camsim's independent sampler, every other type its padded Owen-scrambled Sobol sampler, see
-//!   `camsim_render::sampler`), `Integrator` (`path`; `volpath`, `simplevolpath`, `bdpt`,
-//!   `sppm`, `lightpath`, `mlt`, `randomwalk`, `simplepath` -> camsim's path tracer with a note;
-//!   `maxdepth`), `PixelFilter` (`box`, `gaussian`, `mitchell`, `sinc`/`lanczos`, `triangle`
-//!   with pbrt-v4's parameters and default radii; gaussian without the directive, as pbrt-v4;
-//!   see [`camsim_scene3d::scene::PixelFilter`]), `ColorSpace "srgb"` (other colour spaces,
-//!   `Option`, `Accelerator` and unknown `Sampler` types are warnings in the notes).
+//!   `camsim_render::sampler`), `Integrator` (`path`; `bdpt`, `sppm`, `lightpath`, `mlt`,
+//!   `randomwalk`, `simplepath` -> camsim's path tracer with a note; `volpath`,
+//!   `simplevolpath`, and any integrator when the scene has participating media -> its
+//!   volumetric path tracer, with a note; `maxdepth`), `PixelFilter` (`box`, `gaussian`,
+//!   `mitchell`, `sinc`/`lanczos`, `triangle` with pbrt-v4's parameters and default radii;
+//!   gaussian without the directive, as pbrt-v4; see [`camsim_scene3d::scene::PixelFilter`]),
+//!   `ColorSpace "srgb"` (other colour spaces, `Option`, `Accelerator` and unknown `Sampler`
+//!   types are warnings in the notes).
 //! - Transforms: `Identity`, `Translate`, `Scale`, `Rotate`, `LookAt`, `Transform`,
 //!   `ConcatTransform` (16 numbers, column-major as pbrt-v4 reads them), `CoordinateSystem`,
 //!   `CoordSysTransform` (`"camera"` is defined by `Camera`), `ReverseOrientation`,
@@ -102,6 +104,11 @@
 //!   `scale`, `from`, `to`, `illuminance`) and `"infinite"` (`L`, `scale`, `illuminance`; or
 //!   `filename`: a square image is pbrt-v4's equal-area octahedral map, a 2:1 image a lat-long
 //!   map, see [`camsim_scene3d::envmap`]; PNG, EXR or PFM as the Bitterli scenes ship them),
+//!   participating media (`parser/media.rs`): `MakeNamedMedium` `homogeneous` (`sigma_a`,
+//!   `sigma_s` as unbounded spectra, `scale`, `g`, `Le`, `Lescale`, `preset`: Jensen et al. 2001),
+//!   `uniformgrid`, `rgbgrid`, `cloud`, and `MediumInterface` (graphics state: the shapes whose
+//!   two sides differ become [`camsim_scene3d::scene::Material::MediumInterface`] boundaries,
+//!   the outside medium at `Camera` is the camera's; names resolve at the end, as in pbrt-v4),
 //!   `Attribute "shape"|"light"|"material"|"medium"|"texture"` (defaults for later directives
 //!   of that category in the same attribute scope; a directive's own parameter wins, as pbrt-v4's
 //!   `ParameterDictionary` with graphics-state attributes), `ObjectBegin`/`ObjectEnd`/
@@ -147,9 +154,7 @@
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
-//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`; `MakeNamedMedium`
-//! (defined but never selected, a medium changes nothing); `MediumInterface` with empty names
-//! (vacuum);
+//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`;
 //! texture `filter`, `maxanisotropy` (bilinear lookups at the hit, no MIP-mapping); the
 //! parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
@@ -160,8 +165,8 @@
 //! (`hair`, `measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
 //! texture classes other than those above (`ptex`); shapes other than those above (`curve`, ...),
-//! infinite-light `portal`s and maps that are neither square nor 2:1; participating media (a
-//! `MediumInterface` that selects a named medium); `Attribute` categories other than the five
+//! infinite-light `portal`s and maps that are neither square nor 2:1; `nanovdb` media and the
+//! Narasimhan et al. 2006 media presets; `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`
 //! (pbrt-v3); unknown directives.
 //!

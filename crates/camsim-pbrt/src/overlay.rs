@@ -20,6 +20,7 @@
 //! russian_roulette_depth = 5     # first bounce with Russian roulette
 //! time_budget_s = 60.0
 //! grid = { start_nm = 400.0, end_nm = 700.0, step_nm = 10.0 }
+//! medium = { sigma_a_per_m = 0.01, sigma_s_per_m = 0.5, g = 0.3 }  # fill with fog (1/m)
 //!
 //! [[material]]                   # set (or create) a material's reflectance
 //! name = "red"                   # a named material; `*` matches any run of characters
@@ -68,6 +69,9 @@ use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{tables, Spectrum, WavelengthGrid};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+
+mod medium;
+pub use medium::MediumOverlay;
 
 /// An overlay error: the overlay's name and what is wrong (with the TOML position or the key).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -133,6 +137,9 @@ pub struct RenderOverlay {
     pub time_budget_s: Option<f64>,
     /// Output wavelength grid, nm.
     pub grid: Option<GridOverlay>,
+    /// Fill the scene with one homogeneous participating medium (the camera's medium; see
+    /// [`MediumOverlay`]).
+    pub medium: Option<MediumOverlay>,
 }
 
 /// A wavelength grid, nm.
@@ -432,6 +439,9 @@ pub fn apply_overlay(
             s.grid = WavelengthGrid::new(g.start_nm, g.end_nm, g.step_nm)
                 .map_err(|e| format!("render.grid: {e}"))?;
         }
+        if let Some(m) = &r.medium {
+            medium::fill(scene, m, base_dir)?;
+        }
     }
     for (i, m) in ov.material.iter().enumerate() {
         let what = format!("material[{i}] \"{}\" reflectance", m.name);
@@ -610,13 +620,24 @@ fn apply_object(
         } else {
             let sub = crate::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
             let offset = scene.materials.len();
-            // Material indices inside the inserted scene (a `mix`'s) move with it.
+            let media_offset = scene.media.list.len();
+            scene.media.list.extend(sub.media.list);
+            // Material and medium indices inside the inserted scene move with it.
             scene
                 .materials
                 .extend(sub.materials.into_iter().map(|m| match m {
                     Material::Mix { materials, amount } => Material::Mix {
                         materials: materials.map(|i| i + offset),
                         amount,
+                    },
+                    Material::MediumInterface {
+                        material,
+                        inside,
+                        outside,
+                    } => Material::MediumInterface {
+                        material: material + offset,
+                        inside: inside.map(|i| i + media_offset),
+                        outside: outside.map(|i| i + media_offset),
                     },
                     m => m,
                 }));
@@ -684,7 +705,20 @@ fn apply_object(
             .get(m)
             .ok_or_else(|| format!("{key}: material \"{m}\" is not a named material"))?;
         for &k in &targets {
-            scene.shapes[k].material = idx;
+            // A medium boundary stays one, around the new material.
+            scene.shapes[k].material = match scene.materials[scene.shapes[k].material] {
+                Material::MediumInterface {
+                    inside, outside, ..
+                } => {
+                    scene.materials.push(Material::MediumInterface {
+                        material: idx,
+                        inside,
+                        outside,
+                    });
+                    scene.materials.len() - 1
+                }
+                _ => idx,
+            };
         }
     }
     if o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() {

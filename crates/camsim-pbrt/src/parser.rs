@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 mod lights;
 mod materials;
+mod media;
 mod textures;
 
 // The directive families, dispatched by `Parser::directive`.
@@ -65,6 +66,8 @@ struct GraphicsState {
     /// `Attribute "category" ...` defaults (pbrt-v4 graphics-state shape/light/material/
     /// medium/texture attributes): `(category, parameter)`, scoped like the rest of the state.
     attributes: Vec<(&'static str, Param)>,
+    /// The media selected by `MediumInterface` (none: vacuum on both sides).
+    medium: Option<media::MediumNames>,
 }
 
 #[derive(Debug, Clone)]
@@ -80,6 +83,8 @@ struct PendingShape {
     /// 0 drops the shape), keyed by its parameter text so shapes sharing one material and one
     /// alpha share one [`Material::AlphaMasked`].
     alpha: Option<(String, FloatTexture)>,
+    /// The media on the shape's two sides (`MediumInterface` current at the shape).
+    medium: Option<media::MediumNames>,
 }
 
 enum Block {
@@ -125,6 +130,8 @@ struct Parser {
     cur_pos: usize,
     /// Too many problems: stop reading.
     aborted: bool,
+    /// Participating media and what selects them (`parser/media.rs`).
+    media: media::ParsedMedia,
 }
 
 /// Index of the first token at or after `from` that can start a directive: a bare word
@@ -161,6 +168,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
             area_light: None,
             name: None,
             attributes: Vec::new(),
+            medium: None,
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
@@ -196,6 +204,7 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         errors: Vec::new(),
         cur_pos: 0,
         aborted: false,
+        media: Default::default(),
     };
     // An `Err` here means reading stopped early (too many problems); they are all in `errors`.
     let _ = p.parse_text(text, path);
@@ -727,9 +736,9 @@ impl Parser {
     }
 
     /// pbrt-v4 `Integrator`: every type that converges to the radiance a path tracer computes
-    /// is rendered by camsim's path tracer, with a note naming the substitution; the volumetric
-    /// ones go through [`Parser::volumetric_integrator`]; `ambientocclusion` is refused (it is
-    /// not radiance).
+    /// is rendered by camsim's path tracer, with a note naming the substitution; `volpath`,
+    /// `simplevolpath` and every file with participating media by the volumetric path tracer
+    /// (noted by `media::ParsedMedia::finish`); `ambientocclusion` is refused (it is not radiance).
     fn integrator(&mut self, ty: &str, params: &ParamList, loc: &Loc) -> Result<(), PbrtError> {
         // pbrt-v4's parameters of each type beyond `maxdepth` (camsim's path tracer has no use
         // for them: they tune the other algorithms' convergence, not the converged image).
@@ -758,7 +767,7 @@ impl Parser {
                 ))
             }
             _ => return Err(loc.err(format!(
-                "Integrator \"{ty}\" is not supported (path, volpath, simplepath, simplevolpath, bdpt, lightpath, mlt, randomwalk, sppm: all rendered by camsim's path tracer)"
+                "Integrator \"{ty}\" is not supported (path, volpath, simplepath, simplevolpath, bdpt, lightpath, mlt, randomwalk, sppm: rendered by camsim's path tracer, or its volumetric one with media)"
             ))),
         };
         let d = params.int("maxdepth", 5)?;
@@ -768,25 +777,15 @@ impl Parser {
         self.settings.max_depth = d as u32;
         self.ignore_params(params, extra, &format!("Integrator \"{ty}\""));
         params.check_unused(&format!("Integrator \"{ty}\""))?;
-        match ty {
-            "path" => {}
-            "volpath" | "simplevolpath" => self.volumetric_integrator(ty, loc),
-            _ => self.note(
+        // How "volpath" (and any integrator with media) is rendered is noted at the end.
+        self.media.integrator = Some((ty.to_string(), loc.clone()));
+        if !matches!(ty, "path" | "volpath" | "simplevolpath") {
+            self.note(
                 loc,
                 format!("Integrator \"{ty}\" rendered with camsim's path tracer (it converges to the same radiance)"),
-            ),
+            );
         }
         Ok(())
-    }
-
-    /// HOOK for the volumetric tracer (issue 27, participating media): `volpath` and
-    /// `simplevolpath` files, and files with media, belong to it. Until it exists they are
-    /// rendered by the path tracer, which is the same radiance where no medium is selected.
-    fn volumetric_integrator(&mut self, ty: &str, loc: &Loc) {
-        self.note(
-            loc,
-            format!("Integrator \"{ty}\" rendered with camsim's path tracer (the same radiance without participating media)"),
-        );
     }
 
     fn shape(
@@ -1165,6 +1164,7 @@ impl Parser {
             light: self.gs.area_light.clone(),
             single: matches!(ty, "disk" | "cylinder"),
             alpha,
+            medium: self.gs.medium.clone(),
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1188,6 +1188,7 @@ impl Parser {
         let mut notes = self.notes;
         let mut errors = self.errors;
         let mut materials = self.materials;
+        let mut media = self.media;
         // (base material, alpha parameter text) -> its `AlphaMasked` material.
         let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
@@ -1206,6 +1207,16 @@ impl Parser {
                         continue;
                     }
                 },
+            };
+            // A medium boundary wraps the material; an alpha mask wraps that.
+            let material = match media.wrap(material, ps.medium.as_ref(), &mut materials) {
+                Ok(m) => m,
+                Err(e) => {
+                    if !errors.contains(&e) {
+                        errors.push(e);
+                    }
+                    continue;
+                }
             };
             let material = match ps.alpha {
                 None => material,
@@ -1300,9 +1311,14 @@ impl Parser {
                 }
             }
         }
+        let media = media.finish(&mut notes);
+        if let Err(e) = &media {
+            errors.push(e.clone());
+        }
         if !errors.is_empty() {
             return Err(PbrtError::combine(errors));
         }
+        let media = media?;
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
         let (mut fov_deg, mut lens) = (self.fov_deg, None);
         if let Some(r) = self.realistic {
@@ -1343,6 +1359,7 @@ impl Parser {
             settings: self.settings,
             focus_distance_m: self.focus_distance_m,
             notes,
+            media,
         })
     }
 }

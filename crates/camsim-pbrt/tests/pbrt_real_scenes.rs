@@ -269,10 +269,11 @@ fn attribute_defaults_apply_in_scope_and_yield_to_explicit_parameters() {
     assert!(e.to_string().contains("unknown category \"camera\""), "{e}");
 }
 
-/// A medium that is defined but never selected changes nothing (note); vacuum interfaces are
-/// fine; selecting a medium is an error naming it (media are not rendered).
+/// A medium that is defined but never selected changes nothing; vacuum interfaces are fine;
+/// selecting a medium that is not defined is an error naming it and the `MediumInterface`
+/// (media themselves: `tests/pbrt_media.rs`).
 #[test]
-fn media_defined_but_unselected_load_and_selected_media_are_errors() {
+fn media_defined_but_unselected_load_and_undefined_media_are_errors() {
     let ok = camsim_pbrt::parse_str(
         "MediumInterface \"\" \"\"\n\
          Camera \"perspective\"\n\
@@ -283,23 +284,22 @@ fn media_defined_but_unselected_load_and_selected_media_are_errors() {
         "/tmp/virtual/m.pbrt",
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    assert!(
-        ok.notes
-            .iter()
-            .any(|n| n.contains("MakeNamedMedium \"fog\"")),
-        "{:?}",
-        ok.notes
-    );
+    assert_eq!((ok.media.list.len(), ok.media.camera), (1, None));
+    assert!(matches!(
+        ok.materials[ok.shapes[0].material],
+        Material::Diffuse { .. }
+    ));
     let e = camsim_pbrt::parse_str(
         "WorldBegin\n\
          MakeNamedMedium \"tea\" \"string type\" \"homogeneous\"\n\
-         MediumInterface \"tea\" \"\"\n",
+         MediumInterface \"milk\" \"\"\n\
+         Shape \"sphere\"\n",
         "/tmp/virtual/m2.pbrt",
     )
     .unwrap_err();
     let t = e.to_string();
     assert!(
-        t.contains("m2.pbrt:3:1") && t.contains("\"tea\"") && t.contains("not supported"),
+        t.contains("m2.pbrt:3:1") && t.contains("\"milk\" is not defined"),
         "{t}"
     );
 }

@@ -26,10 +26,8 @@ fn text_file_json_and_table_give_one_config() {
     std::fs::write(&path, CONFIG).unwrap();
     let from_text = SimulateConfig::from_toml_str(CONFIG, base).unwrap();
     let from_file = SimulateConfig::load(&path).unwrap();
-    let json: serde_json::Value = serde_json::to_value(
-        toml::from_str::<toml::Value>(CONFIG).unwrap(),
-    )
-    .unwrap();
+    let json: serde_json::Value =
+        serde_json::to_value(toml::from_str::<toml::Value>(CONFIG).unwrap()).unwrap();
     let from_json = SimulateConfig::from_value(json, base).unwrap();
     let table: toml::Value = toml::from_str(CONFIG).unwrap();
     let from_table = SimulateConfig::from_value(table, base).unwrap();
@@ -38,7 +36,10 @@ fn text_file_json_and_table_give_one_config() {
         assert_eq!(as_toml(c), as_toml(&from_text));
     }
     // Relative paths are the base folder's, in every door.
-    assert_eq!(from_json.optics.file.as_deref(), Some(base.join("lens.toml").as_path()));
+    assert_eq!(
+        from_json.optics.file.as_deref(),
+        Some(base.join("lens.toml").as_path())
+    );
     let Some(camsim_scene::SceneConfig::Macbeth(m)) = &from_table.scene else {
         panic!("a macbeth scene")
     };
@@ -54,7 +55,10 @@ fn text_file_json_and_table_give_one_config() {
 #[test]
 fn every_door_checks_the_scene_source_and_names_unknown_keys() {
     let both = format!("{CONFIG}\n[render]\nbuiltin = \"cornell-box\"\n");
-    let neither = CONFIG.replace("[scene]\nkind = \"macbeth\"\nilluminant = \"spectra/light.csv\"\n", "");
+    let neither = CONFIG.replace(
+        "[scene]\nkind = \"macbeth\"\nilluminant = \"spectra/light.csv\"\n",
+        "",
+    );
     for text in [both.as_str(), neither.as_str()] {
         let e = SimulateConfig::from_toml_str(text, Path::new("")).unwrap_err();
         assert!(e.to_string().contains("[scene]"), "{e}");
@@ -67,8 +71,9 @@ fn every_door_checks_the_scene_source_and_names_unknown_keys() {
         .to_string();
     assert!(e.contains("bogus"), "{e}");
     // TOML text keeps the key's line and column.
-    let e = SimulateConfig::from_toml_str(&CONFIG.replace("seed = 3", "seed = \"x\""), Path::new(""))
-        .unwrap_err()
-        .to_string();
+    let e =
+        SimulateConfig::from_toml_str(&CONFIG.replace("seed = 3", "seed = \"x\""), Path::new(""))
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("line 2"), "{e}");
 }

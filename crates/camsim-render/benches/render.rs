@@ -256,6 +256,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
         },
         focus_distance_m: Some(1.08),
         notes: vec![],
+        media: Default::default(),
     }
 }
 

@@ -15,6 +15,8 @@ use crate::scene::{Geometry, SceneDescription};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::texture::{eval_float, FTex, Tex, TexCtx};
 
+mod volpath;
+
 /// Marks a primitive without an emitter.
 pub(crate) const NO_LIGHT: u32 = u32::MAX;
 
@@ -110,6 +112,8 @@ pub(crate) struct Tracer {
     pub has_alpha: bool,
     /// The camera's pixel footprint, for bump mapping's finite differences (`crate::bump`).
     pub footprint: crate::bump::Footprint,
+    /// Participating media, when a ray can be in one (then `volpath` renders the scene).
+    pub media: Option<Box<crate::media::MediaSet>>,
 }
 
 /// Surface data at a hit.
@@ -136,6 +140,7 @@ impl Tracer {
             materials.push(mat);
         }
         check_mix_cycles(&materials)?;
+        let media = crate::media::MediaSet::compile(scene, ws)?;
 
         // Count primitives first so the memory guard can refuse huge scenes before allocating.
         let mut n_prims = 0u64;
@@ -495,7 +500,7 @@ impl Tracer {
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
         }
-        if lights.is_empty() {
+        if lights.is_empty() && !media.as_ref().is_some_and(|m| m.emissive()) {
             return Err(RenderError::NoLights);
         }
         // Scene radius for the infinite light's power (pbrt-v4 UniformInfiniteLight::Phi).
@@ -546,6 +551,7 @@ impl Tracer {
             has_interface,
             has_alpha,
             footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
+            media,
         })
     }
 

@@ -10,7 +10,10 @@
 //! diffuse and coated conductor by pbrt-v4's layered random walk, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
 //! (texture graphs), `lights` (area, infinite, point, spot, goniometric, projection and distant lights), [`envmap`]
 //! (environment maps), `camera` (ray generation for the pinhole, realistic and ray-transfer cameras), `materials` (materials compiled for the
-//! tracer, `mix` choice), `integrator` (the path tracer) and [`render()`] (tiles, passes, film,
+//! tracer, `mix` choice), `integrator` (the path tracer, and in `integrator/volpath.rs` the
+//! volumetric path tracer for scenes with participating media), `media` (media compiled for
+//! tracing: coefficients, majorants, delta tracking), [`phase`] (the Henyey-Greenstein phase
+//! function) and [`render()`] (tiles, passes, film,
 //! statistics).
 //! The scene contract shared with the pbrt-v4 reader is the `camsim-scene3d` crate.
 
@@ -27,7 +30,9 @@ mod integrator;
 mod lights;
 mod materials;
 pub mod math;
+mod media;
 pub mod noise;
+pub mod phase;
 mod projection;
 pub mod render;
 pub mod sampler;

@@ -62,6 +62,10 @@ pub(crate) enum Mat {
         base: u32,
         perturb: crate::bump::Perturb,
     },
+    /// A medium boundary over material `base` (the media are in `Tracer::media`).
+    MediumBoundary {
+        base: u32,
+    },
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
         base: u32,
@@ -110,7 +114,7 @@ impl Tracer {
                     };
                 }
                 // The alpha test ran before (`alpha_keeps`): the surface is the base material.
-                Mat::AlphaMasked { base, .. } => m = *base,
+                Mat::AlphaMasked { base, .. } | Mat::MediumBoundary { base } => m = *base,
                 _ => return m,
             }
         }
@@ -308,7 +312,10 @@ impl Tracer {
             // Unwrapped by the tracer first (`Tracer::shading_normal`); the base as a fallback.
             Mat::Bumped { base, .. } => self.bsdf_at(*base, ctx, lambdas, outside),
             // Resolved before (mix, alpha) or handled by the tracer (interface): never reached.
-            Mat::Mix { .. } | Mat::Interface | Mat::AlphaMasked { .. } => (
+            Mat::Mix { .. }
+            | Mat::Interface
+            | Mat::AlphaMasked { .. }
+            | Mat::MediumBoundary { .. } => (
                 Bsdf::Diffuse {
                     reflectance: [0.0; N],
                 },
@@ -585,6 +592,16 @@ pub(crate) fn compile_material(
                 perturb: crate::bump::compile(perturbation, mi)?,
             }
         }
+        Material::MediumInterface { material, .. } => {
+            if *material >= n_materials {
+                return Err(err(format!(
+                    "medium boundary refers to material {material} but the scene has {n_materials}"
+                )));
+            }
+            Mat::MediumBoundary {
+                base: *material as u32,
+            }
+        }
         Material::AlphaMasked { material, alpha } => {
             if *material >= n_materials {
                 return Err(err(format!(
@@ -614,7 +631,8 @@ pub(crate) fn check_mix_cycles(materials: &[Mat]) -> Result<(), RenderError> {
                 Mat::Mix { materials, .. } => materials,
                 Mat::AlphaMasked { base, .. }
                 | Mat::VaryingRoughness { base, .. }
-                | Mat::Bumped { base, .. } => std::slice::from_ref(base),
+                | Mat::Bumped { base, .. }
+                | Mat::MediumBoundary { base } => std::slice::from_ref(base),
                 _ => &[],
             };
             if *next < children.len() {

@@ -173,15 +173,19 @@ impl PixelJob {
                 match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
                     Some((ray, w)) => (
                         ctx.tracer
-                            .li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c),
+                            .radiance::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c),
                         w,
                     ),
                     None => ([0f32; N], 0f32),
                 }
             } else {
                 (
-                    ctx.tracer
-                        .li::<N, S>(ctx.rig.ray(fx, fy), &ctx.ws.locate(lambdas), sampler, c),
+                    ctx.tracer.radiance::<N, S>(
+                        ctx.rig.ray(fx, fy),
+                        &ctx.ws.locate(lambdas),
+                        sampler,
+                        c,
+                    ),
                     1f32,
                 )
             };

@@ -663,6 +663,7 @@ fn furnace_scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        media: Default::default(),
     }
 }
 

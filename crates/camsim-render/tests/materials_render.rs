@@ -55,6 +55,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        media: Default::default(),
     }
 }
 

@@ -57,6 +57,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        media: Default::default(),
     }
 }
 

@@ -51,6 +51,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        media: Default::default(),
     }
 }
 

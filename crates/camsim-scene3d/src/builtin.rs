@@ -751,6 +751,7 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
         },
         focus_distance_m: Some(focus),
         notes: Vec::new(),
+        media: Default::default(),
     })
 }
 

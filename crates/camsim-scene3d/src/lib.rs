@@ -6,12 +6,14 @@
 //! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
 //! surfaces turned into triangles), [`xform`] (transform and shape-bounds math), [`camera`]
 //! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
+//! [`media`] (participating media and measured scattering presets),
 //! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
 
 pub mod builtin;
 pub mod camera;
 pub mod envmap;
+pub mod media;
 pub mod scene;
 pub mod shapes;
 pub mod spectra;

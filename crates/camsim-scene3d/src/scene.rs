@@ -410,6 +410,19 @@ pub enum Material {
         material: usize,
         perturbation: NormalPerturbation,
     },
+    /// A shape that separates two participating media (pbrt-v4 `MediumInterface "inside"
+    /// "outside"` on a shape, 4th ed. sec. 11.4.1) with the shape's own material `material`
+    /// (index into `SceneDescription::materials`; `interface` for a boundary that does not
+    /// scatter). `inside` and `outside` index `SceneDescription::media.list` (`None` is
+    /// vacuum) and differ: a ray leaving the surface on the side the oriented geometric normal
+    /// points to (see `Shape::reverse_orientation`) travels in `outside`, else in `inside`.
+    /// Shapes without this wrapper leave a ray's medium unchanged. Like `AlphaMasked`, the
+    /// reader gives each such shape this wrapper as its material (inside an alpha mask's).
+    MediumInterface {
+        material: usize,
+        inside: Option<usize>,
+        outside: Option<usize>,
+    },
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
@@ -938,6 +951,8 @@ pub struct SceneDescription {
     pub focus_distance_m: Option<f64>,
     /// Things the reader ignored or approximated (unsupported parameters), for the user.
     pub notes: Vec<String>,
+    /// Participating media and the camera's medium (none: every ray travels in vacuum).
+    pub media: crate::media::Media,
 }
 
 /// Which sampler a render uses (pbrt-v4's `Sampler` types).

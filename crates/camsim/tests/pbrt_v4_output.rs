@@ -72,7 +72,7 @@ fn a_pbrt_v4_render_simulates_through_the_camera() {
         let cfg = camsim::SimulateConfig::from_toml_str(&format!(
             "seed = 2\n[scene]\nkind = \"file\"\npath = \"{REFS}/cornell-box.seed1.exr\"\nfov_deg = 19.5\nunits = \"{units}\"\n\
              [sensor]\npreset = \"pixel4a\"\nrows = 48\ncols = 48\n"
-        ))
+        ), std::path::Path::new(""))
         .unwrap();
         camsim::simulate(&cfg, &camsim::SimulateOptions::default(), &|_, _, _| {}).unwrap()
     };

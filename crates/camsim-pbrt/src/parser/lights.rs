@@ -13,7 +13,11 @@ use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use std::f64::consts::PI;
 use std::path::Path;
 
-fn point3(params: &ParamList, name: &str, default: [f64; 3]) -> Result<[f64; 3], PbrtError> {
+pub(super) fn point3(
+    params: &ParamList,
+    name: &str,
+    default: [f64; 3],
+) -> Result<[f64; 3], PbrtError> {
     match params.get(name, &["point3"])? {
         None => Ok(default),
         Some(p) => match p.nums()?.as_slice() {

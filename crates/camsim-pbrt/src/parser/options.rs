@@ -21,7 +21,11 @@ impl Parser {
                 let ty = string_arg(tokens, pos, f, d)?;
                 let params = parse_params(tokens, pos, f)?;
                 match d {
-                    "Camera" => self.camera(&ty, &params, loc)?,
+                    "Camera" => {
+                        self.camera(&ty, &params, loc)?;
+                        // pbrt-v4 CameraMedium: the outside medium current at `Camera`.
+                        self.media.camera = self.gs.medium.clone();
+                    }
                     "Film" => self.film(&ty, &params, loc)?,
                     "Sampler" => self.sampler(&ty, &params, loc)?,
                     _ => self.integrator(&ty, &params, loc)?,

@@ -1,5 +1,5 @@
 //! World-block directives that build the scene: materials, textures, area and other lights, shapes,
-//! and media (recorded, or refused where selected).
+//! and media (`parser/media.rs`).
 //! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
 
 use super::*;
@@ -117,15 +117,9 @@ impl Parser {
                 self.shape(&ty, &params, loc, file)?;
             }
             "MakeNamedMedium" => {
-                // A medium that no MediumInterface selects changes nothing (pbrt-v4 only
-                // attaches media through MediumInterface), so defining one is harmless;
-                // selecting one is an error below.
                 let name = string_arg(tokens, pos, f, d)?;
                 let params = self.with_attributes("medium", parse_params(tokens, pos, f)?);
-                for p in &params.params {
-                    p.used.set(true);
-                }
-                self.note(loc, format!("MakeNamedMedium \"{name}\" recorded but not rendered (no participating media); any MediumInterface that selects it is an error"));
+                self.make_named_medium(name, &params, loc, file)?;
             }
             "MediumInterface" => {
                 // pbrt-v4: `MediumInterface "inside" ["outside"]` (one name sets both).
@@ -139,13 +133,7 @@ impl Parser {
                     outside = s.clone();
                     *pos += 1;
                 }
-                // The empty name is vacuum: harmless. A named medium would scatter and absorb.
-                let selected = if inside.is_empty() { outside } else { inside };
-                if !selected.is_empty() {
-                    return Err(loc.err(format!(
-                        "MediumInterface selects medium \"{selected}\": participating media are not supported"
-                    )));
-                }
+                self.medium_interface(inside, outside, loc);
             }
             other => return Err(loc.err(format!("unknown directive \"{other}\""))),
         }

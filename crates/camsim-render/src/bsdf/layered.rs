@@ -34,7 +34,8 @@
 
 use super::fresnel::{fr_dielectric, reflect, refract};
 use super::{dielectric_half_vector, Bsdf, TrowbridgeReitz};
-use crate::math::{Frame, V3};
+use crate::math::V3;
+use crate::phase::{hg_p, hg_sample};
 use camsim_core::rng::{mix64, Rng};
 use rand::Rng as _;
 use std::f32::consts::PI;
@@ -312,32 +313,6 @@ impl<const N: usize> Bottom<N> {
         }
         .valid()
     }
-}
-
-/// Henyey-Greenstein phase function value for directions `wo`, `wi` both pointing away from the
-/// scattering point (pbrt-v4 §11.3.1, eq. 11.12: forward scattering is `wi = -wo`).
-#[inline]
-fn hg_p(g: f32, wo: V3, wi: V3) -> f32 {
-    let denom = 1.0 + g * g + 2.0 * g * wo.dot(wi);
-    (1.0 - g * g) / (4.0 * PI * denom * denom.max(0.0).sqrt())
-}
-
-/// Sample the Henyey-Greenstein phase function around the propagation direction `-wo`:
-/// `cos theta` by inverting its cumulative distribution (Henyey & Greenstein 1941; the inversion
-/// in pbrt-v4 §11.3.1), uniform azimuth. Returns `(wi, p)`; `p` is also the density.
-#[inline]
-fn hg_sample(g: f32, wo: V3, u0: f32, u1: f32) -> (V3, f32) {
-    let cos_theta = if g.abs() < 1e-3 {
-        1.0 - 2.0 * u0
-    } else {
-        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u0);
-        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let (sp, cp) = (2.0 * PI * u1).sin_cos();
-    let frame = Frame::from_normal(-wo);
-    let wi = frame.to_world(V3::new(sin_theta * cp, sin_theta * sp, cos_theta));
-    (wi, hg_p(g, wo, wi))
 }
 
 /// Transmittance of a straight path crossing a height difference `dz` along `w` in a medium of
