@@ -11,12 +11,8 @@ use camsim_render::math::V3;
 use rand::Rng;
 use std::f64::consts::PI;
 
-/// Upper critical value of chi-square with `k` degrees of freedom at tail probability given by
-/// the standard normal quantile `z` (Wilson & Hilferty 1931 approximation).
-fn chi2_critical(k: f64, z: f64) -> f64 {
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
-}
+mod common;
+use common::chi2_critical;
 
 fn tr(ax: f32, ay: f32) -> TrowbridgeReitz {
     TrowbridgeReitz {

@@ -4,13 +4,14 @@
 //!
 //! Modules: [`scene`] (the [`SceneDescription`] and what it is made of: shapes, materials,
 //! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
-//! surfaces turned into triangles), [`xform`] (transform and shape-bounds math), [`camera`]
+//! surfaces turned into triangles), [`curves`] (pbrt-v4 curves as cubic Bezier segments), [`xform`] (transform and shape-bounds math), [`camera`]
 //! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
 //! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
 
 pub mod builtin;
 pub mod camera;
+pub mod curves;
 pub mod envmap;
 pub mod scene;
 pub mod shapes;

@@ -39,3 +39,10 @@ pub fn floor(s: f64) -> Shape {
         reverse_orientation: false,
     }
 }
+
+/// Upper critical value of chi-square with `k` degrees of freedom at the tail probability given
+/// by the standard normal quantile `z` (Wilson & Hilferty 1931 approximation).
+pub fn chi2_critical(k: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
