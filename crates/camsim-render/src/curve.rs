@@ -1,9 +1,10 @@
 //! Curves in the tracer (pbrt-v4 `Curve`, 4th ed. sec. 6.7): cubic Bezier segments of a given
 //! width, intersected as a ribbon that faces the ray, by recursive subdivision.
 //!
-//! Each segment of a [`camsim_scene3d::curves::Curves`] is bounded in the BVH by `2^splitdepth`
-//! pieces ([`crate::geometry::Prim::Curve`], each a `u` range of its segment; the piece's control
-//! points come from blossoming the segment's). A ray meets a piece in the ray's own frame (z
+//! Each segment of a [`camsim_scene3d::curves::Curves`] is bounded in the BVH by up to
+//! `2^splitdepth` pieces ([`crate::geometry::Prim::Curve`], each a `u` range of its segment; the
+//! piece's control points come from blossoming the segment's): as many as keep each piece within
+//! a few widths of length (see [`add_prims`]). A ray meets a piece in the ray's own frame (z
 //! along the ray, the ray at the origin): the piece is split in halves at `u = 1/2` up to a
 //! depth chosen from its curvature and width, halves whose width-grown boxes miss the ray are
 //! skipped, and at the last level the curve is tested as the line between its end points: the
@@ -346,7 +347,7 @@ impl CurveStore {
         let mut b = bounds4(&cp);
         let half = 0.5 * ((1.0 - u0) * s.w[0] + u0 * s.w[1]).max((1.0 - u1) * s.w[0] + u1 * s.w[1]);
         b.min = b.min - V3::splat(half);
-        b.max = b.max + V3::splat(half);
+        b.max += V3::splat(half);
         b
     }
 
@@ -355,8 +356,7 @@ impl CurveStore {
     pub fn intersect(
         &self,
         seg: u32,
-        u0: f32,
-        u1: f32,
+        [u0, u1]: [f32; 2],
         o: V3,
         d: V3,
         t_max: f32,
@@ -455,9 +455,16 @@ impl CurveStore {
     }
 }
 
+/// Longest BVH piece of a segment, in widths: a segment is split into halves until its pieces
+/// are at most this long (when `splitdepth` allows), so that each box hugs its piece.
+const PIECE_WIDTHS: f32 = 4.0;
+
 /// Add a shape's curves to `store` and hand each BVH primitive to `push` with its segment's
-/// index in the shape: every segment is split into `2^split_depth` pieces of equal `u` range
-/// (pbrt-v4 `CreateCurve`).
+/// index in the shape: segment `i` is split into `2^k` pieces of equal `u` range, `k` the
+/// smallest level at which a piece's control polygon is at most [`PIECE_WIDTHS`] widths long,
+/// capped by `split_depth` (pbrt-v4 `CreateCurve` always takes `2^splitdepth`: for a segment a
+/// few widths long the extra boxes overlap and cost memory, about 115 bytes each, without
+/// speeding up the trace).
 pub(crate) fn add_prims(
     store: &mut CurveStore,
     c: &Curves,
@@ -465,15 +472,24 @@ pub(crate) fn add_prims(
     mut push: impl FnMut(u32, crate::geometry::Prim),
 ) {
     let first = store.add(c, flip);
-    let pieces = 1u32 << c.split_depth;
     for i in 0..c.segments() as u32 {
-        for k in 0..pieces {
+        let s = &store.segs[(first + i) as usize];
+        let cp = store.control_points(s);
+        let len: f32 = (0..3).map(|k| (cp[k + 1] - cp[k]).length()).sum();
+        let ratio = len / (PIECE_WIDTHS * s.w[0].max(s.w[1]));
+        let k = if ratio > 1.0 {
+            (ratio.log2().ceil() as u32).min(c.split_depth)
+        } else {
+            0
+        };
+        let pieces = 1u32 << k;
+        for j in 0..pieces {
             push(
                 i,
                 crate::geometry::Prim::Curve {
                     seg: first + i,
-                    u0: k as f32 / pieces as f32,
-                    u1: (k + 1) as f32 / pieces as f32,
+                    u0: j as f32 / pieces as f32,
+                    u1: (j + 1) as f32 / pieces as f32,
                 },
             );
         }
@@ -551,8 +567,7 @@ mod tests {
         let (t, u, v) = st
             .intersect(
                 0,
-                0.0,
-                1.0,
+                [0.0, 1.0],
                 V3::new(0.5, 0.0, -5.0),
                 d,
                 f32::INFINITY,
@@ -564,8 +579,7 @@ mod tests {
         let (_, _, v) = st
             .intersect(
                 0,
-                0.0,
-                1.0,
+                [0.0, 1.0],
                 V3::new(0.5, 0.05, -5.0),
                 d,
                 f32::INFINITY,
@@ -577,8 +591,7 @@ mod tests {
         assert!(st
             .intersect(
                 0,
-                0.0,
-                1.0,
+                [0.0, 1.0],
                 V3::new(0.5, 0.11, -5.0),
                 d,
                 f32::INFINITY,
@@ -588,8 +601,7 @@ mod tests {
         assert!(st
             .intersect(
                 0,
-                0.0,
-                1.0,
+                [0.0, 1.0],
                 V3::new(1.01, 0.0, -5.0),
                 d,
                 f32::INFINITY,
@@ -627,8 +639,15 @@ mod tests {
         assert!((s.n.face_forward(d) - V3::new(0.0, s45, s45)).length() < 1e-5);
         assert!((s.err - 0.2 * s45).abs() < 1e-5);
         let hit = |y: f32| {
-            st.intersect(0, 0.0, 1.0, V3::new(0.0, y, -5.0), d, f32::INFINITY, false)
-                .is_some()
+            st.intersect(
+                0,
+                [0.0, 1.0],
+                V3::new(0.0, y, -5.0),
+                d,
+                f32::INFINITY,
+                false,
+            )
+            .is_some()
         };
         assert!(hit(0.0699) && !hit(0.0716));
     }

@@ -237,7 +237,7 @@ impl Prim {
         any: bool,
     ) -> Option<(f32, f32, f32)> {
         match *self {
-            Prim::Curve { seg, u0, u1 } => curves.intersect(seg, u0, u1, r.o, r.d, t_max, any),
+            Prim::Curve { seg, u0, u1 } => curves.intersect(seg, [u0, u1], r.o, r.d, t_max, any),
             Prim::PartialSphere {
                 center,
                 radius,

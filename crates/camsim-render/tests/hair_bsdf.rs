@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 
 mod common;
-use common::chi2_critical;
+use common::{chi2_critical, pooled_chi_square};
 
 /// Direction with longitudinal angle `theta` (sin theta along the fibre, x) and azimuth `phi`
 /// (from y toward z).
@@ -149,20 +149,7 @@ fn chi_square(hair: &Hair<1>, wo: V3, n: usize, seed: u64) -> (f64, f64) {
             n as f64 * sum * ds * dp / (q * q) as f64
         })
         .collect();
-    let (mut chi2, mut dof, mut pool_o, mut pool_e) = (0.0, 0usize, 0.0, 0.0);
-    for (o, e) in observed.iter().zip(&expected) {
-        if *e < 5.0 {
-            pool_o += o;
-            pool_e += e;
-        } else {
-            chi2 += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-    }
-    if pool_e > 5.0 {
-        chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        dof += 1;
-    }
+    let (chi2, dof, _, _) = pooled_chi_square(&observed, &expected);
     assert!(dof > 20, "too few cells ({dof})");
     (chi2, chi2_critical((dof - 1) as f64, 3.719))
 }
@@ -259,7 +246,7 @@ fn lobes_leave_where_the_tube_sends_them() {
     for y0 in [-0.6f32, -0.25, 0.3, 0.75] {
         let o = V3::new(0.3, y0, -10.0);
         let (t, u, v) = store
-            .intersect(0, 0.0, 1.0, o, d, f32::INFINITY, false)
+            .intersect(0, [0.0, 1.0], o, d, f32::INFINITY, false)
             .expect("the ray meets the fibre");
         let s = store.surface(0, o, d, t, u, v);
         // As the integrator orients it: the shading normal toward the viewer.

@@ -204,7 +204,7 @@ pub fn bezier_control_points(
     };
     let segments: Vec<[[f64; 3]; 4]> = match basis {
         CurveBasis::Bezier => {
-            if cp.len() < d + 1 || (cp.len() - 1 - d) % d != 0 {
+            if cp.len() < d + 1 || !(cp.len() - 1 - d).is_multiple_of(d) {
                 return Err(format!(
                     "{} control points: a degree {degree} Bezier curve needs {} + n * {degree} (n >= 0)",
                     cp.len(),
