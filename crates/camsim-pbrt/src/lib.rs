@@ -48,7 +48,10 @@
 //!   `disk`: `height`, `radius`, `innerradius`, `phimax`; `cylinder`: `radius`, `zmin`, `zmax`,
 //!   `phimax` -- both tessellated at load, area-preserving, see [`camsim_scene3d::shapes`];
 //!   `loopsubdiv`: `levels`, `P`, `indices` -- Loop-subdivided at load and moved to the limit
-//!   surface as pbrt-v4 does); every shape takes `alpha` (a number or a float texture, pbrt-v4
+//!   surface as pbrt-v4 does; `curve`: `P`, `basis` bezier/bspline, `degree` 2/3, `type`
+//!   flat/cylinder/ribbon, `width`/`width0`/`width1`, `N` (ribbons), `splitdepth` -- cubic
+//!   Bezier segments in world space, see [`camsim_scene3d::curves`] and `parser/curves.rs`; no
+//!   area light on a curve, as in pbrt-v4); every shape takes `alpha` (a number or a float texture, pbrt-v4
 //!   4th ed. §7.1.1: hits where it is 0 are ignored, where it is fractional a deterministic
 //!   hash of the ray decides, for camera, bounce and shadow rays alike; a constant 0 drops the
 //!   shape; see [`camsim_scene3d::scene::Material::AlphaMasked`]; on an area light the mask
@@ -161,10 +164,11 @@
 //!
 //! # Unsupported, with an error naming file:line:column
 //! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`;
-//! `Integrator "ambientocclusion"` (not radiance); materials other than the nine above
-//! (`hair`, `measured`, `subsurface`: named in the message), varying float
+//! `Integrator "ambientocclusion"` (not radiance); materials other than those above and `hair`
+//! (`sigma_a`, `color`/`reflectance`, `eumelanin`, `pheomelanin`, `eta`, `beta_m`, `beta_n`,
+//! `alpha`: `parser/hair.rs`) (`measured`, `subsurface`: named in the message), varying float
 //! textures as material parameters other than the roughnesses;
-//! texture classes other than those above (`ptex`); shapes other than those above (`curve`, ...),
+//! texture classes other than those above (`ptex`); shapes other than those above,
 //! infinite-light `portal`s and maps that are neither square nor 2:1; `nanovdb` media and the
 //! Narasimhan et al. 2006 media presets; `Attribute` categories other than the five
 //! above; area lights inside object instances; `WorldEnd`

@@ -19,6 +19,8 @@ use camsim_core::Spectrum;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+mod curves;
+mod hair;
 mod lights;
 mod materials;
 mod media;
@@ -1013,14 +1015,20 @@ impl Parser {
                     .map_err(|e| loc.err(format!("Shape \"loopsubdiv\": {e}")))?;
                 mesh_geometry(positions, indices, None, Some(normals))
             }
+            "curve" => {
+                if self.gs.area_light.is_some() {
+                    return Err(loc.err("Shape \"curve\": an area light on a curve is not supported (pbrt-v4 cannot sample curves either)"));
+                }
+                self.curve(params, loc)?
+            }
             other => return Err(loc.err(format!(
-                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere, disk, cylinder, loopsubdiv)"
+                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere, disk, cylinder, loopsubdiv, curve)"
             ))),
         };
         params.check_unused(&format!("Shape \"{ty}\""))?;
         // To world space.
         let (geometry, reverse_orientation) = match geometry {
-            g @ Geometry::PartialSphere { .. } => {
+            g @ (Geometry::PartialSphere { .. } | Geometry::Curves(_)) => {
                 let mut s = Shape {
                     name: None,
                     geometry: g,
@@ -1029,7 +1037,7 @@ impl Parser {
                     reverse_orientation: self.gs.reverse_orientation,
                 };
                 xform::transform_shape(&mut s, &ctm)
-                    .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
+                    .map_err(|e| loc.err(format!("Shape \"{ty}\": {e}")))?;
                 (s.geometry, s.reverse_orientation)
             }
             Geometry::Sphere { center, radius } => {

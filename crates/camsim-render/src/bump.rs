@@ -420,6 +420,27 @@ impl Tracer {
                     n,
                 )
             }
+            // A curve's surface at the hit: dp/du along the fibre, dp/dv across it (pbrt-v4
+            // `Curve::InteractionFromIntersection` takes dn/du = dn/dv = 0 as well).
+            Prim::Curve { .. } => {
+                let (dpdu, dpdv) = if sh.dpdu.length_squared() > 0.0 {
+                    (sh.dpdu, n.cross(sh.dpdu))
+                } else {
+                    coordinate_system(n)
+                };
+                ShadingGeometry {
+                    p: sh.p,
+                    uv: sh.uv,
+                    n,
+                    dpdu,
+                    dpdv,
+                    ns: n,
+                    ss: dpdu.normalize(),
+                    ts: dpdv.normalize(),
+                    dndu: V3::new(0.0, 0.0, 0.0),
+                    dndv: V3::new(0.0, 0.0, 0.0),
+                }
+            }
         }
     }
 

@@ -202,6 +202,8 @@ pub struct Bvh {
     pub ids: Vec<u32>,
     /// Clips of the partial spheres among `prims` (empty by default; set by the caller).
     pub clips: Vec<crate::geometry::SphereClip>,
+    /// The curve segments the curve pieces among `prims` refer to ([`Bvh::build_with_curves`]).
+    pub curves: crate::curve::CurveStore,
 }
 
 /// A closest hit: distance, barycentrics and the primitive's position in [`Bvh::prims`]
@@ -232,6 +234,11 @@ impl Bvh {
     /// Build over `prims` (their ids are their positions in the input). At most [`MAX_PRIMS`]
     /// primitives (callers check; a scene that large does not fit in memory anyway).
     pub fn build(prims: Vec<Prim>) -> Bvh {
+        Self::build_with_curves(prims, crate::curve::CurveStore::default())
+    }
+
+    /// [`Bvh::build`] over primitives that include pieces of the curve segments in `curves`.
+    pub fn build_with_curves(prims: Vec<Prim>, curves: crate::curve::CurveStore) -> Bvh {
         use rayon::prelude::*;
         let n = prims.len();
         assert!(n <= MAX_PRIMS, "a BVH holds at most {MAX_PRIMS} primitives");
@@ -245,9 +252,10 @@ impl Bvh {
                 prims,
                 ids: Vec::new(),
                 clips: Vec::new(),
+                curves,
             };
         }
-        let bounds: Vec<Aabb> = prims.par_iter().map(|p| p.bounds()).collect();
+        let bounds: Vec<Aabb> = prims.par_iter().map(|p| p.bounds_with(&curves)).collect();
         let centroids: Vec<V3> = bounds.par_iter().map(|b| b.center()).collect();
         let mut idx: Vec<u32> = (0..n as u32).collect();
         let ctx = BuildCtx {
@@ -271,6 +279,7 @@ impl Bvh {
             prims: ordered,
             ids: idx,
             clips: Vec::new(),
+            curves,
         };
         bvh.root = bvh.collapse(&bin, 0);
         bvh.nodes.shrink_to_fit();
@@ -418,7 +427,9 @@ impl Bvh {
             } else {
                 let leaf = self.leaves[(cur & INDEX) as usize];
                 for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
-                    if let Some((t, u, v)) = self.prims[i].intersect_with(r, t_max, &self.clips) {
+                    if let Some((t, u, v)) =
+                        self.prims[i].intersect_with(r, t_max, &self.clips, &self.curves, false)
+                    {
                         t_max = t;
                         (best, bu, bv) = (i as u32, u, v);
                     }
@@ -478,7 +489,7 @@ impl Bvh {
                 let leaf = self.leaves[(cur & INDEX) as usize];
                 for i in leaf.start as usize..(leaf.start + leaf.count) as usize {
                     if self.prims[i]
-                        .intersect_with(r, t_max, &self.clips)
+                        .intersect_with(r, t_max, &self.clips, &self.curves, true)
                         .is_some()
                     {
                         return true;

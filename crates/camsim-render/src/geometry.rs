@@ -1,4 +1,5 @@
-//! Rays, bounding boxes and the two primitive kinds (triangles, spheres) with their ray tests.
+//! Rays, bounding boxes and the primitive kinds (triangles, spheres, curve pieces) with their
+//! ray tests.
 
 use crate::math::{fmax, fmin, V3};
 
@@ -127,6 +128,8 @@ pub enum Prim {
     Sphere { center: V3, radius: f32 },
     /// Partial sphere: the sphere clipped by `Bvh::clips[clip]` (see [`SphereClip`]).
     PartialSphere { center: V3, radius: f32, clip: u32 },
+    /// The piece `[u0, u1]` of curve segment `seg` of `Bvh::curves` ([`crate::curve`]).
+    Curve { seg: u32, u0: f32, u1: f32 },
 }
 
 /// The clipping of a partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`, 4th ed.
@@ -174,9 +177,21 @@ impl SphereClip {
 }
 
 impl Prim {
-    /// World-space bounds.
+    /// World-space bounds (curve pieces: see [`Prim::bounds_with`]; here empty).
     pub fn bounds(&self) -> Aabb {
+        self.bounds_with(&crate::curve::CurveStore::default())
+    }
+
+    /// World-space bounds, curve pieces from `curves`.
+    pub fn bounds_with(&self, curves: &crate::curve::CurveStore) -> Aabb {
         match *self {
+            Prim::Curve { seg, u0, u1 } => {
+                if (seg as usize) < curves.len() {
+                    curves.piece_bounds(seg, u0, u1)
+                } else {
+                    Aabb::EMPTY
+                }
+            }
             Prim::Tri { p0, e1, e2 } => {
                 let mut b = Aabb::EMPTY;
                 b.grow_point(p0);
@@ -204,18 +219,25 @@ impl Prim {
             Prim::PartialSphere { center, radius, .. } => {
                 intersect_sphere(r.o, r.d, center, radius, t_max).map(|t| (t, 0.0, 0.0))
             }
+            // Curve pieces need their control points ([`Prim::intersect_with`]).
+            Prim::Curve { .. } => None,
         }
     }
 
-    /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`).
+    /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`)
+    /// and curve pieces from `curves` (`(t, u, v)` with the curve's `u` and `v`); `any`: a
+    /// curve piece may report any hit in range rather than its nearest (shadow rays).
     #[inline(always)]
     pub fn intersect_with(
         &self,
         r: &RayInv,
         t_max: f32,
         clips: &[SphereClip],
+        curves: &crate::curve::CurveStore,
+        any: bool,
     ) -> Option<(f32, f32, f32)> {
         match *self {
+            Prim::Curve { seg, u0, u1 } => curves.intersect(seg, [u0, u1], r.o, r.d, t_max, any),
             Prim::PartialSphere {
                 center,
                 radius,

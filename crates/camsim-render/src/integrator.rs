@@ -124,6 +124,12 @@ pub(crate) struct SurfaceHit {
     /// Shading normal (unit; equals `ng` without vertex normals).
     pub(crate) ns: V3,
     pub(crate) uv: [f32; 2],
+    /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
+    /// hair BSDF needs); zero for other shapes (any frame about the normal).
+    pub(crate) dpdu: V3,
+    /// Curves: the hit point's error bound per axis, m (pbrt-v4 `pError`, the width at the
+    /// hit): rays leave the point at least this far off along the normal. 0 for other shapes.
+    pub(crate) err: f32,
 }
 
 impl Tracer {
@@ -148,6 +154,7 @@ impl Tracer {
             n_prims += match &s.geometry {
                 Geometry::Triangles { indices, .. } => indices.len() as u64,
                 Geometry::Sphere { .. } | Geometry::PartialSphere { .. } => 1,
+                Geometry::Curves(c) => c.segments() as u64 * (1u64 << c.split_depth.min(12)),
             };
         }
         // Prim (44 B) + info (16 B) + normal (12 B) + bounds/centroid/index during the build (40 B) + binary nodes
@@ -165,6 +172,7 @@ impl Tracer {
         let mut lights = Lights::default();
         let mut scene_bounds = crate::geometry::Aabb::EMPTY;
         let mut clips: Vec<SphereClip> = Vec::new();
+        let mut curves = crate::curve::CurveStore::default();
 
         for (si, s) in scene.shapes.iter().enumerate() {
             let shape_err = |message: String| RenderError::Shape {
@@ -490,6 +498,27 @@ impl Tracer {
                     });
                     meshes.push(None);
                 }
+                Geometry::Curves(c) => {
+                    c.validate().map_err(|e| shape_err(format!("curve: {e}")))?;
+                    if s.area_light.is_some() {
+                        return Err(shape_err(
+                            "area lights on curves are not supported (pbrt-v4 cannot sample curves either)".into(),
+                        ));
+                    }
+                    let (lo, hi) = c.bounds_m();
+                    scene_bounds.grow_point(V3::from_f64(lo));
+                    scene_bounds.grow_point(V3::from_f64(hi));
+                    crate::curve::add_prims(&mut curves, c, s.reverse_orientation, |seg, prim| {
+                        prims.push(prim);
+                        info.push(PrimInfo {
+                            shape: si as u32,
+                            tri: seg,
+                            material: s.material as u32,
+                            light: NO_LIGHT,
+                        });
+                    });
+                    meshes.push(None);
+                }
             }
         }
         for (li, l) in scene.lights.iter().enumerate() {
@@ -513,7 +542,7 @@ impl Tracer {
         };
         lights.finish(&tables, scene_radius);
 
-        let mut bvh = Bvh::build(prims);
+        let mut bvh = Bvh::build_with_curves(prims, curves);
         bvh.clips = clips;
         let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
         let tri_normals: Vec<V3> = bvh
@@ -521,7 +550,9 @@ impl Tracer {
             .iter()
             .map(|p| match *p {
                 Prim::Tri { e1, e2, .. } => e1.cross(e2).normalize(),
-                Prim::Sphere { .. } | Prim::PartialSphere { .. } => V3::splat(0.0),
+                Prim::Sphere { .. } | Prim::PartialSphere { .. } | Prim::Curve { .. } => {
+                    V3::splat(0.0)
+                }
             })
             .collect();
         let max_depth = if scene.settings.direct_only {
@@ -594,7 +625,14 @@ impl Tracer {
                 } else {
                     uv = [uv[0] + uv[1], uv[1]];
                 }
-                SurfaceHit { p, ng, ns, uv }
+                SurfaceHit {
+                    p,
+                    ng,
+                    ns,
+                    uv,
+                    dpdu: V3::splat(0.0),
+                    err: 0.0,
+                }
             }
             Prim::Sphere { center, radius } => {
                 let p0 = r.o + r.d * h.t;
@@ -608,6 +646,8 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    dpdu: V3::splat(0.0),
+                    err: 0.0,
                 }
             }
             Prim::PartialSphere {
@@ -626,6 +666,19 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    dpdu: V3::splat(0.0),
+                    err: 0.0,
+                }
+            }
+            Prim::Curve { seg, .. } => {
+                let c = self.bvh.curves.surface(seg, r.o, r.d, h.t, h.u, h.v);
+                SurfaceHit {
+                    p: c.p,
+                    ng: c.n,
+                    ns: c.n,
+                    uv: [h.u, h.v],
+                    dpdu: c.dpdu,
+                    err: c.err,
                 }
             }
         }
@@ -746,6 +799,18 @@ impl Tracer {
         p + n * (self.offset_scale * (1.0 + p.max_abs()))
     }
 
+    /// [`Tracer::offset`] from a hit, at least its error bound away (pbrt-v4 `OffsetRayOrigin`:
+    /// `|n| . pError` along `n`; curves only, whose point lies on a ray-facing ribbon).
+    #[inline(always)]
+    fn offset_at(&self, sh: &SurfaceHit, n: V3) -> V3 {
+        if sh.err > 0.0 {
+            let d = sh.err * (n.x.abs() + n.y.abs() + n.z.abs());
+            sh.p + n * d.max(self.offset_scale * (1.0 + sh.p.max_abs()))
+        } else {
+            self.offset(sh.p, n)
+        }
+    }
+
     /// Visibility of a sampled light point from the (already offset) shading point `p_from`
     /// (pbrt-v4 `SpawnRayTo(pFrom, nFrom, time, pTo, nTo)`: both ends offset). The ray runs from
     /// `p_from` toward `p_light` moved off the light's surface along its normal `n_light`, turned
@@ -803,7 +868,7 @@ impl Tracer {
             {
                 return true;
             }
-            let next = self.offset(sh.p, sh.ng.face_forward(d));
+            let next = self.offset_at(&sh, sh.ng.face_forward(d));
             t_left -= (next - o).dot(d);
             if t_left.is_nan() || t_left <= 0.0 {
                 return false;
@@ -875,7 +940,7 @@ impl Tracer {
                     break;
                 }
                 ray = Ray {
-                    o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                    o: self.offset_at(&sh, sh.ng.face_forward(ray.d)),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -910,7 +975,7 @@ impl Tracer {
                 }
                 let far = sh.ng.face_forward(ray.d);
                 ray = Ray {
-                    o: self.offset(sh.p, far),
+                    o: self.offset_at(&sh, far),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -944,9 +1009,13 @@ impl Tracer {
             // Two-sided shading: normals turned toward the outgoing direction.
             let ng = sh.ng.face_forward(wo);
             let ns = ns_shading.face_forward(ng);
-            let frame = Frame::from_normal(ns);
+            let frame = if sh.dpdu.length_squared() > 0.0 {
+                crate::curve::fibre_frame(sh.dpdu, ns)
+            } else {
+                Frame::from_normal(ns)
+            };
             let wo_local = frame.to_local(wo);
-            let p_out = self.offset(sh.p, ng);
+            let p_out = self.offset_at(&sh, ng);
 
             // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
             if !self.lights.is_empty() && !bsdf.is_delta() {
@@ -974,7 +1043,7 @@ impl Tracer {
                         let p_from = if cos_g > 0.0 {
                             p_out
                         } else {
-                            self.offset(sh.p, -ng)
+                            self.offset_at(&sh, -ng)
                         };
                         // A masked emitter gives nothing where its alpha test rejects the sampled
                         // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
@@ -1053,7 +1122,7 @@ impl Tracer {
             }
             counts.bounce += 1;
             let o = if bs.transmission {
-                self.offset(sh.p, -ng)
+                self.offset_at(&sh, -ng)
             } else {
                 p_out
             };
@@ -1093,7 +1162,7 @@ impl Tracer {
                 return ((sh.p - r.o).dot(forward), pi.shape + 1);
             }
             ray = Ray {
-                o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                o: self.offset_at(&sh, sh.ng.face_forward(ray.d)),
                 d: ray.d,
             };
         }

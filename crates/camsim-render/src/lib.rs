@@ -4,10 +4,11 @@
 //!
 //! Renderer layout (pbrt-v4's split of concepts, one module each): [`math`] (f32 vectors,
 //! frames), [`geometry`] (rays, boxes, triangle and sphere tests), [`bvh`] (binned-SAH BVH
-//! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`sampling`] (warps and
+//! collapsed to 4 wide, with 4-lane box and triangle-packet tests), [`curve`] (pbrt-v4 curves:
+//! ray-facing ribbons by recursive Bezier subdivision), [`sampling`] (warps and
 //! pdfs), [`sampler`] (Sobol and independent samplers), [`spectral`] (wavelength sampling, spectrum tables), [`bsdf`] (materials'
 //! scattering: diffuse, conductor, dielectric, thin dielectric, diffuse transmission, coated
-//! diffuse and coated conductor by pbrt-v4's layered random walk, with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
+//! diffuse and coated conductor by pbrt-v4's layered random walk, hair (Chiang et al. 2016), with Fresnel equations and the Trowbridge-Reitz microfacet model), `texture`
 //! (texture graphs), `lights` (area, infinite, point, spot, goniometric, projection and distant lights), [`envmap`]
 //! (environment maps), `camera` (ray generation for the pinhole, realistic and ray-transfer cameras), `materials` (materials compiled for the
 //! tracer, `mix` choice), `integrator` (the path tracer, and in `integrator/volpath.rs` the
@@ -21,6 +22,7 @@ pub mod bsdf;
 mod bump;
 pub mod bvh;
 mod camera;
+pub mod curve;
 pub mod envmap;
 mod filter;
 pub mod geometry;

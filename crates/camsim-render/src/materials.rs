@@ -6,7 +6,7 @@ use crate::bsdf::{Bsdf, Layer, TrowbridgeReitz};
 use crate::integrator::{ImageTex, Tracer};
 use crate::math::V3;
 use crate::render::RenderError;
-use crate::scene::{ConductorOptics, LayerWalk, Material, Roughness};
+use crate::scene::{ConductorOptics, HairAbsorption, LayerWalk, Material, Roughness};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::texture::{compile_float_texture, compile_texture, eval_float, FTex, Tex, TexCtx};
 
@@ -65,6 +65,16 @@ pub(crate) enum Mat {
     /// A medium boundary over material `base` (the media are in `Tracer::media`).
     MediumBoundary {
         base: u32,
+    },
+    /// A hair fibre: `sigma_a` (or the colour it is derived from) per hit, and the fibre's
+    /// constants (roughness clamped to [0.01, 1] as pbrt-v4 `HairMaterial::GetBxDF`).
+    Hair {
+        absorption: Tex,
+        from_color: bool,
+        eta: f32,
+        beta_m: f32,
+        beta_n: f32,
+        alpha_deg: f32,
     },
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
@@ -283,6 +293,29 @@ impl Tracer {
                         distrib: *distrib,
                         layer: self.layer_at(walk, ctx, lambdas),
                     },
+                    false,
+                )
+            }
+            Mat::Hair {
+                absorption,
+                from_color,
+                eta,
+                beta_m,
+                beta_n,
+                alpha_deg,
+            } => {
+                let a = self.eval_texture(absorption, ctx, lambdas);
+                let sigma_a = if *from_color {
+                    a.map(|c| crate::bsdf::hair::sigma_a_from_color(c, *beta_n))
+                } else {
+                    a.map(|s| s.max(0.0))
+                };
+                // The offset across the fibre from the curve's v (see `h_from_v`).
+                let h = crate::bsdf::hair::h_from_v(ctx.uv[1]);
+                (
+                    Bsdf::Hair(crate::bsdf::hair::Hair::new(
+                        h, *eta, sigma_a, *beta_m, *beta_n, *alpha_deg,
+                    )),
                     false,
                 )
             }
@@ -560,6 +593,34 @@ pub(crate) fn compile_material(
             }
         }
         Material::Interface => Mat::Interface,
+        Material::Hair {
+            absorption,
+            eta,
+            beta_m,
+            beta_n,
+            alpha_deg,
+        } => {
+            if !(eta.is_finite() && *eta > 0.0) {
+                return Err(err(format!("hair eta {eta} must be > 0")));
+            }
+            if !(beta_m.is_finite() && beta_n.is_finite() && alpha_deg.is_finite()) {
+                return Err(err(format!(
+                    "hair beta_m {beta_m}, beta_n {beta_n} and alpha {alpha_deg} must be finite"
+                )));
+            }
+            let (tex, from_color) = match absorption {
+                HairAbsorption::SigmaA(t) => (t, false),
+                HairAbsorption::Color(t) => (t, true),
+            };
+            Mat::Hair {
+                absorption: compile_texture(tex, mi, ws, tables, images)?,
+                from_color,
+                eta: *eta as f32,
+                beta_m: beta_m.clamp(0.01, 1.0) as f32,
+                beta_n: beta_n.clamp(0.01, 1.0) as f32,
+                alpha_deg: *alpha_deg as f32,
+            }
+        }
         Material::VaryingRoughness {
             material,
             u,

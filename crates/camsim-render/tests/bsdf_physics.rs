@@ -11,12 +11,8 @@ use camsim_render::math::V3;
 use rand::Rng;
 use std::f64::consts::PI;
 
-/// Upper critical value of chi-square with `k` degrees of freedom at tail probability given by
-/// the standard normal quantile `z` (Wilson & Hilferty 1931 approximation).
-fn chi2_critical(k: f64, z: f64) -> f64 {
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
-}
+mod common;
+use common::{chi2_critical, pooled_chi_square};
 
 fn tr(ax: f32, ay: f32) -> TrowbridgeReitz {
     TrowbridgeReitz {
@@ -93,20 +89,8 @@ fn chi_square_with(
             expected[i * np + j] = n as f64 * s * (c1 - c0) * (p1 - p0) / (q * q) as f64;
         }
     }
-    let (mut chi2, mut dof, mut pool_o, mut pool_e) = (0.0, 0usize, 0.0, 0.0);
-    for (o, e) in observed.iter().zip(&expected) {
-        if *e < 5.0 {
-            pool_o += o;
-            pool_e += e;
-        } else {
-            chi2 += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-    }
-    if pool_e > 5.0 {
-        chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        dof += 1;
-    } else {
+    let (chi2, dof, pool_o, pool_e) = pooled_chi_square(&observed, &expected);
+    if pool_e <= 5.0 {
         assert!(
             pool_o < 10.0 + 3.0 * pool_e,
             "{pool_o} samples where the pdf expects {pool_e}"

@@ -18,6 +18,9 @@ use camsim_render::math::V3;
 use rand::Rng;
 use std::f64::consts::PI;
 
+mod common;
+use common::chi2_critical;
+
 fn tr(a: f32) -> TrowbridgeReitz {
     TrowbridgeReitz {
         alpha_x: a,
@@ -476,13 +479,6 @@ fn expected_value_of_f_is_reciprocal() {
             assert!((a - c).abs() < 4.5 * se + 1e-4 * a, "{name}: {a} vs {c}");
         }
     }
-}
-
-/// Upper critical value of chi-square with `k` degrees of freedom at the tail probability given
-/// by the standard normal quantile `z` (Wilson & Hilferty 1931).
-fn chi2_critical(k: f64, z: f64) -> f64 {
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
 }
 
 /// Sampling against evaluation for a stochastic BSDF. Over a (cos theta, phi) grid of the upper

@@ -4,7 +4,7 @@
 //!
 //! Modules: [`scene`] (the [`SceneDescription`] and what it is made of: shapes, materials,
 //! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
-//! surfaces turned into triangles), [`xform`] (transform and shape-bounds math), [`camera`]
+//! surfaces turned into triangles), [`curves`] (pbrt-v4 curves as cubic Bezier segments), [`xform`] (transform and shape-bounds math), [`camera`]
 //! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
 //! [`media`] (participating media and measured scattering presets),
 //! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
@@ -12,6 +12,7 @@
 
 pub mod builtin;
 pub mod camera;
+pub mod curves;
 pub mod envmap;
 pub mod media;
 pub mod scene;

@@ -423,6 +423,18 @@ pub enum Material {
         inside: Option<usize>,
         outside: Option<usize>,
     },
+    /// A hair fibre (pbrt-v4 `hair`; Chiang et al. 2016, see `camsim_render::bsdf::hair`), for
+    /// curves: the fibre's absorption, its index of refraction `eta`, longitudinal and azimuthal
+    /// roughness `beta_m`, `beta_n` (0..1; pbrt-v4 clamps them to [0.01, 1]) and the cuticle
+    /// scales' tilt `alpha_deg` (degrees). pbrt-v4 defaults: eta 1.55, beta_m 0.3, beta_n 0.3,
+    /// alpha 2 deg.
+    Hair {
+        absorption: HairAbsorption,
+        eta: f64,
+        beta_m: f64,
+        beta_n: f64,
+        alpha_deg: f64,
+    },
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
@@ -455,6 +467,17 @@ pub struct NormalMapImage {
     pub width: usize,
     pub height: usize,
     pub rgb: Vec<[f32; 3]>,
+}
+
+/// How a hair fibre absorbs (pbrt-v4 `HairMaterial`'s three parametrizations; melanin
+/// concentrations are turned into [`HairAbsorption::SigmaA`] by the reader).
+#[derive(Debug, Clone, PartialEq)]
+pub enum HairAbsorption {
+    /// Absorption coefficient inside the fibre per unit fibre radius (dimensionless, >= 0).
+    SigmaA(Texture),
+    /// The fibre's colour (its multiple-scattering albedo, 0..1), mapped per wavelength to
+    /// `sigma_a` by Chiang et al. 2016's fit for the material's `beta_n` (sec. 4.2).
+    Color(Texture),
 }
 
 /// The medium between a coating's two interfaces and the random walk that evaluates the
@@ -574,6 +597,8 @@ pub enum Geometry {
         z_max: f64,
         phi_max_deg: f64,
     },
+    /// A pbrt-v4 `curve` (hair, fur): cubic Bezier segments with a width, see [`crate::curves`].
+    Curves(crate::curves::Curves),
 }
 
 /// One object: geometry, its material (index into `SceneDescription::materials`), and an

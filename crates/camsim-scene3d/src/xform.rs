@@ -1,5 +1,6 @@
 //! Transform helpers the scene readers share: inverse, determinant, pbrt-v4's `LookAt`, and
-//! moving a [`Shape`] by a transform (positions, normals, sphere centre/radius, handedness).
+//! moving a [`Shape`] by a transform (positions, normals, sphere centre/radius, curve control
+//! points and widths, handedness).
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 
@@ -184,6 +185,27 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
                 shape.reverse_orientation = !shape.reverse_orientation;
             }
         }
+        Geometry::Curves(c) => {
+            // A Bezier curve is affine invariant: its control points carry it exactly. The width
+            // scales with the transform's mean linear scale |det|^(1/3) (exact for similarities;
+            // pbrt-v4 keeps it in object space, where a non-uniform scale has no single width).
+            let s = det3(t).abs().cbrt();
+            if !(s > 0.0 && s.is_finite()) {
+                return Err("singular transform".into());
+            }
+            for p in c.points.iter_mut() {
+                let q = t.apply_point([p[0] as f64, p[1] as f64, p[2] as f64]);
+                *p = [q[0] as f32, q[1] as f32, q[2] as f32];
+            }
+            for n in c.normals.iter_mut() {
+                let q = apply_normal(&inv, [n[0] as f64, n[1] as f64, n[2] as f64]);
+                *n = [q[0] as f32, q[1] as f32, q[2] as f32];
+            }
+            c.width_m = c.width_m.map(|w| (w as f64 * s) as f32);
+            if swaps {
+                shape.reverse_orientation = !shape.reverse_orientation;
+            }
+        }
         #[allow(unreachable_patterns)]
         _ => return Err("this geometry cannot be transformed by the scene reader".into()),
     }
@@ -215,6 +237,7 @@ pub fn shape_area(g: &Geometry) -> f64 {
             phi_max_deg,
             ..
         } => phi_max_deg.to_radians() * radius * (z_max - z_min),
+        Geometry::Curves(c) => c.area_m2(),
         #[allow(unreachable_patterns)]
         _ => 0.0,
     }
@@ -238,6 +261,7 @@ pub fn shape_bounds(g: &Geometry) -> ([f64; 3], [f64; 3]) {
             [center[0] - radius, center[1] - radius, center[2] - radius],
             [center[0] + radius, center[1] + radius, center[2] + radius],
         ),
+        Geometry::Curves(c) => c.bounds_m(),
         #[allow(unreachable_patterns)]
         _ => ([0.0; 3], [0.0; 3]),
     }

@@ -14,13 +14,13 @@ use camsim_core::Spectrum;
 use std::path::Path;
 
 /// Materials camsim reads.
-pub(super) const SUPPORTED: &str = "diffuse, conductor, dielectric, thindielectric, diffusetransmission, coateddiffuse, coatedconductor, mix, interface";
+pub(super) const SUPPORTED: &str = "diffuse, conductor, dielectric, thindielectric, diffusetransmission, coateddiffuse, coatedconductor, hair, mix, interface";
 
 impl Parser {
     /// A float parameter that pbrt-v4 also accepts as a float texture: a number or the name of a
     /// `constant` float texture (read by the texture helper); other float textures are refused
     /// (camsim's materials take these parameters per material, not per hit).
-    fn float_param(
+    pub(super) fn float_param(
         &self,
         params: &ParamList,
         name: &str,
@@ -414,6 +414,7 @@ impl Parser {
                 let amount = self.float_param(params, "amount", 0.5, &what)?;
                 Material::Mix { materials, amount }
             }
+            "hair" => self.hair_material(params, file, loc, &what)?,
             "interface" => Material::Interface,
             "" | "none" => Material::Interface,
             _ => {

@@ -18,6 +18,7 @@
 //! the two estimates; see [`layered`].
 
 pub mod fresnel;
+pub mod hair;
 pub mod layered;
 pub mod microfacet;
 
@@ -75,6 +76,9 @@ pub enum Bsdf<const N: usize> {
         base: TrowbridgeReitz,
         layer: Layer<N>,
     },
+    /// A hair fibre (Chiang et al. 2016, pbrt-v4 `HairBxDF`, see [`hair`]): the local frame's x
+    /// axis runs along the fibre. Scatters to both sides of the (ray-facing) curve surface.
+    Hair(hair::Hair<N>),
 }
 
 /// A sampled incident direction.
@@ -136,7 +140,8 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::CoatedConductor { .. } => self.layered().is_some_and(|l| l.is_delta()),
             Bsdf::Diffuse { .. }
             | Bsdf::DiffuseTransmission { .. }
-            | Bsdf::CoatedDiffuse { .. } => false,
+            | Bsdf::CoatedDiffuse { .. }
+            | Bsdf::Hair(_) => false,
         }
     }
 
@@ -200,6 +205,7 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::Dielectric { .. }
                 | Bsdf::ThinDielectric { .. }
                 | Bsdf::DiffuseTransmission { .. }
+                | Bsdf::Hair(_)
         )
     }
 
@@ -209,6 +215,7 @@ impl<const N: usize> Bsdf<N> {
         const ZERO: f32 = 0.0;
         match self {
             Bsdf::CoatedConductor { .. } | Bsdf::CoatedDiffuse { .. } => self.layered_eval(wo, wi),
+            Bsdf::Hair(h) => (h.f(wo, wi), h.pdf(wo, wi)),
             Bsdf::Diffuse { reflectance } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
@@ -279,6 +286,18 @@ impl<const N: usize> Bsdf<N> {
                 let x = l.sample(wo_up, uc, u0, u1)?;
                 let wi = if flip { -x.wi } else { x.wi };
                 BsdfSample::new(wi, x.weight, x.pdf, x.specular, false, 1.0)
+            }
+            Bsdf::Hair(h) => {
+                let (wi, f, pdf) = h.sample(wo, uc, u0, u1)?;
+                let c = wi.z.abs();
+                BsdfSample::new(
+                    wi,
+                    f.map(|v| v * c / pdf),
+                    pdf,
+                    false,
+                    wi.z * wo.z < 0.0,
+                    1.0,
+                )
             }
             Bsdf::Diffuse { reflectance } => {
                 // Cosine-weighted on wo's side (pbrt-v4 DiffuseBxDF::Sample_f).
@@ -422,6 +441,7 @@ impl<const N: usize> Bsdf<N> {
                 }
                 _ => 0.0,
             },
+            Bsdf::Hair(h) => h.pdf(wo, wi),
             _ => self.eval(wo, wi).1,
         }
     }

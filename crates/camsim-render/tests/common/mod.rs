@@ -39,3 +39,31 @@ pub fn floor(s: f64) -> Shape {
         reverse_orientation: false,
     }
 }
+
+/// Upper critical value of chi-square with `k` degrees of freedom at the tail probability given
+/// by the standard normal quantile `z` (Wilson & Hilferty 1931 approximation).
+pub fn chi2_critical(k: f64, z: f64) -> f64 {
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Pearson's chi-square of observed against expected counts, cells expecting fewer than 5
+/// pooled into one (standard practice), which counts as a cell when it expects more than 5:
+/// `(chi2, cells counted, pooled observed, pooled expected)`.
+pub fn pooled_chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize, f64, f64) {
+    let (mut chi2, mut dof, mut pool_o, mut pool_e) = (0.0, 0usize, 0.0, 0.0);
+    for (o, e) in observed.iter().zip(expected) {
+        if *e < 5.0 {
+            pool_o += o;
+            pool_e += e;
+        } else {
+            chi2 += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+    }
+    if pool_e > 5.0 {
+        chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        dof += 1;
+    }
+    (chi2, dof, pool_o, pool_e)
+}
