@@ -108,7 +108,8 @@ pub(crate) struct Tracer {
     pub max_depth: u32,
     /// Russian roulette runs at scattering vertices with `depth >= rr_depth`.
     pub rr_depth: u32,
-    /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
+    /// Spawn offsets: a hit point's floating-point error bound is `offset_scale` times the sum
+    /// of the magnitudes it is computed from (see `SurfaceHit::err`).
     pub offset_scale: f32,
     /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
     /// the inside of dielectrics.
@@ -127,6 +128,10 @@ struct SurfaceHit {
     /// Shading normal (unit; equals `ng` without vertex normals).
     ns: V3,
     uv: [f32; 2],
+    /// Bound on the floating-point error of `p`, m: `offset_scale (|p0| + |e1| + |e2|)` for a
+    /// triangle (`p = p0 + u e1 + v e2`), `offset_scale (|center| + r)` for a sphere (max norms).
+    /// Rays leave the surface this far along the geometric normal (pbrt-v4 `OffsetRayOrigin`).
+    err: f32,
 }
 
 impl Tracer {
@@ -546,7 +551,9 @@ impl Tracer {
             lights,
             max_depth,
             rr_depth,
-            offset_scale: 3e-5,
+            // 32 unit roundoffs (f32): about 3x pbrt-v4's gamma(7) bound on a barycentric
+            // reconstruction, for the rounding of the stored edges and of (u, v) as well.
+            offset_scale: 32.0 * f32::EPSILON / 2.0,
             shape_flip,
             has_interface,
             has_alpha,
@@ -564,6 +571,7 @@ impl Tracer {
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
+                let err = self.offset_scale * (p0.max_abs() + e1.max_abs() + e2.max_abs());
                 let ng = self.tri_normals[slot];
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
@@ -592,7 +600,7 @@ impl Tracer {
                 } else {
                     uv = [uv[0] + uv[1], uv[1]];
                 }
-                SurfaceHit { p, ng, ns, uv }
+                SurfaceHit { p, ng, ns, uv, err }
             }
             Prim::Sphere { center, radius } => {
                 let p0 = r.o + r.d * h.t;
@@ -606,6 +614,7 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    err: self.offset_scale * (center.max_abs() + radius),
                 }
             }
             Prim::PartialSphere {
@@ -624,6 +633,7 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    err: self.offset_scale * (center.max_abs() + radius),
                 }
             }
         }
@@ -739,9 +749,12 @@ impl Tracer {
         eval_float(tex, ctx)
     }
 
+    /// `p` moved `err` (its error bound, `SurfaceHit::err`) along the unit normal `n` (pbrt-v4
+    /// `OffsetRayOrigin`, 4th ed. §6.8.6: far enough that a ray from there cannot hit the surface
+    /// it leaves, near enough to hit a surface a hair's breadth away, as pbrt-v4 does).
     #[inline(always)]
-    fn offset(&self, p: V3, n: V3) -> V3 {
-        p + n * (self.offset_scale * (1.0 + p.max_abs()))
+    fn offset(p: V3, n: V3, err: f32) -> V3 {
+        p + n * err
     }
 
     /// Visibility of a sampled light point from the (already offset) shading point `p_from`
@@ -757,7 +770,10 @@ impl Tracer {
             return !self.occluded(p_from, wi, f32::INFINITY);
         }
         let n_to = n_light.face_forward(p_from - p_light);
-        let p_to = self.offset(p_light, n_to);
+        // A sampled light point is computed like a hit point from its shape's vertices; its
+        // magnitude bounds theirs well enough here, since the shadow ray stops ShadowEpsilon
+        // short of it anyway.
+        let p_to = Self::offset(p_light, n_to, 4.0 * self.offset_scale * p_light.max_abs());
         let d = p_to - p_from;
         let len = d.length();
         if !(len > 0.0 && len.is_finite()) {
@@ -801,7 +817,7 @@ impl Tracer {
             {
                 return true;
             }
-            let next = self.offset(sh.p, sh.ng.face_forward(d));
+            let next = Self::offset(sh.p, sh.ng.face_forward(d), sh.err);
             t_left -= (next - o).dot(d);
             if t_left.is_nan() || t_left <= 0.0 {
                 return false;
@@ -873,7 +889,7 @@ impl Tracer {
                     break;
                 }
                 ray = Ray {
-                    o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                    o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -908,7 +924,7 @@ impl Tracer {
                 }
                 let far = sh.ng.face_forward(ray.d);
                 ray = Ray {
-                    o: self.offset(sh.p, far),
+                    o: Self::offset(sh.p, far, sh.err),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -942,7 +958,7 @@ impl Tracer {
             let ns = sh.ns.face_forward(ng);
             let frame = Frame::from_normal(ns);
             let wo_local = frame.to_local(wo);
-            let p_out = self.offset(sh.p, ng);
+            let p_out = Self::offset(sh.p, ng, sh.err);
 
             // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
             if !self.lights.is_empty() && !bsdf.is_delta() {
@@ -970,7 +986,7 @@ impl Tracer {
                         let p_from = if cos_g > 0.0 {
                             p_out
                         } else {
-                            self.offset(sh.p, -ng)
+                            Self::offset(sh.p, -ng, sh.err)
                         };
                         // A masked emitter gives nothing where its alpha test rejects the sampled
                         // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
@@ -1049,7 +1065,7 @@ impl Tracer {
             }
             counts.bounce += 1;
             let o = if bs.transmission {
-                self.offset(sh.p, -ng)
+                Self::offset(sh.p, -ng, sh.err)
             } else {
                 p_out
             };
@@ -1089,7 +1105,7 @@ impl Tracer {
                 return ((sh.p - r.o).dot(forward), pi.shape + 1);
             }
             ray = Ray {
-                o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                 d: ray.d,
             };
         }
