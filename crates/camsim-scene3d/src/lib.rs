@@ -12,6 +12,7 @@
 pub mod builtin;
 pub mod camera;
 pub mod envmap;
+pub mod rgb2spec;
 pub mod scene;
 pub mod shapes;
 pub mod spectra;
