@@ -22,10 +22,18 @@ fn main() {
     let skip = ((rgb2spec::LAMBDA_MIN_NM - cie::D65_START_NM) / 5.0).round() as usize;
     let mut d65: Vec<f64> = cie::D65[skip..].to_vec();
     d65.extend_from_slice(&rgb2spec::D65_785_830);
-    assert_eq!(d65.len(), cie::CIE1931_Y_BAR.len(), "D65 must cover 360-830 nm");
+    assert_eq!(
+        d65.len(),
+        cie::CIE1931_Y_BAR.len(),
+        "D65 must cover 360-830 nm"
+    );
     assert_eq!(cie::CMF_START_NM, rgb2spec::LAMBDA_MIN_NM);
     let q = rgb2spec::Quadrature::new(&rgb2spec::ObserverTables {
-        cmfs: [&cie::CIE1931_X_BAR, &cie::CIE1931_Y_BAR, &cie::CIE1931_Z_BAR],
+        cmfs: [
+            &cie::CIE1931_X_BAR,
+            &cie::CIE1931_Y_BAR,
+            &cie::CIE1931_Z_BAR,
+        ],
         illuminant: &d65,
     });
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -227,6 +227,53 @@ impl Prim {
     }
 }
 
+/// Scale of the floating-point error bounds of surface points (`tri_point_err`,
+/// `sphere_point_err`): 32 unit roundoffs of f32 (`16 f32::EPSILON`, about 1.9e-6 relative).
+/// pbrt-v4 bounds its barycentric reconstruction `b0 p0 + b1 p1 + b2 p2` by `gamma(7)` (7 unit
+/// roundoffs, 4th ed. sec. 6.8.3) and re-intersects with its watertight test, which discards
+/// `t` below that test's own error bound. camsim intersects with Moller-Trumbore and `t > 0`
+/// alone, so the bound has to cover the intersection test's rounding of `t` too (a few more
+/// roundoffs of the same magnitudes, `o - p0` being of the order of `p0` and the edges): about
+/// 4x pbrt-v4's constant. It stays microns at metres from the origin: a surface 10 um behind the
+/// one a ray leaves is still reached (tests/ray_offsets.rs).
+pub const POINT_ERR_SCALE: f32 = 16.0 * f32::EPSILON;
+
+/// Per-axis bound on the floating-point error of the point `p0 + b1 e1 + b2 e2` of a triangle,
+/// m (as pbrt-v4's `gamma(7) (|b0 p0| + |b1 p1| + |b2 p2|)`, 4th ed. sec. 6.8.5, for camsim's
+/// stored vertex and edges).
+#[inline(always)]
+pub fn tri_point_err(p0: V3, e1: V3, e2: V3, b1: f32, b2: f32) -> V3 {
+    (p0.abs() + e1.abs() * b1.abs() + e2.abs() * b2.abs()) * POINT_ERR_SCALE
+}
+
+/// Per-axis bound on the floating-point error of the point `center + radius n` of a sphere
+/// (`n` the unit normal), m: the sum's operands' magnitudes, as pbrt-v4 bounds its re-projected
+/// sphere point by `gamma(5) |p|` (4th ed. sec. 6.8.5) in object space.
+#[inline(always)]
+pub fn sphere_point_err(center: V3, radius: f32, n: V3) -> V3 {
+    (center.abs() + n.abs() * radius) * POINT_ERR_SCALE
+}
+
+/// A ray origin off the surface point `p` with per-axis error bound `err`, on the side of the
+/// unit normal `n` (pbrt-v4 `OffsetRayOrigin`, 4th ed. sec. 6.8.6): moved `|n| . err` along `n`,
+/// the distance of the farthest corner of the error box from the tangent plane, then each
+/// component rounded away from `p` so that rounding cannot bring it back inside the box.
+#[inline(always)]
+pub fn offset_ray_origin(p: V3, err: V3, n: V3) -> V3 {
+    let off = n * n.abs().dot(err);
+    let away = |x: f32, o: f32| {
+        let y = x + o;
+        if o > 0.0 {
+            y.next_up()
+        } else if o < 0.0 {
+            y.next_down()
+        } else {
+            y
+        }
+    };
+    V3::new(away(p.x, off.x), away(p.y, off.y), away(p.z, off.z))
+}
+
 /// Moller & Trumbore (1997), "Fast, minimum storage ray-triangle intersection".
 #[inline(always)]
 pub fn intersect_triangle(

@@ -4,7 +4,9 @@
 
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
-use crate::geometry::{Prim, Ray, RayInv, SphereClip};
+use crate::geometry::{
+    offset_ray_origin, sphere_point_err, tri_point_err, Prim, Ray, RayInv, SphereClip,
+};
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
@@ -108,9 +110,6 @@ pub(crate) struct Tracer {
     pub max_depth: u32,
     /// Russian roulette runs at scattering vertices with `depth >= rr_depth`.
     pub rr_depth: u32,
-    /// Spawn offsets: a hit point's floating-point error bound is `offset_scale` times the sum
-    /// of the magnitudes it is computed from (see `SurfaceHit::err`).
-    pub offset_scale: f32,
     /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
     /// the inside of dielectrics.
     pub shape_flip: Vec<bool>,
@@ -128,10 +127,10 @@ struct SurfaceHit {
     /// Shading normal (unit; equals `ng` without vertex normals).
     ns: V3,
     uv: [f32; 2],
-    /// Bound on the floating-point error of `p`, m: `offset_scale (|p0| + |e1| + |e2|)` for a
-    /// triangle (`p = p0 + u e1 + v e2`), `offset_scale (|center| + r)` for a sphere (max norms).
-    /// Rays leave the surface this far along the geometric normal (pbrt-v4 `OffsetRayOrigin`).
-    err: f32,
+    /// Per-axis bound on the floating-point error of `p`, m (`geometry::tri_point_err`,
+    /// `geometry::sphere_point_err`). Rays leave the surface `|ng| . err` along the geometric
+    /// normal (pbrt-v4 `OffsetRayOrigin`, `geometry::offset_ray_origin`).
+    err: V3,
 }
 
 impl Tracer {
@@ -551,9 +550,6 @@ impl Tracer {
             lights,
             max_depth,
             rr_depth,
-            // 32 unit roundoffs (f32): about 3x pbrt-v4's gamma(7) bound on a barycentric
-            // reconstruction, for the rounding of the stored edges and of (u, v) as well.
-            offset_scale: 32.0 * f32::EPSILON / 2.0,
             shape_flip,
             has_interface,
             has_alpha,
@@ -571,7 +567,7 @@ impl Tracer {
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
-                let err = self.offset_scale * (p0.max_abs() + e1.max_abs() + e2.max_abs());
+                let err = tri_point_err(p0, e1, e2, h.u, h.v);
                 let ng = self.tri_normals[slot];
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
@@ -614,7 +610,7 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
-                    err: self.offset_scale * (center.max_abs() + radius),
+                    err: sphere_point_err(center, radius, n),
                 }
             }
             Prim::PartialSphere {
@@ -633,7 +629,7 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
-                    err: self.offset_scale * (center.max_abs() + radius),
+                    err: sphere_point_err(center, radius, n),
                 }
             }
         }
@@ -749,31 +745,39 @@ impl Tracer {
         eval_float(tex, ctx)
     }
 
-    /// `p` moved `err` (its error bound, `SurfaceHit::err`) along the unit normal `n` (pbrt-v4
-    /// `OffsetRayOrigin`, 4th ed. §6.8.6: far enough that a ray from there cannot hit the surface
-    /// it leaves, near enough to hit a surface a hair's breadth away, as pbrt-v4 does).
+    /// `p` moved off its surface to the side of the unit normal `n` by its per-axis error bound
+    /// `err` (`SurfaceHit::err`; pbrt-v4 `OffsetRayOrigin`, 4th ed. §6.8.6: far enough that a ray
+    /// from there cannot hit the surface it leaves, near enough to hit a surface a hair's
+    /// breadth away, as pbrt-v4 does).
     #[inline(always)]
-    fn offset(p: V3, n: V3, err: f32) -> V3 {
-        p + n * err
+    fn offset(p: V3, n: V3, err: V3) -> V3 {
+        offset_ray_origin(p, err, n)
     }
 
     /// Visibility of a sampled light point from the (already offset) shading point `p_from`
     /// (pbrt-v4 `SpawnRayTo(pFrom, nFrom, time, pTo, nTo)`: both ends offset). The ray runs from
     /// `p_from` toward `p_light` moved off the light's surface along its normal `n_light`, turned
-    /// toward `p_from`, and stops `ShadowEpsilon` (1e-4) of the way short of it: so it can
+    /// toward `p_from`, by the light point's own error bound `err_light` (computed as for a hit on
+    /// the same shape, `LightSample::p_err`), and stops `ShadowEpsilon` (1e-4) of the way short of
+    /// it: so it can
     /// neither reach the light's own surface nor miss an occluder in between. `wi` and `dist` (the
     /// direction and distance from the un-offset point) are used for lights at infinity only.
     #[inline(always)]
-    fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
+    fn unoccluded(
+        &self,
+        p_from: V3,
+        wi: V3,
+        dist: f32,
+        p_light: V3,
+        n_light: V3,
+        err_light: V3,
+    ) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
             return !self.occluded(p_from, wi, f32::INFINITY);
         }
         let n_to = n_light.face_forward(p_from - p_light);
-        // A sampled light point is computed like a hit point from its shape's vertices; its
-        // magnitude bounds theirs well enough here, since the shadow ray stops ShadowEpsilon
-        // short of it anyway.
-        let p_to = Self::offset(p_light, n_to, 4.0 * self.offset_scale * p_light.max_abs());
+        let p_to = Self::offset(p_light, n_to, err_light);
         let d = p_to - p_from;
         let len = d.length();
         if !(len > 0.0 && len.is_finite()) {
@@ -973,6 +977,7 @@ impl Tracer {
                         dist,
                         p_light,
                         n_light,
+                        p_err,
                         le,
                         pdf,
                         delta,
@@ -1005,7 +1010,7 @@ impl Tracer {
                             );
                         if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
-                            if self.unoccluded(p_from, wi, dist, p_light, n_light) {
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light, p_err) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta {
                                     1.0

@@ -197,7 +197,11 @@ fn rough_coated_diffuse_matches_a_photon_simulation() {
         let (mut ws, mut ws2) = (vec![0.0f64; nb], vec![0.0f64; nb]);
         for _ in 0..m {
             if let Some(s) = b.sample(&v3(wi), rng.gen(), rng.gen(), rng.gen()) {
-                let o = [s.wi_local.x as f64, s.wi_local.y as f64, s.wi_local.z as f64];
+                let o = [
+                    s.wi_local.x as f64,
+                    s.wi_local.y as f64,
+                    s.wi_local.z as f64,
+                ];
                 let x = s.weight[0] as f64;
                 ws[bin(o)] += x;
                 ws2[bin(o)] += x * x;

@@ -69,12 +69,34 @@ Shape "trianglemesh" "point3 P" [ -4 -4 1.01  -4 4 1.01  4 4 1.01  4 -4 1.01 ] "
 fn no_self_intersection_near_or_far_from_the_origin() {
     // A diffuse square of reflectance 0.5 under a uniform sky of radiance L: every direction
     // above it sees the sky, so its radiance is 0.5 L (NEE and BSDF samples alike). A shadow or
-    // bounce ray that hit the square itself would darken it.
+    // bounce ray that hit the square itself would darken it. The square is tilted off every
+    // axis (rotated 37 degrees about (1, 1, 0)): in an axis-aligned plane the intersection
+    // test's `t` is exact and even a zero offset would pass. The camera, 2 h above the square
+    // along its normal and 0.5 h aside, looking at its centre with a 20 degree field of view,
+    // sees the square alone: its rays meet the plane within 0.39 h of the centre.
+    let axis = [0.5f64.sqrt(), 0.5f64.sqrt(), 0.0];
+    let (sin, cos) = 37f64.to_radians().sin_cos();
+    // Rodrigues' rotation formula.
+    let rot = |v: [f64; 3]| -> [f64; 3] {
+        let k = axis;
+        let kxv = [
+            k[1] * v[2] - k[2] * v[1],
+            k[2] * v[0] - k[0] * v[2],
+            k[0] * v[1] - k[1] * v[0],
+        ];
+        let kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+        std::array::from_fn(|i| v[i] * cos + kxv[i] * sin + k[i] * kv * (1.0 - cos))
+    };
     for (centre, half) in [(0.0f64, 5e-4f64), (1e4, 1.0)] {
         let (c, h) = (centre, half);
-        let (lo, hi) = (c - h, c + h);
+        let at = |v: [f64; 3]| {
+            let r = rot(v);
+            format!("{} {} {}", c + r[0], c + r[1], c + r[2])
+        };
+        let corners = [[-h, 0.0, -h], [-h, 0.0, h], [h, 0.0, h], [h, 0.0, -h]].map(at);
+        let up = rot([0.0, 1.0, 0.0]);
         let text = format!(
-            r#"LookAt {c} {} {}  {c} {c} {c}  0 1 0
+            r#"LookAt {}  {c} {c} {c}  {} {} {}
 Camera "perspective" "float fov" [ 20 ]
 Film "rgb" "integer xresolution" [ 8 ] "integer yresolution" [ 8 ]
 Sampler "independent" "integer pixelsamples" [ 64 ]
@@ -82,17 +104,26 @@ Integrator "path" "integer maxdepth" [ 5 ]
 WorldBegin
 LightSource "infinite" "rgb L" [ 1 1 1 ]
 Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
-Shape "trianglemesh" "point3 P" [ {lo} {c} {lo}  {lo} {c} {hi}  {hi} {c} {hi}  {hi} {c} {lo} ] "integer indices" [ 0 1 2 0 2 3 ]
+Shape "trianglemesh" "point3 P" [ {} {} {} {} ] "integer indices" [ 0 1 2 0 2 3 ]
 "#,
-            c + 0.9 * h,
-            c + 2.4 * h,
+            at([0.0, 2.0 * h, 0.5 * h]),
+            up[0],
+            up[1],
+            up[2],
+            corners[0],
+            corners[1],
+            corners[2],
+            corners[3],
         );
         let plane = render(&text);
         // The sky seen directly (the same camera, no square).
         let sky_text = text.split("Material").next().unwrap().to_string();
         let sky = render(&sky_text);
         let (got, se) = ratio_and_se(&plane, &sky);
-        eprintln!("square {:.0e} m wide at {c:.0e} m: radiance / sky = {got:.5} +- {se:.5}", 2.0 * h);
+        eprintln!(
+            "square {:.0e} m wide at {c:.0e} m: radiance / sky = {got:.5} +- {se:.5}",
+            2.0 * h
+        );
         assert!((got - 0.5).abs() < 4.0 * se + 2e-3, "{got} at {c}");
     }
 }

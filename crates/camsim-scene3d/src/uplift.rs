@@ -78,7 +78,13 @@ pub fn sigmoid(x: f64) -> f64 {
 }
 
 fn clamp_rgb(rgb: [f32; 3]) -> [f64; 3] {
-    rgb.map(|v| if v.is_nan() { 0.0 } else { (v as f64).clamp(0.0, 1.0) })
+    rgb.map(|v| {
+        if v.is_nan() {
+            0.0
+        } else {
+            (v as f64).clamp(0.0, 1.0)
+        }
+    })
 }
 
 /// The brightness nodes of the table (f32, as pbrt-v4 stores them).
@@ -91,7 +97,9 @@ fn z_nodes() -> &'static [f32] {
 #[inline]
 fn node(i: usize) -> [f32; 3] {
     let b = &TABLE_BYTES[12 * i..12 * i + 12];
-    std::array::from_fn(|k| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]))
+    std::array::from_fn(|k| {
+        f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+    })
 }
 
 /// The coefficients stored at table node (largest component `l`, brightness `k`, ratios `j`,

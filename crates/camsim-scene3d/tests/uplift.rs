@@ -181,7 +181,11 @@ fn compiled_table_is_the_generator_output() {
     for (l, j, i) in [(0, 7, 63), (1, 33, 2), (2, 63, 40)] {
         let col = rgb2spec::column(&q, TABLE_RES, l, j, i);
         for (k, c) in col.iter().enumerate() {
-            assert_eq!(*c, table_coefficients(l, k, j, i), "node ({l}, {k}, {j}, {i})");
+            assert_eq!(
+                *c,
+                table_coefficients(l, k, j, i),
+                "node ({l}, {k}, {j}, {i})"
+            );
         }
     }
     // Sanity of the sigmoid the table is read with.
