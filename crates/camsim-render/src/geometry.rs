@@ -370,6 +370,38 @@ mod tests {
     use super::*;
 
     #[test]
+    fn offset_origin_clears_the_error_box_by_no_more_than_it() {
+        // Points up to 1e4 m from the origin, random unit normals, their triangle error
+        // bounds: in f64, every corner of the error box lies behind the offset origin's plane
+        // (no self-intersection), and the origin is no farther along n than the box's farthest
+        // corner plus the final rounding (surfaces a hair's breadth away stay reachable).
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for i in 0..2000 {
+            let scale = [1e-3f64, 1.0, 1e4][i % 3];
+            let mut v = || V3::new(next() as f32, next() as f32, next() as f32);
+            let (p0, e1, e2) = (v() * scale as f32, v(), v());
+            let (b1, b2) = (0.3f32, 0.4f32);
+            let p = p0 + e1 * b1 + e2 * b2;
+            let n = v().normalize();
+            let err = tri_point_err(p0, e1, e2, b1, b2);
+            let q = offset_ray_origin(p, err, n);
+            let f = |a: V3| [a.x as f64, a.y as f64, a.z as f64];
+            let (p, q, n, err) = (f(p), f(q), f(n), f(err));
+            let along = (0..3).map(|k| (q[k] - p[k]) * n[k]).sum::<f64>();
+            let reach = (0..3).map(|k| n[k].abs() * err[k]).sum::<f64>();
+            assert!(along > reach * (1.0 - 1e-6), "{i}: {along} <= {reach}");
+            let ulp = (0..3).map(|k| q[k].abs()).fold(0.0, f64::max) * f32::EPSILON as f64;
+            assert!(along < reach + 4.0 * ulp, "{i}: {along} vs {reach}");
+        }
+    }
+
+    #[test]
     fn triangle_hit_and_miss() {
         let (p0, e1, e2) = (
             V3::new(0.0, 0.0, 1.0),
