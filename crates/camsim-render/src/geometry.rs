@@ -249,6 +249,53 @@ impl Prim {
     }
 }
 
+/// Scale of the floating-point error bounds of surface points (`tri_point_err`,
+/// `sphere_point_err`): 32 unit roundoffs of f32 (`16 f32::EPSILON`, about 1.9e-6 relative).
+/// pbrt-v4 bounds its barycentric reconstruction `b0 p0 + b1 p1 + b2 p2` by `gamma(7)` (7 unit
+/// roundoffs, 4th ed. sec. 6.8.3) and re-intersects with its watertight test, which discards
+/// `t` below that test's own error bound. camsim intersects with Moller-Trumbore and `t > 0`
+/// alone, so the bound has to cover the intersection test's rounding of `t` too (a few more
+/// roundoffs of the same magnitudes, `o - p0` being of the order of `p0` and the edges): about
+/// 4x pbrt-v4's constant. It stays microns at metres from the origin: a surface 10 um behind the
+/// one a ray leaves is still reached (tests/ray_offsets.rs).
+pub const POINT_ERR_SCALE: f32 = 16.0 * f32::EPSILON;
+
+/// Per-axis bound on the floating-point error of the point `p0 + b1 e1 + b2 e2` of a triangle,
+/// m (as pbrt-v4's `gamma(7) (|b0 p0| + |b1 p1| + |b2 p2|)`, 4th ed. sec. 6.8.5, for camsim's
+/// stored vertex and edges).
+#[inline(always)]
+pub fn tri_point_err(p0: V3, e1: V3, e2: V3, b1: f32, b2: f32) -> V3 {
+    (p0.abs() + e1.abs() * b1.abs() + e2.abs() * b2.abs()) * POINT_ERR_SCALE
+}
+
+/// Per-axis bound on the floating-point error of the point `center + radius n` of a sphere
+/// (`n` the unit normal), m: the sum's operands' magnitudes, as pbrt-v4 bounds its re-projected
+/// sphere point by `gamma(5) |p|` (4th ed. sec. 6.8.5) in object space.
+#[inline(always)]
+pub fn sphere_point_err(center: V3, radius: f32, n: V3) -> V3 {
+    (center.abs() + n.abs() * radius) * POINT_ERR_SCALE
+}
+
+/// A ray origin off the surface point `p` with per-axis error bound `err`, on the side of the
+/// unit normal `n` (pbrt-v4 `OffsetRayOrigin`, 4th ed. sec. 6.8.6): moved `|n| . err` along `n`,
+/// the distance of the farthest corner of the error box from the tangent plane, then each
+/// component rounded away from `p` so that rounding cannot bring it back inside the box.
+#[inline(always)]
+pub fn offset_ray_origin(p: V3, err: V3, n: V3) -> V3 {
+    let off = n * n.abs().dot(err);
+    let away = |x: f32, o: f32| {
+        let y = x + o;
+        if o > 0.0 {
+            y.next_up()
+        } else if o < 0.0 {
+            y.next_down()
+        } else {
+            y
+        }
+    };
+    V3::new(away(p.x, off.x), away(p.y, off.y), away(p.z, off.z))
+}
+
 /// Moller & Trumbore (1997), "Fast, minimum storage ray-triangle intersection".
 #[inline(always)]
 pub fn intersect_triangle(
@@ -343,6 +390,38 @@ pub fn intersect_partial_sphere(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn offset_origin_clears_the_error_box_by_no_more_than_it() {
+        // Points up to 1e4 m from the origin, random unit normals, their triangle error
+        // bounds: in f64, every corner of the error box lies behind the offset origin's plane
+        // (no self-intersection), and the origin is no farther along n than the box's farthest
+        // corner plus the final rounding (surfaces a hair's breadth away stay reachable).
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for i in 0..2000 {
+            let scale = [1e-3f64, 1.0, 1e4][i % 3];
+            let mut v = || V3::new(next() as f32, next() as f32, next() as f32);
+            let (p0, e1, e2) = (v() * scale as f32, v(), v());
+            let (b1, b2) = (0.3f32, 0.4f32);
+            let p = p0 + e1 * b1 + e2 * b2;
+            let n = v().normalize();
+            let err = tri_point_err(p0, e1, e2, b1, b2);
+            let q = offset_ray_origin(p, err, n);
+            let f = |a: V3| [a.x as f64, a.y as f64, a.z as f64];
+            let (p, q, n, err) = (f(p), f(q), f(n), f(err));
+            let along = (0..3).map(|k| (q[k] - p[k]) * n[k]).sum::<f64>();
+            let reach = (0..3).map(|k| n[k].abs() * err[k]).sum::<f64>();
+            assert!(along > reach * (1.0 - 1e-6), "{i}: {along} <= {reach}");
+            let ulp = (0..3).map(|k| q[k].abs()).fold(0.0, f64::max) * f32::EPSILON as f64;
+            assert!(along < reach + 4.0 * ulp, "{i}: {along} vs {reach}");
+        }
+    }
 
     #[test]
     fn triangle_hit_and_miss() {

@@ -4,7 +4,9 @@
 
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
-use crate::geometry::{Prim, Ray, RayInv, SphereClip};
+use crate::geometry::{
+    offset_ray_origin, sphere_point_err, tri_point_err, Prim, Ray, RayInv, SphereClip,
+};
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
@@ -101,8 +103,6 @@ pub(crate) struct Tracer {
     pub max_depth: u32,
     /// Russian roulette runs at scattering vertices with `depth >= rr_depth`.
     pub rr_depth: u32,
-    /// Spawn-offset scale: `eps = offset_scale * (1 + |p|_inf)`.
-    pub offset_scale: f32,
     /// Per shape: its geometric normal is flipped (`Shape::reverse_orientation`), which decides
     /// the inside of dielectrics.
     pub shape_flip: Vec<bool>,
@@ -127,9 +127,11 @@ pub(crate) struct SurfaceHit {
     /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
     /// hair BSDF needs); zero for other shapes (any frame about the normal).
     pub(crate) dpdu: V3,
-    /// Curves: the hit point's error bound per axis, m (pbrt-v4 `pError`, the width at the
-    /// hit): rays leave the point at least this far off along the normal. 0 for other shapes.
-    pub(crate) err: f32,
+    /// Per-axis bound on the floating-point error of `p`, m (`geometry::tri_point_err`,
+    /// `geometry::sphere_point_err`; a curve's the width at the hit, as pbrt-v4's `pError`).
+    /// Rays leave the surface `|ng| . err` along the geometric normal (pbrt-v4
+    /// `OffsetRayOrigin`, `geometry::offset_ray_origin`).
+    pub(crate) err: V3,
 }
 
 impl Tracer {
@@ -577,7 +579,6 @@ impl Tracer {
             lights,
             max_depth,
             rr_depth,
-            offset_scale: 3e-5,
             shape_flip,
             has_interface,
             has_alpha,
@@ -597,6 +598,7 @@ impl Tracer {
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
+                let err = tri_point_err(p0, e1, e2, h.u, h.v);
                 let ng = self.tri_normals[slot];
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
@@ -631,7 +633,7 @@ impl Tracer {
                     ns,
                     uv,
                     dpdu: V3::splat(0.0),
-                    err: 0.0,
+                    err,
                 }
             }
             Prim::Sphere { center, radius } => {
@@ -647,7 +649,7 @@ impl Tracer {
                     ns: n,
                     uv,
                     dpdu: V3::splat(0.0),
-                    err: 0.0,
+                    err: sphere_point_err(center, radius, n),
                 }
             }
             Prim::PartialSphere {
@@ -667,7 +669,7 @@ impl Tracer {
                     ns: n,
                     uv,
                     dpdu: V3::splat(0.0),
-                    err: 0.0,
+                    err: sphere_point_err(center, radius, n),
                 }
             }
             Prim::Curve { seg, .. } => {
@@ -678,7 +680,7 @@ impl Tracer {
                     ns: c.n,
                     uv: [h.u, h.v],
                     dpdu: c.dpdu,
-                    err: c.err,
+                    err: V3::splat(c.err),
                 }
             }
         }
@@ -794,37 +796,39 @@ impl Tracer {
         eval_float(tex, ctx)
     }
 
+    /// `p` moved off its surface to the side of the unit normal `n` by its per-axis error bound
+    /// `err` (`SurfaceHit::err`; pbrt-v4 `OffsetRayOrigin`, 4th ed. §6.8.6: far enough that a ray
+    /// from there cannot hit the surface it leaves, near enough to hit a surface a hair's
+    /// breadth away, as pbrt-v4 does).
     #[inline(always)]
-    fn offset(&self, p: V3, n: V3) -> V3 {
-        p + n * (self.offset_scale * (1.0 + p.max_abs()))
-    }
-
-    /// [`Tracer::offset`] from a hit, at least its error bound away (pbrt-v4 `OffsetRayOrigin`:
-    /// `|n| . pError` along `n`; curves only, whose point lies on a ray-facing ribbon).
-    #[inline(always)]
-    fn offset_at(&self, sh: &SurfaceHit, n: V3) -> V3 {
-        if sh.err > 0.0 {
-            let d = sh.err * (n.x.abs() + n.y.abs() + n.z.abs());
-            sh.p + n * d.max(self.offset_scale * (1.0 + sh.p.max_abs()))
-        } else {
-            self.offset(sh.p, n)
-        }
+    fn offset(p: V3, n: V3, err: V3) -> V3 {
+        offset_ray_origin(p, err, n)
     }
 
     /// Visibility of a sampled light point from the (already offset) shading point `p_from`
     /// (pbrt-v4 `SpawnRayTo(pFrom, nFrom, time, pTo, nTo)`: both ends offset). The ray runs from
     /// `p_from` toward `p_light` moved off the light's surface along its normal `n_light`, turned
-    /// toward `p_from`, and stops `ShadowEpsilon` (1e-4) of the way short of it: so it can
+    /// toward `p_from`, by the light point's own error bound `err_light` (computed as for a hit on
+    /// the same shape, `LightSample::p_err`), and stops `ShadowEpsilon` (1e-4) of the way short of
+    /// it: so it can
     /// neither reach the light's own surface nor miss an occluder in between. `wi` and `dist` (the
     /// direction and distance from the un-offset point) are used for lights at infinity only.
     #[inline(always)]
-    fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
+    fn unoccluded(
+        &self,
+        p_from: V3,
+        wi: V3,
+        dist: f32,
+        p_light: V3,
+        n_light: V3,
+        err_light: V3,
+    ) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
             return !self.occluded(p_from, wi, f32::INFINITY);
         }
         let n_to = n_light.face_forward(p_from - p_light);
-        let p_to = self.offset(p_light, n_to);
+        let p_to = Self::offset(p_light, n_to, err_light);
         let d = p_to - p_from;
         let len = d.length();
         if !(len > 0.0 && len.is_finite()) {
@@ -868,7 +872,7 @@ impl Tracer {
             {
                 return true;
             }
-            let next = self.offset_at(&sh, sh.ng.face_forward(d));
+            let next = Self::offset(sh.p, sh.ng.face_forward(d), sh.err);
             t_left -= (next - o).dot(d);
             if t_left.is_nan() || t_left <= 0.0 {
                 return false;
@@ -940,7 +944,7 @@ impl Tracer {
                     break;
                 }
                 ray = Ray {
-                    o: self.offset_at(&sh, sh.ng.face_forward(ray.d)),
+                    o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -975,7 +979,7 @@ impl Tracer {
                 }
                 let far = sh.ng.face_forward(ray.d);
                 ray = Ray {
-                    o: self.offset_at(&sh, far),
+                    o: Self::offset(sh.p, far, sh.err),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -1015,7 +1019,7 @@ impl Tracer {
                 Frame::from_normal(ns)
             };
             let wo_local = frame.to_local(wo);
-            let p_out = self.offset_at(&sh, ng);
+            let p_out = Self::offset(sh.p, ng, sh.err);
 
             // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
             if !self.lights.is_empty() && !bsdf.is_delta() {
@@ -1030,6 +1034,7 @@ impl Tracer {
                         dist,
                         p_light,
                         n_light,
+                        p_err,
                         le,
                         pdf,
                         delta,
@@ -1043,7 +1048,7 @@ impl Tracer {
                         let p_from = if cos_g > 0.0 {
                             p_out
                         } else {
-                            self.offset_at(&sh, -ng)
+                            Self::offset(sh.p, -ng, sh.err)
                         };
                         // A masked emitter gives nothing where its alpha test rejects the sampled
                         // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
@@ -1062,7 +1067,7 @@ impl Tracer {
                             );
                         if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
-                            if self.unoccluded(p_from, wi, dist, p_light, n_light) {
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light, p_err) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta {
                                     1.0
@@ -1122,7 +1127,7 @@ impl Tracer {
             }
             counts.bounce += 1;
             let o = if bs.transmission {
-                self.offset_at(&sh, -ng)
+                Self::offset(sh.p, -ng, sh.err)
             } else {
                 p_out
             };
@@ -1162,7 +1167,7 @@ impl Tracer {
                 return ((sh.p - r.o).dot(forward), pi.shape + 1);
             }
             ray = Ray {
-                o: self.offset_at(&sh, sh.ng.face_forward(ray.d)),
+                o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                 d: ray.d,
             };
         }

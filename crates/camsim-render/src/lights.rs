@@ -8,6 +8,7 @@
 //! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
 
 use crate::envmap::EnvLight;
+use crate::geometry::{sphere_point_err, tri_point_err};
 use crate::math::V3;
 use crate::sampling::{
     self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle,
@@ -162,6 +163,10 @@ pub(crate) struct LightSample<const N: usize> {
     /// Unit surface normal of the light at `p_light`, as the shape defines it (zero for the
     /// infinite light); the shadow ray's end is offset along it (pbrt-v4 `SpawnRayTo`).
     pub n_light: V3,
+    /// Per-axis floating-point error bound of `p_light`, m, computed as for a ray's hit on the
+    /// same shape (`geometry::tri_point_err`, `geometry::sphere_point_err`; zero for point and
+    /// infinite lights): the shadow ray's end is offset by it.
+    pub p_err: V3,
     /// Emitted radiance toward the reference point; for delta lights the incident irradiance
     /// factor (`I / r^2`, or `E`), so that `f le cos / pdf` is the estimate for every light.
     pub le: [f32; N],
@@ -493,7 +498,7 @@ impl Lights {
         // Surface coordinates are needed for an image or an alpha mask only.
         let want_uv = light.image != NO_IMAGE || light.alpha_mat != NO_ALPHA;
         let mut uv = [0f32; 2];
-        let (wi, dist, q_light, n_light, pdf_sa) = match light.kind {
+        let (wi, dist, q_light, n_light, p_err, pdf_sa) = match light.kind {
             LightKind::Tri {
                 p0,
                 e1,
@@ -522,7 +527,8 @@ impl Lights {
                 if cos_l <= 0.0 || dist <= 0.0 {
                     return None;
                 }
-                (wi, dist, q, n, dist2 / (cos_l * area))
+                let err = tri_point_err(p0, e1, e2, b1, b2);
+                (wi, dist, q, n, err, dist2 / (cos_l * area))
             }
             LightKind::Sphere {
                 center,
@@ -559,7 +565,7 @@ impl Lights {
                 if want_uv {
                     uv = full_sphere_uv(n);
                 }
-                (wi, dist, q, n, pdf)
+                (wi, dist, q, n, sphere_point_err(center, radius, n), pdf)
             }
             LightKind::SphereZone {
                 center,
@@ -591,11 +597,13 @@ impl Lights {
                 if want_uv {
                     uv = zone_uv(&clip, radius, n);
                 }
-                (wi, dist, q, n, dist2 / (cos_l * area))
+                let err = sphere_point_err(center, radius, n);
+                (wi, dist, q, n, err, dist2 / (cos_l * area))
             }
             LightKind::Infinite => (
                 uniform_sphere(u0, u1),
                 f32::INFINITY,
+                V3::splat(0.0),
                 V3::splat(0.0),
                 V3::splat(0.0),
                 sampling::UNIFORM_SPHERE_PDF,
@@ -613,6 +621,7 @@ impl Lights {
                     dist: f32::INFINITY,
                     p_light: V3::splat(0.0),
                     n_light: V3::splat(0.0),
+                    p_err: V3::splat(0.0),
                     le,
                     pdf,
                     delta: false,
@@ -662,6 +671,7 @@ impl Lights {
                     dist,
                     p_light: q,
                     n_light: V3::splat(0.0),
+                    p_err: V3::splat(0.0),
                     le,
                     pdf: light.pmf,
                     delta: true,
@@ -676,6 +686,7 @@ impl Lights {
                     dist: f32::INFINITY,
                     p_light: V3::splat(0.0),
                     n_light: V3::splat(0.0),
+                    p_err: V3::splat(0.0),
                     le,
                     pdf: light.pmf,
                     delta: true,
@@ -694,6 +705,7 @@ impl Lights {
             dist,
             p_light: q_light,
             n_light,
+            p_err,
             le,
             pdf,
             delta: false,

@@ -90,10 +90,10 @@ impl V3 {
     pub fn mul_elem(self, o: V3) -> V3 {
         V3::new(self.x * o.x, self.y * o.y, self.z * o.z)
     }
-    /// Largest absolute component.
+    /// Component-wise absolute value.
     #[inline(always)]
-    pub fn max_abs(self) -> f32 {
-        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    pub fn abs(self) -> V3 {
+        V3::new(self.x.abs(), self.y.abs(), self.z.abs())
     }
     /// True when every component is finite.
     #[inline]

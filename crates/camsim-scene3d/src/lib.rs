@@ -15,6 +15,7 @@ pub mod camera;
 pub mod curves;
 pub mod envmap;
 pub mod media;
+pub mod rgb2spec;
 pub mod scene;
 pub mod shapes;
 pub mod spectra;

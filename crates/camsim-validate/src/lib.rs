@@ -24,6 +24,7 @@
 pub mod cameras;
 pub mod compare;
 pub mod optics_fig;
+pub mod pbrt_reference;
 pub mod plot;
 pub mod qe_fig;
 pub mod report;

@@ -11,6 +11,7 @@
 //! tracer's private hit helpers.
 
 use super::*;
+use crate::bvh::Hit;
 use crate::media::{MediaSet, NO_MEDIUM};
 use crate::phase::{hg_p, hg_sample};
 use camsim_core::rng::{mix64, Rng};
@@ -59,6 +60,8 @@ enum Vertex<'a, const N: usize> {
         /// The hit point and its geometric normal turned toward `wo`.
         p: V3,
         ng: V3,
+        /// The hit point's per-axis error bound (`SurfaceHit::err`).
+        err: V3,
         /// The hit point offset to the reflection side.
         p_out: V3,
         /// The primitive's material (for its medium boundary) and oriented normal.
@@ -101,7 +104,11 @@ impl Tracer {
 
     /// The first hit along `ray` that the alpha test keeps (pbrt-v4's `Intersect` skips the
     /// rejected ones), and its distance from `ray.o`.
-    fn kept_hit(&self, ray: &Ray, counts: &mut RayCounts) -> Option<(SurfaceHit, PrimInfo, f32)> {
+    fn kept_hit(
+        &self,
+        ray: &Ray,
+        counts: &mut RayCounts,
+    ) -> Option<(SurfaceHit, PrimInfo, f32, Hit)> {
         let mut r = *ray;
         for _ in 0..MAX_INTERFACE_SKIPS {
             let h = self.intersect(&r)?;
@@ -114,9 +121,9 @@ impl Tracer {
             };
             if !self.has_alpha || self.alpha_keeps(pi.material, &ctx, r.o, r.d) {
                 let t = (sh.p - ray.o).dot(ray.d);
-                return Some((sh, pi, t));
+                return Some((sh, pi, t, h));
             }
-            r.o = self.offset(sh.p, sh.ng.face_forward(r.d));
+            r.o = Self::offset(sh.p, sh.ng.face_forward(r.d), sh.err);
             counts.bounce += 1;
         }
         None
@@ -272,7 +279,7 @@ impl Tracer {
                 }
             }
 
-            let Some((sh, pi, _)) = hit else {
+            let Some((sh, pi, _, h)) = hit else {
                 // Escaped: infinite lights.
                 let first = depth0_or(specular, st.depth);
                 for &li in &self.lights.infinite {
@@ -306,7 +313,7 @@ impl Tracer {
                 }
                 medium = media.after(pi.material, n_oriented, ray.d, medium);
                 ray = Ray {
-                    o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
+                    o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                     d: ray.d,
                 };
                 counts.bounce += 1;
@@ -324,6 +331,8 @@ impl Tracer {
                 n: sh.ng,
                 p: sh.p,
             };
+            // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !st.hero_only && N > 1 {
                 // Dispersion: only the hero wavelength goes on (as `Tracer::li`).
@@ -334,10 +343,14 @@ impl Tracer {
                 }
             }
             let ng = sh.ng.face_forward(wo);
-            let ns = sh.ns.face_forward(ng);
-            let frame = Frame::from_normal(ns);
+            let ns = ns_shading.face_forward(ng);
+            let frame = if sh.dpdu.length_squared() > 0.0 {
+                crate::curve::fibre_frame(sh.dpdu, ns)
+            } else {
+                Frame::from_normal(ns)
+            };
             let wo_local = frame.to_local(wo);
-            let p_out = self.offset(sh.p, ng);
+            let p_out = Self::offset(sh.p, ng, sh.err);
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let v = Vertex::Surface {
                     bsdf: &bsdf,
@@ -345,6 +358,7 @@ impl Tracer {
                     wo_local,
                     p: sh.p,
                     ng,
+                    err: sh.err,
                     p_out,
                     material: pi.material,
                     n_oriented,
@@ -393,7 +407,7 @@ impl Tracer {
             counts.bounce += 1;
             medium = media.after(pi.material, n_oriented, wi, medium);
             let o = if bs.transmission {
-                self.offset(sh.p, -ng)
+                Self::offset(sh.p, -ng, sh.err)
             } else {
                 p_out
             };
@@ -464,6 +478,7 @@ impl Tracer {
                 wo_local,
                 p,
                 ng,
+                err,
                 p_out,
                 material,
                 n_oriented,
@@ -478,7 +493,7 @@ impl Tracer {
                 let p_from = if cos_g > 0.0 {
                     *p_out
                 } else {
-                    self.offset(*p, -*ng)
+                    Self::offset(*p, -*ng, *err)
                 };
                 (
                     f.map(|x| x * c),
@@ -549,7 +564,7 @@ impl Tracer {
         // As `unoccluded`: toward the light point moved off its surface, stopping short of it.
         let (d, mut t_left) = if ls.dist.is_finite() {
             let n_to = ls.n_light.face_forward(p_from - ls.p_light);
-            let p_to = self.offset(ls.p_light, n_to);
+            let p_to = Self::offset(ls.p_light, n_to, ls.p_err);
             let v = p_to - p_from;
             let len = v.length();
             if !(len > 0.0 && len.is_finite()) {
@@ -644,7 +659,7 @@ impl Tracer {
             if keep {
                 medium = media.after(pi.material, self.oriented_normal(&pi, &sh), d, medium);
             }
-            let next = self.offset(sh.p, sh.ng.face_forward(d));
+            let next = Self::offset(sh.p, sh.ng.face_forward(d), sh.err);
             t_left -= (next - o).dot(d);
             if t_left.is_nan() || t_left <= 0.0 {
                 return Some((t_ray, r_l, r_u));

@@ -1,0 +1,508 @@
+//! camsim against pbrt-v4 on the same pbrt-v4 file: the comparison of issue 27.
+//!
+//! `../shared/scenes/references/` holds pbrt-v4's own spectral renders of real scenes
+//! (mmp/pbrt-v4 5f7a606): two seeds each, 32 spp, `Film "spectral"` with 31 buckets of 10 nm
+//! centred on 400..700 nm, `PixelFilter "box"` of radius 0.5, the file's integrator and
+//! `maxdepth`, stored averaged over 2 x 2 pixel blocks (160 px wide for a 320 px render), in
+//! pbrt-v4's photometrically normalised units: pbrt-v4's radiance is camsim's W/(sr m^2 nm)
+//! times [`PBRT_UNIT_FACTOR`] = 683 x 106.857 (see `camsim_pbrt`'s unit notes).
+//!
+//! [`render_like_reference`] renders a file as the references were made (at the reference's
+//! size times the block factor, the same bands, the file's depth and sampler, a given seed and
+//! sample count) and averages it down to the stored size; [`compare`] then judges camsim's two
+//! seeds against pbrt-v4's two seeds by the issue's criteria ([`Criteria`]):
+//! 1. the ratio of pbrt-v4's to camsim's mean radiance (all bands, all pixels) equals
+//!    [`PBRT_UNIT_FACTOR`] within 1 %;
+//! 2. after scaling camsim by that factor, at most 3 % of the luminance blocks (16 x 9 for 16:9,
+//!    12 x 12 for a square image, about 144 roughly square blocks otherwise) differ by more
+//!    than 4 combined standard errors;
+//! 3. each band's image mean agrees within 2 %.
+//!
+//! Standard errors come from the two seeds of each renderer, pixel by pixel: for independent
+//! renders `a`, `b` of one pixel, `E[(a - b)^2] / 2` is the variance of one render, so the
+//! variance of a block's two-seed mean is `sum_p (a_p - b_p)^2 / (4 n^2)` over its `n` pixels
+//! (pixels are independent Monte Carlo estimates). Pooling over the block's pixels gives the
+//! estimate `n` degrees of freedom; the single difference of the two block means would give one,
+//! and a 4-sigma test with a one-degree-of-freedom error (a Student t with two) fails 5.7 % of
+//! blocks of two identical renderers.
+//!
+//! [`Comparison`] also carries each renderer's variance per sample (the pixel-mean luminance
+//! variance of one seed times its samples per pixel, relative to the squared mean luminance),
+//! from which, with the CPU time of each, the time to equal error follows.
+
+use crate::{Result, ValidateError};
+use camsim_core::colorimetry::Cmfs;
+use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
+use camsim_core::SpectralImage;
+use camsim_scene3d::builtin::BuiltinOptions;
+use camsim_scene3d::SceneDescription;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// pbrt-v4's spectral film values per camsim W/(sr m^2 nm): 683 lm/W (camsim reads pbrt's
+/// normalised radiance as photometric, `camsim_pbrt`) times pbrt-v4's `CIE_Y_integral`
+/// (106.856895, the y-bar integral its `SpectrumToPhotometric` normalisation divides by).
+pub const PBRT_UNIT_FACTOR: f64 = 683.0 * 106.856895;
+
+/// Pixel blocks the references were averaged over (2 x 2).
+pub const REFERENCE_BLOCK: usize = 2;
+
+/// Pass limits of [`compare`] (the issue's "Done means").
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Criteria {
+    /// Largest relative difference of the mean-radiance ratio from [`PBRT_UNIT_FACTOR`].
+    pub mean_tolerance: f64,
+    /// A block differs when |difference| exceeds this many combined standard errors.
+    pub block_sigmas: f64,
+    /// Largest fraction of differing blocks.
+    pub block_fraction: f64,
+    /// Largest relative difference of one band's image mean...
+    pub band_tolerance: f64,
+    /// ... unless the difference is within this many standard errors of the two renderers'
+    /// band means (their Monte Carlo noise; 4, as the blocks).
+    pub band_sigmas: f64,
+}
+
+impl Default for Criteria {
+    fn default() -> Self {
+        Criteria {
+            mean_tolerance: 0.01,
+            block_sigmas: 4.0,
+            block_fraction: 0.03,
+            band_tolerance: 0.02,
+            band_sigmas: 4.0,
+        }
+    }
+}
+
+/// Which of pbrt-v4's outputs the luminance criteria (mean and blocks) use.
+#[derive(Debug, Clone, Copy)]
+pub enum PbrtLuminance<'a> {
+    /// The spectral channels (y-bar weighted band sum), the issue's setup.
+    Spectral,
+    /// The luminance of pbrt-v4's own `R`, `G`, `B` channels of both seeds
+    /// ([`load_reference_rgb_luminance`]). Needed for files whose integrator splats
+    /// (`bdpt`, `lightpath`, `mlt`): pbrt-v4 (5f7a606) `SpectralFilm::AddSplat` adds a
+    /// splatted sample's radiance divided by its wavelength density and the sample count, where
+    /// `AddSample` multiplies by `CIE_Y_integral` and averages per bucket, so the light-tracing
+    /// part of a `bdpt` image is `bucket width / CIE_Y_integral` = 10 / 106.857 = 0.094 of its
+    /// weight in the spectral channels, while its RGB channels are consistent.
+    Rgb(&'a [Vec<f64>; 2]),
+}
+
+/// The outcome of [`compare`]: every figure of the three criteria and the noise of each renderer.
+#[derive(Debug, Clone, Serialize)]
+pub struct Comparison {
+    /// pbrt-v4's mean over camsim's (both two-seed means), divided by the unit factor: 1 when
+    /// they agree. Mean radiance over all bands and pixels ([`PbrtLuminance::Spectral`]) or mean
+    /// luminance ([`PbrtLuminance::Rgb`]).
+    pub mean_ratio: f64,
+    /// Standard error of `mean_ratio` from the pixels' seed differences (both renderers).
+    pub mean_ratio_se: f64,
+    /// The luminance criteria used pbrt-v4's RGB channels ([`PbrtLuminance::Rgb`]); the band
+    /// criterion is then reported but not judged (the spectral channels are biased).
+    pub luminance_from_rgb: bool,
+    /// Blocks across and down.
+    pub blocks: (usize, usize),
+    /// Blocks whose luminance differs by more than `block_sigmas` standard errors.
+    pub blocks_off: usize,
+    /// The largest |difference| / standard error over the blocks.
+    pub worst_block_sigmas: f64,
+    /// Mean of (pbrt / camsim - 1) luminance over the blocks off (signed: > 0 where pbrt-v4 is
+    /// brighter), 0 when none.
+    pub blocks_off_mean_rel: f64,
+    /// Per band: (wavelength nm, pbrt-v4's image mean over camsim's, scaled to 1).
+    pub band_ratios: Vec<(f64, f64)>,
+    /// Per band: the standard error of that ratio (both renderers' seed differences).
+    pub band_ratio_se: Vec<f64>,
+    /// The band ratio farthest from 1 in units of the criterion (relative difference over
+    /// `max(band_tolerance, band_sigmas x its standard error)`).
+    pub worst_band: (f64, f64),
+    /// camsim's relative luminance variance per sample: mean over pixels of the variance of one
+    /// seed's pixel luminance times its samples per pixel, over the squared mean luminance.
+    pub camsim_rel_variance_per_sample: f64,
+    /// The same for pbrt-v4 (its samples per pixel given to [`compare`]).
+    pub pbrt_rel_variance_per_sample: f64,
+    /// Pass or fail of each criterion: mean, blocks, bands (bands always pass when
+    /// `luminance_from_rgb`).
+    pub passes: [bool; 3],
+}
+
+impl Comparison {
+    /// All three criteria met.
+    pub fn pass(&self) -> bool {
+        self.passes.iter().all(|&p| p)
+    }
+}
+
+/// Average `factor` x `factor` pixel blocks (the references' storage). Rows and columns that
+/// do not fill a block are dropped.
+pub fn block_average(img: &SpectralImage, factor: usize) -> Result<SpectralImage> {
+    let (rows, cols) = (img.rows / factor, img.cols / factor);
+    let mut out = SpectralImage::zeros(
+        rows,
+        cols,
+        img.grid,
+        img.sample_spacing_m * factor as f64,
+        img.quantity,
+    )?;
+    let k = 1.0 / (factor * factor) as f64;
+    for b in 0..img.bands() {
+        let src = img.band(b);
+        let dst = out.band_mut(b);
+        for r in 0..rows {
+            for c in 0..cols {
+                let mut s = 0.0f64;
+                for dr in 0..factor {
+                    let row = &src[(r * factor + dr) * img.cols + c * factor..];
+                    s += row[..factor].iter().map(|&v| v as f64).sum::<f64>();
+                }
+                dst[r * cols + c] = (s * k) as f32;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The two reference renders of `scene` in `references_dir` (`<scene>.seed1.exr`,
+/// `<scene>.seed2.exr`), in pbrt-v4's units.
+pub fn load_reference(references_dir: &Path, scene: &str) -> Result<[SpectralImage; 2]> {
+    let read = |seed: u32| -> Result<SpectralImage> {
+        let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
+        Ok(camsim_io::exr::read_spectral_exr(&p)?)
+    };
+    Ok([read(1)?, read(2)?])
+}
+
+/// pbrt-v4's own luminance of each pixel of a reference, from its `R`, `G`, `B` channels (the
+/// film's linear sRGB through its default `cie1931` sensor): `0.2126 R + 0.7152 G + 0.0722 B`
+/// (ITU-R BT.709). This is camsim's luminance in cd/m^2 (pbrt-v4's `cie1931` sensor gives
+/// `Y = integral y-bar L_pbrt dlambda` of its normalised radiance, which camsim reads as
+/// `L / 683`): measured on `veach-mis`, the RGB and spectral channels agree within 0.1 %.
+pub fn load_reference_rgb_luminance(references_dir: &Path, scene: &str) -> Result<[Vec<f64>; 2]> {
+    let read = |seed: u32| -> Result<Vec<f64>> {
+        let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
+        let image = exr::prelude::read_all_flat_layers_from_file(&p)
+            .map_err(|e| ValidateError::file(&p, e.to_string()))?;
+        for layer in &image.layer_data {
+            let find = |name: &str| {
+                layer
+                    .channel_data
+                    .list
+                    .iter()
+                    .find(|c| c.name.to_string() == name)
+            };
+            if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+                let n = layer.size.area();
+                return Ok((0..n)
+                    .map(|i| {
+                        0.2126 * r.sample_data.value_by_flat_index(i).to_f32() as f64
+                            + 0.7152 * g.sample_data.value_by_flat_index(i).to_f32() as f64
+                            + 0.0722 * b.sample_data.value_by_flat_index(i).to_f32() as f64
+                    })
+                    .collect());
+            }
+        }
+        Err(ValidateError::file(&p, "no R, G, B channels"))
+    };
+    Ok([read(1)?, read(2)?])
+}
+
+/// The scene file of a Bitterli scene name: `<scenes_dir>/<scene>/scene-v4.pbrt`.
+pub fn scene_file(scenes_dir: &Path, scene: &str) -> PathBuf {
+    scenes_dir.join(scene).join("scene-v4.pbrt")
+}
+
+/// Load a pbrt-v4 file for a comparison with a reference of `ref_cols` x `ref_rows` pixels:
+/// camsim's default bands (31 x 10 nm, 400-700 nm, the references' buckets), the file's
+/// sampler and maximum depth, `spp` samples per pixel, `seed`, and a film `render_block` times
+/// the reference's size (2 reproduces the references' 320 px render; 1 renders straight at the
+/// stored size, the same box-filtered pixel with a quarter of the samples per unit area).
+/// camsim's film is a box filter of radius 0.5 (one uniform sample per pixel sample), as the
+/// references'. Refused (with the reader's message) when camsim cannot read the file.
+pub fn load_like_reference(
+    file: &Path,
+    ref_cols: usize,
+    ref_rows: usize,
+    render_block: usize,
+    spp: u32,
+    seed: u64,
+) -> Result<SceneDescription> {
+    let opts = BuiltinOptions {
+        resolution: Some((ref_cols * render_block, ref_rows * render_block)),
+        seed,
+        ..BuiltinOptions::default()
+    };
+    let mut scene = camsim_pipeline::render::load_scene(None, Some(file), None, &opts)?;
+    scene.settings.samples_per_pixel = spp;
+    scene.settings.time_budget_s = None;
+    Ok(scene)
+}
+
+/// Render a scene from [`load_like_reference`] and average it down by `render_block`; returns
+/// the image (camsim's W/(sr m^2 nm)) and the process CPU time of the render, s (user +
+/// system, all threads).
+pub fn render_like_reference(
+    scene: &SceneDescription,
+    render_block: usize,
+) -> Result<(SpectralImage, f64)> {
+    let cpu = || {
+        let (u, s) = camsim_core::mem::process_cpu_s();
+        u + s
+    };
+    let t0 = cpu();
+    let out = camsim_render::render(scene, &|_, _| {})?;
+    let cpu_s = cpu() - t0;
+    let img = if render_block > 1 {
+        block_average(&out.radiance, render_block)?
+    } else {
+        out.radiance
+    };
+    Ok((img, cpu_s))
+}
+
+/// `k sum_b w_b L_b` of every pixel (with `w` = y-bar: luminance up to a constant).
+fn luminance_of(img: &SpectralImage, w: &[f64], k: f64) -> Vec<f64> {
+    let mut y = vec![0.0f64; img.pixels()];
+    for (b, &wb) in w.iter().enumerate() {
+        for (acc, &v) in y.iter_mut().zip(img.band(b)) {
+            *acc += k * wb * v as f64;
+        }
+    }
+    y
+}
+
+/// Blocks across and down for an image of `cols` x `rows`: 16 x 9 for 16:9, 12 x 12 for a
+/// square, otherwise about 144 roughly square blocks.
+pub fn block_grid(cols: usize, rows: usize) -> (usize, usize) {
+    let aspect = cols as f64 / rows as f64;
+    let nx = ((144.0 * aspect).sqrt().round() as usize).clamp(1, cols);
+    let ny = ((144.0 / nx as f64).round() as usize).clamp(1, rows);
+    (nx, ny)
+}
+
+/// Compare camsim's two seeds (W/(sr m^2 nm), `camsim_spp` samples per pixel at the compared
+/// size) with pbrt-v4's two seeds (its units, `pbrt_spp`), all four of the same size and bands;
+/// `luminance` chooses pbrt-v4's output for the mean and block criteria.
+pub fn compare(
+    camsim: [&SpectralImage; 2],
+    camsim_spp: f64,
+    pbrt: [&SpectralImage; 2],
+    pbrt_spp: f64,
+    luminance: PbrtLuminance<'_>,
+    criteria: &Criteria,
+) -> Result<Comparison> {
+    let (rows, cols, nb) = (pbrt[0].rows, pbrt[0].cols, pbrt[0].bands());
+    for im in camsim.iter().chain(pbrt.iter()) {
+        if im.rows != rows || im.cols != cols || im.bands() != nb {
+            return Err(ValidateError::invalid(
+                "images to compare",
+                format!(
+                    "{} x {} x {} bands against {cols} x {rows} x {nb}",
+                    im.cols,
+                    im.rows,
+                    im.bands()
+                ),
+            ));
+        }
+    }
+    let npx = rows * cols;
+    let n = npx as f64;
+    let cmfs = Cmfs::on(&pbrt[0].grid);
+    // Per-pixel values both criteria 1 and 2 compare, camsim's already in pbrt-v4's units.
+    let (yc, yp, mean_c, mean_p, from_rgb) = match luminance {
+        PbrtLuminance::Spectral => {
+            let k = PBRT_UNIT_FACTOR;
+            let yc = camsim.map(|im| luminance_of(im, &cmfs.y, k));
+            let yp = pbrt.map(|im| luminance_of(im, &cmfs.y, 1.0));
+            // Criterion 1 on the plain band sum (radiance), as the issue states it.
+            let ones = vec![1.0; nb];
+            let mc = camsim.map(|im| luminance_of(im, &ones, k));
+            let mp = pbrt.map(|im| luminance_of(im, &ones, 1.0));
+            (yc, yp, mc, mp, false)
+        }
+        PbrtLuminance::Rgb(rgb) => {
+            if rgb.iter().any(|v| v.len() != npx) {
+                return Err(ValidateError::invalid(
+                    "pbrt-v4 RGB luminance",
+                    format!("not {cols} x {rows} pixels"),
+                ));
+            }
+            // camsim's luminance in cd/m^2 (683 sum y-bar L dlambda) is pbrt-v4's RGB luminance.
+            let k = LUMINOUS_EFFICACY_LM_PER_W * pbrt[0].grid.step_nm;
+            let yc = camsim.map(|im| luminance_of(im, &cmfs.y, k));
+            let yp = rgb.clone();
+            (yc.clone(), yp.clone(), yc, yp, true)
+        }
+    };
+    // Mean of the two seeds and the variance of that mean from the seed differences:
+    // Var(pixel mean of 2 seeds) = (a - b)^2 / 4, of the image mean, / n^2.
+    let mean_and_var = |v: &[Vec<f64>; 2]| {
+        let (mut s, mut d2) = (0.0f64, 0.0f64);
+        for (a, b) in v[0].iter().zip(&v[1]) {
+            s += a + b;
+            d2 += (a - b) * (a - b);
+        }
+        (s / (2.0 * n), d2 / (4.0 * n * n))
+    };
+    let (mc, vc) = mean_and_var(&mean_c);
+    let (mp, vp) = mean_and_var(&mean_p);
+    let mean_ratio = mp / mc;
+    let mean_ratio_se = mean_ratio * (vc / (mc * mc) + vp / (mp * mp)).sqrt();
+
+    let (nx, ny) = block_grid(cols, rows);
+    let mut blocks_off = 0;
+    let mut worst = 0.0f64;
+    let mut off_rel = 0.0f64;
+    for by in 0..ny {
+        for bx in 0..nx {
+            let (r0, r1) = (by * rows / ny, (by + 1) * rows / ny);
+            let (c0, c1) = (bx * cols / nx, (bx + 1) * cols / nx);
+            let m = ((r1 - r0) * (c1 - c0)) as f64;
+            let (mut sc, mut sp, mut dc2, mut dp2) = (0.0, 0.0, 0.0, 0.0);
+            for r in r0..r1 {
+                for c in c0..c1 {
+                    let p = r * cols + c;
+                    let (a, b) = (yc[0][p], yc[1][p]);
+                    let (e, f) = (yp[0][p], yp[1][p]);
+                    sc += a + b;
+                    sp += e + f;
+                    dc2 += (a - b) * (a - b);
+                    dp2 += (e - f) * (e - f);
+                }
+            }
+            let (mcb, mpb) = (sc / (2.0 * m), sp / (2.0 * m));
+            let se = ((dc2 + dp2) / (4.0 * m * m)).sqrt();
+            let diff = mpb - mcb;
+            let z = if se > 0.0 {
+                diff.abs() / se
+            } else if diff == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            worst = worst.max(z);
+            if z > criteria.block_sigmas {
+                blocks_off += 1;
+                if mcb > 0.0 {
+                    off_rel += mpb / mcb - 1.0;
+                }
+            }
+        }
+    }
+    // Band means of the two seeds and the variance of each (same estimator per band).
+    let band_mean = |a: &SpectralImage, b: &SpectralImage, band: usize, k: f64| {
+        let (mut s, mut d2) = (0.0f64, 0.0f64);
+        for (&x, &y) in a.band(band).iter().zip(b.band(band)) {
+            s += (x + y) as f64;
+            d2 += ((x - y) as f64).powi(2);
+        }
+        (k * s / (2.0 * n), k * k * d2 / (4.0 * n * n))
+    };
+    let mut band_ratio_se = Vec::with_capacity(nb);
+    let mut band_ok = true;
+    let mut worst_band = (pbrt[0].grid.wavelength_nm(0), 1.0);
+    let mut worst_score = -1.0;
+    let band_ratios: Vec<(f64, f64)> = (0..nb)
+        .map(|b| {
+            let (c, vc) = band_mean(camsim[0], camsim[1], b, PBRT_UNIT_FACTOR);
+            let (p, vp) = band_mean(pbrt[0], pbrt[1], b, 1.0);
+            let (ratio, se) = if c > 0.0 && p > 0.0 {
+                let r = p / c;
+                (r, r * (vc / (c * c) + vp / (p * p)).sqrt())
+            } else if c == p {
+                (1.0, 0.0)
+            } else {
+                (f64::INFINITY, 0.0)
+            };
+            band_ratio_se.push(se);
+            let lambda = pbrt[0].grid.wavelength_nm(b);
+            let allowed = criteria.band_tolerance.max(criteria.band_sigmas * se);
+            let score = (ratio - 1.0).abs() / allowed;
+            band_ok &= score <= 1.0;
+            if score > worst_score {
+                worst_score = score;
+                worst_band = (lambda, ratio);
+            }
+            (lambda, ratio)
+        })
+        .collect();
+    // Relative variance per sample: mean over pixels of one seed's variance ((a-b)^2 / 2) times
+    // spp, over the squared mean luminance.
+    let rel_var = |y: &[Vec<f64>; 2], spp: f64| {
+        let (m, _) = mean_and_var(y);
+        let d2: f64 = y[0].iter().zip(&y[1]).map(|(a, b)| (a - b) * (a - b)).sum();
+        if m > 0.0 {
+            d2 / (2.0 * n) * spp / (m * m)
+        } else {
+            0.0
+        }
+    };
+    let nblocks = nx * ny;
+    let passes = [
+        (mean_ratio - 1.0).abs() <= criteria.mean_tolerance,
+        blocks_off as f64 <= criteria.block_fraction * nblocks as f64,
+        from_rgb || band_ok,
+    ];
+    Ok(Comparison {
+        mean_ratio,
+        mean_ratio_se,
+        luminance_from_rgb: from_rgb,
+        blocks: (nx, ny),
+        blocks_off,
+        worst_block_sigmas: worst,
+        blocks_off_mean_rel: if blocks_off > 0 {
+            off_rel / blocks_off as f64
+        } else {
+            0.0
+        },
+        band_ratios,
+        band_ratio_se,
+        worst_band,
+        camsim_rel_variance_per_sample: rel_var(&yc, camsim_spp),
+        pbrt_rel_variance_per_sample: rel_var(&yp, pbrt_spp),
+        passes,
+    })
+}
+
+/// One row of `references/INDEX.md`: the scene and pbrt-v4's CPU seconds for one seed.
+#[derive(Debug, Clone, Serialize)]
+pub struct IndexRow {
+    /// Scene name (folder under `bitterli/`).
+    pub scene: String,
+    /// The file's integrator.
+    pub integrator: String,
+    /// pbrt-v4's samples per pixel.
+    pub spp: u32,
+    /// pbrt-v4's CPU time for one seed, s.
+    pub pbrt_cpu_s: f64,
+}
+
+/// The scenes listed in `references/INDEX.md` (its markdown table).
+pub fn read_index(references_dir: &Path) -> Result<Vec<IndexRow>> {
+    let path = references_dir.join("INDEX.md");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| ValidateError::file(&path, format!("cannot read: {e}")))?;
+    let mut rows = Vec::new();
+    for line in text.lines() {
+        let cells: Vec<&str> = line
+            .trim()
+            .trim_matches('|')
+            .split('|')
+            .map(str::trim)
+            .collect();
+        if cells.len() != 6 {
+            continue;
+        }
+        let (Ok(spp), Ok(cpu)) = (cells[4].parse::<u32>(), cells[5].parse::<f64>()) else {
+            continue;
+        };
+        rows.push(IndexRow {
+            scene: cells[0].to_string(),
+            integrator: cells[1].to_string(),
+            spp,
+            pbrt_cpu_s: cpu,
+        });
+    }
+    Ok(rows)
+}
