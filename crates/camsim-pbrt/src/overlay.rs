@@ -606,6 +606,7 @@ fn apply_object(
                 material: material_override.unwrap_or(old_material),
                 area_light: None,
                 reverse_orientation: false,
+                tags: Default::default(),
             }]
         } else {
             let sub = crate::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;

@@ -49,6 +49,8 @@ struct AreaLightSpec {
     /// `filename`: the emission image and its mean luminance `Y(rgb)` (Rec. 709 weights, the
     /// sRGB colour space's luminance vector), pbrt-v4's `k_e` factor for `power`.
     image: Option<(std::sync::Arc<EmissionImage>, f64)>,
+    /// camsim's `"string lightgroup"`: the light group of the emitter's radiance.
+    group: Option<String>,
 }
 
 #[derive(Debug, Clone)]
@@ -101,6 +103,10 @@ struct Parser {
     float_textures: HashMap<String, FloatTexture>,
     shapes: Vec<PendingShape>,
     lights: Vec<Light>,
+    /// Light group of each entry of `lights` (`"string lightgroup"`).
+    light_groups: Vec<Option<String>>,
+    /// Object instances numbered so far (`ShapeTags::instance`).
+    instances: u32,
     objects: HashMap<String, Vec<PendingShape>>,
     current_object: Option<(String, Vec<PendingShape>, Loc)>,
     camera_from_world: Transform,
@@ -168,6 +174,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         float_textures: HashMap::new(),
         shapes: Vec::new(),
         lights: Vec::new(),
+        light_groups: Vec::new(),
+        instances: 0,
         objects: HashMap::new(),
         current_object: None,
         camera_from_world: Transform::identity(),
@@ -985,6 +993,7 @@ impl Parser {
                     material: 0,
                     area_light: None,
                     reverse_orientation: self.gs.reverse_orientation,
+                    tags: Default::default(),
                 };
                 xform::transform_shape(&mut s, &ctm)
                     .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
@@ -1026,6 +1035,7 @@ impl Parser {
                         material: 0,
                         area_light: None,
                         reverse_orientation: self.gs.reverse_orientation,
+                        tags: Default::default(),
                     };
                     xform::transform_shape(&mut s, &ctm)
                         .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
@@ -1115,6 +1125,10 @@ impl Parser {
             material: 0,
             area_light: None,
             reverse_orientation,
+            tags: camsim_scene3d::ShapeTags {
+                object_to_world: Some(ctm),
+                ..Default::default()
+            },
         };
         let pending = PendingShape {
             shape,
@@ -1145,6 +1159,7 @@ impl Parser {
         let mut notes = self.notes;
         let mut errors = self.errors;
         let mut materials = self.materials;
+        let mut instances = self.instances;
         // (base material, alpha parameter text) -> its `AlphaMasked` material.
         let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
@@ -1173,6 +1188,7 @@ impl Parser {
             };
             let mut shape = ps.shape;
             shape.material = material;
+            shape.tags.light_group = ps.light.as_ref().and_then(|l| l.group.clone());
             match ps.light {
                 None => shapes.push(shape),
                 Some(l) => {
@@ -1206,6 +1222,12 @@ impl Parser {
                                 "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
                                 indices.len()
                             ));
+                            // The triangles stay one object instance.
+                            let mut tags = shape.tags.clone();
+                            if tags.instance.is_none() {
+                                tags.instance = Some(instances);
+                                instances += 1;
+                            }
                             for t in indices {
                                 let g = Geometry::Triangles {
                                     positions: t.iter().map(|&i| positions[i as usize]).collect(),
@@ -1233,6 +1255,7 @@ impl Parser {
                                     material,
                                     area_light: Some(to_light(scale)),
                                     reverse_orientation: shape.reverse_orientation,
+                                    tags: tags.clone(),
                                 });
                             }
                         }
@@ -1300,6 +1323,7 @@ impl Parser {
             settings: self.settings,
             focus_distance_m: self.focus_distance_m,
             notes,
+            light_groups: self.light_groups,
         })
     }
 }

@@ -441,6 +441,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let (d, fov) = (2.0, 40.0f64);
     let cam = Camera {
@@ -471,6 +472,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         },
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     };
     let out = render(&sc, &|_, _| {}).unwrap();
     let img = &out.radiance;

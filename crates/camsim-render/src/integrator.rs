@@ -120,13 +120,13 @@ pub(crate) struct Tracer {
 }
 
 /// Surface data at a hit.
-struct SurfaceHit {
-    p: V3,
+pub(crate) struct SurfaceHit {
+    pub p: V3,
     /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
-    ng: V3,
+    pub ng: V3,
     /// Shading normal (unit; equals `ng` without vertex normals).
-    ns: V3,
-    uv: [f32; 2],
+    pub ns: V3,
+    pub uv: [f32; 2],
 }
 
 impl Tracer {
@@ -559,7 +559,7 @@ impl Tracer {
         self.bvh.intersect(&RayInv::new(r), f32::INFINITY)
     }
 
-    fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
+    pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
         let slot = h.slot as usize;
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
@@ -740,7 +740,7 @@ impl Tracer {
     }
 
     #[inline(always)]
-    fn offset(&self, p: V3, n: V3) -> V3 {
+    pub(crate) fn offset(&self, p: V3, n: V3) -> V3 {
         p + n * (self.offset_scale * (1.0 + p.max_abs()))
     }
 
@@ -1068,31 +1068,39 @@ impl Tracer {
                 None => (f32::INFINITY, 0),
             };
         }
-        // Surfaces cut out by alpha are skipped as the path skips them.
+        match self.first_hit(r) {
+            Some((sh, pi)) => ((sh.p - r.o).dot(forward), pi.shape + 1),
+            None => (f32::INFINITY, 0),
+        }
+    }
+
+    /// The first surface along `r` that the alpha test keeps (cut-outs are skipped as the path
+    /// skips them), with its primitive's data; `None` when the ray escapes.
+    pub(crate) fn first_hit(&self, r: &Ray) -> Option<(SurfaceHit, PrimInfo)> {
         let mut ray = *r;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let Some(h) = self.intersect(&ray) else {
-                return (f32::INFINITY, 0);
-            };
+            let h = self.intersect(&ray)?;
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.alpha_keeps(
-                pi.material,
-                &TexCtx {
-                    uv: sh.uv,
-                    n: sh.ng,
-                    p: sh.p,
-                },
-                ray.o,
-                ray.d,
-            ) {
-                return ((sh.p - r.o).dot(forward), pi.shape + 1);
+            if !self.has_alpha
+                || self.alpha_keeps(
+                    pi.material,
+                    &TexCtx {
+                        uv: sh.uv,
+                        n: sh.ng,
+                        p: sh.p,
+                    },
+                    ray.o,
+                    ray.d,
+                )
+            {
+                return Some((sh, pi));
             }
             ray = Ray {
                 o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
                 d: ray.d,
             };
         }
-        (f32::INFINITY, 0)
+        None
     }
 }

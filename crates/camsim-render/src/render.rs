@@ -101,6 +101,15 @@ pub struct RenderOutput {
     pub ids: crate::ids::IdMaps,
     /// Ray counts and speed.
     pub stats: RenderStats,
+    /// Training-data labels, when [`RenderRequest::labels`] asked for them.
+    pub labels: Option<crate::labels::Labels>,
+}
+
+/// What a render computes besides radiance, depth and ids.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RenderRequest {
+    /// The labels ([`crate::labels`]): instance map, boxes, camera, and the maps asked for.
+    pub labels: Option<crate::labels::LabelRequest>,
 }
 
 /// A raw pointer that tiles share to write their own disjoint pixels.
@@ -199,6 +208,15 @@ pub fn render(
     scene: &SceneDescription,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<RenderOutput, RenderError> {
+    render_with(scene, &RenderRequest::default(), progress)
+}
+
+/// [`render`] with the extra outputs of `request` (labels).
+pub fn render_with(
+    scene: &SceneDescription,
+    request: &RenderRequest,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
     let st = &scene.settings;
     st.grid
@@ -227,7 +245,7 @@ pub fn render(
     )?;
     let ws = WavelengthSampler::new(&st.grid);
     let tracer = Tracer::new(scene, &ws)?;
-    match st.wavelengths_per_path {
+    let mut out = match st.wavelengths_per_path {
         1 => run::<1>(scene, &tracer, &rig, &ws, progress, start),
         2 => run::<2>(scene, &tracer, &rig, &ws, progress, start),
         3 => run::<3>(scene, &tracer, &rig, &ws, progress, start),
@@ -237,7 +255,11 @@ pub fn render(
         n => Err(RenderError::Settings(format!(
             "wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"
         ))),
+    }?;
+    if let Some(req) = request.labels {
+        out.labels = Some(crate::labels::compute(scene, &tracer, &rig, &ws, req)?);
     }
+    Ok(out)
 }
 
 fn run<const N: usize>(
@@ -414,5 +436,6 @@ fn run<const N: usize>(
         samples_per_pixel: vec![samples_done; pixels],
         ids,
         stats,
+        labels: None,
     })
 }

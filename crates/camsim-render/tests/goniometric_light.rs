@@ -103,6 +103,7 @@ fn render_floor(light: Light) -> Vec<f64> {
         },
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     };
     let out = render(&scene, &|_, _| {}).unwrap();
     let img = &out.radiance;

@@ -653,6 +653,7 @@ fn furnace_scene(
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     SceneDescription {
         camera,
@@ -663,6 +664,7 @@ fn furnace_scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     }
 }
 

@@ -58,6 +58,7 @@ fn plane(s: f64, z_m: f64, material: usize) -> Shape {
         material,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 
@@ -77,6 +78,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     }
 }
 

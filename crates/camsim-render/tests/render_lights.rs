@@ -57,6 +57,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     }
 }
 
@@ -438,6 +439,7 @@ fn white_furnace_with_a_constant_environment_map() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         }];
         let out = render(
             &scene(
@@ -474,6 +476,7 @@ fn point_light_inside_a_diffuse_sphere_furnace() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let lights = vec![Light::Point {
         position_m: [0.0; 3],

@@ -56,6 +56,7 @@ fn scene(
         settings,
         focus_distance_m: None,
         notes: vec![],
+        light_groups: Vec::new(),
     }
 }
 
@@ -221,6 +222,7 @@ fn furnace(
             image: None,
         }),
         reverse_orientation: reverse,
+        tags: Default::default(),
     }];
     let sc = scene(
         cam,
@@ -307,6 +309,7 @@ fn white_furnace_convex_sphere_under_uniform_sky() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let sc = scene(
         cam.clone(),
@@ -374,6 +377,7 @@ fn direct_light_under_a_rectangle_corner() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: Some("light".into()),
@@ -385,6 +389,7 @@ fn direct_light_under_a_rectangle_corner() {
                 image: None,
             }),
             reverse_orientation: true,
+            tags: Default::default(),
         },
     ];
     // Camera off to the side (x, y < 0) so its view of the point does not pass the emitter;
@@ -439,6 +444,7 @@ fn visible_emitter_reads_its_band_averaged_radiance() {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 16, 16);
     let sc = scene(
@@ -498,6 +504,7 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: None,
@@ -512,6 +519,7 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
                 image: None,
             }),
             reverse_orientation: false,
+            tags: Default::default(),
         },
     ];
     let want = rho * le * (r / d) * (r / d);
@@ -562,6 +570,7 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: None,
@@ -576,6 +585,7 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
                 image: None,
             }),
             reverse_orientation: false,
+            tags: Default::default(),
         },
     ];
     let sc = scene(
@@ -655,6 +665,7 @@ fn bad_scenes_are_errors_not_panics() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let empty = scene(cam.clone(), vec![], vec![], vec![], settings(grid, 1, 1));
     assert!(matches!(
@@ -770,6 +781,7 @@ fn time_budget_stops_between_passes_and_reports_samples() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let mut st = settings(grid, 1_000_000, 3);
     st.time_budget_s = Some(1e-9);
@@ -860,6 +872,7 @@ fn image_texture_is_looked_up_by_uv() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         }];
         let sc = scene(
             cam,
@@ -921,6 +934,7 @@ fn irradiance_from_a_sphere_light_close_up() {
                 material: 0,
                 area_light: None,
                 reverse_orientation: false,
+                tags: Default::default(),
             },
             Shape {
                 name: Some("sphere light".into()),
@@ -935,6 +949,7 @@ fn irradiance_from_a_sphere_light_close_up() {
                     image: None,
                 }),
                 reverse_orientation: false,
+                tags: Default::default(),
             },
         ];
         let el = 10f64.to_radians();
@@ -1030,6 +1045,7 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         // (p1-p0)x(p2-p0) = +z; ReverseOrientation turns the emitting side down.
         Shape {
@@ -1042,6 +1058,7 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
                 image: None,
             }),
             reverse_orientation: true,
+            tags: Default::default(),
         },
     ];
     for x in [0.0, 0.5, 1.0, 1.5, 2.0, 2.5] {
@@ -1098,6 +1115,7 @@ fn spectrum_ends_at_its_last_sample() {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 32, 32);
     let sc = scene(

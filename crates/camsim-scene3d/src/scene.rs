@@ -519,6 +519,24 @@ pub struct Shape {
     /// the mesh has them (then this flag is ignored, as in pbrt-v4) and negated by this flag
     /// otherwise; for spheres the outward normal, negated by this flag.
     pub reverse_orientation: bool,
+    /// Which object instance and light group the shape belongs to (training-data labels).
+    pub tags: ShapeTags,
+}
+
+/// What a shape is part of, for labels and light groups (camsim's own data: pbrt-v4 keeps none).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ShapeTags {
+    /// Shapes with the same `Some(k)` form one object instance (the shapes of one pbrt-v4
+    /// `ObjectInstance`, or one `Shape` directive split into several shapes); `None`: the shape is
+    /// an instance by itself.
+    pub instance: Option<u32>,
+    /// The object-to-world transform the geometry was placed with (pbrt's CTM at the `Shape`,
+    /// then the instance's and any overlay's transforms): the orientation of the instance's 3D
+    /// box. `None`: unknown (the box is then aligned with the world axes).
+    pub object_to_world: Option<Transform>,
+    /// Light group of the shape's area light (pbrt `AreaLightSource ... "string lightgroup"`, or
+    /// an overlay `[[light_group]]`); `None`: the group `default`.
+    pub light_group: Option<String>,
 }
 
 /// Lights that are not shapes. Point, spot and distant lights are delta lights: reached only by
@@ -804,6 +822,9 @@ pub struct SceneDescription {
     pub focus_distance_m: Option<f64>,
     /// Things the reader ignored or approximated (unsupported parameters), for the user.
     pub notes: Vec<String>,
+    /// Light group of each entry of `lights` (pbrt `LightSource ... "string lightgroup"`, or an
+    /// overlay `[[light_group]]`); missing entries and `None`: the group `default`.
+    pub light_groups: Vec<Option<String>>,
 }
 
 /// Which sampler a render uses (pbrt-v4's `Sampler` types).
