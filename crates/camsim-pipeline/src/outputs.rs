@@ -24,11 +24,29 @@ pub enum Output {
     /// material the ray through each scene pixel's centre meets first (3D scenes; 2D charts have
     /// none, and it is skipped).
     Ids,
+    /// instances.png (16-bit instance ids on the raw image's grid) and instances.scene.png (on
+    /// the render's grid): 3D scenes ([`crate::labels`]).
+    Instances,
+    /// normals.exr / normals.scene.exr: surface normals, camera frame (`camera.X/Y/Z`) and world
+    /// (`world.X/Y/Z`).
+    Normals,
+    /// albedo.exr / albedo.scene.exr: the first surface's reflectance, linear sRGB (`R`, `G`,
+    /// `B`) and spectral (`T.<wavelength>nm`).
+    Albedo,
+    /// boxes.json: per instance its 3D box, 2D boxes in both geometries, visible fraction,
+    /// truncation; the cameras' K and extrinsics.
+    Boxes,
 }
+
+/// Output names that are reserved for outputs still to come (refused with this reason).
+const RESERVED: [(&str, &str); 1] = [(
+    "flow",
+    "optical flow needs the renderer's motion (moving shapes and camera), which is not there yet",
+)];
 
 impl Output {
     /// Every output, in the order of [`Self::name`] in `--save`.
-    pub const ALL: [Output; 8] = [
+    pub const ALL: [Output; 12] = [
         Output::Raw,
         Output::RawPng,
         Output::Preview,
@@ -37,6 +55,18 @@ impl Output {
         Output::Depth,
         Output::NoiseFree,
         Output::Ids,
+        Output::Instances,
+        Output::Normals,
+        Output::Albedo,
+        Output::Boxes,
+    ];
+
+    /// The training-data labels ([`crate::labels`]; 3D scenes only).
+    pub const LABELS: [Output; 4] = [
+        Output::Instances,
+        Output::Normals,
+        Output::Albedo,
+        Output::Boxes,
     ];
 
     /// The name used in `--save`.
@@ -50,6 +80,10 @@ impl Output {
             Output::Depth => "depth",
             Output::NoiseFree => "noise-free",
             Output::Ids => "ids",
+            Output::Instances => "instances",
+            Output::Normals => "normals",
+            Output::Albedo => "albedo",
+            Output::Boxes => "boxes",
         }
     }
 }
@@ -87,6 +121,15 @@ impl OutputSet {
                     Some(o) => {
                         set.insert(*o);
                     }
+                    None if RESERVED.iter().any(|(n, _)| *n == item) => {
+                        let why = RESERVED
+                            .iter()
+                            .find(|(n, _)| *n == item)
+                            .map_or("", |r| r.1);
+                        return Err(PipelineError::config(format!(
+                            "--save: output {item:?} is not available yet: {why}"
+                        )));
+                    }
                     None => {
                         let names: Vec<&str> = Output::ALL.iter().map(|o| o.name()).collect();
                         return Err(PipelineError::config(format!(
@@ -102,6 +145,18 @@ impl OutputSet {
 
     pub fn contains(&self, o: Output) -> bool {
         self.0.contains(&o)
+    }
+
+    /// The labels a run must compute for these outputs (3D scenes): `None` when no output needs
+    /// them (the label outputs, and depth and ids, which also get their raw-grid versions).
+    pub fn label_request(&self) -> Option<camsim_render::LabelRequest> {
+        let needs = Output::LABELS.iter().any(|o| self.contains(*o))
+            || self.contains(Output::Depth)
+            || self.contains(Output::Ids);
+        needs.then_some(camsim_render::LabelRequest {
+            normals: self.contains(Output::Normals),
+            albedo: self.contains(Output::Albedo),
+        })
     }
 
     pub fn insert(&mut self, o: Output) {

@@ -381,7 +381,16 @@ fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResul
         serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
     let sim = py
-        .detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {}))
+        .detach(|| {
+            camsim::simulate(
+                &cfg,
+                &SimulateOptions {
+                    noise_free,
+                    ..Default::default()
+                },
+                &|_, _, _| {},
+            )
+        })
         .map_err(err)?;
     Ok(PySimulation { inner: sim })
 }

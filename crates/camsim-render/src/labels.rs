@@ -124,6 +124,10 @@ pub struct Labels {
     pub height: usize,
     /// Instance id per pixel, row-major (0: no surface).
     pub instance_id: Vec<u32>,
+    /// Object id per pixel (1 + shape index, [`crate::IdMaps`]' numbering; 0: no surface).
+    pub object_id: Vec<u32>,
+    /// Distance along the optical axis from the pinhole to the surface, m (infinite: none).
+    pub depth_m: Vec<f32>,
     /// Unit surface normal per pixel in world coordinates (zero where no surface).
     pub normal_world: Option<Vec<[f32; 3]>>,
     /// The same in camera coordinates (OpenCV frame).
@@ -180,50 +184,6 @@ pub fn boxes_2d(map: &[u32], width: usize) -> Vec<Box2d> {
         b.pixels += 1;
     }
     acc.into_iter().flatten().collect()
-}
-
-/// `src` resampled by nearest sample: output pixel `k` takes `src[index[k]]`, or `none` where
-/// `index[k]` is `u32::MAX` (the labels' geometric maps: categorical values are never blended).
-pub fn gather<T: Copy + Send + Sync>(src: &[T], index: &[u32], none: T) -> Vec<T> {
-    index
-        .par_iter()
-        .map(|&i| src.get(i as usize).copied().unwrap_or(none))
-        .collect()
-}
-
-impl Labels {
-    /// The labels resampled onto another pixel grid: output pixel `k` is source pixel
-    /// `index[k]` (`u32::MAX`: none), for every map (nearest sample, [`gather`]); the instances
-    /// and the camera stay those of the render.
-    pub fn gather(&self, index: &[u32], width: usize, height: usize) -> Labels {
-        let n_src = self.width * self.height;
-        let albedo = self.albedo.as_ref().map(|a| {
-            a.chunks_exact(n_src.max(1))
-                .flat_map(|band| gather(band, index, 0.0))
-                .collect()
-        });
-        Labels {
-            width,
-            height,
-            instance_id: gather(&self.instance_id, index, 0),
-            normal_world: self
-                .normal_world
-                .as_ref()
-                .map(|v| gather(v, index, [0.0; 3])),
-            normal_camera: self
-                .normal_camera
-                .as_ref()
-                .map(|v| gather(v, index, [0.0; 3])),
-            albedo,
-            albedo_srgb: self
-                .albedo_srgb
-                .as_ref()
-                .map(|v| gather(v, index, [0.0; 3])),
-            grid: self.grid,
-            instances: self.instances.clone(),
-            camera: self.camera.clone(),
-        }
-    }
 }
 
 /// Per shape its instance id (1-based), and the instances (names, shapes), in scene order.
@@ -465,6 +425,8 @@ impl Tracer {
 /// One row of per-pixel labels.
 struct Row {
     instance: Vec<u32>,
+    object: Vec<u32>,
+    depth: Vec<f32>,
     normal_world: Vec<[f32; 3]>,
     normal_camera: Vec<[f32; 3]>,
     /// Pixel-major here (`albedo[x * bands + b]`), band-sequential in [`Labels`].
@@ -491,15 +453,56 @@ fn srgb_weights(grid: &WavelengthGrid) -> Vec<[f32; 3]> {
         .collect()
 }
 
-/// The labels of `scene` as seen by `rig` (`tracer` compiled for `ws`), on `grid`.
+/// Where label pixels look: continuous raster positions of `scene`'s camera (pixel (i, j)
+/// covers [i, i + 1) x [j, j + 1)), one per label pixel of a `width` x `height` grid, row-major;
+/// NaN: the pixel sees nothing of the render (outside its frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RasterPositions {
+    pub width: usize,
+    pub height: usize,
+    pub xy: Vec<[f32; 2]>,
+}
+
+/// The labels of `scene` on another pixel grid: label pixel k is the surface the camera's
+/// pinhole ray through raster position `raster.xy[k]` meets (exact, no resampling: ids are
+/// never blended). `instances` are the render's own ([`Labels::instances`] of its grid: visible
+/// fractions and truncation are measured there).
+pub fn trace_labels(
+    scene: &SceneDescription,
+    request: LabelRequest,
+    raster: &RasterPositions,
+    instances: &[Instance],
+) -> Result<Labels, crate::RenderError> {
+    let rig = CameraRig::new(&scene.camera).map_err(crate::RenderError::Camera)?;
+    if raster.xy.len() != raster.width * raster.height {
+        return Err(crate::RenderError::Settings(format!(
+            "{} raster positions for a {} x {} label grid",
+            raster.xy.len(),
+            raster.width,
+            raster.height
+        )));
+    }
+    let ws = WavelengthSampler::new(&scene.settings.grid);
+    let tracer = Tracer::new(scene, &ws)?;
+    let mut out = compute(scene, &tracer, &rig, &ws, request, Some(raster))?;
+    out.instances = instances.to_vec();
+    Ok(out)
+}
+
+/// The labels of `scene` as seen by `rig` (`tracer` compiled for `ws`): on the render's grid
+/// (pixel centres), or at `raster`'s positions.
 pub(crate) fn compute(
     scene: &SceneDescription,
     tracer: &Tracer,
     rig: &CameraRig,
     ws: &WavelengthSampler,
     request: LabelRequest,
+    raster: Option<&RasterPositions>,
 ) -> Result<Labels, crate::RenderError> {
-    let (width, height) = (scene.camera.width, scene.camera.height);
+    let (width, height) = match raster {
+        Some(r) => (r.width, r.height),
+        None => (scene.camera.width, scene.camera.height),
+    };
     let grid = scene.settings.grid;
     let bands = grid.len();
     let pixels = width * height;
@@ -527,6 +530,8 @@ pub(crate) fn compute(
         .map(|y| {
             let mut row = Row {
                 instance: vec![0; width],
+                object: vec![0; width],
+                depth: vec![f32::INFINITY; width],
                 normal_world: Vec::new(),
                 normal_camera: Vec::new(),
                 albedo: Vec::new(),
@@ -543,12 +548,23 @@ pub(crate) fn compute(
             }
             let mut seen = [0u32; MAX_LAYERS];
             for x in 0..width {
-                let r = rig.ray(x as f32 + 0.5, y as f32 + 0.5);
+                let r = match raster {
+                    None => rig.ray(x as f32 + 0.5, y as f32 + 0.5),
+                    Some(rp) => {
+                        let [px, py] = rp.xy[y * width + x];
+                        if !(px.is_finite() && py.is_finite()) {
+                            continue;
+                        }
+                        rig.ray(px, py)
+                    }
+                };
                 let Some((sh, pi)) = tracer.first_hit(&r) else {
                     continue;
                 };
                 let id = of_shape[pi.shape as usize];
                 row.instance[x] = id;
+                row.object[x] = pi.shape + 1;
+                row.depth[x] = (sh.p - r.o).dot(rig.forward);
                 // The side the camera sees: the geometric normal toward the ray's origin, the
                 // shading normal on its side.
                 let ng = sh.ng.face_forward(-r.d);
@@ -574,7 +590,11 @@ pub(crate) fn compute(
                     }
                     row.albedo_srgb[x] = rgb;
                 }
-                // Every surface along the ray: which instances the pixel would see unoccluded.
+                // Every surface along the ray: which instances the pixel would see unoccluded
+                // (on the render's own grid only).
+                if raster.is_some() {
+                    continue;
+                }
                 let mut n_seen = 1;
                 seen[0] = id;
                 let mut hit = sh;
@@ -600,6 +620,8 @@ pub(crate) fn compute(
         .collect();
 
     let mut instance_id = Vec::with_capacity(pixels);
+    let mut object_id = Vec::with_capacity(pixels);
+    let mut depth_m = Vec::with_capacity(pixels);
     let mut normal_world = Vec::new();
     let mut normal_camera = Vec::new();
     let mut albedo = Vec::new();
@@ -617,6 +639,8 @@ pub(crate) fn compute(
             }
         }
         instance_id.extend_from_slice(&row.instance);
+        object_id.extend_from_slice(&row.object);
+        depth_m.extend_from_slice(&row.depth);
         normal_world.extend_from_slice(&row.normal_world);
         normal_camera.extend_from_slice(&row.normal_camera);
         if request.albedo {
@@ -645,6 +669,8 @@ pub(crate) fn compute(
         width,
         height,
         instance_id,
+        object_id,
+        depth_m,
         normal_world: request.normals.then_some(normal_world),
         normal_camera: request.normals.then_some(normal_camera),
         albedo: request.albedo.then_some(albedo),

@@ -257,7 +257,9 @@ pub fn render_with(
         ))),
     }?;
     if let Some(req) = request.labels {
-        out.labels = Some(crate::labels::compute(scene, &tracer, &rig, &ws, req)?);
+        out.labels = Some(crate::labels::compute(
+            scene, &tracer, &rig, &ws, req, None,
+        )?);
     }
     Ok(out)
 }
