@@ -5,6 +5,7 @@
 pub mod emva;
 pub mod error;
 pub mod labels;
+pub mod light_groups;
 pub mod outputs;
 pub mod render;
 mod simulation;
@@ -84,6 +85,12 @@ pub struct RenderSection {
     /// Image width and height in pixels (default: the scene's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resolution: Option<[usize; 2]>,
+    /// Light-group weights, `{ sky = 0.01, headlights = 1 }`: the render splits its radiance by
+    /// group of lights (pbrt `"string lightgroup"`, overlay `[[light_group]]`; lights without
+    /// one are in `default`) in one pass, and the scene image is the weighted sum (groups not
+    /// named here weigh 1) before optics and sensor ([`light_groups`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_groups: Option<std::collections::BTreeMap<String, f64>>,
 }
 
 /// `[optics]`: a preset name, a TOML file, or an inline config.
@@ -426,7 +433,12 @@ pub fn scene_stage_with(
         }),
         (None, Some(r)) => {
             let scene = render::render_section_scene(r, cfg, sensor, optics)?;
-            let out = render::render_scene_with(&scene, request, progress)?;
+            let mut request = *request;
+            request.light_groups |= r.light_groups.is_some();
+            let mut out = render::render_scene_with(&scene, &request, progress)?;
+            if let Some(w) = &r.light_groups {
+                light_groups::weigh(&mut out.radiance, &out.light_groups, w)?;
+            }
             Ok(SceneStage {
                 image: out.radiance,
                 ids: Some(out.ids),

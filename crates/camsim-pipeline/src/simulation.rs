@@ -201,6 +201,7 @@ pub fn simulate(
     progress("scene", 0, 1);
     let request = camsim_render::RenderRequest {
         labels: opts.labels,
+        ..Default::default()
     };
     let crate::SceneStage {
         image: radiance,

@@ -5,6 +5,7 @@
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
 use crate::geometry::{Prim, Ray, RayInv, SphereClip};
+use crate::light_groups::PathRadiance;
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
@@ -117,6 +118,9 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
+    /// Per compiled light (`lights.list`): the shape it belongs to, or `shapes.len()` plus the
+    /// index of its scene light.
+    pub light_source: Vec<u32>,
 }
 
 /// Surface data at a hit.
@@ -168,7 +172,10 @@ impl Tracer {
         let mut scene_bounds = crate::geometry::Aabb::EMPTY;
         let mut clips: Vec<SphereClip> = Vec::new();
 
+        // The scene object each compiled light comes from (shape index, or shapes + light index).
+        let mut light_source: Vec<u32> = Vec::new();
         for (si, s) in scene.shapes.iter().enumerate() {
+            light_source.resize(lights.list.len(), si.saturating_sub(1) as u32);
             let shape_err = |message: String| RenderError::Shape {
                 index: si,
                 name: s.name.clone().unwrap_or_default(),
@@ -492,10 +499,15 @@ impl Tracer {
                 }
             }
         }
+        light_source.resize(
+            lights.list.len(),
+            scene.shapes.len().saturating_sub(1) as u32,
+        );
         for (li, l) in scene.lights.iter().enumerate() {
             lights
                 .add_scene_light(l, ws, &mut tables)
                 .map_err(|message| RenderError::Light { index: li, message })?;
+            light_source.resize(lights.list.len(), (scene.shapes.len() + li) as u32);
         }
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
@@ -550,6 +562,7 @@ impl Tracer {
             shape_flip,
             has_interface,
             has_alpha,
+            light_source,
         })
     }
 
@@ -816,12 +829,26 @@ impl Tracer {
     /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
     pub(crate) fn li<const N: usize, S: PathSampler>(
         &self,
-        mut ray: Ray,
+        ray: Ray,
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
     ) -> [f32; N] {
         let mut l = [0f32; N];
+        self.li_into(ray, lambdas, sampler, counts, &mut l);
+        l
+    }
+
+    /// [`Self::li`] adding each light's contribution to `l` (one sum, or one per light group:
+    /// [`crate::light_groups`]).
+    pub(crate) fn li_into<const N: usize, S: PathSampler, R: PathRadiance<N>>(
+        &self,
+        mut ray: Ray,
+        lambdas: &Lambdas<N>,
+        sampler: &mut S,
+        counts: &mut RayCounts,
+        l: &mut R,
+    ) {
         let mut beta = [1f32; N];
         let mut depth = 0u32;
         let mut prev_p = ray.o;
@@ -846,9 +873,7 @@ impl Tracer {
                     } else {
                         power_heuristic(prev_bsdf_pdf, light_pdf)
                     };
-                    for i in 0..N {
-                        l[i] += beta[i] * w * le[i];
-                    }
+                    l.add(li, std::array::from_fn(|i| beta[i] * w * le[i]));
                 }
                 break;
             };
@@ -893,9 +918,7 @@ impl Tracer {
                         )
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
-                    for i in 0..N {
-                        l[i] += beta[i] * w * le[i];
-                    }
+                    l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));
                 }
             }
             let m = self.resolve_material(pi.material, sh.p, wo);
@@ -997,9 +1020,13 @@ impl Tracer {
                                     power_heuristic(pdf, bsdf_pdf)
                                 };
                                 let w = mis * wi_local.z.abs() / pdf;
-                                for i in 0..N {
-                                    l[i] += beta[i] * f[i] * le[i] * w;
-                                }
+                                // The light the sample came from (only a split sink asks).
+                                let light = if R::SPLIT {
+                                    self.lights.pick(u_sel) as u32
+                                } else {
+                                    0
+                                };
+                                l.add(light, std::array::from_fn(|i| beta[i] * f[i] * le[i] * w));
                             }
                         }
                     }
@@ -1055,7 +1082,6 @@ impl Tracer {
             };
             ray = Ray { o, d: wi };
         }
-        l
     }
 
     /// Distance along the camera's forward axis to the first surface (or infinity) and 1 + the

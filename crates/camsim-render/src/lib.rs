@@ -23,6 +23,7 @@ mod goniometric;
 pub mod ids;
 mod integrator;
 pub mod labels;
+pub mod light_groups;
 mod lights;
 mod materials;
 pub mod math;

@@ -11,6 +11,7 @@ use camsim_scene3d::SceneDescription;
 fn labels_of(scene: &SceneDescription, normals: bool, albedo: bool) -> (Labels, Vec<f32>) {
     let req = RenderRequest {
         labels: Some(LabelRequest { normals, albedo }),
+        ..Default::default()
     };
     let out = render_with(scene, &req, &|_, _| {}).unwrap();
     (out.labels.unwrap(), out.depth_m)
