@@ -147,6 +147,8 @@ fn sensor_from(sensor: &str) -> PyResult<Sensor> {
 }
 
 /// The result of `simulate`: every stage's image as numpy arrays, and the run's metadata.
+mod labels;
+
 #[pyclass(module = "camsim._camsim", name = "Simulation", frozen)]
 struct PySimulation {
     inner: Simulation,
@@ -214,6 +216,33 @@ impl PySimulation {
             .ids
             .as_ref()
             .map(|i| array(py, &i.material_id, &[i.height, i.width]))
+            .transpose()
+    }
+    /// Training-data labels on the raw image's pixel grid (with `simulate(..., labels=True)`, 3D
+    /// scenes; else None): a dict of numpy arrays "instances", "object_id", "material_id"
+    /// (uint32, (rows, cols)), "depth" (float32, m), "normals" (camera frame) and
+    /// "normals_world" ((rows, cols, 3)), "albedo" ((bands, rows, cols)), "albedo_srgb", "boxes"
+    /// (per instance: box_3d, bbox_sensor, bbox_scene, visible_fraction, truncation, name,
+    /// material), and "scene": the same maps on the render's grid. Pixel (r, c) describes the
+    /// scene point imaged at raw pixel (r, c).
+    #[getter]
+    fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .labels
+            .as_ref()
+            .map(|l| labels::labels_dict(py, l))
+            .transpose()
+    }
+    /// The camera model of the labels (with labels=True): "K" (3 x 3, raw grid, OpenCV: pixel
+    /// centres at integers), "world_to_camera" (4 x 4, camera x right, y down, z forward, m),
+    /// "scene_K" (the render's), "distorted" (the optics applied a lens's distortion, which K
+    /// does not model), "note".
+    #[getter]
+    fn camera<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .labels
+            .as_ref()
+            .map(|l| labels::camera_dict(py, l))
             .transpose()
     }
     /// The names of the ids present: {"background": 0, "objects": {"1": name, ...},
@@ -375,8 +404,13 @@ impl PySimulation {
 
 /// Run the whole pipeline on a config given as JSON (a SimulateConfig).
 #[pyfunction]
-#[pyo3(signature = (config_json, noise_free = false))]
-fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResult<PySimulation> {
+#[pyo3(signature = (config_json, noise_free = false, labels = false))]
+fn simulate_json(
+    py: Python<'_>,
+    config_json: &str,
+    noise_free: bool,
+    labels: bool,
+) -> PyResult<PySimulation> {
     let cfg: SimulateConfig =
         serde_json::from_str(config_json).map_err(|e| err(format!("config: {e}")))?;
     cfg.check_scene_source().map_err(err)?;
@@ -386,7 +420,10 @@ fn simulate_json(py: Python<'_>, config_json: &str, noise_free: bool) -> PyResul
                 &cfg,
                 &SimulateOptions {
                     noise_free,
-                    ..Default::default()
+                    labels: labels.then_some(camsim::render::LabelRequest {
+                        normals: true,
+                        albedo: true,
+                    }),
                 },
                 &|_, _, _| {},
             )
@@ -1351,6 +1388,8 @@ fn _camsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(snr_json, m)?,
         wrap_pyfunction!(acutance_json, m)?,
         wrap_pyfunction!(compare_json, m)?,
+        wrap_pyfunction!(labels::dataset_coco, m)?,
+        wrap_pyfunction!(labels::read_exr_channels, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -76,7 +76,7 @@ def load_config(config: Config) -> Dict[str, Any]:
     raise TypeError(f"config must be a dict, TOML text or a path, not {type(config).__name__}")
 
 
-def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = None) -> Simulation:
+def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = None, labels: bool = False) -> Simulation:
     """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance (None
     when the scene's camera is a lens, whose render is the irradiance),
     irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
@@ -84,11 +84,13 @@ def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = 
     noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
     camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]: radiance
-    then holds that irradiance too (metadata["results"]["lens_camera"] is True)."""
+    then holds that irradiance too (metadata["results"]["lens_camera"] is True). labels=True (3D
+    scenes): Simulation.labels (instance, id, depth, normal and albedo maps on the raw image's
+    grid, boxes) and Simulation.camera (K, world_to_camera)."""
     cfg = load_config(config)
     if seed is not None:
         cfg["seed"] = int(seed)
-    return _camsim.simulate_json(json.dumps(cfg), noise_free)
+    return _camsim.simulate_json(json.dumps(cfg), noise_free, labels)
 
 
 def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]:
