@@ -267,3 +267,21 @@ fn export_into(
             .collect::<Vec<_>>(),
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs in column-major order starting with zeros; counts after the second as differences
+    /// to the count two before; 5 bits per character plus 48 (a continuation bit for more).
+    #[test]
+    fn rle_strings_follow_cocos_encoding() {
+        // [[0, 0], [1, 1]]: columns (0, 1), (0, 1): runs 1, 1, 1, 1 -> 1, 1, 1, 1 - 1 = 0.
+        let m = [0u8, 0, 1, 1];
+        assert_eq!(rle_string(2, 2, |k| m[k] == 1), "1110");
+        // All ones, 2 x 3: a zero-length first run, then 6 -> "06".
+        assert_eq!(rle_string(2, 3, |_| true), "06");
+        // One long run of 100 zeros: 100 = 3 * 32 + 4 -> '4' + 32 (continue), then 3 -> "T3".
+        assert_eq!(rle_string(10, 10, |_| false), "T3");
+    }
+}
