@@ -18,7 +18,7 @@ pub use coco::{export_coco, CategoryBy};
 pub use run::{
     gather, run, run_shard, shard_complete, RunSummary, SampleRecord, ShardRecord, ShardSelect,
 };
-pub use spec::{DatasetSpec, Sample};
+pub use spec::{DatasetOutput, DatasetSpec, Sample, DATASET_OUTPUTS};
 
 use std::path::{Path, PathBuf};
 

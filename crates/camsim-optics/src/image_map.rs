@@ -6,9 +6,9 @@
 //! padding, upright (camsim's optics does not invert the image: like ISETCam's optical image, the
 //! irradiance is the scene as the sensor reads it out), and with a traced lens or ray-transfer
 //! function (shift-variant blur) the radial distortion as its resampling applies it (the same
-//! table, [`crate::shift_variant`]).
+//! table, [`crate::lens_maps`]).
 
-use crate::shift_variant::RadialLut;
+use crate::lens_maps::RadialLut;
 
 /// Where each output sample of one optics run images from (see the module docs).
 #[derive(Debug, Clone)]

@@ -63,7 +63,7 @@ exposure_ms = 5.0
 "#,
         pbrt.display()
     );
-    let cfg = SimulateConfig::from_toml_str(&text).unwrap();
+    let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new("")).unwrap();
     let opts = SimulateOptions {
         noise_free: true,
         labels: Some(camsim_render::LabelRequest::default()),

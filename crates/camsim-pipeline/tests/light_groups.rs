@@ -39,7 +39,8 @@ exposure_ms = 40.0
 "#,
         pbrt.display()
     );
-    let cfg = SimulateConfig::from_toml_str(&text).map_err(|e| e.to_string())?;
+    let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new(""))
+        .map_err(|e| e.to_string())?;
     let opts = SimulateOptions {
         noise_free: true,
         ..Default::default()

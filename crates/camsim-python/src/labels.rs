@@ -1,7 +1,7 @@
-//! `Simulation.labels` and `Simulation.camera`, the COCO export and the EXR reader of the
-//! dataset loader: numpy arrays and dicts from camsim's labels (camsim-pipeline `labels`).
+//! `Simulation.labels` and `Simulation.camera`: numpy arrays and dicts from camsim's labels
+//! (camsim-pipeline `labels`).
 
-use crate::{array, err, json_to_py};
+use crate::convert::{array, to_py};
 use camsim::pipeline::labels::SimLabels;
 use camsim::render::Labels;
 use pyo3::prelude::*;
@@ -46,7 +46,7 @@ pub(crate) fn labels_dict<'py>(py: Python<'py>, s: &SimLabels) -> PyResult<Bound
     let scene = PyDict::new(py);
     maps(py, &s.scene, &scene)?;
     d.set_item("scene", scene)?;
-    d.set_item("boxes", json_to_py(py, &s.boxes_json()["instances"])?)?;
+    d.set_item("boxes", to_py(py, &s.boxes_json()["instances"])?)?;
     Ok(d)
 }
 
@@ -66,37 +66,6 @@ pub(crate) fn camera_dict<'py>(py: Python<'py>, s: &SimLabels) -> PyResult<Bound
     d.set_item("scene_K", array(py, &m3(&s.scene.camera.k), &[3, 3])?)?;
     d.set_item("scene_width", s.scene.camera.width)?;
     d.set_item("scene_height", s.scene.camera.height)?;
-    d.set_item("note", json_to_py(py, &s.cameras_json()["note"])?)?;
-    Ok(d)
-}
-
-/// Export a complete dataset as COCO (`out/coco/annotations.json`, `out/coco/images/`);
-/// `categories` is "material" or "object". Returns the annotation file's path.
-#[pyfunction]
-pub(crate) fn dataset_coco(
-    py: Python<'_>,
-    spec: &str,
-    source: &str,
-    base_dir: std::path::PathBuf,
-    out: std::path::PathBuf,
-    categories: &str,
-) -> PyResult<std::path::PathBuf> {
-    let s = camsim::dataset::DatasetSpec::from_toml_str(spec, source, &base_dir).map_err(err)?;
-    let by = camsim::dataset::CategoryBy::parse(categories).map_err(err)?;
-    py.detach(|| camsim::dataset::export_coco(&s, &out, by))
-        .map_err(err)
-}
-
-/// The channels of an OpenEXR file: a dict name -> (rows, cols) float32 array.
-#[pyfunction]
-pub(crate) fn read_exr_channels<'py>(
-    py: Python<'py>,
-    path: std::path::PathBuf,
-) -> PyResult<Bound<'py, PyDict>> {
-    let (rows, cols, chans) = camsim::io::exr::read_channels_exr(&path).map_err(err)?;
-    let d = PyDict::new(py);
-    for (name, data) in chans {
-        d.set_item(name, array(py, &data, &[rows, cols])?)?;
-    }
+    d.set_item("note", to_py(py, &s.cameras_json()["note"])?)?;
     Ok(d)
 }

@@ -5,11 +5,10 @@ Simulation.labels / Simulation.camera against the geometry of the camera."""
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
-
 import camsim
 import camsim.dataset
+import numpy as np
+import pytest
 from camsim.dataset import TorchDataset
 
 # The Cornell box seen through a 96 x 72 window of 1.4 um pixels (1.76 x 1.32 degrees behind

@@ -69,7 +69,7 @@ class TorchDataset(_Base):  # type: ignore[misc, valid-type]
     file extensions to load (default: every file of each sample); ``seed``: shuffle the order
     (None: index order); ``to_tensor``: numpy arrays become torch tensors (needs torch)."""
 
-    def __init__(self, out: "os.PathLike[str] | str", keys: Optional[Sequence[str]] = None, *,
+    def __init__(self, out: os.PathLike[str] | str, keys: Optional[Sequence[str]] = None, *,
                  seed: Optional[int] = None, to_tensor: bool = False) -> None:
         super().__init__()
         self.out = os.fspath(out)
