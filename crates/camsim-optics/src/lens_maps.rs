@@ -123,7 +123,8 @@ struct Tap {
 }
 
 /// Ideal / film height ratio and relative illumination against the squared film radius (samples^2).
-struct RadialLut {
+#[derive(Debug, Clone)]
+pub(crate) struct RadialLut {
     rows: usize,
     cols: usize,
     inv_step: f64,
@@ -136,7 +137,7 @@ impl RadialLut {
     /// maps' own (piecewise linear in r on 33-129 points).
     const N: usize = 16384;
 
-    fn new(m: &LensMaps, rows: usize, cols: usize, spacing_m: f64) -> RadialLut {
+    pub(crate) fn new(m: &LensMaps, rows: usize, cols: usize, spacing_m: f64) -> RadialLut {
         let r2_max = ((rows * rows + cols * cols) as f64 / 4.0 + 4.0 * (rows + cols) as f64) * 1.01;
         let step = r2_max / (Self::N - 1) as f64;
         let slope0 = if m.real_m.len() > 1 && m.real_m[1] > 0.0 {
@@ -164,14 +165,22 @@ impl RadialLut {
         }
     }
 
-    /// The taps of output sample (r, c).
-    fn tap(&self, r: usize, c: usize) -> Tap {
-        let (x, y) = (centre_offset(c, self.cols), centre_offset(r, self.rows));
+    /// The ideal / film height ratio and the gain at film offset (`x`, `y`) samples from the
+    /// axis (the one place the distortion is looked up: the resampling and the labels'
+    /// [`crate::image_map::ImageMap`]).
+    pub(crate) fn at(&self, x: f64, y: f64) -> (f64, f32) {
         let u = ((x * x + y * y) * self.inv_step).min((Self::N - 2) as f64);
         let i = u as usize;
         let t = u - i as f64;
         let f = self.scale[i] + t * (self.scale[i + 1] - self.scale[i]);
         let gain = (self.gain[i] + t * (self.gain[i + 1] - self.gain[i])) as f32;
+        (f, gain)
+    }
+
+    /// The taps of output sample (r, c).
+    fn tap(&self, r: usize, c: usize) -> Tap {
+        let (x, y) = (centre_offset(c, self.cols), centre_offset(r, self.rows));
+        let (f, gain) = self.at(x, y);
         let (sx, sy) = (
             x * f + self.cols as f64 / 2.0 - 0.5,
             y * f + self.rows as f64 / 2.0 - 0.5,

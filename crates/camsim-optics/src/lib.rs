@@ -15,6 +15,7 @@
 pub mod config;
 pub mod conv;
 pub mod error;
+pub mod image_map;
 pub mod lens;
 pub mod lens_maps;
 pub mod mtf_fit;
@@ -32,6 +33,7 @@ pub mod zernike;
 
 pub use config::OpticsConfig;
 pub use error::{OpticsError, Result};
+pub use image_map::ImageMap;
 pub use lens::diffraction_mtf;
 pub use mtf_fit::{fit_mtf, MtfFit, MtfFitOptions, SystemMtfModel};
 pub use optics::{DepthLayers, Optics, ShadingModel};

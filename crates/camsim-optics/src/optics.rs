@@ -3,6 +3,7 @@
 use crate::config::*;
 use crate::conv::{Fft2, KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
+use crate::image_map::ImageMap;
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
@@ -535,6 +536,12 @@ impl Optics {
     ///    half-width ("psf"), by 1/8 of the size ("isetcam") or keeps the scene size ("none").
     ///    `depth_m` is carried through (padding replicates the edge depth).
     pub fn compute(&self, radiance: &SpectralImage) -> Result<SpectralImage> {
+        Ok(self.compute_mapped(radiance)?.0)
+    }
+
+    /// [`Self::compute`] with its geometric map: where each irradiance sample images from in the
+    /// radiance ([`ImageMap`]).
+    pub fn compute_mapped(&self, radiance: &SpectralImage) -> Result<(SpectralImage, ImageMap)> {
         if radiance.quantity != Quantity::Radiance {
             return Err(OpticsError::Input(format!(
                 "expected a radiance image, got {}",
@@ -781,7 +788,11 @@ impl Optics {
             )?;
         }
 
-        Ok(self.finish(out, radiance, (pad_r, pad_c), spacing, v_s))
+        let map = ImageMap::new(rows, cols, out_rows, out_cols, None);
+        Ok((
+            self.finish(out, radiance, (pad_r, pad_c), spacing, v_s),
+            map,
+        ))
     }
 
     /// The shift-variant model, when `blur.method = "shift-variant"`.
@@ -800,7 +811,7 @@ impl Optics {
         spacing: f64,
         v_s: f64,
         d_obj: f64,
-    ) -> Result<SpectralImage> {
+    ) -> Result<(SpectralImage, ImageMap)> {
         let extra = self
             .config
             .focus_distance_m
@@ -815,8 +826,8 @@ impl Optics {
                 .with_extra_defocus_um(extra),
             shading: &|| self.shading_map(radiance.rows, radiance.cols, spacing, v_s),
         };
-        let (out, pad) = sv.compute(&job, radiance, scale, spacing, v_s, d_obj)?;
-        Ok(self.finish(out, radiance, pad, spacing, v_s))
+        let (out, pad, map) = sv.compute(&job, radiance, scale, spacing, v_s, d_obj)?;
+        Ok((self.finish(out, radiance, pad, spacing, v_s), map))
     }
 
     /// Step 4 of [`Self::compute`]: carry the depth map (edge-replicated into the padding) and set

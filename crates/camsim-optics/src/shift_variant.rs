@@ -39,7 +39,8 @@
 use crate::config::{BlurConfig, BlurKind, OpticsConfig, Padding};
 use crate::conv::{KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
-use crate::lens_maps::{apply_lens_maps, interp, LensMaps};
+use crate::image_map::ImageMap;
+use crate::lens_maps::{apply_lens_maps, interp, LensMaps, RadialLut};
 use crate::rtf_psf::{RtfKernels, RtfLens};
 use crate::sv_blocks::{
     block_groups, block_kernel, flip_phases, flip_spectrum, meridional, Block, BlockGroup,
@@ -672,7 +673,8 @@ impl ShiftVariant {
     /// `scale` per band is the camera equation's factor, `spacing_m` the sensor-plane sample
     /// spacing, `v_s_m` the image distance, `d_obj_m` the object distance (infinite allowed).
     /// Returns the blurred, padded irradiance and its padding (rows, cols), for
-    /// `Optics::finish`.
+    /// `Optics::finish`, and the geometric map (with the lens's distortion as the resampling
+    /// applies it).
     pub(crate) fn compute(
         &self,
         job: &SvJob<'_>,
@@ -681,7 +683,7 @@ impl ShiftVariant {
         spacing_m: f64,
         v_s_m: f64,
         d_obj_m: f64,
-    ) -> Result<(SpectralImage, (usize, usize))> {
+    ) -> Result<(SpectralImage, (usize, usize), ImageMap)> {
         let cfg = job.config;
         if radiance.depth_m.is_some() && cfg.focus_distance_m.is_some() {
             return Err(OpticsError::config(
@@ -776,6 +778,14 @@ impl ShiftVariant {
         if let Some(m) = &maps {
             apply_lens_maps(&mut out, m, spacing_m);
         }
-        Ok((out, (pad_r, pad_c)))
+        let map = ImageMap::new(
+            rows,
+            cols,
+            out_rows,
+            out_cols,
+            maps.as_ref()
+                .map(|m| RadialLut::new(m, out_rows, out_cols, spacing_m)),
+        );
+        Ok((out, (pad_r, pad_c), map))
     }
 }

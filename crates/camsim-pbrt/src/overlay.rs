@@ -36,6 +36,11 @@
 //! # remove = true                # delete the objects
 //! # replace = { file = "teapot.ply", material = "white", align = "bottom" }
 //!
+//! [[light_group]]                # lights whose radiance `simulate` can weigh as a group
+//! name = "sky"
+//! lights = ["infinite"]          # kinds of non-shape lights (infinite, distant, point, ...; *)
+//! objects = ["sun_disk"]         # area lights by shape name (wildcards)
+//!
 //! [light]                        # area lights (and, without `name`, infinite lights)
 //! name = "light"                 # optional filter
 //! spectrum = { file = "../shared/data/isetcornellbox/cboxIlluminant.csv", column = "spd" }
@@ -52,7 +57,8 @@
 //! folder). A spectrum read from a file is zero outside the file's wavelengths (pbrt-v4
 //! `PiecewiseLinearSpectrum`); numbers are constant at every wavelength.
 //!
-//! Order of application: `[camera]`, `[render]`, `[[material]]`, `[[object]]`, `[light]`.
+//! Order of application: `[camera]`, `[render]`, `[[material]]`, `[[object]]`, `[light]`,
+//! `[[light_group]]`.
 //! Object transforms apply scale, then rotation, then translation, about the pivot. Camera:
 //! setting `position_m`/`look_at_m` keeps the scene's image handedness (a right-handed view stays
 //! right-handed). Light: a new `spectrum` keeps the light's previous luminance unless
@@ -97,6 +103,24 @@ pub struct Overlay {
     pub object: Vec<ObjectOverlay>,
     /// Light spectrum and level.
     pub light: Option<LightOverlay>,
+    /// Light groups (`camsim simulate`'s `[render] light_groups` weighs them), in order.
+    #[serde(default)]
+    pub light_group: Vec<LightGroupOverlay>,
+}
+
+/// `[[light_group]]`: put lights in a named group.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct LightGroupOverlay {
+    /// The group's name.
+    pub name: String,
+    /// The area lights of these shapes (names, wildcards `*`).
+    #[serde(default)]
+    pub objects: Vec<String>,
+    /// Lights that are not shapes, by kind: `infinite` (uniform and image), `distant`, `point`,
+    /// `spot`, `goniometric`, `projection`, or `*` for all of them.
+    #[serde(default)]
+    pub lights: Vec<String>,
 }
 
 /// `[camera]`.
@@ -483,6 +507,77 @@ pub fn apply_overlay(
     if let Some(l) = &ov.light {
         apply_light(scene, l, base_dir)?;
     }
+    for (i, g) in ov.light_group.iter().enumerate() {
+        apply_light_group(scene, g, i)?;
+    }
+    Ok(())
+}
+
+/// The kind name of a light that is not a shape, as `[[light_group]] lights` names it.
+fn light_kind(l: &Light) -> &'static str {
+    match l {
+        Light::Infinite { .. } | Light::Environment(_) => "infinite",
+        Light::Point { .. } => "point",
+        Light::Spot { .. } => "spot",
+        Light::Distant { .. } => "distant",
+        Light::Goniometric(_) => "goniometric",
+        Light::Projection(_) => "projection",
+    }
+}
+
+fn apply_light_group(
+    scene: &mut SceneDescription,
+    g: &LightGroupOverlay,
+    i: usize,
+) -> Result<(), String> {
+    let key = format!("light_group[{i}] (\"{}\")", g.name);
+    if g.name.trim().is_empty() {
+        return Err(format!("{key}: name is empty"));
+    }
+    if g.objects.is_empty() && g.lights.is_empty() {
+        return Err(format!(
+            "{key}: give objects (area-light shape names) or lights (kinds)"
+        ));
+    }
+    for pat in &g.objects {
+        let mut n = 0;
+        for s in scene.shapes.iter_mut() {
+            if s.area_light.is_some() && s.name.as_deref().is_some_and(|nm| glob_match(pat, nm)) {
+                s.tags.light_group = Some(g.name.clone());
+                n += 1;
+            }
+        }
+        if n == 0 {
+            return Err(format!("{key}: no area light on a shape named {pat:?}"));
+        }
+    }
+    const KINDS: [&str; 6] = [
+        "infinite",
+        "distant",
+        "point",
+        "spot",
+        "goniometric",
+        "projection",
+    ];
+    for kind in &g.lights {
+        if kind != "*" && !KINDS.contains(&kind.as_str()) {
+            return Err(format!(
+                "{key}: lights kind {kind:?} is unknown (one of {}, or *)",
+                KINDS.join(", ")
+            ));
+        }
+        scene.light_groups.resize(scene.lights.len(), None);
+        let mut n = 0;
+        for (l, grp) in scene.lights.iter().zip(scene.light_groups.iter_mut()) {
+            if kind == "*" || light_kind(l) == kind {
+                *grp = Some(g.name.clone());
+                n += 1;
+            }
+        }
+        if n == 0 {
+            return Err(format!("{key}: the scene has no {kind} light"));
+        }
+    }
     Ok(())
 }
 
@@ -616,6 +711,7 @@ fn apply_object(
                 material: material_override.unwrap_or(old_material),
                 area_light: None,
                 reverse_orientation: false,
+                tags: Default::default(),
             }]
         } else {
             let sub = crate::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;

@@ -53,6 +53,8 @@ struct AreaLightSpec {
     /// `filename`: the emission image and its mean luminance `Y(rgb)` (Rec. 709 weights, the
     /// sRGB colour space's luminance vector), pbrt-v4's `k_e` factor for `power`.
     image: Option<(std::sync::Arc<EmissionImage>, f64)>,
+    /// camsim's `"string lightgroup"`: the light group of the emitter's radiance.
+    group: Option<String>,
 }
 
 #[derive(Debug, Clone)]
@@ -111,6 +113,10 @@ struct Parser {
     normal_maps: HashMap<PathBuf, std::sync::Arc<crate::scene::NormalMapImage>>,
     shapes: Vec<PendingShape>,
     lights: Vec<Light>,
+    /// Light group of each entry of `lights` (`"string lightgroup"`).
+    light_groups: Vec<Option<String>>,
+    /// Object instances numbered so far (`ShapeTags::instance`).
+    instances: u32,
     objects: HashMap<String, Vec<PendingShape>>,
     current_object: Option<(String, Vec<PendingShape>, Loc)>,
     camera_from_world: Transform,
@@ -182,6 +188,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         normal_maps: HashMap::new(),
         shapes: Vec::new(),
         lights: Vec::new(),
+        light_groups: Vec::new(),
+        instances: 0,
         objects: HashMap::new(),
         current_object: None,
         camera_from_world: Transform::identity(),
@@ -1035,6 +1043,7 @@ impl Parser {
                     material: 0,
                     area_light: None,
                     reverse_orientation: self.gs.reverse_orientation,
+                    tags: Default::default(),
                 };
                 xform::transform_shape(&mut s, &ctm)
                     .map_err(|e| loc.err(format!("Shape \"{ty}\": {e}")))?;
@@ -1076,6 +1085,7 @@ impl Parser {
                         material: 0,
                         area_light: None,
                         reverse_orientation: self.gs.reverse_orientation,
+                        tags: Default::default(),
                     };
                     xform::transform_shape(&mut s, &ctm)
                         .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
@@ -1165,6 +1175,10 @@ impl Parser {
             material: 0,
             area_light: None,
             reverse_orientation,
+            tags: camsim_scene3d::ShapeTags {
+                object_to_world: Some(ctm),
+                ..Default::default()
+            },
         };
         let pending = PendingShape {
             shape,
@@ -1197,6 +1211,7 @@ impl Parser {
         let mut errors = self.errors;
         let mut materials = self.materials;
         let mut media = self.media;
+        let mut instances = self.instances;
         // (base material, alpha parameter text) -> its `AlphaMasked` material.
         let mut masked: HashMap<(usize, String), usize> = HashMap::new();
         for ps in self.shapes {
@@ -1235,6 +1250,7 @@ impl Parser {
             };
             let mut shape = ps.shape;
             shape.material = material;
+            shape.tags.light_group = ps.light.as_ref().and_then(|l| l.group.clone());
             match ps.light {
                 None => shapes.push(shape),
                 Some(l) => {
@@ -1268,6 +1284,12 @@ impl Parser {
                                 "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
                                 indices.len()
                             ));
+                            // The triangles stay one object instance.
+                            let mut tags = shape.tags.clone();
+                            if tags.instance.is_none() {
+                                tags.instance = Some(instances);
+                                instances += 1;
+                            }
                             for t in indices {
                                 let g = Geometry::Triangles {
                                     positions: t.iter().map(|&i| positions[i as usize]).collect(),
@@ -1295,6 +1317,7 @@ impl Parser {
                                     material,
                                     area_light: Some(to_light(scale)),
                                     reverse_orientation: shape.reverse_orientation,
+                                    tags: tags.clone(),
                                 });
                             }
                         }
@@ -1368,6 +1391,7 @@ impl Parser {
             focus_distance_m: self.focus_distance_m,
             notes,
             media,
+            light_groups: self.light_groups,
         })
     }
 }

@@ -441,6 +441,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let (d, fov) = (2.0, 40.0f64);
     let cam = Camera {
@@ -472,6 +473,7 @@ fn checkerboard_colour_fractions_match_the_analytic_areas() {
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     };
     let out = render(&sc, &|_, _| {}).unwrap();
     let img = &out.radiance;

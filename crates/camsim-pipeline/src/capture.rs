@@ -292,19 +292,23 @@ pub fn image_radiance(
 /// Stages 2 and 3 on a scene image taken by value, for [`crate::simulate`]: the capture of
 /// `req` ([`capture`]). A lens camera's render, already sensor-plane irradiance, becomes
 /// [`Imaged::irradiance`] without a copy (a full-frame 31-band cube is 1.5 GB), and no radiance
-/// is handed back (`None`).
+/// is handed back (`None`); with the optics' geometric map (`None` for irradiance).
 pub(crate) fn image_owned(
     image: SpectralImage,
     optics: &Optics,
     sensor: &Sensor,
     req: &CaptureRequest,
-) -> Result<(Option<SpectralImage>, Imaged)> {
+) -> Result<(
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+)> {
     let t = Instant::now();
-    let (radiance, irradiance) = match image.quantity {
-        Quantity::Irradiance => (None, image),
+    let (radiance, irradiance, map) = match image.quantity {
+        Quantity::Irradiance => (None, image, None),
         _ => {
-            let irradiance = optics.compute(&image)?;
-            (Some(image), irradiance)
+            let (irradiance, map) = optics.compute_mapped(&image)?;
+            (Some(image), irradiance, Some(map))
         }
     };
     let optics_s = t.elapsed().as_secs_f64();
@@ -325,6 +329,7 @@ pub(crate) fn image_owned(
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
         },
+        map,
     ))
 }
 

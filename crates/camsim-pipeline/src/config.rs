@@ -71,6 +71,12 @@ pub struct RenderSection {
     /// Image width and height in pixels (default: the scene's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resolution: Option<[usize; 2]>,
+    /// Light-group weights, `{ sky = 0.01, headlights = 1 }`: the render splits its radiance by
+    /// group of lights (pbrt `"string lightgroup"`, overlay `[[light_group]]`; lights without
+    /// one are in `default`) in one pass, and the scene image is the weighted sum (groups not
+    /// named here weigh 1) before optics and sensor ([`crate::light_groups`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_groups: Option<std::collections::BTreeMap<String, f64>>,
 }
 
 /// `[optics]`: a preset name, a TOML file, or an inline config.

@@ -17,6 +17,8 @@
 //! | [`isp`] | [`Isp`]: ISETCam's `ip` as a value (demosaic, white balance, colour matrix) with [`Isp::compute`], and the DNG colour metadata | `simulate`, `isp`, `sensor`, `validate`, Python |
 //! | [`simulation`] | [`simulate`]: the whole pipeline in memory, and [`Simulation::write`] | `simulate`, `dataset`, Python |
 //! | [`records`] | run.json ([`RunRecord`]) and render.json ([`RenderRecord`]) as serde structs, written and read only here | `simulate`, `render`, `analyze`, Python |
+//! | [`labels`] | training-data labels (instances, normals, albedo, boxes, depth) on the raw image's grid, and the cameras' K and extrinsics | `simulate`, `dataset`, Python |
+//! | [`light_groups`] | the weighted sum of a render's light groups (`[render] light_groups`) | `simulate`, `dataset` |
 //! | [`measure`] | the measurements on plain request structs: SFR of any image, chart and ROI statistics, EMVA 1288 series (simulate, write, read, analyse), demosaic quality, QE fit | `analyze`, `fit`, `sensor --emva-series`, Python |
 //! | [`outputs`] | which files a run writes (`--save`) | `simulate`, `dataset` |
 //!
@@ -39,6 +41,8 @@ pub mod config;
 pub mod error;
 pub mod inputs;
 pub mod isp;
+pub mod labels;
+pub mod light_groups;
 pub mod measure;
 pub mod outputs;
 pub mod records;
@@ -57,7 +61,10 @@ pub use inputs::{
 pub use isp::{CcmSource, Isp, IspOutput};
 pub use outputs::{Output, OutputSet};
 pub use records::{RenderRecord, RunRecord};
-pub use scene::{macbeth_chart_corners_px, mean_luminance_cd_m2, scene_radiance, scene_stage};
+pub use scene::{
+    macbeth_chart_corners_px, mean_luminance_cd_m2, scene_radiance, scene_stage, scene_stage_with,
+    SceneStage,
+};
 pub use simulation::{simulate, write_id_maps, Rgb8Image, RunInfo, SimulateOptions, Simulation};
 
 /// Progress callback: (stage name, steps done, steps in all).

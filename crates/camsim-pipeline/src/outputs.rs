@@ -25,6 +25,18 @@ pub enum Output {
     /// material the ray through each scene pixel's centre meets first (3D scenes; 2D charts have
     /// none, and it is skipped).
     Ids,
+    /// instances.png (16-bit instance ids on the raw image's grid) and instances.scene.png (on
+    /// the render's grid): 3D scenes ([`crate::labels`]).
+    Instances,
+    /// normals.exr / normals.scene.exr: surface normals, camera frame (`camera.X/Y/Z`) and world
+    /// (`world.X/Y/Z`).
+    Normals,
+    /// albedo.exr / albedo.scene.exr: the first surface's reflectance, linear sRGB (`R`, `G`,
+    /// `B`) and spectral (`T.<wavelength>nm`).
+    Albedo,
+    /// boxes.json: per instance its 3D box, 2D boxes in both geometries, visible fraction,
+    /// truncation; the cameras' K and extrinsics.
+    Boxes,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -71,8 +83,34 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "object_id.png, material_id.png, ids.json: a 3D scene's segmentation",
             Output::Ids,
         ),
+        out(
+            "instances",
+            "instances.png, instances.scene.png: a 3D scene's 16-bit instance ids on the raw and render grids",
+            Output::Instances,
+        ),
+        out(
+            "normals",
+            "normals.exr, normals.scene.exr: surface normals, camera frame and world",
+            Output::Normals,
+        ),
+        out(
+            "albedo",
+            "albedo.exr, albedo.scene.exr: the first surface's reflectance, linear sRGB and spectral",
+            Output::Albedo,
+        ),
+        out(
+            "boxes",
+            "boxes.json: per instance 3D and 2D boxes, visible fraction, truncation; cameras' K and extrinsics",
+            Output::Boxes,
+        ),
     ],
 };
+
+/// Output names that are reserved for outputs still to come (refused with this reason).
+const RESERVED: [(&str, &str); 1] = [(
+    "flow",
+    "optical flow needs the renderer's motion (moving shapes and camera), which is not there yet",
+)];
 
 const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Output> {
     Named {
@@ -85,13 +123,31 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 8] = {
+    pub const ALL: [Output; 12] = {
         let e = OUTPUTS.entries;
         [
-            e[0].value, e[1].value, e[2].value, e[3].value, e[4].value, e[5].value, e[6].value,
+            e[0].value,
+            e[1].value,
+            e[2].value,
+            e[3].value,
+            e[4].value,
+            e[5].value,
+            e[6].value,
             e[7].value,
+            e[8].value,
+            e[9].value,
+            e[10].value,
+            e[11].value,
         ]
     };
+
+    /// The training-data labels ([`crate::labels`]; 3D scenes only).
+    pub const LABELS: [Output; 4] = [
+        Output::Instances,
+        Output::Normals,
+        Output::Albedo,
+        Output::Boxes,
+    ];
 
     /// The name used in `--save` ([`OUTPUTS`]).
     pub fn name(self) -> &'static str {
@@ -132,6 +188,15 @@ impl OutputSet {
                     Some(o) => {
                         set.insert(o.value);
                     }
+                    None if RESERVED.iter().any(|(n, _)| *n == item) => {
+                        let why = RESERVED
+                            .iter()
+                            .find(|(n, _)| *n == item)
+                            .map_or("", |r| r.1);
+                        return Err(PipelineError::config(format!(
+                            "--save: output {item:?} is not available yet: {why}"
+                        )));
+                    }
                     None => {
                         return Err(PipelineError::config(format!(
                             "--save: {} (or all, default)",
@@ -146,6 +211,18 @@ impl OutputSet {
 
     pub fn contains(&self, o: Output) -> bool {
         self.0.contains(&o)
+    }
+
+    /// The labels a run must compute for these outputs (3D scenes): `None` when no output needs
+    /// them (the label outputs, and depth and ids, which also get their raw-grid versions).
+    pub fn label_request(&self) -> Option<camsim_render::LabelRequest> {
+        let needs = Output::LABELS.iter().any(|o| self.contains(*o))
+            || self.contains(Output::Depth)
+            || self.contains(Output::Ids);
+        needs.then_some(camsim_render::LabelRequest {
+            normals: self.contains(Output::Normals),
+            albedo: self.contains(Output::Albedo),
+        })
     }
 
     pub fn insert(&mut self, o: Output) {

@@ -14,6 +14,10 @@ use std::path::Path;
 /// `run.json`: what a run did, enough to repeat it (`camsim simulate run.json`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunRecord {
+    /// With labels (a 3D scene, `simulate(labels)`): the cameras of the render's and the raw
+    /// image's grids, K and extrinsics in OpenCV's conventions (`crate::labels::SimLabels::cameras_json`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<serde_json::Value>,
     /// The camsim version that wrote it.
     pub camsim_version: String,
     /// The command line, when a command ran it.

@@ -395,8 +395,41 @@ pub fn render_section(
     optics: &Optics,
     progress: &Progress<'_>,
 ) -> Result<(SpectralImage, camsim_render::IdMaps)> {
-    let scene = render_section_scene(r, cfg, sensor, optics)?;
-    let mut out = render_scene(&scene, progress)?;
-    film_as_irradiance(&scene, &mut out.radiance);
+    let out = render_section_with(
+        r,
+        cfg,
+        sensor,
+        optics,
+        &camsim_render::RenderRequest::default(),
+        progress,
+    )?;
     Ok((out.radiance, out.ids))
+}
+
+/// [`render_section`] with the renderer's extra outputs (`request`: labels), the whole
+/// [`RenderOutput`] (a lens camera's `radiance` is its film irradiance).
+pub fn render_section_with(
+    r: &RenderSection,
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    request: &camsim_render::RenderRequest,
+    progress: &Progress<'_>,
+) -> Result<RenderOutput> {
+    let scene = render_section_scene(r, cfg, sensor, optics)?;
+    render_scene_with(&scene, request, progress)
+}
+
+/// Render a scene set up by [`render_section_scene`] with `request`'s extra outputs; a lens
+/// camera's film comes back as sensor-plane irradiance.
+pub fn render_scene_with(
+    scene: &SceneDescription,
+    request: &camsim_render::RenderRequest,
+    progress: &Progress<'_>,
+) -> Result<RenderOutput> {
+    let mut out = camsim_render::render_with(scene, request, &|done, total| {
+        progress("render", done, total)
+    })?;
+    film_as_irradiance(scene, &mut out.radiance);
+    Ok(out)
 }

@@ -57,17 +57,63 @@ pub fn scene_stage(
     optics: &Optics,
     progress: &Progress<'_>,
 ) -> Result<(SpectralImage, Option<camsim_render::IdMaps>)> {
+    let s = scene_stage_with(
+        cfg,
+        sensor,
+        optics,
+        &camsim_render::RenderRequest::default(),
+        progress,
+    )?;
+    Ok((s.image, s.ids))
+}
+
+/// What the scene stage made: the image, and for a rendered 3D scene its ids and the labels
+/// `request` asked for.
+#[derive(Debug, Clone)]
+pub struct SceneStage {
+    /// Scene radiance, or a lens camera's film irradiance.
+    pub image: SpectralImage,
+    pub ids: Option<camsim_render::IdMaps>,
+    pub labels: Option<camsim_render::Labels>,
+    /// The rendered scene, kept when labels were asked for (their sensor-grid version traces it
+    /// again once the optics' map is known).
+    pub scene: Option<camsim_scene3d::SceneDescription>,
+}
+
+/// [`scene_stage`] with the renderer's extra outputs (`request`; ignored for 2D scenes).
+pub fn scene_stage_with(
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    request: &camsim_render::RenderRequest,
+    progress: &Progress<'_>,
+) -> Result<SceneStage> {
     cfg.wavelengths.validate()?;
     cfg.check_scene_source()?;
     match (&cfg.scene, &cfg.render) {
         (Some(_), Some(_)) | (None, None) => unreachable!("checked by check_scene_source"),
-        (Some(s), None) => Ok((
-            camsim_scene::create(s, &cfg.wavelengths)
+        (Some(s), None) => Ok(SceneStage {
+            image: camsim_scene::create(s, &cfg.wavelengths)
                 .map_err(|e| PipelineError::Scene(e.to_string()))?,
-            None,
-        )),
-        (None, Some(r)) => crate::render::render_section(r, cfg, sensor, optics, progress)
-            .map(|(img, ids)| (img, Some(ids))),
+            ids: None,
+            labels: None,
+            scene: None,
+        }),
+        (None, Some(r)) => {
+            let scene = crate::render::render_section_scene(r, cfg, sensor, optics)?;
+            let mut request = *request;
+            request.light_groups |= r.light_groups.is_some();
+            let mut out = crate::render::render_scene_with(&scene, &request, progress)?;
+            if let Some(w) = &r.light_groups {
+                crate::light_groups::weigh(&mut out.radiance, &out.light_groups, w)?;
+            }
+            Ok(SceneStage {
+                image: out.radiance,
+                ids: Some(out.ids),
+                scene: out.labels.is_some().then_some(scene),
+                labels: out.labels,
+            })
+        }
     }
 }
 

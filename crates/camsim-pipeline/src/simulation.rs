@@ -5,7 +5,7 @@ use crate::capture::{frame_suffix, image_owned, noise_free_dn, Imaged};
 use crate::outputs::{Output, OutputSet};
 use crate::records::{raw_png_note, RunRecord, RunResults};
 use crate::{
-    mean_luminance_cd_m2, scene_stage, Isp, PipelineError, Progress, Result, SimulateConfig,
+    mean_luminance_cd_m2, scene_stage_with, Isp, PipelineError, Progress, Result, SimulateConfig,
 };
 use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
@@ -21,6 +21,9 @@ use std::time::Instant;
 pub struct SimulateOptions {
     /// Also compute [`Simulation::noise_free_dn`] (a second, noise-free pass of the sensor).
     pub noise_free: bool,
+    /// Also compute the training-data labels of a 3D scene ([`Simulation::labels`];
+    /// [`crate::OutputSet::label_request`] says which the outputs need).
+    pub labels: Option<camsim_render::LabelRequest>,
 }
 
 /// Where a run came from, for run.json (the library reads neither the command line nor the
@@ -57,6 +60,9 @@ pub struct Simulation {
     pub radiance: Option<SpectralImage>,
     /// Object and material ids per scene pixel of a rendered 3D scene (None for 2D charts).
     pub ids: Option<camsim_render::IdMaps>,
+    /// With [`SimulateOptions::labels`], a 3D scene's training-data labels in the render's and
+    /// the raw image's geometry.
+    pub labels: Option<crate::labels::SimLabels>,
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
     pub irradiance: SpectralImage,
     /// The raw frames (ADC values, DN; black and white level in each).
@@ -107,7 +113,16 @@ pub fn simulate(
 
     let t = Instant::now();
     progress("scene", 0, 1);
-    let (radiance, ids) = scene_stage(cfg, &sensor, &optics, progress)?;
+    let render_request = camsim_render::RenderRequest {
+        labels: opts.labels,
+        ..Default::default()
+    };
+    let crate::SceneStage {
+        image: radiance,
+        ids,
+        labels: scene_labels,
+        scene,
+    } = scene_stage_with(cfg, &sensor, &optics, &render_request, progress)?;
     lap(&mut times, "scene_s", t);
 
     progress("optics", 0, 1);
@@ -119,8 +134,24 @@ pub fn simulate(
             optics_s,
             sensor_s,
         },
+        map,
     ) = image_owned(radiance, &optics, &sensor, &request)?;
     times.insert("optics_s".into(), optics_s.into());
+    let t = Instant::now();
+    let labels = match (scene_labels, &scene, opts.labels) {
+        (Some(l), Some(scene), Some(req)) => Some(crate::labels::sensor_labels(
+            scene,
+            l,
+            req,
+            &sensor,
+            &irradiance,
+            map.as_ref(),
+        )?),
+        _ => None,
+    };
+    if labels.is_some() {
+        lap(&mut times, "labels_s", t);
+    }
 
     let t = Instant::now();
     let noise_free_dn = if opts.noise_free {
@@ -155,6 +186,7 @@ pub fn simulate(
         sensor: sensor.config().clone(),
         radiance,
         ids,
+        labels,
         irradiance,
         exposure_s: frame.exposure_s,
         mean_electrons_rgb: frame.mean_electrons,
@@ -213,6 +245,7 @@ impl Simulation {
     /// `camsim simulate run.json` repeats the run from it.
     pub fn record(&self, info: &RunInfo, outputs: &OutputSet) -> RunRecord {
         RunRecord {
+            camera: self.labels.as_ref().map(|l| l.cameras_json()),
             camsim_version: env!("CARGO_PKG_VERSION").into(),
             command: info.command.clone(),
             config: self.config.clone(),
@@ -302,6 +335,30 @@ impl Simulation {
                 }
             }
         }
+        let label_outputs = Output::LABELS.iter().any(|o| outputs.contains(*o));
+        match (&self.labels, label_outputs) {
+            (Some(_), _) => {
+                for (o, name, what) in [
+                    (Output::Instances, "instances.png", "instance id (16-bit; 0 = none) on the raw image's grid; instances.scene.png on the render's"),
+                    (Output::Normals, "normals.exr", "surface normals on the raw grid, camera frame camera.X/Y/Z and world.X/Y/Z; normals.scene.exr on the render's"),
+                    (Output::Albedo, "albedo.exr", "first surface's reflectance on the raw grid: linear sRGB R, G, B and spectral T.<wavelength>nm; albedo.scene.exr on the render's"),
+                    (Output::Boxes, "boxes.json", "per instance: 3D box (camera frame), 2D boxes on both grids, visible fraction, truncation; the cameras"),
+                    (Output::Depth, "depth.sensor.exr", "the depth map resampled onto the raw grid, m"),
+                    (Output::Ids, "object_id.sensor.png", "object ids on the raw grid (material_id.sensor.png alike)"),
+                ] {
+                    if outputs.contains(o) {
+                        files.insert(name.into(), what.into());
+                    }
+                }
+            }
+            (None, true) => {
+                files.insert(
+                    "labels".into(),
+                    "not written: this scene (a 2D chart) has no labels".into(),
+                );
+            }
+            (None, false) => {}
+        }
         if outputs.contains(Output::NoiseFree) {
             files.insert(
                 "noise_free.exr".into(),
@@ -379,6 +436,9 @@ impl Simulation {
             }
             if let (true, Some(ids)) = (outputs.contains(Output::Ids), self.ids.as_ref()) {
                 t.push(Box::new(move || write_id_maps(out.path(), ids)));
+            }
+            if let Some(l) = &self.labels {
+                t.push(Box::new(move || l.write(out.path(), outputs)));
             }
             if outputs.contains(Output::NoiseFree) {
                 t.push(Box::new(move || {

@@ -92,9 +92,27 @@ fn dataset_gather(
         .map_err(err)
 }
 
+/// Export a complete dataset as COCO (`out/coco/annotations.json`, `out/coco/images/`);
+/// `categories` is "material" or "object". Returns the annotation file's path.
+#[pyfunction]
+fn dataset_coco(
+    py: Python<'_>,
+    spec: &Bound<'_, PyAny>,
+    source: &str,
+    base_dir: std::path::PathBuf,
+    out: std::path::PathBuf,
+    categories: &str,
+) -> PyResult<std::path::PathBuf> {
+    let s = spec_of(spec, source, &base_dir)?;
+    let by = camsim::dataset::CategoryBy::parse(categories).map_err(err)?;
+    py.detach(|| camsim::dataset::export_coco(&s, &out, by))
+        .map_err(err)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dataset_plan, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_run, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_gather, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset_coco, m)?)?;
     Ok(())
 }

@@ -5,15 +5,17 @@
 //! crate, and nothing crosses as JSON text.
 //!
 //! - [`simulate`]: the whole pipeline, configs and presets, the catalogue of names.
-//! - [`stages`]: each stage alone on arrays, the ISP, reading a DNG.
+//! - [`labels`]: a simulation's training-data labels and camera as numpy arrays and dicts.
+//! - [`stages`]: each stage alone on arrays, the ISP, reading a DNG or an EXR's channels.
 //! - [`measure`]: the measurements and metrics.
-//! - [`dataset`]: datasets (plan, run, manifest).
+//! - [`dataset`]: datasets (plan, run, manifest, COCO export).
 //!
 //! Every function releases the GIL while it computes; every camsim error becomes a
 //! `camsim.CamsimError` carrying camsim's message (a panic becomes a Python exception too).
 
 mod convert;
 mod dataset;
+mod labels;
 mod measure;
 mod simulate;
 mod stages;

@@ -77,6 +77,33 @@ impl PySimulation {
             .map(|i| array(py, &i.material_id, &[i.height, i.width]))
             .transpose()
     }
+    /// Training-data labels on the raw image's pixel grid (with `simulate(..., labels=True)`, 3D
+    /// scenes; else None): a dict of numpy arrays "instances", "object_id", "material_id"
+    /// (uint32, (rows, cols)), "depth" (float32, m), "normals" (camera frame) and
+    /// "normals_world" ((rows, cols, 3)), "albedo" ((bands, rows, cols)), "albedo_srgb", "boxes"
+    /// (per instance: box_3d, bbox_sensor, bbox_scene, visible_fraction, truncation, name,
+    /// material), and "scene": the same maps on the render's grid. Pixel (r, c) describes the
+    /// scene point imaged at raw pixel (r, c).
+    #[getter]
+    fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .labels
+            .as_ref()
+            .map(|l| crate::labels::labels_dict(py, l))
+            .transpose()
+    }
+    /// The camera model of the labels (with labels=True): "K" (3 x 3, raw grid, OpenCV: pixel
+    /// centres at integers), "world_to_camera" (4 x 4, camera x right, y down, z forward, m),
+    /// "scene_K" (the render's), "distorted" (the optics applied a lens's distortion, which K
+    /// does not model), "note".
+    #[getter]
+    fn camera<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.inner
+            .labels
+            .as_ref()
+            .map(|l| crate::labels::camera_dict(py, l))
+            .transpose()
+    }
     /// The names of the ids present: {"background": 0, "objects": {"1": name, ...},
     /// "materials": {...}}; None for 2D charts.
     #[getter]
@@ -207,19 +234,32 @@ impl PySimulation {
 /// Run the whole pipeline on a config (None: the built-in default; a dict, TOML text or a path),
 /// with `seed` in place of the config's when given.
 #[pyfunction]
-#[pyo3(signature = (config = None, noise_free = false, seed = None))]
+#[pyo3(signature = (config = None, noise_free = false, seed = None, labels = false))]
 fn simulate(
     py: Python<'_>,
     config: Option<&Bound<'_, PyAny>>,
     noise_free: bool,
     seed: Option<u64>,
+    labels: bool,
 ) -> PyResult<PySimulation> {
     let mut cfg = config_from(config)?;
     if let Some(s) = seed {
         cfg.seed = s;
     }
     let sim = py
-        .detach(|| camsim::simulate(&cfg, &SimulateOptions { noise_free }, &|_, _, _| {}))
+        .detach(|| {
+            camsim::simulate(
+                &cfg,
+                &SimulateOptions {
+                    noise_free,
+                    labels: labels.then_some(camsim::render::LabelRequest {
+                        normals: true,
+                        albedo: true,
+                    }),
+                },
+                &|_, _, _| {},
+            )
+        })
         .map_err(err)?;
     Ok(PySimulation { inner: sim })
 }

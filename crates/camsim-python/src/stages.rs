@@ -327,6 +327,22 @@ fn read_dng<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
     Ok(d)
 }
 
+/// The channels of an OpenEXR file: a dict name -> (rows, cols) float32 array.
+#[pyfunction]
+fn read_exr_channels<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (rows, cols, chans) = py
+        .detach(|| camsim::io::exr::read_channels_exr(&path))
+        .map_err(err)?;
+    let d = PyDict::new(py);
+    for (name, data) in chans {
+        d.set_item(name, array(py, &data, &[rows, cols])?)?;
+    }
+    Ok(d)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     for f in [
         wrap_pyfunction!(scene, m)?,
@@ -339,6 +355,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(fit_ccm, m)?,
         wrap_pyfunction!(macbeth_xyz, m)?,
         wrap_pyfunction!(read_dng, m)?,
+        wrap_pyfunction!(read_exr_channels, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -188,6 +188,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
             material: m,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         })
         .collect();
     // The light faces down: (p1 - p0) x (p2 - p0) = -y for this winding.
@@ -206,6 +207,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     });
     // Grey-ish walls; red and green as smooth ramps (speed does not depend on the values).
     let white = flat(0.75);
@@ -257,6 +259,7 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
         focus_distance_m: Some(1.08),
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 

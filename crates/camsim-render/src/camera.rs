@@ -292,6 +292,27 @@ impl CameraRig {
         }
     }
 
+    /// The pinhole rays' ([`CameraRig::ray`]) intrinsics for a `width` x `height` image in
+    /// OpenCV's convention (pixel centres at integer coordinates, u right, v down): `[fx, fy, cx,
+    /// cy]`, pixels. `ray(x, y)` has the camera-space direction `((2x/W - 1) hx, (1 - 2y/H) hy,
+    /// 1)`, so a camera point (X, Y, Z) (y up) lands at raster x = (X / (Z hx) + 1) W / 2 and
+    /// y = (1 - Y / (Z hy)) H / 2, and u = x - 1/2, v = y - 1/2.
+    pub(crate) fn pinhole_intrinsics(&self, width: usize, height: usize) -> [f64; 4] {
+        let (w, h) = (width as f64, height as f64);
+        [
+            w / (2.0 * self.half_x as f64),
+            h / (2.0 * self.half_y as f64),
+            w / 2.0 - 0.5,
+            h / 2.0 - 0.5,
+        ]
+    }
+
+    /// World position of the pinhole rays' origin (the camera, or a lens camera's entrance
+    /// pupil).
+    pub(crate) fn pinhole_origin(&self) -> V3 {
+        self.pinhole
+    }
+
     /// Ray through continuous raster position (`x`, `y`) (pixel (i, j) covers [i, i+1) x [j, j+1),
     /// raster y grows downwards, (0, 0) is the top-left corner).
     #[inline(always)]

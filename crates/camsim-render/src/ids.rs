@@ -125,7 +125,7 @@ impl IdMaps {
 /// The material a shape's surface is made of: an alpha cut-out or a medium boundary wraps the
 /// shape's material ([`Material::AlphaMasked`], [`Material::MediumInterface`]) without being
 /// one, so its id is the wrapped material's.
-fn surface_material(scene: &SceneDescription, mut m: usize) -> usize {
+pub(crate) fn surface_material(scene: &SceneDescription, mut m: usize) -> usize {
     // Wrappers nest at most once per shape; the bound only guards against a malformed scene.
     for _ in 0..8 {
         match scene.materials.get(m) {

@@ -7,6 +7,7 @@ use crate::bvh::Bvh;
 use crate::geometry::{
     offset_ray_origin, sphere_point_err, tri_point_err, Prim, Ray, RayInv, SphereClip,
 };
+use crate::light_groups::PathRadiance;
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
@@ -114,6 +115,9 @@ pub(crate) struct Tracer {
     pub footprint: crate::bump::Footprint,
     /// Participating media, when a ray can be in one (then `volpath` renders the scene).
     pub media: Option<Box<crate::media::MediaSet>>,
+    /// Per compiled light (`lights.list`): the shape it belongs to, or `shapes.len()` plus the
+    /// index of its scene light.
+    pub light_source: Vec<u32>,
 }
 
 /// Surface data at a hit.
@@ -176,7 +180,10 @@ impl Tracer {
         let mut clips: Vec<SphereClip> = Vec::new();
         let mut curves = crate::curve::CurveStore::default();
 
+        // The scene object each compiled light comes from (shape index, or shapes + light index).
+        let mut light_source: Vec<u32> = Vec::new();
         for (si, s) in scene.shapes.iter().enumerate() {
+            light_source.resize(lights.list.len(), si.saturating_sub(1) as u32);
             let shape_err = |message: String| RenderError::Shape {
                 index: si,
                 name: s.name.clone().unwrap_or_default(),
@@ -523,10 +530,15 @@ impl Tracer {
                 }
             }
         }
+        light_source.resize(
+            lights.list.len(),
+            scene.shapes.len().saturating_sub(1) as u32,
+        );
         for (li, l) in scene.lights.iter().enumerate() {
             lights
                 .add_scene_light(l, ws, &mut tables)
                 .map_err(|message| RenderError::Light { index: li, message })?;
+            light_source.resize(lights.list.len(), (scene.shapes.len() + li) as u32);
         }
         if prims.is_empty() && lights.is_empty() {
             return Err(RenderError::EmptyScene);
@@ -584,6 +596,7 @@ impl Tracer {
             has_alpha,
             footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
             media,
+            light_source,
         })
     }
 
@@ -593,7 +606,7 @@ impl Tracer {
         self.bvh.intersect(&RayInv::new(r), f32::INFINITY)
     }
 
-    fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
+    pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
         let slot = h.slot as usize;
         match self.bvh.prims[slot] {
             Prim::Tri { p0, e1, e2 } => {
@@ -801,7 +814,7 @@ impl Tracer {
     /// from there cannot hit the surface it leaves, near enough to hit a surface a hair's
     /// breadth away, as pbrt-v4 does).
     #[inline(always)]
-    fn offset(p: V3, n: V3, err: V3) -> V3 {
+    pub(crate) fn offset(p: V3, n: V3, err: V3) -> V3 {
         offset_ray_origin(p, err, n)
     }
 
@@ -887,12 +900,26 @@ impl Tracer {
     /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
     pub(crate) fn li<const N: usize, S: PathSampler>(
         &self,
-        mut ray: Ray,
+        ray: Ray,
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
     ) -> [f32; N] {
         let mut l = [0f32; N];
+        self.li_into(ray, lambdas, sampler, counts, &mut l);
+        l
+    }
+
+    /// [`Self::li`] adding each light's contribution to `l` (one sum, or one per light group:
+    /// [`crate::light_groups`]).
+    pub(crate) fn li_into<const N: usize, S: PathSampler, R: PathRadiance<N>>(
+        &self,
+        mut ray: Ray,
+        lambdas: &Lambdas<N>,
+        sampler: &mut S,
+        counts: &mut RayCounts,
+        l: &mut R,
+    ) {
         let mut beta = [1f32; N];
         let mut depth = 0u32;
         let mut prev_p = ray.o;
@@ -917,9 +944,7 @@ impl Tracer {
                     } else {
                         power_heuristic(prev_bsdf_pdf, light_pdf)
                     };
-                    for i in 0..N {
-                        l[i] += beta[i] * w * le[i];
-                    }
+                    l.add(li, std::array::from_fn(|i| beta[i] * w * le[i]));
                 }
                 break;
             };
@@ -964,9 +989,7 @@ impl Tracer {
                         )
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
-                    for i in 0..N {
-                        l[i] += beta[i] * w * le[i];
-                    }
+                    l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));
                 }
             }
             let m = self.resolve_material(pi.material, sh.p, wo);
@@ -1075,9 +1098,13 @@ impl Tracer {
                                     power_heuristic(pdf, bsdf_pdf)
                                 };
                                 let w = mis * wi_local.z.abs() / pdf;
-                                for i in 0..N {
-                                    l[i] += beta[i] * f[i] * le[i] * w;
-                                }
+                                // The light the sample came from (only a split sink asks).
+                                let light = if R::SPLIT {
+                                    self.lights.pick(u_sel) as u32
+                                } else {
+                                    0
+                                };
+                                l.add(light, std::array::from_fn(|i| beta[i] * f[i] * le[i] * w));
                             }
                         }
                     }
@@ -1133,7 +1160,6 @@ impl Tracer {
             };
             ray = Ray { o, d: wi };
         }
-        l
     }
 
     /// Distance along the camera's forward axis to the first surface (or infinity) and 1 + the
@@ -1146,31 +1172,39 @@ impl Tracer {
                 None => (f32::INFINITY, 0),
             };
         }
-        // Surfaces cut out by alpha are skipped as the path skips them.
+        match self.first_hit(r) {
+            Some((sh, pi)) => ((sh.p - r.o).dot(forward), pi.shape + 1),
+            None => (f32::INFINITY, 0),
+        }
+    }
+
+    /// The first surface along `r` that the alpha test keeps (cut-outs are skipped as the path
+    /// skips them), with its primitive's data; `None` when the ray escapes.
+    pub(crate) fn first_hit(&self, r: &Ray) -> Option<(SurfaceHit, PrimInfo)> {
         let mut ray = *r;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let Some(h) = self.intersect(&ray) else {
-                return (f32::INFINITY, 0);
-            };
+            let h = self.intersect(&ray)?;
             let sh = self.surface(&ray, &h);
             let pi = self.info[h.slot as usize];
-            if self.alpha_keeps(
-                pi.material,
-                &TexCtx {
-                    uv: sh.uv,
-                    n: sh.ng,
-                    p: sh.p,
-                },
-                ray.o,
-                ray.d,
-            ) {
-                return ((sh.p - r.o).dot(forward), pi.shape + 1);
+            if !self.has_alpha
+                || self.alpha_keeps(
+                    pi.material,
+                    &TexCtx {
+                        uv: sh.uv,
+                        n: sh.ng,
+                        p: sh.p,
+                    },
+                    ray.o,
+                    ray.d,
+                )
+            {
+                return Some((sh, pi));
             }
             ray = Ray {
                 o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
                 d: ray.d,
             };
         }
-        (f32::INFINITY, 0)
+        None
     }
 }

@@ -29,6 +29,8 @@ pub mod geometry;
 mod goniometric;
 pub mod ids;
 mod integrator;
+pub mod labels;
+pub mod light_groups;
 mod lights;
 mod materials;
 pub mod math;
@@ -46,5 +48,6 @@ mod texture;
 use camsim_scene3d::{scene, uplift, xform};
 
 pub use ids::IdMaps;
-pub use render::{render, RenderError, RenderOutput, RenderStats};
+pub use labels::{LabelRequest, Labels};
+pub use render::{render, render_with, RenderError, RenderOutput, RenderRequest, RenderStats};
 pub use sampler::SamplerKind;

@@ -134,7 +134,7 @@ impl Tracer {
     /// A conductor's `(eta, k)` at the path's wavelengths (tables, or pbrt-v4's
     /// `ConductorMaterial` conversion of a reflectance: eta = 1, k = 2 sqrt(r) / sqrt(1 - r)).
     #[inline]
-    fn conductor_constants<const N: usize>(
+    pub(crate) fn conductor_constants<const N: usize>(
         &self,
         optics: &CondOptics,
         ctx: &TexCtx,

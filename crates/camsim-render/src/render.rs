@@ -12,6 +12,7 @@
 use crate::camera::CameraRig;
 use crate::filter::FilterSampler;
 use crate::integrator::{RayCounts, Tracer};
+use crate::light_groups::GroupRadiance;
 use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use crate::scene::SceneDescription;
 use crate::spectral::WavelengthSampler;
@@ -102,6 +103,20 @@ pub struct RenderOutput {
     pub ids: crate::ids::IdMaps,
     /// Ray counts and speed.
     pub stats: RenderStats,
+    /// Training-data labels, when [`RenderRequest::labels`] asked for them.
+    pub labels: Option<crate::labels::Labels>,
+    /// With [`RenderRequest::light_groups`]: the radiance of each light group (sorted by name,
+    /// [`crate::light_groups`]), on the radiance's grid and geometry; they sum to `radiance`.
+    pub light_groups: Vec<(String, SpectralImage)>,
+}
+
+/// What a render computes besides radiance, depth and ids.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RenderRequest {
+    /// The labels ([`crate::labels`]): instance map, boxes, camera, and the maps asked for.
+    pub labels: Option<crate::labels::LabelRequest>,
+    /// Split the radiance by light group, in the same pass ([`crate::light_groups`]).
+    pub light_groups: bool,
 }
 
 /// A raw pointer that tiles share to write their own disjoint pixels.
@@ -131,6 +146,18 @@ struct TraceCtx<'a> {
     lum_w: &'a [f64],
     /// The pixel filter: film positions and sample weights (`crate::filter`).
     filter: &'a FilterSampler,
+    /// Bands of the output grid.
+    bands: usize,
+    /// Light groups, when the radiance is split by them.
+    groups: Option<&'a crate::light_groups::GroupTable>,
+}
+
+/// A tile's light-group accumulators: `acc[(group * bands + band) * tile_px + local]`, and one
+/// path's per-group radiance.
+struct GroupAcc<'a, const N: usize> {
+    acc: &'a mut [f64],
+    scratch: &'a mut [[f32; N]],
+    group_of: &'a [u16],
 }
 
 /// One pixel's share of a pass: samples `first .. first + count` of pixel (`x`, `y`).
@@ -154,6 +181,7 @@ impl PixelJob {
         ctx: &TraceCtx,
         sampler: &mut S,
         acc: &mut [f64],
+        mut split: Option<GroupAcc<'_, N>>,
         c: &mut RayCounts,
     ) -> [f64; 3] {
         let (mut ls, mut ls2, mut ws) = (0f64, 0f64, 0f64);
@@ -166,28 +194,48 @@ impl PixelJob {
             let (lambdas, band) = ctx.ws.sample::<N>(u_l);
             // pbrt-v4 filter importance sampling: the film position from the filter, weight f/pdf.
             let (fx, fy, w_filter) = ctx.filter.film_point(self.x, self.y, [jx, jy]);
-            let (l, w_cam) = if ctx.rig.has_lens() {
+            let (ray, w_cam) = if ctx.rig.has_lens() {
                 // Realistic camera: a point in the exit pupil, the ray traced through the lens at
                 // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
                 let u_pupil = sampler.get_2d(dim::LENS);
                 match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
-                    Some((ray, w)) => (
-                        ctx.tracer
-                            .radiance::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c),
-                        w,
-                    ),
-                    None => ([0f32; N], 0f32),
+                    Some((ray, w)) => (Some(ray), w),
+                    None => (None, 0f32),
                 }
             } else {
-                (
-                    ctx.tracer.radiance::<N, S>(
-                        ctx.rig.ray(fx, fy),
-                        &ctx.ws.locate(lambdas),
-                        sampler,
-                        c,
-                    ),
-                    1f32,
-                )
+                (Some(ctx.rig.ray(fx, fy)), 1f32)
+            };
+            let l = match (&mut split, ray) {
+                (_, None) => [0f32; N],
+                (None, Some(ray)) => {
+                    ctx.tracer
+                        .radiance::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c)
+                }
+                (Some(g), Some(ray)) => {
+                    g.scratch.fill([0f32; N]);
+                    let mut sink = GroupRadiance {
+                        total: [0f32; N],
+                        groups: g.scratch,
+                        group_of: g.group_of,
+                    };
+                    ctx.tracer
+                        .li_into(ray, &ctx.ws.locate(lambdas), sampler, c, &mut sink);
+                    let total = sink.total;
+                    // Each group's share, as the total's (non-finite values dropped).
+                    let stride = ctx.bands * self.tile_px;
+                    for (k, lg) in g.scratch.iter().enumerate() {
+                        for j in 0..N {
+                            let v = if lg[j].is_finite() && total[j].is_finite() {
+                                lg[j] * w_cam * w_filter
+                            } else {
+                                0.0
+                            };
+                            g.acc[k * stride + band[j] as usize * self.tile_px + self.local] +=
+                                (v * ctx.splat) as f64;
+                        }
+                    }
+                    total
+                }
             };
             let mut y_lum = 0f64;
             for j in 0..N {
@@ -209,6 +257,15 @@ impl PixelJob {
 /// number of tile-passes done and planned.
 pub fn render(
     scene: &SceneDescription,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RenderOutput, RenderError> {
+    render_with(scene, &RenderRequest::default(), progress)
+}
+
+/// [`render`] with the extra outputs of `request` (labels).
+pub fn render_with(
+    scene: &SceneDescription,
+    request: &RenderRequest,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<RenderOutput, RenderError> {
     let start = Instant::now();
@@ -242,25 +299,103 @@ pub fn render(
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
     let tracer = Tracer::new(scene, &ws)?;
-    match st.wavelengths_per_path {
-        1 => run::<1>(scene, &tracer, &rig, &ws, &filter, progress, start),
-        2 => run::<2>(scene, &tracer, &rig, &ws, &filter, progress, start),
-        3 => run::<3>(scene, &tracer, &rig, &ws, &filter, progress, start),
-        4 => run::<4>(scene, &tracer, &rig, &ws, &filter, progress, start),
-        8 => run::<8>(scene, &tracer, &rig, &ws, &filter, progress, start),
-        16 => run::<16>(scene, &tracer, &rig, &ws, &filter, progress, start),
+    let groups = if request.light_groups {
+        if tracer.media.is_some() {
+            return Err(RenderError::Settings(
+                "light groups are not supported in scenes with participating media yet (the volumetric path tracer keeps one sum)".into(),
+            ));
+        }
+        let g = crate::light_groups::GroupTable::new(scene, &tracer);
+        // One more spectral image (and a tile's f64 sums) per group.
+        camsim_core::mem::check_alloc(
+            pixels as u64 * bands as u64 * 4 * g.names.len() as u64,
+            &format!("{} light-group images of {width} x {height}", g.names.len()),
+        )?;
+        Some(g)
+    } else {
+        None
+    };
+    let mut out = match st.wavelengths_per_path {
+        1 => run::<1>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
+        2 => run::<2>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
+        3 => run::<3>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
+        4 => run::<4>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
+        8 => run::<8>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
+        16 => run::<16>(
+            scene,
+            &tracer,
+            &rig,
+            &ws,
+            &filter,
+            groups.as_ref(),
+            progress,
+            start,
+        ),
         n => Err(RenderError::Settings(format!(
             "wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"
         ))),
+    }?;
+    if let Some(req) = request.labels {
+        out.labels = Some(crate::labels::compute(
+            scene, &tracer, &rig, &ws, req, None,
+        )?);
     }
+    Ok(out)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run<const N: usize>(
     scene: &SceneDescription,
     tracer: &Tracer,
     rig: &CameraRig,
     ws: &WavelengthSampler,
     filter: &FilterSampler,
+    groups: Option<&crate::light_groups::GroupTable>,
     progress: &(dyn Fn(u64, u64) + Sync),
     start: Instant,
 ) -> Result<RenderOutput, RenderError> {
@@ -307,7 +442,13 @@ fn run<const N: usize>(
         splat,
         lum_w: &lum_w,
         filter,
+        bands,
+        groups,
     };
+    let n_groups = groups.map_or(0, |g| g.names.len());
+    // Light groups: band-sequential images one after the other.
+    let mut group_data = vec![0f32; n_groups * bands * pixels];
+    let group_ptr = SharedMut(group_data.as_mut_ptr());
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
     let id_ptr = SharedMut(object_id.as_mut_ptr());
@@ -332,6 +473,8 @@ fn run<const N: usize>(
                 let tw = x1 - x0;
                 let tile_px = tw * (y1 - y0);
                 let mut acc = vec![0f64; bands * tile_px];
+                let mut acc_g = vec![0f64; n_groups * bands * tile_px];
+                let mut scratch = vec![[0f32; N]; n_groups];
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let pix = y * width + x;
@@ -353,14 +496,19 @@ fn run<const N: usize>(
                             local,
                             tile_px,
                         };
+                        let split = ctx.groups.map(|g| GroupAcc {
+                            acc: &mut acc_g,
+                            scratch: &mut scratch,
+                            group_of: &g.group_of,
+                        });
                         let sums = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c)
                             }
                             SamplerKind::Sobol => {
                                 let mut smp = SobolSampler::new(st.seed, x as u32, y as u32);
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c)
                             }
                         };
                         // SAFETY: pixel `pix` belongs to this tile only.
@@ -378,6 +526,19 @@ fn run<const N: usize>(
                         // SAFETY: these `tw` samples of band `b` belong to this tile only.
                         let dst =
                             unsafe { std::slice::from_raw_parts_mut(img_ptr.ptr().add(start), tw) };
+                        for (d, a) in dst.iter_mut().zip(row) {
+                            *d += *a as f32;
+                        }
+                    }
+                }
+                // The groups' planes, (group, band) after (group, band), as the total's.
+                for (gb, plane) in acc_g.chunks_exact(tile_px).enumerate() {
+                    for (ly, row) in plane.chunks_exact(tw).enumerate() {
+                        let start = gb * pixels + (y0 + ly) * width + x0;
+                        // SAFETY: these `tw` samples of plane `gb` belong to this tile only.
+                        let dst = unsafe {
+                            std::slice::from_raw_parts_mut(group_ptr.ptr().add(start), tw)
+                        };
                         for (d, a) in dst.iter_mut().zip(row) {
                             *d += *a as f32;
                         }
@@ -412,6 +573,31 @@ fn run<const N: usize>(
         .data
         .par_chunks_mut(pixels)
         .for_each(|band| band.iter_mut().zip(&inv_w).for_each(|(v, k)| *v *= k));
+    // Light groups: (group, band) planes one after the other, each normalised as the total.
+    group_data
+        .par_chunks_mut(pixels)
+        .for_each(|plane| plane.iter_mut().zip(&inv_w).for_each(|(v, k)| *v *= k));
+
+    let light_groups: Vec<(String, SpectralImage)> = match groups {
+        None => Vec::new(),
+        Some(g) => g
+            .names
+            .iter()
+            .zip(group_data.chunks_exact(bands * pixels))
+            .map(|(name, data)| {
+                let mut img = SpectralImage::zeros(
+                    height,
+                    width,
+                    st.grid,
+                    radiance.sample_spacing_m,
+                    Quantity::Radiance,
+                )?;
+                img.geometry = radiance.geometry;
+                img.data.copy_from_slice(data);
+                Ok((name.clone(), img))
+            })
+            .collect::<Result<_, RenderError>>()?,
+    };
     // The variance of the mean of the weighted luminance, over the squared mean weight (the
     // ratio estimator's variance to first order; exactly the sample variance / n for weights 1).
     let variance: Vec<f32> = lum
@@ -444,5 +630,7 @@ fn run<const N: usize>(
         samples_per_pixel: vec![samples_done; pixels],
         ids,
         stats,
+        labels: None,
+        light_groups,
     })
 }

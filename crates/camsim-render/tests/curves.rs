@@ -53,6 +53,7 @@ fn covered_area_m2(curves: Curves, spp: u32) -> f64 {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         }],
         materials: vec![Material::Diffuse {
             reflectance: Texture::Constant(flat(0.0)),
@@ -71,6 +72,7 @@ fn covered_area_m2(curves: Curves, spp: u32) -> f64 {
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     };
     let out = render(&scene, &|_, _| {}).unwrap();
     let img = &out.radiance;

@@ -104,6 +104,7 @@ fn render_floor(light: Light) -> Vec<f64> {
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     };
     let out = render(&scene, &|_, _| {}).unwrap();
     let img = &out.radiance;

@@ -649,6 +649,7 @@ fn furnace_scene(
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     SceneDescription {
         camera,
@@ -660,6 +661,7 @@ fn furnace_scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 

@@ -58,6 +58,7 @@ fn plane(s: f64, z_m: f64, material: usize) -> Shape {
         material,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 
@@ -78,6 +79,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 

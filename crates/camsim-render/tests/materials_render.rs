@@ -56,6 +56,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 
@@ -72,6 +73,7 @@ fn sphere(center: [f64; 3], radius: f64, material: usize) -> Shape {
         material,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 
@@ -336,6 +338,7 @@ fn floor_with_and_without_sphere(
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let cam = camera(
         [0.0, 2.0, -4.0],
@@ -352,6 +355,7 @@ fn floor_with_and_without_sphere(
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         lamp,
     ];
@@ -491,6 +495,7 @@ fn dispersive_scene(wavelengths: usize, seed: u64) -> camsim_core::SpectralImage
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let blue = spec(&[400.0, 540.0, 541.0, 700.0], &[1.0, 1.0, 0.0, 0.0]);
     let red = spec(&[400.0, 540.0, 541.0, 700.0], &[0.0, 0.0, 1.0, 1.0]);

@@ -78,6 +78,7 @@ fn cuboid(name: &str, lo: [f64; 3], hi: [f64; 3], material: usize) -> Shape {
         material,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 
@@ -98,6 +99,7 @@ fn emitter(s: f64, z: f64, le: Spectrum) -> Shape {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 
@@ -153,6 +155,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media,
+        light_groups: Vec::new(),
     }
 }
 
@@ -398,6 +401,7 @@ fn non_absorbing_medium_in_a_white_furnace_conserves_radiance() {
         material: 2,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let mut cam = narrow_camera([0.0, 0.0, 4.0], [0.0; 3], 24);
     cam.fov_deg = 20.0;

@@ -58,6 +58,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 
@@ -439,6 +440,7 @@ fn white_furnace_with_a_constant_environment_map() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         }];
         let out = render(
             &scene(
@@ -475,6 +477,7 @@ fn point_light_inside_a_diffuse_sphere_furnace() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let lights = vec![Light::Point {
         position_m: [0.0; 3],

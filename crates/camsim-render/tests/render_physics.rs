@@ -57,6 +57,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 
@@ -222,6 +223,7 @@ fn furnace(
             image: None,
         }),
         reverse_orientation: reverse,
+        tags: Default::default(),
     }];
     let sc = scene(
         cam,
@@ -308,6 +310,7 @@ fn white_furnace_convex_sphere_under_uniform_sky() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let sc = scene(
         cam.clone(),
@@ -375,6 +378,7 @@ fn direct_light_under_a_rectangle_corner() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: Some("light".into()),
@@ -386,6 +390,7 @@ fn direct_light_under_a_rectangle_corner() {
                 image: None,
             }),
             reverse_orientation: true,
+            tags: Default::default(),
         },
     ];
     // Camera off to the side (x, y < 0) so its view of the point does not pass the emitter;
@@ -440,6 +445,7 @@ fn visible_emitter_reads_its_band_averaged_radiance() {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 16, 16);
     let sc = scene(
@@ -499,6 +505,7 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: None,
@@ -513,6 +520,7 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
                 image: None,
             }),
             reverse_orientation: false,
+            tags: Default::default(),
         },
     ];
     let want = rho * le * (r / d) * (r / d);
@@ -563,6 +571,7 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         Shape {
             name: None,
@@ -577,6 +586,7 @@ fn same_seed_is_bit_identical_for_one_and_two_threads() {
                 image: None,
             }),
             reverse_orientation: false,
+            tags: Default::default(),
         },
     ];
     let sc = scene(
@@ -656,6 +666,7 @@ fn bad_scenes_are_errors_not_panics() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let empty = scene(cam.clone(), vec![], vec![], vec![], settings(grid, 1, 1));
     assert!(matches!(
@@ -771,6 +782,7 @@ fn time_budget_stops_between_passes_and_reports_samples() {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     };
     let mut st = settings(grid, 1_000_000, 3);
     st.time_budget_s = Some(1e-9);
@@ -862,6 +874,7 @@ fn image_texture_is_looked_up_by_uv() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         }];
         let sc = scene(
             cam,
@@ -923,6 +936,7 @@ fn irradiance_from_a_sphere_light_close_up() {
                 material: 0,
                 area_light: None,
                 reverse_orientation: false,
+                tags: Default::default(),
             },
             Shape {
                 name: Some("sphere light".into()),
@@ -937,6 +951,7 @@ fn irradiance_from_a_sphere_light_close_up() {
                     image: None,
                 }),
                 reverse_orientation: false,
+                tags: Default::default(),
             },
         ];
         let el = 10f64.to_radians();
@@ -1032,6 +1047,7 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
             material: 0,
             area_light: None,
             reverse_orientation: false,
+            tags: Default::default(),
         },
         // (p1-p0)x(p2-p0) = +z; ReverseOrientation turns the emitting side down.
         Shape {
@@ -1044,6 +1060,7 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
                 image: None,
             }),
             reverse_orientation: true,
+            tags: Default::default(),
         },
     ];
     for x in [0.0, 0.5, 1.0, 1.5, 2.0, 2.5] {
@@ -1100,6 +1117,7 @@ fn spectrum_ends_at_its_last_sample() {
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let cam = camera([0.0; 3], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], 5.0, 32, 32);
     let sc = scene(

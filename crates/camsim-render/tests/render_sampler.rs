@@ -52,6 +52,7 @@ fn scene(
         focus_distance_m: None,
         notes: vec![],
         media: Default::default(),
+        light_groups: Vec::new(),
     }
 }
 
@@ -313,6 +314,7 @@ fn plane_under_sky(spp: u32, sampler: SamplerKind, seed: u64) -> Vec<f64> {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let mut st = settings(spp, 3, sampler);
     st.seed = seed;
@@ -385,6 +387,7 @@ fn truncated_furnace(rr_depth: u32, sampler: SamplerKind) -> (Vec<f64>, RenderSt
             image: None,
         }),
         reverse_orientation: false,
+        tags: Default::default(),
     }];
     let mut st = settings(128, 9, sampler);
     st.russian_roulette_depth = rr_depth;

@@ -392,6 +392,7 @@ impl Builder {
             material,
             area_light: light,
             reverse_orientation: false,
+            tags: Default::default(),
         });
     }
     /// Append a quad's triangles to an existing named shape (multi-part walls).
@@ -752,6 +753,7 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
         focus_distance_m: Some(focus),
         notes: Vec::new(),
         media: Default::default(),
+        light_groups: Vec::new(),
     })
 }
 

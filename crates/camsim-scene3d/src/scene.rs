@@ -616,6 +616,24 @@ pub struct Shape {
     /// the mesh has them (then this flag is ignored, as in pbrt-v4) and negated by this flag
     /// otherwise; for spheres the outward normal, negated by this flag.
     pub reverse_orientation: bool,
+    /// Which object instance and light group the shape belongs to (training-data labels).
+    pub tags: ShapeTags,
+}
+
+/// What a shape is part of, for labels and light groups (camsim's own data: pbrt-v4 keeps none).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ShapeTags {
+    /// Shapes with the same `Some(k)` form one object instance (the shapes of one pbrt-v4
+    /// `ObjectInstance`, or one `Shape` directive split into several shapes); `None`: the shape is
+    /// an instance by itself.
+    pub instance: Option<u32>,
+    /// The object-to-world transform the geometry was placed with (pbrt's CTM at the `Shape`,
+    /// then the instance's and any overlay's transforms): the orientation of the instance's 3D
+    /// box. `None`: unknown (the box is then aligned with the world axes).
+    pub object_to_world: Option<Transform>,
+    /// Light group of the shape's area light (pbrt `AreaLightSource ... "string lightgroup"`, or
+    /// an overlay `[[light_group]]`); `None`: the group `default`.
+    pub light_group: Option<String>,
 }
 
 /// Lights that are not shapes. Point, spot and distant lights are delta lights: reached only by
@@ -978,6 +996,9 @@ pub struct SceneDescription {
     pub notes: Vec<String>,
     /// Participating media and the camera's medium (none: every ray travels in vacuum).
     pub media: crate::media::Media,
+    /// Light group of each entry of `lights` (pbrt `LightSource ... "string lightgroup"`, or an
+    /// overlay `[[light_group]]`); missing entries and `None`: the group `default`.
+    pub light_groups: Vec<Option<String>>,
 }
 
 /// Which sampler a render uses (pbrt-v4's `Sampler` types).

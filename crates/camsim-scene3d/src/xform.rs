@@ -209,6 +209,10 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
         #[allow(unreachable_patterns)]
         _ => return Err("this geometry cannot be transformed by the scene reader".into()),
     }
+    // The shape's placement moves with it (the orientation of its 3D box label).
+    if let Some(m) = &mut shape.tags.object_to_world {
+        *m = t.then_apply_to(m);
+    }
     Ok(())
 }
 

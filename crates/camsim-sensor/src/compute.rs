@@ -105,6 +105,26 @@ pub struct Frame {
     pub mean_electrons_by_filter: Vec<f64>,
 }
 
+/// Offset of the centre of pixel `c` from the optical axis, m, for pixels of `pitch_m` centred
+/// on the axis (`half_out` = pixel count / 2).
+fn pixel_centre_m(c: usize, half_out: f64, pitch_m: f64) -> f64 {
+    (c as f64 + 0.5 - half_out) * pitch_m
+}
+
+/// Where the centre of pixel `c` (of `n_out` pixels of `pitch_m`) lies on an input sampling of
+/// `n_in` samples of `spacing_m`, both centred on the optical axis, in input samples (sample j
+/// covers [j, j + 1)): the geometry [`Sensor::compute`] integrates with, for labels that follow
+/// the image onto the pixel grid.
+pub fn pixel_centre_on_input(
+    c: usize,
+    n_out: usize,
+    pitch_m: f64,
+    n_in: usize,
+    spacing_m: f64,
+) -> f64 {
+    pixel_centre_m(c, n_out as f64 / 2.0, pitch_m) / spacing_m + n_in as f64 / 2.0
+}
+
 /// 1D area-integration weights from an input sampling (cells of `spacing` centred on the axis) to
 /// output photodetectors (width `pd_width` centred in pixels of `pitch`, centred on the axis).
 pub(crate) struct Axis {
@@ -131,7 +151,7 @@ impl Axis {
         let half_in = n_in as f64 / 2.0;
         let half_out = n_out as f64 / 2.0;
         for c in 0..n_out {
-            let centre_m = (c as f64 + 0.5 - half_out) * pitch_m;
+            let centre_m = pixel_centre_m(c, half_out, pitch_m);
             // In input-index units: cell j covers [j, j + 1].
             let lo = (centre_m - pd_width_m / 2.0) / spacing_m + half_in;
             let hi = (centre_m + pd_width_m / 2.0) / spacing_m + half_in;

@@ -22,7 +22,7 @@ use std::path::PathBuf;
 /// with its error in the manifest and does not stop the others.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)"
+    after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)\n  camsim dataset examples/datasets/detection.toml --coco --out out/detection   (a 3D detection dataset and its COCO file)"
 )]
 pub struct Args {
     /// Dataset spec (TOML). Default: the built-in example.
@@ -43,6 +43,14 @@ pub struct Args {
     /// exit without simulating.
     #[arg(long)]
     pub plan: bool,
+    /// Once the dataset is complete, export it as COCO: OUT/coco/annotations.json (instance
+    /// masks as RLE, boxes, areas on the raw image's grid) and OUT/coco/images/ (the previews).
+    /// Needs the outputs preview, instances and boxes.
+    #[arg(long)]
+    pub coco: bool,
+    /// COCO category names: the instances' material names or object names.
+    #[arg(long, default_value = "material", value_parser = camsim_dataset::CategoryBy::parse)]
+    pub coco_categories: camsim_dataset::CategoryBy,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -107,6 +115,10 @@ pub fn run(a: Args) -> Result<()> {
             s.shards_total,
             a.out.join("manifest.jsonl").display()
         ));
+        if a.coco {
+            let p = camsim_dataset::export_coco(&spec, &a.out, a.coco_categories)?;
+            say(format!("COCO: {}", p.display()));
+        }
     } else {
         say(format!(
             "{} of {} shards are this part's; the manifest is written when all are complete",

@@ -99,6 +99,7 @@ pub fn run(a: Args) -> Result<()> {
     let pb = common::progress(1, "simulate");
     let opts = SimulateOptions {
         noise_free: outputs.contains(Output::NoiseFree),
+        labels: outputs.label_request(),
     };
     let sim = camsim::simulate(&cfg, &opts, &|stage, done, total| {
         pb.set_message(stage.to_string());

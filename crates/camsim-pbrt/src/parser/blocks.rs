@@ -138,7 +138,11 @@ impl Parser {
                 let total: usize = self.shapes.len() + shapes.len();
                 camsim_core::mem::check_alloc(total as u64 * 256, "object instances")
                     .map_err(|e| loc.err(e.to_string()))?;
+                // One instance: all of the object's shapes share its number.
+                let instance = self.instances;
+                self.instances += 1;
                 for mut s in shapes {
+                    s.shape.tags.instance = Some(instance);
                     xform::transform_shape(&mut s.shape, &self.gs.ctm)
                         .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
                     if s.shape.name.is_none() {

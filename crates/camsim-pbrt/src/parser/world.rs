@@ -95,6 +95,8 @@ impl Parser {
                 let scale = params.float("scale", 1.0)?;
                 let two_sided = params.bool("twosided", false)?;
                 let power = params.float_opt("power")?.filter(|p| *p > 0.0);
+                // camsim's extension: the light group this emitter's radiance is written to.
+                let group = params.string("lightgroup")?;
                 params.check_unused("AreaLightSource \"diffuse\"")?;
                 self.gs.area_light = Some(AreaLightSpec {
                     spectrum,
@@ -102,13 +104,17 @@ impl Parser {
                     two_sided,
                     power,
                     image,
+                    group,
                 });
             }
             "LightSource" => {
                 self.require_world(loc, d, true)?;
                 let ty = string_arg(tokens, pos, f, d)?;
                 let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                // camsim's extension: `"string lightgroup" "sky"` names the light's group.
+                let group = params.string("lightgroup")?;
                 self.light_source(&ty, &params, loc, file)?;
+                self.light_groups.resize(self.lights.len(), group);
             }
             "Shape" => {
                 self.require_world(loc, d, true)?;

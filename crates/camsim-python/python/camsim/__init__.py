@@ -70,7 +70,9 @@ def load_config(config: Optional[Config] = None) -> Dict[str, Any]:
     return _camsim.load_config(config)
 
 
-def simulate(config: Optional[Config] = None, *, noise_free: bool = False, seed: Optional[int] = None) -> Simulation:
+def simulate(
+    config: Optional[Config] = None, *, noise_free: bool = False, seed: Optional[int] = None, labels: bool = False
+) -> Simulation:
     """Run the whole pipeline in memory; with no config, the built-in default (as `camsim
     simulate` with none: a Macbeth chart under D65, the Pixel 4a camera). Returns a Simulation
     with numpy arrays: radiance (None when the scene's camera is a lens, whose render is the
@@ -79,8 +81,10 @@ def simulate(config: Optional[Config] = None, *, noise_free: bool = False, seed:
     depth, noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
     camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]
-    (metadata["results"]["lens_camera"] is True)."""
-    return _camsim.simulate(config, noise_free, None if seed is None else int(seed))
+    (metadata["results"]["lens_camera"] is True). labels=True (3D scenes): Simulation.labels
+    (instance, id, depth, normal and albedo maps on the raw image's grid, boxes) and
+    Simulation.camera (K, world_to_camera)."""
+    return _camsim.simulate(config, noise_free, None if seed is None else int(seed), labels)
 
 
 def _path_or(x: Any) -> Any:

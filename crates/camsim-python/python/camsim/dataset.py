@@ -25,7 +25,9 @@ from . import _camsim
 
 Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
 
-__all__ = ["plan", "run", "run_shard", "read_manifest"]
+__all__ = ["plan", "run", "run_shard", "read_manifest", "to_coco", "TorchDataset"]
+
+from .torch_data import TorchDataset  # noqa: E402  (re-exported: camsim.dataset.TorchDataset)
 
 
 def _spec_args(spec: Spec) -> Tuple[Union[str, Dict[str, Any]], str, str]:
@@ -135,3 +137,13 @@ def read_manifest(out: Union[str, os.PathLike[str]]) -> List[Dict[str, Any]]:
         raise _camsim.CamsimError(f"{path}: no manifest (the dataset is not complete: run it again to finish)")
     with open(path, encoding="utf-8") as f:
         return [json.loads(line) for line in f if line.strip()]
+
+
+def to_coco(spec: Spec, out: Union[str, os.PathLike[str]], *, categories: str = "material") -> str:
+    """Export the complete dataset in ``out`` as COCO (as ``camsim dataset --coco``):
+    ``out/coco/annotations.json`` (instance masks as compressed RLE, boxes, areas, on the raw
+    image's grid; categories from the instances' "material" or "object" names) and
+    ``out/coco/images/KEY.png`` (the previews). Needs the outputs preview, instances and boxes.
+    Returns the annotation file's path (``pycocotools.coco.COCO(path)`` reads it)."""
+    text, source, base = _spec_args(spec)
+    return os.fspath(_camsim.dataset_coco(text, source, base, os.path.abspath(os.fspath(out)), categories))

@@ -37,6 +37,7 @@ pub fn floor(s: f64) -> Shape {
         material: 0,
         area_light: None,
         reverse_orientation: false,
+        tags: Default::default(),
     }
 }
 

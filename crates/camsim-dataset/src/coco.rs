@@ -1,0 +1,287 @@
+//! COCO export of a complete dataset (`camsim dataset --coco`): one detection / instance
+//! segmentation annotation file for the whole dataset, on the raw image's pixel grid.
+//!
+//! Layout: `coco/images/KEY.png` (the sensor previews, copied out of the shards) and
+//! `coco/annotations.json` (COCO's object-detection format: `images`, `annotations`,
+//! `categories`). Each annotation is one object instance of one sample: its mask as COCO's
+//! compressed RLE (column-major runs, from the sample's sensor-geometry `instances.png`), its
+//! pixel count as `area`, its tight box `[x, y, width, height]` (pixel edges), `iscrowd` 0, and
+//! camsim's `visible_fraction`, `truncation` and `box_3d` (camera frame, boxes.json). Categories
+//! are the instances' material names or object names ([`CategoryBy`]), numbered 1.. in sorted
+//! order. The dataset must have the outputs `preview`, `instances` and `boxes`.
+
+use crate::run::shard_stem;
+use crate::spec::DatasetSpec;
+use crate::{DatasetError, Result};
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// Where COCO category names come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CategoryBy {
+    /// The material of the instance's first shape (default: "red", "white", ...).
+    #[default]
+    Material,
+    /// The instance's name (its shapes' name, a pbrt `ObjectInstance`'s object).
+    Object,
+}
+
+impl CategoryBy {
+    /// `material` or `object`.
+    pub fn parse(text: &str) -> std::result::Result<CategoryBy, String> {
+        match text {
+            "material" => Ok(CategoryBy::Material),
+            "object" => Ok(CategoryBy::Object),
+            o => Err(format!("--coco-categories {o:?}: material or object")),
+        }
+    }
+}
+
+/// COCO's compressed RLE string of a binary mask given as `(rows, cols)` and a predicate on the
+/// row-major pixel index: runs of 0s and 1s in column-major order starting with a (possibly
+/// empty) run of 0s, each count after the second stored as the difference to the count two
+/// before, written 5 bits per character (+48) with a continuation bit (pycocotools maskApi.c
+/// `rleToString`, the format COCO's files use).
+pub fn rle_string(rows: usize, cols: usize, inside: impl Fn(usize) -> bool) -> String {
+    let mut counts: Vec<i64> = Vec::new();
+    let (mut cur, mut run) = (false, 0i64);
+    for c in 0..cols {
+        for r in 0..rows {
+            let v = inside(r * cols + c);
+            if v != cur {
+                counts.push(run);
+                run = 0;
+                cur = v;
+            }
+            run += 1;
+        }
+    }
+    counts.push(run);
+    let mut s = String::new();
+    for i in 0..counts.len() {
+        let mut x = counts[i];
+        if i > 2 {
+            x -= counts[i - 2];
+        }
+        loop {
+            let mut c = x & 0x1f;
+            x >>= 5;
+            let more = if c & 0x10 != 0 { x != -1 } else { x != 0 };
+            if more {
+                c |= 0x20;
+            }
+            s.push((c as u8 + 48) as char);
+            if !more {
+                break;
+            }
+        }
+    }
+    s
+}
+
+/// One sample's files needed for COCO, from its shard.
+#[derive(Default)]
+struct SampleFiles {
+    preview: Option<Vec<u8>>,
+    instances: Option<Vec<u8>>,
+    boxes: Option<Vec<u8>>,
+}
+
+/// Write `coco/annotations.json` and `coco/images/` for the complete dataset in `out` (see the
+/// module docs); returns the annotation file's path.
+pub fn export_coco(spec: &DatasetSpec, out: &Path, by: CategoryBy) -> Result<PathBuf> {
+    for need in ["preview", "instances", "boxes"] {
+        if !spec.output_names.iter().any(|o| o == need) {
+            return Err(DatasetError::spec(
+                &spec.source,
+                format!("COCO export needs the output {need:?} in dataset.outputs (preview, instances and boxes)"),
+            ));
+        }
+    }
+    if crate::run::gather(spec, out, false)?.is_none() {
+        return Err(DatasetError::file(
+            out,
+            "the dataset is not complete: run it to the end before the COCO export",
+        ));
+    }
+    let coco = out.join("coco");
+    let images_dir = coco.join("images");
+    std::fs::create_dir_all(&images_dir).map_err(|e| DatasetError::io(&images_dir, e))?;
+    let scratch = coco.join(format!(".scratch-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).map_err(|e| DatasetError::io(&scratch, e))?;
+    let result = export_into(spec, out, by, &images_dir, &scratch);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let doc = result?;
+    let path = coco.join("annotations.json");
+    camsim_io::atomic::write_json_atomic(&path, &doc)?;
+    Ok(path)
+}
+
+fn export_into(
+    spec: &DatasetSpec,
+    out: &Path,
+    by: CategoryBy,
+    images_dir: &Path,
+    scratch: &Path,
+) -> Result<serde_json::Value> {
+    let mut images = Vec::new();
+    // (image id, its instances' [(instance json, rle, area, bbox)]) gathered first, then the
+    // categories numbered in sorted order.
+    let mut pending: Vec<(u64, serde_json::Value, String, u64, [u64; 4])> = Vec::new();
+    let mut categories = BTreeSet::new();
+    let mut sizes: BTreeMap<u64, (usize, usize)> = BTreeMap::new();
+    for s in 0..spec.shards() {
+        let tar_path = out.join(format!("{}.tar", shard_stem(spec, s)));
+        let file = std::fs::File::open(&tar_path).map_err(|e| DatasetError::io(&tar_path, e))?;
+        let mut archive = tar::Archive::new(file);
+        let mut samples: BTreeMap<String, SampleFiles> = BTreeMap::new();
+        let entries = archive
+            .entries()
+            .map_err(|e| DatasetError::io(&tar_path, e))?;
+        for entry in entries {
+            let mut entry = entry.map_err(|e| DatasetError::io(&tar_path, e))?;
+            let name = entry
+                .path()
+                .map_err(|e| DatasetError::io(&tar_path, e))?
+                .to_string_lossy()
+                .into_owned();
+            let Some((key, ext)) = name.split_once('.') else {
+                continue;
+            };
+            let slot = match ext {
+                "preview.png" => 0,
+                "instances.png" => 1,
+                "boxes.json" => 2,
+                _ => continue,
+            };
+            let mut bytes = Vec::new();
+            entry
+                .read_to_end(&mut bytes)
+                .map_err(|e| DatasetError::io(&tar_path, e))?;
+            let f = samples.entry(key.to_string()).or_default();
+            match slot {
+                0 => f.preview = Some(bytes),
+                1 => f.instances = Some(bytes),
+                _ => f.boxes = Some(bytes),
+            }
+        }
+        for (key, f) in samples {
+            // Failed samples have no files; 2D scenes have no instances (images without
+            // annotations).
+            let Some(preview) = f.preview else { continue };
+            let image_id: u64 = key
+                .parse()
+                .map_err(|_| DatasetError::file(&tar_path, format!("sample key {key:?}")))?;
+            let file_name = format!("{key}.png");
+            let img_path = images_dir.join(&file_name);
+            camsim_io::atomic::write_atomic(&img_path, |w| Ok(w.write_all(&preview)?))?;
+            let (rows, cols, _) = camsim_io::raster::read_png8_rgb(&img_path)?;
+            sizes.insert(image_id, (rows, cols));
+            images.push(serde_json::json!({
+                "id": image_id,
+                "file_name": file_name,
+                "width": cols,
+                "height": rows,
+            }));
+            let (Some(inst_png), Some(boxes)) = (f.instances, f.boxes) else {
+                continue;
+            };
+            let tmp = scratch.join(format!("{key}.instances.png"));
+            std::fs::write(&tmp, &inst_png).map_err(|e| DatasetError::io(&tmp, e))?;
+            let (ir, ic, map) = camsim_io::raster::read_mosaic_16(&tmp)?;
+            let _ = std::fs::remove_file(&tmp);
+            if (ir, ic) != (rows, cols) {
+                return Err(DatasetError::file(
+                    &tar_path,
+                    format!("{key}: instances.png is {ic} x {ir}, the preview {cols} x {rows}"),
+                ));
+            }
+            let boxes: serde_json::Value = serde_json::from_slice(&boxes)
+                .map_err(|e| DatasetError::file(&tar_path, format!("{key}.boxes.json: {e}")))?;
+            for inst in boxes["instances"].as_array().into_iter().flatten() {
+                let id = inst["id"].as_u64().unwrap_or(0);
+                let Some(b) = inst["bbox_sensor"].as_array() else {
+                    continue; // not seen on the raw grid
+                };
+                let b: Vec<u64> = b.iter().filter_map(|v| v.as_u64()).collect();
+                if id == 0 || b.len() != 4 || id > u16::MAX as u64 {
+                    continue;
+                }
+                let area = map.iter().filter(|&&v| v as u64 == id).count() as u64;
+                if area == 0 {
+                    continue;
+                }
+                let rle = rle_string(rows, cols, |k| map[k] as u64 == id);
+                let cat = match by {
+                    CategoryBy::Material => inst["material"].as_str(),
+                    CategoryBy::Object => inst["name"].as_str(),
+                }
+                .unwrap_or("")
+                .to_string();
+                categories.insert(cat.clone());
+                let mut extra = serde_json::json!({
+                    "camsim_instance": id,
+                    "category": cat,
+                    "visible_fraction": inst["visible_fraction"],
+                    "truncation": inst["truncation"],
+                    "box_3d": inst["box_3d"],
+                });
+                extra["name"] = inst["name"].clone();
+                pending.push((image_id, extra, rle, area, [b[0], b[1], b[2], b[3]]));
+            }
+        }
+    }
+    let categories: Vec<String> = categories.into_iter().collect();
+    let annotations: Vec<serde_json::Value> = pending
+        .into_iter()
+        .enumerate()
+        .map(|(k, (image_id, extra, rle, area, b))| {
+            let cat = extra["category"].as_str().unwrap_or("");
+            let category_id = categories.iter().position(|c| c == cat).unwrap_or(0) + 1;
+            let (h, w) = sizes.get(&image_id).copied().unwrap_or_default();
+            serde_json::json!({
+                "id": k + 1,
+                "image_id": image_id,
+                "category_id": category_id,
+                "segmentation": { "size": [h, w], "counts": rle },
+                "area": area,
+                "bbox": [b[0], b[1], b[2] - b[0], b[3] - b[1]],
+                "iscrowd": 0,
+                "camsim": extra,
+            })
+        })
+        .collect();
+    Ok(serde_json::json!({
+        "info": {
+            "description": format!("camsim dataset {}", spec.source),
+            "version": env!("CARGO_PKG_VERSION"),
+            "note": "Images are the sensor previews; masks, boxes and areas are on the raw image's pixel grid (camsim's sensor-geometry labels): pixel (r, c) covers [c, c+1) x [r, r+1).",
+        },
+        "images": images,
+        "annotations": annotations,
+        "categories": categories
+            .iter()
+            .enumerate()
+            .map(|(i, c)| serde_json::json!({ "id": i + 1, "name": c, "supercategory": "" }))
+            .collect::<Vec<_>>(),
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs in column-major order starting with zeros; counts after the second as differences
+    /// to the count two before; 5 bits per character plus 48 (a continuation bit for more).
+    #[test]
+    fn rle_strings_follow_cocos_encoding() {
+        // [[0, 0], [1, 1]]: columns (0, 1), (0, 1): runs 1, 1, 1, 1 -> 1, 1, 1, 1 - 1 = 0.
+        let m = [0u8, 0, 1, 1];
+        assert_eq!(rle_string(2, 2, |k| m[k] == 1), "1110");
+        // All ones, 2 x 3: a zero-length first run, then 6 -> "06".
+        assert_eq!(rle_string(2, 3, |_| true), "06");
+        // One long run of 100 zeros: 100 = 3 * 32 + 4 -> '4' + 32 (continue), then 3 -> "T3".
+        assert_eq!(rle_string(10, 10, |_| false), "T3");
+    }
+}

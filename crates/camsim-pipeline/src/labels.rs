@@ -1,0 +1,289 @@
+//! Training-data labels of a 3D scene's run in two geometries: the render's pixel grid (the
+//! scene geometry, as the renderer makes them) and the raw image's pixel grid (the sensor
+//! geometry), where label pixel (r, c) describes the scene point imaged at raw pixel (r, c).
+//!
+//! The sensor-geometry labels follow the radiance exactly as the stages move it: the sensor
+//! pixel's centre on the irradiance grid ([`camsim_sensor::compute::pixel_centre_on_input`], the
+//! geometry the sensor integrates with), then the optics' own map back to the radiance
+//! ([`camsim_optics::ImageMap`]: magnification, padding, a traced lens's distortion; camsim's
+//! optics keeps the image upright), which is a continuous position on the render's film; the
+//! render's camera then traces the pinhole ray through that very position
+//! ([`camsim_render::labels::trace_labels`]), so every map (ids, depth, normals, albedo) is the
+//! surface seen at the point imaged on the pixel: nothing is interpolated or blended, and no
+//! nearest-pixel rounding adds to the sensor's own half pixel. A lens camera's render is the
+//! irradiance itself: its labels take the sensor step only (they keep the pinhole geometry of
+//! its depth map, without the lens's distortion). Pixels whose point lies outside the render
+//! are background (id 0, infinite depth, zero normal and albedo).
+
+use crate::outputs::{Output, OutputSet};
+use crate::{PipelineError, Result};
+use camsim_core::SpectralImage;
+use camsim_optics::ImageMap;
+use camsim_render::labels::{
+    boxes_2d, trace_labels, Box2d, LabelRequest, Labels, PinholeCamera, RasterPositions,
+};
+use camsim_render::IdMaps;
+use camsim_scene3d::SceneDescription;
+use camsim_sensor::compute::pixel_centre_on_input;
+use camsim_sensor::Sensor;
+use std::path::Path;
+
+/// The labels of one run (see the module docs).
+#[derive(Debug, Clone)]
+pub struct SimLabels {
+    /// In the render's geometry.
+    pub scene: Labels,
+    /// On the raw image's pixel grid (with its depth, m, along the optical axis).
+    pub sensor: Labels,
+    /// Object and material ids on the raw grid (`IdMaps`' numbering).
+    pub sensor_ids: IdMaps,
+    /// The pinhole model of the raw grid: the render's camera with K scaled by the irradiance
+    /// sample spacing over the pixel pitch about the sensor's centre (distortion-free; see
+    /// `distorted`).
+    pub sensor_camera: PinholeCamera,
+    /// The optics applied a lens's distortion: the raw grid departs from `sensor_camera`'s
+    /// pinhole by it (the label maps follow it, the pinhole model does not).
+    pub distorted: bool,
+}
+
+/// Where each raw pixel looks in the render: the pixel's centre on the irradiance grid (the
+/// sensor's geometry), then the optics' map back to the radiance (`None`: the render is the
+/// irradiance itself), as the render's continuous raster position (NaN: outside the render).
+pub fn sensor_raster(
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    map: Option<&ImageMap>,
+    render_width: usize,
+    render_height: usize,
+) -> RasterPositions {
+    let (rows, cols, pitch) = (sensor.rows(), sensor.cols(), sensor.pixel_pitch_m());
+    let on_irr = |c: usize, n: usize, n_in: usize| {
+        pixel_centre_on_input(c, n, pitch, n_in, irradiance.sample_spacing_m)
+    };
+    let xs: Vec<f64> = (0..cols)
+        .map(|c| on_irr(c, cols, irradiance.cols))
+        .collect();
+    let ys: Vec<f64> = (0..rows)
+        .map(|r| on_irr(r, rows, irradiance.rows))
+        .collect();
+    let mut xy = Vec::with_capacity(rows * cols);
+    for &y in &ys {
+        for &x in &xs {
+            let p = match map {
+                Some(m) => m.scene_position([x, y]),
+                None => [x, y],
+            };
+            let inside = p[0] >= 0.0
+                && p[1] >= 0.0
+                && p[0] < render_width as f64
+                && p[1] < render_height as f64;
+            xy.push(if inside {
+                [p[0] as f32, p[1] as f32]
+            } else {
+                [f32::NAN; 2]
+            });
+        }
+    }
+    RasterPositions {
+        width: cols,
+        height: rows,
+        xy,
+    }
+}
+
+/// The labels of a run on the raw grid: the surfaces the render's camera sees at each raw
+/// pixel's [`sensor_raster`] position, traced exactly (not resampled from the render's pixels).
+pub fn sensor_labels(
+    scene_desc: &SceneDescription,
+    scene: Labels,
+    request: LabelRequest,
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    map: Option<&ImageMap>,
+) -> Result<SimLabels> {
+    let (rows, cols) = (sensor.rows(), sensor.cols());
+    let raster = sensor_raster(sensor, irradiance, map, scene.width, scene.height);
+    let sensor_labels = trace_labels(scene_desc, request, &raster, &scene.instances)?;
+    let sensor_ids =
+        IdMaps::from_object_ids(scene_desc, cols, rows, sensor_labels.object_id.clone());
+    // One render pixel spans one irradiance sample: K scales by spacing / pitch about the
+    // centres (u = fx X / Z + (W - 1) / 2 on both grids).
+    let s = irradiance.sample_spacing_m / sensor.pixel_pitch_m();
+    let k = scene.camera.k;
+    let sensor_camera = PinholeCamera {
+        width: cols,
+        height: rows,
+        k: [
+            [k[0][0] * s, 0.0, cols as f64 / 2.0 - 0.5],
+            [0.0, k[1][1] * s, rows as f64 / 2.0 - 0.5],
+            [0.0, 0.0, 1.0],
+        ],
+        world_to_camera: scene.camera.world_to_camera,
+    };
+    Ok(SimLabels {
+        scene,
+        sensor: sensor_labels,
+        sensor_ids,
+        sensor_camera,
+        distorted: map.is_some_and(|m| m.is_distorted()),
+    })
+}
+
+/// What the labels' files say about their conventions (boxes.json and run.json).
+const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render.";
+
+impl SimLabels {
+    /// The camera models of both geometries, for run.json and boxes.json.
+    pub fn cameras_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "note": NOTE,
+            "scene": self.scene.camera,
+            "sensor": self.sensor_camera,
+            "sensor_distorted": self.distorted,
+        })
+    }
+
+    /// boxes.json: the cameras and every instance with its 3D box and its 2D boxes in both
+    /// geometries.
+    pub fn boxes_json(&self) -> serde_json::Value {
+        let index = |b: Vec<Box2d>| {
+            let mut v: Vec<Option<Box2d>> = vec![None; self.scene.instances.len() + 1];
+            for x in b {
+                if let Some(slot) = v.get_mut(x.id as usize) {
+                    *slot = Some(x);
+                }
+            }
+            v
+        };
+        let scene = index(boxes_2d(&self.scene.instance_id, self.scene.width));
+        let sensor = index(boxes_2d(&self.sensor.instance_id, self.sensor.width));
+        let instances: Vec<serde_json::Value> = self
+            .scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let k = inst.id as usize;
+                let mut v = serde_json::to_value(inst).unwrap_or_default();
+                v["bbox_scene"] =
+                    serde_json::to_value(scene[k].map(|b| b.bbox)).unwrap_or_default();
+                v["pixels_scene"] = scene[k].map_or(0, |b| b.pixels).into();
+                v["bbox_sensor"] =
+                    serde_json::to_value(sensor[k].map(|b| b.bbox)).unwrap_or_default();
+                v["pixels_sensor"] = sensor[k].map_or(0, |b| b.pixels).into();
+                v
+            })
+            .collect();
+        serde_json::json!({
+            "cameras": self.cameras_json(),
+            "instances": instances,
+        })
+    }
+
+    /// Write the label files `outputs` asks for into `dir` (each atomically): instances,
+    /// normals, albedo, boxes (sensor geometry, `.scene` for the render's), and with depth / ids
+    /// their sensor-geometry versions.
+    pub fn write(&self, dir: &Path, outputs: &OutputSet) -> Result<()> {
+        let both = [(&self.sensor, ""), (&self.scene, ".scene")];
+        if outputs.contains(Output::Instances) {
+            for (l, suffix) in both {
+                let max = l.instance_id.iter().copied().max().unwrap_or(0);
+                if max > u16::MAX as u32 {
+                    return Err(PipelineError::config(format!(
+                        "instances: the scene has {max} instances, more than a 16-bit map holds (65535)"
+                    )));
+                }
+                let v: Vec<u16> = l.instance_id.iter().map(|&i| i as u16).collect();
+                camsim_io::raster::write_png16_gray(
+                    &dir.join(format!("instances{suffix}.png")),
+                    l.height,
+                    l.width,
+                    &v,
+                )?;
+            }
+        }
+        if outputs.contains(Output::Normals) {
+            for (l, suffix) in both {
+                let (Some(nw), Some(nc)) = (&l.normal_world, &l.normal_camera) else {
+                    continue;
+                };
+                let ch = |v: &[[f32; 3]], i: usize| v.iter().map(|n| n[i]).collect::<Vec<f32>>();
+                let planes = [
+                    ch(nc, 0),
+                    ch(nc, 1),
+                    ch(nc, 2),
+                    ch(nw, 0),
+                    ch(nw, 1),
+                    ch(nw, 2),
+                ];
+                let names = [
+                    "camera.X", "camera.Y", "camera.Z", "world.X", "world.Y", "world.Z",
+                ];
+                let chans: Vec<(&str, &[f32])> = names
+                    .iter()
+                    .zip(&planes)
+                    .map(|(n, p)| (*n, p.as_slice()))
+                    .collect();
+                camsim_io::exr::write_channels_exr(
+                    &dir.join(format!("normals{suffix}.exr")),
+                    l.height,
+                    l.width,
+                    &chans,
+                )?;
+            }
+        }
+        if outputs.contains(Output::Albedo) {
+            for (l, suffix) in both {
+                let (Some(a), Some(rgb)) = (&l.albedo, &l.albedo_srgb) else {
+                    continue;
+                };
+                let n = l.width * l.height;
+                let ch = |i: usize| rgb.iter().map(|c| c[i]).collect::<Vec<f32>>();
+                let rgb_planes = [ch(0), ch(1), ch(2)];
+                // Reflective spectral channels (Fichet et al. 2021: `T.<wavelength>nm`).
+                let names: Vec<String> = (0..l.grid.len())
+                    .map(|b| {
+                        camsim_io::exr::spectral_channel_name(l.grid.wavelength_nm(b))
+                            .replacen("S0.", "T.", 1)
+                    })
+                    .collect();
+                let mut chans: Vec<(&str, &[f32])> = vec![
+                    ("R", rgb_planes[0].as_slice()),
+                    ("G", rgb_planes[1].as_slice()),
+                    ("B", rgb_planes[2].as_slice()),
+                ];
+                for (b, name) in names.iter().enumerate() {
+                    chans.push((name.as_str(), &a[b * n..(b + 1) * n]));
+                }
+                camsim_io::exr::write_channels_exr(
+                    &dir.join(format!("albedo{suffix}.exr")),
+                    l.height,
+                    l.width,
+                    &chans,
+                )?;
+            }
+        }
+        if outputs.contains(Output::Boxes) {
+            camsim_io::atomic::write_json_atomic(&dir.join("boxes.json"), &self.boxes_json())?;
+        }
+        if outputs.contains(Output::Depth) {
+            camsim_io::exr::write_gray_exr(
+                &dir.join("depth.sensor.exr"),
+                self.sensor.height,
+                self.sensor.width,
+                "Z",
+                &self.sensor.depth_m,
+            )?;
+        }
+        if outputs.contains(Output::Ids) {
+            let ids = &self.sensor_ids;
+            for (name, map) in [
+                ("object_id.sensor.png", &ids.object_id),
+                ("material_id.sensor.png", &ids.material_id),
+            ] {
+                let v: Vec<u16> = map.iter().map(|&i| i.min(u16::MAX as u32) as u16).collect();
+                camsim_io::raster::write_png16_gray(&dir.join(name), ids.height, ids.width, &v)?;
+            }
+        }
+        Ok(())
+    }
+}

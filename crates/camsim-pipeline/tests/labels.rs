@@ -1,0 +1,291 @@
+//! Labels on the raw image's pixel grid (issue 29, step 2), against the image itself and against
+//! geometry: the edge of a bright object in the sensor-geometry instance map lies where the
+//! noise-free raw image's edge is, through a shift-invariant lens and through a traced double
+//! Gauss with its distortion; a box's sensor-geometry 2D box equals its corners' traced chief
+//! rays on the sensor, and without distortion its corners projected through the sensor's K.
+
+use camsim_optics::traced::{ObjectField, TracedLens};
+use camsim_pipeline::{simulate, SimulateConfig, SimulateOptions};
+use std::path::{Path, PathBuf};
+
+fn shared(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared")
+        .join(rel)
+}
+
+const DGAUSS: &str = "data/isetcornellbox/lens/dgauss.82deg.4.38mm.json";
+
+/// The double Gauss at f/2.8 as the shift-variant optics stage takes it.
+fn dgauss_optics() -> String {
+    format!(
+        r#"[optics.config]
+f_number = 2.8
+focal_length_mm = 4.38
+shading = "none"
+[optics.config.blur]
+method = "shift-variant"
+field_heights = 6
+lens_file = "{}"
+"#,
+        shared(DGAUSS).display()
+    )
+}
+
+/// Run `scene` (pbrt text) through the pipeline with `optics` (TOML tables) on a `cols` x `rows`
+/// pixel4a window, noise-free, with labels.
+fn run(
+    scene: &str,
+    optics: &str,
+    cols: usize,
+    rows: usize,
+    spp: u32,
+) -> camsim_pipeline::Simulation {
+    let dir = tempfile::tempdir().unwrap();
+    let pbrt = dir.path().join("scene.pbrt");
+    std::fs::write(&pbrt, scene).unwrap();
+    let text = format!(
+        r#"seed = 1
+[wavelengths]
+start_nm = 400.0
+step_nm = 30.0
+count = 11
+[render]
+pbrt = "{}"
+samples_per_pixel = {spp}
+{optics}
+[sensor]
+preset = "pixel4a"
+rows = {rows}
+cols = {cols}
+[capture]
+exposure_ms = 5.0
+"#,
+        pbrt.display()
+    );
+    let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new("")).unwrap();
+    let opts = SimulateOptions {
+        noise_free: true,
+        labels: Some(camsim_render::LabelRequest::default()),
+    };
+    simulate(&cfg, &opts, &|_, _, _| {}).unwrap()
+}
+
+/// A glowing square right of an edge through x = `edge_x` (m, at z = 1) 5 degrees from the
+/// vertical (so the label's pixel quantization varies along it), black elsewhere.
+fn edge_scene(edge_x: f64) -> String {
+    let t = 5f64.to_radians().tan() * 2.0;
+    format!(
+        r#"LookAt 0 0 0  0 0 1  0 1 0
+Camera "perspective" "float fov" 30
+Film "rgb" "integer xresolution" 320 "integer yresolution" 240
+WorldBegin
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [1 1 1] "float scale" 2
+  Shape "trianglemesh" "point3 P" [{} -2 1  3 -2 1  3 2 1  {} 2 1]
+    "integer indices" [0 2 1 0 3 2]
+AttributeEnd
+"#,
+        edge_x - t,
+        edge_x + t
+    )
+}
+
+/// Per row: the label's edge (the left border of the first object pixel) and the noise-free
+/// raw's edge (each pixel normalized between its CFA colour's dark and bright levels of that
+/// row; the edge where the normalized profile's area puts it), both in pixel edges; the largest
+/// and the mean difference. The label's
+/// edge is a whole pixel (within half a pixel of the true edge); along the slanted edge that
+/// rounding averages out, so the mean measures any shift between labels and image.
+fn edge_offsets(sim: &camsim_pipeline::Simulation) -> (f64, f64) {
+    let labels = sim.labels.as_ref().unwrap();
+    let (w, h) = (labels.sensor.width, labels.sensor.height);
+    let nf = sim.noise_free_dn.as_ref().unwrap();
+    let (mut worst, mut sum, mut n) = (0f64, 0f64, 0);
+    for y in (8..h - 8).step_by(3) {
+        let row = &labels.sensor.instance_id[y * w..(y + 1) * w];
+        let Some(xl) = row.iter().position(|&i| i != 0) else {
+            continue;
+        };
+        if xl < 24 || xl + 24 > w {
+            continue;
+        }
+        let v = |c: usize| nf[y * w + c] as f64;
+        // Same-colour neighbours two columns apart: dark and bright levels of each parity.
+        // Index 0: even columns, 1: odd columns.
+        let level =
+            |c0: usize| [0, 1].map(|p| (0..6).map(|k| v((c0 & !1) + p + 2 * k)).sum::<f64>() / 6.0);
+        let (dark, bright) = (level(xl - 22), level(xl + 10));
+        let p = |c: usize| (v(c) - dark[c % 2]) / (bright[c % 2] - dark[c % 2]);
+        // A blurred step's normalized profile integrates to the distance from the edge to the
+        // window's right end (the blur conserves the area of the step): x = b - sum p.
+        let (a, b) = (xl - 9, xl + 9);
+        let xr = b as f64 - (a..b).map(p).sum::<f64>();
+        let d = xl as f64 - xr;
+        if std::env::var("DEBUG_EDGE").is_ok() {
+            eprintln!("row {y}: label {xl} raw {xr:.3} d {d:.3}");
+        }
+        worst = worst.max(d.abs());
+        sum += d;
+        n += 1;
+    }
+    assert!(n > 40, "{n} rows measured");
+    (worst, sum / n as f64)
+}
+
+#[test]
+fn label_edges_lie_on_the_raw_image_edges() {
+    // Through the default lens (shift-invariant defocus blur), the edge near the axis; then
+    // through the traced double Gauss with its distortion, the edge at 80 % of the half width.
+    for (optics, edge_x, cols, rows) in [
+        (
+            String::from("[optics]\npreset = \"pixel4a\"\n"),
+            0.01,
+            320,
+            240,
+        ),
+        (dgauss_optics(), 0.08, 640, 480),
+    ] {
+        let sim = run(&edge_scene(edge_x), &optics, cols, rows, 64);
+        let (worst, mean) = edge_offsets(&sim);
+        assert!(
+            worst <= 0.55 && mean.abs() < 0.1,
+            "{optics}: label edge - raw edge: worst {worst:.3} px, mean {mean:.3} px"
+        );
+    }
+}
+
+const CUBE: &str = r#"Shape "trianglemesh" "point3 P" [-0.5 -0.5 -0.5  0.5 -0.5 -0.5  0.5 0.5 -0.5  -0.5 0.5 -0.5
+      -0.5 -0.5 0.5  0.5 -0.5 0.5  0.5 0.5 0.5  -0.5 0.5 0.5]
+    "integer indices" [0 1 2 0 2 3  4 6 5 4 7 6  0 4 5 0 5 1  3 2 6 3 6 7  0 3 7 0 7 4  1 5 6 1 6 2]"#;
+
+/// A box turned about the vertical near the corner of the field, seen by a level camera.
+fn box_scene() -> String {
+    format!(
+        r#"LookAt 0 0 0  0 0 1  0 1 0
+Camera "perspective" "float fov" 30
+Film "rgb" "integer xresolution" 1280 "integer yresolution" 960
+WorldBegin
+LightSource "infinite" "rgb L" [1 1 1]
+AttributeBegin
+  Translate 0.36 0.2 3
+  Rotate 25 0 1 0
+  Scale 0.3 0.2 0.25
+  {CUBE}
+AttributeEnd
+"#
+    )
+}
+
+/// The box's 8 corners in the camera frame (OpenCV: y down).
+fn box_corners() -> Vec<[f64; 3]> {
+    let (s, c) = 25f64.to_radians().sin_cos();
+    (0..8)
+        .map(|i| {
+            let l = [
+                if i & 1 == 1 { 0.15 } else { -0.15 },
+                if i & 2 == 2 { 0.1 } else { -0.1 },
+                if i & 4 == 4 { 0.125 } else { -0.125 },
+            ];
+            let p = [
+                c * l[0] + s * l[2] + 0.36,
+                l[1] + 0.2,
+                -s * l[0] + c * l[2] + 3.0,
+            ];
+            [p[0], -p[1], p[2]]
+        })
+        .collect()
+}
+
+fn bbox(points: &[[f64; 2]]) -> [f64; 4] {
+    points.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+fn sensor_box(sim: &camsim_pipeline::Simulation) -> [f64; 4] {
+    let l = sim.labels.as_ref().unwrap();
+    let b = camsim_render::labels::boxes_2d(&l.sensor.instance_id, l.sensor.width);
+    assert_eq!(b.len(), 1);
+    b[0].bbox.map(|v| v as f64)
+}
+
+#[test]
+fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
+    let (cols, rows, pitch_mm) = (1280usize, 960usize, 1.4e-3);
+    // Through the traced double Gauss (distortion applied by the optics stage): each corner at
+    // its traced chief ray's height (the scene lies at infinity for a pbrt file without a focus
+    // distance: the field is the corner's direction), along its azimuth.
+    let sim = run(&box_scene(), &dgauss_optics(), cols, rows, 1);
+    let lens = TracedLens::from_file(&shared(DGAUSS), 2.8, 4.38).unwrap();
+    let cam = lens.camera(f64::INFINITY, 10.0).unwrap();
+    let (mut traced, mut ideal) = (Vec::new(), Vec::new());
+    for p in box_corners() {
+        let (tx, ty) = (p[0] / p[2], p[1] / p[2]);
+        let t = tx.hypot(ty);
+        let h_mm = cam_height(&lens, &cam, t);
+        let v_mm = 4.38; // thin-lens image distance at infinity focus
+        for (list, r_mm) in [(&mut traced, h_mm), (&mut ideal, v_mm * t)] {
+            list.push([
+                r_mm * tx / t / pitch_mm + cols as f64 / 2.0,
+                r_mm * ty / t / pitch_mm + rows as f64 / 2.0,
+            ]);
+        }
+    }
+    let (want, undistorted, got) = (bbox(&traced), bbox(&ideal), sensor_box(&sim));
+    assert!(sim.labels.as_ref().unwrap().distorted);
+    // The distortion moves the box by more than the tolerance (the test can tell).
+    assert!(
+        (0..4).any(|k| (want[k] - undistorted[k]).abs() > 1.0),
+        "{want:?} against {undistorted:?}"
+    );
+    for k in 0..4 {
+        assert!(
+            (got[k] - want[k]).abs() <= 0.5,
+            "sensor 2D box {got:?} against the traced corners {want:?}"
+        );
+    }
+
+    // Without distortion (the default lens): the corners through the sensor grid's K.
+    let sim = run(
+        &box_scene(),
+        "[optics]\npreset = \"pixel4a\"\n",
+        cols,
+        rows,
+        1,
+    );
+    let l = sim.labels.as_ref().unwrap();
+    assert!(!l.distorted);
+    let proj: Vec<[f64; 2]> = box_corners()
+        .iter()
+        .map(|p| l.sensor_camera.project(*p).map(|u| u + 0.5))
+        .collect();
+    let (want, got) = (bbox(&proj), sensor_box(&sim));
+    // Independently: K's focal length is the image distance over the pixel pitch.
+    assert!((l.sensor_camera.k[0][0] - 4.38e-3 / 1.4e-6).abs() < 1e-6 * 3129.0);
+    for k in 0..4 {
+        assert!(
+            (got[k] - want[k]).abs() <= 0.5,
+            "sensor 2D box {got:?} against the projected corners {want:?}"
+        );
+    }
+}
+
+/// The chief ray's film height, mm, of a field at tan(theta) = `t` (object at infinity).
+fn cam_height(lens: &TracedLens, cam: &camsim_lens::LensCamera, t: f64) -> f64 {
+    lens.chief_image_point_mm(cam, ObjectField::Infinity { tan_theta: t })
+        .unwrap()[0]
+}
