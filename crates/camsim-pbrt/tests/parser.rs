@@ -357,11 +357,11 @@ fn include_import_and_cycles() {
 fn errors_name_file_line_and_column() {
     let cases: &[(&str, usize, usize, &str)] = &[
         ("WorldBegin\n  Frobnicate 1 2\n", 2, 3, "unknown directive"),
-        ("WorldBegin\nMaterial \"hair\"\n", 2, 1, "hair"),
+        ("WorldBegin\nMaterial \"measured\"\n", 2, 1, "measured"),
         ("WorldBegin\nShape \"sphere\" \"float radius\" [ 1 2 ]\n", 2, 16, "exactly one"),
         ("WorldBegin\nShape \"sphere\" \"float radius\" abc\n", 2, 31, "not a number"),
         ("WorldBegin\nShape \"sphere\" \"string radius\" \"x\"\n", 2, 16, "radius"),
-        ("WorldBegin\nShape \"curve\"\n", 2, 1, "curve"),
+        ("WorldBegin\nShape \"curve\" \"point3 P\" [0 0 0 1 1 1]\n", 2, 15, "control points"),
         ("WorldBegin\nScale 1 2 1 Shape \"sphere\"\n", 2, 13, "non-uniform"),
         ("Shape \"sphere\"\n", 1, 1, "after WorldBegin"),
         ("WorldBegin\nCamera \"perspective\"\n", 2, 1, "before WorldBegin"),

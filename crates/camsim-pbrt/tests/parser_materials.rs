@@ -199,7 +199,7 @@ fn material_errors_name_file_line_and_column() {
         ("Material \"dielectric\" \"float eta\" -1\n", 3, 23, "positive"),
         ("Material \"conductor\" \"spectrum eta\" \"metal-Zn-eta\"\n", 3, 22, "metal-Zn-eta"),
         ("Material \"mix\" \"string materials\" [\"a\" \"b\"]\n", 3, 16, "no named material \"a\""),
-        ("Material \"hair\"\n", 3, 1, "not supported"),
+        ("Material \"measured\"\n", 3, 1, "not supported"),
         (
             "MakeNamedMaterial \"i\" \"string type\" \"interface\"\nMaterial \"mix\" \"string materials\" [\"i\" \"i\"]\n",
             4,

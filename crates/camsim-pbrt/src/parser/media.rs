@@ -106,8 +106,8 @@ impl ParsedMedia {
         let used = camera.is_some() || !self.wrappers.is_empty();
         if let Some((ty, loc)) = &self.integrator {
             let how = match (ty.as_str(), used) {
-                ("volpath", true) => Some("camsim's volumetric path tracer (pbrt-v4 VolPathIntegrator: delta tracking with spectral MIS)".to_string()),
-                ("volpath", false) => Some("no participating medium is selected: camsim's path tracer (the same converged radiance)".to_string()),
+                ("volpath" | "simplevolpath", true) => Some("camsim's volumetric path tracer (pbrt-v4 VolPathIntegrator: delta tracking with spectral MIS)".to_string()),
+                ("volpath" | "simplevolpath", false) => Some("no participating medium is selected: camsim's path tracer (the same converged radiance)".to_string()),
                 (_, true) => Some(format!("the scene has participating media: rendered with camsim's volumetric path tracer (pbrt-v4 \"volpath\"), not \"{ty}\"")),
                 _ => None,
             };
