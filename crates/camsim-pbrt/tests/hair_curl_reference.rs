@@ -23,10 +23,9 @@
 
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::SpectralImage;
+use camsim_io::exr::{read_spectral_exr_as, SourceUnits, PBRT_V4_RADIANCE_UNIT};
+use camsim_scene3d::scene::PixelFilter;
 use std::path::PathBuf;
-
-/// pbrt-v4's radiance per camsim W/(sr m^2 nm): 683 lm/W times the CIE Y integral (nm).
-const PBRT_UNITS: f64 = 683.0 * 106.856895;
 const BLOCKS: (usize, usize) = (16, 9);
 
 fn shared() -> Option<PathBuf> {
@@ -44,6 +43,10 @@ fn render(root: &std::path::Path, spp: u32, seed: u64) -> SpectralImage {
     scene.camera.height = 213;
     scene.settings.samples_per_pixel = spp;
     scene.settings.seed = seed;
+    // The references were rendered with `PixelFilter "box"` of radius 0.5 in place of the file's
+    // triangle of radius 1 (see the module docs): camsim now honours the file's filter, so the
+    // references' own filter is set here.
+    scene.settings.filter = PixelFilter::Box { radius: [0.5, 0.5] };
     let out = camsim_render::render(&scene, &|_, _| {}).unwrap();
     let img = out.radiance;
     let (w, h) = (img.cols / 2, img.rows / 2);
@@ -56,7 +59,7 @@ fn render(root: &std::path::Path, spp: u32, seed: u64) -> SpectralImage {
                     + p[2 * y * img.cols + 2 * x + 1]
                     + p[(2 * y + 1) * img.cols + 2 * x]
                     + p[(2 * y + 1) * img.cols + 2 * x + 1];
-                data.push((s as f64 * 0.25 * PBRT_UNITS) as f32);
+                data.push((s as f64 * 0.25 * PBRT_V4_RADIANCE_UNIT) as f32);
             }
         }
     }
@@ -133,8 +136,10 @@ fn hair_curl_agrees_with_pbrt_v4() {
     let refs: Vec<SpectralImage> = [1, 2]
         .iter()
         .map(|s| {
+            // In pbrt-v4's own units, as written: `read_spectral_exr` would recognise pbrt-v4's
+            // header and divide by `PBRT_V4_RADIANCE_UNIT`, while camsim's render is scaled up.
             let p = root.join(format!("references/hair-curl.seed{s}.exr"));
-            camsim_io::exr::read_spectral_exr(&p).unwrap()
+            read_spectral_exr_as(&p, SourceUnits::Absolute).unwrap().0
         })
         .collect();
     let ours = [render(&root, 16, 1), render(&root, 16, 2)];
