@@ -41,6 +41,8 @@ fn render_camsim(scene: &str, spp: u32, seed: u64, rows: usize, cols: usize) -> 
     sc.settings.samples_per_pixel = spp;
     sc.settings.seed = seed;
     sc.settings.time_budget_s = None;
+    // The references' film: a box filter of radius 0.5 (the file asks for a triangle).
+    sc.settings.filter = camsim_scene3d::scene::PixelFilter::Box { radius: [0.5, 0.5] };
     let full = camsim_render::render(&sc, &|_, _| {}).unwrap().radiance;
     let mut img = SpectralImage::zeros(rows, cols, full.grid, 1.0, full.quantity).unwrap();
     for b in 0..full.bands() {
@@ -63,7 +65,10 @@ fn reference(scene: &str, seed: u32) -> SpectralImage {
     let p = shared()
         .join("references")
         .join(format!("{scene}.seed{seed}.exr"));
-    camsim_io::exr::read_spectral_exr(&p).unwrap_or_else(|e| panic!("{e}"))
+    // In pbrt-v4's own units: `read_spectral_exr` would recognise the file and convert.
+    camsim_io::exr::read_spectral_exr_as(&p, camsim_io::exr::SourceUnits::Absolute)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .0
 }
 
 /// Block means of luminance (y-bar weighted band sum) over an `nx x ny` grid of blocks.

@@ -707,6 +707,9 @@ impl MediaSet {
     /// p, coefficients, sigma_maj, T_maj)` gets the majorant transmittance since the previous
     /// one and returns whether to go on. Returns the majorant transmittance from the last
     /// collision to `t_max` (all ones when the callback stopped the walk).
+    // pbrt-v4's `SampleT_maj` arguments (medium, ray, extent, the first sample, the RNG for the
+    // rest, wavelengths, callback): bundling them would only rename them.
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn sample_t_maj<const N: usize>(
         &self,

@@ -169,7 +169,8 @@ pub fn block_average(img: &SpectralImage, factor: usize) -> Result<SpectralImage
 pub fn load_reference(references_dir: &Path, scene: &str) -> Result<[SpectralImage; 2]> {
     let read = |seed: u32| -> Result<SpectralImage> {
         let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
-        Ok(camsim_io::exr::read_spectral_exr(&p)?)
+        // In pbrt-v4's own units: `read_spectral_exr` would recognise the file and convert.
+        Ok(camsim_io::exr::read_spectral_exr_as(&p, camsim_io::exr::SourceUnits::Absolute)?.0)
     };
     Ok([read(1)?, read(2)?])
 }
@@ -236,6 +237,8 @@ pub fn load_like_reference(
     let mut scene = camsim_pipeline::render::load_scene(None, Some(file), None, &opts)?;
     scene.settings.samples_per_pixel = spp;
     scene.settings.time_budget_s = None;
+    // The references' film: a box filter of radius 0.5, whatever `PixelFilter` the file asks for.
+    scene.settings.filter = camsim_scene3d::scene::PixelFilter::Box { radius: [0.5, 0.5] };
     Ok(scene)
 }
 
