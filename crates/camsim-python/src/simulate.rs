@@ -104,7 +104,7 @@ impl PySimulation {
             .map(|l| crate::labels::camera_dict(py, l))
             .transpose()
     }
-    /// The names of the ids present: {"background": 0, "objects": {"1": name, ...},
+    /// The names of the ids present: {"background": 0, "objects": {1: name, ...},
     /// "materials": {...}}; None for 2D charts.
     #[getter]
     fn ids_legend<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {

@@ -120,8 +120,8 @@ def test_render_gives_radiance_and_depth():
     ids, mats, legend = r["object_id"], r["material_id"], r["ids_legend"]
     assert ids.shape == mats.shape == (16, 24) and ids.dtype == np.uint32
     assert ((ids == 0) == np.isinf(z)).all() and ((mats == 0) == np.isinf(z)).all()
-    assert {str(i) for i in np.unique(ids) if i} == set(legend["objects"])
-    assert {str(i) for i in np.unique(mats) if i} == set(legend["materials"])
+    assert {int(i) for i in np.unique(ids) if i} == set(legend["objects"])
+    assert {int(i) for i in np.unique(mats) if i} == set(legend["materials"])
 
 
 def test_simulate_of_a_rendered_scene_carries_its_id_maps():
@@ -132,7 +132,7 @@ def test_simulate_of_a_rendered_scene_carries_its_id_maps():
     ids, mats, legend = sim.object_id, sim.material_id, sim.ids_legend
     assert ids.shape == mats.shape == (24, 24) and ids.dtype == np.uint32
     # Every id in the maps is named, with the built-in box's object and material names.
-    assert {str(i) for i in np.unique(ids) if i} == set(legend["objects"])
+    assert {int(i) for i in np.unique(ids) if i} == set(legend["objects"])
     assert set(legend["objects"].values()) <= {"floor", "back_wall", "right_wall", "left_wall", "ceiling", "light", "short_block", "tall_block"}
     assert set(legend["materials"].values()) <= {"white", "red", "green", "light"}
     assert ((ids == 0) == np.isinf(sim.depth)).all()

@@ -56,7 +56,8 @@ def test_one_isp_through_simulate_the_cli_and_python(tmp_path):
 
 def test_chart_patches_are_numbered_1_to_24_with_their_names():
     cfg = camsim.load_config()
-    cfg["sensor"].update(rows=240, cols=320)
+    # A window the default chart fits in (it spans about 600 x 400 pixels).
+    cfg["sensor"].update(rows=480, cols=640)
     cfg["capture"]["exposure_ms"] = 5.0
     sim = camsim.simulate(cfg)
     patches = camsim.chart(sim.raw[0], sim.chart_corners, sim.cfa, bits=sim.bits, black_level=sim.black_level)

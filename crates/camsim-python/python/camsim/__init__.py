@@ -120,7 +120,7 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
     "slanted-edge") or a pbrt-v4 file. resolution = (width, height). Returns a dict like scene()'s,
     with depth_m (rows, cols) float32 m, and segmentation: object_id and material_id (rows, cols)
     uint32 (1 + index of the shape and of its material met first through each pixel centre, 0 =
-    none) with ids_legend {"objects": {"1": name, ...}, "materials": {...}}."""
+    none) with ids_legend {"objects": {1: name, ...}, "materials": {...}}."""
     start, step, count = _grid(wavelengths_nm)
     return _camsim.render(builtin, None if pbrt is None else os.fspath(pbrt), resolution, samples_per_pixel, seed, start, step, count)
 
