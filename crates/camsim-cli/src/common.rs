@@ -50,7 +50,7 @@ pub fn say(msg: impl AsRef<str>) {
 /// Stage an output folder: outputs go into a fresh sibling `DIR.tmp-<pid>` that
 /// [`camsim::io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
 /// type). Refuses a DIR that is not a folder camsim may replace (exit 2). When DIR holds an
-/// earlier run, says on stderr (even with --quiet) what the commit will replace.
+/// earlier run, says on stderr (unless --quiet) what the commit will replace.
 ///
 /// Use in a command: `let out = common::stage_out_dir(&a.out)?;` write every file to
 /// `out.join(name)`, then `common::commit(out)?` last.
@@ -67,10 +67,10 @@ pub fn stage_out_dir(dir: &Path) -> Result<OutputDir> {
         if old.len() > SHOWN {
             list.push_str(&format!(" and {} more", old.len() - SHOWN));
         }
-        eprintln!(
+        say(format!(
             "camsim: {} holds an earlier run ({list}); it will be replaced as a whole when this run completes",
             dir.display()
-        );
+        ));
     }
     Ok(out)
 }

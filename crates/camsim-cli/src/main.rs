@@ -27,7 +27,7 @@ Examples:
 
 Output folders (--out) always hold one complete run: a command writes into a fresh sibling
 folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
-run in DIR as a whole (it says so on stderr). A failed or interrupted run leaves DIR as it was.
+run in DIR as a whole (it says so on stderr unless --quiet). A failed or interrupted run leaves DIR as it was.
 camsim only replaces regular files and folders it wrote itself: a FIFO, device, symbolic link or
 a folder with other content is refused (exit 2).
 
@@ -41,8 +41,8 @@ struct Cli {
     #[arg(long, global = true)]
     threads: Option<usize>,
     /// Hide progress bars and informational notes (run summaries, renderer notes about
-    /// unsupported pbrt features, chosen defaults). Warnings about replacing an earlier output
-    /// folder and errors are still printed on stderr.
+    /// unsupported pbrt features, chosen defaults, the note that an earlier output folder will
+    /// be replaced). Warnings and errors are still printed on stderr.
     #[arg(long, short, global = true)]
     quiet: bool,
     #[command(subcommand)]

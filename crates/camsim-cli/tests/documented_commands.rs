@@ -3,7 +3,8 @@
 //! The commands are not listed here: they are extracted from the texts a user reads, so a
 //! documented command cannot rot without this test failing.
 //!
-//! * README.md: every line of every ```` ```sh ```` block. `cargo run --release -- ARGS` is the
+//! * README.md and every page of the book (`docs/src/*.md`): every line of every ```` ```sh ````
+//!   block. `cargo run --release -- ARGS` is the
 //!   binary under test with ARGS; other `cargo`, `pip`, `python` lines (the test command itself,
 //!   tool installs) are not camsim commands and are skipped. Lines starting with `#` are comments.
 //! * `--help` of the program and of every subcommand, found by walking the `Commands:` lists:
@@ -63,9 +64,27 @@ fn strip_comment(cmd: &str) -> String {
     }
 }
 
-/// Commands of README.md's ```sh blocks, as camsim invocations.
-fn readme_commands() -> Vec<String> {
-    let text = std::fs::read_to_string(repo_root().join("README.md")).unwrap();
+/// The documents a user reads: README.md, then every page of the book under `docs/src`.
+fn documents() -> Vec<(String, String)> {
+    let root = repo_root();
+    let mut out = vec![(
+        "README.md".to_string(),
+        std::fs::read_to_string(root.join("README.md")).unwrap(),
+    )];
+    let mut pages: Vec<PathBuf> = std::fs::read_dir(root.join("docs/src"))
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default();
+    pages.retain(|p| p.extension().is_some_and(|x| x == "md"));
+    pages.sort();
+    for p in pages {
+        let name = p.strip_prefix(&root).unwrap().display().to_string();
+        out.push((name, std::fs::read_to_string(&p).unwrap()));
+    }
+    out
+}
+
+/// Commands of a document's ```sh blocks, as camsim invocations.
+fn sh_commands(text: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut inside = false;
     for line in text.lines() {
@@ -181,9 +200,13 @@ fn copy_dir(from: &Path, to: &Path) {
 
 #[test]
 fn every_documented_command_runs() {
-    let mut lines: Vec<(String, String)> = readme_commands()
+    let mut lines: Vec<(String, String)> = documents()
         .into_iter()
-        .map(|c| ("README.md".to_string(), c))
+        .flat_map(|(doc, text)| {
+            sh_commands(&text)
+                .into_iter()
+                .map(move |c| (doc.clone(), c))
+        })
         .collect();
     let tree = command_tree();
     for (path, text) in &tree {

@@ -32,6 +32,9 @@ pub enum Style {
     Dashed,
     /// Markers only (a figure whose series are all markers is a scatter plot).
     Points,
+    /// Filled bars from 0 to y at each x (categories); the bar series of a figure stand side by
+    /// side around each x.
+    Bar,
 }
 
 /// One named curve or point set.
@@ -109,6 +112,11 @@ pub struct Figure {
     pub y_range: Option<(f64, f64)>,
     /// A scatter plot's dashed y = x reference line.
     pub identity_line: bool,
+    /// Vertical reference lines (x, label): Nyquist frequencies on frequency axes.
+    pub x_markers: Vec<(f64, String)>,
+    /// Category names of x = 0, 1, 2, ... (bar charts): ticks only at whole numbers, labelled
+    /// with these names (an empty list: the numbers themselves).
+    pub categories: Option<Vec<String>>,
     /// Size in pixels (width, height).
     pub size: (u32, u32),
 }
@@ -134,6 +142,8 @@ impl Figure {
             x_range: None,
             y_range: None,
             identity_line: false,
+            x_markers: Vec::new(),
+            categories: None,
             size: (640, 440),
         }
     }
@@ -154,6 +164,19 @@ impl Figure {
     /// Draw the y = x reference line (scatter plots of predicted vs measured).
     pub fn with_identity_line(mut self) -> Figure {
         self.identity_line = true;
+        self
+    }
+
+    /// A labelled vertical reference line at `x` (e.g. a Nyquist frequency).
+    pub fn with_x_marker(mut self, x: f64, label: impl Into<String>) -> Figure {
+        self.x_markers.push((x, label.into()));
+        self
+    }
+
+    /// x is a category axis: ticks at whole numbers only, labelled with `names` (x = 0 the
+    /// first; an empty list labels them with the numbers).
+    pub fn with_categories(mut self, names: Vec<String>) -> Figure {
+        self.categories = Some(names);
         self
     }
 
@@ -251,8 +274,27 @@ const PALETTE: [[u8; 3]; 10] = [
     [23, 190, 207],
 ];
 
+/// The channel a series name stands for ("R", "G (sim)", "blue", "luminance": R, G, B or
+/// luminance), so that every plot draws a channel in its own colour.
+fn channel_of(name: &str) -> Option<usize> {
+    let first = name
+        .split(|c: char| c.is_whitespace() || "(:,_-".contains(c))
+        .next()
+        .unwrap_or("");
+    match first {
+        "R" | "r" | "red" | "Red" => Some(0),
+        "G" | "g" | "Gr" | "Gb" | "green" | "Green" => Some(1),
+        "B" | "b" | "blue" | "Blue" => Some(2),
+        "Y" | "luminance" | "Luminance" => Some(3),
+        _ => None,
+    }
+}
+
 fn color_of(s: &Series, i: usize) -> RGBColor {
-    let c = s.color.unwrap_or(PALETTE[i % PALETTE.len()]);
+    let c = s.color.unwrap_or_else(|| match channel_of(&s.name) {
+        Some(ch) => CHANNEL_COLORS[ch],
+        None => PALETTE[i % PALETTE.len()],
+    });
     RGBColor(c[0], c[1], c[2])
 }
 
@@ -308,33 +350,185 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<()> {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
+/// One legend entry: name, how it is drawn, colour.
+type Entry = (String, Style, RGBColor);
+
+/// Text size of a figure of `w` x `h` pixels.
+fn base_font(w: u32, h: u32) -> f64 {
+    ((w.min(h) as f64) / 30.0).clamp(12.0, 40.0)
+}
+
+/// The title across the whole figure, then the legend in a strip right of the plot, outside the
+/// data (no entries: no strip). Returns the area left for the plot.
+fn layout<'a>(
+    root: &Area<'a>,
+    title: &str,
+    entries: &[Entry],
+) -> std::result::Result<Area<'a>, String> {
+    let (w, h) = root.dim_in_pixel();
+    let base = base_font(w, h);
+    let body = if title.is_empty() {
+        root.clone()
+    } else {
+        root.margin((base * 0.5) as u32, 0, 0, 0)
+            .titled(
+                title,
+                (FONT, base * 1.25).into_font().style(FontStyle::Bold),
+            )
+            .map_err(|e| e.to_string())?
+    };
+    if entries.is_empty() {
+        return Ok(body);
+    }
+    let font: TextStyle = (FONT, base * 0.85).into_font().into();
+    let sample = (base * 2.0) as u32;
+    let widest = entries
+        .iter()
+        .map(|e| {
+            body.estimate_text_size(&e.0, &font)
+                .map(|s| s.0)
+                .unwrap_or(0)
+        })
+        .max()
+        .unwrap_or(0);
+    let strip = (widest + sample + (base * 1.5) as u32).min(w * 2 / 5);
+    let (plot, legend) = body.split_horizontally(w.saturating_sub(strip));
+    let row = (base * 1.5) as i32;
+    let top = (base * 1.0) as i32;
+    let max_text = strip.saturating_sub(sample + (base * 0.8) as u32);
+    for (k, (name, style, c)) in entries.iter().enumerate() {
+        let y = top + k as i32 * row;
+        let x0 = (base * 0.3) as i32;
+        let x1 = x0 + sample as i32 - (base * 0.4) as i32;
+        let line = ShapeStyle {
+            color: c.to_rgba(),
+            filled: true,
+            stroke_width: 2,
+        };
+        match style {
+            Style::Line => legend
+                .draw(&PathElement::new(vec![(x0, y), (x1, y)], line))
+                .map_err(|e| e.to_string())?,
+            Style::Dashed => {
+                let mid = (x0 + x1) / 2;
+                legend
+                    .draw(&PathElement::new(vec![(x0, y), (mid - 3, y)], line))
+                    .map_err(|e| e.to_string())?;
+                legend
+                    .draw(&PathElement::new(vec![(mid + 3, y), (x1, y)], line))
+                    .map_err(|e| e.to_string())?
+            }
+            Style::Points => legend
+                .draw(&Circle::new(((x0 + x1) / 2, y), 4, c.filled()))
+                .map_err(|e| e.to_string())?,
+            Style::Bar => {
+                let d = (base * 0.4) as i32;
+                legend
+                    .draw(&Rectangle::new(
+                        [((x0 + x1) / 2 - d, y - d), ((x0 + x1) / 2 + d, y + d)],
+                        c.filled(),
+                    ))
+                    .map_err(|e| e.to_string())?
+            }
+        }
+        // Shorten a name that does not fit the strip.
+        let mut text = name.clone();
+        while text.chars().count() > 4
+            && legend
+                .estimate_text_size(&text, &font)
+                .map(|s| s.0 > max_text)
+                .unwrap_or(false)
+        {
+            let keep = text.chars().count() - 2;
+            text = text.chars().take(keep).collect::<String>() + "…";
+        }
+        legend
+            .draw(&Text::new(
+                text,
+                (x0 + sample as i32, y - (base * 0.45) as i32),
+                font.clone(),
+            ))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(plot)
+}
+
 impl Figure {
+    fn entries(&self) -> Vec<Entry> {
+        let mut out = Vec::new();
+        if self.identity_line && self.is_scatter() {
+            out.push(("y = x".to_string(), Style::Dashed, RGBColor(90, 90, 90)));
+        }
+        for (i, s) in self.series.iter().enumerate() {
+            if !s.name.is_empty() {
+                out.push((s.name.clone(), s.style, color_of(s, i)));
+            }
+        }
+        out
+    }
+
     fn render_lines(&self) -> Result<Vec<u8>> {
         let (width, height) = self.size;
         let path = Path::new("<plot>");
         check_size(path, width, height)?;
         register_font();
         let pts: Vec<Vec<(f64, f64)>> = self.series.iter().map(|s| finite(&s.points)).collect();
-        let xr = check_range(
-            path,
-            "x",
-            self.x_range
-                .unwrap_or_else(|| fit_range(pts.iter().flatten().map(|p| p.0))),
-        )?;
-        let yr = check_range(
-            path,
-            "y",
-            self.y_range
-                .unwrap_or_else(|| fit_range(pts.iter().flatten().map(|p| p.1))),
-        )?;
+        let bar_series: Vec<usize> = (0..self.series.len())
+            .filter(|&i| self.series[i].style == Style::Bar)
+            .collect();
+        let xr = match (self.x_range, &self.categories) {
+            (Some(r), _) => r,
+            // A category axis: half a category beyond the first and last.
+            (None, Some(_)) => {
+                let (lo, hi) = pts
+                    .iter()
+                    .flatten()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                        (l.min(p.0), h.max(p.0))
+                    });
+                if lo.is_finite() {
+                    (lo - 0.5, hi + 0.5)
+                } else {
+                    (0.0, 1.0)
+                }
+            }
+            (None, None) => fit_range(
+                pts.iter()
+                    .flatten()
+                    .map(|p| p.0)
+                    .chain(self.x_markers.iter().map(|m| m.0)),
+            ),
+        };
+        let xr = check_range(path, "x", xr)?;
+        let yr = self.y_range.unwrap_or_else(|| {
+            let (lo, hi) = fit_range(pts.iter().flatten().map(|p| p.1));
+            // Bars grow from zero.
+            if bar_series.is_empty() {
+                (lo, hi)
+            } else {
+                (lo.min(0.0), hi.max(0.0))
+            }
+        });
+        let yr = check_range(path, "y", yr)?;
         let mut buf = vec![255u8; (width * height * 3) as usize];
         {
             let root: Area =
                 BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
             let e = draw_err(path);
             root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-            let mut chart =
-                frame(&root, &self.title, xr, yr, &self.x_label, &self.y_label).map_err(&e)?;
+            let plot = layout(&root, &self.title, &self.entries()).map_err(&e)?;
+            let mut chart = frame(
+                &plot,
+                (width, height),
+                xr,
+                yr,
+                &self.x_label,
+                &self.y_label,
+                self.categories.as_deref(),
+            )
+            .map_err(&e)?;
+            // Bars side by side around each category, 80 % of the category's width in all.
+            let nb = bar_series.len().max(1) as f64;
             for (i, (s, p)) in self.series.iter().zip(&pts).enumerate() {
                 let c = color_of(s, i);
                 let style = ShapeStyle {
@@ -342,31 +536,33 @@ impl Figure {
                     filled: false,
                     stroke_width: 2,
                 };
-                let dashed = s.style == Style::Dashed;
-                let anno = if dashed {
-                    chart
-                        .draw_series(DashedLineSeries::new(p.clone(), 10, 6, style))
-                        .map_err(|x| e(x.to_string()))?
-                } else {
-                    chart
-                        .draw_series(LineSeries::new(p.clone(), style))
-                        .map_err(|x| e(x.to_string()))?
-                };
-                if !s.name.is_empty() {
-                    anno.label(s.name.clone()).legend(move |(x, y)| {
-                        let gap = if dashed { 12 } else { 7 };
-                        EmptyElement::at((x, y))
-                            + PathElement::new(vec![(0, 0), (8, 0)], style)
-                            + PathElement::new(vec![(gap, 0), (20, 0)], style)
-                    });
+                match s.style {
+                    Style::Bar => {
+                        let k = bar_series.iter().position(|&b| b == i).unwrap_or(0) as f64;
+                        let w = 0.8 / nb;
+                        let off = -0.4 + k * w;
+                        chart
+                            .draw_series(p.iter().map(|&(x, y)| {
+                                Rectangle::new(
+                                    [(x + off + 0.05 * w, 0.0), (x + off + 0.95 * w, y)],
+                                    c.filled(),
+                                )
+                            }))
+                            .map_err(|x| e(x.to_string()))?;
+                    }
+                    Style::Dashed => {
+                        chart
+                            .draw_series(DashedLineSeries::new(p.clone(), 10, 6, style))
+                            .map_err(|x| e(x.to_string()))?;
+                    }
+                    Style::Line | Style::Points => {
+                        chart
+                            .draw_series(LineSeries::new(p.clone(), style))
+                            .map_err(|x| e(x.to_string()))?;
+                    }
                 }
             }
-            legend(
-                &mut chart,
-                self.series.iter().any(|s| !s.name.is_empty()),
-                SeriesLabelPosition::UpperRight,
-            )
-            .map_err(&e)?;
+            draw_markers(&mut chart, &self.x_markers, yr, (width, height)).map_err(&e)?;
             root.present().map_err(|x| e(x.to_string()))?;
         }
         Ok(buf)
@@ -402,8 +598,17 @@ impl Figure {
                 BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
             let e = draw_err(path);
             root.fill(&WHITE).map_err(|x| e(x.to_string()))?;
-            let mut chart =
-                frame(&root, &self.title, r, r, &self.x_label, &self.y_label).map_err(&e)?;
+            let plot = layout(&root, &self.title, &self.entries()).map_err(&e)?;
+            let mut chart = frame(
+                &plot,
+                (width, height),
+                r,
+                r,
+                &self.x_label,
+                &self.y_label,
+                None,
+            )
+            .map_err(&e)?;
             if self.identity_line {
                 let style = ShapeStyle {
                     color: RGBColor(90, 90, 90).to_rgba(),
@@ -417,26 +622,15 @@ impl Figure {
                         6,
                         style,
                     ))
-                    .map_err(|x| e(x.to_string()))?
-                    .label("y = x")
-                    .legend(move |(x, y)| {
-                        EmptyElement::at((x, y))
-                            + PathElement::new(vec![(0, 0), (5, 0)], style)
-                            + PathElement::new(vec![(9, 0), (14, 0)], style)
-                    });
+                    .map_err(|x| e(x.to_string()))?;
             }
             for (i, (s, p)) in self.series.iter().zip(&pts).enumerate() {
                 let c = color_of(s, i);
-                let anno = chart
+                chart
                     .draw_series(p.iter().map(|&(x, y)| Circle::new((x, y), 4, c.filled())))
                     .map_err(|x| e(x.to_string()))?;
-                if !s.name.is_empty() {
-                    anno.label(s.name.clone())
-                        .legend(move |(x, y)| Circle::new((x + 7, y), 4, c.filled()));
-                }
             }
-            // Data lie along the diagonal: the upper-left corner is the free one.
-            legend(&mut chart, true, SeriesLabelPosition::UpperLeft).map_err(&e)?;
+            draw_markers(&mut chart, &self.x_markers, r, (width, height)).map_err(&e)?;
             root.present().map_err(|x| e(x.to_string()))?;
         }
         Ok(buf)
@@ -456,40 +650,96 @@ type Chart<'a, 'b> = ChartContext<
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
 
+/// Dashed grey vertical lines with their labels at the top (inside the plot, left of the line).
+fn draw_markers(
+    chart: &mut Chart<'_, '_>,
+    markers: &[(f64, String)],
+    yr: (f64, f64),
+    size: (u32, u32),
+) -> std::result::Result<(), String> {
+    let base = base_font(size.0, size.1);
+    let grey = RGBColor(70, 70, 70);
+    for (x, label) in markers {
+        let style = ShapeStyle {
+            color: grey.to_rgba(),
+            filled: false,
+            stroke_width: 1,
+        };
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(*x, yr.0), (*x, yr.1)],
+                6,
+                4,
+                style,
+            ))
+            .map_err(|e| e.to_string())?;
+        let font = (FONT, base * 0.75).into_font().color(&grey);
+        let at = chart.backend_coord(&(*x, yr.1));
+        chart
+            .plotting_area()
+            .strip_coord_spec()
+            .draw(&Text::new(
+                label.clone(),
+                (
+                    at.0 - chart.plotting_area().get_base_pixel().0 + 4,
+                    at.1 - chart.plotting_area().get_base_pixel().1 + 4,
+                ),
+                font,
+            ))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
 fn frame<'a, 'b>(
-    root: &'a Area<'b>,
-    title: &str,
+    area: &'a Area<'b>,
+    size: (u32, u32),
     xr: (f64, f64),
     yr: (f64, f64),
     x_label: &str,
     y_label: &str,
+    categories: Option<&[String]>,
 ) -> std::result::Result<Chart<'a, 'b>, String> {
-    let (w, h) = root.dim_in_pixel();
-    let base = ((w.min(h) as f64) / 30.0).clamp(12.0, 40.0);
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            title,
-            (FONT, base * 1.35).into_font().style(FontStyle::Bold),
-        )
+    let base = base_font(size.0, size.1);
+    let mut chart = ChartBuilder::on(area)
         .margin((base * 0.8) as u32)
         .x_label_area_size((base * 2.8) as u32)
         .y_label_area_size((base * 4.2) as u32)
         .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)
         .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
+    let category_label = |v: &f64| -> String {
+        let k = v.round();
+        if (v - k).abs() > 1e-6 || k < 0.0 {
+            return String::new();
+        }
+        match categories {
+            Some(names) if (k as usize) < names.len() => names[k as usize].clone(),
+            _ => format!("{}", k as i64),
+        }
+    };
+    let x_ticks = match categories {
+        // One tick per category (whole numbers) up to 25 of them.
+        Some(_) => ((xr.1 - xr.0).round() as usize).clamp(2, 25),
+        None => 8,
+    };
+    let tick_label = |v: &f64| tick(*v);
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x_label)
         .y_desc(y_label)
         .axis_desc_style((FONT, base))
         .label_style((FONT, base * 0.85))
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(205, 205, 205))
-        .x_labels(8)
+        .x_labels(x_ticks)
         .y_labels(8)
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .draw()
-        .map_err(|e| e.to_string())?;
+        .y_label_formatter(&tick_label);
+    if categories.is_some() {
+        mesh.x_label_formatter(&category_label).disable_x_mesh();
+        mesh.draw().map_err(|e| e.to_string())?;
+    } else {
+        mesh.x_label_formatter(&tick_label);
+        mesh.draw().map_err(|e| e.to_string())?;
+    }
     Ok(chart)
 }
 
@@ -505,26 +755,6 @@ fn tick(v: f64) -> String {
         let s = s.trim_end_matches('0').trim_end_matches('.');
         s.to_string()
     }
-}
-
-fn legend<'a, 'b: 'a>(
-    chart: &mut Chart<'a, 'b>,
-    any: bool,
-    position: SeriesLabelPosition,
-) -> std::result::Result<(), String> {
-    if !any {
-        return Ok(());
-    }
-    let (w, h) = chart.plotting_area().dim_in_pixel();
-    let base = ((w.min(h) as f64) / 26.0).clamp(11.0, 34.0);
-    chart
-        .configure_series_labels()
-        .position(position)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(150, 150, 150))
-        .label_font((FONT, base))
-        .draw()
-        .map_err(|e| e.to_string())
 }
 
 /// Write a rendered plot (interleaved RGB of `width` x `height`) as a PNG, naming `path` in errors.
@@ -603,6 +833,67 @@ mod tests {
     }
 
     #[test]
+    fn channels_take_their_colours_bars_categories_markers_and_an_outside_legend() {
+        let curve = |k: f64| {
+            (0..=60)
+                .map(|i| (i as f64 * 0.01, 1.0 - k * i as f64 * 0.01))
+                .collect()
+        };
+        let fig = Figure::new("SFR (cycles/pixel)", "cycles/pixel", "SFR")
+            .with(Series::new("B", curve(1.0)))
+            .with(Series::new("G", curve(1.2)))
+            .with(Series::new("R", curve(1.4)))
+            .ranges(Some((0.0, 0.6)), Some((0.0, 1.0)))
+            .sized(800, 500);
+        let rgb = fig.render_rgb().unwrap();
+        for (k, c) in CHANNEL_COLORS[..3].iter().enumerate() {
+            assert!(count(&rgb, *c) > 200, "channel {k} not in its colour");
+        }
+        // The legend stands right of the plot: the curves start at the plot's left edge (x = 0)
+        // and the legend's samples are the only channel-coloured pixels in the right fifth.
+        let column_has = |x: usize, c: [u8; 3]| {
+            (0..500).any(|y| {
+                let i = (y * 800 + x) * 3;
+                (0..3).all(|k| (rgb[i + k] as i32 - c[k] as i32).abs() < 30)
+            })
+        };
+        let right = (640..800)
+            .filter(|&x| column_has(x, CHANNEL_COLORS[0]))
+            .count();
+        assert!(right > 5, "no legend sample right of the plot");
+        let with_marker = fig.clone().with_x_marker(0.5, "Nyquist 0.5");
+        let grey = |f: &Figure| count(&f.render_rgb().unwrap(), [70, 70, 70]);
+        assert!(
+            grey(&with_marker) > grey(&fig) + 50,
+            "Nyquist marker missing"
+        );
+        // Bars: filled, from zero, at whole-number categories.
+        let bars = Figure::new("SNR (dB)", "channel", "SNR (dB)")
+            .with_categories(vec!["R".into(), "G".into(), "B".into()])
+            .with(Series::xy(
+                "camera A",
+                vec![0.0, 1.0, 2.0],
+                vec![30.0, 33.0, 31.0],
+                Style::Bar,
+                [200, 100, 0],
+            ))
+            .with(Series::xy(
+                "camera B",
+                vec![0.0, 1.0, 2.0],
+                vec![29.0, 32.0, 30.0],
+                Style::Bar,
+                [0, 100, 200],
+            ))
+            .sized(640, 440);
+        let rgb = bars.render_rgb().unwrap();
+        assert!(count(&rgb, [200, 100, 0]) > 3000, "bars not filled");
+        assert!(count(&rgb, [0, 100, 200]) > 3000, "bars not filled");
+        assert_eq!(channel_of("G (simulated)"), Some(1));
+        assert_eq!(channel_of("luminance"), Some(3));
+        assert_eq!(channel_of("measured"), None);
+    }
+
+    #[test]
     fn scatter_plot_with_identity_line() {
         let sim: Vec<(f64, f64)> = (0..24)
             .map(|i| {
@@ -628,7 +919,11 @@ mod tests {
             .sized(640, 640);
         assert!(p.is_scatter());
         let rgb = p.render_rgb().unwrap();
-        assert!(count(&rgb, PALETTE[0]) > 24 * 20, "markers missing");
+        // "R" is drawn in the channel red, whatever its place in the figure.
+        assert!(
+            count(&rgb, CHANNEL_COLORS[0]) > 24 * 20,
+            "R markers missing"
+        );
         // The dashed grey y = x line: its pixels are the grey ones a figure without it lacks.
         let mut q = p.clone();
         q.identity_line = false;

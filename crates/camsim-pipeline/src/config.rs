@@ -178,6 +178,102 @@ impl Default for CaptureSection {
     }
 }
 
+/// The sections whose `config` table may override a `preset` key by key.
+const PRESET_SECTIONS: [&str; 2] = ["optics", "sensor"];
+
+/// The preset name of a section that also has an inline `config` table (a preset overridden
+/// key by key), or None.
+fn preset_override<T: PresetTable>(section: Option<&T>) -> Option<String> {
+    let s = section?;
+    if !s.has_config() {
+        return None;
+    }
+    s.preset_name()
+}
+
+/// The two table types a config arrives as (TOML text, any other serde value).
+trait PresetTable {
+    fn has_config(&self) -> bool;
+    fn preset_name(&self) -> Option<String>;
+}
+
+impl PresetTable for toml::Value {
+    fn has_config(&self) -> bool {
+        self.get("config").is_some()
+    }
+    fn preset_name(&self) -> Option<String> {
+        self.get("preset")
+            .map(|p| p.as_str().map_or_else(|| p.to_string(), str::to_string))
+    }
+}
+
+impl PresetTable for serde_json::Value {
+    fn has_config(&self) -> bool {
+        self.get("config").is_some_and(|c| !c.is_null())
+    }
+    fn preset_name(&self) -> Option<String> {
+        self.get("preset")
+            .filter(|p| !p.is_null())
+            .map(|p| p.as_str().map_or_else(|| p.to_string(), str::to_string))
+    }
+}
+
+/// `[optics] preset = "pixel4a"` plus `[optics.config] f_number = 2.8` (and the same for
+/// `[sensor]`): the preset's whole config with the given keys put over it (tables merged key by
+/// key, anything else replaced), written back as the section's inline config. Keys the preset's
+/// config does not have stay, so the typed read that follows refuses them by name.
+fn merge_presets(v: &mut serde_json::Value) -> Result<()> {
+    for section in PRESET_SECTIONS {
+        let Some(name) = preset_override(v.get(section)) else {
+            continue;
+        };
+        let sec = v
+            .get_mut(section)
+            .and_then(|s| s.as_object_mut())
+            .expect("preset_override found a table");
+        if sec.get("file").is_some_and(|f| !f.is_null()) {
+            return Err(PipelineError::config(format!(
+                "[{section}] give preset or file, not both"
+            )));
+        }
+        let preset = match section {
+            "optics" => serde_json::to_value(OpticsConfig::preset(&name)?),
+            _ => serde_json::to_value(Sensor::preset(&name)?.config()),
+        }
+        .map_err(|e| PipelineError::config(format!("[{section}] preset {name}: {e}")))?;
+        let overrides = sec
+            .remove("config")
+            .expect("preset_override found a config");
+        if !overrides.is_object() {
+            return Err(PipelineError::config(format!(
+                "[{section}] config must be a table"
+            )));
+        }
+        let mut merged = preset;
+        merge_into(&mut merged, overrides);
+        sec.remove("preset");
+        sec.insert("config".into(), merged);
+    }
+    Ok(())
+}
+
+/// Put `over` over `base`: tables key by key (recursively), any other value replaced.
+fn merge_into(base: &mut serde_json::Value, over: serde_json::Value) {
+    match (base, over) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(o)) => {
+            for (k, v) in o {
+                match b.get_mut(&k) {
+                    Some(slot) => merge_into(slot, v),
+                    None => {
+                        b.insert(k, v);
+                    }
+                }
+            }
+        }
+        (b, o) => *b = o,
+    }
+}
+
 /// The built-in default run (`camsim simulate` with no config).
 pub const DEFAULT_CONFIG: &str = include_str!("../../../examples/macbeth-d65.toml");
 
@@ -198,7 +294,10 @@ impl SimulateConfig {
         D: serde::Deserializer<'de>,
         D::Error: std::fmt::Display,
     {
-        let cfg = SimulateConfig::deserialize(value)
+        let mut v = serde_json::Value::deserialize(value)
+            .map_err(|e| PipelineError::Config(e.to_string().trim_end().to_string()))?;
+        merge_presets(&mut v)?;
+        let cfg = SimulateConfig::deserialize(v)
             .map_err(|e| PipelineError::Config(e.to_string().trim_end().to_string()))?;
         cfg.finish(base_dir)
     }
@@ -226,7 +325,18 @@ impl SimulateConfig {
     /// Parse a TOML config from text, its relative paths made relative to `base_dir`
     /// (`Path::new("")`: as written). The message of an error names the key, line and column.
     pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<SimulateConfig> {
-        Self::from_value(toml::Deserializer::new(text), base_dir).map_err(|e| match e {
+        // A preset overridden key by key goes through the value door (the merge needs the
+        // whole table; its errors name the key, without a line); any other text is read
+        // straight from the TOML, so its errors carry the line and column.
+        if let Ok(table) = toml::from_str::<toml::Table>(text) {
+            if PRESET_SECTIONS
+                .iter()
+                .any(|s| preset_override(table.get(*s)).is_some())
+            {
+                return Self::from_value(toml::Value::Table(table), base_dir);
+            }
+        }
+        Self::from_deserializer(toml::Deserializer::new(text), base_dir).map_err(|e| match e {
             // The [scene] table is tagged by `kind`, which hides the key's position from
             // toml's first message: find the offending key's own line and column.
             PipelineError::Config(m) => PipelineError::Config(
@@ -236,6 +346,17 @@ impl SimulateConfig {
             ),
             e => e,
         })
+    }
+
+    /// [`Self::from_value`] without the preset merge (TOML text that overrides no preset).
+    fn from_deserializer<'de, D>(value: D, base_dir: &Path) -> Result<SimulateConfig>
+    where
+        D: serde::Deserializer<'de>,
+        D::Error: std::fmt::Display,
+    {
+        let cfg = SimulateConfig::deserialize(value)
+            .map_err(|e| PipelineError::Config(e.to_string().trim_end().to_string()))?;
+        cfg.finish(base_dir)
     }
 
     /// The checks and path resolution of [`Self::from_value`].

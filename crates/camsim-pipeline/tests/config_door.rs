@@ -77,3 +77,74 @@ fn every_door_checks_the_scene_source_and_names_unknown_keys() {
             .to_string();
     assert!(e.contains("line 2"), "{e}");
 }
+
+const SCENE: &str = "[scene]\nkind = \"macbeth\"\n";
+
+#[test]
+fn a_preset_is_overridden_key_by_key_in_every_door() {
+    let text = format!(
+        "{SCENE}[optics]\npreset = \"pixel4a\"\n[optics.config]\nf_number = 2.8\n\
+         [sensor]\npreset = \"imx363\"\nrows = 48\ncols = 64\n[sensor.config]\nread_noise_mv = 0.5\n"
+    );
+    let base = Path::new("");
+    let from_text = SimulateConfig::from_toml_str(&text, base).unwrap();
+    let json = serde_json::to_value(toml::from_str::<toml::Value>(&text).unwrap()).unwrap();
+    let from_json = SimulateConfig::from_value(json, base).unwrap();
+    assert_eq!(from_json.to_toml(), from_text.to_toml());
+
+    let preset_lens = camsim_optics::OpticsConfig::preset("pixel4a").unwrap();
+    let lens = from_text.optics().unwrap();
+    assert_eq!(lens.config().f_number, 2.8);
+    // Every other key is the preset's.
+    assert_eq!(lens.config().focal_length_mm, preset_lens.focal_length_mm);
+    let merged = lens.config().clone();
+    let mut expect = preset_lens;
+    expect.f_number = 2.8;
+    assert_eq!(
+        toml::to_string(&merged).unwrap(),
+        toml::to_string(&expect).unwrap()
+    );
+
+    let preset_sensor = camsim_sensor::Sensor::preset("imx363").unwrap();
+    let sensor = from_text.sensor().unwrap();
+    assert_eq!(sensor.config().read_noise_mv, 0.5);
+    assert_eq!(
+        sensor.config().conversion_gain_uv_per_e,
+        preset_sensor.config().conversion_gain_uv_per_e
+    );
+    assert_eq!(
+        sensor.config().pixel_pitch_um,
+        preset_sensor.config().pixel_pitch_um
+    );
+    // The window still applies on top.
+    assert_eq!((sensor.rows(), sensor.cols()), (48, 64));
+    // A nested table merges key by key too: one PSF key leaves the others.
+    let nested =
+        format!("{SCENE}[optics]\npreset = \"pixel4a\"\n[optics.config.psf]\ntail_energy = 0.02\n");
+    let c = SimulateConfig::from_toml_str(&nested, base).unwrap();
+    let lens = c.optics().unwrap();
+    let preset = camsim_optics::OpticsConfig::preset("pixel4a").unwrap();
+    assert_eq!(lens.config().psf.tail_energy, 0.02);
+    assert_eq!(lens.config().psf.oversampling, preset.psf.oversampling);
+    assert_eq!(lens.config().f_number, preset.f_number);
+}
+
+#[test]
+fn an_unknown_key_over_a_preset_is_refused_by_name() {
+    for (section, preset) in [("optics", "pixel4a"), ("sensor", "pixel4a")] {
+        let text = format!(
+            "{SCENE}[{section}]\npreset = \"{preset}\"\n[{section}.config]\nf_numbr = 2.8\n"
+        );
+        let e = SimulateConfig::from_toml_str(&text, Path::new(""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("f_numbr"), "{section}: {e}");
+        // And an unknown preset is named too.
+        let text =
+            format!("{SCENE}[{section}]\npreset = \"nope\"\n[{section}.config]\nf_number = 2.8\n");
+        let e = SimulateConfig::from_toml_str(&text, Path::new(""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("nope"), "{section}: {e}");
+    }
+}

@@ -261,14 +261,16 @@ def test_sensor_comparison_example_runs_and_larger_pixels_win_on_snr(tmp_path):
 
 
 def test_the_readme_python_examples_run(tmp_path, monkeypatch):
-    text = (REPO / "README.md").read_text()
-    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
-    assert len(blocks) >= 2, "README lost its python examples (package, datasets)"
+    # The README's and the docs pages' Python examples, in order (a page's later block may read
+    # what an earlier one wrote).
+    pages = [REPO / "README.md", REPO / "docs/src/python.md", REPO / "docs/src/datasets.md"]
+    blocks = [(p.name, b.split("```", 1)[0]) for p in pages for b in p.read_text().split("```python\n")[1:]]
+    assert len(blocks) >= 4, "README or docs lost their python examples (package, datasets, loader)"
     # In a scratch folder that sees the repository's examples, as a user's checkout would.
     (tmp_path / "examples").symlink_to(REPO / "examples")
     monkeypatch.chdir(tmp_path)
-    for code in blocks:
-        exec(compile(code, "README.md", "exec"), {})
+    for name, code in blocks:
+        exec(compile(code, name, "exec"), {})
 
 
 def test_emva_of_a_simulated_series_recovers_the_sensor_gain():

@@ -641,14 +641,8 @@ const COLOR_A: [u8; 3] = [40, 70, 210];
 const COLOR_B: [u8; 3] = [210, 90, 30];
 
 /// Outline of a bar chart as one polyline: bar i spans [x_i + offset - width/2, x_i + offset + width/2].
-fn bars(label: &str, x: &[f64], y: &[f64], offset: f64, width: f64, color: [u8; 3]) -> Series {
-    let (mut px, mut py) = (Vec::new(), Vec::new());
-    for (xi, yi) in x.iter().zip(y) {
-        let (l, r) = (xi + offset - width / 2.0, xi + offset + width / 2.0);
-        px.extend([l, l, r, r]);
-        py.extend([0.0, *yi, *yi, 0.0]);
-    }
-    Series::xy(label, px, py, Style::Line, color)
+fn bars(label: &str, x: &[f64], y: &[f64], color: [u8; 3]) -> Series {
+    Series::xy(label, x.to_vec(), y.to_vec(), Style::Bar, color)
 }
 
 fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
@@ -658,7 +652,7 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     let mut figs = Vec::new();
 
     let mtf_fig = Figure::new(
-        "MTF of the demosaicked luminance (slanted edge)",
+        "MTF of the demosaicked luminance, slanted edge (cycles/mm)",
         "cycles/mm on the sensor",
         "MTF",
     )
@@ -728,12 +722,13 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     let ch = [0.0, 1.0, 2.0];
     let snr_db = |m: &CameraMetrics| m.noise.snr.map(|s| s.snr_db).to_vec();
     let snr_fig = Figure::new(
-        "SNR of a uniform field, same exposure (channel 0 R, 1 G, 2 B)",
+        "SNR of a uniform field, same exposure (dB)",
         "CFA channel",
-        "SNR, dB",
+        "SNR (dB)",
     )
-    .with(bars(&a.label, &ch, &snr_db(a), -0.18, 0.34, COLOR_A))
-    .with(bars(&b.label, &ch, &snr_db(b), 0.18, 0.34, COLOR_B));
+    .with_categories(vec!["R".into(), "G".into(), "B".into()])
+    .with(bars(&a.label, &ch, &snr_db(a), COLOR_A))
+    .with(bars(&b.label, &ch, &snr_db(b), COLOR_B));
     figs.push(save_png(
         dir,
         "compare_snr.png",
@@ -749,7 +744,7 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
     };
     let ((fa, na), (fb, nb)) = (skip_dc(a), skip_dc(b));
     let nps_fig = Figure::new(
-        "Normalised noise power spectrum (green, uniform field)",
+        "Normalised noise power spectrum, green, uniform field (cycles/pixel)",
         "cycles/pixel",
         "NPS / mean^2",
     )
@@ -764,26 +759,24 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
 
     let patches: Vec<f64> = (1..=24).map(|i| i as f64).collect();
     let de_fig = Figure::new(
-        "CIEDE2000 per ColorChecker patch (after demosaic, WB, CCM)",
-        "patch (1 dark skin ... 24 black)",
+        "CIEDE2000 per ColorChecker patch after demosaic, WB, CCM (Delta E 2000)",
+        "patch (1 dark skin ... 19 white ... 24 black)",
         "Delta E 2000",
     )
+    .with_categories(Vec::new())
     .with(bars(
         &a.label,
         &patches,
         &a.color.patch_delta_e2000,
-        -0.2,
-        0.38,
         COLOR_A,
     ))
     .with(bars(
         &b.label,
         &patches,
         &b.color.patch_delta_e2000,
-        0.2,
-        0.38,
         COLOR_B,
-    ));
+    ))
+    .sized(900, 440);
     figs.push(save_png(
         dir,
         "compare_delta_e.png",

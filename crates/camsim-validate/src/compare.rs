@@ -298,12 +298,12 @@ pub fn compare(cfg: &CompareConfig, out_dir: &Path) -> Result<CompareResults> {
 fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
     let names = ["R", "G", "B"];
     let mut means = Figure::new(
-        "mean digital values",
+        "mean digital values, measured vs simulated (DN above black)",
         "measured mean (DN above black)",
         "simulated mean (DN above black)",
     );
     let mut stds = Figure::new(
-        "standard deviations",
+        "standard deviations, measured vs simulated (DN)",
         "measured std (DN)",
         "simulated std (DN)",
     );

@@ -524,10 +524,12 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
     for (i, s) in r.settings.iter().enumerate() {
         let mut fig = Figure::new(
             format!("Figure 2{}: {}", ['a', 'b'][i], s.label),
-            "spatial frequency (cycles/pixel)",
+            "spatial frequency (cycles per sensor pixel)",
             "MTF",
         )
-        .ranges(Some((0.0, 0.5)), Some((0.0, 1.05)));
+        .ranges(Some((0.0, 0.5)), Some((0.0, 1.05)))
+        .with_x_marker(0.25, "R, G, B Nyquist 0.25")
+        .with_x_marker(0.5, "Nyquist 0.5");
         for (ci, c) in s.channels.iter().enumerate() {
             let keep = |v: &Vec<f64>| -> Vec<f64> {
                 v.iter()

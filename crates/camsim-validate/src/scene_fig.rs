@@ -880,12 +880,12 @@ fn profile_figures(
 fn noise_figures(opts: &ValidateOptions, r: &SceneResults) -> Result<Vec<FigurePng>> {
     let mut out = Vec::new();
     let mut fig = Figure::new(
-        "Figure 6c: mean digital values",
+        "Figure 6c: mean digital values (DN)",
         "noise-free mean (DN)",
         "noisy mean (DN)",
     );
     let mut fig2 = Figure::new(
-        "Figure 6d: standard deviations",
+        "Figure 6d: standard deviations (DN)",
         "predicted std, noise model (DN)",
         "measured std (DN)",
     );

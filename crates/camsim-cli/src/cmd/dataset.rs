@@ -62,17 +62,18 @@ pub fn run(a: Args) -> Result<()> {
         anyhow::bail!("--workers must be at least 1");
     }
     if a.plan {
-        say(format!(
+        // The plan is the command's output: stdout, so it can be piped or saved.
+        println!(
             "{}: {} samples in {} shards of {}",
             spec.source,
             spec.samples,
             spec.shards(),
             spec.shard_size
-        ));
+        );
         for i in 0..spec.samples.min(5) {
             let s = spec.sample(i)?;
             let p: Vec<String> = s.params.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-            say(format!("  sample {i}: seed {}, {}", s.seed, p.join(", ")));
+            println!("  sample {i}: seed {}, {}", s.seed, p.join(", "));
         }
         return Ok(());
     }

@@ -16,6 +16,10 @@ use std::path::PathBuf;
 /// the voltage swing and quantization. Writes raw.dng (the exact ADC values; raw_0001.dng ...
 /// for more frames) and raw.png (the mosaic scaled to the full 16-bit range for viewing:
 /// value = round(DN x 65535 / (2^bits - 1))). --rows/--cols larger than the sensor are refused.
+/// Without --rows/--cols the whole sensor is read out (the pixel4a: 4032 x 3024): a small chart
+/// then covers a few percent of the frame, so give a window the size of the scene's image
+/// (its size in pixels: the irradiance size printed by `camsim optics` x its sample spacing /
+/// the pixel pitch; 480 x 640 for examples/macbeth-d65.toml) for a picture the chart fills.
 ///
 /// The output folder always holds one complete run (written beside it, swapped in at the end; an
 /// earlier run is replaced as a whole, a failed or interrupted one leaves it untouched).
@@ -30,7 +34,7 @@ use std::path::PathBuf;
 /// the sensor model exactly as it characterizes a real camera.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-dcg.toml --out out/raw-dcg\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-split-pixel.toml --exposure-ms 20 --out out/raw-split"
+    after_help = "Examples:\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --rows 480 --cols 640 --out out/raw\n  camsim sensor --in out/irradiance.exr --sensor my-sensor.toml --exposure-ms 20 --frames 16 --out out/stack\n  camsim sensor --in out/irradiance.exr --sensor pixel4a-raw10 --iso 110 --exposures-ms 5,10,20 --out out/bracket\n  camsim sensor --emva-series --sensor imx363 --out out/emva && camsim analyze emva out/emva/series.csv\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa RGBW --rows 480 --cols 640 --out out/raw-rgbw\n  camsim sensor --in out/irradiance.exr --sensor pixel4a --cfa quad-bayer --rows 480 --cols 640 --out out/raw-quad\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-dcg.toml --out out/raw-dcg\n  camsim sensor --in out/irradiance.exr --sensor examples/sensor-split-pixel.toml --exposure-ms 20 --out out/raw-split"
 )]
 pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).

@@ -4,6 +4,12 @@ use crate::common::{self, say};
 use anyhow::Result;
 use std::path::PathBuf;
 
+macro_rules! validate_examples {
+    () => {
+        "Examples:\n  camsim validate cornell-box --out out/report                 (quick: seconds)\n  camsim validate cornell-box --quality paper --out out/paper   (a few minutes on 2 cores)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim simulate examples/uniform.toml --out out/uniform      (4 raw frames of a uniform field)\n  camsim validate compare examples/compare-frames.toml --out out/compare"
+    };
+}
+
 /// Reproduce the paper's validation ("Validation of image systems simulation technology using a
 /// Cornell Box", Lyu et al.) end to end: 3D Cornell box -> wavefront optics -> IMX363 / Pixel 4a
 /// sensor -> bilinear demosaic -> the analyses. Writes DIR/report.html (self-contained, figures
@@ -13,12 +19,6 @@ use std::path::PathBuf;
 ///
 /// `camsim validate compare CONFIG.toml` compares your measured DNGs with simulated ones region by
 /// region, as the paper did with its Pixel 4a images.
-macro_rules! validate_examples {
-    () => {
-        "Examples:\n  camsim validate cornell-box --out out/report                 (quick: about a minute on 2 cores)\n  camsim validate cornell-box --quality paper --out out/paper   (a few minutes on 2 cores)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim simulate examples/uniform.toml --out out/uniform      (4 raw frames of a uniform field)\n  camsim validate compare examples/compare-frames.toml --out out/compare"
-    };
-}
-
 #[derive(clap::Args)]
 #[command(
     after_help = concat!("(`camsim validate --help` also documents the compare config.)\n\n", validate_examples!()),

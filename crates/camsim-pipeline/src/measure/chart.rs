@@ -134,7 +134,7 @@ impl ChartReport {
             .colored(CHANNEL_COLORS[k])
         };
         Figure::new(
-            "Digital values along the gray series",
+            "Digital values along the gray series (DN above black)",
             "distance along the line (pixels)",
             "digital value above black (DN)",
         )

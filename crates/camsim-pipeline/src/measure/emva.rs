@@ -283,7 +283,7 @@ fn ptc_plot(results: &[ChannelEmva]) -> Figure {
         ));
     }
     let mut fig = Figure::new(
-        "EMVA 1288 photon transfer",
+        "EMVA 1288 photon transfer: temporal variance vs mean signal (DN)",
         "mean signal above dark (DN)",
         "temporal variance above dark (DN^2)",
     )

@@ -105,6 +105,10 @@ fn ctx(req: &SfrRequest, what: String) -> impl Fn(camsim_analysis::AnalysisError
     move |e| PipelineError::Config(format!("{label}: {what}: {e}"))
 }
 
+/// Right end of the SFR plot's frequency axis, cycles per sensor pixel (a little past the pixel
+/// grid's Nyquist frequency, 0.5).
+pub const SFR_PLOT_MAX_CYC_PER_PX: f64 = 0.6;
+
 /// A spectral image: the luminance at the image's own sampling, frequencies rescaled to sensor
 /// pixels of `pitch_um` (default: one sample).
 fn spectral_curves(
@@ -252,16 +256,21 @@ impl SfrReport {
         })
     }
 
-    /// The SFR plot (0-1 cycles per sensor pixel), with the curves of other sfr.csv files
-    /// `compare` dashed.
+    /// The SFR plot (0-0.6 cycles per sensor pixel, the Nyquist frequencies marked: 0.5 of the
+    /// pixel grid, 0.25 of each colour channel's sub-grid), with the curves of other sfr.csv
+    /// files `compare` dashed.
     pub fn figure(&self, image: &str, compare: &[PathBuf]) -> Result<Figure> {
         let mut fig = Figure::new(
-            format!("ISO 12233 SFR: {image}"),
+            format!("ISO 12233 SFR (cycles per sensor pixel): {image}"),
             "spatial frequency (cycles per sensor pixel)",
             "SFR",
         )
-        .ranges(Some((0.0, 1.0)), Some((0.0, 1.1)))
+        .ranges(Some((0.0, SFR_PLOT_MAX_CYC_PER_PX)), Some((0.0, 1.1)))
+        .with_x_marker(0.5, "Nyquist 0.5")
         .sized(900, 600);
+        if self.curves.iter().any(|c| c.name != "luminance") {
+            fig = fig.with_x_marker(0.25, "R, G, B Nyquist 0.25");
+        }
         for c in &self.curves {
             fig = fig.with(Series::new(
                 c.name.clone(),
@@ -269,7 +278,7 @@ impl SfrReport {
                     .freq_cyc_per_sensor_px
                     .iter()
                     .zip(&c.result.mtf)
-                    .filter(|(f, _)| **f <= 1.0)
+                    .filter(|(f, _)| **f <= SFR_PLOT_MAX_CYC_PER_PX)
                     .map(|(f, m)| (*f, *m))
                     .collect(),
             ));
