@@ -25,11 +25,16 @@ Examples:
   camsim dataset --out out/dataset                48 captures as WebDataset shards + manifest
   camsim compare --out out/compare                two cameras side by side: MTF, SNR, CIEDE2000
 
-Output folders (--out) always hold one complete run: a command writes into a fresh sibling
-folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
-run in DIR as a whole (it says so on stderr). A failed or interrupted run leaves DIR as it was.
-camsim only replaces regular files and folders it wrote itself: a FIFO, device, symbolic link or
-a folder with other content is refused (exit 2).
+Output folders (--out DIR) always hold one complete run: a command writes into a fresh sibling
+folder DIR.camsim-tmp-<pid> and swaps it in for DIR when everything is written, with a marker
+DIR/.camsim-output listing every file of the run. An existing DIR is replaced only when it is
+empty or everything in it is listed in its marker (said on stderr); any other folder is refused
+naming its first foreign file, and so is a FIFO, device or symbolic link (exit 2). A single
+output file (--out X.exr, preview.png, shading.toml) replaces only a file camsim wrote (its
+signature: the EXR `software` attribute, the PNG `Software` text, a first line `# camsim`)
+unless --force. One run at a time writes an output: a second run into it fails at once. A failed
+or interrupted run leaves the output as it was; a killed run's temporaries are removed by the
+next run into the same output (it says so).
 
 Exit codes: 0 ok, 2 bad input (the message names the file, key or value), 1 internal error,
 130 interrupted (Ctrl-C or SIGTERM; temporaries are removed).";

@@ -240,6 +240,9 @@ fn write_planes_in_batches(
         })
         .collect();
     let custom: Vec<Vec<u8>> = attrs.other.keys().map(|k| k.as_slice().to_vec()).collect();
+    // camsim's signature (a later run may replace a file that carries it: crate::claim).
+    let mut attrs = attrs;
+    attrs.software_name = Some(Text::from(crate::software::SOFTWARE));
     let header = Header::new(Text::from("camsim"), (cols, rows), channels)
         .with_encoding(
             compression.compression(),
@@ -379,6 +382,19 @@ fn sort_custom_attributes(file: &Path, custom: &[Vec<u8>]) -> std::io::Result<()
 /// The file is written atomically, f32 and uncompressed ([`write_spectral_exr_with`] chooses).
 pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Result<()> {
     write_spectral_exr_with(path, img, stage, ExrOptions::default())
+}
+
+/// Whether the OpenEXR file at `path` carries camsim's signature: a `software` header attribute
+/// that starts with `camsim` (only the header is read).
+pub fn written_by_camsim(path: &Path) -> bool {
+    exr::meta::MetaData::read_from_file(path, false).is_ok_and(|m| {
+        m.headers.iter().any(|h| {
+            h.own_attributes
+                .software_name
+                .as_ref()
+                .is_some_and(|t| t.to_string().starts_with("camsim"))
+        })
+    })
 }
 
 /// [`write_spectral_exr`] with a choice of sample precision and compression.

@@ -68,6 +68,10 @@ pub struct Args {
     /// Output folder for fit.json, mtf.csv and the plot (created if missing).
     #[arg(long, default_value = "out/fit-mtf")]
     pub out: PathBuf,
+    /// Overwrite the --plot file even when camsim did not write it (a plot camsim wrote is
+    /// replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -148,12 +152,9 @@ pub fn run(a: Args) -> Result<()> {
         x_range: Some((0.0, f_end)),
         y_range: Some((0.0, 1.05)),
     };
-    let plot_path = match &a.plot {
-        Some(p) => {
-            common::parent_dir(p)?;
-            p.clone()
-        }
-        None => out.join("mtf_fit.png"),
+    let (plot_path, _claim) = match &a.plot {
+        Some(p) => (p.clone(), Some(common::claim_out_file(p, a.force)?)),
+        None => (out.join("mtf_fit.png"), None),
     };
     plot.write_png(&plot_path, 900, 600)?;
     if a.json {

@@ -98,9 +98,14 @@ pub struct Args {
     /// Output PNG.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
+    /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
+    /// signature, is replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let _claim = crate::common::claim_out_file(&a.out, a.force)?;
     // The chart's reflectances serve only the chart fit: read (and check) them before any work.
     let chart_reflectances = match (&a.chart_reflectances, a.ccm) {
         (None, _) => None,
@@ -196,7 +201,6 @@ pub fn run(a: Args) -> Result<()> {
             camsim_isp::output::render_rgb8(&rgb, &m, &DisplayModel::srgb(), 1.0)?
         }
     };
-    crate::common::parent_dir(&a.out)?;
     camsim_io::raster::write_png8_rgb(&a.out, rgb.rows, rgb.cols, &srgb)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&report)?);

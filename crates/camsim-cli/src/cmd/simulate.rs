@@ -20,7 +20,7 @@ use std::path::PathBuf;
 /// most of a large run's time: ask for them only when needed, and choose --exr-compression none
 /// (fastest) or zip (smallest) and --exr-precision f32 or f16.
 ///
-/// The folder always holds one complete run: the files are written into DIR.tmp-<pid> beside it
+/// The folder always holds one complete run: the files are written into DIR.camsim-tmp-<pid> beside it
 /// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
