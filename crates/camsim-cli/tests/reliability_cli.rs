@@ -297,3 +297,444 @@ capture = { exposure_ms = 5.0 }
     );
     assert!(ds.join("manifest.jsonl").is_file());
 }
+
+/// Issue 25 item 2: `KEY.json`'s `results.scene_mean_luminance_cd_m2` differed in its last digits
+/// between `--workers 1` and `--workers 2`. Every output kind on, a 3D scene (depth and ids) and
+/// a 2D chart, byte for byte across 1, 2 and 3 workers and `--threads 1` and `2`.
+#[test]
+fn dataset_shards_have_the_same_bytes_for_any_worker_or_thread_count() {
+    let root = tempfile::tempdir().unwrap();
+    let spec = root.path().join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"
+[dataset]
+samples = 3
+shard_size = 2
+seed = 7
+outputs = ["raw", "raw-npy", "preview", "raw-png", "noise-free", "xyz", "radiance", "irradiance", "depth", "ids"]
+[base]
+wavelengths = { start_nm = 400.0, step_nm = 10.0, count = 31 }
+render = { builtin = "cornell-box", samples_per_pixel = 2, resolution = [24, 24] }
+sensor = { preset = "pixel4a", rows = 24, cols = 32 }
+[[vary]]
+key = "capture.exposure_ms"
+log_uniform = [2.0, 20.0]
+"#,
+    )
+    .unwrap();
+    let runs: [&[&str]; 5] = [
+        &["--workers", "1"],
+        &["--workers", "2"],
+        &["--workers", "3"],
+        &["--threads", "1"],
+        &["--threads", "2"],
+    ];
+    let mut reference: Option<Vec<(String, Vec<u8>)>> = None;
+    for (i, extra) in runs.iter().enumerate() {
+        let out = root.path().join(format!("ds{i}"));
+        let mut args = vec!["dataset", s(&spec), "--out", s(&out)];
+        args.extend_from_slice(extra);
+        let o = camsim(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        let shards: Vec<(String, Vec<u8>)> = entries(&out)
+            .into_iter()
+            .filter(|n| n.ends_with(".tar"))
+            .map(|n| {
+                let b = std::fs::read(out.join(&n)).unwrap();
+                (n, b)
+            })
+            .collect();
+        assert_eq!(shards.len(), 2);
+        match &reference {
+            None => reference = Some(shards),
+            Some(r) => {
+                for ((name, a), (_, b)) in r.iter().zip(&shards) {
+                    assert!(a == b, "{name} differs with {extra:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Issue 25 item 5: `camsim presets | head -1` and `camsim simulate --print-config | head -1`
+/// panicked ("failed printing to stdout: Broken pipe"). Now: 141 (or 0), and nothing on stderr.
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    let cases: [&[&str]; 3] = [
+        &["presets"],
+        &["presets", "sensor", "imx363"],
+        &["simulate", "--print-config"],
+    ];
+    for args in cases {
+        let mut child = Command::new(bin())
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // the reader goes away, as `head -1` does after its line
+        let o = child.wait_with_output().unwrap();
+        assert!(
+            matches!(o.status.code(), Some(0) | Some(141)),
+            "`camsim {}`: {:?} {}",
+            args.join(" "),
+            o.status,
+            stderr(&o)
+        );
+        assert!(
+            stderr(&o).is_empty(),
+            "`camsim {}`: {}",
+            args.join(" "),
+            stderr(&o)
+        );
+    }
+}
+
+/// Issue 25 item 5: `--threads 5000` under a memory limit panicked with a rayon message, and
+/// `--threads 100000` spent minutes starting threads. Now capped at 4 per core, with a warning;
+/// `--workers` above that is refused with the range.
+#[test]
+fn absurd_thread_and_worker_counts_are_capped_or_refused() {
+    let t0 = Instant::now();
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 4000000; exec '{}' --threads 5000 presets sensor ideal",
+            bin()
+        ))
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{:?} {}", o.status, stderr(&o));
+    assert!(
+        stderr(&o).contains("--threads 5000") && stderr(&o).contains("4 x"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(t0.elapsed() < Duration::from_secs(60));
+    let root = tempfile::tempdir().unwrap();
+    let spec = root.path().join("ds.toml");
+    std::fs::write(
+        &spec,
+        "[dataset]\nsamples = 1\n[base]\nscene = { kind = \"macbeth\" }\nsensor = { preset = \"pixel4a\", rows = 16, cols = 16 }\n",
+    )
+    .unwrap();
+    let out = root.path().join("ds");
+    let o = camsim(&["dataset", s(&spec), "--out", s(&out), "--workers", "100000"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--workers 100000") && stderr(&o).contains("1..="),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "refused before anything is written");
+}
+
+/// Run camsim under a virtual-memory cap (so a build without the memory budget fails fast
+/// instead of filling the machine), with `env` set.
+fn camsim_capped(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut quoted = String::new();
+    for a in args {
+        quoted.push_str(&format!(" '{a}'"));
+    }
+    let mut c = Command::new("sh");
+    c.arg("-c")
+        .arg(format!(
+            "ulimit -v 6000000; exec '{}'{quoted} --quiet",
+            bin()
+        ))
+        .stdin(Stdio::null());
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+/// Issue 25 item 6: a 40000 x 40000 sensor grew to 9.4 GB before anything was checked (only a
+/// single plane above 2^31 pixels was); `--emva-series` clamped a too-large window silently and
+/// wrote gigabytes; `--levels 0` became 3.
+#[test]
+fn work_that_does_not_fit_is_refused_before_it_is_allocated() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let irr = r.join("irr.exr");
+    std::fs::write(r.join("tiny.toml"), TINY).unwrap();
+    let o = camsim(&[
+        "simulate",
+        s(&r.join("tiny.toml")),
+        "--out",
+        s(&r.join("sim")),
+        "--save",
+        "irradiance",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::rename(r.join("sim/irradiance.exr"), &irr).unwrap();
+    // A 40000 x 40000 sensor: 6.4 GB of electrons alone, more than the 4000 MiB limit.
+    let preset = camsim(&["presets", "sensor", "pixel4a"]);
+    let toml = String::from_utf8(preset.stdout)
+        .unwrap()
+        .replace("rows = 3024", "rows = 40000")
+        .replace("cols = 4032", "cols = 40000");
+    assert!(
+        toml.contains("rows = 40000") && toml.contains("cols = 40000"),
+        "{toml}"
+    );
+    std::fs::write(r.join("big.toml"), toml).unwrap();
+    let out = r.join("big");
+    let o = camsim_capped(
+        &[
+            "sensor",
+            "--in",
+            s(&irr),
+            "--sensor",
+            s(&r.join("big.toml")),
+            "--exposure-ms",
+            "1",
+            "--out",
+            s(&out),
+        ],
+        &[("CAMSIM_MEMORY_LIMIT_MIB", "4000")],
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("the sensor stage (40000 x 40000 pixels")
+            && e.contains("MiB")
+            && e.contains("CAMSIM_MEMORY_LIMIT_MIB = 4000"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    // EMVA series: a window larger than the sensor is refused, not clamped; --levels 0 refused;
+    // a series larger than the free disk space refused before the first frame.
+    let emva_out = r.join("emva");
+    let emva = |extra: &[&str], env: &[(&str, &str)]| {
+        let mut a = vec![
+            "sensor",
+            "--emva-series",
+            "--sensor",
+            "imx363",
+            "--out",
+            s(&emva_out),
+        ];
+        a.extend_from_slice(extra);
+        camsim_capped(&a, env)
+    };
+    let o = emva(&["--rows", "100000", "--cols", "100000"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("100000 x 100000") && stderr(&o).contains("fit the"),
+        "{}",
+        stderr(&o)
+    );
+    let o = emva(&["--levels", "0"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--levels 0") && stderr(&o).contains("at least 3"),
+        "{}",
+        stderr(&o)
+    );
+    let o = emva(
+        &["--rows", "256", "--cols", "256"],
+        &[("CAMSIM_DISK_LIMIT_MIB", "10")],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("on disk") && stderr(&o).contains("384 DNG files"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!r.join("emva").exists());
+}
+
+/// The byte offset of an OpenEXR file's offset table: after the magic number, the version and
+/// the header's attributes (name, type, size, value), which end with an empty name.
+fn exr_offset_table(b: &[u8]) -> usize {
+    let mut i = 8;
+    loop {
+        let name_end = i + b[i..].iter().position(|c| *c == 0).unwrap();
+        if name_end == i {
+            return i + 1;
+        }
+        let type_end = name_end + 1 + b[name_end + 1..].iter().position(|c| *c == 0).unwrap();
+        let size = i32::from_le_bytes(b[type_end + 1..type_end + 5].try_into().unwrap()) as usize;
+        i = type_end + 5 + size;
+    }
+}
+
+/// Issue 25 item 7: each of these failed with a message that named a temporary, printed a Rust
+/// debug struct or an OS error number, or left out the file and line; some absurd values were
+/// accepted. Each must exit 2 naming the user's file, line or key and the accepted range.
+#[test]
+fn bad_input_messages_name_the_users_file_line_or_key() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let expect = |args: &[&str], needles: &[&str], forbidden: &[&str]| {
+        let o = camsim(args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "`camsim {}`: {e}", args.join(" "));
+        for n in needles {
+            assert!(
+                e.contains(n),
+                "`camsim {}`: {n:?} missing in: {e}",
+                args.join(" ")
+            );
+        }
+        for f in forbidden {
+            assert!(!e.contains(f), "`camsim {}`: {f:?} in: {e}", args.join(" "));
+        }
+    };
+    // An EXR whose offset table is damaged.
+    std::fs::write(r.join("tiny.toml"), TINY).unwrap();
+    let o = camsim(&[
+        "simulate",
+        s(&r.join("tiny.toml")),
+        "--out",
+        s(&r.join("sim")),
+        "--save",
+        "raw,radiance",
+        "--exr-compression",
+        "none",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let good = std::fs::read(r.join("sim/radiance.exr")).unwrap();
+    let table = exr_offset_table(&good);
+    let mut bad = good.clone();
+    bad[table..table + 8].copy_from_slice(&(u64::MAX - 7).to_le_bytes());
+    std::fs::write(r.join("offsets.exr"), &bad).unwrap();
+    expect(
+        &[
+            "optics",
+            "--in",
+            s(&r.join("offsets.exr")),
+            "--out",
+            s(&r.join("i.exr")),
+        ],
+        &["offsets.exr", "OpenEXR"],
+        &["os error 22"],
+    );
+    // An EXR pixel of 3e38 (the first sample of the first scan-line block: after the block's line
+    // number and byte count).
+    let first = u64::from_le_bytes(good[table..table + 8].try_into().unwrap()) as usize;
+    let mut hot = good.clone();
+    hot[first + 8..first + 12].copy_from_slice(&3e38f32.to_le_bytes());
+    std::fs::write(r.join("hot.exr"), &hot).unwrap();
+    expect(
+        &[
+            "optics",
+            "--in",
+            s(&r.join("hot.exr")),
+            "--out",
+            s(&r.join("i.exr")),
+        ],
+        &["hot.exr", "3e38", "[0, 1e20]"],
+        &[],
+    );
+    // Chart corners outside the image: the --corners values, not a debug struct.
+    expect(
+        &[
+            "analyze",
+            "chart",
+            s(&r.join("sim/raw.dng")),
+            "--corners",
+            "0,0,9000,0,9000,9000,0,9000",
+            "--out",
+            s(&r.join("chart")),
+        ],
+        &["raw.dng", "0,0,9000,0,9000,9000,0,9000"],
+        &["ChartCorners", "{"],
+    );
+    // A dataset --out that is a regular file.
+    std::fs::write(r.join("regular.txt"), b"x").unwrap();
+    expect(
+        &["dataset", "--out", s(&r.join("regular.txt"))],
+        &["regular.txt", "not a folder"],
+        &["os error 17"],
+    );
+    // An --out in a folder nothing can be written to (sysfs refuses new entries, even to root):
+    // the message names the user's path, never a temporary.
+    expect(
+        &[
+            "simulate",
+            s(&r.join("tiny.toml")),
+            "--out",
+            "/sys/camsim-test-run",
+        ],
+        &["/sys/camsim-test-run", "cannot write"],
+        &["camsim-tmp", ".tmp-"],
+    );
+    // Config values: the file, the line and the key; absurd values with the range.
+    let cfg = |name: &str, text: &str| {
+        let p = r.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let neg = cfg(
+        "neg.toml",
+        &TINY.replace("exposure_ms = 5.0", "exposure_ms = -1"),
+    );
+    let line = TINY
+        .lines()
+        .position(|l| l.starts_with("exposure_ms"))
+        .unwrap()
+        + 1;
+    expect(
+        &["simulate", s(&neg), "--out", s(&r.join("o"))],
+        &[
+            "neg.toml",
+            &format!("line {line}"),
+            "capture.exposure_ms = -1",
+            "[0, 3600000] ms",
+        ],
+        &[],
+    );
+    let huge = cfg(
+        "huge.toml",
+        &TINY.replace("exposure_ms = 5.0", "exposure_ms = 1e300"),
+    );
+    expect(
+        &["simulate", s(&huge), "--out", s(&r.join("o"))],
+        &["huge.toml", "at most an hour"],
+        &[],
+    );
+    expect(
+        &[
+            "sensor",
+            "--in",
+            s(&r.join("sim/radiance.exr")),
+            "--exposure-ms",
+            "1e300",
+            "--out",
+            s(&r.join("o")),
+        ],
+        &["--exposure-ms", "at most an hour"],
+        &[],
+    );
+    let bright = cfg(
+        "bright.toml",
+        &TINY.replace(
+            "fov_deg = 2.0",
+            "fov_deg = 2.0\nmean_luminance_cd_m2 = 1e30",
+        ),
+    );
+    expect(
+        &["simulate", s(&bright), "--out", s(&r.join("o"))],
+        &["mean_luminance_cd_m2", "1e15"],
+        &[],
+    );
+    // --save ids on a 2D chart: refused, not silently skipped.
+    expect(
+        &[
+            "simulate",
+            s(&r.join("tiny.toml")),
+            "--save",
+            "raw,ids",
+            "--out",
+            s(&r.join("o")),
+        ],
+        &["--save ids", "3D"],
+        &[],
+    );
+    assert!(!r.join("o").exists() && !r.join("i.exr").exists() && !r.join("chart").exists());
+}

@@ -584,6 +584,13 @@ pub fn run(
     progress: &RunProgress<'_>,
 ) -> Result<RunSummary> {
     let t0 = Instant::now();
+    let limit = camsim_core::mem::thread_limit();
+    if let Some(w) = workers.filter(|w| *w > limit) {
+        return Err(DatasetError::spec(
+            &spec.source,
+            format!("--workers {w}: at most 4 per core, 1..={limit} on this machine (the output does not depend on the count)"),
+        ));
+    }
     prepare(spec, out)?;
     let owned: Vec<u64> = (0..spec.shards()).filter(|s| select.owns(*s)).collect();
     let todo: Vec<u64> = owned

@@ -125,9 +125,33 @@ fn text(path: &Path, s: &str) -> Result<Text> {
 }
 
 fn exr_err(path: &Path, e: exr::error::Error) -> IoError {
+    use std::io::ErrorKind;
     match e {
-        exr::error::Error::Io(io) => IoError::io(path, io),
-        other => IoError::format(path, format!("not a readable OpenEXR file: {other}")),
+        // The file could not be opened: the operating system's reason is the message.
+        exr::error::Error::Io(io)
+            if matches!(io.kind(), ErrorKind::NotFound | ErrorKind::PermissionDenied) =>
+        {
+            IoError::io(path, io)
+        }
+        // An I/O error while decoding an opened file is the file's fault: a seek to a damaged
+        // offset ("Invalid argument") or a read past its end ("unexpected end of file").
+        exr::error::Error::Io(io) => {
+            let why = if io.kind() == ErrorKind::UnexpectedEof {
+                "it ends before its data does"
+            } else {
+                "an offset or size in it points outside the file"
+            };
+            IoError::format(
+                path,
+                format!(
+                    "damaged or truncated OpenEXR file ({why}); export it again or use another file"
+                ),
+            )
+        }
+        other => IoError::format(
+            path,
+            format!("not a readable OpenEXR file: {other}; export it again or use another file"),
+        ),
     }
 }
 

@@ -1398,6 +1398,35 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
         return super::pfm::read_pfm(&bytes).map_err(|e| format!("{}: {e}", path.display()));
     }
     if lower.ends_with(".exr") {
+        // The header first, so a damaged file and a file without colour channels get messages
+        // of their own (the exr crate says "no layer matched" for both).
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+            format!(
+                "{}: not a readable OpenEXR file ({e}); export it again or use another file",
+                path.display()
+            )
+        })?;
+        let has_rgb = meta.headers.iter().any(|h| {
+            ["R", "G", "B"].iter().all(|c| {
+                h.channels
+                    .list
+                    .iter()
+                    .any(|ch| ch.name.to_string().rsplit('.').next() == Some(*c))
+            })
+        });
+        if !has_rgb {
+            let names: Vec<String> = meta
+                .headers
+                .iter()
+                .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+                .take(8)
+                .collect();
+            return Err(format!(
+                "{}: has no R, G and B channels (it has {}); an image map needs an RGB(A) OpenEXR",
+                path.display(),
+                names.join(", ")
+            ));
+        }
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |res, _| {
@@ -1420,7 +1449,12 @@ fn load_image(path: &Path, encoding: Encoding) -> Result<(usize, usize, Vec<[f32
                 }
             },
         )
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(|e| {
+            format!(
+                "{}: damaged or truncated OpenEXR file ({e}); export it again or use another file",
+                path.display()
+            )
+        })?;
         let size = img.layer_data.size;
         let (w, h) = (size.width(), size.height());
         let px = img.layer_data.channel_data.pixels.1;
@@ -1460,4 +1494,41 @@ struct PendingRealistic {
     aperture_diameter_mm: f64,
     focus_distance_m: f64,
     loc: Loc,
+}
+
+#[cfg(test)]
+mod image_map_tests {
+    use super::*;
+
+    /// Issue 25 item 7: a truncated EXR as an environment map said "no layer ... matched your
+    /// specified requirements"; an EXR without colour channels said the same.
+    #[test]
+    fn a_damaged_or_colourless_exr_image_map_is_named_and_explained() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("env.exr");
+        exr::prelude::write_rgb_file(&good, 64, 32, |x, y| (x as f32, y as f32, 1.0)).unwrap();
+        let (w, h, px) = load_image(&good, Encoding::Linear).unwrap();
+        assert_eq!((w, h, px[65]), (64, 32, [1.0, 1.0, 1.0]));
+        let bytes = std::fs::read(&good).unwrap();
+        let cut = dir.path().join("cut.exr");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let e = load_image(&cut, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("cut.exr") && e.contains("damaged or truncated"),
+            "{e}"
+        );
+        let gray = dir.path().join("gray.exr");
+        let ch = exr::prelude::SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|_| (0.5f32,));
+        exr::prelude::Image::from_channels((4, 4), ch)
+            .write()
+            .to_file(&gray)
+            .unwrap();
+        let e = load_image(&gray, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("gray.exr") && e.contains("no R, G and B channels"),
+            "{e}"
+        );
+    }
 }

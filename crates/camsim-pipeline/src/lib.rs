@@ -187,6 +187,26 @@ impl Default for CaptureSection {
 /// The built-in default run (`camsim simulate` with no config).
 pub const DEFAULT_CONFIG: &str = include_str!("../../../examples/macbeth-d65.toml");
 
+/// The line (1-based) in TOML `text` of the key a config message starts with
+/// (`capture.exposure_ms = -1: ...`, `capture.exposures_ms[2] = ...`), if the text has it.
+fn key_line(text: &str, message: &str) -> Option<usize> {
+    let dotted = message.split([' ', ':']).next()?;
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    let mut item = doc.as_item();
+    for seg in dotted.split('.') {
+        let (key, index) = match seg.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (seg, None),
+        };
+        item = item.get(key)?;
+        if let Some(i) = index {
+            item = item.get(i)?;
+        }
+    }
+    let span = item.span()?;
+    Some(text.get(..span.start)?.matches('\n').count() + 1)
+}
+
 impl SimulateConfig {
     pub fn builtin_default() -> SimulateConfig {
         toml::from_str(DEFAULT_CONFIG).expect("the built-in default config parses (tested)")
@@ -203,7 +223,16 @@ impl SimulateConfig {
             serde_json::from_value(c)
                 .map_err(|e| PipelineError::file(path, format!("not a camsim run.json: {e}")))?
         } else {
-            Self::from_toml_text(&text).map_err(|e| PipelineError::file(path, e))?
+            let cfg = Self::from_toml_text(&text).map_err(|e| PipelineError::file(path, e))?;
+            // Values checked now, before any work, and located in the file by their key.
+            cfg.capture().map_err(|e| match e {
+                PipelineError::Config(msg) => match key_line(&text, &msg) {
+                    Some(line) => PipelineError::file(path, format!("line {line}: {msg}")),
+                    None => PipelineError::file(path, msg),
+                },
+                other => other,
+            })?;
+            cfg
         };
         cfg.check_scene_source()
             .map_err(|e| PipelineError::file(path, e))?;
@@ -320,10 +349,11 @@ impl SimulateConfig {
         if let Some((i, ms)) = list
             .iter()
             .enumerate()
-            .find(|(_, ms)| !(ms.is_finite() && **ms >= 0.0))
+            .find(|(_, ms)| !camsim_sensor::exposure_in_range(**ms * 1e-3))
         {
             return Err(PipelineError::config(format!(
-                "capture.exposures_ms[{i}] = {ms}: must be a finite time >= 0 ms"
+                "capture.exposures_ms[{i}] = {ms}: must be in [0, {}] ms (at most an hour)",
+                camsim_sensor::MAX_EXPOSURE_S * 1e3
             )));
         }
         Ok(Some(list.iter().map(|ms| ms * 1e-3).collect()))
@@ -336,9 +366,10 @@ impl SimulateConfig {
         }
         self.bracket_exposures_s()?;
         let exposure = match c.exposure_ms {
-            Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
+            Some(ms) if !camsim_sensor::exposure_in_range(ms * 1e-3) => {
                 return Err(PipelineError::config(format!(
-                    "capture.exposure_ms = {ms}: must be >= 0"
+                    "capture.exposure_ms = {ms}: must be in [0, {}] ms (at most an hour)",
+                    camsim_sensor::MAX_EXPOSURE_S * 1e3
                 )))
             }
             Some(ms) => Exposure::Seconds(ms * 1e-3),
@@ -565,25 +596,12 @@ pub fn macbeth_chart_corners_px(
 /// Mean luminance of a radiance image, cd/m^2: 683 lm/W x sum over bands of ybar L d(lambda)
 /// (CIE 1931 photopic luminous efficiency).
 pub fn mean_luminance_cd_m2(radiance: &SpectralImage) -> f64 {
-    use rayon::prelude::*;
     let cmfs = camsim_core::colorimetry::Cmfs::on(&radiance.grid);
-    // 683 lm/W sum_b y_bar_b L_b dl, averaged over the pixels (CIE 015:2018 eq. 7.1). Bands in
-    // parallel, each summed in 8 lanes: a full-frame radiance has ~280 M samples, and one serial
-    // f64 sum over them took half a second after the run (the `simulate` output overhead).
+    // 683 lm/W sum_b y_bar_b L_b dl, averaged over the pixels (CIE 015:2018 eq. 7.1). Each band
+    // summed in a fixed order (blocks in parallel), the bands added in band order: the same bits
+    // for any thread or worker count (it is written to run.json and a dataset's KEY.json).
     let total: f64 = (0..radiance.bands())
-        .into_par_iter()
-        .map(|b| {
-            let v = radiance.band(b);
-            let mut lanes = [0f64; 8];
-            let chunks = v.chunks_exact(8);
-            let rest: f64 = chunks.remainder().iter().map(|x| *x as f64).sum();
-            for c in chunks {
-                for (l, x) in lanes.iter_mut().zip(c) {
-                    *l += *x as f64;
-                }
-            }
-            (lanes.iter().sum::<f64>() + rest) * cmfs.y[b]
-        })
+        .map(|b| camsim_core::math::fixed_order_sum(radiance.band(b)) * cmfs.y[b])
         .sum();
     total * camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * radiance.grid.step_nm
         / radiance.pixels() as f64

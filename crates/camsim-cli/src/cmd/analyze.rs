@@ -503,7 +503,9 @@ pub fn chart_cmd(a: ChartArgs) -> Result<()> {
         Some(c) => c,
         None => corners_from_run_json(&a.image, rows, cols, img.pixel_pitch_m(pitch_linear_m))?,
     };
-    let ctx = || format!("{}: chart with corners {corners:?}", a.image.display());
+    let ctx = || {
+        format!("{}: chart with corners {corners} (x,y of the dark-skin, bluish-green, black and white corners, inside its {cols} x {rows} pixels)", a.image.display())
+    };
     // Everything is measured before a file is written (no partial output on bad input).
     let (patches, planes) = match &img {
         StatsImage::Raw(raw) => {

@@ -133,8 +133,11 @@ pub fn run(a: Args) -> Result<()> {
     }
     let irr = common::read_spectral_exr(input)?;
     let exposure = match a.exposure_ms {
-        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
-            anyhow::bail!("--exposure-ms {ms}: must be >= 0")
+        Some(ms) if !camsim_sensor::exposure_in_range(ms * 1e-3) => {
+            anyhow::bail!(
+                "--exposure-ms {ms}: must be in [0, {}] ms (at most an hour)",
+                camsim_sensor::MAX_EXPOSURE_S * 1e3
+            )
         }
         Some(ms) => Exposure::Seconds(ms * 1e-3),
         None => Exposure::default(),
@@ -278,8 +281,30 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     };
     cfg.analog_offset_mv = offset_mv;
     let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
-    let rows = a.rows.unwrap_or(128).min(sensor.rows());
-    let cols = a.cols.unwrap_or(128).min(sensor.cols());
+    // A window larger than the sensor is refused by emva_series (never clamped).
+    let rows = a.rows.unwrap_or(128.min(sensor.rows()));
+    let cols = a.cols.unwrap_or(128.min(sensor.cols()));
+    if a.levels < 3 {
+        anyhow::bail!("--levels {}: an EMVA 1288 series needs at least 3 exposure levels (dark to past saturation)", a.levels);
+    }
+    if a.frames_per_level < 2 {
+        anyhow::bail!("--frames-per-level {}: EMVA 1288 needs at least 2 frames per level (temporal noise is their difference)", a.frames_per_level);
+    }
+    if rows == 0 || cols == 0 || rows > sensor.rows() || cols > sensor.cols() {
+        anyhow::bail!(
+            "--rows {rows} --cols {cols}: the EMVA window {rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor",
+            sensor.rows(),
+            sensor.cols()
+        );
+    }
+    // Every frame is a DNG of 2 bytes a pixel (and a header): refuse a series the disk cannot
+    // hold. The user's --out is named (the staging folder beside it is on the same disk).
+    let frames = (a.levels as u64) * 2 * a.frames_per_level as u64;
+    camsim_core::mem::check_disk(
+        &a.out,
+        frames.saturating_mul((rows as u64).saturating_mul(cols as u64) * 2 + 65536),
+        &format!("the EMVA series ({frames} DNG files of {rows} x {cols})"),
+    )?;
     // Three lines balanced so every channel collects 1e5 e-/s; exposures from 0 to 1.3 x the
     // time at which the signal reaches the clipping level.
     let rate_e_per_s = 1e5;
@@ -287,7 +312,7 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
     let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
         / sensor.conversion_gain_v_per_e();
     let t_sat = clip_e / rate_e_per_s;
-    let n = a.levels.max(3);
+    let n = a.levels;
     let exposures: Vec<f64> = (0..n)
         .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
         .collect();
@@ -296,12 +321,12 @@ fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
         &grid,
         &irr,
         &exposures,
-        a.frames_per_level.max(2),
+        a.frames_per_level,
         rows,
         cols,
         a.seed,
     )?;
-    let f = a.frames_per_level.max(2);
+    let f = a.frames_per_level;
     let mut csv = String::from("exposure_s,photons_per_pixel");
     for kind in ["bright", "dark"] {
         for k in 0..f {

@@ -121,6 +121,7 @@ pub fn run(a: Args) -> Result<()> {
         return Ok(());
     }
     let outputs = OutputSet::parse(&a.save)?;
+    OutputSet::check_applies(&a.save, cfg.scene.is_some())?;
     let staged = common::stage_out_dir(&a.out)?;
     let pb = common::progress(1, "simulate");
     let opts = SimulateOptions {

@@ -24,6 +24,7 @@ import numpy as np
 
 from . import _camsim
 from ._camsim import CamsimError, Simulation
+from ._checks import to_json as _to_json
 from . import presets
 from . import dataset
 
@@ -68,7 +69,7 @@ def load_config(config: Config) -> Dict[str, Any]:
     if isinstance(config, dict):
         # Through camsim's own parser: unknown keys and wrong types are refused with their name,
         # defaults are filled in.
-        return json.loads(_camsim.config_from_json(json.dumps(config)))
+        return json.loads(_camsim.config_from_json(_to_json(config, "config", CamsimError)))
     if isinstance(config, os.PathLike) or (isinstance(config, str) and "\n" not in config and "=" not in config):
         return json.loads(_camsim.config_from_file(os.fspath(config)))
     if isinstance(config, str):
@@ -88,7 +89,7 @@ def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = 
     cfg = load_config(config)
     if seed is not None:
         cfg["seed"] = int(seed)
-    return _camsim.simulate_json(json.dumps(cfg), noise_free)
+    return _camsim.simulate_json(_to_json(cfg, "config", CamsimError), noise_free)
 
 
 def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]:
@@ -111,7 +112,7 @@ def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[
     if isinstance(config, str):
         config = {"kind": config}
     start, step, count = _grid(wavelengths_nm)
-    return _camsim.scene(json.dumps(config), start, step, count)
+    return _camsim.scene(_to_json(config, "scene", CamsimError), start, step, count)
 
 
 def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolution: Optional[Tuple[int, int]] = None,
@@ -127,7 +128,7 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
 
 
 def _spec(x: Union[str, Dict[str, Any]]) -> str:
-    return json.dumps(x) if isinstance(x, dict) else os.fspath(x)
+    return _to_json(x, "config", CamsimError) if isinstance(x, dict) else os.fspath(x)
 
 
 def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union[str, Dict[str, Any]] = "pixel4a",

@@ -22,6 +22,7 @@ import os
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 from . import _camsim
+from ._checks import to_json
 
 Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
 
@@ -31,7 +32,7 @@ __all__ = ["plan", "run", "run_shard", "read_manifest"]
 def _spec_args(spec: Spec) -> Tuple[str, str, str]:
     """(text, source name, folder relative paths are resolved against)."""
     if isinstance(spec, dict):
-        return json.dumps(spec), "spec dict", os.getcwd()
+        return to_json(spec, "spec dict", _camsim.CamsimError), "spec dict", os.getcwd()
     s = os.fspath(spec)
     if "\n" in s or s.lstrip().startswith("["):
         return s, "spec text", os.getcwd()
