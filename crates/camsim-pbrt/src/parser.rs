@@ -1499,6 +1499,7 @@ struct PendingRealistic {
 #[cfg(test)]
 mod image_map_tests {
     use super::*;
+    use exr::prelude::WritableImage;
 
     /// Issue 25 item 7: a truncated EXR as an environment map said "no layer ... matched your
     /// specified requirements"; an EXR without colour channels said the same.
