@@ -8,7 +8,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };
-    if let Ok(cfg) = camsim_pipeline::SimulateConfig::from_toml_str(text) {
+    if let Ok(cfg) = camsim_pipeline::SimulateConfig::from_toml_str(text, std::path::Path::new("")) {
         let _ = cfg.capture();
         let _ = cfg.sensor();
         let _ = cfg.optics();

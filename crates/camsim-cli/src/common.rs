@@ -1,8 +1,8 @@
 //! Small helpers shared by the subcommands: progress bars, output folders, reading inputs by
 //! extension.
 
-use anyhow::{Context, Result};
-use camsim_io::atomic::OutputDir;
+use anyhow::Result;
+use camsim::io::atomic::OutputDir;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -48,7 +48,7 @@ pub fn say(msg: impl AsRef<str>) {
 }
 
 /// Stage an output folder: outputs go into a fresh sibling `DIR.camsim-tmp-<pid>` that
-/// [`camsim_io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
+/// [`camsim::io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
 /// type). Refuses a DIR that is not a folder camsim may replace (exit 2). When DIR holds an
 /// earlier run, says on stderr (even with --quiet) what the commit will replace.
 ///
@@ -105,11 +105,11 @@ pub fn report_removed(paths: &[PathBuf]) {
     }
 }
 
-/// Claim a single output file before computing it (see `camsim_io::claim`): refuses a file
+/// Claim a single output file before computing it (see `camsim::io::claim`): refuses a file
 /// camsim did not write unless `force`, and a second run writing the same file. Hold the claim
 /// until the file is written.
-pub fn claim_out_file(path: &Path, force: bool) -> Result<camsim_io::claim::FileClaim> {
-    let claim = camsim_io::claim::claim_file(path, force)?;
+pub fn claim_out_file(path: &Path, force: bool) -> Result<camsim::io::claim::FileClaim> {
+    let claim = camsim::io::claim::claim_file(path, force)?;
     report_removed(claim.removed_stale());
     Ok(claim)
 }
@@ -143,22 +143,12 @@ pub fn finite_f64(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
-/// Read a spectral EXR, warning on stderr when round-off-sized negative samples (another tool's
-/// FFT output) were clamped to 0 (`camsim_io::exr::NEGATIVE_ROUNDOFF_FRACTION`).
-pub fn read_spectral_exr(path: &Path) -> Result<camsim_core::SpectralImage> {
-    let (img, info) = camsim_io::exr::read_spectral_exr_with_info(path)?;
-    if info.clamped_negatives > 0 {
-        eprintln!(
-            "camsim: warning: {}: clamped {} round-off negative samples to 0 (most negative {:e})",
-            path.display(),
-            info.clamped_negatives,
-            info.most_negative_clamped
-        );
+/// Read a spectral EXR (`camsim::pipeline::inputs::read_spectral_exr`), printing its warning on
+/// stderr when round-off-sized negative samples were clamped to 0.
+pub fn read_spectral_exr(path: &Path) -> Result<camsim::core::SpectralImage> {
+    let (img, warning) = camsim::pipeline::inputs::read_spectral_exr(path)?;
+    if let Some(w) = warning {
+        eprintln!("camsim: warning: {w}");
     }
     Ok(img)
-}
-
-/// Read a text file, naming it in the error.
-pub fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
 }

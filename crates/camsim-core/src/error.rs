@@ -37,6 +37,13 @@ pub enum CoreError {
         /// ` (CAMSIM_DISK_LIMIT_MIB)` when the limit was set so, or empty.
         limit: String,
     },
+    /// A name that is not in its family's table ([`crate::names::NameTable`]).
+    #[error("unknown {family} '{name}'; known: {known}")]
+    UnknownName {
+        family: String,
+        name: String,
+        known: String,
+    },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,

@@ -62,7 +62,7 @@ proptest! {
             }
             text.truncate(end);
         }
-        match SimulateConfig::from_toml_str(&text) {
+        match SimulateConfig::from_toml_str(&text, std::path::Path::new("")) {
             Ok(cfg) => {
                 // The checks every run makes before its work: errors, never panics.
                 let _ = cfg.capture();

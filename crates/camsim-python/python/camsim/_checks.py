@@ -5,14 +5,13 @@ outside 64 bits (seeds are unsigned 64-bit; a larger one reaches the parser as a
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any, Type
 
 
-def to_json(value: Any, what: str, error: Type[Exception] = ValueError) -> str:
-    """``value`` as JSON text; raises ``error`` naming ``what`` and the dotted key of the first
-    value that is not a finite number or does not fit 64 bits."""
+def check_values(value: Any, what: str, error: Type[Exception] = ValueError) -> None:
+    """Raise ``error`` naming ``what`` and the dotted key of the first value in ``value`` that is
+    not a finite number or does not fit 64 bits."""
 
     def walk(v: Any, key: str) -> None:
         where = f"{what}: {key}" if key else what
@@ -35,4 +34,3 @@ def to_json(value: Any, what: str, error: Type[Exception] = ValueError) -> str:
                 walk(x, f"{key}[{i}]")
 
     walk(value, "")
-    return json.dumps(value, allow_nan=False)
