@@ -14,29 +14,13 @@ pub enum CoreError {
         line: usize,
         message: String,
     },
-    /// Work refused before it was allocated ([`crate::mem::MemoryBudget`]).
-    #[error("{what} needs about {needed_mib} MiB of memory{breakdown}, but {available_mib} MiB is available ({limit}); {advice}")]
-    OutOfMemory {
-        what: String,
-        needed_mib: u64,
-        /// The largest parts of the estimate, ` (a: N MiB, b: M MiB)`, or empty.
-        breakdown: String,
-        available_mib: u64,
-        /// Where the limit comes from.
-        limit: String,
-        /// What to do.
-        advice: String,
-    },
+    /// Work refused before it was allocated ([`crate::mem::MemoryBudget`]): the stage, the
+    /// estimate, its largest parts, the limit and what to do.
+    #[error("{0}")]
+    OutOfMemory(String),
     /// Output refused before it was written ([`crate::mem::check_disk`]).
-    #[error("{what} needs about {needed_mib} MiB on disk, but {} has {available_mib} MiB free{limit}; free some space or choose another output folder", path.display())]
-    OutOfDisk {
-        what: String,
-        path: PathBuf,
-        needed_mib: u64,
-        available_mib: u64,
-        /// ` (CAMSIM_DISK_LIMIT_MIB)` when the limit was set so, or empty.
-        limit: String,
-    },
+    #[error("{0}")]
+    OutOfDisk(String),
     /// A name that is not in its family's table ([`crate::names::NameTable`]).
     #[error("unknown {family} '{name}'; known: {known}")]
     UnknownName {

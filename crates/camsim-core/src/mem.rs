@@ -133,25 +133,24 @@ impl MemoryBudget {
             return Ok(());
         }
         let mut items = self.items.clone();
-        items.sort_by(|a, b| b.1.cmp(&a.1));
+        items.sort_by_key(|i| std::cmp::Reverse(i.1));
         let parts: Vec<String> = items
             .iter()
             .filter(|(_, b)| *b >= 1 << 20)
             .take(3)
             .map(|(n, b)| format!("{n} {} MiB", b >> 20))
             .collect();
-        Err(CoreError::OutOfMemory {
-            what: self.what.clone(),
-            needed_mib: needed >> 20,
-            breakdown: if parts.len() > 1 {
-                format!(" ({})", parts.join(", "))
-            } else {
-                String::new()
-            },
-            available_mib: avail >> 20,
-            limit,
-            advice: advice.to_string(),
-        })
+        let breakdown = if parts.len() > 1 {
+            format!(" ({})", parts.join(", "))
+        } else {
+            String::new()
+        };
+        Err(CoreError::OutOfMemory(format!(
+            "{} needs about {} MiB of memory{breakdown}, but {} MiB is available ({limit}); {advice}",
+            self.what,
+            needed >> 20,
+            avail >> 20
+        )))
     }
 }
 
@@ -212,17 +211,17 @@ pub fn check_disk(dir: &Path, bytes: u64, what: &str) -> Result<()> {
     if bytes <= free {
         return Ok(());
     }
-    Err(CoreError::OutOfDisk {
-        what: what.to_string(),
-        path: dir.to_path_buf(),
-        needed_mib: bytes >> 20,
-        available_mib: free >> 20,
-        limit: if capped {
-            " (CAMSIM_DISK_LIMIT_MIB)".into()
-        } else {
-            String::new()
-        },
-    })
+    let limit = if capped {
+        " (CAMSIM_DISK_LIMIT_MIB)"
+    } else {
+        ""
+    };
+    Err(CoreError::OutOfDisk(format!(
+        "{what} needs about {} MiB on disk, but {} has {} MiB free{limit}; free some space or choose another output folder",
+        bytes >> 20,
+        dir.display(),
+        free >> 20
+    )))
 }
 
 /// The most worker threads worth starting: 4 per core (`std::thread::available_parallelism`).
