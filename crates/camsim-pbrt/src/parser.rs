@@ -1488,3 +1488,41 @@ struct PendingRealistic {
     focus_distance_m: f64,
     loc: Loc,
 }
+
+#[cfg(test)]
+mod image_map_tests {
+    use super::*;
+    use exr::prelude::WritableImage;
+
+    /// Issue 25 item 7: a truncated EXR as an environment map said "no layer ... matched your
+    /// specified requirements"; an EXR without colour channels said the same.
+    #[test]
+    fn a_damaged_or_colourless_exr_image_map_is_named_and_explained() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("env.exr");
+        exr::prelude::write_rgb_file(&good, 64, 32, |x, y| (x as f32, y as f32, 1.0)).unwrap();
+        let (w, h, px) = load_image(&good, Encoding::Linear).unwrap();
+        assert_eq!((w, h, px[65]), (64, 32, [1.0, 1.0, 1.0]));
+        let bytes = std::fs::read(&good).unwrap();
+        let cut = dir.path().join("cut.exr");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let e = load_image(&cut, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("cut.exr") && e.contains("damaged or truncated"),
+            "{e}"
+        );
+        let gray = dir.path().join("gray.exr");
+        let ch = exr::prelude::SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|_| (0.5f32,));
+        exr::prelude::Image::from_channels((4, 4), ch)
+            .write()
+            .to_file(&gray)
+            .unwrap();
+        let e = load_image(&gray, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("gray.exr") && e.contains("no R, G and B channels"),
+            "{e}"
+        );
+    }
+}

@@ -92,11 +92,12 @@ impl CaptureRequest {
             return bad(format!("{} must be at least 1", keys.frames));
         }
         let time = |key: String, t: f64| -> Result<f64> {
-            if t >= 0.0 && t.is_finite() {
+            if camsim_sensor::exposure_in_range(t * keys.unit_s) {
                 Ok(t * keys.unit_s)
             } else {
                 Err(PipelineError::Config(format!(
-                    "{key} = {t}: must be a finite time >= 0 {}",
+                    "{key} = {t}: must be in [0, {}] {} (at most an hour)",
+                    camsim_sensor::MAX_EXPOSURE_S / keys.unit_s,
                     keys.unit
                 )))
             }

@@ -217,10 +217,20 @@ impl SimulateConfig {
         }
         let text = std::fs::read_to_string(path)
             .map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
-        Self::from_toml_str(&text, base).map_err(|e| match e {
+        let located = |e: PipelineError| match e {
             PipelineError::Config(m) => PipelineError::file(path, m),
             e => e,
-        })
+        };
+        let cfg = Self::from_toml_str(&text, base).map_err(located)?;
+        // Capture values checked now, before any work, and located in the file by their key.
+        cfg.capture_request().map_err(|e| match e {
+            PipelineError::Config(msg) => match key_line(&text, &msg) {
+                Some(line) => PipelineError::file(path, format!("line {line}: {msg}")),
+                None => PipelineError::file(path, msg),
+            },
+            other => other,
+        })?;
+        Ok(cfg)
     }
 
     /// Parse a TOML config from text, its relative paths made relative to `base_dir`
@@ -338,4 +348,24 @@ impl SimulateConfig {
     pub fn capture(&self) -> Result<Capture> {
         Ok(self.capture_request()?.capture())
     }
+}
+
+/// The line (1-based) in TOML `text` of the key a config message starts with
+/// (`capture.exposure_ms = -1: ...`, `capture.exposures_ms[2] = ...`), if the text has it.
+fn key_line(text: &str, message: &str) -> Option<usize> {
+    let dotted = message.split([' ', ':']).next()?;
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    let mut item = doc.as_item();
+    for seg in dotted.split('.') {
+        let (key, index) = match seg.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (seg, None),
+        };
+        item = item.get(key)?;
+        if let Some(i) = index {
+            item = item.get(i)?;
+        }
+    }
+    let span = item.span()?;
+    Some(text.get(..span.start)?.matches('\n').count() + 1)
 }

@@ -209,6 +209,18 @@ impl OutputSet {
         Ok(OutputSet(set))
     }
 
+    /// Refuse an output that `text` (`--save`) names and the scene cannot produce: `ids` of a
+    /// 2D chart (`chart` true: it has no objects). An item reached through `all` is not refused
+    /// (run.json says what was not written and why).
+    pub fn check_applies(text: &str, chart: bool) -> Result<()> {
+        if chart && text.split(',').any(|i| i.trim() == Output::Ids.name()) {
+            return Err(PipelineError::config(
+                "--save ids: a 2D chart has no objects to label; object and material ids are written for 3D scenes ([render]): leave ids out of --save",
+            ));
+        }
+        Ok(())
+    }
+
     pub fn contains(&self, o: Output) -> bool {
         self.0.contains(&o)
     }
@@ -242,6 +254,17 @@ impl OutputSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 25 item 7: `--save ids` on a 2D chart wrote nothing and said nothing.
+    #[test]
+    fn ids_named_for_a_chart_are_refused() {
+        let e = OutputSet::check_applies("raw, ids", true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--save ids") && e.contains("3D"), "{e}");
+        assert!(OutputSet::check_applies("raw,ids", false).is_ok());
+        assert!(OutputSet::check_applies("all", true).is_ok());
+    }
 
     #[test]
     fn parses_names_all_and_default_and_refuses_unknown_ones() {

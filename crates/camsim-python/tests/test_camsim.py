@@ -204,6 +204,17 @@ def test_bad_input_raises_camsim_error_never_crashes(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_values_json_cannot_hold_are_refused_naming_the_key():
+    # Issue 25 item 7: NaN said "expected value at line 1 column 401", seed=2**70 "invalid type:
+    # floating point".
+    cfg = camsim.load_config(SMALL)
+    cfg["capture"]["exposure_ms"] = float("nan")
+    with pytest.raises(camsim.CamsimError, match=r"capture\.exposure_ms = nan"):
+        camsim.load_config(cfg)
+    with pytest.raises(camsim.CamsimError, match=r"seed = 1180591620717411303424.*64-bit"):
+        camsim.simulate(SMALL, seed=2**70)
+
+
 def test_the_gil_is_released_during_compute():
     import threading
     import time

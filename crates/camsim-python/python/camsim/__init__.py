@@ -26,6 +26,7 @@ import numpy as np
 
 from . import _camsim, dataset, presets
 from ._camsim import CamsimError, Simulation
+from ._checks import check_values as _check_values
 
 __version__ = _camsim.__version__
 
@@ -67,6 +68,8 @@ def load_config(config: Optional[Config] = None) -> Dict[str, Any]:
     """A simulate config as a dict, from a dict (checked and completed with every default), TOML
     text, or the path of a TOML file or a run.json (its relative paths resolved); None: the
     built-in default."""
+    if isinstance(config, dict):
+        _check_values(config, "config", CamsimError)
     return _camsim.load_config(config)
 
 
@@ -84,6 +87,10 @@ def simulate(
     (metadata["results"]["lens_camera"] is True). labels=True (3D scenes): Simulation.labels
     (instance, id, depth, normal and albedo maps on the raw image's grid, boxes) and
     Simulation.camera (K, world_to_camera)."""
+    if isinstance(config, dict):
+        _check_values(config, "config", CamsimError)
+    if seed is not None:
+        _check_values({"seed": int(seed)}, "config", CamsimError)
     return _camsim.simulate(config, noise_free, None if seed is None else int(seed), labels)
 
 
@@ -110,6 +117,8 @@ def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[
     radiance (bands, rows, cols) float32 W/(sr m^2 nm), wavelengths_nm, spacing_m, fov_deg,
     distance_m, depth_m (None), units."""
     start, step, count = _grid(wavelengths_nm)
+    if isinstance(config, dict):
+        _check_values(config, "scene", CamsimError)
     return _camsim.scene(config, start, step, count)
 
 
