@@ -8,6 +8,7 @@ use crate::geometry::{Prim, Ray, RayInv, SphereClip};
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
+use crate::motion::PathTime;
 use crate::render::RenderError;
 use crate::sampler::{dim, PathSampler};
 use crate::sampling::power_heuristic;
@@ -117,16 +118,18 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
+    /// What moves (`crate::motion`); `None` for a static scene.
+    pub motion: Option<Box<crate::motion::MotionTracer>>,
 }
 
 /// Surface data at a hit.
-struct SurfaceHit {
-    p: V3,
+pub(crate) struct SurfaceHit {
+    pub(crate) p: V3,
     /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
-    ng: V3,
+    pub(crate) ng: V3,
     /// Shading normal (unit; equals `ng` without vertex normals).
-    ns: V3,
-    uv: [f32; 2],
+    pub(crate) ns: V3,
+    pub(crate) uv: [f32; 2],
 }
 
 impl Tracer {
@@ -513,9 +516,14 @@ impl Tracer {
         };
         lights.finish(&tables, scene_radius);
 
+        // Moving shapes get their own BVHs (`crate::motion`); a static scene keeps every primitive.
+        let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips);
         let mut bvh = Bvh::build(prims);
         bvh.clips = clips;
-        let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let mut info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let motion =
+            crate::motion::MotionTracer::build(scene, moving, &mut info, lights.list.len())?
+                .map(Box::new);
         let tri_normals: Vec<V3> = bvh
             .prims
             .iter()
@@ -550,21 +558,55 @@ impl Tracer {
             shape_flip,
             has_interface,
             has_alpha,
+            motion,
         })
     }
 
-    /// Closest hit along `r`, if any.
+    /// Closest hit along `r` within `t_max` at the path's time, if any.
     #[inline(always)]
-    pub(crate) fn intersect(&self, r: &Ray) -> Option<crate::bvh::Hit> {
-        self.bvh.intersect(&RayInv::new(r), f32::INFINITY)
+    pub(crate) fn intersect_within(
+        &self,
+        r: &Ray,
+        t_max: f32,
+        pt: &PathTime,
+    ) -> Option<crate::bvh::Hit> {
+        let h = self.bvh.intersect(&RayInv::new(r), t_max);
+        match &self.motion {
+            None => h,
+            Some(m) => m.intersect(r, t_max, pt, h),
+        }
     }
 
-    fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
+    /// Closest hit along `r` at the path's time, if any.
+    #[inline(always)]
+    pub(crate) fn intersect(&self, r: &Ray, pt: &PathTime) -> Option<crate::bvh::Hit> {
+        self.intersect_within(r, f32::INFINITY, pt)
+    }
+
+    /// The surface of hit `h` of ray `r` at the path's time.
+    pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit, pt: &PathTime) -> SurfaceHit {
         let slot = h.slot as usize;
-        match self.bvh.prims[slot] {
+        match self.bvh.prims.get(slot) {
+            Some(prim) => self.surface_of(prim, self.tri_normals[slot], &self.bvh.clips, r, h),
+            None => self.moving_surface(r, h, pt),
+        }
+    }
+
+    /// The surface of hit `h` on `prim` (triangle normal `tri_normal`, partial-sphere clips
+    /// `clips`; `h.slot` indexes `info`).
+    pub(crate) fn surface_of(
+        &self,
+        prim: &Prim,
+        tri_normal: V3,
+        clips: &[SphereClip],
+        r: &Ray,
+        h: &crate::bvh::Hit,
+    ) -> SurfaceHit {
+        let slot = h.slot as usize;
+        match *prim {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
-                let ng = self.tri_normals[slot];
+                let ng = tri_normal;
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
                 if let Some(m) = &self.meshes[pi.shape as usize] {
@@ -613,7 +655,7 @@ impl Tracer {
                 radius,
                 clip,
             } => {
-                let c = &self.bvh.clips[clip as usize];
+                let c = &clips[clip as usize];
                 let n = (r.o + r.d * h.t - center).normalize();
                 let p = center + n * radius;
                 // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame
@@ -751,10 +793,18 @@ impl Tracer {
     /// neither reach the light's own surface nor miss an occluder in between. `wi` and `dist` (the
     /// direction and distance from the un-offset point) are used for lights at infinity only.
     #[inline(always)]
-    fn unoccluded(&self, p_from: V3, wi: V3, dist: f32, p_light: V3, n_light: V3) -> bool {
+    fn unoccluded(
+        &self,
+        p_from: V3,
+        wi: V3,
+        dist: f32,
+        p_light: V3,
+        n_light: V3,
+        pt: &PathTime,
+    ) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
-            return !self.occluded(p_from, wi, f32::INFINITY);
+            return !self.occluded(p_from, wi, f32::INFINITY, pt);
         }
         let n_to = n_light.face_forward(p_from - p_light);
         let p_to = self.offset(p_light, n_to);
@@ -763,24 +813,29 @@ impl Tracer {
         if !(len > 0.0 && len.is_finite()) {
             return false;
         }
-        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON))
+        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON), pt)
     }
 
     /// Whether a surface that scatters lies on the segment `o + t d`, `0 < t < t_max`.
     /// `interface` surfaces (also when a `mix` picks one) let shadow rays through, as they let
     /// path rays through.
     #[inline]
-    fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
+    fn occluded(&self, o: V3, d: V3, t_max: f32, pt: &PathTime) -> bool {
         if !self.has_interface && !self.has_alpha {
-            return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
+            let r = Ray { o, d };
+            return self.bvh.occluded(&RayInv::new(&r), t_max)
+                || self
+                    .motion
+                    .as_ref()
+                    .is_some_and(|m| m.occluded(&r, t_max, pt));
         }
         let (mut o, mut t_left) = (o, t_max);
         for _ in 0..MAX_INTERFACE_SKIPS {
             let r = Ray { o, d };
-            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else {
+            let Some(h) = self.intersect_within(&r, t_left, pt) else {
                 return false;
             };
-            let sh = self.surface(&r, &h);
+            let sh = self.surface(&r, &h, pt);
             let pi = self.info[h.slot as usize];
             let keep = !self.has_alpha
                 || self.alpha_keeps(
@@ -814,12 +869,14 @@ impl Tracer {
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
     /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have). The
     /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
+    /// Every ray of the path sees the scene at the path's time `pt`.
     pub(crate) fn li<const N: usize, S: PathSampler>(
         &self,
         mut ray: Ray,
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> [f32; N] {
         let mut l = [0f32; N];
         let mut beta = [1f32; N];
@@ -836,7 +893,7 @@ impl Tracer {
         let mut skips = 0u32;
         counts.camera += 1;
         loop {
-            let hit = self.intersect(&ray);
+            let hit = self.intersect(&ray, pt);
             let Some(h) = hit else {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
@@ -852,7 +909,7 @@ impl Tracer {
                 }
                 break;
             };
-            let sh = self.surface(&ray, &h);
+            let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
             if self.has_alpha
                 && !self.alpha_keeps(
@@ -883,14 +940,13 @@ impl Tracer {
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
-                if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
+                let (emits, pdf_light) =
+                    self.light_hit(pi.light as usize, prev_p, sh.p, sh.ng, wo, pt);
+                if emits {
                     let w = if depth == 0 || prev_specular {
                         1.0
                     } else {
-                        power_heuristic(
-                            prev_bsdf_pdf,
-                            self.lights.pdf_hit(light, prev_p, sh.p, sh.ng),
-                        )
+                        power_heuristic(prev_bsdf_pdf, pdf_light)
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     for i in 0..N {
@@ -948,10 +1004,7 @@ impl Tracer {
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
                 let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
-                if let Some(ls) =
-                    self.lights
-                        .sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas)
-                {
+                if let Some(ls) = self.sample_light::<N>(sh.p, u_sel, u0, u1, lambdas, pt) {
                     let LightSample {
                         wi,
                         dist,
@@ -989,7 +1042,7 @@ impl Tracer {
                             );
                         if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
-                            if self.unoccluded(p_from, wi, dist, p_light, n_light) {
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light, pt) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta {
                                     1.0
@@ -1059,22 +1112,37 @@ impl Tracer {
     }
 
     /// Distance along the camera's forward axis to the first surface (or infinity) and 1 + the
-    /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes).
-    pub(crate) fn first_surface(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> (f32, u32) {
+    /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes), at `pt`.
+    pub(crate) fn first_surface(
+        &self,
+        r: &Ray,
+        forward: V3,
+        counts: &mut RayCounts,
+        pt: &PathTime,
+    ) -> (f32, u32) {
         counts.camera += 1;
-        if !self.has_alpha {
-            return match self.intersect(r) {
-                Some(h) => (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1),
-                None => (f32::INFINITY, 0),
-            };
+        match self.first_kept(r, pt) {
+            None => (f32::INFINITY, 0),
+            Some((_, h)) if !self.has_alpha => {
+                (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1)
+            }
+            Some((ray, h)) => (
+                (self.surface(&ray, &h, pt).p - r.o).dot(forward),
+                self.info[h.slot as usize].shape + 1,
+            ),
         }
-        // Surfaces cut out by alpha are skipped as the path skips them.
+    }
+
+    /// The first hit along `r` at `pt` that the alpha test keeps (surfaces cut out by alpha are
+    /// skipped as the path skips them), with the ray that found it.
+    pub(crate) fn first_kept(&self, r: &Ray, pt: &PathTime) -> Option<(Ray, crate::bvh::Hit)> {
         let mut ray = *r;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let Some(h) = self.intersect(&ray) else {
-                return (f32::INFINITY, 0);
-            };
-            let sh = self.surface(&ray, &h);
+            let h = self.intersect(&ray, pt)?;
+            if !self.has_alpha {
+                return Some((ray, h));
+            }
+            let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
             if self.alpha_keeps(
                 pi.material,
@@ -1086,13 +1154,13 @@ impl Tracer {
                 ray.o,
                 ray.d,
             ) {
-                return ((sh.p - r.o).dot(forward), pi.shape + 1);
+                return Some((ray, h));
             }
             ray = Ray {
                 o: self.offset(sh.p, sh.ng.face_forward(ray.d)),
                 d: ray.d,
             };
         }
-        (f32::INFINITY, 0)
+        None
     }
 }

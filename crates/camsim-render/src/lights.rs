@@ -268,7 +268,7 @@ impl Lights {
 
     /// Pick a light from a uniform number.
     #[inline]
-    fn pick(&self, u: f32) -> usize {
+    pub(crate) fn pick(&self, u: f32) -> usize {
         let u = u as f64 * self.cdf.last().copied().unwrap_or(1.0);
         let i = self.cdf.partition_point(|c| *c <= u);
         let mut i = i.min(self.list.len() - 1);

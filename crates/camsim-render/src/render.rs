@@ -11,6 +11,7 @@
 
 use crate::camera::CameraRig;
 use crate::integrator::{RayCounts, Tracer};
+use crate::motion::{PathTime, TimeCache};
 use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use crate::scene::SceneDescription;
 use crate::spectral::WavelengthSampler;
@@ -99,6 +100,8 @@ pub struct RenderOutput {
     pub samples_per_pixel: Vec<u32>,
     /// Object and material ids of the first surface through each pixel centre (the depth ray).
     pub ids: crate::ids::IdMaps,
+    /// Optical flow for each interval of `settings.time.flow_intervals_s` (`crate::flow`).
+    pub flow: Vec<crate::flow::FlowMap>,
     /// Ray counts and speed.
     pub stats: RenderStats,
 }
@@ -128,6 +131,18 @@ struct TraceCtx<'a> {
     splat: f32,
     /// Luminance weight per band, cd/m^2 per W/(sr m^2 nm) of one wavelength sample.
     lum_w: &'a [f64],
+    /// Per image row, its shutter window `[start, end]`, s, when the scene moves (else empty:
+    /// no time is drawn).
+    windows: &'a [(f64, f64)],
+}
+
+impl TraceCtx<'_> {
+    /// The time of a path of row `y` from the uniform number drawn for it.
+    #[inline]
+    fn time_at(&self, y: usize, u: f32) -> f64 {
+        let (a, b) = self.windows[y];
+        a + (b - a) * u as f64
+    }
 }
 
 /// One pixel's share of a pass: samples `first .. first + count` of pixel (`x`, `y`).
@@ -151,6 +166,7 @@ impl PixelJob {
         sampler: &mut S,
         acc: &mut [f64],
         c: &mut RayCounts,
+        cache: &TimeCache,
     ) -> (f64, f64) {
         let (mut ls, mut ls2) = (0f64, 0f64);
         for i in 0..self.count as u64 {
@@ -161,22 +177,39 @@ impl PixelJob {
             let [jx, jy] = sampler.get_2d(dim::FILM);
             let (lambdas, band) = ctx.ws.sample::<N>(u_l);
             let (fx, fy) = (self.x as f32 + jx, self.y as f32 + jy);
+            // The path's time, uniform in its row's shutter window (pbrt-v4
+            // `CameraBase::SampleTime`); a static scene draws none.
+            let pt = if ctx.windows.is_empty() {
+                PathTime::STATIC
+            } else {
+                cache.at(ctx.time_at(self.y, sampler.get_1d(dim::TIME)))
+            };
             let (l, w_cam) = if ctx.rig.has_lens() {
                 // Realistic camera: a point in the exit pupil, the ray traced through the lens at
                 // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
                 let u_pupil = sampler.get_2d(dim::LENS);
                 match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
                     Some((ray, w)) => (
-                        ctx.tracer
-                            .li::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c),
+                        ctx.tracer.li::<N, S>(
+                            ctx.tracer.camera_ray(ray, &pt),
+                            &ctx.ws.locate(lambdas),
+                            sampler,
+                            c,
+                            &pt,
+                        ),
                         w,
                     ),
                     None => ([0f32; N], 0f32),
                 }
             } else {
                 (
-                    ctx.tracer
-                        .li::<N, S>(ctx.rig.ray(fx, fy), &ctx.ws.locate(lambdas), sampler, c),
+                    ctx.tracer.li::<N, S>(
+                        ctx.tracer.camera_ray(ctx.rig.ray(fx, fy), &pt),
+                        &ctx.ws.locate(lambdas),
+                        sampler,
+                        c,
+                        &pt,
+                    ),
                     1f32,
                 )
             };
@@ -222,7 +255,8 @@ pub fn render(
     let pixels = width * height;
     // Output image + depth + variance accumulators (2 x f64) + variance + sample counts + ids.
     camsim_core::mem::check_alloc(
-        pixels as u64 * (bands as u64 * 4 + 4 + 16 + 4 + 4 + 8),
+        pixels as u64
+            * (bands as u64 * 4 + 4 + 16 + 4 + 4 + 8 + 8 * st.time.flow_intervals_s.len() as u64),
         &format!("a {width} x {height} render with {bands} bands"),
     )?;
     let ws = WavelengthSampler::new(&st.grid);
@@ -283,13 +317,31 @@ fn run<const N: usize>(
         })
         .collect();
 
+    // Row windows when something moves (`crate::motion`); a static scene samples no time.
+    let time = &st.time;
+    let windows: Vec<(f64, f64)> = if tracer.motion.is_some() {
+        (0..height).map(|y| time.shutter.row_window_s(y)).collect()
+    } else {
+        Vec::new()
+    };
+    let flow_dts = &time.flow_intervals_s;
+    let mut flow = vec![
+        [0f32; 2];
+        if tracer.motion.is_some() {
+            pixels * flow_dts.len()
+        } else {
+            0
+        }
+    ];
     let ctx = TraceCtx {
         tracer,
         rig,
         ws,
         splat,
         lum_w: &lum_w,
+        windows: &windows,
     };
+    let flow_ptr = SharedMut(flow.as_mut_ptr());
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
     let id_ptr = SharedMut(object_id.as_mut_ptr());
@@ -308,6 +360,7 @@ fn run<const N: usize>(
                 let (x1, y1) = ((x0 + TILE).min(width), (y0 + TILE).min(height));
                 let mut rng = keyed(st.seed, stage::RENDER, pass as u64, tile as u64);
                 let mut c = RayCounts::default();
+                let cache = TimeCache::new(tracer);
                 // This pass's sums for the tile, band-major (`acc[b * tile_px + local]`), written
                 // to the band-sequential image once per tile: band by band, row by row, instead of
                 // 31 pages apart for every pixel.
@@ -319,12 +372,25 @@ fn run<const N: usize>(
                         let pix = y * width + x;
                         let local = (y - y0) * tw + (x - x0);
                         if pass == 0 {
-                            let r = rig.ray(x as f32 + 0.5, y as f32 + 0.5);
-                            let (d, id) = tracer.first_surface(&r, rig.forward, &mut c);
+                            // Depth, ids and flow: the scene at the start of the row's window.
+                            let pt = match windows.get(y) {
+                                Some(w) => cache.at(w.0),
+                                None => PathTime::STATIC,
+                            };
+                            let r = tracer.camera_ray(rig.ray(x as f32 + 0.5, y as f32 + 0.5), &pt);
+                            let forward = tracer.camera_vector(rig.forward, &pt);
+                            let (d, id) = tracer.first_surface(&r, forward, &mut c, &pt);
                             // SAFETY: pixel `pix` belongs to this tile only.
                             unsafe {
                                 *depth_ptr.ptr().add(pix) = d;
                                 *id_ptr.ptr().add(pix) = id;
+                            }
+                            if !windows.is_empty() {
+                                for (k, dt) in flow_dts.iter().enumerate() {
+                                    let f = crate::flow::pixel_flow(tracer, rig, x, y, &pt, *dt);
+                                    // SAFETY: pixel `pix` of every flow map belongs to this tile only.
+                                    unsafe { *flow_ptr.ptr().add(k * pixels + pix) = f };
+                                }
                             }
                         }
                         let px = PixelJob {
@@ -338,11 +404,11 @@ fn run<const N: usize>(
                         let (ls, ls2) = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c, &cache)
                             }
                             SamplerKind::Sobol => {
                                 let mut smp = SobolSampler::new(st.seed, x as u32, y as u32);
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, &mut c, &cache)
                             }
                         };
                         // SAFETY: pixel `pix` belongs to this tile only.
@@ -407,12 +473,14 @@ fn run<const N: usize>(
         rays_per_second: rays as f64 / seconds,
     };
     let ids = crate::ids::IdMaps::from_object_ids(scene, width, height, object_id);
+    let flow = crate::flow::flow_maps(flow_dts, flow, width, height);
     Ok(RenderOutput {
         radiance,
         depth_m: depth,
         variance,
         samples_per_pixel: vec![samples_done; pixels],
         ids,
+        flow,
         stats,
     })
 }

@@ -5,13 +5,15 @@
 //! Modules: [`scene`] (the [`SceneDescription`] and what it is made of: shapes, materials,
 //! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
 //! surfaces turned into triangles), [`xform`] (transform and shape-bounds math), [`camera`]
-//! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
+//! (look-at, focal-length and lens set-ups), [`motion`] (the scene in time: animated
+//! transforms, the shutter, what moves), [`envmap`] (environment-map parameterisations),
 //! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
 
 pub mod builtin;
 pub mod camera;
 pub mod envmap;
+pub mod motion;
 pub mod scene;
 pub mod shapes;
 pub mod spectra;

@@ -772,6 +772,9 @@ pub struct RenderSettings {
     /// variance, which reaches a given luminance error sooner on the Cornell box (measured by
     /// `examples/convergence.rs`). 0 behaves as 1.
     pub russian_roulette_depth: u32,
+    /// The time dimension: the shutter window camera rays sample and what moves during it
+    /// ([`crate::motion`]; default: a static scene, pbrt-v4's shutter 0-1).
+    pub time: crate::motion::TimeSettings,
 }
 
 impl Default for RenderSettings {
@@ -786,6 +789,7 @@ impl Default for RenderSettings {
             direct_only: false,
             sampler: SamplerKind::Sobol,
             russian_roulette_depth: 5,
+            time: crate::motion::TimeSettings::default(),
         }
     }
 }

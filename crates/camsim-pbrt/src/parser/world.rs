@@ -108,7 +108,9 @@ impl Parser {
                 self.require_world(loc, d, true)?;
                 let ty = string_arg(tokens, pos, f, d)?;
                 let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                let first = self.lights.len();
                 self.light_source(&ty, &params, loc, file)?;
+                self.light_motion(first, loc)?;
             }
             "Shape" => {
                 self.require_world(loc, d, true)?;
