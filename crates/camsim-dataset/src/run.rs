@@ -251,6 +251,7 @@ fn run_sample(
     let result = (|| -> std::result::Result<Vec<(String, Vec<u8>)>, String> {
         let opts = SimulateOptions {
             noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
+            flow: spec.outputs.contains(camsim_pipeline::Output::Flow),
         };
         let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
         record.exposure_s = Some(sim.exposure_s);

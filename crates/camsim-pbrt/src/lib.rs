@@ -177,6 +177,8 @@ pub mod ply;
 pub mod spectra;
 
 pub mod overlay;
+mod overlay_motion;
+pub use overlay_motion::ShakeSpec;
 
 // The scene-description modules the reader builds with, under the paths the reader's modules use.
 use camsim_scene3d::{builtin, camera, envmap, scene, shapes, xform};

@@ -24,11 +24,15 @@ pub enum Output {
     /// material the ray through each scene pixel's centre meets first (3D scenes; 2D charts have
     /// none, and it is skipped).
     Ids,
+    /// flow.exr (flow_0001.exr ...): each frame's optical flow in sensor pixels, channels X and
+    /// Y, aligned with raw.dng, and flow_next.exr ... to the next frame of a sequence (3D scenes;
+    /// 2D charts have none, and it is skipped).
+    Flow,
 }
 
 impl Output {
     /// Every output, in the order of [`Self::name`] in `--save`.
-    pub const ALL: [Output; 8] = [
+    pub const ALL: [Output; 9] = [
         Output::Raw,
         Output::RawPng,
         Output::Preview,
@@ -37,6 +41,7 @@ impl Output {
         Output::Depth,
         Output::NoiseFree,
         Output::Ids,
+        Output::Flow,
     ];
 
     /// The name used in `--save`.
@@ -50,6 +55,7 @@ impl Output {
             Output::Depth => "depth",
             Output::NoiseFree => "noise-free",
             Output::Ids => "ids",
+            Output::Flow => "flow",
         }
     }
 }

@@ -231,7 +231,7 @@ pub fn fit_lens_film_to_sensor(
 /// The film of a lens camera's render as what it is: sensor-plane spectral irradiance, W/(m^2
 /// nm), sampled at the film's pixel pitch (the realistic camera's weight cos^4(theta) A / D^2 is a
 /// projected solid angle, so its pixel values are E = L x sr; pbrt-v4 4th ed. sec. 5.3.5).
-fn film_as_irradiance(scene: &SceneDescription, img: &mut SpectralImage) {
+pub(crate) fn film_as_irradiance(scene: &SceneDescription, img: &mut SpectralImage) {
     use camsim_scene3d::scene::CameraLens;
     let diagonal_mm = match &scene.camera.lens {
         Some(CameraLens::Realistic(l)) => l.film_diagonal_mm,

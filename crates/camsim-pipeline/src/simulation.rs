@@ -2,9 +2,11 @@
 //! files ([`Simulation::write`]).
 
 use crate::outputs::{Output, OutputSet};
+use crate::sequence::FrameFlow;
+use crate::timing::FrameTime;
 use crate::{
-    color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, scene_stage, PipelineError,
-    Progress, Result, SimulateConfig,
+    color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, PipelineError, Progress,
+    Result, SimulateConfig,
 };
 use camsim_core::{CfaChannel, Quantity, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
@@ -20,6 +22,8 @@ use std::time::Instant;
 pub struct SimulateOptions {
     /// Also compute [`Simulation::noise_free_dn`] (a second, noise-free pass of the sensor).
     pub noise_free: bool,
+    /// Also compute [`Simulation::flow`] (3D scenes: the optical flow of every frame).
+    pub flow: bool,
 }
 
 /// Where a run came from, for run.json (the library reads neither the command line nor the
@@ -77,6 +81,13 @@ pub struct Simulation {
     /// Seconds per stage ("scene_s", "optics_s", "sensor_s" (with the noise-free pass), "isp_s",
     /// "total_s").
     pub times_s: serde_json::Map<String, serde_json::Value>,
+    /// Per raw frame (file order), its window in the scene's time ([`crate::timing`]).
+    pub frame_times: Vec<FrameTime>,
+    /// The 3D scene moves: every frame was rendered in its own window.
+    pub moving: bool,
+    /// With [`SimulateOptions::flow`] and a 3D scene: each frame's optical flow on the sensor
+    /// grid (sensor pixels, raw.dng's orientation).
+    pub flow: Option<Vec<FrameFlow>>,
 }
 
 /// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
@@ -111,15 +122,17 @@ fn optics_stage(image: &SpectralImage, optics: &Optics) -> Result<SpectralImage>
 }
 
 /// Stages 2 and 3 on a scene image taken by value, for [`simulate`]: with `bracket`, an exposure
-/// bracket / burst (`capture.frames` raws for each exposure, [`Sensor::compute_bracket`]). A lens
+/// bracket / burst (`capture.frames` raws for each exposure, [`Sensor::compute_bracket`]); else
+/// the frames' temporal noise keyed from frame `first_frame` ([`Sensor::compute_from`]). A lens
 /// camera's render, already sensor-plane irradiance, becomes [`Imaged::irradiance`] without a
 /// copy (a full-frame 31-band cube is 1.5 GB), and no radiance is handed back (`None`).
-fn image_owned(
+pub(crate) fn image_owned(
     image: SpectralImage,
     optics: &Optics,
     sensor: &Sensor,
     capture: &Capture,
     bracket: Option<&[f64]>,
+    first_frame: u64,
 ) -> Result<(Option<SpectralImage>, Imaged)> {
     let t = Instant::now();
     let (radiance, irradiance) = match image.quantity {
@@ -132,7 +145,7 @@ fn image_owned(
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let frame = match bracket {
-        None => sensor.compute(&irradiance, capture)?,
+        None => sensor.compute_from(&irradiance, capture, first_frame)?,
         Some(times_s) => {
             sensor.compute_bracket(&irradiance, times_s, capture.frames, capture.seed)?
         }
@@ -186,22 +199,23 @@ pub fn simulate(
         times.insert(name.into(), t.elapsed().as_secs_f64().into());
     };
 
-    let t = Instant::now();
-    progress("scene", 0, 1);
-    let (radiance, ids) = scene_stage(cfg, &sensor, &optics, progress)?;
-    lap(&mut times, "scene_s", t);
-
-    progress("optics", 0, 1);
-    let bracket = cfg.bracket_exposures_s()?;
-    let (
+    // Scene, optics and sensor, frame by frame in time when the scene moves.
+    let crate::sequence::Staged {
         radiance,
-        Imaged {
-            irradiance,
-            frame,
-            optics_s,
-            sensor_s,
-        },
-    ) = image_owned(radiance, &optics, &sensor, &capture, bracket.as_deref())?;
+        ids,
+        imaged:
+            Imaged {
+                irradiance,
+                frame,
+                optics_s,
+                sensor_s,
+            },
+        times: frame_times,
+        flow,
+        scene_s,
+        moving,
+    } = crate::sequence::stage(cfg, &sensor, &optics, &capture, opts.flow, progress)?;
+    times.insert("scene_s".into(), scene_s.into());
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
@@ -264,6 +278,9 @@ pub fn simulate(
         mean_dn_rgb,
         dng,
         times_s: times,
+        frame_times,
+        moving,
+        flow,
     })
 }
 
@@ -358,6 +375,13 @@ impl Simulation {
                 }
             }
         }
+        if outputs.contains(Output::Flow) {
+            let note = match &self.flow {
+                Some(_) => "optical flow of each frame (flow.exr, flow_0001.exr, ...; flow_next*.exr to the next frame), sensor pixels, channels X (right) and Y (down), aligned with raw.dng: where the surface each pixel sees at the frame's start is at the end of its exposure",
+                None => "not written: this scene (a 2D chart) has no optical flow",
+            };
+            files.insert("flow.exr".into(), note.into());
+        }
         if outputs.contains(Output::NoiseFree) {
             files.insert(
                 "noise_free.exr".into(),
@@ -387,6 +411,10 @@ impl Simulation {
             "files": files,
             "times": self.times_s,
         });
+        // The frames in time: each raw's window in the scene's time (file order) and the shutter.
+        v["results"]["frame_times"] = serde_json::to_value(&self.frame_times).unwrap_or_default();
+        v["results"]["shutter"] = self.config.capture.shutter.describe(raw0.rows);
+        v["results"]["scene_moves"] = self.moving.into();
         // An exposure bracket: each raw's exposure time, in file order (raw.dng, raw_0001.dng, ...).
         if self.config.capture.exposures_ms.is_some() {
             v["results"]["frame_exposures_s"] = self
@@ -425,6 +453,11 @@ impl Simulation {
     ) -> Result<()> {
         if outputs.contains(Output::NoiseFree) && self.noise_free_dn.is_none() {
             return Err(PipelineError::config("noise-free output asked for, but the run did not compute it (SimulateOptions::noise_free)"));
+        }
+        if outputs.contains(Output::Flow) && self.flow.is_none() && self.ids.is_some() {
+            return Err(PipelineError::config(
+                "flow output asked for, but the run did not compute it (SimulateOptions::flow)",
+            ));
         }
         // The files are independent: write them side by side (each EXR also compresses its blocks
         // on every thread).
@@ -481,14 +514,22 @@ impl Simulation {
                     )?)
                 }));
             }
+            if let (true, Some(flows)) = (outputs.contains(Output::Flow), self.flow.as_ref()) {
+                let (rows, cols) = (self.frames[0].rows, self.frames[0].cols);
+                for (i, f) in flows.iter().enumerate() {
+                    let maps = std::iter::once(("flow", &f.exposure))
+                        .chain(f.to_next.as_ref().map(|n| ("flow_next", n)));
+                    for (base, map) in maps {
+                        t.push(Box::new(move || {
+                            write_flow(&out.join(frame_file(base, i, "exr")), rows, cols, map)
+                        }));
+                    }
+                }
+            }
             if outputs.contains(Output::Raw) {
                 for (i, raw) in self.frames.iter().enumerate() {
                     t.push(Box::new(move || {
-                        let name = if i == 0 {
-                            "raw.dng".to_string()
-                        } else {
-                            format!("raw_{i:04}.dng")
-                        };
+                        let name = frame_file("raw", i, "dng");
                         Ok(camsim_io::dng::write_dng(&out.join(&name), raw, &self.dng)?)
                     }));
                 }
@@ -527,6 +568,27 @@ impl Simulation {
         camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
         Ok(())
     }
+}
+
+/// The file of frame `i` (0-based): `base.ext`, then `base_0001.ext`, ... (as raw.dng).
+fn frame_file(base: &str, i: usize, ext: &str) -> String {
+    if i == 0 {
+        format!("{base}.{ext}")
+    } else {
+        format!("{base}_{i:04}.{ext}")
+    }
+}
+
+/// Write a flow map (`[dx, dy]` per pixel) as a two-channel EXR: X (right) and Y (down).
+pub fn write_flow(path: &Path, rows: usize, cols: usize, flow: &[[f32; 2]]) -> Result<()> {
+    let x: Vec<f32> = flow.iter().map(|f| f[0]).collect();
+    let y: Vec<f32> = flow.iter().map(|f| f[1]).collect();
+    Ok(camsim_io::exr::write_channels_exr(
+        path,
+        rows,
+        cols,
+        &[("X", &x), ("Y", &y)],
+    )?)
 }
 
 /// Write object_id.png and material_id.png (16-bit grey, row-major scene pixels) and ids.json

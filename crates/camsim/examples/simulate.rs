@@ -13,7 +13,10 @@ fn main() -> camsim::Result<()> {
         config.capture.exposure_ms = Some(exposure_ms);
         let sim = camsim::simulate(
             &config,
-            &camsim::SimulateOptions { noise_free: true },
+            &camsim::SimulateOptions {
+                noise_free: true,
+                ..Default::default()
+            },
             &|_, _, _| {},
         )?;
         let nf = sim.noise_free_dn.as_deref().unwrap_or_default();

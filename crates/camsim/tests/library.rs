@@ -14,7 +14,15 @@ fn quiet(_: &str, _: u64, _: u64) {}
 #[test]
 fn simulation_in_memory_equals_its_files_bit_for_bit() {
     let cfg = SimulateConfig::from_toml_str(SMALL).unwrap();
-    let sim = simulate(&cfg, &SimulateOptions { noise_free: true }, &quiet).unwrap();
+    let sim = simulate(
+        &cfg,
+        &SimulateOptions {
+            noise_free: true,
+            ..Default::default()
+        },
+        &quiet,
+    )
+    .unwrap();
     assert_eq!(sim.frames.len(), 2);
     assert_eq!((sim.frames[0].rows, sim.frames[0].cols), (48, 64));
     assert_eq!(

@@ -25,7 +25,7 @@ use std::path::PathBuf;
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Outputs (--save, comma-separated; or all, default):\n  raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)\n  preview     preview.png: bilinear demosaic, colour-corrected to sRGB\n  raw-png     raw.png: the mosaic scaled to 16 bits for viewing (value = round(DN x 65535 / max DN))\n  radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (3D scenes: depth as channel Z)\n  irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)\n  depth       depth.exr: the depth map of a 3D scene, m (2D charts have none)\n  noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN\n  ids         object_id.png, material_id.png (16-bit, per scene pixel) and ids.json: segmentation of a 3D scene\n\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)"
+    after_help = "Outputs (--save, comma-separated; or all, default):\n  raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)\n  preview     preview.png: bilinear demosaic, colour-corrected to sRGB\n  raw-png     raw.png: the mosaic scaled to 16 bits for viewing (value = round(DN x 65535 / max DN))\n  radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (3D scenes: depth as channel Z)\n  irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)\n  depth       depth.exr: the depth map of a 3D scene, m (2D charts have none)\n  noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN\n  ids         object_id.png, material_id.png (16-bit, per scene pixel) and ids.json: segmentation of a 3D scene\n  flow        flow.exr (flow_0001.exr ... per frame; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)\n\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)"
 )]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
@@ -125,6 +125,7 @@ pub fn run(a: Args) -> Result<()> {
     let pb = common::progress(1, "simulate");
     let opts = SimulateOptions {
         noise_free: outputs.contains(Output::NoiseFree),
+        flow: outputs.contains(Output::Flow),
     };
     let sim = camsim::simulate(&cfg, &opts, &|stage, done, total| {
         pb.set_message(stage.to_string());

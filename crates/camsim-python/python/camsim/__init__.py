@@ -76,19 +76,23 @@ def load_config(config: Config) -> Dict[str, Any]:
     raise TypeError(f"config must be a dict, TOML text or a path, not {type(config).__name__}")
 
 
-def simulate(config: Config, *, noise_free: bool = False, seed: Optional[int] = None) -> Simulation:
+def simulate(config: Config, *, noise_free: bool = False, flow: bool = False,
+             seed: Optional[int] = None) -> Simulation:
     """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance (None
     when the scene's camera is a lens, whose render is the irradiance),
     irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
-    uint16, with cfa, black_level, white_level), preview ((rows, cols, 3) uint8), depth,
-    noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
+    uint16, with cfa, black_level, white_level), frame_times_s ((frames, 2): each frame's start
+    and duration in the scene's time, s; a moving 3D scene is rendered at each frame's own time),
+    preview ((rows, cols, 3) uint8), depth, noise_free (with noise_free=True), flow and flow_next
+    (with flow=True on a 3D scene: (frames, rows, cols, 2) optical flow in sensor pixels, aligned
+    with raw) and metadata (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
     camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]: radiance
     then holds that irradiance too (metadata["results"]["lens_camera"] is True)."""
     cfg = load_config(config)
     if seed is not None:
         cfg["seed"] = int(seed)
-    return _camsim.simulate_json(json.dumps(cfg), noise_free)
+    return _camsim.simulate_json(json.dumps(cfg), noise_free, flow)
 
 
 def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]:

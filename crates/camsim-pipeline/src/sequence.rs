@@ -1,0 +1,212 @@
+//! The scene, optics and sensor stages of a run, in time: each raw frame's exposure window
+//! ([`crate::timing`]) drives the render of a 3D scene that moves, so every frame of a burst,
+//! bracket or video is rendered at its own time (with a rolling shutter, each row at its own),
+//! imaged and read out with its own temporal noise; optical flow comes with it on the sensor
+//! grid. A 2D chart, or a 3D scene where nothing moves, is rendered once and imaged as before
+//! (the same bytes).
+
+use crate::simulation::{image_owned, Imaged};
+use crate::timing::{flow_on_sensor, FrameTime};
+use crate::{render, scene_stage, Progress, Result, SimulateConfig};
+use camsim_core::SpectralImage;
+use camsim_optics::Optics;
+use camsim_scene3d::SceneDescription;
+use camsim_sensor::{Capture, Exposure, Frame, Sensor};
+use std::time::Instant;
+
+/// Optical flow of one raw frame on the sensor's grid: per pixel `[dx, dy]` in sensor pixels
+/// (+x right, +y down, raw.dng's orientation), row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameFlow {
+    /// From the surface each pixel sees at the frame's start to where it is at the end of the
+    /// exposure.
+    pub exposure: Vec<[f32; 2]>,
+    /// To where it is at the next frame's start (`None` for the last frame).
+    pub to_next: Option<Vec<[f32; 2]>>,
+}
+
+/// What the first three stages made.
+pub(crate) struct Staged {
+    pub radiance: Option<SpectralImage>,
+    pub ids: Option<camsim_render::IdMaps>,
+    pub imaged: Imaged,
+    /// Per raw frame, its window.
+    pub times: Vec<FrameTime>,
+    pub flow: Option<Vec<FrameFlow>>,
+    /// Seconds in the scene stage (all renders).
+    pub scene_s: f64,
+    /// The scene moves: every frame was rendered in its own window.
+    pub moving: bool,
+}
+
+/// Sensor pixels per render pixel: a lens camera's film is the sensor window; a pinhole's
+/// render pixel lands on the sensor at `2 v tan(hfov / 2) / width` (the optics stage's image
+/// distance `v`).
+pub fn sensor_px_per_render_px(
+    scene: &SceneDescription,
+    sensor: &Sensor,
+    optics: &Optics,
+) -> Result<f64> {
+    if scene.camera.lens.is_some() {
+        return Ok(sensor.rows() as f64 / scene.camera.height as f64);
+    }
+    let v_m = render::sensor_image_distance_m(optics.config(), scene.focus_distance_m)?;
+    let half = (scene.camera.horizontal_fov_deg().to_radians() / 2.0).tan();
+    Ok(2.0 * v_m * half / scene.camera.width as f64 / sensor.pixel_pitch_m())
+}
+
+/// Every raw's exposure time, s, in file order.
+fn exposures_of(frame: &Frame) -> Vec<f64> {
+    frame.raw.iter().map(|r| r.exposure_s).collect()
+}
+
+/// Run the scene, optics and sensor stages; `flow`: compute the optical flow (3D scenes).
+pub(crate) fn stage(
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+    capture: &Capture,
+    flow: bool,
+    progress: &Progress<'_>,
+) -> Result<Staged> {
+    cfg.capture.check_timing()?;
+    let bracket = cfg.bracket_exposures_s()?;
+    let t = Instant::now();
+    progress("scene", 0, 1);
+    let Some(r) = &cfg.render else {
+        let (radiance, ids) = scene_stage(cfg, sensor, optics, progress)?;
+        let scene_s = t.elapsed().as_secs_f64();
+        progress("optics", 0, 1);
+        let (radiance, imaged) =
+            image_owned(radiance, optics, sensor, capture, bracket.as_deref(), 0)?;
+        let times = cfg.capture.frame_times(&exposures_of(&imaged.frame), 0.0)?;
+        return Ok(Staged {
+            radiance,
+            ids,
+            imaged,
+            times,
+            flow: None,
+            scene_s,
+            moving: false,
+        });
+    };
+    let mut scene = render::render_section_scene(r, cfg, sensor, optics)?;
+    let k = sensor_px_per_render_px(&scene, sensor, optics)?;
+    let shutter = scene.settings.time.shutter;
+    if !scene.settings.time.has_motion() {
+        // Nothing moves: one render serves every frame (as before time was modelled).
+        let mut out = render::render_scene(&scene, progress)?;
+        render::film_as_irradiance(&scene, &mut out.radiance);
+        let scene_s = t.elapsed().as_secs_f64();
+        progress("optics", 0, 1);
+        let (radiance, imaged) =
+            image_owned(out.radiance, optics, sensor, capture, bracket.as_deref(), 0)?;
+        let times = cfg
+            .capture
+            .frame_times(&exposures_of(&imaged.frame), shutter.open_s)?;
+        let n = sensor.rows() * sensor.cols();
+        let flow = flow.then(|| {
+            (0..times.len())
+                .map(|i| FrameFlow {
+                    exposure: vec![[0.0; 2]; n],
+                    to_next: (i + 1 < times.len()).then(|| vec![[0.0; 2]; n]),
+                })
+                .collect()
+        });
+        return Ok(Staged {
+            radiance,
+            ids: Some(out.ids),
+            imaged,
+            times,
+            flow,
+            scene_s,
+            moving: false,
+        });
+    }
+
+    // The scene moves: each raw frame in its own window.
+    let durations: Vec<f64> = match (&bracket, capture.exposure) {
+        (Some(b), _) => b
+            .iter()
+            .flat_map(|t| std::iter::repeat_n(*t, capture.frames))
+            .collect(),
+        (None, Exposure::Seconds(t)) => vec![t; capture.frames],
+        // Auto-exposure: the scene's own shutter length (the exposure is not known yet).
+        (None, Exposure::Auto { .. }) => vec![shutter.close_s - shutter.open_s; capture.frames],
+    };
+    let times = cfg.capture.frame_times(&durations, shutter.open_s)?;
+    scene.settings.time.shutter.rolling =
+        cfg.capture
+            .shutter
+            .row_readout(sensor.rows(), scene.camera.height, k);
+    let (rows, cols) = (sensor.rows(), sensor.cols());
+    let mut scene_s = 0.0;
+    let (mut optics_s, mut sensor_s) = (0.0, 0.0);
+    let mut first: Option<(
+        Option<SpectralImage>,
+        camsim_render::IdMaps,
+        SpectralImage,
+        Frame,
+    )> = None;
+    let mut flows = Vec::new();
+    for (i, w) in times.iter().enumerate() {
+        let next = times.get(i + 1).map(|n| n.start_s - w.start_s);
+        let time = &mut scene.settings.time;
+        time.shutter.open_s = w.start_s;
+        time.shutter.close_s = w.start_s + w.duration_s;
+        time.flow_intervals_s = if flow {
+            std::iter::once(w.duration_s).chain(next).collect()
+        } else {
+            Vec::new()
+        };
+        let t = Instant::now();
+        let mut out = render::render_scene(&scene, progress)?;
+        render::film_as_irradiance(&scene, &mut out.radiance);
+        scene_s += t.elapsed().as_secs_f64();
+        if flow {
+            flows.push(FrameFlow {
+                exposure: flow_on_sensor(&out.flow[0], k, rows, cols),
+                to_next: out.flow.get(1).map(|m| flow_on_sensor(m, k, rows, cols)),
+            });
+        }
+        // Frame 0 resolves auto-exposure; the others keep its time (or their bracket's).
+        let exposure = match (&first, &bracket) {
+            (None, None) => capture.exposure,
+            (Some((_, _, _, f0)), None) => Exposure::Seconds(f0.exposure_s),
+            (_, Some(_)) => Exposure::Seconds(durations[i]),
+        };
+        let cap = Capture {
+            exposure,
+            frames: 1,
+            seed: capture.seed,
+        };
+        progress("optics", i as u64, times.len() as u64);
+        let (radiance, im) = image_owned(out.radiance, optics, sensor, &cap, None, i as u64)?;
+        optics_s += im.optics_s;
+        sensor_s += im.sensor_s;
+        match &mut first {
+            None => first = Some((radiance, out.ids, im.irradiance, im.frame)),
+            Some((_, _, _, f0)) => {
+                f0.raw.extend(im.frame.raw);
+                if let (Some(a), Some(b)) = (&mut f0.analog_dn, im.frame.analog_dn) {
+                    a.extend(b);
+                }
+            }
+        }
+    }
+    let (radiance, ids, irradiance, frame) = first.expect("at least one frame (checked)");
+    Ok(Staged {
+        radiance,
+        ids: Some(ids),
+        imaged: Imaged {
+            irradiance,
+            frame,
+            optics_s,
+            sensor_s,
+        },
+        times,
+        flow: flow.then_some(flows),
+        scene_s,
+        moving: true,
+    })
+}
