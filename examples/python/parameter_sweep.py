@@ -11,9 +11,8 @@ alongside, and saved as sweep.npz (numpy). The mean signal grows as exposure / N
 
 import sys
 
-import numpy as np
-
 import camsim
+import numpy as np
 
 small = "--small" in sys.argv
 out = next((a for a in sys.argv[1:] if a.endswith(".npz")), "sweep.npz")

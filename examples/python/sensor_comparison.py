@@ -14,9 +14,8 @@ colour). Writes sensor_comparison.png.
 
 import sys
 
-import numpy as np
-
 import camsim
+import numpy as np
 
 out = next((a for a in sys.argv[1:] if a.endswith(".png")), "sensor_comparison.png")
 
@@ -48,7 +47,8 @@ for label, sensor in [("1.4 um (pixel4a)", None), ("2.8 um", big)]:
         m, mf = np.array(p["mean"]), np.array(q["mean"])
         cosang = np.dot(m, mf) / max(np.linalg.norm(m) * np.linalg.norm(mf), 1e-12)
         err.append(np.degrees(np.arccos(np.clip(cosang, -1, 1))))
-    results[label] = (snr, np.array(err))
+    patches = [p["patch"] for p in noisy]  # 1-24, as on the chart
+    results[label] = (patches, snr, np.array(err))
     print(f"{label}: median SNR {np.median(snr):.1f}, median colour error {np.median(err):.3f} deg")
 
 try:
@@ -61,9 +61,9 @@ except ImportError:
     sys.exit(0)
 
 fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-for label, (snr, err) in results.items():
-    ax[0].plot(range(1, 25), snr, "o-", label=label)
-    ax[1].plot(range(1, 25), err, "o-", label=label)
+for label, (patches, snr, err) in results.items():
+    ax[0].plot(patches, snr, "o-", label=label)
+    ax[1].plot(patches, err, "o-", label=label)
 ax[0].set(xlabel="ColorChecker patch", ylabel="SNR, green (mean / std)", yscale="log", title="SNR per patch")
 ax[1].set(xlabel="ColorChecker patch", ylabel="colour error, degrees", title="RGB angle to the noise-free mean")
 for a in ax:

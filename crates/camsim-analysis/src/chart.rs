@@ -109,8 +109,9 @@ impl ChartCorners {
 /// One patch's region.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PatchRegion {
-    /// Patch number, 0..24 in the standard order.
-    pub index: usize,
+    /// Patch number, 1..=24 in the standard order (X-Rite's and ISETCam's numbering: 1 dark
+    /// skin, 19 white, 24 black).
+    pub patch: usize,
     /// Patch name.
     pub name: String,
     /// Chart row (0 = top).
@@ -154,6 +155,7 @@ pub fn chart_patch_rects(
     for pr in 0..PATCH_ROWS {
         for pc in 0..PATCH_COLS {
             let index = pr * PATCH_COLS + pc;
+            let patch = index + 1;
             let centre = corners.patch_centre(pr, pc);
             // Pixels with centre k + 0.5 in [c - half, c + half).
             let lo = |c: f64| (c - half - 0.5).ceil();
@@ -163,7 +165,7 @@ pub fn chart_patch_rects(
                 return Err(AnalysisError::invalid(
                     "chart",
                     format!(
-                        "patch {index} ({}) holds no pixel: the chart is too small",
+                        "patch {patch} ({}) holds no pixel: the chart is too small",
                         PATCH_NAMES[index]
                     ),
                 ));
@@ -171,7 +173,7 @@ pub fn chart_patch_rects(
             if c0 < 0.0 || r0 < 0.0 || c1 >= cols as f64 || r1 >= rows as f64 {
                 return Err(AnalysisError::invalid(
                     "chart",
-                    format!("patch {index} ({}) at [{:.1}, {:.1}] lies outside the {rows} x {cols} image", PATCH_NAMES[index], centre[0], centre[1]),
+                    format!("patch {patch} ({}) at [{:.1}, {:.1}] lies outside the {rows} x {cols} image", PATCH_NAMES[index], centre[0], centre[1]),
                 ));
             }
             let rect = Rect::new(
@@ -181,7 +183,7 @@ pub fn chart_patch_rects(
                 (c1 - c0) as usize + 1,
             );
             out.push(PatchRegion {
-                index,
+                patch,
                 name: PATCH_NAMES[index].to_string(),
                 row: pr,
                 col: pc,
@@ -196,8 +198,9 @@ pub fn chart_patch_rects(
 /// Per-channel statistics of one patch.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PatchStats {
-    /// Patch number, 0..24 in the standard order.
-    pub index: usize,
+    /// Patch number, 1..=24 in the standard order (X-Rite's and ISETCam's numbering: 1 dark
+    /// skin, 19 white, 24 black).
+    pub patch: usize,
     /// Patch name.
     pub name: String,
     /// The region measured.
@@ -222,7 +225,7 @@ pub fn chart_patch_stats_raw(
         .map(|p| {
             let m = raw_rect_moments(raw, &p.rect)?;
             Ok(PatchStats {
-                index: p.index,
+                patch: p.patch,
                 name: p.name,
                 rect: p.rect,
                 mean: m.map(|v| v.mean()),
@@ -245,7 +248,7 @@ pub fn chart_patch_stats_rgb(
         .map(|p| {
             let m = rgb_rect_moments(planes, &p.rect)?;
             Ok(PatchStats {
-                index: p.index,
+                patch: p.patch,
                 name: p.name,
                 rect: p.rect,
                 mean: m.map(|v| v.mean()),
@@ -430,6 +433,9 @@ mod tests {
             chart_patch_stats_rgb(&planes, &corners, 0.5).unwrap(),
         ] {
             assert_eq!(stats.len(), 24);
+            // Numbered 1..=24 as on the chart: 1 dark skin, 19 white, 24 black.
+            assert_eq!((stats[0].patch, stats[0].name.as_str()), (1, "dark skin"));
+            assert_eq!((stats[18].patch, stats[23].patch), (19, 24));
             for s in &stats {
                 // 13 x 13 pixels: the central half of a 26-pixel patch.
                 assert_eq!(s.rect.rows, 13);
@@ -437,9 +443,9 @@ mod tests {
                 for c in 0..3 {
                     assert_eq!(
                         s.mean[c],
-                        value(s.index, c),
+                        value(s.patch - 1, c),
                         "patch {} channel {c}",
-                        s.index
+                        s.patch
                     );
                     assert_eq!(s.std[c], 0.0);
                     assert!(s.n[c] > 0);

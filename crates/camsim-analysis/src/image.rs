@@ -384,13 +384,17 @@ pub(crate) fn check_raw(raw: &RawImage) -> Result<()> {
     Ok(())
 }
 
-/// Luminance weights of Rec. ITU-R BT.709 (R, G, B), as `sfrmat` uses by default.
+/// Luminance weights of Rec. ITU-R BT.709 (R, G, B), as `sfrmat` uses by default: camsim's one
+/// luminance of RGB data ([`luminance`]).
 pub const LUMINANCE_WEIGHTS_REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
-/// Weighted sum of three planes of equal size (luminance of a demosaicked image).
-pub fn luminance(planes: &[Plane; 3], weights: [f64; 3]) -> Result<Plane> {
+/// The luminance of three planes of equal size (a demosaicked image): the Rec. 709 weighted sum
+/// [`LUMINANCE_WEIGHTS_REC709`], the one luminance every camsim measurement of RGB data uses (the
+/// CLI, Python and `camsim validate` measure the same number). A spectral image's luminance is
+/// [`spectral_luminance`].
+pub fn luminance(planes: &[Plane; 3]) -> Result<Plane> {
     check_rgb(planes)?;
-    let w = weights.map(|v| v as f32);
+    let w = LUMINANCE_WEIGHTS_REC709.map(|v| v as f32);
     let data = (0..planes[0].data.len())
         .map(|i| w[0] * planes[0].data[i] + w[1] * planes[1].data[i] + w[2] * planes[2].data[i])
         .collect();
@@ -399,6 +403,21 @@ pub fn luminance(planes: &[Plane; 3], weights: [f64; 3]) -> Result<Plane> {
         cols: planes[0].cols,
         data,
     })
+}
+
+/// The luminance of a spectral image up to a constant: sum over bands of the CIE 1931 photopic
+/// luminous efficiency ybar(lambda) times the band (CIE 015:2018 eq. 7.1 without 683 lm/W and
+/// d(lambda), which do not change a normalised measurement such as the SFR).
+pub fn spectral_luminance(img: &camsim_core::SpectralImage) -> Result<Plane> {
+    let cmfs = camsim_core::colorimetry::Cmfs::on(&img.grid);
+    let mut y = vec![0f32; img.pixels()];
+    for b in 0..img.bands() {
+        let w = cmfs.y[b] as f32;
+        for (o, v) in y.iter_mut().zip(img.band(b)) {
+            *o += w * v;
+        }
+    }
+    Plane::new(img.rows, img.cols, y)
 }
 
 /// Error unless three planes share one size.
@@ -486,10 +505,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("RGBW"), "{e}");
-        let e = crate::roi::raw_rect_moments(&raw, &Rect::new(0, 0, 2, 2))
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("Bayer"), "{e}");
+        // (The region statistics refuse it too: crate::roi's tests.)
         // The whole mosaic needs no layout: still readable.
         assert!(raw_plane(&raw).is_ok());
     }

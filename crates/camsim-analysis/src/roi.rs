@@ -172,6 +172,16 @@ mod tests {
     use camsim_core::CfaPattern;
     use rand_distr::{Distribution, Normal};
 
+    #[test]
+    fn a_non_bayer_frame_is_refused_by_the_region_statistics() {
+        let mut raw = RawImage::new(4, 4, CfaPattern::Rggb, 12).unwrap();
+        raw.layout = Some(camsim_core::cfa::CfaLayout::parse("RGBW").unwrap());
+        let e = raw_rect_moments(&raw, &Rect::new(0, 0, 2, 2))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("Bayer"), "{e}");
+    }
+
     fn noisy_raw(seed: u64, level: [f64; 3], sigma: [f64; 3]) -> RawImage {
         let (rows, cols) = (64, 80);
         let mut raw = RawImage::new(rows, cols, CfaPattern::Grbg, 12).unwrap();

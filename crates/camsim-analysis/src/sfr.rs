@@ -196,13 +196,51 @@ pub fn sfr(plane: &Plane, roi: Option<Rect>, opts: &SfrOptions) -> Result<SfrRes
     sfr_with_pitch(plane, roi, opts, 1.0)
 }
 
-/// [`sfr`] on a grid whose samples are `pitch_sensor_px` sensor pixels apart.
+/// [`sfr`] on a grid whose samples are `pitch_sensor_px` sensor pixels apart: sfrmat's steps
+/// (check, orient, edge fit, binned ESF, windowed LSF, DFT), one function each.
 fn sfr_with_pitch(
     plane: &Plane,
     roi: Option<Rect>,
     opts: &SfrOptions,
     pitch_sensor_px: f64,
 ) -> Result<SfrResult> {
+    check_options(opts)?;
+    let roi = roi.unwrap_or_else(|| plane.full_rect());
+    let mut g = oriented_roi(plane, &roi)?;
+    let polarity = make_dark_to_light(&mut g, &roi)?;
+    let edge = fit_edge(&g, opts.poly_order, &roi)?;
+    let ovs = opts.oversample;
+    let (esf, empty_bins) = binned_esf(&g, &edge, ovs, &roi)?;
+    let lsf = windowed_lsf(&esf);
+    let (freq, mtf) = lsf_mtf(&lsf, ovs, &roi)?;
+    let mtf50 = crossing(&freq, &mtf, 0.5);
+    let mtf_at_nyquist = interp(&freq, &mtf, 0.5);
+    let pitch_mm = opts.pixel_pitch_mm.map(|p| p * pitch_sensor_px);
+    Ok(SfrResult {
+        freq_cyc_per_sensor_px: freq.iter().map(|f| f / pitch_sensor_px).collect(),
+        freq_cyc_per_mm: pitch_mm.map(|p| freq.iter().map(|f| f / p).collect()),
+        freq_cyc_per_sample: freq,
+        mtf,
+        edge_angle_deg: poly_slope(&edge.fit, 0.0).atan().to_degrees(),
+        orientation: g.orientation,
+        edge_fit: edge.fit,
+        edge_fit_row0: edge.row0,
+        rows_used: edge.nlin1,
+        empty_bins,
+        mtf50_cyc_per_sample: mtf50,
+        mtf50_cyc_per_sensor_px: mtf50.map(|f| f / pitch_sensor_px),
+        mtf50_cyc_per_mm: mtf50.and_then(|f| pitch_mm.map(|p| f / p)),
+        mtf_at_nyquist,
+        nyquist_cyc_per_sensor_px: 0.5 / pitch_sensor_px,
+        esf_spacing_px: 1.0 / ovs as f64,
+        esf: esf.iter().map(|v| v * polarity).collect(),
+        lsf,
+        roi,
+        sample_pitch_sensor_px: pitch_sensor_px,
+    })
+}
+
+fn check_options(opts: &SfrOptions) -> Result<()> {
     if opts.oversample == 0 || opts.oversample > 64 {
         return Err(AnalysisError::invalid(
             "sfr oversample",
@@ -223,8 +261,20 @@ fn sfr_with_pitch(
             ));
         }
     }
-    let roi = roi.unwrap_or_else(|| plane.full_rect());
-    let crop = plane.crop(&roi)?;
+    Ok(())
+}
+
+/// The ROI's values, transposed when the edge runs horizontally, so the edge always runs down
+/// the rows: `a[r * npix + m]`, `nlin` rows along the edge, `npix` samples across it.
+struct EdgeGrid {
+    a: Vec<f64>,
+    nlin: usize,
+    npix: usize,
+    orientation: EdgeOrientation,
+}
+
+fn oriented_roi(plane: &Plane, roi: &Rect) -> Result<EdgeGrid> {
+    let crop = plane.crop(roi)?;
     if crop.data.iter().any(|v| !v.is_finite()) {
         return Err(AnalysisError::invalid(
             "sfr",
@@ -253,28 +303,53 @@ fn sfr_with_pitch(
             format!("ROI {roi} needs at least 8 pixels across the edge and 4 along it"),
         ));
     }
-    // Make the edge dark-to-light from left to right (ISO 12233 allows either polarity).
+    Ok(EdgeGrid {
+        a,
+        nlin,
+        npix,
+        orientation,
+    })
+}
+
+/// Make the edge dark-to-light from left to right (ISO 12233 allows either polarity); returns the
+/// sign applied (1 or -1). Errors when the two sides do not differ.
+fn make_dark_to_light(g: &mut EdgeGrid, roi: &Rect) -> Result<f64> {
+    let (nlin, npix) = (g.nlin, g.npix);
     let k = (npix / 8).clamp(1, 5);
     let side = |a: &[f64], cs: std::ops::Range<usize>| -> f64 {
         (0..nlin)
             .map(|r| cs.clone().map(|c| a[r * npix + c]).sum::<f64>())
             .sum::<f64>()
     };
-    let (left, right) = (side(&a, 0..k), side(&a, npix - k..npix));
+    let (left, right) = (side(&g.a, 0..k), side(&g.a, npix - k..npix));
     let polarity = if right >= left { 1.0 } else { -1.0 };
     if polarity < 0.0 {
-        a.iter_mut().for_each(|v| *v = -*v);
+        g.a.iter_mut().for_each(|v| *v = -*v);
     }
     let contrast = (right - left).abs() / (nlin * k) as f64;
-    let level = a.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let level = g.a.iter().map(|v| v.abs()).fold(0.0, f64::max);
     if !(contrast > 1e-9 * level.max(1e-30)) {
         return Err(AnalysisError::invalid(
             "sfr",
             format!("ROI {roi} shows no edge (no contrast between its sides)"),
         ));
     }
+    Ok(polarity)
+}
 
-    // 1-2. Edge location per row: centroid of the windowed derivative; two passes (sfrmat).
+/// The fitted edge: `x = poly(t)`, t = row - `row0`, over rows `first..first + nlin1` (an integer
+/// number of phase cycles).
+struct EdgeFit {
+    fit: Vec<f64>,
+    row0: f64,
+    first: usize,
+    nlin1: usize,
+}
+
+/// sfrmat steps 1-3: the edge location per row (centroid of the windowed derivative, two passes),
+/// a polynomial fit, and the rows kept for an integer number of phase cycles.
+fn fit_edge(g: &EdgeGrid, poly_order: usize, roi: &Rect) -> Result<EdgeFit> {
+    let (a, nlin, npix) = (&g.a, g.nlin, g.npix);
     let nd = npix - 1; // derivative samples, sample m at x = m + 0.5
     let centroid_row = |r: usize, mid: f64| -> Option<f64> {
         let row = &a[r * npix..(r + 1) * npix];
@@ -289,40 +364,31 @@ fn sfr_with_pitch(
     let row0 = (nlin as f64 - 1.0) / 2.0;
     let fit_rows = |rows: &[usize], locs: &[f64]| -> Result<Vec<f64>> {
         let xs: Vec<f64> = rows.iter().map(|r| *r as f64).collect();
-        polyfit(&xs, locs, opts.poly_order, row0).ok_or_else(|| {
+        polyfit(&xs, locs, poly_order, row0).ok_or_else(|| {
             AnalysisError::invalid("sfr", format!("cannot fit a line to the edge in ROI {roi}"))
         })
     };
-    let mut rows_ok = Vec::with_capacity(nlin);
-    let mut locs = Vec::with_capacity(nlin);
-    for r in 0..nlin {
-        if let Some(c) = centroid_row(r, (nd as f64 - 1.0) / 2.0) {
-            rows_ok.push(r);
-            locs.push(c);
+    let located = |place: &dyn Fn(usize) -> f64| -> Result<(Vec<usize>, Vec<f64>)> {
+        let (mut rows_ok, mut locs) = (Vec::with_capacity(nlin), Vec::with_capacity(nlin));
+        for r in 0..nlin {
+            if let Some(c) = centroid_row(r, place(r)) {
+                rows_ok.push(r);
+                locs.push(c);
+            }
         }
-    }
-    if rows_ok.len() < nlin.div_ceil(2).max(3) {
-        return Err(AnalysisError::invalid(
-            "sfr",
-            format!("no edge found in most rows of ROI {roi}"),
-        ));
-    }
-    let fit1 = fit_rows(&rows_ok, &locs)?;
-    rows_ok.clear();
-    locs.clear();
-    for r in 0..nlin {
-        let place = poly_eval(&fit1, r as f64 - row0) - 0.5; // derivative index of the edge
-        if let Some(c) = centroid_row(r, place.clamp(0.0, nd as f64 - 1.0)) {
-            rows_ok.push(r);
-            locs.push(c);
+        if rows_ok.len() < nlin.div_ceil(2).max(3) {
+            return Err(AnalysisError::invalid(
+                "sfr",
+                format!("no edge found in most rows of ROI {roi}"),
+            ));
         }
-    }
-    if rows_ok.len() < nlin.div_ceil(2).max(3) {
-        return Err(AnalysisError::invalid(
-            "sfr",
-            format!("no edge found in most rows of ROI {roi}"),
-        ));
-    }
+        Ok((rows_ok, locs))
+    };
+    let (rows1, locs1) = located(&|_| (nd as f64 - 1.0) / 2.0)?;
+    let fit1 = fit_rows(&rows1, &locs1)?;
+    // Second pass: the window centred on the first fit's edge (its derivative index).
+    let (rows_ok, locs) =
+        located(&|r| (poly_eval(&fit1, r as f64 - row0) - 0.5).clamp(0.0, nd as f64 - 1.0))?;
     let fit2 = fit_rows(&rows_ok, &locs)?;
     let slope = poly_slope(&fit2, 0.0);
 
@@ -349,8 +415,6 @@ fn sfr_with_pitch(
     } else {
         fit2
     };
-    let slope = poly_slope(&fit, 0.0);
-    let edge_angle_deg = slope.atan().to_degrees();
     let mid_loc = poly_eval(&fit, 0.0);
     if !(mid_loc > 0.0 && mid_loc < npix as f64 - 1.0) {
         return Err(AnalysisError::invalid(
@@ -358,18 +422,28 @@ fn sfr_with_pitch(
             format!("the fitted edge leaves ROI {roi}"),
         ));
     }
+    Ok(EdgeFit {
+        fit,
+        row0,
+        first,
+        nlin1,
+    })
+}
 
-    // 4. Project onto the edge normal and bin at 1/oversample pixel.
-    let ovs = opts.oversample;
+/// sfrmat step 4: every sample projected onto the edge normal and binned at 1/`ovs` pixel; empty
+/// bins filled by linear interpolation between the nearest filled ones (held at the ends).
+/// Returns the ESF and the number of empty bins.
+fn binned_esf(g: &EdgeGrid, e: &EdgeFit, ovs: usize, roi: &Rect) -> Result<(Vec<f64>, usize)> {
+    let npix = g.npix;
     let nn = npix * ovs;
     let half = (nn / 2) as f64;
     let mut sum = vec![0.0f64; nn];
     let mut count = vec![0u32; nn];
-    for r in first..first + nlin1 {
-        let t = r as f64 - row0;
-        let xe = poly_eval(&fit, t);
-        let cosang = poly_slope(&fit, t).atan().cos();
-        let row = &a[r * npix..(r + 1) * npix];
+    for r in e.first..e.first + e.nlin1 {
+        let t = r as f64 - e.row0;
+        let xe = poly_eval(&e.fit, t);
+        let cosang = poly_slope(&e.fit, t).atan().cos();
+        let row = &g.a[r * npix..(r + 1) * npix];
         for (m, v) in row.iter().enumerate() {
             let d = (m as f64 - xe) * cosang;
             let b = (d * ovs as f64 + half).floor();
@@ -390,7 +464,6 @@ fn sfr_with_pitch(
     for b in &filled {
         esf[*b] = sum[*b] / count[*b] as f64;
     }
-    // Empty bins: linear interpolation between the nearest filled neighbours, held at the ends.
     let mut empty_bins = 0;
     for b in 0..nn {
         if count[b] > 0 {
@@ -408,9 +481,14 @@ fn sfr_with_pitch(
             esf[b0] * (1.0 - w) + esf[b1] * w
         };
     }
+    Ok((esf, empty_bins))
+}
 
-    // 5. LSF: first difference (the [-1/2, 1/2] kernel, scale irrelevant after normalisation),
-    // Hamming window centred on the LSF centroid.
+/// sfrmat step 5: the LSF, first difference of the ESF (the [-1/2, 1/2] kernel; the scale does
+/// not matter after normalisation), Hamming-windowed about its centroid.
+fn windowed_lsf(esf: &[f64]) -> Vec<f64> {
+    let nn = esf.len();
+    let half = (nn / 2) as f64;
     let mut lsf = vec![0.0f64; nn];
     for b in 0..nn - 1 {
         lsf[b] = esf[b + 1] - esf[b];
@@ -425,11 +503,16 @@ fn sfr_with_pitch(
     for (i, v) in lsf.iter_mut().enumerate().take(nn - 1) {
         *v *= hamming_at(i as f64, centre, nn - 1);
     }
+    lsf
+}
 
-    // 6. DFT, normalise at DC, divide by the difference filter's response sinc(f / oversample).
+/// sfrmat step 6: |DFT| of the LSF normalised at DC, divided by the difference filter's response
+/// sinc(f / oversample) (fir2fix, capped at 10). Returns (frequency, cycles per sample; MTF).
+fn lsf_mtf(lsf: &[f64], ovs: usize, roi: &Rect) -> Result<(Vec<f64>, Vec<f64>)> {
+    let nn = lsf.len();
     let mut planner = realfft::RealFftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(nn);
-    let mut input = lsf.clone();
+    let mut input = lsf.to_vec();
     let mut spectrum = fft.make_output_vec();
     fft.process(&mut input, &mut spectrum)
         .map_err(|e| AnalysisError::invalid("sfr", format!("FFT failed: {e}")))?;
@@ -446,36 +529,11 @@ fn sfr_with_pitch(
     let mut mtf = Vec::with_capacity(nf);
     for (k, c) in spectrum.iter().enumerate().take(nf) {
         let f = k as f64 / (nn as f64 * spacing);
-        // sfrmat fir2fix: correction capped at 10.
         let corr = (1.0 / sinc(f * spacing)).min(10.0);
         freq.push(f);
         mtf.push(c.norm() / dc * corr);
     }
-    let mtf50 = crossing(&freq, &mtf, 0.5);
-    let mtf_at_nyquist = interp(&freq, &mtf, 0.5);
-    let pitch_mm = opts.pixel_pitch_mm.map(|p| p * pitch_sensor_px);
-    Ok(SfrResult {
-        freq_cyc_per_sensor_px: freq.iter().map(|f| f / pitch_sensor_px).collect(),
-        freq_cyc_per_mm: pitch_mm.map(|p| freq.iter().map(|f| f / p).collect()),
-        freq_cyc_per_sample: freq,
-        mtf,
-        edge_angle_deg,
-        orientation,
-        edge_fit: fit,
-        edge_fit_row0: row0,
-        rows_used: nlin1,
-        empty_bins,
-        mtf50_cyc_per_sample: mtf50,
-        mtf50_cyc_per_sensor_px: mtf50.map(|f| f / pitch_sensor_px),
-        mtf50_cyc_per_mm: mtf50.and_then(|f| pitch_mm.map(|p| f / p)),
-        mtf_at_nyquist,
-        nyquist_cyc_per_sensor_px: 0.5 / pitch_sensor_px,
-        esf_spacing_px: spacing,
-        esf: esf.iter().map(|v| v * polarity).collect(),
-        lsf,
-        roi,
-        sample_pitch_sensor_px: pitch_sensor_px,
-    })
+    Ok((freq, mtf))
 }
 
 /// First frequency where `y` falls to `level` (linear interpolation), if it does.
@@ -541,15 +599,14 @@ pub fn sfr_raw_sub_grid(
     sfr_with_pitch(&plane, sub_roi, &o, 2.0)
 }
 
-/// SFR of the luminance (weights, e.g. [`crate::image::LUMINANCE_WEIGHTS_REC709`]) of a
-/// demosaicked RGB image.
+/// SFR of the luminance of a demosaicked RGB image (camsim's one luminance of RGB planes,
+/// [`crate::image::luminance`]: Rec. 709 weights).
 pub fn sfr_luminance(
     planes: &[Plane; 3],
-    weights: [f64; 3],
     roi: Option<Rect>,
     opts: &SfrOptions,
 ) -> Result<SfrResult> {
-    let y = luminance(planes, weights)?;
+    let y = luminance(planes)?;
     sfr(&y, roi, opts)
 }
 

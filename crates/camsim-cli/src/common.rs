@@ -2,7 +2,7 @@
 //! extension.
 
 use anyhow::{Context, Result};
-use camsim_io::atomic::OutputDir;
+use camsim::io::atomic::OutputDir;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -48,7 +48,7 @@ pub fn say(msg: impl AsRef<str>) {
 }
 
 /// Stage an output folder: outputs go into a fresh sibling `DIR.tmp-<pid>` that
-/// [`camsim_io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
+/// [`camsim::io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
 /// type). Refuses a DIR that is not a folder camsim may replace (exit 2). When DIR holds an
 /// earlier run, says on stderr (even with --quiet) what the commit will replace.
 ///
@@ -139,22 +139,12 @@ pub fn parent_dir(file: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Read a spectral EXR, warning on stderr when round-off-sized negative samples (another tool's
-/// FFT output) were clamped to 0 (`camsim_io::exr::NEGATIVE_ROUNDOFF_FRACTION`).
-pub fn read_spectral_exr(path: &Path) -> Result<camsim_core::SpectralImage> {
-    let (img, info) = camsim_io::exr::read_spectral_exr_with_info(path)?;
-    if info.clamped_negatives > 0 {
-        eprintln!(
-            "camsim: warning: {}: clamped {} round-off negative samples to 0 (most negative {:e})",
-            path.display(),
-            info.clamped_negatives,
-            info.most_negative_clamped
-        );
+/// Read a spectral EXR (`camsim::pipeline::inputs::read_spectral_exr`), printing its warning on
+/// stderr when round-off-sized negative samples were clamped to 0.
+pub fn read_spectral_exr(path: &Path) -> Result<camsim::core::SpectralImage> {
+    let (img, warning) = camsim::pipeline::inputs::read_spectral_exr(path)?;
+    if let Some(w) = warning {
+        eprintln!("camsim: warning: {w}");
     }
     Ok(img)
-}
-
-/// Read a text file, naming it in the error.
-pub fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))
 }

@@ -86,6 +86,90 @@ fn write_edge_dng(path: &Path) {
     camsim_io::dng::write_dng(path, &raw, &meta).unwrap();
 }
 
+/// One SFR whichever door measures it: `camsim analyze sfr`, the application layer's
+/// `measure_sfr` (what Python's `camsim.sfr` calls) and `camsim validate`'s edge measurement give
+/// the same numbers on the same image, and the luminance curve is the SFR of the one luminance of
+/// RGB data, Rec. 709 (the CLI used Rec. 601, Python and validate Rec. 709).
+#[test]
+fn the_cli_the_library_and_validate_measure_one_sfr() {
+    use camsim::analysis::sfr;
+    use camsim::pipeline::measure::sfr::{measure_sfr, SfrImage, SfrRequest};
+    let dir = tempfile::tempdir().unwrap();
+    let dng = dir.path().join("edge.dng");
+    write_edge_dng(&dng);
+    let raw = camsim_io::dng::read_dng(&dng).unwrap().0;
+    // The CLI, with and without a given ROI.
+    let roi = "20,40,150,48";
+    for given in [None, Some(roi)] {
+        let out = dir.path().join(format!("sfr-{}", given.is_some()));
+        let mut args = vec!["analyze", "sfr", dng.to_str().unwrap(), "--json", "--quiet"];
+        args.extend(["--out", out.to_str().unwrap()]);
+        if let Some(r) = given {
+            args.extend(["--roi", r]);
+        }
+        let o = camsim(&args);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let req = SfrRequest {
+            roi: given.map(|r| {
+                let v: Vec<usize> = r.split(',').map(|x| x.parse().unwrap()).collect();
+                camsim::analysis::Rect::new(v[0], v[1], v[2], v[3])
+            }),
+            ..SfrRequest::default()
+        };
+        let report = measure_sfr(&SfrImage::Raw(raw.clone()), &req).unwrap();
+        let curves = json["curves"].as_array().unwrap();
+        assert_eq!(curves.len(), 4);
+        for (c, r) in curves.iter().zip(&report.curves) {
+            assert_eq!(c["curve"], r.name.as_str());
+            let f = |k: &str| c[k].as_f64().unwrap();
+            assert_eq!(
+                f("mtf50_cyc_per_sensor_px"),
+                r.result.mtf50_cyc_per_sensor_px.unwrap()
+            );
+            assert_eq!(f("mtf_at_nyquist"), r.result.mtf_at_nyquist);
+            assert_eq!(f("edge_angle_deg"), r.result.edge_angle_deg);
+        }
+        assert_eq!(
+            std::fs::read_to_string(out.join("sfr.csv")).unwrap(),
+            report.csv(),
+            "sfr.csv"
+        );
+        // The luminance curve is the SFR of 0.2126 R + 0.7152 G + 0.0722 B of the bilinear
+        // demosaic (ITU-R BT.709), in the same ROI.
+        let rgb = camsim::isp::demosaic_bilinear(&raw);
+        let y: Vec<f32> = (0..rgb.pixels())
+            .map(|i| 0.2126f32 * rgb.r[i] + 0.7152f32 * rgb.g[i] + 0.0722f32 * rgb.b[i])
+            .collect();
+        let plane = camsim::analysis::Plane::new(rgb.rows, rgb.cols, y).unwrap();
+        let opts = sfr::SfrOptions {
+            pixel_pitch_mm: Some(PITCH_UM * 1e-3),
+            ..Default::default()
+        };
+        let lum = sfr::sfr(&plane, report.roi, &opts).unwrap();
+        assert_eq!(lum.mtf, report.curve("luminance").unwrap().mtf);
+        if given.is_some() {
+            // camsim validate's edge measurement, on the same image and ROI (and pitch: the
+            // DNG's FocalPlaneXResolution is a rounded rational).
+            let pitch_m = PITCH_UM * 1e-6;
+            let v = camsim::validate::optics_fig::slanted_edge_curves(
+                &raw,
+                report.roi.unwrap(),
+                pitch_m,
+            )
+            .unwrap();
+            let same_pitch = SfrRequest {
+                pixel_pitch_mm: Some(pitch_m * 1e3),
+                ..req.clone()
+            };
+            let layer = measure_sfr(&SfrImage::Raw(raw.clone()), &same_pitch).unwrap();
+            let layer: Vec<_> = layer.curves.into_iter().map(|c| c.result).collect();
+            assert_eq!(v, layer, "validate's SFR differs from the CLI's");
+            assert_eq!(v[3].mtf, lum.mtf);
+        }
+    }
+}
+
 /// MTF50 of the closed form, cycles per sensor pixel: Gaussian exp(-2 pi^2 sigma^2 f^2) times the
 /// sensor pixel's square aperture projected on the edge normal, |sinc(f cos) sinc(f sin)|.
 fn closed_form_mtf50() -> f64 {

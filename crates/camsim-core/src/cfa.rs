@@ -4,7 +4,162 @@
 //! RGBW and Quad Bayer are presets ([`CfaLayout::parse`]).
 
 use crate::error::{CoreError, Result};
-use crate::raw::CfaPattern;
+use crate::names::{NameTable, Named};
+use serde::{Deserialize, Serialize};
+
+/// A colour channel of the CFA. Index 0, 1, 2 = red, green, blue (as in DNG's CFAPattern codes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CfaChannel {
+    R = 0,
+    G = 1,
+    B = 2,
+}
+
+impl CfaChannel {
+    pub fn index(self) -> usize {
+        self as usize
+    }
+    pub fn from_index(i: usize) -> Option<CfaChannel> {
+        match i {
+            0 => Some(CfaChannel::R),
+            1 => Some(CfaChannel::G),
+            2 => Some(CfaChannel::B),
+            _ => None,
+        }
+    }
+    pub fn letter(self) -> char {
+        ['R', 'G', 'B'][self.index()]
+    }
+}
+
+/// A 2x2 Bayer pattern, named by its top-left, top-right, bottom-left, bottom-right colours.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "UPPERCASE")]
+pub enum CfaPattern {
+    #[default]
+    Rggb,
+    Grbg,
+    Gbrg,
+    Bggr,
+}
+
+impl CfaPattern {
+    /// Channels in the order top-left, top-right, bottom-left, bottom-right.
+    pub fn channels(self) -> [CfaChannel; 4] {
+        use CfaChannel::*;
+        match self {
+            CfaPattern::Rggb => [R, G, G, B],
+            CfaPattern::Grbg => [G, R, B, G],
+            CfaPattern::Gbrg => [G, B, R, G],
+            CfaPattern::Bggr => [B, G, G, R],
+        }
+    }
+
+    /// The channel at pixel (row, col).
+    #[inline]
+    pub fn channel_at(self, row: usize, col: usize) -> CfaChannel {
+        self.channels()[(row & 1) * 2 + (col & 1)]
+    }
+
+    /// DNG CFAPattern tag bytes (0 = red, 1 = green, 2 = blue).
+    pub fn dng_codes(self) -> [u8; 4] {
+        self.channels().map(|c| c as u8)
+    }
+
+    pub fn from_dng_codes(codes: &[u8]) -> Option<CfaPattern> {
+        [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ]
+        .into_iter()
+        .find(|p| p.dng_codes()[..] == *codes)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            CfaPattern::Rggb => "RGGB",
+            CfaPattern::Grbg => "GRBG",
+            CfaPattern::Gbrg => "GBRG",
+            CfaPattern::Bggr => "BGGR",
+        }
+    }
+
+    /// A Bayer name from [`CFA_NAMES`] (RGGB, GRBG, GBRG, BGGR; any case).
+    pub fn parse(s: &str) -> Result<CfaPattern> {
+        match CFA_NAMES.entry(s).map(|e| e.value) {
+            Some(Cfa::Bayer(p)) => Ok(p),
+            _ => Err(CoreError::UnknownName {
+                family: "Bayer pattern".into(),
+                name: s.trim().to_string(),
+                known: CFA_NAMES
+                    .entries
+                    .iter()
+                    .filter(|e| matches!(e.value, Cfa::Bayer(_)))
+                    .map(|e| e.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }),
+        }
+    }
+}
+
+/// A colour filter array by name: a Bayer phase or one of the preset tiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cfa {
+    /// A 2x2 Bayer pattern.
+    Bayer(CfaPattern),
+    /// 2x2 R G / W B: one green of RGGB replaced by a panchromatic pixel.
+    Rgbw,
+    /// 4x4, each RGGB colour on a 2x2 block of pixels (Sony "Quad Bayer", Samsung "Tetracell").
+    QuadBayer,
+}
+
+/// The colour filter arrays camsim knows by name (`--cfa`, a sensor TOML's `cfa`, Python's
+/// `cfa=`); any other tile is given cell by cell (`cfa_pattern`).
+pub const CFA_NAMES: NameTable<Cfa> = NameTable {
+    family: "CFA",
+    entries: &[
+        Named {
+            name: "RGGB",
+            aliases: &[],
+            about: "Bayer, red at the top-left",
+            value: Cfa::Bayer(CfaPattern::Rggb),
+        },
+        Named {
+            name: "GRBG",
+            aliases: &[],
+            about: "Bayer, green then red on the first row",
+            value: Cfa::Bayer(CfaPattern::Grbg),
+        },
+        Named {
+            name: "GBRG",
+            aliases: &[],
+            about: "Bayer, green then blue on the first row",
+            value: Cfa::Bayer(CfaPattern::Gbrg),
+        },
+        Named {
+            name: "BGGR",
+            aliases: &[],
+            about: "Bayer, blue at the top-left",
+            value: Cfa::Bayer(CfaPattern::Bggr),
+        },
+        Named {
+            name: "RGBW",
+            aliases: &[],
+            about: "2x2 R G / W B (W: no colour filter)",
+            value: Cfa::Rgbw,
+        },
+        Named {
+            name: "quad-bayer",
+            aliases: &["quadbayer", "tetracell"],
+            about: "4x4, each Bayer colour on 2x2 pixels",
+            value: Cfa::QuadBayer,
+        },
+    ],
+};
 
 /// Largest tile side, cells.
 pub const MAX_CFA_SIDE: usize = 8;
@@ -104,23 +259,20 @@ impl CfaLayout {
     /// of RGGB replaced by a panchromatic pixel), `quad-bayer`
     /// (4x4, each RGGB colour on a 2x2 block of pixels: Sony "Quad Bayer", also called Tetracell).
     pub fn parse(name: &str) -> Result<CfaLayout> {
-        if let Ok(p) = CfaPattern::parse(name) {
-            return Ok(CfaLayout::from_bayer(p));
-        }
         let s = |v: &[&[&str]]| {
             v.iter()
                 .map(|r| r.iter().map(|c| c.to_string()).collect())
                 .collect::<Vec<Vec<String>>>()
         };
-        match name.trim().to_ascii_lowercase().replace('_', "-").as_str() {
-            "rgbw" => CfaLayout::from_names(&s(&[&["r", "g"], &["w", "b"]])),
-            "quad-bayer" | "quadbayer" | "tetracell" => {
-                CfaLayout::from_names(&s(&[&["r", "r", "g", "g"], &["r", "r", "g", "g"], &["g", "g", "b", "b"], &["g", "g", "b", "b"]]))
-            }
-            _ => Err(CoreError::invalid(
-                "cfa",
-                format!("'{name}' is not one of RGGB, GRBG, GBRG, BGGR, RGBW, quad-bayer (or give cfa_pattern)"),
-            )),
+        match CFA_NAMES.get(name)? {
+            Cfa::Bayer(p) => Ok(CfaLayout::from_bayer(p)),
+            Cfa::Rgbw => CfaLayout::from_names(&s(&[&["r", "g"], &["w", "b"]])),
+            Cfa::QuadBayer => CfaLayout::from_names(&s(&[
+                &["r", "r", "g", "g"],
+                &["r", "r", "g", "g"],
+                &["g", "g", "b", "b"],
+                &["g", "g", "b", "b"],
+            ])),
         }
     }
 
@@ -282,5 +434,23 @@ mod tests {
         assert!(ir.dng_codes().unwrap_err().to_string().contains("'ir'"));
         assert!(CfaLayout::from_names(&[vec!["r".into(); 9]]).is_err());
         assert!(CfaLayout::from_names(&[vec!["r".into(), "g".into()], vec!["b".into()]]).is_err());
+    }
+
+    #[test]
+    fn patterns_round_trip_dng_codes() {
+        for p in [
+            CfaPattern::Rggb,
+            CfaPattern::Grbg,
+            CfaPattern::Gbrg,
+            CfaPattern::Bggr,
+        ] {
+            assert_eq!(CfaPattern::from_dng_codes(&p.dng_codes()), Some(p));
+            assert_eq!(CfaPattern::parse(p.name()).unwrap(), p);
+            // Every 2x2 block has two greens, one red, one blue.
+            let ch = p.channels();
+            assert_eq!(ch.iter().filter(|c| **c == CfaChannel::G).count(), 2);
+        }
+        assert_eq!(CfaPattern::Grbg.channel_at(0, 1), CfaChannel::R);
+        assert_eq!(CfaPattern::Bggr.channel_at(3, 3), CfaChannel::R);
     }
 }

@@ -20,6 +20,13 @@ pub enum CoreError {
         needed_mib: u64,
         available_mib: u64,
     },
+    /// A name that is not in its family's table ([`crate::names::NameTable`]).
+    #[error("unknown {family} '{name}'; known: {known}")]
+    UnknownName {
+        family: String,
+        name: String,
+        known: String,
+    },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,

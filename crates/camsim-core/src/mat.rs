@@ -13,7 +13,7 @@
 //! recognised and refused with a clear message.
 
 use crate::error::{CoreError, Result};
-use crate::spectrum_csv::{read_limited, SpectraTable};
+use crate::spectra_table::{read_limited, SpectraTable};
 use std::io::Read;
 use std::path::Path;
 
@@ -465,6 +465,90 @@ fn product(dims: &[usize], ctx: &Elements, offset: usize) -> PResult<usize> {
         .ok_or_else(|| format!("{}: array dimensions {dims:?} overflow", ctx.where_(offset)))
 }
 
+/// The header of a miMATRIX element: its array flags, dimensions and name (MAT-File Format,
+/// MathWorks 2019, "miMATRIX Format": array flags, dimensions array, array name, in this order).
+struct ArrayHeader {
+    class: MatClass,
+    complex: bool,
+    global: bool,
+    logical: bool,
+    dims: Vec<usize>,
+    /// Product of `dims`.
+    count: usize,
+    /// Offset of the dimensions element, for messages.
+    dims_offset: usize,
+    name: String,
+}
+
+impl ArrayHeader {
+    /// `m` prefixed with the variable's name (when it has one).
+    fn named(&self, m: String) -> String {
+        if self.name.is_empty() {
+            m
+        } else {
+            format!("variable '{}': {m}", self.name)
+        }
+    }
+}
+
+/// Read the array flags, dimensions and name elements.
+fn array_header(els: &mut Elements, e: Endian) -> PResult<ArrayHeader> {
+    // 1. Array flags.
+    let flags_el = els.next()?;
+    if flags_el.data_type != MI_UINT32 || flags_el.data.len() < 4 {
+        return Err(format!(
+            "{}: array flags must be a miUINT32 element of 8 bytes (type {}, {} bytes)",
+            els.where_(flags_el.offset),
+            flags_el.data_type,
+            flags_el.data.len()
+        ));
+    }
+    let flags = e.u32(&flags_el.data[..4]);
+    // 2. Dimensions.
+    let dims_el = els.next()?;
+    if dims_el.data_type != MI_INT32 || dims_el.data.len() % 4 != 0 || dims_el.data.is_empty() {
+        return Err(format!(
+            "{}: dimensions must be a miINT32 element (type {}, {} bytes)",
+            els.where_(dims_el.offset),
+            dims_el.data_type,
+            dims_el.data.len()
+        ));
+    }
+    let mut dims = Vec::with_capacity(dims_el.data.len() / 4);
+    for c in dims_el.data.chunks_exact(4) {
+        let d = e.u32(c) as i32;
+        if d < 0 {
+            return Err(format!(
+                "{}: negative dimension {d}",
+                els.where_(dims_el.offset)
+            ));
+        }
+        dims.push(d as usize);
+    }
+    let count = product(&dims, els, dims_el.offset)?;
+    // 3. Name.
+    let name_el = els.next()?;
+    if !matches!(name_el.data_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
+        return Err(format!(
+            "{}: array name must be a miINT8 element (type {})",
+            els.where_(name_el.offset),
+            name_el.data_type
+        ));
+    }
+    Ok(ArrayHeader {
+        class: MatClass::from_code((flags & 0xff) as u8),
+        complex: flags & 0x0800 != 0,
+        global: flags & 0x0400 != 0,
+        logical: flags & 0x0200 != 0,
+        dims,
+        count,
+        dims_offset: dims_el.offset,
+        name: String::from_utf8_lossy(name_el.data)
+            .trim_end_matches('\0')
+            .to_string(),
+    })
+}
+
 /// Parse the contents of a miMATRIX element. Returns (name, global, value).
 fn parse_matrix(
     data: &[u8],
@@ -493,196 +577,173 @@ fn parse_matrix(
             els.where_(0)
         ));
     }
-    // 1. Array flags.
-    let flags_el = els.next()?;
-    if flags_el.data_type != MI_UINT32 || flags_el.data.len() < 4 {
-        return Err(format!(
-            "{}: array flags must be a miUINT32 element of 8 bytes (type {}, {} bytes)",
-            els.where_(flags_el.offset),
-            flags_el.data_type,
-            flags_el.data.len()
-        ));
-    }
-    let flags = e.u32(&flags_el.data[..4]);
-    let class = MatClass::from_code((flags & 0xff) as u8);
-    let complex = flags & 0x0800 != 0;
-    let global = flags & 0x0400 != 0;
-    let logical = flags & 0x0200 != 0;
-    // 2. Dimensions.
-    let dims_el = els.next()?;
-    if dims_el.data_type != MI_INT32 || dims_el.data.len() % 4 != 0 || dims_el.data.is_empty() {
-        return Err(format!(
-            "{}: dimensions must be a miINT32 element (type {}, {} bytes)",
-            els.where_(dims_el.offset),
-            dims_el.data_type,
-            dims_el.data.len()
-        ));
-    }
-    let mut dims = Vec::with_capacity(dims_el.data.len() / 4);
-    for c in dims_el.data.chunks_exact(4) {
-        let d = e.u32(c) as i32;
-        if d < 0 {
-            return Err(format!(
-                "{}: negative dimension {d}",
-                els.where_(dims_el.offset)
-            ));
-        }
-        dims.push(d as usize);
-    }
-    let count = product(&dims, &els, dims_el.offset)?;
-    // 3. Name.
-    let name_el = els.next()?;
-    if !matches!(name_el.data_type, MI_INT8 | MI_UINT8 | MI_UTF8) {
-        return Err(format!(
-            "{}: array name must be a miINT8 element (type {})",
-            els.where_(name_el.offset),
-            name_el.data_type
-        ));
-    }
-    let name = String::from_utf8_lossy(name_el.data)
-        .trim_end_matches('\0')
-        .to_string();
-    let named = |m: String| {
-        if name.is_empty() {
-            m
-        } else {
-            format!("variable '{name}': {m}")
-        }
-    };
-
+    let h = array_header(&mut els, e)?;
     // 4. Class-specific content.
-    let value = match class {
-        c if c.is_numeric() => {
-            let (real, imag) = if els.at_end() && count == 0 {
-                (vec![], None)
-            } else {
-                let re_el = els.next().map_err(named)?;
-                let real = numbers(&re_el, e, "real part", &els).map_err(named)?;
-                let imag = if complex {
-                    let im_el = els.next().map_err(named)?;
-                    Some(numbers(&im_el, e, "imaginary part", &els).map_err(named)?)
-                } else {
-                    None
-                };
-                (real, imag)
-            };
-            if real.len() != count || imag.as_ref().is_some_and(|v| v.len() != count) {
-                return Err(named(format!(
-                    "{}: dimensions {dims:?} need {count} values but the data holds {}",
-                    els.where_(dims_el.offset),
-                    real.len()
-                )));
-            }
-            MatValue::Numeric {
-                class,
-                dims,
-                real,
-                imag,
-                logical,
-            }
-        }
-        MatClass::Char => {
-            let chars = if els.at_end() {
-                vec![]
-            } else {
-                let el = els.next().map_err(named)?;
-                characters(&el, e, &els).map_err(named)?
-            };
-            if chars.len() != count {
-                return Err(named(format!(
-                    "{}: char array {dims:?} needs {count} characters but holds {}",
-                    els.where_(dims_el.offset),
-                    chars.len()
-                )));
-            }
-            MatValue::Char { dims, chars }
-        }
+    let value = match h.class {
+        c if c.is_numeric() => numeric_value(&mut els, e, &h)?,
+        MatClass::Char => char_value(&mut els, e, &h)?,
         MatClass::Cell => {
-            let mut cells = Vec::new();
-            for k in 0..count {
-                if els.at_end() {
-                    return Err(named(format!(
-                        "cell array {dims:?} ends after {k} of {count} cells"
-                    )));
-                }
-                let el = els.next().map_err(named)?;
-                if el.data_type != MI_MATRIX {
-                    return Err(named(format!(
-                        "{}: cell {} is data type {}, not miMATRIX",
-                        els.where_(el.offset),
-                        k + 1,
-                        el.data_type
-                    )));
-                }
-                let (_, _, v) =
-                    parse_matrix(el.data, e, base + el.offset + 8, depth + 1).map_err(named)?;
-                cells.push(v);
-            }
-            MatValue::Cell { dims, cells }
-        }
-        MatClass::Struct => {
-            let len_el = els.next().map_err(named)?;
-            let field_len = match numbers(&len_el, e, "field name length", &els)
-                .map_err(named)?
-                .first()
-            {
-                Some(v) if *v >= 1.0 && *v <= 65536.0 => *v as usize,
-                other => {
-                    return Err(named(format!(
-                        "{}: bad struct field name length {other:?}",
-                        els.where_(len_el.offset)
-                    )))
-                }
-            };
-            let names_el = els.next().map_err(named)?;
-            if names_el.data.len() % field_len != 0 {
-                return Err(named(format!(
-                    "{}: {} bytes of field names is not a multiple of the name length {field_len}",
-                    els.where_(names_el.offset),
-                    names_el.data.len()
-                )));
-            }
-            let field_names: Vec<String> = names_el
-                .data
-                .chunks_exact(field_len)
-                .map(|c| {
-                    let end = c.iter().position(|b| *b == 0).unwrap_or(c.len());
-                    String::from_utf8_lossy(&c[..end]).into_owned()
-                })
-                .collect();
-            let mut elements = Vec::new();
-            for k in 0..count {
-                let mut fields = Vec::with_capacity(field_names.len().min(1024));
-                for f in &field_names {
-                    if els.at_end() {
-                        return Err(named(format!(
-                            "struct element {} ends before field '{f}'",
-                            k + 1
-                        )));
-                    }
-                    let el = els.next().map_err(named)?;
-                    if el.data_type != MI_MATRIX {
-                        return Err(named(format!(
-                            "{}: field '{f}' is data type {}, not miMATRIX",
-                            els.where_(el.offset),
-                            el.data_type
-                        )));
-                    }
-                    let (_, _, v) =
-                        parse_matrix(el.data, e, base + el.offset + 8, depth + 1).map_err(named)?;
-                    fields.push(v);
-                }
-                elements.push(fields);
-            }
-            MatValue::Struct {
-                dims,
-                field_names,
-                elements,
+            let cells = matrices(&mut els, e, base, depth, &h, h.count, |k| {
+                format!("cell {}", k + 1)
+            })?;
+            MatValue::Cell {
+                dims: h.dims.clone(),
+                cells,
             }
         }
-        other => MatValue::Unsupported { class: other, dims },
+        MatClass::Struct => struct_value(&mut els, e, base, depth, &h)?,
+        other => MatValue::Unsupported {
+            class: other,
+            dims: h.dims.clone(),
+        },
     };
-    Ok((name, global, value))
+    Ok((h.name, h.global, value))
+}
+
+/// The real (and imaginary) data of a numeric array.
+fn numeric_value(els: &mut Elements, e: Endian, h: &ArrayHeader) -> PResult<MatValue> {
+    let named = |m| h.named(m);
+    let (real, imag) = if els.at_end() && h.count == 0 {
+        (vec![], None)
+    } else {
+        let re_el = els.next().map_err(named)?;
+        let real = numbers(&re_el, e, "real part", els).map_err(named)?;
+        let imag = if h.complex {
+            let im_el = els.next().map_err(named)?;
+            Some(numbers(&im_el, e, "imaginary part", els).map_err(named)?)
+        } else {
+            None
+        };
+        (real, imag)
+    };
+    if real.len() != h.count || imag.as_ref().is_some_and(|v| v.len() != h.count) {
+        return Err(h.named(format!(
+            "{}: dimensions {:?} need {} values but the data holds {}",
+            els.where_(h.dims_offset),
+            h.dims,
+            h.count,
+            real.len()
+        )));
+    }
+    Ok(MatValue::Numeric {
+        class: h.class,
+        dims: h.dims.clone(),
+        real,
+        imag,
+        logical: h.logical,
+    })
+}
+
+/// The characters of a char array.
+fn char_value(els: &mut Elements, e: Endian, h: &ArrayHeader) -> PResult<MatValue> {
+    let chars = if els.at_end() {
+        vec![]
+    } else {
+        let el = els.next().map_err(|m| h.named(m))?;
+        characters(&el, e, els).map_err(|m| h.named(m))?
+    };
+    if chars.len() != h.count {
+        return Err(h.named(format!(
+            "{}: char array {:?} needs {} characters but holds {}",
+            els.where_(h.dims_offset),
+            h.dims,
+            h.count,
+            chars.len()
+        )));
+    }
+    Ok(MatValue::Char {
+        dims: h.dims.clone(),
+        chars,
+    })
+}
+
+/// `n` nested miMATRIX elements (the cells of a cell array, the fields of a struct element);
+/// `what(k)` names element k in messages.
+fn matrices(
+    els: &mut Elements,
+    e: Endian,
+    base: usize,
+    depth: usize,
+    h: &ArrayHeader,
+    n: usize,
+    what: impl Fn(usize) -> String,
+) -> PResult<Vec<MatValue>> {
+    let mut out = Vec::with_capacity(n.min(1024));
+    for k in 0..n {
+        if els.at_end() {
+            return Err(h.named(format!(
+                "{:?} ends before {} ({} of {n})",
+                h.dims,
+                what(k),
+                k + 1
+            )));
+        }
+        let el = els.next().map_err(|m| h.named(m))?;
+        if el.data_type != MI_MATRIX {
+            return Err(h.named(format!(
+                "{}: {} is data type {}, not miMATRIX",
+                els.where_(el.offset),
+                what(k),
+                el.data_type
+            )));
+        }
+        let (_, _, v) =
+            parse_matrix(el.data, e, base + el.offset + 8, depth + 1).map_err(|m| h.named(m))?;
+        out.push(v);
+    }
+    Ok(out)
+}
+
+/// A struct array: its field name length, field names, then each element's fields.
+fn struct_value(
+    els: &mut Elements,
+    e: Endian,
+    base: usize,
+    depth: usize,
+    h: &ArrayHeader,
+) -> PResult<MatValue> {
+    let named = |m| h.named(m);
+    let len_el = els.next().map_err(named)?;
+    let field_len = match numbers(&len_el, e, "field name length", els)
+        .map_err(named)?
+        .first()
+    {
+        Some(v) if *v >= 1.0 && *v <= 65536.0 => *v as usize,
+        other => {
+            return Err(h.named(format!(
+                "{}: bad struct field name length {other:?}",
+                els.where_(len_el.offset)
+            )))
+        }
+    };
+    let names_el = els.next().map_err(named)?;
+    if names_el.data.len() % field_len != 0 {
+        return Err(h.named(format!(
+            "{}: {} bytes of field names is not a multiple of the name length {field_len}",
+            els.where_(names_el.offset),
+            names_el.data.len()
+        )));
+    }
+    let field_names: Vec<String> = names_el
+        .data
+        .chunks_exact(field_len)
+        .map(|c| {
+            let end = c.iter().position(|b| *b == 0).unwrap_or(c.len());
+            String::from_utf8_lossy(&c[..end]).into_owned()
+        })
+        .collect();
+    let mut elements = Vec::new();
+    for k in 0..h.count {
+        let fields = matrices(els, e, base, depth, h, field_names.len(), |f| {
+            format!("struct element {} field '{}'", k + 1, field_names[f])
+        })?;
+        elements.push(fields);
+    }
+    Ok(MatValue::Struct {
+        dims: h.dims.clone(),
+        field_names,
+        elements,
+    })
 }
 
 /// Inflate a miCOMPRESSED element, refusing output larger than `limit` bytes.

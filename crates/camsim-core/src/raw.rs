@@ -1,102 +1,8 @@
-//! Raw sensor mosaics: the Bayer colour filter array pattern and a frame of digital values.
+//! Raw sensor mosaics: a frame of digital values on a colour filter array ([`crate::cfa`]).
 
 use crate::cfa::CfaLayout;
+pub use crate::cfa::{CfaChannel, CfaPattern};
 use crate::error::{CoreError, Result};
-use serde::{Deserialize, Serialize};
-
-/// A colour channel of the CFA. Index 0, 1, 2 = red, green, blue (as in DNG's CFAPattern codes).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum CfaChannel {
-    R = 0,
-    G = 1,
-    B = 2,
-}
-
-impl CfaChannel {
-    pub fn index(self) -> usize {
-        self as usize
-    }
-    pub fn from_index(i: usize) -> Option<CfaChannel> {
-        match i {
-            0 => Some(CfaChannel::R),
-            1 => Some(CfaChannel::G),
-            2 => Some(CfaChannel::B),
-            _ => None,
-        }
-    }
-    pub fn letter(self) -> char {
-        ['R', 'G', 'B'][self.index()]
-    }
-}
-
-/// A 2x2 Bayer pattern, named by its top-left, top-right, bottom-left, bottom-right colours.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "UPPERCASE")]
-pub enum CfaPattern {
-    #[default]
-    Rggb,
-    Grbg,
-    Gbrg,
-    Bggr,
-}
-
-impl CfaPattern {
-    /// Channels in the order top-left, top-right, bottom-left, bottom-right.
-    pub fn channels(self) -> [CfaChannel; 4] {
-        use CfaChannel::*;
-        match self {
-            CfaPattern::Rggb => [R, G, G, B],
-            CfaPattern::Grbg => [G, R, B, G],
-            CfaPattern::Gbrg => [G, B, R, G],
-            CfaPattern::Bggr => [B, G, G, R],
-        }
-    }
-
-    /// The channel at pixel (row, col).
-    #[inline]
-    pub fn channel_at(self, row: usize, col: usize) -> CfaChannel {
-        self.channels()[(row & 1) * 2 + (col & 1)]
-    }
-
-    /// DNG CFAPattern tag bytes (0 = red, 1 = green, 2 = blue).
-    pub fn dng_codes(self) -> [u8; 4] {
-        self.channels().map(|c| c as u8)
-    }
-
-    pub fn from_dng_codes(codes: &[u8]) -> Option<CfaPattern> {
-        [
-            CfaPattern::Rggb,
-            CfaPattern::Grbg,
-            CfaPattern::Gbrg,
-            CfaPattern::Bggr,
-        ]
-        .into_iter()
-        .find(|p| p.dng_codes()[..] == *codes)
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            CfaPattern::Rggb => "RGGB",
-            CfaPattern::Grbg => "GRBG",
-            CfaPattern::Gbrg => "GBRG",
-            CfaPattern::Bggr => "BGGR",
-        }
-    }
-
-    pub fn parse(s: &str) -> Result<CfaPattern> {
-        match s.to_ascii_uppercase().as_str() {
-            "RGGB" => Ok(CfaPattern::Rggb),
-            "GRBG" => Ok(CfaPattern::Grbg),
-            "GBRG" => Ok(CfaPattern::Gbrg),
-            "BGGR" => Ok(CfaPattern::Bggr),
-            _ => Err(CoreError::invalid(
-                "cfa pattern",
-                format!("'{s}' is not one of RGGB, GRBG, GBRG, BGGR"),
-            )),
-        }
-    }
-}
 
 /// One raw frame: digital values (DN) on a Bayer mosaic, row-major, with the levels needed to
 /// interpret them.
@@ -170,28 +76,5 @@ impl RawImage {
             )),
             _ => Ok(()),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn patterns_round_trip_dng_codes() {
-        for p in [
-            CfaPattern::Rggb,
-            CfaPattern::Grbg,
-            CfaPattern::Gbrg,
-            CfaPattern::Bggr,
-        ] {
-            assert_eq!(CfaPattern::from_dng_codes(&p.dng_codes()), Some(p));
-            assert_eq!(CfaPattern::parse(p.name()).unwrap(), p);
-            // Every 2x2 block has two greens, one red, one blue.
-            let ch = p.channels();
-            assert_eq!(ch.iter().filter(|c| **c == CfaChannel::G).count(), 2);
-        }
-        assert_eq!(CfaPattern::Grbg.channel_at(0, 1), CfaChannel::R);
-        assert_eq!(CfaPattern::Bggr.channel_at(3, 3), CfaChannel::R);
     }
 }

@@ -16,7 +16,7 @@ pub mod spec;
 pub use run::{
     gather, run, run_shard, shard_complete, RunSummary, SampleRecord, ShardRecord, ShardSelect,
 };
-pub use spec::{DatasetSpec, Sample};
+pub use spec::{DatasetOutput, DatasetSpec, Sample, DATASET_OUTPUTS};
 
 use std::path::{Path, PathBuf};
 

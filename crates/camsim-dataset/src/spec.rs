@@ -22,6 +22,7 @@
 //! ```
 
 use crate::{DatasetError, Result};
+use camsim_core::names::{NameTable, Named};
 use camsim_pipeline::{OutputSet, SimulateConfig};
 use rand::{Rng, SeedableRng};
 use rand_distr::Distribution;
@@ -78,6 +79,38 @@ fn default_seed() -> u64 {
 fn default_outputs() -> Vec<String> {
     vec!["raw".into(), "preview".into()]
 }
+
+/// The built-in example spec (`examples/datasets/colorchecker.toml`).
+pub const DEFAULT_SPEC: &str = include_str!("../../../examples/datasets/colorchecker.toml");
+
+/// A dataset's own outputs, beside those of a run (`camsim_pipeline::outputs::OUTPUTS`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DatasetOutput {
+    /// `KEY.raw.npy`: the first frame as a uint16 numpy array.
+    RawNpy,
+    /// `KEY.xyz.exr`: the scene's CIE 1931 XYZ ground truth.
+    Xyz,
+}
+
+/// The outputs a dataset has besides a run's (`dataset.outputs` takes these and every name of
+/// `camsim_pipeline::outputs::OUTPUTS`).
+pub const DATASET_OUTPUTS: NameTable<DatasetOutput> = NameTable {
+    family: "dataset output",
+    entries: &[
+        Named {
+            name: "raw-npy",
+            aliases: &[],
+            about: "KEY.raw.npy: the first frame as a uint16 numpy array",
+            value: DatasetOutput::RawNpy,
+        },
+        Named {
+            name: "xyz",
+            aliases: &[],
+            about: "KEY.xyz.exr: the scene's CIE 1931 XYZ ground truth (Y in cd/m^2)",
+            value: DatasetOutput::Xyz,
+        },
+    ],
+};
 
 /// One `[[vary]]` entry as written: a key and exactly one way to choose its value.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -183,6 +216,16 @@ impl DatasetSpec {
         Self::from_toml_str(&text, &path.display().to_string(), &base_dir)
     }
 
+    /// The built-in example (`camsim dataset` with no spec, Python's `camsim.dataset.run()` with
+    /// none): `examples/datasets/colorchecker.toml`, 48 ColorChecker captures.
+    pub fn builtin_default() -> Result<DatasetSpec> {
+        DatasetSpec::from_toml_str(
+            DEFAULT_SPEC,
+            "built-in spec (examples/datasets/colorchecker.toml)",
+            Path::new("."),
+        )
+    }
+
     /// Parse spec text: TOML, or JSON when it starts with `{` (what the Python package sends for
     /// a dict). `source` names it in messages; relative paths are resolved against `base_dir`.
     pub fn from_toml_str(text: &str, source: &str, base_dir: &Path) -> Result<DatasetSpec> {
@@ -209,10 +252,10 @@ impl DatasetSpec {
         let mut names = Vec::new();
         let (mut raw_npy, mut xyz) = (false, false);
         for o in &d.outputs {
-            match o.as_str() {
-                "raw-npy" => raw_npy = true,
-                "xyz" => xyz = true,
-                _ => names.push(o.as_str()),
+            match DATASET_OUTPUTS.entry(o).map(|e| e.value) {
+                Some(DatasetOutput::RawNpy) => raw_npy = true,
+                Some(DatasetOutput::Xyz) => xyz = true,
+                None => names.push(o.as_str()),
             }
         }
         let outputs = if names.is_empty() {
@@ -464,12 +507,8 @@ impl DatasetSpec {
             set_key(&mut t, k, v.clone())?;
         }
         t.insert("seed".into(), toml::Value::Integer(seed as i64));
-        let mut cfg: SimulateConfig = toml::Value::Table(t)
-            .try_into()
-            .map_err(|e: toml::de::Error| e.message().to_string())?;
-        cfg.check_scene_source().map_err(|e| e.to_string())?;
-        cfg.resolve_paths(&self.base_dir);
-        Ok(cfg)
+        // The one config door (checks and relative paths against the spec's folder).
+        SimulateConfig::from_value(toml::Value::Table(t), &self.base_dir).map_err(|e| e.to_string())
     }
 }
 

@@ -547,7 +547,9 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| IoError::io(path, e))
 }
 
-/// [`read_dng_image`] on bytes in memory; `path` only names the file in errors.
+/// [`read_dng_image`] on bytes in memory; `path` only names the file in errors. DNG 1.4 spec
+/// order: pick the raw IFD, decode its pixels, linearize (chapter 5), crop to the ActiveArea,
+/// read the black and white levels and the descriptive tags.
 pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngInfo)> {
     let t = Tiff::parse(data).map_err(|m| IoError::format(path, m))?;
     let r = Reader { t, path };
@@ -559,8 +561,54 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
             .map(|v| [v[0] as u8, v[1] as u8, v[2] as u8, v[3] as u8]),
         ..Default::default()
     };
-    // Choose the raw IFD: full-resolution (NewSubfileType 0) CFA, the largest if several; a
-    // LinearRaw IFD only when there is no CFA one.
+    let (raw_index, linear) = raw_ifd(&r)?;
+    let raw = &r.t.ifds[raw_index];
+    let g = raw_layout(&r, raw, linear, data.len())?;
+    info.compression = g.compression as u16;
+    info.bits_per_sample = g.bps as u16;
+
+    // CFA pattern (Bayer or a general N x M layout), with CFAPlaneColor mapping codes to colours.
+    let cfa = if linear {
+        None
+    } else {
+        Some(cfa_pattern(&r, raw)?)
+    };
+    // Pixels (interleaved samples).
+    let mut img = decode_pixels(&r, raw, g.width, g.height, g.spp, g.bps, g.compression)?;
+    info.linearized = linearize(&r, raw, &mut img)?;
+    let ((rows, cols), dn) = crop_active_area(&r, raw, &g, img, &mut info)?;
+    let levels = levels(&r, raw, &g, &mut info)?;
+    let pitch = descriptive_tags(&r, raw, &mut info)?;
+
+    let image = match cfa {
+        Some((cfa, layout)) => DngImage::Cfa(RawImage {
+            rows,
+            cols,
+            cfa,
+            layout,
+            dn,
+            black_level_dn: levels.black,
+            white_level_dn: levels.white,
+            bits: (levels.white + 1.0).log2().ceil().clamp(1.0, 16.0) as u32,
+            exposure_s: info.exposure_s.unwrap_or(0.0),
+            pixel_pitch_m: pitch,
+        }),
+        None => DngImage::LinearRaw(LinearRawImage {
+            rows,
+            cols,
+            dn,
+            black_level_dn: levels.black_per_sample,
+            white_level_dn: levels.white_per_sample,
+            exposure_s: info.exposure_s.unwrap_or(0.0),
+            pixel_pitch_m: pitch,
+        }),
+    };
+    Ok((image, info))
+}
+
+/// The raw IFD: full-resolution (NewSubfileType 0) CFA, the largest if several; a LinearRaw IFD
+/// only when there is no CFA one. Returns (IFD index, LinearRaw).
+fn raw_ifd(r: &Reader) -> Result<(usize, bool)> {
     let mut best_cfa: Option<(usize, u64)> = None;
     let mut best_linear: Option<(usize, u64)> = None;
     for (i, ifd) in r.t.ifds.iter().enumerate() {
@@ -582,17 +630,26 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
             }
         }
     }
-    let (raw_index, linear) = match (best_cfa, best_linear) {
-        (Some((i, _)), _) => (i, false),
-        (None, Some((i, _))) => (i, true),
-        (None, None) => {
-            return r.fail(
-                "no raw image (no IFD with PhotometricInterpretation 32803 (CFA) or 34892 (LinearRaw) and NewSubfileType 0)",
-            )
-        }
-    };
-    let raw = &r.t.ifds[raw_index];
+    match (best_cfa, best_linear) {
+        (Some((i, _)), _) => Ok((i, false)),
+        (None, Some((i, _))) => Ok((i, true)),
+        (None, None) => r.fail(
+            "no raw image (no IFD with PhotometricInterpretation 32803 (CFA) or 34892 (LinearRaw) and NewSubfileType 0)",
+        ),
+    }
+}
 
+/// A raw IFD's stored size and sample layout, checked.
+struct RawLayout {
+    width: usize,
+    height: usize,
+    /// Samples per pixel: 1 (CFA) or 3 (LinearRaw, chunky).
+    spp: usize,
+    bps: u32,
+    compression: u64,
+}
+
+fn raw_layout(r: &Reader, raw: &Ifd, linear: bool, file_len: usize) -> Result<RawLayout> {
     let width = r.uint(raw, tag::IMAGE_WIDTH)?.unwrap_or(0) as usize;
     let height = r.uint(raw, tag::IMAGE_LENGTH)?.unwrap_or(0) as usize;
     if width == 0 || height == 0 || width > 1 << 17 || height > 1 << 17 {
@@ -614,46 +671,52 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
         return r.fail("LinearRaw image is stored planar (PlanarConfiguration 2); only chunky (1) is supported");
     }
     // Every sample takes at least one bit, compressed or not: a size the file cannot hold is corrupt.
-    if (width * height * spp) as u64 > 8 * data.len() as u64 {
+    if (width * height * spp) as u64 > 8 * file_len as u64 {
         return r.fail(format!(
-            "raw image size {width} x {height} is more than a {}-byte file can hold",
-            data.len()
+            "raw image size {width} x {height} is more than a {file_len}-byte file can hold"
         ));
     }
     mem::check_alloc((width * height * spp * 2) as u64, "the raw image")
-        .map_err(|e| IoError::core(path, e))?;
+        .map_err(|e| IoError::core(r.path, e))?;
     let bps = r.uint(raw, tag::BITS_PER_SAMPLE)?.unwrap_or(1);
     if !(1..=16).contains(&bps) {
         return r.fail(format!("BitsPerSample {bps} is not 1..16"));
     }
-    let compression = r.uint(raw, tag::COMPRESSION)?.unwrap_or(1);
-    info.compression = compression as u16;
-    info.bits_per_sample = bps as u16;
+    Ok(RawLayout {
+        width,
+        height,
+        spp,
+        bps: bps as u32,
+        compression: r.uint(raw, tag::COMPRESSION)?.unwrap_or(1),
+    })
+}
 
-    // CFA pattern (Bayer or a general N x M layout), with CFAPlaneColor mapping codes to colours.
-    let cfa = if linear {
-        None
-    } else {
-        Some(cfa_pattern(&r, raw)?)
+/// Apply the LinearizationTable, if any (DNG spec, chapter 5 "Mapping Raw Values to Linear
+/// Reference Values"). Returns whether there was one.
+fn linearize(r: &Reader, raw: &Ifd, img: &mut [u16]) -> Result<bool> {
+    let Some(table) = r.uints(raw, tag::LINEARIZATION_TABLE)? else {
+        return Ok(false);
     };
-
-    // Pixels (interleaved samples).
-    let mut img = decode_pixels(&r, raw, width, height, spp, bps as u32, compression)?;
-
-    // Linearization (DNG spec, chapter 5 "Mapping Raw Values to Linear Reference Values").
-    if let Some(table) = r.uints(raw, tag::LINEARIZATION_TABLE)? {
-        if table.is_empty() {
-            return r.fail("LinearizationTable is empty");
-        }
-        let last = table.len() - 1;
-        let lut: Vec<u16> = table.iter().map(|v| (*v).min(65535) as u16).collect();
-        for v in img.iter_mut() {
-            *v = lut[(*v as usize).min(last)];
-        }
-        info.linearized = true;
+    if table.is_empty() {
+        return r.fail("LinearizationTable is empty");
     }
+    let last = table.len() - 1;
+    let lut: Vec<u16> = table.iter().map(|v| (*v).min(65535) as u16).collect();
+    for v in img.iter_mut() {
+        *v = lut[(*v as usize).min(last)];
+    }
+    Ok(true)
+}
 
-    // ActiveArea crop.
+/// Crop the decoded samples to the ActiveArea; returns ((rows, cols), samples).
+fn crop_active_area(
+    r: &Reader,
+    raw: &Ifd,
+    g: &RawLayout,
+    img: Vec<u16>,
+    info: &mut DngInfo,
+) -> Result<((usize, usize), Vec<u16>)> {
+    let (width, height, spp) = (g.width, g.height, g.spp);
     let area = match r.uints(raw, tag::ACTIVE_AREA)? {
         Some(a) if a.len() >= 4 => {
             let a = [a[0] as usize, a[1] as usize, a[2] as usize, a[3] as usize];
@@ -679,9 +742,26 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
         }
         v
     };
+    Ok(((rows, cols), dn))
+}
 
-    // Black level per CFA position (relative to the active area's top-left) and per sample:
-    // BlackLevel holds BlackLevelRepeatRows x BlackLevelRepeatCols x SamplesPerPixel values.
+/// Black and white levels of the raw image.
+struct Levels {
+    /// Mean black level over the 2x2 CFA positions, DN.
+    black: f64,
+    /// Black level per sample (LinearRaw R, G, B), DN.
+    black_per_sample: [f64; 3],
+    /// White level (of the first sample), DN.
+    white: f64,
+    /// White level per sample, DN.
+    white_per_sample: [f64; 3],
+}
+
+/// BlackLevel per CFA position (relative to the active area's top-left) and per sample
+/// (BlackLevelRepeatRows x BlackLevelRepeatCols x SamplesPerPixel values) plus the mean
+/// BlackLevelDeltaH/V; WhiteLevel per sample (default 2^BitsPerSample - 1).
+fn levels(r: &Reader, raw: &Ifd, g: &RawLayout, info: &mut DngInfo) -> Result<Levels> {
+    let spp = g.spp;
     let bdim = r
         .uints(raw, tag::BLACK_LEVEL_REPEAT_DIM)?
         .unwrap_or_else(|| vec![1, 1]);
@@ -727,7 +807,7 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
         black_at(1, 1, 0) + delta,
     ];
     let black = info.black_level_cfa_dn.iter().sum::<f64>() / 4.0;
-    let default_white = ((1u64 << bps) - 1) as f64;
+    let default_white = ((1u64 << g.bps) - 1) as f64;
     let whites = r
         .floats(raw, tag::WHITE_LEVEL)?
         .filter(|v| !v.is_empty())
@@ -739,10 +819,18 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
             return r.fail(format!("WhiteLevel {w} is not a positive number"));
         }
     }
-    let white = whites[0];
-    info.white_level_dn = white;
+    info.white_level_dn = whites[0];
+    Ok(Levels {
+        black,
+        black_per_sample: [0, 1, 2].map(black_of_sample),
+        white: whites[0],
+        white_per_sample: [0, 1, 2].map(white_of_sample),
+    })
+}
 
-    // Descriptive tags.
+/// The descriptive tags into `info` (orientation, names, crop, colour matrix, neutral, exposure,
+/// ISO); returns the pixel pitch from FocalPlaneXResolution, m (0 when absent).
+fn descriptive_tags(r: &Reader, raw: &Ifd, info: &mut DngInfo) -> Result<f64> {
     info.orientation = r
         .find(raw, tag::ORIENTATION)
         .map_or(Ok(None), |i| r.uint(i, tag::ORIENTATION))?
@@ -779,56 +867,29 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
         .and_then(|v| v.first().copied())
         .filter(|v| *v > 0.0);
     info.iso = fl(tag::ISO_SPEED)?.and_then(|v| v.first().copied());
-    let pitch = {
-        let (res_t, unit_t) = if r.find(raw, tag::FOCAL_PLANE_X_RESOLUTION_EP).is_some() {
-            (
-                tag::FOCAL_PLANE_X_RESOLUTION_EP,
-                tag::FOCAL_PLANE_RESOLUTION_UNIT_EP,
-            )
-        } else {
-            (
-                tag::FOCAL_PLANE_X_RESOLUTION,
-                tag::FOCAL_PLANE_RESOLUTION_UNIT,
-            )
-        };
-        let res = fl(res_t)?.and_then(|v| v.first().copied()).unwrap_or(0.0);
-        let unit_m = match fl(unit_t)?.and_then(|v| v.first().copied()).unwrap_or(2.0) as u32 {
-            3 => 0.01,
-            4 => 0.001,
-            5 => 1e-6,
-            _ => 0.0254, // 2 = inch (the TIFF default)
-        };
-        if res > 0.0 && res.is_finite() {
-            unit_m / res
-        } else {
-            0.0
-        }
+    let (res_t, unit_t) = if r.find(raw, tag::FOCAL_PLANE_X_RESOLUTION_EP).is_some() {
+        (
+            tag::FOCAL_PLANE_X_RESOLUTION_EP,
+            tag::FOCAL_PLANE_RESOLUTION_UNIT_EP,
+        )
+    } else {
+        (
+            tag::FOCAL_PLANE_X_RESOLUTION,
+            tag::FOCAL_PLANE_RESOLUTION_UNIT,
+        )
     };
-
-    let image = match cfa {
-        Some((cfa, layout)) => DngImage::Cfa(RawImage {
-            rows,
-            cols,
-            cfa,
-            layout,
-            dn,
-            black_level_dn: black,
-            white_level_dn: white,
-            bits: (white + 1.0).log2().ceil().clamp(1.0, 16.0) as u32,
-            exposure_s: info.exposure_s.unwrap_or(0.0),
-            pixel_pitch_m: pitch,
-        }),
-        None => DngImage::LinearRaw(LinearRawImage {
-            rows,
-            cols,
-            dn,
-            black_level_dn: [0, 1, 2].map(black_of_sample),
-            white_level_dn: [0, 1, 2].map(white_of_sample),
-            exposure_s: info.exposure_s.unwrap_or(0.0),
-            pixel_pitch_m: pitch,
-        }),
+    let res = fl(res_t)?.and_then(|v| v.first().copied()).unwrap_or(0.0);
+    let unit_m = match fl(unit_t)?.and_then(|v| v.first().copied()).unwrap_or(2.0) as u32 {
+        3 => 0.01,
+        4 => 0.001,
+        5 => 1e-6,
+        _ => 0.0254, // 2 = inch (the TIFF default)
     };
-    Ok((image, info))
+    Ok(if res > 0.0 && res.is_finite() {
+        unit_m / res
+    } else {
+        0.0
+    })
 }
 
 /// The CFA of a raw IFD, with CFAPlaneColor mapping plane indices to TIFF/EP colours: a Bayer

@@ -24,7 +24,8 @@
 
 use crate::error::{IoError, Result};
 use camsim_core::image::ImageGeometry;
-use camsim_core::{mem, Quantity, SpectralImage, WavelengthGrid};
+use camsim_core::names::{NameTable, Named};
+use camsim_core::{mem, CoreError, Quantity, SpectralImage, WavelengthGrid};
 use exr::prelude::*;
 use rayon::prelude::*;
 use std::path::Path;
@@ -179,6 +180,72 @@ impl ExrCompression {
 pub struct ExrOptions {
     pub precision: ExrPrecision,
     pub compression: ExrCompression,
+}
+
+/// The EXR sample precisions by name (`--exr-precision`, Python's `exr_precision=`).
+pub const EXR_PRECISIONS: NameTable<ExrPrecision> = NameTable {
+    family: "EXR precision",
+    entries: &[
+        Named {
+            name: "f32",
+            aliases: &[],
+            about: "32-bit float: every value comes back bit-exact",
+            value: ExrPrecision::F32,
+        },
+        Named {
+            name: "f16",
+            aliases: &[],
+            about: "16-bit half float: half the size, relative error <= 2^-11",
+            value: ExrPrecision::F16,
+        },
+    ],
+};
+
+/// The EXR compressions by name (`--exr-compression`, Python's `exr_compression=`).
+pub const EXR_COMPRESSIONS: NameTable<ExrCompression> = NameTable {
+    family: "EXR compression",
+    entries: &[
+        Named {
+            name: "none",
+            aliases: &[],
+            about: "fastest to write and read, largest",
+            value: ExrCompression::None,
+        },
+        Named {
+            name: "rle",
+            aliases: &[],
+            about: "run-length: fast, gains only on flat images",
+            value: ExrCompression::Rle,
+        },
+        Named {
+            name: "zip",
+            aliases: &[],
+            about: "ZIP over 16 scan lines: smallest, slow to write",
+            value: ExrCompression::Zip,
+        },
+        Named {
+            name: "zips",
+            aliases: &[],
+            about: "ZIP per scan line",
+            value: ExrCompression::Zips,
+        },
+        Named {
+            name: "piz",
+            aliases: &[],
+            about: "wavelet: good on noisy photographic data",
+            value: ExrCompression::Piz,
+        },
+    ],
+};
+
+impl ExrOptions {
+    /// The options by name ([`EXR_PRECISIONS`], [`EXR_COMPRESSIONS`]).
+    pub fn parse(precision: &str, compression: &str) -> std::result::Result<ExrOptions, CoreError> {
+        Ok(ExrOptions {
+            precision: EXR_PRECISIONS.get(precision)?,
+            compression: EXR_COMPRESSIONS.get(compression)?,
+        })
+    }
 }
 
 /// One channel of an EXR to write: its name, its `rows * cols` samples (row-major) and the

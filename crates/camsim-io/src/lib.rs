@@ -11,6 +11,7 @@
 //! - [`rgb_image`]: colour photographs (PNG, JPEG, TIFF code values; OpenEXR linear) as f32 RGB.
 //! - [`measurements`]: CSV inputs of the analyses (EMVA 1288 series lists, `sfr.csv` curves,
 //!   chart patch means for the QE fit).
+//! - [`spectra`]: spectra tables written as CSV.
 //! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
 
 pub mod atomic;
@@ -22,6 +23,7 @@ pub mod measurements;
 pub mod plot;
 pub mod raster;
 pub mod rgb_image;
+pub mod spectra;
 pub mod tiff;
 
 pub use error::{IoError, Result};

@@ -1,7 +1,7 @@
 //! CSV files of measurements that camsim's analyses take as input, read with the `csv` crate:
 //!
-//! - [`read_emva_series`]: the frame list of an EMVA 1288 series (`camsim sensor --emva-series`
-//!   writes one; `camsim analyze emva` reads it);
+//! - [`read_emva_series`] and [`write_emva_series`]: the frame list of an EMVA 1288 series
+//!   (`camsim sensor --emva-series` writes one; `camsim analyze emva` reads it);
 //! - [`read_sfr_csv`]: the SFR curves of an `sfr.csv` (`camsim analyze sfr` writes one and
 //!   overlays others with `--compare`);
 //! - [`read_mtf_csv`]: a measured MTF curve in cycles/mm (`camsim fit mtf --measured`);
@@ -180,6 +180,40 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
         ));
     }
     Ok(levels)
+}
+
+/// Write an EMVA 1288 series CSV that [`read_emva_series`] reads: the header
+/// `exposure_s,photons_per_pixel,bright_0,...,dark_0,...` (as many frame columns as the level with
+/// the most frames), one line per level, frame paths as given (relative to the CSV's folder; a
+/// level with fewer frames leaves its last cells empty), an unknown photon count as an empty
+/// cell. Written atomically.
+pub fn write_emva_series(csv: &Path, levels: &[EmvaLevelFiles]) -> Result<()> {
+    use std::fmt::Write as _;
+    let nb = levels.iter().map(|l| l.bright.len()).max().unwrap_or(0);
+    let nd = levels.iter().map(|l| l.dark.len()).max().unwrap_or(0);
+    let mut text = String::from("exposure_s,photons_per_pixel");
+    for (kind, n) in [("bright", nb), ("dark", nd)] {
+        for k in 0..n {
+            let _ = write!(text, ",{kind}_{k}");
+        }
+    }
+    text.push('\n');
+    for l in levels {
+        let _ = write!(text, "{},", l.exposure_s);
+        if let Some(p) = l.photons_per_pixel {
+            let _ = write!(text, "{p}");
+        }
+        for (frames, n) in [(&l.bright, nb), (&l.dark, nd)] {
+            for k in 0..n {
+                text.push(',');
+                if let Some(f) = frames.get(k) {
+                    text.push_str(&f.display().to_string());
+                }
+            }
+        }
+        text.push('\n');
+    }
+    crate::atomic::write_bytes_atomic(csv, text.as_bytes())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -458,6 +492,44 @@ mod tests {
 
     fn err(r: Result<impl std::fmt::Debug>) -> String {
         r.unwrap_err().to_string()
+    }
+
+    #[test]
+    fn an_emva_series_written_reads_back_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let level = |line: usize, t: f64, p: Option<f64>, n: usize| EmvaLevelFiles {
+            line,
+            exposure_s: t,
+            photons_per_pixel: p,
+            bright: (0..n)
+                .map(|k| dir.path().join(format!("b{line}_{k}.dng")))
+                .collect(),
+            dark: (0..2)
+                .map(|k| dir.path().join(format!("d{line}_{k}.dng")))
+                .collect(),
+        };
+        let csv = dir.path().join("series.csv");
+        let levels = vec![
+            level(2, 0.0, Some(0.0), 2),
+            level(3, 1e-3, Some(123.456), 2),
+            level(4, 2.5e-3, Some(246.912), 3),
+        ];
+        write_emva_series(&csv, &levels).unwrap();
+        assert_eq!(read_emva_series(&csv).unwrap(), levels);
+        let text = std::fs::read_to_string(&csv).unwrap();
+        assert!(text.starts_with(
+            "exposure_s,photons_per_pixel,bright_0,bright_1,bright_2,dark_0,dark_1\n"
+        ));
+        // An unknown photon count is an empty cell, read back as unknown.
+        let unknown: Vec<_> = levels
+            .iter()
+            .map(|l| EmvaLevelFiles {
+                photons_per_pixel: None,
+                ..l.clone()
+            })
+            .collect();
+        write_emva_series(&csv, &unknown).unwrap();
+        assert_eq!(read_emva_series(&csv).unwrap(), unknown);
     }
 
     #[test]

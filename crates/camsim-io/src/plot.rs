@@ -1,5 +1,6 @@
-//! PNG plots for people to read: line plots (SFR curves, spectra, photon transfer) and scatter
-//! plots with a y = x reference (measured vs simulated). Drawn with `plotters`' bitmap backend
+//! camsim's one plotting model, PNG plots for people to read: [`Figure`] of [`Series`] (line
+//! plots of SFR curves, spectra, photon transfer; scatter plots with a y = x reference, measured
+//! vs simulated), and [`Canvas`] for marks on a preview image. Drawn with `plotters`' bitmap backend
 //! and the DejaVu Sans font embedded through the `dejavu` crate, so no system fonts or
 //! libraries are needed.
 
@@ -21,6 +22,18 @@ fn register_font() {
     });
 }
 
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Style {
+    /// Solid line.
+    #[default]
+    Line,
+    /// Dashed line (models, published curves, the simulated beside the measured).
+    Dashed,
+    /// Markers only (a figure whose series are all markers is a scatter plot).
+    Points,
+}
+
 /// One named curve or point set.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Series {
@@ -28,8 +41,8 @@ pub struct Series {
     pub name: String,
     /// (x, y) points in the plot's units; non-finite points are skipped.
     pub points: Vec<(f64, f64)>,
-    /// Draw the line dashed (line plots), e.g. simulated vs measured.
-    pub dashed: bool,
+    /// How it is drawn.
+    pub style: Style,
     /// Colour as sRGB bytes; `None` takes the next colour of a 10-colour palette.
     pub color: Option<[u8; 3]>,
 }
@@ -40,57 +53,187 @@ impl Series {
         Series {
             name: name.into(),
             points,
-            dashed: false,
+            style: Style::Line,
             color: None,
         }
     }
+
+    /// A series from separate x and y values, drawn in `style` and `color`.
+    pub fn xy(
+        name: impl Into<String>,
+        x: Vec<f64>,
+        y: Vec<f64>,
+        style: Style,
+        color: [u8; 3],
+    ) -> Series {
+        Series {
+            name: name.into(),
+            points: x.into_iter().zip(y).collect(),
+            style,
+            color: Some(color),
+        }
+    }
+
+    /// The same series drawn dashed.
+    pub fn dashed(mut self) -> Series {
+        self.style = Style::Dashed;
+        self
+    }
+
+    /// The same series in colour `c`.
+    pub fn colored(mut self, c: [u8; 3]) -> Series {
+        self.color = Some(c);
+        self
+    }
 }
 
-/// A line plot with several named series, a legend, axis labels (with units) and a title.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct LinePlot {
+/// Colours of the R, G, B channels and of luminance in camsim's plots.
+pub const CHANNEL_COLORS: [[u8; 3]; 4] =
+    [[210, 40, 40], [30, 150, 50], [40, 70, 210], [60, 60, 60]];
+
+/// A plot: several named series with a legend, axis labels (with units) and a title. A figure
+/// whose series are all [`Style::Points`] is a scatter plot (one range for both axes, the
+/// x range when given, and a dashed y = x line with [`Figure::with_identity_line`]); any other
+/// is a line plot (every series a line, dashed or solid).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
     pub title: String,
     /// x axis label with its unit, e.g. "spatial frequency (cycles/pixel)".
     pub x_label: String,
     /// y axis label with its unit.
     pub y_label: String,
     pub series: Vec<Series>,
-    /// Fixed x range; `None` fits the data.
+    /// Fixed x range (a scatter plot's range of both axes); `None` fits the data.
     pub x_range: Option<(f64, f64)>,
     /// Fixed y range; `None` fits the data.
     pub y_range: Option<(f64, f64)>,
-}
-
-/// A scatter plot of point sets with a dashed y = x reference line, for measured vs simulated
-/// values. Both axes share one range so the reference is the diagonal.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct ScatterPlot {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub series: Vec<Series>,
-    /// Range of both axes; `None` fits the data (and 0 when all values are positive and near it).
-    pub range: Option<(f64, f64)>,
-    /// Draw the y = x line (default true through [`ScatterPlot::new`]).
+    /// A scatter plot's dashed y = x reference line.
     pub identity_line: bool,
+    /// Size in pixels (width, height).
+    pub size: (u32, u32),
 }
 
-impl ScatterPlot {
-    /// A scatter plot with the y = x reference line.
+impl Default for Figure {
+    fn default() -> Self {
+        Figure::new("", "", "")
+    }
+}
+
+impl Figure {
+    /// An empty figure of 640 x 440 pixels.
     pub fn new(
         title: impl Into<String>,
         x_label: impl Into<String>,
         y_label: impl Into<String>,
-        series: Vec<Series>,
-    ) -> Self {
-        ScatterPlot {
+    ) -> Figure {
+        Figure {
             title: title.into(),
             x_label: x_label.into(),
             y_label: y_label.into(),
-            series,
-            range: None,
-            identity_line: true,
+            series: Vec::new(),
+            x_range: None,
+            y_range: None,
+            identity_line: false,
+            size: (640, 440),
         }
+    }
+
+    /// Add a series.
+    pub fn with(mut self, s: Series) -> Figure {
+        self.series.push(s);
+        self
+    }
+
+    /// Set the axis ranges.
+    pub fn ranges(mut self, x: Option<(f64, f64)>, y: Option<(f64, f64)>) -> Figure {
+        self.x_range = x;
+        self.y_range = y;
+        self
+    }
+
+    /// Draw the y = x reference line (scatter plots of predicted vs measured).
+    pub fn with_identity_line(mut self) -> Figure {
+        self.identity_line = true;
+        self
+    }
+
+    /// Set the size in pixels.
+    pub fn sized(mut self, width: u32, height: u32) -> Figure {
+        self.size = (width, height);
+        self
+    }
+
+    /// Whether it is drawn as a scatter plot (every series [`Style::Points`]).
+    pub fn is_scatter(&self) -> bool {
+        !self.series.is_empty() && self.series.iter().all(|s| s.style == Style::Points)
+    }
+
+    /// Render to an RGB buffer (`width * height * 3` bytes, row-major).
+    pub fn render_rgb(&self) -> Result<Vec<u8>> {
+        if self.is_scatter() {
+            self.render_scatter()
+        } else {
+            self.render_lines()
+        }
+    }
+
+    /// The figure as PNG bytes (to embed in a report).
+    pub fn png(&self) -> Result<Vec<u8>> {
+        let (w, h) = self.size;
+        crate::raster::encode_png8_rgb(h as usize, w as usize, &self.render_rgb()?)
+    }
+
+    /// Write the figure as a PNG file, atomically.
+    pub fn write_png(&self, path: &Path) -> Result<()> {
+        let (w, h) = self.size;
+        write_rendered(path, w, h, self.render_rgb())
+    }
+}
+
+/// An 8-bit RGB picture to draw marks on (boxes on a preview), interleaved, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Canvas {
+    /// Width, pixels.
+    pub w: usize,
+    /// Height, pixels.
+    pub h: usize,
+    /// `w * h * 3` bytes.
+    pub data: Vec<u8>,
+}
+
+impl Canvas {
+    /// Set one pixel (outside the picture: nothing).
+    pub fn set(&mut self, x: i64, y: i64, c: [u8; 3]) {
+        if x >= 0 && y >= 0 && (x as usize) < self.w && (y as usize) < self.h {
+            let i = (y as usize * self.w + x as usize) * 3;
+            self.data[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    /// A two-pixel-wide line from `a` to `b` ([x, y] pixels).
+    pub fn line(&mut self, a: [f64; 2], b: [f64; 2], c: [u8; 3]) {
+        let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil() as usize).max(1);
+        for i in 0..=n {
+            let t = i as f64 / n as f64;
+            let (x, y) = (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]));
+            for d in [-1i64, 0] {
+                self.set(x.round() as i64 + d, y.round() as i64, c);
+                self.set(x.round() as i64, y.round() as i64 + d, c);
+            }
+        }
+    }
+
+    /// The outline of the rectangle [x0, x1] x [y0, y1].
+    pub fn rect(&mut self, x0: f64, y0: f64, x1: f64, y1: f64, c: [u8; 3]) {
+        self.line([x0, y0], [x1, y0], c);
+        self.line([x1, y0], [x1, y1], c);
+        self.line([x1, y1], [x0, y1], c);
+        self.line([x0, y1], [x0, y0], c);
+    }
+
+    /// The picture as PNG bytes.
+    pub fn png(&self) -> Result<Vec<u8>> {
+        crate::raster::encode_png8_rgb(self.h, self.w, &self.data)
     }
 }
 
@@ -165,9 +308,9 @@ fn check_size(path: &Path, width: u32, height: u32) -> Result<()> {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
-impl LinePlot {
-    /// Render to an RGB buffer (`width * height * 3` bytes, row-major).
-    pub fn render_rgb(&self, width: u32, height: u32) -> Result<Vec<u8>> {
+impl Figure {
+    fn render_lines(&self) -> Result<Vec<u8>> {
+        let (width, height) = self.size;
         let path = Path::new("<plot>");
         check_size(path, width, height)?;
         register_font();
@@ -199,7 +342,8 @@ impl LinePlot {
                     filled: false,
                     stroke_width: 2,
                 };
-                let anno = if s.dashed {
+                let dashed = s.style == Style::Dashed;
+                let anno = if dashed {
                     chart
                         .draw_series(DashedLineSeries::new(p.clone(), 10, 6, style))
                         .map_err(|x| e(x.to_string()))?
@@ -209,7 +353,6 @@ impl LinePlot {
                         .map_err(|x| e(x.to_string()))?
                 };
                 if !s.name.is_empty() {
-                    let dashed = s.dashed;
                     anno.label(s.name.clone()).legend(move |(x, y)| {
                         let gap = if dashed { 12 } else { 7 };
                         EmptyElement::at((x, y))
@@ -229,20 +372,13 @@ impl LinePlot {
         Ok(buf)
     }
 
-    /// Write the plot as a PNG of `width` x `height` pixels, atomically.
-    pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        write_rendered(path, width, height, self.render_rgb(width, height))
-    }
-}
-
-impl ScatterPlot {
-    /// Render to an RGB buffer (`width * height * 3` bytes, row-major).
-    pub fn render_rgb(&self, width: u32, height: u32) -> Result<Vec<u8>> {
+    fn render_scatter(&self) -> Result<Vec<u8>> {
+        let (width, height) = self.size;
         let path = Path::new("<plot>");
         check_size(path, width, height)?;
         register_font();
         let pts: Vec<Vec<(f64, f64)>> = self.series.iter().map(|s| finite(&s.points)).collect();
-        let r = match self.range {
+        let r = match self.x_range {
             Some(r) => r,
             None => {
                 let (lo, hi) = fit_range(pts.iter().flatten().flat_map(|p| [p.0, p.1]));
@@ -304,11 +440,6 @@ impl ScatterPlot {
             root.present().map_err(|x| e(x.to_string()))?;
         }
         Ok(buf)
-    }
-
-    /// Write the plot as a PNG of `width` x `height` pixels, atomically.
-    pub fn write_png(&self, path: &Path, width: u32, height: u32) -> Result<()> {
-        write_rendered(path, width, height, self.render_rgb(width, height))
     }
 }
 
@@ -406,7 +537,7 @@ fn write_rendered(path: &Path, width: u32, height: u32, rgb: Result<Vec<u8>>) ->
 mod tests {
     use super::*;
 
-    fn demo_line() -> LinePlot {
+    fn demo_line() -> Figure {
         let f: Vec<f64> = (0..=50).map(|i| i as f64 * 0.01).collect();
         let mtf = |sigma: f64| {
             f.iter()
@@ -418,28 +549,16 @@ mod tests {
                 })
                 .collect()
         };
-        LinePlot {
-            title: "Slanted-edge SFR, green channel".into(),
-            x_label: "spatial frequency (cycles/pixel)".into(),
-            y_label: "SFR".into(),
-            series: vec![
-                Series::new("measured", mtf(1.0)),
-                Series {
-                    name: "simulated".into(),
-                    points: mtf(1.1),
-                    dashed: true,
-                    color: None,
-                },
-                Series {
-                    name: "analytic sigma=0.8 px".into(),
-                    points: mtf(0.8),
-                    dashed: false,
-                    color: Some([0, 0, 0]),
-                },
-            ],
-            x_range: Some((0.0, 0.5)),
-            y_range: Some((0.0, 1.05)),
-        }
+        Figure::new(
+            "Slanted-edge SFR, green channel",
+            "spatial frequency (cycles/pixel)",
+            "SFR",
+        )
+        .with(Series::new("measured", mtf(1.0)))
+        .with(Series::new("simulated", mtf(1.1)).dashed())
+        .with(Series::new("analytic sigma=0.8 px", mtf(0.8)).colored([0, 0, 0]))
+        .ranges(Some((0.0, 0.5)), Some((0.0, 1.05)))
+        .sized(800, 600)
     }
 
     /// Count pixels close to an RGB colour.
@@ -452,7 +571,8 @@ mod tests {
     #[test]
     fn line_plot_draws_every_series_and_text() {
         let p = demo_line();
-        let rgb = p.render_rgb(800, 600).unwrap();
+        assert!(!p.is_scatter());
+        let rgb = p.render_rgb().unwrap();
         assert_eq!(rgb.len(), 800 * 600 * 3);
         // Both palette colours and the explicit black appear (curves and legend samples).
         assert!(count(&rgb, PALETTE[0]) > 200, "first series missing");
@@ -468,13 +588,17 @@ mod tests {
         );
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("sfr.png");
-        p.write_png(&path, 800, 600).unwrap();
+        p.write_png(&path).unwrap();
         let (rows, cols, back) = crate::raster::read_png8_rgb(&path).unwrap();
         assert_eq!((rows, cols), (600, 800));
         assert_eq!(back, rgb);
+        // The embedded form decodes to the same pixels.
+        let png = p.png().unwrap();
+        std::fs::write(dir.path().join("embedded.png"), png).unwrap();
+        let (_, _, again) = crate::raster::read_png8_rgb(&dir.path().join("embedded.png")).unwrap();
+        assert_eq!(again, rgb);
         if let Ok(dir) = std::env::var("CAMSIM_PLOT_DIR") {
-            p.write_png(&Path::new(&dir).join("line.png"), 800, 600)
-                .unwrap();
+            p.write_png(&Path::new(&dir).join("line.png")).unwrap();
         }
     }
 
@@ -488,46 +612,66 @@ mod tests {
                 )
             })
             .collect();
-        let mut p = ScatterPlot::new(
-            "ColorChecker means",
-            "simulated (DN)",
-            "measured (DN)",
-            vec![Series::new("R", sim.clone())],
+        let mut r = Series::new("R", sim.clone());
+        r.style = Style::Points;
+        let g = Series::xy(
+            "G",
+            sim.iter().map(|p| p.0).collect(),
+            sim.iter().map(|p| p.1 * 0.97).collect(),
+            Style::Points,
+            [44, 160, 44],
         );
-        p.series.push(Series {
-            name: "G".into(),
-            points: sim.iter().map(|(x, y)| (*x, y * 0.97)).collect(),
-            dashed: false,
-            color: Some([44, 160, 44]),
-        });
-        let rgb = p.render_rgb(640, 640).unwrap();
+        let p = Figure::new("ColorChecker means", "simulated (DN)", "measured (DN)")
+            .with(r)
+            .with(g)
+            .with_identity_line()
+            .sized(640, 640);
+        assert!(p.is_scatter());
+        let rgb = p.render_rgb().unwrap();
         assert!(count(&rgb, PALETTE[0]) > 24 * 20, "markers missing");
-        assert!(count(&rgb, [90, 90, 90]) > 100, "y = x line missing");
+        // The dashed grey y = x line: its pixels are the grey ones a figure without it lacks.
+        let mut q = p.clone();
+        q.identity_line = false;
+        let without = count(&q.render_rgb().unwrap(), [90, 90, 90]);
+        assert!(
+            count(&rgb, [90, 90, 90]) > without + 100,
+            "y = x line missing"
+        );
         if let Ok(dir) = std::env::var("CAMSIM_PLOT_DIR") {
-            p.write_png(&Path::new(&dir).join("scatter.png"), 640, 640)
-                .unwrap();
+            p.write_png(&Path::new(&dir).join("scatter.png")).unwrap();
         }
+    }
+
+    #[test]
+    fn canvas_draws_clipped_lines_and_boxes() {
+        let mut c = Canvas {
+            w: 10,
+            h: 8,
+            data: vec![0; 10 * 8 * 3],
+        };
+        c.rect(2.0, 2.0, 6.0, 5.0, [255, 0, 0]);
+        c.line([-5.0, -5.0], [20.0, 20.0], [0, 255, 0]);
+        let red = c.data.chunks_exact(3).filter(|p| *p == [255, 0, 0]).count();
+        assert!(red >= 12, "{red}");
+        assert_eq!(c.png().unwrap()[1..4], *b"PNG");
     }
 
     #[test]
     fn degenerate_input_is_handled() {
         // No points, a single point, NaNs: a plot is still drawn; bad ranges and sizes are errors.
-        let mut p = LinePlot {
-            title: "empty".into(),
-            ..Default::default()
-        };
-        p.render_rgb(300, 200).unwrap();
+        let mut p = Figure::new("empty", "", "").sized(300, 200);
+        p.render_rgb().unwrap();
         p.series
             .push(Series::new("one", vec![(1.0, 2.0), (f64::NAN, 3.0)]));
-        p.render_rgb(300, 200).unwrap();
+        p.render_rgb().unwrap();
         p.x_range = Some((1.0, 1.0));
         let dir = tempfile::tempdir().unwrap();
         let e = p
-            .write_png(&dir.path().join("bad.png"), 300, 200)
+            .write_png(&dir.path().join("bad.png"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("bad.png") && e.contains("x range"), "{e}");
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
-        assert!(LinePlot::default().render_rgb(10, 10).is_err());
+        assert!(Figure::default().sized(10, 10).render_rgb().is_err());
     }
 }

@@ -79,6 +79,18 @@ pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Resu
     })
 }
 
+/// An 8-bit RGB image (`rows * cols * 3` bytes, interleaved) as PNG bytes, in memory (to embed
+/// in a report).
+pub fn encode_png8_rgb(rows: usize, cols: usize, rgb: &[u8]) -> Result<Vec<u8>> {
+    let what = Path::new("<png>");
+    check_size(what, rows, cols, rgb.len(), 3)?;
+    let mut buf = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut buf)
+        .write_image(rgb, cols as u32, rows as u32, ExtendedColorType::Rgb8)
+        .map_err(|e| IoError::invalid(what, format!("PNG encoding failed: {e}")))?;
+    Ok(buf)
+}
+
 fn decode(path: &Path) -> Result<DynamicImage> {
     let reader = image::ImageReader::open(path).map_err(|e| IoError::io(path, e))?;
     let reader = reader

@@ -23,6 +23,7 @@
 
 use crate::demosaic::{demosaic_bilinear, RgbImage};
 use camsim_core::error::{CoreError, Result};
+use camsim_core::names::{NameTable, Named};
 use camsim_core::{CfaPattern, RawImage};
 use rayon::prelude::*;
 use std::fmt;
@@ -42,20 +43,15 @@ pub enum DemosaicMethod {
 }
 
 impl DemosaicMethod {
-    /// Every method, in the order of the CLI's list.
-    pub const ALL: [DemosaicMethod; 3] = [
-        DemosaicMethod::Bilinear,
-        DemosaicMethod::Malvar,
-        DemosaicMethod::AdaptiveLaplacian,
-    ];
+    /// Every method, in the order of [`DEMOSAIC_METHODS`].
+    pub const ALL: [DemosaicMethod; 3] = {
+        let e = DEMOSAIC_METHODS.entries;
+        [e[0].value, e[1].value, e[2].value]
+    };
 
-    /// The method's name (`bilinear`, `malvar`, `adaptive-laplacian`).
+    /// The method's name in [`DEMOSAIC_METHODS`] (`bilinear`, `malvar`, `adaptive-laplacian`).
     pub fn name(self) -> &'static str {
-        match self {
-            DemosaicMethod::Bilinear => "bilinear",
-            DemosaicMethod::Malvar => "malvar",
-            DemosaicMethod::AdaptiveLaplacian => "adaptive-laplacian",
-        }
+        DEMOSAIC_METHODS.name_of(self).unwrap_or("bilinear")
     }
 }
 
@@ -67,28 +63,36 @@ impl fmt::Display for DemosaicMethod {
 
 impl FromStr for DemosaicMethod {
     type Err = CoreError;
-    /// Accepts the names above and ISETCam's (`laplacian`, `adaptive laplacian`), any case, with
-    /// `-`, `_` or a space between words; `hamilton-adams` names the adaptive method too.
+    /// A name of [`DEMOSAIC_METHODS`] (ISETCam's `laplacian` and `adaptive laplacian` too).
     fn from_str(s: &str) -> Result<Self> {
-        let key: String = s
-            .trim()
-            .to_ascii_lowercase()
-            .chars()
-            .map(|c| if c == '_' || c == ' ' { '-' } else { c })
-            .collect();
-        Ok(match key.as_str() {
-            "bilinear" | "iebilinear" => DemosaicMethod::Bilinear,
-            "malvar" | "laplacian" | "malvar-he-cutler" | "mhc" => DemosaicMethod::Malvar,
-            "adaptive-laplacian" | "hamilton-adams" | "adaptive" => DemosaicMethod::AdaptiveLaplacian,
-            _ => {
-                return Err(CoreError::invalid(
-                    "demosaic method",
-                    format!("'{s}' is not one of bilinear, malvar (laplacian), adaptive-laplacian (hamilton-adams)"),
-                ))
-            }
-        })
+        DEMOSAIC_METHODS.get(s)
     }
 }
+
+/// The demosaicking methods by name (`--demosaic`, Python's `method=`).
+pub const DEMOSAIC_METHODS: NameTable<DemosaicMethod> = NameTable {
+    family: "demosaic method",
+    entries: &[
+        Named {
+            name: "bilinear",
+            aliases: &["iebilinear"],
+            about: "bilinear interpolation (the paper's method)",
+            value: DemosaicMethod::Bilinear,
+        },
+        Named {
+            name: "malvar",
+            aliases: &["laplacian", "malvar-he-cutler", "mhc"],
+            about: "Malvar-He-Cutler 2004 gradient-corrected linear (ISETCam 'laplacian')",
+            value: DemosaicMethod::Malvar,
+        },
+        Named {
+            name: "adaptive-laplacian",
+            aliases: &["hamilton-adams", "adaptive"],
+            about: "Hamilton-Adams 1997 adaptive colour planes (ISETCam 'adaptive laplacian')",
+            value: DemosaicMethod::AdaptiveLaplacian,
+        },
+    ],
+};
 
 /// Demosaic `raw` (black level subtracted) with `method`. Errors when `raw.dn` does not hold
 /// `rows * cols` values or the output would not fit in memory.

@@ -23,5 +23,5 @@ pub mod white_balance;
 
 pub use color::{bradford_adaptation, camera_response, ColorPipeline, Mat3};
 pub use demosaic::{demosaic_bilinear, try_demosaic_bilinear, RgbImage};
-pub use demosaic_methods::{demosaic, DemosaicMethod};
-pub use white_balance::WhiteBalanceMethod;
+pub use demosaic_methods::{demosaic, DemosaicMethod, DEMOSAIC_METHODS};
+pub use white_balance::{WhiteBalanceMethod, WHITE_BALANCE_METHODS};

@@ -19,6 +19,7 @@
 use crate::color::camera_response;
 use crate::demosaic::RgbImage;
 use camsim_core::error::{CoreError, Result};
+use camsim_core::names::{NameTable, Named};
 use camsim_core::{Spectrum, WavelengthGrid};
 use rayon::prelude::*;
 use std::fmt;
@@ -43,22 +44,15 @@ pub enum WhiteBalanceMethod {
 }
 
 impl WhiteBalanceMethod {
-    /// Every method.
-    pub const ALL: [WhiteBalanceMethod; 4] = [
-        WhiteBalanceMethod::None,
-        WhiteBalanceMethod::GrayWorld,
-        WhiteBalanceMethod::WhitePatch,
-        WhiteBalanceMethod::Illuminant,
-    ];
+    /// Every method, in the order of [`WHITE_BALANCE_METHODS`].
+    pub const ALL: [WhiteBalanceMethod; 4] = {
+        let e = WHITE_BALANCE_METHODS.entries;
+        [e[0].value, e[1].value, e[2].value, e[3].value]
+    };
 
     /// The method's name (`none`, `gray-world`, `white-patch`, `illuminant`).
     pub fn name(self) -> &'static str {
-        match self {
-            WhiteBalanceMethod::None => "none",
-            WhiteBalanceMethod::GrayWorld => "gray-world",
-            WhiteBalanceMethod::WhitePatch => "white-patch",
-            WhiteBalanceMethod::Illuminant => "illuminant",
-        }
+        WHITE_BALANCE_METHODS.name_of(self).unwrap_or("none")
     }
 }
 
@@ -70,28 +64,42 @@ impl fmt::Display for WhiteBalanceMethod {
 
 impl FromStr for WhiteBalanceMethod {
     type Err = CoreError;
-    /// The names above or ISETCam's (`gray world`, `white world`), any case, `-`/`_`/space.
+    /// A name of [`WHITE_BALANCE_METHODS`] (ISETCam's `gray world`, `white world` too).
     fn from_str(s: &str) -> Result<Self> {
-        let key: String = s
-            .trim()
-            .to_ascii_lowercase()
-            .chars()
-            .map(|c| if c == '_' || c == ' ' { '-' } else { c })
-            .collect();
-        Ok(match key.as_str() {
-            "none" => WhiteBalanceMethod::None,
-            "gray-world" | "grey-world" => WhiteBalanceMethod::GrayWorld,
-            "white-patch" | "white-world" => WhiteBalanceMethod::WhitePatch,
-            "illuminant" => WhiteBalanceMethod::Illuminant,
-            _ => {
-                return Err(CoreError::invalid(
-                    "white balance",
-                    format!("'{s}' is not one of none, gray-world, white-patch, illuminant"),
-                ))
-            }
-        })
+        WHITE_BALANCE_METHODS.get(s)
     }
 }
+
+/// The white-balance methods by name (`--white-balance`, Python's `method=`).
+pub const WHITE_BALANCE_METHODS: NameTable<WhiteBalanceMethod> = NameTable {
+    family: "white balance",
+    entries: &[
+        Named {
+            name: "none",
+            aliases: &[],
+            about: "no gains: camera (1, 1, 1) is neutral",
+            value: WhiteBalanceMethod::None,
+        },
+        Named {
+            name: "gray-world",
+            aliases: &["grey-world"],
+            about: "the scene averages to gray (Buchsbaum 1980)",
+            value: WhiteBalanceMethod::GrayWorld,
+        },
+        Named {
+            name: "white-patch",
+            aliases: &["white-world"],
+            about: "the brightest unclipped pixels are white (Land and McCann 1971)",
+            value: WhiteBalanceMethod::WhitePatch,
+        },
+        Named {
+            name: "illuminant",
+            aliases: &[],
+            about: "from the known illuminant and the sensor QE",
+            value: WhiteBalanceMethod::Illuminant,
+        },
+    ],
+};
 
 fn gains_from_neutral(neutral: [f64; 3], what: &str) -> Result<[f64; 3]> {
     if neutral.iter().any(|v| !(v.is_finite() && *v > 0.0)) {

@@ -481,17 +481,9 @@ impl OpticsConfig {
         toml::to_string(self).unwrap_or_default()
     }
 
-    /// A built-in preset's config (see [`crate::presets::names`]).
+    /// A built-in preset's config (see [`crate::presets::LENS_PRESETS`]; any case).
     pub fn preset(name: &str) -> Result<Self> {
-        let text = crate::presets::toml_text(name).ok_or_else(|| {
-            OpticsError::config(
-                "preset",
-                format!(
-                    "unknown optics preset '{name}'; known: {}",
-                    crate::presets::names().join(", ")
-                ),
-            )
-        })?;
+        let text = crate::presets::toml(name)?;
         Self::from_toml_str(text, &format!("optics preset {name}"))
     }
 }

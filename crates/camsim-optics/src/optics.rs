@@ -6,7 +6,7 @@ use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::shading::{horner, row_coefficients, ShadingChannel, ShadingFit};
-use crate::shift_variant::ShiftVariant;
+use crate::shift_variant::{ShiftVariant, SvJob};
 use crate::tail::{self, FarTail};
 use crate::wavefront::Wavefront;
 use camsim_core::image::ImageGeometry;
@@ -580,7 +580,7 @@ impl Optics {
             })
             .collect();
         if let Some(sv) = &self.shift_variant {
-            return sv.compute(self, radiance, &scale, spacing, v_s, d_obj);
+            return self.compute_shift_variant(sv, radiance, &scale, spacing, v_s, d_obj);
         }
 
         // Defocus: depth layers, or one wavefront for the whole image.
@@ -787,6 +787,36 @@ impl Optics {
     /// The shift-variant model, when `blur.method = "shift-variant"`.
     pub fn shift_variant(&self) -> Option<&ShiftVariant> {
         self.shift_variant.as_ref()
+    }
+
+    /// The shift-variant stage ([`crate::shift_variant`]) of [`Optics::compute`]: the on-axis
+    /// wavefront at the image distance `v_s` with the focus setting's defocus, the shading map
+    /// when the lens has no maps of its own, then [`Optics::finish`].
+    fn compute_shift_variant(
+        &self,
+        sv: &ShiftVariant,
+        radiance: &SpectralImage,
+        scale: &[f32],
+        spacing: f64,
+        v_s: f64,
+        d_obj: f64,
+    ) -> Result<SpectralImage> {
+        let extra = self
+            .config
+            .focus_distance_m
+            .map(|fd| self.defocus_c4_um(fd, d_obj))
+            .unwrap_or(0.0);
+        let job = SvJob {
+            config: &self.config,
+            wavefront: self
+                .wavefront
+                .clone()
+                .with_image_distance(v_s)
+                .with_extra_defocus_um(extra),
+            shading: &|| self.shading_map(radiance.rows, radiance.cols, spacing, v_s),
+        };
+        let (out, pad) = sv.compute(&job, radiance, scale, spacing, v_s, d_obj)?;
+        Ok(self.finish(out, radiance, pad, spacing, v_s))
     }
 
     /// Step 4 of [`Self::compute`]: carry the depth map (edge-replicated into the padding) and set

@@ -40,7 +40,7 @@
 
 use crate::conv::Fft2;
 use crate::error::{OpticsError, Result};
-use crate::shift_variant::LensMaps;
+use crate::lens_maps::LensMaps;
 use camsim_lens::Rtf;
 use rayon::prelude::*;
 use std::path::Path;

@@ -25,6 +25,8 @@ pub enum PipelineError {
     Render(#[from] camsim_render::RenderError),
     #[error(transparent)]
     Io(#[from] camsim_io::IoError),
+    #[error(transparent)]
+    Analysis(#[from] camsim_analysis::AnalysisError),
     #[error("cannot encode run metadata: {0}")]
     Json(#[from] serde_json::Error),
 }

@@ -1,6 +1,7 @@
 //! Which files a run writes (`camsim simulate --save ...`, [`crate::Simulation::write`]).
 
 use crate::{PipelineError, Result};
+use camsim_core::names::{NameTable, Named};
 use std::collections::BTreeSet;
 
 /// One kind of output file of a run. run.json is always written.
@@ -30,33 +31,80 @@ pub enum Output {
     Flow,
 }
 
-impl Output {
-    /// Every output, in the order of [`Self::name`] in `--save`.
-    pub const ALL: [Output; 9] = [
-        Output::Raw,
-        Output::RawPng,
-        Output::Preview,
-        Output::Radiance,
-        Output::Irradiance,
-        Output::Depth,
-        Output::NoiseFree,
-        Output::Ids,
-        Output::Flow,
-    ];
+/// The outputs by the name `--save` (and a dataset's `outputs`) takes.
+pub const OUTPUTS: NameTable<Output> = NameTable {
+    family: "output",
+    entries: &[
+        out(
+            "raw",
+            "raw.dng: the exact ADC values (raw_0001.dng ... for more frames)",
+            Output::Raw,
+        ),
+        out(
+            "raw-png",
+            "raw.png: the mosaic scaled to 16 bits for viewing",
+            Output::RawPng,
+        ),
+        out(
+            "preview",
+            "preview.png: the ISP's sRGB image",
+            Output::Preview,
+        ),
+        out(
+            "radiance",
+            "radiance.exr: scene spectral radiance, W/(sr m^2 nm)",
+            Output::Radiance,
+        ),
+        out(
+            "irradiance",
+            "irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)",
+            Output::Irradiance,
+        ),
+        out(
+            "depth",
+            "depth.exr: a 3D scene's depth map, m",
+            Output::Depth,
+        ),
+        out(
+            "noise-free",
+            "noise_free.exr: each pixel's ADC value without noise, DN",
+            Output::NoiseFree,
+        ),
+        out(
+            "ids",
+            "object_id.png, material_id.png, ids.json: a 3D scene's segmentation",
+            Output::Ids,
+        ),
+        out(
+            "flow",
+            "flow.exr (flow_0001.exr ...; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)",
+            Output::Flow,
+        ),
+    ],
+};
 
-    /// The name used in `--save`.
+const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Output> {
+    Named {
+        name,
+        aliases: &[],
+        about,
+        value,
+    }
+}
+
+impl Output {
+    /// Every output, in the order of [`OUTPUTS`].
+    pub const ALL: [Output; 9] = {
+        let e = OUTPUTS.entries;
+        [
+            e[0].value, e[1].value, e[2].value, e[3].value, e[4].value, e[5].value, e[6].value,
+            e[7].value, e[8].value,
+        ]
+    };
+
+    /// The name used in `--save` ([`OUTPUTS`]).
     pub fn name(self) -> &'static str {
-        match self {
-            Output::Raw => "raw",
-            Output::RawPng => "raw-png",
-            Output::Preview => "preview",
-            Output::Radiance => "radiance",
-            Output::Irradiance => "irradiance",
-            Output::Depth => "depth",
-            Output::NoiseFree => "noise-free",
-            Output::Ids => "ids",
-            Output::Flow => "flow",
-        }
+        OUTPUTS.name_of(self).unwrap_or("raw")
     }
 }
 
@@ -89,15 +137,14 @@ impl OutputSet {
             match item {
                 "all" => set.extend(Output::ALL),
                 "default" => set.extend(OutputSet::default().0),
-                _ => match Output::ALL.iter().find(|o| o.name() == item) {
+                _ => match OUTPUTS.entry(item) {
                     Some(o) => {
-                        set.insert(*o);
+                        set.insert(o.value);
                     }
                     None => {
-                        let names: Vec<&str> = Output::ALL.iter().map(|o| o.name()).collect();
                         return Err(PipelineError::config(format!(
-                            "--save: unknown output {item:?} (one or more of {}, or all, default)",
-                            names.join(", ")
+                            "--save: {} (or all, default)",
+                            OUTPUTS.unknown(item)
                         )));
                     }
                 },

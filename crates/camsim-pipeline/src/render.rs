@@ -7,14 +7,157 @@
 //! film on the sensor window ([`fit_lens_film_to_sensor`]) and hands the irradiance straight to
 //! the sensor, skipping the optics stage (which would blur a second time).
 
+use crate::records::RenderRecord;
 use crate::{PipelineError, Progress, RenderSection, Result, SimulateConfig};
-use camsim_core::SpectralImage;
+use camsim_core::{SpectralImage, WavelengthGrid};
+use camsim_io::atomic::OutputDir;
 use camsim_optics::Optics;
 use camsim_render::RenderOutput;
-use camsim_scene3d::builtin::{self, BuiltinOptions};
+use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
 use camsim_scene3d::SceneDescription;
 use camsim_sensor::Sensor;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// A 3D scene to render on its own (`camsim render`, Python's `camsim.render`).
+#[derive(Debug, Clone)]
+pub struct RenderRequest {
+    /// A built-in scene by name (`camsim_scene3d::builtin::BUILTIN_SCENES`).
+    pub builtin: Option<String>,
+    /// Or a pbrt-v4 scene file.
+    pub pbrt: Option<PathBuf>,
+    /// An overlay TOML applied to it (moves objects, sets spectra).
+    pub overlay: Option<PathBuf>,
+    /// Or a simulate config with a `[render]` table: its scene exactly as `camsim simulate`
+    /// renders it (resolution, samples, seed, wavelengths, the sensor window's field of view).
+    pub config: Option<SimulateConfig>,
+    /// Samples per pixel (wins over the file's, the overlay's and the built-in's).
+    pub samples_per_pixel: Option<u32>,
+    /// Image (width, height) (wins over the file's and the overlay's).
+    pub resolution: Option<(usize, usize)>,
+    /// Maximum path depth.
+    pub max_depth: Option<u32>,
+    /// Opt-in wall-clock limit, s.
+    pub time_budget_s: Option<f64>,
+    /// ColorChecker position of `cornell-box-mcc`.
+    pub mcc_position: MccPosition,
+    /// Target distance of `slanted-edge`, m.
+    pub distance_m: f64,
+    /// Render seed (default 1, or the config's).
+    pub seed: Option<u64>,
+    /// Wavelength grid (a config has its own).
+    pub grid: WavelengthGrid,
+}
+
+impl Default for RenderRequest {
+    fn default() -> Self {
+        RenderRequest {
+            builtin: None,
+            pbrt: None,
+            overlay: None,
+            config: None,
+            samples_per_pixel: None,
+            resolution: None,
+            max_depth: None,
+            time_budget_s: None,
+            mcc_position: MccPosition::Center,
+            distance_m: 0.5,
+            seed: None,
+            grid: WavelengthGrid::default(),
+        }
+    }
+}
+
+/// The scene of `req`, set up to render: loaded (built-in, pbrt-v4 file and overlay, or a
+/// config's `[render]`), then the request's explicit settings win over the file's and the
+/// overlay's. Its `notes` say what the reader ignored or approximated.
+pub fn request_scene(req: &RenderRequest) -> Result<SceneDescription> {
+    let mut scene = match &req.config {
+        Some(cfg) => {
+            let mut cfg = cfg.clone();
+            if let Some(seed) = req.seed {
+                cfg.seed = seed;
+            }
+            let section = cfg.render.clone().ok_or_else(|| {
+                PipelineError::config("the config has no [render] table to render")
+            })?;
+            render_section_scene(&section, &cfg, &cfg.sensor()?, &cfg.optics()?)?
+        }
+        None => {
+            let mut opts = BuiltinOptions {
+                resolution: req.resolution,
+                mcc_position: req.mcc_position,
+                target_distance_m: req.distance_m,
+                grid: req.grid,
+                seed: req.seed.unwrap_or(1),
+                ..BuiltinOptions::default()
+            };
+            if let Some(spp) = req.samples_per_pixel {
+                opts.samples_per_pixel = spp;
+            }
+            load_scene(
+                req.builtin.as_deref(),
+                req.pbrt.as_deref(),
+                req.overlay.as_deref(),
+                &opts,
+            )?
+        }
+    };
+    // Explicit settings win over the file's and the overlay's.
+    if let Some(spp) = req.samples_per_pixel {
+        scene.settings.samples_per_pixel = spp;
+    }
+    if let Some((w, h)) = req.resolution {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    if let Some(d) = req.max_depth {
+        scene.settings.max_depth = d;
+    }
+    if req.time_budget_s.is_some() {
+        scene.settings.time_budget_s = req.time_budget_s;
+    }
+    Ok(scene)
+}
+
+/// A render and the scene it came from.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    /// The scene as rendered.
+    pub scene: SceneDescription,
+    /// The render.
+    pub output: RenderOutput,
+}
+
+impl Rendered {
+    /// The render's record (render.json).
+    pub fn record(&self, scene_name: Option<String>, command: Option<String>) -> RenderRecord {
+        RenderRecord::new(&self.scene, &self.output, scene_name, command)
+    }
+
+    /// Write radiance.exr (spectral, depth as channel Z), depth.exr, variance.exr,
+    /// object_id.png, material_id.png, ids.json, preview.png and render.json into `out`; returns
+    /// the record.
+    pub fn write_files(
+        &self,
+        out: &OutputDir,
+        scene_name: Option<String>,
+        command: Option<String>,
+    ) -> Result<RenderRecord> {
+        let r = &self.output;
+        let (rows, cols) = (r.radiance.rows, r.radiance.cols);
+        camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &r.radiance, "render")?;
+        camsim_io::exr::write_gray_exr(&out.join("depth.exr"), rows, cols, "Z", &r.depth_m)?;
+        camsim_io::exr::write_gray_exr(&out.join("variance.exr"), rows, cols, "Y", &r.variance)?;
+        crate::write_id_maps(out.path(), &r.ids)?;
+        let srgb = camsim_isp::preview::radiance_srgb8(&r.radiance);
+        camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rows, cols, &srgb)?;
+        let record = self.record(scene_name, command);
+        record
+            .write(&out.join("render.json"))
+            .map_err(|e| PipelineError::config(format!("render.json: {e}")))?;
+        Ok(record)
+    }
+}
 
 /// Load a scene description: a built-in by name or a pbrt-v4 file, then the overlay. Returns the
 /// scene and the notes the reader made (ignored or approximated parameters).

@@ -5,13 +5,13 @@
 //! grid. A 2D chart, or a 3D scene where nothing moves, is rendered once and imaged as before
 //! (the same bytes).
 
-use crate::simulation::{image_owned, Imaged};
+use crate::capture::{image_owned, CaptureRequest, Imaged};
 use crate::timing::{flow_on_sensor, FrameTime};
 use crate::{render, scene_stage, Progress, Result, SimulateConfig};
 use camsim_core::SpectralImage;
 use camsim_optics::Optics;
 use camsim_scene3d::SceneDescription;
-use camsim_sensor::{Capture, Exposure, Frame, Sensor};
+use camsim_sensor::{Exposure, Frame, Sensor};
 use std::time::Instant;
 
 /// Optical flow of one raw frame on the sensor's grid: per pixel `[dx, dy]` in sensor pixels
@@ -65,20 +65,18 @@ pub(crate) fn stage(
     cfg: &SimulateConfig,
     sensor: &Sensor,
     optics: &Optics,
-    capture: &Capture,
+    req: &CaptureRequest,
     flow: bool,
     progress: &Progress<'_>,
 ) -> Result<Staged> {
     cfg.capture.check_timing()?;
-    let bracket = cfg.bracket_exposures_s()?;
     let t = Instant::now();
     progress("scene", 0, 1);
     let Some(r) = &cfg.render else {
         let (radiance, ids) = scene_stage(cfg, sensor, optics, progress)?;
         let scene_s = t.elapsed().as_secs_f64();
         progress("optics", 0, 1);
-        let (radiance, imaged) =
-            image_owned(radiance, optics, sensor, capture, bracket.as_deref(), 0)?;
+        let (radiance, imaged) = image_owned(radiance, optics, sensor, req)?;
         let times = cfg.capture.frame_times(&exposures_of(&imaged.frame), 0.0)?;
         return Ok(Staged {
             radiance,
@@ -99,8 +97,7 @@ pub(crate) fn stage(
         render::film_as_irradiance(&scene, &mut out.radiance);
         let scene_s = t.elapsed().as_secs_f64();
         progress("optics", 0, 1);
-        let (radiance, imaged) =
-            image_owned(out.radiance, optics, sensor, capture, bracket.as_deref(), 0)?;
+        let (radiance, imaged) = image_owned(out.radiance, optics, sensor, req)?;
         let times = cfg
             .capture
             .frame_times(&exposures_of(&imaged.frame), shutter.open_s)?;
@@ -125,14 +122,14 @@ pub(crate) fn stage(
     }
 
     // The scene moves: each raw frame in its own window.
-    let durations: Vec<f64> = match (&bracket, capture.exposure) {
+    let durations: Vec<f64> = match (&req.bracket_s, req.exposure) {
         (Some(b), _) => b
             .iter()
-            .flat_map(|t| std::iter::repeat_n(*t, capture.frames))
+            .flat_map(|t| std::iter::repeat_n(*t, req.frames))
             .collect(),
-        (None, Exposure::Seconds(t)) => vec![t; capture.frames],
+        (None, Exposure::Seconds(t)) => vec![t; req.frames],
         // Auto-exposure: the scene's own shutter length (the exposure is not known yet).
-        (None, Exposure::Auto { .. }) => vec![shutter.close_s - shutter.open_s; capture.frames],
+        (None, Exposure::Auto { .. }) => vec![shutter.close_s - shutter.open_s; req.frames],
     };
     let times = cfg.capture.frame_times(&durations, shutter.open_s)?;
     scene.settings.time.shutter.rolling =
@@ -170,18 +167,20 @@ pub(crate) fn stage(
             });
         }
         // Frame 0 resolves auto-exposure; the others keep its time (or their bracket's).
-        let exposure = match (&first, &bracket) {
-            (None, None) => capture.exposure,
+        let exposure = match (&first, &req.bracket_s) {
+            (None, None) => req.exposure,
             (Some((_, _, _, f0)), None) => Exposure::Seconds(f0.exposure_s),
             (_, Some(_)) => Exposure::Seconds(durations[i]),
         };
-        let cap = Capture {
+        let one = CaptureRequest {
             exposure,
+            bracket_s: None,
             frames: 1,
-            seed: capture.seed,
+            first_frame: i as u64,
+            ..req.clone()
         };
         progress("optics", i as u64, times.len() as u64);
-        let (radiance, im) = image_owned(out.radiance, optics, sensor, &cap, None, i as u64)?;
+        let (radiance, im) = image_owned(out.radiance, optics, sensor, &one)?;
         optics_s += im.optics_s;
         sensor_s += im.sensor_s;
         match &mut first {

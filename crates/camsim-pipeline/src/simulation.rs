@@ -1,19 +1,18 @@
 //! The whole pipeline in memory ([`simulate`] -> [`Simulation`]) and, as a separate step, its
 //! files ([`Simulation::write`]).
 
+use crate::capture::{frame_suffix, noise_free_dn, Imaged};
 use crate::outputs::{Output, OutputSet};
+use crate::records::{raw_png_note, RunRecord, RunResults};
 use crate::sequence::FrameFlow;
 use crate::timing::FrameTime;
-use crate::{
-    color_pipeline, dng_metadata, mean_luminance_cd_m2, raw_png_note, PipelineError, Progress,
-    Result, SimulateConfig,
-};
-use camsim_core::{CfaChannel, Quantity, RawImage, SpectralImage};
+use crate::{mean_luminance_cd_m2, Isp, PipelineError, Progress, Result, SimulateConfig};
+use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_io::exr::ExrOptions;
-use camsim_optics::{Optics, OpticsConfig};
-use camsim_sensor::{Capture, Frame, NoiseSwitches, Sensor, SensorConfig};
+use camsim_optics::OpticsConfig;
+use camsim_sensor::SensorConfig;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -90,90 +89,6 @@ pub struct Simulation {
     pub flow: Option<Vec<FrameFlow>>,
 }
 
-/// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
-/// seconds each stage took (the one wiring of optics into sensor; `simulate` and
-/// `camsim validate` both use it). An image that is already sensor-plane irradiance (a lens
-/// camera's render, [`crate::render`]) goes to the sensor as it is.
-pub fn image_radiance(
-    radiance: &SpectralImage,
-    optics: &Optics,
-    sensor: &Sensor,
-    capture: &Capture,
-) -> Result<Imaged> {
-    let t = Instant::now();
-    let irradiance = optics_stage(radiance, optics)?;
-    let optics_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let frame = sensor.compute(&irradiance, capture)?;
-    Ok(Imaged {
-        irradiance,
-        frame,
-        optics_s,
-        sensor_s: t.elapsed().as_secs_f64(),
-    })
-}
-
-/// The optics stage, or the image itself when it is already sensor-plane irradiance.
-fn optics_stage(image: &SpectralImage, optics: &Optics) -> Result<SpectralImage> {
-    match image.quantity {
-        Quantity::Irradiance => Ok(image.clone()),
-        _ => Ok(optics.compute(image)?),
-    }
-}
-
-/// Stages 2 and 3 on a scene image taken by value, for [`simulate`]: with `bracket`, an exposure
-/// bracket / burst (`capture.frames` raws for each exposure, [`Sensor::compute_bracket`]); else
-/// the frames' temporal noise keyed from frame `first_frame` ([`Sensor::compute_from`]). A lens
-/// camera's render, already sensor-plane irradiance, becomes [`Imaged::irradiance`] without a
-/// copy (a full-frame 31-band cube is 1.5 GB), and no radiance is handed back (`None`).
-pub(crate) fn image_owned(
-    image: SpectralImage,
-    optics: &Optics,
-    sensor: &Sensor,
-    capture: &Capture,
-    bracket: Option<&[f64]>,
-    first_frame: u64,
-) -> Result<(Option<SpectralImage>, Imaged)> {
-    let t = Instant::now();
-    let (radiance, irradiance) = match image.quantity {
-        Quantity::Irradiance => (None, image),
-        _ => {
-            let irradiance = optics.compute(&image)?;
-            (Some(image), irradiance)
-        }
-    };
-    let optics_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let frame = match bracket {
-        None => sensor.compute_from(&irradiance, capture, first_frame)?,
-        Some(times_s) => {
-            sensor.compute_bracket(&irradiance, times_s, capture.frames, capture.seed)?
-        }
-    };
-    Ok((
-        radiance,
-        Imaged {
-            irradiance,
-            frame,
-            optics_s,
-            sensor_s: t.elapsed().as_secs_f64(),
-        },
-    ))
-}
-
-/// What [`image_radiance`] returns.
-#[derive(Debug, Clone)]
-pub struct Imaged {
-    /// Sensor-plane spectral irradiance, W/(m^2 nm).
-    pub irradiance: SpectralImage,
-    /// The sensor's frames.
-    pub frame: Frame,
-    /// Seconds in the optics stage.
-    pub optics_s: f64,
-    /// Seconds in the sensor stage.
-    pub sensor_s: f64,
-}
-
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
 /// Reads only the files the config names (scene files, pbrt scenes, lens or sensor files);
 /// writes nothing. `progress(stage, done, total)` is called as long steps advance.
@@ -193,7 +108,7 @@ pub fn simulate(
             sensor.name()
         )));
     }
-    let capture = cfg.capture()?;
+    let request = cfg.capture_request()?;
     let mut times = serde_json::Map::new();
     let lap = |times: &mut serde_json::Map<String, serde_json::Value>, name: &str, t: Instant| {
         times.insert(name.into(), t.elapsed().as_secs_f64().into());
@@ -214,25 +129,13 @@ pub fn simulate(
         flow,
         scene_s,
         moving,
-    } = crate::sequence::stage(cfg, &sensor, &optics, &capture, opts.flow, progress)?;
+    } = crate::sequence::stage(cfg, &sensor, &optics, &request, opts.flow, progress)?;
     times.insert("scene_s".into(), scene_s.into());
     times.insert("optics_s".into(), optics_s.into());
 
     let t = Instant::now();
     let noise_free_dn = if opts.noise_free {
-        let quiet = sensor.with_noise(NoiseSwitches {
-            shot: false,
-            read: false,
-            dsnu: false,
-            prnu: false,
-            dark: true,
-            quantization: false,
-        });
-        let nf = quiet.compute(&irradiance, &Capture::seconds(frame.exposure_s))?;
-        let plane = nf.analog_dn.and_then(|mut v| v.drain(..).next());
-        Some(plane.ok_or_else(|| {
-            PipelineError::config("the noise-free sensor pass returned no analog values")
-        })?)
+        Some(noise_free_dn(&sensor, &irradiance, frame.exposure_s)?)
     } else {
         None
     };
@@ -243,22 +146,16 @@ pub fn simulate(
 
     let t = Instant::now();
     progress("isp", 0, 1);
-    let color = color_pipeline(&sensor, &cfg.wavelengths, cfg.scene.as_ref())?;
-    let dng = dng_metadata(&sensor, &color, Some(cfg))?;
+    // The paper's ISP under the scene's illuminant: bilinear demosaic (RGBW frames: the W-guided
+    // fusion; other CFAs: the per-filter bilinear planes), white balance from the illuminant,
+    // colour matrix from the QE.
+    let isp = Isp::for_config(cfg)?;
+    let dng = isp.dng_metadata(&sensor, Some(serde_json::to_string(cfg)?))?;
     let raw0 = frame
         .raw
         .first()
         .ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
-    // Bayer: the paper's bilinear demosaic; other CFAs (RGBW, Quad Bayer, cfa_pattern): the
-    // per-filter bilinear interpolation's r, g, b planes.
-    let rgb = camsim_isp::cfa_general::demosaic_any(raw0)?;
-    let srgb =
-        color.render_srgb8_clipped(&rgb, None, Some(raw0.white_level_dn - raw0.black_level_dn));
-    let preview = Rgb8Image {
-        rows: rgb.rows,
-        cols: rgb.cols,
-        data: srgb,
-    };
+    let preview = isp.compute(raw0, &sensor)?.preview;
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -328,7 +225,54 @@ impl Simulation {
 
     /// The run's record (run.json): version, configs, results, the files written and the times.
     /// `camsim simulate run.json` repeats the run from it.
+    pub fn record(&self, info: &RunInfo, outputs: &OutputSet) -> RunRecord {
+        RunRecord {
+            camsim_version: env!("CARGO_PKG_VERSION").into(),
+            command: info.command.clone(),
+            config: self.config.clone(),
+            config_file: info.config_file.as_ref().map(|p| p.display().to_string()),
+            files: self.file_notes(outputs),
+            optics: self.optics.clone(),
+            outputs: outputs.names(),
+            results: RunResults {
+                exposure_s: self.exposure_s,
+                // An exposure bracket: each raw's exposure time, in file order (raw.dng,
+                // raw_0001.dng, ...).
+                frame_exposures_s: self
+                    .config
+                    .capture
+                    .exposures_ms
+                    .is_some()
+                    .then(|| self.frames.iter().map(|r| r.exposure_s).collect()),
+                frames: self.frames.len(),
+                irradiance_sample_spacing_um: self.irradiance.sample_spacing_m * 1e6,
+                irradiance_size: [
+                    self.irradiance.rows,
+                    self.irradiance.cols,
+                    self.irradiance.bands(),
+                ],
+                // A lens camera renders irradiance (no scene radiance to average).
+                lens_camera: self.radiance.is_none(),
+                mean_dn_rgb: self.mean_dn_rgb,
+                mean_electrons_rgb: self.mean_electrons_rgb,
+                radiance_size: self.radiance.as_ref().map(|r| [r.rows, r.cols, r.bands()]),
+                scene_mean_luminance_cd_m2: self.radiance.as_ref().map(mean_luminance_cd_m2),
+                frame_times: self.frame_times.clone(),
+                shutter: self.config.capture.shutter.describe(self.frames[0].rows),
+                scene_moves: self.moving,
+            },
+            sensor: self.sensor.clone(),
+            times: self.times_s.clone(),
+        }
+    }
+
+    /// [`Self::record`] as JSON (keys in alphabetical order).
     pub fn metadata(&self, info: &RunInfo, outputs: &OutputSet) -> serde_json::Value {
+        self.record(info, outputs).to_value()
+    }
+
+    /// run.json's `files`: what each output holds, or why it was not written.
+    fn file_notes(&self, outputs: &OutputSet) -> serde_json::Map<String, serde_json::Value> {
         let raw0 = &self.frames[0];
         let mut files = serde_json::Map::new();
         if outputs.contains(Output::Raw) {
@@ -388,43 +332,7 @@ impl Simulation {
                 "expected ADC value per pixel without noise or quantization, DN (channel Y)".into(),
             );
         }
-        let mut v = serde_json::json!({
-            "camsim_version": env!("CARGO_PKG_VERSION"),
-            "command": info.command,
-            "config_file": info.config_file.as_ref().map(|p| p.display().to_string()),
-            "config": self.config,
-            "optics": self.optics,
-            "sensor": self.sensor,
-            "outputs": outputs.names(),
-            "results": {
-                "exposure_s": self.exposure_s,
-                "mean_electrons_rgb": self.mean_electrons_rgb,
-                "mean_dn_rgb": self.mean_dn_rgb,
-                // A lens camera renders irradiance (no scene radiance to average).
-                "scene_mean_luminance_cd_m2": self.radiance.as_ref().map(mean_luminance_cd_m2),
-                "lens_camera": self.radiance.is_none(),
-                "radiance_size": self.radiance.as_ref().map(|r| [r.rows, r.cols, r.bands()]),
-                "irradiance_size": [self.irradiance.rows, self.irradiance.cols, self.irradiance.bands()],
-                "irradiance_sample_spacing_um": self.irradiance.sample_spacing_m * 1e6,
-                "frames": self.frames.len(),
-            },
-            "files": files,
-            "times": self.times_s,
-        });
-        // The frames in time: each raw's window in the scene's time (file order) and the shutter.
-        v["results"]["frame_times"] = serde_json::to_value(&self.frame_times).unwrap_or_default();
-        v["results"]["shutter"] = self.config.capture.shutter.describe(raw0.rows);
-        v["results"]["scene_moves"] = self.moving.into();
-        // An exposure bracket: each raw's exposure time, in file order (raw.dng, raw_0001.dng, ...).
-        if self.config.capture.exposures_ms.is_some() {
-            v["results"]["frame_exposures_s"] = self
-                .frames
-                .iter()
-                .map(|r| r.exposure_s)
-                .collect::<Vec<_>>()
-                .into();
-        }
-        v
+        files
     }
 
     /// Write the chosen outputs and run.json into folder `dir`, atomically as a whole: the files
@@ -521,7 +429,12 @@ impl Simulation {
                         .chain(f.to_next.as_ref().map(|n| ("flow_next", n)));
                     for (base, map) in maps {
                         t.push(Box::new(move || {
-                            write_flow(&out.join(frame_file(base, i, "exr")), rows, cols, map)
+                            write_flow(
+                                &out.join(format!("{base}{}.exr", frame_suffix(i))),
+                                rows,
+                                cols,
+                                map,
+                            )
                         }));
                     }
                 }
@@ -529,8 +442,8 @@ impl Simulation {
             if outputs.contains(Output::Raw) {
                 for (i, raw) in self.frames.iter().enumerate() {
                     t.push(Box::new(move || {
-                        let name = frame_file("raw", i, "dng");
-                        Ok(camsim_io::dng::write_dng(&out.join(&name), raw, &self.dng)?)
+                        let name = format!("raw{}.dng", frame_suffix(i));
+                        Ok(camsim_io::dng::write_dng(&out.join(name), raw, &self.dng)?)
                     }));
                 }
             }
@@ -565,17 +478,8 @@ impl Simulation {
             .map(|task| task())
             .collect::<Result<Vec<()>>>()?;
         // run.json last: its presence marks a complete run.
-        camsim_io::atomic::write_json_atomic(&out.join("run.json"), &self.metadata(info, outputs))?;
+        self.record(info, outputs).write(&out.join("run.json"))?;
         Ok(())
-    }
-}
-
-/// The file of frame `i` (0-based): `base.ext`, then `base_0001.ext`, ... (as raw.dng).
-fn frame_file(base: &str, i: usize, ext: &str) -> String {
-    if i == 0 {
-        format!("{base}.{ext}")
-    } else {
-        format!("{base}_{i:04}.{ext}")
     }
 }
 

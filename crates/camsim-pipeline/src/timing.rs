@@ -118,7 +118,7 @@ impl ShutterConfig {
 }
 
 /// One raw frame's window in the scene's time.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FrameTime {
     /// Start of the exposure (of the first row to start, for a rolling shutter), s.
     pub start_s: f64,

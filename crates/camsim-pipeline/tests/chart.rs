@@ -145,7 +145,7 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
         assert!(
             margin.iter().all(|m| *m > kernel_half_px as isize),
             "patch {}: margins {margin:?} px, PSF half width {kernel_half_px} px",
-            reg.index
+            reg.patch
         );
     }
 
@@ -166,14 +166,14 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
                 assert!(
                     err <= 0.5 + 1e-5 * expect,
                     "{what}: patch {} ({}) channel {c}: mean {} DN vs analytic {expect} DN",
-                    s.index,
+                    s.patch,
                     s.name,
                     s.mean[c]
                 );
                 assert_eq!(
                     s.std[c], 0.0,
                     "{what}: patch {} channel {c} is not uniform",
-                    s.index
+                    s.patch
                 );
                 assert!(s.n[c] > 100);
             }
@@ -186,7 +186,7 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("chart.dng");
     camsim_io::dng::write_dng(&path, raw, &camsim_io::dng::DngMetadata::default()).unwrap();
-    let back = camsim_pipeline::load_raw(&path, None, 0.0, 16).unwrap();
+    let back = camsim_pipeline::load_raw(&path, &camsim_pipeline::MosaicFormat::default()).unwrap();
     check_raw(&back, "DNG");
 
     // Unrounded: quantization off, the ADC input over each region's pixels of each channel.
@@ -213,7 +213,7 @@ fn chart_patch_means_equal_the_analytic_channel_responses() {
             assert!(
                 rel < 0.005,
                 "patch {} ({}) channel {c}: {mean} DN vs analytic {} DN",
-                reg.index,
+                reg.patch,
                 reg.name,
                 a[c]
             );

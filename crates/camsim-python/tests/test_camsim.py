@@ -2,31 +2,18 @@
 path, and bit-for-bit agreement with the command-line program."""
 
 import json
-import os
 import pathlib
 import subprocess
 
+import camsim
 import numpy as np
 import pytest
-
-import camsim
+from conftest import camsim_binary
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 
 # A small config (48 x 64 window, 2 frames), shared with the Rust library tests.
 SMALL = (REPO / "crates" / "camsim" / "tests" / "small.toml").read_text()
-
-
-def camsim_binary():
-    """The CLI built by `cargo test`/`cargo build` (CAMSIM_BIN overrides)."""
-    path = os.environ.get("CAMSIM_BIN")
-    if path:
-        return path
-    for profile in ("debug", "release"):
-        p = REPO / "target" / profile / "camsim"
-        if p.is_file():
-            return str(p)
-    raise AssertionError("no camsim binary: run `cargo build` first or set CAMSIM_BIN")
 
 
 def test_simulate_returns_every_stage_as_numpy_arrays():

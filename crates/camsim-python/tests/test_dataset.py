@@ -8,11 +8,10 @@ import os
 import pathlib
 import subprocess
 
-import numpy as np
-import pytest
-
 import camsim
 import camsim.dataset
+import numpy as np
+import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 

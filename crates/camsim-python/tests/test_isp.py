@@ -1,10 +1,9 @@
 """The ISP functions of the Python package: demosaicking methods, white balance and the
 colour-correction matrix fit, each against a closed form."""
 
+import camsim
 import numpy as np
 import pytest
-
-import camsim
 
 CFA_OFFSETS = {"RGGB": {(0, 0): 0, (0, 1): 1, (1, 0): 1, (1, 1): 2},
                "BGGR": {(0, 0): 2, (0, 1): 1, (1, 0): 1, (1, 1): 0},

@@ -4,10 +4,9 @@ comparison, each against a closed form."""
 import json
 import math
 
+import camsim
 import numpy as np
 import pytest
-
-import camsim
 
 D65 = (95.047, 100.0, 108.883)
 

@@ -4,10 +4,9 @@ non-Bayer sensor driven from Python."""
 
 import pathlib
 
+import camsim
 import numpy as np
 import pytest
-
-import camsim
 
 REPO = pathlib.Path(__file__).resolve().parents[3]
 CARD = REPO / "examples" / "rgb-test-card.png"

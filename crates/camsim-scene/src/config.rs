@@ -19,6 +19,7 @@ pub use crate::patterns::{
 };
 pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
+use camsim_core::names::{NameTable, Named};
 use camsim_core::WavelengthGrid;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -198,6 +199,55 @@ pub struct FileScene {
     /// Wavelength grid to resample the file onto, nm (optional; default: keep the file's grid).
     #[serde(default)]
     pub wavelengths: Option<WavelengthGrid>,
+}
+
+/// The 2D scene kinds by name: the `kind` of a `[scene]` table (as written there, with `_`),
+/// `camsim scene --kind`. Each name is a variant of [`SceneConfig`] (tested).
+pub const SCENE_KINDS: NameTable<()> = NameTable {
+    family: "scene kind",
+    entries: &[
+        kind("uniform", "illuminant x one reflectance everywhere"),
+        kind(
+            "macbeth",
+            "the Macbeth ColorChecker (Ohta 1997 reflectances)",
+        ),
+        kind("slanted_edge", "an ISO 12233 slanted edge"),
+        kind("file", "a spectral OpenEXR radiance file"),
+        kind(
+            "rgb",
+            "a photograph (PNG, JPEG, TIFF, EXR) on a display model",
+        ),
+        kind("harmonic", "a sinusoidal grating (ISETCam 'harmonic')"),
+        kind("zone_plate", "a circular chirp (ISETCam 'zone plate')"),
+        kind(
+            "sweep_frequency",
+            "frequency rising along the rows (ISETCam 'sweep frequency')",
+        ),
+        kind("star", "a Siemens star"),
+        kind(
+            "checkerboard",
+            "black and white squares (ISETCam 'checkerboard')",
+        ),
+        kind("grid_lines", "thin lines on a grid (ISETCam 'grid lines')"),
+        kind("point_array", "points on a grid (ISETCam 'point array')"),
+        kind(
+            "ramp",
+            "a linear intensity ramp (ISETCam 'linear intensity ramp')",
+        ),
+        kind(
+            "dead_leaves",
+            "the ISO 19567-2 texture-loss target (ISETCam 'dead leaves')",
+        ),
+    ],
+};
+
+const fn kind(name: &'static str, about: &'static str) -> Named<()> {
+    Named {
+        name,
+        aliases: &[],
+        about,
+        value: (),
+    }
 }
 
 /// A 2D scene, tagged by `kind` (like ISETCam `sceneCreate`).
@@ -381,7 +431,7 @@ impl SceneConfig {
     /// file) relative to `base_dir` (the folder of the config file). Built-in names are untouched.
     pub fn resolve_paths(&mut self, base_dir: &Path) {
         let fix_string = |s: &mut String| {
-            if looks_like_file(s) && Path::new(s.as_str()).is_relative() {
+            if crate::looks_like_file(s) && Path::new(s.as_str()).is_relative() {
                 *s = base_dir.join(s.as_str()).to_string_lossy().into_owned();
             }
         };
@@ -425,13 +475,6 @@ impl SceneConfig {
     }
 }
 
-/// A string names a spectrum file (rather than a built-in table) when it has a path separator or a
-/// file extension.
-pub(crate) fn looks_like_file(s: &str) -> bool {
-    camsim_core::tables::illuminant(s).is_err()
-        && (s.contains('/') || s.contains('\\') || Path::new(s).extension().is_some())
-}
-
 /// Find where a scene table in TOML `text` is wrong, with the offending key's line and column.
 ///
 /// `SceneConfig` is tagged by `kind`, and serde reads a tagged table into a buffer first, which
@@ -472,6 +515,7 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("grid_lines", t) => run::<GridLinesScene>(text, t),
         ("point_array", t) => run::<PointArrayScene>(text, t),
         ("ramp", t) => run::<RampScene>(text, t),
+        (k, _) if SCENE_KINDS.entry(k).is_none() => Some(SCENE_KINDS.unknown(k).to_string()),
         _ => None,
     }
 }
@@ -629,5 +673,35 @@ mod error_position_tests {
             None
         );
         assert!(SceneConfig::from_toml("kind = \"macbeth\"\npatch_size_px = 8\n", "ok").is_ok());
+    }
+
+    #[test]
+    fn the_scene_kind_table_is_the_config_enum() {
+        assert_eq!(SCENE_KINDS.entries.len(), 14);
+        for e in SCENE_KINDS.entries {
+            let text = format!("kind = \"{}\"", e.name);
+            match SceneConfig::from_toml(&text, "t") {
+                Ok(c) => assert_eq!(c.kind(), e.name),
+                // Kinds that need a file say so, never that the kind is unknown.
+                Err(err) => {
+                    let m = err.to_string();
+                    assert!(
+                        !m.contains("unknown variant") && !m.contains("unknown scene kind"),
+                        "{}: {m}",
+                        e.name
+                    );
+                }
+            }
+        }
+        // The case rule of the table: `Slanted-Edge` is `slanted_edge`; an unknown kind lists them.
+        assert_eq!(
+            SCENE_KINDS.canonical("Slanted-Edge").unwrap(),
+            "slanted_edge"
+        );
+        let m = locate_scene_error("kind = \"zone-plates\"\n", None).unwrap();
+        assert!(
+            m.contains("unknown scene kind 'zone-plates'; known: uniform, macbeth"),
+            "{m}"
+        );
     }
 }

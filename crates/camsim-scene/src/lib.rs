@@ -40,6 +40,13 @@ use camsim_core::{tables, Quantity, SpectralImage, Spectrum, WavelengthGrid};
 use rayon::prelude::*;
 use std::path::Path;
 
+/// A string names a spectrum file (rather than a built-in table) when it has a path separator or a
+/// file extension.
+pub(crate) fn looks_like_file(s: &str) -> bool {
+    camsim_core::tables::illuminant(s).is_err()
+        && (s.contains('/') || s.contains('\\') || std::path::Path::new(s).extension().is_some())
+}
+
 /// Build the spectral radiance image of a scene on `grid`. `file` scenes read their OpenEXR
 /// ([`from_image`]) and `rgb` scenes their photograph through camsim-io.
 ///
@@ -86,7 +93,7 @@ pub fn scene_illuminant(cfg: &SceneConfig) -> Option<Result<Spectrum>> {
 /// `blackbody-<K>`) or from a spectrum file (`.csv` or ISETCam `.mat`). `key` names the config key
 /// in errors. Relative units.
 pub fn load_illuminant(name: &str, key: &str) -> Result<Spectrum> {
-    if config::looks_like_file(name) {
+    if looks_like_file(name) {
         let s = load_spectrum_file(Path::new(name), key)?;
         s.require_non_negative(&format!("{key} = '{name}'"))?;
         return Ok(s);
@@ -124,7 +131,7 @@ pub fn reflectance_on(r: &Reflectance, grid: &WavelengthGrid, key: &str) -> Resu
             let lower = s.trim().to_ascii_lowercase();
             let spectrum = if let Some(patch) = lower.strip_prefix("macbeth:") {
                 tables::macbeth_patch(patch).map_err(|e| CoreError::invalid(key, e.to_string()))?
-            } else if config::looks_like_file(s) {
+            } else if looks_like_file(s) {
                 // A measured reflectance may stop short of the grid: hold its end values.
                 load_spectrum_file(Path::new(s), key)?.with_extrapolation(Extrapolation::Hold)
             } else {

@@ -72,7 +72,7 @@ impl RgbScene {
                 ));
             }
             Display::srgb(grid, self.white_luminance_cd_m2)
-        } else if crate::config::looks_like_file(&self.display) {
+        } else if crate::looks_like_file(&self.display) {
             Display::from_file(std::path::Path::new(&self.display), grid)
         } else {
             Err(CoreError::invalid(

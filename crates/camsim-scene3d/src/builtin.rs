@@ -65,13 +65,47 @@ use crate::scene::{
 };
 use crate::spectra::photometric;
 use crate::xform::{cross, dot, inverse, sub};
+use camsim_core::names::{NameTable, Named};
 use camsim_core::spectrum::Extrapolation;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::{tables, Spectrum, WavelengthGrid};
 use std::collections::HashMap;
 
-/// Names of the built-in scenes.
-pub const NAMES: [&str; 3] = ["cornell-box", "cornell-box-mcc", "slanted-edge"];
+/// A built-in 3D scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Builtin {
+    /// The Cornell box of the Cornell data page.
+    CornellBox,
+    /// The paper's Cornell box with the ColorChecker, seen by the Pixel 4a camera.
+    CornellBoxMcc,
+    /// A slanted-edge card in the box (ISO 12233), at `target_distance_m`.
+    SlantedEdge,
+}
+
+/// The built-in 3D scenes by name (`camsim render --builtin`, `[render] builtin`).
+pub const BUILTIN_SCENES: NameTable<Builtin> = NameTable {
+    family: "built-in scene",
+    entries: &[
+        Named {
+            name: "cornell-box",
+            aliases: &[],
+            about: "the Cornell box (Cornell data page geometry and camera)",
+            value: Builtin::CornellBox,
+        },
+        Named {
+            name: "cornell-box-mcc",
+            aliases: &[],
+            about: "the paper's Cornell box with a ColorChecker, Pixel 4a camera",
+            value: Builtin::CornellBoxMcc,
+        },
+        Named {
+            name: "slanted-edge",
+            aliases: &[],
+            about: "an ISO 12233 slanted-edge card in the box",
+            value: Builtin::SlantedEdge,
+        },
+    ],
+};
 
 /// Luminance of the built-in light, cd/m^2 (see the module docs).
 pub const DEFAULT_LIGHT_LUMINANCE_CD_M2: f64 = 1000.0;
@@ -107,9 +141,9 @@ pub const EDGE_DARK_REFLECTANCE: f64 = 0.05;
 /// Reflectance of the light side of the card.
 pub const EDGE_LIGHT_REFLECTANCE: f64 = 0.9;
 
-/// Names of the built-in scenes.
-pub fn names() -> &'static [&'static str] {
-    &NAMES
+/// Names of the built-in scenes ([`BUILTIN_SCENES`]).
+pub fn names() -> Vec<&'static str> {
+    BUILTIN_SCENES.names()
 }
 
 /// Errors from the built-in scenes.
@@ -643,8 +677,11 @@ fn check_resolution(r: (usize, usize)) -> Result<(usize, usize), BuiltinError> {
 /// The pixel4a camera position of `cornell-box-mcc`, m.
 pub const MCC_CAMERA_POSITION_M: [f64; 3] = [0.278, 0.2744, -0.60];
 
-/// Build a built-in scene by name ([`names`]).
+/// Build a built-in scene by name ([`BUILTIN_SCENES`]).
 pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, BuiltinError> {
+    let which = BUILTIN_SCENES
+        .get(name)
+        .map_err(|e| berr("builtin", e.to_string()))?;
     opts.grid
         .validate()
         .map_err(|e| berr("wavelength grid", e.to_string()))?;
@@ -656,8 +693,8 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
         materials: Vec::new(),
         named: HashMap::new(),
     };
-    let (camera, focus) = match name {
-        "cornell-box" => {
+    let (camera, focus) = match which {
+        Builtin::CornellBox => {
             build_box(&mut b, opts, true, DEFAULT_LIGHT_LUMINANCE_CD_M2)?;
             let (w, h) = check_resolution(opts.resolution.unwrap_or((512, 512)))?;
             // Data page camera: 35 mm lens, 25 x 25 mm film -> fov 2 atan(12.5 / 35) on the short side.
@@ -676,7 +713,7 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
                 0.8 + 0.5592,
             )
         }
-        "cornell-box-mcc" => {
+        Builtin::CornellBoxMcc => {
             build_box(&mut b, opts, true, MCC_LIGHT_LUMINANCE_CD_M2)?;
             let layout = mcc_layout(&opts.mcc_position)?;
             add_mcc(&mut b, &layout);
@@ -684,7 +721,7 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
             let cam = pixel4a_camera(MCC_CAMERA_POSITION_M, w, h)?;
             (cam, layout.center[2] - MCC_CAMERA_POSITION_M[2])
         }
-        "slanted-edge" => {
+        Builtin::SlantedEdge => {
             let d = opts.target_distance_m;
             if !(d > 0.05 && d < 100.0) {
                 return Err(berr(
@@ -697,12 +734,6 @@ pub fn scene(name: &str, opts: &BuiltinOptions) -> Result<SceneDescription, Buil
             let (w, h) = check_resolution(opts.resolution.unwrap_or((1008, 756)))?;
             let cam = pixel4a_camera([0.278, 0.30, EDGE_TARGET_Z_M - d], w, h)?;
             (cam, d)
-        }
-        _ => {
-            return Err(berr(
-                format!("built-in scene '{name}'"),
-                format!("unknown; built-in scenes: {}", NAMES.join(", ")),
-            ))
         }
     };
     Ok(SceneDescription {

@@ -2,17 +2,10 @@
 //! `RealisticCamera` / ISET3d `raytransfer` lens set-ups (film extent, focus, equivalent field of
 //! view). The ray generation for these cameras is the tracer's (`camsim_render`'s camera rig).
 
+pub use crate::scene::film_half_extent_mm;
 use crate::scene::{Camera, RayTransferLens, RealisticLens, Transform};
 use camsim_lens::{Lens, LensCamera, Rtf};
 use std::sync::Arc;
-
-/// Half the width and height (mm) of a film of diagonal `diagonal_mm` with `width` x `height`
-/// square pixels (pbrt-v4 `PixelSensor`/`Film` physical extent).
-pub fn film_half_extent_mm(diagonal_mm: f64, width: usize, height: usize) -> [f64; 2] {
-    let (w, h) = (width as f64, height as f64);
-    let k = diagonal_mm / 2.0 / w.hypot(h);
-    [w * k, h * k]
-}
 
 /// The pinhole camera with the same image scale as `camera`: the film's distance from the rear
 /// principal point (paraxial, 550 nm; the nodal point in air), v = film distance - BFD + EFL

@@ -729,7 +729,7 @@ impl RealisticLens {
     /// The pinhole-equivalent field of view across the shorter axis of a `width` x `height`
     /// film, degrees.
     pub fn fov_deg(&self, width: usize, height: usize) -> f64 {
-        let half = crate::camera::film_half_extent_mm(self.film_diagonal_mm, width, height);
+        let half = film_half_extent_mm(self.film_diagonal_mm, width, height);
         2.0 * (half[0].min(half[1]) / self.image_distance_mm)
             .atan()
             .to_degrees()
@@ -838,4 +838,12 @@ impl SamplerKind {
             _ => None,
         }
     }
+}
+
+/// Half the width and height (mm) of a film of diagonal `diagonal_mm` with `width` x `height`
+/// square pixels (pbrt-v4 `PixelSensor`/`Film` physical extent).
+pub fn film_half_extent_mm(diagonal_mm: f64, width: usize, height: usize) -> [f64; 2] {
+    let (w, h) = (width as f64, height as f64);
+    let k = diagonal_mm / 2.0 / w.hypot(h);
+    [w * k, h * k]
 }

@@ -81,7 +81,7 @@ fn first_hit(s: &SceneDescription, o: [f64; 3], p: [f64; 3]) -> Option<String> {
 fn names_and_unknown() {
     assert_eq!(
         builtin::names(),
-        &["cornell-box", "cornell-box-mcc", "slanted-edge"]
+        ["cornell-box", "cornell-box-mcc", "slanted-edge"]
     );
     let e = builtin::scene("cornel-box", &BuiltinOptions::default()).unwrap_err();
     assert!(e.to_string().contains("cornell-box-mcc"), "{e}");

@@ -3,6 +3,7 @@
 //! Units in the file are the ones data sheets use; [`crate::Sensor`] converts them to SI.
 
 use crate::error::{Result, SensorError};
+use crate::hdr_config::{HdrConfig, HdrHost};
 use camsim_core::CfaLayout;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -334,7 +335,7 @@ pub struct SensorConfig {
     pub pixel_vignetting: Option<crate::pixel_vignetting::PixelVignettingConfig>,
     /// HDR pixel (dual conversion gain or split pixel, [`crate::hdr`]); absent = a plain pixel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub hdr: Option<crate::hdr::HdrConfig>,
+    pub hdr: Option<HdrConfig>,
 }
 
 fn one() -> f64 {
@@ -417,63 +418,70 @@ impl SensorConfig {
 
     /// Check every value; the error names `source_name` and the key.
     pub fn validate(&self, source_name: &str) -> Result<()> {
-        let bad = |key: &str, message: String| SensorError::Config {
-            source_name: source_name.to_string(),
-            key: key.to_string(),
-            message,
-        };
-        let positive = |key: &str, v: f64| -> Result<()> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be a positive number, got {v}")))
-            }
-        };
-        let non_negative = |key: &str, v: f64| -> Result<()> {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be a finite number >= 0, got {v}")))
-            }
-        };
+        self.check_geometry()
+            .and_then(|()| self.check_electronics())
+            .and_then(|()| self.check_extras())
+            .and_then(|()| self.check_qe())
+            .map_err(|(key, message)| SensorError::Config {
+                source_name: source_name.to_string(),
+                key,
+                message,
+            })
+    }
+
+    /// Size, pixel pitch, fill factor and the CFA.
+    fn check_geometry(&self) -> Checked {
         if self.rows == 0 {
-            return Err(bad("rows", "must be at least 1".into()));
+            return bad("rows", "must be at least 1");
         }
         if self.cols == 0 {
-            return Err(bad("cols", "must be at least 1".into()));
+            return bad("cols", "must be at least 1");
         }
         if (self.rows as u64).saturating_mul(self.cols as u64) > MAX_PIXELS {
-            return Err(bad(
+            return bad(
                 "rows",
                 format!("{} x {} pixels is more than 2^31", self.rows, self.cols),
-            ));
+            );
         }
         positive("pixel_pitch_um", self.pixel_pitch_um)?;
         if !(self.fill_factor.is_finite() && self.fill_factor > 0.0 && self.fill_factor <= 1.0) {
-            return Err(bad(
+            return bad(
                 "fill_factor",
                 format!("must be in (0, 1], got {}", self.fill_factor),
-            ));
+            );
         }
-        self.cfa_layout().map_err(|e| match &self.cfa_pattern {
-            Some(_) if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) => {
-                bad("cfa", format!("give either cfa = \"{}\" or cfa_pattern, not both", self.cfa))
+        match (self.cfa_layout(), &self.cfa_pattern) {
+            (Ok(_), _) => Ok(()),
+            (Err(_), Some(_))
+                if !(self.cfa.is_empty() || self.cfa.eq_ignore_ascii_case("custom")) =>
+            {
+                bad(
+                    "cfa",
+                    format!(
+                        "give either cfa = \"{}\" or cfa_pattern, not both",
+                        self.cfa
+                    ),
+                )
             }
-            Some(_) => bad("cfa_pattern", e.to_string()),
-            None => bad("cfa", format!("'{}' is not one of RGGB, GRBG, GBRG, BGGR, RGBW, quad-bayer (or give cfa_pattern)", self.cfa)),
-        })?;
+            (Err(e), Some(_)) => bad("cfa_pattern", e.to_string()),
+            (Err(e), None) => bad("cfa", format!("{e} (or give cfa_pattern)")),
+        }
+    }
+
+    /// Conversion gain, swing and well, gain and ISO, offset, ADC bits and black level, noise.
+    fn check_electronics(&self) -> Checked {
         positive("conversion_gain_uv_per_e", self.conversion_gain_uv_per_e)?;
         positive("voltage_swing_v", self.voltage_swing_v)?;
         if let Some(w) = self.well_capacity_e {
             positive("well_capacity_e", w)?;
             let derived = self.voltage_swing_v / (self.conversion_gain_uv_per_e * 1e-6);
             if (w / derived - 1.0).abs() > 0.01 {
-                return Err(bad(
+                return bad(
                     "well_capacity_e",
                     format!(
                         "{w} e- disagrees with voltage_swing_v / conversion gain = {derived:.1} e- by more than 1 %"
                     ),
-                ));
+                );
             }
         }
         positive("analog_gain", self.analog_gain)?;
@@ -483,89 +491,102 @@ impl SensorConfig {
         if let Some(iso) = self.iso {
             positive("iso", iso)?;
             if self.base_iso.is_none() {
-                return Err(bad(
+                return bad(
                     "iso",
                     format!("iso = {iso} needs base_iso (the ISO at analog gain 1)"),
-                ));
+                );
             }
             if self.analog_gain != 1.0 {
-                return Err(bad(
+                return bad(
                     "iso",
                     format!(
                         "give either iso or analog_gain, not both (iso = {iso}, analog_gain = {})",
                         self.analog_gain
                     ),
-                ));
+                );
             }
         }
         if !self.analog_offset_mv.is_finite() {
-            return Err(bad(
+            return bad(
                 "analog_offset_mv",
                 format!("must be a finite number, got {}", self.analog_offset_mv),
-            ));
+            );
         }
         if !(1..=16).contains(&self.bits) {
-            return Err(bad("bits", format!("must be in 1..=16, got {}", self.bits)));
+            return bad("bits", format!("must be in 1..=16, got {}", self.bits));
         }
         let white_dn = ((1u64 << self.bits) - 1) as f64;
         if !(self.black_level_dn.is_finite()
             && self.black_level_dn >= 0.0
             && self.black_level_dn < white_dn)
         {
-            return Err(bad(
+            return bad(
                 "black_level_dn",
                 format!(
                     "must be in [0, {white_dn}) (below the white level 2^bits - 1), got {}",
                     self.black_level_dn
                 ),
-            ));
+            );
         }
         non_negative("dsnu_mv", self.dsnu_mv)?;
         non_negative("prnu_percent", self.prnu_percent)?;
         non_negative("dark_voltage_mv_per_s", self.dark_voltage_mv_per_s)?;
-        non_negative("read_noise_mv", self.read_noise_mv)?;
+        non_negative("read_noise_mv", self.read_noise_mv)
+    }
+
+    /// The QE correction matrix's entries, pixel vignetting and the `[hdr]` table.
+    fn check_extras(&self) -> Checked {
         if let Some(m) = &self.qe_correction {
             for (i, row) in m.iter().enumerate() {
                 for (j, v) in row.iter().enumerate() {
                     if !v.is_finite() {
-                        return Err(bad(
+                        return bad(
                             "qe_correction",
                             format!("element [{i}][{j}] is {v}, not a finite number"),
-                        ));
+                        );
                     }
                 }
             }
         }
         if let Some(pv) = &self.pixel_vignetting {
-            pv.validate().map_err(|(key, message)| bad(&key, message))?;
+            pv.validate()?;
         }
         if let Some(h) = &self.hdr {
-            h.validate(self)
-                .map_err(|(key, message)| bad(&key, message))?;
+            h.validate(&HdrHost {
+                analog_gain: self.effective_analog_gain(),
+                iso_given: self.iso.is_some(),
+                analog_offset_mv: self.analog_offset_mv,
+                voltage_swing_v: self.voltage_swing_v,
+                conversion_gain_uv_per_e: self.conversion_gain_uv_per_e,
+            })?;
         }
-        // QE tables.
+        Ok(())
+    }
+
+    /// The QE tables: wavelengths, the curves, named filters against the CFA, the corrected QE.
+    fn check_qe(&self) -> Checked {
         let q = &self.qe;
         let n = q.wavelengths_nm.len();
         if n == 0 {
-            return Err(bad("qe.wavelengths_nm", "is empty".into()));
+            return bad("qe.wavelengths_nm", "is empty");
         }
         for (i, w) in q.wavelengths_nm.iter().enumerate() {
             if !(w.is_finite() && *w > 0.0) {
-                return Err(bad(
+                return bad(
                     "qe.wavelengths_nm",
                     format!("value {i} is {w}, not a positive number"),
-                ));
+                );
             }
         }
         if let Some(i) = q.wavelengths_nm.windows(2).position(|p| p[1] <= p[0]) {
-            return Err(bad(
+            return bad(
                 "qe.wavelengths_nm",
                 format!(
                     "must be strictly increasing, but {} nm follows {} nm",
                     q.wavelengths_nm[i + 1],
                     q.wavelengths_nm[i]
                 ),
-            ));
+            );
         }
         let curves: [(&str, Option<&Vec<f64>>); 5] = [
             ("qe.r", Some(&q.r)),
@@ -574,90 +595,113 @@ impl SensorConfig {
             ("qe.ir_cut", q.ir_cut.as_ref()),
             ("qe.pixel_qe", q.pixel_qe.as_ref()),
         ];
-        for (key, c) in curves {
-            let Some(c) = c else { continue };
+        let named = q
+            .filters
+            .iter()
+            .map(|(name, c)| (format!("qe.filters.{name}"), c));
+        for (key, c) in curves
+            .into_iter()
+            .filter_map(|(k, c)| c.map(|c| (k.to_string(), c)))
+            .chain(named)
+        {
             if c.len() != n {
-                return Err(bad(
-                    key,
-                    format!("has {} values for {n} wavelengths", c.len()),
-                ));
-            }
-            for (v, w) in c.iter().zip(&q.wavelengths_nm) {
-                if !(v.is_finite() && *v >= 0.0) {
-                    return Err(bad(
-                        key,
-                        format!("value at {w} nm is {v}, not a finite number >= 0"),
-                    ));
-                }
-            }
-        }
-        for (name, c) in &q.filters {
-            let key = format!("qe.filters.{name}");
-            if c.len() != n {
-                return Err(bad(
-                    &key,
-                    format!("has {} values for {n} wavelengths", c.len()),
-                ));
+                return bad(&key, format!("has {} values for {n} wavelengths", c.len()));
             }
             if let Some((v, w)) = c
                 .iter()
                 .zip(&q.wavelengths_nm)
                 .find(|(v, _)| !(v.is_finite() && **v >= 0.0))
             {
-                return Err(bad(
+                return bad(
                     &key,
                     format!("value at {w} nm is {v}, not a finite number >= 0"),
-                ));
+                );
             }
         }
-        let layout = self
-            .cfa_layout()
-            .map_err(|e| bad("cfa_pattern", e.to_string()))?;
+        self.check_filters()?;
+        self.check_corrected_qe()
+    }
+
+    /// Every named filter is used by the CFA, and every CFA filter has a curve.
+    fn check_filters(&self) -> Checked {
+        let q = &self.qe;
+        let layout = match self.cfa_layout() {
+            Ok(l) => l,
+            Err(e) => return bad("cfa_pattern", e.to_string()),
+        };
         // A named filter no CFA cell uses is most likely a typo (or a wrong file): refuse it.
         if let Some(unused) = q.filters.keys().find(|k| layout.filter_index(k).is_none()) {
             let from = q
                 .loaded_from
                 .as_ref()
                 .map_or(String::new(), |f| format!(" of {f}"));
-            return Err(bad(
+            return bad(
                 &format!("qe.filters.{unused}"),
                 format!(
                     "filter column '{unused}'{from} is not r, g, b, ir_cut or pixel_qe, and the CFA {} does not use it",
                     layout.name()
                 ),
-            ));
+            );
         }
         for f in layout.filters() {
             let known =
                 ["r", "g", "b", "w"].contains(&f.as_str()) || self.filter_curve(f).is_some();
             if !known {
-                return Err(bad(
+                return bad(
                     "cfa_pattern",
                     format!("filter '{f}' has no transmittance curve: add it to [qe.filters] or as a column of the QE file"),
-                ));
+                );
             }
         }
-        // Corrected QE must stay non-negative.
-        if let Some(m) = &self.qe_correction {
-            for k in 0..n {
-                let ir = q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
-                let px = q.pixel_qe.as_ref().map_or(1.0, |v| v[k]);
-                let rgb = [q.r[k] * ir * px, q.g[k] * ir * px, q.b[k] * ir * px];
-                for c in 0..3 {
-                    let v: f64 = (0..3).map(|i| rgb[i] * m[i][c]).sum();
-                    if v < 0.0 {
-                        return Err(bad(
-                            "qe_correction",
-                            format!(
-                                "gives a negative QE {v:.4} for channel {} at {} nm",
-                                ["r", "g", "b"][c],
-                                q.wavelengths_nm[k]
-                            ),
-                        ));
-                    }
+        Ok(())
+    }
+
+    /// The corrected QE ([r', g', b'] = [r, g, b] M) stays non-negative.
+    fn check_corrected_qe(&self) -> Checked {
+        let (q, Some(m)) = (&self.qe, &self.qe_correction) else {
+            return Ok(());
+        };
+        for k in 0..q.wavelengths_nm.len() {
+            let ir = q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
+            let px = q.pixel_qe.as_ref().map_or(1.0, |v| v[k]);
+            let rgb = [q.r[k] * ir * px, q.g[k] * ir * px, q.b[k] * ir * px];
+            for c in 0..3 {
+                let v: f64 = (0..3).map(|i| rgb[i] * m[i][c]).sum();
+                if v < 0.0 {
+                    return bad(
+                        "qe_correction",
+                        format!(
+                            "gives a negative QE {v:.4} for channel {} at {} nm",
+                            ["r", "g", "b"][c],
+                            q.wavelengths_nm[k]
+                        ),
+                    );
                 }
             }
         }
         Ok(())
+    }
+}
+
+/// A config check: `Err((key, message))` names the offending key.
+type Checked = std::result::Result<(), (String, String)>;
+
+fn bad(key: &str, message: impl Into<String>) -> Checked {
+    Err((key.to_string(), message.into()))
+}
+
+fn positive(key: &str, v: f64) -> Checked {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        bad(key, format!("must be a positive number, got {v}"))
+    }
+}
+
+fn non_negative(key: &str, v: f64) -> Checked {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        bad(key, format!("must be a finite number >= 0, got {v}"))
     }
 }

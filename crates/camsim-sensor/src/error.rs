@@ -23,14 +23,6 @@ pub enum SensorError {
         /// toml's message (line, column, key).
         message: String,
     },
-    /// No preset of that name.
-    #[error("unknown sensor preset '{name}'; the presets are: {known}")]
-    UnknownPreset {
-        /// The name asked for.
-        name: String,
-        /// The preset names, comma-separated.
-        known: String,
-    },
     /// Bad input to a compute call (image, exposure, frames); names what was wrong.
     #[error("{what}: {message}")]
     Input {

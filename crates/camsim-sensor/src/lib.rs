@@ -34,6 +34,7 @@ pub mod config;
 pub mod emva;
 pub mod error;
 pub mod hdr;
+mod hdr_config;
 mod normal;
 pub mod pixel_vignetting;
 mod poisson;

@@ -24,7 +24,6 @@ use crate::util::{f, save_png, FigurePng};
 use crate::{Result, ValidateError};
 use camsim_analysis::acutance::{acutance, ViewingCondition};
 use camsim_analysis::chart::{self, ChartCorners, PATCH_NAMES};
-use camsim_analysis::image::LUMINANCE_WEIGHTS_REC709;
 use camsim_analysis::noise::{nps, snr_raw, NpsOptions, Snr};
 use camsim_analysis::sfr::{self, SfrOptions};
 use camsim_analysis::{Plane, Rect};
@@ -231,7 +230,10 @@ struct Loaded {
 }
 
 fn scene_config(text: &str) -> Result<SimulateConfig> {
-    Ok(SimulateConfig::from_toml_str(text)?)
+    Ok(SimulateConfig::from_toml_str(
+        text,
+        std::path::Path::new(""),
+    )?)
 }
 
 /// Horizontal field of view that spans `extent_m` on the sensor behind a lens of focal length
@@ -298,7 +300,7 @@ fn measure_mtf(cam: &Loaded, opts: &CameraCompareOptions, max_pitch_m: f64) -> R
         opts.seed,
     )?;
     let planes = rgb_planes(&raw)?;
-    let y = camsim_analysis::image::luminance(&planes, LUMINANCE_WEIGHTS_REC709)?;
+    let y = camsim_analysis::image::luminance(&planes)?;
     let roi = sfr::find_edge_roi(&y)?;
     let pitch_mm = cam.sensor.pixel_pitch_m() * 1e3;
     let s = sfr::sfr(
@@ -374,7 +376,7 @@ fn measure_zone_plate(cam: &Loaded, opts: &CameraCompareOptions) -> Result<ZoneP
         opts.seed,
     )?;
     let planes = rgb_planes(&raw)?;
-    let y = camsim_analysis::image::luminance(&planes, LUMINANCE_WEIGHTS_REC709)?;
+    let y = camsim_analysis::image::luminance(&planes)?;
     let geom = crate::zone_plate::ZonePlateGeometry {
         size_samples: samples,
         sensor_px_per_sample: k,
@@ -646,7 +648,7 @@ fn bars(label: &str, x: &[f64], y: &[f64], offset: f64, width: f64, color: [u8; 
         px.extend([l, l, r, r]);
         py.extend([0.0, *yi, *yi, 0.0]);
     }
-    Series::new(label, px, py, Style::Line, color)
+    Series::xy(label, px, py, Style::Line, color)
 }
 
 fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
@@ -660,14 +662,14 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         "cycles/mm on the sensor",
         "MTF",
     )
-    .with(Series::new(
+    .with(Series::xy(
         &a.label,
         a.mtf.freq_cy_per_mm.clone(),
         a.mtf.mtf.clone(),
         Style::Line,
         COLOR_A,
     ))
-    .with(Series::new(
+    .with(Series::xy(
         &b.label,
         b.mtf.freq_cy_per_mm.clone(),
         b.mtf.mtf.clone(),
@@ -687,28 +689,28 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         "cycles/mm on the sensor",
         "MTF",
     )
-    .with(Series::new(
+    .with(Series::xy(
         format!("{} zone plate", a.label),
         a.zone_plate.freq_cy_per_mm.clone(),
         a.zone_plate.mtf.clone(),
         Style::Line,
         COLOR_A,
     ))
-    .with(Series::new(
+    .with(Series::xy(
         format!("{} zone plate", b.label),
         b.zone_plate.freq_cy_per_mm.clone(),
         b.zone_plate.mtf.clone(),
         Style::Line,
         COLOR_B,
     ))
-    .with(Series::new(
+    .with(Series::xy(
         format!("{} edge", a.label),
         a.mtf.freq_cy_per_mm.clone(),
         a.mtf.mtf.clone(),
         Style::Dashed,
         COLOR_A,
     ))
-    .with(Series::new(
+    .with(Series::xy(
         format!("{} edge", b.label),
         b.mtf.freq_cy_per_mm.clone(),
         b.mtf.mtf.clone(),
@@ -751,8 +753,8 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
         "cycles/pixel",
         "NPS / mean^2",
     )
-    .with(Series::new(&a.label, fa, na, Style::Line, COLOR_A))
-    .with(Series::new(&b.label, fb, nb, Style::Line, COLOR_B));
+    .with(Series::xy(&a.label, fa, na, Style::Line, COLOR_A))
+    .with(Series::xy(&b.label, fb, nb, Style::Line, COLOR_B));
     figs.push(save_png(
         dir,
         "compare_nps.png",

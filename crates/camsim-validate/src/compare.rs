@@ -310,7 +310,7 @@ fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
     for c in 0..3 {
         let mx: Vec<f64> = r.regions.iter().map(|g| g.pair.b.mean_dn[c]).collect();
         let my: Vec<f64> = r.regions.iter().map(|g| g.pair.a.mean_dn[c]).collect();
-        means = means.with(Series::new(
+        means = means.with(Series::xy(
             names[c],
             mx,
             my,
@@ -319,7 +319,7 @@ fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
         ));
         let sx: Vec<f64> = r.regions.iter().map(|g| g.pair.b.std_dn[c]).collect();
         let sy: Vec<f64> = r.regions.iter().map(|g| g.pair.a.std_dn[c]).collect();
-        stds = stds.with(Series::new(
+        stds = stds.with(Series::xy(
             names[c],
             sx.clone(),
             sy,
@@ -336,7 +336,7 @@ fn figures(out_dir: &Path, r: &CompareResults) -> Result<Vec<FigurePng>> {
                 .map(|g| g.pair.predicted_std_dn_b.unwrap()[c])
                 .collect();
             let light = CHANNEL_COLORS[c].map(|v| ((v as u32 + 255) / 2) as u8);
-            stds = stds.with(Series::new(
+            stds = stds.with(Series::xy(
                 format!("{} model at measured mean", names[c]),
                 sx,
                 py,

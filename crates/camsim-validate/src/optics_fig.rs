@@ -23,11 +23,9 @@ use crate::report::Html;
 use crate::util::{f, fo, save_png, BoxSpectra, FigurePng};
 use crate::{Check, QualityParams, Result, Stages, ValidateOptions};
 use camsim_analysis::image::LUMINANCE_WEIGHTS_REC709;
-use camsim_analysis::sfr::{
-    crossing, interp, sfr_luminance, sfr_raw_channel, SfrOptions, SfrResult,
-};
-use camsim_analysis::{Plane, Rect};
-use camsim_core::{CfaChannel, SpectralImage};
+use camsim_analysis::sfr::{crossing, interp, SfrResult};
+use camsim_analysis::Rect;
+use camsim_core::SpectralImage;
 use camsim_optics::config::{Padding, WavefrontConfig, ZernikeTerm, ZernikeTerms};
 use camsim_optics::{lens, Optics, OpticsConfig};
 use camsim_scene3d::builtin::{self, BuiltinOptions};
@@ -336,10 +334,6 @@ pub(crate) fn run(
     // keeps pixels far from the edge, which carry only noise, out of the LSF (ISO 12233 practice).
     let roi_cols = (win - 8).min(128);
     let roi = Rect::new(4, (win - roi_cols) / 2, win - 8, roi_cols);
-    let sfr_opts = SfrOptions {
-        pixel_pitch_mm: Some(pitch_m * 1e3),
-        ..SfrOptions::default()
-    };
     let labels = [
         "focused at 50 cm (c4 = 1.225 um over 8 mm)",
         "focused at 30 cm (c4 = 3.5 um over 8 mm)",
@@ -375,25 +369,10 @@ pub(crate) fn run(
             ))
         })?;
         let raw = &frame.raw[0];
-        let rgb = camsim_isp::demosaic_bilinear(raw);
-        let planes = [
-            Plane::new(rgb.rows, rgb.cols, rgb.r)?,
-            Plane::new(rgb.rows, rgb.cols, rgb.g)?,
-            Plane::new(rgb.rows, rgb.cols, rgb.b)?,
-        ];
+        let curves = slanted_edge_curves(raw, roi, pitch_m)?;
         let mut channels = Vec::new();
-        for (ci, name) in ["R", "G", "B", "luminance"].iter().enumerate() {
-            let s: SfrResult = if ci < 3 {
-                sfr_raw_channel(
-                    raw,
-                    CfaChannel::from_index(ci).unwrap(),
-                    Some(roi),
-                    &sfr_opts,
-                )?
-            } else {
-                sfr_luminance(&planes, LUMINANCE_WEIGHTS_REC709, Some(roi), &sfr_opts)?
-            };
-            channels.push(channel_mtf(name, &s, &model, &weights[ci], pitch_m));
+        for (ci, (name, s)) in ["R", "G", "B", "luminance"].iter().zip(&curves).enumerate() {
+            channels.push(channel_mtf(name, s, &model, &weights[ci], pitch_m));
         }
         settings.push(FocusSetting {
             label: labels[i].to_string(),
@@ -558,14 +537,14 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
                     .collect()
             };
             let fx = keep(&c.freq_cyc_per_px);
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 format!("{} SFR", c.channel),
                 fx.clone(),
                 keep(&c.sfr),
                 Style::Line,
                 CHANNEL_COLORS[ci],
             ));
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 format!("{} model", c.channel),
                 fx,
                 keep(&c.model),
@@ -578,7 +557,7 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
             // The real camera, in cycles per pixel (f [cycles/mm] x pitch [mm]).
             let px = r.pixel_pitch_um * 1e-3;
             let fx: Vec<f64> = m.freq_cyc_per_mm.iter().map(|f| f * px).collect();
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 "measured Pixel 4a",
                 fx.clone(),
                 m.mtf.clone(),
@@ -586,7 +565,7 @@ fn figures(opts: &ValidateOptions, r: &OpticsResults) -> Result<Vec<FigurePng>> 
                 MEASURED_COLOR,
             ));
             if let Some((name, at, _, _)) = m.presets.iter().find(|p| p.0 == "pixel4a-measured") {
-                fig = fig.with(Series::new(
+                fig = fig.with(Series::xy(
                     format!("{name} lens x pixel"),
                     fx,
                     at.clone(),
@@ -692,4 +671,25 @@ impl OpticsResults {
             );
         }
     }
+}
+
+/// The SFR curves R, G, B and luminance of a raw slanted-edge frame in `roi` (sensor pixels of
+/// `pitch_m`): the application layer's measurement (`camsim_pipeline::measure::sfr`, the one
+/// `camsim analyze sfr` and Python's `camsim.sfr` run), in that order.
+pub fn slanted_edge_curves(
+    raw: &camsim_core::RawImage,
+    roi: Rect,
+    pitch_m: f64,
+) -> Result<Vec<SfrResult>> {
+    use camsim_pipeline::measure::sfr::{measure_sfr, SfrImage, SfrRequest};
+    let report = measure_sfr(
+        &SfrImage::Raw(raw.clone()),
+        &SfrRequest {
+            roi: Some(roi),
+            pixel_pitch_mm: Some(pitch_m * 1e3),
+            label: "slanted edge".into(),
+            ..SfrRequest::default()
+        },
+    )?;
+    Ok(report.curves.into_iter().map(|c| c.result).collect())
 }

@@ -295,7 +295,7 @@ fn figures(
     for (i, (name, desc)) in LIGHTS.iter().enumerate() {
         let s = grid_samples(&tables::illuminant(name)?, grid);
         let m = s.iter().cloned().fold(0.0, f64::max).max(1e-30);
-        fig = fig.with(Series::new(
+        fig = fig.with(Series::xy(
             *desc,
             wl.clone(),
             s.iter().map(|v| v / m).collect(),
@@ -320,14 +320,14 @@ fn figures(
     );
     for c in 0..3 {
         let ch = ["R", "G", "B"][c];
-        fig = fig.with(Series::new(
+        fig = fig.with(Series::xy(
             format!("{ch} published"),
             wl.clone(),
             qe[c].clone(),
             Style::Dashed,
             CHANNEL_COLORS[c],
         ));
-        fig = fig.with(Series::new(
+        fig = fig.with(Series::xy(
             format!("{ch} transformed (fitted M)"),
             wl.clone(),
             tq[c].clone(),
@@ -373,7 +373,7 @@ fn figures(
                 })
                 .collect();
             let y: Vec<f64> = r.patches.iter().map(|p| p.measured_dn[c]).collect();
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 ["R", "G", "B"][c],
                 x,
                 y,

@@ -19,7 +19,7 @@
 //!   compared with the noise model's prediction at that mean (shot + read + DSNU + PRNU +
 //!   quantization, `Sensor::predicted_noise_dn`).
 
-use crate::plot::{Figure, Series, Style, CHANNEL_COLORS};
+use crate::plot::{Canvas, Figure, Series, Style, CHANNEL_COLORS};
 use crate::report::Html;
 use crate::util::{f, save_png, BoxSpectra, FigurePng};
 use crate::{Check, QualityParams, Result, Stages, ValidateError, ValidateOptions};
@@ -30,7 +30,7 @@ use camsim_analysis::image::Moments;
 use camsim_analysis::{Plane, Rect};
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
-use camsim_core::{RawImage, SpectralImage, WavelengthGrid};
+use camsim_core::{RawImage, SpectralImage};
 use camsim_isp::RgbImage;
 use camsim_optics::Optics;
 use camsim_scene3d::builtin::{self, BuiltinOptions, MccPosition};
@@ -683,42 +683,6 @@ fn downsample(img: &RgbImage, k: usize) -> RgbImage {
     o
 }
 
-/// An 8-bit RGB image (interleaved) for the report.
-struct Rgb8 {
-    w: usize,
-    h: usize,
-    data: Vec<u8>,
-}
-
-impl Rgb8 {
-    fn set(&mut self, x: i64, y: i64, c: [u8; 3]) {
-        if x >= 0 && y >= 0 && (x as usize) < self.w && (y as usize) < self.h {
-            let i = (y as usize * self.w + x as usize) * 3;
-            self.data[i..i + 3].copy_from_slice(&c);
-        }
-    }
-    fn line(&mut self, a: [f64; 2], b: [f64; 2], c: [u8; 3]) {
-        let n = ((b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil() as usize).max(1);
-        for i in 0..=n {
-            let t = i as f64 / n as f64;
-            let (x, y) = (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]));
-            for d in [-1i64, 0] {
-                self.set(x.round() as i64 + d, y.round() as i64, c);
-                self.set(x.round() as i64, y.round() as i64 + d, c);
-            }
-        }
-    }
-    fn rect(&mut self, x0: f64, y0: f64, x1: f64, y1: f64, c: [u8; 3]) {
-        self.line([x0, y0], [x1, y0], c);
-        self.line([x1, y0], [x1, y1], c);
-        self.line([x1, y1], [x0, y1], c);
-        self.line([x0, y1], [x0, y0], c);
-    }
-    fn png(&self) -> Result<Vec<u8>> {
-        crate::util::encode_png_rgb8(self.w, self.h, &self.data)
-    }
-}
-
 /// Downsampling factor of the embedded previews (at most 672 pixels wide, so the report stays small).
 fn preview_factor(cols: usize) -> usize {
     cols.div_ceil(672).max(1)
@@ -731,41 +695,62 @@ fn light_of(spectra: &BoxSpectra) -> camsim_core::Spectrum {
         .unwrap_or_else(builtin::cornell_light_relative)
 }
 
-/// sRGB preview (ColorPipeline for the pixel4a QE under the box's light), downsampled.
+/// sRGB preview, downsampled: [`report_preview`] of the pixel4a under the box's light.
 fn srgb_preview(
     p: &QualityParams,
     spectra: &BoxSpectra,
     rgb: &RgbImage,
     exposure_scale: Option<f64>,
-) -> Result<(Rgb8, usize, f64)> {
-    let grid: WavelengthGrid = p.grid;
+) -> Result<(Canvas, usize, f64)> {
     let sensor = Sensor::preset("pixel4a")?;
-    let pipe =
-        camsim_isp::ColorPipeline::fit(&sensor.channel_qe(&grid), &grid, &light_of(spectra))?;
-    let k = preview_factor(rgb.cols);
-    let small = downsample(rgb, k);
-    let scale = exposure_scale.unwrap_or_else(|| pipe.auto_exposure_scale(&small));
     // Clipped highlights (the lamp) render neutral, not in the false colour white balance gives them.
     let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
-    let data = pipe.render_srgb8_clipped(&small, Some(scale), Some(saturation_dn));
+    report_preview(
+        rgb,
+        &sensor,
+        light_of(spectra),
+        p.grid,
+        exposure_scale,
+        saturation_dn,
+    )
+}
+
+/// The report's sRGB preview of demosaicked camera RGB `rgb` (DN above black, clipping at
+/// `saturation_dn`) made by `sensor` under `illuminant`: box-averaged to at most 672 pixels
+/// wide, then the pipeline's ISP ([`camsim_pipeline::Isp`], the paper's; the colour fit on
+/// `grid`) at `exposure_scale` (None: automatic). The same ISP as `camsim simulate`'s preview
+/// and `camsim isp`. Returns the image, the downsampling factor and the exposure scale used.
+pub fn report_preview(
+    rgb: &RgbImage,
+    sensor: &Sensor,
+    illuminant: camsim_core::Spectrum,
+    grid: camsim_core::WavelengthGrid,
+    exposure_scale: Option<f64>,
+    saturation_dn: f64,
+) -> Result<(Canvas, usize, f64)> {
+    let mut isp = camsim_pipeline::Isp::new(illuminant, grid);
+    isp.exposure_scale = exposure_scale;
+    let k = preview_factor(rgb.cols);
+    let small = downsample(rgb, k);
+    let (img, report) = isp.render(&small, sensor, saturation_dn)?;
     Ok((
-        Rgb8 {
-            w: small.cols,
-            h: small.rows,
-            data,
+        Canvas {
+            w: img.cols,
+            h: img.rows,
+            data: img.data,
         },
         k,
-        scale,
+        report.exposure_scale,
     ))
 }
 
 fn position_thumbnail(p: &QualityParams, spectra: &BoxSpectra, c: &Captured) -> Result<Vec<u8>> {
     let (mut img, k, _) = srgb_preview(p, spectra, &c.rgb, None)?;
     draw_gray_box(&mut img, &c.corners, k as f64);
-    img.png()
+    Ok(img.png()?)
 }
 
-fn draw_gray_box(img: &mut Rgb8, corners: &ChartCorners, k: f64) {
+fn draw_gray_box(img: &mut Canvas, corners: &ChartCorners, k: f64) {
     // The gray series' row of the chart (Figure 5's red boxes).
     let a = corners.point(0.0, 0.75);
     let b = corners.point(1.0, 0.75);
@@ -803,7 +788,7 @@ fn image_figures(
             data[i * 3 + ch] = camsim_core::colorimetry::srgb_encode_u8(plane[i] as f64 * sc);
         }
     }
-    let raw_img = Rgb8 {
+    let raw_img = Canvas {
         w: small.cols,
         h: small.rows,
         data,
@@ -874,7 +859,7 @@ fn profile_figures(
         )
         .ranges(None, Some((0.0, ymax.max(1.0))));
         for c in 0..3 {
-            fig = fig.with(Series::new(
+            fig = fig.with(Series::xy(
                 ["R", "G", "B"][c],
                 q.profile_distance_px.clone(),
                 q.profile_rgb.iter().map(|v| v[c]).collect(),
@@ -911,7 +896,7 @@ fn noise_figures(opts: &ValidateOptions, r: &SceneResults) -> Result<Vec<FigureP
             .map(|g| g.channels[c].noise_free_mean_dn)
             .collect();
         let y: Vec<f64> = r.noise.iter().map(|g| g.channels[c].mean_dn).collect();
-        fig = fig.with(Series::new(
+        fig = fig.with(Series::xy(
             ["R", "G", "B"][c],
             x,
             y,
@@ -929,7 +914,7 @@ fn noise_figures(opts: &ValidateOptions, r: &SceneResults) -> Result<Vec<FigureP
             .map(|g| g.channels[c].sensor_noise_std_dn)
             .collect();
         let yr: Vec<f64> = r.noise.iter().map(|g| g.channels[c].raw_std_dn).collect();
-        fig2 = fig2.with(Series::new(
+        fig2 = fig2.with(Series::xy(
             format!("{} noisy - noise-free", ["R", "G", "B"][c]),
             xp.clone(),
             ys,
@@ -937,7 +922,7 @@ fn noise_figures(opts: &ValidateOptions, r: &SceneResults) -> Result<Vec<FigureP
             CHANNEL_COLORS[c],
         ));
         let light = CHANNEL_COLORS[c].map(|v| ((v as u32 + 255) / 2) as u8);
-        fig2 = fig2.with(Series::new(
+        fig2 = fig2.with(Series::xy(
             format!("{} raw within region", ["R", "G", "B"][c]),
             xp,
             yr,

@@ -233,18 +233,3 @@ pub fn write_report(
     }
     Ok(h.finish())
 }
-
-/// Encode an 8-bit RGB image (interleaved, row-major) as PNG bytes.
-pub fn encode_png_rgb8(width: usize, height: usize, data: &[u8]) -> Result<Vec<u8>> {
-    use image::ImageEncoder;
-    let mut buf = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut buf)
-        .write_image(
-            data,
-            width as u32,
-            height as u32,
-            image::ExtendedColorType::Rgb8,
-        )
-        .map_err(|e| ValidateError::invalid("PNG encoding", e.to_string()))?;
-    Ok(buf)
-}

@@ -40,6 +40,12 @@
 //! - [`analysis`]: SFR/MTF, chart and ROI statistics, EMVA 1288, QE fits on any stage's images.
 //! - [`io`]: spectral OpenEXR, DNG, PNG readers and writers.
 //! - [`dataset`]: many captures from a spec of variations, as WebDataset shards with a manifest.
+//! - [`validate`]: the paper's Cornell box validation and the two-camera comparison.
+//!
+//! Every recipe that combines stages or reads and writes camsim's own files is in [`pipeline`]
+//! (the application layer: config door, capture requests, the [`Isp`], run and render records,
+//! the measurements); the `camsim` command line and the Python package only parse, call this
+//! crate and print or return. [`names`] is the catalogue of every name table.
 //!
 //! Errors are typed ([`Error`]: each stage's own error type); the library reads only the files a
 //! config names and never the environment or the command line.
@@ -56,13 +62,16 @@ pub use camsim_render as render;
 pub use camsim_scene as scene;
 pub use camsim_scene3d as scene3d;
 pub use camsim_sensor as sensor;
+pub use camsim_validate as validate;
+
+pub mod names;
 
 pub use camsim_core::{RawImage, SpectralImage, WavelengthGrid};
 pub use camsim_io::exr::{ExrCompression, ExrOptions, ExrPrecision};
 pub use camsim_pipeline::render::{field_of_view_deg, sensor_image_distance_m};
 pub use camsim_pipeline::{
-    simulate, Output, OutputSet, PipelineError as Error, Progress, Rgb8Image, RunInfo,
-    SimulateConfig, SimulateOptions, Simulation,
+    simulate, CaptureRequest, Isp, Output, OutputSet, PipelineError as Error, Progress, Rgb8Image,
+    RunInfo, RunRecord, SensorOverrides, SimulateConfig, SimulateOptions, Simulation,
 };
 
 /// Result with camsim's [`Error`].

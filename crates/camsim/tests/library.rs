@@ -5,6 +5,7 @@ use camsim::{
     simulate, Error, ExrCompression, ExrOptions, ExrPrecision, OutputSet, RunInfo, SimulateConfig,
     SimulateOptions,
 };
+use std::path::Path;
 
 /// A small config (48 x 64 window, 2 frames), shared with the Python tests.
 const SMALL: &str = include_str!("small.toml");
@@ -13,7 +14,7 @@ fn quiet(_: &str, _: u64, _: u64) {}
 
 #[test]
 fn simulation_in_memory_equals_its_files_bit_for_bit() {
-    let cfg = SimulateConfig::from_toml_str(SMALL).unwrap();
+    let cfg = SimulateConfig::from_toml_str(SMALL, Path::new("")).unwrap();
     let sim = simulate(
         &cfg,
         &SimulateOptions {
@@ -88,7 +89,7 @@ fn simulation_in_memory_equals_its_files_bit_for_bit() {
 
 #[test]
 fn half_float_exrs_round_to_within_half_precision() {
-    let cfg = SimulateConfig::from_toml_str(SMALL).unwrap();
+    let cfg = SimulateConfig::from_toml_str(SMALL, Path::new("")).unwrap();
     let sim = simulate(&cfg, &SimulateOptions::default(), &quiet).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
@@ -144,14 +145,16 @@ fn the_field_of_view_rule_uses_the_image_distance_of_the_focus() {
 
 #[test]
 fn bad_configs_are_typed_errors_naming_the_key() {
-    let e =
-        SimulateConfig::from_toml_str(&SMALL.replace("exposure_ms = 8.0", "exposure_ms = \"x\""))
-            .unwrap_err();
+    let e = SimulateConfig::from_toml_str(
+        &SMALL.replace("exposure_ms = 8.0", "exposure_ms = \"x\""),
+        Path::new(""),
+    )
+    .unwrap_err();
     assert!(
         matches!(e, Error::Config(_)) && e.to_string().contains("exposure_ms"),
         "{e}"
     );
-    let mut cfg = SimulateConfig::from_toml_str(SMALL).unwrap();
+    let mut cfg = SimulateConfig::from_toml_str(SMALL, Path::new("")).unwrap();
     cfg.capture.frames = 0;
     let e = simulate(&cfg, &SimulateOptions::default(), &quiet).unwrap_err();
     assert!(e.to_string().contains("capture.frames"), "{e}");

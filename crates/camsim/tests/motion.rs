@@ -176,7 +176,7 @@ shutter = {shutter}
         noise_free: true,
         flow: false,
     };
-    let cfg = SimulateConfig::from_toml_str(&text("\"global\"")).unwrap();
+    let cfg = SimulateConfig::from_toml_str(&text("\"global\""), std::path::Path::new("")).unwrap();
     let sim = simulate(&cfg, &opts, &quiet).unwrap();
     assert!(!sim.moving);
     let starts: Vec<f64> = sim.frame_times.iter().map(|f| f.start_s).collect();
@@ -210,9 +210,10 @@ shutter = {shutter}
     let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
     let rho = dot(&d01, &d23) / (dot(&d01, &d01) * dot(&d23, &d23)).sqrt();
     assert!(rho.abs() < 0.03, "correlation of frame differences {rho}");
-    let rolling = SimulateConfig::from_toml_str(&text(
-        "{ rolling = { line_time_us = 50.0, direction = \"top-down\" } }",
-    ))
+    let rolling = SimulateConfig::from_toml_str(
+        &text("{ rolling = { line_time_us = 50.0, direction = \"top-down\" } }"),
+        std::path::Path::new(""),
+    )
     .unwrap();
     let sim_r = simulate(&rolling, &opts, &quiet).unwrap();
     for (a, b) in sim.frames.iter().zip(&sim_r.frames) {

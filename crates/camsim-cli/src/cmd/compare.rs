@@ -3,7 +3,7 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim_validate::{CameraCompareOptions, CameraSpec};
+use camsim::validate::{CameraCompareOptions, CameraSpec};
 use std::path::PathBuf;
 
 /// Compare two cameras on the standard targets. Each camera (a sensor preset or TOML file, with an
@@ -83,7 +83,7 @@ pub fn run(a: Args) -> Result<()> {
     opts.out_dir = Some(staged.path().to_path_buf());
     opts.command_line = std::env::args().collect::<Vec<_>>().join(" ");
     let pb = common::progress(4, "compare");
-    let r = camsim_validate::compare_cameras(&opts, &|stage, done, total| {
+    let r = camsim::validate::compare_cameras(&opts, &|stage, done, total| {
         pb.set_message(stage.to_string());
         pb.set_length(total.max(1));
         pb.set_position(done);

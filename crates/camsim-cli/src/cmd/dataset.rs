@@ -2,11 +2,8 @@
 
 use crate::common::{self, say};
 use anyhow::{Context, Result};
-use camsim_dataset::{DatasetSpec, ShardSelect};
+use camsim::dataset::{DatasetSpec, ShardSelect};
 use std::path::PathBuf;
-
-/// The spec `camsim dataset` runs without one (examples/datasets/colorchecker.toml).
-const DEFAULT_SPEC: &str = include_str!("../../../../examples/datasets/colorchecker.toml");
 
 /// Simulate a dataset: many captures from one spec, as WebDataset tar shards with a manifest.
 ///
@@ -51,11 +48,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let spec = match &a.spec {
         Some(p) => DatasetSpec::from_file(p)?,
-        None => DatasetSpec::from_toml_str(
-            DEFAULT_SPEC,
-            "built-in spec (examples/datasets/colorchecker.toml)",
-            std::path::Path::new("."),
-        )?,
+        None => DatasetSpec::builtin_default()?,
     };
     if a.workers == Some(0) {
         anyhow::bail!("--workers must be at least 1");
@@ -83,7 +76,7 @@ pub fn run(a: Args) -> Result<()> {
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let summary = camsim_dataset::run(
+    let summary = camsim::dataset::run(
         &spec,
         &a.out,
         select,

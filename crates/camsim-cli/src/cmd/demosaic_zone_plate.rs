@@ -1,12 +1,11 @@
 //! `camsim analyze demosaic`: every demosaicking method on a gray zone plate (MTF, MTF50, false
 //! colour), camsim_isp::demosaic_quality.
 
+use crate::cmd::args::parse_cfa;
 use crate::common::{self, say};
-use anyhow::{bail, Result};
-use camsim_core::CfaPattern;
-use camsim_isp::demosaic_quality::{zone_plate_quality, ZonePlate};
-use camsim_isp::DemosaicMethod;
-use std::fmt::Write as _;
+use anyhow::Result;
+use camsim::core::CfaPattern;
+use camsim::pipeline::measure::demosaic::{demosaic_zone_plate, ZonePlateRequest};
 use std::path::PathBuf;
 
 /// Demosaic a gray zone plate (a circular chirp whose local frequency rises linearly from 0 at
@@ -40,54 +39,17 @@ fn parse_f_max(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
-fn parse_cfa(s: &str) -> std::result::Result<CfaPattern, String> {
-    CfaPattern::parse(s).map_err(|e| e.to_string())
-}
-
 pub fn run(a: Args) -> Result<()> {
-    if a.size < 32 || a.size > 8192 {
-        bail!("--size {}: give 32 to 8192 pixels", a.size);
-    }
-    let zp = ZonePlate::new(a.size, a.f_max);
-    let raw = zp.mosaic(a.cfa);
-    let df = 0.01f64.min(a.f_max / 10.0);
-    let mut results = Vec::new();
-    for m in DemosaicMethod::ALL {
-        let rgb = camsim_isp::demosaic(&raw, m)?;
-        results.push((m, zone_plate_quality(&zp, &rgb, df)));
-    }
+    let report = demosaic_zone_plate(&ZonePlateRequest {
+        size_px: a.size,
+        f_max_cyc_per_px: a.f_max,
+        cfa: a.cfa,
+    })
+    .map_err(|e| anyhow::anyhow!("--{e}"))?;
     let staged = common::stage_out_dir(&a.out)?;
-    let mut csv = String::from("freq_cyc_per_px");
-    for (m, _) in &results {
-        write!(csv, ",mtf_{}", m.name().replace('-', "_"))?;
-    }
-    csv.push('\n');
-    for (i, f) in results[0].1.frequency_cy_per_px.iter().enumerate() {
-        write!(csv, "{f:.4}")?;
-        for (_, q) in &results {
-            write!(csv, ",{:.5}", q.mtf.get(i).copied().unwrap_or(f64::NAN))?;
-        }
-        csv.push('\n');
-    }
-    std::fs::write(staged.join("demosaic_mtf.csv"), csv)?;
-    let json: Vec<serde_json::Value> = results
-        .iter()
-        .map(|(m, q)| {
-            serde_json::json!({
-                "method": m.name(),
-                "mtf50_cyc_per_px": q.mtf50_cy_per_px,
-                "false_colour_rms_below_0_25": q.false_colour_low_rms,
-                "false_colour_rms": q.false_colour_rms,
-            })
-        })
-        .collect();
-    let doc = serde_json::json!({ "size_px": a.size, "f_max_cyc_per_px": a.f_max, "cfa": a.cfa.name(), "methods": json });
-    std::fs::write(
-        staged.join("demosaic.json"),
-        serde_json::to_string_pretty(&doc)?,
-    )?;
+    report.write_files(&staged)?;
     common::commit(staged)?;
-    for (m, q) in &results {
+    for (m, q) in &report.methods {
         say(format!(
             "{:>18}: MTF50 {} cycles/pixel, false colour RMS {:.4} below 0.25 cycles/pixel, {:.4} overall",
             m.name(),

@@ -1,12 +1,10 @@
 //! `camsim fit`: fit model parameters to measurements.
 
 use crate::common::{self, say};
-use anyhow::{bail, Context, Result};
-use camsim_analysis::qefit::{self, MatrixForm};
-use camsim_core::{tables, WavelengthGrid};
-use camsim_io::measurements::read_qe_means;
-use camsim_io::plot::{ScatterPlot, Series};
-use std::fmt::Write as _;
+use anyhow::{bail, Result};
+use camsim::analysis::qefit::MatrixForm;
+use camsim::io::measurements::read_qe_means;
+use camsim::pipeline::measure::qe_fit::{fit_qe, QeFitRequest};
 use std::path::PathBuf;
 
 #[derive(clap::Subcommand)]
@@ -87,106 +85,28 @@ fn parse_form(s: &str) -> Result<MatrixForm> {
 
 pub fn qe_cmd(a: QeArgs) -> Result<()> {
     let form = parse_form(&a.form)?;
-    let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
-    let grid = WavelengthGrid::default();
-    let refl = tables::macbeth_reflectances();
+    let sensor = camsim::pipeline::load_sensor(&a.sensor)?;
     // Measured rows (the file is checked before the lights are loaded).
     let rows = read_qe_means(&a.measured)?;
-    let cmfs = camsim_core::colorimetry::Cmfs::on(&grid);
-    let mut lights = std::collections::HashMap::new();
-    for name in &a.lights {
-        let s = camsim_scene::load_illuminant(name, "--lights")?;
-        // Scale so the white patch (19) reaches the luminance.
-        let white: Vec<f64> = refl[18].product_on(&s, &grid);
-        let k = a.luminance_cd_m2 / cmfs.luminance_cd_m2(&white);
-        lights.insert(name.clone(), s.scaled(k));
-    }
-    let mut measured = Vec::new();
-    let mut radiances = Vec::new();
-    for row in &rows {
-        let light = lights.get(&row.light).with_context(|| {
-            format!(
-                "{}, line {}: light '{}' is not in --lights",
-                a.measured.display(),
-                row.line,
-                row.light
-            )
-        })?;
-        measured.push(row.rgb);
-        radiances.push(refl[row.patch - 1].product_on(light, &grid));
-    }
-    // Etendue x time: pi / (1 + 4 N^2) x photodetector area x exposure (ISETCam oiCalculateIrradiance).
-    let scale = std::f64::consts::PI / (1.0 + 4.0 * a.f_number * a.f_number)
-        * sensor.photodetector_area_m2()
-        * a.exposure_ms
-        * 1e-3;
-    let k = sensor.k_dn_per_e();
-    let predicted: Vec<[f64; 3]> =
-        qefit::predict_rgb(&sensor.channel_qe(&grid), &grid, &radiances, scale)?
-            .into_iter()
-            .map(|e| e.map(|v| v * k))
-            .collect();
-    let fit = qefit::fit_qe_matrix(&measured, &predicted, form)?;
-    let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
-    let out = staged.path().to_path_buf();
-    let after = qefit::apply_matrix(&predicted, &fit.m);
-    let mut csv = String::from("row,meas_r,meas_g,meas_b,pred_r,pred_g,pred_b,fit_r,fit_g,fit_b\n");
-    for (i, ((m, p), q)) in measured.iter().zip(&predicted).zip(&after).enumerate() {
-        writeln!(
-            csv,
-            "{i},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3}",
-            m[0], m[1], m[2], p[0], p[1], p[2], q[0], q[1], q[2]
-        )?;
-    }
-    camsim_io::atomic::write_bytes_atomic(&out.join("residuals.csv"), csv.as_bytes())?;
-    for (file, title, pts) in [
-        ("scatter_before.png", "Published QE", &predicted),
-        ("scatter_after.png", "Corrected QE (fitted M)", &after),
-    ] {
-        let series = (0..3)
-            .map(|c| {
-                let mut s = Series::new(
-                    ["R", "G", "B"][c],
-                    measured
-                        .iter()
-                        .zip(pts.iter())
-                        .map(|(m, p)| (m[c], p[c]))
-                        .collect(),
-                );
-                s.color = Some([[220, 40, 40], [30, 160, 60], [40, 80, 220]][c]);
-                s
-            })
-            .collect();
-        ScatterPlot {
-            title: title.into(),
-            x_label: "measured (DN)".into(),
-            y_label: "predicted (DN)".into(),
-            series,
-            identity_line: true,
-            range: None,
-        }
-        .write_png(&out.join(file), 700, 700)?;
-    }
-    // The corrected sensor: compose with any correction it already has.
-    let mut cfg = sensor.config().clone();
-    let m = match cfg.qe_correction {
-        Some(old) => camsim_isp::color::mat3_mul(&old, &fit.m),
-        None => fit.m,
+    let req = QeFitRequest {
+        lights: a.lights.clone(),
+        luminance_cd_m2: a.luminance_cd_m2,
+        f_number: a.f_number,
+        exposure_ms: a.exposure_ms,
+        form,
     };
-    cfg.qe_correction = Some(m);
-    cfg.name = format!("{} (QE corrected)", cfg.name);
-    camsim_io::atomic::write_bytes_atomic(
-        &out.join("sensor_corrected.toml"),
-        toml::to_string_pretty(&cfg)?.as_bytes(),
-    )?;
-    camsim_io::atomic::write_json_atomic(&out.join("fit.json"), &fit)?;
+    let report = fit_qe(&sensor, &rows, &req, &a.measured.display().to_string())?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
+    report.write_files(&staged)?;
+    let fit = &report.fit;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&fit)?);
+        println!("{}", serde_json::to_string_pretty(fit)?);
     }
+    let m = &fit.m;
     say(format!(
         "M = [{:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}; {:.3} {:.3} {:.3}], RMS {:.2} -> {:.2} DN; corrected sensor: {}",
-        fit.m[0][0], fit.m[0][1], fit.m[0][2], fit.m[1][0], fit.m[1][1], fit.m[1][2], fit.m[2][0], fit.m[2][1], fit.m[2][2],
-        fit.rms_before, fit.rms_after, out.join("sensor_corrected.toml").display()
+        m[0][0], m[0][1], m[0][2], m[1][0], m[1][1], m[1][2], m[2][0], m[2][1], m[2][2],
+        fit.rms_before, fit.rms_after, a.out.join("sensor_corrected.toml").display()
     ));
     common::commit(staged)?;
     Ok(())

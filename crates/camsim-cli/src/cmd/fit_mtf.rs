@@ -2,9 +2,9 @@
 
 use crate::common::{self, say};
 use anyhow::{bail, Result};
-use camsim_io::measurements::read_mtf_csv;
-use camsim_io::plot::{LinePlot, Series};
-use camsim_optics::mtf_fit::{fit_mtf, FitParams, MtfFitOptions, SystemMtfModel};
+use camsim::io::measurements::read_mtf_csv;
+use camsim::optics::mtf_fit::{FitParams, MtfFitOptions, SystemMtfModel};
+use camsim::pipeline::measure::mtf_fit::fit_measured_mtf;
 use std::path::PathBuf;
 
 /// Fit the defocus of the lens and, optionally, a Gaussian pixel-crosstalk blur to a measured
@@ -101,63 +101,25 @@ pub fn run(a: Args) -> Result<()> {
         max_freq_cyc_per_mm: a.max_freq,
         ..MtfFitOptions::default()
     };
-    let (model, result) = fit_mtf(&m.freq_cyc_per_mm, &m.mtf, &start, &opts)
+    let report = fit_measured_mtf(m, &start, &opts)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.measured.display()))?;
     let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
-    let out = staged.path().to_path_buf();
-    let fitted = model.mtf(&m.freq_cyc_per_mm)?;
-    let mut csv = String::from("frequency_cy_per_mm,mtf_measured,mtf_fit\n");
-    for ((f, y), g) in m.freq_cyc_per_mm.iter().zip(&m.mtf).zip(&fitted) {
-        csv.push_str(&format!("{f:.4},{y:.5},{g:.5}\n"));
-    }
-    camsim_io::atomic::write_bytes_atomic(&out.join("mtf.csv"), csv.as_bytes())?;
-    camsim_io::atomic::write_json_atomic(&out.join("fit.json"), &result)?;
-    // The fitted curve drawn continuously from 0 to the largest measured frequency.
-    let f_end = m.freq_cyc_per_mm.last().copied().unwrap_or(0.0);
-    let dense: Vec<f64> = (0..=200).map(|i| f_end * i as f64 / 200.0).collect();
-    let curve = model.mtf(&dense)?;
-    let mut meas = Series::new(
-        "measured",
-        m.freq_cyc_per_mm
-            .iter()
-            .copied()
-            .zip(m.mtf.iter().copied())
-            .collect(),
-    );
-    meas.color = Some([20, 20, 20]);
-    let mut fit_s = Series::new(
-        format!(
-            "fit: defocus {:.3} um, crosstalk sigma {:.2} um (RMS {:.3})",
-            result.defocus_um, result.crosstalk_sigma_um, result.rms
-        ),
-        dense.iter().copied().zip(curve).collect(),
-    );
-    fit_s.dashed = true;
-    fit_s.color = Some([214, 39, 40]);
-    let plot = LinePlot {
-        title: format!(
-            "MTF fit: {}",
-            a.measured
-                .file_name()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        ),
-        x_label: "spatial frequency (cycles/mm on the sensor)".into(),
-        y_label: "MTF".into(),
-        series: vec![meas, fit_s],
-        x_range: Some((0.0, f_end)),
-        y_range: Some((0.0, 1.05)),
-    };
     let plot_path = match &a.plot {
         Some(p) => {
             common::parent_dir(p)?;
             p.clone()
         }
-        None => out.join("mtf_fit.png"),
+        None => staged.join("mtf_fit.png"),
     };
-    plot.write_png(&plot_path, 900, 600)?;
+    let title = a
+        .measured
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    report.write_files(staged.path(), &plot_path, &title)?;
+    let result = &report.fit;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+        println!("{}", serde_json::to_string_pretty(result)?);
     }
     let f50 = |v: Option<f64>| v.map_or("none".to_string(), |x| format!("{x:.1}"));
     say(format!(

@@ -23,12 +23,12 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let (raw, _info) = camsim_io::dng::read_dng(&a.flat)?;
-    let fit = camsim_optics::fit_flat_field(&raw, a.order)
+    let (raw, _info) = camsim::io::dng::read_dng(&a.flat)?;
+    let fit = camsim::optics::fit_flat_field(&raw, a.order)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.flat.display()))?;
     crate::common::parent_dir(&a.out)?;
-    camsim_io::atomic::write_bytes_atomic(&a.out, fit.to_toml().as_bytes())?;
-    let corner = fit.eval(camsim_core::CfaChannel::G, 1.0, 1.0);
+    camsim::io::atomic::write_bytes_atomic(&a.out, fit.to_toml().as_bytes())?;
+    let corner = fit.eval(camsim::core::CfaChannel::G, 1.0, 1.0);
     say(format!(
         "fitted order-{} shading on {} x {}: RMS residual {:.3} %, green corner relative illumination {:.3} -> {}",
         fit.order,

@@ -1,19 +1,20 @@
-//! `camsim isp`: raw DNG -> demosaic -> white balance -> colour matrix -> sRGB PNG.
+//! `camsim isp`: raw DNG -> demosaic -> white balance -> colour matrix -> sRGB PNG, through the
+//! application layer's [`camsim::Isp`].
 
 use crate::common::say;
-use anyhow::{bail, Context, Result};
-use camsim_analysis::chart::{self, ChartCorners};
-use camsim_analysis::Plane;
-use camsim_core::WavelengthGrid;
-use camsim_isp::ccm::{self, CcmObjective};
-use camsim_isp::output::DisplayModel;
-use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
-use camsim_isp::{ColorPipeline, DemosaicMethod, WhiteBalanceMethod};
+use anyhow::{bail, Result};
+use camsim::analysis::chart::ChartCorners;
+use camsim::core::WavelengthGrid;
+use camsim::isp::ccm::CcmObjective;
+use camsim::isp::white_balance::WHITE_PATCH_PERCENTILE;
+use camsim::isp::{DemosaicMethod, WhiteBalanceMethod};
+use camsim::pipeline::CcmSource;
+use camsim::Isp;
 use std::path::PathBuf;
 
-/// Where the colour matrix comes from.
+/// Where the colour matrix comes from (`--ccm`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CcmSource {
+pub enum CcmChoice {
     /// Fitted on the ColorChecker from the sensor's QE under the illuminant (no image data).
     Qe,
     /// Fitted on the ColorChecker photographed in the image (its corners from --corners or the
@@ -21,15 +22,15 @@ pub enum CcmSource {
     Chart,
 }
 
-fn parse_ccm(s: &str) -> std::result::Result<CcmSource, String> {
+fn parse_ccm(s: &str) -> std::result::Result<CcmChoice, String> {
     match s {
-        "qe" => Ok(CcmSource::Qe),
-        "chart" => Ok(CcmSource::Chart),
+        "qe" => Ok(CcmChoice::Qe),
+        "chart" => Ok(CcmChoice::Chart),
         _ => Err(format!("'{s}' is not one of qe, chart")),
     }
 }
 
-fn parse_str<T: std::str::FromStr<Err = camsim_core::error::CoreError>>(
+fn parse_str<T: std::str::FromStr<Err = camsim::core::error::CoreError>>(
     s: &str,
 ) -> std::result::Result<T, String> {
     s.parse::<T>().map_err(|e| e.to_string())
@@ -64,25 +65,23 @@ pub struct Args {
     /// Scene illuminant for white balance and the colour fit: built-in name or spectrum file.
     #[arg(long, default_value = "D65")]
     pub illuminant: String,
-    /// Demosaicking method: bilinear, malvar (ISETCam 'laplacian'), adaptive-laplacian (Hamilton-Adams).
-    #[arg(long, default_value = "bilinear", value_parser = parse_str::<DemosaicMethod>)]
+    #[arg(long, default_value = "bilinear", value_parser = parse_str::<DemosaicMethod>, help = format!("Demosaicking method:\n{}", camsim::isp::DEMOSAIC_METHODS.listing()))]
     pub demosaic: DemosaicMethod,
-    /// White balance: illuminant (from --illuminant and the sensor QE), gray-world, white-patch, none.
-    #[arg(long, default_value = "illuminant", value_parser = parse_str::<WhiteBalanceMethod>)]
+    #[arg(long, default_value = "illuminant", value_parser = parse_str::<WhiteBalanceMethod>, help = format!("White balance (illuminant: from --illuminant and the sensor QE):\n{}", camsim::isp::WHITE_BALANCE_METHODS.listing()))]
     pub white_balance: WhiteBalanceMethod,
     /// Percentile of R+G+B above which pixels count as white for --white-balance white-patch.
     #[arg(long, default_value_t = WHITE_PATCH_PERCENTILE, value_parser = parse_percentile)]
     pub white_patch_percentile: f64,
     /// Colour matrix: qe (fitted from the sensor QE) or chart (fitted on the ColorChecker in the image).
     #[arg(long, default_value = "qe", value_parser = parse_ccm)]
-    pub ccm: CcmSource,
+    pub ccm: CcmChoice,
     /// What --ccm chart minimises: linear-srgb, xyz or cielab.
     #[arg(long, default_value = "linear-srgb", value_parser = parse_str::<CcmObjective>)]
     pub ccm_objective: CcmObjective,
     /// The chart's four outer corners for --ccm chart, X,Y pixels of the top-left (dark skin),
     /// top-right, bottom-right (black) and bottom-left (white) corners; default: from the run.json
     /// beside a camsim DNG.
-    #[arg(long, value_parser = crate::cmd::analyze::parse_corners, allow_hyphen_values = true, value_name = "X,Y,X,Y,X,Y,X,Y")]
+    #[arg(long, value_parser = crate::cmd::args::parse_corners, allow_hyphen_values = true, value_name = "X,Y,X,Y,X,Y,X,Y")]
     pub corners: Option<ChartCorners>,
     /// The photographed chart's 24 patch reflectances for --ccm chart (CSV `wavelength_nm` + 24
     /// columns, or an ISETCam `.mat` in macbethChart.mat's layout); default N. Ohta's ColorChecker
@@ -104,108 +103,57 @@ pub fn run(a: Args) -> Result<()> {
     // The chart's reflectances serve only the chart fit: read (and check) them before any work.
     let chart_reflectances = match (&a.chart_reflectances, a.ccm) {
         (None, _) => None,
-        (Some(p), CcmSource::Chart) => Some(camsim_scene::load_chart_reflectances(p, "--chart-reflectances")?),
+        (Some(p), CcmChoice::Chart) => Some(camsim::scene::load_chart_reflectances(p, "--chart-reflectances")?),
         (Some(_), _) => bail!("--chart-reflectances is for --ccm chart (the colour matrix fitted on the photographed chart)"),
     };
-    let (raw, _info) = camsim_io::dng::read_dng(&a.input)?;
-    let sensor = camsim_pipeline::load_sensor(&a.sensor)?;
-    let grid = WavelengthGrid::default();
-    let illum = camsim_scene::load_illuminant(&a.illuminant, "--illuminant")?;
-    let qe = sensor.channel_qe(&grid);
-    let raw = if a.bin {
-        camsim_isp::cfa_general::bin_2x2(&raw)?
-    } else {
-        raw
-    };
-    let mut rgb = crate::cmd::isp_cfa::demosaic_general(&raw, &sensor, a.demosaic)?;
-    let saturation_dn = raw.white_level_dn - raw.black_level_dn;
-    let gains = match a.white_balance {
-        WhiteBalanceMethod::None => [1.0; 3],
-        WhiteBalanceMethod::GrayWorld => white_balance::gray_world_gains(&rgb)?,
-        WhiteBalanceMethod::WhitePatch => {
-            white_balance::white_patch_gains(&rgb, a.white_patch_percentile, Some(saturation_dn))?
-        }
-        WhiteBalanceMethod::Illuminant => white_balance::illuminant_gains(&qe, &grid, &illum)?,
-    };
-    let mut report = serde_json::json!({
-        "input": a.input.display().to_string(),
-        "demosaic": a.demosaic.name(),
-        "white_balance": a.white_balance.name(),
-        "white_balance_gains": gains,
-    });
-    let srgb = match a.ccm {
-        CcmSource::Qe => {
-            let color = ColorPipeline::fit(&qe, &grid, &illum)?;
-            // The pipeline's matrix includes the illuminant's white balance diag(1 / as_shot_neutral).
-            // Another method's gains g replace it: camera values are first scaled by
-            // as_shot_neutral * g, so what g takes to neutral renders neutral. With the illuminant
-            // method the pipeline is used as it is (the paper's preview, unchanged).
-            let mut clip = saturation_dn;
-            if a.white_balance != WhiteBalanceMethod::Illuminant {
-                let asn = color.as_shot_neutral();
-                let pre = [asn[0] * gains[0], asn[1] * gains[1], asn[2] * gains[2]];
-                white_balance::apply_gains(&mut rgb, pre);
-                // Saturated pixels (s in every channel) become s * pre; clip where the channel
-                // saturated first so clipped highlights stay neutral.
-                clip *= gains.iter().cloned().fold(f64::INFINITY, f64::min);
+    let (raw, _info) = camsim::io::dng::read_dng(&a.input)?;
+    let sensor = camsim::pipeline::load_sensor(&a.sensor)?;
+    let illuminant = camsim::scene::load_illuminant(&a.illuminant, "--illuminant")?;
+    let mut isp = Isp::new(illuminant, WavelengthGrid::default());
+    isp.demosaic = a.demosaic;
+    isp.white_balance = a.white_balance;
+    isp.white_patch_percentile = a.white_patch_percentile;
+    isp.bin_2x2 = a.bin;
+    if a.ccm == CcmChoice::Chart {
+        let corners: ChartCorners = match a.corners {
+            Some(c) => c,
+            None => {
+                // The corners of the frame the ISP sees (binned: half the size).
+                let (rows, cols) = if a.bin {
+                    (raw.rows / 2, raw.cols / 2)
+                } else {
+                    (raw.rows, raw.cols)
+                };
+                camsim::pipeline::records::chart_corners_beside(&a.input, rows, cols)?
             }
-            report["camera_to_linear_srgb"] = serde_json::json!(color.camera_to_srgb());
-            color.render_srgb8_clipped(&rgb, None, Some(clip))
-        }
-        CcmSource::Chart => {
-            white_balance::apply_gains(&mut rgb, gains);
-            let corners = match a.corners {
-                Some(c) => c,
-                None => crate::cmd::analyze::corners_from_run_json(
-                    &a.input,
-                    raw.rows,
-                    raw.cols,
-                    raw.pixel_pitch_m,
-                )?,
-            };
-            let planes = [0, 1, 2].map(|c| Plane::new(rgb.rows, rgb.cols, rgb.plane(c).to_vec()));
-            let [r, g, b] = planes;
-            let planes = [r?, g?, b?];
-            let stats = chart::chart_patch_stats_rgb(&planes, &corners, 0.5)
-                .context("--ccm chart: measuring the patches")?;
-            drop(planes);
-            let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
-            let d65 = camsim_core::tables::illuminant("D65")?;
-            let (target, white) = match &chart_reflectances {
-                Some(r) => ccm::chart_xyz(r, &d65, &grid)?,
-                None => ccm::macbeth_xyz(&d65, &grid)?,
-            };
-            let m =
-                ccm::fit_ccm(&camera, &target, white, a.ccm_objective).context("--ccm chart")?;
-            let de = ccm::ccm_delta_e2000(&m, &camera, &target, white);
-            let mean = de.iter().sum::<f64>() / de.len() as f64;
-            let max = de.iter().cloned().fold(0.0, f64::max);
-            say(format!(
-                "chart fit ({}): CIEDE2000 mean {mean:.2}, max {max:.2} over 24 patches",
-                a.ccm_objective
-            ));
-            if !(mean.is_finite()) {
-                bail!("--ccm chart: the fit gave no finite colour error (are the corners on the chart?)");
-            }
-            report["ccm_objective"] = serde_json::json!(a.ccm_objective.to_string());
-            report["camera_to_xyz"] = serde_json::json!(m);
-            report["patch_camera_rgb"] = serde_json::json!(camera);
-            report["patch_delta_e2000"] = serde_json::json!(de);
-            report["delta_e2000_mean"] = serde_json::json!(mean);
-            report["delta_e2000_max"] = serde_json::json!(max);
-            camsim_isp::output::render_rgb8(&rgb, &m, &DisplayModel::srgb(), 1.0)?
-        }
-    };
+        };
+        isp.ccm = CcmSource::Chart {
+            corners,
+            objective: a.ccm_objective,
+            reflectances: chart_reflectances,
+        };
+    }
+    let out = isp.compute(&raw, &sensor)?;
+    let r = &out.report;
+    if let (Some(mean), Some(max)) = (r.delta_e2000_mean, r.delta_e2000_max) {
+        say(format!(
+            "chart fit ({}): CIEDE2000 mean {mean:.2}, max {max:.2} over 24 patches",
+            a.ccm_objective
+        ));
+    }
     crate::common::parent_dir(&a.out)?;
-    camsim_io::raster::write_png8_rgb(&a.out, rgb.rows, rgb.cols, &srgb)?;
+    let p = &out.preview;
+    camsim::io::raster::write_png8_rgb(&a.out, p.rows, p.cols, &p.data)?;
     if a.json {
+        let mut report = serde_json::to_value(r)?;
+        report["input"] = a.input.display().to_string().into();
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
     say(format!(
         "wrote {} ({} x {})",
         a.out.display(),
-        rgb.cols,
-        rgb.rows
+        p.cols,
+        p.rows
     ));
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! One module per subcommand.
 pub mod analyze;
+pub mod args;
 pub mod compare;
 pub mod dataset;
 pub mod demosaic_zone_plate;
@@ -8,7 +9,6 @@ pub mod fit;
 pub mod fit_mtf;
 pub mod fit_shading;
 pub mod isp;
-pub mod isp_cfa;
 pub mod optics;
 pub mod presets;
 pub mod psf;

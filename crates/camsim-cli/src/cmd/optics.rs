@@ -2,7 +2,7 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim_optics::Optics;
+use camsim::optics::Optics;
 use std::path::PathBuf;
 
 /// Turn scene radiance into sensor irradiance (W/(m^2 nm)): f-number and magnification
@@ -18,8 +18,7 @@ pub struct Args {
     /// Spectral radiance EXR (from `camsim scene`, `camsim render` or pbrt-v4).
     #[arg(long = "in")]
     pub input: PathBuf,
-    /// Lens: a preset (pixel4a, diffraction-limited) or a lens TOML file.
-    #[arg(long, default_value = "pixel4a")]
+    #[arg(long, default_value = "pixel4a", help = format!("Lens: a preset ({}) or a lens TOML file", camsim::optics::presets::LENS_PRESETS.known()))]
     pub lens: String,
     /// Override the focus distance, m (depth-dependent defocus needs a depth map in the input).
     #[arg(long, value_parser = crate::common::positive_f64)]
@@ -31,7 +30,7 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let radiance = common::read_spectral_exr(&a.input)?;
-    let mut cfg = camsim_pipeline::load_lens(&a.lens)?;
+    let mut cfg = camsim::pipeline::load_lens(&a.lens)?;
     if a.focus_m.is_some() {
         cfg.focus_distance_m = a.focus_m;
     }
@@ -42,7 +41,7 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         common::out_dir(dir)?;
     }
-    camsim_io::exr::write_spectral_exr(&a.out, &irr, "optics")?;
+    camsim::io::exr::write_spectral_exr(&a.out, &irr, "optics")?;
     say(format!(
         "wrote {} ({} x {}, {:.3} um per sample at the sensor)",
         a.out.display(),

@@ -1,53 +1,60 @@
-//! `camsim presets`: list and print the built-in sensors, lenses and scenes.
+//! `camsim presets`: list every name camsim knows (the catalogue of name tables), or print a
+//! sensor or lens preset as TOML.
 
 use anyhow::{bail, Result};
 
-/// List the built-in presets, or print one as TOML (the file you would copy and edit).
+/// List every built-in name (sensor and lens presets, 3D scenes, 2D scene kinds, demosaic and
+/// white-balance methods, colour filter arrays, outputs), or print one preset as TOML (the file
+/// you would copy and edit).
 #[derive(clap::Args)]
 #[command(
     after_help = "Examples:\n  camsim presets\n  camsim presets sensor pixel4a > my-sensor.toml\n  camsim presets optics pixel4a"
 )]
 pub struct Args {
-    /// sensor | optics | scene
+    /// sensor | optics (lens) | scene; or a family's title word to list it alone.
     pub kind: Option<String>,
     /// Preset name.
     pub name: Option<String>,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let catalogue = camsim::names::catalogue();
     match (a.kind.as_deref(), a.name.as_deref()) {
         (None, _) => {
-            println!(
-                "sensors (camsim presets sensor NAME):  {}",
-                camsim_sensor::presets::names().join(", ")
-            );
-            println!(
-                "lenses  (camsim presets optics NAME):  {}",
-                camsim_optics::presets::names().join(", ")
-            );
-            println!(
-                "3D scenes (camsim render --builtin NAME): {}",
-                camsim_scene3d::builtin::names().join(", ")
-            );
-            println!(
-                "2D scene kinds ([scene] kind = ...):    uniform, macbeth, slanted_edge, file"
-            );
-            println!("simulate default config:               camsim simulate --print-config");
+            for f in &catalogue {
+                println!("{} ({}):", f.title, f.usage);
+                let w = f.entries.iter().map(|e| e.0.len()).max().unwrap_or(0);
+                for (name, about) in &f.entries {
+                    println!("  {name:<w$}  {about}");
+                }
+            }
+            println!("simulate default config: camsim simulate --print-config");
         }
-        (Some("sensor"), Some(n)) => print!("{}", camsim_sensor::presets::toml(n)?),
-        (Some("optics" | "lens"), Some(n)) => match camsim_optics::presets::toml_text(n) {
-            Some(t) => print!("{t}"),
+        (Some("sensor"), Some(n)) => print!("{}", camsim::sensor::presets::toml(n)?),
+        (Some("optics" | "lens"), Some(n)) => print!("{}", camsim::optics::presets::toml(n)?),
+        (Some("sensor"), None) => println!("{}", camsim::sensor::presets::names().join("\n")),
+        (Some("optics" | "lens"), None) => {
+            println!("{}", camsim::optics::presets::names().join("\n"))
+        }
+        (Some("scene"), _) => println!("{}", camsim::scene3d::builtin::names().join("\n")),
+        (Some(k), _) => match catalogue
+            .iter()
+            .find(|f| f.title.split(' ').any(|w| w.eq_ignore_ascii_case(k)))
+        {
+            Some(f) => {
+                for (name, _) in &f.entries {
+                    println!("{name}");
+                }
+            }
             None => bail!(
-                "no lens preset '{n}': use one of {}",
-                camsim_optics::presets::names().join(", ")
+                "unknown preset kind '{k}'; known: sensor, optics, scene, or a word of: {}",
+                catalogue
+                    .iter()
+                    .map(|f| f.title)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         },
-        (Some("sensor"), None) => println!("{}", camsim_sensor::presets::names().join("\n")),
-        (Some("optics" | "lens"), None) => {
-            println!("{}", camsim_optics::presets::names().join("\n"))
-        }
-        (Some("scene"), _) => println!("{}", camsim_scene3d::builtin::names().join("\n")),
-        (Some(k), _) => bail!("unknown preset kind '{k}': use sensor, optics or scene"),
     }
     Ok(())
 }

@@ -1,12 +1,9 @@
 //! `camsim render`: a 3D scene (pbrt-v4 file or built-in) -> spectral radiance, depth, preview.
 
 use crate::common::{self, say};
-use anyhow::{Context, Result};
-use camsim_core::WavelengthGrid;
-use camsim_pipeline::render::{load_scene, render_scene};
-use camsim_render::RenderOutput;
-use camsim_scene3d::builtin::{BuiltinOptions, MccPosition};
-use camsim_scene3d::SceneDescription;
+use anyhow::Result;
+use camsim::pipeline::render::{render_scene, request_scene, RenderRequest, Rendered};
+use camsim::scene3d::builtin::MccPosition;
 use std::path::PathBuf;
 
 /// Render a 3D scene to spectral radiance (W/(sr m^2 nm)) with a spectral path tracer.
@@ -27,8 +24,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// pbrt-v4 scene file.
     pub scene: Option<PathBuf>,
-    /// A built-in scene instead of a file: cornell-box, cornell-box-mcc, slanted-edge.
-    #[arg(long, conflicts_with = "scene")]
+    #[arg(long, conflicts_with = "scene", help = format!("A built-in scene instead of a file: {}", camsim::scene3d::builtin::BUILTIN_SCENES.known()))]
     pub builtin: Option<String>,
     /// A simulate config with a `[render]` table: render its scene exactly as `camsim simulate`
     /// does (its resolution, samples, seed, wavelengths, and the field of view of the sensor
@@ -85,17 +81,6 @@ pub fn parse_resolution(s: &str) -> std::result::Result<(usize, usize), String> 
     Ok((w, h))
 }
 
-/// Render with a progress bar.
-fn render_with_progress(scene: &SceneDescription) -> Result<RenderOutput> {
-    let pb = common::progress(1, "render");
-    let out = render_scene(scene, &|_, done, total| {
-        pb.set_length(total);
-        pb.set_position(done);
-    })?;
-    pb.finish_and_clear();
-    Ok(out)
-}
-
 pub fn run(a: Args) -> Result<()> {
     let inputs: Vec<&std::path::Path> = a
         .scene
@@ -105,101 +90,64 @@ pub fn run(a: Args) -> Result<()> {
         .map(|p| p.as_path())
         .collect();
     let staged = common::stage_out_dir_reading(&a.out, &inputs)?;
-    let out = staged.path().to_path_buf();
-    let mcc: MccPosition = a.mcc_position.parse()?;
-    let mut opts = BuiltinOptions {
+    let req = RenderRequest {
+        builtin: a.builtin.clone(),
+        pbrt: a.scene.clone(),
+        overlay: a.overlay.clone(),
+        config: a
+            .config
+            .as_deref()
+            .map(camsim::SimulateConfig::load)
+            .transpose()?,
+        samples_per_pixel: a.spp,
         resolution: a.resolution,
-        mcc_position: mcc,
-        target_distance_m: a.distance_m,
-        grid: WavelengthGrid::default(),
-        seed: a.seed.unwrap_or(1),
-        ..BuiltinOptions::default()
+        max_depth: a.max_depth,
+        time_budget_s: a.time_budget_s,
+        mcc_position: a.mcc_position.parse::<MccPosition>()?,
+        distance_m: a.distance_m,
+        seed: a.seed,
+        ..RenderRequest::default()
     };
-    if let Some(spp) = a.spp {
-        opts.samples_per_pixel = spp;
-    }
-    let mut scene = match &a.config {
-        Some(path) => {
-            let mut cfg = camsim_pipeline::SimulateConfig::load(path)?;
-            if let Some(seed) = a.seed {
-                cfg.seed = seed;
-            }
-            let section = cfg.render.clone().ok_or_else(|| {
-                anyhow::anyhow!("{}: has no [render] table to render", path.display())
-            })?;
-            camsim_pipeline::render::render_section_scene(
-                &section,
-                &cfg,
-                &cfg.sensor()?,
-                &cfg.optics()?,
-            )?
-        }
-        None => load_scene(
-            a.builtin.as_deref(),
-            a.scene.as_deref(),
-            a.overlay.as_deref(),
-            &opts,
-        )?,
-    };
+    let scene = request_scene(&req).map_err(|e| match &a.config {
+        Some(p) => anyhow::anyhow!("{}: {e}", p.display()),
+        None => e.into(),
+    })?;
     for n in &scene.notes {
         say(format!("note: {n}"));
     }
-    // Explicit command-line settings win over the file's and the overlay's.
-    if let Some(spp) = a.spp {
-        scene.settings.samples_per_pixel = spp;
-    }
-    if let Some((w, h)) = a.resolution {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    if let Some(d) = a.max_depth {
-        scene.settings.max_depth = d;
-    }
-    if a.time_budget_s.is_some() {
-        scene.settings.time_budget_s = a.time_budget_s;
-    }
-    let r = render_with_progress(&scene)?;
-    let (rows, cols) = (r.radiance.rows, r.radiance.cols);
-    let samples_taken = r.samples_per_pixel.iter().copied().max().unwrap_or(0);
-    camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &r.radiance, "render")?;
-    camsim_io::exr::write_gray_exr(&out.join("depth.exr"), rows, cols, "Z", &r.depth_m)?;
-    camsim_io::exr::write_gray_exr(&out.join("variance.exr"), rows, cols, "Y", &r.variance)?;
-    camsim_pipeline::write_id_maps(&out, &r.ids)?;
-    let srgb = camsim_isp::preview::radiance_srgb8(&r.radiance);
-    camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rows, cols, &srgb)?;
-    let info = serde_json::json!({
-        "camsim_version": env!("CARGO_PKG_VERSION"),
-        "command": std::env::args().collect::<Vec<_>>().join(" "),
-        "scene": a.scene.as_ref().or(a.config.as_ref()).map(|p| p.display().to_string()).or(a.builtin.clone()),
-        "resolution": [cols, rows],
-        // The samples actually taken (fewer than asked when a time budget stopped the render).
-        "samples_per_pixel": samples_taken,
-        "samples_per_pixel_requested": scene.settings.samples_per_pixel,
-        "time_budget_s": scene.settings.time_budget_s,
-        "max_depth": scene.settings.max_depth,
-        "wavelengths_per_path": scene.settings.wavelengths_per_path,
-        "seed": scene.settings.seed,
-        "horizontal_fov_deg": scene.camera.horizontal_fov_deg(),
-        "stats": {
-            "camera_rays": r.stats.camera_rays, "bounce_rays": r.stats.bounce_rays,
-            "shadow_rays": r.stats.shadow_rays, "seconds": r.stats.seconds,
-            "samples_per_second": r.stats.samples_per_second, "rays_per_second": r.stats.rays_per_second,
-        },
-        "notes": scene.notes,
-    });
-    camsim_io::atomic::write_json_atomic(&out.join("render.json"), &info).context("render.json")?;
+    let pb = common::progress(1, "render");
+    let output = render_scene(&scene, &|_, done, total| {
+        pb.set_length(total);
+        pb.set_position(done);
+    })?;
+    pb.finish_and_clear();
+    let rendered = Rendered { scene, output };
+    let name = a
+        .scene
+        .as_ref()
+        .or(a.config.as_ref())
+        .map(|p| p.display().to_string())
+        .or(a.builtin.clone());
+    let rec = rendered.write_files(
+        &staged,
+        name,
+        Some(std::env::args().collect::<Vec<_>>().join(" ")),
+    )?;
     say(format!(
-        "rendered {cols}x{rows}, {samples_taken} spp{} in {:.1} s ({:.2} Mrays/s) -> {}",
-        if samples_taken < scene.settings.samples_per_pixel {
+        "rendered {}x{}, {} spp{} in {:.1} s ({:.2} Mrays/s) -> {}",
+        rec.resolution[0],
+        rec.resolution[1],
+        rec.samples_per_pixel,
+        if rec.samples_per_pixel < rec.samples_per_pixel_requested {
             format!(
                 " (of {} asked; the time budget stopped it)",
-                scene.settings.samples_per_pixel
+                rec.samples_per_pixel_requested
             )
         } else {
             String::new()
         },
-        r.stats.seconds,
-        r.stats.rays_per_second / 1e6,
+        rec.stats.seconds,
+        rec.stats.rays_per_second / 1e6,
         a.out.display()
     ));
     common::commit(staged)?;

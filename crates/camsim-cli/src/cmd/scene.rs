@@ -2,8 +2,6 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim_core::WavelengthGrid;
-use camsim_scene::SceneConfig;
 use std::path::PathBuf;
 
 /// Make a 2D scene's spectral radiance (W/(sr m^2 nm)) and write it as a spectral OpenEXR.
@@ -20,10 +18,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// Scene TOML (or a simulate config with a `[scene]` table).
     pub config: Option<PathBuf>,
-    /// With no CONFIG: a built-in chart of this kind with default settings (macbeth, uniform, slanted_edge,
-    /// harmonic, zone_plate, sweep_frequency, star, checkerboard, grid_lines, point_array, ramp,
-    /// dead_leaves).
-    #[arg(long, default_value = "macbeth", conflicts_with = "config")]
+    #[arg(long, default_value = "macbeth", conflicts_with = "config", help = format!("With no CONFIG: a built-in scene of this kind with default settings, one of {}", camsim::scene::config::SCENE_KINDS.known()))]
     pub kind: String,
     /// Output spectral EXR.
     #[arg(long, default_value = "out/radiance.exr")]
@@ -32,36 +27,15 @@ pub struct Args {
 
 pub fn run(a: Args) -> Result<()> {
     let (cfg, grid) = match &a.config {
-        Some(p) => {
-            let text = common::read_text(p)?;
-            let v: toml::Value =
-                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-            if v.get("scene").is_some() {
-                let c = camsim_pipeline::SimulateConfig::load(p)?;
-                let s = c
-                    .scene
-                    .ok_or_else(|| anyhow::anyhow!("{}: [scene] is missing", p.display()))?;
-                (s, c.wavelengths)
-            } else {
-                let mut s = SceneConfig::from_toml(&text, &p.display().to_string())?;
-                s.resolve_paths(p.parent().unwrap_or(std::path::Path::new(".")));
-                let grid = s.grid();
-                (s, grid)
-            }
-        }
-        None => {
-            let text = format!("kind = \"{}\"", a.kind);
-            (
-                SceneConfig::from_toml(&text, "--kind")?,
-                WavelengthGrid::default(),
-            )
-        }
+        Some(p) => camsim::pipeline::scene::load_scene_config(p)?,
+        None => camsim::pipeline::scene::default_scene(&a.kind)
+            .map_err(|e| anyhow::anyhow!("--kind: {e}"))?,
     };
-    let img = camsim_scene::create(&cfg, &grid)?;
+    let img = camsim::scene::create(&cfg, &grid)?;
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         common::out_dir(dir)?;
     }
-    camsim_io::exr::write_spectral_exr(&a.out, &img, "scene")?;
+    camsim::io::exr::write_spectral_exr(&a.out, &img, "scene")?;
     say(format!(
         "wrote {} ({} x {} x {} bands, {:.3} mm per sample)",
         a.out.display(),

@@ -1,13 +1,14 @@
-//! `camsim sensor`: sensor-plane irradiance EXR -> raw DNG frames; or an EMVA 1288 series.
+//! `camsim sensor`: sensor-plane irradiance EXR -> raw DNG frames; or an EMVA 1288 series. The
+//! capture, its files and the series are the application layer's
+//! (`camsim::pipeline::{capture, measure::emva}`).
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim_core::WavelengthGrid;
-use camsim_io::dng::DngMetadata;
-use camsim_isp::ColorPipeline;
-use camsim_sensor::{Capture, Exposure, NoiseSwitches, Sensor};
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use camsim::pipeline::capture::{capture, CaptureRequest, Captured, CLI_KEYS};
+use camsim::pipeline::measure::emva::{simulate_series, SeriesRequest};
+use camsim::sensor::NoiseSwitches;
+use camsim::{Isp, SensorOverrides};
+use std::path::PathBuf;
 
 /// Turn irradiance into raw digital values with the ISETCam sensor model: pixel area
 /// integration, QE x colour filter x IR cut, photon shot noise, dark current, DSNU and PRNU
@@ -35,8 +36,7 @@ pub struct Args {
     /// Spectral irradiance EXR (from `camsim optics`).
     #[arg(long = "in", required_unless_present = "emva_series")]
     pub input: Option<PathBuf>,
-    /// Sensor: a preset (pixel4a, pixel4a-raw10, imx363, ideal) or a sensor TOML file.
-    #[arg(long, default_value = "pixel4a")]
+    #[arg(long, default_value = "pixel4a", help = format!("Sensor: a preset ({}) or a sensor TOML file", camsim::sensor::presets::SENSOR_PRESETS.known()))]
     pub sensor: String,
     /// Window rows centred on the optical axis (default: the full sensor; at most the sensor's rows).
     #[arg(long)]
@@ -78,11 +78,13 @@ pub struct Args {
     /// default a sensor whose offset is below 5 x its read noise gets 8 x its read noise.
     #[arg(long, value_parser = crate::common::finite_f64)]
     pub analog_offset_mv: Option<f64>,
-    /// Colour filter array instead of the sensor's: a Bayer name (RGGB, GRBG, GBRG, BGGR), RGBW
-    /// (R G / W B, W = the pixel without colour filter) or quad-bayer (4x4, each Bayer colour on
-    /// 2x2 pixels). Other tiles: `cfa_pattern` in the sensor TOML.
-    #[arg(long)]
+    #[arg(long, help = format!("Colour filter array instead of the sensor's, one of {}: a Bayer phase, RGBW (R G / W B, W = the pixel without colour filter) or quad-bayer (4x4, each Bayer colour on 2x2 pixels). Other tiles: `cfa_pattern` in the sensor TOML", camsim::core::cfa::CFA_NAMES.known()))]
     pub cfa: Option<String>,
+    /// Scene illuminant of the DNGs' colour matrix and neutral (ColorMatrix1, AsShotNeutral: the
+    /// ISP's QE fit under it, as `camsim simulate` fits it under its scene's): a built-in name or
+    /// a spectrum file.
+    #[arg(long, default_value = "D65")]
+    pub illuminant: String,
     /// Output folder (created; an earlier camsim run in it is replaced as a whole when this
     /// run completes; any other existing content is refused).
     #[arg(long, default_value = "out/sensor")]
@@ -90,249 +92,111 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<()> {
-    let mut sensor = camsim_pipeline::load_sensor(&a.sensor)?;
-    if (a.rows.is_some() || a.cols.is_some()) && !a.emva_series {
-        sensor = sensor.window(
-            a.rows.unwrap_or(sensor.rows()),
-            a.cols.unwrap_or(sensor.cols()),
-        )?;
-    }
-    if let Some(iso) = a.iso {
-        let mut c = sensor.config().clone();
-        c.iso = Some(iso);
-        c.analog_gain = 1.0;
-        sensor = Sensor::from_config_named(c, &format!("{} with --iso {iso}", a.sensor))?;
-    }
-    if let Some(cfa) = &a.cfa {
-        let mut c = sensor.config().clone();
-        c.cfa = cfa.clone();
-        c.cfa_pattern = None;
-        sensor = Sensor::from_config_named(c, &format!("{} with --cfa", a.sensor))?;
-    }
-    if a.no_noise {
-        sensor = sensor.with_noise(NoiseSwitches::none());
-    }
+    let base = camsim::pipeline::load_sensor(&a.sensor)?;
+    let overrides = SensorOverrides {
+        // The EMVA series takes its own frame size (--rows, --cols).
+        rows: a.rows.filter(|_| !a.emva_series),
+        cols: a.cols.filter(|_| !a.emva_series),
+        iso: a.iso,
+        cfa: a.cfa.clone(),
+        noise: a.no_noise.then(NoiseSwitches::none),
+    };
+    let sensor = overrides.apply(base, &a.sensor)?;
     if a.frames == 0 {
         anyhow::bail!("--frames must be at least 1");
     }
     let inputs: Vec<&std::path::Path> = a.input.iter().map(|p| p.as_path()).collect();
     let out = common::stage_out_dir_reading(&a.out, &inputs)?;
     if a.emva_series {
-        emva_series(&sensor, &a, out.path())?;
-        return common::commit(out);
+        let req = SeriesRequest {
+            levels: a.levels,
+            frames_per_level: a.frames_per_level,
+            rows: a.rows.unwrap_or(128),
+            cols: a.cols.unwrap_or(128),
+            analog_offset_mv: a.analog_offset_mv,
+            seed: a.seed,
+        };
+        let pb = common::spinner("emva");
+        let series = simulate_series(&sensor, &req, &|_, _, _| {})?;
+        if series.offset_raised {
+            say(format!("EMVA 1288 needs unclipped dark frames: analog offset set to {:.1} mV (--analog-offset-mv to choose)", series.analog_offset_mv));
+        }
+        series.write_files(&out)?;
+        pb.finish_and_clear();
+        common::commit(out)?;
+        let l0 = &series.levels[0].bright[0];
+        say(format!(
+            "wrote an EMVA 1288 series of {} levels ({} x {}) in {}; next: camsim analyze emva {}",
+            series.levels.len(),
+            l0.rows,
+            l0.cols,
+            a.out.display(),
+            a.out.join("series.csv").display()
+        ));
+        return Ok(());
     }
     let input = a
         .input
         .as_ref()
         .expect("clap requires --in without --emva-series");
-    if sensor.hdr_model().is_some() && a.exposures_ms.is_some() {
-        anyhow::bail!(
-            "--exposures-ms: an [hdr] sensor ({}) takes one exposure (--exposure-ms)",
-            a.sensor
-        );
-    }
-    let irr = common::read_spectral_exr(input)?;
-    let exposure = match a.exposure_ms {
-        Some(ms) if !(ms >= 0.0 && ms.is_finite()) => {
-            anyhow::bail!("--exposure-ms {ms}: must be >= 0")
-        }
-        Some(ms) => Exposure::Seconds(ms * 1e-3),
-        None => Exposure::default(),
-    };
-    if sensor.hdr_model().is_some() {
-        return hdr_capture(
-            &sensor,
-            &irr,
-            Capture {
-                exposure,
-                frames: a.frames,
-                seed: a.seed,
-            },
-            &a,
-            out,
-        );
-    }
-    let pb = common::spinner("sensor");
-    let frame = match &a.exposures_ms {
-        None => sensor.compute(
-            &irr,
-            &Capture {
-                exposure,
-                frames: a.frames,
-                seed: a.seed,
-            },
-        )?,
-        Some(list) => {
-            let times_s: Vec<f64> = list.iter().map(|ms| ms * 1e-3).collect();
-            sensor.compute_bracket(&irr, &times_s, a.frames, a.seed)?
-        }
-    };
-    pb.finish_and_clear();
-    let illum = camsim_core::tables::illuminant("D65")?;
-    let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
-    let meta = camsim_pipeline::dng_metadata(&sensor, &color, None)?;
-    for (i, raw) in frame.raw.iter().enumerate() {
-        let name = if i == 0 {
-            "raw.dng".to_string()
-        } else {
-            format!("raw_{i:04}.dng")
-        };
-        camsim_io::dng::write_dng(&out.join(name), raw, &meta)?;
-    }
-    let r0 = &frame.raw[0];
-    camsim_io::raster::write_png16_mosaic_scaled(
-        &out.join("raw.png"),
-        r0.rows,
-        r0.cols,
-        &r0.dn,
-        r0.bits,
-    )?;
-    common::commit(out)?;
-    if !sensor.is_bayer() {
-        let layout = sensor.cfa_layout();
-        let per: Vec<String> = layout
-            .filters()
-            .iter()
-            .zip(&frame.mean_electrons_by_filter)
-            .map(|(f, e)| format!("{f} {e:.0}"))
-            .collect();
-        say(format!(
-            "CFA {}: mean electrons {}",
-            layout.name(),
-            per.join(", ")
-        ));
-    }
-    say(format!(
-        "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
-        frame.raw.len(),
-        frame.exposure_s * 1e3,
-        frame.mean_electrons[0],
-        frame.mean_electrons[1],
-        frame.mean_electrons[2],
-        a.out.display()
-    ));
-    Ok(())
-}
-
-/// An `[hdr]` sensor: high.dng, low.dng and merged.exr per frame (see the command's help).
-fn hdr_capture(
-    sensor: &Sensor,
-    irr: &camsim_core::SpectralImage,
-    capture: Capture,
-    a: &Args,
-    out: camsim_io::atomic::OutputDir,
-) -> Result<()> {
-    let pb = common::spinner("sensor (HDR)");
-    let f = sensor.compute_hdr(irr, &capture)?;
-    pb.finish_and_clear();
-    let illum = camsim_core::tables::illuminant("D65")?;
-    let color = ColorPipeline::fit(&sensor.channel_qe(&irr.grid), &irr.grid, &illum)?;
-    let meta = camsim_pipeline::dng_metadata(sensor, &color, None)?;
-    for (i, ((hi, lo), merged)) in f.high.iter().zip(&f.low).zip(&f.merged_e).enumerate() {
-        let suffix = if i == 0 {
-            String::new()
-        } else {
-            format!("_{i:04}")
-        };
-        camsim_io::dng::write_dng(&out.join(format!("high{suffix}.dng")), hi, &meta)?;
-        camsim_io::dng::write_dng(&out.join(format!("low{suffix}.dng")), lo, &meta)?;
-        camsim_io::exr::write_gray_exr(
-            &out.join(format!("merged{suffix}.exr")),
-            hi.rows,
-            hi.cols,
-            "Y",
-            merged,
-        )?;
-    }
-    common::commit(out)?;
-    let m = f.model;
-    let peak = f.merged_e[0].iter().fold(0.0f32, |a, b| a.max(*b));
-    say(format!(
-        "{} HDR frame(s) ({}), exposure {:.3} ms, merged peak {peak:.0} e-, switch at {:.0} e-, dynamic range {:.1} dB -> {}",
-        f.high.len(),
-        match m.mode {
-            camsim_sensor::HdrMode::Dcg => "dual conversion gain",
-            camsim_sensor::HdrMode::SplitPixel => "split pixel",
-        },
-        f.exposure_s * 1e3,
-        m.switch_e,
-        m.dynamic_range_db(),
-        a.out.display()
-    ));
-    Ok(())
-}
-
-fn emva_series(sensor: &Sensor, a: &Args, out: &Path) -> Result<()> {
-    let grid = WavelengthGrid::default();
-    // EMVA 1288 needs dark frames above 0 DN: give the sensor a black level if it has none.
-    let mut cfg = sensor.config().clone();
-    let read_mv = sensor.read_noise_v() * 1e3;
-    let offset_mv = match a.analog_offset_mv {
-        Some(mv) => mv,
-        None if sensor.analog_offset_v() * 1e3 < 5.0 * read_mv => {
-            let mv = (8.0 * read_mv).max(1.0);
-            say(format!("EMVA 1288 needs unclipped dark frames: analog offset set to {mv:.1} mV (--analog-offset-mv to choose)"));
-            mv
-        }
-        None => sensor.analog_offset_v() * 1e3,
-    };
-    cfg.analog_offset_mv = offset_mv;
-    let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
-    let rows = a.rows.unwrap_or(128).min(sensor.rows());
-    let cols = a.cols.unwrap_or(128).min(sensor.cols());
-    // Three lines balanced so every channel collects 1e5 e-/s; exposures from 0 to 1.3 x the
-    // time at which the signal reaches the clipping level.
-    let rate_e_per_s = 1e5;
-    let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
-    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
-        / sensor.conversion_gain_v_per_e();
-    let t_sat = clip_e / rate_e_per_s;
-    let n = a.levels.max(3);
-    let exposures: Vec<f64> = (0..n)
-        .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
-        .collect();
-    let pb = common::progress(n as u64, "emva");
-    let levels = sensor.emva_series(
-        &grid,
-        &irr,
-        &exposures,
-        a.frames_per_level.max(2),
-        rows,
-        cols,
+    let request = CaptureRequest::new(
+        a.exposure_ms,
+        a.exposures_ms.as_deref(),
+        0.9,
+        a.frames,
         a.seed,
+        CLI_KEYS,
     )?;
-    let f = a.frames_per_level.max(2);
-    let mut csv = String::from("exposure_s,photons_per_pixel");
-    for kind in ["bright", "dark"] {
-        for k in 0..f {
-            write!(csv, ",{kind}_{k}")?;
-        }
-    }
-    csv.push('\n');
-    let meta = DngMetadata {
-        camera_model: format!("camsim {}", sensor.name()),
-        ..DngMetadata::default()
-    };
-    for (i, l) in levels.iter().enumerate() {
-        let mut names = Vec::new();
-        for (kind, frames) in [("bright", &l.bright), ("dark", &l.dark)] {
-            for (k, raw) in frames.iter().enumerate() {
-                let name = format!("level{i:02}_{kind}{k}.dng");
-                camsim_io::dng::write_dng(&out.join(&name), raw, &meta)?;
-                names.push(name);
-            }
-        }
-        writeln!(
-            csv,
-            "{},{},{}",
-            l.exposure_s,
-            l.photons_per_pixel,
-            names.join(",")
-        )?;
-        pb.inc(1);
-    }
+    let irr = common::read_spectral_exr(input)?;
+    let illuminant = camsim::scene::load_illuminant(&a.illuminant, "--illuminant")?;
+    let meta = Isp::new(illuminant, irr.grid).dng_metadata(&sensor, None)?;
+    let pb = common::spinner("sensor");
+    let captured = capture(&sensor, &irr, &request)?;
     pb.finish_and_clear();
-    camsim_io::atomic::write_bytes_atomic(&out.join("series.csv"), csv.as_bytes())?;
-    say(format!("wrote an EMVA 1288 series of {n} levels ({rows} x {cols}) in {}; next: camsim analyze emva {}", a.out.display(), a.out.join("series.csv").display()));
+    captured.write_files(&out, &meta)?;
+    common::commit(out)?;
+    match &captured {
+        Captured::Frames(frame) => {
+            if !sensor.is_bayer() {
+                let layout = sensor.cfa_layout();
+                let per: Vec<String> = layout
+                    .filters()
+                    .iter()
+                    .zip(&frame.mean_electrons_by_filter)
+                    .map(|(f, e)| format!("{f} {e:.0}"))
+                    .collect();
+                say(format!(
+                    "CFA {}: mean electrons {}",
+                    layout.name(),
+                    per.join(", ")
+                ));
+            }
+            say(format!(
+                "{} frame(s), exposure {:.3} ms, mean electrons r/g/b {:.0}/{:.0}/{:.0} -> {}",
+                frame.raw.len(),
+                frame.exposure_s * 1e3,
+                frame.mean_electrons[0],
+                frame.mean_electrons[1],
+                frame.mean_electrons[2],
+                a.out.display()
+            ));
+        }
+        Captured::Hdr(f) => {
+            let m = f.model;
+            let peak = f.merged_e[0].iter().fold(0.0f32, |a, b| a.max(*b));
+            say(format!(
+                "{} HDR frame(s) ({}), exposure {:.3} ms, merged peak {peak:.0} e-, switch at {:.0} e-, dynamic range {:.1} dB -> {}",
+                f.high.len(),
+                match m.mode {
+                    camsim::sensor::HdrMode::Dcg => "dual conversion gain",
+                    camsim::sensor::HdrMode::SplitPixel => "split pixel",
+                },
+                f.exposure_s * 1e3,
+                m.switch_e,
+                m.dynamic_range_db(),
+                a.out.display()
+            ));
+        }
+    }
     Ok(())
 }

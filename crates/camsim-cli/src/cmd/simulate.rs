@@ -2,10 +2,8 @@
 
 use crate::common::{self, say};
 use anyhow::Result;
-use camsim::{
-    ExrCompression, ExrOptions, ExrPrecision, Output, OutputSet, RunInfo, SimulateConfig,
-    SimulateOptions,
-};
+use camsim::io::exr::{ExrCompression, ExrPrecision, EXR_COMPRESSIONS, EXR_PRECISIONS};
+use camsim::{ExrOptions, Output, OutputSet, RunInfo, SimulateConfig, SimulateOptions};
 use std::path::PathBuf;
 
 /// Run the whole pipeline: scene (2D chart or 3D scene) -> optics -> sensor -> raw DNG and preview.
@@ -25,7 +23,7 @@ use std::path::PathBuf;
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Outputs (--save, comma-separated; or all, default):\n  raw         raw.dng: the exact ADC values (raw_0001.dng ... with --frames N)\n  preview     preview.png: bilinear demosaic, colour-corrected to sRGB\n  raw-png     raw.png: the mosaic scaled to 16 bits for viewing (value = round(DN x 65535 / max DN))\n  radiance    radiance.exr: scene spectral radiance, W/(sr m^2 nm) (3D scenes: depth as channel Z)\n  irradiance  irradiance.exr: sensor-plane spectral irradiance, W/(m^2 nm)\n  depth       depth.exr: the depth map of a 3D scene, m (2D charts have none)\n  noise-free  noise_free.exr: each pixel's ADC value without noise or quantization, DN\n  ids         object_id.png, material_id.png (16-bit, per scene pixel) and ids.json: segmentation of a 3D scene\n  flow        flow.exr (flow_0001.exr ... per frame; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)\n\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)"
+    after_help = after_help()
 )]
 pub struct Args {
     /// Pipeline config (TOML), or a run.json written by an earlier run. Default: built-in.
@@ -47,57 +45,33 @@ pub struct Args {
     /// time (x --frames), raw.dng, raw_0001.dng, ... in this order, each with its own noise.
     #[arg(long, value_delimiter = ',', value_name = "MS,MS,...")]
     pub exposures_ms: Option<Vec<f64>>,
-    /// Outputs to write, comma-separated: raw, preview, raw-png, radiance, irradiance, depth,
-    /// noise-free; or all; or default (raw,preview). run.json is always written.
-    #[arg(long, default_value = "default", value_name = "LIST")]
+    #[arg(long, default_value = "default", value_name = "LIST", help = format!("Outputs to write, comma-separated: {}; or all; or default (raw,preview). run.json is always written", camsim::pipeline::outputs::OUTPUTS.known()))]
     pub save: String,
     /// Sample precision of the spectral EXRs: f32 (exact) or f16 (half the size).
-    #[arg(long, value_enum, default_value_t = Precision::F32)]
-    pub exr_precision: Precision,
+    #[arg(long, default_value = "f32", value_parser = |s: &str| EXR_PRECISIONS.get(s).map_err(|e| e.to_string()))]
+    pub exr_precision: ExrPrecision,
     /// Compression of the spectral EXRs: none (default: fastest), rle, zip (smallest, slow), zips, piz.
-    #[arg(long, value_enum, default_value_t = Compression::None)]
-    pub exr_compression: Compression,
+    #[arg(long, default_value = "none", value_parser = |s: &str| EXR_COMPRESSIONS.get(s).map_err(|e| e.to_string()))]
+    pub exr_compression: ExrCompression,
     /// Print the effective config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
 }
 
-/// `--exr-precision`.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum Precision {
-    F32,
-    F16,
-}
-
-/// `--exr-compression`.
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum Compression {
-    None,
-    Rle,
-    Zip,
-    Zips,
-    Piz,
-}
-
-/// The EXR options the flags ask for.
-pub fn exr_options(p: Precision, c: Compression) -> ExrOptions {
-    ExrOptions {
-        precision: match p {
-            Precision::F32 => ExrPrecision::F32,
-            Precision::F16 => ExrPrecision::F16,
-        },
-        compression: match c {
-            Compression::None => ExrCompression::None,
-            Compression::Rle => ExrCompression::Rle,
-            Compression::Zip => ExrCompression::Zip,
-            Compression::Zips => ExrCompression::Zips,
-            Compression::Piz => ExrCompression::Piz,
-        },
-    }
+/// The outputs (from their name table) and the examples.
+fn after_help() -> String {
+    format!(
+        "Outputs (--save, comma-separated; or all, default):\n{}\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)",
+        camsim::pipeline::outputs::OUTPUTS.listing()
+    )
 }
 
 pub fn run(a: Args) -> Result<()> {
     let t0 = std::time::Instant::now();
+    let exr = ExrOptions {
+        precision: a.exr_precision,
+        compression: a.exr_compression,
+    };
     let mut cfg = match &a.config {
         None => SimulateConfig::builtin_default(),
         Some(p) => SimulateConfig::load(p)?,
@@ -137,12 +111,7 @@ pub fn run(a: Args) -> Result<()> {
         command: Some(std::env::args().collect::<Vec<_>>().join(" ")),
         config_file: a.config.clone(),
     };
-    sim.write_into(
-        &staged,
-        &outputs,
-        exr_options(a.exr_precision, a.exr_compression),
-        &info,
-    )?;
+    sim.write_into(&staged, &outputs, exr, &info)?;
     pb.finish_and_clear();
     common::commit(staged)?;
     let out = &a.out;

@@ -73,21 +73,21 @@ pub fn run(a: Args) -> Result<()> {
     match a.what.as_str() {
         "cornell-box" => {
             let quality = match a.quality.as_str() {
-                "quick" => camsim_validate::Quality::Quick,
-                "paper" => camsim_validate::Quality::Paper,
+                "quick" => camsim::validate::Quality::Quick,
+                "paper" => camsim::validate::Quality::Paper,
                 q => anyhow::bail!("--quality '{q}': use quick or paper"),
             };
-            let opts = camsim_validate::ValidateOptions {
+            let opts = camsim::validate::ValidateOptions {
                 quality,
                 out_dir: out.clone(),
                 data_dir: a.data.clone(),
                 seed: a.seed,
                 command_line: std::env::args().collect::<Vec<_>>().join(" "),
             };
-            let mut params = camsim_validate::QualityParams::of(quality);
+            let mut params = camsim::validate::QualityParams::of(quality);
             params.box_time_budget_s = a.render_time_budget_s;
             let pb = common::progress(1, "validate");
-            camsim_validate::cornell_box_with(&opts, params, &|stage, done, total| {
+            camsim::validate::cornell_box_with(&opts, params, &|stage, done, total| {
                 pb.set_message(stage.to_string());
                 pb.set_length(total.max(1));
                 pb.set_position(done);
@@ -100,8 +100,8 @@ pub fn run(a: Args) -> Result<()> {
                 .config
                 .as_ref()
                 .ok_or_else(|| anyhow::anyhow!("camsim validate compare needs a CONFIG.toml"))?;
-            let cfg = camsim_validate::CompareConfig::from_file(cfg_path)?;
-            camsim_validate::compare(&cfg, &out)?;
+            let cfg = camsim::validate::CompareConfig::from_file(cfg_path)?;
+            camsim::validate::compare(&cfg, &out)?;
             say(format!("report: {}", a.out.join("report.html").display()));
         }
         w => anyhow::bail!("unknown validation '{w}': use cornell-box or compare"),

@@ -106,3 +106,18 @@ pub fn run_limited(mut cmd: Command, limit: Duration) -> Outcome {
         seconds: start.elapsed().as_secs_f64(),
     }
 }
+
+/// Run `camsim ARGS --quiet` and require success (the message shows the command and its stderr).
+pub fn run_ok(args: &[&str]) {
+    let o = Command::new(BIN)
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "`camsim {}` failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}

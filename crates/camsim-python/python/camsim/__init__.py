@@ -6,26 +6,26 @@ the analyses that compare a simulation with a real camera (SFR/MTF, chart and RO
 QE fits). The computing is done by camsim's Rust library with the GIL released.
 
     import camsim
-    sim = camsim.simulate(camsim.presets.simulate())       # the built-in default
+    sim = camsim.simulate()                                  # the built-in default
     sim.raw.shape, sim.cfa, sim.black_level                  # (frames, rows, cols) uint16
     sim.irradiance.shape, sim.wavelengths_nm                 # (bands, rows, cols) float32
 
 Configs are plain dicts (as in camsim's TOML files; see README "Config reference"), TOML text, or
 a path to a TOML file or a run.json. Errors raise camsim.CamsimError with camsim's message.
+
+This package is a door to camsim's application layer: each function converts its arguments,
+calls one Rust function and returns numpy arrays, a Simulation or dicts built in Rust.
 """
 
 from __future__ import annotations
 
-import json
 import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _camsim
+from . import _camsim, dataset, presets
 from ._camsim import CamsimError, Simulation
-from . import presets
-from . import dataset
 
 __version__ = _camsim.__version__
 
@@ -39,6 +39,7 @@ __all__ = [
     "sensor",
     "demosaic",
     "white_balance",
+    "isp",
     "fit_ccm",
     "macbeth_xyz",
     "demosaic_zone_plate",
@@ -62,37 +63,34 @@ __all__ = [
 Config = Union[Dict[str, Any], str, "os.PathLike[str]"]
 
 
-def load_config(config: Config) -> Dict[str, Any]:
+def load_config(config: Optional[Config] = None) -> Dict[str, Any]:
     """A simulate config as a dict, from a dict (checked and completed with every default), TOML
-    text, or the path of a TOML file or a run.json (its relative paths resolved)."""
-    if isinstance(config, dict):
-        # Through camsim's own parser: unknown keys and wrong types are refused with their name,
-        # defaults are filled in.
-        return json.loads(_camsim.config_from_json(json.dumps(config)))
-    if isinstance(config, os.PathLike) or (isinstance(config, str) and "\n" not in config and "=" not in config):
-        return json.loads(_camsim.config_from_file(os.fspath(config)))
-    if isinstance(config, str):
-        return json.loads(_camsim.config_from_toml(config))
-    raise TypeError(f"config must be a dict, TOML text or a path, not {type(config).__name__}")
+    text, or the path of a TOML file or a run.json (its relative paths resolved); None: the
+    built-in default."""
+    return _camsim.load_config(config)
 
 
-def simulate(config: Config, *, noise_free: bool = False, flow: bool = False,
+def simulate(config: Optional[Config] = None, *, noise_free: bool = False, flow: bool = False,
              seed: Optional[int] = None) -> Simulation:
-    """Run the whole pipeline in memory. Returns a Simulation with numpy arrays: radiance (None
-    when the scene's camera is a lens, whose render is the irradiance),
-    irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames, rows, cols)
-    uint16, with cfa, black_level, white_level), frame_times_s ((frames, 2): each frame's start
-    and duration in the scene's time, s; a moving 3D scene is rendered at each frame's own time),
-    preview ((rows, cols, 3) uint8), depth, noise_free (with noise_free=True), flow and flow_next
-    (with flow=True on a 3D scene: (frames, rows, cols, 2) optical flow in sensor pixels, aligned
-    with raw) and metadata (a dict). Same config and seed as
+    """Run the whole pipeline in memory; with no config, the built-in default (as `camsim
+    simulate` with none: a Macbeth chart under D65, the Pixel 4a camera). Returns a Simulation
+    with numpy arrays: radiance (None when the scene's camera is a lens, whose render is the
+    irradiance), irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames,
+    rows, cols) uint16, with cfa, black_level, white_level), frame_times_s ((frames, 2): each
+    frame's start and duration in the scene's time, s; a moving 3D scene is rendered at each
+    frame's own time), preview ((rows, cols, 3) uint8), depth, noise_free (with
+    noise_free=True), flow and flow_next (with flow=True on a 3D scene: (frames, rows, cols, 2)
+    and (frames - 1, rows, cols, 2) optical flow in sensor pixels, aligned with raw) and metadata
+    (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
-    camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]: radiance
-    then holds that irradiance too (metadata["results"]["lens_camera"] is True)."""
-    cfg = load_config(config)
-    if seed is not None:
-        cfg["seed"] = int(seed)
-    return _camsim.simulate_json(json.dumps(cfg), noise_free, flow)
+    camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]
+    (metadata["results"]["lens_camera"] is True)."""
+    return _camsim.simulate(config, noise_free, None if seed is None else int(seed), flow)
+
+
+def _path_or(x: Any) -> Any:
+    """A path-like as a string; anything else (a preset name, a dict) as it is."""
+    return os.fspath(x) if isinstance(x, os.PathLike) else x
 
 
 def _grid(wavelengths_nm: Optional[Sequence[float]]) -> Tuple[float, float, int]:
@@ -112,10 +110,8 @@ def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[
     "dead_leaves") or a kind name alone (with defaults). Returns a dict:
     radiance (bands, rows, cols) float32 W/(sr m^2 nm), wavelengths_nm, spacing_m, fov_deg,
     distance_m, depth_m (None), units."""
-    if isinstance(config, str):
-        config = {"kind": config}
     start, step, count = _grid(wavelengths_nm)
-    return _camsim.scene(json.dumps(config), start, step, count)
+    return _camsim.scene(config, start, step, count)
 
 
 def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolution: Optional[Tuple[int, int]] = None,
@@ -130,10 +126,6 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
     return _camsim.render(builtin, None if pbrt is None else os.fspath(pbrt), resolution, samples_per_pixel, seed, start, step, count)
 
 
-def _spec(x: Union[str, Dict[str, Any]]) -> str:
-    return json.dumps(x) if isinstance(x, dict) else os.fspath(x)
-
-
 def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union[str, Dict[str, Any]] = "pixel4a",
            spacing_m: float = 0.0, distance_m: float = 0.0, fov_deg: float = 0.0,
            depth_m: Optional[np.ndarray] = None) -> Dict[str, Any]:
@@ -144,19 +136,21 @@ def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union
     wavelengths_nm, spacing_m (in the sensor plane), ..."""
     r = np.ascontiguousarray(radiance, dtype=np.float32)
     d = None if depth_m is None else np.ascontiguousarray(depth_m, dtype=np.float32)
-    return _camsim.optics(r, [float(w) for w in wavelengths_nm], _spec(lens), float(spacing_m), float(distance_m), float(fov_deg), d)
+    return _camsim.optics(r, [float(w) for w in wavelengths_nm], lens, float(spacing_m), float(distance_m), float(fov_deg), d)
 
 
 def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: float, *,
            sensor: Union[str, Dict[str, Any]] = "pixel4a", exposure_s: Union[None, float, Sequence[float]] = None, seed: int = 1,
            frames: int = 1, rows: Optional[int] = None, cols: Optional[int] = None,
-           iso: Optional[float] = None) -> Dict[str, Any]:
+           iso: Optional[float] = None, cfa: Optional[str] = None, noise: bool = True) -> Dict[str, Any]:
     """Stage 3: sensor-plane irradiance (bands, rows, cols) at spacing_m -> raw frames. sensor: a
     preset ("pixel4a", "pixel4a-raw10", "imx363"), a sensor TOML path, or a dict (camsim.presets.sensor()).
     exposure_s None: auto-exposure; a list of times: an exposure bracket / burst (ISETCam's vector
     exposure time), `frames` raws per time in list order, each with its own temporal noise.
     iso: sensitivity (analog gain = base_iso / iso; the sensor needs base_iso). rows/cols: a centred
-    window of the sensor. Returns a dict: raw (frames, rows, cols) uint16, cfa (a Bayer name, "RGBW",
+    window of the sensor. cfa: a colour filter array by name in place of the sensor's ("RGGB",
+    "RGBW", "quad-bayer", ...). noise=False: the mean signal only. (The overrides of `camsim
+    sensor --rows --cols --iso --cfa --no-noise`, applied in that order.) Returns a dict: raw (frames, rows, cols) uint16, cfa (a Bayer name, "RGBW",
     "quad-bayer" or the tile's filter names), filters (the CFA's filter names), black_level,
     white_level, bits, exposure_s (the first raw's), exposures_s (per raw), mean_electrons_rgb,
     mean_electrons_by_filter (noise-free means in the order of filters). A sensor with an [hdr]
@@ -168,8 +162,8 @@ def sensor(irradiance: np.ndarray, wavelengths_nm: Sequence[float], spacing_m: f
     if exposure_s is not None and not isinstance(exposure_s, (int, float)):
         bracket = [float(t) for t in exposure_s]
         exposure_s = None
-    return _camsim.sensor(e, [float(w) for w in wavelengths_nm], float(spacing_m), _spec(sensor), exposure_s, seed, frames, rows, cols,
-                          bracket, iso)
+    return _camsim.sensor(e, [float(w) for w in wavelengths_nm], float(spacing_m), _path_or(sensor), exposure_s, seed, frames, rows, cols,
+                          bracket, iso, cfa, noise)
 
 
 def demosaic(raw: np.ndarray, cfa: str = "RGGB", *, bits: int = 12, black_level: float = 0.0,
@@ -193,11 +187,19 @@ def white_balance(rgb: np.ndarray, method: str = "gray-world", *, percentile: fl
     "white world"), "illuminant" (from the camera response of `sensor` to a perfect white under
     the built-in `illuminant`: a gray surface under it comes out neutral exactly) or "none"."""
     a = np.ascontiguousarray(rgb, dtype=np.float32)
-    if method.strip().lower().replace("_", "-").replace(" ", "-") == "illuminant":
-        gains = _camsim.illuminant_white_balance_gains(illuminant, _spec(sensor))
-    else:
-        gains = _camsim.white_balance_gains(a, method, float(percentile), saturation)
+    gains = _camsim.white_balance_gains(a, method, float(percentile), saturation, illuminant, _path_or(sensor))
     return a * np.asarray(gains, dtype=np.float32), list(gains)
+
+
+def isp(raw: np.ndarray, cfa: str = "RGGB", *, sensor: Union[str, Dict[str, Any]] = "pixel4a", bits: int = 12,
+        black_level: float = 0.0, illuminant: str = "D65", demosaic: str = "bilinear",
+        white_balance: str = "illuminant") -> Tuple[np.ndarray, Dict[str, Any]]:
+    """The whole ISP, as `camsim isp` and the preview of `camsim simulate` run it (ISETCam's ip):
+    demosaic, white balance (from the scene `illuminant` and the sensor's QE, or gray-world,
+    white-patch, none), the colour matrix fitted on the ColorChecker from the QE, sRGB. Returns
+    (preview (rows, cols, 3) uint8, report: white_balance_gains, camera_to_linear_srgb, ...)."""
+    r = np.ascontiguousarray(raw, dtype=np.uint16)
+    return _camsim.isp(r, _path_or(sensor), cfa, bits, black_level, illuminant, demosaic, white_balance)
 
 
 def fit_ccm(camera_rgb: np.ndarray, target_xyz: np.ndarray, white_xyz: Sequence[float], *,
@@ -219,7 +221,7 @@ def demosaic_zone_plate(size: int = 512, f_max: float = 0.5, cfa: str = "RGGB") 
     Returns {method: {"frequency_cy_per_px", "mtf" (luminance, in-phase amplitude / true),
     "mtf50_cy_per_px" (None: not reached), "false_colour_low_rms" (chroma error / amplitude below
     0.25 cycles/pixel), "false_colour_rms"}} (same as `camsim analyze demosaic`)."""
-    return json.loads(_camsim.demosaic_zone_plate_json(int(size), float(f_max), cfa))
+    return _camsim.demosaic_zone_plate(int(size), float(f_max), cfa)
 
 
 def macbeth_xyz(illuminant: str = "D65") -> Tuple[np.ndarray, np.ndarray]:
@@ -232,23 +234,27 @@ def macbeth_xyz(illuminant: str = "D65") -> Tuple[np.ndarray, np.ndarray]:
 def sfr(raw: np.ndarray, cfa: str = "RGGB", *, channel: str = "G", roi: Optional[Tuple[int, int, int, int]] = None,
         pitch_um: Optional[float] = None, bits: int = 12, black_level: float = 0.0) -> Dict[str, Any]:
     """ISO 12233 slanted-edge SFR of a raw capture's channel ("R", "G", "B") or of its
-    demosaicked luminance ("luminance"). roi = (row, col, rows, cols). Frequencies in cycles per
-    sensor pixel (and cycles/mm with pitch_um)."""
-    return json.loads(_camsim.sfr_json(np.ascontiguousarray(raw, dtype=np.uint16), cfa, channel, roi, pitch_um, bits, black_level))
+    demosaicked luminance ("luminance", Rec. 709 weights), measured as `camsim analyze sfr`
+    measures it: roi = (row, col, rows, cols), default the region around the slanted edge of
+    largest contrast found once on the whole mosaic. Frequencies in cycles per sensor pixel (and
+    cycles/mm with pitch_um)."""
+    return _camsim.sfr(np.ascontiguousarray(raw, dtype=np.uint16), cfa, channel, roi, pitch_um, bits, black_level)
 
 
 def roi(raw: np.ndarray, rects: Sequence[Tuple[int, int, int, int]], cfa: str = "RGGB", *, bits: int = 12,
         black_level: float = 0.0) -> List[Dict[str, Any]]:
     """Per-channel mean, standard deviation and counts of raw regions (row, col, rows, cols)."""
-    return json.loads(_camsim.roi_json(np.ascontiguousarray(raw, dtype=np.uint16), list(rects), cfa, bits, black_level))
+    return _camsim.roi(np.ascontiguousarray(raw, dtype=np.uint16), list(rects), cfa, bits, black_level)
 
 
 def chart(raw: np.ndarray, corners: Sequence[Tuple[float, float]], cfa: str = "RGGB", *, fraction: float = 0.5,
           bits: int = 12, black_level: float = 0.0) -> List[Dict[str, Any]]:
-    """ColorChecker patch statistics of a raw capture; corners [x, y] in pixels: top-left (dark
-    skin), top-right, bottom-right, bottom-left; fraction: the central part of each patch used."""
+    """ColorChecker patch statistics of a raw capture, one dict per patch numbered 1-24 as on the
+    chart (``patch``, ``name``: 1 "dark skin" ... 19 "white" ... 24 "black"); corners [x, y] in
+    pixels: top-left (dark skin), top-right, bottom-right, bottom-left; fraction: the central part
+    of each patch used."""
     c = [(float(x), float(y)) for x, y in corners]
-    return json.loads(_camsim.chart_json(np.ascontiguousarray(raw, dtype=np.uint16), c, cfa, fraction, bits, black_level))
+    return _camsim.chart(np.ascontiguousarray(raw, dtype=np.uint16), c, cfa, fraction, bits, black_level)
 
 
 def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "unconstrained") -> Dict[str, Any]:
@@ -258,7 +264,7 @@ def fit_qe(measured: np.ndarray, predicted: np.ndarray, form: str = "unconstrain
     m, rms_before, rms_after, relative_rms_before/after, residuals_before/after."""
     m = [tuple(map(float, r)) for r in np.asarray(measured, dtype=float)]
     p = [tuple(map(float, r)) for r in np.asarray(predicted, dtype=float)]
-    return json.loads(_camsim.fit_qe_json(m, p, form))
+    return _camsim.fit_qe(m, p, form)
 
 
 def emva(bright: np.ndarray, dark: np.ndarray, exposures_s: Sequence[float], *, photons_per_pixel: Optional[Sequence[float]] = None,
@@ -270,10 +276,10 @@ def emva(bright: np.ndarray, dark: np.ndarray, exposures_s: Sequence[float], *, 
     b = np.ascontiguousarray(bright, dtype=np.uint16)
     d = np.ascontiguousarray(dark, dtype=np.uint16)
     p = None if photons_per_pixel is None else [float(x) for x in photons_per_pixel]
-    return json.loads(_camsim.emva_json(b, d, [float(t) for t in exposures_s], p, cfa, bits, black_level, fit_max_fraction))
+    return _camsim.emva(b, d, [float(t) for t in exposures_s], p, cfa, bits, black_level, fit_max_fraction)
 
 
-def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str, "os.PathLike[str]"]] = None,
+def emva_series(csv: Union[str, os.PathLike[str]], *, out: Optional[Union[str, os.PathLike[str]]] = None,
                 cfa: Optional[str] = None, bits: int = 16, black_level: float = 0.0) -> Dict[str, Any]:
     """EMVA 1288 of a measurement series on disk, as ``camsim analyze emva`` runs it: the series
     CSV (columns exposure_s, optional photons_per_pixel, then bright*/dark* frame files: DNG, or
@@ -281,10 +287,10 @@ def emva_series(csv: Union[str, "os.PathLike[str]"], *, out: Optional[Union[str,
     with "channels", one per CFA colour). With ``out`` (an existing folder) also writes
     emva.json, ptc.png (photon transfer) and snr.png there."""
     o = None if out is None else os.fspath(out)
-    return json.loads(_camsim.emva_series_json(os.fspath(csv), o, cfa, bits, black_level))
+    return _camsim.emva_series(os.fspath(csv), o, cfa, bits, black_level)
 
 
-def read_dng(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
+def read_dng(path: Union[str, os.PathLike[str]]) -> Dict[str, Any]:
     """Read a raw DNG: raw (rows, cols) uint16, cfa, black_level, white_level, bits."""
     return _camsim.read_dng(os.fspath(path))
 
@@ -305,7 +311,7 @@ def scielab(a_xyz: np.ndarray, b_xyz: np.ndarray, white_xyz: Sequence[float], sa
 def snr(image: np.ndarray, roi: Optional[Tuple[int, int, int, int]] = None) -> Dict[str, Any]:
     """SNR of a uniform region of a 2D image: mean, std (n - 1), snr = mean / std, snr_db, n.
     roi = (row, col, rows, cols); None: the whole image."""
-    return json.loads(_camsim.snr_json(np.ascontiguousarray(image, dtype=np.float32), roi))
+    return _camsim.snr(np.ascontiguousarray(image, dtype=np.float32), roi)
 
 
 def nps(image: np.ndarray, roi: Optional[Tuple[int, int, int, int]] = None, *, roi_px: int = 64, overlap: float = 0.5,
@@ -323,14 +329,14 @@ def acutance(freq_cy_per_px: Sequence[float], sfr: Sequence[float], pixels_per_d
     upper_cpd."""
     f = [float(v) for v in np.asarray(freq_cy_per_px, dtype=np.float64).ravel()]
     s = [float(v) for v in np.asarray(sfr, dtype=np.float64).ravel()]
-    return json.loads(_camsim.acutance_json(f, s, float(pixels_per_degree)))
+    return _camsim.acutance(f, s, float(pixels_per_degree))
 
 
-def compare(a: str = "pixel4a", b: str = "imx363", out: Optional[Union[str, "os.PathLike[str]"]] = None, *,
+def compare(a: str = "pixel4a", b: str = "imx363", out: Optional[Union[str, os.PathLike[str]]] = None, *,
             lens_a: str = "pixel4a", lens_b: str = "pixel4a", pitch_a_um: Optional[float] = None,
             pitch_b_um: Optional[float] = None, size: int = 128, seed: int = 1) -> Dict[str, Any]:
     """Two cameras side by side (as `camsim compare`): MTF, acutance, SNR, NPS and CIEDE2000 per
     ColorChecker patch of each; a and b are sensor presets or sensor TOML files. With out, also
     writes report.html, results.json and the plots there. Returns results.json as a dict."""
     o = None if out is None else os.fspath(out)
-    return json.loads(_camsim.compare_json(a, b, o, lens_a, lens_b, pitch_a_um, pitch_b_um, size, seed))
+    return _camsim.compare(a, b, o, lens_a, lens_b, pitch_a_um, pitch_b_um, size, seed)

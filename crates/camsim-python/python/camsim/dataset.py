@@ -28,10 +28,11 @@ Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
 __all__ = ["plan", "run", "run_shard", "read_manifest"]
 
 
-def _spec_args(spec: Spec) -> Tuple[str, str, str]:
-    """(text, source name, folder relative paths are resolved against)."""
+def _spec_args(spec: Spec) -> Tuple[Union[str, Dict[str, Any]], str, str]:
+    """(the spec as a dict or TOML text, its name in messages, the folder relative paths are
+    resolved against)."""
     if isinstance(spec, dict):
-        return json.dumps(spec), "spec dict", os.getcwd()
+        return spec, "spec dict", os.getcwd()
     s = os.fspath(spec)
     if "\n" in s or s.lstrip().startswith("["):
         return s, "spec text", os.getcwd()
@@ -45,16 +46,16 @@ def _spec_args(spec: Spec) -> Tuple[str, str, str]:
 def plan(spec: Spec) -> Dict[str, Any]:
     """Check the spec completely (every key, range and file; nothing is simulated) and return its
     plan: samples, shards, shard_size, fingerprint, outputs and the first samples' parameters."""
-    return json.loads(_camsim.dataset_plan_json(*_spec_args(spec)))
+    return _camsim.dataset_plan(*_spec_args(spec))
 
 
-def run_shard(spec: Spec, out: Union[str, "os.PathLike[str]"], shard: int, *, workers: Optional[int] = 1,
+def run_shard(spec: Spec, out: Union[str, os.PathLike[str]], shard: int, *, workers: Optional[int] = 1,
               verify: bool = True) -> Dict[str, Any]:
     """Simulate one shard into ``out`` (skipped when already complete): the unit of work of a
     cluster task. Returns the shard's record (sha256, size, every sample's status and files)."""
     text, source, base = _spec_args(spec)
     n = plan(spec)["shards"]
-    _camsim.dataset_run_json(text, source, base, os.fspath(out), int(shard), int(n), workers, verify)
+    _camsim.dataset_run(text, source, base, os.fspath(out), int(shard), int(n), workers, verify)
     path = os.path.join(os.fspath(out), f"shard-{shard_stem(spec, shard)}.json")
     with open(path, encoding="utf-8") as f:
         return json.load(f)
@@ -68,14 +69,15 @@ def shard_stem(spec: Spec, shard: int) -> str:
     return f"{first:08d}-{last:08d}"
 
 
-def _ray_shard(text: str, source: str, base: str, out: str, shard: int, shards: int, workers: int, verify: bool) -> str:
+def _ray_shard(spec: Union[str, Dict[str, Any]], source: str, base: str, out: str, shard: int, shards: int, workers: int,
+               verify: bool) -> Dict[str, Any]:
     # Runs in a Ray worker process: part `shard` of `shards` is exactly shard `shard`.
     from camsim import _camsim as native
 
-    return native.dataset_run_json(text, source, base, out, shard, shards, workers, verify)
+    return native.dataset_run(spec, source, base, out, shard, shards, workers, verify)
 
 
-def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "local", shard: Optional[Tuple[int, int]] = None,
+def run(spec: Spec, out: Union[str, os.PathLike[str]], *, backend: str = "local", shard: Optional[Tuple[int, int]] = None,
         workers: Optional[int] = None, verify: bool = True, max_retries: int = 3, cpus_per_task: int = 1,
         ray_address: Optional[str] = None) -> Dict[str, Any]:
     """Simulate the dataset (or part ``shard = (i, n)`` of it) into folder ``out``.
@@ -94,7 +96,7 @@ def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "loca
     out_s = os.path.abspath(os.fspath(out))
     i, n = shard if shard is not None else (0, 1)
     if backend == "local":
-        summary = json.loads(_camsim.dataset_run_json(text, source, base, out_s, int(i), int(n), workers, verify))
+        summary = _camsim.dataset_run(text, source, base, out_s, int(i), int(n), workers, verify)
     elif backend == "ray":
         import time
 
@@ -107,7 +109,7 @@ def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "loca
         t0 = time.perf_counter()
         shards = [s for s in range(p["shards"]) if s % n == i]
         futures = [task.remote(text, source, base, out_s, s, p["shards"], workers or cpus_per_task, verify) for s in shards]
-        parts = [json.loads(r) for r in ray.get(futures)]
+        parts = ray.get(futures)
         summary = {
             "shards_total": p["shards"],
             "shards_written": sum(r["shards_written"] for r in parts),
@@ -125,7 +127,7 @@ def run(spec: Spec, out: Union[str, "os.PathLike[str]"], *, backend: str = "loca
     return summary
 
 
-def read_manifest(out: Union[str, "os.PathLike[str]"]) -> List[Dict[str, Any]]:
+def read_manifest(out: Union[str, os.PathLike[str]]) -> List[Dict[str, Any]]:
     """The manifest of a complete dataset: one dict per sample (index, key, status, error, seed,
     params, files, shard, exposure_s, times_s), in index order."""
     path = os.path.join(os.fspath(out), "manifest.jsonl")

@@ -1,25 +1,20 @@
-//! An EMVA 1288 measurement series from files, end to end: read the series CSV, load its raw
-//! frames (DNG or PNG/TIFF mosaics), run the analysis (camsim-analysis) and draw the photon
-//! transfer and SNR plots. `camsim analyze emva` and the Python package both call this.
+//! EMVA 1288 measurement series, end to end: simulate one with a sensor model and write it as
+//! the series CSV camsim reads plus its DNG frames ([`simulate_series`], `camsim sensor
+//! --emva-series`); read a series CSV, load its raw frames (DNG or PNG/TIFF mosaics), run the
+//! analysis (camsim-analysis) and draw the photon transfer and SNR plots ([`analyze_series`],
+//! `camsim analyze emva` and Python's `camsim.emva_series`). The CSV format is camsim-io's
+//! (`camsim_io::measurements::{read_emva_series, write_emva_series}`).
 
-use crate::{PipelineError, Progress, Result};
+use crate::{MosaicFormat, PipelineError, Progress, Result};
 use camsim_analysis::emva::{emva_raw, ChannelEmva, EmvaOptions, EmvaRawInput};
-use camsim_core::{CfaChannel, CfaPattern, RawImage};
-use camsim_io::measurements::{read_emva_series, EmvaLevelFiles};
-use camsim_io::plot::{LinePlot, Series};
+use camsim_core::{CfaChannel, CfaPattern, RawImage, WavelengthGrid};
+use camsim_io::atomic::OutputDir;
+use camsim_io::dng::DngMetadata;
+use camsim_io::measurements::{read_emva_series, write_emva_series, EmvaLevelFiles};
+use camsim_io::plot::{Figure, Series, CHANNEL_COLORS};
+use camsim_sensor::Sensor;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// How to read PNG/TIFF mosaics (DNG files carry their own CFA, black level and bit depth).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct MosaicFormat {
-    /// CFA pattern of a PNG/TIFF mosaic.
-    pub cfa: Option<CfaPattern>,
-    /// Black level of a PNG/TIFF mosaic, DN.
-    pub black_dn: f64,
-    /// ADC bits of a PNG/TIFF mosaic (0: 16).
-    pub bits: u32,
-}
 
 /// The analysed series.
 #[derive(Debug, Clone)]
@@ -37,6 +32,37 @@ pub struct EmvaSeries {
     pub channels: Vec<ChannelEmva>,
 }
 
+/// One level of a series in memory: its exposure, the photons per pixel when known, and at least
+/// two bright frames and none or at least two dark frames.
+#[derive(Debug, Clone)]
+pub struct LevelFrames {
+    /// Exposure time, s.
+    pub exposure_s: f64,
+    /// Mean photons per pixel (for QE and responsivity), when known.
+    pub photons_per_pixel: Option<f64>,
+    /// Frames of the uniform irradiance.
+    pub bright: Vec<RawImage>,
+    /// Frames without light at the same exposure.
+    pub dark: Vec<RawImage>,
+}
+
+/// The EMVA 1288 analysis of a series in memory, per CFA channel (`camsim_analysis::emva`).
+pub fn analyze_levels(
+    levels: &[LevelFrames],
+    options: &EmvaOptions,
+) -> std::result::Result<Vec<ChannelEmva>, camsim_analysis::AnalysisError> {
+    let inputs: Vec<EmvaRawInput> = levels
+        .iter()
+        .map(|l| EmvaRawInput {
+            exposure_s: l.exposure_s,
+            photons_per_pixel: l.photons_per_pixel,
+            bright: l.bright.iter().collect(),
+            dark: l.dark.iter().collect(),
+        })
+        .collect();
+    emva_raw(&inputs, options)
+}
+
 /// Read `csv`, load every frame (reporting `progress("reading", done, total)`), check they share
 /// size and CFA pattern, and run the EMVA 1288 analysis.
 pub fn analyze_series(
@@ -50,7 +76,6 @@ pub fn analyze_series(
         .iter()
         .map(|l| (l.bright.len() + l.dark.len()) as u64)
         .sum();
-    let bits = if format.bits == 0 { 16 } else { format.bits };
     let mut first: Option<(usize, usize, CfaPattern, PathBuf)> = None;
     let mut done = 0u64;
     let mut frames: Vec<(Vec<RawImage>, Vec<RawImage>)> = Vec::with_capacity(levels.len());
@@ -58,7 +83,7 @@ pub fn analyze_series(
         let mut load = |paths: &[PathBuf]| -> Result<Vec<RawImage>> {
             let mut out = Vec::with_capacity(paths.len());
             for p in paths {
-                let raw = crate::load_raw(p, format.cfa, format.black_dn, bits).map_err(|e| {
+                let raw = crate::load_raw(p, &format).map_err(|e| {
                     PipelineError::file(
                         csv,
                         format!("line {}: cannot load {}: {e}", l.line, p.display()),
@@ -97,17 +122,17 @@ pub fn analyze_series(
     }
     let (rows, cols, cfa, _) =
         first.ok_or_else(|| PipelineError::file(csv, "the series has no frames"))?;
-    let inputs: Vec<EmvaRawInput> = levels
+    let inputs: Vec<LevelFrames> = levels
         .iter()
-        .zip(&frames)
-        .map(|(l, (b, d))| EmvaRawInput {
+        .zip(frames)
+        .map(|(l, (bright, dark))| LevelFrames {
             exposure_s: l.exposure_s,
             photons_per_pixel: l.photons_per_pixel,
-            bright: b.iter().collect(),
-            dark: d.iter().collect(),
+            bright,
+            dark,
         })
         .collect();
-    let channels = emva_raw(&inputs, options)
+    let channels = analyze_levels(&inputs, options)
         .map_err(|e| PipelineError::file(csv, format!("EMVA 1288 analysis: {e}")))?;
     Ok(EmvaSeries {
         csv: csv.to_path_buf(),
@@ -194,30 +219,32 @@ impl EmvaSeries {
 
     /// Write the photon transfer plot (`ptc.png`) and the SNR plot (`snr.png`) into `dir`.
     pub fn write_plots(&self, dir: &Path) -> Result<()> {
-        ptc_plot(&self.channels).write_png(&dir.join("ptc.png"), 900, 600)?;
-        snr_plot(&self.channels).write_png(&dir.join("snr.png"), 900, 600)?;
+        ptc_plot(&self.channels).write_png(&dir.join("ptc.png"))?;
+        snr_plot(&self.channels).write_png(&dir.join("snr.png"))?;
         Ok(())
     }
-}
 
-fn channel_color(ch: CfaChannel) -> [u8; 3] {
-    match ch {
-        CfaChannel::R => [220, 40, 40],
-        CfaChannel::G => [30, 160, 60],
-        CfaChannel::B => [40, 80, 220],
+    /// Write emva.json, ptc.png and snr.png into `dir`; returns emva.json's value.
+    pub fn write_files(&self, dir: &Path) -> Result<serde_json::Value> {
+        let json = self.to_json();
+        camsim_io::atomic::write_json_atomic(&dir.join("emva.json"), &json)?;
+        self.write_plots(dir)?;
+        Ok(json)
     }
 }
 
 fn colored(name: String, points: Vec<(f64, f64)>, ch: CfaChannel, dashed: bool) -> Series {
-    let mut s = Series::new(name, points);
-    s.color = Some(channel_color(ch));
-    s.dashed = dashed;
-    s
+    let s = Series::new(name, points).colored(CHANNEL_COLORS[ch.index()]);
+    if dashed {
+        s.dashed()
+    } else {
+        s
+    }
 }
 
 /// Photon transfer plot (EMVA 1288 4.0 §6.3): temporal variance above dark vs mean signal above
 /// dark (DN), measured points and the fitted line K x + offset over the fit range, per channel.
-fn ptc_plot(results: &[ChannelEmva]) -> LinePlot {
+fn ptc_plot(results: &[ChannelEmva]) -> Figure {
     let mut series = Vec::new();
     for c in results {
         let r = &c.result;
@@ -255,19 +282,19 @@ fn ptc_plot(results: &[ChannelEmva]) -> LinePlot {
             true,
         ));
     }
-    LinePlot {
-        title: "EMVA 1288 photon transfer".into(),
-        x_label: "mean signal above dark (DN)".into(),
-        y_label: "temporal variance above dark (DN^2)".into(),
-        series,
-        x_range: None,
-        y_range: None,
-    }
+    let mut fig = Figure::new(
+        "EMVA 1288 photon transfer",
+        "mean signal above dark (DN)",
+        "temporal variance above dark (DN^2)",
+    )
+    .sized(900, 600);
+    fig.series = series;
+    fig
 }
 
 /// SNR plot on log10 axes (the plot API draws linear axes): measured SNR and the model's total
 /// SNR curve against photons per pixel (electrons when the photon count is unknown).
-fn snr_plot(results: &[ChannelEmva]) -> LinePlot {
+fn snr_plot(results: &[ChannelEmva]) -> Figure {
     let photons = results.iter().all(|c| {
         c.result
             .points
@@ -319,16 +346,126 @@ fn snr_plot(results: &[ChannelEmva]) -> LinePlot {
             true,
         ));
     }
-    LinePlot {
-        title: "EMVA 1288 signal-to-noise ratio".into(),
-        x_label: if photons {
-            "log10 photons per pixel".into()
-        } else {
-            "log10 electrons per pixel".into()
-        },
-        y_label: "log10 SNR".into(),
-        series,
-        x_range: None,
-        y_range: None,
+    let x_label = if photons {
+        "log10 photons per pixel"
+    } else {
+        "log10 electrons per pixel"
+    };
+    let mut fig =
+        Figure::new("EMVA 1288 signal-to-noise ratio", x_label, "log10 SNR").sized(900, 600);
+    fig.series = series;
+    fig
+}
+
+/// A series to simulate ([`simulate_series`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeriesRequest {
+    /// Exposure levels from dark to past saturation (at least 3).
+    pub levels: usize,
+    /// Frames per level, bright and dark each (at least 2).
+    pub frames_per_level: usize,
+    /// Frame size, pixels (at most the sensor's).
+    pub rows: usize,
+    /// Frame columns.
+    pub cols: usize,
+    /// Analog offset, mV (None: the sensor's, or 8 x its read noise when that is below 5 x the
+    /// read noise: EMVA 1288 needs dark frames that do not clip at 0).
+    pub analog_offset_mv: Option<f64>,
+    /// Seed of the temporal noise.
+    pub seed: u64,
+}
+
+/// A simulated series, in memory.
+#[derive(Debug, Clone)]
+pub struct SimulatedSeries {
+    /// The levels' frames, exposure and photons.
+    pub levels: Vec<camsim_sensor::EmvaLevel>,
+    /// The analog offset used, mV.
+    pub analog_offset_mv: f64,
+    /// Whether the offset was raised for the dark frames (not asked for).
+    pub offset_raised: bool,
+    /// The sensor (with that offset).
+    pub sensor_name: String,
+}
+
+/// Simulate an EMVA 1288 photon-transfer series with `sensor`: flat fields of three lines
+/// balanced so every channel collects 1e5 e-/s, at exposures from 0 to 1.3 x the time the signal
+/// reaches the clipping level, plus dark frames; `progress("emva", level, levels)`.
+pub fn simulate_series(
+    sensor: &Sensor,
+    req: &SeriesRequest,
+    progress: &Progress<'_>,
+) -> Result<SimulatedSeries> {
+    let grid = WavelengthGrid::default();
+    // EMVA 1288 needs dark frames above 0 DN: give the sensor a black level if it has none.
+    let mut cfg = sensor.config().clone();
+    let read_mv = sensor.read_noise_v() * 1e3;
+    let (offset_mv, raised) = match req.analog_offset_mv {
+        Some(mv) => (mv, false),
+        None if sensor.analog_offset_v() * 1e3 < 5.0 * read_mv => ((8.0 * read_mv).max(1.0), true),
+        None => (sensor.analog_offset_v() * 1e3, false),
+    };
+    cfg.analog_offset_mv = offset_mv;
+    let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
+    let rows = req.rows.min(sensor.rows());
+    let cols = req.cols.min(sensor.cols());
+    let rate_e_per_s = 1e5;
+    let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
+    let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
+        / sensor.conversion_gain_v_per_e();
+    let t_sat = clip_e / rate_e_per_s;
+    let n = req.levels.max(3);
+    let exposures: Vec<f64> = (0..n)
+        .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
+        .collect();
+    progress("emva", 0, n as u64);
+    let levels = sensor.emva_series(
+        &grid,
+        &irr,
+        &exposures,
+        req.frames_per_level.max(2),
+        rows,
+        cols,
+        req.seed,
+    )?;
+    progress("emva", n as u64, n as u64);
+    Ok(SimulatedSeries {
+        levels,
+        analog_offset_mv: offset_mv,
+        offset_raised: raised,
+        sensor_name: sensor.name().to_string(),
+    })
+}
+
+impl SimulatedSeries {
+    /// Write the frames (`levelNN_brightK.dng`, `levelNN_darkK.dng`) and `series.csv` into `out`.
+    pub fn write_files(&self, out: &OutputDir) -> Result<()> {
+        let meta = DngMetadata {
+            camera_model: format!("camsim {}", self.sensor_name),
+            ..DngMetadata::default()
+        };
+        let mut files = Vec::with_capacity(self.levels.len());
+        for (i, l) in self.levels.iter().enumerate() {
+            let names = |kind: &str, frames: &[RawImage]| -> Result<Vec<PathBuf>> {
+                frames
+                    .iter()
+                    .enumerate()
+                    .map(|(k, raw)| {
+                        let name = format!("level{i:02}_{kind}{k}.dng");
+                        camsim_io::dng::write_dng(&out.join(&name), raw, &meta)?;
+                        Ok(PathBuf::from(name))
+                    })
+                    .collect()
+            };
+            files.push(EmvaLevelFiles {
+                line: i + 2,
+                exposure_s: l.exposure_s,
+                photons_per_pixel: Some(l.photons_per_pixel),
+                bright: names("bright", &l.bright)?,
+                dark: names("dark", &l.dark)?,
+            });
+        }
+        write_emva_series(&out.join("series.csv"), &files)?;
+        Ok(())
     }
 }

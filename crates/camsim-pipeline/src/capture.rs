@@ -1,0 +1,370 @@
+//! Stages 2 and 3: the one wiring of the optics into the sensor ([`image_radiance`]), a capture
+//! request checked in one place ([`CaptureRequest`]: one exposure or auto-exposure, a bracket /
+//! burst, the frames and the seed), the capture itself for plain and HDR sensors ([`capture`])
+//! and its raw files ([`Captured::write_files`]).
+
+use crate::{PipelineError, Result};
+use camsim_core::{Quantity, RawImage, SpectralImage};
+use camsim_io::atomic::OutputDir;
+use camsim_io::dng::DngMetadata;
+use camsim_optics::Optics;
+use camsim_sensor::{Capture, Exposure, Frame, HdrFrame, NoiseSwitches, Sensor};
+use std::time::Instant;
+
+/// How a door names the capture settings in its messages, and the unit of its exposure times.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaptureKeys {
+    /// One exposure time.
+    pub exposure: &'static str,
+    /// A list of exposure times (a bracket / burst).
+    pub bracket: &'static str,
+    /// Frames per exposure.
+    pub frames: &'static str,
+    /// The auto-exposure target.
+    pub auto_target: &'static str,
+    /// Seconds per unit of the exposure times (1e-3 for ms).
+    pub unit_s: f64,
+    /// The unit's name, for messages.
+    pub unit: &'static str,
+}
+
+/// The keys of a simulate config's `[capture]` table (ms).
+pub const CONFIG_KEYS: CaptureKeys = CaptureKeys {
+    exposure: "capture.exposure_ms",
+    bracket: "capture.exposures_ms",
+    frames: "capture.frames",
+    auto_target: "capture.auto_target_fraction",
+    unit_s: 1e-3,
+    unit: "ms",
+};
+
+/// The options of `camsim sensor` (ms).
+pub const CLI_KEYS: CaptureKeys = CaptureKeys {
+    exposure: "--exposure-ms",
+    bracket: "--exposures-ms",
+    frames: "--frames",
+    auto_target: "--auto-target-fraction",
+    unit_s: 1e-3,
+    unit: "ms",
+};
+
+/// The arguments of Python's `camsim.sensor` (s).
+pub const PYTHON_KEYS: CaptureKeys = CaptureKeys {
+    exposure: "exposure_s",
+    bracket: "exposure_s (a list)",
+    frames: "frames",
+    auto_target: "auto_target_fraction",
+    unit_s: 1.0,
+    unit: "s",
+};
+
+/// One capture, checked: the exposure (a time or auto-exposure) or a bracket of times, frames
+/// per exposure and the seed of the temporal noise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureRequest {
+    /// One exposure (ignored with a bracket).
+    pub exposure: Exposure,
+    /// Exposure bracketing / burst (ISETCam: a vector of exposure times): one raw per time (x
+    /// `frames`), s, each with its own temporal noise.
+    pub bracket_s: Option<Vec<f64>>,
+    /// Frames per exposure (>= 1).
+    pub frames: usize,
+    /// Seed of the temporal noise.
+    pub seed: u64,
+    /// How the door that made it names its settings (for messages).
+    pub keys: CaptureKeys,
+    /// Frame index of the first raw's temporal noise (0; a moving scene captured frame by frame
+    /// keys frame k on k, [`crate::sequence`], so each frame has the noise it has in one capture).
+    pub first_frame: u64,
+}
+
+impl CaptureRequest {
+    /// Check a door's capture settings, in the door's units (`keys.unit_s`): an exposure time
+    /// (None: auto-exposure to `auto_target_fraction` of the swing), or a bracket (not both),
+    /// `frames` >= 1. The one place the exposure values are checked.
+    pub fn new(
+        exposure: Option<f64>,
+        bracket: Option<&[f64]>,
+        auto_target_fraction: f64,
+        frames: usize,
+        seed: u64,
+        keys: CaptureKeys,
+    ) -> Result<CaptureRequest> {
+        let bad = |m: String| Err(PipelineError::Config(m));
+        if frames == 0 {
+            return bad(format!("{} must be at least 1", keys.frames));
+        }
+        let time = |key: String, t: f64| -> Result<f64> {
+            if t >= 0.0 && t.is_finite() {
+                Ok(t * keys.unit_s)
+            } else {
+                Err(PipelineError::Config(format!(
+                    "{key} = {t}: must be a finite time >= 0 {}",
+                    keys.unit
+                )))
+            }
+        };
+        let bracket_s = match bracket {
+            None => None,
+            Some(_) if exposure.is_some() => {
+                return bad(format!(
+                    "give either {} or {} (a bracket), not both",
+                    keys.exposure, keys.bracket
+                ))
+            }
+            Some([]) => {
+                return bad(format!(
+                    "{} is empty: give at least one exposure time, {}",
+                    keys.bracket, keys.unit
+                ))
+            }
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(i, t)| time(format!("{}[{i}]", keys.bracket), *t))
+                    .collect::<Result<Vec<f64>>>()?,
+            ),
+        };
+        let exposure = match exposure {
+            Some(t) => Exposure::Seconds(time(keys.exposure.to_string(), t)?),
+            None => {
+                if !(auto_target_fraction > 0.0 && auto_target_fraction <= 1.0) {
+                    return bad(format!(
+                        "{} = {auto_target_fraction}: must be in (0, 1]",
+                        keys.auto_target
+                    ));
+                }
+                Exposure::Auto {
+                    target_fraction: auto_target_fraction,
+                }
+            }
+        };
+        Ok(CaptureRequest {
+            exposure,
+            bracket_s,
+            frames,
+            seed,
+            keys,
+            first_frame: 0,
+        })
+    }
+
+    /// The sensor's capture of one exposure.
+    pub fn capture(&self) -> Capture {
+        Capture {
+            exposure: self.exposure,
+            frames: self.frames,
+            seed: self.seed,
+        }
+    }
+}
+
+/// What a capture gives: plain raw frames, or both readouts of an HDR sensor.
+#[derive(Debug, Clone)]
+pub enum Captured {
+    /// Raw frames (one exposure x frames, or a bracket).
+    Frames(Frame),
+    /// An `[hdr]` sensor's readouts and merged frames.
+    Hdr(HdrFrame),
+}
+
+/// Stage 3: `sensor` captures sensor-plane `irradiance` as `req` asks: an `[hdr]` sensor (dual
+/// conversion gain, split pixel) both its readouts, the others raw frames of one exposure or of
+/// a bracket. `camsim sensor` and Python's `camsim.sensor` both call this.
+pub fn capture(
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    req: &CaptureRequest,
+) -> Result<Captured> {
+    if sensor.hdr_model().is_some() {
+        if req.bracket_s.is_some() {
+            return Err(PipelineError::Config(format!(
+                "{}: an [hdr] sensor ({}) takes one exposure ({} or auto-exposure), not a bracket",
+                req.keys.bracket,
+                sensor.name(),
+                req.keys.exposure
+            )));
+        }
+        return Ok(Captured::Hdr(
+            sensor.compute_hdr(irradiance, &req.capture())?,
+        ));
+    }
+    Ok(Captured::Frames(match &req.bracket_s {
+        None => sensor.compute_from(irradiance, &req.capture(), req.first_frame)?,
+        Some(times_s) => sensor.compute_bracket(irradiance, times_s, req.frames, req.seed)?,
+    }))
+}
+
+impl Captured {
+    /// Exposure time, s (a bracket's first).
+    pub fn exposure_s(&self) -> f64 {
+        match self {
+            Captured::Frames(f) => f.exposure_s,
+            Captured::Hdr(h) => h.exposure_s,
+        }
+    }
+
+    /// The (first readout's) raw frames.
+    pub fn raw(&self) -> &[RawImage] {
+        match self {
+            Captured::Frames(f) => &f.raw,
+            Captured::Hdr(h) => &h.high,
+        }
+    }
+
+    /// The capture's files into `out`: raw frames as `raw.dng`, `raw_0001.dng`, ... and the first
+    /// as `raw.png` (the mosaic scaled to 16 bits for viewing); an HDR capture per frame
+    /// `high.dng`, `low.dng` and `merged.exr` (suffix `_0001` ... for more frames).
+    pub fn write_files(&self, out: &OutputDir, meta: &DngMetadata) -> Result<()> {
+        match self {
+            Captured::Frames(f) => {
+                write_raw_dngs(out, &f.raw, meta)?;
+                let r0 = &f.raw[0];
+                camsim_io::raster::write_png16_mosaic_scaled(
+                    &out.join("raw.png"),
+                    r0.rows,
+                    r0.cols,
+                    &r0.dn,
+                    r0.bits,
+                )?;
+            }
+            Captured::Hdr(h) => {
+                for (i, ((hi, lo), merged)) in
+                    h.high.iter().zip(&h.low).zip(&h.merged_e).enumerate()
+                {
+                    let suffix = frame_suffix(i);
+                    camsim_io::dng::write_dng(&out.join(format!("high{suffix}.dng")), hi, meta)?;
+                    camsim_io::dng::write_dng(&out.join(format!("low{suffix}.dng")), lo, meta)?;
+                    camsim_io::exr::write_gray_exr(
+                        &out.join(format!("merged{suffix}.exr")),
+                        hi.rows,
+                        hi.cols,
+                        "Y",
+                        merged,
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `""` for the first frame, `_0001`, `_0002`, ... for the others (file names of a run).
+pub fn frame_suffix(i: usize) -> String {
+    if i == 0 {
+        String::new()
+    } else {
+        format!("_{i:04}")
+    }
+}
+
+/// Raw frames as `raw.dng`, `raw_0001.dng`, ... (the order of the frames; [`frame_suffix`]).
+pub fn write_raw_dngs(out: &OutputDir, frames: &[RawImage], meta: &DngMetadata) -> Result<()> {
+    for (i, raw) in frames.iter().enumerate() {
+        let name = format!("raw{}.dng", frame_suffix(i));
+        camsim_io::dng::write_dng(&out.join(name), raw, meta)?;
+    }
+    Ok(())
+}
+
+/// Stages 2 and 3 on a given radiance: the optics' irradiance, the sensor's frames and the
+/// seconds each stage took (the one wiring of optics into sensor; `simulate` and
+/// `camsim validate` both use it). An image that is already sensor-plane irradiance (a lens
+/// camera's render, [`crate::render`]) goes to the sensor as it is.
+pub fn image_radiance(
+    radiance: &SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    capture: &Capture,
+) -> Result<Imaged> {
+    let t = Instant::now();
+    let irradiance = match radiance.quantity {
+        Quantity::Irradiance => radiance.clone(),
+        _ => optics.compute(radiance)?,
+    };
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let frame = sensor.compute(&irradiance, capture)?;
+    Ok(Imaged {
+        irradiance,
+        frame,
+        optics_s,
+        sensor_s: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// Stages 2 and 3 on a scene image taken by value, for [`crate::simulate`]: the capture of
+/// `req` ([`capture`]). A lens camera's render, already sensor-plane irradiance, becomes
+/// [`Imaged::irradiance`] without a copy (a full-frame 31-band cube is 1.5 GB), and no radiance
+/// is handed back (`None`).
+pub(crate) fn image_owned(
+    image: SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+) -> Result<(Option<SpectralImage>, Imaged)> {
+    let t = Instant::now();
+    let (radiance, irradiance) = match image.quantity {
+        Quantity::Irradiance => (None, image),
+        _ => {
+            let irradiance = optics.compute(&image)?;
+            (Some(image), irradiance)
+        }
+    };
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let frame = match capture(sensor, &irradiance, req)? {
+        Captured::Frames(f) => f,
+        Captured::Hdr(_) => {
+            return Err(PipelineError::config(
+                "an [hdr] sensor's two readouts are not an image of frames",
+            ))
+        }
+    };
+    Ok((
+        radiance,
+        Imaged {
+            irradiance,
+            frame,
+            optics_s,
+            sensor_s: t.elapsed().as_secs_f64(),
+        },
+    ))
+}
+
+/// What [`image_radiance`] returns.
+#[derive(Debug, Clone)]
+pub struct Imaged {
+    /// Sensor-plane spectral irradiance, W/(m^2 nm).
+    pub irradiance: SpectralImage,
+    /// The sensor's frames.
+    pub frame: Frame,
+    /// Seconds in the optics stage.
+    pub optics_s: f64,
+    /// Seconds in the sensor stage.
+    pub sensor_s: f64,
+}
+
+/// The ADC value each pixel would read at `exposure_s` without shot, read, DSNU and PRNU noise
+/// and without quantization, the mean dark signal included (DN, row-major, f32): the mean the
+/// raw frames scatter around.
+pub fn noise_free_dn(
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    exposure_s: f64,
+) -> Result<Vec<f32>> {
+    let quiet = sensor.with_noise(NoiseSwitches {
+        shot: false,
+        read: false,
+        dsnu: false,
+        prnu: false,
+        dark: true,
+        quantization: false,
+    });
+    let nf = quiet.compute(irradiance, &Capture::seconds(exposure_s))?;
+    nf.analog_dn
+        .and_then(|mut v| v.drain(..).next())
+        .ok_or_else(|| {
+            PipelineError::config("the noise-free sensor pass returned no analog values")
+        })
+}

@@ -1,0 +1,357 @@
+//! The config door: [`SimulateConfig`] (`camsim simulate CONFIG.toml`, Python's config dicts,
+//! dataset samples) and the one way any source becomes a checked config,
+//! [`SimulateConfig::from_value`]. The sections build the stage objects ([`SimulateConfig::optics`],
+//! [`SimulateConfig::sensor`], [`SimulateConfig::capture`]).
+
+use crate::capture::{CaptureRequest, CONFIG_KEYS};
+use crate::{PipelineError, Result};
+use camsim_core::WavelengthGrid;
+use camsim_optics::{Optics, OpticsConfig};
+use camsim_scene::SceneConfig;
+use camsim_sensor::{Capture, Sensor, SensorConfig};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The whole-pipeline config (`camsim simulate CONFIG.toml`). Exactly one of `[scene]` (a 2D
+/// chart) and `[render]` (a 3D scene) is given.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulateConfig {
+    /// Seed of the temporal sensor noise and of the renderer (integer).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Wavelength grid `{ start_nm, step_nm, count }`; default 400-700 nm every 10 nm.
+    #[serde(default)]
+    pub wavelengths: WavelengthGrid,
+    /// A 2D scene (see camsim-scene: kind = "uniform" | "macbeth" | "slanted_edge" | "file").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<SceneConfig>,
+    /// A 3D scene rendered by the path tracer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<RenderSection>,
+    /// The lens.
+    #[serde(default)]
+    pub optics: OpticsSection,
+    /// The sensor.
+    #[serde(default)]
+    pub sensor: SensorSection,
+    /// Exposure and frames.
+    #[serde(default)]
+    pub capture: CaptureSection,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// `[render]`: a 3D scene.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSection {
+    /// A built-in scene: "cornell-box", "cornell-box-mcc", "slanted-edge".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub builtin: Option<String>,
+    /// Or a pbrt-v4 scene file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pbrt: Option<PathBuf>,
+    /// Optional overlay TOML (moves objects, sets reflectances and the light), relative to the config.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub overlay: Option<PathBuf>,
+    /// Optional overlay written inline, the same tables as an overlay file (`[render.overlay_inline.light]`,
+    /// `[[render.overlay_inline.object]]`, ...), applied after `overlay`; datasets vary its keys.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub overlay_inline: Option<toml::Table>,
+    /// Folder the inline overlay's relative spectrum and mesh paths resolve against (the config
+    /// file's; set when the config is read from a file, else the current folder).
+    #[serde(skip)]
+    pub overlay_inline_base: Option<PathBuf>,
+    /// Samples per pixel (default: the scene's own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_per_pixel: Option<u32>,
+    /// Image width and height in pixels (default: the scene's own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<[usize; 2]>,
+}
+
+/// `[optics]`: a preset name, a TOML file, or an inline config.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpticsSection {
+    /// Built-in lens: "pixel4a" (default), "pixel4a-measured" or "diffraction-limited".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// Or a lens TOML file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// Or the lens itself, inline (the same keys as a lens file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<OpticsConfig>,
+}
+
+impl Default for OpticsSection {
+    fn default() -> Self {
+        OpticsSection {
+            preset: Some("pixel4a".into()),
+            file: None,
+            config: None,
+        }
+    }
+}
+
+/// `[sensor]`: a preset name, a TOML file, or an inline config, with an optional window size.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSection {
+    /// Built-in sensor: "pixel4a" (default), "pixel4a-raw10", "imx363", "ideal".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// Or a sensor TOML file (relative to the config file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    /// Or the sensor itself, inline.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<SensorConfig>,
+    /// Use a window of this many rows (pixels) centred on the optical axis (default: full sensor).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rows: Option<usize>,
+    /// Window columns, pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cols: Option<usize>,
+}
+
+impl Default for SensorSection {
+    fn default() -> Self {
+        SensorSection {
+            preset: Some("pixel4a".into()),
+            file: None,
+            config: None,
+            rows: None,
+            cols: None,
+        }
+    }
+}
+
+/// `[capture]`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaptureSection {
+    /// Exposure time, ms. Absent: auto-exposure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_ms: Option<f64>,
+    /// Auto-exposure target: the 99th percentile of the brightest colour filter's signal (taken
+    /// over that filter's own pixels) reaches this fraction of the voltage swing (0, 1]. Default 0.9.
+    #[serde(default = "default_target")]
+    pub auto_target_fraction: f64,
+    /// Frames of the same exposure (>= 1); with `exposures_ms`, frames per exposure.
+    #[serde(default = "default_frames")]
+    pub frames: usize,
+    /// Exposure bracketing / burst (ISETCam: a vector of exposure times): one raw per entry (x
+    /// `frames`), ms, each with its own temporal noise, written raw.dng, raw_0001.dng, ... in
+    /// this order. Replaces `exposure_ms` (giving both is an error). The preview, noise_free.exr
+    /// and run.json's exposure_s / mean figures are those of the first raw; run.json lists every
+    /// raw's exposure time as results.frame_exposures_s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposures_ms: Option<Vec<f64>>,
+    /// Scene time at which the first frame's exposure starts, ms (3D scenes: what moves is
+    /// where it is then; default: the pbrt camera's `shutteropen`, 0 for built-in scenes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_ms: Option<f64>,
+    /// Time from one frame's start to the next, ms (bursts and brackets; default: back to back,
+    /// each frame starting when the one before ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_interval_ms: Option<f64>,
+    /// A video: `frames` frames at this rate, frames per second (the frame interval 1/fps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fps: Option<f64>,
+    /// `"global"` (default: every row integrates over the same window) or `{ rolling = {
+    /// line_time_us = 10.0, direction = "top-down" } }` (sensor row r starts r line times later).
+    #[serde(
+        default,
+        skip_serializing_if = "crate::timing::ShutterConfig::is_global"
+    )]
+    pub shutter: crate::timing::ShutterConfig,
+}
+
+fn default_target() -> f64 {
+    0.9
+}
+fn default_frames() -> usize {
+    1
+}
+
+impl Default for CaptureSection {
+    fn default() -> Self {
+        CaptureSection {
+            exposure_ms: None,
+            auto_target_fraction: 0.9,
+            frames: 1,
+            exposures_ms: None,
+            start_ms: None,
+            frame_interval_ms: None,
+            fps: None,
+            shutter: crate::timing::ShutterConfig::Global,
+        }
+    }
+}
+
+/// The built-in default run (`camsim simulate` with no config).
+pub const DEFAULT_CONFIG: &str = include_str!("../../../examples/macbeth-d65.toml");
+
+impl SimulateConfig {
+    /// The built-in default run ([`DEFAULT_CONFIG`]: `camsim simulate` with no config, Python's
+    /// `camsim.simulate()` with no argument).
+    pub fn builtin_default() -> SimulateConfig {
+        toml::from_str(DEFAULT_CONFIG).expect("the built-in default config parses (tested)")
+    }
+
+    /// The one config door: a config from any serde value (a TOML table, a JSON value, a Python
+    /// dict, a dataset sample's table, a TOML text deserializer), checked
+    /// ([`Self::check_scene_source`]) and with its relative paths made relative to `base_dir`
+    /// ([`Self::resolve_paths`]; `Path::new("")` keeps them as written, relative to the current
+    /// folder). Every other way in ([`Self::load`], [`Self::from_toml_str`]) ends here.
+    pub fn from_value<'de, D>(value: D, base_dir: &Path) -> Result<SimulateConfig>
+    where
+        D: serde::Deserializer<'de>,
+        D::Error: std::fmt::Display,
+    {
+        let cfg = SimulateConfig::deserialize(value)
+            .map_err(|e| PipelineError::Config(e.to_string().trim_end().to_string()))?;
+        cfg.finish(base_dir)
+    }
+
+    /// Read a TOML config, or a run.json written by an earlier run (its `config`); paths in it
+    /// are relative to the file's folder. Errors name the file.
+    pub fn load(path: &Path) -> Result<SimulateConfig> {
+        let base = path.parent().unwrap_or(Path::new("."));
+        if path.extension().is_some_and(|e| e == "json") {
+            let v = crate::records::read_json(path)?;
+            let c = v.get("config").cloned().unwrap_or(v);
+            return SimulateConfig::deserialize(c)
+                .map_err(|e| PipelineError::file(path, format!("not a camsim run.json: {e}")))?
+                .finish(base)
+                .map_err(|e| PipelineError::file(path, e));
+        }
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
+        Self::from_toml_str(&text, base).map_err(|e| match e {
+            PipelineError::Config(m) => PipelineError::file(path, m),
+            e => e,
+        })
+    }
+
+    /// Parse a TOML config from text, its relative paths made relative to `base_dir`
+    /// (`Path::new("")`: as written). The message of an error names the key, line and column.
+    pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<SimulateConfig> {
+        Self::from_value(toml::Deserializer::new(text), base_dir).map_err(|e| match e {
+            // The [scene] table is tagged by `kind`, which hides the key's position from
+            // toml's first message: find the offending key's own line and column.
+            PipelineError::Config(m) => PipelineError::Config(
+                camsim_scene::config::locate_scene_error(text, Some("scene"))
+                    .map(|l| l.trim_end().to_string())
+                    .unwrap_or(m),
+            ),
+            e => e,
+        })
+    }
+
+    /// The checks and path resolution of [`Self::from_value`].
+    fn finish(mut self, base_dir: &Path) -> Result<SimulateConfig> {
+        self.check_scene_source()?;
+        self.resolve_paths(base_dir);
+        Ok(self)
+    }
+
+    /// The config as TOML text (every field, defaults filled in).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a SimulateConfig serializes to TOML")
+    }
+
+    /// Exactly one of `[scene]` (2D) and `[render]` (3D) must be given.
+    pub fn check_scene_source(&self) -> Result<()> {
+        match (&self.scene, &self.render) {
+            (Some(_), Some(_)) => Err(PipelineError::config(
+                "give either [scene] (2D) or [render] (3D), not both",
+            )),
+            (None, None) => Err(PipelineError::config(
+                "the config has neither a [scene] nor a [render] table",
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// Make the relative paths in the config (scene, pbrt, overlay, lens, sensor and QE files)
+    /// relative to `base` (the folder of the file the config came from).
+    pub fn resolve_paths(&mut self, base: &Path) {
+        let fix = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        if let Some(r) = &mut self.render {
+            r.pbrt.as_mut().map(fix);
+            r.overlay.as_mut().map(fix);
+            r.overlay_inline_base = Some(base.to_path_buf());
+        }
+        self.optics.file.as_mut().map(fix);
+        if let Some(b) = self.optics.config.as_mut().and_then(|c| c.blur.as_mut()) {
+            b.lens_file.as_mut().map(fix);
+            b.rtf_file.as_mut().map(fix);
+        }
+        self.sensor.file.as_mut().map(fix);
+        if let Some(c) = &mut self.sensor.config {
+            c.qe.file.as_mut().map(fix);
+        }
+        // Scene files: the radiance EXR, the photograph and display, illuminant and reflectance files.
+        if let Some(scene) = &mut self.scene {
+            scene.resolve_paths(base);
+        }
+    }
+
+    pub fn optics(&self) -> Result<Optics> {
+        let o = &self.optics;
+        Ok(match (&o.preset, &o.file, &o.config) {
+            (_, _, Some(c)) => Optics::from_config(c)?,
+            (_, Some(f), None) => Optics::from_config(&OpticsConfig::from_file(f)?)?,
+            (Some(p), None, None) => Optics::preset(p)?,
+            (None, None, None) => Optics::preset("pixel4a")?,
+        })
+    }
+
+    pub fn sensor(&self) -> Result<Sensor> {
+        let s = &self.sensor;
+        let sensor = match (&s.preset, &s.file, &s.config) {
+            (_, _, Some(c)) => Sensor::from_config_named(c.clone(), "[sensor.config]")?,
+            (_, Some(f), None) => Sensor::from_file(f)?,
+            (Some(p), None, None) => Sensor::preset(p)?,
+            (None, None, None) => Sensor::preset("pixel4a")?,
+        };
+        Ok(match (s.rows, s.cols) {
+            (None, None) => sensor,
+            (r, c) => sensor.window(r.unwrap_or(sensor.rows()), c.unwrap_or(sensor.cols()))?,
+        })
+    }
+
+    /// The `[capture]` table as a checked request ([`CaptureRequest`]: the one check of the
+    /// exposure values, with the keys of this table in its messages).
+    pub fn capture_request(&self) -> Result<CaptureRequest> {
+        let c = &self.capture;
+        CaptureRequest::new(
+            c.exposure_ms,
+            c.exposures_ms.as_deref(),
+            c.auto_target_fraction,
+            c.frames,
+            self.seed,
+            CONFIG_KEYS,
+        )
+    }
+
+    /// The bracket's exposure times, s (`capture.exposures_ms`), or `None` for one exposure.
+    pub fn bracket_exposures_s(&self) -> Result<Option<Vec<f64>>> {
+        Ok(self.capture_request()?.bracket_s)
+    }
+
+    /// The sensor capture of one exposure (`capture.exposure_ms` or auto-exposure).
+    pub fn capture(&self) -> Result<Capture> {
+        Ok(self.capture_request()?.capture())
+    }
+}

@@ -1,0 +1,356 @@
+//! Stage 4 as a value: [`Isp`], ISETCam's `ip` (`ipCreate` / `ipCompute`): how a raw frame
+//! becomes a display image (demosaic, white balance, colour matrix, sRGB), with
+//! [`Isp::compute`]. `camsim simulate`'s preview, `camsim isp`, the DNG colour metadata of
+//! `camsim sensor` and `camsim validate`'s previews all come from it, so one raw with one set of
+//! settings gives one preview whichever command made it.
+
+use crate::{PipelineError, Result, SimulateConfig};
+use camsim_analysis::chart::{chart_patch_stats_rgb, ChartCorners};
+use camsim_analysis::Plane;
+use camsim_core::{RawImage, Spectrum, WavelengthGrid};
+use camsim_io::dng::DngMetadata;
+use camsim_isp::ccm::{self, CcmObjective};
+use camsim_isp::output::DisplayModel;
+use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
+use camsim_isp::{ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
+use camsim_sensor::Sensor;
+use serde::Serialize;
+use std::borrow::Cow;
+
+/// Where the colour matrix comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CcmSource {
+    /// Fitted by least squares on the ColorChecker from the sensor's QE under the illuminant
+    /// (white balance and Bradford adaptation to D65 included; no image data).
+    Qe,
+    /// Fitted on the ColorChecker photographed in the image: the 24 patch means after white
+    /// balance against the chart's XYZ under D65.
+    Chart {
+        /// The chart's four outer corners in the image.
+        corners: ChartCorners,
+        /// What the fit minimises.
+        objective: CcmObjective,
+        /// The 24 patch reflectances of the photographed chart (None: N. Ohta's ColorChecker).
+        reflectances: Option<Vec<Spectrum>>,
+    },
+}
+
+/// ISETCam's image processor as a value. [`Isp::new`] is the paper's: bilinear demosaic, white
+/// balance from the known illuminant, colour matrix from the sensor's QE.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Isp {
+    /// Demosaicking method (Bayer frames; other CFAs take their own, see [`Isp::demosaic`]).
+    pub demosaic: DemosaicMethod,
+    /// White balance.
+    pub white_balance: WhiteBalanceMethod,
+    /// Percentile of R+G+B above which pixels count as white ([`WhiteBalanceMethod::WhitePatch`]).
+    pub white_patch_percentile: f64,
+    /// Colour matrix.
+    pub ccm: CcmSource,
+    /// The scene illuminant (relative SPD): the white balance of
+    /// [`WhiteBalanceMethod::Illuminant`] and the QE colour fit.
+    pub illuminant: Spectrum,
+    /// The wavelength grid of the QE colour fit.
+    pub grid: WavelengthGrid,
+    /// Bin 2x2 same-filter blocks first (Quad Bayer -> Bayer at half the size, 4x the signal).
+    pub bin_2x2: bool,
+    /// Camera values are multiplied by this before the colour matrix (None: the 99th percentile
+    /// of the adapted luminance at 0.9 of the white, `ColorPipeline::auto_exposure_scale`;
+    /// the chart matrix takes 1).
+    pub exposure_scale: Option<f64>,
+}
+
+/// What [`Isp::compute`] returns.
+#[derive(Debug, Clone)]
+pub struct IspOutput {
+    /// The demosaicked camera RGB, DN above black (before white balance).
+    pub rgb: RgbImage,
+    /// The 8-bit sRGB image.
+    pub preview: crate::Rgb8Image,
+    /// The settings and fitted values (`camsim isp --json`).
+    pub report: IspReport,
+}
+
+/// The fitted values of one [`Isp::compute`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IspReport {
+    /// Demosaicking method.
+    pub demosaic: &'static str,
+    /// White-balance method.
+    pub white_balance: &'static str,
+    /// Gains applied per channel (green = 1).
+    pub white_balance_gains: [f64; 3],
+    /// QE colour matrix: camera -> linear sRGB (illuminant white balance included).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_to_linear_srgb: Option<Mat3>,
+    /// Chart colour matrix: what it minimised.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ccm_objective: Option<String>,
+    /// Chart colour matrix: white-balanced camera -> XYZ (D65).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_to_xyz: Option<Mat3>,
+    /// Chart colour matrix: the 24 patch means (white-balanced camera RGB), patches 1-24.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub patch_camera_rgb: Option<Vec<[f64; 3]>>,
+    /// Chart colour matrix: CIEDE2000 of each patch after the matrix, patches 1-24.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub patch_delta_e2000: Option<Vec<f64>>,
+    /// Chart colour matrix: mean CIEDE2000.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delta_e2000_mean: Option<f64>,
+    /// Chart colour matrix: largest CIEDE2000.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delta_e2000_max: Option<f64>,
+    /// The exposure scale used (see [`Isp::exposure_scale`]).
+    #[serde(skip)]
+    pub exposure_scale: f64,
+}
+
+impl Isp {
+    /// The paper's ISP for a scene under `illuminant`, the colour fit on `grid`.
+    pub fn new(illuminant: Spectrum, grid: WavelengthGrid) -> Isp {
+        Isp {
+            demosaic: DemosaicMethod::Bilinear,
+            white_balance: WhiteBalanceMethod::Illuminant,
+            white_patch_percentile: WHITE_PATCH_PERCENTILE,
+            ccm: CcmSource::Qe,
+            illuminant,
+            grid,
+            bin_2x2: false,
+            exposure_scale: None,
+        }
+    }
+
+    /// The ISP of a simulate config: the scene's illuminant (D65 when the scene has none, such
+    /// as a 3D scene or a radiance file) on the config's wavelength grid.
+    pub fn for_config(cfg: &SimulateConfig) -> Result<Isp> {
+        let illuminant = match cfg.scene.as_ref().and_then(camsim_scene::scene_illuminant) {
+            Some(r) => r?,
+            None => camsim_core::tables::illuminant("D65")?,
+        };
+        Ok(Isp::new(illuminant, cfg.wavelengths))
+    }
+
+    /// The QE colour pipeline of `sensor` under the ISP's illuminant (the matrix of
+    /// [`CcmSource::Qe`], the DNG's ColorMatrix1 and AsShotNeutral).
+    pub fn color(&self, sensor: &Sensor) -> Result<ColorPipeline> {
+        ColorPipeline::fit(&sensor.channel_qe(&self.grid), &self.grid, &self.illuminant)
+            .map_err(|e| PipelineError::config(format!("colour pipeline: {e}")))
+    }
+
+    /// DNG metadata: camera name, the QE colour matrix and neutral of [`Isp::color`], the ISO
+    /// of a sensor that states one, and `description` (a run's config) as the image description.
+    pub fn dng_metadata(
+        &self,
+        sensor: &Sensor,
+        description: Option<String>,
+    ) -> Result<DngMetadata> {
+        let color = self.color(sensor)?;
+        Ok(DngMetadata {
+            camera_model: format!("camsim {}", sensor.name()),
+            color_matrix1: Some(color.xyz_to_camera()),
+            as_shot_neutral: Some(color.as_shot_neutral()),
+            description,
+            // Only a sensor that states its ISO (`iso`) gets the EXIF tag: the DNGs of the other
+            // presets stay byte-identical.
+            iso: sensor.config().iso,
+            ..DngMetadata::default()
+        })
+    }
+
+    /// RGB of a raw frame, DN above black: a Bayer mosaic with [`Isp::demosaic`]; a tile with
+    /// r, g, b and w filters by the W-guided fusion (`camsim_isp::cfa_general::rgbw_to_rgb`), W
+    /// predicted from R, G, B with weights fitted to `sensor`'s QE under the frame's CFA; any
+    /// other tile with r, g, b filters by the per-filter bilinear interpolation (which is the only
+    /// method such frames take).
+    pub fn demosaic(&self, raw: &RawImage, sensor: &Sensor) -> Result<RgbImage> {
+        let Some(layout) = raw.layout.as_ref() else {
+            return Ok(camsim_isp::demosaic(raw, self.demosaic)?);
+        };
+        if let Some(p) = layout.as_bayer() {
+            let mut bayer = raw.clone();
+            (bayer.cfa, bayer.layout) = (p, None);
+            return Ok(camsim_isp::demosaic(&bayer, self.demosaic)?);
+        }
+        if self.demosaic != DemosaicMethod::Bilinear {
+            return Err(PipelineError::config(format!(
+                "demosaic {}: a {} frame takes the bilinear method only (or bin Quad Bayer 2x2 first)",
+                self.demosaic.name(),
+                layout.name()
+            )));
+        }
+        let has = |n: &str| layout.filter_index(n).is_some();
+        if has("r") && has("g") && has("b") && has("w") {
+            let mut c = sensor.config().clone();
+            c.cfa = String::new();
+            c.cfa_pattern = Some(
+                (0..layout.rows())
+                    .map(|r| {
+                        (0..layout.cols())
+                            .map(|col| layout.filters()[layout.filter_at(r, col)].clone())
+                            .collect()
+                    })
+                    .collect(),
+            );
+            let weights = Sensor::from_config_named(
+                c,
+                &format!("{} with the frame's CFA {}", sensor.name(), layout.name()),
+            )?
+            .filter_from_rgb_weights("w")?;
+            return Ok(camsim_isp::cfa_general::rgbw_to_rgb(raw, weights)?);
+        }
+        Ok(camsim_isp::cfa_general::demosaic_any(raw)?)
+    }
+
+    /// The whole ISP on one raw frame made by `sensor` (whose QE sets the illuminant white
+    /// balance and the QE colour matrix): bin, demosaic, then [`Isp::render`].
+    pub fn compute(&self, raw: &RawImage, sensor: &Sensor) -> Result<IspOutput> {
+        let raw: Cow<RawImage> = if self.bin_2x2 {
+            Cow::Owned(camsim_isp::cfa_general::bin_2x2(raw)?)
+        } else {
+            Cow::Borrowed(raw)
+        };
+        let rgb = self.demosaic(&raw, sensor)?;
+        let (preview, report) =
+            self.render(&rgb, sensor, raw.white_level_dn - raw.black_level_dn)?;
+        Ok(IspOutput {
+            rgb,
+            preview,
+            report,
+        })
+    }
+
+    /// The white-balance gains (green = 1) of demosaicked camera RGB `rgb` by the ISP's method:
+    /// none, gray world, white patch (pixels with a channel at `saturation_dn` left out), or from
+    /// the illuminant and `sensor`'s QE (which that method needs).
+    pub fn white_balance_gains(
+        &self,
+        rgb: &RgbImage,
+        sensor: Option<&Sensor>,
+        saturation_dn: Option<f64>,
+    ) -> Result<[f64; 3]> {
+        Ok(match self.white_balance {
+            WhiteBalanceMethod::None => [1.0; 3],
+            WhiteBalanceMethod::GrayWorld => white_balance::gray_world_gains(rgb)?,
+            WhiteBalanceMethod::WhitePatch => {
+                white_balance::white_patch_gains(rgb, self.white_patch_percentile, saturation_dn)?
+            }
+            WhiteBalanceMethod::Illuminant => {
+                let sensor = sensor.ok_or_else(|| {
+                    PipelineError::config(
+                        "white balance 'illuminant' needs the sensor (its QE) and the illuminant",
+                    )
+                })?;
+                white_balance::illuminant_gains(
+                    &sensor.channel_qe(&self.grid),
+                    &self.grid,
+                    &self.illuminant,
+                )?
+            }
+        })
+    }
+
+    /// White balance, colour matrix and sRGB encoding of demosaicked camera RGB (DN above black,
+    /// `saturation_dn` the clipping level above black): the part of [`Isp::compute`] after the
+    /// demosaic, for an image the caller demosaicked (and, say, downsampled) itself.
+    pub fn render(
+        &self,
+        rgb: &RgbImage,
+        sensor: &Sensor,
+        saturation_dn: f64,
+    ) -> Result<(crate::Rgb8Image, IspReport)> {
+        let gains = self.white_balance_gains(rgb, Some(sensor), Some(saturation_dn))?;
+        let mut report = IspReport {
+            demosaic: self.demosaic.name(),
+            white_balance: self.white_balance.name(),
+            white_balance_gains: gains,
+            camera_to_linear_srgb: None,
+            ccm_objective: None,
+            camera_to_xyz: None,
+            patch_camera_rgb: None,
+            patch_delta_e2000: None,
+            delta_e2000_mean: None,
+            delta_e2000_max: None,
+            exposure_scale: 1.0,
+        };
+        let data = match &self.ccm {
+            CcmSource::Qe => {
+                let color = self.color(sensor)?;
+                // The pipeline's matrix includes the illuminant's white balance
+                // diag(1 / as_shot_neutral). Another method's gains g replace it: camera values
+                // are first scaled by as_shot_neutral * g, so what g takes to neutral renders
+                // neutral. With the illuminant method the pipeline is used as it is (the paper's
+                // preview).
+                let mut clip = saturation_dn;
+                let rgb: Cow<RgbImage> = if self.white_balance != WhiteBalanceMethod::Illuminant {
+                    let asn = color.as_shot_neutral();
+                    let pre = [asn[0] * gains[0], asn[1] * gains[1], asn[2] * gains[2]];
+                    let mut balanced = rgb.clone();
+                    white_balance::apply_gains(&mut balanced, pre);
+                    // Saturated pixels (s in every channel) become s * pre; clip where the
+                    // channel saturated first so clipped highlights stay neutral.
+                    clip *= gains.iter().cloned().fold(f64::INFINITY, f64::min);
+                    Cow::Owned(balanced)
+                } else {
+                    Cow::Borrowed(rgb)
+                };
+                let scale = self
+                    .exposure_scale
+                    .unwrap_or_else(|| color.auto_exposure_scale(&rgb));
+                report.exposure_scale = scale;
+                report.camera_to_linear_srgb = Some(color.camera_to_srgb());
+                color.render_srgb8_clipped(&rgb, Some(scale), Some(clip))
+            }
+            CcmSource::Chart {
+                corners,
+                objective,
+                reflectances,
+            } => {
+                let mut balanced = rgb.clone();
+                white_balance::apply_gains(&mut balanced, gains);
+                let planes = [0, 1, 2]
+                    .map(|c| Plane::new(balanced.rows, balanced.cols, balanced.plane(c).to_vec()));
+                let [r, g, b] = planes;
+                let stats = chart_patch_stats_rgb(&[r?, g?, b?], corners, 0.5).map_err(|e| {
+                    PipelineError::config(format!(
+                        "colour matrix from the chart: measuring the patches: {e}"
+                    ))
+                })?;
+                let camera: Vec<[f64; 3]> = stats.iter().map(|s| s.mean).collect();
+                let d65 = camsim_core::tables::illuminant("D65")?;
+                let (target, white) = match reflectances {
+                    Some(r) => ccm::chart_xyz(r, &d65, &self.grid)?,
+                    None => ccm::macbeth_xyz(&d65, &self.grid)?,
+                };
+                let m = ccm::fit_ccm(&camera, &target, white, *objective).map_err(|e| {
+                    PipelineError::config(format!("colour matrix from the chart: {e}"))
+                })?;
+                let de = ccm::ccm_delta_e2000(&m, &camera, &target, white);
+                let mean = de.iter().sum::<f64>() / de.len() as f64;
+                let max = de.iter().cloned().fold(0.0, f64::max);
+                if !mean.is_finite() {
+                    return Err(PipelineError::config(
+                        "colour matrix from the chart: the fit gave no finite colour error (are the corners on the chart?)",
+                    ));
+                }
+                let scale = self.exposure_scale.unwrap_or(1.0);
+                report.exposure_scale = scale;
+                report.ccm_objective = Some(objective.to_string());
+                report.camera_to_xyz = Some(m);
+                report.patch_camera_rgb = Some(camera);
+                report.patch_delta_e2000 = Some(de);
+                report.delta_e2000_mean = Some(mean);
+                report.delta_e2000_max = Some(max);
+                camsim_isp::output::render_rgb8(&balanced, &m, &DisplayModel::srgb(), scale)?
+            }
+        };
+        Ok((
+            crate::Rgb8Image {
+                rows: rgb.rows,
+                cols: rgb.cols,
+                data,
+            },
+            report,
+        ))
+    }
+}
