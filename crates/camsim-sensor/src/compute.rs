@@ -232,10 +232,10 @@ impl Sensor {
         self.compute_from(irradiance, capture, 0)
     }
 
-    /// [`Sensor::compute`] with the temporal noise of frame k keyed on frame index `first_frame
-    /// + k`: the frames of a sequence whose irradiance changes from frame to frame (a moving
-    /// scene, one irradiance per frame) get the noise they would have in one capture, each its
-    /// own.
+    /// [`Sensor::compute`] with the temporal noise of frame k keyed on frame index
+    /// `first_frame + k`: the frames of a sequence whose irradiance changes from frame to frame
+    /// (a moving scene, one irradiance per frame) get the noise they would have in one capture,
+    /// each its own.
     pub fn compute_from(
         &self,
         irradiance: &SpectralImage,
