@@ -301,6 +301,7 @@ fn run_sample(
         let opts = SimulateOptions {
             noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
             labels: spec.outputs.label_request(),
+            flow: spec.outputs.contains(camsim_pipeline::Output::Flow),
         };
         let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
         record.exposure_s = Some(sim.exposure_s);

@@ -73,6 +73,9 @@ pub struct CaptureRequest {
     pub seed: u64,
     /// How the door that made it names its settings (for messages).
     pub keys: CaptureKeys,
+    /// Frame index of the first raw's temporal noise (0; a moving scene captured frame by frame
+    /// keys frame k on k, [`crate::sequence`], so each frame has the noise it has in one capture).
+    pub first_frame: u64,
 }
 
 impl CaptureRequest {
@@ -143,6 +146,7 @@ impl CaptureRequest {
             frames,
             seed,
             keys,
+            first_frame: 0,
         })
     }
 
@@ -187,7 +191,7 @@ pub fn capture(
         ));
     }
     Ok(Captured::Frames(match &req.bracket_s {
-        None => sensor.compute(irradiance, &req.capture())?,
+        None => sensor.compute_from(irradiance, &req.capture(), req.first_frame)?,
         Some(times_s) => sensor.compute_bracket(irradiance, times_s, req.frames, req.seed)?,
     }))
 }

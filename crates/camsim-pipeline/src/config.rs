@@ -158,6 +158,24 @@ pub struct CaptureSection {
     /// raw's exposure time as results.frame_exposures_s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exposures_ms: Option<Vec<f64>>,
+    /// Scene time at which the first frame's exposure starts, ms (3D scenes: what moves is
+    /// where it is then; default: the pbrt camera's `shutteropen`, 0 for built-in scenes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_ms: Option<f64>,
+    /// Time from one frame's start to the next, ms (bursts and brackets; default: back to back,
+    /// each frame starting when the one before ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_interval_ms: Option<f64>,
+    /// A video: `frames` frames at this rate, frames per second (the frame interval 1/fps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fps: Option<f64>,
+    /// `"global"` (default: every row integrates over the same window) or `{ rolling = {
+    /// line_time_us = 10.0, direction = "top-down" } }` (sensor row r starts r line times later).
+    #[serde(
+        default,
+        skip_serializing_if = "crate::timing::ShutterConfig::is_global"
+    )]
+    pub shutter: crate::timing::ShutterConfig,
 }
 
 fn default_target() -> f64 {
@@ -174,6 +192,10 @@ impl Default for CaptureSection {
             auto_target_fraction: 0.9,
             frames: 1,
             exposures_ms: None,
+            start_ms: None,
+            frame_interval_ms: None,
+            fps: None,
+            shutter: crate::timing::ShutterConfig::Global,
         }
     }
 }

@@ -37,6 +37,10 @@ pub enum Output {
     /// boxes.json: per instance its 3D box, 2D boxes in both geometries, visible fraction,
     /// truncation; the cameras' K and extrinsics.
     Boxes,
+    /// flow.exr (flow_0001.exr ...): each frame's optical flow in sensor pixels, channels X and
+    /// Y, aligned with raw.dng, and flow_next.exr ... to the next frame of a sequence (3D scenes;
+    /// 2D charts have none, and it is skipped).
+    Flow,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -103,6 +107,11 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "boxes.json: per instance 3D and 2D boxes, visible fraction, truncation; cameras' K and extrinsics",
             Output::Boxes,
         ),
+        out(
+            "flow",
+            "flow.exr (flow_0001.exr ...; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)",
+            Output::Flow,
+        ),
     ],
 };
 
@@ -123,7 +132,7 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 12] = {
+    pub const ALL: [Output; 13] = {
         let e = OUTPUTS.entries;
         [
             e[0].value,
@@ -138,6 +147,7 @@ impl Output {
             e[9].value,
             e[10].value,
             e[11].value,
+            e[12].value,
         ]
     };
 

@@ -101,12 +101,7 @@ pub fn scene_stage_with(
         }),
         (None, Some(r)) => {
             let scene = crate::render::render_section_scene(r, cfg, sensor, optics)?;
-            let mut request = *request;
-            request.light_groups |= r.light_groups.is_some();
-            let mut out = crate::render::render_scene_with(&scene, &request, progress)?;
-            if let Some(w) = &r.light_groups {
-                crate::light_groups::weigh(&mut out.radiance, &out.light_groups, w)?;
-            }
+            let out = crate::render::render_stage(&scene, r, request, progress)?;
             Ok(SceneStage {
                 image: out.radiance,
                 ids: Some(out.ids),

@@ -708,6 +708,7 @@ impl MediaSet {
     /// one and returns whether to go on. Returns the majorant transmittance from the last
     /// collision to `t_max` (all ones when the callback stopped the walk).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn sample_t_maj<const N: usize>(
         &self,
         medium: u32,

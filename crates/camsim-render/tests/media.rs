@@ -450,7 +450,7 @@ fn emissive_slab_radiance_and_its_thin_limit() {
         );
         let img = render(&sc, &|_, _| {}).unwrap().radiance;
         let (m, se) = stats(&img, 0..grid.len());
-        let want = le * (1.0 - (-tau as f64).exp());
+        let want = le * (1.0 - (-tau).exp());
         agrees(&format!("emissive slab, tau {tau}"), m, se, want, 0.03);
         if tau <= 0.1 {
             // Optically thin: Le sigma_a d to first order in tau.

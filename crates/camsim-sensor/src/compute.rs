@@ -249,10 +249,23 @@ impl Sensor {
     /// fixed pattern on (fixed_pattern_seed, row), so the output is bit-identical for any number
     /// of threads. NaN or negative irradiance counts as no light (the image is not scanned for them).
     pub fn compute(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<Frame> {
+        self.compute_from(irradiance, capture, 0)
+    }
+
+    /// [`Sensor::compute`] with the temporal noise of frame k keyed on frame index
+    /// `first_frame + k`: the frames of a sequence whose irradiance changes from frame to frame
+    /// (a moving scene, one irradiance per frame) get the noise they would have in one capture,
+    /// each its own.
+    pub fn compute_from(
+        &self,
+        irradiance: &SpectralImage,
+        capture: &Capture,
+        first_frame: u64,
+    ) -> Result<Frame> {
         check_capture(capture)?;
         self.check_memory(capture.frames, 2)?;
         let rate = self.electron_rate_image(irradiance)?;
-        self.capture_from_rate(&rate, self.rows(), self.cols(), capture, 0)
+        self.capture_from_rate(&rate, self.rows(), self.cols(), capture, first_frame)
     }
 
     /// Exposure bracketing / bursts (ISETCam: a vector `exposure time`, one capture per entry):

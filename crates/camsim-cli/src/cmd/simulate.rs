@@ -101,6 +101,7 @@ pub fn run(a: Args) -> Result<()> {
     let opts = SimulateOptions {
         noise_free: outputs.contains(Output::NoiseFree),
         labels: outputs.label_request(),
+        flow: outputs.contains(Output::Flow),
     };
     let sim = camsim::simulate(&cfg, &opts, &|stage, done, total| {
         pb.set_message(stage.to_string());
