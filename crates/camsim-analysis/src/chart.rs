@@ -36,6 +36,23 @@ pub struct ChartCorners {
     pub bottom_left: [f64; 2],
 }
 
+/// As `--corners` takes them: `x,y,x,y,x,y,x,y` (dark skin, bluish green, black, white).
+impl std::fmt::Display for ChartCorners {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b, c, d] = [
+            self.top_left,
+            self.top_right,
+            self.bottom_right,
+            self.bottom_left,
+        ];
+        write!(
+            f,
+            "{},{},{},{},{},{},{},{}",
+            a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]
+        )
+    }
+}
+
 impl ChartCorners {
     /// From ISETCam's `cornerPoints` (rows of [col, row], 1-based MATLAB pixel indices, in the
     /// order lower-left (white), lower-right (black), upper-right, upper-left): pixel index k

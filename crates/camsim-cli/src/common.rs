@@ -1,7 +1,7 @@
 //! Small helpers shared by the subcommands: progress bars, output folders, reading inputs by
 //! extension.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use camsim::io::atomic::OutputDir;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -47,7 +47,7 @@ pub fn say(msg: impl AsRef<str>) {
     }
 }
 
-/// Stage an output folder: outputs go into a fresh sibling `DIR.tmp-<pid>` that
+/// Stage an output folder: outputs go into a fresh sibling `DIR.camsim-tmp-<pid>` that
 /// [`camsim::io::atomic::OutputDir::commit`] swaps in for DIR when the run is complete (see that
 /// type). Refuses a DIR that is not a folder camsim may replace (exit 2). When DIR holds an
 /// earlier run, says on stderr (unless --quiet) what the commit will replace.
@@ -56,6 +56,7 @@ pub fn say(msg: impl AsRef<str>) {
 /// `out.join(name)`, then `common::commit(out)?` last.
 pub fn stage_out_dir(dir: &Path) -> Result<OutputDir> {
     let out = OutputDir::create(dir)?;
+    report_removed(out.removed_stale());
     if let Some(old) = out.replaces() {
         const SHOWN: usize = 8;
         let mut list = old
@@ -94,17 +95,28 @@ pub fn stage_out_dir_reading(dir: &Path, inputs: &[&Path]) -> Result<OutputDir> 
     stage_out_dir(dir)
 }
 
+/// Say (even with --quiet) which temporaries of killed runs were removed.
+pub fn report_removed(paths: &[PathBuf]) {
+    for p in paths {
+        eprintln!(
+            "camsim: removed {}, left by a camsim run that no longer runs",
+            p.display()
+        );
+    }
+}
+
+/// Claim a single output file before computing it (see `camsim::io::claim`): refuses a file
+/// camsim did not write unless `force`, and a second run writing the same file. Hold the claim
+/// until the file is written.
+pub fn claim_out_file(path: &Path, force: bool) -> Result<camsim::io::claim::FileClaim> {
+    let claim = camsim::io::claim::claim_file(path, force)?;
+    report_removed(claim.removed_stale());
+    Ok(claim)
+}
+
 /// Commit a staged output folder (swap it in for its target).
 pub fn commit(out: OutputDir) -> Result<()> {
     Ok(out.commit()?)
-}
-
-/// Create the output folder (and parents). Prefer [`stage_out_dir`]: a folder made with this
-/// one can be left half-written by a failed or interrupted run.
-pub fn out_dir(dir: &Path) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))?;
-    Ok(dir.to_path_buf())
 }
 
 /// clap value parser: a finite number > 0 (NaN, infinities and zero refused).
@@ -129,14 +141,6 @@ pub fn finite_f64(s: &str) -> std::result::Result<f64, String> {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(format!("'{s}' is not a finite number")),
     }
-}
-
-/// Create the folder a single output file goes into (the file itself is written atomically).
-pub fn parent_dir(file: &Path) -> Result<()> {
-    if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
-        out_dir(dir)?;
-    }
-    Ok(())
 }
 
 /// Read a spectral EXR (`camsim::pipeline::inputs::read_spectral_exr`), printing its warning on

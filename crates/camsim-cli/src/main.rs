@@ -4,7 +4,8 @@
 //! Exit codes: 0 success, 2 bad input (every library error: unreadable or malformed file,
 //! unknown key, impossible value, too big for memory), 1 an internal bug (a panic), 130
 //! interrupted (SIGINT, SIGTERM or SIGHUP: temporary files and staging folders are removed, and
-//! every output folder keeps its previous complete run).
+//! every output folder keeps its previous complete run), 141 the reader of stdout went away
+//! (`camsim presets | head -1`; quietly, as Unix tools end on SIGPIPE).
 
 mod cmd;
 mod common;
@@ -25,19 +26,26 @@ Examples:
   camsim dataset --out out/dataset                48 captures as WebDataset shards + manifest
   camsim compare --out out/compare                two cameras side by side: MTF, SNR, CIEDE2000
 
-Output folders (--out) always hold one complete run: a command writes into a fresh sibling
-folder DIR.tmp-<pid> and swaps it in for DIR when everything is written, replacing the earlier
-run in DIR as a whole (it says so on stderr unless --quiet). A failed or interrupted run leaves DIR as it was.
-camsim only replaces regular files and folders it wrote itself: a FIFO, device, symbolic link or
-a folder with other content is refused (exit 2).
+Output folders (--out DIR) always hold one complete run: a command writes into a fresh sibling
+folder DIR.camsim-tmp-<pid> and swaps it in for DIR when everything is written, with a marker
+DIR/.camsim-output listing every file of the run. An existing DIR is replaced only when it is
+empty or everything in it is listed in its marker (said on stderr unless --quiet); any other folder is refused
+naming its first foreign file, and so is a FIFO, device or symbolic link (exit 2). A single
+output file (--out X.exr, preview.png, shading.toml) replaces only a file camsim wrote (its
+signature: the EXR `software` attribute, the PNG `Software` text, a first line `# camsim`)
+unless --force. One run at a time writes an output: a second run into it fails at once. A failed
+or interrupted run leaves the output as it was; a killed run's temporaries are removed by the
+next run into the same output (it says so).
 
 Exit codes: 0 ok, 2 bad input (the message names the file, key or value), 1 internal error,
-130 interrupted (Ctrl-C or SIGTERM; temporaries are removed).";
+130 interrupted (Ctrl-C or SIGTERM; temporaries are removed), 141 stdout closed early
+(`camsim presets | head -1`, quietly).";
 
 #[derive(Parser)]
 #[command(name = "camsim", version, about = "Simulate a digital camera end to end: spectral scene -> optics -> sensor -> raw DNG", long_about = None, after_help = AFTER_HELP)]
 struct Cli {
-    /// Worker threads (default: all cores). Output does not depend on this.
+    /// Worker threads (default: all cores; at most 4 per core, more are capped with a warning).
+    /// Output does not depend on this.
     #[arg(long, global = true)]
     threads: Option<usize>,
     /// Hide progress bars and informational notes (run summaries, renderer notes about
@@ -73,6 +81,21 @@ enum Commands {
     Compare(cmd::compare::Args),
 }
 
+/// Set when a write to stdout or stderr failed because the reader went away (`camsim presets |
+/// head -1`): the run then ends quietly with 141, as Unix tools killed by SIGPIPE do.
+static BROKEN_PIPE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a panic is std's "failed printing to stdout/stderr" on a closed pipe.
+fn is_broken_pipe(info: &std::panic::PanicHookInfo<'_>) -> bool {
+    let p = info.payload();
+    let text = p
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| p.downcast_ref::<&str>().copied())
+        .unwrap_or("");
+    text.starts_with("failed printing to std") && text.contains("Broken pipe")
+}
+
 fn main() {
     let cli = Cli::parse();
     if let Some(n) = cli.threads {
@@ -80,10 +103,22 @@ fn main() {
             eprintln!("camsim: --threads must be at least 1");
             std::process::exit(2);
         }
-        // Ignore the error if a pool exists already (cannot happen in main).
-        let _ = rayon::ThreadPoolBuilder::new()
+        // More threads than 4 per core only cost memory and start-up time (output does not
+        // depend on the count): cap, and say so.
+        let limit = camsim_core::mem::thread_limit();
+        let n = if n > limit {
+            eprintln!("camsim: warning: --threads {n} is more than 4 x the {} cores; using {limit} threads", limit / 4);
+            limit
+        } else {
+            n
+        };
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
-            .build_global();
+            .build_global()
+        {
+            eprintln!("camsim: cannot start {n} worker threads ({e}); give a smaller --threads");
+            std::process::exit(2);
+        }
     }
     common::set_quiet(cli.quiet);
     // Ctrl-C, SIGTERM, SIGHUP: remove every registered temporary file and staging folder (the
@@ -93,6 +128,10 @@ fn main() {
     }
     // A panic is a bug in camsim: report it as such (exit 1), never as bad input.
     std::panic::set_hook(Box::new(|info| {
+        if is_broken_pipe(info) {
+            BROKEN_PIPE.store(true, std::sync::atomic::Ordering::SeqCst);
+            return;
+        }
         eprintln!("camsim: internal error (please report): {info}");
     }));
     let result = std::panic::catch_unwind(|| match cli.command {
@@ -124,6 +163,9 @@ fn main() {
             eprintln!("camsim: {}", error_message(&e));
             std::process::exit(2);
         }
+        // The reader of our output went away: unwinding removed the temporaries; end as `yes |
+        // head -1` does.
+        Err(_) if BROKEN_PIPE.load(std::sync::atomic::Ordering::SeqCst) => std::process::exit(141),
         Err(_) => std::process::exit(1),
     }
 }

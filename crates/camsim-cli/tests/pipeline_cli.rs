@@ -41,7 +41,10 @@ fn temporaries(dir: &Path) -> Vec<PathBuf> {
     while let Some(d) = stack.pop() {
         for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
             let n = e.file_name().to_string_lossy().into_owned();
-            if n.contains(".tmp") || n.contains(".old-") {
+            if n.contains(".camsim-tmp-")
+                || n.contains(".camsim-old-")
+                || n.ends_with(".camsim-lock")
+            {
                 out.push(e.path());
             }
             if e.file_type().map(|t| t.is_dir()).unwrap_or(false) {
@@ -203,7 +206,7 @@ fn sigint_removes_every_temporary_and_keeps_the_earlier_run() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let staging = dir.path().join(format!("run.tmp-{}", child.id()));
+    let staging = dir.path().join(format!("run.camsim-tmp-{}", child.id()));
     let t0 = Instant::now();
     while !staging.exists() {
         assert!(

@@ -14,12 +14,13 @@ pub enum CoreError {
         line: usize,
         message: String,
     },
-    #[error("{what} needs {needed_mib} MiB but only {available_mib} MiB of memory is available; reduce the image size or the number of bands")]
-    OutOfMemory {
-        what: String,
-        needed_mib: u64,
-        available_mib: u64,
-    },
+    /// Work refused before it was allocated ([`crate::mem::MemoryBudget`]): the stage, the
+    /// estimate, its largest parts, the limit and what to do.
+    #[error("{0}")]
+    OutOfMemory(String),
+    /// Output refused before it was written ([`crate::mem::check_disk`]).
+    #[error("{0}")]
+    OutOfDisk(String),
     /// A name that is not in its family's table ([`crate::names::NameTable`]).
     #[error("unknown {family} '{name}'; known: {known}")]
     UnknownName {

@@ -200,20 +200,33 @@ impl SpectralImage {
         total * self.grid.step_nm / self.pixels() as f64
     }
 
-    /// Reject NaN, infinite or negative values (file input), naming `what`.
+    /// Reject NaN, infinite, negative or absurdly large values (file input: above
+    /// [`MAX_SPECTRAL_VALUE`] in the image's unit), naming `what`, the pixel and the wavelength.
     pub fn validate_values(&self, what: &str) -> Result<()> {
         let n = self.pixels();
-        if let Some(i) = self.data.iter().position(|v| !v.is_finite() || *v < 0.0) {
-            let b = i / n;
+        let at = |i: usize| {
             let p = i % n;
+            format!(
+                "value {:e} at row {}, column {}, {} nm",
+                self.data[i],
+                p / self.cols,
+                p % self.cols,
+                self.grid.wavelength_nm(i / n)
+            )
+        };
+        if let Some(i) = self.data.iter().position(|v| !v.is_finite() || *v < 0.0) {
+            return Err(CoreError::invalid(
+                what,
+                format!("{} is not a finite non-negative number", at(i)),
+            ));
+        }
+        if let Some(i) = self.data.iter().position(|v| *v > MAX_SPECTRAL_VALUE) {
             return Err(CoreError::invalid(
                 what,
                 format!(
-                    "value {} at row {}, column {}, {} nm is not a finite non-negative number",
-                    self.data[i],
-                    p / self.cols,
-                    p % self.cols,
-                    self.grid.wavelength_nm(b)
+                    "{} is above {MAX_SPECTRAL_VALUE:e} {}: the values must lie in [0, {MAX_SPECTRAL_VALUE:e}] (is the file in these units?)",
+                    at(i),
+                    self.quantity.unit()
                 ),
             ));
         }
@@ -221,9 +234,31 @@ impl SpectralImage {
     }
 }
 
+/// The largest spectral value camsim accepts from a file: 1e20 in the image's unit
+/// (W/(sr m^2 nm) for radiance). The Sun's surface is about 2e7 W/(sr m^2 nm) at its peak
+/// (Planck's law at 5772 K), so anything near this is a unit mistake or a damaged file (an EXR
+/// pixel of 3e38 is the f32 range, not a scene).
+pub const MAX_SPECTRAL_VALUE: f32 = 1e20;
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 25 item 7: EXR pixels of 3e38 were accepted.
+    #[test]
+    fn absurd_values_are_refused_with_the_pixel_and_the_range() {
+        let g = WavelengthGrid::new(400.0, 420.0, 10.0).unwrap();
+        let mut img = SpectralImage::zeros(2, 3, g, 1e-6, Quantity::Radiance).unwrap();
+        img.data.iter_mut().for_each(|v| *v = 1e19);
+        assert!(img.validate_values("r.exr").is_ok());
+        img.data[6 + 4] = 3e38;
+        let e = img.validate_values("r.exr").unwrap_err().to_string();
+        assert!(
+            e.starts_with("r.exr: value 3e38 at row 1, column 1, 410 nm is above 1e20")
+                && e.contains("[0, 1e20]"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn band_sequential_layout() {

@@ -11,11 +11,20 @@
 //!   a matching checksum marks the shard complete;
 //! - `manifest.jsonl`: one JSON line per sample (pandas: `pd.read_json(path, lines=True)`),
 //!   gathered when every shard is complete.
+//!
+//! Ownership and concurrency: a dataset folder is one that holds camsim's `spec.json`; any other
+//! non-empty folder is refused (naming its first entry), and nothing but the names above (and
+//! their temporaries) is ever written or removed in it. Several processes may run into one folder
+//! at once (`--shard i/n`): each shard is written under its own lock (`.shard-A-B.camsim-lock`),
+//! a shard another process is writing is skipped, and the temporaries a killed run left for a
+//! shard (`shard-A-B.camsim-tmp-PID/`, `.shard-A-B.tar.camsim-tmp-PID-N`) are removed when the
+//! shard is next taken.
 
 use crate::spec::{DatasetSpec, Sample};
 use crate::{DatasetError, Result};
-use camsim_io::atomic::{write_atomic, write_json_atomic, OutputDir};
+use camsim_io::atomic::{write_atomic, write_json_atomic, OutputDir, ScratchDir};
 use camsim_io::exr::ExrOptions;
+use camsim_io::lock::{remove_stale_temporaries, OutputLock};
 use camsim_pipeline::{simulate, RunInfo, SimulateOptions};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -118,6 +127,12 @@ pub struct RunSummary {
     pub seconds: f64,
     /// Whether every shard of the dataset is now complete (and manifest.jsonl written).
     pub complete: bool,
+    /// Shards another process was writing (locked), left to it.
+    #[serde(default)]
+    pub shards_busy: u64,
+    /// Temporaries of killed runs this run removed.
+    #[serde(default)]
+    pub removed_temporaries: Vec<PathBuf>,
 }
 
 /// File stem of shard `s`.
@@ -127,14 +142,39 @@ pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
 }
 
 /// Prepare `out` for `spec`: create it and write `spec.json`, or check that the `spec.json`
-/// already there is the same spec (a folder holds one dataset).
+/// already there is the same spec (a folder holds one dataset). A path that is not a folder, or
+/// a non-empty folder without camsim's `spec.json`, is refused naming what is there.
 pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out).map_err(|e| DatasetError::io(out, e))?;
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| camsim_io::lock::cannot_write_beside(out, e))?;
+    }
+    // Runs sharing the folder (--shard i/n) take this step in turn.
+    let _lock = OutputLock::acquire_waiting(out)?;
     let path = out.join("spec.json");
+    match std::fs::symlink_metadata(out) {
+        Ok(m) if !m.is_dir() => {
+            return Err(DatasetError::file(
+                out,
+                "exists and is not a folder; a dataset is written into a folder: choose a new or empty folder for --out",
+            ))
+        }
+        Ok(_) if !path.is_file() => {
+            if let Some(first) = first_entry(out)? {
+                return Err(DatasetError::file(
+                    out,
+                    format!("is a folder camsim did not write (it holds {first} and no spec.json); choose a new or empty folder for the dataset"),
+                ));
+            }
+        }
+        _ => {}
+    }
+    std::fs::create_dir_all(out).map_err(|e| DatasetError::io(out, e))?;
     if path.is_file() {
         let text = std::fs::read_to_string(&path).map_err(|e| DatasetError::io(&path, e))?;
-        let v: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| DatasetError::file(&path, e.to_string()))?;
+        let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+            DatasetError::file(&path, format!("is not camsim's dataset spec record ({e}); this folder holds something else: choose a new or empty folder"))
+        })?;
         if v["fingerprint"].as_str() != Some(spec.fingerprint.as_str()) {
             return Err(DatasetError::file(
                 &path,
@@ -157,6 +197,15 @@ pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
     });
     write_json_atomic(&path, &json)?;
     Ok(())
+}
+
+/// The first entry of folder `dir` by name, if any.
+fn first_entry(dir: &Path) -> Result<Option<String>> {
+    let entries = std::fs::read_dir(dir).map_err(|e| DatasetError::io(dir, e))?;
+    Ok(entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .min())
 }
 
 /// Whether shard `s` is complete in `out`: its record names this spec, and its tar has the
@@ -252,6 +301,7 @@ fn run_sample(
         let opts = SimulateOptions {
             noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
             labels: spec.outputs.label_request(),
+            flow: spec.outputs.contains(camsim_pipeline::Output::Flow),
         };
         let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
         record.exposure_s = Some(sim.exposure_s);
@@ -385,7 +435,8 @@ fn npy_u16(data: &[u16], rows: usize, cols: usize) -> Vec<u8> {
 }
 
 /// Run shard `s` of `spec` into `out` (samples in parallel on the current rayon pool), writing
-/// its tar and record atomically. `on_sample` is called as each sample finishes.
+/// its tar and record atomically. `on_sample` is called as each sample finishes. Fails at once
+/// when another process is writing the shard.
 pub fn run_shard(
     spec: &DatasetSpec,
     out: &Path,
@@ -402,11 +453,52 @@ pub fn run_shard(
         ));
     }
     prepare(spec, out)?;
+    let stem = shard_stem(spec, s);
+    let lock = try_lock_shard(spec, out, s)?.ok_or_else(|| {
+        DatasetError::file(
+            &out.join(format!("{stem}.tar")),
+            "is being written by another camsim run; wait for it to finish",
+        )
+    })?;
+    run_locked_shard(spec, out, s, &lock, on_sample)
+}
+
+/// A shard's lock, with the temporaries killed runs left for it removed.
+struct ShardLock {
+    _lock: OutputLock,
+    removed: Vec<PathBuf>,
+}
+
+/// Lock shard `s`: `None` when another process is writing it.
+fn try_lock_shard(spec: &DatasetSpec, out: &Path, s: u64) -> Result<Option<ShardLock>> {
+    let stem = shard_stem(spec, s);
+    let Some(lock) = OutputLock::try_acquire(&out.join(&stem))? else {
+        return Ok(None);
+    };
+    let mut removed = Vec::new();
+    for name in [stem.clone(), format!("{stem}.tar"), format!("{stem}.json")] {
+        removed.extend(remove_stale_temporaries(&out.join(name)));
+    }
+    Ok(Some(ShardLock {
+        _lock: lock,
+        removed,
+    }))
+}
+
+fn run_locked_shard(
+    spec: &DatasetSpec,
+    out: &Path,
+    s: u64,
+    _lock: &ShardLock,
+    on_sample: &(dyn Fn(&SampleRecord) + Sync),
+) -> Result<ShardRecord> {
     let t0 = Instant::now();
     let stem = shard_stem(spec, s);
     let tar_name = format!("{stem}.tar");
-    let scratch = out.join(format!(".{stem}.scratch-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch).map_err(|e| DatasetError::io(&scratch, e))?;
+    // Each sample's files are staged here (removed on drop, on SIGINT/SIGTERM, and after a
+    // SIGKILL by the next run that takes this shard).
+    let scratch_dir = ScratchDir::create(&out.join(&stem))?;
+    let scratch = scratch_dir.path().to_path_buf();
     let range = spec.shard_range(s);
     let samples: Vec<SampleFiles> = range
         .clone()
@@ -434,7 +526,7 @@ pub fn run_shard(
             sf
         })
         .collect();
-    let _ = std::fs::remove_dir_all(&scratch);
+    drop(scratch_dir);
 
     // The tar: entries in index order, fixed metadata (mode 0644, mtime 0, uid/gid 0), so its
     // bytes depend on the samples alone.
@@ -494,6 +586,13 @@ pub fn run(
     progress: &RunProgress<'_>,
 ) -> Result<RunSummary> {
     let t0 = Instant::now();
+    let limit = camsim_core::mem::thread_limit();
+    if let Some(w) = workers.filter(|w| *w > limit) {
+        return Err(DatasetError::spec(
+            &spec.source,
+            format!("--workers {w}: at most 4 per core, 1..={limit} on this machine (the output does not depend on the count)"),
+        ));
+    }
     prepare(spec, out)?;
     let owned: Vec<u64> = (0..spec.shards()).filter(|s| select.owns(*s)).collect();
     let todo: Vec<u64> = owned
@@ -518,10 +617,19 @@ pub fn run(
             format!("cannot start {workers:?} workers: {e}"),
         )
     })?;
+    let (mut written, mut busy, mut removed) = (0u64, 0u64, Vec::new());
     for s in &todo {
-        remove_stale_temporaries(out, &shard_stem(spec, *s));
+        // Another process writing this shard keeps it; one that completed it meanwhile is kept.
+        let Some(lock) = try_lock_shard(spec, out, *s)? else {
+            busy += 1;
+            continue;
+        };
+        removed.extend(lock.removed.iter().cloned());
+        if shard_complete(spec, out, *s, false).is_some() {
+            continue;
+        }
         pool.install(|| {
-            run_shard(spec, out, *s, &|r| {
+            run_locked_shard(spec, out, *s, &lock, &|r| {
                 if r.status != "ok" {
                     failed.fetch_add(1, Ordering::Relaxed);
                 }
@@ -529,34 +637,20 @@ pub fn run(
                 progress(d, total, failed.load(Ordering::Relaxed));
             })
         })?;
+        written += 1;
     }
     let complete = gather(spec, out, false)?.is_some();
     Ok(RunSummary {
         shards_total: spec.shards(),
-        shards_written: todo.len() as u64,
-        shards_skipped: (owned.len() - todo.len()) as u64,
-        samples_run: total,
+        shards_written: written,
+        shards_skipped: owned.len() as u64 - written - busy,
+        samples_run: done.load(Ordering::Relaxed),
         samples_failed: failed.load(Ordering::Relaxed),
         seconds: t0.elapsed().as_secs_f64(),
         complete,
+        shards_busy: busy,
+        removed_temporaries: removed,
     })
-}
-
-/// Leftovers of a killed run of this shard: its tar's temporary files and scratch folders.
-fn remove_stale_temporaries(out: &Path, stem: &str) {
-    let Ok(entries) = std::fs::read_dir(out) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let n = e.file_name().to_string_lossy().into_owned();
-        if n.starts_with(&format!(".{stem}.tar.tmp-"))
-            || n.starts_with(&format!(".{stem}.json.tmp-"))
-        {
-            let _ = std::fs::remove_file(e.path());
-        } else if n.starts_with(&format!(".{stem}.scratch-")) {
-            let _ = std::fs::remove_dir_all(e.path());
-        }
-    }
 }
 
 /// If every shard is complete, write `manifest.jsonl` (one line per sample, index order) and

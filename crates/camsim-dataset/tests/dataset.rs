@@ -196,7 +196,9 @@ fn same_bytes_for_any_worker_count_and_shard_split_and_resume_redoes_only_damage
     let mid = a.path().join("shard-00000003-00000005.tar");
     let good = std::fs::read(&mid).unwrap();
     std::fs::write(&mid, &good[..good.len() / 2]).unwrap();
-    let stale = a.path().join(".shard-00000003-00000005.tar.tmp-999999-0");
+    let stale = a
+        .path()
+        .join(".shard-00000003-00000005.tar.camsim-tmp-999999-0");
     std::fs::write(&stale, b"partial").unwrap();
     assert!(shard_complete(&s, a.path(), 1, true).is_none());
     let r = run(

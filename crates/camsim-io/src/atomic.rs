@@ -4,12 +4,17 @@
 //!   when complete, remove it on error. A reader never sees a partial file, and a failed run
 //!   leaves nothing behind (the project rule "no partial output files"). Only regular files are
 //!   ever replaced: a path that exists as a folder, device, FIFO or symbolic link is refused
-//!   (renaming over `/dev/full` would replace the device node).
+//!   (renaming over `/dev/full` would replace the device node). A user's `--out FILE` is claimed
+//!   first with [`crate::claim::claim_file`] (ownership and lock).
 //! - Folders: [`OutputDir`] stages a whole run's outputs in a fresh sibling folder
-//!   `DIR.tmp-<pid>` and swaps it in at [`OutputDir::commit`], so `DIR` always holds one complete,
-//!   consistent run (the old one until the new one is complete).
-//! - Signals: every temporary (file or staging folder) is registered while it exists;
-//!   [`remove_temporaries_and_exit`] removes them all, for a SIGINT/SIGTERM handler.
+//!   `DIR.camsim-tmp-<pid>` and swaps it in at [`OutputDir::commit`], so `DIR` always holds one
+//!   complete, consistent run (the old one until the new one is complete). It replaces only a
+//!   folder whose every entry its marker [`OUTPUT_MARKER`] lists, and holds a lock
+//!   ([`crate::lock::OutputLock`]) on `DIR` meanwhile.
+//! - Signals: every temporary (file, staging folder, lock file) is registered while it exists;
+//!   [`remove_temporaries_and_exit`] removes them all, for a SIGINT/SIGTERM handler. A SIGKILL
+//!   leaves them, named so the next run into the same output finds and removes them
+//!   ([`crate::lock::remove_stale_temporaries`]).
 //!
 //! # Using [`OutputDir`] in a command
 //!
@@ -22,7 +27,7 @@
 //! }
 //! camsim_io::atomic::write_bytes_atomic(&out.join("series.csv"), b"a,b\n")?; // write into the staging folder
 //! // ... every other file, the run record (run.json) last ...
-//! out.commit()?;                                   // swap the staging folder in; old run removed
+//! out.commit()?;                                   // marker written, staging folder swapped in, old run removed
 //! # Ok(()) }
 //! ```
 //!
@@ -30,69 +35,16 @@
 //! and leaves `DIR` as it was.
 
 use crate::error::{IoError, Result};
+use crate::lock::{self, OutputLock, OLD_TAG, TMP_TAG};
+pub use crate::registry::{interrupted, registered_temporaries, remove_temporaries_and_exit};
+use crate::registry::{live, register, unregister};
 use serde::Serialize;
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 static COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Temporaries that exist right now (temporary files and staging folders), for the signal handler.
-static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-fn live() -> MutexGuard<'static, Vec<PathBuf>> {
-    // A panic while holding the lock cannot leave the list inconsistent (push/retain only).
-    LIVE.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-/// Register a temporary before it is created. Once [`remove_temporaries_and_exit`] has started,
-/// this blocks until the process exits, so no new temporary can appear behind the handler's back.
-fn register(p: &Path) {
-    live().push(p.to_path_buf());
-}
-
-fn unregister(p: &Path) {
-    let mut l = live();
-    if let Some(i) = l.iter().rposition(|q| q == p) {
-        l.remove(i);
-    }
-}
-
-/// The temporaries registered right now (files and staging folders).
-pub fn registered_temporaries() -> Vec<PathBuf> {
-    live().clone()
-}
-
-/// True once [`remove_temporaries_and_exit`] has been called (the process is about to exit; an
-/// error seen by the main thread meanwhile is a consequence of the interruption).
-pub fn interrupted() -> bool {
-    INTERRUPTED.load(Ordering::SeqCst)
-}
-
-/// Remove every registered temporary file and staging folder, then exit the process with `code`
-/// (130 for an interrupt, by shell convention 128 + SIGINT). For a SIGINT/SIGTERM handler thread
-/// (e.g. the `ctrlc` crate's). The list stays locked until the exit, so the main thread can
-/// neither create a new temporary nor commit an [`OutputDir`] half-way meanwhile; a commit
-/// already in progress finishes first.
-pub fn remove_temporaries_and_exit(code: i32) -> ! {
-    INTERRUPTED.store(true, Ordering::SeqCst);
-    let list = live();
-    for p in list.iter().rev() {
-        match fs::symlink_metadata(p) {
-            Ok(m) if m.is_dir() => {
-                let _ = fs::remove_dir_all(p);
-            }
-            Ok(_) => {
-                let _ = fs::remove_file(p);
-            }
-            Err(_) => {}
-        }
-    }
-    std::process::exit(code)
-}
 
 /// Refuse to replace anything but a regular file: `path` must not exist, or be a regular file
 /// (not a folder, device, FIFO, socket or symbolic link).
@@ -134,8 +86,9 @@ fn describe(m: &fs::Metadata) -> &'static str {
     "not a regular file"
 }
 
-/// The temporary name used for `path`: `.<name>.tmp-<pid>-<n>` in the same folder, so the final
-/// rename stays on one file system (and is atomic there).
+/// The temporary name used for `path`: `.<name>.camsim-tmp-<pid>-<n>` in the same folder, so the
+/// final rename stays on one file system (and is atomic there), and a later run can tell a
+/// killed run's leftover by its process id ([`crate::lock::remove_stale_temporaries`]).
 pub fn temp_path_for(path: &Path) -> Result<PathBuf> {
     let name = path
         .file_name()
@@ -143,7 +96,7 @@ pub fn temp_path_for(path: &Path) -> Result<PathBuf> {
         .to_string_lossy()
         .into_owned();
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp_name = format!(".{name}.tmp-{}-{n}", std::process::id());
+    let tmp_name = format!(".{name}{TMP_TAG}{}-{n}", std::process::id());
     Ok(match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir.join(tmp_name),
         _ => PathBuf::from(tmp_name),
@@ -207,72 +160,88 @@ pub fn write_json_atomic(path: &Path, value: &impl Serialize) -> Result<()> {
     write_bytes_atomic(path, text.as_bytes())
 }
 
-/// The marker file every committed [`OutputDir`] holds: a folder with it was written by camsim and
-/// may be replaced as a whole by the next run into it.
+/// The marker every committed [`OutputDir`] holds, written last: a JSON object whose `files` list
+/// every file and folder the run wrote (relative paths, `/` separators, folders with a trailing
+/// `/`). A later run replaces the folder only when everything in it is listed there.
 pub const OUTPUT_MARKER: &str = ".camsim-output";
 
-/// Extensions of the files camsim writes; a folder holding only such regular files (an output
-/// folder of a camsim older than [`OUTPUT_MARKER`]) may be replaced as well.
-const OUTPUT_EXTENSIONS: &[&str] = &[
-    "exr", "dng", "png", "json", "csv", "html", "svg", "txt", "tif", "tiff",
-];
+/// What [`OUTPUT_MARKER`] holds.
+#[derive(Debug, Serialize, serde::Deserialize)]
+struct Marker {
+    written_by: String,
+    note: String,
+    files: Vec<String>,
+}
 
-/// A run's output folder, staged: files are written into a fresh sibling folder `DIR.tmp-<pid>`
-/// ([`OutputDir::path`], [`OutputDir::join`]) and [`OutputDir::commit`] swaps it in for `DIR`.
-/// `DIR` therefore always holds one complete run: the previous one until the commit, the new one
-/// after it. Dropped without a commit (an error, a panic), the staging folder is removed and `DIR`
-/// is untouched. The staging folder is registered for [`remove_temporaries_and_exit`], so a
-/// SIGINT/SIGTERM handler removes it too.
+/// Every entry under `dir` (not following symbolic links), relative, sorted, folders with a
+/// trailing `/`.
+fn walk(dir: &Path) -> Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut stack = vec![(dir.to_path_buf(), String::new())];
+    while let Some((abs, rel)) = stack.pop() {
+        for e in fs::read_dir(&abs).map_err(|e| IoError::io(&abs, e))? {
+            let e = e.map_err(|e| IoError::io(&abs, e))?;
+            let name = format!("{rel}{}", e.file_name().to_string_lossy());
+            if e.file_type().map(|t| t.is_dir()).unwrap_or(false) {
+                out.push(format!("{name}/"));
+                stack.push((e.path(), format!("{name}/")));
+            } else {
+                out.push(name);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// A run's output folder, staged: files are written into a fresh sibling folder
+/// `DIR.camsim-tmp-<pid>` ([`OutputDir::path`], [`OutputDir::join`]) and [`OutputDir::commit`]
+/// swaps it in for `DIR`. `DIR` therefore always holds one complete run: the previous one until
+/// the commit, the new one after it. Dropped without a commit (an error, a panic), the staging
+/// folder is removed and `DIR` is untouched. The staging folder is registered for
+/// [`remove_temporaries_and_exit`], so a SIGINT/SIGTERM handler removes it too.
 ///
-/// Replacing: `DIR` may be absent, an empty folder, a folder an earlier camsim run wrote (it holds
-/// [`OUTPUT_MARKER`], or only regular files with the extensions camsim writes). Anything else (a
-/// regular file, a device, a FIFO, a symbolic link, a folder with other content such as a source
-/// tree) is refused by [`OutputDir::create`] before any work is done.
+/// Ownership: `DIR` may be absent, an empty folder, or a folder an earlier camsim run wrote whose
+/// every entry is listed in its [`OUTPUT_MARKER`]. Anything else (a regular file, a device, a
+/// FIFO, a symbolic link, a folder without the marker, a marked folder holding a file the marker
+/// does not list) is refused by [`OutputDir::create`], naming the first such entry, before any
+/// work is done, and checked again at the commit.
+///
+/// Concurrency: an [`OutputLock`] on `DIR` is held from [`OutputDir::create`] until the
+/// `OutputDir` is dropped, so a second run into the same `DIR` fails at once. With the lock held,
+/// the temporaries of killed runs into `DIR` are removed ([`OutputDir::removed_stale`]).
 #[derive(Debug)]
 pub struct OutputDir {
     target: PathBuf,
     staging: PathBuf,
     replaces: Option<Vec<String>>,
+    removed_stale: Vec<PathBuf>,
     committed: bool,
+    _lock: OutputLock,
 }
 
 impl OutputDir {
-    /// Check `target`, create its parent folders and a fresh, empty staging folder beside it.
+    /// Check `target`, create its parent folders, lock it, remove stale temporaries of killed
+    /// runs into it, and create a fresh, empty staging folder beside it.
     pub fn create(target: impl AsRef<Path>) -> Result<OutputDir> {
         let target = target.as_ref().to_path_buf();
-        let name = match target.file_name() {
-            Some(n) => n.to_string_lossy().into_owned(),
-            None => {
-                return Err(IoError::invalid(
-                    &target,
-                    "names no folder (it ends in '..' or is a root): give an output folder such as out/run",
-                ))
-            }
-        };
+        let name = lock::file_name(&target)?;
+        let parent = lock::parent_dir(&target);
+        fs::create_dir_all(&parent).map_err(|e| lock::cannot_write_beside(&target, e))?;
+        let lock = OutputLock::acquire(&target)?;
         let replaces = Self::check_target(&target)?;
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        fs::create_dir_all(&parent).map_err(|e| IoError::io(&parent, e))?;
-        let staging = parent.join(format!("{name}.tmp-{}", std::process::id()));
+        let removed_stale = lock::remove_stale_temporaries(&target);
+        let staging = parent.join(format!("{name}{TMP_TAG}{}", std::process::id()));
         register(&staging);
         let dir = OutputDir {
             target,
             staging,
             replaces,
+            removed_stale,
             committed: false,
+            _lock: lock,
         };
-        // A leftover of an earlier process with the same id (a crash) is ours to remove.
-        if fs::symlink_metadata(&dir.staging).is_ok() {
-            let _ = fs::remove_dir_all(&dir.staging);
-        }
-        fs::create_dir(&dir.staging).map_err(|e| IoError::io(&dir.staging, e))?;
-        fs::write(
-            dir.staging.join(OUTPUT_MARKER),
-            "This folder was written by camsim; the next run into it replaces it as a whole.\n",
-        )
-        .map_err(|e| IoError::io(&dir.staging, e))?;
+        fs::create_dir(&dir.staging).map_err(|e| lock::cannot_write_beside(&dir.target, e))?;
         Ok(dir)
     }
 
@@ -288,42 +257,52 @@ impl OutputDir {
             return Err(IoError::invalid(
                 target,
                 format!(
-                    "exists and is {}, not an output folder; choose another --out",
+                    "exists and is {}, not an output folder; choose another output folder",
                     describe(&meta)
                 ),
             ));
         }
-        let mut names = Vec::new();
-        let mut foreign = Vec::new();
-        let mut marked = false;
-        for e in fs::read_dir(target).map_err(|e| IoError::io(target, e))? {
-            let e = e.map_err(|e| IoError::io(target, e))?;
-            let n = e.file_name().to_string_lossy().into_owned();
-            if n == OUTPUT_MARKER {
-                marked = true;
-                continue;
-            }
-            let is_file = e.file_type().map(|t| t.is_file()).unwrap_or(false);
-            let ext = Path::new(&n)
-                .extension()
-                .map(|x| x.to_string_lossy().to_ascii_lowercase());
-            if !(is_file && ext.is_some_and(|x| OUTPUT_EXTENSIONS.contains(&x.as_str()))) {
-                foreign.push(n.clone());
-            }
-            names.push(if is_file { n } else { format!("{n}/") });
+        let entries = walk(target)?;
+        if entries.is_empty() {
+            return Ok(None);
         }
-        names.sort();
-        foreign.sort();
-        if !marked && !foreign.is_empty() {
+        let marker_path = target.join(OUTPUT_MARKER);
+        let listed: Vec<String> = match fs::read(&marker_path) {
+            Err(_) => {
+                return Err(IoError::invalid(
+                    target,
+                    format!(
+                        "is a folder camsim did not write (it holds {} and no {OUTPUT_MARKER} marker); camsim replaces its output folder as a whole, so choose a new or empty folder",
+                        entries[0].trim_end_matches('/')
+                    ),
+                ))
+            }
+            Ok(bytes) => match serde_json::from_slice::<Marker>(&bytes) {
+                Ok(m) => m.files,
+                Err(_) => {
+                    return Err(IoError::invalid(
+                        target,
+                        format!(
+                            "its {OUTPUT_MARKER} does not list the files camsim wrote (an older camsim, or edited); delete the folder yourself or choose another output folder"
+                        ),
+                    ))
+                }
+            },
+        };
+        let foreign = entries
+            .iter()
+            .find(|e| e.as_str() != OUTPUT_MARKER && !listed.contains(e));
+        if let Some(f) = foreign {
             return Err(IoError::invalid(
                 target,
                 format!(
-                    "is a folder camsim did not write (it holds {}); a run replaces its output folder as a whole, so choose a new or empty folder",
-                    foreign.join(", ")
+                    "holds {f}, which camsim did not write (its {OUTPUT_MARKER} does not list it); a run replaces the folder as a whole, so move {f} out of it or choose another output folder"
                 ),
             ));
         }
-        Ok(if names.is_empty() { None } else { Some(names) })
+        Ok(Some(
+            entries.into_iter().filter(|e| e != OUTPUT_MARKER).collect(),
+        ))
     }
 
     /// The staging folder: write every output here.
@@ -347,11 +326,26 @@ impl OutputDir {
         self.replaces.as_deref()
     }
 
-    /// Swap the staging folder in for the target: the old folder (if any) is renamed to
-    /// `DIR.old-<pid>`, the staging folder to `DIR`, and the old one removed. If the second rename
-    /// fails the old folder is put back. A signal handler calling
+    /// The temporaries of killed runs into this folder that [`OutputDir::create`] removed.
+    pub fn removed_stale(&self) -> &[PathBuf] {
+        &self.removed_stale
+    }
+
+    /// Write the marker (last), then swap the staging folder in for the target: the old folder
+    /// (if any) is renamed to `DIR.camsim-old-<pid>`, the staging folder to `DIR`, and the old one
+    /// removed. If the second rename fails the old folder is put back. A signal handler calling
     /// [`remove_temporaries_and_exit`] waits until the swap is done.
     pub fn commit(mut self) -> Result<()> {
+        let files: Vec<String> = walk(&self.staging)?
+            .into_iter()
+            .filter(|e| e != OUTPUT_MARKER)
+            .collect();
+        let marker = Marker {
+            written_by: crate::software::SOFTWARE.to_string(),
+            note: "camsim wrote this folder: the next camsim run into it replaces it, provided it holds nothing but the files listed here".into(),
+            files,
+        };
+        write_json_atomic(&self.staging.join(OUTPUT_MARKER), &marker)?;
         let guard = live();
         let r = self.swap();
         drop(guard);
@@ -371,7 +365,7 @@ impl OutputDir {
         }
         let mut old = self.staging.clone();
         old.set_file_name(format!(
-            "{}.old-{}",
+            "{}{OLD_TAG}{}",
             self.target
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
@@ -396,6 +390,42 @@ impl Drop for OutputDir {
             let _ = fs::remove_dir_all(&self.staging);
             unregister(&self.staging);
         }
+    }
+}
+
+/// A scratch folder (`NAME.camsim-tmp-<pid>` beside output `NAME`) for intermediate files:
+/// registered for [`remove_temporaries_and_exit`] and removed when dropped; after a SIGKILL,
+/// found and removed by [`crate::lock::remove_stale_temporaries`] of `NAME`.
+#[derive(Debug)]
+pub struct ScratchDir {
+    path: PathBuf,
+}
+
+impl ScratchDir {
+    /// Create the scratch folder of output path `target` (an earlier one of this process is
+    /// emptied).
+    pub fn create(target: &Path) -> Result<ScratchDir> {
+        let name = lock::file_name(target)?;
+        let path = lock::parent_dir(target).join(format!("{name}{TMP_TAG}{}", std::process::id()));
+        register(&path);
+        let dir = ScratchDir { path };
+        if fs::symlink_metadata(&dir.path).is_ok() {
+            let _ = fs::remove_dir_all(&dir.path);
+        }
+        fs::create_dir_all(&dir.path).map_err(|e| lock::cannot_write_beside(target, e))?;
+        Ok(dir)
+    }
+
+    /// The folder.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.path);
+        unregister(&self.path);
     }
 }
 
@@ -546,6 +576,7 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("not an output folder"));
+        assert_eq!(fs::read(&f).unwrap(), b"keep");
         // A folder with foreign content (a source tree, a README).
         let src = root.path().join("src");
         fs::create_dir(&src).unwrap();
@@ -554,15 +585,108 @@ mod tests {
         assert!(e.contains("main.rs") && e.contains("did not write"), "{e}");
         assert_eq!(fs::read(&f).unwrap(), b"keep");
         assert!(src.join("main.rs").is_file());
-        // An old output folder (only files camsim writes) is accepted and listed.
+        assert!(OutputDir::create(root.path().join("..")).is_err());
+    }
+
+    /// Issue 25 item 1: a folder of the user's own DNG (an extension camsim also writes) was
+    /// taken for an earlier run and deleted. Ownership is now the marker's file list alone.
+    #[test]
+    fn an_unmarked_folder_of_camsim_like_files_is_refused_and_kept() {
+        let root = tempfile::tempdir().unwrap();
+        for ext in ["dng", "png", "tif", "exr", "csv", "json", "txt"] {
+            let d = root.path().join(format!("photos-{ext}"));
+            fs::create_dir(&d).unwrap();
+            fs::write(d.join(format!("IMG_0001.{ext}")), b"precious").unwrap();
+            let e = OutputDir::create(&d).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("IMG_0001.{ext}")) && e.contains("did not write"),
+                "{e}"
+            );
+            assert_eq!(
+                fs::read(d.join(format!("IMG_0001.{ext}"))).unwrap(),
+                b"precious"
+            );
+        }
+        assert_eq!(
+            entries(root.path()).len(),
+            7,
+            "no staging folder or lock left"
+        );
+    }
+
+    #[test]
+    fn the_marker_lists_the_run_and_a_foreign_file_in_a_marked_folder_is_refused() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("run");
+        let d = OutputDir::create(&target).unwrap();
+        write_run(&d, "11");
+        fs::create_dir(d.join("plots")).unwrap();
+        write_bytes_atomic(&d.join("plots/mtf.png"), b"png").unwrap();
+        d.commit().unwrap();
+        let m: serde_json::Value =
+            serde_json::from_slice(&fs::read(target.join(OUTPUT_MARKER)).unwrap()).unwrap();
+        assert_eq!(
+            m["files"],
+            serde_json::json!(["plots/", "plots/mtf.png", "raw.dng", "run.json"])
+        );
+        // A file the user put into the output folder: refused, named, kept.
+        fs::write(target.join("plots/notes.txt"), b"mine").unwrap();
+        let e = OutputDir::create(&target).unwrap_err().to_string();
+        assert!(e.contains("plots/notes.txt"), "{e}");
+        assert_eq!(fs::read(target.join("plots/notes.txt")).unwrap(), b"mine");
+        // Without it, the folder is replaced.
+        fs::remove_file(target.join("plots/notes.txt")).unwrap();
+        let d = OutputDir::create(&target).unwrap();
+        write_run(&d, "13");
+        // ... unless a foreign file appears while the run computes: the commit refuses.
+        fs::write(target.join("late.txt"), b"mine").unwrap();
+        assert!(d.commit().unwrap_err().to_string().contains("late.txt"));
+        assert_eq!(fs::read(target.join("raw.dng")).unwrap(), b"11");
+        assert_eq!(fs::read(target.join("late.txt")).unwrap(), b"mine");
+        // A marker that lists nothing (an older camsim's) protects nothing either.
         let old = root.path().join("old");
         fs::create_dir(&old).unwrap();
+        fs::write(
+            old.join(OUTPUT_MARKER),
+            b"This folder was written by camsim\n",
+        )
+        .unwrap();
         fs::write(old.join("raw.png"), b"x").unwrap();
-        assert_eq!(
-            OutputDir::create(&old).unwrap().replaces().unwrap(),
-            ["raw.png"]
-        );
-        assert!(OutputDir::create(root.path().join("..")).is_err());
+        let e = OutputDir::create(&old).unwrap_err().to_string();
+        assert!(e.contains("does not list"), "{e}");
+    }
+
+    /// Issue 25 item 4: two runs into one folder both succeeded.
+    #[test]
+    fn a_second_run_into_a_folder_being_written_fails_at_once() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("run");
+        let first = OutputDir::create(&target).unwrap();
+        let e = OutputDir::create(&target).unwrap_err().to_string();
+        assert!(e.contains("being written by another camsim run"), "{e}");
+        write_run(&first, "11");
+        first.commit().unwrap();
+        let second = OutputDir::create(&target).unwrap();
+        drop(second);
+        assert_eq!(entries(root.path()), vec!["run".to_string()]);
+    }
+
+    /// Issue 25 item 3: a killed run's staging folder stayed forever.
+    #[test]
+    fn a_killed_runs_staging_folder_and_files_are_removed_by_the_next_run() {
+        let root = tempfile::tempdir().unwrap();
+        let target = root.path().join("run");
+        let mut c = std::process::Command::new("true").spawn().unwrap();
+        let dead = c.id();
+        c.wait().unwrap();
+        let stale = root.path().join(format!("run.camsim-tmp-{dead}"));
+        fs::create_dir(&stale).unwrap();
+        fs::write(stale.join("raw.dng"), vec![0u8; 1000]).unwrap();
+        let d = OutputDir::create(&target).unwrap();
+        assert_eq!(d.removed_stale(), std::slice::from_ref(&stale));
+        assert!(!stale.exists());
+        drop(d);
+        assert!(entries(root.path()).is_empty());
     }
 
     #[cfg(unix)]

@@ -236,9 +236,33 @@ fn text(path: &Path, s: &str) -> Result<Text> {
 }
 
 fn exr_err(path: &Path, e: exr::error::Error) -> IoError {
+    use std::io::ErrorKind;
     match e {
-        exr::error::Error::Io(io) => IoError::io(path, io),
-        other => IoError::format(path, format!("not a readable OpenEXR file: {other}")),
+        // The file could not be opened: the operating system's reason is the message.
+        exr::error::Error::Io(io)
+            if matches!(io.kind(), ErrorKind::NotFound | ErrorKind::PermissionDenied) =>
+        {
+            IoError::io(path, io)
+        }
+        // An I/O error while decoding an opened file is the file's fault: a seek to a damaged
+        // offset ("Invalid argument") or a read past its end ("unexpected end of file").
+        exr::error::Error::Io(io) => {
+            let why = if io.kind() == ErrorKind::UnexpectedEof {
+                "it ends before its data does"
+            } else {
+                "an offset or size in it points outside the file"
+            };
+            IoError::format(
+                path,
+                format!(
+                    "damaged or truncated OpenEXR file ({why}); export it again or use another file"
+                ),
+            )
+        }
+        other => IoError::format(
+            path,
+            format!("not a readable OpenEXR file: {other}; export it again or use another file"),
+        ),
     }
 }
 
@@ -417,6 +441,9 @@ fn write_planes_in_batches(
         })
         .collect();
     let custom: Vec<Vec<u8>> = attrs.other.keys().map(|k| k.as_slice().to_vec()).collect();
+    // camsim's signature (a later run may replace a file that carries it: crate::claim).
+    let mut attrs = attrs;
+    attrs.software_name = Some(Text::from(crate::software::SOFTWARE));
     let header = Header::new(Text::from("camsim"), (cols, rows), channels)
         .with_encoding(
             compression.compression(),
@@ -556,6 +583,19 @@ fn sort_custom_attributes(file: &Path, custom: &[Vec<u8>]) -> std::io::Result<()
 /// The file is written atomically, f32 and uncompressed ([`write_spectral_exr_with`] chooses).
 pub fn write_spectral_exr(path: &Path, img: &SpectralImage, stage: &str) -> Result<()> {
     write_spectral_exr_with(path, img, stage, ExrOptions::default())
+}
+
+/// Whether the OpenEXR file at `path` carries camsim's signature: a `software` header attribute
+/// that starts with `camsim` (only the header is read).
+pub fn written_by_camsim(path: &Path) -> bool {
+    exr::meta::MetaData::read_from_file(path, false).is_ok_and(|m| {
+        m.headers.iter().any(|h| {
+            h.own_attributes
+                .software_name
+                .as_ref()
+                .is_some_and(|t| t.to_string().starts_with("camsim"))
+        })
+    })
 }
 
 /// [`write_spectral_exr`] with a choice of sample precision and compression.

@@ -1,7 +1,11 @@
 //! camsim-io: the file formats of camsim.
 //!
 //! - [`atomic`]: every output file is written to a temporary name in its folder and renamed
-//!   when complete (no partial files).
+//!   when complete (no partial files); output folders are staged and swapped in whole, and
+//!   replaced only when their marker lists everything in them.
+//! - [`claim`]: a single output file is replaced only when camsim wrote it (its signature,
+//!   [`software`]) or the user forces it; [`lock`]: one run at a time per output, and the
+//!   temporaries of killed runs removed.
 //! - [`exr`]: spectral OpenEXR (Fichet et al. 2021 layout, as pbrt-v4 writes it) and
 //!   single-channel EXR.
 //! - [`dng`]: raw CFA DNG: write (uncompressed 16-bit) and read (camsim's and real cameras':
@@ -15,14 +19,18 @@
 //! - [`plot`]: line and scatter plots as PNG, with an embedded font (no system fonts needed).
 
 pub mod atomic;
+pub mod claim;
 pub mod dng;
 pub mod error;
 pub mod exr;
 pub mod ljpeg;
+pub mod lock;
 pub mod measurements;
 pub mod plot;
 pub mod raster;
+mod registry;
 pub mod rgb_image;
+pub mod software;
 pub mod spectra;
 pub mod tiff;
 

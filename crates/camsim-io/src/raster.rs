@@ -3,7 +3,6 @@
 
 use crate::atomic::write_atomic;
 use crate::error::{IoError, Result};
-use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{DynamicImage, ExtendedColorType, ImageEncoder};
 use std::path::Path;
 
@@ -22,22 +21,62 @@ fn check_size(path: &Path, rows: usize, cols: usize, len: usize, per_pixel: usiz
     Ok(())
 }
 
-/// PNG encoder with fast deflate: full-sensor images (12 Mpixel) encode several times faster than
-/// at the default level, for files ~10-20 % larger (PNGs here are for viewing; DNG and EXR carry
-/// the data).
-fn png_encoder<W: std::io::Write>(w: W) -> PngEncoder<W> {
-    PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Adaptive)
+/// Write a PNG of `rows x cols` pixels (`data`: PNG's own sample order, big-endian for 16 bits)
+/// atomically, with camsim's signature as its `Software` text chunk (PNG 1.2, 11.3.4.2). Fast
+/// deflate: full-sensor images (12 Mpixel) encode several times faster than at the default level,
+/// for files ~10-20 % larger (PNGs here are for viewing; DNG and EXR carry the data).
+fn write_png(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    data: &[u8],
+) -> Result<()> {
+    let failed =
+        |e: png::EncodingError| IoError::invalid(path, format!("PNG encoding failed: {e}"));
+    write_atomic(path, |w| {
+        let mut e = png::Encoder::new(w, cols as u32, rows as u32);
+        e.set_color(color);
+        e.set_depth(depth);
+        e.set_compression(png::Compression::Fast);
+        e.set_filter(png::Filter::Adaptive);
+        e.add_text_chunk("Software".into(), crate::software::SOFTWARE.into())
+            .map_err(failed)?;
+        let mut writer = e.write_header().map_err(failed)?;
+        writer.write_image_data(data).map_err(failed)?;
+        writer.finish().map_err(failed)
+    })
+}
+
+/// Whether the PNG at `path` carries camsim's signature: a `Software` text chunk that starts with
+/// `camsim` (only the chunks before the image data are read).
+pub fn png_written_by_camsim(path: &Path) -> bool {
+    let Ok(f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let Ok(reader) = png::Decoder::new(std::io::BufReader::new(f)).read_info() else {
+        return false;
+    };
+    reader
+        .info()
+        .uncompressed_latin1_text
+        .iter()
+        .any(|t| t.keyword == "Software" && t.text.starts_with("camsim"))
 }
 
 /// Write a 16-bit grayscale PNG (`rows * cols` values, row-major), e.g. a raw mosaic in DN.
 pub fn write_png16_gray(path: &Path, rows: usize, cols: usize, data: &[u16]) -> Result<()> {
     check_size(path, rows, cols, data.len(), 1)?;
-    let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_ne_bytes()).collect(); // the encoder wants native order
-    write_atomic(path, |w| {
-        png_encoder(w)
-            .write_image(&bytes, cols as u32, rows as u32, ExtendedColorType::L16)
-            .map_err(|e| IoError::invalid(path, format!("PNG encoding failed: {e}")))
-    })
+    let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_be_bytes()).collect(); // PNG is big-endian
+    write_png(
+        path,
+        rows,
+        cols,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &bytes,
+    )
 }
 
 /// The 16-bit value a `bits`-bit ADC value `dn` is written as in a scaled mosaic PNG:
@@ -72,11 +111,14 @@ pub fn write_png16_mosaic_scaled(
 /// Write an 8-bit sRGB PNG (`rows * cols * 3` values, row-major, RGB interleaved).
 pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Result<()> {
     check_size(path, rows, cols, rgb.len(), 3)?;
-    write_atomic(path, |w| {
-        png_encoder(w)
-            .write_image(rgb, cols as u32, rows as u32, ExtendedColorType::Rgb8)
-            .map_err(|e| IoError::invalid(path, format!("PNG encoding failed: {e}")))
-    })
+    write_png(
+        path,
+        rows,
+        cols,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        rgb,
+    )
 }
 
 /// An 8-bit RGB image (`rows * cols * 3` bytes, interleaved) as PNG bytes, in memory (to embed

@@ -114,7 +114,7 @@ fn gains_from_neutral(neutral: [f64; 3], what: &str) -> Result<[f64; 3]> {
 /// Gray-world gains of `img` (green = 1). Errors when a channel's mean is not positive.
 pub fn gray_world_gains(img: &RgbImage) -> Result<[f64; 3]> {
     let n = img.pixels().max(1) as f64;
-    let mean = |p: &[f32]| p.par_iter().map(|v| *v as f64).sum::<f64>() / n;
+    let mean = |p: &[f32]| camsim_core::math::fixed_order_sum(p) / n;
     gains_from_neutral([mean(&img.r), mean(&img.g), mean(&img.b)], "gray world")
 }
 

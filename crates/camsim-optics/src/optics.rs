@@ -644,6 +644,26 @@ impl Optics {
             Padding::None => (0, 0),
         };
         let (out_rows, out_cols) = (rows + 2 * pad_r, cols + 2 * pad_c);
+        // The stage's peak, before any of it is allocated: the irradiance cube, the shading map,
+        // and per worker one band in flight: on the FFT plane for the whole-image OTF (f64 plane
+        // and complex spectrum, 24 bytes a sample; only small images take that path) or padded by
+        // the kernel for the kernel blur (f32 in and out).
+        let side = crate::wavefront::fast_fft_len(2 * out_rows.max(out_cols));
+        let per_band = if side <= WHOLE_IMAGE_MAX_FINE {
+            side * side * 24
+        } else {
+            (out_rows + k) * (out_cols + k) * 8
+        };
+        camsim_core::mem::MemoryBudget::new(format!(
+            "the optics stage ({out_rows} x {out_cols} x {bands} bands)"
+        ))
+        .f32s("irradiance cube", out_rows * out_cols * bands)
+        .f32s("shading map", rows * cols)
+        .bytes(
+            "bands in flight",
+            (rayon::current_num_threads().min(bands) * per_band) as u64,
+        )
+        .check("use a smaller scene (rows, cols), fewer wavelengths or fewer threads")?;
         let mut out =
             SpectralImage::zeros(out_rows, out_cols, grid, spacing, Quantity::Irradiance)?;
         let shade = self.shading_map(rows, cols, spacing, v_s);

@@ -96,6 +96,31 @@ pub(crate) fn load_image(path: &Path, encoding: Encoding) -> Result<Rgb, String>
 
 /// OpenEXR through the `exr` crate: the first layer's R, G, B (linear).
 fn load_exr(path: &Path) -> Result<Rgb, String> {
+    // The header first, so a damaged file and a file without colour channels get messages of
+    // their own (the exr crate says "no layer matched" for both).
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+        format!("not a readable OpenEXR file ({e}); export it again or use another file")
+    })?;
+    let has_rgb = meta.headers.iter().any(|h| {
+        ["R", "G", "B"].iter().all(|c| {
+            h.channels
+                .list
+                .iter()
+                .any(|ch| ch.name.to_string().rsplit('.').next() == Some(*c))
+        })
+    });
+    if !has_rgb {
+        let names: Vec<String> = meta
+            .headers
+            .iter()
+            .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+            .take(8)
+            .collect();
+        return Err(format!(
+            "has no R, G and B channels (it has {}); an image map needs an RGB(A) OpenEXR",
+            names.join(", ")
+        ));
+    }
     let img = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |res, _| {
@@ -113,7 +138,9 @@ fn load_exr(path: &Path) -> Result<Rgb, String> {
             }
         },
     )
-    .map_err(|e| e.to_string())?;
+    .map_err(|e| {
+        format!("damaged or truncated OpenEXR file ({e}); export it again or use another file")
+    })?;
     let size = img.layer_data.size;
     let (w, h) = (size.width(), size.height());
     let px = img.layer_data.channel_data.pixels.1;

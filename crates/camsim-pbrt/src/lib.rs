@@ -39,7 +39,12 @@
 //!   `CoordSysTransform` (`"camera"` is defined by `Camera`), `ReverseOrientation`,
 //!   `AttributeBegin`/`AttributeEnd` (graphics state: CTM, material, area light, orientation,
 //!   name), `TransformBegin`/`TransformEnd` (deprecated in v4; CTM only), `ActiveTransform`
-//!   (only the start transform is used: no motion blur).
+//!   `StartTime`/`EndTime`/`All` and `TransformTimes` (options block): a shape, an object
+//!   instance, a light or the camera whose start and end transforms differ moves between them
+//!   (pbrt-v4's `AnimatedTransform`, [`camsim_scene3d::motion`]; the camera's `shutteropen` and
+//!   `shutterclose` set the window its rays sample: motion blur). Beyond pbrt-v4, emitters and
+//!   point, spot, distant, goniometric and projection lights move too (rigidly); an animated
+//!   infinite light keeps its start transform, as in pbrt-v4.
 //! - World: `WorldBegin`, `Shape` (`trianglemesh`: `P`, `indices`, `uv`, `N`; `bilinearmesh`:
 //!   `P`, `indices`, `uv`, `N` -- each patch becomes two triangles; `plymesh`: `filename`, ASCII and
 //!   binary PLY with triangles and quads; `sphere`: `radius`, centred at the CTM's origin, and
@@ -155,12 +160,12 @@
 //! `maxcomponentvalue`, `diagonal` (except for `realistic` and `raytransfer` cameras, whose film it sizes), `cropwindow`, `pixelbounds`, `nbuckets`, `lambdamin`,
 //! `lambdamax`, `coordinatesystem`, `writefp16`; `Camera` `lensradius` > 0 (camsim's camera is a
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
-//! `focus_distance_m`), `frameaspectratio`, `shutteropen`, `shutterclose`; `Sampler` types other
+//! `focus_distance_m`), `frameaspectratio`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
 //! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`;
 //! texture `filter`, `maxanisotropy` (bilinear lookups at the hit, no MIP-mapping); the
 //! parameters of integrators other than `path` that only tune their own convergence; shape
-//! `faceIndices`, `S`, `emissionfilename`; `TransformTimes`.
+//! `faceIndices`, `S`, `emissionfilename`.
 //!
 //! # Unsupported, with an error naming file:line:column
 //! Cameras other than `perspective`, `realistic` and `raytransfer`; `screenwindow`;
@@ -189,6 +194,8 @@ pub mod ply;
 pub mod spectra;
 
 pub mod overlay;
+mod overlay_motion;
+pub use overlay_motion::ShakeSpec;
 
 // The scene-description modules the reader builds with, under the paths the reader's modules use.
 use camsim_scene3d::{builtin, camera, envmap, scene, shapes, xform};

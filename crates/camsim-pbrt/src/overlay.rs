@@ -10,6 +10,10 @@
 //! fov_deg = 40.0                 # across the shorter image axis (pbrt-v4 "fov")
 //! resolution = [640, 480]
 //! focus_distance_m = 1.1
+//! velocity_m_s = [0.5, 0.0, 0.0] # motion during the exposure (`crate::overlay_motion`):
+//! angular_velocity_deg_s = [0.0, 30.0, 0.0]   # about the camera's x (pitch), y (yaw), z (roll)
+//! trajectory = "path.csv"        # time_s, x_m, y_m, z_m + look_x_m.. or qw, qx, qy, qz
+//! shake = { rms_deg_s = 2.0, seed = 1, step_ms = 1.0 }  # hand shake: random walk of rotation
 //!
 //! [render]                       # all optional
 //! samples_per_pixel = 256
@@ -33,6 +37,8 @@
 //! translate_m = [0.05, 0.0, 0.0]
 //! pivot_m = [0.19, 0.0, 0.17]    # default: centre of the matched objects' bounding box
 //! material = "white"             # assign a named material
+//! velocity_m_s = [0.1, 0.0, 0.0] # moving during the exposure, m/s (from where t = 0 puts it)
+//! angular_velocity_deg_s = [0.0, 90.0, 0.0]   # spinning about pivot_m, world axes, deg/s
 //! # remove = true                # delete the objects
 //! # replace = { file = "teapot.ply", material = "white", align = "bottom" }
 //!
@@ -139,6 +145,15 @@ pub struct CameraOverlay {
     pub resolution: Option<[usize; 2]>,
     /// Focus distance for the optics stage, m.
     pub focus_distance_m: Option<f64>,
+    /// Velocity during the exposure, world frame, m/s.
+    pub velocity_m_s: Option<[f64; 3]>,
+    /// Angular velocity about the camera's own x, y, z axes (pitch, yaw, roll), deg/s.
+    pub angular_velocity_deg_s: Option<[f64; 3]>,
+    /// A CSV of poses over time (`crate::overlay_motion::read_trajectory`), relative to the
+    /// overlay.
+    pub trajectory: Option<String>,
+    /// Hand shake: a random walk of the camera's orientation.
+    pub shake: Option<crate::overlay_motion::ShakeSpec>,
 }
 
 /// `[render]`.
@@ -249,6 +264,10 @@ pub struct ObjectOverlay {
     pub pivot_m: Option<[f64; 3]>,
     /// Assign this named material.
     pub material: Option<String>,
+    /// Velocity during the exposure, world frame, m/s (from the pose at t = 0).
+    pub velocity_m_s: Option<[f64; 3]>,
+    /// Angular velocity about the pivot, world axes (the axis scaled by the rate), deg/s.
+    pub angular_velocity_deg_s: Option<[f64; 3]>,
 }
 
 /// Uniform or per-axis scale.
@@ -421,6 +440,7 @@ pub fn apply_overlay(
 ) -> Result<(), String> {
     if let Some(c) = &ov.camera {
         apply_camera(scene, c)?;
+        crate::overlay_motion::apply_camera_motion(scene, c, base_dir)?;
     }
     if let Some(r) = &ov.render {
         let s = &mut scene.settings;
@@ -592,6 +612,12 @@ fn apply_camera(scene: &mut SceneDescription, c: &CameraOverlay) -> Result<(), S
                     "camera: position_m, look_at_m and up are degenerate (up parallel to the view?)"
                         .to_string()
                 })?;
+            if scene.settings.time.camera.take().is_some() {
+                scene.notes.push(
+                    "camera: position_m and look_at_m replace the scene's animated camera (it stands still unless the overlay moves it)"
+                        .into(),
+                );
+            }
         }
         (None, None) => {
             if c.up.is_some() {
@@ -622,7 +648,7 @@ fn apply_camera(scene: &mut SceneDescription, c: &CameraOverlay) -> Result<(), S
     Ok(())
 }
 
-fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for s in shapes {
@@ -670,6 +696,8 @@ fn apply_object(
             || o.rotate.is_some()
             || o.translate_m.is_some()
             || o.material.is_some()
+            || o.velocity_m_s.is_some()
+            || o.angular_velocity_deg_s.is_some()
         {
             return Err(format!(
                 "{key}: remove = true cannot be combined with other changes"
@@ -681,6 +709,7 @@ fn apply_object(
             k += 1;
             keep
         });
+        crate::overlay_motion::shapes_replaced(scene, &matched, 0, 0);
         return Ok(());
     }
     let mut targets = matched.clone();
@@ -793,6 +822,7 @@ fn apply_object(
         });
         let at = at.min(scene.shapes.len());
         scene.shapes.splice(at..at, new_shapes);
+        crate::overlay_motion::shapes_replaced(scene, &matched, at, n_new);
         targets = (at..at + n_new).collect();
     }
     if let Some(m) = &o.material {
@@ -851,8 +881,9 @@ fn apply_object(
         for &k in &targets {
             xform::transform_shape(&mut scene.shapes[k], &t).map_err(|e| format!("{key}: {e}"))?;
         }
+        crate::overlay_motion::moved_shapes(scene, &targets, &t);
     }
-    Ok(())
+    crate::overlay_motion::apply_object_motion(scene, o, &targets, &key)
 }
 
 fn apply_light(

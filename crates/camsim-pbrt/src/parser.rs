@@ -28,6 +28,8 @@ mod textures;
 
 // The directive families, dispatched by `Parser::directive`.
 mod blocks;
+mod motion;
+use motion::flush_motion;
 mod options;
 mod transforms;
 mod world;
@@ -60,9 +62,13 @@ struct AreaLightSpec {
 #[derive(Debug, Clone)]
 struct GraphicsState {
     ctm: Transform,
-    /// False after `ActiveTransform EndTime`: transforms then only affect the end time, which
-    /// camsim does not use.
+    /// The CTM at the end time (pbrt-v4 keeps a pair; they differ for animated transforms,
+    /// `parser/motion.rs`).
+    ctm_end: Transform,
+    /// False after `ActiveTransform EndTime`: transforms then only affect the end time.
     start_active: bool,
+    /// False after `ActiveTransform StartTime`.
+    end_active: bool,
     reverse_orientation: bool,
     material: MatRef,
     area_light: Option<AreaLightSpec>,
@@ -89,6 +95,8 @@ struct PendingShape {
     alpha: Option<(String, FloatTexture)>,
     /// The media on the shape's two sides (`MediumInterface` current at the shape).
     medium: Option<media::MediumNames>,
+    /// An animated CTM (`parser/motion.rs`): the shape is stored at the start transform.
+    motion: Option<camsim_scene3d::motion::Motion>,
 }
 
 enum Block {
@@ -103,6 +111,10 @@ struct Parser {
     gs: GraphicsState,
     stack: Vec<(GraphicsState, Block, Loc)>,
     named_coords: HashMap<String, Transform>,
+    /// The end-time transforms of `named_coords`.
+    named_coords_end: HashMap<String, Transform>,
+    /// pbrt-v4 `TransformTimes` (options block), s.
+    transform_times: (f64, f64),
     materials: Vec<Material>,
     named_materials: HashMap<String, usize>,
     /// Roughness textures read by the material being built (see `parser/materials.rs`).
@@ -170,7 +182,9 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         in_world: false,
         gs: GraphicsState {
             ctm: Transform::identity(),
+            ctm_end: Transform::identity(),
             start_active: true,
+            end_active: true,
             reverse_orientation: false,
             material: MatRef::Index(0),
             area_light: None,
@@ -180,6 +194,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         },
         stack: Vec::new(),
         named_coords: HashMap::new(),
+        named_coords_end: HashMap::new(),
+        transform_times: (0.0, 1.0),
         materials: vec![default_material],
         named_materials: HashMap::new(),
         varying: None,
@@ -389,6 +405,9 @@ impl Parser {
         if self.gs.start_active {
             self.gs.ctm = self.gs.ctm.then_apply_to(&t);
         }
+        if self.gs.end_active {
+            self.gs.ctm_end = self.gs.ctm_end.then_apply_to(&t);
+        }
     }
 
     fn require_world(&self, loc: &Loc, d: &str, world: bool) -> Result<(), PbrtError> {
@@ -553,11 +572,8 @@ impl Parser {
         if params.get("screenwindow", &["float"])?.is_some() {
             return Err(loc.err("Camera: \"screenwindow\" is not supported"));
         }
-        self.ignore_params(
-            params,
-            &["frameaspectratio", "shutteropen", "shutterclose"],
-            "Camera",
-        );
+        self.ignore_params(params, &["frameaspectratio"], "Camera");
+        self.camera_time(params, loc)?;
         params.check_unused("Camera \"perspective\"")?;
         if lens_radius > 0.0 {
             self.note(loc, format!(
@@ -589,7 +605,7 @@ impl Parser {
             .map_err(|e| loc.err(format!("Camera \"realistic\": lens file: {e}")))?;
         let aperture_diameter_mm = params.float("aperturediameter", 1.0)?;
         let focus_distance_m = params.float("focusdistance", 10.0)?;
-        self.ignore_params(params, &["shutteropen", "shutterclose"], "Camera");
+        self.camera_time(params, loc)?;
         params.check_unused("Camera \"realistic\"")?;
         // Focused (and checked) at the end of the file, when the film's size is known; errors
         // name this directive.
@@ -635,7 +651,7 @@ impl Parser {
             }
             (None, None) => RtfFilm::FocusM(f64::INFINITY),
         };
-        self.ignore_params(params, &["shutteropen", "shutterclose"], "Camera");
+        self.camera_time(params, loc)?;
         params.check_unused("Camera \"raytransfer\"")?;
         self.realistic = None;
         self.ray_transfer = Some((rtf, film, loc.clone()));
@@ -1187,6 +1203,7 @@ impl Parser {
             single: matches!(ty, "disk" | "cylinder"),
             alpha,
             medium: self.gs.medium.clone(),
+            motion: self.ctm_motion(loc)?,
         };
         if let Some((oname, list, _)) = &mut self.current_object {
             if pending.light.is_some() {
@@ -1214,7 +1231,13 @@ impl Parser {
         let mut instances = self.instances;
         // (base material, alpha parameter text) -> its `AlphaMasked` material.
         let mut masked: HashMap<(usize, String), usize> = HashMap::new();
+        let mut settings = self.settings;
+        // Every shape made from one pending shape (an area light may split into triangles)
+        // moves with it: (its first shape's index, motion), assigned when the next one starts.
+        let mut moving: Option<(usize, camsim_scene3d::motion::Motion)> = None;
         for ps in self.shapes {
+            flush_motion(&mut moving, shapes.len(), &mut settings);
+            moving = ps.motion.clone().map(|m| (shapes.len(), m));
             let material = match &ps.mat {
                 MatRef::Index(i) => *i,
                 MatRef::Named(n, loc) => match self.named_materials.get(n) {
@@ -1346,6 +1369,7 @@ impl Parser {
         if let Err(e) = &media {
             errors.push(e.clone());
         }
+        flush_motion(&mut moving, shapes.len(), &mut settings);
         if !errors.is_empty() {
             return Err(PbrtError::combine(errors));
         }
@@ -1387,7 +1411,7 @@ impl Parser {
             materials,
             named_materials: self.named_materials,
             lights: self.lights,
-            settings: self.settings,
+            settings,
             focus_distance_m: self.focus_distance_m,
             notes,
             media,
@@ -1487,4 +1511,42 @@ struct PendingRealistic {
     aperture_diameter_mm: f64,
     focus_distance_m: f64,
     loc: Loc,
+}
+
+#[cfg(test)]
+mod image_map_tests {
+    use super::*;
+    use exr::prelude::WritableImage;
+
+    /// Issue 25 item 7: a truncated EXR as an environment map said "no layer ... matched your
+    /// specified requirements"; an EXR without colour channels said the same.
+    #[test]
+    fn a_damaged_or_colourless_exr_image_map_is_named_and_explained() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("env.exr");
+        exr::prelude::write_rgb_file(&good, 64, 32, |x, y| (x as f32, y as f32, 1.0)).unwrap();
+        let (w, h, px) = load_image(&good, Encoding::Linear).unwrap();
+        assert_eq!((w, h, px[65]), (64, 32, [1.0, 1.0, 1.0]));
+        let bytes = std::fs::read(&good).unwrap();
+        let cut = dir.path().join("cut.exr");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let e = load_image(&cut, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("cut.exr") && e.contains("damaged or truncated"),
+            "{e}"
+        );
+        let gray = dir.path().join("gray.exr");
+        let ch = exr::prelude::SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|_| (0.5f32,));
+        exr::prelude::Image::from_channels((4, 4), ch)
+            .write()
+            .to_file(&gray)
+            .unwrap();
+        let e = load_image(&gray, Encoding::Linear).unwrap_err();
+        assert!(
+            e.contains("gray.exr") && e.contains("no R, G and B channels"),
+            "{e}"
+        );
+    }
 }

@@ -73,6 +73,9 @@ pub struct CaptureRequest {
     pub seed: u64,
     /// How the door that made it names its settings (for messages).
     pub keys: CaptureKeys,
+    /// Frame index of the first raw's temporal noise (0; a moving scene captured frame by frame
+    /// keys frame k on k, [`crate::sequence`], so each frame has the noise it has in one capture).
+    pub first_frame: u64,
 }
 
 impl CaptureRequest {
@@ -92,11 +95,12 @@ impl CaptureRequest {
             return bad(format!("{} must be at least 1", keys.frames));
         }
         let time = |key: String, t: f64| -> Result<f64> {
-            if t >= 0.0 && t.is_finite() {
+            if camsim_sensor::exposure_in_range(t * keys.unit_s) {
                 Ok(t * keys.unit_s)
             } else {
                 Err(PipelineError::Config(format!(
-                    "{key} = {t}: must be a finite time >= 0 {}",
+                    "{key} = {t}: must be in [0, {}] {} (at most an hour)",
+                    camsim_sensor::MAX_EXPOSURE_S / keys.unit_s,
                     keys.unit
                 )))
             }
@@ -142,6 +146,7 @@ impl CaptureRequest {
             frames,
             seed,
             keys,
+            first_frame: 0,
         })
     }
 
@@ -186,7 +191,7 @@ pub fn capture(
         ));
     }
     Ok(Captured::Frames(match &req.bracket_s {
-        None => sensor.compute(irradiance, &req.capture())?,
+        None => sensor.compute_from(irradiance, &req.capture(), req.first_frame)?,
         Some(times_s) => sensor.compute_bracket(irradiance, times_s, req.frames, req.seed)?,
     }))
 }

@@ -158,6 +158,24 @@ pub struct CaptureSection {
     /// raw's exposure time as results.frame_exposures_s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exposures_ms: Option<Vec<f64>>,
+    /// Scene time at which the first frame's exposure starts, ms (3D scenes: what moves is
+    /// where it is then; default: the pbrt camera's `shutteropen`, 0 for built-in scenes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_ms: Option<f64>,
+    /// Time from one frame's start to the next, ms (bursts and brackets; default: back to back,
+    /// each frame starting when the one before ends).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_interval_ms: Option<f64>,
+    /// A video: `frames` frames at this rate, frames per second (the frame interval 1/fps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fps: Option<f64>,
+    /// `"global"` (default: every row integrates over the same window) or `{ rolling = {
+    /// line_time_us = 10.0, direction = "top-down" } }` (sensor row r starts r line times later).
+    #[serde(
+        default,
+        skip_serializing_if = "crate::timing::ShutterConfig::is_global"
+    )]
+    pub shutter: crate::timing::ShutterConfig,
 }
 
 fn default_target() -> f64 {
@@ -174,6 +192,10 @@ impl Default for CaptureSection {
             auto_target_fraction: 0.9,
             frames: 1,
             exposures_ms: None,
+            start_ms: None,
+            frame_interval_ms: None,
+            fps: None,
+            shutter: crate::timing::ShutterConfig::Global,
         }
     }
 }
@@ -316,10 +338,20 @@ impl SimulateConfig {
         }
         let text = std::fs::read_to_string(path)
             .map_err(|e| PipelineError::file(path, format!("cannot read: {e}")))?;
-        Self::from_toml_str(&text, base).map_err(|e| match e {
+        let located = |e: PipelineError| match e {
             PipelineError::Config(m) => PipelineError::file(path, m),
             e => e,
-        })
+        };
+        let cfg = Self::from_toml_str(&text, base).map_err(located)?;
+        // Capture values checked now, before any work, and located in the file by their key.
+        cfg.capture_request().map_err(|e| match e {
+            PipelineError::Config(msg) => match key_line(&text, &msg) {
+                Some(line) => PipelineError::file(path, format!("line {line}: {msg}")),
+                None => PipelineError::file(path, msg),
+            },
+            other => other,
+        })?;
+        Ok(cfg)
     }
 
     /// Parse a TOML config from text, its relative paths made relative to `base_dir`
@@ -459,4 +491,24 @@ impl SimulateConfig {
     pub fn capture(&self) -> Result<Capture> {
         Ok(self.capture_request()?.capture())
     }
+}
+
+/// The line (1-based) in TOML `text` of the key a config message starts with
+/// (`capture.exposure_ms = -1: ...`, `capture.exposures_ms[2] = ...`), if the text has it.
+fn key_line(text: &str, message: &str) -> Option<usize> {
+    let dotted = message.split([' ', ':']).next()?;
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    let mut item = doc.as_item();
+    for seg in dotted.split('.') {
+        let (key, index) = match seg.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (seg, None),
+        };
+        item = item.get(key)?;
+        if let Some(i) = index {
+            item = item.get(i)?;
+        }
+    }
+    let span = item.span()?;
+    Some(text.get(..span.start)?.matches('\n').count() + 1)
 }

@@ -20,6 +20,8 @@
 //! | [`labels`] | training-data labels (instances, normals, albedo, boxes, depth) on the raw image's grid, and the cameras' K and extrinsics | `simulate`, `dataset`, Python |
 //! | [`light_groups`] | the weighted sum of a render's light groups (`[render] light_groups`) | `simulate`, `dataset` |
 //! | [`measure`] | the measurements on plain request structs: SFR of any image, chart and ROI statistics, EMVA 1288 series (simulate, write, read, analyse), demosaic quality, QE fit | `analyze`, `fit`, `sensor --emva-series`, Python |
+//! | [`sequence`] | a capture in time: each raw frame's exposure window renders a moving 3D scene (bursts, video, rolling shutter), optical flow on the sensor grid | `simulate` |
+//! | [`timing`] | frame windows (`start_ms`, `fps`, `frame_interval_ms`), the shutter (global, rolling) and its row map through the lens | `simulate` |
 //! | [`outputs`] | which files a run writes (`--save`) | `simulate`, `dataset` |
 //!
 //! # Where a new recipe goes
@@ -48,7 +50,9 @@ pub mod outputs;
 pub mod records;
 pub mod render;
 pub mod scene;
+pub mod sequence;
 pub mod simulation;
+pub mod timing;
 
 pub use capture::{image_radiance, CaptureRequest, Captured, Imaged};
 pub use config::{
@@ -65,7 +69,9 @@ pub use scene::{
     macbeth_chart_corners_px, mean_luminance_cd_m2, scene_radiance, scene_stage, scene_stage_with,
     SceneStage,
 };
+pub use sequence::FrameFlow;
 pub use simulation::{simulate, write_id_maps, Rgb8Image, RunInfo, SimulateOptions, Simulation};
+pub use timing::{FrameTime, ReadoutDirection, ShutterConfig};
 
 /// Progress callback: (stage name, steps done, steps in all).
 pub type Progress<'a> = dyn Fn(&str, u64, u64) + Sync + 'a;

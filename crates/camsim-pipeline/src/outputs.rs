@@ -37,6 +37,10 @@ pub enum Output {
     /// boxes.json: per instance its 3D box, 2D boxes in both geometries, visible fraction,
     /// truncation; the cameras' K and extrinsics.
     Boxes,
+    /// flow.exr (flow_0001.exr ...): each frame's optical flow in sensor pixels, channels X and
+    /// Y, aligned with raw.dng, and flow_next.exr ... to the next frame of a sequence (3D scenes;
+    /// 2D charts have none, and it is skipped).
+    Flow,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -103,6 +107,11 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "boxes.json: per instance 3D and 2D boxes, visible fraction, truncation; cameras' K and extrinsics",
             Output::Boxes,
         ),
+        out(
+            "flow",
+            "flow.exr (flow_0001.exr ...; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)",
+            Output::Flow,
+        ),
     ],
 };
 
@@ -123,7 +132,7 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 12] = {
+    pub const ALL: [Output; 13] = {
         let e = OUTPUTS.entries;
         [
             e[0].value,
@@ -138,6 +147,7 @@ impl Output {
             e[9].value,
             e[10].value,
             e[11].value,
+            e[12].value,
         ]
     };
 
@@ -209,6 +219,18 @@ impl OutputSet {
         Ok(OutputSet(set))
     }
 
+    /// Refuse an output that `text` (`--save`) names and the scene cannot produce: `ids` of a
+    /// 2D chart (`chart` true: it has no objects). An item reached through `all` is not refused
+    /// (run.json says what was not written and why).
+    pub fn check_applies(text: &str, chart: bool) -> Result<()> {
+        if chart && text.split(',').any(|i| i.trim() == Output::Ids.name()) {
+            return Err(PipelineError::config(
+                "--save ids: a 2D chart has no objects to label; object and material ids are written for 3D scenes ([render]): leave ids out of --save",
+            ));
+        }
+        Ok(())
+    }
+
     pub fn contains(&self, o: Output) -> bool {
         self.0.contains(&o)
     }
@@ -242,6 +264,17 @@ impl OutputSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 25 item 7: `--save ids` on a 2D chart wrote nothing and said nothing.
+    #[test]
+    fn ids_named_for_a_chart_are_refused() {
+        let e = OutputSet::check_applies("raw, ids", true)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--save ids") && e.contains("3D"), "{e}");
+        assert!(OutputSet::check_applies("raw,ids", false).is_ok());
+        assert!(OutputSet::check_applies("all", true).is_ok());
+    }
 
     #[test]
     fn parses_names_all_and_default_and_refuses_unknown_ones() {

@@ -66,6 +66,16 @@ pub struct RunResults {
     pub radiance_size: Option<[usize; 3]>,
     /// Mean scene luminance, cd/m^2 (None for a lens camera).
     pub scene_mean_luminance_cd_m2: Option<f64>,
+    /// Each raw's window in the scene's time, file order ([`crate::timing`]).
+    #[serde(default)]
+    pub frame_times: Vec<crate::timing::FrameTime>,
+    /// The shutter: kind, and for a rolling one its direction, line time and readout time
+    /// ([`crate::timing::ShutterConfig::describe`]).
+    #[serde(default)]
+    pub shutter: serde_json::Value,
+    /// The 3D scene moves: every frame was rendered in its own window.
+    #[serde(default)]
+    pub scene_moves: bool,
 }
 
 /// Read and parse a JSON file, naming it in errors.

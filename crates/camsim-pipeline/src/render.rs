@@ -374,7 +374,7 @@ pub fn fit_lens_film_to_sensor(
 /// The film of a lens camera's render as what it is: sensor-plane spectral irradiance, W/(m^2
 /// nm), sampled at the film's pixel pitch (the realistic camera's weight cos^4(theta) A / D^2 is a
 /// projected solid angle, so its pixel values are E = L x sr; pbrt-v4 4th ed. sec. 5.3.5).
-fn film_as_irradiance(scene: &SceneDescription, img: &mut SpectralImage) {
+pub(crate) fn film_as_irradiance(scene: &SceneDescription, img: &mut SpectralImage) {
     use camsim_scene3d::scene::CameraLens;
     let diagonal_mm = match &scene.camera.lens {
         Some(CameraLens::Realistic(l)) => l.film_diagonal_mm,
@@ -431,5 +431,22 @@ pub fn render_scene_with(
         progress("render", done, total)
     })?;
     film_as_irradiance(scene, &mut out.radiance);
+    Ok(out)
+}
+
+/// The scene stage's render of a `[render]` section's scene: [`render_scene_with`] with the
+/// section's light groups split out and weighed into the radiance (`[render] light_groups`).
+pub(crate) fn render_stage(
+    scene: &SceneDescription,
+    r: &RenderSection,
+    request: &camsim_render::RenderRequest,
+    progress: &Progress<'_>,
+) -> Result<RenderOutput> {
+    let mut request = *request;
+    request.light_groups |= r.light_groups.is_some();
+    let mut out = render_scene_with(scene, &request, progress)?;
+    if let Some(w) = &r.light_groups {
+        crate::light_groups::weigh(&mut out.radiance, &out.light_groups, w)?;
+    }
     Ok(out)
 }

@@ -101,12 +101,7 @@ pub fn scene_stage_with(
         }),
         (None, Some(r)) => {
             let scene = crate::render::render_section_scene(r, cfg, sensor, optics)?;
-            let mut request = *request;
-            request.light_groups |= r.light_groups.is_some();
-            let mut out = crate::render::render_scene_with(&scene, &request, progress)?;
-            if let Some(w) = &r.light_groups {
-                crate::light_groups::weigh(&mut out.radiance, &out.light_groups, w)?;
-            }
+            let out = crate::render::render_stage(&scene, r, request, progress)?;
             Ok(SceneStage {
                 image: out.radiance,
                 ids: Some(out.ids),
@@ -182,25 +177,12 @@ pub fn macbeth_chart_corners_px(
 /// Mean luminance of a radiance image, cd/m^2: 683 lm/W x sum over bands of ybar L d(lambda)
 /// (CIE 1931 photopic luminous efficiency).
 pub fn mean_luminance_cd_m2(radiance: &SpectralImage) -> f64 {
-    use rayon::prelude::*;
     let cmfs = camsim_core::colorimetry::Cmfs::on(&radiance.grid);
-    // 683 lm/W sum_b y_bar_b L_b dl, averaged over the pixels (CIE 015:2018 eq. 7.1). Bands in
-    // parallel, each summed in 8 lanes: a full-frame radiance has ~280 M samples, and one serial
-    // f64 sum over them took half a second after the run (the `simulate` output overhead).
+    // 683 lm/W sum_b y_bar_b L_b dl, averaged over the pixels (CIE 015:2018 eq. 7.1). Each band
+    // summed in a fixed order (blocks in parallel), the bands added in band order: the same bits
+    // for any thread or worker count (it is written to run.json and a dataset's KEY.json).
     let total: f64 = (0..radiance.bands())
-        .into_par_iter()
-        .map(|b| {
-            let v = radiance.band(b);
-            let mut lanes = [0f64; 8];
-            let chunks = v.chunks_exact(8);
-            let rest: f64 = chunks.remainder().iter().map(|x| *x as f64).sum();
-            for c in chunks {
-                for (l, x) in lanes.iter_mut().zip(c) {
-                    *l += *x as f64;
-                }
-            }
-            (lanes.iter().sum::<f64>() + rest) * cmfs.y[b]
-        })
+        .map(|b| camsim_core::math::fixed_order_sum(radiance.band(b)) * cmfs.y[b])
         .sum();
     total * camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * radiance.grid.step_nm
         / radiance.pixels() as f64

@@ -1,12 +1,12 @@
 //! The whole pipeline in memory ([`simulate`] -> [`Simulation`]) and, as a separate step, its
 //! files ([`Simulation::write`]).
 
-use crate::capture::{frame_suffix, image_owned, noise_free_dn, Imaged};
+use crate::capture::{frame_suffix, noise_free_dn, Imaged};
 use crate::outputs::{Output, OutputSet};
 use crate::records::{raw_png_note, RunRecord, RunResults};
-use crate::{
-    mean_luminance_cd_m2, scene_stage_with, Isp, PipelineError, Progress, Result, SimulateConfig,
-};
+use crate::sequence::FrameFlow;
+use crate::timing::FrameTime;
+use crate::{mean_luminance_cd_m2, Isp, PipelineError, Progress, Result, SimulateConfig};
 use camsim_core::{CfaChannel, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
@@ -24,6 +24,8 @@ pub struct SimulateOptions {
     /// Also compute the training-data labels of a 3D scene ([`Simulation::labels`];
     /// [`crate::OutputSet::label_request`] says which the outputs need).
     pub labels: Option<camsim_render::LabelRequest>,
+    /// Also compute [`Simulation::flow`] (3D scenes: the optical flow of every frame).
+    pub flow: bool,
 }
 
 /// Where a run came from, for run.json (the library reads neither the command line nor the
@@ -84,6 +86,13 @@ pub struct Simulation {
     /// Seconds per stage ("scene_s", "optics_s", "sensor_s" (with the noise-free pass), "isp_s",
     /// "total_s").
     pub times_s: serde_json::Map<String, serde_json::Value>,
+    /// Per raw frame (file order), its window in the scene's time ([`crate::timing`]).
+    pub frame_times: Vec<FrameTime>,
+    /// The 3D scene moves: every frame was rendered in its own window.
+    pub moving: bool,
+    /// With [`SimulateOptions::flow`] and a 3D scene: each frame's optical flow on the sensor
+    /// grid (sensor pixels, raw.dng's orientation).
+    pub flow: Option<Vec<FrameFlow>>,
 }
 
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
@@ -111,31 +120,38 @@ pub fn simulate(
         times.insert(name.into(), t.elapsed().as_secs_f64().into());
     };
 
-    let t = Instant::now();
-    progress("scene", 0, 1);
+    // Scene, optics and sensor, frame by frame in time when the scene moves.
     let render_request = camsim_render::RenderRequest {
         labels: opts.labels,
         ..Default::default()
     };
-    let crate::SceneStage {
-        image: radiance,
+    let crate::sequence::Staged {
+        radiance,
         ids,
         labels: scene_labels,
         scene,
-    } = scene_stage_with(cfg, &sensor, &optics, &render_request, progress)?;
-    lap(&mut times, "scene_s", t);
-
-    progress("optics", 0, 1);
-    let (
-        radiance,
-        Imaged {
-            irradiance,
-            frame,
-            optics_s,
-            sensor_s,
-        },
         map,
-    ) = image_owned(radiance, &optics, &sensor, &request)?;
+        imaged:
+            Imaged {
+                irradiance,
+                frame,
+                optics_s,
+                sensor_s,
+            },
+        times: frame_times,
+        flow,
+        scene_s,
+        moving,
+    } = crate::sequence::stage(
+        cfg,
+        &sensor,
+        &optics,
+        &request,
+        opts.flow,
+        &render_request,
+        progress,
+    )?;
+    times.insert("scene_s".into(), scene_s.into());
     times.insert("optics_s".into(), optics_s.into());
     let t = Instant::now();
     let labels = match (scene_labels, &scene, opts.labels) {
@@ -196,6 +212,9 @@ pub fn simulate(
         mean_dn_rgb,
         dng,
         times_s: times,
+        frame_times,
+        moving,
+        flow,
     })
 }
 
@@ -276,6 +295,9 @@ impl Simulation {
                 mean_electrons_rgb: self.mean_electrons_rgb,
                 radiance_size: self.radiance.as_ref().map(|r| [r.rows, r.cols, r.bands()]),
                 scene_mean_luminance_cd_m2: self.radiance.as_ref().map(mean_luminance_cd_m2),
+                frame_times: self.frame_times.clone(),
+                shutter: self.config.capture.shutter.describe(self.frames[0].rows),
+                scene_moves: self.moving,
             },
             sensor: self.sensor.clone(),
             times: self.times_s.clone(),
@@ -359,6 +381,13 @@ impl Simulation {
             }
             (None, false) => {}
         }
+        if outputs.contains(Output::Flow) {
+            let note = match &self.flow {
+                Some(_) => "optical flow of each frame (flow.exr, flow_0001.exr, ...; flow_next*.exr to the next frame), sensor pixels, channels X (right) and Y (down), aligned with raw.dng: where the surface each pixel sees at the frame's start is at the end of its exposure",
+                None => "not written: this scene (a 2D chart) has no optical flow",
+            };
+            files.insert("flow.exr".into(), note.into());
+        }
         if outputs.contains(Output::NoiseFree) {
             files.insert(
                 "noise_free.exr".into(),
@@ -394,6 +423,11 @@ impl Simulation {
     ) -> Result<()> {
         if outputs.contains(Output::NoiseFree) && self.noise_free_dn.is_none() {
             return Err(PipelineError::config("noise-free output asked for, but the run did not compute it (SimulateOptions::noise_free)"));
+        }
+        if outputs.contains(Output::Flow) && self.flow.is_none() && self.ids.is_some() {
+            return Err(PipelineError::config(
+                "flow output asked for, but the run did not compute it (SimulateOptions::flow)",
+            ));
         }
         // The files are independent: write them side by side (each EXR also compresses its blocks
         // on every thread).
@@ -453,6 +487,23 @@ impl Simulation {
                     )?)
                 }));
             }
+            if let (true, Some(flows)) = (outputs.contains(Output::Flow), self.flow.as_ref()) {
+                let (rows, cols) = (self.frames[0].rows, self.frames[0].cols);
+                for (i, f) in flows.iter().enumerate() {
+                    let maps = std::iter::once(("flow", &f.exposure))
+                        .chain(f.to_next.as_ref().map(|n| ("flow_next", n)));
+                    for (base, map) in maps {
+                        t.push(Box::new(move || {
+                            write_flow(
+                                &out.join(format!("{base}{}.exr", frame_suffix(i))),
+                                rows,
+                                cols,
+                                map,
+                            )
+                        }));
+                    }
+                }
+            }
             if outputs.contains(Output::Raw) {
                 for (i, raw) in self.frames.iter().enumerate() {
                     t.push(Box::new(move || {
@@ -495,6 +546,18 @@ impl Simulation {
         self.record(info, outputs).write(&out.join("run.json"))?;
         Ok(())
     }
+}
+
+/// Write a flow map (`[dx, dy]` per pixel) as a two-channel EXR: X (right) and Y (down).
+pub fn write_flow(path: &Path, rows: usize, cols: usize, flow: &[[f32; 2]]) -> Result<()> {
+    let x: Vec<f32> = flow.iter().map(|f| f[0]).collect();
+    let y: Vec<f32> = flow.iter().map(|f| f[1]).collect();
+    Ok(camsim_io::exr::write_channels_exr(
+        path,
+        rows,
+        cols,
+        &[("X", &x), ("Y", &y)],
+    )?)
 }
 
 /// Write object_id.png and material_id.png (16-bit grey, row-major scene pixels) and ids.json

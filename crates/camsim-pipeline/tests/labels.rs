@@ -67,6 +67,7 @@ exposure_ms = 5.0
     let opts = SimulateOptions {
         noise_free: true,
         labels: Some(camsim_render::LabelRequest::default()),
+        ..Default::default()
     };
     simulate(&cfg, &opts, &|_, _, _| {}).unwrap()
 }

@@ -156,6 +156,51 @@ impl PySimulation {
             .map(|v| array(py, v, &[r.rows, r.cols]))
             .transpose()
     }
+    /// Each raw frame's window in the scene's time, (frames, 2) float64: start and duration, s
+    /// (a burst, bracket or video of a moving 3D scene renders each frame at its own time).
+    #[getter]
+    fn frame_times_s<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let t = &self.inner.frame_times;
+        let v: Vec<f64> = t.iter().flat_map(|f| [f.start_s, f.duration_s]).collect();
+        array(py, &v, &[t.len(), 2])
+    }
+    /// Optical flow of each frame on the sensor grid, (frames, rows, cols, 2) float32 sensor
+    /// pixels ([dx right, dy down], aligned with raw): where the surface each pixel sees at the
+    /// frame's start is at the end of its exposure. None unless simulate(..., flow=True) on a 3D
+    /// scene.
+    #[getter]
+    fn flow<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.frames[0];
+        self.inner
+            .flow
+            .as_ref()
+            .map(|f| {
+                let v: Vec<f32> = f
+                    .iter()
+                    .flat_map(|m| m.exposure.iter().flatten().copied())
+                    .collect();
+                array(py, &v, &[f.len(), r.rows, r.cols, 2])
+            })
+            .transpose()
+    }
+    /// Flow from each frame's start to the next frame's start, (frames - 1, rows, cols, 2)
+    /// float32 sensor pixels; None unless simulate(..., flow=True) on a 3D scene.
+    #[getter]
+    fn flow_next<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.frames[0];
+        self.inner
+            .flow
+            .as_ref()
+            .map(|f| {
+                let v: Vec<f32> = f
+                    .iter()
+                    .filter_map(|m| m.to_next.as_ref())
+                    .flat_map(|m| m.iter().flatten().copied())
+                    .collect();
+                array(py, &v, &[f.len().saturating_sub(1), r.rows, r.cols, 2])
+            })
+            .transpose()
+    }
     /// sRGB preview, (rows, cols, 3) uint8.
     #[getter]
     fn preview<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -209,6 +254,12 @@ impl PySimulation {
         if outputs.contains(camsim::Output::NoiseFree) && self.inner.noise_free_dn.is_none() {
             return Err(err("save noise-free needs simulate(..., noise_free=True)"));
         }
+        if outputs.contains(camsim::Output::Flow)
+            && self.inner.flow.is_none()
+            && self.inner.ids.is_some()
+        {
+            return Err(err("save flow needs simulate(..., flow=True)"));
+        }
         py.detach(|| self.inner.write(&dir, &outputs, exr, &RunInfo::default()))
             .map_err(err)
     }
@@ -234,13 +285,14 @@ impl PySimulation {
 /// Run the whole pipeline on a config (None: the built-in default; a dict, TOML text or a path),
 /// with `seed` in place of the config's when given.
 #[pyfunction]
-#[pyo3(signature = (config = None, noise_free = false, seed = None, labels = false))]
+#[pyo3(signature = (config = None, noise_free = false, seed = None, labels = false, flow = false))]
 fn simulate(
     py: Python<'_>,
     config: Option<&Bound<'_, PyAny>>,
     noise_free: bool,
     seed: Option<u64>,
     labels: bool,
+    flow: bool,
 ) -> PyResult<PySimulation> {
     let mut cfg = config_from(config)?;
     if let Some(s) = seed {
@@ -248,17 +300,15 @@ fn simulate(
     }
     let sim = py
         .detach(|| {
-            camsim::simulate(
-                &cfg,
-                &SimulateOptions {
-                    noise_free,
-                    labels: labels.then_some(camsim::render::LabelRequest {
-                        normals: true,
-                        albedo: true,
-                    }),
-                },
-                &|_, _, _| {},
-            )
+            let opts = SimulateOptions {
+                noise_free,
+                labels: labels.then_some(camsim::render::LabelRequest {
+                    normals: true,
+                    albedo: true,
+                }),
+                flow,
+            };
+            camsim::simulate(&cfg, &opts, &|_, _, _| {})
         })
         .map_err(err)?;
     Ok(PySimulation { inner: sim })

@@ -204,6 +204,17 @@ def test_bad_input_raises_camsim_error_never_crashes(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_values_json_cannot_hold_are_refused_naming_the_key():
+    # Issue 25 item 7: NaN said "expected value at line 1 column 401", seed=2**70 "invalid type:
+    # floating point".
+    cfg = camsim.load_config(SMALL)
+    cfg["capture"]["exposure_ms"] = float("nan")
+    with pytest.raises(camsim.CamsimError, match=r"capture\.exposure_ms = nan"):
+        camsim.load_config(cfg)
+    with pytest.raises(camsim.CamsimError, match=r"seed = 1180591620717411303424.*64-bit"):
+        camsim.simulate(SMALL, seed=2**70)
+
+
 def test_the_gil_is_released_during_compute():
     import threading
     import time
@@ -371,3 +382,15 @@ def test_pixel4a_raw10_iso_and_exposure_bracket():
     assert means[1] / means[0] == pytest.approx(2.0, rel=0.03) and means[2] / means[0] == pytest.approx(4.0, rel=0.03)
     with pytest.raises(Exception, match="base_iso"):
         camsim.sensor(flat, wl, 1.4e-6, sensor=dict(sens, base_iso=None, iso=None), exposure_s=1e-3, rows=8, cols=8, iso=100)
+
+
+def test_rolling_shutter_example_bends_the_fan_and_returns_flow(tmp_path):
+    out = tmp_path / "rs.png"
+    text = run_example("rolling_shutter.py", str(out))
+    flow = {l.split(":")[0]: float(l.split("flow on the fan ")[1].split(" px")[0]) for l in text.splitlines() if "flow on the fan" in l}
+    # 3600 deg/s for 1 ms: a blade point at radius r moves 2 pi r / 100 of its circle; the fan
+    # moves in both pictures, by the same flow.
+    assert set(flow) == {"global", "rolling"} and flow["global"] > 0.1, text
+    diff = float(text.split("preview difference ")[1].split(" ")[0])
+    assert diff > 0.5, text
+    assert out.is_file() and out.stat().st_size > 10_000

@@ -313,6 +313,28 @@ impl CameraRig {
         self.pinhole
     }
 
+    /// The continuous raster position where the pinhole rays ([`CameraRig::ray`]) see the
+    /// world point `p` (`Some` only in front of the camera): the inverse of [`CameraRig::ray`].
+    pub(crate) fn raster_of_point(&self, p: V3) -> Option<[f32; 2]> {
+        self.raster_of_direction(p - self.pinhole)
+    }
+
+    /// The continuous raster position of the world direction `d` (a point at infinity).
+    pub(crate) fn raster_of_direction(&self, d: V3) -> Option<[f32; 2]> {
+        // Solve d = cx ax + cy ay + cz az (Cramer's rule), then invert `ray`'s screen mapping.
+        let [a, b, c] = self.axes;
+        let det = a.dot(b.cross(c));
+        let cz = a.dot(b.cross(d)) / det;
+        if !(cz > 0.0) {
+            return None;
+        }
+        let cx = d.dot(b.cross(c)) / det;
+        let cy = a.dot(d.cross(c)) / det;
+        let x = ((cx / cz) / self.half_x + 1.0) * 0.5 / self.inv_w;
+        let y = (1.0 - (cy / cz) / self.half_y) * 0.5 / self.inv_h;
+        Some([x, y])
+    }
+
     /// Ray through continuous raster position (`x`, `y`) (pixel (i, j) covers [i, i+1) x [j, j+1),
     /// raster y grows downwards, (0, 0) is the top-left corner).
     #[inline(always)]
@@ -351,5 +373,10 @@ mod tests {
         // Left edge: x = -aspect = -2 (raster x grows with camera +x).
         let r = rig.ray(0.0, 50.0);
         assert!((r.d.x / r.d.z + 2.0).abs() < 1e-5);
+        // The raster position of a point on a ray is where the ray started.
+        let r = rig.ray(37.25, 81.5);
+        let [x, y] = rig.raster_of_point(r.o + r.d * 3.0).unwrap();
+        assert!((x - 37.25).abs() < 1e-3 && (y - 81.5).abs() < 1e-3);
+        assert!(rig.raster_of_direction(-r.d).is_none());
     }
 }

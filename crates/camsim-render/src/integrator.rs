@@ -11,6 +11,7 @@ use crate::light_groups::PathRadiance;
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
+use crate::motion::PathTime;
 use crate::render::RenderError;
 use crate::sampler::{dim, PathSampler};
 use crate::sampling::power_heuristic;
@@ -118,6 +119,8 @@ pub(crate) struct Tracer {
     /// Per compiled light (`lights.list`): the shape it belongs to, or `shapes.len()` plus the
     /// index of its scene light.
     pub light_source: Vec<u32>,
+    /// What moves (`crate::motion`); `None` for a static scene.
+    pub motion: Option<Box<crate::motion::MotionTracer>>,
 }
 
 /// Surface data at a hit.
@@ -153,6 +156,15 @@ impl Tracer {
         }
         check_mix_cycles(&materials)?;
         let media = crate::media::MediaSet::compile(scene, ws)?;
+        // The volumetric tracer's transmittance and light sampling see the scene's reference
+        // pose only: refuse motion in a scene with media rather than render it inconsistently.
+        if media.is_some() && scene.settings.time.has_motion() {
+            return Err(RenderError::Settings(
+                "participating media with motion (moving shapes, lights or camera) are not \
+                 supported yet: remove the motion or the media"
+                    .into(),
+            ));
+        }
 
         // Count primitives first so the memory guard can refuse huge scenes before allocating.
         let mut n_prims = 0u64;
@@ -556,9 +568,14 @@ impl Tracer {
         };
         lights.finish(&tables, scene_radius);
 
+        // Moving shapes get their own BVHs (`crate::motion`); a static scene keeps every primitive.
+        let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips)?;
         let mut bvh = Bvh::build_with_curves(prims, curves);
         bvh.clips = clips;
-        let info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let mut info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();
+        let motion =
+            crate::motion::MotionTracer::build(scene, moving, &mut info, lights.list.len())?
+                .map(Box::new);
         let tri_normals: Vec<V3> = bvh
             .prims
             .iter()
@@ -597,22 +614,56 @@ impl Tracer {
             footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
             media,
             light_source,
+            motion,
         })
     }
 
-    /// Closest hit along `r`, if any.
+    /// Closest hit along `r` within `t_max` at the path's time, if any.
     #[inline(always)]
-    pub(crate) fn intersect(&self, r: &Ray) -> Option<crate::bvh::Hit> {
-        self.bvh.intersect(&RayInv::new(r), f32::INFINITY)
+    pub(crate) fn intersect_within(
+        &self,
+        r: &Ray,
+        t_max: f32,
+        pt: &PathTime,
+    ) -> Option<crate::bvh::Hit> {
+        let h = self.bvh.intersect(&RayInv::new(r), t_max);
+        match &self.motion {
+            None => h,
+            Some(m) => m.intersect(r, t_max, pt, h),
+        }
     }
 
-    pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit) -> SurfaceHit {
+    /// Closest hit along `r` at the path's time, if any.
+    #[inline(always)]
+    pub(crate) fn intersect(&self, r: &Ray, pt: &PathTime) -> Option<crate::bvh::Hit> {
+        self.intersect_within(r, f32::INFINITY, pt)
+    }
+
+    /// The surface of hit `h` of ray `r` at the path's time.
+    pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit, pt: &PathTime) -> SurfaceHit {
         let slot = h.slot as usize;
-        match self.bvh.prims[slot] {
+        match self.bvh.prims.get(slot) {
+            Some(prim) => self.surface_of(prim, self.tri_normals[slot], &self.bvh.clips, r, h),
+            None => self.moving_surface(r, h, pt),
+        }
+    }
+
+    /// The surface of hit `h` on `prim` (triangle normal `tri_normal`, partial-sphere clips
+    /// `clips`; `h.slot` indexes `info`).
+    pub(crate) fn surface_of(
+        &self,
+        prim: &Prim,
+        tri_normal: V3,
+        clips: &[SphereClip],
+        r: &Ray,
+        h: &crate::bvh::Hit,
+    ) -> SurfaceHit {
+        let slot = h.slot as usize;
+        match *prim {
             Prim::Tri { p0, e1, e2 } => {
                 let p = p0 + e1 * h.u + e2 * h.v;
                 let err = tri_point_err(p0, e1, e2, h.u, h.v);
-                let ng = self.tri_normals[slot];
+                let ng = tri_normal;
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
                 if let Some(m) = &self.meshes[pi.shape as usize] {
@@ -670,7 +721,7 @@ impl Tracer {
                 radius,
                 clip,
             } => {
-                let c = &self.bvh.clips[clip as usize];
+                let c = &clips[clip as usize];
                 let n = (r.o + r.d * h.t - center).normalize();
                 let p = center + n * radius;
                 // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame
@@ -827,6 +878,7 @@ impl Tracer {
     /// neither reach the light's own surface nor miss an occluder in between. `wi` and `dist` (the
     /// direction and distance from the un-offset point) are used for lights at infinity only.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn unoccluded(
         &self,
         p_from: V3,
@@ -835,10 +887,11 @@ impl Tracer {
         p_light: V3,
         n_light: V3,
         err_light: V3,
+        pt: &PathTime,
     ) -> bool {
         const SHADOW_EPSILON: f32 = 1e-4;
         if !dist.is_finite() {
-            return !self.occluded(p_from, wi, f32::INFINITY);
+            return !self.occluded(p_from, wi, f32::INFINITY, pt);
         }
         let n_to = n_light.face_forward(p_from - p_light);
         let p_to = Self::offset(p_light, n_to, err_light);
@@ -847,24 +900,29 @@ impl Tracer {
         if !(len > 0.0 && len.is_finite()) {
             return false;
         }
-        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON))
+        !self.occluded(p_from, d / len, len * (1.0 - SHADOW_EPSILON), pt)
     }
 
     /// Whether a surface that scatters lies on the segment `o + t d`, `0 < t < t_max`.
     /// `interface` surfaces (also when a `mix` picks one) let shadow rays through, as they let
     /// path rays through.
     #[inline]
-    fn occluded(&self, o: V3, d: V3, t_max: f32) -> bool {
+    fn occluded(&self, o: V3, d: V3, t_max: f32, pt: &PathTime) -> bool {
         if !self.has_interface && !self.has_alpha {
-            return self.bvh.occluded(&RayInv::new(&Ray { o, d }), t_max);
+            let r = Ray { o, d };
+            return self.bvh.occluded(&RayInv::new(&r), t_max)
+                || self
+                    .motion
+                    .as_ref()
+                    .is_some_and(|m| m.occluded(&r, t_max, pt));
         }
         let (mut o, mut t_left) = (o, t_max);
         for _ in 0..MAX_INTERFACE_SKIPS {
             let r = Ray { o, d };
-            let Some(h) = self.bvh.intersect(&RayInv::new(&r), t_left) else {
+            let Some(h) = self.intersect_within(&r, t_left, pt) else {
                 return false;
             };
-            let sh = self.surface(&r, &h);
+            let sh = self.surface(&r, &h, pt);
             let pi = self.info[h.slot as usize];
             let keep = !self.has_alpha
                 || self.alpha_keeps(
@@ -898,15 +956,17 @@ impl Tracer {
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
     /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have). The
     /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
+    /// Every ray of the path sees the scene at the path's time `pt`.
     pub(crate) fn li<const N: usize, S: PathSampler>(
         &self,
         ray: Ray,
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> [f32; N] {
         let mut l = [0f32; N];
-        self.li_into(ray, lambdas, sampler, counts, &mut l);
+        self.li_into(ray, lambdas, sampler, counts, pt, &mut l);
         l
     }
 
@@ -918,6 +978,7 @@ impl Tracer {
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
+        pt: &PathTime,
         l: &mut R,
     ) {
         let mut beta = [1f32; N];
@@ -934,7 +995,7 @@ impl Tracer {
         let mut skips = 0u32;
         counts.camera += 1;
         loop {
-            let hit = self.intersect(&ray);
+            let hit = self.intersect(&ray, pt);
             let Some(h) = hit else {
                 // Escaped: infinite lights.
                 for &li in &self.lights.infinite {
@@ -948,7 +1009,7 @@ impl Tracer {
                 }
                 break;
             };
-            let sh = self.surface(&ray, &h);
+            let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
             if self.has_alpha
                 && !self.alpha_keeps(
@@ -979,14 +1040,13 @@ impl Tracer {
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
-                if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
+                let (emits, pdf_light) =
+                    self.light_hit(pi.light as usize, prev_p, sh.p, sh.ng, wo, pt);
+                if emits {
                     let w = if depth == 0 || prev_specular {
                         1.0
                     } else {
-                        power_heuristic(
-                            prev_bsdf_pdf,
-                            self.lights.pdf_hit(light, prev_p, sh.p, sh.ng),
-                        )
+                        power_heuristic(prev_bsdf_pdf, pdf_light)
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));
@@ -1048,10 +1108,7 @@ impl Tracer {
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
                 let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
-                if let Some(ls) =
-                    self.lights
-                        .sample::<N>(&self.tables, sh.p, u_sel, u0, u1, lambdas)
-                {
+                if let Some(ls) = self.sample_light::<N>(sh.p, u_sel, u0, u1, lambdas, pt) {
                     let LightSample {
                         wi,
                         dist,
@@ -1090,7 +1147,7 @@ impl Tracer {
                             );
                         if bsdf_pdf > 0.0 && !masked {
                             counts.shadow += 1;
-                            if self.unoccluded(p_from, wi, dist, p_light, n_light, p_err) {
+                            if self.unoccluded(p_from, wi, dist, p_light, n_light, p_err, pt) {
                                 // Delta lights cannot be hit by BSDF samples: no MIS weight.
                                 let mis = if delta {
                                     1.0
@@ -1163,42 +1220,49 @@ impl Tracer {
     }
 
     /// Distance along the camera's forward axis to the first surface (or infinity) and 1 + the
-    /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes).
-    pub(crate) fn first_surface(&self, r: &Ray, forward: V3, counts: &mut RayCounts) -> (f32, u32) {
+    /// index of its shape in `SceneDescription::shapes` (0 when the ray escapes), at `pt`.
+    pub(crate) fn first_surface(
+        &self,
+        r: &Ray,
+        forward: V3,
+        counts: &mut RayCounts,
+        pt: &PathTime,
+    ) -> (f32, u32) {
         counts.camera += 1;
-        if !self.has_alpha {
-            return match self.intersect(r) {
-                Some(h) => (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1),
-                None => (f32::INFINITY, 0),
-            };
-        }
-        match self.first_hit(r) {
-            Some((sh, pi)) => ((sh.p - r.o).dot(forward), pi.shape + 1),
+        match self.first_kept(r, pt) {
             None => (f32::INFINITY, 0),
+            Some((_, h)) if !self.has_alpha => {
+                (h.t * r.d.dot(forward), self.info[h.slot as usize].shape + 1)
+            }
+            Some((ray, h)) => (
+                (self.surface(&ray, &h, pt).p - r.o).dot(forward),
+                self.info[h.slot as usize].shape + 1,
+            ),
         }
     }
 
-    /// The first surface along `r` that the alpha test keeps (cut-outs are skipped as the path
-    /// skips them), with its primitive's data; `None` when the ray escapes.
-    pub(crate) fn first_hit(&self, r: &Ray) -> Option<(SurfaceHit, PrimInfo)> {
+    /// The first hit along `r` at `pt` that the alpha test keeps (surfaces cut out by alpha are
+    /// skipped as the path skips them), with the ray that found it.
+    pub(crate) fn first_kept(&self, r: &Ray, pt: &PathTime) -> Option<(Ray, crate::bvh::Hit)> {
         let mut ray = *r;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let h = self.intersect(&ray)?;
-            let sh = self.surface(&ray, &h);
+            let h = self.intersect(&ray, pt)?;
+            if !self.has_alpha {
+                return Some((ray, h));
+            }
+            let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
-            if !self.has_alpha
-                || self.alpha_keeps(
-                    pi.material,
-                    &TexCtx {
-                        uv: sh.uv,
-                        n: sh.ng,
-                        p: sh.p,
-                    },
-                    ray.o,
-                    ray.d,
-                )
-            {
-                return Some((sh, pi));
+            if self.alpha_keeps(
+                pi.material,
+                &TexCtx {
+                    uv: sh.uv,
+                    n: sh.ng,
+                    p: sh.p,
+                },
+                ray.o,
+                ray.d,
+            ) {
+                return Some((ray, h));
             }
             ray = Ray {
                 o: Self::offset(sh.p, sh.ng.face_forward(ray.d), sh.err),
@@ -1206,5 +1270,12 @@ impl Tracer {
             };
         }
         None
+    }
+
+    /// The first surface along `r` at `pt` that the alpha test keeps (cut-outs are skipped as
+    /// the path skips them), with its primitive's data; `None` when the ray escapes.
+    pub(crate) fn first_hit(&self, r: &Ray, pt: &PathTime) -> Option<(SurfaceHit, PrimInfo)> {
+        let (ray, h) = self.first_kept(r, pt)?;
+        Some((self.surface(&ray, &h, pt), self.info[h.slot as usize]))
     }
 }

@@ -18,6 +18,7 @@ use crate::geometry::Ray;
 use crate::integrator::Tracer;
 use crate::materials::Mat;
 use crate::math::V3;
+use crate::motion::PathTime;
 use crate::scene::{Geometry, SceneDescription, Transform};
 use crate::spectral::{Lambdas, WavelengthSampler};
 use crate::texture::TexCtx;
@@ -577,7 +578,7 @@ pub(crate) fn compute(
                         rig.ray(px, py)
                     }
                 };
-                let Some((sh, pi)) = tracer.first_hit(&r) else {
+                let Some((sh, pi)) = tracer.first_hit(&r, &PathTime::STATIC) else {
                     continue;
                 };
                 let id = of_shape[pi.shape as usize];
@@ -622,7 +623,7 @@ pub(crate) fn compute(
                         o: Tracer::offset(hit.p, hit.ng.face_forward(r.d), hit.err),
                         d: r.d,
                     };
-                    let Some((sh2, pi2)) = tracer.first_hit(&next) else {
+                    let Some((sh2, pi2)) = tracer.first_hit(&next, &PathTime::STATIC) else {
                         break;
                     };
                     let id2 = of_shape[pi2.shape as usize];

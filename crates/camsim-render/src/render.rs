@@ -13,6 +13,7 @@ use crate::camera::CameraRig;
 use crate::filter::FilterSampler;
 use crate::integrator::{RayCounts, Tracer};
 use crate::light_groups::GroupRadiance;
+use crate::motion::{PathTime, TimeCache};
 use crate::sampler::{dim, IndependentSampler, PathSampler, SamplerKind, SobolSampler};
 use crate::scene::SceneDescription;
 use crate::spectral::WavelengthSampler;
@@ -101,6 +102,8 @@ pub struct RenderOutput {
     pub samples_per_pixel: Vec<u32>,
     /// Object and material ids of the first surface through each pixel centre (the depth ray).
     pub ids: crate::ids::IdMaps,
+    /// Optical flow for each interval of `settings.time.flow_intervals_s` (`crate::flow`).
+    pub flow: Vec<crate::flow::FlowMap>,
     /// Ray counts and speed.
     pub stats: RenderStats,
     /// Training-data labels, when [`RenderRequest::labels`] asked for them.
@@ -150,6 +153,18 @@ struct TraceCtx<'a> {
     bands: usize,
     /// Light groups, when the radiance is split by them.
     groups: Option<&'a crate::light_groups::GroupTable>,
+    /// Per image row, its shutter window `[start, end]`, s, when the scene moves (else empty:
+    /// no time is drawn).
+    windows: &'a [(f64, f64)],
+}
+
+impl TraceCtx<'_> {
+    /// The time of a path of row `y` from the uniform number drawn for it.
+    #[inline]
+    fn time_at(&self, y: usize, u: f32) -> f64 {
+        let (a, b) = self.windows[y];
+        a + (b - a) * u as f64
+    }
 }
 
 /// A tile's light-group accumulators: `acc[(group * bands + band) * tile_px + local]`, and one
@@ -183,6 +198,7 @@ impl PixelJob {
         acc: &mut [f64],
         mut split: Option<GroupAcc<'_, N>>,
         c: &mut RayCounts,
+        cache: &TimeCache,
     ) -> [f64; 3] {
         let (mut ls, mut ls2, mut ws) = (0f64, 0f64, 0f64);
         for i in 0..self.count as u64 {
@@ -194,22 +210,29 @@ impl PixelJob {
             let (lambdas, band) = ctx.ws.sample::<N>(u_l);
             // pbrt-v4 filter importance sampling: the film position from the filter, weight f/pdf.
             let (fx, fy, w_filter) = ctx.filter.film_point(self.x, self.y, [jx, jy]);
+            // The path's time, uniform in its row's shutter window (pbrt-v4
+            // `CameraBase::SampleTime`); a static scene draws none.
+            let pt = if ctx.windows.is_empty() {
+                PathTime::STATIC
+            } else {
+                cache.at(ctx.time_at(self.y, sampler.get_1d(dim::TIME)))
+            };
             let (ray, w_cam) = if ctx.rig.has_lens() {
                 // Realistic camera: a point in the exit pupil, the ray traced through the lens at
                 // the hero wavelength and weighted (cos^4 A / D^2); a blocked ray carries nothing.
                 let u_pupil = sampler.get_2d(dim::LENS);
                 match ctx.rig.lens_ray(fx, fy, u_pupil, lambdas[0]) {
-                    Some((ray, w)) => (Some(ray), w),
+                    Some((ray, w)) => (Some(ctx.tracer.camera_ray(ray, &pt)), w),
                     None => (None, 0f32),
                 }
             } else {
-                (Some(ctx.rig.ray(fx, fy)), 1f32)
+                (Some(ctx.tracer.camera_ray(ctx.rig.ray(fx, fy), &pt)), 1f32)
             };
             let l = match (&mut split, ray) {
                 (_, None) => [0f32; N],
                 (None, Some(ray)) => {
                     ctx.tracer
-                        .radiance::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c)
+                        .radiance::<N, S>(ray, &ctx.ws.locate(lambdas), sampler, c, &pt)
                 }
                 (Some(g), Some(ray)) => {
                     g.scratch.fill([0f32; N]);
@@ -219,7 +242,7 @@ impl PixelJob {
                         group_of: g.group_of,
                     };
                     ctx.tracer
-                        .li_into(ray, &ctx.ws.locate(lambdas), sampler, c, &mut sink);
+                        .li_into(ray, &ctx.ws.locate(lambdas), sampler, c, &pt, &mut sink);
                     let total = sink.total;
                     // Each group's share, as the total's (non-finite values dropped).
                     let stride = ctx.bands * self.tile_px;
@@ -292,13 +315,32 @@ pub fn render_with(
     // Output image + depth + variance and filter-weight accumulators (3 x f64) + variance +
     // sample counts + ids.
     camsim_core::mem::check_alloc(
-        pixels as u64 * (bands as u64 * 4 + 4 + 24 + 4 + 4 + 8),
+        pixels as u64
+            * (bands as u64 * 4 + 4 + 24 + 4 + 4 + 8 + 8 * st.time.flow_intervals_s.len() as u64),
         &format!("a {width} x {height} render with {bands} bands"),
     )?;
     let ws = WavelengthSampler::new(&st.grid);
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
     let tracer = Tracer::new(scene, &ws)?;
+    if tracer.motion.is_some() {
+        // Light groups split the path tracer's sum by the emitter hit, and labels trace the
+        // scene once per pixel: neither follows moving shapes, lights or camera yet.
+        if request.light_groups {
+            return Err(RenderError::Settings(
+                "light groups are not supported in scenes with motion yet (moving shapes, lights \
+                 or camera): remove the motion or the light-group output"
+                    .into(),
+            ));
+        }
+        if request.labels.is_some() {
+            return Err(RenderError::Settings(
+                "training-data labels are not supported in scenes with motion yet (moving \
+                 shapes, lights or camera): remove the motion or the labels"
+                    .into(),
+            ));
+        }
+    }
     let groups = if request.light_groups {
         if tracer.media.is_some() {
             return Err(RenderError::Settings(
@@ -435,6 +477,22 @@ fn run<const N: usize>(
         })
         .collect();
 
+    // Row windows when something moves (`crate::motion`); a static scene samples no time.
+    let time = &st.time;
+    let windows: Vec<(f64, f64)> = if tracer.motion.is_some() {
+        (0..height).map(|y| time.shutter.row_window_s(y)).collect()
+    } else {
+        Vec::new()
+    };
+    let flow_dts = &time.flow_intervals_s;
+    let mut flow = vec![
+        [0f32; 2];
+        if tracer.motion.is_some() {
+            pixels * flow_dts.len()
+        } else {
+            0
+        }
+    ];
     let ctx = TraceCtx {
         tracer,
         rig,
@@ -444,11 +502,13 @@ fn run<const N: usize>(
         filter,
         bands,
         groups,
+        windows: &windows,
     };
     let n_groups = groups.map_or(0, |g| g.names.len());
     // Light groups: band-sequential images one after the other.
     let mut group_data = vec![0f32; n_groups * bands * pixels];
     let group_ptr = SharedMut(group_data.as_mut_ptr());
+    let flow_ptr = SharedMut(flow.as_mut_ptr());
     let img_ptr = SharedMut(radiance.data.as_mut_ptr());
     let depth_ptr = SharedMut(depth.as_mut_ptr());
     let id_ptr = SharedMut(object_id.as_mut_ptr());
@@ -467,6 +527,7 @@ fn run<const N: usize>(
                 let (x1, y1) = ((x0 + TILE).min(width), (y0 + TILE).min(height));
                 let mut rng = keyed(st.seed, stage::RENDER, pass as u64, tile as u64);
                 let mut c = RayCounts::default();
+                let cache = TimeCache::new(tracer);
                 // This pass's sums for the tile, band-major (`acc[b * tile_px + local]`), written
                 // to the band-sequential image once per tile: band by band, row by row, instead of
                 // 31 pages apart for every pixel.
@@ -480,12 +541,25 @@ fn run<const N: usize>(
                         let pix = y * width + x;
                         let local = (y - y0) * tw + (x - x0);
                         if pass == 0 {
-                            let r = rig.ray(x as f32 + 0.5, y as f32 + 0.5);
-                            let (d, id) = tracer.first_surface(&r, rig.forward, &mut c);
+                            // Depth, ids and flow: the scene at the start of the row's window.
+                            let pt = match windows.get(y) {
+                                Some(w) => cache.at(w.0),
+                                None => PathTime::STATIC,
+                            };
+                            let r = tracer.camera_ray(rig.ray(x as f32 + 0.5, y as f32 + 0.5), &pt);
+                            let forward = tracer.camera_vector(rig.forward, &pt);
+                            let (d, id) = tracer.first_surface(&r, forward, &mut c, &pt);
                             // SAFETY: pixel `pix` belongs to this tile only.
                             unsafe {
                                 *depth_ptr.ptr().add(pix) = d;
                                 *id_ptr.ptr().add(pix) = id;
+                            }
+                            if !windows.is_empty() {
+                                for (k, dt) in flow_dts.iter().enumerate() {
+                                    let f = crate::flow::pixel_flow(tracer, rig, x, y, &pt, *dt);
+                                    // SAFETY: pixel `pix` of every flow map belongs to this tile only.
+                                    unsafe { *flow_ptr.ptr().add(k * pixels + pix) = f };
+                                }
                             }
                         }
                         let px = PixelJob {
@@ -504,11 +578,11 @@ fn run<const N: usize>(
                         let sums = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c, &cache)
                             }
                             SamplerKind::Sobol => {
                                 let mut smp = SobolSampler::new(st.seed, x as u32, y as u32);
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c)
+                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c, &cache)
                             }
                         };
                         // SAFETY: pixel `pix` belongs to this tile only.
@@ -623,12 +697,14 @@ fn run<const N: usize>(
         rays_per_second: rays as f64 / seconds,
     };
     let ids = crate::ids::IdMaps::from_object_ids(scene, width, height, object_id);
+    let flow = crate::flow::flow_maps(flow_dts, flow, width, height);
     Ok(RenderOutput {
         radiance,
         depth_m: depth,
         variance,
         samples_per_pixel: vec![samples_done; pixels],
         ids,
+        flow,
         stats,
         labels: None,
         light_groups,

@@ -55,6 +55,9 @@ pub mod dim {
     pub const BSDF_DIRECTION: u32 = 4;
     /// Russian roulette (1D).
     pub const RUSSIAN_ROULETTE: u32 = 6;
+    /// The path's time in the shutter window (1D; drawn only when the scene moves, so static
+    /// renders are unchanged). Its own sequence, far from the bounce dimensions.
+    pub const TIME: u32 = 0x7FFF_FFF0;
 
     /// First dimension of bounce `depth` (1 for the first scattering vertex).
     #[inline(always)]
@@ -162,7 +165,7 @@ pub struct SobolSampler {
 /// lane 0 (and 1) of their own sequence.
 #[inline(always)]
 fn source(d: u32) -> (u32, usize) {
-    if d >= dim::FIRST_BOUNCE {
+    if d >= dim::FIRST_BOUNCE && d != dim::TIME {
         let off = (d - dim::FIRST_BOUNCE) % dim::PER_BOUNCE;
         let d0 = d - off;
         return match off {
@@ -250,7 +253,7 @@ impl PathSampler for SobolSampler {
     }
     #[inline(always)]
     fn get_1d(&mut self, d: u32) -> f32 {
-        if d < dim::FIRST_BOUNCE {
+        if d < dim::FIRST_BOUNCE || d == dim::TIME {
             return self.sample_1d(d);
         }
         let (seed_dim, lane) = source(d);

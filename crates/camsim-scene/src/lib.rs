@@ -326,11 +326,15 @@ fn check_distance(d: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
+/// The brightest scene accepted, cd/m^2: about a million times the Sun's disc seen at noon
+/// (~1.6e9 cd/m^2); anything brighter is a typing mistake, not a scene.
+pub const MAX_LUMINANCE_CD_M2: f64 = 1e15;
+
 fn check_luminance(l: f64, key: &str) -> Result<()> {
-    if !(l >= 0.0 && l.is_finite()) {
+    if !(0.0..=MAX_LUMINANCE_CD_M2).contains(&l) {
         return Err(CoreError::invalid(
             key,
-            format!("{l} cd/m^2 is not a non-negative luminance"),
+            format!("{l} cd/m^2 is outside [0, {MAX_LUMINANCE_CD_M2:e}] cd/m^2 (a million times the Sun's disc)"),
         ));
     }
     Ok(())

@@ -599,7 +599,7 @@ pub(crate) fn create_pattern(
         grid,
     )?;
     let (rows, cols, map) = p.reflectance_map()?;
-    let mean = map.par_iter().map(|v| *v as f64).sum::<f64>() / map.len() as f64;
+    let mean = camsim_core::math::fixed_order_sum(&map) / map.len() as f64;
     let k_illum = com.scaled_illuminant(&vec![mean; grid.len()], grid)?;
     let mut img = com.image(rows, cols, grid)?;
     let n = img.pixels();

@@ -4,9 +4,11 @@
 //!
 //! Modules: [`scene`] (the [`SceneDescription`] and what it is made of: shapes, materials,
 //! textures, lights, camera, render settings), [`shapes`] (disks, cylinders and Loop subdivision
-//! surfaces turned into triangles), [`curves`] (pbrt-v4 curves as cubic Bezier segments), [`xform`] (transform and shape-bounds math), [`camera`]
-//! (look-at, focal-length and lens set-ups), [`envmap`] (environment-map parameterisations),
-//! [`media`] (participating media and measured scattering presets),
+//! surfaces turned into triangles), [`curves`] (pbrt-v4 curves as cubic Bezier segments),
+//! [`xform`] (transform and shape-bounds math), [`camera`] (look-at, focal-length and lens
+//! set-ups), [`motion`] (the scene in time: animated transforms, the shutter, what moves),
+//! [`envmap`] (environment-map parameterisations), [`media`] (participating media and measured
+//! scattering presets),
 //! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
 
@@ -15,6 +17,7 @@ pub mod camera;
 pub mod curves;
 pub mod envmap;
 pub mod media;
+pub mod motion;
 pub mod rgb2spec;
 pub mod scene;
 pub mod shapes;

@@ -890,6 +890,9 @@ pub struct RenderSettings {
     /// The pixel reconstruction filter (pbrt-v4 `PixelFilter`), applied by filter importance
     /// sampling; default a box of radius 0.5 (each pixel averages its own square).
     pub filter: PixelFilter,
+    /// The time dimension: the shutter window camera rays sample and what moves during it
+    /// ([`crate::motion`]; default: a static scene, pbrt-v4's shutter 0-1).
+    pub time: crate::motion::TimeSettings,
 }
 
 /// pbrt-v4's pixel reconstruction filters (4th ed. sec. 8.8.1), separable, radii in pixels per
@@ -976,6 +979,7 @@ impl Default for RenderSettings {
             sampler: SamplerKind::Sobol,
             russian_roulette_depth: 5,
             filter: PixelFilter::default(),
+            time: crate::motion::TimeSettings::default(),
         }
     }
 }

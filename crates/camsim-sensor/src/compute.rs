@@ -249,9 +249,23 @@ impl Sensor {
     /// fixed pattern on (fixed_pattern_seed, row), so the output is bit-identical for any number
     /// of threads. NaN or negative irradiance counts as no light (the image is not scanned for them).
     pub fn compute(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<Frame> {
+        self.compute_from(irradiance, capture, 0)
+    }
+
+    /// [`Sensor::compute`] with the temporal noise of frame k keyed on frame index
+    /// `first_frame + k`: the frames of a sequence whose irradiance changes from frame to frame
+    /// (a moving scene, one irradiance per frame) get the noise they would have in one capture,
+    /// each its own.
+    pub fn compute_from(
+        &self,
+        irradiance: &SpectralImage,
+        capture: &Capture,
+        first_frame: u64,
+    ) -> Result<Frame> {
         check_capture(capture)?;
+        self.check_memory(capture.frames, 2)?;
         let rate = self.electron_rate_image(irradiance)?;
-        self.capture_from_rate(&rate, self.rows(), self.cols(), capture, 0)
+        self.capture_from_rate(&rate, self.rows(), self.cols(), capture, first_frame)
     }
 
     /// Exposure bracketing / bursts (ISETCam: a vector `exposure time`, one capture per entry):
@@ -278,16 +292,17 @@ impl Sensor {
         if let Some((i, t)) = exposures_s
             .iter()
             .enumerate()
-            .find(|(_, t)| !(t.is_finite() && **t >= 0.0))
+            .find(|(_, t)| !exposure_in_range(**t))
         {
             return Err(SensorError::input(
                 "exposures_s",
-                format!("entry {i}: {t} s is not a finite time >= 0"),
+                format!("entry {i}: {t} s is outside [0, {MAX_EXPOSURE_S}] s (at most an hour)"),
             ));
         }
         if frames_per_exposure == 0 {
             return Err(SensorError::input("frames", "must be at least 1"));
         }
+        self.check_memory(exposures_s.len().saturating_mul(frames_per_exposure), 2)?;
         let rate = self.electron_rate_image(irradiance)?;
         let mut out: Option<Frame> = None;
         for (i, &t) in exposures_s.iter().enumerate() {
@@ -309,6 +324,33 @@ impl Sensor {
             }
         }
         out.ok_or_else(|| SensorError::input("exposures_s", "the list of exposure times is empty"))
+    }
+
+    /// The sensor stage's peak memory for `frames` frames of the whole sensor, `bytes_per_pixel`
+    /// per frame (2: a raw frame; HDR: two raw frames and the merged f32 frame), checked against
+    /// the memory limit before any of it is allocated ([`camsim_core::mem::MemoryBudget`]): the
+    /// electron image, the pixel vignetting map, the frames, the analog frames (quantization
+    /// off), and one frame's encoding to DNG and PNG.
+    pub fn check_memory(&self, frames: usize, bytes_per_pixel: usize) -> Result<()> {
+        let (rows, cols) = (self.rows(), self.cols());
+        let n = rows.saturating_mul(cols);
+        let mut b = mem::MemoryBudget::new(format!(
+            "the sensor stage ({rows} x {cols} pixels, {frames} frame(s))"
+        ))
+        .f32s("electron image", n);
+        if self.config().pixel_vignetting.is_some() {
+            b = b.f32s("pixel vignetting map", n);
+        }
+        b = b.bytes(
+            "frames",
+            (n as u64).saturating_mul((bytes_per_pixel * frames) as u64),
+        );
+        if !self.noise.quantization {
+            b = b.f32s("analog frames", n.saturating_mul(frames));
+        }
+        b.bytes("DNG and PNG encoding", (n as u64).saturating_mul(6))
+            .check("use a smaller sensor (rows and cols, or --rows/--cols) or fewer frames")?;
+        Ok(())
     }
 
     /// Noise-free photo-electrons per second at every pixel (its own CFA channel), row-major:
@@ -812,14 +854,23 @@ fn check_irradiance(irradiance: &SpectralImage) -> Result<()> {
     Ok(())
 }
 
+/// The longest exposure accepted: an hour. Longer ones are typing mistakes (`exposure_ms =
+/// 1e300`), not captures: dark current alone fills any pixel long before.
+pub const MAX_EXPOSURE_S: f64 = 3600.0;
+
+/// Whether `t` is an exposure time camsim accepts: finite, in [0, [`MAX_EXPOSURE_S`]].
+pub fn exposure_in_range(t: f64) -> bool {
+    (0.0..=MAX_EXPOSURE_S).contains(&t)
+}
+
 fn check_capture(capture: &Capture) -> Result<()> {
     if capture.frames == 0 {
         return Err(SensorError::input("frames", "must be at least 1"));
     }
     match capture.exposure {
-        Exposure::Seconds(t) if !(t.is_finite() && t >= 0.0) => Err(SensorError::input(
+        Exposure::Seconds(t) if !exposure_in_range(t) => Err(SensorError::input(
             "exposure_s",
-            format!("{t} s is not a finite time >= 0"),
+            format!("{t} s is outside [0, {MAX_EXPOSURE_S}] s (at most an hour)"),
         )),
         Exposure::Auto { target_fraction }
             if !(target_fraction > 0.0 && target_fraction <= 1.0) =>

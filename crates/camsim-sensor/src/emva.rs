@@ -61,10 +61,13 @@ impl Sensor {
             ));
         }
         let n = rows * cols;
-        mem::check_alloc(
-            (n as u64) * 2 * 2 * frames_per_level as u64 * exposures_s.len() as u64 + n as u64 * 8,
-            "the EMVA frame series",
-        )?;
+        let frames = 2 * frames_per_level * exposures_s.len();
+        mem::MemoryBudget::new(format!(
+            "the EMVA series ({frames} frames of {rows} x {cols})"
+        ))
+        .bytes("frames", (n as u64) * 2 * frames as u64)
+        .f32s("bright and dark rates", 2 * n)
+        .check("use a smaller window (--rows/--cols), fewer levels or fewer frames per level")?;
         // Uniform field: every pixel of channel c collects the same electron rate.
         let mut bright_rate = vec![0.0f32; n];
         if let Some(layout) = &self.layout {

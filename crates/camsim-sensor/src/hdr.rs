@@ -180,6 +180,8 @@ impl Sensor {
     /// HDR capture of a sensor-plane irradiance image (as [`Sensor::compute`]): both readouts
     /// and the merged frame. Errors when the sensor has no `[hdr]`.
     pub fn compute_hdr(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<HdrFrame> {
+        // Per frame: a high and a low raw frame (2 + 2 bytes) and the merged frame (4 bytes).
+        self.check_memory(capture.frames, 8)?;
         let rate = self.electron_rate_image(irradiance)?;
         self.compute_hdr_from_rate(&rate, capture)
     }

@@ -41,7 +41,9 @@ mod poisson;
 pub mod presets;
 pub mod sensor;
 
-pub use compute::{Capture, Exposure, Frame, POISSON_EXACT_BELOW_E};
+pub use compute::{
+    exposure_in_range, Capture, Exposure, Frame, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
+};
 pub use config::{NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};

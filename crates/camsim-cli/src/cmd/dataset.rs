@@ -101,6 +101,14 @@ pub fn run(a: Args) -> Result<()> {
     );
     pb.finish_and_clear();
     let s = summary.with_context(|| format!("dataset {}", a.out.display()))?;
+    common::report_removed(&s.removed_temporaries);
+    if s.shards_busy > 0 {
+        eprintln!(
+            "camsim: {} shard(s) are being written by another camsim run into {}; left to it",
+            s.shards_busy,
+            a.out.display()
+        );
+    }
     say(format!(
         "{} samples ({} failed) in {} shards written, {} complete shards kept, {:.1} s ({:.2} samples/s)",
         s.samples_run,

@@ -68,6 +68,10 @@ pub struct Args {
     /// Output folder for fit.json, mtf.csv and the plot (created if missing).
     #[arg(long, default_value = "out/fit-mtf")]
     pub out: PathBuf,
+    /// Overwrite the --plot file even when camsim did not write it (a plot camsim wrote is
+    /// replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -104,12 +108,9 @@ pub fn run(a: Args) -> Result<()> {
     let report = fit_measured_mtf(m, &start, &opts)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.measured.display()))?;
     let staged = common::stage_out_dir_reading(&a.out, &[a.measured.as_path()])?;
-    let plot_path = match &a.plot {
-        Some(p) => {
-            common::parent_dir(p)?;
-            p.clone()
-        }
-        None => staged.join("mtf_fit.png"),
+    let (plot_path, _claim) = match &a.plot {
+        Some(p) => (p.clone(), Some(common::claim_out_file(p, a.force)?)),
+        None => (staged.join("mtf_fit.png"), None),
     };
     let title = a
         .measured

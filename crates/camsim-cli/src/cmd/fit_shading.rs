@@ -20,13 +20,17 @@ pub struct Args {
     /// Output shading TOML (written only when the fit passes the flat-field checks).
     #[arg(long, default_value = "shading.toml")]
     pub out: PathBuf,
+    /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
+    /// signature, is replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let _claim = crate::common::claim_out_file(&a.out, a.force)?;
     let (raw, _info) = camsim::io::dng::read_dng(&a.flat)?;
     let fit = camsim::optics::fit_flat_field(&raw, a.order)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.flat.display()))?;
-    crate::common::parent_dir(&a.out)?;
     camsim::io::atomic::write_bytes_atomic(&a.out, fit.to_toml().as_bytes())?;
     let corner = fit.eval(camsim::core::CfaChannel::G, 1.0, 1.0);
     say(format!(

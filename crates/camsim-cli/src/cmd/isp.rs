@@ -97,9 +97,14 @@ pub struct Args {
     /// Output PNG.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
+    /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
+    /// signature, is replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let _claim = crate::common::claim_out_file(&a.out, a.force)?;
     // The chart's reflectances serve only the chart fit: read (and check) them before any work.
     let chart_reflectances = match (&a.chart_reflectances, a.ccm) {
         (None, _) => None,
@@ -141,7 +146,6 @@ pub fn run(a: Args) -> Result<()> {
             a.ccm_objective
         ));
     }
-    crate::common::parent_dir(&a.out)?;
     let p = &out.preview;
     camsim::io::raster::write_png8_rgb(&a.out, p.rows, p.cols, &p.data)?;
     if a.json {

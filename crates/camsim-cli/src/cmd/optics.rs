@@ -26,9 +26,14 @@ pub struct Args {
     /// Output spectral EXR.
     #[arg(long, default_value = "out/irradiance.exr")]
     pub out: PathBuf,
+    /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
+    /// signature, is replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let _claim = common::claim_out_file(&a.out, a.force)?;
     let radiance = common::read_spectral_exr(&a.input)?;
     let mut cfg = camsim::pipeline::load_lens(&a.lens)?;
     if a.focus_m.is_some() {
@@ -38,9 +43,6 @@ pub fn run(a: Args) -> Result<()> {
     let sp = common::spinner("optics");
     let irr = optics.compute(&radiance)?;
     sp.finish_and_clear();
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        common::out_dir(dir)?;
-    }
     camsim::io::exr::write_spectral_exr(&a.out, &irr, "optics")?;
     say(format!(
         "wrote {} ({} x {}, {:.3} um per sample at the sensor)",

@@ -23,18 +23,20 @@ pub struct Args {
     /// Output spectral EXR.
     #[arg(long, default_value = "out/radiance.exr")]
     pub out: PathBuf,
+    /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
+    /// signature, is replaced without this; anything else is refused).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
+    let _claim = common::claim_out_file(&a.out, a.force)?;
     let (cfg, grid) = match &a.config {
         Some(p) => camsim::pipeline::scene::load_scene_config(p)?,
         None => camsim::pipeline::scene::default_scene(&a.kind)
             .map_err(|e| anyhow::anyhow!("--kind: {e}"))?,
     };
     let img = camsim::scene::create(&cfg, &grid)?;
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        common::out_dir(dir)?;
-    }
     camsim::io::exr::write_spectral_exr(&a.out, &img, "scene")?;
     say(format!(
         "wrote {} ({} x {} x {} bands, {:.3} mm per sample)",

@@ -115,11 +115,14 @@ pub fn run(a: Args) -> Result<()> {
         let req = SeriesRequest {
             levels: a.levels,
             frames_per_level: a.frames_per_level,
-            rows: a.rows.unwrap_or(128),
-            cols: a.cols.unwrap_or(128),
+            rows: a.rows.unwrap_or(128.min(sensor.rows())),
+            cols: a.cols.unwrap_or(128.min(sensor.cols())),
             analog_offset_mv: a.analog_offset_mv,
             seed: a.seed,
         };
+        req.validate(&sensor)?;
+        // The user's --out is named (the staging folder beside it is on the same disk).
+        req.check_disk(&a.out)?;
         let pb = common::spinner("emva");
         let series = simulate_series(&sensor, &req, &|_, _, _| {})?;
         if series.offset_raised {

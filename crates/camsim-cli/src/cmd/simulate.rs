@@ -18,7 +18,7 @@ use std::path::PathBuf;
 /// most of a large run's time: ask for them only when needed, and choose --exr-compression none
 /// (fastest) or zip (smallest) and --exr-precision f32 or f16.
 ///
-/// The folder always holds one complete run: the files are written into DIR.tmp-<pid> beside it
+/// The folder always holds one complete run: the files are written into DIR.camsim-tmp-<pid> beside it
 /// and swapped in at the end, replacing an earlier run as a whole; a failed or interrupted run
 /// (Ctrl-C) leaves the earlier one untouched and no temporary behind.
 #[derive(clap::Args)]
@@ -95,11 +95,13 @@ pub fn run(a: Args) -> Result<()> {
         return Ok(());
     }
     let outputs = OutputSet::parse(&a.save)?;
+    OutputSet::check_applies(&a.save, cfg.scene.is_some())?;
     let staged = common::stage_out_dir(&a.out)?;
     let pb = common::progress(1, "simulate");
     let opts = SimulateOptions {
         noise_free: outputs.contains(Output::NoiseFree),
         labels: outputs.label_request(),
+        flow: outputs.contains(Output::Flow),
     };
     let sim = camsim::simulate(&cfg, &opts, &|stage, done, total| {
         pb.set_message(stage.to_string());

@@ -49,7 +49,9 @@ impl Parser {
                             return Err(loc.err("AttributeEnd closes a TransformBegin"));
                         }
                         self.gs.ctm = saved.ctm;
+                        self.gs.ctm_end = saved.ctm_end;
                         self.gs.start_active = saved.start_active;
+                        self.gs.end_active = saved.end_active;
                     }
                 },
             },
@@ -57,8 +59,14 @@ impl Parser {
                 self.require_world(loc, d, false)?;
                 self.in_world = true;
                 self.camera_world_check();
+                // pbrt-v4 WorldBegin: both transforms reset, both active.
                 self.gs.ctm = Transform::identity();
+                self.gs.ctm_end = Transform::identity();
+                self.gs.start_active = true;
+                self.gs.end_active = true;
                 self.named_coords
+                    .insert("world".into(), Transform::identity());
+                self.named_coords_end
                     .insert("world".into(), Transform::identity());
             }
             "WorldEnd" => {
@@ -143,6 +151,7 @@ impl Parser {
                 self.instances += 1;
                 for mut s in shapes {
                     s.shape.tags.instance = Some(instance);
+                    s.motion = self.instance_motion(s.motion.as_ref(), loc)?;
                     xform::transform_shape(&mut s.shape, &self.gs.ctm)
                         .map_err(|e| loc.err(format!("ObjectInstance \"{name}\": {e}")))?;
                     if s.shape.name.is_none() {

@@ -1,10 +1,21 @@
-//! Transformation directives (pbrt-v4 `ParserTarget` transform calls): the CTM, named coordinate systems and
-//! `ReverseOrientation`.
+//! Transformation directives (pbrt-v4 `ParserTarget` transform calls): the CTM at the start and
+//! end times (each directive changes the active ones, `ActiveTransform`), named coordinate
+//! systems, `TransformTimes` and `ReverseOrientation`.
 //! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
 
 use super::*;
 
 impl Parser {
+    /// Replace the active transforms by `t` (pbrt-v4 `ForActiveTransforms`).
+    fn set_transform(&mut self, t: Transform) {
+        if self.gs.start_active {
+            self.gs.ctm = t;
+        }
+        if self.gs.end_active {
+            self.gs.ctm_end = t;
+        }
+    }
+
     pub(super) fn transform_directive(
         &mut self,
         d: &str,
@@ -15,13 +26,7 @@ impl Parser {
     ) -> Result<(), PbrtError> {
         let f = file;
         match d {
-            "Identity" => {
-                self.gs.ctm = if self.gs.start_active {
-                    Transform::identity()
-                } else {
-                    self.gs.ctm
-                }
-            }
+            "Identity" => self.set_transform(Transform::identity()),
             "Translate" => {
                 let v = nums(tokens, pos, f, d, 3)?;
                 self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
@@ -45,9 +50,7 @@ impl Parser {
             }
             "Transform" => {
                 let t = matrix16(tokens, pos, f, d, loc)?;
-                if self.gs.start_active {
-                    self.gs.ctm = t;
-                }
+                self.set_transform(t);
             }
             "ConcatTransform" => {
                 let t = matrix16(tokens, pos, f, d, loc)?;
@@ -55,12 +58,17 @@ impl Parser {
             }
             "CoordinateSystem" => {
                 let n = string_arg(tokens, pos, f, d)?;
+                self.named_coords_end.insert(n.clone(), self.gs.ctm_end);
                 self.named_coords.insert(n, self.gs.ctm);
             }
             "CoordSysTransform" => {
                 let n = string_arg(tokens, pos, f, d)?;
                 match self.named_coords.get(&n) {
-                    Some(t) => self.gs.ctm = *t,
+                    // pbrt-v4 sets both transforms, whichever are active.
+                    Some(t) => {
+                        self.gs.ctm = *t;
+                        self.gs.ctm_end = self.named_coords_end.get(&n).copied().unwrap_or(*t);
+                    }
                     None => self.note(loc, format!("CoordSysTransform: no coordinate system \"{n}\" (ignored, as pbrt-v4 warns)")),
                 }
             }
@@ -73,18 +81,24 @@ impl Parser {
                     _ => return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All")),
                 };
                 *pos += 1;
-                match w.as_str() {
-                    "StartTime" | "All" => self.gs.start_active = true,
-                    "EndTime" => {
-                        self.gs.start_active = false;
-                        self.note(loc, "ActiveTransform EndTime: end-time transforms are ignored (no motion blur)");
-                    }
+                (self.gs.start_active, self.gs.end_active) = match w.as_str() {
+                    "StartTime" => (true, false),
+                    "EndTime" => (false, true),
+                    "All" => (true, true),
                     _ => return Err(loc.err(format!("ActiveTransform: unknown \"{w}\""))),
-                }
+                };
             }
             "TransformTimes" => {
-                nums(tokens, pos, f, d, 2)?;
-                self.note(loc, "TransformTimes ignored (no motion blur)");
+                let v = nums(tokens, pos, f, d, 2)?;
+                // pbrt-v4 allows it in the options block only.
+                self.require_world(loc, d, false)?;
+                if v[1] < v[0] {
+                    return Err(loc.err(format!(
+                        "TransformTimes: the end time {} s is before the start time {} s",
+                        v[1], v[0]
+                    )));
+                }
+                self.transform_times = (v[0], v[1]);
             }
             "ReverseOrientation" => self.gs.reverse_orientation = !self.gs.reverse_orientation,
             other => return Err(loc.err(format!("unknown directive \"{other}\""))),

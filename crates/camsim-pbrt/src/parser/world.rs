@@ -113,8 +113,10 @@ impl Parser {
                 let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
                 // camsim's extension: `"string lightgroup" "sky"` names the light's group.
                 let group = params.string("lightgroup")?;
+                let first = self.lights.len();
                 self.light_source(&ty, &params, loc, file)?;
                 self.light_groups.resize(self.lights.len(), group);
+                self.light_motion(first, loc)?;
             }
             "Shape" => {
                 self.require_world(loc, d, true)?;

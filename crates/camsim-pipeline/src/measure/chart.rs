@@ -45,7 +45,7 @@ pub fn measure_chart(
 ) -> Result<ChartReport> {
     let corners = req.corners;
     let ctx = |e: camsim_analysis::AnalysisError| {
-        PipelineError::Config(format!("{label}: chart with corners {corners:?}: {e}"))
+        PipelineError::Config(format!("{label}: chart with corners {corners} (x,y of the dark-skin, bluish-green, black and white corners, inside the image): {e}"))
     };
     let (patches, planes) = match image {
         MeasuredImage::Raw(raw) => {

@@ -375,6 +375,45 @@ pub struct SeriesRequest {
     pub seed: u64,
 }
 
+impl SeriesRequest {
+    /// Refuse a series that cannot be made as asked (never clamped): fewer than 3 levels, fewer
+    /// than 2 frames per level, a window that does not fit `sensor`.
+    pub fn validate(&self, sensor: &Sensor) -> Result<()> {
+        let bad = |m: String| Err(PipelineError::Config(m));
+        if self.levels < 3 {
+            return bad(format!("--levels {}: an EMVA 1288 series needs at least 3 exposure levels (dark to past saturation)", self.levels));
+        }
+        if self.frames_per_level < 2 {
+            return bad(format!("--frames-per-level {}: EMVA 1288 needs at least 2 frames per level (temporal noise is their difference)", self.frames_per_level));
+        }
+        let (rows, cols) = (self.rows, self.cols);
+        if rows == 0 || cols == 0 || rows > sensor.rows() || cols > sensor.cols() {
+            return bad(format!(
+                "--rows {rows} --cols {cols}: the EMVA window {rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor",
+                sensor.rows(),
+                sensor.cols()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuse a series the disk holding `out` cannot hold: every frame a DNG of 2 bytes a pixel
+    /// and a header ([`camsim_core::mem::check_disk`]).
+    pub fn check_disk(&self, out: &Path) -> Result<()> {
+        let frames = (self.levels as u64) * 2 * self.frames_per_level as u64;
+        let per_frame = (self.rows as u64).saturating_mul(self.cols as u64) * 2 + 65536;
+        camsim_core::mem::check_disk(
+            out,
+            frames.saturating_mul(per_frame),
+            &format!(
+                "the EMVA series ({frames} DNG files of {} x {})",
+                self.rows, self.cols
+            ),
+        )?;
+        Ok(())
+    }
+}
+
 /// A simulated series, in memory.
 #[derive(Debug, Clone)]
 pub struct SimulatedSeries {
@@ -407,14 +446,14 @@ pub fn simulate_series(
     };
     cfg.analog_offset_mv = offset_mv;
     let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
-    let rows = req.rows.min(sensor.rows());
-    let cols = req.cols.min(sensor.cols());
+    req.validate(&sensor)?;
+    let (rows, cols) = (req.rows, req.cols);
     let rate_e_per_s = 1e5;
     let irr = sensor.balanced_emva_irradiance(&grid, rate_e_per_s)?;
     let clip_e = (sensor.voltage_swing_v() * sensor.analog_gain() - sensor.analog_offset_v())
         / sensor.conversion_gain_v_per_e();
     let t_sat = clip_e / rate_e_per_s;
-    let n = req.levels.max(3);
+    let n = req.levels;
     let exposures: Vec<f64> = (0..n)
         .map(|i| 1.3 * t_sat * i as f64 / (n - 1) as f64)
         .collect();
@@ -423,7 +462,7 @@ pub fn simulate_series(
         &grid,
         &irr,
         &exposures,
-        req.frames_per_level.max(2),
+        req.frames_per_level,
         rows,
         cols,
         req.seed,

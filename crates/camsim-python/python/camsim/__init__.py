@@ -26,6 +26,7 @@ import numpy as np
 
 from . import _camsim, dataset, presets
 from ._camsim import CamsimError, Simulation
+from ._checks import check_values as _check_values
 
 __version__ = _camsim.__version__
 
@@ -67,24 +68,39 @@ def load_config(config: Optional[Config] = None) -> Dict[str, Any]:
     """A simulate config as a dict, from a dict (checked and completed with every default), TOML
     text, or the path of a TOML file or a run.json (its relative paths resolved); None: the
     built-in default."""
+    if isinstance(config, dict):
+        _check_values(config, "config", CamsimError)
     return _camsim.load_config(config)
 
 
 def simulate(
-    config: Optional[Config] = None, *, noise_free: bool = False, seed: Optional[int] = None, labels: bool = False
+    config: Optional[Config] = None,
+    *,
+    noise_free: bool = False,
+    seed: Optional[int] = None,
+    labels: bool = False,
+    flow: bool = False,
 ) -> Simulation:
     """Run the whole pipeline in memory; with no config, the built-in default (as `camsim
     simulate` with none: a Macbeth chart under D65, the Pixel 4a camera). Returns a Simulation
     with numpy arrays: radiance (None when the scene's camera is a lens, whose render is the
     irradiance), irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames,
-    rows, cols) uint16, with cfa, black_level, white_level), preview ((rows, cols, 3) uint8),
-    depth, noise_free (with noise_free=True) and metadata (a dict). Same config and seed as
+    rows, cols) uint16, with cfa, black_level, white_level), frame_times_s ((frames, 2): each
+    frame's start and duration in the scene's time, s; a moving 3D scene is rendered at each
+    frame's own time), preview ((rows, cols, 3) uint8), depth, noise_free (with
+    noise_free=True), flow and flow_next (with flow=True on a 3D scene: (frames, rows, cols, 2)
+    and (frames - 1, rows, cols, 2) optical flow in sensor pixels, aligned with raw) and metadata
+    (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
     camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]
     (metadata["results"]["lens_camera"] is True). labels=True (3D scenes): Simulation.labels
     (instance, id, depth, normal and albedo maps on the raw image's grid, boxes) and
-    Simulation.camera (K, world_to_camera)."""
-    return _camsim.simulate(config, noise_free, None if seed is None else int(seed), labels)
+    Simulation.camera (K, world_to_camera); a moving 3D scene refuses labels (not supported yet)."""
+    if isinstance(config, dict):
+        _check_values(config, "config", CamsimError)
+    if seed is not None:
+        _check_values({"seed": int(seed)}, "config", CamsimError)
+    return _camsim.simulate(config, noise_free, None if seed is None else int(seed), labels, flow)
 
 
 def _path_or(x: Any) -> Any:
@@ -110,6 +126,8 @@ def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[
     radiance (bands, rows, cols) float32 W/(sr m^2 nm), wavelengths_nm, spacing_m, fov_deg,
     distance_m, depth_m (None), units."""
     start, step, count = _grid(wavelengths_nm)
+    if isinstance(config, dict):
+        _check_values(config, "scene", CamsimError)
     return _camsim.scene(config, start, step, count)
 
 

@@ -22,6 +22,7 @@ import os
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 from . import _camsim
+from ._checks import check_values
 
 Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
 
@@ -34,6 +35,7 @@ def _spec_args(spec: Spec) -> Tuple[Union[str, Dict[str, Any]], str, str]:
     """(the spec as a dict or TOML text, its name in messages, the folder relative paths are
     resolved against)."""
     if isinstance(spec, dict):
+        check_values(spec, "spec dict", _camsim.CamsimError)
         return spec, "spec dict", os.getcwd()
     s = os.fspath(spec)
     if "\n" in s or s.lstrip().startswith("["):

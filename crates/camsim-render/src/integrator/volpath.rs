@@ -86,8 +86,8 @@ struct PathState<const N: usize> {
 }
 
 impl Tracer {
-    /// Spectral radiance along `ray`: the volumetric path tracer where the scene has media,
-    /// the path tracer otherwise.
+    /// Spectral radiance along `ray` at the path's time `pt`: the volumetric path tracer where
+    /// the scene has media, the path tracer otherwise.
     #[inline(always)]
     pub(crate) fn radiance<const N: usize, S: PathSampler>(
         &self,
@@ -95,10 +95,11 @@ impl Tracer {
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> [f32; N] {
         match &self.media {
-            None => self.li(ray, lambdas, sampler, counts),
-            Some(media) => self.li_vol(media, ray, lambdas, sampler, counts),
+            None => self.li(ray, lambdas, sampler, counts, pt),
+            Some(media) => self.li_vol(media, ray, lambdas, sampler, counts, pt),
         }
     }
 
@@ -108,11 +109,12 @@ impl Tracer {
         &self,
         ray: &Ray,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> Option<(SurfaceHit, PrimInfo, f32, Hit)> {
         let mut r = *ray;
         for _ in 0..MAX_INTERFACE_SKIPS {
-            let h = self.intersect(&r)?;
-            let sh = self.surface(&r, &h);
+            let h = self.intersect(&r, pt)?;
+            let sh = self.surface(&r, &h, pt);
             let pi = self.info[h.slot as usize];
             let ctx = TexCtx {
                 uv: sh.uv,
@@ -139,6 +141,7 @@ impl Tracer {
         lambdas: &Lambdas<N>,
         sampler: &mut S,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> [f32; N] {
         let mut st = PathState {
             l: [0f32; N],
@@ -155,7 +158,7 @@ impl Tracer {
         let mut prev_p = ray.o;
         counts.camera += 1;
         loop {
-            let hit = self.kept_hit(&ray, counts);
+            let hit = self.kept_hit(&ray, counts, pt);
             if medium != NO_MEDIUM {
                 let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.2);
                 let u = sampler.get_2d(track_dim(st.depth));
@@ -223,6 +226,7 @@ impl Tracer {
                                         sampler,
                                         d0,
                                         counts,
+                                        pt,
                                     );
                                     for i in 0..N {
                                         st.l[i] += ld[i];
@@ -363,7 +367,8 @@ impl Tracer {
                     material: pi.material,
                     n_oriented,
                 };
-                let ld = self.sample_ld_vol(media, &v, medium, &st, lambdas, sampler, d0, counts);
+                let ld =
+                    self.sample_ld_vol(media, &v, medium, &st, lambdas, sampler, d0, counts, pt);
                 for i in 0..N {
                     st.l[i] += ld[i];
                 }
@@ -455,6 +460,7 @@ impl Tracer {
         sampler: &mut S,
         d0: u32,
         counts: &mut RayCounts,
+        pt: &PathTime,
     ) -> [f32; N] {
         let zero = [0f32; N];
         let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
@@ -462,10 +468,7 @@ impl Tracer {
         let p_ref = match v {
             Vertex::Surface { p, .. } | Vertex::Medium { p, .. } => *p,
         };
-        let Some(ls) = self
-            .lights
-            .sample::<N>(&self.tables, p_ref, u_sel, u0, u1, lambdas)
-        else {
+        let Some(ls) = self.sample_light::<N>(p_ref, u_sel, u0, u1, lambdas, pt) else {
             return zero;
         };
         if !(ls.pdf > 0.0) || !any_positive(&ls.le) {
@@ -527,7 +530,7 @@ impl Tracer {
         }
         counts.shadow += 1;
         let Some((t_ray, mut r_l, mut r_u)) =
-            self.transmittance(media, p_from, start, &ls, st.hero_only, lambdas)
+            self.transmittance(media, p_from, start, &ls, st.hero_only, lambdas, pt)
         else {
             return zero;
         };
@@ -551,6 +554,7 @@ impl Tracer {
     /// (pbrt-v4 `SampleLd`'s shadow ray): `None` when a scattering surface blocks it, else the
     /// transmittance estimate and the ratios it multiplies into `r_l` and `r_u`. `interface`
     /// surfaces and alpha cut-outs let it through; medium boundaries change its medium.
+    #[allow(clippy::too_many_arguments)]
     fn transmittance<const N: usize>(
         &self,
         media: &MediaSet,
@@ -559,6 +563,7 @@ impl Tracer {
         ls: &LightSample<N>,
         hero_only: bool,
         lambdas: &Lambdas<N>,
+        pt: &PathTime,
     ) -> Option<([f32; N], [f32; N], [f32; N])> {
         const SHADOW_EPSILON: f32 = 1e-4;
         // As `unoccluded`: toward the light point moved off its surface, stopping short of it.
@@ -588,8 +593,8 @@ impl Tracer {
         for _ in 0..MAX_INTERFACE_SKIPS {
             let r = Ray { o, d };
             let mut pass = None;
-            if let Some(hit) = self.bvh.intersect(&RayInv::new(&r), t_left) {
-                let sh = self.surface(&r, &hit);
+            if let Some(hit) = self.intersect_within(&r, t_left, pt) {
+                let sh = self.surface(&r, &hit, pt);
                 let pi = self.info[hit.slot as usize];
                 let ctx = TexCtx {
                     uv: sh.uv,

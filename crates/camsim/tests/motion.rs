@@ -1,0 +1,294 @@
+//! The camera in time through the whole pipeline (issue 28): the sensor's exposure windows drive
+//! the render, a rolling shutter's rows map to render rows through the optics (the lens turns
+//! the image over: the sensor's top row sees the bottom of the scene), flow comes on the sensor
+//! grid, and a video of a static scene has frames of the same mean with independent noise.
+
+use camsim::{simulate, SimulateConfig, SimulateOptions};
+
+fn quiet(_: &str, _: u64, _: u64) {}
+
+/// An emitting vertical bar 3 cm wide and 4 m tall, 10 m in front of the camera, nothing else.
+const BAR: &str = r#"
+LookAt 0 0 -10  0 0 0  0 1 0
+Camera "perspective" "float fov" 5
+Film "rgb" "integer xresolution" 80 "integer yresolution" 60
+WorldBegin
+AttributeBegin
+  #ObjectName bar
+  AreaLightSource "diffuse" "blackbody L" 5000 "float scale" 3000 "bool twosided" true
+  Shape "trianglemesh" "point3 P" [ -0.015 -2 0  0.015 -2 0  0.015 2 0  -0.015 2 0 ]
+      "integer indices" [ 0 1 2 0 2 3 ]
+AttributeEnd
+"#;
+
+/// The config of the bar moving right at `v_m_s` on a 120 x 160 pixel4a window, rendered at
+/// 80 x 60 (2 sensor pixels per render pixel), exposed 0.2 ms with `shutter`.
+fn bar_config(dir: &std::path::Path, v_m_s: f64, shutter: &str) -> SimulateConfig {
+    std::fs::write(dir.join("bar.pbrt"), BAR).unwrap();
+    let text = format!(
+        r#"
+seed = 2
+[render]
+pbrt = "bar.pbrt"
+samples_per_pixel = 16
+resolution = [80, 60]
+[[render.overlay_inline.object]]
+name = "bar"
+velocity_m_s = [{v_m_s}, 0.0, 0.0]
+[sensor]
+preset = "pixel4a"
+rows = 120
+cols = 160
+[capture]
+exposure_ms = 0.2
+shutter = {shutter}
+"#
+    );
+    let path = dir.join("bar.toml");
+    std::fs::write(&path, text).unwrap();
+    SimulateConfig::load(&path).unwrap()
+}
+
+/// Per sensor row, the centroid column of the noise-free signal above black.
+fn row_centroids(sim: &camsim::Simulation) -> Vec<f64> {
+    let raw = &sim.frames[0];
+    let nf = sim.noise_free_dn.as_ref().unwrap();
+    (0..raw.rows)
+        .map(|r| {
+            let row = &nf[r * raw.cols..(r + 1) * raw.cols];
+            let w: Vec<f64> = row
+                .iter()
+                .map(|v| (*v as f64 - raw.black_level_dn).max(0.0))
+                .collect();
+            let s: f64 = w.iter().sum();
+            w.iter()
+                .enumerate()
+                .map(|(c, v)| (c as f64 + 0.5) * v)
+                .sum::<f64>()
+                / s
+        })
+        .collect()
+}
+
+fn slope(v: &[f64]) -> f64 {
+    let n = v.len() as f64;
+    let (mx, my) = ((n - 1.0) / 2.0, v.iter().sum::<f64>() / n);
+    let num: f64 = v
+        .iter()
+        .enumerate()
+        .map(|(i, y)| (i as f64 - mx) * (y - my))
+        .sum();
+    num / (0..v.len()).map(|i| (i as f64 - mx).powi(2)).sum::<f64>()
+}
+
+/// The bar moves right at v sensor pixels per second; rows are read 20 us apart. Top-down (the
+/// sensor's top row first, which the lens points at the bottom of the scene: raw.dng's last
+/// row) the bar in raw.dng leans by -v x line time per row; bottom-up by +v x line time; under
+/// the global shutter it stands straight. The render has half the sensor's rows, so the rows
+/// map through the optics' scale. The flow on the bar is v x exposure in sensor pixels.
+#[test]
+fn rolling_shutter_rows_follow_the_lens_inversion_and_flow_is_in_sensor_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let v_m_s = 6.0;
+    let line_s = 20e-6;
+    let opts = SimulateOptions {
+        noise_free: true,
+        flow: true,
+        ..Default::default()
+    };
+    let run = |shutter: &str| {
+        let cfg = bar_config(dir.path(), v_m_s, shutter);
+        simulate(&cfg, &opts, &quiet).unwrap()
+    };
+    let global = run("\"global\"");
+    // Sensor pixels per metre at 10 m: the lens's image distance (infinity focus: f) over the
+    // distance, divided by the pitch.
+    let f_m = global.optics.focal_length_mm * 1e-3;
+    let v_px_s = v_m_s * f_m / 10.0 / (global.sensor.pixel_pitch_um * 1e-6);
+    let s0 = slope(&row_centroids(&global));
+    assert!(
+        s0.abs() < 0.003,
+        "global shutter: the bar leans {s0} px/row"
+    );
+    let top_down = run("{ rolling = { line_time_us = 20.0, direction = \"top-down\" } }");
+    let s = slope(&row_centroids(&top_down));
+    let want = v_px_s * line_s;
+    assert!(
+        (s + want).abs() < 0.03 * want,
+        "top-down: {s} px/row, want {}",
+        -want
+    );
+    let bottom_up = run("{ rolling = { line_time_us = 20.0, direction = \"bottom-up\" } }");
+    let s = slope(&row_centroids(&bottom_up));
+    assert!(
+        (s - want).abs() < 0.03 * want,
+        "bottom-up: {s} px/row, want {want}"
+    );
+    // run.json records the shutter.
+    let meta = bottom_up.metadata(&Default::default(), &Default::default());
+    let sh = &meta["results"]["shutter"];
+    assert_eq!(sh["kind"], "rolling");
+    assert!((sh["readout_s"].as_f64().unwrap() - 119.0 * line_s).abs() < 1e-12);
+    // Flow: v T on the bar's pixels (the middle row), 0 beside it (nothing there moves).
+    let flow = &global.flow.as_ref().unwrap()[0].exposure;
+    let raw = &global.frames[0];
+    let mid = &flow[60 * raw.cols..61 * raw.cols];
+    let dx: Vec<f32> = mid.iter().map(|f| f[0]).filter(|v| *v != 0.0).collect();
+    assert!(!dx.is_empty());
+    let t_s = 0.2e-3;
+    for v in &dx {
+        assert!(
+            (*v as f64 / (v_px_s * t_s) - 1.0).abs() < 1e-3,
+            "flow {v} vs {}",
+            v_px_s * t_s
+        );
+    }
+    assert!(mid.iter().all(|f| f[1] == 0.0));
+    assert!(global.moving);
+}
+
+/// A video of the static Cornell box: the frames' windows are 1/fps apart (run.json), the scene
+/// is rendered once, every frame has the same mean within its noise and the frames' noise is
+/// uncorrelated; a rolling shutter changes nothing in a static scene (the same raw values).
+#[test]
+fn video_of_a_static_scene_has_one_mean_and_independent_noise() {
+    let text = |shutter: &str| {
+        format!(
+            r#"
+seed = 5
+[render]
+builtin = "cornell-box"
+samples_per_pixel = 4
+resolution = [64, 48]
+[sensor]
+preset = "pixel4a"
+rows = 96
+cols = 128
+[capture]
+exposure_ms = 30.0
+frames = 4
+fps = 25.0
+start_ms = 100.0
+shutter = {shutter}
+"#
+        )
+    };
+    let opts = SimulateOptions {
+        noise_free: true,
+        flow: false,
+        ..Default::default()
+    };
+    let cfg = SimulateConfig::from_toml_str(&text("\"global\""), std::path::Path::new("")).unwrap();
+    let sim = simulate(&cfg, &opts, &quiet).unwrap();
+    assert!(!sim.moving);
+    let starts: Vec<f64> = sim.frame_times.iter().map(|f| f.start_s).collect();
+    for (k, s) in starts.iter().enumerate() {
+        assert!((s - (0.1 + 0.04 * k as f64)).abs() < 1e-12, "{starts:?}");
+    }
+    let meta = sim.metadata(&Default::default(), &Default::default());
+    assert_eq!(meta["results"]["frame_times"].as_array().unwrap().len(), 4);
+    // Differences of frames: the scene and the fixed pattern (DSNU, PRNU) cancel, the temporal
+    // noise stays. Every pair has mean 0 within 4 standard errors, and the differences of
+    // disjoint pairs are uncorrelated (independent frames).
+    let f: Vec<Vec<f64>> = sim
+        .frames
+        .iter()
+        .map(|r| r.dn.iter().map(|d| *d as f64).collect())
+        .collect();
+    let n = f[0].len() as f64;
+    let diff =
+        |a: usize, b: usize| -> Vec<f64> { f[a].iter().zip(&f[b]).map(|(x, y)| x - y).collect() };
+    for (a, b) in [(0, 1), (1, 2), (2, 3), (0, 3)] {
+        let d = diff(a, b);
+        let m = d.iter().sum::<f64>() / n;
+        let sd = (d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n).sqrt();
+        assert!(sd > 1.0, "frames {a} and {b} must differ by their noise");
+        assert!(
+            m.abs() < 4.0 * sd / n.sqrt(),
+            "frames {a}, {b}: mean difference {m} DN (sd {sd})"
+        );
+    }
+    let (d01, d23) = (diff(0, 1), diff(2, 3));
+    let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
+    let rho = dot(&d01, &d23) / (dot(&d01, &d01) * dot(&d23, &d23)).sqrt();
+    assert!(rho.abs() < 0.03, "correlation of frame differences {rho}");
+    let rolling = SimulateConfig::from_toml_str(
+        &text("{ rolling = { line_time_us = 50.0, direction = \"top-down\" } }"),
+        std::path::Path::new(""),
+    )
+    .unwrap();
+    let sim_r = simulate(&rolling, &opts, &quiet).unwrap();
+    for (a, b) in sim.frames.iter().zip(&sim_r.frames) {
+        assert!(
+            a.dn == b.dn,
+            "a rolling shutter must not change a static scene"
+        );
+    }
+}
+
+/// A video of a moving scene renders every frame at its own time: the frames differ beyond the
+/// noise, and the flow to the next frame is what the motion says at a blade tip.
+#[test]
+fn video_of_a_moving_scene_renders_each_frame_at_its_time() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/fan-video.toml");
+    let mut cfg = SimulateConfig::load(&path).unwrap();
+    cfg.capture.frames = 3;
+    let opts = SimulateOptions {
+        noise_free: true,
+        flow: true,
+        ..Default::default()
+    };
+    let sim = simulate(&cfg, &opts, &quiet).unwrap();
+    assert!(sim.moving);
+    assert_eq!(sim.frames.len(), 3);
+    let mean_abs_diff = |a: &[u16], b: &[u16]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (*x as f64 - *y as f64).abs())
+            .sum::<f64>()
+            / a.len() as f64
+    };
+    let d = mean_abs_diff(&sim.frames[0].dn, &sim.frames[1].dn);
+    assert!(d > 10.0, "frames 0 and 1 differ by {d} DN on average");
+    let flows = sim.flow.as_ref().unwrap();
+    assert!(flows[0].to_next.is_some() && flows[2].to_next.is_none());
+    // The largest flow to the next frame: a blade's outer corner (25 cm out, 4.5 cm aside)
+    // turning 12 degrees (1/30 s at 360 deg/s) moves a chord of 2 r sin(6 deg), in sensor pixels.
+    let f_m = sim.optics.focal_length_mm * 1e-3;
+    let px_per_m = f_m / 7.0 / (sim.sensor.pixel_pitch_um * 1e-6);
+    let chord = 2.0 * 0.25f64.hypot(0.045) * 6f64.to_radians().sin() * px_per_m;
+    let max = flows[0]
+        .to_next
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|f| (f[0] as f64).hypot(f[1] as f64))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    assert!(
+        max > 0.97 * chord && max < 1.005 * chord,
+        "largest flow {max} px, tip chord {chord}"
+    );
+}
+
+/// Labels trace the scene once, at one time: a moving scene refuses them with a message that
+/// names the outputs to leave out, instead of writing labels of one instant next to blurred
+/// frames. The same request on the bar standing still runs.
+#[test]
+fn a_moving_scene_refuses_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = SimulateOptions {
+        labels: Some(camsim::render::LabelRequest::default()),
+        ..Default::default()
+    };
+    let e = simulate(&bar_config(dir.path(), 6.0, "\"global\""), &opts, &quiet)
+        .expect_err("a moving scene with labels must be refused")
+        .to_string();
+    assert!(
+        e.contains("labels") && e.contains("moving") && e.contains("--save"),
+        "{e}"
+    );
+    let still = simulate(&bar_config(dir.path(), 0.0, "\"global\""), &opts, &quiet).unwrap();
+    assert!(still.labels.is_some());
+}
