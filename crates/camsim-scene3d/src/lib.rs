@@ -9,7 +9,7 @@
 //! set-ups), [`motion`] (the scene in time: animated transforms, the shutter, what moves),
 //! [`envmap`] (environment-map parameterisations), [`media`] (participating media and measured
 //! scattering presets),
-//! [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
+//! [`transform`] (the 4x4 transform every module shares), [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
 
 pub mod builtin;
@@ -22,6 +22,7 @@ pub mod rgb2spec;
 pub mod scene;
 pub mod shapes;
 pub mod spectra;
+pub mod transform;
 pub mod uplift;
 pub mod xform;
 

@@ -9,7 +9,7 @@
 //! along a path `dL/ds = -(sigma_a + sigma_s) L + sigma_a Le + sigma_s (phase-weighted
 //! in-scattered radiance)` (4th ed. eq. 11.13), with `Le` a spectral radiance W/(sr m^2 nm).
 
-use crate::scene::Transform;
+use crate::transform::Transform;
 use camsim_core::Spectrum;
 
 /// The scene's media and the camera's.

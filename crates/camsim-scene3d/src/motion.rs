@@ -13,8 +13,7 @@
 //! scale/shear), and between keys T and S are interpolated linearly and R by spherical linear
 //! interpolation of its quaternion along the shorter arc.
 
-use crate::scene::Transform;
-use crate::xform::inverse;
+use crate::transform::{inverse, Transform};
 
 /// A unit quaternion `[w, x, y, z]` (rotation by `2 acos(w)` about `(x, y, z)`).
 pub type Quat = [f64; 4];

@@ -4,49 +4,10 @@
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 
-use crate::scene::{Geometry, Shape, Transform};
+use crate::scene::{Geometry, Shape};
+use crate::transform::Transform;
 
-/// Determinant of the upper-left 3x3 (negative when the transform swaps handedness).
-pub fn det3(t: &Transform) -> f64 {
-    let m = &t.m;
-    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-}
-
-/// Inverse of a 4x4 matrix (Gauss-Jordan with partial pivoting); None if singular.
-pub fn inverse(t: &Transform) -> Option<Transform> {
-    let mut a = t.m;
-    let mut inv = Transform::identity().m;
-    for col in 0..4 {
-        let piv = (col..4).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if !(a[piv][col].abs() > 1e-300) {
-            return None;
-        }
-        a.swap(col, piv);
-        inv.swap(col, piv);
-        let d = a[col][col];
-        for k in 0..4 {
-            a[col][k] /= d;
-            inv[col][k] /= d;
-        }
-        for row in 0..4 {
-            if row != col {
-                let f = a[row][col];
-                if f != 0.0 {
-                    for k in 0..4 {
-                        a[row][k] -= f * a[col][k];
-                        inv[row][k] -= f * inv[col][k];
-                    }
-                }
-            }
-        }
-    }
-    inv.iter()
-        .flatten()
-        .all(|v| v.is_finite())
-        .then_some(Transform { m: inv })
-}
+pub use crate::transform::{det3, inverse};
 
 /// Transform a normal: (M^-1)^T n, normalised. `inv` is the inverse of the point transform.
 pub fn apply_normal(inv: &Transform, n: [f64; 3]) -> [f64; 3] {
