@@ -15,9 +15,8 @@ writes rolling_shutter.png (previews side by side and the global frame's flow ma
 import sys
 from pathlib import Path
 
-import numpy as np
-
 import camsim
+import numpy as np
 
 out = next((a for a in sys.argv[1:] if a.endswith(".png")), "rolling_shutter.png")
 small = "--small" in sys.argv

@@ -98,7 +98,11 @@ fn rerun_replaces_the_earlier_run_as_a_whole_and_says_so() {
     let o = camsim(&["simulate", s(&cfg), "--out", s(&out), "--frames", "2"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("raw_0001.dng").is_file());
-    let o = camsim(&["simulate", s(&cfg), "--out", s(&out), "--seed", "13"]);
+    // Without --quiet: the note about the replaced run is one `--quiet` hides.
+    let o = Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args(["simulate", s(&cfg), "--out", s(&out), "--seed", "13"])
+        .output()
+        .expect("camsim runs");
     assert!(o.status.success(), "{}", stderr(&o));
     // One run: the second frame of the seed-11 run must not survive beside the seed-13 run.
     assert!(

@@ -387,7 +387,7 @@ def test_pixel4a_raw10_iso_and_exposure_bracket():
 def test_rolling_shutter_example_bends_the_fan_and_returns_flow(tmp_path):
     out = tmp_path / "rs.png"
     text = run_example("rolling_shutter.py", str(out))
-    flow = {l.split(":")[0]: float(l.split("flow on the fan ")[1].split(" px")[0]) for l in text.splitlines() if "flow on the fan" in l}
+    flow = {line.split(":")[0]: float(line.split("flow on the fan ")[1].split(" px")[0]) for line in text.splitlines() if "flow on the fan" in line}
     # 3600 deg/s for 1 ms: a blade point at radius r moves 2 pi r / 100 of its circle; the fan
     # moves in both pictures, by the same flow.
     assert set(flow) == {"global", "rolling"} and flow["global"] > 0.1, text
