@@ -143,8 +143,10 @@ pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
 
 /// Prepare `out` for `spec`: create it and write `spec.json`, or check that the `spec.json`
 /// already there is the same spec (a folder holds one dataset). A path that is not a folder, or
-/// a non-empty folder without camsim's `spec.json`, is refused naming what is there.
-pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
+/// a non-empty folder without camsim's `spec.json`, is refused naming what is there. A
+/// `spec.json` temporary that a killed run left is removed first (and returned), so a run killed
+/// while it wrote the spec does not make the folder look foreign.
+pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<Vec<PathBuf>> {
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
             .map_err(|e| camsim_io::lock::cannot_write_beside(out, e))?;
@@ -152,6 +154,11 @@ pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
     // Runs sharing the folder (--shard i/n) take this step in turn.
     let _lock = OutputLock::acquire_waiting(out)?;
     let path = out.join("spec.json");
+    let removed = if out.is_dir() {
+        remove_stale_temporaries(&path)
+    } else {
+        Vec::new()
+    };
     match std::fs::symlink_metadata(out) {
         Ok(m) if !m.is_dir() => {
             return Err(DatasetError::file(
@@ -181,7 +188,7 @@ pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
                 "holds a dataset of another spec; write this one to a new folder (or delete the old one)",
             ));
         }
-        return Ok(());
+        return Ok(removed);
     }
     let json = serde_json::json!({
         "fingerprint": spec.fingerprint,
@@ -196,7 +203,7 @@ pub fn prepare(spec: &DatasetSpec, out: &Path) -> Result<()> {
         "camsim_version": env!("CARGO_PKG_VERSION"),
     });
     write_json_atomic(&path, &json)?;
-    Ok(())
+    Ok(removed)
 }
 
 /// The first entry of folder `dir` by name, if any.
@@ -452,6 +459,8 @@ pub fn run_shard(
             ),
         ));
     }
+    // Like the shard lock's, the spec temporaries removed here are not reported by this
+    // single-shard entry point (`run` reports both).
     prepare(spec, out)?;
     let stem = shard_stem(spec, s);
     let lock = try_lock_shard(spec, out, s)?.ok_or_else(|| {
@@ -593,7 +602,7 @@ pub fn run(
             format!("--workers {w}: at most 4 per core, 1..={limit} on this machine (the output does not depend on the count)"),
         ));
     }
-    prepare(spec, out)?;
+    let removed_spec = prepare(spec, out)?;
     let owned: Vec<u64> = (0..spec.shards()).filter(|s| select.owns(*s)).collect();
     let todo: Vec<u64> = owned
         .iter()
@@ -617,7 +626,7 @@ pub fn run(
             format!("cannot start {workers:?} workers: {e}"),
         )
     })?;
-    let (mut written, mut busy, mut removed) = (0u64, 0u64, Vec::new());
+    let (mut written, mut busy, mut removed) = (0u64, 0u64, removed_spec);
     for s in &todo {
         // Another process writing this shard keeps it; one that completed it meanwhile is kept.
         let Some(lock) = try_lock_shard(spec, out, *s)? else {

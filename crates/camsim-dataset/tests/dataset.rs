@@ -588,3 +588,28 @@ values = [0.0, 0.08]
     // 8 cm of a 55 cm box seen across ~48 px: several pixels.
     assert!((x1 - x0).abs() > 3.0, "block centroid column {x0} -> {x1}");
 }
+
+/// A run killed while it wrote `spec.json` leaves only `.spec.json.camsim-tmp-PID-N` in the
+/// folder: the next run removes it (its process is gone), reports it, and writes the dataset
+/// instead of refusing the folder as foreign (issue 25, found by the kill-and-rerun CLI test).
+#[test]
+fn a_spec_temporary_of_a_killed_run_does_not_make_the_folder_foreign() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("ds");
+    std::fs::create_dir(&out).unwrap();
+    // The id of a process that has exited.
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let dead = child.id();
+    child.wait().unwrap();
+    let tmp = out.join(format!(".spec.json.camsim-tmp-{dead}-0"));
+    std::fs::write(&tmp, b"{\"fingerprint\": \"half").unwrap();
+    let s = spec("");
+    let r = run(&s, &out, ShardSelect::default(), None, false, &|_, _, _| {}).unwrap();
+    assert!(!tmp.exists(), "the killed run's temporary is removed");
+    assert!(
+        r.removed_temporaries.contains(&tmp),
+        "{:?}",
+        r.removed_temporaries
+    );
+    assert!(out.join("spec.json").is_file());
+}
