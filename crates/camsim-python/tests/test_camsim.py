@@ -276,7 +276,7 @@ def test_the_readme_python_examples_run(tmp_path, monkeypatch):
     # what an earlier one wrote).
     pages = [REPO / "README.md", REPO / "docs/src/python.md", REPO / "docs/src/datasets.md"]
     blocks = [(p.name, b.split("```", 1)[0]) for p in pages for b in p.read_text().split("```python\n")[1:]]
-    assert len(blocks) >= 4, "README or docs lost their python examples (package, datasets, loader)"
+    assert len(blocks) >= 4, "README or docs lost their python examples (package, loader, datasets)"
     # In a scratch folder that sees the repository's examples, as a user's checkout would.
     (tmp_path / "examples").symlink_to(REPO / "examples")
     monkeypatch.chdir(tmp_path)
