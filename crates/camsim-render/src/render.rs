@@ -357,67 +357,28 @@ pub fn render_with(
     } else {
         None
     };
+    // One monomorphised tracer per supported path width; the arguments are the same for all.
+    macro_rules! run_n {
+        ($n:literal) => {
+            run::<$n>(
+                scene,
+                &tracer,
+                &rig,
+                &ws,
+                &filter,
+                groups.as_ref(),
+                progress,
+                start,
+            )
+        };
+    }
     let mut out = match st.wavelengths_per_path {
-        1 => run::<1>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
-        2 => run::<2>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
-        3 => run::<3>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
-        4 => run::<4>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
-        8 => run::<8>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
-        16 => run::<16>(
-            scene,
-            &tracer,
-            &rig,
-            &ws,
-            &filter,
-            groups.as_ref(),
-            progress,
-            start,
-        ),
+        1 => run_n!(1),
+        2 => run_n!(2),
+        3 => run_n!(3),
+        4 => run_n!(4),
+        8 => run_n!(8),
+        16 => run_n!(16),
         n => Err(RenderError::Settings(format!(
             "wavelengths_per_path = {n}; supported: 1, 2, 3, 4, 8, 16"
         ))),

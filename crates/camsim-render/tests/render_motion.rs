@@ -6,6 +6,8 @@
 //! optical flow follows translation and camera rotation in closed form; and a scene whose only
 //! moving object never takes part in the image renders byte for byte as the static scene.
 
+mod common;
+
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::render;
 use camsim_scene3d::motion::{Motion, MotionPart, RowReadout, Shutter, TimeSettings};
@@ -561,20 +563,7 @@ fn flow_matches_the_displacement_between_two_frames() {
 /// A diffuse floor (reflectance 0.5, the plane z = 0) seen from 2 m above by a `n` x `n` camera
 /// with field `fov_deg`.
 fn floor_scene(n: usize, fov_deg: f64, spp: u32, extra: Vec<Shape>) -> SceneDescription {
-    let s = 5.0;
-    let mut shapes = vec![Shape {
-        name: Some("floor".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[-s, -s, 0.0], [s, -s, 0.0], [s, s, 0.0], [-s, s, 0.0]],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    }];
+    let mut shapes = vec![common::floor(5.0)];
     shapes.extend(extra);
     let mut sc = scene(n, n, shapes, spp, TimeSettings::default());
     sc.camera.camera_to_world =
