@@ -76,3 +76,9 @@ pub use camsim_pipeline::{
 
 /// Result with camsim's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The README's Rust example, compiled by `cargo test --doc -p camsim` so that it cannot fall
+/// behind the API (it is `no_run`: it writes into `out/`).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeExample;
