@@ -194,8 +194,7 @@ pub mod ply;
 pub mod spectra;
 
 pub mod overlay;
-mod overlay_motion;
-pub use overlay_motion::ShakeSpec;
+pub use overlay::ShakeSpec;
 
 // The scene-description modules the reader builds with, under the paths the reader's modules use.
 use camsim_scene3d::{builtin, camera, envmap, scene, shapes, xform};
