@@ -4,84 +4,31 @@
 
 use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
+use crate::error::RenderError;
 use crate::geometry::{
-    offset_ray_origin, sphere_point_err, tri_point_err, Prim, Ray, RayInv, SphereClip,
+    offset_ray_origin, sphere_point_err, tri_point_err, MeshShading, Prim, PrimInfo, Ray, RayInv,
+    SphereClip, SurfaceHit, NO_LIGHT,
 };
+use crate::image_tex::ImageTex;
 use crate::light_groups::PathRadiance;
 use crate::lights::{EmitImage, LightKind, LightSample, Lights, NO_ALPHA, NO_IMAGE};
 use crate::materials::{check_mix_cycles, compile_material, Mat};
 use crate::math::{Frame, V3};
 use crate::motion::PathTime;
-use crate::render::RenderError;
 use crate::sampler::{dim, PathSampler};
 use crate::sampling::power_heuristic;
 use crate::scene::{Geometry, SceneDescription};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::texture::{eval_float, FTex, Tex, TexCtx};
 
+mod material_eval;
+mod moving;
+mod shading;
 mod volpath;
-
-/// Marks a primitive without an emitter.
-pub(crate) const NO_LIGHT: u32 = u32::MAX;
-
-/// Per-primitive data needed after a hit, in BVH order.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct PrimInfo {
-    /// Index of the shape in `SceneDescription::shapes`.
-    pub shape: u32,
-    /// Triangle index within its mesh (0 for spheres).
-    pub tri: u32,
-    /// Compiled material index.
-    pub material: u32,
-    /// Light index, or [`NO_LIGHT`].
-    pub light: u32,
-}
-
-/// Shading data of a triangle mesh that has uv or normals.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct MeshShading {
-    pub indices: Vec<[u32; 3]>,
-    pub uvs: Option<Vec<[f32; 2]>>,
-    pub normals: Option<Vec<V3>>,
-}
 
 /// Most `interface` surfaces (and alpha cut-out hits) one path passes through before it is
 /// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;
-
-/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, `wrap` outside the image,
-/// bilinear filter).
-#[derive(Debug, Clone)]
-pub(crate) struct ImageTex {
-    pub width: usize,
-    pub height: usize,
-    pub rgb: Vec<[f32; 3]>,
-    pub uscale: f32,
-    pub vscale: f32,
-    pub udelta: f32,
-    pub vdelta: f32,
-    pub wrap: crate::scene::WrapMode,
-}
-
-impl ImageTex {
-    /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
-    /// t flipped so image row 0 is at t = 1, texel centres at half-integers,
-    /// `crate::texture::bilinear_texels`).
-    #[inline]
-    pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
-        let s = uv[0] * self.uscale + self.udelta;
-        let t = uv[1] * self.vscale + self.vdelta;
-        let (idx, w) = crate::texture::bilinear_texels(self.width, self.height, s, t, self.wrap);
-        let mut out = [0f32; 3];
-        for k in 0..3 {
-            out[k] = w[0] * self.rgb[idx[0]][k]
-                + w[1] * self.rgb[idx[1]][k]
-                + w[2] * self.rgb[idx[2]][k]
-                + w[3] * self.rgb[idx[3]][k];
-        }
-        out
-    }
-}
 
 /// Counters of rays cast, per tile (summed into [`crate::RenderStats`]).
 #[derive(Debug, Clone, Copy, Default)]
@@ -121,24 +68,6 @@ pub(crate) struct Tracer {
     pub light_source: Vec<u32>,
     /// What moves (`crate::motion`); `None` for a static scene.
     pub motion: Option<Box<crate::motion::MotionTracer>>,
-}
-
-/// Surface data at a hit.
-pub(crate) struct SurfaceHit {
-    pub(crate) p: V3,
-    /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
-    pub(crate) ng: V3,
-    /// Shading normal (unit; equals `ng` without vertex normals).
-    pub(crate) ns: V3,
-    pub(crate) uv: [f32; 2],
-    /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
-    /// hair BSDF needs); zero for other shapes (any frame about the normal).
-    pub(crate) dpdu: V3,
-    /// Per-axis bound on the floating-point error of `p`, m (`geometry::tri_point_err`,
-    /// `geometry::sphere_point_err`; a curve's the width at the hit, as pbrt-v4's `pError`).
-    /// Rays leave the surface `|ng| . err` along the geometric normal (pbrt-v4
-    /// `OffsetRayOrigin`, `geometry::offset_ray_origin`).
-    pub(crate) err: V3,
 }
 
 impl Tracer {
