@@ -1,11 +1,13 @@
-//! The directive interpreter: graphics state, transforms, shapes, materials, textures, lights.
-//! See the module docs of [`crate`] for what is supported.
+//! The scene builder (pbrt-v4 `BasicSceneBuilder`): the [`ParserTarget`] that `reader.rs` hands
+//! each directive to. It keeps the graphics state and the attribute stack and turns directives
+//! into camsim-scene3d objects (transforms, shapes, materials, textures, lights, media). See the
+//! module docs of [`crate`] for what is supported.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 
 use super::images::{self, load_image, parse_encoding, Encoding};
-use super::lexer::{tokenize, Token, TokenKind};
-use super::params::{parse_params, Param, ParamList};
+use super::params::{Param, ParamList};
+use super::reader::{resolve_path, Args, ParserTarget, Reader, MAX_ERRORS};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, inverse};
 use super::{Loc, PbrtError};
@@ -26,7 +28,7 @@ mod materials;
 mod media;
 mod textures;
 
-// The directive families, dispatched by `Parser::directive`.
+// The directive families, dispatched by `ParserTarget::directive` of `SceneBuilder`.
 mod blocks;
 mod motion;
 use motion::flush_motion;
@@ -34,12 +36,6 @@ mod options;
 mod shapes;
 mod transforms;
 mod world;
-
-/// Problems reported before reading stops.
-const MAX_ERRORS: usize = 100;
-
-/// Deepest Include/Import nesting accepted.
-const MAX_INCLUDE_DEPTH: usize = 64;
 
 #[derive(Debug, Clone)]
 enum MatRef {
@@ -105,9 +101,8 @@ enum Block {
     Transform,
 }
 
-struct Parser {
+struct SceneBuilder {
     main_dir: PathBuf,
-    include_stack: Vec<PathBuf>,
     in_world: bool,
     gs: GraphicsState,
     stack: Vec<(GraphicsState, Block, Loc)>,
@@ -147,25 +142,8 @@ struct Parser {
     notes: Vec<String>,
     /// Problems found so far (reported together at the end).
     errors: Vec<PbrtError>,
-    /// Token index of the directive being read (where to resume after a problem).
-    cur_pos: usize,
-    /// Too many problems: stop reading.
-    aborted: bool,
     /// Participating media and what selects them (`parser/media.rs`).
     media: media::ParsedMedia,
-}
-
-/// Index of the first token at or after `from` that can start a directive: a bare word
-/// beginning with an ASCII capital (pbrt directives; parameter values are numbers, strings,
-/// brackets and lower-case `true`/`false`), or a naming comment.
-fn next_directive(tokens: &[Token], from: usize) -> usize {
-    (from..tokens.len())
-        .find(|&i| match &tokens[i].kind {
-            TokenKind::Word(w) => w.starts_with(|c: char| c.is_ascii_uppercase()),
-            TokenKind::ObjectName(_) => true,
-            _ => false,
-        })
-        .unwrap_or(tokens.len())
 }
 
 /// Parse a whole scene.
@@ -177,9 +155,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
                 .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
         ),
     };
-    let mut p = Parser {
+    let mut p = SceneBuilder {
         main_dir,
-        include_stack: vec![canonical(path)],
         in_world: false,
         gs: GraphicsState {
             ctm: Transform::identity(),
@@ -229,13 +206,13 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         focus_distance_m: None,
         notes: Vec::new(),
         errors: Vec::new(),
-        cur_pos: 0,
-        aborted: false,
         media: Default::default(),
     };
     // An `Err` here means reading stopped early (too many problems); they are all in `errors`.
-    let _ = p.parse_text(text, path);
-    if p.aborted {
+    let mut reader = Reader::new(path);
+    let _ = reader.read_text(text, path, &mut p);
+    p.errors = reader.errors;
+    if reader.aborted {
         p.notes
             .push(format!("reading stopped after {MAX_ERRORS} problems"));
     }
@@ -264,129 +241,50 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
     p.finish()
 }
 
-fn canonical(p: &Path) -> PathBuf {
-    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
-}
+/// The scene builder as the reader's target (pbrt-v4's `BasicSceneBuilder` as a
+/// `ParserTarget`): each directive family is handled in its own module under `parser/`.
+impl ParserTarget for SceneBuilder {
+    type Saved = (GraphicsState, usize);
 
-fn num(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Result<f64, PbrtError> {
-    match tokens.get(*pos) {
-        Some(t) => match &t.kind {
-            TokenKind::Word(w) => match w.parse::<f64>() {
-                Ok(v) if v.is_finite() => {
-                    *pos += 1;
-                    Ok(v)
-                }
-                _ => Err(PbrtError::at(
-                    file,
-                    t.line,
-                    t.column,
-                    format!("{directive}: expected a number, found \"{w}\""),
-                )),
-            },
-            _ => Err(PbrtError::at(
-                file,
-                t.line,
-                t.column,
-                format!("{directive}: expected a number, found {}", t.describe()),
-            )),
-        },
-        None => Err(PbrtError::at(
-            file,
-            0,
-            0,
-            format!("{directive}: expected a number, found the end of the file"),
-        )),
-    }
-}
-
-fn nums(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-    n: usize,
-) -> Result<Vec<f64>, PbrtError> {
-    (0..n).map(|_| num(tokens, pos, file, directive)).collect()
-}
-
-/// 16 numbers, optionally in brackets.
-fn matrix16(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-    loc: &Loc,
-) -> Result<Transform, PbrtError> {
-    let bracket = matches!(tokens.get(*pos).map(|t| &t.kind), Some(TokenKind::Open));
-    if bracket {
-        *pos += 1;
-    }
-    let v = nums(tokens, pos, file, directive, 16)?;
-    if bracket {
-        match tokens.get(*pos) {
-            Some(t) if t.kind == TokenKind::Close => *pos += 1,
-            _ => return Err(loc.err(format!("{directive}: expected ']' after 16 numbers"))),
+    fn directive(&mut self, d: &str, args: &mut Args, loc: &Loc) -> Result<(), PbrtError> {
+        match d {
+            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
+            | "ConcatTransform" | "CoordinateSystem" | "CoordSysTransform" | "ActiveTransform"
+            | "TransformTimes" | "ReverseOrientation" => self.transform_directive(d, args, loc),
+            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd"
+            | "WorldBegin" | "WorldEnd" | "ObjectBegin" | "ObjectEnd" | "ObjectInstance"
+            | "Attribute" => self.block_directive(d, args, loc),
+            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator"
+            | "ColorSpace" | "Option" => self.option_directive(d, args, loc),
+            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource"
+            | "LightSource" | "Shape" | "MakeNamedMedium" | "MediumInterface" => {
+                self.world_directive(d, args, loc)
+            }
+            other => Err(loc.err(format!("unknown directive \"{other}\""))),
         }
     }
-    // pbrt-v4: Transpose(SquareMatrix(tr)) -- the 16 numbers are the matrix in column-major order.
-    let mut m = [[0.0; 4]; 4];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, x) in row.iter_mut().enumerate() {
-            *x = v[j * 4 + i];
-        }
-    }
-    Ok(Transform { m })
-}
 
-fn string_arg(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-) -> Result<String, PbrtError> {
-    match tokens.get(*pos) {
-        Some(Token {
-            kind: TokenKind::Str(s),
-            ..
-        }) => {
-            *pos += 1;
-            Ok(s.clone())
+    fn object_name(&mut self, name: String) {
+        self.gs.name = Some(name);
+    }
+
+    /// Import: the imported file cannot change the includer's graphics state.
+    fn begin_import(&mut self, loc: &Loc) -> Result<Self::Saved, PbrtError> {
+        if !self.in_world {
+            return Err(loc.err("Import is only allowed after WorldBegin"));
         }
-        Some(t) => Err(PbrtError::at(
-            file,
-            t.line,
-            t.column,
-            format!(
-                "{directive}: expected a quoted string, found {}",
-                t.describe()
-            ),
-        )),
-        None => Err(PbrtError::at(
-            file,
-            0,
-            0,
-            format!("{directive}: expected a quoted string, found the end of the file"),
-        )),
+        Ok((self.gs.clone(), self.stack.len()))
+    }
+
+    fn end_import(&mut self, saved: Self::Saved) {
+        self.stack.truncate(saved.1);
+        self.gs = saved.0;
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     fn resolve(&self, including_file: &Path, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return p.to_path_buf();
-        }
-        let dir = including_file.parent().unwrap_or(Path::new(""));
-        let a = dir.join(p);
-        if a.exists() {
-            return a;
-        }
-        let b = self.main_dir.join(p);
-        if b.exists() {
-            b
-        } else {
-            a
-        }
+        resolve_path(&self.main_dir, including_file, name)
     }
 
     fn note(&mut self, loc: &Loc, msg: impl AsRef<str>) {
@@ -421,99 +319,6 @@ impl Parser {
             )));
         }
         Ok(())
-    }
-
-    /// Record a problem and go on (one-pass reporting); `Err` once there are too many, or when
-    /// reading was already abandoned (the error then only unwinds the include stack).
-    fn record(&mut self, e: PbrtError) -> Result<(), PbrtError> {
-        if self.aborted {
-            return Err(e);
-        }
-        self.errors.push(e);
-        if self.errors.len() >= MAX_ERRORS {
-            self.aborted = true;
-            return Err(self.errors[0].clone());
-        }
-        Ok(())
-    }
-
-    /// Read one file's text. A directive that fails is recorded and skipped: reading resumes at
-    /// the next directive (the next bare word starting with a capital letter), so that every
-    /// problem in the scene, across included files, is reported in one pass.
-    fn parse_text(&mut self, text: &str, file: &Path) -> Result<(), PbrtError> {
-        let tokens = match tokenize(text, file) {
-            Ok(t) => t,
-            Err(e) => return self.record(e),
-        };
-        let mut start = 0;
-        loop {
-            match self.parse_tokens(&tokens, start, file) {
-                Ok(()) => return Ok(()),
-                Err(e) => {
-                    self.record(e)?;
-                    start = next_directive(&tokens, self.cur_pos + 1);
-                }
-            }
-        }
-    }
-
-    fn parse_tokens(
-        &mut self,
-        tokens: &[Token],
-        start: usize,
-        file: &Path,
-    ) -> Result<(), PbrtError> {
-        let mut pos = start;
-        while pos < tokens.len() {
-            self.cur_pos = pos;
-            let tok = &tokens[pos];
-            let loc = Loc {
-                file: file.to_path_buf(),
-                line: tok.line,
-                column: tok.column,
-            };
-            let d = match &tok.kind {
-                TokenKind::Word(w) => w.clone(),
-                TokenKind::ObjectName(n) => {
-                    self.gs.name = Some(n.clone());
-                    pos += 1;
-                    continue;
-                }
-                _ => return Err(loc.err(format!("expected a directive, found {}", tok.describe()))),
-            };
-            pos += 1;
-            self.directive(&d, tokens, &mut pos, file, &loc)?;
-        }
-        Ok(())
-    }
-
-    /// Directive dispatch (pbrt-v4 separates its parser from the `ParserTarget` that builds the
-    /// scene): each directive family is handled in its own module under `parser/`.
-    fn directive(
-        &mut self,
-        d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
-        loc: &Loc,
-    ) -> Result<(), PbrtError> {
-        match d {
-            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
-            | "ConcatTransform" | "CoordinateSystem" | "CoordSysTransform" | "ActiveTransform"
-            | "TransformTimes" | "ReverseOrientation" => {
-                self.transform_directive(d, tokens, pos, file, loc)
-            }
-            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd"
-            | "WorldBegin" | "WorldEnd" | "Include" | "Import" | "ObjectBegin" | "ObjectEnd"
-            | "ObjectInstance" | "Attribute" => self.block_directive(d, tokens, pos, file, loc),
-            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator"
-            | "ColorSpace" | "Option" => self.option_directive(d, tokens, pos, file, loc),
-            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource"
-            | "LightSource" | "Shape" | "MakeNamedMedium" | "MediumInterface" => {
-                self.world_directive(d, tokens, pos, file, loc)
-            }
-            other => Err(loc.err(format!("unknown directive \"{other}\""))),
-        }
     }
 
     fn camera_world_check(&mut self) {}
@@ -1029,7 +834,7 @@ fn default_illuminant() -> ParsedSpectrum {
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     /// A light's image (`filename` of `infinite`, `goniometric`, `projection` lights and of
     /// `AreaLightSource "diffuse"`): resolved against the scene file, decoded with the
     /// `encoding` parameter (pbrt-v4 default: sRGB for PNG, linear otherwise), as linear RGB.

@@ -7,7 +7,7 @@
 use super::super::params::ParamList;
 use super::super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
 use super::super::{ply, Loc, PbrtError};
-use super::{Parser, PendingShape};
+use super::{PendingShape, SceneBuilder};
 use crate::scene::{FloatTexture, Geometry, Shape, Transform};
 use std::path::Path;
 
@@ -19,7 +19,7 @@ const SHAPE_KINDS: &str =
 /// (see [`PendingShape::alpha`]).
 type Alpha = (bool, Option<(String, FloatTexture)>);
 
-impl Parser {
+impl SceneBuilder {
     /// `Shape "ty" ...` at `loc` in `file`.
     pub(super) fn shape(
         &mut self,
