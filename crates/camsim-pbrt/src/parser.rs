@@ -674,93 +674,15 @@ impl SceneBuilder {
             shape.tags.light_group = ps.light.as_ref().and_then(|l| l.group.clone());
             match ps.light {
                 None => shapes.push(shape),
-                Some(l) => {
-                    // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
-                    // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
-                    let base = l.scale / l.spectrum.photometric;
-                    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
-                    // "sides" here is sides times that mean).
-                    let sides = (if l.two_sided { 2.0 } else { 1.0 })
-                        * l.image.as_ref().map_or(1.0, |(_, y)| *y);
-                    let to_light = |scale: f64| AreaLight {
-                        radiance: l
-                            .spectrum
-                            .spectrum
-                            .clone()
-                            .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
-                        two_sided: l.two_sided,
-                        image: l.image.as_ref().map(|(im, _)| im.clone()),
-                    };
-                    match (l.power, &shape.geometry) {
-                        (
-                            Some(power),
-                            Geometry::Triangles {
-                                positions,
-                                indices,
-                                uvs,
-                                normals,
-                            },
-                        ) if indices.len() > 1 && !ps.single => {
-                            notes.push(format!(
-                                "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
-                                indices.len()
-                            ));
-                            // The triangles stay one object instance.
-                            let mut tags = shape.tags.clone();
-                            if tags.instance.is_none() {
-                                tags.instance = Some(instances);
-                                instances += 1;
-                            }
-                            for t in indices {
-                                let g = Geometry::Triangles {
-                                    positions: t.iter().map(|&i| positions[i as usize]).collect(),
-                                    indices: vec![[0, 1, 2]],
-                                    uvs: uvs
-                                        .as_ref()
-                                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
-                                    normals: normals
-                                        .as_ref()
-                                        .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
-                                };
-                                let area = xform::shape_area(&g);
-                                let scale = if area > 0.0 {
-                                    if sides > 0.0 {
-                                        base * power / (std::f64::consts::PI * area * sides)
-                                    } else {
-                                        0.0
-                                    }
-                                } else {
-                                    0.0
-                                };
-                                shapes.push(Shape {
-                                    name: shape.name.clone(),
-                                    geometry: g,
-                                    material,
-                                    area_light: Some(to_light(scale)),
-                                    reverse_orientation: shape.reverse_orientation,
-                                    tags: tags.clone(),
-                                });
-                            }
-                        }
-                        (power, g) => {
-                            let mut scale = base;
-                            if let Some(power) = power {
-                                let area = xform::shape_area(g);
-                                scale = if area > 0.0 {
-                                    if sides > 0.0 {
-                                        base * power / (std::f64::consts::PI * area * sides)
-                                    } else {
-                                        0.0
-                                    }
-                                } else {
-                                    0.0
-                                };
-                            }
-                            shape.area_light = Some(to_light(scale));
-                            shapes.push(shape);
-                        }
-                    }
-                }
+                Some(l) => emitting_shapes(
+                    shape,
+                    &l,
+                    material,
+                    ps.single,
+                    &mut instances,
+                    &mut notes,
+                    &mut shapes,
+                ),
             }
         }
         let media = media.finish(&mut notes);
@@ -773,30 +695,14 @@ impl SceneBuilder {
         }
         let media = media?;
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
-        let (mut fov_deg, mut lens) = (self.fov_deg, None);
-        if let Some(r) = self.realistic {
-            let (l, f) = crate::camera::realistic_lens(
-                r.lens,
-                r.aperture_diameter_mm,
-                r.focus_distance_m,
-                self.film_diagonal_mm,
-                self.width,
-                self.height,
-            )
-            .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
-            (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
-        }
-        if let Some((rtf, film, loc)) = self.ray_transfer {
-            let (l, f) = crate::camera::ray_transfer_lens(
-                rtf,
-                film,
-                self.film_diagonal_mm,
-                self.width,
-                self.height,
-            )
-            .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
-            (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
-        }
+        let (fov_deg, lens) = camera_lens(
+            self.fov_deg,
+            self.realistic,
+            self.ray_transfer,
+            self.film_diagonal_mm,
+            self.width,
+            self.height,
+        )?;
         Ok(SceneDescription {
             camera: Camera {
                 camera_to_world,
@@ -815,6 +721,136 @@ impl SceneBuilder {
             media,
             light_groups: self.light_groups,
         })
+    }
+}
+
+/// The camera's horizontal field of view and lens: the pinhole's `fov_deg`, or those of a
+/// `realistic` or `raytransfer` camera, set up now that the film (`film_diagonal_mm`, the
+/// resolution) is known.
+fn camera_lens(
+    fov_deg: f64,
+    realistic: Option<PendingRealistic>,
+    ray_transfer: Option<(camsim_lens::Rtf, camsim_scene3d::camera::RtfFilm, Loc)>,
+    film_diagonal_mm: f64,
+    width: usize,
+    height: usize,
+) -> Result<(f64, Option<CameraLens>), PbrtError> {
+    let (mut fov_deg, mut lens) = (fov_deg, None);
+    if let Some(r) = realistic {
+        let (l, f) = crate::camera::realistic_lens(
+            r.lens,
+            r.aperture_diameter_mm,
+            r.focus_distance_m,
+            film_diagonal_mm,
+            width,
+            height,
+        )
+        .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
+        (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
+    }
+    if let Some((rtf, film, loc)) = ray_transfer {
+        let (l, f) = crate::camera::ray_transfer_lens(rtf, film, film_diagonal_mm, width, height)
+            .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
+        (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
+    }
+    Ok((fov_deg, lens))
+}
+
+/// The scene shapes of a pending `shape` with area light `l` (material index `material`): one
+/// emitting shape, or with `power` on a mesh that is not one pbrt shape (`single`), one per
+/// triangle as pbrt-v4 makes them, each given that power (numbered as one object instance).
+fn emitting_shapes(
+    mut shape: Shape,
+    l: &AreaLightSpec,
+    material: usize,
+    single: bool,
+    instances: &mut u32,
+    notes: &mut Vec<String>,
+    shapes: &mut Vec<Shape>,
+) {
+    // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
+    // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
+    let base = l.scale / l.spectrum.photometric;
+    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
+    // "sides" here is sides times that mean).
+    let sides = (if l.two_sided { 2.0 } else { 1.0 }) * l.image.as_ref().map_or(1.0, |(_, y)| *y);
+    let to_light = |scale: f64| AreaLight {
+        radiance: l
+            .spectrum
+            .spectrum
+            .clone()
+            .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+        two_sided: l.two_sided,
+        image: l.image.as_ref().map(|(im, _)| im.clone()),
+    };
+    match (l.power, &shape.geometry) {
+        (
+            Some(power),
+            Geometry::Triangles {
+                positions,
+                indices,
+                uvs,
+                normals,
+            },
+        ) if indices.len() > 1 && !single => {
+            notes.push(format!(
+                    "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
+                    indices.len()
+                ));
+            // The triangles stay one object instance.
+            let mut tags = shape.tags.clone();
+            if tags.instance.is_none() {
+                tags.instance = Some(*instances);
+                *instances += 1;
+            }
+            for t in indices {
+                let g = Geometry::Triangles {
+                    positions: t.iter().map(|&i| positions[i as usize]).collect(),
+                    indices: vec![[0, 1, 2]],
+                    uvs: uvs
+                        .as_ref()
+                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
+                    normals: normals
+                        .as_ref()
+                        .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
+                };
+                let area = xform::shape_area(&g);
+                let scale = if area > 0.0 {
+                    if sides > 0.0 {
+                        base * power / (std::f64::consts::PI * area * sides)
+                    } else {
+                        0.0
+                    }
+                } else {
+                    0.0
+                };
+                shapes.push(Shape {
+                    name: shape.name.clone(),
+                    geometry: g,
+                    material,
+                    area_light: Some(to_light(scale)),
+                    reverse_orientation: shape.reverse_orientation,
+                    tags: tags.clone(),
+                });
+            }
+        }
+        (power, g) => {
+            let mut scale = base;
+            if let Some(power) = power {
+                let area = xform::shape_area(g);
+                scale = if area > 0.0 {
+                    if sides > 0.0 {
+                        base * power / (std::f64::consts::PI * area * sides)
+                    } else {
+                        0.0
+                    }
+                } else {
+                    0.0
+                };
+            }
+            shape.area_light = Some(to_light(scale));
+            shapes.push(shape);
+        }
     }
 }
 
