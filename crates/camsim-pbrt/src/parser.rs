@@ -756,6 +756,20 @@ fn camera_lens(
     Ok((fov_deg, lens))
 }
 
+/// pbrt-v4 `DiffuseAreaLight::Create` with `power`: `scale *= power / (pi * area * sides)` (0
+/// for a shape without area or sides).
+fn power_scale(base: f64, power: f64, area: f64, sides: f64) -> f64 {
+    if area > 0.0 {
+        if sides > 0.0 {
+            base * power / (std::f64::consts::PI * area * sides)
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    }
+}
+
 /// The scene shapes of a pending `shape` with area light `l` (material index `material`): one
 /// emitting shape, or with `power` on a mesh that is not one pbrt shape (`single`), one per
 /// triangle as pbrt-v4 makes them, each given that power (numbered as one object instance).
@@ -815,15 +829,7 @@ fn emitting_shapes(
                         .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
                 };
                 let area = xform::shape_area(&g);
-                let scale = if area > 0.0 {
-                    if sides > 0.0 {
-                        base * power / (std::f64::consts::PI * area * sides)
-                    } else {
-                        0.0
-                    }
-                } else {
-                    0.0
-                };
+                let scale = power_scale(base, power, area, sides);
                 shapes.push(Shape {
                     name: shape.name.clone(),
                     geometry: g,
@@ -838,15 +844,7 @@ fn emitting_shapes(
             let mut scale = base;
             if let Some(power) = power {
                 let area = xform::shape_area(g);
-                scale = if area > 0.0 {
-                    if sides > 0.0 {
-                        base * power / (std::f64::consts::PI * area * sides)
-                    } else {
-                        0.0
-                    }
-                } else {
-                    0.0
-                };
+                scale = power_scale(base, power, area, sides);
             }
             shape.area_light = Some(to_light(scale));
             shapes.push(shape);

@@ -362,13 +362,10 @@ fn read_faces(e: &Element, r: &mut Reader, mesh: &mut PlyMesh) -> Result<(), Str
                     r.read(*t)?;
                 }
                 Prop::List(_, c, it) => {
-                    let n = r.read(*c)?;
-                    if !(0.0..=(1u32 << 20) as f64).contains(&n) {
-                        return Err(format!("face {f}: list length {n} is out of range"));
-                    }
+                    let n = list_len(r, *c, || format!("face {f}"))?;
                     if k == li {
                         idx.clear();
-                        for _ in 0..n as usize {
+                        for _ in 0..n {
                             let v = r.read(*it)?;
                             if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
                                 return Err(format!(
@@ -378,7 +375,7 @@ fn read_faces(e: &Element, r: &mut Reader, mesh: &mut PlyMesh) -> Result<(), Str
                             idx.push(v as u32);
                         }
                     } else {
-                        for _ in 0..n as usize {
+                        for _ in 0..n {
                             r.read(*it)?;
                         }
                     }
@@ -408,6 +405,15 @@ fn triangulate(f: usize, idx: &[u32], mesh: &mut PlyMesh) -> Result<(), String> 
     Ok(())
 }
 
+/// A list's length (count type `c`), refused beyond 2^20 entries; `what` names the list.
+fn list_len(r: &mut Reader, c: Scalar, what: impl FnOnce() -> String) -> Result<usize, String> {
+    let n = r.read(c)?;
+    if !(0.0..=(1u32 << 20) as f64).contains(&n) {
+        return Err(format!("{}: list length {n} is out of range", what()));
+    }
+    Ok(n as usize)
+}
+
 /// Read past an element camsim does not use.
 fn skip_element(e: &Element, r: &mut Reader) -> Result<(), String> {
     for _ in 0..e.count {
@@ -417,14 +423,8 @@ fn skip_element(e: &Element, r: &mut Reader) -> Result<(), String> {
                     r.read(*t)?;
                 }
                 Prop::List(_, c, it) => {
-                    let n = r.read(*c)?;
-                    if !(0.0..=(1u32 << 20) as f64).contains(&n) {
-                        return Err(format!(
-                            "element {}: list length {n} is out of range",
-                            e.name
-                        ));
-                    }
-                    for _ in 0..n as usize {
+                    let n = list_len(r, *c, || format!("element {}", e.name))?;
+                    for _ in 0..n {
                         r.read(*it)?;
                     }
                 }

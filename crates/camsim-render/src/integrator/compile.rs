@@ -359,6 +359,17 @@ impl SceneGeometry {
         })
     }
 
+    /// Primitive `tri` (triangle or curve segment; 0 for a sphere) of shape `si`, emitter `light`.
+    fn push_prim(&mut self, prim: Prim, si: usize, tri: u32, s: &Shape, light: u32) {
+        self.prims.push(prim);
+        self.info.push(PrimInfo {
+            shape: si as u32,
+            tri,
+            material: s.material as u32,
+            light,
+        });
+    }
+
     /// Emitter `light`'s image and alpha from its shape's `emission`.
     fn tag_emitter(&mut self, light: u32, emission: Emission) {
         let e = &mut self.lights.list[light as usize];
@@ -468,13 +479,7 @@ impl SceneGeometry {
                     };
                 }
             }
-            self.prims.push(Prim::Tri { p0, e1, e2 });
-            self.info.push(PrimInfo {
-                shape: si as u32,
-                tri: ti as u32,
-                material: s.material as u32,
-                light,
-            });
+            self.push_prim(Prim::Tri { p0, e1, e2 }, si, ti as u32, s, light);
         }
         if uvs.is_some() || normals.is_some() {
             self.meshes.push(Some(MeshShading {
@@ -545,16 +550,16 @@ impl SceneGeometry {
             light = self.lights.push(kind, table, two_sided);
             self.tag_emitter(light, emission);
         }
-        self.prims.push(Prim::Sphere {
-            center: c,
-            radius: r,
-        });
-        self.info.push(PrimInfo {
-            shape: si as u32,
-            tri: 0,
-            material: s.material as u32,
+        self.push_prim(
+            Prim::Sphere {
+                center: c,
+                radius: r,
+            },
+            si,
+            0,
+            s,
             light,
-        });
+        );
         self.meshes.push(None);
         Ok(())
     }
@@ -620,18 +625,13 @@ impl SceneGeometry {
             );
             self.tag_emitter(light, emission);
         }
-        self.prims.push(Prim::PartialSphere {
+        let prim = Prim::PartialSphere {
             center: c,
             radius: r,
             clip: self.clips.len() as u32,
-        });
+        };
         self.clips.push(clip);
-        self.info.push(PrimInfo {
-            shape: si as u32,
-            tri: 0,
-            material: s.material as u32,
-            light,
-        });
+        self.push_prim(prim, si, 0, s, light);
         self.meshes.push(None);
         Ok(())
     }
