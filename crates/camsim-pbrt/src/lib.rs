@@ -3,10 +3,17 @@
 //! pbrt-v4's semantics, producing a [`SceneDescription`] (`camsim-scene3d`) for the path tracer
 //! (`camsim-render`).
 //!
-//! Layout, as pbrt-v4 separates its parser from its `BasicSceneBuilder`: [`tokenize`] (the
-//! lexer), the parameter lists (`params`), the directive dispatch and scene builder (`parser`,
-//! with one module per directive family: `parser/materials.rs`, `parser/textures.rs`,
-//! `parser/lights.rs`), [`spectra`] (spectrum-valued parameters, named spectra,
+//! Layout, split as pbrt-v4 splits its parser from its `BasicSceneBuilder`: [`tokenize`] (the
+//! lexer) and the parameter lists (`params`); the reader (`reader.rs`: tokens to directives with
+//! their file:line:column, `Include`/`Import` files, one-pass error recovery), which hands each
+//! directive to a `ParserTarget` trait; and the scene builder implementing it (`parser.rs`,
+//! `SceneBuilder`: graphics state, attribute stack, named objects, directives turned into
+//! camsim-scene3d objects, one module per directive family under `parser/`: transforms, blocks,
+//! options, world, shapes, materials, textures, lights, media, curves, hair, motion). Unlike
+//! pbrt-v4, whose parser reads every argument and calls one typed target method per directive,
+//! the target has one entry point and reads a directive's arguments (numbers, strings, the
+//! parameter list) through the reader's `Args`, so it never sees a token. Then [`spectra`]
+//! (spectrum-valued parameters, named spectra,
 //! [`optical_constants`]), [`ply`], `images` and [`pfm`] (mesh and image files). [`overlay`] applies
 //! camsim's TOML scene overlays (ISET3d-style scene control) to a scene from either source; it
 //! lives here because its `replace` reads PLY and pbrt files.
@@ -191,11 +198,11 @@ mod params;
 mod parser;
 pub mod pfm;
 pub mod ply;
+mod reader;
 pub mod spectra;
 
 pub mod overlay;
-mod overlay_motion;
-pub use overlay_motion::ShakeSpec;
+pub use overlay::ShakeSpec;
 
 // The scene-description modules the reader builds with, under the paths the reader's modules use.
 use camsim_scene3d::{builtin, camera, envmap, scene, shapes, xform};

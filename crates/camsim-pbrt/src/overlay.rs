@@ -10,7 +10,7 @@
 //! fov_deg = 40.0                 # across the shorter image axis (pbrt-v4 "fov")
 //! resolution = [640, 480]
 //! focus_distance_m = 1.1
-//! velocity_m_s = [0.5, 0.0, 0.0] # motion during the exposure (`crate::overlay_motion`):
+//! velocity_m_s = [0.5, 0.0, 0.0] # motion during the exposure (`overlay/motion.rs`):
 //! angular_velocity_deg_s = [0.0, 30.0, 0.0]   # about the camera's x (pitch), y (yaw), z (roll)
 //! trajectory = "path.csv"        # time_s, x_m, y_m, z_m + look_x_m.. or qw, qx, qy, qz
 //! shake = { rms_deg_s = 2.0, seed = 1, step_ms = 1.0 }  # hand shake: random walk of rotation
@@ -83,7 +83,9 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 mod medium;
+mod motion;
 pub use medium::MediumOverlay;
+pub use motion::ShakeSpec;
 
 /// An overlay error: the overlay's name and what is wrong (with the TOML position or the key).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -149,11 +151,11 @@ pub struct CameraOverlay {
     pub velocity_m_s: Option<[f64; 3]>,
     /// Angular velocity about the camera's own x, y, z axes (pitch, yaw, roll), deg/s.
     pub angular_velocity_deg_s: Option<[f64; 3]>,
-    /// A CSV of poses over time (`crate::overlay_motion::read_trajectory`), relative to the
+    /// A CSV of poses over time (`motion::read_trajectory`), relative to the
     /// overlay.
     pub trajectory: Option<String>,
     /// Hand shake: a random walk of the camera's orientation.
-    pub shake: Option<crate::overlay_motion::ShakeSpec>,
+    pub shake: Option<motion::ShakeSpec>,
 }
 
 /// `[render]`.
@@ -440,7 +442,7 @@ pub fn apply_overlay(
 ) -> Result<(), String> {
     if let Some(c) = &ov.camera {
         apply_camera(scene, c)?;
-        crate::overlay_motion::apply_camera_motion(scene, c, base_dir)?;
+        motion::apply_camera_motion(scene, c, base_dir)?;
     }
     if let Some(r) = &ov.render {
         let s = &mut scene.settings;
@@ -709,7 +711,7 @@ fn apply_object(
             k += 1;
             keep
         });
-        crate::overlay_motion::shapes_replaced(scene, &matched, 0, 0);
+        motion::shapes_replaced(scene, &matched, 0, 0);
         return Ok(());
     }
     let mut targets = matched.clone();
@@ -822,7 +824,7 @@ fn apply_object(
         });
         let at = at.min(scene.shapes.len());
         scene.shapes.splice(at..at, new_shapes);
-        crate::overlay_motion::shapes_replaced(scene, &matched, at, n_new);
+        motion::shapes_replaced(scene, &matched, at, n_new);
         targets = (at..at + n_new).collect();
     }
     if let Some(m) = &o.material {
@@ -881,9 +883,9 @@ fn apply_object(
         for &k in &targets {
             xform::transform_shape(&mut scene.shapes[k], &t).map_err(|e| format!("{key}: {e}"))?;
         }
-        crate::overlay_motion::moved_shapes(scene, &targets, &t);
+        motion::moved_shapes(scene, &targets, &t);
     }
-    crate::overlay_motion::apply_object_motion(scene, o, &targets, &key)
+    motion::apply_object_motion(scene, o, &targets, &key)
 }
 
 fn apply_light(

@@ -1,14 +1,16 @@
-//! The directive interpreter: graphics state, transforms, shapes, materials, textures, lights.
-//! See the module docs of [`crate`] for what is supported.
+//! The scene builder (pbrt-v4 `BasicSceneBuilder`): the [`ParserTarget`] that `reader.rs` hands
+//! each directive to. It keeps the graphics state and the attribute stack and turns directives
+//! into camsim-scene3d objects (transforms, shapes, materials, textures, lights, media). See the
+//! module docs of [`crate`] for what is supported.
 
 // `!(x > 0.0)` comparisons are deliberate: they also reject NaN.
 
 use super::images::{self, load_image, parse_encoding, Encoding};
-use super::lexer::{tokenize, Token, TokenKind};
-use super::params::{parse_params, Param, ParamList};
+use super::params::{Param, ParamList};
+use super::reader::{resolve_path, Args, ParserTarget, Reader, MAX_ERRORS};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
-use super::xform::{self, apply_normal, cross, det3, dot, inverse, sub};
-use super::{ply, Loc, PbrtError};
+use super::xform::{self, inverse};
+use super::{Loc, PbrtError};
 use crate::scene::SamplerKind;
 use crate::scene::{
     AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material,
@@ -26,19 +28,14 @@ mod materials;
 mod media;
 mod textures;
 
-// The directive families, dispatched by `Parser::directive`.
+// The directive families, dispatched by `ParserTarget::directive` of `SceneBuilder`.
 mod blocks;
 mod motion;
 use motion::flush_motion;
 mod options;
+mod shapes;
 mod transforms;
 mod world;
-
-/// Problems reported before reading stops.
-const MAX_ERRORS: usize = 100;
-
-/// Deepest Include/Import nesting accepted.
-const MAX_INCLUDE_DEPTH: usize = 64;
 
 #[derive(Debug, Clone)]
 enum MatRef {
@@ -104,9 +101,8 @@ enum Block {
     Transform,
 }
 
-struct Parser {
+struct SceneBuilder {
     main_dir: PathBuf,
-    include_stack: Vec<PathBuf>,
     in_world: bool,
     gs: GraphicsState,
     stack: Vec<(GraphicsState, Block, Loc)>,
@@ -146,25 +142,8 @@ struct Parser {
     notes: Vec<String>,
     /// Problems found so far (reported together at the end).
     errors: Vec<PbrtError>,
-    /// Token index of the directive being read (where to resume after a problem).
-    cur_pos: usize,
-    /// Too many problems: stop reading.
-    aborted: bool,
     /// Participating media and what selects them (`parser/media.rs`).
     media: media::ParsedMedia,
-}
-
-/// Index of the first token at or after `from` that can start a directive: a bare word
-/// beginning with an ASCII capital (pbrt directives; parameter values are numbers, strings,
-/// brackets and lower-case `true`/`false`), or a naming comment.
-fn next_directive(tokens: &[Token], from: usize) -> usize {
-    (from..tokens.len())
-        .find(|&i| match &tokens[i].kind {
-            TokenKind::Word(w) => w.starts_with(|c: char| c.is_ascii_uppercase()),
-            TokenKind::ObjectName(_) => true,
-            _ => false,
-        })
-        .unwrap_or(tokens.len())
 }
 
 /// Parse a whole scene.
@@ -176,9 +155,8 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
                 .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold),
         ),
     };
-    let mut p = Parser {
+    let mut p = SceneBuilder {
         main_dir,
-        include_stack: vec![canonical(path)],
         in_world: false,
         gs: GraphicsState {
             ctm: Transform::identity(),
@@ -228,13 +206,13 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
         focus_distance_m: None,
         notes: Vec::new(),
         errors: Vec::new(),
-        cur_pos: 0,
-        aborted: false,
         media: Default::default(),
     };
     // An `Err` here means reading stopped early (too many problems); they are all in `errors`.
-    let _ = p.parse_text(text, path);
-    if p.aborted {
+    let mut reader = Reader::new(path);
+    let _ = reader.read_text(text, path, &mut p);
+    p.errors = reader.errors;
+    if reader.aborted {
         p.notes
             .push(format!("reading stopped after {MAX_ERRORS} problems"));
     }
@@ -263,129 +241,50 @@ pub fn parse(text: &str, path: &Path) -> Result<SceneDescription, PbrtError> {
     p.finish()
 }
 
-fn canonical(p: &Path) -> PathBuf {
-    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
-}
+/// The scene builder as the reader's target (pbrt-v4's `BasicSceneBuilder` as a
+/// `ParserTarget`): each directive family is handled in its own module under `parser/`.
+impl ParserTarget for SceneBuilder {
+    type Saved = (GraphicsState, usize);
 
-fn num(tokens: &[Token], pos: &mut usize, file: &Path, directive: &str) -> Result<f64, PbrtError> {
-    match tokens.get(*pos) {
-        Some(t) => match &t.kind {
-            TokenKind::Word(w) => match w.parse::<f64>() {
-                Ok(v) if v.is_finite() => {
-                    *pos += 1;
-                    Ok(v)
-                }
-                _ => Err(PbrtError::at(
-                    file,
-                    t.line,
-                    t.column,
-                    format!("{directive}: expected a number, found \"{w}\""),
-                )),
-            },
-            _ => Err(PbrtError::at(
-                file,
-                t.line,
-                t.column,
-                format!("{directive}: expected a number, found {}", t.describe()),
-            )),
-        },
-        None => Err(PbrtError::at(
-            file,
-            0,
-            0,
-            format!("{directive}: expected a number, found the end of the file"),
-        )),
-    }
-}
-
-fn nums(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-    n: usize,
-) -> Result<Vec<f64>, PbrtError> {
-    (0..n).map(|_| num(tokens, pos, file, directive)).collect()
-}
-
-/// 16 numbers, optionally in brackets.
-fn matrix16(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-    loc: &Loc,
-) -> Result<Transform, PbrtError> {
-    let bracket = matches!(tokens.get(*pos).map(|t| &t.kind), Some(TokenKind::Open));
-    if bracket {
-        *pos += 1;
-    }
-    let v = nums(tokens, pos, file, directive, 16)?;
-    if bracket {
-        match tokens.get(*pos) {
-            Some(t) if t.kind == TokenKind::Close => *pos += 1,
-            _ => return Err(loc.err(format!("{directive}: expected ']' after 16 numbers"))),
+    fn directive(&mut self, d: &str, args: &mut Args, loc: &Loc) -> Result<(), PbrtError> {
+        match d {
+            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
+            | "ConcatTransform" | "CoordinateSystem" | "CoordSysTransform" | "ActiveTransform"
+            | "TransformTimes" | "ReverseOrientation" => self.transform_directive(d, args, loc),
+            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd"
+            | "WorldBegin" | "WorldEnd" | "ObjectBegin" | "ObjectEnd" | "ObjectInstance"
+            | "Attribute" => self.block_directive(d, args, loc),
+            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator"
+            | "ColorSpace" | "Option" => self.option_directive(d, args, loc),
+            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource"
+            | "LightSource" | "Shape" | "MakeNamedMedium" | "MediumInterface" => {
+                self.world_directive(d, args, loc)
+            }
+            other => Err(loc.err(format!("unknown directive \"{other}\""))),
         }
     }
-    // pbrt-v4: Transpose(SquareMatrix(tr)) -- the 16 numbers are the matrix in column-major order.
-    let mut m = [[0.0; 4]; 4];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, x) in row.iter_mut().enumerate() {
-            *x = v[j * 4 + i];
-        }
-    }
-    Ok(Transform { m })
-}
 
-fn string_arg(
-    tokens: &[Token],
-    pos: &mut usize,
-    file: &Path,
-    directive: &str,
-) -> Result<String, PbrtError> {
-    match tokens.get(*pos) {
-        Some(Token {
-            kind: TokenKind::Str(s),
-            ..
-        }) => {
-            *pos += 1;
-            Ok(s.clone())
+    fn object_name(&mut self, name: String) {
+        self.gs.name = Some(name);
+    }
+
+    /// Import: the imported file cannot change the includer's graphics state.
+    fn begin_import(&mut self, loc: &Loc) -> Result<Self::Saved, PbrtError> {
+        if !self.in_world {
+            return Err(loc.err("Import is only allowed after WorldBegin"));
         }
-        Some(t) => Err(PbrtError::at(
-            file,
-            t.line,
-            t.column,
-            format!(
-                "{directive}: expected a quoted string, found {}",
-                t.describe()
-            ),
-        )),
-        None => Err(PbrtError::at(
-            file,
-            0,
-            0,
-            format!("{directive}: expected a quoted string, found the end of the file"),
-        )),
+        Ok((self.gs.clone(), self.stack.len()))
+    }
+
+    fn end_import(&mut self, saved: Self::Saved) {
+        self.stack.truncate(saved.1);
+        self.gs = saved.0;
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     fn resolve(&self, including_file: &Path, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return p.to_path_buf();
-        }
-        let dir = including_file.parent().unwrap_or(Path::new(""));
-        let a = dir.join(p);
-        if a.exists() {
-            return a;
-        }
-        let b = self.main_dir.join(p);
-        if b.exists() {
-            b
-        } else {
-            a
-        }
+        resolve_path(&self.main_dir, including_file, name)
     }
 
     fn note(&mut self, loc: &Loc, msg: impl AsRef<str>) {
@@ -420,99 +319,6 @@ impl Parser {
             )));
         }
         Ok(())
-    }
-
-    /// Record a problem and go on (one-pass reporting); `Err` once there are too many, or when
-    /// reading was already abandoned (the error then only unwinds the include stack).
-    fn record(&mut self, e: PbrtError) -> Result<(), PbrtError> {
-        if self.aborted {
-            return Err(e);
-        }
-        self.errors.push(e);
-        if self.errors.len() >= MAX_ERRORS {
-            self.aborted = true;
-            return Err(self.errors[0].clone());
-        }
-        Ok(())
-    }
-
-    /// Read one file's text. A directive that fails is recorded and skipped: reading resumes at
-    /// the next directive (the next bare word starting with a capital letter), so that every
-    /// problem in the scene, across included files, is reported in one pass.
-    fn parse_text(&mut self, text: &str, file: &Path) -> Result<(), PbrtError> {
-        let tokens = match tokenize(text, file) {
-            Ok(t) => t,
-            Err(e) => return self.record(e),
-        };
-        let mut start = 0;
-        loop {
-            match self.parse_tokens(&tokens, start, file) {
-                Ok(()) => return Ok(()),
-                Err(e) => {
-                    self.record(e)?;
-                    start = next_directive(&tokens, self.cur_pos + 1);
-                }
-            }
-        }
-    }
-
-    fn parse_tokens(
-        &mut self,
-        tokens: &[Token],
-        start: usize,
-        file: &Path,
-    ) -> Result<(), PbrtError> {
-        let mut pos = start;
-        while pos < tokens.len() {
-            self.cur_pos = pos;
-            let tok = &tokens[pos];
-            let loc = Loc {
-                file: file.to_path_buf(),
-                line: tok.line,
-                column: tok.column,
-            };
-            let d = match &tok.kind {
-                TokenKind::Word(w) => w.clone(),
-                TokenKind::ObjectName(n) => {
-                    self.gs.name = Some(n.clone());
-                    pos += 1;
-                    continue;
-                }
-                _ => return Err(loc.err(format!("expected a directive, found {}", tok.describe()))),
-            };
-            pos += 1;
-            self.directive(&d, tokens, &mut pos, file, &loc)?;
-        }
-        Ok(())
-    }
-
-    /// Directive dispatch (pbrt-v4 separates its parser from the `ParserTarget` that builds the
-    /// scene): each directive family is handled in its own module under `parser/`.
-    fn directive(
-        &mut self,
-        d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
-        loc: &Loc,
-    ) -> Result<(), PbrtError> {
-        match d {
-            "Identity" | "Translate" | "Scale" | "Rotate" | "LookAt" | "Transform"
-            | "ConcatTransform" | "CoordinateSystem" | "CoordSysTransform" | "ActiveTransform"
-            | "TransformTimes" | "ReverseOrientation" => {
-                self.transform_directive(d, tokens, pos, file, loc)
-            }
-            "AttributeBegin" | "TransformBegin" | "AttributeEnd" | "TransformEnd"
-            | "WorldBegin" | "WorldEnd" | "Include" | "Import" | "ObjectBegin" | "ObjectEnd"
-            | "ObjectInstance" | "Attribute" => self.block_directive(d, tokens, pos, file, loc),
-            "Camera" | "Film" | "Sampler" | "Integrator" | "PixelFilter" | "Accelerator"
-            | "ColorSpace" | "Option" => self.option_directive(d, tokens, pos, file, loc),
-            "Material" | "MakeNamedMaterial" | "NamedMaterial" | "Texture" | "AreaLightSource"
-            | "LightSource" | "Shape" | "MakeNamedMedium" | "MediumInterface" => {
-                self.world_directive(d, tokens, pos, file, loc)
-            }
-            other => Err(loc.err(format!("unknown directive \"{other}\""))),
-        }
     }
 
     fn camera_world_check(&mut self) {}
@@ -814,414 +620,6 @@ impl Parser {
         Ok(())
     }
 
-    fn shape(
-        &mut self,
-        ty: &str,
-        params: &ParamList,
-        loc: &Loc,
-        file: &Path,
-    ) -> Result<(), PbrtError> {
-        let ctm = self.gs.ctm;
-        let inv =
-            inverse(&ctm).ok_or_else(|| loc.err("Shape: the current transform is singular"))?;
-        let swaps = det3(&ctm) < 0.0;
-        // Alpha (pbrt-v4 4th ed. §7.1.1): a constant 1 is opaque; a constant 0 cuts the whole
-        // shape out (dropped, exactly what pbrt-v4's alpha test does for every hit); a fraction
-        // or a float texture is tested per hit by the tracer (`Material::AlphaMasked`).
-        let mut cut_out = false;
-        let mut alpha = None;
-        if let Some(p) = params.get("alpha", &["float", "texture"])? {
-            let key = format!(
-                "{} {:?}",
-                p.ty,
-                p.strings().ok().or_else(|| p
-                    .nums()
-                    .ok()
-                    .map(|v| v.iter().map(|x| x.to_string()).collect()))
-            );
-            let tex = self.float_texture_param(params, "alpha", 1.0)?;
-            match (p.ty.as_str(), &tex) {
-                (_, FloatTexture::Constant(a)) if *a >= 1.0 => {}
-                ("float", FloatTexture::Constant(a)) if *a <= 0.0 => cut_out = true,
-                (_, FloatTexture::Constant(a)) if !a.is_finite() => {
-                    return Err(p.loc.err(format!("Shape: alpha {a} is not finite")));
-                }
-                // On an area light the mask also gates its emission (pbrt-v4
-                // `DiffuseAreaLight::AlphaMasked`, applied by the renderer to hits and samples).
-                _ => alpha = Some((key, tex)),
-            }
-        }
-        self.ignore_params(params, &["faceIndices", "S", "emissionfilename"], "Shape");
-        let geometry = match ty {
-            "trianglemesh" | "bilinearmesh" => {
-                let per = if ty == "trianglemesh" { 3 } else { 4 };
-                let p = params
-                    .tuples("P", &["point3"], 3)?
-                    .ok_or_else(|| loc.err(format!("Shape \"{ty}\": no \"point3 P\"")))?;
-                let idx = match params.ints("indices")? {
-                    Some((v, l)) => {
-                        if v.is_empty() || v.len() % per != 0 {
-                            return Err(l.err(format!(
-                                "Shape \"{ty}\": {} indices is not a multiple of {per}",
-                                v.len()
-                            )));
-                        }
-                        if let Some(bad) = v.iter().find(|&&i| i < 0 || i as usize >= p.len()) {
-                            return Err(l.err(format!(
-                                "Shape \"{ty}\": index {bad} is out of range (0..{})",
-                                p.len()
-                            )));
-                        }
-                        v
-                    }
-                    None => {
-                        if p.len() == per {
-                            (0..per as i64).collect()
-                        } else {
-                            return Err(loc.err(format!("Shape \"{ty}\": \"integer indices\" is required unless P has exactly {per} vertices")));
-                        }
-                    }
-                };
-                let uv = params.tuples("uv", &["point2"], 2)?;
-                let n = params.tuples("N", &["normal3"], 3)?;
-                if let Some(uv) = &uv {
-                    if uv.len() != p.len() {
-                        return Err(loc.err(format!(
-                            "Shape \"{ty}\": {} uv for {} vertices",
-                            uv.len(),
-                            p.len()
-                        )));
-                    }
-                }
-                if let Some(n) = &n {
-                    if n.len() != p.len() {
-                        return Err(loc.err(format!(
-                            "Shape \"{ty}\": {} normals for {} vertices",
-                            n.len(),
-                            p.len()
-                        )));
-                    }
-                }
-                let (mut p, mut uv, mut n, mut idx) = (p, uv, n, idx);
-                if per == 4 && uv.is_none() {
-                    // pbrt-v4's bilinear patch without "uv" is parameterized (0,0), (1,0), (0,1),
-                    // (1,1) at p00, p10, p01, p11, patch by patch: vertices shared between
-                    // patches are duplicated to carry each patch's own uv (a triangle's default
-                    // uv would not match).
-                    let corners = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
-                    let (op, on) = (std::mem::take(&mut p), n.take());
-                    let mut uvs = Vec::with_capacity(idx.len());
-                    let mut normals = on.as_ref().map(|_| Vec::with_capacity(idx.len()));
-                    for (k, &i) in idx.iter().enumerate() {
-                        p.push(op[i as usize].clone());
-                        uvs.push(corners[k % 4].to_vec());
-                        if let (Some(dst), Some(src)) = (normals.as_mut(), on.as_ref()) {
-                            dst.push(src[i as usize].clone());
-                        }
-                    }
-                    idx = (0..idx.len() as i64).collect();
-                    uv = Some(uvs);
-                    n = normals;
-                }
-                let tris: Vec<[u32; 3]> = if per == 3 {
-                    idx.chunks(3)
-                        .map(|c| [c[0] as u32, c[1] as u32, c[2] as u32])
-                        .collect()
-                } else {
-                    // pbrt-v4 bilinear patch vertices p00 p10 p01 p11; perimeter p00 p10 p11 p01.
-                    self.note(loc, "bilinearmesh: each patch is rendered as two triangles (exact for planar patches)");
-                    idx.chunks(4)
-                        .flat_map(|c| {
-                            [
-                                [c[0] as u32, c[1] as u32, c[3] as u32],
-                                [c[0] as u32, c[3] as u32, c[2] as u32],
-                            ]
-                        })
-                        .collect()
-                };
-                mesh_geometry(
-                    p.iter().map(|v| [v[0], v[1], v[2]]).collect(),
-                    tris,
-                    uv.map(|u| u.iter().map(|v| [v[0] as f32, v[1] as f32]).collect()),
-                    n.map(|u| u.iter().map(|v| [v[0], v[1], v[2]]).collect()),
-                )
-            }
-            "plymesh" => {
-                let fname = params
-                    .string("filename")?
-                    .ok_or_else(|| loc.err("Shape \"plymesh\": no \"string filename\""))?;
-                if params.get("displacement", &["texture", "float"])?.is_some() {
-                    return Err(loc.err("Shape \"plymesh\": displacement is not supported"));
-                }
-                self.ignore_params(params, &["edgelength"], "plymesh");
-                let path = self.resolve(file, &fname);
-                let m =
-                    ply::read_ply(&path).map_err(|e| loc.err(format!("Shape \"plymesh\": {e}")))?;
-                if m.quads > 0 {
-                    self.note(
-                        loc,
-                        format!(
-                            "plymesh {fname}: {} quads rendered as two triangles each",
-                            m.quads
-                        ),
-                    );
-                }
-                mesh_geometry(m.positions, m.triangles, m.uvs, m.normals)
-            }
-            "sphere" => {
-                let r = params.float("radius", 1.0)?;
-                if !(r > 0.0) {
-                    return Err(loc.err(format!("Shape \"sphere\": radius {r} must be positive")));
-                }
-                // pbrt-v4 Sphere (4th ed. §6.2): z range clamped to [-r, r], phimax to [0, 360].
-                let (z0, z1) = (params.float("zmin", -r)?, params.float("zmax", r)?);
-                let phi_max_deg = params.float("phimax", 360.0)?;
-                if !(z0.is_finite() && z1.is_finite() && phi_max_deg.is_finite()) {
-                    return Err(loc.err("Shape \"sphere\": zmin, zmax and phimax must be finite"));
-                }
-                let (z_min, z_max) = (z0.min(z1).clamp(-r, r), z0.max(z1).clamp(-r, r));
-                let phi_max_deg = phi_max_deg.clamp(0.0, 360.0);
-                if !(z_max > z_min && phi_max_deg > 0.0) {
-                    return Err(loc.err(format!(
-                        "Shape \"sphere\": zmin {z0}, zmax {z1}, phimax {phi_max_deg} leave no surface"
-                    )));
-                }
-                if z_min <= -r && z_max >= r && phi_max_deg >= 360.0 {
-                    Geometry::Sphere {
-                        center: [0.0; 3],
-                        radius: r,
-                    }
-                } else {
-                    Geometry::PartialSphere {
-                        center: [0.0; 3],
-                        radius: r,
-                        axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-                        z_min,
-                        z_max,
-                        phi_max_deg,
-                    }
-                }
-            }
-            "disk" => crate::shapes::disk(
-                params.float("height", 0.0)?,
-                params.float("radius", 1.0)?,
-                params.float("innerradius", 0.0)?,
-                params.float("phimax", 360.0)?,
-            )
-            .map_err(|e| loc.err(format!("Shape \"disk\": {e}")))?,
-            "cylinder" => crate::shapes::cylinder(
-                params.float("radius", 1.0)?,
-                params.float("zmin", -1.0)?,
-                params.float("zmax", 1.0)?,
-                params.float("phimax", 360.0)?,
-            )
-            .map_err(|e| loc.err(format!("Shape \"cylinder\": {e}")))?,
-            "loopsubdiv" => {
-                let levels = params.int("levels", 3)?;
-                let p = params
-                    .tuples("P", &["point3"], 3)?
-                    .ok_or_else(|| loc.err("Shape \"loopsubdiv\": no \"point3 P\""))?;
-                let (idx, iloc) = params
-                    .ints("indices")?
-                    .ok_or_else(|| loc.err("Shape \"loopsubdiv\": no \"integer indices\""))?;
-                if idx.is_empty() || idx.len() % 3 != 0 {
-                    return Err(iloc.err(format!("Shape \"loopsubdiv\": {} indices is not a multiple of 3", idx.len())));
-                }
-                if let Some(bad) = idx.iter().find(|&&i| i < 0 || i as usize >= p.len()) {
-                    return Err(iloc.err(format!("Shape \"loopsubdiv\": index {bad} is out of range (0..{})", p.len())));
-                }
-                if !(0..=12).contains(&levels) {
-                    return Err(loc.err(format!("Shape \"loopsubdiv\": levels {levels} must be 0..12")));
-                }
-                let pos: Vec<[f64; 3]> = p.iter().map(|v| [v[0], v[1], v[2]]).collect();
-                let tris: Vec<[u32; 3]> = idx.chunks(3).map(|c| [c[0] as u32, c[1] as u32, c[2] as u32]).collect();
-                let (positions, indices, normals) = crate::shapes::loop_subdivide(&pos, &tris, levels as u32, true)
-                    .map_err(|e| loc.err(format!("Shape \"loopsubdiv\": {e}")))?;
-                mesh_geometry(positions, indices, None, Some(normals))
-            }
-            "curve" => {
-                if self.gs.area_light.is_some() {
-                    return Err(loc.err("Shape \"curve\": an area light on a curve is not supported (pbrt-v4 cannot sample curves either)"));
-                }
-                self.curve(params, loc)?
-            }
-            other => return Err(loc.err(format!(
-                "Shape \"{other}\" is not supported (trianglemesh, bilinearmesh, plymesh, sphere, disk, cylinder, loopsubdiv, curve)"
-            ))),
-        };
-        params.check_unused(&format!("Shape \"{ty}\""))?;
-        // To world space.
-        let (geometry, reverse_orientation) = match geometry {
-            g @ (Geometry::PartialSphere { .. } | Geometry::Curves(_)) => {
-                let mut s = Shape {
-                    name: None,
-                    geometry: g,
-                    material: 0,
-                    area_light: None,
-                    reverse_orientation: self.gs.reverse_orientation,
-                    tags: Default::default(),
-                };
-                xform::transform_shape(&mut s, &ctm)
-                    .map_err(|e| loc.err(format!("Shape \"{ty}\": {e}")))?;
-                (s.geometry, s.reverse_orientation)
-            }
-            Geometry::Sphere { center, radius } => {
-                let (c, r) = xform::sphere_under(&ctm, center, radius)
-                    .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
-                let s = r / radius;
-                let axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]].map(|a| {
-                    let v = ctm.apply_vector(a);
-                    [v[0] / s, v[1] / s, v[2] / s]
-                });
-                let turned = (0..3).any(|i| {
-                    (0..3).any(|k| (axes[i][k] - if i == k { 1.0 } else { 0.0 }).abs() > 1e-12)
-                });
-                let uv_free_light = self
-                    .gs
-                    .area_light
-                    .as_ref()
-                    .is_some_and(|l| l.image.is_none())
-                    && alpha.is_none();
-                if turned && !uv_free_light {
-                    // A rotated (or mirrored) sphere keeps its object frame so that its uv
-                    // (pbrt-v4: u = phi / 2 pi, v = 1 - theta / pi in the object frame) turns
-                    // with it: a partial sphere with the full range. Emitters whose emission
-                    // does not depend on uv (no image, no alpha) stay full spheres (cone
-                    // sampling; their uv is taken in the world frame).
-                    let mut s = Shape {
-                        name: None,
-                        geometry: Geometry::PartialSphere {
-                            center,
-                            radius,
-                            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-                            z_min: -radius,
-                            z_max: radius,
-                            phi_max_deg: 360.0,
-                        },
-                        material: 0,
-                        area_light: None,
-                        reverse_orientation: self.gs.reverse_orientation,
-                        tags: Default::default(),
-                    };
-                    xform::transform_shape(&mut s, &ctm)
-                        .map_err(|e| loc.err(format!("Shape \"sphere\": {e}")))?;
-                    (s.geometry, s.reverse_orientation)
-                } else {
-                    (
-                        Geometry::Sphere {
-                            center: c,
-                            radius: r,
-                        },
-                        self.gs.reverse_orientation ^ swaps,
-                    )
-                }
-            }
-            Geometry::Triangles {
-                positions,
-                mut indices,
-                uvs,
-                normals,
-            } => {
-                let positions: Vec<[f64; 3]> =
-                    positions.iter().map(|p| ctm.apply_point(*p)).collect();
-                match normals {
-                    Some(ns) => {
-                        let sign = if self.gs.reverse_orientation {
-                            -1.0
-                        } else {
-                            1.0
-                        };
-                        let ns: Vec<[f64; 3]> = ns
-                            .iter()
-                            .map(|n| {
-                                let w = apply_normal(&inv, *n);
-                                [sign * w[0], sign * w[1], sign * w[2]]
-                            })
-                            .collect();
-                        // Face each triangle's winding toward its shading normals (pbrt-v4 Triangle).
-                        for t in indices.iter_mut() {
-                            let (a, b, c) = (
-                                positions[t[0] as usize],
-                                positions[t[1] as usize],
-                                positions[t[2] as usize],
-                            );
-                            let g = cross(sub(b, a), sub(c, a));
-                            let s = [0, 1, 2].iter().fold([0.0; 3], |acc, &k| {
-                                let n = ns[t[k] as usize];
-                                [acc[0] + n[0], acc[1] + n[1], acc[2] + n[2]]
-                            });
-                            if dot(g, s) < 0.0 {
-                                t.swap(1, 2);
-                            }
-                        }
-                        (
-                            Geometry::Triangles {
-                                positions,
-                                indices,
-                                uvs,
-                                normals: Some(ns),
-                            },
-                            false,
-                        )
-                    }
-                    None => (
-                        Geometry::Triangles {
-                            positions,
-                            indices,
-                            uvs,
-                            normals: None,
-                        },
-                        self.gs.reverse_orientation ^ swaps,
-                    ),
-                }
-            }
-            #[allow(unreachable_patterns)]
-            g => (g, false),
-        };
-        if cut_out {
-            self.note(
-                loc,
-                format!("Shape \"{ty}\" with alpha 0 is invisible: dropped"),
-            );
-            return Ok(());
-        }
-        let shape = Shape {
-            name: self.gs.name.clone(),
-            geometry,
-            material: 0,
-            area_light: None,
-            reverse_orientation,
-            tags: camsim_scene3d::ShapeTags {
-                object_to_world: Some(ctm),
-                ..Default::default()
-            },
-        };
-        let pending = PendingShape {
-            shape,
-            mat: self.gs.material.clone(),
-            light: self.gs.area_light.clone(),
-            single: matches!(ty, "disk" | "cylinder"),
-            alpha,
-            medium: self.gs.medium.clone(),
-            motion: self.ctm_motion(loc)?,
-        };
-        if let Some((oname, list, _)) = &mut self.current_object {
-            if pending.light.is_some() {
-                return Err(loc.err(format!(
-                    "area lights inside object instances are not supported (object \"{oname}\")"
-                )));
-            }
-            let mut pending = pending;
-            if pending.shape.name.is_none() {
-                pending.shape.name = Some(oname.clone());
-            }
-            list.push(pending);
-        } else {
-            self.shapes.push(pending);
-        }
-        Ok(())
-    }
-
     fn finish(self) -> Result<SceneDescription, PbrtError> {
         let mut shapes = Vec::with_capacity(self.shapes.len());
         let mut notes = self.notes;
@@ -1276,93 +674,15 @@ impl Parser {
             shape.tags.light_group = ps.light.as_ref().and_then(|l| l.group.clone());
             match ps.light {
                 None => shapes.push(shape),
-                Some(l) => {
-                    // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
-                    // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
-                    let base = l.scale / l.spectrum.photometric;
-                    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
-                    // "sides" here is sides times that mean).
-                    let sides = (if l.two_sided { 2.0 } else { 1.0 })
-                        * l.image.as_ref().map_or(1.0, |(_, y)| *y);
-                    let to_light = |scale: f64| AreaLight {
-                        radiance: l
-                            .spectrum
-                            .spectrum
-                            .clone()
-                            .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
-                        two_sided: l.two_sided,
-                        image: l.image.as_ref().map(|(im, _)| im.clone()),
-                    };
-                    match (l.power, &shape.geometry) {
-                        (
-                            Some(power),
-                            Geometry::Triangles {
-                                positions,
-                                indices,
-                                uvs,
-                                normals,
-                            },
-                        ) if indices.len() > 1 && !ps.single => {
-                            notes.push(format!(
-                                "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
-                                indices.len()
-                            ));
-                            // The triangles stay one object instance.
-                            let mut tags = shape.tags.clone();
-                            if tags.instance.is_none() {
-                                tags.instance = Some(instances);
-                                instances += 1;
-                            }
-                            for t in indices {
-                                let g = Geometry::Triangles {
-                                    positions: t.iter().map(|&i| positions[i as usize]).collect(),
-                                    indices: vec![[0, 1, 2]],
-                                    uvs: uvs
-                                        .as_ref()
-                                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
-                                    normals: normals
-                                        .as_ref()
-                                        .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
-                                };
-                                let area = xform::shape_area(&g);
-                                let scale = if area > 0.0 {
-                                    if sides > 0.0 {
-                                        base * power / (std::f64::consts::PI * area * sides)
-                                    } else {
-                                        0.0
-                                    }
-                                } else {
-                                    0.0
-                                };
-                                shapes.push(Shape {
-                                    name: shape.name.clone(),
-                                    geometry: g,
-                                    material,
-                                    area_light: Some(to_light(scale)),
-                                    reverse_orientation: shape.reverse_orientation,
-                                    tags: tags.clone(),
-                                });
-                            }
-                        }
-                        (power, g) => {
-                            let mut scale = base;
-                            if let Some(power) = power {
-                                let area = xform::shape_area(g);
-                                scale = if area > 0.0 {
-                                    if sides > 0.0 {
-                                        base * power / (std::f64::consts::PI * area * sides)
-                                    } else {
-                                        0.0
-                                    }
-                                } else {
-                                    0.0
-                                };
-                            }
-                            shape.area_light = Some(to_light(scale));
-                            shapes.push(shape);
-                        }
-                    }
-                }
+                Some(l) => emitting_shapes(
+                    shape,
+                    &l,
+                    material,
+                    ps.single,
+                    &mut instances,
+                    &mut notes,
+                    &mut shapes,
+                ),
             }
         }
         let media = media.finish(&mut notes);
@@ -1375,30 +695,14 @@ impl Parser {
         }
         let media = media?;
         let camera_to_world = inverse(&self.camera_from_world).unwrap_or_default();
-        let (mut fov_deg, mut lens) = (self.fov_deg, None);
-        if let Some(r) = self.realistic {
-            let (l, f) = crate::camera::realistic_lens(
-                r.lens,
-                r.aperture_diameter_mm,
-                r.focus_distance_m,
-                self.film_diagonal_mm,
-                self.width,
-                self.height,
-            )
-            .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
-            (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
-        }
-        if let Some((rtf, film, loc)) = self.ray_transfer {
-            let (l, f) = crate::camera::ray_transfer_lens(
-                rtf,
-                film,
-                self.film_diagonal_mm,
-                self.width,
-                self.height,
-            )
-            .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
-            (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
-        }
+        let (fov_deg, lens) = camera_lens(
+            self.fov_deg,
+            self.realistic,
+            self.ray_transfer,
+            self.film_diagonal_mm,
+            self.width,
+            self.height,
+        )?;
         Ok(SceneDescription {
             camera: Camera {
                 camera_to_world,
@@ -1420,6 +724,134 @@ impl Parser {
     }
 }
 
+/// The camera's horizontal field of view and lens: the pinhole's `fov_deg`, or those of a
+/// `realistic` or `raytransfer` camera, set up now that the film (`film_diagonal_mm`, the
+/// resolution) is known.
+fn camera_lens(
+    fov_deg: f64,
+    realistic: Option<PendingRealistic>,
+    ray_transfer: Option<(camsim_lens::Rtf, camsim_scene3d::camera::RtfFilm, Loc)>,
+    film_diagonal_mm: f64,
+    width: usize,
+    height: usize,
+) -> Result<(f64, Option<CameraLens>), PbrtError> {
+    let (mut fov_deg, mut lens) = (fov_deg, None);
+    if let Some(r) = realistic {
+        let (l, f) = crate::camera::realistic_lens(
+            r.lens,
+            r.aperture_diameter_mm,
+            r.focus_distance_m,
+            film_diagonal_mm,
+            width,
+            height,
+        )
+        .map_err(|e| r.loc.err(format!("Camera \"realistic\": {e}")))?;
+        (fov_deg, lens) = (f, Some(CameraLens::Realistic(l)));
+    }
+    if let Some((rtf, film, loc)) = ray_transfer {
+        let (l, f) = crate::camera::ray_transfer_lens(rtf, film, film_diagonal_mm, width, height)
+            .map_err(|e| loc.err(format!("Camera \"raytransfer\": {e}")))?;
+        (fov_deg, lens) = (f, Some(CameraLens::RayTransfer(l)));
+    }
+    Ok((fov_deg, lens))
+}
+
+/// pbrt-v4 `DiffuseAreaLight::Create` with `power`: `scale *= power / (pi * area * sides)` (0
+/// for a shape without area or sides).
+fn power_scale(base: f64, power: f64, area: f64, sides: f64) -> f64 {
+    if area > 0.0 {
+        if sides > 0.0 {
+            base * power / (std::f64::consts::PI * area * sides)
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    }
+}
+
+/// The scene shapes of a pending `shape` with area light `l` (material index `material`): one
+/// emitting shape, or with `power` on a mesh that is not one pbrt shape (`single`), one per
+/// triangle as pbrt-v4 makes them, each given that power (numbered as one object instance).
+fn emitting_shapes(
+    mut shape: Shape,
+    l: &AreaLightSpec,
+    material: usize,
+    single: bool,
+    instances: &mut u32,
+    notes: &mut Vec<String>,
+    shapes: &mut Vec<Shape>,
+) {
+    // pbrt-v4 DiffuseAreaLight::Create: scale /= SpectrumToPhotometric(L);
+    // with power: scale *= power / (pi * area * sides), per pbrt shape (triangle).
+    let base = l.scale / l.spectrum.photometric;
+    // pbrt-v4: with an image, k_e also holds the image's mean luminance (so
+    // "sides" here is sides times that mean).
+    let sides = (if l.two_sided { 2.0 } else { 1.0 }) * l.image.as_ref().map_or(1.0, |(_, y)| *y);
+    let to_light = |scale: f64| AreaLight {
+        radiance: l
+            .spectrum
+            .spectrum
+            .clone()
+            .scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+        two_sided: l.two_sided,
+        image: l.image.as_ref().map(|(im, _)| im.clone()),
+    };
+    match (l.power, &shape.geometry) {
+        (
+            Some(power),
+            Geometry::Triangles {
+                positions,
+                indices,
+                uvs,
+                normals,
+            },
+        ) if indices.len() > 1 && !single => {
+            notes.push(format!(
+                    "area light with power {power} on a {}-triangle mesh: pbrt-v4 gives each triangle that power; split into one light per triangle",
+                    indices.len()
+                ));
+            // The triangles stay one object instance.
+            let mut tags = shape.tags.clone();
+            if tags.instance.is_none() {
+                tags.instance = Some(*instances);
+                *instances += 1;
+            }
+            for t in indices {
+                let g = Geometry::Triangles {
+                    positions: t.iter().map(|&i| positions[i as usize]).collect(),
+                    indices: vec![[0, 1, 2]],
+                    uvs: uvs
+                        .as_ref()
+                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
+                    normals: normals
+                        .as_ref()
+                        .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
+                };
+                let area = xform::shape_area(&g);
+                let scale = power_scale(base, power, area, sides);
+                shapes.push(Shape {
+                    name: shape.name.clone(),
+                    geometry: g,
+                    material,
+                    area_light: Some(to_light(scale)),
+                    reverse_orientation: shape.reverse_orientation,
+                    tags: tags.clone(),
+                });
+            }
+        }
+        (power, g) => {
+            let mut scale = base;
+            if let Some(power) = power {
+                let area = xform::shape_area(g);
+                scale = power_scale(base, power, area, sides);
+            }
+            shape.area_light = Some(to_light(scale));
+            shapes.push(shape);
+        }
+    }
+}
+
 /// pbrt-v4's default area/infinite light spectrum: the colour space's illuminant (D65).
 /// Luminance Y of a linear sRGB / Rec. 709 colour (ITU-R BT.709 weights; pbrt-v4
 /// `RGBColorSpace::LuminanceVector` of sRGB), relative to white = 1.
@@ -1436,21 +868,7 @@ fn default_illuminant() -> ParsedSpectrum {
     }
 }
 
-fn mesh_geometry(
-    positions: Vec<[f64; 3]>,
-    indices: Vec<[u32; 3]>,
-    uvs: Option<Vec<[f32; 2]>>,
-    normals: Option<Vec<[f64; 3]>>,
-) -> Geometry {
-    Geometry::Triangles {
-        positions,
-        indices,
-        uvs,
-        normals,
-    }
-}
-
-impl Parser {
+impl SceneBuilder {
     /// A light's image (`filename` of `infinite`, `goniometric`, `projection` lights and of
     /// `AreaLightSource "diffuse"`): resolved against the scene file, decoded with the
     /// `encoding` parameter (pbrt-v4 default: sRGB for PNG, linear otherwise), as linear RGB.

@@ -80,7 +80,25 @@ struct Reader<'a> {
     tokens: Option<std::str::SplitAsciiWhitespace<'a>>,
 }
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
+    /// A reader of `data` in format `fmt` (an ASCII body must be text).
+    fn new(fmt: Format, data: &'a [u8]) -> Result<Reader<'a>, String> {
+        Ok(Reader {
+            fmt,
+            bytes: data,
+            pos: 0,
+            tokens: if fmt == Format::Ascii {
+                Some(
+                    std::str::from_utf8(data)
+                        .map_err(|_| "ASCII PLY body is not text")?
+                        .split_ascii_whitespace(),
+                )
+            } else {
+                None
+            },
+        })
+    }
+
     fn read(&mut self, t: Scalar) -> Result<f64, String> {
         if self.fmt == Format::Ascii {
             let tok = self
@@ -123,8 +141,28 @@ pub fn read_ply(path: &std::path::Path) -> Result<PlyMesh, String> {
     parse_ply(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Parse PLY bytes.
+/// Parse PLY bytes: the header, then each element's data in order (vertices, faces, others
+/// skipped), then a check that every face index names a vertex.
 pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
+    let (header, body) = split_header(bytes)?;
+    let (fmt, elements) = parse_header(header)?;
+    let data = &bytes[body..];
+    check_data_size(fmt, &elements, data.len())?;
+    let mut r = Reader::new(fmt, data)?;
+    let mut mesh = PlyMesh::default();
+    for e in &elements {
+        match e.name.as_str() {
+            "vertex" => read_vertices(e, &mut r, &mut mesh)?,
+            "face" => read_faces(e, &mut r, &mut mesh)?,
+            _ => skip_element(e, &mut r)?,
+        }
+    }
+    check_indices(&mesh)?;
+    Ok(mesh)
+}
+
+/// The header text (up to `end_header`) and the offset of the body (after the end_header line).
+fn split_header(bytes: &[u8]) -> Result<(&str, usize), String> {
     // Header: lines up to "end_header\n".
     let marker = b"end_header";
     let hdr_end = bytes
@@ -138,6 +176,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     }
     body = (body + 1).min(bytes.len());
     let header = std::str::from_utf8(&bytes[..hdr_end]).map_err(|_| "PLY header is not text")?;
+    Ok((header, body))
+}
+
+/// The format line and the element declarations (with their properties) of a header.
+fn parse_header(header: &str) -> Result<(Format, Vec<Element>), String> {
     let mut lines = header.lines();
     if lines.next().map(|l| l.trim()) != Some("ply") {
         return Err("not a PLY file (first line is not \"ply\")".into());
@@ -176,37 +219,42 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
                 let el = elements
                     .last_mut()
                     .ok_or(format!("header line {lno}: property before any element"))?;
-                if w.get(1) == Some(&"list") {
-                    let (Some(ct), Some(it), Some(name)) = (w.get(2), w.get(3), w.get(4)) else {
-                        return Err(format!(
-                            "header line {lno}: list property needs count type, item type, name"
-                        ));
-                    };
-                    let ct =
-                        Scalar::parse(ct).ok_or(format!("header line {lno}: unknown type {ct}"))?;
-                    let it =
-                        Scalar::parse(it).ok_or(format!("header line {lno}: unknown type {it}"))?;
-                    el.props.push(Prop::List(name.to_string(), ct, it));
-                } else {
-                    let (Some(t), Some(name)) = (w.get(1), w.get(2)) else {
-                        return Err(format!(
-                            "header line {lno}: property needs a type and a name"
-                        ));
-                    };
-                    let t =
-                        Scalar::parse(t).ok_or(format!("header line {lno}: unknown type {t}"))?;
-                    el.props.push(Prop::Scalar(name.to_string(), t));
-                }
+                el.props.push(parse_property(&w, lno)?);
             }
             Some(other) => return Err(format!("header line {lno}: unknown keyword \"{other}\"")),
         }
     }
     let fmt = fmt.ok_or("PLY header has no format line")?;
-    let data = &bytes[body..];
-    // Each element needs at least one byte (binary) or two characters (ASCII) per value: refuse
-    // counts the file cannot hold before allocating.
+    Ok((fmt, elements))
+}
+
+/// A `property` line split in words (`w[0]` is "property"), at header line `lno`.
+fn parse_property(w: &[&str], lno: usize) -> Result<Prop, String> {
+    if w.get(1) == Some(&"list") {
+        let (Some(ct), Some(it), Some(name)) = (w.get(2), w.get(3), w.get(4)) else {
+            return Err(format!(
+                "header line {lno}: list property needs count type, item type, name"
+            ));
+        };
+        let ct = Scalar::parse(ct).ok_or(format!("header line {lno}: unknown type {ct}"))?;
+        let it = Scalar::parse(it).ok_or(format!("header line {lno}: unknown type {it}"))?;
+        Ok(Prop::List(name.to_string(), ct, it))
+    } else {
+        let (Some(t), Some(name)) = (w.get(1), w.get(2)) else {
+            return Err(format!(
+                "header line {lno}: property needs a type and a name"
+            ));
+        };
+        let t = Scalar::parse(t).ok_or(format!("header line {lno}: unknown type {t}"))?;
+        Ok(Prop::Scalar(name.to_string(), t))
+    }
+}
+
+/// Each element needs at least one byte (binary) or two characters (ASCII) per value: refuse
+/// counts the file cannot hold before allocating.
+fn check_data_size(fmt: Format, elements: &[Element], data_len: usize) -> Result<(), String> {
     let mut min_bytes: u128 = 0;
-    for e in &elements {
+    for e in elements {
         let per: usize = e
             .props
             .iter()
@@ -229,161 +277,165 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
             .sum();
         min_bytes += e.count as u128 * per as u128;
     }
-    if min_bytes > data.len() as u128 + 1 {
+    if min_bytes > data_len as u128 + 1 {
         return Err(format!(
             "header declares more data than the file holds ({} bytes needed, {} present)",
-            min_bytes,
-            data.len()
+            min_bytes, data_len
         ));
     }
-    let mut r = Reader {
-        fmt,
-        bytes: data,
-        pos: 0,
-        tokens: if fmt == Format::Ascii {
-            Some(
-                std::str::from_utf8(data)
-                    .map_err(|_| "ASCII PLY body is not text")?
-                    .split_ascii_whitespace(),
-            )
-        } else {
-            None
-        },
-    };
-    let mut mesh = PlyMesh::default();
-    for e in &elements {
-        if e.name == "vertex" {
-            let idx = |n: &str| {
-                e.props
-                    .iter()
-                    .position(|p| matches!(p, Prop::Scalar(m, _) if m == n))
-            };
-            let (Some(ix), Some(iy), Some(iz)) = (idx("x"), idx("y"), idx("z")) else {
-                return Err("vertex element lacks x, y or z".into());
-            };
-            let normal = match (idx("nx"), idx("ny"), idx("nz")) {
-                (Some(a), Some(b), Some(c)) => Some([a, b, c]),
-                _ => None,
-            };
-            let uv = [
-                ("u", "v"),
-                ("s", "t"),
-                ("texture_u", "texture_v"),
-                ("texture_s", "texture_t"),
-            ]
+    Ok(())
+}
+
+/// The `vertex` element: positions, and normals and uv when the element has them.
+fn read_vertices(e: &Element, r: &mut Reader, mesh: &mut PlyMesh) -> Result<(), String> {
+    let idx = |n: &str| {
+        e.props
             .iter()
-            .find_map(|(a, b)| Some([idx(a)?, idx(b)?]));
-            camsim_core::mem::check_alloc(e.count as u64 * 64, "PLY vertices")
-                .map_err(|x| x.to_string())?;
-            mesh.positions.reserve(e.count);
-            let mut ns = Vec::new();
-            let mut uvs = Vec::new();
-            let mut vals = vec![0.0; e.props.len()];
-            for _ in 0..e.count {
-                for (k, p) in e.props.iter().enumerate() {
-                    match p {
-                        Prop::Scalar(_, t) => vals[k] = r.read(*t)?,
-                        Prop::List(_, c, it) => {
-                            let n = r.read(*c)?;
-                            for _ in 0..(n.max(0.0) as usize).min(1 << 20) {
-                                r.read(*it)?;
-                            }
-                        }
-                    }
-                }
-                mesh.positions.push([vals[ix], vals[iy], vals[iz]]);
-                if let Some([a, b, c]) = normal {
-                    ns.push([vals[a], vals[b], vals[c]]);
-                }
-                if let Some([a, b]) = uv {
-                    uvs.push([vals[a] as f32, vals[b] as f32]);
-                }
-            }
-            if normal.is_some() {
-                mesh.normals = Some(ns);
-            }
-            if uv.is_some() {
-                mesh.uvs = Some(uvs);
-            }
-        } else if e.name == "face" {
-            let li = e
-                .props
-                .iter()
-                .position(|p| matches!(p, Prop::List(m, _, _) if m == "vertex_indices" || m == "vertex_index"))
-                .ok_or("face element lacks a vertex_indices list")?;
-            camsim_core::mem::check_alloc(e.count as u64 * 24, "PLY faces")
-                .map_err(|x| x.to_string())?;
-            mesh.triangles.reserve(e.count);
-            let mut idx = Vec::with_capacity(4);
-            for f in 0..e.count {
-                for (k, p) in e.props.iter().enumerate() {
-                    match p {
-                        Prop::Scalar(_, t) => {
-                            r.read(*t)?;
-                        }
-                        Prop::List(_, c, it) => {
-                            let n = r.read(*c)?;
-                            if !(0.0..=(1u32 << 20) as f64).contains(&n) {
-                                return Err(format!("face {f}: list length {n} is out of range"));
-                            }
-                            if k == li {
-                                idx.clear();
-                                for _ in 0..n as usize {
-                                    let v = r.read(*it)?;
-                                    if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
-                                        return Err(format!(
-                                            "face {f}: vertex index {v} is not a valid index"
-                                        ));
-                                    }
-                                    idx.push(v as u32);
-                                }
-                            } else {
-                                for _ in 0..n as usize {
-                                    r.read(*it)?;
-                                }
-                            }
-                        }
-                    }
-                }
-                match idx.len() {
-                    3 => mesh.triangles.push([idx[0], idx[1], idx[2]]),
-                    4 => {
-                        mesh.triangles.push([idx[0], idx[1], idx[2]]);
-                        mesh.triangles.push([idx[0], idx[2], idx[3]]);
-                        mesh.quads += 1;
-                    }
-                    n => {
-                        return Err(format!(
-                            "face {f} has {n} vertices; only triangles and quads are supported"
-                        ))
+            .position(|p| matches!(p, Prop::Scalar(m, _) if m == n))
+    };
+    let (Some(ix), Some(iy), Some(iz)) = (idx("x"), idx("y"), idx("z")) else {
+        return Err("vertex element lacks x, y or z".into());
+    };
+    let normal = match (idx("nx"), idx("ny"), idx("nz")) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+        _ => None,
+    };
+    let uv = [
+        ("u", "v"),
+        ("s", "t"),
+        ("texture_u", "texture_v"),
+        ("texture_s", "texture_t"),
+    ]
+    .iter()
+    .find_map(|(a, b)| Some([idx(a)?, idx(b)?]));
+    camsim_core::mem::check_alloc(e.count as u64 * 64, "PLY vertices")
+        .map_err(|x| x.to_string())?;
+    mesh.positions.reserve(e.count);
+    let mut ns = Vec::new();
+    let mut uvs = Vec::new();
+    let mut vals = vec![0.0; e.props.len()];
+    for _ in 0..e.count {
+        for (k, p) in e.props.iter().enumerate() {
+            match p {
+                Prop::Scalar(_, t) => vals[k] = r.read(*t)?,
+                Prop::List(_, c, it) => {
+                    let n = r.read(*c)?;
+                    for _ in 0..(n.max(0.0) as usize).min(1 << 20) {
+                        r.read(*it)?;
                     }
                 }
             }
-        } else {
-            // Skip any other element.
-            for _ in 0..e.count {
-                for p in &e.props {
-                    match p {
-                        Prop::Scalar(_, t) => {
-                            r.read(*t)?;
-                        }
-                        Prop::List(_, c, it) => {
-                            let n = r.read(*c)?;
-                            if !(0.0..=(1u32 << 20) as f64).contains(&n) {
+        }
+        mesh.positions.push([vals[ix], vals[iy], vals[iz]]);
+        if let Some([a, b, c]) = normal {
+            ns.push([vals[a], vals[b], vals[c]]);
+        }
+        if let Some([a, b]) = uv {
+            uvs.push([vals[a] as f32, vals[b] as f32]);
+        }
+    }
+    if normal.is_some() {
+        mesh.normals = Some(ns);
+    }
+    if uv.is_some() {
+        mesh.uvs = Some(uvs);
+    }
+    Ok(())
+}
+
+/// The `face` element: each face's `vertex_indices` list, triangulated ([`triangulate`]).
+fn read_faces(e: &Element, r: &mut Reader, mesh: &mut PlyMesh) -> Result<(), String> {
+    let li = e
+        .props
+        .iter()
+        .position(
+            |p| matches!(p, Prop::List(m, _, _) if m == "vertex_indices" || m == "vertex_index"),
+        )
+        .ok_or("face element lacks a vertex_indices list")?;
+    camsim_core::mem::check_alloc(e.count as u64 * 24, "PLY faces").map_err(|x| x.to_string())?;
+    mesh.triangles.reserve(e.count);
+    let mut idx = Vec::with_capacity(4);
+    for f in 0..e.count {
+        for (k, p) in e.props.iter().enumerate() {
+            match p {
+                Prop::Scalar(_, t) => {
+                    r.read(*t)?;
+                }
+                Prop::List(_, c, it) => {
+                    let n = list_len(r, *c, || format!("face {f}"))?;
+                    if k == li {
+                        idx.clear();
+                        for _ in 0..n {
+                            let v = r.read(*it)?;
+                            if v < 0.0 || v.fract() != 0.0 || v > u32::MAX as f64 {
                                 return Err(format!(
-                                    "element {}: list length {n} is out of range",
-                                    e.name
+                                    "face {f}: vertex index {v} is not a valid index"
                                 ));
                             }
-                            for _ in 0..n as usize {
-                                r.read(*it)?;
-                            }
+                            idx.push(v as u32);
+                        }
+                    } else {
+                        for _ in 0..n {
+                            r.read(*it)?;
                         }
                     }
                 }
             }
         }
+        triangulate(f, &idx, mesh)?;
     }
+    Ok(())
+}
+
+/// Face `f` with vertex indices `idx` as triangles: a quad `0 1 2 3` becomes `0 1 2` and `0 2 3`.
+fn triangulate(f: usize, idx: &[u32], mesh: &mut PlyMesh) -> Result<(), String> {
+    match idx.len() {
+        3 => mesh.triangles.push([idx[0], idx[1], idx[2]]),
+        4 => {
+            mesh.triangles.push([idx[0], idx[1], idx[2]]);
+            mesh.triangles.push([idx[0], idx[2], idx[3]]);
+            mesh.quads += 1;
+        }
+        n => {
+            return Err(format!(
+                "face {f} has {n} vertices; only triangles and quads are supported"
+            ))
+        }
+    }
+    Ok(())
+}
+
+/// A list's length (count type `c`), refused beyond 2^20 entries; `what` names the list.
+fn list_len(r: &mut Reader, c: Scalar, what: impl FnOnce() -> String) -> Result<usize, String> {
+    let n = r.read(c)?;
+    if !(0.0..=(1u32 << 20) as f64).contains(&n) {
+        return Err(format!("{}: list length {n} is out of range", what()));
+    }
+    Ok(n as usize)
+}
+
+/// Read past an element camsim does not use.
+fn skip_element(e: &Element, r: &mut Reader) -> Result<(), String> {
+    for _ in 0..e.count {
+        for p in &e.props {
+            match p {
+                Prop::Scalar(_, t) => {
+                    r.read(*t)?;
+                }
+                Prop::List(_, c, it) => {
+                    let n = list_len(r, *c, || format!("element {}", e.name))?;
+                    for _ in 0..n {
+                        r.read(*it)?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every face index names a vertex.
+fn check_indices(mesh: &PlyMesh) -> Result<(), String> {
     let nv = mesh.positions.len();
     if let Some(t) = mesh
         .triangles
@@ -395,5 +447,5 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
             t
         ));
     }
-    Ok(mesh)
+    Ok(())
 }

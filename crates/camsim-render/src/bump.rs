@@ -25,13 +25,9 @@
 //! The BSDF's frame around the perturbed normal is camsim's `Frame::from_normal` as everywhere
 //! (pbrt-v4 aligns it with the shading `dp/du`; it matters only to anisotropic roughness).
 
-use crate::bvh::Hit;
-use crate::geometry::Prim;
-use crate::integrator::{PrimInfo, SurfaceHit, Tracer};
-use crate::materials::Mat;
 use crate::math::{Frame, V3};
 use crate::scene::{Camera, NormalMapImage};
-use crate::texture::{eval_float, FTex, TexCtx};
+use crate::texture::{FTex, TexCtx};
 use std::sync::Arc;
 
 /// pbrt-v4 `BumpMap`'s shift when the footprint gives none.
@@ -40,7 +36,7 @@ const DEFAULT_SHIFT: f32 = 0.0005;
 /// Bilinear lookup of a normal map with repeat wrap at surface `(u, v)` (pbrt-v4 `NormalMap`:
 /// `BilerpChannel((u, 1 - v), c, Repeat)`), as nested lerps, exact on a constant image.
 fn lookup(map: &NormalMapImage, uv: [f32; 2]) -> [f32; 3] {
-    let (idx, _) = crate::texture::bilinear_texels(
+    let (idx, _) = crate::image_tex::bilinear_texels(
         map.width,
         map.height,
         uv[0],
@@ -76,7 +72,7 @@ pub(crate) enum Perturb {
 pub(crate) fn compile(
     p: &crate::scene::NormalPerturbation,
     material_index: usize,
-) -> Result<Perturb, crate::render::RenderError> {
+) -> Result<Perturb, crate::error::RenderError> {
     use crate::scene::NormalPerturbation as P;
     Ok(match p {
         P::Displacement(t) => {
@@ -84,7 +80,7 @@ pub(crate) fn compile(
         }
         P::NormalMap(im) => {
             if im.width == 0 || im.height == 0 || im.rgb.len() != im.width * im.height {
-                return Err(crate::render::RenderError::Material {
+                return Err(crate::error::RenderError::Material {
                     index: material_index,
                     message: format!(
                         "normal map of {} x {} pixels has {} texels",
@@ -95,7 +91,7 @@ pub(crate) fn compile(
                 });
             }
             if im.rgb.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(crate::render::RenderError::Material {
+                return Err(crate::error::RenderError::Material {
                     index: material_index,
                     message: "normal map has a non-finite texel".into(),
                 });
@@ -126,7 +122,7 @@ pub(crate) struct ShadingGeometry {
 
 /// A coordinate system around the unit vector `n` (pbrt-v4 `CoordinateSystem`, Duff et al.
 /// 2017: the same construction as `Frame::from_normal`).
-fn coordinate_system(n: V3) -> (V3, V3) {
+pub(crate) fn coordinate_system(n: V3) -> (V3, V3) {
     let f = Frame::from_normal(n);
     (f.s, f.t)
 }
@@ -363,110 +359,6 @@ impl Footprint {
             if du == 0.0 { DEFAULT_SHIFT } else { du },
             if dv == 0.0 { DEFAULT_SHIFT } else { dv },
         )
-    }
-}
-
-impl Tracer {
-    /// pbrt-v4's shading geometry at hit `h` (`sh` its surface data) of primitive `pi`.
-    fn shading_geometry(&self, h: &Hit, pi: &PrimInfo, sh: &SurfaceHit) -> ShadingGeometry {
-        let n = self.oriented_normal(pi, sh);
-        match self.bvh.prims[h.slot as usize] {
-            Prim::Tri { p0, e1, e2 } => {
-                let mesh = self.meshes[pi.shape as usize].as_ref();
-                let tri = mesh.map(|m| m.indices[pi.tri as usize]);
-                let uv = match (mesh.and_then(|m| m.uvs.as_ref()), tri) {
-                    (Some(t), Some(i)) => [t[i[0] as usize], t[i[1] as usize], t[i[2] as usize]],
-                    _ => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
-                };
-                let vn = match (mesh.and_then(|m| m.normals.as_ref()), tri) {
-                    (Some(nv), Some(i)) => {
-                        Some([nv[i[0] as usize], nv[i[1] as usize], nv[i[2] as usize]])
-                    }
-                    _ => None,
-                };
-                let ns = if vn.is_some() { sh.ns } else { n };
-                triangle_geometry([p0, p0 + e1, p0 + e2], uv, vn, sh.p, sh.uv, n, ns)
-            }
-            Prim::Sphere { center, radius } => sphere_geometry(
-                sh.p - center,
-                radius,
-                [
-                    V3::new(1.0, 0.0, 0.0),
-                    V3::new(0.0, 1.0, 0.0),
-                    V3::new(0.0, 0.0, 1.0),
-                ],
-                -radius,
-                radius,
-                2.0 * std::f32::consts::PI,
-                sh.p,
-                sh.uv,
-                n,
-            ),
-            Prim::PartialSphere {
-                center,
-                radius,
-                clip,
-            } => {
-                let c = &self.bvh.clips[clip as usize];
-                sphere_geometry(
-                    c.local(sh.p - center),
-                    radius,
-                    [c.ex, c.ey, c.ez],
-                    c.z_min,
-                    c.z_max,
-                    c.phi_max,
-                    sh.p,
-                    sh.uv,
-                    n,
-                )
-            }
-            // A curve's surface at the hit: dp/du along the fibre, dp/dv across it (pbrt-v4
-            // `Curve::InteractionFromIntersection` takes dn/du = dn/dv = 0 as well).
-            Prim::Curve { .. } => {
-                let (dpdu, dpdv) = if sh.dpdu.length_squared() > 0.0 {
-                    (sh.dpdu, n.cross(sh.dpdu))
-                } else {
-                    coordinate_system(n)
-                };
-                ShadingGeometry {
-                    p: sh.p,
-                    uv: sh.uv,
-                    n,
-                    dpdu,
-                    dpdv,
-                    ns: n,
-                    ss: dpdu.normalize(),
-                    ts: dpdv.normalize(),
-                    dndu: V3::new(0.0, 0.0, 0.0),
-                    dndv: V3::new(0.0, 0.0, 0.0),
-                }
-            }
-        }
-    }
-
-    /// The material that scatters at a hit and its shading normal: material `m` (mixes already
-    /// chosen) unwrapped from its bump or normal map, which perturbs the hit's shading normal
-    /// `sh.ns` (pbrt-v4 `SurfaceInteraction::GetBSDF`); other materials keep `sh.ns`.
-    #[inline]
-    pub(crate) fn shading_normal(
-        &self,
-        m: u32,
-        h: &Hit,
-        pi: &PrimInfo,
-        sh: &SurfaceHit,
-    ) -> (u32, V3) {
-        let Mat::Bumped { base, perturb } = &self.materials[m as usize] else {
-            return (m, sh.ns);
-        };
-        let g = self.shading_geometry(h, pi, sh);
-        let ns = match perturb {
-            Perturb::NormalMap(map) => mapped_normal(&g, map),
-            Perturb::Displacement(tex) => {
-                let (du, dv) = self.footprint.shifts(&g);
-                bump_normal(&g, du, dv, |ctx| eval_float(tex, ctx))
-            }
-        };
-        (*base, ns)
     }
 }
 

@@ -16,7 +16,7 @@
 //! tree is built in parallel with `rayon::join`; the result does not depend on the number of
 //! threads (every split decision is a function of the input only).
 
-use crate::geometry::{Aabb, Prim, RayInv};
+use crate::geometry::{intersect_partial_sphere, Aabb, Prim, RayInv, SphereClip};
 use crate::math::V3;
 use wide::{f32x4, CmpGe, CmpGt, CmpLe, CmpLt, CmpNe};
 
@@ -736,6 +736,48 @@ fn flatten(sub: Sub, out: &mut Vec<BinNode>) {
             flatten(*left, out);
             out[me].index = out.len() as u32;
             flatten(*right, out);
+        }
+    }
+}
+
+/// The primitive tests that need the BVH's side tables: partial-sphere clips and curve
+/// segments ([`crate::curve`]), which the geometry module does not know.
+impl Prim {
+    /// World-space bounds, curve pieces from `curves`.
+    pub fn bounds_with(&self, curves: &crate::curve::CurveStore) -> Aabb {
+        match *self {
+            Prim::Curve { seg, u0, u1 } => {
+                if (seg as usize) < curves.len() {
+                    curves.piece_bounds(seg, u0, u1)
+                } else {
+                    Aabb::EMPTY
+                }
+            }
+            _ => self.bounds(),
+        }
+    }
+
+    /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`)
+    /// and curve pieces from `curves` (`(t, u, v)` with the curve's `u` and `v`); `any`: a
+    /// curve piece may report any hit in range rather than its nearest (shadow rays).
+    #[inline(always)]
+    pub fn intersect_with(
+        &self,
+        r: &RayInv,
+        t_max: f32,
+        clips: &[SphereClip],
+        curves: &crate::curve::CurveStore,
+        any: bool,
+    ) -> Option<(f32, f32, f32)> {
+        match *self {
+            Prim::Curve { seg, u0, u1 } => curves.intersect(seg, [u0, u1], r.o, r.d, t_max, any),
+            Prim::PartialSphere {
+                center,
+                radius,
+                clip,
+            } => intersect_partial_sphere(r.o, r.d, center, radius, &clips[clip as usize], t_max)
+                .map(|t| (t, 0.0, 0.0)),
+            _ => self.intersect(r, t_max),
         }
     }
 }

@@ -119,7 +119,7 @@ pub fn ray_box(r: &RayInv, min: &[f32; 3], max: &[f32; 3], t_max: f32) -> f32 {
 }
 
 /// A primitive as stored in BVH order: its intersection data and the index of its
-/// `PrimInfo` record (in the integrator).
+/// [`PrimInfo`] record.
 #[derive(Debug, Clone, Copy)]
 pub enum Prim {
     /// Triangle `p0, p0 + e1, p0 + e2`.
@@ -130,6 +130,48 @@ pub enum Prim {
     PartialSphere { center: V3, radius: f32, clip: u32 },
     /// The piece `[u0, u1]` of curve segment `seg` of `Bvh::curves` ([`crate::curve`]).
     Curve { seg: u32, u0: f32, u1: f32 },
+}
+
+/// Marks a primitive without an emitter.
+pub(crate) const NO_LIGHT: u32 = u32::MAX;
+
+/// Per-primitive data needed after a hit, in BVH order.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PrimInfo {
+    /// Index of the shape in `SceneDescription::shapes`.
+    pub shape: u32,
+    /// Triangle index within its mesh (0 for spheres).
+    pub tri: u32,
+    /// Compiled material index.
+    pub material: u32,
+    /// Light index, or [`NO_LIGHT`].
+    pub light: u32,
+}
+
+/// Shading data of a triangle mesh that has uv or normals.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct MeshShading {
+    pub indices: Vec<[u32; 3]>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub normals: Option<Vec<V3>>,
+}
+
+/// Surface data at a hit.
+pub(crate) struct SurfaceHit {
+    pub(crate) p: V3,
+    /// Geometric normal (unit, as the shape defines it: not flipped toward the ray).
+    pub(crate) ng: V3,
+    /// Shading normal (unit; equals `ng` without vertex normals).
+    pub(crate) ns: V3,
+    pub(crate) uv: [f32; 2],
+    /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
+    /// hair BSDF needs); zero for other shapes (any frame about the normal).
+    pub(crate) dpdu: V3,
+    /// Per-axis bound on the floating-point error of `p`, m (`geometry::tri_point_err`,
+    /// `geometry::sphere_point_err`; a curve's the width at the hit, as pbrt-v4's `pError`).
+    /// Rays leave the surface `|ng| . err` along the geometric normal (pbrt-v4
+    /// `OffsetRayOrigin`, `geometry::offset_ray_origin`).
+    pub(crate) err: V3,
 }
 
 /// The clipping of a partial sphere (pbrt-v4 `sphere` with `zmin`, `zmax`, `phimax`, 4th ed.
@@ -177,21 +219,10 @@ impl SphereClip {
 }
 
 impl Prim {
-    /// World-space bounds (curve pieces: see [`Prim::bounds_with`]; here empty).
+    /// World-space bounds (curve pieces: see [`Prim::bounds_with`] in `bvh.rs`; here empty).
     pub fn bounds(&self) -> Aabb {
-        self.bounds_with(&crate::curve::CurveStore::default())
-    }
-
-    /// World-space bounds, curve pieces from `curves`.
-    pub fn bounds_with(&self, curves: &crate::curve::CurveStore) -> Aabb {
         match *self {
-            Prim::Curve { seg, u0, u1 } => {
-                if (seg as usize) < curves.len() {
-                    curves.piece_bounds(seg, u0, u1)
-                } else {
-                    Aabb::EMPTY
-                }
-            }
+            Prim::Curve { .. } => Aabb::EMPTY,
             Prim::Tri { p0, e1, e2 } => {
                 let mut b = Aabb::EMPTY;
                 b.grow_point(p0);
@@ -221,30 +252,6 @@ impl Prim {
             }
             // Curve pieces need their control points ([`Prim::intersect_with`]).
             Prim::Curve { .. } => None,
-        }
-    }
-
-    /// [`Prim::intersect`] with partial spheres clipped by `clips` (indexed by their `clip`)
-    /// and curve pieces from `curves` (`(t, u, v)` with the curve's `u` and `v`); `any`: a
-    /// curve piece may report any hit in range rather than its nearest (shadow rays).
-    #[inline(always)]
-    pub fn intersect_with(
-        &self,
-        r: &RayInv,
-        t_max: f32,
-        clips: &[SphereClip],
-        curves: &crate::curve::CurveStore,
-        any: bool,
-    ) -> Option<(f32, f32, f32)> {
-        match *self {
-            Prim::Curve { seg, u0, u1 } => curves.intersect(seg, [u0, u1], r.o, r.d, t_max, any),
-            Prim::PartialSphere {
-                center,
-                radius,
-                clip,
-            } => intersect_partial_sphere(r.o, r.d, center, radius, &clips[clip as usize], t_max)
-                .map(|t| (t, 0.0, 0.0)),
-            _ => self.intersect(r, t_max),
         }
     }
 }

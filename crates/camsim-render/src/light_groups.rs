@@ -9,7 +9,6 @@
 //! A light's group is its shape's `tags.light_group` (area lights) or
 //! `SceneDescription::light_groups` (other lights); without one it is [`DEFAULT_GROUP`].
 
-use crate::integrator::Tracer;
 use crate::scene::SceneDescription;
 use std::collections::BTreeSet;
 
@@ -84,14 +83,14 @@ fn group_name(g: Option<&str>) -> &str {
 }
 
 impl GroupTable {
-    /// The groups of `tracer`'s compiled lights (from `scene`).
-    pub(crate) fn new(scene: &SceneDescription, tracer: &Tracer) -> GroupTable {
+    /// The groups of a tracer's compiled lights (from `scene`); `light_source`: per compiled
+    /// light, its shape's index or `shapes.len()` plus its scene light's (`Tracer::light_source`).
+    pub(crate) fn new(scene: &SceneDescription, light_source: &[u32]) -> GroupTable {
         let names = light_group_names(scene);
         let index =
             |g: Option<&str>| names.iter().position(|n| n == group_name(g)).unwrap_or(0) as u16;
         let n_shapes = scene.shapes.len();
-        let group_of = tracer
-            .light_source
+        let group_of = light_source
             .iter()
             .map(|&src| {
                 let src = src as usize;

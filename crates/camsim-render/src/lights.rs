@@ -130,7 +130,7 @@ pub(crate) fn zone_uv(clip: &crate::geometry::SphereClip, radius: f32, n: V3) ->
 /// scales the light's power for light selection.
 #[derive(Debug, Clone)]
 pub(crate) struct EmitImage {
-    pub tex: crate::integrator::ImageTex,
+    pub tex: crate::image_tex::ImageTex,
     pub mean_rgb: f32,
 }
 

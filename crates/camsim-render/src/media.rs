@@ -8,9 +8,9 @@
 //! hero wavelength's majorant (index 0), the others carried by ratios (spectral MIS, Miller,
 //! Georgiev & Jarosz 2019, as pbrt-v4).
 
+use crate::error::RenderError;
 use crate::geometry::Ray;
 use crate::math::V3;
-use crate::render::RenderError;
 use crate::scene::{Material, SceneDescription};
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::uplift::{rgb_to_coefficients, SigmoidPolynomial};

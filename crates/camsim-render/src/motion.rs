@@ -21,13 +21,11 @@
 //! is divided by the scale squared); a moving emitter whose motion stretches is refused.
 
 use crate::bvh::{Bvh, Hit};
+use crate::error::RenderError;
 use crate::geometry::{ray_box, Aabb, Prim, Ray, RayInv, SphereClip};
-use crate::integrator::{PrimInfo, SurfaceHit, Tracer, NO_LIGHT};
-use crate::lights::LightSample;
+use crate::geometry::{PrimInfo, NO_LIGHT};
 use crate::math::V3;
-use crate::render::RenderError;
 use crate::scene::{Light, SceneDescription, Transform};
-use crate::spectral::Lambdas;
 use camsim_scene3d::motion::Motion;
 use std::cell::Cell;
 
@@ -91,7 +89,7 @@ impl Affine {
     /// `m^T n`, normalized: with `self` the inverse of a point map, the normal map (inverse
     /// transpose).
     #[inline(always)]
-    fn normal_from_inverse(&self, n: V3) -> V3 {
+    pub(crate) fn normal_from_inverse(&self, n: V3) -> V3 {
         let r = &self.r;
         V3::new(
             r[0][0] * n.x + r[1][0] * n.y + r[2][0] * n.z,
@@ -173,13 +171,13 @@ impl Mover {
 
 /// The primitives of the shapes that share one motion.
 #[derive(Debug, Clone)]
-struct Group {
+pub(crate) struct Group {
     /// Primitives in their reference pose, with their clips.
-    bvh: Bvh,
+    pub(crate) bvh: Bvh,
     /// Unit geometric normal of each triangle in the reference pose, BVH order.
-    tri_normals: Vec<V3>,
+    pub(crate) tri_normals: Vec<V3>,
     /// Global slot (index into `Tracer::info`) of `bvh.prims[0]`.
-    slot0: u32,
+    pub(crate) slot0: u32,
     /// World box over the shutter span.
     bounds: Aabb,
 }
@@ -189,18 +187,18 @@ struct Group {
 pub(crate) struct MotionTracer {
     /// Groups' movers first (mover `i` moves group `i`), then the camera's, then the lights'.
     movers: Vec<Mover>,
-    groups: Vec<Group>,
+    pub(crate) groups: Vec<Group>,
     /// The camera's mover.
     camera: Option<u32>,
     /// Per light entry (`Lights::list`): its mover, or `NO_MOVER`.
-    light_mover: Vec<u32>,
+    pub(crate) light_mover: Vec<u32>,
     /// First slot of a moving primitive (the static BVH's primitive count).
     first_moving_slot: u32,
     /// Every ray's time lies in this span, s (the shutter's windows over all rows).
     span_s: (f64, f64),
 }
 
-const NO_MOVER: u32 = u32::MAX;
+pub(crate) const NO_MOVER: u32 = u32::MAX;
 
 /// The moving shapes' primitives, taken out of the static lists ([`take_moving`]).
 pub(crate) struct MovingPrims {
@@ -425,7 +423,7 @@ impl MotionTracer {
 
     /// The group of a moving slot.
     #[inline]
-    fn group_of(&self, slot: u32) -> usize {
+    pub(crate) fn group_of(&self, slot: u32) -> usize {
         self.groups.partition_point(|g| g.slot0 <= slot) - 1
     }
 
@@ -525,9 +523,9 @@ pub(crate) struct TimeCache {
 }
 
 impl TimeCache {
-    /// A cache for `tracer`'s movers (empty for a static scene).
-    pub(crate) fn new(tracer: &Tracer) -> TimeCache {
-        let n = tracer.motion.as_ref().map_or(0, |m| m.movers.len());
+    /// A cache for the movers of a tracer's `motion` (empty for a static scene).
+    pub(crate) fn new(motion: Option<&MotionTracer>) -> TimeCache {
+        let n = motion.map_or(0, |m| m.movers.len());
         let id = Pose::of(&Transform::identity());
         TimeCache {
             generation: Cell::new(0),
@@ -565,7 +563,7 @@ impl PathTime<'_> {
 
     /// Mover `i`'s pose at this time.
     #[inline]
-    fn pose(&self, m: &MotionTracer, i: usize) -> Pose {
+    pub(crate) fn pose(&self, m: &MotionTracer, i: usize) -> Pose {
         let t = m.clamp_time(self.time_s);
         match self.cache {
             Some(c) => {
@@ -586,7 +584,7 @@ impl PathTime<'_> {
 /// A ray moved into a group's reference pose: origin, unit direction and the factor from world
 /// distances to reference-pose distances.
 #[inline(always)]
-fn to_ref(pose: &Pose, r: &Ray) -> (Ray, f32) {
+pub(crate) fn to_ref(pose: &Pose, r: &Ray) -> (Ray, f32) {
     let d = pose.to_ref.vector(r.d);
     let len = d.length();
     (
@@ -664,135 +662,6 @@ impl MotionTracer {
     /// The camera's mover.
     pub(crate) fn camera_mover(&self) -> Option<usize> {
         self.camera.map(|i| i as usize)
-    }
-}
-
-impl Tracer {
-    /// The surface of a hit on a moving primitive: computed in its group's reference pose and
-    /// moved to the world at `pt`.
-    pub(crate) fn moving_surface(&self, r: &Ray, h: &Hit, pt: &PathTime) -> SurfaceHit {
-        let m = self.motion.as_deref().expect("a moving slot has motion");
-        let gi = m.group_of(h.slot);
-        let g = &m.groups[gi];
-        let pose = pt.pose(m, gi);
-        let (rr, len) = to_ref(&pose, r);
-        let local = (h.slot - g.slot0) as usize;
-        let hr = Hit { t: h.t * len, ..*h };
-        let s = self.surface_of(
-            &g.bvh.prims[local],
-            g.tri_normals[local],
-            &g.bvh.clips,
-            &rr,
-            &hr,
-        );
-        SurfaceHit {
-            p: pose.to_world.point(s.p),
-            ng: pose.to_ref.normal_from_inverse(s.ng),
-            ns: pose.to_ref.normal_from_inverse(s.ns),
-            uv: s.uv,
-            dpdu: pose.to_world.vector(s.dpdu),
-            err: pose.to_world.point_error(s.p, s.err),
-        }
-    }
-
-    /// A camera ray of the camera's stored pose moved to its pose at `pt`.
-    #[inline]
-    pub(crate) fn camera_ray(&self, r: Ray, pt: &PathTime) -> Ray {
-        match self.motion.as_deref().and_then(|m| m.camera_pose(pt)) {
-            None => r,
-            Some(p) => Ray {
-                o: p.to_world.point(r.o),
-                d: p.to_world.vector(r.d).normalize(),
-            },
-        }
-    }
-
-    /// A camera-space direction of the stored pose (e.g. the forward axis) at `pt`.
-    #[inline]
-    pub(crate) fn camera_vector(&self, v: V3, pt: &PathTime) -> V3 {
-        match self.motion.as_deref().and_then(|m| m.camera_pose(pt)) {
-            None => v,
-            Some(p) => p.to_world.vector(v).normalize(),
-        }
-    }
-
-    /// The pose of light entry `light` at `pt`, if it moves.
-    #[inline]
-    fn light_pose(&self, light: usize, pt: &PathTime) -> Option<Pose> {
-        let m = self.motion.as_deref()?;
-        let i = *m.light_mover.get(light)?;
-        (i != NO_MOVER).then(|| pt.pose(m, i as usize))
-    }
-
-    /// [`crate::lights::Lights::sample`] at the path's time: a moving light is sampled in its
-    /// reference pose from the reference point moved there, and the sample moved back.
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn sample_light<const N: usize>(
-        &self,
-        p: V3,
-        u_sel: f32,
-        u0: f32,
-        u1: f32,
-        lambdas: &Lambdas<N>,
-        pt: &PathTime,
-    ) -> Option<LightSample<N>> {
-        let pose = match &self.motion {
-            None => None,
-            Some(_) => self.light_pose(self.lights.pick(u_sel), pt),
-        };
-        let Some(pose) = pose else {
-            return self
-                .lights
-                .sample::<N>(&self.tables, p, u_sel, u0, u1, lambdas);
-        };
-        let mut s =
-            self.lights
-                .sample::<N>(&self.tables, pose.to_ref.point(p), u_sel, u0, u1, lambdas)?;
-        s.wi = pose.to_world.vector(s.wi).normalize();
-        s.p_err = pose.to_world.point_error(s.p_light, s.p_err);
-        s.p_light = pose.to_world.point(s.p_light);
-        if s.n_light != V3::splat(0.0) {
-            s.n_light = pose.to_ref.normal_from_inverse(s.n_light);
-        }
-        if s.dist.is_finite() {
-            s.dist *= pose.scale;
-            if s.delta {
-                // I / r^2 with r scaled (solid-angle densities are unchanged by a similarity).
-                let k = 1.0 / (pose.scale * pose.scale);
-                s.le = s.le.map(|v| v * k);
-            }
-        }
-        Some(s)
-    }
-
-    /// [`crate::lights::Lights::emits_toward`] and [`crate::lights::Lights::pdf_hit`] for a hit
-    /// at `q` (normal `ng`) on emitter `light`, seen along `w` from `p_ref`, at the path's time:
-    /// (emits, density).
-    #[inline]
-    pub(crate) fn light_hit(
-        &self,
-        light: usize,
-        p_ref: V3,
-        q: V3,
-        ng: V3,
-        w: V3,
-        pt: &PathTime,
-    ) -> (bool, f32) {
-        let entry = &self.lights.list[light];
-        let (p_ref, q, ng, w) = match self.light_pose(light, pt) {
-            None => (p_ref, q, ng, w),
-            Some(pose) => (
-                pose.to_ref.point(p_ref),
-                pose.to_ref.point(q),
-                pose.to_world.normal_from_inverse(ng),
-                pose.to_ref.vector(w),
-            ),
-        };
-        if !self.lights.emits_toward(entry, q, ng, w) {
-            return (false, 0.0);
-        }
-        (true, self.lights.pdf_hit(entry, p_ref, q, ng))
     }
 }
 

@@ -9,6 +9,8 @@
 //! last one); a time budget is checked between passes, so a render that stopped after `k` passes
 //! equals a render with `samples_per_pixel = k * SAMPLES_PER_PASS` of the same seed.
 
+pub use crate::error::RenderError;
+
 use crate::camera::CameraRig;
 use crate::filter::FilterSampler;
 use crate::integrator::{RayCounts, Tracer};
@@ -19,7 +21,7 @@ use crate::scene::SceneDescription;
 use crate::spectral::WavelengthSampler;
 use camsim_core::image::ImageGeometry;
 use camsim_core::rng::{keyed, stage};
-use camsim_core::{CoreError, Quantity, SpectralImage};
+use camsim_core::{Quantity, SpectralImage};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -28,39 +30,6 @@ use std::time::Instant;
 pub const TILE: usize = 16;
 /// Samples per pixel in one pass (the granularity of the time budget).
 pub const SAMPLES_PER_PASS: u32 = 8;
-
-/// Why a scene cannot be rendered. Messages name the offending shape, material, light or setting.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// No shapes and no lights.
-    #[error("the scene is empty: it has no shapes and no lights")]
-    EmptyScene,
-    /// Nothing emits light.
-    #[error("the scene has no light sources (no shape with an area light and no infinite light), so it would render black")]
-    NoLights,
-    /// The camera cannot form an image.
-    #[error("camera: {0}")]
-    Camera(String),
-    /// A render setting is out of range.
-    #[error("render settings: {0}")]
-    Settings(String),
-    /// A shape is malformed.
-    #[error("shape {index} ('{name}'): {message}")]
-    Shape {
-        index: usize,
-        name: String,
-        message: String,
-    },
-    /// A material is malformed.
-    #[error("material {index}: {message}")]
-    Material { index: usize, message: String },
-    /// A light is malformed.
-    #[error("light {index}: {message}")]
-    Light { index: usize, message: String },
-    /// Memory guard or image construction.
-    #[error(transparent)]
-    Core(#[from] CoreError),
-}
 
 /// Ray and throughput counters of one render.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -347,7 +316,7 @@ pub fn render_with(
                 "light groups are not supported in scenes with participating media yet (the volumetric path tracer keeps one sum)".into(),
             ));
         }
-        let g = crate::light_groups::GroupTable::new(scene, &tracer);
+        let g = crate::light_groups::GroupTable::new(scene, &tracer.light_source);
         // One more spectral image (and a tile's f64 sums) per group.
         camsim_core::mem::check_alloc(
             pixels as u64 * bands as u64 * 4 * g.names.len() as u64,
@@ -488,7 +457,7 @@ fn run<const N: usize>(
                 let (x1, y1) = ((x0 + TILE).min(width), (y0 + TILE).min(height));
                 let mut rng = keyed(st.seed, stage::RENDER, pass as u64, tile as u64);
                 let mut c = RayCounts::default();
-                let cache = TimeCache::new(tracer);
+                let cache = TimeCache::new(tracer.motion.as_deref());
                 // This pass's sums for the tile, band-major (`acc[b * tile_px + local]`), written
                 // to the band-sequential image once per tile: band by band, row by row, instead of
                 // 31 pages apart for every pixel.

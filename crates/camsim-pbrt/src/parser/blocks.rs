@@ -1,19 +1,16 @@
 //! Block structure: attribute and transform blocks, object definitions and instances, `Attribute`,
-//! `Include`/`Import` and the `WorldBegin` boundary.
-//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+//! and the `WorldBegin` boundary (`Include` and `Import` are the reader's, `reader.rs`).
+//! Called by the directive dispatch in `parser.rs` (`ParserTarget::directive` of `SceneBuilder`).
 
 use super::*;
 
-impl Parser {
+impl SceneBuilder {
     pub(super) fn block_directive(
         &mut self,
         d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
+        args: &mut Args,
         loc: &Loc,
     ) -> Result<(), PbrtError> {
-        let f = file;
         match d {
             "AttributeBegin" | "TransformBegin" => {
                 if d == "TransformBegin" {
@@ -72,47 +69,9 @@ impl Parser {
             "WorldEnd" => {
                 return Err(loc.err("WorldEnd is a pbrt-v3 directive; pbrt-v4 files end after the world block (convert with `pbrt --upgrade`)"));
             }
-            "Include" | "Import" => {
-                let name = string_arg(tokens, pos, f, d)?;
-                let path = self.resolve(file, &name);
-                let canon = canonical(&path);
-                if self.include_stack.contains(&canon) {
-                    return Err(loc.err(format!(
-                        "{d} \"{name}\": include cycle ({} is already being read)",
-                        path.display()
-                    )));
-                }
-                if self.include_stack.len() >= MAX_INCLUDE_DEPTH {
-                    return Err(loc.err(format!(
-                        "{d} \"{name}\": includes nested deeper than {MAX_INCLUDE_DEPTH}"
-                    )));
-                }
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    loc.err(format!(
-                        "{d} \"{name}\": cannot read {}: {e}",
-                        path.display()
-                    ))
-                })?;
-                if d == "Import" && !self.in_world {
-                    return Err(loc.err("Import is only allowed after WorldBegin"));
-                }
-                let here = self.cur_pos;
-                self.include_stack.push(canon);
-                if d == "Import" {
-                    // Import: the imported file cannot change the includer's graphics state.
-                    let saved = (self.gs.clone(), self.stack.len());
-                    self.parse_text(&text, &path)?;
-                    self.stack.truncate(saved.1);
-                    self.gs = saved.0;
-                } else {
-                    self.parse_text(&text, &path)?;
-                }
-                self.include_stack.pop();
-                self.cur_pos = here;
-            }
             "ObjectBegin" => {
                 self.require_world(loc, d, true)?;
-                let name = string_arg(tokens, pos, f, d)?;
+                let name = args.string(d)?;
                 if self.current_object.is_some() {
                     return Err(loc.err("ObjectBegin inside another ObjectBegin"));
                 }
@@ -134,7 +93,7 @@ impl Parser {
             }
             "ObjectInstance" => {
                 self.require_world(loc, d, true)?;
-                let name = string_arg(tokens, pos, f, d)?;
+                let name = args.string(d)?;
                 if self.current_object.is_some() {
                     return Err(loc.err("ObjectInstance inside an object definition"));
                 }
@@ -161,8 +120,8 @@ impl Parser {
                 }
             }
             "Attribute" => {
-                let cat = string_arg(tokens, pos, f, d)?;
-                let params = parse_params(tokens, pos, f)?;
+                let cat = args.string(d)?;
+                let params = args.params()?;
                 let Some(cat) = ["shape", "light", "material", "medium", "texture"]
                     .into_iter()
                     .find(|c| *c == cat)

@@ -6,13 +6,13 @@
 
 use super::super::params::ParamList;
 use super::super::{Loc, PbrtError};
-use super::Parser;
+use super::SceneBuilder;
 use crate::scene::Geometry;
 use camsim_scene3d::curves::{
     bezier_control_points, CurveBasis, CurveType, Curves, MAX_SPLIT_DEPTH,
 };
 
-impl Parser {
+impl SceneBuilder {
     /// The curve of a `Shape "curve"` directive, in object space.
     pub(super) fn curve(&mut self, params: &ParamList, loc: &Loc) -> Result<Geometry, PbrtError> {
         let what = "Shape \"curve\"";

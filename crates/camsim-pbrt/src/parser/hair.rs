@@ -7,7 +7,7 @@
 use super::super::params::ParamList;
 use super::super::spectra::{param_spectrum, rgb_spectrum, SpectrumUse};
 use super::super::{Loc, PbrtError};
-use super::Parser;
+use super::SceneBuilder;
 use crate::scene::{HairAbsorption, Material, Texture};
 use std::path::Path;
 
@@ -22,7 +22,7 @@ const PHEOMELANIN_SIGMA_A: [f64; 3] = [0.187, 0.4, 1.05];
 /// pbrt-v4's default: brown hair.
 const DEFAULT_EUMELANIN: f64 = 1.3;
 
-impl Parser {
+impl SceneBuilder {
     /// The hair material's parameters.
     pub(super) fn hair_material(
         &mut self,

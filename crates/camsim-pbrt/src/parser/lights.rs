@@ -2,7 +2,7 @@
 //! (uniform `L`, or an image `filename`), with pbrt-v4's parameter names, defaults and normalisations (pbrt-v4
 //! `lights.cpp`, `*Light::Create`), and camsim's absolute units (see [`crate`]).
 
-use super::{default_illuminant, luminance_709, Parser};
+use super::{default_illuminant, luminance_709, SceneBuilder};
 use crate::params::ParamList;
 use crate::scene::{
     EnvMapping, EnvironmentMap, GoniometricLight, Light, ProjectionLight, Transform,
@@ -30,7 +30,7 @@ pub(super) fn point3(
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     pub(super) fn light_source(
         &mut self,
         ty: &str,
@@ -201,7 +201,7 @@ impl Parser {
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     /// pbrt-v4 `GoniometricLight::Create` (lights.cpp): `I` (default the colour space's
     /// illuminant), `scale`, `filename` (a square equal-area octahedral image; RGB averaged to one
     /// channel as pbrt-v4 does), `power` (`scale *= Phi / (4 pi mean(image))`, after `scale /=
@@ -266,7 +266,7 @@ impl Parser {
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     /// pbrt-v4 `ProjectionLight::Create` and constructor (lights.cpp): `scale`, `fov` (default
     /// 90 deg), `filename` (required, RGB), `power`; `scale /= SpectrumToPhotometric(illuminant)`
     /// and with `power` Phi: `scale *= Phi / (A mean(Y(rgb) cos^3 theta))` over the texel centres,

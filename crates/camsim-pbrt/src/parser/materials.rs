@@ -5,7 +5,7 @@ use super::super::params::ParamList;
 use super::super::spectra::{param_spectrum, SpectrumUse};
 use super::super::{Loc, PbrtError};
 use super::textures::flat;
-use super::{load_image, Encoding, Parser};
+use super::{load_image, Encoding, SceneBuilder};
 use crate::scene::{
     ConductorOptics, FloatTexture, LayerWalk, Material, NormalMapImage, NormalPerturbation,
     Roughness, Texture,
@@ -16,7 +16,7 @@ use std::path::Path;
 /// Materials camsim reads.
 pub(super) const SUPPORTED: &str = "diffuse, conductor, dielectric, thindielectric, diffusetransmission, coateddiffuse, coatedconductor, hair, mix, interface";
 
-impl Parser {
+impl SceneBuilder {
     /// A float parameter that pbrt-v4 also accepts as a float texture: a number or the name of a
     /// `constant` float texture (read by the texture helper); other float textures are refused
     /// (camsim's materials take these parameters per material, not per hit).
@@ -42,7 +42,7 @@ impl Parser {
     /// `roughness`, which defaults to 0; remap defaults to true).
     /// Any of them may be a float texture (pbrt-v4 evaluates them per hit): then the material's
     /// own roughness is a placeholder and `self.varying` holds the textures, which
-    /// [`Parser::material`] turns into a [`Material::VaryingRoughness`] around the material.
+    /// [`SceneBuilder::material`] turns into a [`Material::VaryingRoughness`] around the material.
     fn roughness(
         &mut self,
         params: &ParamList,

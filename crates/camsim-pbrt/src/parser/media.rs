@@ -9,7 +9,7 @@
 //! illuminant normalised to luminance 1 (`Le / SpectrumToPhotometric(Le)`, the area lights'
 //! rule), turned into W/(sr m^2 nm) by dividing by 683 lm/W (see [`crate`]).
 
-use super::{lights::point3, Parser};
+use super::{lights::point3, SceneBuilder};
 use crate::params::ParamList;
 use crate::scene::Material;
 use crate::spectra::{rgb_spectrum, SpectrumUse};
@@ -122,7 +122,7 @@ impl ParsedMedia {
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     /// `MakeNamedMedium "name" "string type" ...`: defined with the CTM current here (the
     /// medium's frame for bounded media) and the `Attribute "medium"` defaults.
     pub(super) fn make_named_medium(

@@ -7,7 +7,7 @@
 use super::*;
 use camsim_scene3d::motion::{Motion, MotionPart};
 
-impl Parser {
+impl SceneBuilder {
     /// The motion of the CTM (`None` when its start and end transforms agree).
     pub(super) fn ctm_motion(&self, loc: &Loc) -> Result<Option<Motion>, PbrtError> {
         if self.gs.ctm == self.gs.ctm_end {

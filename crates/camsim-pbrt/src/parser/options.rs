@@ -1,25 +1,22 @@
 //! Rendering options before `WorldBegin`: `Camera`, `Film`, `Sampler`, `Integrator`,
 //! `PixelFilter`, and the directives camsim reads but ignores (`Accelerator`, `ColorSpace`,
 //! `Option`).
-//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+//! Called by the directive dispatch in `parser.rs` (`ParserTarget::directive` of `SceneBuilder`).
 
 use super::*;
 
-impl Parser {
+impl SceneBuilder {
     pub(super) fn option_directive(
         &mut self,
         d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
+        args: &mut Args,
         loc: &Loc,
     ) -> Result<(), PbrtError> {
-        let f = file;
         match d {
             "Camera" | "Film" | "Sampler" | "Integrator" => {
                 self.require_world(loc, d, false)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = parse_params(tokens, pos, f)?;
+                let ty = args.string(d)?;
+                let params = args.params()?;
                 match d {
                     "Camera" => {
                         self.camera(&ty, &params, loc)?;
@@ -33,25 +30,25 @@ impl Parser {
             }
             "PixelFilter" => {
                 self.require_world(loc, d, false)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = parse_params(tokens, pos, f)?;
+                let ty = args.string(d)?;
+                let params = args.params()?;
                 self.pixel_filter(&ty, &params, loc)?;
             }
             "Accelerator" => {
                 self.require_world(loc, d, false)?;
-                let _ = string_arg(tokens, pos, f, d)?;
-                let params = parse_params(tokens, pos, f)?;
+                let _ = args.string(d)?;
+                let params = args.params()?;
                 params.params.iter().for_each(|p| p.used.set(true));
                 self.note(loc, "Accelerator ignored (camsim builds its own BVH)");
             }
             "ColorSpace" => {
-                let n = string_arg(tokens, pos, f, d)?;
+                let n = args.string(d)?;
                 if n != "srgb" {
                     self.note(loc, format!("warning: ColorSpace \"{n}\" ignored: camsim reads RGB values as linear sRGB"));
                 }
             }
             "Option" => {
-                let params = parse_params(tokens, pos, f)?;
+                let params = args.params()?;
                 params.params.iter().for_each(|p| p.used.set(true));
                 self.note(loc, "Option ignored");
             }
@@ -61,7 +58,7 @@ impl Parser {
     }
 }
 
-impl Parser {
+impl SceneBuilder {
     /// pbrt-v4 `PixelFilter` (`Filter::Create`): `box` (`xradius`, `yradius` 0.5), `gaussian`
     /// (1.5, `sigma` 0.5), `mitchell` (2, `B`, `C` 1/3), `sinc` (4, `tau` 3; also read as
     /// `lanczos`), `triangle` (2). pbrt-v4's default without the directive is `gaussian`.

@@ -4,7 +4,7 @@
 //! (pbrt-v4 `textures.cpp`, `*Texture::Create`), and the helpers materials use to read a
 //! spectrum- or float-texture parameter.
 
-use super::{load_image, Parser};
+use super::{load_image, SceneBuilder};
 use crate::params::ParamList;
 use crate::scene::{
     FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform,
@@ -35,7 +35,7 @@ pub(crate) fn flat(v: f64) -> Spectrum {
         .with_extrapolation(camsim_core::spectrum::Extrapolation::Hold)
 }
 
-impl Parser {
+impl SceneBuilder {
     /// A spectrum-texture parameter: `rgb`/`spectrum`/`blackbody` value (reflectance use, so
     /// RGB above 1 is an error as in pbrt-v4) or `texture` name; `None` if absent.
     pub(crate) fn spectrum_texture_param(

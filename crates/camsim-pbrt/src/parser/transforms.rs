@@ -1,11 +1,11 @@
 //! Transformation directives (pbrt-v4 `ParserTarget` transform calls): the CTM at the start and
 //! end times (each directive changes the active ones, `ActiveTransform`), named coordinate
 //! systems, `TransformTimes` and `ReverseOrientation`.
-//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+//! Called by the directive dispatch in `parser.rs` (`ParserTarget::directive` of `SceneBuilder`).
 
 use super::*;
 
-impl Parser {
+impl SceneBuilder {
     /// Replace the active transforms by `t` (pbrt-v4 `ForActiveTransforms`).
     fn set_transform(&mut self, t: Transform) {
         if self.gs.start_active {
@@ -19,50 +19,47 @@ impl Parser {
     pub(super) fn transform_directive(
         &mut self,
         d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
+        args: &mut Args,
         loc: &Loc,
     ) -> Result<(), PbrtError> {
-        let f = file;
         match d {
             "Identity" => self.set_transform(Transform::identity()),
             "Translate" => {
-                let v = nums(tokens, pos, f, d, 3)?;
+                let v = args.nums(d, 3)?;
                 self.apply_transform(Transform::translate([v[0], v[1], v[2]]));
             }
             "Scale" => {
-                let v = nums(tokens, pos, f, d, 3)?;
+                let v = args.nums(d, 3)?;
                 self.apply_transform(Transform::scale([v[0], v[1], v[2]]));
             }
             "Rotate" => {
-                let v = nums(tokens, pos, f, d, 4)?;
+                let v = args.nums(d, 4)?;
                 if v[1] == 0.0 && v[2] == 0.0 && v[3] == 0.0 {
                     return Err(loc.err("Rotate: the axis is the zero vector"));
                 }
                 self.apply_transform(Transform::rotate(v[0], [v[1], v[2], v[3]]));
             }
             "LookAt" => {
-                let v = nums(tokens, pos, f, d, 9)?;
+                let v = args.nums(d, 9)?;
                 let t = xform::look_at([v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]])
                     .map_err(|e| loc.err(e))?;
                 self.apply_transform(t);
             }
             "Transform" => {
-                let t = matrix16(tokens, pos, f, d, loc)?;
+                let t = args.matrix16(d, loc)?;
                 self.set_transform(t);
             }
             "ConcatTransform" => {
-                let t = matrix16(tokens, pos, f, d, loc)?;
+                let t = args.matrix16(d, loc)?;
                 self.apply_transform(t);
             }
             "CoordinateSystem" => {
-                let n = string_arg(tokens, pos, f, d)?;
+                let n = args.string(d)?;
                 self.named_coords_end.insert(n.clone(), self.gs.ctm_end);
                 self.named_coords.insert(n, self.gs.ctm);
             }
             "CoordSysTransform" => {
-                let n = string_arg(tokens, pos, f, d)?;
+                let n = args.string(d)?;
                 match self.named_coords.get(&n) {
                     // pbrt-v4 sets both transforms, whichever are active.
                     Some(t) => {
@@ -73,14 +70,9 @@ impl Parser {
                 }
             }
             "ActiveTransform" => {
-                let w = match tokens.get(*pos) {
-                    Some(Token {
-                        kind: TokenKind::Word(w),
-                        ..
-                    }) => w.clone(),
-                    _ => return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All")),
+                let Some(w) = args.word() else {
+                    return Err(loc.err("ActiveTransform: expected StartTime, EndTime or All"));
                 };
-                *pos += 1;
                 (self.gs.start_active, self.gs.end_active) = match w.as_str() {
                     "StartTime" => (true, false),
                     "EndTime" => (false, true),
@@ -89,7 +81,7 @@ impl Parser {
                 };
             }
             "TransformTimes" => {
-                let v = nums(tokens, pos, f, d, 2)?;
+                let v = args.nums(d, 2)?;
                 // pbrt-v4 allows it in the options block only.
                 self.require_world(loc, d, false)?;
                 if v[1] < v[0] {

@@ -1,32 +1,30 @@
 //! World-block directives that build the scene: materials, textures, area and other lights, shapes,
 //! and media (`parser/media.rs`).
-//! Called by the directive dispatch in `parser.rs` (`Parser::directive`).
+//! Called by the directive dispatch in `parser.rs` (`ParserTarget::directive` of `SceneBuilder`).
 
 use super::*;
 
-impl Parser {
+impl SceneBuilder {
     pub(super) fn world_directive(
         &mut self,
         d: &str,
-        tokens: &[Token],
-        pos: &mut usize,
-        file: &Path,
+        args: &mut Args,
         loc: &Loc,
     ) -> Result<(), PbrtError> {
-        let f = file;
+        let file = args.file();
         match d {
             "Material" => {
                 self.require_world(loc, d, true)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let ty = args.string(d)?;
+                let params = self.with_attributes("material", args.params()?);
                 let m = self.material(&ty, &params, loc, file)?;
                 self.materials.push(m);
                 self.gs.material = MatRef::Index(self.materials.len() - 1);
             }
             "MakeNamedMaterial" => {
                 self.require_world(loc, d, true)?;
-                let name = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("material", parse_params(tokens, pos, f)?);
+                let name = args.string(d)?;
+                let params = self.with_attributes("material", args.params()?);
                 let ty = params.string("type")?.ok_or_else(|| {
                     loc.err(format!(
                         "MakeNamedMaterial \"{name}\": no \"string type\" parameter"
@@ -43,21 +41,21 @@ impl Parser {
             }
             "NamedMaterial" => {
                 self.require_world(loc, d, true)?;
-                let name = string_arg(tokens, pos, f, d)?;
+                let name = args.string(d)?;
                 self.gs.material = MatRef::Named(name, loc.clone());
             }
             "Texture" => {
                 self.require_world(loc, d, true)?;
-                let name = string_arg(tokens, pos, f, d)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let class = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("texture", parse_params(tokens, pos, f)?);
+                let name = args.string(d)?;
+                let ty = args.string(d)?;
+                let class = args.string(d)?;
+                let params = self.with_attributes("texture", args.params()?);
                 self.texture(&name, &ty, &class, &params, loc, file)?;
             }
             "AreaLightSource" => {
                 self.require_world(loc, d, true)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                let ty = args.string(d)?;
+                let params = self.with_attributes("light", args.params()?);
                 if ty != "diffuse" {
                     return Err(loc.err(format!(
                         "AreaLightSource \"{ty}\" is not supported (only \"diffuse\")"
@@ -109,8 +107,8 @@ impl Parser {
             }
             "LightSource" => {
                 self.require_world(loc, d, true)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("light", parse_params(tokens, pos, f)?);
+                let ty = args.string(d)?;
+                let params = self.with_attributes("light", args.params()?);
                 // camsim's extension: `"string lightgroup" "sky"` names the light's group.
                 let group = params.string("lightgroup")?;
                 let first = self.lights.len();
@@ -120,27 +118,19 @@ impl Parser {
             }
             "Shape" => {
                 self.require_world(loc, d, true)?;
-                let ty = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("shape", parse_params(tokens, pos, f)?);
+                let ty = args.string(d)?;
+                let params = self.with_attributes("shape", args.params()?);
                 self.shape(&ty, &params, loc, file)?;
             }
             "MakeNamedMedium" => {
-                let name = string_arg(tokens, pos, f, d)?;
-                let params = self.with_attributes("medium", parse_params(tokens, pos, f)?);
+                let name = args.string(d)?;
+                let params = self.with_attributes("medium", args.params()?);
                 self.make_named_medium(name, &params, loc, file)?;
             }
             "MediumInterface" => {
                 // pbrt-v4: `MediumInterface "inside" ["outside"]` (one name sets both).
-                let inside = string_arg(tokens, pos, f, d)?;
-                let mut outside = inside.clone();
-                if let Some(Token {
-                    kind: TokenKind::Str(s),
-                    ..
-                }) = tokens.get(*pos)
-                {
-                    outside = s.clone();
-                    *pos += 1;
-                }
+                let inside = args.string(d)?;
+                let outside = args.optional_string().unwrap_or_else(|| inside.clone());
                 self.medium_interface(inside, outside, loc);
             }
             other => return Err(loc.err(format!("unknown directive \"{other}\""))),

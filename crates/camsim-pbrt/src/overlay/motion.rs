@@ -23,7 +23,7 @@
 //! the scene's camera with any pbrt motion it has). An object's velocity applies after any pbrt
 //! motion of it.
 
-use crate::overlay::{CameraOverlay, ObjectOverlay};
+use super::{union_bounds, CameraOverlay, ObjectOverlay};
 use crate::scene::{SceneDescription, Shape, Transform};
 use camsim_scene3d::motion::{quat_to_matrix, Keyframe, Motion, MotionPart};
 use serde::Deserialize;
@@ -242,7 +242,7 @@ pub(crate) fn apply_object_motion(
         Some(p) => p,
         None => {
             let refs: Vec<&Shape> = targets.iter().map(|&k| &scene.shapes[k]).collect();
-            let (lo, hi) = crate::overlay::union_bounds(&refs);
+            let (lo, hi) = union_bounds(&refs);
             [0, 1, 2].map(|i| (lo[i] + hi[i]) / 2.0)
         }
     };

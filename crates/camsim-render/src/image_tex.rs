@@ -1,0 +1,119 @@
+//! Image lookups: an RGB image texture ([`ImageTex`], pbrt-v4 `imagemap` with `uv` mapping)
+//! and the bilinear texel weights with pbrt-v4's wrap modes, shared by image textures, normal
+//! maps and emission images.
+
+use crate::scene::WrapMode;
+
+/// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, `wrap` outside the image,
+/// bilinear filter).
+#[derive(Debug, Clone)]
+pub(crate) struct ImageTex {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
+    pub uscale: f32,
+    pub vscale: f32,
+    pub udelta: f32,
+    pub vdelta: f32,
+    pub wrap: WrapMode,
+}
+
+impl ImageTex {
+    /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
+    /// t flipped so image row 0 is at t = 1, texel centres at half-integers,
+    /// [`bilinear_texels`]).
+    #[inline]
+    pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
+        let s = uv[0] * self.uscale + self.udelta;
+        let t = uv[1] * self.vscale + self.vdelta;
+        let (idx, w) = bilinear_texels(self.width, self.height, s, t, self.wrap);
+        let mut out = [0f32; 3];
+        for k in 0..3 {
+            out[k] = w[0] * self.rgb[idx[0]][k]
+                + w[1] * self.rgb[idx[1]][k]
+                + w[2] * self.rgb[idx[2]][k]
+                + w[3] * self.rgb[idx[3]][k];
+        }
+        out
+    }
+}
+
+/// The texel that integer texel coordinates `(x, y)` outside (or inside) a `width` x `height`
+/// image read, or `None` where `wrap` is [`WrapMode::Black`] and the texel lies outside (pbrt-v4
+/// `RemapPixelCoords`).
+#[inline]
+fn wrap_texel(x: i64, y: i64, width: usize, height: usize, wrap: WrapMode) -> Option<usize> {
+    let (w, h) = (width as i64, height as i64);
+    let (x, y) = match wrap {
+        WrapMode::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
+        WrapMode::Clamp => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+        WrapMode::Black => {
+            if !(0..w).contains(&x) || !(0..h).contains(&y) {
+                return None;
+            }
+            (x, y)
+        }
+        WrapMode::OctahedralSphere => {
+            // Mirror across the crossed edge's midpoint: u = 0 or 1 flips v about 0.5, v = 0
+            // or 1 flips u about 0.5 (the equal-area square's edges fold onto each other).
+            let (mut x, mut y) = (x, y);
+            if x < 0 {
+                x = -x;
+                y = h - 1 - y;
+            } else if x >= w {
+                x = 2 * w - 1 - x;
+                y = h - 1 - y;
+            }
+            if y < 0 {
+                x = w - 1 - x;
+                y = -y;
+            } else if y >= h {
+                x = w - 1 - x;
+                y = 2 * h - 1 - y;
+            }
+            // Farther than one image away (or a 1-texel side): stay inside.
+            (x.clamp(0, w - 1), y.clamp(0, h - 1))
+        }
+    };
+    Some(y as usize * width + x as usize)
+}
+
+/// Texel indices and weights of a bilinear lookup at `(s, t)` in a `width` x `height` image
+/// (pbrt-v4 `Image::Bilerp`: row 0 at t = 1, texel centres at half-integers), the texels outside
+/// the image remapped by `wrap`; a texel that black wrap leaves outside gets weight 0 (reads 0).
+#[inline]
+pub(crate) fn bilinear_texels(
+    width: usize,
+    height: usize,
+    s: f32,
+    t: f32,
+    wrap: WrapMode,
+) -> ([usize; 4], [f32; 4]) {
+    let t = 1.0 - t;
+    let x = s * width as f32 - 0.5;
+    let y = t * height as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (xi, yi) = if x0.is_finite() && y0.is_finite() {
+        (x0 as i64, y0 as i64)
+    } else {
+        (0, 0)
+    };
+    let mut idx = [0usize; 4];
+    let mut w = [
+        (1.0 - fx) * (1.0 - fy),
+        fx * (1.0 - fy),
+        (1.0 - fx) * fy,
+        fx * fy,
+    ];
+    for (k, (dx, dy)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+        match wrap_texel(xi + dx, yi + dy, width, height, wrap) {
+            Some(i) => idx[k] = i,
+            None => w[k] = 0.0,
+        }
+    }
+    if !(fx.is_finite() && fy.is_finite()) {
+        w = [1.0, 0.0, 0.0, 0.0];
+    }
+    (idx, w)
+}

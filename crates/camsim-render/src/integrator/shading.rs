@@ -1,0 +1,117 @@
+//! Shading geometry at a hit and the shading normal that bump and normal maps perturb
+//! (pbrt-v4 `SurfaceInteraction::GetBSDF`; the maps themselves are in [`crate::bump`]).
+
+use super::Tracer;
+use crate::bump::{
+    bump_normal, coordinate_system, mapped_normal, sphere_geometry, triangle_geometry, Perturb,
+    ShadingGeometry,
+};
+use crate::bvh::Hit;
+use crate::geometry::{Prim, PrimInfo, SurfaceHit};
+use crate::materials::Mat;
+use crate::math::V3;
+use crate::texture::eval_float;
+
+impl Tracer {
+    /// pbrt-v4's shading geometry at hit `h` (`sh` its surface data) of primitive `pi`.
+    fn shading_geometry(&self, h: &Hit, pi: &PrimInfo, sh: &SurfaceHit) -> ShadingGeometry {
+        let n = self.oriented_normal(pi, sh);
+        match self.bvh.prims[h.slot as usize] {
+            Prim::Tri { p0, e1, e2 } => {
+                let mesh = self.meshes[pi.shape as usize].as_ref();
+                let tri = mesh.map(|m| m.indices[pi.tri as usize]);
+                let uv = match (mesh.and_then(|m| m.uvs.as_ref()), tri) {
+                    (Some(t), Some(i)) => [t[i[0] as usize], t[i[1] as usize], t[i[2] as usize]],
+                    _ => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
+                };
+                let vn = match (mesh.and_then(|m| m.normals.as_ref()), tri) {
+                    (Some(nv), Some(i)) => {
+                        Some([nv[i[0] as usize], nv[i[1] as usize], nv[i[2] as usize]])
+                    }
+                    _ => None,
+                };
+                let ns = if vn.is_some() { sh.ns } else { n };
+                triangle_geometry([p0, p0 + e1, p0 + e2], uv, vn, sh.p, sh.uv, n, ns)
+            }
+            Prim::Sphere { center, radius } => sphere_geometry(
+                sh.p - center,
+                radius,
+                [
+                    V3::new(1.0, 0.0, 0.0),
+                    V3::new(0.0, 1.0, 0.0),
+                    V3::new(0.0, 0.0, 1.0),
+                ],
+                -radius,
+                radius,
+                2.0 * std::f32::consts::PI,
+                sh.p,
+                sh.uv,
+                n,
+            ),
+            Prim::PartialSphere {
+                center,
+                radius,
+                clip,
+            } => {
+                let c = &self.bvh.clips[clip as usize];
+                sphere_geometry(
+                    c.local(sh.p - center),
+                    radius,
+                    [c.ex, c.ey, c.ez],
+                    c.z_min,
+                    c.z_max,
+                    c.phi_max,
+                    sh.p,
+                    sh.uv,
+                    n,
+                )
+            }
+            // A curve's surface at the hit: dp/du along the fibre, dp/dv across it (pbrt-v4
+            // `Curve::InteractionFromIntersection` takes dn/du = dn/dv = 0 as well).
+            Prim::Curve { .. } => {
+                let (dpdu, dpdv) = if sh.dpdu.length_squared() > 0.0 {
+                    (sh.dpdu, n.cross(sh.dpdu))
+                } else {
+                    coordinate_system(n)
+                };
+                ShadingGeometry {
+                    p: sh.p,
+                    uv: sh.uv,
+                    n,
+                    dpdu,
+                    dpdv,
+                    ns: n,
+                    ss: dpdu.normalize(),
+                    ts: dpdv.normalize(),
+                    dndu: V3::new(0.0, 0.0, 0.0),
+                    dndv: V3::new(0.0, 0.0, 0.0),
+                }
+            }
+        }
+    }
+
+    /// The material that scatters at a hit and its shading normal: material `m` (mixes already
+    /// chosen) unwrapped from its bump or normal map, which perturbs the hit's shading normal
+    /// `sh.ns` (pbrt-v4 `SurfaceInteraction::GetBSDF`); other materials keep `sh.ns`.
+    #[inline]
+    pub(crate) fn shading_normal(
+        &self,
+        m: u32,
+        h: &Hit,
+        pi: &PrimInfo,
+        sh: &SurfaceHit,
+    ) -> (u32, V3) {
+        let Mat::Bumped { base, perturb } = &self.materials[m as usize] else {
+            return (m, sh.ns);
+        };
+        let g = self.shading_geometry(h, pi, sh);
+        let ns = match perturb {
+            Perturb::NormalMap(map) => mapped_normal(&g, map),
+            Perturb::Displacement(tex) => {
+                let (du, dv) = self.footprint.shifts(&g);
+                bump_normal(&g, du, dv, |ctx| eval_float(tex, ctx))
+            }
+        };
+        (*base, ns)
+    }
+}
