@@ -154,7 +154,10 @@ fn spatial_and_power_selection_agree_in_the_mean() {
             vb / vp
         );
         assert!(z.abs() < 4.0, "means differ by {z:.1} standard errors");
-        assert!(vb < vp, "spatial sampler variance {vb:.3e} not below power's {vp:.3e}");
+        assert!(
+            vb < vp,
+            "spatial sampler variance {vb:.3e} not below power's {vp:.3e}"
+        );
     }
 }
 
