@@ -1047,13 +1047,24 @@ impl Tracer {
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
-                let (emits, pdf_light) =
-                    self.light_hit(pi.light as usize, prev_p, prev_n, sh.p, sh.ng, wo, pt);
+                // The light's density is needed for the MIS weight only (not for camera rays
+                // and specular bounces).
+                let need_pdf = !(depth == 0 || prev_specular);
+                let (emits, pdf_light) = self.light_hit(
+                    pi.light as usize,
+                    prev_p,
+                    prev_n,
+                    sh.p,
+                    sh.ng,
+                    wo,
+                    pt,
+                    need_pdf,
+                );
                 if emits {
-                    let w = if depth == 0 || prev_specular {
-                        1.0
-                    } else {
+                    let w = if need_pdf {
                         power_heuristic(prev_bsdf_pdf, pdf_light)
+                    } else {
+                        1.0
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));

@@ -84,6 +84,42 @@ impl LightBounds {
         (self.min + self.max) * 0.5
     }
 
+    /// Importance of these lights for a point `p` with surface normal `n` (see
+    /// [`NodeBounds::importance`]).
+    #[cfg(test)]
+    pub(crate) fn importance(&self, p: V3, n: V3) -> f32 {
+        NodeBounds::from(self).importance(p, n)
+    }
+}
+
+/// [`LightBounds`] as the sampler reads them at every shading point: centre, squared
+/// half-diagonal and the cone's sine precomputed.
+#[derive(Debug, Clone, Copy)]
+struct NodeBounds {
+    centre: V3,
+    half_diag2: f32,
+    w: V3,
+    phi: f32,
+    cos_theta_o: f32,
+    sin_theta_o: f32,
+    cos_theta_e: f32,
+    two_sided: bool,
+}
+
+impl NodeBounds {
+    fn from(b: &LightBounds) -> NodeBounds {
+        NodeBounds {
+            centre: b.centroid(),
+            half_diag2: ((b.max - b.min) * 0.5).length_squared(),
+            w: b.w,
+            phi: b.phi,
+            cos_theta_o: b.cos_theta_o,
+            sin_theta_o: safe_sqrt(1.0 - b.cos_theta_o * b.cos_theta_o),
+            cos_theta_e: b.cos_theta_e,
+            two_sided: b.two_sided,
+        }
+    }
+
     /// Importance of these lights for a point `p` with surface normal `n` (zero vector inside a
     /// medium): pbrt-v4 `LightBounds::Importance`. An upper bound of what any light inside can
     /// deliver, up to a common factor: `phi cos(theta') / d^2`, with `theta'` the smallest
@@ -93,37 +129,32 @@ impl LightBounds {
     /// the square keeps both terms in m^2: any positive bound is unbiased, this one only
     /// changes how close points weigh large groups).
     #[inline]
-    pub(crate) fn importance(&self, p: V3, n: V3) -> f32 {
-        let pc = self.centroid();
-        let half_diag2 = ((self.max - self.min) * 0.5).length_squared();
-        let d = p - pc;
+    fn importance(&self, p: V3, n: V3) -> f32 {
+        let half_diag2 = self.half_diag2;
+        let d = p - self.centre;
         let dist2 = d.length_squared();
         // Directions the box subtends from p (pbrt-v4 `BoundSubtendedDirections`): the
         // bounding sphere's cone, or every direction from inside it.
-        let (sin_b, cos_b) = if dist2 <= half_diag2 {
-            (0.0, -1.0)
-        } else {
-            let sin2 = half_diag2 / dist2;
-            (sin2.sqrt(), safe_sqrt(1.0 - sin2))
-        };
-        if cos_b == -1.0 {
+        if dist2 <= half_diag2 {
             // p inside the bounding sphere: every orientation term is bounded by 1.
             return self.phi / dist2.max(half_diag2).max(1e-12);
         }
+        let sin2 = half_diag2 / dist2;
+        let (sin_b, cos_b) = (sin2.sqrt(), safe_sqrt(1.0 - sin2));
         let wi = d / dist2.sqrt();
         let mut cos_w = self.w.dot(wi);
         if self.two_sided {
             cos_w = cos_w.abs();
         }
         let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-        let sin_o = safe_sqrt(1.0 - self.cos_theta_o * self.cos_theta_o);
-        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
-        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
+        let (sin_o, cos_o) = (self.sin_theta_o, self.cos_theta_o);
+        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_theta_e {
             return 0.0;
         }
-        let mut imp = self.phi * cos_p / dist2.max(half_diag2);
+        let mut imp = self.phi * cos_p / dist2;
         if n != V3::splat(0.0) {
             let cos_i = wi.dot(n).abs();
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
@@ -175,7 +206,7 @@ fn orientation_measure(b: &LightBounds) -> f32 {
 
 #[derive(Debug, Clone, Copy)]
 struct Node {
-    bounds: LightBounds,
+    bounds: NodeBounds,
     /// Interior: index of the second child (the first is the next node). Leaf: the light.
     index: u32,
     leaf: bool,
@@ -227,7 +258,7 @@ impl LightBvh {
         if items.len() == 1 {
             let (light, b) = items[0];
             self.nodes.push(Node {
-                bounds: b,
+                bounds: NodeBounds::from(&b),
                 index: light,
                 leaf: true,
             });
@@ -237,7 +268,7 @@ impl LightBvh {
         let mid = split(items, depth);
         let node = self.nodes.len();
         self.nodes.push(Node {
-            bounds: items[0].1,
+            bounds: NodeBounds::from(&items[0].1),
             index: 0,
             leaf: false,
         });
@@ -246,7 +277,7 @@ impl LightBvh {
         self.nodes[node].index = self.nodes.len() as u32;
         let b1 = self.build_node(right, bits | (1u64 << depth), depth + 1);
         let b = LightBounds::union(&b0, &b1);
-        self.nodes[node].bounds = b;
+        self.nodes[node].bounds = NodeBounds::from(&b);
         b
     }
 

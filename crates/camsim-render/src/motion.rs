@@ -782,7 +782,7 @@ impl Tracer {
 
     /// [`crate::lights::Lights::emits_toward`] and [`crate::lights::Lights::pdf_hit`] for a hit
     /// at `q` (normal `ng`) on emitter `light`, seen along `w` from `p_ref` (shading normal
-    /// `n_ref`, zero in a medium), at the path's time: (emits, density).
+    /// `n_ref`, zero in a medium), at the path's time: (emits, density; 0 unless `need_pdf`).
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn light_hit(
@@ -794,6 +794,7 @@ impl Tracer {
         ng: V3,
         w: V3,
         pt: &PathTime,
+        need_pdf: bool,
     ) -> (bool, f32) {
         let entry = &self.lights.list[light];
         let (p_ref, q, ng, w) = match self.light_pose(light, pt) {
@@ -807,6 +808,9 @@ impl Tracer {
         };
         if !self.lights.emits_toward(entry, q, ng, w) {
             return (false, 0.0);
+        }
+        if !need_pdf {
+            return (true, 0.0);
         }
         (true, self.lights.pdf_hit(light, p_ref, n_ref, q, ng))
     }
