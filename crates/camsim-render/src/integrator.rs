@@ -436,6 +436,8 @@ impl Tracer {
         let mut beta = [1f32; N];
         let mut depth = 0u32;
         let mut prev_p = ray.o;
+        // The previous vertex's shading normal, for the light sampler's probability there.
+        let mut prev_n = V3::splat(0.0);
         let mut prev_bsdf_pdf = 0f32;
         // The last bounce was a delta lobe: emission found next gets MIS weight 1 (pbrt-v4
         // `specularBounce`).
@@ -492,13 +494,24 @@ impl Tracer {
             // Emission seen by this path vertex.
             if pi.light != NO_LIGHT {
                 let light = &self.lights.list[pi.light as usize];
-                let (emits, pdf_light) =
-                    self.light_hit(pi.light as usize, prev_p, sh.p, sh.ng, wo, pt);
+                // The light's density is needed for the MIS weight only (not for camera rays
+                // and specular bounces).
+                let need_pdf = !(depth == 0 || prev_specular);
+                let (emits, pdf_light) = self.light_hit(
+                    pi.light as usize,
+                    prev_p,
+                    prev_n,
+                    sh.p,
+                    sh.ng,
+                    wo,
+                    pt,
+                    need_pdf,
+                );
                 if emits {
-                    let w = if depth == 0 || prev_specular {
-                        1.0
-                    } else {
+                    let w = if need_pdf {
                         power_heuristic(prev_bsdf_pdf, pdf_light)
+                    } else {
+                        1.0
                     };
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));
@@ -555,16 +568,23 @@ impl Tracer {
             };
             let wo_local = frame.to_local(wo);
             let p_out = Self::offset(sh.p, ng, sh.err);
+            // The light sampler's normal: none on fibres (their BSDF scatters all around).
+            let n_sel = if sh.dpdu.length_squared() > 0.0 {
+                V3::splat(0.0)
+            } else {
+                ns
+            };
 
             // Next-event estimation (not for delta BSDFs: they cannot reach a sampled point).
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
                 let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
-                if let Some(ls) = self.sample_light::<N>(sh.p, u_sel, u0, u1, lambdas, pt) {
+                if let Some(ls) = self.sample_light::<N>(sh.p, n_sel, u_sel, u0, u1, lambdas, pt) {
                     let LightSample {
                         wi,
                         dist,
                         p_light,
+                        light,
                         n_light,
                         p_err,
                         le,
@@ -607,12 +627,6 @@ impl Tracer {
                                     power_heuristic(pdf, bsdf_pdf)
                                 };
                                 let w = mis * wi_local.z.abs() / pdf;
-                                // The light the sample came from (only a split sink asks).
-                                let light = if R::SPLIT {
-                                    self.lights.pick(u_sel) as u32
-                                } else {
-                                    0
-                                };
                                 l.add(light, std::array::from_fn(|i| beta[i] * f[i] * le[i] * w));
                             }
                         }
@@ -643,6 +657,7 @@ impl Tracer {
             prev_bsdf_pdf = bs.pdf;
             prev_specular = bs.specular;
             prev_p = sh.p;
+            prev_n = n_sel;
             if bs.transmission {
                 eta_scale *= bs.eta * bs.eta;
             }

@@ -33,6 +33,7 @@ pub mod ids;
 mod image_tex;
 mod integrator;
 pub mod labels;
+mod light_bvh;
 pub mod light_groups;
 mod lights;
 mod materials;
@@ -53,5 +54,7 @@ use camsim_scene3d::{scene, uplift, xform};
 
 pub use ids::IdMaps;
 pub use labels::{LabelRequest, Labels};
-pub use render::{render, render_with, RenderError, RenderOutput, RenderRequest, RenderStats};
+pub use render::{
+    render, render_with, LightSampler, RenderError, RenderOutput, RenderRequest, RenderStats,
+};
 pub use sampler::SamplerKind;

@@ -17,15 +17,12 @@ pub const DEFAULT_GROUP: &str = "default";
 
 /// Where a path's light contributions go.
 pub(crate) trait PathRadiance<const N: usize> {
-    /// Whether contributions are split by light (the tracer then says which light each is).
-    const SPLIT: bool;
     /// Add the contribution `v` of compiled light `light`.
     fn add(&mut self, light: u32, v: [f32; N]);
 }
 
 /// One sum over all lights (the plain render: the same arithmetic as before groups existed).
 impl<const N: usize> PathRadiance<N> for [f32; N] {
-    const SPLIT: bool = false;
     #[inline(always)]
     fn add(&mut self, _light: u32, v: [f32; N]) {
         for i in 0..N {
@@ -45,7 +42,6 @@ pub(crate) struct GroupRadiance<'a, const N: usize> {
 }
 
 impl<const N: usize> PathRadiance<N> for GroupRadiance<'_, N> {
-    const SPLIT: bool = true;
     #[inline(always)]
     fn add(&mut self, light: u32, v: [f32; N]) {
         let g = &mut self.groups[self.group_of[light as usize] as usize];

@@ -2,7 +2,9 @@
 //! with an emission image over the shape's uv and an alpha mask), a uniform
 //! infinite light, image environment lights (`crate::envmap`), and the delta lights point, spot,
 //! goniometric (`crate::goniometric`), projection (`crate::projection`) and distant (sampled by next-event estimation only: no ray can hit them). Lights are chosen
-//! with probability proportional to their power (pbrt-v4 `PowerLightSampler`); points on
+//! at each shading point by their importance there (`crate::light_bvh`, pbrt-v4's default
+//! `BVHLightSampler`), or, where lights move, with probability proportional to their power
+//! (pbrt-v4 `PowerLightSampler`); points on
 //! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
 //! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
 //! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
@@ -149,6 +151,8 @@ pub(crate) struct Lights {
     pub(crate) gonios: Vec<crate::goniometric::GonioLight>,
     /// Projection lights (`LightKind::Proj`).
     pub(crate) projs: Vec<crate::projection::ProjLight>,
+    /// The spatial light sampler ([`Lights::build_spatial`]); `None`: by power alone.
+    bvh: Option<crate::light_bvh::LightBvh>,
 }
 
 /// A sampled light direction from a reference point.
@@ -160,6 +164,8 @@ pub(crate) struct LightSample<const N: usize> {
     pub dist: f32,
     /// The sampled point on the light, m (unused for the infinite light).
     pub p_light: V3,
+    /// The light chosen (index into `Lights::list`).
+    pub light: u32,
     /// Unit surface normal of the light at `p_light`, as the shape defines it (zero for the
     /// infinite light); the shadow ray's end is offset along it (pbrt-v4 `SpawnRayTo`).
     pub n_light: V3,
@@ -284,6 +290,112 @@ impl Lights {
         i
     }
 
+    /// Replace power selection by the spatial light sampler (`crate::light_bvh`): bounds of
+    /// every bounded light (box, power from [`Lights::finish`], normal cone), infinite and
+    /// distant lights outside the tree. Lights of zero power are never chosen. Call after
+    /// `finish`, and only for lights that do not move (the bounds are their reference pose).
+    pub(crate) fn build_spatial(&mut self) {
+        use crate::light_bvh::{LightBounds, LightBvh};
+        let mut bounded = Vec::new();
+        let mut infinite = Vec::new();
+        for (i, l) in self.list.iter().enumerate() {
+            let i = i as u32;
+            // Power in the units of `finish` (only ratios matter); pbrt-v4 `Light::Bounds`.
+            let phi = l.pmf;
+            let point = |p: V3, w: V3, cos_o: f32, cos_e: f32| LightBounds {
+                min: p,
+                max: p,
+                w,
+                phi,
+                cos_theta_o: cos_o,
+                cos_theta_e: cos_e,
+                two_sided: false,
+            };
+            let z = V3::new(0.0, 0.0, 1.0);
+            let b = match l.kind {
+                // pbrt-v4 `DiffuseAreaLight::Bounds`: the shape's box and normal cone, emission
+                // over pi / 2 beyond it.
+                LightKind::Tri { p0, e1, e2, n, .. } => {
+                    let (p1, p2) = (p0 + e1, p0 + e2);
+                    LightBounds {
+                        min: p0.min(p1).min(p2),
+                        max: p0.max(p1).max(p2),
+                        w: n,
+                        phi,
+                        cos_theta_o: 1.0,
+                        cos_theta_e: 0.0,
+                        two_sided: l.two_sided,
+                    }
+                }
+                LightKind::Sphere { center, radius, .. }
+                | LightKind::SphereZone { center, radius, .. } => LightBounds {
+                    min: center - V3::splat(radius),
+                    max: center + V3::splat(radius),
+                    w: z,
+                    phi,
+                    cos_theta_o: -1.0,
+                    cos_theta_e: 0.0,
+                    two_sided: l.two_sided,
+                },
+                // pbrt-v4 `SpotLight::Bounds`: the axis, the falloff start, and the rest of
+                // the cone as the emission spread.
+                LightKind::Spot {
+                    p,
+                    axis,
+                    cos_end,
+                    cos_start,
+                } => {
+                    let spread =
+                        cos_end.clamp(-1.0, 1.0).acos() - cos_start.clamp(-1.0, 1.0).acos();
+                    point(p, axis, cos_start, spread.max(0.0).cos())
+                }
+                // Point, goniometric and projection lights: every direction (conservative).
+                LightKind::Point { p } | LightKind::Gonio { p, .. } | LightKind::Proj { p, .. } => {
+                    point(p, z, -1.0, 0.0)
+                }
+                LightKind::Infinite | LightKind::Env(_) | LightKind::Distant { .. } => {
+                    infinite.push(i);
+                    continue;
+                }
+            };
+            bounded.push((i, b));
+        }
+        self.bvh = Some(LightBvh::build(bounded, infinite, self.list.len()));
+    }
+
+    /// Back to power selection everywhere (`LightSampler::Power`).
+    pub(crate) fn disable_spatial(&mut self) {
+        self.bvh = None;
+    }
+
+    /// True when lights are chosen by the spatial sampler.
+    #[inline]
+    pub(crate) fn spatial(&self) -> bool {
+        self.bvh.is_some()
+    }
+
+    /// Choose a light for a point `p` with shading normal `n` (zero in a medium) from the
+    /// uniform number `u`: (light, probability), or `None` when no light can reach `p`.
+    #[inline]
+    pub(crate) fn choose(&self, p: V3, n: V3, u: f32) -> Option<(usize, f32)> {
+        match &self.bvh {
+            Some(b) => b.sample(p, n, u).map(|(i, pmf)| (i as usize, pmf)),
+            None => {
+                let i = self.pick(u);
+                Some((i, self.list[i].pmf))
+            }
+        }
+    }
+
+    /// Probability that [`Lights::choose`] at `p`, `n` returns light `li`.
+    #[inline]
+    pub(crate) fn select_pmf(&self, li: usize, p: V3, n: V3) -> f32 {
+        match &self.bvh {
+            Some(b) => b.pmf(li as u32, p, n),
+            None => self.list[li].pmf,
+        }
+    }
+
     /// True when `light` emits from point `p` (geometric normal `ng`, as the shape defines it)
     /// toward direction `w` (pbrt-v4 `DiffuseAreaLight::L`: one-sided lights emit on the side
     /// of their normal).
@@ -305,9 +417,15 @@ impl Lights {
     }
 
     /// Density per steradian (times the selection probability) with which [`Lights::sample`]
-    /// from `p_ref` would have produced point `q` (normal `ng`) on `light`.
+    /// from `p_ref` (shading normal `n_ref`, zero in a medium) would have produced point `q`
+    /// (normal `ng`) on light `li`.
     #[inline]
-    pub(crate) fn pdf_hit(&self, light: &LightEntry, p_ref: V3, q: V3, ng: V3) -> f32 {
+    pub(crate) fn pdf_hit(&self, li: usize, p_ref: V3, n_ref: V3, q: V3, ng: V3) -> f32 {
+        let light = &self.list[li];
+        let pmf = self.select_pmf(li, p_ref, n_ref);
+        if pmf <= 0.0 {
+            return 0.0;
+        }
         let d = q - p_ref;
         let dist2 = d.length_squared();
         match light.kind {
@@ -316,16 +434,16 @@ impl Lights {
                 if cos <= 0.0 {
                     return 0.0;
                 }
-                light.pmf * dist2 / (cos * area)
+                pmf * dist2 / (cos * area)
             }
             LightKind::Sphere { center, radius, .. } => match sphere_cone(p_ref, center, radius) {
-                Some((cos_max, sin2_max)) => light.pmf * cone_pdf(cos_max, sin2_max),
+                Some((cos_max, sin2_max)) => pmf * cone_pdf(cos_max, sin2_max),
                 None => {
                     let cos = (ng.dot(d)).abs() / dist2.sqrt();
                     if cos <= 0.0 {
                         return 0.0;
                     }
-                    light.pmf * dist2 / (cos * 4.0 * PI * radius * radius)
+                    pmf * dist2 / (cos * 4.0 * PI * radius * radius)
                 }
             },
             LightKind::SphereZone { area, .. } => {
@@ -333,10 +451,10 @@ impl Lights {
                 if cos <= 0.0 {
                     return 0.0;
                 }
-                light.pmf * dist2 / (cos * area)
+                pmf * dist2 / (cos * area)
             }
-            LightKind::Infinite => light.pmf * UNIFORM_SPHERE_PDF,
-            LightKind::Env(e) => light.pmf * self.envs[e as usize].pdf_dir(d / dist2.sqrt()),
+            LightKind::Infinite => pmf * UNIFORM_SPHERE_PDF,
+            LightKind::Env(e) => pmf * self.envs[e as usize].pdf_dir(d / dist2.sqrt()),
             _ => 0.0,
         }
     }
@@ -353,14 +471,16 @@ impl Lights {
         lambdas: &Lambdas<N>,
     ) -> ([f32; N], f32) {
         let light = &self.list[li as usize];
+        // Infinite lights' probability does not depend on the point.
+        let pmf = self.select_pmf(li as usize, V3::splat(0.0), V3::splat(0.0));
         let table = &tables[light.table as usize];
         match light.kind {
             LightKind::Env(e) => {
                 let env = &self.envs[e as usize];
                 let (texel, pdf) = env.lookup(dir);
-                (env.radiance(texel, table, lambdas), light.pmf * pdf)
+                (env.radiance(texel, table, lambdas), pmf * pdf)
             }
-            _ => (table.eval_path(lambdas), light.pmf * UNIFORM_SPHERE_PDF),
+            _ => (table.eval_path(lambdas), pmf * UNIFORM_SPHERE_PDF),
         }
     }
 
@@ -483,18 +603,23 @@ impl Lights {
         Ok(())
     }
 
-    /// Sample a light and a direction toward it from `p`.
+    /// Sample a light and a direction toward it from `p` (shading normal `n`, zero in a
+    /// medium).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn sample<const N: usize>(
         &self,
         tables: &[SpectrumTable],
         p: V3,
+        n: V3,
         u_sel: f32,
         u0: f32,
         u1: f32,
         lambdas: &Lambdas<N>,
     ) -> Option<LightSample<N>> {
-        let light = &self.list[self.pick(u_sel)];
+        let (li, pmf) = self.choose(p, n, u_sel)?;
+        let light = &self.list[li];
+        let light_index = li as u32;
         // Surface coordinates are needed for an image or an alpha mask only.
         let want_uv = light.image != NO_IMAGE || light.alpha_mat != NO_ALPHA;
         let mut uv = [0f32; 2];
@@ -611,7 +736,7 @@ impl Lights {
             LightKind::Env(e) => {
                 let env = &self.envs[e as usize];
                 let (wi, texel, pdf) = env.sample(u0, u1)?;
-                let pdf = pdf * light.pmf;
+                let pdf = pdf * pmf;
                 if !(pdf > 0.0 && pdf.is_finite()) {
                     return None;
                 }
@@ -620,6 +745,7 @@ impl Lights {
                     wi,
                     dist: f32::INFINITY,
                     p_light: V3::splat(0.0),
+                    light: light_index,
                     n_light: V3::splat(0.0),
                     p_err: V3::splat(0.0),
                     le,
@@ -670,10 +796,11 @@ impl Lights {
                     wi,
                     dist,
                     p_light: q,
+                    light: light_index,
                     n_light: V3::splat(0.0),
                     p_err: V3::splat(0.0),
                     le,
-                    pdf: light.pmf,
+                    pdf: pmf,
                     delta: true,
                     uv: [0.0; 2],
                     alpha_mat: NO_ALPHA,
@@ -685,17 +812,18 @@ impl Lights {
                     wi: to_light,
                     dist: f32::INFINITY,
                     p_light: V3::splat(0.0),
+                    light: light_index,
                     n_light: V3::splat(0.0),
                     p_err: V3::splat(0.0),
                     le,
-                    pdf: light.pmf,
+                    pdf: pmf,
                     delta: true,
                     uv: [0.0; 2],
                     alpha_mat: NO_ALPHA,
                 });
             }
         };
-        let pdf = pdf_sa * light.pmf;
+        let pdf = pdf_sa * pmf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
@@ -704,6 +832,7 @@ impl Lights {
             wi,
             dist,
             p_light: q_light,
+            light: light_index,
             n_light,
             p_err,
             le,
@@ -823,51 +952,61 @@ mod tests {
         lights.finish(&tables, 5.0);
         let total: f32 = lights.list.iter().map(|l| l.pmf).sum();
         assert!((total - 1.0).abs() < 1e-6);
-        let mut rng = camsim_core::rng::seeded(4);
-        let p = V3::new(0.1, -0.3, 0.2);
-        let mut seen = [0usize; 5];
-        for _ in 0..50_000 {
-            let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
-            let k = lights.pick(us);
-            let Some(s) = lights.sample::<4>(&tables, p, us, u0, u1, &ws.locate([500.0; 4])) else {
-                continue;
-            };
-            seen[k] += 1;
-            let light = &lights.list[k];
-            assert_eq!(s.le, [2.0; 4]);
-            if let LightKind::Infinite = light.kind {
-                assert!((s.pdf - light.pmf / (4.0 * PI)).abs() < 1e-6);
-                continue;
+        // Power selection, then the spatial sampler (same lights).
+        for spatial in [false, true] {
+            if spatial {
+                lights.build_spatial();
             }
-            let q = p + s.wi * s.dist;
-            let ng = match light.kind {
-                LightKind::Tri { n, .. } => n,
-                LightKind::Sphere { center, .. } => (q - center).normalize(),
-                LightKind::SphereZone {
-                    center,
-                    radius,
-                    clip,
-                    ..
-                } => {
-                    assert!(
-                        clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4,
-                        "{q:?} off the zone"
-                    );
-                    (q - center).normalize()
+            let mut rng = camsim_core::rng::seeded(4);
+            let p = V3::new(0.1, -0.3, 0.2);
+            let n_ref = V3::new(0.0, 0.6, 0.8);
+            let mut seen = [0usize; 5];
+            for _ in 0..50_000 {
+                let (us, u0, u1): (f32, f32, f32) = (rng.gen(), rng.gen(), rng.gen());
+                let Some(s) =
+                    lights.sample::<4>(&tables, p, n_ref, us, u0, u1, &ws.locate([500.0; 4]))
+                else {
+                    continue;
+                };
+                let k = s.light as usize;
+                let pmf = lights.select_pmf(k, p, n_ref);
+                seen[k] += 1;
+                let light = &lights.list[k];
+                assert_eq!(s.le, [2.0; 4]);
+                if let LightKind::Infinite = light.kind {
+                    assert!((s.pdf - pmf / (4.0 * PI)).abs() < 1e-6);
+                    continue;
                 }
-                _ => unreachable!(),
-            };
-            assert!(
-                lights.emits_toward(light, q, ng, -s.wi),
-                "sample from the back of a one-sided light"
-            );
-            let ph = lights.pdf_hit(light, p, q, ng);
-            assert!(
-                (ph / s.pdf - 1.0).abs() < 2e-3,
-                "light {k}: sample pdf {} vs pdf_hit {ph}",
-                s.pdf
-            );
+                let q = p + s.wi * s.dist;
+                let ng = match light.kind {
+                    LightKind::Tri { n, .. } => n,
+                    LightKind::Sphere { center, .. } => (q - center).normalize(),
+                    LightKind::SphereZone {
+                        center,
+                        radius,
+                        clip,
+                        ..
+                    } => {
+                        assert!(
+                            clip.keeps(q - center) && ((q - center).length() - radius).abs() < 1e-4,
+                            "{q:?} off the zone"
+                        );
+                        (q - center).normalize()
+                    }
+                    _ => unreachable!(),
+                };
+                assert!(
+                    lights.emits_toward(light, q, ng, -s.wi),
+                    "sample from the back of a one-sided light"
+                );
+                let ph = lights.pdf_hit(k, p, n_ref, q, ng);
+                assert!(
+                    (ph / s.pdf - 1.0).abs() < 2e-3,
+                    "light {k}: sample pdf {} vs pdf_hit {ph}",
+                    s.pdf
+                );
+            }
+            assert!(seen.iter().all(|c| *c > 10), "{seen:?}");
         }
-        assert!(seen.iter().all(|c| *c > 10), "{seen:?}");
     }
 }

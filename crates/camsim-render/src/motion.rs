@@ -602,6 +602,11 @@ fn box_arrays(b: &Aabb) -> ([f32; 3], [f32; 3]) {
 }
 
 impl MotionTracer {
+    /// True when any light moves.
+    pub(crate) fn any_light_moves(&self) -> bool {
+        self.light_mover.iter().any(|&m| m != NO_MOVER)
+    }
+
     /// The closest hit along `r` at `pt` among the moving groups nearer than `best` (the static
     /// BVH's hit), or `best`.
     #[inline]

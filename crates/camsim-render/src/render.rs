@@ -89,6 +89,22 @@ pub struct RenderRequest {
     pub labels: Option<crate::labels::LabelRequest>,
     /// Split the radiance by light group, in the same pass ([`crate::light_groups`]).
     pub light_groups: bool,
+    /// How next-event estimation chooses a light.
+    pub light_sampler: LightSampler,
+}
+
+/// How next-event estimation chooses among a scene's lights (pbrt-v4's `lightsampler`
+/// integrator parameter). Both are unbiased; they differ in variance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightSampler {
+    /// By each light's importance at the shading point (pbrt-v4 `bvh`, its default; 4th ed.
+    /// sec. 12.6.3): power over squared distance and the emitter's and the surface's
+    /// orientation bounds, through a tree of light bounds. Scenes with moving lights fall back
+    /// to [`LightSampler::Power`].
+    #[default]
+    Bvh,
+    /// In proportion to each light's emitted power, the same everywhere (pbrt-v4 `power`).
+    Power,
 }
 
 /// A raw pointer that tiles share to write their own disjoint pixels.
@@ -291,7 +307,10 @@ pub fn render_with(
     let ws = WavelengthSampler::new(&st.grid);
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
-    let tracer = Tracer::new(scene, &ws)?;
+    let mut tracer = Tracer::new(scene, &ws)?;
+    if request.light_sampler == LightSampler::Power {
+        tracer.lights.disable_spatial();
+    }
     if tracer.motion.is_some() {
         // Light groups split the path tracer's sum by the emitter hit, and labels trace the
         // scene once per pixel: neither follows moving shapes, lights or camera yet.

@@ -16,6 +16,8 @@
 //!   renders at the stored size with a quarter of the samples per unit area).
 //! - `--scenes DIR` (default `../shared/scenes/bitterli`), `--references DIR` (default
 //!   `../shared/scenes/references`), paths relative to the current folder.
+//! - `--light-sampler bvh|power`: how camsim chooses lights (default `bvh`, pbrt-v4's
+//!   default; `power` to measure what the spatial sampler gains).
 //! - `--out DIR`: also write per scene `<scene>.png`: camsim (scaled by the unit factor),
 //!   pbrt-v4, and the blocks' differences in standard errors (grey 0, white +8: pbrt brighter,
 //!   black -8), each tone-mapped the same way.
@@ -27,7 +29,8 @@ use camsim_core::colorimetry::Cmfs;
 use camsim_core::SpectralImage;
 use camsim_validate::pbrt_reference::{
     compare, load_like_reference, load_reference, load_reference_rgb_luminance, read_index,
-    render_like_reference, scene_file, Criteria, PbrtLuminance, PBRT_UNIT_FACTOR, REFERENCE_BLOCK,
+    render_like_reference_with, scene_file, Criteria, PbrtLuminance, PBRT_UNIT_FACTOR,
+    REFERENCE_BLOCK,
 };
 use std::path::{Path, PathBuf};
 
@@ -38,6 +41,7 @@ struct Args {
     scenes_dir: PathBuf,
     references_dir: PathBuf,
     out: Option<PathBuf>,
+    light_sampler: camsim_render::LightSampler,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -48,6 +52,7 @@ fn parse_args() -> Result<Args, String> {
         scenes_dir: PathBuf::from("../shared/scenes/bitterli"),
         references_dir: PathBuf::from("../shared/scenes/references"),
         out: None,
+        light_sampler: camsim_render::LightSampler::Bvh,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -62,6 +67,13 @@ fn parse_args() -> Result<Args, String> {
             "--scenes" => a.scenes_dir = value("--scenes")?.into(),
             "--references" => a.references_dir = value("--references")?.into(),
             "--out" => a.out = Some(value("--out")?.into()),
+            "--light-sampler" => {
+                a.light_sampler = match value("--light-sampler")?.as_str() {
+                    "bvh" => camsim_render::LightSampler::Bvh,
+                    "power" => camsim_render::LightSampler::Power,
+                    s => return Err(format!("--light-sampler: {s} is not bvh or power")),
+                }
+            }
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s => a.scenes.push(s.to_string()),
         }
@@ -174,10 +186,11 @@ fn main() {
     };
     let criteria = Criteria::default();
     println!(
-        "camsim {} spp x {} seeds at {}x the stored size; pbrt-v4 from {}",
+        "camsim {} spp x {} seeds at {}x the stored size, {:?} light sampler; pbrt-v4 from {}",
         args.spp,
         2,
         args.block,
+        args.light_sampler,
         args.references_dir.display()
     );
     println!();
@@ -200,7 +213,7 @@ fn main() {
         let mut failed = None;
         for seed in [1u64, 2] {
             let r = load_like_reference(&file, cols, rows, args.block, args.spp, seed)
-                .and_then(|s| render_like_reference(&s, args.block));
+                .and_then(|s| render_like_reference_with(&s, args.block, args.light_sampler));
             match r {
                 Ok((img, c)) => {
                     cpu += c;

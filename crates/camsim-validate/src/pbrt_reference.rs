@@ -249,12 +249,25 @@ pub fn render_like_reference(
     scene: &SceneDescription,
     render_block: usize,
 ) -> Result<(SpectralImage, f64)> {
+    render_like_reference_with(scene, render_block, camsim_render::LightSampler::default())
+}
+
+/// [`render_like_reference`] with the given light sampler (to compare samplers' variance).
+pub fn render_like_reference_with(
+    scene: &SceneDescription,
+    render_block: usize,
+    light_sampler: camsim_render::LightSampler,
+) -> Result<(SpectralImage, f64)> {
     let cpu = || {
         let (u, s) = camsim_core::mem::process_cpu_s();
         u + s
     };
+    let request = camsim_render::RenderRequest {
+        light_sampler,
+        ..Default::default()
+    };
     let t0 = cpu();
-    let out = camsim_render::render(scene, &|_, _| {})?;
+    let out = camsim_render::render_with(scene, &request, &|_, _| {})?;
     let cpu_s = cpu() - t0;
     let img = if render_block > 1 {
         block_average(&out.radiance, render_block)?

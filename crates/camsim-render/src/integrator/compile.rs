@@ -60,6 +60,11 @@ impl Tracer {
         lights.finish(&tables, scene_radius);
         let (bvh, info, motion, tri_normals) =
             build_bvh(scene, prims, info, clips, curves, lights.list.len())?;
+        // Lights chosen by their importance at each point (pbrt-v4's default `bvh` light
+        // sampler) unless one moves: its bounds would hold for one pose only.
+        if !motion.as_ref().is_some_and(|m| m.any_light_moves()) {
+            lights.build_spatial();
+        }
 
         let max_depth = if scene.settings.direct_only {
             scene.settings.max_depth.min(1)

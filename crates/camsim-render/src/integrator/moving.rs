@@ -73,24 +73,33 @@ impl Tracer {
     pub(crate) fn sample_light<const N: usize>(
         &self,
         p: V3,
+        n: V3,
         u_sel: f32,
         u0: f32,
         u1: f32,
         lambdas: &Lambdas<N>,
         pt: &PathTime,
     ) -> Option<LightSample<N>> {
+        // Moving lights turn the spatial sampler off (`Tracer::new`): power selection then
+        // does not depend on the point, so the light is known before the pose.
         let pose = match &self.motion {
-            None => None,
-            Some(_) => self.light_pose(self.lights.pick(u_sel), pt),
+            Some(_) if !self.lights.spatial() => self.light_pose(self.lights.pick(u_sel), pt),
+            _ => None,
         };
         let Some(pose) = pose else {
             return self
                 .lights
-                .sample::<N>(&self.tables, p, u_sel, u0, u1, lambdas);
+                .sample::<N>(&self.tables, p, n, u_sel, u0, u1, lambdas);
         };
-        let mut s =
-            self.lights
-                .sample::<N>(&self.tables, pose.to_ref.point(p), u_sel, u0, u1, lambdas)?;
+        let mut s = self.lights.sample::<N>(
+            &self.tables,
+            pose.to_ref.point(p),
+            n,
+            u_sel,
+            u0,
+            u1,
+            lambdas,
+        )?;
         s.wi = pose.to_world.vector(s.wi).normalize();
         s.p_err = pose.to_world.point_error(s.p_light, s.p_err);
         s.p_light = pose.to_world.point(s.p_light);
@@ -109,17 +118,20 @@ impl Tracer {
     }
 
     /// [`crate::lights::Lights::emits_toward`] and [`crate::lights::Lights::pdf_hit`] for a hit
-    /// at `q` (normal `ng`) on emitter `light`, seen along `w` from `p_ref`, at the path's time:
-    /// (emits, density).
+    /// at `q` (normal `ng`) on emitter `light`, seen along `w` from `p_ref` (shading normal
+    /// `n_ref`, zero in a medium), at the path's time: (emits, density; 0 unless `need_pdf`).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn light_hit(
         &self,
         light: usize,
         p_ref: V3,
+        n_ref: V3,
         q: V3,
         ng: V3,
         w: V3,
         pt: &PathTime,
+        need_pdf: bool,
     ) -> (bool, f32) {
         let entry = &self.lights.list[light];
         let (p_ref, q, ng, w) = match self.light_pose(light, pt) {
@@ -134,6 +146,9 @@ impl Tracer {
         if !self.lights.emits_toward(entry, q, ng, w) {
             return (false, 0.0);
         }
-        (true, self.lights.pdf_hit(entry, p_ref, q, ng))
+        if !need_pdf {
+            return (true, 0.0);
+        }
+        (true, self.lights.pdf_hit(light, p_ref, n_ref, q, ng))
     }
 }

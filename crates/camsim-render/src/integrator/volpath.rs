@@ -67,6 +67,8 @@ enum Vertex<'a, const N: usize> {
         /// The primitive's material (for its medium boundary) and oriented normal.
         material: u32,
         n_oriented: V3,
+        /// The light sampler's normal (the shading normal; zero on fibres).
+        n_sel: V3,
     },
     Medium {
         p: V3,
@@ -156,6 +158,8 @@ impl Tracer {
         let mut skips = 0u32;
         let mut medium = media.camera;
         let mut prev_p = ray.o;
+        // The previous vertex's shading normal (zero at a medium vertex) for the light sampler.
+        let mut prev_n = V3::splat(0.0);
         counts.camera += 1;
         loop {
             let hit = self.kept_hit(&ray, counts, pt);
@@ -240,6 +244,7 @@ impl Tracer {
                                     // beta *= p / pdf = 1: sampled exactly.
                                     st.r_l = st.r_u.map(|v| v / pdf);
                                     prev_p = p;
+                                    prev_n = V3::splat(0.0);
                                     scattered = true;
                                     ray = Ray { o: p, d: wi };
                                     specular = false;
@@ -294,14 +299,15 @@ impl Tracer {
             };
             let wo = -ray.d;
             if pi.light != NO_LIGHT {
-                let light = &self.lights.list[pi.light as usize];
+                let li = pi.light as usize;
+                let light = &self.lights.list[li];
                 if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
                     let first = depth0_or(specular, st.depth);
                     let p_l = if first {
                         0.0
                     } else {
-                        self.lights.pdf_hit(light, prev_p, sh.p, sh.ng)
+                        self.lights.pdf_hit(li, prev_p, prev_n, sh.p, sh.ng)
                     };
                     self.add_emission(&mut st, &le, first, p_l);
                 }
@@ -355,6 +361,11 @@ impl Tracer {
             };
             let wo_local = frame.to_local(wo);
             let p_out = Self::offset(sh.p, ng, sh.err);
+            let n_sel = if sh.dpdu.length_squared() > 0.0 {
+                V3::splat(0.0)
+            } else {
+                ns
+            };
             if !self.lights.is_empty() && !bsdf.is_delta() {
                 let v = Vertex::Surface {
                     bsdf: &bsdf,
@@ -366,6 +377,7 @@ impl Tracer {
                     p_out,
                     material: pi.material,
                     n_oriented,
+                    n_sel,
                 };
                 let ld =
                     self.sample_ld_vol(media, &v, medium, &st, lambdas, sampler, d0, counts, pt);
@@ -393,6 +405,7 @@ impl Tracer {
             st.r_l = st.r_u.map(|v| v / bs.pdf);
             specular = bs.specular;
             prev_p = sh.p;
+            prev_n = n_sel;
             if bs.transmission {
                 eta_scale *= bs.eta * bs.eta;
             }
@@ -465,10 +478,11 @@ impl Tracer {
         let zero = [0f32; N];
         let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
         let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
-        let p_ref = match v {
-            Vertex::Surface { p, .. } | Vertex::Medium { p, .. } => *p,
+        let (p_ref, n_ref) = match v {
+            Vertex::Surface { p, n_sel, .. } => (*p, *n_sel),
+            Vertex::Medium { p, .. } => (*p, V3::splat(0.0)),
         };
-        let Some(ls) = self.sample_light::<N>(p_ref, u_sel, u0, u1, lambdas, pt) else {
+        let Some(ls) = self.sample_light::<N>(p_ref, n_ref, u_sel, u0, u1, lambdas, pt) else {
             return zero;
         };
         if !(ls.pdf > 0.0) || !any_positive(&ls.le) {
@@ -485,6 +499,7 @@ impl Tracer {
                 p_out,
                 material,
                 n_oriented,
+                ..
             } => {
                 let cos_g = ls.wi.dot(*ng);
                 if !(cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission())) {
