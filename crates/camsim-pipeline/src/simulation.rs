@@ -253,6 +253,27 @@ impl Simulation {
         self.noise_free_dn.as_ref()?.get(i).map(|v| v.as_slice())
     }
 
+    /// Every raw frame's preview (the ISP of the run's config: what [`Simulation::preview`] is
+    /// for the first frame).
+    pub fn frame_previews(&self) -> Result<Vec<Rgb8Image>> {
+        let sensor = self.config.sensor()?;
+        let isp = Isp::for_config(&self.config)?;
+        self.frames
+            .iter()
+            .map(|raw| Ok(isp.compute(raw, &sensor)?.preview))
+            .collect()
+    }
+
+    /// How long each frame of preview.gif is shown, ms: the first frame interval (10 ms
+    /// minimum, GIF's unit is 10 ms), or 100 ms for a single instant.
+    pub fn gif_delay_ms(&self) -> u32 {
+        let dt_s = match self.frame_times.as_slice() {
+            [a, b, ..] => b.start_s - a.start_s,
+            _ => 0.1,
+        };
+        ((dt_s * 1e3).round() as u32).max(10)
+    }
+
     /// The image the scene stage made: the radiance, or a lens camera's irradiance (which also
     /// carries the depth map and the wavelength grid then).
     pub fn scene_image(&self) -> &SpectralImage {
@@ -386,6 +407,17 @@ impl Simulation {
                 None => "not written: this scene (a 2D chart) has no optical flow",
             };
             files.insert("flow.exr".into(), note.into());
+        }
+        if outputs.contains(Output::PreviewGif) {
+            let note = if self.frames.len() > 1 {
+                format!(
+                    "every frame's preview as an animation, {} ms per frame (256 colours per frame: for viewing)",
+                    self.gif_delay_ms()
+                )
+            } else {
+                "not written: the run has one frame".into()
+            };
+            files.insert("preview.gif".into(), note.into());
         }
         if outputs.contains(Output::NoiseFree) {
             files.insert(
@@ -524,6 +556,20 @@ impl Simulation {
                         raw0.cols,
                         &raw0.dn,
                         raw0.bits,
+                    )?)
+                }));
+            }
+            if outputs.contains(Output::PreviewGif) && self.frames.len() > 1 {
+                t.push(Box::new(move || {
+                    let previews = self.frame_previews()?;
+                    let p = &previews[0];
+                    let data: Vec<&[u8]> = previews.iter().map(|p| p.data.as_slice()).collect();
+                    Ok(camsim_io::raster::write_gif_rgb(
+                        &out.join("preview.gif"),
+                        p.rows,
+                        p.cols,
+                        &data,
+                        self.gif_delay_ms(),
                     )?)
                 }));
             }

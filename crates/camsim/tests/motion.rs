@@ -512,3 +512,55 @@ fn auto_exposure_sets_the_render_window() {
         );
     }
 }
+
+/// preview.gif: a burst of three frames of the moving bar becomes a three-frame animation of
+/// the previews' size, shown at the frame interval (40 ms), whose frames differ (the bar moves);
+/// a run of one frame writes none and run.json says why.
+#[test]
+fn preview_gif_animates_the_frames() {
+    use image::AnimationDecoder;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = bar_config_with(
+        dir.path(),
+        6.0,
+        "\"global\"",
+        "exposure_ms = 0.2\nframes = 3\nfps = 25.0",
+    );
+    let sim = simulate(&cfg, &SimulateOptions::default(), &quiet).unwrap();
+    let out = dir.path().join("video");
+    let outputs = camsim::OutputSet::parse("preview,preview-gif").unwrap();
+    sim.write(&out, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(out.join("preview.gif")).unwrap());
+    let frames = image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), 3);
+    for f in &frames {
+        let b = f.buffer();
+        assert_eq!(
+            (b.width() as usize, b.height() as usize),
+            (sim.preview.cols, sim.preview.rows)
+        );
+        assert_eq!(f.delay().numer_denom_ms(), (40, 1));
+    }
+    assert!(frames[0].buffer() != frames[1].buffer());
+    let one = simulate(
+        &bar_config(dir.path(), 6.0, "\"global\""),
+        &SimulateOptions::default(),
+        &quiet,
+    )
+    .unwrap();
+    let out1 = dir.path().join("single");
+    one.write(&out1, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    assert!(!out1.join("preview.gif").exists());
+    let run: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out1.join("run.json")).unwrap()).unwrap();
+    assert!(run["files"]["preview.gif"]
+        .as_str()
+        .unwrap()
+        .contains("one frame"));
+}
