@@ -541,21 +541,7 @@ values = [0.0, 0.08]
     )
     .unwrap();
     assert_eq!(r.samples_failed, 0);
-    let shard = std::fs::read_dir(d.path())
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .find(|p| p.extension().is_some_and(|x| x == "tar"))
-        .unwrap();
-    let mut ar = tar::Archive::new(std::fs::File::open(&shard).unwrap());
-    let mut files = std::collections::BTreeMap::new();
-    for e in ar.entries().unwrap() {
-        let mut e = e.unwrap();
-        let name = e.path().unwrap().to_string_lossy().into_owned();
-        let mut bytes = Vec::new();
-        std::io::Read::read_to_end(&mut e, &mut bytes).unwrap();
-        files.insert(name, bytes);
-    }
+    let files = shard_files(d.path());
     let mut regions = Vec::new();
     for key in ["00000000", "00000001"] {
         let legend: serde_json::Value =
