@@ -541,21 +541,7 @@ values = [0.0, 0.08]
     )
     .unwrap();
     assert_eq!(r.samples_failed, 0);
-    let shard = std::fs::read_dir(d.path())
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .find(|p| p.extension().is_some_and(|x| x == "tar"))
-        .unwrap();
-    let mut ar = tar::Archive::new(std::fs::File::open(&shard).unwrap());
-    let mut files = std::collections::BTreeMap::new();
-    for e in ar.entries().unwrap() {
-        let mut e = e.unwrap();
-        let name = e.path().unwrap().to_string_lossy().into_owned();
-        let mut bytes = Vec::new();
-        std::io::Read::read_to_end(&mut e, &mut bytes).unwrap();
-        files.insert(name, bytes);
-    }
+    let files = shard_files(d.path());
     let mut regions = Vec::new();
     for key in ["00000000", "00000001"] {
         let legend: serde_json::Value =
@@ -612,4 +598,116 @@ fn a_spec_temporary_of_a_killed_run_does_not_make_the_folder_foreign() {
         r.removed_temporaries
     );
     assert!(out.join("spec.json").is_file());
+}
+
+/// Every file of every shard in `dir`, by name.
+fn shard_files(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut files = std::collections::BTreeMap::new();
+    for p in std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()) {
+        let p = p.path();
+        if p.extension().is_some_and(|x| x == "tar") {
+            let mut ar = tar::Archive::new(std::fs::File::open(&p).unwrap());
+            for e in ar.entries().unwrap() {
+                let mut e = e.unwrap();
+                let name = e.path().unwrap().to_string_lossy().into_owned();
+                let mut bytes = Vec::new();
+                std::io::Read::read_to_end(&mut e, &mut bytes).unwrap();
+                files.insert(name, bytes);
+            }
+        }
+    }
+    files
+}
+
+#[test]
+fn motion_keys_vary_per_sample_deterministically() {
+    // An emitting vertical bar 10 m away moving right: per sample its speed is drawn (an
+    // element of the overlay object's velocity_m_s) and the shutter cycles through global,
+    // rolling and global reset (a whole inline table per value). Each sample's flow on the bar
+    // is its own v x exposure, its record names its shutter, and the shards are the same bytes
+    // for one worker or three.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("bar.pbrt"),
+        r#"LookAt 0 0 -10  0 0 0  0 1 0
+Camera "perspective" "float fov" 5
+Film "rgb" "integer xresolution" 40 "integer yresolution" 30
+WorldBegin
+AttributeBegin
+  #ObjectName bar
+  AreaLightSource "diffuse" "blackbody L" 5000 "float scale" 3000 "bool twosided" true
+  Shape "trianglemesh" "point3 P" [ -0.015 -2 0  0.015 -2 0  0.015 2 0  -0.015 2 0 ]
+      "integer indices" [ 0 1 2 0 2 3 ]
+AttributeEnd
+"#,
+    )
+    .unwrap();
+    let text = r#"
+[dataset]
+samples = 3
+shard_size = 2
+seed = 4
+outputs = ["raw", "flow"]
+[base]
+wavelengths = { start_nm = 400.0, step_nm = 50.0, count = 7 }
+sensor = { preset = "pixel4a", rows = 60, cols = 80 }
+capture = { exposure_ms = 0.5 }
+[base.render]
+pbrt = "bar.pbrt"
+samples_per_pixel = 4
+resolution = [40, 30]
+[[base.render.overlay_inline.object]]
+name = "bar"
+velocity_m_s = [0.0, 0.0, 0.0]
+
+[[vary]]
+key = "render.overlay_inline.object.0.velocity_m_s.0"
+uniform = [2.0, 8.0]
+
+[[vary]]
+key = "capture.shutter"
+values = ["global", { rolling = { line_time_us = 20.0 } }, { global_reset = { line_time_us = 20.0, mechanical_shutter = true } }]
+"#;
+    let s = DatasetSpec::from_toml_str(text, "t", dir.path()).unwrap();
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (out, workers) in [(a.path(), 1), (b.path(), 3)] {
+        let r = run(
+            &s,
+            out,
+            ShardSelect::default(),
+            Some(workers),
+            true,
+            &|_, _, _| {},
+        )
+        .unwrap();
+        let m = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap_or_default();
+        assert_eq!((r.samples_run, r.samples_failed), (3, 0), "{r:?} {m}");
+    }
+    let (fa, fb) = (shard_files(a.path()), shard_files(b.path()));
+    assert_eq!(fa, fb, "one worker and three give different bytes");
+    let mut speeds = Vec::new();
+    for (i, kind) in ["global", "rolling", "global_reset"].iter().enumerate() {
+        let key = format!("{i:08}");
+        let rec: serde_json::Value = serde_json::from_slice(&fa[&format!("{key}.json")]).unwrap();
+        assert_eq!(rec["results"]["shutter"]["kind"], *kind, "sample {i}");
+        let v_m_s = rec["params"]["render.overlay_inline.object.0.velocity_m_s.0"]
+            .as_f64()
+            .unwrap();
+        assert!((2.0..8.0).contains(&v_m_s));
+        speeds.push(v_m_s);
+        // The flow on the bar: v x exposure, in sensor pixels (the image distance of a lens
+        // focused at infinity is f; 10 m away).
+        let f_m = rec["optics"]["focal_length_mm"].as_f64().unwrap() * 1e-3;
+        let pitch_m = rec["sensor"]["pixel_pitch_um"].as_f64().unwrap() * 1e-6;
+        let want = v_m_s * f_m / 10.0 / pitch_m * 0.5e-3;
+        let p = dir.path().join(format!("{key}.flow.exr"));
+        std::fs::write(&p, &fa[&format!("{key}.flow.exr")]).unwrap();
+        let (_, _, dx) = camsim_io::exr::read_gray_exr(&p, Some("X")).unwrap();
+        let max = dx.iter().fold(0f32, |m, v| m.max(*v)) as f64;
+        assert!(
+            (max / want - 1.0).abs() < 1e-3,
+            "sample {i}: flow {max} px, want v T = {want}"
+        );
+    }
+    assert!(speeds[0] != speeds[1] && speeds[1] != speeds[2]);
 }

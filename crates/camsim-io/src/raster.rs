@@ -121,6 +121,45 @@ pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Resu
     )
 }
 
+/// An animated GIF of 8-bit RGB frames (`rows * cols * 3` bytes each, interleaved), each shown
+/// for `delay_ms` and looping forever, written atomically. GIF holds 256 colours per frame: each
+/// frame is quantized (NeuQuant, the `image` crate's GIF encoder), so it is for viewing only.
+pub fn write_gif_rgb(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    frames: &[&[u8]],
+    delay_ms: u32,
+) -> Result<()> {
+    for f in frames {
+        check_size(path, rows, cols, f.len(), 3)?;
+    }
+    if cols > u16::MAX as usize || rows > u16::MAX as usize {
+        return Err(IoError::invalid(
+            path,
+            format!("{rows} x {cols} pixels: a GIF holds at most 65535 x 65535"),
+        ));
+    }
+    let failed = |e: image::ImageError| IoError::invalid(path, format!("GIF encoding failed: {e}"));
+    write_atomic(path, |w| {
+        let mut enc = image::codecs::gif::GifEncoder::new_with_speed(w, 10);
+        enc.set_repeat(image::codecs::gif::Repeat::Infinite)
+            .map_err(failed)?;
+        let delay = image::Delay::from_numer_denom_ms(delay_ms, 1);
+        for f in frames {
+            let rgba: Vec<u8> = f
+                .chunks_exact(3)
+                .flat_map(|p| [p[0], p[1], p[2], 255])
+                .collect();
+            let img = image::RgbaImage::from_raw(cols as u32, rows as u32, rgba)
+                .ok_or_else(|| IoError::invalid(path, "frame size"))?;
+            enc.encode_frame(image::Frame::from_parts(img, 0, 0, delay))
+                .map_err(failed)?;
+        }
+        Ok(())
+    })
+}
+
 /// An 8-bit RGB image (`rows * cols * 3` bytes, interleaved) as PNG bytes, in memory (to embed
 /// in a report).
 pub fn encode_png8_rgb(rows: usize, cols: usize, rgb: &[u8]) -> Result<Vec<u8>> {

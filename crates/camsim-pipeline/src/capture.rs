@@ -76,6 +76,9 @@ pub struct CaptureRequest {
     /// Frame index of the first raw's temporal noise (0; a moving scene captured frame by frame
     /// keys frame k on k, [`crate::sequence`], so each frame has the noise it has in one capture).
     pub first_frame: u64,
+    /// A global-reset sensor mode's rows (`[capture] shutter = { global_reset = ... }`,
+    /// [`crate::ShutterConfig::sensor_global_reset`]); `None` otherwise.
+    pub global_reset: Option<camsim_sensor::GlobalReset>,
 }
 
 impl CaptureRequest {
@@ -147,6 +150,7 @@ impl CaptureRequest {
             seed,
             keys,
             first_frame: 0,
+            global_reset: None,
         })
     }
 
@@ -156,6 +160,7 @@ impl CaptureRequest {
             exposure: self.exposure,
             frames: self.frames,
             seed: self.seed,
+            global_reset: self.global_reset,
         }
     }
 }
@@ -192,7 +197,7 @@ pub fn capture(
     }
     Ok(Captured::Frames(match &req.bracket_s {
         None => sensor.compute_from(irradiance, &req.capture(), req.first_frame)?,
-        Some(times_s) => sensor.compute_bracket(irradiance, times_s, req.frames, req.seed)?,
+        Some(times_s) => sensor.compute_bracket_like(irradiance, times_s, &req.capture())?,
     }))
 }
 
@@ -358,6 +363,7 @@ pub fn noise_free_dn(
     sensor: &Sensor,
     irradiance: &SpectralImage,
     exposure_s: f64,
+    global_reset: Option<camsim_sensor::GlobalReset>,
 ) -> Result<Vec<f32>> {
     let quiet = sensor.with_noise(NoiseSwitches {
         shot: false,
@@ -367,7 +373,10 @@ pub fn noise_free_dn(
         dark: true,
         quantization: false,
     });
-    let nf = quiet.compute(irradiance, &Capture::seconds(exposure_s))?;
+    let nf = quiet.compute(
+        irradiance,
+        &Capture::seconds(exposure_s).with_global_reset(global_reset),
+    )?;
     nf.analog_dn
         .and_then(|mut v| v.drain(..).next())
         .ok_or_else(|| {

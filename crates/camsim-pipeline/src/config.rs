@@ -153,9 +153,9 @@ pub struct CaptureSection {
     pub frames: usize,
     /// Exposure bracketing / burst (ISETCam: a vector of exposure times): one raw per entry (x
     /// `frames`), ms, each with its own temporal noise, written raw.dng, raw_0001.dng, ... in
-    /// this order. Replaces `exposure_ms` (giving both is an error). The preview, noise_free.exr
-    /// and run.json's exposure_s / mean figures are those of the first raw; run.json lists every
-    /// raw's exposure time as results.frame_exposures_s.
+    /// this order. Replaces `exposure_ms` (giving both is an error). The preview and run.json's
+    /// exposure_s / mean figures are those of the first raw (noise_free.exr, noise_free_0001.exr,
+    /// ... one per raw); run.json lists every raw's exposure time as results.frame_exposures_s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub exposures_ms: Option<Vec<f64>>,
     /// Scene time at which the first frame's exposure starts, ms (3D scenes: what moves is
@@ -169,8 +169,12 @@ pub struct CaptureSection {
     /// A video: `frames` frames at this rate, frames per second (the frame interval 1/fps).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fps: Option<f64>,
-    /// `"global"` (default: every row integrates over the same window) or `{ rolling = {
-    /// line_time_us = 10.0, direction = "top-down" } }` (sensor row r starts r line times later).
+    /// `"global"` (default: every row integrates over the same window), `{ rolling = {
+    /// line_time_us = 10.0, direction = "top-down" } }` (sensor row r starts r line times later)
+    /// or `{ global_reset = { line_time_us = 10.0, direction = "top-down", mechanical_shutter =
+    /// false } }` (every row starts at the frame's start and row r is read r line times after
+    /// the first: it integrates that much longer; with a mechanical shutter only its dark
+    /// current does).
     #[serde(
         default,
         skip_serializing_if = "crate::timing::ShutterConfig::is_global"

@@ -41,6 +41,9 @@ pub enum Output {
     /// Y, aligned with raw.dng, and flow_next.exr ... to the next frame of a sequence (3D scenes;
     /// 2D charts have none, and it is skipped).
     Flow,
+    /// preview.gif: an animation of every frame's preview (a burst, bracket or video; a run of
+    /// one frame skips it), each frame shown for the frame interval.
+    PreviewGif,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -112,6 +115,11 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "flow.exr (flow_0001.exr ...; flow_next*.exr to the next frame): optical flow, sensor pixels, X right, Y down (3D scenes)",
             Output::Flow,
         ),
+        out(
+            "preview-gif",
+            "preview.gif: every frame's preview as an animation, shown at the frame rate (more than one frame)",
+            Output::PreviewGif,
+        ),
     ],
 };
 
@@ -132,7 +140,7 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 13] = {
+    pub const ALL: [Output; 14] = {
         let e = OUTPUTS.entries;
         [
             e[0].value,
@@ -148,6 +156,7 @@ impl Output {
             e[10].value,
             e[11].value,
             e[12].value,
+            e[13].value,
         ]
     };
 

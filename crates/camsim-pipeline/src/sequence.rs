@@ -5,7 +5,7 @@
 //! grid. A 2D chart, or a 3D scene where nothing moves, is rendered once and imaged as before
 //! (the same bytes).
 
-use crate::capture::{image_owned, CaptureRequest, Imaged};
+use crate::capture::{image_owned, noise_free_dn, CaptureRequest, Imaged};
 use crate::timing::{flow_on_sensor, FrameTime};
 use crate::{render, scene_stage_with, PipelineError, Progress, Result, SimulateConfig};
 use camsim_core::SpectralImage;
@@ -38,6 +38,8 @@ pub(crate) struct Staged {
     /// Per raw frame, its window.
     pub times: Vec<FrameTime>,
     pub flow: Option<Vec<FrameFlow>>,
+    /// Per raw frame, its noise-free image (DN), when asked for.
+    pub noise_free: Option<Vec<Vec<f32>>>,
     /// Seconds in the scene stage (all renders).
     pub scene_s: f64,
     /// The scene moves: every frame was rendered in its own window.
@@ -65,18 +67,77 @@ fn exposures_of(frame: &Frame) -> Vec<f64> {
     frame.raw.iter().map(|r| r.exposure_s).collect()
 }
 
-/// Run the scene, optics and sensor stages; `flow`: compute the optical flow (3D scenes);
-/// `request`: the renderer's extra outputs (labels; a moving scene refuses them).
+/// The noise-free image of every raw frame of `frame` (exposed as they were), all from one
+/// `irradiance` (a scene that does not move); frames of the same exposure share one pass.
+fn noise_free_all(
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    frame: &Frame,
+    req: &CaptureRequest,
+) -> Result<Vec<Vec<f32>>> {
+    let mut out: Vec<Vec<f32>> = Vec::with_capacity(frame.raw.len());
+    for (i, raw) in frame.raw.iter().enumerate() {
+        let same = i > 0 && frame.raw[i - 1].exposure_s == raw.exposure_s;
+        let nf = if same {
+            out[i - 1].clone()
+        } else {
+            noise_free_dn(sensor, irradiance, raw.exposure_s, req.global_reset)?
+        };
+        out.push(nf);
+    }
+    Ok(out)
+}
+
+/// Auto-exposure of a moving scene: the exposure is what the camera meters on a preview of the
+/// scene (a render over the scene's own shutter window, pbrt's `shutteropen`/`shutterclose`, at
+/// up to [`METERING_SPP`] samples per pixel, through the optics and the sensor's
+/// auto-exposure), as a camera meters on its viewfinder stream before it captures; every frame
+/// is then rendered over that exposure.
+fn metered_exposure_s(
+    scene: &SceneDescription,
+    r: &crate::RenderSection,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+    progress: &Progress<'_>,
+) -> Result<f64> {
+    let mut preview = scene.clone();
+    preview.settings.samples_per_pixel = preview.settings.samples_per_pixel.min(METERING_SPP);
+    preview.settings.time.shutter.rolling = None;
+    preview.settings.time.flow_intervals_s = Vec::new();
+    let out = render::render_stage(
+        &preview,
+        r,
+        &camsim_render::RenderRequest::default(),
+        progress,
+    )?;
+    let one = CaptureRequest {
+        bracket_s: None,
+        frames: 1,
+        global_reset: None,
+        ..req.clone()
+    };
+    let (_, im, _) = image_owned(out.radiance, optics, sensor, &one)?;
+    Ok(im.frame.exposure_s)
+}
+
+/// Samples per pixel of the metering render of [`metered_exposure_s`] (at most the scene's).
+const METERING_SPP: u32 = 16;
+
+/// Run the scene, optics and sensor stages: `opts.flow` computes the optical flow (3D scenes),
+/// `opts.noise_free` every frame's noise-free image; `request`: the renderer's extra outputs
+/// (labels; a moving scene refuses them).
 pub(crate) fn stage(
     cfg: &SimulateConfig,
     sensor: &Sensor,
     optics: &Optics,
     req: &CaptureRequest,
-    flow: bool,
+    opts: &crate::SimulateOptions,
     request: &camsim_render::RenderRequest,
     progress: &Progress<'_>,
 ) -> Result<Staged> {
     cfg.capture.check_timing()?;
+    let flow = opts.flow;
     let t = Instant::now();
     progress("scene", 0, 1);
     let Some(r) = &cfg.render else {
@@ -85,6 +146,10 @@ pub(crate) fn stage(
         progress("optics", 0, 1);
         let (radiance, imaged, map) = image_owned(st.image, optics, sensor, req)?;
         let times = cfg.capture.frame_times(&exposures_of(&imaged.frame), 0.0)?;
+        let noise_free = opts
+            .noise_free
+            .then(|| noise_free_all(sensor, &imaged.irradiance, &imaged.frame, req))
+            .transpose()?;
         return Ok(Staged {
             radiance,
             ids: st.ids,
@@ -94,6 +159,7 @@ pub(crate) fn stage(
             imaged,
             times,
             flow: None,
+            noise_free,
             scene_s,
             moving: false,
         });
@@ -119,6 +185,10 @@ pub(crate) fn stage(
                 })
                 .collect()
         });
+        let noise_free = opts
+            .noise_free
+            .then(|| noise_free_all(sensor, &imaged.irradiance, &imaged.frame, req))
+            .transpose()?;
         return Ok(Staged {
             radiance,
             ids: Some(out.ids),
@@ -128,6 +198,7 @@ pub(crate) fn stage(
             imaged,
             times,
             flow,
+            noise_free,
             scene_s,
             moving: false,
         });
@@ -141,14 +212,19 @@ pub(crate) fn stage(
             "training-data labels are not supported for a moving 3D scene yet: leave instances, normals, albedo, boxes, depth and ids out of --save (or the labels of the Python call), or make the scene static",
         ));
     }
+    let mut scene_s = 0.0;
     let durations: Vec<f64> = match (&req.bracket_s, req.exposure) {
         (Some(b), _) => b
             .iter()
             .flat_map(|t| std::iter::repeat_n(*t, req.frames))
             .collect(),
         (None, Exposure::Seconds(t)) => vec![t; req.frames],
-        // Auto-exposure: the scene's own shutter length (the exposure is not known yet).
-        (None, Exposure::Auto { .. }) => vec![shutter.close_s - shutter.open_s; req.frames],
+        (None, Exposure::Auto { .. }) => {
+            let t = Instant::now();
+            let metered = metered_exposure_s(&scene, r, optics, sensor, req, progress)?;
+            scene_s += t.elapsed().as_secs_f64();
+            vec![metered; req.frames]
+        }
     };
     let times = cfg.capture.frame_times(&durations, shutter.open_s)?;
     scene.settings.time.shutter.rolling =
@@ -156,7 +232,6 @@ pub(crate) fn stage(
             .shutter
             .row_readout(sensor.rows(), scene.camera.height, k);
     let (rows, cols) = (sensor.rows(), sensor.cols());
-    let mut scene_s = 0.0;
     let (mut optics_s, mut sensor_s) = (0.0, 0.0);
     let mut first: Option<(
         Option<SpectralImage>,
@@ -165,6 +240,7 @@ pub(crate) fn stage(
         Frame,
     )> = None;
     let mut flows = Vec::new();
+    let mut noise_free = Vec::new();
     for (i, w) in times.iter().enumerate() {
         let next = times.get(i + 1).map(|n| n.start_s - w.start_s);
         let time = &mut scene.settings.time;
@@ -184,14 +260,9 @@ pub(crate) fn stage(
                 to_next: out.flow.get(1).map(|m| flow_on_sensor(m, k, rows, cols)),
             });
         }
-        // Frame 0 resolves auto-exposure; the others keep its time (or their bracket's).
-        let exposure = match (&first, &req.bracket_s) {
-            (None, None) => req.exposure,
-            (Some((_, _, _, f0)), None) => Exposure::Seconds(f0.exposure_s),
-            (_, Some(_)) => Exposure::Seconds(durations[i]),
-        };
+        // Every frame is exposed for its own window (auto-exposure was metered above).
         let one = CaptureRequest {
-            exposure,
+            exposure: Exposure::Seconds(durations[i]),
             bracket_s: None,
             frames: 1,
             first_frame: i as u64,
@@ -201,6 +272,16 @@ pub(crate) fn stage(
         let (radiance, im, _) = image_owned(out.radiance, optics, sensor, &one)?;
         optics_s += im.optics_s;
         sensor_s += im.sensor_s;
+        if opts.noise_free {
+            let t = Instant::now();
+            noise_free.push(noise_free_dn(
+                sensor,
+                &im.irradiance,
+                durations[i],
+                req.global_reset,
+            )?);
+            sensor_s += t.elapsed().as_secs_f64();
+        }
         match &mut first {
             None => first = Some((radiance, out.ids, im.irradiance, im.frame)),
             Some((_, _, _, f0)) => {
@@ -226,6 +307,7 @@ pub(crate) fn stage(
         },
         times,
         flow: flow.then_some(flows),
+        noise_free: opts.noise_free.then_some(noise_free),
         scene_s,
         moving: true,
     })

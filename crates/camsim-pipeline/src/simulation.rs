@@ -1,7 +1,7 @@
 //! The whole pipeline in memory ([`simulate`] -> [`Simulation`]) and, as a separate step, its
 //! files ([`Simulation::write`]).
 
-use crate::capture::{frame_suffix, noise_free_dn, Imaged};
+use crate::capture::{frame_suffix, Imaged};
 use crate::outputs::{Output, OutputSet};
 use crate::records::{raw_png_note, RunRecord, RunResults};
 use crate::sequence::FrameFlow;
@@ -69,10 +69,11 @@ pub struct Simulation {
     pub irradiance: SpectralImage,
     /// The raw frames (ADC values, DN; black and white level in each).
     pub frames: Vec<RawImage>,
-    /// With [`SimulateOptions::noise_free`]: the ADC value each pixel would read without shot,
-    /// read, DSNU and PRNU noise and without quantization, the mean dark signal included (DN,
-    /// row-major, f32): the mean the raw frames scatter around.
-    pub noise_free_dn: Option<Vec<f32>>,
+    /// With [`SimulateOptions::noise_free`], per raw frame (file order): the ADC value each
+    /// pixel would read without shot, read, DSNU and PRNU noise and without quantization, the
+    /// mean dark signal included (DN, row-major, f32): the mean the frame scatters around (a
+    /// moving scene's frames each their own; a bracket's each at its exposure).
+    pub noise_free_dn: Option<Vec<Vec<f32>>>,
     /// The preview: bilinear demosaic of the first frame, colour-corrected to sRGB.
     pub preview: Rgb8Image,
     /// Exposure time used, s.
@@ -114,7 +115,8 @@ pub fn simulate(
             sensor.name()
         )));
     }
-    let request = cfg.capture_request()?;
+    let mut request = cfg.capture_request()?;
+    request.global_reset = cfg.capture.shutter.sensor_global_reset(sensor.rows());
     let mut times = serde_json::Map::new();
     let lap = |times: &mut serde_json::Map<String, serde_json::Value>, name: &str, t: Instant| {
         times.insert(name.into(), t.elapsed().as_secs_f64().into());
@@ -140,6 +142,7 @@ pub fn simulate(
             },
         times: frame_times,
         flow,
+        noise_free: noise_free_dn,
         scene_s,
         moving,
     } = crate::sequence::stage(
@@ -147,7 +150,7 @@ pub fn simulate(
         &sensor,
         &optics,
         &request,
-        opts.flow,
+        opts,
         &render_request,
         progress,
     )?;
@@ -169,16 +172,7 @@ pub fn simulate(
         lap(&mut times, "labels_s", t);
     }
 
-    let t = Instant::now();
-    let noise_free_dn = if opts.noise_free {
-        Some(noise_free_dn(&sensor, &irradiance, frame.exposure_s)?)
-    } else {
-        None
-    };
-    times.insert(
-        "sensor_s".into(),
-        (sensor_s + t.elapsed().as_secs_f64()).into(),
-    );
+    times.insert("sensor_s".into(), sensor_s.into());
 
     let t = Instant::now();
     progress("isp", 0, 1);
@@ -254,6 +248,32 @@ fn mean_dn_per_channel(raw: &RawImage) -> [f64; 3] {
 }
 
 impl Simulation {
+    /// Raw frame `i`'s noise-free image (DN, row-major), with [`SimulateOptions::noise_free`].
+    pub fn noise_free_frame(&self, i: usize) -> Option<&[f32]> {
+        self.noise_free_dn.as_ref()?.get(i).map(|v| v.as_slice())
+    }
+
+    /// Every raw frame's preview (the ISP of the run's config: what [`Simulation::preview`] is
+    /// for the first frame).
+    pub fn frame_previews(&self) -> Result<Vec<Rgb8Image>> {
+        let sensor = self.config.sensor()?;
+        let isp = Isp::for_config(&self.config)?;
+        self.frames
+            .iter()
+            .map(|raw| Ok(isp.compute(raw, &sensor)?.preview))
+            .collect()
+    }
+
+    /// How long each frame of preview.gif is shown, ms: the first frame interval (10 ms
+    /// minimum, GIF's unit is 10 ms), or 100 ms for a single instant.
+    pub fn gif_delay_ms(&self) -> u32 {
+        let dt_s = match self.frame_times.as_slice() {
+            [a, b, ..] => b.start_s - a.start_s,
+            _ => 0.1,
+        };
+        ((dt_s * 1e3).round() as u32).max(10)
+    }
+
     /// The image the scene stage made: the radiance, or a lens camera's irradiance (which also
     /// carries the depth map and the wavelength grid then).
     pub fn scene_image(&self) -> &SpectralImage {
@@ -388,10 +408,21 @@ impl Simulation {
             };
             files.insert("flow.exr".into(), note.into());
         }
+        if outputs.contains(Output::PreviewGif) {
+            let note = if self.frames.len() > 1 {
+                format!(
+                    "every frame's preview as an animation, {} ms per frame (256 colours per frame: for viewing)",
+                    self.gif_delay_ms()
+                )
+            } else {
+                "not written: the run has one frame".into()
+            };
+            files.insert("preview.gif".into(), note.into());
+        }
         if outputs.contains(Output::NoiseFree) {
             files.insert(
                 "noise_free.exr".into(),
-                "expected ADC value per pixel without noise or quantization, DN (channel Y)".into(),
+                "expected ADC value per pixel without noise or quantization, DN (channel Y); one per raw frame (noise_free.exr, noise_free_0001.exr, ...)".into(),
             );
         }
         files
@@ -474,18 +505,22 @@ impl Simulation {
             if let Some(l) = &self.labels {
                 t.push(Box::new(move || l.write(out.path(), outputs)));
             }
-            if outputs.contains(Output::NoiseFree) {
-                t.push(Box::new(move || {
-                    let raw0 = &self.frames[0];
-                    let nf = self.noise_free_dn.as_deref().unwrap_or_default();
-                    Ok(camsim_io::exr::write_gray_exr(
-                        &out.join("noise_free.exr"),
-                        raw0.rows,
-                        raw0.cols,
-                        "Y",
-                        nf,
-                    )?)
-                }));
+            if let (true, Some(nfs)) = (
+                outputs.contains(Output::NoiseFree),
+                self.noise_free_dn.as_ref(),
+            ) {
+                let (rows, cols) = (self.frames[0].rows, self.frames[0].cols);
+                for (i, nf) in nfs.iter().enumerate() {
+                    t.push(Box::new(move || {
+                        Ok(camsim_io::exr::write_gray_exr(
+                            &out.join(format!("noise_free{}.exr", frame_suffix(i))),
+                            rows,
+                            cols,
+                            "Y",
+                            nf,
+                        )?)
+                    }));
+                }
             }
             if let (true, Some(flows)) = (outputs.contains(Output::Flow), self.flow.as_ref()) {
                 let (rows, cols) = (self.frames[0].rows, self.frames[0].cols);
@@ -521,6 +556,20 @@ impl Simulation {
                         raw0.cols,
                         &raw0.dn,
                         raw0.bits,
+                    )?)
+                }));
+            }
+            if outputs.contains(Output::PreviewGif) && self.frames.len() > 1 {
+                t.push(Box::new(move || {
+                    let previews = self.frame_previews()?;
+                    let p = &previews[0];
+                    let data: Vec<&[u8]> = previews.iter().map(|p| p.data.as_slice()).collect();
+                    Ok(camsim_io::raster::write_gif_rgb(
+                        &out.join("preview.gif"),
+                        p.rows,
+                        p.cols,
+                        &data,
+                        self.gif_delay_ms(),
                     )?)
                 }));
             }

@@ -15,7 +15,8 @@ use crate::{CaptureSection, PipelineError, Result};
 use camsim_scene3d::motion::RowReadout;
 use serde::{Deserialize, Serialize};
 
-/// `[capture] shutter`: `"global"` or `{ rolling = { line_time_us, direction } }`.
+/// `[capture] shutter`: `"global"`, `{ rolling = { line_time_us, direction } }` or
+/// `{ global_reset = { line_time_us, direction, mechanical_shutter } }`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShutterConfig {
@@ -29,6 +30,24 @@ pub enum ShutterConfig {
         /// Which sensor row starts first.
         #[serde(default)]
         direction: ReadoutDirection,
+    },
+    /// Global reset, rolling readout (a CMOS sensor's "global reset release" mode): every row
+    /// starts integrating at the frame's start, rows are read one line time apart; the first
+    /// row read integrates the exposure, each later one its readout delay longer. With a
+    /// mechanical shutter closing for every row at the end of the exposure, every row sees the
+    /// same light (the global shutter's image) and row r's dark current integrates its readout
+    /// delay longer. Hamamatsu camera glossary, "Global reset trigger mode"; FLIR Spinnaker
+    /// `SensorShutterMode_GlobalReset` ("opens at the same time for all pixels but ends in a
+    /// sequential manner").
+    GlobalReset {
+        /// Time between the readouts of two consecutive sensor rows, us.
+        line_time_us: f64,
+        /// Which sensor row is read first.
+        #[serde(default)]
+        direction: ReadoutDirection,
+        /// A mechanical shutter ends the light for every row at the end of the exposure.
+        #[serde(default)]
+        mechanical_shutter: bool,
     },
 }
 
@@ -53,19 +72,67 @@ impl ShutterConfig {
     pub fn line_time_s(&self) -> f64 {
         match self {
             ShutterConfig::Global => 0.0,
-            ShutterConfig::Rolling { line_time_us, .. } => line_time_us * 1e-6,
+            ShutterConfig::Rolling { line_time_us, .. }
+            | ShutterConfig::GlobalReset { line_time_us, .. } => line_time_us * 1e-6,
+        }
+    }
+
+    /// The readout direction (`None` for the global shutter).
+    fn direction(&self) -> Option<ReadoutDirection> {
+        match self {
+            ShutterConfig::Global => None,
+            ShutterConfig::Rolling { direction, .. }
+            | ShutterConfig::GlobalReset { direction, .. } => Some(*direction),
+        }
+    }
+
+    /// The variant's key in the config.
+    fn key(&self) -> &'static str {
+        match self {
+            ShutterConfig::Global => "global",
+            ShutterConfig::Rolling { .. } => "rolling",
+            ShutterConfig::GlobalReset { .. } => "global_reset",
         }
     }
 
     fn validate(&self) -> Result<()> {
-        if let ShutterConfig::Rolling { line_time_us, .. } = self {
-            if !(line_time_us.is_finite() && *line_time_us >= 0.0) {
-                return Err(PipelineError::config(format!(
-                    "capture.shutter.rolling.line_time_us = {line_time_us}: must be a time >= 0 us"
-                )));
-            }
+        let lt = self.line_time_s() * 1e6;
+        if !(lt.is_finite() && lt >= 0.0) {
+            return Err(PipelineError::config(format!(
+                "capture.shutter.{}.line_time_us = {lt}: must be a time >= 0 us",
+                self.key()
+            )));
         }
         Ok(())
+    }
+
+    /// The readout delay of each stored sensor row (raw.dng's orientation) as `(delay of row 0,
+    /// delay per row)`, s: the row read first has none. A top-down readout starts at the
+    /// sensor's top row, which the lens points at the bottom of the scene (the last stored
+    /// row). `None` for the global shutter.
+    fn stored_row_delays_s(&self, sensor_rows: usize) -> Option<(f64, f64)> {
+        let lt = self.line_time_s();
+        let last = sensor_rows.saturating_sub(1) as f64;
+        Some(match self.direction()? {
+            ReadoutDirection::TopDown => (lt * last, -lt),
+            ReadoutDirection::BottomUp => (0.0, lt),
+        })
+    }
+
+    /// What the sensor integrates per row in a global-reset mode (`None` otherwise).
+    pub fn sensor_global_reset(&self, sensor_rows: usize) -> Option<camsim_sensor::GlobalReset> {
+        let ShutterConfig::GlobalReset {
+            mechanical_shutter, ..
+        } = self
+        else {
+            return None;
+        };
+        let (row0, per_row) = self.stored_row_delays_s(sensor_rows)?;
+        Some(camsim_sensor::GlobalReset {
+            row0_extra_s: row0,
+            per_row_extra_s: per_row,
+            mechanical_shutter: *mechanical_shutter,
+        })
     }
 
     /// The delay of each render row for a sensor of `sensor_rows` rows imaged by a render
@@ -79,9 +146,17 @@ impl ShutterConfig {
         render_rows: usize,
         k: f64,
     ) -> Option<RowReadout> {
-        let ShutterConfig::Rolling { direction, .. } = self else {
-            return None;
+        let global_reset = match self {
+            ShutterConfig::Global => return None,
+            ShutterConfig::Rolling { .. } => false,
+            // The light stops for every row at once: the render is the global shutter's.
+            ShutterConfig::GlobalReset {
+                mechanical_shutter: true,
+                ..
+            } => return None,
+            ShutterConfig::GlobalReset { .. } => true,
         };
+        let direction = self.direction()?;
         let lt = self.line_time_s();
         let (rows, h) = (sensor_rows as f64, render_rows as f64);
         // Stored row of render row y: a + k y.
@@ -91,29 +166,38 @@ impl ShutterConfig {
             ReadoutDirection::TopDown => RowReadout {
                 row0_delay_s: lt * (rows - 1.0 - a),
                 per_row_delay_s: -lt * k,
+                global_reset,
             },
             ReadoutDirection::BottomUp => RowReadout {
                 row0_delay_s: lt * a,
                 per_row_delay_s: lt * k,
+                global_reset,
             },
         })
     }
 
     /// For run.json: the shutter, its line time and readout time over `rows` rows.
     pub fn describe(&self, rows: usize) -> serde_json::Value {
-        match self {
-            ShutterConfig::Global => serde_json::json!({ "kind": "global" }),
-            ShutterConfig::Rolling { direction, .. } => serde_json::json!({
-                "kind": "rolling",
-                "direction": direction,
-                "line_time_s": self.line_time_s(),
-                "readout_s": self.line_time_s() * rows.saturating_sub(1) as f64,
-                "first_row": match direction {
-                    ReadoutDirection::TopDown => "the sensor's top row: the bottom of the scene, raw.dng's last row",
-                    ReadoutDirection::BottomUp => "the sensor's bottom row: the top of the scene, raw.dng's row 0",
-                },
-            }),
+        let Some(direction) = self.direction() else {
+            return serde_json::json!({ "kind": "global" });
+        };
+        let mut v = serde_json::json!({
+            "kind": self.key(),
+            "direction": direction,
+            "line_time_s": self.line_time_s(),
+            "readout_s": self.line_time_s() * rows.saturating_sub(1) as f64,
+            "first_row": match direction {
+                ReadoutDirection::TopDown => "the sensor's top row: the bottom of the scene, raw.dng's last row",
+                ReadoutDirection::BottomUp => "the sensor's bottom row: the top of the scene, raw.dng's row 0",
+            },
+        });
+        if let ShutterConfig::GlobalReset {
+            mechanical_shutter, ..
+        } = self
+        {
+            v["mechanical_shutter"] = (*mechanical_shutter).into();
         }
+        v
     }
 }
 

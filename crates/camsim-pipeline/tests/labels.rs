@@ -101,7 +101,7 @@ AttributeEnd
 fn edge_offsets(sim: &camsim_pipeline::Simulation) -> (f64, f64) {
     let labels = sim.labels.as_ref().unwrap();
     let (w, h) = (labels.sensor.width, labels.sensor.height);
-    let nf = sim.noise_free_dn.as_ref().unwrap();
+    let nf = sim.noise_free_frame(0).unwrap();
     let (mut worst, mut sum, mut n) = (0f64, 0f64, 0);
     for y in (8..h - 8).step_by(3) {
         let row = &labels.sensor.instance_id[y * w..(y + 1) * w];

@@ -53,8 +53,8 @@ fn weighted_groups_equal_scaled_lights_through_the_pipeline() {
     let weighted = run("light_groups = { sky = 2.0, lamp = 2.0 }").unwrap();
     let scaled = run("[render.overlay_inline.light]\nradiance_scale = 2.0").unwrap();
     let (a, b) = (
-        weighted.noise_free_dn.as_ref().unwrap(),
-        scaled.noise_free_dn.as_ref().unwrap(),
+        weighted.noise_free_frame(0).unwrap(),
+        scaled.noise_free_frame(0).unwrap(),
     );
     let worst = a
         .iter()
@@ -67,8 +67,8 @@ fn weighted_groups_equal_scaled_lights_through_the_pipeline() {
     let night = run("light_groups = { sky = 0.0 }").unwrap();
     let plain = run("").unwrap();
     let (n, p) = (
-        night.noise_free_dn.as_ref().unwrap(),
-        plain.noise_free_dn.as_ref().unwrap(),
+        night.noise_free_frame(0).unwrap(),
+        plain.noise_free_frame(0).unwrap(),
     );
     let (sn, sp): (f64, f64) = (
         n.iter().map(|v| *v as f64).sum(),

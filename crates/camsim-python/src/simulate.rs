@@ -145,15 +145,29 @@ impl PySimulation {
     fn exposure_s(&self) -> f64 {
         self.inner.exposure_s
     }
-    /// The expected ADC value per pixel without noise or quantization, (rows, cols) float32 DN;
-    /// None unless simulate(..., noise_free=True).
+    /// The expected ADC value per pixel of the first frame without noise or quantization,
+    /// (rows, cols) float32 DN; None unless simulate(..., noise_free=True).
     #[getter]
     fn noise_free<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let r = &self.inner.frames[0];
         self.inner
+            .noise_free_frame(0)
+            .map(|v| array(py, v, &[r.rows, r.cols]))
+            .transpose()
+    }
+    /// The same for every raw frame, (frames, rows, cols) float32 DN (a moving scene's frames
+    /// each at its own time, a bracket's each at its exposure); None unless
+    /// simulate(..., noise_free=True).
+    #[getter]
+    fn noise_free_frames<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.frames[0];
+        self.inner
             .noise_free_dn
             .as_ref()
-            .map(|v| array(py, v, &[r.rows, r.cols]))
+            .map(|f| {
+                let v: Vec<f32> = f.iter().flatten().copied().collect();
+                array(py, &v, &[f.len(), r.rows, r.cols])
+            })
             .transpose()
     }
     /// Each raw frame's window in the scene's time, (frames, 2) float64: start and duration, s

@@ -27,6 +27,10 @@ def test_simulate_returns_every_stage_as_numpy_arrays():
     assert sim.preview.shape == (48, 64, 3) and sim.preview.dtype == np.uint8
     assert sim.depth is None and sim.object_id is None and sim.ids_legend is None  # a 2D chart
     assert sim.noise_free.shape == (48, 64)
+    # One noise-free image per frame (a static chart: both the same, the first is noise_free).
+    assert sim.noise_free_frames.shape == (2, 48, 64)
+    assert np.array_equal(sim.noise_free_frames[0], sim.noise_free)
+    assert np.array_equal(sim.noise_free_frames[1], sim.noise_free)
     # Physical values: radiance and irradiance non-negative, the raw within the ADC's range.
     assert sim.radiance.min() >= 0 and sim.irradiance.min() >= 0
     assert sim.raw.max() <= sim.white_level

@@ -311,6 +311,7 @@ fn rolling_shutter_skews_a_moving_bar_by_v_times_line_time() {
     let rolling = with(Some(RowReadout {
         row0_delay_s: 0.0,
         per_row_delay_s: line_s,
+        global_reset: false,
     }));
     let skew = slope(&row_centroids(&rolling, w, h));
     assert!(
@@ -324,10 +325,61 @@ fn rolling_shutter_skews_a_moving_bar_by_v_times_line_time() {
     let zero_line = with(Some(RowReadout {
         row0_delay_s: 0.0,
         per_row_delay_s: 0.0,
+        global_reset: false,
     }));
     assert!(
         global == zero_line,
         "line time 0 must equal the global shutter"
+    );
+}
+
+/// A global reset read row by row (rows 50 us apart, top row first): every row starts when the
+/// shutter opens and row y integrates T + y x line time, so a bar moving right at v is smeared
+/// over v (T + y line time) in row y: its trailing edge stays put, its centroid moves by
+/// v x line time / 2 per row (a rolling shutter's skew is v x line time), its 10-90 % edge
+/// widens by 0.8 v x line time per row, and each row's time average keeps the bar's width.
+#[test]
+fn global_reset_smears_each_row_over_its_own_integration() {
+    let (w, h) = (128, 64);
+    let (v, exposure_s, line_s) = (4000.0, 2e-3, 50e-6);
+    let mut t = moving(0, velocity_px(v, 0.0), 0.0, exposure_s);
+    t.shutter.rolling = Some(RowReadout {
+        row0_delay_s: 0.0,
+        per_row_delay_s: line_s,
+        global_reset: true,
+    });
+    // The bar's left edge starts 24 px from the left (the centre minus 40), 32 px wide.
+    let img = image(&scene(w, h, vec![bar(-40.0, -8.0, -40.0, 40.0)], 32, t));
+    let c = row_centroids(&img, w, h);
+    let skew = slope(&c);
+    assert!(
+        (skew - v * line_s / 2.0).abs() < 0.005,
+        "centroid moves {skew} px/row, want {}",
+        v * line_s / 2.0
+    );
+    // Row y's centroid: 24 + 16 + v (T + y line time) / 2.
+    for (y, cy) in c.iter().enumerate() {
+        let want = 40.0 + v * (exposure_s + y as f64 * line_s) / 2.0;
+        assert!(
+            (cy - want).abs() < 0.15,
+            "row {y}: centroid {cy}, want {want}"
+        );
+    }
+    let integral = img.iter().sum::<f64>() / h as f64;
+    assert!((integral - 32.0).abs() < 0.1, "row integral {integral}");
+    // The trailing edge's foot (where the time average first rises through 2 %) stays at 24
+    // px within the 2 % of the ramp; the ramp widens row by row.
+    let band = |rows: std::ops::Range<usize>| row_profile(&img, w, rows);
+    let (top, bottom) = (band(0..8), band(56..64));
+    for p in [&top, &bottom] {
+        let foot = rise(p, 0.02, 0);
+        assert!((foot - 24.0).abs() < 0.5, "trailing edge foot at {foot} px");
+    }
+    let grow = edge_10_90(&bottom, 1.0) - edge_10_90(&top, 1.0);
+    let want = 0.8 * v * line_s * 56.0;
+    assert!(
+        (grow - want).abs() < 0.4,
+        "edge widens by {grow} px over 56 rows, want {want}"
     );
 }
 
@@ -357,6 +409,7 @@ fn static_scenes_ignore_the_shutter() {
             rolling: Some(RowReadout {
                 row0_delay_s: 0.01,
                 per_row_delay_s: 1e-3,
+                global_reset: false,
             }),
         },
         shapes: vec![(0, Motion::single(velocity_px(0.0, 0.0)))],

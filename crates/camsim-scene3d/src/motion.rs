@@ -346,16 +346,22 @@ impl Motion {
     }
 }
 
-/// The rows of a rolling shutter as the renderer sees them: render row `y` (0 at the top of the
-/// image) starts integrating `row0_delay_s + per_row_delay_s * y` after the shutter opens, and
-/// integrates for the shutter's length. The pipeline derives both from the sensor's line time,
-/// its readout direction and the optics' mapping of sensor rows to render rows.
+/// The rows of a row-by-row readout as the renderer sees them: render row `y` (0 at the top of
+/// the image) is delayed by `row0_delay_s + per_row_delay_s * y`. A rolling shutter shifts the
+/// row's whole window by it (the row integrates for the shutter's length, later); a global
+/// reset read row by row (`global_reset`) starts every row when the shutter opens and ends the
+/// row's window that much later (the row integrates longer; the render is the time average over
+/// the row's window, and the sensor integrates it over the row's own time). The pipeline
+/// derives the delays from the sensor's line time, its readout direction and the optics'
+/// mapping of sensor rows to render rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RowReadout {
     /// Delay of render row 0, s.
     pub row0_delay_s: f64,
     /// Delay added per render row, s (negative when the readout runs from the bottom up).
     pub per_row_delay_s: f64,
+    /// Every row starts at the shutter's opening; only its end is delayed.
+    pub global_reset: bool,
 }
 
 /// When the camera rays sample the scene: pbrt-v4's `shutteropen`/`shutterclose` (each camera
@@ -366,7 +372,8 @@ pub struct Shutter {
     pub open_s: f64,
     /// Window end, s (pbrt-v4 `shutterclose`, default 1).
     pub close_s: f64,
-    /// A rolling shutter: each row's window is shifted by its delay.
+    /// A row-by-row readout (a rolling shutter, or a global reset read row by row): each row's
+    /// window is delayed ([`RowReadout`]).
     pub rolling: Option<RowReadout>,
 }
 
@@ -384,10 +391,14 @@ impl Shutter {
     /// The window `[start, end]` of render row `y`, s.
     #[inline]
     pub fn row_window_s(&self, y: usize) -> (f64, f64) {
-        let d = self
-            .rolling
-            .map_or(0.0, |r| r.row0_delay_s + r.per_row_delay_s * y as f64);
-        (self.open_s + d, self.close_s + d)
+        match self.rolling {
+            None => (self.open_s, self.close_s),
+            Some(r) => {
+                let d = r.row0_delay_s + r.per_row_delay_s * y as f64;
+                let start = if r.global_reset { 0.0 } else { d };
+                (self.open_s + start, self.close_s + d)
+            }
+        }
     }
 
     /// The earliest start and latest end over rows `0..height`, s.

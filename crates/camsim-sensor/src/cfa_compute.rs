@@ -103,6 +103,7 @@ impl Sensor {
         rows: usize,
         cols: usize,
         exposure_s: f64,
+        global_reset: Option<&crate::compute::GlobalReset>,
     ) -> Vec<f64> {
         let nf = layout.filters().len();
         let row_sums: Vec<Vec<f64>> = rate
@@ -110,8 +111,9 @@ impl Sensor {
             .enumerate()
             .map(|(r, row)| {
                 let mut s = vec![0.0f64; nf];
+                let light_s = crate::compute::row_weight_s(global_reset, r, exposure_s);
                 for (c, v) in row.iter().enumerate() {
-                    s[layout.filter_at(r, c)] += *v as f64;
+                    s[layout.filter_at(r, c)] += *v as f64 * light_s;
                 }
                 s
             })
@@ -122,13 +124,19 @@ impl Sensor {
                 *a += b;
             }
         }
-        let dark_e = self.dark_electrons(exposure_s);
+        let dark_e =
+            self.dark_electrons(crate::compute::mean_dark_s(global_reset, rows, exposure_s));
+        let per_pixel_s = if global_reset.is_some() {
+            1.0
+        } else {
+            exposure_s
+        };
         let counts = layout.pixel_counts(rows, cols);
         sums.iter()
             .zip(&counts)
             .map(|(s, &n)| {
                 if n > 0 {
-                    s / n as f64 * exposure_s + dark_e
+                    s / n as f64 * per_pixel_s + dark_e
                 } else {
                     0.0
                 }

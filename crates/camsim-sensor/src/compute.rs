@@ -50,6 +50,68 @@ pub struct Capture {
     pub frames: usize,
     /// Seed of the temporal noise (shot, read). The fixed pattern uses the sensor's own seed.
     pub seed: u64,
+    /// A global-reset sensor mode read out row by row (`None`: every row integrates the
+    /// exposure, as a global or rolling shutter does).
+    pub global_reset: Option<GlobalReset>,
+}
+
+/// A global-reset / rolling-readout capture (a CMOS sensor's "global reset release" mode): every
+/// row is reset at the same instant and starts integrating, and the rows are then read one
+/// after another, row r `extra(r)` after the first one read. Hamamatsu's camera glossary
+/// ("Global reset trigger mode"): the first line exposes for the set exposure time, each later
+/// line for the exposure time plus its readout delay. With a mechanical shutter that closes
+/// for every row at the end of the exposure (the classic still-camera cycle, Kodak/Foveon F7
+/// "global reset ... uses an external mechanical shutter"), light stops for all rows at once,
+/// but the photodiode's dark current keeps integrating until its row is read: every row sees
+/// the same light and row r `extra(r)` more dark charge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlobalReset {
+    /// Readout delay of stored row 0 (raw.dng's top row) after the first row read, s.
+    pub row0_extra_s: f64,
+    /// Readout delay added per stored row, s (negative when the bottom row is read first).
+    pub per_row_extra_s: f64,
+    /// A mechanical shutter ends the light for every row at the end of the exposure.
+    pub mechanical_shutter: bool,
+}
+
+impl GlobalReset {
+    /// The readout delay of stored row `r`, s.
+    #[inline]
+    pub fn extra_s(&self, r: usize) -> f64 {
+        self.row0_extra_s + self.per_row_extra_s * r as f64
+    }
+
+    /// (light, dark) integration times of stored row `r` for an exposure of `exposure_s`, s.
+    #[inline]
+    pub fn row_times_s(&self, r: usize, exposure_s: f64) -> (f64, f64) {
+        let dark = exposure_s + self.extra_s(r);
+        let light = if self.mechanical_shutter {
+            exposure_s
+        } else {
+            dark
+        };
+        (light, dark)
+    }
+}
+
+/// The mean over `rows` rows of their dark integration times, s.
+pub(crate) fn mean_dark_s(g: Option<&GlobalReset>, rows: usize, exposure_s: f64) -> f64 {
+    g.map_or(exposure_s, |g| {
+        exposure_s + g.row0_extra_s + g.per_row_extra_s * rows.saturating_sub(1) as f64 / 2.0
+    })
+}
+
+/// The weight of stored row `r`'s electron rates in a mean: 1 without a global reset (the mean
+/// is then multiplied by the exposure, as it always was), its light time with one.
+pub(crate) fn row_weight_s(g: Option<&GlobalReset>, r: usize, exposure_s: f64) -> f64 {
+    g.map_or(1.0, |g| g.row_times_s(r, exposure_s).0)
+}
+
+/// (light, dark) integration times of stored row `r`: the exposure for both unless a global
+/// reset extends them.
+#[inline]
+fn row_times_s(g: Option<&GlobalReset>, r: usize, exposure_s: f64) -> (f64, f64) {
+    g.map_or((exposure_s, exposure_s), |g| g.row_times_s(r, exposure_s))
 }
 
 impl Default for Capture {
@@ -58,6 +120,7 @@ impl Default for Capture {
             exposure: Exposure::default(),
             frames: 1,
             seed: 0,
+            global_reset: None,
         }
     }
 }
@@ -69,6 +132,7 @@ impl Capture {
             exposure: Exposure::Seconds(exposure_s),
             frames: 1,
             seed: 0,
+            global_reset: None,
         }
     }
     /// One auto-exposed frame (99th percentile at 90 % of the swing) with seed 0.
@@ -83,6 +147,11 @@ impl Capture {
     /// The same capture with temporal-noise seed `seed`.
     pub fn with_seed(mut self, seed: u64) -> Capture {
         self.seed = seed;
+        self
+    }
+    /// The same capture in a global-reset mode.
+    pub fn with_global_reset(mut self, global_reset: Option<GlobalReset>) -> Capture {
+        self.global_reset = global_reset;
         self
     }
 }
@@ -283,6 +352,21 @@ impl Sensor {
         frames_per_exposure: usize,
         seed: u64,
     ) -> Result<Frame> {
+        let like = Capture::default()
+            .with_frames(frames_per_exposure)
+            .with_seed(seed);
+        self.compute_bracket_like(irradiance, exposures_s, &like)
+    }
+
+    /// [`Sensor::compute_bracket`] with `like`'s frames per exposure, seed and global reset
+    /// (its exposure is ignored: each entry of `exposures_s` is one).
+    pub fn compute_bracket_like(
+        &self,
+        irradiance: &SpectralImage,
+        exposures_s: &[f64],
+        like: &Capture,
+    ) -> Result<Frame> {
+        let frames_per_exposure = like.frames;
         if exposures_s.is_empty() {
             return Err(SensorError::input(
                 "exposures_s",
@@ -308,8 +392,7 @@ impl Sensor {
         for (i, &t) in exposures_s.iter().enumerate() {
             let capture = Capture {
                 exposure: Exposure::Seconds(t),
-                frames: frames_per_exposure,
-                seed,
+                ..*like
             };
             let base = (i * frames_per_exposure) as u64;
             let f = self.capture_from_rate(&rate, self.rows(), self.cols(), &capture, base)?;
@@ -647,7 +730,7 @@ impl Sensor {
                             r,
                             &rate[r * cols..(r + 1) * cols],
                             exposure_s,
-                            capture.seed,
+                            capture,
                             frame_key,
                             d,
                             Some(a),
@@ -659,7 +742,7 @@ impl Sensor {
                         r,
                         &rate[r * cols..(r + 1) * cols],
                         exposure_s,
-                        capture.seed,
+                        capture,
                         frame_key,
                         d,
                         None,
@@ -672,7 +755,14 @@ impl Sensor {
             }
         }
         if let Some(layout) = &self.layout {
-            let by_filter = self.layout_mean_electrons(layout, rate, rows, cols, exposure_s);
+            let by_filter = self.layout_mean_electrons(
+                layout,
+                rate,
+                rows,
+                cols,
+                exposure_s,
+                capture.global_reset.as_ref(),
+            );
             let mut mean_electrons = [0.0; 3];
             for (c, name) in ["r", "g", "b"].iter().enumerate() {
                 if let Some(i) = layout.filter_index(name) {
@@ -690,7 +780,10 @@ impl Sensor {
         }
         // Noise-free mean electrons per channel; per-row sums then a sequential total, so the
         // figure does not depend on the thread count either.
-        let dark_e = self.dark_electrons(exposure_s);
+        // Photo-electrons per row (its light time), dark electrons at the rows' mean dark time.
+        let g = capture.global_reset.as_ref();
+        let dark_e = self.dark_electrons(mean_dark_s(g, rows, exposure_s));
+        let per_pixel_s = if g.is_some() { 1.0 } else { exposure_s };
         let row_sums: Vec<[f64; 3]> = rate
             .par_chunks(cols)
             .enumerate()
@@ -701,8 +794,9 @@ impl Sensor {
                     even += pair[0] as f64;
                     odd += pair.get(1).map_or(0.0, |v| *v as f64);
                 }
-                s[self.cfa.channel_at(r, 0).index()] += even;
-                s[self.cfa.channel_at(r, 1).index()] += odd;
+                let light_s = row_weight_s(g, r, exposure_s);
+                s[self.cfa.channel_at(r, 0).index()] += even * light_s;
+                s[self.cfa.channel_at(r, 1).index()] += odd * light_s;
                 s
             })
             .collect();
@@ -723,7 +817,7 @@ impl Sensor {
         let mut mean_electrons = [0.0; 3];
         for c in 0..3 {
             if counts[c] > 0 {
-                mean_electrons[c] = sums[c] / counts[c] as f64 * exposure_s + dark_e;
+                mean_electrons[c] = sums[c] / counts[c] as f64 * per_pixel_s + dark_e;
             }
         }
         Ok(Frame {
@@ -742,14 +836,15 @@ impl Sensor {
         r: usize,
         rate: &[f32],
         exposure_s: f64,
-        seed: u64,
+        capture: &Capture,
         frame_key: u64,
         out: &mut [u16],
         mut analog: Option<&mut [f32]>,
     ) {
         let nz = self.noise;
         let cg = self.conversion_gain_v_per_e;
-        let dark_e = self.dark_electrons(exposure_s);
+        let (light_s, dark_s) = row_times_s(capture.global_reset.as_ref(), r, exposure_s);
+        let dark_e = self.dark_electrons(dark_s);
         let read_v = if nz.read { self.read_noise_v } else { 0.0 };
         let read_var = read_v * read_v;
         let prnu = if nz.prnu { self.prnu_fraction } else { 0.0 };
@@ -769,11 +864,11 @@ impl Sensor {
             0,
             r as u64,
         );
-        let mut tr = keyed(seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
+        let mut tr = keyed(capture.seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
         let zig = Ziggurat::get();
         for (c, o) in out.iter_mut().enumerate() {
             // max(0) maps NaN (and negative input) to no light.
-            let mu_e = (rate[c] as f64 * exposure_s + dark_e).max(0.0);
+            let mu_e = (rate[c] as f64 * light_s + dark_e).max(0.0);
             let (gain_map, offset_map_v) = if fpn {
                 let z1 = zig.sample(&mut fp);
                 let z2 = zig.sample(&mut fp);
@@ -866,6 +961,14 @@ pub fn exposure_in_range(t: f64) -> bool {
 fn check_capture(capture: &Capture) -> Result<()> {
     if capture.frames == 0 {
         return Err(SensorError::input("frames", "must be at least 1"));
+    }
+    if let Some(g) = &capture.global_reset {
+        if !(g.row0_extra_s.is_finite() && g.per_row_extra_s.is_finite()) {
+            return Err(SensorError::input(
+                "global reset",
+                "the rows' readout delays are not finite",
+            ));
+        }
     }
     match capture.exposure {
         Exposure::Seconds(t) if !exposure_in_range(t) => Err(SensorError::input(

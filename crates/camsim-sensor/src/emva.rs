@@ -95,6 +95,7 @@ impl Sensor {
                 exposure: Exposure::Seconds(t),
                 frames: frames_per_level,
                 seed,
+                global_reset: None,
             };
             let base = level as u64 * 2 * f;
             let bright = self.capture_from_rate(&bright_rate, rows, cols, &capture, base)?;

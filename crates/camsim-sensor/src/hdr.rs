@@ -215,6 +215,12 @@ impl Sensor {
         if capture.frames == 0 {
             return Err(SensorError::input("frames", "must be at least 1"));
         }
+        if capture.global_reset.is_some() {
+            return Err(SensorError::input(
+                "global reset",
+                "an [hdr] sensor's global-reset readout is not modelled; use the global or rolling shutter",
+            ));
+        }
         let exposure_s = self.resolve_exposure(rate_e_per_s, rows, cols, capture.exposure)?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
             return Err(SensorError::input(

@@ -42,7 +42,7 @@ pub mod presets;
 pub mod sensor;
 
 pub use compute::{
-    exposure_in_range, Capture, Exposure, Frame, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
+    exposure_in_range, Capture, Exposure, Frame, GlobalReset, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
 };
 pub use config::{NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;

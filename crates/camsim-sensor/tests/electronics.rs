@@ -149,6 +149,7 @@ fn auto_exposure_reaches_the_target() {
                     },
                     frames: 1,
                     seed: 0,
+                    global_reset: None,
                 },
             )
             .unwrap();
@@ -203,6 +204,7 @@ fn auto_exposure_does_not_clip_a_small_patch_of_the_brightest_filter() {
                 },
                 frames: 1,
                 seed: 0,
+                global_reset: None,
             },
         )
         .unwrap();
@@ -317,6 +319,7 @@ fn bad_capture_input_is_an_error() {
                 },
                 frames: 1,
                 seed: 0,
+                global_reset: None,
             },
             "target_fraction",
         ),

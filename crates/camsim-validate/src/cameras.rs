@@ -261,6 +261,7 @@ fn capture_one(
         exposure,
         frames: 1,
         seed,
+        global_reset: None,
     };
     let imaged = camsim_pipeline::image_radiance(&radiance, &cam.optics, &sensor, &capture)?;
     let raw = imaged

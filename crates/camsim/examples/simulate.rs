@@ -19,7 +19,7 @@ fn main() -> camsim::Result<()> {
             },
             &|_, _, _| {},
         )?;
-        let nf = sim.noise_free_dn.as_deref().unwrap_or_default();
+        let nf = sim.noise_free_frame(0).unwrap_or_default();
         let mean_nf = nf.iter().map(|v| *v as f64).sum::<f64>() / nf.len().max(1) as f64;
         println!(
             "{exposure_ms:5.1} ms: mean DN r/g/b {:.1} / {:.1} / {:.1}, noise-free mean {mean_nf:.1} DN, irradiance {} x {} x {} bands",

@@ -53,7 +53,7 @@ fn simulation_in_memory_equals_its_files_bit_for_bit() {
     let (r, c, nf) =
         camsim::io::exr::read_gray_exr(&out.join("noise_free.exr"), Some("Y")).unwrap();
     assert_eq!((r, c), (48, 64));
-    assert_eq!(Some(nf.as_slice()), sim.noise_free_dn.as_deref());
+    assert_eq!(Some(nf.as_slice()), sim.noise_free_frame(0));
     // Not asked for: not written. A 2D chart has no depth map: skipped, and run.json says so.
     assert!(
         !out.join("preview.png").exists()

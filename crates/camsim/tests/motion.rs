@@ -24,6 +24,16 @@ AttributeEnd
 /// The config of the bar moving right at `v_m_s` on a 120 x 160 pixel4a window, rendered at
 /// 80 x 60 (2 sensor pixels per render pixel), exposed 0.2 ms with `shutter`.
 fn bar_config(dir: &std::path::Path, v_m_s: f64, shutter: &str) -> SimulateConfig {
+    bar_config_with(dir, v_m_s, shutter, "exposure_ms = 0.2")
+}
+
+/// [`bar_config`] with `capture` (more `[capture]` keys) instead of the 0.2 ms exposure.
+fn bar_config_with(
+    dir: &std::path::Path,
+    v_m_s: f64,
+    shutter: &str,
+    capture: &str,
+) -> SimulateConfig {
     std::fs::write(dir.join("bar.pbrt"), BAR).unwrap();
     let text = format!(
         r#"
@@ -40,7 +50,7 @@ preset = "pixel4a"
 rows = 120
 cols = 160
 [capture]
-exposure_ms = 0.2
+{capture}
 shutter = {shutter}
 "#
     );
@@ -51,8 +61,13 @@ shutter = {shutter}
 
 /// Per sensor row, the centroid column of the noise-free signal above black.
 fn row_centroids(sim: &camsim::Simulation) -> Vec<f64> {
-    let raw = &sim.frames[0];
-    let nf = sim.noise_free_dn.as_ref().unwrap();
+    row_centroids_of(sim, 0)
+}
+
+/// [`row_centroids`] of frame `i`'s noise-free image.
+fn row_centroids_of(sim: &camsim::Simulation, i: usize) -> Vec<f64> {
+    let raw = &sim.frames[i];
+    let nf = sim.noise_free_frame(i).unwrap();
     (0..raw.rows)
         .map(|r| {
             let row = &nf[r * raw.cols..(r + 1) * raw.cols];
@@ -291,4 +306,261 @@ fn a_moving_scene_refuses_labels() {
     );
     let still = simulate(&bar_config(dir.path(), 0.0, "\"global\""), &opts, &quiet).unwrap();
     assert!(still.labels.is_some());
+}
+
+/// Sensor pixels per second of the bar moving at `v_m_s` 10 m away (infinity focus: the image
+/// distance is f).
+fn bar_px_per_s(sim: &camsim::Simulation, v_m_s: f64) -> f64 {
+    let f_m = sim.optics.focal_length_mm * 1e-3;
+    v_m_s * f_m / 10.0 / (sim.sensor.pixel_pitch_um * 1e-6)
+}
+
+/// Per sensor row, the noise-free signal above black summed over the row.
+fn row_sums(sim: &camsim::Simulation) -> Vec<f64> {
+    let raw = &sim.frames[0];
+    let nf = sim.noise_free_frame(0).unwrap();
+    (0..raw.rows)
+        .map(|r| {
+            nf[r * raw.cols..(r + 1) * raw.cols]
+                .iter()
+                .map(|v| (*v as f64 - raw.black_level_dn).max(0.0))
+                .sum()
+        })
+        .collect()
+}
+
+/// A global reset read top-down (rows 20 us apart, the sensor's top row first: raw.dng's last
+/// row): every row starts at the frame's start and stored row r integrates T + (119 - r) line
+/// times, so the bar's row signal is the global shutter's times (T + (119 - r) line time) / T,
+/// and its centroid moves by -v x line time / 2 per
+/// row (half a rolling shutter's skew: only the end of each row's window moves). With a
+/// mechanical shutter every row sees the same light: the bar stands straight, the rows' light
+/// is the same, and run.json records the mode.
+#[test]
+fn global_reset_rows_integrate_to_their_readout() {
+    let dir = tempfile::tempdir().unwrap();
+    let (v_m_s, line_s, t_s) = (6.0, 20e-6, 0.2e-3);
+    let opts = SimulateOptions {
+        noise_free: true,
+        ..Default::default()
+    };
+    let run = |shutter: &str| {
+        let cfg = bar_config(dir.path(), v_m_s, shutter);
+        simulate(&cfg, &opts, &quiet).unwrap()
+    };
+    let sim = run("{ global_reset = { line_time_us = 20.0, direction = \"top-down\" } }");
+    let v_px_s = bar_px_per_s(&sim, v_m_s);
+    let s = slope(&row_centroids(&sim));
+    let want = -v_px_s * line_s / 2.0;
+    assert!(
+        (s - want).abs() < 0.05 * want.abs(),
+        "global reset: the bar leans {s} px/row, want {want}"
+    );
+    // Each row's signal over the global shutter's (the same bar, the same lens falloff): the
+    // row's integration time over the exposure, 1 + (119 - r) line time / T, a line of slope
+    // -line time / T (fitted over the rows: each row's ratio carries the renders' sampling
+    // noise, a few per cent).
+    let plain = row_sums(&run("\"global\""));
+    let ratio: Vec<f64> = row_sums(&sim)
+        .iter()
+        .zip(&plain)
+        .map(|(a, b)| a / b)
+        .collect();
+    let fit = slope(&ratio);
+    assert!(
+        (fit / (-line_s / t_s) - 1.0).abs() < 0.02,
+        "the rows' signal grows by {fit} per row, want {}",
+        -line_s / t_s
+    );
+    let mean = ratio.iter().sum::<f64>() / 120.0;
+    let want = 1.0 + 59.5 * line_s / t_s;
+    assert!(
+        (mean / want - 1.0).abs() < 0.01,
+        "mean ratio {mean}, want {want}"
+    );
+    let meta = sim.metadata(&Default::default(), &Default::default());
+    assert_eq!(meta["results"]["shutter"]["kind"], "global_reset");
+    assert_eq!(meta["results"]["shutter"]["mechanical_shutter"], false);
+
+    let mech = run(
+        "{ global_reset = { line_time_us = 20.0, direction = \"top-down\", mechanical_shutter = true } }",
+    );
+    let s = slope(&row_centroids(&mech));
+    assert!(
+        s.abs() < 0.003,
+        "mechanical shutter: the bar leans {s} px/row"
+    );
+    // The same light as the global shutter in every row (the same render): the rows differ
+    // only by the dark current of their readout delay.
+    let ratio: Vec<f64> = row_sums(&mech)
+        .iter()
+        .zip(&plain)
+        .map(|(a, b)| a / b)
+        .collect();
+    assert!(
+        ratio.iter().all(|q| (q - 1.0).abs() < 0.01),
+        "mechanical shutter: rows' signal over the global shutter's {:?}",
+        ratio
+    );
+}
+
+/// "global = rolling at line time 0" through the whole pipeline: the moving bar with a rolling
+/// (or global-reset) shutter of line time 0 gives the global shutter's raw frames, byte for
+/// byte.
+#[test]
+fn a_rolling_shutter_of_line_time_zero_is_the_global_shutter() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = SimulateOptions::default();
+    let run = |shutter: &str| {
+        let cfg = bar_config(dir.path(), 6.0, shutter);
+        simulate(&cfg, &opts, &quiet).unwrap()
+    };
+    let global = run("\"global\"");
+    assert!(global.moving);
+    for shutter in [
+        "{ rolling = { line_time_us = 0.0 } }",
+        "{ rolling = { line_time_us = 0.0, direction = \"bottom-up\" } }",
+        "{ global_reset = { line_time_us = 0.0 } }",
+    ] {
+        let other = run(shutter);
+        assert!(
+            global.frames[0].dn == other.frames[0].dn,
+            "{shutter}: the raw frame differs from the global shutter's"
+        );
+    }
+    // And a line time that is not 0 does change them (the comparison can fail).
+    let rolling = run("{ rolling = { line_time_us = 20.0 } }");
+    assert!(global.frames[0].dn != rolling.frames[0].dn);
+}
+
+/// Every frame of a moving scene has its own noise-free image: two frames 5 ms apart of the bar
+/// moving at v have noise-free images whose bar is v x 5 ms apart, each frame's raw values
+/// scatter around its own noise-free image (not the other's), and the files are written one per
+/// frame (noise_free.exr, noise_free_0001.exr).
+#[test]
+fn every_frame_of_a_moving_scene_has_its_noise_free_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let v_m_s = 6.0;
+    let cfg = bar_config_with(
+        dir.path(),
+        v_m_s,
+        "\"global\"",
+        "exposure_ms = 0.2\nframes = 2\nframe_interval_ms = 5.0",
+    );
+    let opts = SimulateOptions {
+        noise_free: true,
+        ..Default::default()
+    };
+    let sim = simulate(&cfg, &opts, &quiet).unwrap();
+    let v_px_s = bar_px_per_s(&sim, v_m_s);
+    let mean = |c: Vec<f64>| c[30..90].iter().sum::<f64>() / 60.0;
+    let shift = mean(row_centroids_of(&sim, 1)) - mean(row_centroids_of(&sim, 0));
+    let want = v_px_s * 5e-3;
+    assert!(
+        (shift / want - 1.0).abs() < 0.02,
+        "the bar moves {shift} px between the frames' noise-free images, want {want}"
+    );
+    // Raw frame 1 lies closer to its own noise-free image than to frame 0's.
+    let dist = |raw: &[u16], nf: &[f32]| {
+        raw.iter()
+            .zip(nf)
+            .map(|(a, b)| (*a as f64 - *b as f64).abs())
+            .sum::<f64>()
+    };
+    let (nf0, nf1) = (
+        sim.noise_free_frame(0).unwrap(),
+        sim.noise_free_frame(1).unwrap(),
+    );
+    assert!(dist(&sim.frames[1].dn, nf1) < 0.8 * dist(&sim.frames[1].dn, nf0));
+    let out = dir.path().join("run");
+    let outputs = camsim::OutputSet::parse("raw,noise_free").unwrap();
+    sim.write(&out, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    for (name, nf) in [("noise_free.exr", nf0), ("noise_free_0001.exr", nf1)] {
+        let (_, _, v) = camsim::io::exr::read_gray_exr(&out.join(name), Some("Y")).unwrap();
+        assert_eq!(v.as_slice(), nf, "{name}");
+    }
+}
+
+/// Auto-exposure with motion: the camera meters a preview render and every frame is rendered
+/// over the exposure it chose, so the window in run.json is the sensor's exposure and the flow
+/// on the bar is v x that exposure (not v x the pbrt scene's shutter, 1 s by default).
+#[test]
+fn auto_exposure_sets_the_render_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let v_m_s = 6.0;
+    let cfg = bar_config_with(dir.path(), v_m_s, "\"global\"", "");
+    let opts = SimulateOptions {
+        flow: true,
+        ..Default::default()
+    };
+    let sim = simulate(&cfg, &opts, &quiet).unwrap();
+    let t_s = sim.exposure_s;
+    assert!(t_s > 0.0 && t_s < 0.5, "auto-exposure {t_s} s");
+    assert_eq!(sim.frame_times[0].duration_s, t_s);
+    let v_px_s = bar_px_per_s(&sim, v_m_s);
+    let raw = &sim.frames[0];
+    let flow = &sim.flow.as_ref().unwrap()[0].exposure;
+    let mid = &flow[60 * raw.cols..61 * raw.cols];
+    let dx: Vec<f32> = mid.iter().map(|f| f[0]).filter(|v| *v != 0.0).collect();
+    assert!(!dx.is_empty());
+    for v in &dx {
+        assert!(
+            (*v as f64 / (v_px_s * t_s) - 1.0).abs() < 1e-3,
+            "flow {v} px vs v T = {}",
+            v_px_s * t_s
+        );
+    }
+}
+
+/// preview.gif: a burst of three frames of the moving bar becomes a three-frame animation of
+/// the previews' size, shown at the frame interval (40 ms), whose frames differ (the bar moves);
+/// a run of one frame writes none and run.json says why.
+#[test]
+fn preview_gif_animates_the_frames() {
+    use image::AnimationDecoder;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = bar_config_with(
+        dir.path(),
+        6.0,
+        "\"global\"",
+        "exposure_ms = 0.2\nframes = 3\nfps = 25.0",
+    );
+    let sim = simulate(&cfg, &SimulateOptions::default(), &quiet).unwrap();
+    let out = dir.path().join("video");
+    let outputs = camsim::OutputSet::parse("preview,preview-gif").unwrap();
+    sim.write(&out, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(out.join("preview.gif")).unwrap());
+    let frames = image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), 3);
+    for f in &frames {
+        let b = f.buffer();
+        assert_eq!(
+            (b.width() as usize, b.height() as usize),
+            (sim.preview.cols, sim.preview.rows)
+        );
+        assert_eq!(f.delay().numer_denom_ms(), (40, 1));
+    }
+    assert!(frames[0].buffer() != frames[1].buffer());
+    let one = simulate(
+        &bar_config(dir.path(), 6.0, "\"global\""),
+        &SimulateOptions::default(),
+        &quiet,
+    )
+    .unwrap();
+    let out1 = dir.path().join("single");
+    one.write(&out1, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    assert!(!out1.join("preview.gif").exists());
+    let run: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out1.join("run.json")).unwrap()).unwrap();
+    assert!(run["files"]["preview.gif"]
+        .as_str()
+        .unwrap()
+        .contains("one frame"));
 }

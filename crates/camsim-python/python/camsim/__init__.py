@@ -87,8 +87,8 @@ def simulate(
     irradiance), irradiance ((bands, rows, cols) float32, with wavelengths_nm), raw ((frames,
     rows, cols) uint16, with cfa, black_level, white_level), frame_times_s ((frames, 2): each
     frame's start and duration in the scene's time, s; a moving 3D scene is rendered at each
-    frame's own time), preview ((rows, cols, 3) uint8), depth, noise_free (with
-    noise_free=True), flow and flow_next (with flow=True on a 3D scene: (frames, rows, cols, 2)
+    frame's own time), preview ((rows, cols, 3) uint8), depth, noise_free (the first frame's)
+    and noise_free_frames ((frames, rows, cols), each frame's; with noise_free=True), flow and flow_next (with flow=True on a 3D scene: (frames, rows, cols, 2)
     and (frames - 1, rows, cols, 2) optical flow in sensor pixels, aligned with raw) and metadata
     (a dict). Same config and seed as
     `camsim simulate` give the same raw values, bit for bit. A [render] pbrt scene with a lens
