@@ -16,7 +16,7 @@ use camsim_scene3d::motion::RowReadout;
 use serde::{Deserialize, Serialize};
 
 /// `[capture] shutter`: `"global"` or `{ rolling = { line_time_us, direction } }`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShutterConfig {
     /// Every row integrates over the frame's window.
@@ -33,7 +33,9 @@ pub enum ShutterConfig {
 }
 
 /// The order in which a rolling shutter reads the sensor's rows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum ReadoutDirection {
     /// The sensor's top row first (it sees the bottom of the scene: raw.dng's last row).
