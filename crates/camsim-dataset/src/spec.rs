@@ -271,10 +271,23 @@ impl DatasetSpec {
             OutputSet::parse(&names.join(","))
         }
         .map_err(|e| {
-            err(format!(
-                "dataset.outputs: {}",
-                e.to_string().trim_start_matches("--save: ")
-            ))
+            let run_outputs = &camsim_pipeline::outputs::OUTPUTS;
+            let unknown = names
+                .iter()
+                .find(|n| run_outputs.entry(n).is_none() && !matches!(n.trim(), "all" | "default"));
+            match unknown {
+                // Every name `dataset.outputs` takes: a run's and the dataset's own.
+                Some(name) if !e.to_string().contains("not available yet") => err(format!(
+                    "dataset.outputs: unknown output '{}'; known: {}, {} (or all, default)",
+                    name.trim(),
+                    run_outputs.known(),
+                    DATASET_OUTPUTS.known()
+                )),
+                _ => err(format!(
+                    "dataset.outputs: {}",
+                    e.to_string().trim_start_matches("--save: ")
+                )),
+            }
         })?;
 
         let (mut base, base_dir) = match (&file.base, &file.base_config) {
