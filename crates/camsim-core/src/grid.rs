@@ -6,11 +6,14 @@ use serde::{Deserialize, Serialize};
 /// A uniformly spaced set of wavelengths, in nanometres. The default is ISETCam's 400-700 nm
 /// every 10 nm (31 bands). Each band represents `step_nm` of spectrum centred on its wavelength,
 /// so sums over the grid approximate integrals as `sum f(lambda_i) * step_nm`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WavelengthGrid {
+    /// Centre of the first band, nm.
     pub start_nm: f64,
+    /// Spacing of the band centres (and width of each band), nm; > 0.
     pub step_nm: f64,
+    /// Number of bands (>= 1).
     pub count: usize,
 }
 

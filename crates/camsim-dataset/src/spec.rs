@@ -32,13 +32,14 @@ use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 /// The spec file as written.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SpecFile {
     /// Size, sharding, seed and outputs.
     pub dataset: DatasetSection,
     /// The base `simulate` config, inline (the same tables as a simulate config file).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Map<String, serde_json::Value>>")]
     pub base: Option<toml::Table>,
     /// Or the base config in its own file, relative to the spec.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -49,7 +50,7 @@ pub struct SpecFile {
 }
 
 /// `[dataset]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DatasetSection {
     /// Number of samples N (indices 0 .. N-1).
@@ -113,7 +114,7 @@ pub const DATASET_OUTPUTS: NameTable<DatasetOutput> = NameTable {
 };
 
 /// One `[[vary]]` entry as written: a key and exactly one way to choose its value.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct VariationSpec {
     /// A dotted config key, e.g. `optics.config.f_number`, `capture.exposure_ms`,
@@ -122,6 +123,7 @@ pub struct VariationSpec {
     /// Grid: the samples cycle through these values (several grids form their product, the
     /// first varying fastest).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<Vec<serde_json::Value>>")]
     pub values: Option<Vec<toml::Value>>,
     /// Uniform draw in [min, max).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -131,6 +133,7 @@ pub struct VariationSpec {
     pub log_uniform: Option<[f64; 2]>,
     /// One of these values, each equally likely.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<Vec<serde_json::Value>>")]
     pub choice: Option<Vec<toml::Value>>,
     /// Normal draw, redrawn until inside [min, max].
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -141,12 +144,16 @@ pub struct VariationSpec {
 }
 
 /// `normal = { mean, std, min, max }`.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NormalSpec {
+    /// Mean of the normal distribution, in the key's own unit.
     pub mean: f64,
+    /// Standard deviation, in the key's own unit; > 0.
     pub std: f64,
+    /// Smallest value kept (draws below are redrawn), in the key's own unit.
     pub min: f64,
+    /// Largest value kept (draws above are redrawn), in the key's own unit.
     pub max: f64,
 }
 
@@ -264,10 +271,23 @@ impl DatasetSpec {
             OutputSet::parse(&names.join(","))
         }
         .map_err(|e| {
-            err(format!(
-                "dataset.outputs: {}",
-                e.to_string().trim_start_matches("--save: ")
-            ))
+            let run_outputs = &camsim_pipeline::outputs::OUTPUTS;
+            let unknown = names
+                .iter()
+                .find(|n| run_outputs.entry(n).is_none() && !matches!(n.trim(), "all" | "default"));
+            match unknown {
+                // Every name `dataset.outputs` takes: a run's and the dataset's own.
+                Some(name) if !e.to_string().contains("not available yet") => err(format!(
+                    "dataset.outputs: unknown output '{}'; known: {}, {} (or all, default)",
+                    name.trim(),
+                    run_outputs.known(),
+                    DATASET_OUTPUTS.known()
+                )),
+                _ => err(format!(
+                    "dataset.outputs: {}",
+                    e.to_string().trim_start_matches("--save: ")
+                )),
+            }
         })?;
 
         let (mut base, base_dir) = match (&file.base, &file.base_config) {

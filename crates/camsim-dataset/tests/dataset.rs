@@ -352,6 +352,24 @@ fn bad_specs_are_refused_before_any_work_naming_the_key() {
 }
 
 #[test]
+fn a_bad_output_name_lists_every_output_a_dataset_takes() {
+    let text = spec_text("").replace("\"irradiance\"]", "\"irradiance\", \"rwa\"]");
+    let e = DatasetSpec::from_toml_str(&text, "my-spec.toml", Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("my-spec.toml") && e.contains("'rwa'"), "{e}");
+    // Every name of both tables the spec dispatches on: a run's outputs and the dataset's own.
+    let names = camsim_pipeline::outputs::OUTPUTS
+        .names()
+        .into_iter()
+        .chain(camsim_dataset::spec::DATASET_OUTPUTS.names());
+    for name in names {
+        assert!(e.contains(name), "{name} missing from: {e}");
+    }
+    assert!(e.contains("raw-npy") && e.contains("xyz"), "{e}");
+}
+
+#[test]
 fn the_xyz_ground_truth_has_the_scene_luminance_and_the_illuminant_white_point() {
     // A uniform white field under D65 at 100 cd/m^2 on 380-780 nm: Y = 100 cd/m^2 everywhere and
     // the chromaticity of CIE D65, (0.3127, 0.3290) (CIE 015:2018 table 1).

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 /// measurement_pupil_mm = 8.0
 /// zernike_um = [{ j = 4, c = 1.225 }]
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OpticsConfig {
     /// f-number N = focal length / entrance pupil diameter (dimensionless, > 0).
@@ -68,7 +68,7 @@ pub struct OpticsConfig {
 }
 
 /// `blur = { ... }`: shift-invariant (the default) or shift-variant ("ray-trace") optics.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BlurConfig {
     /// `"shift-invariant"` (one PSF per wavelength for the whole image, as without `blur`) or
@@ -108,7 +108,7 @@ pub struct BlurConfig {
 }
 
 /// Shift-invariant or shift-variant blur.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum BlurKind {
     /// One PSF per wavelength.
@@ -122,7 +122,7 @@ pub enum BlurKind {
 /// at each field height, in the frame where the field point lies on the +x axis (x radial, y
 /// tangential); linear interpolation between heights, end values held. Give exactly one of
 /// `field_height_mm` or `field_height_normalized` (1 = the image's corner).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FieldZernikeConfig {
     /// Field heights in the sensor plane, mm, increasing.
@@ -157,7 +157,7 @@ fn default_reference_wavelength_nm() -> f64 {
 }
 
 /// Lens transmittance: one number for all wavelengths, or a spectrum.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum Transmittance {
     /// The same fraction at every wavelength.
@@ -173,7 +173,7 @@ impl Default for Transmittance {
 }
 
 /// A transmittance spectrum.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TransmittanceSpectrum {
     /// Wavelengths, nm, increasing.
@@ -183,7 +183,7 @@ pub struct TransmittanceSpectrum {
 }
 
 /// Wavefront aberration configuration (ISETCam wvf parameters).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WavefrontConfig {
     /// Zernike coefficients, um of optical path, OSA/ANSI single index j, unit-RMS normalized:
@@ -215,7 +215,7 @@ impl Default for WavefrontConfig {
 }
 
 /// Zernike coefficients in one of two forms.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum ZernikeTerms {
     /// Coefficients indexed by OSA j (um).
@@ -231,7 +231,7 @@ impl Default for ZernikeTerms {
 }
 
 /// One Zernike term.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ZernikeTerm {
     /// OSA/ANSI single index (0 piston, 4 defocus, 12 spherical, ...).
@@ -272,7 +272,7 @@ impl ZernikeTerms {
 }
 
 /// A chromatic defocus curve.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ChromaticDefocus {
     /// Wavelengths, nm, increasing.
@@ -282,7 +282,7 @@ pub struct ChromaticDefocus {
 }
 
 /// Lens shading model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum ShadingConfig {
     /// `"cos4"` or `"none"`.
@@ -300,7 +300,7 @@ impl Default for ShadingConfig {
 }
 
 /// Named shading models.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ShadingName {
     /// cos^4 of the field angle seen from the exit pupil (ISETCam `opticsCos4`).
@@ -310,7 +310,7 @@ pub enum ShadingName {
 }
 
 /// `shading = { relative_illumination = { field_height_mm = [...], ri = [...] } }`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ShadingTable {
     /// The table.
@@ -320,7 +320,7 @@ pub struct ShadingTable {
 /// Relative illumination against field height, as lens design programs export it. Give exactly
 /// one of `field_height_mm` (sensor plane) or `field_height_normalized` (0 at the centre, 1 at
 /// the image's corner). Linear interpolation; the last value is held beyond the table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RelativeIllumination {
     /// Field heights in the sensor plane, mm, increasing from 0.
@@ -334,7 +334,7 @@ pub struct RelativeIllumination {
 }
 
 /// `shading = { file = "shading.toml" }`: a fit written by `camsim fit-shading`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ShadingFile {
     /// Path of the shading TOML (relative paths: to the config file's folder).
@@ -347,7 +347,7 @@ pub struct ShadingFile {
 }
 
 /// PSF sampling options.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PsfOptions {
     /// Minimum oversampling of the PSF relative to the image spacing (odd; default 1 = automatic:
@@ -382,7 +382,9 @@ pub struct PsfOptions {
 }
 
 /// How [`crate::Optics::compute`] applies the PSF.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum BlurMethod {
     /// Whole-image OTF when affordable, else kernels.
@@ -425,7 +427,9 @@ impl Default for PsfOptions {
 }
 
 /// Border handling of the blurred image.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Padding {
     /// Grow by the PSF half-width (default).

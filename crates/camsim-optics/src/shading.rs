@@ -59,7 +59,9 @@ pub const MIN_RELATIVE_ILLUMINATION: f64 = 0.05;
 pub const MAX_OUTWARD_RISE: f64 = 0.02;
 
 /// Which fitted channel the spectral optics applies (see `ShadingModel`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum ShadingChannel {
     /// The mean of the R, G and B polynomials (default).

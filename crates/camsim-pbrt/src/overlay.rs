@@ -96,7 +96,7 @@ pub struct OverlayError {
 }
 
 /// The overlay file.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Overlay {
     /// Camera changes.
@@ -117,7 +117,7 @@ pub struct Overlay {
 }
 
 /// `[[light_group]]`: put lights in a named group.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LightGroupOverlay {
     /// The group's name.
@@ -132,7 +132,7 @@ pub struct LightGroupOverlay {
 }
 
 /// `[camera]`.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CameraOverlay {
     /// Eye position, m (needs `look_at_m`).
@@ -159,7 +159,7 @@ pub struct CameraOverlay {
 }
 
 /// `[render]`.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RenderOverlay {
     /// Samples per pixel.
@@ -184,7 +184,7 @@ pub struct RenderOverlay {
 }
 
 /// A wavelength grid, nm.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GridOverlay {
     /// First wavelength, nm.
@@ -196,7 +196,7 @@ pub struct GridOverlay {
 }
 
 /// A spectrum given in an overlay (see the module docs).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum SpectrumSpec {
     /// The same value at every wavelength.
@@ -210,7 +210,7 @@ pub enum SpectrumSpec {
 }
 
 /// `{ blackbody_k = T }`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BlackbodySpec {
     /// Temperature, K.
@@ -218,7 +218,7 @@ pub struct BlackbodySpec {
 }
 
 /// `{ file = "...", column = ... }`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FileSpec {
     /// CSV or ISETCam `.mat` file, relative to `base_dir`.
@@ -228,7 +228,7 @@ pub struct FileSpec {
 }
 
 /// A column by name or 1-based index.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum ColumnSpec {
     Index(usize),
@@ -236,7 +236,7 @@ pub enum ColumnSpec {
 }
 
 /// `[[material]]`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialOverlay {
     /// Named material (wildcards `*`); a plain name that does not exist is created.
@@ -246,7 +246,7 @@ pub struct MaterialOverlay {
 }
 
 /// `[[object]]`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectOverlay {
     /// Shape name (wildcards `*`).
@@ -273,7 +273,7 @@ pub struct ObjectOverlay {
 }
 
 /// Uniform or per-axis scale.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum ScaleSpec {
     Uniform(f64),
@@ -281,7 +281,7 @@ pub enum ScaleSpec {
 }
 
 /// A rotation.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RotateSpec {
     /// Angle, degrees (right-hand rule about `axis`).
@@ -291,7 +291,7 @@ pub struct RotateSpec {
 }
 
 /// What replaces an object.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReplaceSpec {
     /// A pbrt-v4 scene (its world's shapes, materials and area lights) or a PLY mesh (m).
@@ -304,7 +304,7 @@ pub struct ReplaceSpec {
 }
 
 /// `[light]`.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LightOverlay {
     /// Area-light shape name filter (wildcards); without it every emitter changes.

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// The whole-pipeline config (`camsim simulate CONFIG.toml`). Exactly one of `[scene]` (a 2D
 /// chart) and `[render]` (a 3D scene) is given.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SimulateConfig {
     /// Seed of the temporal sensor noise and of the renderer (integer).
@@ -45,7 +45,7 @@ fn default_seed() -> u64 {
 }
 
 /// `[render]`: a 3D scene.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSection {
     /// A built-in scene: "cornell-box", "cornell-box-mcc", "slanted-edge".
@@ -60,6 +60,7 @@ pub struct RenderSection {
     /// Optional overlay written inline, the same tables as an overlay file (`[render.overlay_inline.light]`,
     /// `[[render.overlay_inline.object]]`, ...), applied after `overlay`; datasets vary its keys.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Map<String, serde_json::Value>>")]
     pub overlay_inline: Option<toml::Table>,
     /// Folder the inline overlay's relative spectrum and mesh paths resolve against (the config
     /// file's; set when the config is read from a file, else the current folder).
@@ -80,7 +81,7 @@ pub struct RenderSection {
 }
 
 /// `[optics]`: a preset name, a TOML file, or an inline config.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OpticsSection {
     /// Built-in lens: "pixel4a" (default), "pixel4a-measured" or "diffraction-limited".
@@ -105,7 +106,7 @@ impl Default for OpticsSection {
 }
 
 /// `[sensor]`: a preset name, a TOML file, or an inline config, with an optional window size.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SensorSection {
     /// Built-in sensor: "pixel4a" (default), "pixel4a-raw10", "imx363", "ideal".
@@ -138,7 +139,7 @@ impl Default for SensorSection {
 }
 
 /// `[capture]`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CaptureSection {
     /// Exposure time, ms. Absent: auto-exposure.

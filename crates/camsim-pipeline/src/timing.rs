@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 /// `[capture] shutter`: `"global"`, `{ rolling = { line_time_us, direction } }` or
 /// `{ global_reset = { line_time_us, direction, mechanical_shutter } }`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShutterConfig {
     /// Every row integrates over the frame's window.
@@ -52,7 +52,9 @@ pub enum ShutterConfig {
 }
 
 /// The order in which a rolling shutter reads the sensor's rows.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum ReadoutDirection {
     /// The sensor's top row first (it sees the bottom of the scene: raw.dng's last row).

@@ -64,7 +64,7 @@ fn default_dark() -> f64 {
 /// A surface reflectance: a grey level (the same fraction at every wavelength), a ColorChecker
 /// patch (`"macbeth:<1-24 or name>"`, N. Ohta 1997), or a spectrum file (CSV or ISETCam `.mat`,
 /// values as fractions).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 pub enum Reflectance {
     /// Spectrally flat reflectance, fraction in [0, 1].
@@ -74,7 +74,7 @@ pub enum Reflectance {
 }
 
 /// A uniform field: illuminant x one reflectance everywhere (ISETCam `sceneCreate('uniform')`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct UniformScene {
     /// Mean luminance of the scene, cd/m^2 (ISETCam `sceneAdjustLuminance`). 0 gives a dark scene.
@@ -106,7 +106,7 @@ pub struct UniformScene {
 
 /// The Macbeth ColorChecker: 4 x 6 patches in the standard order (N. Ohta 1997 reflectances)
 /// separated by borders (ISETCam `sceneCreate('macbeth')`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MacbethScene {
     /// Mean luminance of the whole chart (borders included), cd/m^2.
@@ -144,7 +144,7 @@ pub struct MacbethScene {
 /// An ISO 12233 slanted edge: a straight edge through the image centre, tilted from the vertical,
 /// bright (reflectance `bright_reflectance`) on the right and dark on the left, each pixel the
 /// exact area-weighted mixture of the two (analytic coverage).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SlantedEdgeScene {
     /// Mean luminance of the image, cd/m^2.
@@ -182,7 +182,7 @@ pub struct SlantedEdgeScene {
 
 /// A spectral radiance image read from a file (OpenEXR spectral layout; the caller loads it with
 /// camsim-io and passes it to [`crate::from_image`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FileScene {
     /// Path of the spectral radiance image.
@@ -208,7 +208,9 @@ pub struct FileScene {
 }
 
 /// What the values of a `file` scene are (see [`FileScene::units`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum FileUnits {
     /// pbrt-v4's files converted, others as they are.
@@ -270,7 +272,7 @@ const fn kind(name: &'static str, about: &'static str) -> Named<()> {
 }
 
 /// A 2D scene, tagged by `kind` (like ISETCam `sceneCreate`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum SceneConfig {
     /// `kind = "uniform"`.

@@ -38,7 +38,7 @@ pub(crate) trait Pattern {
 macro_rules! pattern_scene {
     ($(#[$doc:meta])* $name:ident { $( $(#[$fdoc:meta])* $field:ident : $ty:ty = $default:expr ),* $(,)? }) => {
         $(#[$doc])*
-        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+        #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
         #[serde(default, deny_unknown_fields)]
         pub struct $name {
             /// Mean luminance of the image, cd/m^2 (ISETCam `sceneAdjustLuminance`); default 100.

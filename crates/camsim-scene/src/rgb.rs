@@ -28,7 +28,7 @@ fn default_distance() -> f64 {
 }
 
 /// An RGB image shown on a display (ISETCam `sceneFromFile`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RgbScene {
     /// The image: PNG, JPEG or TIFF (8/16-bit code values) or OpenEXR (linear `R`, `G`, `B`).

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 /// Which noise sources are on. All default to on; a noise-free sensor is how tests check the mean
 /// signal. (ISETCam's `noise flag`, split per source.)
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NoiseSwitches {
     /// Photon shot noise (Poisson statistics of the collected electrons, dark electrons included).
@@ -77,7 +77,7 @@ impl NoiseSwitches {
 /// `ir_cut`/`ir_filter`/`ir`, `pixel_qe`; failing an exact name, ISETCam's convention that a
 /// filter name starts with its colour letter (`rDefault`, `gDefault`, ...). Any other column is a
 /// named filter (`filters`, e.g. `w`, `cyan`, `yellow`) that a general CFA (`cfa_pattern`) can use.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct QeConfig {
     /// A spectra file (.csv, .txt or ISETCam .mat) holding the curves, instead of the inline
@@ -243,7 +243,7 @@ impl QeConfig {
 }
 
 /// A sensor as written in a TOML file (presets are such files, built in). Unknown keys are errors.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SensorConfig {
     /// Sensor name (free text; written to DNG UniqueCameraModel and run.json).

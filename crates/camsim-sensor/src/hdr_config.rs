@@ -20,7 +20,7 @@ pub(crate) struct HdrHost {
 }
 
 /// Which HDR pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum HdrMode {
     /// Dual conversion gain: one photodiode, an HCG and an LCG readout of the same electrons.
@@ -30,7 +30,7 @@ pub enum HdrMode {
 }
 
 /// `[hdr]` of a sensor TOML. The high readout (HCG / LPD) is the sensor's own pixel.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HdrConfig {
     /// "dcg" (dual conversion gain) or "split-pixel" (large + small photodiode).

@@ -17,7 +17,9 @@
 use serde::{Deserialize, Serialize};
 
 /// Microlens placement (ISETCam `mlAnalyzeArrayEtendue` method).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, schemars::JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum MicrolensPlacement {
     /// No microlens (ISETCam 'no microlens', pixel vignetting flag 1, "bare").
@@ -29,7 +31,7 @@ pub enum MicrolensPlacement {
 }
 
 /// `[pixel_vignetting]` of a sensor TOML.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PixelVignettingConfig {
     /// f-number of the imaging lens (sets the cone of rays), > 0.

@@ -6,7 +6,14 @@ use std::path::PathBuf;
 
 macro_rules! validate_examples {
     () => {
-        "Examples:\n  camsim validate cornell-box --out out/report                 (quick: seconds)\n  camsim validate cornell-box --quality paper --out out/paper   (a few minutes on 2 cores)\n  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/measured-spectra\n  camsim simulate examples/uniform.toml --out out/uniform      (4 raw frames of a uniform field)\n  camsim validate compare examples/compare-frames.toml --out out/compare"
+        concat!(
+            "Examples:\n",
+            "  camsim validate cornell-box --out out/report          (quick: seconds)\n",
+            "  camsim validate cornell-box --quality paper --out out/paper   (minutes)\n",
+            "  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/data\n",
+            "  camsim simulate examples/uniform.toml --out out/uniform   (4 raw frames)\n",
+            "  camsim validate compare examples/compare-frames.toml --out out/compare"
+        )
     };
 }
 
@@ -23,20 +30,33 @@ macro_rules! validate_examples {
 #[command(
     after_help = concat!("(`camsim validate --help` also documents the compare config.)\n\n", validate_examples!()),
     after_long_help = concat!(
-        "The compare config (TOML; relative paths are relative to the config file; unknown keys are errors):\n",
-        "  simulated = \"out/sim\"          required: a simulated raw DNG, or a `camsim simulate` output folder (its raw.dng)\n",
-        "  measured = [\"IMG_1.dng\"]       required: one measured DNG (a string) or a list of DNGs of the same scene\n",
-        "  sensor = \"pixel4a\"             optional: sensor preset or sensor TOML file for the noise prediction\n",
-        "                                 (absent: no prediction)\n",
-        "  exposure_s = 0.01              optional: exposure time for the noise prediction (dark current), s;\n",
-        "                                 default: the simulated frame's exposure\n",
-        "  [[region]]                     one table per region (at least one), each with all three keys:\n",
-        "  name = \"gray patch\"            shown in the report\n",
-        "  measured = [1510, 2010, 40, 40]   row, col, rows, cols (pixels; row, col the top-left corner) in the measured image\n",
-        "  simulated = [1500, 2000, 40, 40]  the corresponding region in the simulated image (rows, cols >= 1)\n",
-        "For every region and CFA channel the report gives mean and standard deviation (DN above black) in\n",
-        "both images and the model's predicted standard deviation; several measured frames are averaged.\n",
-        "Writes report.html, results.json, compare_means.png and compare_std.png.\n\n",
+        "The compare config (TOML; relative paths are relative to the config file;\n",
+        "unknown keys are errors):\n",
+        "  simulated = \"out/sim\"\n",
+        "      required: a simulated raw DNG, or a `camsim simulate` output folder\n",
+        "      (its raw.dng)\n",
+        "  measured = [\"IMG_1.dng\"]\n",
+        "      required: one measured DNG (a string) or a list of DNGs of one scene\n",
+        "  sensor = \"pixel4a\"\n",
+        "      optional: sensor preset or sensor TOML file for the noise prediction\n",
+        "      (absent: no prediction)\n",
+        "  exposure_s = 0.01\n",
+        "      optional: exposure time for the noise prediction (dark current), s;\n",
+        "      default: the simulated frame's exposure\n",
+        "  [[region]]\n",
+        "      one table per region (at least one), each with all three keys:\n",
+        "  name = \"gray patch\"\n",
+        "      shown in the report\n",
+        "  measured = [1510, 2010, 40, 40]\n",
+        "      row, col, rows, cols in the measured image (pixels; row, col: the\n",
+        "      top-left corner)\n",
+        "  simulated = [1500, 2000, 40, 40]\n",
+        "      the corresponding region in the simulated image (rows, cols >= 1)\n",
+        "\n",
+        "For every region and CFA channel the report gives mean and standard deviation\n",
+        "(DN above black) in both images and the model's predicted standard deviation;\n",
+        "several measured frames are averaged. Writes report.html, results.json,\n",
+        "compare_means.png and compare_std.png.\n\n",
         validate_examples!()
     )
 )]

@@ -22,7 +22,7 @@ use serde::Deserialize;
 use std::path::Path;
 
 /// `[render] medium`.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MediumOverlay {
     /// Absorption coefficient, 1/m (default 0 without a preset).

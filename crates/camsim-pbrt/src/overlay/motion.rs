@@ -30,7 +30,7 @@ use serde::Deserialize;
 use std::path::Path;
 
 /// `[camera] shake`: ISETCam-style camera shake, a random walk of the camera's orientation.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ShakeSpec {
     /// RMS angular velocity per axis (pitch and yaw), deg/s.
