@@ -62,11 +62,8 @@ pub struct DatasetSection {
     /// (seed, sample index); default 1.
     #[serde(default = "default_seed")]
     pub seed: u64,
-    /// Files per sample besides its `.json` record: any of `raw` (DNG), `raw-npy` (first frame as
-    /// a uint16 .npy array), `preview` (sRGB PNG), `raw-png`, `noise-free` (EXR, DN), `xyz` (the
-    /// scene's CIE XYZ ground truth, EXR, Y in cd/m^2), `radiance`, `irradiance`, `depth` (EXR),
-    /// `ids` (3D scenes: 16-bit object and material id PNGs and their legend); default raw and
-    /// preview.
+    /// Files per sample besides its `.json` record, by name: a run's outputs and the dataset's
+    /// own (`camsim presets` lists them); default raw and preview.
     #[serde(default = "default_outputs")]
     pub outputs: Vec<String>,
 }

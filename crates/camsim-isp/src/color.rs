@@ -21,12 +21,12 @@
 //! y = 0.3290) with the linearised Bradford transform (Lam 1985; as tabulated by B. Lindbloom),
 //! so the perfect white renders as R = G = B under any illuminant.
 
+use crate::coring::{render_display8, BlackModel, SRGB_LUMINANCE_WEIGHTS};
 use crate::demosaic::RgbImage;
 use camsim_core::colorimetry::{self, Cmfs};
 use camsim_core::error::{CoreError, Result};
 use camsim_core::{tables, Spectrum, WavelengthGrid};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
-use rayon::prelude::*;
 
 /// 3x3 matrix, row-major (`m[row][col]`), acting on column vectors.
 pub type Mat3 = [[f64; 3]; 3];
@@ -324,7 +324,7 @@ impl ColorPipeline {
     /// camera values first (camera values of 1 in the largest channel of a perfect white render it
     /// at Y = 1); `None` chooses it automatically ([`ColorPipeline::auto_exposure_scale`]).
     pub fn render_srgb8(&self, img: &RgbImage, exposure_scale: Option<f64>) -> Vec<u8> {
-        self.render_srgb8_clipped(img, exposure_scale, None)
+        self.render_srgb8_clipped(img, exposure_scale, None, None)
     }
 
     /// [`ColorPipeline::render_srgb8`] with highlight clipping: where a channel reached the
@@ -333,11 +333,15 @@ impl ColorPipeline {
     /// saturated lamp turns magenta). Each camera channel c is therefore clipped at
     /// `saturation_dn * as_shot_neutral[c]`, the level at which it equals the saturated channel
     /// after white balance, so clipped highlights render neutral (dcraw's default highlight mode).
+    /// `black`, what is known of the values at black (noise, a clip below), turns on chroma
+    /// coring and the censored-black correction ([`crate::coring`]) so that black renders
+    /// black and noise around it grey, not tinted.
     pub fn render_srgb8_clipped(
         &self,
         img: &RgbImage,
         exposure_scale: Option<f64>,
         saturation_dn: Option<f64>,
+        black: Option<&BlackModel>,
     ) -> Vec<u8> {
         let clip = match saturation_dn {
             Some(s) if s > 0.0 => self.as_shot_neutral.map(|n| s * n),
@@ -345,26 +349,10 @@ impl ColorPipeline {
         };
         let k = exposure_scale.unwrap_or_else(|| self.auto_exposure_scale(img));
         let m = self.camera_to_srgb.map(|row| row.map(|v| v * k));
-        let cols = img.cols.max(1);
         let encoder = Srgb8Encoder::new();
-        let mut out = vec![0u8; img.pixels() * 3];
-        out.par_chunks_mut(cols * 3)
-            .enumerate()
-            .for_each(|(y, line)| {
-                let base = y * cols;
-                for (x, px) in line.chunks_exact_mut(3).enumerate() {
-                    let i = base + x;
-                    let (r, g, b) = (
-                        (img.r[i] as f64).min(clip[0]),
-                        (img.g[i] as f64).min(clip[1]),
-                        (img.b[i] as f64).min(clip[2]),
-                    );
-                    for (c, o) in px.iter_mut().enumerate() {
-                        *o = encoder.encode(m[c][0] * r + m[c][1] * g + m[c][2] * b);
-                    }
-                }
-            });
-        out
+        render_display8(img, &m, clip, SRGB_LUMINANCE_WEIGHTS, black, |v| {
+            encoder.encode(v)
+        })
     }
 
     /// Adapted luminance (D65, white = 1 at exposure scale 1) of one camera pixel.

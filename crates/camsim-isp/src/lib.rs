@@ -14,6 +14,7 @@
 pub mod ccm;
 pub mod cfa_general;
 pub mod color;
+pub mod coring;
 pub mod demosaic;
 pub mod demosaic_methods;
 pub mod demosaic_quality;
@@ -22,6 +23,10 @@ pub mod preview;
 pub mod white_balance;
 
 pub use color::{bradford_adaptation, camera_response, ColorPipeline, Mat3};
+pub use coring::{
+    render_display8, uncensored_offset, BlackModel, ChromaCoring, CHROMA_CORING_RADIUS_PX,
+    CHROMA_CORING_SIGMAS, SRGB_LUMINANCE_WEIGHTS,
+};
 pub use demosaic::{demosaic_bilinear, try_demosaic_bilinear, RgbImage};
 pub use demosaic_methods::{demosaic, DemosaicMethod, DEMOSAIC_METHODS};
 pub use white_balance::{WhiteBalanceMethod, WHITE_BALANCE_METHODS};

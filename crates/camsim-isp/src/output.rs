@@ -7,10 +7,10 @@
 //! primaries' XYZ (Y = 1) scaled so that R = G = B = 1 gives the white point (Y = 1).
 
 use crate::color::{mat3_inverse, mat3_mul, Mat3};
+use crate::coring::{render_display8, BlackModel};
 use crate::demosaic::RgbImage;
 use camsim_core::colorimetry;
 use camsim_core::error::{CoreError, Result};
-use rayon::prelude::*;
 
 /// A display: primaries, white point and transfer function.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -76,37 +76,36 @@ impl DisplayModel {
 }
 
 /// Render `img` to 8-bit interleaved RGB on `display`: `camera_to_xyz` (white Y = 1 under the
-/// display white) then the display's XYZ -> RGB, clip, encode. `exposure_scale` multiplies first.
+/// display white) then the display's XYZ -> RGB, the censored-black correction and chroma coring
+/// where `black` is given ([`crate::coring`]), clip, encode.
+/// `exposure_scale` multiplies first.
 pub fn render_rgb8(
     img: &RgbImage,
     camera_to_xyz: &Mat3,
     display: &DisplayModel,
     exposure_scale: f64,
+    black: Option<&BlackModel>,
 ) -> Result<Vec<u8>> {
     let m =
         mat3_mul(&display.xyz_to_rgb()?, camera_to_xyz).map(|row| row.map(|v| v * exposure_scale));
+    let y_weights = display.rgb_to_xyz()?[1];
     // 4096-entry lookup of the encoding (error below half a code: the steepest slope of the
     // sRGB curve is 12.92, of a gamma curve near 0 larger, so the table is indexed finely near 0
     // by encoding sqrt-spaced entries).
     let lut: Vec<u8> = (0..=LUT_N)
         .map(|i| (display.encode((i as f64 / LUT_N as f64).powi(2)) * 255.0).round() as u8)
         .collect();
-    let cols = img.cols.max(1);
-    let mut out = vec![0u8; img.pixels() * 3];
-    out.par_chunks_mut(cols * 3)
-        .enumerate()
-        .for_each(|(y, line)| {
-            for (x, px) in line.chunks_exact_mut(3).enumerate() {
-                let i = y * cols + x;
-                let (r, g, b) = (img.r[i] as f64, img.g[i] as f64, img.b[i] as f64);
-                for (c, o) in px.iter_mut().enumerate() {
-                    let v = m[c][0] * r + m[c][1] * g + m[c][2] * b;
-                    let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
-                    *o = lut[(v.sqrt() * LUT_N as f64).round() as usize];
-                }
-            }
-        });
-    Ok(out)
+    Ok(render_display8(
+        img,
+        &m,
+        [f64::INFINITY; 3],
+        y_weights,
+        black,
+        |v| {
+            let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
+            lut[(v.sqrt() * LUT_N as f64).round() as usize]
+        },
+    ))
 }
 
 const LUT_N: usize = 1 << 14;
@@ -134,7 +133,7 @@ mod tests {
         (img.r[0], img.g[0], img.b[0]) = (white[0] as f32, white[1] as f32, white[2] as f32);
         (img.r[1], img.g[1], img.b[1]) = ((0.18 * white[0]) as f32, 0.18, (0.18 * white[2]) as f32);
         let id: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        let px = render_rgb8(&img, &id, &DisplayModel::srgb(), 1.0).unwrap();
+        let px = render_rgb8(&img, &id, &DisplayModel::srgb(), 1.0, None).unwrap();
         assert_eq!(px, vec![255, 255, 255, 118, 118, 118]);
         // A gamma-2.2 display: 18 % gray -> 0.18^(1/2.2) = 0.4587 -> 117.
         let g22 = DisplayModel {
@@ -142,7 +141,7 @@ mod tests {
             ..DisplayModel::srgb()
         };
         assert_eq!(
-            render_rgb8(&img, &id, &g22, 1.0).unwrap()[3..],
+            render_rgb8(&img, &id, &g22, 1.0, None).unwrap()[3..],
             [117, 117, 117]
         );
     }

@@ -48,7 +48,7 @@ fn default_seed() -> u64 {
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSection {
-    /// A built-in scene: "cornell-box", "cornell-box-mcc", "slanted-edge".
+    /// A built-in scene, by name (`camsim presets` lists them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub builtin: Option<String>,
     /// Or a pbrt-v4 scene file (relative to the config file).
@@ -84,7 +84,7 @@ pub struct RenderSection {
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OpticsSection {
-    /// Built-in lens: "pixel4a" (default), "pixel4a-measured" or "diffraction-limited".
+    /// Built-in lens, by name (`camsim presets` lists them); default "pixel4a".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preset: Option<String>,
     /// Or a lens TOML file (relative to the config file).
@@ -109,7 +109,7 @@ impl Default for OpticsSection {
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SensorSection {
-    /// Built-in sensor: "pixel4a" (default), "pixel4a-raw10", "imx363", "ideal".
+    /// Built-in sensor, by name (`camsim presets` lists them); default "pixel4a".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preset: Option<String>,
     /// Or a sensor TOML file (relative to the config file).

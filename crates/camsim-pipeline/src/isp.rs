@@ -12,7 +12,7 @@ use camsim_io::dng::DngMetadata;
 use camsim_isp::ccm::{self, CcmObjective};
 use camsim_isp::output::DisplayModel;
 use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
-use camsim_isp::{ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
+use camsim_isp::{BlackModel, ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
 use camsim_sensor::Sensor;
 use serde::Serialize;
 use std::borrow::Cow;
@@ -211,8 +211,25 @@ impl Isp {
             Cow::Borrowed(raw)
         };
         let rgb = self.demosaic(&raw, sensor)?;
-        let (preview, report) =
-            self.render(&rgb, sensor, raw.white_level_dn - raw.black_level_dn)?;
+        // Binning sums four pixels: twice the noise of one, and a sum of clipped values is not a
+        // clipped Gaussian (no censored-black correction).
+        let black = if self.bin_2x2 {
+            RawBlack {
+                noise_factor: 2.0,
+                clip_dn: None,
+            }
+        } else {
+            RawBlack {
+                noise_factor: 1.0,
+                clip_dn: Some(-raw.black_level_dn),
+            }
+        };
+        let (preview, report) = self.render(
+            &rgb,
+            sensor,
+            raw.white_level_dn - raw.black_level_dn,
+            &black,
+        )?;
         Ok(IspOutput {
             rgb,
             preview,
@@ -253,13 +270,27 @@ impl Isp {
     /// White balance, colour matrix and sRGB encoding of demosaicked camera RGB (DN above black,
     /// `saturation_dn` the clipping level above black): the part of [`Isp::compute`] after the
     /// demosaic, for an image the caller demosaicked (and, say, downsampled) itself.
+    /// `black` says how `rgb`'s values relate to the raw pixels at black (their noise, a clip
+    /// below), for the censored-black correction and chroma coring ([`camsim_isp::coring`]).
     pub fn render(
         &self,
         rgb: &RgbImage,
         sensor: &Sensor,
         saturation_dn: f64,
+        black: &RawBlack,
     ) -> Result<(crate::Rgb8Image, IspReport)> {
         let gains = self.white_balance_gains(rgb, Some(sensor), Some(saturation_dn))?;
+        // The noise of `rgb` at black (the sensor's read, DSNU and quantization noise, scaled to
+        // these values), DN: chroma coring removes the chroma this noise explains, so a dark
+        // surround renders grey, not tinted (camsim_isp::ChromaCoring).
+        let raw_floor_dn = sensor.predicted_noise_dn(0.0, 0.0).total;
+        // The model in the units of values scaled by `gains` per channel.
+        let model = |gains: [f64; 3]| BlackModel {
+            sigma: gains.map(|g| g * raw_floor_dn * black.noise_factor),
+            clip: black
+                .clip_dn
+                .map(|level| (gains.map(|g| g * level), gains.map(|g| g * raw_floor_dn))),
+        };
         let mut report = IspReport {
             demosaic: self.demosaic.name(),
             white_balance: self.white_balance.name(),
@@ -282,9 +313,11 @@ impl Isp {
                 // neutral. With the illuminant method the pipeline is used as it is (the paper's
                 // preview).
                 let mut clip = saturation_dn;
+                let mut value_gains = [1.0; 3];
                 let rgb: Cow<RgbImage> = if self.white_balance != WhiteBalanceMethod::Illuminant {
                     let asn = color.as_shot_neutral();
                     let pre = [asn[0] * gains[0], asn[1] * gains[1], asn[2] * gains[2]];
+                    value_gains = pre;
                     let mut balanced = rgb.clone();
                     white_balance::apply_gains(&mut balanced, pre);
                     // Saturated pixels (s in every channel) become s * pre; clip where the
@@ -299,7 +332,7 @@ impl Isp {
                     .unwrap_or_else(|| color.auto_exposure_scale(&rgb));
                 report.exposure_scale = scale;
                 report.camera_to_linear_srgb = Some(color.camera_to_srgb());
-                color.render_srgb8_clipped(&rgb, Some(scale), Some(clip))
+                color.render_srgb8_clipped(&rgb, Some(scale), Some(clip), Some(&model(value_gains)))
             }
             CcmSource::Chart {
                 corners,
@@ -341,7 +374,13 @@ impl Isp {
                 report.patch_delta_e2000 = Some(de);
                 report.delta_e2000_mean = Some(mean);
                 report.delta_e2000_max = Some(max);
-                camsim_isp::output::render_rgb8(&balanced, &m, &DisplayModel::srgb(), scale)?
+                camsim_isp::output::render_rgb8(
+                    &balanced,
+                    &m,
+                    &DisplayModel::srgb(),
+                    scale,
+                    Some(&model(gains)),
+                )?
             }
         };
         Ok((
@@ -353,4 +392,16 @@ impl Isp {
             report,
         ))
     }
+}
+
+/// How the demosaicked values given to [`Isp::render`] relate to the raw pixels at black.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawBlack {
+    /// One raw pixel's noise scaled to that of the values: 1 as read, 1/k after a k x k box
+    /// average, 2 after a 2x2 binned sum.
+    pub noise_factor: f64,
+    /// Black-subtracted DN at which the raw was clipped below (minus the black level: the ADC
+    /// clips at 0), when each value is a mean of such clipped pixels; `None` where that does not
+    /// hold (binned sums) or is not known.
+    pub clip_dn: Option<f64>,
 }

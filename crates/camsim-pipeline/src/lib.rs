@@ -62,7 +62,7 @@ pub use error::{PipelineError, Result};
 pub use inputs::{
     load_lens, load_raw, load_sensor, raw_from_mosaic, MeasuredImage, MosaicFormat, SensorOverrides,
 };
-pub use isp::{CcmSource, Isp, IspOutput};
+pub use isp::{CcmSource, Isp, IspOutput, RawBlack};
 pub use outputs::{Output, OutputSet};
 pub use records::{RenderRecord, RunRecord};
 pub use scene::{

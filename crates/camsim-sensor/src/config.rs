@@ -260,9 +260,8 @@ pub struct SensorConfig {
     /// Photosensitive fraction of the pixel area, in (0, 1]. The photodetector is a centred square
     /// of side pitch x sqrt(fill_factor) (ISETCam `pixelCenterFillPD`).
     pub fill_factor: f64,
-    /// Colour filter array: a Bayer pattern, top-left first ("RGGB", "GRBG", "GBRG", "BGGR"), or
-    /// a preset "RGBW" (R G / W B) or "quad-bayer" (4x4, each Bayer colour on 2x2 pixels). Leave
-    /// it out (or "custom") when `cfa_pattern` gives the pattern.
+    /// Colour filter array, by name (a Bayer phase, top-left first, or a preset layout; `camsim
+    /// presets` lists them). Leave it out (or "custom") when `cfa_pattern` gives the pattern.
     #[serde(default)]
     pub cfa: String,
     /// A general CFA tile (ISETCam `sensorSet(sensor, 'pattern', ...)` with `filterNames`): rows

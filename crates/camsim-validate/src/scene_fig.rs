@@ -732,7 +732,13 @@ pub fn report_preview(
     isp.exposure_scale = exposure_scale;
     let k = preview_factor(rgb.cols);
     let small = downsample(rgb, k);
-    let (img, report) = isp.render(&small, sensor, saturation_dn)?;
+    // A k x k box average has 1/k of one pixel's noise, and is a mean of raw values the ADC
+    // clipped at 0 (minus the black level, black-subtracted).
+    let black = camsim_pipeline::RawBlack {
+        noise_factor: 1.0 / k as f64,
+        clip_dn: Some(-sensor.black_level_dn()),
+    };
+    let (img, report) = isp.render(&small, sensor, saturation_dn, &black)?;
     Ok((
         Canvas {
             w: img.cols,

@@ -89,6 +89,7 @@ pub fn page() -> (String, Vec<String>) {
             anchor_prefix: slug(part.title),
             anchors: Vec::new(),
             in_array: false,
+            alternative: false,
         };
         r.table(part.schema.clone(), part.root_path, None);
         while let Some(item) = r.queue.pop_front() {
@@ -106,6 +107,8 @@ struct Item {
     def: Option<String>,
     /// An array of tables (`[[path]]`).
     array: bool,
+    /// One of several alternative forms of the key at `path` (its heading names its keys).
+    alternative: bool,
     anchor: String,
 }
 
@@ -121,6 +124,8 @@ struct Renderer {
     anchors: Vec<String>,
     /// Whether the table being typed is an array of tables.
     in_array: bool,
+    /// Whether the table being queued is one of several alternative forms of one key.
+    alternative: bool,
 }
 
 fn slug(s: &str) -> String {
@@ -189,6 +194,28 @@ fn join_path(path: &str, key: &str) -> String {
 }
 
 impl Renderer {
+    /// `Some((key, inner))` when `alt` is an externally tagged enum variant whose value is a
+    /// table: an object with exactly one property, itself a table. The inner table gets the
+    /// variant's doc comment where it has none of its own.
+    fn externally_tagged(&self, alt: &Value) -> Option<(String, Value)> {
+        let props = alt.get("properties")?.as_object()?;
+        if props.len() != 1 {
+            return None;
+        }
+        let (key, inner) = props.iter().next()?;
+        let resolved = match inner.get("$ref").and_then(Value::as_str) {
+            Some(r) => self.def(r).1,
+            None => inner.clone(),
+        };
+        resolved.get("properties")?;
+        let mut inner = inner.clone();
+        if let (None, Some(d)) = (description(&resolved), description(alt)) {
+            // A `$ref` with a description beside it keeps the reference (and its section).
+            inner["description"] = Value::String(d.to_string());
+        }
+        Some((key.clone(), inner))
+    }
+
     fn def(&self, reference: &str) -> (String, Value) {
         let name = reference.trim_start_matches("#/$defs/").to_string();
         let schema = self.defs.get(&name).cloned().unwrap_or(Value::Null);
@@ -260,6 +287,7 @@ impl Renderer {
             path: path.to_string(),
             def,
             array,
+            alternative: self.alternative,
             anchor: anchor.clone(),
         });
         Self::link(path, array, &anchor)
@@ -304,22 +332,26 @@ impl Renderer {
                             .missing
                             .push(format!("{path} = {} (enum value)", toml_value(c))),
                     }
-                } else if let Some(props) = alt.get("properties").and_then(Value::as_object) {
-                    // An externally tagged variant: `{ name = { ... } }`.
-                    let mut alt = alt.clone();
-                    if props.len() == 1 {
-                        let key = props.keys().next().unwrap().clone();
-                        if alt["properties"][&key].get("description").is_none() {
-                            if let Some(d) = description(&alt).map(str::to_string) {
-                                alt["properties"][&key]["description"] = Value::String(d);
-                            }
-                        }
-                    }
-                    let link = self.table(alt, path, None);
+                } else if let Some((key, inner)) = self.externally_tagged(alt) {
+                    // An externally tagged variant `{ key = { ... } }`: the inner table is
+                    // documented at `path.key` (no section for the one-key wrapper).
+                    let (t, _) = self.type_of(&inner, &join_path(path, &key));
+                    let link = t.trim_start_matches("table, see ");
+                    // Its doc comment heads the linked section.
+                    types.push(format!("`{{ {key} = {{ ... }} }}` ({link})"));
+                } else if alt.get("properties").is_some() {
+                    // An untagged alternative: a table of its own keys at the same path.
+                    self.alternative = true;
+                    let link = self.table(alt.clone(), path, None);
+                    self.alternative = false;
                     types.push(format!("table ({link})"));
                 } else {
+                    // A table here is one of several forms of the key (its heading names its keys).
+                    self.alternative = true;
                     let (t, n) = self.type_of(alt, path);
-                    if let Some(d) = description(alt) {
+                    self.alternative = false;
+                    // (An inner enum's values carry their own notes.)
+                    if let (Some(d), true) = (description(alt), n.is_empty()) {
                         notes.push(format!("{t}: {}", cell(d).trim_end_matches('.')));
                     }
                     types.push(t);
@@ -368,6 +400,8 @@ impl Renderer {
                 };
                 let plural = if item.starts_with('`') {
                     item
+                } else if let Some(rest) = item.strip_prefix("array of ") {
+                    format!("arrays of {rest}")
                 } else {
                     format!("{item}s")
                 };
@@ -401,10 +435,27 @@ impl Renderer {
         let schema = item.schema;
         let heading = if item.path.is_empty() {
             "top level".to_string()
-        } else if item.array {
-            format!("`[[{}]]`", item.path)
         } else {
-            format!("`[{}]`", item.path)
+            let base = if item.array {
+                format!("`[[{}]]`", item.path)
+            } else {
+                format!("`[{}]`", item.path)
+            };
+            let keys: Vec<String> = schema
+                .get("required")
+                .and_then(Value::as_array)
+                .map(|r| {
+                    r.iter()
+                        .filter_map(Value::as_str)
+                        .map(|k| format!("`{k}`"))
+                        .collect()
+                })
+                .unwrap_or_default();
+            if item.alternative && !keys.is_empty() {
+                format!("{base} with {}", keys.join(", "))
+            } else {
+                base
+            }
         };
         self.out.push_str(&format!(
             "\n<a id=\"{}\"></a>\n\n### {heading}\n\n",
@@ -479,6 +530,9 @@ impl Renderer {
             if !notes.is_empty() {
                 meaning.push_str(&format!(" Values: {}.", notes.join("; ")));
             }
+            if let Some(names) = named_values(&key_path) {
+                meaning.push_str(&format!(" Names: {names}."));
+            }
             self.out.push_str(&format!(
                 "| `{key}` | {} | {default} | {} |\n",
                 ty.replace('|', "\\|"),
@@ -486,6 +540,30 @@ impl Renderer {
             ));
         }
     }
+}
+
+/// Keys whose values are names from a table camsim dispatches on (the `camsim presets` catalogue),
+/// and that table's family.
+const NAMED_KEYS: &[(&str, &str)] = &[
+    ("optics.preset", "lens presets"),
+    ("sensor.preset", "sensor presets"),
+    ("render.builtin", "3D scenes"),
+    ("sensor.config.cfa", "colour filter arrays"),
+    ("dataset.outputs", "dataset outputs"),
+];
+
+/// The names a key takes, from the catalogue (so the page lists exactly what the code accepts).
+fn named_values(key_path: &str) -> Option<String> {
+    let (_, family) = NAMED_KEYS.iter().find(|(k, _)| *k == key_path)?;
+    let catalogue = camsim::names::catalogue();
+    let f = catalogue.iter().find(|f| f.title == *family)?;
+    Some(
+        f.entries
+            .iter()
+            .map(|(name, about)| format!("`{name}` ({about})"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    )
 }
 
 /// The tag key of an internally tagged enum: a key that every alternative has as a constant.
