@@ -116,10 +116,10 @@ fn metered_exposure_s(
         &camsim_render::RenderRequest::default(),
         progress,
     )?;
+    // A global reset's rows are metered as the sensor meters them (the row read last).
     let one = CaptureRequest {
         bracket_s: None,
         frames: 1,
-        global_reset: None,
         ..req.clone()
     };
     let (_, im, _) = image_owned(out.radiance, optics, sensor, &one)?;
