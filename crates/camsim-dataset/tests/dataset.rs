@@ -637,17 +637,8 @@ fn shard_files(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
     files
 }
 
-#[test]
-fn motion_keys_vary_per_sample_deterministically() {
-    // An emitting vertical bar 10 m away moving right: per sample its speed is drawn (an
-    // element of the overlay object's velocity_m_s) and the shutter cycles through global,
-    // rolling and global reset (a whole inline table per value). Each sample's flow on the bar
-    // is its own v x exposure, its record names its shutter, and the shards are the same bytes
-    // for one worker or three.
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("bar.pbrt"),
-        r#"LookAt 0 0 -10  0 0 0  0 1 0
+/// An emitting vertical bar 3 cm wide and 4 m tall, 10 m in front of the camera (40 x 30).
+const BAR_PBRT: &str = r#"LookAt 0 0 -10  0 0 0  0 1 0
 Camera "perspective" "float fov" 5
 Film "rgb" "integer xresolution" 40 "integer yresolution" 30
 WorldBegin
@@ -657,9 +648,35 @@ AttributeBegin
   Shape "trianglemesh" "point3 P" [ -0.015 -2 0  0.015 -2 0  0.015 2 0  -0.015 2 0 ]
       "integer indices" [ 0 1 2 0 2 3 ]
 AttributeEnd
-"#,
-    )
-    .unwrap();
+"#;
+
+/// Run `s` (`samples` samples, none may fail) with one worker and with `workers`: the shards'
+/// files, which must be the same bytes both times.
+fn same_files_for_one_worker_and(
+    s: &DatasetSpec,
+    workers: usize,
+    samples: u64,
+) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    for (out, w) in [(a.path(), 1), (b.path(), workers)] {
+        let r = run(s, out, ShardSelect::default(), Some(w), true, &|_, _, _| {}).unwrap();
+        let m = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap_or_default();
+        assert_eq!((r.samples_run, r.samples_failed), (samples, 0), "{r:?} {m}");
+    }
+    let (fa, fb) = (shard_files(a.path()), shard_files(b.path()));
+    assert_eq!(fa, fb, "one worker and {workers} give different bytes");
+    fa
+}
+
+#[test]
+fn motion_keys_vary_per_sample_deterministically() {
+    // An emitting vertical bar 10 m away moving right: per sample its speed is drawn (an
+    // element of the overlay object's velocity_m_s) and the shutter cycles through global,
+    // rolling and global reset (a whole inline table per value). Each sample's flow on the bar
+    // is its own v x exposure, its record names its shutter, and the shards are the same bytes
+    // for one worker or three.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bar.pbrt"), BAR_PBRT).unwrap();
     let text = r#"
 [dataset]
 samples = 3
@@ -687,22 +704,7 @@ key = "capture.shutter"
 values = ["global", { rolling = { line_time_us = 20.0 } }, { global_reset = { line_time_us = 20.0, mechanical_shutter = true } }]
 "#;
     let s = DatasetSpec::from_toml_str(text, "t", dir.path()).unwrap();
-    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    for (out, workers) in [(a.path(), 1), (b.path(), 3)] {
-        let r = run(
-            &s,
-            out,
-            ShardSelect::default(),
-            Some(workers),
-            true,
-            &|_, _, _| {},
-        )
-        .unwrap();
-        let m = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap_or_default();
-        assert_eq!((r.samples_run, r.samples_failed), (3, 0), "{r:?} {m}");
-    }
-    let (fa, fb) = (shard_files(a.path()), shard_files(b.path()));
-    assert_eq!(fa, fb, "one worker and three give different bytes");
+    let fa = same_files_for_one_worker_and(&s, 3, 3);
     let mut speeds = Vec::new();
     for (i, kind) in ["global", "rolling", "global_reset"].iter().enumerate() {
         let key = format!("{i:08}");
@@ -728,4 +730,63 @@ values = ["global", { rolling = { line_time_us = 20.0 } }, { global_reset = { li
         );
     }
     assert!(speeds[0] != speeds[1] && speeds[1] != speeds[2]);
+}
+
+/// Labels of a moving scene in a dataset (issue 28): a burst of two frames of an emitting bar
+/// moving right; each sample holds both frames' labels (instances, boxes, depth, ids; the second
+/// frame's numbered _0001), the bar's 2D box moves right between them, and the shards are the
+/// same bytes for one worker or two.
+#[test]
+fn labels_of_a_moving_scene_are_per_frame_and_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bar.pbrt"), BAR_PBRT).unwrap();
+    let text = r#"
+[dataset]
+samples = 2
+shard_size = 1
+seed = 4
+outputs = ["raw", "instances", "boxes", "depth", "ids"]
+[base]
+wavelengths = { start_nm = 400.0, step_nm = 50.0, count = 7 }
+sensor = { preset = "pixel4a", rows = 60, cols = 80 }
+capture = { exposure_ms = 0.5, frames = 2, frame_interval_ms = 10.0 }
+[base.render]
+pbrt = "bar.pbrt"
+samples_per_pixel = 2
+resolution = [40, 30]
+[[base.render.overlay_inline.object]]
+name = "bar"
+velocity_m_s = [0.0, 0.0, 0.0]
+
+[[vary]]
+key = "render.overlay_inline.object.0.velocity_m_s.0"
+uniform = [2.0, 4.0]
+"#;
+    let s = DatasetSpec::from_toml_str(text, "t", dir.path()).unwrap();
+    let fa = same_files_for_one_worker_and(&s, 2, 2);
+    for i in 0..2 {
+        let key = format!("{i:08}");
+        for name in [
+            "instances.png",
+            "instances_0001.png",
+            "instances_0001.scene.png",
+            "depth_0001.exr",
+            "depth_0001.sensor.exr",
+            "object_id_0001.png",
+            "boxes_0001.json",
+        ] {
+            assert!(fa.contains_key(&format!("{key}.{name}")), "{key}.{name}");
+        }
+        let bbox = |name: &str| {
+            let v: serde_json::Value =
+                serde_json::from_slice(&fa[&format!("{key}.{name}")]).unwrap();
+            v["instances"][0]["bbox_sensor"].as_array().unwrap()[0]
+                .as_u64()
+                .unwrap()
+        };
+        assert!(
+            bbox("boxes_0001.json") > bbox("boxes.json"),
+            "sample {i}: the bar's box must move right between the frames"
+        );
+    }
 }

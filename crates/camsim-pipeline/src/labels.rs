@@ -46,6 +46,19 @@ pub struct SimLabels {
     pub distorted: bool,
 }
 
+/// The labels of one raw frame of a moving 3D scene: every frame is rendered in its own window,
+/// and its labels describe the scene at the start of that window (each render row's start, the
+/// instant of flow's first hit), a sharp snapshot while the image is blurred over the window.
+#[derive(Debug, Clone)]
+pub struct FrameLabels {
+    /// The render's depth map, m (row-major render pixels, `ids.width` x `ids.height`).
+    pub depth_m: Vec<f32>,
+    /// The render's object and material ids.
+    pub ids: IdMaps,
+    /// The labels in both geometries.
+    pub labels: SimLabels,
+}
+
 /// Where each raw pixel looks in the render: the pixel's centre on the irradiance grid (the
 /// sensor's geometry), then the optics' map back to the radiance (`None`: the render is the
 /// irradiance itself), as the render's continuous raster position (NaN: outside the render).
@@ -181,8 +194,11 @@ impl SimLabels {
 
     /// Write the label files `outputs` asks for into `dir` (each atomically): instances,
     /// normals, albedo, boxes (sensor geometry, `.scene` for the render's), and with depth / ids
-    /// their sensor-geometry versions.
-    pub fn write(&self, dir: &Path, outputs: &OutputSet) -> Result<()> {
+    /// their sensor-geometry versions. `frame`: the raw frame they belong to (0: instances.png,
+    /// ...; a later frame of a moving scene: instances_0001.png, instances_0001.scene.png, ...,
+    /// [`crate::capture::frame_suffix`]).
+    pub fn write(&self, dir: &Path, outputs: &OutputSet, frame: usize) -> Result<()> {
+        let n = crate::capture::frame_suffix(frame);
         let both = [(&self.sensor, ""), (&self.scene, ".scene")];
         if outputs.contains(Output::Instances) {
             for (l, suffix) in both {
@@ -194,7 +210,7 @@ impl SimLabels {
                 }
                 let v: Vec<u16> = l.instance_id.iter().map(|&i| i as u16).collect();
                 camsim_io::raster::write_png16_gray(
-                    &dir.join(format!("instances{suffix}.png")),
+                    &dir.join(format!("instances{n}{suffix}.png")),
                     l.height,
                     l.width,
                     &v,
@@ -224,7 +240,7 @@ impl SimLabels {
                     .map(|(n, p)| (*n, p.as_slice()))
                     .collect();
                 camsim_io::exr::write_channels_exr(
-                    &dir.join(format!("normals{suffix}.exr")),
+                    &dir.join(format!("normals{n}{suffix}.exr")),
                     l.height,
                     l.width,
                     &chans,
@@ -255,7 +271,7 @@ impl SimLabels {
                     chans.push((name.as_str(), &a[b * n..(b + 1) * n]));
                 }
                 camsim_io::exr::write_channels_exr(
-                    &dir.join(format!("albedo{suffix}.exr")),
+                    &dir.join(format!("albedo{n}{suffix}.exr")),
                     l.height,
                     l.width,
                     &chans,
@@ -263,11 +279,14 @@ impl SimLabels {
             }
         }
         if outputs.contains(Output::Boxes) {
-            camsim_io::atomic::write_json_atomic(&dir.join("boxes.json"), &self.boxes_json())?;
+            camsim_io::atomic::write_json_atomic(
+                &dir.join(format!("boxes{n}.json")),
+                &self.boxes_json(),
+            )?;
         }
         if outputs.contains(Output::Depth) {
             camsim_io::exr::write_gray_exr(
-                &dir.join("depth.sensor.exr"),
+                &dir.join(format!("depth{n}.sensor.exr")),
                 self.sensor.height,
                 self.sensor.width,
                 "Z",
@@ -277,11 +296,16 @@ impl SimLabels {
         if outputs.contains(Output::Ids) {
             let ids = &self.sensor_ids;
             for (name, map) in [
-                ("object_id.sensor.png", &ids.object_id),
-                ("material_id.sensor.png", &ids.material_id),
+                ("object_id", &ids.object_id),
+                ("material_id", &ids.material_id),
             ] {
                 let v: Vec<u16> = map.iter().map(|&i| i.min(u16::MAX as u32) as u16).collect();
-                camsim_io::raster::write_png16_gray(&dir.join(name), ids.height, ids.width, &v)?;
+                camsim_io::raster::write_png16_gray(
+                    &dir.join(format!("{name}{n}.sensor.png")),
+                    ids.height,
+                    ids.width,
+                    &v,
+                )?;
             }
         }
         Ok(())

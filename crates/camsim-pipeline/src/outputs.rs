@@ -36,6 +36,11 @@ pub enum Output {
     Albedo,
     /// boxes.json: per instance its 3D box, 2D boxes in both geometries, visible fraction,
     /// truncation; the cameras' K and extrinsics.
+    ///
+    /// A moving 3D scene has one label set per raw frame, each describing the scene at the start
+    /// of that frame's window: frame 1's keep these names, later frames are numbered as raw.dng's
+    /// (depth_0001.exr, object_id_0001.png, instances_0001.png, instances_0001.scene.png,
+    /// depth_0001.sensor.exr, boxes_0001.json, ...; ids.json, the legend, once).
     Boxes,
     /// flow.exr (flow_0001.exr ...): each frame's optical flow in sensor pixels, channels X and
     /// Y, aligned with raw.dng, and flow_next.exr ... to the next frame of a sequence (3D scenes;
@@ -77,7 +82,7 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
         ),
         out(
             "depth",
-            "depth.exr: a 3D scene's depth map, m",
+            "depth.exr: a 3D scene's depth map, m (depth_0001.exr ... per frame of a moving scene)",
             Output::Depth,
         ),
         out(
@@ -87,27 +92,27 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
         ),
         out(
             "ids",
-            "object_id.png, material_id.png, ids.json: a 3D scene's segmentation",
+            "object_id.png, material_id.png, ids.json: a 3D scene's segmentation (object_id_0001.png ... per frame of a moving scene)",
             Output::Ids,
         ),
         out(
             "instances",
-            "instances.png, instances.scene.png: a 3D scene's 16-bit instance ids on the raw and render grids",
+            "instances.png, instances.scene.png: a 3D scene's 16-bit instance ids on the raw and render grids (instances_0001.png ... per frame of a moving scene)",
             Output::Instances,
         ),
         out(
             "normals",
-            "normals.exr, normals.scene.exr: surface normals, camera frame and world",
+            "normals.exr, normals.scene.exr: surface normals, camera frame and world (normals_0001.exr ... per frame of a moving scene)",
             Output::Normals,
         ),
         out(
             "albedo",
-            "albedo.exr, albedo.scene.exr: the first surface's reflectance, linear sRGB and spectral",
+            "albedo.exr, albedo.scene.exr: the first surface's reflectance, linear sRGB and spectral (albedo_0001.exr ... per frame of a moving scene)",
             Output::Albedo,
         ),
         out(
             "boxes",
-            "boxes.json: per instance 3D and 2D boxes, visible fraction, truncation; cameras' K and extrinsics",
+            "boxes.json: per instance 3D and 2D boxes, visible fraction, truncation; cameras' K and extrinsics (boxes_0001.json ... per frame of a moving scene)",
             Output::Boxes,
         ),
         out(

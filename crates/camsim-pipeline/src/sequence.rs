@@ -7,7 +7,7 @@
 
 use crate::capture::{image_owned, noise_free_dn, CaptureRequest, Imaged};
 use crate::timing::{flow_on_sensor, FrameTime};
-use crate::{render, scene_stage_with, PipelineError, Progress, Result, SimulateConfig};
+use crate::{render, scene_stage_with, Progress, Result, SimulateConfig};
 use camsim_core::SpectralImage;
 use camsim_optics::Optics;
 use camsim_scene3d::SceneDescription;
@@ -40,6 +40,11 @@ pub(crate) struct Staged {
     pub flow: Option<Vec<FrameFlow>>,
     /// Per raw frame, its noise-free image (DN), when asked for.
     pub noise_free: Option<Vec<Vec<f32>>>,
+    /// A moving scene with labels asked for: per raw frame its labels, each at its own time
+    /// (empty otherwise: a static scene's `labels` serve every frame).
+    pub frame_labels: Vec<crate::labels::FrameLabels>,
+    /// Seconds spent on `frame_labels`' raw-grid labels.
+    pub labels_s: f64,
     /// Seconds in the scene stage (all renders).
     pub scene_s: f64,
     /// The scene moves: every frame was rendered in its own window.
@@ -111,10 +116,10 @@ fn metered_exposure_s(
         &camsim_render::RenderRequest::default(),
         progress,
     )?;
+    // A global reset's rows are metered as the sensor meters them (the row read last).
     let one = CaptureRequest {
         bracket_s: None,
         frames: 1,
-        global_reset: None,
         ..req.clone()
     };
     let (_, im, _) = image_owned(out.radiance, optics, sensor, &one)?;
@@ -126,7 +131,7 @@ const METERING_SPP: u32 = 16;
 
 /// Run the scene, optics and sensor stages: `opts.flow` computes the optical flow (3D scenes),
 /// `opts.noise_free` every frame's noise-free image; `request`: the renderer's extra outputs
-/// (labels; a moving scene refuses them).
+/// (labels: a moving scene's come per frame, in `frame_labels`).
 pub(crate) fn stage(
     cfg: &SimulateConfig,
     sensor: &Sensor,
@@ -160,6 +165,8 @@ pub(crate) fn stage(
             times,
             flow: None,
             noise_free,
+            frame_labels: Vec::new(),
+            labels_s: 0.0,
             scene_s,
             moving: false,
         });
@@ -199,20 +206,18 @@ pub(crate) fn stage(
             times,
             flow,
             noise_free,
+            frame_labels: Vec::new(),
+            labels_s: 0.0,
             scene_s,
             moving: false,
         });
     }
 
-    // The scene moves: each raw frame in its own window.
-    if request.labels.is_some() {
-        // The labels trace the scene once, at one time; a moving scene's frames each have
-        // their own window (and blur), so they are refused rather than written for one instant.
-        return Err(PipelineError::config(
-            "training-data labels are not supported for a moving 3D scene yet: leave instances, normals, albedo, boxes, depth and ids out of --save (or the labels of the Python call), or make the scene static",
-        ));
-    }
+    // The scene moves: each raw frame in its own window, its labels (when asked for) at that
+    // window's start.
     let mut scene_s = 0.0;
+    let mut labels_s = 0.0;
+    let mut frame_labels = Vec::new();
     let durations: Vec<f64> = match (&req.bracket_s, req.exposure) {
         (Some(b), _) => b
             .iter()
@@ -269,9 +274,26 @@ pub(crate) fn stage(
             ..req.clone()
         };
         progress("optics", i as u64, times.len() as u64);
-        let (radiance, im, _) = image_owned(out.radiance, optics, sensor, &one)?;
+        let depth_m = out.labels.as_ref().and(out.radiance.depth_m.clone());
+        let (radiance, im, map) = image_owned(out.radiance, optics, sensor, &one)?;
         optics_s += im.optics_s;
         sensor_s += im.sensor_s;
+        if let (Some(req), Some(l), Some(depth_m)) = (request.labels, out.labels, depth_m) {
+            let t = Instant::now();
+            frame_labels.push(crate::labels::FrameLabels {
+                depth_m,
+                ids: out.ids.clone(),
+                labels: crate::labels::sensor_labels(
+                    &scene,
+                    l,
+                    req,
+                    sensor,
+                    &im.irradiance,
+                    map.as_ref(),
+                )?,
+            });
+            labels_s += t.elapsed().as_secs_f64();
+        }
         if opts.noise_free {
             let t = Instant::now();
             noise_free.push(noise_free_dn(
@@ -308,6 +330,8 @@ pub(crate) fn stage(
         times,
         flow: flow.then_some(flows),
         noise_free: opts.noise_free.then_some(noise_free),
+        frame_labels,
+        labels_s,
         scene_s,
         moving: true,
     })

@@ -63,8 +63,12 @@ pub struct Simulation {
     /// Object and material ids per scene pixel of a rendered 3D scene (None for 2D charts).
     pub ids: Option<camsim_render::IdMaps>,
     /// With [`SimulateOptions::labels`], a 3D scene's training-data labels in the render's and
-    /// the raw image's geometry.
+    /// the raw image's geometry (a moving scene's: the first frame's, at its window's start).
     pub labels: Option<crate::labels::SimLabels>,
+    /// A moving scene with [`SimulateOptions::labels`]: the labels of raw frames 2, 3, ... (file
+    /// order; each at its own window's start), with their render's depth and id maps. Empty
+    /// otherwise (a static scene's `labels`, `ids` and depth serve every frame).
+    pub later_frame_labels: Vec<crate::labels::FrameLabels>,
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
     pub irradiance: SpectralImage,
     /// The raw frames (ADC values, DN; black and white level in each).
@@ -143,6 +147,8 @@ pub fn simulate(
         times: frame_times,
         flow,
         noise_free: noise_free_dn,
+        frame_labels,
+        labels_s,
         scene_s,
         moving,
     } = crate::sequence::stage(
@@ -157,19 +163,29 @@ pub fn simulate(
     times.insert("scene_s".into(), scene_s.into());
     times.insert("optics_s".into(), optics_s.into());
     let t = Instant::now();
-    let labels = match (scene_labels, &scene, opts.labels) {
-        (Some(l), Some(scene), Some(req)) => Some(crate::labels::sensor_labels(
-            scene,
-            l,
-            req,
-            &sensor,
-            &irradiance,
-            map.as_ref(),
-        )?),
-        _ => None,
+    let mut later_frame_labels = frame_labels;
+    let labels = if later_frame_labels.is_empty() {
+        match (scene_labels, &scene, opts.labels) {
+            (Some(l), Some(scene), Some(req)) => Some(crate::labels::sensor_labels(
+                scene,
+                l,
+                req,
+                &sensor,
+                &irradiance,
+                map.as_ref(),
+            )?),
+            _ => None,
+        }
+    } else {
+        // A moving scene's, made frame by frame: the first frame's depth and ids are already
+        // the run's (`radiance`, `ids`).
+        Some(later_frame_labels.remove(0).labels)
     };
     if labels.is_some() {
-        lap(&mut times, "labels_s", t);
+        times.insert(
+            "labels_s".into(),
+            (t.elapsed().as_secs_f64() + labels_s).into(),
+        );
     }
 
     times.insert("sensor_s".into(), sensor_s.into());
@@ -197,6 +213,7 @@ pub fn simulate(
         radiance,
         ids,
         labels,
+        later_frame_labels,
         irradiance,
         exposure_s: frame.exposure_s,
         mean_electrons_rgb: frame.mean_electrons,
@@ -401,6 +418,14 @@ impl Simulation {
             }
             (None, false) => {}
         }
+        let per_frame =
+            outputs.contains(Output::Depth) || outputs.contains(Output::Ids) || label_outputs;
+        if per_frame && !self.later_frame_labels.is_empty() {
+            files.insert(
+                "labels_per_frame".into(),
+                "the scene moves: depth, ids and labels are written per raw frame, each a sharp snapshot of the scene at the start of that frame's window (each render row's start under a rolling shutter: the instant of flow's first hit), while the frame's image is blurred over its window; frame 1's under the names above, later frames numbered as raw.dng's (depth_0001.exr, object_id_0001.png, instances_0001.png, instances_0001.scene.png, depth_0001.sensor.exr, boxes_0001.json, ...)".into(),
+            );
+        }
         if outputs.contains(Output::Flow) {
             let note = match &self.flow {
                 Some(_) => "optical flow of each frame (flow.exr, flow_0001.exr, ...; flow_next*.exr to the next frame), sensor pixels, channels X (right) and Y (down), aligned with raw.dng: where the surface each pixel sees at the frame's start is at the end of its exposure",
@@ -503,7 +528,27 @@ impl Simulation {
                 t.push(Box::new(move || write_id_maps(out.path(), ids)));
             }
             if let Some(l) = &self.labels {
-                t.push(Box::new(move || l.write(out.path(), outputs)));
+                t.push(Box::new(move || l.write(out.path(), outputs, 0)));
+            }
+            // A moving scene's later frames: depth_0001.exr, object_id_0001.png, ... and their
+            // labels (instances_0001.png, ...).
+            for (j, f) in self.later_frame_labels.iter().enumerate() {
+                let i = j + 1;
+                if outputs.contains(Output::Depth) {
+                    t.push(Box::new(move || {
+                        Ok(camsim_io::exr::write_gray_exr(
+                            &out.join(format!("depth{}.exr", frame_suffix(i))),
+                            f.ids.height,
+                            f.ids.width,
+                            "Z",
+                            &f.depth_m,
+                        )?)
+                    }));
+                }
+                if outputs.contains(Output::Ids) {
+                    t.push(Box::new(move || id_map_pngs(out.path(), &f.ids, i)));
+                }
+                t.push(Box::new(move || f.labels.write(out.path(), outputs, i)));
             }
             if let (true, Some(nfs)) = (
                 outputs.contains(Output::NoiseFree),
@@ -612,6 +657,14 @@ pub fn write_flow(path: &Path, rows: usize, cols: usize, flow: &[[f32; 2]]) -> R
 /// Write object_id.png and material_id.png (16-bit grey, row-major scene pixels) and ids.json
 /// (the legend) into folder `dir`, each file atomically.
 pub fn write_id_maps(dir: &std::path::Path, ids: &camsim_render::IdMaps) -> Result<()> {
+    id_map_pngs(dir, ids, 0)?;
+    camsim_io::atomic::write_json_atomic(&dir.join("ids.json"), &ids.legend())?;
+    Ok(())
+}
+
+/// object_id.png and material_id.png of raw frame `frame` (`object_id_0001.png`, ... for a
+/// later frame of a moving scene, [`frame_suffix`]).
+fn id_map_pngs(dir: &Path, ids: &camsim_render::IdMaps, frame: usize) -> Result<()> {
     if ids.max_id() > u16::MAX as u32 {
         return Err(PipelineError::config(format!(
             "ids: the scene has {} shapes or materials, more than a 16-bit id map holds (65535)",
@@ -619,12 +672,12 @@ pub fn write_id_maps(dir: &std::path::Path, ids: &camsim_render::IdMaps) -> Resu
         )));
     }
     for (name, map) in [
-        ("object_id.png", &ids.object_id),
-        ("material_id.png", &ids.material_id),
+        ("object_id", &ids.object_id),
+        ("material_id", &ids.material_id),
     ] {
         let v: Vec<u16> = map.iter().map(|&i| i as u16).collect();
-        camsim_io::raster::write_png16_gray(&dir.join(name), ids.height, ids.width, &v)?;
+        let path = dir.join(format!("{name}{}.png", frame_suffix(frame)));
+        camsim_io::raster::write_png16_gray(&path, ids.height, ids.width, &v)?;
     }
-    camsim_io::atomic::write_json_atomic(&dir.join("ids.json"), &ids.legend())?;
     Ok(())
 }

@@ -18,7 +18,7 @@ use crate::geometry::Ray;
 use crate::integrator::Tracer;
 use crate::materials::Mat;
 use crate::math::V3;
-use crate::motion::PathTime;
+use crate::motion::{PathTime, TimeCache};
 use crate::scene::{Geometry, SceneDescription, Transform};
 use crate::spectral::{Lambdas, WavelengthSampler};
 use crate::texture::TexCtx;
@@ -261,8 +261,11 @@ fn frame_axes(t: Option<&Transform>) -> [[f64; 3]; 3] {
     [a, b, c]
 }
 
-/// The extent `[min, max]` of a shape's geometry along unit axis `a`, m.
-fn extent_along(g: &Geometry, a: [f64; 3]) -> [f64; 2] {
+/// The extent `[min, max]` of a shape's geometry along `a`, m: `a` a unit axis and `len` 1, or
+/// `a = A^T u` for the geometry moved by linear map `A` (extent along the unit axis `u` of the
+/// moved geometry, less the move's offset) with `len = |a|` (a sphere's radius scales by it: the
+/// support function of an ellipsoid `A` ball is `r |A^T u|`).
+fn extent_along(g: &Geometry, a: [f64; 3], len: f64) -> [f64; 2] {
     match g {
         Geometry::Triangles {
             positions, indices, ..
@@ -282,11 +285,11 @@ fn extent_along(g: &Geometry, a: [f64; 3]) -> [f64; 2] {
         // A partial sphere's box is its whole sphere's (an upper bound).
         Geometry::Sphere { center, radius } | Geometry::PartialSphere { center, radius, .. } => {
             let d = dot(*center, a);
-            [d - radius, d + radius]
+            [d - radius * len, d + radius * len]
         }
         // Bezier segments lie in their control points' convex hull; plus half the widest width.
         Geometry::Curves(c) => {
-            let r = 0.5 * c.width_m[0].max(c.width_m[1]) as f64;
+            let r = 0.5 * c.width_m[0].max(c.width_m[1]) as f64 * len;
             let mut e = [f64::INFINITY, f64::NEG_INFINITY];
             for p in &c.points {
                 let d = dot(p.map(f64::from), a);
@@ -298,16 +301,39 @@ fn extent_along(g: &Geometry, a: [f64; 3]) -> [f64; 2] {
 }
 
 /// The oriented world-space box of `shapes` in the frame of the first one's transform, as
-/// camera-frame [`Box3d`].
-fn box_3d(scene: &SceneDescription, shapes: &[u32], cam: &PinholeCamera) -> Option<Box3d> {
-    let first = &scene.shapes[*shapes.first()? as usize - 1];
-    let axes_w = frame_axes(first.tags.object_to_world.as_ref());
+/// camera-frame [`Box3d`]. `moved(shape index)`: a moving shape's move from its stored pose to
+/// the labels' time (the box follows it: exact for a rigid move with uniform scale).
+fn box_3d(
+    scene: &SceneDescription,
+    shapes: &[u32],
+    cam: &PinholeCamera,
+    moved: &dyn Fn(usize) -> Option<Transform>,
+) -> Option<Box3d> {
+    let i0 = *shapes.first()? as usize - 1;
+    let first = &scene.shapes[i0];
+    let axes_w = match (moved(i0), first.tags.object_to_world.as_ref()) {
+        (None, o2w) => frame_axes(o2w),
+        (Some(d), Some(o2w)) => frame_axes(Some(&d.then_apply_to(o2w))),
+        (Some(d), None) => frame_axes(Some(&d)),
+    };
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for &o in shapes {
         let g = &scene.shapes[o as usize - 1].geometry;
+        let d = moved(o as usize - 1);
         for k in 0..3 {
-            let e = extent_along(g, axes_w[k]);
+            let e = match &d {
+                None => extent_along(g, axes_w[k], 1.0),
+                Some(d) => {
+                    // dot(A x + t, u) = dot(x, A^T u) + dot(t, u).
+                    let u = axes_w[k];
+                    let at: [f64; 3] =
+                        std::array::from_fn(|j| (0..3).map(|i| d.m[i][j] * u[i]).sum());
+                    let off = dot([d.m[0][3], d.m[1][3], d.m[2][3]], u);
+                    let e = extent_along(g, at, dot(at, at).sqrt());
+                    [e[0] + off, e[1] + off]
+                }
+            };
             lo[k] = lo[k].min(e[0]);
             hi[k] = hi[k].max(e[1]);
         }
@@ -534,14 +560,32 @@ pub(crate) fn compute(
         (pixels * per_px) as u64,
         &format!("the labels of a {width} x {height} render"),
     )?;
-    let camera = pinhole_camera(scene, rig)?;
+    // The labels' instant in a moving scene: each pixel sees the scene at the start of its
+    // render row's window (the instant of the depth, id and flow maps' first hit); the camera
+    // model and the 3D boxes are those of the frame's start (the earliest row's).
+    let motion = tracer.motion.as_deref();
+    let shutter = &scene.settings.time.shutter;
+    let last_row = scene.camera.height.saturating_sub(1);
+    let row_start_s = |py: f32| shutter.row_window_s((py.max(0.0) as usize).min(last_row)).0;
+    let frame_start_s = shutter.span_s(scene.camera.height).0;
+    let stored_camera = pinhole_camera(scene, rig, None)?;
+    let camera = match motion.and_then(|m| m.camera_delta_at(frame_start_s)) {
+        None => stored_camera.clone(),
+        Some(d) => pinhole_camera(scene, rig, Some(&d))?,
+    };
     let (of_shape, mut instances) = instance_table(scene);
     let lambdas: Vec<Lambdas<1>> = (0..bands)
         .map(|b| ws.locate([grid.wavelength_nm(b) as f32]))
         .collect();
     let srgb_w = srgb_weights(&grid);
-    let to_cam = |n: V3| {
-        camera
+    // A world normal in the camera frame of the pixel's instant (the stored camera's frame of
+    // the normal moved back with the camera).
+    let to_cam = |n: V3, pt: &PathTime| {
+        let n = match motion.and_then(|m| m.camera_pose(pt)) {
+            Some(p) => p.to_ref.vector(n),
+            None => n,
+        };
+        stored_camera
             .direction_to_camera([n.x as f64, n.y as f64, n.z as f64])
             .map(|v| v as f32)
     };
@@ -567,31 +611,37 @@ pub(crate) fn compute(
                 row.albedo_srgb = vec![[0.0; 3]; width];
             }
             let mut seen = [0u32; MAX_LAYERS];
+            let cache = TimeCache::new(motion);
             for x in 0..width {
-                let r = match raster {
-                    None => rig.ray(x as f32 + 0.5, y as f32 + 0.5),
+                let [px, py] = match raster {
+                    None => [x as f32 + 0.5, y as f32 + 0.5],
                     Some(rp) => {
                         let [px, py] = rp.xy[y * width + x];
                         if !(px.is_finite() && py.is_finite()) {
                             continue;
                         }
-                        rig.ray(px, py)
+                        [px, py]
                     }
                 };
-                let Some((sh, pi)) = tracer.first_hit(&r, &PathTime::STATIC) else {
+                let pt = match motion {
+                    None => PathTime::STATIC,
+                    Some(_) => cache.at(row_start_s(py)),
+                };
+                let r = tracer.camera_ray(rig.ray(px, py), &pt);
+                let Some((sh, pi)) = tracer.first_hit(&r, &pt) else {
                     continue;
                 };
                 let id = of_shape[pi.shape as usize];
                 row.instance[x] = id;
                 row.object[x] = pi.shape + 1;
-                row.depth[x] = (sh.p - r.o).dot(rig.forward);
+                row.depth[x] = (sh.p - r.o).dot(tracer.camera_vector(rig.forward, &pt));
                 // The side the camera sees: the geometric normal toward the ray's origin, the
                 // shading normal on its side.
                 let ng = sh.ng.face_forward(-r.d);
                 let ns = sh.ns.face_forward(ng);
                 if request.normals {
                     row.normal_world[x] = [ns.x, ns.y, ns.z];
-                    row.normal_camera[x] = to_cam(ns);
+                    row.normal_camera[x] = to_cam(ns, &pt);
                 }
                 if request.albedo {
                     let m = tracer.resolve_material(pi.material, sh.p, -r.d);
@@ -623,7 +673,7 @@ pub(crate) fn compute(
                         o: Tracer::offset(hit.p, hit.ng.face_forward(r.d), hit.err),
                         d: r.d,
                     };
-                    let Some((sh2, pi2)) = tracer.first_hit(&next, &PathTime::STATIC) else {
+                    let Some((sh2, pi2)) = tracer.first_hit(&next, &pt) else {
                         break;
                     };
                     let id2 = of_shape[pi2.shape as usize];
@@ -678,7 +728,9 @@ pub(crate) fn compute(
         } else {
             0.0
         };
-        inst.box_3d = box_3d(scene, &inst.object_ids, &camera);
+        inst.box_3d = box_3d(scene, &inst.object_ids, &camera, &|i| {
+            motion.and_then(|m| m.shape_delta_at(i, frame_start_s))
+        });
         inst.truncation = inst
             .box_3d
             .as_ref()
@@ -702,17 +754,25 @@ pub(crate) fn compute(
 }
 
 /// The pinhole camera of `rig`: intrinsics from its ray generation, extrinsics from the scene's
-/// camera transform with the origin moved to the pinhole and y turned down.
+/// camera transform with the origin moved to the pinhole and y turned down; `moved`: the
+/// camera's world-space move from its stored pose (a moving camera at the labels' time).
 fn pinhole_camera(
     scene: &SceneDescription,
     rig: &CameraRig,
+    moved: Option<&Transform>,
 ) -> Result<PinholeCamera, crate::RenderError> {
     let c = &scene.camera;
     let [fx, fy, cx, cy] = rig.pinhole_intrinsics(c.width, c.height);
-    let inv = camsim_scene3d::xform::inverse(&c.camera_to_world)
-        .ok_or_else(|| crate::RenderError::Camera("camera_to_world is not invertible".into()))?;
+    let not_invertible = || crate::RenderError::Camera("camera_to_world is not invertible".into());
+    let stored = camsim_scene3d::xform::inverse(&c.camera_to_world).ok_or_else(not_invertible)?;
     let o = rig.pinhole_origin();
-    let pz = inv.apply_point([o.x as f64, o.y as f64, o.z as f64])[2];
+    // The pinhole's depth in the camera frame (the same in every pose).
+    let pz = stored.apply_point([o.x as f64, o.y as f64, o.z as f64])[2];
+    let inv = match moved {
+        None => stored,
+        Some(d) => camsim_scene3d::xform::inverse(&d.then_apply_to(&c.camera_to_world))
+            .ok_or_else(not_invertible)?,
+    };
     let mut m = [[0.0; 4]; 4];
     for j in 0..4 {
         m[0][j] = inv.m[0][j];

@@ -192,6 +192,8 @@ pub(crate) struct MotionTracer {
     camera: Option<u32>,
     /// Per light entry (`Lights::list`): its mover, or `NO_MOVER`.
     pub(crate) light_mover: Vec<u32>,
+    /// Per shape of the scene: its group's mover, or `NO_MOVER`.
+    shape_mover: Vec<u32>,
     /// First slot of a moving primitive (the static BVH's primitive count).
     first_moving_slot: u32,
     /// Every ray's time lies in this span, s (the shutter's windows over all rows).
@@ -332,6 +334,7 @@ impl MotionTracer {
         let mut movers = Vec::new();
         let mut groups = Vec::new();
         let mut light_mover = vec![NO_MOVER; light_count];
+        let mut shape_mover = vec![NO_MOVER; scene.shapes.len()];
         let first_moving_slot = info.len() as u32;
         for MovingGroupPrims {
             motion,
@@ -373,6 +376,11 @@ impl MotionTracer {
             }
             for l in emitters {
                 light_mover[l as usize] = gi;
+            }
+            for p in &pinfo {
+                if let Some(m) = shape_mover.get_mut(p.shape as usize) {
+                    *m = gi;
+                }
             }
             movers.push(mover);
             groups.push(Group {
@@ -416,6 +424,7 @@ impl MotionTracer {
             groups,
             camera,
             light_mover,
+            shape_mover,
             first_moving_slot,
             span_s,
         }))
@@ -667,6 +676,19 @@ impl MotionTracer {
     /// The camera's mover.
     pub(crate) fn camera_mover(&self) -> Option<usize> {
         self.camera.map(|i| i as usize)
+    }
+
+    /// The world-space move (f64) of shape `shape` from its stored pose to its pose at `t_s`,
+    /// if it moves.
+    pub(crate) fn shape_delta_at(&self, shape: usize, t_s: f64) -> Option<Transform> {
+        let i = *self.shape_mover.get(shape)?;
+        (i != NO_MOVER).then(|| self.movers[i as usize].delta(t_s))
+    }
+
+    /// The world-space move (f64) of the camera from its stored pose to its pose at `t_s`, if
+    /// it moves.
+    pub(crate) fn camera_delta_at(&self, t_s: f64) -> Option<Transform> {
+        self.camera.map(|i| self.movers[i as usize].delta(t_s))
     }
 }
 

@@ -311,23 +311,15 @@ pub fn render_with(
     if request.light_sampler == LightSampler::Power {
         tracer.lights.disable_spatial();
     }
-    if tracer.motion.is_some() {
-        // Light groups split the path tracer's sum by the emitter hit, and labels trace the
-        // scene once per pixel: neither follows moving shapes, lights or camera yet.
-        if request.light_groups {
-            return Err(RenderError::Settings(
-                "light groups are not supported in scenes with motion yet (moving shapes, lights \
-                 or camera): remove the motion or the light-group output"
-                    .into(),
-            ));
-        }
-        if request.labels.is_some() {
-            return Err(RenderError::Settings(
-                "training-data labels are not supported in scenes with motion yet (moving \
-                 shapes, lights or camera): remove the motion or the labels"
-                    .into(),
-            ));
-        }
+    // Light groups split the path tracer's sum by the emitter hit, which does not follow moving
+    // shapes, lights or camera yet. (Labels do: `crate::labels` traces each pixel at its row's
+    // window start.)
+    if tracer.motion.is_some() && request.light_groups {
+        return Err(RenderError::Settings(
+            "light groups are not supported in scenes with motion yet (moving shapes, lights \
+             or camera): remove the motion or the light-group output"
+                .into(),
+        ));
     }
     let groups = if request.light_groups {
         if tracer.media.is_some() {

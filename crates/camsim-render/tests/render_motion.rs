@@ -723,10 +723,10 @@ fn a_moving_area_light_lights_as_the_average_of_still_ones() {
 }
 
 /// Feature combinations that do not follow motion yet are refused with a message naming them,
-/// not rendered at the reference pose: participating media, light groups and labels. The same
-/// requests on the scene made static render.
+/// not rendered at the reference pose: participating media and light groups. The same requests
+/// on the scene made static render (and labels render on the moving one).
 #[test]
-fn motion_refuses_media_light_groups_and_labels() {
+fn motion_refuses_media_and_light_groups() {
     use camsim_render::{render_with, LabelRequest, RenderRequest};
     use camsim_scene3d::media::{Coefficients, Media, Medium, MediumKind};
     let s = scene(
@@ -751,8 +751,7 @@ fn motion_refuses_media_light_groups_and_labels() {
     };
     let e = err(&s, &groups);
     assert!(e.contains("light groups") && e.contains("motion"), "{e}");
-    let e = err(&s, &labels);
-    assert!(e.contains("labels") && e.contains("motion"), "{e}");
+    assert!(render_with(&s, &labels, &quiet).is_ok());
     let mut fog = s.clone();
     fog.media = Media {
         list: vec![Medium {
@@ -775,4 +774,135 @@ fn motion_refuses_media_light_groups_and_labels() {
     }
     fog.settings.time = TimeSettings::default();
     assert!(render_with(&fog, &RenderRequest::default(), &quiet).is_ok());
+}
+
+/// The labels of a render at time t (its rows' window start).
+fn labels_at(s: &SceneDescription) -> (camsim_render::RenderOutput, camsim_render::Labels) {
+    use camsim_render::{render_with, LabelRequest, RenderRequest};
+    let req = RenderRequest {
+        labels: Some(LabelRequest {
+            normals: true,
+            albedo: false,
+        }),
+        ..Default::default()
+    };
+    let mut out = render_with(s, &req, &|_, _| {}).unwrap();
+    let l = out.labels.take().unwrap();
+    (out, l)
+}
+
+/// The first column of row `y` an instance map marks (its left edge in pixel edges).
+fn left_edge(map: &[u32], w: usize, y: usize) -> usize {
+    (0..w).find(|x| map[y * w + x] != 0).unwrap()
+}
+
+/// Labels of a moving scene describe the scene at the start of the shutter window (the instant
+/// of the depth and id maps and of flow's first hit): a bar moving at v px/s under a window
+/// [t0, t0 + T] has its instance map's left edge at x0 + v t0 (within half a pixel: maps are
+/// sampled at pixel centres), not at x0 nor at the window's middle; the labels equal the
+/// render's own id and depth maps; its 3D box is moved by v t0; and a plane receding along the
+/// view axis at vz has depth z0 + vz t0.
+#[test]
+fn labels_of_a_moving_scene_are_the_scene_at_the_window_start() {
+    let (w, h) = (64, 8);
+    let (x0, v) = (-20.3, 150.0);
+    let still = scene(
+        w,
+        h,
+        vec![bar(x0, x0 + 6.0, -10.0, 10.0)],
+        1,
+        Default::default(),
+    );
+    let (_, l_still) = labels_at(&still);
+    for (t0, big_t) in [(0.0, 0.02), (0.04, 0.02), (0.1, 0.05)] {
+        let s = scene(
+            w,
+            h,
+            vec![bar(x0, x0 + 6.0, -10.0, 10.0)],
+            1,
+            moving(0, velocity_px(v, 0.0), t0, t0 + big_t),
+        );
+        let (out, l) = labels_at(&s);
+        let want = w as f64 / 2.0 + x0 + v * t0;
+        for y in 0..h {
+            let e = left_edge(&l.instance_id, w, y) as f64;
+            assert!(
+                (e - want).abs() <= 0.5,
+                "t0 = {t0}: edge at {e}, want {want} +- 0.5"
+            );
+        }
+        // The same instant as the render's own depth and id maps.
+        assert_eq!(l.object_id, out.ids.object_id);
+        for (a, b) in l.depth_m.iter().zip(&out.depth_m) {
+            assert!(a == b || (a - b).abs() < 1e-5 * b, "{a} vs {b}");
+        }
+        // The 3D box (camera frame, x right) moved with the bar to t0.
+        let (c, c0) = (
+            l.instances[0].box_3d.as_ref().unwrap().center_m,
+            l_still.instances[0].box_3d.as_ref().unwrap().center_m,
+        );
+        let dx = v * t0 * PX_M;
+        assert!(
+            (c[0] - c0[0] - dx).abs() < 1e-9 && (c[1] - c0[1]).abs() < 1e-9,
+            "box centre {c:?} vs still {c0:?} + {dx}"
+        );
+    }
+    // A plane filling the view recedes at vz: depth z0 + vz t0 everywhere.
+    let vz = 2.0;
+    let recede = MotionPart::Velocity {
+        velocity_m_s: [0.0, 0.0, vz],
+        angular_velocity_deg_s: [0.0; 3],
+        pivot_m: [0.0; 3],
+    };
+    for t0 in [0.0, 0.1, 0.25] {
+        let s = scene(
+            w,
+            h,
+            vec![bar(-5000.0, 5000.0, -5000.0, 5000.0)],
+            1,
+            moving(0, recede.clone(), t0, t0 + 0.05),
+        );
+        let (_, l) = labels_at(&s);
+        let want = 1.0 + vz * t0;
+        for d in &l.depth_m {
+            assert!(
+                (*d as f64 - want).abs() < 1e-5,
+                "t0 = {t0}: depth {d}, want {want}"
+            );
+        }
+        // The plane faces the camera: its camera-frame normal is the optical axis.
+        for n in l.normal_camera.as_ref().unwrap() {
+            assert!(n[2].abs() > 0.99999, "{n:?}");
+        }
+    }
+}
+
+/// A camera translating sideways at v: the labels see the scene from the camera at the window
+/// start, so a static bar's instance edge moves by -v t0 in pixels, and the labels' extrinsics
+/// are the camera's at t0 (the world origin moves by -v t0 in the camera frame).
+#[test]
+fn labels_follow_a_moving_camera() {
+    let (w, h) = (64, 8);
+    let (x0, v) = (-10.2, 100.0);
+    for t0 in [0.0, 0.05, 0.12] {
+        let t = TimeSettings {
+            shutter: Shutter {
+                open_s: t0,
+                close_s: t0 + 0.01,
+                rolling: None,
+            },
+            camera: Some(Motion::single(velocity_px(v, 0.0))),
+            ..TimeSettings::default()
+        };
+        let s = scene(w, h, vec![bar(x0, x0 + 6.0, -10.0, 10.0)], 1, t);
+        let (_, l) = labels_at(&s);
+        let want = w as f64 / 2.0 + x0 - v * t0;
+        let e = left_edge(&l.instance_id, w, 3) as f64;
+        assert!((e - want).abs() <= 0.5, "t0 = {t0}: edge {e}, want {want}");
+        let origin = l.camera.to_camera([0.0; 3]);
+        assert!(
+            (origin[0] + v * t0 * PX_M).abs() < 1e-9,
+            "t0 = {t0}: world origin at {origin:?} in the camera frame"
+        );
+    }
 }

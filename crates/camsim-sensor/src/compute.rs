@@ -602,12 +602,16 @@ impl Sensor {
     }
 
     /// Exposure time for a capture, given the noise-free electron-rate image (`rows` x `cols`).
+    /// With a global reset (`global_reset`), auto-exposure meters the row that integrates
+    /// longest (the row read last): its light (without a mechanical shutter) and its dark
+    /// current run for the exposure plus its readout delay, so that no row passes the target.
     pub(crate) fn resolve_exposure(
         &self,
         rate: &[f32],
         rows: usize,
         cols: usize,
         exposure: Exposure,
+        global_reset: Option<&GlobalReset>,
     ) -> Result<f64> {
         match exposure {
             Exposure::Seconds(t) => Ok(t),
@@ -636,7 +640,25 @@ impl Sensor {
                         ),
                     ));
                 }
-                Ok(v_needed / v_rate)
+                // The longest row: light for t + e (t with a mechanical shutter), dark for
+                // t + e, e its readout delay: cg ((p99 + dark) t + (light? p99 : 0) e + dark e)
+                // = v_needed.
+                let e_s = global_reset.map_or(0.0, |g| {
+                    g.extra_s(0).max(g.extra_s(rows.saturating_sub(1))).max(0.0)
+                });
+                let light_e = global_reset.is_some_and(|g| !g.mechanical_shutter);
+                let extra_v = self.conversion_gain_v_per_e
+                    * (if light_e { p99 } else { 0.0 } + dark_rate_e)
+                    * e_s;
+                if e_s > 0.0 && extra_v >= v_needed {
+                    return Err(SensorError::input(
+                        "auto exposure",
+                        format!(
+                            "the global reset's readout ({e_s} s for the row read last) alone fills the pixels past the target; use a shorter line time, a mechanical shutter or a fixed exposure"
+                        ),
+                    ));
+                }
+                Ok((v_needed - extra_v) / v_rate)
             }
         }
     }
@@ -685,7 +707,13 @@ impl Sensor {
         frame_base: u64,
     ) -> Result<Frame> {
         check_capture(capture)?;
-        let exposure_s = self.resolve_exposure(rate, rows, cols, capture.exposure)?;
+        let exposure_s = self.resolve_exposure(
+            rate,
+            rows,
+            cols,
+            capture.exposure,
+            capture.global_reset.as_ref(),
+        )?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
             return Err(SensorError::input(
                 "exposure",

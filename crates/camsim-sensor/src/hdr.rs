@@ -221,7 +221,7 @@ impl Sensor {
                 "an [hdr] sensor's global-reset readout is not modelled; use the global or rolling shutter",
             ));
         }
-        let exposure_s = self.resolve_exposure(rate_e_per_s, rows, cols, capture.exposure)?;
+        let exposure_s = self.resolve_exposure(rate_e_per_s, rows, cols, capture.exposure, None)?;
         if !(exposure_s.is_finite() && exposure_s >= 0.0) {
             return Err(SensorError::input(
                 "exposure",

@@ -89,3 +89,53 @@ fn with_a_mechanical_shutter_only_the_dark_signal_grows() {
         );
     }
 }
+
+/// Auto-exposure in global-reset mode meters the row that integrates longest (the row read
+/// last: exposure + its readout delay). With a readout as long as the plain auto exposure T0,
+/// metering the first row read (the exposure T0) gave the last row about 2 T0 of light, past
+/// full scale; now the last row collects exactly what the plain auto exposure collects
+/// (T + extra_max = T0) and no row clips.
+#[test]
+fn auto_exposure_meters_the_row_read_last() {
+    use camsim_sensor::Exposure;
+    let grid = WavelengthGrid::default();
+    let s = config("pixel4a-raw10", |c| {
+        c.rows = ROWS;
+        c.cols = 16;
+        c.noise = NoiseSwitches::none();
+    });
+    let img = uniform_image(ROWS, 16, grid, s.pixel_pitch_m(), &vec![2e-4; grid.len()]);
+    let auto = Capture {
+        exposure: Exposure::Auto {
+            target_fraction: 0.9,
+        },
+        ..Capture::seconds(0.0)
+    };
+    let plain = s.compute(&img, &auto).unwrap();
+    let t0 = plain.exposure_s;
+    let lt = t0 / ROWS as f64;
+    // Top-down: the last stored row is read first, stored row 0 last.
+    let g = GlobalReset {
+        row0_extra_s: lt * (ROWS - 1) as f64,
+        per_row_extra_s: -lt,
+        mechanical_shutter: false,
+    };
+    let f = s.compute(&img, &auto.with_global_reset(Some(g))).unwrap();
+    let white = plain.raw[0].white_level_dn;
+    let max = |raw: &camsim_core::RawImage| raw.dn.iter().copied().max().unwrap() as f64;
+    assert!(max(&f.raw[0]) < white, "a row clips: {} DN", max(&f.raw[0]));
+    let want = t0 - g.extra_s(0);
+    assert!(
+        (f.exposure_s / want - 1.0).abs() < 1e-9,
+        "exposure {} s, want T0 - readout = {want}",
+        f.exposure_s
+    );
+    // The row read last (stored row 0) sees the plain auto exposure's signal.
+    let row0 = |raw: &camsim_core::RawImage| raw.dn[0] as f64;
+    assert!(
+        (row0(&f.raw[0]) - row0(&plain.raw[0])).abs() <= 1.0,
+        "{} vs {}",
+        row0(&f.raw[0]),
+        row0(&plain.raw[0])
+    );
+}

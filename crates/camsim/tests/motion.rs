@@ -34,6 +34,17 @@ fn bar_config_with(
     shutter: &str,
     capture: &str,
 ) -> SimulateConfig {
+    bar_config_moving(dir, [v_m_s, 0.0, 0.0], shutter, capture)
+}
+
+/// [`bar_config_with`] with the bar's velocity `[x, y, z]`, m/s.
+fn bar_config_moving(
+    dir: &std::path::Path,
+    v_m_s: [f64; 3],
+    shutter: &str,
+    capture: &str,
+) -> SimulateConfig {
+    let [vx, vy, vz] = v_m_s;
     std::fs::write(dir.join("bar.pbrt"), BAR).unwrap();
     let text = format!(
         r#"
@@ -44,7 +55,7 @@ samples_per_pixel = 16
 resolution = [80, 60]
 [[render.overlay_inline.object]]
 name = "bar"
-velocity_m_s = [{v_m_s}, 0.0, 0.0]
+velocity_m_s = [{vx:?}, {vy:?}, {vz:?}]
 [sensor]
 preset = "pixel4a"
 rows = 120
@@ -287,25 +298,133 @@ fn video_of_a_moving_scene_renders_each_frame_at_its_time() {
     );
 }
 
-/// Labels trace the scene once, at one time: a moving scene refuses them with a message that
-/// names the outputs to leave out, instead of writing labels of one instant next to blurred
-/// frames. The same request on the bar standing still runs.
+/// Labels of a moving scene, one set per frame, each a sharp snapshot of the scene at its
+/// frame's window start t_k (issue 28 item 1). The bar (3 cm wide, 10 m away) moving right at v
+/// in a burst of 3 frames 5 ms apart: in frame k its instance map's edges on the raw grid sit at
+/// the closed form (centre + (+-1.5 cm + v t_k) f / (10 m pitch)) within half a pixel (maps
+/// sample pixel centres), so consecutive frames shift by v x frame interval; its 2D box moves by
+/// the flow to the next frame (within a pixel: two edges of half a pixel each); and a bar
+/// receding at vz has depth 10 m + vz t_k in frame k on both grids. The later frames' files
+/// are numbered as raw.dng's.
 #[test]
-fn a_moving_scene_refuses_labels() {
+fn labels_of_a_moving_scene_are_per_frame_snapshots_at_the_window_start() {
+    use camsim::render::labels::boxes_2d;
     let dir = tempfile::tempdir().unwrap();
+    let capture = "exposure_ms = 0.2\nframes = 3\nframe_interval_ms = 5.0";
     let opts = SimulateOptions {
         labels: Some(camsim::render::LabelRequest::default()),
+        flow: true,
         ..Default::default()
     };
-    let e = simulate(&bar_config(dir.path(), 6.0, "\"global\""), &opts, &quiet)
-        .expect_err("a moving scene with labels must be refused")
-        .to_string();
-    assert!(
-        e.contains("labels") && e.contains("moving") && e.contains("--save"),
-        "{e}"
-    );
-    let still = simulate(&bar_config(dir.path(), 0.0, "\"global\""), &opts, &quiet).unwrap();
-    assert!(still.labels.is_some());
+    let v_m_s = 2.0;
+    let sim = simulate(
+        &bar_config_with(dir.path(), v_m_s, "\"global\"", capture),
+        &opts,
+        &quiet,
+    )
+    .unwrap();
+    assert!(sim.moving);
+    assert_eq!(sim.later_frame_labels.len(), 2);
+    let px_per_m = bar_px_per_s(&sim, v_m_s) / v_m_s;
+    let (rows, cols) = (sim.frames[0].rows, sim.frames[0].cols);
+    let labels: Vec<&camsim::pipeline::labels::SimLabels> =
+        std::iter::once(sim.labels.as_ref().unwrap())
+            .chain(sim.later_frame_labels.iter().map(|f| &f.labels))
+            .collect();
+    for (k, l) in labels.iter().enumerate() {
+        let t_s = sim.frame_times[k].start_s;
+        assert!((t_s - 5e-3 * k as f64).abs() < 1e-12);
+        let row = &l.sensor.instance_id[rows / 2 * cols..(rows / 2 + 1) * cols];
+        let first = row.iter().position(|i| *i != 0).unwrap() as f64;
+        let end = row.iter().rposition(|i| *i != 0).unwrap() as f64 + 1.0;
+        let centre = cols as f64 / 2.0;
+        let want = [-0.015, 0.015].map(|x| centre + (x + v_m_s * t_s) * px_per_m);
+        for (got, want) in [first, end].iter().zip(want) {
+            assert!(
+                (got - want).abs() <= 0.5,
+                "frame {k}: edge at {got}, want {want} +- 0.5 px"
+            );
+        }
+    }
+    let flows = sim.flow.as_ref().unwrap();
+    for k in 0..2 {
+        let (a, b) = (
+            boxes_2d(&labels[k].sensor.instance_id, cols)[0].bbox,
+            boxes_2d(&labels[k + 1].sensor.instance_id, cols)[0].bbox,
+        );
+        // The mean flow to the next frame over the bar's pixels in frame k (the flow map is the
+        // nearest render pixel's: a sensor pixel at the bar's edge may take the background's 0).
+        let next = flows[k].to_next.as_ref().unwrap();
+        let on: Vec<f64> = labels[k]
+            .sensor
+            .instance_id
+            .iter()
+            .zip(next)
+            .filter(|(i, f)| **i != 0 && f[0] != 0.0)
+            .map(|(_, f)| f[0] as f64)
+            .collect();
+        let dx = on.iter().sum::<f64>() / on.len() as f64;
+        // (The image distance is f within 0.5 %: the lens is focused far away.)
+        let want = v_m_s * 5e-3 * px_per_m;
+        assert!((dx / want - 1.0).abs() < 5e-3, "flow {dx} px, want {want}");
+        for (e0, e1) in [(a[0], b[0]), (a[2], b[2])] {
+            let shift = e1 as f64 - e0 as f64;
+            assert!(
+                (shift - dx).abs() <= 1.0,
+                "frames {k}, {}: box edge moves {shift} px, flow {dx} px",
+                k + 1
+            );
+        }
+        assert_eq!((a[1], a[3]), (b[1], b[3]), "the bar spans every row");
+    }
+    // Depth: a bar receding at vz is 10 m + vz t_k away in frame k (raw and render grids).
+    let vz = 20.0;
+    let sim = simulate(
+        &bar_config_moving(dir.path(), [0.0, 0.0, vz], "\"global\"", capture),
+        &opts,
+        &quiet,
+    )
+    .unwrap();
+    let depths: Vec<(&[f32], &[f32])> = std::iter::once((
+        sim.labels.as_ref().unwrap().sensor.depth_m.as_slice(),
+        sim.radiance.as_ref().unwrap().depth_m.as_deref().unwrap(),
+    ))
+    .chain(
+        sim.later_frame_labels
+            .iter()
+            .map(|f| (f.labels.sensor.depth_m.as_slice(), f.depth_m.as_slice())),
+    )
+    .collect();
+    for (k, (sensor, render)) in depths.iter().enumerate() {
+        let want = 10.0 + vz * sim.frame_times[k].start_s;
+        for d in sensor.iter().chain(render.iter()).filter(|d| d.is_finite()) {
+            assert!(
+                (*d as f64 / want - 1.0).abs() < 1e-5,
+                "frame {k}: depth {d} m, want {want}"
+            );
+        }
+        assert!(sensor.iter().any(|d| d.is_finite()));
+    }
+    // The files: frame 1's under the static names, later frames numbered.
+    let out = dir.path().join("run");
+    let outputs = camsim::OutputSet::parse("raw,instances,boxes,depth,ids").unwrap();
+    sim.write(&out, &outputs, Default::default(), &Default::default())
+        .unwrap();
+    for name in [
+        "instances.png",
+        "instances_0001.png",
+        "instances_0002.scene.png",
+        "boxes_0002.json",
+        "depth.exr",
+        "depth_0001.exr",
+        "depth_0002.sensor.exr",
+        "object_id_0001.png",
+        "material_id_0002.sensor.png",
+        "ids.json",
+    ] {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+    assert!(!out.join("instances_0003.png").exists() && !out.join("ids_0001.json").exists());
 }
 
 /// Sensor pixels per second of the bar moving at `v_m_s` 10 m away (infinity focus: the image

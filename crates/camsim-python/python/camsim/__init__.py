@@ -95,7 +95,8 @@ def simulate(
     camera (realistic, raytransfer) renders sensor-plane irradiance and skips [optics]
     (metadata["results"]["lens_camera"] is True). labels=True (3D scenes): Simulation.labels
     (instance, id, depth, normal and albedo maps on the raw image's grid, boxes) and
-    Simulation.camera (K, world_to_camera); a moving 3D scene refuses labels (not supported yet)."""
+    Simulation.camera (K, world_to_camera); a moving 3D scene's are the first frame's, a sharp
+    snapshot at its window's start (the files of `camsim simulate --save` hold every frame's)."""
     if isinstance(config, dict):
         _check_values(config, "config", CamsimError)
     if seed is not None:
