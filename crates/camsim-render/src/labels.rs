@@ -526,14 +526,12 @@ pub(crate) fn compute(
     let grid = scene.settings.grid;
     let bands = grid.len();
     let pixels = width * height;
-    let per_px = 4
-        + 8
-        + if request.normals { 24 } else { 0 }
-        + if request.albedo { 4 * bands + 12 } else { 0 };
-    camsim_core::mem::check_alloc(
-        (pixels * per_px) as u64,
-        &format!("the labels of a {width} x {height} render"),
-    )?;
+    camsim_core::mem::MemoryBudget::new(format!("the labels of a {width} x {height} render"))
+        .bytes(
+            "label maps",
+            (pixels as u64).saturating_mul(crate::budget::label_bytes_per_pixel(request, bands)),
+        )
+        .check(crate::budget::ADVICE)?;
     let camera = pinhole_camera(scene, rig)?;
     let (of_shape, mut instances) = instance_table(scene);
     let lambdas: Vec<Lambdas<1>> = (0..bands)
