@@ -585,6 +585,14 @@ fn the_scene_and_render_stages_refuse_work_over_the_memory_limit_before_allocati
         |rows: usize, cols: usize| format!("kind = \"uniform\"\nrows = {rows}\ncols = {cols}\n");
     std::fs::write(r.join("small.toml"), uniform(32, 48)).unwrap();
     std::fs::write(r.join("huge.toml"), uniform(60000, 60000)).unwrap();
+    // Its parts fit one by one, not together: a 4000 x 4000 slanted edge's radiance cube
+    // (1892 MiB) and coverage map (61 MiB) each fit 1950 MiB; with the EXR writer's blocks
+    // (128 MiB) the stage needs 2020 MiB.
+    std::fs::write(
+        r.join("edge.toml"),
+        "kind = \"slanted_edge\"\nrows = 4000\ncols = 4000\n",
+    )
+    .unwrap();
     let exr = r.join("scene.exr");
     let scene = |config: &str, limit: &str| {
         camsim_capped(
@@ -598,6 +606,7 @@ fn the_scene_and_render_stages_refuse_work_over_the_memory_limit_before_allocati
     for (config, limit, size) in [
         ("small.toml", "1", "32 x 48 pixels"),
         ("huge.toml", "4000", "60000 x 60000 pixels"),
+        ("edge.toml", "1950", "4000 x 4000 pixels"),
     ] {
         let o = scene(config, limit);
         let e = stderr(&o);
@@ -634,13 +643,18 @@ fn the_scene_and_render_stages_refuse_work_over_the_memory_limit_before_allocati
     for (resolution, limit, size) in [
         ("16x12", "1", "16 x 12 pixels"),
         ("60000x60000", "4000", "60000 x 60000 pixels"),
+        // The film and 44 B a pixel (the single check the render had, 2563 MiB) fit 2650 MiB;
+        // the whole peak, with the preview and the EXR writer's blocks, is 2752 MiB.
+        ("4000x4000", "2650", "4000 x 4000 pixels"),
     ] {
         let o = render(resolution, limit);
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{resolution}: {e}");
         assert!(
             e.contains(&format!("the render ({size}, 31 bands) needs about"))
-                && (size.starts_with("16 ") || e.contains("spectral film"))
+                && (size.starts_with("16 ")
+                    || e.contains("spectral film 1892 MiB")
+                    || e.contains("spectral film 425720 MiB"))
                 && e.contains(&format!("CAMSIM_MEMORY_LIMIT_MIB = {limit}")),
             "{e}"
         );
