@@ -523,8 +523,18 @@ fn work_that_does_not_fit_is_refused_before_it_is_allocated() {
     };
     let o = emva(&["--rows", "100000", "--cols", "100000"], &[]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // The pipeline names the fields neutrally; the CLI spells them as its flags (Python as its
+    // keywords: crates/camsim-python/tests/test_camsim.py).
     assert!(
-        stderr(&o).contains("100000 x 100000") && stderr(&o).contains("fit the"),
+        stderr(&o).contains("--rows 100000, --cols 100000: the EMVA window 100000 x 100000")
+            && stderr(&o).contains("fit the"),
+        "{}",
+        stderr(&o)
+    );
+    let o = emva(&["--frames-per-level", "1"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--frames-per-level 1: EMVA 1288 needs at least 2 frames"),
         "{}",
         stderr(&o)
     );
@@ -546,6 +556,110 @@ fn work_that_does_not_fit_is_refused_before_it_is_allocated() {
         stderr(&o)
     );
     assert!(!r.join("emva").exists());
+}
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut v: Vec<(PathBuf, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let p = e.unwrap().path();
+            let b = std::fs::read(&p).unwrap_or_default();
+            (p, b)
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Issue 25 item 6 for the 2D scene stage and the renderer: each sums its peak memory (the
+/// spectral image, its per-pixel maps and the writer's blocks) and refuses before allocating,
+/// naming the image size, the bands and the limit; the earlier output stays as it was. A
+/// 60000 x 60000 x 31-band image (446 GB) shows the check comes first: without it the run would
+/// abort on the allocation (or on the film's own single-plane check, with another message).
+#[test]
+fn the_scene_and_render_stages_refuse_work_over_the_memory_limit_before_allocating() {
+    let root = tempfile::tempdir().unwrap();
+    let r = root.path();
+    let uniform =
+        |rows: usize, cols: usize| format!("kind = \"uniform\"\nrows = {rows}\ncols = {cols}\n");
+    std::fs::write(r.join("small.toml"), uniform(32, 48)).unwrap();
+    std::fs::write(r.join("huge.toml"), uniform(60000, 60000)).unwrap();
+    // Its parts fit one by one, not together: a 4000 x 4000 slanted edge's radiance cube
+    // (1892 MiB) and coverage map (61 MiB) each fit 1950 MiB; with the EXR writer's blocks
+    // (128 MiB) the stage needs 2020 MiB.
+    std::fs::write(
+        r.join("edge.toml"),
+        "kind = \"slanted_edge\"\nrows = 4000\ncols = 4000\n",
+    )
+    .unwrap();
+    let exr = r.join("scene.exr");
+    let scene = |config: &str, limit: &str| {
+        camsim_capped(
+            &["scene", s(&r.join(config)), "--out", s(&exr)],
+            &[("CAMSIM_MEMORY_LIMIT_MIB", limit)],
+        )
+    };
+    let o = scene("small.toml", "4000");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(&exr).unwrap();
+    for (config, limit, size) in [
+        ("small.toml", "1", "32 x 48 pixels"),
+        ("huge.toml", "4000", "60000 x 60000 pixels"),
+        ("edge.toml", "1950", "4000 x 4000 pixels"),
+    ] {
+        let o = scene(config, limit);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{config}: {e}");
+        assert!(
+            e.contains(&format!(
+                "the 2D scene stage ({size}, 31 bands) needs about"
+            )) && e.contains(&format!("CAMSIM_MEMORY_LIMIT_MIB = {limit}")),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(&exr).unwrap(), before, "{config}");
+    }
+    let out = r.join("render");
+    let render = |resolution: &str, limit: &str| {
+        camsim_capped(
+            &[
+                "render",
+                "--builtin",
+                "cornell-box",
+                "--resolution",
+                resolution,
+                "--spp",
+                "1",
+                "--out",
+                s(&out),
+            ],
+            &[("CAMSIM_MEMORY_LIMIT_MIB", limit)],
+        )
+    };
+    let o = render("16x12", "4000");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = snapshot(&out);
+    assert!(before.iter().any(|(p, _)| p.ends_with("radiance.exr")));
+    for (resolution, limit, size) in [
+        ("16x12", "1", "16 x 12 pixels"),
+        ("60000x60000", "4000", "60000 x 60000 pixels"),
+        // The film and 44 B a pixel (the single check the render had, 2563 MiB) fit 2650 MiB;
+        // the whole peak, with the preview and the EXR writer's blocks, is 2752 MiB.
+        ("4000x4000", "2650", "4000 x 4000 pixels"),
+    ] {
+        let o = render(resolution, limit);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{resolution}: {e}");
+        assert!(
+            e.contains(&format!("the render ({size}, 31 bands) needs about"))
+                && (size.starts_with("16 ")
+                    || e.contains("spectral film 1892 MiB")
+                    || e.contains("spectral film 425720 MiB"))
+                && e.contains(&format!("CAMSIM_MEMORY_LIMIT_MIB = {limit}")),
+            "{e}"
+        );
+        assert_eq!(snapshot(&out), before, "{resolution}");
+    }
 }
 
 /// The byte offset of an OpenEXR file's offset table: after the magic number, the version and

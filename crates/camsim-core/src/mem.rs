@@ -154,6 +154,11 @@ impl MemoryBudget {
     }
 }
 
+/// Bytes of image blocks a streaming writer assembles before compressing them as one batch
+/// (camsim-io's OpenEXR writer; it holds two batches at most, one compressed and one being
+/// assembled). Stage budgets count it for the files they write.
+pub const WRITE_BATCH_BYTES: usize = 64 << 20;
+
 /// Error if allocating `bytes` for `what` would exceed the available memory (a budget of one
 /// item).
 pub fn check_alloc(bytes: u64, what: &str) -> Result<()> {

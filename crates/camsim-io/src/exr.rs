@@ -399,8 +399,8 @@ impl ExrPrecision {
     }
 }
 
-/// Bytes of one block assembled before compression; a batch of blocks is about this size.
-const BATCH_BYTES: usize = 64 << 20;
+/// Bytes of one batch of blocks assembled before compression ([`mem::WRITE_BATCH_BYTES`]).
+const BATCH_BYTES: usize = mem::WRITE_BATCH_BYTES;
 
 /// Write `planes` as one scan-line layer, streaming: blocks of scan lines are assembled and
 /// compressed on every thread a batch at a time (about [`BATCH_BYTES`]) and written in order

@@ -27,6 +27,9 @@ pub enum PipelineError {
     Io(#[from] camsim_io::IoError),
     #[error(transparent)]
     Analysis(#[from] camsim_analysis::AnalysisError),
+    /// An EMVA series request refused, by its fields' neutral names (each door spells them).
+    #[error(transparent)]
+    Series(#[from] crate::measure::emva::SeriesError),
     #[error("cannot encode run metadata: {0}")]
     Json(#[from] serde_json::Error),
 }

@@ -2,13 +2,18 @@
 //! numpy arrays: SFR, ROI and chart statistics, the QE fit, EMVA 1288 (arrays or a series on
 //! disk), demosaicking quality, and the image-quality metrics and two-camera comparison.
 
-use crate::convert::{array, array1, err, plane_from, raw_from, rect, to_py, xyz_planes};
+use crate::convert::{
+    array, array1, err, plane_from, raw_from, rect, sensor_from, to_py, xyz_planes,
+};
 use camsim::analysis::chart::ChartCorners;
 use camsim::analysis::qefit::{fit_qe_matrix, MatrixForm};
 use camsim::core::{CfaPattern, RawImage};
 use camsim::pipeline::measure::chart::{measure_chart, ChartRequest};
 use camsim::pipeline::measure::demosaic::{demosaic_zone_plate as zone_plate, ZonePlateRequest};
-use camsim::pipeline::measure::emva::{analyze_levels, analyze_series, LevelFrames};
+use camsim::pipeline::measure::emva::{
+    analyze_levels, analyze_series, simulate_series, LevelFrames, SeriesError, SeriesField,
+    SeriesRequest,
+};
 use camsim::pipeline::measure::roi::{measure_roi, RoiRequest};
 use camsim::pipeline::measure::sfr::{measure_sfr, SfrImage, SfrRequest};
 use camsim::pipeline::{MeasuredImage, MosaicFormat};
@@ -217,6 +222,80 @@ fn emva_series<'py>(
     to_py(py, &json)
 }
 
+/// The keyword of each EMVA series field (the pipeline names them neutrally).
+fn series_keyword(f: SeriesField) -> &'static str {
+    match f {
+        SeriesField::Levels => "levels",
+        SeriesField::FramesPerLevel => "frames_per_level",
+        SeriesField::Rows => "rows",
+        SeriesField::Cols => "cols",
+    }
+}
+
+/// A refused EMVA series request, naming this function's keywords.
+fn series_err(e: SeriesError) -> PyErr {
+    err(e.spelled(series_keyword, "="))
+}
+
+/// Simulate an EMVA 1288 photon-transfer series, as `camsim sensor --emva-series` does: flat
+/// fields balanced so every channel collects 1e5 e-/s, `levels` exposures from 0 to 1.3 x
+/// saturation, `frames_per_level` bright and dark frames each, on a centred `rows` x `cols`
+/// window (default 128 x 128 or the sensor). Returns bright and dark (levels, frames, rows, cols)
+/// uint16, exposures_s and photons_per_pixel per level, cfa, bits, black_level and
+/// analog_offset_mv: what `emva` takes.
+#[pyfunction]
+#[pyo3(signature = (sensor, levels = 24, frames_per_level = 8, rows = None, cols = None, analog_offset_mv = None, seed = 1))]
+#[allow(clippy::too_many_arguments)]
+fn emva_simulate<'py>(
+    py: Python<'py>,
+    sensor: &Bound<'py, PyAny>,
+    levels: usize,
+    frames_per_level: usize,
+    rows: Option<usize>,
+    cols: Option<usize>,
+    analog_offset_mv: Option<f64>,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (sensor, _) = sensor_from(sensor)?;
+    let req = SeriesRequest {
+        levels,
+        frames_per_level,
+        rows: rows.unwrap_or(128.min(sensor.rows())),
+        cols: cols.unwrap_or(128.min(sensor.cols())),
+        analog_offset_mv,
+        seed,
+    };
+    req.validate(&sensor).map_err(series_err)?;
+    let series = py
+        .detach(|| simulate_series(&sensor, &req, &|_, _, _| {}))
+        .map_err(|e| match e {
+            camsim::Error::Series(e) => series_err(e),
+            e => err(e),
+        })?;
+    let stack = |pick: fn(&camsim::sensor::EmvaLevel) -> &Vec<RawImage>| -> Vec<u16> {
+        series
+            .levels
+            .iter()
+            .flat_map(|l| pick(l).iter().flat_map(|r| r.dn.iter().copied()))
+            .collect()
+    };
+    let shape = [series.levels.len(), frames_per_level, req.rows, req.cols];
+    let first = &series.levels[0].bright[0];
+    let d = PyDict::new(py);
+    d.set_item("bright", array(py, &stack(|l| &l.bright), &shape)?)?;
+    d.set_item("dark", array(py, &stack(|l| &l.dark), &shape)?)?;
+    let per_level = |f: fn(&camsim::sensor::EmvaLevel) -> f64| -> Vec<f64> {
+        series.levels.iter().map(f).collect()
+    };
+    d.set_item("exposures_s", per_level(|l| l.exposure_s))?;
+    d.set_item("photons_per_pixel", per_level(|l| l.photons_per_pixel))?;
+    d.set_item("cfa", first.cfa_layout().name())?;
+    d.set_item("bits", first.bits)?;
+    d.set_item("black_level", first.black_level_dn)?;
+    d.set_item("analog_offset_mv", series.analog_offset_mv)?;
+    Ok(d)
+}
+
 /// Every demosaicking method on a gray zone plate of side `size` reaching `f_max` cycles/pixel at
 /// the edge, sampled by a `cfa` mosaic: {method: {frequency_cy_per_px, mtf, mtf50_cy_per_px,
 /// false_colour_low_rms, false_colour_rms}}.
@@ -394,6 +473,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(fit_qe, m)?,
         wrap_pyfunction!(emva, m)?,
         wrap_pyfunction!(emva_series, m)?,
+        wrap_pyfunction!(emva_simulate, m)?,
         wrap_pyfunction!(demosaic_zone_plate, m)?,
         wrap_pyfunction!(scielab, m)?,
         wrap_pyfunction!(nps, m)?,

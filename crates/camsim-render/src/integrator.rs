@@ -25,6 +25,8 @@ mod moving;
 mod shading;
 mod volpath;
 
+pub(crate) use compile::prim_count;
+
 /// Most `interface` surfaces (and alpha cut-out hits) one path passes through before it is
 /// ended (a guard against rays trapped by coincident surfaces; pbrt-v4 has none).
 const MAX_INTERFACE_SKIPS: u32 = 256;

@@ -552,14 +552,12 @@ pub(crate) fn compute(
     let grid = scene.settings.grid;
     let bands = grid.len();
     let pixels = width * height;
-    let per_px = 4
-        + 8
-        + if request.normals { 24 } else { 0 }
-        + if request.albedo { 4 * bands + 12 } else { 0 };
-    camsim_core::mem::check_alloc(
-        (pixels * per_px) as u64,
-        &format!("the labels of a {width} x {height} render"),
-    )?;
+    camsim_core::mem::MemoryBudget::new(format!("the labels of a {width} x {height} render"))
+        .bytes(
+            "label maps",
+            (pixels as u64).saturating_mul(crate::budget::label_bytes_per_pixel(request, bands)),
+        )
+        .check(crate::budget::ADVICE)?;
     // The labels' instant in a moving scene: each pixel sees the scene at the start of its
     // render row's window (the instant of the depth, id and flow maps' first hit); the camera
     // model and the 3D boxes are those of the frame's start (the earliest row's).

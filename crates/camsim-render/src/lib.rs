@@ -19,6 +19,7 @@
 //! The scene contract shared with the pbrt-v4 reader is the `camsim-scene3d` crate.
 
 pub mod bsdf;
+pub mod budget;
 mod bump;
 pub mod bvh;
 mod camera;

@@ -294,16 +294,8 @@ pub fn render_with(
         }
     }
     let rig = CameraRig::new(&scene.camera).map_err(RenderError::Camera)?;
-    let (width, height) = (scene.camera.width, scene.camera.height);
-    let bands = st.grid.len();
-    let pixels = width * height;
-    // Output image + depth + variance and filter-weight accumulators (3 x f64) + variance +
-    // sample counts + ids.
-    camsim_core::mem::check_alloc(
-        pixels as u64
-            * (bands as u64 * 4 + 4 + 24 + 4 + 4 + 8 + 8 * st.time.flow_intervals_s.len() as u64),
-        &format!("a {width} x {height} render with {bands} bands"),
-    )?;
+    // Everything the render will hold at once, before any of it is allocated.
+    crate::budget::memory_budget(scene, request).check(crate::budget::ADVICE)?;
     let ws = WavelengthSampler::new(&st.grid);
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
@@ -328,11 +320,6 @@ pub fn render_with(
             ));
         }
         let g = crate::light_groups::GroupTable::new(scene, &tracer.light_source);
-        // One more spectral image (and a tile's f64 sums) per group.
-        camsim_core::mem::check_alloc(
-            pixels as u64 * bands as u64 * 4 * g.names.len() as u64,
-            &format!("{} light-group images of {width} x {height}", g.names.len()),
-        )?;
         Some(g)
     } else {
         None

@@ -232,6 +232,8 @@ pub fn from_image(cfg: &FileScene, mut img: SpectralImage) -> Result<SpectralIma
     if let Some(g) = cfg.wavelengths {
         g.validate()?;
         if !g.same_as(&img.grid) {
+            let held = (img.data.len() + img.depth_m.as_ref().map_or(0, Vec::len)) as u64 * 4;
+            check_memory(img.rows, img.cols, g.len(), &[("the file's image", held)])?;
             img = resample_bands(&img, &g)?;
         }
     }
@@ -366,6 +368,48 @@ fn check_size(rows: usize, cols: usize, min: usize) -> Result<()> {
     Ok(())
 }
 
+/// The 2D scene stage's peak memory for a `rows x cols` radiance image of `bands` bands, summed
+/// before any of it is allocated: the radiance cube (f32), then the larger of what the chart
+/// holds beside it while it is made (`aux`: a pattern's reflectance map, a slanted edge's coverage
+/// map, an RGB photo's pixels and levels, a scene file's image being resampled; dropped when the
+/// scene is made) and the OpenEXR writer's blocks in flight when the image is written (at most
+/// two batches of [`camsim_core::mem::WRITE_BATCH_BYTES`], never more than the image).
+pub fn memory_budget(
+    rows: usize,
+    cols: usize,
+    bands: usize,
+    aux: &[(&str, u64)],
+) -> camsim_core::mem::MemoryBudget {
+    let cube = (rows as u64)
+        .saturating_mul(cols as u64)
+        .saturating_mul(bands as u64)
+        .saturating_mul(4);
+    let writing = 2 * cube.min(camsim_core::mem::WRITE_BATCH_BYTES as u64);
+    let aux_bytes = aux.iter().fold(0u64, |a, (_, b)| a.saturating_add(*b));
+    let b = camsim_core::mem::MemoryBudget::new(format!(
+        "the 2D scene stage ({rows} x {cols} pixels, {bands} bands)"
+    ))
+    .bytes("radiance cube", cube);
+    if aux_bytes > writing {
+        aux.iter()
+            .fold(b, |b, (name, bytes)| b.bytes(*name, *bytes))
+    } else {
+        b.bytes("EXR writing blocks", writing)
+    }
+}
+
+/// Refuse a scene whose [`memory_budget`] exceeds the memory limit, before allocating it.
+pub(crate) fn check_memory(
+    rows: usize,
+    cols: usize,
+    bands: usize,
+    aux: &[(&str, u64)],
+) -> Result<()> {
+    memory_budget(rows, cols, bands, aux).check(
+        "use a smaller scene (scene.rows and scene.cols, or scene.size_px) or fewer wavelengths",
+    )
+}
+
 /// What every chart scene shares: the illuminant on the grid and the viewing geometry.
 struct Common {
     illuminant: Vec<f64>,
@@ -471,6 +515,7 @@ fn create_uniform(c: &UniformScene, grid: &WavelengthGrid) -> Result<SpectralIma
         grid,
     )?;
     check_size(c.rows, c.cols, 1)?;
+    check_memory(c.rows, c.cols, grid.len(), &[])?;
     let refl = reflectance_on(&c.reflectance, grid, "scene.reflectance")?;
     let k_illum = com.scaled_illuminant(&refl, grid)?;
     let mut img = com.image(c.rows, c.cols, grid)?;
@@ -499,6 +544,7 @@ fn create_macbeth(c: &MacbethScene, grid: &WavelengthGrid) -> Result<SpectralIma
     check_fraction(c.border_reflectance, "scene.border_reflectance")?;
     let layout = c.layout();
     let (rows, cols) = (layout.rows(), layout.cols());
+    check_memory(rows, cols, grid.len(), &[])?;
     // Reflectance of patch i on the grid; index 24 = the border.
     let mut refl: Vec<Vec<f64>> = macbeth_reflectances(c)?
         .iter()
@@ -613,9 +659,19 @@ fn create_slanted_edge(c: &SlantedEdgeScene, grid: &WavelengthGrid) -> Result<Sp
     check_fraction(c.bright_reflectance, "scene.bright_reflectance")?;
     check_fraction(c.dark_reflectance, "scene.dark_reflectance")?;
     let edge = slanted_edge_geometry(c);
-    camsim_core::mem::check_alloc(
-        (c.rows * c.cols * 4) as u64,
-        "the slanted-edge coverage map",
+    check_memory(
+        c.rows,
+        c.cols,
+        grid.len(),
+        &[
+            (
+                "coverage map",
+                (c.rows as u64)
+                    .saturating_mul(c.cols as u64)
+                    .saturating_mul(4),
+            ),
+            ("row spans", (c.rows as u64).saturating_mul(16)),
+        ],
     )?;
     let mut coverage = vec![0.0f32; c.rows * c.cols];
     coverage
@@ -678,5 +734,41 @@ pub fn slanted_edge_geometry(c: &SlantedEdgeScene) -> Edge {
         x0: 0.5 * c.cols as f64,
         y0: 0.5 * c.rows as f64,
         angle_deg: c.angle_deg,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stage's budget is the radiance cube plus the larger of the chart's own maps and the
+    /// EXR writer's two batches, for closed-form sizes.
+    #[test]
+    fn the_scene_budget_is_the_cube_plus_the_larger_of_its_maps_and_the_writer() {
+        let batch = camsim_core::mem::WRITE_BATCH_BYTES as u64;
+        assert_eq!(batch, 64 << 20);
+        // Small: the writer's batches are capped by the image itself (2 x the cube).
+        let cube = 100 * 200 * 31 * 4;
+        let small = memory_budget(100, 200, 31, &[("coverage map", 100 * 200 * 4)]);
+        assert_eq!(small.total_bytes(), cube + 2 * cube);
+        // 3000 x 4000 x 31: the writer's two batches beat the 48 MB coverage map.
+        let cube = 3000 * 4000 * 31 * 4;
+        let edge = [("coverage map", 3000 * 4000 * 4), ("row spans", 3000 * 16)];
+        assert_eq!(
+            memory_budget(3000, 4000, 31, &edge).total_bytes(),
+            cube + 2 * batch
+        );
+        // 8000 x 8000: the 256 MB coverage map and its spans beat the writer.
+        let cube = 8000 * 8000 * 31 * 4;
+        let edge = [("coverage map", 8000 * 8000 * 4), ("row spans", 8000 * 16)];
+        assert_eq!(
+            memory_budget(8000, 8000, 31, &edge).total_bytes(),
+            cube + 8000 * 8000 * 4 + 8000 * 16
+        );
+        // No overflow for absurd sizes: saturates, so it is refused.
+        assert_eq!(
+            memory_budget(usize::MAX, 2, 31, &[]).total_bytes(),
+            u64::MAX
+        );
     }
 }

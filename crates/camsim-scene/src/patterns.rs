@@ -29,7 +29,8 @@ pub(crate) struct Header<'a> {
 /// A pattern scene: its shared fields and its reflectance map (rows, cols, row-major values).
 pub(crate) trait Pattern {
     fn header(&self) -> Header<'_>;
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)>;
+    /// The map; `bands` (of the radiance image made from it) sizes the stage's memory check.
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)>;
 }
 
 /// Declares a pattern scene struct: the shared fields (documented once here) followed by its own.
@@ -255,13 +256,25 @@ fn check_finite(v: f64, key: &str) -> Result<()> {
     need(v.is_finite(), key, format!("{v} is not a finite number"))
 }
 
-/// A rows x cols map filled row by row (in parallel) by `f(row, line)`.
+/// Bytes of a rows x cols f32 map.
+fn f32_bytes(rows: usize, cols: usize) -> u64 {
+    (rows as u64).saturating_mul(cols as u64).saturating_mul(4)
+}
+
+/// A rows x cols map filled row by row (in parallel) by `f(row, line)`, after the stage's memory
+/// check for a `bands`-band radiance image made from it ([`crate::memory_budget`]).
 fn map_rows(
+    bands: usize,
     rows: usize,
     cols: usize,
     f: impl Fn(usize, &mut [f32]) + Sync,
 ) -> Result<(usize, usize, Vec<f32>)> {
-    camsim_core::mem::check_alloc((rows * cols * 4) as u64, "the test-pattern reflectance map")?;
+    crate::check_memory(
+        rows,
+        cols,
+        bands,
+        &[("reflectance map", f32_bytes(rows, cols))],
+    )?;
     let mut m = vec![0.0f32; rows * cols];
     m.par_chunks_mut(cols)
         .enumerate()
@@ -273,7 +286,7 @@ impl Pattern for HarmonicScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.rows, "scene.rows", 1)?;
         check_side(self.cols, "scene.cols", 1)?;
         check_finite(self.freq, "scene.freq")?;
@@ -286,7 +299,7 @@ impl Pattern for HarmonicScene {
             self.angle_deg.to_radians().sin(),
         );
         let (rows, cols, f) = (self.rows as f64, self.cols as f64, self.freq);
-        map_rows(self.rows, self.cols, |i, line| {
+        map_rows(bands, self.rows, self.cols, |i, line| {
             let y = i as f64 / rows;
             for (j, v) in line.iter_mut().enumerate() {
                 let x = j as f64 / cols;
@@ -300,14 +313,14 @@ impl Pattern for ZonePlateScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         check_unit(self.amplitude, "scene.amplitude")?;
         check_finite(self.phase_deg, "scene.phase_deg")?;
         let n = self.size_px as f64;
         let centre = (self.size_px / 2) as f64;
         let (amp, ph) = (self.amplitude, self.phase_deg.to_radians());
-        map_rows(self.size_px, self.size_px, |i, line| {
+        map_rows(bands, self.size_px, self.size_px, |i, line| {
             let dy = i as f64 - centre;
             for (j, v) in line.iter_mut().enumerate() {
                 let dx = j as f64 - centre;
@@ -321,7 +334,7 @@ impl Pattern for SweepFrequencyScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         check_finite(self.max_freq, "scene.max_freq")?;
         need(
@@ -335,7 +348,7 @@ impl Pattern for SweepFrequencyScene {
         let profile: Vec<f64> = (0..self.size_px)
             .map(|j| (2.0 * PI * f * ((j + 1) as f64 / n).powi(3)).sin())
             .collect();
-        map_rows(self.size_px, self.size_px, |i, line| {
+        map_rows(bands, self.size_px, self.size_px, |i, line| {
             let c = (n - i as f64) / n;
             for (v, s) in line.iter_mut().zip(&profile) {
                 *v = (0.5 * (1.0 + c * s)) as f32;
@@ -348,7 +361,7 @@ impl Pattern for StarScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         need(
             (1..=4096).contains(&self.number_of_spokes),
@@ -359,7 +372,7 @@ impl Pattern for StarScene {
         let centre = 0.5 * self.size_px as f64;
         let spokes = self.number_of_spokes as f64;
         const SUB: usize = 4;
-        map_rows(self.size_px, self.size_px, |i, line| {
+        map_rows(bands, self.size_px, self.size_px, |i, line| {
             for (j, v) in line.iter_mut().enumerate() {
                 let mut bright = 0usize;
                 for sy in 0..SUB {
@@ -381,7 +394,7 @@ impl Pattern for CheckerboardScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         need(
             self.period_px >= 2 && self.period_px.is_multiple_of(2),
             "scene.period_px",
@@ -398,7 +411,7 @@ impl Pattern for CheckerboardScene {
         let side = self.period_px.saturating_mul(self.number_of_checks);
         check_side(side, "scene.number_of_checks", 2)?;
         let check = self.period_px / 2;
-        map_rows(side, side, |i, line| {
+        map_rows(bands, side, side, |i, line| {
             for (j, v) in line.iter_mut().enumerate() {
                 *v = ((i / check + j / check) % 2) as f32;
             }
@@ -427,7 +440,7 @@ impl Pattern for GridLinesScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (p, w) = (self.pixels_between_lines, self.line_thickness_px);
         need(
@@ -441,7 +454,7 @@ impl Pattern for GridLinesScene {
             format!("{w} pixels; need 1 to pixels_between_lines - 1 = {}", p - 1),
         )?;
         check_first_line(self.size_px, p)?;
-        map_rows(self.size_px, self.size_px, |i, line| {
+        map_rows(bands, self.size_px, self.size_px, |i, line| {
             let row_on = on_line(i, p, w);
             for (j, v) in line.iter_mut().enumerate() {
                 *v = if row_on || on_line(j, p, w) { 1.0 } else { 0.0 };
@@ -454,7 +467,7 @@ impl Pattern for PointArrayScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (p, w) = (self.pixels_between_points, self.point_size_px);
         need(
@@ -471,7 +484,7 @@ impl Pattern for PointArrayScene {
             ),
         )?;
         check_first_line(self.size_px, p)?;
-        map_rows(self.size_px, self.size_px, |i, line| {
+        map_rows(bands, self.size_px, self.size_px, |i, line| {
             let row_on = on_line(i, p, w);
             for (j, v) in line.iter_mut().enumerate() {
                 *v = if row_on && on_line(j, p, w) { 1.0 } else { 0.0 };
@@ -484,7 +497,7 @@ impl Pattern for RampScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let dr = self.dynamic_range;
         need(
@@ -494,7 +507,7 @@ impl Pattern for RampScene {
         )?;
         let n = self.size_px;
         let lo = 1.0 / dr;
-        map_rows(n, n, |_, line| {
+        map_rows(bands, n, n, |_, line| {
             for (j, v) in line.iter_mut().enumerate() {
                 *v = (lo + (1.0 - lo) * j as f64 / (n - 1) as f64) as f32;
             }
@@ -506,7 +519,7 @@ impl Pattern for DeadLeavesScene {
     fn header(&self) -> Header<'_> {
         self.header_fields()
     }
-    fn reflectance_map(&self) -> Result<(usize, usize, Vec<f32>)> {
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
         check_side(self.size_px, "scene.size_px", 2)?;
         let (sigma, a, b) = (self.sigma, self.r_min_px, self.r_max_px);
         need(
@@ -533,7 +546,7 @@ impl Pattern for DeadLeavesScene {
             format!("{hi} is below reflectance_min = {lo}"),
         )?;
         let n = self.size_px;
-        camsim_core::mem::check_alloc((n * n * 4) as u64, "the dead-leaves map")?;
+        crate::check_memory(n, n, bands, &[("dead-leaves map", f32_bytes(n, n))])?;
         let mut map = vec![-1.0f32; n * n];
         let mut uncovered = n * n;
         let mut rng = camsim_core::rng::keyed(self.seed, camsim_core::rng::stage::SCENE, 0, 0);
@@ -598,7 +611,7 @@ pub(crate) fn create_pattern(
         h.mean_luminance_cd_m2,
         grid,
     )?;
-    let (rows, cols, map) = p.reflectance_map()?;
+    let (rows, cols, map) = p.reflectance_map(grid.len())?;
     let mean = camsim_core::math::fixed_order_sum(&map) / map.len() as f64;
     let k_illum = com.scaled_illuminant(&vec![mean; grid.len()], grid)?;
     let mut img = com.image(rows, cols, grid)?;

@@ -104,7 +104,13 @@ pub(crate) fn create_rgb(c: &RgbScene, grid: &WavelengthGrid) -> Result<Spectral
     let file =
         read_rgb_image(&c.path).map_err(|e| CoreError::invalid("scene.path", e.to_string()))?;
     let n = file.rows * file.cols;
-    camsim_core::mem::check_alloc((n as u64) * 4 * (3 + grid.len() as u64), "the RGB scene")?;
+    // The photo's pixels and their linear levels (3 f32 each) beside the radiance cube.
+    crate::check_memory(
+        file.rows,
+        file.cols,
+        grid.len(),
+        &[("RGB pixels and levels", (n as u64).saturating_mul(24))],
+    )?;
     let levels: Vec<f32> = match file.encoding {
         RgbEncoding::CodeValues => file.rgb.par_iter().map(|v| transfer.level(*v)).collect(),
         RgbEncoding::Linear => {

@@ -67,7 +67,7 @@ impl Sensor {
         ))
         .bytes("frames", (n as u64) * 2 * frames as u64)
         .f32s("bright and dark rates", 2 * n)
-        .check("use a smaller window (--rows/--cols), fewer levels or fewer frames per level")?;
+        .check("use a smaller window (rows and cols), fewer levels or fewer frames per level")?;
         // Uniform field: every pixel of channel c collects the same electron rate.
         let mut bright_rate = vec![0.0f32; n];
         if let Some(layout) = &self.layout {

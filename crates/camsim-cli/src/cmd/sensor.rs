@@ -5,7 +5,7 @@
 use crate::common::{self, say};
 use anyhow::Result;
 use camsim::pipeline::capture::{capture, CaptureRequest, Captured, CLI_KEYS};
-use camsim::pipeline::measure::emva::{simulate_series, SeriesRequest};
+use camsim::pipeline::measure::emva::{simulate_series, SeriesError, SeriesField, SeriesRequest};
 use camsim::sensor::NoiseSwitches;
 use camsim::{Isp, SensorOverrides};
 use std::path::PathBuf;
@@ -95,6 +95,21 @@ pub struct Args {
     pub out: PathBuf,
 }
 
+/// The flag of each EMVA series field (the pipeline names them neutrally).
+fn series_flag(f: SeriesField) -> &'static str {
+    match f {
+        SeriesField::Levels => "--levels",
+        SeriesField::FramesPerLevel => "--frames-per-level",
+        SeriesField::Rows => "--rows",
+        SeriesField::Cols => "--cols",
+    }
+}
+
+/// A refused EMVA series request, naming the flags the user gave.
+fn series_error(e: SeriesError) -> anyhow::Error {
+    anyhow::anyhow!(e.spelled(series_flag, " "))
+}
+
 pub fn run(a: Args) -> Result<()> {
     let base = camsim::pipeline::load_sensor(&a.sensor)?;
     let overrides = SensorOverrides {
@@ -120,11 +135,14 @@ pub fn run(a: Args) -> Result<()> {
             analog_offset_mv: a.analog_offset_mv,
             seed: a.seed,
         };
-        req.validate(&sensor)?;
+        req.validate(&sensor).map_err(series_error)?;
         // The user's --out is named (the staging folder beside it is on the same disk).
         req.check_disk(&a.out)?;
         let pb = common::spinner("emva");
-        let series = simulate_series(&sensor, &req, &|_, _, _| {})?;
+        let series = simulate_series(&sensor, &req, &|_, _, _| {}).map_err(|e| match e {
+            camsim::Error::Series(e) => series_error(e),
+            e => e.into(),
+        })?;
         if series.offset_raised {
             say(format!("EMVA 1288 needs unclipped dark frames: analog offset set to {:.1} mV (--analog-offset-mv to choose)", series.analog_offset_mv));
         }

@@ -375,24 +375,88 @@ pub struct SeriesRequest {
     pub seed: u64,
 }
 
+/// A field of a [`SeriesRequest`], by a neutral name: each door (the CLI's flags, Python's
+/// keywords) spells it its own way when it reports a refused request ([`SeriesError`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeriesField {
+    /// [`SeriesRequest::levels`].
+    Levels,
+    /// [`SeriesRequest::frames_per_level`].
+    FramesPerLevel,
+    /// [`SeriesRequest::rows`].
+    Rows,
+    /// [`SeriesRequest::cols`].
+    Cols,
+}
+
+impl SeriesField {
+    /// The field's name in [`SeriesRequest`] (snake case).
+    pub fn name(self) -> &'static str {
+        match self {
+            SeriesField::Levels => "levels",
+            SeriesField::FramesPerLevel => "frames_per_level",
+            SeriesField::Rows => "rows",
+            SeriesField::Cols => "cols",
+        }
+    }
+}
+
+/// A series request refused: the offending fields with their values, and why. Its `Display`
+/// names the fields as [`SeriesField::name`] does; a door with other spellings formats it with
+/// [`SeriesError::spelled`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}", self.spelled(|f| f.name(), " = "))]
+pub struct SeriesError {
+    /// The fields at fault, with their values.
+    pub fields: Vec<(SeriesField, usize)>,
+    /// What is wrong, without the fields' names.
+    pub message: String,
+}
+
+impl SeriesError {
+    /// The message with each field spelled by `name` and joined to its value by `sep`
+    /// (`--levels 0: ...` for the CLI, `levels=0: ...` for Python).
+    pub fn spelled(&self, name: impl Fn(SeriesField) -> &'static str, sep: &str) -> String {
+        let fields: Vec<String> = self
+            .fields
+            .iter()
+            .map(|(f, v)| format!("{}{sep}{v}", name(*f)))
+            .collect();
+        format!("{}: {}", fields.join(", "), self.message)
+    }
+}
+
 impl SeriesRequest {
     /// Refuse a series that cannot be made as asked (never clamped): fewer than 3 levels, fewer
     /// than 2 frames per level, a window that does not fit `sensor`.
-    pub fn validate(&self, sensor: &Sensor) -> Result<()> {
-        let bad = |m: String| Err(PipelineError::Config(m));
+    pub fn validate(&self, sensor: &Sensor) -> Result<(), SeriesError> {
+        let bad = |fields: Vec<(SeriesField, usize)>, message: String| {
+            Err(SeriesError { fields, message })
+        };
         if self.levels < 3 {
-            return bad(format!("--levels {}: an EMVA 1288 series needs at least 3 exposure levels (dark to past saturation)", self.levels));
+            return bad(
+                vec![(SeriesField::Levels, self.levels)],
+                "an EMVA 1288 series needs at least 3 exposure levels (dark to past saturation)"
+                    .into(),
+            );
         }
         if self.frames_per_level < 2 {
-            return bad(format!("--frames-per-level {}: EMVA 1288 needs at least 2 frames per level (temporal noise is their difference)", self.frames_per_level));
+            return bad(
+                vec![(SeriesField::FramesPerLevel, self.frames_per_level)],
+                "EMVA 1288 needs at least 2 frames per level (temporal noise is their difference)"
+                    .into(),
+            );
         }
         let (rows, cols) = (self.rows, self.cols);
         if rows == 0 || cols == 0 || rows > sensor.rows() || cols > sensor.cols() {
-            return bad(format!(
-                "--rows {rows} --cols {cols}: the EMVA window {rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor",
-                sensor.rows(),
-                sensor.cols()
-            ));
+            return bad(
+                vec![(SeriesField::Rows, rows), (SeriesField::Cols, cols)],
+                format!(
+                    "the EMVA window {rows} x {cols} must be at least 1 x 1 and fit the {} x {} sensor",
+                    sensor.rows(),
+                    sensor.cols()
+                ),
+            );
         }
         Ok(())
     }
@@ -445,7 +509,7 @@ pub fn simulate_series(
         None => (sensor.analog_offset_v() * 1e3, false),
     };
     cfg.analog_offset_mv = offset_mv;
-    let sensor = Sensor::from_config_named(cfg, "--emva-series sensor")?;
+    let sensor = Sensor::from_config_named(cfg, "the EMVA series' sensor")?;
     req.validate(&sensor)?;
     let (rows, cols) = (req.rows, req.cols);
     let rate_e_per_s = 1e5;

@@ -50,6 +50,7 @@ __all__ = [
     "fit_qe",
     "emva",
     "emva_series",
+    "emva_simulate",
     "read_dng",
     "load_config",
     "presets",
@@ -306,6 +307,20 @@ def emva_series(csv: Union[str, os.PathLike[str]], *, out: Optional[Union[str, o
     emva.json, ptc.png (photon transfer) and snr.png there."""
     o = None if out is None else os.fspath(out)
     return _camsim.emva_series(os.fspath(csv), o, cfa, bits, black_level)
+
+
+def emva_simulate(sensor: Union[str, Dict[str, Any]] = "pixel4a", *, levels: int = 24, frames_per_level: int = 8,
+                  rows: Optional[int] = None, cols: Optional[int] = None, analog_offset_mv: Optional[float] = None,
+                  seed: int = 1) -> Dict[str, Any]:
+    """Simulate an EMVA 1288 photon-transfer series, as ``camsim sensor --emva-series`` does: flat
+    fields balanced so every colour channel collects 1e5 e-/s, ``levels`` exposures from dark to
+    1.3 x saturation, ``frames_per_level`` bright and dark frames each, on a centred rows x cols
+    window (default 128 x 128, at most the sensor). sensor: a preset, a sensor TOML path or a dict.
+    A sensor whose analog offset is below 5 x its read noise gets 8 x its read noise (dark frames
+    must not clip at 0) unless analog_offset_mv is given. Returns a dict: bright and dark (levels,
+    frames, rows, cols) uint16, exposures_s and photons_per_pixel per level, cfa, bits,
+    black_level and analog_offset_mv, ready for ``emva``."""
+    return _camsim.emva_simulate(_path_or(sensor), levels, frames_per_level, rows, cols, analog_offset_mv, seed)
 
 
 def read_dng(path: Union[str, os.PathLike[str]]) -> Dict[str, Any]:

@@ -134,20 +134,30 @@ fn compile_media(
     Ok(media)
 }
 
-/// The number of BVH primitives the scene makes, counted first so the memory guard can refuse
-/// huge scenes before allocating.
-fn count_prims(scene: &SceneDescription) -> Result<u64, RenderError> {
-    let mut n_prims = 0u64;
-    for s in &scene.shapes {
-        n_prims += match &s.geometry {
+/// The number of BVH primitives the scene makes (curves as their split segments).
+pub(crate) fn prim_count(scene: &SceneDescription) -> u64 {
+    scene
+        .shapes
+        .iter()
+        .map(|s| match &s.geometry {
             Geometry::Triangles { indices, .. } => indices.len() as u64,
             Geometry::Sphere { .. } | Geometry::PartialSphere { .. } => 1,
             Geometry::Curves(c) => c.segments() as u64 * (1u64 << c.split_depth.min(12)),
-        };
-    }
-    // Prim (44 B) + info (16 B) + normal (12 B) + bounds/centroid/index during the build (40 B) + binary nodes
-    // (16 B) + wide nodes (43 B) + one packet per leaf (<= 192 B / 2: leaves hold ~2 prims).
-    camsim_core::mem::check_alloc(n_prims * 256, &format!("a BVH over {n_prims} primitives"))?;
+        })
+        .fold(0u64, u64::saturating_add)
+}
+
+/// [`prim_count`], refused before the BVH is allocated when it is more than the renderer
+/// supports or its BVH would not fit in memory (a render checks its whole peak first,
+/// [`crate::budget`]; this guards the tracers made for labels alone).
+fn count_prims(scene: &SceneDescription) -> Result<u64, RenderError> {
+    let n_prims = prim_count(scene);
+    camsim_core::mem::MemoryBudget::new(format!("a BVH over {n_prims} primitives"))
+        .bytes(
+            "BVH",
+            n_prims.saturating_mul(crate::budget::BVH_BYTES_PER_PRIM),
+        )
+        .check("use a scene with fewer shapes or a coarser tessellation")?;
     if n_prims > crate::bvh::MAX_PRIMS as u64 {
         return Err(RenderError::Settings(format!(
             "{n_prims} primitives is more than the renderer supports"
