@@ -169,7 +169,7 @@
 //! pinhole: depth of field belongs to the optics stage; `focaldistance` becomes
 //! `focus_distance_m`), `frameaspectratio`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
-//! `randomization`; `Integrator` `regularize`, `lightsampler`; `Option`;
+//! `randomization`; `Integrator` `regularize`; `Option`;
 //! texture `filter`, `maxanisotropy` (bilinear lookups at the hit, no MIP-mapping); the
 //! parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`.

@@ -21,6 +21,7 @@
 //! seed = 7
 //! wavelengths_per_path = 4
 //! sampler = "sobol"              # or "independent" (also "paddedsobol", "zsobol")
+//! light_sampler = "bvh"          # or "power", "uniform" (overrides the file's lightsampler)
 //! russian_roulette_depth = 5     # first bounce with Russian roulette
 //! time_budget_s = 60.0
 //! grid = { start_nm = 400.0, end_nm = 700.0, step_nm = 10.0 }
@@ -172,6 +173,10 @@ pub struct RenderOverlay {
     pub wavelengths_per_path: Option<usize>,
     /// Sampler name (`SamplerKind::from_name`).
     pub sampler: Option<String>,
+    /// How next-event estimation chooses a light: "bvh" (by importance at each point,
+    /// pbrt-v4's default), "power" (by emitted power) or "uniform"; overrides the pbrt-v4
+    /// file's `Integrator` `lightsampler`.
+    pub light_sampler: Option<String>,
     /// First scattering vertex where Russian roulette may end a path.
     pub russian_roulette_depth: Option<u32>,
     /// Stop after this many seconds, s.
@@ -467,6 +472,11 @@ pub fn apply_overlay(
         if let Some(v) = &r.sampler {
             s.sampler = crate::scene::SamplerKind::from_name(v).ok_or_else(|| {
                 format!("render.sampler \"{v}\" is unknown: use \"sobol\", \"paddedsobol\", \"zsobol\" or \"independent\"")
+            })?;
+        }
+        if let Some(v) = &r.light_sampler {
+            s.light_sampler = crate::scene::LightSampler::from_name(v).ok_or_else(|| {
+                format!("render.light_sampler \"{v}\" is unknown: use \"bvh\", \"power\" or \"uniform\"")
             })?;
         }
         if let Some(v) = r.russian_roulette_depth {

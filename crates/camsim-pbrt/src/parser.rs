@@ -11,11 +11,11 @@ use super::reader::{resolve_path, Args, ParserTarget, Reader, MAX_ERRORS};
 use super::spectra::{param_spectrum, ParsedSpectrum, SpectrumUse};
 use super::xform::{self, inverse};
 use super::{Loc, PbrtError};
-use crate::scene::SamplerKind;
 use crate::scene::{
     AreaLight, Camera, CameraLens, EmissionImage, FloatTexture, Geometry, Light, Material,
     RenderSettings, SceneDescription, Shape, Texture, Transform,
 };
+use crate::scene::{LightSampler, SamplerKind};
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
 use camsim_core::Spectrum;
 use std::collections::HashMap;
@@ -575,12 +575,11 @@ impl SceneBuilder {
         // pbrt-v4's parameters of each type beyond `maxdepth` (camsim's path tracer has no use
         // for them: they tune the other algorithms' convergence, not the converged image).
         let extra: &[&str] = match ty {
-            "path" | "volpath" => &["regularize", "lightsampler"],
+            "path" | "volpath" => &["regularize"],
             "simplepath" => &["samplelights", "samplebsdf"],
             "simplevolpath" | "lightpath" | "randomwalk" => &[],
             "bdpt" => &[
                 "regularize",
-                "lightsampler",
                 "visualizestrategies",
                 "visualizeweights",
             ],
@@ -607,6 +606,28 @@ impl SceneBuilder {
             return Err(loc.err(format!("Integrator: maxdepth {d} is out of range")));
         }
         self.settings.max_depth = d as u32;
+        // pbrt-v4's `lightsampler` (path and volpath; camsim's path tracer also takes it from
+        // bdpt files, which it renders): how next-event estimation chooses a light.
+        if matches!(ty, "path" | "volpath" | "bdpt") {
+            if let Some(name) = params.string("lightsampler")? {
+                self.settings.light_sampler = match name.as_str() {
+                    // pbrt-v4's `exhaustive` weighs every light by the importance the `bvh`
+                    // sampler bounds; camsim's tree gives the same choice up to its bounds.
+                    "exhaustive" => {
+                        self.note(
+                            loc,
+                            "Integrator: lightsampler \"exhaustive\" approximated by \"bvh\"",
+                        );
+                        LightSampler::Bvh
+                    }
+                    n => LightSampler::from_name(n).ok_or_else(|| {
+                        loc.err(format!(
+                            "Integrator \"{ty}\": lightsampler \"{n}\" is unknown (use \"bvh\", \"power\", \"uniform\" or \"exhaustive\")"
+                        ))
+                    })?,
+                };
+            }
+        }
         self.ignore_params(params, extra, &format!("Integrator \"{ty}\""));
         params.check_unused(&format!("Integrator \"{ty}\""))?;
         // How "volpath" (and any integrator with media) is rendered is noted at the end.

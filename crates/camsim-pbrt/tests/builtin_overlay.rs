@@ -241,6 +241,23 @@ fn camera_render_settings_and_strict_keys() {
         ),
         (9, 3, 5, 16)
     );
+    // An overlay's light sampler overrides the file's (`Integrator` `lightsampler`).
+    assert_eq!(
+        s.settings.light_sampler,
+        camsim_scene3d::scene::LightSampler::Bvh
+    );
+    apply(&mut s, "[render]\nlight_sampler = \"uniform\"\n").unwrap();
+    assert_eq!(
+        s.settings.light_sampler,
+        camsim_scene3d::scene::LightSampler::Uniform
+    );
+    let e = apply(&mut s, "[render]\nlight_sampler = \"spatial\"\n")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("render.light_sampler \"spatial\" is unknown"),
+        "{e}"
+    );
     // Still a right-handed view: the red wall stays on the left.
     assert!(camsim_scene3d::xform::det3(&s.camera.camera_to_world) < 0.0);
     let eye = s.camera.camera_to_world.apply_point([0.0; 3]);

@@ -62,6 +62,49 @@ fn integrators_substitute_the_path_tracer_or_are_refused() {
     assert!(e.contains("\"photonmap\" is not supported"), "{e}");
 }
 
+/// pbrt-v4's `lightsampler` (`path`, `volpath`; also read from `bdpt` files, which camsim's path
+/// tracer renders) sets how the render chooses lights, `bvh` when absent; a misspelt value is
+/// refused with the file and line.
+#[test]
+fn integrator_light_sampler_is_read() {
+    use camsim_scene3d::scene::LightSampler;
+    let ls = |head: &str| parse(head).unwrap().settings.light_sampler;
+    assert_eq!(ls("Integrator \"path\""), LightSampler::Bvh);
+    assert_eq!(ls(""), LightSampler::Bvh);
+    for (name, want) in [
+        ("bvh", LightSampler::Bvh),
+        ("power", LightSampler::Power),
+        ("uniform", LightSampler::Uniform),
+    ] {
+        for ty in ["path", "volpath", "bdpt"] {
+            let s = parse(&format!(
+                "Integrator \"{ty}\" \"string lightsampler\" \"{name}\""
+            ))
+            .unwrap();
+            assert_eq!(s.settings.light_sampler, want, "{ty} {name}");
+            assert!(
+                !s.notes.iter().any(|n| n.contains("lightsampler")),
+                "{:?}",
+                s.notes
+            );
+        }
+    }
+    // pbrt-v4's exhaustive sampler is the bvh sampler's importance without the tree: noted.
+    let s = parse("Integrator \"path\" \"string lightsampler\" \"exhaustive\"").unwrap();
+    assert_eq!(s.settings.light_sampler, LightSampler::Bvh);
+    assert!(s
+        .notes
+        .iter()
+        .any(|n| n.contains("\"exhaustive\" approximated")));
+    let e = parse("\n\nIntegrator \"path\" \"string lightsampler\" \"powr\"")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("opts.pbrt:3:") && e.contains("lightsampler \"powr\" is unknown"),
+        "{e}"
+    );
+}
+
 #[test]
 fn pixel_filters_take_pbrt_v4_parameters_and_defaults() {
     let f = |line: &str| parse(line).unwrap().settings.filter;

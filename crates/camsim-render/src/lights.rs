@@ -368,6 +368,18 @@ impl Lights {
         self.bvh = None;
     }
 
+    /// Choose each of the n lights with probability 1 / n everywhere (pbrt-v4
+    /// `UniformLightSampler`), replacing power and spatial selection (`LightSampler::Uniform`).
+    pub(crate) fn make_uniform(&mut self) {
+        self.bvh = None;
+        let n = self.list.len();
+        self.cdf.clear();
+        for (k, l) in self.list.iter_mut().enumerate() {
+            l.pmf = 1.0 / n as f32;
+            self.cdf.push((k + 1) as f64 / n as f64);
+        }
+    }
+
     /// True when lights are chosen by the spatial sampler.
     #[inline]
     pub(crate) fn spatial(&self) -> bool {
@@ -1007,6 +1019,27 @@ mod tests {
                 );
             }
             assert!(seen.iter().all(|c| *c > 10), "{seen:?}");
+        }
+        // Uniform selection (pbrt-v4 `UniformLightSampler`): pmf 1 / n for every light at any
+        // point, and each chosen that often (5 binomial standard deviations).
+        lights.make_uniform();
+        let n = lights.list.len();
+        let (p, n_ref) = (V3::new(0.1, -0.3, 0.2), V3::new(0.0, 0.6, 0.8));
+        for k in 0..n {
+            assert_eq!(lights.select_pmf(k, p, n_ref), 1.0 / n as f32);
+        }
+        let mut rng = camsim_core::rng::seeded(5);
+        let draws = 50_000;
+        let mut chosen = vec![0usize; n];
+        for _ in 0..draws {
+            let (k, pmf) = lights.choose(p, n_ref, rng.gen()).unwrap();
+            assert_eq!(pmf, 1.0 / n as f32);
+            chosen[k] += 1;
+        }
+        let expect = draws as f64 / n as f64;
+        let sd = (expect * (1.0 - 1.0 / n as f64)).sqrt();
+        for c in &chosen {
+            assert!((*c as f64 - expect).abs() < 5.0 * sd, "{chosen:?}");
         }
     }
 }

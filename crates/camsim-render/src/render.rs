@@ -89,23 +89,13 @@ pub struct RenderRequest {
     pub labels: Option<crate::labels::LabelRequest>,
     /// Split the radiance by light group, in the same pass ([`crate::light_groups`]).
     pub light_groups: bool,
-    /// How next-event estimation chooses a light.
-    pub light_sampler: LightSampler,
+    /// How next-event estimation chooses a light; `None`: the scene's own choice
+    /// (`RenderSettings::light_sampler`, from a pbrt-v4 file's `lightsampler`).
+    pub light_sampler: Option<LightSampler>,
 }
 
-/// How next-event estimation chooses among a scene's lights (pbrt-v4's `lightsampler`
-/// integrator parameter). Both are unbiased; they differ in variance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LightSampler {
-    /// By each light's importance at the shading point (pbrt-v4 `bvh`, its default; 4th ed.
-    /// sec. 12.6.3): power over squared distance and the emitter's and the surface's
-    /// orientation bounds, through a tree of light bounds. Scenes with moving lights fall back
-    /// to [`LightSampler::Power`].
-    #[default]
-    Bvh,
-    /// In proportion to each light's emitted power, the same everywhere (pbrt-v4 `power`).
-    Power,
-}
+/// How next-event estimation chooses among a scene's lights (pbrt-v4's `lightsampler`).
+pub use camsim_scene3d::scene::LightSampler;
 
 /// A raw pointer that tiles share to write their own disjoint pixels.
 #[derive(Clone, Copy)]
@@ -300,8 +290,13 @@ pub fn render_with(
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
     let mut tracer = Tracer::new(scene, &ws)?;
-    if request.light_sampler == LightSampler::Power {
-        tracer.lights.disable_spatial();
+    match request
+        .light_sampler
+        .unwrap_or(scene.settings.light_sampler)
+    {
+        LightSampler::Bvh => {}
+        LightSampler::Power => tracer.lights.disable_spatial(),
+        LightSampler::Uniform => tracer.lights.make_uniform(),
     }
     // Light groups split the path tracer's sum by the emitter hit, which does not follow moving
     // shapes, lights or camera yet. (Labels do: `crate::labels` traces each pixel at its row's

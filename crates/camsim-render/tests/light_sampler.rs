@@ -1,7 +1,9 @@
 //! The spatial light sampler (`LightSampler::Bvh`, pbrt-v4's `BVHLightSampler`) against power
-//! selection (`LightSampler::Power`): both are unbiased, so the same scene renders the same
-//! mean within Monte Carlo error; the spatial one has lower variance where emitters are spread
-//! out; and its image is the same bytes for any thread count.
+//! selection (`LightSampler::Power`) and uniform selection (`LightSampler::Uniform`): all are
+//! unbiased, so the same scene renders the same mean within Monte Carlo error; the spatial one
+//! has lower variance where emitters are spread out; its image is the same bytes for any
+//! thread count; and the scene's own choice (a pbrt-v4 file's `lightsampler`) is what a render
+//! request without one uses.
 
 use camsim_core::{Spectrum, WavelengthGrid};
 use camsim_render::*;
@@ -129,7 +131,7 @@ fn mean_and_var(out: &RenderOutput) -> (f64, f64) {
 
 fn render_by(s: &SceneDescription, light_sampler: LightSampler) -> RenderOutput {
     let req = RenderRequest {
-        light_sampler,
+        light_sampler: Some(light_sampler),
         ..Default::default()
     };
     render_with(s, &req, &|_, _| {}).unwrap()
@@ -176,4 +178,45 @@ fn spatial_selection_is_deterministic_across_threads() {
     for band in 0..a.radiance.bands() {
         assert_eq!(a.radiance.band(band), b.radiance.band(band), "band {band}");
     }
+}
+
+/// Uniform selection (pbrt-v4 `UniformLightSampler`) renders the spatial sampler's mean within
+/// 4 combined standard errors (direct light, MIS with BSDF samples that hit the panels, whose
+/// weights use the selection pmf, and one more bounce): a wrong uniform pmf (not 1 / n for each
+/// of the 12 lights) moves the mean.
+#[test]
+fn uniform_and_spatial_selection_agree_in_the_mean() {
+    let s = scene(2048, 2);
+    let (mb, vb) = mean_and_var(&render_by(&s, LightSampler::Bvh));
+    let (mu, vu) = mean_and_var(&render_by(&s, LightSampler::Uniform));
+    let z = (mb - mu) / (vb + vu).sqrt();
+    eprintln!(
+        "bvh {mb:.5e} (sd {:.2e}), uniform {mu:.5e} (sd {:.2e}), z {z:+.2}; variance uniform / bvh {:.3}",
+        vb.sqrt(),
+        vu.sqrt(),
+        vu / vb
+    );
+    assert!(z.abs() < 4.0, "means differ by {z:.1} standard errors");
+    // Uniform selection spends samples on the panel that lights nothing and on the dim point
+    // light: more variance than the spatial sampler here.
+    assert!(
+        vu > vb,
+        "uniform variance {vu:.3e} not above bvh's {vb:.3e}"
+    );
+}
+
+/// A request without a light sampler renders with the scene's own (`RenderSettings::
+/// light_sampler`, what a pbrt-v4 file's `lightsampler` sets): the same bytes as asking for it,
+/// and not the default's.
+#[test]
+fn the_scenes_light_sampler_is_used_when_the_request_has_none() {
+    let mut s = scene(4, 2);
+    s.settings.light_sampler = LightSampler::Uniform;
+    let from_scene = render_with(&s, &RenderRequest::default(), &|_, _| {}).unwrap();
+    let asked = render_by(&s, LightSampler::Uniform);
+    let bvh = render_by(&s, LightSampler::Bvh);
+    for band in 0..asked.radiance.bands() {
+        assert_eq!(from_scene.radiance.band(band), asked.radiance.band(band));
+    }
+    assert!((0..bvh.radiance.bands()).any(|b| bvh.radiance.band(b) != asked.radiance.band(b)));
 }

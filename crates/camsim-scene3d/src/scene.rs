@@ -803,6 +803,9 @@ pub struct RenderSettings {
     /// The time dimension: the shutter window camera rays sample and what moves during it
     /// ([`crate::motion`]; default: a static scene, pbrt-v4's shutter 0-1).
     pub time: crate::motion::TimeSettings,
+    /// How next-event estimation chooses among the lights (pbrt-v4's `Integrator`
+    /// `lightsampler`; default `bvh`, pbrt-v4's default).
+    pub light_sampler: LightSampler,
 }
 
 /// pbrt-v4's pixel reconstruction filters (4th ed. sec. 8.8.1), separable, radii in pixels per
@@ -890,6 +893,7 @@ impl Default for RenderSettings {
             russian_roulette_depth: 5,
             filter: PixelFilter::default(),
             time: crate::motion::TimeSettings::default(),
+            light_sampler: LightSampler::Bvh,
         }
     }
 }
@@ -940,6 +944,43 @@ impl SamplerKind {
         match name {
             "independent" => Some(SamplerKind::Independent),
             "sobol" | "paddedsobol" | "zsobol" => Some(SamplerKind::Sobol),
+            _ => None,
+        }
+    }
+}
+
+/// How next-event estimation chooses among a scene's lights (pbrt-v4's `lightsampler`
+/// integrator parameter, 4th ed. sec. 12.6). All three are unbiased; they differ in variance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightSampler {
+    /// By each light's importance at the shading point (pbrt-v4 `bvh`, its default; 4th ed.
+    /// sec. 12.6.3): power over squared distance and the emitter's and the surface's
+    /// orientation bounds, through a tree of light bounds. Scenes with moving lights fall back
+    /// to [`LightSampler::Power`].
+    #[default]
+    Bvh,
+    /// In proportion to each light's emitted power, the same everywhere (pbrt-v4 `power`).
+    Power,
+    /// Each of the n lights with probability 1 / n (pbrt-v4 `uniform`).
+    Uniform,
+}
+
+impl LightSampler {
+    /// The name used in pbrt-v4 files, overlays and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampler::Bvh => "bvh",
+            LightSampler::Power => "power",
+            LightSampler::Uniform => "uniform",
+        }
+    }
+
+    /// Parse a pbrt-v4 light sampler name: `bvh`, `power` or `uniform`.
+    pub fn from_name(name: &str) -> Option<LightSampler> {
+        match name {
+            "bvh" => Some(LightSampler::Bvh),
+            "power" => Some(LightSampler::Power),
+            "uniform" => Some(LightSampler::Uniform),
             _ => None,
         }
     }

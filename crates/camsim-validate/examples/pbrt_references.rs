@@ -16,8 +16,8 @@
 //!   renders at the stored size with a quarter of the samples per unit area).
 //! - `--scenes DIR` (default `../shared/scenes/bitterli`), `--references DIR` (default
 //!   `../shared/scenes/references`), paths relative to the current folder.
-//! - `--light-sampler bvh|power`: how camsim chooses lights (default `bvh`, pbrt-v4's
-//!   default; `power` to measure what the spatial sampler gains).
+//! - `--light-sampler bvh|power|uniform`: how camsim chooses lights (default: the file's
+//!   `lightsampler`, as pbrt-v4 rendered it; `power` to measure what the spatial sampler gains).
 //! - `--out DIR`: also write per scene `<scene>.png`: camsim (scaled by the unit factor),
 //!   pbrt-v4, and the blocks' differences in standard errors (grey 0, white +8: pbrt brighter,
 //!   black -8), each tone-mapped the same way.
@@ -41,7 +41,7 @@ struct Args {
     scenes_dir: PathBuf,
     references_dir: PathBuf,
     out: Option<PathBuf>,
-    light_sampler: camsim_render::LightSampler,
+    light_sampler: Option<camsim_render::LightSampler>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -52,7 +52,7 @@ fn parse_args() -> Result<Args, String> {
         scenes_dir: PathBuf::from("../shared/scenes/bitterli"),
         references_dir: PathBuf::from("../shared/scenes/references"),
         out: None,
-        light_sampler: camsim_render::LightSampler::Bvh,
+        light_sampler: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -68,11 +68,11 @@ fn parse_args() -> Result<Args, String> {
             "--references" => a.references_dir = value("--references")?.into(),
             "--out" => a.out = Some(value("--out")?.into()),
             "--light-sampler" => {
-                a.light_sampler = match value("--light-sampler")?.as_str() {
-                    "bvh" => camsim_render::LightSampler::Bvh,
-                    "power" => camsim_render::LightSampler::Power,
-                    s => return Err(format!("--light-sampler: {s} is not bvh or power")),
-                }
+                let v = value("--light-sampler")?;
+                a.light_sampler = Some(
+                    camsim_render::LightSampler::from_name(&v)
+                        .ok_or(format!("--light-sampler: {v} is not bvh, power or uniform"))?,
+                )
             }
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s => a.scenes.push(s.to_string()),
@@ -186,11 +186,11 @@ fn main() {
     };
     let criteria = Criteria::default();
     println!(
-        "camsim {} spp x {} seeds at {}x the stored size, {:?} light sampler; pbrt-v4 from {}",
+        "camsim {} spp x {} seeds at {}x the stored size, {} light sampler; pbrt-v4 from {}",
         args.spp,
         2,
         args.block,
-        args.light_sampler,
+        args.light_sampler.map_or("the file's", |l| l.name()),
         args.references_dir.display()
     );
     println!();

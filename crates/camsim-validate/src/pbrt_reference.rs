@@ -249,14 +249,15 @@ pub fn render_like_reference(
     scene: &SceneDescription,
     render_block: usize,
 ) -> Result<(SpectralImage, f64)> {
-    render_like_reference_with(scene, render_block, camsim_render::LightSampler::default())
+    render_like_reference_with(scene, render_block, None)
 }
 
-/// [`render_like_reference`] with the given light sampler (to compare samplers' variance).
+/// [`render_like_reference`] with the given light sampler (to compare samplers' variance;
+/// `None`: the file's `lightsampler`, as pbrt-v4 renders it).
 pub fn render_like_reference_with(
     scene: &SceneDescription,
     render_block: usize,
-    light_sampler: camsim_render::LightSampler,
+    light_sampler: Option<camsim_render::LightSampler>,
 ) -> Result<(SpectralImage, f64)> {
     let cpu = || {
         let (u, s) = camsim_core::mem::process_cpu_s();
