@@ -396,6 +396,12 @@ fn noisy_field(mean: [f32; 3], seed: u64) -> RgbImage {
     }
 }
 
+/// A noise floor of 1 camera unit in every channel, nothing clipped below.
+const FLOOR_1: BlackModel = BlackModel {
+    sigma: [1.0; 3],
+    clip: None,
+};
+
 /// Mean of the decoded (linear) sRGB values of an interleaved 8-bit image.
 fn mean_linear(px: &[u8]) -> [f64; 3] {
     use camsim_core::colorimetry::srgb_decode;
@@ -426,15 +432,7 @@ fn zero_mean_noise_on_black_renders_neutral() {
     for illum in ["D65", "A"] {
         let cp = ColorPipeline::fit(&qe, &g, &tables::illuminant(illum).unwrap()).unwrap();
         // Noise of 1 camera unit at 2 % of white: a dark surround at a typical preview exposure.
-        let cored = mean_linear(&cp.render_srgb8_clipped(
-            &img,
-            Some(0.02),
-            None,
-            Some(&BlackModel {
-                sigma: [1.0; 3],
-                clip: None,
-            }),
-        ));
+        let cored = mean_linear(&cp.render_srgb8_clipped(&img, Some(0.02), None, Some(&FLOOR_1)));
         let plain = mean_linear(&cp.render_srgb8(&img, Some(0.02)));
         println!(
             "{illum}: mean linear sRGB of the noise field {cored:?}, without coring {plain:?}"
@@ -474,10 +472,7 @@ fn coring_keeps_a_dim_colour() {
         &img,
         Some(0.02),
         None,
-        Some(&BlackModel {
-            sigma: [1.0; 3],
-            clip: None,
-        }),
+        Some(&FLOOR_1),
     )));
     let plain = chroma(mean_linear(&cp.render_srgb8(&img, Some(0.02))));
     let kept = (cored[0] * truth[0] + cored[1] * truth[1]) / (truth[0].powi(2) + truth[1].powi(2));

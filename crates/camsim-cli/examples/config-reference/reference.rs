@@ -479,9 +479,18 @@ impl Renderer {
                 for alt in &alts {
                     let value = toml_value(&alt["properties"][&tag]["const"]);
                     self.out.push_str(&format!("#### `{tag} = {value}`\n\n"));
-                    match description(alt) {
+                    // Where the key's values come from a name table, its description of the
+                    // value (what `camsim presets` prints); else the variant's doc comment.
+                    let about = alt["properties"][&tag]["const"]
+                        .as_str()
+                        .and_then(|v| named_about(&join_path(&item.path, &tag), v));
+                    let text = match about {
+                        Some(a) => Some(format!("{}.", capitalized(a))),
+                        None => description(alt).map(cell),
+                    };
+                    match text {
                         Some(d) => {
-                            self.out.push_str(&cell(d));
+                            self.out.push_str(&d);
                             self.out.push_str("\n\n");
                         }
                         None => self
@@ -550,7 +559,28 @@ const NAMED_KEYS: &[(&str, &str)] = &[
     ("render.builtin", "3D scenes"),
     ("sensor.config.cfa", "colour filter arrays"),
     ("dataset.outputs", "dataset outputs"),
+    ("scene.kind", "2D scene kinds"),
 ];
+
+/// The catalogue's description of `name` for a key of [`NAMED_KEYS`].
+fn named_about(key_path: &str, name: &str) -> Option<&'static str> {
+    let (_, family) = NAMED_KEYS.iter().find(|(k, _)| *k == key_path)?;
+    camsim::names::catalogue()
+        .into_iter()
+        .find(|f| f.title == *family)?
+        .entries
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, about)| about)
+}
+
+fn capitalized(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
+}
 
 /// The names a key takes, from the catalogue (so the page lists exactly what the code accepts).
 fn named_values(key_path: &str) -> Option<String> {
