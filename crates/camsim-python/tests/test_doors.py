@@ -77,3 +77,33 @@ def test_every_name_camsim_takes_is_listed():
     for kind in names["2D scene kinds"]:
         if kind not in ("file", "rgb"):  # those need a file
             assert camsim.scene(kind)["radiance"].ndim == 3, kind
+
+
+def test_the_type_stub_names_exactly_what_the_compiled_module_has():
+    """_camsim.pyi (what type checkers and editors read) must list every function of the
+    compiled module and every member of Simulation, and nothing that is not there: a renamed
+    function otherwise keeps its old name in the stub unnoticed."""
+    import ast
+
+    from camsim import _camsim
+
+    stub = pathlib.Path(camsim.__file__).with_name("_camsim.pyi")
+    tree = ast.parse(stub.read_text())
+    stub_funcs = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+    stub_sim = {
+        m.name
+        for c in tree.body
+        if isinstance(c, ast.ClassDef) and c.name == "Simulation"
+        for m in c.body
+        if isinstance(m, ast.FunctionDef)
+    }
+    module_funcs = {
+        n for n in dir(_camsim) if not n.startswith("_") and callable(getattr(_camsim, n)) and not isinstance(getattr(_camsim, n), type)
+    }
+    sim_members = {n for n in dir(_camsim.Simulation) if not n.startswith("_")}
+    assert stub_funcs == module_funcs, (
+        f"only in the stub: {sorted(stub_funcs - module_funcs)}; only in the module: {sorted(module_funcs - stub_funcs)}"
+    )
+    assert stub_sim == sim_members, (
+        f"only in the stub: {sorted(stub_sim - sim_members)}; only in the module: {sorted(sim_members - stub_sim)}"
+    )
