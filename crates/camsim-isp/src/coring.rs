@@ -32,9 +32,12 @@
 //! the pixel is shifted by mu - m: black goes back to 0 on average, bright pixels (m - L > 6
 //! sigma) are not touched.
 
-use crate::color::Mat3;
 use crate::demosaic::RgbImage;
 use rayon::prelude::*;
+
+/// A 3 x 3 matrix, rows first (the colour pipeline's `Mat3`; spelled out so this module does not
+/// depend on the colour module that uses it).
+type Mat3 = [[f64; 3]; 3];
 
 /// Luminance of linear sRGB: the Y row of its RGB -> XYZ matrix (IEC 61966-2-1; Rec. ITU-R
 /// BT.709 primaries, D65 white).

@@ -14,8 +14,6 @@
 //! writing of the outputs (the sRGB preview, the id maps as 16-bit PNGs, and the EXR writer's
 //! blocks in flight: [`camsim_core::mem::WRITE_BATCH_BYTES`] twice at most).
 
-use crate::labels::LabelRequest;
-use crate::render::{RenderRequest, TILE};
 use crate::scene::SceneDescription;
 use camsim_core::mem::{MemoryBudget, WRITE_BATCH_BYTES};
 
@@ -27,15 +25,27 @@ pub(crate) const BVH_BYTES_PER_PRIM: u64 = 256;
 /// Bytes per pixel of the labels: each row's buffers and the assembled maps (instance and object
 /// ids and depth, 12 B; normals in two frames, 24 B; spectral albedo and its sRGB, `4 B + 12`),
 /// plus one u32 per pixel for the instances met along its ray (at least the first surface).
-pub(crate) fn label_bytes_per_pixel(request: LabelRequest, bands: usize) -> u64 {
-    let per_map =
-        12 + if request.normals { 24 } else { 0 } + if request.albedo { 4 * bands + 12 } else { 0 };
+pub(crate) fn label_bytes_per_pixel(normals: bool, albedo: bool, bands: usize) -> u64 {
+    let per_map = 12 + if normals { 24 } else { 0 } + if albedo { 4 * bands + 12 } else { 0 };
     2 * per_map as u64 + 4
 }
 
-/// The peak memory of rendering `scene` with `request` ([module docs](self)), on
+/// What of a render request the budget depends on (the request itself is
+/// `crate::RenderRequest`, whose `memory_budget` fills this in).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderNeeds {
+    /// Light-group films are rendered.
+    pub light_groups: bool,
+    /// Labels are rendered: `(normals, albedo)`.
+    pub labels: Option<(bool, bool)>,
+    /// Side of a render tile, pixels.
+    pub tile_px: usize,
+}
+
+/// The peak memory of rendering `scene` with what `needs` asks ([module docs](self)), on
 /// `rayon::current_num_threads()` threads.
-pub fn memory_budget(scene: &SceneDescription, request: &RenderRequest) -> MemoryBudget {
+pub fn memory_budget(scene: &SceneDescription, needs: RenderNeeds) -> MemoryBudget {
+    let tile = needs.tile_px.max(1);
     let (width, height) = (scene.camera.width, scene.camera.height);
     let st = &scene.settings;
     let bands = st.grid.len() as u64;
@@ -43,20 +53,20 @@ pub fn memory_budget(scene: &SceneDescription, request: &RenderRequest) -> Memor
     let px = |bytes_per_pixel: u64| p.saturating_mul(bytes_per_pixel);
     let motion = st.time.has_motion();
     let flows = st.time.flow_intervals_s.len() as u64;
-    let groups = if request.light_groups {
+    let groups = if needs.light_groups {
         crate::light_groups::light_group_names(scene).len() as u64
     } else {
         0
     };
     let film_bytes = px(4 * bands);
-    let tiles = width.div_ceil(TILE) * height.div_ceil(TILE);
+    let tiles = width.div_ceil(tile) * height.div_ceil(tile);
     let threads = rayon::current_num_threads().min(tiles.max(1)) as u64;
     let trace = px(24 + 4)
-        + threads * 8 * bands * (1 + groups) * (TILE * TILE) as u64
+        + threads * 8 * bands * (1 + groups) * (tile * tile) as u64
         + if motion { 16 * height as u64 } else { 0 };
-    let labels = request
-        .labels
-        .map_or(0, |r| px(label_bytes_per_pixel(r, bands as usize)));
+    let labels = needs.labels.map_or(0, |(normals, albedo)| {
+        px(label_bytes_per_pixel(normals, albedo, bands as usize))
+    });
     // The preview: XYZ (12 B), its luminances (4 B) and the sRGB bytes (3 B, and 3 B more as the
     // PNG encoder's image); the id maps as u16 (2 B); the EXR blocks in flight.
     let writing = px(12 + 4 + 3 + 3 + 2) + 2 * film_bytes.min(WRITE_BATCH_BYTES as u64);
@@ -110,22 +120,27 @@ mod tests {
         // (24 B/px + two EXR batches).
         let trace = 28 * p + threads * 8 * b * 256;
         let writing = 24 * p + 2 * (4 * p * b).min(64 << 20);
-        let plain = memory_budget(&scene, &RenderRequest::default()).total_bytes();
+        let tile_px = 16;
+        let plain = memory_budget(
+            &scene,
+            RenderNeeds {
+                tile_px,
+                ..Default::default()
+            },
+        )
+        .total_bytes();
         assert_eq!(plain, held + trace.max(writing));
         // Labels with normals and albedo: 2 x (12 + 24 + 4 B + 12) + 4 bytes per pixel.
-        let req = RenderRequest {
-            labels: Some(LabelRequest {
-                normals: true,
-                albedo: true,
-            }),
+        let req = RenderNeeds {
+            labels: Some((true, true)),
             light_groups: true,
-            ..Default::default()
+            tile_px,
         };
         let g = crate::light_groups::light_group_names(&scene).len() as u64;
         assert_eq!(g, 1);
         let labels = (2 * (12 + 24 + 4 * b + 12) + 4) * p;
         let trace_g = 28 * p + threads * 8 * b * 2 * 256;
-        let with = memory_budget(&scene, &req).total_bytes();
+        let with = memory_budget(&scene, req).total_bytes();
         assert_eq!(
             with,
             held + 2 * 4 * p * b * g + labels.max(trace_g).max(writing)

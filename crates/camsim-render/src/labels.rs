@@ -555,7 +555,11 @@ pub(crate) fn compute(
     camsim_core::mem::MemoryBudget::new(format!("the labels of a {width} x {height} render"))
         .bytes(
             "label maps",
-            (pixels as u64).saturating_mul(crate::budget::label_bytes_per_pixel(request, bands)),
+            (pixels as u64).saturating_mul(crate::budget::label_bytes_per_pixel(
+                request.normals,
+                request.albedo,
+                bands,
+            )),
         )
         .check(crate::budget::ADVICE)?;
     // The labels' instant in a moving scene: each pixel sees the scene at the start of its

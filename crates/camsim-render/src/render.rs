@@ -260,6 +260,22 @@ pub fn render(
     render_with(scene, &RenderRequest::default(), progress)
 }
 
+/// The peak memory of rendering `scene` with `request` (`crate::budget` sums it), checked by
+/// [`render_with`] before anything is allocated.
+pub fn memory_budget(
+    scene: &SceneDescription,
+    request: &RenderRequest,
+) -> camsim_core::mem::MemoryBudget {
+    crate::budget::memory_budget(
+        scene,
+        crate::budget::RenderNeeds {
+            light_groups: request.light_groups,
+            labels: request.labels.map(|l| (l.normals, l.albedo)),
+            tile_px: TILE,
+        },
+    )
+}
+
 /// [`render`] with the extra outputs of `request` (labels).
 pub fn render_with(
     scene: &SceneDescription,
@@ -285,7 +301,7 @@ pub fn render_with(
     }
     let rig = CameraRig::new(&scene.camera).map_err(RenderError::Camera)?;
     // Everything the render will hold at once, before any of it is allocated.
-    crate::budget::memory_budget(scene, request).check(crate::budget::ADVICE)?;
+    memory_budget(scene, request).check(crate::budget::ADVICE)?;
     let ws = WavelengthSampler::new(&st.grid);
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
