@@ -33,15 +33,15 @@
 //! sigma) are not touched.
 
 use crate::demosaic::RgbImage;
+use camsim_core::colorimetry;
 use rayon::prelude::*;
 
 /// A 3 x 3 matrix, rows first (the colour pipeline's `Mat3`; spelled out so this module does not
 /// depend on the colour module that uses it).
 type Mat3 = [[f64; 3]; 3];
 
-/// Luminance of linear sRGB: the Y row of its RGB -> XYZ matrix (IEC 61966-2-1; Rec. ITU-R
-/// BT.709 primaries, D65 white).
-pub const SRGB_LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+/// Luminance of linear sRGB: the Y row of its RGB -> XYZ matrix (IEC 61966-2-1 section 5.3).
+pub const SRGB_LUMINANCE_WEIGHTS: [f64; 3] = colorimetry::LINEAR_SRGB_TO_XYZ[1];
 
 /// Threshold of [`ChromaCoring`] in standard deviations of the local mean chroma under the noise
 /// floor: with 3 a field of pure noise renders grey within about 1 % between channels (test
@@ -181,7 +181,7 @@ pub fn render_display8(
             (img.b[i] as f64).min(clip[2]),
         ]
     };
-    let times_m = |c: [f64; 3]| [0, 1, 2].map(|k| m[k][0] * c[0] + m[k][1] * c[1] + m[k][2] * c[2]);
+    let times_m = |c: [f64; 3]| colorimetry::mat3_mul_vec(m, c);
     let luminance = |v: [f64; 3]| y_weights[0] * v[0] + y_weights[1] * v[1] + y_weights[2] * v[2];
     let mut out = vec![0u8; img.pixels() * 3];
     out.par_chunks_mut(BAND_ROWS * cols * 3)
