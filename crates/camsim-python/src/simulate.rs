@@ -3,6 +3,7 @@
 
 use crate::convert::{array, array1, config_from, err, to_py, wavelengths};
 use camsim::io::exr::ExrOptions;
+use camsim::pipeline::labels::SimLabels;
 use camsim::{OutputSet, RunInfo, SimulateOptions, Simulation};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -11,6 +12,31 @@ use pyo3::types::PyDict;
 #[pyclass(module = "camsim._camsim", name = "Simulation", frozen)]
 pub struct PySimulation {
     inner: Simulation,
+}
+
+impl PySimulation {
+    /// One dict per raw frame from `make` on the frame's labels: frame 1's are `labels`, a
+    /// moving scene's later frames `later_frame_labels`; a static scene's frames share one.
+    fn per_frame<'py>(
+        &self,
+        py: Python<'py>,
+        make: impl Fn(Python<'py>, &SimLabels) -> PyResult<Bound<'py, PyDict>>,
+    ) -> PyResult<Option<Vec<Bound<'py, PyDict>>>> {
+        let Some(first) = self.inner.labels.as_ref() else {
+            return Ok(None);
+        };
+        let first = make(py, first)?;
+        let later = &self.inner.later_frame_labels;
+        let mut out = vec![first];
+        if later.is_empty() {
+            out.resize(self.inner.frames.len(), out[0].clone());
+        } else {
+            for f in later {
+                out.push(make(py, &f.labels)?);
+            }
+        }
+        Ok(Some(out))
+    }
 }
 
 #[pymethods]
@@ -83,7 +109,8 @@ impl PySimulation {
     /// "normals_world" ((rows, cols, 3)), "albedo" ((bands, rows, cols)), "albedo_srgb", "boxes"
     /// (per instance: box_3d, bbox_sensor, bbox_scene, visible_fraction, truncation, name,
     /// material), and "scene": the same maps on the render's grid. Pixel (r, c) describes the
-    /// scene point imaged at raw pixel (r, c).
+    /// scene point imaged at raw pixel (r, c). A moving scene's: the first frame's, at its
+    /// window's start (every frame's: `frame_labels`).
     #[getter]
     fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         self.inner
@@ -103,6 +130,21 @@ impl PySimulation {
             .as_ref()
             .map(|l| crate::labels::camera_dict(py, l))
             .transpose()
+    }
+    /// The labels of every raw frame, a list of dicts as `labels` (frame order, as `raw`):
+    /// a moving 3D scene's frame k is a sharp snapshot at its window's start
+    /// (`frame_times_s[k, 0]`; each row's under a rolling shutter), so its instance, depth and
+    /// box labels move with the scene; a static scene's frames share one dict (the same
+    /// object). None without labels=True or for 2D charts.
+    #[getter]
+    fn frame_labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Vec<Bound<'py, PyDict>>>> {
+        self.per_frame(py, crate::labels::labels_dict)
+    }
+    /// The camera model of every raw frame's labels, a list of dicts as `camera` (a moving
+    /// camera's extrinsics at each frame's window start); None without labels=True.
+    #[getter]
+    fn frame_cameras<'py>(&self, py: Python<'py>) -> PyResult<Option<Vec<Bound<'py, PyDict>>>> {
+        self.per_frame(py, crate::labels::camera_dict)
     }
     /// The names of the ids present: {"background": 0, "objects": {1: name, ...},
     /// "materials": {...}}; None for 2D charts.

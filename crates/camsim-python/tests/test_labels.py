@@ -113,3 +113,27 @@ def test_simulation_labels_and_camera():
         assert b["bbox_sensor"] == [cols.min(), rows.min(), cols.max() + 1, rows.max() + 1]
     # A 2D chart has no labels.
     assert camsim.simulate(camsim.presets.simulate(), labels=True).labels is None
+
+
+def test_frame_labels_of_a_moving_scene_are_each_frames_snapshot():
+    # The short block moves right at 2 m/s (about 2.6 raw pixels per 10 ms at 24 m): in a burst
+    # of 3 frames 10 ms apart, frame k's labels are those of a one-frame run whose window starts
+    # at 10 k ms (labels are the scene at the window's start), and they move from frame to frame.
+    render = dict(BASE["render"], overlay_inline=dict(BASE["render"]["overlay_inline"], object=[{"name": "short_block", "velocity_m_s": [2.0, 0.0, 0.0]}]))
+    moving = dict(BASE, render=render)
+    capture = dict(BASE["capture"], exposure_ms=0.5)
+    sim = camsim.simulate(dict(moving, capture=dict(capture, frames=3, frame_interval_ms=10.0)), labels=True)
+    frames, cameras = sim.frame_labels, sim.frame_cameras
+    assert len(frames) == len(cameras) == sim.raw.shape[0] == 3
+    assert np.array_equal(frames[0]["instances"], sim.labels["instances"])
+    for k in (1, 2):
+        one = camsim.simulate(dict(moving, capture=dict(capture, start_ms=10.0 * k)), labels=True)
+        assert np.array_equal(frames[k]["instances"], one.labels["instances"]), k
+        assert np.array_equal(frames[k]["depth"], one.labels["depth"]), k
+        assert [b["bbox_sensor"] for b in frames[k]["boxes"]] == [b["bbox_sensor"] for b in one.labels["boxes"]]
+        assert not np.array_equal(frames[k]["instances"], frames[k - 1]["instances"]), k
+        np.testing.assert_array_equal(cameras[k]["world_to_camera"], cameras[0]["world_to_camera"])
+    # A static scene's frames share one set of labels.
+    static = camsim.simulate(dict(BASE, capture=dict(capture, frames=2)), labels=True)
+    shared = static.frame_labels
+    assert len(shared) == 2 and shared[0] is shared[1]
