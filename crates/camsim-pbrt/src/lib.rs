@@ -84,8 +84,8 @@
 //!   materials defined before, `amount`), `interface` (also `""`/`"none"`). Spectrum parameters
 //!   (`reflectance`, `transmittance`) take an rgb, spectrum or blackbody value or any spectrum
 //!   texture; the other float parameters (`scale`, `thickness`, `amount`) take a number or a
-//!   `constant` float texture. Named spectra `metal-{Cu,Ag,Au,Al}-{eta,k}` and `glass-BK7`
-//!   ([`optical_constants`]),
+//!   `constant` float texture. Named spectra: every `metal-*-{eta,k}` and `glass-*` name
+//!   pbrt-v4 defines, with pbrt-v4's data ([`optical_constants`]),
 //!   Every material but `mix` and `interface` takes `displacement` (or pbrt-v3's `bumpmap`), a
 //!   float texture, and `normalmap`, an image file (pbrt-v4 `BumpMap` / `NormalMap`, see
 //!   [`camsim_scene3d::scene::Material::Bumped`]).
