@@ -36,7 +36,7 @@ fn texels(dir: &Path, lines: &str, names: &[&str]) -> (Vec<Vec<[f32; 3]>>, Vec<S
         .map(|n| match &s.materials[s.named_materials[*n]] {
             Material::Diffuse {
                 reflectance: Texture::Image { rgb, .. },
-            } => rgb.clone(),
+            } => rgb.to_vec(),
             m => panic!("{n}: {m:?}"),
         })
         .collect();

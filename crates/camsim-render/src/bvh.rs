@@ -270,10 +270,23 @@ impl Bvh {
         flatten(sub, &mut bin);
         let ordered: Vec<Prim> = idx.iter().map(|&i| prims[i as usize]).collect();
         drop(prims);
+        // The packet and leaf arrays at their exact sizes (`collapse` makes one of either per
+        // binary leaf): grown by doubling, the 64-byte-aligned packets were reallocated by
+        // copying, holding the old and the new array at once (49 MB more at the peak of
+        // veach-ajar's render, measured with massif).
+        let (mut n_packets, mut n_leaves) = (0, 0);
+        for nd in bin.iter().filter(|nd| nd.count > 0) {
+            let start = nd.index as usize;
+            if is_packet(&ordered[start..start + nd.count as usize]) {
+                n_packets += 1;
+            } else {
+                n_leaves += 1;
+            }
+        }
         let mut bvh = Bvh {
             nodes: Vec::with_capacity(bin.len() / 3 + 1),
-            packets: Vec::new(),
-            leaves: Vec::new(),
+            packets: Vec::with_capacity(n_packets),
+            leaves: Vec::with_capacity(n_leaves),
             root: EMPTY,
             bounds: b,
             prims: ordered,
@@ -283,8 +296,7 @@ impl Bvh {
         };
         bvh.root = bvh.collapse(&bin, 0);
         bvh.nodes.shrink_to_fit();
-        bvh.packets.shrink_to_fit();
-        bvh.leaves.shrink_to_fit();
+        debug_assert_eq!((bvh.packets.len(), bvh.leaves.len()), (n_packets, n_leaves));
         bvh
     }
 
@@ -296,7 +308,7 @@ impl Bvh {
         if nd.count > 0 {
             let (start, count) = (nd.index as usize, nd.count as usize);
             let tris = &self.prims[start..start + count];
-            if count <= 4 && tris.iter().all(|p| matches!(p, Prim::Tri { .. })) {
+            if is_packet(tris) {
                 let mut pk = Tri4 {
                     p0: [[0.0; 4]; 3],
                     e1: [[0.0; 4]; 3],
@@ -663,6 +675,12 @@ fn split(ctx: &BuildCtx, idx: &mut [u32], b: &Aabb, cb: &Aabb, depth: usize) -> 
 /// Serial build of a subtree into `out` with node indices relative to `out`'s start.
 /// `offset` is the position of `idx[0]` in the global primitive order; `b`, `cb` the bounds
 /// and centroid bounds of `idx`.
+/// Whether a binary leaf's primitives become a triangle packet ([`Tri4`]): at most four
+/// triangles; other leaves are tested one by one.
+fn is_packet(prims: &[Prim]) -> bool {
+    prims.len() <= 4 && prims.iter().all(|p| matches!(p, Prim::Tri { .. }))
+}
+
 fn build_serial(
     ctx: &BuildCtx,
     idx: &mut [u32],

@@ -10,7 +10,8 @@ use crate::scene::WrapMode;
 pub(crate) struct ImageTex {
     pub width: usize,
     pub height: usize,
-    pub rgb: Vec<[f32; 3]>,
+    /// Row-major texels, shared with the scene description's texture.
+    pub rgb: std::sync::Arc<[[f32; 3]]>,
     pub uscale: f32,
     pub vscale: f32,
     pub udelta: f32,

@@ -238,7 +238,7 @@ pub(crate) enum Tex {
 pub(crate) struct FloatImage {
     pub width: usize,
     pub height: usize,
-    pub values: Vec<f32>,
+    pub values: Arc<[f32]>,
     pub wrap: WrapMode,
 }
 

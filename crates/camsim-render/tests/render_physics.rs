@@ -847,7 +847,7 @@ fn image_texture_is_looked_up_by_uv() {
     let tex = Texture::Image {
         width: 8,
         height: 1,
-        rgb,
+        rgb: rgb.into(),
         uscale: 1.0,
         vscale: 1.0,
         udelta: 0.0,

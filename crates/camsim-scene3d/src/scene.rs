@@ -98,7 +98,9 @@ pub enum Texture {
     Image {
         width: usize,
         height: usize,
-        rgb: Vec<[f32; 3]>,
+        /// Row-major texels, shared by every material that names the texture (and by the
+        /// renderer's compiled copy), so an image is held once.
+        rgb: std::sync::Arc<[[f32; 3]]>,
         uscale: f64,
         vscale: f64,
         udelta: f64,
@@ -197,7 +199,8 @@ pub enum FloatTexture {
     Image {
         width: usize,
         height: usize,
-        values: Vec<f32>,
+        /// Row-major texels, shared as [`Texture::Image`]'s.
+        values: std::sync::Arc<[f32]>,
         mapping: UvMapping,
         wrap: WrapMode,
     },

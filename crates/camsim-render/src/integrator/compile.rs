@@ -353,7 +353,7 @@ impl SceneGeometry {
             let tex = ImageTex {
                 width: im.width,
                 height: im.height,
-                rgb: im.rgb.clone(),
+                rgb: im.rgb.as_slice().into(),
                 uscale: 1.0,
                 vscale: 1.0,
                 udelta: 0.0,
