@@ -692,7 +692,7 @@ fn build_bvh(
     curves: CurveStore,
     n_lights: usize,
 ) -> Result<BuiltBvh, RenderError> {
-    let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips)?;
+    let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips, &curves)?;
     let mut bvh = Bvh::build_with_curves(prims, curves);
     bvh.clips = clips;
     let mut info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();

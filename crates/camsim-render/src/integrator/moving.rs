@@ -20,13 +20,7 @@ impl Tracer {
         let (rr, len) = to_ref(&pose, r);
         let local = (h.slot - g.slot0) as usize;
         let hr = Hit { t: h.t * len, ..*h };
-        let s = self.surface_of(
-            &g.bvh.prims[local],
-            g.tri_normals[local],
-            &g.bvh.clips,
-            &rr,
-            &hr,
-        );
+        let s = self.surface_of(&g.bvh.prims[local], g.tri_normals[local], &g.bvh, &rr, &hr);
         SurfaceHit {
             p: pose.to_world.point(s.p),
             ng: pose.to_ref.normal_from_inverse(s.ng),
