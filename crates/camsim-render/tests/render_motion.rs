@@ -722,60 +722,6 @@ fn a_moving_area_light_lights_as_the_average_of_still_ones() {
     }
 }
 
-/// Feature combinations that do not follow motion yet are refused with a message naming them,
-/// not rendered at the reference pose: participating media and light groups. The same requests
-/// on the scene made static render (and labels render on the moving one).
-#[test]
-fn motion_refuses_media_and_light_groups() {
-    use camsim_render::{render_with, LabelRequest, RenderRequest};
-    use camsim_scene3d::media::{Coefficients, Media, Medium, MediumKind};
-    let s = scene(
-        16,
-        8,
-        vec![bar(-4.0, 0.0, -2.0, 2.0)],
-        8,
-        moving(0, velocity_px(100.0, 0.0), 0.0, 0.01),
-    );
-    let quiet = |_: u64, _: u64| {};
-    let err = |s: &SceneDescription, req: &RenderRequest| match render_with(s, req, &quiet) {
-        Err(e) => e.to_string(),
-        Ok(_) => panic!("a moving scene rendered {req:?}"),
-    };
-    let groups = RenderRequest {
-        light_groups: true,
-        ..Default::default()
-    };
-    let labels = RenderRequest {
-        labels: Some(LabelRequest::default()),
-        ..Default::default()
-    };
-    let e = err(&s, &groups);
-    assert!(e.contains("light groups") && e.contains("motion"), "{e}");
-    assert!(render_with(&s, &labels, &quiet).is_ok());
-    let mut fog = s.clone();
-    fog.media = Media {
-        list: vec![Medium {
-            name: "fog".into(),
-            g: 0.0,
-            kind: MediumKind::Homogeneous(Coefficients {
-                sigma_a_per_m: flat(0.1),
-                sigma_s_per_m: flat(0.0),
-                le: None,
-            }),
-        }],
-        camera: Some(0),
-    };
-    let e = err(&fog, &RenderRequest::default());
-    assert!(e.contains("media") && e.contains("motion"), "{e}");
-    let mut still = s.clone();
-    still.settings.time = TimeSettings::default();
-    for req in [groups, labels] {
-        assert!(render_with(&still, &req, &quiet).is_ok(), "{req:?}");
-    }
-    fog.settings.time = TimeSettings::default();
-    assert!(render_with(&fog, &RenderRequest::default(), &quiet).is_ok());
-}
-
 /// The labels of a render at time t (its rows' window start).
 fn labels_at(s: &SceneDescription) -> (camsim_render::RenderOutput, camsim_render::Labels) {
     use camsim_render::{render_with, LabelRequest, RenderRequest};

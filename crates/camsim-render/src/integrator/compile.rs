@@ -121,17 +121,10 @@ fn compile_media(
     scene: &SceneDescription,
     ws: &WavelengthSampler,
 ) -> Result<Option<Box<MediaSet>>, RenderError> {
-    let media = MediaSet::compile(scene, ws)?;
-    // The volumetric tracer's transmittance and light sampling see the scene's reference
-    // pose only: refuse motion in a scene with media rather than render it inconsistently.
-    if media.is_some() && scene.settings.time.has_motion() {
-        return Err(RenderError::Settings(
-            "participating media with motion (moving shapes, lights or camera) are not \
-             supported yet: remove the motion or the media"
-                .into(),
-        ));
-    }
-    Ok(media)
+    // Media do not move (pbrt-v4 creates them with the start transform); the shapes bounding
+    // them, the lights and the camera may: the volumetric tracer traces, transmits and samples
+    // lights at the path's time (`integrator::volpath`).
+    MediaSet::compile(scene, ws)
 }
 
 /// The number of BVH primitives the scene makes (curves as their split segments).
