@@ -339,7 +339,7 @@ impl Tracer {
                 p: sh.p,
             };
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
-            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !st.hero_only && N > 1 {
                 // Dispersion: only the hero wavelength goes on (as `Tracer::li`).
