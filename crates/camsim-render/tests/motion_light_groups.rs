@@ -103,8 +103,10 @@ const PX_M: f64 = 1e-3;
 /// radiance 1, in light group `group`.
 fn bar(x0: f64, x1: f64, group: &str) -> Shape {
     let p = |x: f64, y: f64| [x * PX_M, y * PX_M, 1.0];
-    let mut tags = camsim_scene3d::ShapeTags::default();
-    tags.light_group = Some(group.into());
+    let tags = camsim_scene3d::ShapeTags {
+        light_group: Some(group.into()),
+        ..Default::default()
+    };
     Shape {
         name: Some(group.into()),
         geometry: Geometry::Triangles {
