@@ -12,21 +12,17 @@
 //!   linearly);
 //! - the labels of a moving curve (instance map) show it at the window's start, x0 + v t0.
 
-use camsim_core::{Spectrum, WavelengthGrid};
+mod common;
+
 use camsim_render::{render, render_with, LabelRequest, RenderRequest};
 use camsim_scene3d::curves::{CurveType, Curves};
 use camsim_scene3d::motion::{Motion, MotionPart, Shutter, TimeSettings};
-use camsim_scene3d::{
-    Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture, Transform,
-};
+use camsim_scene3d::{Geometry, Light, SceneDescription, Shape, Transform};
+use common::grey;
 
 /// Metres per pixel on the plane z = 1 m (the camera looks down +z from the origin, raster x
 /// along world +x, raster y along world -y).
 const PX_M: f64 = 1e-3;
-
-fn grey(v: f64) -> Spectrum {
-    Spectrum::from_pairs(&[(300.0, v), (900.0, v)])
-}
 
 /// A straight flat curve of width `w_px` from `a` to `b` (pixels from the image centre, raster
 /// orientation) in the plane z = 1 m.
@@ -54,35 +50,13 @@ fn curve(a: [f64; 2], b: [f64; 2], w_px: f64) -> Shape {
 /// The black curve `c` before a white sky, seen by a `w` x `h` camera, with `time`.
 fn scene(w: usize, h: usize, c: Shape, spp: u32, time: TimeSettings) -> SceneDescription {
     let short = w.min(h) as f64;
-    SceneDescription {
-        camera: Camera {
-            camera_to_world: Transform::identity(),
-            fov_deg: 2.0 * (short / 2.0 * PX_M).atan().to_degrees(),
-            width: w,
-            height: h,
-            lens: None,
-        },
-        shapes: vec![c],
-        materials: vec![Material::Diffuse {
-            reflectance: Texture::Constant(grey(0.0)),
-        }],
-        named_materials: Default::default(),
-        lights: vec![Light::Infinite {
-            radiance: grey(1.0),
-        }],
-        settings: RenderSettings {
-            grid: WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
-            samples_per_pixel: spp,
-            max_depth: 1,
-            seed: 11,
-            time,
-            ..RenderSettings::default()
-        },
-        focus_distance_m: None,
-        notes: vec![],
-        media: Default::default(),
-        light_groups: Vec::new(),
-    }
+    let fov_deg = 2.0 * (short / 2.0 * PX_M).atan().to_degrees();
+    let mut s = common::origin_scene(w, h, fov_deg, vec![c], spp, time);
+    s.lights = vec![Light::Infinite {
+        radiance: grey(1.0),
+    }];
+    s.settings.seed = 11;
+    s
 }
 
 fn window(motion: Option<Motion>, open_s: f64, close_s: f64) -> TimeSettings {

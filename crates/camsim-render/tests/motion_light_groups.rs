@@ -8,18 +8,13 @@
 //! moving point light's group, sampled in the light's reference pose, holds the time-averaged
 //! irradiance it gives, the static light's group its still irradiance.
 
-use camsim_core::{Spectrum, WavelengthGrid};
+mod common;
+
 use camsim_pbrt::parse_str;
 use camsim_render::{render, render_with, RenderOutput, RenderRequest};
 use camsim_scene3d::motion::{Motion, MotionPart, Shutter, TimeSettings};
-use camsim_scene3d::{
-    AreaLight, Camera, Geometry, Light, Material, RenderSettings, SceneDescription, Shape, Texture,
-    Transform,
-};
-
-fn grey(v: f64) -> Spectrum {
-    Spectrum::from_pairs(&[(300.0, v), (900.0, v)])
-}
+use camsim_scene3d::{AreaLight, Geometry, Light, Material, SceneDescription, Shape, Texture};
+use common::grey;
 
 fn with_groups(s: &SceneDescription) -> RenderOutput {
     let req = RenderRequest {
@@ -128,33 +123,10 @@ fn bar(x0: f64, x1: f64, group: &str) -> Shape {
 
 fn scene(w: usize, h: usize, shapes: Vec<Shape>, spp: u32, time: TimeSettings) -> SceneDescription {
     let short = w.min(h) as f64;
-    SceneDescription {
-        camera: Camera {
-            camera_to_world: Transform::identity(),
-            fov_deg: 2.0 * (short / 2.0 * PX_M).atan().to_degrees(),
-            width: w,
-            height: h,
-            lens: None,
-        },
-        shapes,
-        materials: vec![Material::Diffuse {
-            reflectance: Texture::Constant(grey(0.0)),
-        }],
-        named_materials: Default::default(),
-        lights: vec![],
-        settings: RenderSettings {
-            grid: WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
-            samples_per_pixel: spp,
-            max_depth: 1,
-            seed: 7,
-            time,
-            ..RenderSettings::default()
-        },
-        focus_distance_m: None,
-        notes: vec![],
-        media: Default::default(),
-        light_groups: Vec::new(),
-    }
+    let fov_deg = 2.0 * (short / 2.0 * PX_M).atan().to_degrees();
+    let mut s = common::origin_scene(w, h, fov_deg, shapes, spp, time);
+    s.settings.seed = 7;
+    s
 }
 
 fn velocity(v_m_s: [f64; 3]) -> Motion {
@@ -246,24 +218,7 @@ fn a_moving_emitters_group_is_blurred_and_a_static_ones_is_not() {
 #[test]
 fn a_moving_point_lights_group_holds_its_time_averaged_irradiance() {
     let n = 4;
-    let floor = Shape {
-        name: Some("floor".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![
-                [-5.0, -5.0, 0.0],
-                [5.0, -5.0, 0.0],
-                [5.0, 5.0, 0.0],
-                [-5.0, 5.0, 0.0],
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    };
+    let floor = common::floor(5.0);
     let mut s = scene(n, n, vec![floor], 1024, TimeSettings::default());
     s.camera.camera_to_world =
         camsim_scene3d::look_at_camera_to_world([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], false)

@@ -11,18 +11,13 @@
 //! - and a static scene with media renders byte for byte as before with the time machinery on
 //!   (a shutter window, a rolling shutter, and a moving object no ray can reach).
 
-use camsim_core::{Spectrum, WavelengthGrid};
+mod common;
+
 use camsim_render::render;
 use camsim_scene3d::media::{Coefficients, Medium, MediumKind};
 use camsim_scene3d::motion::{Motion, MotionPart, RowReadout, Shutter, TimeSettings};
-use camsim_scene3d::{
-    AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
-    Transform,
-};
-
-fn grey(v: f64) -> Spectrum {
-    Spectrum::from_pairs(&[(300.0, v), (900.0, v)])
-}
+use camsim_scene3d::{AreaLight, Geometry, Material, SceneDescription, Shape, Texture, Transform};
+use common::grey;
 
 /// An absorbing (and, with `sigma_s_per_m`, scattering) homogeneous medium.
 fn fog(sigma_a_per_m: f64, sigma_s_per_m: f64) -> Medium {
@@ -57,33 +52,7 @@ fn emitter(geometry: Geometry, two_sided: bool) -> Shape {
 /// 0.71 degrees of the axis: their paths are longer than the axis's by under 8e-5), the scene
 /// filled with a medium absorbing `sigma_per_m`, the shutter open over [0, 1] s.
 fn scene(shapes: Vec<Shape>, sigma_per_m: f64, spp: u32, time: TimeSettings) -> SceneDescription {
-    let mut s = SceneDescription {
-        camera: Camera {
-            camera_to_world: Transform::identity(),
-            fov_deg: 1.0,
-            width: 16,
-            height: 16,
-            lens: None,
-        },
-        shapes,
-        materials: vec![Material::Diffuse {
-            reflectance: Texture::Constant(grey(0.0)),
-        }],
-        named_materials: Default::default(),
-        lights: vec![],
-        settings: RenderSettings {
-            grid: WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
-            samples_per_pixel: spp,
-            max_depth: 1,
-            seed: 5,
-            time,
-            ..RenderSettings::default()
-        },
-        focus_distance_m: None,
-        notes: vec![],
-        media: Default::default(),
-        light_groups: Vec::new(),
-    };
+    let mut s = common::origin_scene(16, 16, 1.0, shapes, spp, time);
     s.media.fill(fog(sigma_per_m, 0.0));
     s
 }
@@ -201,24 +170,7 @@ fn an_emitter_receding_through_fog_is_seen_at_each_paths_time() {
 #[test]
 fn a_light_moving_through_fog_lights_with_the_time_averaged_attenuation() {
     let (sigma, h, i, rho) = (0.3, 1.0, 2.0, 0.5);
-    let floor = Shape {
-        name: Some("floor".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![
-                [-5.0, -5.0, 0.0],
-                [5.0, -5.0, 0.0],
-                [5.0, 5.0, 0.0],
-                [-5.0, 5.0, 0.0],
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    };
+    let floor = common::floor(5.0);
     let time = TimeSettings {
         shutter: Shutter {
             open_s: 0.0,
@@ -295,19 +247,7 @@ fn a_static_scene_with_media_is_bit_identical_with_the_time_machinery_on() {
         "a shutter window changed the render"
     );
     let mut moved = base.clone();
-    moved.shapes.push(Shape {
-        name: Some("hidden".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[0.17, 0.05, 0.15], [0.2, 0.05, 0.15], [0.18, 0.08, 0.17]],
-            indices: vec![[0, 1, 2]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    });
+    moved.shapes.push(common::hidden_in_cornell_block());
     let k = moved.shapes.len() - 1;
     moved.settings.time = TimeSettings {
         shutter: Shutter {

@@ -8,12 +8,11 @@
 
 mod common;
 
-use camsim_core::{Spectrum, WavelengthGrid};
+use camsim_core::Spectrum;
 use camsim_render::render;
 use camsim_scene3d::motion::{Motion, MotionPart, RowReadout, Shutter, TimeSettings};
 use camsim_scene3d::{
-    AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
-    Transform,
+    AreaLight, Camera, Geometry, Material, SceneDescription, Shape, Texture, Transform,
 };
 
 /// Metres per pixel on the plane z = 1 m (the camera looks down +z from the origin).
@@ -60,27 +59,9 @@ fn bar(x0: f64, x1: f64, y0: f64, y1: f64) -> Shape {
 }
 
 fn scene(w: usize, h: usize, shapes: Vec<Shape>, spp: u32, time: TimeSettings) -> SceneDescription {
-    SceneDescription {
-        camera: camera(w, h),
-        shapes,
-        materials: vec![Material::Diffuse {
-            reflectance: Texture::Constant(flat(0.0)),
-        }],
-        named_materials: Default::default(),
-        lights: vec![],
-        settings: RenderSettings {
-            grid: WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
-            samples_per_pixel: spp,
-            max_depth: 1,
-            seed: 3,
-            time,
-            ..RenderSettings::default()
-        },
-        focus_distance_m: None,
-        notes: vec![],
-        media: Default::default(),
-        light_groups: Vec::new(),
-    }
+    let mut s = common::origin_scene(w, h, camera(w, h).fov_deg, shapes, spp, time);
+    s.settings.seed = 3;
+    s
 }
 
 /// A velocity in pixels per second (raster x right, y down) as a world velocity on z = 1.
@@ -433,19 +414,7 @@ fn hidden_moving_object_leaves_the_render_bit_identical() {
     let base = builtin("cornell-box", &opts).unwrap();
     let a = render(&base, &|_, _| {}).unwrap();
     let mut moved = base.clone();
-    moved.shapes.push(Shape {
-        name: Some("hidden".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[0.17, 0.05, 0.15], [0.2, 0.05, 0.15], [0.18, 0.08, 0.17]],
-            indices: vec![[0, 1, 2]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    });
+    moved.shapes.push(common::hidden_in_cornell_block());
     let k = moved.shapes.len() - 1;
     moved.settings.time = moving(k, velocity_px(1.0, 1.0), 0.0, 1.0);
     moved.settings.time.flow_intervals_s = vec![0.5];
