@@ -300,6 +300,24 @@ impl CurveStore {
         first_seg
     }
 
+    /// Copy segment `seg` of `from` (its four control points and ribbon normals) into `self`;
+    /// returns its index here. A moving group's BVH holds its curves this way (`crate::motion`).
+    pub(crate) fn copy_segment(&mut self, from: &CurveStore, seg: u32) -> u32 {
+        let s = from.segs[seg as usize];
+        let first = self.points.len() as u32;
+        self.points.extend_from_slice(&from.control_points(&s));
+        let normal = if s.normal == NO_NORMAL {
+            NO_NORMAL
+        } else {
+            let n = self.normals.len() as u32;
+            let k = s.normal as usize;
+            self.normals.extend_from_slice(&from.normals[k..k + 2]);
+            n
+        };
+        self.segs.push(CurveSeg { first, normal, ..s });
+        (self.segs.len() - 1) as u32
+    }
+
     /// Number of segments.
     pub fn len(&self) -> usize {
         self.segs.len()

@@ -6,7 +6,7 @@ use crate::bsdf::Bsdf;
 use crate::bvh::Bvh;
 use crate::geometry::{
     offset_ray_origin, sphere_point_err, tri_point_err, MeshShading, Prim, PrimInfo, Ray, RayInv,
-    SphereClip, SurfaceHit, NO_LIGHT,
+    SurfaceHit, NO_LIGHT,
 };
 use crate::image_tex::ImageTex;
 use crate::light_groups::PathRadiance;
@@ -97,18 +97,18 @@ impl Tracer {
     pub(crate) fn surface(&self, r: &Ray, h: &crate::bvh::Hit, pt: &PathTime) -> SurfaceHit {
         let slot = h.slot as usize;
         match self.bvh.prims.get(slot) {
-            Some(prim) => self.surface_of(prim, self.tri_normals[slot], &self.bvh.clips, r, h),
+            Some(prim) => self.surface_of(prim, self.tri_normals[slot], &self.bvh, r, h),
             None => self.moving_surface(r, h, pt),
         }
     }
 
-    /// The surface of hit `h` on `prim` (triangle normal `tri_normal`, partial-sphere clips
-    /// `clips`; `h.slot` indexes `info`).
+    /// The surface of hit `h` on `prim` (triangle normal `tri_normal`; partial-sphere clips and
+    /// curve segments from `side`, the BVH that holds `prim`; `h.slot` indexes `info`).
     pub(crate) fn surface_of(
         &self,
         prim: &Prim,
         tri_normal: V3,
-        clips: &[SphereClip],
+        side: &crate::bvh::Bvh,
         r: &Ray,
         h: &crate::bvh::Hit,
     ) -> SurfaceHit {
@@ -175,7 +175,7 @@ impl Tracer {
                 radius,
                 clip,
             } => {
-                let c = &clips[clip as usize];
+                let c = &side.clips[clip as usize];
                 let n = (r.o + r.d * h.t - center).normalize();
                 let p = center + n * radius;
                 // pbrt-v4 Sphere::InteractionFromIntersection (4th ed. §6.2.3), object frame
@@ -191,7 +191,7 @@ impl Tracer {
                 }
             }
             Prim::Curve { seg, .. } => {
-                let c = self.bvh.curves.surface(seg, r.o, r.d, h.t, h.u, h.v);
+                let c = side.curves.surface(seg, r.o, r.d, h.t, h.u, h.v);
                 SurfaceHit {
                     p: c.p,
                     ng: c.n,
@@ -548,7 +548,7 @@ impl Tracer {
                 p: sh.p,
             };
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
-            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !terminated && N > 1 {
                 // Dispersion: only the hero wavelength (index 0, marginally uniform like each

@@ -21,6 +21,7 @@
 //! is divided by the scale squared); a moving emitter whose motion stretches is refused.
 
 use crate::bvh::{Bvh, Hit};
+use crate::curve::CurveStore;
 use crate::error::RenderError;
 use crate::geometry::{ray_box, Aabb, Prim, Ray, RayInv, SphereClip};
 use crate::geometry::{PrimInfo, NO_LIGHT};
@@ -214,6 +215,8 @@ struct MovingGroupPrims {
     info: Vec<PrimInfo>,
     /// Clips of its partial spheres (their `clip` indexes this).
     clips: Vec<SphereClip>,
+    /// Segments of its curves (their pieces' `seg` indexes this).
+    curves: CurveStore,
 }
 
 /// Take the primitives of moving shapes out of `prims`/`info` (the order of the rest is kept),
@@ -223,6 +226,7 @@ pub(crate) fn take_moving(
     prims: &mut Vec<Prim>,
     info: &mut Vec<PrimInfo>,
     clips: &[SphereClip],
+    curves: &CurveStore,
 ) -> Result<Option<MovingPrims>, RenderError> {
     let time = &scene.settings.time;
     let moving: Vec<(usize, &Motion)> = time
@@ -254,9 +258,12 @@ pub(crate) fn take_moving(
             prims: Vec::new(),
             info: Vec::new(),
             clips: Vec::new(),
+            curves: CurveStore::default(),
         })
         .collect();
     let (mut kept_p, mut kept_i) = (Vec::with_capacity(prims.len()), Vec::new());
+    // Each curve segment's index in its group's store (a segment belongs to one shape).
+    let mut local_seg: Vec<u32> = Vec::new();
     for (p, pi) in prims.drain(..).zip(info.drain(..)) {
         let g = group_of_shape[pi.shape as usize];
         if g == u32::MAX {
@@ -266,12 +273,17 @@ pub(crate) fn take_moving(
         }
         let grp = &mut groups[g as usize];
         let p = match p {
-            // The moving groups' BVHs hold no curve control points (`Bvh::build_with_curves`).
-            Prim::Curve { .. } => {
-                return Err(RenderError::Settings(format!(
-                    "shape {} is a curve and moves: moving curves (hair) are not supported yet",
-                    pi.shape
-                )));
+            // Curve pieces: their segment copied into the group's own store (once per segment),
+            // in the reference pose like every other moving primitive.
+            Prim::Curve { seg, u0, u1 } => {
+                if local_seg.is_empty() {
+                    local_seg = vec![u32::MAX; curves.len()];
+                }
+                let l = &mut local_seg[seg as usize];
+                if *l == u32::MAX {
+                    *l = grp.curves.copy_segment(curves, seg);
+                }
+                Prim::Curve { seg: *l, u0, u1 }
             }
             Prim::PartialSphere {
                 center,
@@ -341,11 +353,12 @@ impl MotionTracer {
             prims,
             info: pinfo,
             clips,
+            curves,
         } in moving.map(|m| m.groups).unwrap_or_default()
         {
             let mover = Mover::new(&motion, t_end);
             let gi = movers.len() as u32;
-            let mut bvh = Bvh::build(prims);
+            let mut bvh = Bvh::build_with_curves(prims, curves);
             bvh.clips = clips;
             let slot0 = info.len() as u32;
             info.extend(bvh.ids.iter().map(|&i| pinfo[i as usize]));

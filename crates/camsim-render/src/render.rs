@@ -314,16 +314,9 @@ pub fn render_with(
         LightSampler::Power => tracer.lights.disable_spatial(),
         LightSampler::Uniform => tracer.lights.make_uniform(),
     }
-    // Light groups split the path tracer's sum by the emitter hit, which does not follow moving
-    // shapes, lights or camera yet. (Labels do: `crate::labels` traces each pixel at its row's
-    // window start.)
-    if tracer.motion.is_some() && request.light_groups {
-        return Err(RenderError::Settings(
-            "light groups are not supported in scenes with motion yet (moving shapes, lights \
-             or camera): remove the motion or the light-group output"
-                .into(),
-        ));
-    }
+    // Light groups follow motion: a hit on a moving emitter keeps its slot's light (moving
+    // primitives' records follow the static ones in `Tracer::info`), and a moving light is
+    // sampled in its reference pose under its own index (`Tracer::sample_light`).
     let groups = if request.light_groups {
         if tracer.media.is_some() {
             return Err(RenderError::Settings(

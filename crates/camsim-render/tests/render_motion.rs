@@ -8,12 +8,11 @@
 
 mod common;
 
-use camsim_core::{Spectrum, WavelengthGrid};
+use camsim_core::Spectrum;
 use camsim_render::render;
 use camsim_scene3d::motion::{Motion, MotionPart, RowReadout, Shutter, TimeSettings};
 use camsim_scene3d::{
-    AreaLight, Camera, Geometry, Material, RenderSettings, SceneDescription, Shape, Texture,
-    Transform,
+    AreaLight, Camera, Geometry, Material, SceneDescription, Shape, Texture, Transform,
 };
 
 /// Metres per pixel on the plane z = 1 m (the camera looks down +z from the origin).
@@ -60,27 +59,9 @@ fn bar(x0: f64, x1: f64, y0: f64, y1: f64) -> Shape {
 }
 
 fn scene(w: usize, h: usize, shapes: Vec<Shape>, spp: u32, time: TimeSettings) -> SceneDescription {
-    SceneDescription {
-        camera: camera(w, h),
-        shapes,
-        materials: vec![Material::Diffuse {
-            reflectance: Texture::Constant(flat(0.0)),
-        }],
-        named_materials: Default::default(),
-        lights: vec![],
-        settings: RenderSettings {
-            grid: WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
-            samples_per_pixel: spp,
-            max_depth: 1,
-            seed: 3,
-            time,
-            ..RenderSettings::default()
-        },
-        focus_distance_m: None,
-        notes: vec![],
-        media: Default::default(),
-        light_groups: Vec::new(),
-    }
+    let mut s = common::origin_scene(w, h, camera(w, h).fov_deg, shapes, spp, time);
+    s.settings.seed = 3;
+    s
 }
 
 /// A velocity in pixels per second (raster x right, y down) as a world velocity on z = 1.
@@ -433,19 +414,7 @@ fn hidden_moving_object_leaves_the_render_bit_identical() {
     let base = builtin("cornell-box", &opts).unwrap();
     let a = render(&base, &|_, _| {}).unwrap();
     let mut moved = base.clone();
-    moved.shapes.push(Shape {
-        name: Some("hidden".into()),
-        geometry: Geometry::Triangles {
-            positions: vec![[0.17, 0.05, 0.15], [0.2, 0.05, 0.15], [0.18, 0.08, 0.17]],
-            indices: vec![[0, 1, 2]],
-            uvs: None,
-            normals: None,
-        },
-        material: 0,
-        area_light: None,
-        reverse_orientation: false,
-        tags: Default::default(),
-    });
+    moved.shapes.push(common::hidden_in_cornell_block());
     let k = moved.shapes.len() - 1;
     moved.settings.time = moving(k, velocity_px(1.0, 1.0), 0.0, 1.0);
     moved.settings.time.flow_intervals_s = vec![0.5];
@@ -720,60 +689,6 @@ fn a_moving_area_light_lights_as_the_average_of_still_ones() {
             assert!((g / w - 1.0).abs() < 0.03, "block ({bx}, {by}): {g} vs {w}");
         }
     }
-}
-
-/// Feature combinations that do not follow motion yet are refused with a message naming them,
-/// not rendered at the reference pose: participating media and light groups. The same requests
-/// on the scene made static render (and labels render on the moving one).
-#[test]
-fn motion_refuses_media_and_light_groups() {
-    use camsim_render::{render_with, LabelRequest, RenderRequest};
-    use camsim_scene3d::media::{Coefficients, Media, Medium, MediumKind};
-    let s = scene(
-        16,
-        8,
-        vec![bar(-4.0, 0.0, -2.0, 2.0)],
-        8,
-        moving(0, velocity_px(100.0, 0.0), 0.0, 0.01),
-    );
-    let quiet = |_: u64, _: u64| {};
-    let err = |s: &SceneDescription, req: &RenderRequest| match render_with(s, req, &quiet) {
-        Err(e) => e.to_string(),
-        Ok(_) => panic!("a moving scene rendered {req:?}"),
-    };
-    let groups = RenderRequest {
-        light_groups: true,
-        ..Default::default()
-    };
-    let labels = RenderRequest {
-        labels: Some(LabelRequest::default()),
-        ..Default::default()
-    };
-    let e = err(&s, &groups);
-    assert!(e.contains("light groups") && e.contains("motion"), "{e}");
-    assert!(render_with(&s, &labels, &quiet).is_ok());
-    let mut fog = s.clone();
-    fog.media = Media {
-        list: vec![Medium {
-            name: "fog".into(),
-            g: 0.0,
-            kind: MediumKind::Homogeneous(Coefficients {
-                sigma_a_per_m: flat(0.1),
-                sigma_s_per_m: flat(0.0),
-                le: None,
-            }),
-        }],
-        camera: Some(0),
-    };
-    let e = err(&fog, &RenderRequest::default());
-    assert!(e.contains("media") && e.contains("motion"), "{e}");
-    let mut still = s.clone();
-    still.settings.time = TimeSettings::default();
-    for req in [groups, labels] {
-        assert!(render_with(&still, &req, &quiet).is_ok(), "{req:?}");
-    }
-    fog.settings.time = TimeSettings::default();
-    assert!(render_with(&fog, &RenderRequest::default(), &quiet).is_ok());
 }
 
 /// The labels of a render at time t (its rows' window start).

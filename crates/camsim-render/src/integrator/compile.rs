@@ -121,17 +121,10 @@ fn compile_media(
     scene: &SceneDescription,
     ws: &WavelengthSampler,
 ) -> Result<Option<Box<MediaSet>>, RenderError> {
-    let media = MediaSet::compile(scene, ws)?;
-    // The volumetric tracer's transmittance and light sampling see the scene's reference
-    // pose only: refuse motion in a scene with media rather than render it inconsistently.
-    if media.is_some() && scene.settings.time.has_motion() {
-        return Err(RenderError::Settings(
-            "participating media with motion (moving shapes, lights or camera) are not \
-             supported yet: remove the motion or the media"
-                .into(),
-        ));
-    }
-    Ok(media)
+    // Media do not move (pbrt-v4 creates them with the start transform); the shapes bounding
+    // them, the lights and the camera may: the volumetric tracer traces, transmits and samples
+    // lights at the path's time (`integrator::volpath`).
+    MediaSet::compile(scene, ws)
 }
 
 /// The number of BVH primitives the scene makes (curves as their split segments).
@@ -692,7 +685,7 @@ fn build_bvh(
     curves: CurveStore,
     n_lights: usize,
 ) -> Result<BuiltBvh, RenderError> {
-    let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips)?;
+    let moving = crate::motion::take_moving(scene, &mut prims, &mut info, &clips, &curves)?;
     let mut bvh = Bvh::build_with_curves(prims, curves);
     bvh.clips = clips;
     let mut info: Vec<PrimInfo> = bvh.ids.iter().map(|&i| info[i as usize]).collect();

@@ -2,8 +2,9 @@
 //! light samples and hits of moving lights, each through the poses of [`crate::motion`].
 
 use super::Tracer;
+use crate::bump::ShadingGeometry;
 use crate::bvh::Hit;
-use crate::geometry::{Ray, SurfaceHit};
+use crate::geometry::{PrimInfo, Ray, SurfaceHit};
 use crate::lights::LightSample;
 use crate::math::V3;
 use crate::motion::{to_ref, PathTime, Pose, NO_MOVER};
@@ -20,13 +21,7 @@ impl Tracer {
         let (rr, len) = to_ref(&pose, r);
         let local = (h.slot - g.slot0) as usize;
         let hr = Hit { t: h.t * len, ..*h };
-        let s = self.surface_of(
-            &g.bvh.prims[local],
-            g.tri_normals[local],
-            &g.bvh.clips,
-            &rr,
-            &hr,
-        );
+        let s = self.surface_of(&g.bvh.prims[local], g.tri_normals[local], &g.bvh, &rr, &hr);
         SurfaceHit {
             p: pose.to_world.point(s.p),
             ng: pose.to_ref.normal_from_inverse(s.ng),
@@ -34,6 +29,50 @@ impl Tracer {
             uv: s.uv,
             dpdu: pose.to_world.vector(s.dpdu),
             err: pose.to_world.point_error(s.p, s.err),
+        }
+    }
+
+    /// The shading geometry (bump and normal maps) of a hit on a moving primitive: `sh` (world,
+    /// at `pt`) moved into its group's reference pose, the geometry computed there and moved
+    /// back (normals by the inverse transpose, `dn/du` and `dn/dv` as the normal's rotation).
+    pub(crate) fn moving_shading_geometry(
+        &self,
+        h: &Hit,
+        pi: &PrimInfo,
+        sh: &SurfaceHit,
+        pt: &PathTime,
+    ) -> ShadingGeometry {
+        let m = self.motion.as_deref().expect("a moving slot has motion");
+        let gi = m.group_of(h.slot);
+        let g = &m.groups[gi];
+        let pose = pt.pose(m, gi);
+        let (w, r) = (&pose.to_world, &pose.to_ref);
+        let local = SurfaceHit {
+            p: r.point(sh.p),
+            ng: w.normal_from_inverse(sh.ng),
+            ns: w.normal_from_inverse(sh.ns),
+            uv: sh.uv,
+            dpdu: r.vector(sh.dpdu),
+            err: sh.err,
+        };
+        let s = self.shading_geometry_of(
+            &g.bvh.prims[(h.slot - g.slot0) as usize],
+            &g.bvh,
+            pi,
+            &local,
+        );
+        let k = 1.0 / pose.scale;
+        ShadingGeometry {
+            p: w.point(s.p),
+            uv: s.uv,
+            n: r.normal_from_inverse(s.n),
+            dpdu: w.vector(s.dpdu),
+            dpdv: w.vector(s.dpdv),
+            ns: r.normal_from_inverse(s.ns),
+            ss: w.vector(s.ss).normalize(),
+            ts: w.vector(s.ts).normalize(),
+            dndu: w.vector(s.dndu) * k,
+            dndv: w.vector(s.dndv) * k,
         }
     }
 

@@ -6,17 +6,40 @@ use crate::bump::{
     bump_normal, coordinate_system, mapped_normal, sphere_geometry, triangle_geometry, Perturb,
     ShadingGeometry,
 };
-use crate::bvh::Hit;
+use crate::bvh::{Bvh, Hit};
 use crate::geometry::{Prim, PrimInfo, SurfaceHit};
 use crate::materials::Mat;
 use crate::math::V3;
+use crate::motion::PathTime;
 use crate::texture::eval_float;
 
 impl Tracer {
-    /// pbrt-v4's shading geometry at hit `h` (`sh` its surface data) of primitive `pi`.
-    fn shading_geometry(&self, h: &Hit, pi: &PrimInfo, sh: &SurfaceHit) -> ShadingGeometry {
+    /// pbrt-v4's shading geometry at hit `h` (`sh` its surface data) of primitive `pi`, at the
+    /// path's time `pt` (a moving primitive's in its group's reference pose, moved to the world).
+    fn shading_geometry(
+        &self,
+        h: &Hit,
+        pi: &PrimInfo,
+        sh: &SurfaceHit,
+        pt: &PathTime,
+    ) -> ShadingGeometry {
+        match self.bvh.prims.get(h.slot as usize) {
+            Some(prim) => self.shading_geometry_of(prim, &self.bvh, pi, sh),
+            None => self.moving_shading_geometry(h, pi, sh, pt),
+        }
+    }
+
+    /// The shading geometry at `sh` on `prim` (partial-sphere clips from `side`, the BVH that
+    /// holds it), in the frame `prim` and `sh` are given in.
+    pub(crate) fn shading_geometry_of(
+        &self,
+        prim: &Prim,
+        side: &Bvh,
+        pi: &PrimInfo,
+        sh: &SurfaceHit,
+    ) -> ShadingGeometry {
         let n = self.oriented_normal(pi, sh);
-        match self.bvh.prims[h.slot as usize] {
+        match *prim {
             Prim::Tri { p0, e1, e2 } => {
                 let mesh = self.meshes[pi.shape as usize].as_ref();
                 let tri = mesh.map(|m| m.indices[pi.tri as usize]);
@@ -53,7 +76,7 @@ impl Tracer {
                 radius,
                 clip,
             } => {
-                let c = &self.bvh.clips[clip as usize];
+                let c = &side.clips[clip as usize];
                 sphere_geometry(
                     c.local(sh.p - center),
                     radius,
@@ -100,11 +123,12 @@ impl Tracer {
         h: &Hit,
         pi: &PrimInfo,
         sh: &SurfaceHit,
+        pt: &PathTime,
     ) -> (u32, V3) {
         let Mat::Bumped { base, perturb } = &self.materials[m as usize] else {
             return (m, sh.ns);
         };
-        let g = self.shading_geometry(h, pi, sh);
+        let g = self.shading_geometry(h, pi, sh, pt);
         let ns = match perturb {
             Perturb::NormalMap(map) => mapped_normal(&g, map),
             Perturb::Displacement(tex) => {

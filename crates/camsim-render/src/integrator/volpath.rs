@@ -300,15 +300,12 @@ impl Tracer {
             let wo = -ray.d;
             if pi.light != NO_LIGHT {
                 let li = pi.light as usize;
-                let light = &self.lights.list[li];
-                if self.lights.emits_toward(light, sh.p, sh.ng, wo) {
+                let first = depth0_or(specular, st.depth);
+                // At the path's time: a moving emitter's side and density in its own pose.
+                let (emits, p_l) = self.light_hit(li, prev_p, prev_n, sh.p, sh.ng, wo, pt, !first);
+                if emits {
+                    let light = &self.lights.list[li];
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
-                    let first = depth0_or(specular, st.depth);
-                    let p_l = if first {
-                        0.0
-                    } else {
-                        self.lights.pdf_hit(li, prev_p, prev_n, sh.p, sh.ng)
-                    };
                     self.add_emission(&mut st, &le, first, p_l);
                 }
             }
@@ -342,7 +339,7 @@ impl Tracer {
                 p: sh.p,
             };
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
-            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh);
+            let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
             if terminate && !st.hero_only && N > 1 {
                 // Dispersion: only the hero wavelength goes on (as `Tracer::li`).

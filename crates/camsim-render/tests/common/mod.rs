@@ -68,3 +68,68 @@ pub fn pooled_chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize, f64
     }
     (chi2, dof, pool_o, pool_e)
 }
+
+/// A spectrum of value `v` at every wavelength (300-900 nm).
+pub fn grey(v: f64) -> camsim_core::Spectrum {
+    camsim_core::Spectrum::from_pairs(&[(300.0, v), (900.0, v)])
+}
+
+/// `shapes` seen by a `w` x `h` pinhole camera at the origin looking down +z (raster x along
+/// world +x, raster y along world -y) with field `fov_deg` (the shorter side's): one black
+/// diffuse material, no lights, one 100 nm band at 550 nm, `spp` samples, depth 1, seed 5, and
+/// the time settings `time`.
+pub fn origin_scene(
+    w: usize,
+    h: usize,
+    fov_deg: f64,
+    shapes: Vec<Shape>,
+    spp: u32,
+    time: camsim_scene3d::motion::TimeSettings,
+) -> camsim_scene3d::SceneDescription {
+    use camsim_scene3d::{Camera, Material, RenderSettings, SceneDescription, Texture, Transform};
+    SceneDescription {
+        camera: Camera {
+            camera_to_world: Transform::identity(),
+            fov_deg,
+            width: w,
+            height: h,
+            lens: None,
+        },
+        shapes,
+        materials: vec![Material::Diffuse {
+            reflectance: Texture::Constant(grey(0.0)),
+        }],
+        named_materials: Default::default(),
+        lights: vec![],
+        settings: RenderSettings {
+            grid: camsim_core::WavelengthGrid::new(500.0, 600.0, 100.0).unwrap(),
+            samples_per_pixel: spp,
+            max_depth: 1,
+            seed: 5,
+            time,
+            ..RenderSettings::default()
+        },
+        focus_distance_m: None,
+        notes: vec![],
+        media: Default::default(),
+        light_groups: Vec::new(),
+    }
+}
+
+/// A small triangle inside the closed short block of the builtin Cornell box (material 0): no
+/// ray can reach it.
+pub fn hidden_in_cornell_block() -> Shape {
+    Shape {
+        name: Some("hidden".into()),
+        geometry: Geometry::Triangles {
+            positions: vec![[0.17, 0.05, 0.15], [0.2, 0.05, 0.15], [0.18, 0.08, 0.17]],
+            indices: vec![[0, 1, 2]],
+            uvs: None,
+            normals: None,
+        },
+        material: 0,
+        area_light: None,
+        reverse_orientation: false,
+        tags: Default::default(),
+    }
+}
