@@ -48,6 +48,7 @@ pub mod render;
 pub mod sampler;
 pub mod sampling;
 pub mod spectral;
+mod spherical_triangle;
 mod texture;
 
 // The scene-description modules the tracer reads, under the paths the tracer's modules use.

@@ -5,12 +5,14 @@
 //! at each shading point by their importance there (`crate::light_bvh`, pbrt-v4's default
 //! `BVHLightSampler`), or, where lights move, with probability proportional to their power
 //! (pbrt-v4 `PowerLightSampler`); points on
-//! triangles are sampled uniformly by area, spheres seen from outside uniformly within the cone
+//! triangles are sampled uniformly in the solid angle they subtend, warped by the receiving
+//! surface's cosine (`crate::spherical_triangle`, as pbrt-v4), or uniformly by area where that
+//! solid angle is below 3e-4 sr or above 6.22 sr; spheres seen from outside uniformly within the cone
 //! they subtend, from inside (and alpha-masked spheres, whose far side shows through the
 //! cut-outs) uniformly by area; environment maps by their piecewise-constant texel distribution.
 
 use crate::envmap::EnvLight;
-use crate::geometry::{sphere_point_err, tri_point_err};
+use crate::geometry::{intersect_triangle, sphere_point_err, tri_point_err};
 use crate::math::V3;
 use crate::sampling::{
     self, cone_pdf, sample_sphere_cone, sphere_cone, uniform_sphere, uniform_triangle,
@@ -18,6 +20,7 @@ use crate::sampling::{
 };
 use crate::scene::Light;
 use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
+use crate::spherical_triangle::{bilinear_pdf, sample_bilinear, SphericalTriangle};
 use std::f32::consts::PI;
 
 /// The shape of a light.
@@ -441,7 +444,17 @@ impl Lights {
         let d = q - p_ref;
         let dist2 = d.length_squared();
         match light.kind {
-            LightKind::Tri { area, .. } => {
+            LightKind::Tri {
+                p0, e1, e2, area, ..
+            } => {
+                if let Some(t) = SphericalTriangle::for_sampling(p_ref, p0, p0 + e1, p0 + e2) {
+                    let warp = if n_ref == V3::splat(0.0) {
+                        1.0
+                    } else {
+                        bilinear_pdf(t.invert(d / dist2.sqrt()), t.corner_weights(n_ref))
+                    };
+                    return pmf * warp / t.solid_angle_sr();
+                }
                 let cos = (ng.dot(d)).abs() / dist2.sqrt();
                 if cos <= 0.0 {
                     return 0.0;
@@ -640,10 +653,30 @@ impl Lights {
                 p0,
                 e1,
                 e2,
-                n,
+                n: n_l,
                 area,
             } => {
-                let (b1, b2) = uniform_triangle(u0, u1);
+                // By solid angle where pbrt-v4 does (warped by the receiver's cosine at a
+                // surface), else uniformly by area.
+                let sph = SphericalTriangle::for_sampling(p, p0, p0 + e1, p0 + e2);
+                let (b1, b2, pdf_sph) = match &sph {
+                    Some(t) => {
+                        let (u, pdf_warp) = if n == V3::splat(0.0) {
+                            ([u0, u1], 1.0)
+                        } else {
+                            sample_bilinear([u0, u1], t.corner_weights(n))
+                        };
+                        let wi = t.sample(u)?;
+                        // Where the direction meets the triangle (none, as in pbrt-v4, where
+                        // rounding puts it just outside an edge).
+                        let (_, b1, b2) = intersect_triangle(p, wi, p0, e1, e2, f32::INFINITY)?;
+                        (b1, b2, pdf_warp / t.solid_angle_sr())
+                    }
+                    None => {
+                        let (b1, b2) = uniform_triangle(u0, u1);
+                        (b1, b2, 0.0)
+                    }
+                };
                 if want_uv {
                     // As `Tracer::surface` interpolates them at a hit.
                     let t = &light.uvs;
@@ -656,7 +689,7 @@ impl Lights {
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
                 let wi = d / dist;
-                let cos_l = n.dot(-wi);
+                let cos_l = n_l.dot(-wi);
                 if !light.two_sided && cos_l <= 0.0 {
                     return None;
                 }
@@ -665,7 +698,12 @@ impl Lights {
                     return None;
                 }
                 let err = tri_point_err(p0, e1, e2, b1, b2);
-                (wi, dist, q, n, err, dist2 / (cos_l * area))
+                let pdf = if sph.is_some() {
+                    pdf_sph
+                } else {
+                    dist2 / (cos_l * area)
+                };
+                (wi, dist, q, n_l, err, pdf)
             }
             LightKind::Sphere {
                 center,
@@ -1040,6 +1078,141 @@ mod tests {
         let sd = (expect * (1.0 - 1.0 / n as f64)).sqrt();
         for c in &chosen {
             assert!((*c as f64 - expect).abs() < 5.0 * sd, "{chosen:?}");
+        }
+    }
+
+    /// Irradiance from a Lambertian triangle of radiance L on a surface, and the radiance-weighted
+    /// solid angle seen from a point in a medium, estimated with `sample` (`L cos / pdf`, `L /
+    /// pdf`), against the closed forms: Lambert's polygon formula `E = L / 2 sum_i theta_i (n .
+    /// g_i)` (g_i the unit normal of the plane through the point and edge i, theta_i the edge's
+    /// angle; Lambert 1760, as in Arvo 1995, "Applications of irradiance tensors", eq. 10) and `L
+    /// Omega`. Near the light (solid angle sampling with the cosine warp) the estimate's relative
+    /// standard deviation is far below area sampling's, and in the medium it is exact.
+    #[test]
+    fn triangle_light_estimates_lamberts_irradiance() {
+        let ws = WavelengthSampler::new(&WavelengthGrid::default());
+        let tables = vec![SpectrumTable::new(
+            &Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(),
+            1.0,
+            &ws,
+        )];
+        // A triangle light facing -y (down) at y = 1.
+        let (p0, e1, e2) = (
+            V3::new(-0.5, 1.0, -0.4),
+            V3::new(0.9, 0.0, 0.2),
+            V3::new(0.1, 0.0, 0.9),
+        );
+        let n_l = e1.cross(e2).normalize();
+        assert!(n_l.y < 0.0);
+        let area = 0.5 * e1.cross(e2).length();
+        let mut lights = Lights::default();
+        lights.push(
+            LightKind::Tri {
+                p0,
+                e1,
+                e2,
+                n: n_l,
+                area,
+            },
+            0,
+            false,
+        );
+        lights.finish(&tables, 5.0);
+        let verts = [p0, p0 + e1, p0 + e2];
+        // In f64 (edge angles of a distant triangle are tiny).
+        let lambert = |p: V3, n: V3| {
+            let f = |v: V3| [v.x as f64, v.y as f64, v.z as f64];
+            let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+            let unit = |a: [f64; 3]| {
+                let l = dot(a, a).sqrt();
+                a.map(|x| x / l)
+            };
+            let (p, n) = (f(p), f(n));
+            let r: Vec<[f64; 3]> = verts
+                .iter()
+                .map(|v| unit(std::array::from_fn(|k| f(*v)[k] - p[k])))
+                .collect();
+            let mut e = 0.0f64;
+            for i in 0..3 {
+                let (a, b) = (r[i], r[(i + 1) % 3]);
+                let c = [
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ];
+                let theta = dot(c, c).sqrt().atan2(dot(a, b));
+                e += theta * dot(n, unit(c));
+            }
+            2.0 * 0.5 * e.abs()
+        };
+        let lambdas = ws.locate([500.0; 4]);
+        // (point, receiver normal, closed form, expected sampler): 5 cm below the light and 0.3
+        // m below on a tilted surface (solid angle, warped; the whole triangle above the
+        // receiver's horizon, as the closed form assumes), 60 m away (area), and in a medium
+        // 0.2 m below (solid angle, no warp).
+        let near = V3::new(-0.1, 0.95, 0.1);
+        let below = V3::new(0.1, 0.7, 0.0);
+        let tilted = V3::new(0.15, 1.0, -0.1).normalize();
+        let far = V3::new(1.0, -60.0, 2.0);
+        let up = V3::new(0.0, 1.0, 0.0);
+        let fog = V3::new(0.0, 0.8, 0.0);
+        let omega = {
+            let t = SphericalTriangle::new(fog, verts[0], verts[1], verts[2]).unwrap();
+            t.solid_angle_sr() as f64
+        };
+        let cases = [
+            (near, up, lambert(near, up), true),
+            (below, tilted, lambert(below, tilted), true),
+            (far, up, lambert(far, up), false),
+            (fog, V3::splat(0.0), 2.0 * omega, true),
+        ];
+        let mut rng = camsim_core::rng::seeded(9);
+        for (p, n, want, spherical) in cases {
+            assert_eq!(
+                SphericalTriangle::for_sampling(p, verts[0], verts[1], verts[2]).is_some(),
+                spherical
+            );
+            let m = 40_000;
+            let (mut s1, mut s2) = (0.0f64, 0.0f64);
+            // Area sampling's estimate at the same point, for the variance comparison.
+            let (mut a1, mut a2) = (0.0f64, 0.0f64);
+            for _ in 0..m {
+                let (u0, u1): (f32, f32) = (rng.gen(), rng.gen());
+                let cos_r = |w: V3| {
+                    if n == V3::splat(0.0) {
+                        1.0
+                    } else {
+                        n.dot(w).max(0.0)
+                    }
+                };
+                let v = match lights.sample::<4>(&tables, p, n, 0.5, u0, u1, &lambdas) {
+                    Some(s) => (s.le[0] * cos_r(s.wi) / s.pdf) as f64,
+                    None => 0.0,
+                };
+                s1 += v;
+                s2 += v * v;
+                let (b1, b2) = uniform_triangle(u0, u1);
+                let d = p0 + e1 * b1 + e2 * b2 - p;
+                let w = d.normalize();
+                let cos_l = n_l.dot(-w).max(0.0);
+                let va = (2.0 * cos_r(w) * cos_l * area / d.length_squared()) as f64;
+                a1 += va;
+                a2 += va * va;
+            }
+            let mean = s1 / m as f64;
+            let sd = (s2 / m as f64 - mean * mean).max(0.0).sqrt();
+            let sd_area = (a2 / m as f64 - (a1 / m as f64).powi(2)).max(0.0).sqrt();
+            let se = sd / (m as f64).sqrt();
+            assert!(
+                (mean - want).abs() < 4.0 * se + 1e-4 * want,
+                "{p:?}: {mean} +- {se} vs closed form {want}"
+            );
+            if spherical {
+                assert!(
+                    sd < 0.2 * sd_area,
+                    "{p:?}: sd {sd} vs area sampling's {sd_area}"
+                );
+            }
         }
     }
 }

@@ -311,6 +311,12 @@ fn main() {
             c.pbrt_rel_variance_per_sample,
             eq.map_or("?".into(), |v| format!("{v:.2}")),
         );
+        if c.masked_pixels > 0 {
+            eprintln!(
+                "{scene}: {} pixel(s) of a sub-pixel emitter seen directly left out (brighter than {} x the mean luminance)",
+                c.masked_pixels, criteria.emitter_pixel_factor
+            );
+        }
         if !c.pass() {
             let bands: Vec<String> = c
                 .band_ratios

@@ -130,10 +130,16 @@ impl Tracer {
                 .lights
                 .sample::<N>(&self.tables, p, n, u_sel, u0, u1, lambdas);
         };
+        // The receiver's normal turned with it (the triangle sampler's cosine warp).
+        let n_ref = if n == V3::splat(0.0) {
+            n
+        } else {
+            pose.to_ref.vector(n).normalize()
+        };
         let mut s = self.lights.sample::<N>(
             &self.tables,
             pose.to_ref.point(p),
-            n,
+            n_ref,
             u_sel,
             u0,
             u1,
@@ -173,10 +179,15 @@ impl Tracer {
         need_pdf: bool,
     ) -> (bool, f32) {
         let entry = &self.lights.list[light];
-        let (p_ref, q, ng, w) = match self.light_pose(light, pt) {
-            None => (p_ref, q, ng, w),
+        let (p_ref, n_ref, q, ng, w) = match self.light_pose(light, pt) {
+            None => (p_ref, n_ref, q, ng, w),
             Some(pose) => (
                 pose.to_ref.point(p_ref),
+                if n_ref == V3::splat(0.0) {
+                    n_ref
+                } else {
+                    pose.to_ref.vector(n_ref).normalize()
+                },
                 pose.to_ref.point(q),
                 pose.to_world.normal_from_inverse(ng),
                 pose.to_ref.vector(w),
