@@ -44,10 +44,16 @@ pub(crate) struct GroupRadiance<'a, const N: usize> {
 impl<const N: usize> PathRadiance<N> for GroupRadiance<'_, N> {
     #[inline(always)]
     fn add(&mut self, light: u32, v: [f32; N]) {
-        let g = &mut self.groups[self.group_of[light as usize] as usize];
         for i in 0..N {
             self.total[i] += v[i];
-            g[i] += v[i];
+        }
+        // A medium's own emission belongs to no light (`NO_LIGHT`): the total only (the
+        // renderer refuses light groups with emissive media, so it does not arise there).
+        if let Some(&k) = self.group_of.get(light as usize) {
+            let g = &mut self.groups[k as usize];
+            for i in 0..N {
+                g[i] += v[i];
+            }
         }
     }
 }

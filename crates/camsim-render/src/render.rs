@@ -216,8 +216,14 @@ impl PixelJob {
                         groups: g.scratch,
                         group_of: g.group_of,
                     };
-                    ctx.tracer
-                        .li_into(ray, &ctx.ws.locate(lambdas), sampler, c, &pt, &mut sink);
+                    ctx.tracer.radiance_into(
+                        ray,
+                        &ctx.ws.locate(lambdas),
+                        sampler,
+                        c,
+                        &pt,
+                        &mut sink,
+                    );
                     let total = sink.total;
                     // Each group's share, as the total's (non-finite values dropped).
                     let stride = ctx.bands * self.tile_px;
@@ -318,9 +324,9 @@ pub fn render_with(
     // primitives' records follow the static ones in `Tracer::info`), and a moving light is
     // sampled in its reference pose under its own index (`Tracer::sample_light`).
     let groups = if request.light_groups {
-        if tracer.media.is_some() {
+        if tracer.media.as_ref().is_some_and(|m| m.emissive()) {
             return Err(RenderError::Settings(
-                "light groups are not supported in scenes with participating media yet (the volumetric path tracer keeps one sum)".into(),
+                "light groups are not supported in scenes with an emissive medium (its emission belongs to no light group)".into(),
             ));
         }
         let g = crate::light_groups::GroupTable::new(scene, &tracer.light_source);

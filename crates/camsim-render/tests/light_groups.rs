@@ -10,6 +10,28 @@ use camsim_scene3d::{Light, SceneDescription};
 
 /// A grey floor lit by a small lamp (group "lamp") and a uniform sky (group "sky").
 fn scene(spp: u32, seed: u64) -> SceneDescription {
+    scene_with(spp, seed, "")
+}
+
+/// [`scene`] with a sphere of fog (scattering and absorbing, radius 2 m, an `interface`
+/// boundary) around the lamp and the middle of the floor, the camera outside it: rendered by the
+/// volumetric path tracer.
+fn foggy(spp: u32, seed: u64) -> SceneDescription {
+    scene_with(
+        spp,
+        seed,
+        r#"MakeNamedMedium "fog" "string type" "homogeneous" "rgb sigma_a" [0.5 0.5 0.5]
+  "rgb sigma_s" [0.3 0.3 0.3] "float g" 0.3
+AttributeBegin
+  MediumInterface "fog" ""
+  Material "interface"
+  Shape "sphere" "float radius" 2
+AttributeEnd
+"#,
+    )
+}
+
+fn scene_with(spp: u32, seed: u64, extra: &str) -> SceneDescription {
     let text = format!(
         r#"LookAt 0 3 -3  0 0 0  0 1 0
 Camera "perspective" "float fov" 40
@@ -24,7 +46,7 @@ AttributeBegin
 AttributeEnd
 Material "diffuse" "rgb reflectance" [0.5 0.5 0.5]
 Shape "trianglemesh" "point3 P" [-3 0 -3  3 0 -3  3 0 3  -3 0 3] "integer indices" [0 2 1 0 3 2]
-"#
+{extra}"#
     );
     let mut s = parse_str(&text, "groups.pbrt").unwrap();
     s.settings.seed = seed;
@@ -70,6 +92,27 @@ fn weighted(out: &camsim_render::RenderOutput, sky: f32, lamp: f32) -> Vec<f32> 
 
 #[test]
 fn groups_sum_to_the_plain_render_and_weighted_sums_equal_scaled_lights() {
+    check_groups(scene);
+}
+
+/// The same in fog (the volumetric path tracer): the lamp's light scattered by the fog and the
+/// sky's dimmed by it each go to their group.
+#[test]
+fn light_groups_split_a_foggy_scene() {
+    // The fog is there: it changes the image by far more than the noise.
+    let mean = |s: &SceneDescription| {
+        let r = render(s, &|_, _| {}).unwrap().radiance;
+        r.data.iter().map(|v| *v as f64).sum::<f64>() / r.data.len() as f64
+    };
+    let (clear, fog) = (mean(&scene(16, 1)), mean(&foggy(16, 1)));
+    assert!(
+        (fog / clear - 1.0).abs() > 0.1,
+        "fog {fog} vs clear {clear}"
+    );
+    check_groups(foggy);
+}
+
+fn check_groups(scene: fn(u32, u64) -> SceneDescription) {
     let base = scene(16, 3);
     let out = split(&base);
     let plain = render(&base, &|_, _| {}).unwrap();
@@ -132,4 +175,29 @@ fn groups_sum_to_the_plain_render_and_weighted_sums_equal_scaled_lights() {
             "band {b}: weighted groups {mg} against scaled lights {ms} (tolerance {tol})"
         );
     }
+}
+
+/// A glowing medium lights the scene by itself, belonging to no light group: refused, naming
+/// why, rather than splitting groups that would not sum to the image.
+#[test]
+fn an_emissive_medium_refuses_light_groups() {
+    let s = scene_with(
+        4,
+        1,
+        r#"MakeNamedMedium "glow" "string type" "homogeneous" "rgb sigma_a" [0.5 0.5 0.5]
+  "rgb sigma_s" [0 0 0] "rgb Le" [1 1 1]
+AttributeBegin
+  MediumInterface "glow" ""
+  Material "interface"
+  Shape "sphere" "float radius" 2
+AttributeEnd
+"#,
+    );
+    assert!(render(&s, &|_, _| {}).is_ok());
+    let req = RenderRequest {
+        light_groups: true,
+        ..Default::default()
+    };
+    let e = render_with(&s, &req, &|_, _| {}).unwrap_err().to_string();
+    assert!(e.contains("emissive medium"), "{e}");
 }

@@ -79,7 +79,6 @@ enum Vertex<'a, const N: usize> {
 
 /// The path state that the volumetric estimator updates.
 struct PathState<const N: usize> {
-    l: [f32; N],
     beta: [f32; N],
     r_u: [f32; N],
     r_l: [f32; N],
@@ -101,7 +100,29 @@ impl Tracer {
     ) -> [f32; N] {
         match &self.media {
             None => self.li(ray, lambdas, sampler, counts, pt),
-            Some(media) => self.li_vol(media, ray, lambdas, sampler, counts, pt),
+            Some(media) => {
+                let mut l = [0f32; N];
+                self.li_vol(media, ray, lambdas, sampler, counts, pt, &mut l);
+                l
+            }
+        }
+    }
+
+    /// [`Self::radiance`] adding each light's contribution to `out` (one sum, or one per light
+    /// group: [`crate::light_groups`]).
+    #[inline(always)]
+    pub(crate) fn radiance_into<const N: usize, S: PathSampler, R: PathRadiance<N>>(
+        &self,
+        ray: Ray,
+        lambdas: &Lambdas<N>,
+        sampler: &mut S,
+        counts: &mut RayCounts,
+        pt: &PathTime,
+        out: &mut R,
+    ) {
+        match &self.media {
+            None => self.li_into(ray, lambdas, sampler, counts, pt, out),
+            Some(media) => self.li_vol(media, ray, lambdas, sampler, counts, pt, out),
         }
     }
 
@@ -135,8 +156,10 @@ impl Tracer {
 
     /// One sample of the radiance arriving along `ray` at the path's wavelengths (pbrt-v4
     /// `VolPathIntegrator::Li`, with camsim's dimensions, Russian roulette start and
-    /// dispersion handling as in [`Tracer::li`]).
-    fn li_vol<const N: usize, S: PathSampler>(
+    /// dispersion handling as in [`Tracer::li`]), each light's contribution added to `out`
+    /// (a medium's own emission, which belongs to no light, under [`NO_LIGHT`]).
+    #[allow(clippy::too_many_arguments)]
+    fn li_vol<const N: usize, S: PathSampler, R: PathRadiance<N>>(
         &self,
         media: &MediaSet,
         mut ray: Ray,
@@ -144,9 +167,9 @@ impl Tracer {
         sampler: &mut S,
         counts: &mut RayCounts,
         pt: &PathTime,
-    ) -> [f32; N] {
+        out: &mut R,
+    ) {
         let mut st = PathState {
-            l: [0f32; N],
             beta: [1f32; N],
             r_u: [1f32; N],
             r_l: [1f32; N],
@@ -190,10 +213,12 @@ impl Tracer {
                                 std::array::from_fn(|i| st.r_u[i] * sigma_maj[i] * t_maj[i] / pdf);
                             let a = avg(&r_e, st.hero_only);
                             if a > 0.0 {
-                                for i in 0..N {
-                                    st.l[i] +=
-                                        st.beta[i] * t_maj[i] / pdf * mp.sigma_a[i] * mp.le[i] / a;
-                                }
+                                out.add(
+                                    NO_LIGHT,
+                                    std::array::from_fn(|i| {
+                                        st.beta[i] * t_maj[i] / pdf * mp.sigma_a[i] * mp.le[i] / a
+                                    }),
+                                );
                             }
                         }
                         // Absorption, real scattering or null scattering, chosen with the hero's
@@ -221,7 +246,7 @@ impl Tracer {
                                 let d0 = dim::bounce(st.depth);
                                 let wo = -seg.d;
                                 if !self.lights.is_empty() {
-                                    let ld = self.sample_ld_vol(
+                                    if let Some((light, ld)) = self.sample_ld_vol(
                                         media,
                                         &Vertex::Medium { p, wo, g },
                                         medium,
@@ -231,9 +256,8 @@ impl Tracer {
                                         d0,
                                         counts,
                                         pt,
-                                    );
-                                    for i in 0..N {
-                                        st.l[i] += ld[i];
+                                    ) {
+                                        out.add(light, ld);
                                     }
                                 }
                                 let [u0, u1] = sampler.get_2d(d0 + dim::BSDF_DIRECTION);
@@ -271,14 +295,14 @@ impl Tracer {
                     },
                 );
                 if terminated || !any_positive(&st.beta) || !any_positive(&st.r_u) {
-                    return st.l;
+                    return;
                 }
                 if scattered {
                     skips = 0;
                     continue;
                 }
                 if !(t_maj[0] > 0.0) {
-                    return st.l;
+                    return;
                 }
                 for i in 0..N {
                     let k = t_maj[i] / t_maj[0];
@@ -293,7 +317,7 @@ impl Tracer {
                 let first = depth0_or(specular, st.depth);
                 for &li in &self.lights.infinite {
                     let (le, light_pdf) = self.lights.escaped(li, ray.d, &self.tables, lambdas);
-                    self.add_emission(&mut st, &le, first, light_pdf);
+                    Self::add_emission(&st, &le, first, light_pdf, li, out);
                 }
                 break;
             };
@@ -306,7 +330,7 @@ impl Tracer {
                 if emits {
                     let light = &self.lights.list[li];
                     let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
-                    self.add_emission(&mut st, &le, first, p_l);
+                    Self::add_emission(&st, &le, first, p_l, li as u32, out);
                 }
             }
             let m = self.resolve_material(pi.material, sh.p, wo);
@@ -376,10 +400,10 @@ impl Tracer {
                     n_oriented,
                     n_sel,
                 };
-                let ld =
-                    self.sample_ld_vol(media, &v, medium, &st, lambdas, sampler, d0, counts, pt);
-                for i in 0..N {
-                    st.l[i] += ld[i];
+                if let Some((light, ld)) =
+                    self.sample_ld_vol(media, &v, medium, &st, lambdas, sampler, d0, counts, pt)
+                {
+                    out.add(light, ld);
                 }
             }
             let uc = sampler.get_1d(d0 + dim::BSDF_LOBE);
@@ -428,19 +452,20 @@ impl Tracer {
             };
             ray = Ray { o, d: wi };
         }
-        st.l
     }
 
-    /// Add emission `le` found by the path: with weight `1 / avg(r_u)` after the camera or a
-    /// delta lobe (`first`), else by the balance heuristic with light sampling, whose density
-    /// for this point is `p_l` (selection probability included).
+    /// Add emission `le` of compiled light `light` found by the path to `out`: with weight `1 /
+    /// avg(r_u)` after the camera or a delta lobe (`first`), else by the balance heuristic
+    /// with light sampling, whose density for this point is `p_l` (selection probability
+    /// included).
     #[inline]
-    fn add_emission<const N: usize>(
-        &self,
-        st: &mut PathState<N>,
+    fn add_emission<const N: usize, R: PathRadiance<N>>(
+        st: &PathState<N>,
         le: &[f32; N],
         first: bool,
         p_l: f32,
+        light: u32,
+        out: &mut R,
     ) {
         let d = if first {
             avg(&st.r_u, st.hero_only)
@@ -449,16 +474,15 @@ impl Tracer {
             avg(&r, st.hero_only)
         };
         if d > 0.0 {
-            for i in 0..N {
-                st.l[i] += st.beta[i] * le[i] / d;
-            }
+            out.add(light, std::array::from_fn(|i| st.beta[i] * le[i] / d));
         }
     }
 
     /// Next-event estimation from vertex `v` in medium `medium` (pbrt-v4
     /// `VolPathIntegrator::SampleLd`): one light sample, its transmittance through media and
     /// `interface` surfaces by ratio tracking, weighted by the balance heuristic over light and
-    /// BSDF / phase sampling and over the wavelengths.
+    /// BSDF / phase sampling and over the wavelengths; the light and its contribution, `None`
+    /// where it gives nothing.
     #[allow(clippy::too_many_arguments)]
     fn sample_ld_vol<const N: usize, S: PathSampler>(
         &self,
@@ -471,19 +495,16 @@ impl Tracer {
         d0: u32,
         counts: &mut RayCounts,
         pt: &PathTime,
-    ) -> [f32; N] {
-        let zero = [0f32; N];
+    ) -> Option<(u32, [f32; N])> {
         let u_sel = sampler.get_1d(d0 + dim::LIGHT_CHOICE);
         let [u0, u1] = sampler.get_2d(d0 + dim::LIGHT_POSITION);
         let (p_ref, n_ref) = match v {
             Vertex::Surface { p, n_sel, .. } => (*p, *n_sel),
             Vertex::Medium { p, .. } => (*p, V3::splat(0.0)),
         };
-        let Some(ls) = self.sample_light::<N>(p_ref, n_ref, u_sel, u0, u1, lambdas, pt) else {
-            return zero;
-        };
+        let ls = self.sample_light::<N>(p_ref, n_ref, u_sel, u0, u1, lambdas, pt)?;
         if !(ls.pdf > 0.0) || !any_positive(&ls.le) {
-            return zero;
+            return None;
         }
         let (f_hat, scatter_pdf, p_from, start) = match v {
             Vertex::Surface {
@@ -500,7 +521,7 @@ impl Tracer {
             } => {
                 let cos_g = ls.wi.dot(*ng);
                 if !(cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission())) {
-                    return zero;
+                    return None;
                 }
                 let wi_local = frame.to_local(ls.wi);
                 let (f, pdf) = bsdf.eval(wo_local, &wi_local);
@@ -523,7 +544,7 @@ impl Tracer {
             }
         };
         if !any_positive(&f_hat) {
-            return zero;
+            return None;
         }
         // A masked emitter gives nothing where its alpha test rejects the point (as `li`).
         if ls.alpha_mat != NO_ALPHA
@@ -538,14 +559,11 @@ impl Tracer {
                 ls.wi,
             )
         {
-            return zero;
+            return None;
         }
         counts.shadow += 1;
-        let Some((t_ray, mut r_l, mut r_u)) =
-            self.transmittance(media, p_from, start, &ls, st.hero_only, lambdas, pt)
-        else {
-            return zero;
-        };
+        let (t_ray, mut r_l, mut r_u) =
+            self.transmittance(media, p_from, start, &ls, st.hero_only, lambdas, pt)?;
         for i in 0..N {
             r_l[i] *= st.r_u[i] * ls.pdf;
             r_u[i] *= st.r_u[i] * scatter_pdf;
@@ -557,9 +575,12 @@ impl Tracer {
             avg(&s, st.hero_only)
         };
         if !(d > 0.0) {
-            return zero;
+            return None;
         }
-        std::array::from_fn(|i| st.beta[i] * f_hat[i] * t_ray[i] * ls.le[i] / d)
+        Some((
+            ls.light,
+            std::array::from_fn(|i| st.beta[i] * f_hat[i] * t_ray[i] * ls.le[i] / d),
+        ))
     }
 
     /// Transmittance from `p_from` (in `medium`) to the light sample `ls` by ratio tracking
