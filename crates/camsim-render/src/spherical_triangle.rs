@@ -113,6 +113,18 @@ impl SphericalTriangle {
     /// angle within [`MIN_SOLID_ANGLE_SR`, `MAX_SOLID_ANGLE_SR`]), else `None`: sample by area.
     #[inline]
     pub(crate) fn for_sampling(p: V3, p0: V3, p1: V3, p2: V3) -> Option<Self> {
+        // A cheap bound first: the triangle lies in the ball of radius R around its centroid,
+        // whose cap seen from distance d subtends 2 pi (1 - cos) <= 2 pi R^2 / d^2 sr; below the
+        // lower limit, area sampling without computing the triangle (the same decision).
+        let c = (p0 + p1 + p2) * (1.0 / 3.0);
+        let r2 = (p0 - c)
+            .length_squared()
+            .max((p1 - c).length_squared())
+            .max((p2 - c).length_squared());
+        let d2 = (p - c).length_squared();
+        if d2 > r2 && 2.0 * std::f64::consts::PI * (r2 as f64) < MIN_SOLID_ANGLE_SR * d2 as f64 {
+            return None;
+        }
         Self::new(p, p0, p1, p2)
             .filter(|t| (MIN_SOLID_ANGLE_SR..=MAX_SOLID_ANGLE_SR).contains(&t.solid_angle_sr))
     }
