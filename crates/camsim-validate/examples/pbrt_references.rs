@@ -339,12 +339,37 @@ fn main() {
 }
 
 /// The integrator a pbrt-v4 scene file asks for: the name on its first `Integrator` line that is
-/// not commented out (`None` when there is none, or the file cannot be read).
+/// not commented out, in the file or a file it includes (`None` when there is none, or the file
+/// cannot be read).
 fn file_integrator(file: &Path) -> Option<String> {
+    file_integrator_at(file, file.parent().unwrap_or(Path::new(".")), 0)
+}
+
+/// [`file_integrator`] through `Include` and `Import` (relative names resolved against the main
+/// file's folder, pbrt-v4's search directory; in order, as pbrt-v4 reads them), at most 16
+/// files deep.
+fn file_integrator_at(file: &Path, dir: &Path, depth: usize) -> Option<String> {
+    if depth > 16 {
+        return None;
+    }
     let text = std::fs::read_to_string(file).ok()?;
+    let quoted = |rest: &str| {
+        Some(
+            rest.trim()
+                .strip_prefix('"')?
+                .split('"')
+                .next()?
+                .to_string(),
+        )
+    };
     text.lines().find_map(|line| {
         let code = line.split('#').next()?.trim();
-        let rest = code.strip_prefix("Integrator")?.trim();
-        Some(rest.strip_prefix('"')?.split('"').next()?.to_string())
+        if let Some(rest) = code.strip_prefix("Integrator") {
+            return quoted(rest);
+        }
+        let inc = code
+            .strip_prefix("Include")
+            .or_else(|| code.strip_prefix("Import"))?;
+        file_integrator_at(&dir.join(quoted(inc)?), dir, depth + 1)
     })
 }
