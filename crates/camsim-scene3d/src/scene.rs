@@ -480,7 +480,8 @@ pub struct AreaLight {
 pub struct EmissionImage {
     pub width: usize,
     pub height: usize,
-    pub rgb: Vec<[f32; 3]>,
+    /// Row-major texels, shared with the renderer (not copied).
+    pub rgb: std::sync::Arc<[[f32; 3]]>,
 }
 
 /// Geometry in world space, metres.

@@ -81,7 +81,11 @@ impl SceneBuilder {
                         let mean_y = rgb.iter().map(|c| super::luminance_709(*c)).sum::<f64>()
                             / rgb.len() as f64;
                         Some((
-                            std::sync::Arc::new(EmissionImage { width, height, rgb }),
+                            std::sync::Arc::new(EmissionImage {
+                                width,
+                                height,
+                                rgb: rgb.into(),
+                            }),
                             mean_y,
                         ))
                     }

@@ -346,7 +346,7 @@ impl SceneGeometry {
             let tex = ImageTex {
                 width: im.width,
                 height: im.height,
-                rgb: im.rgb.as_slice().into(),
+                rgb: std::sync::Arc::clone(&im.rgb),
                 uscale: 1.0,
                 vscale: 1.0,
                 udelta: 0.0,
