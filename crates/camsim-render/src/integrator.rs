@@ -323,6 +323,17 @@ impl Tracer {
         offset_ray_origin(p, err, n)
     }
 
+    /// The origin of a ray leaving hit `sh` along `wi` (geometric normal `ng`, either side):
+    /// offset to the side of the surface that `wi` goes to, whatever the BSDF lobe that chose
+    /// it (pbrt-v4 `SurfaceInteraction::SpawnRay` / `OffsetRayOrigin`). With shading normals a
+    /// reflected direction can go through the surface and a refracted one stay on `wo`'s side;
+    /// pbrt-v4 keeps both paths on the side they geometrically go to (and the medium there,
+    /// `GetMedium(wi)`), so camsim does too rather than ending them.
+    #[inline(always)]
+    pub(crate) fn spawn_origin(sh: &SurfaceHit, ng: V3, wi: V3) -> V3 {
+        Self::offset(sh.p, ng.face_forward(wi), sh.err)
+    }
+
     /// Visibility of a sampled light point from the (already offset) shading point `p_from`
     /// (pbrt-v4 `SpawnRayTo(pFrom, nFrom, time, pTo, nTo)`: both ends offset). The ray runs from
     /// `p_from` toward `p_light` moved off the light's surface along its normal `n_light`, turned
@@ -569,7 +580,6 @@ impl Tracer {
                 Frame::from_normal(ns)
             };
             let wo_local = frame.to_local(wo);
-            let p_out = Self::offset(sh.p, ng, sh.err);
             // The light sampler's normal: none on fibres (their BSDF scatters all around).
             let n_sel = if sh.dpdu.length_squared() > 0.0 {
                 V3::splat(0.0)
@@ -595,15 +605,12 @@ impl Tracer {
                         uv,
                         alpha_mat,
                     } = ls;
-                    let cos_g = wi.dot(ng);
-                    if cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission()) {
+                    // pbrt-v4 `SampleLd`: the BSDF alone (in the shading frame) decides whether
+                    // `wi` scatters; the shadow ray leaves from `wi`'s geometric side.
+                    {
                         let wi_local = frame.to_local(wi);
                         let (f, bsdf_pdf) = bsdf.eval(&wo_local, &wi_local);
-                        let p_from = if cos_g > 0.0 {
-                            p_out
-                        } else {
-                            Self::offset(sh.p, -ng, sh.err)
-                        };
+                        let p_from = Self::spawn_origin(&sh, ng, wi);
                         // A masked emitter gives nothing where its alpha test rejects the sampled
                         // point (pbrt-v4 `DiffuseAreaLight::SampleLi` via `AlphaMasked`); the test
                         // is the per-hit one with the ray a BSDF sample toward it would carry
@@ -643,11 +650,6 @@ impl Tracer {
                 break;
             };
             let wi = frame.to_world(bs.wi_local);
-            // The geometric side must agree with the lobe (shading normals can disagree).
-            let cos_g = wi.dot(ng);
-            if (bs.transmission && cos_g >= 0.0) || (!bs.transmission && cos_g <= 0.0) {
-                break;
-            }
             let mut max_beta = 0f32;
             for i in 0..N {
                 beta[i] *= bs.weight[i];
@@ -679,12 +681,10 @@ impl Tracer {
                 }
             }
             counts.bounce += 1;
-            let o = if bs.transmission {
-                Self::offset(sh.p, -ng, sh.err)
-            } else {
-                p_out
+            ray = Ray {
+                o: Self::spawn_origin(&sh, ng, wi),
+                d: wi,
             };
-            ray = Ray { o, d: wi };
         }
     }
 

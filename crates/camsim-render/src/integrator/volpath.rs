@@ -62,8 +62,6 @@ enum Vertex<'a, const N: usize> {
         ng: V3,
         /// The hit point's per-axis error bound (`SurfaceHit::err`).
         err: V3,
-        /// The hit point offset to the reflection side.
-        p_out: V3,
         /// The primitive's material (for its medium boundary) and oriented normal.
         material: u32,
         n_oriented: V3,
@@ -381,7 +379,6 @@ impl Tracer {
                 Frame::from_normal(ns)
             };
             let wo_local = frame.to_local(wo);
-            let p_out = Self::offset(sh.p, ng, sh.err);
             let n_sel = if sh.dpdu.length_squared() > 0.0 {
                 V3::splat(0.0)
             } else {
@@ -395,7 +392,6 @@ impl Tracer {
                     p: sh.p,
                     ng,
                     err: sh.err,
-                    p_out,
                     material: pi.material,
                     n_oriented,
                     n_sel,
@@ -412,10 +408,6 @@ impl Tracer {
                 break;
             };
             let wi = frame.to_world(bs.wi_local);
-            let cos_g = wi.dot(ng);
-            if (bs.transmission && cos_g >= 0.0) || (!bs.transmission && cos_g <= 0.0) {
-                break;
-            }
             for i in 0..N {
                 st.beta[i] *= bs.weight[i];
             }
@@ -444,13 +436,13 @@ impl Tracer {
                 }
             }
             counts.bounce += 1;
+            // The side and medium `wi` geometrically goes to, whatever the lobe (pbrt-v4
+            // `SpawnRay`, `GetMedium(wi)`; see `Tracer::spawn_origin`).
             medium = media.after(pi.material, n_oriented, wi, medium);
-            let o = if bs.transmission {
-                Self::offset(sh.p, -ng, sh.err)
-            } else {
-                p_out
+            ray = Ray {
+                o: Self::spawn_origin(&sh, ng, wi),
+                d: wi,
             };
-            ray = Ray { o, d: wi };
         }
     }
 
@@ -514,23 +506,16 @@ impl Tracer {
                 p,
                 ng,
                 err,
-                p_out,
                 material,
                 n_oriented,
                 ..
             } => {
-                let cos_g = ls.wi.dot(*ng);
-                if !(cos_g > 0.0 || (cos_g < 0.0 && bsdf.has_transmission())) {
-                    return None;
-                }
+                // The BSDF alone decides (pbrt-v4 `SampleLd`); the shadow ray leaves from
+                // `wi`'s geometric side.
                 let wi_local = frame.to_local(ls.wi);
                 let (f, pdf) = bsdf.eval(wo_local, &wi_local);
                 let c = wi_local.z.abs();
-                let p_from = if cos_g > 0.0 {
-                    *p_out
-                } else {
-                    Self::offset(*p, -*ng, *err)
-                };
+                let p_from = Self::offset(*p, ng.face_forward(ls.wi), *err);
                 (
                     f.map(|x| x * c),
                     pdf,
