@@ -313,7 +313,7 @@ fn main() {
         );
         if c.masked_pixels > 0 {
             eprintln!(
-                "{scene}: {} pixel(s) of a sub-pixel emitter seen directly left out (brighter than {} x the mean luminance)",
+                "{scene}: {} pixel(s) of a sub-pixel emitter left out (one sample brighter than {} x the mean luminance)",
                 c.masked_pixels, criteria.emitter_pixel_factor
             );
         }

@@ -18,8 +18,8 @@
 //!    than 4 combined standard errors;
 //! 3. each band's image mean agrees within 2 %.
 //!
-//! Pixels far brighter than the image (an emitter smaller than a pixel seen directly, or a
-//! single sample through a specular chain to one) are left out of all three and counted
+//! Pixels that one sample far brighter than the image made bright (an emitter smaller than a
+//! pixel seen directly, or through glass) are left out of all three and counted
 //! ([`Criteria::emitter_pixel_factor`]).
 //!
 //! Standard errors come from the two seeds of each renderer, pixel by pixel: for independent
@@ -65,13 +65,16 @@ pub struct Criteria {
     /// ... unless the difference is within this many standard errors of the two renderers'
     /// band means (their Monte Carlo noise; 4, as the blocks).
     pub band_sigmas: f64,
-    /// Pixels whose luminance in any of the four renders exceeds this many times the image's
-    /// mean luminance are left out of every criterion and counted (`Comparison::masked_pixels`):
-    /// only an emitter seen directly and smaller than a pixel is that bright, and its pixel's
-    /// value is the emitter's radiance times the fraction of the pixel it covers, which both
-    /// renderers estimate from the few camera samples that hit it (`volumetric-caustic`'s
-    /// 5 x 4 mm light, about 1 % of a pixel: 0 or 1 of 64 samples, holding a quarter to a third
-    /// of the image's mean); pixel coverage, not light transport.
+    /// Pixels whose luminance times their samples per pixel (the value one sample would need
+    /// to make them that bright) exceeds this many times the image's mean luminance in any of
+    /// the four renders are left out of every criterion and counted
+    /// (`Comparison::masked_pixels`). 128,000: 1000x the mean at the references' 128 samples
+    /// per stored pixel. Only a camera sample on an emitter smaller than a pixel, seen directly
+    /// or through glass, is that bright: such a pixel's value is the emitter's radiance times
+    /// the fraction of the pixel it covers, which both renderers estimate from the one or two
+    /// samples that hit it (`volumetric-caustic`'s 5 x 4 mm light, about 1 % of a pixel,
+    /// holding a quarter to a third of the image's mean). Scaling by the sample count leaves the
+    /// same single-sample events out of renders of different sample counts.
     pub emitter_pixel_factor: f64,
 }
 
@@ -83,7 +86,7 @@ impl Default for Criteria {
             block_fraction: 0.03,
             band_tolerance: 0.02,
             band_sigmas: 4.0,
-            emitter_pixel_factor: 1000.0,
+            emitter_pixel_factor: 1000.0 * 128.0,
         }
     }
 }
@@ -367,17 +370,18 @@ pub fn compare(
             (yc.clone(), yp.clone(), yc, yp, true)
         }
     };
-    // Sub-pixel emitters' pixels: brighter than `emitter_pixel_factor` times the mean
-    // luminance in any of the four renders.
+    // Sub-pixel emitters' pixels: one sample as bright as the pixel times its samples per
+    // pixel would exceed `emitter_pixel_factor` times the mean luminance, in any of the renders.
     let keep: Vec<bool> = {
         let all = [&yc[0], &yc[1], &yp[0], &yp[1]];
-        let means = all.map(|v| v.iter().sum::<f64>() / n);
+        let spp = [camsim_spp, camsim_spp, pbrt_spp, pbrt_spp];
+        let limits: Vec<f64> = all
+            .iter()
+            .zip(spp)
+            .map(|(v, k)| criteria.emitter_pixel_factor * v.iter().sum::<f64>() / n / k)
+            .collect();
         (0..npx)
-            .map(|p| {
-                all.iter()
-                    .zip(&means)
-                    .all(|(v, m)| !(v[p] > criteria.emitter_pixel_factor * m))
-            })
+            .map(|p| all.iter().zip(&limits).all(|(v, lim)| !(v[p] > *lim)))
             .collect()
     };
     let masked_pixels = keep.iter().filter(|k| !**k).count();
@@ -623,7 +627,15 @@ mod tests {
                 ..Criteria::default()
             };
             let spec = PbrtLuminance::Spectral;
-            compare([&r[0], &r[1]], 32.0, [&r[2], &r[3]], 32.0, spec, &criteria).unwrap()
+            compare(
+                [&r[0], &r[1]],
+                128.0,
+                [&r[2], &r[3]],
+                128.0,
+                spec,
+                &criteria,
+            )
+            .unwrap()
         };
         let clean = run(&renders(0.0), 1000.0);
         assert_eq!(clean.masked_pixels, 0);
