@@ -929,17 +929,23 @@ mod tests {
     use camsim_core::{Spectrum, WavelengthGrid};
     use rand::Rng;
 
-    /// The density `sample` reports must equal what `pdf_hit` (used for MIS when a BSDF ray hits
-    /// the light) computes for the same point, for every light kind; and one-sided lights never
-    /// return samples from their back side.
-    #[test]
-    fn sample_pdf_matches_pdf_hit() {
+    /// The default bands and one radiance table, 2 at every wavelength.
+    fn flat_light() -> (WavelengthSampler, Vec<SpectrumTable>) {
         let ws = WavelengthSampler::new(&WavelengthGrid::default());
         let tables = vec![SpectrumTable::new(
             &Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(),
             1.0,
             &ws,
         )];
+        (ws, tables)
+    }
+
+    /// The density `sample` reports must equal what `pdf_hit` (used for MIS when a BSDF ray hits
+    /// the light) computes for the same point, for every light kind; and one-sided lights never
+    /// return samples from their back side.
+    #[test]
+    fn sample_pdf_matches_pdf_hit() {
+        let (ws, tables) = flat_light();
         let mut lights = Lights::default();
         let (p0, e1, e2) = (
             V3::new(-0.5, 1.0, -0.5),
@@ -1090,12 +1096,7 @@ mod tests {
     /// standard deviation is far below area sampling's, and in the medium it is exact.
     #[test]
     fn triangle_light_estimates_lamberts_irradiance() {
-        let ws = WavelengthSampler::new(&WavelengthGrid::default());
-        let tables = vec![SpectrumTable::new(
-            &Spectrum::new(vec![300.0, 900.0], vec![2.0, 2.0], "t").unwrap(),
-            1.0,
-            &ws,
-        )];
+        let (ws, tables) = flat_light();
         // A triangle light facing -y (down) at y = 1.
         let (p0, e1, e2) = (
             V3::new(-0.5, 1.0, -0.4),

@@ -245,8 +245,12 @@ fn main() {
             continue;
         }
         let cam_spp = (args.spp as usize * args.block * args.block) as f64;
-        let pbrt_spp =
-            row.map_or(32, |r| r.spp) as f64 * (REFERENCE_BLOCK * REFERENCE_BLOCK) as f64;
+        // pbrt-v4's samples per stored pixel: the references' are 2 x 2 averages of its
+        // render; a set stored at the render's size (`--references` of full-size renders, as
+        // INDEX.md's render size says) has its samples per pixel.
+        let pbrt_spp = row.map_or(32.0 * (REFERENCE_BLOCK * REFERENCE_BLOCK) as f64, |r| {
+            r.samples_per_stored_pixel(cols)
+        });
         // Splatting integrators: pbrt-v4's spectral channels are biased, its RGB ones are not
         // (see `PbrtLuminance::Rgb`).
         let splats = matches!(integrator, "bdpt" | "lightpath" | "mlt");

@@ -550,8 +550,24 @@ pub struct IndexRow {
     pub integrator: String,
     /// pbrt-v4's samples per pixel.
     pub spp: u32,
+    /// Width of pbrt-v4's render, pixels (its `render size` column, `WxH`), when given: with
+    /// the stored image's width it tells how many render pixels each stored pixel averages.
+    pub render_width: Option<usize>,
     /// pbrt-v4's CPU time for one seed, s.
     pub pbrt_cpu_s: f64,
+}
+
+impl IndexRow {
+    /// pbrt-v4's samples per stored pixel of `stored_cols` columns: its samples per pixel times
+    /// the render pixels each stored pixel averages ([`REFERENCE_BLOCK`] squared when the index
+    /// gives no render size).
+    pub fn samples_per_stored_pixel(&self, stored_cols: usize) -> f64 {
+        let block = match self.render_width {
+            Some(w) if stored_cols > 0 => w as f64 / stored_cols as f64,
+            _ => REFERENCE_BLOCK as f64,
+        };
+        self.spp as f64 * block * block
+    }
 }
 
 /// The scenes listed in `references/INDEX.md` (its markdown table).
@@ -577,6 +593,10 @@ pub fn read_index(references_dir: &Path) -> Result<Vec<IndexRow>> {
             scene: cells[0].to_string(),
             integrator: cells[1].to_string(),
             spp,
+            render_width: cells[3]
+                .split('x')
+                .next()
+                .and_then(|w| w.trim().parse().ok()),
             pbrt_cpu_s: cpu,
         });
     }
@@ -652,5 +672,29 @@ mod tests {
             "{}",
             masked.mean_ratio
         );
+    }
+
+    /// The stored references average 2 x 2 render pixels (128 samples from 32 spp); a set stored
+    /// at the render's size has 32; an index without a render size means the references'.
+    #[test]
+    fn samples_per_stored_pixel_follow_the_render_size() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("INDEX.md"),
+            "| scene | integrator (file) | max depth | render size | spp | pbrt-v4 CPU s |\n\
+             |---|---|---|---|---|---|\n\
+             | lamp | path | 65 | 320x180 | 32 | 17.4 |\n",
+        )
+        .unwrap();
+        let rows = read_index(dir.path()).unwrap();
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].render_width, Some(320));
+        assert_eq!(rows[0].samples_per_stored_pixel(160), 128.0);
+        assert_eq!(rows[0].samples_per_stored_pixel(320), 32.0);
+        let no_size = IndexRow {
+            render_width: None,
+            ..rows[0].clone()
+        };
+        assert_eq!(no_size.samples_per_stored_pixel(320), 128.0);
     }
 }
