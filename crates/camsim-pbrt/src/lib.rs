@@ -170,7 +170,8 @@
 //! `focus_distance_m`), `frameaspectratio`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
 //! `randomization`; `Integrator` `regularize`; `Option`;
-//! texture `filter`, `maxanisotropy` (bilinear lookups at the hit, no MIP-mapping); the
+//! texture `filter` `trilinear` and `ewa` (read as `bilinear` at full resolution: no ray
+//! footprints, no MIP-mapping; `point` and `bilinear` are exact), `maxanisotropy`; the
 //! parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`.
 //!

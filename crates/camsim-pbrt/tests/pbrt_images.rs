@@ -5,7 +5,7 @@
 //! 61966-2-1) of the code values written, not camsim's decoder.
 
 use camsim_pbrt as pbrt;
-use camsim_scene3d::scene::{FloatTexture, Material, Texture, WrapMode};
+use camsim_scene3d::scene::{FloatTexture, Material, TexelFilter, Texture, WrapMode};
 use std::path::Path;
 
 /// IEC 61966-2-1 sRGB decoding of a code value in [0, 1].
@@ -174,9 +174,9 @@ fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
     let img = image::RgbImage::from_raw(2, 1, vec![255, 0, 0, 51, 102, 153]).unwrap();
     img.save(d.join("c.png")).unwrap();
     let text = "Camera \"perspective\"\nWorldBegin\n\
-        Texture \"f\" \"float\" \"imagemap\" \"string filename\" \"c.png\" \"string encoding\" \"linear\" \"float scale\" 0.5 \"string wrap\" \"clamp\"\n\
+        Texture \"f\" \"float\" \"imagemap\" \"string filename\" \"c.png\" \"string encoding\" \"linear\" \"float scale\" 0.5 \"string wrap\" \"clamp\" \"string filter\" \"point\"\n\
         Texture \"fi\" \"float\" \"imagemap\" \"string filename\" \"c.png\" \"string encoding\" \"linear\" \"float scale\" 2 \"bool invert\" true\n\
-        Texture \"s\" \"spectrum\" \"imagemap\" \"string filename\" \"c.png\" \"string encoding\" \"linear\" \"string wrap\" \"octahedralsphere\"\n\
+        Texture \"s\" \"spectrum\" \"imagemap\" \"string filename\" \"c.png\" \"string encoding\" \"linear\" \"string wrap\" \"octahedralsphere\" \"string filter\" \"trilinear\"\n\
         Texture \"b\" \"spectrum\" \"imagemap\" \"string filename\" \"c.png\" \"string wrap\" \"black\"\n\
         Material \"diffuse\" \"texture reflectance\" \"s\"\n\
         Shape \"sphere\" \"texture alpha\" \"f\"\n\
@@ -189,18 +189,22 @@ fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
     let mut wraps = Vec::new();
     for m in &s.materials {
         if let Material::AlphaMasked {
-            alpha: FloatTexture::Image {
-                values, wrap: w, ..
-            },
+            alpha:
+                FloatTexture::Image {
+                    values,
+                    wrap: w,
+                    filter: f,
+                    ..
+                },
             material,
         } = m
         {
-            floats.push((values.clone(), *w));
+            floats.push((values.clone(), *w, *f));
             if let Material::Diffuse {
-                reflectance: Texture::Image { wrap, .. },
+                reflectance: Texture::Image { wrap, filter, .. },
             } = &s.materials[*material]
             {
-                wraps.push(*wrap);
+                wraps.push((*wrap, *filter));
             }
         }
     }
@@ -208,12 +212,24 @@ fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
     // R scaled by 0.5: 0.5 and 0.1; clamp wrap.
     assert!((floats[0].0[0] - 0.5).abs() < 1e-6 && (floats[0].0[1] - 0.1).abs() < 1e-6);
     assert_eq!(floats[0].1, WrapMode::Clamp);
+    // "point" is the nearest texel; no filter given is bilinear.
+    assert_eq!(
+        (floats[0].2, floats[1].2),
+        (TexelFilter::Point, TexelFilter::Bilinear)
+    );
     // Inverted after a scale of 2: max(0, 1 - 2 R) = 0 and 0.6.
     assert!(
         floats[1].0[0] == 0.0 && (floats[1].0[1] - 0.6).abs() < 1e-6,
         "{floats:?}"
     );
-    assert_eq!(wraps, [WrapMode::OctahedralSphere, WrapMode::Black]);
+    // "trilinear" needs a ray footprint camsim does not trace: bilinear at full resolution.
+    assert_eq!(
+        wraps,
+        [
+            (WrapMode::OctahedralSphere, TexelFilter::Bilinear),
+            (WrapMode::Black, TexelFilter::Bilinear)
+        ]
+    );
 }
 
 #[test]
@@ -225,6 +241,10 @@ fn image_errors_name_the_file_and_the_line() {
     let cases = [
         ("\"string filename\" \"missing.tga\"", "missing.tga"),
         ("\"string filename\" \"bad.tga\"", "bad.tga"),
+        (
+            "\"string filename\" \"ok.png\" \"string filter\" \"nearest\"",
+            "filter \"nearest\"",
+        ),
         (
             "\"string filename\" \"ok.png\" \"string wrap\" \"mirror\"",
             "wrap \"mirror\"",

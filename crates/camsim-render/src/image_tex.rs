@@ -2,10 +2,10 @@
 //! and the bilinear texel weights with pbrt-v4's wrap modes, shared by image textures, normal
 //! maps and emission images.
 
-use crate::scene::WrapMode;
+use crate::scene::{TexelFilter, WrapMode};
 
 /// An RGB image texture (pbrt-v4 `imagemap` with `uv` mapping, `wrap` outside the image,
-/// bilinear filter).
+/// bilinear or point `filter`).
 #[derive(Debug, Clone)]
 pub(crate) struct ImageTex {
     pub width: usize,
@@ -17,17 +17,17 @@ pub(crate) struct ImageTex {
     pub udelta: f32,
     pub vdelta: f32,
     pub wrap: WrapMode,
+    pub filter: TexelFilter,
 }
 
 impl ImageTex {
-    /// Bilinear lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
-    /// t flipped so image row 0 is at t = 1, texel centres at half-integers,
-    /// [`bilinear_texels`]).
+    /// Lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
+    /// t flipped so image row 0 is at t = 1, texel centres at half-integers, [`texels`]).
     #[inline]
     pub fn lookup(&self, uv: [f32; 2]) -> [f32; 3] {
         let s = uv[0] * self.uscale + self.udelta;
         let t = uv[1] * self.vscale + self.vdelta;
-        let (idx, w) = bilinear_texels(self.width, self.height, s, t, self.wrap);
+        let (idx, w) = texels(self.width, self.height, s, t, self.wrap, self.filter);
         let mut out = [0f32; 3];
         for k in 0..3 {
             out[k] = w[0] * self.rgb[idx[0]][k]
@@ -117,4 +117,34 @@ pub(crate) fn bilinear_texels(
         w = [1.0, 0.0, 0.0, 0.0];
     }
     (idx, w)
+}
+
+/// Texel indices and weights of a lookup at `(s, t)` read by `filter`: [`bilinear_texels`], or
+/// for [`TexelFilter::Point`] the nearest of its four texels alone (pbrt-v4 `MIPMap::Filter`
+/// with `point`: texel `round(s w - 1/2)`, `round((1 - t) h - 1/2)` at full resolution), weight 1
+/// (0 where black wrap leaves it outside).
+#[inline]
+pub(crate) fn texels(
+    width: usize,
+    height: usize,
+    s: f32,
+    t: f32,
+    wrap: WrapMode,
+    filter: TexelFilter,
+) -> ([usize; 4], [f32; 4]) {
+    let (idx, w) = bilinear_texels(width, height, s, t, wrap);
+    match filter {
+        TexelFilter::Bilinear => (idx, w),
+        TexelFilter::Point => {
+            // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the
+            // fraction along that axis is at least 1/2; its bilinear weight is then > 0 unless
+            // black wrap zeroed it (a NaN fraction picks corner 0, as the bilinear fallback).
+            let fx = s * width as f32 - 0.5;
+            let fy = (1.0 - t) * height as f32 - 0.5;
+            let k = usize::from(fx - fx.floor() >= 0.5) + 2 * usize::from(fy - fy.floor() >= 0.5);
+            let mut one = [0.0; 4];
+            one[k] = if w[k] > 0.0 { 1.0 } else { 0.0 };
+            (idx, one)
+        }
+    }
 }

@@ -14,9 +14,9 @@
 //! spectrum tables and RGB images. Evaluation allocates nothing.
 
 use crate::error::RenderError;
-use crate::image_tex::bilinear_texels;
+use crate::image_tex::texels;
 use crate::math::V3;
-use crate::scene::{FloatTexture, Texture, UvMapping, WrapMode};
+use crate::scene::{FloatTexture, TexelFilter, Texture, UvMapping, WrapMode};
 use crate::spectral::{SpectrumTable, WavelengthSampler};
 use std::sync::Arc;
 
@@ -240,6 +240,7 @@ pub(crate) struct FloatImage {
     pub height: usize,
     pub values: Arc<[f32]>,
     pub wrap: WrapMode,
+    pub filter: TexelFilter,
 }
 
 /// A compiled float texture.
@@ -278,7 +279,7 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Const(v) => *v,
         FTex::Image(im, map) => {
             let (s, tt) = map.st(ctx);
-            let (idx, w) = bilinear_texels(im.width, im.height, s, tt, im.wrap);
+            let (idx, w) = texels(im.width, im.height, s, tt, im.wrap, im.filter);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
         }
         FTex::Checker(c, map) => {
@@ -391,6 +392,7 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             values,
             mapping,
             wrap,
+            filter,
         } => {
             if *width == 0 || *height == 0 || values.len() != width * height {
                 return Err(format!(
@@ -407,6 +409,7 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
                     height: *height,
                     values: values.clone(),
                     wrap: *wrap,
+                    filter: *filter,
                 }),
                 check_map(mapping)?,
             )
@@ -514,6 +517,7 @@ pub(crate) fn compile_texture(
             vdelta,
             kind,
             wrap,
+            filter,
         } => {
             if *width == 0 || *height == 0 || rgb.len() != width * height {
                 return Err(err(format!(
@@ -542,6 +546,7 @@ pub(crate) fn compile_texture(
                 udelta: 0.0,
                 vdelta: 0.0,
                 wrap: *wrap,
+                filter: *filter,
             });
             Tex::Image((images.len() - 1) as u32, map)
         }
@@ -657,7 +662,12 @@ mod tests {
 
     /// The value a bilinear lookup of a 4 x 2 image with texel value `10 y + x` returns.
     fn lookup(s: f32, t: f32, wrap: WrapMode) -> f32 {
-        let (idx, w) = bilinear_texels(4, 2, s, t, wrap);
+        lookup_by(s, t, wrap, TexelFilter::Bilinear)
+    }
+
+    /// The value a lookup by `filter` of the 4 x 2 image with texel value `10 y + x` returns.
+    fn lookup_by(s: f32, t: f32, wrap: WrapMode, filter: TexelFilter) -> f32 {
+        let (idx, w) = texels(4, 2, s, t, wrap, filter);
         (0..4)
             .map(|k| w[k] * ((idx[k] / 4) * 10 + idx[k] % 4) as f32)
             .sum()
@@ -699,6 +709,27 @@ mod tests {
         assert!((lookup(1.0, 0.75, WrapMode::Black) - 1.5).abs() < 1e-6);
         assert!((lookup(1.0, 0.75, WrapMode::Clamp) - 3.0).abs() < 1e-6);
         assert!((lookup(1.0, 0.75, WrapMode::Repeat) - 1.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn point_filter_reads_the_nearest_texel() {
+        let point = |s, t, wrap| lookup_by(s, t, wrap, TexelFilter::Point);
+        // pbrt-v4 `point`: texel (round(4 s - 1/2), round(2 (1 - t) - 1/2)). Just left and just
+        // right of the boundary between columns 1 and 2 (s = 0.5), row 0 (t = 0.75) and row 1.
+        assert_eq!(point(0.49, 0.75, WrapMode::Repeat), 1.0);
+        assert_eq!(point(0.51, 0.75, WrapMode::Repeat), 2.0);
+        assert_eq!(point(0.49, 0.26, WrapMode::Repeat), 11.0);
+        // A quarter texel off the centre of texel (2, 1) in both axes: bilinear blends, point not.
+        assert_eq!(point(0.6875, 0.125, WrapMode::Repeat), 12.0);
+        assert!((lookup(0.6875, 0.125, WrapMode::Repeat) - 12.0).abs() > 0.1);
+        // Beyond the edges the wrap mode picks the texel: column -1 is column 3 (repeat),
+        // column 0 (clamp), nothing (black); row 1 mirrored for the octahedral sphere.
+        assert_eq!(point(-0.1, 0.75, WrapMode::Repeat), 3.0);
+        assert_eq!(point(-0.1, 0.75, WrapMode::Clamp), 0.0);
+        assert_eq!(point(-0.1, 0.75, WrapMode::Black), 0.0);
+        assert_eq!(point(-0.1, 0.75, WrapMode::OctahedralSphere), 11.0);
+        // Nearer the inside texel than the black outside one: the texel, whole.
+        assert_eq!(point(0.99, 0.75, WrapMode::Black), 3.0);
     }
 
     #[test]

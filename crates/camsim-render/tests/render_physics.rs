@@ -854,6 +854,7 @@ fn image_texture_is_looked_up_by_uv() {
         vdelta: 0.0,
         kind: MappingKind::Uv,
         wrap: Default::default(),
+        filter: Default::default(),
     };
     let quad = Geometry::Triangles {
         positions: vec![

@@ -63,6 +63,32 @@ impl WrapMode {
     }
 }
 
+/// How an image texture reads its texels between texel centres (pbrt-v4 `imagemap`'s
+/// `filter`). camsim traces no ray differentials, so there is no footprint to pick a MIP level
+/// or an anisotropic filter from: pbrt-v4's `trilinear` and `ewa` read as [`TexelFilter::Bilinear`]
+/// at full resolution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TexelFilter {
+    /// Bilinear between the four nearest texel centres (pbrt-v4 `bilinear`, the default).
+    #[default]
+    Bilinear,
+    /// The nearest texel (pbrt-v4 `point`: texel `round(s w - 1/2)`, `round(t h - 1/2)`).
+    Point,
+}
+
+impl TexelFilter {
+    /// pbrt-v4's names: `point` and `bilinear`; `trilinear` and `ewa` filter over a ray's footprint,
+    /// which camsim does not trace, and read as `bilinear` (the flag says so).
+    pub fn from_name(name: &str) -> Option<(TexelFilter, bool)> {
+        match name {
+            "point" => Some((TexelFilter::Point, true)),
+            "bilinear" => Some((TexelFilter::Bilinear, true)),
+            "trilinear" | "ewa" => Some((TexelFilter::Bilinear, false)),
+            _ => None,
+        }
+    }
+}
+
 /// How a 2D texture finds its `(s, t)` (pbrt-v4 `TextureMapping2D`); the transforms take world
 /// space to texture space (the inverse of the texture's CTM; boxed, so that the common uv mapping
 /// keeps textures small).
@@ -107,6 +133,7 @@ pub enum Texture {
         vdelta: f64,
         kind: MappingKind,
         wrap: WrapMode,
+        filter: TexelFilter,
     },
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
@@ -195,7 +222,7 @@ pub enum NoiseKind {
 #[derive(Debug, Clone, PartialEq)]
 pub enum FloatTexture {
     Constant(f64),
-    /// Row 0 at t = 1, bilinear, `wrap` outside `[0, 1]^2` (as [`Texture::Image`]).
+    /// Row 0 at t = 1, read by `filter`, `wrap` outside `[0, 1]^2` (as [`Texture::Image`]).
     Image {
         width: usize,
         height: usize,
@@ -203,6 +230,7 @@ pub enum FloatTexture {
         values: std::sync::Arc<[f32]>,
         mapping: UvMapping,
         wrap: WrapMode,
+        filter: TexelFilter,
     },
     Checkerboard {
         tex1: Box<FloatTexture>,

@@ -7,8 +7,8 @@
 use super::{load_image, SceneBuilder};
 use crate::params::ParamList;
 use crate::scene::{
-    FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, Texture, Transform,
-    UvMapping, WrapMode,
+    FloatTexture, MappingKind, NoiseKind, NoiseTexture, PlanarMapping, TexelFilter, Texture,
+    Transform, UvMapping, WrapMode,
 };
 use crate::spectra::{param_spectrum, SpectrumUse};
 use crate::{Loc, PbrtError};
@@ -21,8 +21,15 @@ const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, direc
 const SPECTRUM_CLASSES: &str =
     "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
-/// An image texture's width, height, texels, mapping and wrap mode.
-type ImageMap = (usize, usize, Vec<[f32; 3]>, UvMapping, WrapMode);
+/// An image texture's width, height, texels, mapping, wrap mode and texel filter.
+type ImageMap = (
+    usize,
+    usize,
+    Vec<[f32; 3]>,
+    UvMapping,
+    WrapMode,
+    TexelFilter,
+);
 
 /// Whether an image texture is inverted (`bool invert`, already read and checked).
 fn invert_clamps(params: &ParamList) -> bool {
@@ -195,7 +202,24 @@ impl SceneBuilder {
                 format!("{what}: wrap \"octahedralsphere\" with a non-uv mapping"),
             );
         }
-        self.ignore_params(params, &["filter", "maxanisotropy"], "Texture");
+        let filter_name = params
+            .string("filter")?
+            .unwrap_or_else(|| "bilinear".into());
+        let (filter, exact) = TexelFilter::from_name(&filter_name).ok_or_else(|| {
+            loc.err(format!(
+                "{what}: filter \"{filter_name}\" is not one of point, bilinear, trilinear, ewa"
+            ))
+        })?;
+        if !exact {
+            self.note(
+                loc,
+                format!(
+                    "{what}: filter \"{filter_name}\" read as \"bilinear\" at full resolution \
+                     (camsim traces no ray footprints to choose a MIP level from)"
+                ),
+            );
+        }
+        self.ignore_params(params, &["maxanisotropy"], "Texture");
         params.check_unused("Texture \"imagemap\"")?;
         let (width, height, mut rgb) =
             load_image(&path, encoding).map_err(|e| loc.err(format!("{what}: {e}")))?;
@@ -205,7 +229,7 @@ impl SceneBuilder {
             let v = *c * scale;
             *c = if invert { 1.0 - v } else { v };
         }
-        Ok((width, height, rgb, mapping, wrap))
+        Ok((width, height, rgb, mapping, wrap, filter))
     }
 
     pub(super) fn texture(
@@ -236,7 +260,8 @@ impl SceneBuilder {
             dim == 3
         };
         if class == "imagemap" {
-            let (width, height, rgb, mapping, wrap) = self.imagemap(name, params, loc, file)?;
+            let (width, height, rgb, mapping, wrap, filter) =
+                self.imagemap(name, params, loc, file)?;
             if float {
                 // pbrt-v4 `MIPMap::Texel<Float>`: the first channel (R; Y of a grey image). A
                 // float texture never goes negative through `invert` (pbrt-v4 max(0, 1 - v)).
@@ -258,6 +283,7 @@ impl SceneBuilder {
                         values,
                         mapping,
                         wrap,
+                        filter,
                     },
                 );
             } else {
@@ -293,6 +319,7 @@ impl SceneBuilder {
                         vdelta,
                         kind,
                         wrap,
+                        filter,
                     },
                 );
             }

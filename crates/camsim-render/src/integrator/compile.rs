@@ -353,6 +353,7 @@ impl SceneGeometry {
                 vdelta: 0.0,
                 // pbrt-v4 `DiffuseAreaLight::L` bilerps with `Image`'s default clamp.
                 wrap: crate::scene::WrapMode::Clamp,
+                filter: crate::scene::TexelFilter::Bilinear,
             };
             self.lights.images.push(EmitImage {
                 tex,
