@@ -2,9 +2,9 @@
 //! other people; see that folder's README) loads without edits and renders (issue 27's "done
 //! means"): each file is read with pbrt-v4's semantics and rendered at 48 px wide, 1 sample per
 //! pixel, 4 bounces, and its image must be finite, non-negative and lit somewhere. Mean
-//! radiance against pbrt-v4's own renders is checked by `hair_curl_reference.rs`,
-//! `crates/camsim-pipeline/tests/media_reference.rs` and, for every scene, the report
-//! `cargo run --release -p camsim-validate --example pbrt_references`.
+//! radiance against pbrt-v4's own renders is checked on a fast subset by
+//! `crates/camsim-validate/tests/pbrt_references.rs` and `hair_curl_reference.rs`, and for every
+//! scene by the report `cargo run --release -p camsim-validate --example pbrt_references`.
 //!
 //! Skipped, with a message, when `../shared/scenes` is not beside the checkout.
 

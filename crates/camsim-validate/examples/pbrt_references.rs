@@ -28,9 +28,8 @@
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::SpectralImage;
 use camsim_validate::pbrt_reference::{
-    compare, load_like_reference, load_reference, load_reference_rgb_luminance, read_index,
-    render_like_reference_with, scene_file, Criteria, PbrtLuminance, PBRT_UNIT_FACTOR,
-    REFERENCE_BLOCK,
+    compare_scene, file_integrator, read_index, scene_file, Criteria, SceneOptions,
+    PBRT_UNIT_FACTOR, REFERENCE_BLOCK,
 };
 use std::path::{Path, PathBuf};
 
@@ -196,99 +195,39 @@ fn main() {
     println!();
     println!("| scene | integrator | compared on | mean ratio / unit factor | blocks > 4 SE | worst band | result | camsim CPU s | pbrt-v4 CPU s | rel. variance per sample camsim / pbrt-v4 | time to equal error (x pbrt-v4) |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let opts = SceneOptions {
+        spp: args.spp,
+        block: args.block,
+        light_sampler: args.light_sampler,
+        criteria,
+    };
     for scene in &scenes {
-        let row = index.iter().find(|r| &r.scene == scene);
-        let file = scene_file(&args.scenes_dir, scene);
-        // The integrator pbrt-v4 ran is the file's active `Integrator` line (INDEX.md's column
-        // can be wrong: volumetric-caustic's says bdpt, whose line is commented out).
-        let from_file = file_integrator(&file);
-        let integrator = from_file
-            .as_deref()
-            .or(row.map(|r| r.integrator.as_str()))
-            .unwrap_or("?");
-        let refs = match load_reference(&args.references_dir, scene) {
+        let integrator = file_integrator(&scene_file(&args.scenes_dir, scene))
+            .or_else(|| {
+                index
+                    .iter()
+                    .find(|r| &r.scene == scene)
+                    .map(|r| r.integrator.clone())
+            })
+            .unwrap_or_else(|| "?".into());
+        let run = match compare_scene(&args.scenes_dir, &args.references_dir, &index, scene, &opts)
+        {
             Ok(r) => r,
             Err(e) => {
-                println!("| {scene} | {integrator} | | no reference: {e} | | | fail | | | | |");
+                let e = e.to_string();
+                let first = e.lines().next().unwrap_or("").replace('|', "/");
+                let more = e.lines().count().saturating_sub(1);
+                let more = if more > 0 {
+                    format!(" (+{more} more)")
+                } else {
+                    String::new()
+                };
+                println!("| {scene} | {integrator} | | {first}{more} | | | fail | | | | |");
                 continue;
             }
         };
-        let (cols, rows) = (refs[0].cols, refs[0].rows);
-        let mut imgs = Vec::new();
-        let mut cpu = 0.0;
-        let mut failed = None;
-        for seed in [1u64, 2] {
-            let r = load_like_reference(&file, cols, rows, args.block, args.spp, seed)
-                .and_then(|s| render_like_reference_with(&s, args.block, args.light_sampler));
-            match r {
-                Ok((img, c)) => {
-                    cpu += c;
-                    imgs.push(img);
-                }
-                Err(e) => {
-                    failed = Some(e.to_string());
-                    break;
-                }
-            }
-        }
-        if let Some(e) = failed {
-            let first = e.lines().next().unwrap_or("").replace('|', "/");
-            let more = e.lines().count().saturating_sub(1);
-            let more = if more > 0 {
-                format!(" (+{more} more)")
-            } else {
-                String::new()
-            };
-            println!(
-                "| {scene} | {integrator} | | does not load: {first}{more} | | | fail | | | | |"
-            );
-            continue;
-        }
-        let cam_spp = (args.spp as usize * args.block * args.block) as f64;
-        // pbrt-v4's samples per stored pixel: the references' are 2 x 2 averages of its
-        // render; a set stored at the render's size (`--references` of full-size renders, as
-        // INDEX.md's render size says) has its samples per pixel.
-        let pbrt_spp = row.map_or(32.0 * (REFERENCE_BLOCK * REFERENCE_BLOCK) as f64, |r| {
-            r.samples_per_stored_pixel(cols)
-        });
-        // Splatting integrators: pbrt-v4's spectral channels are biased, its RGB ones are not
-        // (see `PbrtLuminance::Rgb`).
-        let splats = matches!(integrator, "bdpt" | "lightpath" | "mlt");
-        let rgb = if splats {
-            match load_reference_rgb_luminance(&args.references_dir, scene) {
-                Ok(r) => Some(r),
-                Err(e) => {
-                    println!("| {scene} | {integrator} | | {e} | | | fail | | | | |");
-                    continue;
-                }
-            }
-        } else {
-            None
-        };
-        let source = rgb
-            .as_ref()
-            .map_or(PbrtLuminance::Spectral, PbrtLuminance::Rgb);
-        let c = match compare(
-            [&imgs[0], &imgs[1]],
-            cam_spp,
-            [&refs[0], &refs[1]],
-            pbrt_spp,
-            source,
-            &criteria,
-        ) {
-            Ok(c) => c,
-            Err(e) => {
-                println!("| {scene} | {integrator} | | {e} | | | fail | | | | |");
-                continue;
-            }
-        };
-        let cam_cpu = cpu / 2.0;
-        let pbrt_cpu = row.map(|r| r.pbrt_cpu_s);
-        // Time to equal error relative to pbrt-v4: (variance x time) of each render.
-        let eq = pbrt_cpu.map(|pc| {
-            (c.camsim_rel_variance_per_sample / cam_spp * cam_cpu)
-                / (c.pbrt_rel_variance_per_sample / pbrt_spp * pc)
-        });
+        let c = &run.comparison;
+        let (cam_cpu, pbrt_cpu, eq) = (run.camsim_cpu_s, run.pbrt_cpu_s, run.equal_error_time());
         let fmt_pass = |p: bool| if p { "" } else { " **x**" };
         println!(
             "| {scene} | {integrator} | {} | {:.4} +- {:.4}{} | {}/{} (worst {:.1}){} | {:.0} nm {:+.1} % +- {:.1}{} | {} | {:.1} | {} | {:.3} / {:.3} | {} |",
@@ -335,45 +274,10 @@ fn main() {
             );
         }
         if let Some(out) = &args.out {
-            if let Err(e) = write_png(out, scene, [&imgs[0], &imgs[1]], [&refs[0], &refs[1]]) {
+            let (cam, pbrt) = (&run.camsim, &run.pbrt);
+            if let Err(e) = write_png(out, scene, [&cam[0], &cam[1]], [&pbrt[0], &pbrt[1]]) {
                 eprintln!("pbrt_references: {e}");
             }
         }
     }
-}
-
-/// The integrator a pbrt-v4 scene file asks for: the name on its first `Integrator` line that is
-/// not commented out, in the file or a file it includes (`None` when there is none, or the file
-/// cannot be read).
-fn file_integrator(file: &Path) -> Option<String> {
-    file_integrator_at(file, file.parent().unwrap_or(Path::new(".")), 0)
-}
-
-/// [`file_integrator`] through `Include` and `Import` (relative names resolved against the main
-/// file's folder, pbrt-v4's search directory; in order, as pbrt-v4 reads them), at most 16
-/// files deep.
-fn file_integrator_at(file: &Path, dir: &Path, depth: usize) -> Option<String> {
-    if depth > 16 {
-        return None;
-    }
-    let text = std::fs::read_to_string(file).ok()?;
-    let quoted = |rest: &str| {
-        Some(
-            rest.trim()
-                .strip_prefix('"')?
-                .split('"')
-                .next()?
-                .to_string(),
-        )
-    };
-    text.lines().find_map(|line| {
-        let code = line.split('#').next()?.trim();
-        if let Some(rest) = code.strip_prefix("Integrator") {
-            return quoted(rest);
-        }
-        let inc = code
-            .strip_prefix("Include")
-            .or_else(|| code.strip_prefix("Import"))?;
-        file_integrator_at(&dir.join(quoted(inc)?), dir, depth + 1)
-    })
 }

@@ -541,6 +541,168 @@ pub fn compare(
     })
 }
 
+/// How [`compare_scene`] renders and judges.
+#[derive(Debug, Clone, Copy)]
+pub struct SceneOptions {
+    /// camsim's samples per render pixel (32, the references').
+    pub spp: u32,
+    /// The render's size as a multiple of the stored size: [`REFERENCE_BLOCK`] reproduces the
+    /// references' render; 1 renders at the stored size with a quarter of the samples per unit
+    /// area.
+    pub block: usize,
+    /// camsim's light sampler; `None`: the file's `lightsampler`, as pbrt-v4 renders it.
+    pub light_sampler: Option<camsim_render::LightSampler>,
+    /// The pass limits.
+    pub criteria: Criteria,
+}
+
+impl Default for SceneOptions {
+    fn default() -> Self {
+        SceneOptions {
+            spp: 32,
+            block: REFERENCE_BLOCK,
+            light_sampler: None,
+            criteria: Criteria::default(),
+        }
+    }
+}
+
+/// One scene rendered twice by camsim and compared with pbrt-v4's two seeds ([`compare_scene`]).
+#[derive(Debug, Clone)]
+pub struct SceneComparison {
+    /// The criteria's figures.
+    pub comparison: Comparison,
+    /// camsim's two renders at the stored size, W/(sr m^2 nm).
+    pub camsim: [SpectralImage; 2],
+    /// pbrt-v4's two references, in its units.
+    pub pbrt: [SpectralImage; 2],
+    /// camsim's samples per stored pixel.
+    pub camsim_spp: f64,
+    /// pbrt-v4's samples per stored pixel.
+    pub pbrt_spp: f64,
+    /// camsim's render CPU time per seed (process user + system, all threads), s.
+    pub camsim_cpu_s: f64,
+    /// pbrt-v4's CPU time per seed from `INDEX.md`, s, when listed.
+    pub pbrt_cpu_s: Option<f64>,
+}
+
+impl SceneComparison {
+    /// camsim's CPU time to reach pbrt-v4's error over pbrt-v4's: `(V_c T_c) / (V_p T_p)` with
+    /// `V` the relative variance per sample and `T` the CPU time per sample (below 1: camsim is
+    /// faster); `None` without pbrt-v4's time.
+    pub fn equal_error_time(&self) -> Option<f64> {
+        let c = &self.comparison;
+        self.pbrt_cpu_s.map(|pc| {
+            (c.camsim_rel_variance_per_sample / self.camsim_spp * self.camsim_cpu_s)
+                / (c.pbrt_rel_variance_per_sample / self.pbrt_spp * pc)
+        })
+    }
+}
+
+/// Whether pbrt-v4's `integrator` splats light-traced samples onto its film, so that its
+/// spectral channels are biased and the luminance criteria read its RGB channels
+/// ([`PbrtLuminance::Rgb`]).
+pub fn integrator_splats(integrator: &str) -> bool {
+    matches!(integrator, "bdpt" | "lightpath" | "mlt")
+}
+
+/// The comparison of issue 27 for one scene, as the `pbrt_references` example prints it and the
+/// CI test checks it: pbrt-v4's references of `scene` (`references_dir`, seeds 1 and 2, its
+/// samples per stored pixel from `index`), camsim's renders of `scenes_dir/<scene>/scene-v4.pbrt`
+/// with seeds 1 and 2 ([`load_like_reference`], [`render_like_reference_with`]), and
+/// [`compare`] on pbrt-v4's spectral channels, or its RGB luminance for files whose integrator
+/// splats ([`integrator_splats`], the integrator from [`file_integrator`], else `index`).
+/// Errors name what is missing: the references, or the reader's message when camsim cannot
+/// read the file.
+pub fn compare_scene(
+    scenes_dir: &Path,
+    references_dir: &Path,
+    index: &[IndexRow],
+    scene: &str,
+    opts: &SceneOptions,
+) -> Result<SceneComparison> {
+    let row = index.iter().find(|r| r.scene == scene);
+    let file = scene_file(scenes_dir, scene);
+    let integrator = file_integrator(&file).or_else(|| row.map(|r| r.integrator.clone()));
+    let pbrt = load_reference(references_dir, scene)?;
+    let (cols, rows) = (pbrt[0].cols, pbrt[0].rows);
+    let mut cpu_s = 0.0;
+    let mut render = |seed: u64| -> Result<SpectralImage> {
+        let sc = load_like_reference(&file, cols, rows, opts.block, opts.spp, seed)?;
+        let (img, c) = render_like_reference_with(&sc, opts.block, opts.light_sampler)?;
+        cpu_s += c;
+        Ok(img)
+    };
+    let camsim = [render(1)?, render(2)?];
+    let camsim_spp = (opts.spp as usize * opts.block * opts.block) as f64;
+    // pbrt-v4's samples per stored pixel: the references are 2 x 2 averages of its render; a
+    // set stored at the render's size (as INDEX.md's render size says) has its samples per pixel.
+    let pbrt_spp = row.map_or(32.0 * (REFERENCE_BLOCK * REFERENCE_BLOCK) as f64, |r| {
+        r.samples_per_stored_pixel(cols)
+    });
+    let rgb = match integrator.as_deref() {
+        Some(i) if integrator_splats(i) => {
+            Some(load_reference_rgb_luminance(references_dir, scene)?)
+        }
+        _ => None,
+    };
+    let comparison = compare(
+        [&camsim[0], &camsim[1]],
+        camsim_spp,
+        [&pbrt[0], &pbrt[1]],
+        pbrt_spp,
+        rgb.as_ref()
+            .map_or(PbrtLuminance::Spectral, PbrtLuminance::Rgb),
+        &opts.criteria,
+    )?;
+    Ok(SceneComparison {
+        comparison,
+        camsim,
+        pbrt,
+        camsim_spp,
+        pbrt_spp,
+        camsim_cpu_s: cpu_s / 2.0,
+        pbrt_cpu_s: row.map(|r| r.pbrt_cpu_s),
+    })
+}
+
+/// The integrator a pbrt-v4 scene file asks for: the name on its first `Integrator` line that is
+/// not commented out, in the file or a file it includes (`None` when there is none, or the file
+/// cannot be read). INDEX.md's column can be wrong: `volumetric-caustic`'s says bdpt, whose line
+/// is commented out.
+pub fn file_integrator(file: &Path) -> Option<String> {
+    file_integrator_at(file, file.parent().unwrap_or(Path::new(".")), 0)
+}
+
+/// [`file_integrator`] through `Include` and `Import` (relative names resolved against the main
+/// file's folder, pbrt-v4's search directory; in order, as pbrt-v4 reads them), at most 16
+/// files deep.
+fn file_integrator_at(file: &Path, dir: &Path, depth: usize) -> Option<String> {
+    if depth > 16 {
+        return None;
+    }
+    let text = std::fs::read_to_string(file).ok()?;
+    let quoted = |rest: &str| {
+        Some(
+            rest.trim()
+                .strip_prefix('"')?
+                .split('"')
+                .next()?
+                .to_string(),
+        )
+    };
+    text.lines().find_map(|line| {
+        let code = line.split('#').next()?.trim();
+        if let Some(rest) = code.strip_prefix("Integrator") {
+            return quoted(rest);
+        }
+        let inc = code
+            .strip_prefix("Include")
+            .or_else(|| code.strip_prefix("Import"))?;
+        file_integrator_at(&dir.join(quoted(inc)?), dir, depth + 1)
+    })
+}
+
 /// One row of `references/INDEX.md`: the scene and pbrt-v4's CPU seconds for one seed.
 #[derive(Debug, Clone, Serialize)]
 pub struct IndexRow {
