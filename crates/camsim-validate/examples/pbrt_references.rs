@@ -12,6 +12,8 @@
 //! - `SCENE ...`: scene names (folders of `--scenes`); default: every scene in the references'
 //!   `INDEX.md`. Any list works, so scenes that load later are added by naming them.
 //! - `--spp N`: camsim's samples per pixel (default 32, the references').
+//! - `--seeds K`: seeds 1 to K of each renderer (default 2, the stored references'; a
+//!   `--references` folder with more pbrt-v4 seeds estimates a heavy-tailed scene's noise better).
 //! - `--block B`: render at B times the stored size (default 2: the references' 320 px; 1
 //!   renders at the stored size with a quarter of the samples per unit area).
 //! - `--scenes DIR` (default `../shared/scenes/bitterli`), `--references DIR` (default
@@ -36,6 +38,7 @@ use std::path::{Path, PathBuf};
 struct Args {
     scenes: Vec<String>,
     spp: u32,
+    seeds: usize,
     block: usize,
     scenes_dir: PathBuf,
     references_dir: PathBuf,
@@ -47,6 +50,7 @@ fn parse_args() -> Result<Args, String> {
     let mut a = Args {
         scenes: Vec::new(),
         spp: 32,
+        seeds: 2,
         block: REFERENCE_BLOCK,
         scenes_dir: PathBuf::from("../shared/scenes/bitterli"),
         references_dir: PathBuf::from("../shared/scenes/references"),
@@ -58,6 +62,11 @@ fn parse_args() -> Result<Args, String> {
         let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
         match arg.as_str() {
             "--spp" => a.spp = value("--spp")?.parse().map_err(|e| format!("--spp: {e}"))?,
+            "--seeds" => {
+                a.seeds = value("--seeds")?
+                    .parse()
+                    .map_err(|e| format!("--seeds: {e}"))?
+            }
             "--block" => {
                 a.block = value("--block")?
                     .parse()
@@ -79,6 +88,9 @@ fn parse_args() -> Result<Args, String> {
     }
     if a.block == 0 || a.spp == 0 {
         return Err("--block and --spp must be positive".into());
+    }
+    if a.seeds < 2 {
+        return Err("--seeds must be at least 2 (the noise comes from the seeds)".into());
     }
     Ok(a)
 }
@@ -187,7 +199,7 @@ fn main() {
     println!(
         "camsim {} spp x {} seeds at {}x the stored size, {} light sampler; pbrt-v4 from {}",
         args.spp,
-        2,
+        args.seeds,
         args.block,
         args.light_sampler.map_or("the file's", |l| l.name()),
         args.references_dir.display()
@@ -197,6 +209,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let opts = SceneOptions {
         spp: args.spp,
+        seeds: args.seeds,
         block: args.block,
         light_sampler: args.light_sampler,
         criteria,
@@ -275,6 +288,7 @@ fn main() {
         }
         if let Some(out) = &args.out {
             let (cam, pbrt) = (&run.camsim, &run.pbrt);
+            // The picture shows the first two seeds of each.
             if let Err(e) = write_png(out, scene, [&cam[0], &cam[1]], [&pbrt[0], &pbrt[1]]) {
                 eprintln!("pbrt_references: {e}");
             }

@@ -22,10 +22,11 @@
 //! pixel seen directly, or through glass) are left out of all three and counted
 //! ([`Criteria::emitter_pixel_factor`]).
 //!
-//! Standard errors come from the two seeds of each renderer, pixel by pixel: for independent
-//! renders `a`, `b` of one pixel, `E[(a - b)^2] / 2` is the variance of one render, so the
-//! variance of a block's two-seed mean is `sum_p (a_p - b_p)^2 / (4 n^2)` over its `n` pixels
-//! (pixels are independent Monte Carlo estimates). Pooling over the block's pixels gives the
+//! Standard errors come from the seeds of each renderer (two for the stored references, any
+//! number `k >= 2` given), pixel by pixel: for independent renders `a`, `b` of one pixel,
+//! `E[(a - b)^2] / 2` is the variance of one render, so the variance of a block's two-seed mean
+//! is `sum_p (a_p - b_p)^2 / (4 n^2)` over its `n` pixels (pixels are independent Monte Carlo
+//! estimates); with `k` seeds each pixel's sample variance over them divided by `k`. Pooling over the block's pixels gives the
 //! estimate `n` degrees of freedom; the single difference of the two block means would give one,
 //! and a 4-sigma test with a one-degree-of-freedom error (a Student t with two) fails 5.7 % of
 //! blocks of two identical renderers.
@@ -103,7 +104,7 @@ pub enum PbrtLuminance<'a> {
     /// `AddSample` multiplies by `CIE_Y_integral` and averages per bucket, so the light-tracing
     /// part of a `bdpt` image is `bucket width / CIE_Y_integral` = 10 / 106.857 = 0.094 of its
     /// weight in the spectral channels, while its RGB channels are consistent.
-    Rgb(&'a [Vec<f64>; 2]),
+    Rgb(&'a [Vec<f64>]),
 }
 
 /// The outcome of [`compare`]: every figure of the three criteria and the noise of each renderer.
@@ -182,15 +183,21 @@ pub fn block_average(img: &SpectralImage, factor: usize) -> Result<SpectralImage
     Ok(out)
 }
 
-/// The two reference renders of `scene` in `references_dir` (`<scene>.seed1.exr`,
-/// `<scene>.seed2.exr`), in pbrt-v4's units.
-pub fn load_reference(references_dir: &Path, scene: &str) -> Result<[SpectralImage; 2]> {
-    let read = |seed: u32| -> Result<SpectralImage> {
-        let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
-        // In pbrt-v4's own units: `read_spectral_exr` would recognise the file and convert.
-        Ok(camsim_io::exr::read_spectral_exr_as(&p, camsim_io::exr::SourceUnits::Absolute)?.0)
-    };
-    Ok([read(1)?, read(2)?])
+/// The reference renders of `scene` in `references_dir` for seeds 1 to `seeds`
+/// (`<scene>.seed1.exr`, `<scene>.seed2.exr`, ...; the stored references have two), in
+/// pbrt-v4's units.
+pub fn load_reference(
+    references_dir: &Path,
+    scene: &str,
+    seeds: usize,
+) -> Result<Vec<SpectralImage>> {
+    (1..=seeds)
+        .map(|seed| {
+            let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
+            // In pbrt-v4's own units: `read_spectral_exr` would recognise the file and convert.
+            Ok(camsim_io::exr::read_spectral_exr_as(&p, camsim_io::exr::SourceUnits::Absolute)?.0)
+        })
+        .collect()
 }
 
 /// pbrt-v4's own luminance of each pixel of a reference, from its `R`, `G`, `B` channels (the
@@ -198,8 +205,12 @@ pub fn load_reference(references_dir: &Path, scene: &str) -> Result<[SpectralIma
 /// (ITU-R BT.709). This is camsim's luminance in cd/m^2 (pbrt-v4's `cie1931` sensor gives
 /// `Y = integral y-bar L_pbrt dlambda` of its normalised radiance, which camsim reads as
 /// `L / 683`): measured on `veach-mis`, the RGB and spectral channels agree within 0.1 %.
-pub fn load_reference_rgb_luminance(references_dir: &Path, scene: &str) -> Result<[Vec<f64>; 2]> {
-    let read = |seed: u32| -> Result<Vec<f64>> {
+pub fn load_reference_rgb_luminance(
+    references_dir: &Path,
+    scene: &str,
+    seeds: usize,
+) -> Result<Vec<Vec<f64>>> {
+    let read = |seed: usize| -> Result<Vec<f64>> {
         let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
         let image = exr::prelude::read_all_flat_layers_from_file(&p)
             .map_err(|e| ValidateError::file(&p, e.to_string()))?;
@@ -224,7 +235,7 @@ pub fn load_reference_rgb_luminance(references_dir: &Path, scene: &str) -> Resul
         }
         Err(ValidateError::file(&p, "no R, G, B channels"))
     };
-    Ok([read(1)?, read(2)?])
+    (1..=seeds).map(read).collect()
 }
 
 /// The scene file of a Bitterli scene name: `<scenes_dir>/<scene>/scene-v4.pbrt`.
@@ -316,17 +327,41 @@ pub fn block_grid(cols: usize, rows: usize) -> (usize, usize) {
     (nx, ny)
 }
 
-/// Compare camsim's two seeds (W/(sr m^2 nm), `camsim_spp` samples per pixel at the compared
-/// size) with pbrt-v4's two seeds (its units, `pbrt_spp`), all four of the same size and bands;
-/// `luminance` chooses pbrt-v4's output for the mean and block criteria.
+/// Per pixel over `k >= 2` seeds `v[0..k][p]`: the seeds' mean, the variance of that mean
+/// (`sum (x - mean)^2 / (k (k - 1))`) and one render's variance (`sum (x - mean)^2 / (k - 1)`);
+/// for two seeds `(a + b) / 2`, `(a - b)^2 / 4` and `(a - b)^2 / 2`.
+#[inline]
+fn seed_stats(v: &[Vec<f64>], p: usize) -> (f64, f64, f64) {
+    let k = v.len() as f64;
+    let mean = v.iter().map(|s| s[p]).sum::<f64>() / k;
+    let ss = v.iter().map(|s| (s[p] - mean) * (s[p] - mean)).sum::<f64>();
+    (mean, ss / (k * (k - 1.0)), ss / (k - 1.0))
+}
+
+/// Compare camsim's seeds (W/(sr m^2 nm), `camsim_spp` samples per pixel at the compared size)
+/// with pbrt-v4's seeds (its units, `pbrt_spp`), at least two of each, all of the same size and
+/// bands; `luminance` chooses pbrt-v4's output for the mean and block criteria. Standard errors
+/// pool each pixel's variance over the seeds (module docs); more seeds estimate a heavy-tailed
+/// scene's noise better (`volumetric-caustic`).
 pub fn compare(
-    camsim: [&SpectralImage; 2],
+    camsim: &[&SpectralImage],
     camsim_spp: f64,
-    pbrt: [&SpectralImage; 2],
+    pbrt: &[&SpectralImage],
     pbrt_spp: f64,
     luminance: PbrtLuminance<'_>,
     criteria: &Criteria,
 ) -> Result<Comparison> {
+    if camsim.len() < 2 || pbrt.len() < 2 {
+        return Err(ValidateError::invalid(
+            "images to compare",
+            format!(
+                "{} camsim and {} pbrt-v4 renders: at least two seeds of each are needed for \
+                 their noise",
+                camsim.len(),
+                pbrt.len()
+            ),
+        ));
+    }
     let (rows, cols, nb) = (pbrt[0].rows, pbrt[0].cols, pbrt[0].bands());
     for im in camsim.iter().chain(pbrt.iter()) {
         if im.rows != rows || im.cols != cols || im.bands() != nb {
@@ -344,44 +379,49 @@ pub fn compare(
     let npx = rows * cols;
     let n = npx as f64;
     let cmfs = Cmfs::on(&pbrt[0].grid);
+    let lum = |ims: &[&SpectralImage], w: &[f64], k: f64| -> Vec<Vec<f64>> {
+        ims.iter().map(|im| luminance_of(im, w, k)).collect()
+    };
     // Per-pixel values both criteria 1 and 2 compare, camsim's already in pbrt-v4's units.
     let (yc, yp, mean_c, mean_p, from_rgb) = match luminance {
         PbrtLuminance::Spectral => {
             let k = PBRT_UNIT_FACTOR;
-            let yc = camsim.map(|im| luminance_of(im, &cmfs.y, k));
-            let yp = pbrt.map(|im| luminance_of(im, &cmfs.y, 1.0));
+            let yc = lum(camsim, &cmfs.y, k);
+            let yp = lum(pbrt, &cmfs.y, 1.0);
             // Criterion 1 on the plain band sum (radiance), as the issue states it.
             let ones = vec![1.0; nb];
-            let mc = camsim.map(|im| luminance_of(im, &ones, k));
-            let mp = pbrt.map(|im| luminance_of(im, &ones, 1.0));
+            let mc = lum(camsim, &ones, k);
+            let mp = lum(pbrt, &ones, 1.0);
             (yc, yp, mc, mp, false)
         }
         PbrtLuminance::Rgb(rgb) => {
-            if rgb.iter().any(|v| v.len() != npx) {
+            if rgb.len() != pbrt.len() || rgb.iter().any(|v| v.len() != npx) {
                 return Err(ValidateError::invalid(
                     "pbrt-v4 RGB luminance",
-                    format!("not {cols} x {rows} pixels"),
+                    format!("not {} seeds of {cols} x {rows} pixels", pbrt.len()),
                 ));
             }
             // camsim's luminance in cd/m^2 (683 sum y-bar L dlambda) is pbrt-v4's RGB luminance.
             let k = LUMINOUS_EFFICACY_LM_PER_W * pbrt[0].grid.step_nm;
-            let yc = camsim.map(|im| luminance_of(im, &cmfs.y, k));
-            let yp = rgb.clone();
+            let yc = lum(camsim, &cmfs.y, k);
+            let yp = rgb.to_vec();
             (yc.clone(), yp.clone(), yc, yp, true)
         }
     };
     // Sub-pixel emitters' pixels: one sample as bright as the pixel times its samples per
     // pixel would exceed `emitter_pixel_factor` times the mean luminance, in any of the renders.
     let keep: Vec<bool> = {
-        let all = [&yc[0], &yc[1], &yp[0], &yp[1]];
-        let spp = [camsim_spp, camsim_spp, pbrt_spp, pbrt_spp];
+        let all: Vec<(&Vec<f64>, f64)> = yc
+            .iter()
+            .map(|v| (v, camsim_spp))
+            .chain(yp.iter().map(|v| (v, pbrt_spp)))
+            .collect();
         let limits: Vec<f64> = all
             .iter()
-            .zip(spp)
             .map(|(v, k)| criteria.emitter_pixel_factor * v.iter().sum::<f64>() / n / k)
             .collect();
         (0..npx)
-            .map(|p| all.iter().zip(&limits).all(|(v, lim)| !(v[p] > *lim)))
+            .map(|p| all.iter().zip(&limits).all(|((v, _), lim)| !(v[p] > *lim)))
             .collect()
     };
     let masked_pixels = keep.iter().filter(|k| !**k).count();
@@ -392,15 +432,17 @@ pub fn compare(
             "every pixel is brighter than the emitter threshold".to_string(),
         ));
     }
-    // Mean of the two seeds and the variance of that mean from the seed differences:
-    // Var(pixel mean of 2 seeds) = (a - b)^2 / 4, of the image mean, / n^2.
-    let mean_and_var = |v: &[Vec<f64>; 2]| {
-        let (mut s, mut d2) = (0.0f64, 0.0f64);
-        for ((a, b), _) in v[0].iter().zip(&v[1]).zip(&keep).filter(|(_, k)| **k) {
-            s += a + b;
-            d2 += (a - b) * (a - b);
+    let kept = || (0..npx).filter(|&p| keep[p]);
+    // The image mean over the seeds and the variance of that mean: the pixels' variances of
+    // their means, / n^2 (pixels are independent estimates).
+    let mean_and_var = |v: &[Vec<f64>]| {
+        let (mut s, mut var) = (0.0f64, 0.0f64);
+        for p in kept() {
+            let (m, vm, _) = seed_stats(v, p);
+            s += m;
+            var += vm;
         }
-        (s / (2.0 * n), d2 / (4.0 * n * n))
+        (s / n, var / (n * n))
     };
     let (mc, vc) = mean_and_var(&mean_c);
     let (mp, vp) = mean_and_var(&mean_p);
@@ -415,7 +457,7 @@ pub fn compare(
         for bx in 0..nx {
             let (r0, r1) = (by * rows / ny, (by + 1) * rows / ny);
             let (c0, c1) = (bx * cols / nx, (bx + 1) * cols / nx);
-            let (mut m, mut sc, mut sp, mut dc2, mut dp2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let (mut m, mut sc, mut sp, mut var) = (0.0, 0.0, 0.0, 0.0);
             for r in r0..r1 {
                 for c in c0..c1 {
                     let p = r * cols + c;
@@ -423,19 +465,18 @@ pub fn compare(
                         continue;
                     }
                     m += 1.0;
-                    let (a, b) = (yc[0][p], yc[1][p]);
-                    let (e, f) = (yp[0][p], yp[1][p]);
-                    sc += a + b;
-                    sp += e + f;
-                    dc2 += (a - b) * (a - b);
-                    dp2 += (e - f) * (e - f);
+                    let (a, va, _) = seed_stats(&yc, p);
+                    let (e, ve, _) = seed_stats(&yp, p);
+                    sc += a;
+                    sp += e;
+                    var += va + ve;
                 }
             }
             if m == 0.0 {
                 continue;
             }
-            let (mcb, mpb) = (sc / (2.0 * m), sp / (2.0 * m));
-            let se = ((dc2 + dp2) / (4.0 * m * m)).sqrt();
+            let (mcb, mpb) = (sc / m, sp / m);
+            let se = var.sqrt() / m;
             let diff = mpb - mcb;
             let z = if se > 0.0 {
                 diff.abs() / se
@@ -453,20 +494,13 @@ pub fn compare(
             }
         }
     }
-    // Band means of the two seeds and the variance of each (same estimator per band).
-    let band_mean = |a: &SpectralImage, b: &SpectralImage, band: usize, k: f64| {
-        let (mut s, mut d2) = (0.0f64, 0.0f64);
-        for ((&x, &y), _) in a
-            .band(band)
+    // Band means over the seeds and the variance of each (same estimator per band).
+    let band_mean = |ims: &[&SpectralImage], band: usize, k: f64| {
+        let v: Vec<Vec<f64>> = ims
             .iter()
-            .zip(b.band(band))
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-        {
-            s += (x + y) as f64;
-            d2 += ((x - y) as f64).powi(2);
-        }
-        (k * s / (2.0 * n), k * k * d2 / (4.0 * n * n))
+            .map(|im| im.band(band).iter().map(|&x| k * x as f64).collect())
+            .collect();
+        mean_and_var(&v)
     };
     let mut band_ratio_se = Vec::with_capacity(nb);
     let mut band_ok = true;
@@ -474,8 +508,8 @@ pub fn compare(
     let mut worst_score = -1.0;
     let band_ratios: Vec<(f64, f64)> = (0..nb)
         .map(|b| {
-            let (c, vc) = band_mean(camsim[0], camsim[1], b, PBRT_UNIT_FACTOR);
-            let (p, vp) = band_mean(pbrt[0], pbrt[1], b, 1.0);
+            let (c, vc) = band_mean(camsim, b, PBRT_UNIT_FACTOR);
+            let (p, vp) = band_mean(pbrt, b, 1.0);
             let (ratio, se) = if c > 0.0 && p > 0.0 {
                 let r = p / c;
                 (r, r * (vc / (c * c) + vp / (p * p)).sqrt())
@@ -496,19 +530,13 @@ pub fn compare(
             (lambda, ratio)
         })
         .collect();
-    // Relative variance per sample: mean over pixels of one seed's variance ((a-b)^2 / 2) times
-    // spp, over the squared mean luminance.
-    let rel_var = |y: &[Vec<f64>; 2], spp: f64| {
+    // Relative variance per sample: mean over pixels of one render's variance times spp, over
+    // the squared mean luminance.
+    let rel_var = |y: &[Vec<f64>], spp: f64| {
         let (m, _) = mean_and_var(y);
-        let d2: f64 = y[0]
-            .iter()
-            .zip(&y[1])
-            .zip(&keep)
-            .filter(|(_, k)| **k)
-            .map(|((a, b), _)| (a - b) * (a - b))
-            .sum();
+        let v: f64 = kept().map(|p| seed_stats(y, p).2).sum();
         if m > 0.0 {
-            d2 / (2.0 * n) * spp / (m * m)
+            v / n * spp / (m * m)
         } else {
             0.0
         }
@@ -546,6 +574,8 @@ pub fn compare(
 pub struct SceneOptions {
     /// camsim's samples per render pixel (32, the references').
     pub spp: u32,
+    /// Seeds of each renderer, 1 to `seeds` (at least 2; the stored references have 2).
+    pub seeds: usize,
     /// The render's size as a multiple of the stored size: [`REFERENCE_BLOCK`] reproduces the
     /// references' render; 1 renders at the stored size with a quarter of the samples per unit
     /// area.
@@ -560,6 +590,7 @@ impl Default for SceneOptions {
     fn default() -> Self {
         SceneOptions {
             spp: 32,
+            seeds: 2,
             block: REFERENCE_BLOCK,
             light_sampler: None,
             criteria: Criteria::default(),
@@ -572,10 +603,10 @@ impl Default for SceneOptions {
 pub struct SceneComparison {
     /// The criteria's figures.
     pub comparison: Comparison,
-    /// camsim's two renders at the stored size, W/(sr m^2 nm).
-    pub camsim: [SpectralImage; 2],
-    /// pbrt-v4's two references, in its units.
-    pub pbrt: [SpectralImage; 2],
+    /// camsim's renders (seeds 1 to `seeds`) at the stored size, W/(sr m^2 nm).
+    pub camsim: Vec<SpectralImage>,
+    /// pbrt-v4's references (the same seeds), in its units.
+    pub pbrt: Vec<SpectralImage>,
     /// camsim's samples per stored pixel.
     pub camsim_spp: f64,
     /// pbrt-v4's samples per stored pixel.
@@ -607,9 +638,10 @@ pub fn integrator_splats(integrator: &str) -> bool {
 }
 
 /// The comparison of issue 27 for one scene, as the `pbrt_references` example prints it and the
-/// CI test checks it: pbrt-v4's references of `scene` (`references_dir`, seeds 1 and 2, its
+/// CI test checks it: pbrt-v4's references of `scene` (`references_dir`, seeds 1 to
+/// `opts.seeds`, its
 /// samples per stored pixel from `index`), camsim's renders of `scenes_dir/<scene>/scene-v4.pbrt`
-/// with seeds 1 and 2 ([`load_like_reference`], [`render_like_reference_with`]), and
+/// with the same seeds ([`load_like_reference`], [`render_like_reference_with`]), and
 /// [`compare`] on pbrt-v4's spectral channels, or its RGB luminance for files whose integrator
 /// splats ([`integrator_splats`], the integrator from [`file_integrator`], else `index`).
 /// Errors name what is missing: the references, or the reader's message when camsim cannot
@@ -624,7 +656,7 @@ pub fn compare_scene(
     let row = index.iter().find(|r| r.scene == scene);
     let file = scene_file(scenes_dir, scene);
     let integrator = file_integrator(&file).or_else(|| row.map(|r| r.integrator.clone()));
-    let pbrt = load_reference(references_dir, scene)?;
+    let pbrt = load_reference(references_dir, scene, opts.seeds)?;
     let (cols, rows) = (pbrt[0].cols, pbrt[0].rows);
     let mut cpu_s = 0.0;
     let mut render = |seed: u64| -> Result<SpectralImage> {
@@ -633,7 +665,9 @@ pub fn compare_scene(
         cpu_s += c;
         Ok(img)
     };
-    let camsim = [render(1)?, render(2)?];
+    let camsim = (1..=opts.seeds as u64)
+        .map(&mut render)
+        .collect::<Result<Vec<_>>>()?;
     let camsim_spp = (opts.spp as usize * opts.block * opts.block) as f64;
     // pbrt-v4's samples per stored pixel: the references are 2 x 2 averages of its render; a
     // set stored at the render's size (as INDEX.md's render size says) has its samples per pixel.
@@ -641,17 +675,19 @@ pub fn compare_scene(
         r.samples_per_stored_pixel(cols)
     });
     let rgb = match integrator.as_deref() {
-        Some(i) if integrator_splats(i) => {
-            Some(load_reference_rgb_luminance(references_dir, scene)?)
-        }
+        Some(i) if integrator_splats(i) => Some(load_reference_rgb_luminance(
+            references_dir,
+            scene,
+            opts.seeds,
+        )?),
         _ => None,
     };
     let comparison = compare(
-        [&camsim[0], &camsim[1]],
+        &camsim.iter().collect::<Vec<_>>(),
         camsim_spp,
-        [&pbrt[0], &pbrt[1]],
+        &pbrt.iter().collect::<Vec<_>>(),
         pbrt_spp,
-        rgb.as_ref()
+        rgb.as_deref()
             .map_or(PbrtLuminance::Spectral, PbrtLuminance::Rgb),
         &opts.criteria,
     )?;
@@ -661,7 +697,7 @@ pub fn compare_scene(
         pbrt,
         camsim_spp,
         pbrt_spp,
-        camsim_cpu_s: cpu_s / 2.0,
+        camsim_cpu_s: cpu_s / opts.seeds as f64,
         pbrt_cpu_s: row.map(|r| r.pbrt_cpu_s),
     })
 }
@@ -770,32 +806,81 @@ mod tests {
     use super::*;
     use camsim_core::{Quantity, WavelengthGrid};
 
-    /// Four renders of a uniform grey image with independent pixel noise (hashed indices),
-    /// camsim's in its units; `hit` puts one camera sample on a sub-pixel emitter into pbrt-v4's
-    /// first seed at pixel (5, 3).
-    fn renders(hit: f32) -> [SpectralImage; 4] {
+    /// `2 k` renders of a uniform grey image with independent noise in every pixel and band,
+    /// uniform over +-0.025 (hashed indices): `k` camsim seeds in its units, then `k` pbrt-v4
+    /// seeds; `hit` puts one camera sample on a sub-pixel emitter into pbrt-v4's first seed at
+    /// pixel (5, 3).
+    fn renders_k(hit: f32, k: usize) -> Vec<SpectralImage> {
         let mut i = 0u64;
         let mut noise = move || {
             i += 1;
             (camsim_core::rng::mix64(i) >> 11) as f32 / (1u64 << 53) as f32
         };
-        std::array::from_fn(|k| {
-            let mut im =
-                SpectralImage::zeros(45, 80, WavelengthGrid::default(), 1e-3, Quantity::Radiance)
-                    .unwrap();
-            let scale = if k < 2 { 1.0 / PBRT_UNIT_FACTOR } else { 1.0 } as f32;
-            for b in 0..im.bands() {
-                for v in im.band_mut(b) {
-                    *v = scale * (1.0 + 0.05 * (noise() - 0.5));
-                }
-            }
-            if k == 2 {
+        (0..2 * k)
+            .map(|s| {
+                let mut im = SpectralImage::zeros(
+                    45,
+                    80,
+                    WavelengthGrid::default(),
+                    1e-3,
+                    Quantity::Radiance,
+                )
+                .unwrap();
+                let scale = if s < k { 1.0 / PBRT_UNIT_FACTOR } else { 1.0 } as f32;
                 for b in 0..im.bands() {
-                    im.band_mut(b)[3 * 80 + 5] += hit;
+                    for v in im.band_mut(b) {
+                        *v = scale * (1.0 + 0.05 * (noise() - 0.5));
+                    }
                 }
-            }
-            im
-        })
+                if s == k {
+                    for b in 0..im.bands() {
+                        im.band_mut(b)[3 * 80 + 5] += hit;
+                    }
+                }
+                im
+            })
+            .collect()
+    }
+
+    fn renders(hit: f32) -> Vec<SpectralImage> {
+        renders_k(hit, 2)
+    }
+
+    fn compare_k(r: &[SpectralImage], criteria: &Criteria) -> Comparison {
+        let k = r.len() / 2;
+        let (c, p): (Vec<&SpectralImage>, Vec<&SpectralImage>) =
+            (r[..k].iter().collect(), r[k..].iter().collect());
+        compare(&c, 128.0, &p, 128.0, PbrtLuminance::Spectral, criteria).unwrap()
+    }
+
+    /// The mean ratio's standard error from `k` seeds of each renderer is the closed form for
+    /// independent pixels: per band value variance `s^2 = 0.05^2 / 12`, the band sum's `31 s^2`
+    /// over its mean 31 squared, over `n k` pixel renders, for both renderers:
+    /// `sqrt(2 s^2 / (31 n k))`; two seeds and eight agree with it (the estimate's own error
+    /// is about 1 % here), and one seed is refused.
+    #[test]
+    fn standard_errors_pool_any_number_of_seeds() {
+        let s2 = 0.05f64 * 0.05 / 12.0;
+        for k in [2usize, 8] {
+            let c = compare_k(&renders_k(0.0, k), &Criteria::default());
+            let want = (2.0 * s2 / (31.0 * 3600.0 * k as f64)).sqrt();
+            assert!(
+                (c.mean_ratio_se / want - 1.0).abs() < 0.05,
+                "{k} seeds: {} against {want}",
+                c.mean_ratio_se
+            );
+            assert!(c.pass(), "{c:?}");
+        }
+        let r = renders_k(0.0, 1);
+        assert!(compare(
+            &[&r[0]],
+            1.0,
+            &[&r[1]],
+            1.0,
+            PbrtLuminance::Spectral,
+            &Criteria::default()
+        )
+        .is_err());
     }
 
     /// One sample on a sub-pixel emitter (a quarter of the image's mean by itself) fails the
@@ -803,21 +888,12 @@ mod tests {
     /// left out, which is counted; an image without one loses no pixel.
     #[test]
     fn a_sub_pixel_emitters_pixel_is_left_out() {
-        let run = |r: &[SpectralImage; 4], factor: f64| {
+        let run = |r: &[SpectralImage], factor: f64| {
             let criteria = Criteria {
                 emitter_pixel_factor: factor,
                 ..Criteria::default()
             };
-            let spec = PbrtLuminance::Spectral;
-            compare(
-                [&r[0], &r[1]],
-                128.0,
-                [&r[2], &r[3]],
-                128.0,
-                spec,
-                &criteria,
-            )
-            .unwrap()
+            compare_k(r, &criteria)
         };
         let clean = run(&renders(0.0), 1000.0);
         assert_eq!(clean.masked_pixels, 0);

@@ -44,7 +44,7 @@ fn coffee_silver_matches_pbrt_v4() {
         eprintln!("skipped: ../shared/scenes is not beside the checkout");
         return;
     };
-    let refs = load_reference(&root.join("references"), "coffee").unwrap();
+    let refs = load_reference(&root.join("references"), "coffee", 2).unwrap();
     let (w, h) = (refs[0].cols, refs[0].rows);
     let file = scene_file(&root.join("bitterli"), "coffee");
     // The references' samples per stored pixel: 32 spp on 2 x 2 pixels; half of them here.
