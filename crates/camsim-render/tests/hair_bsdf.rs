@@ -10,8 +10,9 @@
 //!   wo)` for `theta_i = theta_o` (and, without the cuticle tilt, on the specular cone `theta_i
 //!   = -theta_o`). Off those sets Chiang et al.'s model is not reciprocal (its attenuation
 //!   follows `theta_o` only; pbrt-v4 keeps its reciprocity test disabled);
-//! - the azimuthal lobes leave where a real cylinder sends them: the R lobe of a curve hit at
-//!   `v` peaks at the mirror direction of the tube's normal at that point.
+//! - the azimuthal lobes leave as pbrt-v4 sends them: the R lobe of a curve hit at `v` peaks at
+//!   the mirror direction of the tube's normal at the mirrored offset (pbrt-v4's `h = 2 v - 1`
+//!   with its cylinder normals, see `camsim_render::curve`).
 
 use camsim_render::bsdf::hair::{h_from_v, Hair};
 use camsim_render::curve::{fibre_frame, CurveStore};
@@ -222,10 +223,11 @@ fn width_averaged_scattering_is_reciprocal_where_the_model_is() {
 }
 
 #[test]
-fn lobes_leave_where_the_tube_sends_them() {
-    // A straight cylinder curve of radius 1 along x; rays along +z at several offsets. For an
+fn lobes_leave_as_pbrt_v4_sends_them() {
+    // A straight cylinder curve of radius 1 along x; rays along +z at several offsets y0. For an
     // opaque fibre (only R remains) with a narrow azimuthal lobe and no tilt, the BSDF's
-    // maximum must lie at the mirror direction of the tube's normal at the point the ray meets.
+    // maximum must lie at the mirror direction of the tube's normal at the offset -y0: pbrt-v4's
+    // fibres are the tube mirrored across the plane of its axis and the ray.
     let mut store = CurveStore::default();
     store.add(
         &Curves {
@@ -263,14 +265,14 @@ fn lobes_leave_where_the_tube_sends_them() {
             .unwrap()
             .1;
         let peak = frame.to_world(best);
-        // The tube's outward normal where the ray enters, and the mirror direction of -d.
-        let nt = V3::new(0.0, y0, -(1.0 - y0 * y0).sqrt());
+        // The tube's outward normal at the mirrored offset, and the mirror direction of -d.
+        let nt = V3::new(0.0, -y0, -(1.0 - y0 * y0).sqrt());
         let wo_w = -d;
         let mirror = nt * (2.0 * nt.dot(wo_w)) - wo_w;
         let angle = peak.dot(mirror).clamp(-1.0, 1.0).acos();
         assert!(
             angle < 0.01,
-            "offset {y0}: R lobe peaks at {peak:?}, the tube mirrors to {mirror:?}"
+            "offset {y0}: R lobe peaks at {peak:?}, the mirrored tube reflects to {mirror:?}"
         );
     }
 }

@@ -258,8 +258,40 @@ pub fn load_like_reference(
     spp: u32,
     seed: u64,
 ) -> Result<SceneDescription> {
+    load_at_render_size(
+        file,
+        (ref_cols * render_block, ref_rows * render_block),
+        spp,
+        seed,
+    )
+}
+
+/// The render size that reproduces a reference of `cols` x `rows` stored pixels at
+/// `render_block` times its size: pbrt-v4's own render size from `INDEX.md` when the block
+/// reproduces it (an odd height such as `hair-curl`'s 213 rows: the stored image dropped the
+/// last row, and a 212-row render would scale the field of view's pixels by 213 / 212), else
+/// the stored size times the block.
+pub fn render_size(
+    row: Option<&IndexRow>,
+    cols: usize,
+    rows: usize,
+    render_block: usize,
+) -> (usize, usize) {
+    match row.and_then(|r| r.render_width.zip(r.render_height)) {
+        Some((w, h)) if w == cols * render_block && h / render_block == rows => (w, h),
+        _ => (cols * render_block, rows * render_block),
+    }
+}
+
+/// [`load_like_reference`] at a given render size `(cols, rows)`.
+pub fn load_at_render_size(
+    file: &Path,
+    render: (usize, usize),
+    spp: u32,
+    seed: u64,
+) -> Result<SceneDescription> {
     let opts = BuiltinOptions {
-        resolution: Some((ref_cols * render_block, ref_rows * render_block)),
+        resolution: Some(render),
         seed,
         ..BuiltinOptions::default()
     };
@@ -659,8 +691,9 @@ pub fn compare_scene(
     let pbrt = load_reference(references_dir, scene, opts.seeds)?;
     let (cols, rows) = (pbrt[0].cols, pbrt[0].rows);
     let mut cpu_s = 0.0;
+    let size = render_size(row, cols, rows, opts.block);
     let mut render = |seed: u64| -> Result<SpectralImage> {
-        let sc = load_like_reference(&file, cols, rows, opts.block, opts.spp, seed)?;
+        let sc = load_at_render_size(&file, size, opts.spp, seed)?;
         let (img, c) = render_like_reference_with(&sc, opts.block, opts.light_sampler)?;
         cpu_s += c;
         Ok(img)
@@ -751,6 +784,8 @@ pub struct IndexRow {
     /// Width of pbrt-v4's render, pixels (its `render size` column, `WxH`), when given: with
     /// the stored image's width it tells how many render pixels each stored pixel averages.
     pub render_width: Option<usize>,
+    /// Height of pbrt-v4's render, pixels, when given ([`render_size`]).
+    pub render_height: Option<usize>,
     /// pbrt-v4's CPU time for one seed, s.
     pub pbrt_cpu_s: f64,
 }
@@ -795,6 +830,10 @@ pub fn read_index(references_dir: &Path) -> Result<Vec<IndexRow>> {
                 .split('x')
                 .next()
                 .and_then(|w| w.trim().parse().ok()),
+            render_height: cells[3]
+                .split('x')
+                .nth(1)
+                .and_then(|h| h.trim().parse().ok()),
             pbrt_cpu_s: cpu,
         });
     }
@@ -915,7 +954,7 @@ mod tests {
     /// The stored references average 2 x 2 render pixels (128 samples from 32 spp); a set stored
     /// at the render's size has 32; an index without a render size means the references'.
     #[test]
-    fn samples_per_stored_pixel_follow_the_render_size() {
+    fn samples_and_render_size_follow_the_index() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
             dir.path().join("INDEX.md"),
@@ -926,7 +965,20 @@ mod tests {
         .unwrap();
         let rows = read_index(dir.path()).unwrap();
         assert_eq!(rows.len(), 1);
-        assert_eq!(rows[0].render_width, Some(320));
+        assert_eq!(
+            (rows[0].render_width, rows[0].render_height),
+            (Some(320), Some(180))
+        );
+        // An odd render height is rendered as such and cropped by the 2 x 2 average (hair-curl:
+        // 320 x 213 stored at 160 x 106); a block that does not reproduce the render, or no
+        // size in the index, renders the stored size times the block.
+        let odd = IndexRow {
+            render_height: Some(213),
+            ..rows[0].clone()
+        };
+        assert_eq!(render_size(Some(&odd), 160, 106, 2), (320, 213));
+        assert_eq!(render_size(Some(&odd), 160, 106, 1), (160, 106));
+        assert_eq!(render_size(None, 160, 106, 2), (320, 212));
         assert_eq!(rows[0].samples_per_stored_pixel(160), 128.0);
         assert_eq!(rows[0].samples_per_stored_pixel(320), 32.0);
         let no_size = IndexRow {

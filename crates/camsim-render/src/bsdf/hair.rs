@@ -361,15 +361,16 @@ impl<const N: usize> Hair<N> {
 }
 
 /// The offset `h` across the fibre (the BSDF's `h`, -1..1) of a curve hit at `v` (0..1 across
-/// the curve; `v > 1/2` on the side of `ray x dp/du`, see [`crate::curve`]): `h = 1 - 2 v`, so
-/// that with the fibre frame (x along dp/du, y = z x x) the azimuthal lobes leave where a
-/// cylinder at that point sends them (the mirror reflection off the tube's normal for R).
-/// pbrt-v4's `HairMaterial` takes `h = -1 + 2 v`, which mirrors every lobe across the fibre's
-/// width (invisible once a pixel averages the fibre's width: the lobes' mean over `h` is
-/// symmetric).
+/// the curve; `v > 1/2` on the side of `ray x dp/du`, see [`crate::curve`]): pbrt-v4's
+/// `HairMaterial`, `h = 2 v - 1`. With the fibre frame (x along dp/du, y = z x x) that sends
+/// each azimuthal lobe where a tube sends it from the mirrored offset `-h` (the R lobe is the
+/// mirror reflection off the tube's normal at `-h`), as pbrt-v4's cylinder normals are the
+/// mirror image of the near half's ([`crate::curve`]); averaged over the fibre's width the two
+/// are the same. camsim follows pbrt-v4 here so that its fibres, once a pixel resolves them,
+/// look as pbrt-v4 renders them (Bitterli's `hair-curl`).
 #[inline]
 pub fn h_from_v(v: f32) -> f32 {
-    (1.0 - 2.0 * v).clamp(-1.0, 1.0)
+    (2.0 * v - 1.0).clamp(-1.0, 1.0)
 }
 
 /// Absorption coefficient from a fibre's colour (its multiple-scattering albedo `c`, 0..1, at
