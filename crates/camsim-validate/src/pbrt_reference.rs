@@ -26,8 +26,9 @@
 //! number `k >= 2` given), pixel by pixel: for independent renders `a`, `b` of one pixel,
 //! `E[(a - b)^2] / 2` is the variance of one render, so the variance of a block's two-seed mean
 //! is `sum_p (a_p - b_p)^2 / (4 n^2)` over its `n` pixels (pixels are independent Monte Carlo
-//! estimates); with `k` seeds each pixel's sample variance over them divided by `k`. Pooling over the block's pixels gives the
-//! estimate `n` degrees of freedom; the single difference of the two block means would give one,
+//! estimates); with `k` seeds, each pixel's sample variance over them divided by `k`. Pooling
+//! over the block's pixels gives the estimate `n` degrees of freedom; the single difference of
+//! the two block means would give one,
 //! and a 4-sigma test with a one-degree-of-freedom error (a Student t with two) fails 5.7 % of
 //! blocks of two identical renderers.
 //!
