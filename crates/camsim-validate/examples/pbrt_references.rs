@@ -30,8 +30,8 @@
 use camsim_core::colorimetry::Cmfs;
 use camsim_core::SpectralImage;
 use camsim_validate::pbrt_reference::{
-    compare_scene, file_integrator, read_index, scene_file, Criteria, SceneOptions,
-    PBRT_UNIT_FACTOR, REFERENCE_BLOCK,
+    compare_scene, read_index, scene_integrator, Criteria, SceneOptions, PBRT_UNIT_FACTOR,
+    REFERENCE_BLOCK,
 };
 use std::path::{Path, PathBuf};
 
@@ -215,14 +215,8 @@ fn main() {
         criteria,
     };
     for scene in &scenes {
-        let integrator = file_integrator(&scene_file(&args.scenes_dir, scene))
-            .or_else(|| {
-                index
-                    .iter()
-                    .find(|r| &r.scene == scene)
-                    .map(|r| r.integrator.clone())
-            })
-            .unwrap_or_else(|| "?".into());
+        let integrator =
+            scene_integrator(&args.scenes_dir, &index, scene).unwrap_or_else(|| "?".into());
         let run = match compare_scene(&args.scenes_dir, &args.references_dir, &index, scene, &opts)
         {
             Ok(r) => r,

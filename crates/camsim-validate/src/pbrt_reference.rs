@@ -688,7 +688,7 @@ pub fn compare_scene(
 ) -> Result<SceneComparison> {
     let row = index.iter().find(|r| r.scene == scene);
     let file = scene_file(scenes_dir, scene);
-    let integrator = file_integrator(&file).or_else(|| row.map(|r| r.integrator.clone()));
+    let integrator = scene_integrator(scenes_dir, index, scene);
     let pbrt = load_reference(references_dir, scene, opts.seeds)?;
     let (cols, rows) = (pbrt[0].cols, pbrt[0].rows);
     let mut cpu_s = 0.0;
@@ -733,6 +733,17 @@ pub fn compare_scene(
         pbrt_spp,
         camsim_cpu_s: cpu_s / opts.seeds as f64,
         pbrt_cpu_s: row.map(|r| r.pbrt_cpu_s),
+    })
+}
+
+/// The integrator pbrt-v4 ran for `scene`: its file's ([`file_integrator`]), else the one
+/// `INDEX.md` lists.
+pub fn scene_integrator(scenes_dir: &Path, index: &[IndexRow], scene: &str) -> Option<String> {
+    file_integrator(&scene_file(scenes_dir, scene)).or_else(|| {
+        index
+            .iter()
+            .find(|r| r.scene == scene)
+            .map(|r| r.integrator.clone())
     })
 }
 
