@@ -72,13 +72,13 @@ pub enum TexelFilter {
     /// Bilinear between the four nearest texel centres (pbrt-v4 `bilinear`, the default).
     #[default]
     Bilinear,
-    /// The nearest texel (pbrt-v4 `point`: texel `round(s w - 1/2)`, `round(t h - 1/2)`).
+    /// The texel nearest `(s, t)` (pbrt-v4 `point`).
     Point,
 }
 
 impl TexelFilter {
-    /// pbrt-v4's names: `point` and `bilinear`; `trilinear` and `ewa` filter over a ray's footprint,
-    /// which camsim does not trace, and read as `bilinear` (the flag says so).
+    /// pbrt-v4's names: `point` and `bilinear` (flag `true`); `trilinear` and `ewa` filter over
+    /// a ray's footprint, which camsim does not trace, and read as `bilinear` (flag `false`).
     pub fn from_name(name: &str) -> Option<(TexelFilter, bool)> {
         match name {
             "point" => Some((TexelFilter::Point, true)),
