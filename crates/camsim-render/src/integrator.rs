@@ -419,24 +419,10 @@ impl Tracer {
     }
 
     /// Spectral radiance arriving along `ray` at the path's wavelengths (one sample of the path
-    /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have). The
+    /// integral; pbrt-v4 `PathIntegrator::Li` restricted to the materials we have), each light's
+    /// contribution added to `l` (one sum, or one per light group: [`crate::light_groups`]). The
     /// uniform numbers of bounce `depth` come from `sampler` at `dim::bounce(depth)` onward.
     /// Every ray of the path sees the scene at the path's time `pt`.
-    pub(crate) fn li<const N: usize, S: PathSampler>(
-        &self,
-        ray: Ray,
-        lambdas: &Lambdas<N>,
-        sampler: &mut S,
-        counts: &mut RayCounts,
-        pt: &PathTime,
-    ) -> [f32; N] {
-        let mut l = [0f32; N];
-        self.li_into(ray, lambdas, sampler, counts, pt, &mut l);
-        l
-    }
-
-    /// [`Self::li`] adding each light's contribution to `l` (one sum, or one per light group:
-    /// [`crate::light_groups`]).
     pub(crate) fn li_into<const N: usize, S: PathSampler, R: PathRadiance<N>>(
         &self,
         mut ray: Ray,

@@ -96,14 +96,9 @@ impl Tracer {
         counts: &mut RayCounts,
         pt: &PathTime,
     ) -> [f32; N] {
-        match &self.media {
-            None => self.li(ray, lambdas, sampler, counts, pt),
-            Some(media) => {
-                let mut l = [0f32; N];
-                self.li_vol(media, ray, lambdas, sampler, counts, pt, &mut l);
-                l
-            }
-        }
+        let mut l = [0f32; N];
+        self.radiance_into(ray, lambdas, sampler, counts, pt, &mut l);
+        l
     }
 
     /// [`Self::radiance`] adding each light's contribution to `out` (one sum, or one per light
@@ -154,7 +149,7 @@ impl Tracer {
 
     /// One sample of the radiance arriving along `ray` at the path's wavelengths (pbrt-v4
     /// `VolPathIntegrator::Li`, with camsim's dimensions, Russian roulette start and
-    /// dispersion handling as in [`Tracer::li`]), each light's contribution added to `out`
+    /// dispersion handling as in [`Tracer::li_into`]), each light's contribution added to `out`
     /// (a medium's own emission, which belongs to no light, under [`NO_LIGHT`]).
     #[allow(clippy::too_many_arguments)]
     fn li_vol<const N: usize, S: PathSampler, R: PathRadiance<N>>(
