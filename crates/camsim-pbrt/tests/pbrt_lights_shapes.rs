@@ -58,6 +58,7 @@ fn point_spot_distant_parameters_follow_pbrt_v4() {
             intensity,
             cone_angle_deg,
             cone_delta_deg,
+            ..
         } => {
             assert_eq!(*position_m, [0.0, 0.0, 0.0]);
             // Rotate 90 about x takes +z to -y.

@@ -433,6 +433,8 @@ impl Tracer {
     fn albedo_at(&self, m: u32, ctx: &TexCtx, l: &Lambdas<1>) -> f32 {
         let v = match &self.materials[m as usize] {
             Mat::Diffuse(t) | Mat::CoatedDiffuse { r: t, .. } => self.eval_texture(t, ctx, l)[0],
+            // The base colour (the albedo glTF and the G-buffers of rasterizers report).
+            Mat::GltfPbr { base, .. } => self.eval_texture(base, ctx, l)[0],
             Mat::DiffuseTransmission { r, scale, .. } => self.eval_texture(r, ctx, l)[0] * scale,
             Mat::Conductor { optics, .. } => {
                 let (e, k) = self.conductor_constants(optics, ctx, l);

@@ -62,6 +62,8 @@ pub(crate) enum LightKind {
         axis: V3,
         cos_end: f32,
         cos_start: f32,
+        /// `KHR_lights_punctual`'s squared ramp instead of pbrt-v4's smoothstep.
+        gltf_falloff: bool,
     },
     /// Distant light: `to_light` is the unit direction toward the light (table: irradiance
     /// W/(m^2 nm) on a surface facing it).
@@ -72,6 +74,18 @@ pub(crate) enum LightKind {
     /// Projection light (pbrt-v4 `ProjectionLight`): index into `Lights::projs` (table: the
     /// illuminant per unit RGB, W/(sr nm)).
     Proj { p: V3, j: u32 },
+}
+
+/// A spot light's falloff at `cos_theta` between the outer (`cos_end`) and inner (`cos_start`)
+/// cones: pbrt-v4's smoothstep, or `KHR_lights_punctual`'s squared linear ramp.
+#[inline]
+fn spot_falloff(cos_end: f32, cos_start: f32, cos_theta: f32, gltf: bool) -> f32 {
+    if !gltf {
+        return smoothstep(cos_end, cos_start, cos_theta);
+    }
+    // KHR_lights_punctual implementation note: scale = 1 / max(0.001, cos_inner - cos_outer).
+    let t = ((cos_theta - cos_end) / (cos_start - cos_end).max(1e-3)).clamp(0.0, 1.0);
+    t * t
 }
 
 /// pbrt-v4 `SmoothStep(a, b, x)`: 0 below `a`, 1 above `b`, `3t^2 - 2t^3` between.
@@ -247,11 +261,16 @@ impl Lights {
                     // pbrt-v4 PointLight::Phi = 4 pi I.
                     LightKind::Point { .. } => 4.0 * p * lmean,
                     // pbrt-v4 SpotLight::Phi = I 2 pi ((1 - cos_start) + (cos_start - cos_end) / 2).
+                    // KHR_lights_punctual's ramp t^2: 2 pi int t^2 dcos = 2 pi (cs - ce) / 3.
                     LightKind::Spot {
-                        cos_end, cos_start, ..
+                        cos_end,
+                        cos_start,
+                        gltf_falloff,
+                        ..
                     } => {
                         let (ce, cs) = (cos_end as f64, cos_start as f64);
-                        lmean * 2.0 * p * ((1.0 - cs) + (cs - ce) / 2.0)
+                        let band = if gltf_falloff { 1.0 / 3.0 } else { 0.5 };
+                        lmean * 2.0 * p * ((1.0 - cs) + (cs - ce) * band)
                     }
                     // pbrt-v4 DistantLight::Phi = pi r^2 E.
                     LightKind::Distant { .. } => p * (scene_radius_m as f64).powi(2) * lmean,
@@ -347,6 +366,7 @@ impl Lights {
                     axis,
                     cos_end,
                     cos_start,
+                    ..
                 } => {
                     let spread =
                         cos_end.clamp(-1.0, 1.0).acos() - cos_start.clamp(-1.0, 1.0).acos();
@@ -556,6 +576,7 @@ impl Lights {
                 intensity,
                 cone_angle_deg,
                 cone_delta_deg,
+                falloff,
             } => {
                 let p = finite_point(*position_m)?;
                 let axis = unit(*direction, "spot light direction")?;
@@ -577,6 +598,7 @@ impl Lights {
                         axis,
                         cos_end,
                         cos_start,
+                        gltf_falloff: *falloff == crate::scene::SpotFalloff::GltfSquared,
                     },
                     t,
                     true,
@@ -829,10 +851,11 @@ impl Lights {
                         axis,
                         cos_end,
                         cos_start,
+                        gltf_falloff,
                         ..
                     } = light.kind
                     {
-                        k *= smoothstep(cos_end, cos_start, axis.dot(-wi));
+                        k *= spot_falloff(cos_end, cos_start, axis.dot(-wi), gltf_falloff);
                     }
                     if let LightKind::Gonio { g, .. } = light.kind {
                         k *= self.gonios[g as usize].value(-wi);

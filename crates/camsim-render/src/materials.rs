@@ -76,6 +76,16 @@ pub(crate) enum Mat {
         beta_n: f32,
         alpha_deg: f32,
     },
+    /// The glTF 2.0 metallic-roughness material (`crate::bsdf::gltf`): textures evaluated per
+    /// hit; `f0_scale` is `((ior - 1) / (ior + 1))^2`.
+    GltfPbr {
+        base: Tex,
+        metallic: FTex,
+        roughness: FTex,
+        specular: FTex,
+        specular_color: Tex,
+        f0_scale: f32,
+    },
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
         base: u32,
@@ -345,6 +355,20 @@ pub(crate) fn compile_material(
                 beta_m: beta_m.clamp(0.01, 1.0) as f32,
                 beta_n: beta_n.clamp(0.01, 1.0) as f32,
                 alpha_deg: *alpha_deg as f32,
+            }
+        }
+        Material::GltfPbr(g) => {
+            if !(g.ior.is_finite() && g.ior >= 1.0) {
+                return Err(err(format!("glTF ior {} must be >= 1", g.ior)));
+            }
+            let r0 = (g.ior - 1.0) / (g.ior + 1.0);
+            Mat::GltfPbr {
+                base: compile_texture(&g.base_color, mi, ws, tables, images)?,
+                metallic: compile_float_texture(&g.metallic, mi)?,
+                roughness: compile_float_texture(&g.roughness, mi)?,
+                specular: compile_float_texture(&g.specular, mi)?,
+                specular_color: compile_texture(&g.specular_color, mi, ws, tables, images)?,
+                f0_scale: (r0 * r0) as f32,
             }
         }
         Material::VaryingRoughness {

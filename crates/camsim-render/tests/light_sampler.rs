@@ -96,6 +96,7 @@ fn scene(spp: u32, max_depth: u32) -> SceneDescription {
                 intensity: flat(2.0),
                 cone_angle_deg: 30.0,
                 cone_delta_deg: 5.0,
+                falloff: Default::default(),
             },
             Light::Distant {
                 direction: [0.3, 0.2, -1.0],

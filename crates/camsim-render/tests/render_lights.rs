@@ -170,6 +170,7 @@ fn spot_light_cone_and_falloff() {
         intensity: flat(i0),
         cone_angle_deg: cone,
         cone_delta_deg: delta,
+        falloff: Default::default(),
     }];
     // 256 samples: the only noise is the jittered position inside each pixel, about 0.1 %
     // (one sigma) on the inner pixels, so the 0.5 % per-pixel bound below holds at ~4 sigma for

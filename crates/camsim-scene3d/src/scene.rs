@@ -376,6 +376,10 @@ pub enum Material {
         beta_n: f64,
         alpha_deg: f64,
     },
+    /// The glTF 2.0 metallic-roughness material (glTF 2.0 specification, Appendix B, with
+    /// `KHR_materials_specular` and `KHR_materials_ior`), see [`GltfPbr`] and
+    /// `camsim_render::bsdf::Bsdf::GltfPbr`.
+    GltfPbr(Box<GltfPbr>),
     /// Roughness that varies over the surface: material `material` (a conductor, dielectric or
     /// coated diffuse; index into `SceneDescription::materials`) with its constant roughness
     /// replaced at every hit by the float textures `u` and `v` (pbrt-v4 materials take
@@ -387,6 +391,33 @@ pub enum Material {
         v: FloatTexture,
         remap: bool,
     },
+}
+
+/// The glTF 2.0 metallic-roughness BRDF's inputs (glTF 2.0 specification, Appendix B): with
+/// `alpha = roughness^2`, `D` the GGX (Trowbridge-Reitz) distribution and `V` the
+/// height-correlated Smith visibility `G2 / (4 |n.l| |n.v|)`, at each wavelength
+///
+/// `f = (1 - metallic) [(1 - F_d) base / pi + F_d D V] + metallic F_m D V`
+///
+/// with Schlick's Fresnel `F_d = F0_d + (F90_d - F0_d)(1 - |v.h|)^5`, `F0_d = min(((ior - 1) /
+/// (ior + 1))^2 specular_color, 1) specular`, `F90_d = specular` (`KHR_materials_specular`;
+/// without it `specular = 1`, `specular_color = 1`, `ior = 1.5`: `F0_d = 0.04`) and
+/// `F_m = base + (1 - base)(1 - |v.h|)^5`. Reflection only, the same on both sides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GltfPbr {
+    /// Base colour as a reflectance (the linear base colour, factor times texture, uplifted).
+    pub base_color: Texture,
+    /// Metalness, 0..1 (factor times the metallicRoughness texture's B channel).
+    pub metallic: FloatTexture,
+    /// Perceptual roughness, 0..1 (factor times the texture's G channel); `alpha = roughness^2`.
+    pub roughness: FloatTexture,
+    /// `KHR_materials_specular` `specularFactor` (times its texture's alpha), 0..1.
+    pub specular: FloatTexture,
+    /// `KHR_materials_specular` `specularColorFactor` (times its texture) as a spectrum (may
+    /// exceed 1).
+    pub specular_color: Texture,
+    /// Index of refraction of the dielectric part (`KHR_materials_ior`, default 1.5).
+    pub ior: f64,
 }
 
 /// What perturbs a material's shading normal per hit (pbrt-v4 4th ed. sec. 10.5.1).
@@ -589,14 +620,16 @@ pub enum Light {
         position_m: [f64; 3],
         intensity: Spectrum,
     },
-    /// Spot light (pbrt-v4 `spot`): intensity `intensity * smoothstep(cos(cone_angle),
-    /// cos(cone_angle - cone_delta), cos theta)` around the unit axis `direction`, W/(sr nm).
+    /// Spot light (pbrt-v4 `spot`): intensity `intensity * falloff(cos(cone_angle),
+    /// cos(cone_angle - cone_delta), cos theta)` around the unit axis `direction`, W/(sr nm);
+    /// `falloff` pbrt-v4's smoothstep or `KHR_lights_punctual`'s squared ramp ([`SpotFalloff`]).
     Spot {
         position_m: [f64; 3],
         direction: [f64; 3],
         intensity: Spectrum,
         cone_angle_deg: f64,
         cone_delta_deg: f64,
+        falloff: SpotFalloff,
     },
     /// Light from one direction (pbrt-v4 `distant`): `direction` is the unit vector the light
     /// travels along (from -> to); `irradiance` W/(m^2 nm) on a surface facing the light.
@@ -610,6 +643,18 @@ pub enum Light {
     Goniometric(GoniometricLight),
     /// Point light projecting an image through a frustum (pbrt-v4 `projection`).
     Projection(ProjectionLight),
+}
+
+/// How a spot light's intensity falls from the inner cone (`cos_start`) to the outer cone
+/// (`cos_end`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpotFalloff {
+    /// pbrt-v4 `SpotLight`: `smoothstep(cos_end, cos_start, cos theta)`.
+    #[default]
+    Smoothstep,
+    /// `KHR_lights_punctual` (its implementation note): `t^2` with `t = clamp((cos theta -
+    /// cos_end) / (cos_start - cos_end), 0, 1)`.
+    GltfSquared,
 }
 
 /// pbrt-v4 `ProjectionLight` (4th ed. §12.2.2): a point source at `position_m` projecting an RGB

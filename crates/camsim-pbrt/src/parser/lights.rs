@@ -91,6 +91,7 @@ impl SceneBuilder {
                         intensity: s.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
                         cone_angle_deg,
                         cone_delta_deg,
+                        falloff: Default::default(),
                     }
                 };
                 self.lights.push(light);

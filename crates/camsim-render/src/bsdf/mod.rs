@@ -18,6 +18,7 @@
 //! the two estimates; see [`layered`].
 
 pub mod fresnel;
+pub mod gltf;
 pub mod hair;
 pub mod layered;
 pub mod microfacet;
@@ -79,6 +80,9 @@ pub enum Bsdf<const N: usize> {
     /// A hair fibre (Chiang et al. 2016, pbrt-v4 `HairBxDF`, see [`hair`]): the local frame's x
     /// axis runs along the fibre. Scatters to both sides of the (ray-facing) curve surface.
     Hair(hair::Hair<N>),
+    /// The glTF 2.0 metallic-roughness BRDF (specification Appendix B, see [`gltf`]); reflection
+    /// only, the same on both sides.
+    GltfPbr(gltf::GltfBrdf<N>),
 }
 
 /// A sampled incident direction.
@@ -100,13 +104,13 @@ pub struct BsdfSample<const N: usize> {
 }
 
 #[inline(always)]
-fn same_hemisphere(a: &V3, b: &V3) -> bool {
+pub(crate) fn same_hemisphere(a: &V3, b: &V3) -> bool {
     a.z * b.z > 0.0
 }
 
 impl<const N: usize> BsdfSample<N> {
     #[inline(always)]
-    fn new(
+    pub(crate) fn new(
         wi_local: V3,
         weight: [f32; N],
         pdf: f32,
@@ -141,7 +145,8 @@ impl<const N: usize> Bsdf<N> {
             Bsdf::Diffuse { .. }
             | Bsdf::DiffuseTransmission { .. }
             | Bsdf::CoatedDiffuse { .. }
-            | Bsdf::Hair(_) => false,
+            | Bsdf::Hair(_)
+            | Bsdf::GltfPbr(_) => false,
         }
     }
 
@@ -216,6 +221,7 @@ impl<const N: usize> Bsdf<N> {
         match self {
             Bsdf::CoatedConductor { .. } | Bsdf::CoatedDiffuse { .. } => self.layered_eval(wo, wi),
             Bsdf::Hair(h) => (h.f(wo, wi), h.pdf(wo, wi)),
+            Bsdf::GltfPbr(b) => b.eval(wo, wi),
             Bsdf::Diffuse { reflectance } => {
                 if !same_hemisphere(wo, wi) {
                     return ([ZERO; N], 0.0);
@@ -287,6 +293,7 @@ impl<const N: usize> Bsdf<N> {
                 let wi = if flip { -x.wi } else { x.wi };
                 BsdfSample::new(wi, x.weight, x.pdf, x.specular, false, 1.0)
             }
+            Bsdf::GltfPbr(b) => b.sample(wo, uc, u0, u1),
             Bsdf::Hair(h) => {
                 let (wi, f, pdf) = h.sample(wo, uc, u0, u1)?;
                 let c = wi.z.abs();
@@ -442,6 +449,7 @@ impl<const N: usize> Bsdf<N> {
                 _ => 0.0,
             },
             Bsdf::Hair(h) => h.pdf(wo, wi),
+            Bsdf::GltfPbr(b) => b.pdf(wo, wi),
             _ => self.eval(wo, wi).1,
         }
     }
