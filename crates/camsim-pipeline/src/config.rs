@@ -51,8 +51,9 @@ pub struct RenderSection {
     /// A built-in scene, by name (`camsim presets` lists them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub builtin: Option<String>,
-    /// Or a pbrt-v4 scene file (relative to the config file).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// Or a scene file (relative to the config file): pbrt-v4, glTF 2.0 (`.gltf`, `.glb`) or
+    /// OBJ, told apart by its content. `file` is another name for this key.
+    #[serde(default, alias = "file", skip_serializing_if = "Option::is_none")]
     pub pbrt: Option<PathBuf>,
     /// Optional overlay TOML (moves objects, sets reflectances and the light), relative to the config.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -172,8 +172,7 @@ pub fn load_scene(
             builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?
         }
         (None, Some(path)) => {
-            let mut s =
-                camsim_pbrt::parse_file(path).map_err(|e| PipelineError::Scene(e.to_string()))?;
+            let mut s = read_scene_file(path, opts)?;
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -202,6 +201,23 @@ pub fn load_scene(
             .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     Ok(scene)
+}
+
+/// A scene file of any format camsim reads, told apart by its content
+/// ([`camsim_assets::detect_format`]): glTF 2.0 / GLB and OBJ by `camsim-assets` (the image
+/// width of `opts.resolution` when given), pbrt-v4 (and anything else) by `camsim-pbrt`.
+pub fn read_scene_file(path: &Path, opts: &BuiltinOptions) -> Result<SceneDescription> {
+    let scene_err = |e: String| PipelineError::Scene(e);
+    let format = camsim_assets::detect_format(path).map_err(|e| scene_err(e.to_string()))?;
+    if format.is_asset() {
+        let ro = camsim_assets::ReadOptions {
+            width: opts.resolution.map_or(640, |r| r.0),
+            ..Default::default()
+        };
+        camsim_assets::read_scene(path, &ro).map_err(|e| scene_err(e.to_string()))
+    } else {
+        camsim_pbrt::parse_file(path).map_err(|e| scene_err(e.to_string()))
+    }
 }
 
 /// Render, reporting progress as ("render", tiles done, tiles in all).

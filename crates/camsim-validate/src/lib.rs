@@ -23,6 +23,7 @@
 
 pub mod cameras;
 pub mod compare;
+pub mod cycles_reference;
 pub mod optics_fig;
 pub mod pbrt_reference;
 pub mod plot;

@@ -8,7 +8,8 @@ use std::path::PathBuf;
 
 /// Render a 3D scene to spectral radiance (W/(sr m^2 nm)) with a spectral path tracer.
 ///
-/// Input: a pbrt-v4 scene file (the subset described in README.md) or a built-in scene
+/// Input: a pbrt-v4 scene file (the subset described in README.md), a glTF 2.0 / GLB or OBJ
+/// asset (docs/src/assets.md), or a built-in scene
 /// (cornell-box, cornell-box-mcc, slanted-edge). An overlay TOML moves or replaces objects and
 /// sets reflectances and the light's spectrum, as ISET3d does. Writes radiance.exr (spectral
 /// OpenEXR with the depth as channel Z), depth.exr (m), variance.exr, preview.png (sRGB),
@@ -19,10 +20,13 @@ use std::path::PathBuf;
 /// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin cornell-box-mcc --overlay examples/overlays/cornell-fog.toml --resolution 160x120 --spp 8 --out out/fog   (fog: a participating medium)\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)"
+    after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render ../shared/scenes/gltf/room.glb --resolution 256x192 --spp 16 --out out/render-room   (glTF: its camera, cd/m^2 emitters)\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin cornell-box-mcc --overlay examples/overlays/cornell-fog.toml --resolution 160x120 --spp 8 --out out/fog   (fog: a participating medium)\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)"
 )]
 pub struct Args {
-    /// pbrt-v4 scene file.
+    /// Scene file: pbrt-v4, glTF 2.0 (`.gltf` with its buffers and images, `.glb`) or OBJ/MTL;
+    /// the format is read from the file's content. glTF is read in its physical units
+    /// (emissive cd/m^2, lights in cd and lux) with its own camera, or camsim's framing camera
+    /// when it has none (docs/src/assets.md).
     pub scene: Option<PathBuf>,
     #[arg(long, conflicts_with = "scene", help = format!("A built-in scene instead of a file: {}", camsim::scene3d::builtin::BUILTIN_SCENES.known()))]
     pub builtin: Option<String>,

@@ -192,8 +192,8 @@ mod tests {
         (by_sample / k, by_uniform / k)
     }
 
-    /// White furnace: a white base (dielectric or metal) at every roughness reflects at most
-    /// all the light (no gain), a metal loses energy to single scattering (the known GGX
+    /// White furnace: a white metal at every roughness and angle, and a white dielectric at
+    /// normal incidence, reflect at most all the light (no gain); a metal loses energy to single scattering (the known GGX
     /// multiple-scattering loss, largest at high roughness), and sampling agrees with eval.
     #[test]
     fn white_furnace_has_no_gain() {
@@ -202,15 +202,32 @@ mod tests {
                 for &cos_o in &[1.0f32, 0.5, 0.15] {
                     let b = GltfBrdf::new([1.0], metallic, rough, [0.04], 1.0);
                     let (s, u) = albedo(&b, cos_o, 250_000);
-                    assert!(s <= 1.005, "m {metallic} r {rough} cos {cos_o}: albedo {s}");
+                    // Metals and normal incidence: no gain. Appendix B's dielectric mix
+                    // weighs the diffuse lobe by 1 - F(v.h) of each light direction, which
+                    // is not the specular lobe's directional albedo: a smooth white dielectric
+                    // seen obliquely reflects a few per cent more than it receives (the
+                    // specification's BRDF as written: 1.025 at 60 degrees and 1.41 at 81
+                    // degrees for roughness 0.05, docs/src/assets.md).
+                    let limit = if metallic == 1.0 || cos_o == 1.0 {
+                        1.005
+                    } else {
+                        1.5
+                    };
+                    assert!(s <= limit, "m {metallic} r {rough} cos {cos_o}: albedo {s}");
+                    // Uniform directions resolve the lobe from roughness 0.3 up.
                     assert!(
-                        (s - u).abs() < 0.03 * u.max(0.05),
+                        rough < 0.3 || (s - u).abs() < 0.03 * u.max(0.05),
                         "m {metallic} r {rough} cos {cos_o}: sampled {s} vs uniform {u}"
                     );
-                    if metallic == 1.0 && rough == 1.0 {
-                        // Single-scattering GGX at alpha 1 loses roughly 35-45 % at normal
-                        // incidence (Kulla & Conty 2017, Fig. 3).
-                        assert!(s < 0.8 && s > 0.5, "metal at roughness 1: {s}");
+                    if metallic == 1.0 && rough == 1.0 && cos_o == 1.0 {
+                        // Closed form: alpha = 1 makes D = 1/pi, and at normal incidence
+                        // G = 2 mu / (1 + mu), so the albedo is int_0^1 mu / (1 + mu) dmu =
+                        // 1 - ln 2 = 0.3069 (the single-scattering loss of a rough metal).
+                        let want = 1.0 - std::f64::consts::LN_2;
+                        assert!(
+                            (s - want).abs() < 0.005,
+                            "metal at roughness 1: {s} vs {want}"
+                        );
                     }
                 }
             }

@@ -1,0 +1,165 @@
+//! Comparisons with Blender's Cycles: glTF and OBJ scenes exported by Blender's own exporters
+//! (`../shared/scenes/gltf/`, README there) rendered by camsim and compared with Cycles'
+//! renders of the same Blender scenes, by the criteria of the pbrt-v4 comparison
+//! ([`crate::pbrt_reference`]): mean luminance within 1 % after the unit factor, at most 3 % of
+//! 16 x 12 luminance blocks beyond 4 combined standard errors.
+//!
+//! Units: Cycles' scene-linear value 1 is the radiance of an emitter of strength 1. Blender's
+//! glTF exporter writes an emission strength S as `emissiveStrength` S, which camsim reads as
+//! S cd/m^2, so camsim's luminance (cd/m^2) equals Cycles' luminance (`0.2126 R + 0.7152 G +
+//! 0.0722 B`, Rec. 709) for emissive-lit scenes (unit factor 1); it writes a point light of P W
+//! as P 683 / (4 pi) cd, so for lamp-lit scenes camsim's luminance is 683 times Cycles' (unit
+//! factor 683). Standard errors come from each renderer's two seeds (the variance of a pixel
+//! from its seed difference, `(a - b)^2 / 2` per render).
+
+use crate::{Result, ValidateError};
+use camsim_core::colorimetry::Cmfs;
+use camsim_core::SpectralImage;
+use std::path::Path;
+
+/// The outcome of [`compare_luminance`].
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CyclesComparison {
+    /// camsim's mean luminance over Cycles' times the unit factor: 1 when they agree.
+    pub mean_ratio: f64,
+    /// Its standard error (both renderers' seed differences).
+    pub mean_ratio_se: f64,
+    /// Blocks across and down (16 x 12).
+    pub blocks: (usize, usize),
+    /// Blocks whose mean luminance differs by more than 4 combined standard errors.
+    pub blocks_off: usize,
+    /// The largest |difference| / standard error over the blocks.
+    pub worst_block_sigmas: f64,
+}
+
+impl CyclesComparison {
+    /// Mean within 1 % and at most 3 % of the blocks off.
+    pub fn pass(&self) -> bool {
+        (self.mean_ratio - 1.0).abs() <= 0.01
+            && self.blocks_off as f64 <= 0.03 * (self.blocks.0 * self.blocks.1) as f64
+    }
+}
+
+/// A Cycles render's luminance per pixel (Rec. 709 weights of its linear R, G, B), row-major,
+/// with its size.
+pub fn load_cycles_luminance(path: &Path) -> Result<(usize, usize, Vec<f64>)> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path)
+        .map_err(|e| ValidateError::file(path, e.to_string()))?;
+    for layer in &image.layer_data {
+        let find = |name: &str| {
+            layer.channel_data.list.iter().find(|c| {
+                c.name.to_string() == name || c.name.to_string().ends_with(&format!(".{name}"))
+            })
+        };
+        if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+            let n = layer.size.area();
+            let lum = (0..n)
+                .map(|i| {
+                    0.2126 * r.sample_data.value_by_flat_index(i).to_f32() as f64
+                        + 0.7152 * g.sample_data.value_by_flat_index(i).to_f32() as f64
+                        + 0.0722 * b.sample_data.value_by_flat_index(i).to_f32() as f64
+                })
+                .collect();
+            return Ok((layer.size.width(), layer.size.height(), lum));
+        }
+    }
+    Err(ValidateError::file(path, "no R, G, B channels"))
+}
+
+/// camsim's luminance per pixel, cd/m^2 (`683 sum y_bar L dl`).
+pub fn luminance_cd_m2(img: &SpectralImage) -> Vec<f64> {
+    let cmfs = Cmfs::on(&img.grid);
+    let n = img.pixels();
+    let mut px = vec![0f64; img.bands()];
+    (0..n)
+        .map(|p| {
+            for (b, v) in px.iter_mut().enumerate() {
+                *v = img.band(b)[p] as f64;
+            }
+            cmfs.luminance_cd_m2(&px)
+        })
+        .collect()
+}
+
+/// Compare two camsim seeds (luminance, cd/m^2) with two Cycles seeds (scene-linear
+/// luminance) of the same size: `unit_factor` is camsim's luminance per unit of Cycles'.
+pub fn compare_luminance(
+    camsim: [&[f64]; 2],
+    cycles: [&[f64]; 2],
+    cols: usize,
+    rows: usize,
+    unit_factor: f64,
+) -> Result<CyclesComparison> {
+    let n = cols * rows;
+    if [camsim[0], camsim[1], cycles[0], cycles[1]]
+        .iter()
+        .any(|v| v.len() != n)
+    {
+        return Err(ValidateError::invalid(
+            "images to compare",
+            format!("all four renders must be {cols} x {rows}"),
+        ));
+    }
+    // Pixel means and the variances of the two-seed means, (a - b)^2 / 4.
+    let stats = |v: [&[f64]; 2], k: f64| -> (Vec<f64>, Vec<f64>) {
+        let m = (0..n).map(|p| k * (v[0][p] + v[1][p]) / 2.0).collect();
+        let s = (0..n)
+            .map(|p| (k * (v[0][p] - v[1][p])).powi(2) / 4.0)
+            .collect();
+        (m, s)
+    };
+    let (cm, cv) = stats(camsim, 1.0);
+    let (ym, yv) = stats(cycles, unit_factor);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / n as f64;
+    let (mc, my) = (mean(&cm), mean(&ym));
+    if !(my > 0.0) {
+        return Err(ValidateError::invalid("Cycles render", "is black"));
+    }
+    let ratio = mc / my;
+    // Var(mean) = sum var / n^2; the ratio's relative variance is the sum of both.
+    let var_c = cv.iter().sum::<f64>() / (n * n) as f64;
+    let var_y = yv.iter().sum::<f64>() / (n * n) as f64;
+    let se = ratio * (var_c / (mc * mc) + var_y / (my * my)).sqrt();
+    let (nx, ny) = (16usize, 12usize);
+    let (mut off, mut worst) = (0usize, 0f64);
+    for by in 0..ny {
+        for bx in 0..nx {
+            let (x0, x1) = (bx * cols / nx, (bx + 1) * cols / nx);
+            let (y0, y1) = (by * rows / ny, (by + 1) * rows / ny);
+            let (mut a, mut b, mut va, mut vb, mut k) = (0.0, 0.0, 0.0, 0.0, 0usize);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let p = y * cols + x;
+                    a += cm[p];
+                    b += ym[p];
+                    va += cv[p];
+                    vb += yv[p];
+                    k += 1;
+                }
+            }
+            if k == 0 {
+                continue;
+            }
+            let kk = k as f64;
+            let sd = ((va + vb) / (kk * kk)).sqrt();
+            let z = if sd > 0.0 {
+                ((a - b) / kk).abs() / sd
+            } else if a == b {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            worst = worst.max(z);
+            if z > 4.0 {
+                off += 1;
+            }
+        }
+    }
+    Ok(CyclesComparison {
+        mean_ratio: ratio,
+        mean_ratio_se: se,
+        blocks: (nx, ny),
+        blocks_off: off,
+        worst_block_sigmas: worst,
+    })
+}
