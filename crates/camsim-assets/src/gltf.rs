@@ -520,7 +520,7 @@ struct Builder {
     named: HashMap<String, usize>,
     /// glTF material index (None: the default material) and COLOR_0 tint -> camsim material
     /// and its emitter.
-    mat_cache: HashMap<(Option<usize>, [u32; 3]), (usize, Option<AreaLight>)>,
+    mat_cache: crate::MaterialCache,
     images: HashMap<usize, Arc<Decoded>>,
     lights: Vec<Light>,
     cameras: Vec<(Option<String>, Option<String>, usize, Camera)>,

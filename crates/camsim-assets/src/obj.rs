@@ -283,7 +283,7 @@ struct MtlBuilder {
     path: PathBuf,
     materials: Vec<Material>,
     named: HashMap<String, usize>,
-    cache: HashMap<(Option<usize>, [u32; 3]), (usize, Option<AreaLight>)>,
+    cache: crate::MaterialCache,
     images: HashMap<String, Arc<Img>>,
     notes: BTreeSet<String>,
 }

@@ -434,7 +434,7 @@ impl Tracer {
         let v = match &self.materials[m as usize] {
             Mat::Diffuse(t) | Mat::CoatedDiffuse { r: t, .. } => self.eval_texture(t, ctx, l)[0],
             // The base colour (the albedo glTF and the G-buffers of rasterizers report).
-            Mat::GltfPbr { base, .. } => self.eval_texture(base, ctx, l)[0],
+            Mat::GltfPbr(g) => self.eval_texture(&g.base, ctx, l)[0],
             Mat::DiffuseTransmission { r, scale, .. } => self.eval_texture(r, ctx, l)[0] * scale,
             Mat::Conductor { optics, .. } => {
                 let (e, k) = self.conductor_constants(optics, ctx, l);

@@ -76,16 +76,8 @@ pub(crate) enum Mat {
         beta_n: f32,
         alpha_deg: f32,
     },
-    /// The glTF 2.0 metallic-roughness material (`crate::bsdf::gltf`): textures evaluated per
-    /// hit; `f0_scale` is `((ior - 1) / (ior + 1))^2`.
-    GltfPbr {
-        base: Tex,
-        metallic: FTex,
-        roughness: FTex,
-        specular: FTex,
-        specular_color: Tex,
-        f0_scale: f32,
-    },
+    /// The glTF 2.0 metallic-roughness material (`crate::bsdf::gltf`), boxed (five textures).
+    GltfPbr(Box<GltfMat>),
     /// Material `base` with the roughness `(u, v)` evaluated per hit.
     VaryingRoughness {
         base: u32,
@@ -93,6 +85,18 @@ pub(crate) enum Mat {
         v: FTex,
         remap: bool,
     },
+}
+
+/// The glTF 2.0 metallic-roughness material compiled: textures evaluated per hit; `f0_scale`
+/// is `((ior - 1) / (ior + 1))^2`.
+#[derive(Debug, Clone)]
+pub(crate) struct GltfMat {
+    pub(crate) base: Tex,
+    pub(crate) metallic: FTex,
+    pub(crate) roughness: FTex,
+    pub(crate) specular: FTex,
+    pub(crate) specular_color: Tex,
+    pub(crate) f0_scale: f32,
 }
 
 /// A coating's layer (pbrt-v4 `LayeredBxDF` parameters), compiled: the medium's albedo texture
@@ -362,14 +366,14 @@ pub(crate) fn compile_material(
                 return Err(err(format!("glTF ior {} must be >= 1", g.ior)));
             }
             let r0 = (g.ior - 1.0) / (g.ior + 1.0);
-            Mat::GltfPbr {
+            Mat::GltfPbr(Box::new(GltfMat {
                 base: compile_texture(&g.base_color, mi, ws, tables, images)?,
                 metallic: compile_float_texture(&g.metallic, mi)?,
                 roughness: compile_float_texture(&g.roughness, mi)?,
                 specular: compile_float_texture(&g.specular, mi)?,
                 specular_color: compile_texture(&g.specular_color, mi, ws, tables, images)?,
                 f0_scale: (r0 * r0) as f32,
-            }
+            }))
         }
         Material::VaryingRoughness {
             material,

@@ -224,24 +224,17 @@ impl Tracer {
                     false,
                 )
             }
-            Mat::GltfPbr {
-                base,
-                metallic,
-                roughness,
-                specular,
-                specular_color,
-                f0_scale,
-            } => {
-                let base = self.eval_texture(base, ctx, lambdas);
-                let tint = self.eval_texture(specular_color, ctx, lambdas);
-                let spec = eval_float(specular, ctx).clamp(0.0, 1.0);
+            Mat::GltfPbr(g) => {
+                let base = self.eval_texture(&g.base, ctx, lambdas);
+                let tint = self.eval_texture(&g.specular_color, ctx, lambdas);
+                let spec = eval_float(&g.specular, ctx).clamp(0.0, 1.0);
                 // KHR_materials_specular: F0 = min(r0^2 tint, 1) specular, F90 = specular.
-                let f0 = tint.map(|t| (f0_scale * t).min(1.0) * spec);
+                let f0 = tint.map(|t| (g.f0_scale * t).min(1.0) * spec);
                 (
                     Bsdf::GltfPbr(crate::bsdf::gltf::GltfBrdf::new(
                         base,
-                        eval_float(metallic, ctx),
-                        eval_float(roughness, ctx),
+                        eval_float(&g.metallic, ctx),
+                        eval_float(&g.roughness, ctx),
                         f0,
                         spec,
                     )),
