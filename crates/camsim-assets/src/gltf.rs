@@ -877,6 +877,7 @@ impl Builder {
             area_light,
             reverse_orientation: false,
             tags: ShapeTags {
+                category: None,
                 instance: Some(inst),
                 object_to_world: Some(*world),
                 light_group: None,

@@ -191,6 +191,7 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
             area_light,
             reverse_orientation: false,
             tags: ShapeTags {
+                category: None,
                 instance: Some(inst),
                 object_to_world: Some(frame),
                 light_group: None,

@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// Where COCO category names come from.
+/// Where COCO category names come from (`--coco-categories material|object|category`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CategoryBy {
     /// The material of the instance's first shape (default: "red", "white", ...).
@@ -25,6 +25,8 @@ pub enum CategoryBy {
     Material,
     /// The instance's name (its shapes' name, a pbrt `ObjectInstance`'s object).
     Object,
+    /// The instance's semantic category (`[[object]] category` in an overlay), else its name.
+    Category,
 }
 
 impl CategoryBy {
@@ -33,7 +35,10 @@ impl CategoryBy {
         match text {
             "material" => Ok(CategoryBy::Material),
             "object" => Ok(CategoryBy::Object),
-            o => Err(format!("--coco-categories {o:?}: material or object")),
+            "category" => Ok(CategoryBy::Category),
+            o => Err(format!(
+                "--coco-categories {o:?}: material, object or category"
+            )),
         }
     }
 }
@@ -216,6 +221,7 @@ fn export_into(
                 let cat = match by {
                     CategoryBy::Material => inst["material"].as_str(),
                     CategoryBy::Object => inst["name"].as_str(),
+                    CategoryBy::Category => inst["category"].as_str().or(inst["name"].as_str()),
                 }
                 .unwrap_or("")
                 .to_string();

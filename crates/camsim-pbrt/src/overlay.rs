@@ -42,6 +42,13 @@
 //! angular_velocity_deg_s = [0.0, 90.0, 0.0]   # spinning about pivot_m, world axes, deg/s
 //! # remove = true                # delete the objects
 //! # replace = { file = "teapot.ply", material = "white", align = "bottom" }
+//! # category = "teapot"          # semantic category in the labels and COCO
+//!
+//! [[object]]                     # a new object from a file (glTF, GLB, OBJ, PLY, pbrt-v4)
+//! name = "duck"                  # the new instance's name
+//! add = { file = "Duck.glb", at_m = [0.2, 0.0, 0.2] }   # bottom centre of its box at at_m
+//! category = "duck"
+//! scale = 0.1                    # transforms apply to the added object
 //!
 //! [[light_group]]                # lights whose radiance `simulate` can weigh as a group
 //! name = "sky"
@@ -261,6 +268,11 @@ pub struct ObjectOverlay {
     pub remove: bool,
     /// Replace the objects with a file's shapes.
     pub replace: Option<ReplaceSpec>,
+    /// Add a new object (named `name`) from a file; the transform keys then move it.
+    pub add: Option<AddSpec>,
+    /// Semantic category of the objects (the added or replaced ones), for labels and COCO
+    /// (`camsim dataset --coco-categories category`).
+    pub category: Option<String>,
     /// Scale about the pivot: a number or [sx, sy, sz].
     pub scale: Option<ScaleSpec>,
     /// Rotation about the pivot.
@@ -295,11 +307,28 @@ pub struct RotateSpec {
     pub axis: [f64; 3],
 }
 
+/// A new object from a file.
+#[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AddSpec {
+    /// A glTF 2.0 / GLB or OBJ asset (read in glTF's physical units: its meshes, materials and
+    /// emitters; its cameras and punctual lights are left out), a pbrt-v4 scene or a PLY mesh
+    /// (m), relative to the overlay. The whole file becomes one object instance.
+    pub file: String,
+    /// Named material for all its shapes (default: the file's own; a PLY is grey diffuse).
+    pub material: Option<String>,
+    /// Put the bottom centre of its bounding box here, m (default: the file's own coordinates);
+    /// the transform keys then scale and turn it about that point (`pivot_m` by default), so
+    /// it stays on the floor or table it was put on.
+    pub at_m: Option<[f64; 3]>,
+}
+
 /// What replaces an object.
 #[derive(Debug, Clone, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReplaceSpec {
-    /// A pbrt-v4 scene (its world's shapes, materials and area lights) or a PLY mesh (m).
+    /// A glTF 2.0 / GLB or OBJ asset, a pbrt-v4 scene (its world's shapes, materials and area
+    /// lights) or a PLY mesh (m).
     pub file: String,
     /// Named material for the new shapes (default: the PLY gets the replaced object's material;
     /// a pbrt file keeps its own).
@@ -415,13 +444,29 @@ fn resolve_path(base: &Path, f: &str) -> PathBuf {
     }
 }
 
+/// Reads an object file of a format this crate does not read (glTF, OBJ: `camsim-assets`, its
+/// sibling) for `[[object]] add` and `replace`: `None` when the file is not of its formats (the
+/// pbrt-v4 and PLY readers take it then), else the file as a scene or an error message.
+pub type ObjectReader<'a> = &'a dyn Fn(&Path) -> Option<Result<SceneDescription, String>>;
+
 /// Parse and apply an overlay. `source_name` names it in errors; relative paths resolve against
-/// `base_dir`.
+/// `base_dir`. Object files are pbrt-v4 or PLY ([`apply_with`] takes other readers).
 pub fn apply(
     scene: &mut SceneDescription,
     overlay_toml: &str,
     source_name: &str,
     base_dir: &Path,
+) -> Result<(), OverlayError> {
+    apply_with(scene, overlay_toml, source_name, base_dir, &|_| None)
+}
+
+/// [`apply`] with `reader` for object files of other formats (glTF, OBJ).
+pub fn apply_with(
+    scene: &mut SceneDescription,
+    overlay_toml: &str,
+    source_name: &str,
+    base_dir: &Path,
+    reader: ObjectReader<'_>,
 ) -> Result<(), OverlayError> {
     if overlay_toml.trim().is_empty() {
         return Err(OverlayError {
@@ -433,7 +478,7 @@ pub fn apply(
         source_name: source_name.to_string(),
         message: e.to_string().trim_end().to_string(),
     })?;
-    apply_overlay(scene, &ov, base_dir).map_err(|message| OverlayError {
+    apply_overlay_with(scene, &ov, base_dir, reader).map_err(|message| OverlayError {
         source_name: source_name.to_string(),
         message,
     })
@@ -444,6 +489,16 @@ pub fn apply_overlay(
     scene: &mut SceneDescription,
     ov: &Overlay,
     base_dir: &Path,
+) -> Result<(), String> {
+    apply_overlay_with(scene, ov, base_dir, &|_| None)
+}
+
+/// [`apply_overlay`] with `reader` for object files of other formats (glTF, OBJ).
+pub fn apply_overlay_with(
+    scene: &mut SceneDescription,
+    ov: &Overlay,
+    base_dir: &Path,
+    reader: ObjectReader<'_>,
 ) -> Result<(), String> {
     if let Some(c) = &ov.camera {
         apply_camera(scene, c)?;
@@ -534,7 +589,7 @@ pub fn apply_overlay(
         }
     }
     for (i, o) in ov.object.iter().enumerate() {
-        apply_object(scene, o, i, base_dir)?;
+        apply_object(scene, o, i, base_dir, reader)?;
     }
     if let Some(l) = &ov.light {
         apply_light(scene, l, base_dir)?;
@@ -673,13 +728,181 @@ pub(crate) fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
+/// The shapes of an object file, their materials (and media) appended to `scene`'s with the
+/// indices moved: glTF/OBJ through `reader`, PLY as one shape of `ply_material`, else pbrt-v4.
+fn file_shapes(
+    scene: &mut SceneDescription,
+    path: &Path,
+    key: &str,
+    ply_material: usize,
+    reader: ObjectReader<'_>,
+) -> Result<Vec<Shape>, String> {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
+    {
+        let m = crate::ply::read_ply(path).map_err(|e| format!("{key}: {e}"))?;
+        return Ok(vec![Shape {
+            name: None,
+            geometry: Geometry::Triangles {
+                positions: m.positions,
+                indices: m.triangles,
+                uvs: m.uvs,
+                normals: m.normals,
+            },
+            material: ply_material,
+            area_light: None,
+            reverse_orientation: false,
+            tags: Default::default(),
+        }]);
+    }
+    let sub = match reader(path) {
+        Some(r) => r.map_err(|e| format!("{key}: {e}"))?,
+        None => crate::parse_file(path).map_err(|e| format!("{key}: {e}"))?,
+    };
+    let offset = scene.materials.len();
+    let media_offset = scene.media.list.len();
+    scene.media.list.extend(sub.media.list);
+    // Material and medium indices inside the inserted scene move with it.
+    scene
+        .materials
+        .extend(sub.materials.into_iter().map(|m| match m {
+            Material::Mix { materials, amount } => Material::Mix {
+                materials: materials.map(|i| i + offset),
+                amount,
+            },
+            Material::MediumInterface {
+                material,
+                inside,
+                outside,
+            } => Material::MediumInterface {
+                material: material + offset,
+                inside: inside.map(|i| i + media_offset),
+                outside: outside.map(|i| i + media_offset),
+            },
+            Material::AlphaMasked { material, alpha } => Material::AlphaMasked {
+                material: material + offset,
+                alpha,
+            },
+            Material::Bumped {
+                material,
+                perturbation,
+            } => Material::Bumped {
+                material: material + offset,
+                perturbation,
+            },
+            Material::VaryingRoughness {
+                material,
+                u,
+                v,
+                remap,
+            } => Material::VaryingRoughness {
+                material: material + offset,
+                u,
+                v,
+                remap,
+            },
+            m => m,
+        }));
+    for (n, idx) in sub.named_materials {
+        scene.named_materials.entry(n).or_insert(idx + offset);
+    }
+    if !sub.lights.is_empty() {
+        scene.notes.push(format!(
+            "{key}: the non-shape lights of {} were not inserted",
+            path.display()
+        ));
+    }
+    Ok(sub
+        .shapes
+        .into_iter()
+        .map(|mut s| {
+            s.material += offset;
+            s
+        })
+        .collect())
+}
+
 fn apply_object(
     scene: &mut SceneDescription,
     o: &ObjectOverlay,
     i: usize,
     base_dir: &Path,
+    reader: ObjectReader<'_>,
 ) -> Result<(), String> {
     let key = format!("object[{i}] \"{}\"", o.name);
+    if let Some(a) = &o.add {
+        if o.remove || o.replace.is_some() {
+            return Err(format!(
+                "{key}: add cannot be combined with remove or replace"
+            ));
+        }
+        if o.name.contains('*') {
+            return Err(format!(
+                "{key}: an added object's name cannot have wildcards"
+            ));
+        }
+        let path = resolve_path(base_dir, &a.file);
+        let material_override =
+            match &a.material {
+                Some(m) => Some(*scene.named_materials.get(m).ok_or_else(|| {
+                    format!("{key}: add.material \"{m}\" is not a named material")
+                })?),
+                None => None,
+            };
+        let grey = match material_override {
+            Some(m) => m,
+            None => {
+                scene.materials.push(Material::Diffuse {
+                    reflectance: Texture::Constant(Spectrum::from_pairs(&[
+                        (300.0, 0.5),
+                        (900.0, 0.5),
+                    ])),
+                });
+                scene.materials.len() - 1
+            }
+        };
+        let mut new_shapes = file_shapes(scene, &path, &key, grey, reader)?;
+        if new_shapes.is_empty() {
+            return Err(format!("{key}: {} has no shapes", path.display()));
+        }
+        // One instance for the whole file, after every instance the scene has.
+        let next = scene
+            .shapes
+            .iter()
+            .filter_map(|s| s.tags.instance)
+            .max()
+            .map_or(scene.shapes.len() as u32, |m| {
+                m.max(scene.shapes.len() as u32) + 1
+            });
+        for s in new_shapes.iter_mut() {
+            s.name = Some(o.name.clone());
+            s.tags.instance = Some(next);
+            s.tags.category = o.category.clone();
+            if let Some(m) = material_override {
+                s.material = m;
+            }
+        }
+        if let Some(at) = a.at_m {
+            let (nlo, nhi) = union_bounds(&new_shapes.iter().collect::<Vec<_>>());
+            let t = Transform::translate([
+                at[0] - (nlo[0] + nhi[0]) / 2.0,
+                at[1] - nlo[1],
+                at[2] - (nlo[2] + nhi[2]) / 2.0,
+            ]);
+            for s in new_shapes.iter_mut() {
+                xform::transform_shape(s, &t).map_err(|e| format!("{key}: {e}"))?;
+            }
+        }
+        // The transform keys turn and scale it about its bottom centre (it stays on what it
+        // stands on).
+        let (nlo, nhi) = union_bounds(&new_shapes.iter().collect::<Vec<_>>());
+        let bottom = [(nlo[0] + nhi[0]) / 2.0, nlo[1], (nlo[2] + nhi[2]) / 2.0];
+        let at = scene.shapes.len();
+        let n = new_shapes.len();
+        scene.shapes.extend(new_shapes);
+        return transform_targets(scene, o, (at..at + n).collect(), &key, Some(bottom));
+    }
     let matched: Vec<usize> = (0..scene.shapes.len())
         .filter(|&k| {
             scene.shapes[k]
@@ -736,66 +959,19 @@ fn apply_object(
             })?),
             None => None,
         };
-        let mut new_shapes: Vec<Shape> = if path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
-        {
-            let m = crate::ply::read_ply(&path).map_err(|e| format!("{key}: {e}"))?;
-            vec![Shape {
-                name: name.clone(),
-                geometry: Geometry::Triangles {
-                    positions: m.positions,
-                    indices: m.triangles,
-                    uvs: m.uvs,
-                    normals: m.normals,
-                },
-                material: material_override.unwrap_or(old_material),
-                area_light: None,
-                reverse_orientation: false,
-                tags: Default::default(),
-            }]
-        } else {
-            let sub = crate::parse_file(&path).map_err(|e| format!("{key}: {e}"))?;
-            let offset = scene.materials.len();
-            let media_offset = scene.media.list.len();
-            scene.media.list.extend(sub.media.list);
-            // Material and medium indices inside the inserted scene move with it.
-            scene
-                .materials
-                .extend(sub.materials.into_iter().map(|m| match m {
-                    Material::Mix { materials, amount } => Material::Mix {
-                        materials: materials.map(|i| i + offset),
-                        amount,
-                    },
-                    Material::MediumInterface {
-                        material,
-                        inside,
-                        outside,
-                    } => Material::MediumInterface {
-                        material: material + offset,
-                        inside: inside.map(|i| i + media_offset),
-                        outside: outside.map(|i| i + media_offset),
-                    },
-                    m => m,
-                }));
-            for (n, idx) in sub.named_materials {
-                scene.named_materials.entry(n).or_insert(idx + offset);
+        let mut new_shapes = file_shapes(
+            scene,
+            &path,
+            &key,
+            material_override.unwrap_or(old_material),
+            reader,
+        )?;
+        for s in new_shapes.iter_mut() {
+            s.name = name.clone();
+            if let Some(m) = material_override {
+                s.material = m;
             }
-            if !sub.lights.is_empty() {
-                scene.notes.push(format!(
-                    "{key}: the infinite lights of {} were not inserted",
-                    path.display()
-                ));
-            }
-            sub.shapes
-                .into_iter()
-                .map(|mut s| {
-                    s.material = material_override.unwrap_or(s.material + offset);
-                    s.name = name.clone();
-                    s
-                })
-                .collect()
-        };
+        }
         if new_shapes.is_empty() {
             return Err(format!("{key}: {} has no shapes", path.display()));
         }
@@ -837,6 +1013,24 @@ fn apply_object(
         motion::shapes_replaced(scene, &matched, at, n_new);
         targets = (at..at + n_new).collect();
     }
+    transform_targets(scene, o, targets, &key, None)
+}
+
+/// An `[[object]]`'s material, category, transform and motion keys applied to the shapes
+/// `targets` (matched, replacing or added) about `pivot_m`, else `default_pivot`, else the
+/// centre of their bounds.
+fn transform_targets(
+    scene: &mut SceneDescription,
+    o: &ObjectOverlay,
+    targets: Vec<usize>,
+    key: &str,
+    default_pivot: Option<[f64; 3]>,
+) -> Result<(), String> {
+    if let Some(c) = &o.category {
+        for &k in &targets {
+            scene.shapes[k].tags.category = Some(c.clone());
+        }
+    }
     if let Some(m) = &o.material {
         let idx = *scene
             .named_materials
@@ -862,7 +1056,7 @@ fn apply_object(
     if o.scale.is_some() || o.rotate.is_some() || o.translate_m.is_some() {
         let refs: Vec<&Shape> = targets.iter().map(|&k| &scene.shapes[k]).collect();
         let (lo, hi) = union_bounds(&refs);
-        let pivot = o.pivot_m.unwrap_or([
+        let pivot = o.pivot_m.or(default_pivot).unwrap_or([
             (lo[0] + hi[0]) / 2.0,
             (lo[1] + hi[1]) / 2.0,
             (lo[2] + hi[2]) / 2.0,
@@ -895,7 +1089,7 @@ fn apply_object(
         }
         motion::moved_shapes(scene, &targets, &t);
     }
-    motion::apply_object_motion(scene, o, &targets, &key)
+    motion::apply_object_motion(scene, o, &targets, key)
 }
 
 fn apply_light(

@@ -197,8 +197,14 @@ pub fn load_scene(
         let text = std::fs::read_to_string(o)
             .map_err(|e| PipelineError::file(o, format!("cannot read: {e}")))?;
         let base = o.parent().unwrap_or(Path::new("."));
-        camsim_pbrt::overlay::apply(&mut scene, &text, &o.display().to_string(), base)
-            .map_err(|e| PipelineError::Scene(e.to_string()))?;
+        camsim_pbrt::overlay::apply_with(
+            &mut scene,
+            &text,
+            &o.display().to_string(),
+            base,
+            &asset_object_reader,
+        )
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     Ok(scene)
 }
@@ -217,6 +223,19 @@ pub fn read_scene_file(path: &Path, opts: &BuiltinOptions) -> Result<SceneDescri
         camsim_assets::read_scene(path, &ro).map_err(|e| scene_err(e.to_string()))
     } else {
         camsim_pbrt::parse_file(path).map_err(|e| scene_err(e.to_string()))
+    }
+}
+
+/// The overlays' reader of glTF / GLB / OBJ object files (`[[object]] add` and `replace`):
+/// `None` for other files (the pbrt-v4 and PLY readers take them).
+pub fn asset_object_reader(path: &Path) -> Option<std::result::Result<SceneDescription, String>> {
+    match camsim_assets::detect_format(path) {
+        Ok(f) if f.is_asset() => Some(
+            camsim_assets::read_scene(path, &camsim_assets::ReadOptions::default())
+                .map_err(|e| e.to_string()),
+        ),
+        Ok(_) => None,
+        Err(e) => Some(Err(e.to_string())),
     }
 }
 
@@ -311,8 +330,14 @@ pub fn render_section_scene(
         let text = toml::to_string(t)
             .map_err(|e| PipelineError::config(format!("render.overlay_inline: {e}")))?;
         let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
-        camsim_pbrt::overlay::apply(&mut scene, &text, "render.overlay_inline", base)
-            .map_err(|e| PipelineError::Scene(e.to_string()))?;
+        camsim_pbrt::overlay::apply_with(
+            &mut scene,
+            &text,
+            "render.overlay_inline",
+            base,
+            &asset_object_reader,
+        )
+        .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;

@@ -93,7 +93,7 @@ fn dataset_gather(
 }
 
 /// Export a complete dataset as COCO (`out/coco/annotations.json`, `out/coco/images/`);
-/// `categories` is "material" or "object". Returns the annotation file's path.
+/// `categories` is "material", "object" or "category". Returns the annotation file's path.
 #[pyfunction]
 fn dataset_coco(
     py: Python<'_>,

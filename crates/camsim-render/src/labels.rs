@@ -102,6 +102,9 @@ pub struct Instance {
     pub name: String,
     /// The material of its first shape (its `MakeNamedMaterial` name, or `material N`).
     pub material: String,
+    /// Its semantic category (`ShapeTags::category` of its first shape), when given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub category: Option<String>,
     /// Its shapes' object ids (1 + index in the scene's shapes).
     pub object_ids: Vec<u32>,
     /// Oriented box around its geometry; `None` for an instance without geometry extent.
@@ -207,6 +210,7 @@ fn instance_table(scene: &SceneDescription) -> (Vec<u32>, Vec<Instance>) {
                     id,
                     name: legend.objects[si].clone(),
                     material: legend.materials.get(mat).cloned().unwrap_or_default(),
+                    category: s.tags.category.clone(),
                     object_ids: Vec::new(),
                     box_3d: None,
                     unoccluded_px: 0,

@@ -99,6 +99,7 @@ const PX_M: f64 = 1e-3;
 fn bar(x0: f64, x1: f64, group: &str) -> Shape {
     let p = |x: f64, y: f64| [x * PX_M, y * PX_M, 1.0];
     let tags = camsim_scene3d::ShapeTags {
+        category: None,
         light_group: Some(group.into()),
         ..Default::default()
     };

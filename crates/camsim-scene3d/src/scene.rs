@@ -607,6 +607,9 @@ pub struct ShapeTags {
     /// Light group of the shape's area light (pbrt `AreaLightSource ... "string lightgroup"`, or
     /// an overlay `[[light_group]]`); `None`: the group `default`.
     pub light_group: Option<String>,
+    /// The semantic category of the instance (an overlay's `[[object]] category`, an asset
+    /// manifest's): labels and COCO name it; `None`: none given.
+    pub category: Option<String>,
 }
 
 /// Lights that are not shapes. Point, spot and distant lights are delta lights: reached only by

@@ -48,7 +48,9 @@ pub struct Args {
     /// Needs the outputs preview, instances and boxes.
     #[arg(long)]
     pub coco: bool,
-    /// COCO category names: the instances' material names or object names.
+    /// COCO category names: the instances' material names (`material`), object names
+    /// (`object`), or semantic categories (`category`: an overlay's `[[object]] category`, else
+    /// the object name).
     #[arg(long, default_value = "material", value_parser = camsim_dataset::CategoryBy::parse)]
     pub coco_categories: camsim_dataset::CategoryBy,
 }

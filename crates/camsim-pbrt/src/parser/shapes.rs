@@ -81,6 +81,7 @@ impl SceneBuilder {
             area_light: None,
             reverse_orientation,
             tags: camsim_scene3d::ShapeTags {
+                category: None,
                 object_to_world: Some(ctm),
                 ..Default::default()
             },

@@ -144,7 +144,7 @@ def read_manifest(out: Union[str, os.PathLike[str]]) -> List[Dict[str, Any]]:
 def to_coco(spec: Spec, out: Union[str, os.PathLike[str]], *, categories: str = "material") -> str:
     """Export the complete dataset in ``out`` as COCO (as ``camsim dataset --coco``):
     ``out/coco/annotations.json`` (instance masks as compressed RLE, boxes, areas, on the raw
-    image's grid; categories from the instances' "material" or "object" names) and
+    image's grid; categories from the instances' "material", "object" or "category" names) and
     ``out/coco/images/KEY.png`` (the previews). Needs the outputs preview, instances and boxes.
     Returns the annotation file's path (``pycocotools.coco.COCO(path)`` reads it)."""
     text, source, base = _spec_args(spec)
