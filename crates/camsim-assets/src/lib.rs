@@ -161,7 +161,16 @@ pub struct ReadOptions {
     /// Width of the image when the file gives no aspect ratio (pixels; default 640); the height
     /// follows the camera's aspect ratio (default 4:3).
     pub width: usize,
+    /// A file with no light and no emitter is lit by [`DEFAULT_SKY_CD_M2`] of uniform D65 sky
+    /// (default true: a bare asset is seen; false when the file is inserted as an object).
+    pub default_light: bool,
 }
+
+/// Luminance of the uniform D65 sky that lights a file without lights or emitters, cd/m^2 (an
+/// overcast daylight sky is a few thousand cd/m^2: CIE 110-1994's overcast zenith luminance at
+/// moderate sun elevation; 1000 is a dull day, and illuminates an upward surface with
+/// pi * 1000 = 3142 lux).
+pub const DEFAULT_SKY_CD_M2: f64 = 1000.0;
 
 impl Default for ReadOptions {
     fn default() -> Self {
@@ -171,6 +180,7 @@ impl Default for ReadOptions {
             obj_scale_m: 1.0,
             obj_up_axis: UpAxis::Y,
             width: 640,
+            default_light: true,
         }
     }
 }
@@ -206,14 +216,29 @@ impl UpAxis {
 /// Read a glTF, GLB or OBJ file as a whole scene (see [`detect_format`]; PLY and pbrt-v4 files
 /// are the pbrt reader's and refused here).
 pub fn read_scene(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
-    match detect_format(path)? {
-        SceneFormat::Glb | SceneFormat::Gltf => gltf::read(path, opts),
-        SceneFormat::Obj => obj::read(path, opts),
-        f => Err(AssetError::new(
-            path,
-            format!("not a glTF or OBJ file ({f:?}): read it with the pbrt-v4 reader"),
-        )),
+    let mut scene = match detect_format(path)? {
+        SceneFormat::Glb | SceneFormat::Gltf => gltf::read(path, opts)?,
+        SceneFormat::Obj => obj::read(path, opts)?,
+        f => {
+            return Err(AssetError::new(
+                path,
+                format!("not a glTF or OBJ file ({f:?}): read it with the pbrt-v4 reader"),
+            ))
+        }
+    };
+    if opts.default_light
+        && scene.lights.is_empty()
+        && scene.shapes.iter().all(|s| s.area_light.is_none())
+    {
+        let sky = units::photometric_spectrum([1.0; 3], DEFAULT_SKY_CD_M2).expect("white");
+        scene
+            .lights
+            .push(camsim_scene3d::Light::Infinite { radiance: sky });
+        scene.notes.push(format!(
+            "the file has no lights: a uniform D65 sky of {DEFAULT_SKY_CD_M2} cd/m^2 lights it"
+        ));
     }
+    Ok(scene)
 }
 
 /// The camera camsim looks through when a file has none, documented for users: a 40-degree

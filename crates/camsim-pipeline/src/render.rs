@@ -231,8 +231,14 @@ pub fn read_scene_file(path: &Path, opts: &BuiltinOptions) -> Result<SceneDescri
 pub fn asset_object_reader(path: &Path) -> Option<std::result::Result<SceneDescription, String>> {
     match camsim_assets::detect_format(path) {
         Ok(f) if f.is_asset() => Some(
-            camsim_assets::read_scene(path, &camsim_assets::ReadOptions::default())
-                .map_err(|e| e.to_string()),
+            camsim_assets::read_scene(
+                path,
+                &camsim_assets::ReadOptions {
+                    default_light: false,
+                    ..Default::default()
+                },
+            )
+            .map_err(|e| e.to_string()),
         ),
         Ok(_) => None,
         Err(e) => Some(Err(e.to_string())),
