@@ -163,3 +163,67 @@ pub fn compare_luminance(
         worst_block_sigmas: worst,
     })
 }
+
+/// One row of the Cycles table: a scene file (and the file whose camera it is seen through,
+/// for OBJ files, which have none), the Cycles render name and the unit factor.
+#[derive(Debug, Clone, Copy)]
+pub struct CyclesScene {
+    pub file: &'static str,
+    pub camera_from: Option<&'static str>,
+    pub reference: &'static str,
+    pub unit_factor: f64,
+}
+
+/// The scenes of `../shared/scenes/gltf/` (README there).
+pub const CYCLES_SCENES: [CyclesScene; 3] = [
+    CyclesScene {
+        file: "room.glb",
+        camera_from: None,
+        reference: "room",
+        unit_factor: 1.0,
+    },
+    CyclesScene {
+        file: "room.obj",
+        camera_from: Some("room.glb"),
+        reference: "room",
+        unit_factor: 1.0,
+    },
+    CyclesScene {
+        file: "textured.glb",
+        camera_from: None,
+        reference: "textured",
+        unit_factor: 683.0,
+    },
+];
+
+/// Render `scene` from `dir` as the Cycles references were made (256 x 192, box filter, 8
+/// bounces) with two seeds of `spp` samples, and compare it with the two Cycles seeds.
+pub fn compare_scene(dir: &Path, scene: &CyclesScene, spp: u32) -> Result<CyclesComparison> {
+    let opts = camsim_scene3d::builtin::BuiltinOptions {
+        resolution: Some((256, 192)),
+        ..Default::default()
+    };
+    let read = |f: &str| {
+        camsim_pipeline::render::read_scene_file(&dir.join(f), &opts)
+            .map_err(|e| ValidateError::invalid("scene", e.to_string()))
+    };
+    let mut s = read(scene.file)?;
+    if let Some(c) = scene.camera_from {
+        s.camera = read(c)?.camera;
+    }
+    s.camera.width = 256;
+    s.camera.height = 192;
+    s.settings.samples_per_pixel = spp;
+    s.settings.max_depth = 8;
+    s.settings.filter = camsim_scene3d::PixelFilter::default();
+    let mut lum = Vec::new();
+    for seed in [1u64, 2] {
+        s.settings.seed = seed;
+        let out = camsim_render::render(&s, &|_, _| {})
+            .map_err(|e| ValidateError::invalid("render", e.to_string()))?;
+        lum.push(luminance_cd_m2(&out.radiance));
+    }
+    let (w, h, y1) = load_cycles_luminance(&dir.join(format!("{}-cycles-seed1.exr", scene.reference)))?;
+    let (_, _, y2) = load_cycles_luminance(&dir.join(format!("{}-cycles-seed2.exr", scene.reference)))?;
+    compare_luminance([&lum[0], &lum[1]], [&y1, &y2], w, h, scene.unit_factor)
+}
