@@ -168,9 +168,13 @@ pub fn compare_luminance(
 /// for OBJ files, which have none), the Cycles render name and the unit factor.
 #[derive(Debug, Clone, Copy)]
 pub struct CyclesScene {
+    /// The scene file in `../shared/scenes/gltf/`.
     pub file: &'static str,
+    /// The file whose camera renders it (OBJ files have none).
     pub camera_from: Option<&'static str>,
+    /// The Cycles renders' name (`NAME-cycles-seed{1,2}.exr`).
     pub reference: &'static str,
+    /// camsim's luminance (cd/m^2) per unit of Cycles' scene-linear luminance.
     pub unit_factor: f64,
 }
 
@@ -223,7 +227,9 @@ pub fn compare_scene(dir: &Path, scene: &CyclesScene, spp: u32) -> Result<Cycles
             .map_err(|e| ValidateError::invalid("render", e.to_string()))?;
         lum.push(luminance_cd_m2(&out.radiance));
     }
-    let (w, h, y1) = load_cycles_luminance(&dir.join(format!("{}-cycles-seed1.exr", scene.reference)))?;
-    let (_, _, y2) = load_cycles_luminance(&dir.join(format!("{}-cycles-seed2.exr", scene.reference)))?;
+    let (w, h, y1) =
+        load_cycles_luminance(&dir.join(format!("{}-cycles-seed1.exr", scene.reference)))?;
+    let (_, _, y2) =
+        load_cycles_luminance(&dir.join(format!("{}-cycles-seed2.exr", scene.reference)))?;
     compare_luminance([&lum[0], &lum[1]], [&y1, &y2], w, h, scene.unit_factor)
 }

@@ -9,7 +9,11 @@ use camsim_validate::cycles_reference::{compare_scene, CYCLES_SCENES};
 use std::path::{Path, PathBuf};
 
 fn gltf_dir() -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/scenes/gltf")).to_path_buf()
+    Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/scenes/gltf"
+    ))
+    .to_path_buf()
 }
 
 #[test]
