@@ -157,3 +157,16 @@ fn obj_errors_name_the_line() {
     let e = read_text("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 x\nf 1 2 3\n");
     assert!(e.contains("bad.obj") && e.contains("line 3"), "{e}");
 }
+
+#[test]
+fn buffers_that_will_not_fit_are_refused_before_reading() {
+    // A buffer declaring 100 TB (its file does not even exist): the memory budget refuses the
+    // file from its declared sizes before any buffer is read.
+    let text = triangle(TRI, [0, 1, 2], "", 4).replacen(
+        r#""buffers": [{"byteLength": 42,"#,
+        r#""buffers": [{"byteLength": 42}, {"byteLength": 100000000000000, "uri": "huge.bin"}], "unused": [{"#,
+        1,
+    );
+    let e = read_text("huge.gltf", &text);
+    assert!(e.contains("huge.gltf") && e.contains("MiB") && !e.contains("cannot be read"), "{e}");
+}
