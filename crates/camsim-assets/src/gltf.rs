@@ -26,8 +26,9 @@
 //! - Extensions: `KHR_materials_emissive_strength`, `KHR_lights_punctual` (point and spot in
 //!   cd with the extension's cone falloff, directional in lux; `range` noted: camsim keeps the
 //!   inverse-square law), `KHR_materials_specular`, `KHR_materials_ior`,
-//!   `KHR_materials_transmission` (a smooth or rough dielectric of the file's `ior`; with
-//!   `KHR_materials_volume` its attenuation is noted, not applied), `KHR_texture_transform`
+//!   `KHR_materials_transmission` (a thin dielectric wall, or with `KHR_materials_volume`'s
+//!   thickness a smooth or rough dielectric of the file's `ior` whose inside absorbs by
+//!   Beer-Lambert: `sigma_a = -ln(attenuationColor) / attenuationDistance`), `KHR_texture_transform`
 //!   (on the base colour texture, baked into the uvs), `KHR_materials_unlit` (read as a
 //!   diffuse surface with a note), `KHR_materials_clearcoat` (noted, the base is read),
 //!   `KHR_mesh_quantization`. An extension in `extensionsRequired` that is not in that list
@@ -525,6 +526,8 @@ struct Builder {
     lights: Vec<Light>,
     cameras: Vec<(Option<String>, Option<String>, usize, Camera)>,
     instance: u32,
+    /// Media of `KHR_materials_volume` (Beer-Lambert absorbers inside transmissive meshes).
+    media: Vec<camsim_scene3d::media::Medium>,
     notes: BTreeSet<String>,
     /// (shape index, the chain of node indices from the root) of moving shapes.
     shape_chains: Vec<(usize, Vec<usize>)>,
@@ -543,6 +546,7 @@ impl Builder {
             lights: Vec::new(),
             cameras: Vec::new(),
             instance: 0,
+            media: Vec::new(),
             notes: doc.notes.iter().cloned().collect(),
             shape_chains: Vec::new(),
             light_chains: Vec::new(),
@@ -1084,23 +1088,61 @@ impl Builder {
                 reflectance: base_color,
             }
         } else if transmission > 0.5 {
-            if mat.volume().is_some() {
-                self.notes.insert(format!(
-                    "glTF: material {label:?}: KHR_materials_volume attenuation is not applied (a clear dielectric of ior {ior})"
-                ));
-            }
             let r = match &roughness {
                 FloatTexture::Constant(r) => *r,
                 _ => 0.0,
             };
-            Material::Dielectric {
-                eta: Spectrum::from_pairs(&[(300.0, ior), (900.0, ior)]),
-                // glTF alpha = roughness^2; pbrt's remapped roughness is alpha^2.
-                roughness: camsim_scene3d::Roughness {
-                    u: r * r,
-                    v: r * r,
-                    remap: false,
-                },
+            let eta = Spectrum::from_pairs(&[(300.0, ior), (900.0, ior)]);
+            let volume = mat.volume().filter(|v| v.thickness_factor() > 0.0);
+            match volume {
+                // KHR_materials_volume thickness 0 (or no volume): a thin wall.
+                None => Material::ThinDielectric { eta },
+                Some(v) => {
+                    let dielectric = Material::Dielectric {
+                        eta,
+                        // glTF alpha = roughness^2; pbrt's unremapped roughness is alpha.
+                        roughness: camsim_scene3d::Roughness {
+                            u: r * r,
+                            v: r * r,
+                            remap: false,
+                        },
+                    };
+                    let d = v.attenuation_distance() as f64;
+                    let c = v.attenuation_color().map(|x| x as f64);
+                    if d.is_finite() && d > 0.0 && c.iter().any(|x| *x < 1.0) {
+                        // Beer-Lambert (KHR_materials_volume): the attenuation colour is the
+                        // transmittance after attenuationDistance, sigma_a = -ln(c) / d.
+                        let t = reflectance(c);
+                        let sigma: Vec<(f64, f64)> = t
+                            .wavelengths_nm
+                            .iter()
+                            .zip(&t.values)
+                            .map(|(&l, &v)| (l, -v.max(1e-12).ln() / d))
+                            .collect();
+                        self.media.push(camsim_scene3d::media::Medium {
+                            name: format!("{label} volume"),
+                            g: 0.0,
+                            kind: camsim_scene3d::media::MediumKind::Homogeneous(
+                                camsim_scene3d::media::Coefficients {
+                                    sigma_a_per_m: Spectrum::from_pairs(&sigma),
+                                    sigma_s_per_m: Spectrum::from_pairs(&[
+                                        (300.0, 0.0),
+                                        (900.0, 0.0),
+                                    ]),
+                                    le: None,
+                                },
+                            ),
+                        });
+                        self.materials.push(dielectric);
+                        Material::MediumInterface {
+                            material: self.materials.len() - 1,
+                            inside: Some(self.media.len() - 1),
+                            outside: None,
+                        }
+                    } else {
+                        dielectric
+                    }
+                }
             }
         } else {
             if transmission > 0.0 {
@@ -1304,7 +1346,10 @@ impl Builder {
             settings: Default::default(),
             focus_distance_m: None,
             notes: Vec::new(),
-            media: Default::default(),
+            media: camsim_scene3d::media::Media {
+                list: std::mem::take(&mut self.media),
+                camera: None,
+            },
             light_groups: Vec::new(),
         };
         scene.settings.time = time;

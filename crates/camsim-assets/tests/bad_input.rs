@@ -168,5 +168,8 @@ fn buffers_that_will_not_fit_are_refused_before_reading() {
         1,
     );
     let e = read_text("huge.gltf", &text);
-    assert!(e.contains("huge.gltf") && e.contains("MiB") && !e.contains("cannot be read"), "{e}");
+    assert!(
+        e.contains("huge.gltf") && e.contains("MiB") && !e.contains("cannot be read"),
+        "{e}"
+    );
 }

@@ -271,3 +271,92 @@ fn spot_cone_falls_off_as_khr_lights_punctual_says() {
     assert!(checked > 100, "{checked} lit pixels");
     assert!((sums.0 / sums.1 - 1.0).abs() < 5e-3, "{sums:?}");
 }
+
+/// `KHR_materials_transmission` + `KHR_materials_volume`: a 1 m glass cube (ior 1.5) whose
+/// attenuation colour 0.5 at 1 m halves the light per metre (Beer-Lambert), in front of a
+/// 100 cd/m^2 emitter: seen through its middle, `100 (1 - R)^2 t / (1 - R^2 t^2)` with `t = 0.5`
+/// and `R = 0.04` (normal-incidence Fresnel, the internal reflections summed).
+#[test]
+fn a_volume_absorbs_by_beer_lambert() {
+    // Quad (4 vertices) at z = 0 facing +z, then a cube of side 1 centred at (0, 0, 1).
+    let mut pos: Vec<[f32; 3]> = vec![
+        [-2.0, -2.0, 0.0],
+        [2.0, -2.0, 0.0],
+        [2.0, 2.0, 0.0],
+        [-2.0, 2.0, 0.0],
+    ];
+    for k in 0..8 {
+        let c = |b: usize| if k & b != 0 { 0.5 } else { -0.5 };
+        pos.push([c(1), c(2), 1.0 + c(4)]);
+    }
+    let quad: [u16; 6] = [0, 1, 2, 0, 2, 3];
+    // Cube faces, outward (counter-clockwise seen from outside), vertex 4 + bits (x=1, y=2, z=4).
+    let faces: [[u16; 4]; 6] = [
+        [0, 2, 3, 1], // z-
+        [4, 5, 7, 6], // z+
+        [0, 1, 5, 4], // y-
+        [2, 6, 7, 3], // y+
+        [0, 4, 6, 2], // x-
+        [1, 3, 7, 5], // x+
+    ];
+    let mut cube: Vec<u16> = Vec::new();
+    for f in faces {
+        let f = f.map(|v| v + 4);
+        cube.extend_from_slice(&[f[0], f[1], f[2], f[0], f[2], f[3]]);
+    }
+    let mut bytes = Vec::new();
+    for p in &pos {
+        for v in p {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for i in quad.iter().chain(&cube) {
+        bytes.extend_from_slice(&i.to_le_bytes());
+    }
+    let uri = base64::engine::general_purpose::STANDARD.encode(&bytes);
+    let text = format!(
+        r#"{{"asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_ior"],
+  "scene": 0, "scenes": [{{"nodes": [0, 1, 2]}}],
+  "nodes": [{{"mesh": 0, "name": "lamp"}}, {{"mesh": 1, "name": "glass"}}, {{"camera": 0, "translation": [0, 0, 4]}}],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.1, "aspectRatio": 1.0, "znear": 0.01}}}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}},
+             {{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 2, "material": 1}}]}}],
+  "materials": [
+    {{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1]}}, "emissiveFactor": [1, 1, 1],
+      "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 100}}}}}},
+    {{"pbrMetallicRoughness": {{"roughnessFactor": 0}},
+      "extensions": {{"KHR_materials_transmission": {{"transmissionFactor": 1}}, "KHR_materials_ior": {{"ior": 1.5}},
+                      "KHR_materials_volume": {{"thicknessFactor": 1, "attenuationDistance": 1, "attenuationColor": [0.5, 0.5, 0.5]}}}}}}],
+  "buffers": [{{"byteLength": {n}, "uri": "data:application/octet-stream;base64,{uri}"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 144}}, {{"buffer": 0, "byteOffset": 144, "byteLength": 12}},
+                  {{"buffer": 0, "byteOffset": 156, "byteLength": 72}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 12, "type": "VEC3", "min": [-2, -2, 0], "max": [2, 2, 1.5]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 36, "type": "SCALAR"}}]}}"#,
+        n = bytes.len()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("glass.gltf");
+    std::fs::write(&p, text).unwrap();
+    let mut s = read_scene(&p, &ReadOptions::default()).unwrap();
+    assert_eq!(s.media.list.len(), 1, "the volume's medium");
+    s.camera.width = 8;
+    s.camera.height = 8;
+    s.settings.samples_per_pixel = 64;
+    s.settings.max_depth = 12;
+    let out = camsim_render::render(&s, &|_, _| {}).unwrap();
+    let cmfs = Cmfs::on(&out.radiance.grid);
+    let b = out.radiance.bands();
+    let y: Vec<f64> = (0..64)
+        .map(|p| {
+            let v: Vec<f64> = (0..b).map(|k| out.radiance.band(k)[p] as f64).collect();
+            cmfs.luminance_cd_m2(&v)
+        })
+        .collect();
+    let (r, t) = (0.04f64, 0.5f64);
+    let want = 100.0 * grid_fraction() * (1.0 - r).powi(2) * t / (1.0 - r * r * t * t);
+    let mean = y.iter().sum::<f64>() / 64.0;
+    assert!((mean / want - 1.0).abs() < 5e-3, "{mean} vs {want} cd/m^2");
+}
