@@ -128,6 +128,19 @@ def test_render_gives_radiance_and_depth():
     assert {int(i) for i in np.unique(mats) if i} == set(legend["materials"])
 
 
+def test_render_reads_a_gltf_scene_in_its_units():
+    # Blender's export of a small room: its camera, its 12 cd/m^2 lamp, its objects by name.
+    glb = REPO.parent / "shared" / "scenes" / "gltf" / "room.glb"
+    r = camsim.render(pbrt=glb, resolution=(32, 24), samples_per_pixel=4, wavelengths_nm=np.arange(400, 701, 10))
+    assert r["radiance"].shape == (31, 24, 32) and r["radiance"].min() >= 0
+    names = set(r["ids_legend"]["objects"].values())
+    assert {"lamp", "tall_block", "short_block", "floor"} <= names
+    # The emitter is the brightest thing in the room: its pixels far above the rest.
+    lamp = [i for i, n in r["ids_legend"]["objects"].items() if n == "lamp"][0]
+    on = r["object_id"] == lamp
+    assert on.any() and r["radiance"][:, on].mean() > 5 * r["radiance"][:, ~on].mean()
+
+
 def test_simulate_of_a_rendered_scene_carries_its_id_maps():
     cfg = {"wavelengths": {"start_nm": 400.0, "step_nm": 50.0, "count": 7},
            "render": {"builtin": "cornell-box", "samples_per_pixel": 1, "resolution": [24, 24]},

@@ -137,7 +137,8 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
            samples_per_pixel: Optional[int] = None, seed: int = 1,
            wavelengths_nm: Optional[Sequence[float]] = None) -> Dict[str, Any]:
     """Stage 1, a 3D scene: path-trace a built-in scene ("cornell-box", "cornell-box-mcc",
-    "slanted-edge") or a pbrt-v4 file. resolution = (width, height). Returns a dict like scene()'s,
+    "slanted-edge") or a scene file given as pbrt: pbrt-v4, glTF 2.0 (.gltf, .glb) or OBJ, told
+    apart by its content (glTF in its physical units, docs/src/assets.md). resolution = (width, height). Returns a dict like scene()'s,
     with depth_m (rows, cols) float32 m, and segmentation: object_id and material_id (rows, cols)
     uint32 (1 + index of the shape and of its material met first through each pixel centre, 0 =
     none) with ids_legend {"objects": {1: name, ...}, "materials": {...}}."""
