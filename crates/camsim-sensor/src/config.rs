@@ -242,6 +242,11 @@ impl QeConfig {
     }
 }
 
+/// Pairs of keys that state one setting two ways (giving both is an error): a table put over a
+/// preset (`[sensor] preset = ...` with `[sensor.config]`) that gives one of a pair replaces the
+/// preset's other one.
+pub const ALTERNATIVE_KEYS: [(&str, &str); 2] = [("cfa", "cfa_pattern"), ("iso", "analog_gain")];
+
 /// A sensor as written in a TOML file (presets are such files, built in). Unknown keys are errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
