@@ -13,6 +13,7 @@
 
 pub mod ccm;
 pub mod cfa_general;
+pub mod cfa_render;
 pub mod color;
 pub mod coring;
 pub mod demosaic;
