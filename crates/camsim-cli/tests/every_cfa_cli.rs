@@ -218,3 +218,49 @@ fn mono_rccc_and_cmyg_captures_simulate_and_go_through_camsim_isp() {
         }
     }
 }
+
+/// The ISETCam presets (MT9V024 mono and RCCC, AR0132AT RCCC) simulate with their own CFA,
+/// through the family's ISP, and `camsim presets sensor NAME` prints the source file.
+#[test]
+fn isetcam_presets_simulate_and_print_their_source() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (name, file, family) in [
+        ("mt9v024-mono", "MT9V024SensorMono.mat", "monochrome"),
+        ("mt9v024-rccc", "MT9V024SensorRCCC.mat", "rccc"),
+        ("ar0132at-rccc", "ar0132atSensorRCCC.mat", "rccc"),
+        ("mt9v024-rgbw", "MT9V024SensorRGBW.mat", "rgbw"),
+    ] {
+        let o = camsim(&["presets", "sensor", name]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let toml = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            toml.contains(&format!("source = \"ISETCam sensor file {file}")),
+            "{toml}"
+        );
+        let cfg = write(
+            d.join(format!("{name}.toml")),
+            &config(&format!(
+                "[sensor]\npreset = \"{name}\"\nrows = 48\ncols = 64\n"
+            )),
+        );
+        let out = d.join(name);
+        let o = camsim(&["simulate", s(&cfg), "--out", s(&out)]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(out.join("raw.dng").is_file() && out.join("preview.png").is_file());
+        let png = d.join(format!("{name}.png"));
+        let o = camsim(&[
+            "isp",
+            "--in",
+            s(&out.join("raw.dng")),
+            "--sensor",
+            name,
+            "--out",
+            s(&png),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["cfa_family"], family, "{name}");
+    }
+}
