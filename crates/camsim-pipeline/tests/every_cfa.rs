@@ -228,3 +228,98 @@ fn an_rgbw_capture_renders_neutral_patches_as_neutral_as_bayer() {
         }
     }
 }
+
+/// A test tile: its name, the CFA cells, the named filters' curves.
+type Tile<'a> = (&'a str, Vec<Vec<&'a str>>, Vec<(&'a str, Vec<f64>)>);
+
+/// A flat grey (reflectance 0.5 at every wavelength) seen by RGB-IR and CMY sensors renders grey:
+/// the fitted 3 x N transform maps the white's camera values onto the D65 white (R = G = B, to
+/// the 2e-4 of the IEC matrix), and a flat grey's camera values are half the white's in every
+/// channel. The frame is made here from the closed form: DN of filter f = scale x
+/// sum QE_f E lambda d lambda (rounded), through `Isp::compute` with the sensor's QE.
+#[test]
+fn rgb_ir_and_cmy_frames_render_a_flat_grey_grey() {
+    let grid = WavelengthGrid::default();
+    let d65 = tables::illuminant("D65").unwrap();
+    let preset = camsim_sensor::Sensor::preset("pixel4a").unwrap();
+    let n = preset.config().qe.wavelengths_nm.len();
+    let ramp: Vec<f64> = preset
+        .config()
+        .qe
+        .wavelengths_nm
+        .iter()
+        .map(|w| ((w - 380.0) / 700.0).clamp(0.0, 1.0))
+        .collect();
+    let r = &preset.config().qe.r;
+    let g = &preset.config().qe.g;
+    let b = &preset.config().qe.b;
+    let mix =
+        |a: &[f64], c: &[f64]| -> Vec<f64> { (0..n).map(|k| (a[k] + c[k]).min(1.0)).collect() };
+    let tiles: [Tile; 2] = [
+        (
+            "RGB-IR",
+            vec![vec!["r", "g"], vec!["ir", "b"]],
+            vec![("ir", ramp.clone())],
+        ),
+        (
+            "CMY",
+            vec![vec!["c", "m"], vec!["y", "c"]],
+            vec![("c", mix(g, b)), ("m", mix(r, b)), ("y", mix(r, g))],
+        ),
+    ];
+    for (what, pattern, filters) in tiles {
+        let mut c = preset.config().clone();
+        c.cfa = String::new();
+        c.cfa_pattern = Some(
+            pattern
+                .iter()
+                .map(|row| row.iter().map(|s| s.to_string()).collect())
+                .collect(),
+        );
+        c.qe.filters = filters
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect();
+        let sensor = camsim_sensor::Sensor::from_config_named(c, what).unwrap();
+        let layout = sensor.cfa_layout();
+        let e = d65.sample(&grid);
+        let resp: Vec<f64> = sensor
+            .filter_qe_spectra()
+            .iter()
+            .map(|s| {
+                let q = s.sample(&grid);
+                (0..grid.len())
+                    .map(|k| 0.5 * q[k] * e[k] * grid.wavelength_nm(k))
+                    .sum()
+            })
+            .collect();
+        let top = resp.iter().cloned().fold(0.0, f64::max);
+        let (rows, cols) = (16, 20);
+        let mut raw =
+            camsim_core::RawImage::new(rows, cols, camsim_core::CfaPattern::Rggb, 16).unwrap();
+        raw.layout = Some(layout.clone());
+        for y in 0..rows {
+            for x in 0..cols {
+                raw.dn[y * cols + x] =
+                    (20000.0 * resp[layout.filter_at(y, x)] / top).round() as u16;
+            }
+        }
+        let isp = camsim_pipeline::Isp::new(d65.clone(), grid);
+        let out = isp.compute(&raw, &sensor).unwrap();
+        assert_eq!(out.report.cfa_family, "multichannel", "{what}");
+        let de = out.report.channel_fit_delta_e2000.unwrap();
+        println!("{what}: fit dE2000 mean {:.2} max {:.2}", de[0], de[1]);
+        for p in out.preview.data.chunks(3) {
+            let spread = p.iter().max().unwrap() - p.iter().min().unwrap();
+            assert!(spread <= 1, "{what}: a flat grey renders {p:?}");
+        }
+        // The fitted transform holds the illuminant's white balance: another method is refused.
+        let mut gw = isp.clone();
+        gw.white_balance = camsim_isp::WhiteBalanceMethod::GrayWorld;
+        let e = gw.compute(&raw, &sensor).unwrap_err().to_string();
+        assert!(
+            e.contains("gray-world") && e.contains("multichannel"),
+            "{e}"
+        );
+    }
+}
