@@ -270,8 +270,7 @@ impl Isp {
         let layout = raw.cfa_layout();
         let refuse = |what: String| {
             PipelineError::config(format!(
-                "{what}: a {} frame ({} CFA {}) does not take it",
-                family.name(),
+                "{what}: a {} frame (CFA {}) does not take it",
                 family.name(),
                 layout.name()
             ))
