@@ -459,8 +459,11 @@ impl ChannelTransform {
     }
 
     /// Linear sRGB (in the frame's DN scale) of a multichannel frame: every channel by the
-    /// per-filter bilinear, then `M c` per pixel. The frame's filters must be the transform's.
-    pub fn apply(&self, raw: &RawImage) -> Result<RgbImage> {
+    /// per-filter bilinear, then `M c` per pixel. With `saturation_dn` (DN above black at which
+    /// the raw clips), channel k is first clipped at `saturation_dn x white_camera[k]`, so that
+    /// a clipped highlight renders as the white does, neutral (the RGB path clips at the
+    /// AsShotNeutral alike). The frame's filters must be the transform's.
+    pub fn apply(&self, raw: &RawImage, saturation_dn: Option<f64>) -> Result<RgbImage> {
         check(raw)?;
         let planes = demosaic_layout_bilinear(raw)?;
         let cols: Vec<&[f32]> = self
@@ -482,9 +485,23 @@ impl ChannelTransform {
             .to_linear_srgb
             .clone()
             .map(|r| r.iter().map(|v| *v as f32).collect::<Vec<f32>>());
+        let clip: Vec<f32> = self
+            .white_camera
+            .iter()
+            .map(|w| {
+                saturation_dn
+                    .filter(|s| *s > 0.0)
+                    .map_or(f32::INFINITY, |s| (s * w) as f32)
+            })
+            .collect();
         let mut out = RgbImage::zeros(raw.rows, raw.cols);
-        let px =
-            |i: usize, row: &[f32]| -> f32 { row.iter().zip(&cols).map(|(a, p)| a * p[i]).sum() };
+        let px = |i: usize, row: &[f32]| -> f32 {
+            row.iter()
+                .zip(&cols)
+                .zip(&clip)
+                .map(|((a, p), c)| a * p[i].min(*c))
+                .sum()
+        };
         out.r
             .par_iter_mut()
             .zip(out.g.par_iter_mut())

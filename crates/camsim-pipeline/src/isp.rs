@@ -259,7 +259,8 @@ impl Isp {
     /// multichannel (every channel bilinear, then a 3 x N matrix to linear sRGB fitted on the
     /// ColorChecker from `sensor`'s QE of the frame's filters under the illuminant: white
     /// balance 'illuminant' only). Then the exposure scale and the sRGB encoding, highlights
-    /// clipped at the saturation (monochrome, RCCC). Bilinear demosaic and the QE colour
+    /// clipped at the saturation (multichannel: each channel at its white's share of it, so
+    /// clipped highlights render neutral). Bilinear demosaic and the QE colour
     /// matrix only (`--ccm chart` needs an RGB CFA).
     fn compute_other(
         &self,
@@ -346,7 +347,7 @@ impl Isp {
                     &self.illuminant,
                 )?;
                 report_demosaic = "bilinear per channel";
-                let rgb = t.apply(raw)?;
+                let rgb = t.apply(raw, Some(saturation_dn))?;
                 transform = Some(t);
                 (rgb, None)
             }

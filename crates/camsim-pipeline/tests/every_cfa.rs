@@ -236,7 +236,8 @@ type Tile<'a> = (&'a str, Vec<Vec<&'a str>>, Vec<(&'a str, Vec<f64>)>);
 /// the fitted 3 x N transform maps the white's camera values onto the D65 white (R = G = B, to
 /// the 2e-4 of the IEC matrix), and a flat grey's camera values are half the white's in every
 /// channel. The frame is made here from the closed form: DN of filter f = scale x
-/// sum QE_f E lambda d lambda (rounded), through `Isp::compute` with the sensor's QE.
+/// sum QE_f E lambda d lambda (rounded), through `Isp::compute` with the sensor's QE. A frame
+/// clipped in every channel renders grey too.
 #[test]
 fn rgb_ir_and_cmy_frames_render_a_flat_grey_grey() {
     let grid = WavelengthGrid::default();
@@ -312,6 +313,16 @@ fn rgb_ir_and_cmy_frames_render_a_flat_grey_grey() {
         for p in out.preview.data.chunks(3) {
             let spread = p.iter().max().unwrap() - p.iter().min().unwrap();
             assert!(spread <= 1, "{what}: a flat grey renders {p:?}");
+        }
+        // A clipped frame (every pixel at the white level) renders white: each channel is
+        // clipped at the saturation times its share of the white, and M takes the white to
+        // R = G = B.
+        let mut clipped = raw.clone();
+        clipped.dn.fill(clipped.white_level_dn as u16);
+        let out = isp.compute(&clipped, &sensor).unwrap();
+        for p in out.preview.data.chunks(3) {
+            let spread = p.iter().max().unwrap() - p.iter().min().unwrap();
+            assert!(spread <= 1, "{what}: a clipped frame renders {p:?}");
         }
         // The fitted transform holds the illuminant's white balance: another method is refused.
         let mut gw = isp.clone();
