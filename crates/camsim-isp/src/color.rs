@@ -367,7 +367,7 @@ impl ColorPipeline {
 /// (the inverse transfer function, IEC 61966-2-1 eq. 5.2-5.3). Gives the same code as
 /// rounding [`colorimetry::srgb_encode`] except where a value lies within rounding error of a
 /// threshold.
-struct Srgb8Encoder {
+pub(crate) struct Srgb8Encoder {
     thresholds: [f64; 256],
     /// Code of the lower end of each of `BINS` equal bins of [0, 1] (a start for the search).
     start: Vec<u8>,
@@ -376,7 +376,7 @@ struct Srgb8Encoder {
 const BINS: usize = 4096;
 
 impl Srgb8Encoder {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         let mut thresholds = [f64::INFINITY; 256];
         for (k, t) in thresholds.iter_mut().take(255).enumerate() {
             *t = colorimetry::srgb_decode((k as f64 + 0.5) / 255.0);
@@ -388,7 +388,7 @@ impl Srgb8Encoder {
     }
 
     #[inline]
-    fn encode(&self, linear: f64) -> u8 {
+    pub(crate) fn encode(&self, linear: f64) -> u8 {
         if !(linear > 0.0) {
             return 0; // also NaN
         }

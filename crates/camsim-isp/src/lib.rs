@@ -7,12 +7,16 @@
 //! illuminant from the sensor QE and renders an 8-bit sRGB preview; [`white_balance`] finds
 //! per-channel gains (gray world, white patch, known illuminant), [`ccm`] fits a colour-correction
 //! matrix on measured chart patches, [`output`] renders to sRGB or to a display model.
+//! [`cfa_render`] takes every other CFA to a display image: monochrome (grey, no demosaic), RCCC
+//! (clear as luminance, ISETCam's analog kernel or edge-aware), and multichannel tiles (CMY,
+//! CMYG, RGB-IR, N channels: a 3 x N matrix fitted on the ColorChecker).
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
 
 pub mod ccm;
 pub mod cfa_general;
+pub mod cfa_render;
 pub mod color;
 pub mod coring;
 pub mod demosaic;

@@ -278,11 +278,38 @@ fn merge_presets(v: &mut serde_json::Value) -> Result<()> {
             )));
         }
         let mut merged = preset;
+        if section == "sensor" {
+            drop_replaced_sensor_keys(&mut merged, &overrides);
+        }
         merge_into(&mut merged, overrides);
         sec.remove("preset");
         sec.insert("config".into(), merged);
     }
     Ok(())
+}
+
+/// Before a `[sensor.config]` table goes over a sensor preset: where the override gives one of
+/// two keys that state the same setting ([`camsim_sensor::config::ALTERNATIVE_KEYS`]: `cfa` or
+/// `cfa_pattern`, `iso` or `analog_gain`), the preset's other key goes, so the override replaces
+/// the preset's setting instead of clashing with it; a `[qe]` table with a `file` replaces the
+/// preset's whole `[qe]` table (its inline curves and named filters) and its QE correction.
+fn drop_replaced_sensor_keys(preset: &mut serde_json::Value, over: &serde_json::Value) {
+    let given = |v: &serde_json::Value, k: &str| v.get(k).is_some_and(|x| !x.is_null());
+    let Some(p) = preset.as_object_mut() else {
+        return;
+    };
+    for (a, b) in camsim_sensor::config::ALTERNATIVE_KEYS {
+        for (mine, other) in [(a, b), (b, a)] {
+            if given(over, mine) && !given(over, other) {
+                p.remove(other);
+            }
+        }
+    }
+    // The QE correction is fitted to the preset's curves (`QeConfig::correction`): it goes with them.
+    if over.get("qe").is_some_and(|q| given(q, "file")) {
+        p.remove("qe");
+        p.remove("qe_correction");
+    }
 }
 
 /// Put `over` over `base`: tables key by key (recursively), any other value replaced.

@@ -10,6 +10,7 @@ use camsim_analysis::Plane;
 use camsim_core::{RawImage, Spectrum, WavelengthGrid};
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ccm::{self, CcmObjective};
+use camsim_isp::cfa_render::{self, CfaFamily, ChannelTransform, RcccClear};
 use camsim_isp::output::DisplayModel;
 use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
 use camsim_isp::{BlackModel, ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
@@ -58,6 +59,9 @@ pub struct Isp {
     /// of the adapted luminance at 0.9 of the white, `ColorPipeline::auto_exposure_scale`;
     /// the chart matrix takes 1).
     pub exposure_scale: Option<f64>,
+    /// How an RCCC frame's clear channel is filled at the R sites
+    /// ([`camsim_isp::cfa_render::RcccClear`]: ISETCam's analog kernel or edge-aware).
+    pub rccc_clear: RcccClear,
 }
 
 /// What [`Isp::compute`] returns.
@@ -104,6 +108,20 @@ pub struct IspReport {
     /// The exposure scale used (see [`Isp::exposure_scale`]).
     #[serde(skip)]
     pub exposure_scale: f64,
+    /// The ISP path the frame's CFA took ([`CfaFamily`]: rgb, rgbw, monochrome, rccc,
+    /// multichannel).
+    pub cfa_family: &'static str,
+    /// Multichannel CFAs: the channels (filter names) of `channel_to_linear_srgb`'s columns.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channels: Option<Vec<String>>,
+    /// Multichannel CFAs: the fitted 3 x N matrix, channels (white largest = 1) -> linear sRGB,
+    /// rows R, G, B ([`ChannelTransform`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channel_to_linear_srgb: Option<[Vec<f64>; 3]>,
+    /// Multichannel CFAs: CIEDE2000 of the fit on the 24 ColorChecker patches (the sensor's QE
+    /// under the illuminant; no image data), mean and max.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channel_fit_delta_e2000: Option<[f64; 2]>,
 }
 
 impl Isp {
@@ -118,6 +136,7 @@ impl Isp {
             grid,
             bin_2x2: false,
             exposure_scale: None,
+            rccc_clear: RcccClear::default(),
         }
     }
 
@@ -138,18 +157,25 @@ impl Isp {
             .map_err(|e| PipelineError::config(format!("colour pipeline: {e}")))
     }
 
-    /// DNG metadata: camera name, the QE colour matrix and neutral of [`Isp::color`], the ISO
+    /// DNG metadata: camera name, the QE colour matrix and neutral of [`Isp::color`] (r, g, b
+    /// CFAs only: Bayer, Quad Bayer, RGBW), the ISO
     /// of a sensor that states one, and `description` (a run's config) as the image description.
     pub fn dng_metadata(
         &self,
         sensor: &Sensor,
         description: Option<String>,
     ) -> Result<DngMetadata> {
-        let color = self.color(sensor)?;
+        // The 3x3 ColorMatrix1 and AsShotNeutral are of r, g, b cameras; a monochrome, RCCC or
+        // multichannel DNG carries none (its ISP fits its own transform).
+        let rgb = matches!(
+            CfaFamily::of(&sensor.cfa_layout()),
+            CfaFamily::Rgb | CfaFamily::Rgbw
+        );
+        let color = if rgb { Some(self.color(sensor)?) } else { None };
         Ok(DngMetadata {
             camera_model: format!("camsim {}", sensor.name()),
-            color_matrix1: Some(color.xyz_to_camera()),
-            as_shot_neutral: Some(color.as_shot_neutral()),
+            color_matrix1: color.as_ref().map(|c| c.xyz_to_camera()),
+            as_shot_neutral: color.as_ref().map(|c| c.as_shot_neutral()),
             description,
             // Only a sensor that states its ISO (`iso`) gets the EXIF tag: the DNGs of the other
             // presets stay byte-identical.
@@ -179,24 +205,8 @@ impl Isp {
                 layout.name()
             )));
         }
-        let has = |n: &str| layout.filter_index(n).is_some();
-        if has("r") && has("g") && has("b") && has("w") {
-            let mut c = sensor.config().clone();
-            c.cfa = String::new();
-            c.cfa_pattern = Some(
-                (0..layout.rows())
-                    .map(|r| {
-                        (0..layout.cols())
-                            .map(|col| layout.filters()[layout.filter_at(r, col)].clone())
-                            .collect()
-                    })
-                    .collect(),
-            );
-            let weights = Sensor::from_config_named(
-                c,
-                &format!("{} with the frame's CFA {}", sensor.name(), layout.name()),
-            )?
-            .filter_from_rgb_weights("w")?;
+        if CfaFamily::of(layout) == CfaFamily::Rgbw {
+            let weights = frame_sensor(sensor, layout)?.filter_from_rgb_weights("w")?;
             return Ok(camsim_isp::cfa_general::rgbw_to_rgb(raw, weights)?);
         }
         Ok(camsim_isp::cfa_general::demosaic_any(raw)?)
@@ -210,6 +220,10 @@ impl Isp {
         } else {
             Cow::Borrowed(raw)
         };
+        let family = CfaFamily::of(&raw.cfa_layout());
+        if !matches!(family, CfaFamily::Rgb | CfaFamily::Rgbw) {
+            return self.compute_other(&raw, sensor, family);
+        }
         let rgb = self.demosaic(&raw, sensor)?;
         // Binning sums four pixels: twice the noise of one, and a sum of clipped values is not a
         // clipped Gaussian (no censored-black correction).
@@ -224,15 +238,150 @@ impl Isp {
                 clip_dn: Some(-raw.black_level_dn),
             }
         };
-        let (preview, report) = self.render(
+        let (preview, mut report) = self.render(
             &rgb,
             sensor,
             raw.white_level_dn - raw.black_level_dn,
             &black,
         )?;
+        report.cfa_family = family.name();
         Ok(IspOutput {
             rgb,
             preview,
+            report,
+        })
+    }
+
+    /// The ISP of a frame whose CFA is not an RGB one (`camsim_isp::cfa_render`): monochrome (a
+    /// grey image of the DN above black, no demosaic), RCCC ((red x gain, clear, clear): the
+    /// clear channel interpolated at the R sites by [`Isp::rccc_clear`], red by the per-filter
+    /// bilinear, the gain from the illuminant and `sensor`'s QE, gray world or none) and
+    /// multichannel (every channel bilinear, then a 3 x N matrix to linear sRGB fitted on the
+    /// ColorChecker from `sensor`'s QE of the frame's filters under the illuminant: white
+    /// balance 'illuminant' only). Then the exposure scale and the sRGB encoding, highlights
+    /// clipped at the saturation (multichannel: each channel at its white's share of it, so
+    /// clipped highlights render neutral). Bilinear demosaic and the QE colour
+    /// matrix only (`--ccm chart` needs an RGB CFA).
+    fn compute_other(
+        &self,
+        raw: &RawImage,
+        sensor: &Sensor,
+        family: CfaFamily,
+    ) -> Result<IspOutput> {
+        let layout = raw.cfa_layout();
+        let refuse = |what: String| {
+            PipelineError::config(format!(
+                "{what}: a {} frame (CFA {}) does not take it",
+                family.name(),
+                layout.name()
+            ))
+        };
+        if self.demosaic != DemosaicMethod::Bilinear {
+            return Err(refuse(format!(
+                "demosaic {} (it takes bilinear)",
+                self.demosaic.name()
+            )));
+        }
+        if !matches!(self.ccm, CcmSource::Qe) {
+            return Err(refuse(
+                "the colour matrix from the photographed chart (--ccm chart needs an RGB CFA)"
+                    .into(),
+            ));
+        }
+        let saturation_dn = raw.white_level_dn - raw.black_level_dn;
+        let mut gains = [1.0; 3];
+        let mut report_demosaic = "none (monochrome)";
+        let mut transform = None;
+        let (rgb, clip) = match family {
+            CfaFamily::Monochrome => (cfa_render::mono_rgb(raw)?, Some(saturation_dn)),
+            CfaFamily::Rccc => {
+                let red_gain = match self.white_balance {
+                    WhiteBalanceMethod::None => 1.0,
+                    WhiteBalanceMethod::Illuminant => {
+                        let s = frame_sensor(sensor, &layout)?;
+                        let qe = filter_qe_on(&s, &self.grid);
+                        let (r, w) = (
+                            layout.filter_index("r").unwrap_or(0),
+                            layout.filter_index("w").unwrap_or(1),
+                        );
+                        cfa_render::rccc_red_gain(&qe[r], &qe[w], &self.grid, &self.illuminant)?
+                    }
+                    WhiteBalanceMethod::GrayWorld => {
+                        // Gray world: the frame's mean red equals its mean clear.
+                        let unbalanced = cfa_render::rccc_rgb(raw, 1.0, self.rccc_clear)?;
+                        let mean = |p: &[f32]| p.iter().map(|v| *v as f64).sum::<f64>();
+                        let (r, c) = (mean(&unbalanced.r), mean(&unbalanced.g));
+                        if !(r > 0.0 && c > 0.0) {
+                            return Err(PipelineError::config(format!(
+                                "gray-world white balance of an RCCC frame: mean red {r}, mean clear {c} above black; both must be positive"
+                            )));
+                        }
+                        c / r
+                    }
+                    WhiteBalanceMethod::WhitePatch => {
+                        return Err(refuse("white balance white-patch".into()))
+                    }
+                };
+                gains = [red_gain, 1.0, 1.0];
+                report_demosaic = match self.rccc_clear {
+                    RcccClear::Analog => "rccc analog (EE-358 kernel)",
+                    RcccClear::EdgeAware => "rccc edge-aware (Hamilton-Adams)",
+                };
+                (
+                    cfa_render::rccc_rgb(raw, red_gain, self.rccc_clear)?,
+                    Some(saturation_dn),
+                )
+            }
+            _ => {
+                if self.white_balance != WhiteBalanceMethod::Illuminant {
+                    return Err(refuse(format!(
+                        "white balance {} (the fitted colour transform holds the illuminant's)",
+                        self.white_balance.name()
+                    )));
+                }
+                let s = frame_sensor(sensor, &layout)?;
+                let t = ChannelTransform::fit(
+                    layout.filters(),
+                    &filter_qe_on(&s, &self.grid),
+                    &self.grid,
+                    &self.illuminant,
+                )?;
+                report_demosaic = "bilinear per channel";
+                let rgb = t.apply(raw, Some(saturation_dn))?;
+                transform = Some(t);
+                (rgb, None)
+            }
+        };
+        let scale = self
+            .exposure_scale
+            .unwrap_or_else(|| cfa_render::auto_exposure_linear_srgb(&rgb));
+        let data = cfa_render::render_linear_srgb8(&rgb, scale, clip);
+        let report = IspReport {
+            demosaic: report_demosaic,
+            white_balance: self.white_balance.name(),
+            white_balance_gains: gains,
+            camera_to_linear_srgb: None,
+            ccm_objective: None,
+            camera_to_xyz: None,
+            patch_camera_rgb: None,
+            patch_delta_e2000: None,
+            delta_e2000_mean: None,
+            delta_e2000_max: None,
+            exposure_scale: scale,
+            cfa_family: family.name(),
+            channel_fit_delta_e2000: transform
+                .as_ref()
+                .map(|t| [t.delta_e2000_mean(), t.delta_e2000_max()]),
+            channels: transform.as_ref().map(|t| t.names.clone()),
+            channel_to_linear_srgb: transform.map(|t| t.to_linear_srgb),
+        };
+        Ok(IspOutput {
+            preview: crate::Rgb8Image {
+                rows: rgb.rows,
+                cols: rgb.cols,
+                data,
+            },
+            rgb,
             report,
         })
     }
@@ -303,6 +452,10 @@ impl Isp {
             delta_e2000_mean: None,
             delta_e2000_max: None,
             exposure_scale: 1.0,
+            cfa_family: CfaFamily::Rgb.name(),
+            channels: None,
+            channel_to_linear_srgb: None,
+            channel_fit_delta_e2000: None,
         };
         let data = match &self.ccm {
             CcmSource::Qe => {
@@ -404,4 +557,41 @@ pub struct RawBlack {
     /// clips at 0), when each value is a mean of such clipped pixels; `None` where that does not
     /// hold (binned sums) or is not known.
     pub clip_dn: Option<f64>,
+}
+
+/// `sensor` with the frame's CFA `layout` (its QE curves for the frame's filters; a DNG carries
+/// its CFA, `--sensor` the curves): the sensor itself when it has that layout already.
+fn frame_sensor<'a>(
+    sensor: &'a Sensor,
+    layout: &camsim_core::CfaLayout,
+) -> Result<Cow<'a, Sensor>> {
+    if sensor.cfa_layout() == *layout {
+        return Ok(Cow::Borrowed(sensor));
+    }
+    let mut c = sensor.config().clone();
+    c.cfa = String::new();
+    c.cfa_pattern = Some(
+        (0..layout.rows())
+            .map(|r| {
+                (0..layout.cols())
+                    .map(|col| layout.filters()[layout.filter_at(r, col)].clone())
+                    .collect()
+            })
+            .collect(),
+    );
+    // Named filters the frame does not use would be refused as typos: keep the frame's only.
+    c.qe.filters.retain(|k, _| layout.filter_index(k).is_some());
+    Ok(Cow::Owned(Sensor::from_config_named(
+        c,
+        &format!("{} with the frame's CFA {}", sensor.name(), layout.name()),
+    )?))
+}
+
+/// The spectral QE of each filter of `sensor`'s CFA, in the layout's filter order, on `grid`.
+fn filter_qe_on(sensor: &Sensor, grid: &WavelengthGrid) -> Vec<Vec<f64>> {
+    sensor
+        .filter_qe_spectra()
+        .iter()
+        .map(|s| s.sample(grid))
+        .collect()
 }

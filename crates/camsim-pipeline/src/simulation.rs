@@ -78,8 +78,11 @@ pub struct Simulation {
     /// mean dark signal included (DN, row-major, f32): the mean the frame scatters around (a
     /// moving scene's frames each their own; a bracket's each at its exposure).
     pub noise_free_dn: Option<Vec<Vec<f32>>>,
-    /// The preview: bilinear demosaic of the first frame, colour-corrected to sRGB.
+    /// The preview: bilinear demosaic of the first frame, colour-corrected to sRGB (the ISP of
+    /// its CFA's family, [`crate::Isp::compute`]); where the ISP fails, the raw mosaic in grey.
     pub preview: Rgb8Image,
+    /// Why the preview is the raw mosaic in grey (the ISP's error), or None.
+    pub preview_note: Option<String>,
     /// Exposure time used, s.
     pub exposure_s: f64,
     /// Noise-free mean electrons per channel r, g, b.
@@ -201,7 +204,10 @@ pub fn simulate(
         .raw
         .first()
         .ok_or_else(|| PipelineError::config("the sensor returned no frame"))?;
-    let preview = isp.compute(raw0, &sensor)?.preview;
+    // The raw is written whatever the preview does: a frame the ISP cannot render (a filter set
+    // its colour fit cannot handle, say) gets its mosaic in grey as the preview, and the reason
+    // in `preview_note` (run.json's note on preview.png).
+    let (preview, preview_note) = preview_or_mosaic(&isp, raw0, &sensor)?;
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -220,6 +226,7 @@ pub fn simulate(
         frames: frame.raw,
         noise_free_dn,
         preview,
+        preview_note,
         mean_dn_rgb,
         dng,
         times_s: times,
@@ -227,6 +234,37 @@ pub fn simulate(
         moving,
         flow,
     })
+}
+
+/// The ISP's preview of `raw`, or, where the ISP fails, the mosaic in grey (DN above black at
+/// the automatic exposure) with the ISP's error as the note.
+fn preview_or_mosaic(
+    isp: &Isp,
+    raw: &RawImage,
+    sensor: &camsim_sensor::Sensor,
+) -> Result<(Rgb8Image, Option<String>)> {
+    match isp.compute(raw, sensor) {
+        Ok(o) => Ok((o.preview, None)),
+        Err(e) => {
+            let grey = camsim_isp::cfa_render::mono_rgb(raw)?;
+            let scale = camsim_isp::cfa_render::auto_exposure_linear_srgb(&grey);
+            let data = camsim_isp::cfa_render::render_linear_srgb8(
+                &grey,
+                scale,
+                Some(raw.white_level_dn - raw.black_level_dn),
+            );
+            Ok((
+                Rgb8Image {
+                    rows: raw.rows,
+                    cols: raw.cols,
+                    data,
+                },
+                Some(format!(
+                    "the raw mosaic in grey: the ISP could not render this frame ({e})"
+                )),
+            ))
+        }
+    }
 }
 
 /// Mean DN over the pixels of each channel r, g, b (0 where a channel has none).
@@ -277,7 +315,7 @@ impl Simulation {
         let isp = Isp::for_config(&self.config)?;
         self.frames
             .iter()
-            .map(|raw| Ok(isp.compute(raw, &sensor)?.preview))
+            .map(|raw| Ok(preview_or_mosaic(&isp, raw, &sensor)?.0))
             .collect()
     }
 
@@ -432,6 +470,11 @@ impl Simulation {
                 None => "not written: this scene (a 2D chart) has no optical flow",
             };
             files.insert("flow.exr".into(), note.into());
+        }
+        if outputs.contains(Output::Preview) {
+            if let Some(note) = &self.preview_note {
+                files.insert("preview.png".into(), note.clone().into());
+            }
         }
         if outputs.contains(Output::PreviewGif) {
             let note = if self.frames.len() > 1 {

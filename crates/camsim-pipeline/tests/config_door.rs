@@ -148,3 +148,70 @@ fn an_unknown_key_over_a_preset_is_refused_by_name() {
         assert!(e.contains("nope"), "{section}: {e}");
     }
 }
+
+/// Issue 42: a key over a preset replaces the preset's way of stating the same setting. The
+/// pixel4a preset says `cfa = "RGGB"`; `cfa_pattern = [["w"]]` over it is a monochrome sensor
+/// (every pixel the panchromatic filter), not "give either cfa or cfa_pattern, not both".
+#[test]
+fn a_key_over_a_preset_replaces_the_presets_alternative_key() {
+    let base = Path::new("");
+    let mono = format!(
+        "{SCENE}[sensor]\npreset = \"pixel4a\"\nrows = 48\ncols = 64\n[sensor.config]\ncfa_pattern = [[\"w\"]]\n"
+    );
+    let c = SimulateConfig::from_toml_str(&mono, base).unwrap();
+    let sensor = c.sensor().unwrap();
+    assert_eq!(sensor.cfa_layout().name(), "w");
+    assert_eq!(sensor.cfa_layout().filters(), ["w"]);
+    let preset = camsim_sensor::Sensor::preset("pixel4a").unwrap();
+    assert_eq!(
+        sensor.config().conversion_gain_uv_per_e,
+        preset.config().conversion_gain_uv_per_e
+    );
+    // The same through the JSON door (a Python dict).
+    let json = serde_json::to_value(toml::from_str::<toml::Value>(&mono).unwrap()).unwrap();
+    let from_json = SimulateConfig::from_value(json, base).unwrap();
+    assert_eq!(from_json.to_toml(), c.to_toml());
+    // A CFA name over a preset's: the name wins.
+    let rgbw = mono.replace("cfa_pattern = [[\"w\"]]", "cfa = \"RGBW\"");
+    let s = SimulateConfig::from_toml_str(&rgbw, base)
+        .unwrap()
+        .sensor()
+        .unwrap();
+    assert_eq!(s.cfa_layout().name(), "RGBW");
+    // Both in the override is still the user's contradiction, named as before.
+    let both = mono.replace(
+        "cfa_pattern = [[\"w\"]]",
+        "cfa = \"RGGB\"\ncfa_pattern = [[\"w\"]]",
+    );
+    let e = SimulateConfig::from_toml_str(&both, base)
+        .and_then(|c| c.sensor())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not both"), "{e}");
+    // analog_gain over a preset that states its gain as an ISO (pixel4a-raw10: iso = 55 at
+    // base_iso 55): the gain replaces the ISO (ISETCam v_out = (v + offset) / gain).
+    let gain = format!(
+        "{SCENE}[sensor]\npreset = \"pixel4a-raw10\"\n[sensor.config]\nanalog_gain = 2.0\n"
+    );
+    let s = SimulateConfig::from_toml_str(&gain, base)
+        .unwrap()
+        .sensor()
+        .unwrap();
+    assert_eq!(s.analog_gain(), 2.0);
+    assert_eq!(s.config().iso, None);
+    // A QE file over a preset replaces its curves, and the correction fitted to them goes too.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("flat.csv"),
+        "wavelength_nm,r,g,b\n400,0.5,0.5,0.5\n700,0.5,0.5,0.5\n",
+    )
+    .unwrap();
+    let qe =
+        format!("{SCENE}[sensor]\npreset = \"pixel4a\"\n[sensor.config.qe]\nfile = \"flat.csv\"\n");
+    let s = SimulateConfig::from_toml_str(&qe, dir.path())
+        .unwrap()
+        .sensor()
+        .unwrap();
+    assert_eq!(s.config().qe.wavelengths_nm, [400.0, 700.0]);
+    assert_eq!(s.config().qe_correction, None);
+}

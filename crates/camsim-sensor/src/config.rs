@@ -91,13 +91,16 @@ pub struct QeConfig {
     /// Sample wavelengths, nm, strictly increasing.
     #[serde(default)]
     pub wavelengths_nm: Vec<f64>,
-    /// Red colour-filter transmittance (fraction, 0..1), one value per wavelength.
+    /// Red colour-filter transmittance (fraction, 0..1), one value per wavelength; empty (left out)
+    /// when the CFA has no r filter (a monochrome or an RCCC sensor).
     #[serde(default)]
     pub r: Vec<f64>,
-    /// Green colour-filter transmittance (fraction), one value per wavelength.
+    /// Green colour-filter transmittance (fraction), one value per wavelength; empty (left out)
+    /// when the CFA has no g filter (a monochrome or an RCCC sensor).
     #[serde(default)]
     pub g: Vec<f64>,
-    /// Blue colour-filter transmittance (fraction), one value per wavelength.
+    /// Blue colour-filter transmittance (fraction), one value per wavelength; empty (left out)
+    /// when the CFA has no b filter (a monochrome or an RCCC sensor).
     #[serde(default)]
     pub b: Vec<f64>,
     /// IR-cut filter transmittance (fraction), one value per wavelength; absent = 1.
@@ -241,6 +244,11 @@ impl QeConfig {
         Ok(())
     }
 }
+
+/// Pairs of keys that state one setting two ways (giving both is an error): a table put over a
+/// preset (`[sensor] preset = ...` with `[sensor.config]`) that gives one of a pair replaces the
+/// preset's other one.
+pub const ALTERNATIVE_KEYS: [(&str, &str); 2] = [("cfa", "cfa_pattern"), ("iso", "analog_gain")];
 
 /// A sensor as written in a TOML file (presets are such files, built in). Unknown keys are errors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -563,7 +571,7 @@ impl SensorConfig {
     }
 
     /// The QE tables: wavelengths, the curves, named filters against the CFA, the corrected QE.
-    fn check_qe(&self) -> Checked {
+    fn check_qe<'a>(&'a self) -> Checked {
         let q = &self.qe;
         let n = q.wavelengths_nm.len();
         if n == 0 {
@@ -587,10 +595,16 @@ impl SensorConfig {
                 ),
             );
         }
+        // r, g or b may be left empty when the CFA has no such filter (monochrome, RCCC).
+        let layout = self.cfa_layout().ok();
+        let curve = |key: &'static str, c: &'static str, v: &'a Vec<f64>| {
+            let unused = layout.as_ref().is_some_and(|l| l.filter_index(c).is_none());
+            (key, (!(v.is_empty() && unused)).then_some(v))
+        };
         let curves: [(&str, Option<&Vec<f64>>); 5] = [
-            ("qe.r", Some(&q.r)),
-            ("qe.g", Some(&q.g)),
-            ("qe.b", Some(&q.b)),
+            curve("qe.r", "r", &q.r),
+            curve("qe.g", "g", &q.g),
+            curve("qe.b", "b", &q.b),
             ("qe.ir_cut", q.ir_cut.as_ref()),
             ("qe.pixel_qe", q.pixel_qe.as_ref()),
         ];
@@ -663,7 +677,8 @@ impl SensorConfig {
         for k in 0..q.wavelengths_nm.len() {
             let ir = q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
             let px = q.pixel_qe.as_ref().map_or(1.0, |v| v[k]);
-            let rgb = [q.r[k] * ir * px, q.g[k] * ir * px, q.b[k] * ir * px];
+            let at = |c: &[f64]| c.get(k).copied().unwrap_or(0.0);
+            let rgb = [at(&q.r) * ir * px, at(&q.g) * ir * px, at(&q.b) * ir * px];
             for c in 0..3 {
                 let v: f64 = (0..3).map(|i| rgb[i] * m[i][c]).sum();
                 if v < 0.0 {

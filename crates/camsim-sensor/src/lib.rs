@@ -3,7 +3,8 @@
 //! A [`Sensor`] is built from a [`SensorConfig`] (a TOML file or a built-in preset: `imx363`
 //! with every value of the paper's Table 1 and the published IMX363 QE, `pixel4a` with the paper's
 //! corrected QE, `pixel4a-raw10` with the phone's own raw format (10-bit, black level 64, white
-//! level 1023), `ideal` for tests). [`Sensor::compute`] follows ISETCam's `sensorCompute`:
+//! level 1023), `ideal` for tests, and ISETCam's own MT9V024 and AR0132AT sensor files read by
+//! [`isetcam`]). [`Sensor::compute`] follows ISETCam's `sensorCompute`:
 //!
 //! 1. the sensor-plane irradiance is integrated over each pixel's photodetector (pitch^2 x fill factor);
 //! 2. electrons = sum_lambda E QE_c lambda/(h c) d lambda x area x t for the pixel's CFA channel
@@ -35,6 +36,7 @@ pub mod emva;
 pub mod error;
 pub mod hdr;
 mod hdr_config;
+pub mod isetcam;
 mod normal;
 pub mod pixel_vignetting;
 mod poisson;

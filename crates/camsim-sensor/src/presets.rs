@@ -32,6 +32,42 @@ pub const SENSOR_PRESETS: NameTable<&str> = NameTable {
             about: "QE 1, no noise, 16-bit: for tests",
             value: include_str!("../presets/ideal.toml"),
         },
+        Named {
+            name: "mt9v024-mono",
+            aliases: &[],
+            about: "ON Semiconductor MT9V024, monochrome (ISETCam MT9V024SensorMono.mat)",
+            value: include_str!("../presets/mt9v024-mono.toml"),
+        },
+        Named {
+            name: "mt9v024-rgb",
+            aliases: &[],
+            about: "ON Semiconductor MT9V024, Bayer GRBG (ISETCam MT9V024SensorRGB.mat)",
+            value: include_str!("../presets/mt9v024-rgb.toml"),
+        },
+        Named {
+            name: "mt9v024-rccc",
+            aliases: &[],
+            about: "ON Semiconductor MT9V024, RCCC (ISETCam MT9V024SensorRCCC.mat)",
+            value: include_str!("../presets/mt9v024-rccc.toml"),
+        },
+        Named {
+            name: "mt9v024-rgbw",
+            aliases: &[],
+            about: "ON Semiconductor MT9V024, RGBW (ISETCam MT9V024SensorRGBW.mat)",
+            value: include_str!("../presets/mt9v024-rgbw.toml"),
+        },
+        Named {
+            name: "ar0132at-rgb",
+            aliases: &[],
+            about: "ON Semiconductor AR0132AT, Bayer GRBG (ISETCam ar0132atSensorRGB.mat)",
+            value: include_str!("../presets/ar0132at-rgb.toml"),
+        },
+        Named {
+            name: "ar0132at-rccc",
+            aliases: &[],
+            about: "ON Semiconductor AR0132AT, RCCC (ISETCam ar0132atSensorRCCC.mat)",
+            value: include_str!("../presets/ar0132at-rccc.toml"),
+        },
     ],
 };
 

@@ -82,7 +82,9 @@ impl Sensor {
         let raw: Vec<[f64; 3]> = (0..n)
             .map(|k| {
                 let t = ir(k) * px(k);
-                [q.r[k] * t, q.g[k] * t, q.b[k] * t]
+                // r, g, b may be empty for a CFA without them (validated): QE 0 there.
+                let at = |c: &[f64]| c.get(k).copied().unwrap_or(0.0);
+                [at(&q.r) * t, at(&q.g) * t, at(&q.b) * t]
             })
             .collect();
         // The paper's eq. 1: [r', g', b'] = [r, g, b] M (rows of M index the input channel).

@@ -6,6 +6,7 @@ use anyhow::{bail, Result};
 use camsim::analysis::chart::ChartCorners;
 use camsim::core::WavelengthGrid;
 use camsim::isp::ccm::CcmObjective;
+use camsim::isp::cfa_render::RcccClear;
 use camsim::isp::white_balance::WHITE_PATCH_PERCENTILE;
 use camsim::isp::{DemosaicMethod, WhiteBalanceMethod};
 use camsim::pipeline::CcmSource;
@@ -49,7 +50,11 @@ fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
 /// ColorChecker from the sensor QE under the illuminant (--ccm qe, white balance and Bradford
 /// adaptation to D65 included), or on the chart photographed in the image (--ccm chart: the 24
 /// patch means after white balance, fitted to the chart's XYZ under D65). Then XYZ -> linear sRGB
-/// -> sRGB transfer function (IEC 61966-2-1).
+/// -> sRGB transfer function (IEC 61966-2-1). A DNG of another CFA takes its own path: a
+/// monochrome frame renders grey (no demosaic); RCCC renders (red, clear, clear), grey for
+/// neutral surfaces, the clear channel at the R sites by --rccc-clear; any other tile (CMY, CMYG,
+/// RGB-IR, N channels) is demosaicked per channel and taken to sRGB by a 3 x N matrix fitted on the
+/// ColorChecker from --sensor's QE of the DNG's filters under --illuminant.
 #[derive(clap::Args)]
 #[command(
     after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png"
@@ -94,6 +99,11 @@ pub struct Args {
     /// Bin 2x2 same-filter blocks first (Quad Bayer -> Bayer at half the size, 4x the signal).
     #[arg(long)]
     pub bin: bool,
+    /// RCCC frames: how the clear channel is filled at the R sites: edge-aware (Hamilton-Adams
+    /// directional interpolation) or analog (ISETCam's demosaicRCCC cross kernel, after Analog
+    /// Devices EE-358).
+    #[arg(long, default_value = "edge-aware", value_parser = parse_str::<RcccClear>)]
+    pub rccc_clear: RcccClear,
     /// Output PNG.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
@@ -119,6 +129,7 @@ pub fn run(a: Args) -> Result<()> {
     isp.white_balance = a.white_balance;
     isp.white_patch_percentile = a.white_patch_percentile;
     isp.bin_2x2 = a.bin;
+    isp.rccc_clear = a.rccc_clear;
     if a.ccm == CcmChoice::Chart {
         let corners: ChartCorners = match a.corners {
             Some(c) => c,

@@ -5,7 +5,7 @@ use anyhow::{bail, Result};
 
 /// List every built-in name (sensor and lens presets, 3D scenes, 2D scene kinds, demosaic and
 /// white-balance methods, colour filter arrays, outputs), or print one preset as TOML (the file
-/// you would copy and edit).
+/// you would copy and edit; a sensor preset's source, the data it was built from, also on stderr).
 #[derive(clap::Args)]
 #[command(
     after_help = "Examples:\n  camsim presets\n  camsim presets sensor pixel4a > my-sensor.toml\n  camsim presets optics pixel4a"
@@ -30,7 +30,15 @@ pub fn run(a: Args) -> Result<()> {
             }
             println!("simulate default config: camsim simulate --print-config");
         }
-        (Some("sensor"), Some(n)) => print!("{}", camsim::sensor::presets::toml(n)?),
+        (Some("sensor"), Some(n)) => {
+            print!("{}", camsim::sensor::presets::toml(n)?);
+            // Where its figures come from, also on stderr (the TOML's `source`).
+            let sensor = camsim::sensor::Sensor::preset(n)?;
+            crate::common::say(format!(
+                "source: {}",
+                sensor.config().source.as_deref().unwrap_or("not stated")
+            ));
+        }
         (Some("optics" | "lens"), Some(n)) => print!("{}", camsim::optics::presets::toml(n)?),
         (Some("sensor"), None) => println!("{}", camsim::sensor::presets::names().join("\n")),
         (Some("optics" | "lens"), None) => {

@@ -117,6 +117,9 @@ pub fn run(a: Args) -> Result<()> {
     pb.finish_and_clear();
     common::commit(staged)?;
     let out = &a.out;
+    if let (Some(note), true) = (&sim.preview_note, outputs.contains(Output::Preview)) {
+        say(format!("warning: preview.png is {note}"));
+    }
     say(format!(
         "exposure {:.3} ms, mean DN r/g/b = {:.1} / {:.1} / {:.1}; {} frame(s) in {:.2} s ({:.2} s with files) -> {} ({})",
         sim.exposure_s * 1e3,
