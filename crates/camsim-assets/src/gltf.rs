@@ -40,6 +40,7 @@
 //!   shutter window in those seconds gives motion blur, rolling shutter and flow. Skins and
 //!   morph targets are refused with a message when the file animates them.
 
+use crate::texture::DecodedImage;
 use crate::units::{
     photometric_spectrum, reflectance, srgb_to_linear, unbounded, unit_rgb_illuminant,
 };
@@ -507,13 +508,6 @@ fn trs_matrix(t: [f64; 3], q: [f64; 4], s: [f64; 3]) -> Transform {
     m
 }
 
-/// A decoded image: RGBA, values 0..1 as stored (not yet linearised).
-struct Decoded {
-    width: usize,
-    height: usize,
-    rgba: Vec<[f32; 4]>,
-}
-
 /// Scene under construction.
 struct Builder {
     shapes: Vec<Shape>,
@@ -522,7 +516,7 @@ struct Builder {
     /// glTF material index (None: the default material) and COLOR_0 tint -> camsim material
     /// and its emitter.
     mat_cache: crate::MaterialCache,
-    images: HashMap<usize, Arc<Decoded>>,
+    images: HashMap<usize, Arc<DecodedImage>>,
     lights: Vec<Light>,
     cameras: Vec<(Option<String>, Option<String>, usize, Camera)>,
     instance: u32,
@@ -891,7 +885,7 @@ impl Builder {
     }
 
     /// Decode image `index` (cached).
-    fn image(&mut self, doc: &Doc, img: &gltf::Image) -> Result<Arc<Decoded>> {
+    fn image(&mut self, doc: &Doc, img: &gltf::Image) -> Result<Arc<DecodedImage>> {
         if let Some(d) = self.images.get(&img.index()) {
             return Ok(d.clone());
         }
@@ -919,16 +913,10 @@ impl Builder {
                 }
             },
         };
-        let dynimg = image::load_from_memory(&bytes)
-            .map_err(|e| doc.err(format!("{origin}: cannot decode: {e}")))?;
-        let rgba = dynimg.to_rgba32f();
-        let (w, h) = (rgba.width() as usize, rgba.height() as usize);
-        let px: Vec<[f32; 4]> = rgba.pixels().map(|p| p.0).collect();
-        let d = Arc::new(Decoded {
-            width: w,
-            height: h,
-            rgba: px,
-        });
+        let d = Arc::new(
+            DecodedImage::decode(&bytes)
+                .map_err(|e| doc.err(format!("{origin}: cannot decode: {e}")))?,
+        );
         self.images.insert(img.index(), d.clone());
         Ok(d)
     }
@@ -971,19 +959,7 @@ impl Builder {
     ) -> Result<FloatTexture> {
         let img = self.image(doc, &tex.source())?;
         let (wrap, filter) = self.sampler(tex);
-        let values: Vec<f32> = img
-            .rgba
-            .iter()
-            .map(|p| map(p[ch] * factor as f32))
-            .collect();
-        Ok(FloatTexture::Image {
-            width: img.width,
-            height: img.height,
-            values: values.into(),
-            mapping: UvMapping::default(),
-            wrap,
-            filter,
-        })
+        Ok(img.channel(ch, factor, map, wrap, filter))
     }
 
     fn material(
@@ -1009,27 +985,7 @@ impl Builder {
                 let tex = info.texture();
                 let img = self.image(doc, &tex.source())?;
                 let (wrap, filter) = self.sampler(&tex);
-                let rgb: Vec<[f32; 3]> = img
-                    .rgba
-                    .iter()
-                    .map(|p| {
-                        std::array::from_fn(|k| {
-                            (srgb_to_linear(p[k]) as f64 * base_rgb[k]).clamp(0.0, 1.0) as f32
-                        })
-                    })
-                    .collect();
-                Texture::Image {
-                    width: img.width,
-                    height: img.height,
-                    rgb: rgb.into(),
-                    uscale: 1.0,
-                    vscale: 1.0,
-                    udelta: 0.0,
-                    vdelta: 0.0,
-                    kind: MappingKind::Uv,
-                    wrap,
-                    filter,
-                }
+                img.base_color(base_rgb, wrap, filter)
             }
             None => Texture::Constant(reflectance(base_rgb)),
         };
@@ -1162,29 +1118,12 @@ impl Builder {
         // Normal map (sec. 3.9.3): tangent-space normals scaled in x, y by `scale`.
         if let Some(nt) = mat.normal_texture() {
             let img = self.image(doc, &nt.texture().source())?;
-            let s = nt.scale();
-            let rgb: Vec<[f32; 3]> = img
-                .rgba
-                .iter()
-                .map(|p| {
-                    let n = [
-                        (2.0 * p[0] - 1.0) * s,
-                        (2.0 * p[1] - 1.0) * s,
-                        2.0 * p[2] - 1.0,
-                    ];
-                    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
-                    n.map(|v| (v / l + 1.0) / 2.0)
-                })
-                .collect();
+            let normals = img.normal_map(nt.scale());
             self.materials.push(m);
             let inner = self.materials.len() - 1;
             m = Material::Bumped {
                 material: inner,
-                perturbation: NormalPerturbation::NormalMap(Arc::new(NormalMapImage {
-                    width: img.width,
-                    height: img.height,
-                    rgb,
-                })),
+                perturbation: NormalPerturbation::NormalMap(Arc::new(normals)),
             };
         }
         // Alpha (sec. 3.9.4): MASK keeps texels at or above the cutoff, BLEND is stochastic.

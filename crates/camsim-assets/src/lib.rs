@@ -18,6 +18,7 @@
 
 pub mod gltf;
 pub mod obj;
+mod texture;
 pub mod units;
 
 use camsim_scene3d::{Camera, SceneDescription, Transform};

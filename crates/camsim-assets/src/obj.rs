@@ -20,6 +20,7 @@
 //! - Units and axes: none in OBJ: `ReadOptions::obj_scale_m` (default 1 m per unit) and
 //!   `ReadOptions::obj_up_axis` (default Y).
 
+use crate::texture::DecodedImage;
 use crate::units::{photometric_spectrum, reflectance, srgb_to_linear};
 use crate::{AssetError, ReadOptions, Result};
 use camsim_core::mem::MemoryBudget;
@@ -272,20 +273,13 @@ fn first_bad_line(text: &str) -> Option<(usize, String)> {
     None
 }
 
-/// An image decoded for a map: RGBA as stored, 0..1.
-struct Img {
-    width: usize,
-    height: usize,
-    rgba: Vec<[f32; 4]>,
-}
-
 struct MtlBuilder {
     dir: PathBuf,
     path: PathBuf,
     materials: Vec<Material>,
     named: HashMap<String, usize>,
     cache: crate::MaterialCache,
-    images: HashMap<String, Arc<Img>>,
+    images: HashMap<String, Arc<DecodedImage>>,
     notes: BTreeSet<String>,
 }
 
@@ -323,23 +317,17 @@ impl MtlBuilder {
         AssetError::new(&self.path, m)
     }
 
-    fn image(&mut self, name: &str, what: &str) -> Result<Arc<Img>> {
+    fn image(&mut self, name: &str, what: &str) -> Result<Arc<DecodedImage>> {
         if let Some(i) = self.images.get(name) {
             return Ok(i.clone());
         }
         let p = self.dir.join(name.replace('\\', "/"));
-        let img = image::open(&p).map_err(|e| {
+        let i = Arc::new(DecodedImage::open(&p).map_err(|e| {
             self.err(format!(
                 "{what} wants {} ({name:?}), which cannot be read: {e}",
                 p.display()
             ))
-        })?;
-        let rgba = img.to_rgba32f();
-        let i = Arc::new(Img {
-            width: rgba.width() as usize,
-            height: rgba.height() as usize,
-            rgba: rgba.pixels().map(|p| p.0).collect(),
-        });
+        })?);
         self.images.insert(name.to_string(), i.clone());
         Ok(i)
     }
@@ -352,19 +340,7 @@ impl MtlBuilder {
         factor: f64,
     ) -> Result<FloatTexture> {
         let img = self.image(name, what)?;
-        Ok(FloatTexture::Image {
-            width: img.width,
-            height: img.height,
-            values: img
-                .rgba
-                .iter()
-                .map(|p| p[ch] * factor as f32)
-                .collect::<Vec<f32>>()
-                .into(),
-            mapping: UvMapping::default(),
-            wrap: WrapMode::Repeat,
-            filter: TexelFilter::Bilinear,
-        })
+        Ok(img.channel(ch, factor, |v| v, WrapMode::Repeat, TexelFilter::Bilinear))
     }
 
     fn material(
@@ -392,27 +368,7 @@ impl MtlBuilder {
             Some(spec) => {
                 let (name, _) = map_args(&spec);
                 let img = self.image(&name, &what("map_Kd"))?;
-                let rgb: Vec<[f32; 3]> = img
-                    .rgba
-                    .iter()
-                    .map(|px| {
-                        std::array::from_fn(|k| {
-                            (srgb_to_linear(px[k]) as f64 * base_rgb[k]).clamp(0.0, 1.0) as f32
-                        })
-                    })
-                    .collect();
-                Texture::Image {
-                    width: img.width,
-                    height: img.height,
-                    rgb: rgb.into(),
-                    uscale: 1.0,
-                    vscale: 1.0,
-                    udelta: 0.0,
-                    vdelta: 0.0,
-                    kind: MappingKind::Uv,
-                    wrap: WrapMode::Repeat,
-                    filter: TexelFilter::Bilinear,
-                }
+                img.base_color(base_rgb, WrapMode::Repeat, TexelFilter::Bilinear)
             }
             None => Texture::Constant(reflectance(base_rgb)),
         };
@@ -502,28 +458,11 @@ impl MtlBuilder {
             let n = img.rgba.len().max(1) as f64;
             let (mr, mg, mb) = (mean[0] / n, mean[1] / n, mean[2] / n);
             if mb > 0.7 && (mr - 0.5).abs() < 0.15 && (mg - 0.5).abs() < 0.15 {
-                let s = bm as f32;
-                let rgb: Vec<[f32; 3]> = img
-                    .rgba
-                    .iter()
-                    .map(|p| {
-                        let v = [
-                            (2.0 * p[0] - 1.0) * s,
-                            (2.0 * p[1] - 1.0) * s,
-                            2.0 * p[2] - 1.0,
-                        ];
-                        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-12);
-                        v.map(|x| (x / l + 1.0) / 2.0)
-                    })
-                    .collect();
+                let normals = img.normal_map(bm as f32);
                 self.materials.push(mat);
                 mat = Material::Bumped {
                     material: self.materials.len() - 1,
-                    perturbation: NormalPerturbation::NormalMap(Arc::new(NormalMapImage {
-                        width: img.width,
-                        height: img.height,
-                        rgb,
-                    })),
+                    perturbation: NormalPerturbation::NormalMap(Arc::new(normals)),
                 };
             } else {
                 self.notes.insert(format!(

@@ -758,7 +758,19 @@ fn file_shapes(
     }
     let sub = match reader(path) {
         Some(r) => r.map_err(|e| format!("{key}: {e}"))?,
-        None => crate::parse_file(path).map_err(|e| format!("{key}: {e}"))?,
+        None => {
+            let asset = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| ["glb", "gltf", "obj"].contains(&e.to_ascii_lowercase().as_str()));
+            if asset {
+                return Err(format!(
+                    "{key}: {} is a glTF/OBJ asset: reading it needs the asset reader (`overlay::apply_with`, as camsim's pipeline applies overlays)",
+                    path.display()
+                ));
+            }
+            crate::parse_file(path).map_err(|e| format!("{key}: {e}"))?
+        }
     };
     let offset = scene.materials.len();
     let media_offset = scene.media.list.len();

@@ -118,3 +118,26 @@ fn scene_files_are_told_apart_by_content() {
     let e = read_scene_file(&bad, &opts()).unwrap_err().to_string();
     assert!(e.contains("bad.glb"), "{e}");
 }
+
+#[test]
+fn the_example_duck_overlay_applies() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/overlays/cornell-duck.toml");
+    let scene = load_scene(Some("cornell-box"), None, Some(&p), &opts()).unwrap();
+    let duck: Vec<_> = scene
+        .shapes
+        .iter()
+        .filter(|s| s.name.as_deref() == Some("duck"))
+        .collect();
+    assert!(
+        !duck.is_empty()
+            && duck
+                .iter()
+                .all(|s| s.tags.category.as_deref() == Some("duck"))
+    );
+    // It stands on the floor (y = 0) after its scale and turn about its bottom centre.
+    let lo = duck
+        .iter()
+        .map(|s| camsim_scene3d::xform::shape_bounds(&s.geometry).0[1])
+        .fold(f64::INFINITY, f64::min);
+    assert!(lo.abs() < 1e-9, "{lo}");
+}
