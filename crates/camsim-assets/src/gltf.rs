@@ -49,9 +49,9 @@ use camsim_core::mem::MemoryBudget;
 use camsim_core::Spectrum;
 use camsim_scene3d::motion::{Keyframe, Motion, MotionPart};
 use camsim_scene3d::{
-    AreaLight, Camera, EmissionImage, FloatTexture, Geometry, GltfPbr, Light, MappingKind,
-    Material, NormalMapImage, NormalPerturbation, SceneDescription, Shape, ShapeTags, SpotFalloff,
-    TexelFilter, Texture, Transform, UvMapping, WrapMode,
+    AreaLight, Camera, EmissionImage, FloatTexture, Geometry, GltfPbr, Light, Material,
+    NormalPerturbation, SceneDescription, Shape, ShapeTags, SpotFalloff, TexelFilter, Texture,
+    Transform, WrapMode,
 };
 use gltf::accessor::{DataType, Dimensions};
 use std::collections::{BTreeSet, HashMap};

@@ -21,14 +21,13 @@
 //!   `ReadOptions::obj_up_axis` (default Y).
 
 use crate::texture::DecodedImage;
-use crate::units::{photometric_spectrum, reflectance, srgb_to_linear};
+use crate::units::{photometric_spectrum, reflectance};
 use crate::{AssetError, ReadOptions, Result};
 use camsim_core::mem::MemoryBudget;
 use camsim_core::Spectrum;
 use camsim_scene3d::{
-    AreaLight, FloatTexture, Geometry, GltfPbr, MappingKind, Material, NormalMapImage,
-    NormalPerturbation, SceneDescription, Shape, ShapeTags, TexelFilter, Texture, Transform,
-    UvMapping, WrapMode,
+    AreaLight, FloatTexture, Geometry, GltfPbr, Material, NormalPerturbation, SceneDescription,
+    Shape, ShapeTags, TexelFilter, Texture, Transform, WrapMode,
 };
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
