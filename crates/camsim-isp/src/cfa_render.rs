@@ -26,7 +26,7 @@
 //! [`crate::color::AUTO_EXPOSURE_P99_Y`]), then the sRGB transfer function (IEC 61966-2-1).
 
 use crate::cfa_general::demosaic_layout_bilinear;
-use crate::color::{bradford_adaptation, Mat3, AUTO_EXPOSURE_P99_Y};
+use crate::color::{bradford_adaptation, Mat3};
 use crate::coring::{render_display8, SRGB_LUMINANCE_WEIGHTS};
 use crate::demosaic::RgbImage;
 use camsim_analysis::color_difference::{ciede2000, xyz_to_lab};
@@ -517,27 +517,10 @@ impl ChannelTransform {
 }
 
 /// The exposure scale that puts the 99th percentile of the luminance (sRGB weights) of a linear
-/// sRGB image at [`AUTO_EXPOSURE_P99_Y`] (1 for an image with no positive luminance); as
+/// sRGB image at [`crate::color::AUTO_EXPOSURE_P99_Y`] (1 for an image with no positive luminance); as
 /// [`crate::ColorPipeline::auto_exposure_scale`], at most 2^20 pixels sampled.
 pub fn auto_exposure_linear_srgb(img: &RgbImage) -> f64 {
-    let n = img.pixels();
-    let w = SRGB_LUMINANCE_WEIGHTS;
-    let stride = n.div_ceil(1 << 20).max(1);
-    let mut ys: Vec<f64> = (0..n)
-        .step_by(stride)
-        .map(|i| w[0] * img.r[i] as f64 + w[1] * img.g[i] as f64 + w[2] * img.b[i] as f64)
-        .filter(|y| y.is_finite())
-        .collect();
-    if ys.is_empty() {
-        return 1.0;
-    }
-    let k = ((ys.len() - 1) as f64 * 0.99).round() as usize;
-    let (_, p99, _) = ys.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-    if *p99 > 0.0 {
-        AUTO_EXPOSURE_P99_Y / *p99
-    } else {
-        1.0
-    }
+    crate::color::p99_exposure_scale(img, SRGB_LUMINANCE_WEIGHTS)
 }
 
 /// Interleaved 8-bit sRGB of a linear sRGB image: each value clipped at `clip` (the saturation,

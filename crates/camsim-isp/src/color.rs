@@ -294,27 +294,8 @@ impl ColorPipeline {
     /// [`AUTO_EXPOSURE_P99_Y`]. Uses at most about a million evenly strided pixels. Returns 1 when
     /// the image has no positive luminance.
     pub fn auto_exposure_scale(&self, img: &RgbImage) -> f64 {
-        let n = img.pixels();
-        if n == 0 {
-            return 1.0;
-        }
         let row = mat3_mul(&self.adaptation, &self.camera_to_xyz)[1];
-        let stride = n.div_ceil(1 << 20).max(1);
-        let mut ys: Vec<f64> = (0..n)
-            .step_by(stride)
-            .map(|i| row[0] * img.r[i] as f64 + row[1] * img.g[i] as f64 + row[2] * img.b[i] as f64)
-            .filter(|y| y.is_finite())
-            .collect();
-        if ys.is_empty() {
-            return 1.0;
-        }
-        let k = ((ys.len() - 1) as f64 * 0.99).round() as usize;
-        let (_, p99, _) = ys.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-        if *p99 > 0.0 {
-            AUTO_EXPOSURE_P99_Y / *p99
-        } else {
-            1.0
-        }
+        p99_exposure_scale(img, row)
     }
 
     /// Render an 8-bit sRGB preview, interleaved R, G, B, row-major (`rows * cols * 3` bytes):
@@ -402,6 +383,32 @@ impl Srgb8Encoder {
             k += 1;
         }
         k as u8
+    }
+}
+
+/// The exposure scale that puts the 99th percentile of `weights . (r, g, b)` (a luminance) at
+/// [`AUTO_EXPOSURE_P99_Y`], at most 2^20 pixels sampled; 1 when no luminance is positive.
+pub(crate) fn p99_exposure_scale(img: &RgbImage, weights: [f64; 3]) -> f64 {
+    let n = img.pixels();
+    if n == 0 {
+        return 1.0;
+    }
+    let w = weights;
+    let stride = n.div_ceil(1 << 20).max(1);
+    let mut ys: Vec<f64> = (0..n)
+        .step_by(stride)
+        .map(|i| w[0] * img.r[i] as f64 + w[1] * img.g[i] as f64 + w[2] * img.b[i] as f64)
+        .filter(|y| y.is_finite())
+        .collect();
+    if ys.is_empty() {
+        return 1.0;
+    }
+    let k = ((ys.len() - 1) as f64 * 0.99).round() as usize;
+    let (_, p99, _) = ys.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    if *p99 > 0.0 {
+        AUTO_EXPOSURE_P99_Y / *p99
+    } else {
+        1.0
     }
 }
 
