@@ -48,7 +48,8 @@ impl FilterPlanes {
     }
 }
 
-fn check(raw: &RawImage) -> Result<()> {
+/// The raw's values fill its `rows x cols` grid, of at least one pixel.
+pub(crate) fn check(raw: &RawImage) -> Result<()> {
     if raw.dn.len() != raw.rows * raw.cols || raw.rows == 0 || raw.cols == 0 {
         return Err(CoreError::invalid(
             "raw image",

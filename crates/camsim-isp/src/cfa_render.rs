@@ -91,18 +91,9 @@ impl CfaFamily {
     }
 }
 
+/// The raw's grid is whole ([`crate::cfa_general::check`]) and its three demosaicked planes fit.
 fn check(raw: &RawImage) -> Result<()> {
-    if raw.dn.len() != raw.rows * raw.cols || raw.rows == 0 || raw.cols == 0 {
-        return Err(CoreError::invalid(
-            "raw image",
-            format!(
-                "{} values for {} x {} pixels",
-                raw.dn.len(),
-                raw.rows,
-                raw.cols
-            ),
-        ));
-    }
+    crate::cfa_general::check(raw)?;
     camsim_core::mem::check_alloc((raw.rows * raw.cols * 12) as u64, "the demosaicked planes")
 }
 
