@@ -41,44 +41,19 @@ impl CyclesComparison {
 }
 
 /// A Cycles render's luminance per pixel (Rec. 709 weights of its linear R, G, B), row-major,
-/// with its size.
+/// with its size ([`crate::pbrt_reference::exr_rgb_luminance`]).
 pub fn load_cycles_luminance(path: &Path) -> Result<(usize, usize, Vec<f64>)> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path)
-        .map_err(|e| ValidateError::file(path, e.to_string()))?;
-    for layer in &image.layer_data {
-        let find = |name: &str| {
-            layer.channel_data.list.iter().find(|c| {
-                c.name.to_string() == name || c.name.to_string().ends_with(&format!(".{name}"))
-            })
-        };
-        if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
-            let n = layer.size.area();
-            let lum = (0..n)
-                .map(|i| {
-                    0.2126 * r.sample_data.value_by_flat_index(i).to_f32() as f64
-                        + 0.7152 * g.sample_data.value_by_flat_index(i).to_f32() as f64
-                        + 0.0722 * b.sample_data.value_by_flat_index(i).to_f32() as f64
-                })
-                .collect();
-            return Ok((layer.size.width(), layer.size.height(), lum));
-        }
-    }
-    Err(ValidateError::file(path, "no R, G, B channels"))
+    crate::pbrt_reference::exr_rgb_luminance(path)
 }
 
-/// camsim's luminance per pixel, cd/m^2 (`683 sum y_bar L dl`).
+/// camsim's luminance per pixel, cd/m^2 (`683 sum y_bar L dl`, CIE 015:2018), band by band.
 pub fn luminance_cd_m2(img: &SpectralImage) -> Vec<f64> {
     let cmfs = Cmfs::on(&img.grid);
-    let n = img.pixels();
-    let mut px = vec![0f64; img.bands()];
-    (0..n)
-        .map(|p| {
-            for (b, v) in px.iter_mut().enumerate() {
-                *v = img.band(b)[p] as f64;
-            }
-            cmfs.luminance_cd_m2(&px)
-        })
-        .collect()
+    crate::pbrt_reference::luminance_of(
+        img,
+        &cmfs.y,
+        camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W * img.grid.step_nm,
+    )
 }
 
 /// Compare two camsim seeds (luminance, cd/m^2) with two Cycles seeds (scene-linear

@@ -213,30 +213,37 @@ pub fn load_reference_rgb_luminance(
 ) -> Result<Vec<Vec<f64>>> {
     let read = |seed: usize| -> Result<Vec<f64>> {
         let p = references_dir.join(format!("{scene}.seed{seed}.exr"));
-        let image = exr::prelude::read_all_flat_layers_from_file(&p)
-            .map_err(|e| ValidateError::file(&p, e.to_string()))?;
-        for layer in &image.layer_data {
-            let find = |name: &str| {
-                layer
-                    .channel_data
-                    .list
-                    .iter()
-                    .find(|c| c.name.to_string() == name)
-            };
-            if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
-                let n = layer.size.area();
-                return Ok((0..n)
-                    .map(|i| {
-                        0.2126 * r.sample_data.value_by_flat_index(i).to_f32() as f64
-                            + 0.7152 * g.sample_data.value_by_flat_index(i).to_f32() as f64
-                            + 0.0722 * b.sample_data.value_by_flat_index(i).to_f32() as f64
-                    })
-                    .collect());
-            }
-        }
-        Err(ValidateError::file(&p, "no R, G, B channels"))
+        Ok(exr_rgb_luminance(&p)?.2)
     };
     (1..=seeds).map(read).collect()
+}
+
+/// The Rec. 709 luminance `0.2126 R + 0.7152 G + 0.0722 B` of an RGB OpenEXR file's first layer
+/// with R, G, B channels (a layer prefix such as `ViewLayer.Combined.` allowed), row-major, with
+/// its width and height.
+pub fn exr_rgb_luminance(path: &Path) -> Result<(usize, usize, Vec<f64>)> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path)
+        .map_err(|e| ValidateError::file(path, e.to_string()))?;
+    for layer in &image.layer_data {
+        let find = |name: &str| {
+            layer.channel_data.list.iter().find(|c| {
+                let n = c.name.to_string();
+                n == name || n.ends_with(&format!(".{name}"))
+            })
+        };
+        if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+            let n = layer.size.area();
+            let lum = (0..n)
+                .map(|i| {
+                    0.2126 * r.sample_data.value_by_flat_index(i).to_f32() as f64
+                        + 0.7152 * g.sample_data.value_by_flat_index(i).to_f32() as f64
+                        + 0.0722 * b.sample_data.value_by_flat_index(i).to_f32() as f64
+                })
+                .collect();
+            return Ok((layer.size.width(), layer.size.height(), lum));
+        }
+    }
+    Err(ValidateError::file(path, "no R, G, B channels"))
 }
 
 /// The scene file of a Bitterli scene name: `<scenes_dir>/<scene>/scene-v4.pbrt`.
@@ -341,7 +348,7 @@ pub fn render_like_reference_with(
 }
 
 /// `k sum_b w_b L_b` of every pixel (with `w` = y-bar: luminance up to a constant).
-fn luminance_of(img: &SpectralImage, w: &[f64], k: f64) -> Vec<f64> {
+pub(crate) fn luminance_of(img: &SpectralImage, w: &[f64], k: f64) -> Vec<f64> {
     let mut y = vec![0.0f64; img.pixels()];
     for (b, &wb) in w.iter().enumerate() {
         for (acc, &v) in y.iter_mut().zip(img.band(b)) {
