@@ -5,7 +5,8 @@
 //! - `spec.json`: the checked spec (its fingerprint ties the folder to one spec);
 //! - `shard-00000000-00000063.tar`: samples 0..=63, WebDataset style: for each sample the files
 //!   `00000012.json` (its record: index, seed, varied parameters, effective config, results),
-//!   `00000012.dng`, `00000012.preview.png`, `00000012.raw.npy`, `00000012.noise_free.exr`, ...;
+//!   `00000012.dng`, `00000012.preview.png`, `00000012.raw.npy`, `00000012.noise_free.exr`, ...
+//!   (an `[hdr]` sensor adds `00000012.raw_low.dng` and `00000012.merged.exr`);
 //! - `shard-00000000-00000063.json`: the shard's record (sha256 and size of the tar, every
 //!   sample's status, parameters, files and timings); written after the tar, so its presence with
 //!   a matching checksum marks the shard complete;

@@ -790,3 +790,39 @@ uniform = [2.0, 4.0]
         );
     }
 }
+
+/// Issue 41 item 4: an `[hdr]` sensor (examples/sensor-dcg.toml) in a dataset spec: each sample
+/// holds both readouts and the merged frame, the sample's record the merge's figures, and the
+/// bytes are the same for one worker and two.
+#[test]
+fn an_hdr_sensor_in_a_dataset_writes_both_readouts_and_the_merge_per_sample() {
+    let text = r#"
+[dataset]
+samples = 3
+shard_size = 3
+seed = 4
+outputs = ["raw", "preview"]
+
+[base]
+wavelengths = { start_nm = 400.0, step_nm = 20.0, count = 16 }
+scene = { kind = "macbeth", illuminant = "D65" }
+sensor = { file = "sensor-dcg.toml", rows = 32, cols = 48 }
+
+[[vary]]
+key = "capture.exposure_ms"
+log_uniform = [1.0, 100.0]
+"#;
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let s = DatasetSpec::from_toml_str(text, "hdr spec", &examples).unwrap();
+    let files = same_files_for_one_worker_and(&s, 2, 3);
+    for i in 0..3 {
+        for ext in ["dng", "raw_low.dng", "merged.exr", "preview.png", "json"] {
+            let name = format!("{i:08}.{ext}");
+            assert!(files.contains_key(&name), "{name} in {:?}", files.keys());
+        }
+        let rec: serde_json::Value =
+            serde_json::from_slice(&files[&format!("{i:08}.json")]).unwrap();
+        let db = rec["results"]["hdr"]["dynamic_range_db"].as_f64().unwrap();
+        assert!((db - 85.8).abs() < 0.2, "sample {i}: {db} dB");
+    }
+}

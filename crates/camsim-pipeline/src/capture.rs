@@ -8,7 +8,7 @@ use camsim_core::{Quantity, RawImage, SpectralImage};
 use camsim_io::atomic::OutputDir;
 use camsim_io::dng::DngMetadata;
 use camsim_optics::Optics;
-use camsim_sensor::{Capture, Exposure, Frame, HdrFrame, NoiseSwitches, Sensor};
+use camsim_sensor::{Capture, Exposure, Frame, HdrFrame, HdrModel, NoiseSwitches, Sensor};
 use std::time::Instant;
 
 /// How a door names the capture settings in its messages, and the unit of its exposure times.
@@ -191,14 +191,55 @@ pub fn capture(
                 req.keys.exposure
             )));
         }
-        return Ok(Captured::Hdr(
-            sensor.compute_hdr(irradiance, &req.capture())?,
-        ));
+        return Ok(Captured::Hdr(sensor.compute_hdr_from(
+            irradiance,
+            &req.capture(),
+            req.first_frame,
+        )?));
     }
     Ok(Captured::Frames(match &req.bracket_s {
         None => sensor.compute_from(irradiance, &req.capture(), req.first_frame)?,
         Some(times_s) => sensor.compute_bracket_like(irradiance, times_s, &req.capture())?,
     }))
+}
+
+/// An `[hdr]` sensor's capture besides its high readout (which is the run's raw frames): the
+/// low readout and the merged linear frame of every raw frame, and the model that merged them.
+#[derive(Debug, Clone)]
+pub struct HdrReadouts {
+    /// Low readout (LCG / SPD) raw per frame.
+    pub low: Vec<RawImage>,
+    /// Merged linear frame per frame, electrons of the high readout, row-major.
+    pub merged_e: Vec<Vec<f32>>,
+    /// The model used.
+    pub model: HdrModel,
+}
+
+impl HdrReadouts {
+    /// Append a later frame's readouts (a moving scene's frames, captured one by one).
+    pub fn extend(&mut self, other: HdrReadouts) {
+        self.low.extend(other.low);
+        self.merged_e.extend(other.merged_e);
+    }
+}
+
+/// An HDR capture as the run's frames (the high readout, the frame every door reads as "the
+/// raw") and the rest of it.
+pub fn split_hdr(h: HdrFrame) -> (Frame, HdrReadouts) {
+    (
+        Frame {
+            raw: h.high,
+            exposure_s: h.exposure_s,
+            mean_electrons: h.mean_electrons,
+            analog_dn: None,
+            mean_electrons_by_filter: h.mean_electrons_by_filter,
+        },
+        HdrReadouts {
+            low: h.low,
+            merged_e: h.merged_e,
+            model: h.model,
+        },
+    )
 }
 
 impl Captured {
@@ -294,6 +335,7 @@ pub fn image_radiance(
     Ok(Imaged {
         irradiance,
         frame,
+        hdr: None,
         optics_s,
         sensor_s: t.elapsed().as_secs_f64(),
     })
@@ -323,12 +365,11 @@ pub(crate) fn image_owned(
     };
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let frame = match capture(sensor, &irradiance, req)? {
-        Captured::Frames(f) => f,
-        Captured::Hdr(_) => {
-            return Err(PipelineError::config(
-                "an [hdr] sensor's two readouts are not an image of frames",
-            ))
+    let (frame, hdr) = match capture(sensor, &irradiance, req)? {
+        Captured::Frames(f) => (f, None),
+        Captured::Hdr(h) => {
+            let (f, rest) = split_hdr(h);
+            (f, Some(rest))
         }
     };
     Ok((
@@ -336,6 +377,7 @@ pub(crate) fn image_owned(
         Imaged {
             irradiance,
             frame,
+            hdr,
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
         },
@@ -348,8 +390,11 @@ pub(crate) fn image_owned(
 pub struct Imaged {
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
     pub irradiance: SpectralImage,
-    /// The sensor's frames.
+    /// The sensor's frames (an `[hdr]` sensor's: its high readout).
     pub frame: Frame,
+    /// An `[hdr]` sensor's low readout and merged frames ([`image_radiance`]: always `None`, it
+    /// takes plain sensors).
+    pub hdr: Option<HdrReadouts>,
     /// Seconds in the optics stage.
     pub optics_s: f64,
     /// Seconds in the sensor stage.

@@ -215,6 +215,18 @@ impl Isp {
     /// The whole ISP on one raw frame made by `sensor` (whose QE sets the illuminant white
     /// balance and the QE colour matrix): bin, demosaic, then [`Isp::render`].
     pub fn compute(&self, raw: &RawImage, sensor: &Sensor) -> Result<IspOutput> {
+        self.compute_scaled(raw, sensor, 1.0)
+    }
+
+    /// [`Isp::compute`] of a frame whose DN are `noise_scale` x the DN `sensor` reads (an HDR
+    /// sensor's merged frame as a 16-bit mosaic, [`camsim_sensor::HdrModel::merged_raw16`]): the
+    /// sensor's noise at black, which the censored-black correction needs, scaled alike.
+    pub fn compute_scaled(
+        &self,
+        raw: &RawImage,
+        sensor: &Sensor,
+        noise_scale: f64,
+    ) -> Result<IspOutput> {
         let raw: Cow<RawImage> = if self.bin_2x2 {
             Cow::Owned(camsim_isp::cfa_general::bin_2x2(raw)?)
         } else {
@@ -229,12 +241,12 @@ impl Isp {
         // clipped Gaussian (no censored-black correction).
         let black = if self.bin_2x2 {
             RawBlack {
-                noise_factor: 2.0,
+                noise_factor: 2.0 * noise_scale,
                 clip_dn: None,
             }
         } else {
             RawBlack {
-                noise_factor: 1.0,
+                noise_factor: noise_scale,
                 clip_dn: Some(-raw.black_level_dn),
             }
         };

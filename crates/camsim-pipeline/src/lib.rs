@@ -54,7 +54,7 @@ pub mod sequence;
 pub mod simulation;
 pub mod timing;
 
-pub use capture::{image_radiance, CaptureRequest, Captured, Imaged};
+pub use capture::{image_radiance, CaptureRequest, Captured, HdrReadouts, Imaged};
 pub use config::{
     CaptureSection, OpticsSection, RenderSection, SensorSection, SimulateConfig, DEFAULT_CONFIG,
 };

@@ -76,6 +76,40 @@ pub struct RunResults {
     /// The 3D scene moves: every frame was rendered in its own window.
     #[serde(default)]
     pub scene_moves: bool,
+    /// An `[hdr]` sensor's merge (None for other sensors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hdr: Option<HdrResults>,
+}
+
+/// run.json's `results.hdr`: the figures of an `[hdr]` sensor's merge
+/// ([`camsim_sensor::HdrModel`]), in electrons of the high readout.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HdrResults {
+    /// "dcg" or "split-pixel".
+    pub mode: camsim_sensor::HdrMode,
+    /// Signal at which the merge switches to the low readout, e-.
+    pub switch_e: f64,
+    /// Largest merged signal (the low readout's saturation), e-.
+    pub max_merged_e: f64,
+    /// Temporal noise at dark (the high readout's read noise and quantization), e-.
+    pub noise_floor_e: f64,
+    /// 20 log10(max_merged_e / noise_floor_e), dB.
+    pub dynamic_range_db: f64,
+    /// Low-readout sensitivity relative to the high one (split pixel; 1 for DCG).
+    pub sensitivity_ratio: f64,
+}
+
+impl HdrResults {
+    pub fn of(m: &camsim_sensor::HdrModel) -> Self {
+        HdrResults {
+            mode: m.mode,
+            switch_e: m.switch_e,
+            max_merged_e: m.max_merged_e(),
+            noise_floor_e: m.noise_floor_e(),
+            dynamic_range_db: m.dynamic_range_db(),
+            sensitivity_ratio: m.ratio,
+        }
+    }
 }
 
 /// Read and parse a JSON file, naming it in errors.

@@ -238,12 +238,8 @@ pub(crate) fn stage(
             .row_readout(sensor.rows(), scene.camera.height, k);
     let (rows, cols) = (sensor.rows(), sensor.cols());
     let (mut optics_s, mut sensor_s) = (0.0, 0.0);
-    let mut first: Option<(
-        Option<SpectralImage>,
-        camsim_render::IdMaps,
-        SpectralImage,
-        Frame,
-    )> = None;
+    // The first frame's radiance, ids and imaging; later frames' raws join its frame.
+    let mut first: Option<(Option<SpectralImage>, camsim_render::IdMaps, Imaged)> = None;
     let mut flows = Vec::new();
     let mut noise_free = Vec::new();
     for (i, w) in times.iter().enumerate() {
@@ -305,28 +301,28 @@ pub(crate) fn stage(
             sensor_s += t.elapsed().as_secs_f64();
         }
         match &mut first {
-            None => first = Some((radiance, out.ids, im.irradiance, im.frame)),
-            Some((_, _, _, f0)) => {
-                f0.raw.extend(im.frame.raw);
-                if let (Some(a), Some(b)) = (&mut f0.analog_dn, im.frame.analog_dn) {
+            None => first = Some((radiance, out.ids, im)),
+            Some((_, _, im0)) => {
+                im0.frame.raw.extend(im.frame.raw);
+                if let (Some(a), Some(b)) = (&mut im0.frame.analog_dn, im.frame.analog_dn) {
+                    a.extend(b);
+                }
+                if let (Some(a), Some(b)) = (&mut im0.hdr, im.hdr) {
                     a.extend(b);
                 }
             }
         }
     }
-    let (radiance, ids, irradiance, frame) = first.expect("at least one frame (checked)");
+    let (radiance, ids, mut imaged) = first.expect("at least one frame (checked)");
+    imaged.optics_s = optics_s;
+    imaged.sensor_s = sensor_s;
     Ok(Staged {
         radiance,
         ids: Some(ids),
         labels: None,
         scene: None,
         map: None,
-        imaged: Imaged {
-            irradiance,
-            frame,
-            optics_s,
-            sensor_s,
-        },
+        imaged,
         times,
         flow: flow.then_some(flows),
         noise_free: opts.noise_free.then_some(noise_free),

@@ -71,8 +71,12 @@ pub struct Simulation {
     pub later_frame_labels: Vec<crate::labels::FrameLabels>,
     /// Sensor-plane spectral irradiance, W/(m^2 nm).
     pub irradiance: SpectralImage,
-    /// The raw frames (ADC values, DN; black and white level in each).
+    /// The raw frames (ADC values, DN; black and white level in each). An `[hdr]` sensor's:
+    /// its high readout (HCG / large photodiode), with the rest of its capture in `hdr`.
     pub frames: Vec<RawImage>,
+    /// An `[hdr]` sensor (dual conversion gain, split pixel): per raw frame its low readout and
+    /// its merged linear frame, and the merge's model. `None` for other sensors.
+    pub hdr: Option<crate::HdrReadouts>,
     /// With [`SimulateOptions::noise_free`], per raw frame (file order): the ADC value each
     /// pixel would read without shot, read, DSNU and PRNU noise and without quantization, the
     /// mean dark signal included (DN, row-major, f32): the mean the frame scatters around (a
@@ -114,11 +118,10 @@ pub fn simulate(
     let t0 = Instant::now();
     let optics = cfg.optics()?;
     let sensor = cfg.sensor()?;
-    if sensor.hdr_model().is_some() {
+    if opts.noise_free && sensor.hdr_model().is_some() {
         return Err(PipelineError::config(format!(
-            "sensor {}: its [hdr] table (dual conversion gain / split pixel) needs both readouts, which simulate does not write yet: \
-             make the irradiance with the stage commands (camsim scene, then camsim optics) and run camsim sensor --in \
-             IRRADIANCE.exr --sensor FILE, which writes high.dng, low.dng and merged.exr",
+            "sensor {}: the noise-free image of an [hdr] sensor (dual conversion gain / split pixel) is not modelled: \
+             leave noise-free out (merged.exr holds its merged linear frame)",
             sensor.name()
         )));
     }
@@ -144,6 +147,7 @@ pub fn simulate(
             Imaged {
                 irradiance,
                 frame,
+                hdr,
                 optics_s,
                 sensor_s,
             },
@@ -207,7 +211,7 @@ pub fn simulate(
     // The raw is written whatever the preview does: a frame the ISP cannot render (a filter set
     // its colour fit cannot handle, say) gets its mosaic in grey as the preview, and the reason
     // in `preview_note` (run.json's note on preview.png).
-    let (preview, preview_note) = preview_or_mosaic(&isp, raw0, &sensor)?;
+    let (preview, preview_note) = frame_preview(&isp, raw0, hdr.as_ref(), 0, &sensor)?;
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -224,6 +228,7 @@ pub fn simulate(
         exposure_s: frame.exposure_s,
         mean_electrons_rgb: frame.mean_electrons,
         frames: frame.raw,
+        hdr,
         noise_free_dn,
         preview,
         preview_note,
@@ -236,14 +241,38 @@ pub fn simulate(
     })
 }
 
-/// The ISP's preview of `raw`, or, where the ISP fails, the mosaic in grey (DN above black at
-/// the automatic exposure) with the ISP's error as the note.
+/// The preview of raw frame `i` (`raw`): the ISP's rendering of it or, for an `[hdr]` sensor,
+/// of its merged linear frame ([`camsim_sensor::HdrModel::merged_raw16`]), so the preview shows
+/// the range the merge recovers.
+fn frame_preview(
+    isp: &Isp,
+    raw: &RawImage,
+    hdr: Option<&crate::HdrReadouts>,
+    i: usize,
+    sensor: &camsim_sensor::Sensor,
+) -> Result<(Rgb8Image, Option<String>)> {
+    match hdr {
+        Some(h) => {
+            let merged = h.merged_e.get(i).ok_or_else(|| {
+                PipelineError::config(format!("the HDR capture has no merged frame {i}"))
+            })?;
+            let (m, noise_scale) = h.model.merged_raw16(merged, raw)?;
+            preview_or_mosaic(isp, &m, sensor, noise_scale)
+        }
+        None => preview_or_mosaic(isp, raw, sensor, 1.0),
+    }
+}
+
+/// The ISP's preview of `raw` (DN `noise_scale` x those `sensor` reads, [`Isp::compute_scaled`]),
+/// or, where the ISP fails, the mosaic in grey (DN above black at the automatic exposure) with
+/// the ISP's error as the note.
 fn preview_or_mosaic(
     isp: &Isp,
     raw: &RawImage,
     sensor: &camsim_sensor::Sensor,
+    noise_scale: f64,
 ) -> Result<(Rgb8Image, Option<String>)> {
-    match isp.compute(raw, sensor) {
+    match isp.compute_scaled(raw, sensor, noise_scale) {
         Ok(o) => Ok((o.preview, None)),
         Err(e) => {
             let grey = camsim_isp::cfa_render::mono_rgb(raw)?;
@@ -315,7 +344,8 @@ impl Simulation {
         let isp = Isp::for_config(&self.config)?;
         self.frames
             .iter()
-            .map(|raw| Ok(preview_or_mosaic(&isp, raw, &sensor)?.0))
+            .enumerate()
+            .map(|(i, raw)| Ok(frame_preview(&isp, raw, self.hdr.as_ref(), i, &sensor)?.0))
             .collect()
     }
 
@@ -373,6 +403,10 @@ impl Simulation {
                 frame_times: self.frame_times.clone(),
                 shutter: self.config.capture.shutter.describe(self.frames[0].rows),
                 scene_moves: self.moving,
+                hdr: self
+                    .hdr
+                    .as_ref()
+                    .map(|h| crate::records::HdrResults::of(&h.model)),
             },
             sensor: self.sensor.clone(),
             times: self.times_s.clone(),
@@ -389,10 +423,27 @@ impl Simulation {
         let raw0 = &self.frames[0];
         let mut files = serde_json::Map::new();
         if outputs.contains(Output::Raw) {
-            files.insert(
-                "raw.dng".into(),
-                "the exact ADC values (DN), black and white level in its tags".into(),
-            );
+            match &self.hdr {
+                None => {
+                    files.insert(
+                        "raw.dng".into(),
+                        "the exact ADC values (DN), black and white level in its tags".into(),
+                    );
+                }
+                Some(h) => {
+                    let (high, low) = match h.model.mode {
+                        camsim_sensor::HdrMode::Dcg => {
+                            ("high conversion gain (HCG)", "low conversion gain (LCG)")
+                        }
+                        camsim_sensor::HdrMode::SplitPixel => {
+                            ("large photodiode (LPD)", "small photodiode (SPD)")
+                        }
+                    };
+                    files.insert("raw.dng".into(), format!("the [hdr] sensor's {high} readout: exact ADC values (DN), black and white level in its tags (camsim sensor's high.dng)").into());
+                    files.insert("raw_low.dng".into(), format!("its {low} readout (camsim sensor's low.dng; raw_low_0001.dng ... for more frames)").into());
+                    files.insert("merged.exr".into(), format!("the merged linear frame, electrons of the high readout (channel Y; merged_0001.exr ... for more frames): the high readout below {:.0} e-, the low one scaled to it above; up to {:.0} e-, dynamic range {:.1} dB", h.model.switch_e, h.model.max_merged_e(), h.model.dynamic_range_db()).into());
+                }
+            }
         }
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
@@ -633,6 +684,24 @@ impl Simulation {
                         let name = format!("raw{}.dng", frame_suffix(i));
                         Ok(camsim_io::dng::write_dng(&out.join(name), raw, &self.dng)?)
                     }));
+                }
+                // An [hdr] sensor: its low readout and merged frame beside each raw.
+                if let Some(h) = &self.hdr {
+                    for (i, (low, merged)) in h.low.iter().zip(&h.merged_e).enumerate() {
+                        t.push(Box::new(move || {
+                            let name = format!("raw_low{}.dng", frame_suffix(i));
+                            Ok(camsim_io::dng::write_dng(&out.join(name), low, &self.dng)?)
+                        }));
+                        t.push(Box::new(move || {
+                            Ok(camsim_io::exr::write_gray_exr(
+                                &out.join(format!("merged{}.exr", frame_suffix(i))),
+                                low.rows,
+                                low.cols,
+                                "Y",
+                                merged,
+                            )?)
+                        }));
+                    }
                 }
             }
             if outputs.contains(Output::RawPng) {

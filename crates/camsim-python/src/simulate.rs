@@ -161,6 +161,41 @@ impl PySimulation {
     fn raw<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         crate::convert::raw_stack(py, &self.inner.frames)
     }
+    /// An [hdr] sensor (dual conversion gain, split pixel): the low readout's raw frames
+    /// (LCG / small photodiode), (frames, rows, cols) uint16 DN; `raw` is the high readout.
+    /// None for other sensors.
+    #[getter]
+    fn raw_low<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .hdr
+            .as_ref()
+            .map(|h| crate::convert::raw_stack(py, &h.low))
+            .transpose()
+    }
+    /// An [hdr] sensor: the merged linear frames, (frames, rows, cols) float32 electrons of the
+    /// high readout (merged.exr). None for other sensors.
+    #[getter]
+    fn merged_e<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let r = &self.inner.frames[0];
+        self.inner
+            .hdr
+            .as_ref()
+            .map(|h| {
+                let v: Vec<f32> = h.merged_e.iter().flatten().copied().collect();
+                array(py, &v, &[h.merged_e.len(), r.rows, r.cols])
+            })
+            .transpose()
+    }
+    /// An [hdr] sensor: its merge's figures (run.json's results.hdr: mode, switch_e,
+    /// max_merged_e, noise_floor_e, dynamic_range_db, sensitivity_ratio). None otherwise.
+    #[getter]
+    fn hdr<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .hdr
+            .as_ref()
+            .map(|h| to_py(py, &camsim::pipeline::records::HdrResults::of(&h.model)))
+            .transpose()
+    }
     /// CFA of the raw frames: a Bayer name ("RGGB", ...), "RGBW", "quad-bayer", or the tile's
     /// rows of filter names ("r c/y b").
     #[getter]

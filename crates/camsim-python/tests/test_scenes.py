@@ -2,6 +2,7 @@
 sceneFromFile; the dead-leaves target; a ColorChecker from another reflectance set) and a
 non-Bayer sensor driven from Python."""
 
+import json
 import pathlib
 
 import camsim
@@ -116,3 +117,48 @@ def test_a_dual_conversion_gain_sensor_returns_both_readouts_and_a_linear_merge(
         assert np.all(np.abs(per_level / k - 1.0) < 0.02), (r0, c0, per_level / k)
     # Dynamic range of the example: full well 40000 e- over 2 e- read noise, ~86 dB.
     assert 80.0 < out["dynamic_range_db"] < 90.0
+
+
+def test_simulate_with_an_hdr_sensor_returns_both_readouts_and_its_merge(tmp_path):
+    """The same DCG sensor through the whole pipeline (issue 41 item 4): simulate hands back the
+    high readout as `raw`, the low one as `raw_low` and the merged electrons, which follow the
+    documented merge rule (HCG below the switch, LCG scaled by the gain ratio above), and run.json
+    carries the merge's figures."""
+    cfg = tmp_path / "hdr.toml"
+    cfg.write_text(
+        f"""
+seed = 2
+[scene]
+kind = "uniform"
+mean_luminance_cd_m2 = 2000.0
+rows = 16
+cols = 16
+[optics]
+preset = "diffraction-limited"
+[sensor]
+file = "{(REPO / 'examples' / 'sensor-dcg.toml').as_posix()}"
+rows = 32
+cols = 32
+[capture]
+exposure_ms = 10.0
+frames = 2
+"""
+    )
+    sim = camsim.simulate(str(cfg))
+    assert sim.raw.shape == sim.raw_low.shape == sim.merged_e.shape == (2, 32, 32)
+    h = sim.hdr
+    assert h["mode"] == "dcg" and 80.0 < h["dynamic_range_db"] < 90.0
+    # The merge rule from the raw values alone: K_HCG = 80 uV/e- x 4095 DN / 0.5 V, and the
+    # LCG gain 10 uV/e- (examples/sensor-dcg.toml).
+    black = sim.black_level
+    k_high, k_low = 80e-6 * 4095 / 0.5, 10e-6 * 4095 / 0.5
+    e_high = (sim.raw.astype(np.float64) - black) / k_high
+    e_low = (sim.raw_low.astype(np.float64) - black) / k_low
+    expect = np.where(e_high < h["switch_e"], e_high, e_low)
+    assert np.allclose(sim.merged_e, expect, rtol=1e-5, atol=1e-2)
+    assert (e_high >= h["switch_e"]).mean() > 0.5, "2000 cd/m^2 for 10 ms is past the switch"
+    sim.write(str(tmp_path / "run"))
+    for f in ("raw.dng", "raw_low.dng", "raw_low_0001.dng", "merged.exr", "merged_0001.exr", "run.json"):
+        assert (tmp_path / "run" / f).is_file(), f
+    rec = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert rec["results"]["hdr"]["dynamic_range_db"] == h["dynamic_range_db"]

@@ -782,34 +782,40 @@ impl Sensor {
                 analogs.push(analog);
             }
         }
+        let (mean_electrons, mean_electrons_by_filter) =
+            self.frame_mean_electrons(rate, rows, cols, exposure_s, capture.global_reset.as_ref());
+        Ok(Frame {
+            raw: raws,
+            exposure_s,
+            mean_electrons,
+            analog_dn: if keep_analog { Some(analogs) } else { None },
+            mean_electrons_by_filter,
+        })
+    }
+
+    /// Noise-free mean electrons (photo + dark) of an electron-rate image exposed for
+    /// `exposure_s`: per channel r, g, b (0 where a channel has no pixel) and per filter of
+    /// [`Sensor::cfa_layout`]. Per-row sums then a sequential total, so the figures do not depend
+    /// on the thread count.
+    pub(crate) fn frame_mean_electrons(
+        &self,
+        rate: &[f32],
+        rows: usize,
+        cols: usize,
+        exposure_s: f64,
+        g: Option<&GlobalReset>,
+    ) -> ([f64; 3], Vec<f64>) {
         if let Some(layout) = &self.layout {
-            let by_filter = self.layout_mean_electrons(
-                layout,
-                rate,
-                rows,
-                cols,
-                exposure_s,
-                capture.global_reset.as_ref(),
-            );
+            let by_filter = self.layout_mean_electrons(layout, rate, rows, cols, exposure_s, g);
             let mut mean_electrons = [0.0; 3];
             for (c, name) in ["r", "g", "b"].iter().enumerate() {
                 if let Some(i) = layout.filter_index(name) {
                     mean_electrons[c] = by_filter[i];
                 }
             }
-            let analog_dn = if keep_analog { Some(analogs) } else { None };
-            return Ok(Frame {
-                raw: raws,
-                exposure_s,
-                mean_electrons,
-                analog_dn,
-                mean_electrons_by_filter: by_filter,
-            });
+            return (mean_electrons, by_filter);
         }
-        // Noise-free mean electrons per channel; per-row sums then a sequential total, so the
-        // figure does not depend on the thread count either.
         // Photo-electrons per row (its light time), dark electrons at the rows' mean dark time.
-        let g = capture.global_reset.as_ref();
         let dark_e = self.dark_electrons(mean_dark_s(g, rows, exposure_s));
         let per_pixel_s = if g.is_some() { 1.0 } else { exposure_s };
         let row_sums: Vec<[f64; 3]> = rate
@@ -848,13 +854,7 @@ impl Sensor {
                 mean_electrons[c] = sums[c] / counts[c] as f64 * per_pixel_s + dark_e;
             }
         }
-        Ok(Frame {
-            raw: raws,
-            exposure_s,
-            mean_electrons,
-            analog_dn: if keep_analog { Some(analogs) } else { None },
-            mean_electrons_by_filter: mean_electrons.to_vec(),
-        })
+        (mean_electrons, mean_electrons.to_vec())
     }
 
     /// One row of one frame: electrons -> noise -> volts -> DN (ISETCam sensorComputeNoise order).

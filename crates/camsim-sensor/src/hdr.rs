@@ -116,6 +116,41 @@ impl HdrModel {
     }
 }
 
+impl HdrModel {
+    /// A merged frame (high-readout electrons) as a linear 16-bit mosaic with `like`'s CFA,
+    /// geometry and exposure: DN = (e + black / k_high) x s with s = 65535 / (max merged + black
+    /// / k_high) DN per electron, so the pedestal keeps the high readout's share of the range,
+    /// the black level is black / k_high x s and the white level (65535) is the merged
+    /// saturation. Returns the mosaic and s / k_high, the factor from the high readout's DN to
+    /// the mosaic's (for noise in DN). The ISP takes the mosaic as any raw; quantization adds
+    /// 1/sqrt(12) of a step, 1 / s electrons.
+    pub fn merged_raw16(&self, merged_e: &[f32], like: &RawImage) -> Result<(RawImage, f64)> {
+        let n = like.rows * like.cols;
+        if merged_e.len() != n {
+            return Err(SensorError::input(
+                "hdr",
+                format!(
+                    "{} merged values for {} x {} pixels",
+                    merged_e.len(),
+                    like.rows,
+                    like.cols
+                ),
+            ));
+        }
+        let pedestal_e = self.black_dn / self.k_high_dn_per_e;
+        let white = u16::MAX as f64;
+        let s = white / (self.max_merged_e() + pedestal_e);
+        let mut raw = like.clone();
+        raw.bits = 16;
+        raw.black_level_dn = pedestal_e * s;
+        raw.white_level_dn = white;
+        for (d, e) in raw.dn.iter_mut().zip(merged_e) {
+            *d = ((*e as f64 + pedestal_e) * s).clamp(0.0, white).round() as u16;
+        }
+        Ok((raw, s / self.k_high_dn_per_e))
+    }
+}
+
 /// An HDR capture: both readouts as raws and the merged linear frame, per frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HdrFrame {
@@ -129,6 +164,11 @@ pub struct HdrFrame {
     pub exposure_s: f64,
     /// The model used.
     pub model: HdrModel,
+    /// Noise-free mean electrons (photo + dark) of the high photodiode over the pixels of each
+    /// channel r, g, b (0 where a channel has no pixel), as [`crate::Frame::mean_electrons`].
+    pub mean_electrons: [f64; 3],
+    /// The same per filter of [`Sensor::cfa_layout`].
+    pub mean_electrons_by_filter: Vec<f64>,
 }
 
 impl Sensor {
@@ -180,10 +220,22 @@ impl Sensor {
     /// HDR capture of a sensor-plane irradiance image (as [`Sensor::compute`]): both readouts
     /// and the merged frame. Errors when the sensor has no `[hdr]`.
     pub fn compute_hdr(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<HdrFrame> {
+        self.compute_hdr_from(irradiance, capture, 0)
+    }
+
+    /// [`Sensor::compute_hdr`] with the temporal noise of frame k keyed on frame index
+    /// `first_frame + k` (the frames of a moving scene, one irradiance each, as
+    /// [`Sensor::compute_from`]).
+    pub fn compute_hdr_from(
+        &self,
+        irradiance: &SpectralImage,
+        capture: &Capture,
+        first_frame: u64,
+    ) -> Result<HdrFrame> {
         // Per frame: a high and a low raw frame (2 + 2 bytes) and the merged frame (4 bytes).
         self.check_memory(capture.frames, 8)?;
         let rate = self.electron_rate_image(irradiance)?;
-        self.compute_hdr_from_rate(&rate, capture)
+        self.hdr_from_rate(&rate, capture, first_frame)
     }
 
     /// HDR capture from a noise-free photo-electron rate per pixel (e-/s of the high photodiode,
@@ -194,6 +246,15 @@ impl Sensor {
         &self,
         rate_e_per_s: &[f32],
         capture: &Capture,
+    ) -> Result<HdrFrame> {
+        self.hdr_from_rate(rate_e_per_s, capture, 0)
+    }
+
+    fn hdr_from_rate(
+        &self,
+        rate_e_per_s: &[f32],
+        capture: &Capture,
+        first_frame: u64,
     ) -> Result<HdrFrame> {
         let Some(model) = self.hdr_model() else {
             return Err(SensorError::input(
@@ -241,12 +302,16 @@ impl Sensor {
             raw.layout = self.layout.clone();
             Ok(raw)
         };
+        let (mean_electrons, mean_electrons_by_filter) =
+            self.frame_mean_electrons(rate_e_per_s, rows, cols, exposure_s, None);
         let mut out = HdrFrame {
             high: Vec::new(),
             low: Vec::new(),
             merged_e: Vec::new(),
             exposure_s,
             model,
+            mean_electrons,
+            mean_electrons_by_filter,
         };
         for k in 0..capture.frames {
             let (mut hi, mut lo) = (new_raw()?, new_raw()?);
@@ -263,7 +328,7 @@ impl Sensor {
                         &rate_e_per_s[r * cols..(r + 1) * cols],
                         exposure_s,
                         capture.seed,
-                        k as u64,
+                        first_frame + k as u64,
                         h,
                         l,
                         m,

@@ -132,5 +132,14 @@ pub fn run(a: Args) -> Result<()> {
         out.display(),
         outputs.names()
     ));
+    if let Some(h) = &sim.hdr {
+        let m = &h.model;
+        say(format!(
+            "[hdr] sensor: raw.dng is the high readout, raw_low.dng the low one, merged.exr the merge (switch at {:.0} e-, up to {:.0} e-, dynamic range {:.1} dB)",
+            m.switch_e,
+            m.max_merged_e(),
+            m.dynamic_range_db()
+        ));
+    }
     Ok(())
 }
