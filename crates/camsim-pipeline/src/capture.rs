@@ -79,6 +79,9 @@ pub struct CaptureRequest {
     /// A global-reset sensor mode's rows (`[capture] shutter = { global_reset = ... }`,
     /// [`crate::ShutterConfig::sensor_global_reset`]); `None` otherwise.
     pub global_reset: Option<camsim_sensor::GlobalReset>,
+    /// A modulated light's timing (`[flicker]`, [`crate::CaptureSection::light_timing`]);
+    /// `None`: a steady light.
+    pub light: Option<camsim_sensor::LightTiming>,
 }
 
 impl CaptureRequest {
@@ -151,6 +154,7 @@ impl CaptureRequest {
             keys,
             first_frame: 0,
             global_reset: None,
+            light: None,
         })
     }
 
@@ -161,6 +165,7 @@ impl CaptureRequest {
             frames: self.frames,
             seed: self.seed,
             global_reset: self.global_reset,
+            light: self.light,
         }
     }
 }
@@ -403,12 +408,14 @@ pub struct Imaged {
 
 /// The ADC value each pixel would read at `exposure_s` without shot, read, DSNU and PRNU noise
 /// and without quantization, the mean dark signal included (DN, row-major, f32): the mean the
-/// raw frames scatter around.
+/// raw frames scatter around. `req` gives the global reset and a modulated light, `frame` the
+/// frame index (a modulated light's window depends on it).
 pub fn noise_free_dn(
     sensor: &Sensor,
     irradiance: &SpectralImage,
     exposure_s: f64,
-    global_reset: Option<camsim_sensor::GlobalReset>,
+    req: &CaptureRequest,
+    frame: u64,
 ) -> Result<Vec<f32>> {
     let quiet = sensor.with_noise(NoiseSwitches {
         shot: false,
@@ -418,9 +425,12 @@ pub fn noise_free_dn(
         dark: true,
         quantization: false,
     });
-    let nf = quiet.compute(
+    let nf = quiet.compute_from(
         irradiance,
-        &Capture::seconds(exposure_s).with_global_reset(global_reset),
+        &Capture::seconds(exposure_s)
+            .with_global_reset(req.global_reset)
+            .with_light(req.light),
+        frame,
     )?;
     nf.analog_dn
         .and_then(|mut v| v.drain(..).next())

@@ -38,6 +38,12 @@ pub struct SimulateConfig {
     /// Exposure and frames.
     #[serde(default)]
     pub capture: CaptureSection,
+    /// The scene's light is modulated in time (LED flicker, pulse-width modulation): all of it
+    /// (a 2D scene's illuminant; every light of a 3D scene), integrated over each sensor row's
+    /// own exposure window (`[capture] shutter`, frame times). The stated radiance is the
+    /// light's time mean. `{ frequency_hz = 90.0, duty = 0.1, phase = 0.0 }`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker: Option<camsim_sensor::Flicker>,
 }
 
 fn default_seed() -> u64 {

@@ -82,11 +82,12 @@ fn noise_free_all(
 ) -> Result<Vec<Vec<f32>>> {
     let mut out: Vec<Vec<f32>> = Vec::with_capacity(frame.raw.len());
     for (i, raw) in frame.raw.iter().enumerate() {
-        let same = i > 0 && frame.raw[i - 1].exposure_s == raw.exposure_s;
+        // Under a modulated light every frame has its own.
+        let same = i > 0 && frame.raw[i - 1].exposure_s == raw.exposure_s && req.light.is_none();
         let nf = if same {
             out[i - 1].clone()
         } else {
-            noise_free_dn(sensor, irradiance, raw.exposure_s, req.global_reset)?
+            noise_free_dn(sensor, irradiance, raw.exposure_s, req, i as u64)?
         };
         out.push(nf);
     }
@@ -145,7 +146,18 @@ pub(crate) fn stage(
     let flow = opts.flow;
     let t = Instant::now();
     progress("scene", 0, 1);
+    // A modulated light's timing: frame 0 at capture.start_ms, else at the scene's own start
+    // (a 3D scene's shutter opening; 0 for a 2D chart).
+    let with_light = |start_s: f64| -> Result<CaptureRequest> {
+        Ok(CaptureRequest {
+            light: cfg
+                .capture
+                .light_timing(cfg.flicker, sensor.rows(), start_s)?,
+            ..req.clone()
+        })
+    };
     let Some(r) = &cfg.render else {
+        let req = &with_light(0.0)?;
         let st = scene_stage_with(cfg, sensor, optics, request, progress)?;
         let scene_s = t.elapsed().as_secs_f64();
         progress("optics", 0, 1);
@@ -174,6 +186,7 @@ pub(crate) fn stage(
     let mut scene = render::render_section_scene(r, cfg, sensor, optics)?;
     let k = sensor_px_per_render_px(&scene, sensor, optics)?;
     let shutter = scene.settings.time.shutter;
+    let req = &with_light(shutter.open_s)?;
     if !scene.settings.time.has_motion() {
         // Nothing moves: one render serves every frame (as before time was modelled).
         let out = render::render_stage(&scene, r, request, progress)?;
@@ -267,6 +280,12 @@ pub(crate) fn stage(
             bracket_s: None,
             frames: 1,
             first_frame: i as u64,
+            // A modulated light: this frame's window starts at its own time.
+            light: req.light.map(|l| camsim_sensor::LightTiming {
+                start_s: w.start_s,
+                frame_interval_s: Some(0.0),
+                ..l
+            }),
             ..req.clone()
         };
         progress("optics", i as u64, times.len() as u64);
@@ -296,7 +315,8 @@ pub(crate) fn stage(
                 sensor,
                 &im.irradiance,
                 durations[i],
-                req.global_reset,
+                &one,
+                i as u64,
             )?);
             sensor_s += t.elapsed().as_secs_f64();
         }

@@ -233,6 +233,39 @@ impl CaptureSection {
         }
     }
 
+    /// The timing a modulated light (`[flicker]`) is integrated with: frame 0 starts at
+    /// `capture.start_ms` (else `default_start_s`), frames a frame interval apart (back to back
+    /// without one), and a rolling shutter's stored rows start their readout delays after their
+    /// frame (a global shutter's and a global reset's rows all start with the frame). `None`
+    /// without `flicker`; a bad flicker key is an error naming it.
+    pub fn light_timing(
+        &self,
+        flicker: Option<camsim_sensor::Flicker>,
+        sensor_rows: usize,
+        default_start_s: f64,
+    ) -> Result<Option<camsim_sensor::LightTiming>> {
+        let Some(flicker) = flicker else {
+            return Ok(None);
+        };
+        flicker
+            .validate("flicker")
+            .map_err(|e| PipelineError::config(e.to_string()))?;
+        let (row0_s, per_row_s) = match self.shutter {
+            ShutterConfig::Rolling { .. } => self
+                .shutter
+                .stored_row_delays_s(sensor_rows)
+                .unwrap_or((0.0, 0.0)),
+            ShutterConfig::Global | ShutterConfig::GlobalReset { .. } => (0.0, 0.0),
+        };
+        Ok(Some(camsim_sensor::LightTiming {
+            flicker,
+            start_s: self.start_ms.map_or(default_start_s, |ms| ms * 1e-3),
+            frame_interval_s: self.frame_interval_s()?,
+            row0_s,
+            per_row_s,
+        }))
+    }
+
     /// Check the timing keys (start, interval, rate, shutter); the error names the key.
     pub fn check_timing(&self) -> Result<()> {
         if let Some(s) = self.start_ms {

@@ -53,6 +53,9 @@ pub struct Capture {
     /// A global-reset sensor mode read out row by row (`None`: every row integrates the
     /// exposure, as a global or rolling shutter does).
     pub global_reset: Option<GlobalReset>,
+    /// The scene's light is modulated in time (LED flicker, [`crate::flicker`]): each frame's
+    /// rows integrate it over their own windows. `None`: a steady light.
+    pub light: Option<crate::flicker::LightTiming>,
 }
 
 /// A global-reset / rolling-readout capture (a CMOS sensor's "global reset release" mode): every
@@ -121,6 +124,7 @@ impl Default for Capture {
             frames: 1,
             seed: 0,
             global_reset: None,
+            light: None,
         }
     }
 }
@@ -133,6 +137,7 @@ impl Capture {
             frames: 1,
             seed: 0,
             global_reset: None,
+            light: None,
         }
     }
     /// One auto-exposed frame (99th percentile at 90 % of the swing) with seed 0.
@@ -152,6 +157,12 @@ impl Capture {
     /// The same capture in a global-reset mode.
     pub fn with_global_reset(mut self, global_reset: Option<GlobalReset>) -> Capture {
         self.global_reset = global_reset;
+        self
+    }
+
+    /// The same capture under a modulated light (`None`: steady).
+    pub fn with_light(mut self, light: Option<crate::flicker::LightTiming>) -> Capture {
+        self.light = light;
         self
     }
 }
@@ -389,12 +400,24 @@ impl Sensor {
         self.check_memory(exposures_s.len().saturating_mul(frames_per_exposure), 2)?;
         let rate = self.electron_rate_image(irradiance)?;
         let mut out: Option<Frame> = None;
+        // Back-to-back frames under a modulated light: exposure i's frames start after all the
+        // earlier ones, its frame k of index base + k at (earlier exposures) + k t.
+        let mut elapsed_s = 0.0;
         for (i, &t) in exposures_s.iter().enumerate() {
+            let base = (i * frames_per_exposure) as u64;
+            let light = like.light.map(|l| match l.frame_interval_s {
+                Some(_) => l,
+                None => crate::flicker::LightTiming {
+                    start_s: l.start_s + elapsed_s - base as f64 * t,
+                    ..l
+                },
+            });
+            elapsed_s += frames_per_exposure as f64 * t;
             let capture = Capture {
                 exposure: Exposure::Seconds(t),
+                light,
                 ..*like
             };
-            let base = (i * frames_per_exposure) as u64;
             let f = self.capture_from_rate(&rate, self.rows(), self.cols(), &capture, base)?;
             match &mut out {
                 None => out = Some(f),
@@ -720,6 +743,33 @@ impl Sensor {
                 format!("{exposure_s} s is not a finite time >= 0"),
             ));
         }
+        if let Some(light) = capture.light {
+            // A modulated light: every frame sees its own share of it, row by row. The exposure
+            // is metered on the steady (time-mean) light, as above; then each frame is captured
+            // alone from its modulated rates.
+            let one = Capture {
+                exposure: Exposure::Seconds(exposure_s),
+                frames: 1,
+                light: None,
+                ..*capture
+            };
+            let mut out: Option<Frame> = None;
+            for k in 0..capture.frames as u64 {
+                let key = frame_base + k;
+                let modulated = self.modulated_rate(rate, rows, cols, &light, key, &one)?;
+                let f = self.capture_from_rate(&modulated, rows, cols, &one, key)?;
+                match &mut out {
+                    None => out = Some(f),
+                    Some(o) => {
+                        o.raw.extend(f.raw);
+                        if let (Some(a), Some(b)) = (&mut o.analog_dn, f.analog_dn) {
+                            a.extend(b);
+                        }
+                    }
+                }
+            }
+            return out.ok_or_else(|| SensorError::input("frames", "must be at least 1"));
+        }
         let n = rows * cols;
         let frames = capture.frames;
         mem::check_alloc(
@@ -855,6 +905,38 @@ impl Sensor {
             }
         }
         (mean_electrons, mean_electrons.to_vec())
+    }
+
+    /// The electron rates of frame index `key` under a modulated light: each stored row's rates
+    /// times the fraction of the steady light its window captures ([`LightTiming::row_gains`]);
+    /// `one` gives the (resolved) exposure and the global reset, which sets each row's light
+    /// time.
+    pub(crate) fn modulated_rate(
+        &self,
+        rate: &[f32],
+        rows: usize,
+        cols: usize,
+        light: &crate::flicker::LightTiming,
+        key: u64,
+        one: &Capture,
+    ) -> Result<Vec<f32>> {
+        let Exposure::Seconds(exposure_s) = one.exposure else {
+            return Err(SensorError::input(
+                "exposure",
+                "a modulated light needs the exposure resolved first",
+            ));
+        };
+        mem::check_alloc(
+            (rate.len() * 4) as u64,
+            &format!("the modulated electron rates of {rows} x {cols}"),
+        )?;
+        let g = one.global_reset.as_ref();
+        let gains = light.row_gains(key, rows, exposure_s, |r| row_times_s(g, r, exposure_s).0);
+        let mut out = rate.to_vec();
+        out.par_chunks_mut(cols)
+            .zip(&gains)
+            .for_each(|(row, gain)| row.iter_mut().for_each(|v| *v *= *gain as f32));
+        Ok(out)
     }
 
     /// One row of one frame: electrons -> noise -> volts -> DN (ISETCam sensorComputeNoise order).

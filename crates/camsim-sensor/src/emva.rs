@@ -96,6 +96,7 @@ impl Sensor {
                 frames: frames_per_level,
                 seed,
                 global_reset: None,
+                light: None,
             };
             let base = level as u64 * 2 * f;
             let bright = self.capture_from_rate(&bright_rate, rows, cols, &capture, base)?;

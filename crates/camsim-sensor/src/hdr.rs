@@ -29,7 +29,7 @@
 //! Analog gain, ISO and analog offset are not modelled for HDR pixels (an error names the key);
 //! DSNU (a voltage at the HCG / LPD readout) offsets the HCG / LPD readout only.
 
-use crate::compute::{Capture, POISSON_EXACT_BELOW_E};
+use crate::compute::{Capture, Exposure, POISSON_EXACT_BELOW_E};
 use crate::error::{Result, SensorError};
 pub use crate::hdr_config::{HdrConfig, HdrMode};
 use crate::normal::Ziggurat;
@@ -314,6 +314,25 @@ impl Sensor {
             mean_electrons_by_filter,
         };
         for k in 0..capture.frames {
+            // A modulated light: this frame's rows see their own share of it (the exposure was
+            // metered on the steady light).
+            let key = first_frame + k as u64;
+            let modulated = match &capture.light {
+                Some(light) => {
+                    let one = Capture {
+                        exposure: Exposure::Seconds(exposure_s),
+                        ..*capture
+                    };
+                    Some(self.modulated_rate(rate_e_per_s, rows, cols, light, key, &one)?)
+                }
+                None => None,
+            };
+            let rate_e_per_s = modulated.as_deref().unwrap_or(rate_e_per_s);
+            if k == 0 && modulated.is_some() {
+                // The noise-free means are those of the first frame, as it was lit.
+                (out.mean_electrons, out.mean_electrons_by_filter) =
+                    self.frame_mean_electrons(rate_e_per_s, rows, cols, exposure_s, None);
+            }
             let (mut hi, mut lo) = (new_raw()?, new_raw()?);
             let mut merged = vec![0.0f32; n];
             hi.dn
@@ -328,7 +347,7 @@ impl Sensor {
                         &rate_e_per_s[r * cols..(r + 1) * cols],
                         exposure_s,
                         capture.seed,
-                        first_frame + k as u64,
+                        key,
                         h,
                         l,
                         m,

@@ -22,6 +22,7 @@
 //! or `[qe.filters]` / extra QE-file columns); [`Sensor::cfa_layout`], [`Frame::mean_electrons_by_filter`].
 //! Pixel vignetting: `[pixel_vignetting]` ([`pixel_vignetting`]).
 //! HDR pixels (dual conversion gain, split pixel): `[hdr]` ([`hdr`], [`Sensor::compute_hdr`]).
+//! Modulated light (LED flicker) integrated over each row's window: [`Capture::light`] ([`flicker`]).
 //!
 //! Randomness is keyed on (seed, stage, frame, row), so frames are bit-identical for any thread count.
 //! [`Sensor::predicted_noise_dn`] gives the matching EMVA 1288 noise model and
@@ -34,6 +35,7 @@ pub mod compute;
 pub mod config;
 pub mod emva;
 pub mod error;
+pub mod flicker;
 pub mod hdr;
 mod hdr_config;
 pub mod isetcam;
@@ -49,5 +51,6 @@ pub use compute::{
 pub use config::{NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};
+pub use flicker::{Flicker, LightTiming};
 pub use hdr::{HdrConfig, HdrFrame, HdrMode, HdrModel};
 pub use sensor::{NoiseBreakdown, Sensor};

@@ -150,6 +150,7 @@ fn auto_exposure_reaches_the_target() {
                     frames: 1,
                     seed: 0,
                     global_reset: None,
+                    light: None,
                 },
             )
             .unwrap();
@@ -205,6 +206,7 @@ fn auto_exposure_does_not_clip_a_small_patch_of_the_brightest_filter() {
                 frames: 1,
                 seed: 0,
                 global_reset: None,
+                light: None,
             },
         )
         .unwrap();
@@ -320,6 +322,7 @@ fn bad_capture_input_is_an_error() {
                 frames: 1,
                 seed: 0,
                 global_reset: None,
+                light: None,
             },
             "target_fraction",
         ),

@@ -262,6 +262,7 @@ fn capture_one(
         frames: 1,
         seed,
         global_reset: None,
+        light: None,
     };
     let imaged = camsim_pipeline::image_radiance(&radiance, &cam.optics, &sensor, &capture)?;
     let raw = imaged
