@@ -52,6 +52,46 @@ impl RawImage {
     }
 
     #[inline]
+    /// A linear signal (`values`, e.g. a merged HDR frame in electrons, `rows x cols` of
+    /// `like`'s geometry) as a 16-bit mosaic with `like`'s CFA, size, exposure and pitch:
+    /// DN = (v + pedestal) x s with s = 65535 / (max + pedestal) DN per unit, so the black level
+    /// is pedestal x s and the white level (65535) is `max`. Returns the mosaic and s. The ISP
+    /// takes it as any raw; quantization adds 1/sqrt(12) of 1 / s units.
+    pub fn linear_mosaic16(
+        values: &[f32],
+        like: &RawImage,
+        max: f64,
+        pedestal: f64,
+    ) -> Result<(RawImage, f64)> {
+        if values.len() != like.rows * like.cols {
+            return Err(CoreError::invalid(
+                "linear mosaic",
+                format!(
+                    "{} values for {} x {} pixels",
+                    values.len(),
+                    like.rows,
+                    like.cols
+                ),
+            ));
+        }
+        if !(max > 0.0 && pedestal >= 0.0 && (max + pedestal).is_finite()) {
+            return Err(CoreError::invalid(
+                "linear mosaic",
+                format!("maximum {max} and pedestal {pedestal}: need max > 0, pedestal >= 0"),
+            ));
+        }
+        let white = u16::MAX as f64;
+        let s = white / (max + pedestal);
+        let mut raw = like.clone();
+        raw.bits = 16;
+        raw.black_level_dn = pedestal * s;
+        raw.white_level_dn = white;
+        for (d, v) in raw.dn.iter_mut().zip(values) {
+            *d = ((*v as f64 + pedestal) * s).clamp(0.0, white).round() as u16;
+        }
+        Ok((raw, s))
+    }
+
     pub fn at(&self, row: usize, col: usize) -> u16 {
         self.dn[row * self.cols + col]
     }

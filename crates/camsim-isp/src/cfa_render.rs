@@ -522,9 +522,15 @@ pub fn render_linear_srgb8(img: &RgbImage, exposure_scale: f64, clip: Option<f64
     let m: Mat3 = [[s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]];
     let c = clip.filter(|c| *c > 0.0).unwrap_or(f64::INFINITY);
     let encoder = crate::color::Srgb8Encoder::new();
-    render_display8(img, &m, [c; 3], SRGB_LUMINANCE_WEIGHTS, None, |v| {
-        encoder.encode(v)
-    })
+    render_display8(
+        img,
+        &m,
+        [c; 3],
+        SRGB_LUMINANCE_WEIGHTS,
+        None,
+        crate::tone::ToneCurve::Clip,
+        |v| encoder.encode(v),
+    )
 }
 
 #[cfg(test)]

@@ -324,6 +324,26 @@ impl ColorPipeline {
         saturation_dn: Option<f64>,
         black: Option<&BlackModel>,
     ) -> Vec<u8> {
+        self.render_srgb8_toned(
+            img,
+            exposure_scale,
+            saturation_dn,
+            black,
+            crate::tone::ToneCurve::Clip,
+        )
+    }
+
+    /// [`ColorPipeline::render_srgb8_clipped`] with a tone curve applied to the luminance of each
+    /// linear sRGB pixel before the encoding, its chromaticity kept ([`crate::tone`];
+    /// `ToneCurve::Clip` is the plain clip).
+    pub fn render_srgb8_toned(
+        &self,
+        img: &RgbImage,
+        exposure_scale: Option<f64>,
+        saturation_dn: Option<f64>,
+        black: Option<&BlackModel>,
+        curve: crate::tone::ToneCurve,
+    ) -> Vec<u8> {
         let clip = match saturation_dn {
             Some(s) if s > 0.0 => self.as_shot_neutral.map(|n| s * n),
             _ => [f64::INFINITY; 3],
@@ -331,9 +351,15 @@ impl ColorPipeline {
         let k = exposure_scale.unwrap_or_else(|| self.auto_exposure_scale(img));
         let m = self.camera_to_srgb.map(|row| row.map(|v| v * k));
         let encoder = Srgb8Encoder::new();
-        render_display8(img, &m, clip, SRGB_LUMINANCE_WEIGHTS, black, |v| {
+        render_display8(img, &m, clip, SRGB_LUMINANCE_WEIGHTS, black, curve, |v| {
             encoder.encode(v)
         })
+    }
+
+    /// The weights of the adapted luminance (D65, Y of linear sRGB) of a camera pixel: what
+    /// auto-exposure and tone mapping measure.
+    pub fn luminance_weights(&self) -> [f64; 3] {
+        mat3_mul(&self.adaptation, &self.camera_to_xyz)[1]
     }
 
     /// Adapted luminance (D65, white = 1 at exposure scale 1) of one camera pixel.

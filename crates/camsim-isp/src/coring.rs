@@ -159,17 +159,20 @@ pub fn uncensored_offset(a: f64, sigma: f64) -> f64 {
 
 /// Interleaved 8-bit RGB of `img`: camera values clipped at `clip` per channel (highlights),
 /// corrected for a censored black and chroma-cored where `black` says how (see the module docs),
-/// times `m` (camera -> display linear), then `encode` (which clips to [0, 1] and applies the
-/// transfer function) per channel. Parallel over bands of rows; the same bytes for any thread
-/// count.
+/// times `m` (camera -> display linear), tone-mapped by `tone` on the luminance (every channel
+/// scaled by tone(Y) / Y, which keeps the chromaticity; `ToneCurve::Clip` leaves the values as
+/// they are), then `encode` (which clips to [0, 1] and applies the transfer function) per
+/// channel. Parallel over bands of rows; the same bytes for any thread count.
 pub fn render_display8(
     img: &RgbImage,
     m: &Mat3,
     clip: [f64; 3],
     y_weights: [f64; 3],
     black: Option<&BlackModel>,
+    tone: crate::tone::ToneCurve,
     encode: impl Fn(f64) -> u8 + Sync,
 ) -> Vec<u8> {
+    let toned = tone != crate::tone::ToneCurve::Clip;
     let (rows, cols) = (img.rows, img.cols.max(1));
     let coring = black.and_then(|b| ChromaCoring::new(m, y_weights, b.sigma));
     let censored = black.and_then(|b| b.clip);
@@ -239,6 +242,11 @@ pub fn render_display8(
                     if gain != 1.0 {
                         let y = luminance(v);
                         v = v.map(|c| y + gain * (c - y));
+                    }
+                    if toned {
+                        let y = luminance(v);
+                        let f = if y > 0.0 { tone.apply(y) / y } else { 0.0 };
+                        v = v.map(|c| c * f);
                     }
                     for (o, c) in px.iter_mut().zip(v) {
                         *o = encode(c);

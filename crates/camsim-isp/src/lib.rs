@@ -22,8 +22,10 @@ pub mod coring;
 pub mod demosaic;
 pub mod demosaic_methods;
 pub mod demosaic_quality;
+pub mod hdr_merge;
 pub mod output;
 pub mod preview;
+pub mod tone;
 pub mod white_balance;
 
 pub use color::{bradford_adaptation, camera_response, ColorPipeline, Mat3};

@@ -101,6 +101,7 @@ pub fn render_rgb8(
         [f64::INFINITY; 3],
         y_weights,
         black,
+        crate::tone::ToneCurve::Clip,
         |v| {
             let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
             lut[(v.sqrt() * LUT_N as f64).round() as usize]

@@ -44,6 +44,27 @@ pub struct SimulateConfig {
     /// light's time mean. `{ frequency_hz = 90.0, duty = 0.1, phase = 0.0 }`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker: Option<camsim_sensor::Flicker>,
+    /// The preview's ISP.
+    #[serde(default, skip_serializing_if = "IspSection::is_default")]
+    pub isp: IspSection,
+}
+
+/// `[isp]`: how simulate renders its preview.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct IspSection {
+    /// Tone curve of the preview: "clip" (clip at white), "reinhard" (Reinhard et al. 2002,
+    /// global, with burn-out) or "filmic" (ACES fit, Narkowicz 2016); the last two also set the
+    /// exposure (the log-average luminance at 0.18). Absent: "reinhard" for a merged HDR frame
+    /// (an `[hdr]` sensor, an exposure bracket), "clip" for a single frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tone_map: Option<camsim_isp::tone::ToneMap>,
+}
+
+impl IspSection {
+    fn is_default(&self) -> bool {
+        *self == IspSection::default()
+    }
 }
 
 fn default_seed() -> u64 {

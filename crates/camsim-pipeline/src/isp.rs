@@ -12,6 +12,7 @@ use camsim_io::dng::DngMetadata;
 use camsim_isp::ccm::{self, CcmObjective};
 use camsim_isp::cfa_render::{self, CfaFamily, ChannelTransform, RcccClear};
 use camsim_isp::output::DisplayModel;
+use camsim_isp::tone::ToneMap;
 use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
 use camsim_isp::{BlackModel, ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
 use camsim_sensor::Sensor;
@@ -62,6 +63,10 @@ pub struct Isp {
     /// How an RCCC frame's clear channel is filled at the R sites
     /// ([`camsim_isp::cfa_render::RcccClear`]: ISETCam's analog kernel or edge-aware).
     pub rccc_clear: RcccClear,
+    /// The preview's tone curve (RGB CFAs; [`camsim_isp::tone`]): `Clip` (the default) or, for
+    /// HDR frames, `Reinhard` / `Filmic`, which also set the exposure (the log-average at the
+    /// key 0.18) unless `exposure_scale` is given.
+    pub tone_map: ToneMap,
 }
 
 /// What [`Isp::compute`] returns.
@@ -111,6 +116,8 @@ pub struct IspReport {
     /// The ISP path the frame's CFA took ([`CfaFamily`]: rgb, rgbw, monochrome, rccc,
     /// multichannel).
     pub cfa_family: &'static str,
+    /// The tone curve of the preview ([`Isp::tone_map`]: clip, reinhard, filmic).
+    pub tone_map: &'static str,
     /// Multichannel CFAs: the channels (filter names) of `channel_to_linear_srgb`'s columns.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub channels: Option<Vec<String>>,
@@ -137,6 +144,7 @@ impl Isp {
             bin_2x2: false,
             exposure_scale: None,
             rccc_clear: RcccClear::default(),
+            tone_map: ToneMap::Clip,
         }
     }
 
@@ -147,7 +155,10 @@ impl Isp {
             Some(r) => r?,
             None => camsim_core::tables::illuminant("D65")?,
         };
-        Ok(Isp::new(illuminant, cfg.wavelengths))
+        Ok(Isp {
+            tone_map: cfg.isp.tone_map.unwrap_or_default(),
+            ..Isp::new(illuminant, cfg.wavelengths)
+        })
     }
 
     /// The QE colour pipeline of `sensor` under the ISP's illuminant (the matrix of
@@ -381,6 +392,8 @@ impl Isp {
             delta_e2000_max: None,
             exposure_scale: scale,
             cfa_family: family.name(),
+            // Non-RGB CFAs clip (their renderer takes no tone curve yet).
+            tone_map: ToneMap::Clip.name(),
             channel_fit_delta_e2000: transform
                 .as_ref()
                 .map(|t| [t.delta_e2000_mean(), t.delta_e2000_max()]),
@@ -465,6 +478,7 @@ impl Isp {
             delta_e2000_max: None,
             exposure_scale: 1.0,
             cfa_family: CfaFamily::Rgb.name(),
+            tone_map: ToneMap::Clip.name(),
             channels: None,
             channel_to_linear_srgb: None,
             channel_fit_delta_e2000: None,
@@ -492,12 +506,23 @@ impl Isp {
                 } else {
                     Cow::Borrowed(rgb)
                 };
-                let scale = self
+                let auto = self
                     .exposure_scale
                     .unwrap_or_else(|| color.auto_exposure_scale(&rgb));
+                // A tone curve sets its own exposure (the log-average at the key) unless one
+                // is given.
+                let (fitted, curve) = self.tone_map.fit(&rgb, color.luminance_weights(), auto);
+                let scale = self.exposure_scale.unwrap_or(fitted);
                 report.exposure_scale = scale;
+                report.tone_map = self.tone_map.name();
                 report.camera_to_linear_srgb = Some(color.camera_to_srgb());
-                color.render_srgb8_clipped(&rgb, Some(scale), Some(clip), Some(&model(value_gains)))
+                color.render_srgb8_toned(
+                    &rgb,
+                    Some(scale),
+                    Some(clip),
+                    Some(&model(value_gains)),
+                    curve,
+                )
             }
             CcmSource::Chart {
                 corners,

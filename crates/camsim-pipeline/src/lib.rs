@@ -56,7 +56,8 @@ pub mod timing;
 
 pub use capture::{image_radiance, CaptureRequest, Captured, HdrReadouts, Imaged};
 pub use config::{
-    CaptureSection, OpticsSection, RenderSection, SensorSection, SimulateConfig, DEFAULT_CONFIG,
+    CaptureSection, IspSection, OpticsSection, RenderSection, SensorSection, SimulateConfig,
+    DEFAULT_CONFIG,
 };
 pub use error::{PipelineError, Result};
 pub use inputs::{

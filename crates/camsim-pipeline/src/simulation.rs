@@ -77,6 +77,9 @@ pub struct Simulation {
     /// An `[hdr]` sensor (dual conversion gain, split pixel): per raw frame its low readout and
     /// its merged linear frame, and the merge's model. `None` for other sensors.
     pub hdr: Option<crate::HdrReadouts>,
+    /// An exposure bracket (`capture.exposures_ms`) of a plain sensor: all its frames merged
+    /// into one linear HDR frame (merged.exr; the preview renders it). `None` otherwise.
+    pub bracket_merge: Option<BracketMerge>,
     /// With [`SimulateOptions::noise_free`], per raw frame (file order): the ADC value each
     /// pixel would read without shot, read, DSNU and PRNU noise and without quantization, the
     /// mean dark signal included (DN, row-major, f32): the mean the frame scatters around (a
@@ -211,7 +214,16 @@ pub fn simulate(
     // The raw is written whatever the preview does: a frame the ISP cannot render (a filter set
     // its colour fit cannot handle, say) gets its mosaic in grey as the preview, and the reason
     // in `preview_note` (run.json's note on preview.png).
-    let (preview, preview_note) = frame_preview(&isp, raw0, hdr.as_ref(), 0, &sensor)?;
+    // An exposure bracket of a plain sensor: its frames merged into one linear HDR frame.
+    let bracket_merge = match (&cfg.capture.exposures_ms, &hdr) {
+        (Some(_), None) if frame.raw.len() > 1 => Some(merge_bracket(&frame.raw, &sensor)?),
+        _ => None,
+    };
+    let merged_isp = merged_isp(&isp, cfg);
+    let (preview, preview_note) = match &bracket_merge {
+        Some(m) => merged_preview(&merged_isp, raw0, &m.merged.electrons, &m.mosaic, &sensor)?,
+        None => frame_preview(&isp, &merged_isp, raw0, hdr.as_ref(), 0, &sensor)?,
+    };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
@@ -229,6 +241,7 @@ pub fn simulate(
         mean_electrons_rgb: frame.mean_electrons,
         frames: frame.raw,
         hdr,
+        bracket_merge,
         noise_free_dn,
         preview,
         preview_note,
@@ -241,11 +254,89 @@ pub fn simulate(
     })
 }
 
+/// An exposure bracket merged ([`camsim_isp::hdr_merge`]) and how its frame maps to a 16-bit
+/// mosaic for the preview.
+#[derive(Debug, Clone)]
+pub struct BracketMerge {
+    /// Electrons at the longest exposure, per pixel; per-pixel sigma; saturated count.
+    pub merged: camsim_isp::hdr_merge::Merged,
+    /// The merged frame's range for the preview.
+    pub mosaic: MosaicRange,
+}
+
+/// How a merged linear frame (electrons) maps to a 16-bit mosaic for the ISP
+/// ([`RawImage::linear_mosaic16`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MosaicRange {
+    /// The largest merged value (its saturation), e-.
+    pub max_e: f64,
+    /// The black pedestal, e- (the raw's black level over K).
+    pub pedestal_e: f64,
+    /// K of the readout the electrons are counted in, DN per e- (the noise model's scale).
+    pub k_dn_per_e: f64,
+}
+
+/// Merge a bracket's frames with `sensor`'s noise model: K, the temporal noise at zero signal
+/// (read and quantization) and the saturation (the smaller of the ADC range and the full well),
+/// its DSNU pattern subtracted as a calibration dark frame.
+fn merge_bracket(frames: &[RawImage], sensor: &camsim_sensor::Sensor) -> Result<BracketMerge> {
+    let k = sensor.k_dn_per_e();
+    let nz = sensor.predicted_noise_dn(0.0, 0.0);
+    let black = frames[0].black_level_dn;
+    let saturation_dn = (frames[0].white_level_dn - black).min(sensor.well_capacity_e() * k);
+    let noise = camsim_isp::hdr_merge::MergeNoise {
+        gain_dn_per_e: k,
+        read_noise_dn: nz.read.hypot(nz.quantization),
+        saturation_dn,
+    };
+    // The calibration dark frame (DSNU): an offset is not exposure-proportional.
+    let dark = sensor.fixed_offset_dn()?;
+    let merged = camsim_isp::hdr_merge::merge_frames(frames, &noise, Some(&dark))
+        .map_err(PipelineError::config)?;
+    let t_min = frames
+        .iter()
+        .map(|f| f.exposure_s)
+        .fold(f64::INFINITY, f64::min);
+    Ok(BracketMerge {
+        mosaic: MosaicRange {
+            max_e: saturation_dn / k * merged.reference_exposure_s / t_min,
+            pedestal_e: black / k,
+            k_dn_per_e: k,
+        },
+        merged,
+    })
+}
+
+/// The ISP of merged HDR frames: the run's, with `[isp] tone_map` or, absent, Reinhard's.
+fn merged_isp(isp: &Isp, cfg: &SimulateConfig) -> Isp {
+    Isp {
+        tone_map: cfg
+            .isp
+            .tone_map
+            .unwrap_or(camsim_isp::tone::ToneMap::Reinhard),
+        ..isp.clone()
+    }
+}
+
+/// The preview of a merged linear frame `values` (electrons; `like`'s geometry and CFA) as a
+/// 16-bit mosaic of `range` ([`RawImage::linear_mosaic16`]), so the preview shows the range the
+/// merge recovers.
+fn merged_preview(
+    isp: &Isp,
+    like: &RawImage,
+    values: &[f32],
+    range: &MosaicRange,
+    sensor: &camsim_sensor::Sensor,
+) -> Result<(Rgb8Image, Option<String>)> {
+    let (m, s) = RawImage::linear_mosaic16(values, like, range.max_e, range.pedestal_e)?;
+    preview_or_mosaic(isp, &m, sensor, s / range.k_dn_per_e)
+}
+
 /// The preview of raw frame `i` (`raw`): the ISP's rendering of it or, for an `[hdr]` sensor,
-/// of its merged linear frame ([`camsim_sensor::HdrModel::merged_raw16`]), so the preview shows
-/// the range the merge recovers.
+/// of its merged linear frame (with `merged_isp`).
 fn frame_preview(
     isp: &Isp,
+    merged_isp: &Isp,
     raw: &RawImage,
     hdr: Option<&crate::HdrReadouts>,
     i: usize,
@@ -256,8 +347,13 @@ fn frame_preview(
             let merged = h.merged_e.get(i).ok_or_else(|| {
                 PipelineError::config(format!("the HDR capture has no merged frame {i}"))
             })?;
-            let (m, noise_scale) = h.model.merged_raw16(merged, raw)?;
-            preview_or_mosaic(isp, &m, sensor, noise_scale)
+            let m = &h.model;
+            let range = MosaicRange {
+                max_e: m.max_merged_e(),
+                pedestal_e: m.black_dn / m.k_high_dn_per_e,
+                k_dn_per_e: m.k_high_dn_per_e,
+            };
+            merged_preview(merged_isp, raw, merged, &range, sensor)
         }
         None => preview_or_mosaic(isp, raw, sensor, 1.0),
     }
@@ -342,10 +438,11 @@ impl Simulation {
     pub fn frame_previews(&self) -> Result<Vec<Rgb8Image>> {
         let sensor = self.config.sensor()?;
         let isp = Isp::for_config(&self.config)?;
+        let merged = merged_isp(&isp, &self.config);
         self.frames
             .iter()
             .enumerate()
-            .map(|(i, raw)| Ok(frame_preview(&isp, raw, self.hdr.as_ref(), i, &sensor)?.0))
+            .map(|(i, raw)| Ok(frame_preview(&isp, &merged, raw, self.hdr.as_ref(), i, &sensor)?.0))
             .collect()
     }
 
@@ -429,6 +526,13 @@ impl Simulation {
                         "raw.dng".into(),
                         "the exact ADC values (DN), black and white level in its tags".into(),
                     );
+                    if let Some(b) = &self.bracket_merge {
+                        files.insert("merged.exr".into(), format!(
+                            "the bracket's frames merged into one linear frame, electrons at the longest exposure ({:.3} ms; channel Y): each pixel's unsaturated samples weighted by their inverse noise variance (Hasinoff et al. 2010); {} pixels saturated in every frame keep the shortest frame's clipped value; the preview renders it",
+                            b.merged.reference_exposure_s * 1e3,
+                            b.merged.saturated
+                        ).into());
+                    }
                 }
                 Some(h) => {
                     let (high, low) = match h.model.mode {
@@ -683,6 +787,19 @@ impl Simulation {
                     t.push(Box::new(move || {
                         let name = format!("raw{}.dng", frame_suffix(i));
                         Ok(camsim_io::dng::write_dng(&out.join(name), raw, &self.dng)?)
+                    }));
+                }
+                // An exposure bracket: its merged frame.
+                if let Some(b) = &self.bracket_merge {
+                    let r0 = &self.frames[0];
+                    t.push(Box::new(move || {
+                        Ok(camsim_io::exr::write_gray_exr(
+                            &out.join("merged.exr"),
+                            r0.rows,
+                            r0.cols,
+                            "Y",
+                            &b.merged.electrons,
+                        )?)
                     }));
                 }
                 // An [hdr] sensor: its low readout and merged frame beside each raw.

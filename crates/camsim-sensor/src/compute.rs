@@ -907,6 +907,32 @@ impl Sensor {
         (mean_electrons, mean_electrons.to_vec())
     }
 
+    /// Per pixel, the fixed offset above the black level at zero light and zero exposure (the
+    /// DSNU pattern, as the sensor draws it), DN, row-major: the calibration dark frame an HDR
+    /// merge subtracts before it rescales frames of different exposures (an offset is not an
+    /// exposure-proportional signal). Zeros with DSNU off.
+    pub fn fixed_offset_dn(&self) -> Result<Vec<f32>> {
+        let quiet = self.with_noise(crate::NoiseSwitches {
+            shot: false,
+            read: false,
+            dsnu: self.noise.dsnu,
+            prnu: false,
+            dark: false,
+            quantization: false,
+        });
+        let (rows, cols) = (self.rows(), self.cols());
+        mem::check_alloc((rows * cols * 8) as u64, "the sensor's dark offset map")?;
+        let rate = vec![0.0f32; rows * cols];
+        let f = quiet.capture_from_rate(&rate, rows, cols, &Capture::seconds(0.0), 0)?;
+        let black = self.black_level_dn() as f32;
+        let mut a = f
+            .analog_dn
+            .and_then(|mut v| v.drain(..).next())
+            .ok_or_else(|| SensorError::input("dsnu", "the dark pass returned no analog values"))?;
+        a.iter_mut().for_each(|v| *v -= black);
+        Ok(a)
+    }
+
     /// The electron rates of frame index `key` under a modulated light: each stored row's rates
     /// times the fraction of the steady light its window captures ([`LightTiming::row_gains`]);
     /// `one` gives the (resolved) exposure and the global reset, which sets each row's light

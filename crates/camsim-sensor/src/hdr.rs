@@ -116,41 +116,6 @@ impl HdrModel {
     }
 }
 
-impl HdrModel {
-    /// A merged frame (high-readout electrons) as a linear 16-bit mosaic with `like`'s CFA,
-    /// geometry and exposure: DN = (e + black / k_high) x s with s = 65535 / (max merged + black
-    /// / k_high) DN per electron, so the pedestal keeps the high readout's share of the range,
-    /// the black level is black / k_high x s and the white level (65535) is the merged
-    /// saturation. Returns the mosaic and s / k_high, the factor from the high readout's DN to
-    /// the mosaic's (for noise in DN). The ISP takes the mosaic as any raw; quantization adds
-    /// 1/sqrt(12) of a step, 1 / s electrons.
-    pub fn merged_raw16(&self, merged_e: &[f32], like: &RawImage) -> Result<(RawImage, f64)> {
-        let n = like.rows * like.cols;
-        if merged_e.len() != n {
-            return Err(SensorError::input(
-                "hdr",
-                format!(
-                    "{} merged values for {} x {} pixels",
-                    merged_e.len(),
-                    like.rows,
-                    like.cols
-                ),
-            ));
-        }
-        let pedestal_e = self.black_dn / self.k_high_dn_per_e;
-        let white = u16::MAX as f64;
-        let s = white / (self.max_merged_e() + pedestal_e);
-        let mut raw = like.clone();
-        raw.bits = 16;
-        raw.black_level_dn = pedestal_e * s;
-        raw.white_level_dn = white;
-        for (d, e) in raw.dn.iter_mut().zip(merged_e) {
-            *d = ((*e as f64 + pedestal_e) * s).clamp(0.0, white).round() as u16;
-        }
-        Ok((raw, s / self.k_high_dn_per_e))
-    }
-}
-
 /// An HDR capture: both readouts as raws and the merged linear frame, per frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HdrFrame {
