@@ -33,6 +33,7 @@ fn bench(c: &mut Criterion) {
         .map(|l| EmvaInput {
             exposure_s: 1e-3 * (l + 1) as f64,
             photons_per_pixel: None,
+            exposure_lux_s: None,
             bright: vec![&frames[4 * l], &frames[4 * l + 1]],
             dark: vec![&frames[4 * l + 2], &frames[4 * l + 3]],
         })

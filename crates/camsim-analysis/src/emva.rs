@@ -28,6 +28,9 @@ pub struct EmvaInput<'a> {
     /// Mean number of photons reaching a pixel during the exposure (None when not known: QE,
     /// responsivity and thresholds in photons are then left out).
     pub photons_per_pixel: Option<f64>,
+    /// Focal-plane (sensor-plane) photometric exposure, lux s, when known: ISO 12232 speeds and
+    /// the SNR against lux s need it.
+    pub exposure_lux_s: Option<f64>,
     /// Illuminated frames (at least 2; more frames improve DSNU/PRNU).
     pub bright: Vec<&'a Plane>,
     /// Dark frames at the same exposure (at least 2 at one level or more; levels without darks
@@ -62,6 +65,9 @@ pub struct EmvaPoint {
     pub exposure_s: f64,
     /// Mean photons per pixel, when known.
     pub photons_per_pixel: Option<f64>,
+    /// Sensor-plane photometric exposure, lux s, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_lux_s: Option<f64>,
     /// Mean of the illuminated frames, DN.
     pub mean_dn: f64,
     /// Temporal variance of the illuminated frames, DN^2.
@@ -93,6 +99,28 @@ pub struct SnrPoint {
     pub snr_temporal: f64,
     /// SNR including DSNU and PRNU (the total SNR of the standard).
     pub snr_total: f64,
+    /// Sensor-plane exposure of this signal, lux s (when the series gives lux s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_lux_s: Option<f64>,
+}
+
+/// ISO 12232:2019 speeds of a series whose levels give their sensor-plane exposure in lux s,
+/// for the light of the series and this channel (the standard weights channels into a luminance
+/// signal; per channel, the green one is the closest to it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IsoSpeeds {
+    /// Exposure per electron, lux s: the least-squares slope of H against the signal over the
+    /// levels of the responsivity fit range (the sensor is linear there).
+    pub lux_s_per_e: f64,
+    /// Exposure at the saturation capacity, lux s.
+    pub saturation_exposure_lux_s: f64,
+    /// Saturation-based speed S_sat = 78 / H_sat (ISO 12232: the exposure 10 / S of the
+    /// standard's mid-grey then sits at 10 / 78 = 12.8 % of saturation).
+    pub saturation_speed: f64,
+    /// Noise-based speed S_40 = 10 / H_40, H_40 the exposure at SNR 40 ("excellent").
+    pub noise_speed_40: Option<f64>,
+    /// Noise-based speed S_10 = 10 / H_10, H_10 the exposure at SNR 10 ("acceptable").
+    pub noise_speed_10: Option<f64>,
 }
 
 /// The EMVA 1288 characterization.
@@ -160,6 +188,9 @@ pub struct EmvaResult {
     pub dynamic_range: f64,
     /// Dynamic range, dB (20 log10).
     pub dynamic_range_db: f64,
+    /// ISO 12232 speeds, when the series gives each level's exposure in lux s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub iso_12232: Option<IsoSpeeds>,
     /// The measured points (photon-transfer and SNR plot data).
     pub points: Vec<EmvaPoint>,
     /// The model SNR curve from the threshold to saturation (log-spaced).
@@ -356,6 +387,7 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
             EmvaPoint {
                 exposure_s: l.exposure_s,
                 photons_per_pixel: l.photons_per_pixel,
+                exposure_lux_s: l.exposure_lux_s,
                 mean_dn: *m,
                 var_dn2: *v,
                 dark_mean_dn: dm,
@@ -486,6 +518,49 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     let n_curve = 64;
     let lo = threshold_e.max(1e-3).ln();
     let hi = sat_e.max(threshold_e * 1.01).ln();
+    let snr_total_at = |e: f64| {
+        let temporal = dark_var0 / (k * k) + e;
+        e / (temporal + dsnu_e * dsnu_e + (prnu * e).powi(2)).sqrt()
+    };
+    // ISO 12232: exposure per electron from the levels in the fit range (H = a mu_e, least
+    // squares through 0), the saturation speed 78 / H_sat and the noise speeds 10 / H at SNR 40
+    // and 10 (total SNR, fixed pattern included, as the standard's noise is measured on one
+    // frame; the SNR found on the model curve, which rises monotonically with the signal).
+    let iso_12232 = {
+        let fit: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| p.in_fit)
+            .filter_map(|p| p.exposure_lux_s.map(|h| (h, p.signal_dn / k)))
+            .collect();
+        let see = fit.iter().map(|(_, e)| e * e).sum::<f64>();
+        (levels.iter().all(|l| l.exposure_lux_s.is_some()) && fit.len() >= 2 && see > 0.0).then(
+            || {
+                let a = fit.iter().map(|(h, e)| h * e).sum::<f64>() / see;
+                let at_snr = |target: f64| -> Option<f64> {
+                    if snr_total_at(sat_e) < target {
+                        return None;
+                    }
+                    let (mut lo, mut hi) = (1e-6f64, sat_e);
+                    for _ in 0..200 {
+                        let mid = (lo * hi).sqrt();
+                        if snr_total_at(mid) < target {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    Some(10.0 / (a * hi))
+                };
+                IsoSpeeds {
+                    lux_s_per_e: a,
+                    saturation_exposure_lux_s: a * sat_e,
+                    saturation_speed: 78.0 / (a * sat_e),
+                    noise_speed_40: at_snr(40.0),
+                    noise_speed_10: at_snr(10.0),
+                }
+            },
+        )
+    };
     let snr_curve = (0..n_curve)
         .map(|i| {
             let e = (lo + (hi - lo) * i as f64 / (n_curve - 1) as f64).exp();
@@ -494,7 +569,8 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
                 electrons: e,
                 photons: eta.map(|h| e / h),
                 snr_temporal: e / temporal.sqrt(),
-                snr_total: e / (temporal + dsnu_e * dsnu_e + (prnu * e).powi(2)).sqrt(),
+                snr_total: snr_total_at(e),
+                exposure_lux_s: iso_12232.map(|s| s.lux_s_per_e * e),
             }
         })
         .collect();
@@ -527,6 +603,7 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
         threshold_photons: eta.map(|h| threshold_e / h),
         dynamic_range,
         dynamic_range_db: 20.0 * dynamic_range.max(1e-300).log10(),
+        iso_12232,
         points,
         snr_curve,
     })
@@ -539,6 +616,8 @@ pub struct EmvaRawInput<'a> {
     pub exposure_s: f64,
     /// Mean photons per pixel reaching each pixel (before its colour filter), when known.
     pub photons_per_pixel: Option<f64>,
+    /// Sensor-plane photometric exposure, lux s, when known.
+    pub exposure_lux_s: Option<f64>,
     /// Illuminated raw frames.
     pub bright: Vec<&'a RawImage>,
     /// Dark raw frames.
@@ -599,6 +678,7 @@ pub fn emva_raw(levels: &[EmvaRawInput], opts: &EmvaOptions) -> Result<Vec<Chann
                 .map(|(l, (b, d))| EmvaInput {
                     exposure_s: l.exposure_s,
                     photons_per_pixel: l.photons_per_pixel,
+                    exposure_lux_s: l.exposure_lux_s,
                     bright: b.iter().collect(),
                     dark: d.iter().collect(),
                 })
@@ -642,6 +722,7 @@ mod tests {
         let lvl = |b: Vec<&'static Plane>, d: Vec<&'static Plane>| EmvaInput {
             exposure_s: 1e-3,
             photons_per_pixel: None,
+            exposure_lux_s: None,
             bright: b,
             dark: d,
         };

@@ -172,6 +172,7 @@ fn characterize(s: &Sensor, t_clip_s: f64, frames_per_level: usize) -> (Vec<Chan
         .map(|l| EmvaRawInput {
             exposure_s: l.exposure_s,
             photons_per_pixel: Some(l.photons_per_pixel),
+            exposure_lux_s: Some(l.exposure_lux_s),
             bright: l.bright.iter().collect(),
             dark: l.dark.iter().collect(),
         })
@@ -194,6 +195,60 @@ fn check(s: &Sensor, name: &str, t_clip_s: f64, frames_per_level: usize) {
     let prnu_true = s.prnu_fraction() * 100.0;
     let sat_true = clip_e(s);
     let dark_true = s.dark_voltage_v_per_s() / cg;
+    // ISO 12232 (issue 41 item 8): the light's sensor-plane illuminance over the electron rate
+    // it gives every channel (the balanced light) is the exposure per electron; the speeds follow
+    // from the configured model: S_sat = 78 / (a x saturation), S_x = 10 / (a x mu_x) with
+    // mu_x solving mu / sqrt(read^2 + mu + dsnu^2 + (prnu mu)^2 + 1/(12 K^2)) = x (dark current
+    // at these exposures is below 1 e-, left out).
+    let grid = WavelengthGrid::default();
+    let irr = balanced_irradiance(s, &grid, clip_e(s) / t_clip_s);
+    let lux = camsim_core::colorimetry::luminance_cd_m2(&irr, &grid);
+    let a_true = lux / (clip_e(s) / t_clip_s);
+    let snr_true = |mu: f64| {
+        let q = 1.0 / (12.0 * k_true * k_true);
+        mu / (read_e_true.powi(2) + mu + dsnu_e_true.powi(2) + (s.prnu_fraction() * mu).powi(2) + q)
+            .sqrt()
+    };
+    let mu_at = |x: f64| {
+        let (mut lo, mut hi) = (1e-3f64, 1e7f64);
+        for _ in 0..200 {
+            let m = (lo * hi).sqrt();
+            if snr_true(m) < x {
+                lo = m
+            } else {
+                hi = m
+            }
+        }
+        hi
+    };
+    for ChannelEmva { channel, result: r } in &res {
+        let iso = r.iso_12232.expect("the series gives lux s");
+        let chn = channel.letter();
+        assert!(
+            rel(iso.lux_s_per_e, a_true) < 0.03,
+            "{name} {chn}: lux s per e-"
+        );
+        assert!(
+            rel(
+                iso.saturation_speed,
+                78.0 / (a_true * r.saturation_capacity_e)
+            ) < 0.03,
+            "{name} {chn}: S_sat {}",
+            iso.saturation_speed
+        );
+        for (x, got) in [(10.0, iso.noise_speed_10), (40.0, iso.noise_speed_40)] {
+            let want = 10.0 / (a_true * mu_at(x));
+            let got = got.expect("the sensor reaches SNR 40");
+            println!(
+                "{name} {chn}: ISO 12232 S_{x} {got:.1} (closed form {want:.1}), S_sat {:.1}",
+                iso.saturation_speed
+            );
+            assert!(
+                rel(got, want) < 0.03,
+                "{name} {chn}: S_{x} {got} against {want}"
+            );
+        }
+    }
     for ChannelEmva { channel, result: r } in &res {
         let pct = |a: f64, b: f64| 100.0 * (a / b - 1.0);
         println!(

@@ -133,6 +133,7 @@ fn check_opt(s: &Synth, name: &str, strict: bool) {
         .map(|((t, ph, _, _), (b, d))| EmvaInput {
             exposure_s: *t,
             photons_per_pixel: Some(*ph),
+            exposure_lux_s: None,
             bright: b.iter().collect(),
             dark: d.iter().collect(),
         })
@@ -301,6 +302,7 @@ fn raw_series_are_characterized_per_cfa_channel() {
         .map(|(p, b, d)| EmvaRawInput {
             exposure_s: 0.01,
             photons_per_pixel: Some(*p),
+            exposure_lux_s: None,
             bright: b.iter().collect(),
             dark: d.iter().collect(),
         })

@@ -41,14 +41,18 @@ pub struct EmvaLevelFiles {
     pub exposure_s: f64,
     /// Mean photons per pixel at this level, when known (given on every line or on none).
     pub photons_per_pixel: Option<f64>,
+    /// Sensor-plane photometric exposure, lux s, when known (the optional column
+    /// `exposure_lux_s` after `photons_per_pixel`; on every line or on none).
+    pub exposure_lux_s: Option<f64>,
     /// Bright frames (at least 2), resolved against the CSV's folder.
     pub bright: Vec<PathBuf>,
     /// Dark frames (none, or at least 2), resolved against the CSV's folder.
     pub dark: Vec<PathBuf>,
 }
 
-/// Read an EMVA 1288 series CSV: a header naming the columns (`exposure_s,photons_per_pixel,`
-/// then frame columns whose names start with `bright` or `dark`, e.g.
+/// Read an EMVA 1288 series CSV: a header naming the columns (`exposure_s,photons_per_pixel,`,
+/// optionally `exposure_lux_s,` (the sensor-plane exposure, lux s, for ISO 12232 speeds), then
+/// frame columns whose names start with `bright` or `dark`, e.g.
 /// `bright_0,bright_1,dark_0,dark_1` as `camsim sensor --emva-series` writes), one level per line.
 /// Frame paths are relative to the CSV's folder; an empty photons cell (or `-`, or `nan`) means
 /// the photon count is not known; empty frame cells are skipped. Lines starting with '#' and blank
@@ -72,6 +76,12 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
             ),
         ));
     }
+    // The optional photometric column.
+    let first_frame = if cols.get(2).is_some_and(|c| c == "exposure_lux_s") {
+        3
+    } else {
+        2
+    };
     let kinds: Vec<Option<bool>> = cols
         .iter()
         .map(|c| {
@@ -87,7 +97,7 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
     if let Some((i, c)) = cols
         .iter()
         .enumerate()
-        .skip(2)
+        .skip(first_frame)
         .find(|(i, _)| kinds[*i].is_none())
     {
         return Err(IoError::line(
@@ -130,8 +140,22 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
                 }
             }
         };
+        let exposure_lux_s = match (first_frame, cells[2].trim()) {
+            (2, _) | (_, "" | "-") => None,
+            (_, s) => {
+                let v: f64 = s
+                    .parse()
+                    .map_err(|_| err(format!("exposure_lux_s '{s}' is not a number")))?;
+                if !(v >= 0.0 && v.is_finite()) {
+                    return Err(err(format!(
+                        "exposure_lux_s {v} is not an exposure >= 0 lux s"
+                    )));
+                }
+                Some(v)
+            }
+        };
         let (mut bright, mut dark) = (Vec::new(), Vec::new());
-        for (k, cell) in cells.iter().enumerate().skip(2) {
+        for (k, cell) in cells.iter().enumerate().skip(first_frame) {
             if cell.is_empty() {
                 continue;
             }
@@ -155,6 +179,7 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
             line: n,
             exposure_s,
             photons_per_pixel,
+            exposure_lux_s,
             bright,
             dark,
         });
@@ -179,11 +204,22 @@ pub fn read_emva_series(csv: &Path) -> Result<Vec<EmvaLevelFiles>> {
             format!("photons_per_pixel is given on {known} of {} lines; give it on every line or on none", levels.len()),
         ));
     }
+    let lux = levels.iter().filter(|l| l.exposure_lux_s.is_some()).count();
+    if lux != 0 && lux != levels.len() {
+        return Err(IoError::format(
+            csv,
+            format!(
+                "exposure_lux_s is given on {lux} of {} lines; give it on every line or on none",
+                levels.len()
+            ),
+        ));
+    }
     Ok(levels)
 }
 
 /// Write an EMVA 1288 series CSV that [`read_emva_series`] reads: the header
-/// `exposure_s,photons_per_pixel,bright_0,...,dark_0,...` (as many frame columns as the level with
+/// `exposure_s,photons_per_pixel[,exposure_lux_s],bright_0,...,dark_0,...` (lux s when every level
+/// gives it; as many frame columns as the level with
 /// the most frames), one line per level, frame paths as given (relative to the CSV's folder; a
 /// level with fewer frames leaves its last cells empty), an unknown photon count as an empty
 /// cell. Written atomically.
@@ -191,7 +227,11 @@ pub fn write_emva_series(csv: &Path, levels: &[EmvaLevelFiles]) -> Result<()> {
     use std::fmt::Write as _;
     let nb = levels.iter().map(|l| l.bright.len()).max().unwrap_or(0);
     let nd = levels.iter().map(|l| l.dark.len()).max().unwrap_or(0);
+    let lux = !levels.is_empty() && levels.iter().all(|l| l.exposure_lux_s.is_some());
     let mut text = String::from("exposure_s,photons_per_pixel");
+    if lux {
+        text.push_str(",exposure_lux_s");
+    }
     for (kind, n) in [("bright", nb), ("dark", nd)] {
         for k in 0..n {
             let _ = write!(text, ",{kind}_{k}");
@@ -202,6 +242,9 @@ pub fn write_emva_series(csv: &Path, levels: &[EmvaLevelFiles]) -> Result<()> {
         let _ = write!(text, "{},", l.exposure_s);
         if let Some(p) = l.photons_per_pixel {
             let _ = write!(text, "{p}");
+        }
+        if let (true, Some(h)) = (lux, l.exposure_lux_s) {
+            let _ = write!(text, ",{h}");
         }
         for (frames, n) in [(&l.bright, nb), (&l.dark, nd)] {
             for k in 0..n {
@@ -501,6 +544,7 @@ mod tests {
             line,
             exposure_s: t,
             photons_per_pixel: p,
+            exposure_lux_s: None,
             bright: (0..n)
                 .map(|k| dir.path().join(format!("b{line}_{k}.dng")))
                 .collect(),
@@ -530,6 +574,37 @@ mod tests {
             .collect();
         write_emva_series(&csv, &unknown).unwrap();
         assert_eq!(read_emva_series(&csv).unwrap(), unknown);
+        // The photometric exposure (ISO 12232): its own column, read back; given on some lines
+        // only, it is refused naming the column.
+        let lux: Vec<_> = levels
+            .iter()
+            .map(|l| EmvaLevelFiles {
+                exposure_lux_s: Some(0.5 * l.exposure_s),
+                ..l.clone()
+            })
+            .collect();
+        write_emva_series(&csv, &lux).unwrap();
+        assert!(std::fs::read_to_string(&csv)
+            .unwrap()
+            .starts_with("exposure_s,photons_per_pixel,exposure_lux_s,bright_0"));
+        assert_eq!(read_emva_series(&csv).unwrap(), lux);
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let partial: String = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i == 2 {
+                    let mut c: Vec<&str> = l.split(',').collect();
+                    c[2] = "";
+                    c.join(",") + "\n"
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        std::fs::write(&csv, partial).unwrap();
+        let e = err(read_emva_series(&csv));
+        assert!(e.contains("exposure_lux_s is given on 2 of 3 lines"), "{e}");
     }
 
     #[test]

@@ -126,9 +126,10 @@ fn fit_qe<'py>(
 
 /// EMVA 1288 per colour channel of a raw series: `bright` and `dark` (levels, frames, rows, cols)
 /// uint16 (at least 2 frames per level), `exposures_s` per level, optionally the mean photons per
-/// pixel per level (for QE and responsivity).
+/// pixel per level (for QE and responsivity) and the sensor-plane exposure in lux s per level
+/// (for the ISO 12232 speeds, `iso_12232` in each channel's result).
 #[pyfunction]
-#[pyo3(signature = (bright, dark, exposures_s, photons_per_pixel = None, cfa = "RGGB", bits = 12, black_level = 0.0, fit_max_fraction = 0.7))]
+#[pyo3(signature = (bright, dark, exposures_s, photons_per_pixel = None, cfa = "RGGB", bits = 12, black_level = 0.0, fit_max_fraction = 0.7, exposure_lux_s = None))]
 #[allow(clippy::too_many_arguments)]
 fn emva<'py>(
     py: Python<'py>,
@@ -140,8 +141,15 @@ fn emva<'py>(
     bits: u32,
     black_level: f64,
     fit_max_fraction: f64,
+    exposure_lux_s: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let (b, d) = (bright.shape().to_vec(), dark.shape().to_vec());
+    if exposure_lux_s
+        .as_ref()
+        .is_some_and(|p| p.len() != exposures_s.len())
+    {
+        return Err(err("exposure_lux_s needs one value per level"));
+    }
     if b[0] != exposures_s.len() || d[0] != exposures_s.len() {
         return Err(err(format!(
             "{} exposures for {} bright and {} dark levels (axis 0)",
@@ -179,6 +187,7 @@ fn emva<'py>(
             Ok(LevelFrames {
                 exposure_s: exposures_s[l],
                 photons_per_pixel: photons_per_pixel.as_ref().map(|p| p[l]),
+                exposure_lux_s: exposure_lux_s.as_ref().map(|p| p[l]),
                 bright: frames(&bright, l, &b)?,
                 dark: frames(&dark, l, &d)?,
             })
@@ -289,6 +298,7 @@ fn emva_simulate<'py>(
     };
     d.set_item("exposures_s", per_level(|l| l.exposure_s))?;
     d.set_item("photons_per_pixel", per_level(|l| l.photons_per_pixel))?;
+    d.set_item("exposure_lux_s", per_level(|l| l.exposure_lux_s))?;
     d.set_item("cfa", first.cfa_layout().name())?;
     d.set_item("bits", first.bits)?;
     d.set_item("black_level", first.black_level_dn)?;

@@ -15,6 +15,9 @@ pub struct EmvaLevel {
     /// Mean photons reaching the area of one pixel (pitch^2, not only the photodetector),
     /// wavelength-integrated: EMVA 1288 mu_p = A E t lambda/(h c) summed over the spectrum.
     pub photons_per_pixel: f64,
+    /// Sensor-plane photometric exposure, lux s: the irradiance's illuminance,
+    /// 683 lm/W sum y_bar E dl (CIE 015:2018 eq. 7.1 with the photopic y_bar), times the exposure.
+    pub exposure_lux_s: f64,
     /// Frames of the uniform irradiance.
     pub bright: Vec<RawImage>,
     /// Frames with no light (same exposure time), for the dark signal and the dark noise.
@@ -88,6 +91,8 @@ impl Sensor {
             }
         }
         let dark_rate = vec![0.0f32; n];
+        let illuminance_lux =
+            camsim_core::colorimetry::luminance_cd_m2(irradiance_w_per_m2_nm, grid);
         let f = frames_per_level as u64;
         let mut out = Vec::with_capacity(exposures_s.len());
         for (level, &t) in exposures_s.iter().enumerate() {
@@ -104,6 +109,7 @@ impl Sensor {
             out.push(EmvaLevel {
                 exposure_s: t,
                 photons_per_pixel: self.photons_per_pixel(irradiance_w_per_m2_nm, grid, t)?,
+                exposure_lux_s: illuminance_lux * t,
                 bright: bright.raw,
                 dark: dark.raw,
             });

@@ -40,6 +40,8 @@ pub struct LevelFrames {
     pub exposure_s: f64,
     /// Mean photons per pixel (for QE and responsivity), when known.
     pub photons_per_pixel: Option<f64>,
+    /// Sensor-plane photometric exposure, lux s (for ISO 12232 speeds), when known.
+    pub exposure_lux_s: Option<f64>,
     /// Frames of the uniform irradiance.
     pub bright: Vec<RawImage>,
     /// Frames without light at the same exposure.
@@ -56,6 +58,7 @@ pub fn analyze_levels(
         .map(|l| EmvaRawInput {
             exposure_s: l.exposure_s,
             photons_per_pixel: l.photons_per_pixel,
+            exposure_lux_s: l.exposure_lux_s,
             bright: l.bright.iter().collect(),
             dark: l.dark.iter().collect(),
         })
@@ -128,6 +131,7 @@ pub fn analyze_series(
         .map(|(l, (bright, dark))| LevelFrames {
             exposure_s: l.exposure_s,
             photons_per_pixel: l.photons_per_pixel,
+            exposure_lux_s: l.exposure_lux_s,
             bright,
             dark,
         })
@@ -197,6 +201,28 @@ impl EmvaSeries {
         t.push_str(
             "sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K\n",
         );
+        if self.channels.iter().all(|c| c.result.iso_12232.is_some()) {
+            let _ = writeln!(
+                t,
+                "{:<3} {:>14} {:>10} {:>10} {:>10}",
+                "ch", "lux s / e-", "ISO S_sat", "ISO S_40", "ISO S_10"
+            );
+            let speed = |v: Option<f64>| v.map_or_else(|| "-".into(), |v| format!("{v:.0}"));
+            for c in &self.channels {
+                if let Some(i) = c.result.iso_12232 {
+                    let _ = writeln!(
+                        t,
+                        "{:<3} {:>14.4e} {:>10.0} {:>10} {:>10}",
+                        c.channel.letter(),
+                        i.lux_s_per_e,
+                        i.saturation_speed,
+                        speed(i.noise_speed_40),
+                        speed(i.noise_speed_10)
+                    );
+                }
+            }
+            t.push_str("ISO 12232 speeds of each channel for the series' light, from the sensor-plane exposure (lux s): S_sat = 78 / H_sat, S_x = 10 / H at SNR x (total noise)\n");
+        }
         t
     }
 
@@ -221,6 +247,9 @@ impl EmvaSeries {
     pub fn write_plots(&self, dir: &Path) -> Result<()> {
         ptc_plot(&self.channels).write_png(&dir.join("ptc.png"))?;
         snr_plot(&self.channels).write_png(&dir.join("snr.png"))?;
+        if let Some(fig) = snr_lux_plot(&self.channels) {
+            fig.write_png(&dir.join("snr_lux.png"))?;
+        }
         Ok(())
     }
 
@@ -290,6 +319,64 @@ fn ptc_plot(results: &[ChannelEmva]) -> Figure {
     .sized(900, 600);
     fig.series = series;
     fig
+}
+
+/// SNR against the sensor-plane exposure in lux s on log10 axes (the datasheet's plot), with the
+/// ISO 12232 noise-speed levels (SNR 10 and 40) as lines; `None` unless every level gives lux s.
+fn snr_lux_plot(results: &[ChannelEmva]) -> Option<Figure> {
+    if !results.iter().all(|c| c.result.iso_12232.is_some()) {
+        return None;
+    }
+    let lg = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+    let mut series = Vec::new();
+    let (mut xmin, mut xmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for c in results {
+        let r = &c.result;
+        let measured: Vec<(f64, f64)> = r
+            .points
+            .iter()
+            .filter(|p| p.signal_dn <= r.saturation_signal_dn)
+            .filter_map(|p| p.exposure_lux_s.map(|h| (lg(h), lg(p.snr))))
+            .collect();
+        series.push(colored(
+            format!("{} measured", c.channel.letter()),
+            measured,
+            c.channel,
+            false,
+        ));
+        let model: Vec<(f64, f64)> = r
+            .snr_curve
+            .iter()
+            .filter_map(|p| p.exposure_lux_s.map(|h| (lg(h), lg(p.snr_total))))
+            .collect();
+        for (x, _) in &model {
+            xmin = xmin.min(*x);
+            xmax = xmax.max(*x);
+        }
+        series.push(colored(
+            format!("{} model (total)", c.channel.letter()),
+            model,
+            c.channel,
+            true,
+        ));
+    }
+    for snr in [10.0f64, 40.0] {
+        series.push(
+            Series::new(
+                format!("SNR {snr} (ISO 12232 S_{snr})"),
+                vec![(xmin, snr.log10()), (xmax, snr.log10())],
+            )
+            .dashed(),
+        );
+    }
+    let mut fig = Figure::new(
+        "Signal-to-noise ratio against sensor-plane exposure",
+        "log10 exposure (lux s)",
+        "log10 SNR",
+    )
+    .sized(900, 600);
+    fig.series = series;
+    Some(fig)
 }
 
 /// SNR plot on log10 axes (the plot API draws linear axes): measured SNR and the model's total
@@ -564,6 +651,7 @@ impl SimulatedSeries {
                 line: i + 2,
                 exposure_s: l.exposure_s,
                 photons_per_pixel: Some(l.photons_per_pixel),
+                exposure_lux_s: Some(l.exposure_lux_s),
                 bright: names("bright", &l.bright)?,
                 dark: names("dark", &l.dark)?,
             });
