@@ -116,6 +116,7 @@ fn ten_bit_sensor() -> Sensor {
         qe,
         pixel_vignetting: None,
         hdr: None,
+        defects: None,
     };
     with_black_level(&Sensor::from_config(c).unwrap(), 64.0)
 }

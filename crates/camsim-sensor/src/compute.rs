@@ -2,6 +2,7 @@
 //! irradiance -> pixel grid (area integration, fill factor) -> electrons (QE, lambda/(h c)) ->
 //! dark current -> shot noise -> PRNU/DSNU -> read noise -> analog gain/offset -> clip -> quantize.
 
+use crate::defects::DefectKind;
 use crate::error::{Result, SensorError};
 use crate::normal::Ziggurat;
 use crate::poisson;
@@ -1002,9 +1003,34 @@ impl Sensor {
         );
         let mut tr = keyed(capture.seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
         let zig = Ziggurat::get();
+        // `[defects]`: this row's chain and faulty pixels (the row's defects in column order).
+        let defects = self.defects.as_deref();
+        let chain = defects.filter(|d| d.has_fpn()).map(|d| {
+            (
+                &d.column_gain,
+                &d.column_offset_v,
+                d.row_gain.get(r).copied().unwrap_or(0.0),
+                d.row_offset_v.get(r).copied().unwrap_or(0.0),
+            )
+        });
+        let mut faulty = defects
+            .map_or(&[][..], |d| d.row_defects(r))
+            .iter()
+            .peekable();
         for (c, o) in out.iter_mut().enumerate() {
+            let fault = match faulty.peek() {
+                Some(f) if f.col == c => faulty.next().map(|f| f.kind),
+                _ => None,
+            };
             // max(0) maps NaN (and negative input) to no light.
-            let mu_e = (rate[c] as f64 * light_s + dark_e).max(0.0);
+            let mut mu_e = (rate[c] as f64 * light_s + dark_e).max(0.0);
+            match fault {
+                Some(DefectKind::Hot) => {
+                    mu_e += defects.map_or(0.0, |d| d.hot_e_per_s) * dark_s;
+                }
+                Some(DefectKind::Dead) => mu_e = dark_e.max(0.0),
+                _ => {}
+            }
             let (gain_map, offset_map_v) = if fpn {
                 let z1 = zig.sample(&mut fp);
                 let z2 = zig.sample(&mut fp);
@@ -1032,6 +1058,14 @@ impl Sensor {
                 }
                 v
             };
+            // The column and row readout chains (ISETCam noiseColumnFPN): gain and offset of
+            // the pixel voltage.
+            let v = match chain {
+                Some((cg_col, co_col, g_row, o_row)) => {
+                    v * (1.0 + cg_col[c] + g_row) + co_col[c] + o_row
+                }
+                None => v,
+            };
             // ISETCam: analog gain and offset, (v + offset) / gain; clip to [0, swing].
             let x = if pedestal_dn == 0.0 {
                 ((v + offset) * inv_gain).clamp(0.0, swing) * dn_per_v
@@ -1043,6 +1077,10 @@ impl Sensor {
             // Quantization: DN = round(v / (swing / 2^bits)), clipped to 2^bits - 1.
             // x >= 0, so x + 0.5 truncated is round-half-away-from-zero (f64::round is a libm
             // call on baseline x86-64).
+            let x = match fault {
+                Some(DefectKind::Stuck) => defects.map_or(x, |d| d.stuck_dn.min(max_dn)),
+                _ => x,
+            };
             *o = (x + 0.5).min(max_dn) as u16;
             if let Some(a) = analog.as_deref_mut() {
                 a[c] = x as f32;

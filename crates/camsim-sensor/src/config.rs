@@ -343,6 +343,10 @@ pub struct SensorConfig {
     /// HDR pixel (dual conversion gain or split pixel, [`crate::hdr`]); absent = a plain pixel.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hdr: Option<HdrConfig>,
+    /// Column and row fixed-pattern noise and hot, dead and stuck pixels ([`crate::defects`]);
+    /// absent = none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defects: Option<crate::defects::DefectsConfig>,
 }
 
 fn one() -> f64 {
@@ -429,6 +433,7 @@ impl SensorConfig {
             .and_then(|()| self.check_electronics())
             .and_then(|()| self.check_extras())
             .and_then(|()| self.check_qe())
+            .and_then(|()| self.defects.as_ref().map_or(Ok(()), |d| d.validate()))
             .map_err(|(key, message)| SensorError::Config {
                 source_name: source_name.to_string(),
                 key,

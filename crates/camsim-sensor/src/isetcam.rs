@@ -275,6 +275,7 @@ pub fn read_isetcam_sensor(
         qe,
         pixel_vignetting: None,
         hdr: None,
+        defects: None,
     };
     config.validate(&file)?;
     Ok(config)

@@ -33,6 +33,7 @@
 mod cfa_compute;
 pub mod compute;
 pub mod config;
+pub mod defects;
 pub mod emva;
 pub mod error;
 pub mod flicker;

@@ -32,6 +32,8 @@ pub struct Sensor {
     pub(crate) noise: NoiseSwitches,
     /// Effective channel QE (filter x IR x pixel, then the correction), r, g, b.
     qe: [Spectrum; 3],
+    /// `[defects]` drawn for this size ([`crate::defects`]).
+    pub(crate) defects: Option<std::sync::Arc<crate::defects::DefectMap>>,
 }
 
 /// Standard deviations of each noise source in DN for one pixel at a given mean signal, and
@@ -134,7 +136,17 @@ impl Sensor {
             };
             filter_qe.push(spectrum);
         }
+        let defects = match &config.defects {
+            Some(d) => Some(std::sync::Arc::new(d.draw(
+                config.rows,
+                config.cols,
+                config.fixed_pattern_seed,
+                ((1u64 << config.bits) - 1) as f64,
+            )?)),
+            None => None,
+        };
         Ok(Sensor {
+            defects,
             cfa,
             layout,
             filter_qe,
@@ -226,6 +238,13 @@ impl Sensor {
             }
         }
         self.with_size(rows, cols)
+    }
+
+    /// The sensor's faulty pixels (`[defects]`), sorted by row then column; empty without.
+    pub fn defect_list(&self) -> &[crate::defects::Defect] {
+        self.defects
+            .as_deref()
+            .map_or(&[], |d| d.defects.as_slice())
     }
 
     /// The same sensor with other noise switches.
