@@ -65,6 +65,52 @@ pub struct OpticsConfig {
     /// see [`BlurConfig`] and [`crate::shift_variant`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub blur: Option<BlurConfig>,
+    /// The pupil's shape (unset: the circle of diameter focal length / f-number). Example:
+    /// `aperture = { blades = 6, rotation_deg = 0, curvature = 0.2 }`; see [`ApertureConfig`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aperture: Option<ApertureConfig>,
+}
+
+/// `[aperture]`: the shape of the lens pupil in the wavefront PSF. The iris is inscribed in the
+/// lens pupil (its vertices on the circle of diameter D = focal length / f-number), so `f_number`
+/// keeps meaning the circumscribed diameter, as a lens's stop scale does; the open area is smaller
+/// (6 straight blades: 0.827 of the circle) and the irradiance is scaled by the transmitted area
+/// fraction (obstruction, vanes and mask included). Coordinates: x along image columns, y along
+/// image rows, angles from +x towards +y. Not with `blur.method = "shift-variant"` yet.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ApertureConfig {
+    /// Iris blade count (3..=64); unset: no iris (the circle).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blades: Option<usize>,
+    /// Angle of the first blade vertex from +x, degrees (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rotation_deg: f64,
+    /// Blade curvature in [0, 1]: 0 straight blades (a regular polygon), 1 the circle; each blade
+    /// is an arc through its two vertices with sagitta `curvature` times the circle's (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub curvature: f64,
+    /// Central obstruction diameter as a fraction of the pupil diameter, [0, 1) (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub obstruction: f64,
+    /// Spider vane count (0..=64, default 0), from the centre to the rim, equally spaced.
+    #[serde(default, skip_serializing_if = "is_zero_usize")]
+    pub vanes: usize,
+    /// Width of each vane as a fraction of the pupil diameter, [0, 0.5) (needed with `vanes`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub vane_width: f64,
+    /// Angle of the first vane from +x, degrees (default 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub vane_rotation_deg: f64,
+    /// A grey transmission mask (PNG/TIFF code values / full scale, or a one-channel or grey
+    /// OpenEXR; values in [0, 1]) stretched over the pupil's bounding square (row 0 at -y),
+    /// multiplying the shape; sampled bilinearly at the pupil samples. Relative to the config file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask: Option<PathBuf>,
+}
+
+fn is_zero_usize(v: &usize) -> bool {
+    *v == 0
 }
 
 /// `blur = { ... }`: shift-invariant (the default) or shift-variant ("ray-trace") optics.
@@ -461,6 +507,13 @@ impl OpticsConfig {
             if f.file.is_relative() {
                 if let Some(dir) = path.parent() {
                     f.file = dir.join(&f.file);
+                }
+            }
+        }
+        if let Some(m) = c.aperture.as_mut().and_then(|a| a.mask.as_mut()) {
+            if m.is_relative() {
+                if let Some(dir) = path.parent() {
+                    *m = dir.join(&*m);
                 }
             }
         }

@@ -12,6 +12,7 @@
 //!   (`blur = { method = "shift-variant" }`), from field-dependent Zernike terms or a traced lens
 //!   ([`traced`]: optical path difference fitted with Zernike terms, distortion, relative illumination).
 
+pub mod aperture;
 pub mod config;
 pub mod conv;
 pub mod error;
@@ -31,6 +32,7 @@ pub mod traced;
 pub mod wavefront;
 pub mod zernike;
 
+pub use aperture::Aperture;
 pub use config::OpticsConfig;
 pub use error::{OpticsError, Result};
 pub use image_map::ImageMap;

@@ -42,6 +42,8 @@ pub struct Optics {
     wavefront: Wavefront,
     transmittance: Option<Spectrum>,
     scalar_transmittance: f64,
+    /// Transmitted area of the pupil's shape / the circle's (1 for the circle).
+    aperture_area_fraction: f64,
     shading: ShadingModel,
     shift_variant: Option<ShiftVariant>,
 }
@@ -147,6 +149,19 @@ impl Optics {
             ));
         }
         wavefront = wavefront.with_crosstalk_sigma_m(c.crosstalk_sigma_um * 1e-6);
+        if let Some(ac) = &c.aperture {
+            if c.blur
+                .as_ref()
+                .is_some_and(|b| b.method == crate::config::BlurKind::ShiftVariant)
+            {
+                return Err(OpticsError::config(
+                    "aperture",
+                    "a shaped aperture is not supported with blur.method = \"shift-variant\" yet (its PSFs are rotated per block azimuth, the iris is not)",
+                ));
+            }
+            wavefront = wavefront.with_aperture(aperture_from_config(ac)?);
+        }
+        let aperture_area_fraction = wavefront.aperture().area_fraction();
         if let Some(cd) = &w.chromatic_defocus {
             let s = Spectrum::new(
                 cd.wavelengths_nm.clone(),
@@ -257,6 +272,7 @@ impl Optics {
             wavefront,
             transmittance,
             scalar_transmittance,
+            aperture_area_fraction,
             shading,
             shift_variant,
         })
@@ -275,6 +291,12 @@ impl Optics {
     /// The wavefront model (lens focused at its configured focus, object in focus).
     pub fn wavefront(&self) -> &Wavefront {
         &self.wavefront
+    }
+
+    /// Transmitted area of the pupil's shape as a fraction of the circle of diameter
+    /// focal length / f-number (1 without `aperture`); the irradiance is scaled by it.
+    pub fn aperture_area_fraction(&self) -> f64 {
+        self.aperture_area_fraction
     }
 
     /// The shading model.
@@ -583,7 +605,10 @@ impl Optics {
         let grid = radiance.grid;
         let scale: Vec<f32> = (0..bands)
             .map(|b| {
-                lens::irradiance_factor(n, m, self.transmittance(grid.wavelength_nm(b))) as f32
+                // The camera equation's pi / (4 N^2) is for the circle of diameter f / N; a shaped
+                // aperture passes its area fraction of that light.
+                (lens::irradiance_factor(n, m, self.transmittance(grid.wavelength_nm(b)))
+                    * self.aperture_area_fraction) as f32
             })
             .collect();
         if let Some(sv) = &self.shift_variant {
@@ -1008,4 +1033,33 @@ impl Optics {
                 Ok(())
             })
     }
+}
+
+/// The [`Aperture`](crate::aperture::Aperture) of an `[aperture]` config (reads the mask file).
+pub fn aperture_from_config(
+    ac: &crate::config::ApertureConfig,
+) -> Result<crate::aperture::Aperture> {
+    let mut a = crate::aperture::Aperture::circle();
+    if let Some(n) = ac.blades {
+        a = a.with_blades(n, ac.rotation_deg, ac.curvature)?;
+    } else if ac.rotation_deg != 0.0 || ac.curvature != 0.0 {
+        return Err(OpticsError::config(
+            "aperture.blades",
+            "rotation_deg and curvature shape an iris: give the blade count too",
+        ));
+    }
+    a = a.with_obstruction(ac.obstruction)?;
+    if ac.vanes > 0 || ac.vane_width != 0.0 || ac.vane_rotation_deg != 0.0 {
+        if ac.vanes == 0 {
+            return Err(OpticsError::config(
+                "aperture.vanes",
+                "vane_width or vane_rotation_deg given without a vane count",
+            ));
+        }
+        a = a.with_vanes(ac.vanes, ac.vane_width, ac.vane_rotation_deg)?;
+    }
+    if let Some(p) = &ac.mask {
+        a = a.with_mask(crate::aperture::TransmissionMask::from_file(p)?);
+    }
+    Ok(a)
 }

@@ -1,6 +1,7 @@
 //! The wavefront aberration model (as ISETCam's `wvf`): Zernike coefficients over a measurement
 //! pupil, the lens pupil as aperture, the pupil function and its PSF by FFT.
 
+use crate::aperture::Aperture;
 use crate::error::{OpticsError, Result};
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
@@ -54,6 +55,8 @@ pub struct Wavefront {
     crosstalk_sigma_m: f64,
     /// FFT field of a trimmed kernel as a multiple of its side (None: 2.5, at most 2048 samples).
     kernel_field: Option<f64>,
+    /// Pupil shape and transmission inside the lens pupil circle (default: the circle).
+    aperture: Aperture,
 }
 
 impl Wavefront {
@@ -84,6 +87,7 @@ impl Wavefront {
             min_pupil_samples: 64,
             crosstalk_sigma_m: 0.0,
             kernel_field: None,
+            aperture: Aperture::default(),
         })
     }
 
@@ -188,6 +192,19 @@ impl Wavefront {
     pub fn with_kernel_field(mut self, factor: f64) -> Self {
         self.kernel_field = Some(factor.max(1.3));
         self
+    }
+
+    /// The pupil's shape (iris blades, obstruction, vanes, mask) inside the lens pupil circle,
+    /// whose diameter focal length / f-number stays the circumscribed one (see
+    /// [`crate::aperture`]). The PSF stays normalized to unit volume.
+    pub fn with_aperture(mut self, aperture: Aperture) -> Self {
+        self.aperture = aperture;
+        self
+    }
+
+    /// The pupil's shape.
+    pub fn aperture(&self) -> &Aperture {
+        &self.aperture
     }
 
     /// Crosstalk Gaussian standard deviation, m (0: none).
@@ -586,6 +603,7 @@ impl Wavefront {
         let inv_lambda_um = 1e3 / wavelength_nm; // W in um -> waves
         let (mut sum_cov, mut sum_cov2) = (0.0f64, 0.0f64);
         let symmetric = self.is_rotationally_symmetric();
+        let circle = self.aperture.is_circle();
         let chrom = self.chromatic_c4_um(wavelength_nm);
         for (ri, i) in (lo..=hi).enumerate() {
             let y = (i as f64 - half as f64) * dp;
@@ -595,7 +613,14 @@ impl Wavefront {
                 let r = (x * x + y * y).sqrt();
                 // Aperture amplitude: fraction of the sample cell inside the pupil (8 x 8 subsamples
                 // on the rim), so the discrete pupil has the right area and shape.
-                let cov = if r + 0.7072 * dp <= a {
+                // A shaped aperture (crate::aperture) gives the amplitude and the energy it
+                // passes (they differ with a grey mask); the circle keeps its original code.
+                let mut energy = None;
+                let cov = if !circle {
+                    let (amp, e) = self.aperture.cell_amplitude(x / a, y / a, dp / a);
+                    energy = Some(e);
+                    amp
+                } else if r + 0.7072 * dp <= a {
                     1.0
                 } else if r - 0.7072 * dp > a {
                     0.0
@@ -613,7 +638,7 @@ impl Wavefront {
                     c as f64 / (sub * sub) as f64
                 };
                 if cov > 0.0 {
-                    sum_cov += cov;
+                    sum_cov += energy.unwrap_or(cov);
                     sum_cov2 += cov * cov;
                     let w_um = if symmetric {
                         self.wavefront_radial_um((r / a).min(1.0), chrom)
@@ -645,6 +670,8 @@ impl Wavefront {
         // pupil matches the continuous one at every nonzero lag, but its zero lag is sum c^2 instead
         // of the area sum c. Restore the zero lag by a constant (white) pedestal of
         // (sum c - sum c^2) per PSF sample (the DFT of a constant is a delta at zero frequency).
+        // With a grey mask of transmission t the amplitude is c t and the zero lag should be
+        // sum c t^2 (the pupil's |A|^2 integral): sum_cov then holds c t^2.
         let pedestal = sum_cov - sum_cov2;
         let mut out = vec![0.0f64; m * m];
         let mut col = vec![Complex64::new(0.0, 0.0); n];

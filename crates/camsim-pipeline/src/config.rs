@@ -494,6 +494,15 @@ impl SimulateConfig {
             b.lens_file.as_mut().map(fix);
             b.rtf_file.as_mut().map(fix);
         }
+        if let Some(m) = self
+            .optics
+            .config
+            .as_mut()
+            .and_then(|c| c.aperture.as_mut())
+            .and_then(|a| a.mask.as_mut())
+        {
+            fix(m);
+        }
         self.sensor.file.as_mut().map(fix);
         if let Some(c) = &mut self.sensor.config {
             c.qe.file.as_mut().map(fix);
