@@ -21,6 +21,7 @@ pub mod error;
 pub mod image;
 pub mod nnls;
 pub mod qefit;
+pub mod quality;
 pub mod roi;
 pub mod sfr;
 
@@ -28,6 +29,6 @@ pub mod acutance;
 pub mod noise;
 pub mod scielab;
 
-pub use color_difference::{ciede2000, xyz_to_lab, Lab};
+pub use color_difference::{cie94, ciede2000, delta_e_uv, xyz_to_lab, xyz_to_luv, Lab};
 pub use error::{AnalysisError, Result};
 pub use image::{cfa_channel_plane, Plane, Rect};

@@ -13,7 +13,7 @@
 //! per channel); the widths are full widths at half maximum in degrees of visual angle, and every
 //! filter is limited to one degree of support, as there.
 
-use crate::color_difference::{ciede2000, xyz_to_lab};
+use crate::color_difference::{cie94, ciede2000, delta_e_uv, xyz_to_lab};
 use crate::error::{AnalysisError, Result};
 use crate::image::Plane;
 use rayon::prelude::*;
@@ -44,6 +44,28 @@ pub enum DeltaEFormula {
     Cie76,
     /// CIEDE2000 (CIE 142-2001).
     Ciede2000,
+    /// CIE 1994 ΔE*94, graphic-arts weights (CIE 116-1995), the first image the reference.
+    Cie94,
+    /// CIE 1976 ΔE*uv (Euclidean distance in CIELUV).
+    Cieuv,
+}
+
+impl DeltaEFormula {
+    /// The difference between two tristimulus values under `white_xyz`.
+    pub fn between(self, a_xyz: [f64; 3], b_xyz: [f64; 3], white_xyz: [f64; 3]) -> f64 {
+        if self == DeltaEFormula::Cieuv {
+            return delta_e_uv(a_xyz, b_xyz, white_xyz);
+        }
+        let (la, lb) = (xyz_to_lab(a_xyz, white_xyz), xyz_to_lab(b_xyz, white_xyz));
+        match self {
+            DeltaEFormula::Cie76 => {
+                ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
+            }
+            DeltaEFormula::Ciede2000 => ciede2000(la, lb),
+            DeltaEFormula::Cie94 => cie94(la, lb),
+            DeltaEFormula::Cieuv => unreachable!("handled above"),
+        }
+    }
 }
 
 impl std::str::FromStr for DeltaEFormula {
@@ -52,9 +74,11 @@ impl std::str::FromStr for DeltaEFormula {
         match s.trim().to_ascii_lowercase().as_str() {
             "cie76" | "76" | "deltaeab" => Ok(DeltaEFormula::Cie76),
             "ciede2000" | "2000" | "de2000" => Ok(DeltaEFormula::Ciede2000),
+            "cie94" | "94" | "de94" => Ok(DeltaEFormula::Cie94),
+            "cieuv" | "uv" | "deuv" => Ok(DeltaEFormula::Cieuv),
             _ => Err(AnalysisError::invalid(
                 "colour difference formula",
-                format!("'{s}' is not one of cie76, ciede2000"),
+                format!("'{s}' is not one of cie76, ciede2000, cie94, cieuv"),
             )),
         }
     }
@@ -291,14 +315,11 @@ pub fn scielab(
     let de: Vec<f32> = (0..rows * cols)
         .into_par_iter()
         .map(|i| {
-            let la = xyz_to_lab([fa[0][i], fa[1][i], fa[2][i]], white_xyz);
-            let lb = xyz_to_lab([fb[0][i], fb[1][i], fb[2][i]], white_xyz);
-            (match formula {
-                DeltaEFormula::Cie76 => {
-                    ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
-                }
-                DeltaEFormula::Ciede2000 => ciede2000(la, lb),
-            }) as f32
+            formula.between(
+                [fa[0][i], fa[1][i], fa[2][i]],
+                [fb[0][i], fb[1][i], fb[2][i]],
+                white_xyz,
+            ) as f32
         })
         .collect();
     let mut sorted: Vec<f32> = de.clone();
@@ -337,14 +358,11 @@ pub fn pixelwise_delta_e(
     }
     let de = (0..rows * cols)
         .map(|i| {
-            let la = xyz_to_lab([0, 1, 2].map(|c| a_xyz[c].data[i] as f64), white_xyz);
-            let lb = xyz_to_lab([0, 1, 2].map(|c| b_xyz[c].data[i] as f64), white_xyz);
-            (match formula {
-                DeltaEFormula::Cie76 => {
-                    ((la.l - lb.l).powi(2) + (la.a - lb.a).powi(2) + (la.b - lb.b).powi(2)).sqrt()
-                }
-                DeltaEFormula::Ciede2000 => ciede2000(la, lb),
-            }) as f32
+            formula.between(
+                [0, 1, 2].map(|c| a_xyz[c].data[i] as f64),
+                [0, 1, 2].map(|c| b_xyz[c].data[i] as f64),
+                white_xyz,
+            ) as f32
         })
         .collect();
     Plane::new(rows, cols, de)

@@ -132,10 +132,11 @@ fn bad_hdr_values_exit_2_and_good_ones_write_high_low_and_merged() {
     );
 }
 
-/// `camsim simulate` with an `[hdr]` sensor does not silently write only the high readout: it
-/// stops with exit 2, naming the sensor and the commands that do write both readouts.
+/// `camsim simulate` with an `[hdr]` sensor writes both readouts and their merge (issue 41
+/// item 4): the high-gain raw as `raw.dng`, the low-gain one as `raw_low.dng`, the merged
+/// linear image in electrons as `merged.exr`, and the readouts' figures under `results.hdr`.
 #[test]
-fn simulate_refuses_an_hdr_sensor_and_says_what_to_run() {
+fn simulate_with_an_hdr_sensor_writes_both_readouts_and_the_merge() {
     let dir = tempfile::tempdir().unwrap();
     let sensor = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -159,10 +160,34 @@ fn simulate_refuses_an_hdr_sensor_and_says_what_to_run() {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    for f in ["raw.dng", "raw_low.dng", "merged.exr", "run.json"] {
+        assert!(out.join(f).is_file(), "{f} missing: {stderr}");
+    }
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
     assert!(
-        stderr.contains("[hdr]") && stderr.contains("camsim sensor"),
-        "{stderr}"
+        run["results"]["hdr"].is_object(),
+        "run.json has no results.hdr: {run}"
     );
-    assert!(!out.exists(), "a partial output folder was left");
+
+    // The same sensor noise-free cannot be merged (the merge weighs each readout by its
+    // noise): refused with exit 2, naming [hdr], and nothing written.
+    let out2 = dir.path().join("out2");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_camsim"))
+        .args([
+            "simulate",
+            cfg.to_str().unwrap(),
+            "--out",
+            out2.to_str().unwrap(),
+            "--save",
+            "raw,noise-free",
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("[hdr]"), "{stderr}");
+    assert!(!out2.exists(), "a partial output folder was left");
 }

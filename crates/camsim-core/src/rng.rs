@@ -11,6 +11,8 @@ pub mod stage {
     pub const RENDER: u64 = 3;
     pub const SCENE: u64 = 4;
     pub const ANALYSIS: u64 = 5;
+    /// The states of random-telegraph-noise pixels, per frame.
+    pub const SENSOR_RTN: u64 = 6;
 }
 
 /// SplitMix64 finaliser (Steele, Lea & Flood 2014): a bijective 64-bit mixer.

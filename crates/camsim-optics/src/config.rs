@@ -69,6 +69,11 @@ pub struct OpticsConfig {
     /// `aperture = { blades = 6, rotation_deg = 0, curvature = 0.2 }`; see [`ApertureConfig`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub aperture: Option<ApertureConfig>,
+    /// A birefringent optical low-pass filter in front of the sensor (unset: none). Example:
+    /// `olpf = { spots = 4, displacement_um = 1.4 }`: every point images as four spots
+    /// 1.4 um apart, MTF |cos(pi f d)| per axis; see [`crate::olpf`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub olpf: Option<crate::olpf::OlpfConfig>,
 }
 
 /// `[aperture]`: the shape of the lens pupil in the wavefront PSF. The iris is inscribed in the

@@ -20,6 +20,7 @@ pub mod image_map;
 pub mod lens;
 pub mod lens_maps;
 pub mod mtf_fit;
+pub mod olpf;
 pub mod optics;
 pub mod presets;
 pub mod psf;

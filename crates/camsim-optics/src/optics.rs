@@ -149,6 +149,9 @@ impl Optics {
             ));
         }
         wavefront = wavefront.with_crosstalk_sigma_m(c.crosstalk_sigma_um * 1e-6);
+        if let Some(o) = &c.olpf {
+            o.validate()?;
+        }
         if let Some(ac) = &c.aperture {
             if c.blur
                 .as_ref()
@@ -564,6 +567,17 @@ impl Optics {
     /// [`Self::compute`] with its geometric map: where each irradiance sample images from in the
     /// radiance ([`ImageMap`]).
     pub fn compute_mapped(&self, radiance: &SpectralImage) -> Result<(SpectralImage, ImageMap)> {
+        let (mut img, map) = self.compute_lens(radiance)?;
+        // The optical low-pass filter sits between the lens and the sensor: its spots are
+        // displaced in the sensor plane, after every lens effect.
+        if let Some(olpf) = &self.config.olpf {
+            crate::olpf::apply(&mut img, olpf)?;
+        }
+        Ok((img, map))
+    }
+
+    /// The lens's irradiance (everything of [`Self::compute_mapped`] but the low-pass filter).
+    fn compute_lens(&self, radiance: &SpectralImage) -> Result<(SpectralImage, ImageMap)> {
         if radiance.quantity != Quantity::Radiance {
             return Err(OpticsError::Input(format!(
                 "expected a radiance image, got {}",

@@ -79,6 +79,10 @@ pub struct RunResults {
     /// An `[hdr]` sensor's merge (None for other sensors).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hdr: Option<HdrResults>,
+    /// With the noise-free image: PSNR and SSIM of the raw and of the preview against their
+    /// noise-free counterparts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quality: Option<crate::simulation::CaptureQuality>,
 }
 
 /// run.json's `results.hdr`: the figures of an `[hdr]` sensor's merge

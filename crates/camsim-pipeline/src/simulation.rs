@@ -108,6 +108,85 @@ pub struct Simulation {
     /// With [`SimulateOptions::flow`] and a 3D scene: each frame's optical flow on the sensor
     /// grid (sensor pixels, raw.dng's orientation).
     pub flow: Option<Vec<FrameFlow>>,
+    /// The sensor's faulty pixels (`[defects]`: hot, dead, stuck), on the raw's grid, sorted by
+    /// row then column; written with the raw as `defects.json`. Empty without.
+    pub defects: Vec<camsim_sensor::defects::Defect>,
+    /// With the noise-free image ([`SimulateOptions::noise_free`]): the first raw's and its
+    /// preview's PSNR and SSIM against their noise-free counterparts (run.json's
+    /// results.quality).
+    pub quality: Option<CaptureQuality>,
+}
+
+/// A capture's full-reference quality against its noise-free counterpart
+/// ([`camsim_analysis::quality`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CaptureQuality {
+    /// The raw mosaic, DN above black against the noise-free DN above black; peak (and SSIM
+    /// range) the white level above black.
+    pub raw: camsim_analysis::quality::Quality,
+    /// The 8-bit preview against the ISP's preview of the noise-free raw (rounded to DN) at
+    /// the same exposure scale; peak 255. None where the ISP cannot render the frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview: Option<camsim_analysis::quality::Quality>,
+}
+
+/// [`CaptureQuality`] of `raw` against its noise-free DN `noise_free_dn`.
+pub fn capture_quality(
+    isp: &Isp,
+    raw: &RawImage,
+    noise_free_dn: &[f32],
+    sensor: &camsim_sensor::Sensor,
+) -> Result<CaptureQuality> {
+    use camsim_analysis::quality::quality;
+    let black = raw.black_level_dn;
+    let above = |v: &mut dyn Iterator<Item = f32>| -> Result<camsim_analysis::Plane> {
+        Ok(camsim_analysis::Plane::new(
+            raw.rows,
+            raw.cols,
+            v.map(|x| x - black as f32).collect(),
+        )?)
+    };
+    let test = above(&mut raw.dn.iter().map(|d| *d as f32))?;
+    let reference = above(&mut noise_free_dn.iter().copied())?;
+    let raw_q = quality(&[reference], &[test], (raw.white_level_dn - black).max(1.0))?;
+    let preview = match isp.compute_scaled(raw, sensor, 1.0) {
+        Ok(noisy) => {
+            let mut same = isp.clone();
+            same.exposure_scale = Some(noisy.report.exposure_scale);
+            let mut clean = raw.clone();
+            let max = raw.white_level_dn.max(0.0) as f32;
+            for (d, v) in clean.dn.iter_mut().zip(noise_free_dn) {
+                *d = (v.clamp(0.0, max) + 0.5) as u16;
+            }
+            let clean = same.compute_scaled(&clean, sensor, 1.0)?;
+            let planes = |img: &Rgb8Image| -> Result<Vec<camsim_analysis::Plane>> {
+                (0..3)
+                    .map(|c| {
+                        Ok(camsim_analysis::Plane::new(
+                            img.rows,
+                            img.cols,
+                            img.data
+                                .iter()
+                                .skip(c)
+                                .step_by(3)
+                                .map(|v| *v as f32)
+                                .collect(),
+                        )?)
+                    })
+                    .collect()
+            };
+            Some(quality(
+                &planes(&clean.preview)?,
+                &planes(&noisy.preview)?,
+                255.0,
+            )?)
+        }
+        Err(_) => None,
+    };
+    Ok(CaptureQuality {
+        raw: raw_q,
+        preview,
+    })
 }
 
 /// Run the pipeline in memory: scene (2D chart or 3D render) -> optics -> sensor -> ISP preview.
@@ -225,6 +304,10 @@ pub fn simulate(
         None => frame_preview(&isp, &merged_isp, raw0, hdr.as_ref(), 0, &sensor)?,
     };
     let mean_dn_rgb = mean_dn_per_channel(raw0);
+    let quality = match (&noise_free_dn, &hdr) {
+        (Some(nf), None) => Some(capture_quality(&isp, raw0, &nf[0], &sensor)?),
+        _ => None,
+    };
     lap(&mut times, "isp_s", t);
     lap(&mut times, "total_s", t0);
 
@@ -251,6 +334,30 @@ pub fn simulate(
         frame_times,
         moving,
         flow,
+        defects: sensor.defect_list().to_vec(),
+        quality,
+    })
+}
+
+/// defects.json: the faulty pixels of a `rows` x `cols` raw, with their counts by kind.
+pub fn defects_record(
+    rows: usize,
+    cols: usize,
+    defects: &[camsim_sensor::defects::Defect],
+) -> serde_json::Value {
+    use camsim_sensor::defects::DefectKind;
+    let count = |k: DefectKind| defects.iter().filter(|d| d.kind == k).count();
+    let counts = serde_json::json!({
+        "hot": count(DefectKind::Hot),
+        "dead": count(DefectKind::Dead),
+        "stuck": count(DefectKind::Stuck),
+        "rtn": count(DefectKind::Rtn),
+    });
+    serde_json::json!({
+        "rows": rows,
+        "cols": cols,
+        "counts": counts,
+        "defects": defects,
     })
 }
 
@@ -504,6 +611,7 @@ impl Simulation {
                     .hdr
                     .as_ref()
                     .map(|h| crate::records::HdrResults::of(&h.model)),
+                quality: self.quality,
             },
             sensor: self.sensor.clone(),
             times: self.times_s.clone(),
@@ -548,6 +656,12 @@ impl Simulation {
                     files.insert("merged.exr".into(), format!("the merged linear frame, electrons of the high readout (channel Y; merged_0001.exr ... for more frames): the high readout below {:.0} e-, the low one scaled to it above; up to {:.0} e-, dynamic range {:.1} dB", h.model.switch_e, h.model.max_merged_e(), h.model.dynamic_range_db()).into());
                 }
             }
+        }
+        if outputs.contains(Output::Raw) && !self.defects.is_empty() {
+            files.insert(
+                "defects.json".into(),
+                "the sensor's faulty pixels ([defects]): row and column on the raw's grid and kind (hot, dead, stuck, rtn), with counts; the same for every frame and every run of this sensor and fixed_pattern_seed".into(),
+            );
         }
         if outputs.contains(Output::RawPng) {
             files.insert("raw.png".into(), raw_png_note(raw0.bits));
@@ -787,6 +901,17 @@ impl Simulation {
                     t.push(Box::new(move || {
                         let name = format!("raw{}.dng", frame_suffix(i));
                         Ok(camsim_io::dng::write_dng(&out.join(name), raw, &self.dng)?)
+                    }));
+                }
+                // `[defects]`: the faulty-pixel map the raw was made with.
+                if !self.defects.is_empty() {
+                    let (rows, cols) = (self.frames[0].rows, self.frames[0].cols);
+                    let defects = &self.defects;
+                    t.push(Box::new(move || {
+                        Ok(camsim_io::atomic::write_json_atomic(
+                            &out.join("defects.json"),
+                            &defects_record(rows, cols, defects),
+                        )?)
                     }));
                 }
                 // An exposure bracket: its merged frame.

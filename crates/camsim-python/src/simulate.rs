@@ -196,6 +196,36 @@ impl PySimulation {
             .map(|h| to_py(py, &camsim::pipeline::records::HdrResults::of(&h.model)))
             .transpose()
     }
+    /// With simulate(..., noise_free=True): PSNR (dB) and SSIM of the raw and of the preview
+    /// against their noise-free counterparts, {"raw": {"psnr_db", "ssim"}, "preview": {...}}
+    /// (run.json's results.quality); None otherwise.
+    #[getter]
+    fn quality<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .quality
+            .as_ref()
+            .map(|q| to_py(py, q))
+            .transpose()
+    }
+    /// The sensor's faulty pixels ([defects]; defects.json): a list of (row, col, kind) on the
+    /// raw's grid, kind "hot", "dead", "stuck" or "rtn"; empty without [defects].
+    #[getter]
+    fn defects(&self) -> Vec<(usize, usize, String)> {
+        use camsim::sensor::defects::DefectKind;
+        self.inner
+            .defects
+            .iter()
+            .map(|d| {
+                let kind = match d.kind {
+                    DefectKind::Hot => "hot",
+                    DefectKind::Dead => "dead",
+                    DefectKind::Stuck => "stuck",
+                    DefectKind::Rtn => "rtn",
+                };
+                (d.row, d.col, kind.to_string())
+            })
+            .collect()
+    }
     /// CFA of the raw frames: a Bayer name ("RGGB", ...), "RGBW", "quad-bayer", or the tile's
     /// rows of filter names ("r c/y b").
     #[getter]

@@ -1013,10 +1013,14 @@ impl Sensor {
                 d.row_offset_v.get(r).copied().unwrap_or(0.0),
             )
         });
-        let mut faulty = defects
-            .map_or(&[][..], |d| d.row_defects(r))
+        let row_faults = defects.map_or(&[][..], |d| d.row_defects(r));
+        let mut faulty = row_faults.iter().peekable();
+        // RTN pixels' states: a stream of their own per frame and row (one uniform per RTN
+        // pixel in column order), so a sensor without them draws exactly as before.
+        let mut rtn_rng = row_faults
             .iter()
-            .peekable();
+            .any(|f| f.kind == DefectKind::Rtn)
+            .then(|| keyed(capture.seed, stage::SENSOR_RTN, frame_key, r as u64));
         for (c, o) in out.iter_mut().enumerate() {
             let fault = match faulty.peek() {
                 Some(f) if f.col == c => faulty.next().map(|f| f.kind),
@@ -1057,6 +1061,18 @@ impl Sensor {
                     v += read_v * z;
                 }
                 v
+            };
+            // RTN: the source follower's trap adds its step in the high state.
+            let v = match (fault, rtn_rng.as_mut(), defects) {
+                (Some(DefectKind::Rtn), Some(rng), Some(d)) => {
+                    let u: f64 = rand::Rng::gen(rng);
+                    if u < d.rtn_high_probability {
+                        v + cg * d.rtn_amplitude_e
+                    } else {
+                        v
+                    }
+                }
+                _ => v,
             };
             // The column and row readout chains (ISETCam noiseColumnFPN): gain and offset of
             // the pixel voltage.

@@ -11,7 +11,12 @@
 //! collects no photo-electrons (its offset, dark signal and read noise remain); the column and row
 //! chains scale and offset the pixel voltage, v' = v (1 + g_col + g_row) + o_col + o_row (all
 //! normals of the configured sigma), before the analog gain and the ADC; a stuck pixel reads a
-//! fixed value whatever it collects.
+//! fixed value whatever it collects; a random-telegraph-noise (RTN) pixel's source follower
+//! has a trap that is either empty or filled, so its output steps by a fixed amplitude between
+//! two levels from frame to frame (Janesick, *Photon Transfer*, SPIE 2007, ch. 7 "RTS noise";
+//! the trap's time constants are taken long against the readout and short against the frame
+//! interval, so each frame samples the state independently: high with probability
+//! `rtn_high_probability`).
 
 use crate::{Result, SensorError};
 use camsim_core::rng::{keyed, stage};
@@ -53,6 +58,17 @@ pub struct DefectsConfig {
     /// Fraction of pixels stuck at `stuck_dn`, in [0, 1).
     #[serde(default)]
     pub stuck_fraction: f64,
+    /// Fraction of pixels with random telegraph noise, in [0, 1).
+    #[serde(default)]
+    pub rtn_fraction: f64,
+    /// An RTN pixel's step between its two levels, electrons at the pixel (the source
+    /// follower's output step over the conversion gain).
+    #[serde(default = "default_rtn_amplitude_e")]
+    pub rtn_amplitude_e: f64,
+    /// The probability that an RTN pixel is in its high state in a frame, in [0, 1] (the
+    /// fraction of time its trap is filled).
+    #[serde(default = "default_rtn_high")]
+    pub rtn_high_probability: f64,
     /// The value stuck pixels read, DN (default: the ADC's largest value, a stuck-high pixel).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stuck_dn: Option<f64>,
@@ -66,6 +82,14 @@ fn default_hot_e_per_s() -> f64 {
     2000.0
 }
 
+fn default_rtn_amplitude_e() -> f64 {
+    10.0
+}
+
+fn default_rtn_high() -> f64 {
+    0.5
+}
+
 /// The kind of a faulty pixel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -76,6 +100,8 @@ pub enum DefectKind {
     Dead,
     /// Reads a fixed value.
     Stuck,
+    /// Steps between two levels from frame to frame (random telegraph noise).
+    Rtn,
 }
 
 /// One faulty pixel.
@@ -106,6 +132,10 @@ pub struct DefectMap {
     row_start: Vec<usize>,
     /// A hot pixel's extra dark current, e-/s.
     pub hot_e_per_s: f64,
+    /// An RTN pixel's step, e-.
+    pub rtn_amplitude_e: f64,
+    /// The probability of an RTN pixel's high state in a frame.
+    pub rtn_high_probability: f64,
     /// A stuck pixel's value, DN.
     pub stuck_dn: f64,
 }
@@ -120,6 +150,7 @@ impl DefectsConfig {
             ("row_offset_mv", self.row_offset_mv),
             ("row_gain_percent", self.row_gain_percent),
             ("hot_dark_current_e_per_s", self.hot_dark_current_e_per_s),
+            ("rtn_amplitude_e", self.rtn_amplitude_e),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(k, format!("{v}: must be a finite number >= 0"));
@@ -129,16 +160,26 @@ impl DefectsConfig {
             ("hot_fraction", self.hot_fraction),
             ("dead_fraction", self.dead_fraction),
             ("stuck_fraction", self.stuck_fraction),
+            ("rtn_fraction", self.rtn_fraction),
             ("pair_fraction", self.pair_fraction),
         ] {
             if !(0.0..1.0).contains(&v) {
                 return bad(k, format!("{v}: must be a fraction in [0, 1)"));
             }
         }
-        if self.hot_fraction + self.dead_fraction + self.stuck_fraction >= 1.0 {
+        if !(0.0..=1.0).contains(&self.rtn_high_probability) {
+            return bad(
+                "rtn_high_probability",
+                format!(
+                    "{}: must be a probability in [0, 1]",
+                    self.rtn_high_probability
+                ),
+            );
+        }
+        if self.hot_fraction + self.dead_fraction + self.stuck_fraction + self.rtn_fraction >= 1.0 {
             return bad(
                 "hot_fraction",
-                "hot + dead + stuck fractions must add up to less than 1".into(),
+                "hot + dead + stuck + rtn fractions must add up to less than 1".into(),
             );
         }
         if let Some(d) = self.stuck_dn.filter(|d| !(d.is_finite() && *d >= 0.0)) {
@@ -176,9 +217,10 @@ impl DefectsConfig {
         // none by the fractions), a second whether a defect takes its right neighbour too.
         let mut kinds: Vec<Option<DefectKind>> = Vec::new();
         let (h, d, s) = (self.hot_fraction, self.dead_fraction, self.stuck_fraction);
+        let rtn = self.rtn_fraction;
         let mut defects = Vec::new();
         let mut row_start = Vec::with_capacity(rows + 1);
-        if h + d + s > 0.0 {
+        if h + d + s + rtn > 0.0 {
             for r in 0..rows {
                 let mut rng = keyed(seed, stage::SENSOR_FIXED_PATTERN, DEFECT_STREAM, r as u64);
                 kinds.clear();
@@ -192,6 +234,8 @@ impl DefectsConfig {
                         DefectKind::Dead
                     } else if u < h + d + s {
                         DefectKind::Stuck
+                    } else if u < h + d + s + rtn {
+                        DefectKind::Rtn
                     } else {
                         continue;
                     };
@@ -221,6 +265,8 @@ impl DefectsConfig {
             defects,
             row_start,
             hot_e_per_s: self.hot_dark_current_e_per_s,
+            rtn_amplitude_e: self.rtn_amplitude_e,
+            rtn_high_probability: self.rtn_high_probability,
             stuck_dn: self.stuck_dn.unwrap_or(max_dn),
         })
     }

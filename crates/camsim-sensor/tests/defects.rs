@@ -153,6 +153,7 @@ fn faulty_pixels_come_in_binomial_numbers_and_read_what_their_kind_says() {
             }
             DefectKind::Dead => assert!((got - black).abs() < 1e-3, "dead {f:?}: {got} DN"),
             DefectKind::Stuck => assert_eq!(got, 700.0, "stuck {f:?}"),
+            DefectKind::Rtn => unreachable!("no RTN configured"),
         }
     }
     // Every other pixel is the defect-free sensor's.
@@ -176,6 +177,67 @@ fn faulty_pixels_come_in_binomial_numbers_and_read_what_their_kind_says() {
         c.defects = Some(d);
     });
     assert_ne!(other.defect_list(), list);
+}
+
+/// Random telegraph noise: each RTN pixel reads one of two levels A x K apart, the high one in
+/// a binomial share p of the frames; its variance over frames is (A K)^2 p (1 - p) (a two-state
+/// process sampled once per frame); the other pixels do not change from frame to frame.
+#[test]
+fn rtn_pixels_step_between_two_levels_in_the_configured_share_of_frames() {
+    let (rows, cols, frames) = (64, 64, 200);
+    let (amp_e, p) = (25.0, 0.3);
+    let s = sensor(
+        rows,
+        cols,
+        DefectsConfig {
+            rtn_fraction: 0.01,
+            rtn_amplitude_e: amp_e,
+            rtn_high_probability: p,
+            ..Default::default()
+        },
+    );
+    let grid = WavelengthGrid::default();
+    let img = uniform_image(rows, cols, grid, s.pixel_pitch_m(), &vec![1e-4; grid.len()]);
+    let out = s
+        .compute(&img, &Capture::seconds(5e-3).with_frames(frames))
+        .unwrap()
+        .analog_dn
+        .unwrap();
+    let plain = analog(&sensor(rows, cols, DefectsConfig::default()), 1e-4, 5e-3);
+    let list = s.defect_list();
+    assert!(list.len() > 10 && list.iter().all(|f| f.kind == DefectKind::Rtn));
+    let step_dn = amp_e * s.k_dn_per_e();
+    let mut high_total = 0usize;
+    for f in list {
+        let i = f.row * cols + f.col;
+        let low = plain[i] as f64;
+        let mut high = 0;
+        for fr in &out {
+            let d = fr[i] as f64 - low;
+            if (d - step_dn).abs() < 1e-3 * step_dn {
+                high += 1;
+            } else {
+                assert!(
+                    d.abs() < 1e-3,
+                    "{f:?}: {d} DN off both levels (step {step_dn})"
+                );
+            }
+        }
+        high_total += high;
+    }
+    let n = (list.len() * frames) as f64;
+    let sigma = (n * p * (1.0 - p)).sqrt();
+    assert!(
+        (high_total as f64 - n * p).abs() < 5.0 * sigma,
+        "{high_total} high states of {n}, expect {:.0} +- {sigma:.1}",
+        n * p
+    );
+    let rtn: std::collections::HashSet<usize> = list.iter().map(|f| f.row * cols + f.col).collect();
+    for fr in &out {
+        assert!((0..rows * cols)
+            .filter(|i| !rtn.contains(i))
+            .all(|i| fr[i] == plain[i]));
+    }
 }
 
 #[test]

@@ -335,7 +335,8 @@ def scielab(a_xyz: np.ndarray, b_xyz: np.ndarray, white_xyz: Sequence[float], sa
             formula: str = "cie76") -> Dict[str, Any]:
     """S-CIELAB (Zhang & Wandell 1997) difference of two (rows, cols, 3) CIE XYZ images viewed at
     samples_per_deg samples per degree; white_xyz is CIELAB's reference white (same units).
-    formula: "cie76" (the original) or "ciede2000". Returns delta_e (rows, cols), mean, p95, max."""
+    formula: "cie76" (the original), "ciede2000", "cie94" or "cieuv" (CIE 1976 u*v*).
+    Returns delta_e (rows, cols), mean, p95, max."""
     a = np.ascontiguousarray(a_xyz, dtype=np.float32)
     b = np.ascontiguousarray(b_xyz, dtype=np.float32)
     w = tuple(float(v) for v in white_xyz)
