@@ -220,6 +220,23 @@ fn ghost_energy_is_the_product_of_reflectances_transmittances_and_the_passed_fra
             assert!((main - (1.0 - r) * (1.0 - r)).abs() < 1e-15);
         }
     }
+    // A path with backward crossings: the double Gauss's ghost off surfaces 5 and 1, with
+    // (1 - R) for surfaces 1-4 forward, 4-2 backward and 2-11 forward (the stop: none).
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/data/isetcornellbox/lens"
+    );
+    let dg = Lens::from_file(&Path::new(dir).join("dgauss.82deg.4.38mm.json")).unwrap();
+    let c = [Coating::Uncoated];
+    let r = |i: usize| dg.surface_reflectance(i, 550.0, &c[0]);
+    let t = |i: usize| 1.0 - r(i);
+    let fwd1: f64 = (0..4).map(t).product();
+    let back: f64 = (1..4).map(t).product();
+    let fwd2: f64 = (1..dg.surfaces.len()).map(t).product();
+    let closed = fwd1 * r(4) * back * r(0) * fwd2;
+    let got = dg.path_transmission(Some(GhostPath { back: 4, front: 0 }), 550.0, &c);
+    assert!((got / closed - 1.0).abs() < 1e-12, "{got} vs {closed}");
+    assert_eq!(r(dg.stop_index()), 0.0);
     let b = lens.trace_bundle(ghost, [0.0, 0.0, 1.0], 80.0, 550.0, 128);
     let disk = std::f64::consts::PI * STOP_MM * STOP_MM / b.launch_area_mm2();
     println!(
