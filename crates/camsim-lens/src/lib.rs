@@ -8,6 +8,8 @@
 //! - [`LensCamera`] ([`camera`]): a lens with its film plane, focused, tracing rays from the film
 //!   out through the lens with exit-pupil bounds per film radius (the API a renderer's realistic
 //!   camera calls) and the relative illumination of a traced prescription;
+//! - [`ghost`]: two-bounce ghost paths (reflections between surfaces), coating reflectances and
+//!   collimated ghost bundles traced to the film (Hullin et al. 2011);
 //! - [`glass`]: constant or dispersive (n_d, V_d) media;
 //! - [`rtf`]: ray-transfer functions (Goossens et al. 2022) and the relative illumination they
 //!   imply, with a reader for Zemax relative-illumination exports.
@@ -18,6 +20,7 @@
 
 pub mod camera;
 pub mod error;
+pub mod ghost;
 pub mod glass;
 pub mod prescription;
 pub mod rtf;
@@ -25,6 +28,7 @@ pub mod trace;
 
 pub use camera::LensCamera;
 pub use error::{LensError, Result};
+pub use ghost::{Bundle, Coating, GhostPath};
 pub use glass::Medium;
 pub use prescription::{Lens, Surface};
 pub use rtf::Rtf;

@@ -81,10 +81,17 @@ pub fn refract(d: [f64; 3], n: [f64; 3], n1: f64, n2: f64) -> Option<[f64; 3]> {
     ]))
 }
 
+/// Mirror unit direction `d` at unit normal `n` (either orientation): r = d - 2 (d . n) n (the
+/// law of reflection in vector form; pbrt-v4 4th ed. sec. 9.3, `Reflect`).
+pub fn reflect(d: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+    let k = 2.0 * dot(d, n);
+    normalize([d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2]])
+}
+
 /// Intersection of `ray` with surface `s` whose vertex is at z = `z0`: the parameter t and the
 /// unit surface normal (pointing toward +z). Newton's method on
 /// g(t) = z(t) - z0 - sag(r(t)) from the vertex plane, after an exact start for spheres.
-fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
+pub(crate) fn intersect(s: &Surface, z0: f64, ray: &Ray) -> Option<(f64, [f64; 3])> {
     let o = ray.origin_mm;
     let d = ray.direction;
     let c = s.curvature_per_mm();
@@ -287,7 +294,7 @@ impl Lens {
         })
     }
 
-    fn through_surface(
+    pub(crate) fn through_surface(
         &self,
         i: usize,
         s: &Surface,

@@ -53,6 +53,7 @@ fn main() {
             lens_file: lens,
             rtf_file: rtf,
             field_zernike: fz,
+            ghosts: None,
         };
         match w {
             "invariant" => {}

@@ -156,6 +156,146 @@ pub struct BlurConfig {
     /// Or a table of Zernike terms per field height (added to `[wavefront]`'s terms).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field_zernike: Option<FieldZernikeConfig>,
+    /// With `lens_file`: the lens's two-bounce ghosts (reflections between pairs of surfaces) of
+    /// the image's brightest sources, or of explicit sources, added to the irradiance; see
+    /// [`GhostConfig`] and [`crate::traced::Ghosts`]. Unset: no ghosts (nothing is computed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ghosts: Option<GhostConfig>,
+}
+
+/// `ghosts = { coating = "uncoated", threshold = 0.5 }` under `blur` (with `lens_file`): lens
+/// ghosts by real ray tracing of every two-bounce path of the prescription (Hullin et al.,
+/// SIGGRAPH 2011). Sources: the connected regions of the irradiance image (summed over bands)
+/// above `threshold` times its maximum, brightest first, each taken as a point at infinity in the
+/// direction whose chief ray lands on the region's centroid and with the region's power per band;
+/// or, when `sources` is given, those sources instead (their own image is not added: put a source
+/// that is in the frame into the scene).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GhostConfig {
+    /// Reflectance of every refracting surface at normal incidence: `"uncoated"` (Fresnel from
+    /// the two media's indices at each wavelength), `{ quarter_wave_nm = 550, layer_index = 1.38 }`
+    /// (one quarter-wave layer on each air-glass surface; cemented surfaces stay uncoated) or
+    /// `{ reflectance = 0.005 }` (the same fraction everywhere). Default: a quarter-wave MgF2
+    /// layer (1.38) at 550 nm.
+    #[serde(default)]
+    pub coating: CoatingConfig,
+    /// Reflectance of each surface of the lens file, object side first, one number in [0, 1) per
+    /// surface (the stop's entry is ignored); replaces `coating` when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface_reflectance: Option<Vec<f64>>,
+    /// Source detection threshold, fraction of the image's largest band-summed irradiance,
+    /// (0, 1] (default 0.5).
+    #[serde(default = "default_ghost_threshold")]
+    pub threshold: f64,
+    /// Most detected sources, the brightest regions first (1..=64, default 4).
+    #[serde(default = "default_ghost_sources")]
+    pub max_sources: usize,
+    /// Explicit sources at infinity (replace the detection).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sources: Option<Vec<GhostSourceConfig>>,
+    /// Rays across the front element's diameter per ghost, source and band (8..=512, default
+    /// 48).
+    #[serde(default = "default_ghost_rays")]
+    pub rays: usize,
+    /// Samples of the ghost raster along the image's longer side (16..=16384, default 512): the
+    /// ghosts are splatted on a grid this many times coarser than the image where the image is
+    /// larger, then added with bilinear interpolation (ghosts are smooth; the cost follows the
+    /// ghosts' area in raster samples).
+    #[serde(default = "default_ghost_raster")]
+    pub raster_px: usize,
+}
+
+impl Default for GhostConfig {
+    fn default() -> Self {
+        GhostConfig {
+            coating: CoatingConfig::default(),
+            surface_reflectance: None,
+            threshold: default_ghost_threshold(),
+            max_sources: default_ghost_sources(),
+            sources: None,
+            rays: default_ghost_rays(),
+            raster_px: default_ghost_raster(),
+        }
+    }
+}
+
+fn default_ghost_threshold() -> f64 {
+    0.5
+}
+fn default_ghost_sources() -> usize {
+    4
+}
+fn default_ghost_rays() -> usize {
+    48
+}
+fn default_ghost_raster() -> usize {
+    512
+}
+
+/// A surface reflectance model (`ghosts.coating`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum CoatingConfig {
+    /// `"uncoated"`.
+    Named(CoatingName),
+    /// `{ quarter_wave_nm = 550, layer_index = 1.38 }`.
+    QuarterWave(QuarterWaveConfig),
+    /// `{ reflectance = 0.005 }`.
+    Constant(ConstantReflectance),
+}
+
+impl Default for CoatingConfig {
+    fn default() -> Self {
+        CoatingConfig::QuarterWave(QuarterWaveConfig {
+            quarter_wave_nm: 550.0,
+            layer_index: default_layer_index(),
+        })
+    }
+}
+
+/// Named coating models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum CoatingName {
+    /// Bare surfaces: Fresnel reflectance at normal incidence.
+    Uncoated,
+}
+
+/// One quarter-wave anti-reflection layer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct QuarterWaveConfig {
+    /// Design wavelength, nm: the layer's optical thickness is a quarter of it (> 0).
+    pub quarter_wave_nm: f64,
+    /// Index of the layer (>= 1, default 1.38: MgF2).
+    #[serde(default = "default_layer_index")]
+    pub layer_index: f64,
+}
+
+fn default_layer_index() -> f64 {
+    1.38
+}
+
+/// The same reflectance on every surface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ConstantReflectance {
+    /// Reflectance, fraction in [0, 1).
+    pub reflectance: f64,
+}
+
+/// An explicit ghost source at infinity (`ghosts.sources = [{ field_deg = [10, 0], irradiance_w_m2_nm = 1.0 }]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GhostSourceConfig {
+    /// Direction of the light, degrees from the axis along image columns (x) and rows (y): the
+    /// light travels along (tan x, tan y, 1), and its (ideal) image lies near
+    /// (f tan x, f tan y) from the image centre (each |value| < 89).
+    pub field_deg: [f64; 2],
+    /// Spectral irradiance of the beam at the lens, normal to the beam, W/(m^2 nm) (>= 0; the same
+    /// in every band).
+    pub irradiance_w_m2_nm: f64,
 }
 
 /// Shift-invariant or shift-variant blur.

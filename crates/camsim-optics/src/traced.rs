@@ -16,9 +16,12 @@
 //! the PSF's image-plane scale takes the sine condition (exit ray direction sine = pupil height /
 //! image distance).
 
+use crate::config::{CoatingConfig, CoatingName, GhostConfig};
 use crate::error::{OpticsError, Result};
 use crate::zernike::Zernike;
-use camsim_lens::{Lens, LensCamera, Ray};
+use camsim_core::SpectralImage;
+use camsim_lens::{Bundle, Coating, Lens, LensCamera, Ray};
+use rayon::prelude::*;
 use std::path::Path;
 
 /// Radial order of the Zernike fit to the traced optical path difference.
@@ -432,5 +435,676 @@ impl TracedLens {
             out.push(c);
         }
         Ok(out)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lens ghosts.
+// ---------------------------------------------------------------------------------------------
+
+/// The ghost settings (`blur.ghosts`), checked against the lens: the reflectance model of each of
+/// its surfaces, the source detection and the sampling.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ghosts {
+    /// Reflectance model per surface of the lens, object side first (the stop's is unused).
+    pub coatings: Vec<Coating>,
+    /// Detection threshold, fraction of the largest band-summed irradiance.
+    pub threshold: f64,
+    /// Most detected sources.
+    pub max_sources: usize,
+    /// Explicit sources (empty: detect them in the image).
+    pub sources: Vec<GhostSource>,
+    /// Rays across the front element's diameter.
+    pub rays: usize,
+    /// Raster samples along the image's longer side.
+    pub raster_px: usize,
+}
+
+/// How bright a ghost source is, per band (one entry: every band).
+#[derive(Debug, Clone, PartialEq)]
+pub enum SourceStrength {
+    /// Spectral irradiance of the beam at the lens, normal to the beam, W/(m^2 nm).
+    Irradiance(Vec<f64>),
+    /// Spectral power of the source's main image on the film, W/nm (a detected source): the beam
+    /// irradiance follows from the main path's traced throughput.
+    ImagePower(Vec<f64>),
+}
+
+/// A point source at infinity for [`ghost_irradiance`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct GhostSource {
+    /// Direction of travel of its light in lens coordinates (toward +z; x along image columns, y
+    /// along image rows); its image lies near f (d_x / d_z, d_y / d_z).
+    pub direction: [f64; 3],
+    /// Its brightness.
+    pub strength: SourceStrength,
+}
+
+/// The film as a pixel grid centred on the optical axis: pixel (row r, column c) has its centre
+/// at x = (c + 0.5 - cols / 2) pitch, y = (r + 0.5 - rows / 2) pitch (as the irradiance images of
+/// the shift-variant stage).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorGeometry {
+    /// Rows.
+    pub rows: usize,
+    /// Columns.
+    pub cols: usize,
+    /// Pixel pitch, mm.
+    pub pixel_pitch_mm: f64,
+    /// Axial position of the film in lens coordinates, mm ([`LensCamera::film_z_mm`]).
+    pub film_z_mm: f64,
+}
+
+/// A bright region of an irradiance image taken as a ghost source ([`detect_sources`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetectedSource {
+    /// Centroid (weighted by the band-summed irradiance) on the film, mm from the axis.
+    pub x_mm: f64,
+    /// Centroid y, mm.
+    pub y_mm: f64,
+    /// Pixels in the region.
+    pub pixels: usize,
+    /// Spectral power of the region per band, W/nm (irradiance times pixel area, summed).
+    pub power_w_nm: Vec<f64>,
+}
+
+impl Ghosts {
+    /// Check `cfg` (keys `blur.ghosts.*`) for `lens` (the surface list of `surface_reflectance`).
+    pub fn from_config(cfg: &GhostConfig, lens: &Lens) -> Result<Ghosts> {
+        let key = |k: &str| format!("blur.ghosts.{k}");
+        let coating = match &cfg.coating {
+            CoatingConfig::Named(CoatingName::Uncoated) => Coating::Uncoated,
+            CoatingConfig::QuarterWave(q) => Coating::QuarterWave {
+                design_wavelength_nm: q.quarter_wave_nm,
+                layer_index: q.layer_index,
+            },
+            CoatingConfig::Constant(c) => Coating::Reflectance(c.reflectance),
+        };
+        coating
+            .check()
+            .map_err(|m| OpticsError::config(key("coating"), m))?;
+        let n = lens.surfaces.len();
+        let coatings = match &cfg.surface_reflectance {
+            None => vec![coating; n],
+            Some(v) => {
+                if v.len() != n {
+                    return Err(OpticsError::config(
+                        key("surface_reflectance"),
+                        format!(
+                            "{} values for a lens of {n} surfaces (one per surface, the stop's ignored)",
+                            v.len()
+                        ),
+                    ));
+                }
+                v.iter()
+                    .enumerate()
+                    .map(|(i, r)| {
+                        let c = Coating::Reflectance(*r);
+                        c.check().map(|_| c).map_err(|m| {
+                            OpticsError::config(
+                                key("surface_reflectance"),
+                                format!("surface {}: {m}", i + 1),
+                            )
+                        })
+                    })
+                    .collect::<Result<Vec<_>>>()?
+            }
+        };
+        if !(cfg.threshold > 0.0 && cfg.threshold <= 1.0) {
+            return Err(OpticsError::config(
+                key("threshold"),
+                format!("{} is not in (0, 1]", cfg.threshold),
+            ));
+        }
+        if !(1..=64).contains(&cfg.max_sources) {
+            return Err(OpticsError::config(
+                key("max_sources"),
+                format!("{} is not in 1..=64", cfg.max_sources),
+            ));
+        }
+        if !(8..=512).contains(&cfg.rays) {
+            return Err(OpticsError::config(
+                key("rays"),
+                format!("{} is not in 8..=512", cfg.rays),
+            ));
+        }
+        if !(16..=16384).contains(&cfg.raster_px) {
+            return Err(OpticsError::config(
+                key("raster_px"),
+                format!("{} is not in 16..=16384", cfg.raster_px),
+            ));
+        }
+        let mut sources = Vec::new();
+        for (i, s) in cfg.sources.iter().flatten().enumerate() {
+            let bad = |m: String| OpticsError::config(format!("blur.ghosts.sources[{i}]"), m);
+            if s.field_deg
+                .iter()
+                .any(|a| !(a.is_finite() && a.abs() < 89.0))
+            {
+                return Err(bad(format!(
+                    "field_deg {:?} must be finite and within 89 degrees of the axis",
+                    s.field_deg
+                )));
+            }
+            if !(s.irradiance_w_m2_nm.is_finite() && s.irradiance_w_m2_nm >= 0.0) {
+                return Err(bad(format!(
+                    "irradiance_w_m2_nm {} is not a number >= 0",
+                    s.irradiance_w_m2_nm
+                )));
+            }
+            sources.push(GhostSource {
+                direction: [
+                    s.field_deg[0].to_radians().tan(),
+                    s.field_deg[1].to_radians().tan(),
+                    1.0,
+                ],
+                strength: SourceStrength::Irradiance(vec![s.irradiance_w_m2_nm]),
+            });
+        }
+        Ok(Ghosts {
+            coatings,
+            threshold: cfg.threshold,
+            max_sources: cfg.max_sources,
+            sources,
+            rays: cfg.rays,
+            raster_px: cfg.raster_px,
+        })
+    }
+}
+
+/// Pixel-centre offset from the optical axis (the image centre), samples.
+fn centre_offset(i: usize, n: usize) -> f64 {
+    i as f64 + 0.5 - n as f64 / 2.0
+}
+
+/// The connected regions (4-neighbour) of `image` whose band-summed irradiance is at least
+/// `threshold` times the image's largest, brightest (most power summed over bands) first, at most
+/// `max_sources`; ties keep the scan order (the first pixel of each region, row-major), so the
+/// result does not depend on the thread count.
+pub fn detect_sources(
+    image: &SpectralImage,
+    threshold: f64,
+    max_sources: usize,
+) -> Vec<DetectedSource> {
+    let (rows, cols) = (image.rows, image.cols);
+    let plane = rows * cols;
+    let bands = image.bands();
+    if plane == 0 || bands == 0 {
+        return Vec::new();
+    }
+    let sum_at = |k: usize| -> f64 { (0..bands).map(|b| image.data[b * plane + k] as f64).sum() };
+    let max = (0..rows)
+        .into_par_iter()
+        .map(|r| {
+            (0..cols)
+                .map(|c| sum_at(r * cols + c))
+                .fold(f64::NEG_INFINITY, f64::max)
+        })
+        .reduce(|| f64::NEG_INFINITY, f64::max);
+    if !(max > 0.0 && max.is_finite()) {
+        return Vec::new();
+    }
+    let level = threshold * max;
+    // 0: below the threshold, 1: above and not yet visited, 2: visited.
+    let mut mask: Vec<u8> = (0..rows)
+        .into_par_iter()
+        .flat_map_iter(|r| (0..cols).map(move |c| r * cols + c))
+        .map(|k| u8::from(sum_at(k) >= level))
+        .collect();
+    let pitch_mm = image.sample_spacing_m * 1e3;
+    let area_m2 = image.sample_spacing_m * image.sample_spacing_m;
+    let mut found: Vec<(f64, DetectedSource)> = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..plane {
+        if mask[start] != 1 {
+            continue;
+        }
+        mask[start] = 2;
+        stack.push(start);
+        let (mut wsum, mut wx, mut wy, mut pixels) = (0.0, 0.0, 0.0, 0usize);
+        let mut power = vec![0.0; bands];
+        while let Some(k) = stack.pop() {
+            let (r, c) = (k / cols, k % cols);
+            let w = sum_at(k);
+            wsum += w;
+            wx += w * centre_offset(c, cols);
+            wy += w * centre_offset(r, rows);
+            pixels += 1;
+            for (b, p) in power.iter_mut().enumerate() {
+                *p += image.data[b * plane + k] as f64 * area_m2;
+            }
+            let mut visit = |n: usize| {
+                if mask[n] == 1 {
+                    mask[n] = 2;
+                    stack.push(n);
+                }
+            };
+            if c > 0 {
+                visit(k - 1);
+            }
+            if c + 1 < cols {
+                visit(k + 1);
+            }
+            if r > 0 {
+                visit(k - cols);
+            }
+            if r + 1 < rows {
+                visit(k + cols);
+            }
+        }
+        found.push((
+            wsum,
+            DetectedSource {
+                x_mm: wx / wsum * pitch_mm,
+                y_mm: wy / wsum * pitch_mm,
+                pixels,
+                power_w_nm: power,
+            },
+        ));
+    }
+    // Stable sort: equal powers keep the scan order.
+    found.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap_or(std::cmp::Ordering::Equal));
+    found
+        .into_iter()
+        .take(max_sources)
+        .map(|(_, s)| s)
+        .collect()
+}
+
+/// The ghosts of `sources` on `sensor` through `lens` with surface reflectances `coatings`, at
+/// `wavelengths_nm`, `rays` rays across the front element: spectral irradiance W/(m^2 nm),
+/// band-sequential (band b is `[b * rows * cols, (b + 1) * rows * cols)`), to add to the main
+/// image. Every two-bounce path of [`Lens::ghost_paths`] is traced per source and band
+/// ([`Lens::trace_bundle`]); each ray carries E cos(theta) h^2 times the path's transmission
+/// ([`Lens::path_transmission`]: R_back R_front and 1 - R per crossing), E the beam irradiance, h
+/// the launch grid step; its power is spread over its footprint on the film (the image of its
+/// launch cell, corners from the neighbouring rays' landing points: the area ratio of the ray
+/// map's grid, as Hullin et al. 2011 sec. 4.3 shade a ghost's ray-grid quads), at each pixel
+/// centre inside, or bilinearly at the landing point where the footprint is under two pixels. rayon over bands;
+/// each band's plane is computed serially, so the result does not depend on the thread count.
+pub fn ghost_irradiance(
+    lens: &Lens,
+    coatings: &[Coating],
+    sensor: &SensorGeometry,
+    sources: &[GhostSource],
+    wavelengths_nm: &[f64],
+    rays: usize,
+) -> Vec<f32> {
+    let plane = sensor.rows * sensor.cols;
+    let mut out = vec![0.0f32; plane * wavelengths_nm.len()];
+    if plane == 0 {
+        return out;
+    }
+    out.par_chunks_mut(plane)
+        .zip(wavelengths_nm.par_iter())
+        .enumerate()
+        .for_each(|(b, (dst, &wl))| {
+            splat_band(lens, coatings, sensor, sources, b, wl, rays, dst);
+        });
+    out
+}
+
+/// The beam irradiance of `s` in band `b`, W/(m^2 nm), given the main path's traced bundle at
+/// that band (for [`SourceStrength::ImagePower`]: the image power over the power that the main
+/// path delivers per unit beam irradiance, cos(theta) A_launch T_main passed / launched).
+fn beam_irradiance(
+    lens: &Lens,
+    coatings: &[Coating],
+    s: &GhostSource,
+    b: usize,
+    wl: f64,
+    film_z_mm: f64,
+    rays: usize,
+) -> f64 {
+    let pick = |v: &[f64]| v.get(b).or(v.last()).copied().unwrap_or(0.0);
+    match &s.strength {
+        SourceStrength::Irradiance(v) => pick(v),
+        SourceStrength::ImagePower(v) => {
+            let main = lens.trace_bundle(None, s.direction, film_z_mm, wl, rays);
+            let cos = cos_to_axis(s.direction);
+            let per_e = cos
+                * main.passed as f64
+                * main.spacing_mm
+                * main.spacing_mm
+                * 1e-6
+                * lens.path_transmission(None, wl, coatings);
+            if per_e > 0.0 {
+                pick(v) / per_e
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+fn cos_to_axis(d: [f64; 3]) -> f64 {
+    d[2] / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+/// One band of [`ghost_irradiance`], added into `dst` (rows x cols of `sensor`).
+#[allow(clippy::too_many_arguments)]
+fn splat_band(
+    lens: &Lens,
+    coatings: &[Coating],
+    sensor: &SensorGeometry,
+    sources: &[GhostSource],
+    b: usize,
+    wl: f64,
+    rays: usize,
+    dst: &mut [f32],
+) {
+    let paths = lens.ghost_paths();
+    for s in sources {
+        let e = beam_irradiance(lens, coatings, s, b, wl, sensor.film_z_mm, rays);
+        if !(e > 0.0) {
+            continue;
+        }
+        for &p in &paths {
+            let t = lens.path_transmission(Some(p), wl, coatings);
+            if !(t > 0.0) {
+                continue;
+            }
+            let bundle = lens.trace_bundle(Some(p), s.direction, sensor.film_z_mm, wl, rays);
+            if bundle.passed == 0 {
+                continue;
+            }
+            // Irradiance of one ray's power spread over one pixel, W/(m^2 nm):
+            // E cos(theta) h^2 T / pitch^2 (both areas in mm^2).
+            let pitch = sensor.pixel_pitch_mm;
+            let per_pixel = e * cos_to_axis(s.direction) * bundle.spacing_mm * bundle.spacing_mm
+                / (pitch * pitch)
+                * t;
+            splat_bundle(&bundle, per_pixel, sensor, dst);
+        }
+    }
+}
+
+/// Spread each passed ray of `bundle` (power `w` in pixel-irradiance units) over its footprint:
+/// the quadrilateral on the film whose corners are the images of its launch cell's corners, each
+/// estimated as the mean landing point of the four rays around it (so neighbouring footprints
+/// share corners and tile the ghost without gaps or overlaps); at the bundle's rim a corner without
+/// its four rays is the opposite corner mirrored through the ray's landing point. The footprint
+/// is split into two triangles, each pixel centre inside taking density w / area (a shared edge's
+/// centres go to one side only: the top-left rule); footprints under two pixels, or without a
+/// corner, go bilinearly to the landing point.
+fn splat_bundle(bundle: &Bundle, w: f64, sensor: &SensorGeometry, dst: &mut [f32]) {
+    let (rows, cols, n) = (sensor.rows, sensor.cols, bundle.n);
+    let pitch = sensor.pixel_pitch_mm;
+    // Film mm -> fractional pixel coordinates of pixel centres.
+    let to_px = |p: [f64; 2]| {
+        [
+            p[0] / pitch + cols as f64 / 2.0 - 0.5,
+            p[1] / pitch + rows as f64 / 2.0 - 0.5,
+        ]
+    };
+    let at = |r: usize, c: usize| -> Option<[f64; 2]> {
+        let p = bundle.landing_mm[r * n + c];
+        p[0].is_finite().then(|| to_px(p))
+    };
+    // Corner (i, j), 0..=n: between rays (i - 1, j - 1), (i - 1, j), (i, j - 1), (i, j).
+    let corner = |i: usize, j: usize| -> Option<[f64; 2]> {
+        if i == 0 || j == 0 || i > n - 1 || j > n - 1 {
+            return None;
+        }
+        let (a, b, c, d) = (at(i - 1, j - 1)?, at(i - 1, j)?, at(i, j - 1)?, at(i, j)?);
+        Some([
+            0.25 * (a[0] + b[0] + c[0] + d[0]),
+            0.25 * (a[1] + b[1] + c[1] + d[1]),
+        ])
+    };
+    // A footprint larger than this many pixels is a fold of the ray map (neighbouring rays
+    // separated by a caustic): its power goes to the landing point.
+    let max_area_px = 0.25 * (rows * cols) as f64;
+    for r in 0..n {
+        for c in 0..n {
+            let Some(q) = at(r, c) else { continue };
+            // Corners in cyclic order: (r, c), (r, c + 1), (r + 1, c + 1), (r + 1, c).
+            let k = [
+                corner(r, c),
+                corner(r, c + 1),
+                corner(r + 1, c + 1),
+                corner(r + 1, c),
+            ];
+            let mirror = |o: Option<[f64; 2]>| o.map(|o| [2.0 * q[0] - o[0], 2.0 * q[1] - o[1]]);
+            let quad = [
+                k[0].or_else(|| mirror(k[2])),
+                k[1].or_else(|| mirror(k[3])),
+                k[2].or_else(|| mirror(k[0])),
+                k[3].or_else(|| mirror(k[1])),
+            ];
+            let [Some(c0), Some(c1), Some(c2), Some(c3)] = quad else {
+                splat_point(q, w, rows, cols, dst);
+                continue;
+            };
+            let area = (tri_area2(c0, c1, c2).abs() + tri_area2(c0, c2, c3).abs()) * 0.5;
+            if !(area >= 2.0 && area <= max_area_px) {
+                splat_point(q, w, rows, cols, dst);
+                continue;
+            }
+            let density = (w / area) as f32;
+            fill_triangle(c0, c1, c2, density, rows, cols, dst);
+            fill_triangle(c0, c2, c3, density, rows, cols, dst);
+        }
+    }
+}
+
+/// Twice the signed area of triangle (a, b, c).
+fn tri_area2(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// Add `density` at every pixel centre (integer coordinates) inside triangle (a, b, c); a centre
+/// on an edge counts when the edge is a "top-left" one of the counter-clockwise triangle (the
+/// rasterization fill rule, e.g. Direct3D's), so two triangles sharing that edge never both take
+/// it.
+fn fill_triangle(
+    a: [f64; 2],
+    b: [f64; 2],
+    c: [f64; 2],
+    density: f32,
+    rows: usize,
+    cols: usize,
+    dst: &mut [f32],
+) {
+    let (a, b, c) = if tri_area2(a, b, c) < 0.0 {
+        (a, c, b)
+    } else {
+        (a, b, c)
+    };
+    if tri_area2(a, b, c) == 0.0 {
+        return;
+    }
+    let x0 = a[0].min(b[0]).min(c[0]).ceil().max(0.0);
+    let x1 = a[0].max(b[0]).max(c[0]).floor().min(cols as f64 - 1.0);
+    let y0 = a[1].min(b[1]).min(c[1]).ceil().max(0.0);
+    let y1 = a[1].max(b[1]).max(c[1]).floor().min(rows as f64 - 1.0);
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    // Edge p -> q of the counter-clockwise triangle (y down or up: only consistency matters).
+    let top_left = |p: [f64; 2], q: [f64; 2]| {
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        dy < 0.0 || (dy == 0.0 && dx > 0.0)
+    };
+    let edges = [
+        (a, b, top_left(a, b)),
+        (b, c, top_left(b, c)),
+        (c, a, top_left(c, a)),
+    ];
+    for py in y0 as usize..=y1 as usize {
+        let row = &mut dst[py * cols..(py + 1) * cols];
+        for (px, d) in row
+            .iter_mut()
+            .enumerate()
+            .take(x1 as usize + 1)
+            .skip(x0 as usize)
+        {
+            let p = [px as f64, py as f64];
+            let inside = edges.iter().all(|&(e0, e1, tl)| {
+                let e = tri_area2(e0, e1, p);
+                e > 0.0 || (e == 0.0 && tl)
+            });
+            if inside {
+                *d += density;
+            }
+        }
+    }
+}
+
+/// Add `w` bilinearly at fractional pixel position `q` (the part off the sensor is lost).
+fn splat_point(q: [f64; 2], w: f64, rows: usize, cols: usize, dst: &mut [f32]) {
+    let (x0, y0) = (q[0].floor(), q[1].floor());
+    let (fx, fy) = (q[0] - x0, q[1] - y0);
+    for (dy, wy) in [(0.0, 1.0 - fy), (1.0, fy)] {
+        for (dx, wx) in [(0.0, 1.0 - fx), (1.0, fx)] {
+            let (x, y) = (x0 + dx, y0 + dy);
+            if x >= 0.0 && y >= 0.0 && x < cols as f64 && y < rows as f64 {
+                dst[y as usize * cols + x as usize] += (w * wx * wy) as f32;
+            }
+        }
+    }
+}
+
+impl TracedLens {
+    /// The direction of travel (lens coordinates, z = 1) of a source at infinity whose 550 nm
+    /// chief ray lands on the film of `cam` at (`x_mm`, `y_mm`): secant iteration on the field
+    /// angle's tangent along the point's azimuth (the lens is rotationally symmetric).
+    pub fn direction_to_film_point(
+        &self,
+        cam: &LensCamera,
+        x_mm: f64,
+        y_mm: f64,
+    ) -> Result<[f64; 3]> {
+        let h = x_mm.hypot(y_mm);
+        if h < 1e-12 {
+            return Ok([0.0, 0.0, 1.0]);
+        }
+        let g = |t: f64| -> Result<f64> {
+            Ok(self.chief_image_point_mm(cam, ObjectField::Infinity { tan_theta: t })?[0] - h)
+        };
+        let (mut t0, mut t1) = (h / self.efl_mm, 1.01 * h / self.efl_mm);
+        let (mut g0, mut g1) = (g(t0)?, g(t1)?);
+        for _ in 0..40 {
+            if g1.abs() < 1e-10 * h.max(1.0) || g1 == g0 {
+                break;
+            }
+            let t2 = t1 - g1 * (t1 - t0) / (g1 - g0);
+            (t0, g0) = (t1, g1);
+            t1 = t2;
+            g1 = g(t1)?;
+        }
+        if !(g1.abs() < 1e-6) {
+            return Err(lens_err(
+                "blur.ghosts",
+                format!(
+                    "{}: no field angle images onto film height {h} mm",
+                    self.what
+                ),
+            ));
+        }
+        Ok([t1 * x_mm / h, t1 * y_mm / h, 1.0])
+    }
+
+    /// Add the lens ghosts of `g` to `image` (a sensor-plane irradiance image, W/(m^2 nm), centred
+    /// on the optical axis, after distortion and relative illumination) for the lens focused as
+    /// `cam`. Sources: `g.sources`, or the regions of [`detect_sources`] as points at infinity in
+    /// the direction of [`TracedLens::direction_to_film_point`] with their power per band (a
+    /// region whose direction cannot be found, e.g. beyond the lens's field, is skipped). The
+    /// ghosts are splatted ([`ghost_irradiance`]) on a raster `k` = ceil(longer side /
+    /// `g.raster_px`) times coarser than the image and added with bilinear interpolation of the
+    /// irradiance (k = 1: directly). Returns the sources used.
+    pub fn add_ghosts(
+        &self,
+        cam: &LensCamera,
+        g: &Ghosts,
+        image: &mut SpectralImage,
+    ) -> Result<Vec<GhostSource>> {
+        let sources: Vec<GhostSource> = if g.sources.is_empty() {
+            detect_sources(image, g.threshold, g.max_sources)
+                .into_iter()
+                .filter_map(|d| {
+                    self.direction_to_film_point(cam, d.x_mm, d.y_mm)
+                        .ok()
+                        .map(|direction| GhostSource {
+                            direction,
+                            strength: SourceStrength::ImagePower(d.power_w_nm),
+                        })
+                })
+                .collect()
+        } else {
+            g.sources.clone()
+        };
+        if sources.is_empty() {
+            return Ok(sources);
+        }
+        let (rows, cols) = (image.rows, image.cols);
+        let k = rows.max(cols).div_ceil(g.raster_px).max(1);
+        let raster = SensorGeometry {
+            rows: rows.div_ceil(k),
+            cols: cols.div_ceil(k),
+            pixel_pitch_mm: image.sample_spacing_m * 1e3 * k as f64,
+            film_z_mm: cam.film_z_mm(),
+        };
+        let wavelengths = image.grid.wavelengths_nm();
+        let plane = rows * cols;
+        let lens = &self.lens;
+        image
+            .data
+            .par_chunks_mut(plane)
+            .zip(wavelengths.par_iter())
+            .enumerate()
+            .for_each(|(b, (dst, &wl))| {
+                if k == 1 {
+                    splat_band(lens, &g.coatings, &raster, &sources, b, wl, g.rays, dst);
+                    return;
+                }
+                let mut coarse = vec![0.0f32; raster.rows * raster.cols];
+                splat_band(
+                    lens,
+                    &g.coatings,
+                    &raster,
+                    &sources,
+                    b,
+                    wl,
+                    g.rays,
+                    &mut coarse,
+                );
+                add_upsampled(&coarse, &raster, k, rows, cols, dst);
+            });
+        Ok(sources)
+    }
+}
+
+/// Add the coarse raster (`k` times the image's pitch, both centred on the axis) to the image
+/// plane by bilinear interpolation of the irradiance between coarse sample centres (zero beyond
+/// the outermost ones' half cell).
+fn add_upsampled(
+    coarse: &[f32],
+    raster: &SensorGeometry,
+    k: usize,
+    rows: usize,
+    cols: usize,
+    dst: &mut [f32],
+) {
+    let (cr, cc) = (raster.rows, raster.cols);
+    let at = |r: isize, c: isize| -> f32 {
+        if r >= 0 && c >= 0 && (r as usize) < cr && (c as usize) < cc {
+            coarse[r as usize * cc + c as usize]
+        } else {
+            0.0
+        }
+    };
+    for r in 0..rows {
+        // Fine centre offset in coarse samples, then the coarse fractional index.
+        let y = centre_offset(r, rows) / k as f64 + cr as f64 / 2.0 - 0.5;
+        let (y0, fy) = (y.floor(), (y - y.floor()) as f32);
+        for c in 0..cols {
+            let x = centre_offset(c, cols) / k as f64 + cc as f64 / 2.0 - 0.5;
+            let (x0, fx) = (x.floor(), (x - x.floor()) as f32);
+            let (yi, xi) = (y0 as isize, x0 as isize);
+            let v = (at(yi, xi) * (1.0 - fx) + at(yi, xi + 1) * fx) * (1.0 - fy)
+                + (at(yi + 1, xi) * (1.0 - fx) + at(yi + 1, xi + 1) * fx) * fy;
+            dst[r * cols + c] += v;
+        }
     }
 }
