@@ -74,6 +74,130 @@ pub struct OpticsConfig {
     /// 1.4 um apart, MTF |cos(pi f d)| per axis; see [`crate::olpf`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub olpf: Option<crate::olpf::OlpfConfig>,
+    /// Scattering flare from contamination of the pupil (unset: a clean pupil). Example:
+    /// `flare = { seed = 7, dust_coverage = 0.01, dust_radius_um = [5, 40], scratch_count = 3 }`;
+    /// see [`FlareConfig`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flare: Option<FlareConfig>,
+    /// Veiling glare: a glare spread function added as a far tail (unset: none). Example:
+    /// `glare = { fraction = 0.02, exponent = 1.5, core_radius_um = 50 }`; see [`GlareConfig`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glare: Option<GlareConfig>,
+}
+
+/// `[flare]`: dust, scratches, smudges and file-given patterns on the lens pupil of the wavefront
+/// PSF (Wu et al., ICCV 2021, make their flare this way; see [`crate::flare`]). Sizes are on the
+/// pupil (diameter focal length / f-number); coordinates as `[aperture]`'s (x along image
+/// columns, y along image rows, angles from +x towards +y). The irradiance is scaled by the
+/// transmitted fraction. Not with `blur.method = "shift-variant"` yet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FlareConfig {
+    /// Seed of the random dust, scratches and smudge (default 0): the same seed gives the same
+    /// pattern.
+    #[serde(default, skip_serializing_if = "is_zero_u64")]
+    pub seed: u64,
+    /// Number of dust particles (give this or `dust_coverage`; default none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dust_count: Option<usize>,
+    /// Fraction of the pupil area covered by dust, (0, 0.3] (particles are added until it is
+    /// reached; they do not overlap).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dust_coverage: Option<f64>,
+    /// Range of dust particle radii, um, `[min, max]` (log-uniform; default [5, 50]).
+    #[serde(default = "default_dust_radius_um")]
+    pub dust_radius_um: [f64; 2],
+    /// Fraction of the light a dust particle absorbs, [0, 1] (default 1: opaque).
+    #[serde(default = "one_f64")]
+    pub dust_opacity: f64,
+    /// Number of straight scratches (default 0).
+    #[serde(default, skip_serializing_if = "is_zero_usize")]
+    pub scratch_count: usize,
+    /// Scratch width, um (default 10).
+    #[serde(default = "default_scratch_width_um")]
+    pub scratch_width_um: f64,
+    /// Scratch length, mm (default: the pupil diameter).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scratch_length_mm: Option<f64>,
+    /// Direction of every scratch from +x, degrees (default: uniform at random per scratch).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scratch_angle_deg: Option<f64>,
+    /// Fraction of the light a scratch absorbs or scatters out of the lens, [0, 1] (default 1).
+    #[serde(default = "one_f64")]
+    pub scratch_opacity: f64,
+    /// RMS of the smudge phase error over the pupil, waves (default 0: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub smudge_rms_waves: f64,
+    /// Correlation length of the smudge phase (1/e distance of its correlation), mm (default:
+    /// a tenth of the pupil diameter).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smudge_correlation_mm: Option<f64>,
+    /// An intensity transmission image (grey PNG/TIFF/OpenEXR, values in [0, 1], read as
+    /// `[aperture] mask`) over the pupil's bounding square; the amplitude is its square root.
+    /// Relative to the config file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mask: Option<PathBuf>,
+    /// A phase image (grey, values in [0, 1], read as `mask`) over the pupil's bounding square:
+    /// the phase is its value times `phase_mask_waves`. Relative to the config file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase_mask: Option<PathBuf>,
+    /// Phase of a `phase_mask` value of 1, waves (default 1).
+    #[serde(default = "one_f64")]
+    pub phase_mask_waves: f64,
+}
+
+/// `[glare]`: veiling glare as a glare spread function g(r) = G (p - 1) r0^(2p - 2) /
+/// (pi (r^2 + r0^2)^p) (a Moffat profile of total energy G), added to the blurred irradiance as
+/// E' = (1 - G) E + g * E on a coarse grid ([`crate::glare`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GlareConfig {
+    /// Fraction G of each point's energy moved into the glare tail, [0, 1).
+    pub fraction: f64,
+    /// Exponent p of the tail, > 1 (default 1.5: g falls as r^-3 far out).
+    #[serde(default = "default_glare_exponent")]
+    pub exponent: f64,
+    /// Core radius r0 in the sensor plane, um (> 0).
+    pub core_radius_um: f64,
+}
+
+/// The defaults of every key (an empty `[flare]` table): a clean pupil.
+impl Default for FlareConfig {
+    fn default() -> Self {
+        FlareConfig {
+            seed: 0,
+            dust_count: None,
+            dust_coverage: None,
+            dust_radius_um: default_dust_radius_um(),
+            dust_opacity: 1.0,
+            scratch_count: 0,
+            scratch_width_um: default_scratch_width_um(),
+            scratch_length_mm: None,
+            scratch_angle_deg: None,
+            scratch_opacity: 1.0,
+            smudge_rms_waves: 0.0,
+            smudge_correlation_mm: None,
+            mask: None,
+            phase_mask: None,
+            phase_mask_waves: 1.0,
+        }
+    }
+}
+
+fn default_glare_exponent() -> f64 {
+    1.5
+}
+fn default_dust_radius_um() -> [f64; 2] {
+    [5.0, 50.0]
+}
+fn default_scratch_width_um() -> f64 {
+    10.0
+}
+fn one_f64() -> f64 {
+    1.0
+}
+fn is_zero_u64(v: &u64) -> bool {
+    *v == 0
 }
 
 /// `[aperture]`: the shape of the lens pupil in the wavefront PSF. The iris is inscribed in the
@@ -655,7 +779,18 @@ impl OpticsConfig {
                 }
             }
         }
-        if let Some(m) = c.aperture.as_mut().and_then(|a| a.mask.as_mut()) {
+        let flare_files = c
+            .flare
+            .as_mut()
+            .into_iter()
+            .flat_map(|f| [f.mask.as_mut(), f.phase_mask.as_mut()]);
+        for m in c
+            .aperture
+            .as_mut()
+            .and_then(|a| a.mask.as_mut())
+            .into_iter()
+            .chain(flare_files.flatten())
+        {
             if m.is_relative() {
                 if let Some(dir) = path.parent() {
                     *m = dir.join(&*m);

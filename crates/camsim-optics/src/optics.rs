@@ -44,6 +44,8 @@ pub struct Optics {
     scalar_transmittance: f64,
     /// Transmitted area of the pupil's shape / the circle's (1 for the circle).
     aperture_area_fraction: f64,
+    /// The glare spread function (`[glare]`), if set.
+    glare: Option<crate::glare::GlareSpread>,
     shading: ShadingModel,
     shift_variant: Option<ShiftVariant>,
 }
@@ -164,7 +166,31 @@ impl Optics {
             }
             wavefront = wavefront.with_aperture(aperture_from_config(ac)?);
         }
-        let aperture_area_fraction = wavefront.aperture().area_fraction();
+        if let Some(fc) = &c.flare {
+            if c.blur
+                .as_ref()
+                .is_some_and(|b| b.method == crate::config::BlurKind::ShiftVariant)
+            {
+                return Err(OpticsError::config(
+                    "flare",
+                    "pupil flare is not supported with blur.method = \"shift-variant\" yet (its PSFs are rotated per block azimuth, the pattern is not)",
+                ));
+            }
+            wavefront = wavefront.with_flare(flare_from_config(fc, lens_pupil_m)?);
+        }
+        // The shaped and contaminated pupil's transmitted fraction (the aperture's area fraction
+        // alone without flare, as before).
+        let aperture_area_fraction = if wavefront.flare().is_some() {
+            wavefront.transmitted_fraction()
+        } else {
+            wavefront.aperture().area_fraction()
+        };
+        let glare = c
+            .glare
+            .map(|g| {
+                crate::glare::GlareSpread::new(g.fraction, g.exponent, g.core_radius_um * 1e-6)
+            })
+            .transpose()?;
         if let Some(cd) = &w.chromatic_defocus {
             let s = Spectrum::new(
                 cd.wavelengths_nm.clone(),
@@ -276,6 +302,7 @@ impl Optics {
             transmittance,
             scalar_transmittance,
             aperture_area_fraction,
+            glare,
             shading,
             shift_variant,
         })
@@ -297,7 +324,8 @@ impl Optics {
     }
 
     /// Transmitted area of the pupil's shape as a fraction of the circle of diameter
-    /// focal length / f-number (1 without `aperture`); the irradiance is scaled by it.
+    /// focal length / f-number (1 without `aperture`), times the flare's transmission with
+    /// `flare` ([`Wavefront::transmitted_fraction`]); the irradiance is scaled by it.
     pub fn aperture_area_fraction(&self) -> f64 {
         self.aperture_area_fraction
     }
@@ -847,11 +875,31 @@ impl Optics {
             )?;
         }
 
+        self.add_glare(&mut out, spacing)?;
         let map = ImageMap::new(rows, cols, out_rows, out_cols, None);
         Ok((
             self.finish(out, radiance, (pad_r, pad_c), spacing, v_s),
             map,
         ))
+    }
+
+    /// The glare spread function of `[glare]`, if set.
+    pub fn glare(&self) -> Option<&crate::glare::GlareSpread> {
+        self.glare.as_ref()
+    }
+
+    /// Veiling glare (`[glare]`, [`crate::glare`]): every band of the blurred irradiance becomes
+    /// (1 - G) E + g * E, bands in parallel; nothing without `[glare]`.
+    fn add_glare(&self, out: &mut SpectralImage, spacing: f64) -> Result<()> {
+        let Some(g) = self.glare else {
+            return Ok(());
+        };
+        let plan = crate::glare::GlarePlan::new(g, out.rows, out.cols, spacing)?;
+        let plane = out.rows * out.cols;
+        out.data
+            .par_chunks_mut(plane)
+            .for_each(|band| plan.apply(band));
+        Ok(())
     }
 
     /// The shift-variant model, when `blur.method = "shift-variant"`.
@@ -885,7 +933,8 @@ impl Optics {
                 .with_extra_defocus_um(extra),
             shading: &|| self.shading_map(radiance.rows, radiance.cols, spacing, v_s),
         };
-        let (out, pad, map) = sv.compute(&job, radiance, scale, spacing, v_s, d_obj)?;
+        let (mut out, pad, map) = sv.compute(&job, radiance, scale, spacing, v_s, d_obj)?;
+        self.add_glare(&mut out, spacing)?;
         Ok((self.finish(out, radiance, pad, spacing, v_s), map))
     }
 
@@ -1076,4 +1125,78 @@ pub fn aperture_from_config(
         a = a.with_mask(crate::aperture::TransmissionMask::from_file(p)?);
     }
     Ok(a)
+}
+
+/// The [`PupilFlare`](crate::flare::PupilFlare) of a `[flare]` config for a lens pupil of
+/// diameter `pupil_diameter_m` (reads the mask files; sizes normalized by the pupil radius).
+pub fn flare_from_config(
+    fc: &crate::config::FlareConfig,
+    pupil_diameter_m: f64,
+) -> Result<crate::flare::PupilFlare> {
+    let a_m = pupil_diameter_m / 2.0;
+    let mut f = crate::flare::PupilFlare::new();
+    if fc.dust_count.is_some() || fc.dust_coverage.is_some() {
+        let [lo, hi] = fc.dust_radius_um;
+        if !(lo > 0.0 && lo <= hi && hi.is_finite()) {
+            return Err(OpticsError::config(
+                "flare.dust_radius_um",
+                format!("[{lo}, {hi}] um: give [min, max] with 0 < min <= max"),
+            ));
+        }
+        if fc.dust_count.is_some() && fc.dust_coverage.is_some() {
+            return Err(OpticsError::config(
+                "flare.dust_count",
+                "give one of dust_count or dust_coverage, not both",
+            ));
+        }
+        f = f.with_dust(
+            fc.seed,
+            fc.dust_count,
+            fc.dust_coverage,
+            (lo * 1e-6 / a_m, hi * 1e-6 / a_m),
+            1.0 - fc.dust_opacity,
+        )?;
+    }
+    if fc.scratch_count > 0 {
+        if !(fc.scratch_width_um > 0.0 && fc.scratch_width_um.is_finite()) {
+            return Err(OpticsError::config(
+                "flare.scratch_width_um",
+                format!("{} um is not a positive width", fc.scratch_width_um),
+            ));
+        }
+        let length_m = fc
+            .scratch_length_mm
+            .map(|l| l * 1e-3)
+            .unwrap_or(pupil_diameter_m);
+        f = f.with_scratches(
+            fc.seed,
+            fc.scratch_count,
+            fc.scratch_width_um * 1e-6 / a_m,
+            length_m / a_m,
+            fc.scratch_angle_deg,
+            1.0 - fc.scratch_opacity,
+        )?;
+    }
+    if fc.smudge_rms_waves != 0.0 {
+        let corr_m = fc
+            .smudge_correlation_mm
+            .map(|l| l * 1e-3)
+            .unwrap_or(pupil_diameter_m / 10.0);
+        f = f.with_smudge(fc.seed, fc.smudge_rms_waves, corr_m / a_m)?;
+    }
+    if let Some(p) = &fc.mask {
+        f = f.with_mask(crate::aperture::TransmissionMask::from_file(p)?);
+    }
+    if let Some(p) = &fc.phase_mask {
+        f = f.with_phase_mask(
+            crate::aperture::TransmissionMask::from_file(p)?,
+            fc.phase_mask_waves,
+        )?;
+    } else if fc.phase_mask_waves != 1.0 {
+        return Err(OpticsError::config(
+            "flare.phase_mask_waves",
+            "given without a phase_mask",
+        ));
+    }
+    Ok(f)
 }

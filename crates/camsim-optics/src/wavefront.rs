@@ -3,13 +3,16 @@
 
 use crate::aperture::Aperture;
 use crate::error::{OpticsError, Result};
+use crate::flare::PupilFlare;
 use crate::lens;
 use crate::psf::{MtfCurve, Psf};
 use crate::zernike::Zernike;
 use camsim_core::Spectrum;
+use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// Smallest FFT length >= n of the form 2^a 3^b 5^c (fast in rustfft), even.
 pub fn fast_fft_len(n: usize) -> usize {
@@ -57,6 +60,8 @@ pub struct Wavefront {
     kernel_field: Option<f64>,
     /// Pupil shape and transmission inside the lens pupil circle (default: the circle).
     aperture: Aperture,
+    /// Contamination of the pupil (dust, scratches, smudges; [`crate::flare`]); None: clean.
+    flare: Option<Arc<PupilFlare>>,
 }
 
 impl Wavefront {
@@ -88,6 +93,7 @@ impl Wavefront {
             crosstalk_sigma_m: 0.0,
             kernel_field: None,
             aperture: Aperture::default(),
+            flare: None,
         })
     }
 
@@ -205,6 +211,52 @@ impl Wavefront {
     /// The pupil's shape.
     pub fn aperture(&self) -> &Aperture {
         &self.aperture
+    }
+
+    /// Contaminate the pupil with dust, scratches, smudges or masks ([`crate::flare`]); an empty
+    /// [`PupilFlare`] is the clean pupil (the PSF code then runs its original path, bit for bit).
+    /// The PSF stays normalized to unit volume; [`Self::transmitted_fraction`] is its energy.
+    pub fn with_flare(mut self, flare: PupilFlare) -> Self {
+        self.flare = (!flare.is_empty()).then(|| Arc::new(flare));
+        self
+    }
+
+    /// The pupil's contamination, if any.
+    pub fn flare(&self) -> Option<&PupilFlare> {
+        self.flare.as_deref()
+    }
+
+    /// Transmitted fraction of the pupil (shape, aperture mask and flare) relative to the clean
+    /// circle: [`Aperture::area_fraction`] times the flare's energy transmission averaged over
+    /// the open aperture (the integral of |P|^2 with and without the flare, on a 1024 x 1024 grid
+    /// over the bounding square, 8 x 8 subsamples on every edge). 1 for the clean circle.
+    pub fn transmitted_fraction(&self) -> f64 {
+        let area = self.aperture.area_fraction();
+        let Some(fl) = &self.flare else {
+            return area;
+        };
+        let n = 1024usize;
+        let cell = 2.0 / n as f64;
+        let sums: Vec<(f64, f64)> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let y = -1.0 + (i as f64 + 0.5) * cell;
+                let (mut open, mut passed) = (0.0, 0.0);
+                for j in 0..n {
+                    let x = -1.0 + (j as f64 + 0.5) * cell;
+                    let (amp, e) = self.aperture.cell_amplitude(x, y, cell);
+                    if amp > 0.0 {
+                        open += e;
+                        passed += e * fl.cell(x, y, cell).1;
+                    }
+                }
+                (open, passed)
+            })
+            .collect();
+        let (open, passed) = sums
+            .iter()
+            .fold((0.0, 0.0), |(o, p), (a, b)| (o + a, p + b));
+        area * passed / open
     }
 
     /// Crosstalk Gaussian standard deviation, m (0: none).
@@ -449,6 +501,30 @@ impl Wavefront {
         })
     }
 
+    /// [`Self::psf_full`] and the PSF's energy before normalization, as a fraction of the clean
+    /// circular pupil's (the sum of |DFT|^2 over the whole periodic grid, by Parseval the pupil's
+    /// sampled integral of |P|^2, rim pedestal included).
+    pub fn psf_full_energy(&self, wavelength_nm: f64, spacing_m: f64) -> Result<(Psf, f64)> {
+        let lam_n = wavelength_nm * 1e-9 * self.working_f_number();
+        if spacing_m > 0.5 * lam_n * (1.0 + 1e-9) {
+            return Err(OpticsError::Input(format!(
+                "full PSF spacing {spacing_m} m exceeds lambda N / 2 = {} m (the PSF would alias)",
+                0.5 * lam_n
+            )));
+        }
+        let (data, energy) = self.psf_grid_energy(wavelength_nm, spacing_m, None, None)?;
+        let size = (data.len() as f64).sqrt().round() as usize;
+        Ok((
+            Psf {
+                wavelength_nm,
+                spacing_m,
+                size,
+                data,
+            },
+            energy,
+        ))
+    }
+
     /// The PSF periodized with period `rows` x `cols` samples at `spacing_m`, integrated over the
     /// sample cells like [`Self::psf_with`], with its centre at sample (0, 0) (row-major,
     /// `rows * cols`, unit sum). Its 2-D DFT is the OTF at the frequencies of a `rows` x `cols` image
@@ -547,6 +623,18 @@ impl Wavefront {
         n_out: Option<usize>,
         period: Option<usize>,
     ) -> Result<Vec<f64>> {
+        Ok(self.psf_grid_energy(wavelength_nm, dx, n_out, period)?.0)
+    }
+
+    /// [`Self::psf_grid`] and the sum of its samples before normalization divided by the clean
+    /// circle's (N^2 pi a^2 / dp^2: Parseval's theorem for the N x N DFT of a unit pupil).
+    fn psf_grid_energy(
+        &self,
+        wavelength_nm: f64,
+        dx: f64,
+        n_out: Option<usize>,
+        period: Option<usize>,
+    ) -> Result<(Vec<f64>, f64)> {
         let lambda_m = wavelength_nm * 1e-9;
         let z = self.image_distance_m;
         let d = self.lens_pupil_diameter_m();
@@ -573,6 +661,13 @@ impl Wavefront {
             // samples the pupil phase finely enough (the phase steps by < pi per pupil sample).
             (3.0 * blur + 16.0 * lambda_m * z / d) / dx,
             32.0,
+            // A contaminated pupil: at least 4 pupil samples across its smallest feature (dust
+            // diameter, scratch width; up to 1024 across the pupil), so the field holds the
+            // feature's diffraction out to lambda z / (2 feature) (what lies beyond folds back).
+            match self.flare.as_ref().map(|f| f.min_feature()) {
+                Some(m) if m > 0.0 => (8.0 / m).min(1024.0) / q,
+                _ => 0.0,
+            },
         ];
         let need = want.iter().cloned().fold(0.0, f64::max).ceil() as usize;
         let n = match period {
@@ -603,7 +698,7 @@ impl Wavefront {
         let inv_lambda_um = 1e3 / wavelength_nm; // W in um -> waves
         let (mut sum_cov, mut sum_cov2) = (0.0f64, 0.0f64);
         let symmetric = self.is_rotationally_symmetric();
-        let circle = self.aperture.is_circle();
+        let circle = self.aperture.is_circle() && self.flare.is_none();
         let chrom = self.chromatic_c4_um(wavelength_nm);
         for (ri, i) in (lo..=hi).enumerate() {
             let y = (i as f64 - half as f64) * dp;
@@ -616,8 +711,17 @@ impl Wavefront {
                 // A shaped aperture (crate::aperture) gives the amplitude and the energy it
                 // passes (they differ with a grey mask); the circle keeps its original code.
                 let mut energy = None;
+                let mut flare_waves = 0.0;
                 let cov = if !circle {
-                    let (amp, e) = self.aperture.cell_amplitude(x / a, y / a, dp / a);
+                    let (mut amp, mut e) = self.aperture.cell_amplitude(x / a, y / a, dp / a);
+                    if let (Some(f), true) = (&self.flare, amp > 0.0) {
+                        // Contamination (crate::flare): its amplitude and energy transmission
+                        // multiply the aperture's; its phase adds to the wavefront's.
+                        let (fa, fe, ph) = f.cell(x / a, y / a, dp / a);
+                        amp *= fa;
+                        e *= fe;
+                        flare_waves = ph;
+                    }
                     energy = Some(e);
                     amp
                 } else if r + 0.7072 * dp <= a {
@@ -647,7 +751,11 @@ impl Wavefront {
                         self.wavefront_um(xn, yn, wavelength_nm)
                     };
                     // Pupil function A exp(-i 2 pi W / lambda) (ISETCam wvfComputePupilFunction).
-                    let ph = -2.0 * PI * w_um * inv_lambda_um;
+                    let ph = if flare_waves == 0.0 {
+                        -2.0 * PI * w_um * inv_lambda_um
+                    } else {
+                        -2.0 * PI * (w_um * inv_lambda_um + flare_waves)
+                    };
                     let (s_ph, c_ph) = ph.sin_cos();
                     row[j] = Complex64::new(cov * c_ph, cov * s_ph);
                 }
@@ -696,7 +804,9 @@ impl Wavefront {
             )));
         }
         out.iter_mut().for_each(|v| *v /= s);
-        Ok(out)
+        // Parseval: the clean circle's sum is N^2 (pi a^2 / dp^2) (before any cropping to n_out).
+        let energy = s / ((n * n) as f64 * PI * a * a / (dp * dp));
+        Ok((out, energy))
     }
 }
 

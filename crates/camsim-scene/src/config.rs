@@ -3,7 +3,7 @@
 //! ```toml
 //! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | rgb | harmonic | zone_plate
 //!                             # | sweep_frequency | star | checkerboard | grid_lines | point_array | ramp
-//!                             # | dead_leaves
+//!                             # | dead_leaves | glare_target
 //! mean_luminance_cd_m2 = 100
 //! fov_deg = 10
 //! distance_m = 1.2
@@ -14,8 +14,8 @@
 
 use crate::geometry::MacbethLayout;
 pub use crate::patterns::{
-    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene,
-    StarScene, SweepFrequencyScene, ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GlareTargetScene, GridLinesScene, HarmonicScene,
+    PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
 };
 pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
@@ -259,6 +259,10 @@ pub const SCENE_KINDS: NameTable<()> = NameTable {
             "dead_leaves",
             "the ISO 19567-2 texture-loss target (ISETCam 'dead leaves')",
         ),
+        kind(
+            "glare_target",
+            "the ISO 18844 veiling glare target: black holes in a bright surround",
+        ),
     ],
 };
 
@@ -303,6 +307,8 @@ pub enum SceneConfig {
     Ramp(RampScene),
     /// `kind = "dead_leaves"` (ISO 19567-2 texture-loss target; ISETCam 'dead leaves').
     DeadLeaves(DeadLeavesScene),
+    /// `kind = "glare_target"` (ISO 18844 veiling glare target).
+    GlareTarget(GlareTargetScene),
 }
 
 impl Default for UniformScene {
@@ -404,6 +410,7 @@ impl SceneConfig {
             SceneConfig::PointArray(_) => "point_array",
             SceneConfig::Ramp(_) => "ramp",
             SceneConfig::DeadLeaves(_) => "dead_leaves",
+            SceneConfig::GlareTarget(_) => "glare_target",
         }
     }
 
@@ -419,6 +426,7 @@ impl SceneConfig {
             SceneConfig::PointArray(c) => c,
             SceneConfig::Ramp(c) => c,
             SceneConfig::DeadLeaves(c) => c,
+            SceneConfig::GlareTarget(c) => c,
             SceneConfig::Uniform(_)
             | SceneConfig::Macbeth(_)
             | SceneConfig::SlantedEdge(_)
@@ -444,6 +452,7 @@ impl SceneConfig {
             SceneConfig::PointArray(c) => c.wavelengths,
             SceneConfig::Ramp(c) => c.wavelengths,
             SceneConfig::DeadLeaves(c) => c.wavelengths,
+            SceneConfig::GlareTarget(c) => c.wavelengths,
         };
         g.unwrap_or_default()
     }
@@ -492,6 +501,7 @@ impl SceneConfig {
             SceneConfig::PointArray(c) => fix_string(&mut c.illuminant),
             SceneConfig::Ramp(c) => fix_string(&mut c.illuminant),
             SceneConfig::DeadLeaves(c) => fix_string(&mut c.illuminant),
+            SceneConfig::GlareTarget(c) => fix_string(&mut c.illuminant),
         }
     }
 }
@@ -528,6 +538,7 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("file", t) => run::<FileScene>(text, t),
         ("rgb", t) => run::<RgbScene>(text, t),
         ("dead_leaves", t) => run::<DeadLeavesScene>(text, t),
+        ("glare_target", t) => run::<GlareTargetScene>(text, t),
         ("harmonic", t) => run::<HarmonicScene>(text, t),
         ("zone_plate", t) => run::<ZonePlateScene>(text, t),
         ("sweep_frequency", t) => run::<SweepFrequencyScene>(text, t),
@@ -698,7 +709,7 @@ mod error_position_tests {
 
     #[test]
     fn the_scene_kind_table_is_the_config_enum() {
-        assert_eq!(SCENE_KINDS.entries.len(), 14);
+        assert_eq!(SCENE_KINDS.entries.len(), 15);
         for e in SCENE_KINDS.entries {
             let text = format!("kind = \"{}\"", e.name);
             match SceneConfig::from_toml(&text, "t") {

@@ -11,7 +11,8 @@
 //! of 24 from a file), `slanted_edge` (ISO 12233), `file` (a spectral radiance OpenEXR, see
 //! [`from_image`]), `rgb` (a photograph on a display model, [`rgb`] and [`display`]) and the
 //! ISETCam test patterns of [`patterns`] (`harmonic`, `zone_plate`, `sweep_frequency`, `star`,
-//! `checkerboard`, `grid_lines`, `point_array`, `ramp`, `dead_leaves`).
+//! `checkerboard`, `grid_lines`, `point_array`, `ramp`, `dead_leaves`) and `glare_target` (the
+//! ISO 18844 veiling glare target).
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
@@ -28,8 +29,8 @@ pub use config::{
 pub use display::{Display, Transfer};
 pub use geometry::{Edge, MacbethLayout, Rect};
 pub use patterns::{
-    CheckerboardScene, DeadLeavesScene, GridLinesScene, HarmonicScene, PointArrayScene, RampScene,
-    StarScene, SweepFrequencyScene, ZonePlateScene,
+    CheckerboardScene, DeadLeavesScene, GlareTargetScene, GridLinesScene, HarmonicScene,
+    PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
 };
 pub use rgb::RgbScene;
 

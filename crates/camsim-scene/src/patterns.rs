@@ -597,6 +597,137 @@ impl Pattern for DeadLeavesScene {
     }
 }
 
+pattern_scene! {
+    /// The ISO 18844 veiling glare target: a bright surround (reflectance `surround_reflectance`)
+    /// with black holes (light traps, reflectance `hole_reflectance`, near zero) of diameter
+    /// `hole_diameter_px`: one at the image centre, or a `holes` x `holes` grid of them `pitch_px`
+    /// apart, centred (ISO 18844:2017 measures flare at holes spread over the field). Each pixel
+    /// is the exact area mixture of hole and surround (8 x 8 subsamples on a hole's rim). The mean
+    /// luminance over all pixels is `mean_luminance_cd_m2`, so the surround's luminance is
+    /// `mean_luminance_cd_m2 / (1 - f (1 - hole_reflectance / surround_reflectance))`, f the holes'
+    /// area fraction. `camsim analyze glare` measures the veiling glare index on its image.
+    GlareTargetScene {
+        /// Image height, pixels; default 256.
+        rows: usize = 256,
+        /// Image width, pixels; default 256.
+        cols: usize = 256,
+        /// Hole diameter, pixels (> 0); default 64.
+        hole_diameter_px: f64 = 64.0,
+        /// Holes along each side of the grid (1..=64); default 1 (one hole at the centre).
+        holes: usize = 1,
+        /// Distance between neighbouring hole centres, pixels (needed with `holes` > 1; more than
+        /// `hole_diameter_px`); default 0.
+        pitch_px: f64 = 0.0,
+        /// Reflectance of the surround, fraction in (0, 1]; default 1 (white).
+        surround_reflectance: f64 = 1.0,
+        /// Reflectance of the holes, fraction in [0, 1] (a light trap: near 0); default 0.
+        hole_reflectance: f64 = 0.0,
+    }
+}
+
+impl GlareTargetScene {
+    /// Hole centres in continuous pixel coordinates (x = column, y = row; pixel (i, j) covers
+    /// [j, j + 1) x [i, i + 1), the image centre is (cols / 2, rows / 2)).
+    pub fn hole_centres(&self) -> Vec<(f64, f64)> {
+        let (cx, cy) = (self.cols as f64 / 2.0, self.rows as f64 / 2.0);
+        let n = self.holes.max(1);
+        let off = (n as f64 - 1.0) / 2.0;
+        let mut v = Vec::with_capacity(n * n);
+        for i in 0..n {
+            for j in 0..n {
+                v.push((
+                    cx + (j as f64 - off) * self.pitch_px,
+                    cy + (i as f64 - off) * self.pitch_px,
+                ));
+            }
+        }
+        v
+    }
+}
+
+impl Pattern for GlareTargetScene {
+    fn header(&self) -> Header<'_> {
+        self.header_fields()
+    }
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
+        check_side(self.rows, "scene.rows", 2)?;
+        check_side(self.cols, "scene.cols", 2)?;
+        let d = self.hole_diameter_px;
+        need(
+            d > 0.0 && d.is_finite(),
+            "scene.hole_diameter_px",
+            format!("{d} pixels is not a positive diameter"),
+        )?;
+        need(
+            (1..=64).contains(&self.holes),
+            "scene.holes",
+            format!("{} holes per side; need 1 to 64", self.holes),
+        )?;
+        if self.holes > 1 {
+            need(
+                self.pitch_px > d && self.pitch_px.is_finite(),
+                "scene.pitch_px",
+                format!(
+                    "{} pixels; with {} holes per side the pitch must exceed the hole diameter ({d})",
+                    self.pitch_px, self.holes
+                ),
+            )?;
+        }
+        check_unit(self.surround_reflectance, "scene.surround_reflectance")?;
+        need(
+            self.surround_reflectance > 0.0,
+            "scene.surround_reflectance",
+            "0: the surround must be bright".to_string(),
+        )?;
+        check_unit(self.hole_reflectance, "scene.hole_reflectance")?;
+        let centres = self.hole_centres();
+        let r = d / 2.0;
+        let (bright, dark) = (self.surround_reflectance, self.hole_reflectance);
+        let n = self.holes;
+        let pitch = self.pitch_px;
+        let (x0, y0) = centres[0];
+        // The hole nearest to a point: grid index by rounding.
+        let nearest = |x: f64, y: f64| -> (f64, f64) {
+            let k = |v: f64, v0: f64| {
+                if n == 1 {
+                    0.0
+                } else {
+                    ((v - v0) / pitch).round().clamp(0.0, (n - 1) as f64)
+                }
+            };
+            (x0 + k(x, x0) * pitch, y0 + k(y, y0) * pitch)
+        };
+        const SUB: usize = 8;
+        map_rows(bands, self.rows, self.cols, |i, line| {
+            let yc = i as f64 + 0.5;
+            for (j, v) in line.iter_mut().enumerate() {
+                let xc = j as f64 + 0.5;
+                let (hx, hy) = nearest(xc, yc);
+                let dist = ((xc - hx).powi(2) + (yc - hy).powi(2)).sqrt();
+                // A pixel's points lie within sqrt(2) / 2 of its centre.
+                let inside = if dist <= r - 0.7072 {
+                    1.0
+                } else if dist >= r + 0.7072 {
+                    0.0
+                } else {
+                    let mut c = 0usize;
+                    for sy in 0..SUB {
+                        let y = i as f64 + (sy as f64 + 0.5) / SUB as f64 - hy;
+                        for sx in 0..SUB {
+                            let x = j as f64 + (sx as f64 + 0.5) / SUB as f64 - hx;
+                            if x * x + y * y < r * r {
+                                c += 1;
+                            }
+                        }
+                    }
+                    c as f64 / (SUB * SUB) as f64
+                };
+                *v = (bright + (dark - bright) * inside) as f32;
+            }
+        })
+    }
+}
+
 /// Build the radiance image of a pattern scene: illuminant x reflectance map, scaled to the mean
 /// luminance (the map is spectrally flat, so its pixel mean is the mean reflectance in every band).
 pub(crate) fn create_pattern(

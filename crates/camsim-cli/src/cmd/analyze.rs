@@ -19,6 +19,7 @@ pub enum Command {
     Roi(RoiArgs),
     Emva(crate::cmd::emva::EmvaArgs),
     Demosaic(crate::cmd::demosaic_zone_plate::Args),
+    Glare(GlareArgs),
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -263,5 +264,200 @@ pub fn run(c: Command) -> Result<()> {
         Command::Roi(a) => roi_cmd(a),
         Command::Emva(a) => crate::cmd::emva::run(a),
         Command::Demosaic(a) => crate::cmd::demosaic_zone_plate::run(a),
+        Command::Glare(a) => glare_cmd(a),
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+/// Veiling glare on an ISO 18844 target image (a black hole in a bright surround, the
+/// `glare_target` scene): the glare index = mean signal over the hole's central disc / mean
+/// signal over a surround annulus, both above black. Per colour channel on raw CFA data (each on
+/// its own sub-grid), per plane of a LinearRaw DNG, on the band sum of a spectral irradiance EXR,
+/// or on a grey PNG/TIFF (without --cfa; --black-dn subtracted). The hole is found as the dark
+/// region (below half the median level) at the image centre unless --centre and
+/// --hole-diameter-px are given. Writes glare.json in --out.
+#[derive(clap::Args)]
+#[command(
+    after_help = "Examples:\n  camsim analyze glare out/glare/raw.dng --out out/glare-index\n  camsim analyze glare out/glare/irradiance.exr --roi-fraction 0.3 --json --out out/glare-exr\n  camsim analyze glare target.png --black-dn 256 --centre 640,480 --hole-diameter-px 80 --out out/g"
+)]
+pub struct GlareArgs {
+    /// Raw DNG (CFA or LinearRaw), a 16-bit PNG/TIFF mosaic (with --cfa) or grey image (without),
+    /// or a spectral irradiance EXR.
+    pub image: PathBuf,
+    /// The hole's centre X,Y in sensor pixels (X = column, Y = row from the top; default: found).
+    #[arg(long, value_parser = parse_xy, value_name = "X,Y")]
+    pub centre: Option<[f64; 2]>,
+    /// The hole's diameter, sensor pixels (default: from the dark region's area).
+    #[arg(long, value_parser = crate::common::positive_f64)]
+    pub hole_diameter_px: Option<f64>,
+    /// Diameter of the averaged central disc as a fraction of the hole's, in (0, 1).
+    #[arg(long, default_value_t = 0.2)]
+    pub roi_fraction: f64,
+    /// Surround annulus INNER,OUTER radii in hole radii (1 <= INNER < OUTER).
+    #[arg(long, value_parser = parse_xy, default_value = "1.5,2.5", value_name = "INNER,OUTER")]
+    pub surround: [f64; 2],
+    #[command(flatten)]
+    pub raw: RawInput,
+    /// Also print glare.json on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Output folder for glare.json (created if missing).
+    #[arg(long, default_value = "out/glare")]
+    pub out: PathBuf,
+}
+
+fn parse_xy(s: &str) -> std::result::Result<[f64; 2], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}': give two numbers A,B"))?;
+    match v.as_slice() {
+        [a, b] if a.is_finite() && b.is_finite() => Ok([*a, *b]),
+        _ => Err(format!("'{s}': give two finite numbers A,B")),
+    }
+}
+
+/// One plane to measure: its name, the plane, and how its pixel (i, j) maps to the sensor's
+/// (sensor = step * sub + offset, per axis (x, y)).
+struct GlarePlane {
+    name: String,
+    plane: camsim::analysis::Plane,
+    step: f64,
+    offset: [f64; 2],
+}
+
+fn glare_planes(a: &GlareArgs) -> Result<(Vec<GlarePlane>, &'static str)> {
+    use camsim::analysis::Plane;
+    let ext = a
+        .image
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let whole = |name: &str, plane: Plane| GlarePlane {
+        name: name.to_string(),
+        plane,
+        step: 1.0,
+        offset: [0.0, 0.0],
+    };
+    if ext == "exr" {
+        let (img, warning) = camsim::pipeline::inputs::read_spectral_exr(&a.image)?;
+        if let Some(w) = warning {
+            eprintln!("camsim: warning: {w}");
+        }
+        let n = img.rows * img.cols;
+        let mut sum = vec![0.0f32; n];
+        for band in img.data.chunks_exact(n) {
+            sum.iter_mut().zip(band).for_each(|(s, v)| *s += v);
+        }
+        return Ok((
+            vec![whole("sum", Plane::new(img.rows, img.cols, sum)?)],
+            "spectral irradiance, summed over bands",
+        ));
+    }
+    if matches!(ext.as_str(), "png" | "tif" | "tiff") && a.raw.cfa.is_none() {
+        let (rows, cols, dn) = camsim::io::raster::read_mosaic_16(&a.image)?;
+        let data = dn
+            .iter()
+            .map(|v| (*v as f64 - a.raw.black_dn) as f32)
+            .collect();
+        return Ok((
+            vec![whole("grey", Plane::new(rows, cols, data)?)],
+            "grey image above --black-dn",
+        ));
+    }
+    let img = MeasuredImage::load(&a.image, &a.raw.format())?;
+    Ok(match img {
+        MeasuredImage::Raw(r) => {
+            use camsim::core::CfaChannel;
+            let mut v = Vec::new();
+            for (name, ch) in [
+                ("R", CfaChannel::R),
+                ("G", CfaChannel::G),
+                ("B", CfaChannel::B),
+            ] {
+                let which = (ch == CfaChannel::G).then_some(0);
+                let (dr, dc) = camsim::analysis::image::cfa_channel_offset(r.cfa, ch, which)?;
+                v.push(GlarePlane {
+                    name: name.to_string(),
+                    plane: camsim::analysis::cfa_channel_plane(&r, ch, which)?,
+                    step: 2.0,
+                    offset: [dc as f64, dr as f64],
+                });
+            }
+            (
+                v,
+                "raw CFA (each channel on its own pixels, DN above black)",
+            )
+        }
+        MeasuredImage::Rgb { planes, .. } => {
+            let [pr, pg, pb] = *planes;
+            (
+                vec![whole("R", pr), whole("G", pg), whole("B", pb)],
+                "LinearRaw RGB",
+            )
+        }
+    })
+}
+
+pub fn glare_cmd(a: GlareArgs) -> Result<()> {
+    use camsim::analysis::glare::{veiling_glare, GlareOptions};
+    let (planes, kind) = glare_planes(&a)?;
+    let mut rows = Vec::new();
+    for p in &planes {
+        // Sensor pixel coordinates (centres at +0.5) to the plane's: x_sub = (x - off - 0.5) / step + 0.5.
+        let to_sub = |v: f64, off: f64| (v - off - 0.5) / p.step + 0.5;
+        let opts = GlareOptions {
+            centre_px: a
+                .centre
+                .map(|[x, y]| [to_sub(x, p.offset[0]), to_sub(y, p.offset[1])]),
+            hole_diameter_px: a.hole_diameter_px.map(|d| d / p.step),
+            roi_fraction: a.roi_fraction,
+            surround_radii: a.surround,
+        };
+        let m = veiling_glare(&p.plane, &opts)
+            .map_err(|e| anyhow::anyhow!("{} ({} channel): {e}", a.image.display(), p.name))?;
+        let from_sub = |v: f64, off: f64| (v - 0.5) * p.step + off + 0.5;
+        rows.push(serde_json::json!({
+            "channel": p.name,
+            "glare_index": m.glare_index,
+            "glare_percent": 100.0 * m.glare_index,
+            "hole_signal": m.hole_signal,
+            "surround_signal": m.surround_signal,
+            "hole_pixels": m.hole_pixels,
+            "surround_pixels": m.surround_pixels,
+            "centre_px": [from_sub(m.centre_px[0], p.offset[0]), from_sub(m.centre_px[1], p.offset[1])],
+            "hole_diameter_px": m.hole_diameter_px * p.step,
+        }));
+    }
+    let name = a.image.display().to_string();
+    let json = serde_json::json!({
+        "image": name,
+        "data": kind,
+        "roi_fraction": a.roi_fraction,
+        "surround_radii": a.surround,
+        "channels": rows,
+    });
+    let staged = common::stage_out_dir_reading(&a.out, &[a.image.as_path()])?;
+    std::fs::write(
+        staged.join("glare.json"),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    for r in &rows {
+        say(format!(
+            "{}: veiling glare index {:.4} % (hole {:.5}, surround {:.5}; hole diameter {:.1} px)",
+            r["channel"].as_str().unwrap_or(""),
+            r["glare_percent"].as_f64().unwrap_or(f64::NAN),
+            r["hole_signal"].as_f64().unwrap_or(f64::NAN),
+            r["surround_signal"].as_f64().unwrap_or(f64::NAN),
+            r["hole_diameter_px"].as_f64().unwrap_or(f64::NAN),
+        ));
+    }
+    say(format!("-> {}", a.out.join("glare.json").display()));
+    common::commit(staged)?;
+    Ok(())
 }
