@@ -59,6 +59,34 @@ pub struct IspSection {
     /// (an `[hdr]` sensor, an exposure bracket), "clip" for a single frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tone_map: Option<camsim_isp::tone::ToneMap>,
+    /// Column and row noise correction of the raw (first): "off" (default) or "sensor" (the
+    /// offsets of each column and row of the sensor's fixed dark frame, subtracted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub column_correction: Option<camsim_isp::line_noise::ColumnCorrection>,
+    /// Defect-pixel correction of the raw: "off" (default), "sensor" (the sensor's defect list)
+    /// or "detect" (pixels off the median of their same-filter 5 x 5 neighbours by more than
+    /// `defect_sigmas`); each is replaced by that median.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defect_correction: Option<camsim_isp::defect_correction::DefectCorrection>,
+    /// Threshold of `defect_correction = "detect"`, robust sigmas (1.4826 MAD) of the residual
+    /// from the same-filter median. Default 6.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defect_sigmas: Option<f64>,
+    /// Denoising of the raw: "off" (default) or "nlm" (non-local means, Buades, Coll and Morel
+    /// 2005, per CFA sub-lattice, with the sensor's shot and read noise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<camsim_isp::denoise::Denoise>,
+    /// Strength of `denoise`: h = 0.4 x strength x sigma. Default 1 ('auto': sigma from the
+    /// sensor's noise model at each pixel's signal).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise_strength: Option<f64>,
+    /// Unsharp mask of the demosaicked image: `{ radius_px, amount, threshold }` (Gaussian sigma,
+    /// pixels; gain of the detail; details at most `threshold` DN are left alone). Absent: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sharpen: Option<camsim_isp::sharpen::UnsharpMask>,
+    /// JPEG quality (IJG, 1-100) of a JPEG preview. Absent: 90 where a JPEG is written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jpeg_quality: Option<u8>,
 }
 
 impl IspSection {

@@ -11,8 +11,13 @@ use camsim_core::{RawImage, Spectrum, WavelengthGrid};
 use camsim_io::dng::DngMetadata;
 use camsim_isp::ccm::{self, CcmObjective};
 use camsim_isp::cfa_render::{self, CfaFamily, ChannelTransform, RcccClear};
+use camsim_isp::defect_correction::{self, DefectCorrection, DEFECT_DETECTION_SIGMAS};
+use camsim_isp::denoise::{self, Denoise, NoiseModel};
+use camsim_isp::line_noise::{ColumnCorrection, LineOffsets};
 use camsim_isp::output::DisplayModel;
-use camsim_isp::tone::ToneMap;
+use camsim_isp::sharpen::UnsharpMask;
+use camsim_isp::tone::{ToneCurve, ToneMap};
+use camsim_isp::unprocess::{self, Unprocess};
 use camsim_isp::white_balance::{self, WHITE_PATCH_PERCENTILE};
 use camsim_isp::{BlackModel, ColorPipeline, DemosaicMethod, Mat3, RgbImage, WhiteBalanceMethod};
 use camsim_sensor::Sensor;
@@ -67,7 +72,32 @@ pub struct Isp {
     /// HDR frames, `Reinhard` / `Filmic`, which also set the exposure (the log-average at the
     /// key 0.18) unless `exposure_scale` is given.
     pub tone_map: ToneMap,
+    /// Defect-pixel correction on the raw (first of all steps; [`camsim_isp::defect_correction`]):
+    /// off (the default), the sensor's defect list, or detection at `defect_sigmas`.
+    pub defect_correction: DefectCorrection,
+    /// Detection threshold of [`DefectCorrection::Detect`], robust sigmas of the residual from
+    /// the same-filter median.
+    pub defect_sigmas: f64,
+    /// Column and row noise correction on the raw (before the defect correction;
+    /// [`camsim_isp::line_noise`]): off (the default) or the sensor's fixed dark frame.
+    pub column_correction: ColumnCorrection,
+    /// Column and row offsets measured on a dark frame ([`LineOffsets::from_dark_raw`]): when
+    /// given they are subtracted whatever `column_correction` says.
+    pub dark_offsets: Option<LineOffsets>,
+    /// Denoising of the raw after the corrections ([`camsim_isp::denoise`]): off (the default) or
+    /// non-local means per CFA sub-lattice with the sensor's noise model.
+    pub denoise: Denoise,
+    /// Strength of the denoising: h = 0.4 x strength x sigma (1: 'auto', sigma from the sensor's
+    /// shot and read noise).
+    pub denoise_strength: f64,
+    /// Unsharp mask on the demosaicked camera RGB (RGB CFAs; None: no sharpening).
+    pub sharpen: Option<UnsharpMask>,
+    /// JPEG quality of [`Isp::jpeg`] (1-100; None: the integrator's default for a JPEG output).
+    pub jpeg_quality: Option<u8>,
 }
+
+/// Default IJG quality of [`Isp::jpeg`] when [`Isp::jpeg_quality`] is not given.
+pub const DEFAULT_JPEG_QUALITY: u8 = 90;
 
 /// What [`Isp::compute`] returns.
 #[derive(Debug, Clone)]
@@ -145,6 +175,14 @@ impl Isp {
             exposure_scale: None,
             rccc_clear: RcccClear::default(),
             tone_map: ToneMap::Clip,
+            defect_correction: DefectCorrection::Off,
+            defect_sigmas: DEFECT_DETECTION_SIGMAS,
+            column_correction: ColumnCorrection::Off,
+            dark_offsets: None,
+            denoise: Denoise::Off,
+            denoise_strength: 1.0,
+            sharpen: None,
+            jpeg_quality: None,
         }
     }
 
@@ -155,9 +193,18 @@ impl Isp {
             Some(r) => r?,
             None => camsim_core::tables::illuminant("D65")?,
         };
+        let i = &cfg.isp;
+        let base = Isp::new(illuminant, cfg.wavelengths);
         Ok(Isp {
-            tone_map: cfg.isp.tone_map.unwrap_or_default(),
-            ..Isp::new(illuminant, cfg.wavelengths)
+            tone_map: i.tone_map.unwrap_or_default(),
+            defect_correction: i.defect_correction.unwrap_or_default(),
+            defect_sigmas: i.defect_sigmas.unwrap_or(base.defect_sigmas),
+            column_correction: i.column_correction.unwrap_or_default(),
+            denoise: i.denoise.unwrap_or_default(),
+            denoise_strength: i.denoise_strength.unwrap_or(base.denoise_strength),
+            sharpen: i.sharpen,
+            jpeg_quality: i.jpeg_quality,
+            ..base
         })
     }
 
@@ -238,16 +285,22 @@ impl Isp {
         sensor: &Sensor,
         noise_scale: f64,
     ) -> Result<IspOutput> {
+        let raw = self.correct_raw(raw, sensor, noise_scale)?;
         let raw: Cow<RawImage> = if self.bin_2x2 {
-            Cow::Owned(camsim_isp::cfa_general::bin_2x2(raw)?)
+            Cow::Owned(camsim_isp::cfa_general::bin_2x2(&raw)?)
         } else {
-            Cow::Borrowed(raw)
+            raw
         };
         let family = CfaFamily::of(&raw.cfa_layout());
         if !matches!(family, CfaFamily::Rgb | CfaFamily::Rgbw) {
             return self.compute_other(&raw, sensor, family);
         }
-        let rgb = self.demosaic(&raw, sensor)?;
+        let mut rgb = self.demosaic(&raw, sensor)?;
+        if let Some(usm) = &self.sharpen {
+            rgb = usm
+                .apply(&rgb)
+                .map_err(|e| PipelineError::config(format!("isp.sharpen: {e}")))?;
+        }
         // Binning sums four pixels: twice the noise of one, and a sum of clipped values is not a
         // clipped Gaussian (no censored-black correction).
         let black = if self.bin_2x2 {
@@ -273,6 +326,182 @@ impl Isp {
             preview,
             report,
         })
+    }
+
+    /// The raw-domain steps, in order: column and row noise correction (`dark_offsets`, or
+    /// the sensor's fixed dark frame with [`ColumnCorrection::Sensor`], except on a merged HDR
+    /// frame, `noise_scale` != 1, whose merge subtracted it already), defect correction
+    /// ([`Isp::defect_correction`]) and denoising ([`Isp::denoise`], the sensor's noise model
+    /// scaled by `noise_scale` as in [`Isp::compute_scaled`]). The frame itself when all are off.
+    pub fn correct_raw<'a>(
+        &self,
+        raw: &'a RawImage,
+        sensor: &Sensor,
+        noise_scale: f64,
+    ) -> Result<Cow<'a, RawImage>> {
+        let mut raw: Cow<RawImage> = Cow::Borrowed(raw);
+        let offsets = match (&self.dark_offsets, self.column_correction) {
+            (Some(o), _) => Some(Cow::Borrowed(o)),
+            // A merged HDR frame (noise_scale != 1) had the dark frame subtracted by the merge.
+            (None, ColumnCorrection::Sensor) if noise_scale == 1.0 => {
+                if (sensor.rows(), sensor.cols()) != (raw.rows, raw.cols) {
+                    return Err(PipelineError::config(format!(
+                        "isp.column_correction = \"sensor\": the frame is {} x {}, the sensor {} x {}",
+                        raw.rows,
+                        raw.cols,
+                        sensor.rows(),
+                        sensor.cols()
+                    )));
+                }
+                let dark = sensor.fixed_offset_dn()?;
+                Some(Cow::Owned(LineOffsets::from_dark(
+                    &dark, raw.rows, raw.cols, true,
+                )?))
+            }
+            (None, _) => None,
+        };
+        if let Some(o) = offsets {
+            raw = Cow::Owned(
+                o.subtract(&raw)
+                    .map_err(|e| PipelineError::config(format!("isp.column_correction: {e}")))?,
+            );
+        }
+        match self.defect_correction {
+            DefectCorrection::Off => {}
+            DefectCorrection::Sensor => {
+                let list: Vec<(usize, usize)> = sensor
+                    .defect_list()
+                    .iter()
+                    .map(|d| (d.row, d.col))
+                    .collect();
+                if !list.is_empty() {
+                    raw = Cow::Owned(defect_correction::correct_defects(&raw, &list).map_err(
+                        |e| PipelineError::config(format!("isp.defect_correction: {e}")),
+                    )?);
+                }
+            }
+            DefectCorrection::Detect => {
+                let (fixed, _) = defect_correction::detect_and_correct(&raw, self.defect_sigmas)
+                    .map_err(|e| PipelineError::config(format!("isp.defect_sigmas: {e}")))?;
+                raw = Cow::Owned(fixed);
+            }
+        }
+        if self.denoise == Denoise::Nlm {
+            let noise = self.noise_model(sensor, noise_scale);
+            raw = Cow::Owned(
+                denoise::nlm_raw(&raw, &noise, self.denoise_strength)
+                    .map_err(|e| PipelineError::config(format!("isp.denoise_strength: {e}")))?,
+            );
+        }
+        Ok(raw)
+    }
+
+    /// The sensor's noise model in the frame's DN ([`NoiseModel`]): K and the noise at black
+    /// (read, DSNU, quantization), for a frame whose DN are `noise_scale` x the sensor's
+    /// (variance noise_scale K v + (noise_scale floor)^2).
+    pub fn noise_model(&self, sensor: &Sensor, noise_scale: f64) -> NoiseModel {
+        NoiseModel {
+            k_dn_per_e: sensor.k_dn_per_e() * noise_scale,
+            floor_dn: sensor.predicted_noise_dn(0.0, 0.0).total * noise_scale,
+        }
+    }
+
+    /// The JPEG bytes of a preview at [`Isp::jpeg_quality`] (default [`DEFAULT_JPEG_QUALITY`]).
+    pub fn jpeg(&self, preview: &crate::Rgb8Image) -> Result<Vec<u8>> {
+        let q = self.jpeg_quality.unwrap_or(DEFAULT_JPEG_QUALITY);
+        camsim_isp::jpeg::encode_jpeg(preview.rows, preview.cols, &preview.data, q)
+            .map_err(|e| PipelineError::config(format!("isp.jpeg_quality: {e}")))
+    }
+
+    /// What [`Isp::unprocess`] undoes for a preview this ISP rendered with `report` (its
+    /// colour matrix, white balance and exposure) from a frame of `sensor`.
+    pub fn unprocess_params(&self, sensor: &Sensor, report: &IspReport) -> Result<Unprocess> {
+        let tone = match self.tone_map {
+            ToneMap::Clip => ToneCurve::Clip,
+            ToneMap::Filmic => ToneCurve::Filmic,
+            ToneMap::Reinhard => {
+                return Err(PipelineError::config(
+                    "unprocess: the reinhard tone curve's white level is fitted per image and not reported; unprocess takes clip or filmic",
+                ))
+            }
+        };
+        let (m, gains) = match &self.ccm {
+            CcmSource::Qe => {
+                let m = report.camera_to_linear_srgb.ok_or_else(|| {
+                    PipelineError::config(
+                        "unprocess: the report holds no colour matrix (an RGB CFA's preview is needed)",
+                    )
+                })?;
+                let gains = if self.white_balance == WhiteBalanceMethod::Illuminant {
+                    [1.0; 3]
+                } else {
+                    // render(): camera values scaled by as_shot_neutral x gains before the matrix.
+                    let asn = self.color(sensor)?.as_shot_neutral();
+                    let g = report.white_balance_gains;
+                    [asn[0] * g[0], asn[1] * g[1], asn[2] * g[2]]
+                };
+                (m, gains)
+            }
+            CcmSource::Chart { .. } => {
+                let xyz = report.camera_to_xyz.ok_or_else(|| {
+                    PipelineError::config("unprocess: the report holds no chart colour matrix")
+                })?;
+                let to_srgb = DisplayModel::srgb().xyz_to_rgb()?;
+                (
+                    camsim_isp::color::mat3_mul(&to_srgb, &xyz),
+                    report.white_balance_gains,
+                )
+            }
+        };
+        Ok(Unprocess {
+            camera_to_linear_srgb: m,
+            white_balance_gains: gains,
+            exposure_scale: report.exposure_scale,
+            tone,
+        })
+    }
+
+    /// The inverse ISP (Brooks et al. 2019, [`camsim_isp::unprocess`]): an 8-bit sRGB image ->
+    /// the linear mosaic of `sensor`'s CFA, DN above black, row-major, with the colour matrix,
+    /// white balance and exposure of `report` (this ISP's [`Isp::compute`] of a frame of
+    /// `sensor`). Expected electrons are these / `sensor.k_dn_per_e()`.
+    pub fn unprocess(
+        &self,
+        image: &crate::Rgb8Image,
+        sensor: &Sensor,
+        report: &IspReport,
+    ) -> Result<Vec<f32>> {
+        let p = self.unprocess_params(sensor, report)?;
+        Ok(p.mosaic_dn(image.rows, image.cols, &image.data, &sensor.cfa_layout())?)
+    }
+
+    /// [`Isp::unprocess`] with the sensor's temporal noise: Poisson electrons (DN / K), its read
+    /// noise, black level, white level and ADC ([`camsim_isp::unprocess::add_sensor_noise`];
+    /// the fixed patterns are not added), seeded by `seed`: a training raw of the image's size.
+    pub fn unprocess_raw(
+        &self,
+        image: &crate::Rgb8Image,
+        sensor: &Sensor,
+        report: &IspReport,
+        exposure_s: f64,
+        seed: u64,
+    ) -> Result<RawImage> {
+        let dn = self.unprocess(image, sensor, report)?;
+        let k = sensor.k_dn_per_e();
+        let electrons = unprocess::dn_to_electrons(&dn, k)?;
+        let layout = sensor.cfa_layout();
+        let mut like = RawImage::new(image.rows, image.cols, sensor.cfa(), sensor.bits())?;
+        if layout.as_bayer().is_none() {
+            like.layout = Some(layout);
+        }
+        like.black_level_dn = sensor.black_level_dn();
+        like.white_level_dn = sensor.max_dn() as f64;
+        like.exposure_s = exposure_s;
+        like.pixel_pitch_m = sensor.pixel_pitch_m();
+        let read_dn = sensor.predicted_noise_dn(0.0, 0.0).read;
+        Ok(unprocess::add_sensor_noise(
+            &electrons, &like, k, read_dn, seed,
+        )?)
     }
 
     /// The ISP of a frame whose CFA is not an RGB one (`camsim_isp::cfa_render`): monochrome (a
