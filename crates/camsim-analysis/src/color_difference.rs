@@ -118,6 +118,51 @@ pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
     (x * x + y * y + z * z + r_t * y * z).sqrt()
 }
 
+/// CIE 1994 colour difference ΔE*94 between a reference `lab1` and a sample `lab2` (CIE
+/// 116-1995, graphic-arts weights: k_L = k_C = k_H = 1, S_L = 1, S_C = 1 + 0.045 C*_1,
+/// S_H = 1 + 0.015 C*_1, C*_1 the reference's chroma; ΔH*^2 = Δa*^2 + Δb*^2 - ΔC*^2). Not
+/// symmetric: the weights use the first colour's chroma, as the standard defines.
+pub fn cie94(lab1: Lab, lab2: Lab) -> f64 {
+    let c1 = lab1.a.hypot(lab1.b);
+    let c2 = lab2.a.hypot(lab2.b);
+    let dl = lab1.l - lab2.l;
+    let dc = c1 - c2;
+    let (da, db) = (lab1.a - lab2.a, lab1.b - lab2.b);
+    // Rounding can make the hue term a hair negative.
+    let dh2 = (da * da + db * db - dc * dc).max(0.0);
+    let sc = 1.0 + 0.045 * c1;
+    let sh = 1.0 + 0.015 * c1;
+    (dl * dl + (dc / sc).powi(2) + dh2 / (sh * sh)).sqrt()
+}
+
+/// CIE 1976 L*, u*, v* of tristimulus values relative to the white (CIE 015:2018 eqs. 8.3-8.8:
+/// u' = 4X / (X + 15Y + 3Z), v' = 9Y / (X + 15Y + 3Z), u* = 13 L* (u' - u'_n),
+/// v* = 13 L* (v' - v'_n), L* as in CIELAB). Black (X + 15Y + 3Z = 0) has u* = v* = 0.
+pub fn xyz_to_luv(xyz: [f64; 3], white_xyz: [f64; 3]) -> [f64; 3] {
+    let uv = |x: [f64; 3]| {
+        let d = x[0] + 15.0 * x[1] + 3.0 * x[2];
+        if d > 0.0 {
+            Some((4.0 * x[0] / d, 9.0 * x[1] / d))
+        } else {
+            None
+        }
+    };
+    let l = xyz_to_lab(xyz, white_xyz).l;
+    match (uv(xyz), uv(white_xyz)) {
+        (Some((u, v)), Some((un, vn))) => [l, 13.0 * l * (u - un), 13.0 * l * (v - vn)],
+        (None, Some(_)) => [l, 0.0, 0.0],
+        _ => [f64::NAN; 3],
+    }
+}
+
+/// CIE 1976 ΔE*uv: the Euclidean distance in L*u*v* of two tristimulus values under the same
+/// white (CIE 015:2018 eq. 8.9).
+pub fn delta_e_uv(xyz1: [f64; 3], xyz2: [f64; 3], white_xyz: [f64; 3]) -> f64 {
+    let a = xyz_to_luv(xyz1, white_xyz);
+    let b = xyz_to_luv(xyz2, white_xyz);
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,49 +280,4 @@ mod tests {
         let dark = xyz_to_lab([0.0, 0.1, 0.0], white).l;
         assert!((dark - 24389.0 / 27.0 * 0.001).abs() < 1e-10, "{dark}");
     }
-}
-
-/// CIE 1994 colour difference ΔE*94 between a reference `lab1` and a sample `lab2` (CIE
-/// 116-1995, graphic-arts weights: k_L = k_C = k_H = 1, S_L = 1, S_C = 1 + 0.045 C*_1,
-/// S_H = 1 + 0.015 C*_1, C*_1 the reference's chroma; ΔH*^2 = Δa*^2 + Δb*^2 - ΔC*^2). Not
-/// symmetric: the weights use the first colour's chroma, as the standard defines.
-pub fn cie94(lab1: Lab, lab2: Lab) -> f64 {
-    let c1 = lab1.a.hypot(lab1.b);
-    let c2 = lab2.a.hypot(lab2.b);
-    let dl = lab1.l - lab2.l;
-    let dc = c1 - c2;
-    let (da, db) = (lab1.a - lab2.a, lab1.b - lab2.b);
-    // Rounding can make the hue term a hair negative.
-    let dh2 = (da * da + db * db - dc * dc).max(0.0);
-    let sc = 1.0 + 0.045 * c1;
-    let sh = 1.0 + 0.015 * c1;
-    (dl * dl + (dc / sc).powi(2) + dh2 / (sh * sh)).sqrt()
-}
-
-/// CIE 1976 L*, u*, v* of tristimulus values relative to the white (CIE 015:2018 eqs. 8.3-8.8:
-/// u' = 4X / (X + 15Y + 3Z), v' = 9Y / (X + 15Y + 3Z), u* = 13 L* (u' - u'_n),
-/// v* = 13 L* (v' - v'_n), L* as in CIELAB). Black (X + 15Y + 3Z = 0) has u* = v* = 0.
-pub fn xyz_to_luv(xyz: [f64; 3], white_xyz: [f64; 3]) -> [f64; 3] {
-    let uv = |x: [f64; 3]| {
-        let d = x[0] + 15.0 * x[1] + 3.0 * x[2];
-        if d > 0.0 {
-            Some((4.0 * x[0] / d, 9.0 * x[1] / d))
-        } else {
-            None
-        }
-    };
-    let l = xyz_to_lab(xyz, white_xyz).l;
-    match (uv(xyz), uv(white_xyz)) {
-        (Some((u, v)), Some((un, vn))) => [l, 13.0 * l * (u - un), 13.0 * l * (v - vn)],
-        (None, Some(_)) => [l, 0.0, 0.0],
-        _ => [f64::NAN; 3],
-    }
-}
-
-/// CIE 1976 ΔE*uv: the Euclidean distance in L*u*v* of two tristimulus values under the same
-/// white (CIE 015:2018 eq. 8.9).
-pub fn delta_e_uv(xyz1: [f64; 3], xyz2: [f64; 3], white_xyz: [f64; 3]) -> f64 {
-    let a = xyz_to_luv(xyz1, white_xyz);
-    let b = xyz_to_luv(xyz2, white_xyz);
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

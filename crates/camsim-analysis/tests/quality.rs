@@ -32,7 +32,8 @@ fn psnr_of_a_constant_offset_is_its_closed_form() {
 fn ssim_follows_its_closed_forms() {
     let (rows, cols, l) = (24, 24, 255.0);
     let (c1, c2) = ((0.01f64 * l).powi(2), (0.03f64 * l).powi(2));
-    let board = |a: f64| move |r: usize, c: usize| 120.0 + if (r + c) % 2 == 0 { a } else { -a };
+    let board =
+        |a: f64| move |r: usize, c: usize| 120.0 + if (r + c).is_multiple_of(2) { a } else { -a };
     let x = plane(rows, cols, board(20.0));
     assert!((ssim(&x, &x, l).unwrap() - 1.0).abs() < 1e-12);
 

@@ -80,6 +80,9 @@ pub struct ShiftVariant {
     pub rotation_oversampling: usize,
     /// The PSF source.
     pub source: FieldSource,
+    /// `blur.ghosts` of a traced lens: its two-bounce ghosts of the brightest sources, added
+    /// after the lens maps ([`crate::traced::TracedLens::add_ghosts`]).
+    pub ghosts: Option<crate::traced::Ghosts>,
 }
 
 /// What the shift-variant stage takes from the optics (`Optics::compute`).
@@ -188,11 +191,18 @@ impl ShiftVariant {
                 f_number,
                 focal_length_mm,
             )?));
+            if b.ghosts.is_some() {
+                return Err(OpticsError::config(
+                    "blur.ghosts",
+                    "ghosts are traced through a lens prescription: give blur.lens_file (not rtf_file)",
+                ));
+            }
             return Ok(Some(ShiftVariant {
                 field_heights: b.field_heights,
                 block_px: b.block_px,
                 rotation_oversampling: s,
                 source,
+                ghosts: None,
             }));
         }
         let source = match (&b.lens_file, &b.field_zernike) {
@@ -280,11 +290,24 @@ impl ShiftVariant {
                 terms_um: vec![Vec::new()],
             },
         };
+        let ghosts = match (&b.ghosts, &source) {
+            (None, _) => None,
+            (Some(g), FieldSource::Lens(l)) => {
+                Some(crate::traced::Ghosts::from_config(g, &l.lens)?)
+            }
+            (Some(_), _) => {
+                return Err(OpticsError::config(
+                    "blur.ghosts",
+                    "ghosts are traced through a lens prescription: give blur.lens_file",
+                ))
+            }
+        };
         Ok(Some(ShiftVariant {
             field_heights: b.field_heights,
             block_px: b.block_px,
             rotation_oversampling: s,
             source,
+            ghosts,
         }))
     }
 }
@@ -777,6 +800,12 @@ impl ShiftVariant {
             .try_for_each(|(b, out_band)| self.blur_band(&ctx, b, out_band))?;
         if let Some(m) = &maps {
             apply_lens_maps(&mut out, m, spacing_m);
+        }
+        // Ghosts of the brightest sources, on the padded image centred on the axis.
+        if let (Some(g), Some(cam), FieldSource::Lens(lens)) =
+            (&self.ghosts, &field.cam, &self.source)
+        {
+            lens.add_ghosts(cam, g, &mut out)?;
         }
         let map = ImageMap::new(
             rows,

@@ -531,6 +531,10 @@ impl SimulateConfig {
         {
             fix(m);
         }
+        if let Some(f) = self.optics.config.as_mut().and_then(|c| c.flare.as_mut()) {
+            f.mask.as_mut().map(fix);
+            f.phase_mask.as_mut().map(fix);
+        }
         self.sensor.file.as_mut().map(fix);
         if let Some(c) = &mut self.sensor.config {
             c.qe.file.as_mut().map(fix);
