@@ -16,11 +16,8 @@
 //! centre value times D^2 beyond), and interpolated back bilinearly between block centres. Light
 //! the tail carries past the image's edge is lost (it leaves the sensor).
 
-use crate::conv::Fft2;
 use crate::error::{OpticsError, Result};
-use crate::wavefront::fast_fft_len;
-use rayon::prelude::*;
-use rustfft::num_complex::Complex64;
+use crate::tail::CoarseKernel;
 use std::f64::consts::PI;
 
 /// Coarse grids are at most this many blocks on a side when the block can stay within the core.
@@ -97,12 +94,8 @@ pub struct GlarePlan {
     pub block: usize,
     rows: usize,
     cols: usize,
-    coarse_rows: usize,
-    coarse_cols: usize,
-    fft: Fft2,
-    fft_rows: usize,
-    fft_cols: usize,
-    spectrum: Vec<Complex64>,
+    /// The unit-energy GSF on the coarse grid.
+    kernel: CoarseKernel,
 }
 
 impl GlarePlan {
@@ -121,13 +114,10 @@ impl GlarePlan {
             let within = if within % 2 == 1 { within } else { within - 1 };
             block = within.max(odd_at_least(side.div_ceil(COARSE_MAX)));
         }
-        let (coarse_rows, coarse_cols) = (rows.div_ceil(block), cols.div_ceil(block));
-        let (fft_rows, fft_cols) = (fast_fft_len(2 * coarse_rows), fast_fft_len(2 * coarse_cols));
         camsim_core::mem::check_alloc(
-            (fft_rows * fft_cols * 40) as u64,
+            CoarseKernel::plane_bytes(rows, cols, block),
             "the glare spread function's FFT plane",
         )?;
-        let fft = Fft2::new(fft_rows, fft_cols);
         // The unit-energy kernel per fine sample: g / G at the sample centre times the sample
         // area; the centre sample holds the energy within the disc of the sample's area.
         let unit = GlareSpread {
@@ -145,46 +135,25 @@ impl GlarePlan {
         };
         let d = block as i64;
         let half = (d - 1) / 2;
-        let quadrant: Vec<f64> = (0..coarse_rows * coarse_cols)
-            .into_par_iter()
-            .map(|i| {
-                let (br, bc) = ((i / coarse_cols) as i64, (i % coarse_cols) as i64);
-                if br.max(bc) > NEAR_BLOCKS {
-                    // The block mean of a smooth tail: its centre value (relative error ~ (D / r)^2).
-                    return fine(bc * d, br * d);
-                }
-                let mut s = 0.0;
-                for u in -half..=half {
-                    for w in -half..=half {
-                        s += fine(bc * d + w, br * d + u);
-                    }
-                }
-                s / (d * d) as f64
-            })
-            .collect();
-        let mut plane = vec![0.0f64; fft_rows * fft_cols];
-        for br in 0..coarse_rows {
-            for bc in 0..coarse_cols {
-                let v = quadrant[br * coarse_cols + bc];
-                for r in [br, (fft_rows - br) % fft_rows] {
-                    for c in [bc, (fft_cols - bc) % fft_cols] {
-                        plane[r * fft_cols + c] = v;
-                    }
+        let kernel = CoarseKernel::new(rows, cols, block, |br, bc| {
+            if br.max(bc) > NEAR_BLOCKS {
+                // The block mean of a smooth tail: its centre value (relative error ~ (D / r)^2).
+                return fine(bc * d, br * d);
+            }
+            let mut s = 0.0;
+            for u in -half..=half {
+                for w in -half..=half {
+                    s += fine(bc * d + w, br * d + u);
                 }
             }
-        }
-        let spectrum = fft.forward(&plane);
+            s / (d * d) as f64
+        });
         Ok(GlarePlan {
             spread,
             block,
             rows,
             cols,
-            coarse_rows,
-            coarse_cols,
-            fft,
-            fft_rows,
-            fft_cols,
-            spectrum,
+            kernel,
         })
     }
 
@@ -202,43 +171,9 @@ impl GlarePlan {
 
     /// The unit-energy tail of `band`: g / G convolved with it (bilinear from the coarse grid).
     pub fn tail(&self, band: &[f32]) -> Vec<f32> {
-        let d = self.block;
-        let fc = self.fft_cols;
-        let mut plane = vec![0.0f64; self.fft_rows * self.fft_cols];
-        for r in 0..self.rows {
-            let br = r / d;
-            let row = &band[r * self.cols..(r + 1) * self.cols];
-            let dst = &mut plane[br * fc..br * fc + self.coarse_cols];
-            for (bc, chunk) in row.chunks(d).enumerate() {
-                dst[bc] += chunk.iter().map(|v| *v as f64).sum::<f64>();
-            }
-        }
-        let mut spec = self.fft.forward(&plane);
-        spec.iter_mut()
-            .zip(&self.spectrum)
-            .for_each(|(s, k)| *s *= *k);
-        let coarse = self.fft.inverse(spec);
-        let centre = (d as f64 - 1.0) / 2.0;
-        let locate = |x: usize, n: usize| -> (usize, usize, f64) {
-            let t = ((x as f64 - centre) / d as f64).clamp(0.0, (n - 1) as f64);
-            let i0 = (t.floor() as usize).min(n - 1);
-            (i0, (i0 + 1).min(n - 1), t - i0 as f64)
-        };
-        let cx: Vec<(usize, usize, f64)> = (0..self.cols)
-            .map(|c| locate(c, self.coarse_cols))
-            .collect();
         let mut out = vec![0.0f32; self.rows * self.cols];
-        out.par_chunks_mut(self.cols)
-            .enumerate()
-            .for_each(|(r, orow)| {
-                let (r0, r1, fy) = locate(r, self.coarse_rows);
-                let (a0, a1) = (&coarse[r0 * fc..], &coarse[r1 * fc..]);
-                for (o, &(c0, c1, fx)) in orow.iter_mut().zip(&cx) {
-                    let u = a0[c0] + (a1[c0] - a0[c0]) * fy;
-                    let v = a0[c1] + (a1[c1] - a0[c1]) * fy;
-                    *o = (u + (v - u) * fx).max(0.0) as f32;
-                }
-            });
+        self.kernel
+            .convolve(band, self.rows, self.cols, (0, 0), 1.0, None, 1.0, &mut out);
         out
     }
 }

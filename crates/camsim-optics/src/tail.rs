@@ -46,6 +46,16 @@ pub struct FarTail {
     pub block: usize,
     /// Half-width of the kernel window, samples (the window is 2h + 1 wide).
     pub half_width: usize,
+    /// The coarse kernel for a = 1.
+    kernel: CoarseKernel,
+}
+
+/// A radially symmetric kernel on a grid of D x D blocks (D odd) for one output size: the
+/// convolution of an image's block sums with the kernel's block means by FFT, interpolated back
+/// bilinearly between block centres (the far diffraction tail here, the veiling-glare spread
+/// function of [`crate::glare`]).
+pub(crate) struct CoarseKernel {
+    block: usize,
     out_rows: usize,
     out_cols: usize,
     coarse_rows: usize,
@@ -53,54 +63,26 @@ pub struct FarTail {
     fft: Fft2,
     fft_rows: usize,
     fft_cols: usize,
-    /// Spectrum of the coarse kernel for a = 1.
     spectrum: Vec<Complex64>,
 }
 
-fn odd_at_least(x: usize) -> usize {
-    x.max(1) | 1
-}
-
-impl FarTail {
-    /// Plans the tail for a `out_rows` x `out_cols` output blurred with a window of half-width `h`.
-    pub fn new(out_rows: usize, out_cols: usize, h: usize) -> FarTail {
-        let side = out_rows.max(out_cols);
-        let mut block = odd_at_least(side.div_ceil(COARSE_TARGET));
-        if block > h.max(1) {
-            // Keep the block within the window where the grid stays affordable.
-            let largest_odd_in_window = if h % 2 == 1 {
-                h
-            } else {
-                h.saturating_sub(1).max(1)
-            };
-            block = largest_odd_in_window.max(odd_at_least(side.div_ceil(COARSE_MAX)));
-        }
+impl CoarseKernel {
+    /// Plans the kernel for `out_rows` x `out_cols` outputs with blocks of `block` samples;
+    /// `block_mean(br, bc)` is the kernel's mean over the block at block offset (br, bc) >= 0
+    /// (one quadrant; the kernel is mirrored into the others).
+    pub(crate) fn new(
+        out_rows: usize,
+        out_cols: usize,
+        block: usize,
+        block_mean: impl Fn(i64, i64) -> f64 + Sync,
+    ) -> CoarseKernel {
         let (coarse_rows, coarse_cols) = (out_rows.div_ceil(block), out_cols.div_ceil(block));
         // A linear convolution of the coarse output with offsets up to +-(n - 1): period >= 2n - 1.
         let (fft_rows, fft_cols) = (fast_fft_len(2 * coarse_rows), fast_fft_len(2 * coarse_cols));
         let fft = Fft2::new(fft_rows, fft_cols);
-        // One quadrant of block means of T (a = 1), by symmetry.
-        let d = block as i64;
-        let hw = h as i64;
-        let half = (d - 1) / 2;
         let quadrant: Vec<f64> = (0..coarse_rows * coarse_cols)
             .into_par_iter()
-            .map(|i| {
-                let (br, bc) = ((i / coarse_cols) as i64, (i % coarse_cols) as i64);
-                let mut s = 0.0;
-                for u in -half..=half {
-                    let dy = br * d + u;
-                    for w in -half..=half {
-                        let dx = bc * d + w;
-                        if dy.abs() <= hw && dx.abs() <= hw {
-                            continue;
-                        }
-                        let rho2 = (dx * dx + dy * dy) as f64;
-                        s += 1.0 / (rho2 * rho2.sqrt());
-                    }
-                }
-                s / (d * d) as f64
-            })
+            .map(|i| block_mean((i / coarse_cols) as i64, (i % coarse_cols) as i64))
             .collect();
         let mut plane = vec![0.0f64; fft_rows * fft_cols];
         for br in 0..coarse_rows {
@@ -114,9 +96,8 @@ impl FarTail {
             }
         }
         let spectrum = fft.forward(&plane);
-        FarTail {
+        CoarseKernel {
             block,
-            half_width: h,
             out_rows,
             out_cols,
             coarse_rows,
@@ -128,16 +109,19 @@ impl FarTail {
         }
     }
 
-    /// Fraction of the PSF energy the tail carries (outside the window) for amplitude `a`.
-    pub fn energy(&self, a: f64) -> f64 {
-        energy_outside_square(a, self.half_width as f64 + 0.5)
+    /// The FFT plane's size in bytes (for the memory check before planning).
+    pub(crate) fn plane_bytes(out_rows: usize, out_cols: usize, block: usize) -> u64 {
+        let n =
+            fast_fft_len(2 * out_rows.div_ceil(block)) * fast_fft_len(2 * out_cols.div_ceil(block));
+        n as u64 * 40
     }
 
-    /// Writes the tail of one band into `out_band` (`out_rows` x `out_cols`, overwritten): the
-    /// source is `rows` x `cols` samples placed at (`pad_r`, `pad_c`) of the output, scaled by
-    /// `scale` and, where given, by `shade` (per source sample); `a` is the band's tail amplitude.
+    /// Writes the kernel times `gain` convolved with the source into `out_band` (`out_rows` x
+    /// `out_cols`, overwritten): the source is `rows` x `cols` samples placed at (`pad_r`,
+    /// `pad_c`) of the output, scaled by `scale` and, where given, by `shade` (per source
+    /// sample).
     #[allow(clippy::too_many_arguments)]
-    pub fn write_band(
+    pub(crate) fn convolve(
         &self,
         src: &[f32],
         rows: usize,
@@ -145,7 +129,7 @@ impl FarTail {
         (pad_r, pad_c): (usize, usize),
         scale: f32,
         shade: Option<&[f32]>,
-        a: f64,
+        gain: f64,
         out_band: &mut [f32],
     ) {
         let d = self.block;
@@ -191,7 +175,7 @@ impl FarTail {
         let mut spec = self.fft.forward(&plane);
         spec.iter_mut()
             .zip(&self.spectrum)
-            .for_each(|(s, k)| *s *= *k * a);
+            .for_each(|(s, k)| *s *= *k * gain);
         let coarse = self.fft.inverse(spec);
         // Bilinear interpolation between block centres (fine coordinate i d + (d - 1) / 2), held
         // beyond the outer centres: per output row the coarse row interpolated in y, then in x.
@@ -240,6 +224,75 @@ impl FarTail {
     }
 }
 
+fn odd_at_least(x: usize) -> usize {
+    x.max(1) | 1
+}
+
+impl FarTail {
+    /// Plans the tail for a `out_rows` x `out_cols` output blurred with a window of half-width `h`.
+    pub fn new(out_rows: usize, out_cols: usize, h: usize) -> FarTail {
+        let side = out_rows.max(out_cols);
+        let mut block = odd_at_least(side.div_ceil(COARSE_TARGET));
+        if block > h.max(1) {
+            // Keep the block within the window where the grid stays affordable.
+            let largest_odd_in_window = if h % 2 == 1 {
+                h
+            } else {
+                h.saturating_sub(1).max(1)
+            };
+            block = largest_odd_in_window.max(odd_at_least(side.div_ceil(COARSE_MAX)));
+        }
+        // Block means of T (a = 1) over the fine offsets outside the window.
+        let d = block as i64;
+        let hw = h as i64;
+        let half = (d - 1) / 2;
+        let kernel = CoarseKernel::new(out_rows, out_cols, block, |br, bc| {
+            let mut s = 0.0;
+            for u in -half..=half {
+                let dy = br * d + u;
+                for w in -half..=half {
+                    let dx = bc * d + w;
+                    if dy.abs() <= hw && dx.abs() <= hw {
+                        continue;
+                    }
+                    let rho2 = (dx * dx + dy * dy) as f64;
+                    s += 1.0 / (rho2 * rho2.sqrt());
+                }
+            }
+            s / (d * d) as f64
+        });
+        FarTail {
+            block,
+            half_width: h,
+            kernel,
+        }
+    }
+
+    /// Fraction of the PSF energy the tail carries (outside the window) for amplitude `a`.
+    pub fn energy(&self, a: f64) -> f64 {
+        energy_outside_square(a, self.half_width as f64 + 0.5)
+    }
+
+    /// Writes the tail of one band into `out_band` (`out_rows` x `out_cols`, overwritten): the
+    /// source is `rows` x `cols` samples placed at (`pad_r`, `pad_c`) of the output, scaled by
+    /// `scale` and, where given, by `shade` (per source sample); `a` is the band's tail amplitude.
+    #[allow(clippy::too_many_arguments)]
+    pub fn write_band(
+        &self,
+        src: &[f32],
+        rows: usize,
+        cols: usize,
+        (pad_r, pad_c): (usize, usize),
+        scale: f32,
+        shade: Option<&[f32]>,
+        a: f64,
+        out_band: &mut [f32],
+    ) {
+        self.kernel
+            .convolve(src, rows, cols, (pad_r, pad_c), scale, shade, a, out_band);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,8 +305,8 @@ mod tests {
             let t = FarTail::new(n, n, h);
             // The coarse kernel's sum is its spectrum at DC (all offsets, weighted by D^2 fine
             // samples per block).
-            let sum = t.spectrum[0].re * (t.block * t.block) as f64;
-            let reach = ((t.coarse_rows - 1) * t.block) as f64;
+            let sum = t.kernel.spectrum[0].re * (t.block * t.block) as f64;
+            let reach = ((t.kernel.coarse_rows - 1) * t.block) as f64;
             let want = energy_outside_square(1.0, h as f64 + 0.5) - 2.0 * PI / reach;
             assert!(
                 (sum / want - 1.0).abs() < 0.02,
