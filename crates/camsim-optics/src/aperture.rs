@@ -294,9 +294,10 @@ impl Aperture {
 
     /// Amplitude of the pupil sample cell of side `cell` centred at normalized (x, y), and the
     /// energy it passes (the integral of |A|^2 over the cell, in cell areas): the open fraction
-    /// c of the cell (8 x 8 subsamples where the boundary crosses it) times the mask's
-    /// transmission t at its centre, and c t^2. (The PSF restores the energy that the sampled
-    /// amplitude c t misses, c t^2 - (c t)^2, as a pedestal; see `Wavefront::psf_grid`.)
+    /// c of the cell (8 x 8 subsamples where the boundary crosses it) times the amplitude
+    /// sqrt(T) of the mask's intensity transmission T at its centre, and c T. (The PSF restores
+    /// the energy that the sampled amplitude c sqrt(T) misses, c T - c^2 T, as a pedestal; see
+    /// `Wavefront::psf_grid`.)
     pub fn cell_amplitude(&self, x: f64, y: f64, cell: f64) -> (f64, f64) {
         let f = self.field(x, y);
         let reach = 0.7072 * cell;
@@ -320,8 +321,9 @@ impl Aperture {
         };
         match &self.mask {
             Some(m) if cov > 0.0 => {
-                let t = m.eval(x, y);
-                (cov * t, cov * t * t)
+                // The mask holds the intensity transmission T: amplitude sqrt(T), energy T.
+                let t = m.eval(x, y).max(0.0);
+                (cov * t.sqrt(), cov * t)
             }
             _ => (cov, cov),
         }
@@ -348,8 +350,9 @@ impl Aperture {
         (poly + nf * seg) / PI
     }
 
-    /// Transmitted area (open area times transmission) as a fraction of the circle's, by
-    /// integrating [`Self::cell_amplitude`] on a 512 x 512 grid over the bounding square.
+    /// Transmitted energy (open area times the intensity transmission) as a fraction of the
+    /// circle's, by integrating [`Self::cell_amplitude`]'s energy on a 512 x 512 grid over the
+    /// bounding square.
     pub fn area_fraction(&self) -> f64 {
         if self.is_circle() {
             return 1.0;
@@ -361,7 +364,7 @@ impl Aperture {
             let y = -1.0 + (i as f64 + 0.5) * cell;
             for j in 0..n {
                 let x = -1.0 + (j as f64 + 0.5) * cell;
-                sum += self.cell_amplitude(x, y, cell).0;
+                sum += self.cell_amplitude(x, y, cell).1;
             }
         }
         sum * cell * cell / PI

@@ -231,9 +231,10 @@ pub struct ApertureConfig {
     /// Angle of the first vane from +x, degrees (default 0).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub vane_rotation_deg: f64,
-    /// A grey transmission mask (PNG/TIFF code values / full scale, or a one-channel or grey
-    /// OpenEXR; values in [0, 1]) stretched over the pupil's bounding square (row 0 at -y),
-    /// multiplying the shape; sampled bilinearly at the pupil samples. Relative to the config file.
+    /// A grey intensity-transmission mask (PNG/TIFF code values / full scale, or a one-channel or
+    /// grey OpenEXR; values in [0, 1]; the pupil amplitude is its square root) stretched over the
+    /// pupil's bounding square (row 0 at -y), multiplying the shape; sampled bilinearly at the
+    /// pupil samples. Relative to the config file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<PathBuf>,
 }
