@@ -116,6 +116,20 @@ rows = 96
 cols = 96
 "#;
 
+/// An ISO 18844 glare target (a black hole in a bright surround) for `analyze glare`.
+const GLARE: &str = r#"
+[scene]
+kind = "glare_target"
+rows = 96
+cols = 96
+hole_diameter_px = 24
+fov_deg = 4.0
+[sensor]
+preset = "pixel4a"
+rows = 96
+cols = 96
+"#;
+
 /// A dataset of 3 tiny ColorChecker captures with a grid and a random draw.
 const DATASET: &str = r#"
 [dataset]
@@ -143,6 +157,7 @@ fn fixture() -> &'static Fixture {
         std::fs::write(root.join("small.toml"), SMALL).unwrap();
         std::fs::write(root.join("flat.toml"), FLAT).unwrap();
         std::fs::write(root.join("edge.toml"), EDGE).unwrap();
+        std::fs::write(root.join("glare.toml"), GLARE).unwrap();
         std::fs::write(root.join("dataset.toml"), DATASET).unwrap();
         run_ok(&[
             "simulate",
@@ -154,6 +169,7 @@ fn fixture() -> &'static Fixture {
         ]);
         run_ok(&["simulate", &p("flat.toml"), "--out", &p("flat")]);
         run_ok(&["simulate", &p("edge.toml"), "--out", &p("edge")]);
+        run_ok(&["simulate", &p("glare.toml"), "--out", &p("glare")]);
         run_ok(&[
             "sensor",
             "--emva-series",
@@ -240,6 +256,7 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
             "{O}",
         ],
         ["analyze", "demosaic"] => vec!["analyze", "demosaic", "--size", "64", "--out", "{O}"],
+        ["analyze", "glare"] => vec!["analyze", "glare", "{F}/glare/raw.dng", "--out", "{O}"],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
         ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],
