@@ -278,7 +278,7 @@ pub fn run(c: Command) -> Result<()> {
 /// --hole-diameter-px are given. Writes glare.json in --out.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim analyze glare out/glare/raw.dng --out out/glare-index\n  camsim analyze glare out/glare/irradiance.exr --roi-fraction 0.3 --json --out out/glare-exr\n  camsim analyze glare target.png --black-dn 256 --centre 640,480 --hole-diameter-px 80 --out out/g"
+    after_help = "Examples (the scene, optics and sensor commands of docs/src/analysis.md make the inputs):\n  camsim analyze glare out/glare-raw/raw.dng --out out/glare-index\n  camsim analyze glare out/glare-irradiance.exr --roi-fraction 0.3 --json --out out/glare-exr\n  camsim analyze glare out/glare-irradiance.exr --centre 137,137 --hole-diameter-px 64 --out out/glare-given"
 )]
 pub struct GlareArgs {
     /// Raw DNG (CFA or LinearRaw), a 16-bit PNG/TIFF mosaic (with --cfa) or grey image (without),
@@ -325,6 +325,8 @@ struct GlarePlane {
     plane: camsim::analysis::Plane,
     step: f64,
     offset: [f64; 2],
+    /// The level (above black) at which this plane clips, where the format says (raw DNGs).
+    clip: Option<f64>,
 }
 
 fn glare_planes(a: &GlareArgs) -> Result<(Vec<GlarePlane>, &'static str)> {
@@ -340,6 +342,7 @@ fn glare_planes(a: &GlareArgs) -> Result<(Vec<GlarePlane>, &'static str)> {
         plane,
         step: 1.0,
         offset: [0.0, 0.0],
+        clip: None,
     };
     if ext == "exr" {
         let (img, warning) = camsim::pipeline::inputs::read_spectral_exr(&a.image)?;
@@ -384,6 +387,7 @@ fn glare_planes(a: &GlareArgs) -> Result<(Vec<GlarePlane>, &'static str)> {
                     plane: camsim::analysis::cfa_channel_plane(&r, ch, which)?,
                     step: 2.0,
                     offset: [dc as f64, dr as f64],
+                    clip: Some(r.white_level_dn - r.black_level_dn),
                 });
             }
             (
@@ -418,6 +422,19 @@ pub fn glare_cmd(a: GlareArgs) -> Result<()> {
         };
         let m = veiling_glare(&p.plane, &opts)
             .map_err(|e| anyhow::anyhow!("{} ({} channel): {e}", a.image.display(), p.name))?;
+        // A clipped surround understates the surround level and so overstates the index.
+        if let Some(clip) = p.clip {
+            if m.surround_signal >= 0.98 * clip {
+                anyhow::bail!(
+                    "{} ({} channel): the surround is clipped ({:.0} DN above black, white level {:.0}): \
+                     shorten the exposure so it stays below the white level",
+                    a.image.display(),
+                    p.name,
+                    m.surround_signal,
+                    clip
+                );
+            }
+        }
         let from_sub = |v: f64, off: f64| (v - 0.5) * p.step + off + 0.5;
         rows.push(serde_json::json!({
             "channel": p.name,
