@@ -82,7 +82,7 @@ pub struct RunResults {
     /// With the noise-free image: PSNR and SSIM of the raw and of the preview against their
     /// noise-free counterparts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub quality: Option<crate::simulation::CaptureQuality>,
+    pub quality: Option<CaptureQuality>,
 }
 
 /// run.json's `results.hdr`: the figures of an `[hdr]` sensor's merge
@@ -283,4 +283,17 @@ impl RenderRecord {
         serde_json::from_value(read_json(path)?)
             .map_err(|e| PipelineError::file(path, format!("not a camsim render.json: {e}")))
     }
+}
+
+/// A capture's full-reference quality against its noise-free counterpart
+/// ([`camsim_analysis::quality`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CaptureQuality {
+    /// The raw mosaic, DN above black against the noise-free DN above black; peak (and SSIM
+    /// range) the white level above black.
+    pub raw: camsim_analysis::quality::Quality,
+    /// The 8-bit preview against the ISP's preview of the noise-free raw (rounded to DN) at
+    /// the same exposure scale; peak 255. None where the ISP cannot render the frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview: Option<camsim_analysis::quality::Quality>,
 }

@@ -3,7 +3,7 @@
 
 use crate::capture::{frame_suffix, Imaged};
 use crate::outputs::{Output, OutputSet};
-use crate::records::{raw_png_note, RunRecord, RunResults};
+use crate::records::{raw_png_note, CaptureQuality, RunRecord, RunResults};
 use crate::sequence::FrameFlow;
 use crate::timing::FrameTime;
 use crate::{mean_luminance_cd_m2, Isp, PipelineError, Progress, Result, SimulateConfig};
@@ -115,19 +115,6 @@ pub struct Simulation {
     /// preview's PSNR and SSIM against their noise-free counterparts (run.json's
     /// results.quality).
     pub quality: Option<CaptureQuality>,
-}
-
-/// A capture's full-reference quality against its noise-free counterpart
-/// ([`camsim_analysis::quality`]).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct CaptureQuality {
-    /// The raw mosaic, DN above black against the noise-free DN above black; peak (and SSIM
-    /// range) the white level above black.
-    pub raw: camsim_analysis::quality::Quality,
-    /// The 8-bit preview against the ISP's preview of the noise-free raw (rounded to DN) at
-    /// the same exposure scale; peak 255. None where the ISP cannot render the frame.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub preview: Option<camsim_analysis::quality::Quality>,
 }
 
 /// [`CaptureQuality`] of `raw` against its noise-free DN `noise_free_dn`.
