@@ -36,7 +36,8 @@ fn same_size(reference: &Plane, test: &Plane) -> Result<()> {
 /// Mean squared error of `test` against `reference` (same size).
 pub fn mse(reference: &Plane, test: &Plane) -> Result<f64> {
     same_size(reference, test)?;
-    let sum: f64 = reference
+    // Partial sums per fixed chunk, added in order: the same bits for any thread count.
+    let partial: Vec<f64> = reference
         .data
         .par_chunks(4096)
         .zip(test.data.par_chunks(4096))
@@ -46,8 +47,8 @@ pub fn mse(reference: &Plane, test: &Plane) -> Result<f64> {
                 .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
                 .sum::<f64>()
         })
-        .sum();
-    Ok(sum / reference.data.len() as f64)
+        .collect();
+    Ok(partial.iter().sum::<f64>() / reference.data.len() as f64)
 }
 
 /// Peak signal-to-noise ratio in dB, 10 log10(peak^2 / MSE), `peak` the largest value the
@@ -96,8 +97,9 @@ pub fn ssim(reference: &Plane, test: &Plane, dynamic_range: f64) -> Result<f64> 
     let (x, y) = (&reference.data, &test.data);
     let out_rows = rows - side + 1;
     let out_cols = cols - side + 1;
-    // Per output row: the five weighted moments, filtered horizontally then vertically.
-    let sum: f64 = (0..out_rows)
+    // Per output row: the five weighted moments, filtered horizontally then vertically; the
+    // rows' sums are added in order (the same bits for any thread count).
+    let rows_sum: Vec<f64> = (0..out_rows)
         .into_par_iter()
         .map(|r0| {
             let mut acc = vec![[0.0f64; 5]; out_cols];
@@ -130,8 +132,8 @@ pub fn ssim(reference: &Plane, test: &Plane, dynamic_range: f64) -> Result<f64> 
                 })
                 .sum::<f64>()
         })
-        .sum();
-    Ok(sum / (out_rows * out_cols) as f64)
+        .collect();
+    Ok(rows_sum.iter().sum::<f64>() / (out_rows * out_cols) as f64)
 }
 
 /// PSNR and SSIM of a test image against a reference.
@@ -141,8 +143,10 @@ pub struct Quality {
     /// identical images give infinity, which JSON writes as null.
     #[serde(deserialize_with = "null_is_infinity")]
     pub psnr_db: f64,
-    /// Structural similarity (the mean of the channels' indices).
-    pub ssim: f64,
+    /// Structural similarity (the mean of the channels' indices); None where a channel is
+    /// smaller than SSIM's 11 x 11 window.
+    #[serde(default)]
+    pub ssim: Option<f64>,
 }
 
 fn null_is_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
@@ -163,15 +167,19 @@ pub fn quality(reference: &[Plane], test: &[Plane], peak: f64) -> Result<Quality
             ),
         ));
     }
+    let side = 2 * WINDOW_RADIUS + 1;
+    let windowed = reference.iter().all(|p| p.rows >= side && p.cols >= side);
     let mut mse_sum = 0.0;
     let mut ssim_sum = 0.0;
     for (a, b) in reference.iter().zip(test) {
         mse_sum += mse(a, b)?;
-        ssim_sum += ssim(a, b, peak)?;
+        if windowed {
+            ssim_sum += ssim(a, b, peak)?;
+        }
     }
     let n = reference.len() as f64;
     Ok(Quality {
         psnr_db: 10.0 * (peak * peak / (mse_sum / n)).log10(),
-        ssim: ssim_sum / n,
+        ssim: windowed.then_some(ssim_sum / n),
     })
 }

@@ -61,10 +61,13 @@ fn ssim_follows_its_closed_forms() {
         l,
     )
     .unwrap();
-    assert!((q.ssim - (1.0 + want) / 2.0).abs() < 1e-4);
+    assert!((q.ssim.unwrap() - (1.0 + want) / 2.0).abs() < 1e-4);
     let mse = (2.0f64 * a).powi(2) / 2.0;
     assert!((q.psnr_db - 10.0 * (l * l / mse).log10()).abs() < 1e-9);
     assert!(ssim(&plane(8, 30, |_, _| 0.0), &plane(8, 30, |_, _| 0.0), l).is_err());
+    // A frame narrower than the window still has its PSNR; its SSIM is absent.
+    let thin = quality(&[plane(8, 30, |_, _| 1.0)], &[plane(8, 30, |_, _| 2.0)], l).unwrap();
+    assert!(thin.ssim.is_none() && (thin.psnr_db - 10.0 * (l * l).log10()).abs() < 1e-9);
 }
 
 /// CIE94 (graphic arts): a pure lightness difference is itself; a pure chroma difference at one

@@ -106,3 +106,52 @@ fn simulate_isp_sensor_and_validate_share_one_isp() {
     // A D65 ISP (the old `camsim sensor` fit) gives another image: the test can tell.
     assert_ne!(isp("D65"), preview);
 }
+
+/// The ISP's correction steps are the same through both doors: `[isp]` keys in a simulate config
+/// and `camsim isp`'s flags give the same preview, and the steps change the image (a preview
+/// without them differs).
+#[test]
+fn isp_steps_from_the_config_and_from_the_flags_give_the_same_preview() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cfg = format!(
+        "{}\n[isp]\ndefect_correction = \"detect\"\ndefect_sigmas = 5.0\ndenoise = \"nlm\"\ndenoise_strength = 1.5\nsharpen = {{ radius_px = 1.2, amount = 0.6, threshold = 2.0 }}\ntone_map = \"reinhard\"\n",
+        include_str!("small-chart.toml")
+    );
+    std::fs::write(d.join("run.toml"), cfg).unwrap();
+    let p = |name: &str| d.join(name).to_string_lossy().into_owned();
+    camsim(&["simulate", &p("run.toml"), "--out", &p("sim")]);
+    let isp = |extra: &[&str], out: &str| {
+        let (raw, o) = (p("sim/raw.dng"), p(out));
+        let mut args = vec!["isp", "--in", &raw, "--sensor", "pixel4a"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", &o]);
+        camsim(&args);
+        png(Path::new(&o))
+    };
+    let steps = [
+        "--defect-correction",
+        "detect",
+        "--defect-sigmas",
+        "5",
+        "--denoise",
+        "nlm",
+        "--denoise-strength",
+        "1.5",
+        "--sharpen",
+        "1.2,0.6,2",
+        "--tone-map",
+        "reinhard",
+    ];
+    let preview = png(&d.join("sim/preview.png"));
+    assert_eq!(
+        isp(&steps, "flags.png"),
+        preview,
+        "camsim isp with the flags"
+    );
+    assert_ne!(
+        isp(&["--tone-map", "reinhard"], "plain.png"),
+        preview,
+        "without the steps the preview differs"
+    );
+}

@@ -14,10 +14,12 @@ use std::path::PathBuf;
 /// curve and dynamic range. Writes, in --out: emva.json (every figure, per channel and per level),
 /// ptc.png (photon transfer) and snr.png.
 ///
-/// The series is a CSV with one level per line: a header `exposure_s,photons_per_pixel,` then the
-/// frame columns, `bright_0,...,bright_<N-1>,dark_0,...,dark_<N-1>` for N frames per level (any
-/// column whose name starts with `bright` or `dark` is a frame), e.g. with --frames-per-level 2:
-/// `exposure_s,photons_per_pixel,bright_0,bright_1,dark_0,dark_1`. This is what
+/// The series is a CSV with one level per line: a header `exposure_s,photons_per_pixel,`, an
+/// optional `exposure_lux_s,` (the photometric exposure H = E t at the sensor, for ISO 12232's
+/// speeds), then the frame columns, `bright_0,...,bright_<N-1>,dark_0,...,dark_<N-1>` for N frames
+/// per level (any column whose name starts with `bright` or `dark` is a frame), e.g. with
+/// --frames-per-level 2: `exposure_s,photons_per_pixel,exposure_lux_s,bright_0,bright_1,dark_0,dark_1`.
+/// This is what
 /// `camsim sensor --emva-series` writes (series.csv); for a real camera, write it yourself. Frame
 /// cells are DNG (or PNG/TIFF mosaic, with --cfa) file names relative to the CSV; an empty
 /// photons_per_pixel cell means the photon count is unknown (no QE then).

@@ -7,6 +7,9 @@ use camsim::analysis::chart::ChartCorners;
 use camsim::core::WavelengthGrid;
 use camsim::isp::ccm::CcmObjective;
 use camsim::isp::cfa_render::RcccClear;
+use camsim::isp::defect_correction::DefectCorrection;
+use camsim::isp::denoise::Denoise;
+use camsim::isp::line_noise::ColumnCorrection;
 use camsim::isp::white_balance::WHITE_PATCH_PERCENTILE;
 use camsim::isp::{DemosaicMethod, WhiteBalanceMethod};
 use camsim::pipeline::CcmSource;
@@ -37,6 +40,38 @@ fn parse_str<T: std::str::FromStr<Err = camsim::core::error::CoreError>>(
     s.parse::<T>().map_err(|e| e.to_string())
 }
 
+/// A value by the name the configs give it (the ISP's kebab-case names).
+fn parse_kebab<T: serde::de::DeserializeOwned>(s: &str) -> std::result::Result<T, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_string())).map_err(|e| {
+        let e = e.to_string();
+        // serde's "unknown variant `x`, expected one of `a`, `b`" names the choices.
+        e.split(" at line").next().unwrap_or(&e).to_string()
+    })
+}
+
+fn parse_sharpen(s: &str) -> std::result::Result<camsim::isp::sharpen::UnsharpMask, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}': give RADIUS_PX,AMOUNT[,THRESHOLD] (numbers)"))?;
+    let usm = match v.as_slice() {
+        [r, a] => camsim::isp::sharpen::UnsharpMask {
+            radius_px: *r,
+            amount: *a,
+            threshold: 0.0,
+        },
+        [r, a, t] => camsim::isp::sharpen::UnsharpMask {
+            radius_px: *r,
+            amount: *a,
+            threshold: *t,
+        },
+        _ => return Err(format!("'{s}': give RADIUS_PX,AMOUNT[,THRESHOLD]")),
+    };
+    usm.validate().map_err(|e| format!("'{s}': {e}"))?;
+    Ok(usm)
+}
+
 fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if (0.0..=100.0).contains(&v) => Ok(v),
@@ -57,7 +92,7 @@ fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
 /// ColorChecker from --sensor's QE of the DNG's filters under --illuminant.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png"
+    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png\n  camsim isp --in out/defects/raw.dng --sensor pixel4a --defect-correction detect --denoise nlm --sharpen 1.0,0.5 --out out/defects-corrected.jpg"
 )]
 pub struct Args {
     /// Raw DNG.
@@ -105,6 +140,37 @@ pub struct Args {
     #[arg(long, default_value = "edge-aware", value_parser = parse_str::<RcccClear>)]
     pub rccc_clear: RcccClear,
     /// Output PNG.
+    /// Column and row noise correction first: off, or sensor (subtract the offsets of each
+    /// column and row of --sensor's fixed dark frame; the frame must be the sensor's size).
+    #[arg(long, default_value = "off", value_parser = parse_kebab::<ColumnCorrection>, value_name = "off|sensor")]
+    pub column_correction: ColumnCorrection,
+    /// Defect-pixel correction: off, sensor (--sensor's defect list) or detect (pixels off the
+    /// median of their same-filter 5 x 5 neighbours by more than --defect-sigmas), each replaced
+    /// by that median.
+    #[arg(long, default_value = "off", value_parser = parse_kebab::<DefectCorrection>, value_name = "off|sensor|detect")]
+    pub defect_correction: DefectCorrection,
+    /// Threshold of --defect-correction detect, robust sigmas (1.4826 MAD).
+    #[arg(long, default_value_t = 6.0, value_parser = crate::common::positive_f64)]
+    pub defect_sigmas: f64,
+    /// Denoising of the raw: off, or nlm (non-local means per CFA sub-lattice, Buades, Coll and
+    /// Morel 2005, its strength from --sensor's shot and read noise).
+    #[arg(long, default_value = "off", value_parser = parse_kebab::<Denoise>, value_name = "off|nlm")]
+    pub denoise: Denoise,
+    /// Strength of --denoise nlm: h = 0.4 x strength x sigma.
+    #[arg(long, default_value_t = 1.0, value_parser = crate::common::positive_f64)]
+    pub denoise_strength: f64,
+    /// Unsharp mask of the demosaicked image: RADIUS_PX,AMOUNT[,THRESHOLD_DN] (Gaussian sigma in
+    /// pixels, gain of the detail, details at most THRESHOLD DN above black left alone).
+    #[arg(long, value_parser = parse_sharpen, value_name = "RADIUS_PX,AMOUNT[,THRESHOLD]")]
+    pub sharpen: Option<camsim::isp::sharpen::UnsharpMask>,
+    /// Tone curve of the preview: clip, reinhard (Reinhard et al. 2002) or filmic (ACES fit,
+    /// Narkowicz 2016); the last two also set the exposure.
+    #[arg(long, default_value = "clip", value_parser = parse_kebab::<camsim::isp::tone::ToneMap>, value_name = "clip|reinhard|filmic")]
+    pub tone_map: camsim::isp::tone::ToneMap,
+    /// JPEG quality (IJG, 1-100) when --out ends in .jpg or .jpeg.
+    #[arg(long, default_value_t = camsim::pipeline::isp::DEFAULT_JPEG_QUALITY, value_parser = clap::value_parser!(u8).range(1..=100))]
+    pub jpeg_quality: u8,
+    /// Output image: an 8-bit sRGB PNG, or a baseline JPEG when the name ends in .jpg / .jpeg.
     #[arg(long, default_value = "out/preview.png")]
     pub out: PathBuf,
     /// Overwrite --out even when camsim did not write it (a file camsim wrote, recognised by its
@@ -130,6 +196,14 @@ pub fn run(a: Args) -> Result<()> {
     isp.white_patch_percentile = a.white_patch_percentile;
     isp.bin_2x2 = a.bin;
     isp.rccc_clear = a.rccc_clear;
+    isp.column_correction = a.column_correction;
+    isp.defect_correction = a.defect_correction;
+    isp.defect_sigmas = a.defect_sigmas;
+    isp.denoise = a.denoise;
+    isp.denoise_strength = a.denoise_strength;
+    isp.sharpen = a.sharpen;
+    isp.tone_map = a.tone_map;
+    isp.jpeg_quality = Some(a.jpeg_quality);
     if a.ccm == CcmChoice::Chart {
         let corners: ChartCorners = match a.corners {
             Some(c) => c,
@@ -158,7 +232,16 @@ pub fn run(a: Args) -> Result<()> {
         ));
     }
     let p = &out.preview;
-    camsim::io::raster::write_png8_rgb(&a.out, p.rows, p.cols, &p.data)?;
+    let jpeg = a
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
+    if jpeg {
+        camsim::io::atomic::write_bytes_atomic(&a.out, &isp.jpeg(p)?)?;
+    } else {
+        camsim::io::raster::write_png8_rgb(&a.out, p.rows, p.cols, &p.data)?;
+    }
     if a.json {
         let mut report = serde_json::to_value(r)?;
         report["input"] = a.input.display().to_string().into();
