@@ -193,19 +193,24 @@ impl Isp {
             Some(r) => r?,
             None => camsim_core::tables::illuminant("D65")?,
         };
-        let i = &cfg.isp;
-        let base = Isp::new(illuminant, cfg.wavelengths);
-        Ok(Isp {
+        Ok(Isp::new(illuminant, cfg.wavelengths).with_section(&cfg.isp))
+    }
+
+    /// This ISP with the steps an `[isp]` table sets (tone curve, column and defect correction,
+    /// denoising, sharpening, JPEG quality); keys it leaves out keep their defaults. The one
+    /// reading of `[isp]` for configs and for Python's `isp(..., steps=...)`.
+    pub fn with_section(self, i: &crate::config::IspSection) -> Isp {
+        Isp {
             tone_map: i.tone_map.unwrap_or_default(),
             defect_correction: i.defect_correction.unwrap_or_default(),
-            defect_sigmas: i.defect_sigmas.unwrap_or(base.defect_sigmas),
+            defect_sigmas: i.defect_sigmas.unwrap_or(self.defect_sigmas),
             column_correction: i.column_correction.unwrap_or_default(),
             denoise: i.denoise.unwrap_or_default(),
-            denoise_strength: i.denoise_strength.unwrap_or(base.denoise_strength),
+            denoise_strength: i.denoise_strength.unwrap_or(self.denoise_strength),
             sharpen: i.sharpen,
             jpeg_quality: i.jpeg_quality,
-            ..base
-        })
+            ..self
+        }
     }
 
     /// The QE colour pipeline of `sensor` under the ISP's illuminant (the matrix of

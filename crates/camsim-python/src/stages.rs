@@ -231,7 +231,7 @@ fn demosaic<'py>(
 /// on a raw mosaic made by `sensor`, under the scene `illuminant`: returns (preview (rows, cols,
 /// 3) uint8, report dict: the white-balance gains and the colour matrix).
 #[pyfunction]
-#[pyo3(signature = (raw, sensor, cfa = "RGGB", bits = 12, black_level = 0.0, illuminant = "D65", demosaic = "bilinear", white_balance = "illuminant"))]
+#[pyo3(signature = (raw, sensor, cfa = "RGGB", bits = 12, black_level = 0.0, illuminant = "D65", demosaic = "bilinear", white_balance = "illuminant", steps_json = None))]
 #[allow(clippy::too_many_arguments)]
 fn isp<'py>(
     py: Python<'py>,
@@ -243,11 +243,18 @@ fn isp<'py>(
     illuminant: &str,
     demosaic: &str,
     white_balance: &str,
+    steps_json: Option<&str>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let img = raw_from(raw, cfa, bits, black_level)?;
     let (s, _) = sensor_from(sensor)?;
     let illum = camsim::scene::load_illuminant(illuminant, "illuminant").map_err(err)?;
     let mut p = Isp::new(illum, WavelengthGrid::default());
+    if let Some(j) = steps_json {
+        // The keys of a simulate config's [isp] table, checked as the config reader checks them.
+        let section: camsim::pipeline::config::IspSection =
+            serde_json::from_str(j).map_err(|e| err(format!("steps: {e}")))?;
+        p = p.with_section(&section);
+    }
     p.demosaic = demosaic.parse().map_err(err)?;
     p.white_balance = white_balance.parse().map_err(err)?;
     let out = py.detach(|| p.compute(&img, &s)).map_err(err)?;

@@ -54,6 +54,31 @@ def test_one_isp_through_simulate_the_cli_and_python(tmp_path):
     assert np.array_equal(np.asarray(Image.open(tmp_path / "isp.png")), sim.preview)
 
 
+def test_isp_steps_through_the_config_and_through_python_give_one_preview(tmp_path):
+    """The keys of [isp] (defect correction, denoising, sharpening, tone curve) reach the ISP the
+    same way from a simulate config and from `camsim.isp(..., steps=...)`; without them the
+    preview differs, and an unknown key is refused."""
+    steps = {"defect_correction": "detect", "defect_sigmas": 5.0, "denoise": "nlm", "denoise_strength": 1.5,
+             "sharpen": {"radius_px": 1.2, "amount": 0.6, "threshold": 2.0}, "tone_map": "reinhard"}
+    cfg = (REPO / "crates" / "camsim-cli" / "tests" / "small-chart.toml").read_text()
+    cfg += "\n[isp]\n" + "".join(
+        f"{k} = {json.dumps(v) if not isinstance(v, dict) else '{ ' + ', '.join(f'{a} = {b}' for a, b in v.items()) + ' }'}\n"
+        for k, v in steps.items())
+    (tmp_path / "run.toml").write_text(cfg)
+    sim = camsim.simulate(tmp_path / "run.toml")
+    args = dict(sensor="pixel4a", bits=sim.bits, black_level=sim.black_level)
+    preview, _ = camsim.isp(sim.raw[0], sim.cfa, steps=steps, **args)
+    assert np.array_equal(preview, sim.preview)
+    plain, _ = camsim.isp(sim.raw[0], sim.cfa, steps={"tone_map": "reinhard"}, **args)
+    assert not np.array_equal(plain, sim.preview)
+    try:
+        camsim.isp(sim.raw[0], sim.cfa, steps={"denoize": "nlm"}, **args)
+    except camsim.CamsimError as e:
+        assert "denoize" in str(e)
+    else:
+        raise AssertionError("an unknown step was accepted")
+
+
 def test_chart_patches_are_numbered_1_to_24_with_their_names():
     cfg = camsim.load_config()
     # A window the default chart fits in (it spans about 600 x 400 pixels).

@@ -19,6 +19,7 @@ calls one Rust function and returns numpy arrays, a Simulation or dicts built in
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -213,13 +214,17 @@ def white_balance(rgb: np.ndarray, method: str = "gray-world", *, percentile: fl
 
 def isp(raw: np.ndarray, cfa: str = "RGGB", *, sensor: Union[str, Dict[str, Any]] = "pixel4a", bits: int = 12,
         black_level: float = 0.0, illuminant: str = "D65", demosaic: str = "bilinear",
-        white_balance: str = "illuminant") -> Tuple[np.ndarray, Dict[str, Any]]:
+        white_balance: str = "illuminant", steps: Optional[Dict[str, Any]] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
     """The whole ISP, as `camsim isp` and the preview of `camsim simulate` run it (ISETCam's ip):
     demosaic, white balance (from the scene `illuminant` and the sensor's QE, or gray-world,
-    white-patch, none), the colour matrix fitted on the ColorChecker from the QE, sRGB. Returns
-    (preview (rows, cols, 3) uint8, report: white_balance_gains, camera_to_linear_srgb, ...)."""
+    white-patch, none), the colour matrix fitted on the ColorChecker from the QE, sRGB. `steps`
+    takes the keys of a simulate config's `[isp]` table (e.g. {"defect_correction": "detect",
+    "column_correction": "sensor", "denoise": "nlm", "denoise_strength": 1.5, "sharpen":
+    {"radius_px": 1.2, "amount": 0.6}, "tone_map": "reinhard"}; unknown keys are refused).
+    Returns (preview (rows, cols, 3) uint8, report: white_balance_gains, camera_to_linear_srgb, ...)."""
     r = np.ascontiguousarray(raw, dtype=np.uint16)
-    return _camsim.isp(r, _path_or(sensor), cfa, bits, black_level, illuminant, demosaic, white_balance)
+    steps_json = None if steps is None else json.dumps(steps)
+    return _camsim.isp(r, _path_or(sensor), cfa, bits, black_level, illuminant, demosaic, white_balance, steps_json)
 
 
 def fit_ccm(camera_rgb: np.ndarray, target_xyz: np.ndarray, white_xyz: Sequence[float], *,
