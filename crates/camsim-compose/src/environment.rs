@@ -86,6 +86,19 @@ pub enum EnvironmentKind {
     Sky,
 }
 
+/// How the sky's sun is added.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SunModel {
+    /// A distant light (pbrt-v4 `distant`) with the sun's spectral irradiance.
+    #[default]
+    Distant,
+    /// The sun's power in the map's texel toward it.
+    Disc,
+    /// No sun.
+    None,
+}
+
 /// `[compose.environment]`: the environment light of every sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -139,9 +152,12 @@ pub struct EnvironmentSpec {
     /// lit by the sky and sun. Default 0.2.
     #[serde(default = "default_ground_albedo")]
     pub ground_albedo: f64,
-    /// `kind = "sky"`: add the sun (a distant light). Default true.
-    #[serde(default = "yes")]
-    pub sun: bool,
+    /// `kind = "sky"`: the sun as `distant` (a distant light: exact irradiance, hard shadows,
+    /// not seen by camera rays), `disc` (its power in the sky map's texel toward the sun, with
+    /// the daylight-basis spectrum of its chromaticity: seen by the camera as a texel-sized
+    /// disc, soft shadows) or `none`. Default `distant`.
+    #[serde(default)]
+    pub sun: SunModel,
     /// `kind = "sky"`: height of the sky's latitude-longitude map, texels (even, 16..4096; its
     /// width is twice this). Default 256.
     #[serde(default = "default_sky_height")]
@@ -198,7 +214,7 @@ impl Default for EnvironmentSpec {
             sun_azimuth_deg: default_sun_azimuth(),
             turbidity: default_turbidity(),
             ground_albedo: default_ground_albedo(),
-            sun: true,
+            sun: SunModel::Distant,
             sky_height_px: default_sky_height(),
             choices: Vec::new(),
             weight: 1.0,
@@ -783,11 +799,14 @@ pub struct SkyMap {
     pub coeffs: Vec<[f64; 3]>,
     /// Unit direction toward the sun, light space.
     pub sun_dir_light: [f64; 3],
+    /// The texel holding the sun (`SunModel::Disc`).
+    pub sun_texel: Option<usize>,
     /// Illuminance of the sky (upper hemisphere, without the sun) on the upward plane, lux.
     pub sky_lux: f64,
     /// The sun's illuminance on the upward plane, lux (0 without a sun).
     pub sun_lux: f64,
-    /// The sun's spectral irradiance normal to its rays, W/(m^2 nm) (`None` without a sun).
+    /// The sun's spectral irradiance normal to its rays, W/(m^2 nm), for its distant light
+    /// (`None` without a sun, or with the sun in the map).
     pub sun_irradiance: Option<Spectrum>,
     /// Zenith luminance, cd/m^2.
     pub zenith_cd_m2: f64,
@@ -801,7 +820,7 @@ impl SkyMap {
         elevation_deg: f64,
         azimuth_deg: f64,
         albedo: f64,
-        with_sun: bool,
+        sun_model: SunModel,
         height: usize,
     ) -> std::result::Result<SkyMap, String> {
         let width = 2 * height;
@@ -851,7 +870,7 @@ impl SkyMap {
                 }
             }
         }
-        let (sun_irradiance, sun_lux) = if with_sun && elevation_deg > 0.0 {
+        let (sun_irradiance, sun_lux) = if sun_model != SunModel::None && elevation_deg > 0.0 {
             let s = sun_irradiance(turbidity, ts);
             let lux =
                 LUMINOUS_EFFICACY_LM_PER_W * camsim_scene3d::spectra::photometric(&s) * ts.cos();
@@ -891,9 +910,39 @@ impl SkyMap {
                 }
             }
         }
+        // The disc: the sun's luminance spread over its texel so that the texel's cosine-
+        // weighted solid angle times it is the sun's illuminance (energy kept; the disc shows
+        // as the texel), with the daylight-basis spectrum of the sun's chromaticity.
+        let mut sun_texel = None;
+        let sun_irradiance = match (sun_model, sun_irradiance) {
+            (SunModel::Disc, Some(s)) => {
+                let row = ((ts / PI * height as f64) as usize).min(height / 2 - 1);
+                let phi = azimuth_deg.to_radians().rem_euclid(2.0 * PI);
+                let col = ((phi / (2.0 * PI) * width as f64) as usize).min(width - 1);
+                let t0 = PI * row as f64 / height as f64;
+                let t1 = PI * (row + 1) as f64 / height as f64;
+                let w = 0.5 * dphi * (t1.sin().powi(2) - t0.sin().powi(2));
+                let grid = WavelengthGrid {
+                    start_nm: 360.0,
+                    step_nm: 1.0,
+                    count: 471,
+                };
+                let xyz = Cmfs::on(&grid).xyz(&s.sample(&grid));
+                let sum = xyz[0] + xyz[1] + xyz[2];
+                let c = per_texel([sun_lux / w, xyz[0] / sum, xyz[1] / sum])?;
+                let t = &mut coeffs[row * width + col];
+                for k in 0..3 {
+                    t[k] += c[k];
+                }
+                sun_texel = Some(row * width + col);
+                None
+            }
+            (_, s) => s,
+        };
         Ok(SkyMap {
             height,
             coeffs,
+            sun_texel,
             sun_dir_light: sun,
             sky_lux,
             sun_lux,

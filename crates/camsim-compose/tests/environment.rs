@@ -4,7 +4,7 @@
 //! chromaticity, and the draws' determinism.
 
 use camsim_compose::environment::{
-    apply, preetham_zenith, Draw, EnvironmentKind, EnvironmentSpec, PreethamSky, SkyMap,
+    apply, preetham_zenith, Draw, EnvironmentKind, EnvironmentSpec, PreethamSky, SkyMap, SunModel,
 };
 use camsim_core::colorimetry;
 use camsim_core::units::LUMINOUS_EFFICACY_LM_PER_W;
@@ -320,7 +320,7 @@ fn preetham_zenith_values_match_the_paper() {
         assert!((0..3).all(|k| (z[k] - want[k]).abs() < 1e-9 * want[k]));
         // The map's first row (theta = pi / 512) decodes to within 2 % of the zenith luminance
         // (1.1 % off with the sun 5 degrees from the zenith).
-        let sky = SkyMap::build(t, elev, 0.0, 0.2, true, 256).unwrap();
+        let sky = SkyMap::build(t, elev, 0.0, 0.2, SunModel::Distant, 256).unwrap();
         let c = sky.coeffs[0];
         let b = daylight::basis_xyz();
         let lum = LUMINOUS_EFFICACY_LM_PER_W * (c[0] * b[0][1] + c[1] * b[1][1] + c[2] * b[2][1]);
@@ -339,7 +339,7 @@ fn sky_spectra_have_the_models_chromaticity() {
     let mut worst: f64 = 0.0;
     for (t, elev, az) in [(2.0, 20.0, 30.0), (4.0, 55.0, 200.0), (8.0, 5.0, 100.0)] {
         let h = 32;
-        let sky = SkyMap::build(t, elev, az, 0.2, true, h).unwrap();
+        let sky = SkyMap::build(t, elev, az, 0.2, SunModel::Distant, h).unwrap();
         let model = PreethamSky::new(t, (90.0f64 - elev).to_radians());
         let s = sky.sun_dir_light;
         for yy in (0..h / 2).step_by(3) {
@@ -477,4 +477,112 @@ fn sky_illuminance_and_draws() {
         rec.zenith_luminance_cd_m2.unwrap()
     );
     assert!((60_000.0..130_000.0).contains(&sun) && (5_000.0..30_000.0).contains(&sky));
+}
+
+/// `choices` picks an entry per sample in proportion to its weight (3 : 1 here, 400 samples:
+/// the map's share within 0.06 of 0.75, about 3 standard deviations), the record names it, and
+/// the choice is the same for a seed.
+#[test]
+fn choices_are_drawn_by_weight() {
+    let dir = tempfile::tempdir().unwrap();
+    write_pfm(&dir.path().join("m.pfm"), 32, 16, |_, _| [1.0; 3]);
+    let spec = EnvironmentSpec {
+        choices: vec![
+            EnvironmentSpec {
+                path: Some("m.pfm".into()),
+                weight: 3.0,
+                ..EnvironmentSpec::default()
+            },
+            EnvironmentSpec {
+                kind: EnvironmentKind::Sky,
+                sky_height_px: 16,
+                ..EnvironmentSpec::default()
+            },
+        ],
+        ..EnvironmentSpec::default()
+    };
+    let n = 400;
+    let mut maps = 0;
+    for seed in 0..n {
+        let rec = apply(&mut empty_scene(), &spec, seed, dir.path()).unwrap();
+        let again = apply(&mut empty_scene(), &spec, seed, dir.path()).unwrap();
+        assert_eq!(rec.choice, again.choice);
+        match rec.choice {
+            Some(0) => {
+                assert_eq!(rec.kind, EnvironmentKind::Map);
+                maps += 1;
+            }
+            Some(1) => assert_eq!(rec.kind, EnvironmentKind::Sky),
+            c => panic!("choice {c:?}"),
+        }
+    }
+    let share = maps as f64 / n as f64;
+    eprintln!("map chosen in {maps} of {n} samples ({share:.3}, weight share 0.75)");
+    assert!((share - 0.75).abs() < 0.06);
+    let bad = EnvironmentSpec {
+        choices: vec![EnvironmentSpec {
+            weight: 0.0,
+            ..EnvironmentSpec::default()
+        }],
+        ..EnvironmentSpec::default()
+    };
+    assert_eq!(
+        apply(&mut empty_scene(), &bad, 0, dir.path())
+            .unwrap_err()
+            .key,
+        "compose.environment.choices.0.weight"
+    );
+}
+
+/// `sun = "disc"`: no distant light; the sun's texel carries the sun's illuminance (its
+/// luminance times the texel's cosine-weighted solid angle, by 64 x 64 points in the texel,
+/// equals the record's sun illuminance within 1 %), the texel lies toward the sun, and its
+/// added chromaticity is the sun's (warmer than the zenith sky).
+#[test]
+fn sun_disc_lives_in_the_map() {
+    let spec = EnvironmentSpec {
+        kind: EnvironmentKind::Sky,
+        sun: SunModel::Disc,
+        sun_elevation_deg: Draw::Fixed(35.0),
+        sun_azimuth_deg: Draw::Fixed(120.0),
+        sky_height_px: 128,
+        up: [0.0, 0.0, 1.0],
+        ..EnvironmentSpec::default()
+    };
+    let mut scene = empty_scene();
+    let rec = apply(&mut scene, &spec, 0, Path::new(".")).unwrap();
+    assert!(!scene
+        .lights
+        .iter()
+        .any(|l| matches!(l, Light::Distant { .. })));
+    let sky = SkyMap::build(3.0, 35.0, 120.0, 0.2, SunModel::Disc, 128).unwrap();
+    let with = sky.sun_texel.unwrap();
+    let none = SkyMap::build(3.0, 35.0, 120.0, 0.2, SunModel::None, 128).unwrap();
+    let b = daylight::basis_xyz();
+    let (h, w) = (128usize, 256usize);
+    let (row, col) = (with / w, with % w);
+    let d: [f64; 3] = std::array::from_fn(|k| sky.coeffs[with][k] - none.coeffs[with][k]);
+    let xyz: [f64; 3] = std::array::from_fn(|j| (0..3).map(|k| d[k] * b[k][j]).sum());
+    let lum = LUMINOUS_EFFICACY_LM_PER_W * xyz[1];
+    let q = 64;
+    let mut cos_sa = 0.0;
+    for jj in 0..q {
+        let th = PI * (row as f64 + (jj as f64 + 0.5) / q as f64) / h as f64;
+        cos_sa += th.cos() * th.sin() * (PI / (h * q) as f64) * (2.0 * PI / w as f64);
+    }
+    let e = lum * cos_sa;
+    let sun = rec.sun_illuminance_lux.unwrap();
+    eprintln!("sun texel ({row}, {col}): {lum:.3e} cd/m^2 x {cos_sa:.3e} sr = {e:.0} lux; record {sun:.0} lux");
+    assert!((e / sun - 1.0).abs() < 0.01);
+    // The texel points at the sun.
+    let th = PI * (row as f64 + 0.5) / h as f64;
+    let ph = 2.0 * PI * (col as f64 + 0.5) / w as f64;
+    assert!((th.to_degrees() - 55.0).abs() < 1.0 && (ph.to_degrees() - 120.0).abs() < 1.0);
+    let s = xyz[0] + xyz[1] + xyz[2];
+    let z = none.coeffs[0];
+    let zx: [f64; 3] = std::array::from_fn(|j| (0..3).map(|k| z[k] * b[k][j]).sum());
+    assert!(
+        xyz[0] / s > zx[0] / (zx[0] + zx[1] + zx[2]) + 0.03,
+        "the sun should be warmer than the zenith sky"
+    );
 }
