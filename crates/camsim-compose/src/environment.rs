@@ -249,6 +249,9 @@ pub struct EnvironmentRecord {
     pub sun_illuminance_lux: Option<f64>,
     /// World direction toward the sun (unit).
     pub sun_direction: Option<[f64; 3]>,
+    /// Sky texels whose chromaticity was moved toward the daylight locus to keep their
+    /// daylight-basis spectrum non-negative (0 but for a sun near the horizon).
+    pub sky_texels_desaturated: Option<usize>,
 }
 
 /// Keyed stream indices of the environment stage's draws.
@@ -340,6 +343,7 @@ pub fn apply(
         zenith_luminance_cd_m2: None,
         sun_illuminance_lux: None,
         sun_direction: None,
+        sky_texels_desaturated: None,
     };
     match spec.kind {
         EnvironmentKind::Map => {
@@ -481,6 +485,7 @@ pub fn apply(
             record.zenith_luminance_cd_m2 = Some(sky.zenith_cd_m2 * scale);
             record.sun_illuminance_lux = Some(sky.sun_lux * scale);
             record.sun_direction = Some(sun_dir);
+            record.sky_texels_desaturated = Some(sky.desaturated_texels);
         }
     }
     Ok(record)
@@ -801,6 +806,9 @@ pub struct SkyMap {
     pub sun_dir_light: [f64; 3],
     /// The texel holding the sun (`SunModel::Disc`).
     pub sun_texel: Option<usize>,
+    /// Texels whose chromaticity was moved toward the daylight locus so that their spectrum is
+    /// non-negative (next to a sun on the horizon; [`daylight::m1_m2_non_negative`]).
+    pub desaturated_texels: usize,
     /// Illuminance of the sky (upper hemisphere, without the sun) on the upward plane, lux.
     pub sky_lux: f64,
     /// The sun's illuminance on the upward plane, lux (0 without a sun).
@@ -829,11 +837,18 @@ impl SkyMap {
         let sun = [ts.sin() * ca, ts.sin() * sa, ts.cos()];
         let sky = PreethamSky::new(turbidity, ts);
         let mut coeffs = vec![[0.0; 3]; width * height];
+        // Chromaticities the basis reaches only with a negative spectrum are moved toward the
+        // daylight locus until it is non-negative over 380-780 nm
+        // (daylight::m1_m2_non_negative; counted).
+        let moved = std::cell::Cell::new(0usize);
         let per_texel = |xyy: [f64; 3]| -> std::result::Result<[f64; 3], String> {
             let [lum, x, y] = xyy;
-            let m = daylight::m1_m2(x, y).ok_or_else(|| {
+            let (m, used) = daylight::m1_m2_non_negative(x, y).ok_or_else(|| {
                 format!("the sky's chromaticity ({x:.4}, {y:.4}) has no daylight-basis spectrum")
             })?;
+            if used != [x, y] {
+                moved.set(moved.get() + 1);
+            }
             let k = lum / (LUMINOUS_EFFICACY_LM_PER_W * daylight::y_integral(m));
             Ok([k, k * m[0], k * m[1]])
         };
@@ -942,6 +957,7 @@ impl SkyMap {
         Ok(SkyMap {
             height,
             coeffs,
+            desaturated_texels: moved.get(),
             sun_texel,
             sun_dir_light: sun,
             sky_lux,

@@ -96,6 +96,63 @@ pub fn m1_m2(x: f64, y: f64) -> Option<[f64; 2]> {
     m.iter().all(|v| v.is_finite()).then_some(m)
 }
 
+/// The chromaticity toward which [`m1_m2_non_negative`] moves one the basis cannot reach with a
+/// non-negative spectrum when the daylight locus at its x is not reachable either: CIE D65's
+/// (0.31272, 0.32903).
+pub const FALLBACK_WHITE_XY: [f64; 2] = [0.31272, 0.32903];
+
+/// The CIE daylight locus `y_D = -3.000 x^2 + 2.870 x - 0.275` (CIE 015:2018 eq. 4.6; defined
+/// for 4000-25000 K, used beyond as a direction to move toward).
+pub fn daylight_locus_y(x: f64) -> f64 {
+    -3.0 * x * x + 2.870 * x - 0.275
+}
+
+/// True when `S0 + M1 S1 + M2 S2` is non-negative over 380-780 nm (exact: the basis is linear
+/// between its 10 nm samples, so the table's samples there decide).
+pub fn non_negative_visible(m: [f64; 2]) -> bool {
+    let first = ((380.0 - BASIS_START_NM) / BASIS_STEP_NM) as usize;
+    let last = ((780.0 - BASIS_START_NM) / BASIS_STEP_NM) as usize;
+    S0_S1_S2[first..=last]
+        .iter()
+        .all(|r| r[0] + m[0] * r[1] + m[1] * r[2] >= 0.0)
+}
+
+/// `(M1, M2, (x', y'))`: [`m1_m2`] of the chromaticity nearest `(x, y)` along a segment toward
+/// a target for which the spectrum is non-negative over 380-780 nm ([`non_negative_visible`];
+/// bisection to 1e-6 of the segment). The target is the daylight locus at the same x
+/// ([`daylight_locus_y`]), or D65 ([`FALLBACK_WHITE_XY`]) when that is not reachable either;
+/// `(x', y') = (x, y)` when `(x, y)` is. Daylight-basis spectra of chromaticities off the
+/// daylight locus (Preetham's sky next to a setting sun: x 0.42, y 0.44) dip below zero in the
+/// violet; this moves them toward the locus until they do not. `None` when no target works.
+pub fn m1_m2_non_negative(x: f64, y: f64) -> Option<([f64; 2], [f64; 2])> {
+    let m0 = m1_m2(x, y)?;
+    if non_negative_visible(m0) {
+        return Some((m0, [x, y]));
+    }
+    for target in [[x, daylight_locus_y(x)], FALLBACK_WHITE_XY] {
+        let at = |t: f64| [x + t * (target[0] - x), y + t * (target[1] - y)];
+        let ok = |t: f64| {
+            let c = at(t);
+            m1_m2(c[0], c[1]).is_some_and(non_negative_visible)
+        };
+        if !ok(1.0) {
+            continue;
+        }
+        let (mut lo, mut hi) = (0.0, 1.0);
+        while hi - lo > 1e-6 {
+            let mid = 0.5 * (lo + hi);
+            if ok(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let c = at(hi);
+        return Some((m1_m2(c[0], c[1])?, c));
+    }
+    None
+}
+
 /// CIE 015:2018 eq. 4.7-4.9: `M = -1.3515 - 1.7703 x + 5.9114 y`, ... over
 /// `0.0241 + 0.2562 x - 0.7341 y` (the published rounded closed form of [`m1_m2`]).
 pub fn cie_m1_m2(x: f64, y: f64) -> [f64; 2] {
@@ -157,5 +214,21 @@ mod tests {
         };
         let s = xyz[0] + xyz[1] + xyz[2];
         assert!((xyz[0] / s - x).abs() < 1e-9 && (xyz[1] / s - y).abs() < 1e-9);
+    }
+
+    /// A chromaticity the basis reaches non-negatively is kept; a greenish-warm one next to a
+    /// setting sun (0.42, 0.44) is moved down toward the daylight locus at its x, just far
+    /// enough (a little less would be negative at some visible wavelength).
+    #[test]
+    fn non_negative_solve_moves_toward_the_locus() {
+        let (m, used) = m1_m2_non_negative(0.31, 0.33).unwrap();
+        assert_eq!(used, [0.31, 0.33]);
+        assert_eq!(m, m1_m2(0.31, 0.33).unwrap());
+        assert!(!non_negative_visible(m1_m2(0.42, 0.44).unwrap()));
+        let (m, used) = m1_m2_non_negative(0.42, 0.44).unwrap();
+        assert!(non_negative_visible(m));
+        assert!(used[0] == 0.42 && used[1] < 0.44 && used[1] > daylight_locus_y(0.42));
+        let nearer = m1_m2(0.42, used[1] + 1e-4).unwrap();
+        assert!(!non_negative_visible(nearer));
     }
 }
