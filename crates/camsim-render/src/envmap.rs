@@ -9,7 +9,7 @@
 //! A map's texels are linear RGB (uplifted per texel) or the coefficients of a three-function
 //! spectral basis (`EnvironmentMap::basis`, the CIE daylight basis of the spectral sky): the
 //! mappings, the texel distribution and the sampling are the same code for both; only the
-//! texel's spectrum differs ([`Texels`]).
+//! texel's spectrum differs (the private `Texels`).
 
 use crate::math::V3;
 use crate::scene::{EnvMapping, EnvironmentMap};
