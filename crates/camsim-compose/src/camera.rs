@@ -685,13 +685,15 @@ impl Caster {
         d: [f64; 3],
         t_of: &mut [f64],
         touched: &mut Vec<usize>,
+        stack: &mut Vec<usize>,
     ) -> Option<usize> {
         if self.nodes.is_empty() {
             return None;
         }
         let inv = d.map(|v| 1.0 / v);
         let mut first: Option<(f64, usize)> = None;
-        let mut stack = vec![0usize];
+        stack.clear();
+        stack.push(0);
         while let Some(n) = stack.pop() {
             let node = &self.nodes[n];
             // Slab test (Kay and Kajiya 1986).
@@ -750,6 +752,7 @@ impl Caster {
         let (mut vis, mut total) = (vec![0usize; nobj], vec![0usize; nobj]);
         let mut t_of = vec![f64::INFINITY; nobj];
         let mut touched = Vec::new();
+        let mut stack = Vec::new();
         let (mut background, mut in_frame) = (0usize, 0usize);
         // The grid extends 1.5x the frame in each direction (so truncation lowers visibility);
         // in-frame rays sit at the frame's cell centres.
@@ -767,7 +770,7 @@ impl Caster {
                 let l = dot(d, d).sqrt();
                 let d = d.map(|v| v / l);
                 let inside = (0..nx).contains(&i) && (0..ny).contains(&j);
-                let first = self.cast(o, d, &mut t_of, &mut touched);
+                let first = self.cast(o, d, &mut t_of, &mut touched, &mut stack);
                 for g in touched.drain(..) {
                     total[g] += 1;
                     t_of[g] = f64::INFINITY;
