@@ -307,6 +307,14 @@ impl Loc {
     }
 }
 
+/// Read a floating-point image file (`.exr`, `.pfm`, `.hdr` Radiance RGBE; any other format
+/// the image readers know, decoded by pbrt-v4's per-format rules with PNG taken as linear) as
+/// `(width, height, linear RGB texels)`, row 0 at the top. Errors name the file. Used by scene
+/// composition (`camsim-compose`) for environment maps.
+pub fn read_linear_image(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+    images::load_image(path, images::Encoding::Linear)
+}
+
 /// Read a pbrt-v4 scene file (and the files it includes).
 pub fn parse_file(path: impl AsRef<Path>) -> Result<SceneDescription, PbrtError> {
     let path = path.as_ref();

@@ -5,10 +5,15 @@
 //!
 //! Because radiance is looked up at the nearest texel and the distribution is constant per
 //! texel, the sampled density and the looked-up radiance always refer to the same texel.
+//!
+//! A map's texels are linear RGB (uplifted per texel) or the coefficients of a three-function
+//! spectral basis (`EnvironmentMap::basis`, the CIE daylight basis of the spectral sky): the
+//! mappings, the texel distribution and the sampling are the same code for both; only the
+//! texel's spectrum differs (the private `Texels`).
 
 use crate::math::V3;
 use crate::scene::{EnvMapping, EnvironmentMap};
-use crate::spectral::{Lambdas, SpectrumTable};
+use crate::spectral::{Lambdas, SpectrumTable, WavelengthSampler};
 use crate::uplift::SigmoidPolynomial;
 use std::f64::consts::PI;
 
@@ -17,14 +22,27 @@ pub use camsim_scene3d::envmap::{
 };
 
 /// Sampling weight of each texel: the mean of its RGB channels (pbrt-v4 uses the channel
-/// average too), times sin(theta) at the row centre for lat-long maps (their texels' solid
-/// angle), so that texels are picked in proportion to their power.
+/// average too), or for a basis map the mean over 380-780 nm of its spectrum `sum c_k B_k`
+/// (the basis means taken at 5 nm), times sin(theta) at the row centre for lat-long maps
+/// (their texels' solid angle), so that texels are picked in proportion to their power.
 pub fn texel_weights(map: &EnvironmentMap) -> Vec<f64> {
     let (w, h) = (map.width, map.height);
+    let basis_mean = map.basis.as_ref().map(|b| {
+        let mean = |s: &camsim_core::Spectrum| {
+            (0..=80)
+                .map(|i| s.eval(380.0 + 5.0 * i as f64))
+                .sum::<f64>()
+                / 81.0
+        };
+        [mean(&b[0]), mean(&b[1]), mean(&b[2])]
+    });
     (0..w * h)
         .map(|i| {
             let c = map.rgb[i];
-            let mean = (c[0] as f64 + c[1] as f64 + c[2] as f64) / 3.0;
+            let mean = match basis_mean {
+                None => (c[0] as f64 + c[1] as f64 + c[2] as f64) / 3.0,
+                Some(m) => c[0] as f64 * m[0] + c[1] as f64 * m[1] + c[2] as f64 * m[2],
+            };
             match map.mapping {
                 EnvMapping::EqualAreaOctahedral => mean.max(0.0),
                 EnvMapping::LatLong => {
@@ -85,13 +103,25 @@ impl RgbIlluminants {
     }
 }
 
+/// What a texel's three values mean.
+#[derive(Debug, Clone)]
+enum Texels {
+    /// Linear RGB, uplifted as illuminant spectra.
+    Rgb(RgbIlluminants),
+    /// Coefficients of three basis spectra, tabulated with their signs (negative sums clamp to 0).
+    Basis {
+        coeffs: Vec<[f32; 3]>,
+        basis: Box<[SpectrumTable; 3]>,
+    },
+}
+
 /// A compiled environment light.
 #[derive(Debug, Clone)]
 pub(crate) struct EnvLight {
     width: usize,
     height: usize,
     mapping: EnvMapping,
-    texels: RgbIlluminants,
+    texels: Texels,
     /// Rows of the world-to-light and light-to-world rotations.
     to_light: [V3; 3],
     to_world: [V3; 3],
@@ -108,7 +138,7 @@ pub(crate) struct EnvLight {
 }
 
 impl EnvLight {
-    pub(crate) fn new(map: &EnvironmentMap) -> Result<EnvLight, String> {
+    pub(crate) fn new(map: &EnvironmentMap, ws: &WavelengthSampler) -> Result<EnvLight, String> {
         let (w, h) = (map.width, map.height);
         if w == 0 || h == 0 || map.rgb.len() != w * h {
             return Err(format!(
@@ -129,13 +159,25 @@ impl EnvLight {
             }
             _ => {}
         }
-        if map
-            .rgb
-            .iter()
-            .flatten()
-            .any(|v| !(v.is_finite() && *v >= 0.0))
-        {
-            return Err("environment map has a negative or non-finite texel".into());
+        match &map.basis {
+            None => {
+                if map
+                    .rgb
+                    .iter()
+                    .flatten()
+                    .any(|v| !(v.is_finite() && *v >= 0.0))
+                {
+                    return Err("environment map has a negative or non-finite texel".into());
+                }
+            }
+            Some(b) => {
+                if map.rgb.iter().flatten().any(|v| !v.is_finite()) {
+                    return Err("environment map has a non-finite basis coefficient".into());
+                }
+                if b.iter().flat_map(|s| &s.values).any(|v| !v.is_finite()) {
+                    return Err("environment map basis spectrum is not finite".into());
+                }
+            }
         }
         let m = &map.light_to_world.m;
         let to_world = [
@@ -154,7 +196,15 @@ impl EnvLight {
             V3::from_f64([inv.m[1][0], inv.m[1][1], inv.m[1][2]]),
             V3::from_f64([inv.m[2][0], inv.m[2][1], inv.m[2][2]]),
         ];
-        let texels = RgbIlluminants::new(&map.rgb);
+        let texels = match &map.basis {
+            None => Texels::Rgb(RgbIlluminants::new(&map.rgb)),
+            Some(b) => Texels::Basis {
+                coeffs: map.rgb.clone(),
+                basis: Box::new(std::array::from_fn(|k| {
+                    SpectrumTable::new_signed(&b[k], 1.0, ws)
+                })),
+            },
+        };
         let weight = texel_weights(map);
         let mut row_cdf = vec![0.0; h + 1];
         let mut col_cdf = vec![0.0; (w + 1) * h];
@@ -290,7 +340,8 @@ impl EnvLight {
         (pdf > 0.0).then_some((wi, texel, pdf))
     }
 
-    /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`.
+    /// Radiance of `texel` at the path's wavelengths, W/(sr m^2 nm): `2m S(lambda) illuminant`
+    /// for RGB texels, `max(0, sum_k c_k B_k(lambda)) illuminant` for basis texels.
     #[inline]
     pub(crate) fn radiance<const N: usize>(
         &self,
@@ -298,7 +349,17 @@ impl EnvLight {
         illuminant: &SpectrumTable,
         lambdas: &Lambdas<N>,
     ) -> [f32; N] {
-        self.texels.eval(texel, illuminant, lambdas)
+        match &self.texels {
+            Texels::Rgb(t) => t.eval(texel, illuminant, lambdas),
+            Texels::Basis { coeffs, basis } => {
+                let c = coeffs[texel];
+                let il = illuminant.eval_path(lambdas);
+                let b: [[f32; N]; 3] = std::array::from_fn(|k| basis[k].eval_path(lambdas));
+                std::array::from_fn(|i| {
+                    (c[0] * b[0][i] + c[1] * b[1][i] + c[2] * b[2][i]).max(0.0) * il[i]
+                })
+            }
+        }
     }
 }
 
@@ -320,6 +381,7 @@ mod tests {
             mapping,
             illuminant: camsim_core::Spectrum::new(vec![300.0, 900.0], vec![1.0, 1.0], "flat")
                 .unwrap(),
+            basis: None,
             light_to_world: crate::scene::Transform::rotate(25.0, [0.3, 1.0, 0.2]),
         }
     }
@@ -335,7 +397,8 @@ mod tests {
             (EnvMapping::LatLong, 64, 32),
         ] {
             let map = test_map(mapping, w, h);
-            let env = EnvLight::new(&map).unwrap();
+            let ws = WavelengthSampler::new(&camsim_core::WavelengthGrid::default());
+            let env = EnvLight::new(&map, &ws).unwrap();
             let weight_of = |dir: V3| {
                 let (texel, _) = env.lookup(dir);
                 let c = map.rgb[texel];

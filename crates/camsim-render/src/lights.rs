@@ -613,7 +613,7 @@ impl Lights {
                 self.push(LightKind::Distant { to_light: -d }, t, true);
             }
             Light::Environment(map) => {
-                let env = EnvLight::new(map)?;
+                let env = EnvLight::new(map, ws)?;
                 let t = table(&map.illuminant, "environment map illuminant")?;
                 self.envs.push(env);
                 self.push(LightKind::Env((self.envs.len() - 1) as u32), t, true);

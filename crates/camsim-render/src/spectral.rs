@@ -117,6 +117,16 @@ pub struct SpectrumTable {
 impl SpectrumTable {
     /// Tabulate `s` (times `scale`) over the sampler's range; negative values clamp to 0.
     pub fn new(s: &Spectrum, scale: f64, ws: &WavelengthSampler) -> SpectrumTable {
+        Self::tabulate(s, scale, ws, 0.0)
+    }
+
+    /// As [`Self::new`], keeping negative values (a basis function, such as the CIE daylight
+    /// S1 and S2, that is summed with others before it means a radiance).
+    pub fn new_signed(s: &Spectrum, scale: f64, ws: &WavelengthSampler) -> SpectrumTable {
+        Self::tabulate(s, scale, ws, f64::NEG_INFINITY)
+    }
+
+    fn tabulate(s: &Spectrum, scale: f64, ws: &WavelengthSampler, floor: f64) -> SpectrumTable {
         let (dx, n) = ws.table_layout();
         debug_assert_eq!(((1.0 / dx) as f32, n), (ws.table_inv_dx, ws.table_len));
         let (w0, w1) = (
@@ -125,7 +135,7 @@ impl SpectrumTable {
         );
         let values = (0..n)
             .map(|i| {
-                (s.eval((ws.lo_nm as f64 + i as f64 * dx).clamp(w0, w1)) * scale).max(0.0) as f32
+                (s.eval((ws.lo_nm as f64 + i as f64 * dx).clamp(w0, w1)) * scale).max(floor) as f32
             })
             .collect();
         let (data_lo_nm, data_hi_nm) = match s.extrapolation {

@@ -358,6 +358,7 @@ fn environment_map_irradiance_matches_the_map_integral() {
         rgb: rgb.clone(),
         mapping: EnvMapping::EqualAreaOctahedral,
         illuminant: flat(1.0),
+        basis: None,
         light_to_world: Transform::identity(),
     };
     let q = 16;
@@ -422,6 +423,7 @@ fn white_furnace_with_a_constant_environment_map() {
             rgb: vec![[l as f32; 3]; w * h],
             mapping,
             illuminant: flat(1.0),
+            basis: None,
             light_to_world: Transform::rotate(37.0, [1.0, 2.0, 0.5]),
         };
         let cam = camera(

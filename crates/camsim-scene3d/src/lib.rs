@@ -7,7 +7,7 @@
 //! surfaces turned into triangles), [`curves`] (pbrt-v4 curves as cubic Bezier segments),
 //! [`xform`] (transform and shape-bounds math), [`camera`] (look-at, focal-length and lens
 //! set-ups), [`motion`] (the scene in time: animated transforms, the shutter, what moves),
-//! [`envmap`] (environment-map parameterisations), [`media`] (participating media and measured
+//! [`envmap`] (environment-map parameterisations), [`daylight`] (the CIE daylight basis), [`media`] (participating media and measured
 //! scattering presets),
 //! [`transform`] (the 4x4 transform every module shares), [`uplift`] (RGB -> spectrum, Jakob and Hanika 2019), [`spectra`] (photometry) and
 //! [`builtin`] (the built-in scenes: the Cornell box and its variants).
@@ -15,6 +15,7 @@
 pub mod builtin;
 pub mod camera;
 pub mod curves;
+pub mod daylight;
 pub mod envmap;
 pub mod media;
 pub mod motion;

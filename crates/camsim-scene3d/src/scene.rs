@@ -740,17 +740,27 @@ pub enum EnvMapping {
     LatLong,
 }
 
-/// An environment map: linear RGB texels (row 0 at the top, nearest lookup as pbrt-v4's
-/// `ImageInfiniteLight`), uplifted per texel as an illuminant: `L(lambda) = 2 m S(rgb / 2m)
-/// (lambda) illuminant(lambda)` with `m` the largest component (pbrt-v4 `RGBIlluminantSpectrum`).
+/// An environment map: three values per texel (row 0 at the top, nearest lookup as pbrt-v4's
+/// `ImageInfiniteLight`). Without a [`basis`](Self::basis) they are linear RGB, uplifted per
+/// texel as an illuminant: `L(lambda) = 2 m S(rgb / 2m)(lambda) illuminant(lambda)` with `m` the
+/// largest component (pbrt-v4 `RGBIlluminantSpectrum`). With a basis `B` they are the
+/// coefficients of a spectrum: `L(lambda) = max(0, c0 B0 + c1 B1 + c2 B2)(lambda)
+/// illuminant(lambda)` (coefficients may be negative; the spectral sky of `camsim-compose`,
+/// with `B` the CIE daylight basis [`crate::daylight`]), so each direction has a full spectrum.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvironmentMap {
     pub width: usize,
     pub height: usize,
+    /// Row-major texels: linear RGB, or the coefficients of [`Self::basis`].
     pub rgb: Vec<[f32; 3]>,
     pub mapping: EnvMapping,
-    /// The colour space's illuminant with every scale applied: W/(sr m^2 nm) per unit RGB.
+    /// With RGB texels, the colour space's illuminant with every scale applied: W/(sr m^2 nm)
+    /// per unit RGB. With a basis, a factor on the basis sum (a constant 1 keeps the basis's
+    /// units; a scale applied to the light scales it).
     pub illuminant: Spectrum,
+    /// `Some`: the texels are coefficients of these three spectra (see the type's docs);
+    /// `None`: linear RGB.
+    pub basis: Option<std::sync::Arc<[Spectrum; 3]>>,
     /// Light-to-world rotation (pbrt's CTM at the `LightSource`; translation ignored).
     pub light_to_world: Transform,
 }

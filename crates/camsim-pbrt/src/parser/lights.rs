@@ -181,6 +181,7 @@ impl SceneBuilder {
                     rgb,
                     mapping,
                     illuminant: illum.spectrum.scaled(scale / LUMINOUS_EFFICACY_LM_PER_W),
+                    basis: None,
                     light_to_world: rot,
                 }));
             }
