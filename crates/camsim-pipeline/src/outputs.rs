@@ -49,6 +49,9 @@ pub enum Output {
     /// preview.gif: an animation of every frame's preview (a burst, bracket or video; a run of
     /// one frame skips it), each frame shown for the frame interval.
     PreviewGif,
+    /// preview.jpg: the preview as a baseline JPEG at `[isp] jpeg_quality` (default 90), the
+    /// format training pipelines read.
+    PreviewJpeg,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -125,6 +128,11 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "preview.gif: every frame's preview as an animation, shown at the frame rate (more than one frame)",
             Output::PreviewGif,
         ),
+        out(
+            "preview-jpeg",
+            "preview.jpg: the ISP's sRGB image as a JPEG at [isp] jpeg_quality (default 90)",
+            Output::PreviewJpeg,
+        ),
     ],
 };
 
@@ -145,7 +153,7 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 14] = {
+    pub const ALL: [Output; 15] = {
         let e = OUTPUTS.entries;
         [
             e[0].value,
@@ -162,6 +170,7 @@ impl Output {
             e[11].value,
             e[12].value,
             e[13].value,
+            e[14].value,
         ]
     };
 

@@ -959,6 +959,22 @@ impl Simulation {
                     )?)
                 }));
             }
+            if outputs.contains(Output::PreviewJpeg) {
+                t.push(Box::new(move || {
+                    let p = &self.preview;
+                    let q = self
+                        .config
+                        .isp
+                        .jpeg_quality
+                        .unwrap_or(crate::isp::DEFAULT_JPEG_QUALITY);
+                    let bytes = camsim_isp::jpeg::encode_jpeg(p.rows, p.cols, &p.data, q)
+                        .map_err(|e| PipelineError::config(format!("isp.jpeg_quality: {e}")))?;
+                    Ok(camsim_io::atomic::write_bytes_atomic(
+                        &out.join("preview.jpg"),
+                        &bytes,
+                    )?)
+                }));
+            }
             if outputs.contains(Output::Preview) {
                 t.push(Box::new(move || {
                     let p = &self.preview;
