@@ -17,6 +17,7 @@
 
 pub mod chart;
 pub mod color_difference;
+pub mod distortion;
 pub mod emva;
 pub mod error;
 pub mod glare;

@@ -44,6 +44,73 @@ pub struct SimLabels {
     /// The optics applied a lens's distortion: the raw grid departs from `sensor_camera`'s
     /// pinhole by it (the label maps follow it, the pinhole model does not).
     pub distorted: bool,
+    /// With `distorted`: OpenCV's distortion coefficients fitted to the optics' own map, so
+    /// `sensor_camera.k` with them reproduces the raw grid (see [`SensorDistortion`]).
+    pub sensor_distortion: Option<SensorDistortion>,
+}
+
+/// The raw grid's distortion as OpenCV's model ([`camsim_analysis::distortion`]) fitted to the
+/// optics' map: for sensor pixels on a grid, the undistorted normalized coordinates of the
+/// scene point imaged there (the render camera's K inverted at the map's render position) and
+/// the distorted ones (the sensor camera's K inverted at the pixel).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SensorDistortion {
+    /// OpenCV's `distCoeffs`, `[k1, k2, p1, p2, k3]`, for `cameras.sensor.k`.
+    pub dist_coeffs: [f64; 5],
+    /// Reprojection error of the fit over the fitted pixels, sensor pixels (RMS and largest).
+    pub rms_px: f64,
+    pub max_px: f64,
+    /// How many sensor pixels were fitted.
+    pub points: usize,
+}
+
+/// Fit [`SensorDistortion`] on every `step`-th raw pixel of `raster` (render raster positions
+/// in pixel-edge coordinates, NaN outside the render) between the render's K and the sensor's.
+fn fit_sensor_distortion(
+    raster: &RasterPositions,
+    render_k: &[[f64; 3]; 3],
+    sensor_k: &[[f64; 3]; 3],
+) -> Result<SensorDistortion> {
+    let step = (raster.width.max(raster.height) / 48).max(1);
+    let (mut und, mut dis, mut px) = (Vec::new(), Vec::new(), Vec::new());
+    for r in (0..raster.height).step_by(step) {
+        for c in (0..raster.width).step_by(step) {
+            let p = raster.xy[r * raster.width + c];
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                continue;
+            }
+            // K's pixel centres sit at integer coordinates; the raster's at + 0.5.
+            let (u, v) = (p[0] as f64 - 0.5, p[1] as f64 - 0.5);
+            und.push([
+                (u - render_k[0][2]) / render_k[0][0],
+                (v - render_k[1][2]) / render_k[1][1],
+            ]);
+            dis.push([
+                (c as f64 - sensor_k[0][2]) / sensor_k[0][0],
+                (r as f64 - sensor_k[1][2]) / sensor_k[1][1],
+            ]);
+            px.push([c as f64, r as f64]);
+        }
+    }
+    let d = camsim_analysis::distortion::fit_opencv(&und, &dis)
+        .map_err(|e| PipelineError::config(format!("labels: {e}")))?;
+    let (mut sum2, mut max) = (0.0f64, 0.0f64);
+    for (x, want) in und.iter().zip(&px) {
+        let [xd, yd] = d.apply(*x);
+        let (u, v) = (
+            sensor_k[0][0] * xd + sensor_k[0][2],
+            sensor_k[1][1] * yd + sensor_k[1][2],
+        );
+        let e = (u - want[0]).hypot(v - want[1]);
+        sum2 += e * e;
+        max = max.max(e);
+    }
+    Ok(SensorDistortion {
+        dist_coeffs: d.coefficients(),
+        rms_px: (sum2 / px.len() as f64).sqrt(),
+        max_px: max,
+        points: px.len(),
+    })
 }
 
 /// The labels of one raw frame of a moving 3D scene: every frame is rendered in its own window,
@@ -133,17 +200,28 @@ pub fn sensor_labels(
         ],
         world_to_camera: scene.camera.world_to_camera,
     };
+    let distorted = map.is_some_and(|m| m.is_distorted());
+    let sensor_distortion = if distorted {
+        Some(fit_sensor_distortion(
+            &raster,
+            &scene.camera.k,
+            &sensor_camera.k,
+        )?)
+    } else {
+        None
+    };
     Ok(SimLabels {
         scene,
         sensor: sensor_labels,
         sensor_ids,
         sensor_camera,
-        distorted: map.is_some_and(|m| m.is_distorted()),
+        distorted,
+        sensor_distortion,
     })
 }
 
 /// What the labels' files say about their conventions (boxes.json and run.json).
-const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render.";
+const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render. sensor_distortion_opencv (with a distorting lens): OpenCV's distCoeffs [k1, k2, p1, p2, k3] for the sensor K, fitted to the optics' map, with the fit's reprojection RMS and largest error in sensor pixels.";
 
 impl SimLabels {
     /// The camera models of both geometries, for run.json and boxes.json.
@@ -153,6 +231,7 @@ impl SimLabels {
             "scene": self.scene.camera,
             "sensor": self.sensor_camera,
             "sensor_distorted": self.distorted,
+            "sensor_distortion_opencv": self.sensor_distortion,
         })
     }
 

@@ -260,6 +260,38 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         );
     }
 
+    // OpenCV's model fitted to the optics' map reproduces the traced chief rays: each corner
+    // through K and the fitted (k1, k2, p1, p2, k3) within 0.1 px of its traced position.
+    let l = sim.labels.as_ref().unwrap();
+    let d = l
+        .sensor_distortion
+        .expect("a distorting lens has fitted coefficients");
+    assert!(d.rms_px <= 0.1 && d.points > 1000, "{d:?}");
+    let cv = camsim_analysis::distortion::OpenCvDistortion {
+        k1: d.dist_coeffs[0],
+        k2: d.dist_coeffs[1],
+        p1: d.dist_coeffs[2],
+        p2: d.dist_coeffs[3],
+        k3: d.dist_coeffs[4],
+    };
+    let k = l.sensor_camera.k;
+    for (p, t) in box_corners().iter().zip(&traced) {
+        let [xd, yd] = cv.apply([p[0] / p[2], p[1] / p[2]]);
+        // K's pixel centres at integers; the traced positions in pixel edges.
+        let (u, v) = (k[0][0] * xd + k[0][2] + 0.5, k[1][1] * yd + k[1][2] + 0.5);
+        assert!(
+            (u - t[0]).hypot(v - t[1]) <= 0.1 + 0.05,
+            "corner at ({u:.3}, {v:.3}) through OpenCV's model, traced ({:.3}, {:.3}); {d:?}",
+            t[0],
+            t[1]
+        );
+    }
+    let json = l.cameras_json();
+    assert_eq!(
+        json["sensor_distortion_opencv"]["dist_coeffs"][0].as_f64(),
+        Some(d.dist_coeffs[0])
+    );
+
     // Without distortion (the default lens): the corners through the sensor grid's K.
     let sim = run(
         &box_scene(),
@@ -269,7 +301,7 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         1,
     );
     let l = sim.labels.as_ref().unwrap();
-    assert!(!l.distorted);
+    assert!(!l.distorted && l.sensor_distortion.is_none());
     let proj: Vec<[f64; 2]> = box_corners()
         .iter()
         .map(|p| l.sensor_camera.project(*p).map(|u| u + 0.5))
