@@ -6,6 +6,7 @@
 //! from the `colour-science` Python package (0.4.7), each table naming its published source.
 
 pub mod cie;
+pub mod lamps;
 pub mod macbeth;
 
 use crate::error::{CoreError, Result};
@@ -15,7 +16,29 @@ use crate::units::planck_radiance_w_per_sr_m2_nm;
 
 /// Names accepted by [`illuminant`] (case-insensitive). `blackbody-<K>` takes any temperature in
 /// kelvin between [`BLACKBODY_MIN_K`] and [`BLACKBODY_MAX_K`], e.g. `blackbody-5000`.
-pub const ILLUMINANT_NAMES: &[&str] = &["D65", "A", "C", "F2", "F11", "E", "blackbody-<K>"];
+pub const ILLUMINANT_NAMES: &[&str] = &[
+    "D65",
+    "A",
+    "C",
+    "F2",
+    "F11",
+    "E",
+    "blackbody-<K>",
+    "HP1",
+    "HP2",
+    "HP3",
+    "HP4",
+    "HP5",
+    "LED-B1",
+    "LED-B2",
+    "LED-B3",
+    "LED-B4",
+    "LED-B5",
+    "LED-BH1",
+    "LED-RGB1",
+    "LED-V1",
+    "LED-V2",
+];
 
 /// Lowest blackbody temperature [`illuminant`] accepts, K.
 pub const BLACKBODY_MIN_K: f64 = 100.0;
@@ -107,6 +130,14 @@ pub fn illuminant(name: &str) -> Result<Spectrum> {
         "f2" | "fl2" => table_spectrum(cie::F2_START_NM, 5.0, &cie::F2),
         "f11" | "fl11" => table_spectrum(cie::F11_START_NM, 5.0, &cie::F11),
         "e" => Spectrum::constant(&computed_illuminant_grid(), 100.0),
+        // CIE 015:2018 Table 10's discharge lamps and LEDs (night scenes: street lamps, headlamps).
+        k if lamps::LAMPS.iter().any(|l| l.0.eq_ignore_ascii_case(k)) => {
+            let (_, _, v) = lamps::LAMPS
+                .iter()
+                .find(|l| l.0.eq_ignore_ascii_case(k))
+                .expect("just found");
+            table_spectrum(lamps::START_NM, lamps::STEP_NM, v)
+        }
         _ => {
             if let Some(t) = key
                 .strip_prefix("blackbody-")

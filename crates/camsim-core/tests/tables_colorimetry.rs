@@ -301,3 +301,36 @@ fn macbeth_primaries_under_d65_have_the_expected_srgb_hue() {
         }
     }
 }
+
+/// CIE 015:2018 Table 10's LED sources: the CCT of each built-in table, by McCamy's cubic in the
+/// CIE 1931 chromaticity (McCamy 1992, Color Res. Appl. 17, 142: within a few K over 2800-6500 K
+/// near the Planckian locus), is the CCT the CIE publishes for it (2724 K ... 6598 K) within 1 %.
+/// A table transcribed wrong (a shifted or missing row) moves its CCT by far more.
+#[test]
+fn the_cie_led_tables_have_their_published_ccts() {
+    let grid = grid_5nm();
+    let published = [
+        ("LED-B1", 2733.0),
+        ("LED-B2", 2998.0),
+        ("LED-B3", 4103.0),
+        ("LED-B4", 5109.0),
+        ("LED-B5", 6598.0),
+        ("LED-BH1", 2851.0),
+        ("LED-RGB1", 2840.0),
+        ("LED-V1", 2724.0),
+        ("LED-V2", 4070.0),
+    ];
+    for (name, cct_k) in published {
+        let s = illuminant(name).unwrap().sample(&grid);
+        let [x, y] = chromaticity_xy(xyz(&s, &grid));
+        let n = (x - 0.3320) / (0.1858 - y);
+        let mccamy = 449.0 * n.powi(3) + 3525.0 * n.powi(2) + 6823.3 * n + 5520.33;
+        assert!(
+            (mccamy / cct_k - 1.0).abs() < 0.01,
+            "{name}: CCT {mccamy:.0} K from its table, CIE publishes {cct_k} K"
+        );
+    }
+    // The discharge lamps are there by name too; a sodium lamp is orange (x > 0.5).
+    let s = illuminant("hp1").unwrap().sample(&grid);
+    assert!(chromaticity_xy(xyz(&s, &grid))[0] > 0.5);
+}

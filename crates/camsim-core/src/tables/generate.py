@@ -43,3 +43,22 @@ for n in names:
     rows.append("    // %s\n    [\n%s\n    ]," % (n, "\n".join("    " + l for l in fmt(sd.values).split("\n"))))
 out.append("/// Spectral reflectance (fraction) of the 24 ColorChecker patches, 380-780 nm every 5 nm.\n/// Source: N. Ohta, \"The basis of color reproduction engineering\" (Corona-sha, 1997), the measured\n/// Macbeth ColorChecker data (via colour-science `SDS_COLOURCHECKERS['ColorChecker N Ohta']`).\npub const REFLECTANCE: [[f64; 81]; 24] = [\n%s\n];\n" % "\n".join(rows))
 open(os.path.join(HERE, "macbeth.rs"), "w").write("\n".join(out))
+
+# lamps.rs: CIE 015:2018 Table 10 (high-pressure discharge lamps, typical LEDs), 380-780 nm every 5 nm.
+lamps = [("HP1", "standard high-pressure sodium lamp"), ("HP2", "colour-enhanced high-pressure sodium lamp"),
+         ("HP3", "high-pressure metal halide lamp, 3000 K class"), ("HP4", "high-pressure metal halide lamp, 4200 K class"),
+         ("HP5", "high-pressure metal halide lamp, 5600 K class"), ("LED-B1", "phosphor-converted blue LED, 2733 K"),
+         ("LED-B2", "phosphor-converted blue LED, 2998 K"), ("LED-B3", "phosphor-converted blue LED, 4103 K"),
+         ("LED-B4", "phosphor-converted blue LED, 5109 K"), ("LED-B5", "phosphor-converted blue LED, 6598 K"),
+         ("LED-BH1", "hybrid: phosphor-converted blue LED and red LED, 2851 K"),
+         ("LED-RGB1", "red, green and blue LED mix, 2840 K"), ("LED-V1", "phosphor-converted violet LED, 2724 K"),
+         ("LED-V2", "phosphor-converted violet LED, 4070 K")]
+out = ["//! CIE 015:2018 *Colorimetry*, 4th ed., Table 10 (see lamps.rs's header). Generated, do not edit by hand.\n\n#![allow(clippy::approx_constant)]\n",
+       "/// First wavelength of every table, nm.\npub const START_NM: f64 = 380.0;\n/// Spacing, nm.\npub const STEP_NM: f64 = 5.0;\n",
+       "/// (CIE name, what it is, relative SPD 380-780 nm every 5 nm).\npub const LAMPS: [(&str, &str, [f64; 81]); %d] = [" % len(lamps)]
+for n, about in lamps:
+    sd = colour.SDS_ILLUMINANTS[n]
+    assert sd.shape.start == 380 and sd.shape.end == 780 and sd.shape.interval == 5
+    out.append('    ("%s", "%s", [\n%s\n    ]),' % (n, about, fmt(sd.values)))
+out.append("];\n")
+open(os.path.join(HERE, "lamps.rs"), "w").write("\n".join(out))
