@@ -117,8 +117,9 @@ pub struct Overlay {
     /// Object changes, in order.
     #[serde(default)]
     pub object: Vec<ObjectOverlay>,
-    /// Light spectrum and level.
-    pub light: Option<LightOverlay>,
+    /// Light spectrum and level: one `[light]` table, or `[[light]]` tables applied in order
+    /// (each with its `name` filter: street lamps one spectrum, headlamps another).
+    pub light: Option<LightOverlays>,
     /// Light groups (`camsim simulate`'s `[render] light_groups` weighs them), in order.
     #[serde(default)]
     pub light_group: Vec<LightGroupOverlay>,
@@ -349,6 +350,52 @@ pub struct LightOverlay {
     pub luminance_cd_m2: Option<f64>,
     /// Multiply the radiance by this (dimensionless).
     pub radiance_scale: Option<f64>,
+}
+
+/// `[light]` (one table) or `[[light]]` (several, applied in order).
+#[derive(Debug, Clone, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum LightOverlays {
+    One(LightOverlay),
+    Many(Vec<LightOverlay>),
+}
+
+// By hand rather than `untagged`, so a bad key inside either form keeps its own message.
+impl<'de> Deserialize<'de> for LightOverlays {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = LightOverlays;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a [light] table or [[light]] tables")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                a: A,
+            ) -> Result<Self::Value, A::Error> {
+                LightOverlay::deserialize(serde::de::value::MapAccessDeserializer::new(a))
+                    .map(LightOverlays::One)
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                a: A,
+            ) -> Result<Self::Value, A::Error> {
+                Vec::<LightOverlay>::deserialize(serde::de::value::SeqAccessDeserializer::new(a))
+                    .map(LightOverlays::Many)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl LightOverlays {
+    /// The tables in the order they apply.
+    pub fn list(&self) -> &[LightOverlay] {
+        match self {
+            LightOverlays::One(l) => std::slice::from_ref(l),
+            LightOverlays::Many(v) => v,
+        }
+    }
 }
 
 /// `*`-wildcard match.
@@ -591,7 +638,7 @@ pub fn apply_overlay_with(
     for (i, o) in ov.object.iter().enumerate() {
         apply_object(scene, o, i, base_dir, reader)?;
     }
-    if let Some(l) = &ov.light {
+    for l in ov.light.iter().flat_map(|l| l.list()) {
         apply_light(scene, l, base_dir)?;
     }
     for (i, g) in ov.light_group.iter().enumerate() {

@@ -219,6 +219,53 @@ fn sets_light_spectrum_and_level() {
     assert!(apply(&mut s, "[light]\nname = \"floor\"\nradiance_scale = 2.0\n").is_err());
 }
 
+/// `[[light]]` tables apply in order, each to the emitters its `name` matches: the night road's
+/// street lamps and headlamps take different CIE lamp spectra and luminances.
+#[test]
+fn light_tables_apply_in_order_each_to_its_emitters() {
+    let mut s = mcc();
+    // A second emitter: a copy of the light named "headlamp".
+    let mut lamp = s
+        .shapes
+        .iter()
+        .find(|x| x.name.as_deref() == Some("light"))
+        .unwrap()
+        .clone();
+    lamp.name = Some("headlamp".into());
+    s.shapes.push(lamp);
+    apply(
+        &mut s,
+        "[[light]]\nspectrum = \"HP1\"\nluminance_cd_m2 = 50.0\n\
+         [[light]]\nname = \"head*\"\nspectrum = \"LED-B5\"\nluminance_cd_m2 = 2000.0\n",
+    )
+    .unwrap();
+    let of = |name: &str| {
+        s.shapes
+            .iter()
+            .find(|x| x.name.as_deref() == Some(name))
+            .unwrap()
+            .area_light
+            .as_ref()
+            .unwrap()
+            .radiance
+            .clone()
+    };
+    let lum = |x: &camsim_core::Spectrum| 683.0 * photometric(x);
+    let (street, head) = (of("light"), of("headlamp"));
+    assert!((lum(&street) - 50.0).abs() < 1e-6 && (lum(&head) - 2000.0).abs() < 1e-6);
+    // Sodium is orange (little blue), the 6598 K LED bluish: their 450/600 nm ratios differ.
+    let ratio = |l: &camsim_core::Spectrum| l.eval(450.0) / l.eval(600.0);
+    assert!(
+        ratio(&street) < 0.3 && ratio(&head) > 1.0,
+        "{} {}",
+        ratio(&street),
+        ratio(&head)
+    );
+    // A bad key inside a [[light]] table keeps its own message.
+    let e = apply(&mut s, "[[light]]\nluminance = 3.0\n").unwrap_err();
+    assert!(e.to_string().contains("luminance"), "{e}");
+}
+
 #[test]
 fn camera_render_settings_and_strict_keys() {
     let mut s = mcc();
