@@ -266,7 +266,7 @@ fn starting_point(m: &Material) -> GltfPbr {
 }
 
 /// Apply every entry of `specs` to `scene` with the sample's `seed`; relative files resolve
-/// against `base_dir`. Errors name the entry's key (`render.compose.materials.K`).
+/// against `base_dir`. Errors name the entry's key (`compose.materials.K`).
 pub fn apply(
     scene: &mut SceneDescription,
     specs: &[MaterialRandomSpec],
@@ -275,7 +275,7 @@ pub fn apply(
 ) -> Result<Vec<MaterialDraw>> {
     let mut draws = Vec::new();
     for (entry, spec) in specs.iter().enumerate() {
-        let key = format!("render.compose.materials.{entry}");
+        let key = format!("compose.materials.{entry}");
         check_range(&format!("{key}.roughness"), spec.roughness)?;
         check_range(&format!("{key}.metallic"), spec.metallic)?;
         let colours = base_colours(spec, &key, base_dir)?;

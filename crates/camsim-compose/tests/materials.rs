@@ -153,7 +153,7 @@ fn a_spectra_file_is_drawn_from_and_percent_values_are_refused() {
     )
     .unwrap_err();
     assert!(
-        e.key == "render.compose.materials.0.reflectances" && e.message.contains("\"red\""),
+        e.key == "compose.materials.0.reflectances" && e.message.contains("\"red\""),
         "{e}"
     );
 }
@@ -163,7 +163,7 @@ fn bad_entries_name_their_key() {
     let mut bad = blocks(None);
     bad.roughness = Some([0.5, 1.5]);
     let e = apply(&mut cornell(), &[bad], 1, Path::new(".")).unwrap_err();
-    assert_eq!(e.key, "render.compose.materials.0.roughness", "{e}");
+    assert_eq!(e.key, "compose.materials.0.roughness", "{e}");
     let mut both = blocks(Some("macbeth"));
     both.textures = Some("tex".into());
     let e = apply(&mut cornell(), &[both], 1, Path::new(".")).unwrap_err();
@@ -171,7 +171,7 @@ fn bad_entries_name_their_key() {
     let mut none = blocks(Some("macbeth"));
     none.objects = Some("teapot*".into());
     let e = apply(&mut cornell(), &[none], 1, Path::new(".")).unwrap_err();
-    assert_eq!(e.key, "render.compose.materials.0.objects", "{e}");
+    assert_eq!(e.key, "compose.materials.0.objects", "{e}");
     let mut missing = blocks(Some("no-such.csv"));
     missing.objects = None;
     let e = apply(&mut cornell(), &[missing], 1, Path::new(".")).unwrap_err();
