@@ -312,6 +312,19 @@ pub fn mesh_area(positions: &[[f64; 3]], indices: &[[u32; 3]]) -> f64 {
         .sum()
 }
 
+/// An image file (PNG, JPEG, ...) as a base-colour reflectance texture: sRGB decoded
+/// (IEC 61966-2-1), repeat wrap, bilinear lookups, row 0 at the top as glTF's images. For
+/// material randomization (`camsim-compose`) and any caller that textures a surface with a
+/// photograph.
+pub fn base_color_texture(path: &Path) -> Result<camsim_scene3d::Texture> {
+    let img = texture::DecodedImage::open(path).map_err(|e| AssetError::new(path, e))?;
+    Ok(img.base_color(
+        [1.0; 3],
+        camsim_scene3d::WrapMode::Repeat,
+        camsim_scene3d::TexelFilter::Bilinear,
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -347,17 +360,4 @@ mod tests {
         assert!((r / d - 20f64.to_radians().sin()).abs() < 1e-12);
         assert_eq!((c.width, c.height), (320, 240));
     }
-}
-
-/// An image file (PNG, JPEG, ...) as a base-colour reflectance texture: sRGB decoded
-/// (IEC 61966-2-1), repeat wrap, bilinear lookups, row 0 at the top as glTF's images. For
-/// material randomization (`camsim-compose`) and any caller that textures a surface with a
-/// photograph.
-pub fn base_color_texture(path: &Path) -> Result<camsim_scene3d::Texture> {
-    let img = texture::DecodedImage::open(path).map_err(|e| AssetError::new(path, e))?;
-    Ok(img.base_color(
-        [1.0; 3],
-        camsim_scene3d::WrapMode::Repeat,
-        camsim_scene3d::TexelFilter::Bilinear,
-    ))
 }
