@@ -34,9 +34,8 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// How far above its support an object is put, m: it touches nothing, so the overlap tests
-/// can tell it from one that sinks into the support (0.1 mm; rapier's resting overlap is
-/// set to the same, see [`crate::physics`]).
+/// How far above its support an object is put, m (0.1 mm): it touches nothing, so the overlap
+/// tests can tell it from one that sinks into the support.
 pub const CLEARANCE_M: f64 = 1e-4;
 
 fn default_count() -> [u32; 2] {
