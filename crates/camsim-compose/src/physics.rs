@@ -34,6 +34,10 @@ pub const ALLOWED_OVERLAP_M: f64 = 2e-5;
 /// 240 Hz, 2.9 mm at rapier's default 30 Hz: `tests/settle_stack.rs`).
 pub const CONTACT_FREQUENCY_HZ: f64 = 240.0;
 
+/// Grid the convex-hull collider's vertices are snapped to, m (object frame): the collider
+/// departs from the mesh's hull by at most sqrt(3)/2 of it (0.087 mm).
+pub const HULL_SNAP_M: f64 = 1e-4;
+
 /// Which collider a spawned object gets.
 #[derive(
     Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
@@ -69,6 +73,9 @@ fn default_density() -> f64 {
 }
 fn default_friction() -> f64 {
     0.6
+}
+fn default_angular_damping() -> f64 {
+    2.0
 }
 
 /// `[render.compose.physics]`: settle the spawned objects with rigid-body dynamics.
@@ -106,6 +113,14 @@ pub struct PhysicsSpec {
     /// Coefficient of restitution (dimensionless, default 0: objects do not bounce).
     #[serde(default)]
     pub restitution: f64,
+    /// Angular damping rate, 1/s (default 2): dw/dt = -rate w besides the contacts, standing in
+    /// for the rolling resistance rapier does not model, so a round-bottomed object stops
+    /// rocking (without it a bottle rocks for many seconds).
+    #[serde(default = "default_angular_damping")]
+    pub angular_damping_per_s: f64,
+    /// Linear damping rate, 1/s (default 0: free fall is not slowed).
+    #[serde(default)]
+    pub linear_damping_per_s: f64,
 }
 
 impl Default for PhysicsSpec {
@@ -120,6 +135,8 @@ impl Default for PhysicsSpec {
             density_kg_m3: default_density(),
             friction: default_friction(),
             restitution: 0.0,
+            angular_damping_per_s: default_angular_damping(),
+            linear_damping_per_s: 0.0,
         }
     }
 }
@@ -151,6 +168,17 @@ impl PhysicsSpec {
                 format!("{key}.friction"),
                 format!("{} must be a non-negative number", self.friction),
             ));
+        }
+        for (v, k) in [
+            (self.angular_damping_per_s, "angular_damping_per_s"),
+            (self.linear_damping_per_s, "linear_damping_per_s"),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(ComposeError::new(
+                    format!("{key}.{k}"),
+                    format!("{v} must be a non-negative number"),
+                ));
+            }
         }
         if !(0.0..=1.0).contains(&self.restitution) {
             return Err(ComposeError::new(
@@ -250,7 +278,12 @@ pub fn collider_shape(
     };
     match kind {
         CollisionShape::ConvexHull => {
-            let pts = scaled(hull_points(mesh)?);
+            let mut pts = scaled(hull_points(mesh)?);
+            // Vertices on a HULL_SNAP_M grid: a near-flat base (fuze.obj's has a vertex 6 um
+            // below its face) becomes one face, not a face and a tip the contact flips between.
+            for p in pts.iter_mut() {
+                p.coords = p.coords.map(|c| (c / HULL_SNAP_M).round() * HULL_SNAP_M);
+            }
             guarded("the convex hull", || SharedShape::convex_hull(&pts))
         }
         CollisionShape::Decomposition => {
@@ -309,6 +342,8 @@ pub fn settle(
             let h = rbs.insert(
                 RigidBodyBuilder::dynamic()
                     .position(b.pose)
+                    .angular_damping(spec.angular_damping_per_s)
+                    .linear_damping(spec.linear_damping_per_s)
                     .can_sleep(false)
                     .build(),
             );
@@ -324,16 +359,17 @@ pub fn settle(
             h
         })
         .collect();
-    let mut params = IntegrationParameters {
+    let params = IntegrationParameters {
         dt: spec.timestep_s,
         // Resting contacts keep an overlap of ALLOWED_OVERLAP_M (rapier's default is 1 mm) and
         // are stiff springs (CONTACT_FREQUENCY_HZ; rapier's default 30 Hz lets a 5-box stack
         // sink 3 mm): the interpenetration the composed scene keeps.
         normalized_allowed_linear_error: ALLOWED_OVERLAP_M,
         contact_natural_frequency: CONTACT_FREQUENCY_HZ,
+        num_solver_iterations: std::num::NonZeroUsize::new(8).expect("8 > 0"),
         ..IntegrationParameters::default()
     };
-    params.num_solver_iterations = std::num::NonZeroUsize::new(8).expect("8 > 0");
+
     let gravity = -up * spec.gravity_m_s2;
     let mut pipeline = PhysicsPipeline::new();
     let mut islands = IslandManager::new();

@@ -12,14 +12,18 @@
 //! a place from one sampler:
 //! - `on = "name"`: a point uniform by area on the upward-facing triangles (normal within
 //!   `max_slope_deg` of `up`) of the scene's shapes of that name (`*` wildcards), the object's
-//!   lowest point [`CLEARANCE_M`] above it;
+//!   centre of mass (its collider's, uniform density) above it and its lowest point
+//!   [`CLEARANCE_M`] above it;
 //! - `on = { point_m, normal, extent_m }`: the same on a rectangle of a plane (`extent_m` along
 //!   the plane's axes: world x projected on the plane, then `normal x` that);
 //! - `inside = { min_m, max_m }`: the object's bounding box inside the box, its centre uniform;
 //! - `grid = { origin_m, spacing_m, count, jitter_m }`: each object in its own cell (cells in a
 //!   random order), its bounding-box centre at the cell's point moved by a uniform jitter.
 //!
-//! A candidate is refused when its collider (see [`crate::physics::CollisionShape`]) intersects
+//! On a support, the object's base (its hull's points within max(1 mm, 2 % of its height) of
+//! its lowest) must lie over the support (over its upward triangles, at their height, or inside
+//! the plane's rectangle): it does not overhang an edge it would tip over. A candidate is
+//! also refused when its collider (see [`crate::physics::CollisionShape`]) intersects
 //! the scene's geometry or comes closer than `min_separation_m` to (or intersects) an object
 //! placed before it; then orientation and place are drawn again, at most `max_tries` times,
 //! after which the entry fails with an error naming it and the constraint that refused most.
@@ -403,6 +407,62 @@ impl SupportTriangles {
         let s = r1.sqrt();
         a * (1.0 - s) + b * (s * (1.0 - r2)) + c * (s * r2)
     }
+
+    /// Whether a support triangle lies under `q` (along `up`) within `tol` of `q`'s height.
+    fn under(&self, q: &Vector3<f64>, up: &Vector3<f64>, tol: f64) -> bool {
+        let (e1, e2) = plane_axes(up);
+        let q2 = [q.dot(&e1), q.dot(&e2)];
+        let h = q.dot(up);
+        self.tris.iter().any(|[a, b, c]| {
+            let (a2, b2, c2) = (
+                [a.dot(&e1), a.dot(&e2)],
+                [b.dot(&e1), b.dot(&e2)],
+                [c.dot(&e1), c.dot(&e2)],
+            );
+            // Barycentric coordinates of q2 in the projected triangle.
+            let det = (b2[0] - a2[0]) * (c2[1] - a2[1]) - (c2[0] - a2[0]) * (b2[1] - a2[1]);
+            if det.abs() < 1e-300 {
+                return false;
+            }
+            let u = ((q2[0] - a2[0]) * (c2[1] - a2[1]) - (c2[0] - a2[0]) * (q2[1] - a2[1])) / det;
+            let v = ((b2[0] - a2[0]) * (q2[1] - a2[1]) - (q2[0] - a2[0]) * (b2[1] - a2[1])) / det;
+            let eps = 1e-12;
+            if u < -eps || v < -eps || u + v > 1.0 + eps {
+                return false;
+            }
+            let ht = a.dot(up) * (1.0 - u - v) + b.dot(up) * u + c.dot(up) * v;
+            (h - ht).abs() <= tol
+        })
+    }
+}
+
+/// Two unit axes orthogonal to the unit vector `n` (and to each other).
+fn plane_axes(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let r = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::z()
+    };
+    let e1 = (r - n * n.dot(&r)).normalize();
+    (e1, n.cross(&e1))
+}
+
+/// The points of `pts` (rotated hull vertices) that the object stands on: within
+/// `max(1 mm, 2 % of its height)` of its lowest point along `n`, and that tolerance.
+fn base_points(pts: &[Vector3<f64>], n: &Vector3<f64>) -> (Vec<Vector3<f64>>, f64) {
+    let lo = pts.iter().map(|q| q.dot(n)).fold(f64::INFINITY, f64::min);
+    let hi = pts
+        .iter()
+        .map(|q| q.dot(n))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let tol = (0.02 * (hi - lo)).max(1e-3);
+    (
+        pts.iter()
+            .filter(|q| q.dot(n) - lo <= tol)
+            .copied()
+            .collect(),
+        tol,
+    )
 }
 
 fn support_triangles(
@@ -495,6 +555,7 @@ struct Refusals {
     scene: u32,
     separation: u32,
     fit: u32,
+    overhang: u32,
 }
 
 impl Refusals {
@@ -513,6 +574,10 @@ impl Refusals {
                 },
             ),
             (self.fit, "it does not fit inside the box".to_string()),
+            (
+                self.overhang,
+                "its base would overhang the support's edge".to_string(),
+            ),
         ];
         v.sort_by(|a, b| b.0.cmp(&a.0));
         v.iter()
@@ -617,6 +682,8 @@ pub fn place_all(
                 .map(|p| v3(*p) * scale)
                 .collect();
             let radius_m = hull.iter().map(|p| p.norm()).fold(0.0, f64::max);
+            // Centre of mass of the collider at uniform density, object frame.
+            let com_local = shape.mass_properties(1.0).local_com.coords;
             let mut refusals = Refusals::default();
             let mut done = None;
             for _ in 0..s.max_tries {
@@ -631,17 +698,29 @@ pub fn place_all(
                     hi = hi.sup(p);
                 }
                 let centre = (lo + hi) / 2.0;
+                let com = rot * com_local;
                 let on_surface = |p: Vector3<f64>, nrm: &Vector3<f64>| {
-                    // Lowest point CLEARANCE_M above p along nrm, box centre over p.
+                    // Lowest point CLEARANCE_M above p along nrm, the centre of mass over p (so
+                    // an object standing on its base does not tip over the support's edge).
                     let m = pts.iter().map(|q| q.dot(nrm)).fold(f64::INFINITY, f64::min);
-                    let c_perp = centre - nrm * centre.dot(nrm);
+                    let c_perp = com - nrm * com.dot(nrm);
                     let p_perp = p - nrm * p.dot(nrm);
                     p_perp - c_perp + nrm * (p.dot(nrm) + CLEARANCE_M - m)
                 };
                 let t = match &mut sampler {
                     Sampler::Surface { tris, normal } => {
                         let p = tris.sample(&mut rng);
-                        on_surface(p, normal)
+                        let t = on_surface(p, normal);
+                        // The base must stand on the support, not overhang its edge.
+                        let (base, tol) = base_points(&pts, normal);
+                        if !base
+                            .iter()
+                            .all(|q| tris.under(&(q + t - *normal * CLEARANCE_M), normal, tol))
+                        {
+                            refusals.overhang += 1;
+                            continue;
+                        }
+                        t
                     }
                     Sampler::Plane {
                         centre: c0,
@@ -653,7 +732,17 @@ pub fn place_all(
                         let p = *c0
                             + axes[0] * ((a - 0.5) * extent[0])
                             + axes[1] * ((b - 0.5) * extent[1]);
-                        on_surface(p, normal)
+                        let t = on_surface(p, normal);
+                        let (base, _) = base_points(&pts, normal);
+                        let inside = base.iter().all(|q| {
+                            let d = q + t - *c0;
+                            (0..2).all(|k| d.dot(&axes[k]).abs() <= extent[k] / 2.0)
+                        });
+                        if !inside {
+                            refusals.overhang += 1;
+                            continue;
+                        }
+                        t
                     }
                     Sampler::Inside(bx) => {
                         let half = (hi - lo) / 2.0;
