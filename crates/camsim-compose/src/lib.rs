@@ -193,15 +193,7 @@ pub fn compose(
     if let Some(p) = spec.physics.as_ref().filter(|p| p.settle) {
         for s in &spec.spawn {
             if let Some(spawn::Support::Plane(pl)) = &s.on {
-                let n = nalgebra::Unit::new_normalize(nalgebra::Vector3::new(
-                    pl.normal[0],
-                    pl.normal[1],
-                    pl.normal[2],
-                ));
-                statics.shapes.push((
-                    nalgebra::Isometry3::translation(pl.point_m[0], pl.point_m[1], pl.point_m[2]),
-                    parry3d_f64::shape::SharedShape::halfspace(n),
-                ));
+                statics.shapes.push(spawn::plane_static(pl));
             }
         }
         let mut bodies: Vec<physics::Body> = placed

@@ -8,7 +8,7 @@
 //!   object's own frame.
 //! - Everything the scene had before composing is static: its triangles as one triangle-mesh
 //!   collider, its spheres as balls; a spawn's support plane (`on = { point_m, normal }`) is a
-//!   static half-space.
+//!   static slab under its rectangle (rapier's broad phase takes no unbounded half-space).
 //! - The simulation steps `timestep_s` at a time until every body moves slower than
 //!   `rest_velocity_m_s` (a point at the body's bounding radius, so the spin counts too) for
 //!   [`REST_STEPS`] steps in a row, or `max_steps` steps have run.
@@ -364,8 +364,18 @@ pub fn settle(
         // Resting contacts keep an overlap of ALLOWED_OVERLAP_M (rapier's default is 1 mm) and
         // are stiff springs (CONTACT_FREQUENCY_HZ; rapier's default 30 Hz lets a 5-box stack
         // sink 3 mm): the interpenetration the composed scene keeps.
-        normalized_allowed_linear_error: ALLOWED_OVERLAP_M,
-        contact_natural_frequency: CONTACT_FREQUENCY_HZ,
+        normalized_allowed_linear_error: std::env::var("AE")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(ALLOWED_OVERLAP_M),
+        contact_natural_frequency: std::env::var("CF")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(CONTACT_FREQUENCY_HZ),
+        normalized_max_corrective_velocity: std::env::var("MCV")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(10.0),
         num_solver_iterations: std::num::NonZeroUsize::new(8).expect("8 > 0"),
         ..IntegrationParameters::default()
     };

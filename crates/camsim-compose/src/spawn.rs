@@ -612,18 +612,11 @@ pub fn place_all(
                 normal: up.into_inner(),
             },
             (Some(Support::Plane(p)), _, _) => {
-                let nrm = v3(p.normal).normalize();
-                let x = Vector3::x();
-                let first = if (x - nrm * nrm.dot(&x)).norm() > 1e-6 {
-                    (x - nrm * nrm.dot(&x)).normalize()
-                } else {
-                    let z = Vector3::z();
-                    (z - nrm * nrm.dot(&z)).normalize()
-                };
+                let (nrm, axes) = plane_frame(p);
                 Sampler::Plane {
                     centre: v3(p.point_m),
                     normal: nrm,
-                    axes: [first, nrm.cross(&first)],
+                    axes,
                     extent: p.extent_m,
                 }
             }
@@ -828,8 +821,73 @@ pub fn place_all(
     Ok(placed)
 }
 
-/// The static world of a scene: its triangles as one triangle mesh, its spheres as balls
-/// (partial spheres and curves are left out).
+/// A plane support's unit normal and its rectangle's axes (world x projected on the plane, or
+/// world z when the normal is along x; then normal x that).
+pub fn plane_frame(p: &PlaneSupport) -> (Vector3<f64>, [Vector3<f64>; 2]) {
+    let nrm = v3(p.normal).normalize();
+    let x = Vector3::x();
+    let first = if (x - nrm * nrm.dot(&x)).norm() > 1e-6 {
+        (x - nrm * nrm.dot(&x)).normalize()
+    } else {
+        let z = Vector3::z();
+        (z - nrm * nrm.dot(&z)).normalize()
+    };
+    (nrm, [first, nrm.cross(&first)])
+}
+
+/// A plane support as a static collider: a slab 1 m thick under the plane, reaching 1 m beyond
+/// its rectangle (rapier's broad phase takes no unbounded half-space).
+pub fn plane_static(p: &PlaneSupport) -> (Isometry3<f64>, SharedShape) {
+    let (n, [a, b]) = plane_frame(p);
+    let rot = UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(
+        nalgebra::Matrix3::from_columns(&[a, n, b]),
+    ));
+    let centre = v3(p.point_m) - n * 0.5;
+    (
+        Isometry3::from_parts(Translation3::from(centre), rot),
+        SharedShape::cuboid(p.extent_m[0] / 2.0 + 1.0, 0.5, p.extent_m[1] / 2.0 + 1.0),
+    )
+}
+
+/// A closed convex mesh's convex-polyhedron collider: `Some` when the mesh encloses its
+/// hull's volume (to 0.1 %; the divergence theorem, V = sum a . (b x c) / 6 over the
+/// triangles). Convex-convex contacts rest still where a convex body on a triangle mesh jitters
+/// across the triangles' shared edges (rapier 0.25).
+fn convex_collider(positions: &[[f64; 3]], indices: &[[u32; 3]]) -> Option<SharedShape> {
+    if positions.len() < 4
+        || indices
+            .iter()
+            .any(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return None;
+    }
+    let pts: Vec<Point3<f64>> = positions
+        .iter()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+    let vol = |v: &[Point3<f64>], ix: &[[u32; 3]]| -> f64 {
+        ix.iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| v[i as usize].coords);
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum::<f64>()
+    };
+    let (hv, hi) =
+        std::panic::catch_unwind(|| parry3d_f64::transformation::try_convex_hull(&pts).ok())
+            .ok()
+            .flatten()?;
+    let v_hull = vol(&hv, &hi).abs();
+    let v_mesh = vol(&pts, indices).abs();
+    if !(v_hull > 0.0) || (v_mesh - v_hull).abs() > 1e-3 * v_hull {
+        return None;
+    }
+    SharedShape::convex_hull(&pts)
+}
+
+/// The static world of a scene: its closed convex meshes as convex colliders, its other
+/// triangles as one triangle mesh, its spheres as balls (partial spheres and curves are left
+/// out).
 pub fn scene_statics(scene: &camsim_scene3d::SceneDescription) -> Statics {
     use camsim_scene3d::Geometry;
     let mut verts = Vec::new();
@@ -840,6 +898,10 @@ pub fn scene_statics(scene: &camsim_scene3d::SceneDescription) -> Statics {
             Geometry::Triangles {
                 positions, indices, ..
             } => {
+                if let Some(c) = convex_collider(positions, indices) {
+                    out.shapes.push((Isometry3::identity(), c));
+                    continue;
+                }
                 let base = verts.len() as u32;
                 verts.extend(positions.iter().map(|p| Point3::new(p[0], p[1], p[2])));
                 idx.extend(

@@ -147,25 +147,3 @@ fn tabletop_samples_rest_on_the_table_without_interpenetration() {
         rest * 1e3
     );
 }
-
-#[test]
-#[ignore]
-fn debug_seed() {
-    let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let m = manifest(dir.path());
-    for settle in [false, true] {
-        let spec = spec(&m, settle);
-        let mut scene = table_scene();
-        let rec = compose(&mut scene, &spec, seed, dir.path()).unwrap();
-        println!("settle {settle}: {:?}", rec.physics);
-        for o in &rec.objects {
-            let (v, _) = common::object_mesh(&scene, &o.name);
-            let low = v.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
-            println!(
-                "  {} low {low:.5} t {:?} q {:?}",
-                o.name, o.translation_m, o.rotation_wxyz
-            );
-        }
-    }
-}
