@@ -364,22 +364,11 @@ pub fn settle(
         // Resting contacts keep an overlap of ALLOWED_OVERLAP_M (rapier's default is 1 mm) and
         // are stiff springs (CONTACT_FREQUENCY_HZ; rapier's default 30 Hz lets a 5-box stack
         // sink 3 mm): the interpenetration the composed scene keeps.
-        normalized_allowed_linear_error: std::env::var("AE")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(ALLOWED_OVERLAP_M),
-        contact_natural_frequency: std::env::var("CF")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(CONTACT_FREQUENCY_HZ),
-        normalized_max_corrective_velocity: std::env::var("MCV")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(10.0),
+        normalized_allowed_linear_error: ALLOWED_OVERLAP_M,
+        contact_natural_frequency: CONTACT_FREQUENCY_HZ,
         num_solver_iterations: std::num::NonZeroUsize::new(8).expect("8 > 0"),
         ..IntegrationParameters::default()
     };
-
     let gravity = -up * spec.gravity_m_s2;
     let mut pipeline = PhysicsPipeline::new();
     let mut islands = IslandManager::new();
