@@ -1,6 +1,8 @@
 //! Shared scene builders and mesh-level checks of the compose tests.
 #![allow(dead_code)]
 
+pub mod tabletop;
+
 use camsim_scene3d::{Geometry, Material, SceneDescription, Shape, Texture};
 use nalgebra::Point3;
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
