@@ -277,13 +277,11 @@ impl SpawnSpec {
                     return e("on.extent_m", format!("{:?} must be >= 0", p.extent_m));
                 }
             }
-            (_, Some(b), _) => {
-                if !(0..3).all(|k| b.min_m[k] <= b.max_m[k]) {
-                    return e(
-                        "inside",
-                        format!("min_m {:?} must not exceed max_m {:?}", b.min_m, b.max_m),
-                    );
-                }
+            (_, Some(b), _) if !(0..3).all(|k| b.min_m[k] <= b.max_m[k]) => {
+                return e(
+                    "inside",
+                    format!("min_m {:?} must not exceed max_m {:?}", b.min_m, b.max_m),
+                );
             }
             (_, _, Some(g)) => {
                 let cells: u64 = g.count.iter().map(|&c| c as u64).product();
@@ -579,7 +577,7 @@ impl Refusals {
                 "its base would overhang the support's edge".to_string(),
             ),
         ];
-        v.sort_by(|a, b| b.0.cmp(&a.0));
+        v.sort_by_key(|r| std::cmp::Reverse(r.0));
         v.iter()
             .filter(|(n, _)| *n > 0)
             .map(|(n, m)| format!("{m} ({n} times)"))
