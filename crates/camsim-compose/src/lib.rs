@@ -141,7 +141,6 @@ pub fn compose(
     seed: u64,
     base_dir: &Path,
 ) -> Result<ComposeRecord> {
-    const KEY: &str = "compose";
     let up = nalgebra::Vector3::new(spec.up[0], spec.up[1], spec.up[2]);
     if !(up.norm() > 0.0 && up.iter().all(|v| v.is_finite())) {
         return Err(ComposeError::new(
@@ -163,9 +162,25 @@ pub fn compose(
         seed,
         ..Default::default()
     };
-    if spec.spawn.is_empty() {
-        return Ok(record);
+    if !spec.spawn.is_empty() {
+        spawn_and_settle(scene, spec, seed, base_dir, &up, &mut record)?;
     }
+    // The environment (sky, environment map) and camera sampler steps follow here, on the
+    // settled scene (`environment.rs`, `camera.rs`).
+    Ok(record)
+}
+
+/// The asset library, the spawn entries' placements, the settling and the insertion of the
+/// objects into `scene` (left unchanged on an error).
+fn spawn_and_settle(
+    scene: &mut SceneDescription,
+    spec: &ComposeSpec,
+    seed: u64,
+    base_dir: &Path,
+    up: &nalgebra::Unit<nalgebra::Vector3<f64>>,
+    record: &mut ComposeRecord,
+) -> Result<()> {
+    const KEY: &str = "compose";
     let library = manifest::Library::load(
         &spec.assets,
         base_dir,
@@ -185,7 +200,7 @@ pub fn compose(
         &library,
         scene,
         &statics,
-        &up,
+        up,
         seed,
         kind,
         &format!("{KEY}.spawn"),
@@ -243,7 +258,7 @@ pub fn compose(
         });
     }
     *scene = work;
-    Ok(record)
+    Ok(())
 }
 
 /// Insert `asset` at `o`'s pose as the overlay's `[[object]] add` does (one instance named

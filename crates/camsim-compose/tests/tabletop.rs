@@ -9,12 +9,22 @@ use common::tabletop::{check, manifest, spec, spec_with, table_scene, TOL_M};
 
 #[test]
 fn tabletop_samples_rest_on_the_table_without_interpenetration() {
+    samples(100);
+}
+
+/// The figure of docs/src/compose.md: 1,000 samples (minutes; run it by name with `--ignored`).
+#[test]
+#[ignore]
+fn tabletop_1000_samples() {
+    samples(1000);
+}
+
+fn samples(n_samples: u64) {
     let dir = tempfile::tempdir().unwrap();
     let m = manifest(dir.path());
     // Even seeds: 3-8 objects 1 cm apart; odd seeds: 10-16 objects that may touch.
     let sparse = spec(&m, true);
     let dense = spec_with(&m, true, [10, 16], 0.0);
-    let n_samples = 100u64;
     let (mut pen, mut rest, mut objects, mut not_at_rest) = (0.0f64, 0.0f64, 0usize, 0);
     for seed in 0..n_samples {
         let mut scene = table_scene();
