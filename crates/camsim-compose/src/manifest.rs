@@ -665,4 +665,27 @@ mod tests {
         assert!(!wildcard_match("b?x.obj", "bx.obj"));
         assert!(!wildcard_match("*.obj", "Duck.glb"));
     }
+
+    #[test]
+    fn the_cache_keeps_the_newest_within_its_budget() {
+        let dir = std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/assets/trimesh"
+        ));
+        // Scales no other test uses, so the process-wide cache's entries are this test's.
+        let a = cached_mesh(&dir.join("cube.OBJ"), 0.123, UpAxisName::Y, usize::MAX).unwrap();
+        let again = cached_mesh(&dir.join("cube.OBJ"), 0.123, UpAxisName::Y, usize::MAX).unwrap();
+        assert!(Arc::ptr_eq(&a, &again), "a second read missed the cache");
+        assert!((a.hi[0] - 0.0615).abs() < 1e-12, "scale_to_m not applied");
+        // A zero budget keeps only the newest entry.
+        let b = cached_mesh(&dir.join("box.obj"), 0.123, UpAxisName::Z, 0).unwrap();
+        assert_eq!(cache_usage().0, 1);
+        let b2 = cached_mesh(&dir.join("box.obj"), 0.123, UpAxisName::Z, 0).unwrap();
+        assert!(Arc::ptr_eq(&b, &b2));
+        let a2 = cached_mesh(&dir.join("cube.OBJ"), 0.123, UpAxisName::Y, 0).unwrap();
+        assert!(
+            !Arc::ptr_eq(&a, &a2),
+            "an evicted entry came back from the cache"
+        );
+    }
 }

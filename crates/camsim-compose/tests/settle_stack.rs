@@ -9,7 +9,7 @@ const N: usize = 5;
 /// Box edge, m (cube.OBJ is a 1 m cube scaled by the manifest's scale_to_m).
 const H_M: f64 = 0.1;
 
-fn spec(dir: &std::path::Path) -> ComposeSpec {
+fn spec(dir: &std::path::Path, shape: &str) -> ComposeSpec {
     let manifest = dir.join("boxes.csv");
     std::fs::write(
         &manifest,
@@ -30,6 +30,7 @@ orientation = "upright"
 grid = {{ origin_m = [0.0, 0.06, 0.0], spacing_m = [0.0, 0.13, 0.0], count = [1, {N}, 1] }}
 [physics]
 max_steps = 3000
+shape = "{shape}"
 "#,
         manifest.display()
     );
@@ -38,8 +39,18 @@ max_steps = 3000
 
 #[test]
 fn box_stack_settles_to_closed_form_heights() {
+    stack("convex_hull");
+}
+
+/// The same with V-HACD convex parts as colliders (a cube decomposes into boxes).
+#[test]
+fn box_stack_of_convex_decompositions_settles_too() {
+    stack("decomposition");
+}
+
+fn stack(shape: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let spec = spec(dir.path());
+    let spec = spec(dir.path(), shape);
     let mut scene = common::empty_scene();
     // The floor: a slab whose top is y = 0.
     scene.shapes.push(common::box_shape(
