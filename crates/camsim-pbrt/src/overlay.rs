@@ -493,7 +493,9 @@ fn resolve_path(base: &Path, f: &str) -> PathBuf {
 
 /// Reads an object file of a format this crate does not read (glTF, OBJ: `camsim-assets`, its
 /// sibling) for `[[object]] add` and `replace`: `None` when the file is not of its formats (the
-/// pbrt-v4 and PLY readers take it then), else the file as a scene or an error message.
+/// pbrt-v4 and PLY readers take it then), else the file as a scene or an error message. It is
+/// asked first, for every file, so a caller may also serve PLY and pbrt-v4 files it has read
+/// before (`camsim-compose`'s asset cache).
 pub type ObjectReader<'a> = &'a dyn Fn(&Path) -> Option<Result<SceneDescription, String>>;
 
 /// Parse and apply an overlay. `source_name` names it in errors; relative paths resolve against
@@ -776,7 +778,8 @@ pub(crate) fn union_bounds(shapes: &[&Shape]) -> ([f64; 3], [f64; 3]) {
 }
 
 /// The shapes of an object file, their materials (and media) appended to `scene`'s with the
-/// indices moved: glTF/OBJ through `reader`, PLY as one shape of `ply_material`, else pbrt-v4.
+/// indices moved: any file `reader` takes (glTF/OBJ; a caller's cache), else PLY as one shape
+/// of `ply_material`, else pbrt-v4.
 fn file_shapes(
     scene: &mut SceneDescription,
     path: &Path,
@@ -784,9 +787,11 @@ fn file_shapes(
     ply_material: usize,
     reader: ObjectReader<'_>,
 ) -> Result<Vec<Shape>, String> {
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
+    let read = reader(path);
+    if read.is_none()
+        && path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
     {
         let m = crate::ply::read_ply(path).map_err(|e| format!("{key}: {e}"))?;
         return Ok(vec![Shape {
@@ -803,7 +808,7 @@ fn file_shapes(
             tags: Default::default(),
         }]);
     }
-    let sub = match reader(path) {
+    let sub = match read {
         Some(r) => r.map_err(|e| format!("{key}: {e}"))?,
         None => {
             let asset = path

@@ -122,6 +122,12 @@ pub struct RenderSection {
     /// file's; set when the config is read from a file, else the current folder).
     #[serde(skip)]
     pub overlay_inline_base: Option<PathBuf>,
+    /// Scene composition (`[render.compose]`: asset manifests, `[[render.compose.spawn]]`
+    /// placement, `[render.compose.physics]` settling), applied after the overlays with the
+    /// config's `seed`; its relative paths resolve against the config's folder. Datasets vary
+    /// it through `[[vary]]` keys and the sample's seed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compose: Option<camsim_compose::ComposeSpec>,
     /// Samples per pixel (default: the scene's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub samples_per_pixel: Option<u32>,

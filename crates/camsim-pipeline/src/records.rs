@@ -18,6 +18,10 @@ pub struct RunRecord {
     /// image's grids, K and extrinsics in OpenCV's conventions (`crate::labels::SimLabels::cameras_json`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<serde_json::Value>,
+    /// What `[render.compose]` drew: each object's asset, category, scale and final pose, and
+    /// the settling's steps (the sample's composed scene).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compose: Option<camsim_compose::ComposeRecord>,
     /// The camsim version that wrote it.
     pub camsim_version: String,
     /// The command line, when a command ran it.

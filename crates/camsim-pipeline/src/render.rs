@@ -313,6 +313,17 @@ pub fn render_section_scene(
     sensor: &Sensor,
     optics: &Optics,
 ) -> Result<SceneDescription> {
+    render_section_scene_with_record(r, cfg, sensor, optics).map(|(scene, _)| scene)
+}
+
+/// [`render_section_scene`] and what `[render.compose]` drew (`None` without one): the assets,
+/// categories, scales and final poses, for the sample's record.
+pub fn render_section_scene_with_record(
+    r: &RenderSection,
+    cfg: &SimulateConfig,
+    sensor: &Sensor,
+    optics: &Optics,
+) -> Result<(SceneDescription, Option<camsim_compose::ComposeRecord>)> {
     let (w, h) = match r.resolution {
         Some([w, h]) => (w, h),
         None => (sensor.cols(), sensor.rows()),
@@ -345,6 +356,18 @@ pub fn render_section_scene(
         )
         .map_err(|e| PipelineError::Scene(e.to_string()))?;
     }
+    // Composition after the overlays (it may stand objects on what they added), with the
+    // config's seed: a dataset's samples each compose their own scene.
+    let record = match &r.compose {
+        Some(spec) => {
+            let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
+            Some(
+                camsim_compose::compose(&mut scene, spec, cfg.seed, base)
+                    .map_err(|e| PipelineError::Scene(format!("render.{e}")))?,
+            )
+        }
+        None => None,
+    };
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }
@@ -353,7 +376,7 @@ pub fn render_section_scene(
     } else {
         match_camera_to_sensor(&mut scene, sensor, optics.config(), w, h)?;
     }
-    Ok(scene)
+    Ok((scene, record))
 }
 
 /// A lens camera's film set to the sensor window: the film diagonal becomes the window's

@@ -49,6 +49,8 @@ pub(crate) struct Staged {
     pub scene_s: f64,
     /// The scene moves: every frame was rendered in its own window.
     pub moving: bool,
+    /// What `[render.compose]` drew, when the config has one.
+    pub compose: Option<camsim_compose::ComposeRecord>,
 }
 
 /// Sensor pixels per render pixel: a lens camera's film is the sensor window; a pinhole's
@@ -181,9 +183,10 @@ pub(crate) fn stage(
             labels_s: 0.0,
             scene_s,
             moving: false,
+            compose: None,
         });
     };
-    let mut scene = render::render_section_scene(r, cfg, sensor, optics)?;
+    let (mut scene, compose) = render::render_section_scene_with_record(r, cfg, sensor, optics)?;
     let k = sensor_px_per_render_px(&scene, sensor, optics)?;
     let shutter = scene.settings.time.shutter;
     let req = &with_light(shutter.open_s)?;
@@ -223,6 +226,7 @@ pub(crate) fn stage(
             labels_s: 0.0,
             scene_s,
             moving: false,
+            compose,
         });
     }
 
@@ -350,5 +354,6 @@ pub(crate) fn stage(
         labels_s,
         scene_s,
         moving: true,
+        compose,
     })
 }

@@ -105,6 +105,8 @@ pub struct Simulation {
     pub frame_times: Vec<FrameTime>,
     /// The 3D scene moves: every frame was rendered in its own window.
     pub moving: bool,
+    /// What `[render.compose]` drew and where it came to rest (run.json's `compose`).
+    pub compose: Option<camsim_compose::ComposeRecord>,
     /// With [`SimulateOptions::flow`] and a 3D scene: each frame's optical flow on the sensor
     /// grid (sensor pixels, raw.dng's orientation).
     pub flow: Option<Vec<FrameFlow>>,
@@ -227,6 +229,7 @@ pub fn simulate(
         labels_s,
         scene_s,
         moving,
+        compose,
     } = crate::sequence::stage(
         cfg,
         &sensor,
@@ -320,6 +323,7 @@ pub fn simulate(
         times_s: times,
         frame_times,
         moving,
+        compose,
         flow,
         defects: sensor.defect_list().to_vec(),
         quality,
@@ -561,6 +565,7 @@ impl Simulation {
     pub fn record(&self, info: &RunInfo, outputs: &OutputSet) -> RunRecord {
         RunRecord {
             camera: self.labels.as_ref().map(|l| l.cameras_json()),
+            compose: self.compose.clone(),
             camsim_version: env!("CARGO_PKG_VERSION").into(),
             command: info.command.clone(),
             config: self.config.clone(),
