@@ -470,11 +470,19 @@ impl MtlBuilder {
                 ));
             }
         }
-        // Alpha: d, or 1 - Tr; map_d's first channel.
+        // Alpha: d, or 1 - Tr; map_d's first channel. `Tr 1` alone (no `d`) would make the
+        // material invisible; MeshLab and other exporters write it for opaque materials (Tr as
+        // an opacity), so it is read as opaque, with a note.
+        let tr = p("Tr");
+        if mtl.and_then(|m| m.dissolve).is_none() && tr.is_some_and(|t| t >= 1.0) {
+            self.notes.insert(format!(
+                "OBJ: material {label:?}: `Tr 1` without `d` is read as opaque (exporters such as MeshLab write Tr as an opacity; as a transparency it would hide the object); write `d 0` for an invisible material"
+            ));
+        }
         let d = mtl
             .and_then(|m| m.dissolve)
             .map(|v| v as f64)
-            .or(p("Tr").map(|t| 1.0 - t))
+            .or(tr.filter(|t| *t < 1.0).map(|t| 1.0 - t))
             .unwrap_or(1.0)
             .clamp(0.0, 1.0);
         let alpha = match mtl.and_then(|m| m.dissolve_texture.clone()) {

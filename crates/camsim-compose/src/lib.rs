@@ -78,8 +78,21 @@ pub struct ComposeSpec {
     /// absent: they keep their placed poses.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub physics: Option<physics::PhysicsSpec>,
-    // Environment (sky, environment map) and camera sampler specs go here
-    // (`environment.rs`, `camera.rs`), applied after the objects are settled.
+    /// New materials for objects, drawn per object (`[[render.compose.materials]]`: spectral
+    /// reflectances from a set, textures from a folder, roughness and metallic ranges), applied
+    /// after the objects are settled, in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<materials::MaterialRandomSpec>,
+    /// The scene's light from the sky or an environment map (`[render.compose.environment]`);
+    /// absent: the scene keeps its own lights.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub environment: Option<environment::EnvironmentSpec>,
+    /// Where the camera looks from (`[render.compose.camera]`: a spherical shell around the
+    /// spawned group's centre, an object or a point, with view validation); absent: the scene's
+    /// camera. In `simulate` the lens and sensor set the field of view (`fov_deg` is for
+    /// `camsim render`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<camera::CameraSamplerSpec>,
 }
 
 impl Default for ComposeSpec {
@@ -90,6 +103,9 @@ impl Default for ComposeSpec {
             up: default_up(),
             spawn: Vec::new(),
             physics: None,
+            materials: Vec::new(),
+            environment: None,
+            camera: None,
         }
     }
 }
@@ -129,6 +145,18 @@ pub struct ComposeRecord {
     /// The rigid-body simulation, when one ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub physics: Option<physics::PhysicsRecord>,
+    /// What each object's material drew (`materials`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(with = "Vec<serde_json::Value>")]
+    pub materials: Vec<materials::MaterialDraw>,
+    /// The sky or map drawn (`environment`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Value>")]
+    pub environment: Option<environment::EnvironmentRecord>,
+    /// The camera drawn (`camera`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Value>")]
+    pub camera: Option<camera::CameraRecord>,
 }
 
 /// Compose `scene` by `spec` with the sample's `seed`: load and check the asset library, place
@@ -162,11 +190,32 @@ pub fn compose(
         seed,
         ..Default::default()
     };
+    // Every step works on a copy: the scene is unchanged when one of them fails.
+    let mut work = scene.clone();
     if !spec.spawn.is_empty() {
-        spawn_and_settle(scene, spec, seed, base_dir, &up, &mut record)?;
+        spawn_and_settle(&mut work, spec, seed, base_dir, &up, &mut record)?;
     }
-    // The environment (sky, environment map) and camera sampler steps follow here, on the
-    // settled scene (`environment.rs`, `camera.rs`).
+    if !spec.materials.is_empty() {
+        record.materials = materials::apply(&mut work, &spec.materials, seed, base_dir)?;
+    }
+    if let Some(e) = &spec.environment {
+        record.environment = Some(environment::apply(&mut work, e, seed, base_dir)?);
+    }
+    if let Some(c) = &spec.camera {
+        // The default target: the spawned objects' centre (their final translations' mean).
+        let target = (!record.objects.is_empty()).then(|| {
+            let n = record.objects.len() as f64;
+            let mut c = [0.0; 3];
+            for o in &record.objects {
+                for k in 0..3 {
+                    c[k] += o.translation_m[k] / n;
+                }
+            }
+            c
+        });
+        record.camera = Some(camera::apply(&mut work, c, seed, target)?);
+    }
+    *scene = work;
     Ok(record)
 }
 

@@ -358,8 +358,18 @@ pub fn render_section_scene_with_record(
     }
     // Composition after the overlays (it may stand objects on what they added), with the
     // config's seed: a dataset's samples each compose their own scene.
+    // The camera's field of view is the sensor window's through the lens before composing, so
+    // a camera sampler's view validation sees the frame the capture will have.
+    let fit_camera = |scene: &mut SceneDescription| {
+        if scene.camera.lens.is_some() {
+            fit_lens_film_to_sensor(scene, sensor, w, h)
+        } else {
+            match_camera_to_sensor(scene, sensor, optics.config(), w, h)
+        }
+    };
     let record = match &r.compose {
         Some(spec) => {
+            fit_camera(&mut scene)?;
             let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
             Some(
                 camsim_compose::compose(&mut scene, spec, cfg.seed, base)
@@ -371,11 +381,7 @@ pub fn render_section_scene_with_record(
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }
-    if scene.camera.lens.is_some() {
-        fit_lens_film_to_sensor(&mut scene, sensor, w, h)?;
-    } else {
-        match_camera_to_sensor(&mut scene, sensor, optics.config(), w, h)?;
-    }
+    fit_camera(&mut scene)?;
     Ok((scene, record))
 }
 
