@@ -220,7 +220,7 @@ pub fn compose(
 }
 
 /// The asset library, the spawn entries' placements, the settling and the insertion of the
-/// objects into `scene` (left unchanged on an error).
+/// objects into `scene` (compose()'s working copy).
 fn spawn_and_settle(
     scene: &mut SceneDescription,
     spec: &ComposeSpec,
@@ -274,8 +274,9 @@ fn spawn_and_settle(
         }
     }
     // Insert: each object through the overlay's `[[object]] add` (one instance, its materials
-    // merged, its category), from the cached asset, at its final pose.
-    let mut work = scene.clone();
+    // merged, its category), from the cached asset, at its final pose. `scene` is compose()'s
+    // working copy: the caller's scene is unchanged on an error.
+    let work = scene;
     let mut per_category: std::collections::BTreeMap<String, usize> = Default::default();
     for o in &placed {
         let asset = &library.assets[o.asset];
@@ -283,7 +284,7 @@ fn spawn_and_settle(
         let name = format!("{}_{}", asset.category, k);
         *k += 1;
         let first = work.shapes.len();
-        insert_object(&mut work, asset, &name, o)?;
+        insert_object(work, asset, &name, o)?;
         let t = physics::pose_transform(&o.pose, o.scale);
         for s in &mut work.shapes[first..] {
             if s.tags.object_to_world.is_none() {
@@ -306,7 +307,6 @@ fn spawn_and_settle(
             rotation_wxyz: physics::quaternion_wxyz(&o.pose.rotation),
         });
     }
-    *scene = work;
     Ok(())
 }
 
