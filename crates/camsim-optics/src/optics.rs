@@ -592,6 +592,22 @@ impl Optics {
         Ok(self.compute_mapped(radiance)?.0)
     }
 
+    /// Per band of `grid`, the largest sensor irradiance per unit scene radiance this lens gives:
+    /// the camera equation on axis with the object at infinity, `pi T(lambda) / (1 + 4 N^2)`
+    /// (no relative-illumination fall-off, magnification 0), times the shaped aperture's area
+    /// fraction; (W m^-2 nm^-1) per (W sr^-1 m^-2 nm^-1), i.e. sr.
+    pub fn peak_irradiance_per_radiance(&self, grid: &camsim_core::WavelengthGrid) -> Vec<f64> {
+        (0..grid.len())
+            .map(|b| {
+                lens::irradiance_factor(
+                    self.config.f_number,
+                    0.0,
+                    self.transmittance(grid.wavelength_nm(b)),
+                ) * self.aperture_area_fraction
+            })
+            .collect()
+    }
+
     /// [`Self::compute`] with its geometric map: where each irradiance sample images from in the
     /// radiance ([`ImageMap`]).
     pub fn compute_mapped(&self, radiance: &SpectralImage) -> Result<(SpectralImage, ImageMap)> {

@@ -140,6 +140,49 @@ pub struct RenderSection {
     /// named here weigh 1) before optics and sensor ([`crate::light_groups`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_groups: Option<std::collections::BTreeMap<String, f64>>,
+    /// Adaptive sampling (`[render.adaptive]`): each pixel stops once the render's noise is a
+    /// fraction of the sensor's own temporal noise there (or a relative error, with
+    /// `relative_error`); `samples_per_pixel` is then the most any pixel takes
+    /// (docs/src/adaptive.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveSection>,
+}
+
+/// `[render.adaptive]`: when a pixel of the render has enough samples (`crate::adaptive`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveSection {
+    /// The render's noise allowed, as a fraction of the sensor's temporal noise (photon shot,
+    /// read, DSNU, dark shot and quantization noise at the pixel's own signal) [0.2: the rendered
+    /// noise adds sqrt(1 + 0.2^2) - 1 = 2 % to the raw's temporal noise; 0.1 adds 0.5 % for 4x
+    /// the samples].
+    #[serde(default = "default_noise_fraction")]
+    pub noise_fraction: f64,
+    /// Or a relative standard error of each pixel's luminance (0.01: 1 %), as `camsim render
+    /// --adaptive-error`, instead of the sensor's noise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relative_error: Option<f64>,
+    /// Samples every pixel takes before its first test, rounded up to passes of 8 [32].
+    #[serde(default = "default_min_samples")]
+    pub min_samples: u32,
+}
+
+fn default_noise_fraction() -> f64 {
+    0.2
+}
+
+fn default_min_samples() -> u32 {
+    32
+}
+
+impl Default for AdaptiveSection {
+    fn default() -> Self {
+        AdaptiveSection {
+            noise_fraction: default_noise_fraction(),
+            relative_error: None,
+            min_samples: default_min_samples(),
+        }
+    }
 }
 
 /// `[optics]`: a preset name, a TOML file, or an inline config.

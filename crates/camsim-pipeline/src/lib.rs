@@ -12,6 +12,7 @@
 //! | [`config`] | [`SimulateConfig`] and the one config door [`SimulateConfig::from_value`] (files, TOML text, Python dicts, dataset samples) | everything |
 //! | [`inputs`] | sensors and lenses by preset or file, one [`SensorOverrides`] (window, ISO, CFA, noise), raw and measured images from files | `sensor`, `isp`, `analyze`, Python |
 //! | [`scene`] | stage 1 of a config (2D chart or 3D render), where a chart lands on the sensor | `simulate`, `analyze chart`, `render --config` |
+//! | [`adaptive`] | adaptive sampling's target from the capture: the render's noise as a fraction of the sensor's temporal noise | `simulate`, `render --config`, datasets |
 //! | [`render`] | 3D scenes: load (built-in, pbrt-v4, overlays), match the camera to the sensor, render and write | `render`, `simulate` |
 //! | [`capture`] | optics into sensor ([`image_radiance`]), a capture request (one exposure, bracket, HDR) and its raw files | `simulate`, `sensor`, `validate`, Python |
 //! | [`isp`] | [`Isp`]: ISETCam's `ip` as a value (demosaic, white balance, colour matrix) with [`Isp::compute`], and the DNG colour metadata | `simulate`, `isp`, `sensor`, `validate`, Python |
@@ -38,6 +39,7 @@
 //! (`crates/camsim-python/src/`) that only parse, call and print or return. A test that runs it
 //! through both doors and compares the numbers keeps them together.
 
+pub mod adaptive;
 pub mod capture;
 pub mod config;
 pub mod error;
@@ -56,8 +58,8 @@ pub mod timing;
 
 pub use capture::{image_radiance, CaptureRequest, Captured, HdrReadouts, Imaged};
 pub use config::{
-    CaptureSection, IspSection, OpticsSection, RenderSection, SensorSection, SimulateConfig,
-    DEFAULT_CONFIG,
+    AdaptiveSection, CaptureSection, IspSection, OpticsSection, RenderSection, SensorSection,
+    SimulateConfig, DEFAULT_CONFIG,
 };
 pub use error::{PipelineError, Result};
 pub use inputs::{

@@ -87,6 +87,9 @@ pub struct RunResults {
     /// noise-free counterparts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub quality: Option<CaptureQuality>,
+    /// A 3D scene: the samples its render took per pixel (and the adaptive target).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_samples: Option<RenderSamples>,
 }
 
 /// run.json's `results.hdr`: the figures of an `[hdr]` sensor's merge
@@ -219,8 +222,15 @@ pub struct RenderRecord {
     pub resolution: [usize; 2],
     /// The samples actually taken per pixel (fewer than asked when a time budget stopped it).
     pub samples_per_pixel: u32,
-    /// The samples asked for.
+    /// The samples asked for (with adaptive sampling, the most any pixel takes).
     pub samples_per_pixel_requested: u32,
+    /// The mean samples per pixel (less than `samples_per_pixel` when adaptive sampling
+    /// stopped pixels early; samples.exr has each pixel's).
+    #[serde(default)]
+    pub samples_per_pixel_mean: f64,
+    /// The adaptive-sampling target, when the render had one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveRecord>,
     /// The scene: a file or a built-in name.
     pub scene: Option<String>,
     /// Render seed.
@@ -231,6 +241,79 @@ pub struct RenderRecord {
     pub time_budget_s: Option<f64>,
     /// Wavelengths traced together per path.
     pub wavelengths_per_path: usize,
+}
+
+/// The mean of a render's per-pixel sample counts.
+fn mean_samples(out: &camsim_render::RenderOutput) -> f64 {
+    let n = out.samples_per_pixel.len().max(1) as f64;
+    out.samples_per_pixel.iter().map(|s| *s as f64).sum::<f64>() / n
+}
+
+/// An adaptive-sampling target as recorded (`camsim_scene3d::scene::AdaptiveSampling` without
+/// its band weights): each pixel stopped when every channel's variance of the mean was within
+/// `relative^2 m^2 + shot m + floor^2`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdaptiveRecord {
+    /// Samples before the first test.
+    pub min_samples: u32,
+    /// "luminance_cd_m2" (a relative target) or "electrons" (the sensor's noise, one channel
+    /// per colour filter).
+    pub channel_unit: String,
+    /// Channels tested.
+    pub channels: usize,
+    pub relative: f64,
+    pub shot: f64,
+    pub floor: f64,
+}
+
+impl AdaptiveRecord {
+    /// The record of `a`.
+    pub fn of(a: &camsim_scene3d::scene::AdaptiveSampling) -> AdaptiveRecord {
+        AdaptiveRecord {
+            min_samples: a.min_samples,
+            channel_unit: if a.channels.is_empty() {
+                "luminance_cd_m2".into()
+            } else {
+                "electrons".into()
+            },
+            channels: a.channels.len().max(1),
+            relative: a.relative,
+            shot: a.shot,
+            floor: a.floor,
+        }
+    }
+}
+
+/// `run.json`'s `results.render_samples`: the samples a 3D scene's render took per pixel (the
+/// first frame's, when the scene moves).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RenderSamples {
+    /// The most a pixel could take (`samples_per_pixel`).
+    pub requested_per_pixel: u32,
+    /// Mean, least and most taken.
+    pub mean_per_pixel: f64,
+    pub min_per_pixel: u32,
+    pub max_per_pixel: u32,
+    /// The adaptive-sampling target, when `[render.adaptive]` set one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveRecord>,
+}
+
+impl RenderSamples {
+    /// The samples `out` took rendering `scene`.
+    pub fn of(
+        scene: &camsim_scene3d::SceneDescription,
+        out: &camsim_render::RenderOutput,
+    ) -> RenderSamples {
+        let s = &out.samples_per_pixel;
+        RenderSamples {
+            requested_per_pixel: scene.settings.samples_per_pixel,
+            mean_per_pixel: mean_samples(out),
+            min_per_pixel: s.iter().copied().min().unwrap_or(0),
+            max_per_pixel: s.iter().copied().max().unwrap_or(0),
+            adaptive: scene.settings.adaptive.as_ref().map(AdaptiveRecord::of),
+        }
+    }
 }
 
 /// `render.json`'s `stats` (camsim_render::RenderStats).
@@ -262,6 +345,8 @@ impl RenderRecord {
             resolution: [out.radiance.cols, out.radiance.rows],
             samples_per_pixel: out.samples_per_pixel.iter().copied().max().unwrap_or(0),
             samples_per_pixel_requested: scene.settings.samples_per_pixel,
+            samples_per_pixel_mean: mean_samples(out),
+            adaptive: scene.settings.adaptive.as_ref().map(AdaptiveRecord::of),
             scene: scene_name,
             seed: scene.settings.seed,
             stats: RenderStatsRecord {

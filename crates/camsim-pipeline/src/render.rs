@@ -38,6 +38,11 @@ pub struct RenderRequest {
     pub max_depth: Option<u32>,
     /// Opt-in wall-clock limit, s.
     pub time_budget_s: Option<f64>,
+    /// Adaptive sampling to a relative standard error of each pixel's luminance (0.01: 1 %);
+    /// `samples_per_pixel` is then the most a pixel takes.
+    pub adaptive_error: Option<f64>,
+    /// Samples before adaptive sampling's first test (default 32).
+    pub min_samples: Option<u32>,
     /// ColorChecker position of `cornell-box-mcc`.
     pub mcc_position: MccPosition,
     /// Target distance of `slanted-edge`, m.
@@ -59,6 +64,8 @@ impl Default for RenderRequest {
             resolution: None,
             max_depth: None,
             time_budget_s: None,
+            adaptive_error: None,
+            min_samples: None,
             mcc_position: MccPosition::Center,
             distance_m: 0.5,
             seed: None,
@@ -80,7 +87,18 @@ pub fn request_scene(req: &RenderRequest) -> Result<SceneDescription> {
             let section = cfg.render.clone().ok_or_else(|| {
                 PipelineError::config("the config has no [render] table to render")
             })?;
-            render_section_scene(&section, &cfg, &cfg.sensor()?, &cfg.optics()?)?
+            let (sensor, optics) = (cfg.sensor()?, cfg.optics()?);
+            let mut scene = render_section_scene(&section, &cfg, &sensor, &optics)?;
+            // `[render.adaptive]` as simulate sets it (a metering preview when auto-exposed).
+            crate::sequence::set_adaptive_target(
+                &mut scene,
+                &section,
+                &optics,
+                &sensor,
+                &cfg.capture_request()?,
+                &|_, _, _| {},
+            )?;
+            scene
         }
         None => {
             let mut opts = BuiltinOptions {
@@ -116,6 +134,23 @@ pub fn request_scene(req: &RenderRequest) -> Result<SceneDescription> {
     if req.time_budget_s.is_some() {
         scene.settings.time_budget_s = req.time_budget_s;
     }
+    if let Some(rel) = req.adaptive_error {
+        scene.settings.adaptive = Some(crate::adaptive::relative_target(
+            rel,
+            0.0,
+            req.min_samples
+                .unwrap_or(crate::config::AdaptiveSection::default().min_samples),
+        )?);
+    } else if let Some(n) = req.min_samples {
+        match &mut scene.settings.adaptive {
+            Some(a) => a.min_samples = n,
+            None => {
+                return Err(PipelineError::config(
+                    "min_samples (--min-spp) sets adaptive sampling's first test: give adaptive_error (--adaptive-error) too, or a config with [render.adaptive]",
+                ))
+            }
+        }
+    }
     Ok(scene)
 }
 
@@ -135,8 +170,8 @@ impl Rendered {
     }
 
     /// Write radiance.exr (spectral, depth as channel Z), depth.exr, variance.exr,
-    /// object_id.png, material_id.png, ids.json, preview.png and render.json into `out`; returns
-    /// the record.
+    /// object_id.png, material_id.png, ids.json, preview.png and render.json into `out` (and,
+    /// with adaptive sampling, samples.exr: each pixel's sample count); returns the record.
     pub fn write_files(
         &self,
         out: &OutputDir,
@@ -148,6 +183,10 @@ impl Rendered {
         camsim_io::exr::write_spectral_exr(&out.join("radiance.exr"), &r.radiance, "render")?;
         camsim_io::exr::write_gray_exr(&out.join("depth.exr"), rows, cols, "Z", &r.depth_m)?;
         camsim_io::exr::write_gray_exr(&out.join("variance.exr"), rows, cols, "Y", &r.variance)?;
+        if self.scene.settings.adaptive.is_some() {
+            let n: Vec<f32> = r.samples_per_pixel.iter().map(|n| *n as f32).collect();
+            camsim_io::exr::write_gray_exr(&out.join("samples.exr"), rows, cols, "Y", &n)?;
+        }
         crate::write_id_maps(out.path(), &r.ids)?;
         let srgb = camsim_isp::preview::radiance_srgb8(&r.radiance);
         camsim_io::raster::write_png8_rgb(&out.join("preview.png"), rows, cols, &srgb)?;

@@ -51,6 +51,8 @@ pub(crate) struct Staged {
     pub moving: bool,
     /// What `[render.compose]` drew, when the config has one.
     pub compose: Option<camsim_compose::ComposeRecord>,
+    /// The samples the (first frame's) render took per pixel, a 3D scene's.
+    pub samples: Option<crate::records::RenderSamples>,
 }
 
 /// Sensor pixels per render pixel: a lens camera's film is the sensor window; a pinhole's
@@ -112,6 +114,7 @@ fn metered_exposure_s(
     let mut preview = scene.clone();
     preview.settings.samples_per_pixel = preview.settings.samples_per_pixel.min(METERING_SPP);
     preview.settings.time.shutter.rolling = None;
+    preview.settings.adaptive = None;
     preview.settings.time.flow_intervals_s = Vec::new();
     let out = render::render_stage(
         &preview,
@@ -129,8 +132,44 @@ fn metered_exposure_s(
     Ok(im.frame.exposure_s)
 }
 
+/// `[render.adaptive]`: set `scene`'s adaptive-sampling target ([`crate::adaptive`]). The
+/// sensor's noise needs the exposure before the render: a bracket's longest, the given one, or
+/// the one metered on a preview render ([`metered_exposure_s`], returned so that a moving
+/// scene's frames reuse it). Nothing to do without the table.
+pub(crate) fn set_adaptive_target(
+    scene: &mut SceneDescription,
+    r: &crate::RenderSection,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+    progress: &Progress<'_>,
+) -> Result<Option<f64>> {
+    let Some(a) = &r.adaptive else {
+        return Ok(None);
+    };
+    let mut metered = None;
+    let exposure_s = if a.relative_error.is_some() {
+        0.0
+    } else {
+        match (&req.bracket_s, req.exposure) {
+            (Some(b), _) => b.iter().copied().fold(0.0, f64::max),
+            (None, Exposure::Seconds(t)) => t,
+            (None, Exposure::Auto { .. }) => {
+                let m = metered_exposure_s(scene, r, optics, sensor, req, progress)?;
+                metered = Some(m);
+                m
+            }
+        }
+    };
+    let k = sensor_px_per_render_px(scene, sensor, optics)?;
+    scene.settings.adaptive = Some(crate::adaptive::sensor_target(
+        a, scene, optics, sensor, exposure_s, k,
+    )?);
+    Ok(metered)
+}
+
 /// Samples per pixel of the metering render of [`metered_exposure_s`] (at most the scene's).
-const METERING_SPP: u32 = 16;
+pub(crate) const METERING_SPP: u32 = 16;
 
 /// Run the scene, optics and sensor stages: `opts.flow` computes the optical flow (3D scenes),
 /// `opts.noise_free` every frame's noise-free image; `request`: the renderer's extra outputs
@@ -184,15 +223,19 @@ pub(crate) fn stage(
             scene_s,
             moving: false,
             compose: None,
+            samples: None,
         });
     };
     let (mut scene, compose) = render::render_section_scene_with_record(r, cfg, sensor, optics)?;
     let k = sensor_px_per_render_px(&scene, sensor, optics)?;
     let shutter = scene.settings.time.shutter;
     let req = &with_light(shutter.open_s)?;
+    // The metered exposure, when adaptive sampling metered one (kept for a moving scene's frames).
+    let metered = set_adaptive_target(&mut scene, r, optics, sensor, req, progress)?;
     if !scene.settings.time.has_motion() {
         // Nothing moves: one render serves every frame (as before time was modelled).
         let out = render::render_stage(&scene, r, request, progress)?;
+        let samples = crate::records::RenderSamples::of(&scene, &out);
         let scene_s = t.elapsed().as_secs_f64();
         progress("optics", 0, 1);
         let (radiance, imaged, map) = image_owned(out.radiance, optics, sensor, req)?;
@@ -227,6 +270,7 @@ pub(crate) fn stage(
             scene_s,
             moving: false,
             compose,
+            samples: Some(samples),
         });
     }
 
@@ -243,7 +287,10 @@ pub(crate) fn stage(
         (None, Exposure::Seconds(t)) => vec![t; req.frames],
         (None, Exposure::Auto { .. }) => {
             let t = Instant::now();
-            let metered = metered_exposure_s(&scene, r, optics, sensor, req, progress)?;
+            let metered = match metered {
+                Some(m) => m,
+                None => metered_exposure_s(&scene, r, optics, sensor, req, progress)?,
+            };
             scene_s += t.elapsed().as_secs_f64();
             vec![metered; req.frames]
         }
@@ -259,6 +306,7 @@ pub(crate) fn stage(
     let mut first: Option<(Option<SpectralImage>, camsim_render::IdMaps, Imaged)> = None;
     let mut flows = Vec::new();
     let mut noise_free = Vec::new();
+    let mut samples = None;
     for (i, w) in times.iter().enumerate() {
         let next = times.get(i + 1).map(|n| n.start_s - w.start_s);
         let time = &mut scene.settings.time;
@@ -272,6 +320,9 @@ pub(crate) fn stage(
         let t = Instant::now();
         let out = render::render_stage(&scene, r, request, progress)?;
         scene_s += t.elapsed().as_secs_f64();
+        if samples.is_none() {
+            samples = Some(crate::records::RenderSamples::of(&scene, &out));
+        }
         if flow {
             flows.push(FrameFlow {
                 exposure: flow_on_sensor(&out.flow[0], k, rows, cols),
@@ -355,5 +406,6 @@ pub(crate) fn stage(
         scene_s,
         moving: true,
         compose,
+        samples,
     })
 }

@@ -107,6 +107,8 @@ pub struct Simulation {
     pub moving: bool,
     /// What `[render.compose]` drew and where it came to rest (run.json's `compose`).
     pub compose: Option<camsim_compose::ComposeRecord>,
+    /// A 3D scene: the samples its render took per pixel (run.json's results.render_samples).
+    pub render_samples: Option<crate::records::RenderSamples>,
     /// With [`SimulateOptions::flow`] and a 3D scene: each frame's optical flow on the sensor
     /// grid (sensor pixels, raw.dng's orientation).
     pub flow: Option<Vec<FrameFlow>>,
@@ -230,6 +232,7 @@ pub fn simulate(
         scene_s,
         moving,
         compose,
+        samples: render_samples,
     } = crate::sequence::stage(
         cfg,
         &sensor,
@@ -324,6 +327,7 @@ pub fn simulate(
         frame_times,
         moving,
         compose,
+        render_samples,
         flow,
         defects: sensor.defect_list().to_vec(),
         quality,
@@ -604,6 +608,7 @@ impl Simulation {
                     .as_ref()
                     .map(|h| crate::records::HdrResults::of(&h.model)),
                 quality: self.quality,
+                render_samples: self.render_samples.clone(),
             },
             sensor: self.sensor.clone(),
             times: self.times_s.clone(),

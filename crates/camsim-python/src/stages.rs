@@ -46,8 +46,11 @@ fn scene<'py>(
 /// Stage 1, a 3D scene: a built-in scene or a pbrt-v4 file, path traced -> dict with `radiance`,
 /// `depth_m`, `object_id` and `material_id` ((rows, cols) uint32: 1 + index of the shape and of
 /// its material met first through each pixel centre, 0 = none) and `ids_legend` (their names).
+/// `adaptive_error` (e.g. 0.05) stops each pixel once the relative standard error of its
+/// luminance is below it (`samples_per_pixel` is then the most a pixel takes, `min_samples` the
+/// fewest, default 32); the dict then also has `samples_per_pixel` ((rows, cols) uint32).
 #[pyfunction]
-#[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31))]
+#[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31, adaptive_error = None, min_samples = None))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -59,12 +62,16 @@ fn render<'py>(
     start_nm: f64,
     step_nm: f64,
     count: usize,
+    adaptive_error: Option<f64>,
+    min_samples: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let req = RenderRequest {
         builtin,
         pbrt,
         samples_per_pixel,
         resolution,
+        adaptive_error,
+        min_samples,
         seed: Some(seed),
         grid: grid(start_nm, step_nm, count)?,
         ..RenderRequest::default()
@@ -85,6 +92,12 @@ fn render<'py>(
         array(py, &ids.material_id, &[ids.height, ids.width])?,
     )?;
     d.set_item("ids_legend", to_py(py, &ids.legend())?)?;
+    if req.adaptive_error.is_some() {
+        d.set_item(
+            "samples_per_pixel",
+            array(py, &out.samples_per_pixel, &[ids.height, ids.width])?,
+        )?;
+    }
     Ok(d)
 }
 

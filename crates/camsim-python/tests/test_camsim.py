@@ -128,6 +128,20 @@ def test_render_gives_radiance_and_depth():
     assert {int(i) for i in np.unique(mats) if i} == set(legend["materials"])
 
 
+def test_render_adaptive_stops_pixels_at_their_error():
+    # A 10 % luminance target: the lamp and bright walls stop early, the dim corners go on;
+    # every pixel takes between min_samples (rounded up to a pass of 8) and samples_per_pixel.
+    r = camsim.render("cornell-box", resolution=(16, 16), samples_per_pixel=256, adaptive_error=0.1,
+                      min_samples=16, wavelengths_nm=np.arange(400, 701, 50))
+    n = r["samples_per_pixel"]
+    assert n.shape == (16, 16) and n.dtype == np.uint32
+    assert n.min() >= 16 and n.max() <= 256 and n.min() < n.max() and n.mean() < 256
+    plain = camsim.render("cornell-box", resolution=(16, 16), samples_per_pixel=4, wavelengths_nm=np.arange(400, 701, 50))
+    assert "samples_per_pixel" not in plain
+    with pytest.raises(camsim.CamsimError, match="min_samples"):
+        camsim.render("cornell-box", resolution=(8, 8), samples_per_pixel=4, min_samples=16)
+
+
 def test_render_reads_a_gltf_scene_in_its_units():
     # Blender's export of a small room: its camera, its 12 cd/m^2 lamp, its objects by name.
     glb = REPO.parent / "shared" / "scenes" / "gltf" / "room.glb"

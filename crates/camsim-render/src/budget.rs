@@ -10,7 +10,8 @@
 //! the accumulator and the images made from it) and the BVH; then the largest of three phases
 //! that follow one another: the trace (per-pixel luminance sums and weights `24 P`, the inverse
 //! weights `4 P`, per thread a tile's f64 sums `8 B (1 + G) TILE^2`, and with motion the rows'
-//! shutter windows `16 H`), the labels (each row's buffers and the assembled maps) or the
+//! shutter windows `16 H`; with adaptive sampling each pixel's channel sums, sample count and
+//! flags, `(16 C + 6) P` for `C` channels), the labels (each row's buffers and the assembled maps) or the
 //! writing of the outputs (the sRGB preview, the id maps as 16-bit PNGs, and the EXR writer's
 //! blocks in flight: [`camsim_core::mem::WRITE_BATCH_BYTES`] twice at most).
 
@@ -63,7 +64,10 @@ pub fn memory_budget(scene: &SceneDescription, needs: RenderNeeds) -> MemoryBudg
     let threads = rayon::current_num_threads().min(tiles.max(1)) as u64;
     let trace = px(24 + 4)
         + threads * 8 * bands * (1 + groups) * (tile * tile) as u64
-        + if motion { 16 * height as u64 } else { 0 };
+        + if motion { 16 * height as u64 } else { 0 }
+        + st.adaptive
+            .as_ref()
+            .map_or(0, |a| px(16 * a.channels.len().max(1) as u64 + 6));
     let labels = needs.labels.map_or(0, |(normals, albedo)| {
         px(label_bytes_per_pixel(normals, albedo, bands as usize))
     });

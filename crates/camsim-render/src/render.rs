@@ -150,6 +150,14 @@ struct GroupAcc<'a, const N: usize> {
     group_of: &'a [u16],
 }
 
+/// Adaptive sampling's per-sample channel weights and one pixel's sums: `weights[c * bands + b]`
+/// (the channel's weight of band `b` times the film weight of one wavelength sample), and
+/// `sums[2 c]`, `sums[2 c + 1]` the sums of channel `c`'s filter-weighted value and its square.
+struct ChannelSums<'a> {
+    weights: &'a [f64],
+    sums: &'a mut [f64],
+}
+
 /// One pixel's share of a pass: samples `first .. first + count` of pixel (`x`, `y`).
 struct PixelJob {
     x: usize,
@@ -164,14 +172,16 @@ struct PixelJob {
 impl PixelJob {
     /// Trace the samples, add their filter-weighted spectral radiance to the tile accumulator
     /// `acc` (band-major) and return the sums of the weighted per-sample luminance (cd/m^2), of
-    /// its square and of the filter weights.
+    /// its square and of the filter weights; with `chan`, add each adaptive channel's sums too.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn trace<const N: usize, S: PathSampler>(
         &self,
         ctx: &TraceCtx,
         sampler: &mut S,
         acc: &mut [f64],
         mut split: Option<GroupAcc<'_, N>>,
+        mut chan: Option<ChannelSums<'_>>,
         c: &mut RayCounts,
         cache: &TimeCache,
     ) -> [f64; 3] {
@@ -252,6 +262,19 @@ impl PixelJob {
             ls += y_w;
             ls2 += y_w * y_w;
             ws += w_filter as f64;
+            if let Some(ch) = &mut chan {
+                for (k, w) in ch.weights.chunks_exact(ctx.bands).enumerate() {
+                    let mut y = 0f64;
+                    for j in 0..N {
+                        if l[j].is_finite() {
+                            y += (l[j] * w_cam) as f64 * w[band[j] as usize];
+                        }
+                    }
+                    let y = y * w_filter as f64;
+                    ch.sums[2 * k] += y;
+                    ch.sums[2 * k + 1] += y * y;
+                }
+            }
         }
         [ls, ls2, ws]
     }
@@ -415,6 +438,36 @@ fn run<const N: usize>(
         })
         .collect();
 
+    // Adaptive sampling: each channel's weight per band and wavelength sample (luminance's
+    // `lum_w` when no channels are given), the pixels' channel sums, sample counts and flags.
+    let adaptive = st.adaptive.as_ref();
+    if let Some(a) = adaptive {
+        a.validate(bands)
+            .map_err(|e| RenderError::Settings(format!("adaptive sampling: {e}")))?;
+    }
+    let chan_w: Vec<f64> = match adaptive {
+        None => Vec::new(),
+        Some(a) if a.channels.is_empty() => lum_w.clone(),
+        Some(a) => a
+            .channels
+            .iter()
+            .flat_map(|w| w.iter().map(|v| v * splat as f64))
+            .collect(),
+    };
+    let n_chan = if adaptive.is_some() {
+        chan_w.len() / bands
+    } else {
+        0
+    };
+    let mut chan_sums = vec![0f64; 2 * n_chan * pixels];
+    let chan_ptr = SharedMut(chan_sums.as_mut_ptr());
+    let mut active = vec![true; if adaptive.is_some() { pixels } else { 0 }];
+    let mut n_pix = vec![0u32; pixels];
+    // The first test after `min_samples`, on a pass boundary.
+    let first_test = adaptive.map_or(u32::MAX, |a| {
+        a.min_samples.div_ceil(SAMPLES_PER_PASS) * SAMPLES_PER_PASS
+    });
+
     // Row windows when something moves (`crate::motion`); a static scene samples no time.
     let time = &st.time;
     let windows: Vec<(f64, f64)> = if tracer.motion.is_some() {
@@ -457,6 +510,7 @@ fn run<const N: usize>(
     for pass in 0..n_passes {
         let s0 = pass * SAMPLES_PER_PASS;
         let k = (spp - s0).min(SAMPLES_PER_PASS);
+        let active_ref = &active;
         let counts: Vec<RayCounts> = (0..n_tiles)
             .into_par_iter()
             .map(|tile| {
@@ -500,6 +554,11 @@ fn run<const N: usize>(
                                 }
                             }
                         }
+                        // A pixel that met its adaptive target takes no more samples (its
+                        // samples so far were 0 .. s0: every pixel samples until it stops).
+                        if !active_ref.is_empty() && !active_ref[pix] {
+                            continue;
+                        }
                         let px = PixelJob {
                             x,
                             y,
@@ -508,6 +567,16 @@ fn run<const N: usize>(
                             local,
                             tile_px,
                         };
+                        let chan = (n_chan > 0).then(|| ChannelSums {
+                            weights: &chan_w,
+                            // SAFETY: pixel `pix`'s sums belong to this tile only.
+                            sums: unsafe {
+                                std::slice::from_raw_parts_mut(
+                                    chan_ptr.ptr().add(2 * n_chan * pix),
+                                    2 * n_chan,
+                                )
+                            },
+                        });
                         let split = ctx.groups.map(|g| GroupAcc {
                             acc: &mut acc_g,
                             scratch: &mut scratch,
@@ -516,11 +585,15 @@ fn run<const N: usize>(
                         let sums = match st.sampler {
                             SamplerKind::Independent => {
                                 let mut smp = IndependentSampler { rng: &mut rng };
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c, &cache)
+                                px.trace::<N, _>(
+                                    &ctx, &mut smp, &mut acc, split, chan, &mut c, &cache,
+                                )
                             }
                             SamplerKind::Sobol => {
                                 let mut smp = SobolSampler::new(st.seed, x as u32, y as u32);
-                                px.trace::<N, _>(&ctx, &mut smp, &mut acc, split, &mut c, &cache)
+                                px.trace::<N, _>(
+                                    &ctx, &mut smp, &mut acc, split, chan, &mut c, &cache,
+                                )
                             }
                         };
                         // SAFETY: pixel `pix` belongs to this tile only.
@@ -567,6 +640,19 @@ fn run<const N: usize>(
             counts_total.shadow += c.shadow;
         }
         samples_done += k;
+        if let Some(a) = adaptive {
+            for (n, on) in n_pix.iter_mut().zip(&active) {
+                if *on {
+                    *n += k;
+                }
+            }
+            if samples_done >= first_test && samples_done < spp {
+                let still = adaptive_step(a, &mut active, &lum, &chan_sums, &n_pix, n_chan, width);
+                if still == 0 {
+                    break;
+                }
+            }
+        }
         if let Some(budget) = st.time_budget_s {
             if start.elapsed().as_secs_f64() >= budget {
                 break;
@@ -574,7 +660,10 @@ fn run<const N: usize>(
         }
     }
 
-    let n = samples_done as f64;
+    if adaptive.is_none() {
+        n_pix.fill(samples_done);
+    }
+    let total_samples: f64 = n_pix.iter().map(|n| *n as f64).sum();
     // A pixel is the weighted mean of its samples, sum(w L) / sum(w) (pbrt-v4 `RGBFilm`; a
     // zero weight sum leaves 0). With the default box filter every weight is 1 and sum(w) = n.
     let inv_w: Vec<f32> = lum
@@ -614,14 +703,8 @@ fn run<const N: usize>(
     // ratio estimator's variance to first order; exactly the sample variance / n for weights 1).
     let variance: Vec<f32> = lum
         .iter()
-        .map(|[s, s2, w]| {
-            let mean_w = w / n;
-            if samples_done >= 2 && mean_w != 0.0 {
-                (((s2 - s * s / n) / (n - 1.0)).max(0.0) / n / (mean_w * mean_w)) as f32
-            } else {
-                0.0
-            }
-        })
+        .zip(&n_pix)
+        .map(|([s, s2, w], n)| mean_variance(*s, *s2, *w, *n) as f32)
         .collect();
     radiance.depth_m = Some(depth.clone());
     let seconds = start.elapsed().as_secs_f64();
@@ -631,7 +714,7 @@ fn run<const N: usize>(
         bounce_rays: counts_total.bounce,
         shadow_rays: counts_total.shadow,
         seconds,
-        samples_per_second: pixels as f64 * n / seconds,
+        samples_per_second: total_samples / seconds,
         rays_per_second: rays as f64 / seconds,
     };
     let ids = crate::ids::IdMaps::from_object_ids(scene, width, height, object_id);
@@ -640,11 +723,82 @@ fn run<const N: usize>(
         radiance,
         depth_m: depth,
         variance,
-        samples_per_pixel: vec![samples_done; pixels],
+        samples_per_pixel: n_pix,
         ids,
         flow,
         stats,
         labels: None,
         light_groups,
     })
+}
+
+/// The variance of a pixel's weighted mean `s / w` from its `n` samples' sums of the weighted
+/// value `s`, its square `s2` and the weights `w`: the sample variance over `n`, over the
+/// squared mean weight (the ratio estimator's variance to first order; exactly the sample
+/// variance / n for weights 1). 0 with fewer than 2 samples or no weight.
+#[inline]
+fn mean_variance(s: f64, s2: f64, w: f64, n: u32) -> f64 {
+    let n = n as f64;
+    let mean_w = w / n;
+    if n >= 2.0 && mean_w != 0.0 {
+        ((s2 - s * s / n) / (n - 1.0)).max(0.0) / n / (mean_w * mean_w)
+    } else {
+        0.0
+    }
+}
+
+/// One adaptive test between passes ([`camsim_scene3d::scene::AdaptiveSampling`]): a pixel still
+/// sampling has converged when every channel's variance of the mean is within the target; it
+/// stops when it and its 8 neighbours (those inside the image) have converged or stopped.
+/// Returns how many pixels go on. Sequential and in pixel order, so the same for any thread
+/// count.
+fn adaptive_step(
+    a: &camsim_scene3d::scene::AdaptiveSampling,
+    active: &mut [bool],
+    lum: &[[f64; 3]],
+    chan_sums: &[f64],
+    n_pix: &[u32],
+    n_chan: usize,
+    width: usize,
+) -> usize {
+    let pixels = active.len();
+    let height = pixels / width.max(1);
+    let rel2 = a.relative * a.relative;
+    let floor2 = a.floor * a.floor;
+    let converged: Vec<bool> = (0..pixels)
+        .map(|p| {
+            if !active[p] {
+                return true;
+            }
+            let w = lum[p][2];
+            if w == 0.0 {
+                return true;
+            }
+            chan_sums[2 * n_chan * p..2 * n_chan * (p + 1)]
+                .chunks_exact(2)
+                .all(|s| {
+                    let mean = s[0] / w;
+                    let var = mean_variance(s[0], s[1], w, n_pix[p]);
+                    var <= rel2 * mean * mean + a.shot * mean.max(0.0) + floor2
+                })
+        })
+        .collect();
+    let mut still = 0;
+    for y in 0..height {
+        for x in 0..width {
+            let p = y * width + x;
+            if !active[p] {
+                continue;
+            }
+            let (y0, y1) = (y.saturating_sub(1), (y + 1).min(height - 1));
+            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(width - 1));
+            let done = (y0..=y1).all(|yy| (x0..=x1).all(|xx| converged[yy * width + xx]));
+            if done {
+                active[p] = false;
+            } else {
+                still += 1;
+            }
+        }
+    }
+    still
 }

@@ -896,6 +896,87 @@ pub struct RenderSettings {
     /// How next-event estimation chooses among the lights (pbrt-v4's `Integrator`
     /// `lightsampler`; default `bvh`, pbrt-v4's default).
     pub light_sampler: LightSampler,
+    /// Adaptive sampling (camsim's own; pbrt-v4 has none): each pixel stops once its estimated
+    /// Monte Carlo error meets a target, `samples_per_pixel` being the most it takes. `None`:
+    /// every pixel takes `samples_per_pixel`.
+    pub adaptive: Option<AdaptiveSampling>,
+}
+
+/// When a pixel has enough samples ([`RenderSettings::adaptive`]).
+///
+/// After every pass of samples from `min_samples` on, each pixel still sampling computes, for
+/// each channel `c`, its mean `m_c` and the variance of that mean `v_c` (the sample variance of
+/// its per-sample channel values over the sample count, the filter's ratio estimator to first
+/// order), and is done when every channel meets
+/// `v_c <= relative^2 m_c^2 + shot max(m_c, 0) + floor^2`
+/// and so do its 8 neighbours (a converged pixel next to an unconverged one goes on: the
+/// spatial guard of Cycles' adaptive sampler, against a pixel stopped by a lucky run).
+/// `relative` alone is a relative error target; `shot` and `floor` make it a noise model: with
+/// channels in electrons, `shot = f^2` and `floor = f sigma_0` ask the render's noise to be the
+/// fraction `f` of shot noise and a noise floor `sigma_0` (the sensor's, in camsim-pipeline).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveSampling {
+    /// Samples every pixel takes before its first test (rounded up to whole passes of 8).
+    pub min_samples: u32,
+    /// The channels tested, each a weight per band of the radiance image: the channel's value
+    /// of a pixel is `sum_b w[b] L_b` (`L_b` the band's radiance, W/(sr m^2 nm); the weights
+    /// carry the channel's unit per radiance unit). Empty: one channel, luminance in cd/m^2
+    /// (`683 ybar(lambda_b) step_nm`).
+    pub channels: Vec<Vec<f64>>,
+    /// Relative standard error allowed (0.01: 1 % of the pixel's mean).
+    pub relative: f64,
+    /// Variance allowed per unit of the mean, in the channel's unit (a Poisson-like term).
+    pub shot: f64,
+    /// Standard error allowed at any mean, in the channel's unit.
+    pub floor: f64,
+}
+
+impl AdaptiveSampling {
+    /// A relative error target on luminance: each pixel stops when the standard error of its
+    /// mean luminance is `relative` of the mean (or, at a black pixel, `floor_cd_m2`).
+    pub fn relative(relative: f64, floor_cd_m2: f64, min_samples: u32) -> AdaptiveSampling {
+        AdaptiveSampling {
+            min_samples,
+            channels: Vec::new(),
+            relative,
+            shot: 0.0,
+            floor: floor_cd_m2,
+        }
+    }
+
+    /// Check the parameters against the grid's band count; the message names the bad one.
+    pub fn validate(&self, bands: usize) -> Result<(), String> {
+        if self.min_samples < 2 {
+            return Err(format!(
+                "adaptive min_samples = {}: at least 2 samples are needed to estimate a variance",
+                self.min_samples
+            ));
+        }
+        for (name, v) in [
+            ("relative", self.relative),
+            ("shot", self.shot),
+            ("floor", self.floor),
+        ] {
+            if !(v >= 0.0) || !v.is_finite() {
+                return Err(format!("adaptive {name} = {v} is not a finite number >= 0"));
+            }
+        }
+        if self.relative == 0.0 && self.shot == 0.0 && self.floor == 0.0 {
+            return Err("adaptive sampling with relative, shot and floor all 0 never stops a pixel early: give a target".into());
+        }
+        for (c, w) in self.channels.iter().enumerate() {
+            if w.len() != bands {
+                return Err(format!(
+                    "adaptive channel {c} has {} band weights for {bands} bands",
+                    w.len()
+                ));
+            }
+            if w.iter().any(|v| !v.is_finite()) {
+                return Err(format!("adaptive channel {c} has a non-finite weight"));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// pbrt-v4's pixel reconstruction filters (4th ed. sec. 8.8.1), separable, radii in pixels per
@@ -984,6 +1065,7 @@ impl Default for RenderSettings {
             filter: PixelFilter::default(),
             time: crate::motion::TimeSettings::default(),
             light_sampler: LightSampler::Bvh,
+            adaptive: None,
         }
     }
 }

@@ -460,6 +460,44 @@ impl Sensor {
             .collect()
     }
 
+    /// Per filter of [`Sensor::cfa_layout`] (its filter order), per band of `grid`: the
+    /// photo-electrons per second one pixel collects per unit spectral irradiance in that band,
+    /// e- s^-1 / (W m^-2 nm^-1) ([`Sensor::band_factors_filters`] by filter).
+    pub fn electrons_per_irradiance(&self, grid: &WavelengthGrid) -> Vec<Vec<f64>> {
+        let f = self.band_factors_filters(grid);
+        let n = self.filter_qe_spectra().len();
+        (0..n).map(|c| f.iter().map(|b| b[c]).collect()).collect()
+    }
+
+    /// The variance of the temporal noise a pixel has at zero photo-signal after `exposure_s`,
+    /// electrons^2: read noise, DSNU, dark-current shot noise and quantization (1/12 DN^2 over
+    /// K^2), each only when its switch is on (EMVA 1288 rel. 4.0 eq. 9 in electrons). DSNU is a
+    /// fixed pattern here (drawn once from `fixed_pattern_seed`), not temporal noise, but in any
+    /// one raw it hides render noise just as read noise does, so it counts toward the floor a
+    /// render need not go below. A pixel of mean photo-signal `mu_e` adds `mu_e` (shot noise).
+    pub fn noise_floor_variance_e2(&self, exposure_s: f64) -> f64 {
+        let n = &self.noise;
+        let per_e = 1.0 / self.conversion_gain_v_per_e;
+        let read = if n.read {
+            self.read_noise_v * per_e
+        } else {
+            0.0
+        };
+        let dsnu = if n.dsnu { self.dsnu_v * per_e } else { 0.0 };
+        let dark = if n.shot {
+            self.dark_electrons(exposure_s.max(0.0))
+        } else {
+            0.0
+        };
+        let k = self.k_dn_per_e();
+        let quant = if n.quantization {
+            1.0 / (12.0 * k * k)
+        } else {
+            0.0
+        };
+        read * read + dsnu * dsnu + dark + quant
+    }
+
     /// [`Sensor::mean_electrons_uniform`] for every filter of [`Sensor::cfa_layout`], in its
     /// filter order (r, g, b, then e.g. w).
     pub fn mean_electrons_uniform_filters(

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 /// or --max-depth replaces what the pbrt file or the overlay says.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render ../shared/scenes/gltf/room.glb --resolution 256x192 --spp 16 --out out/render-room   (glTF: its camera, cd/m^2 emitters)\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin cornell-box-mcc --overlay examples/overlays/cornell-fog.toml --resolution 160x120 --spp 8 --out out/fog   (fog: a participating medium)\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)"
+    after_help = "Examples:\n  camsim render --builtin cornell-box --resolution 128x128 --spp 16 --out out/render-box\n  camsim render --builtin cornell-box-mcc --mcc-position left --resolution 252x189 --out out/render-left\n  camsim render examples/pbrt/cornell-box.pbrt --resolution 160x120 --spp 16 --out out/render-pbrt\n  camsim render ../shared/scenes/gltf/room.glb --resolution 256x192 --spp 16 --out out/render-room   (glTF: its camera, cd/m^2 emitters)\n  camsim render --builtin cornell-box --overlay examples/overlays/d65-light-grey-box.toml --spp 16\n  camsim render --builtin cornell-box-mcc --overlay examples/overlays/cornell-fog.toml --resolution 160x120 --spp 8 --out out/fog   (fog: a participating medium)\n  camsim render --builtin slanted-edge --distance-m 0.5 --resolution 256x256 --spp 16 --out out/render-edge\n  camsim render --builtin cornell-box --spp 100000 --time-budget-s 2 --out out/budget   (~2 s)\n  camsim render --builtin cornell-box --resolution 64x64 --spp 512 --adaptive-error 0.05 --out out/adaptive   (each pixel's luminance to 5 %)\n  camsim render --config examples/cornell-box.toml --spp 4 --out out/box-render   (as simulate renders it)"
 )]
 pub struct Args {
     /// Scene file: pbrt-v4, glTF 2.0 (`.gltf` with its buffers and images, `.glb`) or OBJ/MTL;
@@ -46,6 +46,16 @@ pub struct Args {
     /// samples taken). Default: no limit, all --spp samples.
     #[arg(long, value_parser = common::positive_f64)]
     pub time_budget_s: Option<f64>,
+    /// Adaptive sampling: each pixel stops once the standard error of its mean luminance is
+    /// this fraction of the mean (0.01: 1 %), tested after every pass of 8 samples from
+    /// --min-spp on; --spp is then the most a pixel takes. samples.exr holds each pixel's
+    /// count, render.json the mean. Default: every pixel takes --spp. (`camsim simulate`'s
+    /// `[render.adaptive]` targets the sensor's own noise instead; docs/src/adaptive.md.)
+    #[arg(long, value_parser = common::positive_f64)]
+    pub adaptive_error: Option<f64>,
+    /// Samples every pixel takes before adaptive sampling's first test (default 32).
+    #[arg(long)]
+    pub min_spp: Option<u32>,
     /// Image size WIDTHxHEIGHT (default: the pbrt file's Film, the overlay's [camera]
     /// resolution, or the built-in's). Given here, it wins over both.
     #[arg(long, value_parser = parse_resolution)]
@@ -107,6 +117,8 @@ pub fn run(a: Args) -> Result<()> {
         resolution: a.resolution,
         max_depth: a.max_depth,
         time_budget_s: a.time_budget_s,
+        adaptive_error: a.adaptive_error,
+        min_samples: a.min_spp,
         mcc_position: a.mcc_position.parse::<MccPosition>()?,
         distance_m: a.distance_m,
         seed: a.seed,
@@ -142,7 +154,12 @@ pub fn run(a: Args) -> Result<()> {
         rec.resolution[0],
         rec.resolution[1],
         rec.samples_per_pixel,
-        if rec.samples_per_pixel < rec.samples_per_pixel_requested {
+        if rec.adaptive.is_some() {
+            format!(
+                " at most, {:.1} spp on average (adaptive, of {} at most)",
+                rec.samples_per_pixel_mean, rec.samples_per_pixel_requested
+            )
+        } else if rec.samples_per_pixel < rec.samples_per_pixel_requested {
             format!(
                 " (of {} asked; the time budget stopped it)",
                 rec.samples_per_pixel_requested
