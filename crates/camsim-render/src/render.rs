@@ -67,7 +67,8 @@ pub struct RenderOutput {
     /// of the per-sample luminance `683 sum L(lambda) ybar(lambda) dlambda` divided by the number
     /// of samples (y-bar from the Wyman et al. 2013 fit); 0 with fewer than 2 samples.
     pub variance: Vec<f32>,
-    /// Samples taken per pixel (the same for every pixel).
+    /// Samples taken per pixel: `samples_per_pixel` for every pixel, or fewer where adaptive
+    /// sampling stopped it (`RenderSettings::adaptive`).
     pub samples_per_pixel: Vec<u32>,
     /// Object and material ids of the first surface through each pixel centre (the depth ray).
     pub ids: crate::ids::IdMaps,
