@@ -146,6 +146,31 @@ pub struct RenderSection {
     /// (docs/src/adaptive.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<AdaptiveSection>,
+    /// Denoise the rendered film (`[render.denoise]`) with Intel Open Image Denoise, a library
+    /// camsim opens at run time (`pip install oidn` ships one): for training data, not for lens
+    /// or sensor studies, whose figures it changes (docs/src/adaptive.md, "Denoised radiance").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<DenoiseSection>,
+}
+
+/// `[render.denoise]`: where the denoiser's library is.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DenoiseSection {
+    /// The OIDN shared library (`libOpenImageDenoise.so.*`, e.g. `oidn/lib.linux.x64/` in the
+    /// `oidn` wheel), relative to the config file [default: `$CAMSIM_OIDN_LIBRARY`, else the
+    /// system's library path].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub library: Option<PathBuf>,
+}
+
+impl DenoiseSection {
+    /// The render setting of this section.
+    pub fn settings(&self) -> camsim_scene3d::scene::DenoiseSettings {
+        camsim_scene3d::scene::DenoiseSettings {
+            library: self.library.clone(),
+        }
+    }
 }
 
 /// `[render.adaptive]`: when a pixel of the render has enough samples (`crate::adaptive`).
@@ -564,6 +589,9 @@ impl SimulateConfig {
         if let Some(r) = &mut self.render {
             r.pbrt.as_mut().map(fix);
             r.overlay.as_mut().map(fix);
+            if let Some(d) = &mut r.denoise {
+                d.library.as_mut().map(fix);
+            }
             r.overlay_inline_base = Some(base.to_path_buf());
         }
         self.optics.file.as_mut().map(fix);

@@ -58,7 +58,7 @@ pub mod timing;
 
 pub use capture::{image_radiance, CaptureRequest, Captured, HdrReadouts, Imaged};
 pub use config::{
-    AdaptiveSection, CaptureSection, IspSection, OpticsSection, RenderSection, SensorSection,
+    AdaptiveSection, CaptureSection, DenoiseSection, IspSection, OpticsSection, RenderSection, SensorSection,
     SimulateConfig, DEFAULT_CONFIG,
 };
 pub use error::{PipelineError, Result};

@@ -231,6 +231,10 @@ pub struct RenderRecord {
     /// The adaptive-sampling target, when the render had one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<AdaptiveRecord>,
+    /// The denoiser library the radiance went through (`[render.denoise]`, `--denoise`);
+    /// absent: the unbiased film. variance.exr is the film's before denoising.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoised_with: Option<String>,
     /// The scene: a file or a built-in name.
     pub scene: Option<String>,
     /// Render seed.
@@ -297,6 +301,9 @@ pub struct RenderSamples {
     /// The adaptive-sampling target, when `[render.adaptive]` set one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<AdaptiveRecord>,
+    /// The denoiser library the render went through (`[render.denoise]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoised_with: Option<String>,
 }
 
 impl RenderSamples {
@@ -312,6 +319,7 @@ impl RenderSamples {
             min_per_pixel: s.iter().copied().min().unwrap_or(0),
             max_per_pixel: s.iter().copied().max().unwrap_or(0),
             adaptive: scene.settings.adaptive.as_ref().map(AdaptiveRecord::of),
+            denoised_with: out.denoised_with.as_ref().map(|p| p.display().to_string()),
         }
     }
 }
@@ -347,6 +355,7 @@ impl RenderRecord {
             samples_per_pixel_requested: scene.settings.samples_per_pixel,
             samples_per_pixel_mean: mean_samples(out),
             adaptive: scene.settings.adaptive.as_ref().map(AdaptiveRecord::of),
+            denoised_with: out.denoised_with.as_ref().map(|p| p.display().to_string()),
             scene: scene_name,
             seed: scene.settings.seed,
             stats: RenderStatsRecord {

@@ -43,6 +43,9 @@ pub struct RenderRequest {
     pub adaptive_error: Option<f64>,
     /// Samples before adaptive sampling's first test (default 32).
     pub min_samples: Option<u32>,
+    /// Denoise the film with Intel Open Image Denoise (`camsim_render::denoise`; the library
+    /// from `$CAMSIM_OIDN_LIBRARY`).
+    pub denoise: bool,
     /// ColorChecker position of `cornell-box-mcc`.
     pub mcc_position: MccPosition,
     /// Target distance of `slanted-edge`, m.
@@ -66,6 +69,7 @@ impl Default for RenderRequest {
             time_budget_s: None,
             adaptive_error: None,
             min_samples: None,
+            denoise: false,
             mcc_position: MccPosition::Center,
             distance_m: 0.5,
             seed: None,
@@ -133,6 +137,9 @@ pub fn request_scene(req: &RenderRequest) -> Result<SceneDescription> {
     }
     if req.time_budget_s.is_some() {
         scene.settings.time_budget_s = req.time_budget_s;
+    }
+    if req.denoise && scene.settings.denoise.is_none() {
+        scene.settings.denoise = Some(Default::default());
     }
     if let Some(rel) = req.adaptive_error {
         scene.settings.adaptive = Some(crate::adaptive::relative_target(
@@ -419,6 +426,9 @@ pub fn render_section_scene_with_record(
     };
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
+    }
+    if let Some(d) = &r.denoise {
+        scene.settings.denoise = Some(d.settings());
     }
     fit_camera(&mut scene)?;
     Ok((scene, record))

@@ -115,6 +115,7 @@ fn metered_exposure_s(
     preview.settings.samples_per_pixel = preview.settings.samples_per_pixel.min(METERING_SPP);
     preview.settings.time.shutter.rolling = None;
     preview.settings.adaptive = None;
+    preview.settings.denoise = None;
     preview.settings.time.flow_intervals_s = Vec::new();
     let out = render::render_stage(
         &preview,

@@ -49,8 +49,9 @@ fn scene<'py>(
 /// `adaptive_error` (e.g. 0.05) stops each pixel once the relative standard error of its
 /// luminance is below it (`samples_per_pixel` is then the most a pixel takes, `min_samples` the
 /// fewest, default 32); the dict then also has `samples_per_pixel` ((rows, cols) uint32).
+/// `denoise` runs Intel Open Image Denoise on the film (`$CAMSIM_OIDN_LIBRARY`).
 #[pyfunction]
-#[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31, adaptive_error = None, min_samples = None))]
+#[pyo3(signature = (builtin = None, pbrt = None, resolution = None, samples_per_pixel = None, seed = 1, start_nm = 400.0, step_nm = 10.0, count = 31, adaptive_error = None, min_samples = None, denoise = false))]
 #[allow(clippy::too_many_arguments)]
 fn render<'py>(
     py: Python<'py>,
@@ -64,6 +65,7 @@ fn render<'py>(
     count: usize,
     adaptive_error: Option<f64>,
     min_samples: Option<u32>,
+    denoise: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let req = RenderRequest {
         builtin,
@@ -72,6 +74,7 @@ fn render<'py>(
         resolution,
         adaptive_error,
         min_samples,
+        denoise,
         seed: Some(seed),
         grid: grid(start_nm, step_nm, count)?,
         ..RenderRequest::default()

@@ -142,6 +142,12 @@ def test_render_adaptive_stops_pixels_at_their_error():
         camsim.render("cornell-box", resolution=(8, 8), samples_per_pixel=4, min_samples=16)
 
 
+def test_render_denoise_needs_its_library_and_says_how_to_get_it(monkeypatch, tmp_path):
+    monkeypatch.setenv("CAMSIM_OIDN_LIBRARY", str(tmp_path / "libOpenImageDenoise.so.1"))
+    with pytest.raises(camsim.CamsimError, match="pip install oidn"):
+        camsim.render("cornell-box", resolution=(8, 8), samples_per_pixel=4, denoise=True)
+
+
 def test_render_reads_a_gltf_scene_in_its_units():
     # Blender's export of a small room: its camera, its 12 cd/m^2 lamp, its objects by name.
     glb = REPO.parent / "shared" / "scenes" / "gltf" / "room.glb"

@@ -11,8 +11,10 @@
 //! that follow one another: the trace (per-pixel luminance sums and weights `24 P`, the inverse
 //! weights `4 P`, per thread a tile's f64 sums `8 B (1 + G) TILE^2`, and with motion the rows'
 //! shutter windows `16 H`; with adaptive sampling each pixel's channel sums, sample count and
-//! flags, `(16 C + 6) P` for `C` channels), the labels (each row's buffers and the assembled maps) or the
-//! writing of the outputs (the sRGB preview, the id maps as 16-bit PNGs, and the EXR writer's
+//! flags, `(16 C + 6) P` for `C` channels), the labels (each row's buffers and the assembled maps),
+//! the denoise ([`crate::denoise`]: its guide labels, the denoised film `4 P B`, each band group's
+//! result `12 P`, and per thread the interleaved inputs and OIDN's scratch, `36 P + 128 P`, the
+//! last an estimate), or the writing of the outputs (the sRGB preview, the id maps as 16-bit PNGs, and the EXR writer's
 //! blocks in flight: [`camsim_core::mem::WRITE_BATCH_BYTES`] twice at most).
 
 use crate::scene::SceneDescription;
@@ -71,17 +73,28 @@ pub fn memory_budget(scene: &SceneDescription, needs: RenderNeeds) -> MemoryBudg
     let labels = needs.labels.map_or(0, |(normals, albedo)| {
         px(label_bytes_per_pixel(normals, albedo, bands as usize))
     });
+    let denoise = if st.denoise.is_some() {
+        let in_flight = (rayon::current_num_threads() as u64).max(1);
+        let band_groups = crate::denoise::band_groups(bands as usize).len() as u64;
+        px(label_bytes_per_pixel(true, true, bands as usize))
+            + film_bytes.saturating_mul(1 + groups)
+            + px(12 * band_groups + 12)
+            + in_flight.saturating_mul(px(36 + 128))
+    } else {
+        0
+    };
     // The preview: XYZ (12 B), its luminances (4 B) and the sRGB bytes (3 B, and 3 B more as the
     // PNG encoder's image); the id maps as u16 (2 B); the EXR blocks in flight.
     let writing = px(12 + 4 + 3 + 3 + 2) + 2 * film_bytes.min(WRITE_BATCH_BYTES as u64);
     let (phase, phase_bytes) = [
         ("trace sums", trace),
         ("labels", labels),
+        ("denoise", denoise),
         ("output writing", writing),
     ]
     .into_iter()
     .max_by_key(|(_, b)| *b)
-    .expect("three phases");
+    .expect("four phases");
     MemoryBudget::new(format!(
         "the render ({width} x {height} pixels, {bands} bands)"
     ))

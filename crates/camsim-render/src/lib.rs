@@ -24,6 +24,7 @@ mod bump;
 pub mod bvh;
 mod camera;
 pub mod curve;
+pub mod denoise;
 pub mod envmap;
 mod error;
 mod filter;

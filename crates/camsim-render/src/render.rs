@@ -81,6 +81,10 @@ pub struct RenderOutput {
     /// With [`RenderRequest::light_groups`]: the radiance of each light group (sorted by name,
     /// [`crate::light_groups`]), on the radiance's grid and geometry; they sum to `radiance`.
     pub light_groups: Vec<(String, SpectralImage)>,
+    /// The denoiser library the film (and the light-group films) went through, when
+    /// `RenderSettings::denoise` asked for one ([`crate::denoise`]); `variance` is still the
+    /// film's before denoising.
+    pub denoised_with: Option<std::path::PathBuf>,
 }
 
 /// What a render computes besides radiance, depth and ids.
@@ -332,6 +336,12 @@ pub fn render_with(
     let rig = CameraRig::new(&scene.camera).map_err(RenderError::Camera)?;
     // Everything the render will hold at once, before any of it is allocated.
     memory_budget(scene, request).check(crate::budget::ADVICE)?;
+    // The denoiser's library, before the render: a missing one fails in a moment, not after it.
+    let oidn = st
+        .denoise
+        .as_ref()
+        .map(|d| crate::denoise::Oidn::load(d.library.as_deref()))
+        .transpose()?;
     let ws = WavelengthSampler::new(&st.grid);
     let filter = FilterSampler::new(&st.filter)
         .map_err(|e| RenderError::Settings(format!("pixel filter: {e}")))?;
@@ -388,6 +398,46 @@ pub fn render_with(
         out.labels = Some(crate::labels::compute(
             scene, &tracer, &rig, &ws, req, None,
         )?);
+    }
+    if let Some(oidn) = &oidn {
+        let t = Instant::now();
+        // The guides: the labels' albedo and normals when they were asked for, else their own.
+        let own = match &out.labels {
+            Some(l) if l.albedo.is_some() && l.normal_camera.is_some() => None,
+            _ => Some(crate::labels::compute(
+                scene,
+                &tracer,
+                &rig,
+                &ws,
+                crate::labels::LabelRequest {
+                    normals: true,
+                    albedo: true,
+                },
+                None,
+            )?),
+        };
+        let l = own.as_ref().or(out.labels.as_ref()).expect("guides");
+        let direct: Vec<bool> = out
+            .ids
+            .object_id
+            .iter()
+            .map(|&o| {
+                o.checked_sub(1)
+                    .and_then(|s| scene.shapes.get(s as usize))
+                    .is_none_or(|shape| shape.area_light.is_some())
+            })
+            .collect();
+        let guides = crate::denoise::Guides {
+            albedo: l.albedo.as_deref(),
+            normal: l.normal_camera.as_deref(),
+            direct: Some(&direct),
+        };
+        out.radiance = crate::denoise::denoise(oidn, &out.radiance, guides)?;
+        for (_, img) in &mut out.light_groups {
+            *img = crate::denoise::denoise(oidn, img, guides)?;
+        }
+        out.stats.seconds += t.elapsed().as_secs_f64();
+        out.denoised_with = Some(oidn.path().to_path_buf());
     }
     Ok(out)
 }
@@ -730,6 +780,7 @@ fn run<const N: usize>(
         stats,
         labels: None,
         light_groups,
+        denoised_with: None,
     })
 }
 

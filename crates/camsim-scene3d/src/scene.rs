@@ -900,6 +900,18 @@ pub struct RenderSettings {
     /// Monte Carlo error meets a target, `samples_per_pixel` being the most it takes. `None`:
     /// every pixel takes `samples_per_pixel`.
     pub adaptive: Option<AdaptiveSampling>,
+    /// Denoise the film after rendering (camsim's own; pbrt-v4 has none): Intel Open Image
+    /// Denoise, loaded at run time, guided by the first surfaces' albedo and normals
+    /// (`camsim_render::denoise`). `None`: the unbiased film.
+    pub denoise: Option<DenoiseSettings>,
+}
+
+/// How the film is denoised ([`RenderSettings::denoise`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DenoiseSettings {
+    /// The OIDN shared library (`libOpenImageDenoise.so.*`); `None`: `$CAMSIM_OIDN_LIBRARY`,
+    /// else the system's library path.
+    pub library: Option<std::path::PathBuf>,
 }
 
 /// When a pixel has enough samples ([`RenderSettings::adaptive`]).
@@ -1066,6 +1078,7 @@ impl Default for RenderSettings {
             time: crate::motion::TimeSettings::default(),
             light_sampler: LightSampler::Bvh,
             adaptive: None,
+            denoise: None,
         }
     }
 }

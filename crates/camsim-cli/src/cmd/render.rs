@@ -56,6 +56,13 @@ pub struct Args {
     /// Samples every pixel takes before adaptive sampling's first test (default 32).
     #[arg(long)]
     pub min_spp: Option<u32>,
+    /// Denoise the radiance with Intel Open Image Denoise, guided by the first surfaces' albedo
+    /// and normals (for training data; it changes MTF, colour and noise figures:
+    /// docs/src/adaptive.md). camsim opens the library at run time: set CAMSIM_OIDN_LIBRARY to
+    /// libOpenImageDenoise.so.* (e.g. from `pip install oidn`). variance.exr stays the
+    /// undenoised film's.
+    #[arg(long)]
+    pub denoise: bool,
     /// Image size WIDTHxHEIGHT (default: the pbrt file's Film, the overlay's [camera]
     /// resolution, or the built-in's). Given here, it wins over both.
     #[arg(long, value_parser = parse_resolution)]
@@ -119,6 +126,7 @@ pub fn run(a: Args) -> Result<()> {
         time_budget_s: a.time_budget_s,
         adaptive_error: a.adaptive_error,
         min_samples: a.min_spp,
+        denoise: a.denoise,
         mcc_position: a.mcc_position.parse::<MccPosition>()?,
         distance_m: a.distance_m,
         seed: a.seed,
@@ -150,7 +158,7 @@ pub fn run(a: Args) -> Result<()> {
         Some(std::env::args().collect::<Vec<_>>().join(" ")),
     )?;
     say(format!(
-        "rendered {}x{}, {} spp{} in {:.1} s ({:.2} Mrays/s) -> {}",
+        "rendered {}x{}, {} spp{}{} in {:.1} s ({:.2} Mrays/s) -> {}",
         rec.resolution[0],
         rec.resolution[1],
         rec.samples_per_pixel,
@@ -166,6 +174,11 @@ pub fn run(a: Args) -> Result<()> {
             )
         } else {
             String::new()
+        },
+        if rec.denoised_with.is_some() {
+            ", denoised"
+        } else {
+            ""
         },
         rec.stats.seconds,
         rec.stats.rays_per_second / 1e6,

@@ -137,7 +137,7 @@ def scene(config: Union[Dict[str, Any], str], wavelengths_nm: Optional[Sequence[
 def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolution: Optional[Tuple[int, int]] = None,
            samples_per_pixel: Optional[int] = None, seed: int = 1,
            wavelengths_nm: Optional[Sequence[float]] = None, adaptive_error: Optional[float] = None,
-           min_samples: Optional[int] = None) -> Dict[str, Any]:
+           min_samples: Optional[int] = None, denoise: bool = False) -> Dict[str, Any]:
     """Stage 1, a 3D scene: path-trace a built-in scene ("cornell-box", "cornell-box-mcc",
     "slanted-edge") or a scene file given as pbrt: pbrt-v4, glTF 2.0 (.gltf, .glb) or OBJ, told
     apart by its content (glTF in its physical units, docs/src/assets.md). resolution = (width, height). Returns a dict like scene()'s,
@@ -147,10 +147,12 @@ def render(builtin: Optional[str] = None, pbrt: Optional[str] = None, *, resolut
     adaptive_error (e.g. 0.05): adaptive sampling, each pixel stops once the relative standard
     error of its luminance is below it, after at least min_samples (default 32) and at most
     samples_per_pixel; the dict then has samples_per_pixel (rows, cols) uint32, the samples each
-    pixel took (docs/src/adaptive.md)."""
+    pixel took (docs/src/adaptive.md). denoise=True: the radiance through Intel Open Image Denoise
+    (the library named by the environment variable CAMSIM_OIDN_LIBRARY, e.g. from `pip install
+    oidn`), for training data only: it changes MTF, colour and noise figures."""
     start, step, count = _grid(wavelengths_nm)
     return _camsim.render(builtin, None if pbrt is None else os.fspath(pbrt), resolution, samples_per_pixel, seed, start, step, count,
-                          adaptive_error, min_samples)
+                          adaptive_error, min_samples, denoise)
 
 
 def optics(radiance: np.ndarray, wavelengths_nm: Sequence[float], *, lens: Union[str, Dict[str, Any]] = "pixel4a",
