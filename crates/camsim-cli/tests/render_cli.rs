@@ -125,16 +125,31 @@ fn denoise_without_its_library_exits_2_naming_how_to_get_it_and_writes_nothing()
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("dn");
     let o = Command::new(env!("CARGO_BIN_EXE_camsim"))
-        .args(["render", "--builtin", "cornell-box", "--resolution", "16x16", "--spp", "8", "--denoise"])
+        .args([
+            "render",
+            "--builtin",
+            "cornell-box",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "8",
+            "--denoise",
+        ])
         .arg("--out")
         .arg(&out)
         .arg("--quiet")
-        .env("CAMSIM_OIDN_LIBRARY", dir.path().join("libOpenImageDenoise.so.1"))
+        .env(
+            "CAMSIM_OIDN_LIBRARY",
+            dir.path().join("libOpenImageDenoise.so.1"),
+        )
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("libOpenImageDenoise.so.1") && err.contains("pip install oidn"), "{err}");
+    assert!(
+        err.contains("libOpenImageDenoise.so.1") && err.contains("pip install oidn"),
+        "{err}"
+    );
     assert!(!out.exists(), "a failed render left {}", out.display());
 }
 
@@ -147,12 +162,27 @@ fn denoise_with_its_library_records_it() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let args = ["render", "--builtin", "cornell-box", "--resolution", "24x24", "--spp", "8"];
+    let args = [
+        "render",
+        "--builtin",
+        "cornell-box",
+        "--resolution",
+        "24x24",
+        "--spp",
+        "8",
+    ];
     let (plain, dn) = (dir.path().join("plain"), dir.path().join("dn"));
-    ok(&camsim(&[&args[..], &["--out", plain.to_str().unwrap()]].concat()));
-    ok(&camsim(&[&args[..], &["--denoise", "--out", dn.to_str().unwrap()]].concat()));
+    ok(&camsim(
+        &[&args[..], &["--out", plain.to_str().unwrap()]].concat(),
+    ));
+    ok(&camsim(
+        &[&args[..], &["--denoise", "--out", dn.to_str().unwrap()]].concat(),
+    ));
     let rec = render_json(&dn);
-    assert_eq!(rec["denoised_with"].as_str(), Some(Path::new(&lib).to_str().unwrap()));
+    assert_eq!(
+        rec["denoised_with"].as_str(),
+        Some(Path::new(&lib).to_str().unwrap())
+    );
     assert!(render_json(&plain).get("denoised_with").is_none());
     assert_ne!(
         std::fs::read(plain.join("radiance.exr")).unwrap(),

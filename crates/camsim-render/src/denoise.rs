@@ -209,7 +209,17 @@ impl Oidn {
             (self.commit_device)(dev);
             let filter = (self.new_filter)(dev, c"RT".as_ptr());
             let set = |name: &CStr, ptr: *mut c_void| {
-                (self.set_image)(filter, name.as_ptr(), ptr, FORMAT_FLOAT3, width, height, 0, 0, 0)
+                (self.set_image)(
+                    filter,
+                    name.as_ptr(),
+                    ptr,
+                    FORMAT_FLOAT3,
+                    width,
+                    height,
+                    0,
+                    0,
+                    0,
+                )
             };
             set(c"color", color.as_ptr() as *mut c_void);
             if let Some(a) = albedo {
@@ -271,7 +281,7 @@ pub fn band_groups(bands: usize) -> Vec<usize> {
         return vec![0];
     }
     let mut g: Vec<usize> = (0..bands / 3).map(|k| 3 * k).collect();
-    if bands % 3 != 0 {
+    if !bands.is_multiple_of(3) {
         g.push(bands - 3);
     }
     g
@@ -403,11 +413,17 @@ mod tests {
     fn a_missing_library_is_named_with_how_to_get_one() {
         let e = Oidn::load(Some(Path::new("/nonexistent/libOpenImageDenoise.so.1"))).unwrap_err();
         let m = e.to_string();
-        assert!(m.contains("/nonexistent/libOpenImageDenoise.so.1") && m.contains("pip install oidn"), "{m}");
+        assert!(
+            m.contains("/nonexistent/libOpenImageDenoise.so.1") && m.contains("pip install oidn"),
+            "{m}"
+        );
         let dir = tempfile::tempdir().unwrap();
         let fake = dir.path().join("libOpenImageDenoise.so.1");
         std::fs::write(&fake, b"not a library").unwrap();
         let m = Oidn::load(Some(&fake)).unwrap_err().to_string();
-        assert!(m.contains("libOpenImageDenoise.so.1") && m.contains("CAMSIM_OIDN_LIBRARY"), "{m}");
+        assert!(
+            m.contains("libOpenImageDenoise.so.1") && m.contains("CAMSIM_OIDN_LIBRARY"),
+            "{m}"
+        );
     }
 }

@@ -99,7 +99,10 @@ fn the_denoised_film_is_nearer_the_converged_one_and_keeps_its_mean() {
     let noisy = render(&scene(8, false), &|_, _| {}).unwrap();
     let denoised = render(&scene(8, true), &|_, _| {}).unwrap();
     let (ln, ld) = (luminance(&noisy), luminance(&denoised));
-    let (en, ed) = (errors(&ln, &reference, &lamp), errors(&ld, &reference, &lamp));
+    let (en, ed) = (
+        errors(&ln, &reference, &lamp),
+        errors(&ld, &reference, &lamp),
+    );
     eprintln!("lit surfaces: noisy {en:.4}, denoised {ed:.4}");
     assert!(
         ed < 0.6 * en,
@@ -111,14 +114,21 @@ fn the_denoised_film_is_nearer_the_converged_one_and_keeps_its_mean() {
     let px = W * H;
     for p in (0..px).filter(|p| lamp[*p]) {
         for b in 0..noisy.radiance.bands() {
-            assert_eq!(noisy.radiance.data[b * px + p], denoised.radiance.data[b * px + p]);
+            assert_eq!(
+                noisy.radiance.data[b * px + p],
+                denoised.radiance.data[b * px + p]
+            );
         }
     }
     // Every band is denoised, and stays a spectrum (no negative radiance).
     assert!(denoised.radiance.data.iter().all(|v| *v >= 0.0));
     let bands = noisy.radiance.bands();
     for b in [0, bands / 2, bands - 1] {
-        assert_ne!(noisy.radiance.band(b), denoised.radiance.band(b), "band {b}");
+        assert_ne!(
+            noisy.radiance.band(b),
+            denoised.radiance.band(b),
+            "band {b}"
+        );
     }
 }
 

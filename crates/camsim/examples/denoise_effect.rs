@@ -165,23 +165,27 @@ fn raw_noise(low: u32, reference: u32) {
         let ids = sim.ids.as_ref().expect("ids");
         assert_eq!((ids.width, ids.height), (w, h));
         let (rows, cols) = (sim.frames[0].rows, sim.frames[0].cols);
-        let inside: std::collections::HashSet<usize> =
-            interior(ids, &format!("mcc_{patch:02}")).into_iter().collect();
+        let inside: std::collections::HashSet<usize> = interior(ids, &format!("mcc_{patch:02}"))
+            .into_iter()
+            .collect();
         (0..rows * cols)
             .filter(|p| {
                 let (r, c) = (p / cols, p % cols);
-                r % 2 == 0
-                    && c % 2 == 0
-                    && inside.contains(&((r * h / rows) * w + c * w / cols))
+                r % 2 == 0 && c % 2 == 0 && inside.contains(&((r * h / rows) * w + c * w / cols))
             })
             .collect()
     };
     let stats = |v: &[f64]| {
         let m = v.iter().sum::<f64>() / v.len() as f64;
-        (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64)
+        (
+            m,
+            v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64,
+        )
     };
     let reference_sim = run(reference, false);
-    println!("Raw (Pixel 4a, full sensor over a {w} x {h} render, one CFA phase, auto-exposure), DN:");
+    println!(
+        "Raw (Pixel 4a, full sensor over a {w} x {h} render, one CFA phase, auto-exposure), DN:"
+    );
     println!("  patch  mean  render noise {low} spp / denoised  sensor temporal noise");
     let cases = [run(low, false), run(low, true)];
     for patch in 1..=24 {
