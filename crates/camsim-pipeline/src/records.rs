@@ -298,6 +298,11 @@ pub struct RenderSamples {
     pub mean_per_pixel: f64,
     pub min_per_pixel: u32,
     pub max_per_pixel: u32,
+    /// With adaptive sampling: the share of pixels that took every sample allowed, 0-1. There
+    /// the render's noise is still above the target (at a well-exposed pixel rendered 1:1 with
+    /// the sensor, a fifth of the shot noise can need far more than 1024 samples).
+    #[serde(default)]
+    pub at_most_share: f64,
     /// The adaptive-sampling target, when `[render.adaptive]` set one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<AdaptiveRecord>,
@@ -318,6 +323,12 @@ impl RenderSamples {
             mean_per_pixel: mean_samples(out),
             min_per_pixel: s.iter().copied().min().unwrap_or(0),
             max_per_pixel: s.iter().copied().max().unwrap_or(0),
+            at_most_share: if scene.settings.adaptive.is_some() && !s.is_empty() {
+                let cap = scene.settings.samples_per_pixel;
+                s.iter().filter(|n| **n >= cap).count() as f64 / s.len() as f64
+            } else {
+                0.0
+            },
             adaptive: scene.settings.adaptive.as_ref().map(AdaptiveRecord::of),
             denoised_with: out.denoised_with.as_ref().map(|p| p.display().to_string()),
         }

@@ -95,6 +95,19 @@ fn adaptive_renders_leave_the_raw_with_the_sensor_model_temporal_noise() {
     );
     assert!(samples.mean_per_pixel < 4096.0 && samples.min_per_pixel >= 16);
     assert_eq!(samples.adaptive.as_ref().unwrap().channel_unit, "electrons");
+    assert_eq!(
+        samples.at_most_share, 0.0,
+        "no pixel needed all 4096 samples"
+    );
+    // Capped below what the target needs, the record says most pixels took all they could.
+    let capped = run(
+        dir.path(),
+        11,
+        exposure_ms,
+        "samples_per_pixel = 32\n[render.adaptive]\nmin_samples = 16",
+    );
+    let share = capped.render_samples.unwrap().at_most_share;
+    assert!(share > 0.5, "capped at 32 spp: {share}");
 
     // The first test's samples alone: the render's noise shows in the raw.
     let fixed = "samples_per_pixel = 16";

@@ -132,6 +132,24 @@ pub fn run(a: Args) -> Result<()> {
         out.display(),
         outputs.names()
     ));
+    if let Some(r) = sim.render_samples.as_ref().filter(|r| r.adaptive.is_some()) {
+        say(format!(
+            "adaptive render: {:.0} samples per pixel on average ({}..{} of {}){}",
+            r.mean_per_pixel,
+            r.min_per_pixel,
+            r.max_per_pixel,
+            r.requested_per_pixel,
+            if r.at_most_share > 0.01 {
+                format!(
+                    "; {:.0} % of the pixels took all {} and are still noisier than the target: raise samples_per_pixel",
+                    100.0 * r.at_most_share,
+                    r.requested_per_pixel
+                )
+            } else {
+                String::new()
+            }
+        ));
+    }
     if let Some(h) = &sim.hdr {
         let m = &h.model;
         say(format!(
