@@ -5,9 +5,11 @@
 //! different sample counts, bright-and-smooth ones fewer; and the image is the same bytes for any
 //! thread count.
 
-use camsim_render::{render, RenderOutput};
+mod common;
+use camsim_render::render;
 use camsim_scene3d::scene::AdaptiveSampling;
 use camsim_scene3d::{builtin, SamplerKind, SceneDescription};
+use common::luminance;
 
 const W: usize = 32;
 const H: usize = 32;
@@ -24,19 +26,6 @@ fn scene(spp: u32, adaptive: Option<AdaptiveSampling>, seed: u64) -> SceneDescri
     s.settings.seed = seed;
     s.settings.adaptive = adaptive;
     s
-}
-
-fn luminance(out: &RenderOutput) -> Vec<f64> {
-    let grid = out.radiance.grid;
-    let ybar = camsim_core::colorimetry::Cmfs::on(&grid).y;
-    let px = out.radiance.rows * out.radiance.cols;
-    (0..px)
-        .map(|p| {
-            (0..grid.len())
-                .map(|b| out.radiance.data[b * px + p] as f64 * ybar[b] * grid.step_nm * 683.0)
-                .sum()
-        })
-        .collect()
 }
 
 /// RMS over lit pixels of (L / L_ref - 1).

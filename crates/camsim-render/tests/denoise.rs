@@ -8,9 +8,11 @@
 //! `oidn/lib.linux.x64/libOpenImageDenoise.so.1.4.3` in the wheel) and say so and pass where it
 //! does not. The missing-library message is tested in the module's unit tests.
 
-use camsim_render::{render, RenderOutput};
+mod common;
+use camsim_render::render;
 use camsim_scene3d::scene::DenoiseSettings;
 use camsim_scene3d::{builtin, SceneDescription};
+use common::luminance;
 
 const W: usize = 96;
 const H: usize = 96;
@@ -35,19 +37,6 @@ fn scene(spp: u32, denoise: bool) -> SceneDescription {
     s.settings.samples_per_pixel = spp;
     s.settings.denoise = denoise.then(DenoiseSettings::default);
     s
-}
-
-fn luminance(out: &RenderOutput) -> Vec<f64> {
-    let grid = out.radiance.grid;
-    let ybar = camsim_core::colorimetry::Cmfs::on(&grid).y;
-    let px = out.radiance.rows * out.radiance.cols;
-    (0..px)
-        .map(|p| {
-            (0..grid.len())
-                .map(|b| out.radiance.data[b * px + p] as f64 * ybar[b] * grid.step_nm * 683.0)
-                .sum()
-        })
-        .collect()
 }
 
 /// RMS of (L / L_ref - 1) over the pixels of the surfaces light reaches (reference above 30 %

@@ -133,3 +133,17 @@ pub fn hidden_in_cornell_block() -> Shape {
         tags: Default::default(),
     }
 }
+
+/// Each pixel's luminance, cd/m^2: `683 sum_b L_b ybar_b d_lambda` of a render's radiance.
+pub fn luminance(out: &camsim_render::RenderOutput) -> Vec<f64> {
+    let grid = out.radiance.grid;
+    let ybar = camsim_core::colorimetry::Cmfs::on(&grid).y;
+    let px = out.radiance.rows * out.radiance.cols;
+    (0..px)
+        .map(|p| {
+            (0..grid.len())
+                .map(|b| out.radiance.data[b * px + p] as f64 * ybar[b] * grid.step_nm * 683.0)
+                .sum()
+        })
+        .collect()
+}
