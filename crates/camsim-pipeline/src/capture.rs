@@ -82,6 +82,10 @@ pub struct CaptureRequest {
     /// A modulated light's timing (`[flicker]`, [`crate::CaptureSection::light_timing`]);
     /// `None`: a steady light.
     pub light: Option<camsim_sensor::LightTiming>,
+    /// Light groups that flicker each in its own way (`[light_flicker]`,
+    /// [`crate::CaptureSection::group_light_timings`]): the group's name and timing, sorted by
+    /// name; empty when none does. Only a render's light groups can take them.
+    pub group_lights: Vec<(String, camsim_sensor::LightTiming)>,
 }
 
 impl CaptureRequest {
@@ -155,6 +159,7 @@ impl CaptureRequest {
             first_frame: 0,
             global_reset: None,
             light: None,
+            group_lights: Vec::new(),
         })
     }
 
@@ -343,6 +348,7 @@ pub fn image_radiance(
         hdr: None,
         optics_s,
         sensor_s: t.elapsed().as_secs_f64(),
+        light_split: None,
     })
 }
 
@@ -385,9 +391,212 @@ pub(crate) fn image_owned(
             hdr,
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
+            light_split: None,
         },
         map,
     ))
+}
+
+/// The sensor-plane irradiance of a scene whose light groups flicker each in its own way
+/// (`[light_flicker]`, [`camsim_sensor::light_parts`]): the steady groups' sum and each
+/// modulated group's with its timing.
+#[derive(Debug, Clone)]
+pub struct SplitIrradiance {
+    /// The steady groups' (weighted) irradiance.
+    pub steady: SpectralImage,
+    /// Each modulated group's (weighted) irradiance, at its time mean, and its timing.
+    pub parts: Vec<(SpectralImage, camsim_sensor::LightTiming)>,
+}
+
+impl SplitIrradiance {
+    /// The parts as the sensor takes them.
+    pub fn light_parts(&self) -> Vec<camsim_sensor::LightPart<'_>> {
+        self.parts
+            .iter()
+            .map(|(irradiance, light)| camsim_sensor::LightPart {
+                irradiance,
+                light: *light,
+            })
+            .collect()
+    }
+}
+
+/// Split a render's radiance by `req.group_lights`: the steady groups' weighted sum and each
+/// modulated group's weighted image (`weights`: `[render] light_groups`, 1 for a group not
+/// named), each on `image`'s grid and geometry. A modulated group the render lacks is an error
+/// naming its key `light_flicker.NAME` and the render's groups.
+pub(crate) fn split_radiance(
+    image: &SpectralImage,
+    groups: &[(String, SpectralImage)],
+    weights: Option<&std::collections::BTreeMap<String, f64>>,
+    lights: &[(String, camsim_sensor::LightTiming)],
+) -> Result<(
+    SpectralImage,
+    Vec<(SpectralImage, camsim_sensor::LightTiming)>,
+)> {
+    use rayon::prelude::*;
+    for (name, _) in lights {
+        if !groups.iter().any(|(g, _)| g == name) {
+            let names: Vec<&str> = groups.iter().map(|(g, _)| g.as_str()).collect();
+            return Err(PipelineError::config(format!(
+                "light_flicker.{name}: no light of the scene is in group {name:?} (its groups: {}; a light's group is pbrt's \"string lightgroup\" or an overlay's [[light_group]])",
+                names.join(", ")
+            )));
+        }
+    }
+    camsim_core::mem::MemoryBudget::new(format!(
+        "the light split for [light_flicker] ({} images of {} x {} x {} bands)",
+        lights.len() + 1,
+        image.rows,
+        image.cols,
+        image.grid.len()
+    ))
+    .f32s(
+        "split radiance",
+        image.data.len().saturating_mul(lights.len() + 1),
+    )
+    .check("flicker fewer light groups or render fewer pixels")?;
+    let weight = |g: &str| weights.and_then(|w| w.get(g)).copied().unwrap_or(1.0) as f32;
+    // Each part keeps the render's depth: a depth-dependent optics blurs it as the whole.
+    let like = |data: Vec<f32>| SpectralImage {
+        rows: image.rows,
+        cols: image.cols,
+        grid: image.grid,
+        sample_spacing_m: image.sample_spacing_m,
+        quantity: image.quantity,
+        geometry: image.geometry,
+        depth_m: image.depth_m.clone(),
+        data,
+    };
+    let mut steady = vec![0.0f32; image.data.len()];
+    let mut parts = Vec::with_capacity(lights.len());
+    for (name, g) in groups {
+        if g.data.len() != image.data.len() {
+            return Err(PipelineError::config(
+                "light groups: a group image differs in size from the render",
+            ));
+        }
+        let w = weight(name);
+        match lights.iter().find(|(n, _)| n == name) {
+            Some((_, light)) => {
+                parts.push((like(g.data.par_iter().map(|v| w * v).collect()), *light));
+            }
+            None => steady
+                .par_iter_mut()
+                .zip(&g.data)
+                .for_each(|(s, v)| *s += w * v),
+        }
+    }
+    Ok((like(steady), parts))
+}
+
+/// [`image_owned`] for a render whose light groups (`groups`, weighed by `weights`) flicker
+/// each in its own way (`req.group_lights`): the optics image the steady part and each
+/// modulated group (it is linear: they sum to the optics' image of the whole), and the sensor
+/// integrates each group over its rows' own windows ([`camsim_sensor::light_parts`]). Without
+/// modulated groups it is [`image_owned`].
+pub(crate) fn image_owned_groups(
+    image: SpectralImage,
+    groups: &[(String, SpectralImage)],
+    weights: Option<&std::collections::BTreeMap<String, f64>>,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+) -> Result<(
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+)> {
+    use rayon::prelude::*;
+    if req.group_lights.is_empty() {
+        return image_owned(image, optics, sensor, req);
+    }
+    if req.light.is_some() {
+        return Err(PipelineError::config(
+            "give [flicker] (the whole scene) or [light_flicker] (by light group), not both",
+        ));
+    }
+    let t = Instant::now();
+    let (steady, parts) = split_radiance(&image, groups, weights, &req.group_lights)?;
+    let (radiance, split, map) = match image.quantity {
+        Quantity::Irradiance => (None, SplitIrradiance { steady, parts }, None),
+        _ => {
+            let (steady_irr, map) = optics.compute_mapped(&steady)?;
+            drop(steady);
+            let parts = parts
+                .into_iter()
+                .map(|(p, l)| Ok((optics.compute(&p)?, l)))
+                .collect::<Result<Vec<_>>>()?;
+            (
+                Some(image),
+                SplitIrradiance {
+                    steady: steady_irr,
+                    parts,
+                },
+                Some(map),
+            )
+        }
+    };
+    // The whole scene's irradiance, for the records, previews and labels.
+    let mut irradiance = split.steady.clone();
+    for (p, _) in &split.parts {
+        irradiance
+            .data
+            .par_iter_mut()
+            .zip(&p.data)
+            .for_each(|(s, v)| *s += *v);
+    }
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (frame, hdr) = match capture_split(sensor, &split, req)? {
+        Captured::Frames(f) => (f, None),
+        Captured::Hdr(h) => {
+            let (f, rest) = split_hdr(h);
+            (f, Some(rest))
+        }
+    };
+    Ok((
+        radiance,
+        Imaged {
+            irradiance,
+            frame,
+            hdr,
+            optics_s,
+            sensor_s: t.elapsed().as_secs_f64(),
+            light_split: Some(split),
+        },
+        map,
+    ))
+}
+
+/// [`capture`] of a split light ([`SplitIrradiance`]).
+pub fn capture_split(
+    sensor: &Sensor,
+    split: &SplitIrradiance,
+    req: &CaptureRequest,
+) -> Result<Captured> {
+    let parts = split.light_parts();
+    let capture = req.capture();
+    if sensor.hdr_model().is_some() {
+        if req.bracket_s.is_some() {
+            return Err(PipelineError::Config(format!(
+                "{}: an [hdr] sensor ({}) takes one exposure ({} or auto-exposure), not a bracket",
+                req.keys.bracket,
+                sensor.name(),
+                req.keys.exposure
+            )));
+        }
+        return Ok(Captured::Hdr(sensor.compute_hdr_parts_from(
+            &split.steady,
+            &parts,
+            &capture,
+            req.first_frame,
+        )?));
+    }
+    Ok(Captured::Frames(match &req.bracket_s {
+        None => sensor.compute_parts_from(&split.steady, &parts, &capture, req.first_frame)?,
+        Some(times_s) => sensor.compute_bracket_parts(&split.steady, &parts, times_s, &capture)?,
+    }))
 }
 
 /// What [`image_radiance`] returns.
@@ -404,15 +613,22 @@ pub struct Imaged {
     pub optics_s: f64,
     /// Seconds in the sensor stage.
     pub sensor_s: f64,
+    /// With light groups that flicker each in its own way (`[light_flicker]`): the steady
+    /// and the modulated groups' irradiance, which sum to `irradiance` (`None` otherwise).
+    pub light_split: Option<SplitIrradiance>,
 }
 
 /// The ADC value each pixel would read at `exposure_s` without shot, read, DSNU and PRNU noise
 /// and without quantization, the mean dark signal included (DN, row-major, f32): the mean the
 /// raw frames scatter around. `req` gives the global reset and a modulated light, `frame` the
 /// frame index (a modulated light's window depends on it).
+///
+/// With `split` (light groups flickering each in its own way, [`Imaged::light_split`]) the
+/// groups' irradiance replaces `irradiance`.
 pub fn noise_free_dn(
     sensor: &Sensor,
     irradiance: &SpectralImage,
+    split: Option<&SplitIrradiance>,
     exposure_s: f64,
     req: &CaptureRequest,
     frame: u64,
@@ -425,13 +641,13 @@ pub fn noise_free_dn(
         dark: true,
         quantization: false,
     });
-    let nf = quiet.compute_from(
-        irradiance,
-        &Capture::seconds(exposure_s)
-            .with_global_reset(req.global_reset)
-            .with_light(req.light),
-        frame,
-    )?;
+    let capture = Capture::seconds(exposure_s)
+        .with_global_reset(req.global_reset)
+        .with_light(req.light);
+    let nf = match split {
+        Some(s) => quiet.compute_parts_from(&s.steady, &s.light_parts(), &capture, frame)?,
+        None => quiet.compute_from(irradiance, &capture, frame)?,
+    };
     nf.analog_dn
         .and_then(|mut v| v.drain(..).next())
         .ok_or_else(|| {

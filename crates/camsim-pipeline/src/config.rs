@@ -44,6 +44,14 @@ pub struct SimulateConfig {
     /// light's time mean. `{ frequency_hz = 90.0, duty = 0.1, phase = 0.0 }`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker: Option<camsim_sensor::Flicker>,
+    /// Light groups that flicker each in its own way, by group name (3D scenes): `[light_flicker]
+    /// sign = { frequency_hz = 90.0, duty = 0.1 }` modulates the lights of group `sign` (pbrt
+    /// `"string lightgroup"`, overlay `[[light_group]]`) and leaves the others steady. The
+    /// render splits its radiance by group in the same pass, the optics image each modulated
+    /// group apart, and each sensor row integrates each group over its own window
+    /// (`[capture] shutter`, frame times). Not with `[flicker]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_flicker: Option<std::collections::BTreeMap<String, camsim_sensor::Flicker>>,
     /// The preview's ISP.
     #[serde(default, skip_serializing_if = "IspSection::is_default")]
     pub isp: IspSection,

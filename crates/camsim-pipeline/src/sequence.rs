@@ -5,7 +5,7 @@
 //! grid. A 2D chart, or a 3D scene where nothing moves, is rendered once and imaged as before
 //! (the same bytes).
 
-use crate::capture::{image_owned, noise_free_dn, CaptureRequest, Imaged};
+use crate::capture::{image_owned, image_owned_groups, noise_free_dn, CaptureRequest, Imaged};
 use crate::timing::{flow_on_sensor, FrameTime};
 use crate::{render, scene_stage_with, Progress, Result, SimulateConfig};
 use camsim_core::SpectralImage;
@@ -78,20 +78,27 @@ fn exposures_of(frame: &Frame) -> Vec<f64> {
 
 /// The noise-free image of every raw frame of `frame` (exposed as they were), all from one
 /// `irradiance` (a scene that does not move); frames of the same exposure share one pass.
-fn noise_free_all(
-    sensor: &Sensor,
-    irradiance: &SpectralImage,
-    frame: &Frame,
-    req: &CaptureRequest,
-) -> Result<Vec<Vec<f32>>> {
+fn noise_free_all(sensor: &Sensor, imaged: &Imaged, req: &CaptureRequest) -> Result<Vec<Vec<f32>>> {
+    let frame = &imaged.frame;
+    let split = imaged.light_split.as_ref();
     let mut out: Vec<Vec<f32>> = Vec::with_capacity(frame.raw.len());
     for (i, raw) in frame.raw.iter().enumerate() {
         // Under a modulated light every frame has its own.
-        let same = i > 0 && frame.raw[i - 1].exposure_s == raw.exposure_s && req.light.is_none();
+        let same = i > 0
+            && frame.raw[i - 1].exposure_s == raw.exposure_s
+            && req.light.is_none()
+            && req.group_lights.is_empty();
         let nf = if same {
             out[i - 1].clone()
         } else {
-            noise_free_dn(sensor, irradiance, raw.exposure_s, req, i as u64)?
+            noise_free_dn(
+                sensor,
+                &imaged.irradiance,
+                split,
+                raw.exposure_s,
+                req,
+                i as u64,
+            )?
         };
         out.push(nf);
     }
@@ -190,15 +197,30 @@ pub(crate) fn stage(
     progress("scene", 0, 1);
     // A modulated light's timing: frame 0 at capture.start_ms, else at the scene's own start
     // (a 3D scene's shutter opening; 0 for a 2D chart).
+    if cfg.flicker.is_some() && cfg.light_flicker.is_some() {
+        return Err(crate::PipelineError::config(
+            "give [flicker] (the whole scene) or [light_flicker] (by light group), not both",
+        ));
+    }
     let with_light = |start_s: f64| -> Result<CaptureRequest> {
         Ok(CaptureRequest {
             light: cfg
                 .capture
                 .light_timing(cfg.flicker, sensor.rows(), start_s)?,
+            group_lights: cfg.capture.group_light_timings(
+                cfg.light_flicker.as_ref(),
+                sensor.rows(),
+                start_s,
+            )?,
             ..req.clone()
         })
     };
     let Some(r) = &cfg.render else {
+        if cfg.light_flicker.is_some() {
+            return Err(crate::PipelineError::config(
+                "[light_flicker] modulates a 3D scene's light groups; a 2D scene has one light: use [flicker]",
+            ));
+        }
         let req = &with_light(0.0)?;
         let st = scene_stage_with(cfg, sensor, optics, request, progress)?;
         let scene_s = t.elapsed().as_secs_f64();
@@ -207,7 +229,7 @@ pub(crate) fn stage(
         let times = cfg.capture.frame_times(&exposures_of(&imaged.frame), 0.0)?;
         let noise_free = opts
             .noise_free
-            .then(|| noise_free_all(sensor, &imaged.irradiance, &imaged.frame, req))
+            .then(|| noise_free_all(sensor, &imaged, req))
             .transpose()?;
         return Ok(Staged {
             radiance,
@@ -231,6 +253,11 @@ pub(crate) fn stage(
     let k = sensor_px_per_render_px(&scene, sensor, optics)?;
     let shutter = scene.settings.time.shutter;
     let req = &with_light(shutter.open_s)?;
+    // Modulated light groups need the render split by group.
+    let request = &camsim_render::RenderRequest {
+        light_groups: request.light_groups || !req.group_lights.is_empty(),
+        ..*request
+    };
     // The metered exposure, when adaptive sampling metered one (kept for a moving scene's frames).
     let metered = set_adaptive_target(&mut scene, r, optics, sensor, req, progress)?;
     if !scene.settings.time.has_motion() {
@@ -239,7 +266,14 @@ pub(crate) fn stage(
         let samples = crate::records::RenderSamples::of(&scene, &out);
         let scene_s = t.elapsed().as_secs_f64();
         progress("optics", 0, 1);
-        let (radiance, imaged, map) = image_owned(out.radiance, optics, sensor, req)?;
+        let (radiance, imaged, map) = image_owned_groups(
+            out.radiance,
+            &out.light_groups,
+            r.light_groups.as_ref(),
+            optics,
+            sensor,
+            req,
+        )?;
         let times = cfg
             .capture
             .frame_times(&exposures_of(&imaged.frame), shutter.open_s)?;
@@ -254,7 +288,7 @@ pub(crate) fn stage(
         });
         let noise_free = opts
             .noise_free
-            .then(|| noise_free_all(sensor, &imaged.irradiance, &imaged.frame, req))
+            .then(|| noise_free_all(sensor, &imaged, req))
             .transpose()?;
         return Ok(Staged {
             radiance,
@@ -342,11 +376,30 @@ pub(crate) fn stage(
                 frame_interval_s: Some(0.0),
                 ..l
             }),
+            group_lights: req
+                .group_lights
+                .iter()
+                .map(|(name, l)| {
+                    let l = camsim_sensor::LightTiming {
+                        start_s: w.start_s,
+                        frame_interval_s: Some(0.0),
+                        ..*l
+                    };
+                    (name.clone(), l)
+                })
+                .collect(),
             ..req.clone()
         };
         progress("optics", i as u64, times.len() as u64);
         let depth_m = out.labels.as_ref().and(out.radiance.depth_m.clone());
-        let (radiance, im, map) = image_owned(out.radiance, optics, sensor, &one)?;
+        let (radiance, im, map) = image_owned_groups(
+            out.radiance,
+            &out.light_groups,
+            r.light_groups.as_ref(),
+            optics,
+            sensor,
+            &one,
+        )?;
         optics_s += im.optics_s;
         sensor_s += im.sensor_s;
         if let (Some(req), Some(l), Some(depth_m)) = (request.labels, out.labels, depth_m) {
@@ -370,6 +423,7 @@ pub(crate) fn stage(
             noise_free.push(noise_free_dn(
                 sensor,
                 &im.irradiance,
+                im.light_split.as_ref(),
                 durations[i],
                 &one,
                 i as u64,

@@ -223,6 +223,7 @@ pub fn simulate(
                 hdr,
                 optics_s,
                 sensor_s,
+                light_split: _,
             },
         times: frame_times,
         flow,

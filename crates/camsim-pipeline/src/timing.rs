@@ -266,6 +266,31 @@ impl CaptureSection {
         }))
     }
 
+    /// The timings of light groups that flicker each in its own way (`[light_flicker]`), sorted
+    /// by group name, as [`CaptureSection::light_timing`] times one light; empty without the
+    /// table. A bad key is an error naming it (`light_flicker.NAME.duty`).
+    pub fn group_light_timings(
+        &self,
+        light_flicker: Option<&std::collections::BTreeMap<String, camsim_sensor::Flicker>>,
+        sensor_rows: usize,
+        default_start_s: f64,
+    ) -> Result<Vec<(String, camsim_sensor::LightTiming)>> {
+        let Some(table) = light_flicker else {
+            return Ok(Vec::new());
+        };
+        table
+            .iter()
+            .map(|(name, f)| {
+                f.validate(&format!("light_flicker.{name}"))
+                    .map_err(|e| PipelineError::config(e.to_string()))?;
+                let timing = self
+                    .light_timing(Some(*f), sensor_rows, default_start_s)?
+                    .expect("a flicker gives a timing");
+                Ok((name.clone(), timing))
+            })
+            .collect()
+    }
+
     /// Check the timing keys (start, interval, rate, shutter); the error names the key.
     pub fn check_timing(&self) -> Result<()> {
         if let Some(s) = self.start_ms {

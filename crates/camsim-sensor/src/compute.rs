@@ -114,7 +114,7 @@ pub(crate) fn row_weight_s(g: Option<&GlobalReset>, r: usize, exposure_s: f64) -
 /// (light, dark) integration times of stored row `r`: the exposure for both unless a global
 /// reset extends them.
 #[inline]
-fn row_times_s(g: Option<&GlobalReset>, r: usize, exposure_s: f64) -> (f64, f64) {
+pub(crate) fn row_times_s(g: Option<&GlobalReset>, r: usize, exposure_s: f64) -> (f64, f64) {
     g.map_or((exposure_s, exposure_s), |g| g.row_times_s(r, exposure_s))
 }
 
@@ -184,6 +184,16 @@ pub struct Frame {
     /// Noise-free mean electrons (photo + dark) per filter of the sensor's CFA
     /// ([`Sensor::cfa_layout`] order: r, g, b, then e.g. w; 0 where a filter has no pixel).
     pub mean_electrons_by_filter: Vec<f64>,
+}
+
+impl Frame {
+    /// Append a later frame's raws (and analog values) to these.
+    pub(crate) fn append(&mut self, f: Frame) {
+        self.raw.extend(f.raw);
+        if let (Some(a), Some(b)) = (&mut self.analog_dn, f.analog_dn) {
+            a.extend(b);
+        }
+    }
 }
 
 /// Offset of the centre of pixel `c` from the optical axis, m, for pixels of `pitch_m` centred
@@ -1148,7 +1158,7 @@ pub fn exposure_in_range(t: f64) -> bool {
     (0.0..=MAX_EXPOSURE_S).contains(&t)
 }
 
-fn check_capture(capture: &Capture) -> Result<()> {
+pub(crate) fn check_capture(capture: &Capture) -> Result<()> {
     if capture.frames == 0 {
         return Err(SensorError::input("frames", "must be at least 1"));
     }

@@ -215,7 +215,7 @@ impl Sensor {
         self.hdr_from_rate(rate_e_per_s, capture, 0)
     }
 
-    fn hdr_from_rate(
+    pub(crate) fn hdr_from_rate(
         &self,
         rate_e_per_s: &[f32],
         capture: &Capture,
