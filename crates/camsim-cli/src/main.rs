@@ -67,6 +67,7 @@ enum Commands {
     FitShading(cmd::fit_shading::Args),
     Sensor(cmd::sensor::Args),
     Isp(cmd::isp::Args),
+    Unprocess(cmd::unprocess::Args),
     Presets(cmd::presets::Args),
     /// Measure raw images (camsim's or a real camera's DNG): slanted-edge SFR/MTF, ColorChecker
     /// chart values, region statistics, EMVA 1288 photon transfer.
@@ -143,6 +144,7 @@ fn main() {
         Commands::FitShading(a) => cmd::fit_shading::run(a),
         Commands::Sensor(a) => cmd::sensor::run(a),
         Commands::Isp(a) => cmd::isp::run(a),
+        Commands::Unprocess(a) => cmd::unprocess::run(a),
         Commands::Presets(a) => cmd::presets::run(a),
         Commands::Analyze(c) => cmd::analyze::run(c),
         Commands::Fit(c) => cmd::fit::run(c),

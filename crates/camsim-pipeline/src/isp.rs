@@ -492,10 +492,23 @@ impl Isp {
         seed: u64,
     ) -> Result<RawImage> {
         let dn = self.unprocess(image, sensor, report)?;
+        self.noisy_raw(&dn, image.rows, image.cols, sensor, exposure_s, seed)
+    }
+
+    /// A linear mosaic `dn` (DN above black) with `sensor`'s temporal noise, levels and ADC.
+    fn noisy_raw(
+        &self,
+        dn: &[f32],
+        rows: usize,
+        cols: usize,
+        sensor: &Sensor,
+        exposure_s: f64,
+        seed: u64,
+    ) -> Result<RawImage> {
         let k = sensor.k_dn_per_e();
-        let electrons = unprocess::dn_to_electrons(&dn, k)?;
+        let electrons = unprocess::dn_to_electrons(dn, k)?;
         let layout = sensor.cfa_layout();
-        let mut like = RawImage::new(image.rows, image.cols, sensor.cfa(), sensor.bits())?;
+        let mut like = RawImage::new(rows, cols, sensor.cfa(), sensor.bits())?;
         if layout.as_bayer().is_none() {
             like.layout = Some(layout);
         }
@@ -507,6 +520,83 @@ impl Isp {
         Ok(unprocess::add_sensor_noise(
             &electrons, &like, k, read_dn, seed,
         )?)
+    }
+
+    /// The inverse ISP of a photo this ISP's settings would have rendered, without the frame
+    /// that made it: the colour matrix from `sensor`'s QE under the illuminant, white balance
+    /// `illuminant` or `none` (gray world and white patch fit their gains to a frame, which a
+    /// photo does not have), the tone curve clip or filmic, and the exposure scale
+    /// [`Isp::exposure_scale`], or when it is `None` the scale that puts the photo's white
+    /// (255, 255, 255) at `sensor`'s saturation in its largest camera channel.
+    pub fn photo_unprocess_params(&self, sensor: &Sensor) -> Result<Unprocess> {
+        if let CcmSource::Chart { .. } = self.ccm {
+            return Err(PipelineError::config(
+                "unprocess: a colour matrix fitted on a photographed chart needs that frame; unprocessing a photo takes the QE matrix",
+            ));
+        }
+        if matches!(
+            self.white_balance,
+            WhiteBalanceMethod::GrayWorld | WhiteBalanceMethod::WhitePatch
+        ) {
+            return Err(PipelineError::config(format!(
+                "unprocess: white balance {} fits its gains to the frame, which a photo does not carry; give illuminant or none",
+                self.white_balance.name()
+            )));
+        }
+        let report = IspReport {
+            demosaic: self.demosaic.name(),
+            white_balance: self.white_balance.name(),
+            white_balance_gains: [1.0; 3],
+            camera_to_linear_srgb: Some(self.color(sensor)?.camera_to_srgb()),
+            ccm_objective: None,
+            camera_to_xyz: None,
+            patch_camera_rgb: None,
+            patch_delta_e2000: None,
+            delta_e2000_mean: None,
+            delta_e2000_max: None,
+            exposure_scale: self.exposure_scale.unwrap_or(1.0),
+            cfa_family: CfaFamily::Rgb.name(),
+            tone_map: self.tone_map.name(),
+            channels: None,
+            channel_to_linear_srgb: None,
+            channel_fit_delta_e2000: None,
+        };
+        let mut p = self.unprocess_params(sensor, &report)?;
+        if self.exposure_scale.is_none() {
+            // Display white decoded and untoned, through M^-1 and the gains at scale 1: camera
+            // DN_c = (M^-1 v)_c / (scale g_c) (the forward render, camsim_isp::unprocess).
+            let v = unprocess::inverse_tone(p.tone, 1.0);
+            let inv = camsim_isp::color::mat3_inverse(&p.camera_to_linear_srgb)
+                .ok_or_else(|| PipelineError::config("unprocess: the colour matrix is singular"))?;
+            let cam = camsim_core::colorimetry::mat3_mul_vec(&inv, [v; 3]);
+            let peak = (0..3)
+                .map(|c| cam[c] / p.white_balance_gains[c])
+                .fold(0.0, f64::max);
+            let saturation_dn = sensor.max_dn() as f64 - sensor.black_level_dn();
+            if !(peak > 0.0 && peak.is_finite() && saturation_dn > 0.0) {
+                return Err(PipelineError::config(
+                    "unprocess: the photo's white maps to no positive camera value; give --exposure-scale",
+                ));
+            }
+            p.exposure_scale = peak / saturation_dn;
+        }
+        Ok(p)
+    }
+
+    /// A training raw of `sensor` from an 8-bit sRGB photo (Brooks et al. 2019): the inverse of
+    /// [`Isp::photo_unprocess_params`], mosaicked to the sensor's CFA (r, g, b filters only), then
+    /// the sensor's temporal noise seeded by `seed` ([`Isp::unprocess_raw`]). The raw has the
+    /// photo's size.
+    pub fn unprocess_photo(
+        &self,
+        image: &crate::Rgb8Image,
+        sensor: &Sensor,
+        exposure_s: f64,
+        seed: u64,
+    ) -> Result<RawImage> {
+        let p = self.photo_unprocess_params(sensor)?;
+        let dn = p.mosaic_dn(image.rows, image.cols, &image.data, &sensor.cfa_layout())?;
+        self.noisy_raw(&dn, image.rows, image.cols, sensor, exposure_s, seed)
     }
 
     /// The ISP of a frame whose CFA is not an RGB one (`camsim_isp::cfa_render`): monochrome (a

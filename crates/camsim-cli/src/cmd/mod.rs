@@ -16,4 +16,5 @@ pub mod render;
 pub mod scene;
 pub mod sensor;
 pub mod simulate;
+pub mod unprocess;
 pub mod validate;
