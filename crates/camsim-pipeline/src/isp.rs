@@ -140,8 +140,8 @@ pub struct IspReport {
     /// Chart colour matrix: largest CIEDE2000.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub delta_e2000_max: Option<f64>,
-    /// The exposure scale used (see [`Isp::exposure_scale`]).
-    #[serde(skip)]
+    /// The exposure scale used (see [`Isp::exposure_scale`]): linear sRGB = scale x the colour
+    /// matrix x camera DN above black; `camsim isp --exposure-scale` takes it back.
     pub exposure_scale: f64,
     /// The ISP path the frame's CFA took ([`CfaFamily`]: rgb, rgbw, monochrome, rccc,
     /// multichannel).
@@ -586,17 +586,18 @@ impl Isp {
     /// A training raw of `sensor` from an 8-bit sRGB photo (Brooks et al. 2019): the inverse of
     /// [`Isp::photo_unprocess_params`], mosaicked to the sensor's CFA (r, g, b filters only), then
     /// the sensor's temporal noise seeded by `seed` ([`Isp::unprocess_raw`]). The raw has the
-    /// photo's size.
+    /// photo's size; returned with the inverse it used (its exposure scale renders the raw back).
     pub fn unprocess_photo(
         &self,
         image: &crate::Rgb8Image,
         sensor: &Sensor,
         exposure_s: f64,
         seed: u64,
-    ) -> Result<RawImage> {
+    ) -> Result<(RawImage, Unprocess)> {
         let p = self.photo_unprocess_params(sensor)?;
         let dn = p.mosaic_dn(image.rows, image.cols, &image.data, &sensor.cfa_layout())?;
-        self.noisy_raw(&dn, image.rows, image.cols, sensor, exposure_s, seed)
+        let raw = self.noisy_raw(&dn, image.rows, image.cols, sensor, exposure_s, seed)?;
+        Ok((raw, p))
     }
 
     /// The ISP of a frame whose CFA is not an RGB one (`camsim_isp::cfa_render`): monochrome (a

@@ -247,7 +247,7 @@ fn demosaic<'py>(
 /// on a raw mosaic made by `sensor`, under the scene `illuminant`: returns (preview (rows, cols,
 /// 3) uint8, report dict: the white-balance gains and the colour matrix).
 #[pyfunction]
-#[pyo3(signature = (raw, sensor, cfa = "RGGB", bits = 12, black_level = 0.0, illuminant = "D65", demosaic = "bilinear", white_balance = "illuminant", steps_json = None))]
+#[pyo3(signature = (raw, sensor, cfa = "RGGB", bits = 12, black_level = 0.0, illuminant = "D65", demosaic = "bilinear", white_balance = "illuminant", steps_json = None, exposure_scale = None))]
 #[allow(clippy::too_many_arguments)]
 fn isp<'py>(
     py: Python<'py>,
@@ -260,6 +260,7 @@ fn isp<'py>(
     demosaic: &str,
     white_balance: &str,
     steps_json: Option<&str>,
+    exposure_scale: Option<f64>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let img = raw_from(raw, cfa, bits, black_level)?;
     let (s, _) = sensor_from(sensor)?;
@@ -273,12 +274,73 @@ fn isp<'py>(
     }
     p.demosaic = demosaic.parse().map_err(err)?;
     p.white_balance = white_balance.parse().map_err(err)?;
+    if let Some(k) = exposure_scale {
+        if !(k > 0.0 && k.is_finite()) {
+            return Err(err(format!("exposure_scale {k} is not > 0")));
+        }
+        p.exposure_scale = Some(k);
+    }
     let out = py.detach(|| p.compute(&img, &s)).map_err(err)?;
     let v = &out.preview;
     Ok((
         array(py, &v.data, &[v.rows, v.cols, 3])?,
         to_py(py, &out.report)?,
     ))
+}
+
+/// The inverse ISP of an 8-bit sRGB photo (rows, cols, 3) uint8 (`Isp::unprocess_photo`, as
+/// `camsim unprocess` runs it): a dict with `raw` (rows, cols) uint16 of `sensor` with its
+/// temporal noise, its layout (cfa, black_level, white_level, bits) and the `exposure_scale` that
+/// renders it back through `isp`.
+#[pyfunction]
+#[pyo3(signature = (photo, sensor, illuminant = "D65", white_balance = "illuminant", tone_map = "clip", exposure_scale = None, exposure_s = 0.01, seed = 0))]
+#[allow(clippy::too_many_arguments)]
+fn unprocess<'py>(
+    py: Python<'py>,
+    photo: PyReadonlyArray3<'_, u8>,
+    sensor: &Bound<'py, PyAny>,
+    illuminant: &str,
+    white_balance: &str,
+    tone_map: &str,
+    exposure_scale: Option<f64>,
+    exposure_s: f64,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let a = photo.as_array();
+    let (rows, cols, channels) = a.dim();
+    if channels != 3 {
+        return Err(err(format!(
+            "photo: shape ({rows}, {cols}, {channels}); give (rows, cols, 3) uint8 sRGB"
+        )));
+    }
+    let image = camsim::Rgb8Image {
+        rows,
+        cols,
+        data: a.iter().copied().collect(),
+    };
+    let (s, _) = sensor_from(sensor)?;
+    let illum = camsim::scene::load_illuminant(illuminant, "illuminant").map_err(err)?;
+    let mut p = Isp::new(illum, WavelengthGrid::default());
+    p.white_balance = white_balance.parse().map_err(err)?;
+    p.tone_map = serde_json::from_value(serde_json::Value::String(tone_map.into()))
+        .map_err(|_| err(format!("tone_map '{tone_map}': give clip or filmic")))?;
+    if let Some(k) = exposure_scale {
+        if !(k > 0.0 && k.is_finite()) {
+            return Err(err(format!("exposure_scale {k} is not > 0")));
+        }
+        p.exposure_scale = Some(k);
+    }
+    if !(exposure_s > 0.0 && exposure_s.is_finite()) {
+        return Err(err(format!("exposure_s {exposure_s} is not > 0")));
+    }
+    let (raw, inverse) = py
+        .detach(|| p.unprocess_photo(&image, &s, exposure_s, seed))
+        .map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("raw", array(py, &raw.dn, &[raw.rows, raw.cols])?)?;
+    raw_layout_items(&d, &raw)?;
+    d.set_item("exposure_scale", inverse.exposure_scale)?;
+    Ok(d)
 }
 
 /// White-balance gains (green = 1) of a linear RGB image (rows, cols, 3) by `method` (the ISP's
@@ -374,6 +436,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(sensor, m)?,
         wrap_pyfunction!(demosaic, m)?,
         wrap_pyfunction!(isp, m)?,
+        wrap_pyfunction!(unprocess, m)?,
         wrap_pyfunction!(white_balance_gains, m)?,
         wrap_pyfunction!(fit_ccm, m)?,
         wrap_pyfunction!(macbeth_xyz, m)?,

@@ -81,3 +81,33 @@ def test_demosaic_zone_plate_ordering():
     assert fc["malvar"] < 0.7 * fc["bilinear"] and fc["adaptive-laplacian"] < 0.7 * fc["bilinear"]
     with pytest.raises(camsim.CamsimError, match="f_max"):
         camsim.demosaic_zone_plate(64, 0.7)
+
+
+def test_unprocess_gives_the_inverse_means_and_renders_back():
+    # A flat sRGB field unprocessed to a pixel4a raw: each channel's mean DN is the closed-form
+    # inverse (IEC 61966-2-1 decoding, then M^-1 of the matrix the ISP reports, illuminant white
+    # balance included, over the scale),
+    # and the ISP at the reported scale gives the photo's codes back.
+    code = np.array([150, 120, 90], dtype=np.uint8)
+    photo = np.broadcast_to(code, (48, 48, 3)).copy()
+    out = camsim.unprocess(photo, sensor="pixel4a", seed=3)
+    raw, scale = out["raw"], out["exposure_scale"]
+    assert raw.shape == (48, 48) and raw.dtype == np.uint16
+    preview, report = camsim.isp(raw, out["cfa"], sensor="pixel4a", bits=out["bits"],
+                                 black_level=out["black_level"], exposure_scale=scale)
+    assert report["exposure_scale"] == pytest.approx(scale, rel=1e-9)
+    v = code / 255.0
+    linear = np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+    cam = np.linalg.solve(np.asarray(report["camera_to_linear_srgb"]), linear)
+    want = cam / scale
+    offsets = CFA_OFFSETS[out["cfa"]]
+    for ch in range(3):
+        samples = np.concatenate([raw[dy::2, dx::2].ravel() for (dy, dx), c in offsets.items() if c == ch])
+        x = samples.astype(np.float64) - out["black_level"]
+        se = x.std(ddof=1) / np.sqrt(x.size)
+        assert abs(x.mean() - want[ch]) < 4 * se + 0.1, (ch, x.mean(), want[ch])
+    np.testing.assert_allclose(preview[4:-4, 4:-4].reshape(-1, 3).mean(axis=0), code, atol=1.5)
+    again = camsim.unprocess(photo, sensor="pixel4a", seed=3)["raw"]
+    np.testing.assert_array_equal(raw, again)
+    with pytest.raises(camsim.CamsimError, match="gray-world"):
+        camsim.unprocess(photo, white_balance="gray-world")

@@ -167,6 +167,12 @@ pub struct Args {
     /// Narkowicz 2016); the last two also set the exposure.
     #[arg(long, default_value = "clip", value_parser = parse_kebab::<camsim::isp::tone::ToneMap>, value_name = "clip|reinhard|filmic")]
     pub tone_map: camsim::isp::tone::ToneMap,
+    /// Fixed exposure scale (linear sRGB = scale x colour matrix x camera DN above black, white
+    /// balance included), as `--json` reports it: the same scale renders frames of different brightness
+    /// alike, and the scale `camsim unprocess` used gives its photo back. Default: automatic
+    /// (the 99th-percentile luminance at 0.9 of white).
+    #[arg(long, value_parser = crate::common::positive_f64)]
+    pub exposure_scale: Option<f64>,
     /// JPEG quality (IJG, 1-100) when --out ends in .jpg or .jpeg.
     #[arg(long, default_value_t = camsim::pipeline::isp::DEFAULT_JPEG_QUALITY, value_parser = clap::value_parser!(u8).range(1..=100))]
     pub jpeg_quality: u8,
@@ -203,6 +209,7 @@ pub fn run(a: Args) -> Result<()> {
     isp.denoise_strength = a.denoise_strength;
     isp.sharpen = a.sharpen;
     isp.tone_map = a.tone_map;
+    isp.exposure_scale = a.exposure_scale;
     isp.jpeg_quality = Some(a.jpeg_quality);
     if a.ccm == CcmChoice::Chart {
         let corners: ChartCorners = match a.corners {

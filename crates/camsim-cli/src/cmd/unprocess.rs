@@ -40,7 +40,7 @@ fn parse_tone(s: &str) -> std::result::Result<camsim::isp::tone::ToneMap, String
 /// goes through `camsim isp` with the same settings back to the photo within noise.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim simulate crates/camsim-cli/tests/small-chart.toml --out out/chart\n  camsim unprocess --in out/chart/preview.png --sensor pixel4a --seed 1 --out out/chart-unprocessed.dng\n  camsim isp --in out/chart-unprocessed.dng --sensor pixel4a --out out/chart-back.png\n\nFor a preview camsim rendered, give the exposure scale `camsim isp --json` reports (\"exposure_scale\") as --exposure-scale to get the raw's own DN back; without it the photo's white lands at the sensor's saturation."
+    after_help = "Examples:\n  camsim simulate crates/camsim-cli/tests/small-chart.toml --out out/chart\n  camsim unprocess --in out/chart/preview.png --sensor pixel4a --seed 1 --out out/chart-unprocessed.dng\n  camsim isp --in out/chart-unprocessed.dng --sensor pixel4a --out out/chart-back.png\n\nFor a preview camsim rendered, give the exposure scale `camsim isp --json` reports (\"exposure_scale\") as --exposure-scale to get the raw's own DN back; without it the photo's white lands at the sensor's saturation. The scale used is printed: `camsim isp --exposure-scale` with it renders the raw back to the photo."
 )]
 pub struct Args {
     /// The sRGB photo: PNG or JPEG, 8 bit (grey and RGBA images are converted, alpha dropped).
@@ -89,7 +89,7 @@ pub fn run(a: Args) -> Result<()> {
     isp.white_balance = a.white_balance;
     isp.tone_map = a.tone_map;
     isp.exposure_scale = a.exposure_scale;
-    let raw = isp
+    let (raw, inverse) = isp
         .unprocess_photo(&photo, &sensor, a.exposure_ms * 1e-3, a.seed)
         .map_err(|e| anyhow::anyhow!("--sensor {}: {e}", a.sensor))?;
     let description = format!(
@@ -104,11 +104,12 @@ pub fn run(a: Args) -> Result<()> {
     let meta = isp.dng_metadata(&sensor, Some(description))?;
     camsim::io::dng::write_dng(&a.out, &raw, &meta)?;
     say(format!(
-        "wrote {} ({} x {}, CFA {})",
+        "wrote {} ({} x {}, CFA {}); exposure scale {:.6e} (`camsim isp --exposure-scale` with it renders the photo back)",
         a.out.display(),
         raw.cols,
         raw.rows,
-        raw.cfa_layout().name()
+        raw.cfa_layout().name(),
+        inverse.exposure_scale
     ));
     Ok(())
 }

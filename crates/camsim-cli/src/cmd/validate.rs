@@ -8,8 +8,8 @@ macro_rules! validate_examples {
     () => {
         concat!(
             "Examples:\n",
-            "  camsim validate cornell-box --out out/report          (quick: seconds)\n",
-            "  camsim validate cornell-box --quality paper --out out/paper   (minutes)\n",
+            "  camsim validate cornell-box --out out/report          (quick: seconds; with --quality paper\n",
+            "                                                        the paper's 1008 x 756 at 256 spp: minutes)\n",
             "  camsim validate cornell-box --data ../shared/data/isetcornellbox --out out/data\n",
             "  camsim simulate examples/uniform.toml --out out/uniform   (4 raw frames)\n",
             "  camsim validate compare examples/compare-frames.toml --out out/compare"

@@ -42,6 +42,7 @@ __all__ = [
     "demosaic",
     "white_balance",
     "isp",
+    "unprocess",
     "fit_ccm",
     "macbeth_xyz",
     "demosaic_zone_plate",
@@ -222,17 +223,38 @@ def white_balance(rgb: np.ndarray, method: str = "gray-world", *, percentile: fl
 
 def isp(raw: np.ndarray, cfa: str = "RGGB", *, sensor: Union[str, Dict[str, Any]] = "pixel4a", bits: int = 12,
         black_level: float = 0.0, illuminant: str = "D65", demosaic: str = "bilinear",
-        white_balance: str = "illuminant", steps: Optional[Dict[str, Any]] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
+        white_balance: str = "illuminant", steps: Optional[Dict[str, Any]] = None,
+        exposure_scale: Optional[float] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
     """The whole ISP, as `camsim isp` and the preview of `camsim simulate` run it (ISETCam's ip):
     demosaic, white balance (from the scene `illuminant` and the sensor's QE, or gray-world,
     white-patch, none), the colour matrix fitted on the ColorChecker from the QE, sRGB. `steps`
     takes the keys of a simulate config's `[isp]` table (e.g. {"defect_correction": "detect",
     "column_correction": "sensor", "denoise": "nlm", "denoise_strength": 1.5, "sharpen":
     {"radius_px": 1.2, "amount": 0.6}, "tone_map": "reinhard"}; unknown keys are refused).
-    Returns (preview (rows, cols, 3) uint8, report: white_balance_gains, camera_to_linear_srgb, ...)."""
+    `exposure_scale` fixes the exposure (linear sRGB = scale x matrix x camera DN above black, as
+    the report gives it; default automatic). Returns (preview (rows, cols, 3) uint8, report:
+    white_balance_gains, camera_to_linear_srgb, exposure_scale, ...)."""
     r = np.ascontiguousarray(raw, dtype=np.uint16)
     steps_json = None if steps is None else json.dumps(steps)
-    return _camsim.isp(r, _path_or(sensor), cfa, bits, black_level, illuminant, demosaic, white_balance, steps_json)
+    return _camsim.isp(r, _path_or(sensor), cfa, bits, black_level, illuminant, demosaic, white_balance, steps_json,
+                       None if exposure_scale is None else float(exposure_scale))
+
+
+def unprocess(photo: np.ndarray, *, sensor: Union[str, Dict[str, Any]] = "pixel4a", illuminant: str = "D65",
+              white_balance: str = "illuminant", tone_map: str = "clip", exposure_scale: Optional[float] = None,
+              exposure_s: float = 0.01, seed: int = 0) -> Dict[str, Any]:
+    """The inverse ISP (Brooks et al. 2019), as `camsim unprocess` runs it: an 8-bit sRGB photo
+    (rows, cols, 3) uint8 -> a training raw of `sensor` (its r, g, b CFA, QE colour matrix under
+    `illuminant`, conversion gain, read noise, levels), with Poisson shot noise and read noise drawn
+    from `seed`. `white_balance` "illuminant" or "none", `tone_map` "clip" or "filmic" (the
+    preview's); `exposure_scale` default: the photo's white at the sensor's saturation. Returns
+    {"raw": (rows, cols) uint16, "cfa", "black_level", "white_level", "bits", "exposure_scale"}:
+    `isp(raw, cfa, bits=..., black_level=..., exposure_scale=...)` renders the photo back."""
+    a = np.ascontiguousarray(photo, dtype=np.uint8)
+    if a.ndim != 3:
+        raise CamsimError(f"photo: shape {a.shape}; give (rows, cols, 3) uint8 sRGB")
+    return _camsim.unprocess(a, _path_or(sensor), illuminant, white_balance, tone_map,
+                             None if exposure_scale is None else float(exposure_scale), float(exposure_s), int(seed))
 
 
 def fit_ccm(camera_rgb: np.ndarray, target_xyz: np.ndarray, white_xyz: Sequence[float], *,
