@@ -115,10 +115,18 @@ fn isp_steps_from_the_config_and_from_the_flags_give_the_same_preview() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let cfg = format!(
-        "{}\n[isp]\ndefect_correction = \"detect\"\ndefect_sigmas = 5.0\ndenoise = \"nlm\"\ndenoise_strength = 1.5\nsharpen = {{ radius_px = 1.2, amount = 0.6, threshold = 2.0 }}\ntone_map = \"reinhard\"\n",
+        "{}\n[isp]\ndefect_correction = \"detect\"\ndefect_sigmas = 5.0\ndenoise = \"nlm\"\ndenoise_strength = 1.5\nsharpen = {{ radius_px = 1.2, amount = 0.6, threshold = 2.0 }}\ntone_map = \"reinhard\"\nlens_shading = \"shading.toml\"\n",
         include_str!("small-chart.toml")
     );
     std::fs::write(d.join("run.toml"), cfg).unwrap();
+    // A lens shading 1 - 0.2 (x^2 + y^2) in every channel (monomials 1, x, y, x^2, xy, y^2),
+    // named relative to the config.
+    let coef = "[1.0, 0.0, 0.0, -0.2, 0.0, -0.2]";
+    std::fs::write(
+        d.join("shading.toml"),
+        format!("order = 2\nrows = 64\ncols = 96\nred = {coef}\ngreen = {coef}\nblue = {coef}\nrms_residual_percent = 0.5\nnoise_percent = 0.5\n"),
+    )
+    .unwrap();
     let p = |name: &str| d.join(name).to_string_lossy().into_owned();
     camsim(&["simulate", &p("run.toml"), "--out", &p("sim")]);
     let isp = |extra: &[&str], out: &str| {
@@ -129,6 +137,7 @@ fn isp_steps_from_the_config_and_from_the_flags_give_the_same_preview() {
         camsim(&args);
         png(Path::new(&o))
     };
+    let shading = p("shading.toml");
     let steps = [
         "--defect-correction",
         "detect",
@@ -142,6 +151,8 @@ fn isp_steps_from_the_config_and_from_the_flags_give_the_same_preview() {
         "1.2,0.6,2",
         "--tone-map",
         "reinhard",
+        "--lens-shading",
+        &shading,
     ];
     let preview = png(&d.join("sim/preview.png"));
     assert_eq!(

@@ -29,6 +29,7 @@ pub mod jpeg;
 pub mod line_noise;
 pub mod output;
 pub mod preview;
+pub mod shading_correction;
 pub mod sharpen;
 pub mod tone;
 pub mod unprocess;

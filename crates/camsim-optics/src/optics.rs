@@ -237,56 +237,48 @@ impl Optics {
                 format!("{} must be 3..=4095", c.psf.max_kernel_size),
             ));
         }
-        let shading =
-            match &c.shading {
-                ShadingConfig::Named(ShadingName::None) => ShadingModel::None,
-                ShadingConfig::Named(ShadingName::Cos4) => ShadingModel::Cos4,
-                ShadingConfig::Table(t) => {
-                    let r = &t.relative_illumination;
-                    let (heights, normalized, key) =
-                        match (&r.field_height_mm, &r.field_height_normalized) {
-                            (Some(h), None) => (
-                                h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(),
-                                false,
-                                "field_height_mm",
-                            ),
-                            (None, Some(h)) => (h.clone(), true, "field_height_normalized"),
-                            _ => return Err(OpticsError::config(
+        let shading = match &c.shading {
+            ShadingConfig::Named(ShadingName::None) => ShadingModel::None,
+            ShadingConfig::Named(ShadingName::Cos4) => ShadingModel::Cos4,
+            ShadingConfig::Table(t) => {
+                let r = &t.relative_illumination;
+                let (heights, normalized, key) =
+                    match (&r.field_height_mm, &r.field_height_normalized) {
+                        (Some(h), None) => (
+                            h.iter().map(|v| v * 1e-3).collect::<Vec<_>>(),
+                            false,
+                            "field_height_mm",
+                        ),
+                        (None, Some(h)) => (h.clone(), true, "field_height_normalized"),
+                        _ => {
+                            return Err(OpticsError::config(
                                 "shading.relative_illumination",
                                 "give exactly one of field_height_mm or field_height_normalized",
-                            )),
-                        };
-                    let key = format!("shading.relative_illumination.{key}");
-                    check_increasing(&key, &heights)?;
-                    if heights.is_empty() || heights.len() != r.ri.len() {
-                        return Err(OpticsError::config(
-                            key,
-                            format!("{} heights but {} ri values", heights.len(), r.ri.len()),
-                        ));
-                    }
-                    if let Some(v) = r.ri.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-                        return Err(OpticsError::config(
-                            "shading.relative_illumination.ri",
-                            format!("{v} is not a non-negative number"),
-                        ));
-                    }
-                    ShadingModel::Table {
-                        heights,
-                        ri: r.ri.clone(),
-                        normalized,
-                    }
+                            ))
+                        }
+                    };
+                let key = format!("shading.relative_illumination.{key}");
+                check_increasing(&key, &heights)?;
+                if heights.is_empty() || heights.len() != r.ri.len() {
+                    return Err(OpticsError::config(
+                        key,
+                        format!("{} heights but {} ri values", heights.len(), r.ri.len()),
+                    ));
                 }
-                ShadingConfig::File(f) => {
-                    let text = std::fs::read_to_string(&f.file).map_err(|e| OpticsError::File {
-                        path: f.file.clone(),
-                        message: e.to_string(),
-                    })?;
-                    ShadingModel::Fit(
-                        ShadingFit::from_toml(&text, &f.file.display().to_string())?,
-                        f.channel,
-                    )
+                if let Some(v) = r.ri.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                    return Err(OpticsError::config(
+                        "shading.relative_illumination.ri",
+                        format!("{v} is not a non-negative number"),
+                    ));
                 }
-            };
+                ShadingModel::Table {
+                    heights,
+                    ri: r.ri.clone(),
+                    normalized,
+                }
+            }
+            ShadingConfig::File(f) => ShadingModel::Fit(ShadingFit::from_file(&f.file)?, f.channel),
+        };
         let shift_variant = match &c.blur {
             Some(b) => ShiftVariant::from_config(
                 b,

@@ -172,6 +172,59 @@ impl ShadingFit {
         Ok(fit)
     }
 
+    /// Read a shading file (the TOML `camsim fit-shading` writes); errors name the file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| OpticsError::File {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
+    }
+
+    /// The lens-shading correction gains of a `rows x cols` frame whose CFA is `layout`, row-major:
+    /// 1 / the relative illumination at each pixel's centre (normalized coordinates, so a frame
+    /// of another size than the fitted one maps onto the same field) of its filter's channel, r,
+    /// g and b their own polynomials and any other filter (w, c, ir, ...) the mean of the three.
+    /// The relative illumination is taken as at least [`MIN_RELATIVE_ILLUMINATION`] (what
+    /// [`ShadingFit::check`] accepts), so no gain exceeds 20.
+    pub fn correction_gains(
+        &self,
+        rows: usize,
+        cols: usize,
+        layout: &camsim_core::CfaLayout,
+    ) -> Vec<f32> {
+        use rayon::prelude::*;
+        // Each tile filter's channel: R, G, B, or None for the mean.
+        let channel: Vec<Option<CfaChannel>> = layout
+            .filters()
+            .iter()
+            .map(|f| match f.as_str() {
+                "r" => Some(CfaChannel::R),
+                "g" => Some(CfaChannel::G),
+                "b" => Some(CfaChannel::B),
+                _ => None,
+            })
+            .collect();
+        let mut gains = vec![0.0f32; rows * cols];
+        gains
+            .par_chunks_mut(cols.max(1))
+            .enumerate()
+            .for_each(|(r, line)| {
+                let y = (r as f64 + 0.5) / rows as f64 * 2.0 - 1.0;
+                let cx = [&self.red, &self.green, &self.blue]
+                    .map(|c| row_coefficients(c, self.order, y));
+                for (c, g) in line.iter_mut().enumerate() {
+                    let x = (c as f64 + 0.5) / cols as f64 * 2.0 - 1.0;
+                    let ri = match channel[layout.filter_at(r, c)] {
+                        Some(ch) => horner(&cx[ch.index()], x),
+                        None => cx.iter().map(|k| horner(k, x)).sum::<f64>() / 3.0,
+                    };
+                    *g = (1.0 / ri.max(MIN_RELATIVE_ILLUMINATION)) as f32;
+                }
+            });
+        gains
+    }
+
     /// Check that this is a lens shading fitted to a flat field: the residual beyond the pixel
     /// noise is at most [`MAX_EXCESS_RESIDUAL_PERCENT`]; every channel's relative illumination lies
     /// in [[`MIN_RELATIVE_ILLUMINATION`], 1] over the image (within 1e-6 above 1: it is normalized

@@ -88,6 +88,12 @@ pub struct IspSection {
     /// sensor's noise model at each pixel's signal).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub denoise_strength: Option<f64>,
+    /// Lens-shading correction of the raw: a shading file (the TOML `camsim fit-shading` writes
+    /// from a flat field; relative to the config). Each pixel's signal above black is divided by
+    /// its filter's relative illumination at its place, after the denoising and before the
+    /// demosaic. Absent: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens_shading: Option<PathBuf>,
     /// Unsharp mask of the demosaicked image: `{ radius_px, amount, threshold }` (Gaussian sigma,
     /// pixels; gain of the detail; details at most `threshold` DN are left alone). Absent: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -620,6 +626,7 @@ impl SimulateConfig {
             f.mask.as_mut().map(fix);
             f.phase_mask.as_mut().map(fix);
         }
+        self.isp.lens_shading.as_mut().map(fix);
         self.sensor.file.as_mut().map(fix);
         if let Some(c) = &mut self.sensor.config {
             c.qe.file.as_mut().map(fix);

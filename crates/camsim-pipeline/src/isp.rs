@@ -90,6 +90,10 @@ pub struct Isp {
     /// Strength of the denoising: h = 0.4 x strength x sigma (1: 'auto', sigma from the sensor's
     /// shot and read noise).
     pub denoise_strength: f64,
+    /// Lens-shading correction of the raw after the denoising, before the demosaic
+    /// ([`camsim_isp::shading_correction`]): each pixel divided by the relative illumination
+    /// of its filter in this flat-field fit (`camsim fit-shading`; None: no correction).
+    pub lens_shading: Option<std::sync::Arc<camsim_optics::shading::ShadingFit>>,
     /// Unsharp mask on the demosaicked camera RGB (RGB CFAs; None: no sharpening).
     pub sharpen: Option<UnsharpMask>,
     /// JPEG quality of [`Isp::jpeg`] (1-100; None: the integrator's default for a JPEG output).
@@ -181,6 +185,7 @@ impl Isp {
             dark_offsets: None,
             denoise: Denoise::Off,
             denoise_strength: 1.0,
+            lens_shading: None,
             sharpen: None,
             jpeg_quality: None,
         }
@@ -193,14 +198,23 @@ impl Isp {
             Some(r) => r?,
             None => camsim_core::tables::illuminant("D65")?,
         };
-        Ok(Isp::new(illuminant, cfg.wavelengths).with_section(&cfg.isp))
+        Isp::new(illuminant, cfg.wavelengths).with_section(&cfg.isp)
     }
 
     /// This ISP with the steps an `[isp]` table sets (tone curve, column and defect correction,
-    /// denoising, sharpening, JPEG quality); keys it leaves out keep their defaults. The one
-    /// reading of `[isp]` for configs and for Python's `isp(..., steps=...)`.
-    pub fn with_section(self, i: &crate::config::IspSection) -> Isp {
-        Isp {
+    /// denoising, lens-shading correction, sharpening, JPEG quality); keys it leaves out keep
+    /// their defaults. The one reading of `[isp]` for configs and for Python's `isp(...,
+    /// steps=...)`. Errors name a shading file that cannot be read.
+    pub fn with_section(self, i: &crate::config::IspSection) -> Result<Isp> {
+        let lens_shading = match &i.lens_shading {
+            Some(p) => Some(std::sync::Arc::new(
+                camsim_optics::shading::ShadingFit::from_file(p)
+                    .map_err(|e| PipelineError::config(format!("isp.lens_shading: {e}")))?,
+            )),
+            None => None,
+        };
+        Ok(Isp {
+            lens_shading,
             tone_map: i.tone_map.unwrap_or_default(),
             defect_correction: i.defect_correction.unwrap_or_default(),
             defect_sigmas: i.defect_sigmas.unwrap_or(self.defect_sigmas),
@@ -210,7 +224,7 @@ impl Isp {
             sharpen: i.sharpen,
             jpeg_quality: i.jpeg_quality,
             ..self
-        }
+        })
     }
 
     /// The QE colour pipeline of `sensor` under the ISP's illuminant (the matrix of
@@ -336,8 +350,10 @@ impl Isp {
     /// The raw-domain steps, in order: column and row noise correction (`dark_offsets`, or
     /// the sensor's fixed dark frame with [`ColumnCorrection::Sensor`], except on a merged HDR
     /// frame, `noise_scale` != 1, whose merge subtracted it already), defect correction
-    /// ([`Isp::defect_correction`]) and denoising ([`Isp::denoise`], the sensor's noise model
-    /// scaled by `noise_scale` as in [`Isp::compute_scaled`]). The frame itself when all are off.
+    /// ([`Isp::defect_correction`]), denoising ([`Isp::denoise`], the sensor's noise model
+    /// scaled by `noise_scale` as in [`Isp::compute_scaled`]) and lens-shading correction
+    /// ([`Isp::lens_shading`]: last, since it scales the noise the denoiser models). The frame
+    /// itself when all are off.
     pub fn correct_raw<'a>(
         &self,
         raw: &'a RawImage,
@@ -396,6 +412,13 @@ impl Isp {
             raw = Cow::Owned(
                 denoise::nlm_raw(&raw, &noise, self.denoise_strength)
                     .map_err(|e| PipelineError::config(format!("isp.denoise_strength: {e}")))?,
+            );
+        }
+        if let Some(fit) = &self.lens_shading {
+            let gains = fit.correction_gains(raw.rows, raw.cols, &raw.cfa_layout());
+            raw = Cow::Owned(
+                camsim_isp::shading_correction::correct_shading(&raw, &gains)
+                    .map_err(|e| PipelineError::config(format!("isp.lens_shading: {e}")))?,
             );
         }
         Ok(raw)

@@ -270,7 +270,7 @@ fn isp<'py>(
         // The keys of a simulate config's [isp] table, checked as the config reader checks them.
         let section: camsim::pipeline::config::IspSection =
             serde_json::from_str(j).map_err(|e| err(format!("steps: {e}")))?;
-        p = p.with_section(&section);
+        p = p.with_section(&section).map_err(err)?;
     }
     p.demosaic = demosaic.parse().map_err(err)?;
     p.white_balance = white_balance.parse().map_err(err)?;

@@ -92,7 +92,7 @@ fn parse_percentile(s: &str) -> std::result::Result<f64, String> {
 /// ColorChecker from --sensor's QE of the DNG's filters under --illuminant.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png\n  camsim isp --in out/defects/raw.dng --sensor pixel4a --defect-correction detect --denoise nlm --sharpen 1.0,0.5 --out out/defects-corrected.jpg"
+    after_help = "Examples:\n  camsim isp --in out/raw/raw.dng --sensor pixel4a --illuminant D65 --out out/preview.png\n  camsim isp --in out/raw/raw.dng --demosaic malvar --white-balance gray-world --out out/preview-malvar.png\n  camsim isp --in ../shared/data/dng/canon-550d-colorchecker-passport.dng --demosaic adaptive-laplacian --white-balance white-patch --ccm chart --corners 662,579,1299,572,1303,970,654,977 --out out/canon.png\n  camsim isp --in out/raw-rgbw/raw.dng --sensor pixel4a --out out/preview-rgbw.png\n  camsim isp --in out/raw-quad/raw.dng --sensor pixel4a --bin --out out/preview-quad.png\n  camsim isp --in out/defects/raw.dng --sensor pixel4a --defect-correction detect --denoise nlm --sharpen 1.0,0.5 --out out/defects-corrected.jpg\n  camsim isp --in out/flat/raw.dng --lens-shading out/flat-shading.toml --white-balance gray-world --out out/flat-corrected.png   (the flat field of `camsim fit-shading --help`)"
 )]
 pub struct Args {
     /// Raw DNG.
@@ -167,6 +167,11 @@ pub struct Args {
     /// Narkowicz 2016); the last two also set the exposure.
     #[arg(long, default_value = "clip", value_parser = parse_kebab::<camsim::isp::tone::ToneMap>, value_name = "clip|reinhard|filmic")]
     pub tone_map: camsim::isp::tone::ToneMap,
+    /// Lens-shading correction: a shading file `camsim fit-shading` wrote from a flat field; each
+    /// pixel's signal above black is divided by its filter's relative illumination (after
+    /// --denoise, before the demosaic).
+    #[arg(long, value_name = "SHADING.toml")]
+    pub lens_shading: Option<PathBuf>,
     /// Fixed exposure scale (linear sRGB = scale x colour matrix x camera DN above black, white
     /// balance included), as `--json` reports it: the same scale renders frames of different brightness
     /// alike, and the scale `camsim unprocess` used gives its photo back. Default: automatic
@@ -210,6 +215,12 @@ pub fn run(a: Args) -> Result<()> {
     isp.sharpen = a.sharpen;
     isp.tone_map = a.tone_map;
     isp.exposure_scale = a.exposure_scale;
+    if let Some(p) = &a.lens_shading {
+        isp.lens_shading = Some(std::sync::Arc::new(
+            camsim::optics::shading::ShadingFit::from_file(p)
+                .map_err(|e| anyhow::anyhow!("--lens-shading: {e}"))?,
+        ));
+    }
     isp.jpeg_quality = Some(a.jpeg_quality);
     if a.ccm == CcmChoice::Chart {
         let corners: ChartCorners = match a.corners {

@@ -229,7 +229,8 @@ def isp(raw: np.ndarray, cfa: str = "RGGB", *, sensor: Union[str, Dict[str, Any]
     demosaic, white balance (from the scene `illuminant` and the sensor's QE, or gray-world,
     white-patch, none), the colour matrix fitted on the ColorChecker from the QE, sRGB. `steps`
     takes the keys of a simulate config's `[isp]` table (e.g. {"defect_correction": "detect",
-    "column_correction": "sensor", "denoise": "nlm", "denoise_strength": 1.5, "sharpen":
+    "column_correction": "sensor", "denoise": "nlm", "denoise_strength": 1.5,
+    "lens_shading": "shading.toml", "sharpen":
     {"radius_px": 1.2, "amount": 0.6}, "tone_map": "reinhard"}; unknown keys are refused).
     `exposure_scale` fixes the exposure (linear sRGB = scale x matrix x camera DN above black, as
     the report gives it; default automatic). Returns (preview (rows, cols, 3) uint8, report:
