@@ -651,3 +651,45 @@ fn emva_recovers_the_isetcam_bayer_presets() {
         }
     }
 }
+
+/// EMVA 1288 on the IMX490's two photodiodes as ISETCam's sensorCreate defines them (issue 42:
+/// the preset's simulated EMVA figures equal its source's parameters): K = conversion gain x
+/// 4096 DN / 1.024 V (0.25 mV per DN), the plateau at the well (120 000 and 60 000 e-), the QE
+/// of the configured spectra and fill factor, and ISETCam's PRNU of 0.7 %, within 3 % (PRNU 5 %:
+/// the estimate's sampling error is larger with these large wells). Read noise 1 e- is 0.03 DN,
+/// far below what a 12-bit frame can show (see above), and is not checked.
+#[test]
+fn emva_recovers_the_imx490_photodiodes() {
+    for (name, well_e) in [("imx490-large", 120_000.0), ("imx490-small", 60_000.0)] {
+        let s = Sensor::preset(name).unwrap().window(ROWS, COLS).unwrap();
+        assert!(
+            rel(clip_e(&s), well_e) < 1e-4,
+            "{name}: the configured swing over the conversion gain is ISETCam's well"
+        );
+        // A black level of 64 DN (16 mV of the 1.024 V swing: the plateau is 1.6 % below the well).
+        let s = with_black_level(&s, 64.0);
+        let (res, qe_true) = characterize(&s, 10e-3, 4);
+        let k_true = 1.024 / well_e * 4096.0 / 1.024;
+        for ChannelEmva { channel, result: r } in &res {
+            let ch = channel.letter();
+            println!(
+                "{name} {ch}: K {:.6} (ISETCam {k_true:.6}), plateau {:.0} e- ({:.0}), QE {:.4} ({qe_true:.4}), PRNU {:.3} % (0.7)",
+                r.system_gain_dn_per_e,
+                r.saturation_plateau_e,
+                clip_e(&s),
+                r.quantum_efficiency.unwrap(),
+                r.prnu_percent
+            );
+            assert!(rel(r.system_gain_dn_per_e, k_true) < 0.03, "{name} {ch}: K");
+            assert!(
+                rel(r.saturation_plateau_e, clip_e(&s)) < 0.03,
+                "{name} {ch}: saturation"
+            );
+            assert!(
+                rel(r.quantum_efficiency.unwrap(), qe_true) < 0.03,
+                "{name} {ch}: QE"
+            );
+            assert!(rel(r.prnu_percent, 0.7) < 0.05, "{name} {ch}: PRNU");
+        }
+    }
+}

@@ -68,6 +68,24 @@ pub const SENSOR_PRESETS: NameTable<&str> = NameTable {
             about: "ON Semiconductor AR0132AT, RCCC (ISETCam ar0132atSensorRCCC.mat)",
             value: include_str!("../presets/ar0132at-rccc.toml"),
         },
+        Named {
+            name: "imx490-large",
+            aliases: &[],
+            about: "Sony IMX490, large photodiode (ISETCam sensorCreate('imx490-large'))",
+            value: include_str!("../presets/imx490-large.toml"),
+        },
+        Named {
+            name: "imx490-small",
+            aliases: &[],
+            about: "Sony IMX490, small photodiode (ISETCam sensorCreate('imx490-small'))",
+            value: include_str!("../presets/imx490-small.toml"),
+        },
+        Named {
+            name: "imx490",
+            aliases: &[],
+            about: "Sony IMX490 split-pixel HDR: imx490-large with imx490-small as its [hdr]",
+            value: include_str!("../presets/imx490.toml"),
+        },
     ],
 };
 

@@ -152,3 +152,40 @@ fn ideal_preset_is_noise_free_with_unit_qe() {
     let qe = s.channel_qe(&camsim_core::WavelengthGrid::default());
     assert!(qe.iter().all(|c| c.iter().all(|v| *v == 1.0)));
 }
+
+/// The IMX490 split-pixel preset is imx490-large with imx490-small as its small photodiode
+/// (ISETCam sensorCreate('imx490-large' / 'imx490-small'): wells 120 000 / 60 000 e-, fill
+/// factors 0.9 / 0.1, 0.25 mV per DN, 4096 DN, read noise 1 e-), and its dynamic range is the
+/// closed form from those numbers: the SPD's range (60 000 e-, or 4095 DN / K_SPD if smaller)
+/// times 9, over the LPD's floor sqrt(1 + 1 / (12 K_LPD^2)) electrons (EMVA 1288 eq. 9).
+#[test]
+fn imx490_split_pixel_is_its_two_photodiodes() {
+    let hdr = Sensor::preset("imx490").unwrap();
+    let large = Sensor::preset("imx490-large").unwrap();
+    let small = Sensor::preset("imx490-small").unwrap();
+    let m = hdr.hdr_model().expect("imx490 has [hdr]");
+    let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+    // ISETCam's numbers: K = 4096 DN / well (the 1.024 V swing over the well's conversion gain).
+    let (k_lpd, k_spd) = (4096.0 / 120_000.0, 4096.0 / 60_000.0);
+    assert!(
+        rel(m.k_high_dn_per_e, k_lpd) < 1e-4,
+        "{}",
+        m.k_high_dn_per_e
+    );
+    assert!(rel(m.k_low_dn_per_e, k_spd) < 1e-4, "{}", m.k_low_dn_per_e);
+    assert!(rel(large.k_dn_per_e(), k_lpd) < 1e-4);
+    assert!(rel(small.k_dn_per_e(), k_spd) < 1e-4);
+    assert!(rel(m.read_high_e, 1.0) < 1e-4 && rel(m.read_low_e, 1.0) < 1e-12);
+    assert!(rel(m.full_well_low_e, 60_000.0) < 1e-12);
+    assert!(rel(m.ratio, 0.1 / 0.9) < 1e-12);
+    assert_eq!(hdr.config().qe, large.config().qe);
+    assert_eq!(large.config().qe, small.config().qe);
+    let spd_range_e = 60_000.0f64.min(4095.0 / k_spd);
+    let floor_e = (1.0 + 1.0 / (12.0 * k_lpd * k_lpd)).sqrt();
+    let dr_db = 20.0 * (spd_range_e * 9.0 / floor_e).log10();
+    eprintln!(
+        "imx490 dynamic range {:.2} dB (closed form {dr_db:.2})",
+        m.dynamic_range_db()
+    );
+    assert!((m.dynamic_range_db() - dr_db).abs() < 0.01);
+}
