@@ -120,6 +120,14 @@ fn bad_flicker_keys_are_refused_naming_the_key() {
             "[flicker]\nfrequency_hz = 90.0\nduty = 0.1\nphase = -0.2",
             "flicker.phase",
         ),
+        (
+            "[flicker]\nfrequency_hz = 100.0\nwaveform = \"sine\"\ndepth = 1.2",
+            "flicker.depth",
+        ),
+        (
+            "[flicker]\nfrequency_hz = 100.0\nwaveform = \"sine\"\nduty = 0.5",
+            "flicker.duty",
+        ),
     ] {
         let e = simulate(&config(text), &SimulateOptions::default(), &|_, _, _| {})
             .unwrap_err()

@@ -11,23 +11,58 @@
 //! The on-time has a closed form: with u = t f - phi (in periods),
 //! F(u) = floor(u) D + min(frac(u), D) is the on-time from u = 0, and
 //! on-time(t0, t1) = (F(u1) - F(u0)) / f.
+//!
+//! A mains-driven lamp (incandescent, fluorescent, an LED with a poor driver) flickers instead
+//! as a sine at twice the mains frequency (100 or 120 Hz): I(t) = I_mean (1 + m cos 2 pi u), with
+//! m the modulation depth (IEEE 1789-2015's "percent flicker" is 100 m = 100 (max - min) /
+//! (max + min)). Its window captures g = 1 + m (sin 2 pi u1 - sin 2 pi u0) / (2 pi (u1 - u0)):
+//! 1 over whole periods, and 1 + m cos 2 pi u0 for T -> 0.
 
 use crate::{Result, SensorError};
 use serde::{Deserialize, Serialize};
 
-/// A light's pulse-width modulation (`[flicker]` of a simulate config).
+/// The shape of a light's modulation.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Waveform {
+    /// Pulse-width modulation: on for `duty` of each period (LED lamps, signs, car lights).
+    #[default]
+    Square,
+    /// A sine of modulation depth `depth` about the mean (mains-driven lamps: twice the mains
+    /// frequency).
+    Sine,
+}
+
+/// A light's temporal modulation (`[flicker]` of a simulate config).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Flicker {
-    /// PWM frequency, Hz (LED lamps and signs: 90 Hz - 2 kHz; mains-driven lamps flicker at
-    /// twice the mains frequency, but as a sine, which a square wave only approximates).
+    /// Modulation frequency, Hz (LED PWM: 90 Hz - 2 kHz; a mains-driven lamp: twice the mains
+    /// frequency, 100 or 120 Hz, with `waveform = "sine"`).
     pub frequency_hz: f64,
-    /// Fraction of each period the light is on, in (0, 1]; 1 is a steady light.
+    /// "square" (PWM, the default) or "sine".
+    #[serde(default)]
+    pub waveform: Waveform,
+    /// Square: the fraction of each period the light is on, in (0, 1]; 1 (the default) is a
+    /// steady light. Not used by a sine.
+    #[serde(default = "steady_duty")]
     pub duty: f64,
-    /// Fraction of a period, in [0, 1), by which the on-phase starts after t = 0 s of the scene's
-    /// time (the capture's clock: frame windows are in the same time, `capture.start_ms`).
+    /// Sine: the modulation depth m in [0, 1], I = mean x (1 + m cos 2 pi (f t - phase)) (IEEE
+    /// 1789-2015's percent flicker is 100 m; a magnetic-ballast fluorescent tube about 0.3, an
+    /// incandescent lamp 0.1 or less). Not used by a square wave.
+    #[serde(default)]
+    pub depth: f64,
+    /// Fraction of a period, in [0, 1), by which the on-phase (a sine: its maximum) comes after
+    /// t = 0 s of the scene's time (the capture's clock: frame windows are in the same time,
+    /// `capture.start_ms`).
     #[serde(default)]
     pub phase: f64,
+}
+
+fn steady_duty() -> f64 {
+    1.0
 }
 
 impl Flicker {
@@ -44,6 +79,28 @@ impl Flicker {
                 format!("{key}.duty"),
                 format!("{}: must be a fraction in (0, 1]", self.duty),
             ));
+        }
+        match self.waveform {
+            Waveform::Square if self.depth != 0.0 => {
+                return Err(SensorError::input(
+                    format!("{key}.depth"),
+                    "is the modulation depth of waveform = \"sine\"; a square wave takes duty"
+                        .to_string(),
+                ))
+            }
+            Waveform::Sine if self.duty != 1.0 => {
+                return Err(SensorError::input(
+                    format!("{key}.duty"),
+                    "is the on-fraction of waveform = \"square\"; a sine takes depth".to_string(),
+                ))
+            }
+            Waveform::Sine if !(0.0..=1.0).contains(&self.depth) => {
+                return Err(SensorError::input(
+                    format!("{key}.depth"),
+                    format!("{}: must be a modulation depth in [0, 1]", self.depth),
+                ))
+            }
+            _ => {}
         }
         if !(self.phase >= 0.0 && self.phase < 1.0) {
             return Err(SensorError::input(
@@ -70,6 +127,17 @@ impl Flicker {
     /// captures: on-time / (duty x duration) (the light's radiance is its time average). A
     /// window of zero length gives the instantaneous value, 0 or 1 / duty.
     pub fn window_gain(&self, start_s: f64, duration_s: f64) -> f64 {
+        if self.waveform == Waveform::Sine {
+            // The mean of 1 + m cos 2 pi u over the window (u = t f - phase, in periods).
+            let tau = std::f64::consts::TAU;
+            let u0 = start_s * self.frequency_hz - self.phase;
+            let du = duration_s * self.frequency_hz;
+            if du <= 1e-9 {
+                return 1.0 + self.depth * (tau * u0).cos();
+            }
+            let u0 = u0 - u0.floor();
+            return 1.0 + self.depth * ((tau * (u0 + du)).sin() - (tau * u0).sin()) / (tau * du);
+        }
         if duration_s <= 0.0 {
             let u = start_s * self.frequency_hz - self.phase;
             return if u - u.floor() < self.duty {
@@ -133,7 +201,9 @@ mod tests {
     fn led() -> Flicker {
         Flicker {
             frequency_hz: 90.0,
+            waveform: Waveform::Square,
             duty: 0.1,
+            depth: 0.0,
             phase: 0.0,
         }
     }

@@ -53,7 +53,7 @@ pub use compute::{
 pub use config::{NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};
-pub use flicker::{Flicker, LightTiming};
+pub use flicker::{Flicker, LightTiming, Waveform};
 pub use hdr::{HdrConfig, HdrFrame, HdrMode, HdrModel};
 pub use light_parts::LightPart;
 pub use sensor::{NoiseBreakdown, Sensor};

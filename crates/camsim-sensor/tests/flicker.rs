@@ -14,7 +14,7 @@
 
 mod common;
 use camsim_core::WavelengthGrid;
-use camsim_sensor::{Capture, Flicker, LightTiming, NoiseSwitches};
+use camsim_sensor::{Capture, Flicker, LightTiming, NoiseSwitches, Waveform};
 use common::{config, uniform_image};
 
 const ROWS: usize = 400;
@@ -26,9 +26,37 @@ const LINE_S: f64 = 2.0 / 90.0 / ROWS as f64;
 fn led() -> Flicker {
     Flicker {
         frequency_hz: 90.0,
+        waveform: Waveform::Square,
         duty: 0.1,
+        depth: 0.0,
         phase: 0.3,
     }
+}
+
+/// A mains lamp on 45 Hz mains: a 90 Hz sine (so the 400 rows span two periods as for the LED),
+/// modulation depth 0.3 (a magnetic-ballast fluorescent tube).
+fn mains_lamp() -> Flicker {
+    Flicker {
+        frequency_hz: 90.0,
+        waveform: Waveform::Sine,
+        duty: 1.0,
+        depth: 0.3,
+        phase: 0.3,
+    }
+}
+
+/// The sine's captured fraction in [t0, t1] by summing 1 + m cos 2 pi (f t - phase) on a 0.1 us
+/// grid.
+fn sine_gain_numeric(f: &Flicker, t0: f64, t1: f64) -> f64 {
+    let dt = 1e-7;
+    let n = ((t1 - t0) / dt).round() as usize;
+    (0..n)
+        .map(|i| {
+            let t = t0 + (i as f64 + 0.5) * dt;
+            1.0 + f.depth * (std::f64::consts::TAU * (t * f.frequency_hz - f.phase)).cos()
+        })
+        .sum::<f64>()
+        / n as f64
 }
 
 /// On-time of the LED in [t0, t1] by summing the square wave on a 0.1 us grid, s.
@@ -48,7 +76,7 @@ fn on_time_numeric(f: &Flicker, t0: f64, t1: f64) -> f64 {
 /// Per row, the signal above black with the LED over that of the steady light, exposure `t_s`,
 /// frame `frame` of a burst at `fps` (rolling shutter, bottom-up: row r starts r line times
 /// after the frame).
-fn row_gains(t_s: f64, frames: usize, fps: f64) -> Vec<Vec<f64>> {
+fn row_gains(flicker: Flicker, t_s: f64, frames: usize, fps: f64) -> Vec<Vec<f64>> {
     let grid = WavelengthGrid::default();
     let s = config("pixel4a-raw10", |c| {
         c.rows = ROWS;
@@ -65,7 +93,7 @@ fn row_gains(t_s: f64, frames: usize, fps: f64) -> Vec<Vec<f64>> {
         .unwrap()
         .remove(0);
     let light = LightTiming {
-        flicker: led(),
+        flicker,
         start_s: 0.0,
         frame_interval_s: Some(1.0 / fps),
         row0_s: 0.0,
@@ -102,7 +130,7 @@ fn each_row_captures_its_windows_share_of_a_90_hz_led() {
         (5.5e-3, 0.1 * period / (0.1 * 5.5e-3)),
         (11.1e-3, period / 11.1e-3),
     ] {
-        let gains = &row_gains(t_s, 1, 30.0)[0];
+        let gains = &row_gains(led(), t_s, 1, 30.0)[0];
         for (r, g) in gains.iter().enumerate() {
             let t0 = r as f64 * LINE_S;
             let want = on_time_numeric(&f, t0, t0 + t_s) / (f.duty * t_s);
@@ -142,11 +170,11 @@ fn each_row_captures_its_windows_share_of_a_90_hz_led() {
 fn the_bands_move_from_frame_to_frame_of_a_burst() {
     // At 30 fps, the 90 Hz light is back in phase every frame (3 periods per frame): the same
     // bands; at 25 fps (3.6 periods) they move by 0.6 of a period.
-    let same = row_gains(1e-3, 2, 30.0);
+    let same = row_gains(led(), 1e-3, 2, 30.0);
     for (a, b) in same[0].iter().zip(&same[1]) {
         assert!((a - b).abs() < 1e-3, "30 fps: frames differ ({a} vs {b})");
     }
-    let moved = row_gains(1e-3, 2, 25.0);
+    let moved = row_gains(led(), 1e-3, 2, 25.0);
     let differ = moved[0]
         .iter()
         .zip(&moved[1])
@@ -162,4 +190,45 @@ fn the_bands_move_from_frame_to_frame_of_a_burst() {
             "frame 2 row {r}: {g} vs {want}"
         );
     }
+}
+
+/// A mains lamp's sine flicker through the rolling shutter: each row captures the mean of
+/// 1 + m cos over its window (summed numerically), so a short exposure shows bands between
+/// 1 - m and 1 + m and a whole number of periods none; the band's peak-to-peak amplitude is the
+/// closed form 2 m |sin(pi f T)| / (pi f T).
+#[test]
+fn each_row_captures_its_windows_mean_of_a_sine_flicker() {
+    let f = mains_lamp();
+    for t_s in [0.5e-3, 4e-3, 1.0 / 90.0] {
+        let gains = &row_gains(f, t_s, 1, 30.0)[0];
+        for (r, g) in gains.iter().enumerate() {
+            let t0 = r as f64 * LINE_S;
+            let want = sine_gain_numeric(&f, t0, t0 + t_s);
+            assert!(
+                (g - want).abs() < 2e-3,
+                "T {t_s} s, row {r}: captured fraction {g:.4}, the sine's {want:.4}"
+            );
+        }
+        let (min, max) = gains
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), g| (a.min(*g), b.max(*g)));
+        let x = std::f64::consts::PI * f.frequency_hz * t_s;
+        let amplitude = 2.0 * f.depth * (x.sin() / x).abs();
+        // The rows sample the phase every 1/200 period: the extremes within 1 - cos(pi / 200).
+        assert!(
+            ((max - min) - amplitude).abs() < 2e-3,
+            "T {t_s} s: rows span {:.4}, the closed form {amplitude:.4}",
+            max - min
+        );
+    }
+    // The keys: depth is the sine's, duty the square wave's.
+    assert!(f.validate("flicker").is_ok());
+    assert!(Flicker { depth: 1.5, ..f }.validate("flicker").is_err());
+    assert!(Flicker { duty: 0.5, ..f }.validate("flicker").is_err());
+    assert!(Flicker {
+        depth: 0.2,
+        ..led()
+    }
+    .validate("flicker")
+    .is_err());
 }
