@@ -247,45 +247,31 @@ fn bad_input_exits_2_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("raw.dng");
     let o_s = out.to_str().unwrap();
-    // Not an image.
     let text = dir.path().join("notes.png");
     std::fs::write(&text, "not a png").unwrap();
-    let o = camsim(&["unprocess", "--in", text.to_str().unwrap(), "--out", o_s]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("notes.png"), "{stderr}");
-    assert!(!out.exists());
-    // A white balance a photo cannot undo.
     let photo = dir.path().join("photo.png");
     write_photo(&photo);
-    let p = photo.to_str().unwrap();
-    let o = camsim(&[
-        "unprocess",
-        "--in",
-        p,
-        "--white-balance",
-        "gray-world",
-        "--out",
-        o_s,
-    ]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("gray-world"), "{stderr}");
-    assert!(!out.exists());
-    // A sensor whose CFA has no r, g, b filters.
-    let o = camsim(&[
-        "unprocess",
-        "--in",
-        p,
-        "--sensor",
-        "mt9v024-mono",
-        "--out",
-        o_s,
-    ]);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("mt9v024-mono"), "{stderr}");
-    assert!(!out.exists());
+    let (t, p) = (text.to_str().unwrap(), photo.to_str().unwrap());
+    for (args, named) in [
+        // Not an image.
+        (vec!["--in", t], "notes.png"),
+        // A white balance a photo cannot undo.
+        (
+            vec!["--in", p, "--white-balance", "gray-world"],
+            "gray-world",
+        ),
+        // A sensor whose CFA has no r, g, b filters.
+        (vec!["--in", p, "--sensor", "mt9v024-mono"], "mt9v024-mono"),
+    ] {
+        let mut all = vec!["unprocess"];
+        all.extend(args);
+        all.extend(["--out", o_s]);
+        let o = camsim(&all);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{all:?}: {stderr}");
+        assert!(stderr.contains(named), "{all:?}: {stderr}");
+        assert!(!out.exists(), "{all:?} wrote {o_s}");
+    }
     // A file camsim did not write is never replaced.
     std::fs::write(&out, "precious").unwrap();
     let o = camsim(&["unprocess", "--in", p, "--out", o_s]);

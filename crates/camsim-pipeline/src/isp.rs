@@ -165,6 +165,38 @@ pub struct IspReport {
     pub channel_fit_delta_e2000: Option<[f64; 2]>,
 }
 
+impl IspReport {
+    /// A report of the settings alone: `gains`, `exposure_scale`, the CFA path and tone curve,
+    /// and no fitted matrix (the ISP fills in what its path fits).
+    fn settings(
+        demosaic: &'static str,
+        white_balance: &'static str,
+        gains: [f64; 3],
+        exposure_scale: f64,
+        cfa_family: CfaFamily,
+        tone_map: ToneMap,
+    ) -> IspReport {
+        IspReport {
+            demosaic,
+            white_balance,
+            white_balance_gains: gains,
+            camera_to_linear_srgb: None,
+            ccm_objective: None,
+            camera_to_xyz: None,
+            patch_camera_rgb: None,
+            patch_delta_e2000: None,
+            delta_e2000_mean: None,
+            delta_e2000_max: None,
+            exposure_scale,
+            cfa_family: cfa_family.name(),
+            tone_map: tone_map.name(),
+            channels: None,
+            channel_to_linear_srgb: None,
+            channel_fit_delta_e2000: None,
+        }
+    }
+}
+
 impl Isp {
     /// The paper's ISP for a scene under `illuminant`, the colour fit on `grid`.
     pub fn new(illuminant: Spectrum, grid: WavelengthGrid) -> Isp {
@@ -567,22 +599,15 @@ impl Isp {
             )));
         }
         let report = IspReport {
-            demosaic: self.demosaic.name(),
-            white_balance: self.white_balance.name(),
-            white_balance_gains: [1.0; 3],
             camera_to_linear_srgb: Some(self.color(sensor)?.camera_to_srgb()),
-            ccm_objective: None,
-            camera_to_xyz: None,
-            patch_camera_rgb: None,
-            patch_delta_e2000: None,
-            delta_e2000_mean: None,
-            delta_e2000_max: None,
-            exposure_scale: self.exposure_scale.unwrap_or(1.0),
-            cfa_family: CfaFamily::Rgb.name(),
-            tone_map: self.tone_map.name(),
-            channels: None,
-            channel_to_linear_srgb: None,
-            channel_fit_delta_e2000: None,
+            ..IspReport::settings(
+                self.demosaic.name(),
+                self.white_balance.name(),
+                [1.0; 3],
+                self.exposure_scale.unwrap_or(1.0),
+                CfaFamily::Rgb,
+                self.tone_map,
+            )
         };
         let mut p = self.unprocess_params(sensor, &report)?;
         if self.exposure_scale.is_none() {
@@ -728,25 +753,20 @@ impl Isp {
             .unwrap_or_else(|| cfa_render::auto_exposure_linear_srgb(&rgb));
         let data = cfa_render::render_linear_srgb8(&rgb, scale, clip);
         let report = IspReport {
-            demosaic: report_demosaic,
-            white_balance: self.white_balance.name(),
-            white_balance_gains: gains,
-            camera_to_linear_srgb: None,
-            ccm_objective: None,
-            camera_to_xyz: None,
-            patch_camera_rgb: None,
-            patch_delta_e2000: None,
-            delta_e2000_mean: None,
-            delta_e2000_max: None,
-            exposure_scale: scale,
-            cfa_family: family.name(),
-            // Non-RGB CFAs clip (their renderer takes no tone curve yet).
-            tone_map: ToneMap::Clip.name(),
             channel_fit_delta_e2000: transform
                 .as_ref()
                 .map(|t| [t.delta_e2000_mean(), t.delta_e2000_max()]),
             channels: transform.as_ref().map(|t| t.names.clone()),
             channel_to_linear_srgb: transform.map(|t| t.to_linear_srgb),
+            // Non-RGB CFAs clip (their renderer takes no tone curve yet).
+            ..IspReport::settings(
+                report_demosaic,
+                self.white_balance.name(),
+                gains,
+                scale,
+                family,
+                ToneMap::Clip,
+            )
         };
         Ok(IspOutput {
             preview: crate::Rgb8Image {
@@ -813,24 +833,14 @@ impl Isp {
                 .clip_dn
                 .map(|level| (gains.map(|g| g * level), gains.map(|g| g * raw_floor_dn))),
         };
-        let mut report = IspReport {
-            demosaic: self.demosaic.name(),
-            white_balance: self.white_balance.name(),
-            white_balance_gains: gains,
-            camera_to_linear_srgb: None,
-            ccm_objective: None,
-            camera_to_xyz: None,
-            patch_camera_rgb: None,
-            patch_delta_e2000: None,
-            delta_e2000_mean: None,
-            delta_e2000_max: None,
-            exposure_scale: 1.0,
-            cfa_family: CfaFamily::Rgb.name(),
-            tone_map: ToneMap::Clip.name(),
-            channels: None,
-            channel_to_linear_srgb: None,
-            channel_fit_delta_e2000: None,
-        };
+        let mut report = IspReport::settings(
+            self.demosaic.name(),
+            self.white_balance.name(),
+            gains,
+            1.0,
+            CfaFamily::Rgb,
+            ToneMap::Clip,
+        );
         let data = match &self.ccm {
             CcmSource::Qe => {
                 let color = self.color(sensor)?;

@@ -274,18 +274,23 @@ fn isp<'py>(
     }
     p.demosaic = demosaic.parse().map_err(err)?;
     p.white_balance = white_balance.parse().map_err(err)?;
-    if let Some(k) = exposure_scale {
-        if !(k > 0.0 && k.is_finite()) {
-            return Err(err(format!("exposure_scale {k} is not > 0")));
-        }
-        p.exposure_scale = Some(k);
-    }
+    p.exposure_scale = checked_scale(exposure_scale)?;
     let out = py.detach(|| p.compute(&img, &s)).map_err(err)?;
     let v = &out.preview;
     Ok((
         array(py, &v.data, &[v.rows, v.cols, 3])?,
         to_py(py, &out.report)?,
     ))
+}
+
+/// An `exposure_scale` argument: None, or a finite number > 0.
+fn checked_scale(scale: Option<f64>) -> PyResult<Option<f64>> {
+    match scale {
+        Some(k) if !(k > 0.0 && k.is_finite()) => {
+            Err(err(format!("exposure_scale {k} is not > 0")))
+        }
+        s => Ok(s),
+    }
 }
 
 /// The inverse ISP of an 8-bit sRGB photo (rows, cols, 3) uint8 (`Isp::unprocess_photo`, as
@@ -324,12 +329,7 @@ fn unprocess<'py>(
     p.white_balance = white_balance.parse().map_err(err)?;
     p.tone_map = serde_json::from_value(serde_json::Value::String(tone_map.into()))
         .map_err(|_| err(format!("tone_map '{tone_map}': give clip or filmic")))?;
-    if let Some(k) = exposure_scale {
-        if !(k > 0.0 && k.is_finite()) {
-            return Err(err(format!("exposure_scale {k} is not > 0")));
-        }
-        p.exposure_scale = Some(k);
-    }
+    p.exposure_scale = checked_scale(exposure_scale)?;
     if !(exposure_s > 0.0 && exposure_s.is_finite()) {
         return Err(err(format!("exposure_s {exposure_s} is not > 0")));
     }
