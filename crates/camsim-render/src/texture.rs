@@ -29,6 +29,37 @@ pub(crate) struct TexCtx {
     pub n: V3,
     /// The hit point, world space (the solid textures map it to texture space).
     pub p: V3,
+    /// The second uv set ([`crate::scene::MappingKind::Uv1`]; `uv` where a shape has none).
+    pub uv1: [f32; 2],
+    /// Linear RGB vertex colour at the hit ([`crate::scene::Texture::VertexColored`]; white
+    /// where a shape has none).
+    pub color: [f32; 3],
+}
+
+impl TexCtx {
+    /// The context of a surface hit: its uvs, vertex colour, geometric normal and point.
+    #[inline]
+    pub(crate) fn at(sh: &crate::geometry::SurfaceHit) -> TexCtx {
+        TexCtx {
+            uv: sh.uv,
+            n: sh.ng,
+            p: sh.p,
+            uv1: sh.uv1,
+            color: sh.color,
+        }
+    }
+
+    /// A context at `uv` (both sets) without vertex colour (light samples, tests).
+    #[inline]
+    pub(crate) fn at_uv(uv: [f32; 2], n: V3, p: V3) -> TexCtx {
+        TexCtx {
+            uv,
+            n,
+            p,
+            uv1: uv,
+            color: [1.0; 3],
+        }
+    }
 }
 
 /// What a solid texture computes ([`crate::noise`]).
@@ -140,6 +171,7 @@ pub(crate) struct Map {
 #[derive(Debug, Clone, Copy)]
 enum MapKind {
     Uv,
+    Uv1,
     Spherical(TexSpace),
     Cylindrical(TexSpace),
     Planar(TexSpace, [f64; 3], [f64; 3]),
@@ -157,6 +189,7 @@ impl Map {
         };
         let kind = match &m.kind {
             K::Uv => MapKind::Uv,
+            K::Uv1 => MapKind::Uv1,
             K::Spherical { texture_from_world } => {
                 MapKind::Spherical(TexSpace::new(texture_from_world)?)
             }
@@ -183,6 +216,10 @@ impl Map {
     pub fn st(&self, ctx: &TexCtx) -> (f32, f32) {
         match &self.kind {
             MapKind::Uv => (self.su * ctx.uv[0] + self.du, self.sv * ctx.uv[1] + self.dv),
+            MapKind::Uv1 => (
+                self.su * ctx.uv1[0] + self.du,
+                self.sv * ctx.uv1[1] + self.dv,
+            ),
             MapKind::Spherical(space) => {
                 let p = space.point(ctx.p);
                 let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
@@ -231,6 +268,9 @@ pub(crate) enum Tex {
     Marble(Box<Solid>),
     /// pbrt-v4 `dots`: inside, outside.
     Dots(Box<[Tex; 2]>, Map),
+    /// An image (index into `Tracer::images`) whose RGB is multiplied by the hit's vertex colour
+    /// before the uplift (glTF `COLOR_0`, [`Texture::VertexColored`]).
+    VertexColored(u32, Map),
 }
 
 /// A one-channel image (float `imagemap`).
@@ -550,6 +590,16 @@ pub(crate) fn compile_texture(
             });
             Tex::Image((images.len() - 1) as u32, map)
         }
+        Texture::VertexColored(inner) => {
+            match compile_texture(inner, material_index, ws, tables, images)? {
+                Tex::Image(im, map) => Tex::VertexColored(im, map),
+                _ => {
+                    return Err(err(
+                        "a vertex-coloured texture must wrap an image texture".into()
+                    ))
+                }
+            }
+        }
         Texture::Checkerboard {
             tex1,
             tex2,
@@ -734,11 +784,7 @@ mod tests {
 
     #[test]
     fn float_graph_evaluates_like_pbrt() {
-        let ctx = TexCtx {
-            uv: [0.25, 0.75],
-            n: V3::new(0.0, 0.0, 1.0),
-            p: V3::new(0.0, 0.0, 0.0),
-        };
+        let ctx = TexCtx::at_uv([0.25, 0.75], V3::new(0.0, 0.0, 1.0), V3::new(0.0, 0.0, 0.0));
         let c = |v: f64| Box::new(FloatTexture::Constant(v));
         let mix = FloatTexture::Mix {
             tex1: c(2.0),
