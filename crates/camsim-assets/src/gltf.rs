@@ -856,6 +856,18 @@ impl Builder {
                 })
                 .collect::<Vec<_>>()
         });
+        if let Some(set) = sets.second {
+            let pbr = mat.pbr_metallic_roughness();
+            let moved = [pbr.metallic_roughness_texture(), mat.emissive_texture()]
+                .into_iter()
+                .flatten()
+                .any(|i| i.tex_coord() == set && i.texture_transform().is_some());
+            if moved {
+                self.notes.insert(format!(
+                    "glTF: material {label:?}: KHR_texture_transform on TEXCOORD_{set} is not applied (only the base colour texture's is)"
+                ));
+            }
+        }
         let uvs1 = match sets.second {
             Some(set) => read_uvs(set)?.map(|t| {
                 t.iter()
