@@ -159,3 +159,66 @@ pub(crate) fn mikktspace(g: &mut Geometry, second: bool) -> bool {
     *tangents = Some(new_tangents);
     true
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles sharing the edge x = 0 of the xy plane, their uvs mirrored across it (u =
+    /// |x|): dp/du is +x on the right and -x on the left, so MikkTSpace gives the shared
+    /// vertices two tangents and they are split; every array follows its vertex.
+    #[test]
+    fn split_vertices_keep_every_array_in_step() {
+        let positions = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [-1.0, 0.0, 0.0],
+        ];
+        let uvs: Vec<[f32; 2]> = positions
+            .iter()
+            .map(|p: &[f64; 3]| [p[0].abs() as f32, p[1] as f32])
+            .collect();
+        let colors: Vec<[f32; 3]> = (0..4).map(|i| [i as f32 / 4.0, 0.5, 1.0]).collect();
+        let indices = vec![[0, 1, 2], [0, 2, 3]];
+        let mut g = Geometry::Triangles {
+            positions: positions.clone(),
+            indices: indices.clone(),
+            uvs: Some(uvs.clone()),
+            normals: Some(vec![[0.0, 0.0, 1.0]; 4]),
+            colors: Some(colors.clone()),
+            uvs1: Some(uvs.clone()),
+            tangents: None,
+        };
+        assert!(mikktspace(&mut g, false));
+        let Geometry::Triangles {
+            positions: p,
+            indices: ix,
+            uvs: Some(u),
+            normals: Some(n),
+            colors: Some(c),
+            uvs1: Some(u1),
+            tangents: Some(t),
+        } = &g
+        else {
+            panic!("arrays lost")
+        };
+        // The shared vertices 0 and 2 are split: 6 vertices, the first 4 keep their numbers.
+        assert_eq!(p.len(), 6);
+        for len in [u.len(), n.len(), c.len(), u1.len(), t.len()] {
+            assert_eq!(len, p.len());
+        }
+        for (f, tri) in indices.iter().enumerate() {
+            for v in 0..3 {
+                let (old, new) = (tri[v] as usize, ix[f][v] as usize);
+                assert_eq!(p[new], positions[old]);
+                assert_eq!(u[new], uvs[old]);
+                assert_eq!(c[new], colors[old]);
+                // Right face: t = +x; left face: t = -x (u grows toward -x).
+                let want = if f == 0 { 1.0 } else { -1.0 };
+                assert!((t[new][0] - want).abs() < 1e-6, "face {f}: {:?}", t[new]);
+            }
+        }
+        assert_eq!(ix[0], [0, 1, 2]);
+    }
+}
