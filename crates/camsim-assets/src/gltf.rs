@@ -518,9 +518,8 @@ struct Builder {
     shapes: Vec<Shape>,
     materials: Vec<Material>,
     named: HashMap<String, usize>,
-    /// glTF material index (None: the default material) and COLOR_0 tint -> camsim material
-    /// and its emitter.
-    /// Compiled materials by (material index, vertex-coloured).
+    /// (glTF material index (None: the default material), the primitive has COLOR_0) -> camsim
+    /// material and its emitter.
     mat_cache: HashMap<(Option<usize>, bool), (usize, Option<AreaLight>)>,
     images: HashMap<usize, Arc<DecodedImage>>,
     lights: Vec<Light>,
