@@ -13,10 +13,11 @@
 //!   slot reads the set its `texCoord` names (sec. 3.9.2), the base colour's set as the mesh's
 //!   `uvs`, one other set as `uvs1` (three sets, or a set the primitive lacks: an error naming
 //!   the material and mesh); `COLOR_0` (VEC3/VEC4, float or normalized u8/u16) per vertex,
-//!   multiplying the base colour factor x texture ([`Texture::VertexColored`]; its alpha is not
-//!   applied, noted). Normal-mapped primitives carry tangents: `TANGENT` (xyz, w the
-//!   handedness) where given, else MikkTSpace's on the normal texture's uvs (sec. 3.7.2.1,
-//!   `crate::tangents`); the renderer's normal-map frame is `(t, w n x t, n)`.
+//!   multiplying the base colour factor x texture ([`Texture::VertexColored`]), its alpha the
+//!   material's alpha before MASK's cutoff (`FloatTexture::VertexAlpha`). Normal-mapped
+//!   primitives carry tangents: `TANGENT` (xyz, w the handedness) where given, else
+//!   MikkTSpace's on the normal texture's uvs (sec. 3.7.2.1, `crate::tangents`); the
+//!   renderer's normal-map frame is `(t, w n x t, n)`.
 //! - Cameras: perspective (`yfov`, `aspectRatio`); the first met, or `ReadOptions::camera`.
 //!   Orthographic cameras are refused (camsim's camera is a pinhole). No camera: the framing
 //!   camera of [`crate::framing_camera`].
@@ -896,31 +897,21 @@ impl Builder {
                         v.len() / nc
                     )));
                 }
-                if nc == 4
-                    && mat.alpha_mode() != gltf::material::AlphaMode::Opaque
-                    && v.chunks_exact(4).any(|c| c[3] < 1.0)
-                {
-                    self.notes.insert(format!(
-                        "glTF: {mname}: COLOR_0's alpha is not applied (the material's alpha is)"
-                    ));
-                }
                 if v.iter().any(|x| !x.is_finite()) {
                     self.notes.insert(format!(
                         "glTF: {mname}: COLOR_0 has non-finite values, read as 1"
                     ));
                 }
+                // RGBA; a VEC3's alpha is 1.
                 Some(
                     v.chunks_exact(nc)
                         .map(|c| {
-                            std::array::from_fn(|k| {
-                                if c[k].is_finite() {
-                                    c[k].clamp(0.0, 1.0) as f32
-                                } else {
-                                    1.0
-                                }
+                            std::array::from_fn(|k| match c.get(k) {
+                                Some(x) if x.is_finite() => x.clamp(0.0, 1.0) as f32,
+                                _ => 1.0,
                             })
                         })
-                        .collect::<Vec<[f32; 3]>>(),
+                        .collect::<Vec<[f32; 4]>>(),
                 )
             }
             None => None,
@@ -1280,13 +1271,27 @@ impl Builder {
                         a
                     }
                 };
-                match pbr.base_color_texture() {
-                    Some(info) => {
+                match (pbr.base_color_texture(), vertex_colored) {
+                    (Some(info), false) => {
                         Some(self.float_texture(doc, &info.texture(), 3, alpha_factor, cut)?)
                     }
-                    None => {
+                    (None, false) => {
                         let a = cut(alpha_factor as f32) as f64;
                         (a < 1.0).then_some(FloatTexture::Constant(a))
+                    }
+                    // COLOR_0's alpha multiplies factor x texture (sec. 3.9.4), the cutoff
+                    // after the product.
+                    (info, true) => {
+                        let tex = match info {
+                            Some(info) => {
+                                self.float_texture(doc, &info.texture(), 3, alpha_factor, |v| v)?
+                            }
+                            None => FloatTexture::Constant(alpha_factor),
+                        };
+                        Some(FloatTexture::VertexAlpha {
+                            tex: Box::new(tex),
+                            cutoff: mask.then_some(cutoff),
+                        })
                     }
                 }
             }

@@ -179,7 +179,7 @@ mod tests {
             .iter()
             .map(|p: &[f64; 3]| [p[0].abs() as f32, p[1] as f32])
             .collect();
-        let colors: Vec<[f32; 3]> = (0..4).map(|i| [i as f32 / 4.0, 0.5, 1.0]).collect();
+        let colors: Vec<[f32; 4]> = (0..4).map(|i| [i as f32 / 4.0, 0.5, 1.0, 1.0]).collect();
         let indices = vec![[0, 1, 2], [0, 2, 3]];
         let mut g = Geometry::Triangles {
             positions: positions.clone(),

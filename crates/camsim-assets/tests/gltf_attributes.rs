@@ -239,7 +239,7 @@ fn color_0_multiplies_a_white_base_colour() {
     let Geometry::Triangles { colors, .. } = &s.shapes[0].geometry else {
         panic!("not a mesh")
     };
-    assert_eq!(colors.as_deref(), Some(&[c; 4][..]));
+    assert_eq!(colors.as_deref(), Some(&[[c[0], c[1], c[2], 1.0]; 4][..]));
     let got = mean(&render(&text, 4, 64));
     let rho = luminance_rgb(c.map(f64::from));
     let want = grid_fraction() * rho * e_lux / PI;
@@ -601,4 +601,49 @@ fn cubevc_colours_and_tangents_match_trimesh_and_blender() {
         worst = worst.max((0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f32::max));
     }
     assert!(worst < 1e-3, "worst tangent difference {worst}");
+}
+
+#[test]
+fn color_0_alpha_multiplies_the_alpha() {
+    // BLEND (stochastic): a fraction alpha of the paths stop at the quad, the rest see the black
+    // below it, so L = alpha rho E / pi; MASK: all or nothing at the cutoff, after the product.
+    let e_lux = 10_000.0;
+    let want = grid_fraction() * 0.5 * e_lux / PI;
+    let q = |a: u8| Quad {
+        color_u8: Some([[255, 255, 255, a]; 4]),
+        ..Default::default()
+    };
+    let mat = |mode: &str| {
+        lambertian([0.5; 3], "").replacen(
+            r#""extensions""#,
+            &format!(r#""alphaMode": "{mode}", "alphaCutoff": 0.5, "extensions""#),
+            1,
+        )
+    };
+    let blend = mean(&render(
+        &gltf(&q(64), &mat("BLEND"), &[], Some((e_lux, DOWN))),
+        8,
+        64,
+    ));
+    let alpha = 64.0 / 255.0;
+    assert!(
+        (blend / (alpha * want) - 1.0).abs() < 0.05,
+        "BLEND: {blend} vs {} cd/m^2",
+        alpha * want
+    );
+    let cut = mean(&render(
+        &gltf(&q(64), &mat("MASK"), &[], Some((e_lux, DOWN))),
+        4,
+        16,
+    ));
+    assert!(cut < 1e-3 * want, "MASK below the cutoff: {cut} cd/m^2");
+    let kept = mean(&render(
+        &gltf(&q(192), &mat("MASK"), &[], Some((e_lux, DOWN))),
+        4,
+        16,
+    ));
+    assert!(
+        (kept / want - 1.0).abs() < 0.02,
+        "MASK above: {kept} vs {want} cd/m^2"
+    );
 }

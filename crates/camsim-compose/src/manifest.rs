@@ -547,7 +547,7 @@ pub fn read_asset(
                     + ix.len() * 12 * 2
                     + uvs.as_ref().map_or(0, |u| u.len() * 8)
                     + normals.as_ref().map_or(0, |n| n.len() * 24)
-                    + colors.as_ref().map_or(0, |c| c.len() * 12)
+                    + colors.as_ref().map_or(0, |c| c.len() * 16)
                     + uvs1.as_ref().map_or(0, |u| u.len() * 8)
                     + tangents.as_ref().map_or(0, |t| t.len() * 16);
             }

@@ -154,8 +154,8 @@ pub(crate) struct MeshShading {
     pub indices: Vec<[u32; 3]>,
     pub uvs: Option<Vec<[f32; 2]>>,
     pub normals: Option<Vec<V3>>,
-    /// Linear RGB vertex colours (glTF `COLOR_0`).
-    pub colors: Option<Vec<[f32; 3]>>,
+    /// Linear RGBA vertex colours (glTF `COLOR_0`).
+    pub colors: Option<Vec<[f32; 4]>>,
     /// The second uv set (glTF `TEXCOORD_n` of a slot whose set is not the first's).
     pub uvs1: Option<Vec<[f32; 2]>>,
     /// Unit tangents and handedness `w` (glTF `TANGENT` or MikkTSpace), render space.
@@ -172,8 +172,9 @@ pub(crate) struct SurfaceHit {
     pub(crate) uv: [f32; 2],
     /// The second uv set at the hit (`MeshShading::uvs1`; equals `uv` on shapes without one).
     pub(crate) uv1: [f32; 2],
-    /// The interpolated vertex colour (`MeshShading::colors`; white on shapes without).
-    pub(crate) color: [f32; 3],
+    /// The interpolated vertex colour, RGBA (`MeshShading::colors`; white, opaque on shapes
+    /// without).
+    pub(crate) color: [f32; 4],
     /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
     /// hair BSDF needs); zero for other shapes (any frame about the normal).
     pub(crate) dpdu: V3,

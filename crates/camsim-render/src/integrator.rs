@@ -120,7 +120,7 @@ impl Tracer {
                 let ng = tri_normal;
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
-                let (mut uv1, mut color) = (None, [1.0f32; 3]);
+                let (mut uv1, mut color) = (None, [1.0f32; 4]);
                 if let Some(m) = &self.meshes[pi.shape as usize] {
                     let tri = m.indices[pi.tri as usize];
                     let w = 1.0 - h.u - h.v;
@@ -188,7 +188,7 @@ impl Tracer {
                     ns: n,
                     uv,
                     uv1: uv,
-                    color: [1.0; 3],
+                    color: [1.0; 4],
                     dpdu: V3::splat(0.0),
                     err: sphere_point_err(center, radius, n),
                 }
@@ -210,7 +210,7 @@ impl Tracer {
                     ns: n,
                     uv,
                     uv1: uv,
-                    color: [1.0; 3],
+                    color: [1.0; 4],
                     dpdu: V3::splat(0.0),
                     err: sphere_point_err(center, radius, n),
                 }
@@ -223,7 +223,7 @@ impl Tracer {
                     ns: c.n,
                     uv: [h.u, h.v],
                     uv1: [h.u, h.v],
-                    color: [1.0; 3],
+                    color: [1.0; 4],
                     dpdu: c.dpdu,
                     err: V3::splat(c.err),
                 }

@@ -31,9 +31,9 @@ pub(crate) struct TexCtx {
     pub p: V3,
     /// The second uv set ([`crate::scene::MappingKind::Uv1`]; `uv` where a shape has none).
     pub uv1: [f32; 2],
-    /// Linear RGB vertex colour at the hit ([`crate::scene::Texture::VertexColored`]; white
-    /// where a shape has none).
-    pub color: [f32; 3],
+    /// Linear RGBA vertex colour at the hit ([`crate::scene::Texture::VertexColored`],
+    /// [`crate::scene::FloatTexture::VertexAlpha`]; white, opaque where a shape has none).
+    pub color: [f32; 4],
 }
 
 impl TexCtx {
@@ -57,7 +57,7 @@ impl TexCtx {
             n,
             p,
             uv1: uv,
-            color: [1.0; 3],
+            color: [1.0; 4],
         }
     }
 }
@@ -297,6 +297,8 @@ pub(crate) enum FTex {
     Solid(Box<Solid>),
     /// pbrt-v4 `dots`: inside, outside.
     Dots(Box<[FTex; 2]>, Map),
+    /// Times the hit's vertex alpha, then the cutoff where one is given (negative: none).
+    VertexAlpha(Box<FTex>, f32),
 }
 
 /// Weight of `tex2` in pbrt-v4's 2D checkerboard without filtering: 0 where
@@ -331,6 +333,17 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
             }
         }
         FTex::Checker3(c, space) => eval_float(&c[space.checker(ctx.p)], ctx),
+        FTex::VertexAlpha(t, cutoff) => {
+            // glTF 2.0 sec. 3.9.4: alpha = factor x texture x COLOR_0's alpha, then MASK's cutoff.
+            let a = eval_float(t, ctx) * ctx.color[3];
+            if *cutoff < 0.0 {
+                a
+            } else if a >= *cutoff {
+                1.0
+            } else {
+                0.0
+            }
+        }
         FTex::Scale(c) => {
             // pbrt-v4 FloatScaledTexture: a zero scale short-circuits.
             let sc = eval_float(&c[1], ctx);
@@ -420,6 +433,14 @@ pub(crate) fn compile_float_texture(
 
 fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
     Ok(match t {
+        FloatTexture::VertexAlpha { tex, cutoff } => {
+            let c = match cutoff {
+                Some(c) if c.is_finite() => (*c as f32).max(0.0),
+                Some(c) => return Err(format!("alpha cutoff {c} is not finite")),
+                None => -1.0,
+            };
+            FTex::VertexAlpha(Box::new(compile_float(tex)?), c)
+        }
         FloatTexture::Constant(v) => {
             if !v.is_finite() {
                 return Err(format!("float texture value {v} is not finite"));

@@ -282,6 +282,13 @@ pub enum FloatTexture {
         outside: Box<FloatTexture>,
         mapping: UvMapping,
     },
+    /// glTF 2.0 sec. 3.9.4 with `COLOR_0`'s alpha: `tex` times the alpha interpolated from the
+    /// mesh's vertex colours (1 on a shape without), then with `cutoff` (alphaMode MASK) 1 where
+    /// the product is at least the cutoff, else 0.
+    VertexAlpha {
+        tex: Box<FloatTexture>,
+        cutoff: Option<f64>,
+    },
 }
 
 /// Surface scattering, with pbrt-v4's material semantics (see `camsim_render::bsdf` for the BSDFs).
@@ -565,10 +572,11 @@ pub enum Geometry {
         indices: Vec<[u32; 3]>,
         uvs: Option<Vec<[f32; 2]>>,
         normals: Option<Vec<[f64; 3]>>,
-        /// Per-vertex linear RGB colours (glTF `COLOR_0`), interpolated over each triangle: they
-        /// multiply the texel of a [`Texture::VertexColored`] base colour (white where a mesh
-        /// has none). 12 bytes a vertex, only on meshes that carry colours.
-        colors: Option<Vec<[f32; 3]>>,
+        /// Per-vertex linear RGBA colours (glTF `COLOR_0`, alpha 1 where it has none),
+        /// interpolated over each triangle: RGB multiplies the texel of a
+        /// [`Texture::VertexColored`] base colour, alpha a [`FloatTexture::VertexAlpha`] (white
+        /// and opaque where a mesh has none). 16 bytes a vertex, only on meshes with colours.
+        colors: Option<Vec<[f32; 4]>>,
         /// A second uv set, read by textures of [`MappingKind::Uv1`] and maps with `uv1` (glTF:
         /// the `TEXCOORD_n` of a texture slot whose set is not the first's). Only on meshes a
         /// material reads two sets of.

@@ -460,7 +460,7 @@ impl SceneGeometry {
                 ));
             }
         }
-        let colors: Option<Vec<[f32; 3]>> = extras.colors.as_ref().map(|c| {
+        let colors: Option<Vec<[f32; 4]>> = extras.colors.as_ref().map(|c| {
             c.iter()
                 .map(|v| v.map(|x| if x.is_finite() { x.max(0.0) } else { 1.0 }))
                 .collect()
@@ -782,7 +782,7 @@ fn build_bvh(
 /// A triangle mesh's optional per-vertex arrays beyond uvs and normals (glTF `COLOR_0`, a
 /// second `TEXCOORD_n`, `TANGENT`).
 struct VertexExtras<'a> {
-    colors: &'a Option<Vec<[f32; 3]>>,
+    colors: &'a Option<Vec<[f32; 4]>>,
     uvs1: &'a Option<Vec<[f32; 2]>>,
     tangents: &'a Option<Vec<[f32; 4]>>,
 }
