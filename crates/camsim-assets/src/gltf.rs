@@ -9,9 +9,15 @@
 //! - Meshes: TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN (POINTS and LINES* refused naming the
 //!   mesh), indexed or not, every accessor component type with `normalized`, byte strides,
 //!   sparse accessors, `KHR_mesh_quantization` (integer positions, normals, uvs);
-//!   `NORMAL` (absent: flat normals, as the specification says), `TEXCOORD_0/1`, `COLOR_0`
-//!   (multiplies the base colour: a per-primitive mean, noted when it varies). Tangents: the
-//!   normal map's frame is the triangle's dp/du (pbrt-v4's), `TANGENT` is not read (noted).
+//!   `NORMAL` (absent: flat normals, as the specification says); `TEXCOORD_n`: each texture
+//!   slot reads the set its `texCoord` names (sec. 3.9.2), the base colour's set as the mesh's
+//!   `uvs`, one other set as `uvs1` (three sets, or a set the primitive lacks: an error naming
+//!   the material and mesh); `COLOR_0` (VEC3/VEC4, float or normalized u8/u16) per vertex,
+//!   multiplying the base colour factor x texture ([`Texture::VertexColored`]), its alpha the
+//!   material's alpha before MASK's cutoff (`FloatTexture::VertexAlpha`). Normal-mapped
+//!   primitives carry tangents: `TANGENT` (xyz, w the handedness) where given, else
+//!   MikkTSpace's on the normal texture's uvs (sec. 3.7.2.1, `crate::tangents`); the
+//!   renderer's normal-map frame is `(t, w n x t, n)`.
 //! - Cameras: perspective (`yfov`, `aspectRatio`); the first met, or `ReadOptions::camera`.
 //!   Orthographic cameras are refused (camsim's camera is a pinhole). No camera: the framing
 //!   camera of [`crate::framing_camera`].
@@ -513,9 +519,9 @@ struct Builder {
     shapes: Vec<Shape>,
     materials: Vec<Material>,
     named: HashMap<String, usize>,
-    /// glTF material index (None: the default material) and COLOR_0 tint -> camsim material
-    /// and its emitter.
-    mat_cache: crate::MaterialCache,
+    /// (glTF material index (None: the default material), the primitive has COLOR_0) -> camsim
+    /// material and its emitter.
+    mat_cache: HashMap<(Option<usize>, bool), (usize, Option<AreaLight>)>,
     images: HashMap<usize, Arc<DecodedImage>>,
     lights: Vec<Light>,
     cameras: Vec<(Option<String>, Option<String>, usize, Camera)>,
@@ -801,76 +807,176 @@ impl Builder {
             None => None,
         };
         let mat = prim.material();
-        // The base colour texture's uv set and transform decide the mesh's uvs.
+        let label = material_label(&mat);
+        // Which uv set each texture slot reads (sec. 3.9.2 `texCoord`): the base colour's set is
+        // the mesh's `uvs` (its KHR_texture_transform baked in); one other set, read by the
+        // slots that name it, is `uvs1`.
+        let sets = UvSets::of(&mat);
+        if let Some(others) = sets.too_many() {
+            return Err(doc.err(format!(
+                "material {label:?} on {mname} primitive {pi}: its textures read uv sets {others:?}; camsim reads at most two sets per primitive"
+            )));
+        }
         let base_info = mat.pbr_metallic_roughness().base_color_texture();
-        let uv_set = base_info.as_ref().map_or(0, |i| i.tex_coord());
-        let uvs = match prim.get(&gltf::Semantic::TexCoords(uv_set)) {
+        let uv_set = sets.base;
+        let read_uvs = |set: u32| -> Result<Option<Vec<[f64; 2]>>> {
+            match prim.get(&gltf::Semantic::TexCoords(set)) {
+                Some(a) => {
+                    let t = doc.read_floats::<2>(&a, &what(&format!("TEXCOORD_{set}")))?;
+                    if t.len() != nv {
+                        return Err(doc.err(format!(
+                            "{} (accessor {}): {} uvs for {nv} positions",
+                            what(&format!("TEXCOORD_{set}")),
+                            a.index(),
+                            t.len()
+                        )));
+                    }
+                    Ok(Some(t))
+                }
+                None => Ok(None),
+            }
+        };
+        let uvs = read_uvs(uv_set)?.map(|t| {
+            let xf = base_info
+                .as_ref()
+                .and_then(|i| i.texture_transform())
+                .map(|t| (t.offset(), t.rotation(), t.scale()));
+            t.iter()
+                .map(|uv| {
+                    let (mut u, mut v) = (uv[0], uv[1]);
+                    if let Some((o, r, s)) = xf {
+                        // KHR_texture_transform: T * R * S, rotation about the origin.
+                        let (su, sv) = (u * s[0] as f64, v * s[1] as f64);
+                        let (c, sn) = ((r as f64).cos(), (r as f64).sin());
+                        u = c * su + sn * sv + o[0] as f64;
+                        v = -sn * su + c * sv + o[1] as f64;
+                    }
+                    // glTF's v runs down the image, camsim's (pbrt's) up.
+                    [u as f32, (1.0 - v) as f32]
+                })
+                .collect::<Vec<_>>()
+        });
+        if let Some(set) = sets.second {
+            let pbr = mat.pbr_metallic_roughness();
+            let moved = [pbr.metallic_roughness_texture(), mat.emissive_texture()]
+                .into_iter()
+                .flatten()
+                .any(|i| i.tex_coord() == set && i.texture_transform().is_some());
+            if moved {
+                self.notes.insert(format!(
+                    "glTF: material {label:?}: KHR_texture_transform on TEXCOORD_{set} is not applied (only the base colour texture's is)"
+                ));
+            }
+        }
+        let uvs1 = match sets.second {
+            Some(set) => read_uvs(set)?.map(|t| {
+                t.iter()
+                    .map(|uv| [uv[0] as f32, (1.0 - uv[1]) as f32])
+                    .collect::<Vec<_>>()
+            }),
+            None => None,
+        };
+        // COLOR_0 (sec. 3.7.2.1: VEC3 or VEC4, float or normalized u8/u16): linear RGB per
+        // vertex, multiplying the base colour (sec. 3.9.2).
+        let colors = match prim.get(&gltf::Semantic::Colors(0)) {
             Some(a) => {
-                let t = doc.read_floats::<2>(&a, &what(&format!("TEXCOORD_{uv_set}")))?;
-                if t.len() != nv {
+                let (nc, v) = doc.read_accessor(&a, &what("COLOR_0"))?;
+                if !(nc == 3 || nc == 4) {
                     return Err(doc.err(format!(
-                        "{}: {} uvs for {nv} positions",
-                        what(&format!("TEXCOORD_{uv_set}")),
-                        t.len()
+                        "{} (accessor {}): {:?}, VEC3 or VEC4 needed",
+                        what("COLOR_0"),
+                        a.index(),
+                        a.dimensions()
                     )));
                 }
-                let xf = base_info
-                    .as_ref()
-                    .and_then(|i| i.texture_transform())
-                    .map(|t| (t.offset(), t.rotation(), t.scale()));
+                if v.len() / nc != nv {
+                    return Err(doc.err(format!(
+                        "{} (accessor {}): {} colours for {nv} positions",
+                        what("COLOR_0"),
+                        a.index(),
+                        v.len() / nc
+                    )));
+                }
+                if v.iter().any(|x| !x.is_finite()) {
+                    self.notes.insert(format!(
+                        "glTF: {mname}: COLOR_0 has non-finite values, read as 1"
+                    ));
+                }
+                // RGBA; a VEC3's alpha is 1.
                 Some(
-                    t.iter()
-                        .map(|uv| {
-                            let (mut u, mut v) = (uv[0], uv[1]);
-                            if let Some((o, r, s)) = xf {
-                                // KHR_texture_transform: T * R * S, rotation about the origin.
-                                let (su, sv) = (u * s[0] as f64, v * s[1] as f64);
-                                let (c, sn) = ((r as f64).cos(), (r as f64).sin());
-                                u = c * su + sn * sv + o[0] as f64;
-                                v = -sn * su + c * sv + o[1] as f64;
-                            }
-                            // glTF's v runs down the image, camsim's (pbrt's) up.
-                            [u as f32, (1.0 - v) as f32]
+                    v.chunks_exact(nc)
+                        .map(|c| {
+                            std::array::from_fn(|k| match c.get(k) {
+                                Some(x) if x.is_finite() => x.clamp(0.0, 1.0) as f32,
+                                _ => 1.0,
+                            })
                         })
-                        .collect::<Vec<_>>(),
+                        .collect::<Vec<[f32; 4]>>(),
                 )
             }
             None => None,
         };
-        // COLOR_0 multiplies the base colour; camsim keeps a per-primitive mean.
-        let tint = match prim.get(&gltf::Semantic::Colors(0)) {
-            Some(a) => {
-                let (nc, v) = doc.read_accessor(&a, &what("COLOR_0"))?;
-                let n = (v.len() / nc.max(1)).max(1);
-                let mut m = [0.0f64; 3];
-                let mut varies = false;
-                for c in v.chunks_exact(nc) {
-                    for k in 0..3 {
-                        let x = if c[k].is_finite() { c[k] } else { 1.0 };
-                        m[k] += x / n as f64;
-                        if (x - v[k]).abs() > 1e-3 {
-                            varies = true;
-                        }
+        let has_colors = colors.is_some();
+        let mut geometry = Geometry::Triangles {
+            positions,
+            indices: tris,
+            uvs,
+            normals,
+            colors,
+            uvs1,
+            tangents: None,
+        };
+        // Tangents of a normal-mapped primitive (sec. 3.7.2.1): TANGENT where given, else
+        // MikkTSpace on the normal texture's uvs, as the specification recommends.
+        if let Some(nt) = mat.normal_texture() {
+            let on_second = sets.second == Some(nt.tex_coord());
+            match prim.get(&gltf::Semantic::Tangents) {
+                Some(a) => {
+                    let t = doc.read_floats::<4>(&a, &what("TANGENT"))?;
+                    if t.len() != nv {
+                        return Err(doc.err(format!(
+                            "{} (accessor {}): {} tangents for {nv} positions",
+                            what("TANGENT"),
+                            a.index(),
+                            t.len()
+                        )));
+                    }
+                    // Directions move with the node (vectors); a mirror flips the bitangent
+                    // `w n x t`'s side, so `w` flips with it.
+                    let flip = camsim_scene3d::xform::det3(world) < 0.0;
+                    let ts = t
+                        .iter()
+                        .map(|v| {
+                            let d = normalize(world.apply_vector([v[0], v[1], v[2]]));
+                            let w = if (v[3] < 0.0) != flip { -1.0 } else { 1.0 };
+                            [d[0] as f32, d[1] as f32, d[2] as f32, w]
+                        })
+                        .collect();
+                    if let Geometry::Triangles { tangents, .. } = &mut geometry {
+                        *tangents = Some(ts);
                     }
                 }
-                if varies {
-                    self.notes.insert(format!(
-                        "glTF: {mname}'s COLOR_0 varies over the mesh; camsim multiplies the base colour by its mean"
-                    ));
+                None => {
+                    if !crate::tangents::mikktspace(&mut geometry, on_second) {
+                        self.notes.insert(format!(
+                            "glTF: {mname}: MikkTSpace found no tangents (no uvs?); the normal map's frame is dp/du"
+                        ));
+                    }
                 }
-                m
             }
-            None => [1.0; 3],
-        };
-        let (material, area_light) = self.material(doc, &mat, tint)?;
+        }
+        let (material, area_light) = self.material(doc, &mat, has_colors, &sets)?;
+        // After the material, so that its missing images are named first.
+        for (slot, set) in sets.slots.iter() {
+            if prim.get(&gltf::Semantic::TexCoords(*set)).is_none() {
+                return Err(doc.err(format!(
+                    "material {label:?} on {mname} primitive {pi}: its {slot} reads TEXCOORD_{set}, which the primitive does not have"
+                )));
+            }
+        }
         self.shapes.push(Shape {
             name: Some(name.to_string()),
-            geometry: Geometry::Triangles {
-                positions,
-                indices: tris,
-                uvs,
-                normals,
-            },
+            geometry,
             material,
             area_light,
             reverse_orientation: false,
@@ -962,40 +1068,59 @@ impl Builder {
         Ok(img.channel(ch, factor, map, wrap, filter))
     }
 
+    /// Material `mat` (cached); `vertex_colored`: its primitive has `COLOR_0`, which multiplies
+    /// the base colour; `sets`: the uv set of each texture slot.
     fn material(
         &mut self,
         doc: &Doc,
         mat: &gltf::Material,
-        tint: [f64; 3],
+        vertex_colored: bool,
+        sets: &UvSets,
     ) -> Result<(usize, Option<AreaLight>)> {
-        let key = (mat.index(), tint.map(|v| (v as f32).to_bits()));
+        let key = (mat.index(), vertex_colored);
         if let Some(v) = self.mat_cache.get(&key) {
             return Ok(v.clone());
         }
-        let label = mat
-            .name()
-            .map(str::to_string)
-            .or(mat.index().map(|i| format!("material{i}")))
-            .unwrap_or_else(|| "default".to_string());
+        let label = material_label(mat);
         let pbr = mat.pbr_metallic_roughness();
         let bf = pbr.base_color_factor().map(|v| v as f64);
-        let base_rgb = [bf[0] * tint[0], bf[1] * tint[1], bf[2] * tint[2]];
-        let base_color = match pbr.base_color_texture() {
-            Some(info) => {
+        let base_rgb = [bf[0], bf[1], bf[2]];
+        let base_color = match (pbr.base_color_texture(), vertex_colored) {
+            (Some(info), _) => {
                 let tex = info.texture();
                 let img = self.image(doc, &tex.source())?;
                 let (wrap, filter) = self.sampler(&tex);
                 img.base_color(base_rgb, wrap, filter)
             }
-            None => Texture::Constant(reflectance(base_rgb)),
+            (None, false) => Texture::Constant(reflectance(base_rgb)),
+            // The factor as a 1 x 1 image, which the vertex colour multiplies per hit.
+            (None, true) => Texture::Image {
+                width: 1,
+                height: 1,
+                rgb: vec![base_rgb.map(|v| v.clamp(0.0, 1.0) as f32)].into(),
+                uscale: 1.0,
+                vscale: 1.0,
+                udelta: 0.0,
+                vdelta: 0.0,
+                kind: camsim_scene3d::MappingKind::Uv,
+                wrap: WrapMode::Clamp,
+                filter: TexelFilter::Point,
+            },
+        };
+        // sec. 3.9.2: base colour = factor x texture x COLOR_0.
+        let base_color = if vertex_colored {
+            Texture::VertexColored(Box::new(base_color))
+        } else {
+            base_color
         };
         let (mf, rf) = (pbr.metallic_factor() as f64, pbr.roughness_factor() as f64);
         let (metallic, roughness) = match pbr.metallic_roughness_texture() {
             Some(info) => {
                 let t = info.texture();
+                let second = sets.second == Some(info.tex_coord());
                 (
-                    self.float_texture(doc, &t, 2, mf, |v| v)?,
-                    self.float_texture(doc, &t, 1, rf, |v| v)?,
+                    on_set(self.float_texture(doc, &t, 2, mf, |v| v)?, second),
+                    on_set(self.float_texture(doc, &t, 1, rf, |v| v)?, second),
                 )
             }
             None => (FloatTexture::Constant(mf), FloatTexture::Constant(rf)),
@@ -1006,9 +1131,10 @@ impl Builder {
         );
         if let Some(s) = mat.specular() {
             specular = match s.specular_texture() {
-                Some(info) => {
-                    self.float_texture(doc, &info.texture(), 3, s.specular_factor() as f64, |v| v)?
-                }
+                Some(info) => on_set(
+                    self.float_texture(doc, &info.texture(), 3, s.specular_factor() as f64, |v| v)?,
+                    sets.second == Some(info.tex_coord()),
+                ),
                 None => FloatTexture::Constant(s.specular_factor() as f64),
             };
             let c = s.specular_color_factor().map(|v| v as f64);
@@ -1118,7 +1244,8 @@ impl Builder {
         // Normal map (sec. 3.9.3): tangent-space normals scaled in x, y by `scale`.
         if let Some(nt) = mat.normal_texture() {
             let img = self.image(doc, &nt.texture().source())?;
-            let normals = img.normal_map(nt.scale());
+            let mut normals = img.normal_map(nt.scale());
+            normals.uv1 = sets.second == Some(nt.tex_coord());
             self.materials.push(m);
             let inner = self.materials.len() - 1;
             m = Material::Bumped {
@@ -1144,13 +1271,27 @@ impl Builder {
                         a
                     }
                 };
-                match pbr.base_color_texture() {
-                    Some(info) => {
+                match (pbr.base_color_texture(), vertex_colored) {
+                    (Some(info), false) => {
                         Some(self.float_texture(doc, &info.texture(), 3, alpha_factor, cut)?)
                     }
-                    None => {
+                    (None, false) => {
                         let a = cut(alpha_factor as f32) as f64;
                         (a < 1.0).then_some(FloatTexture::Constant(a))
+                    }
+                    // COLOR_0's alpha multiplies factor x texture (sec. 3.9.4), the cutoff
+                    // after the product.
+                    (info, true) => {
+                        let tex = match info {
+                            Some(info) => {
+                                self.float_texture(doc, &info.texture(), 3, alpha_factor, |v| v)?
+                            }
+                            None => FloatTexture::Constant(alpha_factor),
+                        };
+                        Some(FloatTexture::VertexAlpha {
+                            tex: Box::new(tex),
+                            cutoff: mask.then_some(cutoff),
+                        })
                     }
                 }
             }
@@ -1188,6 +1329,7 @@ impl Builder {
                             width: img.width,
                             height: img.height,
                             rgb: rgb.into(),
+                            uv1: sets.second == Some(info.tex_coord()),
                         })),
                     })
                 }
@@ -1635,5 +1777,83 @@ impl Animations {
             return Ok(None);
         }
         Ok(Some(m))
+    }
+}
+
+/// A material's name for messages.
+fn material_label(mat: &gltf::Material) -> String {
+    mat.name()
+        .map(str::to_string)
+        .or(mat.index().map(|i| format!("material{i}")))
+        .unwrap_or_else(|| "default".to_string())
+}
+
+/// The uv sets a material's texture slots read (sec. 3.9.2 `textureInfo.texCoord`): `base` is
+/// the base colour texture's (else the first slot's, else 0), the mesh's `uvs`; `second` the one
+/// other set some slot names, the mesh's `uvs1`.
+struct UvSets {
+    base: u32,
+    second: Option<u32>,
+    /// (slot, set) of every texture camsim reads (occlusion is not read).
+    slots: Vec<(&'static str, u32)>,
+}
+
+impl UvSets {
+    fn of(mat: &gltf::Material) -> UvSets {
+        let pbr = mat.pbr_metallic_roughness();
+        let mut slots = Vec::new();
+        if let Some(i) = pbr.base_color_texture() {
+            slots.push(("baseColorTexture", i.tex_coord()));
+        }
+        if let Some(i) = pbr.metallic_roughness_texture() {
+            slots.push(("metallicRoughnessTexture", i.tex_coord()));
+        }
+        if let Some(i) = mat.normal_texture() {
+            slots.push(("normalTexture", i.tex_coord()));
+        }
+        if let Some(i) = mat.emissive_texture() {
+            slots.push(("emissiveTexture", i.tex_coord()));
+        }
+        if let Some(i) = mat.specular().and_then(|s| s.specular_texture()) {
+            slots.push(("specularTexture", i.tex_coord()));
+        }
+        let base = slots.first().map_or(0, |s| s.1);
+        let second = slots.iter().map(|s| s.1).find(|&s| s != base);
+        UvSets {
+            base,
+            second,
+            slots,
+        }
+    }
+
+    /// The sets named, where there are more than two.
+    fn too_many(&self) -> Option<Vec<u32>> {
+        let sets: BTreeSet<u32> = self.slots.iter().map(|s| s.1).collect();
+        (sets.len() > 2).then(|| sets.into_iter().collect())
+    }
+}
+
+/// A float image texture read at the second uv set where `second`.
+fn on_set(t: FloatTexture, second: bool) -> FloatTexture {
+    match t {
+        FloatTexture::Image {
+            width,
+            height,
+            values,
+            mut mapping,
+            wrap,
+            filter,
+        } if second => {
+            mapping.kind = camsim_scene3d::MappingKind::Uv1;
+            FloatTexture::Image {
+                width,
+                height,
+                values,
+                mapping,
+                wrap,
+                filter,
+            }
+        }
+        t => t,
     }
 }

@@ -18,6 +18,7 @@
 
 pub mod gltf;
 pub mod obj;
+mod tangents;
 mod texture;
 pub mod units;
 

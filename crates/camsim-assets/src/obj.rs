@@ -15,8 +15,8 @@
 //!   cd/m^2 as glTF's emissive strength; two-sided, as Blender and most tools emit from both
 //!   faces) and `map_Ke`; the PBR extension `Pr`, `Pm` (metallic), `map_Pr`, `map_Pm`;
 //!   `norm` and `map_Bump` / `bump` (`-bm` scale) images that hold tangent-space normals as
-//!   normal maps (a height-map bump is noted and not applied); `map_Ks`, `map_Ns`, `Ps`,
-//!   `Pc`, `Pcr`, `aniso` noted and not read.
+//!   normal maps, in the frame of MikkTSpace tangents (`crate::tangents`; a height-map bump is
+//!   noted and not applied); `map_Ks`, `map_Ns`, `Ps`, `Pc`, `Pcr`, `aniso` noted and not read.
 //! - Units and axes: none in OBJ: `ReadOptions::obj_scale_m` (default 1 m per unit) and
 //!   `ReadOptions::obj_up_axis` (default Y).
 
@@ -179,14 +179,27 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
         };
         let next = instance_of.len() as u32;
         let inst = *instance_of.entry(name.clone()).or_insert(next);
+        let mut geometry = Geometry::Triangles {
+            positions,
+            indices,
+            uvs,
+            normals,
+            colors: None,
+            uvs1: None,
+            tangents: None,
+        };
+        // A normal map's tangent frame: MikkTSpace tangents (OBJ has no tangents; OBJ's v runs
+        // up the image as camsim's does), else dp/du with a note.
+        if normal_mapped(&b.materials, material)
+            && !crate::tangents::mikktspace(&mut geometry, false)
+        {
+            b.notes.insert(format!(
+                "OBJ: {what}: MikkTSpace found no tangents (no uvs?); the normal map's frame is dp/du"
+            ));
+        }
         shapes.push(Shape {
             name: Some(name),
-            geometry: Geometry::Triangles {
-                positions,
-                indices,
-                uvs,
-                normals,
-            },
+            geometry,
             material,
             area_light,
             reverse_orientation: false,
@@ -270,6 +283,21 @@ fn first_bad_line(text: &str) -> Option<(usize, String)> {
         }
     }
     None
+}
+
+/// Material `i` (or the one under its alpha mask) is normal-mapped.
+fn normal_mapped(materials: &[Material], mut i: usize) -> bool {
+    for _ in 0..4 {
+        match materials.get(i) {
+            Some(Material::Bumped {
+                perturbation: NormalPerturbation::NormalMap(_),
+                ..
+            }) => return true,
+            Some(Material::AlphaMasked { material, .. }) => i = *material,
+            _ => return false,
+        }
+    }
+    false
 }
 
 struct MtlBuilder {

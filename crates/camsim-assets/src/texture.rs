@@ -113,6 +113,7 @@ impl DecodedImage {
             width: self.width,
             height: self.height,
             rgb,
+            uv1: false,
         }
     }
 }

@@ -500,6 +500,9 @@ pub fn read_asset(
                     indices: m.triangles,
                     uvs: m.uvs,
                     normals: m.normals,
+                    colors: None,
+                    uvs1: None,
+                    tangents: None,
                 },
                 material: 0,
                 area_light: None,
@@ -522,6 +525,9 @@ pub fn read_asset(
                 indices: ix,
                 uvs,
                 normals,
+                colors,
+                uvs1,
+                tangents,
             } => {
                 let base = positions.len() as u32;
                 if p.iter().flatten().any(|v| !v.is_finite()) {
@@ -540,7 +546,10 @@ pub fn read_asset(
                 bytes += p.len() * 24 * 2
                     + ix.len() * 12 * 2
                     + uvs.as_ref().map_or(0, |u| u.len() * 8)
-                    + normals.as_ref().map_or(0, |n| n.len() * 24);
+                    + normals.as_ref().map_or(0, |n| n.len() * 24)
+                    + colors.as_ref().map_or(0, |c| c.len() * 16)
+                    + uvs1.as_ref().map_or(0, |u| u.len() * 8)
+                    + tangents.as_ref().map_or(0, |t| t.len() * 16);
             }
             other => {
                 let kind = match other {

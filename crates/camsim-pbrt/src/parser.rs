@@ -826,6 +826,9 @@ fn emitting_shapes(
                 indices,
                 uvs,
                 normals,
+                colors,
+                uvs1,
+                tangents,
             },
         ) if indices.len() > 1 && !single => {
             notes.push(format!(
@@ -848,6 +851,16 @@ fn emitting_shapes(
                     normals: normals
                         .as_ref()
                         .map(|n| t.iter().map(|&i| n[i as usize]).collect()),
+                    // Every per-vertex array follows its vertex.
+                    colors: colors
+                        .as_ref()
+                        .map(|c| t.iter().map(|&i| c[i as usize]).collect()),
+                    uvs1: uvs1
+                        .as_ref()
+                        .map(|u| t.iter().map(|&i| u[i as usize]).collect()),
+                    tangents: tangents
+                        .as_ref()
+                        .map(|v| t.iter().map(|&i| v[i as usize]).collect()),
                 };
                 let area = xform::shape_area(&g);
                 let scale = power_scale(base, power, area, sides);

@@ -145,6 +145,7 @@ fn meshes_and_parameter_types() {
             indices,
             uvs,
             normals,
+            ..
         } => {
             assert_eq!(positions.len(), 4);
             assert_eq!(uvs.as_ref().unwrap()[2], [1.0, 1.0]);

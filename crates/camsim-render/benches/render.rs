@@ -180,6 +180,9 @@ fn cornell_box(width: usize, height: usize, spp: u32) -> SceneDescription {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let mut shapes: Vec<Shape> = quads
         .into_iter()

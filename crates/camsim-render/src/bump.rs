@@ -18,7 +18,10 @@
 //!   `max(1/8, 1/sqrt(spp))`) at every vertex; pbrt-v4 uses the camera ray's own differentials
 //!   at the first hit and carries them through specular bounces.
 //! - `NormalMap`: the image's RGB (linear, bilinear, repeat wrap, at `(u, 1 - v)`) as `2 rgb - 1`
-//!   in the tangent frame `(dp/du, n x dp/du, n)`, normalised. pbrt-v4 rebuilds `dp/du`, `dp/dv`
+//!   in the tangent frame `(dp/du, n x dp/du, n)`, normalised; on a mesh with tangents (glTF
+//!   `TANGENT` or MikkTSpace's, `MeshShading::tangents`) the frame is `(t, w n x t, n)` with `t`
+//!   the interpolated tangent made orthogonal to the shading normal (glTF 2.0 sec. 3.7.2.1),
+//!   looked up at the second uv set where the map names it. pbrt-v4 rebuilds `dp/du`, `dp/dv`
 //!   around it and takes their cross product: the same normal up to rounding, which camsim skips
 //!   (so a flat map, `(0.5, 0.5, 1)`, leaves the shading normal bit for bit).
 //!
@@ -118,6 +121,10 @@ pub(crate) struct ShadingGeometry {
     pub ts: V3,
     pub dndu: V3,
     pub dndv: V3,
+    /// A normal map's tangent from the mesh (glTF `TANGENT` or MikkTSpace, interpolated; zero
+    /// where the shape has none: the frame is then `dp/du`'s) and its handedness `w` (+-1).
+    pub tangent: V3,
+    pub tangent_w: f32,
 }
 
 /// A coordinate system around the unit vector `n` (pbrt-v4 `CoordinateSystem`, Duff et al.
@@ -186,6 +193,8 @@ pub(crate) fn triangle_geometry(
         ts,
         dndu,
         dndv,
+        tangent: V3::splat(0.0),
+        tangent_w: 1.0,
     }
 }
 
@@ -229,6 +238,8 @@ pub(crate) fn sphere_geometry(
         ts: dpdv,
         dndu,
         dndv,
+        tangent: V3::splat(0.0),
+        tangent_w: 1.0,
     }
 }
 
@@ -240,7 +251,7 @@ pub(crate) fn bump_normal(
     dv: f32,
     disp: impl Fn(&TexCtx) -> f32,
 ) -> V3 {
-    let ctx = |p: V3, uv: [f32; 2]| TexCtx { uv, n: g.n, p };
+    let ctx = |p: V3, uv: [f32; 2]| TexCtx::at_uv(uv, g.n, p);
     let d_u = disp(&ctx(g.p + g.ss * du, [g.uv[0] + du, g.uv[1]]));
     let d_v = disp(&ctx(g.p + g.ts * dv, [g.uv[0], g.uv[1] + dv]));
     let d = disp(&ctx(g.p, g.uv));
@@ -257,17 +268,25 @@ pub(crate) fn bump_normal(
 
 /// `NormalMap`: the map's tangent-space normal at `g.uv` in the frame `(dp/du, n x dp/du, n)`
 /// of the shading geometry.
-pub(crate) fn mapped_normal(g: &ShadingGeometry, map: &NormalMapImage) -> V3 {
-    let c = lookup(map, g.uv);
+pub(crate) fn mapped_normal(g: &ShadingGeometry, map: &NormalMapImage, uv: [f32; 2]) -> V3 {
+    let c = lookup(map, uv);
     let local = V3::new(2.0 * c[0] - 1.0, 2.0 * c[1] - 1.0, 2.0 * c[2] - 1.0);
     let len = local.length();
-    let x = g.ss.normalize();
+    // The mesh's tangent where it has one (glTF 2.0 sec. 3.7.2.1 and 3.9.3: the normal texture
+    // is in the frame (t, w n x t, n)), made orthogonal to the shading normal (Gram-Schmidt).
+    let t = g.tangent - g.ns * g.ns.dot(g.tangent);
+    let tl = t.length();
+    let (x, w) = if tl > 0.0 && tl.is_finite() {
+        (t / tl, g.tangent_w)
+    } else {
+        (g.ss.normalize(), 1.0)
+    };
     if !(len > 0.0 && len.is_finite() && x.is_finite()) {
         return g.ns;
     }
     let local = if len == 1.0 { local } else { local / len };
-    // pbrt-v4 Frame::FromXZ(normalize(dpdu), n): y = z x x.
-    let y = g.ns.cross(x);
+    // pbrt-v4 Frame::FromXZ(normalize(dpdu), n): y = z x x (times glTF's handedness w).
+    let y = g.ns.cross(x) * w;
     x * local.x + y * local.y + g.ns * local.z
 }
 
@@ -379,6 +398,8 @@ mod tests {
             ts: dpdv,
             dndu: V3::splat(0.0),
             dndv: V3::splat(0.0),
+            tangent: V3::splat(0.0),
+            tangent_w: 1.0,
         }
     }
 
@@ -463,19 +484,45 @@ mod tests {
             width: 3,
             height: 2,
             rgb: vec![[0.5, 0.5, 1.0]; 6],
+            uv1: false,
         };
         for uv in [[0.0, 0.0], [0.37, 0.91], [1.7, -0.3]] {
             let g = ShadingGeometry { uv, ..g };
-            assert_eq!(mapped_normal(&g, &map), g.ns);
+            assert_eq!(mapped_normal(&g, &map, g.uv), g.ns);
         }
         // A tilted map: (1, 0.5, 1) is the normal (1, 0, 1) / sqrt 2 in (dp/du, ., n).
         let tilted = NormalMapImage {
             width: 1,
             height: 1,
             rgb: vec![[1.0, 0.5, 1.0]],
+            uv1: false,
         };
-        let ns = mapped_normal(&g, &tilted);
+        let ns = mapped_normal(&g, &tilted, g.uv);
         let want = (g.ss.normalize() + g.ns) * std::f32::consts::FRAC_1_SQRT_2;
         assert!((ns - want).length() < 1e-6, "{ns:?} vs {want:?}");
+    }
+
+    /// With a mesh tangent the frame is (t', w n x t', n), t' the tangent made orthogonal to
+    /// n (glTF 2.0 sec. 3.7.2.1): a map tilted toward +y turns the normal toward w n x t'.
+    #[test]
+    fn a_mesh_tangent_and_its_handedness_set_the_normal_map_frame() {
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        // n = +z; dp/du along +x, the mesh tangent (0, 1, 0.5): t' = +y.
+        let g = ShadingGeometry {
+            tangent: V3::new(0.0, 1.0, 0.5),
+            ..plane(V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0))
+        };
+        let toward_y = NormalMapImage {
+            width: 1,
+            height: 1,
+            rgb: vec![[0.5, (h + 1.0) / 2.0, (h + 1.0) / 2.0]],
+            uv1: false,
+        };
+        // n x t' = z x y = -x.
+        for (w, want) in [(1.0, V3::new(-h, 0.0, h)), (-1.0, V3::new(h, 0.0, h))] {
+            let g = ShadingGeometry { tangent_w: w, ..g };
+            let ns = mapped_normal(&g, &toward_y, g.uv);
+            assert!((ns - want).length() < 1e-6, "w = {w}: {ns:?} vs {want:?}");
+        }
     }
 }

@@ -154,6 +154,12 @@ pub(crate) struct MeshShading {
     pub indices: Vec<[u32; 3]>,
     pub uvs: Option<Vec<[f32; 2]>>,
     pub normals: Option<Vec<V3>>,
+    /// Linear RGBA vertex colours (glTF `COLOR_0`).
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// The second uv set (glTF `TEXCOORD_n` of a slot whose set is not the first's).
+    pub uvs1: Option<Vec<[f32; 2]>>,
+    /// Unit tangents and handedness `w` (glTF `TANGENT` or MikkTSpace), render space.
+    pub tangents: Option<Vec<(V3, f32)>>,
 }
 
 /// Surface data at a hit.
@@ -164,6 +170,11 @@ pub(crate) struct SurfaceHit {
     /// Shading normal (unit; equals `ng` without vertex normals).
     pub(crate) ns: V3,
     pub(crate) uv: [f32; 2],
+    /// The second uv set at the hit (`MeshShading::uvs1`; equals `uv` on shapes without one).
+    pub(crate) uv1: [f32; 2],
+    /// The interpolated vertex colour, RGBA (`MeshShading::colors`; white, opaque on shapes
+    /// without).
+    pub(crate) color: [f32; 4],
     /// Curves: dp/du, the direction along the curve (the shading frame's x axis, which the
     /// hair BSDF needs); zero for other shapes (any frame about the normal).
     pub(crate) dpdu: V3,

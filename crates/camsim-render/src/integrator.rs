@@ -120,6 +120,7 @@ impl Tracer {
                 let ng = tri_normal;
                 let pi = &self.info[slot];
                 let (mut ns, mut uv) = (ng, [h.u, h.v]);
+                let (mut uv1, mut color) = (None, [1.0f32; 4]);
                 if let Some(m) = &self.meshes[pi.shape as usize] {
                     let tri = m.indices[pi.tri as usize];
                     let w = 1.0 - h.u - h.v;
@@ -142,6 +143,24 @@ impl Tracer {
                         // pbrt-v4 default triangle uvs (0,0), (1,0), (1,1).
                         uv = [h.u + h.v, h.v];
                     }
+                    // Barycentric interpolation of the second uv set and the vertex colours
+                    // (glTF 2.0 sec. 3.7.2.1: attributes are linearly interpolated).
+                    if let Some(t) = &m.uvs1 {
+                        let (a, b, c) =
+                            (t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]);
+                        uv1 = Some([
+                            w * a[0] + h.u * b[0] + h.v * c[0],
+                            w * a[1] + h.u * b[1] + h.v * c[1],
+                        ]);
+                    }
+                    if let Some(cs) = &m.colors {
+                        let (a, b, c) = (
+                            cs[tri[0] as usize],
+                            cs[tri[1] as usize],
+                            cs[tri[2] as usize],
+                        );
+                        color = std::array::from_fn(|k| w * a[k] + h.u * b[k] + h.v * c[k]);
+                    }
                 } else {
                     uv = [uv[0] + uv[1], uv[1]];
                 }
@@ -150,6 +169,8 @@ impl Tracer {
                     ng,
                     ns,
                     uv,
+                    uv1: uv1.unwrap_or(uv),
+                    color,
                     dpdu: V3::splat(0.0),
                     err,
                 }
@@ -166,6 +187,8 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    uv1: uv,
+                    color: [1.0; 4],
                     dpdu: V3::splat(0.0),
                     err: sphere_point_err(center, radius, n),
                 }
@@ -186,6 +209,8 @@ impl Tracer {
                     ng: n,
                     ns: n,
                     uv,
+                    uv1: uv,
+                    color: [1.0; 4],
                     dpdu: V3::splat(0.0),
                     err: sphere_point_err(center, radius, n),
                 }
@@ -197,6 +222,8 @@ impl Tracer {
                     ng: c.n,
                     ns: c.n,
                     uv: [h.u, h.v],
+                    uv1: [h.u, h.v],
+                    color: [1.0; 4],
                     dpdu: c.dpdu,
                     err: V3::splat(c.err),
                 }
@@ -235,6 +262,15 @@ impl Tracer {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
                 let (s, t) = map.st(ctx);
                 let rgb = self.images[*im as usize].lookup([s, t]);
+                let poly = crate::uplift::rgb_to_coefficients(rgb);
+                std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
+            }
+            Tex::VertexColored(im, map) => {
+                // glTF 2.0 sec. 3.9.2: base colour = factor x texture x COLOR_0, linear RGB,
+                // clamped to a reflectance, then uplifted as `Image` is.
+                let (s, t) = map.st(ctx);
+                let c = self.images[*im as usize].lookup([s, t]);
+                let rgb: [f32; 3] = std::array::from_fn(|k| (c[k] * ctx.color[k]).clamp(0.0, 1.0));
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
@@ -389,17 +425,7 @@ impl Tracer {
             };
             let sh = self.surface(&r, &h, pt);
             let pi = self.info[h.slot as usize];
-            let keep = !self.has_alpha
-                || self.alpha_keeps(
-                    pi.material,
-                    &TexCtx {
-                        uv: sh.uv,
-                        n: sh.ng,
-                        p: sh.p,
-                    },
-                    o,
-                    d,
-                );
+            let keep = !self.has_alpha || self.alpha_keeps(pi.material, &TexCtx::at(&sh), o, d);
             if keep
                 && !matches!(
                     self.materials[self.resolve_material(pi.material, sh.p, -d) as usize],
@@ -464,18 +490,7 @@ impl Tracer {
             };
             let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
-            if self.has_alpha
-                && !self.alpha_keeps(
-                    pi.material,
-                    &TexCtx {
-                        uv: sh.uv,
-                        n: sh.ng,
-                        p: sh.p,
-                    },
-                    ray.o,
-                    ray.d,
-                )
-            {
+            if self.has_alpha && !self.alpha_keeps(pi.material, &TexCtx::at(&sh), ray.o, ray.d) {
                 // Alpha test failed: the hit is ignored and the ray goes on from the far side
                 // (pbrt-v4 `GeometricPrimitive::Intersect` re-intersects a spawned ray), no bounce.
                 skips += 1;
@@ -512,7 +527,12 @@ impl Tracer {
                     } else {
                         1.0
                     };
-                    let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
+                    let le = self.lights.emitted(
+                        light,
+                        self.lights.hit_uv(light, &sh),
+                        &self.tables,
+                        lambdas,
+                    );
                     l.add(pi.light, std::array::from_fn(|i| beta[i] * w * le[i]));
                 }
             }
@@ -539,11 +559,7 @@ impl Tracer {
             let d0 = dim::bounce(depth);
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
-            let ctx = TexCtx {
-                uv: sh.uv,
-                n: sh.ng,
-                p: sh.p,
-            };
+            let ctx = TexCtx::at(&sh);
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
             let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
@@ -604,11 +620,7 @@ impl Tracer {
                         let masked = alpha_mat != NO_ALPHA
                             && !self.alpha_keeps(
                                 alpha_mat,
-                                &TexCtx {
-                                    uv,
-                                    n: n_light,
-                                    p: p_light,
-                                },
+                                &TexCtx::at_uv(uv, n_light, p_light),
                                 p_from,
                                 wi,
                             );
@@ -707,16 +719,7 @@ impl Tracer {
             }
             let sh = self.surface(&ray, &h, pt);
             let pi = self.info[h.slot as usize];
-            if self.alpha_keeps(
-                pi.material,
-                &TexCtx {
-                    uv: sh.uv,
-                    n: sh.ng,
-                    p: sh.p,
-                },
-                ray.o,
-                ray.d,
-            ) {
+            if self.alpha_keeps(pi.material, &TexCtx::at(&sh), ray.o, ray.d) {
                 return Some((ray, h));
             }
             ray = Ray {

@@ -653,11 +653,7 @@ pub(crate) fn compute(
                 }
                 if request.albedo {
                     let m = tracer.resolve_material(pi.material, sh.p, -r.d);
-                    let ctx = TexCtx {
-                        uv: sh.uv,
-                        n: sh.ng,
-                        p: sh.p,
-                    };
+                    let ctx = TexCtx::at(&sh);
                     let mut rgb = [0f32; 3];
                     for (b, l) in lambdas.iter().enumerate() {
                         let a = tracer.albedo_at(m, &ctx, l);

@@ -151,6 +151,8 @@ pub(crate) fn zone_uv(clip: &crate::geometry::SphereClip, radius: f32, n: V3) ->
 pub(crate) struct EmitImage {
     pub tex: crate::image_tex::ImageTex,
     pub mean_rgb: f32,
+    /// Looked up at the second uv set (`EmissionImage::uv1`): the emitter's `uvs` hold that set.
+    pub uv1: bool,
 }
 
 /// All lights and the power distribution used to pick one.
@@ -920,6 +922,16 @@ impl Lights {
     /// image: pbrt-v4 `DiffuseAreaLight::L`, the bilinear RGB at `uv` as an illuminant spectrum
     /// `2 m S(rgb / 2m)(lambda) illuminant(lambda)`, `m` the largest component,
     /// `RGBIlluminantSpectrum`, with `S` the Jakob & Hanika 2019 uplift, `crate::uplift`).
+    /// The surface coordinates light `light`'s image reads at a surface hit `sh` (its second uv
+    /// set where the image names it).
+    #[inline]
+    pub(crate) fn hit_uv(&self, light: &LightEntry, sh: &crate::geometry::SurfaceHit) -> [f32; 2] {
+        match self.images.get(light.image as usize) {
+            Some(im) if im.uv1 => sh.uv1,
+            _ => sh.uv,
+        }
+    }
+
     #[inline]
     pub(crate) fn emitted<const N: usize>(
         &self,

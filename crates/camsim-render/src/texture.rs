@@ -29,6 +29,37 @@ pub(crate) struct TexCtx {
     pub n: V3,
     /// The hit point, world space (the solid textures map it to texture space).
     pub p: V3,
+    /// The second uv set ([`crate::scene::MappingKind::Uv1`]; `uv` where a shape has none).
+    pub uv1: [f32; 2],
+    /// Linear RGBA vertex colour at the hit ([`crate::scene::Texture::VertexColored`],
+    /// [`crate::scene::FloatTexture::VertexAlpha`]; white, opaque where a shape has none).
+    pub color: [f32; 4],
+}
+
+impl TexCtx {
+    /// The context of a surface hit: its uvs, vertex colour, geometric normal and point.
+    #[inline]
+    pub(crate) fn at(sh: &crate::geometry::SurfaceHit) -> TexCtx {
+        TexCtx {
+            uv: sh.uv,
+            n: sh.ng,
+            p: sh.p,
+            uv1: sh.uv1,
+            color: sh.color,
+        }
+    }
+
+    /// A context at `uv` (both sets) without vertex colour (light samples, tests).
+    #[inline]
+    pub(crate) fn at_uv(uv: [f32; 2], n: V3, p: V3) -> TexCtx {
+        TexCtx {
+            uv,
+            n,
+            p,
+            uv1: uv,
+            color: [1.0; 4],
+        }
+    }
 }
 
 /// What a solid texture computes ([`crate::noise`]).
@@ -140,6 +171,7 @@ pub(crate) struct Map {
 #[derive(Debug, Clone, Copy)]
 enum MapKind {
     Uv,
+    Uv1,
     Spherical(TexSpace),
     Cylindrical(TexSpace),
     Planar(TexSpace, [f64; 3], [f64; 3]),
@@ -157,6 +189,7 @@ impl Map {
         };
         let kind = match &m.kind {
             K::Uv => MapKind::Uv,
+            K::Uv1 => MapKind::Uv1,
             K::Spherical { texture_from_world } => {
                 MapKind::Spherical(TexSpace::new(texture_from_world)?)
             }
@@ -183,6 +216,10 @@ impl Map {
     pub fn st(&self, ctx: &TexCtx) -> (f32, f32) {
         match &self.kind {
             MapKind::Uv => (self.su * ctx.uv[0] + self.du, self.sv * ctx.uv[1] + self.dv),
+            MapKind::Uv1 => (
+                self.su * ctx.uv1[0] + self.du,
+                self.sv * ctx.uv1[1] + self.dv,
+            ),
             MapKind::Spherical(space) => {
                 let p = space.point(ctx.p);
                 let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
@@ -231,6 +268,9 @@ pub(crate) enum Tex {
     Marble(Box<Solid>),
     /// pbrt-v4 `dots`: inside, outside.
     Dots(Box<[Tex; 2]>, Map),
+    /// An image (index into `Tracer::images`) whose RGB is multiplied by the hit's vertex colour
+    /// before the uplift (glTF `COLOR_0`, [`Texture::VertexColored`]).
+    VertexColored(u32, Map),
 }
 
 /// A one-channel image (float `imagemap`).
@@ -257,6 +297,8 @@ pub(crate) enum FTex {
     Solid(Box<Solid>),
     /// pbrt-v4 `dots`: inside, outside.
     Dots(Box<[FTex; 2]>, Map),
+    /// Times the hit's vertex alpha, then the cutoff where one is given (negative: none).
+    VertexAlpha(Box<FTex>, f32),
 }
 
 /// Weight of `tex2` in pbrt-v4's 2D checkerboard without filtering: 0 where
@@ -291,6 +333,17 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
             }
         }
         FTex::Checker3(c, space) => eval_float(&c[space.checker(ctx.p)], ctx),
+        FTex::VertexAlpha(t, cutoff) => {
+            // glTF 2.0 sec. 3.9.4: alpha = factor x texture x COLOR_0's alpha, then MASK's cutoff.
+            let a = eval_float(t, ctx) * ctx.color[3];
+            if *cutoff < 0.0 {
+                a
+            } else if a >= *cutoff {
+                1.0
+            } else {
+                0.0
+            }
+        }
         FTex::Scale(c) => {
             // pbrt-v4 FloatScaledTexture: a zero scale short-circuits.
             let sc = eval_float(&c[1], ctx);
@@ -380,6 +433,14 @@ pub(crate) fn compile_float_texture(
 
 fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
     Ok(match t {
+        FloatTexture::VertexAlpha { tex, cutoff } => {
+            let c = match cutoff {
+                Some(c) if c.is_finite() => (*c as f32).max(0.0),
+                Some(c) => return Err(format!("alpha cutoff {c} is not finite")),
+                None => -1.0,
+            };
+            FTex::VertexAlpha(Box::new(compile_float(tex)?), c)
+        }
         FloatTexture::Constant(v) => {
             if !v.is_finite() {
                 return Err(format!("float texture value {v} is not finite"));
@@ -549,6 +610,16 @@ pub(crate) fn compile_texture(
                 filter: *filter,
             });
             Tex::Image((images.len() - 1) as u32, map)
+        }
+        Texture::VertexColored(inner) => {
+            match compile_texture(inner, material_index, ws, tables, images)? {
+                Tex::Image(im, map) => Tex::VertexColored(im, map),
+                _ => {
+                    return Err(err(
+                        "a vertex-coloured texture must wrap an image texture".into()
+                    ))
+                }
+            }
         }
         Texture::Checkerboard {
             tex1,
@@ -734,11 +805,7 @@ mod tests {
 
     #[test]
     fn float_graph_evaluates_like_pbrt() {
-        let ctx = TexCtx {
-            uv: [0.25, 0.75],
-            n: V3::new(0.0, 0.0, 1.0),
-            p: V3::new(0.0, 0.0, 0.0),
-        };
+        let ctx = TexCtx::at_uv([0.25, 0.75], V3::new(0.0, 0.0, 1.0), V3::new(0.0, 0.0, 0.0));
         let c = |v: f64| Box::new(FloatTexture::Constant(v));
         let mix = FloatTexture::Mix {
             tex1: c(2.0),

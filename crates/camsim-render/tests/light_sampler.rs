@@ -32,6 +32,9 @@ fn panel(c: [f64; 3], s: f64, radiance: f64) -> Shape {
             indices: vec![[0, 2, 1], [0, 3, 2]],
             uvs: None,
             normals: None,
+            colors: None,
+            uvs1: None,
+            tangents: None,
         },
         material: 0,
         area_light: Some(AreaLight {

@@ -324,6 +324,9 @@ fn floor_with_and_without_sphere(
         indices: vec![[0, 2, 1], [0, 3, 2]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let lamp = Shape {
         name: None,
@@ -484,6 +487,9 @@ fn dispersive_scene(wavelengths: usize, seed: u64) -> camsim_core::SpectralImage
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let emitter = |geometry: Geometry, radiance: Spectrum| Shape {
         name: None,

@@ -110,6 +110,9 @@ fn bar(x0: f64, x1: f64, group: &str) -> Shape {
             indices: vec![[0, 1, 2], [0, 2, 3]],
             uvs: None,
             normals: None,
+            colors: None,
+            uvs1: None,
+            tangents: None,
         },
         material: 0,
         area_light: Some(AreaLight {

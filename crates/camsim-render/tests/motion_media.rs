@@ -107,6 +107,9 @@ fn a_camera_moving_through_fog_sees_the_time_averaged_transmittance() {
                 indices: vec![[0, 1, 2], [0, 2, 3]],
                 uvs: None,
                 normals: None,
+                colors: None,
+                uvs1: None,
+                tangents: None,
             },
             true,
         )

@@ -46,6 +46,9 @@ fn bar(x0: f64, x1: f64, y0: f64, y1: f64) -> Shape {
             indices: vec![[0, 1, 2], [0, 2, 3]],
             uvs: None,
             normals: None,
+            colors: None,
+            uvs1: None,
+            tangents: None,
         },
         material: 0,
         area_light: Some(AreaLight {
@@ -645,6 +648,9 @@ fn a_moving_area_light_lights_as_the_average_of_still_ones() {
             indices: vec![[0, 1, 2], [0, 2, 3]],
             uvs: None,
             normals: None,
+            colors: None,
+            uvs1: None,
+            tangents: None,
         };
         if let Some(a) = &mut l.area_light {
             a.two_sided = false;

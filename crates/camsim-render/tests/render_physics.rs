@@ -165,6 +165,9 @@ fn cube(inward: bool) -> Geometry {
         indices,
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     }
 }
 
@@ -363,6 +366,9 @@ fn direct_light_under_a_rectangle_corner() {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let emitter = Geometry::Triangles {
         positions: vec![[0.0, 0.0, h], [a, 0.0, h], [a, b, h], [0.0, b, h]],
@@ -370,6 +376,9 @@ fn direct_light_under_a_rectangle_corner() {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let shapes = vec![
         Shape {
@@ -497,6 +506,9 @@ fn radiance_of_a_white_surface_does_not_depend_on_viewing_distance() {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let shapes = vec![
         Shape {
@@ -740,6 +752,9 @@ fn bad_scenes_are_errors_not_panics() {
             indices: vec![[0, 1, 5]],
             uvs: None,
             normals: None,
+            colors: None,
+            uvs1: None,
+            tangents: None,
         },
         ..sphere.clone()
     };
@@ -866,6 +881,9 @@ fn image_texture_is_looked_up_by_uv() {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     for (x, rho) in [(-0.5, 0.2), (0.5, 0.8)] {
         let cam = camera([x, 0.0, 2.0], [x, 0.0, 0.0], [0.0, 1.0, 0.0], 5.0, 8, 8);
@@ -912,6 +930,9 @@ fn floor_plane(cx: f64, cy: f64, z0: f64, half: f64) -> Geometry {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     }
 }
 
@@ -1040,6 +1061,9 @@ fn irradiance_from_a_quad_light_out_to_grazing_angles() {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let shapes = vec![
         Shape {

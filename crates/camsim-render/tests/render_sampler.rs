@@ -307,6 +307,9 @@ fn plane_under_sky(spp: u32, sampler: SamplerKind, seed: u64) -> Vec<f64> {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         uvs: None,
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     };
     let shapes = vec![Shape {
         name: None,

@@ -97,6 +97,10 @@ pub enum MappingKind {
     /// The surface's (u, v), scaled and offset.
     #[default]
     Uv,
+    /// The surface's second uv set ([`Geometry::Triangles`]'s `uvs1`; glTF `TEXCOORD_n` that a
+    /// texture's `texCoord` picks when the mesh's first set is another), scaled and offset.
+    /// Where a shape has no second set it reads the first.
+    Uv1,
     /// `(theta / pi, phi / (2 pi))` of the texture-space point's direction from the origin.
     Spherical { texture_from_world: Box<Transform> },
     /// `((pi + atan2(y, x)) / (2 pi), z)` of the texture-space point.
@@ -135,6 +139,12 @@ pub enum Texture {
         wrap: WrapMode,
         filter: TexelFilter,
     },
+    /// glTF 2.0 sec. 3.9.2 with `COLOR_0`: an [`Texture::Image`]'s linear RGB times the
+    /// colour interpolated from the mesh's vertex colours (`Geometry::Triangles::colors`; white
+    /// on a shape without), clamped to [0, 1] and uplifted per lookup as `Image` is (so the
+    /// product, not each factor, is the reflectance's RGB). A constant base colour is a 1 x 1
+    /// image.
+    VertexColored(Box<Texture>),
     /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
     /// (point-sampled: camsim traces no ray differentials, so no filtering).
     Checkerboard {
@@ -271,6 +281,13 @@ pub enum FloatTexture {
         inside: Box<FloatTexture>,
         outside: Box<FloatTexture>,
         mapping: UvMapping,
+    },
+    /// glTF 2.0 sec. 3.9.4 with `COLOR_0`'s alpha: `tex` times the alpha interpolated from the
+    /// mesh's vertex colours (1 on a shape without), then with `cutoff` (alphaMode MASK) 1 where
+    /// the product is at least the cutoff, else 0.
+    VertexAlpha {
+        tex: Box<FloatTexture>,
+        cutoff: Option<f64>,
     },
 }
 
@@ -432,13 +449,15 @@ pub enum NormalPerturbation {
 }
 
 /// A normal map: linear RGB texels (row 0 at v = 1), each `(n + 1) / 2` of a unit normal in the
-/// tangent frame (dp/du, n x dp/du, n); looked up bilinearly at the surface's (u, v) with repeat
+/// tangent frame (dp/du, n x dp/du, n), or (t, w n x t, n) on a mesh with `tangents`; looked up bilinearly at the surface's (u, v) with repeat
 /// wrap.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NormalMapImage {
     pub width: usize,
     pub height: usize,
     pub rgb: Vec<[f32; 3]>,
+    /// Looked up at the second uv set (`Geometry::Triangles::uvs1`) instead of the first.
+    pub uv1: bool,
 }
 
 /// How a hair fibre absorbs (pbrt-v4 `HairMaterial`'s three parametrizations; melanin
@@ -541,6 +560,8 @@ pub struct EmissionImage {
     pub height: usize,
     /// Row-major texels, shared with the renderer (not copied).
     pub rgb: std::sync::Arc<[[f32; 3]]>,
+    /// Looked up at the second uv set (`Geometry::Triangles::uvs1`) instead of the first.
+    pub uv1: bool,
 }
 
 /// Geometry in world space, metres.
@@ -551,6 +572,19 @@ pub enum Geometry {
         indices: Vec<[u32; 3]>,
         uvs: Option<Vec<[f32; 2]>>,
         normals: Option<Vec<[f64; 3]>>,
+        /// Per-vertex linear RGBA colours (glTF `COLOR_0`, alpha 1 where it has none),
+        /// interpolated over each triangle: RGB multiplies the texel of a
+        /// [`Texture::VertexColored`] base colour, alpha a [`FloatTexture::VertexAlpha`] (white
+        /// and opaque where a mesh has none). 16 bytes a vertex, only on meshes with colours.
+        colors: Option<Vec<[f32; 4]>>,
+        /// A second uv set, read by textures of [`MappingKind::Uv1`] and maps with `uv1` (glTF:
+        /// the `TEXCOORD_n` of a texture slot whose set is not the first's). Only on meshes a
+        /// material reads two sets of.
+        uvs1: Option<Vec<[f32; 2]>>,
+        /// Per-vertex tangents `[x, y, z, w]` (world space, `w = +-1` the handedness: the
+        /// bitangent is `w n x t`, glTF `TANGENT`): the x and y axes of a normal map's tangent
+        /// frame; without them the frame is the triangle's `dp/du` (pbrt-v4's).
+        tangents: Option<Vec<[f32; 4]>>,
     },
     Sphere {
         center: [f64; 3],

@@ -88,6 +88,9 @@ pub fn disk(
         indices,
         uvs: Some(uvs),
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     })
 }
 
@@ -128,6 +131,9 @@ pub fn cylinder(radius: f64, zmin: f64, zmax: f64, phimax_deg: f64) -> Result<Ge
         indices,
         uvs: Some(uvs),
         normals: None,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     })
 }
 

@@ -102,9 +102,19 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
             positions,
             indices,
             normals,
+            tangents,
             ..
         } => {
             positions.iter_mut().for_each(|p| *p = t.apply_point(*p));
+            // Tangents are directions on the surface (they move as vectors); the bitangent
+            // `w n x t` keeps its side when a mirror flips `n x t`, so `w` flips with it.
+            if let Some(ts) = tangents {
+                for v in ts.iter_mut() {
+                    let m = normalize(t.apply_vector([v[0] as f64, v[1] as f64, v[2] as f64]));
+                    let w = if swaps { -v[3] } else { v[3] };
+                    *v = [m[0] as f32, m[1] as f32, m[2] as f32, w];
+                }
+            }
             if let Some(ns) = normals {
                 ns.iter_mut().for_each(|n| *n = apply_normal(&inv, *n));
                 // With shading normals the geometric normal follows them (pbrt-v4 Triangle):

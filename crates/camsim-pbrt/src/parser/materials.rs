@@ -485,7 +485,12 @@ impl SceneBuilder {
                 None => {
                     let (width, height, rgb) = load_image(&path, Encoding::Linear)
                         .map_err(|e| loc.err(format!("{what}: normalmap: {e}")))?;
-                    let im = std::sync::Arc::new(NormalMapImage { width, height, rgb });
+                    let im = std::sync::Arc::new(NormalMapImage {
+                        width,
+                        height,
+                        rgb,
+                        uv1: false,
+                    });
                     self.normal_maps.insert(path, im.clone());
                     im
                 }

@@ -245,6 +245,7 @@ impl SceneBuilder {
                 indices,
                 uvs,
                 normals,
+                ..
             } => self.triangles_to_world(positions, indices, uvs, normals, ctm, inv, swaps),
             #[allow(unreachable_patterns)]
             g => (g, false),
@@ -374,6 +375,9 @@ impl SceneBuilder {
                         indices,
                         uvs,
                         normals: Some(ns),
+                        colors: None,
+                        uvs1: None,
+                        tangents: None,
                     },
                     false,
                 )
@@ -384,6 +388,9 @@ impl SceneBuilder {
                     indices,
                     uvs,
                     normals: None,
+                    colors: None,
+                    uvs1: None,
+                    tangents: None,
                 },
                 self.gs.reverse_orientation ^ swaps,
             ),
@@ -555,5 +562,8 @@ fn mesh_geometry(
         indices,
         uvs,
         normals,
+        colors: None,
+        uvs1: None,
+        tangents: None,
     }
 }

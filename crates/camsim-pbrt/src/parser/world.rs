@@ -85,6 +85,7 @@ impl SceneBuilder {
                                 width,
                                 height,
                                 rgb: rgb.into(),
+                                uv1: false,
                             }),
                             mean_y,
                         ))

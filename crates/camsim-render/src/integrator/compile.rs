@@ -235,7 +235,23 @@ impl SceneGeometry {
                 indices,
                 uvs,
                 normals,
-            } => self.add_triangles(si, s, positions, indices, uvs, normals, emission),
+                colors,
+                uvs1,
+                tangents,
+            } => self.add_triangles(
+                si,
+                s,
+                positions,
+                indices,
+                uvs,
+                normals,
+                VertexExtras {
+                    colors,
+                    uvs1,
+                    tangents,
+                },
+                emission,
+            ),
             Geometry::Sphere { center, radius } => {
                 self.add_sphere(si, s, *center, *radius, emission)
             }
@@ -358,6 +374,7 @@ impl SceneGeometry {
             self.lights.images.push(EmitImage {
                 tex,
                 mean_rgb: mean_rgb as f32,
+                uv1: im.uv1,
             });
             image = (self.lights.images.len() - 1) as u32;
         }
@@ -397,6 +414,7 @@ impl SceneGeometry {
         indices: &[[u32; 3]],
         uvs: &Option<Vec<[f32; 2]>>,
         normals: &Option<Vec<[f64; 3]>>,
+        extras: VertexExtras<'_>,
         emission: Emission,
     ) -> Result<(), RenderError> {
         if let Some(i) = positions
@@ -427,6 +445,50 @@ impl SceneGeometry {
                 ));
             }
         }
+        // The per-vertex arrays are indexed as the positions are.
+        let counts = [
+            ("vertex colours", extras.colors.as_ref().map(Vec::len)),
+            ("second-set uvs", extras.uvs1.as_ref().map(Vec::len)),
+            ("tangents", extras.tangents.as_ref().map(Vec::len)),
+        ];
+        for (what, n) in counts {
+            if let Some(n) = n.filter(|n| *n != positions.len()) {
+                return Err(shape_err(
+                    si,
+                    s,
+                    format!("{n} {what} for {} vertices", positions.len()),
+                ));
+            }
+        }
+        let colors: Option<Vec<[f32; 4]>> = extras.colors.as_ref().map(|c| {
+            c.iter()
+                .map(|v| v.map(|x| if x.is_finite() { x.max(0.0) } else { 1.0 }))
+                .collect()
+        });
+        let uvs1: Option<Vec<[f32; 2]>> = extras.uvs1.as_ref().map(|t| {
+            t.iter()
+                .map(|v| v.map(|x| if x.is_finite() { x } else { 0.0 }))
+                .collect()
+        });
+        // Unit tangents (a zero or non-finite one falls back to dp/du at the hit).
+        let tangents: Option<Vec<(V3, f32)>> = extras.tangents.as_ref().map(|t| {
+            t.iter()
+                .map(|v| {
+                    let d = V3::new(v[0], v[1], v[2]);
+                    let l = d.length();
+                    if l > 0.0 && l.is_finite() {
+                        (d / l, if v[3] < 0.0 { -1.0 } else { 1.0 })
+                    } else {
+                        (V3::splat(0.0), 1.0)
+                    }
+                })
+                .collect()
+        });
+        let emit_uv1 = self
+            .lights
+            .images
+            .get(emission.image as usize)
+            .is_some_and(|im| im.uv1);
         let pos: Vec<V3> = positions.iter().map(|p| V3::from_f64(*p)).collect();
         let nrm: Option<Vec<V3>> = normals.as_ref().map(|n| {
             n.iter()
@@ -482,7 +544,13 @@ impl SceneGeometry {
                     // The triangle's uvs (pbrt-v4 defaults (0,0), (1,0), (1,1)), as
                     // `surface` interpolates them at a hit.
                     self.tag_emitter(light, emission);
-                    self.lights.list[light as usize].uvs = match uvs {
+                    // An image on the second uv set reads that set (`Lights::hit_uv`).
+                    let set = if emit_uv1 {
+                        uvs1.as_ref().or(uvs.as_ref())
+                    } else {
+                        uvs.as_ref()
+                    };
+                    self.lights.list[light as usize].uvs = match set {
                         Some(t) => [t[tri[0] as usize], t[tri[1] as usize], t[tri[2] as usize]],
                         None => [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]],
                     };
@@ -490,11 +558,19 @@ impl SceneGeometry {
             }
             self.push_prim(Prim::Tri { p0, e1, e2 }, si, ti as u32, s, light);
         }
-        if uvs.is_some() || normals.is_some() {
+        if uvs.is_some()
+            || normals.is_some()
+            || colors.is_some()
+            || uvs1.is_some()
+            || tangents.is_some()
+        {
             self.meshes.push(Some(MeshShading {
                 indices: indices.to_vec(),
                 uvs: uvs.clone(),
                 normals: nrm,
+                colors,
+                uvs1,
+                tangents,
             }));
         } else {
             self.meshes.push(None);
@@ -701,4 +777,12 @@ fn build_bvh(
         })
         .collect();
     Ok((bvh, info, motion, tri_normals))
+}
+
+/// A triangle mesh's optional per-vertex arrays beyond uvs and normals (glTF `COLOR_0`, a
+/// second `TEXCOORD_n`, `TANGENT`).
+struct VertexExtras<'a> {
+    colors: &'a Option<Vec<[f32; 4]>>,
+    uvs1: &'a Option<Vec<[f32; 2]>>,
+    tangents: &'a Option<Vec<[f32; 4]>>,
 }

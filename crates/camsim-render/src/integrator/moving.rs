@@ -27,6 +27,8 @@ impl Tracer {
             ng: pose.to_ref.normal_from_inverse(s.ng),
             ns: pose.to_ref.normal_from_inverse(s.ns),
             uv: s.uv,
+            uv1: s.uv1,
+            color: s.color,
             dpdu: pose.to_world.vector(s.dpdu),
             err: pose.to_world.point_error(s.p, s.err),
         }
@@ -52,6 +54,8 @@ impl Tracer {
             ng: w.normal_from_inverse(sh.ng),
             ns: w.normal_from_inverse(sh.ns),
             uv: sh.uv,
+            uv1: sh.uv1,
+            color: sh.color,
             dpdu: r.vector(sh.dpdu),
             err: sh.err,
         };
@@ -73,6 +77,8 @@ impl Tracer {
             ts: w.vector(s.ts).normalize(),
             dndu: w.vector(s.dndu) * k,
             dndv: w.vector(s.dndv) * k,
+            tangent: w.vector(s.tangent),
+            tangent_w: s.tangent_w,
         }
     }
 

@@ -54,7 +54,23 @@ impl Tracer {
                     _ => None,
                 };
                 let ns = if vn.is_some() { sh.ns } else { n };
-                triangle_geometry([p0, p0 + e1, p0 + e2], uv, vn, sh.p, sh.uv, n, ns)
+                let mut g = triangle_geometry([p0, p0 + e1, p0 + e2], uv, vn, sh.p, sh.uv, n, ns);
+                // The mesh's tangents interpolated at the hit (glTF 2.0 sec. 3.7.2.1: vertex
+                // attributes interpolate linearly); the handedness of the nearest vertex.
+                if let (Some(ts), Some(i)) = (mesh.and_then(|m| m.tangents.as_ref()), tri) {
+                    let [a, b, c] = [ts[i[0] as usize], ts[i[1] as usize], ts[i[2] as usize]];
+                    let (b1, b2) = barycentrics(p0, e1, e2, sh.p);
+                    let b0 = 1.0 - b1 - b2;
+                    g.tangent = a.0 * b0 + b.0 * b1 + c.0 * b2;
+                    g.tangent_w = if b0 >= b1 && b0 >= b2 {
+                        a.1
+                    } else if b1 >= b2 {
+                        b.1
+                    } else {
+                        c.1
+                    };
+                }
+                g
             }
             Prim::Sphere { center, radius } => sphere_geometry(
                 sh.p - center,
@@ -108,6 +124,8 @@ impl Tracer {
                     ts: dpdv.normalize(),
                     dndu: V3::new(0.0, 0.0, 0.0),
                     dndv: V3::new(0.0, 0.0, 0.0),
+                    tangent: V3::splat(0.0),
+                    tangent_w: 1.0,
                 }
             }
         }
@@ -130,7 +148,10 @@ impl Tracer {
         };
         let g = self.shading_geometry(h, pi, sh, pt);
         let ns = match perturb {
-            Perturb::NormalMap(map) => mapped_normal(&g, map),
+            Perturb::NormalMap(map) => {
+                let uv = if map.uv1 { sh.uv1 } else { g.uv };
+                mapped_normal(&g, map, uv)
+            }
             Perturb::Displacement(tex) => {
                 let (du, dv) = self.footprint.shifts(&g);
                 bump_normal(&g, du, dv, |ctx| eval_float(tex, ctx))
@@ -138,4 +159,17 @@ impl Tracer {
         };
         (*base, ns)
     }
+}
+
+/// The barycentrics `(b1, b2)` of point `p` on the triangle `p0`, `p0 + e1`, `p0 + e2` (the
+/// least-squares solution of `p - p0 = b1 e1 + b2 e2`).
+fn barycentrics(p0: V3, e1: V3, e2: V3, p: V3) -> (f32, f32) {
+    let d = p - p0;
+    let (a11, a12, a22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (r1, r2) = (d.dot(e1), d.dot(e2));
+    let det = a11 * a22 - a12 * a12;
+    if !(det.abs() > 0.0) {
+        return (0.0, 0.0);
+    }
+    ((a22 * r1 - a12 * r2) / det, (a11 * r2 - a12 * r1) / det)
 }

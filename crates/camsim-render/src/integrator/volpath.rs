@@ -132,11 +132,7 @@ impl Tracer {
             let h = self.intersect(&r, pt)?;
             let sh = self.surface(&r, &h, pt);
             let pi = self.info[h.slot as usize];
-            let ctx = TexCtx {
-                uv: sh.uv,
-                n: sh.ng,
-                p: sh.p,
-            };
+            let ctx = TexCtx::at(&sh);
             if !self.has_alpha || self.alpha_keeps(pi.material, &ctx, r.o, r.d) {
                 let t = (sh.p - ray.o).dot(ray.d);
                 return Some((sh, pi, t, h));
@@ -322,7 +318,12 @@ impl Tracer {
                 let (emits, p_l) = self.light_hit(li, prev_p, prev_n, sh.p, sh.ng, wo, pt, !first);
                 if emits {
                     let light = &self.lights.list[li];
-                    let le = self.lights.emitted(light, sh.uv, &self.tables, lambdas);
+                    let le = self.lights.emitted(
+                        light,
+                        self.lights.hit_uv(light, &sh),
+                        &self.tables,
+                        lambdas,
+                    );
                     Self::add_emission(&st, &le, first, p_l, li as u32, out);
                 }
             }
@@ -350,11 +351,7 @@ impl Tracer {
             skips = 0;
             let d0 = dim::bounce(st.depth);
             let outside = wo.dot(n_oriented) > 0.0;
-            let ctx = TexCtx {
-                uv: sh.uv,
-                n: sh.ng,
-                p: sh.p,
-            };
+            let ctx = TexCtx::at(&sh);
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
             let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);
@@ -530,11 +527,7 @@ impl Tracer {
         if ls.alpha_mat != NO_ALPHA
             && !self.alpha_keeps(
                 ls.alpha_mat,
-                &TexCtx {
-                    uv: ls.uv,
-                    n: ls.n_light,
-                    p: ls.p_light,
-                },
+                &TexCtx::at_uv(ls.uv, ls.n_light, ls.p_light),
                 p_from,
                 ls.wi,
             )
@@ -609,11 +602,7 @@ impl Tracer {
             if let Some(hit) = self.intersect_within(&r, t_left, pt) {
                 let sh = self.surface(&r, &hit, pt);
                 let pi = self.info[hit.slot as usize];
-                let ctx = TexCtx {
-                    uv: sh.uv,
-                    n: sh.ng,
-                    p: sh.p,
-                };
+                let ctx = TexCtx::at(&sh);
                 let keep = !self.has_alpha || self.alpha_keeps(pi.material, &ctx, o, d);
                 if keep
                     && !matches!(
