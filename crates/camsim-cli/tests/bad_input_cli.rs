@@ -243,6 +243,13 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
             "{O}",
         ],
         ["isp"] => vec!["isp", "--in", "{F}/sim/raw.dng", "--out", "{O}/p.png"],
+        ["unprocess"] => vec![
+            "unprocess",
+            "--in",
+            "{F}/sim/preview.png",
+            "--out",
+            "{O}/u.dng",
+        ],
         ["presets"] => vec!["presets", "sensor", "imx363"],
         ["analyze", "sfr"] => vec!["analyze", "sfr", "{F}/edge/raw.dng", "--out", "{O}"],
         ["analyze", "chart"] => vec!["analyze", "chart", "{F}/sim/raw.dng", "--out", "{O}"],
