@@ -117,6 +117,7 @@ fn ten_bit_sensor() -> Sensor {
         pixel_vignetting: None,
         hdr: None,
         defects: None,
+        binning: None,
     };
     with_black_level(&Sensor::from_config(c).unwrap(), 64.0)
 }

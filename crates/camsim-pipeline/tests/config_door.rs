@@ -215,3 +215,28 @@ fn a_key_over_a_preset_replaces_the_presets_alternative_key() {
     assert_eq!(s.config().qe.wavelengths_nm, [400.0, 700.0]);
     assert_eq!(s.config().qe_correction, None);
 }
+
+/// `[sensor.config.binning]` over a preset: the simulate config's sensor is the binned one, and
+/// its `[sensor] rows/cols` window counts output pixels.
+#[test]
+fn binning_over_a_preset_gives_the_binned_sensor_and_its_window() {
+    let base = Path::new("");
+    let text = format!(
+        "{SCENE}[sensor]\npreset = \"pixel4a\"\nrows = 48\ncols = 64\n[sensor.config]\ncfa = \"quad-bayer\"\n[sensor.config.binning]\nfactor = 2\nmode = \"charge\"\n"
+    );
+    let s = SimulateConfig::from_toml_str(&text, base)
+        .unwrap()
+        .sensor()
+        .unwrap();
+    let preset = camsim_sensor::Sensor::preset("pixel4a").unwrap();
+    assert_eq!((s.rows(), s.cols()), (48, 64));
+    assert_eq!(s.pixel_pitch_m(), 2.0 * preset.pixel_pitch_m());
+    assert!(s.is_bayer(), "{}", s.cfa_layout().name());
+    // A Bayer preset's own CFA does not bin: the message names the key.
+    let bayer = text.replace("cfa = \"quad-bayer\"\n", "");
+    let e = SimulateConfig::from_toml_str(&bayer, base)
+        .and_then(|c| c.sensor())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("binning.factor"), "{e}");
+}

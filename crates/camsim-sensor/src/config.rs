@@ -347,6 +347,10 @@ pub struct SensorConfig {
     /// absent = none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub defects: Option<crate::defects::DefectsConfig>,
+    /// Charge or digital binning of k x k blocks of these photodiodes ([`crate::binning`]);
+    /// absent = every photodiode read alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub binning: Option<crate::binning::BinningConfig>,
 }
 
 fn one() -> f64 {

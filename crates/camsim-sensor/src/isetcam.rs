@@ -276,6 +276,7 @@ pub fn read_isetcam_sensor(
         pixel_vignetting: None,
         hdr: None,
         defects: None,
+        binning: None,
     };
     config.validate(&file)?;
     Ok(config)

@@ -22,6 +22,7 @@
 //! or `[qe.filters]` / extra QE-file columns); [`Sensor::cfa_layout`], [`Frame::mean_electrons_by_filter`].
 //! Pixel vignetting: `[pixel_vignetting]` ([`pixel_vignetting`]).
 //! HDR pixels (dual conversion gain, split pixel): `[hdr]` ([`hdr`], [`Sensor::compute_hdr`]).
+//! Charge and digital binning of k x k blocks: `[binning]` ([`binning`]).
 //! Modulated light (LED flicker) integrated over each row's window: [`Capture::light`] ([`flicker`]).
 //!
 //! Randomness is keyed on (seed, stage, frame, row), so frames are bit-identical for any thread count.
@@ -30,6 +31,7 @@
 
 #![warn(missing_docs)]
 
+pub mod binning;
 mod cfa_compute;
 pub mod compute;
 pub mod config;
@@ -47,6 +49,7 @@ mod poisson;
 pub mod presets;
 pub mod sensor;
 
+pub use binning::{BinningConfig, BinningMode};
 pub use compute::{
     exposure_in_range, Capture, Exposure, Frame, GlobalReset, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
 };

@@ -76,6 +76,17 @@ impl Sensor {
     pub fn from_config_named(mut config: SensorConfig, source_name: &str) -> Result<Sensor> {
         config.resolve(Path::new(""), source_name)?;
         config.validate(source_name)?;
+        if let Some(b) = config.binning {
+            // A binned sensor is the sensor of its output pixels ([`crate::binning`]).
+            let binned = b
+                .apply(&config)
+                .map_err(|(key, message)| SensorError::Config {
+                    source_name: source_name.to_string(),
+                    key,
+                    message,
+                })?;
+            return Sensor::from_config_named(binned, source_name);
+        }
         let q = &config.qe;
         let n = q.wavelengths_nm.len();
         let ir = |k: usize| q.ir_cut.as_ref().map_or(1.0, |v| v[k]);
