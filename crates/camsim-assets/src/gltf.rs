@@ -1834,26 +1834,9 @@ impl UvSets {
 }
 
 /// A float image texture read at the second uv set where `second`.
-fn on_set(t: FloatTexture, second: bool) -> FloatTexture {
-    match t {
-        FloatTexture::Image {
-            width,
-            height,
-            values,
-            mut mapping,
-            wrap,
-            filter,
-        } if second => {
-            mapping.kind = camsim_scene3d::MappingKind::Uv1;
-            FloatTexture::Image {
-                width,
-                height,
-                values,
-                mapping,
-                wrap,
-                filter,
-            }
-        }
-        t => t,
+fn on_set(mut t: FloatTexture, second: bool) -> FloatTexture {
+    if let (true, FloatTexture::Image { mapping, .. }) = (second, &mut t) {
+        mapping.kind = camsim_scene3d::MappingKind::Uv1;
     }
+    t
 }

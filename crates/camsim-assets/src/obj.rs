@@ -179,15 +179,7 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
         };
         let next = instance_of.len() as u32;
         let inst = *instance_of.entry(name.clone()).or_insert(next);
-        let mut geometry = Geometry::Triangles {
-            positions,
-            indices,
-            uvs,
-            normals,
-            colors: None,
-            uvs1: None,
-            tangents: None,
-        };
+        let mut geometry = Geometry::mesh(positions, indices, uvs, normals);
         // A normal map's tangent frame: MikkTSpace tangents (OBJ has no tangents; OBJ's v runs
         // up the image as camsim's does), else dp/du with a note.
         if normal_mapped(&b.materials, material)

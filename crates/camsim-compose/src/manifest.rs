@@ -495,15 +495,7 @@ pub fn read_asset(
             });
             s.shapes.push(Shape {
                 name: None,
-                geometry: Geometry::Triangles {
-                    positions: m.positions,
-                    indices: m.triangles,
-                    uvs: m.uvs,
-                    normals: m.normals,
-                    colors: None,
-                    uvs1: None,
-                    tangents: None,
-                },
+                geometry: Geometry::mesh(m.positions, m.triangles, m.uvs, m.normals),
                 material: 0,
                 area_light: None,
                 reverse_orientation: false,

@@ -30,15 +30,7 @@ fn cube(name: &str, centre: [f64; 3], half: f64, category: Option<&str>) -> Shap
         .collect();
     Shape {
         name: Some(name.into()),
-        geometry: Geometry::Triangles {
-            positions,
-            indices,
-            uvs: None,
-            normals: None,
-            colors: None,
-            uvs1: None,
-            tangents: None,
-        },
+        geometry: Geometry::mesh(positions, indices, None, None),
         material: 0,
         area_light: None,
         reverse_orientation: false,

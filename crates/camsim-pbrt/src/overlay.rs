@@ -796,15 +796,7 @@ fn file_shapes(
         let m = crate::ply::read_ply(path).map_err(|e| format!("{key}: {e}"))?;
         return Ok(vec![Shape {
             name: None,
-            geometry: Geometry::Triangles {
-                positions: m.positions,
-                indices: m.triangles,
-                uvs: m.uvs,
-                normals: m.normals,
-                colors: None,
-                uvs1: None,
-                tangents: None,
-            },
+            geometry: Geometry::mesh(m.positions, m.triangles, m.uvs, m.normals),
             material: ply_material,
             area_light: None,
             reverse_orientation: false,

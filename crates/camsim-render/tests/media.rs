@@ -69,15 +69,7 @@ fn cuboid(name: &str, lo: [f64; 3], hi: [f64; 3], material: usize) -> Shape {
         .collect();
     Shape {
         name: Some(name.into()),
-        geometry: Geometry::Triangles {
-            positions,
-            indices,
-            uvs: None,
-            normals: None,
-            colors: None,
-            uvs1: None,
-            tangents: None,
-        },
+        geometry: Geometry::mesh(positions, indices, None, None),
         material,
         area_light: None,
         reverse_orientation: false,

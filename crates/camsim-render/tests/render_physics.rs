@@ -160,15 +160,7 @@ fn cube(inward: bool) -> Geometry {
             indices.push(b);
         }
     }
-    Geometry::Triangles {
-        positions,
-        indices,
-        uvs: None,
-        normals: None,
-        colors: None,
-        uvs1: None,
-        tangents: None,
-    }
+    Geometry::mesh(positions, indices, None, None)
 }
 
 #[test]

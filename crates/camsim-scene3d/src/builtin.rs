@@ -383,15 +383,7 @@ impl Builder {
         }
         self.shapes.push(Shape {
             name: Some(name.to_string()),
-            geometry: Geometry::Triangles {
-                positions: p.to_vec(),
-                indices,
-                uvs: None,
-                normals: None,
-                colors: None,
-                uvs1: None,
-                tangents: None,
-            },
+            geometry: Geometry::mesh(p.to_vec(), indices, None, None),
             material,
             area_light: light,
             reverse_orientation: false,

@@ -608,6 +608,27 @@ pub enum Geometry {
     Curves(crate::curves::Curves),
 }
 
+impl Geometry {
+    /// A triangle mesh with optional uvs and normals and none of the glTF attributes (vertex
+    /// colours, a second uv set, tangents).
+    pub fn mesh(
+        positions: Vec<[f64; 3]>,
+        indices: Vec<[u32; 3]>,
+        uvs: Option<Vec<[f32; 2]>>,
+        normals: Option<Vec<[f64; 3]>>,
+    ) -> Geometry {
+        Geometry::Triangles {
+            positions,
+            indices,
+            uvs,
+            normals,
+            colors: None,
+            uvs1: None,
+            tangents: None,
+        }
+    }
+}
+
 /// One object: geometry, its material (index into `SceneDescription::materials`), and an
 /// optional emitter. `name` lets overlays find it ("left_wall", "short_block", "light", ...).
 #[derive(Debug, Clone, PartialEq)]

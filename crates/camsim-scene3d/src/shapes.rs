@@ -83,15 +83,7 @@ pub fn disk(
             indices.push([i0, o1, i1]);
         }
     }
-    Ok(Geometry::Triangles {
-        positions,
-        indices,
-        uvs: Some(uvs),
-        normals: None,
-        colors: None,
-        uvs1: None,
-        tangents: None,
-    })
+    Ok(Geometry::mesh(positions, indices, Some(uvs), None))
 }
 
 /// pbrt-v4 `cylinder`: radius `radius` around the z axis, `zmin <= z <= zmax`,
@@ -126,15 +118,7 @@ pub fn cylinder(radius: f64, zmin: f64, zmax: f64, phimax_deg: f64) -> Result<Ge
         indices.push([b0, b1, t1]);
         indices.push([b0, t1, t0]);
     }
-    Ok(Geometry::Triangles {
-        positions,
-        indices,
-        uvs: Some(uvs),
-        normals: None,
-        colors: None,
-        uvs1: None,
-        tangents: None,
-    })
+    Ok(Geometry::mesh(positions, indices, Some(uvs), None))
 }
 
 /// Loop's even-vertex weight beta(n) for valence n (Loop 1987; Warren's 3/(8n) for n > 3, as

@@ -63,15 +63,7 @@ pub fn box_shape(name: &str, lo: [f64; 3], hi: [f64; 3]) -> Shape {
     }
     Shape {
         name: Some(name.into()),
-        geometry: Geometry::Triangles {
-            positions,
-            indices,
-            uvs: None,
-            normals: None,
-            colors: None,
-            uvs1: None,
-            tangents: None,
-        },
+        geometry: Geometry::mesh(positions, indices, None, None),
         material: 0,
         area_light: None,
         reverse_orientation: false,

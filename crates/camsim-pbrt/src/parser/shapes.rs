@@ -184,7 +184,7 @@ impl SceneBuilder {
                 })
                 .collect()
         };
-        Ok(mesh_geometry(
+        Ok(Geometry::mesh(
             p.iter().map(|v| [v[0], v[1], v[2]]).collect(),
             tris,
             uv.map(|u| u.iter().map(|v| [v[0] as f32, v[1] as f32]).collect()),
@@ -217,7 +217,7 @@ impl SceneBuilder {
                 ),
             );
         }
-        Ok(mesh_geometry(m.positions, m.triangles, m.uvs, m.normals))
+        Ok(Geometry::mesh(m.positions, m.triangles, m.uvs, m.normals))
     }
 
     /// An object-space shape moved to world space by `ctm` (inverse `inv`); returns the
@@ -369,29 +369,10 @@ impl SceneBuilder {
                         t.swap(1, 2);
                     }
                 }
-                (
-                    Geometry::Triangles {
-                        positions,
-                        indices,
-                        uvs,
-                        normals: Some(ns),
-                        colors: None,
-                        uvs1: None,
-                        tangents: None,
-                    },
-                    false,
-                )
+                (Geometry::mesh(positions, indices, uvs, Some(ns)), false)
             }
             None => (
-                Geometry::Triangles {
-                    positions,
-                    indices,
-                    uvs,
-                    normals: None,
-                    colors: None,
-                    uvs1: None,
-                    tangents: None,
-                },
+                Geometry::mesh(positions, indices, uvs, None),
                 self.gs.reverse_orientation ^ swaps,
             ),
         }
@@ -548,22 +529,5 @@ fn loop_subdiv(params: &ParamList, loc: &Loc) -> Result<Geometry, PbrtError> {
     let (positions, indices, normals) =
         crate::shapes::loop_subdivide(&pos, &tris, levels as u32, true)
             .map_err(|e| loc.err(format!("Shape \"loopsubdiv\": {e}")))?;
-    Ok(mesh_geometry(positions, indices, None, Some(normals)))
-}
-
-fn mesh_geometry(
-    positions: Vec<[f64; 3]>,
-    indices: Vec<[u32; 3]>,
-    uvs: Option<Vec<[f32; 2]>>,
-    normals: Option<Vec<[f64; 3]>>,
-) -> Geometry {
-    Geometry::Triangles {
-        positions,
-        indices,
-        uvs,
-        normals,
-        colors: None,
-        uvs1: None,
-        tangents: None,
-    }
+    Ok(Geometry::mesh(positions, indices, None, Some(normals)))
 }
