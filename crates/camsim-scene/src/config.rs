@@ -3,7 +3,7 @@
 //! ```toml
 //! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | rgb | harmonic | zone_plate
 //!                             # | sweep_frequency | star | checkerboard | grid_lines | point_array | ramp
-//!                             # | dead_leaves | glare_target
+//!                             # | dead_leaves | glare_target | hdr_chart
 //! mean_luminance_cd_m2 = 100
 //! fov_deg = 10
 //! distance_m = 1.2
@@ -15,7 +15,7 @@
 use crate::geometry::MacbethLayout;
 pub use crate::patterns::{
     CheckerboardScene, DeadLeavesScene, GlareTargetScene, GridLinesScene, HarmonicScene,
-    PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+    HdrChartScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
 };
 pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
@@ -263,6 +263,10 @@ pub const SCENE_KINDS: NameTable<()> = NameTable {
             "glare_target",
             "the ISO 18844 veiling glare target: black holes in a bright surround",
         ),
+        kind(
+            "hdr_chart",
+            "log-spaced strips over a dynamic range (ISETCam 'hdr chart')",
+        ),
     ],
 };
 
@@ -309,6 +313,8 @@ pub enum SceneConfig {
     DeadLeaves(DeadLeavesScene),
     /// `kind = "glare_target"` (ISO 18844 veiling glare target).
     GlareTarget(GlareTargetScene),
+    /// `kind = "hdr_chart"` (ISETCam `sceneHDRChart`).
+    HdrChart(HdrChartScene),
 }
 
 impl Default for UniformScene {
@@ -411,6 +417,7 @@ impl SceneConfig {
             SceneConfig::Ramp(_) => "ramp",
             SceneConfig::DeadLeaves(_) => "dead_leaves",
             SceneConfig::GlareTarget(_) => "glare_target",
+            SceneConfig::HdrChart(_) => "hdr_chart",
         }
     }
 
@@ -427,6 +434,7 @@ impl SceneConfig {
             SceneConfig::Ramp(c) => c,
             SceneConfig::DeadLeaves(c) => c,
             SceneConfig::GlareTarget(c) => c,
+            SceneConfig::HdrChart(c) => c,
             SceneConfig::Uniform(_)
             | SceneConfig::Macbeth(_)
             | SceneConfig::SlantedEdge(_)
@@ -453,6 +461,7 @@ impl SceneConfig {
             SceneConfig::Ramp(c) => c.wavelengths,
             SceneConfig::DeadLeaves(c) => c.wavelengths,
             SceneConfig::GlareTarget(c) => c.wavelengths,
+            SceneConfig::HdrChart(c) => c.wavelengths,
         };
         g.unwrap_or_default()
     }
@@ -502,6 +511,7 @@ impl SceneConfig {
             SceneConfig::Ramp(c) => fix_string(&mut c.illuminant),
             SceneConfig::DeadLeaves(c) => fix_string(&mut c.illuminant),
             SceneConfig::GlareTarget(c) => fix_string(&mut c.illuminant),
+            SceneConfig::HdrChart(c) => fix_string(&mut c.illuminant),
         }
     }
 }
@@ -539,6 +549,7 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("rgb", t) => run::<RgbScene>(text, t),
         ("dead_leaves", t) => run::<DeadLeavesScene>(text, t),
         ("glare_target", t) => run::<GlareTargetScene>(text, t),
+        ("hdr_chart", t) => run::<HdrChartScene>(text, t),
         ("harmonic", t) => run::<HarmonicScene>(text, t),
         ("zone_plate", t) => run::<ZonePlateScene>(text, t),
         ("sweep_frequency", t) => run::<SweepFrequencyScene>(text, t),

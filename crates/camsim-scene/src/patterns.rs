@@ -1,5 +1,5 @@
 //! Spatial test patterns after ISETCam's `sceneCreate` (harmonic, zone plate, sweep frequency,
-//! star, checkerboard, grid lines, point array, ramp, dead leaves).
+//! star, checkerboard, grid lines, point array, ramp, dead leaves, HDR chart).
 //!
 //! Each pattern is a spectrally flat reflectance map `rho(x, y)` in [0, 1]; the radiance is
 //! `k * illuminant(lambda) * rho(x, y)` with `k` chosen so that the mean luminance over all pixels
@@ -224,6 +224,100 @@ pattern_scene! {
         reflectance_max: f64 = 0.95,
         /// Seed of the random discs; the same seed gives the same texture.
         seed: u64 = 1,
+    }
+}
+
+pattern_scene! {
+    /// A high-dynamic-range chart (ISETCam `sceneHDRChart`): `levels` vertical strips, each
+    /// `level_width_px` wide, from dark (left) to bright (right), log-spaced over
+    /// `dynamic_range`: strip i of N has reflectance `dynamic_range^((i - (N - 1)) / (N - 1))`, so
+    /// neighbours differ by `dynamic_range^(1 / (N - 1))` and the brightest is `dynamic_range`
+    /// times the darkest. The scale is `max_luminance_cd_m2` (the brightest strip's, ISETCam's
+    /// `maxL`) when given, else `mean_luminance_cd_m2` over the image as for every pattern. A
+    /// sensor's dynamic range is read off the strips it resolves above its noise floor and below
+    /// saturation.
+    HdrChartScene {
+        /// Ratio of the brightest to the darkest strip (> 1; ISETCam `dRange`); default 1e4.
+        dynamic_range: f64 = 1e4,
+        /// Number of strips (2..=256; ISETCam `nLevels`); default 12.
+        levels: usize = 12,
+        /// Width of each strip, pixels (ISETCam `colsPerLevel`); default 8.
+        level_width_px: usize = 8,
+        /// Image height, pixels; default 32.
+        rows: usize = 32,
+        /// Luminance of the brightest strip, cd/m^2 (ISETCam `maxL`); 0 (the default): the
+        /// scale is `mean_luminance_cd_m2`. Giving both (a mean other than its default 100) is an
+        /// error.
+        max_luminance_cd_m2: f64 = 0.0,
+    }
+}
+
+impl HdrChartScene {
+    /// The strips' reflectances, darkest first (type docs).
+    pub fn level_reflectances(&self) -> Vec<f64> {
+        let n = self.levels.max(2);
+        (0..n)
+            .map(|i| {
+                self.dynamic_range
+                    .powf((i as f64 - (n - 1) as f64) / (n - 1) as f64)
+            })
+            .collect()
+    }
+}
+
+impl Pattern for HdrChartScene {
+    fn header(&self) -> Header<'_> {
+        let mut h = self.header_fields();
+        if self.max_luminance_cd_m2 > 0.0 {
+            // The map's mean is the strips' mean (equal widths): mean = max x mean(rho).
+            let rho = self.level_reflectances();
+            h.mean_luminance_cd_m2 =
+                self.max_luminance_cd_m2 * rho.iter().sum::<f64>() / rho.len() as f64;
+        }
+        h
+    }
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
+        let dr = self.dynamic_range;
+        need(
+            dr > 1.0 && dr.is_finite() && dr <= 1e30,
+            "scene.dynamic_range",
+            format!("{dr} is not a finite ratio above 1 (at most 1e30)"),
+        )?;
+        need(
+            (2..=256).contains(&self.levels),
+            "scene.levels",
+            format!("{} levels; need 2 to 256", self.levels),
+        )?;
+        need(
+            self.level_width_px >= 1,
+            "scene.level_width_px",
+            "0 pixels; need at least 1".to_string(),
+        )?;
+        let m = self.max_luminance_cd_m2;
+        need(
+            m >= 0.0 && m.is_finite(),
+            "scene.max_luminance_cd_m2",
+            format!("{m} is not a luminance >= 0"),
+        )?;
+        need(
+            m == 0.0 || self.mean_luminance_cd_m2 == 100.0,
+            "scene.max_luminance_cd_m2",
+            "give either max_luminance_cd_m2 or mean_luminance_cd_m2, not both".to_string(),
+        )?;
+        let cols = self.levels.saturating_mul(self.level_width_px);
+        check_side(cols, "scene.level_width_px", 2)?;
+        check_side(self.rows, "scene.rows", 1)?;
+        let rho: Vec<f32> = self
+            .level_reflectances()
+            .iter()
+            .map(|v| *v as f32)
+            .collect();
+        let w = self.level_width_px;
+        map_rows(bands, self.rows, cols, |_, line| {
+            for (j, v) in line.iter_mut().enumerate() {
+                *v = rho[j / w];
+            }
+        })
     }
 }
 
