@@ -521,7 +521,7 @@ struct Builder {
     named: HashMap<String, usize>,
     /// (glTF material index (None: the default material), the primitive has COLOR_0) -> camsim
     /// material and its emitter.
-    mat_cache: HashMap<(Option<usize>, bool), (usize, Option<AreaLight>)>,
+    mat_cache: crate::MaterialCache,
     images: HashMap<usize, Arc<DecodedImage>>,
     lights: Vec<Light>,
     cameras: Vec<(Option<String>, Option<String>, usize, Camera)>,
@@ -1093,19 +1093,7 @@ impl Builder {
                 img.base_color(base_rgb, wrap, filter)
             }
             (None, false) => Texture::Constant(reflectance(base_rgb)),
-            // The factor as a 1 x 1 image, which the vertex colour multiplies per hit.
-            (None, true) => Texture::Image {
-                width: 1,
-                height: 1,
-                rgb: vec![base_rgb.map(|v| v.clamp(0.0, 1.0) as f32)].into(),
-                uscale: 1.0,
-                vscale: 1.0,
-                udelta: 0.0,
-                vdelta: 0.0,
-                kind: camsim_scene3d::MappingKind::Uv,
-                wrap: WrapMode::Clamp,
-                filter: TexelFilter::Point,
-            },
+            (None, true) => crate::texture::factor_image(base_rgb),
         };
         // sec. 3.9.2: base colour = factor x texture x COLOR_0.
         let base_color = if vertex_colored {

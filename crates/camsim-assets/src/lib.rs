@@ -45,12 +45,10 @@ impl AssetError {
 
 pub type Result<T> = std::result::Result<T, AssetError>;
 
-/// The readers' material cache: (file material index, tint bits) -> (camsim material index, its
-/// emitter).
-pub(crate) type MaterialCache = std::collections::HashMap<
-    (Option<usize>, [u32; 3]),
-    (usize, Option<camsim_scene3d::AreaLight>),
->;
+/// The readers' material cache: (file material index, vertex-coloured) -> (camsim material
+/// index, its emitter).
+pub(crate) type MaterialCache =
+    std::collections::HashMap<(Option<usize>, bool), (usize, Option<camsim_scene3d::AreaLight>)>;
 
 /// What kind of scene file a path holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -3,8 +3,8 @@
 //! starting objects).
 //!
 //! What is read (also `docs/src/assets.md`):
-//! - `v` (with optional vertex colours `v x y z r g b`: their mean multiplies `Kd`, NaN
-//!   colours ignored), `vt`, `vn`, `f` (any polygon; a face of fewer than three vertices is
+//! - `v` (with optional vertex colours `v x y z r g b`: per-vertex linear factors of the base
+//!   colour, interpolated over each triangle as glTF's `COLOR_0`; NaN reads as white), `vt`, `vn`, `f` (any polygon; a face of fewer than three vertices is
 //!   dropped), negative indices, `o` and `g` (each its own object instance, named after it),
 //!   `mtllib` / `usemtl` (a missing `.mtl` gives grey materials with a note).
 //! - MTL, read as the glTF metallic-roughness material ([`GltfPbr`], so OBJ and glTF assets
@@ -151,27 +151,31 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
                 .map(|t| [t[0], t[1]])
                 .collect::<Vec<_>>()
         });
-        // Vertex colours: their (finite) mean tints the material.
-        let tint = if mesh.vertex_color.len() == 3 * nv {
-            let mut s = [0.0f64; 3];
-            let mut n = 0usize;
-            for c in mesh.vertex_color.chunks_exact(3) {
-                if c.iter().all(|v| v.is_finite()) {
-                    for k in 0..3 {
-                        s[k] += c[k] as f64;
+        // Vertex colours (`v x y z r g b`): per vertex, linear factors of the base colour as
+        // glTF's COLOR_0; a colour that is not finite (NaN) reads as white, with a note.
+        let colors = (mesh.vertex_color.len() == 3 * nv).then(|| {
+            let mut bad = 0usize;
+            let c: Vec<[f32; 4]> = mesh
+                .vertex_color
+                .chunks_exact(3)
+                .map(|c| {
+                    if c.iter().all(|v| v.is_finite()) {
+                        [c[0], c[1], c[2], 1.0]
+                    } else {
+                        bad += 1;
+                        [1.0; 4]
                     }
-                    n += 1;
-                }
+                })
+                .collect();
+            if bad > 0 {
+                b.notes.insert(format!(
+                    "OBJ: {what}: {bad} vertex colours are not finite (NaN) and read as white"
+                ));
             }
-            if n > 0 {
-                s.map(|v| v / n as f64)
-            } else {
-                [1.0; 3]
-            }
-        } else {
-            [1.0; 3]
-        };
-        let (material, area_light) = b.material(mesh.material_id.map(|i| (i, &materials)), tint)?;
+            c
+        });
+        let (material, area_light) =
+            b.material(mesh.material_id.map(|i| (i, &materials)), colors.is_some())?;
         let name = if m.name.is_empty() || m.name == "unnamed_object" {
             format!("object{mi}")
         } else {
@@ -180,6 +184,9 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
         let next = instance_of.len() as u32;
         let inst = *instance_of.entry(name.clone()).or_insert(next);
         let mut geometry = Geometry::mesh(positions, indices, uvs, normals);
+        if let Geometry::Triangles { colors: slot, .. } = &mut geometry {
+            *slot = colors;
+        }
         // A normal map's tangent frame: MikkTSpace tangents (OBJ has no tangents; OBJ's v runs
         // up the image as camsim's does), else dp/du with a note.
         if normal_mapped(&b.materials, material)
@@ -365,9 +372,9 @@ impl MtlBuilder {
     fn material(
         &mut self,
         m: Option<(usize, &Vec<tobj::Material>)>,
-        tint: [f64; 3],
+        vertex_colored: bool,
     ) -> Result<(usize, Option<AreaLight>)> {
-        let key = (m.map(|(i, _)| i), tint.map(|v| (v as f32).to_bits()));
+        let key = (m.map(|(i, _)| i), vertex_colored);
         if let Some(v) = self.cache.get(&key) {
             return Ok(v.clone());
         }
@@ -382,14 +389,21 @@ impl MtlBuilder {
             .and_then(|m| m.diffuse)
             .map(|c| c.map(|v| v as f64))
             .unwrap_or([0.8; 3]);
-        let base_rgb = [kd[0] * tint[0], kd[1] * tint[1], kd[2] * tint[2]];
-        let base_color = match mtl.and_then(|m| m.diffuse_texture.clone()) {
-            Some(spec) => {
+        let base_rgb = kd;
+        let base_color = match (mtl.and_then(|m| m.diffuse_texture.clone()), vertex_colored) {
+            (Some(spec), _) => {
                 let (name, _) = map_args(&spec);
                 let img = self.image(&name, &what("map_Kd"))?;
                 img.base_color(base_rgb, WrapMode::Repeat, TexelFilter::Bilinear)
             }
-            None => Texture::Constant(reflectance(base_rgb)),
+            (None, false) => Texture::Constant(reflectance(base_rgb)),
+            (None, true) => crate::texture::factor_image(base_rgb),
+        };
+        // Base colour = Kd x map_Kd x the vertex colour (glTF's rule, sec. 3.9.2).
+        let base_color = if vertex_colored {
+            Texture::VertexColored(Box::new(base_color))
+        } else {
+            base_color
         };
         let rough_from_ns = mtl
             .and_then(|m| m.shininess)

@@ -117,3 +117,20 @@ impl DecodedImage {
         }
     }
 }
+
+/// A base-colour factor as a 1 x 1 image, which a vertex colour multiplies per hit
+/// ([`Texture::VertexColored`] takes an RGB texel: a constant is already a spectrum).
+pub(crate) fn factor_image(base_rgb: [f64; 3]) -> Texture {
+    Texture::Image {
+        width: 1,
+        height: 1,
+        rgb: vec![base_rgb.map(|v| v.clamp(0.0, 1.0) as f32)].into(),
+        uscale: 1.0,
+        vscale: 1.0,
+        udelta: 0.0,
+        vdelta: 0.0,
+        kind: MappingKind::Uv,
+        wrap: WrapMode::Clamp,
+        filter: TexelFilter::Point,
+    }
+}
