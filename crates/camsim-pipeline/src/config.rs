@@ -165,6 +165,61 @@ pub struct RenderSection {
     /// or sensor studies, whose figures it changes (docs/src/adaptive.md, "Denoised radiance").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub denoise: Option<DenoiseSection>,
+    /// How a glTF or OBJ `pbrt`/`file` is read (`[render.asset]`: the glTF scene and camera,
+    /// the OBJ's unit and up axis); refused for a pbrt-v4 file or a built-in.
+    #[serde(default, skip_serializing_if = "AssetReadSection::is_default")]
+    pub asset: AssetReadSection,
+}
+
+/// `[render.asset]` (and `camsim render --gltf-scene/--gltf-camera/--obj-scale-m/--obj-up`):
+/// choices the glTF and OBJ readers take (docs/src/assets.md).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AssetReadSection {
+    /// glTF: the scene to read, by name or index [default: the file's `scene`, else the first].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
+    /// glTF: the camera to look through, by node or camera name or index [default: the first
+    /// in the scene's node order; camsim's framing camera when the file has none].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<String>,
+    /// OBJ: metres per file unit (OBJ has no units) [default: 1, metres; 0.01 for centimetres].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obj_scale_m: Option<f64>,
+    /// OBJ: the file's up axis, `"y"` or `"z"` [default: y, the OBJ/glTF convention].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obj_up_axis: Option<String>,
+}
+
+impl AssetReadSection {
+    fn is_default(&self) -> bool {
+        *self == AssetReadSection::default()
+    }
+
+    /// The readers' options (image `width` when the file gives no aspect), checked: errors name
+    /// the key.
+    pub fn read_options(&self, width: usize) -> crate::Result<camsim_assets::ReadOptions> {
+        let mut o = camsim_assets::ReadOptions {
+            scene: self.scene.clone(),
+            camera: self.camera.clone(),
+            width,
+            ..Default::default()
+        };
+        if let Some(m) = self.obj_scale_m {
+            if !(m.is_finite() && m > 0.0) {
+                return Err(crate::PipelineError::config(format!(
+                    "render.asset.obj_scale_m: {m} is not a positive number of metres per unit"
+                )));
+            }
+            o.obj_scale_m = m;
+        }
+        if let Some(a) = &self.obj_up_axis {
+            o.obj_up_axis = camsim_assets::UpAxis::parse(a).map_err(|e| {
+                crate::PipelineError::config(format!("render.asset.obj_up_axis: {e}"))
+            })?;
+        }
+        Ok(o)
+    }
 }
 
 /// `[render.denoise]`: where the denoiser's library is.

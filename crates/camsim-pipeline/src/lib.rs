@@ -58,8 +58,8 @@ pub mod timing;
 
 pub use capture::{image_radiance, CaptureRequest, Captured, HdrReadouts, Imaged};
 pub use config::{
-    AdaptiveSection, CaptureSection, DenoiseSection, IspSection, OpticsSection, RenderSection,
-    SensorSection, SimulateConfig, DEFAULT_CONFIG,
+    AdaptiveSection, AssetReadSection, CaptureSection, DenoiseSection, IspSection, OpticsSection,
+    RenderSection, SensorSection, SimulateConfig, DEFAULT_CONFIG,
 };
 pub use error::{PipelineError, Result};
 pub use inputs::{

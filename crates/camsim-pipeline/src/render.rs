@@ -54,6 +54,8 @@ pub struct RenderRequest {
     pub seed: Option<u64>,
     /// Wavelength grid (a config has its own).
     pub grid: WavelengthGrid,
+    /// How a glTF or OBJ `pbrt` file is read (its scene and camera, the OBJ's unit and up axis).
+    pub asset: crate::config::AssetReadSection,
 }
 
 impl Default for RenderRequest {
@@ -74,6 +76,7 @@ impl Default for RenderRequest {
             distance_m: 0.5,
             seed: None,
             grid: WavelengthGrid::default(),
+            asset: Default::default(),
         }
     }
 }
@@ -116,11 +119,12 @@ pub fn request_scene(req: &RenderRequest) -> Result<SceneDescription> {
             if let Some(spp) = req.samples_per_pixel {
                 opts.samples_per_pixel = spp;
             }
-            load_scene(
+            load_scene_with(
                 req.builtin.as_deref(),
                 req.pbrt.as_deref(),
                 req.overlay.as_deref(),
                 &opts,
+                &req.asset,
             )?
         }
     };
@@ -213,12 +217,29 @@ pub fn load_scene(
     overlay: Option<&Path>,
     opts: &BuiltinOptions,
 ) -> Result<SceneDescription> {
+    load_scene_with(builtin_name, pbrt, overlay, opts, &Default::default())
+}
+
+/// [`load_scene`] with the glTF / OBJ readers' choices (`[render.asset]`), which a built-in or
+/// a pbrt-v4 file refuses.
+pub fn load_scene_with(
+    builtin_name: Option<&str>,
+    pbrt: Option<&Path>,
+    overlay: Option<&Path>,
+    opts: &BuiltinOptions,
+    asset: &crate::config::AssetReadSection,
+) -> Result<SceneDescription> {
+    if builtin_name.is_some() && *asset != Default::default() {
+        return Err(PipelineError::config(
+            "render.asset (glTF scene and camera, OBJ unit and up axis) is for a glTF or OBJ file, not a built-in scene",
+        ));
+    }
     let mut scene = match (builtin_name, pbrt) {
         (Some(name), None) => {
             builtin::scene(name, opts).map_err(|e| PipelineError::Scene(e.to_string()))?
         }
         (None, Some(path)) => {
-            let mut s = read_scene_file(path, opts)?;
+            let mut s = read_scene_file_with(path, opts, asset)?;
             s.settings.grid = opts.grid;
             s.settings.seed = opts.seed;
             if let Some((w, h)) = opts.resolution {
@@ -259,14 +280,26 @@ pub fn load_scene(
 /// ([`camsim_assets::detect_format`]): glTF 2.0 / GLB and OBJ by `camsim-assets` (the image
 /// width of `opts.resolution` when given), pbrt-v4 (and anything else) by `camsim-pbrt`.
 pub fn read_scene_file(path: &Path, opts: &BuiltinOptions) -> Result<SceneDescription> {
+    read_scene_file_with(path, opts, &Default::default())
+}
+
+/// [`read_scene_file`] with the glTF / OBJ readers' choices; a pbrt-v4 file given any of them
+/// is refused (they would be silently unused).
+pub fn read_scene_file_with(
+    path: &Path,
+    opts: &BuiltinOptions,
+    asset: &crate::config::AssetReadSection,
+) -> Result<SceneDescription> {
     let scene_err = |e: String| PipelineError::Scene(e);
     let format = camsim_assets::detect_format(path).map_err(|e| scene_err(e.to_string()))?;
     if format.is_asset() {
-        let ro = camsim_assets::ReadOptions {
-            width: opts.resolution.map_or(640, |r| r.0),
-            ..Default::default()
-        };
+        let ro = asset.read_options(opts.resolution.map_or(640, |r| r.0))?;
         camsim_assets::read_scene(path, &ro).map_err(|e| scene_err(e.to_string()))
+    } else if *asset != Default::default() {
+        Err(PipelineError::config(format!(
+            "render.asset (glTF scene and camera, OBJ unit and up axis) is for a glTF or OBJ file; {} is a pbrt-v4 file",
+            path.display()
+        )))
     } else {
         camsim_pbrt::parse_file(path).map_err(|e| scene_err(e.to_string()))
     }
@@ -383,11 +416,12 @@ pub fn render_section_scene_with_record(
     if let Some(spp) = r.samples_per_pixel {
         opts.samples_per_pixel = spp;
     }
-    let mut scene = load_scene(
+    let mut scene = load_scene_with(
         r.builtin.as_deref(),
         r.pbrt.as_deref(),
         r.overlay.as_deref(),
         &opts,
+        &r.asset,
     )?;
     if let Some(t) = &r.overlay_inline {
         let text = toml::to_string(t)

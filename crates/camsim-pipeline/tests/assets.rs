@@ -141,3 +141,83 @@ fn the_example_duck_overlay_applies() {
         .fold(f64::INFINITY, f64::min);
     assert!(lo.abs() < 1e-9, "{lo}");
 }
+
+/// `[render.asset]` / `camsim render --obj-scale-m --obj-up`: trimesh reads wallhole.obj's
+/// bounds as (0, 0, -10)..(10, 15, 0); in centimetres they are a hundredth, and a Z-up file
+/// turned to camsim's Y-up frame (-90 degrees about x: (x, y, z) -> (x, z, -y)) spans
+/// (0, -10, -15)..(10, 0, 0) file units. A glTF camera that is not there, a bad key and asset
+/// keys on a pbrt-v4 file or a built-in are refused by name.
+#[test]
+fn render_asset_keys_scale_and_turn_an_obj_and_choose_the_gltf_camera() {
+    use camsim_pipeline::render::{load_scene_with, read_scene_file_with};
+    use camsim_pipeline::AssetReadSection;
+    let wall = shared().join("assets/trimesh/wallhole.obj");
+    let bounds = |a: &AssetReadSection| {
+        let s = read_scene_file_with(&wall, &opts(), a).unwrap();
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for sh in &s.shapes {
+            let (l, h) = camsim_scene3d::xform::shape_bounds(&sh.geometry);
+            for k in 0..3 {
+                lo[k] = lo[k].min(l[k]);
+                hi[k] = hi[k].max(h[k]);
+            }
+        }
+        (lo, hi)
+    };
+    let close = |got: ([f64; 3], [f64; 3]), want: ([f64; 3], [f64; 3])| {
+        for k in 0..3 {
+            assert!(
+                (got.0[k] - want.0[k]).abs() < 1e-9 && (got.1[k] - want.1[k]).abs() < 1e-9,
+                "{got:?} vs {want:?}"
+            );
+        }
+    };
+    close(
+        bounds(&AssetReadSection::default()),
+        ([0.0, 0.0, -10.0], [10.0, 15.0, 0.0]),
+    );
+    let cm = AssetReadSection {
+        obj_scale_m: Some(0.01),
+        ..Default::default()
+    };
+    close(bounds(&cm), ([0.0, 0.0, -0.1], [0.1, 0.15, 0.0]));
+    let z_up = AssetReadSection {
+        obj_up_axis: Some("z".into()),
+        ..cm.clone()
+    };
+    close(bounds(&z_up), ([0.0, -0.1, -0.15], [0.1, 0.0, 0.0]));
+    // Refusals, each naming what is wrong.
+    let err = |a: AssetReadSection, file: &Path| {
+        read_scene_file_with(file, &opts(), &a)
+            .unwrap_err()
+            .to_string()
+    };
+    let duck = shared().join("assets/trimesh/Duck.glb");
+    let e = err(
+        AssetReadSection {
+            camera: Some("no-such-camera".into()),
+            ..Default::default()
+        },
+        &duck,
+    );
+    assert!(e.contains("no-such-camera"), "{e}");
+    let e = err(
+        AssetReadSection {
+            obj_up_axis: Some("x".into()),
+            ..Default::default()
+        },
+        &wall,
+    );
+    assert!(e.contains("render.asset.obj_up_axis"), "{e}");
+    let pbrt = shared().join("scenes/bitterli/cornell-box/scene-v4.pbrt");
+    let e = err(cm.clone(), &pbrt);
+    assert!(e.contains("render.asset") && e.contains("pbrt-v4"), "{e}");
+    let e = load_scene_with(Some("cornell-box"), None, None, &opts(), &cm)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("built-in"), "{e}");
+    let e = toml::from_str::<camsim_pipeline::RenderSection>("[asset]\nunits = 2\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("units"), "{e}");
+}

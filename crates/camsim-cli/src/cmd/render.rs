@@ -79,6 +79,22 @@ pub struct Args {
     /// Render seed (default 1, or the --config file's `seed`).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// glTF: the scene to read, by name or index (default: the file's `scene`, else the first).
+    /// A --config file says it as `[render.asset] scene`.
+    #[arg(long, conflicts_with_all = ["builtin", "config"])]
+    pub gltf_scene: Option<String>,
+    /// glTF: the camera to look through, by node or camera name or by index (default: the
+    /// first in the scene's node order; camsim's framing camera when the file has none).
+    #[arg(long, conflicts_with_all = ["builtin", "config"])]
+    pub gltf_camera: Option<String>,
+    /// OBJ: metres per file unit, since OBJ has none (default 1: metres; 0.01 for a file in
+    /// centimetres, 0.001 in millimetres).
+    #[arg(long, value_parser = common::positive_f64, conflicts_with_all = ["builtin", "config"])]
+    pub obj_scale_m: Option<f64>,
+    /// OBJ: the file's up axis, y (the OBJ and glTF convention, default) or z (CAD and 3D-scan
+    /// exports).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["y", "z"]), conflicts_with_all = ["builtin", "config"])]
+    pub obj_up: Option<String>,
     /// Output folder.
     #[arg(long, default_value = "out/render")]
     pub out: PathBuf,
@@ -130,6 +146,12 @@ pub fn run(a: Args) -> Result<()> {
         mcc_position: a.mcc_position.parse::<MccPosition>()?,
         distance_m: a.distance_m,
         seed: a.seed,
+        asset: camsim::pipeline::AssetReadSection {
+            scene: a.gltf_scene.clone(),
+            camera: a.gltf_camera.clone(),
+            obj_scale_m: a.obj_scale_m,
+            obj_up_axis: a.obj_up.clone(),
+        },
         ..RenderRequest::default()
     };
     let scene = request_scene(&req).map_err(|e| match &a.config {

@@ -40,7 +40,7 @@ fn parse_tone(s: &str) -> std::result::Result<camsim::isp::tone::ToneMap, String
 /// goes through `camsim isp` with the same settings back to the photo within noise.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim simulate --out out/chart\n  camsim unprocess --in out/chart/preview.png --sensor pixel4a --seed 1 --out out/chart-unprocessed.dng\n  camsim isp --in out/chart-unprocessed.dng --sensor pixel4a --out out/chart-back.png\n\nFor a preview camsim rendered, give the exposure scale `camsim isp --json` reports (\"exposure_scale\") as --exposure-scale to get the raw's own DN back; without it the photo's white lands at the sensor's saturation. The scale used is printed: `camsim isp --exposure-scale` with it renders the raw back to the photo."
+    after_help = "Examples:\n  camsim simulate --out out/photo\n  camsim unprocess --in out/photo/preview.png --sensor pixel4a --seed 1 --out out/photo-unprocessed.dng\n  camsim isp --in out/photo-unprocessed.dng --sensor pixel4a --out out/photo-back.png\n\nFor a preview camsim rendered, give the exposure scale `camsim isp --json` reports (\"exposure_scale\") as --exposure-scale to get the raw's own DN back; without it the photo's white lands at the sensor's saturation. The scale used is printed: `camsim isp --exposure-scale` with it renders the raw back to the photo."
 )]
 pub struct Args {
     /// The sRGB photo: PNG or JPEG, 8 bit (grey and RGBA images are converted, alpha dropped).
