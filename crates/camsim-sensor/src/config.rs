@@ -347,8 +347,8 @@ pub struct SensorConfig {
     /// absent = none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub defects: Option<crate::defects::DefectsConfig>,
-    /// Charge or digital binning of k x k blocks of these photodiodes ([`crate::binning`]);
-    /// absent = every photodiode read alone.
+    /// Charge or digital binning of k x k blocks of these photodiodes: the raws are rows / k x
+    /// cols / k (docs/src/sensors.md, "Binning"); absent = every photodiode read alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub binning: Option<crate::binning::BinningConfig>,
 }
