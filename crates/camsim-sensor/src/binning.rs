@@ -49,7 +49,7 @@ pub enum BinningMode {
     Digital,
 }
 
-/// `[binning]`: k x k blocks of photodiodes read as one output pixel (module docs give every
+/// `[binning]`: k x k blocks of photodiodes read as one output pixel (docs/src/sensors.md gives every
 /// value of the binned pixel). `rows`, `cols` and `pixel_pitch_um` stay those of the photodiode
 /// array; the sensor's raws are rows / k x cols / k (a remainder row or column is not read).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
