@@ -1085,22 +1085,17 @@ impl Builder {
         let pbr = mat.pbr_metallic_roughness();
         let bf = pbr.base_color_factor().map(|v| v as f64);
         let base_rgb = [bf[0], bf[1], bf[2]];
-        let base_color = match (pbr.base_color_texture(), vertex_colored) {
-            (Some(info), _) => {
+        let image = match pbr.base_color_texture() {
+            Some(info) => {
                 let tex = info.texture();
                 let img = self.image(doc, &tex.source())?;
                 let (wrap, filter) = self.sampler(&tex);
-                img.base_color(base_rgb, wrap, filter)
+                Some(img.base_color(base_rgb, wrap, filter))
             }
-            (None, false) => Texture::Constant(reflectance(base_rgb)),
-            (None, true) => crate::texture::factor_image(base_rgb),
+            None => None,
         };
         // sec. 3.9.2: base colour = factor x texture x COLOR_0.
-        let base_color = if vertex_colored {
-            Texture::VertexColored(Box::new(base_color))
-        } else {
-            base_color
-        };
+        let base_color = crate::texture::base_color(image, base_rgb, vertex_colored);
         let (mf, rf) = (pbr.metallic_factor() as f64, pbr.roughness_factor() as f64);
         let (metallic, roughness) = match pbr.metallic_roughness_texture() {
             Some(info) => {

@@ -21,7 +21,7 @@
 //!   `ReadOptions::obj_up_axis` (default Y).
 
 use crate::texture::DecodedImage;
-use crate::units::{photometric_spectrum, reflectance};
+use crate::units::photometric_spectrum;
 use crate::{AssetError, ReadOptions, Result};
 use camsim_core::mem::MemoryBudget;
 use camsim_core::Spectrum;
@@ -389,22 +389,16 @@ impl MtlBuilder {
             .and_then(|m| m.diffuse)
             .map(|c| c.map(|v| v as f64))
             .unwrap_or([0.8; 3]);
-        let base_rgb = kd;
-        let base_color = match (mtl.and_then(|m| m.diffuse_texture.clone()), vertex_colored) {
-            (Some(spec), _) => {
+        let image = match mtl.and_then(|m| m.diffuse_texture.clone()) {
+            Some(spec) => {
                 let (name, _) = map_args(&spec);
                 let img = self.image(&name, &what("map_Kd"))?;
-                img.base_color(base_rgb, WrapMode::Repeat, TexelFilter::Bilinear)
+                Some(img.base_color(kd, WrapMode::Repeat, TexelFilter::Bilinear))
             }
-            (None, false) => Texture::Constant(reflectance(base_rgb)),
-            (None, true) => crate::texture::factor_image(base_rgb),
+            None => None,
         };
-        // Base colour = Kd x map_Kd x the vertex colour (glTF's rule, sec. 3.9.2).
-        let base_color = if vertex_colored {
-            Texture::VertexColored(Box::new(base_color))
-        } else {
-            base_color
-        };
+        // Base colour = Kd x map_Kd x the vertex colour (glTF's rule).
+        let base_color = crate::texture::base_color(image, kd, vertex_colored);
         let rough_from_ns = mtl
             .and_then(|m| m.shininess)
             .map(|ns| 1.0 - (ns.clamp(0.0, 1000.0) as f64 / 1000.0).sqrt());

@@ -118,9 +118,29 @@ impl DecodedImage {
     }
 }
 
+/// The base colour of the glTF and OBJ readers (glTF 2.0 sec. 3.9.2: factor x texture x
+/// vertex colour): `image` (the texture times the factor) or the factor alone, wrapped so the
+/// vertex colour multiplies it where the mesh has one.
+pub(crate) fn base_color(
+    image: Option<Texture>,
+    base_rgb: [f64; 3],
+    vertex_colored: bool,
+) -> Texture {
+    let t = match (image, vertex_colored) {
+        (Some(t), _) => t,
+        (None, false) => Texture::Constant(crate::units::reflectance(base_rgb)),
+        (None, true) => factor_image(base_rgb),
+    };
+    if vertex_colored {
+        Texture::VertexColored(Box::new(t))
+    } else {
+        t
+    }
+}
+
 /// A base-colour factor as a 1 x 1 image, which a vertex colour multiplies per hit
 /// ([`Texture::VertexColored`] takes an RGB texel: a constant is already a spectrum).
-pub(crate) fn factor_image(base_rgb: [f64; 3]) -> Texture {
+fn factor_image(base_rgb: [f64; 3]) -> Texture {
     Texture::Image {
         width: 1,
         height: 1,

@@ -153,16 +153,7 @@ fn render_asset_keys_scale_and_turn_an_obj_and_choose_the_gltf_camera() {
     use camsim_pipeline::AssetReadSection;
     let wall = shared().join("assets/trimesh/wallhole.obj");
     let bounds = |a: &AssetReadSection| {
-        let s = read_scene_file_with(&wall, &opts(), a).unwrap();
-        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-        for sh in &s.shapes {
-            let (l, h) = camsim_scene3d::xform::shape_bounds(&sh.geometry);
-            for k in 0..3 {
-                lo[k] = lo[k].min(l[k]);
-                hi[k] = hi[k].max(h[k]);
-            }
-        }
-        (lo, hi)
+        camsim_assets::scene_bounds(&read_scene_file_with(&wall, &opts(), a).unwrap())
     };
     let close = |got: ([f64; 3], [f64; 3]), want: ([f64; 3], [f64; 3])| {
         for k in 0..3 {
