@@ -10,16 +10,16 @@
 //! pitch p, conversion gain g, swing S, read noise s_r, DSNU d, PRNU u, dark voltage rate D, ADC
 //! step q = S / 2^bits, analog gain a):
 //!
-//! | value              | charge binning               | digital binning (sum of k^2 reads)            |
-//! |--------------------|------------------------------|-----------------------------------------------|
-//! | pitch              | k p                          | k p                                           |
-//! | conversion gain    | g (or the binned mode's g')  | g                                             |
-//! | swing (well)       | S: the readout holds S / g e-| k^2 S: each photodiode holds its own well     |
-//! | ADC bits           | bits                         | bits + log2 k^2 (the sum keeps the step q)    |
-//! | read noise         | s_r (one readout)            | sqrt(k^2 s_r^2 + (k^2 - 1) (a q)^2 / 12)      |
-//! | DSNU               | d (one readout)              | k d (k^2 independent offsets)                 |
-//! | PRNU               | u / k                        | u / k (the mean of k^2 independent gains)     |
-//! | dark voltage rate  | k^2 D g' / g (k^2 diodes)    | k^2 D                                         |
+//! | value             | charge binning            | digital binning (sum of k^2 reads)      |
+//! |-------------------|---------------------------|-----------------------------------------|
+//! | pitch             | k p                       | k p                                     |
+//! | conversion gain   | g (or the readout's g')   | g                                       |
+//! | swing (well)      | S: one readout, S / g e-  | k^2 S: each photodiode its own well     |
+//! | ADC bits          | bits                      | bits + log2 k^2 (the step q kept)       |
+//! | read noise        | s_r (one readout)         | sqrt(k^2 s_r^2 + (k^2 - 1) (a q)^2 / 12) |
+//! | DSNU              | d (one readout)           | k d (k^2 independent offsets)           |
+//! | PRNU              | u / k                     | u / k (the mean of k^2 gains)           |
+//! | dark voltage rate | k^2 D g' / g              | k^2 D                                   |
 //!
 //! The variance of a sum of independent terms is the sum of their variances, which gives every
 //! row. The digital sum's k^2 roundings (each uniform, variance q^2 / 12) are one rounding of the
@@ -49,9 +49,10 @@ pub enum BinningMode {
     Digital,
 }
 
-/// `[binning]`: k x k blocks of photodiodes read as one output pixel (docs/src/sensors.md gives every
-/// value of the binned pixel). `rows`, `cols` and `pixel_pitch_um` stay those of the photodiode
-/// array; the sensor's raws are rows / k x cols / k (a remainder row or column is not read).
+/// `[binning]`: k x k blocks of photodiodes read as one output pixel (docs/src/sensors.md
+/// gives every value of the binned pixel). `rows`, `cols` and `pixel_pitch_um` stay those of
+/// the photodiode array; the sensor's raws are rows / k x cols / k (a remainder row or column
+/// is not read).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BinningConfig {
