@@ -809,8 +809,7 @@ impl Builder {
         let mat = prim.material();
         let label = material_label(&mat);
         // Which uv set each texture slot reads (sec. 3.9.2 `texCoord`): the base colour's set is
-        // the mesh's `uvs` (its KHR_texture_transform baked in); one other set, read by the
-        // slots that name it, is `uvs1`.
+        // the mesh's `uvs`; one other set, read by the slots that name it, is `uvs1`.
         let sets = UvSets::of(&mat);
         if let Some(others) = sets.too_many() {
             return Err(doc.err(format!(
@@ -836,11 +835,38 @@ impl Builder {
                 None => Ok(None),
             }
         };
-        let uvs = read_uvs(uv_set)?.map(|t| {
-            let xf = base_info
-                .as_ref()
-                .and_then(|i| i.texture_transform())
-                .map(|t| (t.offset(), t.rotation(), t.scale()));
+        // KHR_texture_transform is baked into the uvs: each set takes the transform of the first
+        // texture that reads it (base colour, metallic-roughness, emissive); a texture on the
+        // same set with another transform is noted (a set holds one transform).
+        let pbr = mat.pbr_metallic_roughness();
+        let slots = [
+            ("baseColorTexture", base_info.clone()),
+            ("metallicRoughnessTexture", pbr.metallic_roughness_texture()),
+            ("emissiveTexture", mat.emissive_texture()),
+        ];
+        let xf_of = |i: &gltf::texture::Info| {
+            i.texture_transform()
+                .map(|t| (t.offset(), t.rotation(), t.scale()))
+        };
+        let mut transform_on = |set: u32| {
+            let mut on = slots
+                .iter()
+                .filter_map(|(n, i)| i.as_ref().map(|i| (n, i)))
+                .filter(|(_, i)| i.tex_coord() == set);
+            let (first, info) = on.next()?;
+            let xf = xf_of(info);
+            if let Some((other, _)) = on.find(|(_, i)| xf_of(i) != xf) {
+                self.notes.insert(format!(
+                    "glTF: material {label:?}: {other} and {first} read TEXCOORD_{set} with different KHR_texture_transforms; {first}'s is applied to both"
+                ));
+            }
+            xf
+        };
+        let (xf0, xf1) = (
+            transform_on(uv_set),
+            sets.second.and_then(&mut transform_on),
+        );
+        let to_camsim = |t: Vec<[f64; 2]>, xf: Option<([f32; 2], f32, [f32; 2])>| {
             t.iter()
                 .map(|uv| {
                     let (mut u, mut v) = (uv[0], uv[1]);
@@ -855,25 +881,10 @@ impl Builder {
                     [u as f32, (1.0 - v) as f32]
                 })
                 .collect::<Vec<_>>()
-        });
-        if let Some(set) = sets.second {
-            let pbr = mat.pbr_metallic_roughness();
-            let moved = [pbr.metallic_roughness_texture(), mat.emissive_texture()]
-                .into_iter()
-                .flatten()
-                .any(|i| i.tex_coord() == set && i.texture_transform().is_some());
-            if moved {
-                self.notes.insert(format!(
-                    "glTF: material {label:?}: KHR_texture_transform on TEXCOORD_{set} is not applied (only the base colour texture's is)"
-                ));
-            }
-        }
+        };
+        let uvs = read_uvs(uv_set)?.map(|t| to_camsim(t, xf0));
         let uvs1 = match sets.second {
-            Some(set) => read_uvs(set)?.map(|t| {
-                t.iter()
-                    .map(|uv| [uv[0] as f32, (1.0 - uv[1]) as f32])
-                    .collect::<Vec<_>>()
-            }),
+            Some(set) => read_uvs(set)?.map(|t| to_camsim(t, xf1)),
             None => None,
         };
         // COLOR_0 (sec. 3.7.2.1: VEC3 or VEC4, float or normalized u8/u16): linear RGB per

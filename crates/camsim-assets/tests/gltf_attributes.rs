@@ -647,3 +647,81 @@ fn color_0_alpha_multiplies_the_alpha() {
         "MASK above: {kept} vs {want} cd/m^2"
     );
 }
+
+/// `KHR_texture_transform` (offset, rotation about the origin, scale: uv' = T R S uv) is baked
+/// into the uv set its texture reads, on either set: here the base colour's on TEXCOORD_0 and the
+/// emissive texture's on TEXCOORD_1, against the closed form; a second texture on a set with
+/// another transform is noted.
+#[test]
+fn texture_transforms_are_baked_into_each_uv_set() {
+    let uv: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let q = Quad {
+        uv0: Some(uv),
+        uv1: Some(uv),
+        ..Default::default()
+    };
+    let xf = |o: [f64; 2], r: f64, s: [f64; 2]| {
+        format!(
+            r#""extensions": {{"KHR_texture_transform": {{"offset": [{}, {}], "rotation": {r}, "scale": [{}, {}]}}}}"#,
+            o[0], o[1], s[0], s[1]
+        )
+    };
+    let (o0, r0, s0) = ([0.5, 0.25], std::f64::consts::FRAC_PI_2, [2.0, 3.0]);
+    let (o1, r1, s1) = ([0.0, 0.5], 0.0, [0.5, 0.5]);
+    let material = |mr: &str| {
+        format!(
+            r#"{{"name": "moved", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "texCoord": 0, {}}}{mr}}}, "emissiveFactor": [1, 1, 1], "emissiveTexture": {{"index": 0, "texCoord": 1, {}}}}}"#,
+            xf(o0, r0, s0),
+            xf(o1, r1, s1)
+        )
+    };
+    let s = read(&gltf(&q, &material(""), &[black_white()], None)).unwrap();
+    let Geometry::Triangles { uvs, uvs1, .. } = &s.shapes[0].geometry else {
+        panic!("not a mesh")
+    };
+    // The extension's matrix: u' = cos r s_u u + sin r s_v v + o_u,
+    // v' = -sin r s_u u + cos r s_v v + o_v; camsim stores (u', 1 - v').
+    let want = |o: [f64; 2], r: f64, s: [f64; 2]| -> Vec<[f32; 2]> {
+        uv.iter()
+            .map(|p| {
+                let (u, v) = (p[0] as f64 * s[0], p[1] as f64 * s[1]);
+                let (c, sn) = (r.cos(), r.sin());
+                [
+                    (c * u + sn * v + o[0]) as f32,
+                    (1.0 - (-sn * u + c * v + o[1])) as f32,
+                ]
+            })
+            .collect()
+    };
+    let close = |got: &[[f32; 2]], want: &[[f32; 2]]| {
+        got.len() == want.len()
+            && got
+                .iter()
+                .zip(want)
+                .all(|(a, b)| (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6)
+    };
+    let w0 = want(o0, r0, s0);
+    assert!(close(uvs.as_deref().unwrap(), &w0), "{uvs:?} vs {w0:?}");
+    let w1 = want(o1, r1, s1);
+    assert!(close(uvs1.as_deref().unwrap(), &w1), "{uvs1:?} vs {w1:?}");
+    assert!(
+        !s.notes.iter().any(|n| n.contains("KHR_texture_transform")),
+        "{:?}",
+        s.notes
+    );
+    // A metallic-roughness texture on set 0 without the base colour's transform: noted.
+    let s = read(&gltf(
+        &q,
+        &material(r#", "metallicRoughnessTexture": {"index": 0, "texCoord": 0}"#),
+        &[black_white()],
+        None,
+    ))
+    .unwrap();
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.contains("metallicRoughnessTexture and baseColorTexture read TEXCOORD_0")),
+        "{:?}",
+        s.notes
+    );
+}
