@@ -35,7 +35,7 @@
 //!   `KHR_materials_transmission` (a thin dielectric wall, or with `KHR_materials_volume`'s
 //!   thickness a smooth or rough dielectric of the file's `ior` whose inside absorbs by
 //!   Beer-Lambert: `sigma_a = -ln(attenuationColor) / attenuationDistance`), `KHR_texture_transform`
-//!   (on the base colour texture, baked into the uvs), `KHR_materials_unlit` (read as a
+//!   (baked into the uv set its texture reads), `KHR_materials_unlit` (read as a
 //!   diffuse surface with a note), `KHR_materials_clearcoat` (noted, the base is read),
 //!   `KHR_mesh_quantization`. An extension in `extensionsRequired` that is not in that list
 //!   (Draco, meshopt, KTX2/Basis) refuses the file naming it; others in `extensionsUsed` are
