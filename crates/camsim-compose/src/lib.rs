@@ -268,7 +268,15 @@ fn spawn_and_settle(
                 radius_m: o.radius_m,
             })
             .collect();
-        record.physics = Some(physics::settle(&mut bodies, &statics, up.into_inner(), p));
+        let r = physics::settle(&mut bodies, &statics, up.into_inner(), p);
+        if !r.at_rest {
+            // The objects may be caught mid-fall: say so where the user reads the run.
+            scene.notes.push(format!(
+                "compose.physics: stopped at max_steps = {} ({:.2} s simulated) with a body still moving at {:.3} m/s (rest below {} m/s); the objects may not rest on their supports: raise max_steps",
+                r.steps, r.simulated_s, r.max_speed_m_s, p.rest_velocity_m_s
+            ));
+        }
+        record.physics = Some(r);
         for (o, b) in placed.iter_mut().zip(bodies) {
             o.pose = b.pose;
         }

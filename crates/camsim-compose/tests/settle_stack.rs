@@ -10,6 +10,10 @@ const N: usize = 5;
 const H_M: f64 = 0.1;
 
 fn spec(dir: &std::path::Path, shape: &str) -> ComposeSpec {
+    spec_steps(dir, shape, 3000)
+}
+
+fn spec_steps(dir: &std::path::Path, shape: &str, max_steps: u32) -> ComposeSpec {
     let manifest = dir.join("boxes.csv");
     std::fs::write(
         &manifest,
@@ -29,7 +33,7 @@ count = [{N}, {N}]
 orientation = "upright"
 grid = {{ origin_m = [0.0, 0.06, 0.0], spacing_m = [0.0, 0.13, 0.0], count = [1, {N}, 1] }}
 [physics]
-max_steps = 3000
+max_steps = {max_steps}
 shape = "{shape}"
 "#,
         manifest.display()
@@ -61,6 +65,11 @@ fn stack(shape: &str) {
     let rec = compose(&mut scene, &spec, 7, dir.path()).unwrap();
     let phys = rec.physics.as_ref().unwrap();
     assert!(phys.at_rest, "not at rest: {phys:?}");
+    assert!(
+        !scene.notes.iter().any(|n| n.contains("max_steps")),
+        "{:?}",
+        scene.notes
+    );
     let mut heights: Vec<f64> = (0..N)
         .map(|k| {
             let (v, _) = common::object_mesh(&scene, &format!("box_{k}"));
@@ -96,4 +105,29 @@ fn stack(shape: &str) {
             assert!((c[d] - o.translation_m[d]).abs() < 1e-9, "{o:?}");
         }
     }
+}
+
+/// Stopped before the boxes land (10 steps of 1/240 s: they are still falling): the record says
+/// not at rest and the scene's notes tell the user to raise max_steps.
+#[test]
+fn settling_cut_short_by_max_steps_is_noted() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec_steps(dir.path(), "convex_hull", 10);
+    let mut scene = common::empty_scene();
+    scene.shapes.push(common::box_shape(
+        "floor",
+        [-2.0, -0.1, -2.0],
+        [2.0, 0.0, 2.0],
+    ));
+    let rec = compose(&mut scene, &spec, 7, dir.path()).unwrap();
+    let phys = rec.physics.as_ref().unwrap();
+    assert!(!phys.at_rest && phys.steps == 10, "{phys:?}");
+    assert!(
+        scene
+            .notes
+            .iter()
+            .any(|n| n.contains("max_steps = 10") && n.contains("raise max_steps")),
+        "{:?}",
+        scene.notes
+    );
 }
