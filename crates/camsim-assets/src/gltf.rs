@@ -852,7 +852,7 @@ impl Builder {
             let mut on = slots
                 .iter()
                 .filter_map(|(n, i)| i.as_ref().map(|i| (n, i)))
-                .filter(|(_, i)| i.tex_coord() == set);
+                .filter(|(_, i)| set_of(i) == set);
             let (first, info) = on.next()?;
             let xf = xf_of(info);
             if let Some((other, _)) = on.find(|(_, i)| xf_of(i) != xf) {
@@ -1111,7 +1111,7 @@ impl Builder {
         let (metallic, roughness) = match pbr.metallic_roughness_texture() {
             Some(info) => {
                 let t = info.texture();
-                let second = sets.second == Some(info.tex_coord());
+                let second = sets.second == Some(set_of(&info));
                 (
                     on_set(self.float_texture(doc, &t, 2, mf, |v| v)?, second),
                     on_set(self.float_texture(doc, &t, 1, rf, |v| v)?, second),
@@ -1127,7 +1127,7 @@ impl Builder {
             specular = match s.specular_texture() {
                 Some(info) => on_set(
                     self.float_texture(doc, &info.texture(), 3, s.specular_factor() as f64, |v| v)?,
-                    sets.second == Some(info.tex_coord()),
+                    sets.second == Some(set_of(&info)),
                 ),
                 None => FloatTexture::Constant(s.specular_factor() as f64),
             };
@@ -1323,7 +1323,7 @@ impl Builder {
                             width: img.width,
                             height: img.height,
                             rgb: rgb.into(),
-                            uv1: sets.second == Some(info.tex_coord()),
+                            uv1: sets.second == Some(set_of(&info)),
                         })),
                     })
                 }
@@ -1782,6 +1782,14 @@ fn material_label(mat: &gltf::Material) -> String {
         .unwrap_or_else(|| "default".to_string())
 }
 
+/// The uv set a texture reads: `KHR_texture_transform`'s `texCoord` where it gives one (the
+/// extension overrides the texture's), else `textureInfo.texCoord`.
+fn set_of(i: &gltf::texture::Info) -> u32 {
+    i.texture_transform()
+        .and_then(|t| t.tex_coord())
+        .unwrap_or_else(|| i.tex_coord())
+}
+
 /// The uv sets a material's texture slots read (sec. 3.9.2 `textureInfo.texCoord`): `base` is
 /// the base colour texture's (else the first slot's, else 0), the mesh's `uvs`; `second` the one
 /// other set some slot names, the mesh's `uvs1`.
@@ -1797,19 +1805,19 @@ impl UvSets {
         let pbr = mat.pbr_metallic_roughness();
         let mut slots = Vec::new();
         if let Some(i) = pbr.base_color_texture() {
-            slots.push(("baseColorTexture", i.tex_coord()));
+            slots.push(("baseColorTexture", set_of(&i)));
         }
         if let Some(i) = pbr.metallic_roughness_texture() {
-            slots.push(("metallicRoughnessTexture", i.tex_coord()));
+            slots.push(("metallicRoughnessTexture", set_of(&i)));
         }
         if let Some(i) = mat.normal_texture() {
             slots.push(("normalTexture", i.tex_coord()));
         }
         if let Some(i) = mat.emissive_texture() {
-            slots.push(("emissiveTexture", i.tex_coord()));
+            slots.push(("emissiveTexture", set_of(&i)));
         }
         if let Some(i) = mat.specular().and_then(|s| s.specular_texture()) {
-            slots.push(("specularTexture", i.tex_coord()));
+            slots.push(("specularTexture", set_of(&i)));
         }
         let base = slots.first().map_or(0, |s| s.1);
         let second = slots.iter().map(|s| s.1).find(|&s| s != base);

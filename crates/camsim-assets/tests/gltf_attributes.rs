@@ -725,3 +725,23 @@ fn texture_transforms_are_baked_into_each_uv_set() {
         s.notes
     );
 }
+
+/// The extension's own `texCoord` overrides the texture's (KHR_texture_transform): a base colour
+/// texture on `texCoord` 0 whose transform names set 1 reads TEXCOORD_1.
+#[test]
+fn a_texture_transforms_tex_coord_overrides_the_textures() {
+    let q = Quad {
+        uv0: Some([[0.25, 0.5]; 4]),
+        uv1: Some([[0.75, 0.5]; 4]),
+        ..Default::default()
+    };
+    let m = lambertian(
+        [1.0; 3],
+        r#", "baseColorTexture": {"index": 0, "texCoord": 0, "extensions": {"KHR_texture_transform": {"texCoord": 1}}}"#,
+    );
+    let s = read(&gltf(&q, &m, &[black_white()], None)).unwrap();
+    let Geometry::Triangles { uvs, .. } = &s.shapes[0].geometry else {
+        panic!("not a mesh")
+    };
+    assert_eq!(uvs.as_deref(), Some(&[[0.75f32, 0.5]; 4][..]));
+}
