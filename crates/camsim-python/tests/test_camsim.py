@@ -454,3 +454,24 @@ def test_rolling_shutter_example_bends_the_fan_and_returns_flow(tmp_path):
     diff = float(text.split("preview difference ")[1].split(" ")[0])
     assert diff > 0.5, text
     assert out.is_file() and out.stat().st_size > 10_000
+
+
+def test_a_charge_binned_sensor_dict_reads_half_the_rows_and_four_photodiodes_signal():
+    # A flat irradiance over 64 x 64 photodiodes of ISETCam's MT9V024 (6 um): the same sensor with
+    # `binning` (docs/src/sensors.md) reads 32 x 32 pixels of 12 um, each the sum of four
+    # photodiodes' electrons (the frame's noise-free mean) and four times their DN.
+    sens = camsim.presets.sensor("mt9v024-mono")
+    wl = np.arange(400.0, 701.0, 10.0)
+    irr = np.full((len(wl), 64, 64), 2e-5, dtype=np.float32)
+    one = camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=64, cols=64, exposure_s=1e-3)
+    sens["binning"] = {"factor": 2, "mode": "charge"}
+    four = camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
+    assert one["raw"].shape == (1, 64, 64) and four["raw"].shape == (1, 32, 32)
+    e1, e4 = one["mean_electrons_rgb"][1], four["mean_electrons_rgb"][1]
+    assert e1 > 100 and e4 == pytest.approx(4 * e1, rel=1e-3)
+    dn1 = one["raw"].mean() - one["black_level"]
+    dn4 = four["raw"].mean() - four["black_level"]
+    assert dn4 == pytest.approx(4 * dn1, rel=0.03)
+    sens["binning"] = {"factor": 2, "mode": "sideways"}
+    with pytest.raises(camsim.CamsimError, match="binning"):
+        camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
