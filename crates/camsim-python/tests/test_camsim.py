@@ -457,21 +457,25 @@ def test_rolling_shutter_example_bends_the_fan_and_returns_flow(tmp_path):
 
 
 def test_a_charge_binned_sensor_dict_reads_half_the_rows_and_four_photodiodes_signal():
-    # A flat irradiance over 64 x 64 photodiodes of ISETCam's MT9V024 (6 um): the same sensor with
-    # `binning` (docs/src/sensors.md) reads 32 x 32 pixels of 12 um, each the sum of four
-    # photodiodes' electrons (the frame's noise-free mean) and four times their DN.
-    sens = camsim.presets.sensor("mt9v024-mono")
+    # A flat irradiance over 64 x 64 photodiodes of a quad-Bayer Pixel 4a (raw10: black level 64,
+    # so noise is not clipped): with `binning` (docs/src/sensors.md) the same sensor reads
+    # 32 x 32 Bayer pixels of 2.8 um, each the sum of four photodiodes' electrons (the frame's
+    # noise-free mean) and four times their DN above black.
+    sens = camsim.presets.sensor("pixel4a-raw10")
+    sens["cfa"] = "quad-bayer"
     wl = np.arange(400.0, 701.0, 10.0)
-    irr = np.full((len(wl), 64, 64), 2e-5, dtype=np.float32)
-    one = camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=64, cols=64, exposure_s=1e-3)
+    irr = np.full((len(wl), 64, 64), 3e-4, dtype=np.float32)
+    one = camsim.sensor(irr, wl, 1.4e-6, sensor=sens, rows=64, cols=64, exposure_s=1e-3)
     sens["binning"] = {"factor": 2, "mode": "charge"}
-    four = camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
+    four = camsim.sensor(irr, wl, 1.4e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
     assert one["raw"].shape == (1, 64, 64) and four["raw"].shape == (1, 32, 32)
+    assert four["cfa"] == "RGGB"
     e1, e4 = one["mean_electrons_rgb"][1], four["mean_electrons_rgb"][1]
-    assert e1 > 100 and e4 == pytest.approx(4 * e1, rel=1e-3)
+    assert e1 > 50 and e4 == pytest.approx(4 * e1, rel=1e-3)
+    assert four["raw"].max() < 0.9 * four["white_level"]
     dn1 = one["raw"].mean() - one["black_level"]
     dn4 = four["raw"].mean() - four["black_level"]
     assert dn4 == pytest.approx(4 * dn1, rel=0.03)
     sens["binning"] = {"factor": 2, "mode": "sideways"}
     with pytest.raises(camsim.CamsimError, match="binning"):
-        camsim.sensor(irr, wl, 6e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
+        camsim.sensor(irr, wl, 1.4e-6, sensor=sens, rows=32, cols=32, exposure_s=1e-3)
