@@ -720,7 +720,7 @@ mod error_position_tests {
 
     #[test]
     fn the_scene_kind_table_is_the_config_enum() {
-        assert_eq!(SCENE_KINDS.entries.len(), 15);
+        assert_eq!(SCENE_KINDS.entries.len(), 16);
         for e in SCENE_KINDS.entries {
             let text = format!("kind = \"{}\"", e.name);
             match SceneConfig::from_toml(&text, "t") {

@@ -35,39 +35,8 @@
 //! Bayer; a monochrome sensor bins at any k). A Bayer sensor's own same-colour binning combines
 //! pixels two apart, whose centroids interleave: not modelled (refused, naming the block).
 
-use crate::config::SensorConfig;
+use crate::config::{BinningConfig, BinningMode, SensorConfig};
 use camsim_core::CfaLayout;
-use serde::{Deserialize, Serialize};
-
-/// How the pixels of a block are combined.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum BinningMode {
-    /// The block's charge summed on one floating diffusion, then one readout.
-    Charge,
-    /// Every photodiode read and converted, the k^2 digital values summed on chip.
-    Digital,
-}
-
-/// `[binning]`: k x k blocks of photodiodes read as one output pixel (docs/src/sensors.md
-/// gives every value of the binned pixel). `rows`, `cols` and `pixel_pitch_um` stay those of
-/// the photodiode array; the sensor's raws are rows / k x cols / k (a remainder row or column
-/// is not read).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct BinningConfig {
-    /// Photodiodes per block side, k: 2 bins 2 x 2 blocks. Charge: 1..=8; digital: 1, 2, 4 or 8
-    /// (the sum keeps the ADC step only for a power of two).
-    pub factor: usize,
-    /// `"charge"` (summed before one readout) or `"digital"` (k^2 readouts summed).
-    pub mode: BinningMode,
-    /// Charge binning: the conversion gain of the binned readout, uV per electron, for a sensor
-    /// that switches its floating diffusion to a lower gain to hold the block's charge (the well
-    /// becomes voltage_swing_v / this). Default: the pixel's `conversion_gain_uv_per_e`, so the
-    /// block saturates at one photodiode's well.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub conversion_gain_uv_per_e: Option<f64>,
-}
 
 type Checked<T> = std::result::Result<T, (String, String)>;
 
@@ -75,97 +44,94 @@ fn bad<T>(key: &str, message: impl Into<String>) -> Checked<T> {
     Err((format!("binning.{key}"), message.into()))
 }
 
-impl BinningConfig {
-    /// The config of the binned sensor's output pixels (module docs), `binning` removed and
-    /// `source` noting the binning. Errors name the key.
-    pub(crate) fn apply(&self, c: &SensorConfig) -> Checked<SensorConfig> {
-        let k = self.factor;
-        let digital = self.mode == BinningMode::Digital;
-        if k == 0 || k > 8 {
-            return bad("factor", format!("must be 1..=8, got {k}"));
-        }
-        if digital && !k.is_power_of_two() {
-            return bad(
+/// The config of the binned sensor's output pixels (module docs), `binning` removed and `source`
+/// noting the binning. Errors name the key.
+pub(crate) fn apply(bin: &BinningConfig, c: &SensorConfig) -> Checked<SensorConfig> {
+    let k = bin.factor;
+    let digital = bin.mode == BinningMode::Digital;
+    if k == 0 || k > 8 {
+        return bad("factor", format!("must be 1..=8, got {k}"));
+    }
+    if digital && !k.is_power_of_two() {
+        return bad(
                 "factor",
                 format!("digital binning takes 1, 2, 4 or 8 (a sum of k^2 values keeps the ADC step only for a power of two), got {k}"),
             );
-        }
-        if c.hdr.is_some() {
-            return bad("mode", "binning an [hdr] pixel is not modelled");
-        }
-        if let Some(g) = self.conversion_gain_uv_per_e {
-            if digital {
-                return bad(
-                    "conversion_gain_uv_per_e",
-                    "is the charge-binned readout's gain; digital binning reads each pixel at its own",
-                );
-            }
-            if !(g.is_finite() && g > 0.0) {
-                return bad(
-                    "conversion_gain_uv_per_e",
-                    format!("must be a positive number, got {g}"),
-                );
-            }
-        }
-        if c.rows < k || c.cols < k {
+    }
+    if c.hdr.is_some() {
+        return bad("mode", "binning an [hdr] pixel is not modelled");
+    }
+    if let Some(g) = bin.conversion_gain_uv_per_e {
+        if digital {
             return bad(
-                "factor",
-                format!("{k} x {k} blocks do not fit {} x {} pixels", c.rows, c.cols),
+                "conversion_gain_uv_per_e",
+                "is the charge-binned readout's gain; digital binning reads each pixel at its own",
             );
         }
-        let layout = c
-            .cfa_layout()
-            .map_err(|e| ("cfa".to_string(), e.to_string()))?;
-        let pattern = block_pattern(&layout, k)?;
-        let kk = (k * k) as f64;
-        let extra_bits = if digital { kk.log2().round() as u32 } else { 0 };
-        let bits = c.bits + extra_bits;
-        if bits > 16 {
+        if !(g.is_finite() && g > 0.0) {
             return bad(
+                "conversion_gain_uv_per_e",
+                format!("must be a positive number, got {g}"),
+            );
+        }
+    }
+    if c.rows < k || c.cols < k {
+        return bad(
+            "factor",
+            format!("{k} x {k} blocks do not fit {} x {} pixels", c.rows, c.cols),
+        );
+    }
+    let layout = c
+        .cfa_layout()
+        .map_err(|e| ("cfa".to_string(), e.to_string()))?;
+    let pattern = block_pattern(&layout, k)?;
+    let kk = (k * k) as f64;
+    let extra_bits = if digital { kk.log2().round() as u32 } else { 0 };
+    let bits = c.bits + extra_bits;
+    if bits > 16 {
+        return bad(
                 "factor",
                 format!("a digital sum of {k} x {k} {}-bit values needs {bits} bits; camsim's raws have 16 at most", c.bits),
             );
-        }
-        let mut b = c.clone();
-        b.binning = None;
-        b.rows = c.rows / k;
-        b.cols = c.cols / k;
-        b.pixel_pitch_um = c.pixel_pitch_um * k as f64;
-        b.cfa = String::new();
-        b.cfa_pattern = Some(pattern);
-        b.well_capacity_e = None;
-        b.prnu_percent = c.prnu_percent / k as f64;
-        b.dark_voltage_mv_per_s = c.dark_voltage_mv_per_s * kk;
-        if digital {
-            b.voltage_swing_v = c.voltage_swing_v * kk;
-            b.bits = bits;
-            b.dsnu_mv = c.dsnu_mv * k as f64;
-            // The k^2 - 1 extra roundings (variance q^2 / 12 each, q the ADC step referred to
-            // the pixel: analog gain x swing / 2^bits), when the sensor quantizes.
-            let q_mv =
-                c.effective_analog_gain() * c.voltage_swing_v * 1e3 / (1u64 << c.bits) as f64;
-            let rounding = if c.noise.quantization {
-                (kk - 1.0) * q_mv * q_mv / 12.0
-            } else {
-                0.0
-            };
-            b.read_noise_mv = (kk * c.read_noise_mv * c.read_noise_mv + rounding).sqrt();
-        } else if let Some(g) = self.conversion_gain_uv_per_e {
-            // The block's dark electrons read at the binned gain.
-            b.conversion_gain_uv_per_e = g;
-            b.dark_voltage_mv_per_s *= g / c.conversion_gain_uv_per_e;
-        }
-        let mode = if digital { "digital" } else { "charge" };
-        let note = format!(
-            "{mode}-binned {k} x {k} from {} x {} photodiodes of {} um",
-            c.rows, c.cols, c.pixel_pitch_um
-        );
-        b.source = Some(match &c.source {
-            Some(s) => format!("{s}; {note}"),
-            None => note,
-        });
-        Ok(b)
     }
+    let mut b = c.clone();
+    b.binning = None;
+    b.rows = c.rows / k;
+    b.cols = c.cols / k;
+    b.pixel_pitch_um = c.pixel_pitch_um * k as f64;
+    b.cfa = String::new();
+    b.cfa_pattern = Some(pattern);
+    b.well_capacity_e = None;
+    b.prnu_percent = c.prnu_percent / k as f64;
+    b.dark_voltage_mv_per_s = c.dark_voltage_mv_per_s * kk;
+    if digital {
+        b.voltage_swing_v = c.voltage_swing_v * kk;
+        b.bits = bits;
+        b.dsnu_mv = c.dsnu_mv * k as f64;
+        // The k^2 - 1 extra roundings (variance q^2 / 12 each, q the ADC step referred to
+        // the pixel: analog gain x swing / 2^bits), when the sensor quantizes.
+        let q_mv = c.effective_analog_gain() * c.voltage_swing_v * 1e3 / (1u64 << c.bits) as f64;
+        let rounding = if c.noise.quantization {
+            (kk - 1.0) * q_mv * q_mv / 12.0
+        } else {
+            0.0
+        };
+        b.read_noise_mv = (kk * c.read_noise_mv * c.read_noise_mv + rounding).sqrt();
+    } else if let Some(g) = bin.conversion_gain_uv_per_e {
+        // The block's dark electrons read at the binned gain.
+        b.conversion_gain_uv_per_e = g;
+        b.dark_voltage_mv_per_s *= g / c.conversion_gain_uv_per_e;
+    }
+    let mode = if digital { "digital" } else { "charge" };
+    let note = format!(
+        "{mode}-binned {k} x {k} from {} x {} photodiodes of {} um",
+        c.rows, c.cols, c.pixel_pitch_um
+    );
+    b.source = Some(match &c.source {
+        Some(s) => format!("{s}; {note}"),
+        None => note,
+    });
+    Ok(b)
 }
 
 /// The CFA tile of the binned grid: each k x k block of the photodiodes' CFA (repeated to a

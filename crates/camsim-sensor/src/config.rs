@@ -350,7 +350,7 @@ pub struct SensorConfig {
     /// Charge or digital binning of k x k blocks of these photodiodes: the raws are rows / k x
     /// cols / k (docs/src/sensors.md, "Binning"); absent = every photodiode read alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub binning: Option<crate::binning::BinningConfig>,
+    pub binning: Option<BinningConfig>,
 }
 
 fn one() -> f64 {
@@ -727,4 +727,34 @@ fn non_negative(key: &str, v: f64) -> Checked {
     } else {
         bad(key, format!("must be a finite number >= 0, got {v}"))
     }
+}
+
+/// How the pixels of a binned block are combined ([`crate::binning`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BinningMode {
+    /// The block's charge summed on one floating diffusion, then one readout.
+    Charge,
+    /// Every photodiode read and converted, the k^2 digital values summed on chip.
+    Digital,
+}
+
+/// `[binning]`: k x k blocks of photodiodes read as one output pixel (docs/src/sensors.md
+/// gives every value of the binned pixel). `rows`, `cols` and `pixel_pitch_um` stay those of
+/// the photodiode array; the sensor's raws are rows / k x cols / k (a remainder row or column
+/// is not read).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BinningConfig {
+    /// Photodiodes per block side, k: 2 bins 2 x 2 blocks. Charge: 1..=8; digital: 1, 2, 4 or 8
+    /// (the sum keeps the ADC step only for a power of two).
+    pub factor: usize,
+    /// `"charge"` (summed before one readout) or `"digital"` (k^2 readouts summed).
+    pub mode: BinningMode,
+    /// Charge binning: the conversion gain of the binned readout, uV per electron, for a sensor
+    /// that switches its floating diffusion to a lower gain to hold the block's charge (the well
+    /// becomes voltage_swing_v / this). Default: the pixel's `conversion_gain_uv_per_e`, so the
+    /// block saturates at one photodiode's well.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub conversion_gain_uv_per_e: Option<f64>,
 }

@@ -49,11 +49,10 @@ mod poisson;
 pub mod presets;
 pub mod sensor;
 
-pub use binning::{BinningConfig, BinningMode};
 pub use compute::{
     exposure_in_range, Capture, Exposure, Frame, GlobalReset, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
 };
-pub use config::{NoiseSwitches, QeConfig, SensorConfig};
+pub use config::{BinningConfig, BinningMode, NoiseSwitches, QeConfig, SensorConfig};
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};
 pub use flicker::{Flicker, LightTiming, Waveform};

@@ -78,13 +78,13 @@ impl Sensor {
         config.validate(source_name)?;
         if let Some(b) = config.binning {
             // A binned sensor is the sensor of its output pixels ([`crate::binning`]).
-            let binned = b
-                .apply(&config)
-                .map_err(|(key, message)| SensorError::Config {
+            let binned = crate::binning::apply(&b, &config).map_err(|(key, message)| {
+                SensorError::Config {
                     source_name: source_name.to_string(),
                     key,
                     message,
-                })?;
+                }
+            })?;
             return Sensor::from_config_named(binned, source_name);
         }
         let q = &config.qe;
