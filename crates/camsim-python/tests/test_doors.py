@@ -96,7 +96,7 @@ def test_chart_patches_are_numbered_1_to_24_with_their_names():
 def test_every_name_camsim_takes_is_listed():
     names = camsim.presets.names()
     assert "pixel4a-raw10" in names["sensor presets"] and "pixel4a-measured" in names["lens presets"]
-    assert len(names["2D scene kinds"]) == 16 and {"dead_leaves", "glare_target", "hdr_chart"} <= set(names["2D scene kinds"])
+    assert len(names["2D scene kinds"]) == 17 and {"dead_leaves", "glare_target", "hdr_chart", "hdr_lights"} <= set(names["2D scene kinds"])
     assert names["demosaic methods"] == ["bilinear", "malvar", "adaptive-laplacian"]
     assert "raw-npy" in names["dataset outputs"] and "quad-bayer" in names["colour filter arrays"]
     for kind in names["2D scene kinds"]:

@@ -3,7 +3,7 @@
 //! ```toml
 //! kind = "macbeth"            # uniform | macbeth | slanted_edge | file | rgb | harmonic | zone_plate
 //!                             # | sweep_frequency | star | checkerboard | grid_lines | point_array | ramp
-//!                             # | dead_leaves | glare_target | hdr_chart
+//!                             # | dead_leaves | glare_target | hdr_chart | hdr_lights
 //! mean_luminance_cd_m2 = 100
 //! fov_deg = 10
 //! distance_m = 1.2
@@ -15,7 +15,8 @@
 use crate::geometry::MacbethLayout;
 pub use crate::patterns::{
     CheckerboardScene, DeadLeavesScene, GlareTargetScene, GridLinesScene, HarmonicScene,
-    HdrChartScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+    HdrChartScene, HdrLightsScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
+    ZonePlateScene,
 };
 pub use crate::rgb::RgbScene;
 use camsim_core::error::{CoreError, Result};
@@ -267,6 +268,10 @@ pub const SCENE_KINDS: NameTable<()> = NameTable {
             "hdr_chart",
             "log-spaced strips over a dynamic range (ISETCam 'hdr chart')",
         ),
+        kind(
+            "hdr_lights",
+            "bright discs and bars on a dark ground (ISETCam 'hdr lights')",
+        ),
     ],
 };
 
@@ -315,6 +320,8 @@ pub enum SceneConfig {
     GlareTarget(GlareTargetScene),
     /// `kind = "hdr_chart"` (ISETCam `sceneHDRChart`).
     HdrChart(HdrChartScene),
+    /// `kind = "hdr_lights"` (ISETCam `sceneHDRLights`).
+    HdrLights(HdrLightsScene),
 }
 
 impl Default for UniformScene {
@@ -418,6 +425,7 @@ impl SceneConfig {
             SceneConfig::DeadLeaves(_) => "dead_leaves",
             SceneConfig::GlareTarget(_) => "glare_target",
             SceneConfig::HdrChart(_) => "hdr_chart",
+            SceneConfig::HdrLights(_) => "hdr_lights",
         }
     }
 
@@ -435,6 +443,7 @@ impl SceneConfig {
             SceneConfig::DeadLeaves(c) => c,
             SceneConfig::GlareTarget(c) => c,
             SceneConfig::HdrChart(c) => c,
+            SceneConfig::HdrLights(c) => c,
             SceneConfig::Uniform(_)
             | SceneConfig::Macbeth(_)
             | SceneConfig::SlantedEdge(_)
@@ -462,6 +471,7 @@ impl SceneConfig {
             SceneConfig::DeadLeaves(c) => c.wavelengths,
             SceneConfig::GlareTarget(c) => c.wavelengths,
             SceneConfig::HdrChart(c) => c.wavelengths,
+            SceneConfig::HdrLights(c) => c.wavelengths,
         };
         g.unwrap_or_default()
     }
@@ -512,6 +522,7 @@ impl SceneConfig {
             SceneConfig::DeadLeaves(c) => fix_string(&mut c.illuminant),
             SceneConfig::GlareTarget(c) => fix_string(&mut c.illuminant),
             SceneConfig::HdrChart(c) => fix_string(&mut c.illuminant),
+            SceneConfig::HdrLights(c) => fix_string(&mut c.illuminant),
         }
     }
 }
@@ -550,6 +561,7 @@ pub fn locate_scene_error(text: &str, table: Option<&str>) -> Option<String> {
         ("dead_leaves", t) => run::<DeadLeavesScene>(text, t),
         ("glare_target", t) => run::<GlareTargetScene>(text, t),
         ("hdr_chart", t) => run::<HdrChartScene>(text, t),
+        ("hdr_lights", t) => run::<HdrLightsScene>(text, t),
         ("harmonic", t) => run::<HarmonicScene>(text, t),
         ("zone_plate", t) => run::<ZonePlateScene>(text, t),
         ("sweep_frequency", t) => run::<SweepFrequencyScene>(text, t),
@@ -720,7 +732,7 @@ mod error_position_tests {
 
     #[test]
     fn the_scene_kind_table_is_the_config_enum() {
-        assert_eq!(SCENE_KINDS.entries.len(), 16);
+        assert_eq!(SCENE_KINDS.entries.len(), 17);
         for e in SCENE_KINDS.entries {
             let text = format!("kind = \"{}\"", e.name);
             match SceneConfig::from_toml(&text, "t") {

@@ -12,7 +12,7 @@
 //! [`from_image`]), `rgb` (a photograph on a display model, [`rgb`] and [`display`]) and the
 //! ISETCam test patterns of [`patterns`] (`harmonic`, `zone_plate`, `sweep_frequency`, `star`,
 //! `checkerboard`, `grid_lines`, `point_array`, `ramp`, `dead_leaves`) and `glare_target` (the
-//! ISO 18844 veiling glare target) and `hdr_chart` (ISETCam's HDR chart).
+//! ISO 18844 veiling glare target), `hdr_chart` and `hdr_lights` (ISETCam's HDR chart and lights).
 
 #![warn(missing_docs)]
 // `!(x > 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
@@ -30,7 +30,8 @@ pub use display::{Display, Transfer};
 pub use geometry::{Edge, MacbethLayout, Rect};
 pub use patterns::{
     CheckerboardScene, DeadLeavesScene, GlareTargetScene, GridLinesScene, HarmonicScene,
-    HdrChartScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene, ZonePlateScene,
+    HdrChartScene, HdrLightsScene, PointArrayScene, RampScene, StarScene, SweepFrequencyScene,
+    ZonePlateScene,
 };
 pub use rgb::RgbScene;
 

@@ -1,5 +1,5 @@
 //! Spatial test patterns after ISETCam's `sceneCreate` (harmonic, zone plate, sweep frequency,
-//! star, checkerboard, grid lines, point array, ramp, dead leaves, HDR chart).
+//! star, checkerboard, grid lines, point array, ramp, dead leaves, HDR chart, HDR lights).
 //!
 //! Each pattern is a spectrally flat reflectance map `rho(x, y)` in [0, 1]; the radiance is
 //! `k * illuminant(lambda) * rho(x, y)` with `k` chosen so that the mean luminance over all pixels
@@ -316,6 +316,200 @@ impl Pattern for HdrChartScene {
         map_rows(bands, self.rows, cols, |_, line| {
             for (j, v) in line.iter_mut().enumerate() {
                 *v = rho[j / w];
+            }
+        })
+    }
+}
+
+pattern_scene! {
+    /// Bright lights on a dark ground (after ISETCam `sceneHDRLights`, whose default layout this
+    /// keeps): `circle_radii` discs (radii as fractions of the image side) centred on the row at
+    /// a quarter of the height, evenly spaced from 0.2 to 0.8 of the width, and `lines` thin
+    /// horizontal bars (`line_length` of the side long, `line_width_px` wide) centred on the
+    /// middle row, evenly spaced from 0.1 to 0.8 of the width. The lights have reflectance 1 and
+    /// the ground `background_reflectance` (default 0: black, ISETCam's), both times the
+    /// illuminant; each pixel is its exact area mixture (8 x 8 subsamples). The scale is the
+    /// lights' luminance `light_luminance_cd_m2`; headlights and street lamps are 1e4 to 1e6
+    /// cd/m^2, so with a dim ground this tests flare, glare and an HDR sensor's range.
+    HdrLightsScene {
+        /// Image side, pixels (ISETCam `imagesize`); default 384.
+        size_px: usize = 384,
+        /// Radii of the discs as fractions of the side (each in (0, 0.5]; ISETCam `radius`);
+        /// default [0.01, 0.035, 0.07, 0.1]. Empty: no discs.
+        circle_radii: Vec<f64> = vec![0.01, 0.035, 0.07, 0.1],
+        /// Number of bars (0..=16; ISETCam `nlines`); default 4.
+        lines: usize = 4,
+        /// Bar length as a fraction of the side, in (0, 1]; default 0.1.
+        line_length: f64 = 0.1,
+        /// Bar width, pixels (> 0); default 2.
+        line_width_px: f64 = 2.0,
+        /// Reflectance of the ground, fraction in [0, 1); default 0 (black).
+        background_reflectance: f64 = 0.0,
+        /// Luminance of the lights, cd/m^2 (> 0); default 10 000. Replaces
+        /// `mean_luminance_cd_m2` (giving both, a mean other than its default 100, is an error).
+        light_luminance_cd_m2: f64 = 10_000.0,
+    }
+}
+
+/// The lights of an [`HdrLightsScene`] in pixel coordinates (pixel (i, j) covers
+/// [j, j + 1) x [i, i + 1)): discs (centre x, centre y, radius) and bars (centre x, centre y).
+struct LightsLayout {
+    discs: Vec<(f64, f64, f64)>,
+    bars: Vec<(f64, f64)>,
+    half_len: f64,
+    half_w: f64,
+}
+
+impl LightsLayout {
+    /// Fraction of pixel (row `i`, column `j`) covered by lights: 0 or 1 where no light's edge
+    /// passes within the pixel, else 8 x 8 subsamples.
+    fn coverage(&self, i: usize, j: usize) -> f64 {
+        let (xc, yc) = (j as f64 + 0.5, i as f64 + 0.5);
+        // A pixel's points lie within sqrt(2) / 2 of its centre, and within 1/2 per axis.
+        let mut edge = false;
+        for &(cx, cy, r) in &self.discs {
+            let d = ((xc - cx).powi(2) + (yc - cy).powi(2)).sqrt();
+            if d <= r - 0.7072 {
+                return 1.0;
+            }
+            edge |= d < r + 0.7072;
+        }
+        for &(cx, cy) in &self.bars {
+            let (dx, dy) = ((xc - cx).abs(), (yc - cy).abs());
+            if dx <= self.half_len - 0.5 && dy <= self.half_w - 0.5 {
+                return 1.0;
+            }
+            edge |= dx < self.half_len + 0.5 && dy < self.half_w + 0.5;
+        }
+        if !edge {
+            return 0.0;
+        }
+        const SUB: usize = 8;
+        let mut hits = 0usize;
+        for sy in 0..SUB {
+            let y = i as f64 + (sy as f64 + 0.5) / SUB as f64;
+            for sx in 0..SUB {
+                let x = j as f64 + (sx as f64 + 0.5) / SUB as f64;
+                let lit = self
+                    .discs
+                    .iter()
+                    .any(|(cx, cy, r)| (x - cx).powi(2) + (y - cy).powi(2) < r * r)
+                    || self.bars.iter().any(|(cx, cy)| {
+                        (x - cx).abs() < self.half_len && (y - cy).abs() < self.half_w
+                    });
+                hits += lit as usize;
+            }
+        }
+        hits as f64 / (SUB * SUB) as f64
+    }
+}
+
+impl HdrLightsScene {
+    /// Where the lights are (type docs).
+    fn layout(&self) -> LightsLayout {
+        let n = self.size_px as f64;
+        let spread = |k: usize, count: usize, from: f64, to: f64| {
+            let t = if count > 1 {
+                k as f64 / (count - 1) as f64
+            } else {
+                0.5
+            };
+            (from + (to - from) * t) * n
+        };
+        let m = self.circle_radii.len();
+        LightsLayout {
+            discs: (self.circle_radii.iter().enumerate())
+                .map(|(k, r)| (spread(k, m, 0.2, 0.8), 0.25 * n, r * n))
+                .collect(),
+            bars: (0..self.lines)
+                .map(|k| (spread(k, self.lines, 0.1, 0.8), 0.5 * n))
+                .collect(),
+            half_len: self.line_length * n / 2.0,
+            half_w: self.line_width_px / 2.0,
+        }
+    }
+
+    fn check(&self) -> Result<()> {
+        check_side(self.size_px, "scene.size_px", 8)?;
+        for r in &self.circle_radii {
+            need(
+                *r > 0.0 && *r <= 0.5,
+                "scene.circle_radii",
+                format!("{r} is not a radius in (0, 0.5] of the side"),
+            )?;
+        }
+        need(
+            self.lines <= 16,
+            "scene.lines",
+            format!("{} bars; at most 16", self.lines),
+        )?;
+        need(
+            self.line_length > 0.0 && self.line_length <= 1.0,
+            "scene.line_length",
+            format!("{} is not a length in (0, 1] of the side", self.line_length),
+        )?;
+        need(
+            self.line_width_px > 0.0 && self.line_width_px.is_finite(),
+            "scene.line_width_px",
+            format!("{} pixels is not a positive width", self.line_width_px),
+        )?;
+        need(
+            (0.0..1.0).contains(&self.background_reflectance),
+            "scene.background_reflectance",
+            format!("{} is not in [0, 1)", self.background_reflectance),
+        )?;
+        let l = self.light_luminance_cd_m2;
+        need(
+            l > 0.0 && l.is_finite(),
+            "scene.light_luminance_cd_m2",
+            format!("{l} is not a positive luminance"),
+        )?;
+        need(
+            self.mean_luminance_cd_m2 == 100.0,
+            "scene.light_luminance_cd_m2",
+            "give light_luminance_cd_m2 (the lights') or mean_luminance_cd_m2, not both"
+                .to_string(),
+        )
+    }
+}
+
+impl Pattern for HdrLightsScene {
+    fn header(&self) -> Header<'_> {
+        let mut h = self.header_fields();
+        // The map's mean times the lights' luminance (lights at reflectance 1); an invalid or
+        // oversized scene keeps the header as given, and reflectance_map refuses it.
+        let n = self.size_px;
+        if self.check().is_err() {
+            return h;
+        }
+        let (layout, bg) = (self.layout(), self.background_reflectance);
+        let sum: f64 = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        let c = layout.coverage(i, j);
+                        c + (1.0 - c) * bg
+                    })
+                    .sum::<f64>()
+            })
+            .sum();
+        h.mean_luminance_cd_m2 = self.light_luminance_cd_m2 * sum / (n * n) as f64;
+        h
+    }
+    fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
+        self.check()?;
+        need(
+            !self.circle_radii.is_empty() || self.lines > 0,
+            "scene.circle_radii",
+            "no discs and no bars: the scene has no lights".to_string(),
+        )?;
+        let n = self.size_px;
+        let (layout, bg) = (self.layout(), self.background_reflectance);
+        map_rows(bands, n, n, |i, line| {
+            for (j, v) in line.iter_mut().enumerate() {
+                let c = layout.coverage(i, j);
+                *v = (c + (1.0 - c) * bg) as f32;
             }
         })
     }

@@ -96,7 +96,7 @@ mod tests {
                 .collect()
         };
         assert_eq!(names("sensor presets"), camsim_sensor::presets::names());
-        assert_eq!(names("2D scene kinds").len(), 16);
+        assert_eq!(names("2D scene kinds").len(), 17);
         assert!(names("2D scene kinds").contains(&"glare_target"));
         assert!(names("dataset outputs").contains(&"raw-npy"));
         assert!(names("dataset outputs").contains(&"noise-free"));
