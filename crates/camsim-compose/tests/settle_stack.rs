@@ -52,16 +52,21 @@ fn box_stack_of_convex_decompositions_settles_too() {
     stack("decomposition");
 }
 
-fn stack(shape: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    let spec = spec(dir.path(), shape);
+/// An empty scene with the floor: a slab whose top is y = 0.
+fn floor_scene() -> camsim_scene3d::SceneDescription {
     let mut scene = common::empty_scene();
-    // The floor: a slab whose top is y = 0.
     scene.shapes.push(common::box_shape(
         "floor",
         [-2.0, -0.1, -2.0],
         [2.0, 0.0, 2.0],
     ));
+    scene
+}
+
+fn stack(shape: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path(), shape);
+    let mut scene = floor_scene();
     let rec = compose(&mut scene, &spec, 7, dir.path()).unwrap();
     let phys = rec.physics.as_ref().unwrap();
     assert!(phys.at_rest, "not at rest: {phys:?}");
@@ -113,12 +118,7 @@ fn stack(shape: &str) {
 fn settling_cut_short_by_max_steps_is_noted() {
     let dir = tempfile::tempdir().unwrap();
     let spec = spec_steps(dir.path(), "convex_hull", 10);
-    let mut scene = common::empty_scene();
-    scene.shapes.push(common::box_shape(
-        "floor",
-        [-2.0, -0.1, -2.0],
-        [2.0, 0.0, 2.0],
-    ));
+    let mut scene = floor_scene();
     let rec = compose(&mut scene, &spec, 7, dir.path()).unwrap();
     let phys = rec.physics.as_ref().unwrap();
     assert!(!phys.at_rest && phys.steps == 10, "{phys:?}");
