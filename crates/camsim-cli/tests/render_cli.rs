@@ -189,3 +189,74 @@ fn denoise_with_its_library_records_it() {
         std::fs::read(dn.join("radiance.exr")).unwrap()
     );
 }
+
+/// `--obj-scale-m`, `--obj-up`, `--gltf-camera` reach the readers from the command line: the
+/// framing camera frames the object whatever its unit, so a centimetre reading of wallhole.obj
+/// has a hundredth of the metre reading's depths (same image otherwise); a camera the glTF file
+/// lacks and an OBJ key on a pbrt-v4 file exit 2 naming them, writing nothing.
+#[test]
+fn asset_options_reach_the_readers() {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared");
+    let wall = shared.join("assets/trimesh/wallhole.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let depth = |name: &str, extra: &[&str]| -> f64 {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "render",
+            wall.to_str().unwrap(),
+            "--resolution",
+            "16x12",
+            "--spp",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        ok(&camsim(&args));
+        let (_, _, z) =
+            camsim::io::exr::read_gray_exr(&out.join("depth.exr"), None).expect("depth.exr");
+        let hit: Vec<f64> = z
+            .iter()
+            .filter(|v| v.is_finite())
+            .map(|v| *v as f64)
+            .collect();
+        assert!(!hit.is_empty(), "{name}: no surface seen");
+        hit.iter().sum::<f64>() / hit.len() as f64
+    };
+    let m = depth("m", &[]);
+    let cm = depth("cm", &["--obj-scale-m", "0.01", "--obj-up", "z"]);
+    assert!(
+        (cm / m).is_finite() && cm / m > 0.0,
+        "depths {m} m and {cm} m"
+    );
+    let cm_y = depth("cm-y", &["--obj-scale-m", "0.01"]);
+    assert!(
+        (cm_y / m / 0.01 - 1.0).abs() < 1e-3,
+        "{cm_y} m vs {m} m / 100"
+    );
+    let refused = |args: &[&str], says: &str| {
+        let out = dir.path().join("refused");
+        let mut a = args.to_vec();
+        a.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        let o = camsim(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(says), "{err}");
+        assert!(!out.exists(), "wrote {}", out.display());
+    };
+    let duck = shared.join("assets/trimesh/Duck.glb");
+    refused(
+        &[
+            "render",
+            duck.to_str().unwrap(),
+            "--gltf-camera",
+            "no-such-camera",
+        ],
+        "no-such-camera",
+    );
+    let pbrt = shared.join("scenes/bitterli/cornell-box/scene-v4.pbrt");
+    refused(
+        &["render", pbrt.to_str().unwrap(), "--obj-up", "z"],
+        "render.asset",
+    );
+}

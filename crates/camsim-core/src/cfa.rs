@@ -276,6 +276,46 @@ impl CfaLayout {
         }
     }
 
+    /// The tile of the grid this CFA gives when every k x k block of pixels is read as one pixel
+    /// (binning): each block, over the tile repeated to a common period (lcm(tile, k) / k blocks
+    /// a side), must hold one filter, which names the binned pixel. Quad Bayer at k = 2 gives
+    /// Bayer, a one-filter tile itself; an error names the first block that mixes filters.
+    pub fn binned(&self, k: usize) -> Result<CfaLayout> {
+        if k == 0 {
+            return Err(CoreError::invalid("binning", "a block of 0 pixels"));
+        }
+        let lcm = |a: usize| a / gcd(a, k) * k;
+        let (pr, pc) = (lcm(self.rows) / k, lcm(self.cols) / k);
+        let mut names = Vec::with_capacity(pr);
+        for i in 0..pr {
+            let mut row = Vec::with_capacity(pc);
+            for j in 0..pc {
+                let f = self.filter_at(i * k, j * k);
+                for r in i * k..(i + 1) * k {
+                    for c in j * k..(j + 1) * k {
+                        let g = self.filter_at(r, c);
+                        if g != f {
+                            return Err(CoreError::invalid(
+                                "binning",
+                                format!(
+                                    "the {k} x {k} block at row {}, column {} of the CFA {} holds filters {} and {}: each block must hold one filter (Quad Bayer bins 2 x 2; a one-filter CFA any k)",
+                                    i * k,
+                                    j * k,
+                                    self.name(),
+                                    self.filters[f],
+                                    self.filters[g]
+                                ),
+                            ));
+                        }
+                    }
+                }
+                row.push(self.filters[f].clone());
+            }
+            names.push(row);
+        }
+        CfaLayout::from_names(&names)
+    }
+
     /// Tile rows (N).
     pub fn rows(&self) -> usize {
         self.rows
@@ -382,6 +422,15 @@ impl CfaLayout {
             names.push(row);
         }
         CfaLayout::from_names(&names)
+    }
+}
+
+/// Greatest common divisor (Euclid).
+fn gcd(a: usize, b: usize) -> usize {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
     }
 }
 

@@ -21,7 +21,7 @@
 
 use crate::demosaic::RgbImage;
 use camsim_core::error::{CoreError, Result};
-use camsim_core::{CfaLayout, RawImage};
+use camsim_core::RawImage;
 use rayon::prelude::*;
 
 /// One interpolated plane per filter of a CFA: black-level-subtracted DN, row-major.
@@ -134,21 +134,7 @@ pub fn demosaic_layout_bilinear(raw: &RawImage) -> Result<FilterPlanes> {
 /// bits). Errors when the tile does not consist of 2x2 blocks of one filter.
 pub fn bin_2x2(raw: &RawImage) -> Result<RawImage> {
     check(raw)?;
-    let layout = raw.cfa_layout();
-    let (tn, tm) = (layout.rows(), layout.cols());
-    let blocks_ok = tn % 2 == 0
-        && tm % 2 == 0
-        && (0..tn)
-            .all(|r| (0..tm).all(|c| layout.filter_at(r, c) == layout.filter_at(r & !1, c & !1)));
-    if !blocks_ok {
-        return Err(CoreError::invalid(
-            "binning",
-            format!(
-                "the CFA {} is not made of 2x2 blocks of one filter (Quad Bayer is)",
-                layout.name()
-            ),
-        ));
-    }
+    let half = raw.cfa_layout().binned(2)?;
     let (rows, cols) = (raw.rows / 2, raw.cols / 2);
     if rows == 0 || cols == 0 {
         return Err(CoreError::invalid(
@@ -156,14 +142,6 @@ pub fn bin_2x2(raw: &RawImage) -> Result<RawImage> {
             format!("a {} x {} frame has no 2x2 block", raw.rows, raw.cols),
         ));
     }
-    let names: Vec<Vec<String>> = (0..tn / 2)
-        .map(|r| {
-            (0..tm / 2)
-                .map(|c| layout.filters()[layout.filter_at(2 * r, 2 * c)].clone())
-                .collect()
-        })
-        .collect();
-    let half = CfaLayout::from_names(&names)?;
     let bits = (raw.bits + 2).min(16);
     let mut out = RawImage::new(rows, cols, half.as_bayer().unwrap_or_default(), bits)?;
     out.layout = if half.as_bayer().is_some() {

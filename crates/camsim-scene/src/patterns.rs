@@ -24,6 +24,9 @@ pub(crate) struct Header<'a> {
     pub fov_deg: f64,
     pub distance_m: f64,
     pub mean_luminance_cd_m2: f64,
+    /// The luminance of reflectance 1 and its key, for patterns scaled by their brightest
+    /// level instead of their mean (the HDR chart's strip, the HDR lights); `None`: the mean.
+    pub white_luminance: Option<(f64, &'static str)>,
 }
 
 /// A pattern scene: its shared fields and its reflectance map (rows, cols, row-major values).
@@ -76,6 +79,7 @@ macro_rules! pattern_scene {
                     fov_deg: self.fov_deg,
                     distance_m: self.distance_m,
                     mean_luminance_cd_m2: self.mean_luminance_cd_m2,
+                    white_luminance: None,
                 }
             }
         }
@@ -268,11 +272,9 @@ impl HdrChartScene {
 impl Pattern for HdrChartScene {
     fn header(&self) -> Header<'_> {
         let mut h = self.header_fields();
+        // The brightest strip has reflectance 1.
         if self.max_luminance_cd_m2 > 0.0 {
-            // The map's mean is the strips' mean (equal widths): mean = max x mean(rho).
-            let rho = self.level_reflectances();
-            h.mean_luminance_cd_m2 =
-                self.max_luminance_cd_m2 * rho.iter().sum::<f64>() / rho.len() as f64;
+            h.white_luminance = Some((self.max_luminance_cd_m2, "scene.max_luminance_cd_m2"));
         }
         h
     }
@@ -476,25 +478,8 @@ impl HdrLightsScene {
 impl Pattern for HdrLightsScene {
     fn header(&self) -> Header<'_> {
         let mut h = self.header_fields();
-        // The map's mean times the lights' luminance (lights at reflectance 1); an invalid or
-        // oversized scene keeps the header as given, and reflectance_map refuses it.
-        let n = self.size_px;
-        if self.check().is_err() {
-            return h;
-        }
-        let (layout, bg) = (self.layout(), self.background_reflectance);
-        let sum: f64 = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                (0..n)
-                    .map(|j| {
-                        let c = layout.coverage(i, j);
-                        c + (1.0 - c) * bg
-                    })
-                    .sum::<f64>()
-            })
-            .sum();
-        h.mean_luminance_cd_m2 = self.light_luminance_cd_m2 * sum / (n * n) as f64;
+        // The lights have reflectance 1.
+        h.white_luminance = Some((self.light_luminance_cd_m2, "scene.light_luminance_cd_m2"));
         h
     }
     fn reflectance_map(&self, bands: usize) -> Result<(usize, usize, Vec<f32>)> {
@@ -1023,16 +1008,27 @@ pub(crate) fn create_pattern(
     grid: &WavelengthGrid,
 ) -> Result<camsim_core::SpectralImage> {
     let h = p.header();
+    if let Some((l, key)) = h.white_luminance {
+        need(
+            l > 0.0 && l.is_finite(),
+            key,
+            format!("{l} is not a positive luminance"),
+        )?;
+    }
     let com = crate::common(
         h.illuminant,
         h.fov_deg,
         h.distance_m,
-        h.mean_luminance_cd_m2,
+        h.white_luminance.map_or(h.mean_luminance_cd_m2, |w| w.0),
         grid,
     )?;
     let (rows, cols, map) = p.reflectance_map(grid.len())?;
-    let mean = camsim_core::math::fixed_order_sum(&map) / map.len() as f64;
-    let k_illum = com.scaled_illuminant(&vec![mean; grid.len()], grid)?;
+    // Scaled so the map's mean (or its reflectance 1) has the luminance asked for.
+    let reference = match h.white_luminance {
+        Some(_) => 1.0,
+        None => camsim_core::math::fixed_order_sum(&map) / map.len() as f64,
+    };
+    let k_illum = com.scaled_illuminant(&vec![reference; grid.len()], grid)?;
     let mut img = com.image(rows, cols, grid)?;
     let n = img.pixels();
     img.data

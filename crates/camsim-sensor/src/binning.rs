@@ -36,7 +36,6 @@
 //! pixels two apart, whose centroids interleave: not modelled (refused, naming the block).
 
 use crate::config::{BinningConfig, BinningMode, SensorConfig};
-use camsim_core::CfaLayout;
 
 type Checked<T> = std::result::Result<T, (String, String)>;
 
@@ -84,7 +83,17 @@ pub(crate) fn apply(bin: &BinningConfig, c: &SensorConfig) -> Checked<SensorConf
     let layout = c
         .cfa_layout()
         .map_err(|e| ("cfa".to_string(), e.to_string()))?;
-    let pattern = block_pattern(&layout, k)?;
+    // The block tile (a block mixing filters is refused, named).
+    let binned = layout
+        .binned(k)
+        .map_err(|e| ("binning.factor".to_string(), e.to_string()))?;
+    let pattern: Vec<Vec<String>> = (0..binned.rows())
+        .map(|r| {
+            (0..binned.cols())
+                .map(|c| binned.filters()[binned.filter_at(r, c)].clone())
+                .collect()
+        })
+        .collect();
     let kk = (k * k) as f64;
     let extra_bits = if digital { kk.log2().round() as u32 } else { 0 };
     let bits = c.bits + extra_bits;
@@ -132,47 +141,4 @@ pub(crate) fn apply(bin: &BinningConfig, c: &SensorConfig) -> Checked<SensorConf
         None => note,
     });
     Ok(b)
-}
-
-/// The CFA tile of the binned grid: each k x k block of the photodiodes' CFA (repeated to a
-/// common period) must hold one filter.
-fn block_pattern(layout: &CfaLayout, k: usize) -> Checked<Vec<Vec<String>>> {
-    let (tr, tc) = (layout.rows(), layout.cols());
-    // The binned tile repeats after lcm(tile, k) / k blocks.
-    let (pr, pc) = (lcm(tr, k) / k, lcm(tc, k) / k);
-    let mut names = Vec::with_capacity(pr);
-    for i in 0..pr {
-        let mut row = Vec::with_capacity(pc);
-        for j in 0..pc {
-            let f = layout.filter_at((i * k) % tr, (j * k) % tc);
-            for r in i * k..(i + 1) * k {
-                for c in j * k..(j + 1) * k {
-                    if layout.filter_at(r % tr, c % tc) != f {
-                        return bad(
-                            "factor",
-                            format!(
-                                "the {k} x {k} block at row {}, column {} of the CFA {} holds filters {} and {}: each block must hold one filter (Quad Bayer bins 2 x 2; a mono sensor any k)",
-                                i * k,
-                                j * k,
-                                layout.name(),
-                                layout.filters()[f],
-                                layout.filters()[layout.filter_at(r % tr, c % tc)]
-                            ),
-                        );
-                    }
-                }
-            }
-            row.push(layout.filters()[f].clone());
-        }
-        names.push(row);
-    }
-    Ok(names)
-}
-
-fn lcm(a: usize, b: usize) -> usize {
-    let (mut x, mut y) = (a, b);
-    while y != 0 {
-        (x, y) = (y, x % y);
-    }
-    a / x * b
 }
