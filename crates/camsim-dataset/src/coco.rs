@@ -6,15 +6,15 @@
 //! `categories`). Each annotation is one object instance of one sample: its mask as COCO's
 //! compressed RLE (column-major runs, from the sample's sensor-geometry `instances.png`), its
 //! pixel count as `area`, its tight box `[x, y, width, height]` (pixel edges), `iscrowd` 0, and
-//! camsim's `visible_fraction`, `truncation` and `box_3d` (camera frame, boxes.json). Categories
+//! camsim's `visible_fraction`, `truncation` and `box_3d` (camera frame, boxes.json), and its
+//! keypoints (its 3D box's centre and corners on the raw grid, COCO's `keypoints` and
+//! `num_keypoints`; each category names them with the box's edges as its `skeleton`). Categories
 //! are the instances' material names or object names ([`CategoryBy`]), numbered 1.. in sorted
 //! order. The dataset must have the outputs `preview`, `instances` and `boxes`.
 
-use crate::run::shard_stem;
 use crate::spec::DatasetSpec;
 use crate::{DatasetError, Result};
 use std::collections::{BTreeMap, BTreeSet};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Where COCO category names come from (`--coco-categories material|object|category`).
@@ -85,14 +85,6 @@ pub fn rle_string(rows: usize, cols: usize, inside: impl Fn(usize) -> bool) -> S
     s
 }
 
-/// One sample's files needed for COCO, from its shard.
-#[derive(Default)]
-struct SampleFiles {
-    preview: Option<Vec<u8>>,
-    instances: Option<Vec<u8>>,
-    boxes: Option<Vec<u8>>,
-}
-
 /// Write `coco/annotations.json` and `coco/images/` for the complete dataset in `out` (see the
 /// module docs); returns the annotation file's path.
 pub fn export_coco(spec: &DatasetSpec, out: &Path, by: CategoryBy) -> Result<PathBuf> {
@@ -136,45 +128,21 @@ fn export_into(
     let mut pending: Vec<(u64, serde_json::Value, String, u64, [u64; 4])> = Vec::new();
     let mut categories = BTreeSet::new();
     let mut sizes: BTreeMap<u64, (usize, usize)> = BTreeMap::new();
+    // The keypoints' names and skeleton (boxes.json's `keypoints`), when the labels have them.
+    let mut keypoint_names: Option<(serde_json::Value, serde_json::Value)> = None;
     for s in 0..spec.shards() {
-        let tar_path = out.join(format!("{}.tar", shard_stem(spec, s)));
-        let file = std::fs::File::open(&tar_path).map_err(|e| DatasetError::io(&tar_path, e))?;
-        let mut archive = tar::Archive::new(file);
-        let mut samples: BTreeMap<String, SampleFiles> = BTreeMap::new();
-        let entries = archive
-            .entries()
-            .map_err(|e| DatasetError::io(&tar_path, e))?;
-        for entry in entries {
-            let mut entry = entry.map_err(|e| DatasetError::io(&tar_path, e))?;
-            let name = entry
-                .path()
-                .map_err(|e| DatasetError::io(&tar_path, e))?
-                .to_string_lossy()
-                .into_owned();
-            let Some((key, ext)) = name.split_once('.') else {
-                continue;
-            };
-            let slot = match ext {
-                "preview.png" => 0,
-                "instances.png" => 1,
-                "boxes.json" => 2,
-                _ => continue,
-            };
-            let mut bytes = Vec::new();
-            entry
-                .read_to_end(&mut bytes)
-                .map_err(|e| DatasetError::io(&tar_path, e))?;
-            let f = samples.entry(key.to_string()).or_default();
-            match slot {
-                0 => f.preview = Some(bytes),
-                1 => f.instances = Some(bytes),
-                _ => f.boxes = Some(bytes),
-            }
-        }
-        for (key, f) in samples {
+        let (tar_path, samples) = crate::run::shard_samples(
+            spec,
+            out,
+            s,
+            &["preview.png", "instances.png", "boxes.json"],
+        )?;
+        for (key, mut f) in samples {
             // Failed samples have no files; 2D scenes have no instances (images without
             // annotations).
-            let Some(preview) = f.preview else { continue };
+            let Some(preview) = f.remove("preview.png") else {
+                continue;
+            };
             let image_id: u64 = key
                 .parse()
                 .map_err(|_| DatasetError::file(&tar_path, format!("sample key {key:?}")))?;
@@ -189,7 +157,8 @@ fn export_into(
                 "width": cols,
                 "height": rows,
             }));
-            let (Some(inst_png), Some(boxes)) = (f.instances, f.boxes) else {
+            let (Some(inst_png), Some(boxes)) = (f.remove("instances.png"), f.remove("boxes.json"))
+            else {
                 continue;
             };
             let tmp = scratch.join(format!("{key}.instances.png"));
@@ -234,6 +203,26 @@ fn export_into(
                     "box_3d": inst["box_3d"],
                 });
                 extra["name"] = inst["name"].clone();
+                if let Some(kp) = inst["keypoints_sensor"].as_array() {
+                    // COCO's flat [x, y, v, ...] in pixel edges, x = y = 0 where v = 0.
+                    let mut flat = Vec::with_capacity(3 * kp.len());
+                    for t in kp {
+                        let v = t[2].as_u64().unwrap_or(0);
+                        let (x, y) = if v == 0 {
+                            (0.0, 0.0)
+                        } else {
+                            (t[0].as_f64().unwrap_or(0.0), t[1].as_f64().unwrap_or(0.0))
+                        };
+                        flat.extend([serde_json::json!(x), serde_json::json!(y), v.into()]);
+                    }
+                    extra["keypoints"] = flat.into();
+                    if keypoint_names.is_none() {
+                        keypoint_names = Some((
+                            boxes["keypoints"]["names"].clone(),
+                            boxes["keypoints"]["skeleton"].clone(),
+                        ));
+                    }
+                }
                 pending.push((image_id, extra, rle, area, [b[0], b[1], b[2], b[3]]));
             }
         }
@@ -246,7 +235,9 @@ fn export_into(
             let cat = extra["category"].as_str().unwrap_or("");
             let category_id = categories.iter().position(|c| c == cat).unwrap_or(0) + 1;
             let (h, w) = sizes.get(&image_id).copied().unwrap_or_default();
-            serde_json::json!({
+            let mut extra = extra;
+            let keypoints = extra.as_object_mut().and_then(|o| o.remove("keypoints"));
+            let mut a = serde_json::json!({
                 "id": k + 1,
                 "image_id": image_id,
                 "category_id": category_id,
@@ -255,9 +246,27 @@ fn export_into(
                 "bbox": [b[0], b[1], b[2] - b[0], b[3] - b[1]],
                 "iscrowd": 0,
                 "camsim": extra,
-            })
+            });
+            if let Some(kp) = keypoints {
+                let n = kp.as_array().map_or(0, |v| {
+                    v.chunks(3).filter(|t| t[2].as_u64() != Some(0)).count()
+                });
+                a["keypoints"] = kp;
+                a["num_keypoints"] = n.into();
+            }
+            a
         })
         .collect();
+    // COCO's skeleton is 1-based.
+    let keypoint_fields = keypoint_names.map(|(names, skeleton)| {
+        let skeleton: Vec<[u64; 2]> = skeleton
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|e| Some([e[0].as_u64()? + 1, e[1].as_u64()? + 1]))
+            .collect();
+        (names, skeleton)
+    });
     Ok(serde_json::json!({
         "info": {
             "description": format!("camsim dataset {}", spec.source),
@@ -269,7 +278,14 @@ fn export_into(
         "categories": categories
             .iter()
             .enumerate()
-            .map(|(i, c)| serde_json::json!({ "id": i + 1, "name": c, "supercategory": "" }))
+            .map(|(i, c)| {
+                let mut cat = serde_json::json!({ "id": i + 1, "name": c, "supercategory": "" });
+                if let Some((names, skeleton)) = &keypoint_fields {
+                    cat["keypoints"] = names.clone();
+                    cat["skeleton"] = serde_json::json!(skeleton);
+                }
+                cat
+            })
             .collect::<Vec<_>>(),
     }))
 }

@@ -10,10 +10,12 @@
 //! indexed Jobs), or one shard per task of a cluster engine (the Python package's Ray backend
 //! calls [`run_shard`]).
 
+pub mod bop;
 pub mod coco;
 pub mod run;
 pub mod spec;
 
+pub use bop::export_bop;
 pub use coco::{export_coco, CategoryBy};
 pub use run::{
     gather, run, run_shard, shard_complete, RunSummary, SampleRecord, ShardRecord, ShardSelect,

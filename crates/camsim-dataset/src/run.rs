@@ -142,6 +142,50 @@ pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
     format!("shard-{:08}-{:08}", r.start, r.end - 1)
 }
 
+/// The files of shard `s` of the complete dataset in `out` whose name after the sample key is
+/// one of `wanted` (`preview.png`, `boxes.json`, ...), by sample key in order (the exports read
+/// them; a failed sample has none).
+pub(crate) fn shard_samples(
+    spec: &DatasetSpec,
+    out: &Path,
+    s: u64,
+    wanted: &[&str],
+) -> Result<(PathBuf, std::collections::BTreeMap<String, SampleEntries>)> {
+    let tar_path = out.join(format!("{}.tar", shard_stem(spec, s)));
+    let file = std::fs::File::open(&tar_path).map_err(|e| DatasetError::io(&tar_path, e))?;
+    let mut archive = tar::Archive::new(file);
+    let mut samples = std::collections::BTreeMap::<String, SampleEntries>::new();
+    let entries = archive
+        .entries()
+        .map_err(|e| DatasetError::io(&tar_path, e))?;
+    for entry in entries {
+        let mut entry = entry.map_err(|e| DatasetError::io(&tar_path, e))?;
+        let name = entry
+            .path()
+            .map_err(|e| DatasetError::io(&tar_path, e))?
+            .to_string_lossy()
+            .into_owned();
+        let Some((key, ext)) = name.split_once('.') else {
+            continue;
+        };
+        if !wanted.contains(&ext) {
+            continue;
+        }
+        let mut bytes = Vec::new();
+        entry
+            .read_to_end(&mut bytes)
+            .map_err(|e| DatasetError::io(&tar_path, e))?;
+        samples
+            .entry(key.to_string())
+            .or_default()
+            .insert(ext.to_string(), bytes);
+    }
+    Ok((tar_path, samples))
+}
+
+/// One sample's files from its shard, by the name after its key.
+pub(crate) type SampleEntries = std::collections::BTreeMap<String, Vec<u8>>;
+
 /// Prepare `out` for `spec`: create it and write `spec.json`, or check that the `spec.json`
 /// already there is the same spec (a folder holds one dataset). A path that is not a folder, or
 /// a non-empty folder without camsim's `spec.json`, is refused naming what is there. A

@@ -27,6 +27,7 @@ pub mod ljpeg;
 pub mod lock;
 pub mod measurements;
 pub mod plot;
+pub mod ply;
 pub mod raster;
 mod registry;
 pub mod rgb_image;

@@ -108,6 +108,19 @@ pub fn write_png16_mosaic_scaled(
     write_png16_gray(path, rows, cols, &scaled)
 }
 
+/// Write an 8-bit grayscale PNG (`rows * cols` values, row-major), e.g. a binary mask (0 / 255).
+pub fn write_png8_gray(path: &Path, rows: usize, cols: usize, data: &[u8]) -> Result<()> {
+    check_size(path, rows, cols, data.len(), 1)?;
+    write_png(
+        path,
+        rows,
+        cols,
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        data,
+    )
+}
+
 /// Write an 8-bit sRGB PNG (`rows * cols * 3` values, row-major, RGB interleaved).
 pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Result<()> {
     check_size(path, rows, cols, rgb.len(), 3)?;

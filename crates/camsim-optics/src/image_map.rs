@@ -64,4 +64,27 @@ impl ImageMap {
             ideal[1] - (self.out_rows - self.in_rows) as f64 / 2.0,
         ]
     }
+
+    /// The irradiance position imaged from radiance position `scene_xy` (the inverse of
+    /// [`ImageMap::scene_position`], same conventions): where a scene point seen by the render at
+    /// `scene_xy` lands on the sensor plane, for keypoints. `None` where the lens's distortion
+    /// table does not reach.
+    pub fn image_position(&self, scene_xy: [f64; 2]) -> Option<[f64; 2]> {
+        let (hw, hh) = (self.out_cols as f64 / 2.0, self.out_rows as f64 / 2.0);
+        let ideal = [
+            scene_xy[0] + (self.out_cols - self.in_cols) as f64 / 2.0,
+            scene_xy[1] + (self.out_rows - self.in_rows) as f64 / 2.0,
+        ];
+        let Some(lut) = &self.distortion else {
+            return Some(ideal);
+        };
+        // Radial: the film offset lies along the ideal one, at the radius whose image is it.
+        let (x, y) = (ideal[0] - hw, ideal[1] - hh);
+        let rho_ideal = x.hypot(y);
+        if rho_ideal == 0.0 {
+            return Some([hw, hh]);
+        }
+        let t = lut.film_radius(rho_ideal)? / rho_ideal;
+        Some([x * t + hw, y * t + hh])
+    }
 }

@@ -177,6 +177,27 @@ impl RadialLut {
         (f, gain)
     }
 
+    /// The film radius (samples from the axis) that images ideal radius `rho_ideal`: the
+    /// inverse of rho f(rho) by bisection over the table's range (rho f(rho) rises for any lens
+    /// whose image does not fold back); `None` beyond the table.
+    pub(crate) fn film_radius(&self, rho_ideal: f64) -> Option<f64> {
+        let g = |rho: f64| rho * self.at(rho, 0.0).0;
+        let rho_max = ((Self::N - 2) as f64 / self.inv_step).sqrt();
+        if !rho_ideal.is_finite() || rho_ideal < 0.0 || g(rho_max) < rho_ideal {
+            return None;
+        }
+        let (mut lo, mut hi) = (0.0f64, rho_max);
+        for _ in 0..64 {
+            let mid = 0.5 * (lo + hi);
+            if g(mid) < rho_ideal {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(0.5 * (lo + hi))
+    }
+
     /// The taps of output sample (r, c).
     fn tap(&self, r: usize, c: usize) -> Tap {
         let (x, y) = (centre_offset(c, self.cols), centre_offset(r, self.rows));

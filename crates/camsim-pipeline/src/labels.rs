@@ -47,6 +47,133 @@ pub struct SimLabels {
     /// With `distorted`: OpenCV's distortion coefficients fitted to the optics' own map, so
     /// `sensor_camera.k` with them reproduces the raw grid (see [`SensorDistortion`]).
     pub sensor_distortion: Option<SensorDistortion>,
+    /// Per instance of `scene.instances` (same order): its keypoints ([`KEYPOINT_NAMES`]: its 3D
+    /// box's centre and corners) on the raw grid; empty for an instance without a box.
+    pub keypoints: Vec<Vec<Keypoint>>,
+}
+
+/// The keypoints of every instance: its 3D box's centre, then its 8 corners in
+/// [`camsim_render::labels::Box3d::corners_m`]'s order (the Objectron layout).
+pub const KEYPOINT_NAMES: [&str; 9] = [
+    "center", "corner_0", "corner_1", "corner_2", "corner_3", "corner_4", "corner_5", "corner_6",
+    "corner_7",
+];
+
+/// The 12 edges of the box between [`KEYPOINT_NAMES`] (0-based): corners one bit apart.
+pub fn keypoint_skeleton() -> Vec<[usize; 2]> {
+    let mut e = Vec::with_capacity(12);
+    for i in 0..8usize {
+        for bit in [1, 2, 4] {
+            if i & bit == 0 {
+                e.push([1 + i, 1 + (i | bit)]);
+            }
+        }
+    }
+    e
+}
+
+/// A 3D point of an instance where the optics images it on the raw grid.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Keypoint {
+    /// Raw-grid position `[x, y]` in pixel edges (pixel (r, c) covers [c, c + 1) x [r, r + 1),
+    /// as the 2D boxes; the sensor K's u + 0.5), through the optics' own map (a traced lens's
+    /// distortion included); `None` behind the camera or beyond the lens's field.
+    pub xy: Option<[f64; 2]>,
+    /// Its depth along the optical axis, m.
+    pub depth_m: f64,
+    /// COCO's flag: 0 outside the frame (or not imaged), 1 in the frame but behind a nearer
+    /// surface, 2 visible (nothing on its pinhole ray nearer than it, less 1 mm + 0.1 %).
+    pub visibility: u8,
+}
+
+/// [`Keypoint`]s of every instance of `scene` (see [`SimLabels::keypoints`]): each point
+/// projected through the render's pinhole to its raster position, carried onto the sensor plane
+/// by the optics' map inverted ([`ImageMap::image_position`]) and onto the pixel grid by the
+/// sensor's sampling ([`pixel_centre_on_input`] inverted); its visibility from the depth the
+/// render's pinhole ray through it meets first.
+fn instance_keypoints(
+    scene_desc: &SceneDescription,
+    scene: &Labels,
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    map: Option<&ImageMap>,
+) -> Result<Vec<Vec<Keypoint>>> {
+    let k = scene.camera.k;
+    let (rows, cols) = (sensor.rows() as f64, sensor.cols() as f64);
+    let s = irradiance.sample_spacing_m / sensor.pixel_pitch_m();
+    let (in_cols, in_rows) = (irradiance.cols as f64, irradiance.rows as f64);
+    let mut points: Vec<(usize, [f64; 3])> = Vec::new();
+    for (i, inst) in scene.instances.iter().enumerate() {
+        if let Some(b) = &inst.box_3d {
+            points.push((i, b.center_m));
+            points.extend(b.corners_m.iter().map(|c| (i, *c)));
+        }
+    }
+    if points.is_empty() {
+        return Ok(vec![Vec::new(); scene.instances.len()]);
+    }
+    // Render raster positions (pixel edges) of the points in front of the camera.
+    let raster_xy: Vec<Option<[f64; 2]>> = points
+        .iter()
+        .map(|(_, p)| {
+            (p[2] > 0.0).then(|| {
+                [
+                    k[0][0] * p[0] / p[2] + k[0][2] + 0.5,
+                    k[1][1] * p[1] / p[2] + k[1][2] + 0.5,
+                ]
+            })
+        })
+        .collect();
+    let (w, h) = (scene.width as f64, scene.height as f64);
+    let raster = RasterPositions {
+        width: points.len(),
+        height: 1,
+        xy: raster_xy
+            .iter()
+            .map(|q| match q {
+                Some(q) if q[0] >= 0.0 && q[1] >= 0.0 && q[0] < w && q[1] < h => {
+                    [q[0] as f32, q[1] as f32]
+                }
+                _ => [f32::NAN; 2],
+            })
+            .collect(),
+    };
+    let first = trace_labels(
+        scene_desc,
+        LabelRequest::default(),
+        &raster,
+        &scene.instances,
+    )?;
+    let mut out = vec![Vec::new(); scene.instances.len()];
+    for (j, ((i, p), q)) in points.iter().zip(&raster_xy).enumerate() {
+        let xy = q.and_then(|q| match map {
+            Some(m) => m.image_position(q),
+            None => Some(q),
+        });
+        // Irradiance samples to pixel edges: pixel c's centre lies at
+        // ((c + 1/2 - cols/2) pitch) / spacing + in_cols / 2 (`pixel_centre_on_input`).
+        let xy = xy.map(|q| {
+            [
+                (q[0] - in_cols / 2.0) * s + cols / 2.0,
+                (q[1] - in_rows / 2.0) * s + rows / 2.0,
+            ]
+        });
+        let inside = xy.is_some_and(|q| q[0] >= 0.0 && q[1] >= 0.0 && q[0] < cols && q[1] < rows);
+        let nearest = first.depth_m[j] as f64;
+        let visibility = if !inside {
+            0
+        } else if nearest >= p[2] - (1e-3 + 1e-3 * p[2]) {
+            2
+        } else {
+            1
+        };
+        out[*i].push(Keypoint {
+            xy,
+            depth_m: p[2],
+            visibility,
+        });
+    }
+    Ok(out)
 }
 
 /// The raw grid's distortion as OpenCV's model ([`camsim_analysis::distortion`]) fitted to the
@@ -210,6 +337,7 @@ pub fn sensor_labels(
     } else {
         None
     };
+    let keypoints = instance_keypoints(scene_desc, &scene, sensor, irradiance, map)?;
     Ok(SimLabels {
         scene,
         sensor: sensor_labels,
@@ -217,11 +345,15 @@ pub fn sensor_labels(
         sensor_camera,
         distorted,
         sensor_distortion,
+        keypoints,
     })
 }
 
 /// What the labels' files say about their conventions (boxes.json and run.json).
 const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render. sensor_distortion_opencv (with a distorting lens): OpenCV's distCoeffs [k1, k2, p1, p2, k3] for the sensor K, fitted to the optics' map, with the fit's reprojection RMS and largest error in sensor pixels.";
+
+/// What boxes.json says about `keypoints_sensor`.
+const KEYPOINT_NOTE: &str = "keypoints_sensor: per instance, [x, y, visibility] for each of keypoints.names (its 3D box's centre and 8 corners, box_3d.corners_m's order) on the raw grid in pixel edges (as the 2D boxes: the sensor K's u + 0.5), imaged through the optics' own map (a traced lens's distortion included); visibility as COCO's: 0 outside the frame (x = y = 0 when not imaged at all), 1 in the frame behind a nearer surface, 2 visible. skeleton: the box's 12 edges, 0-based indices into names.";
 
 impl SimLabels {
     /// The camera models of both geometries, for run.json and boxes.json.
@@ -253,7 +385,8 @@ impl SimLabels {
             .scene
             .instances
             .iter()
-            .map(|inst| {
+            .enumerate()
+            .map(|(i, inst)| {
                 let k = inst.id as usize;
                 let mut v = serde_json::to_value(inst).unwrap_or_default();
                 v["bbox_scene"] =
@@ -262,11 +395,25 @@ impl SimLabels {
                 v["bbox_sensor"] =
                     serde_json::to_value(sensor[k].map(|b| b.bbox)).unwrap_or_default();
                 v["pixels_sensor"] = sensor[k].map_or(0, |b| b.pixels).into();
+                if let Some(kp) = self.keypoints.get(i).filter(|kp| !kp.is_empty()) {
+                    v["keypoints_sensor"] = kp
+                        .iter()
+                        .map(|p| {
+                            let [x, y] = p.xy.unwrap_or([0.0; 2]);
+                            serde_json::json!([x, y, p.visibility])
+                        })
+                        .collect();
+                }
                 v
             })
             .collect();
         serde_json::json!({
             "cameras": self.cameras_json(),
+            "keypoints": {
+                "names": KEYPOINT_NAMES,
+                "skeleton": keypoint_skeleton(),
+                "note": KEYPOINT_NOTE,
+            },
             "instances": instances,
         })
     }

@@ -291,6 +291,25 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         json["sensor_distortion_opencv"]["dist_coeffs"][0].as_f64(),
         Some(d.dist_coeffs[0])
     );
+    // The keypoints (the box's centre and corners) through the optics' inverted map: each
+    // corner on its traced chief ray within 0.25 px, the distortion's shift being larger.
+    let kp = &l.keypoints[0];
+    assert_eq!(kp.len(), 9);
+    for t in &traced {
+        let e = kp[1..]
+            .iter()
+            .map(|p| {
+                let q = p.xy.expect("every corner is imaged");
+                (q[0] - t[0]).hypot(q[1] - t[1])
+            })
+            .fold(f64::INFINITY, f64::min);
+        println!("keypoint against its traced chief ray: {e:.4} px");
+        assert!(
+            e <= 0.25,
+            "a corner's keypoint {e} px from its traced chief ray"
+        );
+    }
+    check_corner_visibility(l);
 
     // Without distortion (the default lens): the corners through the sensor grid's K.
     let sim = run(
@@ -306,6 +325,25 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         .iter()
         .map(|p| l.sensor_camera.project(*p).map(|u| u + 0.5))
         .collect();
+    // Without distortion the keypoints are the corners through the sensor K.
+    let kp = &l.keypoints[0];
+    for p in &proj {
+        let e = kp[1..]
+            .iter()
+            .map(|k| {
+                let q = k.xy.unwrap();
+                (q[0] - p[0]).hypot(q[1] - p[1])
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(e <= 1e-6, "keypoint {e} px from the corner through K");
+    }
+    check_corner_visibility(l);
+    let boxes = l.boxes_json();
+    let triples = boxes["instances"][0]["keypoints_sensor"]
+        .as_array()
+        .unwrap();
+    assert_eq!(triples.len(), 9);
+    assert_eq!(triples[0][2].as_u64(), Some(kp[0].visibility as u64));
     let (want, got) = (bbox(&proj), sensor_box(&sim));
     // Independently: K's focal length is the image distance over the pixel pitch.
     assert!((l.sensor_camera.k[0][0] - 4.38e-3 / 1.4e-6).abs() < 1e-6 * 3129.0);
@@ -321,4 +359,39 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
 fn cam_height(lens: &TracedLens, cam: &camsim_lens::LensCamera, t: f64) -> f64 {
     lens.chief_image_point_mm(cam, ObjectField::Infinity { tan_theta: t })
         .unwrap()[0]
+}
+
+/// A convex box seen from outside: a corner is visible when one of its three faces faces the
+/// camera (at the origin), hidden behind the box otherwise, as is the box's centre; all are in
+/// the frame.
+fn check_corner_visibility(l: &camsim_pipeline::labels::SimLabels) {
+    let kp = &l.keypoints[0];
+    let corners = l.scene.instances[0].box_3d.as_ref().unwrap().corners_m;
+    let (s, c) = 25f64.to_radians().sin_cos();
+    // The box's unit axes in the camera frame (OpenCV, y down).
+    let axes = [[c, 0.0, -s], [0.0, -1.0, 0.0], [s, 0.0, c]];
+    let mut seen = [0; 3];
+    for (i, want) in box_corners().iter().enumerate() {
+        let j = (0..8)
+            .min_by(|&a, &b| {
+                let d = |k: usize| {
+                    (0..3)
+                        .map(|m| (corners[k][m] - want[m]).powi(2))
+                        .sum::<f64>()
+                };
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        // Corner i's faces: outward normals sign_k axis_k.
+        let front = (0..3).any(|k| {
+            let sign = if i & (1 << k) != 0 { 1.0 } else { -1.0 };
+            let n: Vec<f64> = axes[k].iter().map(|a| sign * a).collect();
+            (0..3).map(|m| n[m] * want[m]).sum::<f64>() < 0.0
+        });
+        let v = kp[1 + j].visibility;
+        assert_eq!(v, if front { 2 } else { 1 }, "corner {want:?}: {kp:?}");
+        seen[v as usize] += 1;
+    }
+    assert!(seen[1] > 0 && seen[2] > 0, "{seen:?}");
+    assert_eq!(kp[0].visibility, 1, "the centre is inside the box: {kp:?}");
 }

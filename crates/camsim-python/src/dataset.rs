@@ -109,10 +109,26 @@ fn dataset_coco(
         .map_err(err)
 }
 
+/// Export a complete composed dataset in the BOP format (`out/bop/`: models, camera.json,
+/// train_pbr scenes with poses, visible masks and depth). Returns the folder.
+#[pyfunction]
+fn dataset_bop(
+    py: Python<'_>,
+    spec: &Bound<'_, PyAny>,
+    source: &str,
+    base_dir: std::path::PathBuf,
+    out: std::path::PathBuf,
+) -> PyResult<std::path::PathBuf> {
+    let s = spec_of(spec, source, &base_dir)?;
+    py.detach(|| camsim::dataset::export_bop(&s, &out))
+        .map_err(err)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(dataset_plan, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_run, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_gather, m)?)?;
     m.add_function(wrap_pyfunction!(dataset_coco, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset_bop, m)?)?;
     Ok(())
 }

@@ -22,7 +22,7 @@ use std::path::PathBuf;
 /// with its error in the manifest and does not stop the others.
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)\n  camsim dataset examples/datasets/detection.toml --coco --out out/detection   (a 3D detection dataset and its COCO file)"
+    after_help = "Examples:\n  camsim dataset --out out/dataset\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-cc --workers 2\n  camsim dataset examples/datasets/colorchecker.toml --out out/dataset-part --shard 1/4\n      (one part of four: a Slurm array task passes $SLURM_ARRAY_TASK_ID/4, a Kubernetes\n      indexed Job $JOB_COMPLETION_INDEX/4; see examples/datasets/ for job files)\n  camsim dataset examples/datasets/colorchecker.toml --plan     (check the spec, print its plan)\n  camsim dataset examples/datasets/detection.toml --coco --out out/detection   (a 3D detection dataset and its COCO file)\n  camsim dataset examples/datasets/tabletop.toml --coco --coco-categories category --bop --out out/tabletop\n      (objects composed from an asset library, with COCO and BOP 6D-pose files)"
 )]
 pub struct Args {
     /// Dataset spec (TOML). Default: the built-in example.
@@ -53,6 +53,13 @@ pub struct Args {
     /// the object name).
     #[arg(long, default_value = "material", value_parser = camsim_dataset::CategoryBy::parse)]
     pub coco_categories: camsim_dataset::CategoryBy,
+    /// Once the dataset is complete, export its composed objects' 6D poses in the BOP format:
+    /// OUT/bop/models/ (each asset as a PLY in mm, models_info.json), OUT/bop/camera.json and
+    /// OUT/bop/train_pbr/NNNNNN/ per shard (scene_camera.json, scene_gt.json,
+    /// scene_gt_info.json, rgb/, mask_visib/, depth/ with the depth output). Needs
+    /// [render.compose] and the outputs preview, instances and boxes.
+    #[arg(long)]
+    pub bop: bool,
 }
 
 pub fn run(a: Args) -> Result<()> {
@@ -129,6 +136,10 @@ pub fn run(a: Args) -> Result<()> {
         if a.coco {
             let p = camsim_dataset::export_coco(&spec, &a.out, a.coco_categories)?;
             say(format!("COCO: {}", p.display()));
+        }
+        if a.bop {
+            let p = camsim_dataset::export_bop(&spec, &a.out)?;
+            say(format!("BOP: {}", p.display()));
         }
     } else {
         say(format!(

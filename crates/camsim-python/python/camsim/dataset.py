@@ -26,7 +26,7 @@ from ._checks import check_values
 
 Spec = Union[Dict[str, Any], str, "os.PathLike[str]"]
 
-__all__ = ["plan", "run", "run_shard", "read_manifest", "to_coco", "TorchDataset"]
+__all__ = ["plan", "run", "run_shard", "read_manifest", "to_coco", "to_bop", "TorchDataset"]
 
 from .torch_data import TorchDataset  # noqa: E402  (re-exported: camsim.dataset.TorchDataset)
 
@@ -149,3 +149,15 @@ def to_coco(spec: Spec, out: Union[str, os.PathLike[str]], *, categories: str = 
     Returns the annotation file's path (``pycocotools.coco.COCO(path)`` reads it)."""
     text, source, base = _spec_args(spec)
     return os.fspath(_camsim.dataset_coco(text, source, base, os.path.abspath(os.fspath(out)), categories))
+
+
+def to_bop(spec: Spec, out: Union[str, os.PathLike[str]]) -> str:
+    """Export the complete composed dataset in ``out`` in the BOP format (as ``camsim dataset
+    --bop``): ``out/bop/models/obj_NNNNNN.ply`` (each asset of the library in mm) with
+    ``models_info.json``, ``out/bop/camera.json``, and per shard ``out/bop/train_pbr/NNNNNN/``
+    with ``scene_camera.json`` (``cam_K``, ``cam_R_w2c``, ``cam_t_w2c``, ``depth_scale``),
+    ``scene_gt.json`` (``obj_id``, ``cam_R_m2c``, ``cam_t_m2c`` in mm, on the raw image's grid),
+    ``scene_gt_info.json``, ``rgb/``, ``mask_visib/`` and, with the depth output, ``depth/``.
+    Needs ``[render.compose]`` and the outputs preview, instances and boxes. Returns the folder."""
+    text, source, base = _spec_args(spec)
+    return os.fspath(_camsim.dataset_bop(text, source, base, os.path.abspath(os.fspath(out))))

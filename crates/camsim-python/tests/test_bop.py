@@ -1,0 +1,172 @@
+"""6D-pose labels of composed scenes (issue 40): a tabletop dataset exported in the BOP format
+and read back by a reader written from the BOP format document (the BOP toolkit's
+docs/bop_datasets_format.md: poses x_cam = R x_model + t in mm, K with pixel centres at
+integers, 16-bit depth times depth_scale in mm, PLY models in mm). Each object's model projected
+through its pose and K covers its visible mask's box, the masks are the instance maps' pixels,
+the depth lies on the posed model, and the COCO keypoints (its 3D box's corners on the raw grid)
+are the model's box corners through the same pose."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import camsim.dataset
+import numpy as np
+import pytest
+from camsim.dataset import TorchDataset
+
+ROOT = Path(__file__).resolve().parents[3]
+
+SPEC = {
+    "dataset": {"samples": 2, "shard_size": 2, "seed": 11, "outputs": ["preview", "instances", "boxes", "depth"]},
+    "base": {
+        "wavelengths": {"start_nm": 400.0, "step_nm": 30.0, "count": 11},
+        "sensor": {"preset": "pixel4a", "rows": 96, "cols": 128},
+        "capture": {"auto_target_fraction": 0.8},
+        # 128 x 1.4 um behind 0.4 mm: 25 degrees across.
+        "optics": {"config": {"f_number": 2.8, "focal_length_mm": 0.4, "shading": "none"}},
+        "render": {
+            "pbrt": str(ROOT / "examples/pbrt/tabletop.pbrt"),
+            "samples_per_pixel": 2,
+            "compose": {
+                "assets": [str(ROOT / "examples/datasets/tabletop-assets.csv")],
+                "spawn": [{
+                    "name": "clutter", "count": [3, 5], "scale": [0.9, 1.1], "orientation": "upright",
+                    "on": {"point_m": [0.0, 0.75, 0.0], "normal": [0.0, 1.0, 0.0], "extent_m": [0.4, 0.4]},
+                    "min_separation_m": 0.01,
+                }],
+                "environment": {"choices": [{"kind": "sky", "sun_elevation_deg": [40, 60], "illuminance_lux": [20000, 20000]}]},
+                "camera": {"distance_m": [0.8, 0.9], "elevation_deg": [35, 50], "azimuth_deg": [0, 360],
+                           "min_visible_objects": 2, "min_visible_fraction": 0.5},
+            },
+        },
+    },
+}
+
+
+def read_ply_vertices(path: Path) -> np.ndarray:
+    """The vertices of a binary little-endian PLY with float x, y, z first (BOP's models)."""
+    data = path.read_bytes()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode("ascii").splitlines()
+    assert "format binary_little_endian 1.0" in header
+    n = next(int(h.split()[2]) for h in header if h.startswith("element vertex"))
+    props = []
+    for h in header[header.index(f"element vertex {n}") + 1:]:
+        if not h.startswith("property"):
+            break
+        props.append(h.split()[-1])
+    assert props[:3] == ["x", "y", "z"] and len(props) == 3
+    return np.frombuffer(data[end:end + 12 * n], dtype="<f4").reshape(n, 3).astype(np.float64)
+
+
+def rotation(values) -> np.ndarray:
+    r = np.asarray(values, dtype=np.float64).reshape(3, 3)
+    assert np.allclose(r @ r.T, np.eye(3), atol=1e-9) and np.linalg.det(r) == pytest.approx(1.0, abs=1e-9)
+    return r
+
+
+def project(k: np.ndarray, x_cam: np.ndarray) -> np.ndarray:
+    """Pixel-edge coordinates (pixel (r, c) covers [c, c + 1)) of camera points, mm."""
+    u = (k @ x_cam.T).T
+    return u[:, :2] / u[:, 2:] + 0.5
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tabletop-bop")
+    summary = camsim.dataset.run(SPEC, out=out, workers=2)
+    assert summary["complete"] and summary["samples_failed"] == 0
+    bop = Path(camsim.dataset.to_bop(SPEC, out))
+    coco = camsim.dataset.to_coco(SPEC, out, categories="category")
+    return out, bop, coco
+
+
+def test_bop_poses_masks_and_depth(exported):
+    out, bop, _ = exported
+    info = json.loads((bop / "models/models_info.json").read_text())
+    models = {int(k): read_ply_vertices(bop / f"models/obj_{int(k):06d}.ply") for k in info}
+    # One model per asset of the manifest; models_info's extents are the models'.
+    assert len(models) == 5
+    for k, v in models.items():
+        lo, size = v.min(axis=0), v.max(axis=0) - v.min(axis=0)
+        assert np.allclose(lo, [info[str(k)][f"min_{a}"] for a in "xyz"], atol=1e-3)
+        assert np.allclose(size, [info[str(k)][f"size_{a}"] for a in "xyz"], atol=1e-3)
+        assert np.linalg.norm(size) >= info[str(k)]["diameter"] >= size.max() - 1e-3
+    scene = bop / "train_pbr/000000"
+    cams = json.loads((scene / "scene_camera.json").read_text())
+    gts = json.loads((scene / "scene_gt.json").read_text())
+    infos = json.loads((scene / "scene_gt_info.json").read_text())
+    maps = {int(s["__key__"]): s["instances.png"] for s in TorchDataset(out, keys=["instances.png"])}
+    assert sorted(map(int, gts)) == [0, 1]
+    checked = 0
+    for im, objs in gts.items():
+        cam = cams[im]
+        k = np.asarray(cam["cam_K"]).reshape(3, 3)
+        rotation(cam["cam_R_w2c"])
+        depth_mm = np.asarray(_png(scene / f"depth/{int(im):06d}.png"), dtype=np.float64) * cam["depth_scale"]
+        assert (scene / f"rgb/{int(im):06d}.png").is_file()
+        inst = maps[int(im)]
+        h, w = inst.shape
+        for g, (gt, gi) in enumerate(zip(objs, infos[im])):
+            r, t = rotation(gt["cam_R_m2c"]), np.asarray(gt["cam_t_m2c"])
+            x_cam = (r @ (gt.get("camsim_scale", 1.0) * models[gt["obj_id"]]).T).T + t
+            mask = _png(scene / f"mask_visib/{int(im):06d}_{g:06d}.png") > 0
+            assert int(mask.sum()) == gi["px_count_visib"]
+            if gi["px_count_visib"] == 0:
+                assert gi["bbox_visib"] == [-1, -1, -1, -1]
+                continue
+            # The mask is the object's pixels of the instance map (one id, all of them).
+            ids = np.unique(inst[mask])
+            assert len(ids) == 1 and np.array_equal(inst == ids[0], mask)
+            # Depth on the mask lies on the posed model (its nearest to farthest point).
+            d = depth_mm[mask]
+            assert d.min() >= x_cam[:, 2].min() - 1.0 and d.max() <= x_cam[:, 2].max() + 1.0
+            uv = project(k, x_cam)
+            x0, y0, bw, bh = gi["bbox_visib"]
+            inside = uv[:, 0].min() > 1 and uv[:, 1].min() > 1 and uv[:, 0].max() < w - 1 and uv[:, 1].max() < h - 1
+            if gi["visib_fract"] >= 0.999 and inside:
+                # The whole model in view, unoccluded: its projection's box is the mask's.
+                want = [uv[:, 0].min(), uv[:, 1].min(), uv[:, 0].max(), uv[:, 1].max()]
+                assert np.allclose([x0, y0, x0 + bw, y0 + bh], want, atol=1.0), (gt, gi, want)
+                checked += 1
+    assert checked >= 2
+
+
+def test_coco_keypoints_are_the_posed_models_box_corners(exported):
+    _, bop, coco_path = exported
+    coco = json.loads(Path(coco_path).read_text())
+    cat = coco["categories"][0]
+    assert cat["keypoints"][0] == "center" and len(cat["keypoints"]) == 9 and len(cat["skeleton"]) == 12
+    info = json.loads((bop / "models/models_info.json").read_text())
+    scene = bop / "train_pbr/000000"
+    cams = json.loads((scene / "scene_camera.json").read_text())
+    gts = json.loads((scene / "scene_gt.json").read_text())
+    anns = {(a["image_id"], a["camsim"]["name"]): a for a in coco["annotations"]}
+    worst, n = 0.0, 0
+    for im, objs in gts.items():
+        k = np.asarray(cams[im]["cam_K"]).reshape(3, 3)
+        for gt in objs:
+            a = anns.get((int(im), gt["camsim_name"]))
+            if a is None:
+                continue
+            m = info[str(gt["obj_id"])]
+            lo = np.array([m["min_x"], m["min_y"], m["min_z"]])
+            hi = lo + np.array([m["size_x"], m["size_y"], m["size_z"]])
+            corners = np.array([[(hi if (i >> j) & 1 else lo)[j] for j in range(3)] for i in range(8)])
+            x_cam = (rotation(gt["cam_R_m2c"]) @ (gt.get("camsim_scale", 1.0) * corners).T).T + np.asarray(gt["cam_t_m2c"])
+            uv = project(k, x_cam)
+            kp = np.asarray(a["keypoints"], dtype=np.float64).reshape(9, 3)
+            assert a["num_keypoints"] == int((kp[:, 2] > 0).sum())
+            for x, y, v in kp[1:]:
+                if v > 0:
+                    worst = max(worst, float(np.hypot(uv[:, 0] - x, uv[:, 1] - y).min()))
+                    n += 1
+    assert n >= 8 and worst <= 0.5, (n, worst)
+
+
+def _png(path: Path) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(path))
