@@ -13,7 +13,8 @@
 //!   `scene_gt_info.json` (`bbox_visib` `[x, y, w, h]`, `px_count_visib`, `visib_fract`),
 //!   `rgb/IIIIII.png` (the preview), `mask_visib/IIIIII_GGGGGG.png` (0/255) and, with the `depth`
 //!   output, `depth/IIIIII.png` (16-bit, depth along the axis times `depth_scale` in mm); the
-//!   image id is the sample index.
+//!   image id is the sample index (with a rig, sample index x cameras + camera, each camera's
+//!   image with its own `scene_camera` entry).
 //!
 //! Two things BOP cannot say are written beside its keys: a drawn scale other than 1 (BOP's
 //! models are rigid: x_cam = R (s x_model) + t, `camsim_scale` s) and a lens's distortion (BOP's
@@ -198,7 +199,7 @@ fn export_into(
     let mut mirror: Option<bool> = None;
     let mut camera = None;
     for s in 0..spec.shards() {
-        let (tar_path, samples) = crate::run::shard_samples(
+        let (tar_path, views) = crate::run::shard_views(
             spec,
             out,
             s,
@@ -219,7 +220,8 @@ fn export_into(
             serde_json::Map::new(),
             serde_json::Map::new(),
         );
-        for (key, mut f) in samples {
+        for view in views {
+            let (key, im_id, mut f) = (view.stem, view.image_id, view.files);
             let (Some(preview), Some(inst_png), Some(boxes), Some(record)) = (
                 f.remove("preview.png"),
                 f.remove("instances.png"),
@@ -228,9 +230,7 @@ fn export_into(
             ) else {
                 continue; // a failed sample
             };
-            let im_id: u64 = key
-                .parse()
-                .map_err(|_| DatasetError::file(&tar_path, format!("sample key {key:?}")))?;
+            let index: u64 = view.key.parse().unwrap_or_default();
             let bad = |what: &str| DatasetError::file(&tar_path, format!("{key}: {what}"));
             let boxes: serde_json::Value =
                 serde_json::from_slice(&boxes).map_err(|e| bad(&format!("boxes.json: {e}")))?;
@@ -302,6 +302,10 @@ fn export_into(
                 "cam_t_w2c": tw.map(|t| t * 1e3),
                 "depth_scale": depth_scale,
             });
+            if let Some(c) = &view.camera {
+                cam_entry["camsim_camera"] = c.as_str().into();
+                cam_entry["camsim_sample"] = view.key.as_str().into();
+            }
             if let Some(d) = boxes["cameras"]["sensor_distortion_opencv"].as_object() {
                 cam_entry["camsim_dist_coeffs"] = d
                     .get("dist_coeffs")
@@ -323,7 +327,7 @@ fn export_into(
                     by_name.insert(n.to_string(), (id, inst["visible_fraction"].as_f64()));
                 }
             }
-            let lib = models.library(spec, im_id)?.ok_or_else(|| {
+            let lib = models.library(spec, index)?.ok_or_else(|| {
                 bad("the sample has no [render.compose] (every sample needs composed objects)")
             })?;
             let (mut gts, mut infos) = (Vec::new(), Vec::new());

@@ -1,7 +1,8 @@
 //! COCO export of a complete dataset (`camsim dataset --coco`): one detection / instance
 //! segmentation annotation file for the whole dataset, on the raw image's pixel grid.
 //!
-//! Layout: `coco/images/KEY.png` (the sensor previews, copied out of the shards) and
+//! Layout: `coco/images/KEY.png` (the sensor previews, copied out of the shards; a rig's
+//! cameras `KEY.CAMERA.png`, image id = sample index x cameras + camera) and
 //! `coco/annotations.json` (COCO's object-detection format: `images`, `annotations`,
 //! `categories`). Each annotation is one object instance of one sample: its mask as COCO's
 //! compressed RLE (column-major runs, from the sample's sensor-geometry `instances.png`), its
@@ -131,32 +132,35 @@ fn export_into(
     // The keypoints' names and skeleton (boxes.json's `keypoints`), when the labels have them.
     let mut keypoint_names: Option<(serde_json::Value, serde_json::Value)> = None;
     for s in 0..spec.shards() {
-        let (tar_path, samples) = crate::run::shard_samples(
+        let (tar_path, views) = crate::run::shard_views(
             spec,
             out,
             s,
             &["preview.png", "instances.png", "boxes.json"],
         )?;
-        for (key, mut f) in samples {
+        for view in views {
+            let (key, image_id, mut f) = (view.stem, view.image_id, view.files);
             // Failed samples have no files; 2D scenes have no instances (images without
             // annotations).
             let Some(preview) = f.remove("preview.png") else {
                 continue;
             };
-            let image_id: u64 = key
-                .parse()
-                .map_err(|_| DatasetError::file(&tar_path, format!("sample key {key:?}")))?;
             let file_name = format!("{key}.png");
             let img_path = images_dir.join(&file_name);
             camsim_io::atomic::write_atomic(&img_path, |w| Ok(w.write_all(&preview)?))?;
             let (rows, cols, _) = camsim_io::raster::read_png8_rgb(&img_path)?;
             sizes.insert(image_id, (rows, cols));
-            images.push(serde_json::json!({
+            let mut image = serde_json::json!({
                 "id": image_id,
                 "file_name": file_name,
                 "width": cols,
                 "height": rows,
-            }));
+            });
+            if let Some(c) = &view.camera {
+                image["camsim_camera"] = c.as_str().into();
+                image["camsim_sample"] = view.key.as_str().into();
+            }
+            images.push(image);
             let (Some(inst_png), Some(boxes)) = (f.remove("instances.png"), f.remove("boxes.json"))
             else {
                 continue;

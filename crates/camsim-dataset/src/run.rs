@@ -142,19 +142,33 @@ pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
     format!("shard-{:08}-{:08}", r.start, r.end - 1)
 }
 
-/// The files of shard `s` of the complete dataset in `out` whose name after the sample key is
-/// one of `wanted` (`preview.png`, `boxes.json`, ...), by sample key in order (the exports read
-/// them; a failed sample has none).
-pub(crate) fn shard_samples(
+/// One image of a complete dataset as the exports see it: a sample, or one rig camera's
+/// capture of a sample, with its files by the name after `KEY.` (or `KEY.CAMERA.`).
+pub(crate) struct View {
+    pub key: String,
+    /// The sample's index times the rig's cameras plus the camera's (the sample's index
+    /// without a rig): COCO's image id, BOP's im_id.
+    pub image_id: u64,
+    /// The rig camera's name.
+    pub camera: Option<String>,
+    /// `KEY` or `KEY.CAMERA`: the files' common stem.
+    pub stem: String,
+    pub files: std::collections::BTreeMap<String, Vec<u8>>,
+}
+
+/// The views of shard `s` of the complete dataset in `out` ([`View`]), in key then camera order,
+/// with the files among `wanted` (`preview.png`, `boxes.json`, ...; a failed sample has none).
+pub(crate) fn shard_views(
     spec: &DatasetSpec,
     out: &Path,
     s: u64,
     wanted: &[&str],
-) -> Result<(PathBuf, std::collections::BTreeMap<String, SampleEntries>)> {
+) -> Result<(PathBuf, Vec<View>)> {
     let tar_path = out.join(format!("{}.tar", shard_stem(spec, s)));
     let file = std::fs::File::open(&tar_path).map_err(|e| DatasetError::io(&tar_path, e))?;
     let mut archive = tar::Archive::new(file);
-    let mut samples = std::collections::BTreeMap::<String, SampleEntries>::new();
+    let cams: Vec<&str> = spec.rig.iter().map(|c| c.name.as_str()).collect();
+    let mut views = std::collections::BTreeMap::<(String, usize), View>::new();
     let entries = archive
         .entries()
         .map_err(|e| DatasetError::io(&tar_path, e))?;
@@ -168,23 +182,41 @@ pub(crate) fn shard_samples(
         let Some((key, ext)) = name.split_once('.') else {
             continue;
         };
+        let (c, ext) = if cams.is_empty() {
+            (0, ext)
+        } else {
+            match ext
+                .split_once('.')
+                .and_then(|(cam, rest)| Some((cams.iter().position(|c| *c == cam)?, rest)))
+            {
+                Some(x) => x,
+                None => continue, // the sample's own record
+            }
+        };
         if !wanted.contains(&ext) {
             continue;
         }
+        let index: u64 = key
+            .parse()
+            .map_err(|_| DatasetError::file(&tar_path, format!("sample key {key:?}")))?;
         let mut bytes = Vec::new();
         entry
             .read_to_end(&mut bytes)
             .map_err(|e| DatasetError::io(&tar_path, e))?;
-        samples
-            .entry(key.to_string())
-            .or_default()
-            .insert(ext.to_string(), bytes);
+        let view = views.entry((key.to_string(), c)).or_insert_with(|| View {
+            key: key.to_string(),
+            image_id: index * cams.len().max(1) as u64 + c as u64,
+            camera: cams.get(c).map(|c| c.to_string()),
+            stem: match cams.get(c) {
+                Some(cam) => format!("{key}.{cam}"),
+                None => key.to_string(),
+            },
+            files: Default::default(),
+        });
+        view.files.insert(ext.to_string(), bytes);
     }
-    Ok((tar_path, samples))
+    Ok((tar_path, views.into_values().collect()))
 }
-
-/// One sample's files from its shard, by the name after its key.
-pub(crate) type SampleEntries = std::collections::BTreeMap<String, Vec<u8>>;
 
 /// Prepare `out` for `spec`: create it and write `spec.json`, or check that the `spec.json`
 /// already there is the same spec (a folder holds one dataset). A path that is not a folder, or
@@ -350,79 +382,73 @@ fn run_sample(
         times_s: serde_json::Map::new(),
     };
     let result = (|| -> std::result::Result<Vec<(String, Vec<u8>)>, String> {
-        let opts = SimulateOptions {
-            noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
-            labels: spec.outputs.label_request(),
-            flow: spec.outputs.contains(camsim_pipeline::Output::Flow),
-        };
-        let sim = simulate(&sample.config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
-        record.exposure_s = Some(sim.exposure_s);
-        record.times_s = sim.times_s.clone();
-        let dir = OutputDir::create(scratch.join(&key)).map_err(|e| e.to_string())?;
-        sim.write_into(
-            &dir,
-            &spec.outputs,
-            ExrOptions::default(),
-            &RunInfo::default(),
-        )
-        .map_err(|e| e.to_string())?;
+        if sample.rig.is_empty() {
+            let c = capture_files(spec, &sample.config, &key, None, sample, &params, scratch)?;
+            record.exposure_s = Some(c.exposure_s);
+            record.times_s = c.times_s;
+            return Ok(c.files);
+        }
+        // A rig: each camera's capture under KEY.NAME.*, and the sample's own record.
         let mut files = Vec::new();
-        // The sample's record: deterministic (no timings, no command line): the same bytes for
-        // the same (spec, index) on any machine.
-        let mut meta = sim.metadata(&RunInfo::default(), &spec.outputs);
-        if let Some(m) = meta.as_object_mut() {
-            for k in ["times", "command", "config_file", "files"] {
-                m.remove(k);
+        let mut cameras = Vec::new();
+        let mut reference: Option<serde_json::Value> = None;
+        for (c, (name, cfg)) in sample.rig.iter().enumerate() {
+            let cap = capture_files(spec, cfg, &key, Some(name), sample, &params, scratch)
+                .map_err(|e| format!("rig camera {name:?}: {e}"))?;
+            // Every camera must see the one composition from the one rig pose (a camera sampler's
+            // view validation could redraw differently through another camera's frame).
+            let drawn = cap
+                .files
+                .first()
+                .and_then(|(_, b)| serde_json::from_slice::<serde_json::Value>(b).ok())
+                .map(|m| {
+                    let cam = &m["compose"]["camera"];
+                    serde_json::json!([
+                        m["compose"]["objects"],
+                        cam["position_m"],
+                        cam["target_m"],
+                        cam["roll_deg"]
+                    ])
+                });
+            match (&reference, drawn) {
+                (None, d) => reference = d,
+                (Some(r), Some(d)) if *r != d => {
+                    return Err(format!(
+                        "rig camera {name:?} drew another composition or rig pose than {:?} (its field of view made the camera sampler's view validation redraw): give the rig's cameras the same field of view, or loosen [render.compose.camera]'s min_visible_objects",
+                        sample.rig[0].0
+                    ))
+                }
+                _ => {}
             }
-            m.insert("index".into(), sample.index.into());
-            m.insert("seed".into(), sample.seed.into());
-            m.insert("params".into(), serde_json::Value::Object(params.clone()));
+            if c == 0 {
+                record.exposure_s = Some(cap.exposure_s);
+            }
+            for (k, v) in cap.times_s {
+                let t = record.times_s.entry(k).or_insert(0.0.into());
+                *t = (t.as_f64().unwrap_or(0.0) + v.as_f64().unwrap_or(0.0)).into();
+            }
+            cameras.push(serde_json::json!({
+                "name": name,
+                "offset": spec.rig[c].offset,
+                "seed": cfg.seed,
+                "files": format!("{key}.{name}.*"),
+            }));
+            files.extend(cap.files);
         }
-        files.push((
-            format!("{key}.json"),
-            serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?,
-        ));
-        let mut names: Vec<String> = std::fs::read_dir(dir.path())
-            .map_err(|e| e.to_string())?
-            .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
-            // run.json is replaced by the record above; dot files are the folder's own markers.
-            .filter(|n| n != "run.json" && !n.starts_with('.'))
-            .collect();
-        names.sort();
-        for n in names {
-            let bytes = std::fs::read(dir.join(&n)).map_err(|e| format!("{n}: {e}"))?;
-            // raw.dng -> KEY.dng (the WebDataset extension); the others keep their names.
-            let name = if n == "raw.dng" {
-                format!("{key}.dng")
-            } else {
-                format!("{key}.{n}")
-            };
-            files.push((name, bytes));
-        }
-        drop(dir); // not committed: the staging folder is removed
-        if spec.xyz {
-            let path = scratch.join(format!("{key}.xyz.exr"));
-            let radiance = sim.radiance.as_ref().ok_or(
-                "xyz = true needs the scene's radiance, but the scene's lens camera (realistic or raytransfer) renders sensor-plane irradiance: set xyz = false or use a pinhole camera",
-            )?;
-            let [x, y, z] = scene_xyz(radiance);
-            camsim_io::exr::write_channels_exr(
-                &path,
-                radiance.rows,
-                radiance.cols,
-                &[("X", &x), ("Y", &y), ("Z", &z)],
-            )
-            .map_err(|e| e.to_string())?;
-            files.push((
-                format!("{key}.xyz.exr"),
-                std::fs::read(&path).map_err(|e| e.to_string())?,
-            ));
-            let _ = std::fs::remove_file(&path);
-        }
-        if spec.raw_npy {
-            let f = &sim.frames[0];
-            files.push((format!("{key}.raw.npy"), npy_u16(&f.dn, f.rows, f.cols)));
-        }
+        let meta = serde_json::json!({
+            "index": sample.index,
+            "seed": sample.seed,
+            "params": params,
+            "rig": cameras,
+            "note": "A rig sample: each camera's record, raw, preview and labels are KEY.NAME.json, KEY.NAME.dng, ... (one composed scene, render.compose_seed = seed, seen by every camera; each camera's render and noise from its own seed).",
+        });
+        files.insert(
+            0,
+            (
+                format!("{key}.json"),
+                serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?,
+            ),
+        );
         Ok(files)
     })();
     match result {
@@ -439,6 +465,109 @@ fn run_sample(
             }
         }
     }
+}
+
+/// One camera's capture of a sample.
+struct Capture {
+    files: Vec<(String, Vec<u8>)>,
+    exposure_s: f64,
+    times_s: serde_json::Map<String, serde_json::Value>,
+}
+
+/// Simulate `config` for `sample` and collect its files, named `KEY.*` (or `KEY.CAMERA.*` for
+/// a rig's camera), staged in `scratch` and read back.
+fn capture_files(
+    spec: &DatasetSpec,
+    config: &camsim_pipeline::SimulateConfig,
+    key: &str,
+    camera: Option<&str>,
+    sample: &Sample,
+    params: &serde_json::Map<String, serde_json::Value>,
+    scratch: &Path,
+) -> std::result::Result<Capture, String> {
+    let stem = match camera {
+        Some(c) => format!("{key}.{c}"),
+        None => key.to_string(),
+    };
+    let opts = SimulateOptions {
+        noise_free: spec.outputs.contains(camsim_pipeline::Output::NoiseFree),
+        labels: spec.outputs.label_request(),
+        flow: spec.outputs.contains(camsim_pipeline::Output::Flow),
+    };
+    let sim = simulate(config, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
+    let dir = OutputDir::create(scratch.join(&stem)).map_err(|e| e.to_string())?;
+    sim.write_into(
+        &dir,
+        &spec.outputs,
+        ExrOptions::default(),
+        &RunInfo::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let mut files = Vec::new();
+    // The sample's record: deterministic (no timings, no command line): the same bytes for
+    // the same (spec, index) on any machine.
+    let mut meta = sim.metadata(&RunInfo::default(), &spec.outputs);
+    if let Some(m) = meta.as_object_mut() {
+        for k in ["times", "command", "config_file", "files"] {
+            m.remove(k);
+        }
+        m.insert("index".into(), sample.index.into());
+        m.insert("seed".into(), config.seed.into());
+        m.insert("params".into(), serde_json::Value::Object(params.clone()));
+        if let Some(c) = camera {
+            m.insert("rig_camera".into(), c.into());
+        }
+    }
+    files.push((
+        format!("{stem}.json"),
+        serde_json::to_vec_pretty(&meta).map_err(|e| e.to_string())?,
+    ));
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .map_err(|e| e.to_string())?
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        // run.json is replaced by the record above; dot files are the folder's own markers.
+        .filter(|n| n != "run.json" && !n.starts_with('.'))
+        .collect();
+    names.sort();
+    for n in names {
+        let bytes = std::fs::read(dir.join(&n)).map_err(|e| format!("{n}: {e}"))?;
+        // raw.dng -> KEY.dng (the WebDataset extension); the others keep their names.
+        let name = if n == "raw.dng" {
+            format!("{stem}.dng")
+        } else {
+            format!("{stem}.{n}")
+        };
+        files.push((name, bytes));
+    }
+    drop(dir); // not committed: the staging folder is removed
+    if spec.xyz {
+        let path = scratch.join(format!("{stem}.xyz.exr"));
+        let radiance = sim.radiance.as_ref().ok_or(
+            "xyz = true needs the scene's radiance, but the scene's lens camera (realistic or raytransfer) renders sensor-plane irradiance: set xyz = false or use a pinhole camera",
+        )?;
+        let [x, y, z] = scene_xyz(radiance);
+        camsim_io::exr::write_channels_exr(
+            &path,
+            radiance.rows,
+            radiance.cols,
+            &[("X", &x), ("Y", &y), ("Z", &z)],
+        )
+        .map_err(|e| e.to_string())?;
+        files.push((
+            format!("{stem}.xyz.exr"),
+            std::fs::read(&path).map_err(|e| e.to_string())?,
+        ));
+        let _ = std::fs::remove_file(&path);
+    }
+    if spec.raw_npy {
+        let f = &sim.frames[0];
+        files.push((format!("{stem}.raw.npy"), npy_u16(&f.dn, f.rows, f.cols)));
+    }
+    Ok(Capture {
+        files,
+        exposure_s: sim.exposure_s,
+        times_s: sim.times_s.clone(),
+    })
 }
 
 /// The scene's CIE 1931 XYZ per pixel, absolute: X = 683 lm/W sum_b x_bar(l_b) L_b dl (and Y, Z

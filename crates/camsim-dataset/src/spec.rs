@@ -47,7 +47,38 @@ pub struct SpecFile {
     /// The variations, applied in order.
     #[serde(default)]
     pub vary: Vec<VariationSpec>,
+    /// A camera rig (`[[rig]]`, 3D scenes): every sample is captured by each camera, all seeing
+    /// the sample's one composed scene, each with its own noise; files `KEY.NAME.*`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rig: Vec<RigCameraSpec>,
 }
+
+/// One `[[rig]]` camera: its name and pose relative to the rig (the scene's camera, or the one
+/// a composition's camera sampler drew), and optionally a sensor and optics of its own.
+#[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RigCameraSpec {
+    /// The camera's name in file names (`KEY.NAME.dng`, `KEY.NAME.preview.png`, ...): letters,
+    /// digits, `_` and `-`.
+    pub name: String,
+    /// Its pose in the rig's frame (x right, y up, z forward, m and degrees), as
+    /// `[render.camera_offset]` takes it: a stereo pair's right camera is
+    /// `{ translation_m = [0.12, 0, 0] }` (its baseline to the right).
+    #[serde(default)]
+    pub offset: camsim_pipeline::config::CameraOffset,
+    /// Its own `[sensor]` table, replacing the sample's (variations of sensor keys then do not
+    /// reach it) [default: the sample's].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Map<String, serde_json::Value>>")]
+    pub sensor: Option<toml::Table>,
+    /// Its own `[optics]` table, replacing the sample's [default: the sample's].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Map<String, serde_json::Value>>")]
+    pub optics: Option<toml::Table>,
+}
+
+/// The most cameras a rig has.
+pub const MAX_RIG_CAMERAS: usize = 16;
 
 /// `[dataset]`.
 #[derive(Debug, Clone, Serialize, Deserialize, schemars::JsonSchema)]
@@ -193,6 +224,8 @@ pub struct DatasetSpec {
     /// The base config table (presets expanded inline where a variation reaches into them).
     pub base: toml::Table,
     pub vary: Vec<Variation>,
+    /// The rig's cameras (empty: one camera, the scene's).
+    pub rig: Vec<RigCameraSpec>,
     /// SHA-256 of the canonical spec (base inlined): a dataset folder belongs to one spec.
     pub fingerprint: String,
 }
@@ -206,6 +239,9 @@ pub struct Sample {
     /// The varied keys and the values they took, in spec order.
     pub params: Vec<(String, toml::Value)>,
     pub config: SimulateConfig,
+    /// With a rig: each camera's name and config (the sample's, moved by the camera's offset,
+    /// with its own sensor and optics, its own seed and the sample's seed as `compose_seed`).
+    pub rig: Vec<(String, SimulateConfig)>,
 }
 
 impl DatasetSpec {
@@ -384,11 +420,43 @@ impl DatasetSpec {
             });
         }
         expand_presets(&mut base, &vary).map_err(err)?;
+        if file.rig.len() > MAX_RIG_CAMERAS {
+            return Err(err(format!(
+                "rig: {} cameras; at most {MAX_RIG_CAMERAS}",
+                file.rig.len()
+            )));
+        }
+        for (c, cam) in file.rig.iter().enumerate() {
+            let at = format!("rig[{c}]");
+            let ok = !cam.name.is_empty()
+                && cam
+                    .name
+                    .chars()
+                    .all(|ch| ch.is_ascii_alphanumeric() || ch == '_' || ch == '-');
+            if !ok {
+                return Err(err(format!(
+                    "{at}: name {:?}: letters, digits, _ and - only (it goes into file names)",
+                    cam.name
+                )));
+            }
+            if file.rig[..c].iter().any(|o| o.name == cam.name) {
+                return Err(err(format!("{at}: a second camera named {:?}", cam.name)));
+            }
+            cam.offset
+                .check(&format!("{at}.offset"))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        if !file.rig.is_empty() && !base.contains_key("render") {
+            return Err(err(
+                "rig: a camera rig needs a 3D scene ([base.render]); a 2D chart has no camera to move".into(),
+            ));
+        }
 
         let canonical = serde_json::json!({
             "dataset": file.dataset,
             "base": base,
             "vary": file.vary,
+            "rig": file.rig,
         });
         let fingerprint = format!("{:x}", Sha256::digest(canonical.to_string().as_bytes()));
         let spec = DatasetSpec {
@@ -403,6 +471,7 @@ impl DatasetSpec {
             output_names: d.outputs.clone(),
             base,
             vary,
+            rig: file.rig.clone(),
             fingerprint,
         };
         spec.check()?;
@@ -418,6 +487,16 @@ impl DatasetSpec {
             .map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
         check_config(&base)
             .map_err(|e| DatasetError::spec(&self.source, format!("[base]: {e}")))?;
+        for c in 0..self.rig.len() {
+            self.camera_config_of(&[], 0, c)
+                .and_then(|cfg| check_config(&cfg))
+                .map_err(|e| {
+                    DatasetError::spec(
+                        &self.source,
+                        format!("rig[{c}] ({:?}): {e}", self.rig[c].name),
+                    )
+                })?;
+        }
         for (n, v) in self.vary.iter().enumerate() {
             let candidates: Vec<toml::Value> = match &v.draw {
                 Draw::Grid(vals) | Draw::Choice(vals) => vals.clone(),
@@ -505,12 +584,57 @@ impl DatasetSpec {
         let config = self
             .config_of(&params, seed)
             .map_err(|e| DatasetError::spec(&self.source, format!("sample {i}: {e}")))?;
+        let rig = (0..self.rig.len())
+            .map(|c| {
+                self.camera_config_of(&params, seed, c)
+                    .map(|cfg| (self.rig[c].name.clone(), cfg))
+                    .map_err(|e| {
+                        DatasetError::spec(
+                            &self.source,
+                            format!("sample {i}, rig camera {:?}: {e}", self.rig[c].name),
+                        )
+                    })
+            })
+            .collect::<Result<Vec<_>>>()?;
         Ok(Sample {
             index: i,
             seed,
             params,
             config,
+            rig,
         })
+    }
+
+    /// Rig camera `c`'s config of the sample with `params` and `seed`: the sample's table with
+    /// the camera's sensor and optics, `[render.camera_offset]` its offset, the sample's seed as
+    /// `render.compose_seed` (one composition for every camera) and a seed of its own.
+    fn camera_config_of(
+        &self,
+        params: &[(String, toml::Value)],
+        seed: u64,
+        c: usize,
+    ) -> std::result::Result<SimulateConfig, String> {
+        let cam = &self.rig[c];
+        let mut t = self.base.clone();
+        for (k, v) in params {
+            set_key(&mut t, k, v.clone())?;
+        }
+        if let Some(s) = &cam.sensor {
+            t.insert("sensor".into(), toml::Value::Table(s.clone()));
+        }
+        if let Some(o) = &cam.optics {
+            t.insert("optics".into(), toml::Value::Table(o.clone()));
+        }
+        let offset = toml::Value::try_from(cam.offset).map_err(|e| e.to_string())?;
+        let render = t
+            .get_mut("render")
+            .and_then(|r| r.as_table_mut())
+            .ok_or("a camera rig needs a 3D scene ([render])")?;
+        render.insert("camera_offset".into(), offset);
+        render.insert("compose_seed".into(), toml::Value::Integer(seed as i64));
+        let own = mix(&[seed, c as u64 + 1]) >> 11;
+        t.insert("seed".into(), toml::Value::Integer(own as i64));
+        SimulateConfig::from_value(toml::Value::Table(t), &self.base_dir).map_err(|e| e.to_string())
     }
 
     /// The base with `params` set, as a checked [`SimulateConfig`] with `seed`.

@@ -142,6 +142,16 @@ pub struct RenderSection {
     /// it through `[[vary]]` keys and the sample's seed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compose: Option<camsim_compose::ComposeSpec>,
+    /// The seed `[render.compose]` draws from [default: the config's `seed`]. A dataset rig's
+    /// cameras ([[rig]]) share their sample's composition through it while each renders and
+    /// reads out with a seed of its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compose_seed: Option<u64>,
+    /// Move the camera in its own frame once the scene (and a composition's camera sampler)
+    /// placed it (`[render.camera_offset]`): a rig camera's extrinsics relative to the rig
+    /// (docs/src/compose.md, "Camera rigs").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_offset: Option<CameraOffset>,
     /// Samples per pixel (default: the scene's own).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub samples_per_pixel: Option<u32>,
@@ -169,6 +179,43 @@ pub struct RenderSection {
     /// the OBJ's unit and up axis); refused for a pbrt-v4 file or a built-in.
     #[serde(default, skip_serializing_if = "AssetReadSection::is_default")]
     pub asset: AssetReadSection,
+}
+
+/// `[render.camera_offset]`: a pose relative to the scene's camera, in that camera's frame (x
+/// right, y up, z forward, as the image): translated, then turned by yaw, pitch and roll about
+/// the moved centre ([`camsim_scene3d::Camera::move_in_own_frame`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CameraOffset {
+    /// Translation in the camera's frame, m: a stereo pair's right camera is `[baseline, 0, 0]`.
+    #[serde(default)]
+    pub translation_m: [f64; 3],
+    /// Turn toward the camera's right (+x), degrees.
+    #[serde(default)]
+    pub yaw_deg: f64,
+    /// Turn toward the camera's up (+y), degrees.
+    #[serde(default)]
+    pub pitch_deg: f64,
+    /// Roll turning the camera's right axis toward its up axis, degrees.
+    #[serde(default)]
+    pub roll_deg: f64,
+}
+
+impl CameraOffset {
+    /// Every number finite.
+    pub fn check(&self, key: &str) -> Result<()> {
+        let all = self
+            .translation_m
+            .iter()
+            .chain([&self.yaw_deg, &self.pitch_deg, &self.roll_deg]);
+        if all.clone().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(PipelineError::config(format!(
+                "{key}: translation_m, yaw_deg, pitch_deg and roll_deg must be finite numbers"
+            )))
+        }
+    }
 }
 
 /// `[render.asset]` (and `camsim render --gltf-scene/--gltf-camera/--obj-scale-m/--obj-up`):

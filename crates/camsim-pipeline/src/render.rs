@@ -452,12 +452,29 @@ pub fn render_section_scene_with_record(
             fit_camera(&mut scene)?;
             let base = r.overlay_inline_base.as_deref().unwrap_or(Path::new("."));
             Some(
-                camsim_compose::compose(&mut scene, spec, cfg.seed, base)
+                camsim_compose::compose(&mut scene, spec, r.compose_seed.unwrap_or(cfg.seed), base)
                     .map_err(|e| PipelineError::Scene(format!("render.{e}")))?,
             )
         }
         None => None,
     };
+    if let Some(o) = &r.camera_offset {
+        o.check("render.camera_offset")?;
+        if scene
+            .settings
+            .time
+            .camera
+            .as_ref()
+            .is_some_and(|m| !m.is_static())
+        {
+            return Err(PipelineError::config(
+                "render.camera_offset: the scene's camera moves; an offset camera of a moving rig is not supported yet",
+            ));
+        }
+        scene
+            .camera
+            .move_in_own_frame(o.translation_m, o.yaw_deg, o.pitch_deg, o.roll_deg);
+    }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;
     }

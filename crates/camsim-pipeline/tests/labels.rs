@@ -395,3 +395,63 @@ fn check_corner_visibility(l: &camsim_pipeline::labels::SimLabels) {
     assert!(seen[1] > 0 && seen[2] > 0, "{seen:?}");
     assert_eq!(kp[0].visibility, 1, "the centre is inside the box: {kp:?}");
 }
+
+/// A rig camera ([render.camera_offset]) against closed forms, with the box's keypoints: a
+/// camera moved right by the baseline B sees each point shifted left by the disparity f B / Z
+/// (rows unchanged); yawing by atan(X / Z) centres the box's centre across, pitching by
+/// atan(Y / Z) centres it down, and a 90-degree roll turns its right axis to its up.
+#[test]
+fn rig_offsets_move_the_camera_in_its_own_frame() {
+    let (cols, rows) = (320usize, 240usize);
+    let optics = |offset: &str| {
+        format!("[render.camera_offset]\n{offset}\n[optics]\npreset = \"pixel4a\"\n")
+    };
+    let keypoints = |offset: &str| {
+        let sim = run(&box_scene(), &optics(offset), cols, rows, 1);
+        let l = sim.labels.unwrap();
+        (l.keypoints[0].clone(), l.sensor_camera.k)
+    };
+    let (left, k) = keypoints("");
+    let baseline_m = 0.12;
+    let (right, _) = keypoints(&format!("translation_m = [{baseline_m}, 0.0, 0.0]"));
+    let mut worst = 0.0f64;
+    for (l, r) in left.iter().zip(&right) {
+        let (pl, pr) = (l.xy.unwrap(), r.xy.unwrap());
+        let disparity = pl[0] - pr[0];
+        let want = k[0][0] * baseline_m / l.depth_m;
+        worst = worst.max((disparity - want).abs());
+        assert!((pl[1] - pr[1]).abs() < 1e-6, "rows differ: {pl:?} {pr:?}");
+        assert!(
+            (l.depth_m - r.depth_m).abs() < 1e-12,
+            "depth along the shared axis"
+        );
+    }
+    println!(
+        "stereo disparity against f B / Z: worst {worst:.2e} px (f B / Z ~ {:.1} px)",
+        k[0][0] * baseline_m / 3.0
+    );
+    assert!(worst <= 1e-6, "disparity off f B / Z by {worst} px");
+    // The box's centre: (0.36, 0.2, 3) m in the camera frame (x right, y up).
+    let (cx, cy) = (k[0][2] + 0.5, k[1][2] + 0.5);
+    let yaw = 0.12f64.atan().to_degrees();
+    let (yawed, _) = keypoints(&format!("yaw_deg = {yaw}"));
+    assert!(
+        (yawed[0].xy.unwrap()[0] - cx).abs() < 1e-6,
+        "{:?}",
+        yawed[0]
+    );
+    let pitch = 0.2f64.atan2(3.0).to_degrees();
+    let (pitched, _) = keypoints(&format!("pitch_deg = {pitch}"));
+    assert!(
+        (pitched[0].xy.unwrap()[1] - cy).abs() < 1e-6,
+        "{:?}",
+        pitched[0]
+    );
+    let (rolled, _) = keypoints("roll_deg = 90.0");
+    let p = rolled[0].xy.unwrap();
+    let want = [k[0][0] * 0.2 / 3.0 + cx, k[1][1] * 0.36 / 3.0 + cy];
+    assert!(
+        (p[0] - want[0]).hypot(p[1] - want[1]) < 1e-6,
+        "{p:?} against {want:?}"
+    );
+}

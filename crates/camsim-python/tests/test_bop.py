@@ -1,10 +1,11 @@
-"""6D-pose labels of composed scenes (issue 40): a tabletop dataset exported in the BOP format
-and read back by a reader written from the BOP format document (the BOP toolkit's
+"""6D-pose labels of composed scenes (issue 40): a tabletop dataset seen by a stereo rig, exported
+in the BOP format and read back by a reader written from the BOP format document (the BOP toolkit's
 docs/bop_datasets_format.md: poses x_cam = R x_model + t in mm, K with pixel centres at
 integers, 16-bit depth times depth_scale in mm, PLY models in mm). Each object's model projected
 through its pose and K covers its visible mask's box, the masks are the instance maps' pixels,
 the depth lies on the posed model, and the COCO keypoints (its 3D box's corners on the raw grid)
-are the model's box corners through the same pose."""
+are the model's box corners through the same pose; between the rig's cameras every keypoint's
+disparity is f B / Z."""
 
 from __future__ import annotations
 
@@ -42,7 +43,11 @@ SPEC = {
             },
         },
     },
+    # A stereo pair: the right camera BASELINE_M to the right of the sampled (left) one.
+    "rig": [{"name": "left"}, {"name": "right", "offset": {"translation_m": [0.06, 0.0, 0.0]}}],
 }
+BASELINE_MM = 60.0
+CAMERAS = ["left", "right"]
 
 
 def read_ply_vertices(path: Path) -> np.ndarray:
@@ -98,8 +103,11 @@ def test_bop_poses_masks_and_depth(exported):
     cams = json.loads((scene / "scene_camera.json").read_text())
     gts = json.loads((scene / "scene_gt.json").read_text())
     infos = json.loads((scene / "scene_gt_info.json").read_text())
-    maps = {int(s["__key__"]): s["instances.png"] for s in TorchDataset(out, keys=["instances.png"])}
-    assert sorted(map(int, gts)) == [0, 1]
+    # Image id = sample index x 2 + camera (left 0, right 1); each camera's own instance map.
+    keys = [f"{c}.instances.png" for c in CAMERAS]
+    maps = {2 * int(s["__key__"]) + c: s[k] for s in TorchDataset(out, keys=keys) for c, k in enumerate(keys)}
+    assert sorted(map(int, gts)) == [0, 1, 2, 3]
+    assert [cams[str(i)]["camsim_camera"] for i in range(4)] == CAMERAS * 2
     checked = 0
     for im, objs in gts.items():
         cam = cams[im]
@@ -163,6 +171,46 @@ def test_coco_keypoints_are_the_posed_models_box_corners(exported):
                 if v > 0:
                     worst = max(worst, float(np.hypot(uv[:, 0] - x, uv[:, 1] - y).min()))
                     n += 1
+    assert n >= 8 and worst <= 0.5, (n, worst)
+
+
+def test_stereo_disparity_is_f_baseline_over_depth(exported):
+    _, bop, coco_path = exported
+    coco = json.loads(Path(coco_path).read_text())
+    scene = bop / "train_pbr/000000"
+    cams = json.loads((scene / "scene_camera.json").read_text())
+    gts = json.loads((scene / "scene_gt.json").read_text())
+    info = json.loads((bop / "models/models_info.json").read_text())
+    anns = {(a["image_id"], a["camsim"]["name"]): a for a in coco["annotations"]}
+    worst, n = 0.0, 0
+    for sample in (0, 1):
+        left, right = 2 * sample, 2 * sample + 1
+        fx = cams[str(left)]["cam_K"][0]
+        # The right camera's extrinsics: the left's moved by the baseline along its x.
+        t_l, t_r = np.asarray(cams[str(left)]["cam_t_w2c"]), np.asarray(cams[str(right)]["cam_t_w2c"])
+        assert np.allclose(cams[str(left)]["cam_R_w2c"], cams[str(right)]["cam_R_w2c"], atol=1e-12)
+        assert np.allclose(t_l - t_r, [BASELINE_MM, 0.0, 0.0], atol=1e-3)  # 1 um
+        for gt in gts[str(left)]:
+            name = gt["camsim_name"]
+            a_l, a_r = anns.get((left, name)), anns.get((right, name))
+            if a_l is None or a_r is None:
+                continue
+            m = info[str(gt["obj_id"])]
+            lo = np.array([m["min_x"], m["min_y"], m["min_z"]])
+            hi = lo + np.array([m["size_x"], m["size_y"], m["size_z"]])
+            corners = np.array([[(hi if (i >> j) & 1 else lo)[j] for j in range(3)] for i in range(8)])
+            x_cam = (rotation(gt["cam_R_m2c"]) @ (gt.get("camsim_scale", 1.0) * corners).T).T + np.asarray(gt["cam_t_m2c"])
+            uv = project(np.asarray(cams[str(left)]["cam_K"]).reshape(3, 3), x_cam)
+            kl = np.asarray(a_l["keypoints"], dtype=np.float64).reshape(9, 3)
+            kr = np.asarray(a_r["keypoints"], dtype=np.float64).reshape(9, 3)
+            for pl, pr in zip(kl[1:], kr[1:]):
+                if pl[2] > 0 and pr[2] > 0:
+                    # The corner's depth in the left camera (both share the axis), mm.
+                    z = x_cam[np.argmin(np.hypot(uv[:, 0] - pl[0], uv[:, 1] - pl[1])), 2]
+                    worst = max(worst, abs((pl[0] - pr[0]) - fx * BASELINE_MM / z))
+                    assert abs(pl[1] - pr[1]) < 1e-6
+                    n += 1
+    print(f"stereo disparity against f B / Z: worst {worst:.2e} px over {n} keypoints")
     assert n >= 8 and worst <= 0.5, (n, worst)
 
 

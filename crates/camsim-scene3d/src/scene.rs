@@ -907,6 +907,25 @@ impl RealisticLens {
 }
 
 impl Camera {
+    /// Move the camera in its own frame (x right, y up, z forward, the image's directions):
+    /// by `translation_m`, then turned by `yaw_deg` (> 0 toward +x, the right), `pitch_deg`
+    /// (> 0 toward +y, up) and `roll_deg` (> 0 turning +x toward +y), applied in that order
+    /// about the moved centre: camera_to_world' = camera_to_world T(t) R_y(yaw) R_x(-pitch)
+    /// R_z(roll). A rig's camera is its reference camera moved by its extrinsics.
+    pub fn move_in_own_frame(
+        &mut self,
+        translation_m: [f64; 3],
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+    ) {
+        let offset = Transform::translate(translation_m)
+            .then_apply_to(&Transform::rotate(yaw_deg, [0.0, 1.0, 0.0]))
+            .then_apply_to(&Transform::rotate(-pitch_deg, [1.0, 0.0, 0.0]))
+            .then_apply_to(&Transform::rotate(roll_deg, [0.0, 0.0, 1.0]));
+        self.camera_to_world = self.camera_to_world.then_apply_to(&offset);
+    }
+
     /// Horizontal field of view in degrees (what the optics stage needs).
     pub fn horizontal_fov_deg(&self) -> f64 {
         let half_short = (self.fov_deg.to_radians() / 2.0).tan();
