@@ -1,6 +1,6 @@
-//! Every CFA through the `camsim` binary (issue 42): `camsim simulate` of a monochrome, an RCCC
-//! and a CMYG sensor made over the pixel4a preset writes the raw and a preview, and `camsim isp`
-//! takes each DNG back. Checks: the files exist and run.json notes no fallback preview, the
+//! Every CFA through the `camsim` binary (issue 42): `camsim simulate` of a monochrome, an RCCC,
+//! a CMYG and an RGB-IR sensor made over the pixel4a preset writes the raw and a preview, and
+//! `camsim isp` takes each DNG back (RGB-IR's as a monochrome LinearRaw mosaic with its layout). Checks: the files exist and run.json notes no fallback preview, the
 //! monochrome preview is grey, a neutral patch of every preview is neutral (the ISP of each
 //! family maps a perfect white to R = G = B; the ColorChecker's neutral 6.5 is near-flat: within
 //! 6 %, noise included), `camsim isp` gives simulate's preview bit for bit, `--json` names the
@@ -77,7 +77,7 @@ fn neutral_patch(png: &Path, dng: &Path) -> [f64; 3] {
 }
 
 #[test]
-fn mono_rccc_and_cmyg_captures_simulate_and_go_through_camsim_isp() {
+fn mono_rccc_cmyg_and_rgb_ir_captures_simulate_and_go_through_camsim_isp() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // CMYG: a QE file with the complementary filters (a coarse, smooth set: c = g + b,
@@ -103,7 +103,38 @@ fn mono_rccc_and_cmyg_captures_simulate_and_go_through_camsim_isp() {
             s(&qe)
         ),
     );
+    // RGB-IR: the same r, g, b with an NIR-passing filter `nir` in one green's place (a QE
+    // column `ir` is the IR-cut filter). Its DNG is a monochrome LinearRaw mosaic with the
+    // layout in DNGPrivateData: DNG has no colour code for infrared.
+    let qe_ir = write(
+        d.join("rgbir.csv"),
+        "wavelength_nm,r,g,b,nir\n\
+         400,0.02,0.05,0.40,0.01\n\
+         450,0.02,0.15,0.60,0.01\n\
+         500,0.03,0.45,0.35,0.02\n\
+         550,0.08,0.60,0.08,0.03\n\
+         600,0.55,0.25,0.03,0.08\n\
+         650,0.50,0.05,0.02,0.20\n\
+         700,0.30,0.02,0.02,0.35\n",
+    );
+    let rgbir_sensor = write(
+        d.join("rgbir-sensor.toml"),
+        &format!(
+            "name = \"rgbir\"\nrows = 3024\ncols = 4032\npixel_pitch_um = 1.4\nfill_factor = 1.0\n\
+             cfa_pattern = [[\"r\", \"g\"], [\"nir\", \"b\"]]\nconversion_gain_uv_per_e = 76.5\n\
+             voltage_swing_v = 0.4591\nbits = 12\nread_noise_mv = 0.2\n[qe]\nfile = \"{}\"\n",
+            s(&qe_ir)
+        ),
+    );
     let cases = [
+        (
+            "rgbir",
+            format!(
+                "[sensor]\nfile = \"{}\"\nrows = 64\ncols = 96\n",
+                s(&rgbir_sensor)
+            ),
+            "multichannel",
+        ),
         (
             "mono",
             "[sensor]\npreset = \"pixel4a\"\nrows = 64\ncols = 96\n[sensor.config]\ncfa_pattern = [[\"w\"]]\n".to_string(),
@@ -150,8 +181,8 @@ fn mono_rccc_and_cmyg_captures_simulate_and_go_through_camsim_isp() {
             assert!(rgb.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]));
         }
         // camsim isp takes the DNG back (the sensor that made it: its QE for the frame's filters).
-        let sensor_arg = if name == "cmyg" {
-            s(&d.join("cmyg-sensor.toml")).to_string()
+        let sensor_arg = if name == "cmyg" || name == "rgbir" {
+            s(&d.join(format!("{name}-sensor.toml"))).to_string()
         } else {
             "pixel4a".to_string()
         };

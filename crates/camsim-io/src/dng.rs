@@ -67,6 +67,38 @@ pub mod tag {
     pub const AS_SHOT_NEUTRAL: u16 = 50728;
     pub const CALIBRATION_ILLUMINANT_1: u16 = 50778;
     pub const ACTIVE_AREA: u16 = 50829;
+    pub const DNG_PRIVATE_DATA: u16 = 50740;
+}
+
+/// What `DNGPrivateData` starts with when it holds the colour filter layout of a mosaic written
+/// as a monochrome LinearRaw image (a filter DNG has no colour code for, such as `ir`): the
+/// owner's name, NUL-terminated (DNG 1.4, DNGPrivateData), then `cfa:` and the layout's rows
+/// joined by `/`, filters by spaces (`r g/ir b`).
+const PRIVATE_CFA_PREFIX: &[u8] = b"camsim\0cfa:";
+
+fn private_cfa_bytes(l: &CfaLayout) -> Vec<u8> {
+    let rows: Vec<String> = (0..l.rows())
+        .map(|r| {
+            (0..l.cols())
+                .map(|c| l.filters()[l.filter_at(r, c)].as_str())
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .collect();
+    let mut v = PRIVATE_CFA_PREFIX.to_vec();
+    v.extend_from_slice(rows.join("/").as_bytes());
+    v
+}
+
+fn parse_private_cfa(bytes: &[u8]) -> Option<std::result::Result<CfaLayout, String>> {
+    let rest = bytes.strip_prefix(PRIVATE_CFA_PREFIX)?;
+    let text = String::from_utf8_lossy(rest);
+    let names: Vec<Vec<String>> = text
+        .trim_end_matches('\0')
+        .split('/')
+        .map(|r| r.split_whitespace().map(str::to_string).collect())
+        .collect();
+    Some(CfaLayout::from_names(&names).map_err(|e| format!("camsim's CFA layout {text:?}: {e}")))
 }
 
 /// ExifVersion tag (EXIF IFD).
@@ -203,13 +235,23 @@ fn exposure_rational(t: f64) -> (u32, u32) {
     rational(t)
 }
 
-/// Write `raw` as an uncompressed 16-bit CFA DNG, atomically.
+/// Write `raw` as an uncompressed 16-bit CFA DNG, atomically. A mosaic with a filter DNG has
+/// no colour code for (an RGB-IR sensor's `ir`: CFAPlaneColor knows red, green, blue, cyan,
+/// magenta, yellow and white) is written as a monochrome LinearRaw image of the same ADC values
+/// with its layout in DNGPrivateData: any DNG reader sees the exact mosaic, [`read_dng`] restores
+/// the layout.
 pub fn write_dng(path: &Path, raw: &RawImage, meta: &DngMetadata) -> Result<()> {
+    let layout = raw.cfa_layout();
+    let (cfa, private_cfa) = match layout.dng_codes() {
+        Ok(_) => (Some(layout), None),
+        Err(_) => (None, Some(layout)),
+    };
     let image = Samples {
         rows: raw.rows,
         cols: raw.cols,
         dn: &raw.dn,
-        cfa: Some(raw.cfa_layout()),
+        cfa,
+        private_cfa,
         black_level_dn: &[raw.black_level_dn],
         white_level_dn: &[raw.white_level_dn],
         exposure_s: raw.exposure_s,
@@ -227,6 +269,7 @@ pub fn write_linear_raw_dng(path: &Path, img: &LinearRawImage, meta: &DngMetadat
         cols: img.cols,
         dn: &img.dn,
         cfa: None,
+        private_cfa: None,
         black_level_dn: &img.black_level_dn,
         white_level_dn: &img.white_level_dn,
         exposure_s: img.exposure_s,
@@ -241,6 +284,8 @@ struct Samples<'a> {
     cols: usize,
     dn: &'a [u16],
     cfa: Option<CfaLayout>,
+    /// A mosaic written as a monochrome LinearRaw image (see [`write_dng`]).
+    private_cfa: Option<CfaLayout>,
     black_level_dn: &'a [f64],
     white_level_dn: &'a [f64],
     exposure_s: f64,
@@ -249,7 +294,11 @@ struct Samples<'a> {
 
 fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
     let (rows, cols) = (raw.rows, raw.cols);
-    let spp = if raw.cfa.is_some() { 1 } else { 3 };
+    let spp = if raw.cfa.is_some() || raw.private_cfa.is_some() {
+        1
+    } else {
+        3
+    };
     if rows == 0 || cols == 0 || raw.dn.len() != rows * cols * spp {
         return Err(IoError::invalid(
             path,
@@ -318,15 +367,20 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
                     .collect(),
             ),
         ),
-        (
+    ];
+    if let Some(l) = &raw.private_cfa {
+        // One colour plane: no colour matrix (DNG: ColorPlanes x 3 values) and no neutral.
+        tags.push((tag::DNG_PRIVATE_DATA, Value::Byte(private_cfa_bytes(l))));
+    } else {
+        tags.push((
             tag::COLOR_MATRIX_1,
             Value::SRational(cm.iter().flatten().map(|v| srational(*v)).collect()),
-        ),
-        (
+        ));
+        tags.push((
             tag::CALIBRATION_ILLUMINANT_1,
             Value::Short(vec![meta.calibration_illuminant]),
-        ),
-    ];
+        ));
+    }
     if let Some(cfa) = &raw.cfa {
         // DNG 1.4: CFAPattern holds plane indices, CFAPlaneColor each plane's TIFF/EP colour code
         // (0 red, 1 green, 2 blue, 3 cyan, 4 magenta, 5 yellow, 6 white); planes = our filters.
@@ -355,7 +409,7 @@ fn write_samples(path: &Path, raw: &Samples, meta: &DngMetadata) -> Result<()> {
     if let Some(d) = &meta.description {
         tags.push((tag::IMAGE_DESCRIPTION, Value::Ascii(d.clone())));
     }
-    if let Some(n) = meta.as_shot_neutral {
+    if let Some(n) = meta.as_shot_neutral.filter(|_| raw.private_cfa.is_none()) {
         tags.push((
             tag::AS_SHOT_NEUTRAL,
             Value::Rational(n.iter().map(|v| rational(*v)).collect()),
@@ -580,6 +634,29 @@ pub fn read_dng_image_bytes(data: &[u8], path: &Path) -> Result<(DngImage, DngIn
     let levels = levels(&r, raw, &g, &mut info)?;
     let pitch = descriptive_tags(&r, raw, &mut info)?;
 
+    // A one-plane LinearRaw image is a monochrome mosaic: camsim's layout when it wrote one
+    // (DNGPrivateData), else one panchromatic filter.
+    let cfa = match cfa {
+        Some(c) => Some(c),
+        None if g.spp == 1 => {
+            let private = r
+                .find(raw, tag::DNG_PRIVATE_DATA)
+                .map(|ifd| r.uints(ifd, tag::DNG_PRIVATE_DATA))
+                .transpose()?
+                .flatten()
+                .map(|v| v.iter().map(|b| *b as u8).collect::<Vec<u8>>());
+            let layout = match private.as_deref().and_then(parse_private_cfa) {
+                Some(l) => l.map_err(|m| IoError::format(path, m))?,
+                None => CfaLayout::from_names(&[vec!["w".to_string()]])
+                    .map_err(|e| IoError::core(path, e))?,
+            };
+            Some(match layout.as_bayer() {
+                Some(p) => (p, None),
+                None => (CfaPattern::Rggb, Some(layout)),
+            })
+        }
+        None => None,
+    };
     let image = match cfa {
         Some((cfa, layout)) => DngImage::Cfa(RawImage {
             rows,
@@ -658,10 +735,15 @@ fn raw_layout(r: &Reader, raw: &Ifd, linear: bool, file_len: usize) -> Result<Ra
         ));
     }
     let spp = r.uint(raw, tag::SAMPLES_PER_PIXEL)?.unwrap_or(1);
-    let expected_spp = if linear { 3 } else { 1 };
-    if spp != expected_spp {
+    // LinearRaw: RGB, or one plane (a monochrome camera's, or a mosaic camsim wrote so).
+    let spp_ok = if linear {
+        spp == 3 || spp == 1
+    } else {
+        spp == 1
+    };
+    if !spp_ok {
         return r.fail(if linear {
-            format!("LinearRaw image has {spp} samples per pixel; only 3 (RGB) is supported")
+            format!("LinearRaw image has {spp} samples per pixel; only 3 (RGB) or 1 (monochrome) is supported")
         } else {
             format!("raw CFA image has {spp} samples per pixel; expected 1")
         });
