@@ -44,6 +44,20 @@ shading = "none"
     )
 }
 
+/// A sensor file `NAME-sensor.toml` in `d`: the pixel4a's pixel (Table 1 of Lyu et al.) behind
+/// the tile `pattern` (TOML rows of filter names), its QE from the file `qe`.
+fn sensor_file(d: &Path, name: &str, pattern: &str, qe: &Path) -> PathBuf {
+    write(
+        d.join(format!("{name}-sensor.toml")),
+        &format!(
+            "name = \"{name}\"\nrows = 3024\ncols = 4032\npixel_pitch_um = 1.4\nfill_factor = 1.0\n\
+             cfa_pattern = {pattern}\nconversion_gain_uv_per_e = 76.5\n\
+             voltage_swing_v = 0.4591\nbits = 12\nread_noise_mv = 0.2\n[qe]\nfile = \"{}\"\n",
+            s(qe)
+        ),
+    )
+}
+
 fn write(path: PathBuf, text: &str) -> PathBuf {
     std::fs::write(&path, text).unwrap();
     path
@@ -94,15 +108,7 @@ fn mono_rccc_cmyg_and_rgb_ir_captures_simulate_and_go_through_camsim_isp() {
          700,0.30,0.02,0.02,0.04,0.32,0.32\n",
     );
     // The pixel4a's pixel (Table 1 of Lyu et al.) behind the CMYG tile.
-    let cmyg_sensor = write(
-        d.join("cmyg-sensor.toml"),
-        &format!(
-            "name = \"cmyg\"\nrows = 3024\ncols = 4032\npixel_pitch_um = 1.4\nfill_factor = 1.0\n\
-             cfa_pattern = [[\"c\", \"y\"], [\"m\", \"g\"]]\nconversion_gain_uv_per_e = 76.5\n\
-             voltage_swing_v = 0.4591\nbits = 12\nread_noise_mv = 0.2\n[qe]\nfile = \"{}\"\n",
-            s(&qe)
-        ),
-    );
+    let cmyg_sensor = sensor_file(d, "cmyg", r#"[["c", "y"], ["m", "g"]]"#, &qe);
     // RGB-IR: the same r, g, b with an NIR-passing filter `nir` in one green's place (a QE
     // column `ir` is the IR-cut filter). Its DNG is a monochrome LinearRaw mosaic with the
     // layout in DNGPrivateData: DNG has no colour code for infrared.
@@ -117,15 +123,7 @@ fn mono_rccc_cmyg_and_rgb_ir_captures_simulate_and_go_through_camsim_isp() {
          650,0.50,0.05,0.02,0.20\n\
          700,0.30,0.02,0.02,0.35\n",
     );
-    let rgbir_sensor = write(
-        d.join("rgbir-sensor.toml"),
-        &format!(
-            "name = \"rgbir\"\nrows = 3024\ncols = 4032\npixel_pitch_um = 1.4\nfill_factor = 1.0\n\
-             cfa_pattern = [[\"r\", \"g\"], [\"nir\", \"b\"]]\nconversion_gain_uv_per_e = 76.5\n\
-             voltage_swing_v = 0.4591\nbits = 12\nread_noise_mv = 0.2\n[qe]\nfile = \"{}\"\n",
-            s(&qe_ir)
-        ),
-    );
+    let rgbir_sensor = sensor_file(d, "rgbir", r#"[["r", "g"], ["nir", "b"]]"#, &qe_ir);
     let cases = [
         (
             "rgbir",

@@ -42,28 +42,6 @@ fn det(m: &Mat3) -> f64 {
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
-/// The rotation of unit quaternion `[w, x, y, z]` (Hamilton's convention).
-fn quaternion_matrix(q: [f64; 4]) -> Mat3 {
-    let [w, x, y, z] = q;
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
-}
-
 /// Mirror of x: right-multiplied onto a left-handed frame's matrices.
 const MIRROR_X: Mat3 = [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
@@ -354,7 +332,10 @@ fn export_into(
                     return Err(bad(&format!("object {name}: its pose in the record")));
                 }
                 // x_cam = Rw (R s x_asset + t) + tw: BOP's model-to-camera (mm).
-                let r_m2c = mul(&rw, &quaternion_matrix([q[0], q[1], q[2], q[3]]));
+                let r_m2c = mul(
+                    &rw,
+                    &camsim_scene3d::motion::quat_to_matrix(&[q[0], q[1], q[2], q[3]]),
+                );
                 let mirrored = det(&r_m2c) < 0.0;
                 match mirror {
                     None => mirror = Some(mirrored),

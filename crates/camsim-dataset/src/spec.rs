@@ -452,12 +452,16 @@ impl DatasetSpec {
             ));
         }
 
-        let canonical = serde_json::json!({
+        let mut canonical = serde_json::json!({
             "dataset": file.dataset,
             "base": base,
             "vary": file.vary,
-            "rig": file.rig,
         });
+        // Only a rig joins the fingerprint: specs without one keep the fingerprints (and the
+        // dataset folders) they had.
+        if !file.rig.is_empty() {
+            canonical["rig"] = serde_json::to_value(&file.rig).map_err(|e| err(e.to_string()))?;
+        }
         let fingerprint = format!("{:x}", Sha256::digest(canonical.to_string().as_bytes()));
         let spec = DatasetSpec {
             source: source.to_string(),

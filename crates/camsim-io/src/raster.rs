@@ -110,28 +110,24 @@ pub fn write_png16_mosaic_scaled(
 
 /// Write an 8-bit grayscale PNG (`rows * cols` values, row-major), e.g. a binary mask (0 / 255).
 pub fn write_png8_gray(path: &Path, rows: usize, cols: usize, data: &[u8]) -> Result<()> {
-    check_size(path, rows, cols, data.len(), 1)?;
-    write_png(
-        path,
-        rows,
-        cols,
-        png::ColorType::Grayscale,
-        png::BitDepth::Eight,
-        data,
-    )
+    write_png8(path, rows, cols, data, png::ColorType::Grayscale, 1)
 }
 
 /// Write an 8-bit sRGB PNG (`rows * cols * 3` values, row-major, RGB interleaved).
 pub fn write_png8_rgb(path: &Path, rows: usize, cols: usize, rgb: &[u8]) -> Result<()> {
-    check_size(path, rows, cols, rgb.len(), 3)?;
-    write_png(
-        path,
-        rows,
-        cols,
-        png::ColorType::Rgb,
-        png::BitDepth::Eight,
-        rgb,
-    )
+    write_png8(path, rows, cols, rgb, png::ColorType::Rgb, 3)
+}
+
+fn write_png8(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    data: &[u8],
+    colour: png::ColorType,
+    channels: usize,
+) -> Result<()> {
+    check_size(path, rows, cols, data.len(), channels)?;
+    write_png(path, rows, cols, colour, png::BitDepth::Eight, data)
 }
 
 /// An animated GIF of 8-bit RGB frames (`rows * cols * 3` bytes each, interleaved), each shown

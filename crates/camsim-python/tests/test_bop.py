@@ -72,6 +72,16 @@ def rotation(values) -> np.ndarray:
     return r
 
 
+def posed_box_corners(gt: dict, info: dict) -> np.ndarray:
+    """The 8 corners of an object's model box (models_info.json) in the camera frame, mm."""
+    m = info[str(gt["obj_id"])]
+    lo = np.array([m["min_x"], m["min_y"], m["min_z"]])
+    hi = lo + np.array([m["size_x"], m["size_y"], m["size_z"]])
+    corners = np.array([[(hi if (i >> j) & 1 else lo)[j] for j in range(3)] for i in range(8)])
+    scaled = gt.get("camsim_scale", 1.0) * corners
+    return (rotation(gt["cam_R_m2c"]) @ scaled.T).T + np.asarray(gt["cam_t_m2c"])
+
+
 def project(k: np.ndarray, x_cam: np.ndarray) -> np.ndarray:
     """Pixel-edge coordinates (pixel (r, c) covers [c, c + 1)) of camera points, mm."""
     u = (k @ x_cam.T).T
@@ -159,11 +169,7 @@ def test_coco_keypoints_are_the_posed_models_box_corners(exported):
             a = anns.get((int(im), gt["camsim_name"]))
             if a is None:
                 continue
-            m = info[str(gt["obj_id"])]
-            lo = np.array([m["min_x"], m["min_y"], m["min_z"]])
-            hi = lo + np.array([m["size_x"], m["size_y"], m["size_z"]])
-            corners = np.array([[(hi if (i >> j) & 1 else lo)[j] for j in range(3)] for i in range(8)])
-            x_cam = (rotation(gt["cam_R_m2c"]) @ (gt.get("camsim_scale", 1.0) * corners).T).T + np.asarray(gt["cam_t_m2c"])
+            x_cam = posed_box_corners(gt, info)
             uv = project(k, x_cam)
             kp = np.asarray(a["keypoints"], dtype=np.float64).reshape(9, 3)
             assert a["num_keypoints"] == int((kp[:, 2] > 0).sum())
@@ -195,11 +201,7 @@ def test_stereo_disparity_is_f_baseline_over_depth(exported):
             a_l, a_r = anns.get((left, name)), anns.get((right, name))
             if a_l is None or a_r is None:
                 continue
-            m = info[str(gt["obj_id"])]
-            lo = np.array([m["min_x"], m["min_y"], m["min_z"]])
-            hi = lo + np.array([m["size_x"], m["size_y"], m["size_z"]])
-            corners = np.array([[(hi if (i >> j) & 1 else lo)[j] for j in range(3)] for i in range(8)])
-            x_cam = (rotation(gt["cam_R_m2c"]) @ (gt.get("camsim_scale", 1.0) * corners).T).T + np.asarray(gt["cam_t_m2c"])
+            x_cam = posed_box_corners(gt, info)
             uv = project(np.asarray(cams[str(left)]["cam_K"]).reshape(3, 3), x_cam)
             kl = np.asarray(a_l["keypoints"], dtype=np.float64).reshape(9, 3)
             kr = np.asarray(a_r["keypoints"], dtype=np.float64).reshape(9, 3)
