@@ -141,7 +141,6 @@ pub fn export_bop(spec: &DatasetSpec, out: &Path) -> Result<PathBuf> {
             "the dataset is not complete: run it to the end before the BOP export",
         ));
     }
-    let bop = out.join("bop");
     let mut models = Models::default();
     if models.library(spec, 0)?.is_none() {
         return Err(DatasetError::spec(
@@ -149,7 +148,12 @@ pub fn export_bop(spec: &DatasetSpec, out: &Path) -> Result<PathBuf> {
             "BOP export needs composed objects ([render.compose] with assets): BOP's poses are of object models",
         ));
     }
-    let scratch = bop.join(format!(".scratch-{}", std::process::id()));
+    // Staged beside OUT/bop and swapped in whole when complete: an error leaves the previous
+    // export (or none), never a part of one.
+    let target = out.join("bop");
+    let staged = camsim_io::atomic::OutputDir::create(&target)?;
+    let bop = staged.path().to_path_buf();
+    let scratch = bop.join(".scratch");
     std::fs::create_dir_all(&scratch).map_err(|e| DatasetError::io(&scratch, e))?;
     let result = export_into(spec, out, &bop, &scratch, &mut models);
     let _ = std::fs::remove_dir_all(&scratch);
@@ -158,7 +162,8 @@ pub fn export_bop(spec: &DatasetSpec, out: &Path) -> Result<PathBuf> {
     if let Some(c) = camera {
         camsim_io::atomic::write_json_atomic(&bop.join("camera.json"), &c)?;
     }
-    Ok(bop)
+    staged.commit()?;
+    Ok(target)
 }
 
 fn create(dir: &Path) -> Result<()> {
