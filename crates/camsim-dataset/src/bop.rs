@@ -127,20 +127,7 @@ impl Models {
 
 /// Write `OUT/bop/` for the complete dataset in `out` (see the module docs); returns the folder.
 pub fn export_bop(spec: &DatasetSpec, out: &Path) -> Result<PathBuf> {
-    for need in ["preview", "instances", "boxes"] {
-        if !spec.output_names.iter().any(|o| o == need) {
-            return Err(DatasetError::spec(
-                &spec.source,
-                format!("BOP export needs the output {need:?} in dataset.outputs (preview, instances and boxes; depth for BOP's depth images)"),
-            ));
-        }
-    }
-    if crate::run::gather(spec, out, false)?.is_none() {
-        return Err(DatasetError::file(
-            out,
-            "the dataset is not complete: run it to the end before the BOP export",
-        ));
-    }
+    crate::run::require_labelled_and_complete(spec, out, "BOP", "; depth for BOP's depth images")?;
     let mut models = Models::default();
     if models.library(spec, 0)?.is_none() {
         return Err(DatasetError::spec(

@@ -89,20 +89,7 @@ pub fn rle_string(rows: usize, cols: usize, inside: impl Fn(usize) -> bool) -> S
 /// Write `coco/annotations.json` and `coco/images/` for the complete dataset in `out` (see the
 /// module docs); returns the annotation file's path.
 pub fn export_coco(spec: &DatasetSpec, out: &Path, by: CategoryBy) -> Result<PathBuf> {
-    for need in ["preview", "instances", "boxes"] {
-        if !spec.output_names.iter().any(|o| o == need) {
-            return Err(DatasetError::spec(
-                &spec.source,
-                format!("COCO export needs the output {need:?} in dataset.outputs (preview, instances and boxes)"),
-            ));
-        }
-    }
-    if crate::run::gather(spec, out, false)?.is_none() {
-        return Err(DatasetError::file(
-            out,
-            "the dataset is not complete: run it to the end before the COCO export",
-        ));
-    }
+    crate::run::require_labelled_and_complete(spec, out, "COCO", "")?;
     let coco = out.join("coco");
     let images_dir = coco.join("images");
     std::fs::create_dir_all(&images_dir).map_err(|e| DatasetError::io(&images_dir, e))?;

@@ -142,6 +142,31 @@ pub fn shard_stem(spec: &DatasetSpec, s: u64) -> String {
     format!("shard-{:08}-{:08}", r.start, r.end - 1)
 }
 
+/// What an export (`what`: COCO, BOP) needs of the dataset in `out`: the outputs preview,
+/// instances and boxes (`more` adds to the message), and every shard complete.
+pub(crate) fn require_labelled_and_complete(
+    spec: &DatasetSpec,
+    out: &Path,
+    what: &str,
+    more: &str,
+) -> Result<()> {
+    for need in ["preview", "instances", "boxes"] {
+        if !spec.output_names.iter().any(|o| o == need) {
+            return Err(DatasetError::spec(
+                &spec.source,
+                format!("{what} export needs the output {need:?} in dataset.outputs (preview, instances and boxes{more})"),
+            ));
+        }
+    }
+    if gather(spec, out, false)?.is_none() {
+        return Err(DatasetError::file(
+            out,
+            format!("the dataset is not complete: run it to the end before the {what} export"),
+        ));
+    }
+    Ok(())
+}
+
 /// One image of a complete dataset as the exports see it: a sample, or one rig camera's
 /// capture of a sample, with its files by the name after `KEY.` (or `KEY.CAMERA.`).
 pub(crate) struct View {

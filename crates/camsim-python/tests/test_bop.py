@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import camsim
 import camsim.dataset
 import numpy as np
 import pytest
@@ -220,3 +221,11 @@ def _png(path: Path) -> np.ndarray:
     from PIL import Image
 
     return np.asarray(Image.open(path))
+
+
+def test_bop_export_names_what_it_needs(tmp_path):
+    spec = json.loads(json.dumps(SPEC))
+    spec["dataset"]["outputs"] = ["preview", "boxes"]
+    with pytest.raises(camsim.CamsimError, match='"instances"'):
+        camsim.dataset.to_bop(spec, tmp_path)
+    assert not (tmp_path / "bop").exists()
