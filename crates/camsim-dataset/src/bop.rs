@@ -232,7 +232,7 @@ fn export_into(
             let rw_out = if left_handed { mul(&rw, &MIRROR_X) } else { rw };
 
             // Depth (BOP: uint16, value x depth_scale = mm; 0 where unknown).
-            let mut depth_scale = 1.0;
+            let mut depth_scale_mm = 1.0;
             if let Some(exr) = f.remove("depth.sensor.exr") {
                 let tmp = scratch.join(format!("{key}.depth.exr"));
                 std::fs::write(&tmp, &exr).map_err(|e| DatasetError::io(&tmp, e))?;
@@ -243,14 +243,14 @@ fn export_into(
                     .filter(|z| z.is_finite() && **z > 0.0)
                     .fold(0.0f64, |m, &z| m.max(z as f64 * 1e3));
                 // The finest of 0.1, 1 and 10 mm steps that holds the farthest point.
-                depth_scale = [0.1, 1.0, 10.0]
+                depth_scale_mm = [0.1, 1.0, 10.0]
                     .into_iter()
                     .find(|ds| max_mm / ds <= 65535.0)
                     .unwrap_or(10.0);
                 let v: Vec<u16> = z_m
                     .iter()
                     .map(|&z| {
-                        let q = z as f64 * 1e3 / depth_scale;
+                        let q = z as f64 * 1e3 / depth_scale_mm;
                         if z.is_finite() && z > 0.0 && q <= 65535.0 {
                             q.round() as u16
                         } else {
@@ -270,7 +270,7 @@ fn export_into(
                 "cam_K": flat(&k),
                 "cam_R_w2c": flat(&rw_out),
                 "cam_t_w2c": tw.map(|t| t * 1e3),
-                "depth_scale": depth_scale,
+                "depth_scale": depth_scale_mm,
             });
             if let Some(c) = &view.camera {
                 cam_entry["camsim_camera"] = c.as_str().into();
@@ -285,7 +285,7 @@ fn export_into(
             if camera.is_none() {
                 camera = Some(serde_json::json!({
                     "fx": k[0][0], "fy": k[1][1], "cx": k[0][2], "cy": k[1][2],
-                    "width": cols, "height": rows, "depth_scale": depth_scale,
+                    "width": cols, "height": rows, "depth_scale": depth_scale_mm,
                 }));
             }
             scene_camera.insert(im_id.to_string(), cam_entry);
@@ -294,7 +294,13 @@ fn export_into(
             let mut by_name = BTreeMap::new();
             for inst in boxes["instances"].as_array().into_iter().flatten() {
                 if let (Some(n), Some(id)) = (inst["name"].as_str(), inst["id"].as_u64()) {
-                    by_name.insert(n.to_string(), (id, inst["visible_fraction"].as_f64()));
+                    let bbox: Option<[u64; 4]> =
+                        serde_json::from_value(inst["bbox_sensor"].clone()).ok();
+                    let pixels = inst["pixels_sensor"].as_u64().unwrap_or(0);
+                    by_name.insert(
+                        n.to_string(),
+                        (id, inst["visible_fraction"].as_f64(), bbox, pixels),
+                    );
                 }
             }
             let lib = models.library(spec, index)?.ok_or_else(|| {
@@ -357,24 +363,18 @@ fn export_into(
                     gt["camsim_scale"] = scale.into();
                 }
                 gts.push(gt);
-                // The visible mask on the raw grid.
-                let (id, visib) = by_name.get(name).copied().unwrap_or((0, None));
+                // The visible mask on the raw grid; its box and pixel count are boxes.json's
+                // (the labels' own `boxes_2d` of the same map).
+                let (id, visib, bbox, n) = by_name.get(name).cloned().unwrap_or_default();
                 let mask: Vec<u8> = map
                     .iter()
                     .map(|&v| if id > 0 && v as u64 == id { 255 } else { 0 })
                     .collect();
-                let (mut x0, mut y0, mut x1, mut y1, mut n) = (usize::MAX, usize::MAX, 0, 0, 0u64);
-                for (p, &m) in mask.iter().enumerate() {
-                    if m != 0 {
-                        let (r, c) = (p / cols, p % cols);
-                        (x0, y0, x1, y1) = (x0.min(c), y0.min(r), x1.max(c), y1.max(r));
-                        n += 1;
+                let bbox_visib = match bbox {
+                    Some([x0, y0, x1, y1]) if n > 0 => {
+                        serde_json::json!([x0, y0, x1 - x0, y1 - y0])
                     }
-                }
-                let bbox_visib = if n > 0 {
-                    serde_json::json!([x0, y0, x1 - x0 + 1, y1 - y0 + 1])
-                } else {
-                    serde_json::json!([-1, -1, -1, -1])
+                    _ => serde_json::json!([-1, -1, -1, -1]),
                 };
                 infos.push(serde_json::json!({
                     "bbox_visib": bbox_visib,

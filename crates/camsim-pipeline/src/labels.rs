@@ -78,7 +78,7 @@ pub struct Keypoint {
     /// Raw-grid position `[x, y]` in pixel edges (pixel (r, c) covers [c, c + 1) x [r, r + 1),
     /// as the 2D boxes; the sensor K's u + 0.5), through the optics' own map (a traced lens's
     /// distortion included); `None` behind the camera or beyond the lens's field.
-    pub xy: Option<[f64; 2]>,
+    pub xy_px: Option<[f64; 2]>,
     /// Its depth along the optical axis, m.
     pub depth_m: f64,
     /// COCO's flag: 0 outside the frame (or not imaged), 1 in the frame but behind a nearer
@@ -168,7 +168,7 @@ fn instance_keypoints(
             1
         };
         out[*i].push(Keypoint {
-            xy,
+            xy_px: xy,
             depth_m: p[2],
             visibility,
         });
@@ -399,7 +399,7 @@ impl SimLabels {
                     v["keypoints_sensor"] = kp
                         .iter()
                         .map(|p| {
-                            let [x, y] = p.xy.unwrap_or([0.0; 2]);
+                            let [x, y] = p.xy_px.unwrap_or([0.0; 2]);
                             serde_json::json!([x, y, p.visibility])
                         })
                         .collect();

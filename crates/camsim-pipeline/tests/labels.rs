@@ -299,7 +299,7 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         let e = kp[1..]
             .iter()
             .map(|p| {
-                let q = p.xy.expect("every corner is imaged");
+                let q = p.xy_px.expect("every corner is imaged");
                 (q[0] - t[0]).hypot(q[1] - t[1])
             })
             .fold(f64::INFINITY, f64::min);
@@ -331,7 +331,7 @@ fn a_box_lands_on_its_corners_chief_rays_through_a_distorting_lens() {
         let e = kp[1..]
             .iter()
             .map(|k| {
-                let q = k.xy.unwrap();
+                let q = k.xy_px.unwrap();
                 (q[0] - p[0]).hypot(q[1] - p[1])
             })
             .fold(f64::INFINITY, f64::min);
@@ -416,7 +416,7 @@ fn rig_offsets_move_the_camera_in_its_own_frame() {
     let (right, _) = keypoints(&format!("translation_m = [{baseline_m}, 0.0, 0.0]"));
     let mut worst = 0.0f64;
     for (l, r) in left.iter().zip(&right) {
-        let (pl, pr) = (l.xy.unwrap(), r.xy.unwrap());
+        let (pl, pr) = (l.xy_px.unwrap(), r.xy_px.unwrap());
         let disparity = pl[0] - pr[0];
         let want = k[0][0] * baseline_m / l.depth_m;
         worst = worst.max((disparity - want).abs());
@@ -436,19 +436,19 @@ fn rig_offsets_move_the_camera_in_its_own_frame() {
     let yaw = 0.12f64.atan().to_degrees();
     let (yawed, _) = keypoints(&format!("yaw_deg = {yaw}"));
     assert!(
-        (yawed[0].xy.unwrap()[0] - cx).abs() < 1e-6,
+        (yawed[0].xy_px.unwrap()[0] - cx).abs() < 1e-6,
         "{:?}",
         yawed[0]
     );
     let pitch = 0.2f64.atan2(3.0).to_degrees();
     let (pitched, _) = keypoints(&format!("pitch_deg = {pitch}"));
     assert!(
-        (pitched[0].xy.unwrap()[1] - cy).abs() < 1e-6,
+        (pitched[0].xy_px.unwrap()[1] - cy).abs() < 1e-6,
         "{:?}",
         pitched[0]
     );
     let (rolled, _) = keypoints("roll_deg = 90.0");
-    let p = rolled[0].xy.unwrap();
+    let p = rolled[0].xy_px.unwrap();
     let want = [k[0][0] * 0.2 / 3.0 + cx, k[1][1] * 0.36 / 3.0 + cy];
     assert!(
         (p[0] - want[0]).hypot(p[1] - want[1]) < 1e-6,
