@@ -996,6 +996,7 @@ impl Builder {
                 instance: Some(inst),
                 object_to_world: Some(*world),
                 light_group: None,
+                keypoints: None,
             },
         });
         Ok(())

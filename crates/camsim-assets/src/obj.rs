@@ -207,6 +207,7 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<SceneDescription> {
                 instance: Some(inst),
                 object_to_world: Some(frame),
                 light_group: None,
+                keypoints: None,
             },
         });
     }

@@ -58,8 +58,8 @@ fn default_up() -> [f64; 3] {
 #[serde(deny_unknown_fields)]
 pub struct ComposeSpec {
     /// Asset sources, relative to the config: CSV or JSON manifests (columns or fields `path`,
-    /// `category`, `scale_to_m` (default 1), `up_axis` (`y` or `z`, default `y`), `licence`),
-    /// folders, globs (`models/*.glb`, `models/**/*.obj`) or asset files (glTF, GLB, OBJ, PLY,
+    /// `category`, `scale_to_m` (default 1), `up_axis` (`y` or `z`, default `y`), `licence`,
+    /// `keypoints` (a JSON file of the asset's own keypoints)), folders, globs (`models/*.glb`, `models/**/*.obj`) or asset files (glTF, GLB, OBJ, PLY,
     /// pbrt-v4). Every asset is read and checked before anything is spawned.
     #[serde(default)]
     pub assets: Vec<String>,
@@ -359,7 +359,14 @@ fn insert_object(
     };
     let mesh = asset.mesh.clone();
     camsim_pbrt::overlay::apply_overlay_with(scene, &ov, Path::new(""), &|_| {
-        Some(Ok(mesh.scene.clone()))
+        let mut s = mesh.scene.clone();
+        // Its keypoints ride on its shapes, moved with them to the pose.
+        if let Some(k) = &asset.keypoints {
+            for sh in &mut s.shapes {
+                sh.tags.keypoints = Some(k.clone());
+            }
+        }
+        Some(Ok(s))
     })
     .map_err(|m| ComposeError::new(name, m))
 }

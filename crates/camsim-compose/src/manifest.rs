@@ -2,8 +2,9 @@
 //!
 //! A source (`[render.compose] assets = [...]`) is one of
 //! - a manifest file, `.csv` (a header row naming the columns `path`, `category`, `scale_to_m`,
-//!   `up_axis`, `licence`; only `path` is required) or `.json` (an array of objects with those
-//!   fields, or `{ "assets": [...] }`); its relative paths resolve against its own folder;
+//!   `up_axis`, `licence`, `keypoints`; only `path` is required) or `.json` (an array of objects
+//!   with those fields, or `{ "assets": [...] }`); its relative paths resolve against its own
+//!   folder;
 //! - a folder: every glTF, GLB, OBJ, PLY and pbrt-v4 file under it (recursively);
 //! - a glob: a path whose last part has `*` wildcards (`models/*.glb`), or `**/` before it for
 //!   every folder below (`models/**/*.obj`);
@@ -72,7 +73,41 @@ pub struct ManifestEntry {
     /// The asset's licence (recorded with each sample that uses it).
     #[serde(default)]
     pub licence: Option<String>,
+    /// The asset's own 3D keypoints (default: labels use its 3D box's centre and corners): a
+    /// JSON file (relative to the manifest's folder) or, in a JSON manifest, the object itself,
+    /// `{ "names": [...], "points": [[x, y, z], ...], "skeleton": [[i, j], ...] }`, points in
+    /// the file's units and axes (`scale_to_m` and `up_axis` apply to them as to the mesh),
+    /// `skeleton` (optional) edges as 0-based indices into `names`. The assets of one category
+    /// share one keypoint list (COCO gives a category one).
+    #[serde(default)]
+    pub keypoints: Option<KeypointSource>,
 }
+
+/// Where an asset's keypoints are given ([`ManifestEntry::keypoints`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(untagged)]
+pub enum KeypointSource {
+    /// A JSON file holding a [`KeypointsFile`].
+    File(String),
+    /// The keypoints themselves.
+    Inline(KeypointsFile),
+}
+
+/// An asset's keypoints as written ([`ManifestEntry::keypoints`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct KeypointsFile {
+    /// One unique name per point.
+    pub names: Vec<String>,
+    /// The points in the asset file's units and axes.
+    pub points: Vec<[f64; 3]>,
+    /// Edges between points, 0-based indices into `names`.
+    #[serde(default)]
+    pub skeleton: Vec<[usize; 2]>,
+}
+
+/// The most keypoints an asset may have.
+pub const MAX_KEYPOINTS: usize = 1024;
 
 /// A parsed asset in its own frame: metres, +y up, as the file placed it (its meshes, materials
 /// and emitters; no camera or lights of its own), and its triangles merged for collision.
@@ -106,6 +141,9 @@ pub struct Asset {
     /// Where it was listed: `manifest.csv:4`, `assets[2]`.
     pub origin: String,
     pub mesh: Arc<AssetMesh>,
+    /// Its own keypoints in its frame (metres, +y up, as [`AssetMesh::scene`]), when the
+    /// manifest gives them.
+    pub keypoints: Option<Arc<camsim_scene3d::ObjectKeypoints>>,
 }
 
 /// The assets of all sources, in source order (a folder's and a glob's files sorted by path).
@@ -136,6 +174,33 @@ impl Library {
                 key,
                 "the asset sources list no asset (give a manifest, a folder, a glob or files)",
             ));
+        }
+        // One keypoint list per category (COCO's): the same names and edges, or none at all.
+        let mut first: HashMap<&str, &Asset> = HashMap::new();
+        for a in &assets {
+            let f = *first.entry(a.category.as_str()).or_insert(a);
+            let list = |x: &Asset| {
+                x.keypoints
+                    .as_ref()
+                    .map(|k| (k.names.clone(), k.skeleton.clone()))
+            };
+            if list(f) != list(a) {
+                let say = |x: &Asset| match &x.keypoints {
+                    Some(k) => format!("keypoints {:?}", k.names),
+                    None => "no keypoints (its box's corners)".to_string(),
+                };
+                return Err(ComposeError::new(
+                    format!("{}: {}", a.origin, a.path.display()),
+                    format!(
+                        "category {:?}: this asset has {}, but {} ({}) has {}; the assets of one category share one keypoint list (names and skeleton)",
+                        a.category,
+                        say(a),
+                        f.path.display(),
+                        f.origin,
+                        say(f)
+                    ),
+                ));
+            }
         }
         Ok(Library { assets })
     }
@@ -171,6 +236,7 @@ fn default_entry(path: &Path) -> ManifestEntry {
         scale_to_m: 1.0,
         up_axis: UpAxisName::Y,
         licence: None,
+        keypoints: None,
     }
 }
 
@@ -342,7 +408,14 @@ fn read_csv(path: &Path) -> Result<Vec<(ManifestEntry, u64)>> {
         .iter()
         .map(|h| h.to_ascii_lowercase())
         .collect();
-    const COLUMNS: [&str; 5] = ["path", "category", "scale_to_m", "up_axis", "licence"];
+    const COLUMNS: [&str; 6] = [
+        "path",
+        "category",
+        "scale_to_m",
+        "up_axis",
+        "licence",
+        "keypoints",
+    ];
     for h in &headers {
         if !COLUMNS.contains(&h.as_str()) {
             return Err(ComposeError::new(
@@ -393,6 +466,7 @@ fn read_csv(path: &Path) -> Result<Vec<(ManifestEntry, u64)>> {
                 scale_to_m,
                 up_axis,
                 licence: get("licence").map(str::to_string),
+                keypoints: get("keypoints").map(|v| KeypointSource::File(v.to_string())),
             },
             line,
         ));
@@ -445,6 +519,10 @@ fn load_entry(e: &ManifestEntry, origin: &str, dir: &Path, budget: usize) -> Res
     }
     let mesh = cached_mesh(&path, e.scale_to_m, e.up_axis, budget)
         .map_err(|m| ComposeError::new(&key, m))?;
+    let keypoints = match &e.keypoints {
+        None => None,
+        Some(src) => Some(Arc::new(read_keypoints(src, dir, e, &key)?)),
+    };
     Ok(Asset {
         category: e.category.clone().unwrap_or_else(|| stem(&path)),
         path,
@@ -453,6 +531,75 @@ fn load_entry(e: &ManifestEntry, origin: &str, dir: &Path, budget: usize) -> Res
         licence: e.licence.clone(),
         origin: origin.to_string(),
         mesh,
+        keypoints,
+    })
+}
+
+/// An entry's keypoints, checked, in the asset's frame (its file's units and axes through
+/// `scale_to_m` and `up_axis`, as [`read_asset`] moves the mesh).
+fn read_keypoints(
+    src: &KeypointSource,
+    dir: &Path,
+    e: &ManifestEntry,
+    key: &str,
+) -> Result<camsim_scene3d::ObjectKeypoints> {
+    let (k, at) = match src {
+        KeypointSource::Inline(k) => (k.clone(), format!("{key}: keypoints")),
+        KeypointSource::File(f) => {
+            let p = resolve(dir, f);
+            let at = format!("{key}: keypoints {}", p.display());
+            let text = std::fs::read_to_string(&p)
+                .map_err(|err| ComposeError::new(&at, format!("cannot read: {err}")))?;
+            let k: KeypointsFile = serde_json::from_str(&text).map_err(|err| {
+                ComposeError::new(format!("{at}:{}", err.line()), err.to_string())
+            })?;
+            (k, at)
+        }
+    };
+    let err = |m: String| ComposeError::new(&at, m);
+    if k.names.is_empty() || k.names.len() > MAX_KEYPOINTS {
+        return Err(err(format!(
+            "{} names: give 1 to {MAX_KEYPOINTS} keypoints",
+            k.names.len()
+        )));
+    }
+    if k.points.len() != k.names.len() {
+        return Err(err(format!(
+            "{} names but {} points: give one point per name",
+            k.names.len(),
+            k.points.len()
+        )));
+    }
+    let mut seen = std::collections::HashSet::new();
+    for n in &k.names {
+        if n.is_empty() || !seen.insert(n.as_str()) {
+            return Err(err(format!("names: {n:?} is empty or given twice")));
+        }
+    }
+    if let Some((i, _)) = k
+        .points
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.iter().any(|v| !v.is_finite()))
+    {
+        return Err(err(format!("points[{i}] is not finite")));
+    }
+    let n = k.names.len();
+    if let Some((i, s)) = k
+        .skeleton
+        .iter()
+        .enumerate()
+        .find(|(_, s)| s[0] >= n || s[1] >= n || s[0] == s[1])
+    {
+        return Err(err(format!(
+            "skeleton[{i}] = {s:?}: an edge joins two different points, 0-based below {n}"
+        )));
+    }
+    let t = Transform::scale([e.scale_to_m; 3]).then_apply_to(&e.up_axis.axis().to_y_up());
+    Ok(camsim_scene3d::ObjectKeypoints {
+        names: k.names,
+        skeleton: k.skeleton,
+        points_m: k.points.iter().map(|p| t.apply_point(*p)).collect(),
     })
 }
 

@@ -210,3 +210,61 @@ fn an_impossible_placement_names_the_entry_and_the_constraint() {
     let err = toml::from_str::<ComposeSpec>("[[spawn]]\ncuont = [1, 2]\n").unwrap_err();
     assert!(err.to_string().contains("cuont"), "{err}");
 }
+
+#[test]
+fn bad_keypoints_are_named_with_the_asset_and_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let cube = common::trimesh_dir().join("cube.OBJ");
+    let assets = format!("assets = [\"m.csv\"]\n{}", plane_spawn(""));
+    // A keypoint file with a point missing, named with its manifest line.
+    std::fs::write(
+        dir.path().join("k.json"),
+        r#"{ "names": ["a", "b"], "points": [[0, 0, 0]] }"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("m.csv"),
+        format!("path,category,keypoints\n{},cube,k.json\n", cube.display()),
+    )
+    .unwrap();
+    let e = run(&spec(&assets), dir.path());
+    assert!(
+        e.contains("m.csv:2") && e.contains("k.json") && e.contains("one point per name"),
+        "{e}"
+    );
+    // An edge to a point that is not there; a name given twice.
+    for (k, want) in [
+        (
+            r#"{ "names": ["a", "b"], "points": [[0, 0, 0], [1, 0, 0]], "skeleton": [[0, 2]] }"#,
+            "skeleton[0]",
+        ),
+        (
+            r#"{ "names": ["a", "a"], "points": [[0, 0, 0], [1, 0, 0]] }"#,
+            "given twice",
+        ),
+        (r#"{ "names": ["a"], "points": [[0, 0]] }"#, "k.json:1"),
+    ] {
+        std::fs::write(dir.path().join("k.json"), k).unwrap();
+        let e = run(&spec(&assets), dir.path());
+        assert!(e.contains("m.csv:2") && e.contains(want), "{want}: {e}");
+    }
+    // Two assets of one category, one with keypoints and one without.
+    std::fs::write(
+        dir.path().join("k.json"),
+        r#"{ "names": ["a"], "points": [[0, 0, 0]] }"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("m.csv"),
+        format!(
+            "path,category,keypoints\n{0},cube,k.json\n{0},cube,\n",
+            cube.display()
+        ),
+    )
+    .unwrap();
+    let e = run(&spec(&assets), dir.path());
+    assert!(
+        e.contains("m.csv:3") && e.contains("\"cube\"") && e.contains("share one keypoint list"),
+        "{e}"
+    );
+}

@@ -8,10 +8,10 @@
 //! compressed RLE (column-major runs, from the sample's sensor-geometry `instances.png`), its
 //! pixel count as `area`, its tight box `[x, y, width, height]` (pixel edges), `iscrowd` 0, and
 //! camsim's `visible_fraction`, `truncation` and `box_3d` (camera frame, boxes.json), and its
-//! keypoints (its 3D box's centre and corners on the raw grid, COCO's `keypoints` and
-//! `num_keypoints`; each category names them with the box's edges as its `skeleton`). Categories
-//! are the instances' material names or object names ([`CategoryBy`]), numbered 1.. in sorted
-//! order. The dataset must have the outputs `preview`, `instances` and `boxes`.
+//! keypoints (an asset's own keypoints, else its 3D box's centre and corners, on the raw grid:
+//! COCO's `keypoints` and `num_keypoints`; each category names them, with their edges as its
+//! `skeleton`). Categories are the instances' material names or object names ([`CategoryBy`]),
+//! numbered 1.. in sorted order. The dataset must have the outputs `preview`, `instances` and `boxes`.
 
 use crate::spec::DatasetSpec;
 use crate::{DatasetError, Result};
@@ -116,8 +116,10 @@ fn export_into(
     let mut pending: Vec<(u64, serde_json::Value, String, u64, [u64; 4])> = Vec::new();
     let mut categories = BTreeSet::new();
     let mut sizes: BTreeMap<u64, (usize, usize)> = BTreeMap::new();
-    // The keypoints' names and skeleton (boxes.json's `keypoints`), when the labels have them.
-    let mut keypoint_names: Option<(serde_json::Value, serde_json::Value)> = None;
+    // Per category its keypoints' names and skeleton (an instance's `keypoints_3d`, else
+    // boxes.json's `keypoints`: the box's), with the instance that set them.
+    let mut keypoint_names: BTreeMap<String, (serde_json::Value, serde_json::Value, String)> =
+        BTreeMap::new();
     for s in 0..spec.shards() {
         let (tar_path, views) = crate::run::shard_views(
             spec,
@@ -207,11 +209,27 @@ fn export_into(
                         flat.extend([serde_json::json!(x), serde_json::json!(y), v.into()]);
                     }
                     extra["keypoints"] = flat.into();
-                    if keypoint_names.is_none() {
-                        keypoint_names = Some((
-                            boxes["keypoints"]["names"].clone(),
-                            boxes["keypoints"]["skeleton"].clone(),
-                        ));
+                    let own = &inst["keypoints_3d"];
+                    let set = if own.is_object() {
+                        own
+                    } else {
+                        &boxes["keypoints"]
+                    };
+                    let (names, skeleton) = (set["names"].clone(), set["skeleton"].clone());
+                    let here = format!("{key} instance {id}");
+                    match keypoint_names.get(&cat) {
+                        None => {
+                            keypoint_names.insert(cat.clone(), (names, skeleton, here));
+                        }
+                        Some((n, sk, first)) if *n != names || *sk != skeleton => {
+                            return Err(DatasetError::file(
+                                &tar_path,
+                                format!(
+                                    "{here}: its keypoints {names} differ from those of {first} ({n}), of the same category {cat:?}; COCO gives a category one keypoint list (give the assets of one category the same manifest keypoints, or export by category)"
+                                ),
+                            ));
+                        }
+                        Some(_) => {}
                     }
                 }
                 pending.push((image_id, extra, rle, area, [b[0], b[1], b[2], b[3]]));
@@ -248,16 +266,6 @@ fn export_into(
             a
         })
         .collect();
-    // COCO's skeleton is 1-based.
-    let keypoint_fields = keypoint_names.map(|(names, skeleton)| {
-        let skeleton: Vec<[u64; 2]> = skeleton
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter_map(|e| Some([e[0].as_u64()? + 1, e[1].as_u64()? + 1]))
-            .collect();
-        (names, skeleton)
-    });
     Ok(serde_json::json!({
         "info": {
             "description": format!("camsim dataset {}", spec.source),
@@ -271,7 +279,14 @@ fn export_into(
             .enumerate()
             .map(|(i, c)| {
                 let mut cat = serde_json::json!({ "id": i + 1, "name": c, "supercategory": "" });
-                if let Some((names, skeleton)) = &keypoint_fields {
+                if let Some((names, skeleton, _)) = keypoint_names.get(c) {
+                    // COCO's skeleton is 1-based.
+                    let skeleton: Vec<[u64; 2]> = skeleton
+                        .as_array()
+                        .into_iter()
+                        .flatten()
+                        .filter_map(|e| Some([e[0].as_u64()? + 1, e[1].as_u64()? + 1]))
+                        .collect();
                     cat["keypoints"] = names.clone();
                     cat["skeleton"] = serde_json::json!(skeleton);
                 }

@@ -47,8 +47,9 @@ pub struct SimLabels {
     /// With `distorted`: OpenCV's distortion coefficients fitted to the optics' own map, so
     /// `sensor_camera.k` with them reproduces the raw grid (see [`SensorDistortion`]).
     pub sensor_distortion: Option<SensorDistortion>,
-    /// Per instance of `scene.instances` (same order): its keypoints ([`KEYPOINT_NAMES`]: its 3D
-    /// box's centre and corners) on the raw grid; empty for an instance without a box.
+    /// Per instance of `scene.instances` (same order): its keypoints on the raw grid, those of
+    /// its `keypoints_3d` (an asset's own) in their order, else [`KEYPOINT_NAMES`] (its 3D box's
+    /// centre and corners); empty for an instance with neither.
     pub keypoints: Vec<Vec<Keypoint>>,
 }
 
@@ -104,7 +105,9 @@ fn instance_keypoints(
     let (in_cols, in_rows) = (irradiance.cols as f64, irradiance.rows as f64);
     let mut points: Vec<(usize, [f64; 3])> = Vec::new();
     for (i, inst) in scene.instances.iter().enumerate() {
-        if let Some(b) = &inst.box_3d {
+        if let Some(k) = &inst.keypoints_3d {
+            points.extend(k.points_m.iter().map(|p| (i, *p)));
+        } else if let Some(b) = &inst.box_3d {
             points.push((i, b.center_m));
             points.extend(b.corners_m.iter().map(|c| (i, *c)));
         }
@@ -353,7 +356,7 @@ pub fn sensor_labels(
 const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render. sensor_distortion_opencv (with a distorting lens): OpenCV's distCoeffs [k1, k2, p1, p2, k3] for the sensor K, fitted to the optics' map, with the fit's reprojection RMS and largest error in sensor pixels.";
 
 /// What boxes.json says about `keypoints_sensor`.
-const KEYPOINT_NOTE: &str = "keypoints_sensor: per instance, [x, y, visibility] for each of keypoints.names (its 3D box's centre and 8 corners, box_3d.corners_m's order) on the raw grid in pixel edges (as the 2D boxes: the sensor K's u + 0.5), imaged through the optics' own map (a traced lens's distortion included); visibility as COCO's: 0 outside the frame (x = y = 0 when not imaged at all), 1 in the frame behind a nearer surface, 2 visible. skeleton: the box's 12 edges, 0-based indices into names.";
+const KEYPOINT_NOTE: &str = "keypoints_sensor: per instance, [x, y, visibility] for each of its keypoints_3d.names when it has its own (an asset manifest's keypoints; keypoints_3d.points_m: camera frame, m), else for each of keypoints.names (its 3D box's centre and 8 corners, box_3d.corners_m's order), on the raw grid in pixel edges (as the 2D boxes: the sensor K's u + 0.5), imaged through the optics' own map (a traced lens's distortion included); visibility as COCO's: 0 outside the frame (x = y = 0 when not imaged at all), 1 in the frame behind a nearer surface, 2 visible. skeleton: the box's 12 edges, 0-based indices into names (an instance's own: keypoints_3d.skeleton).";
 
 impl SimLabels {
     /// The camera models of both geometries, for run.json and boxes.json.

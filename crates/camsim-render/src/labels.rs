@@ -92,6 +92,36 @@ pub struct Box3d {
     pub corners_m: [[f64; 3]; 8],
 }
 
+/// An instance's own named 3D keypoints in camera coordinates (OpenCV frame, m).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Keypoints3d {
+    pub names: Vec<String>,
+    /// Edges between points, 0-based indices into `names`.
+    pub skeleton: Vec<[usize; 2]>,
+    pub points_m: Vec<[f64; 3]>,
+}
+
+/// The camera-frame keypoints of the instance whose first shape is `i0` (see
+/// [`Instance::keypoints_3d`]); `moved` as in [`box_3d`].
+fn keypoints_3d(
+    scene: &SceneDescription,
+    i0: usize,
+    cam: &PinholeCamera,
+    moved: &dyn Fn(usize) -> Option<Transform>,
+) -> Option<Keypoints3d> {
+    let k = scene.shapes.get(i0)?.tags.keypoints.as_ref()?;
+    let d = moved(i0);
+    Some(Keypoints3d {
+        names: k.names.clone(),
+        skeleton: k.skeleton.clone(),
+        points_m: k
+            .points_m
+            .iter()
+            .map(|p| cam.to_camera(d.as_ref().map_or(*p, |d| d.apply_point(*p))))
+            .collect(),
+    })
+}
+
 /// One object instance of a render.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Instance {
@@ -109,6 +139,10 @@ pub struct Instance {
     pub object_ids: Vec<u32>,
     /// Oriented box around its geometry; `None` for an instance without geometry extent.
     pub box_3d: Option<Box3d>,
+    /// Its own 3D keypoints (`ShapeTags::keypoints` of its first shape: an asset manifest's),
+    /// in the camera frame; `None`: keypoint labels use its box's centre and corners.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keypoints_3d: Option<Keypoints3d>,
     /// Pixels whose centre ray meets the instance anywhere, in front of other surfaces or not
     /// (its unoccluded area inside the frame, render pixels).
     pub unoccluded_px: u64,
@@ -213,6 +247,7 @@ fn instance_table(scene: &SceneDescription) -> (Vec<u32>, Vec<Instance>) {
                     category: s.tags.category.clone(),
                     object_ids: Vec::new(),
                     box_3d: None,
+                    keypoints_3d: None,
                     unoccluded_px: 0,
                     visible_px: 0,
                     visible_fraction: 0.0,
@@ -732,9 +767,12 @@ pub(crate) fn compute(
         } else {
             0.0
         };
-        inst.box_3d = box_3d(scene, &inst.object_ids, &camera, &|i| {
-            motion.and_then(|m| m.shape_delta_at(i, frame_start_s))
-        });
+        let moved = |i| motion.and_then(|m| m.shape_delta_at(i, frame_start_s));
+        inst.box_3d = box_3d(scene, &inst.object_ids, &camera, &moved);
+        inst.keypoints_3d = inst
+            .object_ids
+            .first()
+            .and_then(|&o| keypoints_3d(scene, o as usize - 1, &camera, &moved));
         inst.truncation = inst
             .box_3d
             .as_ref()

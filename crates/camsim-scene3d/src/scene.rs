@@ -665,6 +665,22 @@ pub struct ShapeTags {
     /// The semantic category of the instance (an overlay's `[[object]] category`, an asset
     /// manifest's): labels and COCO name it; `None`: none given.
     pub category: Option<String>,
+    /// The instance's own 3D keypoints (an asset manifest's `keypoints`), in world coordinates
+    /// like the geometry (moved with it by [`crate::xform::transform_shape`]); `None`: labels
+    /// use its 3D box's centre and corners.
+    pub keypoints: Option<std::sync::Arc<ObjectKeypoints>>,
+}
+
+/// Named 3D points on an object (a pose model's keypoints: a mug's handle, a tool's tip) and
+/// the edges drawn between them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ObjectKeypoints {
+    /// One name per point, unique.
+    pub names: Vec<String>,
+    /// Edges between points, 0-based indices into `names` (COCO's `skeleton` less one).
+    pub skeleton: Vec<[usize; 2]>,
+    /// The points, m (world coordinates in a scene's `ShapeTags`).
+    pub points_m: Vec<[f64; 3]>,
 }
 
 /// Lights that are not shapes. Point, spot and distant lights are delta lights: reached only by

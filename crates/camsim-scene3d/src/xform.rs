@@ -184,6 +184,14 @@ pub fn transform_shape(shape: &mut Shape, t: &Transform) -> Result<(), String> {
     if let Some(m) = &mut shape.tags.object_to_world {
         *m = t.then_apply_to(m);
     }
+    // So do its keypoints.
+    if let Some(k) = &mut shape.tags.keypoints {
+        let mut moved = (**k).clone();
+        for p in moved.points_m.iter_mut() {
+            *p = t.apply_point(*p);
+        }
+        *k = std::sync::Arc::new(moved);
+    }
     Ok(())
 }
 
