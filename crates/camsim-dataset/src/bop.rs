@@ -10,9 +10,12 @@
 //!   the asset in its frame (metres times 1000, +y up, as composed);
 //! - `train_pbr/SSSSSS/` per shard S: `scene_camera.json` (`cam_K`, `cam_R_w2c`, `cam_t_w2c`,
 //!   `depth_scale`), `scene_gt.json` (per spawned object `obj_id`, `cam_R_m2c`, `cam_t_m2c` mm),
-//!   `scene_gt_info.json` (`bbox_visib` `[x, y, w, h]`, `px_count_visib`, `visib_fract`),
-//!   `rgb/IIIIII.png` (the preview), `mask_visib/IIIIII_GGGGGG.png` (0/255) and, with the `depth`
-//!   output, `depth/IIIIII.png` (16-bit, depth along the axis times `depth_scale` in mm); the
+//!   `scene_gt_info.json` (`bbox_visib` `[x, y, w, h]`, `px_count_visib`, `visib_fract`; with
+//!   the `amodal` output also `bbox_obj`, `px_count_all`, `px_count_valid` (with `depth`) and
+//!   `visib_fract` as BOP's visible / all), `rgb/IIIIII.png` (the preview),
+//!   `mask_visib/IIIIII_GGGGGG.png` (0/255), with `amodal` `mask/IIIIII_GGGGGG.png` (the full
+//!   silhouette, occluders ignored) and, with the `depth` output, `depth/IIIIII.png` (16-bit,
+//!   depth along the axis times `depth_scale` in mm); the
 //!   image id is the sample index (with a rig, sample index x cameras + camera, each camera's
 //!   image with its own `scene_camera` entry).
 //!
@@ -233,6 +236,7 @@ fn export_into(
 
             // Depth (BOP: uint16, value x depth_scale = mm; 0 where unknown).
             let mut depth_scale_mm = 1.0;
+            let mut depth_valid: Option<Vec<bool>> = None;
             if let Some(exr) = f.remove("depth.sensor.exr") {
                 let tmp = scratch.join(format!("{key}.depth.exr"));
                 std::fs::write(&tmp, &exr).map_err(|e| DatasetError::io(&tmp, e))?;
@@ -258,6 +262,7 @@ fn export_into(
                         }
                     })
                     .collect();
+                depth_valid = Some(v.iter().map(|&d| d > 0).collect());
                 create(&scene_dir.join("depth"))?;
                 camsim_io::raster::write_png16_gray(
                     &scene_dir.join(format!("depth/{im_id:06}.png")),
@@ -297,9 +302,17 @@ fn export_into(
                     let bbox: Option<[u64; 4]> =
                         serde_json::from_value(inst["bbox_sensor"].clone()).ok();
                     let pixels = inst["pixels_sensor"].as_u64().unwrap_or(0);
+                    let all = match inst.get("mask_all_sensor") {
+                        Some(m) => Some(decode_rle(m, rows, cols).ok_or_else(|| {
+                            bad(&format!(
+                                "instance {n}: mask_all_sensor is not a {cols} x {rows} COCO RLE"
+                            ))
+                        })?),
+                        None => None,
+                    };
                     by_name.insert(
                         n.to_string(),
-                        (id, inst["visible_fraction"].as_f64(), bbox, pixels),
+                        (id, inst["visible_fraction"].as_f64(), bbox, pixels, all),
                     );
                 }
             }
@@ -365,7 +378,7 @@ fn export_into(
                 gts.push(gt);
                 // The visible mask on the raw grid; its box and pixel count are boxes.json's
                 // (the labels' own `boxes_2d` of the same map).
-                let (id, visib, bbox, n) = by_name.get(name).cloned().unwrap_or_default();
+                let (id, visib, bbox, n, all) = by_name.remove(name).unwrap_or_default();
                 let mask: Vec<u8> = map
                     .iter()
                     .map(|&v| if id > 0 && v as u64 == id { 255 } else { 0 })
@@ -376,11 +389,49 @@ fn export_into(
                     }
                     _ => serde_json::json!([-1, -1, -1, -1]),
                 };
-                infos.push(serde_json::json!({
+                let mut info = serde_json::json!({
                     "bbox_visib": bbox_visib,
                     "px_count_visib": n,
                     "visib_fract": if n > 0 { visib.unwrap_or(0.0) } else { 0.0 },
-                }));
+                });
+                // With the amodal silhouettes: BOP's full mask, its box and counts, and
+                // visib_fract as BOP defines it (visible over all pixels of the silhouette).
+                if let Some(all) = all {
+                    let n_all = all.iter().filter(|&&m| m).count();
+                    let mut b = [usize::MAX, usize::MAX, 0, 0];
+                    for (p, _) in all.iter().enumerate().filter(|(_, &m)| m) {
+                        let (y, x) = (p / cols, p % cols);
+                        b = [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)];
+                    }
+                    info["bbox_obj"] = if n_all > 0 {
+                        serde_json::json!([b[0], b[1], b[2] - b[0], b[3] - b[1]])
+                    } else {
+                        serde_json::json!([-1, -1, -1, -1])
+                    };
+                    info["px_count_all"] = n_all.into();
+                    if let Some(valid) = &depth_valid {
+                        info["px_count_valid"] = all
+                            .iter()
+                            .zip(valid)
+                            .filter(|(&m, &v)| m && v)
+                            .count()
+                            .into();
+                    }
+                    info["visib_fract"] = if n_all > 0 {
+                        (n as f64 / n_all as f64).into()
+                    } else {
+                        0.0.into()
+                    };
+                    let mask: Vec<u8> = all.iter().map(|&m| if m { 255 } else { 0 }).collect();
+                    create(&scene_dir.join("mask"))?;
+                    camsim_io::raster::write_png8_gray(
+                        &scene_dir.join(format!("mask/{im_id:06}_{g:06}.png")),
+                        rows,
+                        cols,
+                        &mask,
+                    )?;
+                }
+                infos.push(info);
                 camsim_io::raster::write_png8_gray(
                     &scene_dir.join(format!("mask_visib/{im_id:06}_{g:06}.png")),
                     rows,
@@ -403,6 +454,29 @@ fn export_into(
         }
     }
     Ok((mirror, camera))
+}
+
+/// A COCO uncompressed RLE (`{ "size": [h, w], "counts": [...] }`: column-major runs, first
+/// outside) as a row-major mask; `None` when it is not one of a `rows` x `cols` grid.
+fn decode_rle(m: &serde_json::Value, rows: usize, cols: usize) -> Option<Vec<bool>> {
+    if m["size"] != serde_json::json!([rows, cols]) {
+        return None;
+    }
+    let mut mask = vec![false; rows * cols];
+    let (mut at, mut inside) = (0usize, false);
+    for c in m["counts"].as_array()? {
+        let n = c.as_u64()? as usize;
+        let end = at.checked_add(n).filter(|&e| e <= rows * cols)?;
+        if inside {
+            for k in at..end {
+                // Column-major k: column k / rows, row k % rows.
+                mask[(k % rows) * cols + k / rows] = true;
+            }
+        }
+        at = end;
+        inside = !inside;
+    }
+    (at == rows * cols).then_some(mask)
 }
 
 /// `models/obj_NNNNNN.ply` and `models_info.json`: each asset in mm, x mirrored with `mirror`

@@ -352,8 +352,56 @@ pub fn sensor_labels(
     })
 }
 
+/// COCO's uncompressed RLE of a mask given by its pixels (row-major indices into a `width` x
+/// `height` grid): run lengths in column-major order, alternately outside and inside the mask,
+/// starting outside (a first run of 0 when pixel (0, 0) is inside). COCO's `mask.py`, format.
+fn column_major_rle(pixels: &[u32], width: usize, height: usize) -> Vec<u64> {
+    let mut cm: Vec<u64> = pixels
+        .iter()
+        .map(|&p| {
+            let (y, x) = (p as usize / width, p as usize % width);
+            (x * height + y) as u64
+        })
+        .collect();
+    cm.sort_unstable();
+    cm.dedup();
+    let total = (width * height) as u64;
+    let mut counts = Vec::new();
+    let mut at = 0u64; // the next pixel not yet counted
+    let mut k = 0;
+    while k < cm.len() {
+        let start = cm[k];
+        let mut end = start + 1;
+        k += 1;
+        while k < cm.len() && cm[k] == end {
+            end += 1;
+            k += 1;
+        }
+        counts.push(start - at);
+        counts.push(end - start);
+        at = end;
+    }
+    if at < total {
+        counts.push(total - at);
+    }
+    counts
+}
+
+/// The box `[x0, y0, x1, y1]` (pixel edges, ends exclusive) of pixels given by row-major index.
+fn pixel_box(pixels: &[u32], width: usize) -> Option<[usize; 4]> {
+    let mut b: Option<[usize; 4]> = None;
+    for &p in pixels {
+        let (y, x) = (p as usize / width, p as usize % width);
+        b = Some(match b {
+            None => [x, y, x + 1, y + 1],
+            Some(b) => [b[0].min(x), b[1].min(y), b[2].max(x + 1), b[3].max(y + 1)],
+        });
+    }
+    b
+}
+
 /// What the labels' files say about their conventions (boxes.json and run.json).
-const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render. sensor_distortion_opencv (with a distorting lens): OpenCV's distCoeffs [k1, k2, p1, p2, k3] for the sensor K, fitted to the optics' map, with the fit's reprojection RMS and largest error in sensor pixels.";
+const NOTE: &str = "Camera frame: OpenCV (x right, y down, z forward, m), origin at the pinhole (a lens camera's entrance pupil). K: pixel centres at integer coordinates (u = fx X/Z + cx). 2D boxes: [x0, y0, x1, y1] in pixel edges (pixel (r, c) covers [c, c+1) x [r, r+1), ends exclusive, as COCO). 'sensor' maps are on the raw image's pixel grid: label pixel (r, c) describes the scene point imaged at raw pixel (r, c) (through the optics' magnification, padding and distortion; camsim's optics keeps the image upright); 'scene' maps are on the render's grid. visible_fraction and truncation are measured on the render. sensor_distortion_opencv (with a distorting lens): OpenCV's distCoeffs [k1, k2, p1, p2, k3] for the sensor K, fitted to the optics' map, with the fit's reprojection RMS and largest error in sensor pixels. mask_all_sensor (the amodal output): an instance's full silhouette on the raw grid, occluders ignored (every surface along each pixel's ray, up to 64), as COCO's uncompressed RLE (column-major runs, first outside), with pixels_sensor_all and bbox_sensor_all.";
 
 /// What boxes.json says about `keypoints_sensor`.
 const KEYPOINT_NOTE: &str = "keypoints_sensor: per instance, [x, y, visibility] for each of its keypoints_3d.names when it has its own (an asset manifest's keypoints; keypoints_3d.points_m: camera frame, m), else for each of keypoints.names (its 3D box's centre and 8 corners, box_3d.corners_m's order), on the raw grid in pixel edges (as the 2D boxes: the sensor K's u + 0.5), imaged through the optics' own map (a traced lens's distortion included); visibility as COCO's: 0 outside the frame (x = y = 0 when not imaged at all), 1 in the frame behind a nearer surface, 2 visible. skeleton: the box's 12 edges, 0-based indices into names (an instance's own: keypoints_3d.skeleton).";
@@ -398,6 +446,16 @@ impl SimLabels {
                 v["bbox_sensor"] =
                     serde_json::to_value(sensor[k].map(|b| b.bbox)).unwrap_or_default();
                 v["pixels_sensor"] = sensor[k].map_or(0, |b| b.pixels).into();
+                if let Some(px) = self.sensor.amodal.as_ref().and_then(|a| a.get(i)) {
+                    let (w, h) = (self.sensor.width, self.sensor.height);
+                    v["mask_all_sensor"] = serde_json::json!({
+                        "size": [h, w],
+                        "counts": column_major_rle(px, w, h),
+                    });
+                    v["pixels_sensor_all"] = px.len().into();
+                    v["bbox_sensor_all"] =
+                        pixel_box(px, w).map_or(serde_json::Value::Null, |b| serde_json::json!(b));
+                }
                 if let Some(kp) = self.keypoints.get(i).filter(|kp| !kp.is_empty()) {
                     v["keypoints_sensor"] = kp
                         .iter()

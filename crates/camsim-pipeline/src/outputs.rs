@@ -52,6 +52,10 @@ pub enum Output {
     /// preview.jpg: the preview as a baseline JPEG at `[isp] jpeg_quality` (default 90), the
     /// format training pipelines read.
     PreviewJpeg,
+    /// In boxes.json (so only with `boxes`): each instance's full (amodal) silhouette on the raw
+    /// grid, occluders ignored, as `mask_all_sensor` (COCO's uncompressed RLE) with its pixel
+    /// count and box (3D scenes; BOP's `mask/`).
+    Amodal,
 }
 
 /// The outputs by the name `--save` (and a dataset's `outputs`) takes.
@@ -133,6 +137,11 @@ pub const OUTPUTS: NameTable<Output> = NameTable {
             "preview.jpg: the ISP's sRGB image as a JPEG at [isp] jpeg_quality (default 90)",
             Output::PreviewJpeg,
         ),
+        out(
+            "amodal",
+            "in boxes.json (with boxes): each instance's full silhouette on the raw grid, occluders ignored (COCO uncompressed RLE; BOP's mask/)",
+            Output::Amodal,
+        ),
     ],
 };
 
@@ -153,7 +162,7 @@ const fn out(name: &'static str, about: &'static str, value: Output) -> Named<Ou
 
 impl Output {
     /// Every output, in the order of [`OUTPUTS`].
-    pub const ALL: [Output; 15] = {
+    pub const ALL: [Output; 16] = {
         let e = OUTPUTS.entries;
         [
             e[0].value,
@@ -171,15 +180,17 @@ impl Output {
             e[12].value,
             e[13].value,
             e[14].value,
+            e[15].value,
         ]
     };
 
     /// The training-data labels ([`crate::labels`]; 3D scenes only).
-    pub const LABELS: [Output; 4] = [
+    pub const LABELS: [Output; 5] = [
         Output::Instances,
         Output::Normals,
         Output::Albedo,
         Output::Boxes,
+        Output::Amodal,
     ];
 
     /// The name used in `--save` ([`OUTPUTS`]).
@@ -239,6 +250,11 @@ impl OutputSet {
                 },
             }
         }
+        if set.contains(&Output::Amodal) && !set.contains(&Output::Boxes) {
+            return Err(PipelineError::config(
+                "--save amodal: the amodal silhouettes are written in boxes.json: add boxes",
+            ));
+        }
         Ok(OutputSet(set))
     }
 
@@ -267,6 +283,7 @@ impl OutputSet {
         needs.then_some(camsim_render::LabelRequest {
             normals: self.contains(Output::Normals),
             albedo: self.contains(Output::Albedo),
+            amodal: self.contains(Output::Amodal),
         })
     }
 
@@ -287,6 +304,17 @@ impl OutputSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The amodal silhouettes live in boxes.json: asked for without it, the run is refused.
+    #[test]
+    fn amodal_needs_boxes() {
+        let e = OutputSet::parse("instances,amodal")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("amodal") && e.contains("add boxes"), "{e}");
+        assert!(OutputSet::parse("boxes,amodal").is_ok());
+        assert!(OutputSet::parse("all").is_ok());
+    }
 
     /// Issue 25 item 7: `--save ids` on a 2D chart wrote nothing and said nothing.
     #[test]

@@ -47,6 +47,7 @@ fn a_gltf_asset_added_to_the_cornell_box_is_its_own_labelled_instance() {
         labels: Some(LabelRequest {
             normals: false,
             albedo: false,
+            amodal: false,
         }),
         ..Default::default()
     };

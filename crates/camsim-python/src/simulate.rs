@@ -426,6 +426,7 @@ fn simulate(
                 labels: labels.then_some(camsim::render::LabelRequest {
                     normals: true,
                     albedo: true,
+                    amodal: false,
                 }),
                 flow,
             };

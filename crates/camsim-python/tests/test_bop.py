@@ -22,7 +22,7 @@ from camsim.dataset import TorchDataset
 ROOT = Path(__file__).resolve().parents[3]
 
 SPEC = {
-    "dataset": {"samples": 2, "shard_size": 2, "seed": 11, "outputs": ["preview", "instances", "boxes", "depth"]},
+    "dataset": {"samples": 2, "shard_size": 2, "seed": 11, "outputs": ["preview", "instances", "boxes", "amodal", "depth"]},
     "base": {
         "wavelengths": {"start_nm": 400.0, "step_nm": 30.0, "count": 11},
         "sensor": {"preset": "pixel4a", "rows": 96, "cols": 128},
@@ -256,6 +256,50 @@ def test_stereo_disparity_is_f_baseline_over_depth(exported):
                     n += 1
     print(f"stereo disparity against f B / Z: worst {worst:.2e} px over {n} keypoints")
     assert n >= 8 and worst <= 0.5, (n, worst)
+
+
+def test_full_masks_are_the_posed_models_silhouettes(exported):
+    """BOP's mask/ (the amodal output): each object's whole silhouette, occluders ignored. It
+    holds its visible mask, its pixel counts and visib_fract are BOP's, it is the same mask as
+    boxes.json's COCO RLE read by pycocotools, and for an object inside the frame its box is the
+    box of its posed model's projection within 1 px, occluded or not."""
+    mask_utils = pytest.importorskip("pycocotools.mask")
+    out, bop, _ = exported
+    info = json.loads((bop / "models/models_info.json").read_text())
+    models = {int(k): read_ply_vertices(bop / f"models/obj_{int(k):06d}.ply") for k in info}
+    scene = bop / "train_pbr/000000"
+    cams = json.loads((scene / "scene_camera.json").read_text())
+    gts = json.loads((scene / "scene_gt.json").read_text())
+    infos = json.loads((scene / "scene_gt_info.json").read_text())
+    keys = [f"{c}.boxes.json" for c in CAMERAS]
+    boxes = {2 * int(s["__key__"]) + c: s[k] for s in TorchDataset(out, keys=keys) for c, k in enumerate(keys)}
+    checked = occluded = 0
+    for im, objs in gts.items():
+        k = np.asarray(cams[im]["cam_K"]).reshape(3, 3)
+        by_name = {i["name"]: i for i in boxes[int(im)]["instances"]}
+        for g, (gt, gi) in enumerate(zip(objs, infos[im])):
+            full = _png(scene / f"mask/{int(im):06d}_{g:06d}.png") > 0
+            visib = _png(scene / f"mask_visib/{int(im):06d}_{g:06d}.png") > 0
+            h, w = full.shape
+            assert not (visib & ~full).any(), "a visible pixel outside the full silhouette"
+            assert gi["px_count_all"] == int(full.sum()) == gi["px_count_valid"]
+            assert gi["visib_fract"] == pytest.approx(gi["px_count_visib"] / max(gi["px_count_all"], 1))
+            rle = by_name[gt["camsim_name"]]["mask_all_sensor"]
+            decoded = mask_utils.decode(mask_utils.frPyObjects(rle, *rle["size"])) > 0
+            assert np.array_equal(decoded, full)
+            if gi["px_count_all"] == 0:
+                assert gi["bbox_obj"] == [-1, -1, -1, -1]
+                continue
+            x_cam = (rotation(gt["cam_R_m2c"]) @ (gt.get("camsim_scale", 1.0) * models[gt["obj_id"]]).T).T
+            uv = project(k, x_cam + np.asarray(gt["cam_t_m2c"]))
+            if uv[:, 0].min() > 1 and uv[:, 1].min() > 1 and uv[:, 0].max() < w - 1 and uv[:, 1].max() < h - 1:
+                x0, y0, bw, bh = gi["bbox_obj"]
+                want = [uv[:, 0].min(), uv[:, 1].min(), uv[:, 0].max(), uv[:, 1].max()]
+                assert np.allclose([x0, y0, x0 + bw, y0 + bh], want, atol=1.0), (gt, gi, want)
+                checked += 1
+                occluded += gi["visib_fract"] < 0.99
+    print(f"full silhouettes against the posed models' projections: {checked} objects, {occluded} occluded")
+    assert checked >= 4 and occluded >= 1, (checked, occluded)
 
 
 def _png(path: Path) -> np.ndarray:

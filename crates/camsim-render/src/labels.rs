@@ -37,6 +37,10 @@ pub struct LabelRequest {
     pub normals: bool,
     /// Albedo: spectral (4 bytes per band and pixel) and linear sRGB (12 bytes per pixel).
     pub albedo: bool,
+    /// Each instance's full (amodal) silhouette, occluders ignored ([`Labels::amodal`]): every
+    /// surface along each pixel's ray is followed (up to 64), on a traced grid as on the
+    /// render's.
+    pub amodal: bool,
 }
 
 /// The pinhole camera of a render (the rays of its depth, id and label maps) in OpenCV's
@@ -177,6 +181,10 @@ pub struct Labels {
     pub albedo: Option<Vec<f32>>,
     /// The albedo as linear sRGB under D65 (a perfect white reflector is (1, 1, 1)).
     pub albedo_srgb: Option<Vec<[f32; 3]>>,
+    /// With [`LabelRequest::amodal`]: per instance (`amodal[k - 1]` for id k) the pixels
+    /// (row-major indices, ascending) whose ray meets it anywhere, in front of other surfaces or
+    /// behind them: its full silhouette inside the frame (BOP's `mask`, COCO-amodal's mask).
+    pub amodal: Option<Vec<Vec<u32>>>,
     /// The wavelength grid of `albedo`.
     pub grid: WavelengthGrid,
     /// The instances, `instances[k - 1]` has id k.
@@ -519,8 +527,8 @@ struct Row {
     /// Pixel-major here (`albedo[x * bands + b]`), band-sequential in [`Labels`].
     albedo: Vec<f32>,
     albedo_srgb: Vec<[f32; 3]>,
-    /// Every instance met through each pixel (each once per pixel).
-    met: Vec<u32>,
+    /// Every instance met through each pixel (each once per pixel): (column, instance id).
+    met: Vec<[u32; 2]>,
 }
 
 /// Linear sRGB per unit reflectance in each band of `grid` under D65, normalized so that a
@@ -700,8 +708,8 @@ pub(crate) fn compute(
                     row.albedo_srgb[x] = rgb;
                 }
                 // Every surface along the ray: which instances the pixel would see unoccluded
-                // (on the render's own grid only).
-                if raster.is_some() {
+                // (on the render's own grid, and for amodal silhouettes).
+                if raster.is_some() && !request.amodal {
                     continue;
                 }
                 let mut n_seen = 1;
@@ -722,7 +730,8 @@ pub(crate) fn compute(
                     }
                     hit = sh2;
                 }
-                row.met.extend_from_slice(&seen[..n_seen]);
+                row.met
+                    .extend(seen[..n_seen].iter().map(|&id| [x as u32, id]));
             }
             row
         })
@@ -738,9 +747,15 @@ pub(crate) fn compute(
     if request.albedo {
         albedo = vec![0f32; pixels * bands];
     }
+    let mut amodal: Vec<Vec<u32>> = vec![Vec::new(); instances.len()];
     for (y, row) in rows.into_iter().enumerate() {
-        for &id in &row.met {
-            instances[id as usize - 1].unoccluded_px += 1;
+        for &[x, id] in &row.met {
+            if raster.is_none() {
+                instances[id as usize - 1].unoccluded_px += 1;
+            }
+            if request.amodal {
+                amodal[id as usize - 1].push((y * width) as u32 + x);
+            }
         }
         for &id in &row.instance {
             if id != 0 {
@@ -789,6 +804,7 @@ pub(crate) fn compute(
         normal_camera: request.normals.then_some(normal_camera),
         albedo: request.albedo.then_some(albedo),
         albedo_srgb: request.albedo.then_some(albedo_srgb),
+        amodal: request.amodal.then_some(amodal),
         grid,
         instances,
         camera,

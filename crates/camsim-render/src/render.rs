@@ -412,6 +412,7 @@ pub fn render_with(
                 crate::labels::LabelRequest {
                     normals: true,
                     albedo: true,
+                    amodal: false,
                 },
                 None,
             )?),

@@ -10,7 +10,11 @@ use camsim_scene3d::SceneDescription;
 
 fn labels_of(scene: &SceneDescription, normals: bool, albedo: bool) -> (Labels, Vec<f32>) {
     let req = RenderRequest {
-        labels: Some(LabelRequest { normals, albedo }),
+        labels: Some(LabelRequest {
+            normals,
+            albedo,
+            amodal: false,
+        }),
         ..Default::default()
     };
     let out = render_with(scene, &req, &|_, _| {}).unwrap();

@@ -704,6 +704,7 @@ fn labels_at(s: &SceneDescription) -> (camsim_render::RenderOutput, camsim_rende
         labels: Some(LabelRequest {
             normals: true,
             albedo: false,
+            amodal: false,
         }),
         ..Default::default()
     };
