@@ -82,6 +82,7 @@ fn shift_variant(f_number: f64, lens: Option<&str>, rtf: Option<&str>) -> Optics
         lens_file: lens.map(|f| format!("{dir}{f}").into()),
         rtf_file: rtf.map(|f| format!("{dir}{f}").into()),
         field_zernike: None,
+        measured_psf: None,
         ghosts: None,
     });
     Optics::from_config(&c).unwrap()

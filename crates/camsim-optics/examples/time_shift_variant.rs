@@ -53,6 +53,7 @@ fn main() {
             lens_file: lens,
             rtf_file: rtf,
             field_zernike: fz,
+            measured_psf: None,
             ghosts: None,
         };
         match w {

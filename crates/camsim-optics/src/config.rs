@@ -281,11 +281,41 @@ pub struct BlurConfig {
     /// Or a table of Zernike terms per field height (added to `[wavefront]`'s terms).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field_zernike: Option<FieldZernikeConfig>,
+    /// Or measured PSFs, one spectral OpenEXR per field height ([`MeasuredPsfConfig`],
+    /// [`crate::measured_psf`]): a lab's measurement in place of the lens model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_psf: Option<MeasuredPsfConfig>,
     /// With `lens_file`: the lens's two-bounce ghosts (reflections between pairs of surfaces) of
     /// the image's brightest sources, or of explicit sources, added to the irradiance; see
     /// [`GhostConfig`] and [`crate::traced::Ghosts`]. Unset: no ghosts (nothing is computed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ghosts: Option<GhostConfig>,
+}
+
+/// `measured_psf = { files = [{ field_height_mm = 0.0, file = "psf_0.exr" }, ...] }` under
+/// `blur` (shift-variant): measured PSFs per field height and wavelength
+/// ([`crate::measured_psf`] for the file layout and how they are interpolated).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredPsfConfig {
+    /// Sample spacing of the files' PSFs in the sensor plane, um (default: each file's own
+    /// `camsimSampleSpacingM`; required for files without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spacing_um: Option<f64>,
+    /// One file per field height, heights increasing from the axis (one file: the same PSF
+    /// everywhere, a shift-invariant measurement).
+    pub files: Vec<MeasuredPsfFile>,
+}
+
+/// One measured field height of [`MeasuredPsfConfig`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredPsfFile {
+    /// The height in the sensor plane where the PSF was measured (along +x), mm.
+    pub field_height_mm: f64,
+    /// A spectral OpenEXR (`S0.<wavelength>nm` channels), relative to the config file: the PSF,
+    /// columns along the radius, rows along the tangent, centred on the ideal image point.
+    pub file: PathBuf,
 }
 
 /// `ghosts = { coating = "uncoated", threshold = 0.5 }` under `blur` (with `lens_file`): lens

@@ -21,6 +21,7 @@ pub mod glare;
 pub mod image_map;
 pub mod lens;
 pub mod lens_maps;
+pub mod measured_psf;
 pub mod mtf_fit;
 pub mod olpf;
 pub mod optics;

@@ -626,7 +626,7 @@ fn inverse(j: &[[f64; 2]; 2]) -> Option<[[f64; 2]; 2]> {
 
 /// What the shift-variant stage takes from an RTF: the kernel side, the fine field kernels per
 /// field height (outer) and band (inner), `k s` x `k s` samples of `spacing_m / s`.
-pub(crate) struct RtfKernels {
+pub(crate) struct FieldKernels {
     pub k: usize,
     pub kernels: Vec<Vec<Vec<f32>>>,
 }
@@ -647,7 +647,7 @@ impl RtfLens {
         s: usize,
         max_kernel: usize,
         tail_energy: f64,
-    ) -> Result<RtfKernels> {
+    ) -> Result<FieldKernels> {
         let mut spots: Vec<Result<Spot>> = heights_m
             .par_iter()
             .map(|h| {
@@ -702,6 +702,6 @@ impl RtfLens {
                 ks
             })
             .collect();
-        Ok(RtfKernels { k, kernels })
+        Ok(FieldKernels { k, kernels })
     }
 }

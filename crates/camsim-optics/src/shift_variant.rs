@@ -41,7 +41,8 @@ use crate::conv::{KernelSpectrum, OutputWindow, TileConvolver};
 use crate::error::{OpticsError, Result};
 use crate::image_map::ImageMap;
 use crate::lens_maps::{apply_lens_maps, interp, LensMaps, RadialLut};
-use crate::rtf_psf::{RtfKernels, RtfLens};
+use crate::measured_psf::MeasuredPsf;
+use crate::rtf_psf::{FieldKernels, RtfLens};
 use crate::sv_blocks::{
     block_groups, block_kernel, flip_phases, flip_spectrum, meridional, Block, BlockGroup,
 };
@@ -67,6 +68,8 @@ pub enum FieldSource {
     Lens(Box<TracedLens>),
     /// A ray-transfer function ([`crate::rtf_psf`]).
     Rtf(Box<RtfLens>),
+    /// Measured PSFs ([`crate::measured_psf`]).
+    Measured(Box<MeasuredPsf>),
 }
 
 /// The shift-variant blur settings and PSF source, checked.
@@ -105,7 +108,9 @@ struct FieldModel<'a> {
     /// A traced lens's camera.
     cam: Option<LensCamera>,
     /// An RTF: the lens, its film offset (mm) and field kernels.
-    rtf: Option<(&'a RtfLens, f64, RtfKernels)>,
+    rtf: Option<(&'a RtfLens, f64, FieldKernels)>,
+    /// Measured PSFs' field kernels.
+    measured: Option<FieldKernels>,
     /// Kernel side, samples (odd).
     k: usize,
 }
@@ -135,10 +140,14 @@ impl ShiftVariant {
         shading_is_none: bool,
     ) -> Result<Option<ShiftVariant>> {
         if b.method == BlurKind::ShiftInvariant {
-            if b.lens_file.is_some() || b.rtf_file.is_some() || b.field_zernike.is_some() {
+            if b.lens_file.is_some()
+                || b.rtf_file.is_some()
+                || b.field_zernike.is_some()
+                || b.measured_psf.is_some()
+            {
                 return Err(OpticsError::config(
                     "blur.method",
-                    "lens_file, rtf_file and field_zernike need method = \"shift-variant\"",
+                    "lens_file, rtf_file, field_zernike and measured_psf need method = \"shift-variant\"",
                 ));
             }
             return Ok(None);
@@ -168,6 +177,7 @@ impl ShiftVariant {
             b.lens_file.is_some(),
             b.rtf_file.is_some(),
             b.field_zernike.is_some(),
+            b.measured_psf.is_some(),
         ]
         .iter()
         .filter(|v| **v)
@@ -176,8 +186,23 @@ impl ShiftVariant {
         {
             return Err(OpticsError::config(
                 "blur",
-                "give one of lens_file, rtf_file or field_zernike",
+                "give one of lens_file, rtf_file, field_zernike or measured_psf",
             ));
+        }
+        if let Some(m) = &b.measured_psf {
+            if b.ghosts.is_some() {
+                return Err(OpticsError::config(
+                    "blur.ghosts",
+                    "ghosts are traced through a lens prescription: give blur.lens_file (not measured_psf)",
+                ));
+            }
+            return Ok(Some(ShiftVariant {
+                field_heights: b.field_heights,
+                block_px: b.block_px,
+                rotation_oversampling: s,
+                source: FieldSource::Measured(Box::new(MeasuredPsf::from_config(m)?)),
+                ghosts: None,
+            }));
         }
         if let Some(path) = &b.rtf_file {
             if !shading_is_none {
@@ -423,7 +448,7 @@ impl ShiftVariant {
                     .collect::<Result<Vec<_>>>()?;
                 Ok((wfs, Some(cam)))
             }
-            FieldSource::Rtf(_) => {
+            FieldSource::Rtf(_) | FieldSource::Measured(_) => {
                 Ok((heights_m.iter().map(|_| vec![base.clone()]).collect(), None))
             }
         }
@@ -558,9 +583,19 @@ impl ShiftVariant {
             }
             _ => None,
         };
-        let k = match &rtf {
-            Some((_, _, kern)) => kern.k,
-            None => (0..n_h * bands)
+        let measured = match &self.source {
+            FieldSource::Measured(m) => Some(m.field_kernels(
+                &heights_m,
+                &wavelengths,
+                spacing_m,
+                self.rotation_oversampling,
+                max_kernel,
+            )?),
+            _ => None,
+        };
+        let k = match (&rtf, &measured) {
+            (Some((_, _, kern)), _) | (None, Some(kern)) => kern.k,
+            (None, None) => (0..n_h * bands)
                 .into_par_iter()
                 .map(|ib| {
                     pick(&wfs, ib / bands, ib % bands).kernel_size(
@@ -579,6 +614,7 @@ impl ShiftVariant {
             wfs,
             cam,
             rtf,
+            measured,
             k,
         })
     }
@@ -618,7 +654,7 @@ impl ShiftVariant {
         let (k, wl) = (f.k, f.wavelengths[b]);
         (0..self.field_heights)
             .map(|i| {
-                if let Some((_, _, kern)) = &f.rtf {
+                if let Some(kern) = f.rtf.as_ref().map(|r| &r.2).or(f.measured.as_ref()) {
                     return Ok(kern.kernels[i][b].clone());
                 }
                 let w = pick(&f.wfs, i, b);
@@ -749,6 +785,7 @@ impl ShiftVariant {
             (job.shading)()
         };
         let symmetric = field.rtf.is_none()
+            && field.measured.is_none()
             && field
                 .wfs
                 .iter()
@@ -759,7 +796,9 @@ impl ShiftVariant {
         // Zernike terms: m < 0) gives mirror-image kernels at mirror-image blocks; with the blocks
         // laid out symmetrically about the axis, one kernel spectrum serves up to four blocks
         // (`flip_spectrum`). The RTF's spots are traced, not symmetrized: each block its own.
-        let mirrored = field.rtf.is_none() && field.wfs.iter().flatten().all(meridional);
+        let mirrored = field.rtf.is_none()
+            && field.measured.is_none()
+            && field.wfs.iter().flatten().all(meridional);
         let groups = block_groups(
             rows,
             cols,

@@ -43,6 +43,7 @@ fn config() -> OpticsConfig {
         lens_file: None,
         rtf_file: Some(rtf_path()),
         field_zernike: None,
+        measured_psf: None,
         ghosts: None,
     });
     c

@@ -38,6 +38,7 @@ fn sv(field_heights: usize, block_px: Option<usize>) -> BlurConfig {
         lens_file: None,
         rtf_file: None,
         field_zernike: None,
+        measured_psf: None,
         ghosts: None,
     }
 }

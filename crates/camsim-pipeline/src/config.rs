@@ -714,6 +714,9 @@ impl SimulateConfig {
         if let Some(b) = self.optics.config.as_mut().and_then(|c| c.blur.as_mut()) {
             b.lens_file.as_mut().map(fix);
             b.rtf_file.as_mut().map(fix);
+            if let Some(m) = &mut b.measured_psf {
+                m.files.iter_mut().for_each(|f| fix(&mut f.file));
+            }
         }
         if let Some(m) = self
             .optics
