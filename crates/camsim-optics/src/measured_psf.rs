@@ -79,7 +79,7 @@ impl MeasuredPsf {
             let named =
                 |m: String| OpticsError::config(&fkey, format!("{}: {m}", f.file.display()));
             let (img, info) = camsim_io::exr::read_spectral_exr_with_info(&f.file)
-                .map_err(|e| named(e.to_string()))?;
+                .map_err(|e| OpticsError::config(&fkey, e.to_string()))?;
             let spacing_m = match (c.spacing_um, info.sample_spacing_known) {
                 (Some(s), _) => s * 1e-6,
                 (None, true) => img.sample_spacing_m,
