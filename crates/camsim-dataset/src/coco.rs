@@ -10,7 +10,10 @@
 //! camsim's `visible_fraction`, `truncation` and `box_3d` (camera frame, boxes.json), and its
 //! keypoints (an asset's own keypoints, else its 3D box's centre and corners, on the raw grid:
 //! COCO's `keypoints` and `num_keypoints`; each category names them, with their edges as its
-//! `skeleton`). Categories are the instances' material names or object names ([`CategoryBy`]),
+//! `skeleton`). With the `amodal` output, each annotation also has the instance's full silhouette
+//! on the raw grid, occluders ignored, as `amodal_segmentation` (compressed RLE), `amodal_area`
+//! and `amodal_bbox` (the fields of the COCO-style amodal sets, e.g. Zhu et al. 2017's COCOA);
+//! an instance hidden entirely has no annotation, as in COCO. Categories are the instances' material names or object names ([`CategoryBy`]),
 //! numbered 1.. in sorted order. The dataset must have the outputs `preview`, `instances` and `boxes`.
 
 use crate::spec::DatasetSpec;
@@ -64,6 +67,12 @@ pub fn rle_string(rows: usize, cols: usize, inside: impl Fn(usize) -> bool) -> S
         }
     }
     counts.push(run);
+    rle_counts_string(&counts)
+}
+
+/// COCO's compressed RLE string of uncompressed RLE `counts` (column-major runs, first outside),
+/// encoded as [`rle_string`] does.
+pub fn rle_counts_string(counts: &[i64]) -> String {
     let mut s = String::new();
     for i in 0..counts.len() {
         let mut x = counts[i];
@@ -232,6 +241,41 @@ fn export_into(
                         Some(_) => {}
                     }
                 }
+                if let Some(all) = inst.get("mask_all_sensor") {
+                    // The amodal output: the full silhouette, occluders ignored.
+                    let size_ok = all["size"].as_array().is_some_and(|s| {
+                        s.len() == 2
+                            && s[0].as_u64() == Some(rows as u64)
+                            && s[1].as_u64() == Some(cols as u64)
+                    });
+                    let counts: Option<Vec<i64>> = all["counts"]
+                        .as_array()
+                        .and_then(|c| c.iter().map(|v| v.as_i64()).collect());
+                    let (true, Some(counts)) = (size_ok, counts) else {
+                        return Err(DatasetError::file(
+                            &tar_path,
+                            format!(
+                                "{key}.boxes.json instance {id}: mask_all_sensor is not a {cols} x {rows} COCO RLE"
+                            ),
+                        ));
+                    };
+                    extra["amodal_segmentation"] = serde_json::json!({
+                        "size": [rows, cols],
+                        "counts": rle_counts_string(&counts),
+                    });
+                    extra["amodal_area"] = inst["pixels_sensor_all"].clone();
+                    extra["amodal_bbox"] = match inst["bbox_sensor_all"].as_array() {
+                        Some(a) if a.len() == 4 => {
+                            let v: Vec<u64> = a.iter().filter_map(|x| x.as_u64()).collect();
+                            if v.len() == 4 {
+                                serde_json::json!([v[0], v[1], v[2] - v[0], v[3] - v[1]])
+                            } else {
+                                serde_json::Value::Null
+                            }
+                        }
+                        _ => serde_json::Value::Null,
+                    };
+                }
                 pending.push((image_id, extra, rle, area, [b[0], b[1], b[2], b[3]]));
             }
         }
@@ -246,6 +290,10 @@ fn export_into(
             let (h, w) = sizes.get(&image_id).copied().unwrap_or_default();
             let mut extra = extra;
             let keypoints = extra.as_object_mut().and_then(|o| o.remove("keypoints"));
+            let amodal: Vec<(&str, serde_json::Value)> = ["amodal_segmentation", "amodal_area", "amodal_bbox"]
+                .into_iter()
+                .filter_map(|k| Some((k, extra.as_object_mut()?.remove(k)?)))
+                .collect();
             let mut a = serde_json::json!({
                 "id": k + 1,
                 "image_id": image_id,
@@ -262,6 +310,9 @@ fn export_into(
                 });
                 a["keypoints"] = kp;
                 a["num_keypoints"] = n.into();
+            }
+            for (k, v) in amodal {
+                a[k] = v;
             }
             a
         })

@@ -5,6 +5,8 @@
 //! - [`read_sfr_csv`]: the SFR curves of an `sfr.csv` (`camsim analyze sfr` writes one and
 //!   overlays others with `--compare`);
 //! - [`read_mtf_csv`]: a measured MTF curve in cycles/mm (`camsim fit mtf --measured`);
+//! - [`read_lens_mtf_csv`]: a lens's tangential and sagittal MTF table at one field height, per
+//!   wavelength or for the band (`blur.measured_psf` files ending in `.csv`);
 //! - [`read_qe_means`]: measured ColorChecker patch means, the input of the QE correction fit
 //!   (`camsim fit qe --measured`).
 //!
@@ -523,6 +525,212 @@ pub fn read_mtf_csv(path: &Path) -> Result<MeasuredMtf> {
     Ok(out)
 }
 
+// ---------------------------------------------------------------------------------------------
+
+/// A lens's tangential and sagittal MTF at one wavelength (or for its whole band), as a lens MTF
+/// table ([`read_lens_mtf_csv`]) gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LensMtfCurves {
+    /// Spatial frequency in the sensor plane, cycles/mm, increasing.
+    pub freq_cyc_per_mm: Vec<f64>,
+    /// Tangential (meridional) modulation, fraction in [0, 1]: the MTF for frequencies along the
+    /// radius (lines perpendicular to it).
+    pub tangential: Vec<f64>,
+    /// Sagittal modulation, fraction in [0, 1]: frequencies along the tangent.
+    pub sagittal: Vec<f64>,
+}
+
+/// A lens MTF table at one field height: its curves per wavelength, nm, increasing (`None`: the
+/// file has no wavelength column, one curve pair for the whole band).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LensMtf {
+    /// The curves, by wavelength.
+    pub curves: Vec<(Option<f64>, LensMtfCurves)>,
+}
+
+/// Read a lens MTF table, the tangential and sagittal MTF a lens bench (or a lens datasheet)
+/// gives at one field height: a header naming the columns, in any order, the frequency in
+/// cycles/mm (a name containing `freq` or `cy`, not `px`/`pixel`), the tangential MTF (`tan` or
+/// `merid`), the sagittal MTF (`sag`), and optionally the wavelength in nm (`wavelength` or
+/// `lambda`); a modulation column with `percent` or `%` in its name is in percent, otherwise a
+/// fraction. Then one point per line, e.g. `frequency_cy_per_mm,tangential_percent,
+/// sagittal_percent` and `50,62.1,70.4`. Points of one wavelength have increasing frequencies
+/// (>= 0), at least 2 of them; modulations lie in [-0.05, 1.05] as fractions (clipped to [0, 1]).
+/// Lines starting with '#' and blank lines are ignored.
+pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
+    let mut rows = records(path, true)?.into_iter();
+    let (hline, header) = rows.next().ok_or_else(|| {
+        IoError::format(
+            path,
+            "no header line; name the columns, e.g. frequency_cy_per_mm,tangential_percent,sagittal_percent",
+        )
+    })?;
+    let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
+    let find = |keys: &[&str], what: &str| -> Result<usize> {
+        let hits: Vec<usize> = (0..names.len())
+            .filter(|&i| keys.iter().any(|k| names[i].contains(k)))
+            .collect();
+        match hits.as_slice() {
+            [i] => Ok(*i),
+            [] => Err(IoError::line(
+                path,
+                hline,
+                format!(
+                    "no {what} column (a name containing {}) in '{}'",
+                    keys.join(" or "),
+                    joined(&header)
+                ),
+            )),
+            _ => Err(IoError::line(
+                path,
+                hline,
+                format!("more than one {what} column in '{}'", joined(&header)),
+            )),
+        }
+    };
+    let wl_col = find(&["wavelength", "lambda"], "wavelength").ok();
+    let tan_col = find(&["tan", "merid"], "tangential MTF")?;
+    let sag_col = find(&["sag"], "sagittal MTF")?;
+    let freq_col = (0..names.len())
+        .find(|&i| {
+            Some(i) != wl_col
+                && i != tan_col
+                && i != sag_col
+                && (names[i].contains("freq") || names[i].contains("cy"))
+        })
+        .ok_or_else(|| {
+            IoError::line(
+                path,
+                hline,
+                format!(
+                    "no frequency column (cycles/mm, a name containing freq or cy) in '{}'",
+                    joined(&header)
+                ),
+            )
+        })?;
+    if names[freq_col].contains("px") || names[freq_col].contains("pixel") {
+        return Err(IoError::line(
+            path,
+            hline,
+            format!(
+                "column '{}' is per pixel; give the frequency in cycles/mm",
+                &names[freq_col]
+            ),
+        ));
+    }
+    let scale = |i: usize| {
+        if names[i].contains("percent") || names[i].contains('%') {
+            0.01
+        } else {
+            1.0
+        }
+    };
+    let (tan_scale, sag_scale) = (scale(tan_col), scale(sag_col));
+    // Curves by wavelength, in the file's order of first appearance.
+    let mut curves: Vec<(Option<f64>, LensMtfCurves)> = Vec::new();
+    for (line, record) in rows {
+        if record.len() != names.len() {
+            return Err(IoError::line(
+                path,
+                line,
+                format!(
+                    "{} values; the header names {} columns",
+                    record.len(),
+                    names.len()
+                ),
+            ));
+        }
+        let number = |i: usize| -> Result<f64> {
+            record[i].parse::<f64>().map_err(|_| {
+                IoError::line(
+                    path,
+                    line,
+                    format!("'{}' ({}) is not a number", &record[i], &names[i]),
+                )
+            })
+        };
+        let freq = number(freq_col)?;
+        if !(freq.is_finite() && freq >= 0.0) {
+            return Err(IoError::line(
+                path,
+                line,
+                format!("frequency {freq} is not a number >= 0"),
+            ));
+        }
+        let wl = match wl_col {
+            Some(i) => {
+                let w = number(i)?;
+                if !(w.is_finite() && w > 0.0) {
+                    return Err(IoError::line(
+                        path,
+                        line,
+                        format!("wavelength {w} nm is not a positive number"),
+                    ));
+                }
+                Some(w)
+            }
+            None => None,
+        };
+        let modulation = |i: usize, s: f64| -> Result<f64> {
+            let m = number(i)? * s;
+            if !(m.is_finite() && (-0.05..=1.05).contains(&m)) {
+                return Err(IoError::line(
+                    path,
+                    line,
+                    format!(
+                        "{} {} is not a modulation (fraction in [-0.05, 1.05])",
+                        &names[i], &record[i]
+                    ),
+                ));
+            }
+            Ok(m.clamp(0.0, 1.0))
+        };
+        let (t, s) = (modulation(tan_col, tan_scale)?, modulation(sag_col, sag_scale)?);
+        let idx = match curves.iter().position(|(w, _)| *w == wl) {
+            Some(i) => i,
+            None => {
+                curves.push((
+                    wl,
+                    LensMtfCurves {
+                        freq_cyc_per_mm: Vec::new(),
+                        tangential: Vec::new(),
+                        sagittal: Vec::new(),
+                    },
+                ));
+                curves.len() - 1
+            }
+        };
+        let c = &mut curves[idx].1;
+        if c.freq_cyc_per_mm.last().is_some_and(|&f| freq <= f) {
+            return Err(IoError::line(
+                path,
+                line,
+                format!("frequency {freq} does not increase"),
+            ));
+        }
+        c.freq_cyc_per_mm.push(freq);
+        c.tangential.push(t);
+        c.sagittal.push(s);
+    }
+    if curves.is_empty() {
+        return Err(IoError::format(path, "no points"));
+    }
+    for (wl, c) in &curves {
+        if c.freq_cyc_per_mm.len() < 2 {
+            let at = wl.map(|w| format!(" at {w} nm")).unwrap_or_default();
+            return Err(IoError::format(
+                path,
+                format!(
+                    "need at least 2 points per curve, found {}{at}",
+                    c.freq_cyc_per_mm.len()
+                ),
+            ));
+        }
+    }
+    curves.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+    Ok(LensMtf { curves })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -863,6 +1071,59 @@ mod tests {
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_mtf_csv(&p));
+            assert!(
+                e.starts_with(&format!("{}{want}", p.display())),
+                "{text:?}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn lens_mtf_tables_by_wavelength_with_errors_naming_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        // Columns in any order, percent per column, wavelengths interleaved.
+        let p = file(
+            &dir,
+            "l.csv",
+            "# bench\nsagittal,wavelength_nm,Frequency (cy/mm),Tangential %\n1,650,0,100\n0.9,550,0,100\n0.8,650,50,70\n0.85,550,50,80\n",
+        );
+        let m = read_lens_mtf_csv(&p).unwrap();
+        assert_eq!(m.curves.len(), 2);
+        assert_eq!(m.curves[0].0, Some(550.0));
+        assert_eq!(m.curves[0].1.freq_cyc_per_mm, [0.0, 50.0]);
+        assert_eq!(m.curves[0].1.tangential, [1.0, 0.8]);
+        assert_eq!(m.curves[0].1.sagittal, [0.9, 0.85]);
+        assert_eq!(m.curves[1].0, Some(650.0));
+        assert_eq!(m.curves[1].1.sagittal, [1.0, 0.8]);
+        // No wavelength column: one pair for the band; a slight overshoot is clipped.
+        let p = file(&dir, "l.csv", "freq_cyc_per_mm,tan,sag\n0,1.02,1\n100,0.5,0.4\n");
+        let m = read_lens_mtf_csv(&p).unwrap();
+        assert_eq!(m.curves.len(), 1);
+        assert_eq!(m.curves[0].0, None);
+        assert_eq!(m.curves[0].1.tangential, [1.0, 0.5]);
+        let h = "freq_cyc_per_mm,tangential,sagittal\n";
+        for (text, want) in [
+            ("", ": no header line".to_string()),
+            (
+                "freq,tangential\n",
+                ", line 1: no sagittal MTF column".into(),
+            ),
+            (
+                "freq_cyc_per_px,tan,sag\n",
+                ", line 1: column 'freq_cyc_per_px' is per pixel".into(),
+            ),
+            (
+                "f,tan,sag\n",
+                ", line 1: no frequency column".into(),
+            ),
+            (&format!("{h}0,1,1\n10,x,1\n"), ", line 3: 'x' (tangential) is not a number".into()),
+            (&format!("{h}0,1,1\n10,1\n"), ", line 3: 2 values".into()),
+            (&format!("{h}0,1,1\n0,1,1\n"), ", line 3: frequency 0 does not increase".into()),
+            (&format!("{h}0,1,1\n10,1,1.5\n"), ", line 3: sagittal 1.5 is not a modulation".into()),
+            (&format!("{h}0,1,1\n"), ": need at least 2 points per curve, found 1".into()),
+        ] {
+            let p = file(&dir, "bad.csv", text);
+            let e = err(read_lens_mtf_csv(&p));
             assert!(
                 e.starts_with(&format!("{}{want}", p.display())),
                 "{text:?}: {e}"

@@ -1,7 +1,7 @@
 //! Measured PSFs: a lab's PSF measurements, per field height and wavelength, in place of a lens
 //! model (`blur = { method = "shift-variant", measured_psf = { ... } }`).
 //!
-//! Each field height is one spectral OpenEXR (the Fichet et al. 2021 layout camsim writes and
+//! Each field height is one spectral OpenEXR (or a lens MTF table, below) (the Fichet et al. 2021 layout camsim writes and
 //! reads: one `S0.<wavelength>nm` channel per wavelength, a uniform wavelength grid): the PSF
 //! measured at that height along +x of the sensor plane, columns along the radius, rows along
 //! the tangent, its array centre (sample `(n - 1) / 2` of an odd side, between the two middle
@@ -18,7 +18,14 @@
 //! last measurement). Resampling conserves each PSF's energy and centroid: a measurement finer
 //! than the grid is splatted bilinearly onto it; a coarser one is sampled bilinearly at the grid's
 //! sample centres. The stage then rotates each block's PSF to its azimuth as for any other
-//! source.
+//! source. Its kernels are as large as the square that holds all but 1e-4 of every measured PSF's
+//! energy (so an EXR with wide empty margins costs no more than its PSF).
+//!
+//! A file ending in `.csv` is a lens MTF table instead (a lens bench's or a lens datasheet's
+//! tangential and sagittal MTF in cycles/mm at that height, per wavelength or for the band; see
+//! [`camsim_io::measurements::read_lens_mtf_csv`]): its PSF is the separable zero-phase PSF
+//! whose radial and tangential sections have those MTFs (`Measured::from_mtf`), so the table
+//! gives the blur's size and shape but not its asymmetry or shift; `spacing_um` does not apply.
 
 use crate::config::MeasuredPsfConfig;
 use crate::error::{OpticsError, Result};
@@ -78,6 +85,17 @@ impl MeasuredPsf {
             }
             let named =
                 |m: String| OpticsError::config(&fkey, format!("{}: {m}", f.file.display()));
+            let is_csv = f
+                .file
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+            if is_csv {
+                let table = camsim_io::measurements::read_lens_mtf_csv(&f.file)
+                    .map_err(|e| OpticsError::config(&fkey, e.to_string()))?;
+                heights_m.push(h * 1e-3);
+                fields.push(Measured::from_mtf(&table));
+                continue;
+            }
             let (img, info) = camsim_io::exr::read_spectral_exr_with_info(&f.file)
                 .map_err(|e| OpticsError::config(&fkey, e.to_string()))?;
             let spacing_m = match (c.spacing_um, info.sample_spacing_known) {
@@ -134,12 +152,12 @@ impl MeasuredPsf {
         s: usize,
         max_kernel: usize,
     ) -> Result<FieldKernels> {
-        let extent_m = self
+        let half_width_m = self
             .fields
             .iter()
-            .map(|f| f.rows.max(f.cols) as f64 * f.spacing_m)
+            .map(Measured::support_half_width_m)
             .fold(0.0, f64::max);
-        let k = (2 * (0.5 * extent_m / spacing_m).ceil() as usize + 1)
+        let k = (2 * (half_width_m / spacing_m).ceil() as usize + 1)
             .max(3)
             .min(max_kernel);
         let n = k * s;
@@ -173,7 +191,141 @@ impl MeasuredPsf {
     }
 }
 
+/// The energy a kernel may leave outside its square (per band, before renormalizing).
+const SUPPORT_TAIL: f64 = 1e-4;
+
 impl Measured {
+    /// The PSF of a lens MTF table ([`camsim_io::measurements::read_lens_mtf_csv`]) as the
+    /// separable, zero-phase PSF `LSF_t(x) LSF_s(y)` (x along the radius, y along the tangent),
+    /// each line spread function the inverse Fourier transform of its MTF: a real, even OTF, so
+    /// `LSF(x) = 2 int_0^f_max MTF(f) cos(2 pi f x) df` (Goodman, *Introduction to Fourier
+    /// Optics*, 4th ed., sec. 7.3: the LSF is the 1D inverse transform of the OTF's section).
+    /// The PSF's sections reproduce both curves exactly (the MTF of a separable PSF along x is
+    /// the transform of its x factor), though a real lens's PSF need not be separable and its
+    /// OTF's phase (coma's asymmetry, the lateral shift) is not in an MTF table.
+    ///
+    /// The MTF is taken linear between the table's points, 1 at zero frequency when the table
+    /// starts above it, normalized by its value there, and 0 beyond the last point (the table
+    /// should reach the cut-off or the MTF's floor; a truncated curve rings, and the ringing's
+    /// negative lobes are clipped). Samples are `1 / (4 f_max)` apart (twice the table's Nyquist
+    /// rate), on a frequency grid of half the table's finest step (at most `f_max / 16`), over half
+    /// the cosine series' period (so its periodic copies stay outside), at most 1025 a side.
+    fn from_mtf(table: &camsim_io::measurements::LensMtf) -> Measured {
+        let curves = &table.curves;
+        let f_max = curves
+            .iter()
+            .flat_map(|(_, c)| c.freq_cyc_per_mm.last().copied())
+            .fold(0.0, f64::max)
+            .max(1e-9);
+        let min_step = curves
+            .iter()
+            .flat_map(|(_, c)| c.freq_cyc_per_mm.windows(2).map(|w| w[1] - w[0]))
+            .fold(f64::INFINITY, f64::min);
+        // The frequency step: half the table's finest, at most f_max / 16 (so the window holds 33
+        // samples at least) and at least f_max / 8192 (a bound on the work).
+        let df = (0.5 * min_step).clamp(f_max / 8192.0, f_max / 16.0);
+        let spacing_mm = 1.0 / (4.0 * f_max);
+        // The frequency grid: f_j = j df, j = 0..=m, trapezoid weights; the window 2 m + 1
+        // samples (half the period 1 / df), at most 1025.
+        let m = (f_max / df).ceil() as usize;
+        let half = m.min(512);
+        let n = 2 * half + 1;
+        let lsf = |freq: &[f64], mtf: &[f64]| -> Vec<f64> {
+            let at = |f: f64| -> f64 {
+                if f > freq[freq.len() - 1] {
+                    return 0.0;
+                }
+                // (0, 1) before the first point.
+                let (mut f0, mut m0) = (0.0, 1.0);
+                for (&fi, &mi) in freq.iter().zip(mtf) {
+                    if fi >= f {
+                        if fi == f0 {
+                            return mi;
+                        }
+                        return m0 + (mi - m0) * (f - f0) / (fi - f0);
+                    }
+                    (f0, m0) = (fi, mi);
+                }
+                m0
+            };
+            let m_at_0 = at(0.0).max(1e-12);
+            let w: Vec<f64> = (0..=m)
+                .map(|j| {
+                    let trap = if j == 0 || j == m { 0.5 } else { 1.0 };
+                    trap * at(j as f64 * df) / m_at_0
+                })
+                .collect();
+            let mut out: Vec<f64> = (0..n)
+                .map(|i| {
+                    let x_mm = (i as f64 - half as f64) * spacing_mm;
+                    let v: f64 = w
+                        .iter()
+                        .enumerate()
+                        .map(|(j, wj)| wj * (2.0 * std::f64::consts::PI * j as f64 * df * x_mm).cos())
+                        .sum();
+                    v.max(0.0)
+                })
+                .collect();
+            let sum: f64 = out.iter().sum();
+            if sum > 0.0 {
+                out.iter_mut().for_each(|v| *v /= sum);
+            } else {
+                out.iter_mut().for_each(|v| *v = 0.0);
+                out[half] = 1.0;
+            }
+            out
+        };
+        let mut data = Vec::with_capacity(curves.len() * n * n);
+        for (_, c) in curves {
+            let lt = lsf(&c.freq_cyc_per_mm, &c.tangential);
+            let ls = lsf(&c.freq_cyc_per_mm, &c.sagittal);
+            for &sy in &ls {
+                data.extend(lt.iter().map(|&tx| (sy * tx) as f32));
+            }
+        }
+        Measured {
+            rows: n,
+            cols: n,
+            spacing_m: spacing_mm * 1e-3,
+            // Without a wavelength column: one band that every wavelength takes.
+            wavelengths_nm: curves.iter().map(|(w, _)| w.unwrap_or(0.0)).collect(),
+            data,
+        }
+    }
+
+    /// Half the side of the square about the array centre that holds all but [`SUPPORT_TAIL`]
+    /// of every band's energy, m (the kernel need not be larger).
+    fn support_half_width_m(&self) -> f64 {
+        let (mid_r, mid_c) = (
+            (self.rows as f64 - 1.0) / 2.0,
+            (self.cols as f64 - 1.0) / 2.0,
+        );
+        let px = self.rows * self.cols;
+        let rings = self.rows.max(self.cols);
+        let mut worst = 0.0f64;
+        for band in self.data.chunks(px) {
+            // Energy per square ring, the ring of a sample its Chebyshev distance from the centre
+            // rounded up (in half-sample steps for even sides).
+            let mut per_ring = vec![0.0f64; rings + 1];
+            for r in 0..self.rows {
+                for c in 0..self.cols {
+                    let d = (r as f64 - mid_r).abs().max((c as f64 - mid_c).abs());
+                    per_ring[(d.ceil() as usize).min(rings)] += band[r * self.cols + c] as f64;
+                }
+            }
+            let total: f64 = per_ring.iter().sum();
+            let mut acc = 0.0;
+            for (d, e) in per_ring.iter().enumerate() {
+                acc += e;
+                if acc >= (1.0 - SUPPORT_TAIL) * total {
+                    worst = worst.max(d as f64 + 0.5);
+                    break;
+                }
+            }
+        }
+        worst * self.spacing_m
+    }
+
     /// The PSF at `wl` nm (linear between bands, the nearest band outside them) on an `n` x `n`
     /// grid of spacing `fine_m` centred like the file's, normalized to unit sum.
     fn resampled(&self, wl: f64, fine_m: f64, n: usize) -> Vec<f32> {

@@ -60,6 +60,11 @@ fn config(dir: &Path) -> OpticsConfig {
             file: p,
         });
     }
+    with_files(files)
+}
+
+/// The test's optics with measured PSFs from `files`.
+fn with_files(files: Vec<MeasuredPsfFile>) -> OpticsConfig {
     let mut c = OpticsConfig::preset("diffraction-limited").unwrap();
     c.f_number = 2.8;
     c.focal_length_mm = 4.38;
@@ -243,4 +248,84 @@ fn bad_measured_psfs_are_named() {
     let mut c = config(dir.path());
     c.blur.as_mut().unwrap().method = BlurKind::ShiftInvariant;
     assert!(err(&c).contains("measured_psf need method"));
+}
+
+/// The image of a unit point at `radius_px` from the centre of a 257 x 257 image of 1 um pixels,
+/// at azimuth `az_deg`, through `o` at 550 nm: the window moments about the point
+/// ([`moments`]) with the azimuth the point's own.
+fn point_moments(o: &Optics, radius_px: f64, az_deg: f64) -> [f64; 4] {
+    let grid = WavelengthGrid::new(550.0, 550.0, 10.0).unwrap();
+    let (rows, cols) = (257usize, 257usize);
+    let spacing_m = 1.0e-6;
+    let (pr, pc) = (
+        (128.0 + radius_px * az_deg.to_radians().sin()).round() as usize,
+        (128.0 + radius_px * az_deg.to_radians().cos()).round() as usize,
+    );
+    let mut data = vec![0.0f32; rows * cols];
+    data[pr * cols + pc] = 1.0;
+    let mut img =
+        SpectralImage::from_data(rows, cols, grid, spacing_m, Quantity::Radiance, data).unwrap();
+    img.geometry = ImageGeometry {
+        fov_deg: 2.0
+            * (cols as f64 * spacing_m / 2.0 / 4.38e-3)
+                .atan()
+                .to_degrees(),
+        distance_m: 0.0,
+        focal_length_m: 0.0,
+        f_number: 0.0,
+    };
+    let out = o.compute(&img).unwrap();
+    let pad = (out.rows - rows) / 2;
+    let az = (pr as f64 - 128.0).atan2(pc as f64 - 128.0);
+    let [mr, mc, vr, vt] = moments(&out.data, out.cols, pr + pad, pc + pad, 24, az);
+    [mr - (pr + pad) as f64, mc - (pc + pad) as f64, vr, vt]
+}
+
+#[test]
+fn a_bench_mtf_table_gives_its_gaussian_psf() {
+    // A Gaussian PSF of sigma s has the MTF exp(-2 pi^2 s^2 f^2) along each axis (the Fourier
+    // transform of a Gaussian): a table of it, tangential sigma 3 um and sagittal 1.5 um, to
+    // 500 cycles/mm in 10 cycles/mm steps, in percent, must give back the PSF: radial variance
+    // 9 um^2, tangential 2.25 um^2 (1 px = 1 um here), on every radius.
+    let (st_mm, ss_mm) = (3.0e-3, 1.5e-3);
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("mtf.csv");
+    let mut text = String::from("# Gaussian lens\nfrequency_cy_per_mm,tangential_percent,sagittal_percent\n");
+    for i in 0..=50 {
+        let f = 10.0 * i as f64;
+        let g = |s: f64| 100.0 * (-2.0 * std::f64::consts::PI.powi(2) * s * s * f * f).exp();
+        text += &format!("{f},{:.6},{:.6}\n", g(st_mm), g(ss_mm));
+    }
+    std::fs::write(&p, text).unwrap();
+    let o = Optics::from_config(&with_files(vec![MeasuredPsfFile {
+        field_height_mm: 0.0,
+        file: p,
+    }]))
+    .unwrap();
+    let (want_r, want_t) = (9.0, 2.25);
+    for (radius_px, az_deg) in [(96.0, 0.0), (96.0, 90.0), (64.0, -135.0)] {
+        let [dr, dc, vr, vt] = point_moments(&o, radius_px, az_deg);
+        println!(
+            "radius {radius_px} px, azimuth {az_deg}: radial variance {vr:.3} px^2 ({want_r}), tangential {vt:.3} ({want_t}), centroid off by ({dr:.3}, {dc:.3}) px"
+        );
+        // The pixel sampling adds about 1/12 px^2; the rotation's resampling a little more.
+        let tol = 0.35;
+        assert!((vr - want_r).abs() < tol, "radial variance {vr} vs {want_r}");
+        assert!((vt - want_t).abs() < tol, "tangential variance {vt} vs {want_t}");
+        assert!(dr.abs() < 0.05 && dc.abs() < 0.05, "centroid ({dr}, {dc})");
+    }
+    // A table without its sagittal column is named.
+    let bad = dir.path().join("tan_only.csv");
+    std::fs::write(&bad, "frequency_cy_per_mm,tangential\n0,1\n100,0.5\n").unwrap();
+    let e = Optics::from_config(&with_files(vec![MeasuredPsfFile {
+        field_height_mm: 0.0,
+        file: bad,
+    }]))
+    .err()
+    .expect("accepted")
+    .to_string();
+    assert!(
+        e.contains("measured_psf.files[0]") && e.contains("tan_only.csv") && e.contains("sagittal"),
+        "{e}"
+    );
 }

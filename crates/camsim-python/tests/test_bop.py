@@ -262,9 +262,13 @@ def test_full_masks_are_the_posed_models_silhouettes(exported):
     """BOP's mask/ (the amodal output): each object's whole silhouette, occluders ignored. It
     holds its visible mask, its pixel counts and visib_fract are BOP's, it is the same mask as
     boxes.json's COCO RLE read by pycocotools, and for an object inside the frame its box is the
-    box of its posed model's projection within 1 px, occluded or not."""
+    box of its posed model's projection within 1 px, occluded or not. The COCO export's
+    amodal_segmentation, amodal_area and amodal_bbox are the same silhouette."""
     mask_utils = pytest.importorskip("pycocotools.mask")
-    out, bop, _ = exported
+    out, bop, coco_path = exported
+    coco = json.loads(Path(coco_path).read_text())
+    anns = {(a["image_id"], a["camsim"]["name"]): a for a in coco["annotations"]}
+    n_coco = 0
     info = json.loads((bop / "models/models_info.json").read_text())
     models = {int(k): read_ply_vertices(bop / f"models/obj_{int(k):06d}.ply") for k in info}
     scene = bop / "train_pbr/000000"
@@ -287,6 +291,14 @@ def test_full_masks_are_the_posed_models_silhouettes(exported):
             rle = by_name[gt["camsim_name"]]["mask_all_sensor"]
             decoded = mask_utils.decode(mask_utils.frPyObjects(rle, *rle["size"])) > 0
             assert np.array_equal(decoded, full)
+            a = anns.get((int(im), gt["camsim_name"]))
+            if a is not None:
+                amodal = mask_utils.decode(a["amodal_segmentation"]) > 0
+                assert np.array_equal(amodal, full)
+                assert a["amodal_area"] == int(full.sum()) >= a["area"]
+                ys, xs = np.nonzero(full)
+                assert a["amodal_bbox"] == [xs.min(), ys.min(), xs.max() + 1 - xs.min(), ys.max() + 1 - ys.min()]
+                n_coco += 1
             if gi["px_count_all"] == 0:
                 assert gi["bbox_obj"] == [-1, -1, -1, -1]
                 continue
@@ -299,7 +311,7 @@ def test_full_masks_are_the_posed_models_silhouettes(exported):
                 checked += 1
                 occluded += gi["visib_fract"] < 0.99
     print(f"full silhouettes against the posed models' projections: {checked} objects, {occluded} occluded")
-    assert checked >= 4 and occluded >= 1, (checked, occluded)
+    assert checked >= 4 and occluded >= 1 and n_coco >= 4, (checked, occluded, n_coco)
 
 
 def _png(path: Path) -> np.ndarray:
