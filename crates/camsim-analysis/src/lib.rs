@@ -10,6 +10,7 @@
 //! - [`noise`]: SNR of a uniform region and its noise power spectrum (IEC 62220-1 / ISO 15739 style).
 //! - [`acutance`]: SFR weighted by the CPIQ contrast sensitivity at a viewing condition.
 //! - [`glare`]: the veiling glare index on an ISO 18844 target (a black hole in a bright surround).
+//! - [`dual_pixel`]: the disparity between a dual-pixel sensor's two photodiode images of an edge.
 //!
 //! Every result type is `serde::Serialize` so the CLI can write it as JSON or CSV.
 
@@ -18,6 +19,7 @@
 pub mod chart;
 pub mod color_difference;
 pub mod distortion;
+pub mod dual_pixel;
 pub mod emva;
 pub mod error;
 pub mod glare;

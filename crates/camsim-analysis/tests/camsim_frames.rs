@@ -118,6 +118,7 @@ fn ten_bit_sensor() -> Sensor {
         hdr: None,
         defects: None,
         binning: None,
+        dual_pixel: false,
     };
     with_black_level(&Sensor::from_config(c).unwrap(), 64.0)
 }

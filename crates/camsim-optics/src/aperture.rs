@@ -1,6 +1,6 @@
 //! The shape of the lens pupil in the wavefront model: the circle (default), a regular N-blade
-//! iris with straight or curved blades, a central obstruction, spider vanes and a grey
-//! transmission mask.
+//! iris with straight or curved blades, a central obstruction, spider vanes, a grey
+//! transmission mask, and one half of any of them (a dual-pixel photodiode's view).
 //!
 //! Conventions. Shapes are given in pupil coordinates normalized by the lens pupil *radius*
 //! a = D / 2, D = focal length / f-number: x along image columns, y along image rows (as the
@@ -136,6 +136,8 @@ pub struct Aperture {
     vanes: Vec<(f64, f64)>,
     vane_half_width: f64,
     mask: Option<TransmissionMask>,
+    /// Only this half open (x < 0 or x > 0).
+    half: Option<crate::config::PupilHalf>,
 }
 
 impl Aperture {
@@ -150,6 +152,19 @@ impl Aperture {
             && self.obstruction == 0.0
             && self.vanes.is_empty()
             && self.mask.is_none()
+            && self.half.is_none()
+    }
+
+    /// Only one half of the pupil open, cut by the straight line x = 0: `Left` keeps x < 0,
+    /// `Right` x > 0 (a half-shielded pixel's or a dual-pixel photodiode's view of the pupil).
+    pub fn with_half(mut self, half: crate::config::PupilHalf) -> Self {
+        self.half = Some(half);
+        self
+    }
+
+    /// The open half, if only one is.
+    pub fn half(&self) -> Option<crate::config::PupilHalf> {
+        self.half
     }
 
     /// A regular iris of `blades` (>= 3) blades inscribed in the lens pupil, a vertex at
@@ -288,6 +303,11 @@ impl Aperture {
             let along = x * dx + y * dy;
             let across = (x * dy - y * dx).abs();
             f = f.min((across - self.vane_half_width).max(-along));
+        }
+        match self.half {
+            Some(crate::config::PupilHalf::Left) => f = f.min(-x),
+            Some(crate::config::PupilHalf::Right) => f = f.min(x),
+            None => {}
         }
         f
     }

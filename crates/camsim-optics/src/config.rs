@@ -237,6 +237,35 @@ pub struct ApertureConfig {
     /// pupil samples. Relative to the config file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mask: Option<PathBuf>,
+    /// Only one half of the pupil open: `"left"` (x < 0) or `"right"` (x > 0), the straight
+    /// edge through the pupil's centre along y (unset: the whole pupil). What a half-shielded
+    /// phase-detection pixel sees, or one photodiode of a dual-pixel sensor (a sensor with
+    /// `dual_pixel = true` sets it itself for each of its halves; not with it). The irradiance
+    /// halves with the area.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half: Option<PupilHalf>,
+}
+
+/// One half of the pupil ([`ApertureConfig::half`]): pupil x along image columns.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum PupilHalf {
+    /// x < 0.
+    Left,
+    /// x > 0.
+    Right,
+}
+
+impl PupilHalf {
+    /// `"left"` or `"right"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PupilHalf::Left => "left",
+            PupilHalf::Right => "right",
+        }
+    }
 }
 
 fn is_zero_usize(v: &usize) -> bool {
@@ -299,7 +328,7 @@ pub struct BlurConfig {
 #[serde(deny_unknown_fields)]
 pub struct MeasuredPsfConfig {
     /// Sample spacing of the files' PSFs in the sensor plane, um (default: each file's own
-    /// `camsimSampleSpacingM`; required for files without it).
+    /// `camsimSampleSpacingM`; required for files without it; not used by `.csv` MTF tables).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spacing_um: Option<f64>,
     /// One file per field height, heights increasing from the axis (one file: the same PSF
@@ -314,7 +343,9 @@ pub struct MeasuredPsfFile {
     /// The height in the sensor plane where the PSF was measured (along +x), mm.
     pub field_height_mm: f64,
     /// A spectral OpenEXR (`S0.<wavelength>nm` channels), relative to the config file: the PSF,
-    /// columns along the radius, rows along the tangent, centred on the ideal image point.
+    /// columns along the radius, rows along the tangent, centred on the ideal image point. Or a
+    /// `.csv` lens MTF table at that height (columns frequency in cycles/mm, tangential and
+    /// sagittal MTF, optionally wavelength_nm): the separable zero-phase PSF with those MTFs.
     pub file: PathBuf,
 }
 

@@ -1132,6 +1132,9 @@ pub fn aperture_from_config(
     if let Some(p) = &ac.mask {
         a = a.with_mask(crate::aperture::TransmissionMask::from_file(p)?);
     }
+    if let Some(h) = ac.half {
+        a = a.with_half(h);
+    }
     Ok(a)
 }
 

@@ -192,6 +192,12 @@ pub fn capture(
     irradiance: &SpectralImage,
     req: &CaptureRequest,
 ) -> Result<Captured> {
+    if sensor.is_dual_pixel() {
+        return Err(dual_pixel_refused(
+            sensor,
+            "its photodiodes see different halves of the pupil, which a sensor-plane irradiance does not hold apart; simulate the scene through the optics (camsim simulate, Python's simulate)",
+        ));
+    }
     if sensor.hdr_model().is_some() {
         if req.bracket_s.is_some() {
             return Err(PipelineError::Config(format!(
@@ -341,6 +347,12 @@ pub fn image_radiance(
     };
     let optics_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
+    if sensor.is_dual_pixel() {
+        return Err(dual_pixel_refused(
+            sensor,
+            "not in this measurement yet (it captures the whole pixel); use camsim simulate",
+        ));
+    }
     let frame = sensor.compute(&irradiance, capture)?;
     Ok(Imaged {
         irradiance,
@@ -349,6 +361,7 @@ pub fn image_radiance(
         optics_s,
         sensor_s: t.elapsed().as_secs_f64(),
         light_split: None,
+        dual: None,
     })
 }
 
@@ -366,6 +379,9 @@ pub(crate) fn image_owned(
     Imaged,
     Option<camsim_optics::ImageMap>,
 )> {
+    if sensor.is_dual_pixel() {
+        return image_owned_dual(image, optics, sensor, req);
+    }
     let t = Instant::now();
     let (radiance, irradiance, map) = match image.quantity {
         Quantity::Irradiance => (None, image, None),
@@ -392,6 +408,7 @@ pub(crate) fn image_owned(
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
             light_split: None,
+            dual: None,
         },
         map,
     ))
@@ -516,6 +533,12 @@ pub(crate) fn image_owned_groups(
             "give [flicker] (the whole scene) or [light_flicker] (by light group), not both",
         ));
     }
+    if sensor.is_dual_pixel() {
+        return Err(dual_pixel_refused(
+            sensor,
+            "not with [light_flicker] yet (each flickering group would be imaged through each half)",
+        ));
+    }
     let t = Instant::now();
     let (steady, parts) = split_radiance(&image, groups, weights, &req.group_lights)?;
     let (radiance, split, map) = match image.quantity {
@@ -564,6 +587,7 @@ pub(crate) fn image_owned_groups(
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
             light_split: Some(split),
+            dual: None,
         },
         map,
     ))
@@ -616,6 +640,151 @@ pub struct Imaged {
     /// With light groups that flicker each in its own way (`[light_flicker]`): the steady
     /// and the modulated groups' irradiance, which sum to `irradiance` (`None` otherwise).
     pub light_split: Option<SplitIrradiance>,
+    /// A dual-pixel sensor's photodiode raws (`frame` holds their sums); `None` otherwise.
+    pub dual: Option<DualPixelReadouts>,
+}
+
+/// A dual-pixel sensor's left and right photodiode raws, one of each per raw frame
+/// ([`camsim_sensor::dual_pixel`]).
+#[derive(Debug, Clone)]
+pub struct DualPixelReadouts {
+    /// The photodiodes that see the pupil's left half (x < 0), per frame.
+    pub left: Vec<RawImage>,
+    /// The photodiodes that see its right half, per frame.
+    pub right: Vec<RawImage>,
+}
+
+impl DualPixelReadouts {
+    /// Append a later frame's readouts (a moving scene's frames, captured one by one).
+    pub fn extend(&mut self, other: DualPixelReadouts) {
+        self.left.extend(other.left);
+        self.right.extend(other.right);
+    }
+}
+
+/// The refusal of a dual-pixel sensor where its halves cannot be imaged apart.
+fn dual_pixel_refused(sensor: &Sensor, why: &str) -> PipelineError {
+    PipelineError::config(format!(
+        "sensor {}: dual_pixel: {why}",
+        sensor.name()
+    ))
+}
+
+/// Stages 2 and 3 for a dual-pixel sensor ([`camsim_sensor::dual_pixel`]): the optics image
+/// `image` through each half of the pupil (`aperture.half`), each photodiode captures its half's
+/// irradiance ([`Sensor::dual_pixel_photodiodes`]) at one exposure (auto-exposure meters the
+/// whole pixel, the halves' sum), and the raw is their sum. The irradiance handed back is the
+/// halves' sum, the whole pixel's.
+fn image_owned_dual(
+    image: SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+) -> Result<(
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+)> {
+    use camsim_optics::config::{ApertureConfig, PupilHalf};
+    if image.quantity == Quantity::Irradiance {
+        return Err(dual_pixel_refused(
+            sensor,
+            "the optics stage images each half of the pupil, but the scene's lens camera renders the sensor-plane irradiance itself; use a pinhole camera with [optics] (depth-layered defocus)",
+        ));
+    }
+    if !req.group_lights.is_empty() {
+        return Err(dual_pixel_refused(
+            sensor,
+            "not with [light_flicker] yet (each flickering group would be imaged through each half)",
+        ));
+    }
+    let oc = optics.config();
+    if oc.aperture.as_ref().is_some_and(|a| a.half.is_some()) {
+        return Err(dual_pixel_refused(
+            sensor,
+            "the optics' aperture.half is set; a dual-pixel sensor opens each half itself",
+        ));
+    }
+    if oc
+        .blur
+        .as_ref()
+        .is_some_and(|b| b.method == camsim_optics::config::BlurKind::ShiftVariant)
+    {
+        return Err(dual_pixel_refused(
+            sensor,
+            "the shift-variant optics (blur.method = \"shift-variant\") do not image half a pupil yet; use the wavefront optics",
+        ));
+    }
+    let t = Instant::now();
+    let half = |h: PupilHalf| -> Result<(SpectralImage, camsim_optics::ImageMap)> {
+        let mut c = oc.clone();
+        c.aperture = Some(ApertureConfig {
+            half: Some(h),
+            ..c.aperture.unwrap_or_default()
+        });
+        Ok(Optics::from_config(&c)?.compute_mapped(&image)?)
+    };
+    let (left_e, map) = half(PupilHalf::Left)?;
+    let (right_e, _) = half(PupilHalf::Right)?;
+    let mut irradiance = left_e.clone();
+    irradiance
+        .data
+        .iter_mut()
+        .zip(&right_e.data)
+        .for_each(|(a, b)| *a += b);
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
+    // One exposure for both halves: auto-exposure meters the whole pixel.
+    let mut one = req.clone();
+    if let Exposure::Auto { .. } = req.exposure {
+        if req.bracket_s.is_none() {
+            one.exposure = Exposure::Seconds(sensor.metered_exposure_s(&irradiance, &req.capture())?);
+        }
+    }
+    let frames = |s: &Sensor, e: &SpectralImage| -> Result<Frame> {
+        match capture(s, e, &one)? {
+            Captured::Frames(f) => Ok(f),
+            Captured::Hdr(_) => Err(dual_pixel_refused(sensor, "not with an [hdr] pixel")),
+        }
+    };
+    let left = frames(&pd_left, &left_e)?;
+    let right = frames(&pd_right, &right_e)?;
+    let raw = left
+        .raw
+        .iter()
+        .zip(&right.raw)
+        .map(|(l, r)| camsim_sensor::dual_pixel_sum(l, r))
+        .collect::<camsim_sensor::Result<Vec<_>>>()?;
+    let add = |a: &[f64; 3], b: &[f64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+    let frame = Frame {
+        raw,
+        exposure_s: left.exposure_s,
+        mean_electrons: add(&left.mean_electrons, &right.mean_electrons),
+        analog_dn: None,
+        mean_electrons_by_filter: left
+            .mean_electrons_by_filter
+            .iter()
+            .zip(&right.mean_electrons_by_filter)
+            .map(|(a, b)| a + b)
+            .collect(),
+    };
+    Ok((
+        Some(image),
+        Imaged {
+            irradiance,
+            frame,
+            hdr: None,
+            optics_s,
+            sensor_s: t.elapsed().as_secs_f64(),
+            light_split: None,
+            dual: Some(DualPixelReadouts {
+                left: left.raw,
+                right: right.raw,
+            }),
+        },
+        Some(map),
+    ))
 }
 
 /// The ADC value each pixel would read at `exposure_s` without shot, read, DSNU and PRNU noise

@@ -440,6 +440,9 @@ pub(crate) fn stage(
                 if let (Some(a), Some(b)) = (&mut im0.hdr, im.hdr) {
                     a.extend(b);
                 }
+                if let (Some(a), Some(b)) = (&mut im0.dual, im.dual) {
+                    a.extend(b);
+                }
             }
         }
     }

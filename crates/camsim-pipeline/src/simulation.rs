@@ -77,6 +77,10 @@ pub struct Simulation {
     /// An `[hdr]` sensor (dual conversion gain, split pixel): per raw frame its low readout and
     /// its merged linear frame, and the merge's model. `None` for other sensors.
     pub hdr: Option<crate::HdrReadouts>,
+    /// A dual-pixel sensor ([`camsim_sensor::dual_pixel`]): per raw frame its left and right
+    /// photodiodes' raws (`frames` holds their sums; raw_left.dng, raw_right.dng). `None` for
+    /// other sensors.
+    pub dual_pixel: Option<crate::capture::DualPixelReadouts>,
     /// An exposure bracket (`capture.exposures_ms`) of a plain sensor: all its frames merged
     /// into one linear HDR frame (merged.exr; the preview renders it). `None` otherwise.
     pub bracket_merge: Option<BracketMerge>,
@@ -224,6 +228,7 @@ pub fn simulate(
                 optics_s,
                 sensor_s,
                 light_split: _,
+                dual,
             },
         times: frame_times,
         flow,
@@ -318,6 +323,7 @@ pub fn simulate(
         mean_electrons_rgb: frame.mean_electrons,
         frames: frame.raw,
         hdr,
+        dual_pixel: dual,
         bracket_merge,
         noise_free_dn,
         preview,
@@ -655,6 +661,20 @@ impl Simulation {
                 }
             }
         }
+        if let (true, Some(_)) = (outputs.contains(Output::Raw), &self.dual_pixel) {
+            files.insert(
+                "raw.dng".into(),
+                "the dual-pixel sensor's pixels: the digital sum of each pixel's two photodiode reads (DN, black level once), black and white level in its tags".into(),
+            );
+            files.insert(
+                "raw_left.dng".into(),
+                "each pixel's left photodiode (the light through the pupil's left half, x < 0): its own read, half the well (raw_left_0001.dng ... for more frames; camsim analyze dual-pixel measures the disparity)".into(),
+            );
+            files.insert(
+                "raw_right.dng".into(),
+                "each pixel's right photodiode (the pupil's right half, x > 0)".into(),
+            );
+        }
         if outputs.contains(Output::Raw) && !self.defects.is_empty() {
             files.insert(
                 "defects.json".into(),
@@ -924,6 +944,17 @@ impl Simulation {
                             &b.merged.electrons,
                         )?)
                     }));
+                }
+                // A dual-pixel sensor: its photodiodes' raws beside each raw (their sum).
+                if let Some(d) = &self.dual_pixel {
+                    for (i, (l, r)) in d.left.iter().zip(&d.right).enumerate() {
+                        for (side, raw) in [("left", l), ("right", r)] {
+                            t.push(Box::new(move || {
+                                let name = format!("raw_{side}{}.dng", frame_suffix(i));
+                                Ok(camsim_io::dng::write_dng(&out.join(name), raw, &self.dng)?)
+                            }));
+                        }
+                    }
                 }
                 // An [hdr] sensor: its low readout and merged frame beside each raw.
                 if let Some(h) = &self.hdr {

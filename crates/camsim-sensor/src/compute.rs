@@ -359,6 +359,23 @@ impl Sensor {
         self.capture_from_rate(&rate, self.rows(), self.cols(), capture, first_frame)
     }
 
+    /// The exposure time `capture` gives this sensor for `irradiance`: its time, or the
+    /// auto-exposure's metering ([`Exposure::Auto`]) of the noise-free signal (a dual-pixel
+    /// sensor meters the whole pixel once, then captures both photodiodes at that time).
+    pub fn metered_exposure_s(&self, irradiance: &SpectralImage, capture: &Capture) -> Result<f64> {
+        if let Exposure::Seconds(t) = capture.exposure {
+            return Ok(t);
+        }
+        let rate = self.electron_rate_image(irradiance)?;
+        self.resolve_exposure(
+            &rate,
+            self.rows(),
+            self.cols(),
+            capture.exposure,
+            capture.global_reset.as_ref(),
+        )
+    }
+
     /// Exposure bracketing / bursts (ISETCam: a vector `exposure time`, one capture per entry):
     /// `frames_per_exposure` raw frames for each exposure time of `exposures_s`, exposure-major
     /// (all frames of the first exposure, then the next...). Each raw carries its own
@@ -1005,13 +1022,21 @@ impl Sensor {
         let max_dn = self.max_dn() as f64;
         // Fixed pattern: the sensor's own stream per row (two normals per pixel, PRNU then DSNU),
         // the same for every frame and call. Temporal: the capture's stream per frame and row.
+        // A dual pixel's right photodiode: streams of its own (`stream_tag`; 0 otherwise).
+        let tag = self.stream_tag;
         let mut fp = keyed(
             self.config().fixed_pattern_seed,
             stage::SENSOR_FIXED_PATTERN,
-            0,
+            tag,
             r as u64,
         );
-        let mut tr = keyed(capture.seed, stage::SENSOR_TEMPORAL, frame_key, r as u64);
+        let mut tr = keyed(
+            capture.seed,
+            stage::SENSOR_TEMPORAL,
+            frame_key ^ tag,
+            r as u64,
+        );
+        let well_v = self.photodiode_clip_v.unwrap_or(f64::INFINITY);
         let zig = Ziggurat::get();
         // `[defects]`: this row's chain and faulty pixels (the row's defects in column order).
         let defects = self.defects.as_deref();
@@ -1030,7 +1055,7 @@ impl Sensor {
         let mut rtn_rng = row_faults
             .iter()
             .any(|f| f.kind == DefectKind::Rtn)
-            .then(|| keyed(capture.seed, stage::SENSOR_RTN, frame_key, r as u64));
+            .then(|| keyed(capture.seed, stage::SENSOR_RTN, frame_key ^ tag, r as u64));
         for (c, o) in out.iter_mut().enumerate() {
             let fault = match faulty.peek() {
                 Some(f) if f.col == c => faulty.next().map(|f| f.kind),
@@ -1072,6 +1097,8 @@ impl Sensor {
                 }
                 v
             };
+            // A dual pixel's photodiode holds half the pixel's well (its charge clips there).
+            let v = v.min(well_v);
             // RTN: the source follower's trap adds its step in the high state.
             let v = match (fault, rtn_rng.as_mut(), defects) {
                 (Some(DefectKind::Rtn), Some(rng), Some(d)) => {

@@ -351,6 +351,19 @@ pub struct SensorConfig {
     /// cols / k (docs/src/sensors.md, "Binning"); absent = every photodiode read alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub binning: Option<BinningConfig>,
+    /// Dual-pixel autofocus (phase detection on every pixel, as in Canon's Dual Pixel CMOS AF
+    /// and the Pixel phones): each pixel is two photodiodes side by side under its microlens,
+    /// which images the lens pupil onto them, so the left photodiode sees the light through the
+    /// pupil's left half (x < 0) and the right one through its right half. Each photodiode holds
+    /// half the pixel's well (its signal clips at half the swing), collects half its dark
+    /// current, has its own fixed pattern (DSNU, PRNU) and temporal noise and is read on its own;
+    /// the raw is their digital sum (so its read noise is sqrt 2 of one read's). `camsim
+    /// simulate` writes `raw_left.dng` and `raw_right.dng` beside `raw.dng`; the disparity
+    /// between them grows with defocus (`camsim analyze dual-pixel`). The optics images each half
+    /// pupil apart (the wavefront model; not with an `[hdr]` pixel, binning, a lens camera's
+    /// irradiance render or light groups that flicker apart). Default false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dual_pixel: bool,
 }
 
 fn one() -> f64 {
@@ -566,6 +579,18 @@ impl SensorConfig {
         }
         if let Some(pv) = &self.pixel_vignetting {
             pv.validate()?;
+        }
+        if self.dual_pixel && self.hdr.is_some() {
+            return bad(
+                "dual_pixel",
+                "a dual-pixel sensor with an [hdr] pixel is not modelled: give one of them",
+            );
+        }
+        if self.dual_pixel && self.binning.is_some() {
+            return bad(
+                "dual_pixel",
+                "a dual-pixel sensor with [binning] is not modelled: give one of them",
+            );
         }
         if let Some(h) = &self.hdr {
             h.validate(&HdrHost {

@@ -277,6 +277,7 @@ pub fn read_isetcam_sensor(
         hdr: None,
         defects: None,
         binning: None,
+        dual_pixel: false,
     };
     config.validate(&file)?;
     Ok(config)

@@ -37,6 +37,7 @@ pub mod compute;
 pub mod config;
 pub mod defects;
 pub mod emva;
+pub mod dual_pixel;
 pub mod error;
 pub mod flicker;
 pub mod hdr;
@@ -53,6 +54,7 @@ pub use compute::{
     exposure_in_range, Capture, Exposure, Frame, GlobalReset, MAX_EXPOSURE_S, POISSON_EXACT_BELOW_E,
 };
 pub use config::{BinningConfig, BinningMode, NoiseSwitches, QeConfig, SensorConfig};
+pub use dual_pixel::dual_pixel_sum;
 pub use emva::EmvaLevel;
 pub use error::{Result, SensorError};
 pub use flicker::{Flicker, LightTiming, Waveform};

@@ -34,7 +34,17 @@ pub struct Sensor {
     qe: [Spectrum; 3],
     /// `[defects]` drawn for this size ([`crate::defects`]).
     pub(crate) defects: Option<std::sync::Arc<crate::defects::DefectMap>>,
+    /// One photodiode of a dual-pixel sensor ([`Sensor::dual_pixel_photodiodes`]): its well, as
+    /// the largest pixel voltage it holds, V (`None`: the swing clips, as for any pixel).
+    pub(crate) photodiode_clip_v: Option<f64>,
+    /// Mixed into the frame key of the fixed-pattern and temporal streams (0: the pixel's own;
+    /// the right photodiode of a dual pixel: [`RIGHT_PHOTODIODE_STREAM`]).
+    pub(crate) stream_tag: u64,
 }
+
+/// The stream tag of a dual pixel's right photodiode: its fixed pattern and temporal noise are
+/// streams of their own, independent of the left one's (which are the plain sensor's).
+pub const RIGHT_PHOTODIODE_STREAM: u64 = 1 << 63;
 
 /// Standard deviations of each noise source in DN for one pixel at a given mean signal, and
 /// their quadrature sum (EMVA 1288 rel. 4.0 linear model, ISETCam noise sources).
@@ -176,7 +186,33 @@ impl Sensor {
             noise: config.noise,
             qe,
             config,
+            photodiode_clip_v: None,
+            stream_tag: 0,
         })
+    }
+
+    /// True for a dual-pixel sensor ([`SensorConfig::dual_pixel`]).
+    pub fn is_dual_pixel(&self) -> bool {
+        self.config.dual_pixel
+    }
+
+    /// The left and right photodiodes of a dual-pixel sensor, each as a sensor of its own that
+    /// captures the irradiance through its half of the pupil: half the pixel's well (its
+    /// voltage clips at half the swing: well = swing / conversion gain, ISETCam's), half its
+    /// dark current (it has half the area), the same conversion gain, read noise, ADC and
+    /// defect map, and a fixed pattern and temporal noise of its own (the left one's are the
+    /// plain sensor's streams). Their raws sum to the pixel's ([`dual_pixel_sum`]).
+    pub fn dual_pixel_photodiodes(&self) -> Result<[Sensor; 2]> {
+        let mut c = self.config.clone();
+        c.dual_pixel = false;
+        c.dark_voltage_mv_per_s *= 0.5;
+        // The cross-check of the pixel's well no longer applies to a photodiode.
+        c.well_capacity_e = None;
+        let mut left = Sensor::from_config_named(c, &self.config.name)?;
+        left.photodiode_clip_v = Some(0.5 * self.voltage_swing_v);
+        let mut right = left.clone();
+        right.stream_tag = RIGHT_PHOTODIODE_STREAM;
+        Ok([left, right])
     }
 
     /// Parse and validate TOML text; `source_name` names it in errors.

@@ -20,6 +20,8 @@ pub enum Command {
     Emva(crate::cmd::emva::EmvaArgs),
     Demosaic(crate::cmd::demosaic_zone_plate::Args),
     Glare(GlareArgs),
+    #[command(name = "dual-pixel")]
+    DualPixel(DualPixelArgs),
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -265,6 +267,7 @@ pub fn run(c: Command) -> Result<()> {
         Command::Emva(a) => crate::cmd::emva::run(a),
         Command::Demosaic(a) => crate::cmd::demosaic_zone_plate::run(a),
         Command::Glare(a) => glare_cmd(a),
+        Command::DualPixel(a) => dual_pixel_cmd(a),
     }
 }
 
@@ -475,6 +478,92 @@ pub fn glare_cmd(a: GlareArgs) -> Result<()> {
         ));
     }
     say(format!("-> {}", a.out.join("glare.json").display()));
+    common::commit(staged)?;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+/// Dual-pixel disparity: how far a dual-pixel sensor's left-photodiode image of a near-vertical
+/// edge lies from its right-photodiode image (`raw_left.dng` and `raw_right.dng` of a `camsim
+/// simulate` run with `dual_pixel = true`), the signal a phase-detection autofocus turns into a
+/// focus error. Measured on each filter's own pixels (no demosaicking) as the difference of the
+/// two images' line-spread centroids in blocks of rows; for a thin lens it is 4 c / (3 pi), c the
+/// circle of confusion, with opposite signs in front of and behind focus (docs/src/sensors.md).
+/// Writes dual_pixel.json in --out.
+#[derive(clap::Args)]
+#[command(
+    after_help = "Examples:\n  camsim simulate examples/dual-pixel.toml --out out/dual-pixel\n  camsim analyze dual-pixel out/dual-pixel/raw_left.dng out/dual-pixel/raw_right.dng --out out/dual-pixel-af\n  camsim analyze dual-pixel out/dual-pixel/raw_left.dng out/dual-pixel/raw_right.dng --roi 0,40,96,48 --json --out out/dual-pixel-roi"
+)]
+pub struct DualPixelArgs {
+    /// The left photodiodes' raw (DNG, or a PNG/TIFF mosaic with --cfa).
+    pub left: PathBuf,
+    /// The right photodiodes' raw.
+    pub right: PathBuf,
+    /// The region holding the edge, sensor pixels, ROW,COL,ROWS,COLS (default: the whole raw).
+    #[arg(long, value_parser = parse_rect, value_name = "ROW,COL,ROWS,COLS")]
+    pub roi: Option<Rect>,
+    /// Rows of each filter's pixels per block (the disparity's standard error comes from the
+    /// spread over blocks).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..))]
+    pub block_rows: u32,
+    #[command(flatten)]
+    pub raw: RawInput,
+    /// Also print dual_pixel.json on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Output folder for dual_pixel.json (created if missing).
+    #[arg(long, default_value = "out/dual-pixel-af")]
+    pub out: PathBuf,
+}
+
+pub fn dual_pixel_cmd(a: DualPixelArgs) -> Result<()> {
+    use camsim::pipeline::measure::dual_pixel::{measure_dual_pixel, DualPixelRequest};
+    let load = |p: &Path| -> Result<camsim::core::RawImage> {
+        match MeasuredImage::load(p, &a.raw.format())? {
+            MeasuredImage::Raw(r) => Ok(r),
+            MeasuredImage::Rgb { .. } => Err(anyhow::anyhow!(
+                "{}: a LinearRaw (demosaicked) DNG; give the dual-pixel sensor's CFA raws",
+                p.display()
+            )),
+        }
+    };
+    let (left, right) = (load(&a.left)?, load(&a.right)?);
+    let report = measure_dual_pixel(
+        &left,
+        &right,
+        &DualPixelRequest {
+            roi: a.roi,
+            block_rows: a.block_rows as usize,
+        },
+    )
+    .map_err(|e| anyhow::anyhow!("{} and {}: {e}", a.left.display(), a.right.display()))?;
+    let mut json = serde_json::to_value(&report)?;
+    json["left"] = a.left.display().to_string().into();
+    json["right"] = a.right.display().to_string().into();
+    json["sign"] = "disparity = left edge column - right edge column (left: the photodiodes that see the pupil's left half, x < 0)".into();
+    let staged = common::stage_out_dir_reading(&a.out, &[a.left.as_path(), a.right.as_path()])?;
+    std::fs::write(
+        staged.join("dual_pixel.json"),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    for f in &report.filters {
+        say(format!(
+            "{}: disparity {:+.3} px (+- {:.3}), edge at column {:.2}, slope {:.3} px/row, {} blocks",
+            f.filter, f.disparity_px, f.standard_error_px, f.edge_col_px, f.slope_px_per_row, f.blocks
+        ));
+    }
+    let um = report
+        .disparity_um
+        .map(|d| format!(" = {d:+.3} um on the sensor"))
+        .unwrap_or_default();
+    say(format!(
+        "disparity {:+.3} px (+- {:.3}){um}",
+        report.disparity_px, report.standard_error_px
+    ));
+    say(format!("-> {}", a.out.join("dual_pixel.json").display()));
     common::commit(staged)?;
     Ok(())
 }

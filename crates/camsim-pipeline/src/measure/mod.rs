@@ -1,11 +1,12 @@
 //! The measurements, each on a plain request struct and returning a result struct that can write
 //! its files: slanted-edge SFR of any image ([`sfr`]), ColorChecker chart statistics ([`chart`]),
 //! region statistics ([`roi`]), EMVA 1288 series ([`emva`]: simulate and write a series, read and
-//! analyse one), demosaicking quality on a zone plate ([`demosaic`]) and the QE correction fit
-//! ([`qe_fit`]). `camsim analyze`, `camsim fit` and the Python package call these.
+//! analyse one), demosaicking quality on a zone plate ([`demosaic`]), a dual-pixel capture's
+//! disparity ([`dual_pixel`]) and the QE correction fit ([`qe_fit`]). `camsim analyze`, `camsim fit` and the Python package call these.
 
 pub mod chart;
 pub mod demosaic;
+pub mod dual_pixel;
 pub mod emva;
 pub mod mtf_fit;
 pub mod psf;
