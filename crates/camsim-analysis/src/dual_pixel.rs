@@ -118,10 +118,11 @@ pub fn edge_disparity(
     let step: f64 = whole.iter().sum();
     let sign = if step >= 0.0 { 1.0 } else { -1.0 };
     let lsf: Vec<f64> = whole.iter().map(|v| sign * v).collect();
-    let (peak_j, peak) = lsf
-        .iter()
-        .enumerate()
-        .fold((0, f64::MIN), |(bj, bv), (j, &v)| if v > bv { (j, v) } else { (bj, bv) });
+    let (peak_j, peak) =
+        lsf.iter().enumerate().fold(
+            (0, f64::MIN),
+            |(bj, bv), (j, &v)| if v > bv { (j, v) } else { (bj, bv) },
+        );
     let mut abs_sorted: Vec<f64> = lsf.iter().map(|v| v.abs()).collect();
     abs_sorted.sort_by(|a, b| a.total_cmp(b));
     let median = abs_sorted[abs_sorted.len() / 2];
@@ -159,7 +160,11 @@ pub fn edge_disparity(
     let blocks = (roi.rows / opts.block_rows).max(1);
     for k in 0..blocks {
         let r0 = k * opts.block_rows;
-        let r1 = if k + 1 == blocks { roi.rows } else { r0 + opts.block_rows };
+        let r1 = if k + 1 == blocks {
+            roi.rows
+        } else {
+            r0 + opts.block_rows
+        };
         let (cl, cr, cs) = (
             centroid(&profile(left, r0, r1)),
             centroid(&profile(right, r0, r1)),
@@ -241,7 +246,9 @@ mod tests {
         assert!((d.edge_col - (30.4 + 27.9) / 2.0).abs() < 1e-3, "{d:?}");
         assert!(d.slope_px_per_row.abs() < 1e-9);
         // Bright to dark: the same disparity.
-        let flip = |p: &Plane| Plane::new(p.rows, p.cols, p.data.iter().map(|v| 120.0 - v).collect()).unwrap();
+        let flip = |p: &Plane| {
+            Plane::new(p.rows, p.cols, p.data.iter().map(|v| 120.0 - v).collect()).unwrap()
+        };
         let d2 = edge_disparity(&flip(&l), &flip(&r), &DisparityOptions::default()).unwrap();
         assert!((d2.disparity_px - 2.5).abs() < 1e-3, "{d2:?}");
         // A flat field has no edge.

@@ -290,10 +290,11 @@ fn export_into(
             let (h, w) = sizes.get(&image_id).copied().unwrap_or_default();
             let mut extra = extra;
             let keypoints = extra.as_object_mut().and_then(|o| o.remove("keypoints"));
-            let amodal: Vec<(&str, serde_json::Value)> = ["amodal_segmentation", "amodal_area", "amodal_bbox"]
-                .into_iter()
-                .filter_map(|k| Some((k, extra.as_object_mut()?.remove(k)?)))
-                .collect();
+            let amodal: Vec<(&str, serde_json::Value)> =
+                ["amodal_segmentation", "amodal_area", "amodal_bbox"]
+                    .into_iter()
+                    .filter_map(|k| Some((k, extra.as_object_mut()?.remove(k)?)))
+                    .collect();
             let mut a = serde_json::json!({
                 "id": k + 1,
                 "image_id": image_id,

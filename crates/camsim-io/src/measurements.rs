@@ -685,7 +685,10 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
             }
             Ok(m.clamp(0.0, 1.0))
         };
-        let (t, s) = (modulation(tan_col, tan_scale)?, modulation(sag_col, sag_scale)?);
+        let (t, s) = (
+            modulation(tan_col, tan_scale)?,
+            modulation(sag_col, sag_scale)?,
+        );
         let idx = match curves.iter().position(|(w, _)| *w == wl) {
             Some(i) => i,
             None => {
@@ -1096,7 +1099,11 @@ mod tests {
         assert_eq!(m.curves[1].0, Some(650.0));
         assert_eq!(m.curves[1].1.sagittal, [1.0, 0.8]);
         // No wavelength column: one pair for the band; a slight overshoot is clipped.
-        let p = file(&dir, "l.csv", "freq_cyc_per_mm,tan,sag\n0,1.02,1\n100,0.5,0.4\n");
+        let p = file(
+            &dir,
+            "l.csv",
+            "freq_cyc_per_mm,tan,sag\n0,1.02,1\n100,0.5,0.4\n",
+        );
         let m = read_lens_mtf_csv(&p).unwrap();
         assert_eq!(m.curves.len(), 1);
         assert_eq!(m.curves[0].0, None);
@@ -1112,15 +1119,24 @@ mod tests {
                 "freq_cyc_per_px,tan,sag\n",
                 ", line 1: column 'freq_cyc_per_px' is per pixel".into(),
             ),
+            ("f,tan,sag\n", ", line 1: no frequency column".into()),
             (
-                "f,tan,sag\n",
-                ", line 1: no frequency column".into(),
+                &format!("{h}0,1,1\n10,x,1\n"),
+                ", line 3: 'x' (tangential) is not a number".into(),
             ),
-            (&format!("{h}0,1,1\n10,x,1\n"), ", line 3: 'x' (tangential) is not a number".into()),
             (&format!("{h}0,1,1\n10,1\n"), ", line 3: 2 values".into()),
-            (&format!("{h}0,1,1\n0,1,1\n"), ", line 3: frequency 0 does not increase".into()),
-            (&format!("{h}0,1,1\n10,1,1.5\n"), ", line 3: sagittal 1.5 is not a modulation".into()),
-            (&format!("{h}0,1,1\n"), ": need at least 2 points per curve, found 1".into()),
+            (
+                &format!("{h}0,1,1\n0,1,1\n"),
+                ", line 3: frequency 0 does not increase".into(),
+            ),
+            (
+                &format!("{h}0,1,1\n10,1,1.5\n"),
+                ", line 3: sagittal 1.5 is not a modulation".into(),
+            ),
+            (
+                &format!("{h}0,1,1\n"),
+                ": need at least 2 points per curve, found 1".into(),
+            ),
         ] {
             let p = file(&dir, "bad.csv", text);
             let e = err(read_lens_mtf_csv(&p));

@@ -247,9 +247,7 @@ pub struct ApertureConfig {
 }
 
 /// One half of the pupil ([`ApertureConfig::half`]): pupil x along image columns.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum PupilHalf {
     /// x < 0.

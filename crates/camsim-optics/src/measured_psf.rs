@@ -261,7 +261,9 @@ impl Measured {
                     let v: f64 = w
                         .iter()
                         .enumerate()
-                        .map(|(j, wj)| wj * (2.0 * std::f64::consts::PI * j as f64 * df * x_mm).cos())
+                        .map(|(j, wj)| {
+                            wj * (2.0 * std::f64::consts::PI * j as f64 * df * x_mm).cos()
+                        })
                         .sum();
                     v.max(0.0)
                 })

@@ -664,10 +664,7 @@ impl DualPixelReadouts {
 
 /// The refusal of a dual-pixel sensor where its halves cannot be imaged apart.
 fn dual_pixel_refused(sensor: &Sensor, why: &str) -> PipelineError {
-    PipelineError::config(format!(
-        "sensor {}: dual_pixel: {why}",
-        sensor.name()
-    ))
+    PipelineError::config(format!("sensor {}: dual_pixel: {why}", sensor.name()))
 }
 
 /// Stages 2 and 3 for a dual-pixel sensor ([`camsim_sensor::dual_pixel`]): the optics image
@@ -739,7 +736,8 @@ fn image_owned_dual(
     let mut one = req.clone();
     if let Exposure::Auto { .. } = req.exposure {
         if req.bracket_s.is_none() {
-            one.exposure = Exposure::Seconds(sensor.metered_exposure_s(&irradiance, &req.capture())?);
+            one.exposure =
+                Exposure::Seconds(sensor.metered_exposure_s(&irradiance, &req.capture())?);
         }
     }
     let frames = |s: &Sensor, e: &SpectralImage| -> Result<Frame> {

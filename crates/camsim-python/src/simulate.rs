@@ -172,6 +172,27 @@ impl PySimulation {
             .map(|h| crate::convert::raw_stack(py, &h.low))
             .transpose()
     }
+    /// A dual-pixel sensor (`dual_pixel = true`): the left photodiodes' raw frames (the light
+    /// through the pupil's left half), (frames, rows, cols) uint16 DN; `raw` is their sum with
+    /// the right ones. None for other sensors.
+    #[getter]
+    fn raw_left<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .dual_pixel
+            .as_ref()
+            .map(|d| crate::convert::raw_stack(py, &d.left))
+            .transpose()
+    }
+    /// A dual-pixel sensor: the right photodiodes' raw frames (the pupil's right half). None
+    /// for other sensors.
+    #[getter]
+    fn raw_right<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .dual_pixel
+            .as_ref()
+            .map(|d| crate::convert::raw_stack(py, &d.right))
+            .transpose()
+    }
     /// An [hdr] sensor: the merged linear frames, (frames, rows, cols) float32 electrons of the
     /// high readout (merged.exr). None for other sensors.
     #[getter]

@@ -23,16 +23,16 @@ pub fn dual_pixel_sum(left: &RawImage, right: &RawImage) -> Result<RawImage> {
         return Err(SensorError::Input {
             what: "dual-pixel raws".into(),
             message: format!(
-            "the halves differ: {} x {} (black {}, white {}) and {} x {} (black {}, white {})",
-            left.cols,
-            left.rows,
-            left.black_level_dn,
-            left.white_level_dn,
-            right.cols,
-            right.rows,
-            right.black_level_dn,
-            right.white_level_dn
-        ),
+                "the halves differ: {} x {} (black {}, white {}) and {} x {} (black {}, white {})",
+                left.cols,
+                left.rows,
+                left.black_level_dn,
+                left.white_level_dn,
+                right.cols,
+                right.rows,
+                right.black_level_dn,
+                right.white_level_dn
+            ),
         });
     }
     let black = left.black_level_dn;

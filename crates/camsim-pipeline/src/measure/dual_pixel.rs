@@ -57,7 +57,10 @@ pub fn measure_dual_pixel(
     right: &RawImage,
     req: &DualPixelRequest,
 ) -> Result<DualPixelReport> {
-    if (left.rows, left.cols) != (right.rows, right.cols) || left.layout != right.layout || left.cfa != right.cfa {
+    if (left.rows, left.cols) != (right.rows, right.cols)
+        || left.layout != right.layout
+        || left.cfa != right.cfa
+    {
         return Err(PipelineError::config(format!(
             "the left raw is {} x {} ({}), the right one {} x {} ({}): give the two halves of one capture",
             left.cols,
@@ -79,7 +82,11 @@ pub fn measure_dual_pixel(
         rows: left.rows,
         cols: left.cols,
     });
-    if roi.rows == 0 || roi.cols == 0 || roi.row + roi.rows > left.rows || roi.col + roi.cols > left.cols {
+    if roi.rows == 0
+        || roi.cols == 0
+        || roi.row + roi.rows > left.rows
+        || roi.col + roi.cols > left.cols
+    {
         return Err(PipelineError::config(format!(
             "roi: {} x {} at row {}, column {} does not fit the {} x {} raw",
             roi.cols, roi.rows, roi.row, roi.col, left.cols, left.rows
@@ -99,12 +106,17 @@ pub fn measure_dual_pixel(
     }
     let opts = DisparityOptions {
         roi: None,
-        block_rows: if req.block_rows == 0 { 8 } else { req.block_rows },
+        block_rows: if req.block_rows == 0 {
+            8
+        } else {
+            req.block_rows
+        },
     };
     let mut filters = Vec::new();
     for (i, j, name) in positions {
         // The sub-grid of sensor rows i + k th, columns j + l tw inside the region.
-        let first = |start: usize, off: usize, step: usize| (start.saturating_sub(off)).div_ceil(step);
+        let first =
+            |start: usize, off: usize, step: usize| (start.saturating_sub(off)).div_ceil(step);
         let (k0, l0) = (first(roi.row, i, th), first(roi.col, j, tw));
         let count = |start: usize, len: usize, off: usize, step: usize, k0: usize| {
             let end = start + len; // exclusive
@@ -158,14 +170,30 @@ pub fn measure_dual_pixel(
     let all_se = filters.iter().all(|f| f.standard_error_px > 0.0);
     let w: Vec<f64> = filters
         .iter()
-        .map(|f| if all_se { f.standard_error_px.powi(-2) } else { 1.0 })
+        .map(|f| {
+            if all_se {
+                f.standard_error_px.powi(-2)
+            } else {
+                1.0
+            }
+        })
         .collect();
     let sw: f64 = w.iter().sum();
-    let disparity_px = filters.iter().zip(&w).map(|(f, w)| w * f.disparity_px).sum::<f64>() / sw;
+    let disparity_px = filters
+        .iter()
+        .zip(&w)
+        .map(|(f, w)| w * f.disparity_px)
+        .sum::<f64>()
+        / sw;
     let standard_error_px = if all_se {
         sw.powf(-0.5)
     } else {
-        (filters.iter().map(|f| f.standard_error_px.powi(2)).sum::<f64>()).sqrt() / filters.len() as f64
+        (filters
+            .iter()
+            .map(|f| f.standard_error_px.powi(2))
+            .sum::<f64>())
+        .sqrt()
+            / filters.len() as f64
     };
     let pitch_um = (left.pixel_pitch_m > 0.0).then_some(left.pixel_pitch_m * 1e6);
     Ok(DualPixelReport {
