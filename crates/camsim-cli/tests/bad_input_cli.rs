@@ -170,6 +170,12 @@ fn fixture() -> &'static Fixture {
         run_ok(&["simulate", &p("flat.toml"), "--out", &p("flat")]);
         run_ok(&["simulate", &p("edge.toml"), "--out", &p("edge")]);
         run_ok(&["simulate", &p("glare.toml"), "--out", &p("glare")]);
+        // A dual-pixel capture (the example, 0.3 s): raw_left.dng and raw_right.dng.
+        let dual = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/dual-pixel.toml"
+        );
+        run_ok(&["simulate", dual, "--out", &p("dual")]);
         run_ok(&[
             "sensor",
             "--emva-series",
@@ -264,6 +270,14 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
         ],
         ["analyze", "demosaic"] => vec!["analyze", "demosaic", "--size", "64", "--out", "{O}"],
         ["analyze", "glare"] => vec!["analyze", "glare", "{F}/glare/raw.dng", "--out", "{O}"],
+        ["analyze", "dual-pixel"] => vec![
+            "analyze",
+            "dual-pixel",
+            "{F}/dual/raw_left.dng",
+            "{F}/dual/raw_right.dng",
+            "--out",
+            "{O}",
+        ],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
         ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],
