@@ -170,8 +170,9 @@
 //! `focus_distance_m`), `frameaspectratio`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
 //! `randomization`; `Integrator` `regularize`; `Option`;
-//! texture `filter` `trilinear` and `ewa` (read as `bilinear` at full resolution: no ray
-//! footprints, no MIP-mapping; `point` and `bilinear` are exact), `maxanisotropy`; the
+//! texture `filter` `ewa` (read as `trilinear`: MIP-mapped over pbrt-v4's approximate pixel
+//! footprint, without the elliptical weights; `point` and `bilinear` read at full resolution,
+//! where pbrt-v4 picks a MIP level for them too), `maxanisotropy`; the
 //! parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`.
 //!

@@ -222,11 +222,11 @@ fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
         floats[1].0[0] == 0.0 && (floats[1].0[1] - 0.6).abs() < 1e-6,
         "{floats:?}"
     );
-    // "trilinear" needs a ray footprint camsim does not trace: bilinear at full resolution.
+    // "trilinear" is MIP-mapped over the pixel footprint; no filter given is bilinear.
     assert_eq!(
         wraps,
         [
-            (WrapMode::OctahedralSphere, TexelFilter::Bilinear),
+            (WrapMode::OctahedralSphere, TexelFilter::Trilinear),
             (WrapMode::Black, TexelFilter::Bilinear)
         ]
     );

@@ -290,7 +290,8 @@ pub(crate) fn mapped_normal(g: &ShadingGeometry, map: &NormalMapImage, uv: [f32;
     x * local.x + y * local.y + g.ns * local.z
 }
 
-/// The pixel footprint pbrt-v4's `Camera::Approximate_dp_dxy` gives at a point: the camera's
+/// The pixel footprint pbrt-v4's `Camera::Approximate_dp_dxy` gives at a point (for bump
+/// mapping's shifts and the filtered textures, `crate::mipmap`): the camera's
 /// position and axes, the smallest one-pixel direction change over the image (pbrt-v4
 /// `FindMinimumDifferentials`, rows and columns), and `max(1/8, 1/sqrt(spp))`.
 #[derive(Debug, Clone, Copy)]
@@ -336,44 +337,54 @@ impl Footprint {
         }
     }
 
-    /// pbrt-v4's `du`, `dv` for `BumpMap` at shading geometry `g`: half the sum of |du/dx| and
-    /// |du/dy| (`SurfaceInteraction::ComputeDifferentials`, least squares on the geometric
-    /// `dp/du`, `dp/dv`), `0.0005` where that is zero.
-    pub(crate) fn shifts(&self, g: &ShadingGeometry) -> (f32, f32) {
+    /// The footprint's `du/dx`, `du/dy`, `dv/dx`, `dv/dy` at shading geometry `g` (pbrt-v4
+    /// `SurfaceInteraction::ComputeDifferentials`: the one-pixel steps of `Approximate_dp_dxy`
+    /// solved by least squares on the geometric `dp/du`, `dp/dv`; each clamped to +-1e8, zero
+    /// where undefined).
+    pub(crate) fn uv_derivatives(&self, g: &ShadingGeometry) -> [f32; 4] {
         let q = g.p - self.origin;
         let dist = q.length();
-        let (mut du, mut dv) = (0.0, 0.0);
-        if dist > 0.0 && dist.is_finite() {
-            let d = q / dist;
-            for k in 0..2 {
-                // The differential ray: the view direction turned by the smallest pixel step
-                // along the image's rows (k = 0) or columns (k = 1), met on the tangent plane.
-                let side = self.axes[k] - d * self.axes[k].dot(d);
-                let side = side.normalize();
-                let dir = d + side * self.min_dir[k];
-                let denom = g.n.dot(dir);
-                let t = g.n.dot(q) / denom;
-                let dp = (dir * t - q) * self.spp_scale;
-                if !(t.is_finite() && dp.is_finite()) {
-                    continue;
-                }
-                let (a00, a01, a11) = (g.dpdu.dot(g.dpdu), g.dpdu.dot(g.dpdv), g.dpdv.dot(g.dpdv));
-                let inv = 1.0 / (a00 * a11 - a01 * a01);
-                let inv = if inv.is_finite() { inv } else { 0.0 };
-                let (b0, b1) = (g.dpdu.dot(dp), g.dpdv.dot(dp));
-                let dudk = (a11 * b0 - a01 * b1) * inv;
-                let dvdk = (a00 * b1 - a01 * b0) * inv;
-                let clamp = |v: f32| {
-                    if v.is_finite() {
-                        v.clamp(-1e8, 1e8)
-                    } else {
-                        0.0
-                    }
-                };
-                du += 0.5 * clamp(dudk).abs();
-                dv += 0.5 * clamp(dvdk).abs();
-            }
+        let mut out = [0f32; 4];
+        if !(dist > 0.0 && dist.is_finite()) {
+            return out;
         }
+        let d = q / dist;
+        let (a00, a01, a11) = (g.dpdu.dot(g.dpdu), g.dpdu.dot(g.dpdv), g.dpdv.dot(g.dpdv));
+        let inv = 1.0 / (a00 * a11 - a01 * a01);
+        let inv = if inv.is_finite() { inv } else { 0.0 };
+        let clamp = |v: f32| {
+            if v.is_finite() {
+                v.clamp(-1e8, 1e8)
+            } else {
+                0.0
+            }
+        };
+        for k in 0..2 {
+            // The differential ray: the view direction turned by the smallest pixel step
+            // along the image's rows (k = 0) or columns (k = 1), met on the tangent plane.
+            let side = self.axes[k] - d * self.axes[k].dot(d);
+            let side = side.normalize();
+            let dir = d + side * self.min_dir[k];
+            let denom = g.n.dot(dir);
+            let t = g.n.dot(q) / denom;
+            let dp = (dir * t - q) * self.spp_scale;
+            if !(t.is_finite() && dp.is_finite()) {
+                continue;
+            }
+            let (b0, b1) = (g.dpdu.dot(dp), g.dpdv.dot(dp));
+            out[k] = clamp((a11 * b0 - a01 * b1) * inv);
+            out[2 + k] = clamp((a00 * b1 - a01 * b0) * inv);
+        }
+        out
+    }
+
+    /// pbrt-v4's `du`, `dv` for `BumpMap` at shading geometry `g`: half the sum of |du/dx| and
+    /// |du/dy| ([`Footprint::uv_derivatives`]), `0.0005` where that is zero.
+    pub(crate) fn shifts(&self, g: &ShadingGeometry) -> (f32, f32) {
+        let [dudx, dudy, dvdx, dvdy] = self.uv_derivatives(g);
+        // Summed as halves, in this order (the renders' bits depend on it).
+        let du = 0.5 * dudx.abs() + 0.5 * dudy.abs();
+        let dv = 0.5 * dvdx.abs() + 0.5 * dvdy.abs();
         (
             if du == 0.0 { DEFAULT_SHIFT } else { du },
             if dv == 0.0 { DEFAULT_SHIFT } else { dv },

@@ -18,9 +18,26 @@ pub(crate) struct ImageTex {
     pub vdelta: f32,
     pub wrap: WrapMode,
     pub filter: TexelFilter,
+    /// The MIP pyramid of a [`TexelFilter::Trilinear`] image (shared by every material that
+    /// names it); `None` for the full-resolution filters.
+    pub mip: Option<std::sync::Arc<crate::mipmap::Pyramid<3>>>,
 }
 
 impl ImageTex {
+    /// Lookup at `uv` with filter width `width` in texture coordinates (pbrt-v4 `MIPMap::Filter`:
+    /// a [`TexelFilter::Trilinear`] image reads its pyramid, the others their full resolution).
+    #[inline]
+    pub fn lookup_filtered(&self, uv: [f32; 2], width: f32) -> [f32; 3] {
+        match &self.mip {
+            Some(p) => {
+                let s = uv[0] * self.uscale + self.udelta;
+                let t = uv[1] * self.vscale + self.vdelta;
+                p.trilinear(s, t, width, self.wrap)
+            }
+            None => self.lookup(uv),
+        }
+    }
+
     /// Lookup at texture coordinates `uv` (pbrt-v4: `st = (su u + du, sv v + dv)`,
     /// t flipped so image row 0 is at t = 1, texel centres at half-integers, [`texels`]).
     #[inline]
@@ -43,7 +60,13 @@ impl ImageTex {
 /// image read, or `None` where `wrap` is [`WrapMode::Black`] and the texel lies outside (pbrt-v4
 /// `RemapPixelCoords`).
 #[inline]
-fn wrap_texel(x: i64, y: i64, width: usize, height: usize, wrap: WrapMode) -> Option<usize> {
+pub(crate) fn wrap_texel(
+    x: i64,
+    y: i64,
+    width: usize,
+    height: usize,
+    wrap: WrapMode,
+) -> Option<usize> {
     let (w, h) = (width as i64, height as i64);
     let (x, y) = match wrap {
         WrapMode::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
@@ -134,7 +157,8 @@ pub(crate) fn texels(
 ) -> ([usize; 4], [f32; 4]) {
     let (idx, w) = bilinear_texels(width, height, s, t, wrap);
     match filter {
-        TexelFilter::Bilinear => (idx, w),
+        // A trilinear image's level 0 (its pyramid, `crate::mipmap`, reads the other levels).
+        TexelFilter::Bilinear | TexelFilter::Trilinear => (idx, w),
         TexelFilter::Point => {
             // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the
             // fraction along that axis is at least 1/2; its bilinear weight is then > 0 unless

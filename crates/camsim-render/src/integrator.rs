@@ -60,8 +60,12 @@ pub(crate) struct Tracer {
     pub has_interface: bool,
     /// Some shape has an alpha cut-out: every ray runs the alpha test at its hits.
     pub has_alpha: bool,
-    /// The camera's pixel footprint, for bump mapping's finite differences (`crate::bump`).
+    /// The camera's pixel footprint, for bump mapping's finite differences (`crate::bump`) and
+    /// the filtered textures.
     pub footprint: crate::bump::Footprint,
+    /// Some texture reads the footprint (a MIP-mapped image, a 2D checkerboard): every
+    /// scattering hit computes [`TexCtx::duv`].
+    pub footprint_textures: bool,
     /// Participating media, when a ray can be in one (then `volpath` renders the scene).
     pub media: Option<Box<crate::media::MediaSet>>,
     /// Per compiled light (`lights.list`): the shape it belongs to, or `shapes.len()` plus the
@@ -261,7 +265,7 @@ impl Tracer {
             Tex::Image(im, map) => {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
                 let (s, t) = map.st(ctx);
-                let rgb = self.images[*im as usize].lookup([s, t]);
+                let rgb = self.images[*im as usize].lookup_filtered([s, t], map.filter_width(ctx));
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
@@ -269,15 +273,24 @@ impl Tracer {
                 // glTF 2.0 sec. 3.9.2: base colour = factor x texture x COLOR_0, linear RGB,
                 // clamped to a reflectance, then uplifted as `Image` is.
                 let (s, t) = map.st(ctx);
-                let c = self.images[*im as usize].lookup([s, t]);
+                let c = self.images[*im as usize].lookup_filtered([s, t], map.filter_width(ctx));
                 let rgb: [f32; 3] = std::array::from_fn(|k| (c[k] * ctx.color[k]).clamp(0.0, 1.0));
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
             Tex::Checker(c, map) => {
+                // pbrt-v4 `SpectrumCheckerboardTexture`: the two textures blended by the
+                // filtered weight (one of them alone where the footprint stays in a check).
                 let (s, t) = map.st(ctx);
-                let k = crate::texture::checker_weight(s, t) as usize;
-                self.eval_texture(&c[k], ctx, lambdas)
+                let w = crate::texture::checker_weight_filtered(s, t, map.dst(ctx));
+                if w == 0.0 || w == 1.0 {
+                    return self.eval_texture(&c[w as usize], ctx, lambdas);
+                }
+                let (a, b) = (
+                    self.eval_texture(&c[0], ctx, lambdas),
+                    self.eval_texture(&c[1], ctx, lambdas),
+                );
+                std::array::from_fn(|i| (1.0 - w) * a[i] + w * b[i])
             }
             Tex::Checker3(c, space) => self.eval_texture(&c[space.checker(ctx.p)], ctx, lambdas),
             Tex::Scale(t, sc) => {
@@ -559,7 +572,13 @@ impl Tracer {
             let d0 = dim::bounce(depth);
 
             let outside = wo.dot(self.oriented_normal(&pi, &sh)) > 0.0;
-            let ctx = TexCtx::at(&sh);
+            let mut ctx = TexCtx::at(&sh);
+            if self.footprint_textures {
+                // pbrt-v4 `SurfaceInteraction::ComputeDifferentials` with the camera's
+                // `Approximate_dp_dxy` at every hit (`crate::bump::Footprint`).
+                let g = self.shading_geometry(&h, &pi, &sh, pt);
+                ctx.duv = self.footprint.uv_derivatives(&g);
+            }
             // Bump and normal maps (pbrt-v4 `GetBSDF`): the material under them, its normal.
             let (m, ns_shading) = self.shading_normal(m, &h, &pi, &sh, pt);
             let (bsdf, terminate): (Bsdf<N>, bool) = self.bsdf_at(m, &ctx, lambdas, outside);

@@ -41,6 +41,7 @@ mod lights;
 mod materials;
 pub mod math;
 mod media;
+mod mipmap;
 mod motion;
 pub mod noise;
 pub mod phase;

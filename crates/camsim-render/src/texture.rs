@@ -34,6 +34,11 @@ pub(crate) struct TexCtx {
     /// Linear RGBA vertex colour at the hit ([`crate::scene::Texture::VertexColored`],
     /// [`crate::scene::FloatTexture::VertexAlpha`]; white, opaque where a shape has none).
     pub color: [f32; 4],
+    /// The pixel footprint on the surface's uv: `du/dx`, `du/dy`, `dv/dx`, `dv/dy` (pbrt-v4
+    /// `TextureEvalContext::dudx` ...: one pixel step along the image's rows and columns,
+    /// scaled by `max(1/8, 1/sqrt(spp))`). Zero where none was computed: MIP-mapped images then
+    /// read level 0 and checkerboards are unfiltered.
+    pub duv: [f32; 4],
 }
 
 impl TexCtx {
@@ -46,6 +51,7 @@ impl TexCtx {
             p: sh.p,
             uv1: sh.uv1,
             color: sh.color,
+            duv: [0.0; 4],
         }
     }
 
@@ -58,8 +64,25 @@ impl TexCtx {
             p,
             uv1: uv,
             color: [1.0; 4],
+            duv: [0.0; 4],
         }
     }
+}
+
+thread_local! {
+    /// Set while compiling when a texture reads the pixel footprint ([`TexCtx::duv`]): a
+    /// MIP-mapped image or a 2D checkerboard on a uv mapping ([`take_footprint_needed`]).
+    static FOOTPRINT_NEEDED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+fn mark_footprint_needed() {
+    FOOTPRINT_NEEDED.with(|f| f.set(true));
+}
+
+/// Whether a texture compiled on this thread since the last call reads the pixel footprint
+/// (the tracer then computes [`TexCtx::duv`] at every hit); resets the flag.
+pub(crate) fn take_footprint_needed() -> bool {
+    FOOTPRINT_NEEDED.with(|f| f.replace(false))
 }
 
 /// What a solid texture computes ([`crate::noise`]).
@@ -211,6 +234,35 @@ impl Map {
         })
     }
 
+    /// Whether the mapping carries the footprint's uv derivatives to `(s, t)` (the uv mappings;
+    /// pbrt-v4 also differentiates the others, which read unfiltered here).
+    fn is_uv(&self) -> bool {
+        matches!(self.kind, MapKind::Uv | MapKind::Uv1)
+    }
+
+    /// The footprint's `(ds/dx, ds/dy, dt/dx, dt/dy)` at `ctx` (pbrt-v4 `UVMapping::Map`: the uv
+    /// derivatives times the scales); zero for the other mappings.
+    #[inline]
+    pub fn dst(&self, ctx: &TexCtx) -> [f32; 4] {
+        if !self.is_uv() {
+            return [0.0; 4];
+        }
+        let [dudx, dudy, dvdx, dvdy] = ctx.duv;
+        [
+            self.su * dudx,
+            self.su * dudy,
+            self.sv * dvdx,
+            self.sv * dvdy,
+        ]
+    }
+
+    /// pbrt-v4 `MIPMap::Filter`'s width for the isotropic filters: twice the largest of the
+    /// footprint's `(s, t)` derivatives.
+    #[inline]
+    pub fn filter_width(&self, ctx: &TexCtx) -> f32 {
+        2.0 * self.dst(ctx).iter().fold(0f32, |m, v| m.max(v.abs()))
+    }
+
     /// Texture coordinates `(s, t)` at `ctx` (pbrt-v4 4th ed. sec. 10.2.1).
     #[inline(always)]
     pub fn st(&self, ctx: &TexCtx) -> (f32, f32) {
@@ -281,6 +333,8 @@ pub(crate) struct FloatImage {
     pub values: Arc<[f32]>,
     pub wrap: WrapMode,
     pub filter: TexelFilter,
+    /// The MIP pyramid of a [`TexelFilter::Trilinear`] image.
+    pub mip: Option<crate::mipmap::Pyramid<1>>,
 }
 
 /// A compiled float texture.
@@ -309,6 +363,37 @@ pub(crate) fn checker_weight(s: f32, t: f32) -> f32 {
     (k & 1) as f32
 }
 
+/// The +-1 square wave of the checks along one axis (+1 on even cells) averaged against a
+/// triangle filter of half-width `r` centred at `x` (pbrt-v4 `Checkerboard()`'s `bf`): the
+/// second difference of the wave's second antiderivative `d`, over `r^2`; the cell's own sign
+/// where the filter stays inside it.
+#[inline]
+fn filtered_square_wave(x: f32, r: f32) -> f32 {
+    if (x - r).floor() == (x + r).floor() {
+        return 1.0 - 2.0 * ((x.floor() as i64) & 1) as f32;
+    }
+    // d(x) = x/2 + y (1 - 2|y|), y = x/2 - floor(x/2) - 1/2: twice integrated square wave.
+    let d = |x: f32| {
+        let y = x / 2.0 - (x / 2.0).floor() - 0.5;
+        x / 2.0 + y * (1.0 - 2.0 * y.abs())
+    };
+    (d(x + r) - 2.0 * d(x) + d(x - r)) / (r * r)
+}
+
+/// Weight of `tex2` in pbrt-v4's 2D checkerboard filtered over the footprint `dst`
+/// ([`Map::dst`]): each axis's square wave against a triangle filter 1.5 times the larger of
+/// its two derivatives wide, `1/2 - bf(s) bf(t) / 2` (pbrt-v4 `Checkerboard()`); unfiltered
+/// where the footprint is zero.
+#[inline]
+pub(crate) fn checker_weight_filtered(s: f32, t: f32, dst: [f32; 4]) -> f32 {
+    let ds = 1.5 * dst[0].abs().max(dst[1].abs());
+    let dt = 1.5 * dst[2].abs().max(dst[3].abs());
+    if !(ds > 0.0 || dt > 0.0) || !(ds.is_finite() && dt.is_finite()) {
+        return checker_weight(s, t);
+    }
+    0.5 - filtered_square_wave(s, ds) * filtered_square_wave(t, dt) / 2.0
+}
+
 /// Bilinear interpolation weights (pbrt-v4 `Bilerp`): v00, v10, v01, v11.
 #[inline(always)]
 pub(crate) fn bilerp_weights(s: f32, t: f32) -> [f32; 4] {
@@ -321,16 +406,26 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Const(v) => *v,
         FTex::Image(im, map) => {
             let (s, tt) = map.st(ctx);
+            if let Some(p) = &im.mip {
+                return p.trilinear(s, tt, map.filter_width(ctx), im.wrap)[0];
+            }
             let (idx, w) = texels(im.width, im.height, s, tt, im.wrap, im.filter);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
         }
         FTex::Checker(c, map) => {
             let (s, tt) = map.st(ctx);
-            if checker_weight(s, tt) == 0.0 {
+            let w = checker_weight_filtered(s, tt, map.dst(ctx));
+            let a = if w != 1.0 {
                 eval_float(&c[0], ctx)
             } else {
+                0.0
+            };
+            let b = if w != 0.0 {
                 eval_float(&c[1], ctx)
-            }
+            } else {
+                0.0
+            };
+            (1.0 - w) * a + w * b
         }
         FTex::Checker3(c, space) => eval_float(&c[space.checker(ctx.p)], ctx),
         FTex::VertexAlpha(t, cutoff) => {
@@ -464,6 +559,14 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             if values.iter().any(|v| !v.is_finite()) {
                 return Err("float image texture has a non-finite value".into());
             }
+            let map = check_map(mapping)?;
+            let mip = (*filter == TexelFilter::Trilinear).then(|| {
+                let texels: Vec<[f32; 1]> = values.iter().map(|v| [*v]).collect();
+                crate::mipmap::Pyramid::new(*width, *height, &texels, *wrap)
+            });
+            if mip.is_some() && map.is_uv() {
+                mark_footprint_needed();
+            }
             FTex::Image(
                 Arc::new(FloatImage {
                     width: *width,
@@ -471,18 +574,22 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
                     values: values.clone(),
                     wrap: *wrap,
                     filter: *filter,
+                    mip,
                 }),
-                check_map(mapping)?,
+                map,
             )
         }
         FloatTexture::Checkerboard {
             tex1,
             tex2,
             mapping,
-        } => FTex::Checker(
-            Box::new([compile_float(tex1)?, compile_float(tex2)?]),
-            check_map(mapping)?,
-        ),
+        } => {
+            let map = check_map(mapping)?;
+            if map.is_uv() {
+                mark_footprint_needed();
+            }
+            FTex::Checker(Box::new([compile_float(tex1)?, compile_float(tex2)?]), map)
+        }
         FloatTexture::Checkerboard3d {
             tex1,
             tex2,
@@ -598,6 +705,19 @@ pub(crate) fn compile_texture(
                 kind: kind.clone(),
             })
             .map_err(err)?;
+            // One pyramid per image and wrap mode, shared by every material that names it.
+            let mip = (*filter == TexelFilter::Trilinear).then(|| {
+                images
+                    .iter()
+                    .find(|i| Arc::ptr_eq(&i.rgb, rgb) && i.wrap == *wrap && i.mip.is_some())
+                    .and_then(|i| i.mip.clone())
+                    .unwrap_or_else(|| {
+                        Arc::new(crate::mipmap::Pyramid::new(*width, *height, rgb, *wrap))
+                    })
+            });
+            if mip.is_some() && map.is_uv() {
+                mark_footprint_needed();
+            }
             images.push(crate::image_tex::ImageTex {
                 width: *width,
                 height: *height,
@@ -608,6 +728,7 @@ pub(crate) fn compile_texture(
                 vdelta: 0.0,
                 wrap: *wrap,
                 filter: *filter,
+                mip,
             });
             Tex::Image((images.len() - 1) as u32, map)
         }
@@ -625,13 +746,19 @@ pub(crate) fn compile_texture(
             tex1,
             tex2,
             mapping,
-        } => Tex::Checker(
-            Box::new([
-                compile_texture(tex1, material_index, ws, tables, images)?,
-                compile_texture(tex2, material_index, ws, tables, images)?,
-            ]),
-            check_map(mapping).map_err(err)?,
-        ),
+        } => {
+            let map = check_map(mapping).map_err(err)?;
+            if map.is_uv() {
+                mark_footprint_needed();
+            }
+            Tex::Checker(
+                Box::new([
+                    compile_texture(tex1, material_index, ws, tables, images)?,
+                    compile_texture(tex2, material_index, ws, tables, images)?,
+                ]),
+                map,
+            )
+        }
         Texture::Checkerboard3d {
             tex1,
             tex2,
@@ -717,6 +844,48 @@ pub(crate) fn compile_texture(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// pbrt-v4's filtered checkerboard is the checks averaged against a triangle filter: its
+    /// closed form against a midpoint-rule integral of the square wave times `(r - |u|) / r^2`,
+    /// inside a cell, across one edge and over several cells; a zero footprint is unfiltered and
+    /// a wide one tends to the mean blend 1/2.
+    #[test]
+    fn the_filtered_checkerboard_is_the_triangle_filtered_average() {
+        let square = |x: f64| 1.0 - 2.0 * ((x.floor() as i64) & 1) as f64;
+        let numeric = |x: f64, r: f64| {
+            let n = 20_000;
+            let (mut s, mut w) = (0.0, 0.0);
+            for i in 0..n {
+                let u = -r + 2.0 * r * (i as f64 + 0.5) / n as f64;
+                let k = r - u.abs();
+                s += square(x + u) * k;
+                w += k;
+            }
+            s / w
+        };
+        for (x, r) in [
+            (0.9, 0.2),
+            (0.5, 0.6),
+            (1.3, 2.7),
+            (0.95, 0.1),
+            (0.2, 0.25),
+            (-0.7, 1.1),
+            (3.5, 0.4),
+        ] {
+            let got = filtered_square_wave(x as f32, r as f32) as f64;
+            let want = numeric(x, r);
+            assert!((got - want).abs() < 1e-4, "x {x} r {r}: {got} vs {want}");
+        }
+        assert_eq!(checker_weight_filtered(1.5, 0.5, [0.0; 4]), 1.0);
+        // Both axes filtered: 1/2 - bf(s) bf(t) / 2 with each half-width 1.5 x the larger
+        // derivative.
+        let (s, t, d) = (0.9f32, 0.3f32, [0.1f32, -0.2, 0.05, 0.0]);
+        let want = 0.5 - numeric(0.9, 0.3) * numeric(0.3, 0.075) / 2.0;
+        let got = checker_weight_filtered(s, t, d) as f64;
+        assert!((got - want).abs() < 1e-4, "{got} vs {want}");
+        let wide = checker_weight_filtered(0.37, 0.81, [40.0, 0.0, 40.0, 0.0]);
+        assert!((wide - 0.5).abs() < 1e-3, "{wide}");
+    }
 
     #[test]
     fn checker_parity_and_bilerp_corners() {

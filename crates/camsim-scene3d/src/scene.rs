@@ -64,26 +64,32 @@ impl WrapMode {
 }
 
 /// How an image texture reads its texels between texel centres (pbrt-v4 `imagemap`'s
-/// `filter`). camsim traces no ray differentials, so there is no footprint to pick a MIP level
-/// or an anisotropic filter from: pbrt-v4's `trilinear` and `ewa` read as [`TexelFilter::Bilinear`]
-/// at full resolution.
+/// `filter`; glTF samplers' magnification filter).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TexelFilter {
-    /// Bilinear between the four nearest texel centres (pbrt-v4 `bilinear`, the default).
+    /// Bilinear between the four nearest texel centres of the full-resolution image (glTF's
+    /// `LINEAR` as Blender's Cycles reads it, without MIP maps; pbrt-v4 `bilinear`).
     #[default]
     Bilinear,
-    /// The texel nearest `(s, t)` (pbrt-v4 `point`).
+    /// The texel nearest `(s, t)` at full resolution (glTF `NEAREST`, pbrt-v4 `point`).
     Point,
+    /// pbrt-v4 `trilinear`: a MIP pyramid of the image (power-of-two levels, each the box
+    /// average of the one below), the level picked from the ray's footprint on the texture and
+    /// the two levels around it blended (`camsim_render`'s `mipmap` module).
+    Trilinear,
 }
 
 impl TexelFilter {
-    /// pbrt-v4's names: `point` and `bilinear` (flag `true`); `trilinear` and `ewa` filter over
-    /// a ray's footprint, which camsim does not trace, and read as `bilinear` (flag `false`).
+    /// pbrt-v4's names: `point`, `bilinear` and `trilinear` (flag `true`); `ewa` (an
+    /// anisotropic elliptical filter over the footprint) reads as `trilinear` (flag `false`).
+    /// pbrt-v4's `point` and `bilinear` also pick a MIP level from the footprint; camsim reads
+    /// them at full resolution, which differs only where a pixel spans more than a texel.
     pub fn from_name(name: &str) -> Option<(TexelFilter, bool)> {
         match name {
             "point" => Some((TexelFilter::Point, true)),
             "bilinear" => Some((TexelFilter::Bilinear, true)),
-            "trilinear" | "ewa" => Some((TexelFilter::Bilinear, false)),
+            "trilinear" => Some((TexelFilter::Trilinear, true)),
+            "ewa" => Some((TexelFilter::Trilinear, false)),
             _ => None,
         }
     }
@@ -145,8 +151,9 @@ pub enum Texture {
     /// product, not each factor, is the reflectance's RGB). A constant base colour is a 1 x 1
     /// image.
     VertexColored(Box<Texture>),
-    /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`
-    /// (point-sampled: camsim traces no ray differentials, so no filtering).
+    /// pbrt-v4 2D `checkerboard`: `tex1` where `floor(s) + floor(t)` is even, else `tex2`,
+    /// filtered over the pixel footprint as pbrt-v4 filters it (the checks integrated against a
+    /// triangle filter 1.5 footprints wide; uv mappings).
     Checkerboard {
         tex1: Box<Texture>,
         tex2: Box<Texture>,

@@ -214,8 +214,8 @@ impl SceneBuilder {
             self.note(
                 loc,
                 format!(
-                    "{what}: filter \"{filter_name}\" read as \"bilinear\" at full resolution \
-                     (camsim traces no ray footprints to choose a MIP level from)"
+                    "{what}: filter \"{filter_name}\" read as \"trilinear\" (MIP-mapped over \
+                     the pixel footprint, without pbrt-v4's elliptical weighting)"
                 ),
             );
         }

@@ -24,7 +24,9 @@ impl Tracer {
     ) -> Result<Tracer, RenderError> {
         let mut tables: Vec<SpectrumTable> = Vec::new();
         let mut images: Vec<ImageTex> = Vec::new();
+        crate::texture::take_footprint_needed();
         let materials = compile_materials(scene, ws, &mut tables, &mut images)?;
+        let footprint_textures = crate::texture::take_footprint_needed();
         let media = compile_media(scene, ws)?;
         let n_prims = count_prims(scene)?;
 
@@ -92,6 +94,7 @@ impl Tracer {
             has_interface,
             has_alpha,
             footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
+            footprint_textures,
             media,
             light_source,
             motion,
@@ -370,6 +373,7 @@ impl SceneGeometry {
                 // pbrt-v4 `DiffuseAreaLight::L` bilerps with `Image`'s default clamp.
                 wrap: crate::scene::WrapMode::Clamp,
                 filter: crate::scene::TexelFilter::Bilinear,
+                mip: None,
             };
             self.lights.images.push(EmitImage {
                 tex,

@@ -16,7 +16,7 @@ use crate::texture::eval_float;
 impl Tracer {
     /// pbrt-v4's shading geometry at hit `h` (`sh` its surface data) of primitive `pi`, at the
     /// path's time `pt` (a moving primitive's in its group's reference pose, moved to the world).
-    fn shading_geometry(
+    pub(super) fn shading_geometry(
         &self,
         h: &Hit,
         pi: &PrimInfo,

@@ -1,0 +1,110 @@
+//! Texture filtering over the pixel footprint, as pbrt-v4 filters: a `trilinear` image reads its
+//! MIP pyramid at the level the footprint picks, a 2D `checkerboard` is averaged against a
+//! triangle filter of the footprint's width. A diffuse square facing the camera at z = 1 under a
+//! uniform sky (direct light only) carries checks far finer than a pixel; the ratio of its render
+//! to a white square's (the same seed, so the same light samples) is the albedo each pixel sees.
+//!
+//! Closed forms: a checkerboard of single texels averages to exactly 1/2 at every MIP level above
+//! 0, so where the footprint spans two texels or more the trilinear square is 1/2 at every pixel
+//! (to rounding), while the full-resolution bilinear lookup leaves each pixel the mean of its
+//! samples' texels (a spread of several per cent at 16 samples); both average 1/2 over the
+//! image. The filtered procedural checkerboard is the same: each sample's weight is within a few
+//! per cent of 1/2, against 0 or 1 unfiltered.
+
+use camsim_core::WavelengthGrid;
+use camsim_pbrt::parse_file;
+use camsim_render::*;
+
+const N: usize = 40;
+
+fn band_sums(dir: &std::path::Path, world: &str) -> Vec<f64> {
+    let text = format!(
+        "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+         Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
+         LightSource \"infinite\" \"rgb L\" [1 1 1]\n{world}\n\
+         Shape \"bilinearmesh\" \"point3 P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1]\n"
+    );
+    let path = dir.join("scene.pbrt");
+    std::fs::write(&path, text).unwrap();
+    let mut s = parse_file(&path).unwrap();
+    s.settings.grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+    s.settings.samples_per_pixel = 16;
+    s.settings.max_depth = 1;
+    s.settings.seed = 5;
+    let out = render(&s, &|_, _| {}).unwrap();
+    (0..N * N)
+        .map(|i| {
+            (0..out.radiance.bands())
+                .map(|b| out.radiance.band(b)[i] as f64)
+                .sum()
+        })
+        .collect()
+}
+
+/// A 256 x 256 checkerboard of single texels (0 and 1), as a PFM (little-endian RGB floats).
+fn write_checks(path: &std::path::Path) {
+    let n = 256;
+    let mut bytes = format!("PF\n{n} {n}\n-1.0\n").into_bytes();
+    for y in 0..n {
+        for x in 0..n {
+            let v = ((x + y) % 2) as f32;
+            for _ in 0..3 {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// Mean and relative spread (standard deviation over mean) of the per-pixel albedo.
+fn stats(albedo: &[f64]) -> (f64, f64) {
+    let n = albedo.len() as f64;
+    let mean = albedo.iter().sum::<f64>() / n;
+    let var = albedo.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n;
+    (mean, var.sqrt() / mean)
+}
+
+#[test]
+fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
+    let dir = tempfile::tempdir().unwrap();
+    write_checks(&dir.path().join("checks.pfm"));
+    let white = band_sums(
+        dir.path(),
+        "Material \"diffuse\" \"rgb reflectance\" [1 1 1]",
+    );
+    let albedo = |world: &str| -> Vec<f64> {
+        let t = band_sums(dir.path(), world);
+        t.iter().zip(&white).map(|(a, b)| a / b).collect()
+    };
+    // The square's uv spans 2 m; the view 0.728 m, 40 pixels: with uscale 4 one pixel covers
+    // 0.0091 x 4 x 256 = 9.3 texels, times max(1/8, 1/sqrt(16)) = 2.3 texels per sample step:
+    // a filter width of 4.7 texels, MIP level 2.2, where every texel is 1/2.
+    let image = |filter: &str| {
+        format!(
+            "Texture \"c\" \"spectrum\" \"imagemap\" \"string filename\" \"checks.pfm\" \
+             \"string filter\" \"{filter}\" \"float uscale\" 4 \"float vscale\" 4\n\
+             Material \"diffuse\" \"texture reflectance\" \"c\""
+        )
+    };
+    let (tri_mean, tri_spread) = stats(&albedo(&image("trilinear")));
+    let (bi_mean, bi_spread) = stats(&albedo(&image("bilinear")));
+    println!(
+        "trilinear: mean {tri_mean:.6}, spread {tri_spread:.2e}; bilinear: mean {bi_mean:.6}, spread {bi_spread:.4}"
+    );
+    assert!((tri_mean - 0.5).abs() < 1e-4, "trilinear mean {tri_mean}");
+    assert!(tri_spread < 1e-4, "trilinear spread {tri_spread}");
+    assert!((bi_mean - 0.5).abs() < 0.01, "bilinear mean {bi_mean}");
+    assert!(bi_spread > 0.02, "bilinear spread {bi_spread}");
+
+    // 1024 checks across the square's uv: 9.3 checks per pixel, 2.3 per sample step, a
+    // triangle filter 1.5 x that wide.
+    let checker =
+        "Texture \"k\" \"spectrum\" \"checkerboard\" \"rgb tex1\" [1 1 1] \"rgb tex2\" [0 0 0] \
+                   \"float uscale\" 1024 \"float vscale\" 1024\n\
+                   Material \"diffuse\" \"texture reflectance\" \"k\"";
+    let (ck_mean, ck_spread) = stats(&albedo(checker));
+    println!("checkerboard: mean {ck_mean:.5}, spread {ck_spread:.4}");
+    assert!((ck_mean - 0.5).abs() < 0.01, "checkerboard mean {ck_mean}");
+    // Unfiltered, 16 samples of 0 or 1 per pixel spread by 1/sqrt(16) = 25 %.
+    assert!(ck_spread < 0.03, "checkerboard spread {ck_spread}");
+}
