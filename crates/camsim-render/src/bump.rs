@@ -291,7 +291,7 @@ pub(crate) fn mapped_normal(g: &ShadingGeometry, map: &NormalMapImage, uv: [f32;
 }
 
 /// The pixel footprint pbrt-v4's `Camera::Approximate_dp_dxy` gives at a point (for bump
-/// mapping's shifts and the filtered textures, `crate::mipmap`): the camera's
+/// mapping's shifts and the filtered textures, `crate::image_tex`): the camera's
 /// position and axes, the smallest one-pixel direction change over the image (pbrt-v4
 /// `FindMinimumDifferentials`, rows and columns), and `max(1/8, 1/sqrt(spp))`.
 #[derive(Debug, Clone, Copy)]

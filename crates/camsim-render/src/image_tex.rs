@@ -1,6 +1,23 @@
 //! Image lookups: an RGB image texture ([`ImageTex`], pbrt-v4 `imagemap` with `uv` mapping)
 //! and the bilinear texel weights with pbrt-v4's wrap modes, shared by image textures, normal
 //! maps and emission images.
+//!
+//! MIP maps ([`Pyramid`], for `trilinear` textures), as pbrt-v4's `MIPMap` with its `trilinear`
+//! filter makes and reads them (pbrt-v4 4th ed. sec. 10.4.3; the construction is `Image::GeneratePyramid`):
+//!
+//! - An image whose sides are not powers of two is first resampled up to the next powers of two,
+//!   separably, with a Lanczos windowed sinc of radius 2 texels and `tau = 2` (4 taps per output
+//!   texel, weights normalised to 1, texels outside the image read through the wrap mode, the
+//!   result clamped at 0: pbrt-v4 `Image::FloatResizeUp`). That image is level 0.
+//! - Each next level halves each side (down to 1) and is the mean of 2 x 2 texels of the one
+//!   below, ending with a 1 x 1 level holding the image's mean.
+//! - A lookup with filter width `w` (pbrt-v4: twice the largest of `|ds/dx|`, `|ds/dy|`,
+//!   `|dt/dx|`, `|dt/dy|`, in texture coordinates) reads level `l = L - 1 + log2(w)` of the `L`:
+//!   the top texel where `l >= L - 1`; level 0 bilinearly where `l < 1`; otherwise the bilinear
+//!   lookups of levels `floor(l)` and `floor(l) + 1`, blended by `l - floor(l)`.
+//!
+//! pbrt-v4 stores each level back in the file's pixel format (8-bit sRGB for most textures);
+//! camsim keeps the levels in f32 (a difference below half an 8-bit step).
 
 use crate::scene::{TexelFilter, WrapMode};
 
@@ -20,7 +37,7 @@ pub(crate) struct ImageTex {
     pub filter: TexelFilter,
     /// The MIP pyramid of a [`TexelFilter::Trilinear`] image (shared by every material that
     /// names it); `None` for the full-resolution filters.
-    pub mip: Option<std::sync::Arc<crate::mipmap::Pyramid<3>>>,
+    pub mip: Option<std::sync::Arc<Pyramid<3>>>,
 }
 
 impl ImageTex {
@@ -157,7 +174,7 @@ pub(crate) fn texels(
 ) -> ([usize; 4], [f32; 4]) {
     let (idx, w) = bilinear_texels(width, height, s, t, wrap);
     match filter {
-        // A trilinear image's level 0 (its pyramid, `crate::mipmap`, reads the other levels).
+        // A trilinear image's level 0 (its pyramid, the MIP maps below, reads the other levels).
         TexelFilter::Bilinear | TexelFilter::Trilinear => (idx, w),
         TexelFilter::Point => {
             // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the
@@ -169,6 +186,283 @@ pub(crate) fn texels(
             let mut one = [0.0; 4];
             one[k] = if w[k] > 0.0 { 1.0 } else { 0.0 };
             (idx, one)
+        }
+    }
+}
+
+/// One level: `width` x `height` texels, row-major, row 0 at the image's top (t = 1).
+#[derive(Debug, Clone)]
+struct Level<const C: usize> {
+    width: usize,
+    height: usize,
+    texels: Vec<[f32; C]>,
+}
+
+/// A MIP pyramid of a `C`-channel image (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Pyramid<const C: usize> {
+    levels: Vec<Level<C>>,
+}
+
+/// pbrt-v4 `WindowedSinc(x, radius, tau)`: `sinc(x) sinc(x / tau)` within the radius.
+fn windowed_sinc(x: f64, radius: f64, tau: f64) -> f64 {
+    let sinc = |x: f64| {
+        let px = std::f64::consts::PI * x;
+        if px.abs() < 1e-9 {
+            1.0
+        } else {
+            px.sin() / px
+        }
+    };
+    if x.abs() > radius {
+        0.0
+    } else {
+        sinc(x) * sinc(x / tau)
+    }
+}
+
+/// pbrt-v4 `Image::ResampleWeights`: for each of `new_res` output texels, the first of its 4
+/// source texels and their normalised weights.
+fn resample_weights(old_res: usize, new_res: usize) -> Vec<(i64, [f32; 4])> {
+    let (radius, tau) = (2.0, 2.0);
+    (0..new_res)
+        .map(|i| {
+            let centre = (i as f64 + 0.5) * old_res as f64 / new_res as f64;
+            let first = (centre - radius + 0.5).floor();
+            let mut w = [0.0f64; 4];
+            for (j, wj) in w.iter_mut().enumerate() {
+                *wj = windowed_sinc(first + j as f64 + 0.5 - centre, radius, tau);
+            }
+            let sum: f64 = w.iter().sum();
+            (first as i64, w.map(|v| (v / sum) as f32))
+        })
+        .collect()
+}
+
+/// pbrt-v4 `Image::FloatResizeUp` to `new_w` x `new_h` (module docs).
+fn resize_up<const C: usize>(
+    width: usize,
+    height: usize,
+    texels: &[[f32; C]],
+    new_w: usize,
+    new_h: usize,
+    wrap: WrapMode,
+) -> Vec<[f32; C]> {
+    let read = |x: i64, y: i64| -> [f32; C] {
+        match wrap_texel(x, y, width, height, wrap) {
+            Some(i) => texels[i],
+            None => [0.0; C],
+        }
+    };
+    let xw = resample_weights(width, new_w);
+    let yw = resample_weights(height, new_h);
+    // Along x for every source row reached (rows -2 .. height + 2 through the wrap).
+    let (y_lo, y_hi) = (
+        yw.first().map_or(0, |w| w.0.min(0)),
+        yw.last().map_or(0, |w| (w.0 + 4).max(height as i64)),
+    );
+    let rows = (y_hi - y_lo) as usize;
+    let mut xbuf = vec![[0f32; C]; rows * new_w];
+    for (r, y) in (y_lo..y_hi).enumerate() {
+        for (x, (first, w)) in xw.iter().enumerate() {
+            let mut acc = [0f32; C];
+            for (j, wj) in w.iter().enumerate() {
+                let t = read(first + j as i64, y);
+                for c in 0..C {
+                    acc[c] += wj * t[c];
+                }
+            }
+            xbuf[r * new_w + x] = acc;
+        }
+    }
+    let mut out = vec![[0f32; C]; new_w * new_h];
+    for (y, (first, w)) in yw.iter().enumerate() {
+        for x in 0..new_w {
+            let mut acc = [0f32; C];
+            for (j, wj) in w.iter().enumerate() {
+                let t = xbuf[(first + j as i64 - y_lo) as usize * new_w + x];
+                for c in 0..C {
+                    acc[c] += wj * t[c];
+                }
+            }
+            out[y * new_w + x] = acc.map(|v| v.max(0.0));
+        }
+    }
+    out
+}
+
+impl<const C: usize> Pyramid<C> {
+    /// The pyramid of a `width` x `height` image (`texels` row-major), `wrap` its wrap mode.
+    pub(crate) fn new(width: usize, height: usize, texels: &[[f32; C]], wrap: WrapMode) -> Self {
+        let (w0, h0) = (
+            width.max(1).next_power_of_two(),
+            height.max(1).next_power_of_two(),
+        );
+        let base = if (w0, h0) == (width, height) {
+            texels.to_vec()
+        } else {
+            resize_up(width, height, texels, w0, h0, wrap)
+        };
+        let mut levels = vec![Level {
+            width: w0,
+            height: h0,
+            texels: base,
+        }];
+        while let Some(l) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
+            let (w, h) = ((l.width / 2).max(1), (l.height / 2).max(1));
+            let mut next = vec![[0f32; C]; w * h];
+            for y in 0..h {
+                for x in 0..w {
+                    // The 2 x 2 texels below (a side of 1 repeats its one texel).
+                    let (x0, y0) = (2 * x, 2 * y);
+                    let (x1, y1) = ((x0 + 1).min(l.width - 1), (y0 + 1).min(l.height - 1));
+                    let t = |xx: usize, yy: usize| l.texels[yy * l.width + xx];
+                    let (a, b, c, d) = (t(x0, y0), t(x1, y0), t(x0, y1), t(x1, y1));
+                    next[y * w + x] = std::array::from_fn(|k| (a[k] + b[k] + c[k] + d[k]) / 4.0);
+                }
+            }
+            levels.push(Level {
+                width: w,
+                height: h,
+                texels: next,
+            });
+        }
+        Pyramid { levels }
+    }
+
+    /// Number of levels (`1 + log2` of the longer power-of-two side).
+    #[cfg(test)]
+    pub(crate) fn levels(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Bilinear lookup of level `k` at `(s, t)` (pbrt-v4 `Image::Bilerp`, as the full-resolution
+    /// image textures read).
+    fn bilerp(&self, k: usize, s: f32, t: f32, wrap: WrapMode) -> [f32; C] {
+        let l = &self.levels[k];
+        let (idx, w) = bilinear_texels(l.width, l.height, s, t, wrap);
+        std::array::from_fn(|c| (0..4).map(|i| w[i] * l.texels[idx[i]][c]).sum())
+    }
+
+    /// pbrt-v4 `MIPMap::Filter` with `trilinear` at `(s, t)` for filter width `width` (texture
+    /// coordinates; module docs).
+    pub(crate) fn trilinear(&self, s: f32, t: f32, width: f32, wrap: WrapMode) -> [f32; C] {
+        let n = self.levels.len();
+        let level = (n - 1) as f32 + width.max(1e-8).log2();
+        if !level.is_finite() || level >= (n - 1) as f32 {
+            return self.levels[n - 1].texels[0];
+        }
+        let i = level.floor().max(0.0) as usize;
+        if i == 0 {
+            return self.bilerp(0, s, t, wrap);
+        }
+        let f = level - i as f32;
+        let (a, b) = (self.bilerp(i, s, t, wrap), self.bilerp(i + 1, s, t, wrap));
+        std::array::from_fn(|c| a[c] + f * (b[c] - a[c]))
+    }
+}
+
+#[cfg(test)]
+mod mip_tests {
+    use super::*;
+
+    /// A checkerboard of single texels: every level above 0 is its mean, 1/2, exactly; the top
+    /// level holds the mean; a 512 x 128 image has 10 levels (its longer side 2^9).
+    #[test]
+    fn a_texel_checkerboard_averages_to_one_half_above_level_zero() {
+        let (w, h) = (512usize, 128usize);
+        let texels: Vec<[f32; 1]> = (0..w * h).map(|i| [((i % w + i / w) % 2) as f32]).collect();
+        let p = Pyramid::new(w, h, &texels, WrapMode::Repeat);
+        assert_eq!(p.levels(), 10);
+        for l in &p.levels[1..] {
+            assert!(
+                l.texels.iter().all(|t| t[0] == 0.5),
+                "{}x{}",
+                l.width,
+                l.height
+            );
+        }
+        // Footprint of one texel: level 0, the checks themselves (bilinear at a texel centre).
+        // Texel (3, 0): row 0 is at the top, t = 1 - 0.5 / h; odd, so 1.
+        let v = p.trilinear(
+            3.5 / w as f32,
+            1.0 - 0.5 / h as f32,
+            1.0 / w as f32,
+            WrapMode::Repeat,
+        );
+        assert!((v[0] - 1.0).abs() < 1e-5, "{v:?}");
+        // Two texels and more: 1/2 whatever the position.
+        for k in 0..50 {
+            let s = k as f32 * 0.0137;
+            for width in [2.0 / w as f32, 3.0 / w as f32, 0.1, 5.0] {
+                let v = p.trilinear(s, 0.3 + s, width, WrapMode::Repeat)[0];
+                assert!((v - 0.5).abs() < 1e-6, "s {s} width {width}: {v}");
+            }
+        }
+    }
+
+    /// Level selection: on an image whose levels differ (level k holds the value k through a
+    /// hand-built pyramid), a width `2^(m - (L - 1))` reads exactly level `m`, and halfway in
+    /// log2 between two levels reads their mean; below level 1 it is level 0 alone.
+    #[test]
+    fn the_level_follows_log2_of_the_filter_width() {
+        let mut p = Pyramid::new(64, 64, &vec![[0.0f32; 1]; 64 * 64], WrapMode::Clamp);
+        for (k, l) in p.levels.iter_mut().enumerate() {
+            l.texels.iter_mut().for_each(|t| t[0] = k as f32);
+        }
+        let n = p.levels() as i32;
+        assert_eq!(n, 7);
+        for m in 1..n - 1 {
+            let width = 2f32.powi(m - (n - 1));
+            let v = p.trilinear(0.4, 0.6, width, WrapMode::Clamp)[0];
+            assert!((v - m as f32).abs() < 1e-5, "level {m}: {v}");
+            let v = p.trilinear(0.4, 0.6, width * 2f32.sqrt(), WrapMode::Clamp)[0];
+            assert!((v - (m as f32 + 0.5)).abs() < 1e-4, "level {m}.5: {v}");
+        }
+        let v = p.trilinear(0.4, 0.6, 1.4 / 64.0, WrapMode::Clamp)[0];
+        assert_eq!(v, 0.0);
+        assert_eq!(p.trilinear(0.4, 0.6, 10.0, WrapMode::Clamp)[0], 6.0);
+    }
+
+    /// The Lanczos resampling up to powers of two keeps a constant image constant (its weights
+    /// sum to 1) and the mean of a smooth image (to 0.5 %); pbrt-v4's weights at a 3 -> 4
+    /// resampling: output texel 0 is centred at 0.375 source texels.
+    #[test]
+    fn resizing_up_keeps_constants_and_means() {
+        let flat = vec![[0.7f32, 0.2, 0.1]; 300 * 200];
+        let p = Pyramid::new(300, 200, &flat, WrapMode::Repeat);
+        assert_eq!((p.levels[0].width, p.levels[0].height), (512, 256));
+        for t in &p.levels[0].texels {
+            for (c, want) in [0.7f32, 0.2, 0.1].iter().enumerate() {
+                assert!((t[c] - want).abs() < 1e-5, "{t:?}");
+            }
+        }
+        let (w, h) = (100usize, 60usize);
+        let smooth: Vec<[f32; 1]> =
+            (0..w * h)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                    [0.5 + 0.3
+                        * (std::f32::consts::TAU * x).sin()
+                        * (std::f32::consts::TAU * y).cos()]
+                })
+                .collect();
+        let mean_in = smooth.iter().map(|t| t[0] as f64).sum::<f64>() / (w * h) as f64;
+        let p = Pyramid::new(w, h, &smooth, WrapMode::Repeat);
+        let top = p.levels.last().unwrap().texels[0][0] as f64;
+        assert!(
+            (top - mean_in).abs() < 0.005 * mean_in,
+            "{top} vs {mean_in}"
+        );
+        let wts = resample_weights(3, 4);
+        // Centre 0.375: first texel floor(0.375 - 2 + 0.5) = -2, taps at -1.5 .. 1.5 from it.
+        assert_eq!(wts[0].0, -2);
+        let raw: Vec<f64> = (0..4)
+            .map(|j| windowed_sinc(-2.0 + j as f64 + 0.5 - 0.375, 2.0, 2.0))
+            .collect();
+        let sum: f64 = raw.iter().sum();
+        for j in 0..4 {
+            assert!((wts[0].1[j] as f64 - raw[j] / sum).abs() < 1e-6);
         }
     }
 }

@@ -41,7 +41,6 @@ mod lights;
 mod materials;
 pub mod math;
 mod media;
-mod mipmap;
 mod motion;
 pub mod noise;
 pub mod phase;

@@ -334,7 +334,7 @@ pub(crate) struct FloatImage {
     pub wrap: WrapMode,
     pub filter: TexelFilter,
     /// The MIP pyramid of a [`TexelFilter::Trilinear`] image.
-    pub mip: Option<crate::mipmap::Pyramid<1>>,
+    pub mip: Option<crate::image_tex::Pyramid<1>>,
 }
 
 /// A compiled float texture.
@@ -562,7 +562,7 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
             let map = check_map(mapping)?;
             let mip = (*filter == TexelFilter::Trilinear).then(|| {
                 let texels: Vec<[f32; 1]> = values.iter().map(|v| [*v]).collect();
-                crate::mipmap::Pyramid::new(*width, *height, &texels, *wrap)
+                crate::image_tex::Pyramid::new(*width, *height, &texels, *wrap)
             });
             if mip.is_some() && map.is_uv() {
                 mark_footprint_needed();
@@ -712,7 +712,7 @@ pub(crate) fn compile_texture(
                     .find(|i| Arc::ptr_eq(&i.rgb, rgb) && i.wrap == *wrap && i.mip.is_some())
                     .and_then(|i| i.mip.clone())
                     .unwrap_or_else(|| {
-                        Arc::new(crate::mipmap::Pyramid::new(*width, *height, rgb, *wrap))
+                        Arc::new(crate::image_tex::Pyramid::new(*width, *height, rgb, *wrap))
                     })
             });
             if mip.is_some() && map.is_uv() {
