@@ -176,9 +176,9 @@ def test_simulate_with_a_dual_pixel_sensor_returns_both_photodiodes(tmp_path):
     assert np.array_equal(raw, np.clip(left + right - black, 0, round(sim.white_level)))
     # One CFA colour's pixels on the bright side, far from the edge: both halves see the same
     # light, each with its own noise (shot, read, fixed pattern).
-    l, r = left[0, 0::2, 96::2].astype(np.float64), right[0, 0::2, 96::2].astype(np.float64)
-    assert abs(l.mean() / r.mean() - 1.0) < 0.02
-    assert abs(np.corrcoef((l - l.mean()).ravel(), (r - r.mean()).ravel())[0, 1]) < 0.15
+    lh, rh = left[0, 0::2, 96::2].astype(np.float64), right[0, 0::2, 96::2].astype(np.float64)
+    assert abs(lh.mean() / rh.mean() - 1.0) < 0.02
+    assert abs(np.corrcoef((lh - lh.mean()).ravel(), (rh - rh.mean()).ravel())[0, 1]) < 0.15
     sim.write(str(tmp_path / "run"))
     for f in ("raw.dng", "raw_left.dng", "raw_right.dng", "run.json"):
         assert (tmp_path / "run" / f).is_file(), f
