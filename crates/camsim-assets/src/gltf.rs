@@ -35,7 +35,8 @@
 //!   `KHR_materials_transmission` (a thin dielectric wall, or with `KHR_materials_volume`'s
 //!   thickness a smooth or rough dielectric of the file's `ior` whose inside absorbs by
 //!   Beer-Lambert: `sigma_a = -ln(attenuationColor) / attenuationDistance`), `KHR_texture_transform`
-//!   (baked into the uv set its texture reads), `KHR_materials_unlit` (read as a
+//!   (baked into the uv set its texture reads, normal textures' too, before their MikkTSpace
+//!   tangents), `KHR_materials_unlit` (read as a
 //!   diffuse surface with a note), `KHR_materials_clearcoat` (noted, the base is read),
 //!   `KHR_mesh_quantization`. An extension in `extensionsRequired` that is not in that list
 //!   (Draco, meshopt, KTX2/Basis) refuses the file naming it; others in `extensionsUsed` are
@@ -836,26 +837,39 @@ impl Builder {
             }
         };
         // KHR_texture_transform is baked into the uvs: each set takes the transform of the first
-        // texture that reads it (base colour, metallic-roughness, emissive); a texture on the
-        // same set with another transform is noted (a set holds one transform).
+        // texture that reads it (base colour, metallic-roughness, emissive, specular, normal); a
+        // texture on the same set with another transform is noted (a set holds one transform).
+        // MikkTSpace tangents are computed afterwards on the moved uvs, so a normal map's frame
+        // follows its transform.
         let pbr = mat.pbr_metallic_roughness();
-        let slots = [
-            ("baseColorTexture", base_info.clone()),
-            ("metallicRoughnessTexture", pbr.metallic_roughness_texture()),
-            ("emissiveTexture", mat.emissive_texture()),
-        ];
         let xf_of = |i: &gltf::texture::Info| {
             i.texture_transform()
                 .map(|t| (t.offset(), t.rotation(), t.scale()))
         };
+        let mut slots: Vec<(&str, u32, Option<UvTransform>)> = [
+            ("baseColorTexture", base_info.clone()),
+            ("metallicRoughnessTexture", pbr.metallic_roughness_texture()),
+            ("emissiveTexture", mat.emissive_texture()),
+            (
+                "specularTexture",
+                mat.specular().and_then(|s| s.specular_texture()),
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(n, i)| i.map(|i| (n, set_of(&i), xf_of(&i))))
+        .collect();
+        if let Some(nt) = mat.normal_texture() {
+            let (set, xf) = normal_uv(&nt).map_err(|e| {
+                doc.err(format!(
+                    "material {label:?}: normalTexture's KHR_texture_transform: {e}"
+                ))
+            })?;
+            slots.push(("normalTexture", set, xf));
+        }
         let mut transform_on = |set: u32| {
-            let mut on = slots
-                .iter()
-                .filter_map(|(n, i)| i.as_ref().map(|i| (n, i)))
-                .filter(|(_, i)| set_of(i) == set);
-            let (first, info) = on.next()?;
-            let xf = xf_of(info);
-            if let Some((other, _)) = on.find(|(_, i)| xf_of(i) != xf) {
+            let mut on = slots.iter().filter(|s| s.1 == set);
+            let &(first, _, xf) = on.next()?;
+            if let Some((other, ..)) = on.find(|s| s.2 != xf) {
                 self.notes.insert(format!(
                     "glTF: material {label:?}: {other} and {first} read TEXCOORD_{set} with different KHR_texture_transforms; {first}'s is applied to both"
                 ));
@@ -940,10 +954,19 @@ impl Builder {
         // Tangents of a normal-mapped primitive (sec. 3.7.2.1): TANGENT where given, else
         // MikkTSpace on the normal texture's uvs, as the specification recommends.
         if let Some(nt) = mat.normal_texture() {
-            let on_second = sets.second == Some(nt.tex_coord());
+            let on_second = sets.second == Some(normal_set(&nt));
             match prim.get(&gltf::Semantic::Tangents) {
                 Some(a) => {
                     let t = doc.read_floats::<4>(&a, &what("TANGENT"))?;
+                    let turned = normal_uv(&nt)
+                        .ok()
+                        .and_then(|(_, xf)| xf)
+                        .is_some_and(|(_, r, sc)| r != 0.0 || sc[0] != sc[1] || sc[0] < 0.0);
+                    if turned {
+                        self.notes.insert(format!(
+                            "glTF: {mname}: TANGENT is used as the file gives it, in the frame of the uvs before the normalTexture's KHR_texture_transform, which rotates, stretches or mirrors them"
+                        ));
+                    }
                     if t.len() != nv {
                         return Err(doc.err(format!(
                             "{} (accessor {}): {} tangents for {nv} positions",
@@ -1240,7 +1263,7 @@ impl Builder {
         if let Some(nt) = mat.normal_texture() {
             let img = self.image(doc, &nt.texture().source())?;
             let mut normals = img.normal_map(nt.scale());
-            normals.uv1 = sets.second == Some(nt.tex_coord());
+            normals.uv1 = sets.second == Some(normal_set(&nt));
             self.materials.push(m);
             let inner = self.materials.len() - 1;
             m = Material::Bumped {
@@ -1791,6 +1814,61 @@ fn set_of(i: &gltf::texture::Info) -> u32 {
         .unwrap_or_else(|| i.tex_coord())
 }
 
+/// A `KHR_texture_transform`: offset, rotation (radians, about the uv origin), scale.
+type UvTransform = ([f32; 2], f32, [f32; 2]);
+
+/// The uv set a normal texture reads and its `KHR_texture_transform`, from the extension's JSON
+/// (the `gltf` crate gives `normalTextureInfo` no typed accessor): `offset` [0, 0], `rotation` 0,
+/// `scale` [1, 1] where absent, its `texCoord` overriding the texture's.
+fn normal_uv(
+    nt: &gltf::material::NormalTexture,
+) -> std::result::Result<(u32, Option<UvTransform>), String> {
+    let Some(x) = nt.extension_value("KHR_texture_transform") else {
+        return Ok((nt.tex_coord(), None));
+    };
+    let pair = |key: &str, default: [f32; 2]| -> std::result::Result<[f32; 2], String> {
+        match x.get(key) {
+            None => Ok(default),
+            Some(v) => match v.as_array().map(|a| a.as_slice()) {
+                Some([a, b]) => match (a.as_f64(), b.as_f64()) {
+                    (Some(a), Some(b)) if a.is_finite() && b.is_finite() => {
+                        Ok([a as f32, b as f32])
+                    }
+                    _ => Err(format!("{key} {v} is not two finite numbers")),
+                },
+                _ => Err(format!("{key} {v} is not two numbers")),
+            },
+        }
+    };
+    let rotation = match x.get("rotation") {
+        None => 0.0,
+        Some(v) => match v.as_f64() {
+            Some(r) if r.is_finite() => r as f32,
+            _ => return Err(format!("rotation {v} is not a finite number")),
+        },
+    };
+    let set = match x.get("texCoord") {
+        None => nt.tex_coord(),
+        Some(v) => match v.as_u64() {
+            Some(t) if t <= u32::MAX as u64 => t as u32,
+            _ => return Err(format!("texCoord {v} is not a uv set index")),
+        },
+    };
+    Ok((
+        set,
+        Some((
+            pair("offset", [0.0; 2])?,
+            rotation,
+            pair("scale", [1.0; 2])?,
+        )),
+    ))
+}
+
+/// The uv set a normal texture reads (its transform's `texCoord` where valid, else its own).
+fn normal_set(nt: &gltf::material::NormalTexture) -> u32 {
+    normal_uv(nt).map_or_else(|_| nt.tex_coord(), |(set, _)| set)
+}
+
 /// The uv sets a material's texture slots read (sec. 3.9.2 `textureInfo.texCoord`): `base` is
 /// the base colour texture's (else the first slot's, else 0), the mesh's `uvs`; `second` the one
 /// other set some slot names, the mesh's `uvs1`.
@@ -1812,7 +1890,7 @@ impl UvSets {
             slots.push(("metallicRoughnessTexture", set_of(&i)));
         }
         if let Some(i) = mat.normal_texture() {
-            slots.push(("normalTexture", i.tex_coord()));
+            slots.push(("normalTexture", normal_set(&i)));
         }
         if let Some(i) = mat.emissive_texture() {
             slots.push(("emissiveTexture", set_of(&i)));

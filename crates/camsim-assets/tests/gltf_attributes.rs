@@ -465,6 +465,61 @@ fn a_tangent_attribute_is_read_as_given() {
     assert_tangent(&tangents_of(&q), [0.6, 0.0, 0.8, -1.0], "TANGENT");
 }
 
+/// A normal texture's `KHR_texture_transform` moves the uvs it reads (the `gltf` crate gives it
+/// no typed accessor: camsim reads the extension's JSON), so MikkTSpace's frame turns with it.
+/// These uvs run u along +x and v along -z (tangent +x, w = -1 untransformed); a quarter turn
+/// makes u' = v + 1/2, so the tangent dp/du' is -z, and v' = 1/4 - u, so the image's up
+/// (-dp/dv') is +x = -(n x t): w = -1. A malformed transform names the material and the key.
+#[test]
+fn a_normal_textures_transform_turns_its_tangent_frame() {
+    let flat = normal_png([0.0, 0.0, 1.0]);
+    let with = |xf: &str| {
+        lambertian([0.5; 3], "").replacen(
+            r#""extensions""#,
+            &format!(
+                r#""normalTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {xf}}}}}, "extensions""#
+            ),
+            1,
+        )
+    };
+    let uv: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let q = Quad {
+        uv0: Some(uv),
+        normals: true,
+        ..Default::default()
+    };
+    let r = std::f64::consts::FRAC_PI_2;
+    let s = read(&gltf(
+        &q,
+        &with(&format!(r#"{{"rotation": {r}, "offset": [0.5, 0.25]}}"#)),
+        std::slice::from_ref(&flat),
+        None,
+    ))
+    .unwrap();
+    let Geometry::Triangles { uvs, tangents, .. } = &s.shapes[0].geometry else {
+        panic!("not a mesh")
+    };
+    // u' = v + 1/2, v' = -u + 1/4; camsim stores (u', 1 - v').
+    for (got, p) in uvs.as_deref().unwrap().iter().zip(uv) {
+        let (u, v) = (p[0] as f64, p[1] as f64);
+        let want = [v + 0.5, 1.0 - (-u + 0.25)];
+        assert!(
+            (got[0] as f64 - want[0]).abs() < 1e-6 && (got[1] as f64 - want[1]).abs() < 1e-6,
+            "uv {p:?} -> {got:?}, want {want:?}"
+        );
+    }
+    assert_tangent(
+        tangents.as_deref().expect("tangents"),
+        [0.0, 0.0, -1.0, -1.0],
+        "a quarter-turned normal texture",
+    );
+    let e = read(&gltf(&q, &with(r#"{"rotation": "x"}"#), &[flat], None)).unwrap_err();
+    assert!(
+        e.contains("normalTexture's KHR_texture_transform: rotation"),
+        "{e}"
+    );
+}
+
 /// The luminance of the normal-mapped grey quad (rho 0.5) whose map tilts the normal by 45
 /// degrees toward +y of the tangent frame (the bitangent `w n x t`), lit by `e_lux` travelling
 /// along `light_q`'s -z.
