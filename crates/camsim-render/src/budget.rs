@@ -12,8 +12,10 @@
 //! weights `4 P`, per thread a tile's f64 sums `8 B (1 + G) TILE^2`, and with motion the rows'
 //! shutter windows `16 H`; with adaptive sampling each pixel's channel sums, sample count and
 //! flags, `(16 C + 6) P` for `C` channels), the labels (each row's buffers and the assembled maps),
-//! the denoise ([`crate::denoise`]: its guide labels, the denoised film `4 P B`, each band group's
-//! result `12 P`, and per thread the interleaved inputs and OIDN's scratch, `36 P + 128 P`, the
+//! the denoise ([`crate::denoise`]: its guide labels, the denoised film and the spectral
+//! shape it is shared out by, `8 P B`, the broad-band
+//! colour, its noisy copy, albedo, normals and result as FLOAT3 images, `60 P`, and OIDN's
+//! scratch, `128 P`, the
 //! last an estimate), or the writing of the outputs (the sRGB preview, the id maps as 16-bit PNGs, and the EXR writer's
 //! blocks in flight: [`camsim_core::mem::WRITE_BATCH_BYTES`] twice at most).
 
@@ -74,12 +76,9 @@ pub fn memory_budget(scene: &SceneDescription, needs: RenderNeeds) -> MemoryBudg
         px(label_bytes_per_pixel(normals, albedo, bands as usize))
     });
     let denoise = if st.denoise.is_some() {
-        let in_flight = (rayon::current_num_threads() as u64).max(1);
-        let band_groups = crate::denoise::band_groups(bands as usize).len() as u64;
         px(label_bytes_per_pixel(true, true, bands as usize))
-            + film_bytes.saturating_mul(1 + groups)
-            + px(12 * band_groups + 12)
-            + in_flight.saturating_mul(px(36 + 128))
+            + film_bytes.saturating_mul(2 + groups)
+            + px(5 * 12 + 128)
     } else {
         0
     };
