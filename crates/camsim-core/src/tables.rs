@@ -38,6 +38,7 @@ pub const ILLUMINANT_NAMES: &[&str] = &[
     "LED-RGB1",
     "LED-V1",
     "LED-V2",
+    "LPS",
 ];
 
 /// Lowest blackbody temperature [`illuminant`] accepts, K.
@@ -119,6 +120,9 @@ pub fn computed_illuminant_grid() -> WavelengthGrid {
 /// - `E`: equal energy, 100 at every wavelength of 300-830 nm (CIE 015:2018).
 /// - `blackbody-<K>` (e.g. `blackbody-5000`, `blackbody-6500K`): Planck's law at that temperature,
 ///   scaled to 100 at 560 nm like the CIE tables, 300-830 nm every 5 nm.
+/// - CIE 015:2018 Table 10's lamps by their CIE names (`HP1` ... `HP5`, `LED-B1` ... `LED-V2`).
+/// - `LPS` (also `low-pressure-sodium`): a low-pressure sodium lamp as its D doublet
+///   ([`low_pressure_sodium`]), 1000 relative units in all.
 ///
 /// All are zero outside their range. Units are relative; scenes scale them to a luminance.
 pub fn illuminant(name: &str) -> Result<Spectrum> {
@@ -138,6 +142,7 @@ pub fn illuminant(name: &str) -> Result<Spectrum> {
                 .expect("just found");
             table_spectrum(lamps::START_NM, lamps::STEP_NM, v)
         }
+        "lps" | "low-pressure-sodium" => low_pressure_sodium(),
         _ => {
             if let Some(t) = key
                 .strip_prefix("blackbody-")
@@ -171,6 +176,55 @@ pub fn illuminant(name: &str) -> Result<Spectrum> {
         }
     };
     Ok(s)
+}
+
+/// Half-width of the triangle [`line_spectrum`] draws each emission line as, nm.
+pub const LINE_HALF_WIDTH_NM: f64 = 10.0;
+
+/// A spectrum of emission lines, `(wavelength nm, power)` each, drawn as triangles of half-width
+/// [`LINE_HALF_WIDTH_NM`] centred on the lines (values in power per nm). camsim samples spectra
+/// at its grid's wavelengths, which would miss a line narrower than the grid's step; a triangle
+/// of half-width h sampled at any step h / k (10, 5, 2.5, 2, 1 nm ...), at any offset, gives
+/// samples whose sum times the step is the line's power and whose centroid is the line's
+/// wavelength (the triangle's Fourier transform, h sinc^2(f h), and its derivative vanish at every
+/// multiple 1/h of the sampling frequency 1/step: Poisson summation). On the 10-nm grid a line is
+/// shared between its two neighbouring wavelengths as linear interpolation shares a point; a grid
+/// coarser than 10 nm loses that exactness.
+pub fn line_spectrum(lines: &[(f64, f64)]) -> Spectrum {
+    let h = LINE_HALF_WIDTH_NM;
+    let mut knots: Vec<f64> = lines.iter().flat_map(|&(c, _)| [c - h, c, c + h]).collect();
+    knots.sort_by(f64::total_cmp);
+    knots.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let values = knots
+        .iter()
+        .map(|&x| {
+            lines
+                .iter()
+                .map(|&(c, p)| p / h * (1.0 - (x - c).abs() / h).max(0.0))
+                .sum()
+        })
+        .collect();
+    Spectrum {
+        wavelengths_nm: knots,
+        values,
+        extrapolation: Extrapolation::Zero,
+    }
+}
+
+/// Sodium's D lines, nm in air (NIST Atomic Spectra Database, Na I: D2 588.9950, D1 589.5924).
+pub const SODIUM_D_NM: [f64; 2] = [588.995, 589.592];
+
+/// A low-pressure sodium (SOX) lamp: the sodium D doublet, D2 : D1 = 2 : 1 (the optically thin
+/// ratio of g_k A_ki, 4 x 6.16e7 : 2 x 6.14e7 s^-1, NIST ASD), 1000 relative units in all, as a
+/// [`line_spectrum`]. Left out: the lamp's weak sodium lines (568.3/568.8, 615.4/616.1, 498 nm:
+/// a few per cent of its light) and its neon glow while warming up; self-absorption in a real
+/// lamp evens the doublet's ratio, which moves nothing on grids of 10 nm or finer (both lines lie
+/// 0.6 nm apart).
+pub fn low_pressure_sodium() -> Spectrum {
+    line_spectrum(&[
+        (SODIUM_D_NM[0], 2000.0 / 3.0),
+        (SODIUM_D_NM[1], 1000.0 / 3.0),
+    ])
 }
 
 /// Planckian (blackbody) relative spectral radiance at `temperature_k` on `grid`, 1 at 560 nm

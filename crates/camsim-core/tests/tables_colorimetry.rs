@@ -334,3 +334,64 @@ fn the_cie_led_tables_have_their_published_ccts() {
     let s = illuminant("hp1").unwrap().sample(&grid);
     assert!(chromaticity_xy(xyz(&s, &grid))[0] > 0.5);
 }
+
+/// A low-pressure sodium lamp is its D doublet (589.0 / 589.6 nm): sampled on grids of 10, 5,
+/// 2.5, 2 and 1 nm at several offsets its samples times the step add up to the lines' power and
+/// centre on their power-weighted wavelength (the triangle-line closed form, `line_spectrum`);
+/// its colour lies on the CIE 1931 spectral locus between the published 585 and 590 nm points,
+/// and its luminous efficacy of radiation is 683 V(589.2 nm), V from the published table at 585
+/// and 590 nm (0.8163, 0.757), about 524 lm/W.
+#[test]
+fn low_pressure_sodium_is_its_d_doublet_on_every_grid() {
+    let s = illuminant("LPS").unwrap();
+    assert_eq!(s, illuminant("low-pressure-sodium").unwrap());
+    let centroid_nm = (2.0 * tables::SODIUM_D_NM[0] + tables::SODIUM_D_NM[1]) / 3.0;
+    for step in [10.0, 5.0, 2.5, 2.0, 1.0] {
+        for start in [380.0, 395.0, 401.3, 403.7] {
+            let grid = WavelengthGrid {
+                start_nm: start,
+                step_nm: step,
+                count: (400.0 / step) as usize,
+            };
+            let v = s.sample(&grid);
+            let power: f64 = v.iter().sum::<f64>() * step;
+            let mean_nm = (0..grid.len())
+                .map(|i| grid.wavelength_nm(i) * v[i])
+                .sum::<f64>()
+                / v.iter().sum::<f64>();
+            assert!(
+                (power / 1000.0 - 1.0).abs() < 1e-9,
+                "{step} nm from {start}: {power}"
+            );
+            assert!(
+                (mean_nm - centroid_nm).abs() < 1e-9,
+                "{step} nm from {start}: {mean_nm}"
+            );
+        }
+    }
+    // On the 10-nm grid from 400 nm: 93 % at 590 nm, 7 % at 580 nm, nothing elsewhere.
+    let g10 = WavelengthGrid::new(400.0, 700.0, 10.0).unwrap();
+    let v = s.sample(&g10);
+    let at = |nm: f64| v[((nm - 400.0) / 10.0) as usize] * 10.0 / 1000.0;
+    assert!((at(590.0) - (1.0 - (590.0 - centroid_nm) / 10.0)).abs() < 1e-9);
+    assert!((at(580.0) + at(590.0) - 1.0).abs() < 1e-9);
+    // Colour and efficacy on the CMFs' own 5-nm grid.
+    let grid = grid_5nm();
+    let v = s.sample(&grid);
+    let [x, y] = chromaticity_xy(xyz(&v, &grid));
+    let (p585, p590) = ([0.5448, 0.4544], [0.5752, 0.4242]);
+    let t = (x - p585[0]) / (p590[0] - p585[0]);
+    assert!((0.0..=1.0).contains(&t), "x = {x}");
+    let on_locus = p585[1] + t * (p590[1] - p585[1]);
+    assert!(
+        (y - on_locus).abs() < 0.002,
+        "({x:.4}, {y:.4}) off the locus ({on_locus:.4})"
+    );
+    let v_589 = 0.757 + (590.0 - centroid_nm) / 5.0 * (0.8163 - 0.757);
+    let efficacy = luminance_cd_m2(&v, &grid) / (v.iter().sum::<f64>() * 5.0);
+    assert!(
+        (efficacy / (683.0 * v_589) - 1.0).abs() < 0.005,
+        "{efficacy:.1} lm/W against {:.1}",
+        683.0 * v_589
+    );
+}

@@ -390,8 +390,9 @@ const SHAPE_SIGMA_LOG: f32 = 0.1;
 /// how alike its denoised broad bands are to the pixel's, `exp(-|ln D(q) - ln D(p)|^2 / (2
 /// sigma^2))` (a cross-bilateral filter guided by the denoised image: Eisemann and Durand 2004,
 /// Petschnigg et al. 2004), the `kept` pixels left out of every window. Only the shape is taken
-/// from it: the level is the denoiser's. On Blender's scenes at 16 spp this halves the error the
-/// film's own shape leaves (module docs).
+/// from it: the level is the denoiser's. Against each pixel's own film as the shape, it takes the
+/// denoised luminance error at 16 spp from 9.7 to 7.5 % on Blender's `room` and from 6.1 to
+/// 5.4 % on `textured` (module docs).
 fn band_shape(
     film: &[f32],
     (w, h, bands): (usize, usize, usize),

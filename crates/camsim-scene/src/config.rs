@@ -87,7 +87,7 @@ pub struct UniformScene {
     /// Distance from the lens to the scene plane, m (ISETCam's default 1.2 m).
     #[serde(default = "default_distance_m")]
     pub distance_m: f64,
-    /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`, the CIE 015:2018 lamps HP1-HP5 and LED-B1-B5, LED-BH1, LED-RGB1, LED-V1, LED-V2) or a spectrum file
+    /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`, the CIE 015:2018 lamps HP1-HP5 and LED-B1-B5, LED-BH1, LED-RGB1, LED-V1, LED-V2; `LPS`, a low-pressure sodium lamp) or a spectrum file
     /// (.csv or ISETCam .mat; relative units).
     #[serde(default = "default_illuminant")]
     pub illuminant: String,

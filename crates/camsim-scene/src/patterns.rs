@@ -51,7 +51,7 @@ macro_rules! pattern_scene {
             pub fov_deg: f64,
             /// Distance from the lens to the chart, m; default 1.2 (ISETCam's).
             pub distance_m: f64,
-            /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`, the CIE 015:2018 lamps HP1-HP5 and LED-B1-B5, LED-BH1, LED-RGB1, LED-V1, LED-V2) or a spectrum
+            /// Illuminant: a built-in name (D65, A, C, F2, F11, E, `blackbody-<K>`, the CIE 015:2018 lamps HP1-HP5 and LED-B1-B5, LED-BH1, LED-RGB1, LED-V1, LED-V2; `LPS`, a low-pressure sodium lamp) or a spectrum
             /// file (.csv or ISETCam .mat; relative units); default D65.
             pub illuminant: String,
             /// Wavelength grid, nm (optional; the default is 400-700 nm every 10 nm).
