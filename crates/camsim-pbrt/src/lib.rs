@@ -93,7 +93,7 @@
 //!   per-format encoding rules: PNG 8/16 bit honouring `encoding` (`sRGB` default, `linear`,
 //!   `gamma G`), TGA/JPEG/BMP always sRGB, QOI by its own flag, EXR/PFM/HDR linear; `filename`,
 //!   `scale`, `invert`, `wrap` (`repeat`, `clamp`, `black`, `octahedralsphere`), `uscale`,
-//!   `vscale`, `udelta`, `vdelta`; float images read the first channel), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
+//!   `vscale`, `udelta`, `vdelta`; float images read the mean of R, G and B when filtered `bilinear` or `trilinear`, R when `point` or `ewa`, as pbrt-v4), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
 //!   mapping, 3 in texture space),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`), `dots` (`inside`, `outside`, uv mapping),

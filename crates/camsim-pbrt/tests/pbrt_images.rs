@@ -167,10 +167,12 @@ fn every_image_format_decodes_as_pbrt_v4_does() {
 }
 
 #[test]
-fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
+fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // R, G, B differ: a float texture reads R (pbrt-v4 `MIPMap::Texel<Float>`: channel 0).
+    // R, G, B differ: a float texture filtered "point" reads R (pbrt-v4 `MIPMap::Texel<Float>`:
+    // channel 0), one filtered "bilinear" (or "trilinear") their mean (`MIPMap::Bilerp<Float>`:
+    // `RGB::Average`).
     let img = image::RgbImage::from_raw(2, 1, vec![255, 0, 0, 51, 102, 153]).unwrap();
     img.save(d.join("c.png")).unwrap();
     let text = "Camera \"perspective\"\nWorldBegin\n\
@@ -217,9 +219,10 @@ fn texture_wrap_scale_invert_and_float_channel_follow_pbrt_v4() {
         (floats[0].2, floats[1].2),
         (TexelFilter::Point, TexelFilter::Bilinear)
     );
-    // Inverted after a scale of 2: max(0, 1 - 2 R) = 0 and 0.6.
+    // Bilinear, inverted after a scale of 2: max(0, 1 - 2 (R + G + B) / 3) = 1/3 and 0.2 (the
+    // first channel alone would give 0 and 0.6).
     assert!(
-        floats[1].0[0] == 0.0 && (floats[1].0[1] - 0.6).abs() < 1e-6,
+        (floats[1].0[0] - 1.0 / 3.0).abs() < 1e-6 && (floats[1].0[1] - 0.2).abs() < 1e-6,
         "{floats:?}"
     );
     // "trilinear" is MIP-mapped over the pixel footprint; no filter given is bilinear.

@@ -16,7 +16,11 @@
 //!   `Camera::Approximate_dp_dxy` (the camera's smallest one-pixel direction change, across the
 //!   image along its rows and columns, met at the hit's distance on its tangent plane, times
 //!   `max(1/8, 1/sqrt(spp))`) at every vertex; pbrt-v4 uses the camera ray's own differentials
-//!   at the first hit and carries them through specular bounces.
+//!   at the first hit and carries them through specular bounces. The three displacement
+//!   lookups carry the hit's footprint, as pbrt-v4's shifted texture contexts copy it: a
+//!   `trilinear` displacement is read at the MIP level the footprint picks (read at full
+//!   resolution, a fine texture's finite differences straddle texels and tilt the normal far
+//!   more than pbrt-v4's: the bathroom floor of issue 43).
 //! - `NormalMap`: the image's RGB (linear, bilinear, repeat wrap, at `(u, 1 - v)`) as `2 rgb - 1`
 //!   in the tangent frame `(dp/du, n x dp/du, n)`, normalised; on a mesh with tangents (glTF
 //!   `TANGENT` or MikkTSpace's, `MeshShading::tangents`) the frame is `(t, w n x t, n)` with `t`
@@ -245,13 +249,20 @@ pub(crate) fn sphere_geometry(
 
 /// `BumpMap`: the shading normal of `g` displaced by `disp` along it, with shifts `du`, `dv`
 /// (`disp` evaluates the displacement texture at a texture context), turned to `g.n`'s side.
+/// Every lookup carries the hit's footprint `duv` (`du/dx`, `du/dy`, `dv/dx`, `dv/dy`), as
+/// pbrt-v4's shifted contexts copy the hit's: a MIP-mapped displacement is read at the level the
+/// footprint picks at all three points, not at full resolution.
 pub(crate) fn bump_normal(
     g: &ShadingGeometry,
     du: f32,
     dv: f32,
+    duv: [f32; 4],
     disp: impl Fn(&TexCtx) -> f32,
 ) -> V3 {
-    let ctx = |p: V3, uv: [f32; 2]| TexCtx::at_uv(uv, g.n, p);
+    let ctx = |p: V3, uv: [f32; 2]| TexCtx {
+        duv,
+        ..TexCtx::at_uv(uv, g.n, p)
+    };
     let d_u = disp(&ctx(g.p + g.ss * du, [g.uv[0] + du, g.uv[1]]));
     let d_v = disp(&ctx(g.p + g.ts * dv, [g.uv[0], g.uv[1] + dv]));
     let d = disp(&ctx(g.p, g.uv));
@@ -377,19 +388,20 @@ impl Footprint {
         }
         out
     }
+}
 
-    /// pbrt-v4's `du`, `dv` for `BumpMap` at shading geometry `g`: half the sum of |du/dx| and
-    /// |du/dy| ([`Footprint::uv_derivatives`]), `0.0005` where that is zero.
-    pub(crate) fn shifts(&self, g: &ShadingGeometry) -> (f32, f32) {
-        let [dudx, dudy, dvdx, dvdy] = self.uv_derivatives(g);
-        // Summed as halves, in this order (the renders' bits depend on it).
-        let du = 0.5 * dudx.abs() + 0.5 * dudy.abs();
-        let dv = 0.5 * dvdx.abs() + 0.5 * dvdy.abs();
-        (
-            if du == 0.0 { DEFAULT_SHIFT } else { du },
-            if dv == 0.0 { DEFAULT_SHIFT } else { dv },
-        )
-    }
+/// pbrt-v4 `BumpMap`'s `du`, `dv` from a footprint's `[du/dx, du/dy, dv/dx, dv/dy]`
+/// ([`Footprint::uv_derivatives`]): half the sum of the absolute derivatives, `0.0005` where that
+/// is zero.
+pub(crate) fn shifts_of(duv: [f32; 4]) -> (f32, f32) {
+    let [dudx, dudy, dvdx, dvdy] = duv;
+    // Summed as halves, in this order (the renders' bits depend on it).
+    let du = 0.5 * dudx.abs() + 0.5 * dudy.abs();
+    let dv = 0.5 * dvdx.abs() + 0.5 * dvdy.abs();
+    (
+        if du == 0.0 { DEFAULT_SHIFT } else { du },
+        if dv == 0.0 { DEFAULT_SHIFT } else { dv },
+    )
 }
 
 #[cfg(test)]
@@ -423,7 +435,7 @@ mod tests {
     fn a_linear_bump_tilts_the_normal_by_the_closed_form_angle() {
         let g = plane(V3::new(2.0, 0.0, 0.0), V3::new(0.0, 3.0, 0.0));
         for (a, du) in [(0.5f32, 0.0005f32), (2.0, 0.01), (-1.0, 0.1)] {
-            let ns = bump_normal(&g, du, du, |c| a * c.uv[0]);
+            let ns = bump_normal(&g, du, du, [0.0; 4], |c| a * c.uv[0]);
             let tilt = ns.dot(g.n).clamp(-1.0, 1.0).acos();
             let want = (a / 2.0).abs().atan();
             assert!((tilt - want).abs() < 2e-4, "a {a}: tilt {tilt} vs {want}");
@@ -431,11 +443,11 @@ mod tests {
             assert!(ns.x * a < 0.0 && ns.y.abs() < 1e-5, "{ns:?}");
         }
         let (a, b) = (0.8f32, -0.6f32);
-        let ns = bump_normal(&g, 0.001, 0.001, |c| a * c.uv[0] + b * c.uv[1]);
+        let ns = bump_normal(&g, 0.001, 0.001, [0.0; 4], |c| a * c.uv[0] + b * c.uv[1]);
         let want = V3::new(-a / 2.0, -b / 3.0, 1.0).normalize();
         assert!((ns - want).length() < 1e-4, "{ns:?} vs {want:?}");
         // A constant displacement on a plane changes nothing.
-        let flat = bump_normal(&g, 0.0005, 0.0005, |_| 0.3);
+        let flat = bump_normal(&g, 0.0005, 0.0005, [0.0; 4], |_| 0.3);
         assert!((flat - g.n).length() < 1e-6);
     }
 
@@ -461,7 +473,7 @@ mod tests {
         let g = sphere_geometry(l, r, axes, -r, r, two_pi, l, uv, n);
         let a = 0.9f32;
         let disp = |c: &TexCtx| a * c.uv[0];
-        let ns = bump_normal(&g, 1e-3, 1e-3, disp);
+        let ns = bump_normal(&g, 1e-3, 1e-3, [0.0; 4], disp);
         let d = a * uv[0];
         let lu = g.dpdu.length() * (1.0 + d / r);
         let want = (a / lu).atan();

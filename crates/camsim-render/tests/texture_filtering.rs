@@ -108,3 +108,54 @@ fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
     // Unfiltered, 16 samples of 0 or 1 per pixel spread by 1/sqrt(16) = 25 %.
     assert!(ck_spread < 0.03, "checkerboard spread {ck_spread}");
 }
+
+/// A bump map reads its displacement texture over the hit's footprint, as pbrt-v4's `BumpMap`
+/// does (its shifted texture contexts copy the hit's `dudx` ...). A trilinear displacement of
+/// single-texel checks is exactly 1/2 at the MIP level a footprint of several texels picks, so
+/// its three lookups agree, the displaced surface is flat and the bumped square renders as the
+/// plain one: under a distant light along the view (n . l = 1 on the square, less for any tilted
+/// normal), the ratio of the two renders (same seed) is 1 at every pixel. Read at full
+/// resolution instead, the lookups straddle 0 and 1 texels and tilt the normal by up to
+/// atan(1 / du) (the bathroom floor's local bias against pbrt-v4, issue 43).
+#[test]
+fn bump_maps_read_the_displacement_over_the_pixel_footprint() {
+    let dir = tempfile::tempdir().unwrap();
+    write_checks(&dir.path().join("checks.pfm"));
+    let render = |material: &str| -> Vec<f64> {
+        let text = format!(
+            "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
+             Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
+             LightSource \"distant\" \"point3 from\" [0 0 0] \"point3 to\" [0 0 1] \"rgb L\" [1 1 1]\n\
+             Texture \"d\" \"float\" \"imagemap\" \"string filename\" \"checks.pfm\" \
+             \"string filter\" \"trilinear\" \"float uscale\" 4 \"float vscale\" 4\n{material}\n\
+             Shape \"bilinearmesh\" \"point3 P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1]\n"
+        );
+        let path = dir.path().join("bump.pbrt");
+        std::fs::write(&path, text).unwrap();
+        let mut s = parse_file(&path).unwrap();
+        s.settings.grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
+        s.settings.samples_per_pixel = 16;
+        s.settings.max_depth = 1;
+        s.settings.seed = 5;
+        let out = render(&s, &|_, _| {}).unwrap();
+        (0..N * N)
+            .map(|i| {
+                (0..out.radiance.bands())
+                    .map(|b| out.radiance.band(b)[i] as f64)
+                    .sum()
+            })
+            .collect()
+    };
+    let plain = render("Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]");
+    let bumped = render(
+        "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5] \"texture displacement\" \"d\"",
+    );
+    let ratios: Vec<f64> = bumped.iter().zip(&plain).map(|(b, p)| b / p).collect();
+    let worst = ratios.iter().map(|r| (r - 1.0).abs()).fold(0.0, f64::max);
+    println!("bumped / plain: worst |ratio - 1| {worst:.2e}");
+    assert!(plain.iter().all(|&p| p > 0.0));
+    assert!(
+        worst < 1e-4,
+        "a flat filtered displacement tilted the normal: {worst}"
+    );
+}

@@ -263,15 +263,28 @@ impl SceneBuilder {
             let (width, height, rgb, mapping, wrap, filter) =
                 self.imagemap(name, params, loc, file)?;
             if float {
-                // pbrt-v4 `MIPMap::Texel<Float>`: the first channel (R; Y of a grey image). A
-                // float texture never goes negative through `invert` (pbrt-v4 max(0, 1 - v)).
+                // pbrt-v4 5f7a606 reads one value from an RGB texel two ways: `MIPMap::Bilerp
+                // <Float>` (the `bilinear` and `trilinear` filters) averages R, G and B,
+                // `MIPMap::Texel<Float>` (`point`, and `ewa`'s texel weights) takes R; a grey
+                // image gives Y either way. A float texture never goes negative through
+                // `invert` (pbrt-v4 max(0, 1 - v)).
+                let filter_name = params
+                    .string("filter")?
+                    .unwrap_or_else(|| "bilinear".into());
+                let averaged = matches!(filter_name.as_str(), "bilinear" | "trilinear");
+                let clamps = invert_clamps(params);
                 let values = rgb
                     .iter()
                     .map(|c| {
-                        if invert_clamps(params) {
-                            c[0].max(0.0)
+                        let v = if averaged {
+                            (c[0] + c[1] + c[2]) / 3.0
                         } else {
                             c[0]
+                        };
+                        if clamps {
+                            v.max(0.0)
+                        } else {
+                            v
                         }
                     })
                     .collect();

@@ -153,8 +153,9 @@ impl Tracer {
                 mapped_normal(&g, map, uv)
             }
             Perturb::Displacement(tex) => {
-                let (du, dv) = self.footprint.shifts(&g);
-                bump_normal(&g, du, dv, |ctx| eval_float(tex, ctx))
+                let duv = self.footprint.uv_derivatives(&g);
+                let (du, dv) = crate::bump::shifts_of(duv);
+                bump_normal(&g, du, dv, duv, |ctx| eval_float(tex, ctx))
             }
         };
         (*base, ns)
