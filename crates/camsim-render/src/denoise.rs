@@ -551,6 +551,17 @@ mod tests {
             "{}",
             shape[p * bands + 1]
         );
+        // (x 3, y 2): the window x 1..=5 crosses the edge at x = 4; the pixels beyond it
+        // (denoised 5 against 1: weight exp(-3 ln(5)^2 / (2 0.1^2)) = 0) are left out.
+        let q = 2 * w + 3;
+        let edge0: f32 = 5.0 * (2.0 + 3.0 + 4.0);
+        let edge1: f32 = 3.0 * 10.0 * (0.0 + 1.0 + 2.0 + 3.0 + 4.0);
+        assert!(
+            (shape[q * bands] - edge0).abs() < 1e-3 && (shape[q * bands + 1] - edge1).abs() < 1e-3,
+            "{} {}",
+            shape[q * bands],
+            shape[q * bands + 1]
+        );
         // A kept pixel is left out of its neighbours' windows.
         let mut kept = vec![false; n];
         kept[2 * w] = true;
