@@ -66,6 +66,9 @@ pub(crate) struct Tracer {
     /// Some texture reads the footprint (a MIP-mapped image, a 2D checkerboard): every
     /// scattering hit computes [`TexCtx::duv`].
     pub footprint_textures: bool,
+    /// Layered BSDFs weigh their exits as pbrt-v4 5f7a606 does
+    /// ([`crate::scene::LayeredExitWeight::PbrtV4`]).
+    pub layered_exit_pbrt_v4: bool,
     /// Participating media, when a ray can be in one (then `volpath` renders the scene).
     pub media: Option<Box<crate::media::MediaSet>>,
     /// Per compiled light (`lights.list`): the shape it belongs to, or `shapes.len()` plus the

@@ -180,6 +180,7 @@ fn rough_coated_diffuse_matches_a_photon_simulation() {
                 g: 0.0,
                 max_depth: 200,
                 n_samples: 1,
+                pbrt_v4_exit_weight: false,
             },
         };
         // Light from azimuth 0 (the exit histogram is in the same frame).

@@ -20,6 +20,9 @@
 //!   `../shared/scenes/references`), paths relative to the current folder.
 //! - `--light-sampler bvh|power|uniform`: how camsim chooses lights (default: the file's
 //!   `lightsampler`, as pbrt-v4 rendered it; `power` to measure what the spatial sampler gains).
+//! - `--layered-exit-weight unbiased|pbrt-v4`: how camsim's coated BSDFs weigh a sample leaving
+//!   through a rough coating (default `unbiased`; `pbrt-v4` reproduces pbrt-v4 5f7a606's biased
+//!   `LayeredBxDF::f`, which is what `staircase` differs by: see docs/src/validation.md).
 //! - `--out DIR`: also write per scene `<scene>.png`: camsim (scaled by the unit factor),
 //!   pbrt-v4, and the blocks' differences in standard errors (grey 0, white +8: pbrt brighter,
 //!   black -8), each tone-mapped the same way.
@@ -44,6 +47,7 @@ struct Args {
     references_dir: PathBuf,
     out: Option<PathBuf>,
     light_sampler: Option<camsim_render::LightSampler>,
+    layered_exit_weight: camsim_scene3d::scene::LayeredExitWeight,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -56,6 +60,7 @@ fn parse_args() -> Result<Args, String> {
         references_dir: PathBuf::from("../shared/scenes/references"),
         out: None,
         light_sampler: None,
+        layered_exit_weight: Default::default(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -81,6 +86,18 @@ fn parse_args() -> Result<Args, String> {
                     camsim_render::LightSampler::from_name(&v)
                         .ok_or(format!("--light-sampler: {v} is not bvh, power or uniform"))?,
                 )
+            }
+            "--layered-exit-weight" => {
+                use camsim_scene3d::scene::LayeredExitWeight as W;
+                a.layered_exit_weight = match value("--layered-exit-weight")?.as_str() {
+                    "unbiased" => W::Unbiased,
+                    "pbrt-v4" => W::PbrtV4,
+                    v => {
+                        return Err(format!(
+                            "--layered-exit-weight: {v} is not unbiased or pbrt-v4"
+                        ))
+                    }
+                }
             }
             s if s.starts_with("--") => return Err(format!("unknown option {s}")),
             s => a.scenes.push(s.to_string()),
@@ -212,6 +229,7 @@ fn main() {
         seeds: args.seeds,
         block: args.block,
         light_sampler: args.light_sampler,
+        layered_exit_weight: args.layered_exit_weight,
         criteria,
     };
     for scene in &scenes {

@@ -622,6 +622,10 @@ pub struct SceneOptions {
     pub block: usize,
     /// camsim's light sampler; `None`: the file's `lightsampler`, as pbrt-v4 renders it.
     pub light_sampler: Option<camsim_render::LightSampler>,
+    /// How camsim's layered BSDFs weigh their exits: its unbiased weights (default), or
+    /// pbrt-v4 5f7a606's biased ones to reproduce pbrt-v4's `coateddiffuse` and
+    /// `coatedconductor` (`camsim_scene3d::scene::LayeredExitWeight`).
+    pub layered_exit_weight: camsim_scene3d::scene::LayeredExitWeight,
     /// The pass limits.
     pub criteria: Criteria,
 }
@@ -633,6 +637,7 @@ impl Default for SceneOptions {
             seeds: 2,
             block: REFERENCE_BLOCK,
             light_sampler: None,
+            layered_exit_weight: Default::default(),
             criteria: Criteria::default(),
         }
     }
@@ -701,7 +706,8 @@ pub fn compare_scene(
     let mut cpu_s = 0.0;
     let size = render_size(row, cols, rows, opts.block);
     let mut render = |seed: u64| -> Result<SpectralImage> {
-        let sc = load_at_render_size(&file, size, opts.spp, seed)?;
+        let mut sc = load_at_render_size(&file, size, opts.spp, seed)?;
+        sc.settings.layered_exit_weight = opts.layered_exit_weight;
         let (img, c) = render_like_reference_with(&sc, opts.block, opts.light_sampler)?;
         cpu_s += c;
         Ok(img)

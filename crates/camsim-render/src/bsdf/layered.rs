@@ -19,7 +19,9 @@
 //!   `pdf_top(wi -> -w)`; pbrt-v4 uses the reverse density `pdf_top(-w -> wi)`, with which the
 //!   two weights do not sum to 1 through a rough coating (Veach 1997, §9.2: a biased
 //!   combination; measured here as a 5-sigma failure of reciprocity and of the chi-square
-//!   test);
+//!   test, and with pbrt-v4 itself: a white-based coating of roughness 0.3 integrates its `f`
+//!   to 1.08 times its sampled albedo). `Layer::pbrt_v4_exit_weight` switches to pbrt-v4's
+//!   weight, only to reproduce its renders;
 //! * `Layered::sample` follows one walk until it leaves the top; the returned weight
 //!   `f cos / pdf` is the product of the events' weights (an unbiased estimator of the BSDF
 //!   integral, not a ratio of the estimates of `f` and `pdf`);
@@ -106,6 +108,10 @@ pub struct Layer<const N: usize> {
     pub max_depth: u32,
     /// Walks averaged per evaluation of `f` and `pdf` (pbrt-v4 `nsamples`, default 1).
     pub n_samples: u32,
+    /// Weigh a sample leaving through a rough top by pbrt-v4's reverse density `pdf(-w -> wi)`
+    /// instead of the pre-sampled strategy's `pdf(wi -> -w)` (`camsim_scene3d::scene::
+    /// LayeredExitWeight::PbrtV4`: biased, only for reproducing pbrt-v4; default false).
+    pub pbrt_v4_exit_weight: bool,
 }
 
 impl<const N: usize> Layer<N> {
@@ -117,6 +123,7 @@ impl<const N: usize> Layer<N> {
             g: 0.0,
             max_depth: 10,
             n_samples: 1,
+            pbrt_v4_exit_weight: false,
         }
     }
 }
@@ -432,6 +439,15 @@ impl<const N: usize> Layered<N> {
         let r = &mut rng;
         // The exit is through the top, at z = thickness.
         let exit_z = thickness;
+        // The pre-sampled strategy's density of the interior direction `-w` (pbrt-v4 5f7a606:
+        // the reverse, `wi` given `-w`; see the module notes).
+        let exit_pdf = |w: V3| {
+            if layer.pbrt_v4_exit_weight {
+                top.pdf(-w, wi, Lobes::Transmission)
+            } else {
+                top.pdf(wi, -w, Lobes::Transmission)
+            }
+        };
         let add = |f: &mut [f32; N], beta: &[f32; N], k: &[f32; N], s: f32| {
             for i in 0..N {
                 f[i] += beta[i] * k[i] * s;
@@ -516,7 +532,7 @@ impl<const N: usize> Layered<N> {
                         {
                             let f_exit = top.f(-w, wi, Mode::Radiance);
                             if f_exit > 0.0 {
-                                let wt = power_heuristic(pp, top.pdf(wi, -w, Lobes::Transmission));
+                                let wt = power_heuristic(pp, exit_pdf(w));
                                 let s = tr(zp - exit_z, w) * f_exit * wt;
                                 add(&mut f, &beta, &[1.0; N], s);
                             }
@@ -569,7 +585,7 @@ impl<const N: usize> Layered<N> {
                             let wt = if bottom.specular() {
                                 1.0
                             } else {
-                                power_heuristic(bs.pdf, top.pdf(wi, -w, Lobes::Transmission))
+                                power_heuristic(bs.pdf, exit_pdf(w))
                             };
                             add(&mut f, &beta, &[1.0; N], tr(thickness, bs.wi) * f_exit * wt);
                         }

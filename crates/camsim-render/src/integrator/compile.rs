@@ -95,6 +95,8 @@ impl Tracer {
             has_alpha,
             footprint: crate::bump::Footprint::new(&scene.camera, scene.settings.samples_per_pixel),
             footprint_textures,
+            layered_exit_pbrt_v4: scene.settings.layered_exit_weight
+                == crate::scene::LayeredExitWeight::PbrtV4,
             media,
             light_source,
             motion,

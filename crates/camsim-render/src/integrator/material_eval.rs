@@ -74,6 +74,7 @@ impl Tracer {
             g: w.g,
             max_depth: w.max_depth,
             n_samples: w.n_samples,
+            pbrt_v4_exit_weight: self.layered_exit_pbrt_v4,
         }
     }
 
