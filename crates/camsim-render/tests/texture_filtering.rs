@@ -17,11 +17,18 @@ use camsim_render::*;
 
 const N: usize = 40;
 
+/// Under a uniform sky.
 fn band_sums(dir: &std::path::Path, world: &str) -> Vec<f64> {
+    band_sums_lit(dir, "LightSource \"infinite\" \"rgb L\" [1 1 1]", world)
+}
+
+/// The square at z = 1 filling a 40 x 40 view, with `world` (its texture and material) before
+/// it, lit by `light`: each pixel's radiance summed over the bands.
+fn band_sums_lit(dir: &std::path::Path, light: &str, world: &str) -> Vec<f64> {
     let text = format!(
         "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
          Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
-         LightSource \"infinite\" \"rgb L\" [1 1 1]\n{world}\n\
+         {light}\n{world}\n\
          Shape \"bilinearmesh\" \"point3 P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1]\n"
     );
     let path = dir.join("scene.pbrt");
@@ -121,31 +128,12 @@ fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
 fn bump_maps_read_the_displacement_over_the_pixel_footprint() {
     let dir = tempfile::tempdir().unwrap();
     write_checks(&dir.path().join("checks.pfm"));
-    let render = |material: &str| -> Vec<f64> {
-        let text = format!(
-            "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
-             Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
-             LightSource \"distant\" \"point3 from\" [0 0 0] \"point3 to\" [0 0 1] \"rgb L\" [1 1 1]\n\
-             Texture \"d\" \"float\" \"imagemap\" \"string filename\" \"checks.pfm\" \
-             \"string filter\" \"trilinear\" \"float uscale\" 4 \"float vscale\" 4\n{material}\n\
-             Shape \"bilinearmesh\" \"point3 P\" [-1 -1 1  1 -1 1  -1 1 1  1 1 1]\n"
-        );
-        let path = dir.path().join("bump.pbrt");
-        std::fs::write(&path, text).unwrap();
-        let mut s = parse_file(&path).unwrap();
-        s.settings.grid = WavelengthGrid::new(450.0, 650.0, 100.0).unwrap();
-        s.settings.samples_per_pixel = 16;
-        s.settings.max_depth = 1;
-        s.settings.seed = 5;
-        let out = render(&s, &|_, _| {}).unwrap();
-        (0..N * N)
-            .map(|i| {
-                (0..out.radiance.bands())
-                    .map(|b| out.radiance.band(b)[i] as f64)
-                    .sum()
-            })
-            .collect()
-    };
+    let light =
+        "LightSource \"distant\" \"point3 from\" [0 0 0] \"point3 to\" [0 0 1] \"rgb L\" [1 1 1]";
+    let texture = "Texture \"d\" \"float\" \"imagemap\" \"string filename\" \"checks.pfm\" \
+                   \"string filter\" \"trilinear\" \"float uscale\" 4 \"float vscale\" 4";
+    let render =
+        |material: &str| band_sums_lit(dir.path(), light, &format!("{texture}\n{material}"));
     let plain = render("Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]");
     let bumped = render(
         "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5] \"texture displacement\" \"d\"",
