@@ -21,7 +21,8 @@ const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, direc
 const SPECTRUM_CLASSES: &str =
     "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
-/// An image texture's width, height, texels, mapping, wrap mode and texel filter.
+/// An image texture's width, height, texels, mapping, wrap mode and texel filter, and whether
+/// the filter is pbrt-v4's own (false: `ewa`, read as trilinear).
 type ImageMap = (
     usize,
     usize,
@@ -29,6 +30,7 @@ type ImageMap = (
     UvMapping,
     WrapMode,
     TexelFilter,
+    bool,
 );
 
 /// Whether an image texture is inverted (`bool invert`, already read and checked).
@@ -229,7 +231,7 @@ impl SceneBuilder {
             let v = *c * scale;
             *c = if invert { 1.0 - v } else { v };
         }
-        Ok((width, height, rgb, mapping, wrap, filter))
+        Ok((width, height, rgb, mapping, wrap, filter, exact))
     }
 
     pub(super) fn texture(
@@ -260,7 +262,7 @@ impl SceneBuilder {
             dim == 3
         };
         if class == "imagemap" {
-            let (width, height, rgb, mapping, wrap, filter) =
+            let (width, height, rgb, mapping, wrap, filter, exact) =
                 self.imagemap(name, params, loc, file)?;
             if float {
                 // pbrt-v4 5f7a606 reads one value from an RGB texel two ways: `MIPMap::Bilerp
@@ -268,10 +270,8 @@ impl SceneBuilder {
                 // `MIPMap::Texel<Float>` (`point`, and `ewa`'s texel weights) takes R; a grey
                 // image gives Y either way. A float texture never goes negative through
                 // `invert` (pbrt-v4 max(0, 1 - v)).
-                let filter_name = params
-                    .string("filter")?
-                    .unwrap_or_else(|| "bilinear".into());
-                let averaged = matches!(filter_name.as_str(), "bilinear" | "trilinear");
+                let averaged =
+                    exact && matches!(filter, TexelFilter::Bilinear | TexelFilter::Trilinear);
                 let clamps = invert_clamps(params);
                 let values = rgb
                     .iter()
