@@ -326,3 +326,40 @@ def test_bop_export_names_what_it_needs(tmp_path):
     with pytest.raises(camsim.CamsimError, match='"instances"'):
         camsim.dataset.to_bop(spec, tmp_path)
     assert not (tmp_path / "bop").exists()
+
+
+def test_coco_gives_each_category_one_keypoint_list_by_category_and_by_material(tmp_path):
+    """The capsule twice in a manifest, as two categories with different keypoint lists (2 and 3
+    points). COCO gives a category one keypoint list, so every annotation's keypoints must match
+    its category's list: by category (pill_a, pill_b) and by material, where the two entries'
+    objects do not share a category either (each manifest entry's materials are its own: the
+    second capsule's copy of material0 is listed as its own material), so both exports hold."""
+    (tmp_path / "tips.json").write_text(json.dumps(
+        {"names": ["top", "bottom", "middle"], "points": [[0.0, 0.0, -1.5], [0.0, 0.0, 1.5], [0.0, 0.0, 0.0]]}))
+    capsule = (ROOT / "../shared/assets/trimesh/capsule.obj").resolve()
+    (tmp_path / "m.csv").write_text(
+        "path,category,scale_to_m,up_axis,licence,keypoints\n"
+        f"{capsule},pill_a,0.03,y,MIT (trimesh test models),{ROOT / 'examples/datasets/keypoints/capsule.json'}\n"
+        f"{capsule},pill_b,0.03,y,MIT (trimesh test models),{tmp_path / 'tips.json'}\n")
+    spec = json.loads(json.dumps(SPEC))
+    del spec["rig"]
+    spec["dataset"].update({"samples": 1, "shard_size": 1, "outputs": ["preview", "instances", "boxes"]})
+    spec["base"]["sensor"].update({"rows": 48, "cols": 64})
+    spec["base"]["render"]["samples_per_pixel"] = 1
+    compose = spec["base"]["render"]["compose"]
+    compose["assets"] = [str(tmp_path / "m.csv")]
+    compose["spawn"][0].update({"count": [2, 2], "replacement": False})
+    out = tmp_path / "ds"
+    summary = camsim.dataset.run(spec, out=out, workers=1)
+    assert summary["complete"] and summary["samples_failed"] == 0
+    for by in ["category", "material"]:
+        coco = json.loads(Path(camsim.dataset.to_coco(spec, out, categories=by)).read_text())
+        cats = {c["id"]: c for c in coco["categories"]}
+        lists = {}
+        for a in coco["annotations"]:
+            cat = cats[a["category_id"]]
+            assert len(a["keypoints"]) == 3 * len(cat["keypoints"]), (by, a["camsim"]["name"], cat)
+            lists[a["camsim"]["name"]] = cat["keypoints"]
+        assert lists["pill_a_0"] == ["end_a", "end_b"], (by, lists)
+        assert lists["pill_b_0"] == ["top", "bottom", "middle"], (by, lists)
+        (out / "coco" / "annotations.json").unlink()
