@@ -9,6 +9,7 @@
 //! - [`scielab`]: S-CIELAB (Zhang & Wandell 1997) colour difference of two images at a viewing condition.
 //! - [`noise`]: SNR of a uniform region and its noise power spectrum (IEC 62220-1 / ISO 15739 style).
 //! - [`acutance`]: SFR weighted by the CPIQ contrast sensitivity at a viewing condition.
+//! - [`visual_noise`]: ISO 15739 visual noise of a uniform patch at a viewing condition.
 //! - [`glare`]: the veiling glare index on an ISO 18844 target (a black hole in a bright surround).
 //! - [`dual_pixel`]: the disparity between a dual-pixel sensor's two photodiode images of an edge.
 //!
@@ -33,6 +34,7 @@ pub mod sfr;
 pub mod acutance;
 pub mod noise;
 pub mod scielab;
+pub mod visual_noise;
 
 pub use color_difference::{cie94, ciede2000, delta_e_uv, xyz_to_lab, xyz_to_luv, Lab};
 pub use error::{AnalysisError, Result};

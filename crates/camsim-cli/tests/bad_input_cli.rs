@@ -278,6 +278,13 @@ fn base(path: &[String]) -> Option<Vec<&'static str>> {
             "--out",
             "{O}",
         ],
+        ["analyze", "visual-noise"] => vec![
+            "analyze",
+            "visual-noise",
+            "{F}/sim/preview.png",
+            "--out",
+            "{O}",
+        ],
         ["analyze", "emva"] => vec!["analyze", "emva", "{F}/emva/series.csv", "--out", "{O}"],
         ["fit", "qe"] => vec!["fit", "qe", "--measured", "{F}/means.csv", "--out", "{O}"],
         ["fit", "mtf"] => vec!["fit", "mtf", "--measured", "{F}/mtf.csv", "--out", "{O}"],

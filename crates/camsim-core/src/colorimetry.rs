@@ -196,6 +196,46 @@ pub fn linear_srgb_to_xyz(rgb: [f64; 3]) -> [f64; 3] {
     mat3_mul_vec(&LINEAR_SRGB_TO_XYZ, rgb)
 }
 
+/// Inverse of a 3x3 matrix by its adjugate (`None` when the determinant is 0 or not finite).
+pub fn mat3_inverse(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let c = |r: usize, k: usize| {
+        let (r1, r2) = ((r + 1) % 3, (r + 2) % 3);
+        let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
+        m[r1][k1] * m[r2][k2] - m[r1][k2] * m[r2][k1]
+    };
+    let det = m[0][0] * c(0, 0) + m[0][1] * c(0, 1) + m[0][2] * c(0, 2);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    // inverse[i][j] = cofactor[j][i] / det (cyclic indices give the cofactor signs).
+    Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| c(j, i) / det)))
+}
+
+/// The Bradford cone-response matrix (Lam 1985; as tabulated by B. Lindbloom, "Chromatic
+/// Adaptation").
+pub const BRADFORD: [[f64; 3]; 3] = [
+    [0.8951, 0.2664, -0.1614],
+    [-0.7502, 1.7135, 0.0367],
+    [0.0389, -0.0685, 1.0296],
+];
+
+/// Bradford chromatic adaptation matrix taking colours seen under white `src_white_xyz` to
+/// corresponding colours under `dst_white_xyz`: `M_B^-1 diag(rho_dst / rho_src) M_B`
+/// (von Kries scaling in the Bradford cone space; Lindbloom's "linear Bradford").
+pub fn bradford_adaptation(src_white_xyz: [f64; 3], dst_white_xyz: [f64; 3]) -> [[f64; 3]; 3] {
+    let s = mat3_mul_vec(&BRADFORD, src_white_xyz);
+    let d = mat3_mul_vec(&BRADFORD, dst_white_xyz);
+    let inv = mat3_inverse(&BRADFORD).expect("the Bradford matrix is invertible");
+    // inv * diag(d / s) * BRADFORD
+    [0, 1, 2].map(|r| {
+        [0, 1, 2].map(|c| {
+            (0..3)
+                .map(|k| inv[r][k] * d[k] / s[k] * BRADFORD[k][c])
+                .sum()
+        })
+    })
+}
+
 /// sRGB transfer function (IEC 61966-2-1:1999 eq. 5.5-5.6): linear value in [0, 1] -> encoded value.
 /// 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055. Input is clipped to [0, 1]
 /// (NaN gives 0).
@@ -235,6 +275,27 @@ pub fn srgb_encode_u8(linear: f64) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mat3_inverse_inverts_and_refuses_singular_matrices() {
+        let m = [[2.0, -1.0, 0.5], [0.3, 4.0, -2.0], [1.0, 0.25, 3.0]];
+        let inv = mat3_inverse(&m).unwrap();
+        for r in 0..3 {
+            for c in 0..3 {
+                let v: f64 = (0..3).map(|k| m[r][k] * inv[k][c]).sum();
+                assert!(
+                    (v - f64::from(u8::from(r == c))).abs() < 1e-14,
+                    "{r} {c}: {v}"
+                );
+            }
+        }
+        assert!(mat3_inverse(&[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 5.0]]).is_none());
+        // Bradford from a white to itself is the identity; to another white it maps white to white.
+        let (d65, e) = ([0.95047, 1.0, 1.08883], [1.0, 1.0, 1.0]);
+        let a = bradford_adaptation(d65, e);
+        let w = mat3_mul_vec(&a, d65);
+        assert!(w.iter().all(|v| (v - 1.0).abs() < 1e-12), "{w:?}");
+    }
 
     #[test]
     fn srgb_transfer_round_trips_and_is_continuous() {

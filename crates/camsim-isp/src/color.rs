@@ -31,12 +31,7 @@ use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 /// 3x3 matrix, row-major (`m[row][col]`), acting on column vectors.
 pub type Mat3 = [[f64; 3]; 3];
 
-/// The Bradford cone-response matrix (Lam 1985; Lindbloom, "Chromatic Adaptation").
-pub const BRADFORD: Mat3 = [
-    [0.8951, 0.2664, -0.1614],
-    [-0.7502, 1.7135, 0.0367],
-    [0.0389, -0.0685, 1.0296],
-];
+pub use camsim_core::colorimetry::{bradford_adaptation, BRADFORD};
 
 /// Target luminance of the 99th-percentile pixel under automatic exposure (Y of the white = 1).
 pub const AUTO_EXPOSURE_P99_Y: f64 = 0.9;
@@ -63,18 +58,6 @@ pub fn mat3_mul(a: &Mat3, b: &Mat3) -> Mat3 {
 /// Inverse of a 3x3 matrix (`None` when singular).
 pub fn mat3_inverse(m: &Mat3) -> Option<Mat3> {
     to_na(m).try_inverse().map(|i| from_na(&i))
-}
-
-/// Bradford chromatic adaptation matrix taking colours seen under white `src_white_xyz` to
-/// corresponding colours under `dst_white_xyz`: `M_B^-1 diag(rho_dst / rho_src) M_B`
-/// (von Kries scaling in the Bradford cone space; Lindbloom's "linear Bradford").
-pub fn bradford_adaptation(src_white_xyz: [f64; 3], dst_white_xyz: [f64; 3]) -> Mat3 {
-    let mb = to_na(&BRADFORD);
-    let s = mb * Vector3::from(src_white_xyz);
-    let d = mb * Vector3::from(dst_white_xyz);
-    let scale = Matrix3::from_diagonal(&Vector3::new(d[0] / s[0], d[1] / s[1], d[2] / s[2]));
-    let inv = mb.try_inverse().expect("the Bradford matrix is invertible");
-    from_na(&(inv * scale * mb))
 }
 
 /// Relative camera responses (photon counts) of a surface: `sum QE_c(l) E(l) rho(l) l dl` for the

@@ -420,6 +420,48 @@ fn snr<'py>(
     )
 }
 
+/// ISO 15739 visual noise of a uniform patch of a (rows, cols, 3) float32 sRGB picture (code
+/// values in [0, 1], or linear sRGB with `encoding = "linear"`), the same measurement as
+/// `camsim analyze visual-noise`.
+#[pyfunction]
+#[pyo3(signature = (rgb, region = None, pixels_per_degree = None, display_height_m = 0.1, viewing_distance_m = 0.4, encoding = "srgb"))]
+fn visual_noise<'py>(
+    py: Python<'py>,
+    rgb: PyReadonlyArray3<'_, f32>,
+    region: Option<(usize, usize, usize, usize)>,
+    pixels_per_degree: Option<f64>,
+    display_height_m: f64,
+    viewing_distance_m: f64,
+    encoding: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    use camsim::pipeline::measure::visual_noise::{
+        measure_visual_noise, DisplayImage, Viewing, VisualNoiseRequest,
+    };
+    let code_values = match encoding {
+        "srgb" => true,
+        "linear" => false,
+        o => return Err(err(format!("encoding {o:?}: srgb or linear"))),
+    };
+    let image = DisplayImage {
+        planes: xyz_planes(&rgb, "rgb")?,
+        code_values,
+    };
+    let req = VisualNoiseRequest {
+        regions: rect(region).into_iter().collect(),
+        viewing: match pixels_per_degree {
+            Some(p) => Viewing::PixelsPerDegree(p),
+            None => Viewing::Picture {
+                display_height_m,
+                viewing_distance_m,
+            },
+        },
+    };
+    let mut report = py
+        .detach(|| measure_visual_noise(&image, &req))
+        .map_err(err)?;
+    to_py(py, &report.patches.remove(0))
+}
+
 /// CPIQ acutance of an SFR (frequencies in cycles/pixel) at `pixels_per_degree`.
 #[pyfunction]
 fn acutance<'py>(
@@ -486,6 +528,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(emva_simulate, m)?,
         wrap_pyfunction!(demosaic_zone_plate, m)?,
         wrap_pyfunction!(scielab, m)?,
+        wrap_pyfunction!(visual_noise, m)?,
         wrap_pyfunction!(nps, m)?,
         wrap_pyfunction!(snr, m)?,
         wrap_pyfunction!(acutance, m)?,

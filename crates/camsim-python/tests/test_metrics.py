@@ -91,3 +91,32 @@ def test_compare_a_camera_with_itself_and_the_report_files(tmp_path):
     assert json.loads((tmp_path / "cmp" / "results.json").read_text())["a"]["label"].startswith("A:")
     with pytest.raises(camsim.CamsimError):
         camsim.compare("no-such-sensor", "pixel4a", size=64)
+
+
+def srgb_encode(v):
+    # IEC 61966-2-1:1999 eq. 5.5-5.6, written independently of camsim.
+    return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1 / 2.4) - 0.055)
+
+
+def test_visual_noise_weights_a_neutral_grating_by_the_luminance_csf():
+    # 8 cycles over 64 columns seen at 32 pixels per degree: 4 cycles/degree, the peak of the CPIQ
+    # luminance CSF 75 nu^0.8 exp(-0.2 nu) / 34.05 (= 3.0003); a neutral stays neutral.
+    rows, cols, y0, a = 16, 64, 0.2, 0.01
+    s = np.sin(2 * np.pi * 8 * np.arange(cols) / cols)
+    lin = np.broadcast_to((y0 + a * s)[None, :, None], (rows, cols, 3))
+    img = srgb_encode(lin).astype(np.float32)
+    r = camsim.visual_noise(img, (0, 0, rows, cols), pixels_per_degree=32.0)
+    g = 75 * 4.0 ** 0.8 * math.exp(-0.8) / 34.05
+    lstar = 116 * np.cbrt(y0 + g * a * s) - 16
+    assert r["sigma_l_star"] == pytest.approx(float(lstar.std()), rel=3e-3)
+    assert r["sigma_u_star"] < 1e-2 and r["sigma_v_star"] < 1e-2
+    assert r["visual_noise"] == pytest.approx(
+        r["sigma_l_star"] + 0.852 * r["sigma_u_star"] + 0.323 * r["sigma_v_star"], rel=1e-12)
+    # The default viewing condition: the picture 0.1 m high at 0.4 m.
+    d = camsim.visual_noise(img)
+    assert d["pixels_per_degree"] == pytest.approx(rows / 0.1 * 2 * 0.4 * math.tan(math.radians(0.5)), rel=1e-12)
+    assert d["rect"] == {"row": 4, "col": 16, "rows": 8, "cols": 32}
+    with pytest.raises(camsim.CamsimError):
+        camsim.visual_noise(img, encoding="gamma")
+    with pytest.raises(camsim.CamsimError):
+        camsim.visual_noise(img, (10, 60, 8, 8), pixels_per_degree=32.0)

@@ -26,6 +26,7 @@ use camsim_analysis::acutance::{acutance, ViewingCondition};
 use camsim_analysis::chart::{self, ChartCorners, PATCH_NAMES};
 use camsim_analysis::noise::{nps, snr_raw, NpsOptions, Snr};
 use camsim_analysis::sfr::{self, SfrOptions};
+use camsim_analysis::visual_noise::VisualNoise;
 use camsim_analysis::{Plane, Rect};
 use camsim_core::{CfaChannel, RawImage, WavelengthGrid};
 use camsim_isp::ccm::{self, CcmObjective};
@@ -172,6 +173,10 @@ pub struct NoiseMetrics {
     pub nps_freq_cy_per_px: Vec<f64>,
     /// Normalised NPS (NPS / mean^2) of the green sub-grid, per (green sample)^2.
     pub nnps: Vec<f64>,
+    /// ISO 15739 visual noise of the field as the camera renders it (bilinear demosaic, white
+    /// balance and the chart-fitted colour matrix to XYZ, the field shown as the 50 % grey it
+    /// is: CIE L*u*v* against its mean XYZ / 0.5), at the viewing condition of the acutance.
+    pub visual_noise: VisualNoise,
 }
 
 /// Colour accuracy of one camera on the ColorChecker.
@@ -413,18 +418,49 @@ fn uniform_config(cam: &Loaded, n: usize, max_pitch_m: f64) -> Result<SimulateCo
     ))
 }
 
+/// Reflectance of the uniform field ([`uniform_config`]).
+const FIELD_REFLECTANCE: f64 = 0.5;
+
+#[allow(clippy::too_many_arguments)]
 fn measure_noise(
     cam: &Loaded,
     cfg: &SimulateConfig,
     n: usize,
     exposure_s: f64,
     seed: u64,
+    camera_to_xyz: &[[f64; 3]; 3],
+    grid: &WavelengthGrid,
+    pixels_per_degree: f64,
 ) -> Result<NoiseMetrics> {
     let (raw, exposure_s) = capture_one(cam, cfg, n, n, Exposure::Seconds(exposure_s), seed)?;
     // The central region, away from the optics' edge fall-off at the window border.
     let m = n / 8;
     let rect = Rect::new(m, m, n - 2 * m, n - 2 * m);
     let snr = snr_raw(&raw, &rect)?;
+    // The field through the same colour path as the chart (measure_color), to XYZ.
+    let mut rgb = camsim_isp::try_demosaic_bilinear(&raw)?;
+    let d65 = camsim_core::tables::illuminant("D65")?;
+    let gains =
+        camsim_isp::white_balance::illuminant_gains(&cam.sensor.channel_qe(grid), grid, &d65)?;
+    camsim_isp::white_balance::apply_gains(&mut rgb, gains);
+    let cam_planes = [0, 1, 2].map(|c| rgb.plane(c));
+    let xyz = {
+        let plane = |x: usize| {
+            Plane::from_fn(rect.rows, rect.cols, |r, c| {
+                let i = (rect.row + r) * rgb.cols + rect.col + c;
+                (0..3)
+                    .map(|k| camera_to_xyz[x][k] * cam_planes[k][i] as f64)
+                    .sum::<f64>() as f32
+            })
+        };
+        [plane(0)?, plane(1)?, plane(2)?]
+    };
+    let white = [0, 1, 2].map(|c| {
+        xyz[c].data.iter().map(|v| *v as f64).sum::<f64>()
+            / (xyz[c].data.len() as f64 * FIELD_REFLECTANCE)
+    });
+    let visual_noise =
+        camsim_analysis::visual_noise::visual_noise(&xyz, None, white, pixels_per_degree)?;
     let g = camsim_analysis::cfa_channel_plane(&raw, CfaChannel::G, Some(0))?;
     let roi_px = (g.rows.min(g.cols) / 2).clamp(4, 64);
     let r = nps(
@@ -447,6 +483,7 @@ fn measure_noise(
             .iter()
             .map(|v| if mean2 > 0.0 { v / mean2 } else { f64::NAN })
             .collect(),
+        visual_noise,
     })
 }
 
@@ -596,15 +633,26 @@ pub fn compare_cameras(
         )?;
         exposure_s = exposure_s.min(t);
     }
-    let noise = [
-        measure_noise(&cams[0], &ucfg[0], n, exposure_s, opts.seed)?,
-        measure_noise(&cams[1], &ucfg[1], n, exposure_s, opts.seed)?,
-    ];
     progress("ColorChecker", 3, 4);
     let color = [
         measure_color(&cams[0], opts, min_extent_m, &grid)?,
         measure_color(&cams[1], opts, min_extent_m, &grid)?,
     ];
+    // Visual noise through each camera's chart-fitted colour matrix, at the acutance's viewing.
+    let noise = [0, 1].map(|i| {
+        measure_noise(
+            &cams[i],
+            &ucfg[i],
+            n,
+            exposure_s,
+            opts.seed,
+            &color[i].camera_to_xyz,
+            &grid,
+            mtf[i].pixels_per_degree,
+        )
+    });
+    let [na, nb] = noise;
+    let noise = [na?, nb?];
     progress("report", 4, 4);
 
     let [mtf_a, mtf_b] = mtf;
@@ -844,6 +892,11 @@ fn write_report(r: &mut CameraComparison, dir: &Path) -> Result<()> {
             "SNR B, dB",
             f(a.noise.snr[2].snr_db, 2),
             f(b.noise.snr[2].snr_db, 2),
+        ),
+        row(
+            "Visual noise (ISO 15739, the field as 50 % grey)",
+            f(a.noise.visual_noise.visual_noise, 3),
+            f(b.noise.visual_noise.visual_noise, 3),
         ),
         row(
             "CIEDE2000 mean",

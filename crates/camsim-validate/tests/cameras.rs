@@ -33,6 +33,7 @@ fn a_camera_compared_with_itself_measures_the_same() {
     assert_eq!(r.a.mtf.mtf, r.b.mtf.mtf);
     assert_eq!(r.a.color.patch_delta_e2000, r.b.color.patch_delta_e2000);
     assert_eq!(r.a.noise.snr[1].snr, r.b.noise.snr[1].snr);
+    assert_eq!(r.a.noise.visual_noise, r.b.noise.visual_noise);
     // Sanity of the numbers themselves: an MTF that starts at 1 and an MTF50 below Nyquist, a
     // colour error of a few units, a finite SNR.
     assert!((r.a.mtf.mtf[0] - 1.0).abs() < 0.05, "{}", r.a.mtf.mtf[0]);
@@ -79,6 +80,19 @@ fn four_times_the_pixel_area_doubles_the_shot_noise_limited_snr() {
         let rk = r.b.noise.snr[k].snr / r.a.noise.snr[k].snr;
         assert!((rk - 2.0).abs() < 0.15, "channel {k}: SNR ratio {rk}");
     }
+    // The same processing and viewing for both, half the relative noise: half the visual noise
+    // (small noise: L*, u*, v* are linear in it about the grey).
+    let (va, vb) = (&r.a.noise.visual_noise, &r.b.noise.visual_noise);
+    let vn = vb.visual_noise / va.visual_noise;
+    eprintln!("4x pixel area: visual noise x {vn:.3} (expected 0.5)");
+    assert!(
+        (vn - 0.5).abs() < 0.05,
+        "visual noise ratio {vn}: {va:?} {vb:?}"
+    );
+    assert!(
+        (va.mean_luv[0] - 76.07).abs() < 0.5,
+        "the field as 50 % grey: {va:?}"
+    );
     for f in [
         "report.html",
         "results.json",

@@ -22,6 +22,8 @@ pub enum Command {
     Glare(GlareArgs),
     #[command(name = "dual-pixel")]
     DualPixel(DualPixelArgs),
+    #[command(name = "visual-noise")]
+    VisualNoise(VisualNoiseArgs),
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -268,6 +270,7 @@ pub fn run(c: Command) -> Result<()> {
         Command::Demosaic(a) => crate::cmd::demosaic_zone_plate::run(a),
         Command::Glare(a) => glare_cmd(a),
         Command::DualPixel(a) => dual_pixel_cmd(a),
+        Command::VisualNoise(a) => visual_noise_cmd(a),
     }
 }
 
@@ -564,6 +567,86 @@ pub fn dual_pixel_cmd(a: DualPixelArgs) -> Result<()> {
         report.disparity_px, report.standard_error_px
     ));
     say(format!("-> {}", a.out.join("dual_pixel.json").display()));
+    common::commit(staged)?;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+/// ISO 15739 visual noise of uniform patches of a display picture (an sRGB PNG, JPEG or TIFF such
+/// as `camsim simulate`'s preview.png or a camera's JPEG; or a linear-sRGB OpenEXR, white = 1).
+///
+/// The noise a viewer sees: the patch in CIE XYZ, adapted to white E, split into a luminance and
+/// two colour-opponent channels, each filtered by the eye's contrast sensitivity at the viewing
+/// condition, then VN = sigma(L*) + 0.852 sigma(u*) + 0.323 sigma(v*) (ISO 15739:2013 Annex B).
+/// The same picture seen from further away (more pixels per degree) has less visual noise. Writes,
+/// in --out: visual_noise.json and visual_noise.csv (per patch: VN, the filtered and unfiltered
+/// sigma of L*, u*, v*, the mean L*u*v*).
+#[derive(clap::Args)]
+#[command(
+    after_help = "Examples:\n  camsim simulate examples/uniform.toml --out out/grey\n  camsim analyze visual-noise out/grey/preview.png --out out/grey-vn\n  camsim analyze visual-noise out/grey/preview.png --region 32,32,128,128 --viewing-distance-m 0.6 --display-height-m 0.3 --out out/grey-vn-region\n  camsim analyze visual-noise out/grey/preview.png --pixels-per-degree 60 --json --out out/grey-vn60"
+)]
+pub struct VisualNoiseArgs {
+    /// sRGB picture (PNG, JPEG, TIFF; 8 or 16 bit) or linear-sRGB OpenEXR.
+    pub image: PathBuf,
+    /// A uniform patch ROW,COL,ROWS,COLS in pixels (repeat for more; default: the central half of
+    /// the picture in each direction).
+    #[arg(long = "region", value_parser = parse_rect, value_name = "ROW,COL,ROWS,COLS")]
+    pub regions: Vec<Rect>,
+    /// Pixels per degree of visual angle (instead of the picture's height and distance).
+    #[arg(long, value_parser = crate::common::positive_f64, conflicts_with_all = ["display_height_m", "viewing_distance_m"])]
+    pub pixels_per_degree: Option<f64>,
+    /// Height of the whole picture as shown, m (default 0.1, as `camsim compare`).
+    #[arg(long, value_parser = crate::common::positive_f64)]
+    pub display_height_m: Option<f64>,
+    /// Viewing distance, m (default 0.4, as `camsim compare`).
+    #[arg(long, value_parser = crate::common::positive_f64)]
+    pub viewing_distance_m: Option<f64>,
+    /// Also print visual_noise.json on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Output folder for visual_noise.json and visual_noise.csv (created if missing).
+    #[arg(long, default_value = "out/visual-noise")]
+    pub out: PathBuf,
+}
+
+pub fn visual_noise_cmd(a: VisualNoiseArgs) -> Result<()> {
+    use camsim::pipeline::measure::visual_noise::{
+        measure_visual_noise, DisplayImage, Viewing, VisualNoiseRequest,
+    };
+    let viewing = match a.pixels_per_degree {
+        Some(p) => Viewing::PixelsPerDegree(p),
+        None => Viewing::Picture {
+            display_height_m: a.display_height_m.unwrap_or(0.1),
+            viewing_distance_m: a.viewing_distance_m.unwrap_or(0.4),
+        },
+    };
+    let image = DisplayImage::load(&a.image)?;
+    let name = a.image.display().to_string();
+    let report = measure_visual_noise(
+        &image,
+        &VisualNoiseRequest {
+            regions: a.regions.clone(),
+            viewing,
+        },
+    )
+    .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    let staged = common::stage_out_dir_reading(&a.out, &[a.image.as_path()])?;
+    let json = report.write_files(&staged, &name)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    }
+    for p in &report.patches {
+        say(format!(
+            "{}: visual noise {:.3} (sigma L* {:.3}, u* {:.3}, v* {:.3}; unfiltered L* {:.3}) at L* {:.1}",
+            p.rect, p.visual_noise, p.sigma_l_star, p.sigma_u_star, p.sigma_v_star,
+            p.unfiltered_sigma_luv[0], p.mean_luv[0]
+        ));
+    }
+    say(format!(
+        "{:.2} pixels per degree -> {}",
+        report.pixels_per_degree,
+        a.out.join("visual_noise.csv").display()
+    ));
     common::commit(staged)?;
     Ok(())
 }

@@ -58,6 +58,7 @@ __all__ = [
     "presets",
     "dataset",
     "scielab",
+    "visual_noise",
     "snr",
     "nps",
     "acutance",
@@ -377,6 +378,22 @@ def scielab(a_xyz: np.ndarray, b_xyz: np.ndarray, white_xyz: Sequence[float], sa
     b = np.ascontiguousarray(b_xyz, dtype=np.float32)
     w = tuple(float(v) for v in white_xyz)
     return _camsim.scielab(a, b, w, float(samples_per_deg), formula)
+
+
+def visual_noise(rgb: np.ndarray, region: Optional[Tuple[int, int, int, int]] = None, *,
+                 pixels_per_degree: Optional[float] = None, display_height_m: float = 0.1,
+                 viewing_distance_m: float = 0.4, encoding: str = "srgb") -> Dict[str, Any]:
+    """ISO 15739 visual noise of a uniform patch of a (rows, cols, 3) sRGB picture (code values in
+    [0, 1]; encoding="linear" for linear sRGB, white = 1), as ``camsim analyze visual-noise``:
+    the patch's opponent channels filtered by the eye's contrast sensitivity at the viewing
+    condition (pixels_per_degree, or the whole picture display_height_m high seen from
+    viewing_distance_m), then VN = sigma(L*) + 0.852 sigma(u*) + 0.323 sigma(v*).
+    region = (row, col, rows, cols); None: the central half in each direction. Returns
+    visual_noise, sigma_l_star, sigma_u_star, sigma_v_star, unfiltered_sigma_luv, mean_luv,
+    pixels_per_degree, rect, clipped_pixels."""
+    img = np.ascontiguousarray(rgb, dtype=np.float32)
+    return _camsim.visual_noise(img, region, pixels_per_degree, float(display_height_m), float(viewing_distance_m),
+                                encoding)
 
 
 def snr(image: np.ndarray, roi: Optional[Tuple[int, int, int, int]] = None) -> Dict[str, Any]:
