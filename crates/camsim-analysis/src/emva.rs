@@ -188,6 +188,17 @@ pub struct EmvaResult {
     pub dynamic_range: f64,
     /// Dynamic range, dB (20 log10).
     pub dynamic_range_db: f64,
+    /// ISO 15739 (2013, 2023) sensor dynamic range: the saturation capacity over the signal at
+    /// which the *total* SNR (temporal dark noise, shot noise, DSNU and PRNU, as one frame of the
+    /// standard's chart holds them) is 1, `mu_e.min = (1 + sqrt(1 + 4 (1 - PRNU^2)
+    /// (sigma_d^2 + DSNU^2))) / (2 (1 - PRNU^2))`, the root of `mu^2 = sigma_d^2 + DSNU^2 + mu +
+    /// PRNU^2 mu^2`; below the EMVA figure, which counts temporal noise only, by the fixed pattern.
+    /// Raw data are linear, so the standard's incremental gain is constant and cancels.
+    #[serde(default)]
+    pub iso_15739_dynamic_range: f64,
+    /// The same, dB (20 log10).
+    #[serde(default)]
+    pub iso_15739_dynamic_range_db: f64,
     /// ISO 12232 speeds, when the series gives each level's exposure in lux s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub iso_12232: Option<IsoSpeeds>,
@@ -511,6 +522,11 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
     let threshold_e = 0.5 + (dark_var0 / (k * k) + 0.25).sqrt();
     let dynamic_range = sat_e / threshold_e;
     let snr_max = sat_e.max(0.0).sqrt();
+    // ISO 15739: SNR 1 of the total noise, fixed pattern included (closed form of the quadratic).
+    let fixed2 = dark_var0 / (k * k) + (dsnu_dn / k).powi(2);
+    let q = (1.0 - prnu * prnu).max(1e-12);
+    let iso_threshold_e = (1.0 + (1.0 + 4.0 * q * fixed2).sqrt()) / (2.0 * q);
+    let iso_15739_dynamic_range = sat_e / iso_threshold_e;
 
     // Model SNR curve (EMVA 1288 4.0: SNR = eta mu_p / sqrt(sigma_d^2 + sigma_q^2/K^2 + eta mu_p),
     // total with DSNU^2 + PRNU^2 (eta mu_p)^2 added).
@@ -603,6 +619,8 @@ pub fn emva(levels: &[EmvaInput], opts: &EmvaOptions) -> Result<EmvaResult> {
         threshold_photons: eta.map(|h| threshold_e / h),
         dynamic_range,
         dynamic_range_db: 20.0 * dynamic_range.max(1e-300).log10(),
+        iso_15739_dynamic_range,
+        iso_15739_dynamic_range_db: 20.0 * iso_15739_dynamic_range.max(1e-300).log10(),
         iso_12232,
         points,
         snr_curve,

@@ -193,6 +193,24 @@ fn check_opt(s: &Synth, name: &str, strict: bool) {
         0.5 + (r.temporal_dark_noise_dn.powi(2) / r.system_gain_dn_per_e.powi(2) + 0.25).sqrt();
     assert!((r.threshold_e - thr).abs() < 1e-9);
     assert!((r.dynamic_range - r.saturation_capacity_e / thr).abs() < 1e-6 * r.dynamic_range);
+    // ISO 15739's threshold from the synthetic sensor's own parameters: total SNR 1, the root of
+    // mu^2 = read^2 + DSNU^2 + mu + PRNU^2 mu^2 (the read noise plus the 1/12 DN^2 of quantization
+    // the dark frames hold).
+    let fixed2 = s.read_e.powi(2) + 1.0 / (12.0 * s.k_dn_per_e.powi(2)) + s.dsnu_e.powi(2);
+    let q = 1.0 - s.prnu * s.prnu;
+    let iso_thr = (1.0 + (1.0 + 4.0 * q * fixed2).sqrt()) / (2.0 * q);
+    let want = r.saturation_capacity_e / iso_thr;
+    eprintln!(
+        "{name}: ISO 15739 DR {:.1} (from the truth {want:.1}), EMVA DR {:.1}",
+        r.iso_15739_dynamic_range, r.dynamic_range
+    );
+    assert!(
+        rel(r.iso_15739_dynamic_range, want) < 0.03,
+        "{name}: ISO 15739 dynamic range {} vs {want}",
+        r.iso_15739_dynamic_range
+    );
+    assert!(r.iso_15739_dynamic_range < r.dynamic_range);
+    assert!((r.iso_15739_dynamic_range_db - 20.0 * r.iso_15739_dynamic_range.log10()).abs() < 1e-9);
 }
 
 #[test]

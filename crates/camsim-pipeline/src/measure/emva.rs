@@ -167,7 +167,7 @@ impl EmvaSeries {
         let mut t = String::new();
         let _ = writeln!(
             t,
-            "{:<3} {:>10} {:>11} {:>9} {:>8} {:>10} {:>10} {:>7} {:>8}",
+            "{:<3} {:>10} {:>11} {:>9} {:>8} {:>10} {:>10} {:>7} {:>8} {:>12}",
             "ch",
             "K (DN/e-)",
             "read (e-)",
@@ -176,7 +176,8 @@ impl EmvaSeries {
             "sat. (e-)",
             "clip (e-)",
             "QE",
-            "DR (dB)"
+            "DR (dB)",
+            "ISO DR (dB)"
         );
         for c in &self.channels {
             let r = &c.result;
@@ -186,7 +187,7 @@ impl EmvaSeries {
                 .unwrap_or_else(|| "-".into());
             let _ = writeln!(
                 t,
-                "{:<3} {:>10.5} {:>11.3} {:>9.3} {:>8.3} {:>10.0} {:>10.0} {:>7} {:>8.1}",
+                "{:<3} {:>10.5} {:>11.3} {:>9.3} {:>8.3} {:>10.0} {:>10.0} {:>7} {:>8.1} {:>12.1}",
                 c.channel.letter(),
                 r.system_gain_dn_per_e,
                 r.temporal_dark_noise_e,
@@ -195,11 +196,12 @@ impl EmvaSeries {
                 r.saturation_capacity_e,
                 r.saturation_plateau_e,
                 qe,
-                r.dynamic_range_db
+                r.dynamic_range_db,
+                r.iso_15739_dynamic_range_db
             );
         }
         t.push_str(
-            "sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K\n",
+            "sat. = EMVA saturation (maximum temporal variance); clip = largest mean signal / K; DR = sat. / the signal of temporal SNR 1 (EMVA 1288), ISO DR = sat. / the signal of total SNR 1, DSNU and PRNU included (ISO 15739)\n",
         );
         if self.channels.iter().all(|c| c.result.iso_12232.is_some()) {
             let _ = writeln!(
