@@ -136,15 +136,23 @@ pub fn visual_noise(
             format!("{rect} must be at least 2 x 2 pixels"),
         ));
     }
-    // The region is checked against the image by `crop`.
-    let patch: Vec<Plane> = xyz.iter().map(|p| p.crop(&rect)).collect::<Result<_>>()?;
+    if rect.row_end() > rows || rect.col_end() > cols {
+        return Err(AnalysisError::invalid(
+            "visual noise region",
+            format!("{rect} lies outside the {rows} x {cols} image"),
+        ));
+    }
     let (h, w) = (rect.rows, rect.cols);
-    let n = h * w;
-    // Per channel: the f64 opponent plane and the complex DFT buffer, plus the f64 XYZ copies.
+    // Per pixel: the cropped f32 XYZ (12 bytes), three f64 opponent planes (24), one channel's
+    // two complex DFT buffers at a time (32), the filtered and the unfiltered L*u*v* (48).
     camsim_core::mem::check_alloc(
-        n as u64 * (3 * 8 + 3 * 8 + 16 + 3 * 8),
+        (h as u64)
+            .saturating_mul(w as u64)
+            .saturating_mul(12 + 24 + 32 + 48),
         &format!("the visual noise of a {h} x {w} patch"),
     )?;
+    let patch: Vec<Plane> = xyz.iter().map(|p| p.crop(&rect)).collect::<Result<_>>()?;
+    let n = h * w;
     if patch.iter().any(|p| p.data.iter().any(|v| !v.is_finite())) {
         return Err(AnalysisError::invalid(
             what,
