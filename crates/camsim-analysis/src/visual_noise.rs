@@ -11,8 +11,9 @@
 //! 3. Each channel's fluctuation about its mean is filtered in the frequency domain (a 2D DFT of
 //!    the patch) by its contrast sensitivity function at `nu` cycles per degree, `nu` = the
 //!    frequency in cycles per pixel times the pixels per degree of the viewing condition; the mean
-//!    passes unchanged (the standard forces the DC term of the filtered spectrum, not the mean
-//!    colour, to zero).
+//!    passes unchanged, so L* u* v* are taken about the patch's own colour (Image Engineering's
+//!    note on the ISO reference implementation says its DFT forces the DC term to zero; how it
+//!    then restores the mean is camsim's reading).
 //!    - luminance A: `CSF_A(nu) = 75 nu^0.8 exp(-0.2 nu) / 34.05` (peak 3.0 at 4 cycles/degree;
 //!      [`crate::acutance::csf_cpiq`]);
 //!    - C1 (red-green) and C2 (blue-yellow): `a1 exp(-b1 nu^c1) + a2 exp(-b2 nu^c2)`, the
