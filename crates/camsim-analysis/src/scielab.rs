@@ -250,7 +250,9 @@ fn filtered_xyz(xyz: &[Plane; 3], filters: &ScielabFilters) -> [Vec<f64>; 3] {
             acc
         })
         .collect();
-    let inv = invert3(&m);
+    // XYZ_TO_OPPONENT is a fixed, well-conditioned matrix (det = 0.118).
+    let inv =
+        camsim_core::colorimetry::mat3_inverse(&m).expect("the opponent matrix is invertible");
     [0, 1, 2].map(|x| {
         (0..n)
             .map(|i| {
@@ -258,13 +260,6 @@ fn filtered_xyz(xyz: &[Plane; 3], filters: &ScielabFilters) -> [Vec<f64>; 3] {
             })
             .collect()
     })
-}
-
-fn invert3(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    let a = nalgebra::Matrix3::from_fn(|r, c| m[r][c]);
-    // XYZ_TO_OPPONENT is a fixed, well-conditioned matrix (det = 0.118).
-    let i = a.try_inverse().unwrap_or_else(nalgebra::Matrix3::identity);
-    [0, 1, 2].map(|r| [0, 1, 2].map(|c| i[(r, c)]))
 }
 
 /// S-CIELAB difference between two images given as CIE XYZ planes (same size, same units as

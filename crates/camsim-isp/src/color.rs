@@ -31,7 +31,7 @@ use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 /// 3x3 matrix, row-major (`m[row][col]`), acting on column vectors.
 pub type Mat3 = [[f64; 3]; 3];
 
-pub use camsim_core::colorimetry::{bradford_adaptation, BRADFORD};
+pub use camsim_core::colorimetry::{bradford_adaptation, mat3_inverse, BRADFORD};
 
 /// Target luminance of the 99th-percentile pixel under automatic exposure (Y of the white = 1).
 pub const AUTO_EXPOSURE_P99_Y: f64 = 0.9;
@@ -53,11 +53,6 @@ fn from_na(m: &Matrix3<f64>) -> Mat3 {
 /// Product of two 3x3 matrices.
 pub fn mat3_mul(a: &Mat3, b: &Mat3) -> Mat3 {
     from_na(&(to_na(a) * to_na(b)))
-}
-
-/// Inverse of a 3x3 matrix (`None` when singular).
-pub fn mat3_inverse(m: &Mat3) -> Option<Mat3> {
-    to_na(m).try_inverse().map(|i| from_na(&i))
 }
 
 /// Relative camera responses (photon counts) of a surface: `sum QE_c(l) E(l) rho(l) l dl` for the
