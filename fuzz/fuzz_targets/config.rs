@@ -1,6 +1,6 @@
 //! Fuzz the simulate config reader and the checks every run makes before its work: any text
 //! must give Ok or Err, never a panic. Stable counterpart:
-//! crates/camsim-pipeline/tests/config_fuzz.rs.
+//! crates/camsim-pipeline/tests/it/config_fuzz.rs.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 

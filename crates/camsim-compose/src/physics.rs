@@ -31,7 +31,7 @@ pub const ALLOWED_OVERLAP_M: f64 = 2e-5;
 
 /// Natural frequency of rapier's soft contact constraints, Hz: the stiffer, the less a loaded
 /// contact sinks (a stack of 5 boxes of 0.1 m settles within 0.14 mm of the rigid heights at
-/// 240 Hz, 2.9 mm at rapier's default 30 Hz: `tests/settle_stack.rs`).
+/// 240 Hz, 2.9 mm at rapier's default 30 Hz: `tests/it/settle_stack.rs`).
 pub const CONTACT_FREQUENCY_HZ: f64 = 240.0;
 
 /// Grid the convex-hull collider's vertices are snapped to, m (object frame): the collider

@@ -27,7 +27,7 @@
 //! cut; cut to the 0.74 radial/sagittal ratio the file reaches at 3.5 mm, the ellipse's area is
 //! 1.35-1.4x the region's), while the file's sagittal radii shrink smoothly from the axis (pupil
 //! aberration, not clipping), and the integral over the ellipses equals a render through
-//! [`Rtf::trace`] within 0.02 % (tests/relative_illumination.rs).
+//! [`Rtf::trace`] within 0.02 % (tests/it/relative_illumination.rs).
 
 use crate::error::{LensError, Result};
 use serde::Deserialize;

@@ -11,7 +11,7 @@
 //!   0.95 at 500 nm at normal incidence where Johnson and Christy's (Phys. Rev. B 6, 4370,
 //!   1972), which camsim used before, reflects 0.96 and 0.98, and Bitterli's `coffee` rendered
 //!   with the latter missed pbrt-v4's render by 3.3 % on its silver
-//!   (`crates/camsim-validate/tests/silver_reference.rs`).
+//!   (`crates/camsim-validate/tests/it/silver_reference.rs`).
 //! - `glass-BK7`: Schott's N-BK7 Sellmeier coefficients (Schott optical glass data sheet),
 //!   evaluated every 10 nm; pbrt-v4's table for the name is the same formula sampled every
 //!   22 nm (equal to 1e-7, tested).

@@ -342,7 +342,7 @@ def test_emva_of_a_simulated_series_recovers_the_sensor_gain():
     assert [r["channel"] for r in res] == ["r", "g", "b"]
     # Within 15 % plus 3 standard errors. (On this short, read-noise-dominated series every
     # channel reads 13-20 % low, green 0.59 against 0.68; the library's own EMVA test on a longer
-    # series, camsim-analysis tests/camsim_frames.rs, holds 3 %: noted for a closer look.)
+    # series, camsim-analysis tests/it/camsim_frames.rs, holds 3 %: noted for a closer look.)
     for r in res:
         k, se = r["result"]["system_gain_dn_per_e"], r["result"]["system_gain_std_err"]
         tol = 0.15 * k_dn_per_e + 3 * se
@@ -366,7 +366,7 @@ def test_emva_simulate_feeds_emva_and_its_refusals_name_the_keywords():
         k, se = r["result"]["system_gain_dn_per_e"], r["result"]["system_gain_std_err"]
         assert abs(k - k_dn_per_e) < 0.05 * k_dn_per_e + 3 * se, (r["channel"], k, se, k_dn_per_e)
     # The pipeline names a refused request's fields neutrally; Python spells them as its keywords
-    # (the CLI as its flags: crates/camsim-cli/tests/reliability_cli.rs).
+    # (the CLI as its flags: crates/camsim-cli/tests/it/reliability_cli.rs).
     for kwargs, named in [({"levels": 2}, "levels=2: "), ({"frames_per_level": 1}, "frames_per_level=1: "),
                           ({"rows": 100000, "cols": 16}, "rows=100000, cols=16: the EMVA window")]:
         with pytest.raises(camsim.CamsimError) as e:

@@ -275,7 +275,7 @@ impl Prim {
 /// alone, so the bound has to cover the intersection test's rounding of `t` too (a few more
 /// roundoffs of the same magnitudes, `o - p0` being of the order of `p0` and the edges): about
 /// 4x pbrt-v4's constant. It stays microns at metres from the origin: a surface 10 um behind the
-/// one a ray leaves is still reached (tests/ray_offsets.rs).
+/// one a ray leaves is still reached (tests/it/ray_offsets.rs).
 pub const POINT_ERR_SCALE: f32 = 16.0 * f32::EPSILON;
 
 /// Per-axis bound on the floating-point error of the point `p0 + b1 e1 + b2 e2` of a triangle,

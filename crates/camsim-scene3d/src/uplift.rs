@@ -16,7 +16,7 @@
 //! are trilinearly interpolated. RGB components are clamped to [0, 1] (pbrt-v4 clamps texture
 //! values and rejects `rgb reflectance` components above 1 at parse time, see `camsim_pbrt`).
 //!
-//! Tested (`tests/uplift.rs`): every lookup reproduces its linear-sRGB colour under D65 through an
+//! Tested (`tests/it/uplift.rs`): every lookup reproduces its linear-sRGB colour under D65 through an
 //! independent 1 nm trapezoid integration of the CIE tables, and the table agrees with an
 //! independent solution of the same equations (Newton from scratch on each colour).
 

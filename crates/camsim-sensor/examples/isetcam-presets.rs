@@ -3,7 +3,7 @@
 //!
 //!   cargo run -p camsim-sensor --example isetcam-presets
 //!
-//! `crates/camsim-sensor/tests/isetcam_presets.rs` checks that every preset equals its file.
+//! `crates/camsim-sensor/tests/it/isetcam_presets.rs` checks that every preset equals its file.
 
 use camsim_sensor::isetcam::{read_isetcam_sensor, ISETCAM_PRESETS};
 use std::path::Path;

@@ -27,7 +27,7 @@
 //!   pbrt-v4, and the blocks' differences in standard errors (grey 0, white +8: pbrt brighter,
 //!   black -8), each tone-mapped the same way.
 //!
-//! Exit code 0 whatever the outcome (a report, not a test; `tests/pbrt_references.rs` is the
+//! Exit code 0 whatever the outcome (a report, not a test; `tests/it/pbrt_references.rs` is the
 //! CI check on a fast subset).
 
 use camsim_core::colorimetry::Cmfs;

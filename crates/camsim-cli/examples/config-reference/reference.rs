@@ -1,7 +1,7 @@
 //! The config reference page (docs/src/config.md), rendered from the JSON schemas that the config
 //! types derive (`schemars::JsonSchema`: their doc comments, serde renames, tags and defaults), so
 //! the page says what the deserializer accepts. `page()` returns the Markdown and the keys that
-//! have no doc comment; `tests/config_reference.rs` checks the committed page against it.
+//! have no doc comment; `tests/it/config_reference.rs` checks the committed page against it.
 
 use serde_json::{Map, Value};
 use std::collections::{BTreeMap, VecDeque};
@@ -14,7 +14,7 @@ const PREAMBLE: &str = "# Config reference
 
 <!-- Generated from the config types' doc comments by
 `cargo run -q -p camsim-cli --example config-reference > docs/src/config.md`;
-crates/camsim-cli/tests/config_reference.rs fails when this file differs. Edit the doc comments,
+crates/camsim-cli/tests/it/config_reference.rs fails when this file differs. Edit the doc comments,
 not this file. -->
 
 `camsim simulate CONFIG.toml` reads one TOML file; `examples/` has one per scene kind

@@ -1,0 +1,5 @@
+//! camsim-core's integration tests, one module per file, linked into one test binary
+//! (one link of the crate and its dependencies instead of one per file).
+
+mod spectra_files;
+mod tables_colorimetry;
