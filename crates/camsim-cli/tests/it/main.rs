@@ -29,5 +29,6 @@ mod rtf_optics_cli;
 mod sensor_iso_bracket_cli;
 mod sfr_cli;
 mod stage_chain;
+mod test_layout;
 mod unprocess_cli;
 mod visual_noise_cli;
