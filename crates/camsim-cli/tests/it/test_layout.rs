@@ -28,5 +28,8 @@ fn every_file_in_tests_it_is_declared_in_its_main() {
         }
     }
     assert!(dirs >= 17, "found only {dirs} tests/it folders");
-    assert!(missing.is_empty(), "not declared in their main.rs: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "not declared in their main.rs: {missing:?}"
+    );
 }
