@@ -2,8 +2,9 @@
 //! and the bilinear texel weights with pbrt-v4's wrap modes, shared by image textures, normal
 //! maps and emission images.
 //!
-//! MIP maps ([`Pyramid`], for `trilinear` textures), as pbrt-v4's `MIPMap` with its `trilinear`
-//! filter makes and reads them (pbrt-v4 4th ed. sec. 10.4.3; the construction is `Image::GeneratePyramid`):
+//! MIP maps ([`Pyramid`], for every pbrt-v4 image texture: `point`, `bilinear` and `trilinear`),
+//! as pbrt-v4's `MIPMap` makes and reads them (pbrt-v4 4th ed. sec. 10.4.3; 5f7a606
+//! `MIPMap::Filter`; the construction is `Image::GeneratePyramid`):
 //!
 //! - An image whose sides are not powers of two is first resampled up to the next powers of two,
 //!   separably, with a Lanczos windowed sinc of radius 2 texels and `tau = 2` (4 taps per output
@@ -13,8 +14,14 @@
 //!   below, ending with a 1 x 1 level holding the image's mean.
 //! - A lookup with filter width `w` (pbrt-v4: twice the largest of `|ds/dx|`, `|ds/dy|`,
 //!   `|dt/dx|`, `|dt/dy|`, in texture coordinates) reads level `l = L - 1 + log2(w)` of the `L`:
-//!   the top texel where `l >= L - 1`; level 0 bilinearly where `l < 1`; otherwise the bilinear
-//!   lookups of levels `floor(l)` and `floor(l) + 1`, blended by `l - floor(l)`.
+//!   the top texel where `l >= L - 1`, whatever the filter; otherwise level `i = max(0,
+//!   floor(l))`: `point` its nearest texel, `bilinear` its bilinear lookup, `trilinear` the
+//!   bilinear lookups of levels `i` and `i + 1` blended by `l - i` (level 0 alone where `i = 0`).
+//!   So a pbrt-v4 `bilinear` texture seen from afar reads a coarser level, not the full image:
+//!   a pixel spanning `2^k` texels reads level `k`.
+//!
+//! glTF's filters ([`TexelFilter::Bilinear`], [`TexelFilter::Point`]) read the full-resolution
+//! image without a pyramid, as Blender's Cycles does.
 //!
 //! pbrt-v4 stores each level back in the file's pixel format (8-bit sRGB for most textures);
 //! camsim keeps the levels in f32 (a difference below half an 8-bit step).
@@ -35,21 +42,21 @@ pub(crate) struct ImageTex {
     pub vdelta: f32,
     pub wrap: WrapMode,
     pub filter: TexelFilter,
-    /// The MIP pyramid of a [`TexelFilter::Trilinear`] image (shared by every material that
-    /// names it); `None` for the full-resolution filters.
+    /// The MIP pyramid of an image read by a pbrt-v4 filter ([`TexelFilter::uses_mip`]; shared
+    /// by every material that names it); `None` for the full-resolution filters.
     pub mip: Option<std::sync::Arc<Pyramid<3>>>,
 }
 
 impl ImageTex {
     /// Lookup at `uv` with filter width `width` in texture coordinates (pbrt-v4 `MIPMap::Filter`:
-    /// a [`TexelFilter::Trilinear`] image reads its pyramid, the others their full resolution).
+    /// an image with a pyramid reads the level `width` picks, the others their full resolution).
     #[inline]
     pub fn lookup_filtered(&self, uv: [f32; 2], width: f32) -> [f32; 3] {
         match &self.mip {
             Some(p) => {
                 let s = uv[0] * self.uscale + self.udelta;
                 let t = uv[1] * self.vscale + self.vdelta;
-                p.trilinear(s, t, width, self.wrap)
+                p.filter(self.filter, s, t, width, self.wrap)
             }
             None => self.lookup(uv),
         }
@@ -159,10 +166,10 @@ pub(crate) fn bilinear_texels(
     (idx, w)
 }
 
-/// Texel indices and weights of a lookup at `(s, t)` read by `filter`: [`bilinear_texels`], or
-/// for [`TexelFilter::Point`] the nearest of its four texels alone (pbrt-v4 `MIPMap::Filter`
-/// with `point`: texel `round(s w - 1/2)`, `round((1 - t) h - 1/2)` at full resolution), weight 1
-/// (0 where black wrap leaves it outside).
+/// Texel indices and weights of a lookup at `(s, t)` of a `width` x `height` image (full
+/// resolution, or one MIP level) read by `filter`: [`bilinear_texels`], or for a point filter
+/// the nearest of its four texels alone (pbrt-v4 `MIPMap::Filter` with `point`: texel
+/// `round(s w - 1/2)`, `round((1 - t) h - 1/2)`), weight 1 (0 where black wrap leaves it outside).
 #[inline]
 pub(crate) fn texels(
     width: usize,
@@ -174,9 +181,10 @@ pub(crate) fn texels(
 ) -> ([usize; 4], [f32; 4]) {
     let (idx, w) = bilinear_texels(width, height, s, t, wrap);
     match filter {
-        // A trilinear image's level 0 (its pyramid, the MIP maps below, reads the other levels).
-        TexelFilter::Bilinear | TexelFilter::Trilinear => (idx, w),
-        TexelFilter::Point => {
+        // A MIP-mapped image read without a footprint reads its full resolution bilinearly
+        // (normal maps, emission images; pbrt-v4 `Image::Bilerp`).
+        TexelFilter::Bilinear | TexelFilter::MipBilinear | TexelFilter::Trilinear => (idx, w),
+        TexelFilter::Point | TexelFilter::MipPoint => {
             // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the
             // fraction along that axis is at least 1/2; its bilinear weight is then > 0 unless
             // black wrap zeroed it (a NaN fraction picks corner 0, as the bilinear fallback).
@@ -291,6 +299,26 @@ fn resize_up<const C: usize>(
     out
 }
 
+/// Bytes a [`Pyramid`] of a `width` x `height` image of `channels` f32 channels holds at its
+/// peak: its levels (level 0 at the next powers of two, each next level a quarter of the one
+/// below) and one more image of level 0's size, bounding the resampling's intermediate and the
+/// copy of the texels it is made from.
+pub(crate) fn pyramid_bytes(width: usize, height: usize, channels: usize) -> u64 {
+    let texel = 4 * channels as u64;
+    let (mut w, mut h) = (
+        width.max(1).next_power_of_two() as u64,
+        height.max(1).next_power_of_two() as u64,
+    );
+    let mut total = w.saturating_mul(h).saturating_mul(texel);
+    loop {
+        total = total.saturating_add(w.saturating_mul(h).saturating_mul(texel));
+        if w == 1 && h == 1 {
+            return total;
+        }
+        (w, h) = ((w / 2).max(1), (h / 2).max(1));
+    }
+}
+
 impl<const C: usize> Pyramid<C> {
     /// The pyramid of a `width` x `height` image (`texels` row-major), `wrap` its wrap mode.
     pub(crate) fn new(width: usize, height: usize, texels: &[[f32; C]], wrap: WrapMode) -> Self {
@@ -344,17 +372,30 @@ impl<const C: usize> Pyramid<C> {
         std::array::from_fn(|c| (0..4).map(|i| w[i] * l.texels[idx[i]][c]).sum())
     }
 
-    /// pbrt-v4 `MIPMap::Filter` with `trilinear` at `(s, t)` for filter width `width` (texture
-    /// coordinates; module docs).
-    pub(crate) fn trilinear(&self, s: f32, t: f32, width: f32, wrap: WrapMode) -> [f32; C] {
+    /// pbrt-v4 `MIPMap::Filter` by `filter` at `(s, t)` for filter width `width` (texture
+    /// coordinates; module docs). A full-resolution filter ([`TexelFilter::Bilinear`],
+    /// [`TexelFilter::Point`]) reads as its pyramid counterpart.
+    pub(crate) fn filter(
+        &self,
+        filter: TexelFilter,
+        s: f32,
+        t: f32,
+        width: f32,
+        wrap: WrapMode,
+    ) -> [f32; C] {
         let n = self.levels.len();
         let level = (n - 1) as f32 + width.max(1e-8).log2();
         if !level.is_finite() || level >= (n - 1) as f32 {
             return self.levels[n - 1].texels[0];
         }
         let i = level.floor().max(0.0) as usize;
-        if i == 0 {
-            return self.bilerp(0, s, t, wrap);
+        if filter.is_point() {
+            let l = &self.levels[i];
+            let (idx, w) = texels(l.width, l.height, s, t, wrap, TexelFilter::Point);
+            return std::array::from_fn(|c| (0..4).map(|k| w[k] * l.texels[idx[k]][c]).sum());
+        }
+        if filter != TexelFilter::Trilinear || i == 0 {
+            return self.bilerp(i, s, t, wrap);
         }
         let f = level - i as f32;
         let (a, b) = (self.bilerp(i, s, t, wrap), self.bilerp(i + 1, s, t, wrap));
@@ -384,7 +425,8 @@ mod mip_tests {
         }
         // Footprint of one texel: level 0, the checks themselves (bilinear at a texel centre).
         // Texel (3, 0): row 0 is at the top, t = 1 - 0.5 / h; odd, so 1.
-        let v = p.trilinear(
+        let v = p.filter(
+            TexelFilter::Trilinear,
             3.5 / w as f32,
             1.0 - 0.5 / h as f32,
             1.0 / w as f32,
@@ -395,7 +437,7 @@ mod mip_tests {
         for k in 0..50 {
             let s = k as f32 * 0.0137;
             for width in [2.0 / w as f32, 3.0 / w as f32, 0.1, 5.0] {
-                let v = p.trilinear(s, 0.3 + s, width, WrapMode::Repeat)[0];
+                let v = p.filter(TexelFilter::Trilinear, s, 0.3 + s, width, WrapMode::Repeat)[0];
                 assert!((v - 0.5).abs() < 1e-6, "s {s} width {width}: {v}");
             }
         }
@@ -414,14 +456,81 @@ mod mip_tests {
         assert_eq!(n, 7);
         for m in 1..n - 1 {
             let width = 2f32.powi(m - (n - 1));
-            let v = p.trilinear(0.4, 0.6, width, WrapMode::Clamp)[0];
+            let v = p.filter(TexelFilter::Trilinear, 0.4, 0.6, width, WrapMode::Clamp)[0];
             assert!((v - m as f32).abs() < 1e-5, "level {m}: {v}");
-            let v = p.trilinear(0.4, 0.6, width * 2f32.sqrt(), WrapMode::Clamp)[0];
+            let v = p.filter(
+                TexelFilter::Trilinear,
+                0.4,
+                0.6,
+                width * 2f32.sqrt(),
+                WrapMode::Clamp,
+            )[0];
             assert!((v - (m as f32 + 0.5)).abs() < 1e-4, "level {m}.5: {v}");
         }
-        let v = p.trilinear(0.4, 0.6, 1.4 / 64.0, WrapMode::Clamp)[0];
+        let v = p.filter(
+            TexelFilter::Trilinear,
+            0.4,
+            0.6,
+            1.4 / 64.0,
+            WrapMode::Clamp,
+        )[0];
         assert_eq!(v, 0.0);
-        assert_eq!(p.trilinear(0.4, 0.6, 10.0, WrapMode::Clamp)[0], 6.0);
+        assert_eq!(
+            p.filter(TexelFilter::Trilinear, 0.4, 0.6, 10.0, WrapMode::Clamp)[0],
+            6.0
+        );
+    }
+
+    /// pbrt-v4's `bilinear` and `point` read one level, `max(0, floor(l))` (5f7a606
+    /// `MIPMap::Filter`): on the level-valued pyramid a width halfway in log2 between levels `m`
+    /// and `m + 1` reads `m` alone (where `trilinear` blends to `m + 1/2`), just below level 1
+    /// level 0; on a texel checkerboard a footprint of two texels reads level 1, 1/2, where one
+    /// of 1.9 texels still reads the texel itself.
+    #[test]
+    fn pbrt_bilinear_and_point_read_the_floor_level() {
+        let mut p = Pyramid::new(64, 64, &vec![[0.0f32; 1]; 64 * 64], WrapMode::Clamp);
+        for (k, l) in p.levels.iter_mut().enumerate() {
+            l.texels.iter_mut().for_each(|t| t[0] = k as f32);
+        }
+        let n = p.levels() as i32;
+        for filter in [TexelFilter::MipBilinear, TexelFilter::MipPoint] {
+            for m in 1..n - 1 {
+                let width = 2f32.powi(m - (n - 1)) * 2f32.sqrt();
+                let v = p.filter(filter, 0.4, 0.6, width, WrapMode::Clamp)[0];
+                assert_eq!(v, m as f32, "{filter:?} level {m}.5");
+            }
+            assert_eq!(
+                p.filter(filter, 0.4, 0.6, 1.9 / 64.0, WrapMode::Clamp)[0],
+                0.0
+            );
+            assert_eq!(p.filter(filter, 0.4, 0.6, 0.0, WrapMode::Clamp)[0], 0.0);
+            assert_eq!(p.filter(filter, 0.4, 0.6, 10.0, WrapMode::Clamp)[0], 6.0);
+        }
+        let (w, h) = (512usize, 128usize);
+        let checks: Vec<[f32; 1]> = (0..w * h).map(|i| [((i % w + i / w) % 2) as f32]).collect();
+        let p = Pyramid::new(w, h, &checks, WrapMode::Repeat);
+        // Texel (3, 0), odd: 1. A quarter texel off its centre, so that bilinear and point differ
+        // at level 0 but not at level 1 (uniform 1/2).
+        let (s, t) = (3.25 / w as f32, 1.0 - 0.5 / h as f32);
+        let at = |f, width: f32| p.filter(f, s, t, width / w as f32, WrapMode::Repeat)[0];
+        assert_eq!(at(TexelFilter::MipPoint, 1.9), 1.0);
+        assert!((at(TexelFilter::MipBilinear, 1.9) - 0.75).abs() < 1e-6);
+        for f in [TexelFilter::MipPoint, TexelFilter::MipBilinear] {
+            assert_eq!(at(f, 2.0), 0.5, "{f:?}");
+            assert_eq!(at(f, 7.9), 0.5, "{f:?}");
+        }
+    }
+
+    /// The budget counts every level and one image of level 0's size: a 300 x 200 image
+    /// resamples to 512 x 256, whose 10 levels hold 512 * 256 * 4/3 texels less a third of the
+    /// 1 x 1 top (the sum of a geometric series of ratio 1/4 ending at 2 x 1, then 1 x 1).
+    #[test]
+    fn the_pyramid_budget_counts_every_level() {
+        let p = Pyramid::new(300, 200, &vec![[0.5f32; 3]; 300 * 200], WrapMode::Repeat);
+        let held: u64 = p.levels.iter().map(|l| (l.texels.len() * 12) as u64).sum();
+        assert_eq!(pyramid_bytes(300, 200, 3), held + 512 * 256 * 12);
+        let levels: u64 = (0..9).map(|k| (512u64 >> k) * (256 >> k)).sum::<u64>() + 1;
+        assert_eq!(held, levels * 12);
     }
 
     /// The Lanczos resampling up to powers of two keeps a constant image constant (its weights

@@ -333,7 +333,7 @@ pub(crate) struct FloatImage {
     pub values: Arc<[f32]>,
     pub wrap: WrapMode,
     pub filter: TexelFilter,
-    /// The MIP pyramid of a [`TexelFilter::Trilinear`] image.
+    /// The MIP pyramid of an image read by a pbrt-v4 filter ([`TexelFilter::uses_mip`]).
     pub mip: Option<crate::image_tex::Pyramid<1>>,
 }
 
@@ -394,6 +394,16 @@ pub(crate) fn checker_weight_filtered(s: f32, t: f32, dst: [f32; 4]) -> f32 {
     0.5 - filtered_square_wave(s, ds) * filtered_square_wave(t, dt) / 2.0
 }
 
+/// Refuses a MIP pyramid of a `width` x `height` image of `channels` f32 channels that would not
+/// fit in the memory left, before it is allocated ([`crate::image_tex::pyramid_bytes`]).
+fn check_pyramid(width: usize, height: usize, channels: usize) -> Result<(), String> {
+    camsim_core::mem::check_alloc(
+        crate::image_tex::pyramid_bytes(width, height, channels),
+        &format!("the MIP pyramid of a {width} x {height} image texture"),
+    )
+    .map_err(|e| e.to_string())
+}
+
 /// Bilinear interpolation weights (pbrt-v4 `Bilerp`): v00, v10, v01, v11.
 #[inline(always)]
 pub(crate) fn bilerp_weights(s: f32, t: f32) -> [f32; 4] {
@@ -407,7 +417,7 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Image(im, map) => {
             let (s, tt) = map.st(ctx);
             if let Some(p) = &im.mip {
-                return p.trilinear(s, tt, map.filter_width(ctx), im.wrap)[0];
+                return p.filter(im.filter, s, tt, map.filter_width(ctx), im.wrap)[0];
             }
             let (idx, w) = texels(im.width, im.height, s, tt, im.wrap, im.filter);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()
@@ -560,10 +570,15 @@ fn compile_float(t: &FloatTexture) -> Result<FTex, String> {
                 return Err("float image texture has a non-finite value".into());
             }
             let map = check_map(mapping)?;
-            let mip = (*filter == TexelFilter::Trilinear).then(|| {
+            let mip = if filter.uses_mip() {
+                check_pyramid(*width, *height, 1)?;
                 let texels: Vec<[f32; 1]> = values.iter().map(|v| [*v]).collect();
-                crate::image_tex::Pyramid::new(*width, *height, &texels, *wrap)
-            });
+                Some(crate::image_tex::Pyramid::new(
+                    *width, *height, &texels, *wrap,
+                ))
+            } else {
+                None
+            };
             if mip.is_some() && map.is_uv() {
                 mark_footprint_needed();
             }
@@ -706,15 +721,21 @@ pub(crate) fn compile_texture(
             })
             .map_err(err)?;
             // One pyramid per image and wrap mode, shared by every material that names it.
-            let mip = (*filter == TexelFilter::Trilinear).then(|| {
-                images
+            let mip = if filter.uses_mip() {
+                let shared = images
                     .iter()
                     .find(|i| Arc::ptr_eq(&i.rgb, rgb) && i.wrap == *wrap && i.mip.is_some())
-                    .and_then(|i| i.mip.clone())
-                    .unwrap_or_else(|| {
+                    .and_then(|i| i.mip.clone());
+                Some(match shared {
+                    Some(p) => p,
+                    None => {
+                        check_pyramid(*width, *height, 3).map_err(err)?;
                         Arc::new(crate::image_tex::Pyramid::new(*width, *height, rgb, *wrap))
-                    })
-            });
+                    }
+                })
+            } else {
+                None
+            };
             if mip.is_some() && map.is_uv() {
                 mark_footprint_needed();
             }

@@ -68,30 +68,49 @@ impl WrapMode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TexelFilter {
     /// Bilinear between the four nearest texel centres of the full-resolution image (glTF's
-    /// `LINEAR` as Blender's Cycles reads it, without MIP maps; pbrt-v4 `bilinear`).
+    /// `LINEAR` as Blender's Cycles reads it, without MIP maps).
     #[default]
     Bilinear,
-    /// The texel nearest `(s, t)` at full resolution (glTF `NEAREST`, pbrt-v4 `point`).
+    /// The texel nearest `(s, t)` at full resolution (glTF `NEAREST`).
     Point,
+    /// pbrt-v4 `bilinear`: [`TexelFilter::Bilinear`] on one level of the image's MIP pyramid,
+    /// `max(0, floor(l))` of the level `l` the ray's footprint picks (pbrt-v4 5f7a606
+    /// `MIPMap::Filter`; `camsim_render`'s `image_tex` module).
+    MipBilinear,
+    /// pbrt-v4 `point`: the nearest texel of the same pyramid level as [`TexelFilter::MipBilinear`].
+    MipPoint,
     /// pbrt-v4 `trilinear`: a MIP pyramid of the image (power-of-two levels, each the box
     /// average of the one below), the level picked from the ray's footprint on the texture and
-    /// the two levels around it blended (`camsim_render`'s `mipmap` module).
+    /// the two levels around it blended.
     Trilinear,
 }
 
 impl TexelFilter {
-    /// pbrt-v4's names: `point`, `bilinear` and `trilinear` (flag `true`); `ewa` (an
-    /// anisotropic elliptical filter over the footprint) reads as `trilinear` (flag `false`).
-    /// pbrt-v4's `point` and `bilinear` also pick a MIP level from the footprint; camsim reads
-    /// them at full resolution, which differs only where a pixel spans more than a texel.
+    /// pbrt-v4's names: `point`, `bilinear` and `trilinear` (flag `true`), each reading the MIP
+    /// pyramid as pbrt-v4 does; `ewa` (an anisotropic elliptical filter over the footprint) reads
+    /// as `trilinear` (flag `false`).
     pub fn from_name(name: &str) -> Option<(TexelFilter, bool)> {
         match name {
-            "point" => Some((TexelFilter::Point, true)),
-            "bilinear" => Some((TexelFilter::Bilinear, true)),
+            "point" => Some((TexelFilter::MipPoint, true)),
+            "bilinear" => Some((TexelFilter::MipBilinear, true)),
             "trilinear" => Some((TexelFilter::Trilinear, true)),
             "ewa" => Some((TexelFilter::Trilinear, false)),
             _ => None,
         }
+    }
+
+    /// Whether the filter reads a MIP pyramid (pbrt-v4's filters) rather than the
+    /// full-resolution image (glTF's, as Cycles reads them).
+    pub fn uses_mip(self) -> bool {
+        matches!(
+            self,
+            TexelFilter::MipBilinear | TexelFilter::MipPoint | TexelFilter::Trilinear
+        )
+    }
+
+    /// Whether a texel is read by the nearest texel rather than bilinearly.
+    pub fn is_point(self) -> bool {
+        matches!(self, TexelFilter::Point | TexelFilter::MipPoint)
     }
 }
 

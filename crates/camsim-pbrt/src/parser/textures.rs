@@ -271,7 +271,7 @@ impl SceneBuilder {
                 // image gives Y either way. A float texture never goes negative through
                 // `invert` (pbrt-v4 max(0, 1 - v)).
                 let averaged =
-                    exact && matches!(filter, TexelFilter::Bilinear | TexelFilter::Trilinear);
+                    exact && matches!(filter, TexelFilter::MipBilinear | TexelFilter::Trilinear);
                 let clamps = invert_clamps(params);
                 let values = rgb
                     .iter()

@@ -214,10 +214,11 @@ fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
     // R scaled by 0.5: 0.5 and 0.1; clamp wrap.
     assert!((floats[0].0[0] - 0.5).abs() < 1e-6 && (floats[0].0[1] - 0.1).abs() < 1e-6);
     assert_eq!(floats[0].1, WrapMode::Clamp);
-    // "point" is the nearest texel; no filter given is bilinear.
+    // "point" is the nearest texel; no filter given is bilinear; both of a MIP level, as
+    // pbrt-v4 reads them (not glTF's full-resolution filters).
     assert_eq!(
         (floats[0].2, floats[1].2),
-        (TexelFilter::Point, TexelFilter::Bilinear)
+        (TexelFilter::MipPoint, TexelFilter::MipBilinear)
     );
     // Bilinear, inverted after a scale of 2: max(0, 1 - 2 (R + G + B) / 3) = 1/3 and 0.2 (the
     // first channel alone would give 0 and 0.6).
@@ -230,7 +231,7 @@ fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
         wraps,
         [
             (WrapMode::OctahedralSphere, TexelFilter::Trilinear),
-            (WrapMode::Black, TexelFilter::Bilinear)
+            (WrapMode::Black, TexelFilter::MipBilinear)
         ]
     );
 }

@@ -1,30 +1,46 @@
-//! Texture filtering over the pixel footprint, as pbrt-v4 filters: a `trilinear` image reads its
-//! MIP pyramid at the level the footprint picks, a 2D `checkerboard` is averaged against a
+//! Texture filtering over the pixel footprint, as pbrt-v4 filters: an image texture reads its
+//! MIP pyramid at the level the footprint picks (`trilinear` blending two levels, `bilinear` and
+//! `point` reading level `floor(l)`, pbrt-v4 5f7a606 `MIPMap::Filter`), a 2D `checkerboard` is
+//! averaged against a
 //! triangle filter of the footprint's width. A diffuse square facing the camera at z = 1 under a
 //! uniform sky (direct light only) carries checks far finer than a pixel; the ratio of its render
 //! to a white square's (the same seed, so the same light samples) is the albedo each pixel sees.
 //!
 //! Closed forms: a checkerboard of single texels averages to exactly 1/2 at every MIP level above
-//! 0, so where the footprint spans two texels or more the trilinear square is 1/2 at every pixel
-//! (to rounding), while the full-resolution bilinear lookup leaves each pixel the mean of its
-//! samples' texels (a spread of several per cent at 16 samples); both average 1/2 over the
-//! image. The filtered procedural checkerboard is the same: each sample's weight is within a few
-//! per cent of 1/2, against 0 or 1 unfiltered.
+//! 0, so where the footprint spans two texels or more the square is 1/2 at every pixel (to
+//! rounding) with each of pbrt-v4's three filters, while a full-resolution lookup (glTF's
+//! filters, as Cycles reads them) leaves each pixel the mean of its samples' texels (a spread of
+//! several per cent at 16 samples); all average 1/2 over the image. The filtered procedural
+//! checkerboard is the same: each sample's weight is within a few per cent of 1/2, against 0 or 1
+//! unfiltered.
 
 use camsim_core::WavelengthGrid;
 use camsim_pbrt::parse_file;
 use camsim_render::*;
+use camsim_scene3d::{Material, SceneDescription, TexelFilter, Texture};
 
 const N: usize = 40;
 
+const SKY: &str = "LightSource \"infinite\" \"rgb L\" [1 1 1]";
+
 /// Under a uniform sky.
 fn band_sums(dir: &std::path::Path, world: &str) -> Vec<f64> {
-    band_sums_lit(dir, "LightSource \"infinite\" \"rgb L\" [1 1 1]", world)
+    band_sums_lit(dir, SKY, world)
+}
+
+fn band_sums_lit(dir: &std::path::Path, light: &str, world: &str) -> Vec<f64> {
+    edited_band_sums(dir, light, world, &|_| {})
 }
 
 /// The square at z = 1 filling a 40 x 40 view, with `world` (its texture and material) before
-/// it, lit by `light`: each pixel's radiance summed over the bands.
-fn band_sums_lit(dir: &std::path::Path, light: &str, world: &str) -> Vec<f64> {
+/// it, lit by `light`, the parsed scene changed by `edit`: each pixel's radiance summed over the
+/// bands.
+fn edited_band_sums(
+    dir: &std::path::Path,
+    light: &str,
+    world: &str,
+    edit: &dyn Fn(&mut SceneDescription),
+) -> Vec<f64> {
     let text = format!(
         "LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\n\
          Film \"spectral\" \"integer xresolution\" {N} \"integer yresolution\" {N}\nPixelFilter \"box\"\nWorldBegin\n\
@@ -38,6 +54,7 @@ fn band_sums_lit(dir: &std::path::Path, light: &str, world: &str) -> Vec<f64> {
     s.settings.samples_per_pixel = 16;
     s.settings.max_depth = 1;
     s.settings.seed = 5;
+    edit(&mut s);
     let out = render(&s, &|_, _| {}).unwrap();
     (0..N * N)
         .map(|i| {
@@ -85,7 +102,8 @@ fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
     };
     // The square's uv spans 2 m; the view 0.728 m, 40 pixels: with uscale 4 one pixel covers
     // 0.0091 x 4 x 256 = 9.3 texels, times max(1/8, 1/sqrt(16)) = 2.3 texels per sample step:
-    // a filter width of 4.7 texels, MIP level 2.2, where every texel is 1/2.
+    // a filter width of 4.7 texels, MIP level 2.2, where every texel is 1/2: trilinear blends
+    // levels 2 and 3, bilinear and point read level 2.
     let image = |filter: &str| {
         format!(
             "Texture \"c\" \"spectrum\" \"imagemap\" \"string filename\" \"checks.pfm\" \
@@ -93,15 +111,32 @@ fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
              Material \"diffuse\" \"texture reflectance\" \"c\""
         )
     };
-    let (tri_mean, tri_spread) = stats(&albedo(&image("trilinear")));
-    let (bi_mean, bi_spread) = stats(&albedo(&image("bilinear")));
-    println!(
-        "trilinear: mean {tri_mean:.6}, spread {tri_spread:.2e}; bilinear: mean {bi_mean:.6}, spread {bi_spread:.4}"
+    for filter in ["trilinear", "bilinear", "point"] {
+        let (mean, spread) = stats(&albedo(&image(filter)));
+        println!("{filter}: mean {mean:.6}, spread {spread:.2e}");
+        assert!((mean - 0.5).abs() < 1e-4, "{filter} mean {mean}");
+        assert!(spread < 1e-4, "{filter} spread {spread}");
+    }
+    // The same image read at full resolution (glTF's `LINEAR`, as Cycles): each pixel the mean
+    // of its 16 samples' texels.
+    let full_res = edited_band_sums(dir.path(), SKY, &image("bilinear"), &|s| {
+        for m in &mut s.materials {
+            if let Material::Diffuse {
+                reflectance: Texture::Image { filter, .. },
+            } = m
+            {
+                *filter = TexelFilter::Bilinear;
+            }
+        }
+    });
+    let full: Vec<f64> = full_res.iter().zip(&white).map(|(a, b)| a / b).collect();
+    let (full_mean, full_spread) = stats(&full);
+    println!("full resolution: mean {full_mean:.6}, spread {full_spread:.4}");
+    assert!(
+        (full_mean - 0.5).abs() < 0.01,
+        "full-resolution mean {full_mean}"
     );
-    assert!((tri_mean - 0.5).abs() < 1e-4, "trilinear mean {tri_mean}");
-    assert!(tri_spread < 1e-4, "trilinear spread {tri_spread}");
-    assert!((bi_mean - 0.5).abs() < 0.01, "bilinear mean {bi_mean}");
-    assert!(bi_spread > 0.02, "bilinear spread {bi_spread}");
+    assert!(full_spread > 0.02, "full-resolution spread {full_spread}");
 
     // 1024 checks across the square's uv: 9.3 checks per pixel, 2.3 per sample step, a
     // triangle filter 1.5 x that wide.
