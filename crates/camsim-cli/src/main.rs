@@ -21,9 +21,9 @@ Examples:
   camsim simulate --out out/default               ColorChecker, D65, 100 cd/m^2, pixel4a camera
   camsim simulate examples/slanted-edge.toml --out out/edge4 --frames 4
   camsim presets                                  list built-in sensors, optics and scenes
-  camsim render --builtin cornell-box-mcc --spp 16 --out out/box   a path-traced 3D scene
+  camsim render --builtin cornell-box-mcc --resolution 252x189 --spp 16 --out out/box   a path-traced 3D scene
   camsim validate cornell-box --out out/report    the paper's validation, with report.html
-  camsim dataset --out out/dataset                48 captures as WebDataset shards + manifest
+  camsim dataset --out out/dataset                24 captures as WebDataset shards + manifest
   camsim compare --out out/compare                two cameras side by side: MTF, SNR, CIEDE2000
 
 Output folders (--out DIR) always hold one complete run: a command writes into a fresh sibling

@@ -257,7 +257,7 @@ impl DatasetSpec {
     }
 
     /// The built-in example (`camsim dataset` with no spec, Python's `camsim.dataset.run()` with
-    /// none): `examples/datasets/colorchecker.toml`, 48 ColorChecker captures.
+    /// none): `examples/datasets/colorchecker.toml`, 24 ColorChecker captures.
     pub fn builtin_default() -> Result<DatasetSpec> {
         DatasetSpec::from_toml_str(
             DEFAULT_SPEC,

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 /// (`values = [...]`) and seeded random draws (`uniform`, `log_uniform`, `choice`, `normal`).
 /// Sample i is a function of (spec, i) alone, so the same spec gives the same bytes on any
 /// machine, any number of workers, any order. The spec is checked completely (every key, range
-/// and file) before any work starts. Without SPEC: the built-in example, 48 ColorChecker
+/// and file) before any work starts. Without SPEC: the built-in example, 24 ColorChecker
 /// captures (examples/datasets/colorchecker.toml).
 ///
 /// --out holds spec.json, shard-FIRST-LAST.tar (per sample KEY.json, KEY.dng, KEY.preview.png,

@@ -61,7 +61,7 @@ pub struct Args {
 /// The outputs (from their name table) and the examples.
 fn after_help() -> String {
     format!(
-        "Outputs (--save, comma-separated; or all, default):\n{}\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 8 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)",
+        "Outputs (--save, comma-separated; or all, default):\n{}\nExamples:\n  camsim simulate --out out/default\n  camsim simulate --save all --out out/everything\n  camsim simulate examples/slanted-edge.toml --out out/edge-irr --save raw,preview,irradiance\n  camsim simulate examples/cornell-box.toml --out out/box --frames 4 --seed 3\n  camsim simulate out/default/run.json --out out/again     (repeat a run)",
         camsim::pipeline::outputs::OUTPUTS.listing()
     )
 }
