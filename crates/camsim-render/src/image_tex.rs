@@ -443,15 +443,21 @@ mod mip_tests {
         }
     }
 
+    /// A 64 x 64 image's pyramid (7 levels) rebuilt by hand so that level k holds the value k.
+    fn level_valued_pyramid() -> Pyramid<1> {
+        let mut p = Pyramid::new(64, 64, &vec![[0.0f32; 1]; 64 * 64], WrapMode::Clamp);
+        for (k, l) in p.levels.iter_mut().enumerate() {
+            l.texels.iter_mut().for_each(|t| t[0] = k as f32);
+        }
+        p
+    }
+
     /// Level selection: on an image whose levels differ (level k holds the value k through a
     /// hand-built pyramid), a width `2^(m - (L - 1))` reads exactly level `m`, and halfway in
     /// log2 between two levels reads their mean; below level 1 it is level 0 alone.
     #[test]
     fn the_level_follows_log2_of_the_filter_width() {
-        let mut p = Pyramid::new(64, 64, &vec![[0.0f32; 1]; 64 * 64], WrapMode::Clamp);
-        for (k, l) in p.levels.iter_mut().enumerate() {
-            l.texels.iter_mut().for_each(|t| t[0] = k as f32);
-        }
+        let p = level_valued_pyramid();
         let n = p.levels() as i32;
         assert_eq!(n, 7);
         for m in 1..n - 1 {
@@ -488,10 +494,7 @@ mod mip_tests {
     /// of 1.9 texels still reads the texel itself.
     #[test]
     fn pbrt_bilinear_and_point_read_the_floor_level() {
-        let mut p = Pyramid::new(64, 64, &vec![[0.0f32; 1]; 64 * 64], WrapMode::Clamp);
-        for (k, l) in p.levels.iter_mut().enumerate() {
-            l.texels.iter_mut().for_each(|t| t[0] = k as f32);
-        }
+        let p = level_valued_pyramid();
         let n = p.levels() as i32;
         for filter in [TexelFilter::MipBilinear, TexelFilter::MipPoint] {
             for m in 1..n - 1 {
