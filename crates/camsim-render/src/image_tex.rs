@@ -181,8 +181,8 @@ pub(crate) fn texels(
 ) -> ([usize; 4], [f32; 4]) {
     let (idx, w) = bilinear_texels(width, height, s, t, wrap);
     match filter {
-        // A MIP-mapped image read without a footprint reads its full resolution bilinearly
-        // (normal maps, emission images; pbrt-v4 `Image::Bilerp`).
+        // The pyramid's filters read like their full-resolution counterparts on the one image
+        // given (an image with a pyramid is read through `Pyramid::filter`, level by level).
         TexelFilter::Bilinear | TexelFilter::MipBilinear | TexelFilter::Trilinear => (idx, w),
         TexelFilter::Point | TexelFilter::MipPoint => {
             // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the

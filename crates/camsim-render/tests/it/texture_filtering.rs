@@ -1,10 +1,10 @@
 //! Texture filtering over the pixel footprint, as pbrt-v4 filters: an image texture reads its
 //! MIP pyramid at the level the footprint picks (`trilinear` blending two levels, `bilinear` and
 //! `point` reading level `floor(l)`, pbrt-v4 5f7a606 `MIPMap::Filter`), a 2D `checkerboard` is
-//! averaged against a
-//! triangle filter of the footprint's width. A diffuse square facing the camera at z = 1 under a
-//! uniform sky (direct light only) carries checks far finer than a pixel; the ratio of its render
-//! to a white square's (the same seed, so the same light samples) is the albedo each pixel sees.
+//! averaged against a triangle filter of the footprint's width. A diffuse square facing the
+//! camera at z = 1 under a uniform sky (direct light only) carries checks far finer than a pixel;
+//! the ratio of its render to a white square's (the same seed, so the same light samples) is the
+//! albedo each pixel sees.
 //!
 //! Closed forms: a checkerboard of single texels averages to exactly 1/2 at every MIP level above
 //! 0, so where the footprint spans two texels or more the square is 1/2 at every pixel (to
@@ -28,6 +28,7 @@ fn band_sums(dir: &std::path::Path, world: &str) -> Vec<f64> {
     band_sums_lit(dir, SKY, world)
 }
 
+/// Lit by `light`.
 fn band_sums_lit(dir: &std::path::Path, light: &str, world: &str) -> Vec<f64> {
     edited_band_sums(dir, light, world, &|_| {})
 }
@@ -89,7 +90,7 @@ fn stats(albedo: &[f64]) -> (f64, f64) {
 }
 
 #[test]
-fn trilinear_images_and_checkerboards_average_over_the_pixel_footprint() {
+fn image_textures_and_checkerboards_average_over_the_pixel_footprint() {
     let dir = tempfile::tempdir().unwrap();
     write_checks(&dir.path().join("checks.pfm"));
     let white = band_sums(
