@@ -533,14 +533,11 @@ pub(crate) fn image_owned_groups(
             "give [flicker] (the whole scene) or [light_flicker] (by light group), not both",
         ));
     }
-    if sensor.is_dual_pixel() {
-        return Err(dual_pixel_refused(
-            sensor,
-            "not with [light_flicker] yet (each flickering group would be imaged through each half)",
-        ));
-    }
     let t = Instant::now();
     let (steady, parts) = split_radiance(&image, groups, weights, &req.group_lights)?;
+    if sensor.is_dual_pixel() {
+        return image_owned_groups_dual(image, steady, parts, optics, sensor, req);
+    }
     let (radiance, split, map) = match image.quantity {
         Quantity::Irradiance => (None, SplitIrradiance { steady, parts }, None),
         _ => {
@@ -667,32 +664,19 @@ fn dual_pixel_refused(sensor: &Sensor, why: &str) -> PipelineError {
     PipelineError::config(format!("sensor {}: dual_pixel: {why}", sensor.name()))
 }
 
-/// Stages 2 and 3 for a dual-pixel sensor ([`camsim_sensor::dual_pixel`]): the optics image
-/// `image` through each half of the pupil (`aperture.half`), each photodiode captures its half's
-/// irradiance ([`Sensor::dual_pixel_photodiodes`]) at one exposure (auto-exposure meters the
-/// whole pixel, the halves' sum), and the raw is their sum. The irradiance handed back is the
-/// halves' sum, the whole pixel's.
-fn image_owned_dual(
-    image: SpectralImage,
+/// The optics of each half of the pupil for a dual-pixel capture of `image`, after the checks
+/// that refuse what cannot be imaged apart (a lens camera's irradiance, the optics' own
+/// `aperture.half`, the shift-variant optics).
+fn dual_pixel_half_optics(
+    image: &SpectralImage,
     optics: &Optics,
     sensor: &Sensor,
-    req: &CaptureRequest,
-) -> Result<(
-    Option<SpectralImage>,
-    Imaged,
-    Option<camsim_optics::ImageMap>,
-)> {
+) -> Result<[Optics; 2]> {
     use camsim_optics::config::{ApertureConfig, PupilHalf};
     if image.quantity == Quantity::Irradiance {
         return Err(dual_pixel_refused(
             sensor,
             "the optics stage images each half of the pupil, but the scene's lens camera renders the sensor-plane irradiance itself; use a pinhole camera with [optics] (depth-layered defocus)",
-        ));
-    }
-    if !req.group_lights.is_empty() {
-        return Err(dual_pixel_refused(
-            sensor,
-            "not with [light_flicker] yet (each flickering group would be imaged through each half)",
         ));
     }
     let oc = optics.config();
@@ -712,42 +696,37 @@ fn image_owned_dual(
             "the shift-variant optics (blur.method = \"shift-variant\") do not image half a pupil yet; use the wavefront optics",
         ));
     }
-    let t = Instant::now();
-    let half = |h: PupilHalf| -> Result<(SpectralImage, camsim_optics::ImageMap)> {
+    let half = |h: PupilHalf| -> Result<Optics> {
         let mut c = oc.clone();
         c.aperture = Some(ApertureConfig {
             half: Some(h),
             ..c.aperture.unwrap_or_default()
         });
-        Ok(Optics::from_config(&c)?.compute_mapped(&image)?)
+        Ok(Optics::from_config(&c)?)
     };
-    let (left_e, map) = half(PupilHalf::Left)?;
-    let (right_e, _) = half(PupilHalf::Right)?;
-    let mut irradiance = left_e.clone();
-    irradiance
-        .data
-        .iter_mut()
-        .zip(&right_e.data)
-        .for_each(|(a, b)| *a += b);
-    let optics_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
-    // One exposure for both halves: auto-exposure meters the whole pixel.
+    Ok([half(PupilHalf::Left)?, half(PupilHalf::Right)?])
+}
+
+/// `req` with one exposure for both photodiodes: auto-exposure meters the whole pixel
+/// (`irradiance`, the halves' sum).
+fn dual_pixel_request(
+    sensor: &Sensor,
+    irradiance: &SpectralImage,
+    req: &CaptureRequest,
+) -> Result<CaptureRequest> {
     let mut one = req.clone();
     if let Exposure::Auto { .. } = req.exposure {
         if req.bracket_s.is_none() {
             one.exposure =
-                Exposure::Seconds(sensor.metered_exposure_s(&irradiance, &req.capture())?);
+                Exposure::Seconds(sensor.metered_exposure_s(irradiance, &req.capture())?);
         }
     }
-    let frames = |s: &Sensor, e: &SpectralImage| -> Result<Frame> {
-        match capture(s, e, &one)? {
-            Captured::Frames(f) => Ok(f),
-            Captured::Hdr(_) => Err(dual_pixel_refused(sensor, "not with an [hdr] pixel")),
-        }
-    };
-    let left = frames(&pd_left, &left_e)?;
-    let right = frames(&pd_right, &right_e)?;
+    Ok(one)
+}
+
+/// The pixel's frames from its photodiodes' ([`camsim_sensor::dual_pixel_sum`]) and the
+/// photodiode raws kept beside them.
+fn dual_pixel_frame(left: Frame, right: Frame) -> Result<(Frame, DualPixelReadouts)> {
     let raw = left
         .raw
         .iter()
@@ -768,6 +747,57 @@ fn image_owned_dual(
             .collect(),
     };
     Ok((
+        frame,
+        DualPixelReadouts {
+            left: left.raw,
+            right: right.raw,
+        },
+    ))
+}
+
+/// A photodiode's frames (an `[hdr]` readout is refused: config checks keep it out).
+fn dual_pixel_frames(sensor: &Sensor, captured: Captured) -> Result<Frame> {
+    match captured {
+        Captured::Frames(f) => Ok(f),
+        Captured::Hdr(_) => Err(dual_pixel_refused(sensor, "not with an [hdr] pixel")),
+    }
+}
+
+/// Stages 2 and 3 for a dual-pixel sensor ([`camsim_sensor::dual_pixel`]): the optics image
+/// `image` through each half of the pupil (`aperture.half`), each photodiode captures its half's
+/// irradiance ([`Sensor::dual_pixel_photodiodes`]) at one exposure (auto-exposure meters the
+/// whole pixel, the halves' sum), and the raw is their sum. The irradiance handed back is the
+/// halves' sum, the whole pixel's.
+fn image_owned_dual(
+    image: SpectralImage,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+) -> Result<(
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+)> {
+    // As [`image_owned`], the whole light at once (`req.group_lights` is read by
+    // [`image_owned_groups_dual`]; a metering preview takes the whole light here).
+    let [left_optics, right_optics] = dual_pixel_half_optics(&image, optics, sensor)?;
+    let t = Instant::now();
+    let (left_e, map) = left_optics.compute_mapped(&image)?;
+    let right_e = right_optics.compute(&image)?;
+    let mut irradiance = left_e.clone();
+    irradiance
+        .data
+        .iter_mut()
+        .zip(&right_e.data)
+        .for_each(|(a, b)| *a += b);
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
+    let one = dual_pixel_request(sensor, &irradiance, req)?;
+    let left = dual_pixel_frames(sensor, capture(&pd_left, &left_e, &one)?)?;
+    let right = dual_pixel_frames(sensor, capture(&pd_right, &right_e, &one)?)?;
+    let (frame, dual) = dual_pixel_frame(left, right)?;
+    Ok((
         Some(image),
         Imaged {
             irradiance,
@@ -776,10 +806,80 @@ fn image_owned_dual(
             optics_s,
             sensor_s: t.elapsed().as_secs_f64(),
             light_split: None,
-            dual: Some(DualPixelReadouts {
-                left: left.raw,
-                right: right.raw,
-            }),
+            dual: Some(dual),
+        },
+        Some(map),
+    ))
+}
+
+/// [`image_owned_groups`] for a dual-pixel sensor: the steady part and each flickering group
+/// imaged through each half of the pupil, each photodiode integrating its half's groups over its
+/// rows' windows ([`capture_split`]) at one exposure metered on the whole pixel, the raw their
+/// sum. The split handed back ([`Imaged::light_split`]) is the whole pixel's, the halves' sums.
+fn image_owned_groups_dual(
+    image: SpectralImage,
+    steady: SpectralImage,
+    parts: Vec<(SpectralImage, camsim_sensor::LightTiming)>,
+    optics: &Optics,
+    sensor: &Sensor,
+    req: &CaptureRequest,
+) -> Result<(
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+)> {
+    let [left_optics, right_optics] = dual_pixel_half_optics(&image, optics, sensor)?;
+    let t = Instant::now();
+    let (left_steady, map) = left_optics.compute_mapped(&steady)?;
+    let half_split = |o: &Optics, steady: SpectralImage| -> Result<SplitIrradiance> {
+        let parts = parts
+            .iter()
+            .map(|(p, l)| Ok((o.compute(p)?, *l)))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(SplitIrradiance { steady, parts })
+    };
+    let left = half_split(&left_optics, left_steady)?;
+    let right = half_split(&right_optics, right_optics.compute(&steady)?)?;
+    drop(steady);
+    let sum = |a: &SpectralImage, b: &SpectralImage| {
+        let mut s = a.clone();
+        s.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
+        s
+    };
+    let whole = SplitIrradiance {
+        steady: sum(&left.steady, &right.steady),
+        parts: left
+            .parts
+            .iter()
+            .zip(&right.parts)
+            .map(|((a, l), (b, _))| (sum(a, b), *l))
+            .collect(),
+    };
+    let mut irradiance = whole.steady.clone();
+    for (p, _) in &whole.parts {
+        irradiance
+            .data
+            .iter_mut()
+            .zip(&p.data)
+            .for_each(|(s, v)| *s += *v);
+    }
+    let optics_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
+    let one = dual_pixel_request(sensor, &irradiance, req)?;
+    let left = dual_pixel_frames(sensor, capture_split(&pd_left, &left, &one)?)?;
+    let right = dual_pixel_frames(sensor, capture_split(&pd_right, &right, &one)?)?;
+    let (frame, dual) = dual_pixel_frame(left, right)?;
+    Ok((
+        Some(image),
+        Imaged {
+            irradiance,
+            frame,
+            hdr: None,
+            optics_s,
+            sensor_s: t.elapsed().as_secs_f64(),
+            light_split: Some(whole),
+            dual: Some(dual),
         },
         Some(map),
     ))

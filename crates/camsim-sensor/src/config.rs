@@ -360,8 +360,9 @@ pub struct SensorConfig {
     /// the raw is their digital sum (so its read noise is sqrt 2 of one read's). `camsim
     /// simulate` writes `raw_left.dng` and `raw_right.dng` beside `raw.dng`; the disparity
     /// between them grows with defocus (`camsim analyze dual-pixel`). The optics images each half
-    /// pupil apart (the wavefront model; not with an `[hdr]` pixel, binning, a lens camera's
-    /// irradiance render or light groups that flicker apart). Default false.
+    /// pupil apart (the wavefront model; not with an `[hdr]` pixel, binning or a lens camera's
+    /// irradiance render; under `[light_flicker]` each half takes its share of every group).
+    /// Default false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub dual_pixel: bool,
 }

@@ -155,6 +155,92 @@ fn under_a_rolling_shutter_each_row_holds_its_own_share_of_the_group() {
     );
 }
 
+/// The raw frame of a noiseless dual-pixel Pixel 4a sensor (DN, row-major) and the mean of its
+/// left and right photodiode raws over the frame.
+fn dual_raw(extra: &str, render_extra: &str, exposure_ms: f64) -> (Vec<f64>, [f64; 2]) {
+    let dir = tempfile::tempdir().unwrap();
+    let pbrt = dir.path().join("scene.pbrt");
+    std::fs::write(&pbrt, SCENE).unwrap();
+    let text = format!(
+        r#"seed = 4
+{extra}
+[render]
+pbrt = "{}"
+samples_per_pixel = 4
+{render_extra}
+[optics]
+preset = "pixel4a"
+[sensor]
+preset = "pixel4a"
+rows = 48
+cols = 64
+[sensor.config]
+dual_pixel = true
+[sensor.config.noise]
+shot = false
+read = false
+dsnu = false
+prnu = false
+dark = false
+[capture]
+exposure_ms = {exposure_ms}
+start_ms = {START_MS}
+"#,
+        pbrt.display()
+    );
+    let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new("")).unwrap();
+    let sim = simulate(&cfg, &SimulateOptions::default(), &|_, _, _| {}).unwrap();
+    let d = sim.dual_pixel.as_ref().expect("the photodiodes' raws");
+    let mean =
+        |r: &camsim_core::RawImage| r.dn.iter().map(|v| *v as f64).sum::<f64>() / r.dn.len() as f64;
+    let raw = &sim.frames[0];
+    let black = raw.black_level_dn;
+    (
+        raw.dn.iter().map(|v| *v as f64 - black).collect(),
+        [mean(&d.left[0]) - black, mean(&d.right[0]) - black],
+    )
+}
+
+/// A dual-pixel sensor under `[light_flicker]`: each photodiode integrates its half of the pupil's
+/// steady and flickering light, and their sum is the pixel's, so the raw (noise off: rounding
+/// alone) is the sky's plus the lamp's times its share of the window, as for one photodiode:
+/// `raw = sky + g (steady - sky)` within the halves' rounding, and the two halves
+/// each hold about half of it (a pinhole-rendered scene through a lens in focus).
+#[test]
+fn a_dual_pixel_sensor_takes_each_halfs_share_of_a_flickering_group() {
+    let exposure_ms = 1.0;
+    let (flicker, halves) = dual_raw(LAMP, "", exposure_ms);
+    let (sky, _) = dual_raw("", "light_groups = { lamp = 0.0 }", exposure_ms);
+    let (steady, _) = dual_raw("", "", exposure_ms);
+    let g = share(START_MS * 1e-3, exposure_ms * 1e-3);
+    assert!(g > 2.0, "share {g}");
+    let white = 1023.0 * 0.95;
+    let mut n = 0;
+    let mut worst = 0f64;
+    for ((f, s), p) in flicker.iter().zip(&sky).zip(&steady) {
+        let lamp = p - s;
+        if lamp < 5.0 || *f > white || *p > white {
+            continue;
+        }
+        worst = worst.max((f - (s + g * lamp)).abs());
+        n += 1;
+    }
+    assert!(n > 300, "only {n} pixels lit by the lamp");
+    // Each raw is two rounded halves (+-1 DN): the identity's error is at most
+    // 1 + |1 - g| + g = 2 g DN for g > 1.
+    assert!(
+        worst <= 2.0 * g,
+        "worst |raw - (sky + g lamp)| {worst} DN (share {g})"
+    );
+    let total: f64 = flicker.iter().sum::<f64>() / flicker.len() as f64;
+    for h in halves {
+        assert!(
+            (h / total - 0.5).abs() < 0.05,
+            "halves {halves:?} of {total}"
+        );
+    }
+}
+
 #[test]
 fn light_flicker_names_its_bad_keys() {
     let e = run(
