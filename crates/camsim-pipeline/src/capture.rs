@@ -365,6 +365,14 @@ pub fn image_radiance(
     })
 }
 
+/// What [`image_owned`] and its variants hand back: the radiance (`None` where the scene was
+/// already sensor-plane irradiance), the imaged result and the optics' geometric map.
+pub(crate) type OwnedImaged = (
+    Option<SpectralImage>,
+    Imaged,
+    Option<camsim_optics::ImageMap>,
+);
+
 /// Stages 2 and 3 on a scene image taken by value, for [`crate::simulate`]: the capture of
 /// `req` ([`capture`]). A lens camera's render, already sensor-plane irradiance, becomes
 /// [`Imaged::irradiance`] without a copy (a full-frame 31-band cube is 1.5 GB), and no radiance
@@ -374,11 +382,7 @@ pub(crate) fn image_owned(
     optics: &Optics,
     sensor: &Sensor,
     req: &CaptureRequest,
-) -> Result<(
-    Option<SpectralImage>,
-    Imaged,
-    Option<camsim_optics::ImageMap>,
-)> {
+) -> Result<OwnedImaged> {
     if sensor.is_dual_pixel() {
         return image_owned_dual(image, optics, sensor, req);
     }
@@ -519,11 +523,7 @@ pub(crate) fn image_owned_groups(
     optics: &Optics,
     sensor: &Sensor,
     req: &CaptureRequest,
-) -> Result<(
-    Option<SpectralImage>,
-    Imaged,
-    Option<camsim_optics::ImageMap>,
-)> {
+) -> Result<OwnedImaged> {
     use rayon::prelude::*;
     if req.group_lights.is_empty() {
         return image_owned(image, optics, sensor, req);
@@ -773,43 +773,60 @@ fn image_owned_dual(
     optics: &Optics,
     sensor: &Sensor,
     req: &CaptureRequest,
-) -> Result<(
-    Option<SpectralImage>,
-    Imaged,
-    Option<camsim_optics::ImageMap>,
-)> {
+) -> Result<OwnedImaged> {
     // As [`image_owned`], the whole light at once (`req.group_lights` is read by
     // [`image_owned_groups_dual`]; a metering preview takes the whole light here).
     let [left_optics, right_optics] = dual_pixel_half_optics(&image, optics, sensor)?;
     let t = Instant::now();
     let (left_e, map) = left_optics.compute_mapped(&image)?;
     let right_e = right_optics.compute(&image)?;
-    let mut irradiance = left_e.clone();
-    irradiance
-        .data
-        .iter_mut()
-        .zip(&right_e.data)
-        .for_each(|(a, b)| *a += b);
-    let optics_s = t.elapsed().as_secs_f64();
+    let irradiance = image_sum(&left_e, &right_e);
+    let halves = [left_e, right_e];
+    let imaged = dual_pixel_imaged(sensor, irradiance, None, t, req, |pd, k, one| {
+        capture(pd, &halves[k], one)
+    })?;
+    Ok((Some(image), imaged, Some(map)))
+}
+
+/// `a + b`, texel by texel.
+fn image_sum(a: &SpectralImage, b: &SpectralImage) -> SpectralImage {
+    let mut s = a.clone();
+    add_into(&mut s, b);
+    s
+}
+
+/// `acc += b`, texel by texel.
+fn add_into(acc: &mut SpectralImage, b: &SpectralImage) {
+    acc.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
+}
+
+/// The sensor stage of a dual-pixel capture as [`Imaged`]: photodiode `k` (0 left, 1 right)
+/// captured by `capture_half` at one exposure metered on the whole pixel's `irradiance`, the
+/// pixel's frame their sum; `optics_started` when the optics stage began.
+fn dual_pixel_imaged(
+    sensor: &Sensor,
+    irradiance: SpectralImage,
+    light_split: Option<SplitIrradiance>,
+    optics_started: Instant,
+    req: &CaptureRequest,
+    capture_half: impl Fn(&Sensor, usize, &CaptureRequest) -> Result<Captured>,
+) -> Result<Imaged> {
+    let optics_s = optics_started.elapsed().as_secs_f64();
     let t = Instant::now();
-    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
+    let photodiodes = sensor.dual_pixel_photodiodes()?;
     let one = dual_pixel_request(sensor, &irradiance, req)?;
-    let left = dual_pixel_frames(sensor, capture(&pd_left, &left_e, &one)?)?;
-    let right = dual_pixel_frames(sensor, capture(&pd_right, &right_e, &one)?)?;
+    let left = dual_pixel_frames(sensor, capture_half(&photodiodes[0], 0, &one)?)?;
+    let right = dual_pixel_frames(sensor, capture_half(&photodiodes[1], 1, &one)?)?;
     let (frame, dual) = dual_pixel_frame(left, right)?;
-    Ok((
-        Some(image),
-        Imaged {
-            irradiance,
-            frame,
-            hdr: None,
-            optics_s,
-            sensor_s: t.elapsed().as_secs_f64(),
-            light_split: None,
-            dual: Some(dual),
-        },
-        Some(map),
-    ))
+    Ok(Imaged {
+        irradiance,
+        frame,
+        hdr: None,
+        optics_s,
+        sensor_s: t.elapsed().as_secs_f64(),
+        light_split,
+        dual: Some(dual),
+    })
 }
 
 /// [`image_owned_groups`] for a dual-pixel sensor: the steady part and each flickering group
@@ -823,11 +840,7 @@ fn image_owned_groups_dual(
     optics: &Optics,
     sensor: &Sensor,
     req: &CaptureRequest,
-) -> Result<(
-    Option<SpectralImage>,
-    Imaged,
-    Option<camsim_optics::ImageMap>,
-)> {
+) -> Result<OwnedImaged> {
     let [left_optics, right_optics] = dual_pixel_half_optics(&image, optics, sensor)?;
     let t = Instant::now();
     let (left_steady, map) = left_optics.compute_mapped(&steady)?;
@@ -838,51 +851,28 @@ fn image_owned_groups_dual(
             .collect::<Result<Vec<_>>>()?;
         Ok(SplitIrradiance { steady, parts })
     };
-    let left = half_split(&left_optics, left_steady)?;
-    let right = half_split(&right_optics, right_optics.compute(&steady)?)?;
+    let halves = [
+        half_split(&left_optics, left_steady)?,
+        half_split(&right_optics, right_optics.compute(&steady)?)?,
+    ];
     drop(steady);
-    let sum = |a: &SpectralImage, b: &SpectralImage| {
-        let mut s = a.clone();
-        s.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
-        s
-    };
     let whole = SplitIrradiance {
-        steady: sum(&left.steady, &right.steady),
-        parts: left
+        steady: image_sum(&halves[0].steady, &halves[1].steady),
+        parts: halves[0]
             .parts
             .iter()
-            .zip(&right.parts)
-            .map(|((a, l), (b, _))| (sum(a, b), *l))
+            .zip(&halves[1].parts)
+            .map(|((a, l), (b, _))| (image_sum(a, b), *l))
             .collect(),
     };
     let mut irradiance = whole.steady.clone();
     for (p, _) in &whole.parts {
-        irradiance
-            .data
-            .iter_mut()
-            .zip(&p.data)
-            .for_each(|(s, v)| *s += *v);
+        add_into(&mut irradiance, p);
     }
-    let optics_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let [pd_left, pd_right] = sensor.dual_pixel_photodiodes()?;
-    let one = dual_pixel_request(sensor, &irradiance, req)?;
-    let left = dual_pixel_frames(sensor, capture_split(&pd_left, &left, &one)?)?;
-    let right = dual_pixel_frames(sensor, capture_split(&pd_right, &right, &one)?)?;
-    let (frame, dual) = dual_pixel_frame(left, right)?;
-    Ok((
-        Some(image),
-        Imaged {
-            irradiance,
-            frame,
-            hdr: None,
-            optics_s,
-            sensor_s: t.elapsed().as_secs_f64(),
-            light_split: Some(whole),
-            dual: Some(dual),
-        },
-        Some(map),
-    ))
+    let imaged = dual_pixel_imaged(sensor, irradiance, Some(whole), t, req, |pd, k, one| {
+        capture_split(pd, &halves[k], one)
+    })?;
+    Ok((Some(image), imaged, Some(map)))
 }
 
 /// The ADC value each pixel would read at `exposure_s` without shot, read, DSNU and PRNU noise

@@ -35,6 +35,24 @@ fn run(
     exposure_ms: f64,
     shutter: &str,
 ) -> Result<Vec<f32>, String> {
+    let opts = SimulateOptions {
+        noise_free: true,
+        ..Default::default()
+    };
+    let sim = simulate_scene(extra, render_extra, "", exposure_ms, shutter, &opts)?;
+    Ok(sim.noise_free_frame(0).unwrap().to_vec())
+}
+
+/// `simulate` of [`SCENE`] on a 64 x 48 Pixel 4a window, with `extra` top-level tables,
+/// `render_extra` and `sensor_extra` keys of `[render]` and `[sensor]`.
+fn simulate_scene(
+    extra: &str,
+    render_extra: &str,
+    sensor_extra: &str,
+    exposure_ms: f64,
+    shutter: &str,
+    opts: &SimulateOptions,
+) -> Result<camsim_pipeline::Simulation, String> {
     let dir = tempfile::tempdir().unwrap();
     let pbrt = dir.path().join("scene.pbrt");
     std::fs::write(&pbrt, SCENE).unwrap();
@@ -49,6 +67,7 @@ samples_per_pixel = 4
 preset = "pixel4a"
 rows = 48
 cols = 64
+{sensor_extra}
 [capture]
 exposure_ms = {exposure_ms}
 start_ms = {START_MS}
@@ -58,12 +77,7 @@ shutter = {shutter}
     );
     let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new(""))
         .map_err(|e| e.to_string())?;
-    let opts = SimulateOptions {
-        noise_free: true,
-        ..Default::default()
-    };
-    let sim = simulate(&cfg, &opts, &|_, _, _| {}).map_err(|e| e.to_string())?;
-    Ok(sim.noise_free_frame(0).unwrap().to_vec())
+    simulate(&cfg, opts, &|_, _, _| {}).map_err(|e| e.to_string())
 }
 
 const LAMP: &str = "[light_flicker]\nlamp = { frequency_hz = 90.0, duty = 0.1, phase = 0.25 }";
@@ -158,38 +172,10 @@ fn under_a_rolling_shutter_each_row_holds_its_own_share_of_the_group() {
 /// The raw frame of a noiseless dual-pixel Pixel 4a sensor (DN, row-major) and the mean of its
 /// left and right photodiode raws over the frame.
 fn dual_raw(extra: &str, render_extra: &str, exposure_ms: f64) -> (Vec<f64>, [f64; 2]) {
-    let dir = tempfile::tempdir().unwrap();
-    let pbrt = dir.path().join("scene.pbrt");
-    std::fs::write(&pbrt, SCENE).unwrap();
-    let text = format!(
-        r#"seed = 4
-{extra}
-[render]
-pbrt = "{}"
-samples_per_pixel = 4
-{render_extra}
-[optics]
-preset = "pixel4a"
-[sensor]
-preset = "pixel4a"
-rows = 48
-cols = 64
-[sensor.config]
-dual_pixel = true
-[sensor.config.noise]
-shot = false
-read = false
-dsnu = false
-prnu = false
-dark = false
-[capture]
-exposure_ms = {exposure_ms}
-start_ms = {START_MS}
-"#,
-        pbrt.display()
-    );
-    let cfg = SimulateConfig::from_toml_str(&text, std::path::Path::new("")).unwrap();
-    let sim = simulate(&cfg, &SimulateOptions::default(), &|_, _, _| {}).unwrap();
+    let dual = "[sensor.config]\ndual_pixel = true\n[sensor.config.noise]\n\
+                shot = false\nread = false\ndsnu = false\nprnu = false\ndark = false";
+    let opts = SimulateOptions::default();
+    let sim = simulate_scene(extra, render_extra, dual, exposure_ms, "\"global\"", &opts).unwrap();
     let d = sim.dual_pixel.as_ref().expect("the photodiodes' raws");
     let mean =
         |r: &camsim_core::RawImage| r.dn.iter().map(|v| *v as f64).sum::<f64>() / r.dn.len() as f64;
