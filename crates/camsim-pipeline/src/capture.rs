@@ -782,7 +782,7 @@ fn image_owned_dual(
     let right_e = right_optics.compute(&image)?;
     let irradiance = image_sum(&left_e, &right_e);
     let halves = [left_e, right_e];
-    let imaged = dual_pixel_imaged(sensor, irradiance, None, t, req, |pd, k, one| {
+    let imaged = dual_pixel_imaged(sensor, irradiance, t, req, |pd, k, one| {
         capture(pd, &halves[k], one)
     })?;
     Ok((Some(image), imaged, Some(map)))
@@ -802,11 +802,10 @@ fn add_into(acc: &mut SpectralImage, b: &SpectralImage) {
 
 /// The sensor stage of a dual-pixel capture as [`Imaged`]: photodiode `k` (0 left, 1 right)
 /// captured by `capture_half` at one exposure metered on the whole pixel's `irradiance`, the
-/// pixel's frame their sum; `optics_started` when the optics stage began.
+/// pixel's frame their sum; `optics_started` when the optics stage began (no light split).
 fn dual_pixel_imaged(
     sensor: &Sensor,
     irradiance: SpectralImage,
-    light_split: Option<SplitIrradiance>,
     optics_started: Instant,
     req: &CaptureRequest,
     capture_half: impl Fn(&Sensor, usize, &CaptureRequest) -> Result<Captured>,
@@ -824,7 +823,7 @@ fn dual_pixel_imaged(
         hdr: None,
         optics_s,
         sensor_s: t.elapsed().as_secs_f64(),
-        light_split,
+        light_split: None,
         dual: Some(dual),
     })
 }
@@ -855,23 +854,21 @@ fn image_owned_groups_dual(
         half_split(&left_optics, left_steady)?,
         half_split(&right_optics, right_optics.compute(&steady)?)?,
     ];
-    drop(steady);
-    let whole = SplitIrradiance {
-        steady: image_sum(&halves[0].steady, &halves[1].steady),
-        parts: halves[0]
-            .parts
-            .iter()
-            .zip(&halves[1].parts)
-            .map(|((a, l), (b, _))| (image_sum(a, b), *l))
-            .collect(),
-    };
-    let mut irradiance = whole.steady.clone();
-    for (p, _) in &whole.parts {
+    drop((steady, parts));
+    let mut irradiance = image_sum(&halves[0].steady, &halves[1].steady);
+    for (p, _) in halves.iter().flat_map(|h| &h.parts) {
         add_into(&mut irradiance, p);
     }
-    let imaged = dual_pixel_imaged(sensor, irradiance, Some(whole), t, req, |pd, k, one| {
+    let mut imaged = dual_pixel_imaged(sensor, irradiance, t, req, |pd, k, one| {
         capture_split(pd, &halves[k], one)
     })?;
+    // The whole pixel's split: the right half's light added into the left's, in place.
+    let [mut whole, right] = halves;
+    add_into(&mut whole.steady, &right.steady);
+    for ((a, _), (b, _)) in whole.parts.iter_mut().zip(&right.parts) {
+        add_into(a, b);
+    }
+    imaged.light_split = Some(whole);
     Ok((Some(image), imaged, Some(map)))
 }
 
