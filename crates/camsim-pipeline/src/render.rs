@@ -460,20 +460,8 @@ pub fn render_section_scene_with_record(
     };
     if let Some(o) = &r.camera_offset {
         o.check("render.camera_offset")?;
-        if scene
-            .settings
-            .time
-            .camera
-            .as_ref()
-            .is_some_and(|m| !m.is_static())
-        {
-            return Err(PipelineError::config(
-                "render.camera_offset: the scene's camera moves; an offset camera of a moving rig is not supported yet",
-            ));
-        }
-        scene
-            .camera
-            .move_in_own_frame(o.translation_m, o.yaw_deg, o.pitch_deg, o.roll_deg);
+        // A moving camera carries its offset cameras with it (a rig on one body).
+        scene.move_camera_in_own_frame(o.translation_m, o.yaw_deg, o.pitch_deg, o.roll_deg);
     }
     if let Some(spp) = r.samples_per_pixel {
         scene.settings.samples_per_pixel = spp;

@@ -953,7 +953,8 @@ impl Camera {
     /// by `translation_m`, then turned by `yaw_deg` (> 0 toward +x, the right), `pitch_deg`
     /// (> 0 toward +y, up) and `roll_deg` (> 0 turning +x toward +y), applied in that order
     /// about the moved centre: camera_to_world' = camera_to_world T(t) R_y(yaw) R_x(-pitch)
-    /// R_z(roll). A rig's camera is its reference camera moved by its extrinsics.
+    /// R_z(roll). A rig's camera is its reference camera moved by its extrinsics. A camera that
+    /// moves during the exposure moves with [`SceneDescription::move_camera_in_own_frame`].
     pub fn move_in_own_frame(
         &mut self,
         translation_m: [f64; 3],
@@ -961,11 +962,22 @@ impl Camera {
         pitch_deg: f64,
         roll_deg: f64,
     ) {
-        let offset = Transform::translate(translation_m)
+        let offset = Camera::own_frame_offset(translation_m, yaw_deg, pitch_deg, roll_deg);
+        self.camera_to_world = self.camera_to_world.then_apply_to(&offset);
+    }
+
+    /// The transform [`Self::move_in_own_frame`] applies on the right of `camera_to_world`:
+    /// T(t) R_y(yaw) R_x(-pitch) R_z(roll) (old camera frame from moved camera frame).
+    pub fn own_frame_offset(
+        translation_m: [f64; 3],
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+    ) -> Transform {
+        Transform::translate(translation_m)
             .then_apply_to(&Transform::rotate(yaw_deg, [0.0, 1.0, 0.0]))
             .then_apply_to(&Transform::rotate(-pitch_deg, [1.0, 0.0, 0.0]))
-            .then_apply_to(&Transform::rotate(roll_deg, [0.0, 0.0, 1.0]));
-        self.camera_to_world = self.camera_to_world.then_apply_to(&offset);
+            .then_apply_to(&Transform::rotate(roll_deg, [0.0, 0.0, 1.0]))
     }
 
     /// Horizontal field of view in degrees (what the optics stage needs).
@@ -1223,6 +1235,28 @@ pub struct SceneDescription {
     /// Light group of each entry of `lights` (pbrt `LightSource ... "string lightgroup"`, or an
     /// overlay `[[light_group]]`); missing entries and `None`: the group `default`.
     pub light_groups: Vec<Option<String>>,
+}
+
+impl SceneDescription {
+    /// Move the camera in its own frame as [`Camera::move_in_own_frame`] does, together with
+    /// its motion during the exposure if it has one: the moved camera is fixed to the moving one
+    /// (a rig on one body), world_from_camera'(t) = world_from_camera(t) O with O the
+    /// [`Camera::own_frame_offset`], so a turning rig's offset camera swings about the rig's
+    /// centre, not its own; the motion's reference pose stays the stored `camera_to_world`.
+    pub fn move_camera_in_own_frame(
+        &mut self,
+        translation_m: [f64; 3],
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+    ) {
+        let offset = Camera::own_frame_offset(translation_m, yaw_deg, pitch_deg, roll_deg);
+        self.camera.camera_to_world = self.camera.camera_to_world.then_apply_to(&offset);
+        if let Some(m) = &mut self.settings.time.camera {
+            // Motion parts compose outermost first: the offset is the innermost factor.
+            m.parts.push(crate::motion::MotionPart::Fixed(offset));
+        }
+    }
 }
 
 /// Which sampler a render uses (pbrt-v4's `Sampler` types).

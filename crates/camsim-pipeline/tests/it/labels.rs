@@ -399,7 +399,9 @@ fn check_corner_visibility(l: &camsim_pipeline::labels::SimLabels) {
 /// A rig camera ([render.camera_offset]) against closed forms, with the box's keypoints: a
 /// camera moved right by the baseline B sees each point shifted left by the disparity f B / Z
 /// (rows unchanged); yawing by atan(X / Z) centres the box's centre across, pitching by
-/// atan(Y / Z) centres it down, and a 90-degree roll turns its right axis to its up.
+/// atan(Y / Z) centres it down, and a 90-degree roll turns its right axis to its up. A rig that
+/// turns during the exposure takes its offset camera along (its swing about the rig's centre:
+/// `camsim-render`'s `a_turning_rigs_offset_camera_swings_about_the_rig_centre`).
 #[test]
 fn rig_offsets_move_the_camera_in_its_own_frame() {
     let (cols, rows) = (320usize, 240usize);
@@ -431,6 +433,28 @@ fn rig_offsets_move_the_camera_in_its_own_frame() {
         k[0][0] * baseline_m / 3.0
     );
     assert!(worst <= 1e-6, "disparity off f B / Z by {worst} px");
+    // A rig that turns during the exposure carries its right camera with it (was refused): the
+    // labels are the scene at the window start (t = 0, before it turned), so they are the
+    // still rig's.
+    let turning = "[render.overlay_inline.camera]\nangular_velocity_deg_s = [0.0, 20.0, 0.0]\n";
+    let moving_right = |offset: &str| {
+        let sim = run(
+            &box_scene(),
+            &format!("{turning}{}", optics(offset)),
+            cols,
+            rows,
+            1,
+        );
+        sim.labels.unwrap().keypoints[0].clone()
+    };
+    let moved = moving_right(&format!("translation_m = [{baseline_m}, 0.0, 0.0]"));
+    for (m, r) in moved.iter().zip(&right) {
+        let (pm, pr) = (m.xy_px.unwrap(), r.xy_px.unwrap());
+        assert!(
+            (pm[0] - pr[0]).hypot(pm[1] - pr[1]) < 1e-9,
+            "turning rig's right camera {pm:?}, still {pr:?}"
+        );
+    }
     // The box's centre: (0.36, 0.2, 3) m in the camera frame (x right, y up).
     let (cx, cy) = (k[0][2] + 0.5, k[1][2] + 0.5);
     let yaw = 0.12f64.atan().to_degrees();

@@ -525,6 +525,72 @@ fn flow_of_a_yawing_camera_is_the_rotational_field() {
     assert!(out.ids.object_id[h / 2 * w] == 1 && out.ids.object_id[h / 2 * w + w - 1] == 0);
 }
 
+/// A rig turning at w about its reference camera's y axis, seen by its camera offset by b =
+/// (0.2, 0, 0.3) m (right and forward; [`SceneDescription::move_camera_in_own_frame`]): the
+/// offset camera swings about the rig's centre, so after a yaw phi it sits at R(phi) b, turned
+/// by phi. A point P of the plane z = 1 seen at pixel (u, v) at t = 0 (P = b + (1 - b_z) (u /
+/// f, -v / f, 1)) is then at R(phi)^-1 P - b in its frame, and its flow is that point's
+/// projection minus (u, v). A camera turning about its own centre instead is off by about f b_z
+/// phi / (1 - b_z) = 15 px.
+#[test]
+fn a_turning_rigs_offset_camera_swings_about_the_rig_centre() {
+    let (w, h) = (80, 60);
+    let (omega_deg_s, dt, b) = (20.0, 0.1, [0.2, 0.0, 0.3]);
+    let mut t = TimeSettings {
+        shutter: Shutter {
+            open_s: 0.0,
+            close_s: 0.001,
+            rolling: None,
+        },
+        camera: Some(Motion::single(MotionPart::Velocity {
+            velocity_m_s: [0.0; 3],
+            angular_velocity_deg_s: [0.0, omega_deg_s, 0.0],
+            pivot_m: [0.0; 3],
+        })),
+        ..TimeSettings::default()
+    };
+    t.flow_intervals_s = vec![dt];
+    let mut s = scene(w, h, vec![bar(-2000.0, 2000.0, -2000.0, 2000.0)], 1, t);
+    s.move_camera_in_own_frame(b, 0.0, 0.0, 0.0);
+    // The motion's reference pose is still the stored camera (`TimeSettings::camera`).
+    let reference = s.settings.time.camera.as_ref().unwrap().reference();
+    assert!(
+        (0..4).all(|i| (0..4)
+            .all(|j| { (reference.m[i][j] - s.camera.camera_to_world.m[i][j]).abs() < 1e-12 })),
+        "{reference:?} against {:?}",
+        s.camera.camera_to_world
+    );
+    let out = render(&s, &|_, _| {}).unwrap();
+    let f_px = 1.0 / PX_M;
+    let (sin, cos) = (omega_deg_s * dt).to_radians().sin_cos();
+    let mut worst = 0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let (u, v) = (
+                x as f64 + 0.5 - w as f64 / 2.0,
+                y as f64 + 0.5 - h as f64 / 2.0,
+            );
+            let depth_m = 1.0 - b[2];
+            let p = [b[0] + depth_m * u / f_px, -depth_m * v / f_px, 1.0];
+            // R_y(phi)^-1 p (R_y(phi) turns +z toward +x), less the offset.
+            let q = [
+                cos * p[0] - sin * p[2] - b[0],
+                p[1] - b[1],
+                sin * p[0] + cos * p[2] - b[2],
+            ];
+            let (u1, v1) = (f_px * q[0] / q[2], -f_px * q[1] / q[2]);
+            let got = out.flow[0].xy_px[y * w + x];
+            worst = worst
+                .max((got[0] as f64 - (u1 - u)).abs())
+                .max((got[1] as f64 - (v1 - v)).abs());
+        }
+    }
+    assert!(
+        worst < 0.02,
+        "largest deviation from the rig's swing {worst} px"
+    );
+}
+
 /// Flow agrees with what the renderer draws: a small bright square moving across and toward
 /// the camera, rendered in two short exposures 0.1 s apart; its centroid moves by the mean of
 /// the first frame's flow over the square (within 0.1 px).
