@@ -93,7 +93,8 @@
 //!   per-format encoding rules: PNG 8/16 bit honouring `encoding` (`sRGB` default, `linear`,
 //!   `gamma G`), TGA/JPEG/BMP always sRGB, QOI by its own flag, EXR/PFM/HDR linear; `filename`,
 //!   `scale`, `invert`, `wrap` (`repeat`, `clamp`, `black`, `octahedralsphere`), `uscale`,
-//!   `vscale`, `udelta`, `vdelta`; float images read the mean of R, G and B when filtered `bilinear` or `trilinear`, R when `point` or `ewa`, as pbrt-v4), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
+//!   `vscale`, `udelta`, `vdelta`, `filter` (`point`, `bilinear`, `trilinear`, `ewa` with its
+//!   `maxanisotropy`, each read from the MIP pyramid as pbrt-v4's `MIPMap::Filter`); float images read the mean of R, G and B when filtered `bilinear` or `trilinear`, R when `point` or `ewa`, as pbrt-v4), `constant` (`value`), `checkerboard` (`tex1`, `tex2`; `dimension` 2 on the uv
 //!   mapping, 3 in texture space),
 //!   `scale` (`tex`, `scale`), `mix` (`tex1`, `tex2`, `amount`), `directionmix` (`tex1`, `tex2`,
 //!   `dir`), `bilerp` (`v00`, `v01`, `v10`, `v11`), `dots` (`inside`, `outside`, uv mapping),
@@ -170,10 +171,7 @@
 //! `focus_distance_m`), `frameaspectratio`; `Sampler` types other
 //! than `independent`, `sobol`, `paddedsobol`, `zsobol` (approximated by Sobol) and
 //! `randomization`; `Integrator` `regularize`; `Option`;
-//! texture `filter` `ewa` (read as `trilinear`: MIP-mapped over pbrt-v4's approximate pixel
-//! footprint, without the elliptical weights; `point` and `bilinear` read at full resolution,
-//! where pbrt-v4 picks a MIP level for them too), `maxanisotropy`; the
-//! parameters of integrators other than `path` that only tune their own convergence; shape
+//! the parameters of integrators other than `path` that only tune their own convergence; shape
 //! `faceIndices`, `S`, `emissionfilename`.
 //!
 //! # Unsupported, with an error naming file:line:column

@@ -19,6 +19,12 @@
 //!   bilinear lookups of levels `i` and `i + 1` blended by `l - i` (level 0 alone where `i = 0`).
 //!   So a pbrt-v4 `bilinear` texture seen from afar reads a coarser level, not the full image:
 //!   a pixel spanning `2^k` texels reads level `k`.
+//! - `ewa` (pbrt-v4 4th ed. sec. 10.4.4, `MIPMap::EWA`) reads the footprint as an ellipse with
+//!   axes `(ds/dx, dt/dx)` and `(ds/dy, dt/dy)`: the level from the shorter axis (lengthened to
+//!   at least 1/`maxanisotropy` of the longer), there and on the next level the texels inside
+//!   the ellipse weighted by a Gaussian of their radius, the two levels blended. Along a
+//!   grazing footprint it keeps the detail across it that the isotropic filters, picking the
+//!   level from the longer axis, average away.
 //!
 //! glTF's filters ([`TexelFilter::Bilinear`], [`TexelFilter::Point`]) read the full-resolution
 //! image without a pyramid, as Blender's Cycles does.
@@ -48,15 +54,16 @@ pub(crate) struct ImageTex {
 }
 
 impl ImageTex {
-    /// Lookup at `uv` with filter width `width` in texture coordinates (pbrt-v4 `MIPMap::Filter`:
-    /// an image with a pyramid reads the level `width` picks, the others their full resolution).
+    /// Lookup at `uv` over the footprint `dst` (`[ds/dx, ds/dy, dt/dx, dt/dy]` in texture
+    /// coordinates; pbrt-v4 `MIPMap::Filter`: an image with a pyramid reads what its filter
+    /// picks there, [`Pyramid::filter_footprint`], the others their full resolution).
     #[inline]
-    pub fn lookup_filtered(&self, uv: [f32; 2], width: f32) -> [f32; 3] {
+    pub fn lookup_filtered(&self, uv: [f32; 2], dst: [f32; 4]) -> [f32; 3] {
         match &self.mip {
             Some(p) => {
                 let s = uv[0] * self.uscale + self.udelta;
                 let t = uv[1] * self.vscale + self.vdelta;
-                p.filter(self.filter, s, t, width, self.wrap)
+                p.filter_footprint(self.filter, s, t, dst, self.wrap)
             }
             None => self.lookup(uv),
         }
@@ -183,7 +190,10 @@ pub(crate) fn texels(
     match filter {
         // The pyramid's filters read like their full-resolution counterparts on the one image
         // given (an image with a pyramid is read through `Pyramid::filter`, level by level).
-        TexelFilter::Bilinear | TexelFilter::MipBilinear | TexelFilter::Trilinear => (idx, w),
+        TexelFilter::Bilinear
+        | TexelFilter::MipBilinear
+        | TexelFilter::Trilinear
+        | TexelFilter::Ewa { .. } => (idx, w),
         TexelFilter::Point | TexelFilter::MipPoint => {
             // The same fractions as `bilinear_texels`: corner (dx, dy) is nearest where the
             // fraction along that axis is at least 1/2; its bilinear weight is then > 0 unless
@@ -196,6 +206,21 @@ pub(crate) fn texels(
             (idx, one)
         }
     }
+}
+
+/// Steps of the EWA weight table (pbrt-v4 `MIPFilterLUTSize`).
+const EWA_LUT: usize = 128;
+
+/// The EWA filter's weights, `e^(-2 r2) - e^(-2)` at `r2 = i / 127` (pbrt-v4's Gaussian with
+/// alpha 2, zero at the ellipse's edge), computed once.
+fn ewa_weights() -> &'static [f32; EWA_LUT] {
+    static WEIGHTS: std::sync::OnceLock<[f32; EWA_LUT]> = std::sync::OnceLock::new();
+    WEIGHTS.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let r2 = i as f64 / (EWA_LUT - 1) as f64;
+            ((-2.0 * r2).exp() - (-2.0f64).exp()) as f32
+        })
+    })
 }
 
 /// One level: `width` x `height` texels, row-major, row 0 at the image's top (t = 1).
@@ -372,9 +397,128 @@ impl<const C: usize> Pyramid<C> {
         std::array::from_fn(|c| (0..4).map(|i| w[i] * l.texels[idx[i]][c]).sum())
     }
 
+    /// pbrt-v4 `MIPMap::Filter` by `filter` at `(s, t)` over the footprint `dst` (`[ds/dx,
+    /// ds/dy, dt/dx, dt/dy]`, texture coordinates): [`Self::ewa`] for `ewa`, else
+    /// [`Self::filter`] at twice the largest derivative.
+    #[inline]
+    pub(crate) fn filter_footprint(
+        &self,
+        filter: TexelFilter,
+        s: f32,
+        t: f32,
+        dst: [f32; 4],
+        wrap: WrapMode,
+    ) -> [f32; C] {
+        if let TexelFilter::Ewa { max_anisotropy } = filter {
+            return self.ewa(s, t, dst, max_anisotropy, wrap);
+        }
+        let width = 2.0 * dst.iter().fold(0f32, |m, v| m.max(v.abs()));
+        self.filter(filter, s, t, width, wrap)
+    }
+
+    /// pbrt-v4 5f7a606 `MIPMap::Filter` for `ewa` (4th ed. sec. 10.4.4): the footprint's axes
+    /// `a = (ds/dx, dt/dx)`, `b = (ds/dy, dt/dy)`, the longer one first; the shorter lengthened
+    /// to at least 1 / `max_anisotropy` of the longer; the level `l = max(0, L - 1 +
+    /// log2(|shorter|))`, [`Self::ewa_level`] of levels `floor(l)` and the next blended by the
+    /// fraction. A footprint of zero size reads level 0 bilinearly. As in pbrt-v4 the axes'
+    /// t components keep the texture's sign while `t` itself is flipped to the image's rows, so
+    /// the ellipse is the footprint's mirror image across the s axis.
+    pub(crate) fn ewa(
+        &self,
+        s: f32,
+        t: f32,
+        dst: [f32; 4],
+        max_anisotropy: f32,
+        wrap: WrapMode,
+    ) -> [f32; C] {
+        let (mut a, mut b) = ([dst[0], dst[2]], [dst[1], dst[3]]);
+        let len2 = |v: [f32; 2]| v[0] * v[0] + v[1] * v[1];
+        if len2(a) < len2(b) {
+            std::mem::swap(&mut a, &mut b);
+        }
+        let (longer, mut shorter) = (len2(a).sqrt(), len2(b).sqrt());
+        if !(longer.is_finite() && shorter.is_finite()) {
+            return self.bilerp(0, s, t, wrap);
+        }
+        if shorter * max_anisotropy < longer && shorter > 0.0 {
+            let scale = longer / (shorter * max_anisotropy);
+            b = [b[0] * scale, b[1] * scale];
+            shorter *= scale;
+        }
+        if shorter == 0.0 {
+            return self.bilerp(0, s, t, wrap);
+        }
+        let lod = ((self.levels.len() - 1) as f32 + shorter.log2()).max(0.0);
+        let i = lod.floor() as usize;
+        let f = lod - i as f32;
+        let (lo, hi) = (
+            self.ewa_level(i, s, t, a, b, wrap),
+            self.ewa_level(i + 1, s, t, a, b, wrap),
+        );
+        std::array::from_fn(|c| lo[c] + f * (hi[c] - lo[c]))
+    }
+
+    /// pbrt-v4 `MIPMap::EWA` on level `k` (the top texel past the last level): in the level's
+    /// texel units the ellipse `A s^2 + B s t + C t^2 < 1` with `A = a_t^2 + b_t^2 + 1`, `B =
+    /// -2 (a_s a_t + b_s b_t)`, `C = a_s^2 + b_s^2 + 1`, divided by `A C - B^2 / 4` (the `+ 1`
+    /// keeps at least a texel's reach); each texel inside weighted by the Gaussian `e^(-2 r^2)
+    /// - e^(-2)` at its squared radius `r^2` on pbrt-v4's 128-step table, the weights
+    /// normalised (texels outside the image through `wrap`; `black` ones count as 0).
+    fn ewa_level(
+        &self,
+        k: usize,
+        s: f32,
+        t: f32,
+        a: [f32; 2],
+        b: [f32; 2],
+        wrap: WrapMode,
+    ) -> [f32; C] {
+        let Some(l) = self.levels.get(k) else {
+            return self.levels[self.levels.len() - 1].texels[0];
+        };
+        let (w, h) = (l.width as f32, l.height as f32);
+        let (ps, pt) = (s * w - 0.5, (1.0 - t) * h - 0.5);
+        let (a, b) = ([a[0] * w, a[1] * h], [b[0] * w, b[1] * h]);
+        let mut ca = a[1] * a[1] + b[1] * b[1] + 1.0;
+        let mut cb = -2.0 * (a[0] * a[1] + b[0] * b[1]);
+        let mut cc = a[0] * a[0] + b[0] * b[0] + 1.0;
+        let inv_f = 1.0 / (ca * cc - cb * cb * 0.25);
+        (ca, cb, cc) = (ca * inv_f, cb * inv_f, cc * inv_f);
+        let det = -cb * cb + 4.0 * ca * cc;
+        let inv_det = 1.0 / det;
+        let (u_sqrt, v_sqrt) = ((det * cc).max(0.0).sqrt(), (ca * det).max(0.0).sqrt());
+        let s0 = (ps - 2.0 * inv_det * u_sqrt).ceil() as i64;
+        let s1 = (ps + 2.0 * inv_det * u_sqrt).floor() as i64;
+        let t0 = (pt - 2.0 * inv_det * v_sqrt).ceil() as i64;
+        let t1 = (pt + 2.0 * inv_det * v_sqrt).floor() as i64;
+        let lut = ewa_weights();
+        let (mut sum, mut total) = ([0f32; C], 0f32);
+        for it in t0..=t1 {
+            let tt = it as f32 - pt;
+            for is in s0..=s1 {
+                let ss = is as f32 - ps;
+                let r2 = ca * ss * ss + cb * ss * tt + cc * tt * tt;
+                if r2 < 1.0 {
+                    let weight = lut[((r2 * EWA_LUT as f32) as usize).min(EWA_LUT - 1)];
+                    if let Some(i) = wrap_texel(is, it, l.width, l.height, wrap) {
+                        for (acc, v) in sum.iter_mut().zip(&l.texels[i]) {
+                            *acc += weight * v;
+                        }
+                    }
+                    total += weight;
+                }
+            }
+        }
+        if !(total > 0.0) {
+            return self.bilerp(k, s, t, wrap);
+        }
+        sum.map(|v| v / total)
+    }
+
     /// pbrt-v4 `MIPMap::Filter` by `filter` at `(s, t)` for filter width `width` (texture
     /// coordinates; module docs). A full-resolution filter ([`TexelFilter::Bilinear`],
-    /// [`TexelFilter::Point`]) reads as its pyramid counterpart.
+    /// [`TexelFilter::Point`]) reads as its pyramid counterpart; `ewa` needs the footprint's
+    /// axes ([`Self::filter_footprint`]).
     pub(crate) fn filter(
         &self,
         filter: TexelFilter,
@@ -441,6 +585,85 @@ mod mip_tests {
                 assert!((v - 0.5).abs() < 1e-6, "s {s} width {width}: {v}");
             }
         }
+    }
+
+    /// EWA (pbrt-v4 `MIPMap::EWA`) against closed forms. On a ramp (texel value = its column)
+    /// each level is the same ramp, and at a point halfway between texel centres on levels 0 to
+    /// 2 (s and t multiples of 1/64) the ellipse's texels lie symmetrically about it, so every
+    /// footprint, tilted or not, on one level or blended, reads the ramp's value there: `s w -
+    /// 1/2`. On columns of
+    /// alternate 0 and 1 a footprint 0.2 texel across and 1.5 along them (a grazing view of
+    /// stripes) reads level 0 with an ellipse about a texel across (its neighbours at r^2 =
+    /// 0.96, weight 0.011 against 0.86 at the centre), so a column keeps nearly its own value,
+    /// where `trilinear`, its level picked from the longer axis, reads grey. Where the longer axis is
+    /// over `max_anisotropy` times the shorter the shorter is lengthened: the level follows
+    /// `longer / max_anisotropy`.
+    #[test]
+    fn ewa_reads_the_ellipse_of_the_footprint() {
+        let (w, h) = (256usize, 256usize);
+        let ramp: Vec<[f32; 1]> = (0..w * h).map(|i| [(i % w) as f32]).collect();
+        let p = Pyramid::new(w, h, &ramp, WrapMode::Clamp);
+        let ewa = TexelFilter::Ewa {
+            max_anisotropy: 8.0,
+        };
+        let texel = 1.0 / w as f32;
+        for (s, t) in
+            [(32.0f32, 32.0f32), (19.0, 39.0), (40.0, 17.0)].map(|(s, t)| (s / 64.0, t / 64.0))
+        {
+            for dst in [
+                [0.7, 0.0, 0.0, 0.7],
+                [3.0, 0.5, 1.0, -0.4],
+                [0.3, -2.5, 2.0, 0.9],
+                [6.0, 0.0, 0.0, 1.5],
+            ] {
+                let dst = dst.map(|v: f32| v * texel);
+                let v = p.filter_footprint(ewa, s, t, dst, WrapMode::Clamp)[0];
+                let want = s * w as f32 - 0.5;
+                assert!(
+                    (v - want).abs() < 1e-3,
+                    "({s}, {t}) {dst:?}: {v} against {want}"
+                );
+            }
+        }
+        let stripes: Vec<[f32; 1]> = (0..w * h).map(|i| [(i % w % 2) as f32]).collect();
+        let p = Pyramid::new(w, h, &stripes, WrapMode::Repeat);
+        // Column 11 (value 1) and column 12 (value 0), at their centres; the footprint 0.2
+        // texel across the columns and 1.5 along them (within the anisotropy limit 8).
+        let dst = [0.2 * texel, 0.0, 0.0, 1.5 * texel];
+        let read = |f: TexelFilter, col: f32| {
+            p.filter_footprint(f, (col + 0.5) * texel, 0.4, dst, WrapMode::Repeat)[0]
+        };
+        let contrast = read(ewa, 11.0) - read(ewa, 12.0);
+        assert!(contrast > 0.95, "EWA keeps the columns: {contrast}");
+        for col in [11.0, 12.0] {
+            let tri = read(TexelFilter::Trilinear, col);
+            assert!((tri - 0.5).abs() < 1e-6, "trilinear column {col}: {tri}");
+        }
+        // Anisotropy clamp: on the level-valued pyramid (7 levels, 64 texels) a footprint of
+        // 1/64 x 16/64 reads level log2(16 / 8) = 1 with the default 8 (0 unclamped: 1/64 is one
+        // level-0 texel), level 2 with 4.
+        let p = level_valued_pyramid();
+        let dst = [1.0 / 64.0, 0.0, 0.0, 16.0 / 64.0];
+        for (max_anisotropy, want) in [(8.0, 1.0), (4.0, 2.0), (16.0, 0.0)] {
+            let f = TexelFilter::Ewa { max_anisotropy };
+            let v = p.filter_footprint(f, 0.4, 0.6, dst, WrapMode::Clamp)[0];
+            assert!(
+                (v - want).abs() < 1e-5,
+                "max_anisotropy {max_anisotropy}: {v}"
+            );
+        }
+        // No footprint: level 0 bilinearly; one over the whole image: the top texel.
+        let f = TexelFilter::Ewa {
+            max_anisotropy: 8.0,
+        };
+        assert_eq!(
+            p.filter_footprint(f, 0.4, 0.6, [0.0; 4], WrapMode::Clamp)[0],
+            0.0
+        );
+        assert_eq!(
+            p.filter_footprint(f, 0.4, 0.6, [3.0, 0.0, 0.0, 3.0], WrapMode::Clamp)[0],
+            6.0
+        );
     }
 
     /// A 64 x 64 image's pyramid (7 levels) rebuilt by hand so that level k holds the value k.

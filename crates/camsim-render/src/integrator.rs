@@ -268,7 +268,7 @@ impl Tracer {
             Tex::Image(im, map) => {
                 // RGB -> smooth spectrum (Jakob & Hanika 2019 sigmoid polynomial, crate::uplift).
                 let (s, t) = map.st(ctx);
-                let rgb = self.images[*im as usize].lookup_filtered([s, t], map.filter_width(ctx));
+                let rgb = self.images[*im as usize].lookup_filtered([s, t], map.dst(ctx));
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)
             }
@@ -276,7 +276,7 @@ impl Tracer {
                 // glTF 2.0 sec. 3.9.2: base colour = factor x texture x COLOR_0, linear RGB,
                 // clamped to a reflectance, then uplifted as `Image` is.
                 let (s, t) = map.st(ctx);
-                let c = self.images[*im as usize].lookup_filtered([s, t], map.filter_width(ctx));
+                let c = self.images[*im as usize].lookup_filtered([s, t], map.dst(ctx));
                 let rgb: [f32; 3] = std::array::from_fn(|k| (c[k] * ctx.color[k]).clamp(0.0, 1.0));
                 let poly = crate::uplift::rgb_to_coefficients(rgb);
                 std::array::from_fn(|i| poly.eval(lambdas.nm[i] as f64) as f32)

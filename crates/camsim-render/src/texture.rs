@@ -256,13 +256,6 @@ impl Map {
         ]
     }
 
-    /// pbrt-v4 `MIPMap::Filter`'s width for the isotropic filters: twice the largest of the
-    /// footprint's `(s, t)` derivatives.
-    #[inline]
-    pub fn filter_width(&self, ctx: &TexCtx) -> f32 {
-        2.0 * self.dst(ctx).iter().fold(0f32, |m, v| m.max(v.abs()))
-    }
-
     /// Texture coordinates `(s, t)` at `ctx` (pbrt-v4 4th ed. sec. 10.2.1).
     #[inline(always)]
     pub fn st(&self, ctx: &TexCtx) -> (f32, f32) {
@@ -417,7 +410,7 @@ pub(crate) fn eval_float(t: &FTex, ctx: &TexCtx) -> f32 {
         FTex::Image(im, map) => {
             let (s, tt) = map.st(ctx);
             if let Some(p) = &im.mip {
-                return p.filter(im.filter, s, tt, map.filter_width(ctx), im.wrap)[0];
+                return p.filter_footprint(im.filter, s, tt, map.dst(ctx), im.wrap)[0];
             }
             let (idx, w) = texels(im.width, im.height, s, tt, im.wrap, im.filter);
             (0..4).map(|k| w[k] * im.values[idx[k]]).sum()

@@ -65,7 +65,7 @@ impl WrapMode {
 
 /// How an image texture reads its texels between texel centres (pbrt-v4 `imagemap`'s
 /// `filter`; glTF samplers' magnification filter).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum TexelFilter {
     /// Bilinear between the four nearest texel centres of the full-resolution image (glTF's
     /// `LINEAR` as Blender's Cycles reads it, without MIP maps).
@@ -83,18 +83,24 @@ pub enum TexelFilter {
     /// average of the one below), the level picked from the ray's footprint on the texture and
     /// the two levels around it blended.
     Trilinear,
+    /// pbrt-v4 `ewa`: an elliptically weighted average (Heckbert 1989; pbrt-v4 4th ed. sec.
+    /// 10.4.4) over the footprint's ellipse on the level its shorter axis picks and the next,
+    /// blended; the longer axis clamped to `max_anisotropy` times the shorter (pbrt-v4's
+    /// `maxanisotropy`, default 8).
+    Ewa { max_anisotropy: f32 },
 }
 
 impl TexelFilter {
-    /// pbrt-v4's names: `point`, `bilinear` and `trilinear` (flag `true`), each reading the MIP
-    /// pyramid as pbrt-v4 does; `ewa` (an anisotropic elliptical filter over the footprint) reads
-    /// as `trilinear` (flag `false`).
-    pub fn from_name(name: &str) -> Option<(TexelFilter, bool)> {
+    /// pbrt-v4's names: `point`, `bilinear`, `trilinear` and `ewa` (with pbrt-v4's default
+    /// `maxanisotropy` 8), each reading the MIP pyramid as pbrt-v4 does.
+    pub fn from_name(name: &str) -> Option<TexelFilter> {
         match name {
-            "point" => Some((TexelFilter::MipPoint, true)),
-            "bilinear" => Some((TexelFilter::MipBilinear, true)),
-            "trilinear" => Some((TexelFilter::Trilinear, true)),
-            "ewa" => Some((TexelFilter::Trilinear, false)),
+            "point" => Some(TexelFilter::MipPoint),
+            "bilinear" => Some(TexelFilter::MipBilinear),
+            "trilinear" => Some(TexelFilter::Trilinear),
+            "ewa" => Some(TexelFilter::Ewa {
+                max_anisotropy: 8.0,
+            }),
             _ => None,
         }
     }
@@ -104,7 +110,10 @@ impl TexelFilter {
     pub fn uses_mip(self) -> bool {
         matches!(
             self,
-            TexelFilter::MipBilinear | TexelFilter::MipPoint | TexelFilter::Trilinear
+            TexelFilter::MipBilinear
+                | TexelFilter::MipPoint
+                | TexelFilter::Trilinear
+                | TexelFilter::Ewa { .. }
         )
     }
 

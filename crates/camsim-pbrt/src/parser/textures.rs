@@ -21,8 +21,7 @@ const FLOAT_CLASSES: &str = "constant, imagemap, checkerboard, scale, mix, direc
 const SPECTRUM_CLASSES: &str =
     "constant, imagemap, checkerboard, scale, mix, directionmix, bilerp, dots, marble";
 
-/// An image texture's width, height, texels, mapping, wrap mode and texel filter, and whether
-/// the filter is pbrt-v4's own (false: `ewa`, read as trilinear).
+/// An image texture's width, height, texels, mapping, wrap mode and texel filter.
 type ImageMap = (
     usize,
     usize,
@@ -30,7 +29,6 @@ type ImageMap = (
     UvMapping,
     WrapMode,
     TexelFilter,
-    bool,
 );
 
 /// Whether an image texture is inverted (`bool invert`, already read and checked).
@@ -207,21 +205,21 @@ impl SceneBuilder {
         let filter_name = params
             .string("filter")?
             .unwrap_or_else(|| "bilinear".into());
-        let (filter, exact) = TexelFilter::from_name(&filter_name).ok_or_else(|| {
+        let mut filter = TexelFilter::from_name(&filter_name).ok_or_else(|| {
             loc.err(format!(
                 "{what}: filter \"{filter_name}\" is not one of point, bilinear, trilinear, ewa"
             ))
         })?;
-        if !exact {
-            self.note(
-                loc,
-                format!(
-                    "{what}: filter \"{filter_name}\" read as \"trilinear\" (MIP-mapped over \
-                     the pixel footprint, without pbrt-v4's elliptical weighting)"
-                ),
-            );
+        // pbrt-v4 `maxanisotropy` (default 8): read by `ewa` alone.
+        let max_anisotropy = params.float("maxanisotropy", 8.0)?;
+        if !(max_anisotropy.is_finite() && max_anisotropy >= 1.0) {
+            return Err(loc.err(format!(
+                "{what}: \"maxanisotropy\" {max_anisotropy} must be a number >= 1"
+            )));
         }
-        self.ignore_params(params, &["maxanisotropy"], "Texture");
+        if let TexelFilter::Ewa { max_anisotropy: m } = &mut filter {
+            *m = max_anisotropy as f32;
+        }
         params.check_unused("Texture \"imagemap\"")?;
         let (width, height, mut rgb) =
             load_image(&path, encoding).map_err(|e| loc.err(format!("{what}: {e}")))?;
@@ -231,7 +229,7 @@ impl SceneBuilder {
             let v = *c * scale;
             *c = if invert { 1.0 - v } else { v };
         }
-        Ok((width, height, rgb, mapping, wrap, filter, exact))
+        Ok((width, height, rgb, mapping, wrap, filter))
     }
 
     pub(super) fn texture(
@@ -262,7 +260,7 @@ impl SceneBuilder {
             dim == 3
         };
         if class == "imagemap" {
-            let (width, height, rgb, mapping, wrap, filter, exact) =
+            let (width, height, rgb, mapping, wrap, filter) =
                 self.imagemap(name, params, loc, file)?;
             if float {
                 // pbrt-v4 5f7a606 reads one value from an RGB texel two ways: `MIPMap::Bilerp
@@ -270,8 +268,7 @@ impl SceneBuilder {
                 // `MIPMap::Texel<Float>` (`point`, and `ewa`'s texel weights) takes R; a grey
                 // image gives Y either way. A float texture never goes negative through
                 // `invert` (pbrt-v4 max(0, 1 - v)).
-                let averaged =
-                    exact && matches!(filter, TexelFilter::MipBilinear | TexelFilter::Trilinear);
+                let averaged = matches!(filter, TexelFilter::MipBilinear | TexelFilter::Trilinear);
                 let clamps = invert_clamps(params);
                 let values = rgb
                     .iter()

@@ -183,7 +183,10 @@ fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
         Material \"diffuse\" \"texture reflectance\" \"s\"\n\
         Shape \"sphere\" \"texture alpha\" \"f\"\n\
         Material \"diffuse\" \"texture reflectance\" \"b\"\n\
-        Shape \"sphere\" \"texture alpha\" \"fi\"\n";
+        Shape \"sphere\" \"texture alpha\" \"fi\"\n\
+        Texture \"e\" \"spectrum\" \"imagemap\" \"string filename\" \"c.png\" \"string filter\" \"ewa\" \"float maxanisotropy\" 4\n\
+        Material \"diffuse\" \"texture reflectance\" \"e\"\n\
+        Shape \"sphere\" \"texture alpha\" \"f\"\n";
     let path = d.join("scene.pbrt");
     std::fs::write(&path, text).unwrap();
     let s = pbrt::parse_file(&path).unwrap();
@@ -210,7 +213,7 @@ fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
             }
         }
     }
-    assert_eq!(floats.len(), 2, "{:?}", s.materials);
+    assert_eq!(floats.len(), 3, "{:?}", s.materials);
     // R scaled by 0.5: 0.5 and 0.1; clamp wrap.
     assert!((floats[0].0[0] - 0.5).abs() < 1e-6 && (floats[0].0[1] - 0.1).abs() < 1e-6);
     assert_eq!(floats[0].1, WrapMode::Clamp);
@@ -226,14 +229,22 @@ fn texture_wrap_scale_invert_and_float_channels_follow_pbrt_v4() {
         (floats[1].0[0] - 1.0 / 3.0).abs() < 1e-6 && (floats[1].0[1] - 0.2).abs() < 1e-6,
         "{floats:?}"
     );
-    // "trilinear" is MIP-mapped over the pixel footprint; no filter given is bilinear.
+    // "trilinear" is MIP-mapped over the pixel footprint; no filter given is bilinear; "ewa"
+    // keeps its "maxanisotropy" (pbrt-v4's elliptical filter, no note).
     assert_eq!(
         wraps,
         [
             (WrapMode::OctahedralSphere, TexelFilter::Trilinear),
-            (WrapMode::Black, TexelFilter::MipBilinear)
+            (WrapMode::Black, TexelFilter::MipBilinear),
+            (
+                WrapMode::Repeat,
+                TexelFilter::Ewa {
+                    max_anisotropy: 4.0
+                }
+            )
         ]
     );
+    assert!(!s.notes.iter().any(|n| n.contains("ewa")), "{:?}", s.notes);
 }
 
 #[test]
@@ -252,6 +263,10 @@ fn image_errors_name_the_file_and_the_line() {
         (
             "\"string filename\" \"ok.png\" \"string wrap\" \"mirror\"",
             "wrap \"mirror\"",
+        ),
+        (
+            "\"string filename\" \"ok.png\" \"string filter\" \"ewa\" \"float maxanisotropy\" 0.5",
+            "\"maxanisotropy\" 0.5 must be a number >= 1",
         ),
         (
             "\"string filename\" \"ok.png\" \"string encoding\" \"gamma -1\"",

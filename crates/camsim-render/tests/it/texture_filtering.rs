@@ -8,7 +8,7 @@
 //!
 //! Closed forms: a checkerboard of single texels averages to exactly 1/2 at every MIP level above
 //! 0, so where the footprint spans two texels or more the square is 1/2 at every pixel (to
-//! rounding) with each of pbrt-v4's three filters, while a full-resolution lookup (glTF's
+//! rounding) with each of pbrt-v4's four filters (`ewa` too), while a full-resolution lookup (glTF's
 //! filters, as Cycles reads them) leaves each pixel the mean of its samples' texels (a spread of
 //! several per cent at 16 samples); all average 1/2 over the image. The filtered procedural
 //! checkerboard is the same: each sample's weight is within a few per cent of 1/2, against 0 or 1
@@ -104,7 +104,8 @@ fn image_textures_and_checkerboards_average_over_the_pixel_footprint() {
     // The square's uv spans 2 m; the view 0.728 m, 40 pixels: with uscale 4 one pixel covers
     // 0.0091 x 4 x 256 = 9.3 texels, times max(1/8, 1/sqrt(16)) = 2.3 texels per sample step:
     // a filter width of 4.7 texels, MIP level 2.2, where every texel is 1/2: trilinear blends
-    // levels 2 and 3, bilinear and point read level 2.
+    // levels 2 and 3, bilinear and point read level 2; ewa, its ellipse a circle of 2.3 texels
+    // (the square faces the camera), blends levels 1 and 2.
     let image = |filter: &str| {
         format!(
             "Texture \"c\" \"spectrum\" \"imagemap\" \"string filename\" \"checks.pfm\" \
@@ -112,7 +113,7 @@ fn image_textures_and_checkerboards_average_over_the_pixel_footprint() {
              Material \"diffuse\" \"texture reflectance\" \"c\""
         )
     };
-    for filter in ["trilinear", "bilinear", "point"] {
+    for filter in ["trilinear", "bilinear", "point", "ewa"] {
         let (mean, spread) = stats(&albedo(&image(filter)));
         println!("{filter}: mean {mean:.6}, spread {spread:.2e}");
         assert!((mean - 0.5).abs() < 1e-4, "{filter} mean {mean}");
