@@ -668,7 +668,7 @@ pub fn run_shard(
             "is being written by another camsim run; wait for it to finish",
         )
     })?;
-    run_locked_shard(spec, out, s, &lock, on_sample)
+    run_locked_shard(spec, out, s, &lock, rayon::current_num_threads(), on_sample)
 }
 
 /// A shard's lock, with the temporaries killed runs left for it removed.
@@ -698,6 +698,7 @@ fn run_locked_shard(
     out: &Path,
     s: u64,
     _lock: &ShardLock,
+    lanes: usize,
     on_sample: &(dyn Fn(&SampleRecord) + Sync),
 ) -> Result<ShardRecord> {
     let t0 = Instant::now();
@@ -708,10 +709,19 @@ fn run_locked_shard(
     let scratch_dir = ScratchDir::create(&out.join(&stem))?;
     let scratch = scratch_dir.path().to_path_buf();
     let range = spec.shard_range(s);
-    let samples: Vec<SampleFiles> = range
-        .clone()
-        .into_par_iter()
-        .map(|i| {
+    // `lanes` samples at once, each lane taking the next sample when it finishes one; a
+    // sample's own parallel work (render tiles, bands) runs on every thread of the pool, so one
+    // lane still uses the whole machine. The results go to their index's slot.
+    let next = std::sync::atomic::AtomicU64::new(range.start);
+    let slots: Vec<std::sync::Mutex<Option<SampleFiles>>> =
+        range.clone().map(|_| std::sync::Mutex::new(None)).collect();
+    let lanes = lanes.clamp(1, slots.len().max(1));
+    (0..lanes).into_par_iter().for_each(|_| loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        if i >= range.end {
+            break;
+        }
+        let sf = {
             let sf = match spec.sample(i) {
                 Ok(sample) => run_sample(spec, &sample, &scratch, &tar_name),
                 Err(e) => SampleFiles {
@@ -732,8 +742,21 @@ fn run_locked_shard(
             };
             on_sample(&sf.record);
             sf
-        })
+        };
+        if let Ok(mut slot) = slots[(i - range.start) as usize].lock() {
+            *slot = Some(sf);
+        }
+    });
+    let samples: Vec<SampleFiles> = slots
+        .into_iter()
+        .filter_map(|m| m.into_inner().ok().flatten())
         .collect();
+    if samples.len() as u64 != range.end - range.start {
+        return Err(DatasetError::file(
+            &out.join(&tar_name),
+            "a sample of the shard did not finish",
+        ));
+    }
     drop(scratch_dir);
 
     // The tar: entries in index order, fixed metadata (mode 0644, mtime 0, uid/gid 0), so its
@@ -784,7 +807,9 @@ fn run_locked_shard(
 pub type RunProgress<'a> = dyn Fn(u64, u64, u64) + Sync + 'a;
 
 /// Run every shard `select` owns that is not already complete, then gather the manifest if the
-/// whole dataset is complete. `workers` samples run at once (None: one per core).
+/// whole dataset is complete. `workers` samples run at once (None: one per core), each sample's
+/// own parallel work spread over every thread of the current pool (so `workers = 1` still uses
+/// the whole machine for its one sample).
 pub fn run(
     spec: &DatasetSpec,
     out: &Path,
@@ -815,10 +840,11 @@ pub fn run(
     let done = AtomicU64::new(0);
     let failed = AtomicU64::new(0);
     progress(0, total, 0);
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(w) = workers {
-        builder = builder.num_threads(w.max(1));
-    }
+    // Every thread of the machine (or of --threads) for the samples' own work, and at least one
+    // per worker; `workers` samples at once.
+    let lanes = workers.unwrap_or_else(rayon::current_num_threads).max(1);
+    let builder =
+        rayon::ThreadPoolBuilder::new().num_threads(rayon::current_num_threads().max(lanes));
     let pool = builder.build().map_err(|e| {
         DatasetError::spec(
             &spec.source,
@@ -837,7 +863,7 @@ pub fn run(
             continue;
         }
         pool.install(|| {
-            run_locked_shard(spec, out, *s, &lock, &|r| {
+            run_locked_shard(spec, out, *s, &lock, lanes, &|r| {
                 if r.status != "ok" {
                     failed.fetch_add(1, Ordering::Relaxed);
                 }

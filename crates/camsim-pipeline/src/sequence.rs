@@ -45,8 +45,11 @@ pub(crate) struct Staged {
     pub frame_labels: Vec<crate::labels::FrameLabels>,
     /// Seconds spent on `frame_labels`' raw-grid labels.
     pub labels_s: f64,
-    /// Seconds in the scene stage (all renders).
+    /// Seconds in the scene stage (all renders; a 3D scene's set-up included).
     pub scene_s: f64,
+    /// A 3D scene's seconds before its first render: reading the scene and its overlays, and
+    /// `[render.compose]` (spawning, settling, the camera's draws and view validation).
+    pub scene_setup_s: Option<f64>,
     /// The scene moves: every frame was rendered in its own window.
     pub moving: bool,
     /// What `[render.compose]` drew, when the config has one.
@@ -244,12 +247,14 @@ pub(crate) fn stage(
             frame_labels: Vec::new(),
             labels_s: 0.0,
             scene_s,
+            scene_setup_s: None,
             moving: false,
             compose: None,
             samples: None,
         });
     };
     let (mut scene, compose) = render::render_section_scene_with_record(r, cfg, sensor, optics)?;
+    let scene_setup_s = t.elapsed().as_secs_f64();
     let k = sensor_px_per_render_px(&scene, sensor, optics)?;
     let shutter = scene.settings.time.shutter;
     let req = &with_light(shutter.open_s)?;
@@ -303,6 +308,7 @@ pub(crate) fn stage(
             frame_labels: Vec::new(),
             labels_s: 0.0,
             scene_s,
+            scene_setup_s: Some(scene_setup_s),
             moving: false,
             compose,
             samples: Some(samples),
@@ -311,7 +317,7 @@ pub(crate) fn stage(
 
     // The scene moves: each raw frame in its own window, its labels (when asked for) at that
     // window's start.
-    let mut scene_s = 0.0;
+    let mut scene_s = scene_setup_s;
     let mut labels_s = 0.0;
     let mut frame_labels = Vec::new();
     let durations: Vec<f64> = match (&req.bracket_s, req.exposure) {
@@ -462,6 +468,7 @@ pub(crate) fn stage(
         frame_labels,
         labels_s,
         scene_s,
+        scene_setup_s: Some(scene_setup_s),
         moving: true,
         compose,
         samples,

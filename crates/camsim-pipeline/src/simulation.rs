@@ -103,7 +103,9 @@ pub struct Simulation {
     /// DNG metadata of the raw frames (camera, colour matrix, neutral, the config).
     pub dng: DngMetadata,
     /// Seconds per stage ("scene_s", "optics_s", "sensor_s" (with the noise-free pass), "isp_s",
-    /// "total_s").
+    /// "total_s"; "labels_s" with labels; a 3D scene's "scene_setup_s", the part of "scene_s"
+    /// before its first render: reading the scene, its overlays and `[render.compose]` with its
+    /// settling).
     pub times_s: serde_json::Map<String, serde_json::Value>,
     /// Per raw frame (file order), its window in the scene's time ([`crate::timing`]).
     pub frame_times: Vec<FrameTime>,
@@ -236,6 +238,7 @@ pub fn simulate(
         frame_labels,
         labels_s,
         scene_s,
+        scene_setup_s,
         moving,
         compose,
         samples: render_samples,
@@ -249,6 +252,9 @@ pub fn simulate(
         progress,
     )?;
     times.insert("scene_s".into(), scene_s.into());
+    if let Some(setup_s) = scene_setup_s {
+        times.insert("scene_setup_s".into(), setup_s.into());
+    }
     times.insert("optics_s".into(), optics_s.into());
     let t = Instant::now();
     let mut later_frame_labels = frame_labels;

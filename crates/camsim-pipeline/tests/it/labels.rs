@@ -410,6 +410,9 @@ fn rig_offsets_move_the_camera_in_its_own_frame() {
     };
     let keypoints = |offset: &str| {
         let sim = run(&box_scene(), &optics(offset), cols, rows, 1);
+        // The set-up's seconds (reading, overlays, offset) are a part of the scene stage's.
+        let time = |k: &str| sim.times_s.get(k).and_then(|v| v.as_f64()).unwrap();
+        assert!(time("scene_setup_s") > 0.0 && time("scene_setup_s") <= time("scene_s"));
         let l = sim.labels.unwrap();
         (l.keypoints[0].clone(), l.sensor_camera.k)
     };
