@@ -557,7 +557,9 @@ pub(crate) fn image_owned_groups(
             )
         }
     };
-    // The whole scene's irradiance, for the records, previews and labels.
+    // The whole scene's irradiance, for the records, previews and labels (each optics pass
+    // above checked its own cube; this one is checked here).
+    check_whole_irradiance(&split.steady)?;
     let mut irradiance = split.steady.clone();
     for (p, _) in &split.parts {
         irradiance
@@ -795,6 +797,20 @@ fn image_sum(a: &SpectralImage, b: &SpectralImage) -> SpectralImage {
     s
 }
 
+/// Refuse the whole scene's irradiance of a `[light_flicker]` split (one more cube like `like`)
+/// when it will not fit beside the split already held.
+fn check_whole_irradiance(like: &SpectralImage) -> Result<()> {
+    camsim_core::mem::MemoryBudget::new(format!(
+        "the whole scene's irradiance for [light_flicker] ({} x {} x {} bands)",
+        like.rows,
+        like.cols,
+        like.grid.len()
+    ))
+    .f32s("whole-scene irradiance", like.data.len())
+    .check("flicker fewer light groups or render fewer pixels")?;
+    Ok(())
+}
+
 /// `acc += b`, texel by texel.
 fn add_into(acc: &mut SpectralImage, b: &SpectralImage) {
     acc.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
@@ -855,6 +871,7 @@ fn image_owned_groups_dual(
         half_split(&right_optics, right_optics.compute(&steady)?)?,
     ];
     drop((steady, parts));
+    check_whole_irradiance(&halves[0].steady)?;
     let mut irradiance = image_sum(&halves[0].steady, &halves[1].steady);
     for (p, _) in halves.iter().flat_map(|h| &h.parts) {
         add_into(&mut irradiance, p);
