@@ -538,6 +538,12 @@ pub struct LensMtfCurves {
     pub tangential: Vec<f64>,
     /// Sagittal modulation, fraction in [0, 1]: frequencies along the tangent.
     pub sagittal: Vec<f64>,
+    /// Tangential phase transfer (PTF), radians, per point, when the table has it (all zero
+    /// otherwise). Goodman's convention, OTF(f) = int LSF(x) e^(-i 2 pi f x) dx = MTF e^(i PTF):
+    /// a line spread function displaced by +x0 (outward along the radius) has PTF = -2 pi f x0.
+    pub tangential_phase_rad: Vec<f64>,
+    /// Sagittal phase transfer, radians (zero for a lens symmetric about the meridional plane).
+    pub sagittal_phase_rad: Vec<f64>,
 }
 
 /// A lens MTF table at one field height: its curves per wavelength, nm, increasing (`None`: the
@@ -556,7 +562,11 @@ pub struct LensMtf {
 /// fraction. Then one point per line, e.g. `frequency_cy_per_mm,tangential_percent,
 /// sagittal_percent` and `50,62.1,70.4`. Points of one wavelength have increasing frequencies
 /// (>= 0), at least 2 of them; modulations lie in [-0.05, 1.05] as fractions (clipped to [0, 1]).
-/// Lines starting with '#' and blank lines are ignored.
+/// Optional phase transfer columns (what a lens bench such as an MTF/PTF tester also reports):
+/// `tangential_phase_deg` and `sagittal_phase_deg` (a name with `phase` or `ptf`, and `tan` /
+/// `merid` or `sag`; degrees with `deg` in the name, else radians; see
+/// [`LensMtfCurves::tangential_phase_rad`] for the sign). Lines starting with '#' and blank lines
+/// are ignored.
 pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
     let mut rows = records(path, true)?.into_iter();
     let (hline, header) = rows.next().ok_or_else(|| {
@@ -589,13 +599,45 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
         }
     };
     let wl_col = find(&["wavelength", "lambda"], "wavelength").ok();
-    let tan_col = find(&["tan", "merid"], "tangential MTF")?;
-    let sag_col = find(&["sag"], "sagittal MTF")?;
+    let is_phase = |i: usize| names[i].contains("phase") || names[i].contains("ptf");
+    let find_of = |keys: &[&str], phase: bool, what: &str| -> Result<Option<usize>> {
+        let hits: Vec<usize> = (0..names.len())
+            .filter(|&i| is_phase(i) == phase && keys.iter().any(|k| names[i].contains(k)))
+            .collect();
+        match hits.as_slice() {
+            [] => Ok(None),
+            [i] => Ok(Some(*i)),
+            _ => Err(IoError::line(
+                path,
+                hline,
+                format!("more than one {what} column in '{}'", joined(&header)),
+            )),
+        }
+    };
+    let missing = |keys: &[&str], what: &str| {
+        IoError::line(
+            path,
+            hline,
+            format!(
+                "no {what} column (a name containing {}) in '{}'",
+                keys.join(" or "),
+                joined(&header)
+            ),
+        )
+    };
+    let tan_col = find_of(&["tan", "merid"], false, "tangential MTF")?
+        .ok_or_else(|| missing(&["tan", "merid"], "tangential MTF"))?;
+    let sag_col = find_of(&["sag"], false, "sagittal MTF")?
+        .ok_or_else(|| missing(&["sag"], "sagittal MTF"))?;
+    let tan_phase_col = find_of(&["tan", "merid"], true, "tangential phase")?;
+    let sag_phase_col = find_of(&["sag"], true, "sagittal phase")?;
+    let phase_cols = [tan_phase_col, sag_phase_col];
     let freq_col = (0..names.len())
         .find(|&i| {
             Some(i) != wl_col
                 && i != tan_col
                 && i != sag_col
+                && !phase_cols.contains(&Some(i))
                 && (names[i].contains("freq") || names[i].contains("cy"))
         })
         .ok_or_else(|| {
@@ -689,6 +731,23 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
             modulation(tan_col, tan_scale)?,
             modulation(sag_col, sag_scale)?,
         );
+        let phase = |col: Option<usize>| -> Result<f64> {
+            let Some(i) = col else { return Ok(0.0) };
+            let v = number(i)?;
+            if !v.is_finite() {
+                return Err(IoError::line(
+                    path,
+                    line,
+                    format!("{} {} is not a finite phase", &names[i], &record[i]),
+                ));
+            }
+            Ok(if names[i].contains("deg") {
+                v.to_radians()
+            } else {
+                v
+            })
+        };
+        let (tp, sp) = (phase(tan_phase_col)?, phase(sag_phase_col)?);
         let idx = match curves.iter().position(|(w, _)| *w == wl) {
             Some(i) => i,
             None => {
@@ -698,6 +757,8 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
                         freq_cyc_per_mm: Vec::new(),
                         tangential: Vec::new(),
                         sagittal: Vec::new(),
+                        tangential_phase_rad: Vec::new(),
+                        sagittal_phase_rad: Vec::new(),
                     },
                 ));
                 curves.len() - 1
@@ -714,6 +775,8 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
         c.freq_cyc_per_mm.push(freq);
         c.tangential.push(t);
         c.sagittal.push(s);
+        c.tangential_phase_rad.push(tp);
+        c.sagittal_phase_rad.push(sp);
     }
     if curves.is_empty() {
         return Err(IoError::format(path, "no points"));

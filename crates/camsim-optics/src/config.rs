@@ -343,7 +343,8 @@ pub struct MeasuredPsfFile {
     /// A spectral OpenEXR (`S0.<wavelength>nm` channels), relative to the config file: the PSF,
     /// columns along the radius, rows along the tangent, centred on the ideal image point. Or a
     /// `.csv` lens MTF table at that height (columns frequency in cycles/mm, tangential and
-    /// sagittal MTF, optionally wavelength_nm): the separable zero-phase PSF with those MTFs.
+    /// sagittal MTF, optionally wavelength_nm and the tangential and sagittal phase (PTF)): the
+    /// separable PSF with those OTFs (zero phase without PTF columns).
     pub file: PathBuf,
 }
 

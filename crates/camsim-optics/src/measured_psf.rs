@@ -196,13 +196,14 @@ const SUPPORT_TAIL: f64 = 1e-4;
 
 impl Measured {
     /// The PSF of a lens MTF table ([`camsim_io::measurements::read_lens_mtf_csv`]) as the
-    /// separable, zero-phase PSF `LSF_t(x) LSF_s(y)` (x along the radius, y along the tangent),
-    /// each line spread function the inverse Fourier transform of its MTF: a real, even OTF, so
-    /// `LSF(x) = 2 int_0^f_max MTF(f) cos(2 pi f x) df` (Goodman, *Introduction to Fourier
-    /// Optics*, 4th ed., sec. 7.3: the LSF is the 1D inverse transform of the OTF's section).
-    /// The PSF's sections reproduce both curves exactly (the MTF of a separable PSF along x is
-    /// the transform of its x factor), though a real lens's PSF need not be separable and its
-    /// OTF's phase (coma's asymmetry, the lateral shift) is not in an MTF table.
+    /// separable PSF `LSF_t(x) LSF_s(y)` (x along the radius, y along the tangent), each line
+    /// spread function the inverse Fourier transform of its OTF section MTF e^(i PTF): the LSF is
+    /// real, so the OTF is Hermitian and `LSF(x) = 2 int_0^f_max MTF(f) cos(2 pi f x + PTF(f))
+    /// df` (Goodman, *Introduction to Fourier Optics*, 4th ed., sec. 7.3: the LSF is the 1D
+    /// inverse transform of the OTF's section). Without phase columns the PTF is 0 (an even,
+    /// centred LSF); with them a lateral shift (a PTF linear in f) or coma's asymmetry comes
+    /// through. The PSF's sections reproduce both curves exactly (the OTF of a separable PSF
+    /// along x is the transform of its x factor), though a real lens's PSF need not be separable.
     ///
     /// The MTF is taken linear between the table's points, 1 at zero frequency when the table
     /// starts above it, normalized by its value there, and 0 beyond the last point (the table
@@ -230,29 +231,35 @@ impl Measured {
         let m = (f_max / df).ceil() as usize;
         let half = m.min(512);
         let n = 2 * half + 1;
-        let lsf = |freq: &[f64], mtf: &[f64]| -> Vec<f64> {
-            let at = |f: f64| -> f64 {
-                if f > freq[freq.len() - 1] {
-                    return 0.0;
-                }
-                // (0, 1) before the first point.
-                let (mut f0, mut m0) = (0.0, 1.0);
-                for (&fi, &mi) in freq.iter().zip(mtf) {
-                    if fi >= f {
-                        if fi == f0 {
-                            return mi;
-                        }
-                        return m0 + (mi - m0) * (f - f0) / (fi - f0);
+        // `values` linear in frequency between the table's points, `v0` at zero frequency
+        // before the first point, 0 beyond the last.
+        let interp = |freq: &[f64], values: &[f64], v0: f64, f: f64| -> f64 {
+            if f > freq[freq.len() - 1] {
+                return 0.0;
+            }
+            let (mut f0, mut m0) = (0.0, v0);
+            for (&fi, &mi) in freq.iter().zip(values) {
+                if fi >= f {
+                    if fi == f0 {
+                        return mi;
                     }
-                    (f0, m0) = (fi, mi);
+                    return m0 + (mi - m0) * (f - f0) / (fi - f0);
                 }
-                m0
-            };
-            let m_at_0 = at(0.0).max(1e-12);
-            let w: Vec<f64> = (0..=m)
+                (f0, m0) = (fi, mi);
+            }
+            m0
+        };
+        let lsf = |freq: &[f64], mtf: &[f64], ptf_rad: &[f64]| -> Vec<f64> {
+            let m_at_0 = interp(freq, mtf, 1.0, 0.0).max(1e-12);
+            // Trapezoid weight x MTF, and the phase, at f_j = j df.
+            let w: Vec<(f64, f64)> = (0..=m)
                 .map(|j| {
                     let trap = if j == 0 || j == m { 0.5 } else { 1.0 };
-                    trap * at(j as f64 * df) / m_at_0
+                    let f = j as f64 * df;
+                    (
+                        trap * interp(freq, mtf, 1.0, f) / m_at_0,
+                        interp(freq, ptf_rad, 0.0, f),
+                    )
                 })
                 .collect();
             let mut out: Vec<f64> = (0..n)
@@ -261,8 +268,8 @@ impl Measured {
                     let v: f64 = w
                         .iter()
                         .enumerate()
-                        .map(|(j, wj)| {
-                            wj * (2.0 * std::f64::consts::PI * j as f64 * df * x_mm).cos()
+                        .map(|(j, (wj, phase))| {
+                            wj * (2.0 * std::f64::consts::PI * j as f64 * df * x_mm + phase).cos()
                         })
                         .sum();
                     v.max(0.0)
@@ -279,8 +286,8 @@ impl Measured {
         };
         let mut data = Vec::with_capacity(curves.len() * n * n);
         for (_, c) in curves {
-            let lt = lsf(&c.freq_cyc_per_mm, &c.tangential);
-            let ls = lsf(&c.freq_cyc_per_mm, &c.sagittal);
+            let lt = lsf(&c.freq_cyc_per_mm, &c.tangential, &c.tangential_phase_rad);
+            let ls = lsf(&c.freq_cyc_per_mm, &c.sagittal, &c.sagittal_phase_rad);
             for &sy in &ls {
                 data.extend(lt.iter().map(|&tx| (sy * tx) as f32));
             }

@@ -336,3 +336,62 @@ fn a_bench_mtf_table_gives_its_gaussian_psf() {
         "{e}"
     );
 }
+
+/// With phase columns (a bench's PTF): the Gaussian table of `a_bench_mtf_table_gives_its_gaussian_psf`
+/// with a tangential PTF of -360 f x0 degrees (Goodman's sign: a line spread function displaced
+/// by +x0) moves every point's image outward along its radius by x0 = 2 um (2 px), its widths
+/// unchanged; a sagittal PTF of the same slope moves it along the tangent instead (toward
+/// increasing azimuth, the image's turn from +x to +y).
+#[test]
+fn a_bench_ptf_moves_the_psf_by_its_slope() {
+    let (st_mm, ss_mm, x0_mm) = (3.0e-3, 1.5e-3, 2.0e-3);
+    let dir = tempfile::tempdir().unwrap();
+    let optics_of = |tan_phase: bool| {
+        let p = dir.path().join(format!("ptf_{tan_phase}.csv"));
+        let mut text = String::from(
+            "frequency_cy_per_mm,tangential_percent,sagittal_percent,tangential_phase_deg,sagittal_ptf_deg\n",
+        );
+        for i in 0..=50 {
+            let f = 10.0 * i as f64;
+            let g = |s: f64| 100.0 * (-2.0 * std::f64::consts::PI.powi(2) * s * s * f * f).exp();
+            let ptf = -360.0 * f * x0_mm;
+            let (tp, sp) = if tan_phase { (ptf, 0.0) } else { (0.0, ptf) };
+            text += &format!("{f},{:.6},{:.6},{tp},{sp}\n", g(st_mm), g(ss_mm));
+        }
+        std::fs::write(&p, text).unwrap();
+        Optics::from_config(&with_files(vec![MeasuredPsfFile {
+            field_height_mm: 0.0,
+            file: p,
+        }]))
+        .unwrap()
+    };
+    let x0_px = x0_mm * 1e3;
+    for tan_phase in [true, false] {
+        let o = optics_of(tan_phase);
+        for (radius_px, az_deg) in [(96.0, 0.0), (96.0, 90.0), (64.0, -135.0)] {
+            let [dr, dc, vr, vt] = point_moments(&o, radius_px, az_deg);
+            let az = f64::to_radians(az_deg);
+            // Outward: (sin az, cos az) in (row, column); along the tangent: (cos az, -sin az)
+            // turned a quarter toward +y.
+            let want = if tan_phase {
+                [x0_px * az.sin(), x0_px * az.cos()]
+            } else {
+                [x0_px * az.cos(), -x0_px * az.sin()]
+            };
+            println!(
+                "{} PTF, radius {radius_px} px, azimuth {az_deg}: centroid moved ({dr:.3}, {dc:.3}) px, closed form ({:.3}, {:.3}); variances {vr:.3}, {vt:.3}",
+                if tan_phase { "tangential" } else { "sagittal" },
+                want[0],
+                want[1]
+            );
+            assert!(
+                (dr - want[0]).hypot(dc - want[1]) < 0.1,
+                "moved ({dr}, {dc}), want {want:?}"
+            );
+            assert!(
+                (vr - 9.0).abs() < 0.35 && (vt - 2.25).abs() < 0.35,
+                "{vr} {vt}"
+            );
+        }
+    }
+}
