@@ -576,29 +576,6 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
         )
     })?;
     let names: Vec<String> = header.iter().map(|t| t.to_ascii_lowercase()).collect();
-    let find = |keys: &[&str], what: &str| -> Result<usize> {
-        let hits: Vec<usize> = (0..names.len())
-            .filter(|&i| keys.iter().any(|k| names[i].contains(k)))
-            .collect();
-        match hits.as_slice() {
-            [i] => Ok(*i),
-            [] => Err(IoError::line(
-                path,
-                hline,
-                format!(
-                    "no {what} column (a name containing {}) in '{}'",
-                    keys.join(" or "),
-                    joined(&header)
-                ),
-            )),
-            _ => Err(IoError::line(
-                path,
-                hline,
-                format!("more than one {what} column in '{}'", joined(&header)),
-            )),
-        }
-    };
-    let wl_col = find(&["wavelength", "lambda"], "wavelength").ok();
     let is_phase = |i: usize| names[i].contains("phase") || names[i].contains("ptf");
     let find_of = |keys: &[&str], phase: bool, what: &str| -> Result<Option<usize>> {
         let hits: Vec<usize> = (0..names.len())
@@ -625,6 +602,7 @@ pub fn read_lens_mtf_csv(path: &Path) -> Result<LensMtf> {
             ),
         )
     };
+    let wl_col = find_of(&["wavelength", "lambda"], false, "wavelength")?;
     let tan_col = find_of(&["tan", "merid"], false, "tangential MTF")?
         .ok_or_else(|| missing(&["tan", "merid"], "tangential MTF"))?;
     let sag_col = find_of(&["sag"], false, "sagittal MTF")?

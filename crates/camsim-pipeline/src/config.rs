@@ -183,7 +183,7 @@ pub struct RenderSection {
 
 /// `[render.camera_offset]`: a pose relative to the scene's camera, in that camera's frame (x
 /// right, y up, z forward, as the image): translated, then turned by yaw, pitch and roll about
-/// the moved centre ([`camsim_scene3d::Camera::move_in_own_frame`]). A camera that moves during
+/// the moved centre ([`camsim_scene3d::SceneDescription::move_camera_in_own_frame`]). A camera that moves during
 /// the exposure carries the offset camera with it, fixed to it as on one rig.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]

@@ -958,25 +958,13 @@ impl RealisticLens {
 }
 
 impl Camera {
-    /// Move the camera in its own frame (x right, y up, z forward, the image's directions):
+    /// A move of the camera in its own frame (x right, y up, z forward, the image's directions):
     /// by `translation_m`, then turned by `yaw_deg` (> 0 toward +x, the right), `pitch_deg`
     /// (> 0 toward +y, up) and `roll_deg` (> 0 turning +x toward +y), applied in that order
-    /// about the moved centre: camera_to_world' = camera_to_world T(t) R_y(yaw) R_x(-pitch)
-    /// R_z(roll). A rig's camera is its reference camera moved by its extrinsics. A camera that
-    /// moves during the exposure moves with [`SceneDescription::move_camera_in_own_frame`].
-    pub fn move_in_own_frame(
-        &mut self,
-        translation_m: [f64; 3],
-        yaw_deg: f64,
-        pitch_deg: f64,
-        roll_deg: f64,
-    ) {
-        let offset = Camera::own_frame_offset(translation_m, yaw_deg, pitch_deg, roll_deg);
-        self.camera_to_world = self.camera_to_world.then_apply_to(&offset);
-    }
-
-    /// The transform [`Self::move_in_own_frame`] applies on the right of `camera_to_world`:
-    /// T(t) R_y(yaw) R_x(-pitch) R_z(roll) (old camera frame from moved camera frame).
+    /// about the moved centre, as the transform on the right of `camera_to_world`: T(t)
+    /// R_y(yaw) R_x(-pitch) R_z(roll) (old camera frame from moved camera frame). A rig's
+    /// camera is its reference camera moved by its extrinsics
+    /// ([`SceneDescription::move_camera_in_own_frame`]).
     pub fn own_frame_offset(
         translation_m: [f64; 3],
         yaw_deg: f64,
@@ -1247,8 +1235,9 @@ pub struct SceneDescription {
 }
 
 impl SceneDescription {
-    /// Move the camera in its own frame as [`Camera::move_in_own_frame`] does, together with
-    /// its motion during the exposure if it has one: the moved camera is fixed to the moving one
+    /// Move the camera in its own frame by [`Camera::own_frame_offset`] (camera_to_world' =
+    /// camera_to_world O), together with its motion during the exposure if it has one: the
+    /// moved camera is fixed to the moving one
     /// (a rig on one body), world_from_camera'(t) = world_from_camera(t) O with O the
     /// [`Camera::own_frame_offset`], so a turning rig's offset camera swings about the rig's
     /// centre, not its own; the motion's reference pose stays the stored `camera_to_world`.

@@ -469,16 +469,10 @@ fn flow_of_a_translating_plane_and_of_static_pixels() {
     }
 }
 
-/// A camera yawing at w about its own y axis: the flow of every pixel, on the plane or on the
-/// empty background alike, is the rotation's closed form (a pinhole of focal length f pixels:
-/// a direction (u, -v, f) seen after a yaw phi lands at u' = f (u cos phi - f sin phi) / (u sin
-/// phi + f cos phi), v' = f v / (u sin phi + f cos phi)).
-#[test]
-fn flow_of_a_yawing_camera_is_the_rotational_field() {
-    let (w, h) = (80, 60);
-    let omega_deg_s = 20.0;
-    let dt = 0.1;
-    let mut t = TimeSettings {
+/// A camera yawing at `omega_deg_s` about its own y axis under a 1 ms shutter from t = 0, with
+/// the flow over `dt_s` asked for.
+fn yawing_camera(omega_deg_s: f64, dt_s: f64) -> TimeSettings {
+    TimeSettings {
         shutter: Shutter {
             open_s: 0.0,
             close_s: 0.001,
@@ -489,9 +483,21 @@ fn flow_of_a_yawing_camera_is_the_rotational_field() {
             angular_velocity_deg_s: [0.0, omega_deg_s, 0.0],
             pivot_m: [0.0; 3],
         })),
+        flow_intervals_s: vec![dt_s],
         ..TimeSettings::default()
-    };
-    t.flow_intervals_s = vec![dt];
+    }
+}
+
+/// A camera yawing at w about its own y axis: the flow of every pixel, on the plane or on the
+/// empty background alike, is the rotation's closed form (a pinhole of focal length f pixels:
+/// a direction (u, -v, f) seen after a yaw phi lands at u' = f (u cos phi - f sin phi) / (u sin
+/// phi + f cos phi), v' = f v / (u sin phi + f cos phi)).
+#[test]
+fn flow_of_a_yawing_camera_is_the_rotational_field() {
+    let (w, h) = (80, 60);
+    let omega_deg_s = 20.0;
+    let dt = 0.1;
+    let t = yawing_camera(omega_deg_s, dt);
     // A plane over the left half of the view; the right half sees nothing.
     let out = render(
         &scene(w, h, vec![bar(-500.0, 0.0, -500.0, 500.0)], 1, t),
@@ -536,20 +542,7 @@ fn flow_of_a_yawing_camera_is_the_rotational_field() {
 fn a_turning_rigs_offset_camera_swings_about_the_rig_centre() {
     let (w, h) = (80, 60);
     let (omega_deg_s, dt, b) = (20.0, 0.1, [0.2, 0.0, 0.3]);
-    let mut t = TimeSettings {
-        shutter: Shutter {
-            open_s: 0.0,
-            close_s: 0.001,
-            rolling: None,
-        },
-        camera: Some(Motion::single(MotionPart::Velocity {
-            velocity_m_s: [0.0; 3],
-            angular_velocity_deg_s: [0.0, omega_deg_s, 0.0],
-            pivot_m: [0.0; 3],
-        })),
-        ..TimeSettings::default()
-    };
-    t.flow_intervals_s = vec![dt];
+    let t = yawing_camera(omega_deg_s, dt);
     let mut s = scene(w, h, vec![bar(-2000.0, 2000.0, -2000.0, 2000.0)], 1, t);
     s.move_camera_in_own_frame(b, 0.0, 0.0, 0.0);
     // The motion's reference pose is still the stored camera (`TimeSettings::camera`).
