@@ -559,8 +559,7 @@ pub(crate) fn image_owned_groups(
     };
     // The whole scene's irradiance, for the records, previews and labels (each optics pass
     // above checked its own cube; this one is checked here).
-    check_whole_irradiance(&split.steady)?;
-    let mut irradiance = split.steady.clone();
+    let mut irradiance = checked_copy(&split.steady, "the whole scene's irradiance")?;
     for (p, _) in &split.parts {
         irradiance
             .data
@@ -782,7 +781,7 @@ fn image_owned_dual(
     let t = Instant::now();
     let (left_e, map) = left_optics.compute_mapped(&image)?;
     let right_e = right_optics.compute(&image)?;
-    let irradiance = image_sum(&left_e, &right_e);
+    let irradiance = image_sum(&left_e, &right_e)?;
     let halves = [left_e, right_e];
     let imaged = dual_pixel_imaged(sensor, irradiance, t, req, |pd, k, one| {
         capture(pd, &halves[k], one)
@@ -791,24 +790,24 @@ fn image_owned_dual(
 }
 
 /// `a + b`, texel by texel.
-fn image_sum(a: &SpectralImage, b: &SpectralImage) -> SpectralImage {
-    let mut s = a.clone();
+fn image_sum(a: &SpectralImage, b: &SpectralImage) -> Result<SpectralImage> {
+    let mut s = checked_copy(a, "the whole pixel's irradiance")?;
     add_into(&mut s, b);
-    s
+    Ok(s)
 }
 
-/// Refuse the whole scene's irradiance of a `[light_flicker]` split (one more cube like `like`)
-/// when it will not fit beside the split already held.
-fn check_whole_irradiance(like: &SpectralImage) -> Result<()> {
+/// A copy of `image` (one more irradiance cube), refused before it is allocated when it will not
+/// fit beside what the capture already holds; `what` names it in the error.
+fn checked_copy(image: &SpectralImage, what: &str) -> Result<SpectralImage> {
     camsim_core::mem::MemoryBudget::new(format!(
-        "the whole scene's irradiance for [light_flicker] ({} x {} x {} bands)",
-        like.rows,
-        like.cols,
-        like.grid.len()
+        "{what} ({} x {} x {} bands)",
+        image.rows,
+        image.cols,
+        image.grid.len()
     ))
-    .f32s("whole-scene irradiance", like.data.len())
-    .check("flicker fewer light groups or render fewer pixels")?;
-    Ok(())
+    .f32s(what, image.data.len())
+    .check("flicker fewer light groups, render fewer pixels or use fewer bands")?;
+    Ok(image.clone())
 }
 
 /// `acc += b`, texel by texel.
@@ -871,8 +870,7 @@ fn image_owned_groups_dual(
         half_split(&right_optics, right_optics.compute(&steady)?)?,
     ];
     drop((steady, parts));
-    check_whole_irradiance(&halves[0].steady)?;
-    let mut irradiance = image_sum(&halves[0].steady, &halves[1].steady);
+    let mut irradiance = image_sum(&halves[0].steady, &halves[1].steady)?;
     for (p, _) in halves.iter().flat_map(|h| &h.parts) {
         add_into(&mut irradiance, p);
     }
